@@ -1,0 +1,8 @@
+"""File formats exchanged by every stage of the NVRQ toolkit (see SPEC.md).
+
+``data_schema`` imports nothing else of this project.
+"""
+
+from data_schema.errors import InputError
+
+__all__ = ["InputError"]

@@ -1,0 +1,338 @@
+"""The scene folder (SPEC section 2): ``scene.json`` + ``images.csv`` + image files.
+
+:func:`load_scene` reads and validates a scene into typed objects; every problem raises
+:class:`~data_schema.errors.InputError` naming the file and the field, e.g.
+``scene.json: cameras.front.T_sensor_rig: expected a 4x4 matrix, got 3x4``.
+:func:`save_scene` writes one (atomically), used by ``nvrq synth`` and the importers.
+
+Convention: ``T_a_b`` maps frame ``a`` to frame ``b``; poses are ``[x, y, z, qx, qy, qz, qw]``;
+timestamps are integer microseconds.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path, PurePosixPath, PureWindowsPath
+
+import numpy as np
+import pandas as pd
+
+from data_schema.errors import InputError
+from data_schema.tables import IMAGES_COLUMNS, atomic_write_text, write_table
+
+__all__ = [
+    "CAMERA_MODEL_SCHEMA",
+    "CameraCalib",
+    "Track",
+    "Scene",
+    "load_scene",
+    "save_scene",
+    "validate_camera_model",
+    "check_rigid",
+]
+
+FORMAT = "nvrq-scene"
+VERSION = 1
+ROT_TOL = 1e-6
+
+#: Parameters of each camera model: name -> (length or 0 for a scalar, default or None if required).
+CAMERA_MODEL_SCHEMA: dict[str, dict[str, tuple[int, object]]] = {
+    "pinhole": {
+        "resolution": (2, None), "focal_length": (2, None), "principal_point": (2, None),
+    },
+    "opencv_pinhole": {
+        "resolution": (2, None), "focal_length": (2, None), "principal_point": (2, None),
+        "radial_coeffs": (6, [0.0] * 6), "tangential_coeffs": (2, [0.0] * 2),
+        "thin_prism_coeffs": (4, [0.0] * 4),
+    },
+    "opencv_fisheye": {
+        "resolution": (2, None), "focal_length": (2, None), "principal_point": (2, None),
+        "radial_coeffs": (4, [0.0] * 4),
+    },
+    "ftheta": {
+        "resolution": (2, None), "principal_point": (2, None), "reference_poly": (0, None),
+        "pixeldist_to_angle_poly": (6, None), "angle_to_pixeldist_poly": (6, None),
+        "max_angle": (0, None), "linear_cde": (3, [1.0, 0.0, 0.0]),
+    },
+}
+FTHETA_REFERENCE_POLYS = ("PIXELDIST_TO_ANGLE", "ANGLE_TO_PIXELDIST")
+
+
+@dataclass(frozen=True)
+class CameraCalib:
+    """A camera: ``T_sensor_rig: (4, 4)`` and its validated ``model`` dict (SPEC section 2)."""
+
+    name: str
+    T_sensor_rig: np.ndarray
+    model: dict
+
+
+@dataclass(frozen=True)
+class Track:
+    """One object's 3D box track: ``timestamps_us: (T,)`` int64, ``poses: (T, 7)`` world box centres."""
+
+    track_id: str
+    label_class: str
+    dims_lwh: np.ndarray
+    timestamps_us: np.ndarray
+    poses: np.ndarray
+
+
+@dataclass
+class Scene:
+    """A validated scene folder. ``T_rig_world: (F, 4, 4)`` at ``rig_timestamps_us: (F,)``."""
+
+    root: Path
+    clip_id: str
+    attributes: dict[str, str]
+    cameras: dict[str, CameraCalib]
+    rig_timestamps_us: np.ndarray
+    T_rig_world: np.ndarray
+    tracks: list[Track]
+    images: pd.DataFrame = field(repr=False)
+
+
+def _get(obj: dict, key: str, where: str, prefix: str):
+    if not isinstance(obj, dict):
+        raise InputError(where, prefix or "top level", "a JSON object", type(obj).__name__)
+    if key not in obj:
+        raise InputError(where, f"{prefix}.{key}" if prefix else key, "this key to be present", "missing")
+    return obj[key]
+
+
+def _array(value, shape: tuple, where: str, fld: str, what: str) -> np.ndarray:
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError(where, fld, what, "non-numeric or ragged values") from None
+    if arr.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, arr.shape, strict=False)):
+        raise InputError(where, fld, what, "shape " + "x".join(map(str, arr.shape)) if arr.ndim else "a scalar")
+    if not np.all(np.isfinite(arr)):
+        raise InputError(where, fld, what + " of finite numbers", "NaN or infinity")
+    return arr
+
+
+def check_rigid(T: np.ndarray, where: str, fld: str) -> np.ndarray:
+    """Check ``T: (..., 4, 4)``: orthonormal rotation with det +1 (tol 1e-6), bottom row 0 0 0 1."""
+    T = _array(T, (None,) * (np.ndim(T) - 2) + (4, 4), where, fld, "4x4 matrices") if np.ndim(T) > 2 \
+        else _array(T, (4, 4), where, fld, "a 4x4 matrix")
+    flat = T.reshape(-1, 4, 4)
+    bottom_bad = np.any(np.abs(flat[:, 3] - [0, 0, 0, 1]) > 0, axis=-1)
+    R = flat[:, :3, :3]
+    ortho_err = np.abs(R @ np.swapaxes(R, -1, -2) - np.eye(3)).max(axis=(-1, -2))
+    det_bad = np.linalg.det(R) < 0
+    for bad, expected in ((bottom_bad, "a bottom row of 0 0 0 1"),
+                          ((ortho_err > ROT_TOL) | det_bad, f"an orthonormal rotation (tolerance {ROT_TOL:g})")):
+        if bad.any():
+            i = int(np.argmax(bad))
+            sub = f"{fld}[{i}]" if T.ndim > 2 else fld
+            got = flat[i, 3].tolist() if expected.startswith("a bottom") else f"max |R R^T - I| = {ortho_err[i]:.3g}"
+            raise InputError(where, sub, expected, got)
+    return T
+
+
+def validate_camera_model(model, where: str, fld: str) -> dict:
+    """Check a ``model`` dict against :data:`CAMERA_MODEL_SCHEMA`; return it with defaults filled."""
+    mtype = _get(model, "type", where, fld)
+    if mtype not in CAMERA_MODEL_SCHEMA:
+        raise InputError(where, f"{fld}.type", "one of {" + ", ".join(map(repr, CAMERA_MODEL_SCHEMA)) + "}",
+                         repr(mtype))
+    out = {"type": mtype}
+    for name, (length, default) in CAMERA_MODEL_SCHEMA[mtype].items():
+        if name not in model:
+            if default is None:
+                raise InputError(where, f"{fld}.{name}", f"this {mtype} parameter to be present", "missing")
+            out[name] = list(default)
+            continue
+        value = model[name]
+        if name == "reference_poly":
+            if value not in FTHETA_REFERENCE_POLYS:
+                raise InputError(where, f"{fld}.{name}", "one of " + " or ".join(FTHETA_REFERENCE_POLYS), repr(value))
+            out[name] = value
+        elif length == 0:
+            out[name] = float(_array(value, (), where, f"{fld}.{name}", "a number"))
+        else:
+            arr = _array(value, (length,), where, f"{fld}.{name}", f"a list of {length} numbers")
+            if name == "resolution":
+                if np.any(arr <= 0) or np.any(arr != np.round(arr)):
+                    raise InputError(where, f"{fld}.{name}", "two positive integers [W, H]", arr.tolist())
+                out[name] = [int(v) for v in arr]
+            else:
+                out[name] = arr.tolist()
+    if mtype == "ftheta" and not 0 < out["max_angle"] <= math.pi:
+        raise InputError(where, f"{fld}.max_angle", "an angle in (0, pi] radians", out["max_angle"])
+    return out
+
+
+def _timestamps(value, where: str, fld: str) -> np.ndarray:
+    arr = _array(value, (None,), where, fld, "a list of integer microseconds")
+    if len(arr) == 0:
+        raise InputError(where, fld, "at least one timestamp", "an empty list")
+    if np.any(arr != np.round(arr)):
+        raise InputError(where, fld, "integer microseconds", "fractional values")
+    if np.any(np.diff(arr) <= 0):
+        i = int(np.argmax(np.diff(arr) <= 0)) + 1
+        raise InputError(where, f"{fld}[{i}]", "strictly increasing timestamps", f"{arr[i]:.0f} after {arr[i-1]:.0f}")
+    return arr.astype(np.int64)
+
+
+def _poses7(value, n: int, where: str, fld: str) -> np.ndarray:
+    if not isinstance(value, list) or len(value) != n:
+        raise InputError(where, fld, f"{n} poses (one per timestamp)", f"{len(value) if isinstance(value, list) else type(value).__name__}")
+    for i, p in enumerate(value):
+        if not isinstance(p, list) or len(p) != 7:
+            raise InputError(where, f"{fld}[{i}]", "7 numbers [x, y, z, qx, qy, qz, qw]",
+                             f"{len(p) if isinstance(p, list) else type(p).__name__}")
+    poses = _array(value, (n, 7), where, fld, "poses of 7 numbers")
+    norms = np.linalg.norm(poses[:, 3:], axis=1)
+    if np.any(norms < 1e-6):
+        i = int(np.argmax(norms < 1e-6))
+        raise InputError(where, f"{fld}[{i}]", "a quaternion of non-zero norm", f"norm {norms[i]:.3g}")
+    poses = poses.copy()
+    poses[:, 3:] /= norms[:, None]
+    return poses
+
+
+def _resolve_image(root: Path, rel: str, where: str, fld: str, check: bool) -> None:
+    if not isinstance(rel, str) or not rel:
+        raise InputError(where, fld, "a relative image path", repr(rel))
+    if PurePosixPath(rel).is_absolute() or PureWindowsPath(rel).is_absolute() or ".." in Path(rel).parts \
+            or ".." in PurePosixPath(rel.replace("\\", "/")).parts:
+        raise InputError(where, fld, "a path inside the scene folder (relative, no '..')", rel)
+    if check and not (root / rel).is_file():
+        raise InputError(where, fld, "an existing image file", f"{rel} (not found)")
+
+
+def _load_images(root: Path, cameras: dict, check_images: bool) -> pd.DataFrame:
+    path = root / "images.csv"
+    where = str(path)
+    if not path.is_file():
+        raise InputError(where, None, "an images.csv file in the scene folder", "no such file")
+    try:
+        df = pd.read_csv(path, dtype={"camera": str, "source": str, "path": str})
+    except pd.errors.EmptyDataError:
+        raise InputError(where, None, "a header row " + ",".join(IMAGES_COLUMNS), "an empty file") from None
+    missing = [c for c in IMAGES_COLUMNS if c not in df.columns]
+    if missing:
+        raise InputError(where, f"column {missing[0]!r}", "the columns " + ", ".join(IMAGES_COLUMNS),
+                         ", ".join(map(str, df.columns)))
+    for col in ("timestamp_us", "y_offset_m"):
+        num = pd.to_numeric(df[col], errors="coerce")
+        bad = num.isna()
+        if bad.any():
+            i = int(np.argmax(bad.to_numpy()))
+            raise InputError(where, f"row {i + 2}, column {col}", "a number", repr(df[col].iloc[i]))
+        df[col] = num
+    df["timestamp_us"] = df["timestamp_us"].astype(np.int64)
+    df["y_offset_m"] = df["y_offset_m"].astype(np.float64)
+    for i, row in enumerate(df.itertuples(index=False)):
+        r = f"row {i + 2}"
+        if row.camera not in cameras:
+            raise InputError(where, f"{r}, column camera", "a camera of scene.json (" + ", ".join(cameras) + ")",
+                             repr(row.camera))
+        if row.source not in ("gt", "render"):
+            raise InputError(where, f"{r}, column source", "'gt' or 'render'", repr(row.source))
+        if row.source == "gt" and row.y_offset_m != 0:
+            raise InputError(where, f"{r}, column y_offset_m", "0 for a gt image", row.y_offset_m)
+        _resolve_image(root, row.path, where, f"{r}, column path", check_images)
+    dup = df.duplicated(["camera", "timestamp_us", "source", "y_offset_m"])
+    if dup.any():
+        i = int(np.argmax(dup.to_numpy()))
+        raise InputError(where, f"row {i + 2}", "one image per (camera, timestamp_us, source, y_offset_m)",
+                         "a duplicate")
+    return df.loc[:, list(IMAGES_COLUMNS)]
+
+
+def load_scene(root: str | os.PathLike, *, check_images: bool = True) -> Scene:
+    """Load and validate the scene folder ``root`` (SPEC section 2).
+
+    ``check_images=False`` accepts an ``images.csv`` whose files do not exist yet (a scene
+    imported for rendering); path safety is checked either way.
+    """
+    root = Path(root)
+    path = root / "scene.json"
+    where = str(path)
+    if not root.is_dir():
+        raise InputError(root, None, "a scene folder", "no such directory")
+    if not path.is_file():
+        raise InputError(where, None, "a scene.json file in the scene folder", "no such file")
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(where, None, "valid JSON", str(exc)) from None
+    fmt = _get(doc, "format", where, "")
+    if fmt != FORMAT:
+        raise InputError(where, "format", repr(FORMAT), repr(fmt))
+    version = _get(doc, "version", where, "")
+    if version != VERSION:
+        raise InputError(where, "version", str(VERSION), repr(version))
+    clip_id = str(_get(doc, "clip_id", where, ""))
+    if not clip_id or ":" in clip_id:
+        raise InputError(where, "clip_id", "a non-empty string without ':'", repr(clip_id))
+    attributes = doc.get("attributes", {})
+    if not isinstance(attributes, dict) or not all(isinstance(v, str) for v in attributes.values()):
+        raise InputError(where, "attributes", "an object of string labels", repr(attributes))
+    cams_doc = _get(doc, "cameras", where, "")
+    if not isinstance(cams_doc, dict) or not cams_doc:
+        raise InputError(where, "cameras", "a non-empty object of cameras", repr(cams_doc))
+    cameras = {}
+    for name, cam in cams_doc.items():
+        fld = f"cameras.{name}"
+        T = check_rigid(_get(cam, "T_sensor_rig", where, fld), where, f"{fld}.T_sensor_rig")
+        model = validate_camera_model(_get(cam, "model", where, fld), where, f"{fld}.model")
+        cameras[name] = CameraCalib(name, T, model)
+    traj = _get(doc, "rig_trajectory", where, "")
+    rig_ts = _timestamps(_get(traj, "timestamps_us", where, "rig_trajectory"), where, "rig_trajectory.timestamps_us")
+    T_rw_raw = _get(traj, "T_rig_world", where, "rig_trajectory")
+    T_rw = _array(T_rw_raw, (len(rig_ts), 4, 4), where, "rig_trajectory.T_rig_world",
+                  f"{len(rig_ts)} 4x4 matrices (one per timestamp)")
+    T_rw = check_rigid(T_rw, where, "rig_trajectory.T_rig_world")
+    tracks_doc = _get(doc, "tracks", where, "")
+    if not isinstance(tracks_doc, list):
+        raise InputError(where, "tracks", "a list of tracks", type(tracks_doc).__name__)
+    tracks, seen = [], set()
+    for i, tr in enumerate(tracks_doc):
+        fld = f"tracks[{i}]"
+        tid = str(_get(tr, "track_id", where, fld))
+        if not tid or ":" in tid or tid in seen:
+            raise InputError(where, f"{fld}.track_id", "a unique non-empty id without ':'", repr(tid))
+        seen.add(tid)
+        label = _get(tr, "label_class", where, fld)
+        if not isinstance(label, str) or not label:
+            raise InputError(where, f"{fld}.label_class", "a class name", repr(label))
+        dims = _array(_get(tr, "dims_lwh", where, fld), (3,), where, f"{fld}.dims_lwh", "3 numbers [l, w, h]")
+        if np.any(dims <= 0):
+            raise InputError(where, f"{fld}.dims_lwh", "positive dimensions", dims.tolist())
+        ts = _timestamps(_get(tr, "timestamps_us", where, fld), where, f"{fld}.timestamps_us")
+        poses = _poses7(_get(tr, "poses", where, fld), len(ts), where, f"{fld}.poses")
+        tracks.append(Track(tid, label, dims, ts, poses))
+    images = _load_images(root, cameras, check_images)
+    return Scene(root, clip_id, {k: str(v) for k, v in attributes.items()}, cameras, rig_ts, T_rw, tracks, images)
+
+
+def _jsonable(x):
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, np.generic):
+        return x.item()
+    raise TypeError(f"not JSON serialisable: {type(x).__name__}")
+
+
+def save_scene(scene_doc: dict, images: pd.DataFrame, root: str | os.PathLike) -> Path:
+    """Write ``scene_doc`` (the SPEC section 2 dict; numpy arrays allowed) and ``images``.
+
+    ``format`` and ``version`` are filled in when absent. Both files are written atomically.
+    Returns ``root``.
+    """
+    root = Path(root)
+    root.mkdir(parents=True, exist_ok=True)
+    doc = {"format": FORMAT, "version": VERSION, **scene_doc}
+    missing = [c for c in IMAGES_COLUMNS if c not in images.columns]
+    if missing:
+        raise ValueError(f"images table lacks columns {missing}")
+    write_table(images, root / "images.csv", columns=IMAGES_COLUMNS)
+    atomic_write_text(root / "scene.json", json.dumps(doc, indent=1, default=_jsonable) + "\n")
+    return root

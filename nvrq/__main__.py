@@ -1,0 +1,5 @@
+import sys
+
+from nvrq.cli import main
+
+sys.exit(main())

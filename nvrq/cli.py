@@ -1,0 +1,61 @@
+"""The ``nvrq`` command: a thin shell over the library.
+
+Each subcommand lives in ``nvrq/commands/<name>.py`` and exposes
+``register(subparsers)``, which adds its parser and sets ``func`` (called with the
+parsed ``argparse.Namespace``; returns an exit status). Heavy imports (torch, OpenCV)
+happen inside those functions so ``nvrq --help`` stays instant.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from data_schema.errors import run_cli
+
+__all__ = ["main", "build_parser"]
+
+#: Subcommand modules, in the order ``nvrq --help`` lists them.
+COMMAND_MODULES = [
+    "nvrq.commands.synth",
+    "nvrq.commands.imports",
+    "nvrq.commands.render_plan",
+    "nvrq.commands.pairs",
+    "nvrq.commands.score",
+    "nvrq.commands.calibrate_tau",
+    "nvrq.commands.proxy",
+    "nvrq.commands.stability",
+    "nvrq.commands.demo",
+]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="nvrq",
+        description="Object-level quality of novel-view synthesis in driving scenes (NVRQ).",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for name in COMMAND_MODULES:
+        try:
+            module = importlib.import_module(name)
+        except ModuleNotFoundError as exc:
+            if exc.name == name:  # a stage not built in this checkout
+                continue
+            raise
+        module.register(sub)
+    return parser
+
+
+def _main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    return args.func(args)
+
+
+def main(argv=None) -> int:
+    """Entry point of the ``nvrq`` console script."""
+    return run_cli(_main, argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""Subcommands of the ``nvrq`` CLI, one module each (see :mod:`nvrq.cli`)."""

@@ -1,0 +1,1 @@
+"""Camera models, poses and 3D boxes (vectorised numpy)."""

@@ -1,0 +1,98 @@
+"""The metric registry: every metric the toolkit computes or reads, known in one place.
+
+Each entry says its direction (``higher_better``), its value range and whether it needs
+an image encoder. ``analyze`` reads directions from here; ``nvrq score`` computes the
+metrics from here. Encoder metrics are *families*: the column ``nvrq:dinov2-small`` is
+the family ``nvrq`` with encoder ``dinov2-small`` (SPEC section 4).
+
+>>> metric_info("nvrq_ca:dinov2-reg-small").higher_better
+True
+>>> metric_info("not-a-metric") is None
+True
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+__all__ = ["MetricInfo", "REGISTRY", "register", "metric_info", "split_column", "direction"]
+
+
+@dataclass(frozen=True)
+class MetricInfo:
+    """Metadata of one metric (or metric family, when ``needs_encoder``).
+
+    ``fn`` is the per-pair function for pixel metrics: ``fn(gt, render) -> float`` with
+    ``gt`` and ``render`` uint8 RGB crops of equal shape (H, W, 3). Encoder families and
+    proxies computed elsewhere have ``fn = None``.
+    """
+
+    name: str
+    higher_better: bool
+    value_range: tuple[float, float]
+    needs_encoder: bool = False
+    fn: Callable | None = None
+    description: str = ""
+    kind: str = "metric"  # {'metric', 'proxy'}
+
+
+REGISTRY: dict[str, MetricInfo] = {}
+
+
+def register(info: MetricInfo) -> MetricInfo:
+    """Add ``info`` to the registry (a name may be registered once)."""
+    if info.name in REGISTRY:
+        raise ValueError(f"metric {info.name!r} is already registered")
+    REGISTRY[info.name] = info
+    return info
+
+
+def split_column(column: str) -> tuple[str, str | None]:
+    """``'nvrq:dinov2-small'`` -> ``('nvrq', 'dinov2-small')``; ``'psnr'`` -> ``('psnr', None)``."""
+    family, sep, encoder = str(column).partition(":")
+    return (family, encoder) if sep else (family, None)
+
+
+def metric_info(column: str) -> MetricInfo | None:
+    """The registry entry behind a metrics-table column name, or ``None`` if unknown."""
+    family, encoder = split_column(column)
+    info = REGISTRY.get(family)
+    if info is None or info.needs_encoder != (encoder is not None):
+        return None
+    return info
+
+
+def direction(column: str) -> bool | None:
+    """``True`` if higher is better, ``False`` if lower is better, ``None`` if unknown."""
+    info = metric_info(column)
+    return None if info is None else info.higher_better
+
+
+register(MetricInfo("nvrq", True, (0.0, 1.0), needs_encoder=True,
+                    description="NVRQ (paper Eq. 4): (cos(f_gt, f_render) + 1) / 2"))
+register(MetricInfo("nvrq_ca", True, (0.0, 1.0), needs_encoder=True,
+                    description="NVRQ-CA (paper Eq. 5): curve-adjusted NVRQ"))
+# Downstream proxies (paper Eq. 6-10), written by `nvrq proxy`; analysed with --target.
+register(MetricInfo("s_det", True, (0.0, 1.0), kind="proxy",
+                    description="detection confidence on the render box (paper Eq. 6-8)"))
+register(MetricInfo("imagenet_drop", False, (-1.0, 1.0), kind="proxy",
+                    description="ImageNet top-class confidence drop GT -> render (paper Eq. 9)"))
+register(MetricInfo("clip_drop", False, (-1.0, 1.0), kind="proxy",
+                    description="CLIP zero-shot true-category confidence drop (paper Eq. 10)"))
+
+# Weight-free pixel metrics on raw crops (SPEC section 4; definitions in nvrq/pixel_metrics.py).
+from nvrq import pixel_metrics as _px  # noqa: E402  (numpy + OpenCV; no torch)
+
+register(MetricInfo("psnr", True, (0.0, float("inf")), fn=_px.psnr,
+                    description="PSNR in dB over RGB, data range 255 (inf for identical crops)"))
+register(MetricInfo("ssim", True, (-1.0, 1.0), fn=_px.ssim,
+                    description="SSIM (Gaussian 11x11, sigma 1.5), RGB channels averaged"))
+register(MetricInfo("ms_ssim", True, (0.0, 1.0), fn=_px.ms_ssim,
+                    description="5-scale MS-SSIM; NaN when the shorter crop side < 176 px"))
+register(MetricInfo("gmsd", False, (0.0, 1.0), fn=_px.gmsd,
+                    description="gradient magnitude similarity deviation (Xue et al. 2014)"))
+register(MetricInfo("mse", False, (0.0, 255.0 ** 2), fn=_px.mse,
+                    description="mean squared error over RGB (0-255)"))
+register(MetricInfo("mae", False, (0.0, 255.0), fn=_px.mae,
+                    description="mean absolute error over RGB (0-255)"))

@@ -1,0 +1,1 @@
+"""Readers that turn external datasets into scene folders."""
