@@ -114,7 +114,8 @@ def make_pairs(
     frames_out = []
     cams = list(scene.cameras.values())
     for cam in tqdm(cams, desc="pairs", unit="camera", disable=not progress or len(cams) < 2):
-        model = camera_from_model(cam.model)
+        model = camera_from_model(cam.model, where=str(scene.root / "scene.json"),
+                                  field_prefix=f"cameras.{cam.name}.model.")
         rows = images[images.camera == cam.name]
         renders = rows[rows.source == "render"]
         if renders.empty:

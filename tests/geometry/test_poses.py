@@ -29,7 +29,9 @@ def test_quaternion_matrix_match_scipy():
 
 
 def test_pose7_round_trip_and_inverse():
-    poses = np.concatenate([rng.normal(size=(50, 3)) * 10, Rotation.random(50, random_state=2).as_quat()], 1)
+    poses = np.concatenate(
+        [rng.normal(size=(50, 3)) * 10, Rotation.random(50, random_state=2).as_quat()], 1
+    )
     T = pose7_to_matrix(poses)
     np.testing.assert_allclose(pose7_to_matrix(matrix_to_pose7(T)), T, atol=1e-12)
     np.testing.assert_allclose(invert_rigid(T) @ T, np.broadcast_to(np.eye(4), T.shape), atol=1e-12)
@@ -57,7 +59,9 @@ def test_interpolation_matches_scipy_slerp_and_never_extrapolates():
 
 
 def test_zero_offset_reproduces_gt_pose_exactly():
-    T_sensor_rig = pose7_to_matrix(np.array([1.6, 0.1, 1.4, *Rotation.random(random_state=4).as_quat()]))
+    T_sensor_rig = pose7_to_matrix(
+        np.array([1.6, 0.1, 1.4, *Rotation.random(random_state=4).as_quat()])
+    )
     assert np.array_equal(offset_T_sensor_rig(T_sensor_rig, np.array([0.0]))[0], T_sensor_rig)
 
 
@@ -68,7 +72,9 @@ def test_positive_offset_moves_camera_left_in_world(yaw_deg):
     A +2 m offset must move the camera centre by exactly 2 m along that direction.
     """
     psi = np.radians(yaw_deg)
-    T_rig_world = pose7_to_matrix(np.array([100.0, -20.0, 0.3, 0, 0, np.sin(psi / 2), np.cos(psi / 2)]))
+    T_rig_world = pose7_to_matrix(
+        np.array([100.0, -20.0, 0.3, 0, 0, np.sin(psi / 2), np.cos(psi / 2)])
+    )
     # camera x right, y down, z forward mounted 1.5 m up, 1.2 m forward
     T_sensor_rig = np.array([[0, 0, 1, 1.2], [-1, 0, 0, 0], [0, -1, 0, 1.5], [0, 0, 0, 1.0]])
     T_off = offset_T_sensor_rig(T_sensor_rig, np.array([0.0, 2.0, -1.0]))

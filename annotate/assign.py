@@ -1,0 +1,123 @@
+"""Which item a rater sees next: per-rater plans and balanced assignment (pure functions).
+
+A rater's *plan* is fixed when the rater signs in for the first time and stored with the
+rater: the training items in study order, then the test items in a random order seeded by
+the study seed and the rater id, and the hidden gold and repeat items ("specials"), each due
+after a seeded number of test items. :func:`choose_next` then picks, in this order:
+
+1. the next training item;
+2. a special that is due (a repeat only once the rater has voted on its original);
+3. the test item with the fewest votes or live claims by *other* raters among those below
+   the quota ``votes_per_item``, ties broken by the rater's own random order — so every
+   item reaches its quota before any gets more, and a half-finished study is balanced;
+4. any special left (repeats only with a voted original); else ``None``: the rater is done.
+
+>>> plan = {"training": ["t1"], "order": ["a", "b", "c"], "specials": [[1, "g1"]],
+...         "repeat_of": {}}
+>>> choose_next(plan, [], set(), {}, quota=2)
+'t1'
+>>> choose_next(plan, ["t1"], {"t1"}, {"a": 2, "b": 1}, quota=2)  # a full; c has the lowest load
+'c'
+>>> choose_next(plan, ["t1", "c"], {"t1", "c"}, {"a": 2, "b": 1}, quota=2)  # g1 due after 1 test
+'g1'
+"""
+
+from __future__ import annotations
+
+import hashlib
+
+import numpy as np
+
+__all__ = ["make_plan", "choose_next", "rater_seed", "plan_total"]
+
+
+def rater_seed(study_seed: int, rater: str) -> int:
+    """A 63-bit seed from the study seed and the rater id (stable across runs and machines).
+
+    >>> rater_seed(0, "ann") == rater_seed(0, "ann") != rater_seed(1, "ann")
+    True
+    """
+    digest = hashlib.sha256(f"{int(study_seed)}:{rater}".encode()).digest()
+    return int.from_bytes(digest[:8], "little") >> 1
+
+
+def make_plan(*, training: list[str], tests: list[str], golds: list[str],
+              repeats: dict[str, str], seed: int) -> dict:
+    """The rater's plan (JSON-able dict).
+
+    ``repeats`` maps a repeat item key to its original test item key. Gold items are spread
+    over the whole test sequence; a repeat is due at least a quarter of the sequence after
+    a random point, so it rarely follows its original closely.
+    """
+    rng = np.random.default_rng(seed)
+    order = [tests[i] for i in rng.permutation(len(tests))]
+    n = max(len(order), 1)
+    specials = [[int(rng.integers(1, n + 1)), g] for g in golds]
+    specials += [[int(min(n, rng.integers(1, n + 1) + n // 4)), r] for r in sorted(repeats)]
+    specials.sort(key=lambda s: (s[0], s[1]))
+    return {"training": list(training), "order": order, "specials": specials,
+            "repeat_of": dict(repeats)}
+
+
+def _eligible(plan: dict, key: str, voted: set[str]) -> bool:
+    original = plan["repeat_of"].get(key)
+    return original is None or original in voted
+
+
+def choose_next(plan: dict, assigned: list[str], voted: set[str], loads: dict[str, int], *,
+                quota: int | None) -> str | None:
+    """The next item key for a rater, or ``None`` when nothing is left (see module doc).
+
+    ``assigned``: keys already assigned to this rater; ``voted``: those it voted on;
+    ``loads``: per test key, votes plus live claims of the other raters; ``quota``: votes
+    wanted per test item (``None``: every rater rates every item).
+    """
+    done = set(assigned)
+    for key in plan["training"]:
+        if key not in done:
+            return key
+    order = plan["order"]
+    n_tests = sum(1 for k in order if k in done)
+    specials = [(after, key) for after, key in plan["specials"] if key not in done]
+    for after, key in specials:
+        if after <= n_tests and _eligible(plan, key, voted):
+            return key
+    best, best_load = None, None
+    for key in order:  # rater's order breaks ties: the first with the lowest load wins
+        if key in done:
+            continue
+        load = loads.get(key, 0)
+        if quota is not None and load >= quota:
+            continue
+        if best_load is None or load < best_load:
+            best, best_load = key, load
+            if load == 0:
+                break
+    if best is not None:
+        return best
+    for _after, key in specials:
+        if _eligible(plan, key, voted):
+            return key
+    return None
+
+
+def plan_total(plan: dict, assigned: list[str], loads: dict[str, int], *,
+               quota: int | None) -> int:
+    """How many non-training items the rater will have seen when done, as far as known now.
+
+    Assigned items, plus test items still open to the rater, plus specials not yet shown
+    (a repeat only if its original is assigned to the rater or still open to it).
+    """
+    done = set(assigned)
+    training = set(plan["training"])
+    n = sum(1 for k in assigned if k not in training)
+    open_tests = {k for k in plan["order"]
+                  if k not in done and (quota is None or loads.get(k, 0) < quota)}
+    n += len(open_tests)
+    for _after, key in plan["specials"]:
+        if key in done:
+            continue
+        original = plan["repeat_of"].get(key)
+        if original is None or original in done or original in open_tests:
+            n += 1
+    return n

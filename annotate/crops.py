@@ -1,0 +1,90 @@
+"""Display crops of a study: cut once, padded to a shared square, resized to display size.
+
+Convention: boxes are inclusive pixel indices ``[x0, y0, x1, y1]`` (SPEC section 3): the
+crop is ``image[y0:y1+1, x0:x1+1]``. Images stay BGR uint8 from ``cv2.imread`` to
+``cv2.imwrite`` (both use BGR), so colours are saved unchanged.
+
+Both crops of an item are centred on black squares of the *same* side (the largest side of
+the two crops), then resized to ``size`` x ``size``; so the object keeps its relative scale
+and both images appear equally large on screen.
+
+>>> import numpy as np
+>>> a = np.full((10, 20, 3), 255, np.uint8); b = np.full((4, 4, 3), 255, np.uint8)
+>>> pa, pb = pad_pair(a, b, size=40)
+>>> pa.shape, pb.shape                 # common square of side 20 -> 40
+((40, 40, 3), (40, 40, 3))
+>>> int(pa[0, 20, 0]), int(pa[20, 20, 0])   # rows 0..9 of 40 are padding (black)
+(0, 255)
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from data_schema.errors import InputError
+
+__all__ = ["cut", "pad_pair", "pad_to_square", "broken_render", "read_bgr", "write_image"]
+
+
+def read_bgr(path: Path, *, where: str, field: str) -> np.ndarray:
+    """Read a colour image as BGR uint8 (H, W, 3); InputError naming ``where``/``field``."""
+    img = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if img is None:
+        raise InputError(where, field, "a readable image file", str(path))
+    return img
+
+
+def cut(img: np.ndarray, box, *, where: str, field: str) -> np.ndarray:
+    """``img[y0:y1+1, x0:x1+1]`` for an inclusive box inside the image; (h, w, 3)."""
+    x0, y0, x1, y1 = (int(v) for v in box)
+    h, w = img.shape[:2]
+    if not (0 <= x0 <= x1 < w and 0 <= y0 <= y1 < h):
+        raise InputError(where, field, f"a box inside the {w}x{h} image", [x0, y0, x1, y1])
+    return img[y0:y1 + 1, x0:x1 + 1]
+
+
+def pad_to_square(crop: np.ndarray, side: int) -> np.ndarray:
+    """Centre ``crop`` (h, w, 3) on a black (side, side, 3) canvas (side >= h, w)."""
+    h, w = crop.shape[:2]
+    out = np.zeros((side, side, crop.shape[2]), dtype=crop.dtype)
+    top, left = (side - h) // 2, (side - w) // 2
+    out[top:top + h, left:left + w] = crop
+    return out
+
+
+def pad_pair(ref: np.ndarray, ren: np.ndarray, *, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """Both crops on a common black square, resized to (size, size, 3) each."""
+    side = max(ref.shape[0], ref.shape[1], ren.shape[0], ren.shape[1])
+    interp = cv2.INTER_AREA if side > size else cv2.INTER_CUBIC
+    return tuple(cv2.resize(pad_to_square(c, side), (size, size), interpolation=interp)
+                 for c in (ref, ren))
+
+
+def broken_render(crop: np.ndarray, *, rng: np.random.Generator) -> np.ndarray:
+    """A severely broken copy of ``crop`` (h, w, 3) uint8 for a gold "bad" item.
+
+    Heavy Gaussian blur (sigma = 15% of the longer side), Gaussian noise (sigma 40 grey
+    levels) and three black holes of a quarter of the side each.
+    """
+    h, w = crop.shape[:2]
+    sigma = max(2.0, 0.15 * max(h, w))
+    out = cv2.GaussianBlur(crop, (0, 0), sigmaX=sigma, sigmaY=sigma).astype(np.float32)
+    out += rng.normal(0.0, 40.0, size=out.shape).astype(np.float32)
+    out = np.clip(out, 0, 255).astype(np.uint8)
+    hh, hw = max(1, h // 4), max(1, w // 4)
+    for _ in range(3):
+        y, x = int(rng.integers(0, h - hh + 1)), int(rng.integers(0, w - hw + 1))
+        out[y:y + hh, x:x + hw] = 0
+    return out
+
+
+def write_image(path: Path, img: np.ndarray, *, fmt: str) -> None:
+    """Write a BGR uint8 image as ``fmt`` in {'jpg', 'png'} (JPEG quality 95)."""
+    params = [cv2.IMWRITE_JPEG_QUALITY, 95] if fmt == "jpg" else [cv2.IMWRITE_PNG_COMPRESSION, 3]
+    ok, buf = cv2.imencode("." + fmt, img, params)
+    if not ok:
+        raise OSError(f"could not encode {path}")
+    path.write_bytes(buf.tobytes())

@@ -1,0 +1,134 @@
+"""The study design (paper section 4): which tracks, frames and offsets raters see.
+
+Pure functions on a pairs table (SPEC section 3). A *track* is ``(clip_id, track_id)``; a
+*frame* of it is ``(camera, timestamp_us)``. A frame is usable when the pairs table holds
+the object at **every** chosen offset there.
+
+- :func:`parse_offsets`: ``'all'`` or a comma list, matched at 0.01 m (as in ``pair_id``).
+- :func:`choose_tracks`: tracks spread over strata (label class x scene attributes):
+  strata are visited round-robin in a seeded random order, one random track each visit.
+- :func:`spread_frames`: ``k`` frames evenly along the track (by time), first and last
+  included.
+
+>>> spread_frames(10, 4)
+[0, 3, 6, 9]
+>>> spread_frames(3, 12)
+[0, 1, 2]
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from data_schema.errors import InputError
+from data_schema.tables import PAIRS_COLUMNS
+
+__all__ = ["parse_offsets", "attribute_columns", "usable_frames", "choose_tracks",
+           "spread_frames", "select_test_pairs"]
+
+_EXTRA_NON_ATTRIBUTES = ("scene_root",)
+
+
+def attribute_columns(pairs: pd.DataFrame) -> list[str]:
+    """Scene attribute columns: those after the SPEC columns (``scene_root``, ``_*`` excluded)."""
+    return [c for c in pairs.columns if c not in PAIRS_COLUMNS
+            and c not in _EXTRA_NON_ATTRIBUTES and not str(c).startswith("_")]
+
+
+def _cm(values) -> np.ndarray:
+    """Offsets in metres -> integer centimetres (the precision of ``pair_id``)."""
+    return np.round(np.asarray(values, dtype=float) * 100).astype(np.int64)
+
+
+def parse_offsets(spec: str, available) -> list[float]:
+    """Chosen offsets (sorted, metres) from ``'all'`` or ``'0,1.5,-1.5'``.
+
+    >>> parse_offsets("all", [0.0, 1.0, -1.0, 1.0])
+    [-1.0, 0.0, 1.0]
+    >>> parse_offsets("1, 0", [0.0, 1.0, -1.0])
+    [0.0, 1.0]
+    """
+    have = sorted(set(_cm(available).tolist()))
+    if str(spec).strip().lower() == "all":
+        chosen = have
+    else:
+        try:
+            chosen = sorted(set(_cm([float(s) for s in str(spec).split(",") if s.strip()]).tolist()))
+        except ValueError:
+            raise InputError("--offsets", None, "'all' or a comma list of metres", spec) from None
+        missing = [c for c in chosen if c not in have]
+        if missing or not chosen:
+            raise InputError("--offsets", None,
+                             f"offsets present in the pairs table ({[h / 100 for h in have]})", spec)
+    return [c / 100 for c in chosen]
+
+
+def usable_frames(pairs: pd.DataFrame, offsets: list[float]) -> pd.DataFrame:
+    """One row per (clip_id, track_id, camera, timestamp_us) holding every chosen offset.
+
+    Columns: clip_id, track_id, camera, timestamp_us, label_class + attribute columns.
+    """
+    want = set(_cm(offsets).tolist())
+    df = pairs.assign(_cm=_cm(pairs["y_offset_m"]))
+    df = df[df["_cm"].isin(want)]
+    keys = ["clip_id", "track_id", "camera", "timestamp_us"]
+    counts = df.groupby(keys, sort=True)["_cm"].nunique()
+    full = counts[counts == len(want)].index
+    first = df.drop_duplicates(keys).set_index(keys)
+    cols = ["label_class", *attribute_columns(pairs)]
+    return first.loc[full, cols].reset_index()
+
+
+def choose_tracks(frames: pd.DataFrame, n_tracks: int, rng: np.random.Generator) -> list[tuple]:
+    """``n_tracks`` (clip_id, track_id) keys spread over label class x attribute strata."""
+    attrs = [c for c in frames.columns if c not in ("clip_id", "track_id", "camera", "timestamp_us")]
+    tracks = frames.drop_duplicates(["clip_id", "track_id"])
+    strata: dict[tuple, list[tuple]] = {}
+    for row in tracks.itertuples(index=False):
+        d = row._asdict()
+        strata.setdefault(tuple(str(d[a]) for a in attrs), []).append((d["clip_id"], d["track_id"]))
+    pools = [strata[k] for k in sorted(strata)]
+    pools = [[p[i] for i in rng.permutation(len(p))] for p in pools]
+    pools = [pools[i] for i in rng.permutation(len(pools))]
+    chosen: list[tuple] = []
+    while len(chosen) < n_tracks and any(pools):
+        for pool in pools:
+            if pool and len(chosen) < n_tracks:
+                chosen.append(pool.pop(0))
+    return chosen
+
+
+def spread_frames(n: int, k: int) -> list[int]:
+    """Indices of ``min(n, k)`` positions spread evenly over ``range(n)``."""
+    if n <= k:
+        return list(range(n))
+    return sorted(set(np.round(np.linspace(0, n - 1, k)).astype(int).tolist()))
+
+
+def select_test_pairs(pairs: pd.DataFrame, *, offsets: list[float], n_tracks: int,
+                      frames_per_track: int, rng: np.random.Generator
+                      ) -> tuple[pd.DataFrame, list[dict]]:
+    """Test pairs of the design and a JSON-able record of the chosen tracks and frames."""
+    frames = usable_frames(pairs, offsets)
+    if frames.empty:
+        raise InputError("pairs", "y_offset_m",
+                         f"at least one (track, frame) holding every offset {offsets}", "none")
+    chosen = choose_tracks(frames, n_tracks, rng)
+    record, keep = [], []
+    for clip_id, track_id in chosen:
+        tf = frames[(frames["clip_id"] == clip_id) & (frames["track_id"] == track_id)]
+        tf = tf.sort_values(["timestamp_us", "camera"]).reset_index(drop=True)
+        idx = spread_frames(len(tf), frames_per_track)
+        sel = tf.iloc[idx]
+        keep.append(sel[["clip_id", "track_id", "camera", "timestamp_us"]])
+        record.append({"clip_id": str(clip_id), "track_id": str(track_id),
+                       "label_class": str(tf["label_class"].iloc[0]),
+                       "frames": [[str(c), int(t)] for c, t in zip(sel["camera"], sel["timestamp_us"], strict=True)]})
+    keys = pd.concat(keep, ignore_index=True)
+    want = set(_cm(offsets).tolist())
+    sel = pairs.merge(keys, on=["clip_id", "track_id", "camera", "timestamp_us"])
+    sel = sel[np.isin(_cm(sel["y_offset_m"]), sorted(want))]
+    sel = sel.drop_duplicates("pair_id")
+    return sel.sort_values(["clip_id", "track_id", "timestamp_us", "camera", "y_offset_m"]
+                           ).reset_index(drop=True), record

@@ -1,0 +1,62 @@
+"""``nvrq import {nurec,kitti} ...``: turn external data into a scene folder (SPEC section 2)."""
+
+from __future__ import annotations
+
+__all__ = ["register"]
+
+
+def register(sub) -> None:
+    from nvrq.commands.synth import allow_negative_lists
+
+    p = sub.add_parser(
+        "import",
+        help="import a NuRec archive or a KITTI frame as a scene folder",
+        description="Convert external data into a scene folder (scene.json + images.csv).",
+    )
+    kinds = p.add_subparsers(dest="source", metavar="SOURCE", required=True)
+    n = kinds.add_parser(
+        "nurec",
+        help="a NVIDIA NuRec scene archive (.usdz)",
+        description="Read rig_trajectories.json and sequence_tracks.json from a NuRec "
+        "archive; images.csv lists the GT and render files to produce.",
+    )
+    n.add_argument("archive", help="NuRec scene archive (.usdz, a zip)")
+    n.add_argument("out", help="output scene folder")
+    n.add_argument(
+        "--offsets", default="-3,-2,-1,0,1,2,3", help="render offsets in metres (left > 0)"
+    )
+    n.add_argument(
+        "--sequence", default=None, help="rig trajectory sequence_id (default: the first)"
+    )
+    allow_negative_lists(n)
+    n.set_defaults(func=_run_nurec)
+    k = kinds.add_parser(
+        "kitti",
+        help="one KITTI object-detection frame (real-data check)",
+        description="Import a KITTI frame: image_2, label_2 and calib of FRAME.",
+    )
+    k.add_argument("kitti_root", help="KITTI object folder (with image_2/, label_2/, calib/)")
+    k.add_argument("frame", help="frame id, e.g. 000123")
+    k.add_argument("out", help="output scene folder")
+    k.set_defaults(func=_run_kitti)
+
+
+def _run_nurec(args) -> int:
+    from nvrq.commands.synth import parse_offsets
+    from nvrq.sources.nurec import import_nurec
+
+    out = import_nurec(
+        args.archive, args.out, offsets=parse_offsets(args.offsets), sequence=args.sequence
+    )
+    print(f"wrote {out}")
+    return 0
+
+
+def _run_kitti(args) -> int:
+    from pathlib import Path
+
+    from nvrq.sources.kitti import import_kitti
+
+    out = import_kitti(Path(args.kitti_root), args.frame, Path(args.out))
+    print(f"wrote {out}")
+    return 0

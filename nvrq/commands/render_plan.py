@@ -1,0 +1,43 @@
+"""``nvrq render-plan SCENE [--offsets ...] [--cameras ...] --out PLAN.{csv,json}``."""
+
+from __future__ import annotations
+
+__all__ = ["register", "run"]
+
+
+def register(sub) -> None:
+    from nvrq.commands.synth import allow_negative_lists
+
+    p = sub.add_parser(
+        "render-plan",
+        help="virtual camera poses a renderer must draw (paper Eq. 1-2)",
+        description="For every camera, frame and offset: T_sensor'_rig, T_sensor_world, "
+        "its inverse, the timestamp and the path images.csv expects.",
+    )
+    p.add_argument("scene", help="scene folder (scene.json + images.csv; images need not exist)")
+    p.add_argument(
+        "--offsets", default=None, help="offsets in metres (default: those in images.csv)"
+    )
+    p.add_argument("--cameras", default=None, help="comma list of camera names (default: all)")
+    p.add_argument("--out", required=True, help="output plan (.csv or .json)")
+    allow_negative_lists(p)
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from data_schema.errors import InputError
+    from data_schema.scene import load_scene
+    from nvrq.commands.synth import parse_offsets
+    from nvrq.render_plan import render_plan, write_render_plan
+
+    if not str(args.out).lower().endswith((".csv", ".json")):
+        raise InputError("--out", None, "a plan file ending in .csv or .json", args.out)
+    scene = load_scene(args.scene, check_images=False)
+    offsets = None if args.offsets is None else parse_offsets(args.offsets)
+    cameras = (
+        None if args.cameras is None else [c.strip() for c in args.cameras.split(",") if c.strip()]
+    )
+    plan = render_plan(scene, offsets=offsets, cameras=cameras)
+    write_render_plan(plan, args.out, clip_id=scene.clip_id)
+    print(f"{len(plan)} renders -> {args.out}")
+    return 0

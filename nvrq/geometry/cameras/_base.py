@@ -1,0 +1,210 @@
+"""Camera-model base class, registry and parameter validation.
+
+Convention (SPEC section 1): camera frame x right, y down, z forward; pixels u right,
+v down, the centre of pixel (column i, row j) at (u=i, v=j). A pixel centre is inside
+the image iff ``0 <= u <= W-1`` and ``0 <= v <= H-1``.
+
+Every model projects through the angle from the optical axis,
+``theta = atan2(hypot(x, y), z)``: a point is *projectable* iff ``z > 0`` and
+``theta < max_valid_angle``, where ``max_valid_angle`` is the model's limit (f-theta's
+``max_angle``, and for distorted models the end of the range where the distortion is
+monotonic, so that nothing outside it can fold back into the image).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import numpy as np
+
+from data_schema.errors import InputError
+
+__all__ = ["CameraModel", "ModelParams", "camera_from_model", "register_camera_model"]
+
+_REGISTRY: dict[str, type[CameraModel]] = {}
+
+
+def register_camera_model(cls: type[CameraModel]) -> type[CameraModel]:
+    """Class decorator: make ``cls`` available under ``model['type'] == cls.type_name``."""
+    if cls.type_name in _REGISTRY:
+        raise ValueError(f"camera model type {cls.type_name!r} registered twice")
+    _REGISTRY[cls.type_name] = cls
+    return cls
+
+
+def camera_from_model(
+    model: Mapping[str, Any], *, where: str = "camera model", field_prefix: str | None = None
+) -> CameraModel:
+    """Build the camera of a SPEC model dict (``{'type': ..., 'resolution': [W, H], ...}``).
+
+    Errors are :class:`InputError` naming ``where`` and the field, ``"{type}.{param}"`` by
+    default, or ``field_prefix + param`` when given (e.g. ``"cameras.front.model."``).
+    Keys a model does not use are ignored.
+    """
+    prefix = "" if field_prefix is None else field_prefix
+    if not isinstance(model, Mapping):
+        raise InputError(
+            where, prefix.rstrip(".") or None, "a camera model object", type(model).__name__
+        )
+    kind = model.get("type")
+    if not isinstance(kind, str) or kind not in _REGISTRY:
+        raise InputError(where, f"{prefix}type", f"one of {sorted(_REGISTRY)}", repr(kind))
+    params = ModelParams(model, where=where, prefix=f"{kind}." if field_prefix is None else prefix)
+    return _REGISTRY[kind].from_params(params)
+
+
+class ModelParams:
+    """Typed, validated access to one model dict; every error names ``prefix + key``."""
+
+    def __init__(self, model: Mapping[str, Any], *, where: str, prefix: str):
+        self.model, self.where, self.prefix = model, where, prefix
+
+    def error(self, key: str, expected: str, got: object) -> InputError:
+        return InputError(self.where, f"{self.prefix}{key}", expected, got)
+
+    def vector(self, key: str, n: int, *, default: float | None = None) -> np.ndarray:
+        """``(n,)`` float64; a missing key gives ``default`` everywhere if one is given."""
+        expected = f"a list of {n} finite numbers"
+        if key not in self.model:
+            if default is None:
+                raise self.error(key, expected, "missing")
+            return np.full(n, float(default))
+        value = self.model[key]
+        try:
+            arr = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise self.error(key, expected, repr(value)) from None
+        if arr.shape != (n,):
+            got = f"{arr.size} values" if arr.ndim == 1 else f"shape {arr.shape}"
+            raise self.error(key, expected, got)
+        if not np.all(np.isfinite(arr)):
+            raise self.error(key, expected, repr(value))
+        return arr
+
+    def positive_vector(self, key: str, n: int) -> np.ndarray:
+        arr = self.vector(key, n)
+        if not np.all(arr > 0):
+            raise self.error(key, f"a list of {n} positive numbers", arr.tolist())
+        return arr
+
+    def scalar(self, key: str, *, positive: bool = False) -> float:
+        value = self.model.get(key)
+        expected = "a positive number" if positive else "a finite number"
+        if value is None:
+            raise self.error(key, expected, "missing")
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise self.error(key, expected, repr(value))
+        if not math.isfinite(value) or (positive and value <= 0):
+            raise self.error(key, expected, value)
+        return float(value)
+
+    def choice(self, key: str, allowed: tuple[str, ...]) -> str:
+        value = self.model.get(key)
+        if value not in allowed:
+            raise self.error(
+                key, f"one of {list(allowed)}", "missing" if value is None else repr(value)
+            )
+        return value
+
+    def resolution(self) -> tuple[int, int]:
+        value = self.model.get("resolution")
+        expected = "[W, H], two positive integers"
+        if value is None:
+            raise self.error("resolution", expected, "missing")
+        try:
+            arr = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise self.error("resolution", expected, repr(value)) from None
+        if arr.shape != (2,) or not np.all(np.isfinite(arr) & (arr >= 1) & (arr == np.round(arr))):
+            raise self.error("resolution", expected, repr(value))
+        return int(arr[0]), int(arr[1])
+
+
+class CameraModel:
+    """Base of every camera model: ``project``, ``unproject``, ``in_image`` on any leading dims.
+
+    Subclasses set ``type_name``, implement ``from_params``, ``_project(x, y, z, rho, theta)``
+    (uv for all points; only projectable ones are kept) and ``_unproject(u, v)`` (rays,
+    NaN outside the model's valid range) and set ``self.max_valid_angle``.
+    """
+
+    type_name: ClassVar[str]
+    max_valid_angle: float
+
+    def __init__(self, *, resolution: tuple[int, int]):
+        self._resolution = (int(resolution[0]), int(resolution[1]))
+
+    @classmethod
+    def from_params(cls, params: ModelParams) -> CameraModel:  # pragma: no cover - abstract
+        raise TypeError(f"{cls.__name__} does not implement from_params")
+
+    @property
+    def resolution(self) -> tuple[int, int]:
+        """``(W, H)`` in pixels."""
+        return self._resolution
+
+    def project(self, points_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Camera-frame points ``(..., 3)`` -> ``(uv (..., 2) float64, projectable (...,) bool)``.
+
+        ``projectable`` is ``z > 0`` and ``atan2(hypot(x, y), z) < max_valid_angle`` (NaN
+        points are never projectable); ``uv`` is NaN wherever ``projectable`` is False.
+        """
+        pts = np.asarray(points_cam, dtype=np.float64)
+        if pts.shape[-1:] != (3,):
+            raise ValueError(f"points_cam: expected shape (..., 3), got {pts.shape}")
+        x, y, z = pts[..., 0], pts[..., 1], pts[..., 2]
+        rho = np.hypot(x, y)
+        theta = np.arctan2(rho, z)
+        projectable = (z > 0) & (theta < self.max_valid_angle)
+        with np.errstate(all="ignore"):
+            u, v = self._project(x, y, z, rho, np.minimum(theta, self.max_valid_angle))
+        uv = np.stack([u, v], axis=-1)
+        uv[~projectable] = np.nan
+        return uv, projectable
+
+    def unproject(self, uv: np.ndarray) -> np.ndarray:
+        """Pixel coordinates ``(..., 2)`` -> unit rays ``(..., 3)`` in the camera frame.
+
+        A pixel whose ray would lie at or beyond ``max_valid_angle`` (e.g. outside a
+        fisheye's image circle, or past the fold of a distortion polynomial) gets NaN.
+        """
+        pix = np.asarray(uv, dtype=np.float64)
+        if pix.shape[-1:] != (2,):
+            raise ValueError(f"uv: expected shape (..., 2), got {pix.shape}")
+        with np.errstate(all="ignore"):
+            return self._unproject(pix[..., 0], pix[..., 1])
+
+    def in_image(self, uv: np.ndarray) -> np.ndarray:
+        """``(..., 2)`` -> ``(...,)`` bool: ``0 <= u <= W-1 and 0 <= v <= H-1`` (pixel centres).
+
+        >>> cam = camera_from_model({"type": "pinhole", "resolution": [4, 3],
+        ...                          "focal_length": [2, 2], "principal_point": [1.5, 1]})
+        >>> cam.in_image(np.array([[0.0, 0.0], [3.0, 2.0], [3.01, 1.0], [-0.5, 1.0]])).tolist()
+        [True, True, False, False]
+        """
+        pix = np.asarray(uv, dtype=np.float64)
+        w, h = self._resolution
+        u, v = pix[..., 0], pix[..., 1]
+        return (u >= 0) & (u <= w - 1) & (v >= 0) & (v <= h - 1)
+
+    def _project(self, x, y, z, rho, theta):  # pragma: no cover - abstract
+        raise TypeError(f"{type(self).__name__} does not implement _project")
+
+    def _unproject(self, u, v):  # pragma: no cover - abstract
+        raise TypeError(f"{type(self).__name__} does not implement _unproject")
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(resolution={self._resolution})"
+
+
+def rays_from_angle(theta: np.ndarray, du: np.ndarray, dv: np.ndarray) -> np.ndarray:
+    """Unit rays at angle ``theta`` from the optical axis, azimuth of ``(du, dv)``: ``(..., 3)``.
+
+    ``(du, dv) == (0, 0)`` gives the optical axis ``(0, 0, 1)`` (for ``theta == 0``).
+    """
+    norm = np.hypot(du, dv)
+    safe = np.where(norm > 0, norm, 1.0)
+    s = np.sin(theta)
+    return np.stack([s * (du / safe), s * (dv / safe), np.cos(theta)], axis=-1)

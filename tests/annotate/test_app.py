@@ -1,0 +1,153 @@
+"""Streamlit AppTest of the rater app: sign-in, training, vote, undo, resume, gold, admin.
+
+Widgets are found by key (annotate/app.py lists them). Expected values come from the
+study's own files (manifest training order, items.csv kinds) and the vote store.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from streamlit.testing.v1 import AppTest
+
+import annotate
+
+APP = str(Path(annotate.__file__).with_name("app.py"))
+
+
+@pytest.fixture
+def study(make_study, monkeypatch):
+    s = make_study()
+    monkeypatch.setenv("ANNOTATE_STUDY", str(s.root))
+    return s
+
+
+def _app(**query) -> AppTest:
+    at = AppTest.from_file(APP, default_timeout=20)
+    at.query_params.update(query)
+    return at.run()
+
+
+def _current(at: AppTest) -> str:
+    return at.session_state["shown"][0]
+
+
+def _page_text(at: AppTest) -> str:
+    parts = []
+    for kind in ("title", "subheader", "markdown", "caption", "info", "success", "error", "text"):
+        parts += [str(e.value) for e in at.get(kind)]
+    parts += [e.proto.text for e in at.get("progress")]
+    parts += [b.label for b in at.button]
+    return "\n".join(parts)
+
+
+def test_sign_in_by_name_then_instructions(study):
+    at = _app()
+    assert at.button(key="sign_in") is not None
+    at.text_input(key="name_input").input("sim-cheat")  # reserved prefix is refused
+    at.button(key="sign_in").click().run()
+    assert at.error and "sim-" in at.error[0].value
+    at.text_input(key="name_input").input("ann")
+    at.button(key="sign_in").click().run()
+    assert at.session_state["rater"] == "ann"
+    assert at.query_params["rater"] == "ann"  # a reload keeps the rater signed in
+    assert "Reference" in at.markdown[0].value and at.button(key="start")
+
+
+def test_query_param_sign_in_and_training_first(study):
+    at = _app(rater="bob")
+    at.button(key="start").click().run()
+    training = study.manifest["training_order"]
+    assert len(training) == 2
+    for i, key in enumerate(training):  # training items first, in study order
+        assert _current(at) == key
+        assert at.get("progress")[0].proto.text == f"Training {i} / {len(training)}"
+        at.button(key="vote_good").click().run()
+    assert study.items.loc[_current(at), "kind"] != "training"
+    votes = study.store.votes("bob")
+    assert votes["item"].tolist() == training
+    assert (votes["response_ms"] >= 0).all()
+
+
+def test_vote_undo_and_resume_on_a_new_session(study):
+    at = _app(rater="cat")
+    at.button(key="start").click().run()
+    seen = []
+    for vote_key in ("vote_good", "vote_bad", "vote_bad", "vote_good"):
+        seen.append(_current(at))
+        at.button(key=vote_key).click().run()
+    assert len(set(seen)) == 4
+    after = _current(at)
+    at.button(key="undo").click().run()  # undo the 4th vote: its item comes back
+    assert _current(at) == seen[3]
+    assert seen[3] not in set(study.store.votes("cat")["item"])
+    hist = study.store.history()
+    assert hist["action"].tolist() == ["vote"] * 4 + ["undo"]
+    at.button(key="vote_bad").click().run()  # changed answer
+    assert _current(at) == after
+    # a fresh browser session resumes at exactly the next unrated item, no instructions
+    at2 = _app(rater="cat")
+    assert not [b for b in at2.button if b.key == "start"]
+    assert _current(at2) == after
+    v = study.store.votes("cat").set_index("item")["vote"]
+    assert v[seen[3]] == 0 and v[seen[0]] == 1 and len(v) == 4
+
+
+def test_full_run_gold_failures_and_nothing_revealed(study):
+    at = _app(rater="dan")
+    at.button(key="start").click().run()
+    n = 0
+    while any(b.key == "vote_good" for b in at.button):
+        text = _page_text(at)
+        for secret in ("toy", "trk-", "+1.00", "-1.00", "offset", "front", "gold", "repeat"):
+            assert secret not in text, (secret, text)
+        at.button(key="vote_good").click().run()  # always "good": the gold-bad item fails
+        n += 1
+    assert "All done" in at.success[0].value
+    kinds = study.items["kind"].value_counts()
+    assert n == len(study.items)  # one rater < quota: sees every item once
+    from annotate.results import gold_failures, ratings_table
+
+    fails = gold_failures(ratings_table(study))
+    assert fails["item_id"].str.startswith("gold-bad:").all()
+    assert len(fails) == kinds["gold"] // 2
+    adm = _app(admin=study.admin_token())
+    assert [b.key for b in adm.get("download_button")] == ["download_ratings"]
+    assert any("gold-bad:" in str(df.value) for df in adm.dataframe)
+
+
+def test_token_study_refuses_bad_token_and_admin_token(make_study, monkeypatch):
+    s = make_study(access="token")
+    monkeypatch.setenv("ANNOTATE_STUDY", str(s.root))
+    at = _app()
+    assert not [b for b in at.button if b.key == "sign_in"]  # no sign-in by name
+    at = _app(token="not-a-token")
+    assert at.error and "not valid" in at.error[0].value and "rater" not in at.session_state
+    s.store.add_rater("eve", plan=s.new_plan("eve"), token="tok-eve-123")
+    at = _app(token="tok-eve-123")
+    assert at.session_state["rater"] == "eve"
+    adm = _app(admin="wrong")
+    assert adm.error and not adm.dataframe
+
+
+def test_break_reminder_every_n_items(make_study, monkeypatch):
+    s = make_study(break_every=2, n_training=1)
+    monkeypatch.setenv("ANNOTATE_STUDY", str(s.root))
+    at = _app(rater="fay")
+    at.button(key="start").click().run()
+    at.button(key="vote_good").click().run()  # the training item: not counted
+    reminders = []
+    for _ in range(4):
+        reminders.append(any("break" in i.value for i in at.info))
+        at.button(key="vote_bad").click().run()
+    # reminder shown after 2 and 4 rated (non-training) items, i.e. before votes 3 and 5
+    assert reminders == [False, False, True, False]
+    assert any("break" in i.value for i in at.info)
+
+
+def test_token_study_ignores_rater_name_link(make_study, monkeypatch):
+    s = make_study(access="token")
+    monkeypatch.setenv("ANNOTATE_STUDY", str(s.root))
+    at = _app(rater="mallory")
+    assert "rater" not in at.session_state and "mallory" not in s.store.raters()

@@ -1,0 +1,110 @@
+"""Export (SPEC section 5), GVF, Krippendorff's alpha, simulate, and the CLI shell."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from annotate.cli import main, serve_command
+from annotate.results import gvf_table, nominal_alpha, ratings_table
+from annotate.simulate import p_good, simulate
+from data_schema.tables import PAIR_META_COLUMNS, RATINGS_COLUMNS
+
+
+def _vote_all(study, rater, fn):
+    while (key := study.next_item(rater)) is not None:
+        study.store.record_vote(rater, key, fn(key), response_ms=500)
+
+
+def test_export_columns_rows_and_metrics(make_study, toy_inputs, tmp_path):
+    _scene, pairs = toy_inputs
+    p = pd.read_csv(pairs)
+    metrics = pd.DataFrame({"pair_id": p["pair_id"], "psnr": np.arange(len(p), dtype=float)})
+    metrics.to_csv(tmp_path / "m.csv", index=False)
+    s = make_study(metrics_path=tmp_path / "m.csv")
+    _vote_all(s, "ann", lambda k: 1)
+    s.store.record_vote("ann", s.keys("test")[0], 0)  # changed vote: one row, the last
+    out = tmp_path / "ratings.csv"
+    assert main(["export", str(s.root), "--out", str(out)]) == 0
+    r = pd.read_csv(out)
+    assert list(r.columns) == [*RATINGS_COLUMNS, *PAIR_META_COLUMNS, "lighting", "road_type", "psnr"]
+    assert len(r) == len(s.items) and not r.duplicated(["rater_id", "item_id", "kind"]).any()
+    assert r.loc[r["item_id"] == s.keys("test")[0], "vote"].tolist() == [0]
+    assert set(r["kind"]) == {"test", "gold", "training", "repeat"}
+    assert r["voted_at"].str.match(r"^\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\.\d{3}Z$").all()
+    test = r[r["kind"] == "test"].merge(metrics, left_on="item_id", right_on="pair_id",
+                                        suffixes=("", "_m"))
+    assert (test["psnr"] == test["psnr_m"]).all()  # metric joined on pair id
+    assert r.loc[r["kind"] == "gold", "psnr"].isna().all()
+
+
+def test_gvf_and_alpha_against_hand_and_krippendorff():
+    # hand example: item a: 2 of 3 good -> 2/3; item b: 0 of 2 -> 0
+    r = pd.DataFrame({"item_id": ["a", "a", "a", "b", "b", "b"], "rater_id": list("xyzxyz"),
+                      "vote": [1, 1, 0, 0, 0, 1], "kind": ["test"] * 5 + ["training"]})
+    g = gvf_table(r).set_index("item_id")
+    assert g.loc["a", "gvf"] == pytest.approx(2 / 3) and g.loc["b", "gvf"] == 0.0
+    assert g.loc["a", "majority_good"] and not g.loc["b", "majority_good"]
+    # Krippendorff's nominal alpha worked by hand (coincidence matrix, Krippendorff 2011):
+    # rater x: 1,1,0,0; rater y: 1,0,0,0 -> o_01 = o_10 = 1 (item q), n_0 = 5, n_1 = 3, n = 8;
+    # D_o = 2/8 = 0.25, D_e = 2*5*3/(8*7) = 30/56, alpha = 1 - D_o/D_e = 0.5333
+    r2 = pd.DataFrame({"item_id": list("pqrs") * 2, "rater_id": ["x"] * 4 + ["y"] * 4,
+                       "vote": [1, 1, 0, 0, 1, 0, 0, 0], "kind": "test"})
+    alpha, _ = nominal_alpha(r2)
+    assert alpha == pytest.approx(1 - 0.25 / (30 / 56))
+    one = r2[r2["rater_id"] == "x"]
+    assert nominal_alpha(one)[0] is None
+
+
+def test_simulate_follows_severity_and_uses_sim_ids(make_study):
+    s = make_study(tracks=4, frames_per_track=6, votes_per_item=6, n_gold=2)
+    params = simulate(s, raters=6, seed=1, progress=False)
+    assert params["rater_id"].str.startswith("sim-").all() and params["careless"].sum() == 1
+    r = ratings_table(s)
+    g = gvf_table(r)
+    # toy severity = |offset| / 2: offset 0 -> 0 (good), +-1 -> 0.5 (around the threshold 0.45)
+    assert g.loc[g["y_offset_m"] == 0, "gvf"].mean() > g.loc[g["y_offset_m"] != 0, "gvf"].mean() + 0.2
+    assert (g["n_votes"] == 6).all()
+    # offset-0 items have severity 0: each careful rater says good with its own
+    # p_good(0) (formula in annotate/simulate.py), the careless one with 0.5; the observed
+    # rate over the 24 items must lie within 4 binomial standard deviations of it
+    zero = r[(r["kind"] == "test") & (r["y_offset_m"] == 0)]
+    rate = zero.groupby("rater_id")["vote"].agg(["mean", "size"])
+    for p in params.itertuples():
+        want = 0.5 if p.careless else float(p_good(0.0, theta=p.theta, width=p.width, lapse=p.lapse))
+        n = rate.loc[p.rater_id, "size"]
+        assert abs(rate.loc[p.rater_id, "mean"] - want) <= 4 * np.sqrt(want * (1 - want) / n) + 1e-9
+    assert rate.loc["sim-careless", "mean"] < rate.drop("sim-careless")["mean"].min()
+
+
+def test_cli_build_add_rater_gvf_and_errors(toy_inputs, tmp_path, capsys):
+    scene, pairs = toy_inputs
+    st = tmp_path / "st"
+    assert main(["build", str(st), "--pairs", str(pairs), "--scene", str(scene), "--tracks", "1",
+                 "--frames-per-track", "2", "--size", "48", "--access", "token"]) == 0
+    assert "admin page: http://127.0.0.1:8501/?admin=" in capsys.readouterr().out
+    assert main(["add-rater", str(st), "ann"]) == 0
+    link = capsys.readouterr().out.strip()
+    assert link.startswith("http://127.0.0.1:8501/?token=")
+    from annotate.study import load_study
+
+    assert load_study(st).store.rater_for_token(link.split("=", 1)[1]) == "ann"
+    assert main(["simulate", str(st), "--raters", "2"]) == 0
+    assert main(["gvf", str(st), "--out", str(tmp_path / "g.csv")]) == 0
+    assert len(pd.read_csv(tmp_path / "g.csv")) == 6  # 1 track x 2 frames x 3 offsets
+    assert main(["export", str(tmp_path / "nope"), "--out", str(tmp_path / "r.csv")]) == 2
+    assert "expected a study folder" in capsys.readouterr().err
+    assert main(["add-rater", str(st), "sim-x"]) == 2
+
+
+def test_serve_binds_localhost_by_default():
+    cmd = serve_command("S")
+    assert cmd[cmd.index("--server.address") + 1] == "127.0.0.1"
+    assert cmd[cmd.index("--server.headless") + 1] == "true"
+    assert cmd[cmd.index("--browser.gatherUsageStats") + 1] == "false"
+    assert cmd[cmd.index("--server.fileWatcherType") + 1] == "none"
+    assert cmd[cmd.index("--server.enableStaticServing") + 1] == "false"
+    from annotate.cli import build_parser
+
+    assert build_parser().parse_args(["serve", "S"]).host == "127.0.0.1"

@@ -1,0 +1,144 @@
+"""The vote store under concurrency and crashes; balanced assignment; crop path safety.
+
+Expected values are counted independently in the test (the writers' own logs), never read
+back from the store's own summaries.
+"""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import threading
+from collections import Counter
+
+import numpy as np
+import pytest
+
+from annotate.assign import choose_next, make_plan
+from annotate.store import Store
+from annotate.study import crop_path
+from data_schema.errors import InputError
+
+
+def test_eight_threads_200_votes_nothing_lost_or_duplicated(tmp_path):
+    # NORMAL sync: this test is about concurrency (the SIGKILL test below runs the default FULL)
+    store = Store(tmp_path / "v.sqlite", "s", synchronous="NORMAL")
+    n_threads, n_votes, n_items = 8, 200, 40
+    sent: list[list[tuple[str, str, int]]] = [[] for _ in range(n_threads)]
+    errors = []
+
+    def writer(t: int) -> None:
+        rng = np.random.default_rng(t)
+        rater = f"r{t % 4}"  # two threads per rater: same (rater, item) keys collide
+        try:
+            for _ in range(n_votes):  # 200 votes on 40 items: repeats and changed votes
+                item, vote = f"i{int(rng.integers(n_items))}", int(rng.integers(2))
+                store.record_vote(rater, item, vote, response_ms=int(rng.integers(100, 900)))
+                sent[t].append((rater, item, vote))
+        except Exception as exc:  # pragma: no cover - reported below
+            errors.append(exc)
+
+    threads = [threading.Thread(target=writer, args=(t,)) for t in range(n_threads)]
+    for th in threads:
+        th.start()
+    for th in threads:
+        th.join()
+    assert not errors
+    hist = store.history()
+    # history complete: every vote that returned is logged exactly once (multiset equality)
+    logged = Counter(zip(hist["rater"], hist["item"], hist["vote"], strict=True))
+    assert logged == Counter(v for s in sent for v in s)
+    assert len(hist) == n_threads * n_votes
+    votes = store.votes()
+    # nothing duplicated: one row per (rater, item) ever voted
+    keys = {(r, i) for s in sent for r, i, _ in s}
+    assert len(votes) == len(keys) and not votes.duplicated(["rater", "item"]).any()
+    # a changed vote replaces the old one: the standing vote is the last one logged
+    last = hist.groupby(["rater", "item"])["vote"].last()
+    assert votes.set_index(["rater", "item"])["vote"].sort_index().equals(last.sort_index())
+
+
+_WRITER = """
+import sys
+from annotate.store import Store
+s = Store(sys.argv[1], "s")
+i = 0
+while True:
+    s.record_vote("r", f"item-{i}", i % 2, response_ms=i)
+    print(f"ack {i}", flush=True)
+    i += 1
+"""
+
+
+def test_sigkill_keeps_every_acknowledged_vote(tmp_path):
+    db = tmp_path / "v.sqlite"
+    Store(db, "s")
+    proc = subprocess.Popen([sys.executable, "-c", _WRITER, str(db)], stdout=subprocess.PIPE,
+                            text=True)
+    acked = []
+    try:
+        for line in proc.stdout:
+            acked.append(int(line.split()[1]))
+            if len(acked) >= 60:
+                break
+        proc.send_signal(signal.SIGKILL)  # mid-study: the writer is still voting
+        proc.wait(timeout=10)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == -signal.SIGKILL
+    votes = Store(db, "s").votes().set_index("item")
+    for i in acked:
+        assert votes.loc[f"item-{i}", "vote"] == i % 2
+
+
+def test_vote_must_be_0_or_1(tmp_path):
+    with pytest.raises(InputError, match="1 \\(good\\) or 0 \\(bad\\)"):
+        Store(tmp_path / "v.sqlite", "s").record_vote("r", "i", 2)
+
+
+def test_undo_removes_latest_standing_vote(tmp_path):
+    s = Store(tmp_path / "v.sqlite", "s")
+    s.record_vote("r", "a", 1)
+    s.record_vote("r", "b", 0)
+    assert s.undo_last("r") == "b"
+    assert s.undo_last("r") == "a"
+    assert s.undo_last("r") is None
+    assert s.votes().empty and s.history()["action"].tolist() == ["vote", "vote", "undo", "undo"]
+
+
+def test_balanced_assignment_every_item_reaches_quota_first(tmp_path):
+    store = Store(tmp_path / "v.sqlite", "s")
+    tests = [f"t{i}" for i in range(10)]
+    quota, raters = 2, [f"r{i}" for i in range(5)]  # 5 raters, quota 2 -> 20 votes in all
+    plans = {r: make_plan(training=[], tests=tests, golds=[], repeats={}, seed=i)
+             for i, r in enumerate(raters)}
+    active = list(raters)
+    while active:
+        for r in list(active):
+            key = store.next_item(r, lambda a, v, loads, r=r: choose_next(plans[r], a, v, loads,
+                                                                          quota=quota))
+            if key is None:
+                active.remove(r)
+                continue
+            counts = Counter(store.votes()["item"])
+            # balanced: no item gets a vote while another still has fewer (hand rule)
+            assert counts.get(key, 0) == min(counts.get(t, 0) for t in tests)
+            store.record_vote(r, key, 1)
+    counts = Counter(store.votes()["item"])
+    assert counts == {t: quota for t in tests}
+
+
+def test_crop_path_refuses_traversal(tmp_path):
+    (tmp_path / "crops").mkdir()
+    (tmp_path / "crops" / "abc.jpg").write_bytes(b"x")
+    (tmp_path / "secrets.json").write_text("{}")
+    assert crop_path(tmp_path, "abc.jpg") == (tmp_path / "crops" / "abc.jpg").resolve()
+    for bad in ("../secrets.json", "/etc/passwd", "sub/../../secrets.json", "..", "",
+                "abc.jpg/../../secrets.json", "missing.jpg"):
+        with pytest.raises(InputError):
+            crop_path(tmp_path, bad)
+    (tmp_path / "crops" / "link.jpg").symlink_to(tmp_path / "secrets.json")
+    with pytest.raises(InputError):
+        crop_path(tmp_path, "link.jpg")

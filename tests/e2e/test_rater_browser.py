@@ -1,0 +1,162 @@
+"""Real browser (Debian Chromium via Playwright): two raters vote at once with the keyboard.
+
+One rater reloads half-way and must continue at the same item (same images, same counter);
+the other undoes a vote with U. The export must then hold every acknowledged vote exactly
+once (ack = the page's progress counter moved on), and no page text or image URL may name
+the offset, clip, track or item kind.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+CHROMIUM = "/usr/bin/chromium"
+pytestmark = [pytest.mark.browser,
+              pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="needs /usr/bin/chromium")]
+ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+        "--disable-component-update", "--disable-sync", "--no-first-run"]
+SECRETS = ("+1.00", "-1.00", "+0.00", "offset", "toy", "trk-", "front", "gold", "repeat", "psnr")
+
+
+def _toy():
+    path = Path(__file__).parents[1] / "annotate" / "toy.py"
+    spec = importlib.util.spec_from_file_location("annotate_toy_e2e", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _state(page) -> tuple[str, tuple]:
+    """(progress/done text, image URLs) once the app has finished its rerun."""
+    page.wait_for_function(
+        "() => !document.querySelector('[data-stale=\"true\"]') &&"
+        " ((document.querySelector('[data-testid=stProgress]') &&"
+        "   document.querySelectorAll('img').length === 2) ||"
+        "  document.body.innerText.includes('All done'))", timeout=20000)
+    prog = page.get_by_test_id("stProgress")
+    text = prog.inner_text() if prog.count() else "done"
+    srcs = tuple(img.get_attribute("src") for img in page.locator("img").all())
+    return text.strip(), srcs
+
+
+def _wait_moved(page, old: tuple) -> tuple:
+    deadline = time.time() + 40
+    while time.time() < deadline:
+        now = _state(page)
+        if now[0] != old[0]:
+            time.sleep(0.15)  # let the rerun finish rendering the buttons of the new item
+            return _state(page)
+        time.sleep(0.05)
+    raise AssertionError(f"the page did not advance from {old[0]!r}")
+
+
+def _ready(page) -> None:
+    """Wait until the vote buttons of the current item are rendered and enabled.
+
+    A shortcut key pressed while Streamlit is still re-rendering can be lost on a loaded
+    machine, so the test never presses before the buttons can take it.
+    """
+    for name in ("Good (G)", "Bad (B)"):
+        button = page.get_by_role("button", name=name)
+        button.wait_for(state="visible", timeout=30000)
+        page.wait_for_function("(b) => !b.disabled", arg=button.element_handle(), timeout=30000)
+
+
+def _check_blind(page, seen: list[str]) -> None:
+    text = page.inner_text("body")
+    urls = " ".join(img.get_attribute("src") or "" for img in page.locator("img").all())
+    for secret in SECRETS:
+        assert secret not in text and secret not in urls, secret
+    seen.append(text)
+
+
+def test_two_raters_vote_with_keyboard_reload_and_export(tmp_path):
+    from playwright.sync_api import sync_playwright
+
+    from annotate.cli import main
+    from annotate.study import build_study, load_study
+
+    scene, pairs = _toy().make_toy(tmp_path)
+    # 1 training + 1 track x 2 frames x 3 offsets + 2 gold + 1 repeat = 10 items per rater
+    root = build_study(tmp_path / "study", pairs, scene=str(scene), tracks=1, frames_per_track=2,
+                       n_training=1, n_gold=1, n_repeats=1, size=64, progress=False)
+    n_items = len(load_study(root).items)
+    assert n_items == 10
+    port = _free_port()
+    server = subprocess.Popen([sys.executable, "-m", "annotate.cli", "serve", str(root),
+                               "--port", str(port)], start_new_session=True,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    url = f"http://127.0.0.1:{port}/"
+    try:
+        deadline = time.time() + 60
+        while True:
+            try:
+                urllib.request.urlopen(url + "_stcore/health", timeout=1)
+                break
+            except OSError:
+                assert time.time() < deadline and server.poll() is None, "server did not start"
+                time.sleep(0.2)
+        with sync_playwright() as pw:
+            browser = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+            pages = {r: browser.new_context().new_page() for r in ("alice", "bob")}
+            for rater, page in pages.items():
+                page.goto(f"{url}?rater={rater}")
+            for page in pages.values():
+                page.get_by_role("button", name="Start").click()
+            state = {r: _state(p) for r, p in pages.items()}
+            acked: dict[str, list[int]] = {"alice": [], "bob": []}
+            seen: list[str] = []
+            step = 0
+            while any(s[0] != "done" for s in state.values()):
+                pressed = {}
+                for rater, page in pages.items():  # both press before either is awaited
+                    if state[rater][0] == "done":
+                        continue
+                    vote = (step + (rater == "bob")) % 3 != 0
+                    _ready(page)
+                    page.keyboard.press("g" if vote else "b")
+                    pressed[rater] = int(vote)
+                for rater, vote in pressed.items():
+                    state[rater] = _wait_moved(pages[rater], state[rater])
+                    acked[rater].append(vote)
+                    _check_blind(pages[rater], seen)
+                step += 1
+                if step == 3:  # bob takes back his last vote with U, then votes again
+                    _ready(pages["bob"])
+                    pages["bob"].keyboard.press("u")
+                    state["bob"] = _wait_moved(pages["bob"], state["bob"])
+                    acked["bob"].pop()
+                if step == 5:  # alice reloads half-way: same item, same counter
+                    before = state["alice"]
+                    pages["alice"].reload()
+                    state["alice"] = _state(pages["alice"])
+                    assert state["alice"] == before
+            browser.close()
+    finally:
+        os.killpg(server.pid, signal.SIGKILL)
+        server.wait(timeout=10)
+    assert seen and all(len(a) == n_items for a in acked.values())
+    out = tmp_path / "ratings.csv"
+    assert main(["export", str(root), "--out", str(out)]) == 0
+    r = pd.read_csv(out)
+    assert not r.duplicated(["rater_id", "item_id", "kind"]).any()
+    for rater, votes in acked.items():
+        mine = r[r["rater_id"] == rater].sort_values("voted_at", kind="stable")
+        assert mine["vote"].tolist() == votes  # every acknowledged vote, once, in order
