@@ -1,1 +1,16 @@
-"""analysis stage of the NVRQ toolkit."""
+"""analysis stage of the NVRQ toolkit: ``analyze RATINGS.csv`` (SPEC section 6).
+
+Modules, in data-flow order:
+
+- :mod:`analysis.inputs` — read and check ratings.csv and metric tables; which columns are
+  metrics, attributes and proxies (the written rule).
+- :mod:`analysis.screening` — per-rater numbers and the ``--screen`` rule.
+- :mod:`analysis.labels` — votes to per-item GVF; join of metric tables.
+- :mod:`analysis.stats` — columnar (grouped) PLCC/SRCC/KRCC/ROC AUC/logistic PLCC and the
+  undefined-statistic rule; :mod:`analysis.bootstrap` — cluster bootstrap over tracks;
+  :mod:`analysis.agreement` — Krippendorff's alpha.
+- :mod:`analysis.summary` — the per-metric table; :mod:`analysis.breakdowns` — per
+  category, offset and encoder.
+- :mod:`analysis.plots`, :mod:`analysis.report` (+ ``templates/``) — figures and the report
+  directory; :mod:`analysis.pipeline` — everything as one function; :mod:`analysis.cli`.
+"""

@@ -1,0 +1,162 @@
+"""The ``analyze`` command (SPEC section 6): a thin shell over :func:`analysis.pipeline.run_analysis`.
+
+``analyze RATINGS.csv [--metrics METRICS ...] [--lower-better NAME ...] [--higher-better NAME ...]
+[--target COLUMN] [--exclude-raters A,B] [--screen] [--timing FILE ...] [--stability DIR]
+[--bootstrap N] [--seed S] [--rank-by {srcc,plcc,roc_auc}] --out REPORT_DIR``
+
+Bad input ends with one line on stderr and exit status 2 (SPEC section 7).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from data_schema.errors import InputError, run_cli
+
+__all__ = ["build_parser", "main"]
+
+
+def _names(values) -> list[str]:
+    out = []
+    for v in values or ():
+        out += [s.strip() for s in str(v).split(",") if s.strip()]
+    return out
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="analyze",
+        description="Which metric agrees with human judgements? Correlations, ROC AUC, bootstrap "
+        "CIs, breakdowns, rater screening and an offline HTML report.",
+    )
+    p.add_argument(
+        "ratings", metavar="RATINGS", help="ratings.csv (or .parquet) from `annotate export`"
+    )
+    p.add_argument(
+        "--metrics",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="metric table (pair_id + metric columns) joined on item_id; repeatable",
+    )
+    p.add_argument(
+        "--lower-better",
+        action="extend",
+        nargs="+",
+        default=[],
+        metavar="NAME",
+        help="metric columns where lower is better (comma or space separated)",
+    )
+    p.add_argument(
+        "--higher-better",
+        action="extend",
+        nargs="+",
+        default=[],
+        metavar="NAME",
+        help="metric columns where higher is better",
+    )
+    p.add_argument(
+        "--target",
+        metavar="COLUMN",
+        default=None,
+        help="a numeric per-item column to correlate with instead of GVF (e.g. s_det)",
+    )
+    p.add_argument(
+        "--exclude-raters",
+        action="append",
+        default=[],
+        metavar="A,B",
+        help="rater ids to leave out (comma separated; repeatable)",
+    )
+    p.add_argument(
+        "--screen",
+        action="store_true",
+        help="exclude raters by the documented screening rule (see the report)",
+    )
+    p.add_argument(
+        "--timing",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="timing table (metric, seconds, pairs); METRICS.timing.csv beside a "
+        "--metrics file is found automatically",
+    )
+    p.add_argument(
+        "--stability",
+        metavar="DIR",
+        default=None,
+        help="directory with stability.csv and/or snr.csv to include",
+    )
+    p.add_argument(
+        "--bootstrap",
+        type=int,
+        default=1000,
+        metavar="N",
+        help="cluster-bootstrap replicates over tracks (0: no CIs; default 1000)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="bootstrap seed (default 0)")
+    p.add_argument(
+        "--rank-by",
+        choices=("srcc", "plcc", "roc_auc"),
+        default="srcc",
+        help="statistic that picks the best metric (default srcc)",
+    )
+    p.add_argument("--out", required=True, metavar="REPORT_DIR", help="report directory")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    return p
+
+
+def _print_summary(analysis) -> None:
+    from analysis.report import format_table_text, summary_display
+
+    df = summary_display(analysis, with_ci=False)
+    try:
+        from rich.console import Console
+        from rich.table import Table
+    except ImportError:
+        print(format_table_text(df))
+        return
+    t = Table(title=f"metrics against {analysis.target}")
+    for c in df.columns:
+        t.add_column(c, justify="left" if c in ("metric", "reason", "vs best") else "right")
+    for row in df.itertuples(index=False):
+        t.add_row(*[str(v) for v in row])
+    Console(width=max(120, Console().width)).print(t)
+
+
+def _main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    if args.bootstrap < 0:
+        raise InputError("--bootstrap", None, "a non-negative number of replicates", args.bootstrap)
+    from analysis.pipeline import run_analysis
+    from analysis.report import write_report
+
+    analysis = run_analysis(
+        args.ratings,
+        metrics_paths=args.metrics,
+        lower=_names(args.lower_better),
+        higher=_names(args.higher_better),
+        target=args.target,
+        exclude_raters=_names(args.exclude_raters),
+        screen=args.screen,
+        n_boot=args.bootstrap,
+        seed=args.seed,
+        rank_by=args.rank_by,
+        timing_paths=args.timing,
+        stability_dir=args.stability,
+        progress=not args.quiet,
+    )
+    out = write_report(analysis, args.out)
+    _print_summary(analysis)
+    print(f"report: {out / 'report.html'}", file=sys.stderr)
+    return 0
+
+
+def main(argv=None) -> int:
+    """Entry point of the ``analyze`` console script."""
+    return run_cli(_main, argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

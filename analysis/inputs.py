@@ -1,0 +1,202 @@
+"""Reading and checking ``ratings.csv`` and metric tables (SPEC sections 4, 5, 7).
+
+Which columns are metrics — the written rule:
+
+1. Known non-metric columns are never metrics: the ratings columns (``item_id, rater_id,
+   vote, voted_at, response_ms, kind``), the pair columns of SPEC section 3 (``clip_id``,
+   ``camera``, ``track_id``, ``label_class``, ``timestamp_us``, ``y_offset_m``, paths and
+   box corners), ``pair_id``, ``gold_expected`` and the per-item labels ``analyze`` itself
+   writes (``n_votes, n_good, gvf, majority_good``).
+2. Registry entries of kind ``proxy`` (``s_det``, ``imagenet_drop``, ``clip_drop``) are
+   downstream targets for ``--target``, not metrics ranked against GVF.
+3. Every other *numeric* column is a metric. Its direction comes from the metric registry
+   (``nvrq.metrics.direction``) or from ``--lower-better/--higher-better``; a metric with
+   no known direction stops the command with an error naming it.
+4. Every other non-numeric column is a scene attribute (e.g. ``lighting``, ``road_type``)
+   when it is constant per item; results are broken down by it.
+
+Every column of a ``--metrics`` file other than ``pair_id`` must be numeric.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from data_schema.errors import InputError
+from data_schema.tables import PAIR_META_COLUMNS, PAIRS_COLUMNS, RATINGS_COLUMNS, read_table
+from nvrq.metrics import direction, metric_info
+
+__all__ = [
+    "KINDS",
+    "NON_METRIC_COLUMNS",
+    "Inputs",
+    "read_ratings",
+    "read_metrics",
+    "classify_columns",
+    "timing_path_for",
+]
+
+KINDS = ("test", "gold", "training", "repeat")
+ITEM_LABEL_COLUMNS = ("n_votes", "n_good", "gvf", "majority_good")
+NON_METRIC_COLUMNS = frozenset(
+    RATINGS_COLUMNS + PAIRS_COLUMNS + ITEM_LABEL_COLUMNS + ("gold_expected",)
+)
+
+
+@dataclass
+class Inputs:
+    """Checked input: votes (one row per vote, metric columns joined) and column roles."""
+
+    votes: pd.DataFrame
+    metrics: list[str]
+    directions: dict[str, bool]
+    attributes: list[str]
+    proxies: list[str]
+    notes: list[str] = field(default_factory=list)
+    unknown_ids: dict[str, int] = field(default_factory=dict)
+
+
+def _line(row_index: int) -> str:
+    return f"line {row_index + 2}"  # header is line 1
+
+
+def read_ratings(path) -> pd.DataFrame:
+    """Read ``ratings.csv`` and check it (SPEC sections 5 and 7); returns one row per vote.
+
+    Checks: the SPEC columns exist; at least one row; ``vote`` is 0 or 1; ``kind`` is one of
+    ``{'test', 'gold', 'training', 'repeat'}``; ``response_ms`` is numeric; no rater has two
+    rows for the same (item, kind).
+    """
+    df = read_table(
+        path,
+        required=RATINGS_COLUMNS + PAIR_META_COLUMNS,
+        what="ratings table",
+        dtype={
+            "item_id": str,
+            "rater_id": str,
+            "kind": str,
+            "clip_id": str,
+            "track_id": str,
+            "camera": str,
+            "label_class": str,
+        },
+    )
+    if len(df) == 0:
+        raise InputError(path, None, "at least one vote row", "no rows")
+    vote = pd.to_numeric(df["vote"], errors="coerce")
+    bad = ~vote.isin([0, 1])
+    if bad.any():
+        i = int(np.flatnonzero(bad.to_numpy())[0])
+        raise InputError(path, f"{_line(i)}: vote", "0 or 1", df["vote"].iloc[i])
+    df["vote"] = vote.astype(np.int8)
+    bad = ~df["kind"].isin(KINDS)
+    if bad.any():
+        i = int(np.flatnonzero(bad.to_numpy())[0])
+        raise InputError(
+            path, f"{_line(i)}: kind", "one of " + ", ".join(KINDS), df["kind"].iloc[i]
+        )
+    for col, what in (("item_id", "an item id"), ("rater_id", "a rater id")):
+        bad = df[col].isna()
+        if bad.any():
+            raise InputError(
+                path, f"{_line(int(np.flatnonzero(bad.to_numpy())[0]))}: {col}", what, "empty"
+            )
+    rt = pd.to_numeric(df["response_ms"], errors="coerce")
+    bad = rt.isna() & df["response_ms"].notna()
+    if bad.any():
+        i = int(np.flatnonzero(bad.to_numpy())[0])
+        raise InputError(
+            path, f"{_line(i)}: response_ms", "a number of milliseconds", df["response_ms"].iloc[i]
+        )
+    df["response_ms"] = rt.astype(np.float64)
+    dup = df.duplicated(["rater_id", "item_id", "kind"], keep="first")
+    if dup.any():
+        i = int(np.flatnonzero(dup.to_numpy())[0])
+        raise InputError(
+            path,
+            _line(i),
+            "one row per (rater_id, item_id, kind) (a changed vote keeps only the last)",
+            f"a second row for rater {df['rater_id'].iloc[i]!r}, item {df['item_id'].iloc[i]!r}",
+        )
+    return df
+
+
+def read_metrics(path) -> pd.DataFrame:
+    """Read a metrics table (SPEC section 4): ``pair_id`` + numeric metric columns."""
+    df = read_table(path, required=("pair_id",), what="metrics table", dtype={"pair_id": str})
+    if df["pair_id"].duplicated().any():
+        i = int(np.flatnonzero(df["pair_id"].duplicated().to_numpy())[0])
+        raise InputError(
+            path, f"{_line(i)}: pair_id", "each pair once", f"{df['pair_id'].iloc[i]!r} again"
+        )
+    for col in df.columns:
+        if col == "pair_id":
+            continue
+        if not pd.api.types.is_numeric_dtype(df[col]) and not pd.api.types.is_bool_dtype(df[col]):
+            conv = pd.to_numeric(df[col], errors="coerce")
+            bad = conv.isna() & df[col].notna()
+            if bad.any():
+                i = int(np.flatnonzero(bad.to_numpy())[0])
+                raise InputError(
+                    path, f"{_line(i)}: column {col!r}", "a numeric metric value", df[col].iloc[i]
+                )
+            df[col] = conv
+    return df
+
+
+def timing_path_for(metrics_path) -> Path:
+    """``scores/metrics.csv`` -> ``scores/metrics.timing.csv`` (the file ``nvrq score`` writes)."""
+    p = Path(metrics_path)
+    return p.with_name(p.stem + ".timing.csv")
+
+
+def classify_columns(
+    df: pd.DataFrame, *, lower: set[str], higher: set[str], target: str | None, where
+) -> tuple[list[str], dict[str, bool], list[str], list[str]]:
+    """Split the columns of the joined votes into (metrics, directions, attributes, proxies).
+
+    See the module docstring for the rule. ``target`` (if given) is neither metric nor attribute.
+    """
+    both = lower & higher
+    if both:
+        raise InputError(
+            "--lower-better/--higher-better", sorted(both)[0], "one direction per metric", "both"
+        )
+    for name in sorted(lower | higher):
+        if name not in df.columns:
+            raise InputError(
+                "--lower-better/--higher-better",
+                name,
+                "a column of the ratings or metrics",
+                "no such column",
+            )
+    metrics, directions, attributes, proxies = [], {}, [], []
+    for col in df.columns:
+        if col in NON_METRIC_COLUMNS or col == target:
+            continue
+        info = metric_info(col)
+        numeric = pd.api.types.is_numeric_dtype(df[col]) and not pd.api.types.is_bool_dtype(df[col])
+        if info is not None and info.kind == "proxy" and col not in lower | higher:
+            proxies.append(col)
+            continue
+        if not numeric:
+            if col in lower | higher:
+                raise InputError(where, f"column {col!r}", "numeric metric values", df[col].dtype)
+            attributes.append(col)
+            continue
+        d = True if col in higher else False if col in lower else direction(col)
+        if d is None:
+            raise InputError(
+                where,
+                f"column {col!r}",
+                "a metric with a known direction; say --lower-better "
+                f"{col} or --higher-better {col}",
+                "an unknown metric",
+            )
+        metrics.append(col)
+        directions[col] = bool(d)
+    return metrics, directions, attributes, proxies

@@ -1,0 +1,74 @@
+"""Votes to per-item labels (SPEC section 6) and the join of metric tables onto the items.
+
+Only ``kind == 'test'`` votes count. Per item: ``n_votes``, ``n_good``,
+``gvf = n_good / n_votes`` (the good-vote fraction) and ``majority_good = gvf >= 0.5``
+(a tie counts as good). Other columns of the ratings (pair metadata, attributes, metric
+values) are taken from the item's first test vote row.
+
+>>> import pandas as pd
+>>> v = pd.DataFrame({"item_id": ["a", "a", "b", "a"], "rater_id": ["r1", "r2", "r1", "r3"],
+...                   "vote": [1, 0, 0, 1], "kind": ["test"] * 4})
+>>> item_table(v)[["item_id", "n_votes", "n_good", "gvf", "majority_good"]].to_dict("list")
+{'item_id': ['a', 'b'], 'n_votes': [3, 1], 'n_good': [2, 0], 'gvf': [0.6666666666666666, 0.0], 'majority_good': [True, False]}
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from data_schema.errors import InputError
+
+__all__ = ["item_table", "join_metrics"]
+
+_VOTE_ONLY = ("rater_id", "vote", "voted_at", "response_ms", "kind", "gold_expected")
+
+
+def item_table(votes: pd.DataFrame) -> pd.DataFrame:
+    """Per-item labels from one-row-per-vote ``votes``; one row per item, in first-seen order."""
+    test = votes[votes["kind"] == "test"]
+    codes, uniques = pd.factorize(test["item_id"])
+    n_votes = np.bincount(codes, minlength=len(uniques))
+    n_good = np.bincount(codes, weights=test["vote"].to_numpy(np.float64), minlength=len(uniques))
+    _, first = np.unique(codes, return_index=True)
+    keep = [c for c in test.columns if c not in _VOTE_ONLY and c != "item_id"]
+    items = test.iloc[first][keep].reset_index(drop=True)
+    items.insert(0, "item_id", np.asarray(uniques, dtype=object))
+    gvf = n_good / np.maximum(n_votes, 1)
+    items.insert(1, "n_votes", n_votes.astype(np.int64))
+    items.insert(2, "n_good", n_good.astype(np.int64))
+    items.insert(3, "gvf", gvf)
+    items.insert(4, "majority_good", gvf >= 0.5)
+    return items
+
+
+def join_metrics(items: pd.DataFrame, tables: list[tuple[str, pd.DataFrame]]):
+    """Left-join metric tables (``pair_id`` + columns) onto ``items`` by ``item_id``.
+
+    A column given by two metric files is an error; a metric-file column that the ratings
+    already carry replaces it (noted). Returns ``(items, unknown_ids, notes)`` where
+    ``unknown_ids[path]`` counts pair ids of the file that are not rated items.
+    """
+    unknown, notes, seen = {}, [], {}
+    index = pd.Index(items["item_id"])
+    for path, table in tables:
+        cols = [c for c in table.columns if c != "pair_id"]
+        for c in cols:
+            if c in seen:
+                raise InputError(
+                    path,
+                    f"column {c!r}",
+                    "each metric column in one --metrics file",
+                    f"also in {seen[c]}",
+                )
+            seen[c] = path
+        pos = index.get_indexer(table["pair_id"])
+        unknown[str(path)] = int((pos < 0).sum())
+        hit = pos >= 0
+        for c in cols:
+            col = np.full(len(items), np.nan)
+            col[pos[hit]] = table[c].to_numpy(np.float64)[hit]
+            if c in items.columns:
+                notes.append(f"column {c!r} of {path} replaces the one in the ratings")
+            items[c] = col
+    return items, unknown, notes

@@ -1,0 +1,230 @@
+"""``analyze`` as one function: ratings (+ metric tables) in, every result table out.
+
+:func:`run_analysis` reads and checks the inputs, screens raters, turns votes into item
+labels, and computes the summary, breakdowns, per-offset table and agreement. It writes
+nothing; :mod:`analysis.report` writes the report directory.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from analysis import breakdowns, screening
+from analysis.agreement import alpha_nominal
+from analysis.inputs import classify_columns, read_metrics, read_ratings, timing_path_for
+from analysis.labels import item_table, join_metrics
+from analysis.summary import summary_table
+from data_schema.errors import InputError
+from data_schema.tables import read_table
+
+__all__ = ["Analysis", "run_analysis", "read_timing", "read_stability", "BOOT_CELL_LIMIT"]
+
+#: Above this many item-replicates (items x --bootstrap) the bootstrap is skipped, with a
+#: note in the report (the point estimates are still exact; CIs would take too long).
+BOOT_CELL_LIMIT = 500_000_000
+
+
+@dataclass
+class Analysis:
+    """Everything the report shows. Tables are pandas DataFrames (see each module)."""
+
+    ratings_path: str
+    target: str
+    items: pd.DataFrame
+    metrics: list[str]
+    directions: dict[str, bool]
+    attributes: list[str]
+    proxies: list[str]
+    summary: pd.DataFrame
+    categories: pd.DataFrame
+    by_offset: pd.DataFrame
+    encoders: pd.DataFrame
+    raters: pd.DataFrame
+    alpha: dict
+    counts: dict
+    timing: pd.DataFrame | None = None
+    stability: pd.DataFrame | None = None
+    snr: pd.DataFrame | None = None
+    notes: list[str] = field(default_factory=list)
+    unknown_ids: dict[str, int] = field(default_factory=dict)
+    n_boot: int = 0
+    seed: int = 0
+    rank_by: str = "srcc"
+    screen: bool = False
+
+
+def read_timing(paths) -> pd.DataFrame | None:
+    """Concatenate ``*.timing.csv`` files (``metric, seconds, pairs``): one row per metric with
+    summed seconds and pairs and ``pairs_per_s``."""
+    frames = [
+        read_table(p, required=("metric", "seconds", "pairs"), what="timing table") for p in paths
+    ]
+    if not frames:
+        return None
+    t = pd.concat(frames, ignore_index=True)
+    for c in ("seconds", "pairs"):
+        v = pd.to_numeric(t[c], errors="coerce")
+        if v.isna().any() or (v < 0).any():
+            raise InputError(
+                "timing table",
+                f"column {c!r}",
+                "non-negative numbers",
+                t[c][v.isna() | (v < 0)].iloc[0],
+            )
+        t[c] = v
+    t = t.groupby("metric", as_index=False)[["seconds", "pairs"]].sum()
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t["pairs_per_s"] = np.where(t["seconds"] > 0, t["pairs"] / t["seconds"], np.nan)
+    return t
+
+
+def read_stability(directory):
+    """``DIR/stability.csv`` and ``DIR/snr.csv`` if present: ``(stability, snr)`` or Nones."""
+    d = Path(directory)
+    if not d.is_dir():
+        raise InputError(d, None, "a directory with stability.csv / snr.csv", "no such directory")
+    st = sn = None
+    if (d / "stability.csv").is_file():
+        st = read_table(
+            d / "stability.csv",
+            what="stability table",
+            required=("metric", "nuisance_or_artefact", "kind", "strength", "mean_abs_change"),
+        )
+    if (d / "snr.csv").is_file():
+        sn = read_table(d / "snr.csv", required=("metric", "snr"), what="SNR table")
+    if st is None and sn is None:
+        raise InputError(d, None, "stability.csv or snr.csv in the directory", "neither")
+    return st, sn
+
+
+def run_analysis(
+    ratings_path,
+    *,
+    metrics_paths=(),
+    lower=(),
+    higher=(),
+    target: str | None = None,
+    exclude_raters=(),
+    screen: bool = False,
+    n_boot: int = 1000,
+    seed: int = 0,
+    rank_by: str = "srcc",
+    timing_paths=(),
+    stability_dir=None,
+    progress: bool = True,
+) -> Analysis:
+    """The whole analysis (see the module docstring); raises ``InputError`` on bad input."""
+    votes = read_ratings(ratings_path)
+    tables = [(str(p), read_metrics(p)) for p in metrics_paths]
+    timing_files = list(timing_paths) + [
+        timing_path_for(p) for p in metrics_paths if timing_path_for(p).is_file()
+    ]
+
+    raters = screening.screen(
+        screening.rater_table(votes), use_rule=screen, exclude=list(exclude_raters)
+    )
+    excluded = set(raters.loc[raters["excluded"], "rater_id"])
+    kept = votes[~votes["rater_id"].isin(excluded)]
+    if not (kept["kind"] == "test").any():
+        raise InputError(ratings_path, "kind", "at least one test vote (after exclusions)", "none")
+
+    test_all = votes[votes["kind"] == "test"]
+    test_kept = kept[kept["kind"] == "test"]
+    alpha = {}
+    for name, t in (("all raters", test_all), ("kept raters", test_kept)):
+        a, why = alpha_nominal(t["item_id"].to_numpy(), t["vote"].to_numpy())
+        alpha[name] = {"alpha": a, "reason": why, "votes": len(t)}
+
+    items = item_table(kept)
+    items, unknown, notes = join_metrics(items, tables)
+    tgt = target or "gvf"
+    if target is not None:
+        if target not in items.columns or target in ("n_votes", "n_good", "majority_good"):
+            raise InputError(
+                "--target",
+                target,
+                "a numeric per-item column of the ratings or metrics",
+                "no such column",
+            )
+        if not pd.api.types.is_numeric_dtype(items[target]):
+            raise InputError("--target", target, "a numeric column", items[target].dtype)
+    empty = [c for c in items.columns if c != tgt and items[c].isna().all()]
+    if empty:
+        notes.append("empty columns ignored: " + ", ".join(map(str, empty)))
+        items = items.drop(columns=empty)
+    metrics, directions, attributes, proxies = classify_columns(
+        items, lower=set(lower), higher=set(higher), target=target, where=ratings_path
+    )
+    for path, n_unknown in unknown.items():
+        if n_unknown:
+            notes.append(f"{path}: {n_unknown} pair ids are not rated items (ignored)")
+
+    clusters = pd.factorize(
+        pd.MultiIndex.from_arrays([items["clip_id"].astype(str), items["track_id"].astype(str)])
+    )[0]
+    if n_boot * len(items) > BOOT_CELL_LIMIT:
+        notes.append(
+            f"bootstrap skipped: {len(items)} items x {n_boot} replicates is above "
+            f"{BOOT_CELL_LIMIT:.0e} item-replicates; pass a smaller --bootstrap for CIs"
+        )
+        n_boot = 0
+    summary = summary_table(
+        items,
+        metrics,
+        directions,
+        target=tgt,
+        clusters=clusters,
+        n_boot=n_boot,
+        seed=seed,
+        rank_by=rank_by,
+        progress=progress,
+    )
+    by = ["label_class"] + attributes
+    categories = breakdowns.category_table(items, metrics, by=by, target=tgt, progress=progress)
+    by_offset = breakdowns.offset_table(items, [tgt] + metrics)
+    encoders = breakdowns.encoder_table(summary)
+    stab = snr = None
+    if stability_dir is not None:
+        stab, snr = read_stability(stability_dir)
+    counts = {
+        "votes": len(votes),
+        "test_votes": int((votes["kind"] == "test").sum()),
+        "test_votes_kept": len(test_kept),
+        "items": len(items),
+        "tracks": int(clusters.max()) + 1,
+        "clips": int(items["clip_id"].nunique()),
+        "raters": len(raters),
+        "raters_simulated": int(raters["simulated"].sum()),
+        "raters_excluded": len(excluded),
+        "gold_votes": int((votes["kind"] == "gold").sum()),
+        "repeat_votes": int((votes["kind"] == "repeat").sum()),
+    }
+    return Analysis(
+        ratings_path=str(ratings_path),
+        target=tgt,
+        items=items,
+        metrics=metrics,
+        directions=directions,
+        attributes=attributes,
+        proxies=proxies,
+        summary=summary,
+        categories=categories,
+        by_offset=by_offset,
+        encoders=encoders,
+        raters=raters,
+        alpha=alpha,
+        counts=counts,
+        timing=read_timing(timing_files),
+        stability=stab,
+        snr=snr,
+        notes=notes,
+        unknown_ids=unknown,
+        n_boot=n_boot,
+        seed=seed,
+        rank_by=rank_by,
+        screen=screen,
+    )

@@ -1,0 +1,186 @@
+"""The per-metric table (SPEC section 6): correlations, ROC AUC, logistic PLCC, bootstrap CIs,
+the best metric and which differences from it are significant.
+
+Columns of the returned table (one row per metric):
+
+``metric, higher_better, n, plcc, srcc, roc_auc, krcc, plcc_logistic`` (absolute values, as
+the paper reports), ``plcc_signed, srcc_signed, krcc_signed`` (signed, metric as given),
+``{plcc,srcc,roc_auc}_ci_lo/_hi`` (95% percentile intervals of a seeded cluster bootstrap
+over tracks), ``best`` (the metric with the highest ``rank_by`` value), ``diff_ci_lo/_hi``
+and ``p_vs_best`` (paired bootstrap of best minus this metric), ``significant_vs_best`` (the
+interval excludes 0), ``reason`` (why any value is empty) and ``note``.
+
+``roc_auc`` scores the binary label (``majority_good`` for GVF; a 0/1 target otherwise) by the
+metric, negated when lower is better, so 0.5 is chance and 1 is perfect for every metric.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+from tqdm import tqdm
+
+from analysis import bootstrap as bs
+from analysis import stats
+
+__all__ = ["RANK_BY", "summary_table", "binary_label"]
+
+RANK_BY = ("srcc", "plcc", "roc_auc")
+
+
+def binary_label(items: pd.DataFrame, target: str) -> tuple[np.ndarray | None, str | None]:
+    """The label ROC AUC is computed against: ``majority_good`` for GVF, else a 0/1 target.
+
+    Returns ``(label (n,) bool or None, reason)``.
+    """
+    if target == "gvf":
+        return items["majority_good"].to_numpy(bool), None
+    y = items[target].to_numpy(np.float64)
+    finite = y[np.isfinite(y)]
+    if finite.size and np.isin(finite, (0.0, 1.0)).all():
+        return y == 1.0, None
+    return None, f"target {target!r} is not binary"
+
+
+def _join(*parts) -> str | None:
+    s = "; ".join(p for p in parts if p)
+    return s or None
+
+
+def summary_table(
+    items: pd.DataFrame,
+    metrics: list[str],
+    directions: dict[str, bool],
+    *,
+    target: str = "gvf",
+    clusters: np.ndarray | None = None,
+    n_boot: int = 1000,
+    seed: int = 0,
+    rank_by: str = "srcc",
+    progress: bool = True,
+) -> pd.DataFrame:
+    """One row per metric of ``items`` (one row per item) against the ``target`` column.
+
+    clusters: (n_items,) int track index for the bootstrap (``None`` or ``n_boot == 0``: no
+    bootstrap, CI columns empty).
+    """
+    if rank_by not in RANK_BY:
+        raise ValueError(f"rank_by must be one of {RANK_BY}, got {rank_by!r}")
+    y_all = items[target].to_numpy(np.float64)
+    label_all, label_why = binary_label(items, target)
+    do_boot = clusters is not None and n_boot > 0
+    counts = None
+    if do_boot:
+        n_clusters = int(clusters.max()) + 1 if len(clusters) else 0
+        counts = bs.draw_cluster_counts(n_clusters, n_boot, seed=seed) if n_clusters else None
+    rows, reps, y_rank_all = [], {}, None
+    for m in tqdm(metrics, desc="metrics", unit="metric", disable=not progress):
+        hb = directions[m]
+        x_all = items[m].to_numpy(np.float64)
+        ok = np.isfinite(x_all) & np.isfinite(y_all)
+        x, y = (x_all, y_all) if ok.all() else (x_all[ok], y_all[ok])
+        xo = x if hb else -x  # oriented: higher = better
+        p, p_why = stats.pearson(x, y)
+        rx = stats.rank_within(x)  # ranks computed once per column, reused below
+        if ok.all():
+            if y_rank_all is None:
+                y_rank_all = stats.rank_within(y)
+            ry = y_rank_all
+        else:
+            ry = stats.rank_within(y)
+        s, s_why = stats.pearson(rx, ry)  # Spearman = Pearson of average ranks
+        k, k_why = stats.kendall(x, y)
+        lg, lg_why, lg_note = stats.logistic_plcc(x, y, seed=seed)
+        if label_all is None:
+            auc, auc_why = float("nan"), label_why
+        else:
+            r_xo = rx if hb else (x.shape[0] + 1.0) - rx  # ranks of -x
+            auc, auc_why = stats.roc_auc(label_all[ok], xo, ranks=r_xo)
+        row = {
+            "metric": m,
+            "higher_better": hb,
+            "n": int(ok.sum()),
+            "plcc": abs(p),
+            "srcc": abs(s),
+            "roc_auc": auc,
+            "krcc": abs(k),
+            "plcc_logistic": lg,
+            "plcc_signed": p,
+            "srcc_signed": s,
+            "krcc_signed": k,
+        }
+        why = [
+            f"plcc, srcc, krcc: {p_why or s_why or k_why}" if (p_why or s_why or k_why) else None,
+            f"roc_auc: {auc_why}" if auc_why else None,
+            f"plcc_logistic: {lg_why}" if lg_why and lg_why != (p_why or s_why) else None,
+        ]
+        for name in RANK_BY:
+            row[f"{name}_ci_lo"] = row[f"{name}_ci_hi"] = np.nan
+        if counts is not None and not (p_why and s_why):
+            r = bs.replicate_stats(
+                xo, y, None if label_all is None else label_all[ok], clusters[ok], counts
+            )
+            r = {"plcc": np.abs(r["plcc"]), "srcc": np.abs(r["srcc"]), "roc_auc": r["roc_auc"]}
+            reps[m] = r
+            for name in RANK_BY:
+                if np.isnan(row[name]):
+                    continue
+                lo, hi, ci_why = bs.percentile_ci(r[name])
+                row[f"{name}_ci_lo"], row[f"{name}_ci_hi"] = lo, hi
+                if ci_why:
+                    why.append(f"{name} CI: {ci_why}")
+        elif do_boot and counts is None:
+            why.append("CIs: no tracks to resample")
+        row["reason"] = _join(*why)
+        row["note"] = lg_note
+        rows.append(row)
+    table = pd.DataFrame(rows, columns=_COLUMNS[:-5] + ["reason", "note"])
+    return _mark_best(table, reps, rank_by=rank_by)
+
+
+_COLUMNS = [
+    "metric",
+    "higher_better",
+    "n",
+    "plcc",
+    "srcc",
+    "roc_auc",
+    "krcc",
+    "plcc_logistic",
+    "plcc_signed",
+    "srcc_signed",
+    "krcc_signed",
+    "plcc_ci_lo",
+    "plcc_ci_hi",
+    "srcc_ci_lo",
+    "srcc_ci_hi",
+    "roc_auc_ci_lo",
+    "roc_auc_ci_hi",
+    "best",
+    "diff_ci_lo",
+    "diff_ci_hi",
+    "p_vs_best",
+    "significant_vs_best",
+]
+
+
+def _mark_best(table: pd.DataFrame, reps: dict, *, rank_by: str) -> pd.DataFrame:
+    table["best"] = False
+    for c in ("diff_ci_lo", "diff_ci_hi", "p_vs_best"):
+        table[c] = np.nan
+    table["significant_vs_best"] = pd.array([pd.NA] * len(table), dtype="boolean")
+    vals = table[rank_by].to_numpy(np.float64)
+    if len(table) == 0 or not np.isfinite(vals).any():
+        return table[_COLUMNS + ["reason", "note"]]
+    ib = int(np.nanargmax(vals))
+    table.loc[ib, "best"] = True
+    best = table.loc[ib, "metric"]
+    if best in reps:
+        for i, m in enumerate(table["metric"]):
+            if m == best or m not in reps:
+                continue
+            lo, hi, pv = bs.paired_difference(reps[best][rank_by], reps[m][rank_by])
+            table.loc[i, ["diff_ci_lo", "diff_ci_hi", "p_vs_best"]] = [lo, hi, pv]
+            if np.isfinite(lo):
+                table.loc[i, "significant_vs_best"] = bool(lo > 0 or hi < 0)
+    return table[_COLUMNS + ["reason", "note"]]

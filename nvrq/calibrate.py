@@ -1,0 +1,169 @@
+"""NVRQ-CA ``tau`` calibration and the small user config that stores calibrated taus.
+
+Rule: ``tau`` is the **median** of S (paper Eq. 4) over GT crops of *unrelated* objects --
+pairs of GT crops from different tracks *and* different classes -- i.e. the similarity an
+encoder gives to two objects that have nothing to do with each other (its noise floor).
+Below that, NVRQ-CA (Eq. 5) maps S into the low band [0, w).
+
+Config file (JSON ``{"ENCODER": {"tau": 0.61, ...}}``), first found of: the ``config``
+argument (``--config``), ``$NVRQ_CONFIG``, ``$XDG_CONFIG_HOME/nvrq/tau.json``,
+``~/.config/nvrq/tau.json``. ``nvrq score`` takes tau from ``--tau``, else this file, else
+the encoder registry.
+
+>>> import numpy as np
+>>> recommend_tau(np.array([0.2, 0.4, 0.9]))
+0.4
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from data_schema.errors import InputError
+from data_schema.tables import atomic_write_text
+
+__all__ = ["config_path", "read_tau_config", "write_tau", "resolve_tau", "recommend_tau",
+           "unrelated_pairs", "Calibration", "calibrate_tau"]
+
+
+def config_path(config: str | os.PathLike | None = None) -> Path:
+    """The tau config file in use (it need not exist yet)."""
+    if config is not None:
+        return Path(config)
+    if os.environ.get("NVRQ_CONFIG"):
+        return Path(os.environ["NVRQ_CONFIG"])
+    base = os.environ.get("XDG_CONFIG_HOME") or os.path.join(Path.home(), ".config")
+    return Path(base) / "nvrq" / "tau.json"
+
+
+def read_tau_config(path: str | os.PathLike) -> dict:
+    """The config's content (``{}`` if the file does not exist)."""
+    path = Path(path)
+    if not path.is_file():
+        return {}
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as exc:
+        raise InputError(path, None, "a JSON tau config", f"{type(exc).__name__}: {exc}") from None
+    if not isinstance(data, dict):
+        raise InputError(path, None, 'a JSON object {"ENCODER": {"tau": ...}}', type(data).__name__)
+    return data
+
+
+def write_tau(path: str | os.PathLike, encoder: str, tau: float, **info) -> Path:
+    """Store ``tau`` (and ``info``) for ``encoder`` in the config, keeping other entries."""
+    path = Path(path)
+    data = read_tau_config(path)
+    data[encoder] = {"tau": float(tau), **info}
+    atomic_write_text(path, json.dumps(data, indent=2, sort_keys=True) + "\n")
+    return path
+
+
+def resolve_tau(encoder: str, *, tau: float | None = None,
+                config: str | os.PathLike | None = None) -> tuple[float | None, str]:
+    """``(tau, where it came from)``: ``--tau`` > user config > registry (``None`` if none)."""
+    from nvrq.encoders import get_spec
+
+    spec = get_spec(encoder)
+    if tau is not None:
+        return float(tau), "--tau"
+    path = config_path(config)
+    entry = read_tau_config(path).get(encoder)
+    if entry is not None:
+        value = entry.get("tau") if isinstance(entry, dict) else None
+        if not isinstance(value, (int, float)) or not 0 < value < 1:
+            raise InputError(path, f"{encoder}.tau", "a number in (0, 1)", value)
+        return float(value), str(path)
+    return spec.tau, "registry"
+
+
+def recommend_tau(s_unrelated: np.ndarray) -> float:
+    """The calibration rule: the median of S over unrelated GT crop pairs."""
+    s = np.asarray(s_unrelated, np.float64)
+    s = s[np.isfinite(s)]
+    if s.size == 0:
+        raise ValueError("no unrelated pairs to calibrate tau on")
+    return float(np.median(s))
+
+
+def unrelated_pairs(track_ids: np.ndarray, classes: np.ndarray, *, max_pairs: int, seed: int = 0,
+                    allow_same_class: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Index pairs (i, j), i < j, of crops from different tracks and (unless
+    ``allow_same_class``) different classes; a uniform sample of at most ``max_pairs``.
+
+    >>> i, j = unrelated_pairs(np.array(["a", "a", "b", "c"]), np.array(["car", "car", "car", "ped"]),
+    ...                        max_pairs=10)
+    >>> sorted(zip(i.tolist(), j.tolist()))
+    [(0, 3), (1, 3), (2, 3)]
+    """
+    track_ids, classes = np.asarray(track_ids), np.asarray(classes)
+    i, j = np.triu_indices(len(track_ids), k=1)
+    ok = track_ids[i] != track_ids[j]
+    if not allow_same_class:
+        ok &= classes[i] != classes[j]
+    i, j = i[ok], j[ok]
+    if len(i) > max_pairs:
+        pick = np.sort(np.random.default_rng(seed).choice(len(i), size=max_pairs, replace=False))
+        i, j = i[pick], j[pick]
+    return i, j
+
+
+@dataclass
+class Calibration:
+    """``s``: S of every unrelated pair (M,); ``tau``: the median; counts for the report."""
+
+    encoder: str
+    s: np.ndarray
+    tau: float
+    n_crops: int
+
+    def summary(self) -> str:
+        q = np.quantile(self.s, [0.0, 0.05, 0.25, 0.5, 0.75, 0.95, 1.0])
+        return (f"{self.encoder}: S over {len(self.s)} unrelated GT crop pairs "
+                f"({self.n_crops} crops): min {q[0]:.3f}, p5 {q[1]:.3f}, p25 {q[2]:.3f}, "
+                f"median {q[3]:.3f}, p75 {q[4]:.3f}, p95 {q[5]:.3f}, max {q[6]:.3f}, "
+                f"mean {self.s.mean():.3f}\nrecommended tau = median = {self.tau:.3f}")
+
+
+def calibrate_tau(pairs: pd.DataFrame, encoder, *, scene_root=None, max_crops: int = 400,
+                  max_pairs: int = 20000, seed: int = 0, allow_same_class: bool = False,
+                  batch_size: int = 32, progress: bool = True, where: str = "pairs") -> Calibration:
+    """Measure ``encoder``'s noise floor on the GT crops of ``pairs`` (SPEC section 3 table).
+
+    One GT crop per (camera, track, timestamp) is used; at most ``max_crops`` of them
+    (uniform sample, ``seed``), then at most ``max_pairs`` unrelated pairs among them.
+    """
+    from nvrq.scoring import GT_BOX, _boxes, _resolve_paths, embed_crops, nvrq_similarity
+
+    need = ["track_id", "label_class", "gt_path", *GT_BOX]
+    missing = [c for c in need if c not in pairs.columns]
+    if missing:
+        raise InputError(where, f"column {missing[0]!r}", f"the columns {', '.join(need)}", "missing")
+    keys = [c for c in ("camera", "track_id", "timestamp_us") if c in pairs.columns]
+    crops = pairs.drop_duplicates(subset=keys + ["gt_path"]).reset_index(drop=True)
+    if len(crops) > max_crops:
+        crops = crops.sample(n=max_crops, random_state=seed).reset_index(drop=True)
+    i, j = unrelated_pairs(crops["track_id"].astype(str).to_numpy(),
+                           crops["label_class"].astype(str).to_numpy(),
+                           max_pairs=max_pairs, seed=seed, allow_same_class=allow_same_class)
+    if len(i) == 0:
+        what = "different tracks" + ("" if allow_same_class else " and classes")
+        raise InputError(where, "track_id/label_class",
+                         f"GT crops of at least two objects of {what}"
+                         + ("" if allow_same_class else " (or pass --allow-same-class)"),
+                         f"{crops['track_id'].nunique()} tracks, {crops['label_class'].nunique()} classes")
+    used = np.unique(np.concatenate([i, j]))
+    crops = crops.iloc[used].reset_index(drop=True)
+    remap = np.full(used.max() + 1, -1)
+    remap[used] = np.arange(len(used))
+    paths = _resolve_paths(crops, "gt_path", scene_root, where)
+    feats = embed_crops(paths, _boxes(crops, GT_BOX, where), encoder, batch_size=batch_size,
+                        progress=progress, where=where)
+    s = nvrq_similarity(feats[remap[i]], feats[remap[j]])
+    return Calibration(encoder.spec.name, s, recommend_tau(s), len(crops))

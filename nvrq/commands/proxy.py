@@ -1,0 +1,197 @@
+"""``nvrq proxy detection|imagenet|clip|detect PAIRS ... --out PROXY.{csv,parquet}`` (paper Eq. 6-10).
+
+Each writes ``pair_id`` and one proxy column (``s_det``, ``imagenet_drop``, ``clip_drop``),
+which ``analyze --target`` accepts. ``detect`` writes the DETS table for ``detection`` with a
+local Ultralytics YOLO model (optional extra ``[yolo]``).
+"""
+
+from __future__ import annotations
+
+__all__ = ["register"]
+
+
+def _common(p) -> None:
+    p.add_argument("pairs", help="pairs table from `nvrq pairs` (.csv or .parquet)")
+    p.add_argument(
+        "--out", required=True, help="output table (.csv or .parquet): pair_id + the proxy column"
+    )
+    p.add_argument(
+        "--class-map",
+        default=None,
+        help="class-map JSON (default: the shipped nvrq/proxies/class_maps.json)",
+    )
+
+
+def _model_opts(p) -> None:
+    p.add_argument(
+        "--scene",
+        default=None,
+        help="scene folder the image paths are relative to "
+        "(default: the pairs table's scene_root column)",
+    )
+    p.add_argument(
+        "--batch-size", type=int, default=32, help="pairs per forward batch (default 32)"
+    )
+    p.add_argument("--device", default="cpu", help="torch device (default cpu)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "proxy",
+        help="downstream proxies per pair: detection, ImageNet, CLIP (Eq. 6-10)",
+        description="Downstream proxies of render quality (paper Eq. 6-10).",
+    )
+    psub = p.add_subparsers(dest="proxy", metavar="PROXY", required=True)
+
+    d = psub.add_parser("detection", help="s_det: detection confidence on the render box (Eq. 6-8)")
+    _common(d)
+    d.add_argument(
+        "--detections",
+        required=True,
+        help="DETS table: path (as in images.csv), x0, y0, x1, y1 (continuous pixel-edge "
+        "coordinates), score, coco_class",
+    )
+    d.set_defaults(func=run_detection)
+
+    y = psub.add_parser(
+        "detect", help="write DETS with a local Ultralytics YOLO model (extra [yolo])"
+    )
+    y.add_argument("pairs", help="pairs table from `nvrq pairs` (.csv or .parquet)")
+    y.add_argument("--yolo", required=True, help="local Ultralytics weights file, e.g. yolov8x.pt")
+    y.add_argument(
+        "--out", required=True, help="DETS table (.csv or .parquet) for `nvrq proxy detection`"
+    )
+    y.add_argument("--imgsz", type=int, default=640, help="inference size (default 640)")
+    _model_opts(y)
+    y.set_defaults(func=run_detect)
+
+    i = psub.add_parser(
+        "imagenet", help="imagenet_drop: ImageNet top-class confidence drop (Eq. 9)"
+    )
+    _common(i)
+    _model_opts(i)
+    i.add_argument(
+        "--classifier",
+        default="efficientnet-lite0",
+        help="efficientnet-lite0 (default, offline) or a local transformers "
+        "image-classifier folder",
+    )
+    i.add_argument(
+        "--weights", default=None, help="a .pth for efficientnet-lite0, or the classifier folder"
+    )
+    i.set_defaults(func=run_imagenet)
+
+    c = psub.add_parser(
+        "clip", help="clip_drop: CLIP zero-shot true-category confidence drop (Eq. 10)"
+    )
+    _common(c)
+    _model_opts(c)
+    c.add_argument(
+        "--clip", required=True, help="local Hugging Face CLIP folder (CLIPModel + tokenizer)"
+    )
+    c.set_defaults(func=run_clip)
+
+
+def _check_out(out) -> None:
+    from data_schema.errors import InputError
+
+    if not str(out).lower().endswith((".csv", ".parquet")):
+        raise InputError(out, None, "an output file ending in .csv or .parquet", out)
+
+
+def _read_pairs(path, extra=()):
+    from data_schema.tables import read_table
+
+    need = ("pair_id", "label_class", "render_path", "r_x0", "r_y0", "r_x1", "r_y1", *extra)
+    return read_table(path, required=need, what="pairs table")
+
+
+def run_detection(args) -> int:
+    from data_schema.tables import write_table
+    from nvrq.proxies import load_class_maps
+    from nvrq.proxies.detection import detection_confidence, read_detections
+
+    _check_out(args.out)
+    maps = load_class_maps(args.class_map)
+    pairs = _read_pairs(args.pairs)
+    dets = read_detections(args.detections)
+    out = detection_confidence(pairs, dets, coco_map=maps["coco"], where=str(args.pairs))
+    write_table(out, args.out)
+    return 0
+
+
+def run_detect(args) -> int:
+    from data_schema.tables import write_table
+    from nvrq.proxies.yolo import run_yolo
+
+    _check_out(args.out)
+    pairs = _read_pairs(args.pairs)
+    dets = run_yolo(
+        pairs,
+        args.yolo,
+        scene_root=args.scene,
+        device=args.device,
+        imgsz=args.imgsz,
+        progress=not args.quiet,
+        where=str(args.pairs),
+    )
+    write_table(dets, args.out)
+    return 0
+
+
+def _check_batch(args) -> None:
+    from data_schema.errors import InputError
+
+    if args.batch_size < 1:
+        raise InputError("--batch-size", None, "a positive integer", args.batch_size)
+
+
+def run_imagenet(args) -> int:
+    from data_schema.tables import write_table
+    from nvrq.proxies.classifier_drop import imagenet_drop, load_classifier
+
+    _check_out(args.out)
+    _check_batch(args)
+    pairs = _read_pairs(args.pairs, ("gt_path", "gt_x0", "gt_y0", "gt_x1", "gt_y1"))
+    clf = load_classifier(args.classifier, weights=args.weights, device=args.device)
+    out = imagenet_drop(
+        pairs,
+        clf,
+        scene_root=args.scene,
+        batch_size=args.batch_size,
+        progress=not args.quiet,
+        where=str(args.pairs),
+    )
+    write_table(out, args.out)
+    return 0
+
+
+def run_clip(args) -> int:
+    from data_schema.tables import write_table
+    from nvrq.proxies import load_class_maps
+    from nvrq.proxies.clip_drop import clip_drop, load_clip, true_category_index
+
+    _check_out(args.out)
+    _check_batch(args)
+    maps = load_class_maps(args.class_map)
+    pairs = _read_pairs(args.pairs, ("gt_path", "gt_x0", "gt_y0", "gt_x1", "gt_y1"))
+    # unknown classes fail before the model loads
+    true_category_index(
+        pairs["label_class"],
+        maps["clip_category"],
+        list(maps["clip_prompts"]),
+        where=str(args.pairs),
+    )
+    clip = load_clip(args.clip, prompts=maps["clip_prompts"], device=args.device)
+    out = clip_drop(
+        pairs,
+        clip,
+        category_map=maps["clip_category"],
+        scene_root=args.scene,
+        batch_size=args.batch_size,
+        progress=not args.quiet,
+        where=str(args.pairs),
+    )
+    write_table(out, args.out)
+    return 0

@@ -1,0 +1,102 @@
+"""Object crops: read an image once, cut inclusive pixel boxes, make encoder inputs.
+
+Convention:
+    Images are handled as RGB ``uint8`` arrays of shape (H, W, 3), channel order R, G, B.
+    Files on disk are ordinary RGB image files; OpenCV decodes them as B, G, R, so
+    :func:`read_rgb` swaps the channels once right after decoding. A box is
+    ``[x0, y0, x1, y1]`` in inclusive pixel indices (SPEC section 3): the crop is
+    ``image[y0:y1 + 1, x0:x1 + 1]``, so the box ``[2, 1, 4, 1]`` is 3 pixels wide and
+    1 pixel tall.
+
+Encoder input (SPEC section 4, paper section 5.1): the crop is padded with black to a
+square, content centred (the odd pixel of padding goes to the bottom/right), then
+bicubic-resized (``cv2.INTER_CUBIC``) to the encoder's input size.
+
+>>> import numpy as np
+>>> img = np.arange(5 * 6 * 3, dtype=np.uint8).reshape(5, 6, 3)
+>>> cut_box(img, (2, 1, 4, 1)).shape
+(1, 3, 3)
+>>> sq = pad_to_square(np.full((2, 5, 3), 255, np.uint8))
+>>> sq.shape, sq[:, 0, 0].tolist()
+((5, 5, 3), [0, 255, 255, 0, 0])
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+
+import cv2
+import numpy as np
+
+from data_schema.errors import InputError
+
+__all__ = ["read_rgb", "cut_box", "pad_to_square", "encoder_input", "resize_to"]
+
+
+def read_rgb(path: str | os.PathLike) -> np.ndarray:
+    """Decode an image file into an RGB ``uint8`` array (H, W, 3).
+
+    OpenCV returns B, G, R; the channels are reversed here (``cv2.COLOR_BGR2RGB``) so the
+    result is in the file's own R, G, B order. Grey and RGBA files become 3-channel RGB.
+    Raises :class:`InputError` if the file is missing or cannot be decoded.
+    """
+    path = os.fspath(path)
+    bgr = cv2.imread(path, cv2.IMREAD_COLOR)
+    if bgr is None:
+        got = "no such file" if not os.path.exists(path) else "an undecodable file"
+        raise InputError(path, None, "a readable image file", got)
+    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+
+
+def cut_box(image: np.ndarray, box: Sequence[int], *, where: str = "box") -> np.ndarray:
+    """The inclusive crop ``image[y0:y1+1, x0:x1+1]`` (a view) of ``image`` (H, W, C).
+
+    ``box`` is ``[x0, y0, x1, y1]`` (inclusive). A box that is empty or reaches outside the
+    image raises :class:`InputError` (``where`` names it in the message).
+    """
+    x0, y0, x1, y1 = (int(v) for v in box)
+    h, w = image.shape[:2]
+    if not (0 <= x0 <= x1 < w and 0 <= y0 <= y1 < h):
+        raise InputError(where, "box [x0, y0, x1, y1]",
+                         f"0 <= x0 <= x1 < {w} and 0 <= y0 <= y1 < {h} (image W x H = {w} x {h})",
+                         [x0, y0, x1, y1])
+    return image[y0:y1 + 1, x0:x1 + 1]
+
+
+def pad_to_square(crop: np.ndarray) -> np.ndarray:
+    """Pad ``crop`` (H, W, C) with zeros (black) to (S, S, C), S = max(H, W), content centred.
+
+    The content starts at row ``(S - H) // 2`` and column ``(S - W) // 2``.
+    """
+    h, w = crop.shape[:2]
+    s = max(h, w)
+    if h == w:
+        return crop
+    out = np.zeros((s, s) + crop.shape[2:], dtype=crop.dtype)
+    top, left = (s - h) // 2, (s - w) // 2
+    out[top:top + h, left:left + w] = crop
+    return out
+
+
+def encoder_input(crop: np.ndarray, size: int) -> np.ndarray:
+    """Square-pad ``crop`` (H, W, 3) and bicubic-resize it to (size, size, 3), dtype kept.
+
+    >>> import numpy as np
+    >>> encoder_input(np.full((10, 20, 3), 7, np.uint8), 8).shape
+    (8, 8, 3)
+    """
+    square = pad_to_square(crop)
+    if square.shape[0] == size:
+        return np.ascontiguousarray(square)
+    return cv2.resize(square, (size, size), interpolation=cv2.INTER_CUBIC)
+
+
+def resize_to(crop: np.ndarray, height: int, width: int) -> np.ndarray:
+    """Bicubic-resize ``crop`` (h, w, C) to (height, width, C) (no-op if already that size).
+
+    Used for pixel metrics: the render crop is brought to the GT crop's size (SPEC section 4).
+    """
+    if crop.shape[:2] == (height, width):
+        return crop
+    return cv2.resize(crop, (int(width), int(height)), interpolation=cv2.INTER_CUBIC)

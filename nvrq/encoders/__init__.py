@@ -1,0 +1,15 @@
+"""Image encoders for NVRQ: the registry (:mod:`nvrq.encoders.registry`) and one backend
+module per model family (``hf_vit``, ``segformer``, ``efficientnet``)."""
+
+from nvrq.encoders.registry import (
+    DEFAULT_ENCODER,
+    ENCODERS,
+    Encoder,
+    EncoderSpec,
+    build_random,
+    get_spec,
+    load_encoder,
+)
+
+__all__ = ["DEFAULT_ENCODER", "ENCODERS", "Encoder", "EncoderSpec", "build_random", "get_spec",
+           "load_encoder"]

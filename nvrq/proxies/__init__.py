@@ -1,0 +1,64 @@
+"""Downstream proxies of render quality (paper Eq. 6-10), one per-pair column each.
+
+- :mod:`nvrq.proxies.detection` -- detection confidence ``s_det`` on the render box (Eq. 6-8).
+- :mod:`nvrq.proxies.classifier_drop` -- ImageNet top-class confidence drop ``imagenet_drop`` (Eq. 9).
+- :mod:`nvrq.proxies.clip_drop` -- CLIP zero-shot true-category confidence drop ``clip_drop`` (Eq. 10).
+
+The class maps (dataset ``label_class`` -> COCO classes, -> CLIP category, and the CLIP
+prompts) are editable data in ``class_maps.json`` (:func:`load_class_maps`).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+from data_schema.errors import InputError
+
+__all__ = ["CLASS_MAPS_PATH", "load_class_maps"]
+
+CLASS_MAPS_PATH = Path(__file__).with_name("class_maps.json")
+_KEYS = ("coco", "clip_category", "clip_prompts")
+
+
+def load_class_maps(path: str | os.PathLike | None = None) -> dict:
+    """The class maps: ``{'coco': {label_class: [coco classes]}, 'clip_category': {label_class:
+    category or None}, 'clip_prompts': {category: prompt}}`` (keys lower-cased).
+
+    ``path``: a JSON file of the same layout (default: the shipped ``class_maps.json``).
+
+    >>> maps = load_class_maps()
+    >>> maps["coco"]["automobile"], maps["clip_category"]["heavy_truck"]
+    (['car', 'truck', 'bus'], 'large vehicle')
+    """
+    path = Path(path) if path is not None else CLASS_MAPS_PATH
+    if not path.is_file():
+        raise InputError(path, None, "a class-map JSON file", "no such file")
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise InputError(path, None, "valid JSON", str(exc)) from None
+    for key in _KEYS:
+        if not isinstance(doc.get(key), dict):
+            raise InputError(path, key, "an object", type(doc.get(key)).__name__)
+    out = {"coco": {}, "clip_category": {}, "clip_prompts": {}}
+    for label, classes in doc["coco"].items():
+        if not isinstance(classes, list) or not all(isinstance(c, str) for c in classes):
+            raise InputError(path, f"coco.{label}", "a list of COCO class names", classes)
+        out["coco"][label.lower()] = [c.lower() for c in classes]
+    prompts = {k.lower(): v for k, v in doc["clip_prompts"].items()}
+    for k, v in prompts.items():
+        if not isinstance(v, str) or not v.strip():
+            raise InputError(path, f"clip_prompts.{k}", "a prompt string", v)
+    out["clip_prompts"] = prompts
+    for label, cat in doc["clip_category"].items():
+        if cat is not None and cat.lower() not in prompts:
+            raise InputError(
+                path,
+                f"clip_category.{label}",
+                f"null or one of the clip_prompts categories ({', '.join(prompts)})",
+                cat,
+            )
+        out["clip_category"][label.lower()] = None if cat is None else cat.lower()
+    return out

@@ -1,0 +1,216 @@
+"""CLIP zero-shot confidence drop on the true category (paper Eq. 10): ``clip_drop`` per pair.
+
+The K categories (automobile, person, animal, large vehicle, rail vehicle) each have one
+descriptive prompt (``class_maps.json``). For an image ``x``,
+``p(x, c) = softmax_c(logit_scale * cos(g(x), t_c))`` with ``g`` CLIP's projected image
+embedding and ``t_c`` the prompt's projected text embedding. With ``c*`` the pair's true
+category (``label_class`` -> category map): ``clip_drop = p(GT, c*) - p(render, c*)``;
+empty (NaN) for a class mapped to no category.
+
+Crops are black-padded to a square and bicubic-resized to CLIP's input size, then CLIP's
+normalisation (SPEC section 4).
+
+>>> import numpy as np
+>>> t = np.eye(2); g = np.array([[1.0, 0.0], [0.0, 1.0]])
+>>> zero_shot_probs(g, t, logit_scale=np.log(2.0)).round(4).tolist()  # softmax([2, 0]), softmax([0, 2])
+[[0.8808, 0.1192], [0.1192, 0.8808]]
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from data_schema.errors import InputError
+
+__all__ = ["ZeroShotCLIP", "zero_shot_probs", "load_clip", "clip_drop", "true_category_index"]
+
+
+def zero_shot_probs(
+    image_feats: np.ndarray, text_feats: np.ndarray, *, logit_scale: float
+) -> np.ndarray:
+    """``image_feats (N, D)``, ``text_feats (K, D)`` -> softmax over K of ``exp(logit_scale) * cos``
+    (``logit_scale`` is CLIP's log-parameterised temperature) -> (N, K)."""
+    a = image_feats / np.linalg.norm(image_feats, axis=1, keepdims=True)
+    b = text_feats / np.linalg.norm(text_feats, axis=1, keepdims=True)
+    z = np.exp(logit_scale) * (a @ b.T)
+    z = z - z.max(axis=1, keepdims=True)
+    e = np.exp(z)
+    return e / e.sum(axis=1, keepdims=True)
+
+
+def _features(out):
+    """Projected features from ``get_*_features`` (a tensor in transformers 4, an output in 5)."""
+    return out if not hasattr(out, "pooler_output") else out.pooler_output
+
+
+@dataclass
+class ZeroShotCLIP:
+    """A CLIP model with its K category prompts embedded once: ``text_feats (K, D)``."""
+
+    model: object
+    categories: list[str]
+    text_feats: np.ndarray
+    input_size: int
+    mean: tuple[float, float, float]
+    std: tuple[float, float, float]
+    device: str = "cpu"
+
+    @classmethod
+    def from_model(
+        cls,
+        model,
+        *,
+        categories,
+        input_ids,
+        attention_mask=None,
+        input_size,
+        mean,
+        std,
+        device="cpu",
+    ) -> ZeroShotCLIP:
+        """Embed pre-tokenized prompts ``input_ids (K, L)`` (one per category) with ``model``."""
+        import torch
+
+        model = model.to(device).eval()
+        with torch.inference_mode():
+            ids = torch.as_tensor(np.asarray(input_ids), device=device)
+            mask = (
+                None
+                if attention_mask is None
+                else torch.as_tensor(np.asarray(attention_mask), device=device)
+            )
+            t = _features(model.get_text_features(input_ids=ids, attention_mask=mask))
+        return cls(
+            model,
+            list(categories),
+            t.double().cpu().numpy(),
+            input_size,
+            tuple(mean),
+            tuple(std),
+            device,
+        )
+
+    def image_features(self, images: np.ndarray) -> np.ndarray:
+        """Projected image embeddings (B, D) of uint8 RGB inputs (B, S, S, 3)."""
+        import torch
+
+        x = (
+            torch.from_numpy(np.ascontiguousarray(images))
+            .to(self.device)
+            .permute(0, 3, 1, 2)
+            .float()
+            / 255.0
+        )
+        mean = torch.tensor(self.mean, device=self.device).view(1, 3, 1, 1)
+        std = torch.tensor(self.std, device=self.device).view(1, 3, 1, 1)
+        with torch.inference_mode():
+            return (
+                _features(self.model.get_image_features(pixel_values=(x - mean) / std))
+                .double()
+                .cpu()
+                .numpy()
+            )
+
+    def probabilities(self, images: np.ndarray) -> np.ndarray:
+        """Zero-shot category probabilities (B, K)."""
+        scale = float(self.model.logit_scale.detach().cpu())
+        return zero_shot_probs(self.image_features(images), self.text_feats, logit_scale=scale)
+
+
+def load_clip(
+    folder: str | os.PathLike, *, prompts: dict[str, str], device: str = "cpu"
+) -> ZeroShotCLIP:
+    """CLIPModel + tokenizer + preprocessor config from a local Hugging Face folder (never the hub)."""
+    from nvrq.proxies.classifier_drop import preprocessor_stats
+
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise InputError(
+            "--clip",
+            None,
+            "a local CLIP model folder (CLIPModel, tokenizer, "
+            "preprocessor_config.json); nvrq never downloads",
+            str(folder),
+        )
+    os.environ["HF_HUB_OFFLINE"] = "1"
+    from transformers import AutoTokenizer, CLIPModel
+
+    try:
+        model = CLIPModel.from_pretrained(os.fspath(folder), local_files_only=True)
+        tok = AutoTokenizer.from_pretrained(os.fspath(folder), local_files_only=True)
+    except (OSError, ValueError) as exc:
+        raise InputError(
+            folder, None, "a CLIP model folder with its tokenizer", f"{type(exc).__name__}: {exc}"
+        ) from None
+    categories = list(prompts)
+    enc = tok([prompts[c] for c in categories], padding=True, return_tensors="np")
+    size, mean, std = preprocessor_stats(folder, int(model.config.vision_config.image_size))
+    return ZeroShotCLIP.from_model(
+        model,
+        categories=categories,
+        input_ids=enc["input_ids"],
+        attention_mask=enc.get("attention_mask"),
+        input_size=size,
+        mean=mean,
+        std=std,
+        device=device,
+    )
+
+
+def true_category_index(
+    labels, category_map: dict, categories: list[str], *, where: str = "pairs"
+) -> np.ndarray:
+    """Index (N,) into ``categories`` of each ``label_class``; -1 where the map says null."""
+    pos = {c: k for k, c in enumerate(categories)}
+    low = [str(x).lower() for x in labels]
+    unknown = sorted(set(low) - set(category_map))
+    if unknown:
+        raise InputError(
+            where,
+            "label_class",
+            "classes listed in the class map's 'clip_category' section "
+            "(edit nvrq/proxies/class_maps.json or pass --class-map)",
+            ", ".join(unknown),
+        )
+    return np.array(
+        [-1 if category_map[x] is None else pos[category_map[x]] for x in low], dtype=np.int64
+    )
+
+
+def clip_drop(
+    pairs: pd.DataFrame,
+    clip: ZeroShotCLIP,
+    *,
+    category_map: dict,
+    scene_root=None,
+    batch_size: int = 32,
+    progress: bool = True,
+    where: str = "pairs",
+) -> pd.DataFrame:
+    """Eq. 10 for every pair -> DataFrame ``pair_id, clip_drop`` (pairs' order; NaN: no category)."""
+    from tqdm import tqdm
+
+    from nvrq.proxies.classifier_drop import crop_pair_batches
+
+    c_star = true_category_index(pairs["label_class"], category_map, clip.categories, where=where)
+    drop = np.full(len(pairs), np.nan)
+    with tqdm(
+        total=len(pairs), unit="pair", file=sys.stderr, disable=not progress, desc="clip"
+    ) as bar:
+        for rows, gt, gt_index, rend in crop_pair_batches(
+            pairs, size=clip.input_size, scene_root=scene_root, chunk=batch_size, where=where
+        ):
+            probs = clip.probabilities(np.concatenate([gt, rend]))
+            p_gt, p_r = probs[: len(gt)][gt_index], probs[len(gt) :]
+            c = c_star[rows]
+            ok = c >= 0
+            k = np.arange(len(rows))[ok]
+            drop[rows[ok]] = p_gt[k, c[ok]] - p_r[k, c[ok]]
+            bar.update(len(rows))
+    return pd.DataFrame({"pair_id": pairs["pair_id"].to_numpy(), "clip_drop": drop})

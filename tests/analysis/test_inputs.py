@@ -1,0 +1,62 @@
+"""The column rule of analysis.inputs and the metric-table join."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from analysis.inputs import classify_columns
+from analysis.labels import join_metrics
+from data_schema.errors import InputError
+from nvrq.metrics import direction
+
+
+def _items():
+    return pd.DataFrame(
+        {
+            "item_id": ["a", "b"],
+            "gvf": [0.0, 1.0],
+            "y_offset_m": [0.0, 1.0],
+            "clip_id": ["c", "c"],
+            "nvrq:enc": [0.1, 0.2],
+            "s_det": [0.5, 0.6],
+            "lighting": ["day", "night"],
+            "mystery": [1.0, 2.0],
+        }
+    )
+
+
+def test_column_roles_follow_the_written_rule():
+    m, d, attrs, proxies = classify_columns(
+        _items(), lower={"mystery"}, higher=set(), target=None, where="r"
+    )
+    assert m == ["nvrq:enc", "mystery"] and attrs == ["lighting"] and proxies == ["s_det"]
+    assert d == {"nvrq:enc": direction("nvrq:enc"), "mystery": False}  # registry direction
+    # a proxy used as the target is neither metric nor proxy
+    m, _, _, proxies = classify_columns(
+        _items(), lower={"mystery"}, higher=set(), target="s_det", where="r"
+    )
+    assert "s_det" not in m and proxies == []
+
+
+@pytest.mark.parametrize(
+    "lower, higher, needle",
+    [
+        (set(), set(), "mystery"),  # unknown direction names the column
+        ({"mystery"}, {"mystery"}, "one direction"),
+        ({"mystery", "typo"}, set(), "typo"),
+        ({"mystery", "lighting"}, set(), "numeric"),
+    ],
+)
+def test_column_errors(lower, higher, needle):
+    with pytest.raises(InputError, match=needle):
+        classify_columns(_items(), lower=lower, higher=higher, target=None, where="r")
+
+
+def test_join_counts_unknown_ids_and_rejects_duplicate_columns():
+    items = pd.DataFrame({"item_id": ["a", "b", "c"]})
+    t1 = pd.DataFrame({"pair_id": ["b", "zz", "a"], "psnr": [2.0, 9.0, 1.0]})
+    out, unknown, _ = join_metrics(items.copy(), [("m1.csv", t1)])
+    np.testing.assert_array_equal(out["psnr"], [1.0, 2.0, np.nan])
+    assert unknown == {"m1.csv": 1}
+    with pytest.raises(InputError, match="also in m1.csv"):
+        join_metrics(items.copy(), [("m1.csv", t1), ("m2.csv", t1)])

@@ -1,0 +1,69 @@
+"""Fixtures for the proxy tests: a tiny on-disk "scene" of one GT image and two renders."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from PIL import Image
+
+from data_schema.tables import PAIRS_COLUMNS, pair_id
+
+#: the cat of scikit-image's 'chelsea' photo (300 x 451), inclusive box
+CAT_BOX = (100, 20, 330, 290)
+
+
+@pytest.fixture
+def cat_scene(tmp_path):
+    """GT = chelsea; renders: identical copy (+0.00 m) and the cat box blacked out (+1.00 m).
+
+    Returns pairs (SPEC section 3 columns + scene_root): row 0 identical, row 1 blacked out.
+    """
+    from skimage import data
+
+    gt = data.chelsea()
+    black = gt.copy()
+    x0, y0, x1, y1 = CAT_BOX
+    black[y0 : y1 + 1, x0 : x1 + 1] = 0
+    Image.fromarray(gt).save(tmp_path / "gt.png")
+    Image.fromarray(gt).save(tmp_path / "r0.png")
+    Image.fromarray(black).save(tmp_path / "r1.png")
+    rows = []
+    for off, path, cls in ((0.0, "r0.png", "automobile"), (1.0, "r1.png", "automobile")):
+        rows.append(
+            dict(
+                pair_id=pair_id("c", "front", "cat", 0, off),
+                clip_id="c",
+                camera="front",
+                track_id="cat",
+                label_class=cls,
+                timestamp_us=0,
+                y_offset_m=off,
+                gt_path="gt.png",
+                render_path=path,
+                gt_x0=x0,
+                gt_y0=y0,
+                gt_x1=x1,
+                gt_y1=y1,
+                r_x0=x0,
+                r_y0=y0,
+                r_x1=x1,
+                r_y1=y1,
+            )
+        )
+    pairs = pd.DataFrame(rows, columns=list(PAIRS_COLUMNS))
+    pairs["scene_root"] = str(tmp_path)
+    return pairs
+
+
+def crop_input(image: np.ndarray, box, size: int) -> np.ndarray:
+    """Independent encoder input: black square pad (content centred) + bicubic resize (SPEC section 4), re-implemented here."""
+    x0, y0, x1, y1 = box
+    crop = image[y0 : y1 + 1, x0 : x1 + 1]
+    h, w = crop.shape[:2]
+    s = max(h, w)
+    sq = np.zeros((s, s, 3), np.uint8)
+    sq[(s - h) // 2 : (s - h) // 2 + h, (s - w) // 2 : (s - w) // 2 + w] = crop
+    import cv2
+
+    return cv2.resize(sq, (size, size), interpolation=cv2.INTER_CUBIC)
