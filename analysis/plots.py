@@ -103,8 +103,11 @@ def speed_accuracy_plot(summary: pd.DataFrame, timing: pd.DataFrame, *, target_l
     ax = fig.subplots()
     sp, acc = t["pairs_per_s"].to_numpy(float), t["srcc"].to_numpy(float)
     ax.scatter(sp, acc, color="C0", zorder=3)
+    placed: dict[tuple[float, float], int] = {}  # metrics at one point get stacked labels
     for s, a, name in zip(sp, acc, t["metric"], strict=True):
-        ax.annotate(name, (s, a), textcoords="offset points", xytext=(4, 3), fontsize=7)
+        key = (round(float(np.log10(s)), 2), round(float(a), 3))
+        n = placed[key] = placed.get(key, -1) + 1
+        ax.annotate(name, (s, a), textcoords="offset points", xytext=(4, 3 - 9 * n), fontsize=7)
     front = pareto_front(sp, acc)
     fs = sp[front][::-1]
     fa = acc[front][::-1]

@@ -40,27 +40,18 @@ from annotate.assign import choose_next, make_plan, plan_total, rater_seed
 from annotate.design import attribute_columns, parse_offsets, select_test_pairs
 from annotate.store import Store
 from data_schema.errors import InputError
-from data_schema.tables import PAIR_META_COLUMNS, PAIRS_COLUMNS, atomic_write_text, read_table
+from data_schema.tables import (
+    PAIR_META_COLUMNS,
+    PAIRS_COLUMNS,
+    atomic_write_text,
+    pair_scene_roots,
+    read_table,
+)
 
 __all__ = ["build_study", "load_study", "Study", "crop_path", "KINDS"]
 
 KINDS = ("test", "gold", "training", "repeat")
 _MANIFEST = "manifest.json"
-
-
-def _scene_roots(pairs: pd.DataFrame, pairs_path: Path, scene: str | None) -> pd.Series:
-    """Absolute scene folder per pair row."""
-    if scene is not None:
-        root = Path(scene).resolve()
-        if not root.is_dir():
-            raise InputError("--scene", None, "an existing scene folder", scene)
-        return pd.Series([str(root)] * len(pairs), index=pairs.index)
-    if "scene_root" not in pairs.columns:
-        raise InputError(pairs_path, "column 'scene_root'",
-                         "--scene SCENE or a scene_root column (gt_path/render_path are relative to it)",
-                         "neither")
-    base = pairs_path.resolve().parent
-    return pairs["scene_root"].map(lambda r: str((base / str(r)).resolve()))
 
 
 def _opaque_ids(rng: np.random.Generator, n: int) -> list[str]:
@@ -113,7 +104,8 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
     pairs = read_table(pairs_path, required=PAIRS_COLUMNS, what="pairs table")
     if pairs.empty:
         raise InputError(pairs_path, None, "at least one pair", "an empty table")
-    pairs = pairs.assign(_root=_scene_roots(pairs, pairs_path, scene), _row=np.arange(len(pairs)))
+    pairs = pairs.assign(_root=pair_scene_roots(pairs, scene_root=scene, base=pairs_path.resolve().parent,
+                                                         where=str(pairs_path)), _row=np.arange(len(pairs)))
     rng = np.random.default_rng(seed)
     chosen_offsets = parse_offsets(offsets, pairs["y_offset_m"])
     tests, record = select_test_pairs(pairs, offsets=chosen_offsets, n_tracks=int(tracks),

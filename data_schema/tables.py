@@ -27,6 +27,11 @@ __all__ = [
     "write_table",
     "atomic_write_text",
     "atomic_path",
+    "GT_BOX_COLUMNS",
+    "RENDER_BOX_COLUMNS",
+    "pair_scene_roots",
+    "pair_image_paths",
+    "pair_boxes",
 ]
 
 TABLE_SUFFIXES = (".csv", ".parquet")
@@ -143,3 +148,61 @@ def write_table(df: pd.DataFrame, path: str | os.PathLike, *, columns: Iterable[
         else:
             df.to_parquet(tmp, index=False)
     return path
+
+
+# --- reading a pairs table's images and boxes (used by score, annotate, proxies, stability) ---
+
+GT_BOX_COLUMNS = ("gt_x0", "gt_y0", "gt_x1", "gt_y1")
+RENDER_BOX_COLUMNS = ("r_x0", "r_y0", "r_x1", "r_y1")
+
+
+def pair_scene_roots(df: pd.DataFrame, *, scene_root=None, base=None, where: str = "pairs"):
+    """Absolute scene folder of every pair row, ``(N,)`` object array of strings.
+
+    Rule: ``scene_root`` (the ``--scene`` option) when given; else the table's ``scene_root``
+    column, a relative value taken from ``base`` (the pairs file's folder; default the
+    current directory). ``gt_path``/``render_path`` are relative to that folder.
+    """
+    import numpy as np
+
+    if scene_root is not None:
+        root = Path(scene_root).resolve()
+        if not root.is_dir():
+            raise InputError("--scene", None, "an existing scene folder", str(scene_root))
+        return np.full(len(df), str(root), dtype=object)
+    if "scene_root" not in df.columns:
+        raise InputError(where, "column 'scene_root'",
+                         "--scene SCENE or a scene_root column (gt_path/render_path are relative to it)",
+                         "neither")
+    base = Path(base) if base is not None else Path.cwd()
+    uniq = {r: str((base / str(r)).resolve()) for r in df["scene_root"].astype(str).unique()}
+    return df["scene_root"].astype(str).map(uniq).to_numpy(dtype=object)
+
+
+def pair_image_paths(df: pd.DataFrame, column: str, *, scene_root=None, base=None,
+                     where: str = "pairs"):
+    """Absolute image paths of ``column`` (``gt_path`` or ``render_path``), ``(N,)`` object array."""
+    import numpy as np
+
+    roots = pair_scene_roots(df, scene_root=scene_root, base=base, where=where)
+    rel = df[column].astype(str).to_numpy(dtype=object)
+    return np.array([p if os.path.isabs(p) else os.path.join(r, p) for r, p in zip(roots, rel, strict=True)],
+                    dtype=object)
+
+
+def pair_boxes(df: pd.DataFrame, columns, *, where: str = "pairs"):
+    """Inclusive integer boxes ``(N, 4)`` int64 from four columns (e.g. :data:`GT_BOX_COLUMNS`)."""
+    import numpy as np
+
+    columns = list(columns)
+    vals = df[columns].to_numpy()
+    try:
+        arr = vals.astype(np.float64)
+    except (TypeError, ValueError):
+        raise InputError(where, f"columns {', '.join(columns)}", "integer pixel indices", "non-numbers") from None
+    bad = ~np.isfinite(arr).all(axis=1) | (arr != np.round(arr)).any(axis=1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise InputError(where, f"row {i + 2}, columns {', '.join(columns)}", "integer pixel indices",
+                         vals[i].tolist())
+    return arr.astype(np.int64)

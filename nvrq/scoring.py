@@ -38,6 +38,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS, pair_boxes, pair_image_paths
 from nvrq.crops import cut_box, encoder_input, read_rgb, resize_to
 from nvrq.metrics import REGISTRY, split_column
 
@@ -45,8 +46,8 @@ __all__ = ["nvrq_similarity", "nvrq_ca", "W_LOW", "resolve_metrics", "ScoreResul
            "score_pairs", "embed_crops", "REQUIRED_COLUMNS"]
 
 W_LOW = 0.1
-GT_BOX = ["gt_x0", "gt_y0", "gt_x1", "gt_y1"]
-R_BOX = ["r_x0", "r_y0", "r_x1", "r_y1"]
+GT_BOX = list(GT_BOX_COLUMNS)
+R_BOX = list(RENDER_BOX_COLUMNS)
 REQUIRED_COLUMNS = ("pair_id", "gt_path", "render_path", *GT_BOX, *R_BOX)
 
 
@@ -108,32 +109,6 @@ class ScoreResult:
     n_encoder_images: int
     n_images_decoded: int
     tau: float | None = None
-
-
-def _boxes(df: pd.DataFrame, cols: list[str], where: str) -> np.ndarray:
-    vals = df[cols].to_numpy()
-    try:
-        arr = vals.astype(np.float64)
-    except (TypeError, ValueError):
-        raise InputError(where, f"columns {', '.join(cols)}", "integer pixel indices", "non-numbers") from None
-    bad = ~np.isfinite(arr).all(axis=1) | (arr != np.round(arr)).any(axis=1)
-    if bad.any():
-        i = int(np.flatnonzero(bad)[0])
-        raise InputError(where, f"row {i + 2}, columns {', '.join(cols)}", "integer pixel indices",
-                         vals[i].tolist())
-    return arr.astype(np.int64)
-
-
-def _resolve_paths(df: pd.DataFrame, column: str, scene_root, where: str) -> np.ndarray:
-    if scene_root is not None:
-        roots = np.full(len(df), os.fspath(scene_root), dtype=object)
-    elif "scene_root" in df.columns:
-        roots = df["scene_root"].astype(str).to_numpy(dtype=object)
-    else:
-        raise InputError(where, "scene_root", "a scene_root column or --scene SCENE", "neither")
-    rel = df[column].astype(str).to_numpy(dtype=object)
-    return np.array([p if os.path.isabs(p) else os.path.join(r, p) for r, p in zip(roots, rel, strict=True)],
-                    dtype=object)
 
 
 def _unique_ids(paths: np.ndarray, boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -200,6 +175,7 @@ def score_pairs(
     encoder=None,
     tau: float | None = None,
     scene_root: str | os.PathLike | None = None,
+    base: str | os.PathLike | None = None,
     batch_size: int = 32,
     progress: bool = True,
     where: str = "pairs",
@@ -224,9 +200,9 @@ def score_pairs(
         raise InputError("--tau", None, f"a tau for encoder {encoder.spec.name} (run `nvrq calibrate-tau` "
                          "or pass --tau)", "none in the registry or the user config")
     n = len(pairs)
-    gt_paths = _resolve_paths(pairs, "gt_path", scene_root, where)
-    r_paths = _resolve_paths(pairs, "render_path", scene_root, where)
-    gt_boxes, r_boxes = _boxes(pairs, GT_BOX, where), _boxes(pairs, R_BOX, where)
+    gt_paths = pair_image_paths(pairs, "gt_path", scene_root=scene_root, base=base, where=where)
+    r_paths = pair_image_paths(pairs, "render_path", scene_root=scene_root, base=base, where=where)
+    gt_boxes, r_boxes = pair_boxes(pairs, GT_BOX, where=where), pair_boxes(pairs, R_BOX, where=where)
     gt_ids, _ = _unique_ids(gt_paths, gt_boxes)
     r_ids, _ = _unique_ids(r_paths, r_boxes)
     groups = [np.asarray(g) for g in pd.Series(np.arange(n)).groupby(gt_paths, sort=False).groups.values()]

@@ -75,11 +75,12 @@ def _objects(
     image path and its frame rank within the track (``frames``), and ``n_objects`` of those with
     a shorter side >= ``min_side`` drawn at random (``chosen``). ``view_shift`` by k frames means
     k steps along the track's frames present in the pairs table."""
-    from nvrq.scoring import GT_BOX, _boxes, _resolve_paths
+    from data_schema.tables import pair_boxes, pair_image_paths
+    from nvrq.scoring import GT_BOX
 
     df = pairs.copy()
-    df["_gt_abs"] = _resolve_paths(pairs, "gt_path", None, where)
-    b = _boxes(pairs, GT_BOX, where)
+    df["_gt_abs"] = pair_image_paths(pairs, "gt_path", where=where)
+    b = pair_boxes(pairs, GT_BOX, where=where)
     df[GT_BOX] = b
     df["_short"] = np.minimum(b[:, 2] - b[:, 0], b[:, 3] - b[:, 1]) + 1
     keys = ["clip_id", "camera", "track_id", "timestamp_us"]

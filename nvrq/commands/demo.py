@@ -31,7 +31,7 @@ def demo_steps(out: Path, args) -> list[tuple[str, list[str]]]:
     """The demo as (program, argv) steps, in order."""
     scene, pairs, metrics = out / "scene", out / "pairs.csv", out / "metrics.csv"
     study, ratings, report = out / "study", out / "ratings.csv", out / "report"
-    metric_list = "psnr,ssim,nvrq,nvrq_ca"
+    metric_list = "psnr,ssim,gmsd,nvrq,nvrq_ca"
     return [
         ("nvrq", ["synth", str(scene), "--seed", str(args.seed), "--seconds", str(args.seconds),
                   "--size", args.size, "--offsets", args.offsets]),
@@ -42,7 +42,7 @@ def demo_steps(out: Path, args) -> list[tuple[str, list[str]]]:
                       "--seed", str(args.seed)]),
         ("annotate", ["simulate", str(study), "--raters", str(args.raters), "--seed", str(args.seed)]),
         ("annotate", ["export", str(study), "--out", str(ratings)]),
-        ("analyze", [str(ratings), "--out", str(report)]),
+        ("analyze", [str(ratings), "--timing", str(out / "metrics.timing.csv"), "--out", str(report)]),
     ]
 
 
@@ -76,5 +76,6 @@ def run(args) -> int:
     print(f"\nDemo finished in {time.perf_counter() - t_all:.0f} s.")
     print(f"Report: {out / 'report' / 'report.html'}")
     print(f"Vote yourself:  annotate serve {out / 'study'}   (then: annotate export {out / 'study'} "
-          f"--out {out / 'ratings.csv'} && analyze {out / 'ratings.csv'} --out {out / 'report'})")
+          f"--out {out / 'ratings.csv'} && analyze {out / 'ratings.csv'} --timing {out / 'metrics.timing.csv'} "
+          f"--out {out / 'report'})")
     return 0

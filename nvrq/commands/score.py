@@ -86,7 +86,7 @@ def run(args) -> int:
 
     cv2.setNumThreads(1)  # crops are small; leave the cores to the encoder and the decode thread
     res = score_pairs(pairs, metrics=columns, encoder=encoder, tau=tau, scene_root=args.scene,
-                      batch_size=args.batch_size, progress=not args.quiet, where=str(args.pairs))
+                      base=Path(args.pairs).resolve().parent, batch_size=args.batch_size, progress=not args.quiet, where=str(args.pairs))
     write_table(res.table, args.out)
     tpath = write_table(res.timing, timing_path(args.out))
     wall = res.timing.attrs.get("wall_seconds", float("nan"))

@@ -66,7 +66,7 @@ def run_yolo(
     table (``render_path``, relative to the scene folder)."""
     from tqdm import tqdm
 
-    from nvrq.scoring import _resolve_paths
+    from data_schema.tables import pair_image_paths
 
     weights = Path(weights)
     if not weights.is_file():
@@ -84,7 +84,7 @@ def run_yolo(
         ) from None
     model = YOLO(os.fspath(weights))
     rel = pairs["render_path"].astype(str).to_numpy(dtype=object)
-    absolute = _resolve_paths(pairs, "render_path", scene_root, where)
+    absolute = pair_image_paths(pairs, "render_path", scene_root=scene_root, where=where)
     uniq = dict(zip(rel, absolute, strict=True))
     paths, boxes, scores, classes = [], [], [], []
     for r, a in tqdm(
