@@ -31,7 +31,7 @@ import numpy as np
 
 from data_schema.errors import InputError
 
-__all__ = ["read_rgb", "cut_box", "pad_to_square", "encoder_input", "resize_to"]
+__all__ = ["read_rgb", "cut_box", "pad_to_square", "encoder_input", "resize_to", "normalised_tensor"]
 
 
 def read_rgb(path: str | os.PathLike) -> np.ndarray:
@@ -100,3 +100,18 @@ def resize_to(crop: np.ndarray, height: int, width: int) -> np.ndarray:
     if crop.shape[:2] == (height, width):
         return crop
     return cv2.resize(crop, (int(width), int(height)), interpolation=cv2.INTER_CUBIC)
+
+
+def normalised_tensor(images: np.ndarray, mean, std, *, device="cpu"):
+    """uint8 RGB ``images: (B, S, S, 3)`` -> float32 torch tensor ``(B, 3, S, S)`` on ``device``.
+
+    Values are ``(x / 255 - mean) / std`` per channel (``mean``/``std``: 3 numbers on [0, 1]
+    RGB, or tensors broadcastable to ``(1, 3, 1, 1)``). Used by every encoder and classifier.
+    """
+    import torch
+
+    x = torch.from_numpy(np.ascontiguousarray(images)).to(device)
+    x = x.permute(0, 3, 1, 2).float().div_(255.0)
+    mean = torch.as_tensor(mean, dtype=torch.float32, device=device).view(1, 3, 1, 1)
+    std = torch.as_tensor(std, dtype=torch.float32, device=device).view(1, 3, 1, 1)
+    return (x - mean) / std

@@ -144,14 +144,14 @@ class Encoder:
         """uint8 (B, S, S, 3) RGB -> normalised float tensor (B, 3, S, S) on the device."""
         import torch
 
+        from nvrq.crops import normalised_tensor
+
         images = np.asarray(images)
         s = self.spec.input_size
         if images.dtype != np.uint8 or images.ndim != 4 or images.shape[1:] != (s, s, 3):
             raise ValueError(f"encoder {self.spec.name}: expected uint8 (B, {s}, {s}, 3), "
                              f"got {images.dtype} {images.shape}")
-        x = torch.from_numpy(np.ascontiguousarray(images)).to(self.device)
-        x = x.permute(0, 3, 1, 2).float().div_(255.0)
-        x = (x - self._mean) / self._std
+        x = normalised_tensor(images, self._mean, self._std, device=self.device)
         return x.contiguous(memory_format=torch.channels_last) if self.channels_last else x
 
     def embed(self, images: np.ndarray) -> np.ndarray:

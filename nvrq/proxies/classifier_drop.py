@@ -31,6 +31,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from nvrq.crops import normalised_tensor
 
 __all__ = [
     "ImageClassifier",
@@ -66,17 +67,9 @@ class ImageClassifier:
         """Softmax probabilities (B, C) float64 of uint8 RGB inputs (B, S, S, 3)."""
         import torch
 
-        x = (
-            torch.from_numpy(np.ascontiguousarray(images))
-            .to(self.device)
-            .permute(0, 3, 1, 2)
-            .float()
-            / 255.0
-        )
-        mean = torch.tensor(self.mean, device=self.device).view(1, 3, 1, 1)
-        std = torch.tensor(self.std, device=self.device).view(1, 3, 1, 1)
+        x = normalised_tensor(images, self.mean, self.std, device=self.device)
         with torch.inference_mode():
-            out = self.model((x - mean) / std)
+            out = self.model(x)
             logits = out.logits if hasattr(out, "logits") else out
             return torch.softmax(logits.double(), dim=1).cpu().numpy()
 

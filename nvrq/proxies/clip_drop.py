@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from nvrq.crops import normalised_tensor
 
 __all__ = ["ZeroShotCLIP", "zero_shot_probs", "load_clip", "clip_drop", "true_category_index"]
 
@@ -100,18 +101,10 @@ class ZeroShotCLIP:
         """Projected image embeddings (B, D) of uint8 RGB inputs (B, S, S, 3)."""
         import torch
 
-        x = (
-            torch.from_numpy(np.ascontiguousarray(images))
-            .to(self.device)
-            .permute(0, 3, 1, 2)
-            .float()
-            / 255.0
-        )
-        mean = torch.tensor(self.mean, device=self.device).view(1, 3, 1, 1)
-        std = torch.tensor(self.std, device=self.device).view(1, 3, 1, 1)
+        x = normalised_tensor(images, self.mean, self.std, device=self.device)
         with torch.inference_mode():
             return (
-                _features(self.model.get_image_features(pixel_values=(x - mean) / std))
+                _features(self.model.get_image_features(pixel_values=x))
                 .double()
                 .cpu()
                 .numpy()
