@@ -84,8 +84,7 @@ def view_validity(
     ``corners_sensor: (..., 8, 3)`` in the camera frame -> ``(code: (...,) int8, box: (..., 4) int64)``
     with ``code`` 0 = valid, 1 = some corner unprojectable (behind the camera or beyond the
     model's range), 2 = some corner outside the image, 3 = too small. ``box`` is only
-    meaningful where ``code == 0``. A candidate invalid in the GT view is counted under the
-    GT view's reason; otherwise under the novel view's.
+    meaningful where ``code == 0``.
     """
     uv, projectable = camera.project(corners_sensor)
     projectable = projectable & np.isfinite(uv).all(axis=-1)
@@ -105,7 +104,10 @@ def make_pairs(
     """All valid GT/render box pairs of ``scene`` (SPEC section 3).
 
     Returns the pairs table (columns :data:`~data_schema.tables.PAIRS_COLUMNS`, then one
-    column per scene attribute, then ``scene_root``) and the :class:`PairStats`.
+    column per scene attribute, then ``scene_root``) and the :class:`PairStats`. A candidate
+    (camera, frame, track, render offset) invalid in the GT view is counted under the GT
+    view's reason, otherwise under the novel view's; novel views are only projected for
+    boxes valid in the GT view.
     """
     from tqdm.auto import tqdm
 
