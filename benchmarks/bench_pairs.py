@@ -76,7 +76,7 @@ def loop_pairs(scene: Scene, cand: list[tuple[int, int, float]], offsets_all: np
             rvec, _ = cv2.Rodrigues(T_ws[:3, :3])
             uv, _ = cv2.projectPoints(corners.reshape(-1, 1, 3), rvec, T_ws[:3, 3], K, dist)
             uv = uv.reshape(-1, 2)
-            if (uv < 0).any() or (uv[:, 0] > W - 1).any() or (uv[:, 1] > H - 1).any():
+            if not np.isfinite(uv).all() or (uv < 0).any() or (uv[:, 0] > W - 1).any() or (uv[:, 1] > H - 1).any():
                 ok = False
                 break
             w, h = box_sides(pixel_box(uv))

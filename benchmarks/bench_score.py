@@ -52,7 +52,7 @@ def random_scene(root: Path, *, frames: int, objects: int, size=(1280, 720), see
         (root / "gt").mkdir(parents=True, exist_ok=True)
         cv2.imwrite(str(root / gt_rel), img())
         sides = rng.integers(40, 300, (objects, 2))
-        x0 = rng.integers(0, w - 320, objects)
+        x0 = rng.integers(20, w - 320, objects)  # the render box moves by up to -15 + 10 px
         y0 = rng.integers(0, h - 320, objects)
         for off in OFFSETS:
             r_rel = f"render_{off:+.2f}/{t}.png"

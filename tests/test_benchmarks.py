@@ -1,0 +1,33 @@
+"""The benchmark scripts run (tiny sizes) and print their ratios, so they cannot rot.
+
+Speeds are not asserted here (the machine is shared and noisy); the scripts themselves
+measure and print them side by side. Only that they run and print the ratio lines.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
+
+CASES = {
+    "bench_pairs.py": (["--tracks", "6", "--frames", "12", "--loop-sample", "50"], "speed-up (vectorised / loop)"),
+    "bench_synth.py": (["--seconds", "0.2", "--size", "160x96"], "images per second per camera"),
+    "bench_score.py": (["--pairs", "14", "--naive-pairs", "4", "--batch-size", "8", "--random-scene"],
+                       "e_speedup_over_naive"),
+    "bench_analyze.py": (["--rows", "20000"], "s"),
+}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("script", list(CASES))
+def test_benchmark_runs_and_prints_its_numbers(script):
+    argv, expected = CASES[script]
+    proc = subprocess.run([sys.executable, str(BENCH / script), *argv], capture_output=True, text=True,
+                          timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert expected in proc.stdout, proc.stdout[-2000:]
