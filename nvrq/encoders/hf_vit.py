@@ -17,7 +17,7 @@ import os
 
 from data_schema.errors import InputError
 
-__all__ = ["ARCHS", "load", "build_random", "final_tokens", "pool_patch_tokens", "embed_tokens"]
+__all__ = ["ARCHS", "load", "from_local", "build_random", "final_tokens", "pool_patch_tokens", "embed_tokens"]
 
 #: arch -> (transformers model class, config class)
 ARCHS = {
@@ -49,7 +49,14 @@ def missing_weights_error(spec, weights) -> InputError:
 
 def load(spec, weights):
     """Real weights from ``weights`` (a model folder) or the hub cache (``local_files_only``)."""
-    model_cls, _ = _classes(spec.arch)
+    return from_local(_classes(spec.arch)[0], spec, weights)
+
+
+def from_local(model_cls, spec, weights):
+    """``model_cls.from_pretrained`` on the folder ``weights`` or the hub cache, never downloading.
+
+    Missing weights raise the :func:`missing_weights_error` naming the encoder.
+    """
     source = os.fspath(weights) if weights is not None else spec.source
     if weights is not None and not os.path.isdir(source):
         raise missing_weights_error(spec, weights)

@@ -6,9 +6,7 @@ the paper); the embedding is the global average of the last stage's feature map
 
 from __future__ import annotations
 
-import os
-
-from nvrq.encoders.hf_vit import missing_weights_error
+from nvrq.encoders.hf_vit import from_local
 
 __all__ = ["load", "build_random", "embed_tokens"]
 
@@ -17,13 +15,7 @@ def load(spec, weights):
     """Real weights from ``weights`` (a model folder) or the hub cache (``local_files_only``)."""
     from transformers import SegformerModel
 
-    source = os.fspath(weights) if weights is not None else spec.source
-    if weights is not None and not os.path.isdir(source):
-        raise missing_weights_error(spec, weights)
-    try:
-        return SegformerModel.from_pretrained(source, local_files_only=True)
-    except OSError:
-        raise missing_weights_error(spec, weights) from None
+    return from_local(SegformerModel, spec, weights)
 
 
 def build_random(spec, overrides: dict):
