@@ -139,7 +139,7 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> None:
 def write_table(df: pd.DataFrame, path: str | os.PathLike, *, columns: Iterable[str] | None = None) -> Path:
     """Write ``df`` as CSV or Parquet (by suffix) atomically; returns the path."""
     path = Path(path)
-    suffix = _check_suffix(path, "output table")
+    suffix = _check_suffix(path, "table")
     if columns is not None:
         df = df.loc[:, list(columns)]
     with atomic_path(path) as tmp:
