@@ -31,7 +31,17 @@ def build_parser() -> argparse.ArgumentParser:
         "CIs, breakdowns, rater screening and an offline HTML report.",
     )
     p.add_argument(
-        "ratings", metavar="RATINGS", help="ratings.csv (or .parquet) from `annotate export`"
+        "ratings",
+        metavar="RATINGS",
+        nargs="?",
+        help="ratings.csv (or .parquet) from `annotate export` (or use --pairs)",
+    )
+    p.add_argument(
+        "--pairs",
+        metavar="PAIRS",
+        default=None,
+        help="instead of RATINGS: every pair of a pairs dataset (or a table with clip_id), "
+        "joined with --metrics, against --target (analysis.all_pairs)",
     )
     p.add_argument(
         "--metrics",
@@ -129,10 +139,45 @@ def _main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     if args.bootstrap < 0:
         raise InputError("--bootstrap", None, "a non-negative number of replicates", args.bootstrap)
-    from analysis.pipeline import run_analysis
     from analysis.report import write_report
 
-    analysis = run_analysis(
+    if (args.ratings is None) == (args.pairs is None):
+        raise InputError("RATINGS/--pairs", None, "either a ratings file or --pairs PAIRS", "both"
+                         if args.pairs else "neither")
+    if args.pairs is not None:
+        analysis = _run_pairs(args)
+    else:
+        analysis = _run_ratings(args)
+    out = write_report(analysis, args.out)
+    _print_summary(analysis)
+    print(f"report: {out / 'report.html'}", file=sys.stderr)
+    return 0
+
+
+def _run_pairs(args):
+    from analysis.all_pairs import run_pairs_analysis
+
+    if args.screen or args.exclude_raters or args.stability:
+        raise InputError("--pairs", None, "no rater or stability options (there are no votes)",
+                         "--screen/--exclude-raters/--stability")
+    return run_pairs_analysis(
+        args.pairs,
+        metrics_paths=args.metrics,
+        lower=_names(args.lower_better),
+        higher=_names(args.higher_better),
+        target=args.target,
+        n_boot=args.bootstrap,
+        seed=args.seed,
+        rank_by=args.rank_by,
+        timing_paths=args.timing,
+        progress=not args.quiet,
+    )
+
+
+def _run_ratings(args):
+    from analysis.pipeline import run_analysis
+
+    return run_analysis(
         args.ratings,
         metrics_paths=args.metrics,
         lower=_names(args.lower_better),
@@ -147,10 +192,6 @@ def _main(argv=None) -> int:
         stability_dir=args.stability,
         progress=not args.quiet,
     )
-    out = write_report(analysis, args.out)
-    _print_summary(analysis)
-    print(f"report: {out / 'report.html'}", file=sys.stderr)
-    return 0
 
 
 def main(argv=None) -> int:

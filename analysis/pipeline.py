@@ -55,6 +55,7 @@ class Analysis:
     seed: int = 0
     rank_by: str = "srcc"
     screen: bool = False
+    source: str = "ratings"  # or "pairs": analyze --pairs (no votes; see analysis.all_pairs)
 
 
 def read_timing(paths) -> pd.DataFrame | None:

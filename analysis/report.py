@@ -286,10 +286,12 @@ def _build(a: Analysis, d: Path) -> None:
 
     t = _texts(a)
     write_table(a.summary, d / "summary.csv")
-    write_table(a.items, d / "items.csv")
+    if a.source == "ratings":  # --pairs: one row per pair (millions) stays in the input files
+        write_table(a.items, d / "items.csv")
     write_table(a.by_offset, d / "by_offset.csv")
     write_table(a.categories, d / "categories.csv")
-    write_table(a.raters, d / "raters.csv")
+    if a.source == "ratings":
+        write_table(a.raters, d / "raters.csv")
     if len(a.encoders):
         write_table(a.encoders, d / "encoders.csv")
     if a.stability is not None:
@@ -320,7 +322,7 @@ def _build(a: Analysis, d: Path) -> None:
         encoders_html=Markup(_html_table(a.encoders)) if len(a.encoders) else "",
         stability_html=Markup(_html_table(a.stability)) if a.stability is not None else "",
         snr_html=Markup(_html_table(a.snr)) if a.snr is not None else "",
-        raters_html=Markup(_html_table(raters)),
+        raters_html=Markup(_html_table(raters)) if a.source == "ratings" else "",
         **t,
     )
     (d / "report.html").write_text(page, encoding="utf-8")
@@ -328,7 +330,8 @@ def _build(a: Analysis, d: Path) -> None:
         f"# NVRQ analysis: {Path(a.ratings_path).name}",
         "",
         f"Target: **{t['target_label']}**. {a.counts['items']} items, {a.counts['tracks']} tracks, "
-        f"{a.counts['clips']} clips; {a.counts['test_votes_kept']} of {a.counts['test_votes']} test votes used.",
+        f"{a.counts['clips']} clips"
+        + (f"; {a.counts['test_votes_kept']} of {a.counts['test_votes']} test votes used." if a.source == "ratings" else "."),
         "",
     ]
     md += [x for x in [t["simulated"]] + t["notes"] if x]
@@ -354,7 +357,7 @@ def _build(a: Analysis, d: Path) -> None:
         md += ["## Stability", "", _md_table(a.stability), ""]
     if a.snr is not None:
         md += ["## SNR", "", _md_table(a.snr), ""]
-    md += [
+    md += [] if a.source != "ratings" else [
         "## Raters",
         "",
         t["alpha_text"],

@@ -28,6 +28,12 @@ def register(sub) -> None:
     n.add_argument(
         "--sequence", default=None, help="rig trajectory sequence_id (default: the first)"
     )
+    n.add_argument(
+        "--clip-attributes",
+        default=None,
+        metavar="FILE",
+        help="table of clip_id + attribute columns (lighting, road_type, ...) for scene.json",
+    )
     allow_negative_lists(n)
     n.set_defaults(func=_run_nurec)
     k = kinds.add_parser(
@@ -45,8 +51,17 @@ def _run_nurec(args) -> int:
     from nvrq.commands.synth import parse_offsets
     from nvrq.sources.nurec import import_nurec
 
+    attributes = None
+    if args.clip_attributes:
+        from nvrq.clip_attributes import read_clip_attributes
+
+        attributes = read_clip_attributes(args.clip_attributes)
     out = import_nurec(
-        args.archive, args.out, offsets=parse_offsets(args.offsets), sequence=args.sequence
+        args.archive,
+        args.out,
+        offsets=parse_offsets(args.offsets),
+        sequence=args.sequence,
+        clip_attributes=attributes,
     )
     print(f"wrote {out}")
     return 0

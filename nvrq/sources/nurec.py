@@ -222,8 +222,13 @@ def import_nurec(
     *,
     offsets=(-3, -2, -1, 0, 1, 2, 3),
     sequence: str | None = None,
+    clip_attributes=None,
 ) -> Path:
-    """Convert the NuRec ``archive`` into the scene folder ``out`` (module docstring); returns ``out``."""
+    """Convert the NuRec ``archive`` into the scene folder ``out`` (module docstring); returns ``out``.
+
+    ``clip_attributes``: a :class:`nvrq.clip_attributes.ClipAttributes` whose row for this clip
+    becomes the scene's ``attributes`` (NuRec archives carry none); ``None``: empty attributes.
+    """
     from data_schema.scene import save_scene
     from nvrq.render_plan import default_image_path
 
@@ -314,7 +319,7 @@ def import_nurec(
     tracks = _read_tracks(tracks_doc, seq_ids[k], f"{archive}:{tr_member}", nre_to_world, scale)
     doc = {
         "clip_id": seq_ids[k],
-        "attributes": {},
+        "attributes": {} if clip_attributes is None else clip_attributes.require(seq_ids[k]),
         "cameras": cameras,
         "rig_trajectory": {"timestamps_us": rig_ts.tolist(), "T_rig_world": T_rw.tolist()},
         "tracks": tracks,
