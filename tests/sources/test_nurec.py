@@ -176,3 +176,19 @@ def test_cli_and_errors(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "c.usdz" in err and "zip" in err and "Traceback" not in err
     assert not (tmp_path / "x").exists()  # nothing half-written
+
+
+def test_clip_attributes_table_fills_scene_attributes(tmp_path, capsys):
+    """NuRec archives carry no lighting / road type; a clip attributes table supplies them."""
+    arc = _archive(tmp_path / "ok.usdz")
+    table = tmp_path / "attrs.csv"
+    pd.DataFrame({"clip_id": ["seq-1", "other"], "lighting": ["night", "daytime"],
+                  "road_type": ["urban", ""]}).to_csv(table, index=False)
+    args = ["import", "nurec", str(arc), str(tmp_path / "s"), "--clip-attributes", str(table)]
+    assert main(args) == 0
+    assert load_scene(tmp_path / "s", check_images=False).attributes == {
+        "lighting": "night", "road_type": "urban"}
+    pd.DataFrame({"clip_id": ["other"], "lighting": ["night"]}).to_csv(table, index=False)
+    assert main(args[:3] + [str(tmp_path / "t")] + args[4:]) == 2
+    assert "attrs.csv: clip_id: expected a row for clip 'seq-1'" in capsys.readouterr().err
+    assert not (tmp_path / "t").exists()
