@@ -97,7 +97,7 @@ def dataset_files(path, *, what: str = "dataset") -> list[tuple[str, Path]]:
     if not root.is_dir():
         raise InputError(root, None, f"an existing {what} folder", "no such folder")
     doc = _manifest(root)
-    found = sorted(root.glob(f"{PARTITION}=*/*.parquet"))
+    found = sorted(f for f in root.glob(f"{PARTITION}=*/*.parquet") if not f.name.startswith("."))
     if not found:
         stray = next(iter(sorted(root.rglob("*.parquet"))), None)
         got = f"{stray.relative_to(root)} outside clip_id= folders" if stray else "no Parquet files"

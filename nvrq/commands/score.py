@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from nvrq.engines import add_engine_args
+
 __all__ = ["register", "run", "timing_path"]
 
 
@@ -27,6 +29,7 @@ def register(sub) -> None:
     p.add_argument("--device", default="cpu", help="torch device, e.g. cpu or cuda (default cpu)")
     p.add_argument("--threads", type=int, default=None, help="torch CPU threads (default: all cores)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_engine_args(p)
     p.set_defaults(func=run)
 
 
@@ -55,6 +58,11 @@ def run(args) -> int:
     columns = resolve_metrics(args.metrics.split(","), encoder_name)
     if args.batch_size < 1:
         raise InputError("--batch-size", None, "a positive integer", args.batch_size)
+    from nvrq.engines.cli import check_engine_args
+
+    check_engine_args(args)
+    if args.engine == "ray":
+        return _ray(args, columns, encoder_name)
     pairs = read_table(args.pairs, required=REQUIRED_COLUMNS, what="pairs table")
     if not str(args.out).lower().endswith((".csv", ".parquet")):
         raise InputError(args.out, None, "an output file ending in .csv or .parquet", args.out)
@@ -99,3 +107,15 @@ def run(args) -> int:
     print(msg, file=sys.stderr)
     print(f"-> {args.out}, {tpath}")
     return 0
+
+
+def _ray(args, columns, encoder_name) -> int:
+    from nvrq.calibrate import resolve_tau
+    from nvrq.engines.cli import run_ray_score
+    from nvrq.metrics import split_column
+
+    tau = None
+    if any(split_column(c)[0] == "nvrq_ca" for c in columns):
+        tau, _ = resolve_tau(encoder_name, tau=args.tau, config=args.config)
+    return run_ray_score(args, columns=columns, encoder_name=encoder_name, tau=tau,
+                         timing_path=timing_path(args.out))

@@ -1,0 +1,237 @@
+"""``nvrq score PAIRS --engine ray [--address ADDR] --out METRICS/``: scoring on a Ray cluster.
+
+Stages (Ray Data, streaming):
+
+1. The driver reads the pairs input (a dataset partitioned by ``clip_id``, or a table with a
+   ``clip_id`` column) and plans shards (:mod:`nvrq.engines.shards`): GT groups stay whole,
+   so every GT crop is still embedded once. Shards already on disk are skipped (resume).
+2. CPU tasks (one per shard): read the shard's pairs rows, decode each image once and cut
+   the crops (:func:`nvrq.score_core.iter_crop_batches`), and compute the pixel metrics with
+   :func:`nvrq.score_core.score_crop_batch`.
+3. An actor pool holds the encoder (one GPU per actor with ``--device cuda``, CPU actors
+   otherwise) and computes NVRQ / NVRQ-CA with the same :func:`score_crop_batch`.
+4. The driver writes each finished shard atomically as it arrives, then the manifest.
+
+Images and the output folder must be readable (writable) at the same paths on every node.
+"""
+
+from __future__ import annotations
+
+import pickle
+import socket
+import sys
+import time
+from contextlib import contextmanager
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+import pandas as pd
+
+from data_schema.errors import InputError
+from nvrq.engines import require_ray
+from nvrq.engines import shards as sh
+
+__all__ = ["RayJob", "connect", "check_address", "score_on_ray"]
+
+
+@dataclass(frozen=True)
+class RayJob:
+    """Everything a Ray scoring run needs (``columns`` from :func:`nvrq.scoring.resolve_metrics`)."""
+
+    pairs: str
+    out: str
+    columns: tuple
+    encoder: str | None = None
+    weights: str | None = None
+    device: str = "cpu"
+    tau: float | None = None
+    batch_size: int = 32
+    shard_pairs: int = 256
+    actors: int | None = None
+    progress: bool = True
+
+    @property
+    def encoder_columns(self) -> list[str]:
+        from nvrq.metrics import REGISTRY, split_column
+
+        return [c for c in self.columns if REGISTRY[split_column(c)[0]].needs_encoder]
+
+    @property
+    def pixel_columns(self) -> list[str]:
+        return [c for c in self.columns if c not in self.encoder_columns]
+
+
+def check_address(address: str) -> None:
+    """One-line error when nothing listens at ``HOST:PORT`` (Ray would otherwise wait a minute)."""
+    if address == "auto":
+        return
+    host, _, port = address.rpartition(":")
+    host = host.removeprefix("ray://") or "127.0.0.1"
+    try:
+        with socket.create_connection((host, int(port)), timeout=3):
+            return
+    except (OSError, ValueError) as exc:
+        raise InputError("--address", None, "a running Ray cluster at HOST:PORT (ray start --head)",
+                         f"{address} ({type(exc).__name__}: {exc})") from None
+
+
+@contextmanager
+def connect(address: str | None = None):
+    """Use the running Ray session, or join ``address``, or start a local instance sized to
+    this machine; a session started here is shut down on exit."""
+    ray = require_ray()
+    if address:
+        check_address(address)
+    if ray.is_initialized():
+        yield ray
+        return
+    import logging
+
+    ray.init(address=address, include_dashboard=False, log_to_driver=False,
+             logging_level=logging.WARNING, configure_logging=True)
+    try:
+        yield ray
+    finally:
+        ray.shutdown()
+
+
+@lru_cache(maxsize=4)
+def _pairs_table(path: str) -> pd.DataFrame:
+    """A pairs file read once per worker process (a dataset's clip file or a whole table)."""
+    from data_schema.tables import read_table
+
+    if path.endswith(".parquet"):
+        return pd.read_parquet(path)
+    return read_table(path, what="pairs table")
+
+
+def _decode_shard(row: dict, *, pixel_columns: list[str]) -> dict:
+    """CPU task: the shard's crops (decode + crop) and its pixel metrics."""
+    from nvrq.score_core import iter_crop_batches, score_crop_batch
+
+    shard = row["shard"]
+    df = _pairs_table(shard.path).iloc[list(shard.rows)].reset_index(drop=True)
+    timings: dict = {}
+    t0 = time.perf_counter()
+    batches = list(iter_crop_batches(df, base=shard.base, max_pairs=max(len(df), 1), background=False,
+                                     where=shard.path))
+    timings["decode"] = time.perf_counter() - t0
+    values = {c: np.full(len(df), np.nan) for c in pixel_columns}
+    for b in batches:
+        if pixel_columns:
+            for c, v in score_crop_batch(b, metrics=pixel_columns, timings=timings).items():
+                values[c][b.rows] = v
+    return {"shard": shard, "payload": pickle.dumps((df["pair_id"].to_numpy(), batches, values, timings))}
+
+
+class _EncoderActor:
+    """Actor: loads the encoder once, then scores shards' crops with :func:`score_crop_batch`."""
+
+    def __init__(self, job: RayJob, threads: int | None):
+        import torch
+
+        from nvrq.encoders import load_encoder
+
+        if threads:
+            torch.set_num_threads(threads)
+        self.job = job
+        self.encoder = load_encoder(job.encoder, weights=job.weights, device=job.device)
+
+    def __call__(self, batch: dict) -> dict:
+        return {"shard": batch["shard"], "payload": [_finish(p, self.job, self.encoder) for p in batch["payload"]]}
+
+
+def _finish(payload: bytes, job: RayJob, encoder) -> bytes:
+    from nvrq.score_core import score_crop_batch
+
+    pair_ids, batches, values, timings = pickle.loads(payload)
+    enc = job.encoder_columns
+    for c in enc:
+        values[c] = np.full(len(pair_ids), np.nan)
+    for b in batches if enc else ():
+        for c, v in score_crop_batch(b, metrics=enc, encoder=encoder, tau=job.tau,
+                                     batch_size=job.batch_size, timings=timings).items():
+            values[c][b.rows] = v
+    table = pd.DataFrame({"pair_id": pair_ids, **{c: values[c] for c in job.columns}})
+    return pickle.dumps((table, _timing_per_column(job, timings)))
+
+
+def _timing_per_column(job: RayJob, timings: dict) -> dict:
+    """Seconds per metric column: the shared decode plus the column's own (encoder: all of it)."""
+    decode = float(timings.get("decode", 0.0))
+    enc = sum(float(v) for k, v in timings.items() if k not in job.columns and k != "decode")
+    return {c: decode + float(timings.get(c, enc if c in job.encoder_columns else 0.0)) for c in job.columns}
+
+
+def _pipeline(ray, job: RayJob, todo: list):
+    """The Ray Data stream of finished shards: ``{"shard", "payload"}`` rows."""
+    import ray.data
+
+    ctx = ray.data.DataContext.get_current()
+    ctx.enable_progress_bars = False
+    ctx.verbose_stats_logs = False
+    items = [{"shard": s} for s in todo]
+    stream = ray.data.from_items(items, override_num_blocks=max(1, len(items))).map(
+        _decode_shard, fn_kwargs={"pixel_columns": job.pixel_columns}, num_cpus=1)
+    if job.encoder_columns:
+        cpus = int(ray.cluster_resources().get("CPU", 1))
+        gpus = int(ray.cluster_resources().get("GPU", 0))
+        cuda = job.device.startswith("cuda")
+        if cuda and gpus < 1:
+            raise InputError("--device", None, "a GPU in the Ray cluster for --device cuda", "none")
+        n = job.actors or (gpus if cuda else max(1, cpus // 2))
+        threads = None if cuda else max(1, cpus // n)
+        stream = stream.map_batches(
+            _EncoderActor, fn_constructor_kwargs={"job": job, "threads": threads}, batch_size=1,
+            concurrency=n, num_gpus=1 if cuda else 0, num_cpus=0.5 if not cuda else 1)
+    else:
+        stream = stream.map(lambda r: {"shard": r["shard"], "payload": _finish(r["payload"], job, None)})
+    return stream
+
+
+def _input_error(exc: BaseException) -> InputError | None:
+    """The user's InputError inside a Ray task error, as a plain one-line InputError."""
+    seen = exc
+    for _ in range(10):
+        if isinstance(seen, InputError):
+            return InputError(seen.where, seen.field, seen.expected, seen.got)
+        seen = getattr(seen, "cause", None) or seen.__cause__
+        if seen is None:
+            return None
+    return None
+
+
+def score_on_ray(job: RayJob, *, timing_path, address: str | None = None) -> dict:
+    """Run (or resume) ``job``; write ``timing_path`` at the end; returns counts
+    ``{pairs, shards, shards_done_before, pairs_scored, seconds}``."""
+    from tqdm import tqdm
+
+    from nvrq.scoring import REQUIRED_COLUMNS as REQUIRED_SCORE_COLUMNS
+
+    t0 = time.perf_counter()
+    require_ray()
+    if address:
+        check_address(address)  # before anything is written
+    sources = sh.read_sources(job.pairs, required=REQUIRED_SCORE_COLUMNS)
+    options = {"columns": list(job.columns), "encoder": job.encoder if job.encoder_columns else None,
+               "weights": job.weights if job.encoder_columns else None, "tau": job.tau}
+    plan = sh.load_or_create_plan(job.out, job.pairs, sources, options=options, max_pairs=job.shard_pairs)
+    n_todo = sum(len(s.rows) for s in plan.todo)
+    if plan.todo:
+        with connect(address) as ray, tqdm(total=n_todo, unit="pair", desc="score (ray)", file=sys.stderr,
+                                           disable=not job.progress) as bar:
+            try:
+                for row in _pipeline(ray, job, plan.todo).iter_rows():
+                    table, timing = pickle.loads(row["payload"])
+                    sh.write_shard(plan.out, row["shard"], table, timing)
+                    bar.update(len(table))
+            except Exception as exc:
+                err = _input_error(exc)
+                if err is None:
+                    raise
+                raise err from None
+    sh.finalize(plan, timing_path=timing_path)
+    return {"pairs": plan.doc["n_pairs"], "shards": len(plan.shards),
+            "shards_done_before": len(plan.shards) - len(plan.todo), "pairs_scored": n_todo,
+            "seconds": time.perf_counter() - t0}
