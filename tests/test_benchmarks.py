@@ -20,6 +20,7 @@ CASES = {
     "bench_score.py": (["--pairs", "14", "--naive-pairs", "4", "--batch-size", "8", "--random-scene"],
                        "e_speedup_over_naive"),
     "bench_analyze.py": (["--rows", "20000"], "s"),
+    "bench_analyze_pairs.py": (["--rows", "20000", "--clips", "12"], "peak RSS"),
 }
 
 
