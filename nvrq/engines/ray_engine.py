@@ -112,11 +112,9 @@ def _decode_shard(row: dict, *, pixel_columns: list[str]) -> dict:
 
     shard = row["shard"]
     df = _pairs_table(shard.path).iloc[list(shard.rows)].reset_index(drop=True)
-    timings: dict = {}
-    t0 = time.perf_counter()
     batches = list(iter_crop_batches(df, base=shard.base, max_pairs=max(len(df), 1), background=False,
                                      where=shard.path))
-    timings["decode"] = time.perf_counter() - t0
+    timings = {"decode": sum(b.decode_seconds for b in batches)}
     values = {c: np.full(len(df), np.nan) for c in pixel_columns}
     for b in batches:
         if pixel_columns:
@@ -158,10 +156,11 @@ def _finish(payload: bytes, job: RayJob, encoder) -> bytes:
 
 
 def _timing_per_column(job: RayJob, timings: dict) -> dict:
-    """Seconds per metric column: the shared decode plus the column's own (encoder: all of it)."""
-    decode = float(timings.get("decode", 0.0))
-    enc = sum(float(v) for k, v in timings.items() if k not in job.columns and k != "decode")
-    return {c: decode + float(timings.get(c, enc if c in job.encoder_columns else 0.0)) for c in job.columns}
+    """Seconds per metric column, by the local engine's rule (:func:`nvrq.scoring.timing_table`)."""
+    from nvrq.scoring import timing_table
+
+    t = timing_table(list(job.columns), timings, n_pairs=0, wall=0.0)
+    return dict(zip(t["metric"], t["seconds"].astype(float), strict=True))
 
 
 def _pipeline(ray, job: RayJob, todo: list):
