@@ -111,11 +111,13 @@ def run(args) -> int:
 
 def _ray(args, columns, encoder_name) -> int:
     from nvrq.calibrate import resolve_tau
-    from nvrq.engines.cli import run_ray_score
+    from nvrq.engines.cli import run_ray
+    from nvrq.engines.scorers import MetricScorer
     from nvrq.metrics import split_column
 
     tau = None
     if any(split_column(c)[0] == "nvrq_ca" for c in columns):
         tau, _ = resolve_tau(encoder_name, tau=args.tau, config=args.config)
-    return run_ray_score(args, columns=columns, encoder_name=encoder_name, tau=tau,
-                         timing_path=timing_path(args.out))
+    scorer = MetricScorer(tuple(columns), encoder=encoder_name, weights=args.weights, device=args.device,
+                          tau=tau, batch_size=args.batch_size)
+    return run_ray(args, scorer, timing_path=timing_path(args.out))

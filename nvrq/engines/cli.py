@@ -1,4 +1,5 @@
-"""The ``--engine ray`` branch of ``nvrq score`` (a thin shell over :func:`score_on_ray`)."""
+"""The ``--engine ray`` branch of ``nvrq score`` and ``nvrq proxy imagenet|clip`` (a thin shell
+over :func:`nvrq.engines.ray_engine.score_on_ray`)."""
 
 from __future__ import annotations
 
@@ -6,7 +7,7 @@ import sys
 
 from data_schema.errors import InputError
 
-__all__ = ["check_engine_args", "run_ray_score"]
+__all__ = ["check_engine_args", "run_ray"]
 
 
 def check_engine_args(args) -> None:
@@ -15,6 +16,8 @@ def check_engine_args(args) -> None:
         if args.address:
             raise InputError("--address", None, "--engine ray", f"--engine {args.engine}")
         return
+    if getattr(args, "scene", None) is not None:
+        raise InputError("--scene", None, "the pairs' scene_root column with --engine ray", args.scene)
     if str(args.out).lower().endswith((".csv", ".parquet")):
         raise InputError("--out", None, "a folder for --engine ray (Parquet shards partitioned by clip_id)",
                          args.out)
@@ -24,16 +27,19 @@ def check_engine_args(args) -> None:
         raise InputError("--actors", None, "a positive number of actors", args.actors)
 
 
-def run_ray_score(args, *, columns, encoder_name, tau, timing_path) -> int:
-    """Score on Ray; ``columns``/``encoder_name``/``tau`` resolved by the caller as for local."""
+def run_ray(args, scorer, *, timing_path=None) -> int:
+    """Run ``scorer`` (:mod:`nvrq.engines.scorers`) over ``args.pairs`` on Ray into ``args.out``."""
+    from pathlib import Path
+
     from nvrq.engines import require_ray
     from nvrq.engines.ray_engine import RayJob, score_on_ray
 
     require_ray()
-    job = RayJob(pairs=str(args.pairs), out=str(args.out), columns=tuple(columns), encoder=encoder_name,
-                 weights=args.weights, device=args.device, tau=tau, batch_size=args.batch_size,
-                 shard_pairs=args.shard_pairs, actors=args.actors, progress=not args.quiet)
-    res = score_on_ray(job, timing_path=timing_path, address=args.address)
+    job = RayJob(pairs=str(args.pairs), out=str(args.out), scorer=scorer, shard_pairs=args.shard_pairs,
+                 actors=args.actors, progress=not args.quiet)
+    out = Path(args.out)
+    res = score_on_ray(job, timing_path=timing_path or out.with_name(out.name + ".timing.csv"),
+                       address=args.address)
     done = f"{res['shards_done_before']} of {res['shards']} shards were already written; " \
         if res["shards_done_before"] else ""
     print(f"{done}scored {res['pairs_scored']} pairs in {res['seconds']:.1f} s on Ray -> {args.out}",

@@ -37,29 +37,19 @@ __all__ = ["RayJob", "connect", "check_address", "score_on_ray"]
 
 @dataclass(frozen=True)
 class RayJob:
-    """Everything a Ray scoring run needs (``columns`` from :func:`nvrq.scoring.resolve_metrics`)."""
+    """A Ray run: the pairs input, the output folder and what to compute
+    (a scorer of :mod:`nvrq.engines.scorers`)."""
 
     pairs: str
     out: str
-    columns: tuple
-    encoder: str | None = None
-    weights: str | None = None
-    device: str = "cpu"
-    tau: float | None = None
-    batch_size: int = 32
+    scorer: object
     shard_pairs: int = 256
     actors: int | None = None
     progress: bool = True
 
     @property
-    def encoder_columns(self) -> list[str]:
-        from nvrq.metrics import REGISTRY, split_column
-
-        return [c for c in self.columns if REGISTRY[split_column(c)[0]].needs_encoder]
-
-    @property
-    def pixel_columns(self) -> list[str]:
-        return [c for c in self.columns if c not in self.encoder_columns]
+    def columns(self) -> list[str]:
+        return list(self.scorer.columns)
 
 
 def check_address(address: str) -> None:
@@ -106,7 +96,7 @@ def _pairs_table(path: str) -> pd.DataFrame:
     return read_table(path, what="pairs table")
 
 
-def _decode_shard(row: dict, *, pixel_columns: list[str]) -> dict:
+def _decode_shard(row: dict, *, scorer) -> dict:
     """CPU task: the shard's crops (decode + crop) and its pixel metrics."""
     from nvrq.score_core import iter_crop_batches, score_crop_batch
 
@@ -115,52 +105,39 @@ def _decode_shard(row: dict, *, pixel_columns: list[str]) -> dict:
     batches = list(iter_crop_batches(df, base=shard.base, max_pairs=max(len(df), 1), background=False,
                                      where=shard.path))
     timings = {"decode": sum(b.decode_seconds for b in batches)}
-    values = {c: np.full(len(df), np.nan) for c in pixel_columns}
-    for b in batches:
-        if pixel_columns:
-            for c, v in score_crop_batch(b, metrics=pixel_columns, timings=timings).items():
-                values[c][b.rows] = v
-    return {"shard": shard, "payload": pickle.dumps((df["pair_id"].to_numpy(), batches, values, timings))}
+    values = {c: np.full(len(df), np.nan) for c in scorer.columns}
+    for b in batches if scorer.pixel_columns else ():
+        for c, v in score_crop_batch(b, metrics=list(scorer.pixel_columns), timings=timings).items():
+            values[c][b.rows] = v
+    extra = {c: df[c].to_numpy() for c in scorer.extra_columns}
+    return {"shard": shard, "payload": pickle.dumps((df["pair_id"].to_numpy(), batches, values, extra, timings))}
 
 
-class _EncoderActor:
-    """Actor: loads the encoder once, then scores shards' crops with :func:`score_crop_batch`."""
+class _ModelActor:
+    """Actor: builds the scorer's model (encoder, classifier, CLIP) once, then scores shards."""
 
-    def __init__(self, job: RayJob, threads: int | None):
+    def __init__(self, scorer, threads: int | None):
         import torch
-
-        from nvrq.encoders import load_encoder
 
         if threads:
             torch.set_num_threads(threads)
-        self.job = job
-        self.encoder = load_encoder(job.encoder, weights=job.weights, device=job.device)
+        self.scorer = scorer
+        self.model = scorer.load()
 
     def __call__(self, batch: dict) -> dict:
-        return {"shard": batch["shard"], "payload": [_finish(p, self.job, self.encoder) for p in batch["payload"]]}
+        return {"shard": batch["shard"], "payload": [_finish(p, self.scorer, self.model) for p in batch["payload"]]}
 
 
-def _finish(payload: bytes, job: RayJob, encoder) -> bytes:
-    from nvrq.score_core import score_crop_batch
+def _finish(payload: bytes, scorer, model) -> bytes:
+    """The shard's model columns (if any) and its table ``pair_id`` + columns, pickled."""
+    from nvrq.engines.scorers import timing_per_column
 
-    pair_ids, batches, values, timings = pickle.loads(payload)
-    enc = job.encoder_columns
-    for c in enc:
-        values[c] = np.full(len(pair_ids), np.nan)
-    for b in batches if enc else ():
-        for c, v in score_crop_batch(b, metrics=enc, encoder=encoder, tau=job.tau,
-                                     batch_size=job.batch_size, timings=timings).items():
+    pair_ids, batches, values, extra, timings = pickle.loads(payload)
+    for b in batches if scorer.model_columns else ():
+        for c, v in scorer.score(model, b, extra, timings).items():
             values[c][b.rows] = v
-    table = pd.DataFrame({"pair_id": pair_ids, **{c: values[c] for c in job.columns}})
-    return pickle.dumps((table, _timing_per_column(job, timings)))
-
-
-def _timing_per_column(job: RayJob, timings: dict) -> dict:
-    """Seconds per metric column, by the local engine's rule (:func:`nvrq.scoring.timing_table`)."""
-    from nvrq.scoring import timing_table
-
-    t = timing_table(list(job.columns), timings, n_pairs=0, wall=0.0)
-    return dict(zip(t["metric"], t["seconds"].astype(float), strict=True))
+    table = pd.DataFrame({"pair_id": pair_ids, **{c: values[c] for c in scorer.columns}})
+    return pickle.dumps((table, timing_per_column(scorer, timings)))
 
 
 def _pipeline(ray, job: RayJob, todo: list):
@@ -171,21 +148,22 @@ def _pipeline(ray, job: RayJob, todo: list):
     ctx.enable_progress_bars = False
     ctx.verbose_stats_logs = False
     items = [{"shard": s} for s in todo]
+    scorer = job.scorer
     stream = ray.data.from_items(items, override_num_blocks=max(1, len(items))).map(
-        _decode_shard, fn_kwargs={"pixel_columns": job.pixel_columns}, num_cpus=1)
-    if job.encoder_columns:
-        cpus = int(ray.cluster_resources().get("CPU", 1))
-        gpus = int(ray.cluster_resources().get("GPU", 0))
-        cuda = job.device.startswith("cuda")
-        if cuda and gpus < 1:
-            raise InputError("--device", None, "a GPU in the Ray cluster for --device cuda", "none")
-        n = job.actors or (gpus if cuda else max(1, cpus // 2))
-        threads = None if cuda else max(1, cpus // n)
-        stream = stream.map_batches(
-            _EncoderActor, fn_constructor_kwargs={"job": job, "threads": threads}, batch_size=1,
-            concurrency=n, num_gpus=1 if cuda else 0, num_cpus=0.5 if not cuda else 1)
-    else:
-        stream = stream.map(lambda r: {"shard": r["shard"], "payload": _finish(r["payload"], job, None)})
+        _decode_shard, fn_kwargs={"scorer": scorer}, num_cpus=1)
+    if not scorer.model_columns:
+        return stream.map(lambda r: {"shard": r["shard"], "payload": _finish(r["payload"], scorer, None)})
+    cpus = int(ray.cluster_resources().get("CPU", 1))
+    gpus = int(ray.cluster_resources().get("GPU", 0))
+    cuda = scorer.device.startswith("cuda")
+    if cuda and gpus < 1:
+        raise InputError("--device", None, "a GPU in the Ray cluster for --device cuda", "none")
+    n = job.actors or (gpus if cuda else max(1, cpus // 2))
+    threads = None if cuda else max(1, cpus // n)
+    # actors reserve half a CPU (or a GPU), so decode tasks run beside them and are not fused in
+    stream = stream.map_batches(
+        _ModelActor, fn_constructor_kwargs={"scorer": scorer, "threads": threads}, batch_size=1,
+        concurrency=n, num_gpus=1 if cuda else 0, num_cpus=1 if cuda else 0.5)
     return stream
 
 
@@ -206,16 +184,15 @@ def score_on_ray(job: RayJob, *, timing_path, address: str | None = None) -> dic
     ``{pairs, shards, shards_done_before, pairs_scored, seconds}``."""
     from tqdm import tqdm
 
-    from nvrq.scoring import REQUIRED_COLUMNS as REQUIRED_SCORE_COLUMNS
+    from nvrq.scoring import REQUIRED_COLUMNS
 
     t0 = time.perf_counter()
     require_ray()
     if address:
         check_address(address)  # before anything is written
-    sources = sh.read_sources(job.pairs, required=REQUIRED_SCORE_COLUMNS)
-    options = {"columns": list(job.columns), "encoder": job.encoder if job.encoder_columns else None,
-               "weights": job.weights if job.encoder_columns else None, "tau": job.tau}
-    plan = sh.load_or_create_plan(job.out, job.pairs, sources, options=options, max_pairs=job.shard_pairs)
+    sources = sh.read_sources(job.pairs, required=REQUIRED_COLUMNS + tuple(job.scorer.extra_columns))
+    plan = sh.load_or_create_plan(job.out, job.pairs, sources, options=job.scorer.options(),
+                                  max_pairs=job.shard_pairs)
     n_todo = sum(len(s.rows) for s in plan.todo)
     if plan.todo:
         with connect(address) as ray, tqdm(total=n_todo, unit="pair", desc="score (ray)", file=sys.stderr,

@@ -56,6 +56,31 @@ def test_ray_equals_local_engine(ray_local, fleet, tmp_path):
     assert _score(pairs_ds, tmp_path / "m") == 0
 
 
+def test_imagenet_proxy_on_ray_equals_a_per_pair_loop(ray_local, fleet, tmp_path):
+    from PIL import Image
+
+    from nvrq.crops import encoder_input
+    from nvrq.proxies.classifier_drop import load_classifier, top_class_drop
+
+    root, pairs_ds = fleet
+    assert main(["proxy", "imagenet", str(pairs_ds), "--out", str(tmp_path / "p"), "--engine", "ray",
+                 "--shard-pairs", "18", "--quiet"]) == 0
+    got = ds.read_dataset(tmp_path / "p")
+    # expected: Eq. 9 pair by pair, images read with Pillow and cropped by numpy slicing
+    pairs = ds.read_dataset(pairs_ds)
+    clf = load_classifier("efficientnet-lite0")
+
+    def crop(row, path, box):
+        img = np.asarray(Image.open(Path(row.scene_root) / path).convert("RGB"))
+        return encoder_input(img[box[1]:box[3] + 1, box[0]:box[2] + 1], clf.input_size)
+
+    gt = np.stack([crop(r, r.gt_path, (r.gt_x0, r.gt_y0, r.gt_x1, r.gt_y1)) for r in pairs.itertuples()])
+    rd = np.stack([crop(r, r.render_path, (r.r_x0, r.r_y0, r.r_x1, r.r_y1)) for r in pairs.itertuples()])
+    want = top_class_drop(clf.probabilities(gt), clf.probabilities(rd))
+    assert got.pair_id.tolist() == pairs.pair_id.tolist()
+    np.testing.assert_allclose(got.imagenet_drop, want, atol=1e-5, rtol=0)
+
+
 def test_resume_after_sigkill_of_the_driver(ray_local, fleet, tmp_path):
     _, pairs_ds = fleet
     out = tmp_path / "m"
