@@ -7,6 +7,7 @@ local Ultralytics YOLO model (optional extra ``[yolo]``).
 
 from __future__ import annotations
 
+from nvrq.commands._encoder import add_model_arguments, options_named, prepare_device
 from nvrq.engines import add_engine_args
 
 __all__ = ["register"]
@@ -31,10 +32,7 @@ def _model_opts(p) -> None:
         help="scene folder the image paths are relative to "
         "(default: the pairs table's scene_root column)",
     )
-    p.add_argument(
-        "--batch-size", type=int, default=32, help="pairs per forward batch (default 32)"
-    )
-    p.add_argument("--device", default="cpu", help="torch device (default cpu)")
+    add_model_arguments(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -131,6 +129,7 @@ def run_detect(args) -> int:
 
     _check_out(args.out)
     pairs = _read_pairs(args.pairs)
+    prepare_device(args)
     dets = run_yolo(
         pairs,
         args.yolo,
@@ -144,31 +143,19 @@ def run_detect(args) -> int:
     return 0
 
 
-def _check_batch(args) -> None:
-    from data_schema.errors import InputError
-
-    if args.batch_size < 1:
-        raise InputError("--batch-size", None, "a positive integer", args.batch_size)
-
-
 def run_imagenet(args) -> int:
     from data_schema.tables import write_table
     from nvrq.proxies.classifier_drop import imagenet_drop, load_classifier
 
-    _check_batch(args)
     if args.engine == "ray":
         return _ray_proxy(args, "imagenet")
     _check_out(args.out)
     pairs = _read_pairs(args.pairs, ("gt_path", "gt_x0", "gt_y0", "gt_x1", "gt_y1"))
+    prepare_device(args)
     clf = load_classifier(args.classifier, weights=args.weights, device=args.device)
-    out = imagenet_drop(
-        pairs,
-        clf,
-        scene_root=args.scene,
-        batch_size=args.batch_size,
-        progress=not args.quiet,
-        where=str(args.pairs),
-    )
+    with options_named(args):
+        out = imagenet_drop(pairs, clf, scene_root=args.scene, batch_size=args.batch_size,
+                            progress=not args.quiet, where=str(args.pairs))
     write_table(out, args.out)
     return 0
 
@@ -178,7 +165,6 @@ def run_clip(args) -> int:
     from nvrq.proxies import load_class_maps
     from nvrq.proxies.clip_drop import clip_drop, load_clip, true_category_index
 
-    _check_batch(args)
     if args.engine == "ray":
         return _ray_proxy(args, "clip")
     _check_out(args.out)
@@ -191,16 +177,11 @@ def run_clip(args) -> int:
         list(maps["clip_prompts"]),
         where=str(args.pairs),
     )
+    prepare_device(args)
     clip = load_clip(args.clip, prompts=maps["clip_prompts"], device=args.device)
-    out = clip_drop(
-        pairs,
-        clip,
-        category_map=maps["clip_category"],
-        scene_root=args.scene,
-        batch_size=args.batch_size,
-        progress=not args.quiet,
-        where=str(args.pairs),
-    )
+    with options_named(args):
+        out = clip_drop(pairs, clip, category_map=maps["clip_category"], scene_root=args.scene,
+                        batch_size=args.batch_size, progress=not args.quiet, where=str(args.pairs))
     write_table(out, args.out)
     return 0
 

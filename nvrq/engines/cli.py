@@ -21,6 +21,8 @@ def check_engine_args(args) -> None:
     if str(args.out).lower().endswith((".csv", ".parquet")):
         raise InputError("--out", None, "a folder for --engine ray (Parquet shards partitioned by clip_id)",
                          args.out)
+    if getattr(args, "batch_size", 1) < 1:
+        raise InputError("--batch-size", None, "a positive integer", args.batch_size)
     if args.shard_pairs < 1:
         raise InputError("--shard-pairs", None, "a positive number of pairs", args.shard_pairs)
     if args.actors is not None and args.actors < 1:
