@@ -30,6 +30,7 @@ import pandas as pd
 
 OFFSETS = (-3.0, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0)
 BOXES = [(100, 200, 299, 349), (420, 180, 579, 339), (700, 250, 779, 409)]
+BATCH = 16  # encoder images per timed forward pass
 COLUMNS = ["psnr", "ssim", "nvrq:efficientnet-lite0", "nvrq_ca:efficientnet-lite0"]
 
 
@@ -101,6 +102,14 @@ def run_ray(pairs_ds: Path, out: Path) -> tuple[float, float, pd.DataFrame]:
     return start, wall, read_dataset(out)
 
 
+def _cpu() -> float:
+    """CPU seconds of this process (all threads): robust to other load on a shared machine."""
+    import resource
+
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
 def stages(pairs_ds: Path) -> None:
     """Per-stage costs on this machine (decode, crop, encoder images/s per encoder)."""
     import torch
@@ -112,24 +121,28 @@ def stages(pairs_ds: Path) -> None:
 
     pairs = read_dataset(pairs_ds).head(210)
     paths = pd.unique(pair_image_paths(pairs, "gt_path"))[:10]
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), _cpu()
     imgs = [read_rgb(p) for p in paths]
-    print(f"decode: {1000 * (time.perf_counter() - t0) / len(paths):.1f} ms per 960x540 PNG image")
+    print(f"decode: {1000 * (time.perf_counter() - t0) / len(paths):.1f} ms wall, "
+          f"{1000 * (_cpu() - c0) / len(paths):.1f} CPU-ms per 960x540 PNG image")
     boxes = pair_boxes(pairs, GT_BOX_COLUMNS)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), _cpu()
     for k, b in enumerate(boxes):
         encoder_input(cut_box(imgs[k % len(imgs)], b), 224)
-    print(f"crop + pad + resize to 224: {1000 * (time.perf_counter() - t0) / len(boxes):.2f} ms per crop")
-    print(f"encoders on CPU ({torch.get_num_threads()} threads, batch 32, random weights):")
+    print(f"crop + pad + resize to 224: {1000 * (time.perf_counter() - t0) / len(boxes):.2f} ms wall, "
+          f"{1000 * (_cpu() - c0) / len(boxes):.2f} CPU-ms per crop")
+    print(f"encoders on CPU ({torch.get_num_threads()} threads, batch {BATCH}, random weights):")
     rng = np.random.default_rng(0)
     for name in ENCODERS:
         spec = get_spec(name)
         enc = build_random(name)
-        x = rng.integers(0, 256, (32, spec.input_size, spec.input_size, 3), dtype=np.uint8)
+        x = rng.integers(0, 256, (BATCH, spec.input_size, spec.input_size, 3), dtype=np.uint8)
         enc.embed(x[:2])
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), _cpu()
         enc.embed(x)
-        print(f"  {name}: {32 / (time.perf_counter() - t0):.1f} images/s ({spec.input_size} px)")
+        wall, cpu = time.perf_counter() - t0, _cpu() - c0
+        print(f"  {name}: {BATCH / wall:.1f} images/s wall, {1000 * cpu / BATCH:.0f} CPU-ms per image "
+              f"({spec.input_size} px)")
 
 
 def main() -> None:
@@ -137,13 +150,17 @@ def main() -> None:
     ap.add_argument("--clips", type=int, default=4)
     ap.add_argument("--frames", type=int, default=12, help="frames per clip (21 pairs each)")
     ap.add_argument("--stages", action="store_true", help="also print the per-stage costs")
+    ap.add_argument("--stages-only", action="store_true", help="only the per-stage costs")
     args = ap.parse_args()
     os.environ.setdefault("RAY_AUTH_MODE", "disabled")
     root = Path(tempfile.mkdtemp(prefix="bench_scale_"))
     pairs_ds = write_fleet(root, clips=args.clips, frames=args.frames)
     n = args.clips * args.frames * 21
-    if args.stages:
+    if args.stages or args.stages_only:
         stages(pairs_ds)
+    if args.stages_only:
+        return
+    print(f"load average before the engines: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     local_s, local = run_local(pairs_ds)
     start_s, ray_s, on_ray = run_ray(pairs_ds, root / "ray")
     assert on_ray.pair_id.tolist() == local.pair_id.tolist()
