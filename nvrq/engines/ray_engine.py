@@ -12,7 +12,8 @@ Stages (Ray Data, streaming):
    otherwise) and computes NVRQ / NVRQ-CA with the same :func:`score_crop_batch`.
 4. The driver writes each finished shard atomically as it arrives, then the manifest.
 
-Images and the output folder must be readable (writable) at the same paths on every node.
+The pairs files and images must be readable at the same paths on every node; only the driver
+writes (each shard through a temporary file and a rename, so a killed driver leaves whole shards).
 """
 
 from __future__ import annotations
