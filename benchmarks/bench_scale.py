@@ -89,12 +89,13 @@ def run_ray(pairs_ds: Path, out: Path) -> tuple[float, float, pd.DataFrame]:
 
     from data_schema.datasets import read_dataset
     from nvrq.engines.ray_engine import RayJob, score_on_ray
+    from nvrq.engines.scorers import MetricScorer
 
     t0 = time.perf_counter()
     ray.init(include_dashboard=False, log_to_driver=False)
     start = time.perf_counter() - t0
-    job = RayJob(pairs=str(pairs_ds), out=str(out), columns=tuple(COLUMNS), encoder="efficientnet-lite0",
-                 tau=0.76, progress=False)
+    scorer = MetricScorer(tuple(COLUMNS), encoder="efficientnet-lite0", tau=0.76)
+    job = RayJob(pairs=str(pairs_ds), out=str(out), scorer=scorer, progress=False)
     t1 = time.perf_counter()
     score_on_ray(job, timing_path=out.with_name("ray.timing.csv"))
     wall = time.perf_counter() - t1
@@ -162,12 +163,12 @@ def main() -> None:
         return
     print(f"load average before the engines: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     local_s, local = run_local(pairs_ds)
+    print(f"local engine: {n} pairs in {local_s:.1f} s = {n / local_s:.1f} pairs/s", flush=True)
     start_s, ray_s, on_ray = run_ray(pairs_ds, root / "ray")
     assert on_ray.pair_id.tolist() == local.pair_id.tolist()
     for c in COLUMNS:
         diff = np.nanmax(np.abs(on_ray[c].to_numpy() - local[c].to_numpy()))
         print(f"max |ray - local| {c}: {diff:.2e}")
-    print(f"local engine: {n} pairs in {local_s:.1f} s = {n / local_s:.1f} pairs/s")
     print(f"ray engine:   {n} pairs in {ray_s:.1f} s = {n / ray_s:.1f} pairs/s "
           f"(+ {start_s:.1f} s to start the local Ray instance)")
     print(f"ratio ray / local: {local_s / ray_s:.2f}x (target >= 0.8x on 2 cores); "
