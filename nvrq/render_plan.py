@@ -33,6 +33,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.perturbation import is_lateral, labels
 from data_schema.tables import atomic_write_text, write_table
 
 __all__ = ["default_image_path", "plan_poses", "render_plan", "write_render_plan", "PLAN_COLUMNS"]
@@ -48,9 +49,22 @@ PLAN_COLUMNS = (
 )
 
 
-def default_image_path(camera: str, timestamp_us: int, source: str, y_offset_m: float = 0.0) -> str:
-    """The image layout used by ``nvrq synth`` and ``nvrq import``: relative POSIX path."""
-    sub = "gt" if source == "gt" else f"render_{float(y_offset_m):+.2f}"
+def default_image_path(camera: str, timestamp_us: int, source: str, y_offset_m: float = 0.0, *,
+                       perturbation=None) -> str:
+    """The image layout used by ``nvrq synth`` and ``nvrq import``: relative POSIX path.
+
+    A lateral view goes to ``render_<y:+.2f>``; a ``perturbation (6,)`` with other non-zero
+    components to ``render_<label>`` with ``=`` dropped and ``,`` as ``_``:
+
+    >>> default_image_path("front", 5, "render", perturbation=np.array([0, 0, 0.5, 0, 0, -5]))
+    'images/front/render_z+0.50_yaw-5.00/5.png'
+    """
+    if source == "gt":
+        sub = "gt"
+    elif perturbation is not None and not is_lateral(np.asarray(perturbation, float).reshape(1, 6))[0]:
+        sub = "render_" + labels(perturbation)[0].replace("=", "").replace(",", "_")
+    else:
+        sub = f"render_{float(y_offset_m):+.2f}"
     return f"images/{camera}/{sub}/{int(timestamp_us)}.png"
 
 
