@@ -2,7 +2,25 @@
 
 from __future__ import annotations
 
-__all__ = ["register", "run", "parse_offsets", "parse_size", "allow_negative_lists"]
+__all__ = ["register", "run", "parse_offsets", "parse_size", "allow_negative_lists", "add_perturb_option",
+           "perturb_grid"]
+
+
+def add_perturb_option(parser) -> None:
+    """``--perturb AXIS=START:STOP:STEP,...`` (6-DoF grid; replaces ``--offsets`` when given)."""
+    parser.add_argument(
+        "--perturb", default=None, metavar="GRID",
+        help="6-DoF views as a comma list of AXIS=START:STOP:STEP (or AXIS=VALUE), AXIS in "
+        "{x,y,z,roll,pitch,yaw}, metres/degrees in the rig frame, e.g. y=-3:3:1,z=0:2:0.5,yaw=-10:10:5; "
+        "replaces --offsets",
+    )
+
+
+def perturb_grid(args):
+    """The ``(K, 6)`` views of ``--perturb``, or None when it was not given."""
+    from data_schema.perturbation import parse_perturb
+
+    return None if args.perturb is None else parse_perturb(args.perturb, option="--perturb")
 
 
 def allow_negative_lists(parser) -> None:
@@ -65,6 +83,7 @@ def register(sub) -> None:
     p.add_argument(
         "--offsets", default="-3,-2,-1,0,1,2,3", help="render offsets in metres (left > 0)"
     )
+    add_perturb_option(p)
     p.add_argument(
         "--cameras", default="pinhole", help="comma list from {pinhole, ftheta} (default pinhole)"
     )
@@ -84,6 +103,7 @@ def run(args) -> int:
         seconds=args.seconds,
         fps=args.fps,
         offsets=parse_offsets(args.offsets),
+        perturbations=perturb_grid(args),
         cameras=cameras,
         size=parse_size(args.size),
         progress=not args.quiet,
