@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.perturbation import VIEW_COLUMNS
 from data_schema.tables import PAIR_META_COLUMNS, PAIRS_COLUMNS, RATINGS_COLUMNS, read_table
 from nvrq.metrics import direction, metric_info
 
@@ -43,7 +44,7 @@ __all__ = [
 KINDS = ("test", "gold", "training", "repeat")
 ITEM_LABEL_COLUMNS = ("n_votes", "n_good", "gvf", "majority_good")
 NON_METRIC_COLUMNS = frozenset(
-    RATINGS_COLUMNS + PAIRS_COLUMNS + ITEM_LABEL_COLUMNS + ("gold_expected",)
+    RATINGS_COLUMNS + PAIRS_COLUMNS + ITEM_LABEL_COLUMNS + ("gold_expected",) + VIEW_COLUMNS
 )
 
 

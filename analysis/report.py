@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 
 from analysis import plots
+from analysis.axes import axis_tent_plots
 from analysis.pipeline import Analysis
 from analysis.screening import ScreenRule
 from analysis.summary import binary_label
@@ -258,6 +259,8 @@ def _figures(a: Analysis, d: Path, tl: str) -> list[dict]:
         ),
         ("target_hist", f"{tl} distribution", plots.target_histogram(a.items, a.target, label=tl)),
     ]
+    if a.by_axis is not None:  # 6-DoF views: one tent plot per axis instead of the lateral one
+        items[:1] = axis_tent_plots(a.by_axis, cols, a.directions, target_label=tl)
     label, _ = binary_label(a.items, a.target)
     if label is not None:
         items.append(
@@ -288,6 +291,8 @@ def _build(a: Analysis, d: Path) -> None:
     write_table(a.summary, d / "summary.csv")
     write_table(a.items, d / "items.csv")
     write_table(a.by_offset, d / "by_offset.csv")
+    if a.by_axis is not None:
+        write_table(a.by_axis, d / "by_axis.csv")
     write_table(a.categories, d / "categories.csv")
     write_table(a.raters, d / "raters.csv")
     if len(a.encoders):

@@ -37,9 +37,10 @@ from tqdm import tqdm
 
 from annotate import crops as _crops
 from annotate.assign import choose_next, make_plan, plan_total, rater_seed
-from annotate.design import attribute_columns, parse_offsets, select_test_pairs
+from annotate.design import attribute_columns, choose_views, select_test_pairs
 from annotate.store import Store
 from data_schema.errors import InputError
+from data_schema.perturbation import view_columns, with_perturbation_columns
 from data_schema.tables import (
     PAIR_META_COLUMNS,
     PAIRS_COLUMNS,
@@ -107,8 +108,11 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
     pairs = pairs.assign(_root=pair_scene_roots(pairs, scene_root=scene, base=pairs_path.resolve().parent,
                                                          where=str(pairs_path)), _row=np.arange(len(pairs)))
     rng = np.random.default_rng(seed)
-    chosen_offsets = parse_offsets(offsets, pairs["y_offset_m"])
-    tests, record = select_test_pairs(pairs, offsets=chosen_offsets, n_tracks=int(tracks),
+    chosen_views = choose_views(offsets, pairs)
+    view_cols = view_columns(pairs)  # [] for lateral-only pairs: items and ratings as before
+    pairs = with_perturbation_columns(pairs) if view_cols else pairs
+    chosen_offsets = chosen_views if view_cols else sorted(float(v.partition("=")[2] or 0) for v in chosen_views)
+    tests, record = select_test_pairs(pairs, offsets=chosen_views, n_tracks=int(tracks),
                                       frames_per_track=int(frames_per_track), rng=rng)
     training = _pick_training(pairs, tests, n_training, rng)
     gold_src = tests.iloc[sorted(rng.choice(len(tests), size=min(2 * n_gold, len(tests)),
@@ -158,7 +162,7 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
             ref_file, ren_file = f"{ids[2 * k]}.{image_format}", f"{ids[2 * k + 1]}.{image_format}"
             _crops.write_image(tmp / "crops" / ref_file, a, fmt=image_format)
             _crops.write_image(tmp / "crops" / ren_file, b, fmt=image_format)
-            meta = {c: r[c] for c in (*PAIR_META_COLUMNS, *attrs)}
+            meta = {c: r[c] for c in (*PAIR_META_COLUMNS, *view_cols, *attrs)}
             items.append({"key": key, "item_id": item_id, "kind": kind, "pair_id": r["pair_id"],
                           "ref_file": ref_file, "ren_file": ren_file,
                           "expected": np.nan if expected is None else expected, **meta})
@@ -181,7 +185,7 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
                         "n_gold_per_type": int(n_gold), "n_repeats": int(n_repeats)},
             "pairs": str(pairs_path.resolve()),
             "metrics": None if metrics_path is None else str(Path(metrics_path).resolve()),
-            "metric_columns": metric_cols, "attribute_columns": attrs,
+            "metric_columns": metric_cols, "attribute_columns": attrs, "view_columns": view_cols,
             "scene_roots": {str(k): str(v) for k, v in roots.items()},
             "offsets": chosen_offsets, "tracks": record,
             "counts": {kind: int((items_df["kind"] == kind).sum()) for kind in KINDS},

@@ -47,6 +47,8 @@ __all__ = [
     "view_suffix",
     "parse_perturb",
     "lateral",
+    "view_columns",
+    "VIEW_COLUMNS",
 ]
 
 #: The six components, in the order of a perturbation vector ``(6,)``.
@@ -61,6 +63,8 @@ LABEL_COLUMN = "perturbation"
 #: Derived axis column (analysis only; never stored in SPEC tables).
 AXIS_COLUMN = "perturbation_axis"
 _LIMITS = {"m": 20.0, "deg": 90.0}
+#: The columns a table gains when some view is not lateral (after the SPEC columns).
+VIEW_COLUMNS = (*EXTRA_PERTURBATION_COLUMNS, LABEL_COLUMN)
 
 
 def perturbation_array(table: pd.DataFrame) -> np.ndarray:
@@ -186,3 +190,9 @@ def parse_perturb(text: str, *, option: str = "perturb") -> np.ndarray:
                 seen.add(key)
                 rows.append(p)
     return np.stack(rows)
+
+
+def view_columns(table: pd.DataFrame) -> list[str]:
+    """:data:`VIEW_COLUMNS` when some row of ``table`` is not lateral, else ``[]`` (so
+    lateral-only studies and ratings keep exactly their former columns)."""
+    return [] if is_lateral(perturbation_array(table)).all() else list(VIEW_COLUMNS)
