@@ -37,7 +37,6 @@ __all__ = [
     "PERTURBATION_COLUMNS",
     "EXTRA_PERTURBATION_COLUMNS",
     "LABEL_COLUMN",
-    "AXIS_COLUMN",
     "perturbation_array",
     "with_perturbation_columns",
     "labels",
@@ -60,8 +59,6 @@ PERTURBATION_COLUMNS = ("x_offset_m", "y_offset_m", "z_offset_m", "roll_deg", "p
 EXTRA_PERTURBATION_COLUMNS = tuple(c for c in PERTURBATION_COLUMNS if c != "y_offset_m")
 #: Readable label column of pairs tables, ratings and plans.
 LABEL_COLUMN = "perturbation"
-#: Derived axis column (analysis only; never stored in SPEC tables).
-AXIS_COLUMN = "perturbation_axis"
 _LIMITS = {"m": 20.0, "deg": 90.0}
 #: The columns a table gains when some view is not lateral (after the SPEC columns).
 VIEW_COLUMNS = (*EXTRA_PERTURBATION_COLUMNS, LABEL_COLUMN)
