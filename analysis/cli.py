@@ -9,10 +9,10 @@ Bad input ends with one line on stderr and exit status 2 (SPEC section 7).
 
 from __future__ import annotations
 
-import argparse
 import sys
 
-from data_schema.errors import InputError, run_cli
+from data_schema.errors import ArgumentParser, InputError, run_cli
+from data_schema.outputs import check_output_folder
 
 __all__ = ["build_parser", "main"]
 
@@ -24,8 +24,8 @@ def _names(values) -> list[str]:
     return out
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+def build_parser() -> ArgumentParser:
+    p = ArgumentParser(
         prog="analyze",
         description="Which metric agrees with human judgements? Correlations, ROC AUC, bootstrap "
         "CIs, breakdowns, rater screening and an offline HTML report.",
@@ -129,6 +129,8 @@ def _main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     if args.bootstrap < 0:
         raise InputError("--bootstrap", None, "a non-negative number of replicates", args.bootstrap)
+    check_output_folder(args.out, kind="report", option="--out",
+                        inputs=[args.ratings, *args.metrics, *args.timing, args.stability])
     from analysis.pipeline import run_analysis
     from analysis.report import write_report
 

@@ -27,8 +27,13 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
-from data_schema.perturbation import VIEW_COLUMNS
-from data_schema.tables import PAIR_META_COLUMNS, PAIRS_COLUMNS, RATINGS_COLUMNS, read_table
+from data_schema.tables import (
+    PAIR_META_COLUMNS,
+    PAIRS_COLUMNS,
+    RATINGS_COLUMNS,
+    read_metrics,
+    read_table,
+)
 from nvrq.metrics import direction, metric_info
 
 __all__ = [
@@ -123,29 +128,6 @@ def read_ratings(path) -> pd.DataFrame:
             "one row per (rater_id, item_id, kind) (a changed vote keeps only the last)",
             f"a second row for rater {df['rater_id'].iloc[i]!r}, item {df['item_id'].iloc[i]!r}",
         )
-    return df
-
-
-def read_metrics(path) -> pd.DataFrame:
-    """Read a metrics table (SPEC section 4): ``pair_id`` + numeric metric columns."""
-    df = read_table(path, required=("pair_id",), what="metrics table", dtype={"pair_id": str})
-    if df["pair_id"].duplicated().any():
-        i = int(np.flatnonzero(df["pair_id"].duplicated().to_numpy())[0])
-        raise InputError(
-            path, f"{_line(i)}: pair_id", "each pair once", f"{df['pair_id'].iloc[i]!r} again"
-        )
-    for col in df.columns:
-        if col == "pair_id":
-            continue
-        if not pd.api.types.is_numeric_dtype(df[col]) and not pd.api.types.is_bool_dtype(df[col]):
-            conv = pd.to_numeric(df[col], errors="coerce")
-            bad = conv.isna() & df[col].notna()
-            if bad.any():
-                i = int(np.flatnonzero(bad.to_numpy())[0])
-                raise InputError(
-                    path, f"{_line(i)}: column {col!r}", "a numeric metric value", df[col].iloc[i]
-                )
-            df[col] = conv
     return df
 
 

@@ -25,6 +25,7 @@ from analysis.axes import axis_tent_plots
 from analysis.pipeline import Analysis
 from analysis.screening import ScreenRule
 from analysis.summary import binary_label
+from data_schema.outputs import check_output_folder, mark_report
 from data_schema.tables import write_table
 
 __all__ = ["write_report", "summary_display", "format_table_text"]
@@ -376,12 +377,13 @@ def _build(a: Analysis, d: Path) -> None:
 
 def write_report(a: Analysis, out_dir) -> Path:
     """Write the report directory atomically (build beside it, then swap it into place)."""
-    out = Path(out_dir)
+    out = check_output_folder(out_dir, kind="report", option="out_dir")
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".part", dir=out.parent))
     os.chmod(tmp, 0o755)
     try:
         _build(a, tmp)
+        mark_report(tmp)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise

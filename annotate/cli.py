@@ -7,15 +7,16 @@ serving; the study folder reaches the app in the environment variable ``ANNOTATE
 
 from __future__ import annotations
 
-import argparse
 import os
 import re
 import secrets
+import sqlite3
 import subprocess
 import sys
 from pathlib import Path
 
-from data_schema.errors import InputError, run_cli
+from data_schema.errors import ArgumentParser, InputError, run_cli
+from data_schema.outputs import check_output_file, check_output_folder
 
 __all__ = ["main", "build_parser", "serve_command", "check_rater_name"]
 
@@ -59,6 +60,8 @@ def _base_url(host: str, port: int) -> str:
 def _cmd_build(args) -> int:
     from annotate.study import build_study, load_study
 
+    check_output_folder(args.study, kind="study", option="STUDY",
+                        inputs=[args.pairs, args.metrics, args.scene])
     out = build_study(args.study, args.pairs, scene=args.scene, metrics_path=args.metrics,
                       tracks=args.tracks, frames_per_track=args.frames_per_track,
                       offsets=args.offsets, votes_per_item=args.votes_per_item, seed=args.seed,
@@ -100,12 +103,18 @@ def _cmd_add_rater(args) -> int:
 
 def _cmd_export(args) -> int:
     from annotate.results import ratings_table
-    from annotate.study import load_study
+    from annotate.study import load_study, unplaced_votes
     from data_schema.tables import write_table
 
-    table = ratings_table(load_study(args.study))
+    check_output_file(args.out, inputs=[args.study])
+    study = load_study(args.study)
+    table = ratings_table(study)
+    lost = unplaced_votes(study)
     write_table(table, args.out)
     print(f"{len(table)} votes -> {args.out}", file=sys.stderr)
+    if lost:
+        print(f"warning: {sum(lost.values())} votes not exported: "
+              + "; ".join(f"{n} {why}" for why, n in lost.items()), file=sys.stderr)
     return 0
 
 
@@ -114,6 +123,8 @@ def _cmd_gvf(args) -> int:
     from annotate.study import load_study
     from data_schema.tables import write_table
 
+    if args.out:
+        check_output_file(args.out, inputs=[args.study])
     table = gvf_table(ratings_table(load_study(args.study)))
     if args.out:
         write_table(table, args.out)
@@ -131,8 +142,8 @@ def _cmd_simulate(args) -> int:
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="annotate", description="Rating studies of render quality.")
+def build_parser() -> ArgumentParser:
+    p = ArgumentParser(prog="annotate", description="Rating studies of render quality.")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
     b = sub.add_parser("build", help="build a study folder from a pairs table")
     b.add_argument("study")
@@ -182,7 +193,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _main(argv=None) -> int:
     args = build_parser().parse_args(argv)
-    return args.func(args)
+    try:
+        return args.func(args)
+    except sqlite3.Error as exc:  # a damaged vote store: one line naming it
+        raise InputError(Path(args.study) / "votes.sqlite", None, "a readable SQLite vote store",
+                         f"{type(exc).__name__}: {exc}") from None
 
 
 def main(argv=None) -> int:

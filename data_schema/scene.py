@@ -15,14 +15,13 @@ import json
 import math
 import os
 from dataclasses import dataclass, field
-from pathlib import Path, PurePosixPath, PureWindowsPath
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
-from data_schema.perturbation import EXTRA_PERTURBATION_COLUMNS, PERTURBATION_COLUMNS
-from data_schema.tables import IMAGES_COLUMNS, atomic_write_text, write_table
+from data_schema.tables import IMAGES_COLUMNS, atomic_write_text, inside_scene, write_table
 
 __all__ = [
     "CAMERA_MODEL_SCHEMA",
@@ -198,11 +197,7 @@ def _poses7(value, n: int, where: str, fld: str) -> np.ndarray:
 
 
 def _resolve_image(root: Path, rel: str, where: str, fld: str, check: bool) -> None:
-    if not isinstance(rel, str) or not rel:
-        raise InputError(where, fld, "a relative image path", repr(rel))
-    if PurePosixPath(rel).is_absolute() or PureWindowsPath(rel).is_absolute() or ".." in Path(rel).parts \
-            or ".." in PurePosixPath(rel.replace("\\", "/")).parts:
-        raise InputError(where, fld, "a path inside the scene folder (relative, no '..')", rel)
+    inside_scene(root, rel, where=where, field=fld)  # the path rule shared with pairs tables
     if check and not (root / rel).is_file():
         raise InputError(where, fld, "an existing image file", f"{rel} (not found)")
 

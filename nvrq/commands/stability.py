@@ -66,6 +66,7 @@ def run(args) -> int:
     from pathlib import Path
 
     from data_schema.errors import InputError
+    from data_schema.outputs import mark_report
     from data_schema.tables import read_table, write_table
     from nvrq.metrics import REGISTRY, split_column
     from nvrq.scoring import resolve_metrics
@@ -129,6 +130,7 @@ def run(args) -> int:
         where=str(args.pairs),
     )
     out.mkdir(parents=True, exist_ok=True)
+    mark_report(out)  # a report folder of ours: a later run may replace it
     write_table(samples, out / "samples.csv")
     write_table(stab, out / "stability.csv")
     write_table(snr, out / "snr.csv")
