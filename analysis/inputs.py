@@ -119,6 +119,7 @@ def read_ratings(path) -> pd.DataFrame:
             path, f"{_line(i)}: response_ms", "a number of milliseconds", df["response_ms"].iloc[i]
         )
     df["response_ms"] = rt.astype(np.float64)
+    _check_item_metadata(df, path)
     dup = df.duplicated(["rater_id", "item_id", "kind"], keep="first")
     if dup.any():
         i = int(np.flatnonzero(dup.to_numpy())[0])
@@ -129,6 +130,28 @@ def read_ratings(path) -> pd.DataFrame:
             f"a second row for rater {df['rater_id'].iloc[i]!r}, item {df['item_id'].iloc[i]!r}",
         )
     return df
+
+
+def _check_item_metadata(df: pd.DataFrame, path) -> None:
+    """``timestamp_us`` an integer, ``y_offset_m`` a number, and each item's pair metadata
+    (SPEC section 5: clip, camera, track, class, timestamp, offset) the same on all its rows."""
+    for col, what in (("timestamp_us", "an integer timestamp in microseconds"),
+                      ("y_offset_m", "a number of metres")):
+        num = pd.to_numeric(df[col], errors="coerce")
+        bad = num.isna() & df[col].notna()
+        if col == "timestamp_us":
+            bad |= num.notna() & (num != np.round(num))
+        if bad.any():
+            i = int(np.flatnonzero(bad.to_numpy())[0])
+            raise InputError(path, f"{_line(i)}: {col}", what, df[col].iloc[i])
+        df[col] = num
+    for col in PAIR_META_COLUMNS:
+        n = df.groupby("item_id", sort=False)[col].nunique(dropna=False)
+        if (n > 1).any():
+            item = n.index[np.flatnonzero((n > 1).to_numpy())[0]]
+            i = int(np.flatnonzero((df["item_id"] == item).to_numpy())[-1])
+            raise InputError(path, f"{_line(i)}: {col}", f"one {col} per item (item {item!r})",
+                             ", ".join(map(str, df.loc[df["item_id"] == item, col].unique()[:3])))
 
 
 def timing_path_for(metrics_path) -> Path:

@@ -142,6 +142,9 @@ def run_analysis(
 
     items = item_table(kept)
     items, unknown, notes = join_metrics(items, tables)
+    for path, table in tables:
+        if unknown[str(path)] == len(table):
+            raise InputError(path, "pair_id", "pair ids of rated items", "none matches an item")
     tgt = target or "gvf"
     if target is not None:
         if target not in items.columns or target in ("n_votes", "n_good", "majority_good"):

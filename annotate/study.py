@@ -107,6 +107,7 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
     pairs = _read_pairs(Path(pairs_path), scene)
     rng = np.random.default_rng(seed)
     rows, chosen_offsets, record = _choose_items(pairs, rng, opts)
+    _check_images(rows, where=str(pairs_path))
     metrics = None if metrics_path is None else _read_study_metrics(metrics_path, pairs)
     out = Path(out)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent if out.parent.exists() else None))
@@ -185,6 +186,18 @@ def _choose_items(pairs: pd.DataFrame, rng: np.random.Generator, opts: dict):
                      int(tag == "gold-good")))
     rows += [(r, "repeat", "repeat:" + r["pair_id"], r["pair_id"], None) for r in recs(rep_src)]
     return rows, chosen_offsets, record
+
+
+def _check_images(rows, *, where: str) -> None:
+    """Every image the items need lies in its scene folder and exists (before any crop is cut)."""
+    seen = set()
+    for r, kind, *_ in rows:
+        for column in ("gt_path",) if kind == "gold" else ("gt_path", "render_path"):
+            field = f"line {int(r['_row'])}: column {column!r}"
+            path = inside_scene(r["_root"], r[column], where=where, field=field)
+            if path not in seen and not os.path.isfile(path):
+                raise InputError(where, field, "an existing image file", f"{r[column]} (not found)")
+            seen.add(path)
 
 
 class _ImageCache:

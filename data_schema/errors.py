@@ -44,6 +44,10 @@ def run_cli(main, argv=None) -> int:
     # OpenCV would print its own "[ WARN ]" lines for unreadable images before our one-line
     # error; errors reach the user through InputError only (set before cv2 is imported)
     os.environ.setdefault("OPENCV_LOG_LEVEL", "ERROR")
+    if "cv2" in sys.modules:  # already imported (in-process callers): set it at run time
+        logging = getattr(getattr(sys.modules["cv2"], "utils", None), "logging", None)
+        if logging is not None:
+            logging.setLogLevel(logging.LOG_LEVEL_ERROR)
     try:
         rc = main(argv)
     except InputError as err:

@@ -314,7 +314,9 @@ def pair_scene_roots(df: pd.DataFrame, *, scene_root=None, base=None, where: str
 
 def pair_image_paths(df: pd.DataFrame, column: str, *, scene_root=None, base=None,
                      where: str = "pairs"):
-    """Absolute image paths of ``column`` (``gt_path`` or ``render_path``), ``(N,)`` object array."""
+    """Absolute image paths of ``column`` (``gt_path`` or ``render_path``), ``(N,)`` object array.
+
+    Every path obeys the scene-folder rule (:func:`inside_scene`) and names an existing file."""
     import numpy as np
 
     roots = pair_scene_roots(df, scene_root=scene_root, base=base, where=where)
@@ -322,7 +324,10 @@ def pair_image_paths(df: pd.DataFrame, column: str, *, scene_root=None, base=Non
     seen: dict = {}
     for i, key in enumerate(zip(roots, rel, strict=True)):
         if key not in seen:  # each distinct image once (lstat calls for the symlink rule)
-            seen[key] = inside_scene(*key, where=where, field=f"{_line(i)}: column {column!r}")
+            field = f"{_line(i)}: column {column!r}"
+            seen[key] = inside_scene(*key, where=where, field=field)
+            if not os.path.isfile(seen[key]):
+                raise InputError(where, field, "an existing image file", f"{key[1]} (not found)")
     return np.array([seen[k] for k in zip(roots, rel, strict=True)], dtype=object)
 
 
