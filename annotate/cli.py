@@ -7,6 +7,7 @@ serving; the study folder reaches the app in the environment variable ``ANNOTATE
 
 from __future__ import annotations
 
+import argparse
 import os
 import re
 import secrets
@@ -15,6 +16,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+from data_schema.cliargs import (
+    DeprecatedFileOption,
+    DeprecatedSize,
+    allow_negative_lists,
+    parse_wxh,
+)
 from data_schema.errors import ArgumentParser, InputError, run_cli
 from data_schema.outputs import check_output_file, check_output_folder
 
@@ -61,12 +68,15 @@ def _cmd_build(args) -> int:
     from annotate.study import build_study, load_study
 
     check_output_folder(args.study, kind="study", option="STUDY",
-                        inputs=[args.pairs, args.metrics, args.scene])
-    out = build_study(args.study, args.pairs, scene=args.scene, metrics_path=args.metrics,
+                        inputs=[args.pairs, *args.metrics_tables, args.scene])
+    width, height = parse_wxh(args.size, option="--size")
+    if width != height:
+        raise InputError("--size", None, "a square WxH (display crops are square), e.g. 320x320", args.size)
+    out = build_study(args.study, args.pairs, scene=args.scene, metrics_path=args.metrics_tables or None,
                       tracks=args.tracks, frames_per_track=args.frames_per_track,
                       offsets=args.offsets, votes_per_item=args.votes_per_item, seed=args.seed,
                       n_training=args.training, n_gold=args.gold, n_repeats=args.repeats,
-                      size=args.size, image_format=args.image_format, access=args.access,
+                      size=width, image_format=args.image_format, access=args.access,
                       break_every=args.break_every)
     study = load_study(out)
     counts = ", ".join(f"{v} {k}" for k, v in study.manifest["counts"].items())
@@ -150,19 +160,24 @@ def build_parser() -> ArgumentParser:
     b.add_argument("--pairs", required=True, help="pairs table (SPEC section 3)")
     b.add_argument("--scene", help="scene folder the pairs' image paths are relative to "
                    "(default: the pairs table's scene_root column)")
-    b.add_argument("--metrics", help="metrics table (pair_id + metric columns) for the export")
+    b.add_argument("--metrics-table", dest="metrics_tables", action="append", default=[], metavar="FILE",
+                   help="metrics table (pair_id + metric columns) for the export; repeatable")
+    b.add_argument("--metrics", dest="metrics_tables", action=DeprecatedFileOption, new="--metrics-table",
+                   help=argparse.SUPPRESS)
     b.add_argument("--tracks", type=int, default=12)
     b.add_argument("--frames-per-track", type=int, default=12)
-    b.add_argument("--offsets", default="all", help="'all' or a comma list of metres")
+    b.add_argument("--offsets", default="all", help="'all' or a comma list of metres, e.g. -1,0,1")
     b.add_argument("--votes-per-item", type=int, default=5)
     b.add_argument("--seed", type=int, default=0)
     b.add_argument("--training", type=int, default=5, help="training items (shown first)")
     b.add_argument("--gold", type=int, default=3, help="hidden gold items of each kind")
     b.add_argument("--repeats", type=int, default=5, help="repeated test items")
-    b.add_argument("--size", type=int, default=320, help="display size of each crop (pixels)")
+    b.add_argument("--size", default="320x320", action=DeprecatedSize, metavar="WxH",
+                   help="display size of each crop, a square WxH in pixels (default 320x320)")
     b.add_argument("--image-format", default="jpg", choices=["jpg", "png"])
     b.add_argument("--access", default="open", choices=["open", "token"])
     b.add_argument("--break-every", type=int, default=50)
+    allow_negative_lists(b)
     b.set_defaults(func=_cmd_build)
     s = sub.add_parser("serve", help="serve the rater app (Streamlit)")
     s.add_argument("study")

@@ -88,12 +88,14 @@ def _pick_training(pairs: pd.DataFrame, tests: pd.DataFrame, n: int,
 
 
 def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = None,
-                metrics_path: str | Path | None = None, tracks: int = 12,
+                metrics_path=None, tracks: int = 12,
                 frames_per_track: int = 12, offsets: str = "all", votes_per_item: int = 5,
                 seed: int = 0, n_training: int = 5, n_gold: int = 3, n_repeats: int = 5,
                 size: int = 320, image_format: str = "jpg", access: str = "open",
                 break_every: int = 50, progress: bool = True) -> Path:
     """Build the study folder ``out`` (refused if it exists and is not empty); returns it.
+
+    ``metrics_path``: None, a metrics table, or a list of them (joined on ``pair_id``).
 
     Stages: check the options, read and check the pairs (and metrics) table, choose the
     items, cut their crops into a temporary folder, write the tables and the manifest, and
@@ -108,7 +110,7 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
     rng = np.random.default_rng(seed)
     rows, chosen_offsets, record = _choose_items(pairs, rng, opts)
     _check_images(rows, where=str(pairs_path))
-    metrics = None if metrics_path is None else _read_study_metrics(metrics_path, pairs)
+    metrics = _read_study_metrics(opts["metrics_paths"], pairs)
     out = Path(out)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent if out.parent.exists() else None))
     try:
@@ -127,9 +129,12 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
 
 
 def _check_options(out, pairs_path, **opts) -> dict:
-    """Check ``build_study``'s keyword arguments (errors name the parameter); returns them."""
+    """Check ``build_study``'s keyword arguments (errors name the parameter); returns them
+    with ``metrics_paths``, the list of metrics tables (``metrics_path``: a path or a list)."""
+    mp = opts["metrics_path"]
+    opts["metrics_paths"] = [] if mp is None else [mp] if isinstance(mp, str | os.PathLike) else list(mp)
     check_output_folder(out, kind="study", option="out",
-                        inputs=[pairs_path, opts["metrics_path"], opts["scene"]])
+                        inputs=[pairs_path, *opts["metrics_paths"], opts["scene"]])
     for name, lo in (("tracks", 1), ("frames_per_track", 1), ("votes_per_item", 1), ("size", 32),
                      ("break_every", 1), ("n_training", 0), ("n_gold", 0), ("n_repeats", 0)):
         val = opts[name]
@@ -154,13 +159,23 @@ def _read_pairs(pairs_path: Path, scene) -> pd.DataFrame:
     return pairs
 
 
-def _read_study_metrics(metrics_path, pairs: pd.DataFrame) -> pd.DataFrame:
-    """The metrics table (checked as ``analyze --metrics`` checks it), restricted to the pairs."""
-    metrics = read_metrics(metrics_path)
-    hit = metrics["pair_id"].isin(set(pairs["pair_id"].astype(str)))
-    if not hit.any():
-        raise InputError(metrics_path, "pair_id", "pair ids of the pairs table", "none matches")
-    return metrics[hit]
+def _read_study_metrics(paths, pairs: pd.DataFrame) -> pd.DataFrame | None:
+    """The metrics tables (checked as ``analyze`` checks them) joined on ``pair_id`` and
+    restricted to the pairs; None without tables. A column in two tables is an error."""
+    merged, seen = None, {}
+    for path in paths:
+        metrics = read_metrics(path)
+        hit = metrics["pair_id"].isin(set(pairs["pair_id"].astype(str)))
+        if not hit.any():
+            raise InputError(path, "pair_id", "pair ids of the pairs table", "none matches")
+        for col in metrics.columns.drop("pair_id"):
+            if col in seen:
+                raise InputError(path, f"column {col!r}", "each metric column in one metrics table",
+                                 f"also in {seen[col]}")
+            seen[col] = str(path)
+        metrics = metrics[hit]
+        merged = metrics if merged is None else merged.merge(metrics, on="pair_id", how="outer")
+    return merged
 
 
 def _choose_items(pairs: pd.DataFrame, rng: np.random.Generator, opts: dict):
@@ -260,7 +275,6 @@ def _manifest(out: Path, pairs: pd.DataFrame, items: pd.DataFrame, opts: dict, *
               metric_cols: list[str], offsets: list[float], tracks) -> dict:
     """The study's ``manifest.json`` (every option and choice)."""
     roots = pairs.drop_duplicates("clip_id").set_index("clip_id")["_root"]
-    metrics_path = opts["metrics_path"]
     return {
         "format": "nvrq-study", "version": 1,
         "study_id": f"{out.resolve().name}-{secrets.token_hex(4)}",
@@ -271,7 +285,7 @@ def _manifest(out: Path, pairs: pd.DataFrame, items: pd.DataFrame, opts: dict, *
                     "offsets": str(opts["offsets"]), "n_training": int(opts["n_training"]),
                     "n_gold_per_type": int(opts["n_gold"]), "n_repeats": int(opts["n_repeats"])},
         "pairs": pairs.attrs["path"],
-        "metrics": None if metrics_path is None else str(Path(metrics_path).resolve()),
+        "metrics": [str(Path(p).resolve()) for p in opts["metrics_paths"]],
         "metric_columns": metric_cols,
         "attribute_columns": attribute_columns(pairs.drop(columns=["_root", "_row"])),
         "scene_roots": {str(k): str(v) for k, v in roots.items()},

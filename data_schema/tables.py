@@ -22,6 +22,7 @@ __all__ = [
     "PAIR_META_COLUMNS",
     "IMAGES_COLUMNS",
     "TABLE_SUFFIXES",
+    "MIN_SIDE_PX",
     "pair_id",
     "read_table",
     "write_table",
@@ -41,6 +42,10 @@ __all__ = [
 ]
 
 TABLE_SUFFIXES = (".csv", ".parquet")
+
+#: SPEC section 3: the default smallest shorter box side (pixels) of a usable object crop,
+#: shared by ``nvrq pairs --min-side`` and ``nvrq stability --min-side``.
+MIN_SIDE_PX = 30
 
 #: SPEC section 2, images.csv
 IMAGES_COLUMNS = ("camera", "timestamp_us", "source", "y_offset_m", "path")

@@ -35,7 +35,7 @@ from data_schema.perturbation import (
     view_suffix,
 )
 from data_schema.scene import Scene
-from data_schema.tables import PAIRS_COLUMNS
+from data_schema.tables import MIN_SIDE_PX, PAIRS_COLUMNS
 from nvrq.geometry.boxes import box_corners, box_sides, pixel_box
 from nvrq.geometry.cameras import camera_from_model
 from nvrq.geometry.poses import (
@@ -257,7 +257,7 @@ def _assemble(scene: Scene, frames_out: list[pd.DataFrame]) -> pd.DataFrame:
 
 
 def make_pairs(
-    scene: Scene, *, min_side: float = 30, min_area: float = 0, progress: bool = True
+    scene: Scene, *, min_side: float = MIN_SIDE_PX, min_area: float = 0, progress: bool = True
 ) -> tuple[pd.DataFrame, PairStats]:
     """All valid GT/render box pairs of ``scene`` (SPEC section 3).
 

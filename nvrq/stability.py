@@ -34,6 +34,7 @@ import pandas as pd
 from scipy.stats import rankdata
 
 from data_schema.errors import InputError
+from data_schema.tables import MIN_SIDE_PX
 from nvrq.nuisances import (
     NUISANCE_STRENGTHS,
     expose,
@@ -101,7 +102,7 @@ def build_samples(
     *,
     n_objects: int = 60,
     seed: int = 0,
-    min_side: int = 32,
+    min_side: int = MIN_SIDE_PX,
     nuisances: dict | None = None,
     artefact_strengths=ARTEFACT_STRENGTHS,
     progress: bool = True,
@@ -289,7 +290,7 @@ def run_stability(
     tau: float | None = None,
     n_objects: int = 60,
     seed: int = 0,
-    min_side: int = 32,
+    min_side: int = MIN_SIDE_PX,
     nuisances: dict | None = None,
     artefact_strengths=ARTEFACT_STRENGTHS,
     batch_size: int = 32,

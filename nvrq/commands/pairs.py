@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import time
 
+from data_schema.tables import MIN_SIDE_PX
+
 __all__ = ["register", "run"]
 
 
@@ -13,7 +15,8 @@ def register(sub) -> None:
                                    "keep the boxes valid in both.")
     p.add_argument("scene", help="scene folder (scene.json + images.csv)")
     p.add_argument("--out", required=True, help="output pairs table (.csv or .parquet)")
-    p.add_argument("--min-side", type=float, default=30, help="shorter side of the box in pixels (default 30)")
+    p.add_argument("--min-side", type=float, default=MIN_SIDE_PX,
+                   help=f"shorter side of the box in pixels (default {MIN_SIDE_PX})")
     p.add_argument("--min-area", type=float, default=0, help="box area in square pixels (default 0)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)

@@ -6,7 +6,7 @@ __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
-    from nvrq.commands.synth import add_perturb_option, allow_negative_lists
+    from data_schema.cliargs import allow_negative_lists
 
     p = sub.add_parser(
         "render-plan",

@@ -8,6 +8,8 @@ is the overall ratio), ``DIR/samples.csv`` (every scored sample: raw value and c
 
 from __future__ import annotations
 
+from data_schema.tables import MIN_SIDE_PX
+
 __all__ = ["register", "run"]
 
 
@@ -36,7 +38,8 @@ def register(sub) -> None:
     p.add_argument("--n-objects", type=int, default=60, help="GT crops sampled (default 60)")
     p.add_argument("--seed", type=int, default=0, help="sampling and perturbation seed (default 0)")
     p.add_argument(
-        "--min-side", type=int, default=32, help="smallest GT crop side used (default 32)"
+        "--min-side", type=int, default=MIN_SIDE_PX,
+        help=f"smallest GT crop side used (default {MIN_SIDE_PX}, as nvrq pairs)"
     )
     p.add_argument("--batch-size", type=int, default=32, help="encoder batch size (default 32)")
     p.add_argument("--device", default="cpu", help="torch device (default cpu)")

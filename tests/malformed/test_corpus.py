@@ -318,13 +318,13 @@ for _n, _e, _f in METRIC_EDITS:
         @case("metrics", f"build: {name}")
         def _b(world, tmp):
             m = _metrics(world, tmp, edit)
-            return "annotate", [*_build(world, tmp, world / "toy" / "pairs.csv"), "--metrics", str(m)], \
+            return "annotate", [*_build(world, tmp, world / "toy" / "pairs.csv"), "--metrics-table", str(m)], \
                 ["metrics.csv", frag]
 
         @case("metrics", f"analyze: {name}")
         def _a(world, tmp):
             m = _metrics(world, tmp, edit)
-            return "analyze", [str(world / "ratings.csv"), "--metrics", str(m), "--out", str(tmp / "rep"),
+            return "analyze", [str(world / "ratings.csv"), "--metrics-table", str(m), "--out", str(tmp / "rep"),
                                "--bootstrap", "0", "--quiet"], ["metrics.csv", frag]
     _mk()
 
