@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from data_schema.cliargs import CommaList, DeprecatedFileOption
+from data_schema.cliargs import CommaList, DeprecatedFileOption, flags_in_errors
 from data_schema.errors import ArgumentParser, InputError, run_cli
 from data_schema.outputs import check_output_folder
 
@@ -124,7 +124,14 @@ def _print_summary(analysis) -> None:
 
 
 def _main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    with flags_in_errors(parser, args, {"n_boot": "bootstrap", "metrics_paths": "metrics_tables",
+                                        "timing_paths": "timing", "stability_dir": "stability"}):
+        return _run(args)
+
+
+def _run(args) -> int:
     if args.bootstrap < 0:
         raise InputError("--bootstrap", None, "a non-negative number of replicates", args.bootstrap)
     check_output_folder(args.out, kind="report", option="--out",

@@ -20,6 +20,7 @@ from data_schema.cliargs import (
     DeprecatedFileOption,
     DeprecatedSize,
     allow_negative_lists,
+    flags_in_errors,
     parse_wxh,
 )
 from data_schema.errors import ArgumentParser, InputError, run_cli
@@ -206,10 +207,17 @@ def build_parser() -> ArgumentParser:
     return p
 
 
+#: Library parameter names that differ from this CLI's argparse dests.
+_ALIASES = {"n_training": "training", "n_gold": "gold", "n_repeats": "repeats",
+            "metrics_path": "metrics_tables", "scene_root": "scene"}
+
+
 def _main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
     try:
-        return args.func(args)
+        with flags_in_errors(parser, args, _ALIASES):
+            return args.func(args)
     except sqlite3.Error as exc:  # a damaged vote store: one line naming it
         raise InputError(Path(args.study) / "votes.sqlite", None, "a readable SQLite vote store",
                          f"{type(exc).__name__}: {exc}") from None

@@ -67,10 +67,10 @@ def parse_offsets(spec: str, available) -> list[float]:
         try:
             chosen = sorted(set(_cm([float(s) for s in str(spec).split(",") if s.strip()]).tolist()))
         except ValueError:
-            raise InputError("--offsets", None, "'all' or a comma list of metres", spec) from None
+            raise InputError("offsets", None, "'all' or a comma list of metres", spec) from None
         missing = [c for c in chosen if c not in have]
         if missing or not chosen:
-            raise InputError("--offsets", None,
+            raise InputError("offsets", None,
                              f"offsets present in the pairs table ({[h / 100 for h in have]})", spec)
     return [c / 100 for c in chosen]
 

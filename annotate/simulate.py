@@ -72,7 +72,7 @@ def item_severity(study) -> pd.Series:
 def simulate(study, *, raters: int = 5, seed: int = 0, progress: bool = True) -> pd.DataFrame:
     """Let ``raters`` simulated raters (the last careless) rate the study; returns their params."""
     if raters < 1:
-        raise InputError("--raters", None, "an integer >= 1", raters)
+        raise InputError("raters", None, "an integer >= 1", raters)
     import dataclasses
 
     from annotate.store import Store

@@ -24,13 +24,14 @@ Old spellings keep working and print one ``note:`` line on stderr saying the new
 from __future__ import annotations
 
 import argparse
+import contextlib
 import re
 import sys
 
 from data_schema.errors import InputError
 
 __all__ = ["comma_list", "parse_wxh", "CommaList", "DeprecatedFileOption", "DeprecatedSize", "deprecated",
-           "allow_negative_lists", "NEGATIVE_LIST"]
+           "allow_negative_lists", "NEGATIVE_LIST", "option_for", "flags_in_errors"]
 
 #: A comma list of numbers that may start with a minus sign (``-3,-2,0``): a value, not an option.
 NEGATIVE_LIST = re.compile(r"^-\d*\.?\d+([x,]\s*[-+]?\d*\.?\d+)*$")
@@ -89,6 +90,42 @@ class DeprecatedSize(argparse.Action):
             deprecated(f"{option_string} {text}", f"{option_string} {text}x{text}")
             text = f"{text}x{text}"
         setattr(namespace, self.dest, text)
+
+
+def _chosen_parser(parser: argparse.ArgumentParser, args) -> argparse.ArgumentParser:
+    """The (sub)parser that parsed ``args``: follow the chosen subcommand at every level."""
+    while True:
+        subs = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+        if not subs or getattr(args, subs[0].dest, None) not in subs[0].choices:
+            return parser
+        parser = subs[0].choices[getattr(args, subs[0].dest)]
+
+
+def option_for(parser: argparse.ArgumentParser, args, name: str, aliases: dict | None = None) -> str | None:
+    """The command-line spelling (``--flag`` or ``POSITIONAL``) of the library parameter ``name``."""
+    dest = (aliases or {}).get(name, name)
+    for action in _chosen_parser(parser, args)._actions:
+        if action.dest == dest and action.help != argparse.SUPPRESS:
+            if action.option_strings:
+                return max(action.option_strings, key=len)
+            return str(action.metavar or action.dest).upper()
+    return None
+
+
+@contextlib.contextmanager
+def flags_in_errors(parser: argparse.ArgumentParser, args, aliases: dict | None = None):
+    """Library errors name the parameter (``tracks``); the CLI speaks of its flag (``--tracks``).
+
+    Re-raises an :class:`InputError` whose ``where`` is a parameter of the chosen command with
+    that parameter's option; ``aliases`` maps parameter names to argparse dests where they differ.
+    """
+    try:
+        yield
+    except InputError as err:
+        flag = option_for(parser, args, err.where, aliases)
+        if flag is None:
+            raise
+        raise InputError(flag, err.field, err.expected, err.got) from None
 
 
 def allow_negative_lists(parser: argparse.ArgumentParser) -> None:

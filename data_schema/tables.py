@@ -306,11 +306,11 @@ def pair_scene_roots(df: pd.DataFrame, *, scene_root=None, base=None, where: str
     if scene_root is not None:
         root = Path(scene_root).resolve()
         if not root.is_dir():
-            raise InputError("--scene", None, "an existing scene folder", str(scene_root))
+            raise InputError("scene_root", None, "an existing scene folder", str(scene_root))
         return np.full(len(df), str(root), dtype=object)
     if "scene_root" not in df.columns:
         raise InputError(where, "column 'scene_root'",
-                         "--scene SCENE or a scene_root column (gt_path/render_path are relative to it)",
+                         "a scene folder (scene_root) or a scene_root column (gt_path/render_path are relative to it)",
                          "neither")
     base = Path(base) if base is not None else Path.cwd()
     uniq = {r: str((base / str(r)).resolve()) for r in df["scene_root"].astype(str).unique()}

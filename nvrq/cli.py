@@ -11,6 +11,7 @@ from __future__ import annotations
 import importlib
 import sys
 
+from data_schema.cliargs import flags_in_errors
 from data_schema.errors import ArgumentParser, run_cli
 from data_schema.outputs import check_output_file, check_output_folder
 
@@ -73,9 +74,11 @@ def check_outputs(args) -> None:
 
 
 def _main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
-    check_outputs(args)
-    return args.func(args)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    with flags_in_errors(parser, args, {"scene_root": "scene"}):
+        check_outputs(args)
+        return args.func(args)
 
 
 def main(argv=None) -> int:

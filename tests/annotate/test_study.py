@@ -111,7 +111,7 @@ def test_input_errors(tmp_path, toy_inputs, make_study):
     scene, pairs = toy_inputs
     with pytest.raises(InputError, match="scene_root"):
         build_study(tmp_path / "a", pairs, progress=False)
-    with pytest.raises(InputError, match="--offsets"):
+    with pytest.raises(InputError, match="offsets"):
         build_study(tmp_path / "b", pairs, scene=str(scene), offsets="0,3", progress=False)
     s = make_study()
     with pytest.raises(InputError, match="new or empty study folder"):

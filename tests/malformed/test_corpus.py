@@ -191,7 +191,7 @@ def _score(world, tmp, pairs):
 
 def _build(world, tmp, pairs):
     return ["build", str(tmp / "st"), "--pairs", str(pairs), "--scene", str(world / "toy" / "scene"),
-            "--tracks", "2", "--frames-per-track", "2", "--size", "32"]
+            "--tracks", "2", "--frames-per-track", "2", "--size", "32x32"]
 
 
 def _col(col, value, rows=slice(None)):
@@ -639,16 +639,16 @@ ARG_CASES = [
     ("score --tau text", "nvrq", ["score", "{world}/toy/pairs.csv", "--tau", "high", "--out", "{tmp}/m.csv"],
      ["--tau"]),
     ("build --tracks 0", "annotate", ["build", "{tmp}/st", "--pairs", "{world}/toy/pairs.csv", "--scene",
-                                      "{world}/toy/scene", "--tracks", "0"], ["tracks"]),
-    ("build --size 10", "annotate", ["build", "{tmp}/st", "--pairs", "{world}/toy/pairs.csv", "--scene",
-                                     "{world}/toy/scene", "--size", "10"], ["size"]),
+                                      "{world}/toy/scene", "--tracks", "0"], ["--tracks"]),
+    ("build --size 10x10", "annotate", ["build", "{tmp}/st", "--pairs", "{world}/toy/pairs.csv", "--scene",
+                                     "{world}/toy/scene", "--size", "10x10"], ["--size"]),
     ("build --image-format gif", "annotate", ["build", "{tmp}/st", "--pairs", "{world}/toy/pairs.csv",
                                               "--image-format", "gif"], ["--image-format"]),
     ("build --offsets 0,9", "annotate", ["build", "{tmp}/st", "--pairs", "{world}/toy/pairs.csv", "--scene",
-                                         "{world}/toy/scene", "--offsets", "0,9"], ["offsets"]),
+                                         "{world}/toy/scene", "--offsets", "0,9"], ["--offsets"]),
     ("build --votes-per-item 0", "annotate", ["build", "{tmp}/st", "--pairs", "{world}/toy/pairs.csv",
                                               "--scene", "{world}/toy/scene", "--votes-per-item", "0"],
-     ["votes_per_item"]),
+     ["--votes-per-item"]),
     ("build without --pairs", "annotate", ["build", "{tmp}/st"], ["--pairs"]),
     ("annotate unknown command", "annotate", ["rate"], ["rate"]),
     ("analyze --bootstrap -1", "analyze", ["{world}/ratings.csv", "--bootstrap", "-1", "--out", "{tmp}/r"],
@@ -673,7 +673,7 @@ for _n, _prog, _argv, _f in ARG_CASES:
 @case("arguments", "simulate --raters 0")
 def _(world, tmp):
     st = _study(world, tmp)
-    return "annotate", ["simulate", str(st), "--raters", "0"], ["raters"]
+    return "annotate", ["simulate", str(st), "--raters", "0"], ["--raters"]
 
 
 @case("arguments", "add-rater bad name")

@@ -64,7 +64,7 @@ def test_disk_full_during_build_leaves_nothing(world, tmp_path, capfd, monkeypat
 
     monkeypatch.setattr(annotate.crops, "write_image", fill_up)
     rc = main(["build", str(tmp_path / "st"), "--pairs", str(world / "toy" / "pairs.csv"), "--scene",
-               str(world / "toy" / "scene"), "--tracks", "2", "--frames-per-track", "2", "--size", "32"])
+               str(world / "toy" / "scene"), "--tracks", "2", "--frames-per-track", "2", "--size", "32x32"])
     out, err = capfd.readouterr()
     assert rc == 2 and "Traceback" not in err
     assert err.strip().splitlines()[-1].startswith("error: ") and "No space left" in err
