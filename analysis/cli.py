@@ -54,6 +54,12 @@ def build_parser() -> ArgumentParser:
         metavar="A,B",
         help="metric columns where higher is better (comma list)",
     )
+    _add_options(p)
+    return p
+
+
+def _add_options(p: ArgumentParser) -> None:
+    """The options that choose what is analysed and how."""
     p.add_argument(
         "--target",
         metavar="COLUMN",
@@ -102,7 +108,6 @@ def build_parser() -> ArgumentParser:
     )
     p.add_argument("--out", required=True, metavar="REPORT_DIR", help="report directory")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
-    return p
 
 
 def _print_summary(analysis) -> None:

@@ -138,3 +138,36 @@ def test_console_scripts_one_line(world, tmp_path):
         assert proc.returncode == 2, (argv, proc.stderr)
         assert len(lines) == 1 and lines[0].startswith("error: ") and fragment in lines[0], proc.stderr
     assert snapshot(tmp_path) == before
+
+
+def test_export_counts_votes_it_cannot_place(world, tmp_path, capfd):
+    """Issue 13 items 6 and 14: a vote for an unknown item, or one recorded under an old study
+    id, is not silently dropped: export says how many and why (1 + 2 here, written by hand)."""
+    from annotate.cli import main
+
+    st = copy_into(world, "study", tmp_path)
+    n_before = len(pd.read_csv(world / "ratings.csv"))
+    with sqlite3.connect(st / "votes.sqlite") as con:
+        study_id = con.execute("SELECT study FROM votes LIMIT 1").fetchone()[0]
+        row = ("2026-01-01T00:00:00.000Z", 500)
+        con.execute("INSERT INTO votes VALUES (?, 'ann', 'no-such-item', 1, ?, ?)", (study_id, *row))
+        for item in ("a", "b"):
+            con.execute("INSERT INTO votes VALUES ('old-study', 'ann', ?, 0, ?, ?)", (item, *row))
+    capfd.readouterr()
+    assert main(["export", str(st), "--out", str(tmp_path / "r.csv")]) == 0
+    err = capfd.readouterr().err
+    assert len(pd.read_csv(tmp_path / "r.csv")) == n_before
+    assert "warning: 3 votes not exported: 1 for items not in items.csv; 2 recorded under another " \
+           "study id" in err
+
+
+def test_report_folder_of_ours_is_replaced_and_carries_the_marker(world, tmp_path, capfd):
+    from analysis.cli import main
+    from data_schema.outputs import REPORT_MARKER
+
+    argv = [str(world / "ratings.csv"), "--out", str(tmp_path / "rep"), "--bootstrap", "0", "--quiet"]
+    assert main(argv) == 0 and (tmp_path / "rep" / REPORT_MARKER).is_file()
+    (tmp_path / "rep" / "stale.txt").write_text("from an older run")
+    assert main(argv) == 0  # a report folder of ours: replaced as a whole
+    assert (tmp_path / "rep" / REPORT_MARKER).is_file() and not (tmp_path / "rep" / "stale.txt").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]  # no temporary folders left
