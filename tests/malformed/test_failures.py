@@ -71,21 +71,6 @@ def test_disk_full_during_build_leaves_nothing(world, tmp_path, capfd, monkeypat
     assert list(tmp_path.iterdir()) == []  # no study, no temporary folder
 
 
-def test_disk_full_during_report_keeps_the_old_report(world, tmp_path, capfd, monkeypatch):
-    import analysis.report
-    from analysis.cli import main
-
-    assert main([str(world / "ratings.csv"), "--out", str(tmp_path / "rep"), "--bootstrap", "0",
-                 "--quiet"]) == 0
-    capfd.readouterr()
-    before = snapshot(tmp_path)
-    monkeypatch.setattr(analysis.report, "_build", _enospc)
-    rc = main([str(world / "ratings.csv"), "--out", str(tmp_path / "rep"), "--bootstrap", "0", "--quiet"])
-    line = _one_line(capfd)
-    assert rc == 2 and "No space left" in line
-    assert snapshot(tmp_path) == before and sorted(p.name for p in tmp_path.iterdir()) == ["rep"]
-
-
 @pytest.mark.parametrize("command", ["export", "simulate"])
 def test_read_only_study_folder(world, tmp_path, capfd, monkeypatch, command):
     from annotate.cli import main
@@ -161,13 +146,22 @@ def test_export_counts_votes_it_cannot_place(world, tmp_path, capfd):
            "study id" in err
 
 
-def test_report_folder_of_ours_is_replaced_and_carries_the_marker(world, tmp_path, capfd):
+def test_report_folder_replaced_whole_and_kept_on_a_full_disk(world, tmp_path, capfd, monkeypatch):
+    """A report folder of ours (marker file) is replaced as a whole; a disk that fills up
+    while the next report is built leaves the previous one as it was, and no temporary folder."""
+    import analysis.report
     from analysis.cli import main
     from data_schema.outputs import REPORT_MARKER
 
     argv = [str(world / "ratings.csv"), "--out", str(tmp_path / "rep"), "--bootstrap", "0", "--quiet"]
     assert main(argv) == 0 and (tmp_path / "rep" / REPORT_MARKER).is_file()
     (tmp_path / "rep" / "stale.txt").write_text("from an older run")
-    assert main(argv) == 0  # a report folder of ours: replaced as a whole
+    assert main(argv) == 0
     assert (tmp_path / "rep" / REPORT_MARKER).is_file() and not (tmp_path / "rep" / "stale.txt").exists()
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]  # no temporary folders left
+    capfd.readouterr()
+    before = snapshot(tmp_path)
+    monkeypatch.setattr(analysis.report, "_build", _enospc)
+    rc = main(argv)
+    line = _one_line(capfd)
+    assert rc == 2 and "No space left" in line
+    assert snapshot(tmp_path) == before and sorted(p.name for p in tmp_path.iterdir()) == ["rep"]
