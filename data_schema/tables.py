@@ -8,6 +8,7 @@ into place, so an interrupted command never leaves a half-written file that look
 from __future__ import annotations
 
 import os
+import re
 import tempfile
 from collections.abc import Iterable, Sequence
 from pathlib import Path, PurePosixPath, PureWindowsPath
@@ -160,9 +161,22 @@ def check_pairs(df: pd.DataFrame, *, where: str) -> pd.DataFrame:
         _numeric(df, "y_offset_m", where, "a finite number of metres")
     for col in ("gt_path", "render_path"):
         if col in df.columns:
-            for i, rel in enumerate(df[col].tolist()):
-                check_scene_path(rel, where=where, field=f"{_line(i)}: column {col!r}")
+            bad = _outside_scene(df[col])
+            if bad.any():  # vectorised screen; the first offender gets the full message
+                i = _first(bad)
+                check_scene_path(df[col].iloc[i], where=where, field=f"{_line(i)}: column {col!r}")
     return df
+
+
+_OUTSIDE = re.compile(r"^\s*$|^[/\\]|^[A-Za-z]:|(?:^|[/\\])\.\.(?:[/\\]|$)")
+
+
+def _outside_scene(paths: pd.Series):
+    """Boolean mask of values that break :func:`check_scene_path` (empty, absolute, ``..``);
+    each distinct value is tested once."""
+    uniq = pd.unique(paths)
+    bad = {v: not isinstance(v, str) or _OUTSIDE.search(v) is not None for v in uniq}
+    return paths.map(bad).to_numpy(dtype=bool)
 
 
 def check_metrics(df: pd.DataFrame, *, where: str) -> pd.DataFrame:
