@@ -25,15 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from data_schema.perturbation import (
-    EXTRA_PERTURBATION_COLUMNS,
-    LABEL_COLUMN,
-    PERTURBATION_COLUMNS,
-    axes,
-    labels,
-    perturbation_array,
-    view_suffix,
-)
+from data_schema.errors import InputError
 from data_schema.scene import Scene
 from data_schema.tables import MIN_SIDE_PX, PAIRS_COLUMNS
 from nvrq.geometry.boxes import box_corners, box_sides, pixel_box
@@ -270,6 +262,9 @@ def make_pairs(
     """
     from tqdm.auto import tqdm
 
+    for name, value in (("min_side", min_side), ("min_area", min_area)):
+        if not isinstance(value, int | float | np.number) or not np.isfinite(value) or value < 0:
+            raise InputError(name, None, "a non-negative number of pixels", value)
     stats = PairStats()
     cams = list(scene.cameras.values())
     frames_out = []

@@ -23,13 +23,10 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from data_schema.errors import InputError
     from data_schema.scene import load_scene
     from data_schema.tables import write_table
     from nvrq.pairs import make_pairs
 
-    if args.min_side < 0 or args.min_area < 0:
-        raise InputError("--min-side/--min-area", None, "non-negative numbers", f"{args.min_side}, {args.min_area}")
     t0 = time.perf_counter()
     scene = load_scene(args.scene)
     pairs, stats = make_pairs(scene, min_side=args.min_side, min_area=args.min_area, progress=not args.quiet)
