@@ -44,7 +44,7 @@ def build_parser() -> ArgumentParser:
         nargs="+",
         default=[],
         metavar="A,B",
-        help="metric columns where lower is better (comma list)",
+        help="metric columns where lower is better (comma list; the old space-separated form is deprecated)",
     )
     p.add_argument(
         "--higher-better",
@@ -52,7 +52,7 @@ def build_parser() -> ArgumentParser:
         nargs="+",
         default=[],
         metavar="A,B",
-        help="metric columns where higher is better (comma list)",
+        help="metric columns where higher is better (comma list; the old space-separated form is deprecated)",
     )
     _add_options(p)
     return p

@@ -157,7 +157,7 @@ def build_parser() -> ArgumentParser:
     p = ArgumentParser(prog="annotate", description="Rating studies of render quality.")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
     b = sub.add_parser("build", help="build a study folder from a pairs table")
-    b.add_argument("study")
+    b.add_argument("study", metavar="STUDY", help="new study folder (absent or empty)")
     b.add_argument("--pairs", required=True, help="pairs table (SPEC section 3)")
     b.add_argument("--scene", help="scene folder the pairs' image paths are relative to "
                    "(default: the pairs table's scene_root column)")
