@@ -165,3 +165,22 @@ def test_report_folder_replaced_whole_and_kept_on_a_full_disk(world, tmp_path, c
     line = _one_line(capfd)
     assert rc == 2 and "No space left" in line
     assert snapshot(tmp_path) == before and sorted(p.name for p in tmp_path.iterdir()) == ["rep"]
+
+
+def test_valid_world_passes(world, tmp_path, capfd):
+    """The corpus's unbroken inputs are accepted by the same commands (so each case's error
+    comes from what it breaks): pairs, score, build with --metrics-table, export."""
+    from annotate.cli import main as annotate
+    from nvrq.cli import main as nvrq
+
+    assert nvrq(["pairs", str(world / "scene"), "--out", str(tmp_path / "p.csv"), "--quiet"]) == 0
+    assert nvrq(["score", str(world / "toy" / "pairs.csv"), "--scene", str(world / "toy" / "scene"),
+                 "--metrics", "psnr", "--out", str(tmp_path / "m.csv"), "--quiet"]) == 0
+    assert annotate(["build", str(tmp_path / "st"), "--pairs", str(world / "toy" / "pairs.csv"), "--scene",
+                     str(world / "toy" / "scene"), "--tracks", "1", "--frames-per-track", "1", "--size",
+                     "32x32", "--metrics-table", str(world / "metrics.csv")]) == 0
+    assert annotate(["export", str(tmp_path / "st"), "--out", str(tmp_path / "r.csv")]) == 0
+    err = capfd.readouterr().err
+    assert "error" not in err and "Traceback" not in err
+    assert len(pd.read_csv(tmp_path / "m.csv")) == len(pd.read_csv(world / "toy" / "pairs.csv"))
+    assert "psnr" in pd.read_csv(tmp_path / "st" / "metrics.csv").columns
