@@ -123,7 +123,7 @@ def render_plan(scene, *, offsets=None, perturbations=None, cameras=None) -> pd.
     unknown = [c for c in names if c not in scene.cameras]
     if unknown:
         raise InputError(
-            "--cameras", None, f"cameras of the scene ({', '.join(scene.cameras)})", unknown[0]
+            "cameras", None, f"cameras of the scene ({', '.join(scene.cameras)})", unknown[0]
         )
     renders = images[images.source == "render"]
     listed = dict(zip(zip(renders.camera, renders.timestamp_us.astype(int), labels(perturbation_array(renders)),
