@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.perturbation import VIEW_COLUMNS
 from data_schema.tables import (
     PAIR_META_COLUMNS,
     PAIRS_COLUMNS,

@@ -43,6 +43,7 @@ from annotate.design import attribute_columns, choose_views, select_test_pairs
 from annotate.store import Store
 from data_schema.errors import InputError
 from data_schema.outputs import check_output_folder
+from data_schema.perturbation import view_columns, with_perturbation_columns
 from data_schema.tables import (
     GT_BOX_COLUMNS,
     PAIR_META_COLUMNS,
@@ -107,8 +108,9 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
                           n_gold=n_gold, n_repeats=n_repeats, size=size, image_format=image_format,
                           access=access, break_every=break_every)
     pairs = _read_pairs(Path(pairs_path), scene)
+    opts["pairs_file"] = pairs.attrs["path"]
     rng = np.random.default_rng(seed)
-    rows, chosen_offsets, record = _choose_items(pairs, rng, opts)
+    pairs, rows, chosen_offsets, record = _choose_items(pairs, rng, opts)
     _check_images(rows, where=str(pairs_path))
     metrics = _read_study_metrics(opts["metrics_paths"], pairs)
     out = Path(out)
@@ -179,10 +181,15 @@ def _read_study_metrics(paths, pairs: pd.DataFrame) -> pd.DataFrame | None:
 
 
 def _choose_items(pairs: pd.DataFrame, rng: np.random.Generator, opts: dict):
-    """Rows ``(pair record, kind, key, item_id, expected)`` of every item, the chosen offsets
-    and the per-track record of the choice."""
-    chosen_offsets = parse_offsets(opts["offsets"], pairs["y_offset_m"])
-    tests, record = select_test_pairs(pairs, offsets=chosen_offsets, n_tracks=int(opts["tracks"]),
+    """The pairs (with 6-DoF columns when they have views), rows ``(pair record, kind, key,
+    item_id, expected)`` of every item, the chosen offsets or views and the per-track record."""
+    chosen_views = choose_views(opts["offsets"], pairs)
+    opts["view_columns"] = view_cols = view_columns(pairs)  # [] for lateral-only pairs
+    if view_cols:
+        pairs = with_perturbation_columns(pairs).copy()
+        pairs.attrs["path"] = opts["pairs_file"]
+    chosen_offsets = chosen_views if view_cols else sorted(float(v.partition("=")[2] or 0) for v in chosen_views)
+    tests, record = select_test_pairs(pairs, offsets=chosen_views, n_tracks=int(opts["tracks"]),
                                       frames_per_track=int(opts["frames_per_track"]), rng=rng)
     training = _pick_training(pairs, tests, opts["n_training"], rng)
     gold_src = tests.iloc[sorted(rng.choice(len(tests), size=min(2 * opts["n_gold"], len(tests)),
@@ -200,7 +207,7 @@ def _choose_items(pairs: pd.DataFrame, rng: np.random.Generator, opts: dict):
         rows.append((r, "gold", f"{tag}:{r['pair_id']}", f"{tag}:{r['pair_id']}",
                      int(tag == "gold-good")))
     rows += [(r, "repeat", "repeat:" + r["pair_id"], r["pair_id"], None) for r in recs(rep_src)]
-    return rows, chosen_offsets, record
+    return pairs, rows, chosen_offsets, record
 
 
 def _check_images(rows, *, where: str) -> None:
@@ -255,7 +262,7 @@ def _cut_crops(rows, pairs: pd.DataFrame, tmp: Path, *, rng, opts: dict, where: 
         ref_file, ren_file = f"{ids[2 * k]}.{fmt}", f"{ids[2 * k + 1]}.{fmt}"
         _crops.write_image(tmp / "crops" / ref_file, a, fmt=fmt)
         _crops.write_image(tmp / "crops" / ren_file, b, fmt=fmt)
-        meta = {c: r[c] for c in (*PAIR_META_COLUMNS, *attrs)}
+        meta = {c: r[c] for c in (*PAIR_META_COLUMNS, *opts["view_columns"], *attrs)}
         items.append({"key": key, "item_id": item_id, "kind": kind, "pair_id": r["pair_id"],
                       "ref_file": ref_file, "ren_file": ren_file,
                       "expected": np.nan if expected is None else expected, **meta})
@@ -288,6 +295,7 @@ def _manifest(out: Path, pairs: pd.DataFrame, items: pd.DataFrame, opts: dict, *
         "metrics": [str(Path(p).resolve()) for p in opts["metrics_paths"]],
         "metric_columns": metric_cols,
         "attribute_columns": attribute_columns(pairs.drop(columns=["_root", "_row"])),
+        "view_columns": opts["view_columns"],
         "scene_roots": {str(k): str(v) for k, v in roots.items()},
         "offsets": offsets, "tracks": tracks,
         "counts": {kind: int((items["kind"] == kind).sum()) for kind in KINDS},

@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.perturbation import EXTRA_PERTURBATION_COLUMNS, PERTURBATION_COLUMNS
 from data_schema.tables import IMAGES_COLUMNS, atomic_write_text, inside_scene, write_table
 
 __all__ = [

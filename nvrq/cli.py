@@ -76,7 +76,7 @@ def check_outputs(args) -> None:
 def _main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    with flags_in_errors(parser, args, {"scene_root": "scene"}):
+    with flags_in_errors(parser, args, {"scene_root": "scene", "perturbations": "perturb"}):
         check_outputs(args)
         return args.func(args)
 

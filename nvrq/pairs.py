@@ -26,6 +26,15 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.perturbation import (
+    EXTRA_PERTURBATION_COLUMNS,
+    LABEL_COLUMN,
+    PERTURBATION_COLUMNS,
+    axes,
+    labels,
+    perturbation_array,
+    view_suffix,
+)
 from data_schema.scene import Scene
 from data_schema.tables import MIN_SIDE_PX, PAIRS_COLUMNS
 from nvrq.geometry.boxes import box_corners, box_sides, pixel_box

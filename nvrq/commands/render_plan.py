@@ -7,6 +7,7 @@ __all__ = ["register", "run"]
 
 def register(sub) -> None:
     from data_schema.cliargs import allow_negative_lists
+    from nvrq.commands.synth import add_perturb_option
 
     p = sub.add_parser(
         "render-plan",

@@ -4,7 +4,25 @@ from __future__ import annotations
 
 from data_schema.cliargs import allow_negative_lists, parse_wxh
 
-__all__ = ["register", "run", "parse_offsets", "parse_size", "allow_negative_lists"]
+__all__ = ["register", "run", "parse_offsets", "parse_size", "allow_negative_lists", "add_perturb_option",
+           "perturb_grid"]
+
+
+def add_perturb_option(parser) -> None:
+    """``--perturb AXIS=START:STOP:STEP,...`` (6-DoF grid; replaces ``--offsets`` when given)."""
+    parser.add_argument(
+        "--perturb", default=None, metavar="GRID",
+        help="6-DoF views as a comma list of AXIS=START:STOP:STEP (or AXIS=VALUE), AXIS in "
+        "{x,y,z,roll,pitch,yaw}, metres/degrees in the rig frame, e.g. y=-3:3:1,z=0:2:0.5,yaw=-10:10:5; "
+        "replaces --offsets",
+    )
+
+
+def perturb_grid(args):
+    """The ``(K, 6)`` views of ``--perturb``, or None when it was not given."""
+    from data_schema.perturbation import parse_perturb
+
+    return None if args.perturb is None else parse_perturb(args.perturb, option="--perturb")
 
 
 def parse_offsets(text: str, *, option: str = "--offsets") -> list[float]:

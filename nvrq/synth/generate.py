@@ -132,15 +132,6 @@ def _parse(seconds, fps, views, cameras, size):
         raise InputError("seconds", None, "a positive number of seconds", seconds)
     if not (isinstance(fps, int | float) and math.isfinite(fps) and 0 < fps <= 1000):
         raise InputError("fps", None, "a frame rate in (0, 1000]", fps)
-    offs = [float(o) for o in offsets]
-    if (
-        not offs
-        or not all(math.isfinite(o) and abs(o) <= 20 for o in offs)
-        or len(set(offs)) != len(offs)
-    ):
-        raise InputError(
-            "offsets", None, "distinct lateral offsets in metres within [-20, 20]", offsets
-        )
     cams = list(cameras)
     bad = [c for c in cams if c not in CAMERA_KINDS]
     if not cams or bad or len(set(cams)) != len(cams):
@@ -150,7 +141,22 @@ def _parse(seconds, fps, views, cameras, size):
     W, H = (int(v) for v in size)
     if len(tuple(size)) != 2 or W < 64 or H < 48 or W > 8192 or H > 8192:
         raise InputError("size", None, "WxH with 64 <= W <= 8192 and 48 <= H <= 8192", size)
-    return offs, [CAMERA_KINDS[c] for c in cams], (W, H)
+    return [CAMERA_KINDS[c] for c in cams], (W, H)
+
+
+def _views(offsets, perturbations) -> np.ndarray:
+    """The render views ``(K, 6)``: ``perturbations`` when given, else the lateral ``offsets``."""
+    if perturbations is None:
+        offs = [float(o) for o in offsets]
+        if not offs or not all(math.isfinite(o) and abs(o) <= 20 for o in offs) or len(set(offs)) != len(offs):
+            raise InputError("offsets", None, "distinct lateral offsets in metres within [-20, 20]", offsets)
+        return lateral(offs)
+    P = np.asarray(perturbations, dtype=np.float64)
+    if P.ndim != 2 or P.shape[1] != 6 or not len(P) or not np.isfinite(P).all() \
+            or np.abs(P[:, :3]).max() > 20 or np.abs(P[:, 3:]).max() > 90 or len(set(labels(P))) != len(P):
+        raise InputError("perturbations", None, "distinct (K, 6) rows (dx, dy, dz in [-20, 20] m; "
+                         "roll, pitch, yaw in [-90, 90] deg)", np.shape(P))
+    return P
 
 
 def _write_png(path: Path, img: np.ndarray) -> None:
