@@ -45,8 +45,8 @@ from nvrq.crops import cut_box, encoder_input, read_rgb, resize_to
 from nvrq.metrics import REGISTRY, split_column
 
 __all__ = ["CropBatch", "iter_crop_batches", "score_crop_batch", "embed_crops", "encoder_inputs",
-           "run_batched", "pair_outputs", "read_crops", "check_metric_args", "encoder_columns", "nvrq_similarity",
-           "nvrq_ca", "W_LOW", "CROP_COLUMNS"]
+           "run_batched", "pair_outputs", "read_crops", "check_metric_args", "check_tau",
+           "encoder_columns", "nvrq_similarity", "nvrq_ca", "W_LOW", "CROP_COLUMNS"]
 
 W_LOW = 0.1
 #: the pairs-table columns :func:`iter_crop_batches` reads (besides ``scene_root``)
@@ -73,15 +73,16 @@ def nvrq_ca(s: np.ndarray, *, tau: float, w_low: float = W_LOW) -> np.ndarray:
     >>> nvrq_ca(np.array([0.0, 0.325, 0.65, 1.0]), tau=0.65).round(4).tolist()
     [0.0, 0.05, 0.1, 1.0]
     """
-    _check_tau(tau)
+    check_tau(tau)
     s = np.asarray(s, np.float64)
     low = s / tau * w_low
     high = w_low + (1.0 - w_low) * ((s - tau) / (1.0 - tau)) ** 2
     return np.where(s < tau, low, high)
 
 
-def _check_tau(tau) -> None:
-    if tau is None or isinstance(tau, bool) or not isinstance(tau, (int, float, np.floating)) \
+def check_tau(tau) -> None:
+    """:class:`InputError` naming ``tau`` unless it is a number in (0, 1)."""
+    if tau is None or isinstance(tau, bool) or not isinstance(tau, (int, float, np.integer, np.floating)) \
             or not 0.0 < tau < 1.0:
         raise InputError("tau", None, "a number strictly between 0 and 1 (NVRQ-CA knee; "
                          "`nvrq calibrate-tau` measures one)", tau)
@@ -184,7 +185,7 @@ def check_metric_args(metrics: Sequence[str], *, encoder=None, tau=None, batch_s
     if enc_cols and encoder is None:
         raise InputError("encoder", None, f"a loaded encoder for {', '.join(enc_cols)}", None)
     if any(split_column(c)[0] == "nvrq_ca" for c in enc_cols):
-        _check_tau(tau)
+        check_tau(tau)
 
 
 def _pixel_columns(batch: CropBatch, names: list[str], times: dict) -> dict[str, np.ndarray]:

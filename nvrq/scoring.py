@@ -54,26 +54,26 @@ __all__ = ["nvrq_similarity", "nvrq_ca", "W_LOW", "resolve_metrics", "ScoreResul
            "score_pairs", "timing_table", "REQUIRED_COLUMNS"]
 
 REQUIRED_COLUMNS = ("pair_id", *CROP_COLUMNS)
-def resolve_metrics(names: Sequence[str], encoder: str) -> list[str]:
-    """Output column names for ``--metrics`` entries: ``nvrq`` -> ``nvrq:ENCODER``.
+def resolve_metrics(metrics: Sequence[str], encoder: str) -> list[str]:
+    """Output column names for metric names: ``nvrq`` -> ``nvrq:ENCODER`` (``encoder``'s name).
 
     >>> resolve_metrics(["psnr", "nvrq", "nvrq_ca"], "dinov2-small")
     ['psnr', 'nvrq:dinov2-small', 'nvrq_ca:dinov2-small']
     """
     known = sorted(n for n, i in REGISTRY.items() if i.kind == "metric")
     columns: list[str] = []
-    for raw in names:
+    for raw in metrics:
         family, enc = split_column(raw.strip())
         info = REGISTRY.get(family)
         if info is None or info.kind != "metric" or (enc is not None and not info.needs_encoder):
-            raise InputError("--metrics", None, f"metric names among {', '.join(known)}", raw)
+            raise InputError("metrics", None, f"metric names among {', '.join(known)}", raw)
         if info.needs_encoder and enc not in (None, encoder):
-            raise InputError("--metrics", raw, f"the encoder given by --encoder ({encoder})", enc)
+            raise InputError("metrics", raw, f"the encoder given as encoder ({encoder})", enc)
         col = f"{family}:{encoder}" if info.needs_encoder else family
         if col not in columns:
             columns.append(col)
     if not columns:
-        raise InputError("--metrics", None, "at least one metric", "none")
+        raise InputError("metrics", None, "at least one metric", "none")
     return columns
 
 

@@ -65,12 +65,15 @@ def encoder_for_metrics(metrics: Sequence[str], default: str | None) -> str:
 
 def _resolve_tau(name: str, args) -> float:
     from nvrq.calibrate import resolve_tau
+    from nvrq.score_core import check_tau
 
     tau, source = resolve_tau(name, tau=args.tau, config=args.config)
     if tau is None:
         raise InputError("--tau", None, f"a tau for encoder {name}: run `nvrq calibrate-tau PAIRS "
                          f"--encoder {name} --write-config` or pass --tau",
                          "none in the registry or the user config")
+    with options_named(args):
+        check_tau(tau)
     print(f"tau = {tau:.3f} for {name} (from {source})", file=sys.stderr)
     return tau
 

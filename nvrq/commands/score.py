@@ -52,7 +52,8 @@ def run(args) -> int:
 
     raw = args.metrics.split(",")
     encoder_name = encoder_for_metrics(raw, args.encoder)
-    columns = resolve_metrics(raw, encoder_name)
+    with options_named(args):
+        columns = resolve_metrics(raw, encoder_name)
     pairs = read_table(args.pairs, required=REQUIRED_COLUMNS, what="pairs table")
     if not str(args.out).lower().endswith((".csv", ".parquet")):
         raise InputError(args.out, None, "an output file ending in .csv or .parquet", args.out)

@@ -62,7 +62,8 @@ def run(args) -> int:
 
     raw = [m.strip() for m in args.metrics.split(",") if m.strip()]
     encoder_name = encoder_for_metrics(raw, args.encoder)
-    columns = resolve_metrics(raw, encoder_name)
+    with options_named(args):
+        columns = resolve_metrics(raw, encoder_name)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise InputError(out, None, "an output directory", "an existing file")
