@@ -3,7 +3,7 @@
 
 Input: one per-pair table with ``clip_id`` (``--pairs``: a pairs dataset partitioned by
 ``clip_id`` as ``nvrq pairs`` writes it for a fleet, or a single pairs/metrics table with a
-``clip_id`` column) and any number of ``--metrics`` tables (``pair_id`` + numeric columns;
+``clip_id`` column) and any number of ``--metrics-table`` tables (``pair_id`` + numeric columns;
 files or datasets), joined on ``pair_id``. Column roles follow
 :func:`analysis.inputs.classify_columns` (the same rule as the ratings path); the target is a
 numeric column named by ``--target`` (e.g. ``clip_drop``).

@@ -26,6 +26,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from data_schema.errors import InputError
+from data_schema.perturbation import labels, perturbation_array
 
 __all__ = ["p_good", "item_severity", "simulate"]
 
@@ -52,11 +53,11 @@ def item_severity(study) -> pd.Series:
         if missing:
             raise InputError(path, f"column {missing[0]!r}", "columns " + ", ".join((*_JOIN, "severity")),
                              ", ".join(deg.columns))
-        deg = deg.assign(_cm=np.round(deg["y_offset_m"].astype(float) * 100).astype(np.int64),
-                         clip_id=str(clip))
+        # joined on the view label (0.01 m / deg, as pair_id); old files: lateral views
+        deg = deg.assign(_cm=labels(perturbation_array(deg)), clip_id=str(clip))
         parts.append(deg.drop(columns=["y_offset_m"]).drop_duplicates(["clip_id", *_JOIN[:3], "_cm"]))
     deg = pd.concat(parts, ignore_index=True)
-    it = items.assign(_cm=np.round(items["y_offset_m"].astype(float) * 100).astype(np.int64))
+    it = items.assign(_cm=labels(perturbation_array(items)))
     merged = it.merge(deg[["clip_id", "camera", "timestamp_us", "track_id", "_cm", "severity"]],
                       on=["clip_id", "camera", "timestamp_us", "track_id", "_cm"], how="left")
     sev = pd.Series(merged["severity"].to_numpy(dtype=float), index=items.index)
@@ -71,7 +72,7 @@ def item_severity(study) -> pd.Series:
 def simulate(study, *, raters: int = 5, seed: int = 0, progress: bool = True) -> pd.DataFrame:
     """Let ``raters`` simulated raters (the last careless) rate the study; returns their params."""
     if raters < 1:
-        raise InputError("--raters", None, "an integer >= 1", raters)
+        raise InputError("raters", None, "an integer >= 1", raters)
     import dataclasses
 
     from annotate.store import Store

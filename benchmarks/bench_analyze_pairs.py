@@ -5,7 +5,7 @@ Writes (once; ``--data DIR`` keeps it for reruns) three Parquet datasets partiti
 them: the pairs (every SPEC column, two scene attributes, ``scene_root``), a metrics dataset
 (``psnr, ssim, gmsd``) and a proxy dataset (``clip_drop``). Then runs
 
-    analyze --pairs PAIRS --metrics METRICS --metrics PROXY --target clip_drop --out REPORT
+    analyze --pairs PAIRS --metrics-table METRICS --metrics-table PROXY --target clip_drop --out REPORT
 
 as a subprocess and prints its wall time and peak resident memory (``ru_maxrss`` of the
 child). Target: <= 300 s and <= 8 GB on 2 cores.
@@ -91,7 +91,7 @@ def main() -> None:
         print(f"generated {args.rows:,} pairs in {args.clips} clips in {time.perf_counter() - t0:.1f} s -> {root}")
     cli = Path(sys.executable).with_name("analyze")
     cmd = [str(cli) if cli.is_file() else "analyze", "--pairs", str(root / "pairs"),
-           "--metrics", str(root / "metrics"), "--metrics", str(root / "proxy"),
+           "--metrics-table", str(root / "metrics"), "--metrics-table", str(root / "proxy"),
            "--target", "clip_drop", "--out", str(root / "report"), "--quiet"]
     print("$ " + " ".join(cmd))
     t0 = time.perf_counter()

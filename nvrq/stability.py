@@ -35,7 +35,7 @@ from scipy.stats import rankdata
 from tqdm import tqdm
 
 from data_schema.errors import InputError
-from data_schema.tables import GT_BOX_COLUMNS, pair_boxes, pair_image_paths
+from data_schema.tables import GT_BOX_COLUMNS, MIN_SIDE_PX, pair_boxes, pair_image_paths
 from nvrq.crops import cut_box, read_rgb
 from nvrq.metrics import metric_info
 from nvrq.nuisances import (
@@ -166,7 +166,7 @@ def build_samples(
     *,
     n_objects: int = 60,
     seed: int = 0,
-    min_side: int = 32,
+    min_side: int = MIN_SIDE_PX,
     nuisances: dict | None = None,
     artefact_strengths=ARTEFACT_STRENGTHS,
     progress: bool = True,
@@ -285,7 +285,7 @@ def run_stability(
     tau: float | None = None,
     n_objects: int = 60,
     seed: int = 0,
-    min_side: int = 32,
+    min_side: int = MIN_SIDE_PX,
     nuisances: dict | None = None,
     artefact_strengths=ARTEFACT_STRENGTHS,
     batch_size: int = 32,

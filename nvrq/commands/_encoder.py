@@ -1,19 +1,19 @@
 """The CLI pieces shared by every command that runs a model (score, calibrate-tau, stability,
-proxy): the encoder/tau/device options, one encoder-and-tau loader, and the translation of a
-library parameter name in an error (``batch_size``) into the option the user typed
-(``--batch-size``). Library functions validate their own arguments; commands do not re-check.
+proxy): the encoder/tau/device options and one encoder-and-tau loader. Library functions
+validate their own arguments and name the parameter (``batch_size``); commands do not re-check,
+and ``nvrq``'s entry point reports such an error as the option (``--batch-size``,
+:func:`data_schema.cliargs.flags_in_errors`).
 """
 
 from __future__ import annotations
 
 import sys
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Sequence
 
 from data_schema.errors import InputError
 
 __all__ = ["add_model_arguments", "add_encoder_arguments", "prepare_device", "encoder_for_metrics",
-           "load_encoder_and_tau", "options_named"]
+           "load_encoder_and_tau"]
 
 
 def add_model_arguments(p, *, batch_help: str = "crops per forward pass (default 32)") -> None:
@@ -72,8 +72,7 @@ def _resolve_tau(name: str, args) -> float:
         raise InputError("--tau", None, f"a tau for encoder {name}: run `nvrq calibrate-tau PAIRS "
                          f"--encoder {name} --write-config` or pass --tau",
                          "none in the registry or the user config")
-    with options_named(args):
-        check_tau(tau)
+    check_tau(tau)  # a bad --tau stops here, before the model loads
     print(f"tau = {tau:.3f} for {name} (from {source})", file=sys.stderr)
     return tau
 
@@ -89,16 +88,3 @@ def load_encoder_and_tau(args, *, needs_tau: bool, name: str | None = None):
     tau = _resolve_tau(name, args) if needs_tau else None
     prepare_device(args)
     return load_encoder(name, weights=args.weights, device=args.device), tau
-
-
-@contextmanager
-def options_named(args) -> Iterator[None]:
-    """Re-raise a library :class:`InputError` about a keyword parameter (``batch_size``) that is
-    also a command option as being about the option (``--batch-size``)."""
-    try:
-        yield
-    except InputError as err:
-        if err.where.isidentifier() and err.where in vars(args):
-            flag = "--" + err.where.replace("_", "-")
-            raise InputError(flag, err.field, err.expected, err.got) from None
-        raise

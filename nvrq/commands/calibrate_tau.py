@@ -5,7 +5,7 @@ Rule: tau = median of S over GT crops of unrelated objects (different tracks and
 
 from __future__ import annotations
 
-from nvrq.commands._encoder import add_encoder_arguments, load_encoder_and_tau, options_named
+from nvrq.commands._encoder import add_encoder_arguments, load_encoder_and_tau
 
 __all__ = ["register", "run"]
 
@@ -35,11 +35,10 @@ def run(args) -> int:
 
     pairs = read_table(args.pairs, what="pairs table")
     encoder, _ = load_encoder_and_tau(args, needs_tau=False)
-    with options_named(args):
-        cal = calibrate_tau(pairs, encoder, scene_root=args.scene, max_crops=args.max_crops,
-                            max_pairs=args.max_pairs, seed=args.seed,
-                            allow_same_class=args.allow_same_class, batch_size=args.batch_size,
-                            progress=not args.quiet, where=str(args.pairs))
+    cal = calibrate_tau(pairs, encoder, scene_root=args.scene, max_crops=args.max_crops,
+                        max_pairs=args.max_pairs, seed=args.seed,
+                        allow_same_class=args.allow_same_class, batch_size=args.batch_size,
+                        progress=not args.quiet, where=str(args.pairs))
     print(cal.summary())
     if args.write_config:
         path = write_tau(config_path(args.config), cal.encoder, cal.tau,

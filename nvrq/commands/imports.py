@@ -6,7 +6,8 @@ __all__ = ["register"]
 
 
 def register(sub) -> None:
-    from nvrq.commands.synth import allow_negative_lists
+    from data_schema.cliargs import allow_negative_lists
+    from nvrq.commands.synth import add_perturb_option
 
     p = sub.add_parser(
         "import",
@@ -25,6 +26,7 @@ def register(sub) -> None:
     n.add_argument(
         "--offsets", default="-3,-2,-1,0,1,2,3", help="render offsets in metres (left > 0)"
     )
+    add_perturb_option(n)
     n.add_argument(
         "--sequence", default=None, help="rig trajectory sequence_id (default: the first)"
     )
@@ -48,7 +50,7 @@ def register(sub) -> None:
 
 
 def _run_nurec(args) -> int:
-    from nvrq.commands.synth import parse_offsets
+    from nvrq.commands.synth import parse_offsets, perturb_grid
     from nvrq.sources.nurec import import_nurec
 
     attributes = None
@@ -57,11 +59,8 @@ def _run_nurec(args) -> int:
 
         attributes = read_clip_attributes(args.clip_attributes)
     out = import_nurec(
-        args.archive,
-        args.out,
-        offsets=parse_offsets(args.offsets),
-        sequence=args.sequence,
-        clip_attributes=attributes,
+        args.archive, args.out, offsets=parse_offsets(args.offsets), sequence=args.sequence,
+        perturbations=perturb_grid(args), clip_attributes=attributes,
     )
     print(f"wrote {out}")
     return 0

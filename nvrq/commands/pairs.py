@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import time
 
+from data_schema.tables import MIN_SIDE_PX
+
 __all__ = ["register", "run"]
 
 
@@ -20,20 +22,18 @@ def register(sub) -> None:
                    help="table of clip_id + attribute columns (e.g. lighting, road_type) to apply")
     p.add_argument("--keep-going", action="store_true",
                    help="several clips: write the good ones and failed.csv, exit 1 if any failed")
-    p.add_argument("--min-side", type=float, default=30, help="shorter side of the box in pixels (default 30)")
+    p.add_argument("--min-side", type=float, default=MIN_SIDE_PX,
+                   help=f"shorter side of the box in pixels (default {MIN_SIDE_PX})")
     p.add_argument("--min-area", type=float, default=0, help="box area in square pixels (default 0)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    from data_schema.errors import InputError
     from data_schema.scene import load_scene
     from data_schema.tables import write_table
     from nvrq.pairs import make_pairs
 
-    if args.min_side < 0 or args.min_area < 0:
-        raise InputError("--min-side/--min-area", None, "non-negative numbers", f"{args.min_side}, {args.min_area}")
     t0 = time.perf_counter()
     attributes = None
     if args.clip_attributes:

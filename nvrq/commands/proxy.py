@@ -7,7 +7,7 @@ local Ultralytics YOLO model (optional extra ``[yolo]``).
 
 from __future__ import annotations
 
-from nvrq.commands._encoder import add_model_arguments, options_named, prepare_device
+from nvrq.commands._encoder import add_model_arguments, prepare_device
 from nvrq.engines import add_engine_args
 
 __all__ = ["register"]
@@ -153,9 +153,8 @@ def run_imagenet(args) -> int:
     pairs = _read_pairs(args.pairs, ("gt_path", "gt_x0", "gt_y0", "gt_x1", "gt_y1"))
     prepare_device(args)
     clf = load_classifier(args.classifier, weights=args.weights, device=args.device)
-    with options_named(args):
-        out = imagenet_drop(pairs, clf, scene_root=args.scene, batch_size=args.batch_size,
-                            progress=not args.quiet, where=str(args.pairs))
+    out = imagenet_drop(pairs, clf, scene_root=args.scene, batch_size=args.batch_size,
+                        progress=not args.quiet, where=str(args.pairs))
     write_table(out, args.out)
     return 0
 
@@ -179,9 +178,8 @@ def run_clip(args) -> int:
     )
     prepare_device(args)
     clip = load_clip(args.clip, prompts=maps["clip_prompts"], device=args.device)
-    with options_named(args):
-        out = clip_drop(pairs, clip, category_map=maps["clip_category"], scene_root=args.scene,
-                        batch_size=args.batch_size, progress=not args.quiet, where=str(args.pairs))
+    out = clip_drop(pairs, clip, category_map=maps["clip_category"], scene_root=args.scene,
+                    batch_size=args.batch_size, progress=not args.quiet, where=str(args.pairs))
     write_table(out, args.out)
     return 0
 

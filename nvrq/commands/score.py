@@ -4,11 +4,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from data_schema.cliargs import comma_list
 from nvrq.commands._encoder import (
     add_encoder_arguments,
     encoder_for_metrics,
     load_encoder_and_tau,
-    options_named,
 )
 from nvrq.engines import add_engine_args
 
@@ -52,10 +52,9 @@ def run(args) -> int:
     from nvrq.score_core import encoder_columns
     from nvrq.scoring import REQUIRED_COLUMNS, resolve_metrics, score_pairs
 
-    raw = args.metrics.split(",")
+    raw = comma_list(args.metrics)
     encoder_name = encoder_for_metrics(raw, args.encoder)
-    with options_named(args):
-        columns = resolve_metrics(raw, encoder_name)
+    columns = resolve_metrics(raw, encoder_name)
     from nvrq.engines.cli import check_engine_args
 
     check_engine_args(args)
@@ -70,10 +69,9 @@ def run(args) -> int:
         needs_tau = any(c.startswith("nvrq_ca:") for c in enc_cols)
         encoder, tau = load_encoder_and_tau(args, needs_tau=needs_tau, name=encoder_name)
     cv2.setNumThreads(1)  # crops are small; leave the cores to the encoder and the decode thread
-    with options_named(args):
-        res = score_pairs(pairs, metrics=columns, encoder=encoder, tau=tau, scene_root=args.scene,
-                          base=Path(args.pairs).resolve().parent, batch_size=args.batch_size,
-                          progress=not args.quiet, where=str(args.pairs))
+    res = score_pairs(pairs, metrics=columns, encoder=encoder, tau=tau, scene_root=args.scene,
+                      base=Path(args.pairs).resolve().parent, batch_size=args.batch_size,
+                      progress=not args.quiet, where=str(args.pairs))
     write_table(res.table, args.out)
     tpath = write_table(res.timing, timing_path(args.out))
     _report(res, uses_encoder=bool(enc_cols), file=sys.stderr)

@@ -8,11 +8,12 @@ is the overall ratio), ``DIR/samples.csv`` (every scored sample: raw value and c
 
 from __future__ import annotations
 
+from data_schema.cliargs import comma_list
+from data_schema.tables import MIN_SIDE_PX
 from nvrq.commands._encoder import (
     add_encoder_arguments,
     encoder_for_metrics,
     load_encoder_and_tau,
-    options_named,
 )
 
 __all__ = ["register", "run"]
@@ -37,7 +38,8 @@ def register(sub) -> None:
     p.add_argument("--n-objects", type=int, default=60, help="GT crops sampled (default 60)")
     p.add_argument("--seed", type=int, default=0, help="sampling and perturbation seed (default 0)")
     p.add_argument(
-        "--min-side", type=int, default=32, help="smallest GT crop side used (default 32)"
+        "--min-side", type=int, default=MIN_SIDE_PX,
+        help=f"smallest GT crop side used (default {MIN_SIDE_PX}, as nvrq pairs)"
     )
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=run)
@@ -52,15 +54,15 @@ def run(args) -> int:
     from pathlib import Path
 
     from data_schema.errors import InputError
+    from data_schema.outputs import mark_report
     from data_schema.tables import read_table, write_table
     from nvrq.score_core import encoder_columns
     from nvrq.scoring import resolve_metrics
     from nvrq.stability import plot_stability, run_stability
 
-    raw = [m.strip() for m in args.metrics.split(",") if m.strip()]
+    raw = comma_list(args.metrics)
     encoder_name = encoder_for_metrics(raw, args.encoder)
-    with options_named(args):
-        columns = resolve_metrics(raw, encoder_name)
+    columns = resolve_metrics(raw, encoder_name)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise InputError(out, None, "an output directory", "an existing file")
@@ -70,12 +72,12 @@ def run(args) -> int:
     if enc_cols:
         needs_tau = any(c.startswith("nvrq_ca:") for c in enc_cols)
         encoder, tau = load_encoder_and_tau(args, needs_tau=needs_tau, name=encoder_name)
-    with options_named(args):
-        samples, stab, snr = run_stability(
-            pairs, metrics=columns, encoder=encoder, tau=tau, n_objects=args.n_objects,
-            seed=args.seed, min_side=args.min_side, batch_size=args.batch_size,
-            progress=not args.quiet, where=str(args.pairs))
+    samples, stab, snr = run_stability(
+        pairs, metrics=columns, encoder=encoder, tau=tau, n_objects=args.n_objects,
+        seed=args.seed, min_side=args.min_side, batch_size=args.batch_size,
+        progress=not args.quiet, where=str(args.pairs))
     out.mkdir(parents=True, exist_ok=True)
+    mark_report(out)  # a report folder of ours: a later run may replace it
     write_table(samples, out / "samples.csv")
     write_table(stab, out / "stability.csv")
     write_table(snr, out / "snr.csv")

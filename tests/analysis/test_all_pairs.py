@@ -88,7 +88,7 @@ def test_summary_and_breakdowns_match_scipy(data):
 def test_cli_report_and_errors(data, capsys):
     d, full = data
     out = d / "report"
-    rc = main(["--pairs", str(d / "pairs"), "--metrics", str(d / "metrics"), "--metrics", str(d / "proxy.csv"),
+    rc = main(["--pairs", str(d / "pairs"), "--metrics-table", str(d / "metrics"), "--metrics-table", str(d / "proxy.csv"),
                "--target", "clip_drop", "--bootstrap", "50", "--out", str(out), "--quiet"])
     assert rc == 0, capsys.readouterr().err
     assert (out / "report.html").is_file() and (out / "tent.png").is_file()
@@ -100,9 +100,9 @@ def test_cli_report_and_errors(data, capsys):
     full.drop(columns="clip_id").to_parquet(d / "flat.parquet")
     for args, msg in [
         (["--pairs", str(d / "flat.parquet"), "--target", "clip_drop"], "clip_id"),
-        (["--pairs", str(d / "pairs"), "--metrics", str(d / "metrics")], "--target"),
+        (["--pairs", str(d / "pairs"), "--metrics-table", str(d / "metrics")], "--target"),
         ([str(d / "proxy.csv"), "--pairs", str(d / "pairs"), "--target", "x"], "both"),
-        (["--pairs", str(d / "pairs"), "--metrics", str(d / "metrics"), "--metrics", str(d / "metrics"),
+        (["--pairs", str(d / "pairs"), "--metrics-table", str(d / "metrics"), "--metrics-table", str(d / "metrics"),
           "--target", "psnr"], "each metric column in one input"),
     ]:
         assert main(args + ["--out", str(d / "r2"), "--quiet"]) == 2

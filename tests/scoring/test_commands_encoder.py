@@ -1,6 +1,6 @@
-"""The shared encoder-and-tau CLI loader (nvrq/commands/_encoder.py): library parameters are
-reported as the options the user typed, tau comes from --tau > config > registry, and the
-encoder named in --metrics is the one loaded."""
+"""The shared encoder-and-tau CLI loader (nvrq/commands/_encoder.py): tau comes from --tau >
+config > registry and is checked before the model loads, the encoder named in --metrics is the
+one loaded, and the commands report the core's parameter errors as the options typed."""
 
 from __future__ import annotations
 
@@ -15,7 +15,6 @@ from nvrq.commands._encoder import (
     add_encoder_arguments,
     encoder_for_metrics,
     load_encoder_and_tau,
-    options_named,
 )
 
 
@@ -23,16 +22,6 @@ def _args(*argv):
     p = argparse.ArgumentParser()
     add_encoder_arguments(p)
     return p.parse_args(list(argv))
-
-
-def test_library_parameter_errors_name_the_option():
-    args = _args("--batch-size", "0")
-    with pytest.raises(InputError, match=r"^--batch-size: expected a positive integer, got 0$"):
-        with options_named(args):
-            raise InputError("batch_size", None, "a positive integer", 0)
-    with pytest.raises(InputError, match=r"^pairs.csv: "):  # not a parameter: left alone
-        with options_named(args):
-            raise InputError("pairs.csv", None, "x", 1)
 
 
 def test_encoder_comes_from_metrics_or_option():
@@ -54,14 +43,17 @@ def test_tau_from_option_then_config_and_checked_before_loading(tmp_path, monkey
                                 needs_tau=True) == ("dinov2-small", 0.42)
     assert load_encoder_and_tau(_args("--config", str(cfg), "--tau", "0.3"),
                                 needs_tau=True, name="dinov2-small")[1] == 0.3
-    with pytest.raises(InputError, match=r"^--tau: expected a number strictly between 0 and 1"):
+    with pytest.raises(InputError, match=r"^tau: expected a number strictly between 0 and 1"):
         load_encoder_and_tau(_args("--tau", "1.5"), needs_tau=True)
     assert loaded == ["dinov2-small", "dinov2-small"]  # the bad tau stopped before loading
 
 
-def test_cli_reports_bad_batch_size_as_the_option(tiny_scene, tmp_path, capsys):
+def test_cli_reports_core_parameter_errors_as_options(tiny_scene, tmp_path, capsys):
     root, pairs = tiny_scene
     pairs.to_csv(tmp_path / "p.csv", index=False)
+    rc = main(["score", str(tmp_path / "p.csv"), "--out", str(tmp_path / "m.csv"), "--metrics",
+               "psnr,nvrq_ca", "--tau", "1.5", "--quiet"])
+    assert rc == 2 and "--tau: expected a number strictly between 0 and 1" in capsys.readouterr().err
     rc = main(["score", str(tmp_path / "p.csv"), "--out", str(tmp_path / "m.csv"), "--metrics", "psnr",
                "--batch-size", "0", "--quiet"])
     assert rc == 2 and "--batch-size: expected a positive integer, got 0" in capsys.readouterr().err

@@ -117,8 +117,8 @@ def test_batches_keep_gt_images_whole_and_share_gt_crops(tiny_scene):
 
 def test_background_decode_error_reaches_the_caller(tiny_scene):
     root, pairs = tiny_scene
-    (root / pairs["render_path"].iloc[-1]).unlink()
-    with pytest.raises(InputError, match="no such file"):
+    (root / pairs["render_path"].iloc[-1]).write_bytes(b"not an image")  # found, fails to decode
+    with pytest.raises(InputError, match="undecodable"):
         list(iter_crop_batches(pairs, max_pairs=2, background=True))
 
 
