@@ -26,18 +26,18 @@ import numpy as np
 import pandas as pd
 
 from analysis import breakdowns
-from analysis.inputs import classify_columns, timing_path_for
+from analysis.inputs import NON_METRIC_COLUMNS, classify_columns, timing_path_for
 from analysis.pipeline import BOOT_CELL_LIMIT, Analysis, read_timing
 from analysis.summary import summary_table
 from data_schema import datasets as ds
 from data_schema.errors import InputError
-from data_schema.tables import PAIRS_COLUMNS, read_table
+from data_schema.tables import read_table
 
 __all__ = ["TableSource", "read_all_pairs", "run_pairs_analysis", "RATER_COLUMNS"]
 
 #: Pair columns the analysis uses (identity and breakdowns); the rest of PAIRS_COLUMNS is not read.
 _KEEP = ("clip_id", "track_id", "label_class", "y_offset_m")
-_SKIP = (set(PAIRS_COLUMNS) - set(_KEEP)) | {"scene_root"}
+_SKIP = (set(NON_METRIC_COLUMNS) - set(_KEEP)) | {"scene_root"}  # incl. the 6-DoF view columns
 RATER_COLUMNS = ["rater_id", "simulated", "excluded", "excluded_reason"]
 
 

@@ -22,8 +22,7 @@ import pandas as pd
 
 from data_schema.datasets import DatasetWriter
 from data_schema.errors import InputError
-from data_schema.tables import PAIRS_COLUMNS
-from nvrq.pairs import DROP_REASONS, PairStats
+from nvrq.pairs import DROP_REASONS, PAIRS_OUTPUT_COLUMNS, PairStats
 
 __all__ = ["find_scenes", "FleetResult", "fleet_pairs"]
 
@@ -101,7 +100,7 @@ def _unify(writer: DatasetWriter, attrs_by_file: dict[str, list[str]]) -> None:
         import pyarrow as pa
         import pyarrow.parquet as pq
 
-        df = df[[c for c in PAIRS_COLUMNS if c in df.columns] + union + ["scene_root"]]
+        df = df[[c for c in PAIRS_OUTPUT_COLUMNS if c in df.columns] + union + ["scene_root"]]
         t = pa.Table.from_pandas(df, preserve_index=False)
         for a in union:
             t = t.set_column(t.column_names.index(a), a, t.column(a).cast(pa.string()))
@@ -131,7 +130,7 @@ def fleet_pairs(scene_dirs, out, *, min_side: float = 30, min_area: float = 0, a
                 res.failed.append((_clip_name(d), str(err)))
                 continue
             seen[clip] = d
-            attrs = [c for c in pairs.columns if c not in PAIRS_COLUMNS and c != "scene_root"]
+            attrs = [c for c in pairs.columns if c not in PAIRS_OUTPUT_COLUMNS and c != "scene_root"]
             writer.string_columns = set(attrs)
             writer.write(clip, pairs)
             attrs_by_file[writer.files[-1]] = attrs
