@@ -209,12 +209,13 @@ def _texts(a: Analysis) -> dict:
         )
     rule = ScreenRule()
     screen_rule = (
-        f"--screen rule: exclude a rater when agreement with the others' majority < {rule.min_agreement} "
-        f"(>= {rule.min_compared} votes), gold failure rate > {rule.max_gold_failure_rate} "
-        f"(>= {rule.min_gold} gold votes), repeat consistency < {rule.min_repeat_consistency} "
-        f"(>= {rule.min_repeats} repeats), straight-lining (modal share >= {rule.straight_modal_share} "
-        f"while the others' is <= {rule.straight_others_max}, >= {rule.straight_min_votes} votes) or "
-        f"median response < {rule.min_median_response_ms:g} ms (>= {rule.min_votes_for_speed} votes)."
+        f"--screen rule (one-sided tests at level {rule.alpha} each): exclude a rater whose "
+        f"chance-corrected agreement with the leave-one-out consensus (Youden J = sensitivity + "
+        f"specificity - 1, consensus by backward elimination) is significantly below "
+        f"{rule.min_j} (z-test, j_p), whose gold failure rate is significantly above "
+        f"{rule.max_gold_failure_rate} or repeat consistency significantly below "
+        f"{rule.min_repeat_consistency} (exact binomial, gold_p / repeat_p), or whose median "
+        f"response is significantly below {rule.min_response_ms:g} ms (sign test, speed_p)."
     )
     notes = list(a.notes)
     if a.proxies:
@@ -238,9 +239,14 @@ _RATER_COLS = [
     "n_gold",
     "n_repeat",
     "agreement",
+    "kappa",
+    "youden_j",
+    "j_p",
     "loo_corr",
     "gold_failures",
+    "gold_p",
     "repeat_consistency",
+    "repeat_p",
     "modal_share",
     "median_response_ms",
     "flags",
