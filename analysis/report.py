@@ -39,6 +39,7 @@ _DISPLAY = [
     "krcc",
     "roc_auc",
     "plcc_logistic",
+    "srcc / ceiling",
     "vs best",
     "reason",
 ]
@@ -60,6 +61,14 @@ def _ci(row, name) -> str:
     if v and lo is not None and np.isfinite(lo):
         v += f" [{lo:.3f}, {hi:.3f}]"
     return v
+
+
+def _of_ceiling(row) -> str:
+    """"SRCC 0.62 of a ceiling of 0.71" in short: ``0.62 / 0.71`` (empty when undefined)."""
+    s, c = row.get("srcc"), row.get("srcc_ceiling")
+    if s is None or c is None or not (np.isfinite(s) and np.isfinite(c)):
+        return ""
+    return f"{s:.2f} / {c:.2f}"
 
 
 def summary_display(a: Analysis, *, with_ci: bool = True) -> pd.DataFrame:
@@ -92,6 +101,7 @@ def summary_display(a: Analysis, *, with_ci: bool = True) -> pd.DataFrame:
                 "krcc": _fmt(r["krcc"]),
                 "roc_auc": ci(r, "roc_auc"),
                 "plcc_logistic": _fmt(r["plcc_logistic"]),
+                "srcc / ceiling": _of_ceiling(r),
                 "vs best": vs,
                 "reason": r["reason"] or "",
             }
@@ -217,6 +227,20 @@ def _texts(a: Analysis) -> dict:
         f"{rule.min_repeat_consistency} (exact binomial, gold_p / repeat_p), or whose median "
         f"response is significantly below {rule.min_response_ms:g} ms (sign test, speed_p)."
     )
+    c = a.ceiling or {}
+    ceiling_text = (
+        f"Noise ceiling: split-half reliability of GVF (random rater halves, Spearman-Brown) "
+        f"{_fmt(c.get('reliability'))} [{_fmt(c.get('reliability_ci_lo'))}, "
+        f"{_fmt(c.get('reliability_ci_hi'))}] (95% bootstrap over items); no metric can exceed "
+        f"|PLCC| {_fmt(c.get('plcc_ceiling'))} or |SRCC| {_fmt(c.get('srcc_ceiling'))} "
+        f"against these votes." + (f" ({c['reason']})" if c.get("reason") else "")
+    )
+    cmp_ = a.comparison
+    comparison_text = "" if cmp_ is None else (
+        f"Labels: majority vote against {cmp_['method']}: {cmp_['labels_differ']} of "
+        f"{cmp_['items']} item labels differ ({cmp_['good_majority']} good by majority, "
+        f"{cmp_['good_model']} by the model; target = the model's posterior P(good))."
+    )
     notes = list(a.notes)
     if a.proxies:
         notes.append("proxy columns (use --target): " + ", ".join(a.proxies))
@@ -227,6 +251,8 @@ def _texts(a: Analysis) -> dict:
         "screen_text": screen_text,
         "simulated": sim,
         "screen_rule": screen_rule,
+        "ceiling_text": ceiling_text,
+        "comparison_text": comparison_text,
         "target_label": tl,
         "notes": notes,
     }
@@ -249,6 +275,9 @@ _RATER_COLS = [
     "repeat_p",
     "modal_share",
     "median_response_ms",
+    "model_sensitivity",
+    "model_specificity",
+    "model_skill",
     "flags",
     "excluded",
     "excluded_reason",
@@ -333,6 +362,7 @@ def _build(a: Analysis, d: Path) -> None:
         stability_html=Markup(_html_table(a.stability)) if a.stability is not None else "",
         snr_html=Markup(_html_table(a.snr)) if a.snr is not None else "",
         raters_html=Markup(_html_table(raters)),
+        comparison_html=Markup(_html_table(a.comparison["table"])) if a.comparison else "",
         **t,
     )
     (d / "report.html").write_text(page, encoding="utf-8")
@@ -353,6 +383,12 @@ def _build(a: Analysis, d: Path) -> None:
         _md_table(disp),
         "",
         t["method_text"],
+        "",
+        t["ceiling_text"],
+        "",
+        t["comparison_text"],
+        "",
+        _md_table(a.comparison["table"]) if a.comparison else "",
         "",
         "## Figures",
         "",

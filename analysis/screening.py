@@ -24,6 +24,8 @@ Per rater (``raters.csv``):
   neither are counted in ``n_gold_unscored``.
 - ``repeat_consistency`` over ``n_repeat_pairs`` (``kind == 'repeat'`` rows carry the test
   item's id) and ``repeat_p`` = P(X <= consistent), X ~ Bin(n, ``min_repeat_consistency``).
+- ``skill_p``: the one-sided z-test of ``H0: J <= 0`` (no skill), computed when both
+  consensus classes have at least ``min_class_votes`` items.
 - ``median_response_ms``, ``fast_share`` (share of test votes under
   ``min_response_ms``) and ``speed_p`` = P(X >= fast), X ~ Bin(n_test, 0.5): the median is
   significantly below the limit.
@@ -33,7 +35,9 @@ Per rater (``raters.csv``):
 - ``simulated``: id starts with ``sim-``.
 
 The ``--screen`` rule: a rater is excluded when any test above is significant at level
-``alpha`` (one-sided, per test): agreement (``j_p``), gold (``gold_p``), repeats
+``alpha`` (one-sided, per test): agreement (``j_p``), or, with at least ``min_class_votes``
+items in each consensus class, no significant skill (``skill_p >= alpha``: a rater with that
+many votes who cannot be told from a coin or one button), gold (``gold_p``), repeats
 (``repeat_p``) or speed (``speed_p``). Flags name every significant test. Thresholds and
 level are in :class:`ScreenRule`; the false-exclusion rate measured on simulated panels is
 in docs/FORMATS.md.
@@ -68,7 +72,8 @@ class ScreenRule:
     """Thresholds and test level of the ``--screen`` rule (see the module docstring)."""
 
     alpha: float = 0.01
-    min_j: float = 0.6
+    min_j: float = 0.35
+    min_class_votes: int = 10
     max_gold_failure_rate: float = 0.25
     min_repeat_consistency: float = 0.7
     min_response_ms: float = 300.0
@@ -179,30 +184,40 @@ def _j_p(res: dict, rule: ScreenRule):
                   res["n_cons_bad"], min_j=rule.min_j)
 
 
+def _flags(res: dict, rule: ScreenRule):
+    """(j_z, j_p, skill_p, flag) of :func:`consensus_stats` output under ``rule``."""
+    z, p = _j_p(res, rule)
+    z0, _ = j_test(res["sensitivity"], res["specificity"], res["n_cons_good"],
+                   res["n_cons_bad"], min_j=0.0)
+    skill_p = np.where(np.isnan(z0), 0.5, _st.norm.sf(z0))
+    enough = np.minimum(res["n_cons_good"], res["n_cons_bad"]) >= rule.min_class_votes
+    skill_p = np.where(enough, skill_p, np.nan)
+    return z, p, skill_p, (p < rule.alpha) | (skill_p >= rule.alpha)
+
+
 def screen_agreement(votes: np.ndarray, *, rule: ScreenRule | None = None) -> dict:
     """Agreement screening of ``votes`` (..., R, I) by backward elimination.
 
-    Start with every rater in the consensus; while the worst rater of the consensus (lowest
-    ``j_p``) is significant at ``rule.alpha``, drop it from the consensus and recompute (at
-    least two raters stay). Returns :func:`consensus_stats` against the final consensus plus
-    ``j_z``, ``j_p``, ``in_consensus`` and ``flag_agreement`` (..., R).
+    Start with every rater in the consensus; while a rater of the consensus is flagged, drop
+    the flagged one with the lowest J from the consensus and recompute (at least two raters
+    stay). Returns :func:`consensus_stats` against the final consensus plus ``j_z``, ``j_p``,
+    ``skill_p``, ``in_consensus`` and ``flag_agreement`` (..., R).
     """
     rule = rule or ScreenRule()
     v = np.asarray(votes, dtype=np.float64)
     use = np.ones(v.shape[:-1], bool)
     for _ in range(max(v.shape[-2] - 2, 0)):
-        _, p = _j_p(consensus_stats(v, use), rule)
-        p = np.where(use & np.isfinite(p), p, np.inf)
-        worst = np.argmin(p, axis=-1)
-        p_worst = np.take_along_axis(p, worst[..., None], -1)[..., 0]
-        drop = (p_worst < rule.alpha) & (use.sum(-1) > 2)
+        res = consensus_stats(v, use)
+        flag = _flags(res, rule)[3] & use
+        j = np.where(flag, np.nan_to_num(res["youden_j"], nan=-2.0), np.inf)
+        worst = np.argmin(j, axis=-1)[..., None]
+        drop = flag.any(-1) & (use.sum(-1) > 2)
         if not drop.any():
             break
-        np.put_along_axis(use, worst[..., None], ~drop[..., None] & np.take_along_axis(
-            use, worst[..., None], -1), -1)
+        np.put_along_axis(use, worst, np.take_along_axis(use, worst, -1) & ~drop[..., None], -1)
     out = consensus_stats(v, use)
-    z, p = _j_p(out, rule)
-    out.update(j_z=z, j_p=p, in_consensus=use, flag_agreement=p < rule.alpha)
+    z, p, skill_p, flag = _flags(out, rule)
+    out.update(j_z=z, j_p=p, skill_p=skill_p, in_consensus=use, flag_agreement=flag)
     return out
 
 
@@ -229,8 +244,9 @@ def _vote_matrix(votes: pd.DataFrame, raters) -> np.ndarray:
 def _agreement_columns(out, votes, raters, rule):
     res = screen_agreement(_vote_matrix(votes, raters), rule=rule)
     for k in ("n_compared", "n_cons_good", "n_cons_bad", "agreement", "kappa", "sensitivity",
-              "specificity", "youden_j", "j_z", "j_p", "loo_corr"):
+              "specificity", "youden_j", "j_z", "j_p", "skill_p", "loo_corr"):
         out[k] = res[k]
+    out["flag_agreement"] = res["flag_agreement"]
 
 
 def _gold_columns(out, votes, r_codes, n_r, rule):
@@ -301,6 +317,8 @@ def _checks(r: pd.DataFrame, rule: ScreenRule):
     a = rule.alpha
     return [
         (r["j_p"] < a, f"agreement with the others: J < {rule.min_j} (p < {a})"),
+        (r["skill_p"] >= a, f"no skill shown: J not > 0 (p >= {a}) over >= "
+         f"{rule.min_class_votes} votes per consensus class"),
         (r["gold_p"] < a, f"gold failure rate > {rule.max_gold_failure_rate} (p < {a})"),
         (r["repeat_p"] < a, f"repeat consistency < {rule.min_repeat_consistency} (p < {a})"),
         (r["speed_p"] < a, f"median response < {rule.min_response_ms:g} ms (p < {a})"),
