@@ -106,7 +106,8 @@ def summary_display(a: Analysis, *, with_ci: bool = True) -> pd.DataFrame:
                 "reason": r["reason"] or "",
             }
         )
-    return pd.DataFrame(rows, columns=_DISPLAY)
+    cols = _DISPLAY if with_ci else [c for c in _DISPLAY if c != "srcc / ceiling"]
+    return pd.DataFrame(rows, columns=_DISPLAY)[cols]
 
 
 def format_table_text(df: pd.DataFrame) -> str:
