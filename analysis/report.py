@@ -223,7 +223,9 @@ def _texts(a: Analysis) -> dict:
         f"--screen rule (one-sided tests at level {rule.alpha} each): exclude a rater whose "
         f"chance-corrected agreement with the leave-one-out consensus (Youden J = sensitivity + "
         f"specificity - 1, consensus by backward elimination) is significantly below "
-        f"{rule.min_j} (z-test, j_p), whose gold failure rate is significantly above "
+        f"{rule.min_j} (z-test, j_p) or who shows no skill (one-sided Fisher exact test of "
+        f"votes against consensus labels, skill_p >= {rule.skill_alpha}, with >= "
+        f"{rule.min_class_votes} items per consensus class), whose gold failure rate is significantly above "
         f"{rule.max_gold_failure_rate} or repeat consistency significantly below "
         f"{rule.min_repeat_consistency} (exact binomial, gold_p / repeat_p), or whose median "
         f"response is significantly below {rule.min_response_ms:g} ms (sign test, speed_p)."
@@ -269,6 +271,7 @@ _RATER_COLS = [
     "kappa",
     "youden_j",
     "j_p",
+    "skill_p",
     "loo_corr",
     "gold_failures",
     "gold_p",

@@ -24,8 +24,9 @@ Per rater (``raters.csv``):
   neither are counted in ``n_gold_unscored``.
 - ``repeat_consistency`` over ``n_repeat_pairs`` (``kind == 'repeat'`` rows carry the test
   item's id) and ``repeat_p`` = P(X <= consistent), X ~ Bin(n, ``min_repeat_consistency``).
-- ``skill_p``: the one-sided z-test of ``H0: J <= 0`` (no skill), computed when both
-  consensus classes have at least ``min_class_votes`` items.
+- ``skill_p``: one-sided Fisher exact test of ``H0``: the votes are independent of the
+  consensus labels (no skill); computed when each consensus class has at least
+  ``min_class_votes`` items.
 - ``median_response_ms``, ``fast_share`` (share of test votes under
   ``min_response_ms``) and ``speed_p`` = P(X >= fast), X ~ Bin(n_test, 0.5): the median is
   significantly below the limit.
@@ -35,10 +36,10 @@ Per rater (``raters.csv``):
 - ``simulated``: id starts with ``sim-``.
 
 The ``--screen`` rule: a rater is excluded when any test above is significant at level
-``alpha`` (one-sided, per test): agreement (``j_p``), or, with at least ``min_class_votes``
-items in each consensus class, no significant skill (``skill_p >= alpha``: a rater with that
-many votes who cannot be told from a coin or one button), gold (``gold_p``), repeats
-(``repeat_p``) or speed (``speed_p``). Flags name every significant test. Thresholds and
+``alpha`` (one-sided, per test): agreement (``j_p``), gold (``gold_p``), repeats
+(``repeat_p``) or speed (``speed_p``); or no skill shown: ``skill_p >= skill_alpha`` (with
+at least ``min_class_votes`` items in each consensus class, a rater whose votes cannot be
+told from a coin or a single button at that level). Flags name every test that fired. Thresholds and
 level are in :class:`ScreenRule`; the false-exclusion rate measured on simulated panels is
 in docs/FORMATS.md.
 """
@@ -60,6 +61,7 @@ __all__ = [
     "gold_expected",
     "consensus_stats",
     "j_test",
+    "fisher_skill_p",
     "screen_agreement",
     "SIM_PREFIX",
 ]
@@ -73,7 +75,8 @@ class ScreenRule:
 
     alpha: float = 0.01
     min_j: float = 0.35
-    min_class_votes: int = 10
+    skill_alpha: float = 0.05
+    min_class_votes: int = 5
     max_gold_failure_rate: float = 0.25
     min_repeat_consistency: float = 0.7
     min_response_ms: float = 300.0
@@ -184,15 +187,33 @@ def _j_p(res: dict, rule: ScreenRule):
                   res["n_cons_bad"], min_j=rule.min_j)
 
 
+def fisher_skill_p(res: dict):
+    """One-sided Fisher exact p of "votes and consensus labels are positively associated"
+    from :func:`consensus_stats` output: ``P(X >= a)``, X ~ Hypergeom(N compared items,
+    n_cons_good, the rater's good votes), ``a`` = good votes on consensus-good items.
+    NaN when a consensus class is empty.
+
+    >>> r = {"n_compared": np.array(4), "n_cons_good": np.array(2), "n_cons_bad": np.array(2),
+    ...      "sensitivity": np.array(1.0), "specificity": np.array(1.0)}
+    >>> float(fisher_skill_p(r))  # perfect on 2 + 2: 1 / C(4, 2)
+    0.16666666666666666
+    """
+    n, n1, n0 = (np.asarray(res[k], np.float64) for k in ("n_compared", "n_cons_good",
+                                                           "n_cons_bad"))
+    with np.errstate(invalid="ignore"):
+        a = np.rint(np.nan_to_num(res["sensitivity"] * n1))
+        b = np.rint(np.nan_to_num(res["specificity"] * n0))
+        p = _st.hypergeom.sf(a - 1, n, n1, a + (n0 - b))
+    return np.where((n1 > 0) & (n0 > 0), p, np.nan)
+
+
 def _flags(res: dict, rule: ScreenRule):
     """(j_z, j_p, skill_p, flag) of :func:`consensus_stats` output under ``rule``."""
     z, p = _j_p(res, rule)
-    z0, _ = j_test(res["sensitivity"], res["specificity"], res["n_cons_good"],
-                   res["n_cons_bad"], min_j=0.0)
-    skill_p = np.where(np.isnan(z0), 0.5, _st.norm.sf(z0))
+    skill_p = fisher_skill_p(res)
     enough = np.minimum(res["n_cons_good"], res["n_cons_bad"]) >= rule.min_class_votes
     skill_p = np.where(enough, skill_p, np.nan)
-    return z, p, skill_p, (p < rule.alpha) | (skill_p >= rule.alpha)
+    return z, p, skill_p, (p < rule.alpha) | (skill_p >= rule.skill_alpha)
 
 
 def screen_agreement(votes: np.ndarray, *, rule: ScreenRule | None = None) -> dict:
@@ -317,8 +338,8 @@ def _checks(r: pd.DataFrame, rule: ScreenRule):
     a = rule.alpha
     return [
         (r["j_p"] < a, f"agreement with the others: J < {rule.min_j} (p < {a})"),
-        (r["skill_p"] >= a, f"no skill shown: J not > 0 (p >= {a}) over >= "
-         f"{rule.min_class_votes} votes per consensus class"),
+        (r["skill_p"] >= rule.skill_alpha, "no skill shown: votes independent of the others' "
+         f"(Fisher p >= {rule.skill_alpha})"),
         (r["gold_p"] < a, f"gold failure rate > {rule.max_gold_failure_rate} (p < {a})"),
         (r["repeat_p"] < a, f"repeat consistency < {rule.min_repeat_consistency} (p < {a})"),
         (r["speed_p"] < a, f"median response < {rule.min_response_ms:g} ms (p < {a})"),

@@ -8,6 +8,7 @@ from scipy import stats
 from analysis.screening import (
     ScreenRule,
     consensus_stats,
+    fisher_skill_p,
     j_test,
     rater_table,
     screen,
@@ -46,7 +47,7 @@ def test_loo_consensus_gold_and_repeats_hand_worked():
     assert r.loc["a", "specificity"] == pytest.approx(0.5) and np.isnan(r.loc["a", "j_p"])
     # c: x others (1, 1) good, c=0 misses; y others bad, c=0 agrees -> sens 0, spec 1, J 0
     assert r.loc["c", "sensitivity"] == 0 and r.loc["c", "specificity"] == 1
-    assert r.loc["c", "youden_j"] == 0 and np.isnan(r.loc["c", "skill_p"])  # < 10 per class
+    assert r.loc["c", "youden_j"] == 0 and np.isnan(r.loc["c", "skill_p"])  # < 5 per class
     assert r.loc["c", "gold_failures"] == 1 and r.loc["c", "gold_failure_rate"] == 0.5
     # exact one-sided binomial: P(X >= 1), X ~ Bin(2, 0.25) = 1 - 0.75^2
     assert r.loc["c", "gold_p"] == pytest.approx(1 - 0.75**2)
@@ -77,6 +78,19 @@ def test_kappa_and_j_against_sklearn_and_hand_worked_z():
     z, p = j_test(1.0, 0.0, 48, 12, min_j=0.4)
     assert z == pytest.approx(-0.4 / np.sqrt(0.24 / 12))
     assert p == pytest.approx(stats.norm.cdf(z))
+
+
+def test_fisher_skill_p_matches_scipy_fisher_exact():
+    rng = np.random.default_rng(5)
+    v = (rng.random((5, 80)) < 0.5).astype(float)
+    v[1:3] = v[0]
+    res = consensus_stats(v)
+    others = (v.sum(0) - v[3]) / 4
+    ok = others != 0.5
+    lab, vote = others[ok] > 0.5, v[3][ok] == 1
+    table = [[(vote & lab).sum(), (vote & ~lab).sum()], [(~vote & lab).sum(), (~vote & ~lab).sum()]]
+    want = stats.fisher_exact(table, alternative="greater").pvalue
+    assert fisher_skill_p(res)[3] == pytest.approx(want)
 
 
 def test_five_repeats_never_exclude_an_honest_rater_alone():
@@ -127,6 +141,4 @@ def test_simulated_panels_exclusion_rates():
     print(f"panels with an honest rater excluded: {honest_rate:.3f}; "
           f"random / inverted / straight excluded: {np.round(bad_rate, 3).tolist()}")
     assert honest_rate <= 0.02
-    # measured 0.933 / 1.0 / 0.958 (seeds 0-19): the random rater on 60 items with a 20/80 base
-    # rate falls short of the 0.95 (the minority class holds ~12 items); see FORMATS.md
-    assert bad_rate[1] >= 0.95 and bad_rate[2] >= 0.95 and bad_rate[0] >= 0.9
+    assert (bad_rate >= 0.95).all()
