@@ -15,12 +15,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis import axes, breakdowns, screening
+from analysis import axes, breakdowns
 from analysis.aggregate import aggregate
 from analysis.ceiling import noise_ceiling, vote_matrix
 from analysis.inputs import classify_columns, read_metrics, read_ratings, timing_path_for
 from analysis.labels import item_table, join_metrics
 from analysis.summary import summary_table
+from annotate import screening
 from annotate.results import alpha_nominal
 from data_schema.errors import InputError
 from data_schema.tables import read_table

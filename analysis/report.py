@@ -23,8 +23,8 @@ import pandas as pd
 from analysis import plots
 from analysis.axes import axis_tent_plots
 from analysis.pipeline import Analysis
-from analysis.screening import ScreenRule
 from analysis.summary import binary_label
+from annotate.screening import ScreenRule
 from data_schema.outputs import check_output_folder, mark_report
 from data_schema.tables import write_table
 

@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-from analysis.screening import (
+from annotate.screening import (
     ScreenRule,
     consensus_stats,
     fisher_skill_p,
@@ -15,7 +15,7 @@ from analysis.screening import (
     screen_agreement,
 )
 from data_schema.errors import InputError
-from tests.analysis.panels import HONEST_ACCURACY, panels
+from tests.annotate.panels import HONEST_ACCURACY, panels
 
 
 def _votes(rows):
