@@ -3,8 +3,9 @@
 Split-half reliability of the per-item GVF: the raters are split at random into two halves,
 each half gives every item its own GVF, and the correlation ``r`` of the two over items
 (those with a vote in both halves) is Spearman-Brown corrected to the full panel:
-``rel = 2 r / (1 + r)``. The reliability is averaged over ``n_splits`` random splits; its
-95% interval comes from a bootstrap over items. A metric's correlation with a target whose
+``rel = 2 r / (1 + r)``. The reliability is averaged over every split of the raters into
+halves (or ``n_splits`` random ones when there are more); its 95% interval comes from a
+bootstrap over items with the same splits. A metric's correlation with a target whose
 reliability is ``rel`` cannot exceed ``sqrt(rel)`` (the correlation of the true score with
 the observed one), so ``plcc_ceiling = sqrt(rel_pearson)`` and ``srcc_ceiling =
 sqrt(rel_spearman)`` (the same on ranks). Identical raters give ceiling 1.
@@ -16,6 +17,9 @@ sqrt(rel_spearman)`` (the same on ranks). Identical raters give ceiling 1.
 """
 
 from __future__ import annotations
+
+import itertools
+import math
 
 import numpy as np
 import pandas as pd
@@ -60,7 +64,21 @@ def _reliability(mat, halves):
     return np.nanmean(spearman_brown(rs), axis=0) if np.isfinite(rs).any() else np.full(2, np.nan)
 
 
-def noise_ceiling(mat: np.ndarray, *, n_splits: int = 50, n_boot: int = 200, seed: int = 0) -> dict:
+def _halves(n_r: int, n_splits: int, rng) -> list[np.ndarray]:
+    """Every split of the raters into halves when there are at most ``n_splits`` of them,
+    else ``n_splits`` random ones; (R,) bool, True = first half."""
+    if math.comb(n_r, n_r // 2) <= n_splits:
+        combos = itertools.combinations(range(n_r), n_r // 2)
+        return [np.isin(np.arange(n_r), c) for c in combos]
+    out = []
+    for _ in range(n_splits):
+        h = np.zeros(n_r, bool)
+        h[rng.permutation(n_r)[: n_r // 2]] = True
+        out.append(h)
+    return out
+
+
+def noise_ceiling(mat: np.ndarray, *, n_splits: int = 20, n_boot: int = 200, seed: int = 0) -> dict:
     """Split-half reliability (Spearman-Brown) of GVF over ``mat`` (items, raters), its
     bootstrap 95% interval over items, and the ceilings on |PLCC| and |SRCC|.
 
@@ -74,13 +92,9 @@ def noise_ceiling(mat: np.ndarray, *, n_splits: int = 50, n_boot: int = 200, see
     if n_r < 2 or n_items < stats.N_MIN:
         return {**out, "reason": "needs >= 2 raters and >= 3 items"}
     rng = np.random.default_rng(seed)
-    halves = []
-    for _ in range(n_splits):
-        h = np.zeros(n_r, bool)
-        h[rng.permutation(n_r)[: n_r // 2]] = True
-        halves.append(h)
+    halves = _halves(n_r, n_splits, rng)
     rel_p, rel_s = _reliability(mat, halves)
-    boot = [_reliability(mat[rng.integers(0, n_items, n_items)], halves[:10])[0]
+    boot = [_reliability(mat[rng.integers(0, n_items, n_items)], halves)[0]
             for _ in range(n_boot)]
     lo, hi = (np.nanpercentile(boot, [2.5, 97.5]) if np.isfinite(boot).any() else (nan, nan))
     out.update(reliability=float(rel_p), reliability_ci_lo=float(lo), reliability_ci_hi=float(hi),

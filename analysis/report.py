@@ -1,7 +1,8 @@
 """Writing the report directory (``analyze --out REPORT_DIR``).
 
 Files: ``report.html`` (self-contained: figures embedded as base64 PNG, inline CSS, no
-external URL), ``report.md`` (figures as relative PNG links), ``summary.csv``, ``items.csv``,
+external URL) and ``report.md`` (figures as relative PNG links), both rendered from the
+Jinja templates in ``templates/`` with the same context, ``summary.csv``, ``items.csv``,
 ``by_offset.csv``, ``categories.csv``, ``raters.csv``, ``encoders.csv`` (when encoder
 families are present), ``stability.csv`` / ``snr.csv`` (when given) and every figure as PNG
 and SVG. The directory is built beside the target under a temporary name and renamed into
@@ -19,6 +20,8 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from jinja2 import Environment, FileSystemLoader
+from markupsafe import Markup
 
 from analysis import plots
 from analysis.axes import axis_tent_plots
@@ -324,10 +327,7 @@ def _figures(a: Analysis, d: Path, tl: str) -> list[dict]:
     return figs
 
 
-def _build(a: Analysis, d: Path) -> None:
-    from jinja2 import Environment, FileSystemLoader, select_autoescape
-
-    t = _texts(a)
+def _write_tables(a: Analysis, d: Path) -> None:
     write_table(a.summary, d / "summary.csv")
     write_table(a.items, d / "items.csv")
     write_table(a.by_offset, d / "by_offset.csv")
@@ -335,90 +335,46 @@ def _build(a: Analysis, d: Path) -> None:
         write_table(a.by_axis, d / "by_axis.csv")
     write_table(a.categories, d / "categories.csv")
     write_table(a.raters, d / "raters.csv")
-    if len(a.encoders):
-        write_table(a.encoders, d / "encoders.csv")
-    if a.stability is not None:
-        write_table(a.stability, d / "stability.csv")
-    if a.snr is not None:
-        write_table(a.snr, d / "snr.csv")
-    figs = _figures(a, d, t["target_label"])
-    disp = summary_display(a)
-    disp_best = disp.assign(_best=a.summary["best"].to_numpy(bool))
-    breakdowns = [
-        {"name": b, "df": _category_wide(a.categories, b)}
-        for b in a.categories["breakdown"].unique()
-    ]
-    raters = a.raters[[c for c in _RATER_COLS if c in a.raters.columns]]
-    env = Environment(
-        loader=FileSystemLoader(Path(__file__).parent / "templates"),
-        autoescape=select_autoescape(["html", "j2"]),
-    )
-    from markupsafe import Markup
+    for table, name in ((a.encoders if len(a.encoders) else None, "encoders"),
+                        (a.stability, "stability"), (a.snr, "snr")):
+        if table is not None:
+            write_table(table, d / f"{name}.csv")
 
-    page = env.get_template("report.html.j2").render(
-        title=Path(a.ratings_path).name,
-        ratings=a.ratings_path,
-        counts=a.counts,
-        figures=figs,
-        summary_html=Markup(_html_table(disp_best, best_col="_best")),
-        breakdowns=[{"name": b["name"], "html": Markup(_html_table(b["df"]))} for b in breakdowns],
-        encoders_html=Markup(_html_table(a.encoders)) if len(a.encoders) else "",
-        stability_html=Markup(_html_table(a.stability)) if a.stability is not None else "",
-        snr_html=Markup(_html_table(a.snr)) if a.snr is not None else "",
-        raters_html=Markup(_html_table(raters)),
-        comparison_html=Markup(_html_table(a.comparison["table"])) if a.comparison else "",
+
+def _context(a: Analysis, t: dict, figs: list[dict], *, html_out: bool) -> dict:
+    """What both templates show; tables rendered as HTML (``html_out``) or Markdown."""
+    table = (lambda df, **kw: Markup(_html_table(df, **kw))) if html_out else (
+        lambda df, **kw: _md_table(df.drop(columns=[kw["best_col"]]) if kw else df))
+    disp = summary_display(a).assign(_best=a.summary["best"].to_numpy(bool))
+    raters = a.raters[[c for c in _RATER_COLS if c in a.raters.columns]]
+    opt = {"encoders": a.encoders if len(a.encoders) else None, "stability": a.stability,
+           "snr": a.snr, "comparison": a.comparison["table"] if a.comparison else None}
+    return {
+        "title": Path(a.ratings_path).name,
+        "ratings": a.ratings_path,
+        "counts": a.counts,
+        "figures": figs,
+        "summary_table": table(disp, best_col="_best"),
+        "breakdowns": [{"name": b, "table": table(_category_wide(a.categories, b))}
+                       for b in a.categories["breakdown"].unique()],
+        "raters_table": table(raters),
+        **{f"{k}_table": ("" if v is None else table(v)) for k, v in opt.items()},
         **t,
-    )
+    }
+
+
+def _build(a: Analysis, d: Path) -> None:
+    t = _texts(a)
+    _write_tables(a, d)
+    figs = _figures(a, d, t["target_label"])
+    templates = Path(__file__).parent / "templates"
+    html_env = Environment(loader=FileSystemLoader(templates), autoescape=True)
+    md_env = Environment(loader=FileSystemLoader(templates), autoescape=False,
+                         keep_trailing_newline=True)
+    page = html_env.get_template("report.html.j2").render(**_context(a, t, figs, html_out=True))
     (d / "report.html").write_text(page, encoding="utf-8")
-    md = [
-        f"# NVRQ analysis: {Path(a.ratings_path).name}",
-        "",
-        f"Target: **{t['target_label']}**. {a.counts['items']} items, {a.counts['tracks']} tracks, "
-        f"{a.counts['clips']} clips; {a.counts['test_votes_kept']} of {a.counts['test_votes']} test votes used.",
-        "",
-    ]
-    md += [x for x in [t["simulated"]] + t["notes"] if x]
-    md += [
-        "",
-        f"## Metrics against {t['target_label']}",
-        "",
-        t["best_text"],
-        "",
-        _md_table(disp),
-        "",
-        t["method_text"],
-        "",
-        t["ceiling_text"],
-        "",
-        t["comparison_text"],
-        "",
-        _md_table(a.comparison["table"]) if a.comparison else "",
-        "",
-        "## Figures",
-        "",
-    ]
-    md += [f"![{f['title']}]({f['file']})\n" for f in figs]
-    for b in breakdowns:
-        md += [f"## By {b['name']}", "", _md_table(b["df"]), ""]
-    if len(a.encoders):
-        md += ["## By encoder: NVRQ against NVRQ-CA", "", _md_table(a.encoders), ""]
-    if a.stability is not None:
-        md += ["## Stability", "", _md_table(a.stability), ""]
-    if a.snr is not None:
-        md += ["## SNR", "", _md_table(a.snr), ""]
-    md += [
-        "## Raters",
-        "",
-        t["alpha_text"],
-        "",
-        t["screen_text"],
-        "",
-        _md_table(raters),
-        "",
-        t["screen_rule"],
-        "",
-    ]
-    (d / "report.md").write_text("\n".join(md), encoding="utf-8")
+    md = md_env.get_template("report.md.j2").render(**_context(a, t, figs, html_out=False))
+    (d / "report.md").write_text(md, encoding="utf-8")
 
 
 def write_report(a: Analysis, out_dir) -> Path:
