@@ -19,6 +19,8 @@ for GLAD. crowd-kit is imported only when a model is fitted (about 1.5 s of impo
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pandas as pd
 
@@ -84,7 +86,9 @@ def aggregate(test_votes: pd.DataFrame, *, method: str, seed: int = 0):
         skills = pd.DataFrame({"rater_id": pd.Series(dtype=str)})
     else:
         fit = _dawid_skene if method == "dawid-skene" else _glad
-        probas, skills = fit(_answers(test_votes), seed=seed)
+        with warnings.catch_warnings():  # crowd-kit's own pandas deprecation warnings
+            warnings.filterwarnings("ignore", module=r"crowdkit\.")
+            probas, skills = fit(_answers(test_votes), seed=seed)
         p = _p_good(probas, tasks)
     items = pd.DataFrame({"item_id": tasks, "p_good": p, "model_good": p >= 0.5})
     return items, skills
