@@ -201,6 +201,13 @@ def _counts(votes, kept, items, raters, clusters):
     }
 
 
+def _by_offset(items, columns):
+    """Per offset (``label_class = "all"``) then per condition (offset x class)."""
+    cols = columns if "gvf" in columns else columns + ["gvf"]
+    return pd.concat([breakdowns.offset_table(items, cols),
+                      breakdowns.offset_table(items, cols, by="label_class")], ignore_index=True)
+
+
 def _model_comparison(items, metrics, directions, *, method, seed):
     """Majority against the model, side by side: label counts and |SRCC| / ROC AUC per metric."""
     if method == "majority":
@@ -265,8 +272,7 @@ def run_analysis(
     return Analysis(
         ratings_path=str(ratings_path), target=tgt, items=items, metrics=metrics,
         directions=directions, attributes=attributes, proxies=proxies, summary=summary,
-        categories=categories,
-        by_offset=breakdowns.offset_table(axes.lateral_items(items), [tgt] + metrics),
+        categories=categories, by_offset=_by_offset(axes.lateral_items(items), [tgt] + metrics),
         by_axis=axes.axis_table(items, [tgt] + metrics) if axes.is_multi_axis(items) else None,
         encoders=breakdowns.encoder_table(summary), raters=raters, alpha=alpha,
         counts=_counts(votes, kept, items, raters, clusters), timing=read_timing(timing_files),
