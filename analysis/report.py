@@ -158,32 +158,33 @@ def _category_wide(cat: pd.DataFrame, breakdown: str) -> pd.DataFrame:
     return base.reset_index()
 
 
-def _texts(a: Analysis) -> dict:
+def _best_text(a: Analysis) -> str:
     s = a.summary
-    tl = "GVF" if a.target == "gvf" else a.target
     best = s[s["best"]]
     if best.empty:
-        best_text = "No metric has a defined " + a.rank_by.upper() + "."
-    else:
-        b = best.iloc[0]
-        worse = s.loc[s["significant_vs_best"].fillna(False).astype(bool), "metric"].tolist()
-        ns = s.loc[
-            (~s["best"])
-            & s["significant_vs_best"].notna()
-            & ~s["significant_vs_best"].fillna(False).astype(bool),
-            "metric",
-        ].tolist()
-        best_text = f"Best metric by |{a.rank_by.upper()}|: {b['metric']} ({b[a.rank_by]:.3f})."
-        if a.n_boot:
-            best_text += (
-                f" Significantly different from it (95% paired cluster bootstrap): "
-                f"{', '.join(worse) or 'none'}; not significantly different: {', '.join(ns) or 'none'}."
-            )
+        return "No metric has a defined " + a.rank_by.upper() + "."
+    b = best.iloc[0]
+    sig = s["significant_vs_best"]
+    worse = s.loc[sig.fillna(False).astype(bool), "metric"].tolist()
+    ns = s.loc[(~s["best"]) & sig.notna() & ~sig.fillna(False).astype(bool), "metric"].tolist()
+    text = f"Best metric by |{a.rank_by.upper()}|: {b['metric']} ({b[a.rank_by]:.3f})."
+    if a.n_boot:
+        text += (
+            f" Significantly different from it (95% paired cluster bootstrap): "
+            f"{', '.join(worse) or 'none'}; not significantly different: {', '.join(ns) or 'none'}."
+        )
+    return text
+
+
+def _method_text(a: Analysis, tl: str) -> str:
+    label = ("model_good (the model's P(good) >= 0.5)" if a.target == "p_good"
+             else "majority_good (GVF >= 0.5)")
     method = (
         f"plcc, srcc, krcc: absolute Pearson, Spearman and Kendall (tau-b) correlations with {tl} "
         f"over items with a finite value; signed values in summary.csv. roc_auc: area under the ROC "
-        f"curve of majority_good (GVF >= 0.5) scored by the metric, negated when lower is better. "
+        f"curve of {label} scored by the metric, negated when lower is better. "
         f"plcc_logistic: PLCC after the VQEG 4-parameter logistic fit. "
+        f"srcc / ceiling: |SRCC| beside the noise ceiling (below). "
     )
     if a.n_boot:
         method += (
@@ -192,25 +193,18 @@ def _texts(a: Analysis) -> dict:
         )
     else:
         method += "No bootstrap (--bootstrap 0). "
-    method += "Empty cells are undefined (n < 3, constant metric or target, one class only); the reason is given."
-    al = a.alpha
-    alpha_text = (
-        "Krippendorff's alpha (nominal) over test votes: "
-        + "; ".join(
-            f"{k}: {_fmt(v['alpha'])}"
-            + (f" ({v['reason']})" if v["reason"] else "")
-            + f" from {v['votes']} votes"
-            for k, v in al.items()
-        )
-        + "."
-    )
+    return method + ("Empty cells are undefined (n < 3, constant metric or target, one class "
+                     "only); the reason is given.")
+
+
+def _rater_texts(a: Analysis) -> dict:
+    alpha_text = "Krippendorff's alpha (nominal) over test votes: " + "; ".join(
+        f"{k}: {_fmt(v['alpha'])}" + (f" ({v['reason']})" if v["reason"] else "")
+        + f" from {v['votes']} votes" for k, v in a.alpha.items()) + "."
     ex = a.raters[a.raters["excluded"]]
-    screen_text = (
-        "Excluded raters: "
-        + "; ".join(f"{r.rater_id} ({r.excluded_reason})" for r in ex.itertuples())
-        if len(ex)
-        else "No rater excluded."
-    )
+    screen_text = ("Excluded raters: " + "; ".join(
+        f"{r.rater_id} ({r.excluded_reason})" for r in ex.itertuples())
+        if len(ex) else "No rater excluded.")
     if not a.screen:
         screen_text += (
             " Screening flags are reported but not applied (run with --screen to apply them)."
@@ -228,14 +222,19 @@ def _texts(a: Analysis) -> dict:
         f"specificity - 1, consensus by backward elimination) is significantly below "
         f"{rule.min_j} (z-test, j_p) or who shows no skill (one-sided Fisher exact test of "
         f"votes against consensus labels, skill_p >= {rule.skill_alpha}, with >= "
-        f"{rule.min_class_votes} items per consensus class), whose gold failure rate is significantly above "
-        f"{rule.max_gold_failure_rate} or repeat consistency significantly below "
-        f"{rule.min_repeat_consistency} (exact binomial, gold_p / repeat_p), or whose median "
-        f"response is significantly below {rule.min_response_ms:g} ms (sign test, speed_p)."
+        f"{rule.min_class_votes} items per consensus class), whose gold failure rate is "
+        f"significantly above {rule.max_gold_failure_rate} or repeat consistency significantly "
+        f"below {rule.min_repeat_consistency} (exact binomial, gold_p / repeat_p), or whose "
+        f"median response is significantly below {rule.min_response_ms:g} ms (sign test, speed_p)."
     )
+    return {"alpha_text": alpha_text, "screen_text": screen_text, "simulated": sim,
+            "screen_rule": screen_rule}
+
+
+def _label_texts(a: Analysis) -> dict:
     c = a.ceiling or {}
     ceiling_text = (
-        f"Noise ceiling: split-half reliability of GVF (random rater halves, Spearman-Brown) "
+        f"Noise ceiling: split-half reliability of GVF (rater halves, Spearman-Brown) "
         f"{_fmt(c.get('reliability'))} [{_fmt(c.get('reliability_ci_lo'))}, "
         f"{_fmt(c.get('reliability_ci_hi'))}] (95% bootstrap over items); no metric can exceed "
         f"|PLCC| {_fmt(c.get('plcc_ceiling'))} or |SRCC| {_fmt(c.get('srcc_ceiling'))} "
@@ -247,21 +246,16 @@ def _texts(a: Analysis) -> dict:
         f"{cmp_['items']} item labels differ ({cmp_['good_majority']} good by majority, "
         f"{cmp_['good_model']} by the model; target = the model's posterior P(good))."
     )
+    return {"ceiling_text": ceiling_text, "comparison_text": comparison_text}
+
+
+def _texts(a: Analysis) -> dict:
+    tl = "GVF" if a.target == "gvf" else a.target
     notes = list(a.notes)
     if a.proxies:
         notes.append("proxy columns (use --target): " + ", ".join(a.proxies))
-    return {
-        "best_text": best_text,
-        "method_text": method,
-        "alpha_text": alpha_text,
-        "screen_text": screen_text,
-        "simulated": sim,
-        "screen_rule": screen_rule,
-        "ceiling_text": ceiling_text,
-        "comparison_text": comparison_text,
-        "target_label": tl,
-        "notes": notes,
-    }
+    return {"best_text": _best_text(a), "method_text": _method_text(a, tl), "target_label": tl,
+            "notes": notes, **_rater_texts(a), **_label_texts(a)}
 
 
 _RATER_COLS = [
