@@ -142,3 +142,17 @@ def test_simulated_panels_exclusion_rates():
           f"random / inverted / straight excluded: {np.round(bad_rate, 3).tolist()}")
     assert honest_rate <= 0.02
     assert (bad_rate >= 0.95).all()
+
+
+def test_random_rater_voting_at_the_base_rate_is_excluded():
+    """The issue's real-panel failure: a random rater who votes good as often as the panel
+    agrees with the majority 66-79% of the time; J stays 0 and the rule must catch it."""
+    hits, n = 0, 0
+    for n_items in (60, 812):
+        for good_rate in (0.2, 0.5, 0.8):
+            votes, _ = panels(range(20), good_rate, n_items)
+            rng = np.random.default_rng([7, n_items, int(good_rate * 10)])
+            votes[:, 5] = (rng.random(votes[:, 5].shape) < good_rate).astype(float)
+            flag = screen_agreement(votes)["flag_agreement"]
+            hits, n = hits + int(flag[:, 5].sum()), n + len(flag)
+    assert hits / n >= 0.95
