@@ -81,7 +81,7 @@ def _add_options(p: ArgumentParser) -> None:
     )
     p.add_argument(
         "--aggregate",
-        choices=("majority", "dawid-skene", "glad"),
+        choices=("majority", "dawid-skene", "glad", "mace"),
         default="majority",
         help="item labels: majority vote (GVF, default) or a crowd-kit model whose posterior "
         "P(good) becomes the target (0.5 threshold for ROC AUC)",

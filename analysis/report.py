@@ -279,6 +279,7 @@ _RATER_COLS = [
     "model_sensitivity",
     "model_specificity",
     "model_skill",
+    "model_competence",
     "flags",
     "excluded",
     "excluded_reason",
