@@ -26,7 +26,9 @@ def test_dawid_skene_one_iteration_matches_crowd_kit_documented_example():
     votes = pd.DataFrame({"item_id": df["task"], "rater_id": df["worker"],
                           "vote": (df["label"] == "yes").astype(int)})
     items, raters = aggregate(votes, method="dawid-skene")
-    # converged EM keeps the documented labels of this example
+    # the same answers are crowd-kit's "toy YSDA" dataset (tests/conftest.py,
+    # toy_answers_df); converged Dawid-Skene must give its toy_ground_truth_df labels
+    # yes, yes, no, yes, no (test_aggregate_ds_on_toy_ysda)
     assert items["model_good"].tolist() == [True, True, False, True, False]
     assert {"model_sensitivity", "model_specificity"} <= set(raters.columns)
 
