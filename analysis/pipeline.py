@@ -201,6 +201,17 @@ def _counts(votes, kept, items, raters, clusters):
     }
 
 
+def _ceiling(kept, summary, tgt, *, seed):
+    """The noise ceiling of the votes, also as summary columns (NaN for a non-vote target)."""
+    if tgt in ("gvf", "p_good"):
+        ceiling = noise_ceiling(vote_matrix(kept[kept["kind"] == "test"]), seed=seed)
+    else:
+        ceiling = {**noise_ceiling(np.empty((0, 0))), "reason": f"target {tgt!r} is not the votes"}
+    for k in ("reliability", "plcc_ceiling", "srcc_ceiling"):
+        summary[f"noise_{k}" if k == "reliability" else k] = ceiling[k]
+    return ceiling
+
+
 def _by_offset(items, columns):
     """Per offset (``label_class = "all"``) then per condition (offset x class)."""
     cols = columns if "gvf" in columns else columns + ["gvf"]
@@ -263,9 +274,7 @@ def run_analysis(
     n_boot = _boot_size(items, n_boot, notes)
     summary = summary_table(items, metrics, directions, target=tgt, clusters=clusters,
                             n_boot=n_boot, seed=seed, rank_by=rank_by, progress=progress)
-    ceiling = noise_ceiling(vote_matrix(kept[kept["kind"] == "test"]), seed=seed)
-    for k in ("reliability", "plcc_ceiling", "srcc_ceiling"):
-        summary[f"noise_{k}" if k == "reliability" else k] = ceiling[k]
+    ceiling = _ceiling(kept, summary, tgt, seed=seed)
     categories = breakdowns.category_table(items, metrics, by=["label_class"] + attributes,
                                            target=tgt, progress=progress)
     stab, snr = read_stability(stability_dir) if stability_dir is not None else (None, None)
