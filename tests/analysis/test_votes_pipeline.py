@@ -16,7 +16,7 @@ def test_aggregate_dawid_skene_end_to_end(tmp_path, capsys):
     ratings.to_csv(tmp_path / "r.csv", index=False)
     metrics.to_csv(tmp_path / "m.csv", index=False)
     out = tmp_path / "rep"
-    rc = main([str(tmp_path / "r.csv"), "--metrics", str(tmp_path / "m.csv"), "--lower-better",
+    rc = main([str(tmp_path / "r.csv"), "--metrics-table", str(tmp_path / "m.csv"), "--lower-better",
                "blurriness", "--aggregate", "dawid-skene", "--bootstrap", "0", "--quiet",
                "--out", str(out)])
     assert rc == 0, capsys.readouterr().err
