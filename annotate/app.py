@@ -8,8 +8,7 @@ Run with ``annotate serve STUDY`` (which sets ``ANNOTATE_STUDY``). Pages:
   "Rendered" right, Good (G) / Bad (B) / Undo (U), a ``done / total`` progress bar and a
   break reminder every ``break_every`` items. Nothing on the page names the offset, clip,
   method, metrics or other votes; images are served by content hash, never by file name;
-- ``/?admin=TOKEN``: progress per rater, GVF histogram, Krippendorff's alpha, gold
-  failures and a ``ratings.csv`` download.
+- ``/?admin=TOKEN``: the live admin page (:mod:`annotate.admin`, refreshes by itself).
 
 Widget keys (for tests): ``name_input``, ``sign_in``, ``start``, ``vote_good``,
 ``vote_bad``, ``undo``, ``download_ratings``.
@@ -17,16 +16,13 @@ Widget keys (for tests): ``name_input``, ``sign_in``, ``start``, ``vote_good``,
 
 from __future__ import annotations
 
-import hmac
 import os
 import time
 
-import numpy as np
-import pandas as pd
 import streamlit as st
 
+from annotate.admin import admin_page
 from annotate.cli import check_rater_name
-from annotate.results import gold_failures, gvf_table, nominal_alpha, rater_progress, ratings_table
 from annotate.study import Study, crop_path, load_study
 from data_schema.errors import InputError
 
@@ -160,30 +156,6 @@ def rater_page(study: Study, rater: str) -> None:
                   args=(study, rater, key, 0))
     with b3:
         st.button("Undo (U)", key="undo", shortcut="u", on_click=_on_undo, args=(study, rater))
-
-
-def admin_page(study: Study, token: str) -> None:
-    if not hmac.compare_digest(str(token).encode(), study.admin_token().encode()):
-        st.error("Admin token not valid.")
-        return
-    st.title("Study admin")
-    ratings = ratings_table(study)
-    st.subheader("Progress per rater")
-    st.dataframe(rater_progress(study), hide_index=True)
-    gvf = gvf_table(ratings)
-    st.subheader(f"GVF so far ({len(gvf)} test items with votes)")
-    if len(gvf):
-        counts, edges = np.histogram(gvf["gvf"], bins=10, range=(0, 1))
-        st.bar_chart(pd.DataFrame({"items": counts},
-                                  index=[f"{a:.1f}-{b:.1f}" for a, b in zip(edges[:-1], edges[1:], strict=True)]))
-    alpha, note = nominal_alpha(ratings)
-    st.metric("Krippendorff's alpha (nominal)", "undefined" if alpha is None else f"{alpha:.3f}",
-              help=note)
-    st.caption(note)
-    st.subheader("Gold failures")
-    st.dataframe(gold_failures(ratings), hide_index=True)
-    st.download_button("Download ratings.csv", ratings.to_csv(index=False).encode(),
-                       file_name="ratings.csv", mime="text/csv", key="download_ratings")
 
 
 def main() -> None:

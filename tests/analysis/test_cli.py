@@ -242,7 +242,7 @@ def test_screen_excludes_a_fast_straight_liner(data, capsys):
     assert rc == 0 and not r["excluded"].any()  # flags reported, not applied without --screen
     assert (
         "median response" in r.loc["spammer", "flags"]
-        and "straight-lining" in r.loc["spammer", "flags"]
+        and "agreement with the others" in r.loc["spammer", "flags"]  # J = 0 when straight-lining
     )
     rc, cap = _run(args + ["--screen", "--out", d / "screened"], capsys)
     r = pd.read_csv(d / "screened" / "raters.csv").set_index("rater_id")
