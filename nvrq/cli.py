@@ -64,7 +64,7 @@ def check_outputs(args) -> None:
         return
     inputs = [getattr(args, a) for a in INPUT_ARGS if getattr(args, a, None) is not None]
     option = "--out" if args.command not in ("synth", "import") else "OUT"
-    if kind == "file" and not str(args.out).lower().endswith((".csv", ".parquet")):
+    if kind == "file" and Path(args.out).suffix == "":
         # a Parquet dataset folder (several clips, --engine ray; data_schema.datasets): its
         # manifest path gets the file rule; the command checks what the folder already holds
         from data_schema.datasets import MANIFEST

@@ -60,8 +60,9 @@ def _is_fleet(args) -> bool:
     from data_schema.errors import InputError
 
     first = Path(args.scene[0])
-    many = len(args.scene) > 1 or (first.is_dir() and not (first / "scene.json").is_file())
-    to_file = str(args.out).lower().endswith((".csv", ".parquet"))
+    many = len(args.scene) > 1 or (first.is_dir() and not (first / "scene.json").is_file()
+                                   and any(first.glob("*/scene.json")))
+    to_file = Path(args.out).suffix != ""  # a dataset folder has no suffix
     if many and to_file:
         raise InputError("--out", None, "a folder for several clips (a Parquet dataset partitioned by "
                          "clip_id)", args.out)

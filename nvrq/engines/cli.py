@@ -4,6 +4,7 @@ over :func:`nvrq.engines.ray_engine.score_on_ray`)."""
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 from data_schema.errors import InputError
 
@@ -18,8 +19,8 @@ def check_engine_args(args) -> None:
         return
     if getattr(args, "scene", None) is not None:
         raise InputError("--scene", None, "the pairs' scene_root column with --engine ray", args.scene)
-    if str(args.out).lower().endswith((".csv", ".parquet")):
-        raise InputError("--out", None, "a folder for --engine ray (Parquet shards partitioned by clip_id)",
+    if Path(args.out).suffix != "":
+        raise InputError("--out", None, "a folder without a suffix for --engine ray (Parquet shards partitioned by clip_id)",
                          args.out)
     if getattr(args, "batch_size", 1) < 1:
         raise InputError("--batch-size", None, "a positive integer", args.batch_size)
@@ -31,8 +32,6 @@ def check_engine_args(args) -> None:
 
 def run_ray(args, scorer, *, timing_path=None) -> int:
     """Run ``scorer`` (:mod:`nvrq.engines.scorers`) over ``args.pairs`` on Ray into ``args.out``."""
-    from pathlib import Path
-
     from nvrq.engines import require_ray
     from nvrq.engines.ray_engine import RayJob, score_on_ray
 
