@@ -29,6 +29,17 @@ def _app(**query) -> AppTest:
     return at.run()
 
 
+def _btn(at: AppTest, name: str):
+    """The voting-panel button ``name`` (keys are ``name-<token of the item on screen>``)."""
+    found = [b for b in at.button if b.key and b.key.startswith(name + "-")]
+    assert len(found) == 1, [b.key for b in at.button]
+    return found[0]
+
+
+def _has(at: AppTest, name: str) -> bool:
+    return any(b.key and b.key.startswith(name + "-") for b in at.button)
+
+
 def _current(at: AppTest) -> str:
     return at.session_state["shown"][0]
 
@@ -63,7 +74,7 @@ def test_query_param_sign_in_and_training_first(study):
     for i, key in enumerate(training):  # training items first, in study order
         assert _current(at) == key
         assert at.get("progress")[0].proto.text == f"Training {i} / {len(training)}"
-        at.button(key="vote_good").click().run()
+        _btn(at, "vote_good").click().run()
     assert study.items.loc[_current(at), "kind"] != "training"
     votes = study.store.votes("bob")
     assert votes["item"].tolist() == training
@@ -76,15 +87,15 @@ def test_vote_undo_and_resume_on_a_new_session(study):
     seen = []
     for vote_key in ("vote_good", "vote_bad", "vote_bad", "vote_good"):
         seen.append(_current(at))
-        at.button(key=vote_key).click().run()
+        _btn(at, vote_key).click().run()
     assert len(set(seen)) == 4
     after = _current(at)
-    at.button(key="undo").click().run()  # undo the 4th vote: its item comes back
+    _btn(at, "undo").click().run()  # undo the 4th vote: its item comes back
     assert _current(at) == seen[3]
     assert seen[3] not in set(study.store.votes("cat")["item"])
     hist = study.store.history()
     assert hist["action"].tolist() == ["vote"] * 4 + ["undo"]
-    at.button(key="vote_bad").click().run()  # changed answer
+    _btn(at, "vote_bad").click().run()  # changed answer
     assert _current(at) == after
     # a fresh browser session resumes at exactly the next unrated item, no instructions
     at2 = _app(rater="cat")
@@ -98,11 +109,11 @@ def test_full_run_gold_failures_and_nothing_revealed(study):
     at = _app(rater="dan")
     at.button(key="start").click().run()
     n = 0
-    while any(b.key == "vote_good" for b in at.button):
+    while _has(at, "vote_good"):
         text = _page_text(at)
         for secret in ("toy", "trk-", "+1.00", "-1.00", "offset", "front", "gold", "repeat"):
             assert secret not in text, (secret, text)
-        at.button(key="vote_good").click().run()  # always "good": the gold-bad item fails
+        _btn(at, "vote_good").click().run()  # always "good": the gold-bad item fails
         n += 1
     assert "All done" in at.success[0].value
     kinds = study.items["kind"].value_counts()
@@ -136,11 +147,11 @@ def test_break_reminder_every_n_items(make_study, monkeypatch):
     monkeypatch.setenv("ANNOTATE_STUDY", str(s.root))
     at = _app(rater="fay")
     at.button(key="start").click().run()
-    at.button(key="vote_good").click().run()  # the training item: not counted
+    _btn(at, "vote_good").click().run()  # the training item: not counted
     reminders = []
     for _ in range(4):
         reminders.append(any("break" in i.value for i in at.info))
-        at.button(key="vote_bad").click().run()
+        _btn(at, "vote_bad").click().run()
     # reminder shown after 2 and 4 rated (non-training) items, i.e. before votes 3 and 5
     assert reminders == [False, False, True, False]
     assert any("break" in i.value for i in at.info)
