@@ -162,3 +162,64 @@ def test_token_study_ignores_rater_name_link(make_study, monkeypatch):
     monkeypatch.setenv("ANNOTATE_STUDY", str(s.root))
     at = _app(rater="mallory")
     assert "rater" not in at.session_state and "mallory" not in s.store.raters()
+
+
+def test_second_tab_is_told_the_item_was_rated_elsewhere(study):
+    a = _app(rater="gus")
+    a.button(key="start").click().run()
+    _btn(a, "vote_good").click().run()  # training item 1
+    b = _app(rater="gus")  # second tab: same item on screen as the first
+    assert _current(b) == _current(a)
+    item = _current(a)
+    _btn(a, "vote_good").click().run()
+    _btn(b, "vote_bad").click().run()  # the other tab's press on the same item
+    assert any("another tab" in i.value for i in b.info)
+    assert _current(b) == _current(a) != item
+    assert study.store.votes("gus").set_index("item").loc[item, "vote"] == 1  # first vote stands
+
+
+def test_press_for_an_item_no_longer_on_screen_is_dropped(study):
+    at = _app(rater="hal")
+    at.button(key="start").click().run()
+    stale = _btn(at, "vote_good")
+    stale.click().run()
+    first = study.store.votes("hal")["item"].tolist()
+    assert len(first) == 1
+    # the same (old) button pressed again, after the next item was chosen: no second vote
+    at.session_state["shown"] = (_current(at), 0.0, "not-the-token-on-screen")
+    _btn(at, "vote_good").click().run()
+    assert study.store.votes("hal")["item"].tolist() == first
+
+
+def test_user_text_is_plain_in_the_sign_in_error(study):
+    at = _app(rater="[Click](http://example.invalid/x) ![i](http://example.invalid/i.png)")
+    assert at.error and "http" not in at.error[0].value  # the markdown element never holds it
+    assert at.text and "[Click](http://example.invalid/x)" in at.text[0].value  # st.text: plain
+
+
+def test_unshowable_crop_is_skipped_with_a_short_message(study, caplog):
+    import pandas as pd
+
+    items = pd.read_csv(study.root / "items.csv")
+    first = study.manifest["training_order"][0]
+    items.loc[items["key"] == first, "ref_file"] = "../secrets.json"  # tampered crop name
+    items.to_csv(study.root / "items.csv", index=False)
+    at = _app(rater="ida")
+    at.button(key="start").click().run()
+    text = _page_text(at)
+    assert "skipped" in text and "secrets" not in text and "Traceback" not in text
+    assert _current(at) != first and _has(at, "vote_good")
+    assert "cannot be shown" in caplog.text  # the details go to the server log
+
+
+def test_votes_refused_once_the_study_is_rebuilt_under_the_server(study):
+    import json
+
+    at = _app(rater="jo")
+    at.button(key="start").click().run()
+    manifest = json.loads((study.root / "manifest.json").read_text())
+    manifest["study_id"] = "rebuilt-1234"
+    (study.root / "manifest.json").write_text(json.dumps(manifest))
+    _btn(at, "vote_good").click().run()
+    assert any("changed on the server" in e.value for e in at.error)
+    assert study.store.votes().empty
