@@ -136,7 +136,8 @@ class Store:
         self._keeper.execute("SELECT COUNT(*) FROM raters").fetchall()  # opens the WAL
 
     @contextlib.contextmanager
-    def _connect(self, *, create: bool = False) -> Iterator[sqlite3.Connection]:
+    def _connect(self, *, create: bool = False,
+                 synchronous: str | None = None) -> Iterator[sqlite3.Connection]:
         """A fresh connection (autocommit mode; transactions are explicit), closed afterwards.
 
         Only the constructor may create the file: a database deleted under a running server
@@ -148,14 +149,14 @@ class Store:
         try:
             con.execute(f"PRAGMA busy_timeout = {self.busy_timeout_ms}")
             con.execute("PRAGMA journal_mode = WAL")
-            con.execute(f"PRAGMA synchronous = {self.synchronous}")
+            con.execute(f"PRAGMA synchronous = {synchronous or self.synchronous}")
             yield con
         finally:
             con.close()
 
     @contextlib.contextmanager
-    def _transaction(self) -> Iterator[sqlite3.Connection]:
-        with self._connect() as con:
+    def _transaction(self, *, synchronous: str | None = None) -> Iterator[sqlite3.Connection]:
+        with self._connect(synchronous=synchronous) as con:
             con.execute("BEGIN IMMEDIATE")
             try:
                 yield con
@@ -298,9 +299,11 @@ class Store:
         the rater, the standing votes plus the open claims (assignments without a vote) of
         other raters; open claims stop counting once the item's newest claim is older than
         ``claim_ttl_s``. The work reads the rater's own rows and one counter row per item,
-        never the other raters' votes or assignments.
+        never the other raters' votes or assignments. An assignment is committed without a
+        disk sync of its own (WAL, synchronous NORMAL): losing one to a power cut only means
+        handing the item out again, and the next vote's synced commit makes it durable too.
         """
-        with self._transaction() as con:
+        with self._transaction(synchronous="NORMAL") as con:
             row = con.execute(
                 "SELECT a.item FROM assignments a WHERE a.study = ? AND a.rater = ? AND NOT EXISTS "
                 "(SELECT 1 FROM votes v WHERE v.study = a.study AND v.rater = a.rater AND "

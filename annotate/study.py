@@ -346,17 +346,26 @@ class Study:
         return int(self.manifest["votes_per_item"])
 
     def admin_token(self) -> str:
-        return json.loads((self.root / "secrets.json").read_text())["admin_token"]
+        if "_admin_token" not in self.__dict__:
+            self._admin_token = json.loads((self.root / "secrets.json").read_text())["admin_token"]
+        return self._admin_token
 
     def keys(self, kind: str) -> list[str]:
         return self.items.index[self.items["kind"] == kind].tolist()
 
     def plan_for(self, rater: str) -> dict:
-        """The rater's stored plan, creating (and storing) it on first use."""
-        plan = self.store.plan(rater)
+        """The rater's stored plan, creating (and storing) it on first use.
+
+        A stored plan never changes, so it is kept in memory after the first read.
+        """
+        cache = self.__dict__.setdefault("_plans", {})
+        plan = cache.get(rater)
         if plan is None:
-            self.store.add_rater(rater, plan=self.new_plan(rater))
             plan = self.store.plan(rater)
+            if plan is None:
+                self.store.add_rater(rater, plan=self.new_plan(rater))
+                plan = self.store.plan(rater)
+            cache[rater] = plan
         return plan
 
     def new_plan(self, rater: str) -> dict:

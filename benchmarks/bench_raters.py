@@ -8,8 +8,15 @@ does): sign in by ``?rater=``, press Start, then repeatedly think 0.8-1.6 s and 
 The latency of a vote is the time from sending the press to the server's
 ``script_finished`` of the run that shows the next item. After each round the votes in the
 SQLite store are compared with the presses the clients saw acknowledged ("lost" must be 0).
-Prints one line per N: p50/p95/max latency in ms, votes, votes lost. Target: 30 concurrent
+Prints one line per N: p50/p95/max latency in ms, votes, votes lost and the server's CPU
+time per vote (sign-ins included; on a shared machine the latencies move with the load, the
+CPU time much less). Target: 30 concurrent
 raters at p95 < 1 s, 0 votes lost.
+
+First, measured side by side in the same run: the store's work per vote (next item,
+progress, record) with ~300 and with ~3,000 votes already stored, and their ratio (about 1:
+the work does not grow with the study; issue 13 measured 11.8 ms at 351 votes and
+19.6 ms at 3,120 before the per-item counters).
 
     python benchmarks/bench_raters.py                       # N = 10, 20, 30; 40 s each
     python benchmarks/bench_raters.py --raters 2 --seconds 5 --think 0.2 0.4   # smoke run
@@ -209,6 +216,13 @@ async def _rater(url: str, name: str, *, until: float, think: tuple[float, float
     return acked
 
 
+async def _warm_up(url: str) -> None:
+    """One session, so the app's first run (its imports) is not timed."""
+    c = RaterClient(url)
+    await c.open("rater=warmup")
+    await c.close()
+
+
 async def _round(url: str, names: list[str], *, seconds: float, think, seed: int):
     lat: list[float] = []
     until = time.time() + seconds
@@ -226,16 +240,25 @@ def run_load(n_list: list[int], *, seconds: float, think: tuple[float, float], s
     with tempfile.TemporaryDirectory(prefix="bench_raters_") as tmp:
         tmp = Path(tmp)
         pairs = make_scene(tmp, n_frames=frames)
-        root = build_study(tmp / "study", pairs, scene=str(tmp / "scene"), tracks=4,
-                           frames_per_track=frames, votes_per_item=max(n_list), n_training=2,
-                           n_gold=2, n_repeats=3, size=96, progress=False)
+        opts = dict(scene=str(tmp / "scene"), tracks=4, frames_per_track=frames,
+                    votes_per_item=max(n_list), n_training=2, n_gold=2, n_repeats=3, size=96,
+                    progress=False)
+        root = build_study(tmp / "study", pairs, **opts)
+        work = db_work(load_study(build_study(tmp / "work", pairs, **opts)), sizes=(300, 3000))
+        for w in work:
+            print(f"store work per vote at {w['stored_votes']:5d} stored votes: "
+                  f"{w['ms_per_vote']:.2f} ms", flush=True)
+        print(f"store work ratio (largest / smallest study): "
+              f"{work[-1]['ms_per_vote'] / work[0]['ms_per_vote']:.2f}", flush=True)
         store = load_study(root).store
         port = free_port()
         server = start_server(root, port)
         rows = []
         try:
+            asyncio.run(_warm_up(f"http://127.0.0.1:{port}/"))
             for k, n in enumerate(n_list):
                 names = [f"load{k}-{i}" for i in range(n)]
+                cpu0 = server_cpu_s(server.pid)
                 lat, acked = asyncio.run(_round(f"http://127.0.0.1:{port}/", names,
                                                 seconds=seconds, think=think, seed=seed + k))
                 stored = store.votes()
@@ -246,17 +269,68 @@ def run_load(n_list: list[int], *, seconds: float, think: tuple[float, float], s
                              "p50_ms": float(np.percentile(ms, 50)) if len(ms) else float("nan"),
                              "p95_ms": float(np.percentile(ms, 95)) if len(ms) else float("nan"),
                              "max_ms": float(ms.max()) if len(ms) else float("nan"),
-                             "votes_lost": int(lost)})
+                             "votes_lost": int(lost),
+                             "server_cpu_ms_per_vote": (server_cpu_s(server.pid) - cpu0) * 1000
+                             / max(1, sum(acked.values()))})
                 print(_line(rows[-1]), flush=True)
         finally:
             stop_server(server)
     return pd.DataFrame(rows)
 
 
+def server_cpu_s(pid: int) -> float:
+    """User + system CPU seconds of process ``pid`` so far (Linux ``/proc``; NaN elsewhere)."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return float("nan")
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _prefill(store, items: list[str], raters: list[str]) -> None:
+    """Every rater in ``raters`` assigned and voted on every item (one transaction)."""
+    import sqlite3
+
+    now = time.time()
+    with sqlite3.connect(store.path) as con:
+        con.executemany("INSERT INTO assignments (study, rater, item, assigned_at) VALUES (?, ?, ?, ?)",
+                        [(store.study, r, k, now) for r in raters for k in items])
+        con.executemany("INSERT INTO votes (study, rater, item, vote, voted_at) VALUES (?, ?, ?, 1, 'x')",
+                        [(store.study, r, k) for r in raters for k in items])
+
+
+def db_work(study, *, sizes: tuple[int, int], n_votes: int = 40) -> list[dict]:
+    """Per-vote store work (next item + progress + record) at two numbers of stored votes.
+
+    Each size adds simulated raters who voted on every test item, then a fresh rater votes
+    ``n_votes`` times; the store runs with ``synchronous=NORMAL`` here so that the disk sync
+    (the same at any size) does not hide the database work being compared.
+    """
+    import dataclasses
+
+    from annotate.store import Store
+
+    study = dataclasses.replace(study, store=Store(study.store.path, study.store.study,
+                                                   synchronous="NORMAL"))
+    tests = study.keys("test")
+    rows, have = [], len(study.store.votes())
+    for k, size in enumerate(sizes):
+        extra = max(0, (size - have) // len(tests))
+        _prefill(study.store, tests, [f"fill{k}-{i}" for i in range(extra)])
+        have = len(study.store.votes())
+        rater, t0 = f"probe{k}", time.perf_counter()
+        for _ in range(n_votes):
+            key = study.next_item(rater)
+            study.progress(rater)
+            study.store.record_shown_vote(rater, key, 1)
+        rows.append({"stored_votes": have, "ms_per_vote": (time.perf_counter() - t0) / n_votes * 1000})
+    return rows
+
+
 def _line(r: dict) -> str:
     return (f"N={r['raters']:3d} raters: vote->next item p50 {r['p50_ms']:.0f} ms, "
             f"p95 {r['p95_ms']:.0f} ms, max {r['max_ms']:.0f} ms; {r['votes']} votes, "
-            f"{r['votes_lost']} votes lost")
+            f"{r['votes_lost']} votes lost; server CPU {r['server_cpu_ms_per_vote']:.0f} ms per vote")
 
 
 def main(argv=None) -> int:

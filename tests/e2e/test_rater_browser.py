@@ -49,7 +49,7 @@ def _state(page) -> tuple[str, tuple]:
         "() => !document.querySelector('[data-stale=\"true\"]') &&"
         " ((document.querySelector('[data-testid=stProgress]') &&"
         "   document.querySelectorAll('img').length === 2) ||"
-        "  document.body.innerText.includes('All done'))", timeout=20000)
+        "  document.body.innerText.includes('All done'))", timeout=40000)
     prog = page.get_by_test_id("stProgress")
     text = prog.inner_text() if prog.count() else "done"
     srcs = tuple(img.get_attribute("src") for img in page.locator("img").all())
