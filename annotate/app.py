@@ -63,6 +63,9 @@ Your progress is saved after every vote; you can close the page and come back an
 """
 
 
+__all__ = ["main", "admin_page", "rater_page", "voting_panel", "sign_in_page", "signed_in_rater",
+           "plain", "salted_image"]
+
 log = logging.getLogger("annotate.app")
 
 MSG_STORAGE = ("Your vote could not be saved because of a problem on the server. "
@@ -273,7 +276,7 @@ def _next_on_screen(study: Study, rater: str) -> tuple[str | None, dict, tuple |
 def _panel_unavailable(err: Exception) -> None:
     log.error("annotate app: voting panel unavailable", exc_info=err)
     st.error(MSG_CHANGED if isinstance(err, StudyChanged) else MSG_UNAVAILABLE)
-    st.button("Try again", key=f"retry-{secrets.token_hex(4)}")
+    st.button("Try again", key="retry")
 
 
 @st.fragment
