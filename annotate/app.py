@@ -18,7 +18,9 @@ Robustness rules of the voting panel (a ``st.fragment``: a vote reruns only the 
 
 - a press counts only for the item on screen: each button carries the token of the item it
   was drawn for, and a press whose token is not the displayed one (a double press arriving
-  after the next item was chosen) is dropped;
+  after the next item was chosen) is dropped; so is a press less than
+  ``ANNOTATE_MIN_RESPONSE_MS`` (environment, default 100) after the item was drawn, which
+  is the tail of a double press that reached an item the rater has not yet seen;
 - a vote is recorded only while the item is the rater's and unvoted (one transaction), so a
   second tab of the same rater is told the item was already rated elsewhere and moves on;
 - every displayed image has its own URL: the crop's bytes get a comment keyed by the item
@@ -183,6 +185,10 @@ def _shown() -> tuple:
     return st.session_state.get("shown", (None, None, None))
 
 
+def _min_response_ms() -> int:
+    return int(os.environ.get("ANNOTATE_MIN_RESPONSE_MS", "100"))
+
+
 def _storage_failed(what: str) -> None:
     log.exception("annotate app: %s failed", what)
     st.session_state["notice"] = ("error", MSG_STORAGE)
@@ -193,6 +199,9 @@ def _on_vote(study: Study, rater: str, key: str, token: str, vote: int) -> None:
     if token != shown_token or key != shown_key:  # a press for an item no longer on screen
         return
     rt = int(round((time.time() - shown_at) * 1000))
+    if rt < _min_response_ms():  # drawn a moment ago: the rater has not seen it yet
+        log.info("annotate app: press %d ms after drawing dropped (rater %s)", rt, rater)
+        return
     try:
         study.check_current()
         status = study.store.record_shown_vote(rater, key, vote, response_ms=rt)

@@ -23,6 +23,12 @@ def study(make_study, monkeypatch):
     return s
 
 
+@pytest.fixture(autouse=True)
+def _instant_presses(monkeypatch):
+    """AppTest presses a moment after drawing; the double-press guard would drop them."""
+    monkeypatch.setenv("ANNOTATE_MIN_RESPONSE_MS", "0")
+
+
 def _app(**query) -> AppTest:
     at = AppTest.from_file(APP, default_timeout=20)
     at.query_params.update(query)
@@ -223,3 +229,13 @@ def test_votes_refused_once_the_study_is_rebuilt_under_the_server(study):
     _btn(at, "vote_good").click().run()
     assert any("changed on the server" in e.value for e in at.error)
     assert study.store.votes().empty
+
+
+def test_press_a_moment_after_drawing_is_dropped(study, monkeypatch):
+    """The tail of a double press that reached the next item before the rater saw it."""
+    monkeypatch.setenv("ANNOTATE_MIN_RESPONSE_MS", "60000")  # any press is "too soon"
+    at = _app(rater="kit")
+    at.button(key="start").click().run()
+    shown = _current(at)
+    _btn(at, "vote_good").click().run()
+    assert study.store.votes("kit").empty and _current(at) == shown
