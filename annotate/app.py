@@ -276,7 +276,7 @@ def _next_on_screen(study: Study, rater: str) -> tuple[str | None, dict, tuple |
             return None, prog, None
         try:
             return key, prog, _display_images(study, key)
-        except (InputError, OSError, ValueError):
+        except (InputError, OSError, ValueError, KeyError):
             log.exception("annotate app: item %s of rater %s cannot be shown; skipped", key, rater)
             study.store.skip(rater, key, reason="crop cannot be shown")
             st.session_state["notice"] = ("info", MSG_SKIPPED)

@@ -90,6 +90,7 @@ def test_server_refuses_a_study_rebuilt_under_it_and_export_reports_foreign_vote
             screen = await c.open("rater=kim")
             screen = await c.press("Start")
             first = screen.vote_id()
+            await asyncio.sleep(0.3)  # a rater looks first (the app drops presses < 100 ms)
             screen = await c.press("Good (G)")  # recorded in the original study
             assert screen.vote_id() != first
             scene, pairs = toy_inputs
@@ -97,6 +98,7 @@ def test_server_refuses_a_study_rebuilt_under_it_and_export_reports_foreign_vote
             build_study(root, pairs, scene=str(scene), tracks=2, frames_per_track=2,
                         n_training=1, size=64, progress=False)
             load_study(root)  # e.g. the organiser looks at it: the new votes.sqlite exists
+            await asyncio.sleep(0.3)
             screen = await c.press("Good (G)")
             await c.close()
             return screen
