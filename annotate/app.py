@@ -19,8 +19,9 @@ Robustness rules of the voting panel (a ``st.fragment``: a vote reruns only the 
 - a press counts only for the item on screen: each button carries the token of the item it
   was drawn for, and a press whose token is not the displayed one (a double press arriving
   after the next item was chosen) is dropped; so is a press less than
-  ``ANNOTATE_MIN_RESPONSE_MS`` (environment, default 100) after the item was drawn, which
-  is the tail of a double press that reached an item the rater has not yet seen;
+  ``ANNOTATE_MIN_RESPONSE_MS`` (environment, default 250) after the item was drawn: no one
+  judges a new pair that fast, it is the tail of a double press that a busy browser
+  delivered after drawing the next item;
 - a vote is recorded only while the item is the rater's and unvoted (one transaction), so a
   second tab of the same rater is told the item was already rated elsewhere and moves on;
 - every displayed image has its own URL: the crop's bytes get a comment keyed by the item
@@ -186,7 +187,7 @@ def _shown() -> tuple:
 
 
 def _min_response_ms() -> int:
-    return int(os.environ.get("ANNOTATE_MIN_RESPONSE_MS", "100"))
+    return int(os.environ.get("ANNOTATE_MIN_RESPONSE_MS", "250"))
 
 
 def _storage_failed(what: str) -> None:

@@ -19,7 +19,7 @@ the work does not grow with the study; issue 13 measured 11.8 ms at 351 votes an
 19.6 ms at 3,120 before the per-item counters).
 
     python benchmarks/bench_raters.py                       # N = 10, 20, 30; 40 s each
-    python benchmarks/bench_raters.py --raters 2 --seconds 5 --think 0.2 0.4   # smoke run
+    python benchmarks/bench_raters.py --raters 2 --seconds 5 --think 0.4 0.6   # smoke run
 """
 
 from __future__ import annotations

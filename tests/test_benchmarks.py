@@ -20,7 +20,7 @@ CASES = {
     "bench_score.py": (["--pairs", "14", "--naive-pairs", "4", "--batch-size", "8", "--random-scene"],
                        "e_speedup_over_naive"),
     "bench_analyze.py": (["--rows", "20000"], "s"),
-    "bench_raters.py": (["--raters", "2", "--seconds", "4", "--think", "0.2", "0.4", "--frames", "2"],
+    "bench_raters.py": (["--raters", "2", "--seconds", "4", "--think", "0.4", "0.6", "--frames", "2"],
                         "0 votes lost"),
 }
 

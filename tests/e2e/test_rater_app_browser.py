@@ -105,6 +105,14 @@ def _ready(page) -> None:
     page.wait_for_function("() => !document.querySelector('[data-stale=\"true\"]')", timeout=T)
 
 
+# (progress text, or 'done' once the rater is done; image URLs) read in one go
+_SNAPSHOT = """() => {
+  const p = document.querySelector('[data-testid=stProgress]');
+  const text = document.body.innerText.includes('All done') ? 'done' : (p ? p.innerText : '');
+  return [text, Array.from(document.querySelectorAll('img')).map(i => i.getAttribute('src'))];
+}"""
+
+
 def _screen(page) -> tuple[str, tuple]:
     """(progress text or 'done', image URLs) of a settled page."""
     page.wait_for_function(
@@ -112,9 +120,8 @@ def _screen(page) -> tuple[str, tuple]:
         " ((document.querySelector('[data-testid=stProgress]') &&"
         "   document.querySelectorAll('img').length === 2) ||"
         "  document.body.innerText.includes('All done'))", timeout=T)
-    prog = page.get_by_test_id("stProgress")
-    text = prog.inner_text().strip() if prog.count() else "done"
-    return text, tuple(img.get_attribute("src") for img in page.locator("img").all())
+    text, srcs = page.evaluate(_SNAPSHOT)  # one read: the panel may redraw in between
+    return text.strip(), tuple(srcs)
 
 
 def _moved(page, old: tuple) -> tuple:
@@ -122,7 +129,7 @@ def _moved(page, old: tuple) -> tuple:
     while time.time() < deadline:
         now = _screen(page)
         if now != old:
-            time.sleep(0.3)  # let the panel finish drawing
+            time.sleep(0.4)  # let the panel finish drawing (and a rater look at it)
             return _screen(page)
         time.sleep(0.05)
     raise AssertionError(f"the page did not advance from {old!r}")
@@ -132,6 +139,7 @@ def _start(page, url: str, rater: str) -> tuple:
     page.goto(f"{url}?rater={rater}")
     page.get_by_role("button", name="Start").click(timeout=T)
     _ready(page)
+    page.wait_for_timeout(400)  # the app drops presses < 250 ms after drawing (double presses)
     return _screen(page)
 
 
@@ -199,6 +207,7 @@ def test_second_tab_is_told_and_moves_on(served, browser):
     two = ctx.new_page()
     two.goto(f"{url}?rater=tabs")
     _ready(two)
+    two.wait_for_timeout(400)
     s2 = _screen(two)
     assert s2[0] == s1[0]  # both tabs show the same item
     item = study.store.next_item("tabs", lambda *a: None)
