@@ -66,7 +66,7 @@ Your progress is saved after every vote; you can close the page and come back an
 """
 
 
-__all__ = ["main", "admin_page", "rater_page", "voting_panel", "sign_in_page", "signed_in_rater",
+__all__ = ["main", "rater_page", "voting_panel", "sign_in_page", "signed_in_rater",
            "plain", "salted_image"]
 
 log = logging.getLogger("annotate.app")
