@@ -87,6 +87,12 @@ def _add_options(p: ArgumentParser) -> None:
         "P(good) becomes the target (0.5 threshold for ROC AUC)",
     )
     p.add_argument(
+        "--margin",
+        type=float,
+        default=0.02,
+        help="non-inferiority margin on SRCC for the recommended cheapest metric (default 0.02)",
+    )
+    p.add_argument(
         "--timing",
         action="append",
         default=[],
@@ -168,6 +174,7 @@ def _run(args) -> int:
         stability_dir=args.stability,
         progress=not args.quiet,
     )
+    analysis.margin = args.margin
     out = write_report(analysis, args.out)
     _print_summary(analysis)
     print(f"report: {out / 'report.html'}", file=sys.stderr)
