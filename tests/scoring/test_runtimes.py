@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from data_schema.errors import InputError
@@ -120,3 +121,35 @@ def test_drift_stats_against_hand_worked_values():
 
 def test_allocator_tuning_is_idempotent():
     assert tune_allocator() == tune_allocator()
+
+
+def test_calibrate_runtime_records_and_score_refuses_int8_below_threshold(tiny_scene, tmp_path, capsys):
+    from nvrq.cli import main
+    from nvrq.encoders.drift import read_records
+
+    root, pairs = tiny_scene
+    pairs.to_csv(tmp_path / "pairs.csv", index=False)
+    cache = str(tmp_path / "cache")
+    rc = main(["calibrate-runtime", str(tmp_path / "pairs.csv"), "--encoder", "efficientnet-lite0",
+               "--runtime", "openvino", "--precision", "int8", "--sample", "12", "--calib", "6",
+               "--cache-dir", cache])
+    assert rc == 0
+    out = capsys.readouterr().out
+    (rec,) = read_records(cache).values()
+    assert f"NVRQ Spearman {rec['nvrq_spearman']:.5f}" in out and rec["n_pairs"] == 12
+    s = rec["nvrq_spearman"]
+    score = ["score", str(tmp_path / "pairs.csv"), "--out", str(tmp_path / "m.csv"), "--metrics", "nvrq",
+             "--precision", "int8", "--runtime", "openvino", "--cache-dir", cache, "--quiet"]
+    # a threshold above the measured Spearman refuses, in one line saying what to run
+    assert main([*score, "--min-spearman", str(s + 1e-4)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "nvrq calibrate-runtime" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "m.csv").exists()
+    # the default threshold refuses exactly when the measured Spearman is below 0.999
+    assert (main(score) == 2) == (s < DEFAULT_MIN_SPEARMAN)
+    capsys.readouterr()
+    # at or below the measured value, int8 runs and its column is tagged
+    assert main([*score, "--min-spearman", str(s - 1e-4)]) == 0
+    assert list(pd.read_csv(tmp_path / "m.csv").columns) == ["pair_id", "nvrq:efficientnet-lite0@int8"]
+    t = pd.read_csv(tmp_path / "m.timing.csv")
+    assert t[["runtime", "precision", "device"]].values.tolist() == [["openvino", "int8", "cpu"]]
