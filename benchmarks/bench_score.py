@@ -179,6 +179,10 @@ def bench_encoder(name: str, pairs: pd.DataFrame, args, cache: str) -> dict:
         out.update({f"b{bs}_torch_images_per_s": rates["torch"], f"b{bs}_default_images_per_s": rates["default"],
                     f"b{bs}_pipeline_pairs_per_s": b, f"b{bs}_encoder_images_per_pair": per_pair,
                     f"b{bs}_pipeline_over_encoder_alone": b / (rates["default"] / per_pair),
+                    # CPU the decode thread needs per wall second (image decoding, crops, resize)
+                    f"b{bs}_decode_prepare_share_of_wall": (res.timing.attrs["decode_seconds"]
+                                                           + res.timing.attrs["prepare_seconds"])
+                    / res.timing.attrs["wall_seconds"],
                     f"b{bs}_default_over_torch": rates["default"] / rates["torch"]})
         if "int8" in rates:
             out[f"b{bs}_int8_images_per_s"] = rates["int8"]
