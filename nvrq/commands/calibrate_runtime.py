@@ -15,8 +15,10 @@ def register(sub) -> None:
     p.add_argument("pairs", help="pairs table from `nvrq pairs` (.csv or .parquet)")
     p.add_argument("--encoder", default=None, help="encoder (default efficientnet-lite0)")
     p.add_argument("--weights", default=None, help="local weights (HF model folder or .pth)")
-    p.add_argument("--runtime", default="openvino", help="openvino or onnxruntime (default openvino)")
-    p.add_argument("--precision", default="int8", help="bf16, int8 or fp32 (default int8)")
+    p.add_argument("--runtime", default="openvino", choices=["openvino", "onnxruntime"],
+                   help="runtime checked against torch fp32 (default openvino)")
+    p.add_argument("--precision", default="int8", choices=["fp32", "bf16", "int8"],
+                   help="precision checked (default int8; onnxruntime: fp32 or int8)")
     p.add_argument("--scene", default=None, help="scene folder (default: the scene_root column)")
     p.add_argument("--sample", type=int, default=200, help="pairs checked (default 200)")
     p.add_argument("--calib", type=int, default=150,
@@ -43,8 +45,8 @@ def run(args) -> int:
     for opt in ("sample", "calib"):
         if getattr(args, opt) < 1:
             raise InputError(f"--{opt}", None, "a positive integer", getattr(args, opt))
-    if args.runtime not in ("openvino", "onnxruntime"):
-        raise InputError("--runtime", None, "openvino or onnxruntime", args.runtime)
+    if (args.runtime, args.precision) == ("onnxruntime", "bf16"):
+        raise InputError("--precision", None, "fp32 or int8 with --runtime onnxruntime", args.precision)
     pairs = read_table(args.pairs, required=REQUIRED_COLUMNS, what="pairs table")
     base = Path(args.pairs).resolve().parent
     gt, render = pair_inputs(pairs, spec.input_size, n=args.sample + args.calib, seed=args.seed,

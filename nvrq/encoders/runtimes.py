@@ -57,18 +57,14 @@ def cache_root(cache_dir=None) -> Path:
 
 def weights_hash(model) -> str:
     """SHA-256 (hex) of a torch module's state dict: names, dtypes, shapes and bytes."""
+    import torch
+
     h = hashlib.sha256(type(model).__name__.encode())
     for name, t in sorted(model.state_dict().items()):
         t = t.detach().cpu().contiguous()
         h.update(f"{name}:{t.dtype}:{tuple(t.shape)}".encode())
-        h.update(t.view(-1).view(torch_uint8()).numpy().tobytes() if t.numel() else b"")
+        h.update(t.view(-1).view(torch.uint8).numpy().tobytes() if t.numel() else b"")
     return h.hexdigest()
-
-
-def torch_uint8():
-    import torch
-
-    return torch.uint8
 
 
 def runtime_version(runtime: str) -> str:
@@ -197,10 +193,10 @@ def _export(encoder, runtime: str, folder: Path) -> None:
         (tmp / "meta.json").write_text(json.dumps(meta, indent=2))
         os.chmod(tmp, 0o755)
         try:
-            os.replace(tmp, folder)
-        except OSError:  # another process exported it meanwhile
+            os.replace(tmp, folder)  # atomic: a half-written export is never seen as done
+        except OSError:  # another process exported it meanwhile; ours is discarded
             pass
-        tmp.mkdir(exist_ok=True)  # TemporaryDirectory cleans up what it created
+        tmp.mkdir(exist_ok=True)  # so TemporaryDirectory's clean-up finds its folder
 
 
 def _session(runtime: str, folder: Path, precision: str, *, threads, model_file):
