@@ -33,6 +33,12 @@ TINY = {
 }
 
 
+@pytest.fixture(scope="module")
+def shared_cache(tmp_path_factory):
+    """One export cache for the tests that do not count exports (each export costs seconds)."""
+    return tmp_path_factory.mktemp("runtime_cache")
+
+
 def _random(name, **kw):
     spec = ENCODERS[name]
     return build_random(name, overrides=TINY[spec.backend], **kw)
@@ -74,10 +80,10 @@ def test_export_is_cached_keyed_by_weights_and_printed_once(tmp_path, capsys):
     assert len(folders) == 2 and other.weights_hash[:16] in {f.name[:16] for f in folders}
 
 
-def test_auto_uses_an_exact_runtime_on_cpu_and_torch_on_cuda(tmp_path):
-    enc = _random("dinov2-small", runtime="auto", cache_dir=tmp_path)
+def test_auto_uses_an_exact_runtime_on_cpu_and_torch_on_cuda(shared_cache):
+    enc = _random("dinov2-small", runtime="auto", cache_dir=shared_cache)
     assert enc.runtime == "openvino"
-    assert _auto(enc, "fp32", "cuda", tmp_path) == "torch"
+    assert _auto(enc, "fp32", "cuda", shared_cache) == "torch"
     with pytest.raises(InputError, match="torch for device cuda"):
         _check_combo("openvino", "fp32", "cuda")
 
@@ -91,20 +97,20 @@ def test_weights_hash_changes_with_any_weight():
     assert weights_hash(a.model) != h
 
 
-def test_reduced_precision_is_refused_without_a_passing_check(tmp_path):
+def test_reduced_precision_is_refused_without_a_passing_check(shared_cache):
     with pytest.raises(InputError, match="nvrq calibrate-runtime PAIRS --encoder dinov2-small"):
-        _random("dinov2-small", runtime="openvino", precision="bf16", cache_dir=tmp_path)
+        _random("dinov2-small", runtime="openvino", precision="bf16", cache_dir=shared_cache)
     ref = _random("dinov2-small")
     key = record_key("dinov2-small", "openvino", "bf16", weights_hash(ref.model))
-    write_record({"key": key, "nvrq_spearman": 0.998}, tmp_path)
+    write_record({"key": key, "nvrq_spearman": 0.998}, shared_cache)
     with pytest.raises(InputError, match="0.99800 on record"):
-        _random("dinov2-small", runtime="openvino", precision="bf16", cache_dir=tmp_path)
-    assert require_check(ref, runtime="openvino", precision="bf16", cache_dir=tmp_path,
+        _random("dinov2-small", runtime="openvino", precision="bf16", cache_dir=shared_cache)
+    assert require_check(ref, runtime="openvino", precision="bf16", cache_dir=shared_cache,
                          min_spearman=0.99) is None  # configurable threshold
-    write_record({"key": key, "nvrq_spearman": DEFAULT_MIN_SPEARMAN}, tmp_path)
-    enc = _random("dinov2-small", runtime="openvino", precision="bf16", cache_dir=tmp_path)
+    write_record({"key": key, "nvrq_spearman": DEFAULT_MIN_SPEARMAN}, shared_cache)
+    enc = _random("dinov2-small", runtime="openvino", precision="bf16", cache_dir=shared_cache)
     assert enc.precision == "bf16"
-    assert json.loads((tmp_path / "runtime_checks.json").read_text())[key]["nvrq_spearman"] == 0.999
+    assert json.loads((shared_cache / "runtime_checks.json").read_text())[key]["nvrq_spearman"] == 0.999
 
 
 def test_drift_stats_against_hand_worked_values():
