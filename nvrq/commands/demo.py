@@ -84,5 +84,6 @@ def run(args) -> int:
     print(f"Report: {out / 'report' / 'report.html'}")
     print(f"Vote yourself:  annotate serve {out / 'study'}   (then: annotate export {out / 'study'} "
           f"--out {out / 'ratings.csv'} && analyze {out / 'ratings.csv'} --timing {out / 'metrics.timing.csv'} "
+          f"--metrics-table {out / 'metrics_torch.csv'} "
           f"--out {out / 'report'})")
     return 0
