@@ -37,9 +37,10 @@ def spearman_brown(r):
 
 
 def vote_matrix(test_votes: pd.DataFrame) -> np.ndarray:
-    """(items, raters) float 0/1 test votes, NaN where a rater did not rate an item."""
-    i, _ = pd.factorize(test_votes["item_id"])
-    r, raters = pd.factorize(test_votes["rater_id"])
+    """(items, raters) float 0/1 test votes, NaN where a rater did not rate an item; items and
+    raters in sorted id order, so the random halves do not depend on the ratings' row order."""
+    i, _ = pd.factorize(test_votes["item_id"], sort=True)
+    r, raters = pd.factorize(test_votes["rater_id"], sort=True)
     m = np.full((i.max() + 1 if len(i) else 0, len(raters)), np.nan)
     m[i, r] = test_votes["vote"].to_numpy(np.float64)
     return m

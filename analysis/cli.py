@@ -97,6 +97,12 @@ def _add_options(p: ArgumentParser) -> None:
         "P(good) becomes the target (0.5 threshold for ROC AUC)",
     )
     p.add_argument(
+        "--margin",
+        type=float,
+        default=0.02,
+        help="non-inferiority margin on SRCC for the recommended cheapest metric (default 0.02)",
+    )
+    p.add_argument(
         "--timing",
         action="append",
         default=[],
@@ -166,6 +172,7 @@ def _run(args) -> int:
     from analysis.report import write_report
 
     analysis = _run_pairs(args) if args.pairs is not None else _run_ratings(args)
+    analysis.margin = args.margin
     out = write_report(analysis, args.out)
     _print_summary(analysis)
     print(f"report: {out / 'report.html'}", file=sys.stderr)

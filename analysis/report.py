@@ -25,6 +25,7 @@ from markupsafe import Markup
 
 from analysis import plots
 from analysis.axes import axis_tent_plots
+from analysis.noninferiority import recommend_from_tables
 from analysis.pipeline import Analysis
 from analysis.summary import binary_label
 from annotate.screening import ScreenRule
@@ -173,6 +174,9 @@ def _best_text(a: Analysis) -> str:
             f" Significantly different from it (95% paired cluster bootstrap): "
             f"{', '.join(worse) or 'none'}; not significantly different: {', '.join(ns) or 'none'}."
         )
+        rec = recommend_from_tables(s, a.timing, margin=a.margin)
+        if rec is not None:  # needs the bootstrap replicates, like the comparison above
+            text += " " + rec.sentence()
     return text
 
 

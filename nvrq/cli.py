@@ -26,6 +26,7 @@ COMMAND_MODULES = [
     "nvrq.commands.pairs",
     "nvrq.commands.score",
     "nvrq.commands.calibrate_tau",
+    "nvrq.commands.calibrate_runtime",
     "nvrq.commands.proxy",
     "nvrq.commands.stability",
     "nvrq.commands.demo",

@@ -17,10 +17,13 @@ BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
 CASES = {
     "bench_pairs.py": (["--tracks", "6", "--frames", "12", "--loop-sample", "50"], "speed-up (vectorised / loop)"),
     "bench_synth.py": (["--seconds", "0.2", "--size", "160x96"], "images per second per camera"),
-    "bench_score.py": (["--pairs", "14", "--naive-pairs", "4", "--batch-size", "8", "--random-scene"],
+    "bench_score.py": (["--pairs", "14", "--naive-pairs", "4", "--batch-sizes", "8", "--random-scene",
+                        "--seconds", "0.2", "--encoders", "efficientnet-lite0", "--int8", ""],
                        "e_speedup_over_naive"),
     "bench_analyze.py": (["--rows", "20000"], "s"),
     "bench_analyze_pairs.py": (["--rows", "20000", "--clips", "12"], "peak RSS"),
+    "bench_raters.py": (["--raters", "2", "--seconds", "4", "--think", "0.4", "0.6", "--frames", "2"],
+                        "0 votes lost"),
 }
 
 

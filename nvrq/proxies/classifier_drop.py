@@ -109,8 +109,8 @@ def load_classifier(
         from nvrq.encoders import load_encoder
 
         enc = load_encoder(
-            name, weights=weights, device=device
-        )  # full model incl. the ImageNet head
+            name, weights=weights, device=device, runtime="torch"
+        )  # full model incl. the ImageNet head (the exported graph is the embedding only)
         return ImageClassifier(
             name, enc.model, enc.spec.input_size, enc.spec.mean, enc.spec.std, device
         )
