@@ -30,6 +30,8 @@ class MetricScorer:
     tau: float | None = None
     batch_size: int = 32
     extra_columns: tuple = ()
+    runtime: str = "auto"
+    cache_dir: str | None = None
 
     @property
     def model_columns(self) -> list[str]:
@@ -42,7 +44,8 @@ class MetricScorer:
     def load(self):
         from nvrq.encoders import load_encoder
 
-        return load_encoder(self.encoder, weights=self.weights, device=self.device)
+        return load_encoder(self.encoder, weights=self.weights, device=self.device,
+                            runtime=self.runtime, cache_dir=self.cache_dir)
 
     def score(self, model, batch, extra: dict, timings: dict) -> dict:
         return score_crop_batch(batch, metrics=self.model_columns, encoder=model, tau=self.tau,
@@ -52,7 +55,8 @@ class MetricScorer:
         """What a resumed run must share with the first (``_plan.json``)."""
         enc = bool(self.model_columns)
         return {"columns": list(self.columns), "encoder": self.encoder if enc else None,
-                "weights": self.weights if enc else None, "tau": self.tau if enc else None}
+                "weights": self.weights if enc else None, "tau": self.tau if enc else None,
+                "runtime": self.runtime if enc else None}
 
 
 @dataclass(frozen=True)
