@@ -96,17 +96,12 @@ def _report(res, *, uses_encoder: bool, file) -> None:
 
 
 def _ray(args, columns, encoder_name) -> int:
-    from data_schema.errors import InputError
     from nvrq.commands._encoder import _resolve_tau
     from nvrq.engines.cli import run_ray
     from nvrq.engines.scorers import MetricScorer
     from nvrq.score_core import encoder_columns
 
     enc_cols = encoder_columns(columns)
-    if args.precision != "fp32" or args.column_tag is not None:
-        flag = "--precision" if args.precision != "fp32" else "--column-tag"
-        raise InputError(flag, None, "fp32 and untagged columns with --engine ray (reduced "
-                         "precision runs on the local engine)", getattr(args, flag[2:].replace("-", "_")))
     tau = _resolve_tau(encoder_name, args) if any(c.startswith("nvrq_ca:") for c in enc_cols) else None
     scorer = MetricScorer(tuple(columns), encoder=encoder_name, weights=args.weights, device=args.device,
                           tau=tau, batch_size=args.batch_size, runtime=args.runtime,

@@ -17,6 +17,11 @@ def check_engine_args(args) -> None:
         if args.address:
             raise InputError("--address", None, "--engine ray", f"--engine {args.engine}")
         return
+    if getattr(args, "precision", "fp32") != "fp32":
+        raise InputError("--precision", None, "fp32 with --engine ray (reduced precision runs on "
+                         "the local engine)", args.precision)
+    if getattr(args, "column_tag", None) is not None:
+        raise InputError("--column-tag", None, "untagged columns with --engine ray", args.column_tag)
     if getattr(args, "scene", None) is not None:
         raise InputError("--scene", None, "the pairs' scene_root column with --engine ray", args.scene)
     if Path(args.out).suffix != "":

@@ -117,6 +117,10 @@ def test_bad_input_one_line_errors(ray_local, fleet, tmp_path, capsys, monkeypat
         ([str(pairs_ds), "--out", str(tmp_path / "bad"), "--address", "127.0.0.1:9"],
          "--address: expected a running Ray cluster"),
         ([str(pairs_ds), "--out", str(tmp_path / "x.parquet")], "--out: expected a folder"),
+        ([str(pairs_ds), "--out", str(tmp_path / "bad"), "--precision", "int8"],
+         "--precision: expected fp32 with --engine ray"),
+        ([str(pairs_ds), "--out", str(tmp_path / "bad"), "--column-tag", "t"],
+         "--column-tag: expected untagged columns"),
     ]
     for args, msg in cases:
         rc = main(["score", *args, *common])
