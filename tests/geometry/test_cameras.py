@@ -412,3 +412,28 @@ def test_missing_opencv_coefficient_lists_mean_zeros():
     bare = camera_from_model({**PINHOLE, "type": "opencv_pinhole"})
     pts = _points_within(CAMERAS["pinhole"], 200, seed=4)
     np.testing.assert_array_equal(bare.project(pts)[0], CAMERAS["pinhole"].project(pts)[0])
+
+
+@pytest.mark.parametrize("name", sorted(MODELS))
+@pytest.mark.parametrize("tiny", [5e-324, 1e-310, 1e-200])
+def test_subnormal_point_projects_onto_its_own_ray(name, tiny):
+    # regression: for x = y = z = 5e-324 the fisheye returned (0.627, 0.627, 0.463) because
+    # hypot() of subnormals rounds; the direction (1, 1, 1) / sqrt(3) is exact by symmetry
+    cam = CAMERAS[name]
+    uv, projectable = cam.project(np.array([tiny, tiny, tiny]))
+    uv_ref, projectable_ref = cam.project(np.array([1.0, 1.0, 1.0]))
+    assert projectable == projectable_ref
+    np.testing.assert_array_equal(uv, uv_ref)
+    if projectable:
+        np.testing.assert_allclose(cam.unproject(uv), np.full(3, 1 / np.sqrt(3)), atol=1e-7)
+
+
+@pytest.mark.parametrize("name", ["fisheye", "ftheta_wide"])
+def test_point_one_ulp_inside_the_angle_limit_unprojects_onto_its_ray(name):
+    # regression: (0, 254, 1e-13) is 2.2e-16 rad inside the fisheye's pi/2 limit; the
+    # inverted distortion came back at the limit itself and unproject gave NaN
+    cam = CAMERAS[name]
+    p = np.array([0.0, 254.0, 1e-13])
+    uv, projectable = cam.project(p)
+    assert projectable
+    np.testing.assert_allclose(cam.unproject(uv), p / np.linalg.norm(p), atol=1e-7)

@@ -126,7 +126,9 @@ class CameraModel:
     """Base of every camera model: ``project``, ``unproject``, ``in_image`` on any leading dims.
 
     Subclasses set ``type_name``, implement ``from_params``, ``_project(x, y, z, rho, theta)``
-    (uv for all points; only projectable ones are kept) and ``_unproject(u, v)`` (rays,
+    (uv for all points; only projectable ones are kept; ``x, y, z`` arrive divided by the
+    point's largest ``|component|``, so a model may only use their ratios) and
+    ``_unproject(u, v)`` (rays,
     NaN outside the model's valid range) and set ``self.max_valid_angle``.
     """
 
@@ -154,7 +156,7 @@ class CameraModel:
         pts = np.asarray(points_cam, dtype=np.float64)
         if pts.shape[-1:] != (3,):
             raise ValueError(f"points_cam: expected shape (..., 3), got {pts.shape}")
-        x, y, z = pts[..., 0], pts[..., 1], pts[..., 2]
+        x, y, z = _direction_scaled(pts)
         rho = np.hypot(x, y)
         theta = np.arctan2(rho, z)
         projectable = (z > 0) & (theta < self.max_valid_angle)
@@ -167,8 +169,10 @@ class CameraModel:
     def unproject(self, uv: np.ndarray) -> np.ndarray:
         """Pixel coordinates ``(..., 2)`` -> unit rays ``(..., 3)`` in the camera frame.
 
-        A pixel whose ray would lie at or beyond ``max_valid_angle`` (e.g. outside a
-        fisheye's image circle, or past the fold of a distortion polynomial) gets NaN.
+        A pixel whose ray would lie beyond ``max_valid_angle`` (e.g. outside a fisheye's
+        image circle, or past the fold of a distortion polynomial) gets NaN; the limit
+        itself is kept, to rounding (see ``_valid_angle``), so that every projectable
+        point's pixel unprojects to its ray.
         """
         pix = np.asarray(uv, dtype=np.float64)
         if pix.shape[-1:] != (2,):
@@ -189,6 +193,16 @@ class CameraModel:
         u, v = pix[..., 0], pix[..., 1]
         return (u >= 0) & (u <= w - 1) & (v >= 0) & (v <= h - 1)
 
+    def _valid_angle(self, theta: np.ndarray) -> np.ndarray:
+        """``theta`` from an inverted distortion, NaN where it lies beyond ``max_valid_angle``.
+
+        The inversion is exact only to rounding: a projectable point just inside the limit
+        can come back a few ulps past it, so angles within ``1e-12 * max_valid_angle`` of
+        the limit are kept (clamped to it); anything farther out is NaN.
+        """
+        limit = self.max_valid_angle
+        return np.where(theta <= limit * (1 + 1e-12), np.minimum(theta, limit), np.nan)
+
     def _project(self, x, y, z, rho, theta):  # pragma: no cover - abstract
         raise TypeError(f"{type(self).__name__} does not implement _project")
 
@@ -197,6 +211,20 @@ class CameraModel:
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(resolution={self._resolution})"
+
+
+def _direction_scaled(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(..., 3)`` -> ``x, y, z`` divided by each point's largest ``|component|``.
+
+    Projection depends only on a point's direction, but radii and ratios of tiny
+    (subnormal) coordinates lose every significant bit (``hypot(5e-324, 5e-324)`` is
+    ``5e-324``); scaling first keeps the direction exact. Points whose largest component
+    is 0, infinite or NaN are left as they are.
+    """
+    with np.errstate(all="ignore"):
+        scale = np.max(np.abs(pts), axis=-1)
+    scale = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
+    return pts[..., 0] / scale, pts[..., 1] / scale, pts[..., 2] / scale
 
 
 def rays_from_angle(theta: np.ndarray, du: np.ndarray, dv: np.ndarray) -> np.ndarray:

@@ -69,5 +69,4 @@ class OpenCVFisheyeCamera(CameraModel):
         (fx, fy), (cx, cy) = self.focal_length, self.principal_point
         a, b = (u - cx) / fx, (v - cy) / fy
         theta = self._map.inverse(np.hypot(a, b))
-        theta = np.where(theta < self.max_valid_angle, theta, np.nan)
-        return rays_from_angle(theta, a, b)
+        return rays_from_angle(self._valid_angle(theta), a, b)

@@ -131,8 +131,7 @@ class FThetaCamera(CameraModel):
             theta = np.where(dist <= self._map.x_lim, self._map(dist), np.nan)
         else:
             theta = self._map.inverse(dist)
-        theta = np.where(theta < self.max_valid_angle, theta, np.nan)
-        return rays_from_angle(theta, pu, pv)
+        return rays_from_angle(self._valid_angle(theta), pu, pv)
 
     def __repr__(self) -> str:
         return (
