@@ -15,11 +15,11 @@ import pandas as pd
 
 from analysis import breakdowns, screening
 from analysis.agreement import alpha_nominal
-from analysis.inputs import classify_columns, read_metrics, read_ratings, timing_path_for
+from analysis.inputs import classify_columns, read_metrics, read_ratings
 from analysis.labels import item_table, join_metrics
 from analysis.summary import summary_table
 from data_schema.errors import InputError
-from data_schema.tables import read_table
+from data_schema.tables import TIMING_COLUMNS, read_table, timing_path
 
 __all__ = ["Analysis", "run_analysis", "read_timing", "read_stability", "BOOT_CELL_LIMIT"]
 
@@ -61,7 +61,7 @@ def read_timing(paths) -> pd.DataFrame | None:
     """Concatenate ``*.timing.csv`` files (``metric, seconds, pairs``): one row per metric with
     summed seconds and pairs and ``pairs_per_s``."""
     frames = [
-        read_table(p, required=("metric", "seconds", "pairs"), what="timing table") for p in paths
+        read_table(p, required=TIMING_COLUMNS, what="timing table") for p in paths
     ]
     if not frames:
         return None
@@ -121,7 +121,7 @@ def run_analysis(
     votes = read_ratings(ratings_path)
     tables = [(str(p), read_metrics(p)) for p in metrics_paths]
     timing_files = list(timing_paths) + [
-        timing_path_for(p) for p in metrics_paths if timing_path_for(p).is_file()
+        timing_path(p) for p in metrics_paths if timing_path(p).is_file()
     ]
 
     raters = screening.screen(

@@ -36,6 +36,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.tables import ITEM_KINDS
 
 __all__ = ["ScreenRule", "rater_table", "screen", "gold_expected", "SIM_PREFIX"]
 
@@ -91,7 +92,7 @@ def rater_table(votes: pd.DataFrame) -> pd.DataFrame:
     vote = votes["vote"].to_numpy(np.float64)
     out = pd.DataFrame({"rater_id": raters.astype(str)})
     out["simulated"] = out["rater_id"].str.startswith(SIM_PREFIX)
-    for k in ("test", "gold", "repeat", "training"):
+    for k in ITEM_KINDS:
         out[f"n_{k}"] = np.bincount(r_codes[kind == k], minlength=n_r)
 
     t = kind == "test"

@@ -4,7 +4,7 @@ Pure functions on a pairs table (SPEC section 3). A *track* is ``(clip_id, track
 *frame* of it is ``(camera, timestamp_us)``. A frame is usable when the pairs table holds
 the object at **every** chosen offset there.
 
-- :func:`parse_offsets`: ``'all'`` or a comma list, matched at 0.01 m (as in ``pair_id``).
+- :func:`choose_offsets`: ``'all'`` or a comma list, matched at 0.01 m (as in ``pair_id``).
 - :func:`choose_tracks`: tracks spread over strata (label class x scene attributes):
   strata are visited round-robin in a seeded random order, one random track each visit.
 - :func:`spread_frames`: ``k`` frames evenly along the track (by time), first and last
@@ -22,9 +22,9 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
-from data_schema.tables import PAIRS_COLUMNS
+from data_schema.tables import PAIRS_COLUMNS, offset_cm, parse_offsets
 
-__all__ = ["parse_offsets", "attribute_columns", "usable_frames", "choose_tracks",
+__all__ = ["choose_offsets", "attribute_columns", "usable_frames", "choose_tracks",
            "spread_frames", "select_test_pairs"]
 
 _EXTRA_NON_ATTRIBUTES = ("scene_root",)
@@ -36,27 +36,19 @@ def attribute_columns(pairs: pd.DataFrame) -> list[str]:
             and c not in _EXTRA_NON_ATTRIBUTES and not str(c).startswith("_")]
 
 
-def _cm(values) -> np.ndarray:
-    """Offsets in metres -> integer centimetres (the precision of ``pair_id``)."""
-    return np.round(np.asarray(values, dtype=float) * 100).astype(np.int64)
+def choose_offsets(spec: str, available) -> list[float]:
+    """Chosen offsets (sorted, metres) from ``'all'`` or ``'0,1.5,-1.5'``, among ``available``.
 
-
-def parse_offsets(spec: str, available) -> list[float]:
-    """Chosen offsets (sorted, metres) from ``'all'`` or ``'0,1.5,-1.5'``.
-
-    >>> parse_offsets("all", [0.0, 1.0, -1.0, 1.0])
+    >>> choose_offsets("all", [0.0, 1.0, -1.0, 1.0])
     [-1.0, 0.0, 1.0]
-    >>> parse_offsets("1, 0", [0.0, 1.0, -1.0])
+    >>> choose_offsets("1, 0", [0.0, 1.0, -1.0])
     [0.0, 1.0]
     """
-    have = sorted(set(_cm(available).tolist()))
+    have = sorted(set(offset_cm(available).tolist()))
     if str(spec).strip().lower() == "all":
         chosen = have
     else:
-        try:
-            chosen = sorted(set(_cm([float(s) for s in str(spec).split(",") if s.strip()]).tolist()))
-        except ValueError:
-            raise InputError("--offsets", None, "'all' or a comma list of metres", spec) from None
+        chosen = sorted(set(offset_cm(parse_offsets(spec, field="--offsets")).tolist()))
         missing = [c for c in chosen if c not in have]
         if missing or not chosen:
             raise InputError("--offsets", None,
@@ -69,8 +61,8 @@ def usable_frames(pairs: pd.DataFrame, offsets: list[float]) -> pd.DataFrame:
 
     Columns: clip_id, track_id, camera, timestamp_us, label_class + attribute columns.
     """
-    want = set(_cm(offsets).tolist())
-    df = pairs.assign(_cm=_cm(pairs["y_offset_m"]))
+    want = set(offset_cm(offsets).tolist())
+    df = pairs.assign(_cm=offset_cm(pairs["y_offset_m"]))
     df = df[df["_cm"].isin(want)]
     keys = ["clip_id", "track_id", "camera", "timestamp_us"]
     counts = df.groupby(keys, sort=True)["_cm"].nunique()
@@ -126,9 +118,9 @@ def select_test_pairs(pairs: pd.DataFrame, *, offsets: list[float], n_tracks: in
                        "label_class": str(tf["label_class"].iloc[0]),
                        "frames": [[str(c), int(t)] for c, t in zip(sel["camera"], sel["timestamp_us"], strict=True)]})
     keys = pd.concat(keep, ignore_index=True)
-    want = set(_cm(offsets).tolist())
+    want = set(offset_cm(offsets).tolist())
     sel = pairs.merge(keys, on=["clip_id", "track_id", "camera", "timestamp_us"])
-    sel = sel[np.isin(_cm(sel["y_offset_m"]), sorted(want))]
+    sel = sel[np.isin(offset_cm(sel["y_offset_m"]), sorted(want))]
     sel = sel.drop_duplicates("pair_id")
     return sel.sort_values(["clip_id", "track_id", "timestamp_us", "camera", "y_offset_m"]
                            ).reset_index(drop=True), record

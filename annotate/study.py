@@ -37,10 +37,11 @@ from tqdm import tqdm
 
 from annotate import crops as _crops
 from annotate.assign import choose_next, make_plan, plan_total, rater_seed
-from annotate.design import attribute_columns, parse_offsets, select_test_pairs
+from annotate.design import attribute_columns, choose_offsets, select_test_pairs
 from annotate.store import Store
 from data_schema.errors import InputError
 from data_schema.tables import (
+    ITEM_KINDS,
     PAIR_META_COLUMNS,
     PAIRS_COLUMNS,
     atomic_write_text,
@@ -48,9 +49,8 @@ from data_schema.tables import (
     read_table,
 )
 
-__all__ = ["build_study", "load_study", "Study", "crop_path", "KINDS"]
+__all__ = ["build_study", "load_study", "Study", "crop_path"]
 
-KINDS = ("test", "gold", "training", "repeat")
 _MANIFEST = "manifest.json"
 
 
@@ -107,7 +107,7 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
     pairs = pairs.assign(_root=pair_scene_roots(pairs, scene_root=scene, base=pairs_path.resolve().parent,
                                                          where=str(pairs_path)), _row=np.arange(len(pairs)))
     rng = np.random.default_rng(seed)
-    chosen_offsets = parse_offsets(offsets, pairs["y_offset_m"])
+    chosen_offsets = choose_offsets(offsets, pairs["y_offset_m"])
     tests, record = select_test_pairs(pairs, offsets=chosen_offsets, n_tracks=int(tracks),
                                       frames_per_track=int(frames_per_track), rng=rng)
     training = _pick_training(pairs, tests, n_training, rng)
@@ -184,7 +184,7 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
             "metric_columns": metric_cols, "attribute_columns": attrs,
             "scene_roots": {str(k): str(v) for k, v in roots.items()},
             "offsets": chosen_offsets, "tracks": record,
-            "counts": {kind: int((items_df["kind"] == kind).sum()) for kind in KINDS},
+            "counts": {kind: int((items_df["kind"] == kind).sum()) for kind in ITEM_KINDS},
             "training_order": [it["key"] for it in items if it["kind"] == "training"],
         }
         atomic_write_text(tmp / _MANIFEST, json.dumps(manifest, indent=1, default=str))

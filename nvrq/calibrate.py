@@ -139,10 +139,10 @@ def calibrate_tau(pairs: pd.DataFrame, encoder, *, scene_root=None, max_crops: i
     One GT crop per (camera, track, timestamp) is used; at most ``max_crops`` of them
     (uniform sample, ``seed``), then at most ``max_pairs`` unrelated pairs among them.
     """
-    from data_schema.tables import pair_boxes, pair_image_paths
-    from nvrq.scoring import GT_BOX, embed_crops, nvrq_similarity
+    from data_schema.tables import GT_BOX_COLUMNS, pair_boxes, pair_image_paths
+    from nvrq.scoring import embed_crops, nvrq_similarity
 
-    need = ["track_id", "label_class", "gt_path", *GT_BOX]
+    need = ["track_id", "label_class", "gt_path", *GT_BOX_COLUMNS]
     missing = [c for c in need if c not in pairs.columns]
     if missing:
         raise InputError(where, f"column {missing[0]!r}", f"the columns {', '.join(need)}", "missing")
@@ -164,7 +164,7 @@ def calibrate_tau(pairs: pd.DataFrame, encoder, *, scene_root=None, max_crops: i
     remap = np.full(used.max() + 1, -1)
     remap[used] = np.arange(len(used))
     paths = pair_image_paths(crops, "gt_path", scene_root=scene_root, where=where)
-    feats = embed_crops(paths, pair_boxes(crops, GT_BOX, where=where), encoder, batch_size=batch_size,
+    feats = embed_crops(paths, pair_boxes(crops, GT_BOX_COLUMNS, where=where), encoder, batch_size=batch_size,
                         progress=progress, where=where)
     s = nvrq_similarity(feats[remap[i]], feats[remap[j]])
     return Calibration(encoder.spec.name, s, recommend_tau(s), len(crops))

@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.scene import Scene
-from data_schema.tables import PAIRS_COLUMNS
+from data_schema.tables import GT_BOX_COLUMNS, PAIRS_COLUMNS, RENDER_BOX_COLUMNS, pair_id
 from nvrq.geometry.boxes import box_corners, box_sides, pixel_box
 from nvrq.geometry.cameras import camera_from_model
 from nvrq.geometry.poses import (
@@ -185,10 +185,9 @@ def make_pairs(
             "render_path": r.path.to_numpy(dtype=object),
         })
         gb, rb = box_gt[box_idx], box[box_idx, k_idx]
-        for j, name in enumerate(("x0", "y0", "x1", "y1")):
-            df[f"gt_{name}"] = gb[:, j]
-            df[f"r_{name}"] = rb[:, j]
-        df.insert(0, "pair_id", [f"{scene.clip_id}:{cam.name}:{t}:{s}:{o:+.2f}"
+        df[list(GT_BOX_COLUMNS)] = gb
+        df[list(RENDER_BOX_COLUMNS)] = rb
+        df.insert(0, "pair_id", [pair_id(scene.clip_id, cam.name, t, s, o)
                                  for t, s, o in zip(tid, ts, off, strict=True)])
         frames_out.append(df)
     cols = list(PAIRS_COLUMNS) + list(scene.attributes) + ["scene_root"]

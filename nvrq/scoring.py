@@ -46,9 +46,7 @@ __all__ = ["nvrq_similarity", "nvrq_ca", "W_LOW", "resolve_metrics", "ScoreResul
            "score_pairs", "embed_crops", "REQUIRED_COLUMNS"]
 
 W_LOW = 0.1
-GT_BOX = list(GT_BOX_COLUMNS)
-R_BOX = list(RENDER_BOX_COLUMNS)
-REQUIRED_COLUMNS = ("pair_id", "gt_path", "render_path", *GT_BOX, *R_BOX)
+REQUIRED_COLUMNS = ("pair_id", "gt_path", "render_path", *GT_BOX_COLUMNS, *RENDER_BOX_COLUMNS)
 
 
 def nvrq_similarity(f_gt: np.ndarray, f_render: np.ndarray) -> np.ndarray:
@@ -202,7 +200,8 @@ def score_pairs(
     n = len(pairs)
     gt_paths = pair_image_paths(pairs, "gt_path", scene_root=scene_root, base=base, where=where)
     r_paths = pair_image_paths(pairs, "render_path", scene_root=scene_root, base=base, where=where)
-    gt_boxes, r_boxes = pair_boxes(pairs, GT_BOX, where=where), pair_boxes(pairs, R_BOX, where=where)
+    gt_boxes = pair_boxes(pairs, GT_BOX_COLUMNS, where=where)
+    r_boxes = pair_boxes(pairs, RENDER_BOX_COLUMNS, where=where)
     gt_ids, _ = _unique_ids(gt_paths, gt_boxes)
     r_ids, _ = _unique_ids(r_paths, r_boxes)
     groups = [np.asarray(g) for g in pd.Series(np.arange(n)).groupby(gt_paths, sort=False).groups.values()]

@@ -75,13 +75,12 @@ def _objects(
     image path and its frame rank within the track (``frames``), and ``n_objects`` of those with
     a shorter side >= ``min_side`` drawn at random (``chosen``). ``view_shift`` by k frames means
     k steps along the track's frames present in the pairs table."""
-    from data_schema.tables import pair_boxes, pair_image_paths
-    from nvrq.scoring import GT_BOX
+    from data_schema.tables import GT_BOX_COLUMNS, pair_boxes, pair_image_paths
 
     df = pairs.copy()
     df["_gt_abs"] = pair_image_paths(pairs, "gt_path", where=where)
-    b = pair_boxes(pairs, GT_BOX, where=where)
-    df[GT_BOX] = b
+    b = pair_boxes(pairs, GT_BOX_COLUMNS, where=where)
+    df[list(GT_BOX_COLUMNS)] = b
     df["_short"] = np.minimum(b[:, 2] - b[:, 0], b[:, 3] - b[:, 1]) + 1
     keys = ["clip_id", "camera", "track_id", "timestamp_us"]
     frames = df.drop_duplicates(keys).sort_values(keys, kind="stable").reset_index(drop=True)

@@ -42,11 +42,11 @@ def register(sub) -> None:
 
 
 def _run_nurec(args) -> int:
-    from nvrq.commands.synth import parse_offsets
+    from data_schema.tables import parse_offsets
     from nvrq.sources.nurec import import_nurec
 
     out = import_nurec(
-        args.archive, args.out, offsets=parse_offsets(args.offsets), sequence=args.sequence
+        args.archive, args.out, offsets=parse_offsets(args.offsets, field="--offsets"), sequence=args.sequence
     )
     print(f"wrote {out}")
     return 0

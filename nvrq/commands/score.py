@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from data_schema.tables import timing_path
+
 __all__ = ["register", "run", "timing_path"]
 
 
@@ -28,16 +30,6 @@ def register(sub) -> None:
     p.add_argument("--threads", type=int, default=None, help="torch CPU threads (default: all cores)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
-
-
-def timing_path(out) -> Path:
-    """``x/METRICS.csv`` or ``x/METRICS.parquet`` -> ``x/METRICS.timing.csv``.
-
-    >>> timing_path("out/M.parquet").as_posix()
-    'out/M.timing.csv'
-    """
-    out = Path(out)
-    return out.with_name(out.stem + ".timing.csv")
 
 
 def run(args) -> int:

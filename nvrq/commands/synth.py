@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-__all__ = ["register", "run", "parse_offsets", "parse_size", "allow_negative_lists"]
+from data_schema.tables import parse_offsets
+
+__all__ = ["register", "run", "parse_size", "allow_negative_lists"]
 
 
 def allow_negative_lists(parser) -> None:
@@ -14,27 +16,6 @@ def allow_negative_lists(parser) -> None:
     import re
 
     parser._negative_number_matcher = re.compile(r"^-\d*\.?\d+(,\s*[-+]?\d*\.?\d+)*$")
-
-
-def parse_offsets(text: str, *, option: str = "--offsets") -> list[float]:
-    """``"-3,-2,0,1.5"`` -> ``[-3.0, -2.0, 0.0, 1.5]``; bad text raises InputError.
-
-    >>> parse_offsets("-3,-2,-1,0,1,2,3")
-    [-3.0, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0]
-    """
-    import math
-
-    from data_schema.errors import InputError
-
-    try:
-        values = [float(t) for t in str(text).split(",") if t.strip()]
-    except ValueError:
-        raise InputError(
-            option, None, "comma-separated numbers of metres, e.g. -3,-2,-1,0,1,2,3", text
-        ) from None
-    if not values or not all(math.isfinite(v) for v in values):
-        raise InputError(option, None, "comma-separated finite numbers of metres", text)
-    return values
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -83,7 +64,7 @@ def run(args) -> int:
         seed=args.seed,
         seconds=args.seconds,
         fps=args.fps,
-        offsets=parse_offsets(args.offsets),
+        offsets=parse_offsets(args.offsets, field="--offsets"),
         cameras=cameras,
         size=parse_size(args.size),
         progress=not args.quiet,

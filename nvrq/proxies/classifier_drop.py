@@ -145,13 +145,13 @@ def crop_pair_batches(
     Yields ``(rows (n,), gt_inputs (g, S, S, 3), gt_index (n,), render_inputs (n, S, S, 3))``:
     ``gt_inputs[gt_index[k]]`` is the GT crop of pair ``rows[k]`` (each GT crop prepared once).
     """
-    from data_schema.tables import pair_boxes, pair_image_paths
+    from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS, pair_boxes, pair_image_paths
     from nvrq.crops import cut_box, encoder_input, read_rgb
-    from nvrq.scoring import GT_BOX, R_BOX
 
     gt_paths = pair_image_paths(pairs, "gt_path", scene_root=scene_root, where=where)
     r_paths = pair_image_paths(pairs, "render_path", scene_root=scene_root, where=where)
-    gt_boxes, r_boxes = pair_boxes(pairs, GT_BOX, where=where), pair_boxes(pairs, R_BOX, where=where)
+    gt_boxes = pair_boxes(pairs, GT_BOX_COLUMNS, where=where)
+    r_boxes = pair_boxes(pairs, RENDER_BOX_COLUMNS, where=where)
     order = np.argsort(gt_paths.astype(str), kind="stable")
     cache: dict[str, np.ndarray] = {}
     for start in range(0, len(order), chunk):
