@@ -41,6 +41,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.scene import CAMERA_MODEL_SCHEMA
 
 __all__ = ["import_nurec", "read_archive_json"]
 
@@ -124,17 +125,8 @@ def _spec_ftheta(model, where, fld) -> dict:
     params = _get(model, "parameters", where, fld)
     if not isinstance(params, dict):
         raise InputError(where, f"{fld}.parameters", "a JSON object", type(params).__name__)
-    keys = (
-        "resolution",
-        "principal_point",
-        "reference_poly",
-        "pixeldist_to_angle_poly",
-        "angle_to_pixeldist_poly",
-        "max_angle",
-        "linear_cde",
-    )
     spec = {"type": "ftheta"}
-    for k in keys:
+    for k in CAMERA_MODEL_SCHEMA["ftheta"]:
         if k in params:
             spec[k] = params[k]
     ref = spec.get("reference_poly")

@@ -336,23 +336,24 @@ def test_registry_names():
         (
             {"type": "kannala", "resolution": [10, 10]},
             "camera model: type: expected one of "
-            "['ftheta', 'opencv_fisheye', 'opencv_pinhole', 'pinhole'], got 'kannala'",
+            "{'pinhole', 'opencv_pinhole', 'opencv_fisheye', 'ftheta'}, got 'kannala'",
         ),
         (
             {k: v for k, v in FTHETA_BW.items() if k != "max_angle"},
-            "camera model: ftheta.max_angle: expected a positive number, got missing",
+            "camera model: ftheta.max_angle: expected this ftheta parameter to be present, got missing",
         ),
         (
             {**OPENCV_MILD, "radial_coeffs": [0.1, 0.2, 0.3, 0.4]},
-            "camera model: opencv_pinhole.radial_coeffs: expected a list of 6 finite numbers, got 4 values",
+            "camera model: opencv_pinhole.radial_coeffs: expected a list of 6 numbers, got shape 4",
         ),
         (
             {**FTHETA_BW, "angle_to_pixeldist_poly": [0.0, 952.0]},
-            "camera model: ftheta.angle_to_pixeldist_poly: expected a list of 6 finite numbers, got 2 values",
+            "camera model: ftheta.angle_to_pixeldist_poly: expected a list of 6 numbers, got shape 2",
         ),
         (
             {k: v for k, v in FISHEYE.items() if k != "focal_length"},
-            "camera model: opencv_fisheye.focal_length: expected a list of 2 finite numbers, got missing",
+            "camera model: opencv_fisheye.focal_length: expected this opencv_fisheye parameter to be "
+            "present, got missing",
         ),
         (
             {**PINHOLE, "focal_length": [1000.0, -5.0]},
@@ -360,16 +361,17 @@ def test_registry_names():
         ),
         (
             {**PINHOLE, "principal_point": ["a", 3]},
-            "camera model: pinhole.principal_point: expected a list of 2 finite numbers, got ['a', 3]",
+            "camera model: pinhole.principal_point: expected a list of 2 numbers, "
+            "got non-numeric or ragged values",
         ),
         (
             {**PINHOLE, "resolution": [1920.5, 1080]},
-            "camera model: pinhole.resolution: expected [W, H], two positive integers, got [1920.5, 1080]",
+            "camera model: pinhole.resolution: expected two positive integers [W, H], got [1920.5, 1080.0]",
         ),
         (
             {**FTHETA_BW, "reference_poly": "FORWARD"},
             "camera model: ftheta.reference_poly: expected one of "
-            "['PIXELDIST_TO_ANGLE', 'ANGLE_TO_PIXELDIST'], got 'FORWARD'",
+            "PIXELDIST_TO_ANGLE or ANGLE_TO_PIXELDIST, got 'FORWARD'",
         ),
         (
             {**FTHETA_BW, "linear_cde": [0.0, 1.0, 0.0]},
@@ -396,6 +398,8 @@ def test_registry_names():
     ],
 )
 def test_bad_model_raises_input_error_naming_the_field(model, message):
+    # names, lengths and defaults: data_schema.scene.validate_camera_model's wording (the one
+    # validator); positive focal lengths and f-theta polynomials: the camera classes' checks
     with pytest.raises(InputError) as err:
         camera_from_model(model)
     assert str(err.value) == message

@@ -13,13 +13,13 @@ monotonic, so that nothing outside it can fold back into the image).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
 
 from data_schema.errors import InputError
+from data_schema.scene import CAMERA_MODEL_SCHEMA, validate_camera_model
 
 __all__ = ["CameraModel", "ModelParams", "camera_from_model", "register_camera_model"]
 
@@ -30,6 +30,8 @@ def register_camera_model(cls: type[CameraModel]) -> type[CameraModel]:
     """Class decorator: make ``cls`` available under ``model['type'] == cls.type_name``."""
     if cls.type_name in _REGISTRY:
         raise ValueError(f"camera model type {cls.type_name!r} registered twice")
+    if cls.type_name not in CAMERA_MODEL_SCHEMA:
+        raise ValueError(f"camera model type {cls.type_name!r} is not a scene-format model type")
     _REGISTRY[cls.type_name] = cls
     return cls
 
@@ -39,24 +41,26 @@ def camera_from_model(
 ) -> CameraModel:
     """Build the camera of a SPEC model dict (``{'type': ..., 'resolution': [W, H], ...}``).
 
-    Errors are :class:`InputError` naming ``where`` and the field, ``"{type}.{param}"`` by
-    default, or ``field_prefix + param`` when given (e.g. ``"cameras.front.model."``).
-    Keys a model does not use are ignored.
+    Parameter names, lengths and defaults are checked by the scene format's one validator,
+    :func:`data_schema.scene.validate_camera_model`; the camera class adds only checks on
+    values (e.g. a positive focal length). Errors are :class:`InputError` naming ``where``
+    and the field, ``"{type}.{param}"`` by default, or ``field_prefix + param`` when given
+    (e.g. ``"cameras.front.model."``). Keys a model does not use are ignored.
     """
-    prefix = "" if field_prefix is None else field_prefix
-    if not isinstance(model, Mapping):
-        raise InputError(
-            where, prefix.rstrip(".") or None, "a camera model object", type(model).__name__
-        )
-    kind = model.get("type")
-    if not isinstance(kind, str) or kind not in _REGISTRY:
-        raise InputError(where, f"{prefix}type", f"one of {sorted(_REGISTRY)}", repr(kind))
-    params = ModelParams(model, where=where, prefix=f"{kind}." if field_prefix is None else prefix)
-    return _REGISTRY[kind].from_params(params)
+    if field_prefix is None:
+        kind = model.get("type") if isinstance(model, Mapping) else None
+        fld = kind if isinstance(kind, str) and kind in _REGISTRY else ""
+    else:
+        fld = field_prefix.rstrip(".")
+    checked = validate_camera_model(model, where, fld)
+    params = ModelParams(checked, where=where, prefix=f"{fld}." if fld else "")
+    return _REGISTRY[checked["type"]].from_params(params)
 
 
 class ModelParams:
-    """Typed, validated access to one model dict; every error names ``prefix + key``."""
+    """A model dict checked by :func:`~data_schema.scene.validate_camera_model` (every
+    parameter present, of the right length, finite, defaults filled), with typed access and
+    the value checks of the camera classes; every error names ``prefix + key``."""
 
     def __init__(self, model: Mapping[str, Any], *, where: str, prefix: str):
         self.model, self.where, self.prefix = model, where, prefix
@@ -64,62 +68,22 @@ class ModelParams:
     def error(self, key: str, expected: str, got: object) -> InputError:
         return InputError(self.where, f"{self.prefix}{key}", expected, got)
 
-    def vector(self, key: str, n: int, *, default: float | None = None) -> np.ndarray:
-        """``(n,)`` float64; a missing key gives ``default`` everywhere if one is given."""
-        expected = f"a list of {n} finite numbers"
-        if key not in self.model:
-            if default is None:
-                raise self.error(key, expected, "missing")
-            return np.full(n, float(default))
-        value = self.model[key]
-        try:
-            arr = np.asarray(value, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise self.error(key, expected, repr(value)) from None
-        if arr.shape != (n,):
-            got = f"{arr.size} values" if arr.ndim == 1 else f"shape {arr.shape}"
-            raise self.error(key, expected, got)
-        if not np.all(np.isfinite(arr)):
-            raise self.error(key, expected, repr(value))
-        return arr
+    def vector(self, key: str) -> np.ndarray:
+        """The list parameter ``key`` as a float64 array."""
+        return np.asarray(self.model[key], dtype=np.float64)
 
-    def positive_vector(self, key: str, n: int) -> np.ndarray:
-        arr = self.vector(key, n)
+    def positive_vector(self, key: str) -> np.ndarray:
+        arr = self.vector(key)
         if not np.all(arr > 0):
-            raise self.error(key, f"a list of {n} positive numbers", arr.tolist())
+            raise self.error(key, f"a list of {arr.size} positive numbers", arr.tolist())
         return arr
 
-    def scalar(self, key: str, *, positive: bool = False) -> float:
-        value = self.model.get(key)
-        expected = "a positive number" if positive else "a finite number"
-        if value is None:
-            raise self.error(key, expected, "missing")
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise self.error(key, expected, repr(value))
-        if not math.isfinite(value) or (positive and value <= 0):
-            raise self.error(key, expected, value)
-        return float(value)
-
-    def choice(self, key: str, allowed: tuple[str, ...]) -> str:
-        value = self.model.get(key)
-        if value not in allowed:
-            raise self.error(
-                key, f"one of {list(allowed)}", "missing" if value is None else repr(value)
-            )
-        return value
+    def scalar(self, key: str) -> float:
+        return float(self.model[key])
 
     def resolution(self) -> tuple[int, int]:
-        value = self.model.get("resolution")
-        expected = "[W, H], two positive integers"
-        if value is None:
-            raise self.error("resolution", expected, "missing")
-        try:
-            arr = np.asarray(value, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise self.error("resolution", expected, repr(value)) from None
-        if arr.shape != (2,) or not np.all(np.isfinite(arr) & (arr >= 1) & (arr == np.round(arr))):
-            raise self.error("resolution", expected, repr(value))
-        return int(arr[0]), int(arr[1])
+        w, h = self.model["resolution"]
+        return int(w), int(h)
 
 
 class CameraModel:

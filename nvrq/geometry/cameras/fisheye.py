@@ -54,9 +54,9 @@ class OpenCVFisheyeCamera(CameraModel):
     def from_params(cls, p: ModelParams) -> OpenCVFisheyeCamera:
         return cls(
             resolution=p.resolution(),
-            focal_length=p.positive_vector("focal_length", 2),
-            principal_point=p.vector("principal_point", 2),
-            radial_coeffs=p.vector("radial_coeffs", 4),
+            focal_length=p.positive_vector("focal_length"),
+            principal_point=p.vector("principal_point"),
+            radial_coeffs=p.vector("radial_coeffs"),
         )
 
     def _project(self, x, y, z, rho, theta):

@@ -52,8 +52,8 @@ class PinholeCamera(CameraModel):
     def from_params(cls, p: ModelParams) -> PinholeCamera:
         return cls(
             resolution=p.resolution(),
-            focal_length=p.positive_vector("focal_length", 2),
-            principal_point=p.vector("principal_point", 2),
+            focal_length=p.positive_vector("focal_length"),
+            principal_point=p.vector("principal_point"),
         )
 
     def _distort(self, a, b):
@@ -153,11 +153,11 @@ class OpenCVPinholeCamera(PinholeCamera):
     def from_params(cls, p: ModelParams) -> OpenCVPinholeCamera:
         return cls(
             resolution=p.resolution(),
-            focal_length=p.positive_vector("focal_length", 2),
-            principal_point=p.vector("principal_point", 2),
-            radial_coeffs=p.vector("radial_coeffs", 6, default=0.0),
-            tangential_coeffs=p.vector("tangential_coeffs", 2, default=0.0),
-            thin_prism_coeffs=p.vector("thin_prism_coeffs", 4, default=0.0),
+            focal_length=p.positive_vector("focal_length"),
+            principal_point=p.vector("principal_point"),
+            radial_coeffs=p.vector("radial_coeffs"),
+            tangential_coeffs=p.vector("tangential_coeffs"),
+            thin_prism_coeffs=p.vector("thin_prism_coeffs"),
         )
 
     def _icd(self, s, *, derivative=False):
