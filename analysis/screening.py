@@ -36,11 +36,11 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.raters import SIM_PREFIX
 from data_schema.tables import ITEM_KINDS
 
 __all__ = ["ScreenRule", "rater_table", "screen", "gold_expected", "SIM_PREFIX"]
 
-SIM_PREFIX = "sim-"
 
 
 @dataclass(frozen=True)

@@ -25,10 +25,10 @@ import numpy as np
 import pandas as pd
 import streamlit as st
 
-from annotate.cli import check_rater_name
 from annotate.results import gold_failures, gvf_table, nominal_alpha, rater_progress, ratings_table
 from annotate.study import Study, crop_path, load_study
 from data_schema.errors import InputError
+from data_schema.raters import check_rater_name
 
 INSTRUCTIONS = """
 You will see pairs of images of the same object. **Reference** (left) is a real camera

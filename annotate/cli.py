@@ -9,37 +9,15 @@ from __future__ import annotations
 
 import argparse
 import os
-import re
 import secrets
 import subprocess
 import sys
 from pathlib import Path
 
-from data_schema.errors import InputError, run_cli
+from data_schema.errors import run_cli
+from data_schema.raters import check_rater_name
 
-__all__ = ["main", "build_parser", "serve_command", "check_rater_name"]
-
-_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,39}$")
-
-
-def check_rater_name(name: str, *, allow_sim: bool = False) -> str:
-    """A rater id: 1-40 of ``A-Z a-z 0-9 _ . -`` starting alphanumeric; ``sim-*`` is reserved.
-
-    >>> check_rater_name("ann.b")
-    'ann.b'
-    >>> check_rater_name("sim-1")
-    Traceback (most recent call last):
-    ...
-    data_schema.errors.InputError: rater: name: expected a name not starting with 'sim-' (reserved for simulated raters), got sim-1
-    """
-    name = str(name).strip()
-    if not _NAME.match(name):
-        raise InputError("rater", "name", "1-40 letters, digits, '_', '.', '-'", repr(name))
-    if name.lower().startswith("sim-") and not allow_sim:
-        raise InputError("rater", "name", "a name not starting with 'sim-' (reserved for simulated raters)",
-                         name)
-    return name
-
+__all__ = ["main", "build_parser", "serve_command"]
 
 def serve_command(study: str | Path, *, host: str = "127.0.0.1", port: int = 8501) -> list[str]:
     """The ``streamlit run`` argv that serves ``study`` (set ANNOTATE_STUDY in its env)."""

@@ -26,6 +26,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from data_schema.errors import InputError
+from data_schema.raters import SIM_PREFIX
 
 __all__ = ["p_good", "item_severity", "simulate"]
 
@@ -84,7 +85,7 @@ def simulate(study, *, raters: int = 5, seed: int = 0, progress: bool = True) ->
     params = []
     for i in range(raters):
         careless = raters > 1 and i == raters - 1
-        params.append({"rater_id": f"sim-{'careless' if careless else i + 1}",
+        params.append({"rater_id": f"{SIM_PREFIX}{'careless' if careless else i + 1}",
                        "careless": careless, "theta": float(rng.normal(0.45, 0.08)),
                        "width": float(rng.uniform(0.04, 0.12)), "lapse": 0.02})
     active = list(range(raters))
