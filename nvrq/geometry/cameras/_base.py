@@ -78,18 +78,30 @@ class ModelParams:
             raise self.error(key, f"a list of {arr.size} positive numbers", arr.tolist())
         return arr
 
-    def scalar(self, key: str) -> float:
-        return float(self.model[key])
-
     def resolution(self) -> tuple[int, int]:
         w, h = self.model["resolution"]
         return int(w), int(h)
+
+    def kwargs(self) -> dict[str, Any]:
+        """Every parameter of the model type as a constructor keyword: ``resolution`` a
+        ``(W, H)`` tuple, lists float64 arrays, numbers floats, names strings."""
+        out: dict[str, Any] = {}
+        for key, (length, _default) in CAMERA_MODEL_SCHEMA[self.model["type"]].items():
+            value = self.model[key]
+            if key == "resolution":
+                out[key] = self.resolution()
+            elif isinstance(value, str):
+                out[key] = value
+            else:
+                out[key] = float(value) if length == 0 else self.vector(key)
+        return out
 
 
 class CameraModel:
     """Base of every camera model: ``project``, ``unproject``, ``in_image`` on any leading dims.
 
-    Subclasses set ``type_name``, implement ``from_params``, ``_project(x, y, z, rho, theta)``
+    Subclasses set ``type_name``, take every parameter of their model type as a keyword
+    argument, may add value checks in ``check_values``, implement ``_project(x, y, z, rho, theta)``
     (uv for all points; only projectable ones are kept; ``x, y, z`` arrive divided by the
     point's largest ``|component|``, so a model may only use their ratios) and
     ``_unproject(u, v)`` (rays,
@@ -103,8 +115,16 @@ class CameraModel:
         self._resolution = (int(resolution[0]), int(resolution[1]))
 
     @classmethod
-    def from_params(cls, params: ModelParams) -> CameraModel:  # pragma: no cover - abstract
-        raise TypeError(f"{cls.__name__} does not implement from_params")
+    def from_params(cls, params: ModelParams) -> CameraModel:
+        """The camera of a validated model dict, after :meth:`check_values`."""
+        cls.check_values(params)
+        return cls(**params.kwargs())
+
+    @classmethod
+    def check_values(cls, params: ModelParams) -> None:
+        """Checks on parameter values beyond the scene format's (default: focal lengths > 0)."""
+        if "focal_length" in params.model:
+            params.positive_vector("focal_length")
 
     @property
     def resolution(self) -> tuple[int, int]:

@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from ._base import CameraModel, ModelParams, rays_from_angle, register_camera_model
+from ._base import CameraModel, rays_from_angle, register_camera_model
 from ._radial import MonotonicMap, horner, poly_derivative
 
 __all__ = ["OpenCVFisheyeCamera"]
@@ -49,15 +49,6 @@ class OpenCVFisheyeCamera(CameraModel):
             np.linspace(0.0, math.pi / 2, 20001),
         )
         self.max_valid_angle = min(math.pi / 2, self._map.x_lim)
-
-    @classmethod
-    def from_params(cls, p: ModelParams) -> OpenCVFisheyeCamera:
-        return cls(
-            resolution=p.resolution(),
-            focal_length=p.positive_vector("focal_length"),
-            principal_point=p.vector("principal_point"),
-            radial_coeffs=p.vector("radial_coeffs"),
-        )
 
     def _project(self, x, y, z, rho, theta):
         safe = np.where(rho > 0, rho, 1.0)

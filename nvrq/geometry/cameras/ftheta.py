@@ -87,32 +87,23 @@ class FThetaCamera(CameraModel):
         self.max_valid_angle = min(self.max_angle, math.pi / 2, theta_mono)
 
     @classmethod
-    def from_params(cls, p: ModelParams) -> FThetaCamera:
-        reference = p.model["reference_poly"]
+    def check_values(cls, p: ModelParams) -> None:
+        """``linear_cde`` invertible; the reference polynomial starts at 0 and increases."""
         cde = p.vector("linear_cde")
         if cde[0] - cde[2] * cde[1] == 0:
             raise p.error("linear_cde", "[c, d, e] with c - e*d != 0 (invertible)", cde.tolist())
         key = (
             "pixeldist_to_angle_poly"
-            if reference == "PIXELDIST_TO_ANGLE"
+            if p.model["reference_poly"] == "PIXELDIST_TO_ANGLE"
             else "angle_to_pixeldist_poly"
         )
-        polys = {k: p.vector(k) for k in ("pixeldist_to_angle_poly", "angle_to_pixeldist_poly")}
-        if polys[key][0] != 0 or polys[key][1] <= 0:
+        poly = p.vector(key)
+        if poly[0] != 0 or poly[1] <= 0:
             raise p.error(
                 key,
                 "a polynomial with c0 == 0 and c1 > 0 (increasing from the principal point)",
-                polys[key].tolist(),
+                poly.tolist(),
             )
-        return cls(
-            resolution=p.resolution(),
-            principal_point=p.vector("principal_point"),
-            reference_poly=reference,
-            pixeldist_to_angle_poly=polys["pixeldist_to_angle_poly"],
-            angle_to_pixeldist_poly=polys["angle_to_pixeldist_poly"],
-            max_angle=p.scalar("max_angle"),
-            linear_cde=cde,
-        )
 
     def _project(self, x, y, z, rho, theta):
         if self.reference_poly == "ANGLE_TO_PIXELDIST":
