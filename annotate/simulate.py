@@ -27,6 +27,7 @@ from tqdm import tqdm
 
 from data_schema.errors import InputError
 from data_schema.raters import SIM_PREFIX
+from data_schema.tables import offset_cm, require_columns
 
 __all__ = ["p_good", "item_severity", "simulate"]
 
@@ -49,12 +50,8 @@ def item_severity(study) -> pd.Series:
             raise InputError(path, None, "a degradation.csv (written by 'nvrq synth') to simulate raters",
                              "no such file")
         deg = pd.read_csv(path, dtype={"camera": str, "track_id": str})
-        missing = [c for c in (*_JOIN, "severity") if c not in deg.columns]
-        if missing:
-            raise InputError(path, f"column {missing[0]!r}", "columns " + ", ".join((*_JOIN, "severity")),
-                             ", ".join(deg.columns))
-        deg = deg.assign(_cm=np.round(deg["y_offset_m"].astype(float) * 100).astype(np.int64),
-                         clip_id=str(clip))
+        require_columns(deg, (*_JOIN, "severity"), where=path)
+        deg = deg.assign(_cm=offset_cm(deg["y_offset_m"]), clip_id=str(clip))
         parts.append(deg.drop(columns=["y_offset_m"]).drop_duplicates(["clip_id", *_JOIN[:3], "_cm"]))
     deg = pd.concat(parts, ignore_index=True)
     it = items.assign(_cm=np.round(items["y_offset_m"].astype(float) * 100).astype(np.int64))

@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
-from data_schema.tables import IMAGES_COLUMNS, atomic_write_text, write_table
+from data_schema.tables import IMAGES_COLUMNS, atomic_write_text, require_columns, write_table
 
 __all__ = [
     "CAMERA_MODEL_SCHEMA",
@@ -224,10 +224,7 @@ def _load_images(root: Path, cameras: dict, check_images: bool) -> pd.DataFrame:
         df = pd.read_csv(path, dtype={"camera": str, "source": str, "path": str})
     except pd.errors.EmptyDataError:
         raise InputError(where, None, "a header row " + ",".join(IMAGES_COLUMNS), "an empty file") from None
-    missing = [c for c in IMAGES_COLUMNS if c not in df.columns]
-    if missing:
-        raise InputError(where, f"column {missing[0]!r}", "the columns " + ", ".join(IMAGES_COLUMNS),
-                         ", ".join(map(str, df.columns)))
+    require_columns(df, IMAGES_COLUMNS, where=where)
     for col in ("timestamp_us", "y_offset_m"):
         num = pd.to_numeric(df[col], errors="coerce")
         bad = num.isna()

@@ -31,6 +31,7 @@ __all__ = [
     "offset_cm",
     "parse_offsets",
     "read_table",
+    "require_columns",
     "write_table",
     "atomic_write_text",
     "atomic_path",
@@ -145,9 +146,15 @@ def read_table(
         raise InputError(path, None, f"a {what} with a header row", "an empty file") from None
     except Exception as exc:  # parser errors of either format
         raise InputError(path, None, f"a readable {what}", f"{type(exc).__name__}: {exc}") from None
+    return require_columns(df, required, where=path)
+
+
+def require_columns(df: pd.DataFrame, required: Sequence[str], *, where: object) -> pd.DataFrame:
+    """``df`` if it has every column of ``required``; else :class:`InputError` naming ``where``
+    and the first missing column (and listing the columns it has)."""
     missing = [c for c in required if c not in df.columns]
     if missing:
-        raise InputError(path, f"column {missing[0]!r}", f"the columns {', '.join(required)}",
+        raise InputError(where, f"column {missing[0]!r}", f"the columns {', '.join(required)}",
                          f"columns {', '.join(map(str, df.columns))}")
     return df
 
