@@ -14,7 +14,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from data_schema.errors import run_cli
+from data_schema.errors import run_subcommand
 from data_schema.raters import check_rater_name
 
 __all__ = ["main", "build_parser", "serve_command"]
@@ -158,14 +158,9 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def _main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
-    return args.func(args)
-
-
 def main(argv=None) -> int:
     """Entry point of the ``annotate`` console script."""
-    return run_cli(_main, argv)
+    return run_subcommand(build_parser, argv)
 
 
 if __name__ == "__main__":

@@ -9,7 +9,7 @@ line and exits with status 2 (SPEC section 7).
 
 from __future__ import annotations
 
-__all__ = ["InputError", "run_cli"]
+__all__ = ["InputError", "run_cli", "run_subcommand"]
 
 
 class InputError(ValueError):
@@ -48,3 +48,14 @@ def run_cli(main, argv=None) -> int:
         print("interrupted", file=sys.stderr)
         return 130
     return int(rc or 0)
+
+
+def run_subcommand(build_parser, argv=None) -> int:
+    """Parse ``argv`` with ``build_parser()`` and run the chosen subcommand's ``func(args)``
+    (set by its ``set_defaults``) under :func:`run_cli`."""
+
+    def dispatch(args_list):
+        args = build_parser().parse_args(args_list)
+        return args.func(args)
+
+    return run_cli(dispatch, argv)

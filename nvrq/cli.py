@@ -12,7 +12,7 @@ import argparse
 import importlib
 import sys
 
-from data_schema.errors import run_cli
+from data_schema.errors import run_subcommand
 
 __all__ = ["main", "build_parser"]
 
@@ -41,14 +41,9 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
-    return args.func(args)
-
-
 def main(argv=None) -> int:
     """Entry point of the ``nvrq`` console script."""
-    return run_cli(_main, argv)
+    return run_subcommand(build_parser, argv)
 
 
 if __name__ == "__main__":
