@@ -19,12 +19,8 @@ from nvrq.geometry.cameras import CAMERA_MODEL_TYPES, CameraModel, camera_from_m
 SHARED = Path(__file__).resolve().parents[2].parent / "shared"
 FTHETA_VECTORS = SHARED / "ref" / "ftheta_vectors.json"
 
-PINHOLE = {
-    "type": "pinhole",
-    "resolution": [1920, 1080],
-    "focal_length": [1200.0, 1190.0],
-    "principal_point": [955.2, 541.7],
-}
+PINHOLE = {"type": "pinhole", "resolution": [1920, 1080], "focal_length": [1200.0, 1190.0],
+           "principal_point": [955.2, 541.7]}
 # a moderately distorted automotive camera with every coefficient group in use
 OPENCV_MILD = {
     "type": "opencv_pinhole",
@@ -36,21 +32,11 @@ OPENCV_MILD = {
     "thin_prism_coeffs": [0.0007, -0.0002, 0.0005, 0.0001],
 }
 # wide-angle barrel distortion that folds back (r*icD(r^2) peaks) inside a 120 deg cone
-OPENCV_WIDE = {
-    "type": "opencv_pinhole",
-    "resolution": [1280, 720],
-    "focal_length": [520.0, 520.0],
-    "principal_point": [639.5, 359.5],
-    "radial_coeffs": [-0.32, 0.11, -0.015, 0.0, 0.0, 0.0],
-    "tangential_coeffs": [0.0005, 0.0002],
-}
-FISHEYE = {
-    "type": "opencv_fisheye",
-    "resolution": [1920, 1080],
-    "focal_length": [560.0, 561.5],
-    "principal_point": [958.4, 542.9],
-    "radial_coeffs": [0.05, -0.012, 0.003, -0.0004],
-}
+OPENCV_WIDE = {"type": "opencv_pinhole", "resolution": [1280, 720], "focal_length": [520.0, 520.0],
+               "principal_point": [639.5, 359.5], "radial_coeffs": [-0.32, 0.11, -0.015, 0.0, 0.0, 0.0],
+               "tangential_coeffs": [0.0005, 0.0002]}
+FISHEYE = {"type": "opencv_fisheye", "resolution": [1920, 1080], "focal_length": [560.0, 561.5],
+           "principal_point": [958.4, 542.9], "radial_coeffs": [0.05, -0.012, 0.003, -0.0004]}
 # k1 < 0 only: theta_d = theta - 0.3 theta^3 peaks at theta = 1/sqrt(0.9) < pi/2
 FISHEYE_FOLD = {**FISHEYE, "focal_length": [900.0, 901.0], "radial_coeffs": [-0.3, 0.0, 0.0, 0.0]}
 FTHETA_WIDE = {  # 200 deg f-theta: max_angle beyond pi/2
