@@ -9,6 +9,8 @@ line and exits with status 2 (SPEC section 7).
 
 from __future__ import annotations
 
+import sys
+
 __all__ = ["InputError", "run_cli", "run_subcommand"]
 
 
@@ -37,8 +39,6 @@ class InputError(ValueError):
 
 def run_cli(main, argv=None) -> int:
     """Run ``main(argv)``; turn an :class:`InputError` into one stderr line and exit status 2."""
-    import sys
-
     try:
         rc = main(argv)
     except InputError as err:
