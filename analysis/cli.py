@@ -12,6 +12,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from analysis.pipeline import run_analysis
+from analysis.report import format_table_text, summary_display, write_report
 from data_schema.errors import InputError, run_cli
 
 __all__ = ["build_parser", "main"]
@@ -108,8 +110,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _print_summary(analysis) -> None:
-    from analysis.report import format_table_text, summary_display
-
     df = summary_display(analysis, with_ci=False)
     try:
         from rich.console import Console
@@ -129,9 +129,6 @@ def _main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     if args.bootstrap < 0:
         raise InputError("--bootstrap", None, "a non-negative number of replicates", args.bootstrap)
-    from analysis.pipeline import run_analysis
-    from analysis.report import write_report
-
     analysis = run_analysis(
         args.ratings,
         metrics_paths=args.metrics,
