@@ -19,6 +19,8 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from jinja2 import Environment, FileSystemLoader, select_autoescape
+from markupsafe import Markup
 
 from analysis import plots
 from analysis.pipeline import Analysis
@@ -282,8 +284,6 @@ def _figures(a: Analysis, d: Path, tl: str) -> list[dict]:
 
 
 def _build(a: Analysis, d: Path) -> None:
-    from jinja2 import Environment, FileSystemLoader, select_autoescape
-
     t = _texts(a)
     write_table(a.summary, d / "summary.csv")
     write_table(a.items, d / "items.csv")
@@ -308,8 +308,6 @@ def _build(a: Analysis, d: Path) -> None:
         loader=FileSystemLoader(Path(__file__).parent / "templates"),
         autoescape=select_autoescape(["html", "j2"]),
     )
-    from markupsafe import Markup
-
     page = env.get_template("report.html.j2").render(
         title=Path(a.ratings_path).name,
         ratings=a.ratings_path,
