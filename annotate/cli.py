@@ -14,8 +14,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+from annotate.results import gvf_table, ratings_table
+from annotate.simulate import simulate
+from annotate.study import build_study, load_study
 from data_schema.errors import run_subcommand
 from data_schema.raters import check_rater_name
+from data_schema.tables import write_table
 
 __all__ = ["main", "build_parser", "serve_command"]
 
@@ -35,8 +39,6 @@ def _base_url(host: str, port: int) -> str:
 
 
 def _cmd_build(args) -> int:
-    from annotate.study import build_study, load_study
-
     out = build_study(args.study, args.pairs, scene=args.scene, metrics_path=args.metrics,
                       tracks=args.tracks, frames_per_track=args.frames_per_track,
                       offsets=args.offsets, votes_per_item=args.votes_per_item, seed=args.seed,
@@ -51,8 +53,6 @@ def _cmd_build(args) -> int:
 
 
 def _cmd_serve(args) -> int:
-    from annotate.study import load_study
-
     study = load_study(args.study)  # fail here, not in the browser
     print(f"serving {study.root} at {_base_url(args.host, args.port)} "
           f"(admin: ?admin={study.admin_token()})", file=sys.stderr)
@@ -61,8 +61,6 @@ def _cmd_serve(args) -> int:
 
 
 def _cmd_add_rater(args) -> int:
-    from annotate.study import load_study
-
     study = load_study(args.study)
     name = check_rater_name(args.name)
     base = _base_url(args.host, args.port)
@@ -77,10 +75,6 @@ def _cmd_add_rater(args) -> int:
 
 
 def _cmd_export(args) -> int:
-    from annotate.results import ratings_table
-    from annotate.study import load_study
-    from data_schema.tables import write_table
-
     table = ratings_table(load_study(args.study))
     write_table(table, args.out)
     print(f"{len(table)} votes -> {args.out}", file=sys.stderr)
@@ -88,10 +82,6 @@ def _cmd_export(args) -> int:
 
 
 def _cmd_gvf(args) -> int:
-    from annotate.results import gvf_table, ratings_table
-    from annotate.study import load_study
-    from data_schema.tables import write_table
-
     table = gvf_table(ratings_table(load_study(args.study)))
     if args.out:
         write_table(table, args.out)
@@ -101,9 +91,6 @@ def _cmd_gvf(args) -> int:
 
 
 def _cmd_simulate(args) -> int:
-    from annotate.simulate import simulate
-    from annotate.study import load_study
-
     params = simulate(load_study(args.study), raters=args.raters, seed=args.seed)
     print(params.to_string(index=False))
     return 0
