@@ -19,12 +19,14 @@ True
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
+from annotate.store import Store
 from data_schema.errors import InputError
 from data_schema.raters import SIM_PREFIX
 from data_schema.tables import offset_cm, require_columns
@@ -70,10 +72,6 @@ def simulate(study, *, raters: int = 5, seed: int = 0, progress: bool = True) ->
     """Let ``raters`` simulated raters (the last careless) rate the study; returns their params."""
     if raters < 1:
         raise InputError("--raters", None, "an integer >= 1", raters)
-    import dataclasses
-
-    from annotate.store import Store
-
     sev = item_severity(study)
     # the same store file and code path; NORMAL sync: simulated votes need not survive a power cut
     study = dataclasses.replace(study, store=Store(study.store.path, study.store.study,
