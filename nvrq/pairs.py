@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
+from tqdm.auto import tqdm
 
 from data_schema.scene import Scene
 from data_schema.tables import GT_BOX_COLUMNS, PAIRS_COLUMNS, RENDER_BOX_COLUMNS, pair_id
@@ -109,8 +110,6 @@ def make_pairs(
     view's reason, otherwise under the novel view's; novel views are only projected for
     boxes valid in the GT view.
     """
-    from tqdm.auto import tqdm
-
     stats = PairStats()
     images = scene.images
     frames_out = []
