@@ -34,6 +34,7 @@ import pandas as pd
 
 from data_schema.errors import InputError
 from data_schema.tables import atomic_write_text, write_table
+from nvrq.geometry.poses import T_sensor_world, interpolate_poses, invert_rigid, offset_T_sensor_rig
 
 __all__ = ["default_image_path", "plan_poses", "render_plan", "write_render_plan", "PLAN_COLUMNS"]
 
@@ -58,8 +59,6 @@ def plan_poses(T_rig_world: np.ndarray, T_sensor_rig: np.ndarray, y_offsets_m: n
     """Poses for frames ``T_rig_world: (F, 4, 4)``, one camera ``T_sensor_rig: (4, 4)`` and
     offsets ``(K,)``: ``T_sensor_rig (K, 4, 4)``, ``T_sensor_world`` and ``T_world_sensor``
     ``(F, K, 4, 4)``."""
-    from nvrq.geometry.poses import T_sensor_world, invert_rigid, offset_T_sensor_rig
-
     T_sr = offset_T_sensor_rig(T_sensor_rig, np.asarray(y_offsets_m, float))
     T_sw = T_sensor_world(np.asarray(T_rig_world, float)[:, None], T_sr[None])
     return {"T_sensor_rig": T_sr, "T_sensor_world": T_sw, "T_world_sensor": invert_rigid(T_sw)}
@@ -73,8 +72,6 @@ def render_plan(scene, *, offsets=None, cameras=None) -> pd.DataFrame:
     none. ``path`` is the render's ``images.csv`` path when listed, else
     :func:`default_image_path`.
     """
-    from nvrq.geometry.poses import interpolate_poses
-
     images = scene.images
     if offsets is None:
         offsets = sorted(images.loc[images.source == "render", "y_offset_m"].unique().tolist())
