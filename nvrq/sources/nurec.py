@@ -41,7 +41,10 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
-from data_schema.scene import CAMERA_MODEL_SCHEMA
+from data_schema.scene import CAMERA_MODEL_SCHEMA, save_scene
+from nvrq.geometry.cameras import camera_from_model
+from nvrq.geometry.poses import matrix_to_pose7, pose7_to_matrix
+from nvrq.render_plan import default_image_path
 
 __all__ = ["import_nurec", "read_archive_json"]
 
@@ -117,8 +120,6 @@ def _timestamps(value, where, fld) -> np.ndarray:
 
 
 def _spec_ftheta(model, where, fld) -> dict:
-    from nvrq.geometry.cameras import camera_from_model
-
     mtype = _get(model, "type", where, fld)
     if mtype != "ftheta":
         raise InputError(where, f"{fld}.type", "ftheta", repr(mtype))
@@ -158,8 +159,6 @@ def _tracks_block(doc, sequence_id, where):
 
 
 def _read_tracks(doc, sequence_id, where, nre_to_world, scale) -> list[dict]:
-    from nvrq.geometry.poses import matrix_to_pose7, pose7_to_matrix
-
     block = _tracks_block(doc, sequence_id, where)
     td = _get(block, "tracks_data", where, "")
     cd = _get(block, "cuboidtracks_data", where, "")
@@ -216,9 +215,6 @@ def import_nurec(
     sequence: str | None = None,
 ) -> Path:
     """Convert the NuRec ``archive`` into the scene folder ``out`` (module docstring); returns ``out``."""
-    from data_schema.scene import save_scene
-    from nvrq.render_plan import default_image_path
-
     archive, out = Path(archive), Path(out)
     rig, rig_member = read_archive_json(archive, "rig_trajectories.json")
     where = f"{archive}:{rig_member}"
