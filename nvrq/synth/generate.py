@@ -26,9 +26,20 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pandas as pd
+from tqdm import tqdm
 
 from data_schema.errors import InputError
+from data_schema.scene import save_scene
 from data_schema.tables import atomic_path, write_table
+from nvrq.geometry.poses import T_sensor_world, matrix_to_pose7, offset_T_sensor_rig
+from nvrq.render_plan import default_image_path
+from nvrq.synth.artefacts import ARTEFACTS, blend_into
+from nvrq.synth.assets import build_assets
+from nvrq.synth.degradation import severity, strengths
+from nvrq.synth.ground import build_ground, camera_background
+from nvrq.synth.layout import build_world
+from nvrq.synth.renderer import virtual_camera
+from nvrq.synth.view import render_view
 
 __all__ = [
     "generate_scene",
@@ -151,8 +162,6 @@ def scene_document(world, cams: dict, clip_id: str) -> dict:
 
     Tracks hold the frames where each actor is present (box centres, ``[x, y, z, qx, qy, qz, qw]``).
     """
-    from nvrq.geometry.poses import matrix_to_pose7
-
     ts = world.timestamps_us
     tracks = []
     for actor in world.actors:
@@ -200,19 +209,6 @@ def generate_scene(
     ``cameras``: kinds from {'pinhole', 'ftheta'} (camera names 'front', 'front_wide');
     ``size (W, H)`` pixels; ``offsets`` lateral metres (left > 0).
     """
-    from tqdm import tqdm
-
-    from data_schema.scene import save_scene
-    from nvrq.geometry.poses import T_sensor_world, offset_T_sensor_rig
-    from nvrq.render_plan import default_image_path
-    from nvrq.synth.artefacts import ARTEFACTS, blend_into
-    from nvrq.synth.assets import build_assets
-    from nvrq.synth.degradation import severity, strengths
-    from nvrq.synth.ground import build_ground, camera_background
-    from nvrq.synth.layout import build_world
-    from nvrq.synth.renderer import virtual_camera
-    from nvrq.synth.view import render_view
-
     offs, cam_names, (W, H) = _parse(seconds, fps, offsets, cameras, size)
     if not isinstance(seed, int | np.integer) or seed < 0:
         raise InputError("--seed", None, "a non-negative integer", seed)
