@@ -2,8 +2,10 @@
 
 Each subcommand lives in ``nvrq/commands/<name>.py`` and exposes
 ``register(subparsers)``, which adds its parser and sets ``func`` (called with the
-parsed ``argparse.Namespace``; returns an exit status). Heavy imports (torch, OpenCV)
-happen inside those functions so ``nvrq --help`` stays instant.
+parsed ``argparse.Namespace``; returns an exit status). Imports sit at module top except
+those of heavy optional packages (torch, transformers, ray, openvino, onnxruntime, ...),
+which stay inside the functions that need them, so ``nvrq --help`` loads numpy, pandas and
+OpenCV but never a deep-learning runtime.
 """
 
 from __future__ import annotations
