@@ -12,8 +12,11 @@ from __future__ import annotations
 import argparse
 import sys
 
+from rich.console import Console
+from rich.table import Table
+
 from analysis.pipeline import run_analysis
-from analysis.report import format_table_text, summary_display, write_report
+from analysis.report import summary_display, write_report
 from data_schema.errors import InputError, run_cli
 
 __all__ = ["build_parser", "main"]
@@ -111,12 +114,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _print_summary(analysis) -> None:
     df = summary_display(analysis, with_ci=False)
-    try:
-        from rich.console import Console
-        from rich.table import Table
-    except ImportError:
-        print(format_table_text(df))
-        return
     t = Table(title=f"metrics against {analysis.target}")
     for c in df.columns:
         t.add_column(c, justify="left" if c in ("metric", "reason", "vs best") else "right")
