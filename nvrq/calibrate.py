@@ -26,7 +26,9 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
-from data_schema.tables import atomic_write_text
+from data_schema.tables import GT_BOX_COLUMNS, atomic_write_text, pair_boxes, pair_image_paths
+from nvrq.encoders import get_spec
+from nvrq.scoring import embed_crops, nvrq_similarity
 
 __all__ = ["config_path", "read_tau_config", "write_tau", "resolve_tau", "recommend_tau",
            "unrelated_pairs", "Calibration", "calibrate_tau"]
@@ -68,8 +70,6 @@ def write_tau(path: str | os.PathLike, encoder: str, tau: float, **info) -> Path
 def resolve_tau(encoder: str, *, tau: float | None = None,
                 config: str | os.PathLike | None = None) -> tuple[float | None, str]:
     """``(tau, where it came from)``: ``--tau`` > user config > registry (``None`` if none)."""
-    from nvrq.encoders import get_spec
-
     spec = get_spec(encoder)
     if tau is not None:
         return float(tau), "--tau"
@@ -139,9 +139,6 @@ def calibrate_tau(pairs: pd.DataFrame, encoder, *, scene_root=None, max_crops: i
     One GT crop per (camera, track, timestamp) is used; at most ``max_crops`` of them
     (uniform sample, ``seed``), then at most ``max_pairs`` unrelated pairs among them.
     """
-    from data_schema.tables import GT_BOX_COLUMNS, pair_boxes, pair_image_paths
-    from nvrq.scoring import embed_crops, nvrq_similarity
-
     need = ["track_id", "label_class", "gt_path", *GT_BOX_COLUMNS]
     missing = [c for c in need if c not in pairs.columns]
     if missing:
