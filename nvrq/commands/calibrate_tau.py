@@ -5,6 +5,13 @@ Rule: tau = median of S over GT crops of unrelated objects (different tracks and
 
 from __future__ import annotations
 
+import datetime as dt
+
+from data_schema.errors import InputError
+from data_schema.tables import read_table
+from nvrq.calibrate import calibrate_tau, config_path, write_tau
+from nvrq.encoders import DEFAULT_ENCODER, get_spec, load_encoder
+
 __all__ = ["register", "run"]
 
 
@@ -31,13 +38,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    import datetime as dt
-
-    from data_schema.errors import InputError
-    from data_schema.tables import read_table
-    from nvrq.calibrate import calibrate_tau, config_path, write_tau
-    from nvrq.encoders import DEFAULT_ENCODER, get_spec, load_encoder
-
     name = args.encoder or DEFAULT_ENCODER
     get_spec(name)
     for opt in ("max_crops", "max_pairs", "batch_size"):
