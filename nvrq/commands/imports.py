@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
+from data_schema.tables import parse_offsets
+from nvrq.commands.synth import allow_negative_lists
+from nvrq.sources.kitti import import_kitti
+from nvrq.sources.nurec import import_nurec
+
 __all__ = ["register"]
 
 
 def register(sub) -> None:
-    from nvrq.commands.synth import allow_negative_lists
-
     p = sub.add_parser(
         "import",
         help="import a NuRec archive or a KITTI frame as a scene folder",
@@ -42,9 +47,6 @@ def register(sub) -> None:
 
 
 def _run_nurec(args) -> int:
-    from data_schema.tables import parse_offsets
-    from nvrq.sources.nurec import import_nurec
-
     out = import_nurec(
         args.archive, args.out, offsets=parse_offsets(args.offsets, field="--offsets"), sequence=args.sequence
     )
@@ -53,10 +55,6 @@ def _run_nurec(args) -> int:
 
 
 def _run_kitti(args) -> int:
-    from pathlib import Path
-
-    from nvrq.sources.kitti import import_kitti
-
     out = import_kitti(Path(args.kitti_root), args.frame, Path(args.out))
     print(f"wrote {out}")
     return 0
