@@ -4,6 +4,11 @@ from __future__ import annotations
 
 import time
 
+from data_schema.errors import InputError
+from data_schema.scene import load_scene
+from data_schema.tables import write_table
+from nvrq.pairs import make_pairs
+
 __all__ = ["register", "run"]
 
 
@@ -20,11 +25,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from data_schema.errors import InputError
-    from data_schema.scene import load_scene
-    from data_schema.tables import write_table
-    from nvrq.pairs import make_pairs
-
     if args.min_side < 0 or args.min_area < 0:
         raise InputError("--min-side/--min-area", None, "non-negative numbers", f"{args.min_side}, {args.min_area}")
     t0 = time.perf_counter()
