@@ -7,6 +7,14 @@ local Ultralytics YOLO model (optional extra ``[yolo]``).
 
 from __future__ import annotations
 
+from data_schema.errors import InputError
+from data_schema.tables import read_table, write_table
+from nvrq.proxies import load_class_maps
+from nvrq.proxies.classifier_drop import imagenet_drop, load_classifier
+from nvrq.proxies.clip_drop import clip_drop, load_clip, true_category_index
+from nvrq.proxies.detection import detection_confidence, read_detections
+from nvrq.proxies.yolo import run_yolo
+
 __all__ = ["register"]
 
 
@@ -94,24 +102,16 @@ def register(sub) -> None:
 
 
 def _check_out(out) -> None:
-    from data_schema.errors import InputError
-
     if not str(out).lower().endswith((".csv", ".parquet")):
         raise InputError(out, None, "an output file ending in .csv or .parquet", out)
 
 
 def _read_pairs(path, extra=()):
-    from data_schema.tables import read_table
-
     need = ("pair_id", "label_class", "render_path", "r_x0", "r_y0", "r_x1", "r_y1", *extra)
     return read_table(path, required=need, what="pairs table")
 
 
 def run_detection(args) -> int:
-    from data_schema.tables import write_table
-    from nvrq.proxies import load_class_maps
-    from nvrq.proxies.detection import detection_confidence, read_detections
-
     _check_out(args.out)
     maps = load_class_maps(args.class_map)
     pairs = _read_pairs(args.pairs)
@@ -122,9 +122,6 @@ def run_detection(args) -> int:
 
 
 def run_detect(args) -> int:
-    from data_schema.tables import write_table
-    from nvrq.proxies.yolo import run_yolo
-
     _check_out(args.out)
     pairs = _read_pairs(args.pairs)
     dets = run_yolo(
@@ -141,16 +138,11 @@ def run_detect(args) -> int:
 
 
 def _check_batch(args) -> None:
-    from data_schema.errors import InputError
-
     if args.batch_size < 1:
         raise InputError("--batch-size", None, "a positive integer", args.batch_size)
 
 
 def run_imagenet(args) -> int:
-    from data_schema.tables import write_table
-    from nvrq.proxies.classifier_drop import imagenet_drop, load_classifier
-
     _check_out(args.out)
     _check_batch(args)
     pairs = _read_pairs(args.pairs, ("gt_path", "gt_x0", "gt_y0", "gt_x1", "gt_y1"))
@@ -168,10 +160,6 @@ def run_imagenet(args) -> int:
 
 
 def run_clip(args) -> int:
-    from data_schema.tables import write_table
-    from nvrq.proxies import load_class_maps
-    from nvrq.proxies.clip_drop import clip_drop, load_clip, true_category_index
-
     _check_out(args.out)
     _check_batch(args)
     maps = load_class_maps(args.class_map)
