@@ -2,9 +2,17 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
-from data_schema.tables import timing_path
+import cv2
+
+from data_schema.errors import InputError
+from data_schema.tables import read_table, timing_path, write_table
+from nvrq.calibrate import resolve_tau
+from nvrq.encoders import DEFAULT_ENCODER, get_spec, load_encoder
+from nvrq.metrics import REGISTRY, split_column
+from nvrq.scoring import REQUIRED_COLUMNS, resolve_metrics, score_pairs
 
 __all__ = ["register", "run", "timing_path"]
 
@@ -33,15 +41,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    import sys
-
-    from data_schema.errors import InputError
-    from data_schema.tables import read_table, write_table
-    from nvrq.calibrate import resolve_tau
-    from nvrq.encoders import DEFAULT_ENCODER, get_spec
-    from nvrq.metrics import REGISTRY, split_column
-    from nvrq.scoring import REQUIRED_COLUMNS, resolve_metrics, score_pairs
-
     encoder_name = args.encoder or DEFAULT_ENCODER
     get_spec(encoder_name)
     columns = resolve_metrics(args.metrics.split(","), encoder_name)
@@ -66,7 +65,6 @@ def run(args) -> int:
             print(f"tau = {tau:.3f} for {encoder_name} (from {tau_from})", file=sys.stderr)
         import torch
 
-        from nvrq.encoders import load_encoder
 
         if args.threads is not None:
             torch.set_num_threads(max(1, args.threads))
@@ -74,7 +72,6 @@ def run(args) -> int:
             raise InputError("--device", None, "an available device (cpu, or cuda with a GPU)", args.device)
         encoder = load_encoder(encoder_name, weights=args.weights, device=args.device)
 
-    import cv2
 
     cv2.setNumThreads(1)  # crops are small; leave the cores to the encoder and the decode thread
     res = score_pairs(pairs, metrics=columns, encoder=encoder, tau=tau, scene_root=args.scene,
