@@ -8,6 +8,17 @@ is the overall ratio), ``DIR/samples.csv`` (every scored sample: raw value and c
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
+from data_schema.errors import InputError
+from data_schema.tables import read_table, write_table
+from nvrq.calibrate import resolve_tau
+from nvrq.encoders import DEFAULT_ENCODER, load_encoder
+from nvrq.metrics import REGISTRY, split_column
+from nvrq.scoring import resolve_metrics
+from nvrq.stability import plot_stability, run_stability
+
 __all__ = ["register", "run"]
 
 
@@ -45,10 +56,6 @@ def register(sub) -> None:
 
 
 def _encoder_name(raw: list[str], default: str | None) -> str:
-    from data_schema.errors import InputError
-    from nvrq.encoders import DEFAULT_ENCODER
-    from nvrq.metrics import split_column
-
     named = {split_column(m)[1] for m in raw} - {None}
     if len(named) > 1:
         raise InputError(
@@ -62,15 +69,6 @@ def _encoder_name(raw: list[str], default: str | None) -> str:
 
 
 def run(args) -> int:
-    import sys
-    from pathlib import Path
-
-    from data_schema.errors import InputError
-    from data_schema.tables import read_table, write_table
-    from nvrq.metrics import REGISTRY, split_column
-    from nvrq.scoring import resolve_metrics
-    from nvrq.stability import plot_stability, run_stability
-
     raw = [m.strip() for m in args.metrics.split(",") if m.strip()]
     encoder_name = _encoder_name(raw, args.encoder)
     columns = resolve_metrics(raw, encoder_name)
@@ -103,8 +101,6 @@ def run(args) -> int:
     encoder = tau = None
     if any(REGISTRY[split_column(c)[0]].needs_encoder for c in columns):
         if any(split_column(c)[0] == "nvrq_ca" for c in columns):
-            from nvrq.calibrate import resolve_tau
-
             tau, _ = resolve_tau(encoder_name, tau=args.tau, config=None)
             if tau is None:
                 raise InputError(
@@ -113,8 +109,6 @@ def run(args) -> int:
                     f"a tau for encoder {encoder_name} (run `nvrq calibrate-tau` or pass --tau)",
                     "none",
                 )
-        from nvrq.encoders import load_encoder
-
         encoder = load_encoder(encoder_name, weights=args.weights, device=args.device)
     samples, stab, snr = run_stability(
         pairs,
