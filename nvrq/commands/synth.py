@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import re
+
+from data_schema.errors import InputError
 from data_schema.tables import parse_offsets
+from nvrq.synth import generate_scene
 
 __all__ = ["register", "run", "parse_size", "allow_negative_lists"]
 
@@ -13,8 +17,6 @@ def allow_negative_lists(parser) -> None:
     argparse treats an argument that starts with ``-`` as an option unless it matches the
     parser's negative-number pattern; this widens that pattern to comma-separated numbers.
     """
-    import re
-
     parser._negative_number_matcher = re.compile(r"^-\d*\.?\d+(,\s*[-+]?\d*\.?\d+)*$")
 
 
@@ -24,8 +26,6 @@ def parse_size(text: str) -> tuple[int, int]:
     >>> parse_size("640x360")
     (640, 360)
     """
-    from data_schema.errors import InputError
-
     parts = str(text).lower().split("x")
     if len(parts) != 2 or not all(p.strip().isdigit() for p in parts):
         raise InputError("--size", None, "WxH in pixels, e.g. 1280x720", text)
@@ -56,8 +56,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from nvrq.synth import generate_scene
-
     cameras = tuple(c.strip() for c in args.cameras.split(",") if c.strip())
     out = generate_scene(
         args.out,
