@@ -29,9 +29,12 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from tqdm import tqdm
 
 from data_schema.errors import InputError
-from nvrq.crops import normalised_tensor
+from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS, pair_boxes, pair_image_paths
+from nvrq.crops import cut_box, encoder_input, normalised_tensor, read_rgb
+from nvrq.encoders import load_encoder
 
 __all__ = [
     "ImageClassifier",
@@ -104,8 +107,6 @@ def load_classifier(
 ) -> ImageClassifier:
     """``efficientnet-lite0`` (``weights``: optional ``.pth``) or a transformers classifier folder."""
     if name == DEFAULT_CLASSIFIER:
-        from nvrq.encoders import load_encoder
-
         enc = load_encoder(
             name, weights=weights, device=device
         )  # full model incl. the ImageNet head
@@ -145,9 +146,6 @@ def crop_pair_batches(
     Yields ``(rows (n,), gt_inputs (g, S, S, 3), gt_index (n,), render_inputs (n, S, S, 3))``:
     ``gt_inputs[gt_index[k]]`` is the GT crop of pair ``rows[k]`` (each GT crop prepared once).
     """
-    from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS, pair_boxes, pair_image_paths
-    from nvrq.crops import cut_box, encoder_input, read_rgb
-
     gt_paths = pair_image_paths(pairs, "gt_path", scene_root=scene_root, where=where)
     r_paths = pair_image_paths(pairs, "render_path", scene_root=scene_root, where=where)
     gt_boxes = pair_boxes(pairs, GT_BOX_COLUMNS, where=where)
@@ -187,8 +185,6 @@ def imagenet_drop(
     where: str = "pairs",
 ) -> pd.DataFrame:
     """Eq. 9 for every pair -> DataFrame ``pair_id, imagenet_drop`` (pairs' order)."""
-    from tqdm import tqdm
-
     drop = np.full(len(pairs), np.nan)
     with tqdm(
         total=len(pairs), unit="pair", file=sys.stderr, disable=not progress, desc="imagenet"
