@@ -25,10 +25,12 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from tqdm import tqdm
 
 from data_schema.errors import InputError
 from nvrq.crops import normalised_tensor
 from nvrq.proxies import mapped_labels
+from nvrq.proxies.classifier_drop import crop_pair_batches, preprocessor_stats
 
 __all__ = ["ZeroShotCLIP", "zero_shot_probs", "load_clip", "clip_drop", "true_category_index"]
 
@@ -121,8 +123,6 @@ def load_clip(
     folder: str | os.PathLike, *, prompts: dict[str, str], device: str = "cpu"
 ) -> ZeroShotCLIP:
     """CLIPModel + tokenizer + preprocessor config from a local Hugging Face folder (never the hub)."""
-    from nvrq.proxies.classifier_drop import preprocessor_stats
-
     folder = Path(folder)
     if not folder.is_dir():
         raise InputError(
@@ -179,10 +179,6 @@ def clip_drop(
     where: str = "pairs",
 ) -> pd.DataFrame:
     """Eq. 10 for every pair -> DataFrame ``pair_id, clip_drop`` (pairs' order; NaN: no category)."""
-    from tqdm import tqdm
-
-    from nvrq.proxies.classifier_drop import crop_pair_batches
-
     c_star = true_category_index(pairs["label_class"], category_map, clip.categories, where=where)
     drop = np.full(len(pairs), np.nan)
     with tqdm(
