@@ -36,6 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+from tqdm import tqdm
 
 from data_schema.errors import InputError
 from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS, pair_boxes, pair_image_paths
@@ -215,7 +216,6 @@ def score_pairs(
         gt_paths=gt_paths, r_paths=r_paths, gt_boxes=gt_boxes, r_boxes=r_boxes, gt_ids=gt_ids,
         r_ids=r_ids, pixel_fns=pixel_fns, input_size=input_size, stats=stats, where=where))
 
-    from tqdm import tqdm
 
     pixel_vals = {name: np.full(n, np.nan) for name in pixel_fns}
     emb_gt = emb_r = None
@@ -306,8 +306,6 @@ def embed_crops(paths: Sequence[str], boxes: np.ndarray, encoder, *, batch_size:
                 progress: bool = True, where: str = "crops") -> np.ndarray:
     """Embeddings (N, D) float32 of the crops ``boxes`` (N, 4) (inclusive ``[x0, y0, x1, y1]``)
     of the images ``paths`` (N,); each image is decoded once. Used by ``calibrate-tau``."""
-    from tqdm import tqdm
-
     paths = np.asarray([os.fspath(p) for p in paths], dtype=object)
     boxes = np.asarray(boxes, np.int64).reshape(-1, 4)
     size = encoder.spec.input_size
