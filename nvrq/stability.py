@@ -28,12 +28,17 @@ from __future__ import annotations
 import math
 import sys
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 from scipy.stats import rankdata
+from tqdm import tqdm
 
 from data_schema.errors import InputError
+from data_schema.tables import GT_BOX_COLUMNS, atomic_path, pair_boxes, pair_image_paths
+from nvrq.crops import cut_box, encoder_input, read_rgb, resize_to
+from nvrq.metrics import REGISTRY, metric_info, split_column
 from nvrq.nuisances import (
     NUISANCE_STRENGTHS,
     expose,
@@ -42,6 +47,8 @@ from nvrq.nuisances import (
     scaled_box,
     shifted_box,
 )
+from nvrq.scoring import nvrq_ca, nvrq_similarity
+from nvrq.synth.artefacts import ARTEFACTS, apply_artefact
 
 __all__ = [
     "ARTEFACT_STRENGTHS",
@@ -75,8 +82,6 @@ def _objects(
     image path and its frame rank within the track (``frames``), and ``n_objects`` of those with
     a shorter side >= ``min_side`` drawn at random (``chosen``). ``view_shift`` by k frames means
     k steps along the track's frames present in the pairs table."""
-    from data_schema.tables import GT_BOX_COLUMNS, pair_boxes, pair_image_paths
-
     df = pairs.copy()
     df["_gt_abs"] = pair_image_paths(pairs, "gt_path", where=where)
     b = pair_boxes(pairs, GT_BOX_COLUMNS, where=where)
@@ -107,11 +112,6 @@ def build_samples(
     where: str = "pairs",
 ) -> tuple[list[np.ndarray], list[Sample]]:
     """GT crops (list of (h, w, 3)) and every perturbed :class:`Sample` of them (see module doc)."""
-    from tqdm import tqdm
-
-    from nvrq.crops import cut_box, read_rgb
-    from nvrq.synth.artefacts import ARTEFACTS, apply_artefact
-
     nuisances = NUISANCE_STRENGTHS if nuisances is None else nuisances
     rng = np.random.default_rng(seed)
     chosen, frames = _objects(pairs, n_objects=n_objects, min_side=min_side, rng=rng, where=where)
@@ -199,12 +199,6 @@ def score_crop_pairs(
 ) -> dict[str, np.ndarray]:
     """Metric values (N,) for the pairs ``(gt_crops[gt_index[k]], others[k])``, as ``nvrq score``
     computes them (``metrics``: column names from :func:`nvrq.scoring.resolve_metrics`)."""
-    from tqdm import tqdm
-
-    from nvrq.crops import encoder_input, resize_to
-    from nvrq.metrics import REGISTRY, split_column
-    from nvrq.scoring import nvrq_ca, nvrq_similarity
-
     out: dict[str, np.ndarray] = {}
     enc_cols = [m for m in metrics if REGISTRY[split_column(m)[0]].needs_encoder]
     pix = [m for m in metrics if m not in enc_cols]
@@ -296,8 +290,6 @@ def run_stability(
     where: str = "pairs",
 ) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
     """The whole study -> ``(samples, stability, snr)`` tables (see :func:`summarise`)."""
-    from nvrq.metrics import metric_info
-
     gts, samples = build_samples(
         pairs,
         n_objects=n_objects,
@@ -346,11 +338,8 @@ def plot_stability(stab: pd.DataFrame, snr: pd.DataFrame, out_stem) -> list:
     import matplotlib.ticker
 
     matplotlib.use("Agg")
-    from pathlib import Path
-
     import matplotlib.pyplot as plt
 
-    from data_schema.tables import atomic_path
 
     metrics = list(dict.fromkeys(snr["metric"]))
     names = list(dict.fromkeys(snr["nuisance"]))
