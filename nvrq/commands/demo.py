@@ -34,7 +34,7 @@ def demo_steps(out: Path, args) -> list[tuple[str, list[str]]]:
     """The demo as (program, argv) steps, in order."""
     scene, pairs, metrics = out / "scene", out / "pairs.csv", out / "metrics.csv"
     study, ratings, report = out / "study", out / "ratings.csv", out / "report"
-    metric_list = "psnr,ssim,gmsd,nvrq,nvrq_ca"
+    metric_list = "psnr,ssim,ms_ssim,gmsd,nvrq,nvrq_ca"
     return [
         ("nvrq", ["synth", str(scene), "--seed", str(args.seed), "--seconds", str(args.seconds),
                   "--size", args.size, "--offsets", args.offsets]),
