@@ -1,6 +1,6 @@
 """The ``analyze`` command (SPEC section 6): a thin shell over :func:`analysis.pipeline.run_analysis`.
 
-``analyze RATINGS.csv [--metrics METRICS ...] [--lower-better NAME ...] [--higher-better NAME ...]
+``analyze RATINGS.csv [--metrics-table METRICS ...] [--lower-better A,B] [--higher-better A,B]
 [--target COLUMN] [--exclude-raters A,B] [--screen] [--timing FILE ...] [--stability DIR]
 [--bootstrap N] [--seed S] [--rank-by {srcc,plcc,roc_auc}] --out REPORT_DIR``
 
@@ -12,25 +12,15 @@ from __future__ import annotations
 import argparse
 import sys
 
-from rich.console import Console
-from rich.table import Table
-
-from analysis.pipeline import run_analysis
-from analysis.report import summary_display, write_report
-from data_schema.errors import InputError, run_cli
+from data_schema.cliargs import CommaList, DeprecatedFileOption, flags_in_errors
+from data_schema.errors import ArgumentParser, InputError, run_cli
+from data_schema.outputs import check_output_folder
 
 __all__ = ["build_parser", "main"]
 
 
-def _names(values) -> list[str]:
-    out = []
-    for v in values or ():
-        out += [s.strip() for s in str(v).split(",") if s.strip()]
-    return out
-
-
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+def build_parser() -> ArgumentParser:
+    p = ArgumentParser(
         prog="analyze",
         description="Which metric agrees with human judgements? Correlations, ROC AUC, bootstrap "
         "CIs, breakdowns, rater screening and an offline HTML report.",
@@ -39,28 +29,37 @@ def build_parser() -> argparse.ArgumentParser:
         "ratings", metavar="RATINGS", help="ratings.csv (or .parquet) from `annotate export`"
     )
     p.add_argument(
-        "--metrics",
+        "--metrics-table",
+        dest="metrics_tables",
         action="append",
         default=[],
         metavar="FILE",
-        help="metric table (pair_id + metric columns) joined on item_id; repeatable",
+        help="metrics table (pair_id + metric columns) joined on item_id; repeatable",
     )
+    p.add_argument("--metrics", dest="metrics_tables", action=DeprecatedFileOption,
+                   new="--metrics-table", help=argparse.SUPPRESS)
     p.add_argument(
         "--lower-better",
-        action="extend",
+        action=CommaList,
         nargs="+",
         default=[],
-        metavar="NAME",
-        help="metric columns where lower is better (comma or space separated)",
+        metavar="A,B",
+        help="metric columns where lower is better (comma list; the old space-separated form is deprecated)",
     )
     p.add_argument(
         "--higher-better",
-        action="extend",
+        action=CommaList,
         nargs="+",
         default=[],
-        metavar="NAME",
-        help="metric columns where higher is better",
+        metavar="A,B",
+        help="metric columns where higher is better (comma list; the old space-separated form is deprecated)",
     )
+    _add_options(p)
+    return p
+
+
+def _add_options(p: ArgumentParser) -> None:
+    """The options that choose what is analysed and how."""
     p.add_argument(
         "--target",
         metavar="COLUMN",
@@ -69,10 +68,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--exclude-raters",
-        action="append",
+        action=CommaList,
         default=[],
         metavar="A,B",
-        help="rater ids to leave out (comma separated; repeatable)",
+        help="rater ids to leave out (comma list; repeatable)",
     )
     p.add_argument(
         "--screen",
@@ -84,8 +83,8 @@ def build_parser() -> argparse.ArgumentParser:
         action="append",
         default=[],
         metavar="FILE",
-        help="timing table (metric, seconds, pairs); METRICS.timing.csv beside a "
-        "--metrics file is found automatically",
+        help="timing table (metric, seconds, pairs); repeatable; METRICS.timing.csv beside a "
+        "--metrics-table file is found automatically",
     )
     p.add_argument(
         "--stability",
@@ -109,7 +108,6 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--out", required=True, metavar="REPORT_DIR", help="report directory")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
-    return p
 
 
 def _print_summary(analysis) -> None:
@@ -123,16 +121,28 @@ def _print_summary(analysis) -> None:
 
 
 def _main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    with flags_in_errors(parser, args, {"n_boot": "bootstrap", "metrics_paths": "metrics_tables",
+                                        "timing_paths": "timing", "stability_dir": "stability"}):
+        return _run(args)
+
+
+def _run(args) -> int:
     if args.bootstrap < 0:
         raise InputError("--bootstrap", None, "a non-negative number of replicates", args.bootstrap)
+    check_output_folder(args.out, kind="report", option="--out",
+                        inputs=[args.ratings, *args.metrics_tables, *args.timing, args.stability])
+    from analysis.pipeline import run_analysis
+    from analysis.report import write_report
+
     analysis = run_analysis(
         args.ratings,
-        metrics_paths=args.metrics,
-        lower=_names(args.lower_better),
-        higher=_names(args.higher_better),
+        metrics_paths=args.metrics_tables,
+        lower=args.lower_better,
+        higher=args.higher_better,
         target=args.target,
-        exclude_raters=_names(args.exclude_raters),
+        exclude_raters=args.exclude_raters,
         screen=args.screen,
         n_boot=args.bootstrap,
         seed=args.seed,

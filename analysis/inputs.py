@@ -24,11 +24,12 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.perturbation import VIEW_COLUMNS
 from data_schema.tables import (
-    ITEM_KINDS,
     PAIR_META_COLUMNS,
     PAIRS_COLUMNS,
     RATINGS_COLUMNS,
+    read_metrics,
     read_table,
 )
 from nvrq.metrics import direction, metric_info
@@ -42,7 +43,7 @@ __all__ = [
 
 ITEM_LABEL_COLUMNS = ("n_votes", "n_good", "gvf", "majority_good")
 NON_METRIC_COLUMNS = frozenset(
-    RATINGS_COLUMNS + PAIRS_COLUMNS + ITEM_LABEL_COLUMNS + ("gold_expected",)
+    RATINGS_COLUMNS + PAIRS_COLUMNS + ITEM_LABEL_COLUMNS + ("gold_expected",) + VIEW_COLUMNS
 )
 
 
@@ -99,6 +100,7 @@ def read_ratings(path) -> pd.DataFrame:
             path, f"{_line(i)}: response_ms", "a number of milliseconds", df["response_ms"].iloc[i]
         )
     df["response_ms"] = rt.astype(np.float64)
+    _check_item_metadata(df, path)
     dup = df.duplicated(["rater_id", "item_id", "kind"], keep="first")
     if dup.any():
         i = int(np.flatnonzero(dup.to_numpy())[0])
@@ -111,27 +113,26 @@ def read_ratings(path) -> pd.DataFrame:
     return df
 
 
-def read_metrics(path) -> pd.DataFrame:
-    """Read a metrics table (SPEC section 4): ``pair_id`` + numeric metric columns."""
-    df = read_table(path, required=("pair_id",), what="metrics table", dtype={"pair_id": str})
-    if df["pair_id"].duplicated().any():
-        i = int(np.flatnonzero(df["pair_id"].duplicated().to_numpy())[0])
-        raise InputError(
-            path, f"{_line(i)}: pair_id", "each pair once", f"{df['pair_id'].iloc[i]!r} again"
-        )
-    for col in df.columns:
-        if col == "pair_id":
-            continue
-        if not pd.api.types.is_numeric_dtype(df[col]) and not pd.api.types.is_bool_dtype(df[col]):
-            conv = pd.to_numeric(df[col], errors="coerce")
-            bad = conv.isna() & df[col].notna()
-            if bad.any():
-                i = int(np.flatnonzero(bad.to_numpy())[0])
-                raise InputError(
-                    path, f"{_line(i)}: column {col!r}", "a numeric metric value", df[col].iloc[i]
-                )
-            df[col] = conv
-    return df
+def _check_item_metadata(df: pd.DataFrame, path) -> None:
+    """``timestamp_us`` an integer, ``y_offset_m`` a number, and each item's pair metadata
+    (SPEC section 5: clip, camera, track, class, timestamp, offset) the same on all its rows."""
+    for col, what in (("timestamp_us", "an integer timestamp in microseconds"),
+                      ("y_offset_m", "a number of metres")):
+        num = pd.to_numeric(df[col], errors="coerce")
+        bad = num.isna() & df[col].notna()
+        if col == "timestamp_us":
+            bad |= num.notna() & (num != np.round(num))
+        if bad.any():
+            i = int(np.flatnonzero(bad.to_numpy())[0])
+            raise InputError(path, f"{_line(i)}: {col}", what, df[col].iloc[i])
+        df[col] = num
+    for col in PAIR_META_COLUMNS:
+        n = df.groupby("item_id", sort=False)[col].nunique(dropna=False)
+        if (n > 1).any():
+            item = n.index[np.flatnonzero((n > 1).to_numpy())[0]]
+            i = int(np.flatnonzero((df["item_id"] == item).to_numpy())[-1])
+            raise InputError(path, f"{_line(i)}: {col}", f"one {col} per item (item {item!r})",
+                             ", ".join(map(str, df.loc[df["item_id"] == item, col].unique()[:3])))
 
 
 def classify_columns(

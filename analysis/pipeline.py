@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis import breakdowns, screening
+from analysis import axes, breakdowns, screening
 from analysis.agreement import alpha_nominal
 from analysis.inputs import classify_columns, read_metrics, read_ratings
 from analysis.labels import item_table, join_metrics
@@ -49,6 +49,7 @@ class Analysis:
     timing: pd.DataFrame | None = None
     stability: pd.DataFrame | None = None
     snr: pd.DataFrame | None = None
+    by_axis: pd.DataFrame | None = None
     notes: list[str] = field(default_factory=list)
     unknown_ids: dict[str, int] = field(default_factory=dict)
     n_boot: int = 0
@@ -141,6 +142,9 @@ def run_analysis(
 
     items = item_table(kept)
     items, unknown, notes = join_metrics(items, tables)
+    for path, table in tables:
+        if unknown[str(path)] == len(table):
+            raise InputError(path, "pair_id", "pair ids of rated items", "none matches an item")
     tgt = target or "gvf"
     if target is not None:
         if target not in items.columns or target in ("n_votes", "n_good", "majority_good"):
@@ -185,7 +189,8 @@ def run_analysis(
     )
     by = ["label_class"] + attributes
     categories = breakdowns.category_table(items, metrics, by=by, target=tgt, progress=progress)
-    by_offset = breakdowns.offset_table(items, [tgt] + metrics)
+    by_offset = breakdowns.offset_table(axes.lateral_items(items), [tgt] + metrics)
+    by_axis = axes.axis_table(items, [tgt] + metrics) if axes.is_multi_axis(items) else None
     encoders = breakdowns.encoder_table(summary)
     stab = snr = None
     if stability_dir is not None:
@@ -214,6 +219,7 @@ def run_analysis(
         summary=summary,
         categories=categories,
         by_offset=by_offset,
+        by_axis=by_axis,
         encoders=encoders,
         raters=raters,
         alpha=alpha,

@@ -23,9 +23,11 @@ from jinja2 import Environment, FileSystemLoader, select_autoescape
 from markupsafe import Markup
 
 from analysis import plots
+from analysis.axes import axis_tent_plots
 from analysis.pipeline import Analysis
 from analysis.screening import ScreenRule
 from analysis.summary import binary_label
+from data_schema.outputs import check_output_folder, mark_report
 from data_schema.tables import write_table
 
 __all__ = ["write_report", "summary_display", "format_table_text"]
@@ -260,6 +262,8 @@ def _figures(a: Analysis, d: Path, tl: str) -> list[dict]:
         ),
         ("target_hist", f"{tl} distribution", plots.target_histogram(a.items, a.target, label=tl)),
     ]
+    if a.by_axis is not None:  # 6-DoF views: one tent plot per axis instead of the lateral one
+        items[:1] = axis_tent_plots(a.by_axis, cols, a.directions, target_label=tl)
     label, _ = binary_label(a.items, a.target)
     if label is not None:
         items.append(
@@ -288,6 +292,8 @@ def _build(a: Analysis, d: Path) -> None:
     write_table(a.summary, d / "summary.csv")
     write_table(a.items, d / "items.csv")
     write_table(a.by_offset, d / "by_offset.csv")
+    if a.by_axis is not None:
+        write_table(a.by_axis, d / "by_axis.csv")
     write_table(a.categories, d / "categories.csv")
     write_table(a.raters, d / "raters.csv")
     if len(a.encoders):
@@ -369,12 +375,13 @@ def _build(a: Analysis, d: Path) -> None:
 
 def write_report(a: Analysis, out_dir) -> Path:
     """Write the report directory atomically (build beside it, then swap it into place)."""
-    out = Path(out_dir)
+    out = check_output_folder(out_dir, kind="report", option="out_dir")
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".part", dir=out.parent))
     os.chmod(tmp, 0o755)
     try:
         _build(a, tmp)
+        mark_report(tmp)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise

@@ -10,16 +10,43 @@ from __future__ import annotations
 import argparse
 import os
 import secrets
+import sqlite3
 import subprocess
 import sys
 from pathlib import Path
 
-from annotate.results import gvf_table, ratings_table
-from annotate.simulate import simulate
-from annotate.study import build_study, load_study
-from data_schema.errors import run_subcommand
-from data_schema.raters import check_rater_name
-from data_schema.tables import write_table
+from data_schema.cliargs import (
+    DeprecatedFileOption,
+    DeprecatedSize,
+    allow_negative_lists,
+    flags_in_errors,
+    parse_wxh,
+)
+from data_schema.errors import ArgumentParser, InputError, run_cli
+from data_schema.outputs import check_output_file, check_output_folder
+
+__all__ = ["main", "build_parser", "serve_command", "check_rater_name"]
+
+_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,39}$")
+
+
+def check_rater_name(name: str, *, allow_sim: bool = False) -> str:
+    """A rater id: 1-40 of ``A-Z a-z 0-9 _ . -`` starting alphanumeric; ``sim-*`` is reserved.
+
+    >>> check_rater_name("ann.b")
+    'ann.b'
+    >>> check_rater_name("sim-1")
+    Traceback (most recent call last):
+    ...
+    data_schema.errors.InputError: rater: name: expected a name not starting with 'sim-' (reserved for simulated raters), got sim-1
+    """
+    name = str(name).strip()
+    if not _NAME.match(name):
+        raise InputError("rater", "name", "1-40 letters, digits, '_', '.', '-'", repr(name))
+    if name.lower().startswith("sim-") and not allow_sim:
+        raise InputError("rater", "name", "a name not starting with 'sim-' (reserved for simulated raters)",
+                         name)
+    return name
 
 __all__ = ["main", "build_parser", "serve_command"]
 
@@ -39,11 +66,18 @@ def _base_url(host: str, port: int) -> str:
 
 
 def _cmd_build(args) -> int:
-    out = build_study(args.study, args.pairs, scene=args.scene, metrics_path=args.metrics,
+    from annotate.study import build_study, load_study
+
+    check_output_folder(args.study, kind="study", option="STUDY",
+                        inputs=[args.pairs, *args.metrics_tables, args.scene])
+    width, height = parse_wxh(args.size, option="--size")
+    if width != height:
+        raise InputError("--size", None, "a square WxH (display crops are square), e.g. 320x320", args.size)
+    out = build_study(args.study, args.pairs, scene=args.scene, metrics_path=args.metrics_tables or None,
                       tracks=args.tracks, frames_per_track=args.frames_per_track,
                       offsets=args.offsets, votes_per_item=args.votes_per_item, seed=args.seed,
                       n_training=args.training, n_gold=args.gold, n_repeats=args.repeats,
-                      size=args.size, image_format=args.image_format, access=args.access,
+                      size=width, image_format=args.image_format, access=args.access,
                       break_every=args.break_every)
     study = load_study(out)
     counts = ", ".join(f"{v} {k}" for k, v in study.manifest["counts"].items())
@@ -75,13 +109,29 @@ def _cmd_add_rater(args) -> int:
 
 
 def _cmd_export(args) -> int:
-    table = ratings_table(load_study(args.study))
+    from annotate.results import ratings_table
+    from annotate.study import load_study, unplaced_votes
+    from data_schema.tables import write_table
+
+    check_output_file(args.out, inputs=[args.study])
+    study = load_study(args.study)
+    table = ratings_table(study)
+    lost = unplaced_votes(study)
     write_table(table, args.out)
     print(f"{len(table)} votes -> {args.out}", file=sys.stderr)
+    if lost:
+        print(f"warning: {sum(lost.values())} votes not exported: "
+              + "; ".join(f"{n} {why}" for why, n in lost.items()), file=sys.stderr)
     return 0
 
 
 def _cmd_gvf(args) -> int:
+    from annotate.results import gvf_table, ratings_table
+    from annotate.study import load_study
+    from data_schema.tables import write_table
+
+    if args.out:
+        check_output_file(args.out, inputs=[args.study])
     table = gvf_table(ratings_table(load_study(args.study)))
     if args.out:
         write_table(table, args.out)
@@ -96,27 +146,32 @@ def _cmd_simulate(args) -> int:
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="annotate", description="Rating studies of render quality.")
+def build_parser() -> ArgumentParser:
+    p = ArgumentParser(prog="annotate", description="Rating studies of render quality.")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
     b = sub.add_parser("build", help="build a study folder from a pairs table")
-    b.add_argument("study")
+    b.add_argument("study", metavar="STUDY", help="new study folder (absent or empty)")
     b.add_argument("--pairs", required=True, help="pairs table (SPEC section 3)")
     b.add_argument("--scene", help="scene folder the pairs' image paths are relative to "
                    "(default: the pairs table's scene_root column)")
-    b.add_argument("--metrics", help="metrics table (pair_id + metric columns) for the export")
+    b.add_argument("--metrics-table", dest="metrics_tables", action="append", default=[], metavar="FILE",
+                   help="metrics table (pair_id + metric columns) for the export; repeatable")
+    b.add_argument("--metrics", dest="metrics_tables", action=DeprecatedFileOption, new="--metrics-table",
+                   help=argparse.SUPPRESS)
     b.add_argument("--tracks", type=int, default=12)
     b.add_argument("--frames-per-track", type=int, default=12)
-    b.add_argument("--offsets", default="all", help="'all' or a comma list of metres")
+    b.add_argument("--offsets", default="all", help="'all' or a comma list of metres, e.g. -1,0,1")
     b.add_argument("--votes-per-item", type=int, default=5)
     b.add_argument("--seed", type=int, default=0)
     b.add_argument("--training", type=int, default=5, help="training items (shown first)")
     b.add_argument("--gold", type=int, default=3, help="hidden gold items of each kind")
     b.add_argument("--repeats", type=int, default=5, help="repeated test items")
-    b.add_argument("--size", type=int, default=320, help="display size of each crop (pixels)")
+    b.add_argument("--size", default="320x320", action=DeprecatedSize, metavar="WxH",
+                   help="display size of each crop, a square WxH in pixels (default 320x320)")
     b.add_argument("--image-format", default="jpg", choices=["jpg", "png"])
     b.add_argument("--access", default="open", choices=["open", "token"])
     b.add_argument("--break-every", type=int, default=50)
+    allow_negative_lists(b)
     b.set_defaults(func=_cmd_build)
     s = sub.add_parser("serve", help="serve the rater app (Streamlit)")
     s.add_argument("study")
@@ -143,6 +198,22 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--seed", type=int, default=0)
     m.set_defaults(func=_cmd_simulate)
     return p
+
+
+#: Library parameter names that differ from this CLI's argparse dests.
+_ALIASES = {"n_training": "training", "n_gold": "gold", "n_repeats": "repeats",
+            "metrics_path": "metrics_tables", "scene_root": "scene"}
+
+
+def _main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        with flags_in_errors(parser, args, _ALIASES):
+            return args.func(args)
+    except sqlite3.Error as exc:  # a damaged vote store: one line naming it
+        raise InputError(Path(args.study) / "votes.sqlite", None, "a readable SQLite vote store",
+                         f"{type(exc).__name__}: {exc}") from None
 
 
 def main(argv=None) -> int:

@@ -31,6 +31,8 @@ __all__ = ["cut", "pad_pair", "pad_to_square", "broken_render", "read_bgr", "wri
 
 def read_bgr(path: Path, *, where: str, field: str) -> np.ndarray:
     """Read a colour image as BGR uint8 (H, W, 3); InputError naming ``where``/``field``."""
+    if not Path(path).is_file():  # checked first: OpenCV would print a [ WARN ] line
+        raise InputError(where, field, "an existing image file", f"{path} (not found)")
     img = cv2.imread(str(path), cv2.IMREAD_COLOR)
     if img is None:
         raise InputError(where, field, "a readable image file", str(path))

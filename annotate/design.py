@@ -1,10 +1,14 @@
-"""The study design (paper section 4): which tracks, frames and offsets raters see.
+"""The study design (paper section 4): which tracks, frames and views raters see.
 
 Pure functions on a pairs table (SPEC section 3). A *track* is ``(clip_id, track_id)``; a
-*frame* of it is ``(camera, timestamp_us)``. A frame is usable when the pairs table holds
-the object at **every** chosen offset there.
+*frame* of it is ``(camera, timestamp_us)``. A *view* is a render perturbation, keyed by its
+label (:mod:`data_schema.perturbation`; a lateral offset ``y`` is the view ``y=+1.00``, 0 is
+``none``). A frame is usable when the pairs table holds the object in **every** chosen view
+there, so with views along several axes (``'all'``) every chosen frame is shown along each
+axis; raters never see which (items are opaque).
 
-- :func:`choose_offsets`: ``'all'`` or a comma list, matched at 0.01 m (as in ``pair_id``).
+- :func:`parse_offsets`: ``'all'`` or a comma list, matched at 0.01 m (as in ``pair_id``).
+- :func:`choose_views`: ``'all'`` (every view of the table) or lateral offsets as labels.
 - :func:`choose_tracks`: tracks spread over strata (label class x scene attributes):
   strata are visited round-robin in a seeded random order, one random track each visit.
 - :func:`spread_frames`: ``k`` frames evenly along the track (by time), first and last
@@ -22,12 +26,19 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
-from data_schema.tables import PAIRS_COLUMNS, offset_cm, parse_offsets
+from data_schema.perturbation import (
+    AXES,
+    EXTRA_PERTURBATION_COLUMNS,
+    VIEW_COLUMNS,
+    labels,
+    perturbation_array,
+)
+from data_schema.tables import PAIRS_COLUMNS
 
-__all__ = ["choose_offsets", "attribute_columns", "usable_frames", "choose_tracks",
+__all__ = ["parse_offsets", "choose_views", "attribute_columns", "usable_frames", "choose_tracks",
            "spread_frames", "select_test_pairs"]
 
-_EXTRA_NON_ATTRIBUTES = ("scene_root",)
+_EXTRA_NON_ATTRIBUTES = ("scene_root", *VIEW_COLUMNS)
 
 
 def attribute_columns(pairs: pd.DataFrame) -> list[str]:
@@ -48,21 +59,57 @@ def choose_offsets(spec: str, available) -> list[float]:
     if str(spec).strip().lower() == "all":
         chosen = have
     else:
-        chosen = sorted(set(offset_cm(parse_offsets(spec, field="--offsets")).tolist()))
+        try:
+            chosen = sorted(set(_cm([float(s) for s in str(spec).split(",") if s.strip()]).tolist()))
+        except ValueError:
+            raise InputError("offsets", None, "'all' or a comma list of metres", spec) from None
         missing = [c for c in chosen if c not in have]
         if missing or not chosen:
-            raise InputError("--offsets", None,
+            raise InputError("offsets", None,
                              f"offsets present in the pairs table ({[h / 100 for h in have]})", spec)
     return [c / 100 for c in chosen]
 
 
-def usable_frames(pairs: pd.DataFrame, offsets: list[float]) -> pd.DataFrame:
-    """One row per (clip_id, track_id, camera, timestamp_us) holding every chosen offset.
+def _view_keys(views) -> list[str]:
+    """View labels from labels, or from lateral offsets in metres (the former API)."""
+    views = list(views)
+    if all(isinstance(v, str) for v in views):
+        return views
+    P = np.zeros((len(views), 6))
+    P[:, 1] = np.asarray(views, float)
+    return labels(P)
 
-    Columns: clip_id, track_id, camera, timestamp_us, label_class + attribute columns.
+
+def _view_order(label: str) -> tuple:
+    """Sort key of a view label: axis order, then value ('none' first)."""
+    if label == "none":  # the real camera sits at 0 among the lateral offsets
+        return (AXES.index("y"), 0.0, label)
+    axis, _, value = label.split(",")[0].partition("=")
+    return (AXES.index(axis) if "," not in label else len(AXES), float(value), label)
+
+
+def choose_views(spec: str, pairs: pd.DataFrame) -> list[str]:
+    """Chosen view labels: ``'all'`` -> every view of ``pairs`` (old tables: their offsets);
+    else a comma list of lateral offsets in metres (:func:`parse_offsets`).
+
+    >>> choose_views("all", pd.DataFrame({"y_offset_m": [1.0, 0.0], "yaw_deg": [0.0, 5.0]}))
+    ['y=+1.00', 'yaw=+5.00']
     """
-    want = set(offset_cm(offsets).tolist())
-    df = pairs.assign(_cm=offset_cm(pairs["y_offset_m"]))
+    have = labels(perturbation_array(pairs))
+    if str(spec).strip().lower() == "all":
+        return sorted(set(have), key=_view_order)
+    lat = pairs[~pairs.reindex(columns=list(EXTRA_PERTURBATION_COLUMNS), fill_value=0.0).ne(0).any(axis=1)]
+    return _view_keys(parse_offsets(spec, lat["y_offset_m"]))
+
+
+def usable_frames(pairs: pd.DataFrame, offsets: list) -> pd.DataFrame:
+    """One row per (clip_id, track_id, camera, timestamp_us) holding every chosen view.
+
+    ``offsets``: view labels, or lateral offsets in metres. Columns: clip_id, track_id,
+    camera, timestamp_us, label_class + attribute columns.
+    """
+    want = set(_view_keys(offsets))
+    df = pairs.assign(_cm=labels(perturbation_array(pairs)))
     df = df[df["_cm"].isin(want)]
     keys = ["clip_id", "track_id", "camera", "timestamp_us"]
     counts = df.groupby(keys, sort=True)["_cm"].nunique()
@@ -105,7 +152,7 @@ def select_test_pairs(pairs: pd.DataFrame, *, offsets: list[float], n_tracks: in
     frames = usable_frames(pairs, offsets)
     if frames.empty:
         raise InputError("pairs", "y_offset_m",
-                         f"at least one (track, frame) holding every offset {offsets}", "none")
+                         f"at least one (track, frame) holding every view {offsets}", "none")
     chosen = choose_tracks(frames, n_tracks, rng)
     record, keep = [], []
     for clip_id, track_id in chosen:
@@ -118,9 +165,10 @@ def select_test_pairs(pairs: pd.DataFrame, *, offsets: list[float], n_tracks: in
                        "label_class": str(tf["label_class"].iloc[0]),
                        "frames": [[str(c), int(t)] for c, t in zip(sel["camera"], sel["timestamp_us"], strict=True)]})
     keys = pd.concat(keep, ignore_index=True)
-    want = set(offset_cm(offsets).tolist())
+    want = set(_view_keys(offsets))
     sel = pairs.merge(keys, on=["clip_id", "track_id", "camera", "timestamp_us"])
-    sel = sel[np.isin(offset_cm(sel["y_offset_m"]), sorted(want))]
+    sel = sel[np.isin(labels(perturbation_array(sel)), sorted(want))]
     sel = sel.drop_duplicates("pair_id")
-    return sel.sort_values(["clip_id", "track_id", "timestamp_us", "camera", "y_offset_m"]
+    order = ["y_offset_m", *[c for c in EXTRA_PERTURBATION_COLUMNS if c in sel.columns]]
+    return sel.sort_values(["clip_id", "track_id", "timestamp_us", "camera", *order], kind="stable"
                            ).reset_index(drop=True), record

@@ -28,8 +28,7 @@ from tqdm import tqdm
 
 from annotate.store import Store
 from data_schema.errors import InputError
-from data_schema.raters import SIM_PREFIX
-from data_schema.tables import offset_cm, require_columns
+from data_schema.perturbation import labels, perturbation_array
 
 __all__ = ["p_good", "item_severity", "simulate"]
 
@@ -52,11 +51,15 @@ def item_severity(study) -> pd.Series:
             raise InputError(path, None, "a degradation.csv (written by 'nvrq synth') to simulate raters",
                              "no such file")
         deg = pd.read_csv(path, dtype={"camera": str, "track_id": str})
-        require_columns(deg, (*_JOIN, "severity"), where=path)
-        deg = deg.assign(_cm=offset_cm(deg["y_offset_m"]), clip_id=str(clip))
+        missing = [c for c in (*_JOIN, "severity") if c not in deg.columns]
+        if missing:
+            raise InputError(path, f"column {missing[0]!r}", "columns " + ", ".join((*_JOIN, "severity")),
+                             ", ".join(deg.columns))
+        # joined on the view label (0.01 m / deg, as pair_id); old files: lateral views
+        deg = deg.assign(_cm=labels(perturbation_array(deg)), clip_id=str(clip))
         parts.append(deg.drop(columns=["y_offset_m"]).drop_duplicates(["clip_id", *_JOIN[:3], "_cm"]))
     deg = pd.concat(parts, ignore_index=True)
-    it = items.assign(_cm=np.round(items["y_offset_m"].astype(float) * 100).astype(np.int64))
+    it = items.assign(_cm=labels(perturbation_array(items)))
     merged = it.merge(deg[["clip_id", "camera", "timestamp_us", "track_id", "_cm", "severity"]],
                       on=["clip_id", "camera", "timestamp_us", "track_id", "_cm"], how="left")
     sev = pd.Series(merged["severity"].to_numpy(dtype=float), index=items.index)
@@ -71,7 +74,11 @@ def item_severity(study) -> pd.Series:
 def simulate(study, *, raters: int = 5, seed: int = 0, progress: bool = True) -> pd.DataFrame:
     """Let ``raters`` simulated raters (the last careless) rate the study; returns their params."""
     if raters < 1:
-        raise InputError("--raters", None, "an integer >= 1", raters)
+        raise InputError("raters", None, "an integer >= 1", raters)
+    import dataclasses
+
+    from annotate.store import Store
+
     sev = item_severity(study)
     # the same store file and code path; NORMAL sync: simulated votes need not survive a power cut
     study = dataclasses.replace(study, store=Store(study.store.path, study.store.study,

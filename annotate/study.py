@@ -23,10 +23,12 @@ relative to the pairs file), else an error. The roots are recorded per clip in t
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import secrets
 import shutil
+import sqlite3
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,19 +39,24 @@ from tqdm import tqdm
 
 from annotate import crops as _crops
 from annotate.assign import choose_next, make_plan, plan_total, rater_seed
-from annotate.design import attribute_columns, choose_offsets, select_test_pairs
+from annotate.design import attribute_columns, choose_views, select_test_pairs
 from annotate.store import Store
 from data_schema.errors import InputError
+from data_schema.outputs import check_output_folder
+from data_schema.perturbation import view_columns, with_perturbation_columns
 from data_schema.tables import (
-    ITEM_KINDS,
+    GT_BOX_COLUMNS,
     PAIR_META_COLUMNS,
     PAIRS_COLUMNS,
+    RENDER_BOX_COLUMNS,
     atomic_write_text,
+    inside_scene,
     pair_scene_roots,
+    read_metrics,
     read_table,
 )
 
-__all__ = ["build_study", "load_study", "Study", "crop_path"]
+__all__ = ["build_study", "load_study", "Study", "crop_path", "KINDS", "unplaced_votes"]
 
 _MANIFEST = "manifest.json"
 
@@ -81,40 +88,114 @@ def _pick_training(pairs: pd.DataFrame, tests: pd.DataFrame, n: int,
 
 
 def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = None,
-                metrics_path: str | Path | None = None, tracks: int = 12,
+                metrics_path=None, tracks: int = 12,
                 frames_per_track: int = 12, offsets: str = "all", votes_per_item: int = 5,
                 seed: int = 0, n_training: int = 5, n_gold: int = 3, n_repeats: int = 5,
                 size: int = 320, image_format: str = "jpg", access: str = "open",
                 break_every: int = 50, progress: bool = True) -> Path:
-    """Build the study folder ``out`` (refused if it exists and is not empty); returns it."""
+    """Build the study folder ``out`` (refused if it exists and is not empty); returns it.
+
+    ``metrics_path``: None, a metrics table, or a list of them (joined on ``pair_id``).
+
+    Stages: check the options, read and check the pairs (and metrics) table, choose the
+    items, cut their crops into a temporary folder, write the tables and the manifest, and
+    rename the folder into place (nothing is left behind when a stage fails).
+    """
+    opts = _check_options(out, pairs_path, scene=scene, metrics_path=metrics_path, tracks=tracks,
+                          frames_per_track=frames_per_track, offsets=offsets,
+                          votes_per_item=votes_per_item, seed=seed, n_training=n_training,
+                          n_gold=n_gold, n_repeats=n_repeats, size=size, image_format=image_format,
+                          access=access, break_every=break_every)
+    pairs = _read_pairs(Path(pairs_path), scene)
+    opts["pairs_file"] = pairs.attrs["path"]
+    rng = np.random.default_rng(seed)
+    pairs, rows, chosen_offsets, record = _choose_items(pairs, rng, opts)
+    _check_images(rows, where=str(pairs_path))
+    metrics = _read_study_metrics(opts["metrics_paths"], pairs)
     out = Path(out)
-    pairs_path = Path(pairs_path)
-    if out.exists() and any(out.iterdir()):
-        raise InputError(out, None, "a new or empty study folder (votes are never overwritten)",
-                         "a non-empty folder")
-    for name, val, lo in (("--tracks", tracks, 1), ("--frames-per-track", frames_per_track, 1),
-                          ("--votes-per-item", votes_per_item, 1), ("--size", size, 32),
-                          ("--break-every", break_every, 1)):
-        if int(val) < lo:
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent if out.parent.exists() else None))
+    try:
+        items = _cut_crops(rows, pairs, tmp, rng=rng, opts=opts, where=str(pairs_path), progress=progress)
+        metric_cols = _write_tables(tmp, items, metrics)
+        manifest = _manifest(out, pairs, items, opts, metric_cols=metric_cols,
+                             offsets=chosen_offsets, tracks=record)
+        _write_manifest(tmp, manifest)
+        if out.exists():
+            out.rmdir()
+        os.replace(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out
+
+
+def _check_options(out, pairs_path, **opts) -> dict:
+    """Check ``build_study``'s keyword arguments (errors name the parameter); returns them
+    with ``metrics_paths``, the list of metrics tables (``metrics_path``: a path or a list)."""
+    mp = opts["metrics_path"]
+    opts["metrics_paths"] = [] if mp is None else [mp] if isinstance(mp, str | os.PathLike) else list(mp)
+    check_output_folder(out, kind="study", option="out",
+                        inputs=[pairs_path, *opts["metrics_paths"], opts["scene"]])
+    for name, lo in (("tracks", 1), ("frames_per_track", 1), ("votes_per_item", 1), ("size", 32),
+                     ("break_every", 1), ("n_training", 0), ("n_gold", 0), ("n_repeats", 0)):
+        val = opts[name]
+        if isinstance(val, bool) or not isinstance(val, int | np.integer) or val < lo:
             raise InputError(name, None, f"an integer >= {lo}", val)
-    if image_format not in ("jpg", "png"):
-        raise InputError("--image-format", None, "one of {'jpg', 'png'}", image_format)
-    if access not in ("open", "token"):
-        raise InputError("--access", None, "one of {'open', 'token'}", access)
+    if opts["image_format"] not in ("jpg", "png"):
+        raise InputError("image_format", None, "one of {'jpg', 'png'}", opts["image_format"])
+    if opts["access"] not in ("open", "token"):
+        raise InputError("access", None, "one of {'open', 'token'}", opts["access"])
+    return opts
+
+
+def _read_pairs(pairs_path: Path, scene) -> pd.DataFrame:
+    """The checked pairs table with ``_root`` (scene folder) and ``_row`` (line) columns."""
     pairs = read_table(pairs_path, required=PAIRS_COLUMNS, what="pairs table")
     if pairs.empty:
         raise InputError(pairs_path, None, "at least one pair", "an empty table")
-    pairs = pairs.assign(_root=pair_scene_roots(pairs, scene_root=scene, base=pairs_path.resolve().parent,
-                                                         where=str(pairs_path)), _row=np.arange(len(pairs)))
-    rng = np.random.default_rng(seed)
-    chosen_offsets = choose_offsets(offsets, pairs["y_offset_m"])
-    tests, record = select_test_pairs(pairs, offsets=chosen_offsets, n_tracks=int(tracks),
-                                      frames_per_track=int(frames_per_track), rng=rng)
-    training = _pick_training(pairs, tests, n_training, rng)
-    gold_src = tests.iloc[sorted(rng.choice(len(tests), size=min(2 * n_gold, len(tests)),
+    roots = pair_scene_roots(pairs, scene_root=scene, base=pairs_path.resolve().parent,
+                             where=str(pairs_path))
+    pairs = pairs.assign(_root=roots, _row=np.arange(len(pairs)) + 2)
+    pairs.attrs["path"] = str(pairs_path.resolve())
+    return pairs
+
+
+def _read_study_metrics(paths, pairs: pd.DataFrame) -> pd.DataFrame | None:
+    """The metrics tables (checked as ``analyze`` checks them) joined on ``pair_id`` and
+    restricted to the pairs; None without tables. A column in two tables is an error."""
+    merged, seen = None, {}
+    for path in paths:
+        metrics = read_metrics(path)
+        hit = metrics["pair_id"].isin(set(pairs["pair_id"].astype(str)))
+        if not hit.any():
+            raise InputError(path, "pair_id", "pair ids of the pairs table", "none matches")
+        for col in metrics.columns.drop("pair_id"):
+            if col in seen:
+                raise InputError(path, f"column {col!r}", "each metric column in one metrics table",
+                                 f"also in {seen[col]}")
+            seen[col] = str(path)
+        metrics = metrics[hit]
+        merged = metrics if merged is None else merged.merge(metrics, on="pair_id", how="outer")
+    return merged
+
+
+def _choose_items(pairs: pd.DataFrame, rng: np.random.Generator, opts: dict):
+    """The pairs (with 6-DoF columns when they have views), rows ``(pair record, kind, key,
+    item_id, expected)`` of every item, the chosen offsets or views and the per-track record."""
+    chosen_views = choose_views(opts["offsets"], pairs)
+    opts["view_columns"] = view_cols = view_columns(pairs)  # [] for lateral-only pairs
+    if view_cols:
+        pairs = with_perturbation_columns(pairs).copy()
+        pairs.attrs["path"] = opts["pairs_file"]
+    chosen_offsets = chosen_views if view_cols else sorted(float(v.partition("=")[2] or 0) for v in chosen_views)
+    tests, record = select_test_pairs(pairs, offsets=chosen_views, n_tracks=int(opts["tracks"]),
+                                      frames_per_track=int(opts["frames_per_track"]), rng=rng)
+    training = _pick_training(pairs, tests, opts["n_training"], rng)
+    gold_src = tests.iloc[sorted(rng.choice(len(tests), size=min(2 * opts["n_gold"], len(tests)),
                                             replace=False).tolist())]
-    rep_src = tests.iloc[sorted(rng.choice(len(tests), size=min(n_repeats, len(tests)),
+    rep_src = tests.iloc[sorted(rng.choice(len(tests), size=min(opts["n_repeats"], len(tests)),
                                            replace=False).tolist())]
+
     def recs(df: pd.DataFrame) -> list[dict]:
         return df.to_dict("records")
 
@@ -125,79 +206,108 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
         rows.append((r, "gold", f"{tag}:{r['pair_id']}", f"{tag}:{r['pair_id']}",
                      int(tag == "gold-good")))
     rows += [(r, "repeat", "repeat:" + r["pair_id"], r["pair_id"], None) for r in recs(rep_src)]
+    return pairs, rows, chosen_offsets, record
 
+
+def _check_images(rows, *, where: str) -> None:
+    """Every image the items need lies in its scene folder and exists (before any crop is cut)."""
+    seen = set()
+    for r, kind, *_ in rows:
+        for column in ("gt_path",) if kind == "gold" else ("gt_path", "render_path"):
+            field = f"line {int(r['_row'])}: column {column!r}"
+            path = inside_scene(r["_root"], r[column], where=where, field=field)
+            if path not in seen and not os.path.isfile(path):
+                raise InputError(where, field, "an existing image file", f"{r[column]} (not found)")
+            seen.add(path)
+
+
+class _ImageCache:
+    """Images of the pairs table read once each (the last 64 kept), paths checked by the
+    scene-folder rule of :func:`data_schema.tables.inside_scene`."""
+
+    def __init__(self, where: str):
+        self.where, self.cache = where, {}
+
+    def __call__(self, r: dict, column: str) -> np.ndarray:
+        field = f"line {int(r['_row'])}: column {column!r}"
+        path = inside_scene(r["_root"], r[column], where=self.where, field=field)
+        if path not in self.cache:
+            if len(self.cache) > 64:
+                self.cache.clear()
+            self.cache[path] = _crops.read_bgr(Path(path), where=self.where, field=field)
+        return self.cache[path]
+
+
+def _cut_crops(rows, pairs: pd.DataFrame, tmp: Path, *, rng, opts: dict, where: str,
+               progress: bool) -> pd.DataFrame:
+    """Cut, pad and write the two display crops of every item into ``tmp/crops``; the items."""
+    (tmp / "crops").mkdir()
+    fmt, size = opts["image_format"], int(opts["size"])
     attrs = attribute_columns(pairs.drop(columns=["_root", "_row"]))
     ids = _opaque_ids(rng, 2 * len(rows))
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent if out.parent.exists() else None))
-    (tmp / "crops").mkdir()
-    cache: dict[str, np.ndarray] = {}
-
-    def image(root: str, rel: str, row: int, field: str) -> np.ndarray:
-        path = str(Path(root) / rel)
-        if path not in cache:
-            if len(cache) > 64:
-                cache.clear()
-            cache[path] = _crops.read_bgr(Path(path), where=str(pairs_path), field=f"row {row}: {field}")
-        return cache[path]
-
+    image = _ImageCache(where)
     items = []
-    try:
-        for k, (r, kind, key, item_id, expected) in enumerate(
-                tqdm(rows, desc="cutting crops", unit="item", disable=not progress)):
-            row = int(r["_row"])
-            gt = _crops.cut(image(r["_root"], r["gt_path"], row, "gt_path"),
-                            [r[f"gt_{c}"] for c in ("x0", "y0", "x1", "y1")],
-                            where=str(pairs_path), field=f"row {row}: gt box")
-            if kind == "gold":
-                ren = gt.copy() if expected == 1 else _crops.broken_render(gt, rng=rng)
-            else:
-                ren = _crops.cut(image(r["_root"], r["render_path"], row, "render_path"),
-                                 [r[f"r_{c}"] for c in ("x0", "y0", "x1", "y1")],
-                                 where=str(pairs_path), field=f"row {row}: render box")
-            a, b = _crops.pad_pair(gt, ren, size=int(size))
-            ref_file, ren_file = f"{ids[2 * k]}.{image_format}", f"{ids[2 * k + 1]}.{image_format}"
-            _crops.write_image(tmp / "crops" / ref_file, a, fmt=image_format)
-            _crops.write_image(tmp / "crops" / ren_file, b, fmt=image_format)
-            meta = {c: r[c] for c in (*PAIR_META_COLUMNS, *attrs)}
-            items.append({"key": key, "item_id": item_id, "kind": kind, "pair_id": r["pair_id"],
-                          "ref_file": ref_file, "ren_file": ren_file,
-                          "expected": np.nan if expected is None else expected, **meta})
-        items_df = pd.DataFrame(items)
-        items_df.to_csv(tmp / "items.csv", index=False)
-        metric_cols: list[str] = []
-        if metrics_path is not None:
-            metrics = read_table(metrics_path, required=["pair_id"], what="metrics table")
-            metric_cols = [c for c in metrics.columns if c != "pair_id"]
-            metrics[metrics["pair_id"].isin(set(items_df["pair_id"]))].to_csv(
-                tmp / "metrics.csv", index=False)
-        roots = pairs.drop_duplicates("clip_id").set_index("clip_id")["_root"]
-        manifest = {
-            "format": "nvrq-study", "version": 1,
-            "study_id": f"{out.resolve().name}-{secrets.token_hex(4)}",
-            "seed": int(seed), "access": access, "votes_per_item": int(votes_per_item),
-            "break_every": int(break_every), "display_size": int(size), "image_format": image_format,
-            "options": {"tracks": int(tracks), "frames_per_track": int(frames_per_track),
-                        "offsets": str(offsets), "n_training": int(n_training),
-                        "n_gold_per_type": int(n_gold), "n_repeats": int(n_repeats)},
-            "pairs": str(pairs_path.resolve()),
-            "metrics": None if metrics_path is None else str(Path(metrics_path).resolve()),
-            "metric_columns": metric_cols, "attribute_columns": attrs,
-            "scene_roots": {str(k): str(v) for k, v in roots.items()},
-            "offsets": chosen_offsets, "tracks": record,
-            "counts": {kind: int((items_df["kind"] == kind).sum()) for kind in ITEM_KINDS},
-            "training_order": [it["key"] for it in items if it["kind"] == "training"],
-        }
-        atomic_write_text(tmp / _MANIFEST, json.dumps(manifest, indent=1, default=str))
-        secret = tmp / "secrets.json"
-        secret.write_text(json.dumps({"admin_token": secrets.token_urlsafe(24)}))
-        os.chmod(secret, 0o600)
-        if out.exists():
-            out.rmdir()
-        os.replace(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    return out
+    for k, (r, kind, key, item_id, expected) in enumerate(
+            tqdm(rows, desc="cutting crops", unit="item", disable=not progress)):
+        line = int(r["_row"])
+        gt = _crops.cut(image(r, "gt_path"), [r[c] for c in GT_BOX_COLUMNS],
+                        where=where, field=f"line {line}: gt box")
+        if kind == "gold":
+            ren = gt.copy() if expected == 1 else _crops.broken_render(gt, rng=rng)
+        else:
+            ren = _crops.cut(image(r, "render_path"), [r[c] for c in RENDER_BOX_COLUMNS],
+                             where=where, field=f"line {line}: render box")
+        a, b = _crops.pad_pair(gt, ren, size=size)
+        ref_file, ren_file = f"{ids[2 * k]}.{fmt}", f"{ids[2 * k + 1]}.{fmt}"
+        _crops.write_image(tmp / "crops" / ref_file, a, fmt=fmt)
+        _crops.write_image(tmp / "crops" / ren_file, b, fmt=fmt)
+        meta = {c: r[c] for c in (*PAIR_META_COLUMNS, *opts["view_columns"], *attrs)}
+        items.append({"key": key, "item_id": item_id, "kind": kind, "pair_id": r["pair_id"],
+                      "ref_file": ref_file, "ren_file": ren_file,
+                      "expected": np.nan if expected is None else expected, **meta})
+    return pd.DataFrame(items)
+
+
+def _write_tables(tmp: Path, items: pd.DataFrame, metrics: pd.DataFrame | None) -> list[str]:
+    """``items.csv`` and (with metrics) ``metrics.csv`` of the items' pairs; the metric columns."""
+    items.to_csv(tmp / "items.csv", index=False)
+    if metrics is None:
+        return []
+    metrics[metrics["pair_id"].isin(set(items["pair_id"]))].to_csv(tmp / "metrics.csv", index=False)
+    return [c for c in metrics.columns if c != "pair_id"]
+
+
+def _manifest(out: Path, pairs: pd.DataFrame, items: pd.DataFrame, opts: dict, *,
+              metric_cols: list[str], offsets: list[float], tracks) -> dict:
+    """The study's ``manifest.json`` (every option and choice)."""
+    roots = pairs.drop_duplicates("clip_id").set_index("clip_id")["_root"]
+    return {
+        "format": "nvrq-study", "version": 1,
+        "study_id": f"{out.resolve().name}-{secrets.token_hex(4)}",
+        "seed": int(opts["seed"]), "access": opts["access"],
+        "votes_per_item": int(opts["votes_per_item"]), "break_every": int(opts["break_every"]),
+        "display_size": int(opts["size"]), "image_format": opts["image_format"],
+        "options": {"tracks": int(opts["tracks"]), "frames_per_track": int(opts["frames_per_track"]),
+                    "offsets": str(opts["offsets"]), "n_training": int(opts["n_training"]),
+                    "n_gold_per_type": int(opts["n_gold"]), "n_repeats": int(opts["n_repeats"])},
+        "pairs": pairs.attrs["path"],
+        "metrics": [str(Path(p).resolve()) for p in opts["metrics_paths"]],
+        "metric_columns": metric_cols,
+        "attribute_columns": attribute_columns(pairs.drop(columns=["_root", "_row"])),
+        "view_columns": opts["view_columns"],
+        "scene_roots": {str(k): str(v) for k, v in roots.items()},
+        "offsets": offsets, "tracks": tracks,
+        "counts": {kind: int((items["kind"] == kind).sum()) for kind in KINDS},
+        "training_order": items.loc[items["kind"] == "training", "key"].tolist(),
+    }
+
+
+def _write_manifest(tmp: Path, manifest: dict) -> None:
+    """``manifest.json`` and ``secrets.json`` (the admin token, file mode 600)."""
+    atomic_write_text(tmp / _MANIFEST, json.dumps(manifest, indent=1, default=str))
+    secret = tmp / "secrets.json"
+    secret.write_text(json.dumps({"admin_token": secrets.token_urlsafe(24)}))
+    os.chmod(secret, 0o600)
 
 
 def crop_path(study_root: str | Path, name: str) -> Path:
@@ -275,13 +385,59 @@ class Study:
 
 
 def load_study(root: str | Path) -> Study:
-    """Load ``STUDY/`` (InputError if it is not a study folder)."""
+    """Load ``STUDY/`` (InputError naming the file if it is not a readable study folder)."""
     root = Path(root).resolve()
     path = root / _MANIFEST
     if not path.is_file():
         raise InputError(root, _MANIFEST, "a study folder made by 'annotate build'", "no manifest")
-    manifest = json.loads(path.read_text())
-    items = pd.read_csv(root / "items.csv", dtype={"key": str, "item_id": str, "pair_id": str,
-                                                   "camera": str, "track_id": str, "clip_id": str})
-    return Study(root, manifest, items.set_index("key", drop=False).rename_axis(None),
-                 Store(root / "votes.sqlite", manifest["study_id"]))
+    manifest = _read_manifest(path)
+    items_path = root / "items.csv"
+    if not items_path.is_file():
+        raise InputError(items_path, None, "the study's items table", "no such file")
+    items = read_table(items_path, required=("key", "item_id", "kind", "pair_id", "ref_file", "ren_file"),
+                       what="study items table",
+                       dtype={"key": str, "item_id": str, "pair_id": str, "camera": str,
+                              "track_id": str, "clip_id": str})
+    if items["key"].duplicated().any() or items["key"].isna().any():
+        raise InputError(items_path, "key", "one row per item key", "a duplicated or empty key")
+    db = root / "votes.sqlite"
+    try:
+        store = Store(db, manifest["study_id"])
+    except sqlite3.Error as exc:
+        raise InputError(db, None, "a readable SQLite vote store in a writable study folder",
+                         f"{type(exc).__name__}: {exc}") from None
+    return Study(root, manifest, items.set_index("key", drop=False).rename_axis(None), store)
+
+
+#: manifest.json keys every reader relies on, and their JSON types.
+_MANIFEST_KEYS = {"study_id": str, "seed": int, "access": str, "votes_per_item": int,
+                  "training_order": list, "counts": dict}
+
+
+def _read_manifest(path: Path) -> dict:
+    try:
+        manifest = json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(path, None, "a JSON study manifest", f"unreadable JSON ({exc})") from None
+    if not isinstance(manifest, dict) or manifest.get("format") != "nvrq-study":
+        raise InputError(path, "format", "'nvrq-study'", repr(manifest.get("format") if isinstance(
+            manifest, dict) else type(manifest).__name__))
+    for key, typ in _MANIFEST_KEYS.items():
+        if not isinstance(manifest.get(key), typ) or isinstance(manifest.get(key), bool):
+            raise InputError(path, key, f"a JSON {typ.__name__}", repr(manifest.get(key)))
+    return manifest
+
+
+def unplaced_votes(study: Study) -> dict[str, int]:
+    """Votes in the study's store that an export cannot place, counted by reason
+    (``{reason: n}``; empty when every vote has an item of this study)."""
+    votes = study.store.votes()
+    out = {}
+    unknown = int((~votes["item"].isin(study.items.index)).sum())
+    if unknown:
+        out["for items not in items.csv"] = unknown
+    with contextlib.closing(sqlite3.connect(study.store.path)) as con:
+        other = con.execute("SELECT COUNT(*) FROM votes WHERE study != ?", (study.store.study,)).fetchone()[0]
+    if other:
+        out["recorded under another study id (the folder was rebuilt)"] = int(other)
+    return out

@@ -9,9 +9,11 @@ line and exits with status 2 (SPEC section 7).
 
 from __future__ import annotations
 
+import argparse
+import os
 import sys
 
-__all__ = ["InputError", "run_cli", "run_subcommand"]
+__all__ = ["InputError", "run_cli", "ArgumentParser"]
 
 
 class InputError(ValueError):
@@ -39,23 +41,37 @@ class InputError(ValueError):
 
 def run_cli(main, argv=None) -> int:
     """Run ``main(argv)``; turn an :class:`InputError` into one stderr line and exit status 2."""
+    # OpenCV would print its own "[ WARN ]" lines for unreadable images before our one-line
+    # error; errors reach the user through InputError only (set before cv2 is imported)
+    os.environ.setdefault("OPENCV_LOG_LEVEL", "ERROR")
+    if "cv2" in sys.modules:  # already imported (in-process callers): set it at run time
+        logging = getattr(getattr(sys.modules["cv2"], "utils", None), "logging", None)
+        if logging is not None:
+            logging.setLogLevel(logging.LOG_LEVEL_ERROR)
     try:
         rc = main(argv)
     except InputError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
+    except OSError as err:  # last resort: a file the command could not read or write
+        where = err.filename or "file system"
+        print(f"error: {where}: {err.strerror or type(err).__name__}", file=sys.stderr)
+        return 2
+    except SystemExit as exc:  # argparse (usage errors, --help) exits; report its status
+        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
     return int(rc or 0)
 
 
-def run_subcommand(build_parser, argv=None) -> int:
-    """Parse ``argv`` with ``build_parser()`` and run the chosen subcommand's ``func(args)``
-    (set by its ``set_defaults``) under :func:`run_cli`."""
+class ArgumentParser(argparse.ArgumentParser):
+    """``argparse.ArgumentParser`` whose usage errors are one stderr line and exit status 2.
 
-    def dispatch(args_list):
-        args = build_parser().parse_args(args_list)
-        return args.func(args)
+    Subparsers made with ``add_subparsers`` inherit the class, so every subcommand of a CLI
+    built on it reports a bad argument the same way as bad input (SPEC section 7).
+    """
 
-    return run_cli(dispatch, argv)
+    def error(self, message: str):
+        msg = " ".join(str(message).split())
+        self.exit(2, f"error: {self.prog}: {msg} (see {self.prog} --help)\n")

@@ -15,13 +15,14 @@ import json
 import math
 import os
 from dataclasses import dataclass, field
-from pathlib import Path, PurePosixPath, PureWindowsPath
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
-from data_schema.tables import IMAGES_COLUMNS, atomic_write_text, require_columns, write_table
+from data_schema.perturbation import EXTRA_PERTURBATION_COLUMNS, PERTURBATION_COLUMNS
+from data_schema.tables import IMAGES_COLUMNS, atomic_write_text, inside_scene, write_table
 
 __all__ = [
     "CAMERA_MODEL_SCHEMA",
@@ -206,11 +207,7 @@ def _poses7(value, n: int, where: str, fld: str) -> np.ndarray:
 
 
 def _resolve_image(root: Path, rel: str, where: str, fld: str, check: bool) -> None:
-    if not isinstance(rel, str) or not rel:
-        raise InputError(where, fld, "a relative image path", repr(rel))
-    if PurePosixPath(rel).is_absolute() or PureWindowsPath(rel).is_absolute() or ".." in Path(rel).parts \
-            or ".." in PurePosixPath(rel.replace("\\", "/")).parts:
-        raise InputError(where, fld, "a path inside the scene folder (relative, no '..')", rel)
+    inside_scene(root, rel, where=where, field=fld)  # the path rule shared with pairs tables
     if check and not (root / rel).is_file():
         raise InputError(where, fld, "an existing image file", f"{rel} (not found)")
 
@@ -224,16 +221,25 @@ def _load_images(root: Path, cameras: dict, check_images: bool) -> pd.DataFrame:
         df = pd.read_csv(path, dtype={"camera": str, "source": str, "path": str})
     except pd.errors.EmptyDataError:
         raise InputError(where, None, "a header row " + ",".join(IMAGES_COLUMNS), "an empty file") from None
-    require_columns(df, IMAGES_COLUMNS, where=where)
-    for col in ("timestamp_us", "y_offset_m"):
+    missing = [c for c in IMAGES_COLUMNS if c not in df.columns]
+    if missing:
+        raise InputError(where, f"column {missing[0]!r}", "the columns " + ", ".join(IMAGES_COLUMNS),
+                         ", ".join(map(str, df.columns)))
+    for col in ("timestamp_us", *PERTURBATION_COLUMNS):
+        if col not in df.columns:  # an optional perturbation column: 0 (lateral-only scene)
+            df[col] = 0.0
         num = pd.to_numeric(df[col], errors="coerce")
-        bad = num.isna()
+        bad = num.isna() | ~np.isfinite(num.to_numpy(np.float64, na_value=np.nan))
         if bad.any():
             i = int(np.argmax(bad.to_numpy()))
             raise InputError(where, f"row {i + 2}, column {col}", "a number", repr(df[col].iloc[i]))
         df[col] = num
     df["timestamp_us"] = df["timestamp_us"].astype(np.int64)
-    df["y_offset_m"] = df["y_offset_m"].astype(np.float64)
+    df[list(PERTURBATION_COLUMNS)] = df[list(PERTURBATION_COLUMNS)].astype(np.float64)
+    gt_moved = (df["source"] == "gt").to_numpy() & (df[list(EXTRA_PERTURBATION_COLUMNS)] != 0).any(axis=1).to_numpy()
+    if gt_moved.any():
+        i = int(np.argmax(gt_moved))
+        raise InputError(where, f"row {i + 2}", "zero perturbation columns for a gt image", "non-zero")
     for i, row in enumerate(df.itertuples(index=False)):
         r = f"row {i + 2}"
         if row.camera not in cameras:
@@ -244,12 +250,12 @@ def _load_images(root: Path, cameras: dict, check_images: bool) -> pd.DataFrame:
         if row.source == "gt" and row.y_offset_m != 0:
             raise InputError(where, f"{r}, column y_offset_m", "0 for a gt image", row.y_offset_m)
         _resolve_image(root, row.path, where, f"{r}, column path", check_images)
-    dup = df.duplicated(["camera", "timestamp_us", "source", "y_offset_m"])
+    dup = df.duplicated(["camera", "timestamp_us", "source", *PERTURBATION_COLUMNS])
     if dup.any():
         i = int(np.argmax(dup.to_numpy()))
-        raise InputError(where, f"row {i + 2}", "one image per (camera, timestamp_us, source, y_offset_m)",
+        raise InputError(where, f"row {i + 2}", "one image per (camera, timestamp_us, source, perturbation)",
                          "a duplicate")
-    return df.loc[:, list(IMAGES_COLUMNS)]
+    return df.loc[:, [*IMAGES_COLUMNS, *EXTRA_PERTURBATION_COLUMNS]]
 
 
 def load_scene(root: str | os.PathLike, *, check_images: bool = True) -> Scene:
@@ -339,6 +345,7 @@ def save_scene(scene_doc: dict, images: pd.DataFrame, root: str | os.PathLike) -
     missing = [c for c in IMAGES_COLUMNS if c not in images.columns]
     if missing:
         raise ValueError(f"images table lacks columns {missing}")
-    write_table(images, root / "images.csv", columns=IMAGES_COLUMNS)
+    extra = [c for c in EXTRA_PERTURBATION_COLUMNS if c in images.columns]  # written only when used
+    write_table(images, root / "images.csv", columns=(*IMAGES_COLUMNS, *extra))
     atomic_write_text(root / "scene.json", json.dumps(doc, indent=1, default=_jsonable) + "\n")
     return root

@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import tempfile
 from collections.abc import Iterable, Sequence
-from pathlib import Path
+from pathlib import Path, PurePosixPath, PureWindowsPath
 
 import numpy as np
 import pandas as pd
@@ -27,6 +28,7 @@ __all__ = [
     "PAIR_META_COLUMNS",
     "IMAGES_COLUMNS",
     "TABLE_SUFFIXES",
+    "MIN_SIDE_PX",
     "pair_id",
     "offset_cm",
     "parse_offsets",
@@ -38,11 +40,21 @@ __all__ = [
     "GT_BOX_COLUMNS",
     "RENDER_BOX_COLUMNS",
     "pair_scene_roots",
+    "check_pairs",
+    "check_metrics",
+    "check_scene_path",
+    "inside_scene",
+    "read_metrics",
+    "TABLE_CHECKS",
     "pair_image_paths",
     "pair_boxes",
 ]
 
 TABLE_SUFFIXES = (".csv", ".parquet")
+
+#: SPEC section 3: the default smallest shorter box side (pixels) of a usable object crop,
+#: shared by ``nvrq pairs --min-side`` and ``nvrq stability --min-side``.
+MIN_SIDE_PX = 30
 
 #: SPEC section 2, images.csv
 IMAGES_COLUMNS = ("camera", "timestamp_us", "source", "y_offset_m", "path")
@@ -156,7 +168,131 @@ def require_columns(df: pd.DataFrame, required: Sequence[str], *, where: object)
     if missing:
         raise InputError(where, f"column {missing[0]!r}", f"the columns {', '.join(required)}",
                          f"columns {', '.join(map(str, df.columns))}")
+    check = TABLE_CHECKS.get(what)
+    return df if check is None else check(df, where=str(path))
+
+
+def _line(i: int) -> str:
+    return f"line {i + 2}"  # the header is line 1
+
+
+def _first(mask) -> int:
+    import numpy as np
+
+    return int(np.flatnonzero(np.asarray(mask))[0])
+
+
+def _unique_ids(df: pd.DataFrame, col: str, where: str) -> None:
+    if col not in df.columns:
+        return
+    empty = df[col].isna() | (df[col].astype(str).str.strip() == "")
+    if empty.any():
+        raise InputError(where, f"{_line(_first(empty))}: {col}", f"a {col}", "empty")
+    dup = df[col].astype(str).duplicated()
+    if dup.any():
+        i = _first(dup)
+        raise InputError(where, f"{_line(i)}: {col}", "each pair once", f"{df[col].iloc[i]!r} again")
+
+
+def _numeric(df: pd.DataFrame, col: str, where: str, what: str, *, integer: bool = False) -> None:
+    import numpy as np
+
+    num = pd.to_numeric(df[col], errors="coerce")
+    bad = ~np.isfinite(num.to_numpy(dtype=float))
+    if integer:
+        bad |= ~bad & (num.fillna(0) != np.round(num.fillna(0))).to_numpy()
+    if bad.any():
+        i = _first(bad)
+        raise InputError(where, f"{_line(i)}: column {col!r}", what, repr(df[col].iloc[i]))
+    df[col] = num.astype(np.int64) if integer else num.astype(np.float64)
+
+
+def check_pairs(df: pd.DataFrame, *, where: str) -> pd.DataFrame:
+    """SPEC section 3 checks of the columns present: unique non-empty ``pair_id``; integer
+    ``timestamp_us`` and box corners; finite ``y_offset_m``; ``gt_path``/``render_path``
+    inside the scene folder (:func:`check_scene_path`). Returns ``df`` (numbers converted)."""
+    _unique_ids(df, "pair_id", where)
+    for col in ("timestamp_us", *GT_BOX_COLUMNS, *RENDER_BOX_COLUMNS):
+        if col in df.columns:
+            _numeric(df, col, where, "an integer", integer=True)
+    if "y_offset_m" in df.columns:
+        _numeric(df, "y_offset_m", where, "a finite number of metres")
+    for col in ("gt_path", "render_path"):
+        if col in df.columns:
+            bad = _outside_scene(df[col])
+            if bad.any():  # vectorised screen; the first offender gets the full message
+                i = _first(bad)
+                check_scene_path(df[col].iloc[i], where=where, field=f"{_line(i)}: column {col!r}")
     return df
+
+
+_OUTSIDE = re.compile(r"^\s*$|^[/\\]|^[A-Za-z]:|(?:^|[/\\])\.\.(?:[/\\]|$)")
+
+
+def _outside_scene(paths: pd.Series):
+    """Boolean mask of values that break :func:`check_scene_path` (empty, absolute, ``..``);
+    each distinct value is tested once."""
+    uniq = pd.unique(paths)
+    bad = {v: not isinstance(v, str) or _OUTSIDE.search(v) is not None for v in uniq}
+    return paths.map(bad).to_numpy(dtype=bool)
+
+
+def check_metrics(df: pd.DataFrame, *, where: str) -> pd.DataFrame:
+    """SPEC section 4 checks: at least one row; each ``pair_id`` once; numeric metric values."""
+    if len(df) == 0:
+        raise InputError(where, None, "at least one metrics row", "a header only")
+    _unique_ids(df, "pair_id", where)
+    for col in df.columns:
+        if col == "pair_id" or pd.api.types.is_numeric_dtype(df[col]) or pd.api.types.is_bool_dtype(df[col]):
+            continue
+        conv = pd.to_numeric(df[col], errors="coerce")
+        bad = conv.isna() & df[col].notna()
+        if bad.any():
+            i = _first(bad)
+            raise InputError(where, f"{_line(i)}: column {col!r}", "a numeric metric value", df[col].iloc[i])
+        df[col] = conv
+    return df
+
+
+def read_metrics(path) -> pd.DataFrame:
+    """Read a metrics table (SPEC section 4): ``pair_id`` + numeric metric columns."""
+    return read_table(path, required=("pair_id",), what="metrics table", dtype={"pair_id": str})
+
+
+def check_scene_path(rel, *, where: str, field: str) -> str:
+    """The path rule of ``images.csv`` and pairs tables: a non-empty path relative to the
+    scene folder, without ``..`` (checked on the text; symlinks by :func:`inside_scene`).
+
+    >>> check_scene_path("images/a.png", where="pairs.csv", field="gt_path")
+    'images/a.png'
+    >>> check_scene_path("../x.png", where="pairs.csv", field="gt_path")
+    Traceback (most recent call last):
+    ...
+    data_schema.errors.InputError: pairs.csv: gt_path: expected a path inside the scene folder (relative, no '..'), got ../x.png
+    """
+    if not isinstance(rel, str) or not rel.strip():
+        raise InputError(where, field, "a relative image path", repr(rel))
+    posix = rel.replace("\\", "/")
+    if PurePosixPath(posix).is_absolute() or PureWindowsPath(rel).is_absolute() \
+            or PureWindowsPath(rel).drive or ".." in PurePosixPath(posix).parts:
+        raise InputError(where, field, "a path inside the scene folder (relative, no '..')", rel)
+    return rel
+
+
+def inside_scene(root, rel: str, *, where: str, field: str) -> str:
+    """``root/rel`` as a string after :func:`check_scene_path`; a symlink must stay in ``root``."""
+    check_scene_path(rel, where=where, field=field)
+    path = os.path.join(str(root), rel)
+    if os.path.islink(path) or any(os.path.islink(os.path.join(str(root), *Path(rel).parts[:k]))
+                                   for k in range(1, len(Path(rel).parts))):
+        real, base = os.path.realpath(path), os.path.realpath(str(root))
+        if os.path.commonpath([real, base]) != base:
+            raise InputError(where, field, "a file inside the scene folder (a symlink leaves it)", rel)
+    return path
+
+
+#: The checks applied by :func:`read_table` to a table of each kind (its ``what``).
+TABLE_CHECKS = {"pairs table": check_pairs, "metrics table": check_metrics}
 
 
 class atomic_path:
@@ -174,18 +310,34 @@ class atomic_path:
         self.target = Path(target)
 
     def __enter__(self) -> Path:
-        self.target.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{self.target.name}.", suffix=".part" + self.target.suffix,
-                                   dir=self.target.parent)
+        if self.target.is_dir():
+            raise InputError(self.target, None, "an output file path", "an existing folder")
+        try:
+            self.target.parent.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(prefix=f".{self.target.name}.", suffix=".part" + self.target.suffix,
+                                       dir=self.target.parent)
+        except OSError as exc:
+            raise _write_error(self.target, exc) from None
         os.close(fd)
         self.tmp = Path(tmp)
         return self.tmp
 
-    def __exit__(self, exc_type, exc, tb) -> None:
+    def __exit__(self, exc_type, exc, tb) -> bool:
         if exc_type is None:
-            os.replace(self.tmp, self.target)
-        else:
-            self.tmp.unlink(missing_ok=True)
+            try:
+                os.replace(self.tmp, self.target)
+                return False
+            except OSError as err:
+                exc = err
+        self.tmp.unlink(missing_ok=True)
+        if isinstance(exc, OSError):
+            raise _write_error(self.target, exc) from None
+        return False
+
+
+def _write_error(target: Path, exc: OSError) -> InputError:
+    """One-line error for an output that cannot be written (read-only folder, disk full...)."""
+    return InputError(target, None, "a writable output location", exc.strerror or type(exc).__name__)
 
 
 def atomic_write_text(path: str | os.PathLike, text: str) -> None:
@@ -224,11 +376,11 @@ def pair_scene_roots(df: pd.DataFrame, *, scene_root=None, base=None, where: str
     if scene_root is not None:
         root = Path(scene_root).resolve()
         if not root.is_dir():
-            raise InputError("--scene", None, "an existing scene folder", str(scene_root))
+            raise InputError("scene_root", None, "an existing scene folder", str(scene_root))
         return np.full(len(df), str(root), dtype=object)
     if "scene_root" not in df.columns:
         raise InputError(where, "column 'scene_root'",
-                         "--scene SCENE or a scene_root column (gt_path/render_path are relative to it)",
+                         "a scene folder (scene_root) or a scene_root column (gt_path/render_path are relative to it)",
                          "neither")
     base = Path(base) if base is not None else Path.cwd()
     uniq = {r: str((base / str(r)).resolve()) for r in df["scene_root"].astype(str).unique()}
@@ -237,11 +389,21 @@ def pair_scene_roots(df: pd.DataFrame, *, scene_root=None, base=None, where: str
 
 def pair_image_paths(df: pd.DataFrame, column: str, *, scene_root=None, base=None,
                      where: str = "pairs"):
-    """Absolute image paths of ``column`` (``gt_path`` or ``render_path``), ``(N,)`` object array."""
+    """Absolute image paths of ``column`` (``gt_path`` or ``render_path``), ``(N,)`` object array.
+
+    Every path obeys the scene-folder rule (:func:`inside_scene`) and names an existing file."""
+    import numpy as np
+
     roots = pair_scene_roots(df, scene_root=scene_root, base=base, where=where)
-    rel = df[column].astype(str).to_numpy(dtype=object)
-    return np.array([p if os.path.isabs(p) else os.path.join(r, p) for r, p in zip(roots, rel, strict=True)],
-                    dtype=object)
+    rel = df[column].to_numpy(dtype=object)
+    seen: dict = {}
+    for i, key in enumerate(zip(roots, rel, strict=True)):
+        if key not in seen:  # each distinct image once (lstat calls for the symlink rule)
+            field = f"{_line(i)}: column {column!r}"
+            seen[key] = inside_scene(*key, where=where, field=field)
+            if not os.path.isfile(seen[key]):
+                raise InputError(where, field, "an existing image file", f"{key[1]} (not found)")
+    return np.array([seen[k] for k in zip(roots, rel, strict=True)], dtype=object)
 
 
 def pair_boxes(df: pd.DataFrame, columns, *, where: str = "pairs"):

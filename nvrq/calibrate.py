@@ -19,16 +19,17 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from tqdm import tqdm
 
 from data_schema.errors import InputError
 from data_schema.tables import GT_BOX_COLUMNS, atomic_write_text, pair_boxes, pair_image_paths
-from nvrq.encoders import get_spec
-from nvrq.scoring import embed_crops, nvrq_similarity
+from nvrq.score_core import embed_crops, nvrq_similarity, read_crops
 
 __all__ = ["config_path", "read_tau_config", "write_tau", "resolve_tau", "recommend_tau",
            "unrelated_pairs", "Calibration", "calibrate_tau"]
@@ -114,6 +115,26 @@ def unrelated_pairs(track_ids: np.ndarray, classes: np.ndarray, *, max_pairs: in
     return i, j
 
 
+def _check_calibrate_args(encoder, **counts: int) -> None:
+    """Validate :func:`calibrate_tau`'s keyword arguments (naming each parameter)."""
+    if encoder is None or not hasattr(encoder, "embed"):
+        raise InputError("encoder", None, "a loaded encoder", encoder)
+    for name, value in counts.items():
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+            raise InputError(name, None, "a positive integer", value)
+
+
+def _embed_gt_crops(paths, boxes: np.ndarray, encoder, *, batch_size: int, progress: bool,
+                    where: str) -> np.ndarray:
+    """Embeddings (N, D) of the crops ``boxes`` (N, 4) of images ``paths`` (N,), with a progress bar."""
+    crops = read_crops(paths, boxes, where=where)
+    step = batch_size * 4
+    parts = [embed_crops(crops[k:k + step], encoder, batch_size=batch_size)
+             for k in tqdm(range(0, len(crops), step), unit="chunk", file=sys.stderr,
+                           disable=not progress, desc="embed")]
+    return np.concatenate(parts) if parts else np.zeros((0, 0), np.float32)
+
+
 @dataclass
 class Calibration:
     """``s``: S of every unrelated pair (M,); ``tau``: the median; counts for the report."""
@@ -139,6 +160,7 @@ def calibrate_tau(pairs: pd.DataFrame, encoder, *, scene_root=None, max_crops: i
     One GT crop per (camera, track, timestamp) is used; at most ``max_crops`` of them
     (uniform sample, ``seed``), then at most ``max_pairs`` unrelated pairs among them.
     """
+    _check_calibrate_args(encoder, max_crops=max_crops, max_pairs=max_pairs, batch_size=batch_size)
     need = ["track_id", "label_class", "gt_path", *GT_BOX_COLUMNS]
     missing = [c for c in need if c not in pairs.columns]
     if missing:
@@ -161,7 +183,7 @@ def calibrate_tau(pairs: pd.DataFrame, encoder, *, scene_root=None, max_crops: i
     remap = np.full(used.max() + 1, -1)
     remap[used] = np.arange(len(used))
     paths = pair_image_paths(crops, "gt_path", scene_root=scene_root, where=where)
-    feats = embed_crops(paths, pair_boxes(crops, GT_BOX_COLUMNS, where=where), encoder, batch_size=batch_size,
-                        progress=progress, where=where)
+    feats = _embed_gt_crops(paths, pair_boxes(crops, GT_BOX_COLUMNS, where=where), encoder,
+                            batch_size=batch_size, progress=progress, where=where)
     s = nvrq_similarity(feats[remap[i]], feats[remap[j]])
     return Calibration(encoder.spec.name, s, recommend_tau(s), len(crops))

@@ -10,11 +10,12 @@ OpenCV but never a deep-learning runtime.
 
 from __future__ import annotations
 
-import argparse
 import importlib
 import sys
 
-from data_schema.errors import run_subcommand
+from data_schema.cliargs import flags_in_errors
+from data_schema.errors import ArgumentParser, run_cli
+from data_schema.outputs import check_output_file, check_output_folder
 
 __all__ = ["main", "build_parser"]
 
@@ -32,8 +33,8 @@ COMMAND_MODULES = [
 ]
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+def build_parser() -> ArgumentParser:
+    parser = ArgumentParser(
         prog="nvrq",
         description="Object-level quality of novel-view synthesis in driving scenes (NVRQ).",
     )
@@ -41,6 +42,39 @@ def build_parser() -> argparse.ArgumentParser:
     for name in COMMAND_MODULES:
         importlib.import_module(name).register(sub)  # a missing module is an install error
     return parser
+
+
+#: What each subcommand writes: the kind of its ``--out``/``OUT`` (see data_schema.outputs).
+OUTPUT_KINDS = {"synth": "scene", "import": "scene", "render-plan": "file", "pairs": "file",
+                "score": "file", "proxy": "file", "stability": "report"}
+#: Parsed arguments that name a command's input files or folders.
+INPUT_ARGS = ("pairs", "scene", "detections", "class_map", "archive", "kitti_root", "yolo",
+              "weights", "config", "clip")
+
+
+def check_outputs(args) -> None:
+    """Refuse an output that is an input or lies in a scene/study folder (before any work)."""
+    kind = OUTPUT_KINDS.get(args.command)
+    if kind is None or getattr(args, "out", None) is None:
+        return
+    inputs = [getattr(args, a) for a in INPUT_ARGS if getattr(args, a, None) is not None]
+    option = "--out" if args.command not in ("synth", "import") else "OUT"
+    if kind == "file":
+        check_output_file(args.out, inputs=inputs, option=option)
+        if args.command == "score":
+            from nvrq.commands.score import timing_path
+
+            check_output_file(timing_path(args.out), inputs=inputs, option="--out (its .timing.csv)")
+    else:
+        check_output_folder(args.out, kind=kind, inputs=inputs, option=option)
+
+
+def _main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    with flags_in_errors(parser, args, {"scene_root": "scene", "perturbations": "perturb"}):
+        check_outputs(args)
+        return args.func(args)
 
 
 def main(argv=None) -> int:

@@ -1,8 +1,10 @@
 """GT / novel-view box pairs (SPEC section 3; paper sections 3.2 and 5.1).
 
-For every camera, frame and render offset of a scene, every object box is projected
-into the GT view (offset 0, the real camera) and into the novel view (the virtual camera
-shifted by ``y_offset_m`` in the rig frame, paper Eq. 1-2). A pair is kept when the box is
+For every camera, frame and render perturbation of a scene, every object box is projected
+into the GT view (the real camera) and into the novel view (the virtual camera moved by the
+render's perturbation ``(dx, dy, dz, roll, pitch, yaw)`` in the rig frame, paper Eq. 1-2
+generalised; see :func:`nvrq.geometry.poses.perturb_T_sensor_rig`; a lateral-only scene
+has ``y_offset_m`` alone). A pair is kept when the box is
 valid in both views: all 8 corners have positive depth, are projectable by the camera
 model and lie inside ``0 <= u <= W-1, 0 <= v <= H-1``; the inclusive pixel box has a
 shorter side of at least ``min_side`` and an area of at least ``min_area`` pixels
@@ -24,38 +26,74 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
+from data_schema.errors import InputError
+from data_schema.perturbation import (
+    EXTRA_PERTURBATION_COLUMNS,
+    LABEL_COLUMN,
+    PERTURBATION_COLUMNS,
+    axes,
+    labels,
+    perturbation_array,
+    view_suffix,
+)
 from data_schema.scene import Scene
-from data_schema.tables import GT_BOX_COLUMNS, PAIRS_COLUMNS, RENDER_BOX_COLUMNS, pair_id
+from data_schema.tables import MIN_SIDE_PX, PAIRS_COLUMNS
 from nvrq.geometry.boxes import box_corners, box_sides, pixel_box
 from nvrq.geometry.cameras import camera_from_model
 from nvrq.geometry.poses import (
     interpolate_poses,
     invert_rigid,
-    offset_T_sensor_rig,
+    perturb_T_sensor_rig,
     pose7_to_matrix,
 )
 
-__all__ = ["DROP_REASONS", "PairStats", "track_boxes_at", "view_validity", "make_pairs"]
+__all__ = ["DROP_REASONS", "PAIRS_OUTPUT_COLUMNS", "PairStats", "track_boxes_at", "view_validity", "make_pairs"]
 
-#: Why a candidate box (camera, frame, track, render offset) was dropped, in order of precedence.
+#: Why a candidate box (camera, frame, track, render view) was dropped, in order of precedence.
 DROP_REASONS = ("no_gt_image", "unprojectable", "outside_image", "too_small")
+#: Columns of a :func:`make_pairs` table before the scene attributes and ``scene_root``.
+PAIRS_OUTPUT_COLUMNS = (*PAIRS_COLUMNS, *EXTRA_PERTURBATION_COLUMNS, LABEL_COLUMN)
 
 
 @dataclass
 class PairStats:
-    """Counts of a :func:`make_pairs` run: candidates, kept pairs and drops per reason."""
+    """Counts of a :func:`make_pairs` run: candidates, kept pairs and drops per reason, in
+    total and per perturbation axis (``by_axis[axis]`` = ``{'candidates', 'kept', *reasons}``)."""
 
     candidates: int = 0
     kept: int = 0
     dropped: dict = field(default_factory=lambda: dict.fromkeys(DROP_REASONS, 0))
     frames_outside_trajectory: int = 0
+    by_axis: dict = field(default_factory=dict)
 
     def summary(self) -> str:
         drops = ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in self.dropped.items())
         line = f"{self.kept} pairs kept of {self.candidates} candidate boxes; dropped: {drops}"
         if self.frames_outside_trajectory:
             line += f"; {self.frames_outside_trajectory} frames outside the rig trajectory skipped"
+        moved = [a for a in self.by_axis if a not in ("none", "y")]
+        if moved:  # only when the scene has views beyond the lateral ones
+            for axis, c in self.by_axis.items():
+                drops = ", ".join(f"{k.replace('_', ' ')} {c[k]}" for k in DROP_REASONS)
+                line += f"\n  axis {axis}: {c['kept']} kept of {c['candidates']}; dropped: {drops}"
         return line
+
+    def add(self, axis_names: np.ndarray, has_gt: np.ndarray, worst: np.ndarray) -> None:
+        """Count candidates with axis ``axis_names (C,)``, GT present ``has_gt (C,)`` and
+        view code ``worst (C,)`` (0 valid, 1-3 as :func:`view_validity`)."""
+        for axis in dict.fromkeys(axis_names.tolist()):
+            sel = axis_names == axis
+            c = self.by_axis.setdefault(axis, {"candidates": 0, "kept": 0, **dict.fromkeys(DROP_REASONS, 0)})
+            c["candidates"] += int(sel.sum())
+            c["kept"] += int((sel & has_gt & (worst == 0)).sum())
+            c["no_gt_image"] += int((sel & ~has_gt).sum())
+            for reason, code in zip(DROP_REASONS[1:], (1, 2, 3), strict=True):
+                c[reason] += int((sel & has_gt & (worst == code)).sum())
+        self.candidates += len(axis_names)
+        self.kept += int((has_gt & (worst == 0)).sum())
+        self.dropped["no_gt_image"] += int((~has_gt).sum())
+        for reason, code in zip(DROP_REASONS[1:], (1, 2, 3), strict=True):
+            self.dropped[reason] += int(((worst == code) & has_gt).sum())
 
 
 def track_boxes_at(scene: Scene, query_us: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -99,103 +137,149 @@ def view_validity(
     return code, box
 
 
-def make_pairs(
-    scene: Scene, *, min_side: float = 30, min_area: float = 0, progress: bool = True
-) -> tuple[pd.DataFrame, PairStats]:
-    """All valid GT/render box pairs of ``scene`` (SPEC section 3).
+def _render_views(renders: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+    """Distinct views ``P: (K, 6)`` (the zero view included; sorted, so a lateral-only scene
+    gets its offsets in increasing order) and each render row's view index ``(R,)``."""
+    P_r = perturbation_array(renders)
+    views, inverse = np.unique(np.concatenate([np.zeros((1, 6)), P_r]), axis=0, return_inverse=True)
+    return views, np.asarray(inverse).reshape(-1)[1:]
 
-    Returns the pairs table (columns :data:`~data_schema.tables.PAIRS_COLUMNS`, then one
-    column per scene attribute, then ``scene_root``) and the :class:`PairStats`. A candidate
-    (camera, frame, track, render offset) invalid in the GT view is counted under the GT
-    view's reason, otherwise under the novel view's; novel views are only projected for
-    boxes valid in the GT view.
-    """
-    stats = PairStats()
-    images = scene.images
-    frames_out = []
-    cams = list(scene.cameras.values())
-    for cam in tqdm(cams, desc="pairs", unit="camera", disable=not progress or len(cams) < 2):
-        model = camera_from_model(cam.model, where=str(scene.root / "scene.json"),
-                                  field_prefix=f"cameras.{cam.name}.model.")
-        rows = images[images.camera == cam.name]
-        renders = rows[rows.source == "render"]
-        if renders.empty:
-            continue
-        gt_paths = dict(zip(rows.loc[rows.source == "gt", "timestamp_us"], rows.loc[rows.source == "gt", "path"],
-                            strict=True))
-        frames = np.unique(renders.timestamp_us.to_numpy(np.int64))
-        offsets = np.unique(np.concatenate([[0.0], renders.y_offset_m.to_numpy(np.float64)]))
-        T_rig_world, on_traj = interpolate_poses(scene.rig_timestamps_us, scene.T_rig_world, frames)
-        stats.frames_outside_trajectory += int((~on_traj).sum())
-        tr_i, fr_i, T_box_world = track_boxes_at(scene, frames)
-        keep = on_traj[fr_i]
-        tr_i, fr_i, T_box_world = tr_i[keep], fr_i[keep], T_box_world[keep]
-        dims = np.stack([scene.tracks[k].dims_lwh for k in tr_i]) if len(tr_i) else np.zeros((0, 3))
-        corners = box_corners(T_box_world, dims)  # (M, 8, 3) world
-        # GT view first: world -> sensor is inv(T_rig_world @ T_sensor_rig), per frame
-        T_ws = invert_rigid(T_rig_world @ cam.T_sensor_rig)[fr_i]  # (M, 4, 4)
-        corners_gt = np.matmul(corners, np.swapaxes(T_ws[:, :3, :3], 1, 2)) + T_ws[:, None, :3, 3]
-        code_gt, box_gt = view_validity(model, corners_gt, min_side=min_side, min_area=min_area)
-        # novel views only for boxes valid in the GT view (the others cannot pair). The
-        # offset is rigid in the rig frame, so sensor' = inv(T_sensor'_rig) @ T_sensor_rig @ sensor.
-        T_sk_s = invert_rigid(offset_T_sensor_rig(cam.T_sensor_rig, offsets)) @ cam.T_sensor_rig  # (K, 4, 4)
-        good = np.flatnonzero(code_gt == 0)
-        pk = np.matmul(corners_gt[good, None], np.swapaxes(T_sk_s[:, :3, :3], 1, 2)) + T_sk_s[:, None, :3, 3]
-        code_n, box_n = view_validity(model, pk, min_side=min_side, min_area=min_area)  # (G, K)
-        # code[m, k]: 0 valid in both views, else the failing view's reason (GT view first)
-        code = np.repeat(code_gt[:, None], len(offsets), axis=1)
-        code[good] = code_n
-        box = np.zeros((len(tr_i), len(offsets), 4), np.int64)
-        box[good] = box_n
-        # candidates: every render image row x every box of its frame
-        frame_pos = {int(t): i for i, t in enumerate(frames)}
-        r_frame = np.array([frame_pos[int(t)] for t in renders.timestamp_us], dtype=np.int64)
-        r_k = np.searchsorted(offsets, renders.y_offset_m.to_numpy(np.float64))
-        order = np.argsort(fr_i, kind="stable")
-        starts = np.searchsorted(fr_i[order], np.arange(len(frames) + 1))
-        counts = np.diff(starts)
-        n_per_row = counts[r_frame]
-        row_idx = np.repeat(np.arange(len(renders)), n_per_row)
-        within = np.arange(len(row_idx)) - np.repeat(np.cumsum(n_per_row) - n_per_row, n_per_row)
-        box_idx = order[np.repeat(starts[r_frame], n_per_row) + within]
-        k_idx = r_k[row_idx]
-        has_gt = np.array([int(t) in gt_paths for t in renders.timestamp_us], dtype=bool)[row_idx]
-        worst = code[box_idx, k_idx]
-        stats.candidates += len(row_idx)
-        stats.dropped["no_gt_image"] += int((~has_gt).sum())
-        for reason, c in zip(DROP_REASONS[1:], (1, 2, 3), strict=True):
-            stats.dropped[reason] += int(((worst == c) & has_gt).sum())
-        ok = has_gt & (worst == 0)
-        row_idx, box_idx, k_idx = row_idx[ok], box_idx[ok], k_idx[ok]
-        stats.kept += len(row_idx)
-        r = renders.iloc[row_idx]
-        tracks = scene.tracks
-        ts = r.timestamp_us.to_numpy(np.int64)
-        off = r.y_offset_m.to_numpy(np.float64)
-        tid = np.array([tracks[k].track_id for k in tr_i[box_idx]], dtype=object)
-        df = pd.DataFrame({
-            "clip_id": scene.clip_id,
-            "camera": cam.name,
-            "track_id": tid,
-            "label_class": np.array([tracks[k].label_class for k in tr_i[box_idx]], dtype=object),
-            "timestamp_us": ts,
-            "y_offset_m": off,
-            "gt_path": [gt_paths[int(t)] for t in ts],
-            "render_path": r.path.to_numpy(dtype=object),
-        })
-        gb, rb = box_gt[box_idx], box[box_idx, k_idx]
-        df[list(GT_BOX_COLUMNS)] = gb
-        df[list(RENDER_BOX_COLUMNS)] = rb
-        df.insert(0, "pair_id", [pair_id(scene.clip_id, cam.name, t, s, o)
-                                 for t, s, o in zip(tid, ts, off, strict=True)])
-        frames_out.append(df)
-    cols = list(PAIRS_COLUMNS) + list(scene.attributes) + ["scene_root"]
+
+def _frame_boxes(scene: Scene, frames: np.ndarray, stats: PairStats):
+    """Rig poses at ``frames (F,)`` and the world corners ``(M, 8, 3)`` of every box there
+    (frames off the rig trajectory skipped and counted): ``(T_rig_world, track_index, frame_index, corners)``."""
+    T_rig_world, on_traj = interpolate_poses(scene.rig_timestamps_us, scene.T_rig_world, frames)
+    stats.frames_outside_trajectory += int((~on_traj).sum())
+    tr_i, fr_i, T_box_world = track_boxes_at(scene, frames)
+    keep = on_traj[fr_i]
+    tr_i, fr_i, T_box_world = tr_i[keep], fr_i[keep], T_box_world[keep]
+    dims = np.stack([scene.tracks[k].dims_lwh for k in tr_i]) if len(tr_i) else np.zeros((0, 3))
+    return T_rig_world, tr_i, fr_i, box_corners(T_box_world, dims)
+
+
+def _view_codes(model, T_sensor_rig, T_rig_world, fr_i, corners, views, *, min_side, min_area):
+    """Codes ``(M, K)`` (0 valid in both views, else the failing view's reason, GT view
+    first), GT boxes ``(M, 4)`` and novel-view boxes ``(M, K, 4)``."""
+    # GT view first: world -> sensor is inv(T_rig_world @ T_sensor_rig), per frame
+    T_ws = invert_rigid(T_rig_world @ T_sensor_rig)[fr_i]  # (M, 4, 4)
+    corners_gt = np.matmul(corners, np.swapaxes(T_ws[:, :3, :3], 1, 2)) + T_ws[:, None, :3, 3]
+    code_gt, box_gt = view_validity(model, corners_gt, min_side=min_side, min_area=min_area)
+    # novel views only for boxes valid in the GT view (the others cannot pair). The
+    # perturbation is rigid in the rig frame, so sensor' = inv(T_sensor'_rig) @ T_sensor_rig @ sensor.
+    T_sk_s = invert_rigid(perturb_T_sensor_rig(T_sensor_rig, views)) @ T_sensor_rig  # (K, 4, 4)
+    good = np.flatnonzero(code_gt == 0)
+    pk = np.matmul(corners_gt[good, None], np.swapaxes(T_sk_s[:, :3, :3], 1, 2)) + T_sk_s[:, None, :3, 3]
+    code_n, box_n = view_validity(model, pk, min_side=min_side, min_area=min_area)  # (G, K)
+    code = np.repeat(code_gt[:, None], len(views), axis=1)
+    code[good] = code_n
+    box = np.zeros((len(fr_i), len(views), 4), np.int64)
+    box[good] = box_n
+    return code, box_gt, box
+
+
+def _candidates(renders: pd.DataFrame, frames: np.ndarray, fr_i: np.ndarray):
+    """Every render image row x every box of its frame: ``(row_index, box_index)`` ``(C,)``."""
+    frame_pos = {int(t): i for i, t in enumerate(frames)}
+    r_frame = np.array([frame_pos[int(t)] for t in renders.timestamp_us], dtype=np.int64)
+    order = np.argsort(fr_i, kind="stable")
+    starts = np.searchsorted(fr_i[order], np.arange(len(frames) + 1))
+    n_per_row = np.diff(starts)[r_frame]
+    row_idx = np.repeat(np.arange(len(renders)), n_per_row)
+    within = np.arange(len(row_idx)) - np.repeat(np.cumsum(n_per_row) - n_per_row, n_per_row)
+    box_idx = order[np.repeat(starts[r_frame], n_per_row) + within]
+    return row_idx, box_idx
+
+
+def _pair_rows(scene, cam_name, r, gt_paths, tr_sel, gb, rb) -> pd.DataFrame:
+    """The pairs-table rows of kept candidates: render rows ``r``, their tracks ``tr_sel``,
+    GT boxes ``gb`` and render boxes ``rb`` ``(P, 4)``."""
+    tracks = scene.tracks
+    ts = r.timestamp_us.to_numpy(np.int64)
+    P = perturbation_array(r)
+    tid = np.array([tracks[k].track_id for k in tr_sel], dtype=object)
+    df = pd.DataFrame({
+        "clip_id": scene.clip_id,
+        "camera": cam_name,
+        "track_id": tid,
+        "label_class": np.array([tracks[k].label_class for k in tr_sel], dtype=object),
+        "timestamp_us": ts,
+        "y_offset_m": r.y_offset_m.to_numpy(np.float64),
+        "gt_path": [gt_paths[int(t)] for t in ts],
+        "render_path": r.path.to_numpy(dtype=object),
+    })
+    for j, name in enumerate(("x0", "y0", "x1", "y1")):
+        df[f"gt_{name}"] = gb[:, j]
+        df[f"r_{name}"] = rb[:, j]
+    for c in EXTRA_PERTURBATION_COLUMNS:  # absent in a hand-built images table: 0
+        df[c] = P[:, PERTURBATION_COLUMNS.index(c)]
+    df[LABEL_COLUMN] = labels(P)
+    df.insert(0, "pair_id", [f"{scene.clip_id}:{cam_name}:{t}:{s}:{v}"
+                             for t, s, v in zip(tid, ts, view_suffix(P), strict=True)])
+    return df
+
+
+def _camera_pairs(scene: Scene, cam, stats: PairStats, *, min_side, min_area) -> pd.DataFrame | None:
+    """The pairs of one camera (None when it has no renders); counts go into ``stats``."""
+    model = camera_from_model(cam.model, where=str(scene.root / "scene.json"),
+                              field_prefix=f"cameras.{cam.name}.model.")
+    rows = scene.images[scene.images.camera == cam.name]
+    renders = rows[rows.source == "render"]
+    if renders.empty:
+        return None
+    gt_rows = rows[rows.source == "gt"]
+    gt_paths = dict(zip(gt_rows.timestamp_us, gt_rows.path, strict=True))
+    frames = np.unique(renders.timestamp_us.to_numpy(np.int64))
+    views, r_k = _render_views(renders)
+    T_rig_world, tr_i, fr_i, corners = _frame_boxes(scene, frames, stats)
+    code, box_gt, box = _view_codes(model, cam.T_sensor_rig, T_rig_world, fr_i, corners, views,
+                                    min_side=min_side, min_area=min_area)
+    row_idx, box_idx = _candidates(renders, frames, fr_i)
+    k_idx = r_k[row_idx]
+    has_gt = np.array([int(t) in gt_paths for t in renders.timestamp_us], dtype=bool)[row_idx]
+    worst = code[box_idx, k_idx]
+    stats.add(axes(views)[k_idx], has_gt, worst)
+    ok = has_gt & (worst == 0)
+    row_idx, box_idx, k_idx = row_idx[ok], box_idx[ok], k_idx[ok]
+    return _pair_rows(scene, cam.name, renders.iloc[row_idx], gt_paths, tr_i[box_idx],
+                      box_gt[box_idx], box[box_idx, k_idx])
+
+
+def _assemble(scene: Scene, frames_out: list[pd.DataFrame]) -> pd.DataFrame:
+    cols = list(PAIRS_OUTPUT_COLUMNS) + list(scene.attributes) + ["scene_root"]
     if frames_out:
         pairs = pd.concat(frames_out, ignore_index=True)
     else:
-        pairs = pd.DataFrame({c: pd.Series(dtype=object) for c in PAIRS_COLUMNS})
+        pairs = pd.DataFrame({c: pd.Series(dtype=object) for c in PAIRS_OUTPUT_COLUMNS})
     for k, v in scene.attributes.items():
         pairs[k] = v
     pairs["scene_root"] = str(scene.root.resolve())
-    pairs = pairs.loc[:, cols].sort_values(["camera", "timestamp_us", "track_id", "y_offset_m"], kind="stable")
-    return pairs.reset_index(drop=True), stats
+    pairs = pairs.loc[:, cols].sort_values(
+        ["camera", "timestamp_us", "track_id", "y_offset_m", *EXTRA_PERTURBATION_COLUMNS], kind="stable")
+    return pairs.reset_index(drop=True)
+
+
+def make_pairs(
+    scene: Scene, *, min_side: float = MIN_SIDE_PX, min_area: float = 0, progress: bool = True
+) -> tuple[pd.DataFrame, PairStats]:
+    """All valid GT/render box pairs of ``scene`` (SPEC section 3).
+
+    Returns the pairs table (columns :data:`PAIRS_OUTPUT_COLUMNS`: the SPEC columns, the
+    five optional perturbation components and the perturbation label; then one column per
+    scene attribute, then ``scene_root``) and the :class:`PairStats`. A candidate (camera,
+    frame, track, render view) invalid in the GT view is counted under the GT view's
+    reason, otherwise under the novel view's; novel views are only projected for boxes
+    valid in the GT view. The 8-corner and size criteria are the same in every view.
+    """
+    from tqdm.auto import tqdm
+
+    for name, value in (("min_side", min_side), ("min_area", min_area)):
+        if not isinstance(value, int | float | np.number) or not np.isfinite(value) or value < 0:
+            raise InputError(name, None, "a non-negative number of pixels", value)
+    stats = PairStats()
+    cams = list(scene.cameras.values())
+    frames_out = []
+    for cam in tqdm(cams, desc="pairs", unit="camera", disable=not progress or len(cams) < 2):
+        df = _camera_pairs(scene, cam, stats, min_side=min_side, min_area=min_area)
+        if df is not None:
+            frames_out.append(df)
+    return _assemble(scene, frames_out), stats

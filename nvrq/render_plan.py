@@ -1,8 +1,11 @@
-"""Render plans: the virtual camera pose of every (camera, frame, offset) a renderer must draw.
+"""Render plans: the virtual camera pose of every (camera, frame, view) a renderer must draw.
 
-For each camera, frame and lateral offset ``y`` (paper Eq. 1-2, SPEC section 1)::
+For each camera, frame and view (a lateral offset ``y``, paper Eq. 1-2, SPEC section 1, or
+a perturbation ``(dx, dy, dz, roll, pitch, yaw)``, see
+:func:`nvrq.geometry.poses.perturb_T_sensor_rig`)::
 
-    T_sensor'_rig   = T_offset(y) @ T_sensor_rig       T_offset = translation (0, y, 0) in the rig frame
+    T_sensor'_rig   = T_pert @ T_sensor_rig            T_pert = translation (0, y, 0) in the rig frame
+                                                       for a lateral offset
     T_sensor_world  = T_rig_world(t) @ T_sensor'_rig   (camera -> world; the rig pose interpolated at t)
     T_world_sensor  = inv(T_sensor_world)              (world -> camera, the view matrix)
 
@@ -33,10 +36,19 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.perturbation import (
+    EXTRA_PERTURBATION_COLUMNS,
+    LABEL_COLUMN,
+    is_lateral,
+    labels,
+    lateral,
+    perturbation_array,
+)
 from data_schema.tables import atomic_write_text, write_table
 from nvrq.geometry.poses import T_sensor_world, interpolate_poses, invert_rigid, offset_T_sensor_rig
 
-__all__ = ["default_image_path", "plan_poses", "render_plan", "write_render_plan", "PLAN_COLUMNS"]
+__all__ = ["default_image_path", "plan_poses", "render_plan", "write_render_plan", "PLAN_COLUMNS",
+           "PLAN_PERTURBATION_COLUMNS"]
 
 PLAN_COLUMNS = (
     "camera",
@@ -47,52 +59,76 @@ PLAN_COLUMNS = (
     "T_sensor_world",
     "T_world_sensor",
 )
+#: Appended to :data:`PLAN_COLUMNS` when some view is not lateral.
+PLAN_PERTURBATION_COLUMNS = (*EXTRA_PERTURBATION_COLUMNS, LABEL_COLUMN)
 
 
-def default_image_path(camera: str, timestamp_us: int, source: str, y_offset_m: float = 0.0) -> str:
-    """The image layout used by ``nvrq synth`` and ``nvrq import``: relative POSIX path."""
-    sub = "gt" if source == "gt" else f"render_{float(y_offset_m):+.2f}"
+def default_image_path(camera: str, timestamp_us: int, source: str, y_offset_m: float = 0.0, *,
+                       perturbation=None) -> str:
+    """The image layout used by ``nvrq synth`` and ``nvrq import``: relative POSIX path.
+
+    A lateral view goes to ``render_<y:+.2f>``; a ``perturbation (6,)`` with other non-zero
+    components to ``render_<label>`` with ``=`` dropped and ``,`` as ``_``:
+
+    >>> default_image_path("front", 5, "render", perturbation=np.array([0, 0, 0.5, 0, 0, -5]))
+    'images/front/render_z+0.50_yaw-5.00/5.png'
+    """
+    if source == "gt":
+        sub = "gt"
+    elif perturbation is not None and not is_lateral(np.asarray(perturbation, float).reshape(1, 6))[0]:
+        sub = "render_" + labels(perturbation)[0].replace("=", "").replace(",", "_")
+    else:
+        sub = f"render_{float(y_offset_m):+.2f}"
     return f"images/{camera}/{sub}/{int(timestamp_us)}.png"
 
 
-def plan_poses(T_rig_world: np.ndarray, T_sensor_rig: np.ndarray, y_offsets_m: np.ndarray) -> dict:
+def plan_poses(T_rig_world: np.ndarray, T_sensor_rig: np.ndarray, views: np.ndarray) -> dict:
     """Poses for frames ``T_rig_world: (F, 4, 4)``, one camera ``T_sensor_rig: (4, 4)`` and
-    offsets ``(K,)``: ``T_sensor_rig (K, 4, 4)``, ``T_sensor_world`` and ``T_world_sensor``
-    ``(F, K, 4, 4)``."""
-    T_sr = offset_T_sensor_rig(T_sensor_rig, np.asarray(y_offsets_m, float))
+    views: lateral offsets ``(K,)`` or perturbations ``(K, 6)``. Returns ``T_sensor_rig
+    (K, 4, 4)``, ``T_sensor_world`` and ``T_world_sensor`` ``(F, K, 4, 4)``."""
+    from nvrq.geometry.poses import T_sensor_world, invert_rigid, perturb_T_sensor_rig
+
+    views = np.asarray(views, float)
+    T_sr = perturb_T_sensor_rig(T_sensor_rig, views if views.ndim == 2 else lateral(views))
     T_sw = T_sensor_world(np.asarray(T_rig_world, float)[:, None], T_sr[None])
     return {"T_sensor_rig": T_sr, "T_sensor_world": T_sw, "T_world_sensor": invert_rigid(T_sw)}
 
 
-def render_plan(scene, *, offsets=None, cameras=None) -> pd.DataFrame:
-    """Plan rows (columns :data:`PLAN_COLUMNS`, matrices as (4, 4) arrays) for ``scene``.
+def _plan_views(scene, offsets, perturbations) -> np.ndarray:
+    """The views ``(K, 6)`` to plan: ``perturbations``, else ``offsets``, else those listed."""
+    if perturbations is not None:
+        return np.asarray(perturbations, float).reshape(-1, 6)
+    if offsets is not None:
+        return lateral([float(o) for o in offsets])
+    renders = scene.images[scene.images.source == "render"]
+    if renders.empty:
+        raise InputError(scene.root / "images.csv", "y_offset_m", "render rows or an --offsets list",
+                         "no render rows")
+    return np.unique(perturbation_array(renders), axis=0)  # lateral-only: increasing y
 
-    ``offsets``: metres; default the render offsets listed in ``images.csv``. Frames are
-    the timestamps ``images.csv`` lists for the camera, or the rig timestamps when it lists
-    none. ``path`` is the render's ``images.csv`` path when listed, else
-    :func:`default_image_path`.
+
+def render_plan(scene, *, offsets=None, perturbations=None, cameras=None) -> pd.DataFrame:
+    """Plan rows (columns :data:`PLAN_COLUMNS`, matrices as (4, 4) arrays; then
+    :data:`PLAN_PERTURBATION_COLUMNS` when some view is not lateral) for ``scene``.
+
+    ``offsets``: lateral metres, or ``perturbations (K, 6)`` (which take precedence);
+    default the render views listed in ``images.csv``. Frames are the timestamps
+    ``images.csv`` lists for the camera, or the rig timestamps when it lists none. ``path``
+    is the render's ``images.csv`` path when listed, else :func:`default_image_path`.
     """
     images = scene.images
-    if offsets is None:
-        offsets = sorted(images.loc[images.source == "render", "y_offset_m"].unique().tolist())
-        if not offsets:
-            raise InputError(
-                scene.root / "images.csv",
-                "y_offset_m",
-                "render rows or an --offsets list",
-                "no render rows",
-            )
-    offsets = np.asarray([float(o) for o in offsets])
+    views = _plan_views(scene, offsets, perturbations)
     names = list(scene.cameras) if cameras is None else list(cameras)
     unknown = [c for c in names if c not in scene.cameras]
     if unknown:
         raise InputError(
-            "--cameras", None, f"cameras of the scene ({', '.join(scene.cameras)})", unknown[0]
+            "cameras", None, f"cameras of the scene ({', '.join(scene.cameras)})", unknown[0]
         )
-    listed = {
-        (r.camera, int(r.timestamp_us), float(r.y_offset_m)): r.path
-        for r in images[images.source == "render"].itertuples()
-    }
+    renders = images[images.source == "render"]
+    listed = dict(zip(zip(renders.camera, renders.timestamp_us.astype(int), labels(perturbation_array(renders)),
+                          strict=True),
+                      renders.path, strict=True))
+    keys = labels(views)
     rows = []
     for name in names:
         cam = scene.cameras[name]
@@ -101,24 +137,15 @@ def render_plan(scene, *, offsets=None, cameras=None) -> pd.DataFrame:
             ts = np.asarray(scene.rig_timestamps_us, np.int64)
         T_rw, ok = interpolate_poses(scene.rig_timestamps_us, scene.T_rig_world, ts)
         ts, T_rw = ts[ok], T_rw[ok]
-        P = plan_poses(T_rw, cam.T_sensor_rig, offsets)
+        P = plan_poses(T_rw, cam.T_sensor_rig, views)
         for i, t in enumerate(ts):
-            for k, o in enumerate(offsets):
-                path = listed.get((name, int(t), float(o))) or default_image_path(
-                    name, t, "render", o
-                )
-                rows.append(
-                    (
-                        name,
-                        int(t),
-                        float(o),
-                        path,
-                        P["T_sensor_rig"][k],
-                        P["T_sensor_world"][i, k],
-                        P["T_world_sensor"][i, k],
-                    )
-                )
-    return pd.DataFrame(rows, columns=list(PLAN_COLUMNS))
+            for k, v in enumerate(views):
+                path = listed.get((name, int(t), keys[k])) or default_image_path(
+                    name, t, "render", v[1], perturbation=v)
+                rows.append((name, int(t), float(v[1]), path, P["T_sensor_rig"][k], P["T_sensor_world"][i, k],
+                             P["T_world_sensor"][i, k], *v[[0, 2, 3, 4, 5]].tolist(), keys[k]))
+    plan = pd.DataFrame(rows, columns=[*PLAN_COLUMNS, *PLAN_PERTURBATION_COLUMNS])
+    return plan if not is_lateral(views).all() else plan.loc[:, list(PLAN_COLUMNS)]
 
 
 def write_render_plan(plan: pd.DataFrame, out: str | Path, *, clip_id: str = "") -> Path:
@@ -135,6 +162,7 @@ def write_render_plan(plan: pd.DataFrame, out: str | Path, *, clip_id: str = "")
                 "y_offset_m": float(r.y_offset_m),
                 "path": r.path,
             }
+            d.update({c: getattr(r, c) for c in PLAN_PERTURBATION_COLUMNS if c in plan.columns})
             d.update({m: np.asarray(getattr(r, m)).tolist() for m in mats})
             renders.append(d)
         atomic_write_text(out, json.dumps({"clip_id": clip_id, "renders": renders}) + "\n")
@@ -146,4 +174,4 @@ def write_render_plan(plan: pd.DataFrame, out: str | Path, *, clip_id: str = "")
     flat = plan.copy()
     for m in mats:
         flat[m] = [json.dumps(np.asarray(v).tolist()) for v in flat[m]]
-    return write_table(flat, out, columns=PLAN_COLUMNS)
+    return write_table(flat, out, columns=[c for c in plan.columns])

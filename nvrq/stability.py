@@ -36,9 +36,9 @@ from scipy.stats import rankdata
 from tqdm import tqdm
 
 from data_schema.errors import InputError
-from data_schema.tables import GT_BOX_COLUMNS, atomic_path, pair_boxes, pair_image_paths
-from nvrq.crops import cut_box, encoder_input, read_rgb, resize_to
-from nvrq.metrics import REGISTRY, metric_info, split_column
+from data_schema.tables import GT_BOX_COLUMNS, MIN_SIDE_PX, pair_boxes, pair_image_paths
+from nvrq.crops import cut_box, read_rgb
+from nvrq.metrics import metric_info
 from nvrq.nuisances import (
     NUISANCE_STRENGTHS,
     expose,
@@ -47,14 +47,14 @@ from nvrq.nuisances import (
     scaled_box,
     shifted_box,
 )
-from nvrq.scoring import nvrq_ca, nvrq_similarity
+from nvrq.score_core import CropBatch, check_metric_args, score_crop_batch
 from nvrq.synth.artefacts import ARTEFACTS, apply_artefact
 
 __all__ = [
     "ARTEFACT_STRENGTHS",
     "Sample",
     "build_samples",
-    "score_crop_pairs",
+    "score_samples",
     "pooled_change",
     "summarise",
     "run_stability",
@@ -62,6 +62,7 @@ __all__ = [
 ]
 
 ARTEFACT_STRENGTHS = (0.25, 0.5, 0.75, 1.0)
+_GT_BOX = list(GT_BOX_COLUMNS)
 
 
 @dataclass
@@ -84,8 +85,8 @@ def _objects(
     k steps along the track's frames present in the pairs table."""
     df = pairs.copy()
     df["_gt_abs"] = pair_image_paths(pairs, "gt_path", where=where)
-    b = pair_boxes(pairs, GT_BOX_COLUMNS, where=where)
-    df[list(GT_BOX_COLUMNS)] = b
+    b = pair_boxes(pairs, _GT_BOX, where=where)
+    df[_GT_BOX] = b
     df["_short"] = np.minimum(b[:, 2] - b[:, 0], b[:, 3] - b[:, 1]) + 1
     keys = ["clip_id", "camera", "track_id", "timestamp_us"]
     frames = df.drop_duplicates(keys).sort_values(keys, kind="stable").reset_index(drop=True)
@@ -100,12 +101,73 @@ def _objects(
     return chosen, frames
 
 
+class _Images:
+    """Decoded images by path, the 9 most recently added kept (view shifts revisit neighbours)."""
+
+    def __init__(self):
+        self._cache: dict[str, np.ndarray] = {}
+
+    def __call__(self, path: str) -> np.ndarray:
+        if path not in self._cache:
+            if len(self._cache) > 8:
+                self._cache.pop(next(iter(self._cache)))
+            self._cache[path] = read_rgb(path)
+        return self._cache[path]
+
+
+def _view_shift(row, track: pd.DataFrame, s, image: _Images) -> np.ndarray | None:
+    """The same track's GT crop ``s`` frames later (else earlier), or ``None``."""
+    for k in (int(row["_rank"] + s), int(row["_rank"] - s)):
+        if k in track.index:
+            nb = track.loc[k]
+            return cut_box(image(nb["_gt_abs"]), nb[_GT_BOX].to_numpy(np.int64)).copy()
+    return None
+
+
+def _nuisance_crop(name: str, s, *, o: int, row, gts: list, r, image: _Images, by_track: dict):
+    """Object ``o``'s crop under nuisance ``name`` at strength ``s`` (``None``: not available);
+    ``r`` is the object's generator, drawn in a fixed order per nuisance."""
+    img = image(row["_gt_abs"])
+    size = (img.shape[1], img.shape[0])
+    box = row[_GT_BOX].to_numpy(np.int64)
+    if name == "box_jitter":
+        return cut_box(img, shifted_box(box, s, r.uniform(0, 2 * math.pi), size))
+    if name == "scale_jitter":
+        return cut_box(img, scaled_box(box, 1 + s * r.choice([-1.0, 1.0]), size))
+    if name == "occlusion":
+        other = (o + 1 + int(r.integers(len(gts) - 1))) % len(gts)
+        return occlude(gts[o], gts[other], s, int(r.integers(4)))
+    if name == "exposure":
+        return expose(gts[o], 1 + s * r.choice([-1.0, 1.0]))
+    if name == "jpeg":
+        return jpeg_roundtrip(gts[o], int(round(100 - s)))
+    if name == "view_shift":
+        return _view_shift(row, by_track[(row["clip_id"], row["camera"], row["track_id"])], s, image)
+    raise InputError("nuisances", name, f"one of {', '.join(NUISANCE_STRENGTHS)}", name)
+
+
+def _object_samples(o: int, row, *, seed: int, gts: list, nuisances: dict, artefact_strengths,
+                    image: _Images, by_track: dict) -> list[Sample]:
+    """Every nuisance and artefact :class:`Sample` of object ``o`` (generator ``[seed, o]``)."""
+    r = np.random.default_rng([seed, o])
+    out = []
+    for name, strengths in nuisances.items():
+        for s in strengths:
+            crop = _nuisance_crop(name, s, o=o, row=row, gts=gts, r=r, image=image, by_track=by_track)
+            if crop is not None:
+                out.append(Sample(o, name, "nuisance", float(s), np.ascontiguousarray(crop)))
+    for name in ARTEFACTS:
+        for s in artefact_strengths:
+            out.append(Sample(o, name, "artefact", float(s), apply_artefact(gts[o], name, s, rng=r)))
+    return out
+
+
 def build_samples(
     pairs: pd.DataFrame,
     *,
     n_objects: int = 60,
     seed: int = 0,
-    min_side: int = 32,
+    min_side: int = MIN_SIDE_PX,
     nuisances: dict | None = None,
     artefact_strengths=ARTEFACT_STRENGTHS,
     progress: bool = True,
@@ -118,119 +180,54 @@ def build_samples(
     by_track = {
         k: g.set_index("_rank") for k, g in frames.groupby(["clip_id", "camera", "track_id"])
     }
-    cache: dict[str, np.ndarray] = {}
-
-    def image(path):
-        if path not in cache:
-            if len(cache) > 8:
-                cache.pop(next(iter(cache)))
-            cache[path] = read_rgb(path)
-        return cache[path]
-
-    box_cols = ["gt_x0", "gt_y0", "gt_x1", "gt_y1"]
+    image = _Images()
     gts = [
-        cut_box(
-            image(r["_gt_abs"]), r[box_cols].to_numpy(np.int64), where=f"{where}: GT box"
-        ).copy()
+        cut_box(image(r["_gt_abs"]), r[_GT_BOX].to_numpy(np.int64), where=f"{where}: GT box").copy()
         for _, r in chosen.iterrows()
     ]
     samples: list[Sample] = []
-    for o, row in tqdm(
-        list(chosen.iterrows()),
-        desc="perturb",
-        unit="object",
-        file=sys.stderr,
-        disable=not progress,
-    ):
-        r = np.random.default_rng([seed, o])
-        img = image(row["_gt_abs"])
-        size = (img.shape[1], img.shape[0])
-        box = row[box_cols].to_numpy(np.int64)
-        gt = gts[o]
-        for name, strengths in nuisances.items():
-            for s in strengths:
-                crop = None
-                if name == "box_jitter":
-                    crop = cut_box(img, shifted_box(box, s, r.uniform(0, 2 * math.pi), size))
-                elif name == "scale_jitter":
-                    crop = cut_box(img, scaled_box(box, 1 + s * r.choice([-1.0, 1.0]), size))
-                elif name == "occlusion":
-                    other = (o + 1 + int(r.integers(len(gts) - 1))) % len(gts)
-                    crop = occlude(gt, gts[other], s, int(r.integers(4)))
-                elif name == "exposure":
-                    crop = expose(gt, 1 + s * r.choice([-1.0, 1.0]))
-                elif name == "jpeg":
-                    crop = jpeg_roundtrip(gt, int(round(100 - s)))
-                elif name == "view_shift":
-                    track = by_track[(row["clip_id"], row["camera"], row["track_id"])]
-                    for k in (int(row["_rank"] + s), int(row["_rank"] - s)):
-                        if k in track.index:
-                            nb = track.loc[k]
-                            crop = cut_box(
-                                image(nb["_gt_abs"]), nb[box_cols].to_numpy(np.int64)
-                            ).copy()
-                            break
-                else:
-                    raise InputError(
-                        "nuisances", name, f"one of {', '.join(NUISANCE_STRENGTHS)}", name
-                    )
-                if crop is not None:
-                    samples.append(
-                        Sample(o, name, "nuisance", float(s), np.ascontiguousarray(crop))
-                    )
-        for name in ARTEFACTS:
-            for s in artefact_strengths:
-                samples.append(
-                    Sample(o, name, "artefact", float(s), apply_artefact(gt, name, s, rng=r))
-                )
+    rows = tqdm(list(chosen.iterrows()), desc="perturb", unit="object", file=sys.stderr,
+                disable=not progress)
+    for o, row in rows:
+        samples += _object_samples(o, row, seed=seed, gts=gts, nuisances=nuisances,
+                                   artefact_strengths=artefact_strengths, image=image,
+                                   by_track=by_track)
     return gts, samples
 
 
-def score_crop_pairs(
-    gt_crops: list[np.ndarray],
-    gt_index: np.ndarray,
-    others: list[np.ndarray],
-    *,
-    metrics: list[str],
-    encoder=None,
-    tau: float | None = None,
-    batch_size: int = 32,
-    progress: bool = True,
-) -> dict[str, np.ndarray]:
-    """Metric values (N,) for the pairs ``(gt_crops[gt_index[k]], others[k])``, as ``nvrq score``
-    computes them (``metrics``: column names from :func:`nvrq.scoring.resolve_metrics`)."""
-    out: dict[str, np.ndarray] = {}
-    enc_cols = [m for m in metrics if REGISTRY[split_column(m)[0]].needs_encoder]
-    pix = [m for m in metrics if m not in enc_cols]
-    if pix:
-        vals = {m: np.empty(len(others)) for m in pix}
-        for k, crop in enumerate(
-            tqdm(others, desc="pixel metrics", unit="pair", file=sys.stderr, disable=not progress)
-        ):
-            gt = gt_crops[gt_index[k]]
-            rs = resize_to(crop, gt.shape[0], gt.shape[1])
-            for m in pix:
-                vals[m][k] = REGISTRY[m].fn(gt, rs)
-        out.update(vals)
-    if enc_cols:
-        size = encoder.spec.input_size
-        crops = list(gt_crops) + list(others)
-        feats = []
-        for k in tqdm(
-            range(0, len(crops), batch_size),
-            desc="embed",
-            unit="batch",
-            file=sys.stderr,
-            disable=not progress,
-        ):
-            feats.append(
-                encoder.embed(np.stack([encoder_input(c, size) for c in crops[k : k + batch_size]]))
-            )
-        f = np.concatenate(feats)
-        s = nvrq_similarity(f[: len(gt_crops)][gt_index], f[len(gt_crops) :])
-        for m in enc_cols:
-            out[m] = s if split_column(m)[0] == "nvrq" else nvrq_ca(s, tau=tau)
-    return {m: out[m] for m in metrics}
+def _sample_batches(gts: list[np.ndarray], samples: list[Sample], *, max_pairs: int) -> list[CropBatch]:
+    """The samples as :class:`CropBatch` es of whole objects, about ``max_pairs`` samples each;
+    ``rows`` index ``samples``; each GT crop appears once in the batch of its object."""
+    objs = np.array([s.obj for s in samples], np.int64)
+    batches, start = [], 0
+    while start < len(samples):
+        stop = min(start + max_pairs, len(samples))
+        while stop < len(samples) and objs[stop] == objs[stop - 1]:  # keep an object whole
+            stop += 1
+        used = np.unique(objs[start:stop])
+        batches.append(CropBatch(np.arange(start, stop), [gts[o] for o in used],
+                                 np.searchsorted(used, objs[start:stop]),
+                                 [s.crop for s in samples[start:stop]]))
+        start = stop
+    return batches
+
+
+def score_samples(gts: list[np.ndarray], samples: list[Sample], *, metrics: list[str], encoder=None,
+                  tau: float | None = None, batch_size: int = 32, max_pairs: int = 256,
+                  progress: bool = True) -> dict[str, np.ndarray]:
+    """Metric values (N,) for every ``(gts[sample.obj], sample.crop)``, through the one scoring
+    core (:func:`nvrq.score_core.score_crop_batch`), exactly as ``nvrq score`` computes them."""
+    check_metric_args(metrics, encoder=encoder, tau=tau, batch_size=batch_size)
+    values = {m: np.full(len(samples), np.nan) for m in metrics}
+    with tqdm(total=len(samples), desc="score", unit="sample", file=sys.stderr,
+              disable=not progress) as bar:
+        for batch in _sample_batches(gts, samples, max_pairs=max_pairs):
+            cols = score_crop_batch(batch, metrics=metrics, encoder=encoder, tau=tau,
+                                    batch_size=batch_size)
+            for m, v in cols.items():
+                values[m][batch.rows] = v
+            bar.update(len(batch.rows))
+    return values
 
 
 def pooled_change(values: np.ndarray, *, higher_better: bool) -> np.ndarray:
@@ -274,6 +271,13 @@ def summarise(samples: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
     )
 
 
+def _check_study_args(*, n_objects: int, min_side: int) -> None:
+    """``n_objects >= 2`` (occlusion borrows another object), ``min_side >= 1``; else InputError."""
+    for name, value, low in (("n_objects", n_objects, 2), ("min_side", min_side, 1)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+            raise InputError(name, None, f"an integer >= {low}", value)
+
+
 def run_stability(
     pairs: pd.DataFrame,
     *,
@@ -282,7 +286,7 @@ def run_stability(
     tau: float | None = None,
     n_objects: int = 60,
     seed: int = 0,
-    min_side: int = 32,
+    min_side: int = MIN_SIDE_PX,
     nuisances: dict | None = None,
     artefact_strengths=ARTEFACT_STRENGTHS,
     batch_size: int = 32,
@@ -290,6 +294,8 @@ def run_stability(
     where: str = "pairs",
 ) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
     """The whole study -> ``(samples, stability, snr)`` tables (see :func:`summarise`)."""
+    _check_study_args(n_objects=n_objects, min_side=min_side)
+    check_metric_args(metrics, encoder=encoder, tau=tau, batch_size=batch_size)
     gts, samples = build_samples(
         pairs,
         n_objects=n_objects,
@@ -301,10 +307,9 @@ def run_stability(
         where=where,
     )
     gt_index = np.array([s.obj for s in samples], np.int64)
-    values = score_crop_pairs(
+    values = score_samples(
         gts,
-        gt_index,
-        [s.crop for s in samples],
+        samples,
         metrics=metrics,
         encoder=encoder,
         tau=tau,

@@ -107,3 +107,20 @@ def test_bad_input_is_reported(scene_dir, tmp_path, capsys):
     assert "--out" in capsys.readouterr().err
     with pytest.raises(InputError, match="cameras"):
         render_plan(load_scene(scene_dir, check_images=False), offsets=[1.0], cameras=["rear"])
+
+
+def test_plan_with_a_perturb_grid_rotates_about_the_camera_centre(scene_dir, tmp_path):
+    # --perturb z=1,yaw=90: the camera rises 1 m; the yawed camera keeps its centre
+    # (1.5, 0, 1.6) and its optical axis (rig x) turns to rig +y, i.e. world -x at t = 100000
+    assert main(["render-plan", str(scene_dir), "--perturb", "z=1,yaw=90", "--out", str(tmp_path / "p.csv")]) == 0
+    df = pd.read_csv(tmp_path / "p.csv")
+    assert df.perturbation.tolist() == ["z=+1.00", "yaw=+90.00"]
+    assert df.path.tolist() == ["images/front/render_z+1.00/100000.png", "images/front/render_yaw+90.00/100000.png"]
+    T_z, T_yaw = (np.array(json.loads(v)) for v in df.T_sensor_rig)
+    np.testing.assert_allclose(T_z[:3, 3], [1.5, 0.0, 2.6], atol=1e-12)
+    np.testing.assert_allclose(T_yaw[:3, 3], [1.5, 0.0, 1.6], atol=1e-12)
+    np.testing.assert_allclose(T_yaw[:3, 2], [0, 1, 0], atol=1e-12)
+    np.testing.assert_allclose(np.array(json.loads(df.T_sensor_world[1]))[:3, 2], [-1, 0, 0], atol=1e-9)
+    # an old lateral plan keeps its columns exactly
+    lateral = render_plan(load_scene(scene_dir, check_images=False), offsets=[2.0])
+    assert "perturbation" not in lateral.columns

@@ -5,12 +5,7 @@ Rule: tau = median of S over GT crops of unrelated objects (different tracks and
 
 from __future__ import annotations
 
-import datetime as dt
-
-from data_schema.errors import InputError
-from data_schema.tables import read_table
-from nvrq.calibrate import calibrate_tau, config_path, write_tau
-from nvrq.encoders import DEFAULT_ENCODER, get_spec, load_encoder
+from nvrq.commands._encoder import add_encoder_arguments, load_encoder_and_tau
 
 __all__ = ["register", "run"]
 
@@ -20,38 +15,35 @@ def register(sub) -> None:
                        description="S (paper Eq. 4) over GT crops of unrelated objects -- different "
                                    "tracks and classes, GT vs GT -- and the tau it recommends: the median.")
     p.add_argument("pairs", help="pairs table from `nvrq pairs` (.csv or .parquet)")
-    p.add_argument("--encoder", default=None, help="encoder (default efficientnet-lite0)")
-    p.add_argument("--weights", default=None, help="local weights (HF model folder or .pth)")
+    add_encoder_arguments(p, tau=False)
     p.add_argument("--scene", default=None, help="scene folder (default: the scene_root column)")
     p.add_argument("--max-crops", type=int, default=400, help="GT crops sampled (default 400)")
     p.add_argument("--max-pairs", type=int, default=20000, help="unrelated pairs sampled (default 20000)")
     p.add_argument("--seed", type=int, default=0, help="sampling seed (default 0)")
     p.add_argument("--allow-same-class", action="store_true",
                    help="also pair objects of the same class (different tracks), e.g. one-class scenes")
-    p.add_argument("--batch-size", type=int, default=32, help="encoder batch size (default 32)")
-    p.add_argument("--device", default="cpu", help="torch device (default cpu)")
-    p.add_argument("--write-config", action="store_true", help="store the tau in the user config")
-    p.add_argument("--config", default=None,
-                   help="config file (default $NVRQ_CONFIG, else ~/.config/nvrq/tau.json)")
+    p.add_argument("--write-config", action="store_true", help="store the tau in the --config file")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    name = args.encoder or DEFAULT_ENCODER
-    get_spec(name)
-    for opt in ("max_crops", "max_pairs", "batch_size"):
-        if getattr(args, opt) < 1:
-            raise InputError(f"--{opt.replace('_', '-')}", None, "a positive integer", getattr(args, opt))
+    import datetime as dt
+
+    from data_schema.tables import read_table
+    from nvrq.calibrate import calibrate_tau, config_path, write_tau
+
     pairs = read_table(args.pairs, what="pairs table")
-    encoder = load_encoder(name, weights=args.weights, device=args.device)
+    encoder, _ = load_encoder_and_tau(args, needs_tau=False)
     cal = calibrate_tau(pairs, encoder, scene_root=args.scene, max_crops=args.max_crops,
-                        max_pairs=args.max_pairs, seed=args.seed, allow_same_class=args.allow_same_class,
-                        batch_size=args.batch_size, progress=not args.quiet, where=str(args.pairs))
+                        max_pairs=args.max_pairs, seed=args.seed,
+                        allow_same_class=args.allow_same_class, batch_size=args.batch_size,
+                        progress=not args.quiet, where=str(args.pairs))
     print(cal.summary())
     if args.write_config:
-        path = write_tau(config_path(args.config), name, cal.tau, rule="median S of unrelated GT crops",
-                         n_pairs=int(len(cal.s)), n_crops=int(cal.n_crops), pairs=str(args.pairs),
+        path = write_tau(config_path(args.config), cal.encoder, cal.tau,
+                         rule="median S of unrelated GT crops", n_pairs=int(len(cal.s)),
+                         n_crops=int(cal.n_crops), pairs=str(args.pairs),
                          measured_at=dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"))
-        print(f"wrote tau {cal.tau:.3f} for {name} to {path}")
+        print(f"wrote tau {cal.tau:.3f} for {cal.encoder} to {path}")
     return 0

@@ -12,7 +12,7 @@ import time
 from importlib.metadata import distribution
 from pathlib import Path
 
-from data_schema.errors import InputError
+from data_schema.cliargs import allow_negative_lists
 
 __all__ = ["register", "run", "demo_steps"]
 
@@ -27,6 +27,7 @@ def register(sub) -> None:
     p.add_argument("--offsets", default="-3,-2,-1,0,1,2,3", help="render offsets in metres")
     p.add_argument("--encoder", default="efficientnet-lite0", help="encoder for nvrq/nvrq_ca (default: offline)")
     p.add_argument("--raters", type=int, default=5, help="simulated raters (default 5)")
+    allow_negative_lists(p)
     p.set_defaults(func=run)
 
 
@@ -41,7 +42,7 @@ def demo_steps(out: Path, args) -> list[tuple[str, list[str]]]:
         ("nvrq", ["pairs", str(scene), "--out", str(pairs)]),
         ("nvrq", ["score", str(pairs), "--out", str(metrics), "--metrics", metric_list,
                   "--encoder", args.encoder]),
-        ("annotate", ["build", str(study), "--pairs", str(pairs), "--metrics", str(metrics),
+        ("annotate", ["build", str(study), "--pairs", str(pairs), "--metrics-table", str(metrics),
                       "--seed", str(args.seed)]),
         ("annotate", ["simulate", str(study), "--raters", str(args.raters), "--seed", str(args.seed)]),
         ("annotate", ["export", str(study), "--out", str(ratings)]),

@@ -13,6 +13,9 @@ __all__ = ["register"]
 
 
 def register(sub) -> None:
+    from data_schema.cliargs import allow_negative_lists
+    from nvrq.commands.synth import add_perturb_option
+
     p = sub.add_parser(
         "import",
         help="import a NuRec archive or a KITTI frame as a scene folder",
@@ -30,6 +33,7 @@ def register(sub) -> None:
     n.add_argument(
         "--offsets", default="-3,-2,-1,0,1,2,3", help="render offsets in metres (left > 0)"
     )
+    add_perturb_option(n)
     n.add_argument(
         "--sequence", default=None, help="rig trajectory sequence_id (default: the first)"
     )
@@ -47,8 +51,12 @@ def register(sub) -> None:
 
 
 def _run_nurec(args) -> int:
+    from nvrq.commands.synth import parse_offsets, perturb_grid
+    from nvrq.sources.nurec import import_nurec
+
     out = import_nurec(
-        args.archive, args.out, offsets=parse_offsets(args.offsets, field="--offsets"), sequence=args.sequence
+        args.archive, args.out, offsets=parse_offsets(args.offsets), sequence=args.sequence,
+        perturbations=perturb_grid(args),
     )
     print(f"wrote {out}")
     return 0

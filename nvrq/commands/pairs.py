@@ -4,10 +4,7 @@ from __future__ import annotations
 
 import time
 
-from data_schema.errors import InputError
-from data_schema.scene import load_scene
-from data_schema.tables import write_table
-from nvrq.pairs import make_pairs
+from data_schema.tables import MIN_SIDE_PX
 
 __all__ = ["register", "run"]
 
@@ -18,15 +15,18 @@ def register(sub) -> None:
                                    "keep the boxes valid in both.")
     p.add_argument("scene", help="scene folder (scene.json + images.csv)")
     p.add_argument("--out", required=True, help="output pairs table (.csv or .parquet)")
-    p.add_argument("--min-side", type=float, default=30, help="shorter side of the box in pixels (default 30)")
+    p.add_argument("--min-side", type=float, default=MIN_SIDE_PX,
+                   help=f"shorter side of the box in pixels (default {MIN_SIDE_PX})")
     p.add_argument("--min-area", type=float, default=0, help="box area in square pixels (default 0)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    if args.min_side < 0 or args.min_area < 0:
-        raise InputError("--min-side/--min-area", None, "non-negative numbers", f"{args.min_side}, {args.min_area}")
+    from data_schema.scene import load_scene
+    from data_schema.tables import write_table
+    from nvrq.pairs import make_pairs
+
     t0 = time.perf_counter()
     scene = load_scene(args.scene)
     pairs, stats = make_pairs(scene, min_side=args.min_side, min_area=args.min_area, progress=not args.quiet)

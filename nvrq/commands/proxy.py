@@ -7,13 +7,7 @@ local Ultralytics YOLO model (optional extra ``[yolo]``).
 
 from __future__ import annotations
 
-from data_schema.errors import InputError
-from data_schema.tables import read_table, write_table
-from nvrq.proxies import load_class_maps
-from nvrq.proxies.classifier_drop import imagenet_drop, load_classifier
-from nvrq.proxies.clip_drop import clip_drop, load_clip, true_category_index
-from nvrq.proxies.detection import detection_confidence, read_detections
-from nvrq.proxies.yolo import run_yolo
+from nvrq.commands._encoder import add_model_arguments, prepare_device
 
 __all__ = ["register"]
 
@@ -37,10 +31,7 @@ def _model_opts(p) -> None:
         help="scene folder the image paths are relative to "
         "(default: the pairs table's scene_root column)",
     )
-    p.add_argument(
-        "--batch-size", type=int, default=32, help="pairs per forward batch (default 32)"
-    )
-    p.add_argument("--device", default="cpu", help="torch device (default cpu)")
+    add_model_arguments(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -124,6 +115,7 @@ def run_detection(args) -> int:
 def run_detect(args) -> int:
     _check_out(args.out)
     pairs = _read_pairs(args.pairs)
+    prepare_device(args)
     dets = run_yolo(
         pairs,
         args.yolo,
@@ -137,31 +129,19 @@ def run_detect(args) -> int:
     return 0
 
 
-def _check_batch(args) -> None:
-    if args.batch_size < 1:
-        raise InputError("--batch-size", None, "a positive integer", args.batch_size)
-
-
 def run_imagenet(args) -> int:
     _check_out(args.out)
-    _check_batch(args)
     pairs = _read_pairs(args.pairs, ("gt_path", "gt_x0", "gt_y0", "gt_x1", "gt_y1"))
+    prepare_device(args)
     clf = load_classifier(args.classifier, weights=args.weights, device=args.device)
-    out = imagenet_drop(
-        pairs,
-        clf,
-        scene_root=args.scene,
-        batch_size=args.batch_size,
-        progress=not args.quiet,
-        where=str(args.pairs),
-    )
+    out = imagenet_drop(pairs, clf, scene_root=args.scene, batch_size=args.batch_size,
+                        progress=not args.quiet, where=str(args.pairs))
     write_table(out, args.out)
     return 0
 
 
 def run_clip(args) -> int:
     _check_out(args.out)
-    _check_batch(args)
     maps = load_class_maps(args.class_map)
     pairs = _read_pairs(args.pairs, ("gt_path", "gt_x0", "gt_y0", "gt_x1", "gt_y1"))
     # unknown classes fail before the model loads
@@ -171,15 +151,9 @@ def run_clip(args) -> int:
         list(maps["clip_prompts"]),
         where=str(args.pairs),
     )
+    prepare_device(args)
     clip = load_clip(args.clip, prompts=maps["clip_prompts"], device=args.device)
-    out = clip_drop(
-        pairs,
-        clip,
-        category_map=maps["clip_category"],
-        scene_root=args.scene,
-        batch_size=args.batch_size,
-        progress=not args.quiet,
-        where=str(args.pairs),
-    )
+    out = clip_drop(pairs, clip, category_map=maps["clip_category"], scene_root=args.scene,
+                    batch_size=args.batch_size, progress=not args.quiet, where=str(args.pairs))
     write_table(out, args.out)
     return 0

@@ -12,6 +12,9 @@ __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
+    from data_schema.cliargs import allow_negative_lists
+    from nvrq.commands.synth import add_perturb_option
+
     p = sub.add_parser(
         "render-plan",
         help="virtual camera poses a renderer must draw (paper Eq. 1-2)",
@@ -22,6 +25,7 @@ def register(sub) -> None:
     p.add_argument(
         "--offsets", default=None, help="offsets in metres (default: those in images.csv)"
     )
+    add_perturb_option(p)
     p.add_argument("--cameras", default=None, help="comma list of camera names (default: all)")
     p.add_argument("--out", required=True, help="output plan (.csv or .json)")
     allow_negative_lists(p)
@@ -29,6 +33,11 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from data_schema.errors import InputError
+    from data_schema.scene import load_scene
+    from nvrq.commands.synth import parse_offsets, perturb_grid
+    from nvrq.render_plan import render_plan, write_render_plan
+
     if not str(args.out).lower().endswith((".csv", ".json")):
         raise InputError("--out", None, "a plan file ending in .csv or .json", args.out)
     scene = load_scene(args.scene, check_images=False)
@@ -36,7 +45,7 @@ def run(args) -> int:
     cameras = (
         None if args.cameras is None else [c.strip() for c in args.cameras.split(",") if c.strip()]
     )
-    plan = render_plan(scene, offsets=offsets, cameras=cameras)
+    plan = render_plan(scene, offsets=offsets, perturbations=perturb_grid(args), cameras=cameras)
     write_render_plan(plan, args.out, clip_id=scene.clip_id)
     print(f"{len(plan)} renders -> {args.out}")
     return 0

@@ -2,34 +2,36 @@
 
 from __future__ import annotations
 
-import re
+from data_schema.cliargs import allow_negative_lists, parse_wxh
 
-from data_schema.errors import InputError
-from data_schema.tables import parse_offsets
-from nvrq.synth import generate_scene
-
-__all__ = ["register", "run", "parse_size", "allow_negative_lists"]
+__all__ = ["register", "run", "parse_offsets", "parse_size", "allow_negative_lists", "add_perturb_option",
+           "perturb_grid"]
 
 
-def allow_negative_lists(parser) -> None:
-    """Let ``parser`` take values such as ``-3,-2,-1`` (argparse would read them as options).
+def add_perturb_option(parser) -> None:
+    """``--perturb AXIS=START:STOP:STEP,...`` (6-DoF grid; replaces ``--offsets`` when given)."""
+    parser.add_argument(
+        "--perturb", default=None, metavar="GRID",
+        help="6-DoF views as a comma list of AXIS=START:STOP:STEP (or AXIS=VALUE), AXIS in "
+        "{x,y,z,roll,pitch,yaw}, metres/degrees in the rig frame, e.g. y=-3:3:1,z=0:2:0.5,yaw=-10:10:5; "
+        "replaces --offsets",
+    )
 
-    argparse treats an argument that starts with ``-`` as an option unless it matches the
-    parser's negative-number pattern; this widens that pattern to comma-separated numbers.
-    """
-    parser._negative_number_matcher = re.compile(r"^-\d*\.?\d+(,\s*[-+]?\d*\.?\d+)*$")
+
+def perturb_grid(args):
+    """The ``(K, 6)`` views of ``--perturb``, or None when it was not given."""
+    from data_schema.perturbation import parse_perturb
+
+    return None if args.perturb is None else parse_perturb(args.perturb, option="--perturb")
 
 
 def parse_size(text: str) -> tuple[int, int]:
-    """``"1280x720"`` -> ``(1280, 720)``.
+    """``"1280x720"`` -> ``(1280, 720)`` (the WxH rule of :mod:`data_schema.cliargs`).
 
     >>> parse_size("640x360")
     (640, 360)
     """
-    parts = str(text).lower().split("x")
-    if len(parts) != 2 or not all(p.strip().isdigit() for p in parts):
-        raise InputError("--size", None, "WxH in pixels, e.g. 1280x720", text)
-    return int(parts[0]), int(parts[1])
+    return parse_wxh(text, option="--size")
 
 
 def register(sub) -> None:
@@ -46,6 +48,7 @@ def register(sub) -> None:
     p.add_argument(
         "--offsets", default="-3,-2,-1,0,1,2,3", help="render offsets in metres (left > 0)"
     )
+    add_perturb_option(p)
     p.add_argument(
         "--cameras", default="pinhole", help="comma list from {pinhole, ftheta} (default pinhole)"
     )
@@ -62,7 +65,8 @@ def run(args) -> int:
         seed=args.seed,
         seconds=args.seconds,
         fps=args.fps,
-        offsets=parse_offsets(args.offsets, field="--offsets"),
+        offsets=parse_offsets(args.offsets),
+        perturbations=perturb_grid(args),
         cameras=cameras,
         size=parse_size(args.size),
         progress=not args.quiet,

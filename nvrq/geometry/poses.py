@@ -25,6 +25,9 @@ __all__ = [
     "slerp",
     "interpolate_poses",
     "offset_T_sensor_rig",
+    "rotation_rpy",
+    "perturbation_T",
+    "perturb_T_sensor_rig",
     "T_sensor_world",
 ]
 
@@ -177,21 +180,77 @@ def interpolate_poses(
     return out, valid
 
 
-def offset_T_sensor_rig(T_sensor_rig: np.ndarray, y_offsets_m: np.ndarray) -> np.ndarray:
-    """Virtual camera mountings ``T_sensor'_rig = T_offset @ T_sensor_rig`` (paper Eq. 1-2).
+def rotation_rpy(roll_deg, pitch_deg, yaw_deg) -> np.ndarray:
+    """Rotations ``R = Rz(yaw) @ Ry(pitch) @ Rx(roll)`` ``(..., 3, 3)`` from degrees.
 
-    ``T_offset`` is a pure translation ``(0, y, 0)`` in the rig frame, so a positive
-    ``y`` moves the camera to the left (rig y points left). ``T_sensor_rig: (4, 4)``,
-    ``y_offsets_m: (K,)`` -> ``(K, 4, 4)``.
+    Convention: rotations about the fixed rig axes (x forward, y left, z up), roll applied
+    first, then pitch, then yaw (equivalently intrinsic yaw, pitch', roll''). Right-handed:
+    positive yaw turns left (x towards y), positive pitch tilts the view down (x towards
+    -z), positive roll lowers the right side (y towards z). Zero angles give exactly ``I``.
+
+    >>> np.round(rotation_rpy(0, 0, 90) @ [1, 0, 0], 12).tolist()
+    [0.0, 1.0, 0.0]
+    >>> np.round(rotation_rpy(0, 90, 0) @ [1, 0, 0], 12).tolist()
+    [0.0, 0.0, -1.0]
+    """
+    r, p, y = (np.radians(np.asarray(a, dtype=np.float64)) for a in (roll_deg, pitch_deg, yaw_deg))
+    r, p, y = np.broadcast_arrays(r, p, y)
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    one, zero = np.ones_like(r), np.zeros_like(r)
+    Rx = np.stack([one, zero, zero, zero, cr, -sr, zero, sr, cr], -1).reshape(r.shape + (3, 3))
+    Ry = np.stack([cp, zero, sp, zero, one, zero, -sp, zero, cp], -1).reshape(r.shape + (3, 3))
+    Rz = np.stack([cy, -sy, zero, sy, cy, zero, zero, zero, one], -1).reshape(r.shape + (3, 3))
+    return Rz @ Ry @ Rx
+
+
+def perturbation_T(T_sensor_rig: np.ndarray, perturbations: np.ndarray) -> np.ndarray:
+    """``T_pert: (K, 4, 4)`` of perturbations ``(K, 6)`` ``(dx, dy, dz, roll, pitch, yaw)``
+    (metres, degrees; rig frame) for a sensor mounted at ``T_sensor_rig: (4, 4)``.
+
+    Convention: ``T_pert`` rotates the rig by :func:`rotation_rpy` **about the sensor's
+    position** ``c`` (the translation of ``T_sensor_rig``), then translates by
+    ``d = (dx, dy, dz)`` in the rig frame: ``p -> R (p - c) + c + d``. So the perturbed
+    camera centre is ``c + d`` (a pure yaw does not move it) and its axes are ``R`` times the
+    real ones. A pure translation gives ``T_pert = [I | d]`` exactly (paper Eq. 1-2).
+    """
+    P = np.asarray(perturbations, dtype=np.float64).reshape(-1, 6)
+    c = np.asarray(T_sensor_rig, dtype=np.float64)[:3, 3]
+    R = rotation_rpy(P[:, 3], P[:, 4], P[:, 5])  # (K, 3, 3); exactly I for zero angles
+    T = np.broadcast_to(np.eye(4), (len(P), 4, 4)).copy()
+    T[:, :3, :3] = R
+    T[:, :3, 3] = P[:, :3] + (c - R @ c)
+    return T
+
+
+def perturb_T_sensor_rig(T_sensor_rig: np.ndarray, perturbations: np.ndarray) -> np.ndarray:
+    """Virtual camera mountings ``T_sensor'_rig = T_pert @ T_sensor_rig`` ``(K, 4, 4)`` for
+    perturbations ``(K, 6)`` (see :func:`perturbation_T` for the convention).
+
+    Worked example: a camera at rig (1.5, 0, 1.5) yawed by +90 deg keeps its centre and its
+    optical axis (rig +x) turns to rig +y:
+
+    >>> T = np.eye(4); T[:3, 3] = [1.5, 0, 1.5]
+    >>> Tp = perturb_T_sensor_rig(T, np.array([[0, 0, 0, 0, 0, 90.0]]))[0]
+    >>> np.round(Tp[:3, 3], 12).tolist(), np.round(Tp[:3, 0], 12).tolist()
+    ([1.5, 0.0, 1.5], [0.0, 1.0, 0.0])
+    """
+    T_sensor_rig = np.asarray(T_sensor_rig, dtype=np.float64)
+    return perturbation_T(T_sensor_rig, perturbations) @ T_sensor_rig
+
+
+def offset_T_sensor_rig(T_sensor_rig: np.ndarray, y_offsets_m: np.ndarray) -> np.ndarray:
+    """Lateral shorthand of :func:`perturb_T_sensor_rig` (paper Eq. 1-2): ``T_offset`` is a
+    pure translation ``(0, y, 0)`` in the rig frame, so a positive ``y`` moves the camera to
+    the left (rig y points left). ``T_sensor_rig: (4, 4)``, ``y_offsets_m: (K,)`` -> ``(K, 4, 4)``.
 
     >>> T = offset_T_sensor_rig(np.eye(4), np.array([0.0, 2.0]))
     >>> T[1, :3, 3].tolist()
     [0.0, 2.0, 0.0]
     """
     y = np.atleast_1d(np.asarray(y_offsets_m, dtype=np.float64))
-    T_offset = np.broadcast_to(np.eye(4), y.shape + (4, 4)).copy()
-    T_offset[..., 1, 3] = y
-    return T_offset @ np.asarray(T_sensor_rig, dtype=np.float64)
+    P = np.zeros(y.shape + (6,))
+    P[..., 1] = y
+    return perturb_T_sensor_rig(T_sensor_rig, P.reshape(-1, 6)).reshape(y.shape + (4, 4))
 
 
 def T_sensor_world(T_rig_world: np.ndarray, T_sensor_rig: np.ndarray) -> np.ndarray:

@@ -32,15 +32,14 @@ import pandas as pd
 from tqdm import tqdm
 
 from data_schema.errors import InputError
-from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS, pair_boxes, pair_image_paths
-from nvrq.crops import cut_box, encoder_input, normalised_tensor, read_rgb
-from nvrq.encoders import load_encoder
+from nvrq.crops import normalised_tensor
+from nvrq.score_core import iter_crop_batches, pair_outputs
 
 __all__ = [
     "ImageClassifier",
     "load_classifier",
     "top_class_drop",
-    "crop_pair_batches",
+    "pair_probabilities",
     "imagenet_drop",
     "DEFAULT_CLASSIFIER",
 ]
@@ -138,41 +137,28 @@ def load_classifier(
     return ImageClassifier(folder.name, model.to(device).eval(), size, mean, std, device)
 
 
-def crop_pair_batches(
-    pairs: pd.DataFrame, *, size: int, scene_root=None, chunk: int = 64, where: str = "pairs"
-) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
-    """Encoder-style inputs of the pairs' crops, ``chunk`` pairs at a time, grouped by GT image.
-
-    Yields ``(rows (n,), gt_inputs (g, S, S, 3), gt_index (n,), render_inputs (n, S, S, 3))``:
-    ``gt_inputs[gt_index[k]]`` is the GT crop of pair ``rows[k]`` (each GT crop prepared once).
-    """
-    gt_paths = pair_image_paths(pairs, "gt_path", scene_root=scene_root, where=where)
-    r_paths = pair_image_paths(pairs, "render_path", scene_root=scene_root, where=where)
-    gt_boxes = pair_boxes(pairs, GT_BOX_COLUMNS, where=where)
-    r_boxes = pair_boxes(pairs, RENDER_BOX_COLUMNS, where=where)
-    order = np.argsort(gt_paths.astype(str), kind="stable")
-    cache: dict[str, np.ndarray] = {}
-    for start in range(0, len(order), chunk):
-        rows = order[start : start + chunk]
-        gt_keys: dict[tuple, int] = {}
-        gt_inputs, gt_index, r_inputs = [], [], []
-        for i in rows:
-            for p in (gt_paths[i], r_paths[i]):
-                if p not in cache:
-                    if len(cache) > 16:
-                        cache.pop(next(iter(cache)))
-                    cache[p] = read_rgb(p)
-            key = (gt_paths[i], *gt_boxes[i])
-            if key not in gt_keys:
-                gt_keys[key] = len(gt_inputs)
-                crop = cut_box(
-                    cache[gt_paths[i]], gt_boxes[i], where=f"{where}: pair {i + 2} GT box"
-                )
-                gt_inputs.append(encoder_input(crop, size))
-            gt_index.append(gt_keys[key])
-            crop = cut_box(cache[r_paths[i]], r_boxes[i], where=f"{where}: pair {i + 2} render box")
-            r_inputs.append(encoder_input(crop, size))
-        yield rows, np.stack(gt_inputs), np.asarray(gt_index), np.stack(r_inputs)
+def pair_probabilities(
+    pairs: pd.DataFrame,
+    model,
+    *,
+    scene_root=None,
+    batch_size: int = 32,
+    progress: bool = True,
+    desc: str = "proxy",
+    where: str = "pairs",
+) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """``(rows (P,), p_gt (P, C), p_render (P, C))`` per crop batch of ``pairs``, through the one
+    scoring core (:mod:`nvrq.score_core`): ``model.probabilities(uint8 (B, S, S, 3))`` with
+    ``S = model.input_size``, each GT crop run once, ``batch_size`` crops per forward pass."""
+    if isinstance(batch_size, bool) or not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
+        raise InputError("batch_size", None, "a positive integer", batch_size)
+    batches = iter_crop_batches(pairs, scene_root=scene_root, where=where)
+    with tqdm(total=len(pairs), unit="pair", file=sys.stderr, disable=not progress, desc=desc) as bar:
+        for batch in batches:
+            p_gt, p_r = pair_outputs(batch, model.probabilities, size=model.input_size,
+                                     batch_size=batch_size)
+            yield batch.rows, p_gt, p_r
+            bar.update(len(batch.rows))
 
 
 def imagenet_drop(
@@ -186,14 +172,8 @@ def imagenet_drop(
 ) -> pd.DataFrame:
     """Eq. 9 for every pair -> DataFrame ``pair_id, imagenet_drop`` (pairs' order)."""
     drop = np.full(len(pairs), np.nan)
-    with tqdm(
-        total=len(pairs), unit="pair", file=sys.stderr, disable=not progress, desc="imagenet"
-    ) as bar:
-        for rows, gt, gt_index, rend in crop_pair_batches(
-            pairs, size=classifier.input_size, scene_root=scene_root, chunk=batch_size, where=where
-        ):
-            probs = classifier.probabilities(np.concatenate([gt, rend]))
-            p_gt, p_r = probs[: len(gt)][gt_index], probs[len(gt) :]
-            drop[rows] = top_class_drop(p_gt, p_r)
-            bar.update(len(rows))
+    for rows, p_gt, p_r in pair_probabilities(pairs, classifier, scene_root=scene_root,
+                                              batch_size=batch_size, progress=progress,
+                                              desc="imagenet", where=where):
+        drop[rows] = top_class_drop(p_gt, p_r)
     return pd.DataFrame({"pair_id": pairs["pair_id"].to_numpy(), "imagenet_drop": drop})

@@ -19,7 +19,6 @@ normalisation (SPEC section 4).
 from __future__ import annotations
 
 import os
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -29,8 +28,7 @@ from tqdm import tqdm
 
 from data_schema.errors import InputError
 from nvrq.crops import normalised_tensor
-from nvrq.proxies import mapped_labels
-from nvrq.proxies.classifier_drop import crop_pair_batches, preprocessor_stats
+from nvrq.proxies.classifier_drop import pair_probabilities, preprocessor_stats
 
 __all__ = ["ZeroShotCLIP", "zero_shot_probs", "load_clip", "clip_drop", "true_category_index"]
 
@@ -181,17 +179,11 @@ def clip_drop(
     """Eq. 10 for every pair -> DataFrame ``pair_id, clip_drop`` (pairs' order; NaN: no category)."""
     c_star = true_category_index(pairs["label_class"], category_map, clip.categories, where=where)
     drop = np.full(len(pairs), np.nan)
-    with tqdm(
-        total=len(pairs), unit="pair", file=sys.stderr, disable=not progress, desc="clip"
-    ) as bar:
-        for rows, gt, gt_index, rend in crop_pair_batches(
-            pairs, size=clip.input_size, scene_root=scene_root, chunk=batch_size, where=where
-        ):
-            probs = clip.probabilities(np.concatenate([gt, rend]))
-            p_gt, p_r = probs[: len(gt)][gt_index], probs[len(gt) :]
-            c = c_star[rows]
-            ok = c >= 0
-            k = np.arange(len(rows))[ok]
-            drop[rows[ok]] = p_gt[k, c[ok]] - p_r[k, c[ok]]
-            bar.update(len(rows))
+    for rows, p_gt, p_r in pair_probabilities(pairs, clip, scene_root=scene_root,
+                                              batch_size=batch_size, progress=progress,
+                                              desc="clip", where=where):
+        c = c_star[rows]
+        ok = c >= 0
+        k = np.arange(len(rows))[ok]
+        drop[rows[ok]] = p_gt[k, c[ok]] - p_r[k, c[ok]]
     return pd.DataFrame({"pair_id": pairs["pair_id"].to_numpy(), "clip_drop": drop})

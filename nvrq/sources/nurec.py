@@ -26,8 +26,8 @@ a uniform scale ``s`` (``R = s * Q``); box dimensions are then divided by ``s``.
 f-theta ``parameters`` become the SPEC model unchanged (same names; the principal point is
 in the same pixel-centre convention).
 
-``images.csv`` lists the GT image and one render per ``--offsets`` value for every kept
-frame, at :func:`nvrq.render_plan.default_image_path`; the files do not exist yet (the
+``images.csv`` lists the GT image and one render per ``--offsets`` value (or per
+``--perturb`` view, with the perturbation columns) for every kept frame, at :func:`nvrq.render_plan.default_image_path`; the files do not exist yet (the
 user's renderer writes them, see ``nvrq render-plan``).
 """
 
@@ -41,9 +41,14 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
-from data_schema.scene import CAMERA_MODEL_SCHEMA, save_scene
-from nvrq.geometry.cameras import camera_from_model
-from nvrq.geometry.poses import matrix_to_pose7, pose7_to_matrix
+from data_schema.perturbation import (
+    EXTRA_PERTURBATION_COLUMNS,
+    PERTURBATION_COLUMNS,
+    is_lateral,
+    lateral,
+)
+from data_schema.scene import save_scene
+from data_schema.tables import IMAGES_COLUMNS
 from nvrq.render_plan import default_image_path
 
 __all__ = ["import_nurec", "read_archive_json"]
@@ -207,17 +212,8 @@ def _read_tracks(doc, sequence_id, where, nre_to_world, scale) -> list[dict]:
     return tracks
 
 
-def import_nurec(
-    archive: str | Path,
-    out: str | Path,
-    *,
-    offsets=(-3, -2, -1, 0, 1, 2, 3),
-    sequence: str | None = None,
-) -> Path:
-    """Convert the NuRec ``archive`` into the scene folder ``out`` (module docstring); returns ``out``."""
-    archive, out = Path(archive), Path(out)
-    rig, rig_member = read_archive_json(archive, "rig_trajectories.json")
-    where = f"{archive}:{rig_member}"
+def _world_to_nre(rig: dict, where: str) -> tuple[np.ndarray, float]:
+    """``(nre_to_world (4, 4), scale)`` from ``world_to_nre`` (``T_world_base`` only checked)."""
     if "T_world_base" in rig:
         _matrix(rig["T_world_base"], where, "T_world_base", rigid=False)
     w2n = _get(rig, "world_to_nre", where, "")
@@ -228,8 +224,11 @@ def import_nurec(
         w2n_fld,
         scale_ok=True,
     )
-    nre_to_world = np.linalg.inv(W)
+    return np.linalg.inv(W), scale
 
+
+def _pick_trajectory(rig: dict, where: str, sequence: str | None):
+    """The chosen rig trajectory: ``(seq_ids, k, traj, field, rig_ts, T_rig_world)``."""
     trajs = _get(rig, "rig_trajectories", where, "")
     if not isinstance(trajs, list) or not trajs:
         raise InputError(where, "rig_trajectories", "a non-empty list", repr(trajs)[:60])
@@ -241,7 +240,7 @@ def import_nurec(
     elif sequence in seq_ids:
         k = seq_ids.index(sequence)
     else:
-        raise InputError("--sequence", None, f"one of {', '.join(seq_ids)}", sequence)
+        raise InputError("sequence", None, f"one of {', '.join(seq_ids)}", sequence)
     traj, tfld = trajs[k], f"rig_trajectories[{k}]"
     rig_ts = _timestamps(
         _get(traj, "T_rig_world_timestamps_us", where, tfld),
@@ -251,6 +250,27 @@ def import_nurec(
     T_rw, _ = _matrix(
         _get(traj, "T_rig_worlds", where, tfld), where, f"{tfld}.T_rig_worlds", n=len(rig_ts)
     )
+    return seq_ids, k, traj, tfld, rig_ts, T_rw
+
+
+def _camera_frames(frames: dict, uid: str, where: str, tfld: str, rig_ts: np.ndarray) -> np.ndarray:
+    """End timestamps ``(N,)`` of ``uid``'s frames inside the rig trajectory."""
+    fr = np.asarray(frames[uid])
+    if fr.ndim != 2 or fr.shape[1] != 2 or not np.issubdtype(fr.dtype, np.integer):
+        raise InputError(
+            where,
+            f"{tfld}.cameras_frame_timestamps_us.{uid}",
+            "a list of [start_us, end_us] integer pairs",
+            repr(frames[uid])[:60],
+        )
+    end = fr[:, 1].astype(np.int64)
+    return end[(end >= rig_ts[0]) & (end <= rig_ts[-1])]
+
+
+def _cameras_and_images(rig: dict, traj: dict, where: str, tfld: str, rig_ts: np.ndarray,
+                        views: np.ndarray) -> tuple[dict, list]:
+    """SPEC cameras of the trajectory's sequence and the ``images.csv`` rows (GT + one render
+    per view, columns ``camera, timestamp_us, source, *PERTURBATION_COLUMNS, path``)."""
     frames = _get(traj, "cameras_frame_timestamps_us", where, tfld)
     calibs = _get(rig, "camera_calibrations", where, "")
     if not isinstance(calibs, dict) or not isinstance(frames, dict):
@@ -260,9 +280,7 @@ def import_nurec(
             "an object keyed by '<camera>@<sequence>'",
             type(calibs).__name__,
         )
-
     cameras, image_rows = {}, []
-    offs = [float(o) for o in offsets]
     for uid, cal in calibs.items():
         if uid not in frames:
             continue  # a camera of another sequence
@@ -275,21 +293,11 @@ def import_nurec(
         T_sr, _ = _matrix(_get(cal, "T_sensor_rig", where, cfld), where, f"{cfld}.T_sensor_rig")
         model = _spec_ftheta(_get(cal, "camera_model", where, cfld), where, f"{cfld}.camera_model")
         cameras[name] = {"T_sensor_rig": T_sr.tolist(), "model": model}
-        fr = np.asarray(frames[uid])
-        if fr.ndim != 2 or fr.shape[1] != 2 or not np.issubdtype(fr.dtype, np.integer):
-            raise InputError(
-                where,
-                f"{tfld}.cameras_frame_timestamps_us.{uid}",
-                "a list of [start_us, end_us] integer pairs",
-                repr(frames[uid])[:60],
-            )
-        end = fr[:, 1].astype(np.int64)
-        for t in end[(end >= rig_ts[0]) & (end <= rig_ts[-1])]:
-            image_rows.append((name, int(t), "gt", 0.0, default_image_path(name, t, "gt")))
-            for o in offs:
-                image_rows.append(
-                    (name, int(t), "render", o, default_image_path(name, t, "render", o))
-                )
+        for t in _camera_frames(frames, uid, where, tfld, rig_ts):
+            image_rows.append((name, int(t), "gt", *[0.0] * 6, default_image_path(name, t, "gt")))
+            for v in views:
+                image_rows.append((name, int(t), "render", *v.tolist(),
+                                   default_image_path(name, t, "render", v[1], perturbation=v)))
     if not cameras:
         raise InputError(
             where,
@@ -297,7 +305,30 @@ def import_nurec(
             "frame timestamps for at least one calibrated camera",
             "none",
         )
+    return cameras, image_rows
 
+
+def import_nurec(
+    archive: str | Path,
+    out: str | Path,
+    *,
+    offsets=(-3, -2, -1, 0, 1, 2, 3),
+    perturbations=None,
+    sequence: str | None = None,
+) -> Path:
+    """Convert the NuRec ``archive`` into the scene folder ``out`` (module docstring); returns ``out``.
+
+    ``offsets``: lateral render offsets (metres), or ``perturbations (K, 6)`` (``dx, dy, dz``
+    metres, ``roll, pitch, yaw`` degrees, rig frame), which replace them.
+    """
+    archive, out = Path(archive), Path(out)
+    views = lateral([float(o) for o in offsets]) if perturbations is None \
+        else np.asarray(perturbations, float).reshape(-1, 6)
+    rig, rig_member = read_archive_json(archive, "rig_trajectories.json")
+    where = f"{archive}:{rig_member}"
+    nre_to_world, scale = _world_to_nre(rig, where)
+    seq_ids, k, traj, tfld, rig_ts, T_rw = _pick_trajectory(rig, where, sequence)
+    cameras, image_rows = _cameras_and_images(rig, traj, where, tfld, rig_ts, views)
     tracks_doc, tr_member = read_archive_json(archive, "sequence_tracks.json")
     tracks = _read_tracks(tracks_doc, seq_ids[k], f"{archive}:{tr_member}", nre_to_world, scale)
     doc = {
@@ -307,8 +338,7 @@ def import_nurec(
         "rig_trajectory": {"timestamps_us": rig_ts.tolist(), "T_rig_world": T_rw.tolist()},
         "tracks": tracks,
     }
-    images = pd.DataFrame(
-        image_rows, columns=["camera", "timestamp_us", "source", "y_offset_m", "path"]
-    )
-    images = images.drop_duplicates(["camera", "timestamp_us", "source", "y_offset_m"])
-    return save_scene(doc, images, out)
+    images = pd.DataFrame(image_rows, columns=["camera", "timestamp_us", "source", *PERTURBATION_COLUMNS, "path"])
+    images = images.drop_duplicates(["camera", "timestamp_us", "source", *PERTURBATION_COLUMNS])
+    extra = [] if is_lateral(views).all() else list(EXTRA_PERTURBATION_COLUMNS)
+    return save_scene(doc, images.loc[:, [*IMAGES_COLUMNS, *extra]], out)

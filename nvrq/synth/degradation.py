@@ -8,7 +8,10 @@ viewing-angle change ``atan(|y| / depth)`` (near objects change most):
     severity = s0 + (1 - s0) * (1 - exp(-(rate * |y| + 1.2 * atan(|y| / max(depth, 2)))))
     rate = 0.06 + 0.5 * (1 - coverage),   s0 = 0.02 + 0.05 * (1 - coverage)
 
-so the 0 m render is close to, not equal to, the GT. Each artefact's strength is the
+so the 0 m render is close to, not equal to, the GT. A view moved along other axes uses,
+instead of ``|y|``, the perturbation's size (:func:`perturbation_size`):
+``|dx| + |dy| + |dz| + M_PER_DEG * (|roll| + |pitch| + |yaw|)``, so 5 deg of rotation
+degrade like 1 m of shift; for a lateral view it is exactly ``|y|``. Each artefact's strength is the
 severity times the object's artefact profile (weights in [0.25, 1], max 1).
 
 Worked example, coverage 1 at 3 m and 10 m depth: x = 0.06 * 3 + 1.2 * atan(0.3) = 0.5298,
@@ -22,7 +25,20 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["severity", "strengths"]
+__all__ = ["severity", "strengths", "perturbation_size", "M_PER_DEG"]
+
+#: Degradation-equivalent metres of one degree of rotation (synthetic model only).
+M_PER_DEG = 0.2
+
+
+def perturbation_size(perturbations: np.ndarray) -> np.ndarray:
+    """``(K, 6)`` perturbations -> size ``(K,)`` (module docstring).
+
+    >>> perturbation_size(np.array([[0, -2.0, 0, 0, 0, 0], [0, 0, 0.5, 0, 0, -5.0]])).tolist()
+    [2.0, 1.5]
+    """
+    P = np.abs(np.asarray(perturbations, float).reshape(-1, 6))
+    return P[:, 0] + P[:, 1] + P[:, 2] + M_PER_DEG * (P[:, 3] + P[:, 4] + P[:, 5])
 
 
 def severity(abs_offset: np.ndarray, depth: np.ndarray, *, coverage: float) -> np.ndarray:

@@ -4,13 +4,18 @@ Output layout::
 
     OUT/scene.json, OUT/images.csv, OUT/degradation.csv
     OUT/images/<camera>/gt/<timestamp_us>.png
-    OUT/images/<camera>/render_<offset:+.2f>/<timestamp_us>.png
+    OUT/images/<camera>/render_<offset:+.2f>/<timestamp_us>.png      (lateral views)
+    OUT/images/<camera>/render_<z+0.50_yaw-5.00>/<timestamp_us>.png  (other perturbations)
 
 GT images come from the true cameras; renders from the virtual cameras of paper Eq. 1-2
-(``T_sensor'_rig = T_offset @ T_sensor_rig``) with the artefacts of
-:mod:`nvrq.synth.degradation`. ``degradation.csv`` has one row per camera, frame, tracked
-object whose centre is in front of the virtual camera, and offset: ``camera,
-timestamp_us, track_id, y_offset_m, severity`` and one strength column per artefact.
+generalised (``T_sensor'_rig = T_pert @ T_sensor_rig``, see
+:func:`nvrq.geometry.poses.perturb_T_sensor_rig`) with the artefacts of
+:mod:`nvrq.synth.degradation`, growing with the perturbation's size
+(:func:`nvrq.synth.degradation.perturbation_size`). ``degradation.csv`` has one row per
+camera, frame, tracked object whose centre is in front of the virtual camera, and view:
+``camera, timestamp_us, track_id, y_offset_m, severity`` and one strength column per
+artefact; the five other perturbation columns follow (in it and in ``images.csv``) only when
+some view is not lateral, so a lateral-only scene is written exactly as before.
 
 Deterministic: every random draw comes from ``numpy.random.default_rng`` streams keyed by
 the seed (and camera, frame, offset), so one seed gives byte-identical files.
@@ -21,6 +26,8 @@ from __future__ import annotations
 import math
 import os
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import cv2
@@ -29,13 +36,20 @@ import pandas as pd
 from tqdm import tqdm
 
 from data_schema.errors import InputError
+from data_schema.perturbation import (
+    EXTRA_PERTURBATION_COLUMNS,
+    PERTURBATION_COLUMNS,
+    is_lateral,
+    labels,
+    lateral,
+)
 from data_schema.scene import save_scene
-from data_schema.tables import atomic_path, write_table
-from nvrq.geometry.poses import T_sensor_world, matrix_to_pose7, offset_T_sensor_rig
+from data_schema.tables import IMAGES_COLUMNS, atomic_path, write_table
+from nvrq.geometry.poses import T_sensor_world, matrix_to_pose7, perturb_T_sensor_rig
 from nvrq.render_plan import default_image_path
 from nvrq.synth.artefacts import ARTEFACTS, blend_into
 from nvrq.synth.assets import build_assets
-from nvrq.synth.degradation import severity, strengths
+from nvrq.synth.degradation import perturbation_size, severity, strengths
 from nvrq.synth.ground import build_ground, camera_background
 from nvrq.synth.layout import build_world
 from nvrq.synth.renderer import virtual_camera
@@ -113,30 +127,36 @@ def camera_models(size: tuple[int, int]) -> dict[str, dict]:
     return out
 
 
-def _parse(seconds, fps, offsets, cameras, size):
+def _parse(seconds, fps, views, cameras, size):
     if not (isinstance(seconds, int | float) and math.isfinite(seconds) and seconds > 0):
-        raise InputError("--seconds", None, "a positive number of seconds", seconds)
+        raise InputError("seconds", None, "a positive number of seconds", seconds)
     if not (isinstance(fps, int | float) and math.isfinite(fps) and 0 < fps <= 1000):
-        raise InputError("--fps", None, "a frame rate in (0, 1000]", fps)
-    offs = [float(o) for o in offsets]
-    if (
-        not offs
-        or not all(math.isfinite(o) and abs(o) <= 20 for o in offs)
-        or len(set(offs)) != len(offs)
-    ):
-        raise InputError(
-            "--offsets", None, "distinct lateral offsets in metres within [-20, 20]", offsets
-        )
+        raise InputError("fps", None, "a frame rate in (0, 1000]", fps)
     cams = list(cameras)
     bad = [c for c in cams if c not in CAMERA_KINDS]
     if not cams or bad or len(set(cams)) != len(cams):
         raise InputError(
-            "--cameras", None, f"distinct camera kinds from {{{', '.join(CAMERA_KINDS)}}}", cameras
+            "cameras", None, f"distinct camera kinds from {{{', '.join(CAMERA_KINDS)}}}", cameras
         )
     W, H = (int(v) for v in size)
     if len(tuple(size)) != 2 or W < 64 or H < 48 or W > 8192 or H > 8192:
-        raise InputError("--size", None, "WxH with 64 <= W <= 8192 and 48 <= H <= 8192", size)
-    return offs, [CAMERA_KINDS[c] for c in cams], (W, H)
+        raise InputError("size", None, "WxH with 64 <= W <= 8192 and 48 <= H <= 8192", size)
+    return [CAMERA_KINDS[c] for c in cams], (W, H)
+
+
+def _views(offsets, perturbations) -> np.ndarray:
+    """The render views ``(K, 6)``: ``perturbations`` when given, else the lateral ``offsets``."""
+    if perturbations is None:
+        offs = [float(o) for o in offsets]
+        if not offs or not all(math.isfinite(o) and abs(o) <= 20 for o in offs) or len(set(offs)) != len(offs):
+            raise InputError("offsets", None, "distinct lateral offsets in metres within [-20, 20]", offsets)
+        return lateral(offs)
+    P = np.asarray(perturbations, dtype=np.float64)
+    if P.ndim != 2 or P.shape[1] != 6 or not len(P) or not np.isfinite(P).all() \
+            or np.abs(P[:, :3]).max() > 20 or np.abs(P[:, 3:]).max() > 90 or len(set(labels(P))) != len(P):
+        raise InputError("perturbations", None, "distinct (K, 6) rows (dx, dy, dz in [-20, 20] m; "
+                         "roll, pitch, yaw in [-90, 90] deg)", np.shape(P))
+    return P
 
 
 def _write_png(path: Path, img: np.ndarray) -> None:
@@ -193,27 +213,25 @@ def scene_document(world, cams: dict, clip_id: str) -> dict:
     return doc
 
 
-def generate_scene(
-    out: Path,
-    *,
-    seed: int = 0,
-    seconds: float = 10.0,
-    fps: float = 10.0,
-    offsets=(-3, -2, -1, 0, 1, 2, 3),
-    cameras=("pinhole",),
-    size=(1280, 720),
-    progress: bool = True,
-) -> Path:
-    """Write a synthetic scene folder to ``out`` and return it (see module docstring).
+@dataclass
+class _Clip:
+    """Everything a frame's renderer needs (built once per scene)."""
 
-    ``cameras``: kinds from {'pinhole', 'ftheta'} (camera names 'front', 'front_wide');
-    ``size (W, H)`` pixels; ``offsets`` lateral metres (left > 0).
-    """
-    offs, cam_names, (W, H) = _parse(seconds, fps, offsets, cameras, size)
-    if not isinstance(seed, int | np.integer) or seed < 0:
-        raise InputError("--seed", None, "a non-negative integer", seed)
-    out = Path(out)
-    seed = int(seed)
+    seed: int
+    clip_id: str
+    ts: np.ndarray
+    world: object
+    assets: object
+    ground: object
+    cams: dict
+    vcams: dict
+    bgds: dict
+    global_cast: np.ndarray
+
+
+def _build_clip(seed: int, seconds: float, fps: float, cam_names: list, size: tuple) -> _Clip:
+    """Draw the world, textures, ground and camera backgrounds (the seeded random streams 1-4)."""
+    W, _ = size
     n_frames = max(int(round(seconds * fps)), 1)
     ts = np.round(np.arange(n_frames) * 1e6 / fps).astype(np.int64)
     world = build_world(np.random.default_rng([seed, 1]), timestamps_us=ts)
@@ -221,82 +239,91 @@ def generate_scene(
     ground = build_ground(
         world, np.random.default_rng([seed, 3]), res=float(np.clip(0.08 * 1280 / W, 0.06, 0.16))
     )
-    all_cams = camera_models((W, H))
+    all_cams = camera_models(size)
     cams = {n: all_cams[n] for n in cam_names}
     vcams = {n: virtual_camera(c["model"]) for n, c in cams.items()}
     bgds = {
-        n: camera_background(
-            vcams[n].K, vcams[n].size, cams[n]["T_sensor_rig"], lighting=world.lighting
-        )
+        n: camera_background(vcams[n].K, vcams[n].size, cams[n]["T_sensor_rig"], lighting=world.lighting)
         for n in cams
     }
-    clip_id = f"synth-{seed:06d}"
     global_cast = np.random.default_rng([seed, 4]).normal(0.0, 1.0, 3)
+    return _Clip(seed, f"synth-{seed:06d}", ts, world, assets, ground, cams, vcams, bgds, global_cast)
 
-    def render_frame(task):
-        ci, name, f = task
-        cam, vc, bgd = cams[name], vcams[name], bgds[name]
-        T_s_rig = offset_T_sensor_rig(cam["T_sensor_rig"], np.array(offs + [0.0]))
-        T_cam_world = T_sensor_world(world.T_rig_world[f], T_s_rig)
-        rows, imgs = [], []
-        clean0 = None
-        for j, o in enumerate([None] + offs):
-            Tcw = T_cam_world[-1] if o is None else T_cam_world[j - 1]
-            if o is not None and o == 0.0 and clean0 is not None:
-                img, ids, boxes = (clean0[0].copy(),) + clean0[1:]
-            else:
-                img, ids, boxes = render_view(world, assets, ground, bgd, vc.K, vc.size, Tcw, f)
-            if o is None:
-                clean0 = (img.copy(), ids, boxes)
-                imgs.append(("gt", 0.0, vc.to_real(img)))
-                continue
-            rng = np.random.default_rng([seed, 10, ci, f, j])
-            T_wc = np.linalg.inv(Tcw)
-            order = []
-            for k, actor in enumerate(world.actors):
-                if not actor.present[f]:
-                    continue
-                pc = T_wc[:3, :3] @ actor.T_box_world[f, :3, 3] + T_wc[:3, 3]
-                if pc[2] <= 0:
-                    continue
-                sev = float(
-                    severity(
-                        np.array([o]), np.array([np.linalg.norm(pc)]), coverage=actor.coverage
-                    )[0]
-                )
-                sev = float(np.clip(sev * (1.0 + rng.normal(0.0, 0.03)), 1e-3, 1.0))
-                st = strengths(np.array([sev]), actor.profile)[0]
-                rows.append((name, int(ts[f]), actor.track_id, o, sev, *st.tolist()))
-                b = boxes.get(k)
-                if b is not None and (b[2] - b[0]) * (b[3] - b[1]) >= 100:
-                    order.append((-pc[2], k, st, sev))
-            order.sort(key=lambda r: r[0])
-            for _, k, st, sev in order:
-                blend_into(img, ids, k, boxes[k], st, sev, rng=rng)
-            sigma = 0.35 + 0.3 * abs(o)
-            img = cv2.GaussianBlur(img, (0, 0), sigma)
-            cast = (global_cast * (1.5 + 2.0 * abs(o))).astype(np.float32)
-            img = np.clip(img.astype(np.float32) + cast, 0, 255).astype(np.uint8)
-            imgs.append(("render", o, vc.to_real(img)))
-        paths = []
-        for source, o, im in imgs:
-            rel = default_image_path(name, int(ts[f]), source, o)
-            _write_png(out / rel, im)
-            paths.append((name, int(ts[f]), source, o, rel))
-        return paths, rows
 
-    tasks = [(ci, name, f) for ci, name in enumerate(cams) for f in range(n_frames)]
+def _degrade_objects(clip: _Clip, name: str, f: int, view: np.ndarray, Tcw, img, ids, boxes, rng):
+    """Blend every visible object's artefacts into ``img`` (far to near); returns the
+    degradation rows of the objects in front of the virtual camera."""
+    size = float(perturbation_size(view[None])[0])
+    T_wc = np.linalg.inv(Tcw)
+    rows, order = [], []
+    for k, actor in enumerate(clip.world.actors):
+        if not actor.present[f]:
+            continue
+        pc = T_wc[:3, :3] @ actor.T_box_world[f, :3, 3] + T_wc[:3, 3]
+        if pc[2] <= 0:
+            continue
+        sev = float(severity(np.array([size]), np.array([np.linalg.norm(pc)]), coverage=actor.coverage)[0])
+        sev = float(np.clip(sev * (1.0 + rng.normal(0.0, 0.03)), 1e-3, 1.0))
+        st = strengths(np.array([sev]), actor.profile)[0]
+        rows.append((name, int(clip.ts[f]), actor.track_id, *view.tolist(), sev, *st.tolist()))
+        b = boxes.get(k)
+        if b is not None and (b[2] - b[0]) * (b[3] - b[1]) >= 100:
+            order.append((-pc[2], k, st, sev))
+    order.sort(key=lambda r: r[0])
+    for _, k, st, sev in order:
+        blend_into(img, ids, k, boxes[k], st, sev, rng=rng)
+    return rows
+
+
+def _whole_image_artefacts(clip: _Clip, img: np.ndarray, view: np.ndarray) -> np.ndarray:
+    """Blur and colour cast growing with the perturbation's size."""
+    size = float(perturbation_size(view[None])[0])
+    img = cv2.GaussianBlur(img, (0, 0), 0.35 + 0.3 * size)
+    cast = (clip.global_cast * (1.5 + 2.0 * size)).astype(np.float32)
+    return np.clip(img.astype(np.float32) + cast, 0, 255).astype(np.uint8)
+
+
+def _render_frame(clip: _Clip, views: np.ndarray, out: Path, task) -> tuple[list, list]:
+    """GT and every view of one camera frame: image rows ``(camera, t, source, *view, path)``
+    and degradation rows."""
+    ci, name, f = task
+    cam, vc, bgd = clip.cams[name], clip.vcams[name], clip.bgds[name]
+    T_s_rig = perturb_T_sensor_rig(cam["T_sensor_rig"], np.concatenate([views, np.zeros((1, 6))]))
+    T_cam_world = T_sensor_world(clip.world.T_rig_world[f], T_s_rig)
+    render = partial(render_view, clip.world, clip.assets, clip.ground, bgd, vc.K, vc.size)
+    img, ids, boxes = render(T_cam_world[-1], f)
+    clean0 = (img.copy(), ids, boxes)
+    imgs = [("gt", np.zeros(6), vc.to_real(img))]
+    deg_rows = []
+    for j, view in enumerate(views, start=1):
+        Tcw = T_cam_world[j - 1]
+        if not view.any():  # the zero view sees exactly the GT scene
+            img, ids, boxes = (clean0[0].copy(),) + clean0[1:]
+        else:
+            img, ids, boxes = render(Tcw, f)
+        rng = np.random.default_rng([clip.seed, 10, ci, f, j])
+        deg_rows += _degrade_objects(clip, name, f, view, Tcw, img, ids, boxes, rng)
+        imgs.append(("render", view, vc.to_real(_whole_image_artefacts(clip, img, view))))
+    paths = []
+    t = int(clip.ts[f])
+    for source, view, im in imgs:
+        rel = default_image_path(name, t, source, view[1], perturbation=view)
+        _write_png(out / rel, im)
+        paths.append((name, t, source, *view.tolist(), rel))
+    return paths, deg_rows
+
+
+def _render_all(clip: _Clip, views: np.ndarray, out: Path, progress: bool) -> tuple[list, list]:
+    """Render every camera frame (two threads); image rows and degradation rows, in order."""
+    tasks = [(ci, name, f) for ci, name in enumerate(clip.cams) for f in range(len(clip.ts))]
     workers = min(2, os.cpu_count() or 1)
     image_rows, deg_rows = [], []
-    bar = tqdm(
-        total=len(tasks) * (len(offs) + 1),
-        desc=f"synth {clip_id}",
-        unit="img",
-        disable=not progress,
-    )
+    bar = tqdm(total=len(tasks) * (len(views) + 1), desc=f"synth {clip.clip_id}", unit="img",
+               disable=not progress)
+    work = partial(_render_frame, clip, views, out)
     pool = ThreadPoolExecutor(max_workers=workers) if workers > 1 else None
     try:
-        for paths, rows in pool.map(render_frame, tasks) if pool else map(render_frame, tasks):
+        for paths, rows in pool.map(work, tasks) if pool else map(work, tasks):
             image_rows += paths
             deg_rows += rows
             bar.update(len(paths))
@@ -304,16 +331,46 @@ def generate_scene(
         if pool:
             pool.shutdown(cancel_futures=True)
         bar.close()
+    return image_rows, deg_rows
 
-    doc = scene_document(world, cams, clip_id)
-    deg = pd.DataFrame(
-        deg_rows,
-        columns=["camera", "timestamp_us", "track_id", "y_offset_m", "severity", *ARTEFACTS],
-    )
+
+def _write_tables(clip: _Clip, views: np.ndarray, out: Path, image_rows: list, deg_rows: list) -> None:
+    """``degradation.csv``, ``images.csv`` and ``scene.json`` (extra perturbation columns only
+    when some view is not lateral)."""
+    extra = [] if is_lateral(views).all() else list(EXTRA_PERTURBATION_COLUMNS)
+    deg = pd.DataFrame(deg_rows, columns=["camera", "timestamp_us", "track_id", *PERTURBATION_COLUMNS,
+                                          "severity", *ARTEFACTS])
     deg[["severity", *ARTEFACTS]] = deg[["severity", *ARTEFACTS]].round(5)
-    write_table(deg, out / "degradation.csv", columns=DEGRADATION_COLUMNS)
-    images = pd.DataFrame(
-        image_rows, columns=["camera", "timestamp_us", "source", "y_offset_m", "path"]
-    )
-    save_scene(doc, images, out)
+    write_table(deg, out / "degradation.csv", columns=[*DEGRADATION_COLUMNS, *extra])
+    images = pd.DataFrame(image_rows, columns=["camera", "timestamp_us", "source", *PERTURBATION_COLUMNS, "path"])
+    save_scene(scene_document(clip.world, clip.cams, clip.clip_id),
+               images.loc[:, [*IMAGES_COLUMNS, *extra]], out)
+
+
+def generate_scene(
+    out: Path,
+    *,
+    seed: int = 0,
+    seconds: float = 10.0,
+    fps: float = 10.0,
+    offsets=(-3, -2, -1, 0, 1, 2, 3),
+    perturbations=None,
+    cameras=("pinhole",),
+    size=(1280, 720),
+    progress: bool = True,
+) -> Path:
+    """Write a synthetic scene folder to ``out`` and return it (see module docstring).
+
+    ``cameras``: kinds from {'pinhole', 'ftheta'} (camera names 'front', 'front_wide');
+    ``size (W, H)`` pixels; ``offsets`` lateral metres (left > 0), or ``perturbations``
+    ``(K, 6)`` ``(dx, dy, dz, roll, pitch, yaw)`` (metres, degrees), which replace them.
+    """
+    cam_names, (W, H) = _parse(seconds, fps, (), cameras, size)
+    views = _views(offsets, perturbations)
+    if not isinstance(seed, int | np.integer) or seed < 0:
+        raise InputError("--seed", None, "a non-negative integer", seed)
+    out = Path(out)
+    clip = _build_clip(int(seed), seconds, fps, cam_names, (W, H))
+    image_rows, deg_rows = _render_all(clip, views, out, progress)
+    _write_tables(clip, views, out, image_rows, deg_rows)
     return out

@@ -166,8 +166,8 @@ class _Builder:
         )
 
 
-def build_world(rng: np.random.Generator, *, timestamps_us: np.ndarray) -> World:
-    """Draw a clip's world for frames at ``timestamps_us: (F,)``."""
+def _road(rng: np.random.Generator) -> tuple[Road, str, dict]:
+    """Road type, lighting, curvature and lane layout: ``(road, lighting, config)``."""
     road_type = ROAD_TYPES[int(rng.integers(len(ROAD_TYPES)))]
     lighting = LIGHTINGS[int(rng.random() < 0.35)]
     kappa = 0.0 if rng.random() < 0.4 else float(rng.choice([-1, 1]) / rng.uniform(350, 900))
@@ -177,20 +177,15 @@ def build_world(rng: np.random.Generator, *, timestamps_us: np.ndarray) -> World
         "rural": dict(lanes=1, median=0.0, shoulder=1.0, v=(8.0, 12.0)),
         "highway": dict(lanes=2, median=3.0, shoulder=2.5, v=(10.0, 15.0)),
     }[road_type]
-    road = Road(kappa, cfg["lanes"], 3.5, cfg["median"], cfg["shoulder"], road_type)
-    t = (np.asarray(timestamps_us, np.int64) - timestamps_us[0]) / 1e6
-    T_clip = float(t[-1]) if len(t) > 1 else 0.1
-    v_ego = rng.uniform(*cfg["v"])
-    lane_e = int(rng.integers(road.lanes_per_dir))
-    d_ego = road.lane_d(lane_e)
-    s_ego = 30.0 + v_ego * t
-    ex, ey, epsi = road.to_world(s_ego, np.full(len(t), d_ego))
-    T_rig_world = _pose(ex, ey, np.zeros(len(t)), epsi)
-    b = _Builder(rng, road, t, s_ego, d_ego, v_ego)
-    s0, s1 = s_ego[0] - 40.0, s_ego[-1] + 160.0
-    kerb = road.half_width
+    return Road(kappa, cfg["lanes"], 3.5, cfg["median"], cfg["shoulder"], road_type), lighting, cfg
 
-    # featured participants: each class close and central at some point of the clip
+
+def _featured(b: _Builder, lane_e: int) -> float:
+    """One of each class close and central at some point of the clip; returns the person's
+    crossing position ``s`` (a crosswalk in town)."""
+    rng, road, t, s_ego, v_ego, d_ego = b.rng, b.road, b.t, b.s_ego, b.v_ego, b.d_ego
+    T_clip = float(t[-1]) if len(t) > 1 else 0.1
+    kerb = road.half_width
     tf = rng.uniform(0.35, 0.65) * T_clip
     vp = rng.uniform(1.2, 1.6)
     sp = s_ego[0] + v_ego * tf + rng.uniform(11.0, 14.0)
@@ -207,19 +202,18 @@ def build_world(rng: np.random.Generator, *, timestamps_us: np.ndarray) -> World
     s_o = s_ego[0] + v_ego * t_pass - vo * (t - t_pass)
     b.add(big[1], s_o, road.lane_d(0, oncoming=True), np.pi, "oncoming")
     if road.lanes_per_dir > 1:  # a car alongside in the neighbouring lane
-        b.add(
-            "automobile",
-            s_ego + rng.uniform(8.0, 14.0),
-            road.lane_d(1 - min(lane_e, 1)),
-            0.0,
-            "same_direction",
-        )
+        b.add("automobile", s_ego + rng.uniform(8.0, 14.0), road.lane_d(1 - min(lane_e, 1)), 0.0,
+              "same_direction")
     else:  # an oncoming car passing early in the clip
         t_car = rng.uniform(0.2, 0.5) * T_clip
         s_car = s_ego[0] + v_ego * t_car - 0.8 * v_ego * (t - t_car) + 12.0
         b.add("automobile", s_car, road.lane_d(0, oncoming=True), np.pi, "oncoming")
+    return float(sp)
 
-    # general traffic
+
+def _traffic(b: _Builder, lane_e: int) -> None:
+    """General traffic in both directions (the ego lane ahead kept clear)."""
+    rng, road, t, s_ego, v_ego = b.rng, b.road, b.t, b.s_ego, b.v_ego
     n_same = rng.integers(3, 7)
     for _ in range(n_same):
         k = int(rng.integers(road.lanes_per_dir))
@@ -235,63 +229,66 @@ def build_world(rng: np.random.Generator, *, timestamps_us: np.ndarray) -> World
         v = rng.uniform(0.7, 1.2) * max(v_ego, 6.0)
         s_start = s_ego[0] + rng.uniform(20.0, 200.0)
         b.add(str(cls), s_start - v * t, road.lane_d(k, oncoming=True), np.pi, "oncoming")
-    if road_type in ("urban", "residential"):
-        for side in (-1, 1):
-            s = s0 + rng.uniform(0, 8)
-            while s < s1:
-                if rng.random() < 0.7:
-                    cls = "automobile" if rng.random() < 0.92 else "heavy_truck"
-                    b.add(
-                        cls,
-                        s,
-                        side * (kerb - road.shoulder_w / 2),
-                        rng.choice([0.0, np.pi]),
-                        "parked",
-                    )
-                s += rng.uniform(6.0, 12.0)
-        for _ in range(rng.integers(4, 10)):
-            side = rng.choice([-1, 1])
-            v = rng.uniform(0.9, 1.6) * rng.choice([-1, 1])
-            s_start = s_ego[0] + rng.uniform(-10.0, 120.0)
-            b.add(
-                "person",
-                s_start + v * t,
-                side * (kerb + 1.5 + rng.uniform(-0.5, 0.5)),
-                0.0 if v > 0 else np.pi,
-                "walking",
-            )
-        for _ in range(rng.integers(1, 4)):
-            v = rng.uniform(3.0, 6.0)
-            b.add(
-                "rider",
-                s_ego[0] + rng.uniform(5.0, 100.0) + v * t,
-                -(kerb - road.shoulder_w / 2),
-                0.0,
-                "same_direction",
-            )
-    else:
-        for _ in range(rng.integers(1, 3)):  # a stopped car on the shoulder with people around
-            s = s_ego[0] + rng.uniform(40.0, 140.0)
-            b.add("automobile", s, -(kerb - road.shoulder_w / 2), 0.0, "parked")
-            b.add(
-                "person",
-                s + rng.uniform(-3, 3),
-                -(kerb + 0.6),
-                rng.uniform(-np.pi, np.pi),
-                "standing",
-            )
 
-    world = World(
-        road,
-        lighting,
-        np.asarray(timestamps_us, np.int64),
-        T_rig_world,
-        b.actors,
-        s_range=(s0 - 20.0, s1 + 60.0),
-    )
+
+def _town_roadside(b: _Builder, s0: float, s1: float) -> None:
+    """Parked cars, pedestrians on the pavements and riders (urban and residential roads)."""
+    rng, road, t, s_ego = b.rng, b.road, b.t, b.s_ego
+    kerb = road.half_width
+    for side in (-1, 1):
+        s = s0 + rng.uniform(0, 8)
+        while s < s1:
+            if rng.random() < 0.7:
+                cls = "automobile" if rng.random() < 0.92 else "heavy_truck"
+                b.add(cls, s, side * (kerb - road.shoulder_w / 2), rng.choice([0.0, np.pi]), "parked")
+            s += rng.uniform(6.0, 12.0)
+    for _ in range(rng.integers(4, 10)):
+        side = rng.choice([-1, 1])
+        v = rng.uniform(0.9, 1.6) * rng.choice([-1, 1])
+        s_start = s_ego[0] + rng.uniform(-10.0, 120.0)
+        b.add("person", s_start + v * t, side * (kerb + 1.5 + rng.uniform(-0.5, 0.5)),
+              0.0 if v > 0 else np.pi, "walking")
+    for _ in range(rng.integers(1, 4)):
+        v = rng.uniform(3.0, 6.0)
+        b.add("rider", s_ego[0] + rng.uniform(5.0, 100.0) + v * t, -(kerb - road.shoulder_w / 2), 0.0,
+              "same_direction")
+
+
+def _open_roadside(b: _Builder) -> None:
+    """A stopped car or two on the shoulder with people around (rural roads and highways)."""
+    rng, road, s_ego = b.rng, b.road, b.s_ego
+    kerb = road.half_width
+    for _ in range(rng.integers(1, 3)):
+        s = s_ego[0] + rng.uniform(40.0, 140.0)
+        b.add("automobile", s, -(kerb - road.shoulder_w / 2), 0.0, "parked")
+        b.add("person", s + rng.uniform(-3, 3), -(kerb + 0.6), rng.uniform(-np.pi, np.pi), "standing")
+
+
+def build_world(rng: np.random.Generator, *, timestamps_us: np.ndarray) -> World:
+    """Draw a clip's world for frames at ``timestamps_us: (F,)``: road, ego motion, featured
+    participants, traffic, roadside actors, then scenery (in that order of random draws)."""
+    road, lighting, cfg = _road(rng)
+    t = (np.asarray(timestamps_us, np.int64) - timestamps_us[0]) / 1e6
+    v_ego = rng.uniform(*cfg["v"])
+    lane_e = int(rng.integers(road.lanes_per_dir))
+    d_ego = road.lane_d(lane_e)
+    s_ego = 30.0 + v_ego * t
+    ex, ey, epsi = road.to_world(s_ego, np.full(len(t), d_ego))
+    T_rig_world = _pose(ex, ey, np.zeros(len(t)), epsi)
+    b = _Builder(rng, road, t, s_ego, d_ego, v_ego)
+    s0, s1 = s_ego[0] - 40.0, s_ego[-1] + 160.0
+    sp = _featured(b, lane_e)
+    _traffic(b, lane_e)
+    town = road.road_type in ("urban", "residential")
+    if town:
+        _town_roadside(b, s0, s1)
+    else:
+        _open_roadside(b)
+    world = World(road, lighting, np.asarray(timestamps_us, np.int64), T_rig_world, b.actors,
+                  s_range=(s0 - 20.0, s1 + 60.0))
     _scenery(world, rng, s0 - 20.0, s1 + 60.0)
-    if road_type in ("urban", "residential"):
-        world.crosswalks.append(float(sp))
+    if town:
+        world.crosswalks.append(sp)
     return world
 
 

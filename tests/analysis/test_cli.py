@@ -53,7 +53,7 @@ def test_end_to_end_report(data, capsys):
     rc, cap = _run(
         [
             d / "ratings.csv",
-            "--metrics",
+            "--metrics-table",
             d / "metrics.csv",
             "--lower-better",
             "blurriness",
@@ -133,7 +133,7 @@ def test_target_proxy_and_undefined_metric(data, capsys):
     rc, cap = _run(
         [
             d / "ratings.csv",
-            "--metrics",
+            "--metrics-table",
             d / "m2.csv",
             "--lower-better",
             "blurriness",
@@ -169,7 +169,7 @@ def test_unknown_metric_ids_are_counted(data, capsys):
     rc, cap = _run(
         [
             d / "ratings.csv",
-            "--metrics",
+            "--metrics-table",
             d / "m3.csv",
             "--lower-better",
             "blurriness",
@@ -217,7 +217,7 @@ def test_bad_metrics_file_and_missing_file(data, capsys):
     d, ratings, metrics = data
     metrics["nvrq:x"] = "abc"
     metrics.to_csv(d / "m.csv", index=False)
-    rc, cap = _run([d / "ratings.csv", "--metrics", d / "m.csv", "--out", d / "o"], capsys)
+    rc, cap = _run([d / "ratings.csv", "--metrics-table", d / "m.csv", "--out", d / "o"], capsys)
     assert rc == 2 and "numeric" in cap.err and len(cap.err.strip().splitlines()) == 1
     rc, cap = _run([d / "nope.csv", "--out", d / "o"], capsys)
     assert rc == 2 and "nope.csv" in cap.err
@@ -230,7 +230,7 @@ def test_screen_excludes_a_fast_straight_liner(data, capsys):
     pd.concat([ratings, spam]).to_csv(d / "r.csv", index=False)
     args = [
         d / "r.csv",
-        "--metrics",
+        "--metrics-table",
         d / "metrics.csv",
         "--lower-better",
         "blurriness",

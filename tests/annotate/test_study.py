@@ -111,15 +111,15 @@ def test_input_errors(tmp_path, toy_inputs, make_study):
     scene, pairs = toy_inputs
     with pytest.raises(InputError, match="scene_root"):
         build_study(tmp_path / "a", pairs, progress=False)
-    with pytest.raises(InputError, match="--offsets"):
+    with pytest.raises(InputError, match="offsets"):
         build_study(tmp_path / "b", pairs, scene=str(scene), offsets="0,3", progress=False)
     s = make_study()
-    with pytest.raises(InputError, match="non-empty"):
+    with pytest.raises(InputError, match="new or empty study folder"):
         build_study(s.root, pairs, scene=str(scene), progress=False)
     df = pd.read_csv(pairs)
     df.loc[0, "gt_path"] = "images/missing.png"
     df.to_csv(tmp_path / "bad.csv", index=False)
-    with pytest.raises(InputError, match="readable image"):
+    with pytest.raises(InputError, match="existing image file"):
         build_study(tmp_path / "c", tmp_path / "bad.csv", scene=str(scene), tracks=4,
                     frames_per_track=6, progress=False)
     assert not (tmp_path / "c").exists()  # nothing half-built left behind

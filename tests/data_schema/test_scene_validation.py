@@ -104,13 +104,13 @@ def test_scene_json_errors(tmp_path, capsys, case):
     doc = copy.deepcopy(valid_doc())
     _set(doc, path, value)
     write(tmp_path, doc)
-    rc = main(["pairs", str(tmp_path), "--out", str(tmp_path / "p.csv")])
+    rc = main(["pairs", str(tmp_path), "--out", str(tmp_path.with_name(tmp_path.name + "-p.csv"))])
     err = capsys.readouterr().err
     assert rc == 2
     assert err.count("\n") == 1 and err.startswith("error: ")
     for frag in fragments:
         assert frag in err, (frag, err)
-    assert not (tmp_path / "p.csv").exists()
+    assert not (tmp_path.with_name(tmp_path.name + "-p.csv")).exists()
 
 
 def _images(**changes):
@@ -137,7 +137,7 @@ def test_images_csv_errors(tmp_path, capsys, case):
     images.to_csv(tmp_path / "images.csv", index=False)
     for p in ("gt.png", "r.png"):
         (tmp_path / p).write_bytes(b"")
-    rc = main(["pairs", str(tmp_path), "--out", str(tmp_path / "p.csv")])
+    rc = main(["pairs", str(tmp_path), "--out", str(tmp_path.with_name(tmp_path.name + "-p.csv"))])
     err = capsys.readouterr().err
     assert rc == 2 and err.count("\n") == 1
     for frag in fragments:
@@ -145,10 +145,10 @@ def test_images_csv_errors(tmp_path, capsys, case):
 
 
 def test_missing_and_invalid_scene_json(tmp_path, capsys):
-    assert main(["pairs", str(tmp_path / "nowhere"), "--out", str(tmp_path / "p.csv")]) == 2
+    assert main(["pairs", str(tmp_path / "nowhere"), "--out", str(tmp_path.with_name(tmp_path.name + "-p.csv"))]) == 2
     assert "expected a scene folder" in capsys.readouterr().err
     (tmp_path / "scene.json").write_text("{not json")
-    assert main(["pairs", str(tmp_path), "--out", str(tmp_path / "p.csv")]) == 2
+    assert main(["pairs", str(tmp_path), "--out", str(tmp_path.with_name(tmp_path.name + "-p.csv"))]) == 2
     err = capsys.readouterr().err
     assert "scene.json" in err and "valid JSON" in err
 
@@ -165,7 +165,7 @@ def test_console_script_exit_status(tmp_path):
     doc = valid_doc()
     doc["cameras"]["front"]["model"]["type"] = "kannala"
     write(tmp_path, doc)
-    proc = subprocess.run([sys.executable, "-m", "nvrq", "pairs", str(tmp_path), "--out", str(tmp_path / "p.csv")],
+    proc = subprocess.run([sys.executable, "-m", "nvrq", "pairs", str(tmp_path), "--out", str(tmp_path.with_name(tmp_path.name + "-p.csv"))],
                           capture_output=True, text=True)
     assert proc.returncode == 2
     assert proc.stderr.strip().count("\n") == 0 and "model.type" in proc.stderr

@@ -176,3 +176,14 @@ def test_cli_and_errors(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "c.usdz" in err and "zip" in err and "Traceback" not in err
     assert not (tmp_path / "x").exists()  # nothing half-written
+
+
+def test_perturb_grid_lists_one_render_per_view(tmp_path):
+    arc = _archive(tmp_path / "ok.usdz")
+    assert main(["import", "nurec", str(arc), str(tmp_path / "s"), "--perturb", "y=-1:1:1,pitch=-2:2:4"]) == 0
+    images = pd.read_csv(tmp_path / "s" / "images.csv")
+    renders = images[images.source == "render"]
+    # 2 frames x (3 lateral + 2 pitch views; the shared 0 once)
+    assert len(renders) == 2 * 5 and (images.loc[images.source == "gt", "pitch_deg"] == 0).all()
+    assert sorted(set(renders.pitch_deg)) == [-2.0, 0.0, 2.0]
+    assert any(p.endswith(".png") and "render_pitch-2.00" in p for p in renders.path)

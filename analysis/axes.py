@@ -1,0 +1,81 @@
+"""Results along each perturbation axis (6-DoF novel views, issue "beyond lateral").
+
+A rated item's view is a perturbation ``(dx, dy, dz, roll, pitch, yaw)``
+(:mod:`data_schema.perturbation`). Items of the real camera's view (axis ``'none'``, value
+0) belong to every axis, as the centre of its tent; items with several non-zero components
+(``'combined'``) belong to none and are only counted.
+
+- :func:`axis_table`: long table ``axis, value, column, n, mean, std`` (the per-offset
+  table of :func:`analysis.breakdowns.offset_table`, once per axis);
+- :func:`axis_tent_plots`: one tent plot per axis (:func:`analysis.plots.tent_plot`);
+- :func:`lateral_items`: the items the paper's lateral tent plot shows (axis y or none).
+
+>>> items = pd.DataFrame({"y_offset_m": [0.0, 1.0, 0.0, 0.0], "yaw_deg": [0.0, 0.0, 5.0, 5.0],
+...                       "gvf": [1.0, 0.5, 0.25, 0.75]})
+>>> t = axis_table(items, ["gvf"])
+>>> t[["axis", "value", "n", "mean"]].values.tolist()
+[['y', 0.0, 1, 1.0], ['y', 1.0, 1, 0.5], ['yaw', 0.0, 1, 1.0], ['yaw', 5.0, 2, 0.5]]
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from analysis import plots
+from analysis.breakdowns import offset_table
+from data_schema.perturbation import AXES, AXIS_UNITS, axes, axis_values, perturbation_array
+
+__all__ = ["AXIS_TABLE_COLUMNS", "axis_table", "axis_tent_plots", "lateral_items", "item_axes", "is_multi_axis"]
+
+AXIS_TABLE_COLUMNS = ["axis", "value", "column", "n", "mean", "std"]
+
+
+def item_axes(items: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+    """``(axis names (N,), signed values (N,))`` of the items' views (absent columns: 0)."""
+    P = perturbation_array(items)
+    return axes(P), axis_values(P)
+
+
+def is_multi_axis(items: pd.DataFrame) -> bool:
+    """True when some item's view is not lateral (then the report shows one tent per axis)."""
+    names, _ = item_axes(items)
+    return bool(np.isin(names, ["y", "none"], invert=True).any())
+
+
+def lateral_items(items: pd.DataFrame) -> pd.DataFrame:
+    """The items on the lateral axis (and the real camera's view); all of a lateral study."""
+    names, _ = item_axes(items)
+    return items[np.isin(names, ["y", "none"])]
+
+
+def axis_table(items: pd.DataFrame, columns: list[str]) -> pd.DataFrame:
+    """Long table :data:`AXIS_TABLE_COLUMNS`: per axis with items (in the order x, y, z,
+    roll, pitch, yaw) and value along it, ``n``, mean and sample std of each column; the
+    axis-'none' items are value 0 of every axis."""
+    names, values = item_axes(items)
+    frames = []
+    for axis in AXES:
+        if not (names == axis).any():
+            continue
+        sel = (names == axis) | (names == "none")
+        t = offset_table(items[sel].assign(_value=values[sel]), columns, offset_col="_value")
+        frames.append(t.rename(columns={"y_offset_m": "value"}).assign(axis=axis))
+    if not frames:
+        return pd.DataFrame(columns=AXIS_TABLE_COLUMNS)
+    return pd.concat(frames, ignore_index=True).loc[:, AXIS_TABLE_COLUMNS]
+
+
+def axis_tent_plots(by_axis: pd.DataFrame, columns: list[str], directions: dict[str, bool], *,
+                    target_label: str = "GVF") -> list[tuple[str, str, object]]:
+    """``(name, title, figure)`` per axis of ``by_axis`` (:func:`axis_table`): name
+    ``tent_<axis>``, x = the value along the axis in its unit."""
+    out = []
+    for axis in dict.fromkeys(by_axis["axis"]):
+        t = by_axis[by_axis["axis"] == axis].rename(columns={"value": "y_offset_m"})
+        fig = plots.tent_plot(t, columns, directions, target_label=target_label)
+        for ax in fig.axes:
+            ax.set_xlabel(f"{axis} ({AXIS_UNITS[axis]})", fontsize=8)
+        out.append((f"tent_{axis}", f"Tent plot along {axis} ({AXIS_UNITS[axis]}; {target_label} first, "
+                    "mean +/- 1 std)", fig))
+    return out

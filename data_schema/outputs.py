@@ -1,0 +1,145 @@
+"""Output-path safety: no command overwrites its inputs or the folders the toolkit manages.
+
+The rule, the same for every command that writes (SPEC section 7):
+
+1. An output is never one of the command's inputs (same path, a link to it, or a folder that
+   holds an input).
+2. An output never lies inside a *managed folder*: a scene folder (it holds ``scene.json``)
+   or a study folder (it holds ``manifest.json``). Those folders are written only by the
+   command that makes them (``nvrq synth``/``nvrq import`` and ``annotate build``).
+3. An output file never replaces a folder.
+4. A report folder (``analyze --out``, ``nvrq stability --out``) may replace only a previous
+   report folder of ours, recognised by the marker file :data:`REPORT_MARKER` that is written
+   into every report folder; an empty or absent folder is fine; anything else is refused.
+5. A new scene folder (``nvrq synth``, ``nvrq import``) may replace only a previous scene
+   folder; a new study folder must be absent or empty (votes are never overwritten).
+
+Each check raises :class:`~data_schema.errors.InputError` naming the option (``where``) and
+returns the output path. Library functions pass the parameter name, the CLI its ``--flag``.
+
+>>> import tempfile
+>>> d = Path(tempfile.mkdtemp()); _ = (d / "pairs.csv").write_text("x")
+>>> check_output_file(d / "pairs.csv", inputs=[d / "pairs.csv"])
+Traceback (most recent call last):
+...
+data_schema.errors.InputError: --out: expected an output path that is not an input, got the input pairs.csv
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterable
+from pathlib import Path
+
+from data_schema.errors import InputError
+
+__all__ = [
+    "REPORT_MARKER",
+    "SCENE_FILE",
+    "STUDY_FILE",
+    "managed_folder",
+    "check_output_file",
+    "check_output_folder",
+    "mark_report",
+]
+
+#: The marker file in every report folder written by the toolkit.
+REPORT_MARKER = ".nvrq-report"
+#: A folder holding this file is a scene folder (SPEC section 2).
+SCENE_FILE = "scene.json"
+#: A folder holding this file is a study folder (``annotate build``).
+STUDY_FILE = "manifest.json"
+
+_KINDS = {SCENE_FILE: "scene", STUDY_FILE: "study"}
+
+
+def _resolve(path) -> Path:
+    return Path(os.path.abspath(os.path.expanduser(str(path)))).resolve()
+
+
+def managed_folder(path) -> tuple[Path, str] | None:
+    """The nearest scene or study folder at or above ``path``: ``(folder, 'scene'|'study')``."""
+    p = _resolve(path)
+    for folder in (p, *p.parents):
+        for name, kind in _KINDS.items():
+            if (folder / name).is_file():
+                return folder, kind
+    return None
+
+
+def _same(a: Path, b: Path) -> bool:
+    if a == b:
+        return True
+    try:
+        return a.exists() and b.exists() and os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def _check_inputs(out: Path, inputs: Iterable, option: str) -> None:
+    for inp in inputs:
+        if inp is None:
+            continue
+        ip = _resolve(inp)
+        if _same(out, ip):
+            raise InputError(option, None, "an output path that is not an input", f"the input {Path(inp).name}")
+        if out in ip.parents:
+            raise InputError(option, None, "an output folder that holds none of the inputs",
+                             f"a folder holding the input {Path(inp).name}")
+
+
+def _check_not_managed(out: Path, option: str, *, allow: Path | None = None) -> None:
+    found = managed_folder(out.parent if allow is not None and out == allow else out)
+    if found is not None and found[0] != allow:
+        folder, kind = found
+        raise InputError(option, None, f"a path outside the {kind} folder {folder} (the toolkit manages it)",
+                         str(out))
+
+
+def check_output_file(out, *, inputs: Iterable = (), option: str = "--out") -> Path:
+    """Check an output file path against the rule (module docstring); returns it."""
+    target = _resolve(out)
+    if target.is_dir():
+        raise InputError(option, None, "an output file path", f"{out} (an existing folder)")
+    _check_inputs(target, inputs, option)
+    _check_not_managed(target, option)
+    return Path(out)
+
+
+def _is_empty_dir(p: Path) -> bool:
+    return p.is_dir() and not any(p.iterdir())
+
+
+def check_output_folder(out, *, kind: str, inputs: Iterable = (), option: str = "--out") -> Path:
+    """Check an output folder of ``kind`` in ``{'report', 'scene', 'study'}``; returns it.
+
+    ``report`` may replace an empty folder or a report folder of ours; ``scene`` an empty
+    folder or a scene folder; ``study`` only an empty one.
+    """
+    if kind not in ("report", "scene", "study"):
+        raise InputError("kind", None, "one of {'report', 'scene', 'study'}", kind)
+    target = _resolve(out)
+    if target.exists() and not target.is_dir():
+        raise InputError(option, None, f"a {kind} folder", f"{out} (an existing file)")
+    _check_inputs(target, inputs, option)
+    own = None
+    if target.is_dir() and not _is_empty_dir(target):
+        if kind == "report" and (target / REPORT_MARKER).is_file():
+            own = None
+        elif kind == "scene" and (target / SCENE_FILE).is_file():
+            own = target
+        else:
+            what = {"report": f"an absent or empty folder, or a report folder of ours (with {REPORT_MARKER})",
+                    "scene": "an absent or empty folder, or a previous scene folder",
+                    "study": "a new or empty study folder (votes are never overwritten)"}[kind]
+            raise InputError(option, None, what, f"{out} (a folder with other files)")
+    _check_not_managed(target, option, allow=own)
+    return Path(out)
+
+
+def mark_report(folder) -> Path:
+    """Write the report marker into ``folder`` (see :func:`check_output_folder`)."""
+    path = Path(folder) / REPORT_MARKER
+    path.write_text(json.dumps({"format": "nvrq-report", "version": 1}) + "\n", encoding="utf-8")
+    return path

@@ -1,0 +1,195 @@
+"""Novel-view perturbations (SPEC section 1, generalised): six components, labels, axes.
+
+A render is taken from a virtual camera moved away from the real one by a *perturbation*
+``(dx, dy, dz, roll, pitch, yaw)`` in the rig frame (x forward, y left, z up): metres for
+the translation, degrees for the rotation. ``nvrq.geometry.poses.perturb_T_sensor_rig``
+turns it into ``T_sensor'_rig``; this module holds the facts every table shares:
+
+- the six table columns :data:`PERTURBATION_COLUMNS` (``y_offset_m`` is the paper's lateral
+  offset and keeps its SPEC name; the other five are optional and default to 0, so tables
+  written before they existed load unchanged);
+- the readable label (column :data:`LABEL_COLUMN`): the non-zero components at 0.01
+  precision, e.g. ``'y=+2.00'``, ``'z=+0.50,yaw=-5.00'``, ``'none'`` for the real camera;
+- the *axis* of a perturbation: the name of its only non-zero component, ``'none'`` when
+  all are zero and ``'combined'`` when several are;
+- the grid syntax of ``--perturb``: ``y=-3:3:1,z=0:2:0.5,yaw=-10:10:5`` (start:stop:step,
+  stop included; or a single value ``z=1``), one single-axis perturbation per grid value.
+
+>>> P = parse_perturb("y=-1:1:1,yaw=5")
+>>> labels(P)
+['y=-1.00', 'none', 'y=+1.00', 'yaw=+5.00']
+>>> axes(P).tolist(), axis_values(P).tolist()
+(['y', 'none', 'y', 'yaw'], [-1.0, 0.0, 1.0, 5.0])
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+
+from data_schema.errors import InputError
+
+__all__ = [
+    "AXES",
+    "AXIS_UNITS",
+    "PERTURBATION_COLUMNS",
+    "EXTRA_PERTURBATION_COLUMNS",
+    "LABEL_COLUMN",
+    "perturbation_array",
+    "with_perturbation_columns",
+    "labels",
+    "axes",
+    "axis_values",
+    "is_lateral",
+    "view_suffix",
+    "parse_perturb",
+    "lateral",
+    "view_columns",
+    "VIEW_COLUMNS",
+]
+
+#: The six components, in the order of a perturbation vector ``(6,)``.
+AXES = ("x", "y", "z", "roll", "pitch", "yaw")
+AXIS_UNITS = {"x": "m", "y": "m", "z": "m", "roll": "deg", "pitch": "deg", "yaw": "deg"}
+#: Table columns of the six components (same order as :data:`AXES`).
+PERTURBATION_COLUMNS = ("x_offset_m", "y_offset_m", "z_offset_m", "roll_deg", "pitch_deg", "yaw_deg")
+#: The optional columns (all but the SPEC's ``y_offset_m``), 0 when absent.
+EXTRA_PERTURBATION_COLUMNS = tuple(c for c in PERTURBATION_COLUMNS if c != "y_offset_m")
+#: Readable label column of pairs tables, ratings and plans.
+LABEL_COLUMN = "perturbation"
+_LIMITS = {"m": 20.0, "deg": 90.0}
+#: The columns a table gains when some view is not lateral (after the SPEC columns).
+VIEW_COLUMNS = (*EXTRA_PERTURBATION_COLUMNS, LABEL_COLUMN)
+
+
+def perturbation_array(table: pd.DataFrame) -> np.ndarray:
+    """The ``(N, 6)`` perturbations of a table's rows; absent optional columns count as 0."""
+    n = len(table)
+    return np.stack([table[c].to_numpy(np.float64) if c in table.columns else np.zeros(n)
+                     for c in PERTURBATION_COLUMNS], axis=-1).reshape(n, 6)
+
+
+def with_perturbation_columns(table: pd.DataFrame, *, label: bool = True) -> pd.DataFrame:
+    """A copy of ``table`` with every absent optional component column set to 0 (and the
+    label column added when ``label`` and absent). Old tables thus read as lateral-only."""
+    out = table.copy()
+    for c in EXTRA_PERTURBATION_COLUMNS:
+        if c not in out.columns:
+            out[c] = 0.0
+    if label and LABEL_COLUMN not in out.columns:
+        out[LABEL_COLUMN] = labels(perturbation_array(out))
+    return out
+
+
+def _hundredths(P: np.ndarray) -> np.ndarray:
+    return np.round(np.asarray(P, np.float64).reshape(-1, 6) * 100).astype(np.int64)
+
+
+def labels(P: np.ndarray) -> list[str]:
+    """``P: (N, 6)`` -> readable labels (module docstring); equal labels mean the same view
+    at the 0.01 precision of ``pair_id``."""
+    out = []
+    for row in _hundredths(P):
+        parts = [f"{a}={v / 100:+.2f}" for a, v in zip(AXES, row, strict=True) if v != 0]
+        out.append(",".join(parts) if parts else "none")
+    return out
+
+
+def axes(P: np.ndarray) -> np.ndarray:
+    """``P: (N, 6)`` -> axis names ``(N,)``: the only non-zero component, 'none' or 'combined'."""
+    nz = _hundredths(P) != 0
+    count = nz.sum(axis=1)
+    names = np.array(AXES, dtype=object)[np.argmax(nz, axis=1)] if len(nz) else np.array([], object)
+    return np.where(count == 0, "none", np.where(count > 1, "combined", names)).astype(object)
+
+
+def axis_values(P: np.ndarray) -> np.ndarray:
+    """``P: (N, 6)`` -> the signed value along the axis ``(N,)`` (0 for 'none', NaN for 'combined')."""
+    P = np.asarray(P, np.float64).reshape(-1, 6)
+    nz = _hundredths(P) != 0
+    count = nz.sum(axis=1)
+    val = P[np.arange(len(P)), np.argmax(nz, axis=1)] if len(P) else np.zeros(0)
+    return np.where(count == 0, 0.0, np.where(count > 1, np.nan, val))
+
+
+def is_lateral(P: np.ndarray) -> np.ndarray:
+    """``(N,)`` True where only ``y`` may be non-zero (the paper's lateral offsets, and 0)."""
+    nz = _hundredths(P) != 0
+    return ~nz[:, [0, 2, 3, 4, 5]].any(axis=1)
+
+
+def view_suffix(P: np.ndarray) -> list[str]:
+    """The view part of ``pair_id``: ``'+2.00'`` for a lateral view (unchanged SPEC format),
+    else the label, e.g. ``'z=+0.50'``.
+
+    >>> view_suffix(np.array([[0, -0.5, 0, 0, 0, 0], [0, 0, 1, 0, 0, 0.0]]))
+    ['-0.50', 'z=+1.00']
+    """
+    P = np.asarray(P, np.float64).reshape(-1, 6)
+    lat = is_lateral(P)
+    return [f"{p[1]:+.2f}" if ok else lab for p, ok, lab in zip(P, lat, labels(P), strict=True)]
+
+
+def lateral(offsets_m) -> np.ndarray:
+    """Lateral offsets ``(K,)`` metres -> perturbations ``(K, 6)``."""
+    y = np.atleast_1d(np.asarray(offsets_m, np.float64))
+    P = np.zeros((len(y), 6))
+    P[:, 1] = y
+    return P
+
+
+def _grid(axis: str, spec: str, text: str, option: str) -> list[float]:
+    unit = AXIS_UNITS[axis]
+    try:
+        nums = [float(s) for s in spec.split(":")]
+    except ValueError:
+        nums = []
+    if len(nums) not in (1, 3) or not all(math.isfinite(v) for v in nums):
+        raise InputError(option, None, f"{axis}=START:STOP:STEP or {axis}=VALUE in {unit}", text)
+    if len(nums) == 1:
+        values = nums
+    else:
+        start, stop, step = nums
+        if step <= 0 or stop < start or (stop - start) / step > 1000:
+            raise InputError(option, None, f"{axis}=START:STOP:STEP with STEP > 0 and STOP >= START "
+                             "(at most 1000 values)", text)
+        n = int(math.floor((stop - start) / step + 1e-9)) + 1
+        values = [round(start + i * step, 10) for i in range(n)]
+    if any(abs(v) > _LIMITS[unit] for v in values):
+        raise InputError(option, None, f"{axis} values within +-{_LIMITS[unit]:g} {unit}", text)
+    return values
+
+
+def parse_perturb(text: str, *, option: str = "perturb") -> np.ndarray:
+    """``'y=-3:3:1,z=0:2:0.5,yaw=-10:10:5'`` -> single-axis perturbations ``(K, 6)``, one per
+    grid value, duplicates (e.g. several zeros) kept once, in order of appearance.
+
+    ``option`` names the parameter in errors (the CLI passes ``'--perturb'``).
+    """
+    items = [s.strip() for s in str(text).split(",") if s.strip()]
+    if not items:
+        raise InputError(option, None, "a comma list of AXIS=START:STOP:STEP items, e.g. "
+                         "y=-3:3:1,yaw=-10:10:5", text)
+    rows, seen = [], set()
+    for item in items:
+        axis, eq, spec = item.partition("=")
+        axis = axis.strip().lower()
+        if not eq or axis not in AXES:
+            raise InputError(option, None, f"items AXIS=START:STOP:STEP with AXIS in {{{', '.join(AXES)}}}",
+                             item)
+        for v in _grid(axis, spec.strip(), item, option):
+            p = np.zeros(6)
+            p[AXES.index(axis)] = v
+            key = labels(p)[0]
+            if key not in seen:
+                seen.add(key)
+                rows.append(p)
+    return np.stack(rows)
+
+
+def view_columns(table: pd.DataFrame) -> list[str]:
+    """:data:`VIEW_COLUMNS` when some row of ``table`` is not lateral, else ``[]`` (so
+    lateral-only studies and ratings keep exactly their former columns)."""
+    return [] if is_lateral(perturbation_array(table)).all() else list(VIEW_COLUMNS)

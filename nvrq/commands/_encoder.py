@@ -1,0 +1,90 @@
+"""The CLI pieces shared by every command that runs a model (score, calibrate-tau, stability,
+proxy): the encoder/tau/device options and one encoder-and-tau loader. Library functions
+validate their own arguments and name the parameter (``batch_size``); commands do not re-check,
+and ``nvrq``'s entry point reports such an error as the option (``--batch-size``,
+:func:`data_schema.cliargs.flags_in_errors`).
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Sequence
+
+from data_schema.errors import InputError
+
+__all__ = ["add_model_arguments", "add_encoder_arguments", "prepare_device", "encoder_for_metrics",
+           "load_encoder_and_tau"]
+
+
+def add_model_arguments(p, *, batch_help: str = "crops per forward pass (default 32)") -> None:
+    """``--batch-size``, ``--device``, ``--threads``."""
+    p.add_argument("--batch-size", type=int, default=32, help=batch_help)
+    p.add_argument("--device", default="cpu", help="torch device, e.g. cpu or cuda (default cpu)")
+    p.add_argument("--threads", type=int, default=None, help="torch CPU threads (default: all cores)")
+
+
+def add_encoder_arguments(p, *, tau: bool = True) -> None:
+    """``--encoder``, ``--weights``, ``--config`` (+ ``--tau``) and :func:`add_model_arguments`."""
+    p.add_argument("--encoder", default=None, help="encoder for nvrq/nvrq_ca (default efficientnet-lite0)")
+    p.add_argument("--weights", default=None,
+                   help="local weights: a Hugging Face model folder, or a .pth for efficientnet-lite0")
+    if tau:
+        p.add_argument("--tau", type=float, default=None,
+                       help="NVRQ-CA tau (default: user config, then registry)")
+    p.add_argument("--config", default=None,
+                   help="tau config file (default $NVRQ_CONFIG or ~/.config/nvrq/tau.json)")
+    add_model_arguments(p, batch_help="encoder batch size (default 32)")
+
+
+def prepare_device(args) -> None:
+    """Apply ``--threads`` and refuse ``--device cuda`` without a GPU (before any model loads)."""
+    import torch
+
+    if getattr(args, "threads", None) is not None:
+        torch.set_num_threads(max(1, args.threads))
+    if str(args.device).startswith("cuda") and not torch.cuda.is_available():
+        raise InputError("--device", None, "an available device (cpu, or cuda with a GPU)", args.device)
+
+
+def encoder_for_metrics(metrics: Sequence[str], default: str | None) -> str:
+    """The encoder: the one named in ``metrics`` (``nvrq:ENC``), else ``default`` (``--encoder``),
+    else the registry default. Two different encoders, or one that contradicts ``--encoder``,
+    is an error."""
+    from nvrq.encoders import DEFAULT_ENCODER, get_spec
+    from nvrq.metrics import split_column
+
+    named = {split_column(m.strip())[1] for m in metrics} - {None}
+    if len(named) > 1:
+        raise InputError("--metrics", None, "one encoder for all nvrq/nvrq_ca metrics", ", ".join(sorted(named)))
+    if named and default is not None and named != {default}:
+        raise InputError("--metrics", None, f"the encoder given by --encoder ({default})", named.pop())
+    name = named.pop() if named else (default or DEFAULT_ENCODER)
+    get_spec(name)
+    return name
+
+
+def _resolve_tau(name: str, args) -> float:
+    from nvrq.calibrate import resolve_tau
+    from nvrq.score_core import check_tau
+
+    tau, source = resolve_tau(name, tau=args.tau, config=args.config)
+    if tau is None:
+        raise InputError("--tau", None, f"a tau for encoder {name}: run `nvrq calibrate-tau PAIRS "
+                         f"--encoder {name} --write-config` or pass --tau",
+                         "none in the registry or the user config")
+    check_tau(tau)  # a bad --tau stops here, before the model loads
+    print(f"tau = {tau:.3f} for {name} (from {source})", file=sys.stderr)
+    return tau
+
+
+def load_encoder_and_tau(args, *, needs_tau: bool, name: str | None = None):
+    """``(encoder, tau)`` for a command built with :func:`add_encoder_arguments`: encoder ``name``
+    (default ``--encoder``, else the registry default) with ``--weights`` on ``--device``; ``tau``
+    from ``--tau``, the config (``--config``) or the registry when ``needs_tau``, else ``None``."""
+    from nvrq.encoders import DEFAULT_ENCODER, get_spec, load_encoder
+
+    name = name or args.encoder or DEFAULT_ENCODER
+    get_spec(name)
+    tau = _resolve_tau(name, args) if needs_tau else None
+    prepare_device(args)
+    return load_encoder(name, weights=args.weights, device=args.device), tau
