@@ -12,6 +12,11 @@ from __future__ import annotations
 import argparse
 import sys
 
+from rich.console import Console
+from rich.table import Table
+
+from analysis.pipeline import run_analysis
+from analysis.report import summary_display, write_report
 from data_schema.cliargs import CommaList, DeprecatedFileOption, flags_in_errors
 from data_schema.errors import ArgumentParser, InputError, run_cli
 from data_schema.outputs import check_output_folder
@@ -133,9 +138,6 @@ def _run(args) -> int:
         raise InputError("--bootstrap", None, "a non-negative number of replicates", args.bootstrap)
     check_output_folder(args.out, kind="report", option="--out",
                         inputs=[args.ratings, *args.metrics_tables, *args.timing, args.stability])
-    from analysis.pipeline import run_analysis
-    from analysis.report import write_report
-
     analysis = run_analysis(
         args.ratings,
         metrics_paths=args.metrics_tables,

@@ -26,6 +26,7 @@ import pandas as pd
 from data_schema.errors import InputError
 from data_schema.perturbation import VIEW_COLUMNS
 from data_schema.tables import (
+    ITEM_KINDS,
     PAIR_META_COLUMNS,
     PAIRS_COLUMNS,
     RATINGS_COLUMNS,

@@ -15,6 +15,9 @@ import subprocess
 import sys
 from pathlib import Path
 
+from annotate.results import gvf_table, ratings_table
+from annotate.simulate import simulate
+from annotate.study import build_study, load_study, unplaced_votes
 from data_schema.cliargs import (
     DeprecatedFileOption,
     DeprecatedSize,
@@ -24,29 +27,8 @@ from data_schema.cliargs import (
 )
 from data_schema.errors import ArgumentParser, InputError, run_cli
 from data_schema.outputs import check_output_file, check_output_folder
-
-__all__ = ["main", "build_parser", "serve_command", "check_rater_name"]
-
-_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,39}$")
-
-
-def check_rater_name(name: str, *, allow_sim: bool = False) -> str:
-    """A rater id: 1-40 of ``A-Z a-z 0-9 _ . -`` starting alphanumeric; ``sim-*`` is reserved.
-
-    >>> check_rater_name("ann.b")
-    'ann.b'
-    >>> check_rater_name("sim-1")
-    Traceback (most recent call last):
-    ...
-    data_schema.errors.InputError: rater: name: expected a name not starting with 'sim-' (reserved for simulated raters), got sim-1
-    """
-    name = str(name).strip()
-    if not _NAME.match(name):
-        raise InputError("rater", "name", "1-40 letters, digits, '_', '.', '-'", repr(name))
-    if name.lower().startswith("sim-") and not allow_sim:
-        raise InputError("rater", "name", "a name not starting with 'sim-' (reserved for simulated raters)",
-                         name)
-    return name
+from data_schema.raters import check_rater_name
+from data_schema.tables import write_table
 
 __all__ = ["main", "build_parser", "serve_command"]
 
@@ -66,8 +48,6 @@ def _base_url(host: str, port: int) -> str:
 
 
 def _cmd_build(args) -> int:
-    from annotate.study import build_study, load_study
-
     check_output_folder(args.study, kind="study", option="STUDY",
                         inputs=[args.pairs, *args.metrics_tables, args.scene])
     width, height = parse_wxh(args.size, option="--size")
@@ -109,10 +89,6 @@ def _cmd_add_rater(args) -> int:
 
 
 def _cmd_export(args) -> int:
-    from annotate.results import ratings_table
-    from annotate.study import load_study, unplaced_votes
-    from data_schema.tables import write_table
-
     check_output_file(args.out, inputs=[args.study])
     study = load_study(args.study)
     table = ratings_table(study)
@@ -126,10 +102,6 @@ def _cmd_export(args) -> int:
 
 
 def _cmd_gvf(args) -> int:
-    from annotate.results import gvf_table, ratings_table
-    from annotate.study import load_study
-    from data_schema.tables import write_table
-
     if args.out:
         check_output_file(args.out, inputs=[args.study])
     table = gvf_table(ratings_table(load_study(args.study)))
@@ -218,7 +190,7 @@ def _main(argv=None) -> int:
 
 def main(argv=None) -> int:
     """Entry point of the ``annotate`` console script."""
-    return run_subcommand(build_parser, argv)
+    return run_cli(_main, argv)
 
 
 if __name__ == "__main__":

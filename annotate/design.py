@@ -33,9 +33,9 @@ from data_schema.perturbation import (
     labels,
     perturbation_array,
 )
-from data_schema.tables import PAIRS_COLUMNS
+from data_schema.tables import PAIRS_COLUMNS, offset_cm, parse_offsets
 
-__all__ = ["parse_offsets", "choose_views", "attribute_columns", "usable_frames", "choose_tracks",
+__all__ = ["choose_offsets", "choose_views", "attribute_columns", "usable_frames", "choose_tracks",
            "spread_frames", "select_test_pairs"]
 
 _EXTRA_NON_ATTRIBUTES = ("scene_root", *VIEW_COLUMNS)
@@ -59,10 +59,7 @@ def choose_offsets(spec: str, available) -> list[float]:
     if str(spec).strip().lower() == "all":
         chosen = have
     else:
-        try:
-            chosen = sorted(set(_cm([float(s) for s in str(spec).split(",") if s.strip()]).tolist()))
-        except ValueError:
-            raise InputError("offsets", None, "'all' or a comma list of metres", spec) from None
+        chosen = sorted(set(offset_cm(parse_offsets(spec, field="offsets")).tolist()))
         missing = [c for c in chosen if c not in have]
         if missing or not chosen:
             raise InputError("offsets", None,
@@ -99,7 +96,7 @@ def choose_views(spec: str, pairs: pd.DataFrame) -> list[str]:
     if str(spec).strip().lower() == "all":
         return sorted(set(have), key=_view_order)
     lat = pairs[~pairs.reindex(columns=list(EXTRA_PERTURBATION_COLUMNS), fill_value=0.0).ne(0).any(axis=1)]
-    return _view_keys(parse_offsets(spec, lat["y_offset_m"]))
+    return _view_keys(choose_offsets(spec, lat["y_offset_m"]))
 
 
 def usable_frames(pairs: pd.DataFrame, offsets: list) -> pd.DataFrame:

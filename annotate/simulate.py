@@ -29,6 +29,7 @@ from tqdm import tqdm
 from annotate.store import Store
 from data_schema.errors import InputError
 from data_schema.perturbation import labels, perturbation_array
+from data_schema.raters import SIM_PREFIX
 
 __all__ = ["p_good", "item_severity", "simulate"]
 
@@ -75,9 +76,7 @@ def simulate(study, *, raters: int = 5, seed: int = 0, progress: bool = True) ->
     """Let ``raters`` simulated raters (the last careless) rate the study; returns their params."""
     if raters < 1:
         raise InputError("raters", None, "an integer >= 1", raters)
-    import dataclasses
 
-    from annotate.store import Store
 
     sev = item_severity(study)
     # the same store file and code path; NORMAL sync: simulated votes need not survive a power cut

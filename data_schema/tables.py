@@ -158,7 +158,9 @@ def read_table(
         raise InputError(path, None, f"a {what} with a header row", "an empty file") from None
     except Exception as exc:  # parser errors of either format
         raise InputError(path, None, f"a readable {what}", f"{type(exc).__name__}: {exc}") from None
-    return require_columns(df, required, where=path)
+    require_columns(df, required, where=path)
+    check = TABLE_CHECKS.get(what)
+    return df if check is None else check(df, where=str(path))
 
 
 def require_columns(df: pd.DataFrame, required: Sequence[str], *, where: object) -> pd.DataFrame:
@@ -168,8 +170,7 @@ def require_columns(df: pd.DataFrame, required: Sequence[str], *, where: object)
     if missing:
         raise InputError(where, f"column {missing[0]!r}", f"the columns {', '.join(required)}",
                          f"columns {', '.join(map(str, df.columns))}")
-    check = TABLE_CHECKS.get(what)
-    return df if check is None else check(df, where=str(path))
+    return df
 
 
 def _line(i: int) -> str:
@@ -177,8 +178,6 @@ def _line(i: int) -> str:
 
 
 def _first(mask) -> int:
-    import numpy as np
-
     return int(np.flatnonzero(np.asarray(mask))[0])
 
 
@@ -195,8 +194,6 @@ def _unique_ids(df: pd.DataFrame, col: str, where: str) -> None:
 
 
 def _numeric(df: pd.DataFrame, col: str, where: str, what: str, *, integer: bool = False) -> None:
-    import numpy as np
-
     num = pd.to_numeric(df[col], errors="coerce")
     bad = ~np.isfinite(num.to_numpy(dtype=float))
     if integer:
@@ -392,8 +389,6 @@ def pair_image_paths(df: pd.DataFrame, column: str, *, scene_root=None, base=Non
     """Absolute image paths of ``column`` (``gt_path`` or ``render_path``), ``(N,)`` object array.
 
     Every path obeys the scene-folder rule (:func:`inside_scene`) and names an existing file."""
-    import numpy as np
-
     roots = pair_scene_roots(df, scene_root=scene_root, base=base, where=where)
     rel = df[column].to_numpy(dtype=object)
     seen: dict = {}

@@ -16,6 +16,7 @@ import sys
 from data_schema.cliargs import flags_in_errors
 from data_schema.errors import ArgumentParser, run_cli
 from data_schema.outputs import check_output_file, check_output_folder
+from nvrq.commands.score import timing_path
 
 __all__ = ["main", "build_parser"]
 
@@ -62,8 +63,6 @@ def check_outputs(args) -> None:
     if kind == "file":
         check_output_file(args.out, inputs=inputs, option=option)
         if args.command == "score":
-            from nvrq.commands.score import timing_path
-
             check_output_file(timing_path(args.out), inputs=inputs, option="--out (its .timing.csv)")
     else:
         check_output_folder(args.out, kind=kind, inputs=inputs, option=option)
@@ -79,7 +78,7 @@ def _main(argv=None) -> int:
 
 def main(argv=None) -> int:
     """Entry point of the ``nvrq`` console script."""
-    return run_subcommand(build_parser, argv)
+    return run_cli(_main, argv)
 
 
 if __name__ == "__main__":

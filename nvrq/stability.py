@@ -36,7 +36,13 @@ from scipy.stats import rankdata
 from tqdm import tqdm
 
 from data_schema.errors import InputError
-from data_schema.tables import GT_BOX_COLUMNS, MIN_SIDE_PX, pair_boxes, pair_image_paths
+from data_schema.tables import (
+    GT_BOX_COLUMNS,
+    MIN_SIDE_PX,
+    atomic_path,
+    pair_boxes,
+    pair_image_paths,
+)
 from nvrq.crops import cut_box, read_rgb
 from nvrq.metrics import metric_info
 from nvrq.nuisances import (

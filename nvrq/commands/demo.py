@@ -13,6 +13,7 @@ from importlib.metadata import distribution
 from pathlib import Path
 
 from data_schema.cliargs import allow_negative_lists
+from data_schema.errors import InputError
 
 __all__ = ["register", "run", "demo_steps"]
 

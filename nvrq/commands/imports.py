@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from data_schema.tables import parse_offsets
-from nvrq.commands.synth import allow_negative_lists
+from data_schema.cliargs import allow_negative_lists
+from nvrq.commands.synth import add_perturb_option, parse_offsets, perturb_grid
 from nvrq.sources.kitti import import_kitti
 from nvrq.sources.nurec import import_nurec
 
@@ -13,9 +13,6 @@ __all__ = ["register"]
 
 
 def register(sub) -> None:
-    from data_schema.cliargs import allow_negative_lists
-    from nvrq.commands.synth import add_perturb_option
-
     p = sub.add_parser(
         "import",
         help="import a NuRec archive or a KITTI frame as a scene folder",
@@ -51,9 +48,6 @@ def register(sub) -> None:
 
 
 def _run_nurec(args) -> int:
-    from nvrq.commands.synth import parse_offsets, perturb_grid
-    from nvrq.sources.nurec import import_nurec
-
     out = import_nurec(
         args.archive, args.out, offsets=parse_offsets(args.offsets), sequence=args.sequence,
         perturbations=perturb_grid(args),

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import time
 
-from data_schema.tables import MIN_SIDE_PX
+from data_schema.scene import load_scene
+from data_schema.tables import MIN_SIDE_PX, write_table
+from nvrq.pairs import make_pairs
 
 __all__ = ["register", "run"]
 
@@ -23,10 +25,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from data_schema.scene import load_scene
-    from data_schema.tables import write_table
-    from nvrq.pairs import make_pairs
-
     t0 = time.perf_counter()
     scene = load_scene(args.scene)
     pairs, stats = make_pairs(scene, min_side=args.min_side, min_area=args.min_area, progress=not args.quiet)

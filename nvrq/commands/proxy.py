@@ -7,7 +7,14 @@ local Ultralytics YOLO model (optional extra ``[yolo]``).
 
 from __future__ import annotations
 
+from data_schema.errors import InputError
+from data_schema.tables import read_table, write_table
 from nvrq.commands._encoder import add_model_arguments, prepare_device
+from nvrq.proxies import load_class_maps
+from nvrq.proxies.classifier_drop import imagenet_drop, load_classifier
+from nvrq.proxies.clip_drop import clip_drop, load_clip, true_category_index
+from nvrq.proxies.detection import detection_confidence, read_detections
+from nvrq.proxies.yolo import run_yolo
 
 __all__ = ["register"]
 

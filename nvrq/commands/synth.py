@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 from data_schema.cliargs import allow_negative_lists, parse_wxh
+from data_schema.perturbation import parse_perturb
+from data_schema.tables import parse_offsets
+from nvrq.synth import generate_scene
 
 __all__ = ["register", "run", "parse_offsets", "parse_size", "allow_negative_lists", "add_perturb_option",
            "perturb_grid"]
@@ -20,8 +23,6 @@ def add_perturb_option(parser) -> None:
 
 def perturb_grid(args):
     """The ``(K, 6)`` views of ``--perturb``, or None when it was not given."""
-    from data_schema.perturbation import parse_perturb
-
     return None if args.perturb is None else parse_perturb(args.perturb, option="--perturb")
 
 

@@ -33,6 +33,7 @@ from tqdm import tqdm
 
 from data_schema.errors import InputError
 from nvrq.crops import normalised_tensor
+from nvrq.encoders import load_encoder
 from nvrq.score_core import iter_crop_batches, pair_outputs
 
 __all__ = [

@@ -24,10 +24,10 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from tqdm import tqdm
 
 from data_schema.errors import InputError
 from nvrq.crops import normalised_tensor
+from nvrq.proxies import mapped_labels
 from nvrq.proxies.classifier_drop import pair_probabilities, preprocessor_stats
 
 __all__ = ["ZeroShotCLIP", "zero_shot_probs", "load_clip", "clip_drop", "true_category_index"]

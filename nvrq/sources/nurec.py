@@ -47,8 +47,10 @@ from data_schema.perturbation import (
     is_lateral,
     lateral,
 )
-from data_schema.scene import save_scene
+from data_schema.scene import CAMERA_MODEL_SCHEMA, save_scene
 from data_schema.tables import IMAGES_COLUMNS
+from nvrq.geometry.cameras import camera_from_model
+from nvrq.geometry.poses import matrix_to_pose7, pose7_to_matrix
 from nvrq.render_plan import default_image_path
 
 __all__ = ["import_nurec", "read_archive_json"]
