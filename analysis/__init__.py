@@ -4,11 +4,13 @@ Modules, in data-flow order:
 
 - :mod:`analysis.inputs` — read and check ratings.csv and metric tables; which columns are
   metrics, attributes and proxies (the written rule).
-- :mod:`analysis.screening` — per-rater numbers and the ``--screen`` rule.
+- :mod:`annotate.screening` (one stage down, shared with the live admin page) — per-rater
+  numbers and the ``--screen`` rule.
 - :mod:`analysis.labels` — votes to per-item GVF; join of metric tables.
 - :mod:`analysis.stats` — columnar (grouped) PLCC/SRCC/KRCC/ROC AUC/logistic PLCC and the
   undefined-statistic rule; :mod:`analysis.bootstrap` — cluster bootstrap over tracks;
-  :mod:`analysis.agreement` — Krippendorff's alpha.
+  :mod:`analysis.aggregate` — crowd-kit label models; :mod:`analysis.ceiling` — the noise
+  ceiling (GVF and Krippendorff's alpha come from :mod:`annotate.results`).
 - :mod:`analysis.summary` — the per-metric table; :mod:`analysis.breakdowns` — per
   category, offset and encoder.
 - :mod:`analysis.plots`, :mod:`analysis.report` (+ ``templates/``) — figures and the report

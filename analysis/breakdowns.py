@@ -16,12 +16,13 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+from scipy import stats as _st
 from tqdm import tqdm
 
 from analysis import stats
 from nvrq.metrics import split_column
 
-__all__ = ["category_table", "offset_table", "encoder_table", "MISSING_GROUP"]
+__all__ = ["category_table", "offset_table", "encoder_table", "MISSING_GROUP", "ALL_CLASSES"]
 
 MISSING_GROUP = "(missing)"
 _CAT_COLUMNS = [
@@ -123,42 +124,65 @@ def _clips_per_group(codes, n_groups, clip_codes_all, ok):
     return present.reshape(n_groups, n_clips).sum(axis=1)
 
 
-def offset_table(
-    items: pd.DataFrame, columns: list[str], *, offset_col: str = "y_offset_m"
-) -> pd.DataFrame:
-    """Long table ``y_offset_m, column, n, mean, std`` (sample std, ddof=1; NaN for n = 1).
+ALL_CLASSES = "all"
 
-    Only finite values count; rows without an offset are left out.
+
+def _sampling_std(items: pd.DataFrame, codes: np.ndarray, g: int) -> np.ndarray:
+    """Per group: the spread of item GVF expected from vote sampling alone,
+    ``sqrt(mean(gvf (1 - gvf) / (n_votes - 1)))`` (items with >= 2 votes)."""
+    p = items["gvf"].to_numpy(np.float64)
+    n = items["n_votes"].to_numpy(np.float64)
+    ok = n >= 2
+    var = np.where(ok, p * (1 - p) / np.where(ok, n - 1, 1), 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.sqrt(np.bincount(codes, weights=var, minlength=g)
+                       / np.bincount(codes, weights=ok, minlength=g))
+
+
+def offset_table(
+    items: pd.DataFrame, columns: list[str], *, offset_col: str = "y_offset_m",
+    by: str | None = None,
+) -> pd.DataFrame:
+    """Long table ``y_offset_m, label_class, column, n, mean, std, ci_lo, ci_hi,
+    sampling_std`` per offset (``label_class = "all"``) or, with ``by``, per condition
+    (offset x value of ``by``, e.g. ``label_class``, as ITU-T P.808 reports per condition).
+
+    ``std``: sample std (ddof=1; NaN for n = 1); ``ci_lo, ci_hi``: 95% Student-t interval
+    of the mean; ``sampling_std`` (GVF only): the item spread expected from vote sampling
+    alone (:func:`_sampling_std`). Only finite values count; rows without an offset are
+    left out.
     """
     off = items[offset_col].to_numpy(np.float64)
     keep = np.isfinite(off)
-    codes, uniques = pd.factorize(off[keep], sort=True)
+    sub = items[keep]
+    cls = sub[by].astype(str).to_numpy() if by else np.full(len(sub), ALL_CLASSES)
+    codes, uniques = pd.factorize(pd.MultiIndex.from_arrays([off[keep], cls]), sort=True)
     g = len(uniques)
-    frames = []
-    for c in columns:
-        v = items[c].to_numpy(np.float64)[keep]
-        ok = np.isfinite(v)
-        cc, vv = codes[ok], v[ok]
-        n = np.bincount(cc, minlength=g).astype(np.float64)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            mean = np.bincount(cc, weights=vv, minlength=g) / n
-            dev = vv - mean[cc]
-            std = np.sqrt(np.bincount(cc, weights=dev * dev, minlength=g) / (n - 1))
-        std[n < 2] = np.nan
-        frames.append(
-            pd.DataFrame(
-                {
-                    "y_offset_m": uniques,
-                    "column": c,
-                    "n": n.astype(np.int64),
-                    "mean": mean,
-                    "std": std,
-                }
-            )
-        )
+    key = {"y_offset_m": uniques.get_level_values(0), "label_class": uniques.get_level_values(1)}
+    frames = [
+        _offset_stats(sub[c].to_numpy(np.float64), codes, g, key, c) for c in columns
+    ]
     if not frames:
-        return pd.DataFrame(columns=["y_offset_m", "column", "n", "mean", "std"])
+        return pd.DataFrame(columns=["y_offset_m", "label_class", "column", "n", "mean", "std",
+                                     "ci_lo", "ci_hi", "sampling_std"])
+    if "gvf" in columns and "n_votes" in sub.columns:
+        frames[columns.index("gvf")]["sampling_std"] = _sampling_std(sub, codes, g)
     return pd.concat(frames, ignore_index=True)
+
+
+def _offset_stats(v, codes, g, key, column):
+    ok = np.isfinite(v)
+    cc, vv = codes[ok], v[ok]
+    n = np.bincount(cc, minlength=g).astype(np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.bincount(cc, weights=vv, minlength=g) / n
+        dev = vv - mean[cc]
+        std = np.sqrt(np.bincount(cc, weights=dev * dev, minlength=g) / (n - 1))
+        std[n < 2] = np.nan
+        half = _st.t.ppf(0.975, n - 1) * std / np.sqrt(n)
+    return pd.DataFrame({**key, "column": column, "n": n.astype(np.int64), "mean": mean,
+                         "std": std, "ci_lo": mean - half, "ci_hi": mean + half,
+                         "sampling_std": np.nan})
 
 
 def encoder_table(summary: pd.DataFrame) -> pd.DataFrame:

@@ -1,7 +1,8 @@
 """The ``analyze`` command (SPEC section 6): a thin shell over :func:`analysis.pipeline.run_analysis`.
 
 ``analyze RATINGS.csv [--metrics-table METRICS ...] [--lower-better A,B] [--higher-better A,B]
-[--target COLUMN] [--exclude-raters A,B] [--screen] [--timing FILE ...] [--stability DIR]
+[--target COLUMN] [--exclude-raters A,B] [--screen] [--aggregate METHOD] [--timing FILE ...]
+[--stability DIR]
 [--bootstrap N] [--seed S] [--rank-by {srcc,plcc,roc_auc}] --out REPORT_DIR``
 
 Bad input ends with one line on stderr and exit status 2 (SPEC section 7).
@@ -84,6 +85,13 @@ def _add_options(p: ArgumentParser) -> None:
         help="exclude raters by the documented screening rule (see the report)",
     )
     p.add_argument(
+        "--aggregate",
+        choices=("majority", "dawid-skene", "glad", "mace"),
+        default="majority",
+        help="item labels: majority vote (GVF, default) or a crowd-kit model whose posterior "
+        "P(good) becomes the target (0.5 threshold for ROC AUC)",
+    )
+    p.add_argument(
         "--timing",
         action="append",
         default=[],
@@ -146,6 +154,7 @@ def _run(args) -> int:
         target=args.target,
         exclude_raters=args.exclude_raters,
         screen=args.screen,
+        aggregate_method=args.aggregate,
         n_boot=args.bootstrap,
         seed=args.seed,
         rank_by=args.rank_by,

@@ -6,7 +6,8 @@ Which columns are metrics — the written rule:
    vote, voted_at, response_ms, kind``), the pair columns of SPEC section 3 (``clip_id``,
    ``camera``, ``track_id``, ``label_class``, ``timestamp_us``, ``y_offset_m``, paths and
    box corners), ``pair_id``, ``gold_expected`` and the per-item labels ``analyze`` itself
-   writes (``n_votes, n_good, gvf, majority_good``).
+   writes (``n_votes, n_good, gvf, majority_good, gvf_ci_lo, gvf_ci_hi, p_good,
+   model_good``).
 2. Registry entries of kind ``proxy`` (``s_det``, ``imagenet_drop``, ``clip_drop``) are
    downstream targets for ``--target``, not metrics ranked against GVF.
 3. Every other *numeric* column is a metric. Its direction comes from the metric registry
@@ -42,7 +43,16 @@ __all__ = [
     "classify_columns",
 ]
 
-ITEM_LABEL_COLUMNS = ("n_votes", "n_good", "gvf", "majority_good")
+ITEM_LABEL_COLUMNS = (
+    "n_votes",
+    "n_good",
+    "gvf",
+    "majority_good",
+    "gvf_ci_lo",
+    "gvf_ci_hi",
+    "p_good",
+    "model_good",
+)
 NON_METRIC_COLUMNS = frozenset(
     RATINGS_COLUMNS + PAIRS_COLUMNS + ITEM_LABEL_COLUMNS + ("gold_expected",) + VIEW_COLUMNS
 )

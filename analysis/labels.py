@@ -1,8 +1,9 @@
 """Votes to per-item labels (SPEC section 6) and the join of metric tables onto the items.
 
 Only ``kind == 'test'`` votes count. Per item: ``n_votes``, ``n_good``,
-``gvf = n_good / n_votes`` (the good-vote fraction) and ``majority_good = gvf >= 0.5``
-(a tie counts as good). Other columns of the ratings (pair metadata, attributes, metric
+``gvf = n_good / n_votes`` (the good-vote fraction), ``majority_good = gvf >= 0.5``
+(a tie counts as good) and the Wilson 95% interval ``gvf_ci_lo, gvf_ci_hi`` — all from
+:func:`annotate.results.good_vote_fraction`, the one definition. Other columns of the ratings (pair metadata, attributes, metric
 values) are taken from the item's first test vote row.
 
 >>> import pandas as pd
@@ -17,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from annotate.results import good_vote_fraction
 from data_schema.errors import InputError
 
 __all__ = ["item_table", "join_metrics"]
@@ -25,21 +27,17 @@ _VOTE_ONLY = ("rater_id", "vote", "voted_at", "response_ms", "kind", "gold_expec
 
 
 def item_table(votes: pd.DataFrame) -> pd.DataFrame:
-    """Per-item labels from one-row-per-vote ``votes``; one row per item, in first-seen order."""
+    """Per-item labels from one-row-per-vote ``votes``; one row per item, sorted by ``item_id``
+    so that everything downstream (fits, bootstrap draws) is independent of the row order of
+    the ratings file."""
     test = votes[votes["kind"] == "test"]
-    codes, uniques = pd.factorize(test["item_id"])
-    n_votes = np.bincount(codes, minlength=len(uniques))
-    n_good = np.bincount(codes, weights=test["vote"].to_numpy(np.float64), minlength=len(uniques))
+    labels = good_vote_fraction(test["item_id"], test["vote"])
+    codes = pd.factorize(test["item_id"])[0]
     _, first = np.unique(codes, return_index=True)
     keep = [c for c in test.columns if c not in _VOTE_ONLY and c != "item_id"]
-    items = test.iloc[first][keep].reset_index(drop=True)
-    items.insert(0, "item_id", np.asarray(uniques, dtype=object))
-    gvf = n_good / np.maximum(n_votes, 1)
-    items.insert(1, "n_votes", n_votes.astype(np.int64))
-    items.insert(2, "n_good", n_good.astype(np.int64))
-    items.insert(3, "gvf", gvf)
-    items.insert(4, "majority_good", gvf >= 0.5)
-    return items
+    meta = test.iloc[first][keep].reset_index(drop=True)
+    items = pd.concat([labels, meta], axis=1)
+    return items.sort_values("item_id", kind="stable").reset_index(drop=True)
 
 
 def join_metrics(items: pd.DataFrame, tables: list[tuple[str, pd.DataFrame]]):

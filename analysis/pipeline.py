@@ -1,7 +1,9 @@
 """``analyze`` as one function: ratings (+ metric tables) in, every result table out.
 
-:func:`run_analysis` reads and checks the inputs, screens raters, turns votes into item
-labels, and computes the summary, breakdowns, per-offset table and agreement. It writes
+:func:`run_analysis` is a short sequence of stages: read the inputs, screen the raters,
+agreement, item labels (GVF and, with ``aggregate_method``, a crowd-kit posterior), join the
+metrics, classify columns, the summary with the noise ceiling, breakdowns, and the
+majority-against-model comparison. It writes
 nothing; :mod:`analysis.report` writes the report directory.
 """
 
@@ -13,11 +15,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis import axes, breakdowns, screening
-from analysis.agreement import alpha_nominal
+from analysis import axes, breakdowns
+from analysis.aggregate import aggregate
+from analysis.ceiling import noise_ceiling, vote_matrix
 from analysis.inputs import classify_columns, read_metrics, read_ratings
 from analysis.labels import item_table, join_metrics
 from analysis.summary import summary_table
+from annotate import screening
+from annotate.results import alpha_nominal
 from data_schema.errors import InputError
 from data_schema.tables import TIMING_COLUMNS, read_table, timing_path
 
@@ -56,6 +61,8 @@ class Analysis:
     seed: int = 0
     rank_by: str = "srcc"
     screen: bool = False
+    ceiling: dict = field(default_factory=dict)
+    comparison: dict | None = None
 
 
 def read_timing(paths) -> pd.DataFrame | None:
@@ -102,6 +109,133 @@ def read_stability(directory):
     return st, sn
 
 
+def _read_inputs(ratings_path, metrics_paths, timing_paths):
+    votes = read_ratings(ratings_path)
+    tables = [(str(p), read_metrics(p)) for p in metrics_paths]
+    timing_files = list(timing_paths) + [
+        timing_path(p) for p in metrics_paths if timing_path(p).is_file()
+    ]
+    return votes, tables, timing_files
+
+
+def _screen_raters(votes, ratings_path, *, screen, exclude_raters):
+    raters = screening.screen(
+        screening.rater_table(votes), use_rule=screen, exclude=list(exclude_raters)
+    )
+    excluded = set(raters.loc[raters["excluded"], "rater_id"])
+    kept = votes[~votes["rater_id"].isin(excluded)]
+    if not (kept["kind"] == "test").any():
+        raise InputError(ratings_path, "kind", "at least one test vote (after exclusions)", "none")
+    return raters, kept
+
+
+def _agreement(votes, kept):
+    alpha = {}
+    for name, v in (("all raters", votes), ("kept raters", kept)):
+        t = v[v["kind"] == "test"]
+        a, why = alpha_nominal(t["item_id"].to_numpy(), t["vote"].to_numpy())
+        alpha[name] = {"alpha": a, "reason": why, "votes": len(t)}
+    return alpha
+
+
+def _labels(kept, raters, *, method, seed):
+    """Item labels (GVF and, with a model, ``p_good``) and the rater table with model skills."""
+    items = item_table(kept)
+    test = kept[kept["kind"] == "test"]
+    model_items, skills = aggregate(test, method=method, seed=seed)
+    items = items.merge(model_items, on="item_id", how="left")
+    if len(skills.columns) > 1:
+        raters = raters.merge(skills, on="rater_id", how="left")
+    return items, raters
+
+
+def _check_target(items, target):
+    if target is None:
+        return
+    if target not in items.columns or target in ("n_votes", "n_good", "majority_good"):
+        raise InputError(
+            "--target", target, "a numeric per-item column of the ratings or metrics",
+            "no such column",
+        )
+    if not pd.api.types.is_numeric_dtype(items[target]):
+        raise InputError("--target", target, "a numeric column", items[target].dtype)
+
+
+def _columns(items, unknown, notes, *, target, tgt, lower, higher, where):
+    empty = [c for c in items.columns if c != tgt and items[c].isna().all()]
+    if empty:
+        notes.append("empty columns ignored: " + ", ".join(map(str, empty)))
+        items = items.drop(columns=empty)
+    classified = classify_columns(
+        items, lower=set(lower), higher=set(higher), target=target, where=where
+    )
+    for path, n_unknown in unknown.items():
+        if n_unknown:
+            notes.append(f"{path}: {n_unknown} pair ids are not rated items (ignored)")
+    return items, classified
+
+
+def _boot_size(items, n_boot, notes):
+    if n_boot * len(items) > BOOT_CELL_LIMIT:
+        notes.append(
+            f"bootstrap skipped: {len(items)} items x {n_boot} replicates is above "
+            f"{BOOT_CELL_LIMIT:.0e} item-replicates; pass a smaller --bootstrap for CIs"
+        )
+        return 0
+    return n_boot
+
+
+def _counts(votes, kept, items, raters, clusters):
+    return {
+        "votes": len(votes),
+        "test_votes": int((votes["kind"] == "test").sum()),
+        "test_votes_kept": int((kept["kind"] == "test").sum()),
+        "items": len(items),
+        "tracks": int(clusters.max()) + 1,
+        "clips": int(items["clip_id"].nunique()),
+        "raters": len(raters),
+        "raters_simulated": int(raters["simulated"].sum()),
+        "raters_excluded": int(raters["excluded"].sum()),
+        "gold_votes": int((votes["kind"] == "gold").sum()),
+        "repeat_votes": int((votes["kind"] == "repeat").sum()),
+    }
+
+
+def _ceiling(kept, summary, tgt, *, seed):
+    """The noise ceiling of the votes, also as summary columns (NaN for a non-vote target)."""
+    if tgt in ("gvf", "p_good"):
+        ceiling = noise_ceiling(vote_matrix(kept[kept["kind"] == "test"]), seed=seed)
+    else:
+        ceiling = {**noise_ceiling(np.empty((0, 0))), "reason": f"target {tgt!r} is not the votes"}
+    for k in ("reliability", "plcc_ceiling", "srcc_ceiling"):
+        summary[f"noise_{k}" if k == "reliability" else k] = ceiling[k]
+    return ceiling
+
+
+def _by_offset(items, columns):
+    """Per offset (``label_class = "all"``) then per condition (offset x class)."""
+    cols = columns if "gvf" in columns else columns + ["gvf"]
+    return pd.concat([breakdowns.offset_table(items, cols),
+                      breakdowns.offset_table(items, cols, by="label_class")], ignore_index=True)
+
+
+def _model_comparison(items, metrics, directions, *, method, seed):
+    """Majority against the model, side by side: label counts and |SRCC| / ROC AUC per metric."""
+    if method == "majority":
+        return None
+    differ = int((items["majority_good"] != items["model_good"]).sum())
+    kw = {"n_boot": 0, "seed": seed, "progress": False}
+    maj = summary_table(items, metrics, directions, target="gvf", **kw)
+    mod = summary_table(items, metrics, directions, target="p_good", **kw)
+    table = pd.DataFrame({
+        "metric": maj["metric"], "srcc_majority": maj["srcc"], f"srcc_{method}": mod["srcc"],
+        "roc_auc_majority": maj["roc_auc"], f"roc_auc_{method}": mod["roc_auc"],
+    })
+    return {"method": method, "labels_differ": differ, "items": len(items),
+            "good_majority": int(items["majority_good"].sum()),
+            "good_model": int(items["model_good"].sum()), "table": table}
+
+
 def run_analysis(
     ratings_path,
     *,
@@ -111,6 +245,7 @@ def run_analysis(
     target: str | None = None,
     exclude_raters=(),
     screen: bool = False,
+    aggregate_method: str = "majority",
     n_boot: int = 1000,
     seed: int = 0,
     rank_by: str = "srcc",
@@ -119,118 +254,39 @@ def run_analysis(
     progress: bool = True,
 ) -> Analysis:
     """The whole analysis (see the module docstring); raises ``InputError`` on bad input."""
-    votes = read_ratings(ratings_path)
-    tables = [(str(p), read_metrics(p)) for p in metrics_paths]
-    timing_files = list(timing_paths) + [
-        timing_path(p) for p in metrics_paths if timing_path(p).is_file()
-    ]
-
-    raters = screening.screen(
-        screening.rater_table(votes), use_rule=screen, exclude=list(exclude_raters)
-    )
-    excluded = set(raters.loc[raters["excluded"], "rater_id"])
-    kept = votes[~votes["rater_id"].isin(excluded)]
-    if not (kept["kind"] == "test").any():
-        raise InputError(ratings_path, "kind", "at least one test vote (after exclusions)", "none")
-
-    test_all = votes[votes["kind"] == "test"]
-    test_kept = kept[kept["kind"] == "test"]
-    alpha = {}
-    for name, t in (("all raters", test_all), ("kept raters", test_kept)):
-        a, why = alpha_nominal(t["item_id"].to_numpy(), t["vote"].to_numpy())
-        alpha[name] = {"alpha": a, "reason": why, "votes": len(t)}
-
-    items = item_table(kept)
+    votes, tables, timing_files = _read_inputs(ratings_path, metrics_paths, timing_paths)
+    raters, kept = _screen_raters(votes, ratings_path, screen=screen,
+                                  exclude_raters=exclude_raters)
+    alpha = _agreement(votes, kept)
+    items, raters = _labels(kept, raters, method=aggregate_method, seed=seed)
     items, unknown, notes = join_metrics(items, tables)
     for path, table in tables:
         if unknown[str(path)] == len(table):
             raise InputError(path, "pair_id", "pair ids of rated items", "none matches an item")
-    tgt = target or "gvf"
-    if target is not None:
-        if target not in items.columns or target in ("n_votes", "n_good", "majority_good"):
-            raise InputError(
-                "--target",
-                target,
-                "a numeric per-item column of the ratings or metrics",
-                "no such column",
-            )
-        if not pd.api.types.is_numeric_dtype(items[target]):
-            raise InputError("--target", target, "a numeric column", items[target].dtype)
-    empty = [c for c in items.columns if c != tgt and items[c].isna().all()]
-    if empty:
-        notes.append("empty columns ignored: " + ", ".join(map(str, empty)))
-        items = items.drop(columns=empty)
-    metrics, directions, attributes, proxies = classify_columns(
-        items, lower=set(lower), higher=set(higher), target=target, where=ratings_path
-    )
-    for path, n_unknown in unknown.items():
-        if n_unknown:
-            notes.append(f"{path}: {n_unknown} pair ids are not rated items (ignored)")
-
+    _check_target(items, target)
+    tgt = target or ("gvf" if aggregate_method == "majority" else "p_good")
+    items, (metrics, directions, attributes, proxies) = _columns(
+        items, unknown, notes, target=target, tgt=tgt, lower=lower, higher=higher,
+        where=ratings_path)
     clusters = pd.factorize(
         pd.MultiIndex.from_arrays([items["clip_id"].astype(str), items["track_id"].astype(str)])
     )[0]
-    if n_boot * len(items) > BOOT_CELL_LIMIT:
-        notes.append(
-            f"bootstrap skipped: {len(items)} items x {n_boot} replicates is above "
-            f"{BOOT_CELL_LIMIT:.0e} item-replicates; pass a smaller --bootstrap for CIs"
-        )
-        n_boot = 0
-    summary = summary_table(
-        items,
-        metrics,
-        directions,
-        target=tgt,
-        clusters=clusters,
-        n_boot=n_boot,
-        seed=seed,
-        rank_by=rank_by,
-        progress=progress,
-    )
-    by = ["label_class"] + attributes
-    categories = breakdowns.category_table(items, metrics, by=by, target=tgt, progress=progress)
-    by_offset = breakdowns.offset_table(axes.lateral_items(items), [tgt] + metrics)
-    by_axis = axes.axis_table(items, [tgt] + metrics) if axes.is_multi_axis(items) else None
-    encoders = breakdowns.encoder_table(summary)
-    stab = snr = None
-    if stability_dir is not None:
-        stab, snr = read_stability(stability_dir)
-    counts = {
-        "votes": len(votes),
-        "test_votes": int((votes["kind"] == "test").sum()),
-        "test_votes_kept": len(test_kept),
-        "items": len(items),
-        "tracks": int(clusters.max()) + 1,
-        "clips": int(items["clip_id"].nunique()),
-        "raters": len(raters),
-        "raters_simulated": int(raters["simulated"].sum()),
-        "raters_excluded": len(excluded),
-        "gold_votes": int((votes["kind"] == "gold").sum()),
-        "repeat_votes": int((votes["kind"] == "repeat").sum()),
-    }
+    n_boot = _boot_size(items, n_boot, notes)
+    summary = summary_table(items, metrics, directions, target=tgt, clusters=clusters,
+                            n_boot=n_boot, seed=seed, rank_by=rank_by, progress=progress)
+    ceiling = _ceiling(kept, summary, tgt, seed=seed)
+    categories = breakdowns.category_table(items, metrics, by=["label_class"] + attributes,
+                                           target=tgt, progress=progress)
+    stab, snr = read_stability(stability_dir) if stability_dir is not None else (None, None)
     return Analysis(
-        ratings_path=str(ratings_path),
-        target=tgt,
-        items=items,
-        metrics=metrics,
-        directions=directions,
-        attributes=attributes,
-        proxies=proxies,
-        summary=summary,
-        categories=categories,
-        by_offset=by_offset,
-        by_axis=by_axis,
-        encoders=encoders,
-        raters=raters,
-        alpha=alpha,
-        counts=counts,
-        timing=read_timing(timing_files),
-        stability=stab,
-        snr=snr,
-        notes=notes,
-        unknown_ids=unknown,
-        n_boot=n_boot,
-        seed=seed,
-        rank_by=rank_by,
-        screen=screen,
+        ratings_path=str(ratings_path), target=tgt, items=items, metrics=metrics,
+        directions=directions, attributes=attributes, proxies=proxies, summary=summary,
+        categories=categories, by_offset=_by_offset(axes.lateral_items(items), [tgt] + metrics),
+        by_axis=axes.axis_table(items, [tgt] + metrics) if axes.is_multi_axis(items) else None,
+        encoders=breakdowns.encoder_table(summary), raters=raters, alpha=alpha,
+        counts=_counts(votes, kept, items, raters, clusters), timing=read_timing(timing_files),
+        stability=stab, snr=snr, notes=notes, unknown_ids=unknown, n_boot=n_boot, seed=seed,
+        rank_by=rank_by, screen=screen, ceiling=ceiling,
+        comparison=_model_comparison(items, metrics, directions, method=aggregate_method,
+                                     seed=seed),
     )

@@ -1,7 +1,8 @@
 """Report figures (matplotlib, no pyplot state: each function returns a new ``Figure``).
 
 - :func:`tent_plot` — paper Fig. 3: x = render offset ``y_offset_m``; the human GVF panel
-  first, then one panel per metric; mean +/- 1 std per offset; the y axis of a
+  first (with dashed lines at mean +/- the spread expected from vote sampling alone), then
+  one panel per metric; mean +/- 1 std per offset; the y axis of a
   lower-is-better metric is inverted and marked with a down arrow, so "better" is up in
   every panel.
 - :func:`speed_accuracy_plot` — pairs/s (log x) against SRCC with the target; Pareto front.
@@ -49,6 +50,8 @@ def tent_plot(
     axes = fig.subplots(nrows, ncols, squeeze=False).ravel()
     for ax in axes[n:]:
         fig.delaxes(ax)
+    if "label_class" in by_offset.columns:
+        by_offset = by_offset[by_offset["label_class"] == "all"]
     for i, (ax, col) in enumerate(zip(axes, columns, strict=False)):
         t = by_offset[by_offset["column"] == col].sort_values("y_offset_m")
         x = t["y_offset_m"].to_numpy(float)
@@ -57,6 +60,11 @@ def tent_plot(
         color = "black" if i == 0 else f"C{(i - 1) % 10}"
         ax.fill_between(x, m - s, m + s, color=color, alpha=0.2, linewidth=0)
         ax.plot(x, m, "o-", color=color, markersize=3)
+        if i == 0 and "sampling_std" in t.columns and t["sampling_std"].notna().any():
+            ss = t["sampling_std"].to_numpy(float)
+            ax.plot(x, m + ss, "--", color="0.4", linewidth=0.8, label="sampling alone")
+            ax.plot(x, m - ss, "--", color="0.4", linewidth=0.8)
+            ax.legend(fontsize=6, loc="lower center")
         lower = i > 0 and directions.get(col) is False
         title = target_label if i == 0 else col
         if lower:

@@ -1,7 +1,8 @@
 """Writing the report directory (``analyze --out REPORT_DIR``).
 
 Files: ``report.html`` (self-contained: figures embedded as base64 PNG, inline CSS, no
-external URL), ``report.md`` (figures as relative PNG links), ``summary.csv``, ``items.csv``,
+external URL) and ``report.md`` (figures as relative PNG links), both rendered from the
+Jinja templates in ``templates/`` with the same context, ``summary.csv``, ``items.csv``,
 ``by_offset.csv``, ``categories.csv``, ``raters.csv``, ``encoders.csv`` (when encoder
 families are present), ``stability.csv`` / ``snr.csv`` (when given) and every figure as PNG
 and SVG. The directory is built beside the target under a temporary name and renamed into
@@ -19,14 +20,14 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from jinja2 import Environment, FileSystemLoader, select_autoescape
+from jinja2 import Environment, FileSystemLoader
 from markupsafe import Markup
 
 from analysis import plots
 from analysis.axes import axis_tent_plots
 from analysis.pipeline import Analysis
-from analysis.screening import ScreenRule
 from analysis.summary import binary_label
+from annotate.screening import ScreenRule
 from data_schema.outputs import check_output_folder, mark_report
 from data_schema.tables import write_table
 
@@ -41,6 +42,7 @@ _DISPLAY = [
     "krcc",
     "roc_auc",
     "plcc_logistic",
+    "srcc / ceiling",
     "vs best",
     "reason",
 ]
@@ -62,6 +64,14 @@ def _ci(row, name) -> str:
     if v and lo is not None and np.isfinite(lo):
         v += f" [{lo:.3f}, {hi:.3f}]"
     return v
+
+
+def _of_ceiling(row) -> str:
+    """"SRCC 0.62 of a ceiling of 0.71" in short: ``0.62 / 0.71`` (empty when undefined)."""
+    s, c = row.get("srcc"), row.get("srcc_ceiling")
+    if s is None or c is None or not (np.isfinite(s) and np.isfinite(c)):
+        return ""
+    return f"{s:.2f} / {c:.2f}"
 
 
 def summary_display(a: Analysis, *, with_ci: bool = True) -> pd.DataFrame:
@@ -94,11 +104,13 @@ def summary_display(a: Analysis, *, with_ci: bool = True) -> pd.DataFrame:
                 "krcc": _fmt(r["krcc"]),
                 "roc_auc": ci(r, "roc_auc"),
                 "plcc_logistic": _fmt(r["plcc_logistic"]),
+                "srcc / ceiling": _of_ceiling(r),
                 "vs best": vs,
                 "reason": r["reason"] or "",
             }
         )
-    return pd.DataFrame(rows, columns=_DISPLAY)
+    cols = _DISPLAY if with_ci else [c for c in _DISPLAY if c != "srcc / ceiling"]
+    return pd.DataFrame(rows, columns=_DISPLAY)[cols]
 
 
 def format_table_text(df: pd.DataFrame) -> str:
@@ -146,32 +158,33 @@ def _category_wide(cat: pd.DataFrame, breakdown: str) -> pd.DataFrame:
     return base.reset_index()
 
 
-def _texts(a: Analysis) -> dict:
+def _best_text(a: Analysis) -> str:
     s = a.summary
-    tl = "GVF" if a.target == "gvf" else a.target
     best = s[s["best"]]
     if best.empty:
-        best_text = "No metric has a defined " + a.rank_by.upper() + "."
-    else:
-        b = best.iloc[0]
-        worse = s.loc[s["significant_vs_best"].fillna(False).astype(bool), "metric"].tolist()
-        ns = s.loc[
-            (~s["best"])
-            & s["significant_vs_best"].notna()
-            & ~s["significant_vs_best"].fillna(False).astype(bool),
-            "metric",
-        ].tolist()
-        best_text = f"Best metric by |{a.rank_by.upper()}|: {b['metric']} ({b[a.rank_by]:.3f})."
-        if a.n_boot:
-            best_text += (
-                f" Significantly different from it (95% paired cluster bootstrap): "
-                f"{', '.join(worse) or 'none'}; not significantly different: {', '.join(ns) or 'none'}."
-            )
+        return "No metric has a defined " + a.rank_by.upper() + "."
+    b = best.iloc[0]
+    sig = s["significant_vs_best"]
+    worse = s.loc[sig.fillna(False).astype(bool), "metric"].tolist()
+    ns = s.loc[(~s["best"]) & sig.notna() & ~sig.fillna(False).astype(bool), "metric"].tolist()
+    text = f"Best metric by |{a.rank_by.upper()}|: {b['metric']} ({b[a.rank_by]:.3f})."
+    if a.n_boot:
+        text += (
+            f" Significantly different from it (95% paired cluster bootstrap): "
+            f"{', '.join(worse) or 'none'}; not significantly different: {', '.join(ns) or 'none'}."
+        )
+    return text
+
+
+def _method_text(a: Analysis, tl: str) -> str:
+    label = ("model_good (the model's P(good) >= 0.5)" if a.target == "p_good"
+             else "majority_good (GVF >= 0.5)")
     method = (
         f"plcc, srcc, krcc: absolute Pearson, Spearman and Kendall (tau-b) correlations with {tl} "
         f"over items with a finite value; signed values in summary.csv. roc_auc: area under the ROC "
-        f"curve of majority_good (GVF >= 0.5) scored by the metric, negated when lower is better. "
+        f"curve of {label} scored by the metric, negated when lower is better. "
         f"plcc_logistic: PLCC after the VQEG 4-parameter logistic fit. "
+        f"srcc / ceiling: |SRCC| beside the noise ceiling (below). "
     )
     if a.n_boot:
         method += (
@@ -180,25 +193,18 @@ def _texts(a: Analysis) -> dict:
         )
     else:
         method += "No bootstrap (--bootstrap 0). "
-    method += "Empty cells are undefined (n < 3, constant metric or target, one class only); the reason is given."
-    al = a.alpha
-    alpha_text = (
-        "Krippendorff's alpha (nominal) over test votes: "
-        + "; ".join(
-            f"{k}: {_fmt(v['alpha'])}"
-            + (f" ({v['reason']})" if v["reason"] else "")
-            + f" from {v['votes']} votes"
-            for k, v in al.items()
-        )
-        + "."
-    )
+    return method + ("Empty cells are undefined (n < 3, constant metric or target, one class "
+                     "only); the reason is given.")
+
+
+def _rater_texts(a: Analysis) -> dict:
+    alpha_text = "Krippendorff's alpha (nominal) over test votes: " + "; ".join(
+        f"{k}: {_fmt(v['alpha'])}" + (f" ({v['reason']})" if v["reason"] else "")
+        + f" from {v['votes']} votes" for k, v in a.alpha.items()) + "."
     ex = a.raters[a.raters["excluded"]]
-    screen_text = (
-        "Excluded raters: "
-        + "; ".join(f"{r.rater_id} ({r.excluded_reason})" for r in ex.itertuples())
-        if len(ex)
-        else "No rater excluded."
-    )
+    screen_text = ("Excluded raters: " + "; ".join(
+        f"{r.rater_id} ({r.excluded_reason})" for r in ex.itertuples())
+        if len(ex) else "No rater excluded.")
     if not a.screen:
         screen_text += (
             " Screening flags are reported but not applied (run with --screen to apply them)."
@@ -211,26 +217,45 @@ def _texts(a: Analysis) -> dict:
         )
     rule = ScreenRule()
     screen_rule = (
-        f"--screen rule: exclude a rater when agreement with the others' majority < {rule.min_agreement} "
-        f"(>= {rule.min_compared} votes), gold failure rate > {rule.max_gold_failure_rate} "
-        f"(>= {rule.min_gold} gold votes), repeat consistency < {rule.min_repeat_consistency} "
-        f"(>= {rule.min_repeats} repeats), straight-lining (modal share >= {rule.straight_modal_share} "
-        f"while the others' is <= {rule.straight_others_max}, >= {rule.straight_min_votes} votes) or "
-        f"median response < {rule.min_median_response_ms:g} ms (>= {rule.min_votes_for_speed} votes)."
+        f"--screen rule (one-sided tests at level {rule.alpha} each): exclude a rater whose "
+        f"chance-corrected agreement with the leave-one-out consensus (Youden J = sensitivity + "
+        f"specificity - 1, consensus by backward elimination) is significantly below "
+        f"{rule.min_j} (z-test, j_p) or who shows no skill (one-sided Fisher exact test of "
+        f"votes against consensus labels, skill_p >= {rule.skill_alpha}, with >= "
+        f"{rule.min_class_votes} items per consensus class), whose gold failure rate is "
+        f"significantly above {rule.max_gold_failure_rate} or repeat consistency significantly "
+        f"below {rule.min_repeat_consistency} (exact binomial, gold_p / repeat_p), or whose "
+        f"median response is significantly below {rule.min_response_ms:g} ms (sign test, speed_p)."
     )
+    return {"alpha_text": alpha_text, "screen_text": screen_text, "simulated": sim,
+            "screen_rule": screen_rule}
+
+
+def _label_texts(a: Analysis) -> dict:
+    c = a.ceiling or {}
+    ceiling_text = (
+        f"Noise ceiling: split-half reliability of GVF (rater halves, Spearman-Brown) "
+        f"{_fmt(c.get('reliability'))} [{_fmt(c.get('reliability_ci_lo'))}, "
+        f"{_fmt(c.get('reliability_ci_hi'))}] (95% bootstrap over items); no metric can exceed "
+        f"|PLCC| {_fmt(c.get('plcc_ceiling'))} or |SRCC| {_fmt(c.get('srcc_ceiling'))} "
+        f"against these votes." + (f" ({c['reason']})" if c.get("reason") else "")
+    )
+    cmp_ = a.comparison
+    comparison_text = "" if cmp_ is None else (
+        f"Labels: majority vote against {cmp_['method']}: {cmp_['labels_differ']} of "
+        f"{cmp_['items']} item labels differ ({cmp_['good_majority']} good by majority, "
+        f"{cmp_['good_model']} by the model; target = the model's posterior P(good))."
+    )
+    return {"ceiling_text": ceiling_text, "comparison_text": comparison_text}
+
+
+def _texts(a: Analysis) -> dict:
+    tl = "GVF" if a.target == "gvf" else a.target
     notes = list(a.notes)
     if a.proxies:
         notes.append("proxy columns (use --target): " + ", ".join(a.proxies))
-    return {
-        "best_text": best_text,
-        "method_text": method,
-        "alpha_text": alpha_text,
-        "screen_text": screen_text,
-        "simulated": sim,
-        "screen_rule": screen_rule,
-        "target_label": tl,
-        "notes": notes,
-    }
+    return {"best_text": _best_text(a), "method_text": _method_text(a, tl), "target_label": tl,
+            "notes": notes, **_rater_texts(a), **_label_texts(a)}
 
 
 _RATER_COLS = [
@@ -240,11 +265,21 @@ _RATER_COLS = [
     "n_gold",
     "n_repeat",
     "agreement",
+    "kappa",
+    "youden_j",
+    "j_p",
+    "skill_p",
     "loo_corr",
     "gold_failures",
+    "gold_p",
     "repeat_consistency",
+    "repeat_p",
     "modal_share",
     "median_response_ms",
+    "model_sensitivity",
+    "model_specificity",
+    "model_skill",
+    "model_competence",
     "flags",
     "excluded",
     "excluded_reason",
@@ -287,8 +322,7 @@ def _figures(a: Analysis, d: Path, tl: str) -> list[dict]:
     return figs
 
 
-def _build(a: Analysis, d: Path) -> None:
-    t = _texts(a)
+def _write_tables(a: Analysis, d: Path) -> None:
     write_table(a.summary, d / "summary.csv")
     write_table(a.items, d / "items.csv")
     write_table(a.by_offset, d / "by_offset.csv")
@@ -296,81 +330,46 @@ def _build(a: Analysis, d: Path) -> None:
         write_table(a.by_axis, d / "by_axis.csv")
     write_table(a.categories, d / "categories.csv")
     write_table(a.raters, d / "raters.csv")
-    if len(a.encoders):
-        write_table(a.encoders, d / "encoders.csv")
-    if a.stability is not None:
-        write_table(a.stability, d / "stability.csv")
-    if a.snr is not None:
-        write_table(a.snr, d / "snr.csv")
-    figs = _figures(a, d, t["target_label"])
-    disp = summary_display(a)
-    disp_best = disp.assign(_best=a.summary["best"].to_numpy(bool))
-    breakdowns = [
-        {"name": b, "df": _category_wide(a.categories, b)}
-        for b in a.categories["breakdown"].unique()
-    ]
+    for table, name in ((a.encoders if len(a.encoders) else None, "encoders"),
+                        (a.stability, "stability"), (a.snr, "snr")):
+        if table is not None:
+            write_table(table, d / f"{name}.csv")
+
+
+def _context(a: Analysis, t: dict, figs: list[dict], *, html_out: bool) -> dict:
+    """What both templates show; tables rendered as HTML (``html_out``) or Markdown."""
+    table = (lambda df, **kw: Markup(_html_table(df, **kw))) if html_out else (
+        lambda df, **kw: _md_table(df.drop(columns=[kw["best_col"]]) if kw else df))
+    disp = summary_display(a).assign(_best=a.summary["best"].to_numpy(bool))
     raters = a.raters[[c for c in _RATER_COLS if c in a.raters.columns]]
-    env = Environment(
-        loader=FileSystemLoader(Path(__file__).parent / "templates"),
-        autoescape=select_autoescape(["html", "j2"]),
-    )
-    page = env.get_template("report.html.j2").render(
-        title=Path(a.ratings_path).name,
-        ratings=a.ratings_path,
-        counts=a.counts,
-        figures=figs,
-        summary_html=Markup(_html_table(disp_best, best_col="_best")),
-        breakdowns=[{"name": b["name"], "html": Markup(_html_table(b["df"]))} for b in breakdowns],
-        encoders_html=Markup(_html_table(a.encoders)) if len(a.encoders) else "",
-        stability_html=Markup(_html_table(a.stability)) if a.stability is not None else "",
-        snr_html=Markup(_html_table(a.snr)) if a.snr is not None else "",
-        raters_html=Markup(_html_table(raters)),
+    opt = {"encoders": a.encoders if len(a.encoders) else None, "stability": a.stability,
+           "snr": a.snr, "comparison": a.comparison["table"] if a.comparison else None}
+    return {
+        "title": Path(a.ratings_path).name,
+        "ratings": a.ratings_path,
+        "counts": a.counts,
+        "figures": figs,
+        "summary_table": table(disp, best_col="_best"),
+        "breakdowns": [{"name": b, "table": table(_category_wide(a.categories, b))}
+                       for b in a.categories["breakdown"].unique()],
+        "raters_table": table(raters),
+        **{f"{k}_table": ("" if v is None else table(v)) for k, v in opt.items()},
         **t,
-    )
+    }
+
+
+def _build(a: Analysis, d: Path) -> None:
+    t = _texts(a)
+    _write_tables(a, d)
+    figs = _figures(a, d, t["target_label"])
+    templates = Path(__file__).parent / "templates"
+    html_env = Environment(loader=FileSystemLoader(templates), autoescape=True)
+    md_env = Environment(loader=FileSystemLoader(templates), autoescape=False,
+                         keep_trailing_newline=True)
+    page = html_env.get_template("report.html.j2").render(**_context(a, t, figs, html_out=True))
     (d / "report.html").write_text(page, encoding="utf-8")
-    md = [
-        f"# NVRQ analysis: {Path(a.ratings_path).name}",
-        "",
-        f"Target: **{t['target_label']}**. {a.counts['items']} items, {a.counts['tracks']} tracks, "
-        f"{a.counts['clips']} clips; {a.counts['test_votes_kept']} of {a.counts['test_votes']} test votes used.",
-        "",
-    ]
-    md += [x for x in [t["simulated"]] + t["notes"] if x]
-    md += [
-        "",
-        f"## Metrics against {t['target_label']}",
-        "",
-        t["best_text"],
-        "",
-        _md_table(disp),
-        "",
-        t["method_text"],
-        "",
-        "## Figures",
-        "",
-    ]
-    md += [f"![{f['title']}]({f['file']})\n" for f in figs]
-    for b in breakdowns:
-        md += [f"## By {b['name']}", "", _md_table(b["df"]), ""]
-    if len(a.encoders):
-        md += ["## By encoder: NVRQ against NVRQ-CA", "", _md_table(a.encoders), ""]
-    if a.stability is not None:
-        md += ["## Stability", "", _md_table(a.stability), ""]
-    if a.snr is not None:
-        md += ["## SNR", "", _md_table(a.snr), ""]
-    md += [
-        "## Raters",
-        "",
-        t["alpha_text"],
-        "",
-        t["screen_text"],
-        "",
-        _md_table(raters),
-        "",
-        t["screen_rule"],
-        "",
-    ]
-    (d / "report.md").write_text("\n".join(md), encoding="utf-8")
+    md = md_env.get_template("report.md.j2").render(**_context(a, t, figs, html_out=False))
+    (d / "report.md").write_text(md, encoding="utf-8")
 
 
 def write_report(a: Analysis, out_dir) -> Path:

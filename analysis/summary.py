@@ -29,12 +29,15 @@ RANK_BY = ("srcc", "plcc", "roc_auc")
 
 
 def binary_label(items: pd.DataFrame, target: str) -> tuple[np.ndarray | None, str | None]:
-    """The label ROC AUC is computed against: ``majority_good`` for GVF, else a 0/1 target.
+    """The label ROC AUC is computed against: ``majority_good`` for GVF, ``model_good`` for
+    an aggregated ``p_good``, else a 0/1 target.
 
     Returns ``(label (n,) bool or None, reason)``.
     """
     if target == "gvf":
         return items["majority_good"].to_numpy(bool), None
+    if target == "p_good":  # a crowd-kit posterior: its 0.5 threshold
+        return items["model_good"].to_numpy(bool), None
     y = items[target].to_numpy(np.float64)
     finite = y[np.isfinite(y)]
     if finite.size and np.isin(finite, (0.0, 1.0)).all():

@@ -8,25 +8,47 @@ Run with ``annotate serve STUDY`` (which sets ``ANNOTATE_STUDY``). Pages:
   "Rendered" right, Good (G) / Bad (B) / Undo (U), a ``done / total`` progress bar and a
   break reminder every ``break_every`` items. Nothing on the page names the offset, clip,
   method, metrics or other votes; images are served by content hash, never by file name;
-- ``/?admin=TOKEN``: progress per rater, GVF histogram, Krippendorff's alpha, gold
-  failures and a ``ratings.csv`` download.
+- ``/?admin=TOKEN``: the live admin page (:mod:`annotate.admin`, refreshes by itself).
 
-Widget keys (for tests): ``name_input``, ``sign_in``, ``start``, ``vote_good``,
-``vote_bad``, ``undo``, ``download_ratings``.
+Widget keys (for tests): ``name_input``, ``sign_in``, ``start``, ``download_ratings``; the
+voting buttons are ``vote_good-N``, ``vote_bad-N`` and ``undo-N`` where ``N`` is an opaque
+token of the item on screen (a new one for every displayed item).
+
+Robustness rules of the voting panel (a ``st.fragment``: a vote reruns only the panel):
+
+- a press counts only for the item on screen: each button carries the token of the item it
+  was drawn for, and a press whose token is not the displayed one (a double press arriving
+  after the next item was chosen) is dropped; so is a press less than
+  ``ANNOTATE_MIN_RESPONSE_MS`` (environment, default 250) after the item was drawn: no one
+  judges a new pair that fast, it is the tail of a double press that a busy browser
+  delivered after drawing the next item;
+- a vote is recorded only while the item is the rater's and unvoted (one transaction), so a
+  second tab of the same rater is told the item was already rated elsewhere and moves on;
+- every displayed image has its own URL: the crop's bytes get a comment keyed by the item
+  and side (an HMAC, so it reveals nothing), hence a gold-good item's two sides and a repeat
+  and its original never share a URL;
+- user-supplied text is shown as plain text (never markdown or HTML);
+- storage failures and unreadable crops show a short message (details go to the server
+  log) and the panel keeps its buttons; a crop that cannot be shown skips its item;
+- a study rebuilt under the server is refused (:meth:`Study.check_current`).
 """
 
 from __future__ import annotations
 
+import hashlib
 import hmac
+import logging
 import os
+import re
+import secrets
+import sqlite3
 import time
+import zlib
 
-import numpy as np
-import pandas as pd
 import streamlit as st
 
-from annotate.results import gold_failures, gvf_table, nominal_alpha, rater_progress, ratings_table
-from annotate.study import Study, crop_path, load_study
+from annotate.admin import admin_page
+from annotate.study import Study, StudyChanged, crop_path, load_study
 from data_schema.errors import InputError
 from data_schema.raters import check_rater_name
 
@@ -44,6 +66,56 @@ Your progress is saved after every vote; you can close the page and come back an
 """
 
 
+__all__ = ["main", "rater_page", "voting_panel", "sign_in_page", "signed_in_rater",
+           "plain", "salted_image"]
+
+log = logging.getLogger("annotate.app")
+
+MSG_STORAGE = ("Your vote could not be saved because of a problem on the server. "
+               "Nothing was lost; please press again in a moment.")
+MSG_CHANGED = ("This study was changed on the server, so votes cannot be recorded any more. "
+               "Please tell the study organiser.")
+MSG_ELSEWHERE = "You already rated this pair in another tab or window. Here is your next one."
+MSG_SKIPPED = "One pair could not be shown and was skipped. Please go on with the next one."
+MSG_UNAVAILABLE = "The study is not available right now. Please try again in a moment."
+_MD_SPECIAL = re.compile(r"([\\`*_{}\[\]()<>#+\-.!|~:/&=])")
+
+
+def plain(text: object) -> str:
+    r"""``text`` with every markdown/HTML character escaped, for use inside ``st.*`` markdown.
+
+    >>> print(plain("[Click](http://x.y/) _a_"))
+    \[Click\]\(http\:\/\/x\.y\/\) \_a\_
+    """
+    return _MD_SPECIAL.sub(r"\\\1", str(text))
+
+
+def salted_image(data: bytes, salt: bytes) -> bytes:
+    """``data`` (JPEG or PNG bytes) with ``salt`` embedded as metadata; pixels unchanged.
+
+    JPEG: a COM segment after SOI; PNG: a private ancillary ``prVt`` chunk after IHDR.
+    Decoders ignore both, but the bytes (hence Streamlit's content-hash URL) differ per salt.
+
+    >>> import cv2, numpy as np
+    >>> img = np.full((8, 8, 3), 90, np.uint8)
+    >>> for ext in (".jpg", ".png"):
+    ...     raw = cv2.imencode(ext, img)[1].tobytes()
+    ...     a, b = salted_image(raw, b"a"), salted_image(raw, b"b")
+    ...     dec = cv2.imdecode(np.frombuffer(a, np.uint8), cv2.IMREAD_COLOR)
+    ...     print(a != b, np.array_equal(dec, cv2.imdecode(np.frombuffer(raw, np.uint8), 1)))
+    True True
+    True True
+    """
+    if data[:2] == b"\xff\xd8":
+        return data[:2] + b"\xff\xfe" + (len(salt) + 2).to_bytes(2, "big") + salt + data[2:]
+    if data[:8] == b"\x89PNG\r\n\x1a\n":
+        end = 8 + 12 + int.from_bytes(data[8:12], "big")  # signature + IHDR chunk
+        chunk = b"prVt" + salt
+        return (data[:end] + len(salt).to_bytes(4, "big") + chunk
+                + zlib.crc32(chunk).to_bytes(4, "big") + data[end:])
+    raise ValueError("crop: expected JPEG or PNG bytes")
+
+
 @st.cache_resource(show_spinner=False)
 def _study(root: str) -> Study:
     return load_study(root)
@@ -52,6 +124,13 @@ def _study(root: str) -> Study:
 def _sign_in(study: Study, name: str) -> None:
     st.session_state["rater"] = name
     study.plan_for(name)
+
+
+def _name_error(given: object) -> None:
+    """The sign-in error; the given name appears only as plain text."""
+    st.error("Cannot sign in: a name is 1-40 letters, digits, '.', '_' or '-', starting with "
+             "a letter or digit (names starting with 'sim-' are reserved).")
+    st.text(f"Name given: {given}")
 
 
 def signed_in_rater(study: Study) -> str | None:
@@ -71,8 +150,8 @@ def signed_in_rater(study: Study) -> str | None:
     elif qp.get("rater"):
         try:
             name = check_rater_name(qp["rater"])
-        except InputError as err:
-            st.error(f"Cannot sign in: {err}")
+        except InputError:
+            _name_error(qp["rater"])
             return None
         _sign_in(study, name)
         return name
@@ -80,10 +159,11 @@ def signed_in_rater(study: Study) -> str | None:
 
 
 def _on_sign_in(study: Study) -> None:
+    given = st.session_state.get("name_input", "")
     try:
-        name = check_rater_name(st.session_state.get("name_input", ""))
-    except InputError as err:
-        st.session_state["sign_in_error"] = str(err)
+        name = check_rater_name(given)
+    except InputError:
+        st.session_state["sign_in_error"] = given
         return
     _sign_in(study, name)
     st.query_params["rater"] = name
@@ -98,92 +178,166 @@ def sign_in_page(study: Study) -> None:
     st.text_input("Your name (letters, digits, '.', '_', '-')", key="name_input")
     st.button("Sign in", key="sign_in", on_click=_on_sign_in, args=(study,))
     if "sign_in_error" in st.session_state:
-        st.error(st.session_state.pop("sign_in_error"))
+        _name_error(st.session_state.pop("sign_in_error"))
 
 
-def _on_vote(study: Study, rater: str, key: str, vote: int) -> None:
-    if study.next_item(rater) != key:  # a stale click (double press, other tab): ignore it
+def _shown() -> tuple:
+    """(item key, shown at, token) of the item on screen, or Nones."""
+    return st.session_state.get("shown", (None, None, None))
+
+
+def _min_response_ms() -> int:
+    return int(os.environ.get("ANNOTATE_MIN_RESPONSE_MS", "250"))
+
+
+def _storage_failed(what: str) -> None:
+    log.exception("annotate app: %s failed", what)
+    st.session_state["notice"] = ("error", MSG_STORAGE)
+
+
+def _on_vote(study: Study, rater: str, key: str, token: str, vote: int) -> None:
+    shown_key, shown_at, shown_token = _shown()
+    if token != shown_token or key != shown_key:  # a press for an item no longer on screen
         return
-    shown_key, shown_at = st.session_state.get("shown", (None, None))
-    rt = int(round((time.time() - shown_at) * 1000)) if shown_key == key else None
-    study.store.record_vote(rater, key, vote, response_ms=rt)
-    st.session_state["started"] = True
+    rt = int(round((time.time() - shown_at) * 1000))
+    if rt < _min_response_ms():  # drawn a moment ago: the rater has not seen it yet
+        log.info("annotate app: press %d ms after drawing dropped (rater %s)", rt, rater)
+        return
+    try:
+        study.check_current()
+        status = study.store.record_shown_vote(rater, key, vote, response_ms=rt)
+    except StudyChanged:
+        log.exception("annotate app: vote refused")
+        st.session_state["notice"] = ("error", MSG_CHANGED)
+        return
+    except (sqlite3.Error, OSError):
+        _storage_failed("recording a vote")
+        return
+    st.session_state["shown"] = (None, None, None)  # a repeated press of this token is dropped
+    if status != "recorded":
+        st.session_state["notice"] = ("info", MSG_ELSEWHERE)
 
 
-def _on_undo(study: Study, rater: str) -> None:
-    study.store.undo_last(rater)
-    st.session_state["started"] = True
+def _on_undo(study: Study, rater: str, token: str) -> None:
+    if token != _shown()[2]:
+        return
+    try:
+        study.check_current()
+        study.store.undo_last(rater)
+    except StudyChanged:
+        log.exception("annotate app: undo refused")
+        st.session_state["notice"] = ("error", MSG_CHANGED)
+        return
+    except (sqlite3.Error, OSError):
+        _storage_failed("undoing a vote")
+        return
+    st.session_state["shown"] = (None, None, None)
+
+
+def _show_notice() -> None:
+    kind, text = st.session_state.pop("notice", (None, None))
+    if kind == "error":
+        st.error(text)
+    elif kind == "info":
+        st.info(text)
+
+
+def _progress_bar(study: Study, item_kind: str, prog: dict) -> None:
+    if item_kind == "training":
+        n, i = prog["training_total"], prog["training_done"]
+        st.progress(i / max(n, 1), text=f"Training {i} / {n}")
+        return
+    done, total = prog["done"], max(prog["total"], 1)
+    st.progress(min(done / total, 1.0), text=f"{done} / {total}")
+    every = int(study.manifest.get("break_every", 50))
+    if done and done % every == 0:
+        st.info(f"You have rated {done} pairs. Consider a short break; your progress is saved.")
+
+
+def _display_images(study: Study, key: str) -> tuple[bytes, bytes]:
+    """The item's two crops, each salted with an HMAC of (study, item, side)."""
+    item = study.items.loc[key]
+    secret = study.admin_token().encode()
+    out = []
+    for side, col in (("ref", "ref_file"), ("ren", "ren_file")):
+        data = crop_path(study.root, item[col]).read_bytes()
+        salt = hmac.new(secret, f"{study.manifest['study_id']}|{key}|{side}".encode(),
+                        hashlib.sha256).hexdigest()[:24].encode()
+        out.append(salted_image(data, salt))
+    return out[0], out[1]
+
+
+def _next_on_screen(study: Study, rater: str) -> tuple[str | None, dict, tuple | None]:
+    """(next item, progress, its two images); an item whose crops fail is skipped and logged."""
+    while True:
+        study.check_current()
+        key = study.next_item(rater)
+        prog = study.progress(rater)
+        if key is None:
+            return None, prog, None
+        try:
+            return key, prog, _display_images(study, key)
+        except (InputError, OSError, ValueError, KeyError):
+            log.exception("annotate app: item %s of rater %s cannot be shown; skipped", key, rater)
+            study.store.skip(rater, key, reason="crop cannot be shown")
+            st.session_state["notice"] = ("info", MSG_SKIPPED)
+
+
+def _panel_unavailable(err: Exception) -> None:
+    log.error("annotate app: voting panel unavailable", exc_info=err)
+    st.error(MSG_CHANGED if isinstance(err, StudyChanged) else MSG_UNAVAILABLE)
+    st.button("Try again", key="retry")
+
+
+@st.fragment
+def voting_panel(study: Study, rater: str) -> None:
+    """The item on screen, progress and the vote buttons; a press reruns only this panel."""
+    try:
+        key, prog, images = _next_on_screen(study, rater)
+    except (StudyChanged, sqlite3.Error, OSError) as err:
+        _show_notice()
+        _panel_unavailable(err)
+        return
+    _show_notice()
+    if key is None:
+        st.success(f"All done, thank you, {plain(rater)}! ({prog['done']} / {prog['total']})")
+        token = st.session_state["shown"] = (None, None, "done")
+        st.button("Undo last vote (U)", key="undo-done", shortcut="u", on_click=_on_undo,
+                  args=(study, rater, token[2]))
+        return
+    _progress_bar(study, study.items.at[key, "kind"], prog)
+    if _shown()[0] != key:
+        st.session_state["shown"] = (key, time.time(), secrets.token_hex(6))
+    token = _shown()[2]
+    size = int(study.manifest.get("display_size", 320))
+    for column, title, image in zip(st.columns(2), ("Reference", "Rendered"), images, strict=True):
+        with column:
+            st.subheader(title)
+            st.image(image, width=size)
+    b1, b2, b3 = st.columns(3)
+    b1.button("Good (G)", key=f"vote_good-{token}", shortcut="g", type="primary",
+              on_click=_on_vote, args=(study, rater, key, token, 1))
+    b2.button("Bad (B)", key=f"vote_bad-{token}", shortcut="b", type="primary",
+              on_click=_on_vote, args=(study, rater, key, token, 0))
+    b3.button("Undo (U)", key=f"undo-{token}", shortcut="u", on_click=_on_undo,
+              args=(study, rater, token))
 
 
 def rater_page(study: Study, rater: str) -> None:
     if not st.session_state.get("started"):
-        if study.store.votes(rater).empty:
+        try:
+            fresh = study.store.votes(rater).empty
+        except (sqlite3.Error, OSError) as err:
+            _panel_unavailable(err)
+            return
+        if fresh:
             st.title("Image quality study")
             st.markdown(INSTRUCTIONS)
             st.button("Start", key="start", type="primary",
                       on_click=lambda: st.session_state.update(started=True))
             return
         st.session_state["started"] = True
-    key = study.next_item(rater)
-    prog = study.progress(rater)
-    if key is None:
-        st.success(f"All done, thank you, {rater}! ({prog['done']} / {prog['total']})")
-        st.button("Undo last vote (U)", key="undo", shortcut="u", on_click=_on_undo,
-                  args=(study, rater))
-        return
-    item = study.items.loc[key]
-    if item["kind"] == "training":
-        n, i = prog["training_total"], prog["training_done"]
-        st.progress(i / max(n, 1), text=f"Training {i} / {n}")
-    else:
-        done, total = prog["done"], max(prog["total"], 1)
-        st.progress(min(done / total, 1.0), text=f"{done} / {total}")
-        every = int(study.manifest.get("break_every", 50))
-        if done and done % every == 0:
-            st.info(f"You have rated {done} pairs. Consider a short break; your progress is saved.")
-    if st.session_state.get("shown", (None,))[0] != key:
-        st.session_state["shown"] = (key, time.time())
-    left, right = st.columns(2)
-    size = int(study.manifest.get("display_size", 320))
-    with left:
-        st.subheader("Reference")
-        st.image(str(crop_path(study.root, item["ref_file"])), width=size)
-    with right:
-        st.subheader("Rendered")
-        st.image(str(crop_path(study.root, item["ren_file"])), width=size)
-    b1, b2, b3 = st.columns(3)
-    with b1:
-        st.button("Good (G)", key="vote_good", shortcut="g", type="primary", on_click=_on_vote,
-                  args=(study, rater, key, 1))
-    with b2:
-        st.button("Bad (B)", key="vote_bad", shortcut="b", type="primary", on_click=_on_vote,
-                  args=(study, rater, key, 0))
-    with b3:
-        st.button("Undo (U)", key="undo", shortcut="u", on_click=_on_undo, args=(study, rater))
-
-
-def admin_page(study: Study, token: str) -> None:
-    if not hmac.compare_digest(str(token).encode(), study.admin_token().encode()):
-        st.error("Admin token not valid.")
-        return
-    st.title("Study admin")
-    ratings = ratings_table(study)
-    st.subheader("Progress per rater")
-    st.dataframe(rater_progress(study), hide_index=True)
-    gvf = gvf_table(ratings)
-    st.subheader(f"GVF so far ({len(gvf)} test items with votes)")
-    if len(gvf):
-        counts, edges = np.histogram(gvf["gvf"], bins=10, range=(0, 1))
-        st.bar_chart(pd.DataFrame({"items": counts},
-                                  index=[f"{a:.1f}-{b:.1f}" for a, b in zip(edges[:-1], edges[1:], strict=True)]))
-    alpha, note = nominal_alpha(ratings)
-    st.metric("Krippendorff's alpha (nominal)", "undefined" if alpha is None else f"{alpha:.3f}",
-              help=note)
-    st.caption(note)
-    st.subheader("Gold failures")
-    st.dataframe(gold_failures(ratings), hide_index=True)
-    st.download_button("Download ratings.csv", ratings.to_csv(index=False).encode(),
-                       file_name="ratings.csv", mime="text/csv", key="download_ratings")
+    voting_panel(study, rater)
 
 
 def main() -> None:

@@ -2,9 +2,14 @@
 
 - :func:`ratings_table`: one row per standing vote, SPEC section 5 columns in order, then
   attributes and (when the study has them) metric columns.
-- :func:`gvf_table`: per test item ``n_votes, n_good, gvf = n_good / n_votes,
-  majority_good = gvf >= 0.5`` (paper section 4; only ``kind == test`` counts).
-- :func:`nominal_alpha`: Krippendorff's alpha (nominal) over test items, raters x items.
+- :func:`good_vote_fraction`: THE definition of the Good Vote Fraction (paper section 4):
+  per item ``n_votes, n_good, gvf = n_good / n_votes, majority_good = gvf >= 0.5`` (a tie
+  counts as good) and its Wilson 95% interval ``gvf_ci_lo, gvf_ci_hi``; used by
+  :func:`gvf_table` here and by ``analysis.labels.item_table``.
+- :func:`gvf_table`: the same over the ``kind == test`` rows of a ratings table.
+- :func:`alpha_nominal`: THE Krippendorff's alpha (nominal), from the maintained
+  ``krippendorff`` package on (unit, value) pairs, with one rule for when it is undefined;
+  :func:`nominal_alpha` applies it to the test votes of a ratings table.
 - :func:`gold_failures`: gold votes that contradict the gold answer.
 
 >>> r = pd.DataFrame({"item_id": ["a", "a", "b", "b", "b"], "kind": ["test"] * 5,
@@ -15,12 +20,25 @@
 
 from __future__ import annotations
 
+import krippendorff
 import numpy as np
 import pandas as pd
 
 from data_schema.tables import ITEM_KINDS, PAIR_META_COLUMNS, RATINGS_COLUMNS
 
-__all__ = ["ratings_table", "gvf_table", "nominal_alpha", "gold_failures", "rater_progress"]
+__all__ = [
+    "ratings_table",
+    "good_vote_fraction",
+    "wilson_interval",
+    "gvf_table",
+    "alpha_nominal",
+    "nominal_alpha",
+    "gold_failures",
+    "rater_progress",
+]
+
+#: z of the two-sided 95% Wilson interval
+_Z95 = 1.959963984540054
 
 
 def ratings_table(study) -> pd.DataFrame:
@@ -44,35 +62,79 @@ def ratings_table(study) -> pd.DataFrame:
                                        ).reset_index(drop=True)
 
 
+def wilson_interval(n_good, n, *, z: float = _Z95):
+    """Wilson score interval of a proportion ``n_good / n`` (arrays); NaN where ``n == 0``.
+
+    >>> lo, hi = wilson_interval(np.array([2]), np.array([3]))
+    >>> round(float(lo[0]), 4), round(float(hi[0]), 4)
+    (0.2077, 0.9385)
+    """
+    k, n = np.asarray(n_good, float), np.asarray(n, float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        p = k / n
+        den = 1 + z * z / n
+        mid = (p + z * z / (2 * n)) / den
+        half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    return mid - half, mid + half
+
+
+def good_vote_fraction(item_ids, votes) -> pd.DataFrame:
+    """Per item (first-seen order): ``item_id, n_votes, n_good, gvf, majority_good,
+    gvf_ci_lo, gvf_ci_hi`` from parallel arrays of item ids and 0/1 test votes."""
+    codes, uniques = pd.factorize(np.asarray(item_ids, dtype=object))
+    n = np.bincount(codes, minlength=len(uniques))
+    good = np.bincount(codes, weights=np.asarray(votes, np.float64), minlength=len(uniques))
+    gvf = good / np.maximum(n, 1)
+    lo, hi = wilson_interval(good, n)
+    return pd.DataFrame({"item_id": np.asarray(uniques, dtype=object),
+                         "n_votes": n.astype(np.int64), "n_good": good.astype(np.int64),
+                         "gvf": gvf, "majority_good": gvf >= 0.5, "gvf_ci_lo": lo,
+                         "gvf_ci_hi": hi})
+
+
 def gvf_table(ratings: pd.DataFrame) -> pd.DataFrame:
-    """Per-item GVF over ``kind == test`` votes; other columns of the item are kept (first)."""
+    """Per-item GVF over ``kind == test`` votes, by item id; other item columns kept (first)."""
     test = ratings[ratings["kind"] == "test"]
     extra = [c for c in test.columns if c not in (*RATINGS_COLUMNS,)]
-    g = test.groupby("item_id", sort=True)
-    out = pd.DataFrame({"n_votes": g["vote"].size(), "n_good": g["vote"].sum().astype(int)})
-    out["gvf"] = out["n_good"] / out["n_votes"]
-    out["majority_good"] = out["gvf"] >= 0.5
+    out = good_vote_fraction(test["item_id"], test["vote"]).set_index("item_id").sort_index()
     if extra:
-        out = out.join(g[extra].first())
-    return out.reset_index()
+        out = out.join(test.groupby("item_id", sort=True)[extra].first())
+    return out.rename_axis("item_id").reset_index()
+
+
+def alpha_nominal(units, values) -> tuple[float, str | None]:
+    """Krippendorff's alpha (nominal) of ``values`` (n,) given to ``units`` (n,), one per vote.
+
+    Missing values are ignored. Returns ``(alpha, None)``, or ``(nan, reason)`` when it is
+    undefined: no unit has two values, or only one value occurs.
+
+    >>> alpha_nominal(["a", "a", "b", "b"], [1, 1, 0, 0])
+    (1.0, None)
+    """
+    df = pd.DataFrame({"u": np.asarray(units, dtype=object), "v": np.asarray(values, dtype=object)})
+    df = df[df["v"].notna()]
+    u_codes, _ = pd.factorize(df["u"])
+    v_codes, v_uniques = pd.factorize(df["v"])
+    counts = np.zeros((u_codes.max() + 1 if len(u_codes) else 0, len(v_uniques)))  # (U, V)
+    np.add.at(counts, (u_codes, v_codes), 1.0)
+    counts = counts[counts.sum(axis=1) >= 2]
+    if len(counts) == 0:
+        return float("nan"), "no unit has two values"
+    if (counts.sum(axis=0) > 0).sum() < 2:
+        return float("nan"), "only one value occurs"
+    return float(krippendorff.alpha(value_counts=counts, level_of_measurement="nominal")), None
 
 
 def nominal_alpha(ratings: pd.DataFrame) -> tuple[float | None, str]:
     """Krippendorff's alpha (nominal) of test votes and a note; ``None`` when undefined."""
-    import krippendorff
-
     test = ratings[ratings["kind"] == "test"]
     if test["rater_id"].nunique() < 2:
         return None, "needs votes from at least 2 raters"
-    mat = test.pivot_table(index="rater_id", columns="item_id", values="vote", aggfunc="last")
-    mat = mat.loc[:, mat.notna().sum(axis=0) >= 2]
-    if mat.shape[1] == 0:
-        return None, "no item has votes from 2 raters"
-    values = mat.to_numpy(dtype=float)
-    if np.unique(values[np.isfinite(values)]).size < 2:
-        return None, "all votes are equal (alpha undefined)"
-    return float(krippendorff.alpha(reliability_data=values, level_of_measurement="nominal")), \
-        f"{mat.shape[1]} items with >= 2 votes"
+    alpha, why = alpha_nominal(test["item_id"].to_numpy(), test["vote"].to_numpy())
+    if why:
+        return None, why
+    n_items = int((test.groupby("item_id").size() >= 2).sum())
+    return alpha, f"{n_items} items with >= 2 votes"
 
 
 def gold_failures(ratings: pd.DataFrame) -> pd.DataFrame:

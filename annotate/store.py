@@ -53,6 +53,45 @@ CREATE TABLE IF NOT EXISTS history (
     item TEXT NOT NULL, action TEXT NOT NULL CHECK (action IN ('vote', 'undo')),
     vote INTEGER, at TEXT NOT NULL, response_ms INTEGER);
 CREATE INDEX IF NOT EXISTS assignments_item ON assignments (study, item);
+CREATE TABLE IF NOT EXISTS skipped (
+    study TEXT NOT NULL, rater TEXT NOT NULL, item TEXT NOT NULL, at TEXT NOT NULL,
+    reason TEXT, UNIQUE (study, rater, item));
+"""
+
+# Per-item counters kept by triggers, so handing out an item reads one row per item instead
+# of every rater's assignments and votes: ``voted`` standing votes, ``claimed`` assignments
+# without a vote, ``last_claim`` the newest assignment time.
+_LOADS = """
+CREATE TABLE item_loads (
+    study TEXT NOT NULL, item TEXT NOT NULL, voted INTEGER NOT NULL DEFAULT 0,
+    claimed INTEGER NOT NULL DEFAULT 0, last_claim REAL NOT NULL DEFAULT 0,
+    PRIMARY KEY (study, item));
+CREATE TRIGGER item_loads_assign AFTER INSERT ON assignments BEGIN
+    INSERT INTO item_loads (study, item, claimed, last_claim) VALUES
+        (NEW.study, NEW.item, 1, NEW.assigned_at)
+    ON CONFLICT (study, item) DO UPDATE SET claimed = claimed + 1, last_claim = NEW.assigned_at;
+END;
+CREATE TRIGGER item_loads_vote AFTER INSERT ON votes BEGIN
+    INSERT INTO item_loads (study, item, voted) VALUES (NEW.study, NEW.item, 1)
+    ON CONFLICT (study, item) DO UPDATE SET voted = voted + 1, claimed = claimed - (
+        SELECT COUNT(*) FROM assignments a WHERE a.study = NEW.study AND a.rater = NEW.rater
+        AND a.item = NEW.item);
+END;
+CREATE TRIGGER item_loads_unvote AFTER DELETE ON votes BEGIN
+    UPDATE item_loads SET voted = voted - 1, claimed = claimed + (
+        SELECT COUNT(*) FROM assignments a WHERE a.study = OLD.study AND a.rater = OLD.rater
+        AND a.item = OLD.item) WHERE study = OLD.study AND item = OLD.item;
+END;
+INSERT INTO item_loads (study, item, voted, claimed, last_claim)
+    SELECT study, item, SUM(voted), SUM(claimed), MAX(last_claim) FROM (
+        SELECT study, item, 1 AS voted, 0 AS claimed, 0 AS last_claim FROM votes
+        UNION ALL
+        SELECT a.study, a.item, 0, 1, a.assigned_at FROM assignments a WHERE NOT EXISTS (
+            SELECT 1 FROM votes v WHERE v.study = a.study AND v.rater = a.rater
+            AND v.item = a.item)
+        UNION ALL
+        SELECT study, item, 0, 0, assigned_at FROM assignments)
+    GROUP BY study, item;
 """
 
 
@@ -80,8 +119,16 @@ class Store:
         self.study = str(study)
         self.busy_timeout_ms = int(busy_timeout_ms)
         self.synchronous = synchronous
-        with self._connect() as con:
+        with self._connect(create=True) as con:
             con.executescript(_SCHEMA)
+            if not con.execute("SELECT 1 FROM sqlite_master WHERE name = 'item_loads'").fetchone():
+                try:  # first use of this file: counters, triggers and backfill in one go
+                    con.executescript("BEGIN IMMEDIATE;" + _LOADS + "COMMIT;")
+                except sqlite3.OperationalError as err:  # another process was first
+                    if con.in_transaction:
+                        con.execute("ROLLBACK")
+                    if "already exists" not in str(err):
+                        raise
         # An idle connection held open for the store's lifetime: closing the *last* connection
         # of a WAL database checkpoints it (a sync each time); operations still each open
         # their own connection.
@@ -89,20 +136,27 @@ class Store:
         self._keeper.execute("SELECT COUNT(*) FROM raters").fetchall()  # opens the WAL
 
     @contextlib.contextmanager
-    def _connect(self) -> Iterator[sqlite3.Connection]:
-        """A fresh connection (autocommit mode; transactions are explicit), closed afterwards."""
-        con = sqlite3.connect(self.path, timeout=self.busy_timeout_ms / 1000, isolation_level=None)
+    def _connect(self, *, create: bool = False,
+                 synchronous: str | None = None) -> Iterator[sqlite3.Connection]:
+        """A fresh connection (autocommit mode; transactions are explicit), closed afterwards.
+
+        Only the constructor may create the file: a database deleted under a running server
+        is an error, never silently replaced by an empty one.
+        """
+        uri = f"{self.path.resolve().as_uri()}?mode={'rwc' if create else 'rw'}"
+        con = sqlite3.connect(uri, uri=True, timeout=self.busy_timeout_ms / 1000,
+                              isolation_level=None)
         try:
             con.execute(f"PRAGMA busy_timeout = {self.busy_timeout_ms}")
             con.execute("PRAGMA journal_mode = WAL")
-            con.execute(f"PRAGMA synchronous = {self.synchronous}")
+            con.execute(f"PRAGMA synchronous = {synchronous or self.synchronous}")
             yield con
         finally:
             con.close()
 
     @contextlib.contextmanager
-    def _transaction(self) -> Iterator[sqlite3.Connection]:
-        with self._connect() as con:
+    def _transaction(self, *, synchronous: str | None = None) -> Iterator[sqlite3.Connection]:
+        with self._connect(synchronous=synchronous) as con:
             con.execute("BEGIN IMMEDIATE")
             try:
                 yield con
@@ -128,6 +182,36 @@ class Store:
             con.execute(
                 "INSERT INTO history (study, rater, item, action, vote, at, response_ms) "
                 "VALUES (?, ?, ?, 'vote', ?, ?, ?)", (self.study, rater, item, int(vote), at, rt))
+
+    def record_shown_vote(self, rater: str, item: str, vote: int, *,
+                          response_ms: int | None = None) -> str:
+        """Record the vote of ``rater`` on ``item`` only if the item is theirs and still open.
+
+        Returns ``'recorded'``, ``'already'`` (the rater voted on it already, e.g. in another
+        tab: the standing vote is kept) or ``'unassigned'`` (not an item handed to the rater).
+        The check and the write are one transaction, so two tabs cannot both record.
+        """
+        if vote not in (0, 1) or isinstance(vote, bool):
+            raise InputError("vote", f"{rater}/{item}", "1 (good) or 0 (bad)", repr(vote))
+        at, rt = utc_now_iso(), None if response_ms is None else int(response_ms)
+        with self._transaction() as con:
+            if con.execute("SELECT 1 FROM votes WHERE study = ? AND rater = ? AND item = ?",
+                           (self.study, rater, item)).fetchone():
+                return "already"
+            if not con.execute("SELECT 1 FROM assignments WHERE study = ? AND rater = ? AND item = ?",
+                               (self.study, rater, item)).fetchone():
+                return "unassigned"
+            con.execute("INSERT INTO votes (study, rater, item, vote, voted_at, response_ms) "
+                        "VALUES (?, ?, ?, ?, ?, ?)", (self.study, rater, item, int(vote), at, rt))
+            con.execute("INSERT INTO history (study, rater, item, action, vote, at, response_ms) "
+                        "VALUES (?, ?, ?, 'vote', ?, ?, ?)", (self.study, rater, item, int(vote), at, rt))
+        return "recorded"
+
+    def skip(self, rater: str, item: str, *, reason: str) -> None:
+        """Take ``item`` out of the rater's queue (it cannot be shown); it is never handed out again."""
+        with self._transaction() as con:
+            con.execute("INSERT OR IGNORE INTO skipped (study, rater, item, at, reason) VALUES "
+                        "(?, ?, ?, ?, ?)", (self.study, rater, item, utc_now_iso(), reason))
 
     def undo_last(self, rater: str) -> str | None:
         """Remove the rater's most recent vote that still stands; returns its item (or None)."""
@@ -208,34 +292,57 @@ class Store:
     # ---- assignment ----------------------------------------------------------------------
     def next_item(self, rater: str, chooser: Callable[..., str | None], *,
                   claim_ttl_s: float = 3600.0) -> str | None:
-        """The rater's next unrated item: the oldest assigned but unvoted one, else a new one.
+        """The rater's next unrated item: the oldest assigned, unvoted, unskipped one, else a new one.
 
         ``chooser(assigned: list[str], voted: set[str], loads: dict[str, int])`` picks the new
-        item (or None when the rater is done); ``loads`` counts, per item, the *other* raters
-        that voted on it or hold an unexpired claim (assigned less than ``claim_ttl_s`` ago).
+        item (or None when the rater is done); ``loads`` counts, per item not yet assigned to
+        the rater, the standing votes plus the open claims (assignments without a vote) of
+        other raters; open claims stop counting once the item's newest claim is older than
+        ``claim_ttl_s``. The work reads the rater's own rows and one counter row per item,
+        never the other raters' votes or assignments. An assignment is committed without a
+        disk sync of its own (WAL, synchronous NORMAL): losing one to a power cut only means
+        handing the item out again, and the next vote's synced commit makes it durable too.
         """
-        with self._transaction() as con:
+        with self._transaction(synchronous="NORMAL") as con:
             row = con.execute(
                 "SELECT a.item FROM assignments a WHERE a.study = ? AND a.rater = ? AND NOT EXISTS "
                 "(SELECT 1 FROM votes v WHERE v.study = a.study AND v.rater = a.rater AND "
-                "v.item = a.item) ORDER BY a.id LIMIT 1", (self.study, rater)).fetchone()
+                "v.item = a.item) AND NOT EXISTS (SELECT 1 FROM skipped s WHERE s.study = a.study "
+                "AND s.rater = a.rater AND s.item = a.item) ORDER BY a.id LIMIT 1",
+                (self.study, rater)).fetchone()
             if row is not None:
                 return row[0]
-            assigned = [r[0] for r in con.execute(
-                "SELECT item FROM assignments WHERE study = ? AND rater = ? ORDER BY id",
-                (self.study, rater))]
-            voted = {r[0] for r in con.execute(
-                "SELECT item FROM votes WHERE study = ? AND rater = ?", (self.study, rater))}
-            loads = dict(con.execute(
-                "SELECT a.item, COUNT(*) FROM assignments a LEFT JOIN votes v ON "
-                "v.study = a.study AND v.rater = a.rater AND v.item = a.item WHERE a.study = ? "
-                "AND a.rater != ? AND (v.vote IS NOT NULL OR a.assigned_at > ?) GROUP BY a.item",
-                (self.study, rater, time.time() - claim_ttl_s)).fetchall())
+            assigned, voted = self._own(con, rater)
+            loads = self._loads(con, claims_after=time.time() - claim_ttl_s)
             item = chooser(assigned, voted, loads)
             if item is not None:
                 con.execute("INSERT INTO assignments (study, rater, item, assigned_at) "
                             "VALUES (?, ?, ?, ?)", (self.study, rater, item, time.time()))
         return item
+
+    def _own(self, con: sqlite3.Connection, rater: str) -> tuple[list[str], set[str]]:
+        assigned = [r[0] for r in con.execute(
+            "SELECT item FROM assignments WHERE study = ? AND rater = ? ORDER BY id",
+            (self.study, rater))]
+        voted = {r[0] for r in con.execute(
+            "SELECT item FROM votes WHERE study = ? AND rater = ?", (self.study, rater))}
+        return assigned, voted
+
+    def _loads(self, con: sqlite3.Connection, *, claims_after: float | None) -> dict[str, int]:
+        """Per item: standing votes (+ open claims whose newest is after ``claims_after``)."""
+        if claims_after is None:
+            sql, params = "SELECT item, voted FROM item_loads WHERE study = ?", (self.study,)
+        else:
+            sql = ("SELECT item, voted + CASE WHEN last_claim > ? THEN claimed ELSE 0 END "
+                   "FROM item_loads WHERE study = ?")
+            params = (claims_after, self.study)
+        return {item: n for item, n in con.execute(sql, params) if n > 0}
+
+    def rater_state(self, rater: str) -> tuple[list[str], set[str], dict[str, int]]:
+        """``(assigned, voted, votes per item)`` for progress: own rows plus the item counters."""
+        with self._connect() as con:
+            assigned, voted = self._own(con, rater)
+            return assigned, voted, self._loads(con, claims_after=None)
 
     def assignments(self, rater: str | None = None) -> pd.DataFrame:
         """Columns rater, item, assigned_at, voted (bool), in assignment order."""

@@ -57,7 +57,7 @@ from data_schema.tables import (
     read_table,
 )
 
-__all__ = ["build_study", "load_study", "Study", "crop_path", "unplaced_votes"]
+__all__ = ["build_study", "load_study", "Study", "StudyChanged", "crop_path", "unplaced_votes"]
 
 _MANIFEST = "manifest.json"
 
@@ -346,17 +346,26 @@ class Study:
         return int(self.manifest["votes_per_item"])
 
     def admin_token(self) -> str:
-        return json.loads((self.root / "secrets.json").read_text())["admin_token"]
+        if "_admin_token" not in self.__dict__:
+            self._admin_token = json.loads((self.root / "secrets.json").read_text())["admin_token"]
+        return self._admin_token
 
     def keys(self, kind: str) -> list[str]:
         return self.items.index[self.items["kind"] == kind].tolist()
 
     def plan_for(self, rater: str) -> dict:
-        """The rater's stored plan, creating (and storing) it on first use."""
-        plan = self.store.plan(rater)
+        """The rater's stored plan, creating (and storing) it on first use.
+
+        A stored plan never changes, so it is kept in memory after the first read.
+        """
+        cache = self.__dict__.setdefault("_plans", {})
+        plan = cache.get(rater)
         if plan is None:
-            self.store.add_rater(rater, plan=self.new_plan(rater))
             plan = self.store.plan(rater)
+            if plan is None:
+                self.store.add_rater(rater, plan=self.new_plan(rater))
+                plan = self.store.plan(rater)
+            cache[rater] = plan
         return plan
 
     def new_plan(self, rater: str) -> dict:
@@ -372,17 +381,41 @@ class Study:
             rater, lambda a, v, loads: choose_next(plan, a, v, loads, quota=self.quota))
 
     def progress(self, rater: str) -> dict:
-        """``{'training_done', 'training_total', 'done', 'total'}`` (done/total exclude training)."""
+        """``{'training_done', 'training_total', 'done', 'total'}`` (done/total exclude training).
+
+        Reads the rater's own rows and the per-item vote counters only, so its cost does not
+        grow with the other raters' votes.
+        """
         plan = self.plan_for(rater)
-        asg = self.store.assignments(rater)
-        voted = set(asg.loc[asg["voted"], "item"])
+        assigned, voted, votes = self.store.rater_state(rater)
         training = set(plan["training"])
-        others = self.store.assignments()
-        others = others[(others["rater"] != rater) & others["voted"]]
-        loads = others.groupby("item").size().to_dict()
+        loads = {k: n for k, n in votes.items() if k not in voted}  # others' votes on open items
         return {"training_done": len(voted & training), "training_total": len(training),
                 "done": len(voted - training),
-                "total": plan_total(plan, asg["item"].tolist(), loads, quota=self.quota)}
+                "total": plan_total(plan, assigned, loads, quota=self.quota)}
+
+    def check_current(self) -> None:
+        """Raise :class:`StudyChanged` when the folder's manifest is no longer this study's.
+
+        A study rebuilt (or removed) under a running server must not receive its votes.
+        Costs one ``stat`` per call; the manifest is re-read only when the file changed.
+        """
+        path = self.root / _MANIFEST
+        try:
+            st = path.stat()
+            sig = (st.st_ino, st.st_mtime_ns, st.st_size)
+            if sig != getattr(self, "_manifest_sig", None):
+                found = json.loads(path.read_text()).get("study_id")
+                if found != self.manifest["study_id"]:
+                    raise StudyChanged(f"{path}: study_id is {found!r}, the server was started "
+                                       f"for {self.manifest['study_id']!r}")
+                self._manifest_sig = sig
+        except (OSError, ValueError) as err:
+            raise StudyChanged(f"{path}: {err}") from err
+
+
+class StudyChanged(RuntimeError):
+    """The study folder changed under a running server (rebuilt or removed): restart it."""
 
 
 def load_study(root: str | Path) -> Study:

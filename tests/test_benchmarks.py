@@ -95,3 +95,10 @@ def test_bench_analyze_prints_stage_times_and_a_sensible_summary():
     assert set(n.values()) == {20000}
     # make_items adds noise of sd 0.1, 0.2, 0.3 to the same quality: SRCC must fall with k
     assert 1 > srcc["m0"] > srcc["m1"] > srcc["m2"] > 0
+
+
+@pytest.mark.slow
+def test_bench_raters_loses_no_vote():
+    out = _run("bench_raters.py", "--raters", "2", "--seconds", "4", "--think", "0.4", "0.6",
+               "--frames", "2")
+    assert "0 votes lost" in out, out[-2000:]

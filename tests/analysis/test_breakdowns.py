@@ -70,3 +70,21 @@ def test_encoder_table_pairs_families():
     e = encoder_table(s).set_index("encoder")
     assert e.loc["a", "nvrq_ca_srcc"] == 0.6 and e.loc["a", "nvrq_plcc"] == 0.1
     assert np.isnan(e.loc["b", "nvrq_ca_plcc"]) and "psnr" not in e.index
+
+
+def test_condition_table_cis_and_sampling_spread():
+    items = _items(2)
+    items["n_votes"] = 5
+    t = offset_table(items, ["gvf", "m"], by="label_class")
+    ref = items.groupby(["y_offset_m", "label_class"])["m"]
+    mine = t[t["column"] == "m"].set_index(["y_offset_m", "label_class"])
+    for key, g in ref:
+        lo, hi = st.t.interval(0.95, len(g) - 1, loc=g.mean(), scale=st.sem(g))  # SciPy
+        assert mine.loc[key, "n"] == len(g)
+        assert (mine.loc[key, "ci_lo"], mine.loc[key, "ci_hi"]) == pytest.approx((lo, hi))
+    # sampling spread by hand: two items of 5 votes, GVF 0.4 and 1.0:
+    # sqrt(mean(0.4 * 0.6 / 4, 0)) = sqrt(0.03)
+    two = pd.DataFrame({"gvf": [0.4, 1.0], "n_votes": [5, 5], "y_offset_m": [0.0, 0.0]})
+    s = offset_table(two, ["gvf"])
+    assert s.loc[0, "label_class"] == "all"
+    assert s.loc[0, "sampling_std"] == pytest.approx(np.sqrt(0.03))

@@ -23,10 +23,27 @@ def study(make_study, monkeypatch):
     return s
 
 
+@pytest.fixture(autouse=True)
+def _instant_presses(monkeypatch):
+    """AppTest presses a moment after drawing; the double-press guard would drop them."""
+    monkeypatch.setenv("ANNOTATE_MIN_RESPONSE_MS", "0")
+
+
 def _app(**query) -> AppTest:
     at = AppTest.from_file(APP, default_timeout=20)
     at.query_params.update(query)
     return at.run()
+
+
+def _btn(at: AppTest, name: str):
+    """The voting-panel button ``name`` (keys are ``name-<token of the item on screen>``)."""
+    found = [b for b in at.button if b.key and b.key.startswith(name + "-")]
+    assert len(found) == 1, [b.key for b in at.button]
+    return found[0]
+
+
+def _has(at: AppTest, name: str) -> bool:
+    return any(b.key and b.key.startswith(name + "-") for b in at.button)
 
 
 def _current(at: AppTest) -> str:
@@ -67,7 +84,7 @@ def test_query_param_sign_in_and_training_first(study):
     for i, key in enumerate(training):  # training items first, in study order
         assert _current(at) == key
         assert at.get("progress")[0].proto.text == f"Training {i} / {len(training)}"
-        at.button(key="vote_good").click().run()
+        _btn(at, "vote_good").click().run()
     assert study.items.loc[_current(at), "kind"] != "training"
     votes = study.store.votes("bob")
     assert votes["item"].tolist() == training
@@ -80,15 +97,15 @@ def test_vote_undo_and_resume_on_a_new_session(study):
     seen = []
     for vote_key in ("vote_good", "vote_bad", "vote_bad", "vote_good"):
         seen.append(_current(at))
-        at.button(key=vote_key).click().run()
+        _btn(at, vote_key).click().run()
     assert len(set(seen)) == 4
     after = _current(at)
-    at.button(key="undo").click().run()  # undo the 4th vote: its item comes back
+    _btn(at, "undo").click().run()  # undo the 4th vote: its item comes back
     assert _current(at) == seen[3]
     assert seen[3] not in set(study.store.votes("cat")["item"])
     hist = study.store.history()
     assert hist["action"].tolist() == ["vote"] * 4 + ["undo"]
-    at.button(key="vote_bad").click().run()  # changed answer
+    _btn(at, "vote_bad").click().run()  # changed answer
     assert _current(at) == after
     # a fresh browser session resumes at exactly the next unrated item, no instructions
     at2 = _app(rater="cat")
@@ -102,11 +119,11 @@ def test_full_run_gold_failures_and_nothing_revealed(study):
     at = _app(rater="dan")
     at.button(key="start").click().run()
     n = 0
-    while any(b.key == "vote_good" for b in at.button):
+    while _has(at, "vote_good"):
         text = _page_text(at)
         for secret in ("toy", "trk-", "+1.00", "-1.00", "offset", "front", "gold", "repeat"):
             assert secret not in text, (secret, text)
-        at.button(key="vote_good").click().run()  # always "good": the gold-bad item fails
+        _btn(at, "vote_good").click().run()  # always "good": the gold-bad item fails
         n += 1
     assert "All done" in at.success[0].value
     kinds = study.items["kind"].value_counts()
@@ -140,11 +157,11 @@ def test_break_reminder_every_n_items(make_study, monkeypatch):
     monkeypatch.setenv("ANNOTATE_STUDY", str(s.root))
     at = _app(rater="fay")
     at.button(key="start").click().run()
-    at.button(key="vote_good").click().run()  # the training item: not counted
+    _btn(at, "vote_good").click().run()  # the training item: not counted
     reminders = []
     for _ in range(4):
         reminders.append(any("break" in i.value for i in at.info))
-        at.button(key="vote_bad").click().run()
+        _btn(at, "vote_bad").click().run()
     # reminder shown after 2 and 4 rated (non-training) items, i.e. before votes 3 and 5
     assert reminders == [False, False, True, False]
     assert any("break" in i.value for i in at.info)
@@ -155,3 +172,74 @@ def test_token_study_ignores_rater_name_link(make_study, monkeypatch):
     monkeypatch.setenv("ANNOTATE_STUDY", str(s.root))
     at = _app(rater="mallory")
     assert "rater" not in at.session_state and "mallory" not in s.store.raters()
+
+
+def test_second_tab_is_told_the_item_was_rated_elsewhere(study):
+    a = _app(rater="gus")
+    a.button(key="start").click().run()
+    _btn(a, "vote_good").click().run()  # training item 1
+    b = _app(rater="gus")  # second tab: same item on screen as the first
+    assert _current(b) == _current(a)
+    item = _current(a)
+    _btn(a, "vote_good").click().run()
+    _btn(b, "vote_bad").click().run()  # the other tab's press on the same item
+    assert any("another tab" in i.value for i in b.info)
+    assert _current(b) == _current(a) != item
+    assert study.store.votes("gus").set_index("item").loc[item, "vote"] == 1  # first vote stands
+
+
+def test_press_for_an_item_no_longer_on_screen_is_dropped(study):
+    at = _app(rater="hal")
+    at.button(key="start").click().run()
+    stale = _btn(at, "vote_good")
+    stale.click().run()
+    first = study.store.votes("hal")["item"].tolist()
+    assert len(first) == 1
+    # the same (old) button pressed again, after the next item was chosen: no second vote
+    at.session_state["shown"] = (_current(at), 0.0, "not-the-token-on-screen")
+    _btn(at, "vote_good").click().run()
+    assert study.store.votes("hal")["item"].tolist() == first
+
+
+def test_user_text_is_plain_in_the_sign_in_error(study):
+    at = _app(rater="[Click](http://example.invalid/x) ![i](http://example.invalid/i.png)")
+    assert at.error and "http" not in at.error[0].value  # the markdown element never holds it
+    assert at.text and "[Click](http://example.invalid/x)" in at.text[0].value  # st.text: plain
+
+
+def test_unshowable_crop_is_skipped_with_a_short_message(study, caplog):
+    import pandas as pd
+
+    items = pd.read_csv(study.root / "items.csv")
+    first = study.manifest["training_order"][0]
+    items.loc[items["key"] == first, "ref_file"] = "../secrets.json"  # tampered crop name
+    items.to_csv(study.root / "items.csv", index=False)
+    at = _app(rater="ida")
+    at.button(key="start").click().run()
+    text = _page_text(at)
+    assert "skipped" in text and "secrets" not in text and "Traceback" not in text
+    assert _current(at) != first and _has(at, "vote_good")
+    assert "cannot be shown" in caplog.text  # the details go to the server log
+
+
+def test_votes_refused_once_the_study_is_rebuilt_under_the_server(study):
+    import json
+
+    at = _app(rater="jo")
+    at.button(key="start").click().run()
+    manifest = json.loads((study.root / "manifest.json").read_text())
+    manifest["study_id"] = "rebuilt-1234"
+    (study.root / "manifest.json").write_text(json.dumps(manifest))
+    _btn(at, "vote_good").click().run()
+    assert any("changed on the server" in e.value for e in at.error)
+    assert study.store.votes().empty
+
+
+def test_press_a_moment_after_drawing_is_dropped(study, monkeypatch):
+    """The tail of a double press that reached the next item before the rater saw it."""
+    monkeypatch.setenv("ANNOTATE_MIN_RESPONSE_MS", "60000")  # any press is "too soon"
+    at = _app(rater="kit")
+    at.button(key="start").click().run()
+    shown = _current(at)
+    _btn(at, "vote_good").click().run()
+    assert study.store.votes("kit").empty and _current(at) == shown

@@ -142,3 +142,83 @@ def test_crop_path_refuses_traversal(tmp_path):
     (tmp_path / "crops" / "link.jpg").symlink_to(tmp_path / "secrets.json")
     with pytest.raises(InputError):
         crop_path(tmp_path, "link.jpg")
+
+
+def test_item_counters_match_a_full_recount_after_random_operations(tmp_path):
+    """The trigger-kept per-item counters equal a recount from the raw tables (the old query)."""
+    import sqlite3
+
+    store = Store(tmp_path / "v.sqlite", "s")
+    tests = [f"t{i}" for i in range(8)]
+    plans = {f"r{i}": make_plan(training=[], tests=tests, golds=[], repeats={}, seed=i)
+             for i in range(4)}
+    rng = np.random.default_rng(3)
+    for _ in range(60):
+        r = f"r{int(rng.integers(4))}"
+        op = rng.random()
+        if op < 0.6:
+            key = store.next_item(r, lambda a, v, loads, r=r: choose_next(plans[r], a, v, loads,
+                                                                          quota=3))
+            if key is not None and rng.random() < 0.8:
+                store.record_vote(r, key, int(rng.integers(2)))
+        elif op < 0.8:
+            store.undo_last(r)
+    con = sqlite3.connect(tmp_path / "v.sqlite")
+    counters = {i: (v, c) for i, v, c in con.execute(
+        "SELECT item, voted, claimed FROM item_loads WHERE study = 's'") if v or c}
+    recount = {}
+    for item in tests:
+        voted = con.execute("SELECT COUNT(*) FROM votes WHERE item = ?", (item,)).fetchone()[0]
+        claimed = con.execute(
+            "SELECT COUNT(*) FROM assignments a WHERE a.item = ? AND NOT EXISTS (SELECT 1 FROM "
+            "votes v WHERE v.rater = a.rater AND v.item = a.item)", (item,)).fetchone()[0]
+        if voted or claimed:
+            recount[item] = (voted, claimed)
+    assert counters == recount and sum(v for v, _ in recount.values()) > 5
+
+
+def test_counters_backfilled_for_a_database_made_before_them(tmp_path):
+    import sqlite3
+
+    s = Store(tmp_path / "v.sqlite", "s")
+    s.next_item("r", lambda a, v, loads: "x")
+    s.record_vote("r", "x", 1)
+    s.next_item("q", lambda a, v, loads: "x")
+    con = sqlite3.connect(tmp_path / "v.sqlite")
+    con.executescript("DROP TABLE item_loads; DROP TRIGGER IF EXISTS item_loads_assign;"
+                      "DROP TRIGGER IF EXISTS item_loads_vote; DROP TRIGGER IF EXISTS item_loads_unvote;")
+    con.close()
+    s2 = Store(tmp_path / "v.sqlite", "s")
+    seen = {}
+    s2.next_item("z", lambda a, v, loads: seen.update(loads))
+    assert seen == {"x": 2}  # one vote (r) + one open claim (q), as recounted by hand
+
+
+def test_shown_vote_is_recorded_once_and_only_for_an_assigned_item(tmp_path):
+    s = Store(tmp_path / "v.sqlite", "s")
+    assert s.record_shown_vote("r", "a", 1) == "unassigned"
+    s.next_item("r", lambda a, v, loads: "a")
+    assert s.record_shown_vote("r", "a", 1, response_ms=5) == "recorded"
+    assert s.record_shown_vote("r", "a", 0) == "already"  # e.g. a second tab: first vote stands
+    assert s.votes()[["item", "vote"]].values.tolist() == [["a", 1]]
+    assert s.history()["action"].tolist() == ["vote"]
+
+
+def test_a_deleted_database_is_not_silently_recreated(tmp_path):
+    import sqlite3
+
+    s = Store(tmp_path / "v.sqlite", "s")
+    s._keeper.close()
+    for suffix in ("", "-wal", "-shm"):
+        (tmp_path / f"v.sqlite{suffix}").unlink(missing_ok=True)
+    with pytest.raises(sqlite3.OperationalError):
+        s.record_vote("r", "a", 1)
+    assert not (tmp_path / "v.sqlite").exists()
+
+
+def test_skipped_item_leaves_the_queue(tmp_path):
+    s = Store(tmp_path / "v.sqlite", "s")
+    order = iter(["a", "b"])
+    assert s.next_item("r", lambda a, v, loads: next(order)) == "a"
+    s.skip("r", "a", reason="crop cannot be shown")
+    assert s.next_item("r", lambda a, v, loads: next(order, None)) == "b"

@@ -43,17 +43,23 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
+# (progress text, or 'done' once the rater is done; image URLs) read in one go
+_SNAPSHOT = """() => {
+  const p = document.querySelector('[data-testid=stProgress]');
+  const text = document.body.innerText.includes('All done') ? 'done' : (p ? p.innerText : '');
+  return [text, Array.from(document.querySelectorAll('img')).map(i => i.getAttribute('src'))];
+}"""
+
+
 def _state(page) -> tuple[str, tuple]:
     """(progress/done text, image URLs) once the app has finished its rerun."""
     page.wait_for_function(
         "() => !document.querySelector('[data-stale=\"true\"]') &&"
         " ((document.querySelector('[data-testid=stProgress]') &&"
         "   document.querySelectorAll('img').length === 2) ||"
-        "  document.body.innerText.includes('All done'))", timeout=20000)
-    prog = page.get_by_test_id("stProgress")
-    text = prog.inner_text() if prog.count() else "done"
-    srcs = tuple(img.get_attribute("src") for img in page.locator("img").all())
-    return text.strip(), srcs
+        "  document.body.innerText.includes('All done'))", timeout=40000)
+    text, srcs = page.evaluate(_SNAPSHOT)  # one read: the panel may redraw in between
+    return text.strip(), tuple(srcs)
 
 
 def _wait_moved(page, old: tuple) -> tuple:
@@ -61,7 +67,7 @@ def _wait_moved(page, old: tuple) -> tuple:
     while time.time() < deadline:
         now = _state(page)
         if now[0] != old[0]:
-            time.sleep(0.15)  # let the rerun finish rendering the buttons of the new item
+            time.sleep(0.4)  # let the rerun finish rendering (the app drops presses < 250 ms)
             return _state(page)
         time.sleep(0.05)
     raise AssertionError(f"the page did not advance from {old[0]!r}")
@@ -121,6 +127,7 @@ def test_two_raters_vote_with_keyboard_reload_and_export(tmp_path):
             for page in pages.values():
                 page.get_by_role("button", name="Start").click()
             state = {r: _state(p) for r, p in pages.items()}
+            time.sleep(0.4)  # raters look before they press (presses < 250 ms are dropped)
             acked: dict[str, list[int]] = {"alice": [], "bob": []}
             seen: list[str] = []
             step = 0
@@ -147,6 +154,7 @@ def test_two_raters_vote_with_keyboard_reload_and_export(tmp_path):
                     before = state["alice"]
                     pages["alice"].reload()
                     state["alice"] = _state(pages["alice"])
+                    time.sleep(0.4)
                     assert state["alice"] == before
             browser.close()
     finally:

@@ -4,7 +4,7 @@ import krippendorff
 import numpy as np
 import pytest
 
-from analysis.agreement import alpha_nominal
+from annotate.results import alpha_nominal
 
 # Krippendorff (2011) reliability data, the example in the krippendorff package docstring
 # (3 coders x 15 units); the package gives 0.691 for nominal data.

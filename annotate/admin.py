@@ -1,0 +1,74 @@
+"""The study owner's live admin page (``/?admin=TOKEN`` of the rater app).
+
+The page body is a Streamlit fragment that re-runs by itself every :data:`REFRESH_S`
+seconds (no reload): per rater the progress, the agreement with the others so far and the
+screening flags as they form (:mod:`annotate.screening`, the rule ``analyze --screen``
+applies), the GVF histogram, Krippendorff's alpha, gold failures and a ``ratings.csv``
+download. Widget keys (for tests): ``download_ratings``; element keys ``admin_raters``.
+"""
+
+from __future__ import annotations
+
+import hmac
+import time
+
+import numpy as np
+import pandas as pd
+import streamlit as st
+
+from annotate import screening
+from annotate.results import gold_failures, gvf_table, nominal_alpha, rater_progress, ratings_table
+
+__all__ = ["REFRESH_S", "admin_page", "live_raters"]
+
+#: Seconds between two refreshes of the admin page.
+REFRESH_S = 3.0
+
+_LIVE_COLS = ["rater_id", "agreement", "kappa", "youden_j", "j_p", "skill_p", "flags"]
+
+
+def live_raters(study, ratings: pd.DataFrame) -> pd.DataFrame:
+    """Progress per rater joined with the screening numbers and flags so far."""
+    prog = rater_progress(study)
+    if ratings.empty:
+        return prog.assign(flags="")
+    r = screening.screen(screening.rater_table(ratings), use_rule=False)
+    return prog.merge(r[_LIVE_COLS], on="rater_id", how="left").fillna({"flags": ""})
+
+
+def _gvf_chart(ratings: pd.DataFrame) -> None:
+    gvf = gvf_table(ratings)
+    st.subheader(f"GVF so far ({len(gvf)} test items with votes)")
+    if len(gvf):
+        counts, edges = np.histogram(gvf["gvf"], bins=10, range=(0, 1))
+        labels = [f"{a:.1f}-{b:.1f}" for a, b in zip(edges[:-1], edges[1:], strict=True)]
+        st.bar_chart(pd.DataFrame({"items": counts}, index=labels))
+
+
+def _live_body(study) -> None:
+    ratings = ratings_table(study)
+    st.caption(f"Live: refreshes every {REFRESH_S:g} s; last update "
+               f"{time.strftime('%H:%M:%S')}, {len(ratings)} votes.")
+    st.subheader("Raters: progress, agreement so far, flags")
+    st.dataframe(live_raters(study, ratings), hide_index=True, key="admin_raters")
+    _gvf_chart(ratings)
+    alpha, note = nominal_alpha(ratings)
+    st.metric("Krippendorff's alpha (nominal)", "undefined" if alpha is None else f"{alpha:.3f}",
+              help=note)
+    st.caption(note)
+    st.subheader("Gold failures")
+    st.dataframe(gold_failures(ratings), hide_index=True)
+    st.download_button("Download ratings.csv", ratings.to_csv(index=False).encode(),
+                       file_name="ratings.csv", mime="text/csv", key="download_ratings")
+
+
+_live = st.fragment(run_every=REFRESH_S)(_live_body)
+
+
+def admin_page(study, token: str) -> None:
+    """The admin page of ``study`` when ``token`` is its admin token, else an error."""
+    if not hmac.compare_digest(str(token).encode(), study.admin_token().encode()):
+        st.error("Admin token not valid.")
+        return
+    st.title("Study admin")
+    _live(study)

@@ -1,0 +1,354 @@
+"""Load on one rater server: N concurrent raters at the websocket level, vote -> next item.
+
+Builds a study from a small synthetic scene, starts a real ``annotate serve`` on 127.0.0.1
+and drives N rater sessions at once, each speaking Streamlit's own websocket protocol (the
+``BackMsg``/``ForwardMsg`` protobufs of the installed ``streamlit.proto``, as the browser
+does): sign in by ``?rater=``, press Start, then repeatedly think 0.8-1.6 s and press
+"Good" or "Bad" (a button trigger sent as a fragment rerun, exactly what a key press sends).
+The latency of a vote is the time from sending the press to the server's
+``script_finished`` of the run that shows the next item. After each round the votes in the
+SQLite store are compared with the presses the clients saw acknowledged ("lost" must be 0).
+Prints one line per N: p50/p95/max latency in ms, votes, votes lost and the server's CPU
+time per vote (sign-ins included; on a shared machine the latencies move with the load, the
+CPU time much less). Target: 30 concurrent
+raters at p95 < 1 s, 0 votes lost.
+
+First, measured side by side in the same run: the store's work per vote (next item,
+progress, record) with ~300 and with ~3,000 votes already stored, and their ratio (about 1:
+the work does not grow with the study; issue 13 measured 11.8 ms at 351 votes and
+19.6 ms at 3,120 before the per-item counters).
+
+    python benchmarks/bench_raters.py                       # N = 10, 20, 30; 40 s each
+    python benchmarks/bench_raters.py --raters 2 --seconds 5 --think 0.4 0.6   # smoke run
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.request
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pandas as pd
+
+__all__ = ["RaterClient", "Screen", "make_scene", "start_server", "stop_server", "main"]
+
+WS_PATH = "_stcore/stream"
+
+
+# ---- a Streamlit websocket client ---------------------------------------------------------
+@dataclass
+class Screen:
+    """What one script run put on the page: buttons by label, texts, image URLs, status."""
+
+    buttons: dict[str, str] = field(default_factory=dict)  # label -> widget id
+    fragment: dict[str, str] = field(default_factory=dict)  # widget id -> fragment id
+    texts: list[str] = field(default_factory=list)
+    images: list[str] = field(default_factory=list)
+    status: str = ""
+
+    def vote_id(self) -> str | None:
+        return self.buttons.get("Good (G)")
+
+
+class RaterClient:
+    """One browser-like session: ``await c.open(query)``, then ``await c.press(label)``."""
+
+    def __init__(self, base_url: str):
+        self.ws_url = base_url.replace("http://", "ws://").rstrip("/") + "/" + WS_PATH
+        self.query = ""
+        self.ws = None
+        self.screen = Screen()
+
+    async def open(self, query: str) -> Screen:
+        import websockets
+
+        self.query = query
+        self.ws = await websockets.connect(self.ws_url, subprotocols=["streamlit"],
+                                           max_size=None, open_timeout=60)
+        return await self._run(None)
+
+    async def close(self) -> None:
+        if self.ws is not None:
+            await self.ws.close()
+
+    async def press(self, label: str) -> Screen:
+        """Trigger the button ``label`` of the current screen (a fragment rerun if it is in one)."""
+        wid = self.screen.buttons[label]
+        return await self._run(wid)
+
+    async def _run(self, trigger: str | None) -> Screen:
+        from streamlit.proto.BackMsg_pb2 import BackMsg
+
+        msg = BackMsg()
+        cs = msg.rerun_script
+        cs.query_string = self.query
+        if trigger is not None:
+            ws = cs.widget_states.widgets.add()
+            ws.id, ws.trigger_value = trigger, True
+            frag = self.screen.fragment.get(trigger)
+            if frag:
+                cs.fragment_id = frag
+        await self.ws.send(msg.SerializeToString())
+        self.screen = await self._collect()
+        return self.screen
+
+    async def _collect(self) -> Screen:
+        from streamlit.proto.ForwardMsg_pb2 import ForwardMsg
+
+        screen = Screen()
+        while True:
+            fm = ForwardMsg()
+            fm.ParseFromString(await asyncio.wait_for(self.ws.recv(), timeout=120))
+            kind = fm.WhichOneof("type")
+            if kind == "delta" and fm.delta.WhichOneof("type") == "new_element":
+                _read_element(fm.delta.new_element, fm.delta.fragment_id, screen)
+            elif kind == "script_finished":
+                screen.status = ForwardMsg.ScriptFinishedStatus.Name(fm.script_finished)
+                if screen.status != "FINISHED_EARLY_FOR_RERUN":
+                    return screen
+
+
+def _read_element(el, fragment_id: str, screen: Screen) -> None:
+    kind = el.WhichOneof("type")
+    if kind == "button":
+        screen.buttons[el.button.label] = el.button.id
+        screen.fragment[el.button.id] = fragment_id
+    elif kind == "imgs":
+        screen.images += [img.url for img in el.imgs.imgs]
+    elif kind == "progress":
+        screen.texts.append(el.progress.text)
+    elif kind in ("alert", "markdown", "text", "heading"):
+        screen.texts.append(getattr(el, kind).body)
+
+
+# ---- a study and a server ----------------------------------------------------------------
+def make_scene(root: Path, *, n_frames: int = 8, n_tracks: int = 4, seed: int = 0) -> Path:
+    """A synthetic clip (noise + coloured boxes; renders blurred by |offset|); returns pairs.csv."""
+    from data_schema.tables import pair_id
+
+    rng = np.random.default_rng(seed)
+    (root / "scene" / "images").mkdir(parents=True, exist_ok=True)
+    rows = []
+    for f in range(n_frames):
+        ts = 100000 * f
+        img = rng.integers(0, 60, size=(120, 160, 3), dtype=np.uint8)
+        boxes = [(5 + 38 * t, 20 + 5 * (f % 3), 35 + 38 * t, 60 + 5 * (f % 3)) for t in range(n_tracks)]
+        for t, (x0, y0, x1, y1) in enumerate(boxes):
+            cv2.rectangle(img, (x0, y0), (x1, y1), (40 * t % 255, 200, 255 - 50 * t % 255), -1)
+        cv2.imwrite(str(root / "scene" / f"images/gt_{ts}.png"), img)
+        for off in (-1.0, 0.0, 1.0):
+            rel = f"images/render_{ts}_{off:+.1f}.png"
+            ren = img if off == 0 else cv2.GaussianBlur(img, (0, 0), 2.0 * abs(off))
+            cv2.imwrite(str(root / "scene" / rel), ren)
+            for t, (x0, y0, x1, y1) in enumerate(boxes):
+                rows.append({"pair_id": pair_id("bench", "front", f"t{t}", ts, off),
+                             "clip_id": "bench", "camera": "front", "track_id": f"t{t}",
+                             "label_class": "automobile", "timestamp_us": ts, "y_offset_m": off,
+                             "gt_path": f"images/gt_{ts}.png", "render_path": rel,
+                             "gt_x0": x0, "gt_y0": y0, "gt_x1": x1, "gt_y1": y1,
+                             "r_x0": x0, "r_y0": y0, "r_x1": x1, "r_y1": y1})
+    pd.DataFrame(rows).to_csv(root / "pairs.csv", index=False)
+    return root / "pairs.csv"
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def start_server(study: Path, port: int, *, log=subprocess.DEVNULL) -> subprocess.Popen:
+    """``annotate serve STUDY`` on 127.0.0.1:port in its own process group, once it answers."""
+    proc = subprocess.Popen([sys.executable, "-m", "annotate.cli", "serve", str(study),
+                             "--port", str(port)], start_new_session=True,
+                            stdout=subprocess.DEVNULL, stderr=log)
+    deadline = time.time() + 90
+    while True:
+        try:
+            urllib.request.urlopen(f"http://127.0.0.1:{port}/_stcore/health", timeout=2)
+            return proc
+        except OSError:
+            if proc.poll() is not None or time.time() > deadline:
+                stop_server(proc)
+                raise RuntimeError("annotate serve did not start") from None
+            time.sleep(0.2)
+
+
+def stop_server(proc: subprocess.Popen) -> None:
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+    proc.wait(timeout=30)
+
+
+# ---- the load --------------------------------------------------------------------------
+async def _rater(url: str, name: str, *, until: float, think: tuple[float, float],
+                 rng: np.random.Generator, lat: list[float]) -> int:
+    """One rater's session; returns the number of acknowledged votes."""
+    c = RaterClient(url)
+    screen = await c.open(f"rater={name}")
+    if "Start" in screen.buttons:
+        screen = await c.press("Start")
+    acked = 0
+    try:
+        while time.time() < until and screen.vote_id():
+            await asyncio.sleep(float(rng.uniform(*think)))
+            old = screen.vote_id()
+            t0 = time.perf_counter()
+            screen = await c.press("Good (G)" if rng.random() < 0.6 else "Bad (B)")
+            if screen.vote_id() != old:  # the next item (or "All done") is on screen: acked
+                lat.append(time.perf_counter() - t0)
+                acked += 1
+    finally:
+        await c.close()
+    return acked
+
+
+async def _warm_up(url: str) -> None:
+    """One session, so the app's first run (its imports) is not timed."""
+    c = RaterClient(url)
+    await c.open("rater=warmup")
+    await c.close()
+
+
+async def _round(url: str, names: list[str], *, seconds: float, think, seed: int):
+    lat: list[float] = []
+    until = time.time() + seconds
+    acked = await asyncio.gather(*[
+        _rater(url, n, until=until, think=think, rng=np.random.default_rng([seed, i]), lat=lat)
+        for i, n in enumerate(names)])
+    return lat, dict(zip(names, acked, strict=True))
+
+
+def run_load(n_list: list[int], *, seconds: float, think: tuple[float, float], seed: int = 0,
+             frames: int = 8) -> pd.DataFrame:
+    """Build a study, serve it, and drive each N in turn; one row per N."""
+    from annotate.study import build_study, load_study
+
+    with tempfile.TemporaryDirectory(prefix="bench_raters_") as tmp:
+        tmp = Path(tmp)
+        pairs = make_scene(tmp, n_frames=frames)
+        opts = dict(scene=str(tmp / "scene"), tracks=4, frames_per_track=frames,
+                    votes_per_item=max(n_list), n_training=2, n_gold=2, n_repeats=3, size=96,
+                    progress=False)
+        root = build_study(tmp / "study", pairs, **opts)
+        work = db_work(load_study(build_study(tmp / "work", pairs, **opts)), sizes=(300, 3000))
+        for w in work:
+            print(f"store work per vote at {w['stored_votes']:5d} stored votes: "
+                  f"{w['ms_per_vote']:.2f} ms", flush=True)
+        print(f"store work ratio (largest / smallest study): "
+              f"{work[-1]['ms_per_vote'] / work[0]['ms_per_vote']:.2f}", flush=True)
+        store = load_study(root).store
+        port = free_port()
+        server = start_server(root, port)
+        rows = []
+        try:
+            asyncio.run(_warm_up(f"http://127.0.0.1:{port}/"))
+            for k, n in enumerate(n_list):
+                names = [f"load{k}-{i}" for i in range(n)]
+                cpu0 = server_cpu_s(server.pid)
+                lat, acked = asyncio.run(_round(f"http://127.0.0.1:{port}/", names,
+                                                seconds=seconds, think=think, seed=seed + k))
+                stored = store.votes()
+                stored = stored[stored["rater"].isin(names)].groupby("rater").size()
+                lost = sum(max(0, a - int(stored.get(r, 0))) for r, a in acked.items())
+                ms = np.asarray(lat) * 1000
+                rows.append({"raters": n, "votes": int(sum(acked.values())),
+                             "p50_ms": float(np.percentile(ms, 50)) if len(ms) else float("nan"),
+                             "p95_ms": float(np.percentile(ms, 95)) if len(ms) else float("nan"),
+                             "max_ms": float(ms.max()) if len(ms) else float("nan"),
+                             "votes_lost": int(lost),
+                             "server_cpu_ms_per_vote": (server_cpu_s(server.pid) - cpu0) * 1000
+                             / max(1, sum(acked.values()))})
+                print(_line(rows[-1]), flush=True)
+        finally:
+            stop_server(server)
+    return pd.DataFrame(rows)
+
+
+def server_cpu_s(pid: int) -> float:
+    """User + system CPU seconds of process ``pid`` so far (Linux ``/proc``; NaN elsewhere)."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return float("nan")
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _prefill(store, items: list[str], raters: list[str]) -> None:
+    """Every rater in ``raters`` assigned and voted on every item (one transaction)."""
+    import sqlite3
+
+    now = time.time()
+    with sqlite3.connect(store.path) as con:
+        con.executemany("INSERT INTO assignments (study, rater, item, assigned_at) VALUES (?, ?, ?, ?)",
+                        [(store.study, r, k, now) for r in raters for k in items])
+        con.executemany("INSERT INTO votes (study, rater, item, vote, voted_at) VALUES (?, ?, ?, 1, 'x')",
+                        [(store.study, r, k) for r in raters for k in items])
+
+
+def db_work(study, *, sizes: tuple[int, int], n_votes: int = 40) -> list[dict]:
+    """Per-vote store work (next item + progress + record) at two numbers of stored votes.
+
+    Each size adds simulated raters who voted on every test item, then a fresh rater votes
+    ``n_votes`` times; the store runs with ``synchronous=NORMAL`` here so that the disk sync
+    (the same at any size) does not hide the database work being compared.
+    """
+    import dataclasses
+
+    from annotate.store import Store
+
+    study = dataclasses.replace(study, store=Store(study.store.path, study.store.study,
+                                                   synchronous="NORMAL"))
+    tests = study.keys("test")
+    rows, have = [], len(study.store.votes())
+    for k, size in enumerate(sizes):
+        extra = max(0, (size - have) // len(tests))
+        _prefill(study.store, tests, [f"fill{k}-{i}" for i in range(extra)])
+        have = len(study.store.votes())
+        rater, t0 = f"probe{k}", time.perf_counter()
+        for _ in range(n_votes):
+            key = study.next_item(rater)
+            study.progress(rater)
+            study.store.record_shown_vote(rater, key, 1)
+        rows.append({"stored_votes": have, "ms_per_vote": (time.perf_counter() - t0) / n_votes * 1000})
+    return rows
+
+
+def _line(r: dict) -> str:
+    return (f"N={r['raters']:3d} raters: vote->next item p50 {r['p50_ms']:.0f} ms, "
+            f"p95 {r['p95_ms']:.0f} ms, max {r['max_ms']:.0f} ms; {r['votes']} votes, "
+            f"{r['votes_lost']} votes lost; server CPU {r['server_cpu_ms_per_vote']:.0f} ms per vote")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--raters", default="10,20,30", help="comma list of concurrent raters N")
+    ap.add_argument("--seconds", type=float, default=40.0, help="duration of each round")
+    ap.add_argument("--think", type=float, nargs=2, default=(0.8, 1.6), metavar=("MIN", "MAX"))
+    ap.add_argument("--frames", type=int, default=8, help="frames of the synthetic clip")
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args(argv)
+    n_list = [int(v) for v in args.raters.split(",")]
+    table = run_load(n_list, seconds=args.seconds, think=tuple(args.think), seed=args.seed,
+                     frames=args.frames)
+    ok = table[(table["raters"] >= 30)]
+    print(f"target (30 raters: p95 < 1000 ms, 0 lost): "
+          f"{'met' if len(ok) and (ok['p95_ms'] < 1000).all() and not ok['votes_lost'].any() else 'not met / not run'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
