@@ -32,7 +32,17 @@ def build_parser() -> ArgumentParser:
         "CIs, breakdowns, rater screening and an offline HTML report.",
     )
     p.add_argument(
-        "ratings", metavar="RATINGS", help="ratings.csv (or .parquet) from `annotate export`"
+        "ratings",
+        metavar="RATINGS",
+        nargs="?",
+        help="ratings.csv (or .parquet) from `annotate export` (or use --pairs)",
+    )
+    p.add_argument(
+        "--pairs",
+        metavar="PAIRS",
+        default=None,
+        help="instead of RATINGS: every pair of a pairs dataset (or a table with clip_id), "
+        "joined with --metrics-table, against --target (analysis.all_pairs)",
     )
     p.add_argument(
         "--metrics-table",
@@ -92,6 +102,12 @@ def _add_options(p: ArgumentParser) -> None:
         "P(good) becomes the target (0.5 threshold for ROC AUC)",
     )
     p.add_argument(
+        "--margin",
+        type=float,
+        default=0.02,
+        help="non-inferiority margin on SRCC for the recommended cheapest metric (default 0.02)",
+    )
+    p.add_argument(
         "--timing",
         action="append",
         default=[],
@@ -144,9 +160,44 @@ def _main(argv=None) -> int:
 def _run(args) -> int:
     if args.bootstrap < 0:
         raise InputError("--bootstrap", None, "a non-negative number of replicates", args.bootstrap)
+    if (args.ratings is None) == (args.pairs is None):
+        raise InputError("RATINGS/--pairs", None, "either a ratings file or --pairs PAIRS",
+                         "both" if args.pairs else "neither")
     check_output_folder(args.out, kind="report", option="--out",
-                        inputs=[args.ratings, *args.metrics_tables, *args.timing, args.stability])
-    analysis = run_analysis(
+                        inputs=[args.ratings or args.pairs, *args.metrics_tables, *args.timing,
+                                args.stability])
+
+    analysis = _run_pairs(args) if args.pairs is not None else _run_ratings(args)
+    analysis.margin = args.margin
+    out = write_report(analysis, args.out)
+    _print_summary(analysis)
+    print(f"report: {out / 'report.html'}", file=sys.stderr)
+    return 0
+
+
+def _run_pairs(args):
+    from analysis.all_pairs import run_pairs_analysis
+
+    if args.screen or args.exclude_raters or args.stability:
+        raise InputError("--pairs", None, "no rater or stability options (there are no votes)",
+                         "--screen/--exclude-raters/--stability")
+    return run_pairs_analysis(
+        args.pairs,
+        metrics_paths=args.metrics_tables,
+        lower=args.lower_better,
+        higher=args.higher_better,
+        target=args.target,
+        n_boot=args.bootstrap,
+        seed=args.seed,
+        rank_by=args.rank_by,
+        timing_paths=args.timing,
+        progress=not args.quiet,
+    )
+
+
+def _run_ratings(args):
+
+    return run_analysis(
         args.ratings,
         metrics_paths=args.metrics_tables,
         lower=args.lower_better,
@@ -162,10 +213,6 @@ def _run(args) -> int:
         stability_dir=args.stability,
         progress=not args.quiet,
     )
-    out = write_report(analysis, args.out)
-    _print_summary(analysis)
-    print(f"report: {out / 'report.html'}", file=sys.stderr)
-    return 0
 
 
 def main(argv=None) -> int:

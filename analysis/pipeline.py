@@ -63,6 +63,8 @@ class Analysis:
     screen: bool = False
     ceiling: dict = field(default_factory=dict)
     comparison: dict | None = None
+    source: str = "ratings"  # or "pairs": analyze --pairs (no votes; see analysis.all_pairs)
+    margin: float = 0.02  # non-inferiority margin (analysis.noninferiority)
 
 
 def read_timing(paths) -> pd.DataFrame | None:
@@ -84,7 +86,11 @@ def read_timing(paths) -> pd.DataFrame | None:
                 t[c][v.isna() | (v < 0)].iloc[0],
             )
         t[c] = v
+    info = [c for c in ("runtime", "precision", "threads", "device") if c in t.columns]  # optional
+    first = t.groupby("metric", as_index=False)[info].first() if info else None
     t = t.groupby("metric", as_index=False)[["seconds", "pairs"]].sum()
+    if first is not None:
+        t = t.merge(first, on="metric", how="left")
     with np.errstate(divide="ignore", invalid="ignore"):
         t["pairs_per_s"] = np.where(t["seconds"] > 0, t["pairs"] / t["seconds"], np.nan)
     return t

@@ -113,7 +113,7 @@ def speed_accuracy_plot(summary: pd.DataFrame, timing: pd.DataFrame, *, target_l
     sp, acc = t["pairs_per_s"].to_numpy(float), t["srcc"].to_numpy(float)
     ax.scatter(sp, acc, color="C0", zorder=3)
     placed: dict[tuple[float, float], int] = {}  # metrics at one point get stacked labels
-    for s, a, name in zip(sp, acc, t["metric"], strict=True):
+    for s, a, name in zip(sp, acc, variant_labels(t), strict=True):
         key = (round(float(np.log10(s)), 2), round(float(a), 3))
         n = placed[key] = placed.get(key, -1) + 1
         ax.annotate(name, (s, a), textcoords="offset points", xytext=(4, 3 - 9 * n), fontsize=7)
@@ -122,11 +122,40 @@ def speed_accuracy_plot(summary: pd.DataFrame, timing: pd.DataFrame, *, target_l
     fa = acc[front][::-1]
     ax.step(fs, fa, where="pre", color="C3", linestyle="--", label="Pareto front")
     ax.set_xscale("log")
+    _log_ticks(ax.xaxis, sp)
     ax.set_xlabel("speed (pairs/s, log scale)")
     ax.set_ylabel(f"|SRCC| with {target_label}")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3, which="both")
     return fig
+
+
+def variant_labels(timing: pd.DataFrame) -> list[str]:
+    """Point labels: the metric, plus ``[runtime precision]`` where the timing records one,
+    so each runtime/precision variant of an encoder reads as its own point.
+
+    >>> variant_labels(pd.DataFrame({"metric": ["psnr", "nvrq:e"], "runtime": ["", "openvino"],
+    ...                              "precision": ["", "int8"]}))
+    ['psnr', 'nvrq:e [openvino int8]']
+    """
+    out = []
+    for _, r in timing.iterrows():
+        parts = [str(r[c]) for c in ("runtime", "precision")
+                 if c in timing.columns and isinstance(r[c], str) and r[c]]
+        out.append(f"{r['metric']} [{' '.join(parts)}]" if parts else str(r["metric"]))
+    return out
+
+
+def _log_ticks(axis, values: np.ndarray) -> None:
+    """Readable log-axis ticks: labels at 1-2-5 x 10^k only when the data span less than two
+    decades, else at powers of ten; minor ticks unlabelled (they overlapped before)."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    span = np.log10(values.max() / values.min()) if len(values) and values.min() > 0 else 0.0
+    subs = (1.0, 2.0, 5.0) if span < 2 else (1.0,)
+    axis.set_major_locator(LogLocator(base=10, subs=subs, numticks=12))
+    axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    axis.set_minor_formatter(NullFormatter())
 
 
 def roc_plot(items: pd.DataFrame, summary: pd.DataFrame, label: np.ndarray, *, top: int = 3):

@@ -25,6 +25,7 @@ from markupsafe import Markup
 
 from analysis import plots
 from analysis.axes import axis_tent_plots
+from analysis.noninferiority import recommend_from_tables
 from analysis.pipeline import Analysis
 from analysis.summary import binary_label
 from annotate.screening import ScreenRule
@@ -173,6 +174,9 @@ def _best_text(a: Analysis) -> str:
             f" Significantly different from it (95% paired cluster bootstrap): "
             f"{', '.join(worse) or 'none'}; not significantly different: {', '.join(ns) or 'none'}."
         )
+        rec = recommend_from_tables(s, a.timing, margin=a.margin)
+        if rec is not None:  # needs the bootstrap replicates, like the comparison above
+            text += " " + rec.sentence()
     return text
 
 
@@ -324,12 +328,14 @@ def _figures(a: Analysis, d: Path, tl: str) -> list[dict]:
 
 def _write_tables(a: Analysis, d: Path) -> None:
     write_table(a.summary, d / "summary.csv")
-    write_table(a.items, d / "items.csv")
+    if a.source == "ratings":  # --pairs: one row per pair (millions) stays in the input files
+        write_table(a.items, d / "items.csv")
     write_table(a.by_offset, d / "by_offset.csv")
     if a.by_axis is not None:
         write_table(a.by_axis, d / "by_axis.csv")
     write_table(a.categories, d / "categories.csv")
-    write_table(a.raters, d / "raters.csv")
+    if a.source == "ratings":
+        write_table(a.raters, d / "raters.csv")
     for table, name in ((a.encoders if len(a.encoders) else None, "encoders"),
                         (a.stability, "stability"), (a.snr, "snr")):
         if table is not None:
@@ -352,7 +358,7 @@ def _context(a: Analysis, t: dict, figs: list[dict], *, html_out: bool) -> dict:
         "summary_table": table(disp, best_col="_best"),
         "breakdowns": [{"name": b, "table": table(_category_wide(a.categories, b))}
                        for b in a.categories["breakdown"].unique()],
-        "raters_table": table(raters),
+        "raters_table": table(raters) if a.source == "ratings" else "",
         **{f"{k}_table": ("" if v is None else table(v)) for k, v in opt.items()},
         **t,
     }

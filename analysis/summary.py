@@ -138,7 +138,9 @@ def summary_table(
         row["note"] = lg_note
         rows.append(row)
     table = pd.DataFrame(rows, columns=_COLUMNS[:-5] + ["reason", "note"])
-    return _mark_best(table, reps, rank_by=rank_by)
+    out = _mark_best(table, reps, rank_by=rank_by)
+    out.attrs["srcc_replicates"] = {m: r["srcc"] for m, r in reps.items()}  # analysis.noninferiority
+    return out
 
 
 _COLUMNS = [

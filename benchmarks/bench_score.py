@@ -1,32 +1,33 @@
-"""Benchmark: is ``nvrq score`` encoder-bound? (issue 4, item 6)
+"""Benchmark: does ``nvrq score`` keep the encoder busy, and what do the runtimes buy? (issue 15)
 
-All numbers come from one run on one machine, with the ``dinov2-small`` architecture and
-random weights (speed does not depend on the weights):
+All numbers come from one run on one machine, measured side by side (rates interleaved:
+torch, runtime, torch, runtime, ... and averaged), per encoder (``dinov2-small`` with random
+weights, ``efficientnet-lite0`` with its pip weights when installed, else random) and batch size:
 
-  (a) encoder alone: images/s at ``--batch-size`` (pre-made uint8 inputs, no I/O);
-  (b) pipeline: pairs/s of :func:`nvrq.scoring.score_pairs` with ``nvrq:dinov2-small``
-      (decode + crop + pad/resize in a background thread, batched encoder);
-  (c) encoder images per pair, as a fraction of the naive 2 per pair (GT crops embedded
-      once per object and frame: 7 offsets -> 8 images per 7 pairs = 1.14 per pair = 0.57
-      of naive); the raw images-per-pair number is printed too;
-  (d) (b) / ((a) / images per pair): the pipeline's share of the encoder-bound ideal;
-  (d') encoder-busy share of the pipeline's wall time (forward seconds / wall seconds),
-      a load-robust check of the same claim on a shared machine;
-  (e) speed-up of (b) over a naive loop that, per pair, decodes both images and encodes
-      the GT and render crops at batch 1.
-
-Targets (2-core CPU): (c) <= 0.6 with 7 offsets, (d) >= 0.85, (e) >= 2.
+  encoder alone, images/s, pre-made uint8 inputs: torch eager fp32 and the default CPU
+      runtime (``runtime='auto'``: the fastest exported runtime identical to torch fp32);
+  pipeline: pairs/s of :func:`nvrq.scoring.score_pairs` with the default runtime, and
+      ``pipeline / encoder-alone`` = pairs/s / (images/s / encoder images per pair)
+      (target >= 0.9);
+  ``default / torch`` speed ratio (targets: DINOv2-S >= 1.3, efficientnet-lite0 >= 3) and the
+      max |dNVRQ| between the two on the scene's pairs (target <= 1e-5);
+  int8 (OpenVINO + NNCF, calibrated on GT crops of other pairs): drift check on the scene's
+      pairs (NVRQ Spearman vs torch fp32, target >= 0.999) and ``int8 / torch fp32`` speed
+      (target for DINOv2-S >= 2.5);
+  (c) encoder images per pair vs the naive 2; (e) speed-up over a naive per-pair loop.
 
 Scene: ``nvrq.synth.generate_scene`` (7 offsets) + ``nvrq.pairs.make_pairs`` when available,
 else a random scene (smooth noise images, 7 offsets, boxes valid in every offset).
 
-    python benchmarks/bench_score.py [--pairs 300] [--batch-size 32] [--threads 2] [--json OUT]
+    python benchmarks/bench_score.py [--pairs 150] [--batch-sizes 8,32] [--threads 2]
+        [--encoders dinov2-small,efficientnet-lite0] [--int8 dinov2-small,efficientnet-lite0] [--json OUT]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import tempfile
 import time
@@ -99,79 +100,154 @@ def naive_pairs_per_s(pairs: pd.DataFrame, encoder, n: int) -> float:
     return len(sub) / (time.perf_counter() - t0)
 
 
-def encoder_images_per_s(encoder, batch_size: int, seconds: float = 8.0) -> float:
+def encoder_images_per_s(encoder, batch_size: int, seconds: float) -> float:
     size = encoder.spec.input_size
     x = np.random.default_rng(0).integers(0, 256, (batch_size, size, size, 3), dtype=np.uint8)
     encoder.embed(x)  # warm-up
     n, t0 = 0, time.perf_counter()
-    while time.perf_counter() - t0 < seconds:
+    while n == 0 or time.perf_counter() - t0 < seconds:
         encoder.embed(x)
         n += batch_size
     return n / (time.perf_counter() - t0)
 
 
+def side_by_side(encoders: dict, batch_size: int, seconds: float, rounds: int = 2) -> dict:
+    """images/s of each encoder, measured in interleaved rounds and averaged."""
+    rates = {k: [] for k in encoders}
+    for _ in range(rounds):
+        for k, enc in encoders.items():
+            rates[k].append(encoder_images_per_s(enc, batch_size, seconds / rounds))
+    return {k: float(np.mean(v)) for k, v in rates.items()}
+
+
+def load_pairs(root: Path, n_pairs: int, use_random: bool) -> tuple[pd.DataFrame, str]:
+    pairs = None if use_random else synth_scene(root, seconds=2.0)
+    source = "nvrq.synth.generate_scene"
+    if pairs is None or len(pairs) == 0:
+        pairs, source = random_scene(root, frames=8, objects=6), "random images"
+    # keep whole frames (all offsets of an object) so GT reuse is as in real use
+    keep, count = [], 0
+    for g in pairs["gt_path"].drop_duplicates():
+        if count >= n_pairs:
+            break
+        keep.append(g)
+        count += int((pairs["gt_path"] == g).sum())
+    return pairs[pairs["gt_path"].isin(keep)].reset_index(drop=True), source
+
+
+def make_encoder(name: str, threads: int):
+    from nvrq.encoders import build_random, load_encoder
+
+    if name == "efficientnet-lite0":
+        try:
+            return load_encoder(name, runtime="torch", threads=threads), "pip weights"
+        except Exception:  # the weights package is optional
+            pass
+    return build_random(name, runtime="torch", threads=threads), "random weights"
+
+
+def bench_encoder(name: str, pairs: pd.DataFrame, args, cache: str) -> dict:
+    """Every number of one encoder (see the module docstring)."""
+    from nvrq.encoders.drift import check_runtime, pair_inputs
+    from nvrq.encoders.runtimes import wrap_runtime
+    from nvrq.scoring import score_pairs
+
+    torch_enc, weights = make_encoder(name, args.threads)
+    default = wrap_runtime(torch_enc, runtime="auto", threads=args.threads, cache_dir=cache)
+    out = {"encoder": name, "weights": weights, "default_runtime": default.runtime}
+    col = [f"nvrq:{name}"]
+    s = {}
+    for enc_name, enc in (("torch", torch_enc), ("default", default)):
+        res = score_pairs(pairs, metrics=col, encoder=enc, batch_size=32, progress=False)
+        s[enc_name] = res.table[col[0]].to_numpy()
+    out["max_dnvrq_default_vs_torch"] = float(np.max(np.abs(s["torch"] - s["default"])))
+    encoders = {"torch": torch_enc, "default": default}
+    if name in args.int8:
+        gt, render = pair_inputs(pairs, torch_enc.spec.input_size, n=args.int8_pairs + 150, seed=0)
+        rec = check_runtime(torch_enc, gt[:args.int8_pairs], render[:args.int8_pairs], runtime="openvino",
+                            precision="int8", calib=gt[args.int8_pairs:], cache_dir=cache)
+        out.update({f"int8_{k}": rec[k] for k in ("nvrq_spearman", "mean_cosine", "min_cosine", "max_dnvrq",
+                                                   "n_pairs")})
+        out["int8_check_passes"] = rec["nvrq_spearman"] >= 0.999
+        encoders["int8"] = wrap_runtime(torch_enc, runtime="openvino", precision="int8", threads=args.threads,
+                                        cache_dir=cache, model_file=Path(rec["model_file"]))
+    for bs in args.batch_sizes:
+        rates = side_by_side(encoders, bs, args.seconds)
+        res = score_pairs(pairs, metrics=col, encoder=default, batch_size=bs, progress=False)
+        per_pair = res.n_encoder_images / res.n_pairs
+        b = res.n_pairs / res.timing.attrs["wall_seconds"]
+        out.update({f"b{bs}_torch_images_per_s": rates["torch"], f"b{bs}_default_images_per_s": rates["default"],
+                    f"b{bs}_pipeline_pairs_per_s": b, f"b{bs}_encoder_images_per_pair": per_pair,
+                    f"b{bs}_pipeline_over_encoder_alone": b / (rates["default"] / per_pair),
+                    # CPU the decode thread needs per wall second (image decoding, crops, resize)
+                    f"b{bs}_decode_prepare_share_of_wall": (res.timing.attrs["decode_seconds"]
+                                                           + res.timing.attrs["prepare_seconds"])
+                    / res.timing.attrs["wall_seconds"],
+                    f"b{bs}_default_over_torch": rates["default"] / rates["torch"]})
+        if "int8" in rates:
+            out[f"b{bs}_int8_images_per_s"] = rates["int8"]
+            out[f"b{bs}_int8_over_torch_fp32"] = rates["int8"] / rates["torch"]
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--pairs", type=int, default=300, help="pairs scored by the pipeline (default 300)")
-    ap.add_argument("--naive-pairs", type=int, default=40, help="pairs timed in the naive loop (default 40)")
-    ap.add_argument("--batch-size", type=int, default=32)
-    ap.add_argument("--threads", type=int, default=2, help="torch threads (default 2)")
-    ap.add_argument("--encoder", default="dinov2-small")
+    ap.add_argument("--pairs", type=int, default=150, help="pairs scored by the pipeline (default 150)")
+    ap.add_argument("--naive-pairs", type=int, default=20, help="pairs timed in the naive loop (default 20)")
+    ap.add_argument("--batch-sizes", default="8,32", help="encoder batch sizes (default 8,32)")
+    ap.add_argument("--threads", type=int, default=2, help="encoder threads (default 2)")
+    ap.add_argument("--seconds", type=float, default=8.0, help="seconds per encoder-alone rate (default 8)")
+    ap.add_argument("--encoders", default="dinov2-small,efficientnet-lite0")
+    ap.add_argument("--int8", default="dinov2-small,efficientnet-lite0", help="encoders given an int8 check")
+    ap.add_argument("--int8-pairs", type=int, default=100, help="pairs in the int8 drift check (default 100)")
     ap.add_argument("--random-scene", action="store_true", help="skip the synthetic renderer")
     ap.add_argument("--json", default=None, help="also write the numbers to this JSON file")
     args = ap.parse_args(argv)
+    args.batch_sizes = [int(b) for b in args.batch_sizes.split(",")]
+    args.int8 = [e for e in args.int8.split(",") if e]
 
     import torch
 
-    from nvrq.encoders import build_random
-    from nvrq.scoring import score_pairs
-
     torch.set_num_threads(args.threads)
-    enc = build_random(args.encoder)
+    cv2.setNumThreads(1)  # as `nvrq score` does
     with tempfile.TemporaryDirectory() as tmp:
-        root = Path(tmp) / "scene"
-        pairs = None if args.random_scene else synth_scene(root, seconds=2.0)
-        source = "nvrq.synth.generate_scene"
-        if pairs is None or len(pairs) == 0:
-            pairs, source = random_scene(root, frames=8, objects=6), "random images"
-        # keep whole frames (all offsets of an object) so GT reuse is as in real use
-        frames = pairs[["gt_path"]].drop_duplicates()
-        keep, count = [], 0
-        for g in frames["gt_path"]:
-            if count >= args.pairs:
-                break
-            keep.append(g)
-            count += int((pairs["gt_path"] == g).sum())
-        pairs = pairs[pairs["gt_path"].isin(keep)].reset_index(drop=True)
+        pairs, source = load_pairs(Path(tmp) / "scene", args.pairs, args.random_scene)
+        out = {"scene": source, "pairs": len(pairs), "threads": args.threads, "cpus": os.cpu_count(),
+               "load_average_at_start": os.getloadavg()[0], "encoders": []}
+        for name in args.encoders.split(","):
+            out["encoders"].append(bench_encoder(name, pairs, args, str(Path(tmp) / "cache")))
+        first, _ = make_encoder(args.encoders.split(",")[0], args.threads)
+        from nvrq.scoring import score_pairs
 
-        # (a) is measured before and after (b) and averaged, so load drift on a shared
-        # machine shows (a_before vs a_after) instead of silently biasing (d)
-        a_before = encoder_images_per_s(enc, args.batch_size)
-        res = score_pairs(pairs, metrics=[f"nvrq:{args.encoder}"], encoder=enc,
-                          batch_size=args.batch_size, progress=False)
-        b = res.n_pairs / res.timing.attrs["wall_seconds"]
-        a_after = encoder_images_per_s(enc, args.batch_size)
-        a = (a_before + a_after) / 2
-        busy = res.timing.attrs["forward_seconds"] / res.timing.attrs["wall_seconds"]
-        per_pair = res.n_encoder_images / res.n_pairs
-        c = per_pair / 2.0
-        d = b / (a / per_pair)
-        naive = naive_pairs_per_s(pairs, enc, args.naive_pairs)
-        e = b / naive
-    out = {"scene": source, "encoder": f"{args.encoder} (random weights)", "threads": args.threads,
-           "batch_size": args.batch_size, "pairs": res.n_pairs, "offsets": len(OFFSETS),
-           "encoder_images": res.n_encoder_images, "encoder_images_per_pair": per_pair,
-           "a_encoder_images_per_s": a,
-           "a_before": a_before, "a_after": a_after, "b_pipeline_pairs_per_s": b, "c_encoder_images_vs_naive": c,
-           "d_fraction_of_encoder_bound": d,
-           "d2_encoder_busy_share_of_wall": busy, "naive_pairs_per_s": naive, "e_speedup_over_naive": e}
-    for k, v in out.items():
-        print(f"{k:28s} {v:.3f}" if isinstance(v, float) else f"{k:28s} {v}")
-    targets = {"c <= 0.6": c <= 0.6, "d >= 0.85": d >= 0.85, "e >= 2": e >= 2}
-    print("targets: " + ", ".join(f"{k}: {'met' if ok else 'MISSED'}" for k, ok in targets.items()))
+        res = score_pairs(pairs, metrics=[f"nvrq:{first.spec.name}"], encoder=first, progress=False)
+        out["c_encoder_images_vs_naive"] = res.n_encoder_images / res.n_pairs / 2
+        out["e_speedup_over_naive"] = (res.n_pairs / res.timing.attrs["wall_seconds"]) / \
+            naive_pairs_per_s(pairs, first, args.naive_pairs)
+        out["load_average_at_end"] = os.getloadavg()[0]
+    report(out)
     if args.json:
         Path(args.json).write_text(json.dumps(out, indent=2))
     return 0
+
+
+def report(out: dict) -> None:
+    for k, v in out.items():
+        if k != "encoders":
+            print(f"{k:36s} {v:.3f}" if isinstance(v, float) else f"{k:36s} {v}")
+    for e in out["encoders"]:
+        print(f"--- {e['encoder']} ({e['weights']})")
+        for k, v in e.items():
+            print(f"{k:36s} {v:.4g}" if isinstance(v, float) else f"{k:36s} {v}")
+        checks = {"pipeline/encoder-alone >= 0.9": all(v >= 0.9 for k, v in e.items()
+                                                       if k.endswith("pipeline_over_encoder_alone")),
+                  "max |dNVRQ| <= 1e-5": e["max_dnvrq_default_vs_torch"] <= 1e-5}
+        need = {"dinov2-small": 1.3, "efficientnet-lite0": 3.0}.get(e["encoder"])
+        if need:
+            checks[f"default/torch >= {need}"] = all(v >= need for k, v in e.items() if k.endswith("default_over_torch"))
+        if e["encoder"] == "dinov2-small" and "int8_check_passes" in e:
+            checks["int8/torch >= 2.5 with check passing"] = e["int8_check_passes"] and all(
+                v >= 2.5 for k, v in e.items() if k.endswith("int8_over_torch_fp32"))
+        print("targets: " + ", ".join(f"{k}: {'met' if ok else 'MISSED'}" for k, ok in checks.items()))
 
 
 if __name__ == "__main__":

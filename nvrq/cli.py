@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import importlib
 import sys
+from pathlib import Path
 
 from data_schema.cliargs import flags_in_errors
 from data_schema.errors import ArgumentParser, run_cli
@@ -28,6 +29,7 @@ COMMAND_MODULES = [
     "nvrq.commands.pairs",
     "nvrq.commands.score",
     "nvrq.commands.calibrate_tau",
+    "nvrq.commands.calibrate_runtime",
     "nvrq.commands.proxy",
     "nvrq.commands.stability",
     "nvrq.commands.demo",
@@ -60,7 +62,13 @@ def check_outputs(args) -> None:
         return
     inputs = [getattr(args, a) for a in INPUT_ARGS if getattr(args, a, None) is not None]
     option = "--out" if args.command not in ("synth", "import") else "OUT"
-    if kind == "file":
+    if kind == "file" and Path(args.out).suffix == "":
+        # a Parquet dataset folder (several clips, --engine ray; data_schema.datasets): its
+        # manifest path gets the file rule; the command checks what the folder already holds
+        from data_schema.datasets import MANIFEST
+
+        check_output_file(Path(args.out) / MANIFEST, inputs=inputs, option=option)
+    elif kind == "file":
         check_output_file(args.out, inputs=inputs, option=option)
         if args.command == "score":
             check_output_file(timing_path(args.out), inputs=inputs, option="--out (its .timing.csv)")

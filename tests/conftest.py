@@ -16,3 +16,17 @@ def shared_dir() -> Path:
     if not SHARED.is_dir():
         pytest.skip("../shared is absent")
     return SHARED
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _nvrq_cache(tmp_path_factory):
+    """Exported encoder models and drift-check records go to a per-session folder, never ~/.cache."""
+    import os
+
+    old = os.environ.get("NVRQ_CACHE")
+    os.environ["NVRQ_CACHE"] = str(tmp_path_factory.mktemp("nvrq_cache"))
+    yield
+    if old is None:
+        os.environ.pop("NVRQ_CACHE", None)
+    else:
+        os.environ["NVRQ_CACHE"] = old

@@ -13,7 +13,7 @@ from collections.abc import Sequence
 from data_schema.errors import InputError
 
 __all__ = ["add_model_arguments", "add_encoder_arguments", "prepare_device", "encoder_for_metrics",
-           "load_encoder_and_tau"]
+           "load_encoder_and_tau", "add_runtime_arguments"]
 
 
 def add_model_arguments(p, *, batch_help: str = "crops per forward pass (default 32)") -> None:
@@ -34,6 +34,20 @@ def add_encoder_arguments(p, *, tau: bool = True) -> None:
     p.add_argument("--config", default=None,
                    help="tau config file (default $NVRQ_CONFIG or ~/.config/nvrq/tau.json)")
     add_model_arguments(p, batch_help="encoder batch size (default 32)")
+    add_runtime_arguments(p)
+
+
+def add_runtime_arguments(p) -> None:
+    """``--runtime``, ``--precision``, ``--min-spearman``, ``--cache-dir`` (nvrq.encoders.runtimes)."""
+    p.add_argument("--runtime", default="auto", choices=["auto", "torch", "openvino", "onnxruntime"],
+                   help="encoder runtime (default auto: on CPU the fastest runtime identical to torch "
+                        "fp32, else torch)")
+    p.add_argument("--precision", default="fp32", choices=["fp32", "bf16", "int8"],
+                   help="encoder precision (default fp32; bf16/int8 need `nvrq calibrate-runtime` first)")
+    p.add_argument("--min-spearman", type=float, default=None,
+                   help="NVRQ Spearman a reduced precision's drift check must reach (default 0.999)")
+    p.add_argument("--cache-dir", default=None,
+                   help="exported-model cache (default $NVRQ_CACHE, else ~/.cache/nvrq)")
 
 
 def prepare_device(args) -> None:
@@ -87,4 +101,7 @@ def load_encoder_and_tau(args, *, needs_tau: bool, name: str | None = None):
     get_spec(name)
     tau = _resolve_tau(name, args) if needs_tau else None
     prepare_device(args)
-    return load_encoder(name, weights=args.weights, device=args.device), tau
+    return load_encoder(name, weights=args.weights, device=args.device,
+                        runtime=getattr(args, "runtime", "auto"), precision=getattr(args, "precision", "fp32"),
+                        threads=getattr(args, "threads", None), cache_dir=getattr(args, "cache_dir", None),
+                        min_spearman=getattr(args, "min_spearman", None)), tau

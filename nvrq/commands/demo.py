@@ -36,18 +36,22 @@ def demo_steps(out: Path, args) -> list[tuple[str, list[str]]]:
     """The demo as (program, argv) steps, in order."""
     scene, pairs, metrics = out / "scene", out / "pairs.csv", out / "metrics.csv"
     study, ratings, report = out / "study", out / "ratings.csv", out / "report"
-    metric_list = "psnr,ssim,ms_ssim,gmsd,nvrq,nvrq_ca"
+    torch_metrics = out / "metrics_torch.csv"  # the same encoder on torch eager: a second speed point
+    metric_list = "psnr,ssim,gmsd,nvrq,nvrq_ca"
     return [
         ("nvrq", ["synth", str(scene), "--seed", str(args.seed), "--seconds", str(args.seconds),
                   "--size", args.size, "--offsets", args.offsets]),
         ("nvrq", ["pairs", str(scene), "--out", str(pairs)]),
         ("nvrq", ["score", str(pairs), "--out", str(metrics), "--metrics", metric_list,
                   "--encoder", args.encoder]),
+        ("nvrq", ["score", str(pairs), "--out", str(torch_metrics), "--metrics", "nvrq",
+                  "--encoder", args.encoder, "--runtime", "torch", "--column-tag", "torch"]),
         ("annotate", ["build", str(study), "--pairs", str(pairs), "--metrics-table", str(metrics),
                       "--seed", str(args.seed)]),
         ("annotate", ["simulate", str(study), "--raters", str(args.raters), "--seed", str(args.seed)]),
         ("annotate", ["export", str(study), "--out", str(ratings)]),
-        ("analyze", [str(ratings), "--timing", str(out / "metrics.timing.csv"), "--out", str(report)]),
+        ("analyze", [str(ratings), "--timing", str(out / "metrics.timing.csv"), "--metrics-table", str(torch_metrics),
+                     "--out", str(report)]),
     ]
 
 
@@ -82,5 +86,6 @@ def run(args) -> int:
     print(f"Report: {out / 'report' / 'report.html'}")
     print(f"Vote yourself:  annotate serve {out / 'study'}   (then: annotate export {out / 'study'} "
           f"--out {out / 'ratings.csv'} && analyze {out / 'ratings.csv'} --timing {out / 'metrics.timing.csv'} "
+          f"--metrics-table {out / 'metrics_torch.csv'} "
           f"--out {out / 'report'})")
     return 0

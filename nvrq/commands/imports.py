@@ -34,6 +34,12 @@ def register(sub) -> None:
     n.add_argument(
         "--sequence", default=None, help="rig trajectory sequence_id (default: the first)"
     )
+    n.add_argument(
+        "--clip-attributes",
+        default=None,
+        metavar="FILE",
+        help="table of clip_id + attribute columns (lighting, road_type, ...) for scene.json",
+    )
     allow_negative_lists(n)
     n.set_defaults(func=_run_nurec)
     k = kinds.add_parser(
@@ -48,9 +54,15 @@ def register(sub) -> None:
 
 
 def _run_nurec(args) -> int:
+
+    attributes = None
+    if args.clip_attributes:
+        from nvrq.clip_attributes import read_clip_attributes
+
+        attributes = read_clip_attributes(args.clip_attributes)
     out = import_nurec(
         args.archive, args.out, offsets=parse_offsets(args.offsets), sequence=args.sequence,
-        perturbations=perturb_grid(args),
+        perturbations=perturb_grid(args), clip_attributes=attributes,
     )
     print(f"wrote {out}")
     return 0

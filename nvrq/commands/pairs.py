@@ -1,4 +1,5 @@
-"""``nvrq pairs SCENE --out PAIRS.{csv,parquet}`` (SPEC section 3)."""
+"""``nvrq pairs SCENE --out PAIRS.{csv,parquet}`` (SPEC section 3); several scenes, or a folder of
+scene folders, ``--out DATASET/`` (a Parquet dataset partitioned by clip_id, :mod:`nvrq.fleet`)."""
 
 from __future__ import annotations
 
@@ -15,8 +16,14 @@ def register(sub) -> None:
     p = sub.add_parser("pairs", help="GT/novel-view box pairs of a scene (SPEC section 3)",
                        description="Project every 3D box into the GT view and every novel view; "
                                    "keep the boxes valid in both.")
-    p.add_argument("scene", help="scene folder (scene.json + images.csv)")
-    p.add_argument("--out", required=True, help="output pairs table (.csv or .parquet)")
+    p.add_argument("scene", nargs="+", help="scene folder (scene.json + images.csv); several, or a "
+                   "folder of scene folders, write a dataset")
+    p.add_argument("--out", required=True, help="output pairs table (.csv or .parquet), or a folder: "
+                   "one Parquet dataset partitioned by clip_id")
+    p.add_argument("--clip-attributes", default=None, metavar="FILE",
+                   help="table of clip_id + attribute columns (e.g. lighting, road_type) to apply")
+    p.add_argument("--keep-going", action="store_true",
+                   help="several clips: write the good ones and failed.csv, exit 1 if any failed")
     p.add_argument("--min-side", type=float, default=MIN_SIDE_PX,
                    help=f"shorter side of the box in pixels (default {MIN_SIDE_PX})")
     p.add_argument("--min-area", type=float, default=0, help="box area in square pixels (default 0)")
@@ -26,8 +33,48 @@ def register(sub) -> None:
 
 def run(args) -> int:
     t0 = time.perf_counter()
-    scene = load_scene(args.scene)
+    attributes = None
+    if args.clip_attributes:
+        from nvrq.clip_attributes import read_clip_attributes
+
+        attributes = read_clip_attributes(args.clip_attributes)
+    if _is_fleet(args):
+        return _run_fleet(args, attributes, t0)
+    scene = load_scene(args.scene[0])
+    if attributes is not None:
+        import dataclasses
+
+        scene = dataclasses.replace(scene, attributes=attributes.for_clip(scene.clip_id, scene.attributes))
     pairs, stats = make_pairs(scene, min_side=args.min_side, min_area=args.min_area, progress=not args.quiet)
     write_table(pairs, args.out)
     print(f"{stats.summary()} -> {args.out} ({time.perf_counter() - t0:.1f} s)")
     return 0
+
+
+def _is_fleet(args) -> bool:
+    """A dataset is written for several scenes, a folder of scene folders, or a suffix-less --out."""
+    from pathlib import Path
+
+    from data_schema.errors import InputError
+
+    first = Path(args.scene[0])
+    many = len(args.scene) > 1 or (first.is_dir() and not (first / "scene.json").is_file()
+                                   and any(first.glob("*/scene.json")))
+    to_file = Path(args.out).suffix != ""  # a dataset folder has no suffix
+    if many and to_file:
+        raise InputError("--out", None, "a folder for several clips (a Parquet dataset partitioned by "
+                         "clip_id)", args.out)
+    return many or not to_file
+
+
+def _run_fleet(args, attributes, t0) -> int:
+    import sys
+
+    from nvrq.fleet import find_scenes, fleet_pairs
+
+    res = fleet_pairs(find_scenes(args.scene), args.out, min_side=args.min_side, min_area=args.min_area,
+                      attributes=attributes, keep_going=args.keep_going, progress=not args.quiet)
+    for clip, reason in res.failed:
+        print(f"failed: {clip}: {reason}", file=sys.stderr)
+    print(f"{res.summary()} -> {args.out} ({time.perf_counter() - t0:.1f} s)")
+    return 1 if res.failed else 0

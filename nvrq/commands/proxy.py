@@ -10,9 +10,8 @@ from __future__ import annotations
 from data_schema.errors import InputError
 from data_schema.tables import read_table, write_table
 from nvrq.commands._encoder import add_model_arguments, prepare_device
+from nvrq.engines import add_engine_args
 from nvrq.proxies import load_class_maps
-from nvrq.proxies.classifier_drop import imagenet_drop, load_classifier
-from nvrq.proxies.clip_drop import clip_drop, load_clip, true_category_index
 from nvrq.proxies.detection import detection_confidence, read_detections
 from nvrq.proxies.yolo import run_yolo
 
@@ -86,6 +85,7 @@ def register(sub) -> None:
     i.add_argument(
         "--weights", default=None, help="a .pth for efficientnet-lite0, or the classifier folder"
     )
+    add_engine_args(i)
     i.set_defaults(func=run_imagenet)
 
     c = psub.add_parser(
@@ -96,6 +96,7 @@ def register(sub) -> None:
     c.add_argument(
         "--clip", required=True, help="local Hugging Face CLIP folder (CLIPModel + tokenizer)"
     )
+    add_engine_args(c)
     c.set_defaults(func=run_clip)
 
 
@@ -137,6 +138,11 @@ def run_detect(args) -> int:
 
 
 def run_imagenet(args) -> int:
+    from data_schema.tables import write_table
+    from nvrq.proxies.classifier_drop import imagenet_drop, load_classifier
+
+    if args.engine == "ray":
+        return _ray_proxy(args, "imagenet")
     _check_out(args.out)
     pairs = _read_pairs(args.pairs, ("gt_path", "gt_x0", "gt_y0", "gt_x1", "gt_y1"))
     prepare_device(args)
@@ -148,6 +154,12 @@ def run_imagenet(args) -> int:
 
 
 def run_clip(args) -> int:
+    from data_schema.tables import write_table
+    from nvrq.proxies import load_class_maps
+    from nvrq.proxies.clip_drop import clip_drop, load_clip, true_category_index
+
+    if args.engine == "ray":
+        return _ray_proxy(args, "clip")
     _check_out(args.out)
     maps = load_class_maps(args.class_map)
     pairs = _read_pairs(args.pairs, ("gt_path", "gt_x0", "gt_y0", "gt_x1", "gt_y1"))
@@ -164,3 +176,21 @@ def run_clip(args) -> int:
                     batch_size=args.batch_size, progress=not args.quiet, where=str(args.pairs))
     write_table(out, args.out)
     return 0
+
+
+def _ray_proxy(args, kind: str) -> int:
+    """``--engine ray``: the same proxy per crop batch on a Ray cluster (nvrq.engines.scorers)."""
+    from nvrq.engines.cli import check_engine_args, run_ray
+    from nvrq.engines.scorers import ClipScorer, ImagenetScorer
+    from nvrq.proxies import load_class_maps
+
+    check_engine_args(args)
+    if kind == "imagenet":
+        scorer = ImagenetScorer(args.classifier, weights=args.weights, device=args.device,
+                                batch_size=args.batch_size)
+    else:
+        maps = load_class_maps(args.class_map)
+        scorer = ClipScorer(args.clip, prompts=tuple(maps["clip_prompts"].items()),
+                            category_map=tuple(maps["clip_category"].items()), device=args.device,
+                            batch_size=args.batch_size)
+    return run_ray(args, scorer)

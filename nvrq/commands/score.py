@@ -15,10 +15,11 @@ from nvrq.commands._encoder import (
     encoder_for_metrics,
     load_encoder_and_tau,
 )
+from nvrq.engines import add_engine_args
 from nvrq.score_core import encoder_columns
 from nvrq.scoring import REQUIRED_COLUMNS, resolve_metrics, score_pairs
 
-__all__ = ["register", "run", "timing_path"]
+__all__ = ["register", "run", "timing_path", "runtime_columns"]
 
 
 def register(sub) -> None:
@@ -33,7 +34,11 @@ def register(sub) -> None:
     add_encoder_arguments(p)
     p.add_argument("--scene", default=None, help="scene folder the image paths are relative to "
                                                  "(default: the pairs table's scene_root column)")
+    p.add_argument("--column-tag", default=None,
+                   help="name encoder columns nvrq:ENCODER@TAG (default: @PRECISION for bf16/int8, "
+                        "none for fp32), e.g. to keep two runtimes' scores apart")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_engine_args(p)
     p.set_defaults(func=run)
 
 
@@ -43,6 +48,11 @@ def run(args) -> int:
     raw = comma_list(args.metrics)
     encoder_name = encoder_for_metrics(raw, args.encoder)
     columns = resolve_metrics(raw, encoder_name)
+    from nvrq.engines.cli import check_engine_args
+
+    check_engine_args(args)
+    if args.engine == "ray":
+        return _ray(args, columns, encoder_name)
     pairs = read_table(args.pairs, required=REQUIRED_COLUMNS, what="pairs table")
     if not str(args.out).lower().endswith((".csv", ".parquet")):
         raise InputError(args.out, None, "an output file ending in .csv or .parquet", args.out)
@@ -55,8 +65,9 @@ def run(args) -> int:
     res = score_pairs(pairs, metrics=columns, encoder=encoder, tau=tau, scene_root=args.scene,
                       base=Path(args.pairs).resolve().parent, batch_size=args.batch_size,
                       progress=not args.quiet, where=str(args.pairs))
-    write_table(res.table, args.out)
-    tpath = write_table(res.timing, timing_path(args.out))
+    table, timing = runtime_columns(res.table, res.timing, encoder, tag=args.column_tag)
+    write_table(table, args.out)
+    tpath = write_table(timing, timing_path(args.out))
     _report(res, uses_encoder=bool(enc_cols), file=sys.stderr)
     print(f"-> {args.out}, {tpath}")
     return 0
@@ -72,3 +83,36 @@ def _report(res, *, uses_encoder: bool, file) -> None:
         msg += (f"; encoder images: {res.n_encoder_images} ({per:.2f} per pair, "
                 f"{2 * res.n_pairs} without GT reuse)")
     print(msg, file=file)
+
+
+def _ray(args, columns, encoder_name) -> int:
+    from nvrq.commands._encoder import _resolve_tau
+    from nvrq.engines.cli import run_ray
+    from nvrq.engines.scorers import MetricScorer
+    from nvrq.score_core import encoder_columns
+
+    enc_cols = encoder_columns(columns)
+    tau = _resolve_tau(encoder_name, args) if any(c.startswith("nvrq_ca:") for c in enc_cols) else None
+    scorer = MetricScorer(tuple(columns), encoder=encoder_name, weights=args.weights, device=args.device,
+                          tau=tau, batch_size=args.batch_size)
+    return run_ray(args, scorer, timing_path=timing_path(args.out))
+
+
+def runtime_columns(table, timing, encoder, *, tag: str | None):
+    """Tag encoder columns (``nvrq:E`` -> ``nvrq:E@TAG``) and add ``runtime, precision,
+    threads, device`` to the timing rows (empty runtime/precision for encoder-free metrics,
+    which run in the one decode thread)."""
+    from nvrq.metrics import split_column
+
+    timing = timing.copy()
+    enc_rows = timing["metric"].map(lambda m: split_column(m)[1] is not None)
+    if encoder is not None and tag is None and encoder.precision != "fp32":
+        tag = encoder.precision
+    if tag:
+        rename = {m: f"{m}@{tag}" for m in timing["metric"][enc_rows]}
+        table, timing["metric"] = table.rename(columns=rename), timing["metric"].replace(rename)
+    timing["runtime"] = enc_rows.map({True: getattr(encoder, "runtime", ""), False: ""})
+    timing["precision"] = enc_rows.map({True: getattr(encoder, "precision", ""), False: ""})
+    timing["threads"] = enc_rows.map({True: getattr(encoder, "threads", 1), False: 1})
+    timing["device"] = enc_rows.map({True: str(getattr(encoder, "device", "cpu")), False: "cpu"})
+    return table, timing

@@ -171,29 +171,55 @@ def _set_offline() -> None:
     os.environ["TRANSFORMERS_OFFLINE"] = "1"
 
 
-def load_encoder(name: str, *, weights: str | os.PathLike | None = None,
-                 device: str = "cpu") -> Encoder:
+def load_encoder(name: str, *, weights: str | os.PathLike | None = None, device: str = "cpu",
+                 runtime: str = "auto", precision: str = "fp32", threads: int | None = None,
+                 cache_dir=None, min_spearman: float | None = None):
     """Load encoder ``name`` with real weights from ``weights`` or the local cache, never the net.
 
     ``weights``: a Hugging Face model folder (transformer encoders) or a ``.pth`` state dict
     (efficientnet-lite0). Missing weights raise :class:`InputError` naming the encoder and
     the ways to provide them.
+
+    ``runtime`` (``auto``, ``torch``, ``openvino``, ``onnxruntime``) and ``precision``
+    (``fp32``, ``bf16``, ``int8``): see :mod:`nvrq.encoders.runtimes`; ``auto`` is the fastest
+    exact exported runtime on CPU, torch on a GPU. A reduced precision needs a passing
+    drift check on record (:mod:`nvrq.encoders.drift`; Spearman >= ``min_spearman``).
     """
     spec = get_spec(name)
     _set_offline()
     model = _backend(spec).load(spec, weights)
-    return Encoder(spec, model, device=device)
+    return _on_runtime(Encoder(spec, model, device=device), runtime=runtime, precision=precision,
+                       threads=threads, cache_dir=cache_dir, min_spearman=min_spearman)
 
 
-def build_random(name: str, *, seed: int = 0, device: str = "cpu",
-                 overrides: dict | None = None) -> Encoder:
+def build_random(name: str, *, seed: int = 0, device: str = "cpu", overrides: dict | None = None,
+                 runtime: str = "torch", precision: str = "fp32", threads: int | None = None,
+                 cache_dir=None, min_spearman: float | None = None):
     """Encoder ``name``'s architecture with random weights (tests, speed benchmarks).
 
-    ``overrides`` changes the architecture config (e.g. ``{'num_hidden_layers': 2}``).
+    ``overrides`` changes the architecture config (e.g. ``{'num_hidden_layers': 2}``);
+    the other options as in :func:`load_encoder` (default runtime here: torch).
     """
     import torch
 
     spec = get_spec(name)
     torch.manual_seed(seed)
     model = _backend(spec).build_random(spec, dict(overrides or {}))
-    return Encoder(spec, model, device=device)
+    return _on_runtime(Encoder(spec, model, device=device), runtime=runtime, precision=precision,
+                       threads=threads, cache_dir=cache_dir, min_spearman=min_spearman)
+
+
+def _on_runtime(encoder: Encoder, *, runtime, precision, threads, cache_dir, min_spearman):
+    from nvrq.encoders.drift import require_check
+    from nvrq.encoders.memory import tune_allocator
+    from nvrq.encoders.runtimes import wrap_runtime
+
+    tune_allocator()  # every embedding command starts here
+    model_file = None
+    if runtime == "auto" and precision != "fp32":
+        runtime = "openvino"  # the only runtime with bf16, and the better int8 (measured)
+    if precision != "fp32":
+        model_file = require_check(encoder, runtime=runtime, precision=precision,
+                                   cache_dir=cache_dir, min_spearman=min_spearman)
+    return wrap_runtime(encoder, runtime=runtime, precision=precision, threads=threads,
+                        cache_dir=cache_dir, model_file=model_file)

@@ -108,8 +108,8 @@ def load_classifier(
     """``efficientnet-lite0`` (``weights``: optional ``.pth``) or a transformers classifier folder."""
     if name == DEFAULT_CLASSIFIER:
         enc = load_encoder(
-            name, weights=weights, device=device
-        )  # full model incl. the ImageNet head
+            name, weights=weights, device=device, runtime="torch"
+        )  # full model incl. the ImageNet head (the exported graph is the embedding only)
         return ImageClassifier(
             name, enc.model, enc.spec.input_size, enc.spec.mean, enc.spec.std, device
         )

@@ -317,11 +317,14 @@ def import_nurec(
     offsets=(-3, -2, -1, 0, 1, 2, 3),
     perturbations=None,
     sequence: str | None = None,
+    clip_attributes=None,
 ) -> Path:
     """Convert the NuRec ``archive`` into the scene folder ``out`` (module docstring); returns ``out``.
 
     ``offsets``: lateral render offsets (metres), or ``perturbations (K, 6)`` (``dx, dy, dz``
-    metres, ``roll, pitch, yaw`` degrees, rig frame), which replace them.
+    metres, ``roll, pitch, yaw`` degrees, rig frame), which replace them. ``clip_attributes``: a
+    :class:`nvrq.clip_attributes.ClipAttributes` whose row for this clip becomes the scene's
+    ``attributes`` (NuRec archives carry none); ``None``: empty attributes.
     """
     archive, out = Path(archive), Path(out)
     views = lateral([float(o) for o in offsets]) if perturbations is None \
@@ -335,7 +338,7 @@ def import_nurec(
     tracks = _read_tracks(tracks_doc, seq_ids[k], f"{archive}:{tr_member}", nre_to_world, scale)
     doc = {
         "clip_id": seq_ids[k],
-        "attributes": {},
+        "attributes": {} if clip_attributes is None else clip_attributes.require(seq_ids[k]),
         "cameras": cameras,
         "rig_trajectory": {"timestamps_us": rig_ts.tolist(), "T_rig_world": T_rw.tolist()},
         "tracks": tracks,

@@ -98,7 +98,7 @@ def test_efficientnet_normalisation_and_rgb_order_classify_known_photos():
     # registry's (x - 127) / 128 on RGB, the real weights give 'espresso' (967) > 0.7 for
     # 'coffee' and 'Egyptian cat' (285) > 0.65 for 'chelsea'; feeding BGR drops both < 0.5.
     skd = pytest.importorskip("skimage.data")
-    enc = load_encoder("efficientnet-lite0")
+    enc = load_encoder("efficientnet-lite0", runtime="torch")  # the torch module, ImageNet head included
     for img, cls, floor in [(skd.coffee(), 967, 0.7), (skd.chelsea(), 285, 0.65)]:
         with torch.inference_mode():
             p = enc.model(enc.pixel_values(encoder_input(img, 224)[None])).softmax(-1)[0]

@@ -187,3 +187,19 @@ def test_perturb_grid_lists_one_render_per_view(tmp_path):
     assert len(renders) == 2 * 5 and (images.loc[images.source == "gt", "pitch_deg"] == 0).all()
     assert sorted(set(renders.pitch_deg)) == [-2.0, 0.0, 2.0]
     assert any(p.endswith(".png") and "render_pitch-2.00" in p for p in renders.path)
+
+
+def test_clip_attributes_table_fills_scene_attributes(tmp_path, capsys):
+    """NuRec archives carry no lighting / road type; a clip attributes table supplies them."""
+    arc = _archive(tmp_path / "ok.usdz")
+    table = tmp_path / "attrs.csv"
+    pd.DataFrame({"clip_id": ["seq-1", "other"], "lighting": ["night", "daytime"],
+                  "road_type": ["urban", ""]}).to_csv(table, index=False)
+    args = ["import", "nurec", str(arc), str(tmp_path / "s"), "--clip-attributes", str(table)]
+    assert main(args) == 0
+    assert load_scene(tmp_path / "s", check_images=False).attributes == {
+        "lighting": "night", "road_type": "urban"}
+    pd.DataFrame({"clip_id": ["other"], "lighting": ["night"]}).to_csv(table, index=False)
+    assert main(args[:3] + [str(tmp_path / "t")] + args[4:]) == 2
+    assert "attrs.csv: clip_id: expected a row for clip 'seq-1'" in capsys.readouterr().err
+    assert not (tmp_path / "t").exists()

@@ -1,0 +1,302 @@
+"""``analyze --pairs``: every metric against a proxy column over all pairs, no votes needed
+(paper Table 2 over 28.4M crop rows).
+
+Input: one per-pair table with ``clip_id`` (``--pairs``: a pairs dataset partitioned by
+``clip_id`` as ``nvrq pairs`` writes it for a fleet, or a single pairs/metrics table with a
+``clip_id`` column) and any number of ``--metrics-table`` tables (``pair_id`` + numeric columns;
+files or datasets), joined on ``pair_id``. Column roles follow
+:func:`analysis.inputs.classify_columns` (the same rule as the ratings path); the target is a
+numeric column named by ``--target`` (e.g. ``clip_drop``).
+
+Streaming: the pairs input is read clip by clip (only the columns the analysis uses), each
+clip's rows of every metric dataset are joined to it (a zero-cost check when both list the
+clip's pairs in the same order, else a hash join on ``pair_id``), and the result goes into
+preallocated columns: float64 for numbers, int32 codes for labels. No ``pair_id`` string
+outlives its clip, so memory is about 8 bytes per number per row plus the statistics'
+working arrays. The items table then goes through the same
+:func:`~analysis.summary.summary_table`, :mod:`~analysis.breakdowns` and report code as the
+ratings path.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from analysis import breakdowns
+from analysis.inputs import NON_METRIC_COLUMNS, classify_columns
+from analysis.pipeline import BOOT_CELL_LIMIT, Analysis, read_timing
+from analysis.summary import summary_table
+from data_schema import datasets as ds
+from data_schema.errors import InputError
+from data_schema.tables import read_table, timing_path
+
+__all__ = ["TableSource", "read_all_pairs", "run_pairs_analysis", "RATER_COLUMNS"]
+
+#: Pair columns the analysis uses (identity and breakdowns); the rest of PAIRS_COLUMNS is not read.
+_KEEP = ("clip_id", "track_id", "label_class", "y_offset_m")
+_SKIP = (set(NON_METRIC_COLUMNS) - set(_KEEP)) | {"scene_root"}  # incl. the 6-DoF view columns
+RATER_COLUMNS = ["rater_id", "simulated", "excluded", "excluded_reason"]
+
+
+def _is_numeric(t) -> bool:
+    import pyarrow.types as pt
+
+    return pt.is_integer(t) or pt.is_floating(t) or pt.is_boolean(t) or pt.is_null(t)
+
+
+class TableSource:
+    """A table file or a clip-partitioned dataset, readable clip by clip as pyarrow tables."""
+
+    def __init__(self, path, *, what: str):
+        import pyarrow as pa
+
+        self.path, self.what = str(path), what
+        self.dataset = ds.is_dataset(path)
+        if self.dataset:
+            files = ds.dataset_files(path, what=what)
+            ds.check_schemas(files, root=path)
+            import pyarrow.parquet as pq
+
+            self.schema = pq.read_schema(files[0][1])
+            self.by_clip: dict[str, list[Path]] = {}
+            for clip, f in files:
+                self.by_clip.setdefault(clip, []).append(f)
+            self.n_rows = sum(pq.read_metadata(f).num_rows for _, f in files)
+            return
+        df = read_table(path, what=what, dtype={"pair_id": str, "clip_id": str, "track_id": str})
+        self.table = pa.Table.from_pandas(df, preserve_index=False)
+        self.schema, self.n_rows = self.table.schema, len(df)
+        self.index = None
+
+    @property
+    def columns(self) -> list[str]:
+        return [c for c in self.schema.names] + ([ds.PARTITION] if self.dataset else [])
+
+    def clips(self) -> list[str]:
+        if self.dataset:
+            return sorted(self.by_clip)
+        if ds.PARTITION not in self.schema.names:
+            raise InputError(self.path, "column 'clip_id'", "a pairs dataset partitioned by clip_id "
+                             "or a table with a clip_id column", "neither")
+        import pyarrow.compute as pc
+
+        return sorted(map(str, pc.unique(self.table.column(ds.PARTITION).cast("string")).to_pylist()))
+
+    def clip(self, clip_id: str, columns: list[str]):
+        """The clip's rows (pyarrow table with ``columns`` that exist), or ``None``."""
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        cols = [c for c in columns if c in self.schema.names]
+        if self.dataset:
+            fs = self.by_clip.get(clip_id)
+            if not fs:
+                return None
+            return pa.concat_tables([pq.read_table(f, columns=cols) for f in fs])
+        if ds.PARTITION not in self.schema.names:
+            return None
+        if not hasattr(self, "_groups"):
+            codes = self.table.column(ds.PARTITION).cast("string").to_pandas()
+            self._groups = {str(k): v for k, v in codes.groupby(codes, sort=False).indices.items()}
+        rows = self._groups.get(clip_id)
+        return None if rows is None else self.table.select(cols).take(pa.array(rows))
+
+    def lookup(self, pair_ids, columns: list[str]):
+        """Positions of ``pair_ids`` in a file table (-1: absent) and its ``columns`` as float64."""
+        if self.index is None:
+            self.index = pd.Index(self.table.column("pair_id").cast("string").to_pandas())
+            if self.index.has_duplicates:
+                dup = self.index[self.index.duplicated()][0]
+                raise InputError(self.path, "pair_id", "each pair once", f"{dup!r} again")
+            self.values = {c: self.table.column(c).to_numpy(zero_copy_only=False).astype(np.float64)
+                           for c in columns}
+            self.matched = np.zeros(self.n_rows, dtype=bool)
+        pos = self.index.get_indexer(pd.Index(pair_ids.cast("string").to_pandas()))
+        self.matched[pos[pos >= 0]] = True
+        return pos, self.values
+
+
+class _Columns:
+    """Preallocated output columns: float64 numbers, int32 codes (+ category lists) for labels."""
+
+    def __init__(self, n: int, numeric: list[str], labels: list[str]):
+        self.n, self.at = n, 0
+        self.num = {c: np.full(n, np.nan) for c in numeric}
+        self.codes = {c: np.full(n, -1, dtype=np.int32) for c in labels}
+        self.cats = {c: {} for c in labels}
+        self.track = np.zeros(n, dtype=np.int32)
+        self.n_tracks = 0
+
+    def add_labels(self, name: str, arr, sl: slice) -> None:
+        enc = arr.cast("string").dictionary_encode().combine_chunks()
+        lut = np.array([self.cats[name].setdefault(v, len(self.cats[name])) for v in enc.dictionary.to_pylist()]
+                       + [-1], dtype=np.int32)
+        idx = enc.indices.fill_null(-1).to_numpy(zero_copy_only=False).astype(np.int64)
+        self.codes[name][sl] = lut[idx]
+
+    def frame(self) -> pd.DataFrame:
+        cols = {}
+        for c, codes in self.codes.items():
+            cols[c] = pd.Categorical.from_codes(codes[: self.at], categories=list(self.cats[c]))
+        for c, v in self.num.items():
+            cols[c] = v[: self.at]
+        return pd.DataFrame(cols, copy=False)
+
+
+def _plan(pairs: TableSource, metrics: list[TableSource]):
+    """(numeric columns, label columns, per-metric-source columns), checking names and types."""
+    import pyarrow.types as pt
+
+    numeric, labels, seen = [], list(_KEEP[:3]), {}
+    for name in pairs.schema.names:
+        if name in _SKIP or name in _KEEP or name == "pair_id":
+            continue
+        t = pairs.schema.field(name).type
+        (numeric if _is_numeric(t) else labels).append(name)
+        seen[name] = pairs.path
+    numeric.insert(0, "y_offset_m")
+    for need in ("pair_id", "track_id", "label_class", "y_offset_m"):
+        if need not in pairs.columns:
+            raise InputError(pairs.path, f"column {need!r}", "a pairs table (SPEC section 3)", "no such column")
+    per_source = []
+    for src in metrics:
+        if "pair_id" not in src.schema.names:
+            raise InputError(src.path, "column 'pair_id'", "a metrics table (pair_id + metric columns)",
+                             "no such column")
+        cols = []
+        for name in src.schema.names:
+            if name in ("pair_id", ds.PARTITION):
+                continue
+            t = src.schema.field(name).type
+            if not _is_numeric(t) and not pt.is_dictionary(t):
+                raise InputError(src.path, f"column {name!r}", "a numeric metric value", str(t))
+            if name in seen:
+                raise InputError(src.path, f"column {name!r}", "each metric column in one input",
+                                 f"also in {seen[name]}")
+            seen[name] = src.path
+            cols.append(name)
+        numeric += cols
+        per_source.append(cols)
+    return numeric, labels, per_source
+
+
+def _fill_clip(out: _Columns, clip: str, base, metrics, per_source, unknown: dict) -> None:
+    n = base.num_rows
+    sl = slice(out.at, out.at + n)
+    for c in out.codes:
+        if c == ds.PARTITION:
+            out.codes[c][sl] = out.cats[c].setdefault(clip, len(out.cats[c]))
+        elif c in base.column_names:
+            out.add_labels(c, base.column(c), sl)
+    for c in base.column_names:
+        if c in out.num:
+            out.num[c][sl] = base.column(c).to_numpy().astype(np.float64)
+    tcodes = pd.factorize(base.column("track_id").cast("string").to_pandas())[0]
+    out.track[sl] = tcodes + out.n_tracks
+    out.n_tracks += int(tcodes.max()) + 1 if n else 0
+    ids = base.column("pair_id")
+    for src, cols in zip(metrics, per_source, strict=True):
+        _join_source(out, sl, src, clip, ids, cols, unknown)
+    out.at += n
+
+
+def _join_source(out: _Columns, sl: slice, src: TableSource, clip: str, ids, cols, unknown) -> None:
+    if src.dataset:
+        t = src.clip(clip, ["pair_id"] + cols)
+        if t is None:
+            return
+        if t.column("pair_id").equals(ids):  # same pairs, same order: no hashing
+            pos, hit = np.arange(len(ids)), np.ones(len(ids), bool)
+            src_pos = pos
+        else:
+            index = pd.Index(t.column("pair_id").to_pandas())
+            src_pos = index.get_indexer(pd.Index(ids.to_pandas()))
+            hit = src_pos >= 0
+            pos = np.flatnonzero(hit)
+            src_pos = src_pos[hit]
+            unknown[src.path] = unknown.get(src.path, 0) + int(t.num_rows - hit.sum())
+        values = {c: t.column(c).to_numpy(zero_copy_only=False).astype(np.float64) for c in cols}
+    else:
+        src_pos_all, values = src.lookup(ids, cols)
+        hit = src_pos_all >= 0
+        pos, src_pos = np.flatnonzero(hit), src_pos_all[hit]
+    for c in cols:
+        out.num[c][sl.start + pos] = values[c][src_pos]
+
+
+def read_all_pairs(pairs_path, *, metrics_paths=(), progress: bool = True):
+    """The per-pair items table (categorical labels, float64 numbers) and track codes (n,).
+
+    Returns ``(items, clusters, unknown_ids)``; ``unknown_ids[path]`` counts pair ids of a metric
+    dataset that are not in the pairs input.
+    """
+    from tqdm.auto import tqdm
+
+    pairs = TableSource(pairs_path, what="pairs table")
+    metrics = [TableSource(p, what="metrics table") for p in metrics_paths]
+    numeric, labels, per_source = _plan(pairs, metrics)
+    clips = pairs.clips()
+    out = _Columns(pairs.n_rows, numeric, [ds.PARTITION] + labels)
+    read_cols = ["pair_id"] + [c for c in labels + numeric if c in pairs.schema.names]
+    unknown = {str(p): 0 for p in metrics_paths}
+    for clip in tqdm(clips, desc="read", unit="clip", disable=not progress):
+        base = pairs.clip(clip, read_cols)
+        if base is not None and base.num_rows:
+            _fill_clip(out, clip, base, metrics, per_source, unknown)
+    for src in metrics:
+        if not src.dataset and src.index is not None:
+            unknown[src.path] = int((~src.matched).sum())
+    return out.frame(), out.track[: out.at], unknown
+
+
+def _check_target(items: pd.DataFrame, target: str | None) -> None:
+    if target is None:
+        raise InputError("--target", None, "a numeric per-pair column (e.g. clip_drop) with --pairs", "none")
+    if target not in items.columns or not pd.api.types.is_numeric_dtype(items[target]):
+        raise InputError("--target", target, "a numeric column of the pairs or metrics",
+                         "no such column" if target not in items.columns else items[target].dtype)
+    if not np.isfinite(items[target].to_numpy(np.float64)).any():
+        raise InputError("--target", target, "some finite values", "none")
+
+
+def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), target=None,
+                       n_boot: int = 1000, seed: int = 0, rank_by: str = "srcc", timing_paths=(),
+                       progress: bool = True) -> Analysis:
+    """The all-pairs analysis (module docstring); the same :class:`Analysis` as the ratings path."""
+    items, clusters, unknown = read_all_pairs(pairs_path, metrics_paths=metrics_paths, progress=progress)
+    _check_target(items, target)
+    notes = [f"all-pairs analysis: {len(items)} pairs, no votes; target {target}"]
+    empty = [c for c in items.columns if c != target and pd.api.types.is_numeric_dtype(items[c])
+             and not np.isfinite(items[c].to_numpy(np.float64)).any()]
+    if empty:
+        notes.append("empty columns ignored: " + ", ".join(map(str, empty)))
+        items = items.drop(columns=empty)
+    metrics, directions, attributes, proxies = classify_columns(
+        items, lower=set(lower), higher=set(higher), target=target, where=pairs_path)
+    for path, n in unknown.items():
+        if n:
+            notes.append(f"{path}: {n} pair ids are not in the pairs (ignored)")
+    if n_boot * len(items) > BOOT_CELL_LIMIT:
+        notes.append(f"bootstrap skipped: {len(items)} pairs x {n_boot} replicates is above "
+                     f"{BOOT_CELL_LIMIT:.0e} pair-replicates; pass a smaller --bootstrap for CIs")
+        n_boot = 0
+    summary = summary_table(items, metrics, directions, target=target, clusters=clusters,
+                            n_boot=n_boot, seed=seed, rank_by=rank_by, progress=progress)
+    categories = breakdowns.category_table(items, metrics, by=["label_class"] + attributes,
+                                           target=target, progress=progress)
+    timing_files = list(timing_paths) + [timing_path(p) for p in metrics_paths
+                                         if timing_path(p).is_file()]
+    counts = {"votes": 0, "test_votes": 0, "test_votes_kept": 0, "items": len(items),
+              "tracks": int(clusters.max()) + 1 if len(clusters) else 0,
+              "clips": int(items[ds.PARTITION].nunique()), "raters": 0, "raters_simulated": 0,
+              "raters_excluded": 0, "gold_votes": 0, "repeat_votes": 0}
+    return Analysis(
+        ratings_path=str(pairs_path), target=target, items=items, metrics=metrics,
+        directions=directions, attributes=attributes, proxies=proxies, summary=summary,
+        categories=categories, by_offset=breakdowns.offset_table(items, [target] + metrics),
+        encoders=breakdowns.encoder_table(summary), raters=pd.DataFrame(columns=RATER_COLUMNS),
+        alpha={}, counts=counts, timing=read_timing(timing_files), notes=notes, unknown_ids=unknown,
+        n_boot=n_boot, seed=seed, rank_by=rank_by, source="pairs")

@@ -1,0 +1,68 @@
+"""``nvrq calibrate-runtime PAIRS --encoder E --runtime R --precision P``: measure the drift of
+a reduced precision against torch fp32 and record it (:mod:`nvrq.encoders.drift`)."""
+
+from __future__ import annotations
+
+__all__ = ["register", "run"]
+
+
+def register(sub) -> None:
+    p = sub.add_parser("calibrate-runtime", help="drift check of a runtime/precision against torch fp32",
+                       description="Embed the GT and render crops of a sample of pairs in torch fp32 and "
+                                   "in RUNTIME/PRECISION; report mean/min cosine, NVRQ Spearman and max "
+                                   "|dNVRQ|, and record the check (CACHE/runtime_checks.json), which "
+                                   "`nvrq score --precision` requires.")
+    p.add_argument("pairs", help="pairs table from `nvrq pairs` (.csv or .parquet)")
+    p.add_argument("--encoder", default=None, help="encoder (default efficientnet-lite0)")
+    p.add_argument("--weights", default=None, help="local weights (HF model folder or .pth)")
+    p.add_argument("--runtime", default="openvino", choices=["openvino", "onnxruntime"],
+                   help="runtime checked against torch fp32 (default openvino)")
+    p.add_argument("--precision", default="int8", choices=["fp32", "bf16", "int8"],
+                   help="precision checked (default int8; onnxruntime: fp32 or int8)")
+    p.add_argument("--scene", default=None, help="scene folder (default: the scene_root column)")
+    p.add_argument("--sample", type=int, default=200, help="pairs checked (default 200)")
+    p.add_argument("--calib", type=int, default=150,
+                   help="other pairs whose GT crops calibrate int8 (default 150)")
+    p.add_argument("--seed", type=int, default=0, help="sampling seed (default 0)")
+    p.add_argument("--min-spearman", type=float, default=None,
+                   help="pass threshold reported here (default 0.999; `score` applies its own)")
+    p.add_argument("--cache-dir", default=None, help="export cache (default $NVRQ_CACHE or ~/.cache/nvrq)")
+    p.add_argument("--random-weights", action="store_true", help="random weights (seed 0; benchmarks and tests without checkpoints)")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from pathlib import Path
+
+    from data_schema.errors import InputError
+    from data_schema.tables import read_table
+    from nvrq.encoders import DEFAULT_ENCODER, build_random, get_spec, load_encoder
+    from nvrq.encoders.drift import DEFAULT_MIN_SPEARMAN, check_runtime, pair_inputs, write_record
+    from nvrq.scoring import REQUIRED_COLUMNS
+
+    name = args.encoder or DEFAULT_ENCODER
+    spec = get_spec(name)
+    for opt in ("sample", "calib"):
+        if getattr(args, opt) < 1:
+            raise InputError(f"--{opt}", None, "a positive integer", getattr(args, opt))
+    if (args.runtime, args.precision) == ("onnxruntime", "bf16"):
+        raise InputError("--precision", None, "fp32 or int8 with --runtime onnxruntime", args.precision)
+    pairs = read_table(args.pairs, required=REQUIRED_COLUMNS, what="pairs table")
+    base = Path(args.pairs).resolve().parent
+    gt, render = pair_inputs(pairs, spec.input_size, n=args.sample + args.calib, seed=args.seed,
+                             scene_root=args.scene, base=base, where=str(args.pairs))
+    calib = gt[args.sample:] if len(gt) > args.sample else gt  # disjoint from the checked pairs when possible
+    gt, render = gt[:args.sample], render[:args.sample]
+    enc = (build_random(name) if args.random_weights
+           else load_encoder(name, weights=args.weights, runtime="torch"))
+    rec = check_runtime(enc, gt, render, runtime=args.runtime, precision=args.precision,
+                        calib=calib, cache_dir=args.cache_dir)
+    rec.update(pairs=str(Path(args.pairs).resolve()), n_calibration_crops=int(len(calib)))
+    path = write_record(rec, args.cache_dir)
+    threshold = DEFAULT_MIN_SPEARMAN if args.min_spearman is None else args.min_spearman
+    verdict = "passes" if rec["nvrq_spearman"] >= threshold else "FAILS"
+    print(f"{name} {args.runtime}/{args.precision} vs torch fp32 on {rec['n_pairs']} pairs: "
+          f"cosine mean {rec['mean_cosine']:.5f} min {rec['min_cosine']:.5f}; NVRQ Spearman "
+          f"{rec['nvrq_spearman']:.5f}; max |dNVRQ| {rec['max_dnvrq']:.2e}; {verdict} Spearman >= {threshold}")
+    print(f"recorded in {path}")
+    return 0

@@ -1,0 +1,214 @@
+"""``nvrq score PAIRS --engine ray [--address ADDR] --out METRICS/``: scoring on a Ray cluster.
+
+Stages (Ray Data, streaming):
+
+1. The driver reads the pairs input (a dataset partitioned by ``clip_id``, or a table with a
+   ``clip_id`` column) and plans shards (:mod:`nvrq.engines.shards`): GT groups stay whole,
+   so every GT crop is still embedded once. Shards already on disk are skipped (resume).
+2. CPU tasks (one per shard): read the shard's pairs rows, decode each image once and cut
+   the crops (:func:`nvrq.score_core.iter_crop_batches`), and compute the pixel metrics with
+   :func:`nvrq.score_core.score_crop_batch`.
+3. An actor pool holds the encoder (one GPU per actor with ``--device cuda``, CPU actors
+   otherwise) and computes NVRQ / NVRQ-CA with the same :func:`score_crop_batch`.
+4. The driver writes each finished shard atomically as it arrives, then the manifest.
+
+The pairs files and images must be readable at the same paths on every node; only the driver
+writes (each shard through a temporary file and a rename, so a killed driver leaves whole shards).
+"""
+
+from __future__ import annotations
+
+import pickle
+import socket
+import sys
+import time
+from contextlib import contextmanager
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+import pandas as pd
+
+from data_schema.errors import InputError
+from nvrq.engines import require_ray
+from nvrq.engines import shards as sh
+
+__all__ = ["RayJob", "connect", "check_address", "score_on_ray"]
+
+
+@dataclass(frozen=True)
+class RayJob:
+    """A Ray run: the pairs input, the output folder and what to compute
+    (a scorer of :mod:`nvrq.engines.scorers`)."""
+
+    pairs: str
+    out: str
+    scorer: object
+    shard_pairs: int = 256
+    actors: int | None = None
+    progress: bool = True
+
+    @property
+    def columns(self) -> list[str]:
+        return list(self.scorer.columns)
+
+
+def check_address(address: str) -> None:
+    """One-line error when nothing listens at ``HOST:PORT`` (Ray would otherwise wait a minute)."""
+    if address == "auto":
+        return
+    host, _, port = address.rpartition(":")
+    host = host.removeprefix("ray://") or "127.0.0.1"
+    try:
+        with socket.create_connection((host, int(port)), timeout=3):
+            return
+    except (OSError, ValueError) as exc:
+        raise InputError("--address", None, "a running Ray cluster at HOST:PORT (ray start --head)",
+                         f"{address} ({type(exc).__name__}: {exc})") from None
+
+
+@contextmanager
+def connect(address: str | None = None):
+    """Use the running Ray session, or join ``address``, or start a local instance sized to
+    this machine; a session started here is shut down on exit."""
+    ray = require_ray()
+    if address:
+        check_address(address)
+    if ray.is_initialized():
+        yield ray
+        return
+    import logging
+
+    ray.init(address=address, include_dashboard=False, log_to_driver=False,
+             logging_level=logging.WARNING, configure_logging=True)
+    try:
+        yield ray
+    finally:
+        ray.shutdown()
+
+
+@lru_cache(maxsize=4)
+def _pairs_table(path: str) -> pd.DataFrame:
+    """A pairs file read once per worker process (a dataset's clip file or a whole table)."""
+    from data_schema.tables import read_table
+
+    if path.endswith(".parquet"):
+        return pd.read_parquet(path)
+    return read_table(path, what="pairs table")
+
+
+def _decode_shard(row: dict, *, scorer) -> dict:
+    """CPU task: the shard's crops (decode + crop) and its pixel metrics."""
+    from nvrq.score_core import iter_crop_batches, score_crop_batch
+
+    shard = row["shard"]
+    df = _pairs_table(shard.path).iloc[list(shard.rows)].reset_index(drop=True)
+    batches = list(iter_crop_batches(df, base=shard.base, max_pairs=max(len(df), 1), background=False,
+                                     where=shard.path))
+    timings = {"decode": sum(b.decode_seconds for b in batches)}
+    values = {c: np.full(len(df), np.nan) for c in scorer.columns}
+    for b in batches if scorer.pixel_columns else ():
+        for c, v in score_crop_batch(b, metrics=list(scorer.pixel_columns), timings=timings).items():
+            values[c][b.rows] = v
+    extra = {c: df[c].to_numpy() for c in scorer.extra_columns}
+    return {"shard": shard, "payload": pickle.dumps((df["pair_id"].to_numpy(), batches, values, extra, timings))}
+
+
+class _ModelActor:
+    """Actor: builds the scorer's model (encoder, classifier, CLIP) once, then scores shards."""
+
+    def __init__(self, scorer, threads: int | None):
+        import torch
+
+        if threads:
+            torch.set_num_threads(threads)
+        self.scorer = scorer
+        self.model = scorer.load()
+
+    def __call__(self, batch: dict) -> dict:
+        return {"shard": batch["shard"], "payload": [_finish(p, self.scorer, self.model) for p in batch["payload"]]}
+
+
+def _finish(payload: bytes, scorer, model) -> bytes:
+    """The shard's model columns (if any) and its table ``pair_id`` + columns, pickled."""
+    from nvrq.engines.scorers import timing_per_column
+
+    pair_ids, batches, values, extra, timings = pickle.loads(payload)
+    for b in batches if scorer.model_columns else ():
+        for c, v in scorer.score(model, b, extra, timings).items():
+            values[c][b.rows] = v
+    table = pd.DataFrame({"pair_id": pair_ids, **{c: values[c] for c in scorer.columns}})
+    return pickle.dumps((table, timing_per_column(scorer, timings)))
+
+
+def _pipeline(ray, job: RayJob, todo: list):
+    """The Ray Data stream of finished shards: ``{"shard", "payload"}`` rows."""
+    import ray.data
+
+    ctx = ray.data.DataContext.get_current()
+    ctx.enable_progress_bars = False
+    ctx.verbose_stats_logs = False
+    items = [{"shard": s} for s in todo]
+    scorer = job.scorer
+    stream = ray.data.from_items(items, override_num_blocks=max(1, len(items))).map(
+        _decode_shard, fn_kwargs={"scorer": scorer}, num_cpus=1)
+    if not scorer.model_columns:
+        return stream.map(lambda r: {"shard": r["shard"], "payload": _finish(r["payload"], scorer, None)})
+    cpus = int(ray.cluster_resources().get("CPU", 1))
+    gpus = int(ray.cluster_resources().get("GPU", 0))
+    cuda = scorer.device.startswith("cuda")
+    if cuda and gpus < 1:
+        raise InputError("--device", None, "a GPU in the Ray cluster for --device cuda", "none")
+    n = job.actors or (gpus if cuda else max(1, cpus // 2))
+    threads = None if cuda else max(1, cpus // n)
+    # actors reserve half a CPU (or a GPU), so decode tasks run beside them and are not fused in
+    stream = stream.map_batches(
+        _ModelActor, fn_constructor_kwargs={"scorer": scorer, "threads": threads}, batch_size=1,
+        concurrency=n, num_gpus=1 if cuda else 0, num_cpus=1 if cuda else 0.5)
+    return stream
+
+
+def _input_error(exc: BaseException) -> InputError | None:
+    """The user's InputError inside a Ray task error, as a plain one-line InputError."""
+    seen = exc
+    for _ in range(10):
+        if isinstance(seen, InputError):
+            return InputError(seen.where, seen.field, seen.expected, seen.got)
+        seen = getattr(seen, "cause", None) or seen.__cause__
+        if seen is None:
+            return None
+    return None
+
+
+def score_on_ray(job: RayJob, *, timing_path, address: str | None = None) -> dict:
+    """Run (or resume) ``job``; write ``timing_path`` at the end; returns counts
+    ``{pairs, shards, shards_done_before, pairs_scored, seconds}``."""
+    from tqdm import tqdm
+
+    from nvrq.scoring import REQUIRED_COLUMNS
+
+    t0 = time.perf_counter()
+    require_ray()
+    if address:
+        check_address(address)  # before anything is written
+    sources = sh.read_sources(job.pairs, required=REQUIRED_COLUMNS + tuple(job.scorer.extra_columns))
+    plan = sh.load_or_create_plan(job.out, job.pairs, sources, options=job.scorer.options(),
+                                  max_pairs=job.shard_pairs)
+    n_todo = sum(len(s.rows) for s in plan.todo)
+    if plan.todo:
+        with connect(address) as ray, tqdm(total=n_todo, unit="pair", desc="score (ray)", file=sys.stderr,
+                                           disable=not job.progress) as bar:
+            try:
+                for row in _pipeline(ray, job, plan.todo).iter_rows():
+                    table, timing = pickle.loads(row["payload"])
+                    sh.write_shard(plan.out, row["shard"], table, timing)
+                    bar.update(len(table))
+            except Exception as exc:
+                err = _input_error(exc)
+                if err is None:
+                    raise
+                raise err from None
+    sh.finalize(plan, timing_path=timing_path)
+    return {"pairs": plan.doc["n_pairs"], "shards": len(plan.shards),
+            "shards_done_before": len(plan.shards) - len(plan.todo), "pairs_scored": n_todo,
+            "seconds": time.perf_counter() - t0}

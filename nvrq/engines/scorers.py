@@ -1,0 +1,133 @@
+"""What an engine computes per crop batch: metric columns (``nvrq score``) or a proxy column
+(``nvrq proxy imagenet|clip``). Each scorer is a small picklable description; ``load()`` builds
+its model once in an actor, ``score(model, batch, extra, timings)`` maps one
+:class:`~nvrq.score_core.CropBatch` to ``{column: (P,) float64}``.
+
+``pixel_columns`` are computed in the CPU tasks, ``model_columns`` in the actors, both with the
+same core functions the local commands use (:func:`~nvrq.score_core.score_crop_batch`,
+:func:`~nvrq.score_core.pair_outputs`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from nvrq.score_core import encoder_columns, pair_outputs, score_crop_batch
+
+__all__ = ["MetricScorer", "ImagenetScorer", "ClipScorer", "timing_per_column"]
+
+
+@dataclass(frozen=True)
+class MetricScorer:
+    """``nvrq score``: pixel metrics and NVRQ / NVRQ-CA columns (:func:`score_crop_batch`)."""
+
+    columns: tuple
+    encoder: str | None = None
+    weights: str | None = None
+    device: str = "cpu"
+    tau: float | None = None
+    batch_size: int = 32
+    extra_columns: tuple = ()
+
+    @property
+    def model_columns(self) -> list[str]:
+        return encoder_columns(self.columns)
+
+    @property
+    def pixel_columns(self) -> list[str]:
+        return [c for c in self.columns if c not in self.model_columns]
+
+    def load(self):
+        from nvrq.encoders import load_encoder
+
+        return load_encoder(self.encoder, weights=self.weights, device=self.device)
+
+    def score(self, model, batch, extra: dict, timings: dict) -> dict:
+        return score_crop_batch(batch, metrics=self.model_columns, encoder=model, tau=self.tau,
+                                batch_size=self.batch_size, timings=timings)
+
+    def options(self) -> dict:
+        """What a resumed run must share with the first (``_plan.json``)."""
+        enc = bool(self.model_columns)
+        return {"columns": list(self.columns), "encoder": self.encoder if enc else None,
+                "weights": self.weights if enc else None, "tau": self.tau if enc else None}
+
+
+@dataclass(frozen=True)
+class ImagenetScorer:
+    """``nvrq proxy imagenet``: Eq. 9, the ImageNet top-class confidence drop."""
+
+    classifier: str
+    weights: str | None = None
+    device: str = "cpu"
+    batch_size: int = 32
+    columns: tuple = ("imagenet_drop",)
+    pixel_columns: tuple = ()
+    extra_columns: tuple = ()
+
+    @property
+    def model_columns(self) -> list[str]:
+        return list(self.columns)
+
+    def load(self):
+        from nvrq.proxies.classifier_drop import load_classifier
+
+        return load_classifier(self.classifier, weights=self.weights, device=self.device)
+
+    def score(self, model, batch, extra: dict, timings: dict) -> dict:
+        from nvrq.proxies.classifier_drop import top_class_drop
+
+        p_gt, p_r = pair_outputs(batch, model.probabilities, size=model.input_size,
+                                 batch_size=self.batch_size, timings=timings)
+        return {"imagenet_drop": top_class_drop(p_gt, p_r)}
+
+    def options(self) -> dict:
+        return {"columns": list(self.columns), "classifier": self.classifier, "weights": self.weights}
+
+
+@dataclass(frozen=True)
+class ClipScorer:
+    """``nvrq proxy clip``: Eq. 10, the CLIP zero-shot true-category confidence drop."""
+
+    clip: str
+    prompts: tuple  # ((category, prompt), ...)
+    category_map: tuple  # ((label_class, category or None), ...)
+    device: str = "cpu"
+    batch_size: int = 32
+    columns: tuple = ("clip_drop",)
+    pixel_columns: tuple = ()
+    extra_columns: tuple = ("label_class",)
+
+    @property
+    def model_columns(self) -> list[str]:
+        return list(self.columns)
+
+    def load(self):
+        from nvrq.proxies.clip_drop import load_clip
+
+        return load_clip(self.clip, prompts=dict(self.prompts), device=self.device)
+
+    def score(self, model, batch, extra: dict, timings: dict) -> dict:
+        from nvrq.proxies.clip_drop import true_category_index
+
+        c = true_category_index(extra["label_class"][batch.rows], dict(self.category_map), model.categories)
+        p_gt, p_r = pair_outputs(batch, model.probabilities, size=model.input_size,
+                                 batch_size=self.batch_size, timings=timings)
+        drop = np.full(len(batch.rows), np.nan)
+        ok = np.flatnonzero(c >= 0)
+        drop[ok] = p_gt[ok, c[ok]] - p_r[ok, c[ok]]
+        return {"clip_drop": drop}
+
+    def options(self) -> dict:
+        return {"columns": list(self.columns), "clip": self.clip, "prompts": [list(p) for p in self.prompts]}
+
+
+def timing_per_column(scorer, timings: dict) -> dict:
+    """Seconds per column, by the local engine's rule (:func:`nvrq.scoring.timing_table`): the
+    shared decode plus the column's own calls, or all model input preparation and passes."""
+    decode = float(timings.get("decode", 0.0))
+    model = float(timings.get("prepare", 0.0)) + float(timings.get("forward", 0.0))
+    return {c: decode + (model if c in scorer.model_columns else float(timings.get(c, 0.0)))
+            for c in scorer.columns}

@@ -1,0 +1,194 @@
+"""Shards of a scoring run: the plan, atomic shard files, resume and the final manifest.
+
+A run of ``nvrq score PAIRS --engine ray --out METRICS/`` is cut into shards before any work:
+within each clip, pairs that share a GT image stay together (so each GT crop is embedded
+once) and consecutive GT groups are packed into shards of at most ``max_pairs`` pairs (a
+larger group is a shard of its own). Shard ``k`` of clip ``c`` is written, when done, to
+``METRICS/clip_id=<c>/shard-<k>.parquet`` through a hidden temporary file and an atomic
+rename, with its rows in plan order and its timing in the file's metadata.
+
+``METRICS/_plan.json`` (written first) fixes the plan: the pairs input, a fingerprint of its
+pair ids, the metric columns, encoder and tau and every shard's file name. Running the same
+command again after a crash reuses it and computes only the shards whose files are missing;
+other options or other pairs are an error naming ``_plan.json``. When every shard exists,
+``_dataset.json`` (the reader's mark of a complete dataset) and ``METRICS.timing.csv`` are
+written. Readers refuse a folder with ``_plan.json`` but no ``_dataset.json``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from data_schema import datasets as ds
+from data_schema.errors import InputError
+from data_schema.tables import atomic_path, atomic_write_text, read_table
+
+__all__ = ["Shard", "PairsSource", "read_sources", "plan_shards", "Plan", "load_or_create_plan",
+           "write_shard", "finalize"]
+
+TIMING_KEY = b"nvrq_timing"
+
+
+@dataclass(frozen=True)
+class PairsSource:
+    """One readable unit of the pairs input: a clip's file of a dataset, or a whole table file
+    (``rows`` index into it). ``base``: the folder relative ``scene_root`` values start from."""
+
+    clip_id: str
+    path: str
+    rows: np.ndarray
+    gt_paths: np.ndarray
+    pair_ids: np.ndarray
+    base: str
+
+
+@dataclass(frozen=True)
+class Shard:
+    """``rows``: positions in ``source.path``'s table (GT groups kept together)."""
+
+    index: int
+    clip_id: str
+    path: str
+    rows: tuple
+    base: str
+
+    @property
+    def name(self) -> str:
+        return f"{ds.partition_dir(self.clip_id)}/shard-{self.index:05d}.parquet"
+
+
+def read_sources(pairs_path, *, required) -> list[PairsSource]:
+    """The pairs input as sources: per clip file of a dataset, or per clip of a table file
+    (which then needs a ``clip_id`` column)."""
+    import pyarrow.parquet as pq
+
+    p = Path(pairs_path)
+    if ds.is_dataset(p):
+        files = ds.dataset_files(p, what="pairs dataset")
+        names = ds.check_schemas(files, root=p)
+        missing = [c for c in required if c not in names]
+        if missing:
+            raise InputError(p, f"column {missing[0]!r}", f"the columns {', '.join(required)}",
+                             f"columns {', '.join(names)}")
+        out = []
+        for clip, f in files:
+            t = pq.read_table(f, columns=["pair_id", "gt_path"]).to_pandas()
+            out.append(PairsSource(clip, str(f), np.arange(len(t)), t["gt_path"].astype(str).to_numpy(),
+                                   t["pair_id"].astype(str).to_numpy(), str(p.resolve())))
+        return out
+    df = read_table(p, required=tuple(required), what="pairs table")
+    if ds.PARTITION not in df.columns:
+        raise InputError(p, "column 'clip_id'", "a pairs dataset partitioned by clip_id or a table "
+                         "with a clip_id column", "neither")
+    base = str(p.resolve().parent)
+    groups = pd.Series(np.arange(len(df))).groupby(df[ds.PARTITION].astype(str), sort=True).groups
+    return [PairsSource(str(c), str(p), np.asarray(rows), df["gt_path"].astype(str).to_numpy()[rows],
+                        df["pair_id"].astype(str).to_numpy()[rows], base) for c, rows in groups.items()]
+
+
+def plan_shards(sources: list[PairsSource], *, max_pairs: int) -> list[Shard]:
+    """Cut every source into shards of whole GT groups (first-seen order), <= ``max_pairs`` each."""
+    shards: list[Shard] = []
+    for src in sources:
+        codes, _ = pd.factorize(src.gt_paths)
+        order = np.argsort(codes, kind="stable")
+        bounds = np.flatnonzero(np.diff(codes[order])) + 1
+        groups = np.split(src.rows[order], bounds) if len(order) else []
+        cur: list[np.ndarray] = []
+        size = 0
+        for g in groups:
+            if cur and size + len(g) > max_pairs:
+                shards.append(Shard(len(shards), src.clip_id, src.path, tuple(np.concatenate(cur).tolist()),
+                                    src.base))
+                cur, size = [], 0
+            cur.append(g)
+            size += len(g)
+        if cur:
+            shards.append(Shard(len(shards), src.clip_id, src.path, tuple(np.concatenate(cur).tolist()),
+                                src.base))
+    return shards
+
+
+@dataclass(frozen=True)
+class Plan:
+    """The run's plan (``_plan.json``) and which shards are still to do."""
+
+    out: Path
+    shards: list
+    todo: list
+    doc: dict
+
+
+def _fingerprint(sources: list[PairsSource]) -> str:
+    h = hashlib.sha1()
+    for s in sources:
+        h.update(s.clip_id.encode() + b"\0")
+        h.update("\n".join(s.pair_ids.tolist()).encode())
+    return h.hexdigest()
+
+
+def load_or_create_plan(out, pairs_path, sources, *, options: dict, max_pairs: int) -> Plan:
+    """Create ``out/_plan.json`` or check that the existing one is this run's; list missing shards."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError(out, None, "a folder for the Ray engine's sharded output", "an existing file")
+    shards = plan_shards(sources, max_pairs=max_pairs)
+    doc = {"format": "nvrq-score-plan", "version": 1, "pairs": str(Path(pairs_path).resolve()),
+           "n_pairs": int(sum(len(s.rows) for s in sources)), "fingerprint": _fingerprint(sources),
+           "max_pairs": int(max_pairs), **options, "shards": [s.name for s in shards]}
+    plan_file = out / ds.PLAN
+    if plan_file.is_file():
+        old = json.loads(plan_file.read_text(encoding="utf-8"))
+        for key in doc:
+            if old.get(key) != doc[key]:
+                raise InputError(plan_file, key, f"the same {key} as this run (or another --out)",
+                                 str(old.get(key))[:60])
+    elif out.exists() and any(out.iterdir()):
+        raise InputError(out, None, "a new or empty folder, or an earlier run of this command", "other files")
+    else:
+        atomic_write_text(plan_file, json.dumps(doc, indent=1))
+    todo = [s for s in shards if not (out / s.name).is_file()]
+    return Plan(out, shards, todo, doc)
+
+
+def write_shard(out, shard: Shard, table: pd.DataFrame, timing: dict) -> None:
+    """Write one shard's metrics atomically (hidden temporary file, then rename)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    t = pa.Table.from_pandas(table, preserve_index=False)
+    t = t.replace_schema_metadata({**(t.schema.metadata or {}), TIMING_KEY: json.dumps(timing).encode()})
+    target = Path(out) / shard.name
+    with atomic_path(target) as tmp:
+        pq.write_table(t, tmp)
+
+
+def finalize(plan: Plan, *, timing_path) -> pd.DataFrame:
+    """All shards present: write ``METRICS.timing.csv`` and ``_dataset.json``; returns the timing."""
+    import pyarrow.parquet as pq
+
+    from data_schema.tables import write_table
+
+    missing = [s.name for s in plan.shards if not (plan.out / s.name).is_file()]
+    if missing:
+        raise InputError(plan.out, f"shard {missing[0]}", "every planned shard written", f"{len(missing)} missing")
+    seconds: dict[str, float] = {}
+    for s in plan.shards:
+        meta = pq.read_schema(plan.out / s.name).metadata or {}
+        for k, v in json.loads(meta.get(TIMING_KEY, b"{}")).items():
+            seconds[k] = seconds.get(k, 0.0) + float(v)
+    cols = plan.doc["columns"]
+    timing = pd.DataFrame({"metric": cols, "seconds": [seconds.get(c, 0.0) for c in cols],
+                           "pairs": plan.doc["n_pairs"]})
+    write_table(timing, timing_path)
+    for leftover in plan.out.glob(f"{ds.PARTITION}=*/.shard-*"):
+        leftover.unlink(missing_ok=True)
+    ds.write_manifest(plan.out, [s.name for s in plan.shards], rows=plan.doc["n_pairs"],
+                      extra={"kind": "metrics", "columns": cols})
+    return timing

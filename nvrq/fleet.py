@@ -1,0 +1,145 @@
+"""Pairs of many clips at once: one Parquet dataset partitioned by ``clip_id``.
+
+``nvrq pairs A B ... --out DATASET/`` (or ``nvrq pairs FLEET/ --out DATASET/`` where FLEET
+holds scene folders) runs :func:`nvrq.pairs.make_pairs` clip by clip and writes each clip's
+rows, unchanged, to ``DATASET/clip_id=<id>/part-0.parquet`` (layout:
+:mod:`data_schema.datasets`). The dataset appears only when every clip is done.
+
+A clip that fails validation stops the run with its one-line error, unless ``keep_going``:
+then the good clips are written, with ``DATASET/failed.csv`` (``clip, reason``) beside them,
+and the caller exits non-zero. Clips with different attribute names get the union of them
+(missing values empty), so every file has one schema.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pandas as pd
+
+from data_schema.datasets import DatasetWriter
+from data_schema.errors import InputError
+from nvrq.pairs import DROP_REASONS, PAIRS_OUTPUT_COLUMNS, PairStats
+
+__all__ = ["find_scenes", "FleetResult", "fleet_pairs"]
+
+
+def find_scenes(paths) -> list[Path]:
+    """Scene folders from ``paths``: each is a scene folder (with ``scene.json``) or a folder
+    whose sub-folders are scene folders (sorted by name)."""
+    out = []
+    for p in map(Path, paths):
+        if (p / "scene.json").is_file():
+            out.append(p)
+            continue
+        if not p.is_dir():
+            raise InputError(p, None, "a scene folder or a folder of scene folders", "no such folder")
+        subs = sorted(d for d in p.iterdir() if d.is_dir() and (d / "scene.json").is_file())
+        if not subs:
+            raise InputError(p, None, "a scene folder (scene.json) or a folder of scene folders",
+                             "neither")
+        out += subs
+    return out
+
+
+@dataclass
+class FleetResult:
+    """What :func:`fleet_pairs` did: pair counts over all clips, the clips written and the failed."""
+
+    stats: PairStats = field(default_factory=PairStats)
+    clips: list = field(default_factory=list)
+    failed: list = field(default_factory=list)  # (clip, reason)
+
+    def summary(self) -> str:
+        line = f"{len(self.clips)} clips: {self.stats.summary()}"
+        if self.failed:
+            line += f"; {len(self.failed)} clips failed (failed.csv)"
+        return line
+
+
+def _clip_name(scene_dir: Path) -> str:
+    try:
+        return str(json.loads((scene_dir / "scene.json").read_text(encoding="utf-8"))["clip_id"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return scene_dir.name
+
+
+def _add_stats(total: PairStats, s: PairStats) -> None:
+    total.candidates += s.candidates
+    total.kept += s.kept
+    total.frames_outside_trajectory += s.frames_outside_trajectory
+    for k in DROP_REASONS:
+        total.dropped[k] += s.dropped[k]
+
+
+def _clip_pairs(scene_dir: Path, *, attributes, min_side, min_area):
+    from data_schema.scene import load_scene
+    from nvrq.pairs import make_pairs
+
+    scene = load_scene(scene_dir)
+    if attributes is not None:
+        scene = dataclasses.replace(scene, attributes=attributes.for_clip(scene.clip_id, scene.attributes))
+    pairs, stats = make_pairs(scene, min_side=min_side, min_area=min_area, progress=False)
+    return scene.clip_id, pairs, stats
+
+
+def _unify(writer: DatasetWriter, attrs_by_file: dict[str, list[str]]) -> None:
+    """Give every file the union of attribute columns (first-seen order), missing ones empty."""
+    union = list(dict.fromkeys(a for attrs in attrs_by_file.values() for a in attrs))
+    for rel, attrs in attrs_by_file.items():
+        if attrs == union:
+            continue
+        path = writer.tmp / rel
+        df = pd.read_parquet(path)
+        for a in union:
+            if a not in df.columns:
+                df[a] = None
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        df = df[[c for c in PAIRS_OUTPUT_COLUMNS if c in df.columns] + union + ["scene_root"]]
+        t = pa.Table.from_pandas(df, preserve_index=False)
+        for a in union:
+            t = t.set_column(t.column_names.index(a), a, t.column(a).cast(pa.string()))
+        pq.write_table(t, path)
+
+
+def fleet_pairs(scene_dirs, out, *, min_side: float = 30, min_area: float = 0, attributes=None,
+                keep_going: bool = False, progress: bool = True) -> FleetResult:
+    """Pairs of every scene in ``scene_dirs`` into the dataset folder ``out`` (module docstring).
+
+    ``attributes``: a :class:`nvrq.clip_attributes.ClipAttributes` or ``None``.
+    """
+    from tqdm.auto import tqdm
+
+    res, seen, attrs_by_file = FleetResult(), {}, {}
+    with DatasetWriter(out) as writer:
+        for d in tqdm(scene_dirs, desc="pairs", unit="clip", disable=not progress):
+            try:
+                clip, pairs, stats = _clip_pairs(d, attributes=attributes, min_side=min_side,
+                                                 min_area=min_area)
+                if clip in seen:
+                    raise InputError(d / "scene.json", "clip_id", "a clip id unique in the fleet",
+                                     f"{clip!r}, also in {seen[clip]}")
+            except InputError as err:
+                if not keep_going:
+                    raise
+                res.failed.append((_clip_name(d), str(err)))
+                continue
+            seen[clip] = d
+            attrs = [c for c in pairs.columns if c not in PAIRS_OUTPUT_COLUMNS and c != "scene_root"]
+            writer.string_columns = set(attrs)
+            writer.write(clip, pairs)
+            attrs_by_file[writer.files[-1]] = attrs
+            res.clips.append(clip)
+            _add_stats(res.stats, stats)
+        if not res.clips:
+            raise InputError(out, None, "at least one clip that passes validation",
+                             f"{len(res.failed)} failed: {res.failed[0][1] if res.failed else 'none given'}")
+        _unify(writer, attrs_by_file)
+        if res.failed:
+            writer.add_file("failed.csv", pd.DataFrame(res.failed, columns=["clip", "reason"]).to_csv(index=False))
+    return res

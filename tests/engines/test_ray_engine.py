@@ -1,0 +1,135 @@
+"""``nvrq score --engine ray`` on a local Ray instance (num_cpus=2): equal to the local engine,
+resumable after a real SIGKILL of the driver, and its bad-input errors."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from data_schema import datasets as ds
+from nvrq.cli import main
+
+ray = pytest.importorskip("ray")
+sys.path.insert(0, str(Path(__file__).parent))
+from fleet_data import METRICS, local_scores, write_fleet  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def ray_local():
+    os.environ.setdefault("RAY_AUTH_MODE", "disabled")
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    yield ray.get_runtime_context().gcs_address
+    ray.shutdown()
+
+
+@pytest.fixture(scope="module")
+def fleet(tmp_path_factory):
+    return write_fleet(tmp_path_factory.mktemp("rayfleet"))
+
+
+def _score(pairs, out, *extra):
+    return main(["score", str(pairs), "--out", str(out), "--metrics", ",".join(METRICS), "--tau", "0.6",
+                 "--engine", "ray", "--shard-pairs", "9", "--quiet", *extra])
+
+
+def test_ray_equals_local_engine(ray_local, fleet, tmp_path):
+    root, pairs_ds = fleet
+    assert _score(pairs_ds, tmp_path / "m") == 0
+    got = ds.read_dataset(tmp_path / "m")
+    want = local_scores(root, pairs_ds)
+    assert got.pair_id.tolist() == want.pair_id.tolist()  # each pair once, in the pairs' order
+    for c in METRICS[:3]:  # pixel metrics: the same function on the same crops -> bit-equal
+        np.testing.assert_array_equal(got[c].to_numpy(), want[c].to_numpy())
+    for c in ("nvrq:efficientnet-lite0", "nvrq_ca:efficientnet-lite0"):
+        np.testing.assert_allclose(got[c].to_numpy(), want[c].to_numpy(), atol=1e-6, rtol=0)
+    timing = pd.read_csv(tmp_path / "m.timing.csv")
+    assert timing.metric.tolist() == got.columns[2:].tolist() and (timing.pairs == len(got)).all()
+    # a second run finds every shard written and computes nothing
+    assert _score(pairs_ds, tmp_path / "m") == 0
+
+
+def test_imagenet_proxy_on_ray_equals_a_per_pair_loop(ray_local, fleet, tmp_path):
+    from PIL import Image
+
+    from nvrq.crops import encoder_input
+    from nvrq.proxies.classifier_drop import load_classifier, top_class_drop
+
+    root, pairs_ds = fleet
+    assert main(["proxy", "imagenet", str(pairs_ds), "--out", str(tmp_path / "p"), "--engine", "ray",
+                 "--shard-pairs", "18", "--quiet"]) == 0
+    got = ds.read_dataset(tmp_path / "p")
+    # expected: Eq. 9 pair by pair, images read with Pillow and cropped by numpy slicing
+    pairs = ds.read_dataset(pairs_ds)
+    clf = load_classifier("efficientnet-lite0")
+
+    def crop(row, path, box):
+        img = np.asarray(Image.open(Path(row.scene_root) / path).convert("RGB"))
+        return encoder_input(img[box[1]:box[3] + 1, box[0]:box[2] + 1], clf.input_size)
+
+    gt = np.stack([crop(r, r.gt_path, (r.gt_x0, r.gt_y0, r.gt_x1, r.gt_y1)) for r in pairs.itertuples()])
+    rd = np.stack([crop(r, r.render_path, (r.r_x0, r.r_y0, r.r_x1, r.r_y1)) for r in pairs.itertuples()])
+    want = top_class_drop(clf.probabilities(gt), clf.probabilities(rd))
+    assert got.pair_id.tolist() == pairs.pair_id.tolist()
+    np.testing.assert_allclose(got.imagenet_drop, want, atol=1e-5, rtol=0)
+
+
+def test_resume_after_sigkill_of_the_driver(ray_local, fleet, tmp_path):
+    _, pairs_ds = fleet
+    out = tmp_path / "m"
+    cmd = [sys.executable, "-m", "nvrq", "score", str(pairs_ds), "--out", str(out), "--metrics",
+           ",".join(METRICS), "--tau", "0.6", "--engine", "ray", "--shard-pairs", "9", "--quiet",
+           "--address", ray_local]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not list(out.glob("clip_id=*/shard-*.parquet")):
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGKILL)  # a real kill: no cleanup runs in the driver
+    proc.wait()
+    written = sorted(p.name for p in out.glob("clip_id=*/shard-*.parquet"))
+    assert 0 < len(written) < 8, "the driver must die part-way (8 shards planned)"
+    with pytest.raises(ds.InputError, match="unfinished scoring run"):
+        ds.read_dataset(out)  # nothing that looks complete
+    before = {p: p.stat().st_mtime_ns for p in out.glob("clip_id=*/shard-*.parquet")}
+    assert _score(pairs_ds, out, "--address", ray_local) == 0
+    assert all(p.stat().st_mtime_ns == t for p, t in before.items())  # only missing shards computed
+    resumed = ds.read_dataset(out)
+    assert _score(pairs_ds, tmp_path / "full", "--address", ray_local) == 0
+    full = ds.read_dataset(tmp_path / "full")
+    assert resumed.pair_id.is_unique and len(resumed) == len(full)
+    pd.testing.assert_frame_equal(resumed, full, check_exact=False, atol=1e-6, rtol=0)
+
+
+def test_bad_input_one_line_errors(ray_local, fleet, tmp_path, capsys, monkeypatch):
+    root, pairs_ds = fleet
+    flat = ds.read_dataset(pairs_ds).drop(columns="clip_id")
+    flat.to_parquet(tmp_path / "flat.parquet")
+    common = ["--metrics", "psnr", "--engine", "ray", "--quiet"]
+    cases = [
+        ([str(tmp_path / "flat.parquet"), "--out", str(tmp_path / "bad")], "clip_id"),
+        ([str(pairs_ds), "--out", str(tmp_path / "bad"), "--address", "127.0.0.1:9"],
+         "--address: expected a running Ray cluster"),
+        ([str(pairs_ds), "--out", str(tmp_path / "x.parquet")], "--out: expected a folder"),
+    ]
+    for args, msg in cases:
+        rc = main(["score", *args, *common])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert rc == 2 and len(err) == 1 and msg in err[0], err
+        assert not (tmp_path / "bad" / ds.MANIFEST).exists()
+    # another run's folder is not silently mixed in
+    assert _score(pairs_ds, tmp_path / "m") == 0
+    capsys.readouterr()
+    rc = main(["score", str(pairs_ds), "--out", str(tmp_path / "m"), "--metrics", "psnr", "--engine", "ray",
+               "--shard-pairs", "9", "--quiet"])
+    assert rc == 2 and "_plan.json: columns: expected the same columns" in capsys.readouterr().err
+    # without Ray installed: one line naming the extra
+    monkeypatch.setitem(sys.modules, "ray", None)
+    rc = main(["score", str(pairs_ds), "--out", str(tmp_path / "y"), "--metrics", "psnr", "--engine", "ray"])
+    assert rc == 2 and 'pip install -e ".[ray]"' in capsys.readouterr().err
