@@ -26,12 +26,12 @@ import numpy as np
 import pandas as pd
 
 from analysis import breakdowns
-from analysis.inputs import NON_METRIC_COLUMNS, classify_columns, timing_path_for
+from analysis.inputs import NON_METRIC_COLUMNS, classify_columns
 from analysis.pipeline import BOOT_CELL_LIMIT, Analysis, read_timing
 from analysis.summary import summary_table
 from data_schema import datasets as ds
 from data_schema.errors import InputError
-from data_schema.tables import read_table
+from data_schema.tables import read_table, timing_path
 
 __all__ = ["TableSource", "read_all_pairs", "run_pairs_analysis", "RATER_COLUMNS"]
 
@@ -287,8 +287,8 @@ def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), tar
                             n_boot=n_boot, seed=seed, rank_by=rank_by, progress=progress)
     categories = breakdowns.category_table(items, metrics, by=["label_class"] + attributes,
                                            target=target, progress=progress)
-    timing_files = list(timing_paths) + [timing_path_for(p) for p in metrics_paths
-                                         if timing_path_for(p).is_file()]
+    timing_files = list(timing_paths) + [timing_path(p) for p in metrics_paths
+                                         if timing_path(p).is_file()]
     counts = {"votes": 0, "test_votes": 0, "test_votes_kept": 0, "items": len(items),
               "tracks": int(clusters.max()) + 1 if len(clusters) else 0,
               "clips": int(items[ds.PARTITION].nunique()), "raters": 0, "raters_simulated": 0,

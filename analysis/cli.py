@@ -13,6 +13,11 @@ from __future__ import annotations
 import argparse
 import sys
 
+from rich.console import Console
+from rich.table import Table
+
+from analysis.pipeline import run_analysis
+from analysis.report import summary_display, write_report
 from data_schema.cliargs import CommaList, DeprecatedFileOption, flags_in_errors
 from data_schema.errors import ArgumentParser, InputError, run_cli
 from data_schema.outputs import check_output_folder
@@ -135,15 +140,7 @@ def _add_options(p: ArgumentParser) -> None:
 
 
 def _print_summary(analysis) -> None:
-    from analysis.report import format_table_text, summary_display
-
     df = summary_display(analysis, with_ci=False)
-    try:
-        from rich.console import Console
-        from rich.table import Table
-    except ImportError:
-        print(format_table_text(df))
-        return
     t = Table(title=f"metrics against {analysis.target}")
     for c in df.columns:
         t.add_column(c, justify="left" if c in ("metric", "reason", "vs best") else "right")
@@ -169,7 +166,6 @@ def _run(args) -> int:
     check_output_folder(args.out, kind="report", option="--out",
                         inputs=[args.ratings or args.pairs, *args.metrics_tables, *args.timing,
                                 args.stability])
-    from analysis.report import write_report
 
     analysis = _run_pairs(args) if args.pairs is not None else _run_ratings(args)
     analysis.margin = args.margin
@@ -200,7 +196,6 @@ def _run_pairs(args):
 
 
 def _run_ratings(args):
-    from analysis.pipeline import run_analysis
 
     return run_analysis(
         args.ratings,

@@ -21,15 +21,13 @@ Every column of a ``--metrics`` file other than ``pair_id`` must be numeric.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from pathlib import Path
-
 import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
 from data_schema.perturbation import VIEW_COLUMNS
 from data_schema.tables import (
+    ITEM_KINDS,
     PAIR_META_COLUMNS,
     PAIRS_COLUMNS,
     RATINGS_COLUMNS,
@@ -39,16 +37,12 @@ from data_schema.tables import (
 from nvrq.metrics import direction, metric_info
 
 __all__ = [
-    "KINDS",
     "NON_METRIC_COLUMNS",
-    "Inputs",
     "read_ratings",
     "read_metrics",
     "classify_columns",
-    "timing_path_for",
 ]
 
-KINDS = ("test", "gold", "training", "repeat")
 ITEM_LABEL_COLUMNS = (
     "n_votes",
     "n_good",
@@ -62,19 +56,6 @@ ITEM_LABEL_COLUMNS = (
 NON_METRIC_COLUMNS = frozenset(
     RATINGS_COLUMNS + PAIRS_COLUMNS + ITEM_LABEL_COLUMNS + ("gold_expected",) + VIEW_COLUMNS
 )
-
-
-@dataclass
-class Inputs:
-    """Checked input: votes (one row per vote, metric columns joined) and column roles."""
-
-    votes: pd.DataFrame
-    metrics: list[str]
-    directions: dict[str, bool]
-    attributes: list[str]
-    proxies: list[str]
-    notes: list[str] = field(default_factory=list)
-    unknown_ids: dict[str, int] = field(default_factory=dict)
 
 
 def _line(row_index: int) -> str:
@@ -110,11 +91,11 @@ def read_ratings(path) -> pd.DataFrame:
         i = int(np.flatnonzero(bad.to_numpy())[0])
         raise InputError(path, f"{_line(i)}: vote", "0 or 1", df["vote"].iloc[i])
     df["vote"] = vote.astype(np.int8)
-    bad = ~df["kind"].isin(KINDS)
+    bad = ~df["kind"].isin(ITEM_KINDS)
     if bad.any():
         i = int(np.flatnonzero(bad.to_numpy())[0])
         raise InputError(
-            path, f"{_line(i)}: kind", "one of " + ", ".join(KINDS), df["kind"].iloc[i]
+            path, f"{_line(i)}: kind", "one of " + ", ".join(ITEM_KINDS), df["kind"].iloc[i]
         )
     for col, what in (("item_id", "an item id"), ("rater_id", "a rater id")):
         bad = df[col].isna()
@@ -163,12 +144,6 @@ def _check_item_metadata(df: pd.DataFrame, path) -> None:
             i = int(np.flatnonzero((df["item_id"] == item).to_numpy())[-1])
             raise InputError(path, f"{_line(i)}: {col}", f"one {col} per item (item {item!r})",
                              ", ".join(map(str, df.loc[df["item_id"] == item, col].unique()[:3])))
-
-
-def timing_path_for(metrics_path) -> Path:
-    """``scores/metrics.csv`` -> ``scores/metrics.timing.csv`` (the file ``nvrq score`` writes)."""
-    p = Path(metrics_path)
-    return p.with_name(p.stem + ".timing.csv")
 
 
 def classify_columns(

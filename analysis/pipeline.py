@@ -18,13 +18,13 @@ import pandas as pd
 from analysis import axes, breakdowns
 from analysis.aggregate import aggregate
 from analysis.ceiling import noise_ceiling, vote_matrix
-from analysis.inputs import classify_columns, read_metrics, read_ratings, timing_path_for
+from analysis.inputs import classify_columns, read_metrics, read_ratings
 from analysis.labels import item_table, join_metrics
 from analysis.summary import summary_table
 from annotate import screening
 from annotate.results import alpha_nominal
 from data_schema.errors import InputError
-from data_schema.tables import read_table
+from data_schema.tables import TIMING_COLUMNS, read_table, timing_path
 
 __all__ = ["Analysis", "run_analysis", "read_timing", "read_stability", "BOOT_CELL_LIMIT"]
 
@@ -71,7 +71,7 @@ def read_timing(paths) -> pd.DataFrame | None:
     """Concatenate ``*.timing.csv`` files (``metric, seconds, pairs``): one row per metric with
     summed seconds and pairs and ``pairs_per_s``."""
     frames = [
-        read_table(p, required=("metric", "seconds", "pairs"), what="timing table") for p in paths
+        read_table(p, required=TIMING_COLUMNS, what="timing table") for p in paths
     ]
     if not frames:
         return None
@@ -119,7 +119,7 @@ def _read_inputs(ratings_path, metrics_paths, timing_paths):
     votes = read_ratings(ratings_path)
     tables = [(str(p), read_metrics(p)) for p in metrics_paths]
     timing_files = list(timing_paths) + [
-        timing_path_for(p) for p in metrics_paths if timing_path_for(p).is_file()
+        timing_path(p) for p in metrics_paths if timing_path(p).is_file()
     ]
     return votes, tables, timing_files
 

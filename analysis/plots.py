@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
+from sklearn.metrics import roc_curve
 
 __all__ = [
     "tent_plot",
@@ -162,8 +163,6 @@ def roc_plot(items: pd.DataFrame, summary: pd.DataFrame, label: np.ndarray, *, t
 
     label: (n_items,) bool; scores are negated for lower-is-better metrics.
     """
-    from sklearn.metrics import roc_curve
-
     if summary.empty:
         return None
     s = (

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 from scipy import stats as _st
+from scipy.optimize import curve_fit
 
 __all__ = [
     "N_MIN",
@@ -235,8 +236,6 @@ def logistic_plcc(x, y, *, max_fit_points: int = 200_000, seed: int = 0):
     parameters are fitted on a seeded sample of that size (the PLCC is still computed on all).
     Returns ``(value, reason, note)``.
     """
-    from scipy.optimize import curve_fit
-
     x = np.asarray(x, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)
     why = undefined_reason(x, y)

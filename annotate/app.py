@@ -48,9 +48,9 @@ import zlib
 import streamlit as st
 
 from annotate.admin import admin_page
-from annotate.cli import check_rater_name
 from annotate.study import Study, StudyChanged, crop_path, load_study
 from data_schema.errors import InputError
+from data_schema.raters import check_rater_name
 
 INSTRUCTIONS = """
 You will see pairs of images of the same object. **Reference** (left) is a real camera

@@ -13,13 +13,15 @@ from __future__ import annotations
 
 import argparse
 import os
-import re
 import secrets
 import socket
 import sqlite3
 import sys
 from pathlib import Path
 
+from annotate.results import gvf_table, ratings_table
+from annotate.simulate import simulate
+from annotate.study import build_study, load_study, unplaced_votes
 from data_schema.cliargs import (
     DeprecatedFileOption,
     DeprecatedSize,
@@ -29,30 +31,10 @@ from data_schema.cliargs import (
 )
 from data_schema.errors import ArgumentParser, InputError, run_cli
 from data_schema.outputs import check_output_file, check_output_folder
+from data_schema.raters import check_rater_name
+from data_schema.tables import write_table
 
-__all__ = ["main", "build_parser", "serve_command", "check_rater_name", "check_port_free"]
-
-_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,39}$")
-
-
-def check_rater_name(name: str, *, allow_sim: bool = False) -> str:
-    """A rater id: 1-40 of ``A-Z a-z 0-9 _ . -`` starting alphanumeric; ``sim-*`` is reserved.
-
-    >>> check_rater_name("ann.b")
-    'ann.b'
-    >>> check_rater_name("sim-1")
-    Traceback (most recent call last):
-    ...
-    data_schema.errors.InputError: rater: name: expected a name not starting with 'sim-' (reserved for simulated raters), got sim-1
-    """
-    name = str(name).strip()
-    if not _NAME.match(name):
-        raise InputError("rater", "name", "1-40 letters, digits, '_', '.', '-'", repr(name))
-    if name.lower().startswith("sim-") and not allow_sim:
-        raise InputError("rater", "name", "a name not starting with 'sim-' (reserved for simulated raters)",
-                         name)
-    return name
-
+__all__ = ["main", "build_parser", "serve_command", "check_port_free"]
 
 def serve_command(study: str | Path, *, host: str = "127.0.0.1", port: int = 8501) -> list[str]:
     """The ``streamlit run`` argv that serves ``study`` (set ANNOTATE_STUDY in its env)."""
@@ -82,8 +64,6 @@ def _base_url(host: str, port: int) -> str:
 
 
 def _cmd_build(args) -> int:
-    from annotate.study import build_study, load_study
-
     check_output_folder(args.study, kind="study", option="STUDY",
                         inputs=[args.pairs, *args.metrics_tables, args.scene])
     width, height = parse_wxh(args.size, option="--size")
@@ -103,8 +83,6 @@ def _cmd_build(args) -> int:
 
 
 def _cmd_serve(args) -> int:
-    from annotate.study import load_study
-
     study = load_study(args.study)  # fail here, not in the browser
     check_port_free(args.host, args.port)
     print(f"serving {study.root} at {_base_url(args.host, args.port)} "
@@ -117,8 +95,6 @@ def _cmd_serve(args) -> int:
 
 
 def _cmd_add_rater(args) -> int:
-    from annotate.study import load_study
-
     study = load_study(args.study)
     name = check_rater_name(args.name)
     base = _base_url(args.host, args.port)
@@ -133,10 +109,6 @@ def _cmd_add_rater(args) -> int:
 
 
 def _cmd_export(args) -> int:
-    from annotate.results import ratings_table
-    from annotate.study import load_study, unplaced_votes
-    from data_schema.tables import write_table
-
     check_output_file(args.out, inputs=[args.study])
     study = load_study(args.study)
     table = ratings_table(study)
@@ -150,10 +122,6 @@ def _cmd_export(args) -> int:
 
 
 def _cmd_gvf(args) -> int:
-    from annotate.results import gvf_table, ratings_table
-    from annotate.study import load_study
-    from data_schema.tables import write_table
-
     if args.out:
         check_output_file(args.out, inputs=[args.study])
     table = gvf_table(ratings_table(load_study(args.study)))
@@ -165,9 +133,6 @@ def _cmd_gvf(args) -> int:
 
 
 def _cmd_simulate(args) -> int:
-    from annotate.simulate import simulate
-    from annotate.study import load_study
-
     params = simulate(load_study(args.study), raters=args.raters, seed=args.seed)
     print(params.to_string(index=False))
     return 0

@@ -33,9 +33,9 @@ from data_schema.perturbation import (
     labels,
     perturbation_array,
 )
-from data_schema.tables import PAIRS_COLUMNS
+from data_schema.tables import PAIRS_COLUMNS, offset_cm, parse_offsets
 
-__all__ = ["parse_offsets", "choose_views", "attribute_columns", "usable_frames", "choose_tracks",
+__all__ = ["choose_offsets", "choose_views", "attribute_columns", "usable_frames", "choose_tracks",
            "spread_frames", "select_test_pairs"]
 
 _EXTRA_NON_ATTRIBUTES = ("scene_root", *VIEW_COLUMNS)
@@ -47,27 +47,19 @@ def attribute_columns(pairs: pd.DataFrame) -> list[str]:
             and c not in _EXTRA_NON_ATTRIBUTES and not str(c).startswith("_")]
 
 
-def _cm(values) -> np.ndarray:
-    """Offsets in metres -> integer centimetres (the precision of ``pair_id``)."""
-    return np.round(np.asarray(values, dtype=float) * 100).astype(np.int64)
+def choose_offsets(spec: str, available) -> list[float]:
+    """Chosen offsets (sorted, metres) from ``'all'`` or ``'0,1.5,-1.5'``, among ``available``.
 
-
-def parse_offsets(spec: str, available) -> list[float]:
-    """Chosen offsets (sorted, metres) from ``'all'`` or ``'0,1.5,-1.5'``.
-
-    >>> parse_offsets("all", [0.0, 1.0, -1.0, 1.0])
+    >>> choose_offsets("all", [0.0, 1.0, -1.0, 1.0])
     [-1.0, 0.0, 1.0]
-    >>> parse_offsets("1, 0", [0.0, 1.0, -1.0])
+    >>> choose_offsets("1, 0", [0.0, 1.0, -1.0])
     [0.0, 1.0]
     """
-    have = sorted(set(_cm(available).tolist()))
+    have = sorted(set(offset_cm(available).tolist()))
     if str(spec).strip().lower() == "all":
         chosen = have
     else:
-        try:
-            chosen = sorted(set(_cm([float(s) for s in str(spec).split(",") if s.strip()]).tolist()))
-        except ValueError:
-            raise InputError("offsets", None, "'all' or a comma list of metres", spec) from None
+        chosen = sorted(set(offset_cm(parse_offsets(spec, field="offsets")).tolist()))
         missing = [c for c in chosen if c not in have]
         if missing or not chosen:
             raise InputError("offsets", None,
@@ -104,7 +96,7 @@ def choose_views(spec: str, pairs: pd.DataFrame) -> list[str]:
     if str(spec).strip().lower() == "all":
         return sorted(set(have), key=_view_order)
     lat = pairs[~pairs.reindex(columns=list(EXTRA_PERTURBATION_COLUMNS), fill_value=0.0).ne(0).any(axis=1)]
-    return _view_keys(parse_offsets(spec, lat["y_offset_m"]))
+    return _view_keys(choose_offsets(spec, lat["y_offset_m"]))
 
 
 def usable_frames(pairs: pd.DataFrame, offsets: list) -> pd.DataFrame:

@@ -24,7 +24,7 @@ import krippendorff
 import numpy as np
 import pandas as pd
 
-from data_schema.tables import PAIR_META_COLUMNS, RATINGS_COLUMNS
+from data_schema.tables import ITEM_KINDS, PAIR_META_COLUMNS, RATINGS_COLUMNS
 
 __all__ = [
     "ratings_table",
@@ -151,10 +151,7 @@ def rater_progress(study) -> pd.DataFrame:
     raters = study.store.raters()
     counts = ratings.pivot_table(index="rater_id", columns="kind", values="vote", aggfunc="size",
                                  fill_value=0).reindex(raters, fill_value=0)
-    for kind in ("training", "test", "gold", "repeat"):
-        if kind not in counts.columns:
-            counts[kind] = 0
-    out = counts[["training", "test", "gold", "repeat"]].astype(int)
+    out = counts.reindex(columns=list(ITEM_KINDS), fill_value=0).astype(int)
     fails = gold_failures(ratings).groupby("rater_id").size()
     out["gold_failures"] = fails.reindex(out.index, fill_value=0).astype(int)
     out["median_response_ms"] = ratings.groupby("rater_id")["response_ms"].median().reindex(out.index)

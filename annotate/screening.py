@@ -53,6 +53,8 @@ import pandas as pd
 from scipy import stats as _st
 
 from data_schema.errors import InputError
+from data_schema.raters import SIM_PREFIX
+from data_schema.tables import ITEM_KINDS
 
 __all__ = [
     "ScreenRule",
@@ -66,7 +68,7 @@ __all__ = [
     "SIM_PREFIX",
 ]
 
-SIM_PREFIX = "sim-"
+
 
 
 @dataclass(frozen=True)
@@ -325,7 +327,7 @@ def rater_table(votes: pd.DataFrame, *, rule: ScreenRule | None = None) -> pd.Da
     kind = votes["kind"].to_numpy()
     out = pd.DataFrame({"rater_id": raters.astype(str)})
     out["simulated"] = out["rater_id"].str.startswith(SIM_PREFIX)
-    for k in ("test", "gold", "repeat", "training"):
+    for k in ITEM_KINDS:
         out[f"n_{k}"] = np.bincount(r_codes[kind == k], minlength=n_r)
     _agreement_columns(out, votes, raters, rule)
     _gold_columns(out, votes, r_codes, n_r, rule)

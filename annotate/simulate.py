@@ -19,14 +19,17 @@ True
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
+from annotate.store import Store
 from data_schema.errors import InputError
 from data_schema.perturbation import labels, perturbation_array
+from data_schema.raters import SIM_PREFIX
 
 __all__ = ["p_good", "item_severity", "simulate"]
 
@@ -73,9 +76,7 @@ def simulate(study, *, raters: int = 5, seed: int = 0, progress: bool = True) ->
     """Let ``raters`` simulated raters (the last careless) rate the study; returns their params."""
     if raters < 1:
         raise InputError("raters", None, "an integer >= 1", raters)
-    import dataclasses
 
-    from annotate.store import Store
 
     sev = item_severity(study)
     # the same store file and code path; NORMAL sync: simulated votes need not survive a power cut
@@ -85,7 +86,7 @@ def simulate(study, *, raters: int = 5, seed: int = 0, progress: bool = True) ->
     params = []
     for i in range(raters):
         careless = raters > 1 and i == raters - 1
-        params.append({"rater_id": f"sim-{'careless' if careless else i + 1}",
+        params.append({"rater_id": f"{SIM_PREFIX}{'careless' if careless else i + 1}",
                        "careless": careless, "theta": float(rng.normal(0.45, 0.08)),
                        "width": float(rng.uniform(0.04, 0.12)), "lapse": 0.02})
     active = list(range(raters))

@@ -46,6 +46,7 @@ from data_schema.outputs import check_output_folder
 from data_schema.perturbation import view_columns, with_perturbation_columns
 from data_schema.tables import (
     GT_BOX_COLUMNS,
+    ITEM_KINDS,
     PAIR_META_COLUMNS,
     PAIRS_COLUMNS,
     RENDER_BOX_COLUMNS,
@@ -56,9 +57,8 @@ from data_schema.tables import (
     read_table,
 )
 
-__all__ = ["build_study", "load_study", "Study", "StudyChanged", "crop_path", "KINDS", "unplaced_votes"]
+__all__ = ["build_study", "load_study", "Study", "StudyChanged", "crop_path", "unplaced_votes"]
 
-KINDS = ("test", "gold", "training", "repeat")
 _MANIFEST = "manifest.json"
 
 
@@ -298,7 +298,7 @@ def _manifest(out: Path, pairs: pd.DataFrame, items: pd.DataFrame, opts: dict, *
         "view_columns": opts["view_columns"],
         "scene_roots": {str(k): str(v) for k, v in roots.items()},
         "offsets": offsets, "tracks": tracks,
-        "counts": {kind: int((items["kind"] == kind).sum()) for kind in KINDS},
+        "counts": {kind: int((items["kind"] == kind).sum()) for kind in ITEM_KINDS},
         "training_order": items.loc[items["kind"] == "training", "key"].tolist(),
     }
 

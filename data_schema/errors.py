@@ -75,3 +75,4 @@ class ArgumentParser(argparse.ArgumentParser):
     def error(self, message: str):
         msg = " ".join(str(message).split())
         self.exit(2, f"error: {self.prog}: {msg} (see {self.prog} --help)\n")
+

@@ -135,36 +135,45 @@ def check_rigid(T: np.ndarray, where: str, fld: str) -> np.ndarray:
     return T
 
 
+def _sub(fld: str, name: str) -> str:
+    return f"{fld}.{name}" if fld else name
+
+
 def validate_camera_model(model, where: str, fld: str) -> dict:
-    """Check a ``model`` dict against :data:`CAMERA_MODEL_SCHEMA`; return it with defaults filled."""
+    """Check a ``model`` dict against :data:`CAMERA_MODEL_SCHEMA`; return it with defaults filled.
+
+    The one check of parameter names, lengths, finiteness and defaults (the camera classes of
+    ``nvrq.geometry.cameras`` call it and add checks on values). Errors name ``fld.param``
+    (just ``param`` when ``fld`` is empty).
+    """
     mtype = _get(model, "type", where, fld)
     if mtype not in CAMERA_MODEL_SCHEMA:
-        raise InputError(where, f"{fld}.type", "one of {" + ", ".join(map(repr, CAMERA_MODEL_SCHEMA)) + "}",
+        raise InputError(where, _sub(fld, "type"), "one of {" + ", ".join(map(repr, CAMERA_MODEL_SCHEMA)) + "}",
                          repr(mtype))
     out = {"type": mtype}
     for name, (length, default) in CAMERA_MODEL_SCHEMA[mtype].items():
         if name not in model:
             if default is None:
-                raise InputError(where, f"{fld}.{name}", f"this {mtype} parameter to be present", "missing")
+                raise InputError(where, _sub(fld, name), f"this {mtype} parameter to be present", "missing")
             out[name] = list(default)
             continue
         value = model[name]
         if name == "reference_poly":
             if value not in FTHETA_REFERENCE_POLYS:
-                raise InputError(where, f"{fld}.{name}", "one of " + " or ".join(FTHETA_REFERENCE_POLYS), repr(value))
+                raise InputError(where, _sub(fld, name), "one of " + " or ".join(FTHETA_REFERENCE_POLYS), repr(value))
             out[name] = value
         elif length == 0:
-            out[name] = float(_array(value, (), where, f"{fld}.{name}", "a number"))
+            out[name] = float(_array(value, (), where, _sub(fld, name), "a number"))
         else:
-            arr = _array(value, (length,), where, f"{fld}.{name}", f"a list of {length} numbers")
+            arr = _array(value, (length,), where, _sub(fld, name), f"a list of {length} numbers")
             if name == "resolution":
                 if np.any(arr <= 0) or np.any(arr != np.round(arr)):
-                    raise InputError(where, f"{fld}.{name}", "two positive integers [W, H]", arr.tolist())
+                    raise InputError(where, _sub(fld, name), "two positive integers [W, H]", arr.tolist())
                 out[name] = [int(v) for v in arr]
             else:
                 out[name] = arr.tolist()
     if mtype == "ftheta" and not 0 < out["max_angle"] <= math.pi:
-        raise InputError(where, f"{fld}.max_angle", "an angle in (0, pi] radians", out["max_angle"])
+        raise InputError(where, _sub(fld, "max_angle"), "an angle in (0, pi] radians", out["max_angle"])
     return out
 
 

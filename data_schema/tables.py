@@ -7,12 +7,14 @@ into place, so an interrupted command never leaves a half-written file that look
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import tempfile
 from collections.abc import Iterable, Sequence
 from pathlib import Path, PurePosixPath, PureWindowsPath
 
+import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
@@ -20,12 +22,18 @@ from data_schema.errors import InputError
 __all__ = [
     "PAIRS_COLUMNS",
     "RATINGS_COLUMNS",
+    "ITEM_KINDS",
+    "TIMING_COLUMNS",
+    "timing_path",
     "PAIR_META_COLUMNS",
     "IMAGES_COLUMNS",
     "TABLE_SUFFIXES",
     "MIN_SIDE_PX",
     "pair_id",
+    "offset_cm",
+    "parse_offsets",
     "read_table",
+    "require_columns",
     "write_table",
     "atomic_write_text",
     "atomic_path",
@@ -63,6 +71,22 @@ PAIR_META_COLUMNS = ("clip_id", "camera", "track_id", "label_class", "timestamp_
 #: SPEC section 5, fixed leading columns of ratings.csv.
 RATINGS_COLUMNS = ("item_id", "rater_id", "vote", "voted_at", "response_ms", "kind")
 
+#: SPEC section 5, the values of ratings.csv's ``kind`` (and of a study item's kind).
+ITEM_KINDS = ("test", "gold", "training", "repeat")
+
+#: SPEC section 4, the columns of ``METRICS.timing.csv``.
+TIMING_COLUMNS = ("metric", "seconds", "pairs")
+
+
+def timing_path(metrics_path: str | os.PathLike) -> Path:
+    """The timing table written beside a metrics table: ``x/M.{csv,parquet}`` -> ``x/M.timing.csv``.
+
+    >>> timing_path("out/M.parquet").as_posix()
+    'out/M.timing.csv'
+    """
+    path = Path(metrics_path)
+    return path.with_name(path.stem + ".timing.csv")
+
 
 def pair_id(clip_id: str, camera: str, track_id: str, timestamp_us: int, y_offset_m: float) -> str:
     """SPEC section 3 pair id.
@@ -73,6 +97,34 @@ def pair_id(clip_id: str, camera: str, track_id: str, timestamp_us: int, y_offse
     'clip:front:car-1:0:-0.50'
     """
     return f"{clip_id}:{camera}:{track_id}:{int(timestamp_us)}:{float(y_offset_m):+.2f}"
+
+
+def offset_cm(y_offset_m) -> np.ndarray:
+    """Offsets in metres -> integer centimetres, the precision of :func:`pair_id`; same shape.
+
+    >>> offset_cm([0.004, -1.5, 2.999]).tolist()
+    [0, -150, 300]
+    """
+    return np.round(np.asarray(y_offset_m, dtype=np.float64) * 100).astype(np.int64)
+
+
+def parse_offsets(text: str, *, field: str = "offsets") -> list[float]:
+    """A comma list of render offsets in metres -> floats in the given order.
+
+    Raises :class:`InputError` naming ``field`` unless every item is a finite number and
+    there is at least one.
+
+    >>> parse_offsets("-3,-2, 0,1.5")
+    [-3.0, -2.0, 0.0, 1.5]
+    """
+    expected = "a comma list of finite numbers of metres, e.g. -3,-2,-1,0,1,2,3"
+    try:
+        values = [float(t) for t in str(text).split(",") if t.strip()]
+    except ValueError:
+        raise InputError(field, None, expected, text) from None
+    if not values or not all(math.isfinite(v) for v in values):
+        raise InputError(field, None, expected, text)
+    return values
 
 
 def _check_suffix(path: Path, what: str) -> str:
@@ -106,12 +158,19 @@ def read_table(
         raise InputError(path, None, f"a {what} with a header row", "an empty file") from None
     except Exception as exc:  # parser errors of either format
         raise InputError(path, None, f"a readable {what}", f"{type(exc).__name__}: {exc}") from None
-    missing = [c for c in required if c not in df.columns]
-    if missing:
-        raise InputError(path, f"column {missing[0]!r}", f"the columns {', '.join(required)}",
-                         f"columns {', '.join(map(str, df.columns))}")
+    require_columns(df, required, where=path)
     check = TABLE_CHECKS.get(what)
     return df if check is None else check(df, where=str(path))
+
+
+def require_columns(df: pd.DataFrame, required: Sequence[str], *, where: object) -> pd.DataFrame:
+    """``df`` if it has every column of ``required``; else :class:`InputError` naming ``where``
+    and the first missing column (and listing the columns it has)."""
+    missing = [c for c in required if c not in df.columns]
+    if missing:
+        raise InputError(where, f"column {missing[0]!r}", f"the columns {', '.join(required)}",
+                         f"columns {', '.join(map(str, df.columns))}")
+    return df
 
 
 def _line(i: int) -> str:
@@ -119,8 +178,6 @@ def _line(i: int) -> str:
 
 
 def _first(mask) -> int:
-    import numpy as np
-
     return int(np.flatnonzero(np.asarray(mask))[0])
 
 
@@ -137,8 +194,6 @@ def _unique_ids(df: pd.DataFrame, col: str, where: str) -> None:
 
 
 def _numeric(df: pd.DataFrame, col: str, where: str, what: str, *, integer: bool = False) -> None:
-    import numpy as np
-
     num = pd.to_numeric(df[col], errors="coerce")
     bad = ~np.isfinite(num.to_numpy(dtype=float))
     if integer:
@@ -315,8 +370,6 @@ def pair_scene_roots(df: pd.DataFrame, *, scene_root=None, base=None, where: str
     column, a relative value taken from ``base`` (the pairs file's folder; default the
     current directory). ``gt_path``/``render_path`` are relative to that folder.
     """
-    import numpy as np
-
     if scene_root is not None:
         root = Path(scene_root).resolve()
         if not root.is_dir():
@@ -336,8 +389,6 @@ def pair_image_paths(df: pd.DataFrame, column: str, *, scene_root=None, base=Non
     """Absolute image paths of ``column`` (``gt_path`` or ``render_path``), ``(N,)`` object array.
 
     Every path obeys the scene-folder rule (:func:`inside_scene`) and names an existing file."""
-    import numpy as np
-
     roots = pair_scene_roots(df, scene_root=scene_root, base=base, where=where)
     rel = df[column].to_numpy(dtype=object)
     seen: dict = {}
@@ -352,8 +403,6 @@ def pair_image_paths(df: pd.DataFrame, column: str, *, scene_root=None, base=Non
 
 def pair_boxes(df: pd.DataFrame, columns, *, where: str = "pairs"):
     """Inclusive integer boxes ``(N, 4)`` int64 from four columns (e.g. :data:`GT_BOX_COLUMNS`)."""
-    import numpy as np
-
     columns = list(columns)
     vals = df[columns].to_numpy()
     try:

@@ -29,6 +29,7 @@ from tqdm import tqdm
 
 from data_schema.errors import InputError
 from data_schema.tables import GT_BOX_COLUMNS, atomic_write_text, pair_boxes, pair_image_paths
+from nvrq.encoders import get_spec
 from nvrq.score_core import embed_crops, nvrq_similarity, read_crops
 
 __all__ = ["config_path", "read_tau_config", "write_tau", "resolve_tau", "recommend_tau",
@@ -71,8 +72,6 @@ def write_tau(path: str | os.PathLike, encoder: str, tau: float, **info) -> Path
 def resolve_tau(encoder: str, *, tau: float | None = None,
                 config: str | os.PathLike | None = None) -> tuple[float | None, str]:
     """``(tau, where it came from)``: ``--tau`` > user config > registry (``None`` if none)."""
-    from nvrq.encoders import get_spec
-
     spec = get_spec(encoder)
     if tau is not None:
         return float(tau), "--tau"

@@ -2,8 +2,10 @@
 
 Each subcommand lives in ``nvrq/commands/<name>.py`` and exposes
 ``register(subparsers)``, which adds its parser and sets ``func`` (called with the
-parsed ``argparse.Namespace``; returns an exit status). Heavy imports (torch, OpenCV)
-happen inside those functions so ``nvrq --help`` stays instant.
+parsed ``argparse.Namespace``; returns an exit status). Imports sit at module top except
+those of heavy optional packages (torch, transformers, ray, openvino, onnxruntime, ...),
+which stay inside the functions that need them, so ``nvrq --help`` loads numpy, pandas and
+OpenCV but never a deep-learning runtime.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from pathlib import Path
 from data_schema.cliargs import flags_in_errors
 from data_schema.errors import ArgumentParser, run_cli
 from data_schema.outputs import check_output_file, check_output_folder
+from nvrq.commands.score import timing_path
 
 __all__ = ["main", "build_parser"]
 
@@ -40,13 +43,7 @@ def build_parser() -> ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in COMMAND_MODULES:
-        try:
-            module = importlib.import_module(name)
-        except ModuleNotFoundError as exc:
-            if exc.name == name:  # a stage not built in this checkout
-                continue
-            raise
-        module.register(sub)
+        importlib.import_module(name).register(sub)  # a missing module is an install error
     return parser
 
 
@@ -74,8 +71,6 @@ def check_outputs(args) -> None:
     elif kind == "file":
         check_output_file(args.out, inputs=inputs, option=option)
         if args.command == "score":
-            from nvrq.commands.score import timing_path
-
             check_output_file(timing_path(args.out), inputs=inputs, option="--out (its .timing.csv)")
     else:
         check_output_folder(args.out, kind=kind, inputs=inputs, option=option)

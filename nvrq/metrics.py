@@ -89,7 +89,8 @@ register(MetricInfo("psnr", True, (0.0, float("inf")), fn=_px.psnr,
 register(MetricInfo("ssim", True, (-1.0, 1.0), fn=_px.ssim,
                     description="SSIM (Gaussian 11x11, sigma 1.5), RGB channels averaged"))
 register(MetricInfo("ms_ssim", True, (0.0, 1.0), fn=_px.ms_ssim,
-                    description="5-scale MS-SSIM; NaN when the shorter crop side < 176 px"))
+                    description="MS-SSIM on up to 5 scales (as many as the crop holds, weights "
+                                "renormalised); NaN when the shorter crop side < 11 px"))
 register(MetricInfo("gmsd", False, (0.0, 1.0), fn=_px.gmsd,
                     description="gradient magnitude similarity deviation (Xue et al. 2014)"))
 register(MetricInfo("mse", False, (0.0, 255.0 ** 2), fn=_px.mse,

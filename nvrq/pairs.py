@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
+from tqdm.auto import tqdm
 
 from data_schema.errors import InputError
 from data_schema.perturbation import (
@@ -269,7 +270,6 @@ def make_pairs(
     reason, otherwise under the novel view's; novel views are only projected for boxes
     valid in the GT view. The 8-corner and size criteria are the same in every view.
     """
-    from tqdm.auto import tqdm
 
     for name, value in (("min_side", min_side), ("min_area", min_area)):
         if not isinstance(value, int | float | np.number) or not np.isfinite(value) or value < 0:

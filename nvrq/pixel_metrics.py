@@ -9,10 +9,16 @@ Pixel values are 0-255 (``data_range = 255``); nothing is rescaled or inferred.
   population covariances, computed per RGB channel and averaged; equals
   ``skimage.metrics.structural_similarity(gt, render, channel_axis=-1, data_range=255,
   gaussian_weights=True, sigma=1.5, use_sample_covariance=False)``. NaN if a side < 11.
-- :func:`ms_ssim` -- Wang et al. 2003, 5 scales, weights (0.0448, 0.2856, 0.3001, 0.2363,
-  0.1333), 2x2 mean downsampling (an odd last row/column is dropped); negative contrast
-  terms are clipped to 0. Defined only when the coarsest scale still fits the 11-pixel
-  window, i.e. the shorter crop side is >= 176; NaN otherwise (most small objects).
+- :func:`ms_ssim` -- Wang et al. 2003 on the scales the crop holds: scale ``j`` (``j = 1`` the
+  crop itself) is reached by ``j - 1`` 2x2 mean downsamplings (an odd last row/column is
+  dropped); ``M`` = the number of scales whose shorter side still fits the 11-pixel window,
+  at most 5 (``M = min(5, 1 + floor(log2(side / 11)))``: 1 for sides 11-21, 2 for 22-43
+  (so every crop from 30 px up has at least two), 3 for 44-87, 4 for 88-175, 5 from 176).
+  Weights: the first ``M`` of (0.0448, 0.2856, 0.3001, 0.2363, 0.1333) rescaled to the sum
+  of all five as published (1.0001); contrast-structure means at scales ``1..M-1``, full
+  SSIM at scale ``M``; negative terms clipped to 0; per RGB channel, then averaged. From
+  176 px this is exactly the original 5-scale MS-SSIM; below 22 px it is :func:`ssim`'s
+  per-channel means (each clipped at 0) raised to 1.0001 and averaged; NaN if a side < 11.
 - :func:`gmsd` -- Xue et al. 2014 (lower is better): luma Y = 0.299 R + 0.587 G + 0.114 B,
   2x2 mean + downsample by 2, Prewitt gradients (/3, zero padding), c = 170, the sample
   standard deviation of the similarity map; 0 for identical crops.
@@ -33,13 +39,16 @@ import math
 import cv2
 import numpy as np
 
-__all__ = ["psnr", "ssim", "ms_ssim", "gmsd", "mse", "mae", "MS_SSIM_WEIGHTS", "MS_SSIM_MIN_SIDE"]
+__all__ = [
+    "psnr", "ssim", "ms_ssim", "ms_ssim_scales", "gmsd", "mse", "mae", "MS_SSIM_WEIGHTS",
+    "MS_SSIM_FULL_SIDE",
+]
 
 DATA_RANGE = 255.0
 _K1, _K2, _WIN, _SIGMA = 0.01, 0.03, 11, 1.5
 MS_SSIM_WEIGHTS = (0.0448, 0.2856, 0.3001, 0.2363, 0.1333)
-#: shorter side needed for 5 scales: floor(176 / 2**4) = 11 = the window size.
-MS_SSIM_MIN_SIDE = _WIN * 2 ** (len(MS_SSIM_WEIGHTS) - 1)
+#: shorter side from which all 5 scales are used: floor(176 / 2**4) = 11 = the window size.
+MS_SSIM_FULL_SIDE = _WIN * 2 ** (len(MS_SSIM_WEIGHTS) - 1)
 
 
 def _check(gt: np.ndarray, render: np.ndarray) -> None:
@@ -99,13 +108,27 @@ def _half(x: np.ndarray) -> np.ndarray:
     return 0.25 * (x[0::2, 0::2] + x[1::2, 0::2] + x[0::2, 1::2] + x[1::2, 1::2])
 
 
+def ms_ssim_scales(side: int) -> int:
+    """Scales MS-SSIM uses for a crop whose shorter side is ``side`` (0 if below 11 px).
+
+    >>> [ms_ssim_scales(s) for s in (10, 11, 21, 22, 30, 44, 88, 175, 176, 1000)]
+    [0, 1, 1, 2, 2, 3, 4, 4, 5, 5]
+    """
+    m = 0
+    while m < len(MS_SSIM_WEIGHTS) and side // 2**m >= _WIN:
+        m += 1
+    return m
+
+
 def ms_ssim(gt: np.ndarray, render: np.ndarray) -> float:
-    """Multi-scale SSIM (5 scales); NaN if the shorter crop side is below 176 pixels."""
+    """Multi-scale SSIM on the scales the crop holds (module docstring); NaN below 11 px."""
     _check(gt, render)
-    if min(gt.shape[:2]) < MS_SSIM_MIN_SIDE:
+    n_scales = ms_ssim_scales(min(gt.shape[:2]))
+    if n_scales == 0:
         return math.nan
     x, y = gt.astype(np.float64), render.astype(np.float64)
-    w = np.asarray(MS_SSIM_WEIGHTS)
+    w = np.asarray(MS_SSIM_WEIGHTS[:n_scales])
+    w = w * (sum(MS_SSIM_WEIGHTS) / w.sum())  # the published sum (1.0001) at every M
     terms = []
     for level in range(len(w)):
         s, cs = _ssim_cs_maps(x, y)

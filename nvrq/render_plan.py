@@ -45,6 +45,12 @@ from data_schema.perturbation import (
     perturbation_array,
 )
 from data_schema.tables import atomic_write_text, write_table
+from nvrq.geometry.poses import (
+    T_sensor_world,
+    interpolate_poses,
+    invert_rigid,
+    perturb_T_sensor_rig,
+)
 
 __all__ = ["default_image_path", "plan_poses", "render_plan", "write_render_plan", "PLAN_COLUMNS",
            "PLAN_PERTURBATION_COLUMNS"]
@@ -85,8 +91,6 @@ def plan_poses(T_rig_world: np.ndarray, T_sensor_rig: np.ndarray, views: np.ndar
     """Poses for frames ``T_rig_world: (F, 4, 4)``, one camera ``T_sensor_rig: (4, 4)`` and
     views: lateral offsets ``(K,)`` or perturbations ``(K, 6)``. Returns ``T_sensor_rig
     (K, 4, 4)``, ``T_sensor_world`` and ``T_world_sensor`` ``(F, K, 4, 4)``."""
-    from nvrq.geometry.poses import T_sensor_world, invert_rigid, perturb_T_sensor_rig
-
     views = np.asarray(views, float)
     T_sr = perturb_T_sensor_rig(T_sensor_rig, views if views.ndim == 2 else lateral(views))
     T_sw = T_sensor_world(np.asarray(T_rig_world, float)[:, None], T_sr[None])
@@ -115,8 +119,6 @@ def render_plan(scene, *, offsets=None, perturbations=None, cameras=None) -> pd.
     ``images.csv`` lists for the camera, or the rig timestamps when it lists none. ``path``
     is the render's ``images.csv`` path when listed, else :func:`default_image_path`.
     """
-    from nvrq.geometry.poses import interpolate_poses
-
     images = scene.images
     views = _plan_views(scene, offsets, perturbations)
     names = list(scene.cameras) if cameras is None else list(cameras)

@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 import sys
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -35,7 +36,13 @@ from scipy.stats import rankdata
 from tqdm import tqdm
 
 from data_schema.errors import InputError
-from data_schema.tables import GT_BOX_COLUMNS, MIN_SIDE_PX, pair_boxes, pair_image_paths
+from data_schema.tables import (
+    GT_BOX_COLUMNS,
+    MIN_SIDE_PX,
+    atomic_path,
+    pair_boxes,
+    pair_image_paths,
+)
 from nvrq.crops import cut_box, read_rgb
 from nvrq.metrics import metric_info
 from nvrq.nuisances import (
@@ -342,11 +349,8 @@ def plot_stability(stab: pd.DataFrame, snr: pd.DataFrame, out_stem) -> list:
     import matplotlib.ticker
 
     matplotlib.use("Agg")
-    from pathlib import Path
-
     import matplotlib.pyplot as plt
 
-    from data_schema.tables import atomic_path
 
     metrics = list(dict.fromkeys(snr["metric"]))
     names = list(dict.fromkeys(snr["nuisance"]))

@@ -14,6 +14,9 @@ from nvrq.metrics import REGISTRY
 from nvrq.nuisances import clamp_box, expose, jpeg_roundtrip, occlude, shifted_box
 from nvrq.stability import pooled_change, run_stability, summarise
 
+#: docs/FORMATS.md, stability.csv
+STABILITY_COLUMNS = ["metric", "nuisance_or_artefact", "kind", "strength", "mean_abs_change", "n"]
+
 
 def test_pooled_change_invariant_to_monotone_rescaling():
     # PSNR = 10 log10(255^2 / MSE) is a decreasing function of MSE, so the two metrics must give
@@ -47,14 +50,7 @@ def test_summarise_hand_worked():
         )
     )
     stab, snr = summarise(t)
-    assert stab.columns.tolist()[:6] == [
-        "metric",
-        "nuisance_or_artefact",
-        "kind",
-        "strength",
-        "mean_abs_change",
-        "n",
-    ]
+    assert stab.columns.tolist()[:6] == STABILITY_COLUMNS
     a = stab[stab.nuisance_or_artefact == "a"]
     assert a["mean_abs_change"].iloc[0] == pytest.approx(0.2) and a["n"].iloc[0] == 2
     got = snr.set_index("nuisance")["snr"]
@@ -165,14 +161,7 @@ def test_cli_writes_tables_and_plot(synth_pairs, tmp_path, capsys):
     )
     assert rc == 0
     stab = pd.read_csv(out / "stability.csv")
-    assert stab.columns.tolist() == [
-        "metric",
-        "nuisance_or_artefact",
-        "kind",
-        "strength",
-        "mean_abs_change",
-        "n",
-    ]
+    assert stab.columns.tolist() == STABILITY_COLUMNS
     assert set(stab.kind) == {"nuisance", "artefact"}
     assert {"box_jitter", "scale_jitter", "occlusion", "exposure", "jpeg", "view_shift"} <= set(
         stab.nuisance_or_artefact

@@ -5,6 +5,10 @@ Rule: tau = median of S over GT crops of unrelated objects (different tracks and
 
 from __future__ import annotations
 
+import datetime as dt
+
+from data_schema.tables import read_table
+from nvrq.calibrate import calibrate_tau, config_path, write_tau
 from nvrq.commands._encoder import add_encoder_arguments, load_encoder_and_tau
 
 __all__ = ["register", "run"]
@@ -28,11 +32,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    import datetime as dt
-
-    from data_schema.tables import read_table
-    from nvrq.calibrate import calibrate_tau, config_path, write_tau
-
     pairs = read_table(args.pairs, what="pairs table")
     encoder, _ = load_encoder_and_tau(args, needs_tau=False)
     cal = calibrate_tau(pairs, encoder, scene_root=args.scene, max_crops=args.max_crops,

@@ -9,9 +9,11 @@ from __future__ import annotations
 
 import shlex
 import time
+from importlib.metadata import distribution
 from pathlib import Path
 
 from data_schema.cliargs import allow_negative_lists
+from data_schema.errors import InputError
 
 __all__ = ["register", "run", "demo_steps"]
 
@@ -54,18 +56,18 @@ def demo_steps(out: Path, args) -> list[tuple[str, list[str]]]:
 
 
 def _entry(program: str):
-    if program == "nvrq":
-        from nvrq.cli import main
-    elif program == "annotate":
-        from annotate.cli import main
-    else:
-        from analysis.cli import main
-    return main
+    """The ``main(argv)`` of the console script ``program`` as this distribution installs it.
+
+    The demo runs each stage through its public command, found by name in the package
+    metadata (``[project.scripts]``), so ``nvrq`` never imports ``annotate`` or ``analysis``.
+    """
+    scripts = distribution("nvrq").entry_points.select(group="console_scripts", name=program)
+    if not scripts:
+        raise InputError(program, None, "an installed console script (pip install -e .)", "none")
+    return next(iter(scripts)).load()
 
 
 def run(args) -> int:
-    from data_schema.errors import InputError
-
     out = Path(args.out)
     if out.exists() and any(out.iterdir()):
         raise InputError(out, None, "an empty or absent output folder", "a folder with files in it")

@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
+from data_schema.cliargs import allow_negative_lists
+from nvrq.commands.synth import add_perturb_option, parse_offsets, perturb_grid
+from nvrq.sources.kitti import import_kitti
+from nvrq.sources.nurec import import_nurec
+
 __all__ = ["register"]
 
 
 def register(sub) -> None:
-    from data_schema.cliargs import allow_negative_lists
-    from nvrq.commands.synth import add_perturb_option
-
     p = sub.add_parser(
         "import",
         help="import a NuRec archive or a KITTI frame as a scene folder",
@@ -50,8 +54,6 @@ def register(sub) -> None:
 
 
 def _run_nurec(args) -> int:
-    from nvrq.commands.synth import parse_offsets, perturb_grid
-    from nvrq.sources.nurec import import_nurec
 
     attributes = None
     if args.clip_attributes:
@@ -67,10 +69,6 @@ def _run_nurec(args) -> int:
 
 
 def _run_kitti(args) -> int:
-    from pathlib import Path
-
-    from nvrq.sources.kitti import import_kitti
-
     out = import_kitti(Path(args.kitti_root), args.frame, Path(args.out))
     print(f"wrote {out}")
     return 0

@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import time
 
-from data_schema.tables import MIN_SIDE_PX
+from data_schema.scene import load_scene
+from data_schema.tables import MIN_SIDE_PX, write_table
+from nvrq.pairs import make_pairs
 
 __all__ = ["register", "run"]
 
@@ -30,10 +32,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from data_schema.scene import load_scene
-    from data_schema.tables import write_table
-    from nvrq.pairs import make_pairs
-
     t0 = time.perf_counter()
     attributes = None
     if args.clip_attributes:

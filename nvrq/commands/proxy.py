@@ -7,8 +7,13 @@ local Ultralytics YOLO model (optional extra ``[yolo]``).
 
 from __future__ import annotations
 
+from data_schema.errors import InputError
+from data_schema.tables import read_table, write_table
 from nvrq.commands._encoder import add_model_arguments, prepare_device
 from nvrq.engines import add_engine_args
+from nvrq.proxies import load_class_maps
+from nvrq.proxies.detection import detection_confidence, read_detections
+from nvrq.proxies.yolo import run_yolo
 
 __all__ = ["register"]
 
@@ -96,24 +101,16 @@ def register(sub) -> None:
 
 
 def _check_out(out) -> None:
-    from data_schema.errors import InputError
-
     if not str(out).lower().endswith((".csv", ".parquet")):
         raise InputError(out, None, "an output file ending in .csv or .parquet", out)
 
 
 def _read_pairs(path, extra=()):
-    from data_schema.tables import read_table
-
     need = ("pair_id", "label_class", "render_path", "r_x0", "r_y0", "r_x1", "r_y1", *extra)
     return read_table(path, required=need, what="pairs table")
 
 
 def run_detection(args) -> int:
-    from data_schema.tables import write_table
-    from nvrq.proxies import load_class_maps
-    from nvrq.proxies.detection import detection_confidence, read_detections
-
     _check_out(args.out)
     maps = load_class_maps(args.class_map)
     pairs = _read_pairs(args.pairs)
@@ -124,9 +121,6 @@ def run_detection(args) -> int:
 
 
 def run_detect(args) -> int:
-    from data_schema.tables import write_table
-    from nvrq.proxies.yolo import run_yolo
-
     _check_out(args.out)
     pairs = _read_pairs(args.pairs)
     prepare_device(args)

@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+from data_schema.cliargs import allow_negative_lists
+from data_schema.errors import InputError
+from data_schema.scene import load_scene
+from nvrq.commands.synth import add_perturb_option, parse_offsets, perturb_grid
+from nvrq.render_plan import render_plan, write_render_plan
+
 __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
-    from data_schema.cliargs import allow_negative_lists
-    from nvrq.commands.synth import add_perturb_option
-
     p = sub.add_parser(
         "render-plan",
         help="virtual camera poses a renderer must draw (paper Eq. 1-2)",
@@ -27,15 +30,10 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from data_schema.errors import InputError
-    from data_schema.scene import load_scene
-    from nvrq.commands.synth import parse_offsets, perturb_grid
-    from nvrq.render_plan import render_plan, write_render_plan
-
     if not str(args.out).lower().endswith((".csv", ".json")):
         raise InputError("--out", None, "a plan file ending in .csv or .json", args.out)
     scene = load_scene(args.scene, check_images=False)
-    offsets = None if args.offsets is None else parse_offsets(args.offsets)
+    offsets = None if args.offsets is None else parse_offsets(args.offsets, field="--offsets")
     cameras = (
         None if args.cameras is None else [c.strip() for c in args.cameras.split(",") if c.strip()]
     )

@@ -2,15 +2,22 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
+import cv2
+
 from data_schema.cliargs import comma_list
+from data_schema.errors import InputError
+from data_schema.tables import read_table, timing_path, write_table
 from nvrq.commands._encoder import (
     add_encoder_arguments,
     encoder_for_metrics,
     load_encoder_and_tau,
 )
 from nvrq.engines import add_engine_args
+from nvrq.score_core import encoder_columns
+from nvrq.scoring import REQUIRED_COLUMNS, resolve_metrics, score_pairs
 
 __all__ = ["register", "run", "timing_path", "runtime_columns"]
 
@@ -35,25 +42,8 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def timing_path(out) -> Path:
-    """``x/METRICS.csv`` or ``x/METRICS.parquet`` -> ``x/METRICS.timing.csv``.
-
-    >>> timing_path("out/M.parquet").as_posix()
-    'out/M.timing.csv'
-    """
-    out = Path(out)
-    return out.with_name(out.stem + ".timing.csv")
-
-
 def run(args) -> int:
-    import sys
 
-    import cv2
-
-    from data_schema.errors import InputError
-    from data_schema.tables import read_table, write_table
-    from nvrq.score_core import encoder_columns
-    from nvrq.scoring import REQUIRED_COLUMNS, resolve_metrics, score_pairs
 
     raw = comma_list(args.metrics)
     encoder_name = encoder_for_metrics(raw, args.encoder)

@@ -8,13 +8,21 @@ is the overall ratio), ``DIR/samples.csv`` (every scored sample: raw value and c
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 from data_schema.cliargs import comma_list
-from data_schema.tables import MIN_SIDE_PX
+from data_schema.errors import InputError
+from data_schema.outputs import mark_report
+from data_schema.tables import MIN_SIDE_PX, read_table, write_table
 from nvrq.commands._encoder import (
     add_encoder_arguments,
     encoder_for_metrics,
     load_encoder_and_tau,
 )
+from nvrq.score_core import encoder_columns
+from nvrq.scoring import resolve_metrics
+from nvrq.stability import plot_stability, run_stability
 
 __all__ = ["register", "run"]
 
@@ -50,16 +58,6 @@ _PAIRS_COLUMNS = ("pair_id", "clip_id", "camera", "track_id", "timestamp_us", "g
 
 
 def run(args) -> int:
-    import sys
-    from pathlib import Path
-
-    from data_schema.errors import InputError
-    from data_schema.outputs import mark_report
-    from data_schema.tables import read_table, write_table
-    from nvrq.score_core import encoder_columns
-    from nvrq.scoring import resolve_metrics
-    from nvrq.stability import plot_stability, run_stability
-
     raw = comma_list(args.metrics)
     encoder_name = encoder_for_metrics(raw, args.encoder)
     columns = resolve_metrics(raw, encoder_name)

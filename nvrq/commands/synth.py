@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 from data_schema.cliargs import allow_negative_lists, parse_wxh
+from data_schema.perturbation import parse_perturb
+from data_schema.tables import parse_offsets
+from nvrq.synth import generate_scene
 
 __all__ = ["register", "run", "parse_offsets", "parse_size", "allow_negative_lists", "add_perturb_option",
            "perturb_grid"]
@@ -20,30 +23,7 @@ def add_perturb_option(parser) -> None:
 
 def perturb_grid(args):
     """The ``(K, 6)`` views of ``--perturb``, or None when it was not given."""
-    from data_schema.perturbation import parse_perturb
-
     return None if args.perturb is None else parse_perturb(args.perturb, option="--perturb")
-
-
-def parse_offsets(text: str, *, option: str = "--offsets") -> list[float]:
-    """``"-3,-2,0,1.5"`` -> ``[-3.0, -2.0, 0.0, 1.5]``; bad text raises InputError.
-
-    >>> parse_offsets("-3,-2,-1,0,1,2,3")
-    [-3.0, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0]
-    """
-    import math
-
-    from data_schema.errors import InputError
-
-    try:
-        values = [float(t) for t in str(text).split(",") if t.strip()]
-    except ValueError:
-        raise InputError(
-            option, None, "comma-separated numbers of metres, e.g. -3,-2,-1,0,1,2,3", text
-        ) from None
-    if not values or not all(math.isfinite(v) for v in values):
-        raise InputError(option, None, "comma-separated finite numbers of metres", text)
-    return values
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -80,8 +60,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from nvrq.synth import generate_scene
-
     cameras = tuple(c.strip() for c in args.cameras.split(",") if c.strip())
     out = generate_scene(
         args.out,

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from data_schema.errors import InputError
+from nvrq.crops import normalised_tensor
 
 __all__ = ["EncoderSpec", "ENCODERS", "DEFAULT_ENCODER", "get_spec", "Encoder",
            "load_encoder", "build_random"]
@@ -144,7 +145,6 @@ class Encoder:
         """uint8 (B, S, S, 3) RGB -> normalised float tensor (B, 3, S, S) on the device."""
         import torch
 
-        from nvrq.crops import normalised_tensor
 
         images = np.asarray(images)
         s = self.spec.input_size

@@ -14,9 +14,11 @@ import json
 import os
 from pathlib import Path
 
+import numpy as np
+
 from data_schema.errors import InputError
 
-__all__ = ["CLASS_MAPS_PATH", "load_class_maps"]
+__all__ = ["CLASS_MAPS_PATH", "load_class_maps", "mapped_labels"]
 
 CLASS_MAPS_PATH = Path(__file__).with_name("class_maps.json")
 _KEYS = ("coco", "clip_category", "clip_prompts")
@@ -62,3 +64,19 @@ def load_class_maps(path: str | os.PathLike | None = None) -> dict:
             )
         out["clip_category"][label.lower()] = None if cat is None else cat.lower()
     return out
+
+
+def mapped_labels(labels, mapping: dict, section: str, *, where: str = "pairs") -> np.ndarray:
+    """Lower-cased ``labels`` ``(N,)`` object array; :class:`InputError` naming ``where`` if a
+    label is missing from ``mapping`` (the class map's ``section``, e.g. ``'coco'``)."""
+    low = np.array([str(x).lower() for x in labels], dtype=object)
+    unknown = sorted(set(low) - set(mapping))
+    if unknown:
+        raise InputError(
+            where,
+            "label_class",
+            f"classes listed in the class map's {section!r} section "
+            "(edit nvrq/proxies/class_maps.json or pass --class-map)",
+            ", ".join(unknown),
+        )
+    return low

@@ -33,6 +33,7 @@ from tqdm import tqdm
 
 from data_schema.errors import InputError
 from nvrq.crops import normalised_tensor
+from nvrq.encoders import load_encoder
 from nvrq.score_core import iter_crop_batches, pair_outputs
 
 __all__ = [
@@ -106,8 +107,6 @@ def load_classifier(
 ) -> ImageClassifier:
     """``efficientnet-lite0`` (``weights``: optional ``.pth``) or a transformers classifier folder."""
     if name == DEFAULT_CLASSIFIER:
-        from nvrq.encoders import load_encoder
-
         enc = load_encoder(
             name, weights=weights, device=device, runtime="torch"
         )  # full model incl. the ImageNet head (the exported graph is the embedding only)

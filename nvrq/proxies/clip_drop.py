@@ -27,6 +27,7 @@ import pandas as pd
 
 from data_schema.errors import InputError
 from nvrq.crops import normalised_tensor
+from nvrq.proxies import mapped_labels
 from nvrq.proxies.classifier_drop import pair_probabilities, preprocessor_stats
 
 __all__ = ["ZeroShotCLIP", "zero_shot_probs", "load_clip", "clip_drop", "true_category_index"]
@@ -159,16 +160,7 @@ def true_category_index(
 ) -> np.ndarray:
     """Index (N,) into ``categories`` of each ``label_class``; -1 where the map says null."""
     pos = {c: k for k, c in enumerate(categories)}
-    low = [str(x).lower() for x in labels]
-    unknown = sorted(set(low) - set(category_map))
-    if unknown:
-        raise InputError(
-            where,
-            "label_class",
-            "classes listed in the class map's 'clip_category' section "
-            "(edit nvrq/proxies/class_maps.json or pass --class-map)",
-            ", ".join(unknown),
-        )
+    low = mapped_labels(labels, category_map, "clip_category", where=where)
     return np.array(
         [-1 if category_map[x] is None else pos[category_map[x]] for x in low], dtype=np.int64
     )

@@ -31,6 +31,8 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.tables import RENDER_BOX_COLUMNS, read_table, require_columns
+from nvrq.proxies import mapped_labels
 
 __all__ = [
     "DETS_COLUMNS",
@@ -73,22 +75,13 @@ def render_boxes_xyxy(pairs: pd.DataFrame) -> np.ndarray:
 
 def read_detections(path: str | os.PathLike) -> pd.DataFrame:
     """Read and validate a DETS table (:data:`DETS_COLUMNS`); ``coco_class`` lower-cased."""
-    from data_schema.tables import read_table
-
     dets = read_table(path, required=DETS_COLUMNS, what="detections table")
     return validate_detections(dets, where=str(path))
 
 
 def validate_detections(dets: pd.DataFrame, *, where: str = "detections") -> pd.DataFrame:
     """Check the numeric columns (finite, ``x1 >= x0``, ``y1 >= y0``, score in [0, 1])."""
-    missing = [c for c in DETS_COLUMNS if c not in dets.columns]
-    if missing:
-        raise InputError(
-            where,
-            f"column {missing[0]!r}",
-            f"the columns {', '.join(DETS_COLUMNS)}",
-            f"columns {', '.join(map(str, dets.columns))}",
-        )
+    require_columns(dets, DETS_COLUMNS, where=where)
     out = dets.loc[:, list(DETS_COLUMNS)].copy()
     for col in ("x0", "y0", "x1", "y1", "score"):
         vals = pd.to_numeric(out[col], errors="coerce").to_numpy(np.float64)
@@ -150,25 +143,9 @@ def detection_confidence(
     ``dets``: a validated DETS table (:func:`validate_detections`). ``coco_map``: lower-cased
     ``label_class`` -> allowed COCO classes (a class absent from the map is an error).
     """
-    need = ("pair_id", "label_class", "render_path", "r_x0", "r_y0", "r_x1", "r_y1")
-    missing = [c for c in need if c not in pairs.columns]
-    if missing:
-        raise InputError(
-            where,
-            f"column {missing[0]!r}",
-            f"the columns {', '.join(need)}",
-            f"columns {', '.join(map(str, pairs.columns))}",
-        )
-    labels = pairs["label_class"].astype(str).str.lower().to_numpy(dtype=object)
-    unknown = sorted(set(labels) - set(coco_map))
-    if unknown:
-        raise InputError(
-            where,
-            "label_class",
-            "classes listed in the class map's 'coco' section "
-            "(edit nvrq/proxies/class_maps.json or pass --class-map)",
-            ", ".join(unknown),
-        )
+    require_columns(pairs, ("pair_id", "label_class", "render_path", *RENDER_BOX_COLUMNS),
+                    where=where)
+    labels = mapped_labels(pairs["label_class"], coco_map, "coco", where=where)
     dets = dets[dets["score"].to_numpy() >= min_score]
     n = len(pairs)
     s_det = np.zeros(n)

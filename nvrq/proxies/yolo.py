@@ -15,8 +15,10 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from tqdm import tqdm
 
 from data_schema.errors import InputError
+from data_schema.tables import pair_image_paths
 
 __all__ = ["CONF", "NMS_IOU", "results_to_table", "run_yolo"]
 
@@ -64,10 +66,6 @@ def run_yolo(
 ) -> pd.DataFrame:
     """Detect on every distinct render image of ``pairs``; ``path`` is written as in the pairs
     table (``render_path``, relative to the scene folder)."""
-    from tqdm import tqdm
-
-    from data_schema.tables import pair_image_paths
-
     weights = Path(weights)
     if not weights.is_file():
         raise InputError(

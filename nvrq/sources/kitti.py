@@ -21,6 +21,7 @@ import os
 import shutil
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pandas as pd
 
@@ -118,8 +119,6 @@ def kitti_scene_doc(P2: np.ndarray, labels: pd.DataFrame, *, image_size: tuple[i
 
 def import_kitti(kitti_root: str | os.PathLike, frame: str, out: str | os.PathLike) -> Path:
     """Write the scene folder ``out`` for KITTI frame ``frame`` (e.g. ``'000000'``) of ``kitti_root``."""
-    import cv2
-
     root, out = Path(kitti_root), Path(out)
     image = root / "image_2" / f"{frame}.png"
     if not image.is_file():

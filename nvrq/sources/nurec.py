@@ -47,8 +47,10 @@ from data_schema.perturbation import (
     is_lateral,
     lateral,
 )
-from data_schema.scene import save_scene
+from data_schema.scene import CAMERA_MODEL_SCHEMA, save_scene
 from data_schema.tables import IMAGES_COLUMNS
+from nvrq.geometry.cameras import camera_from_model
+from nvrq.geometry.poses import matrix_to_pose7, pose7_to_matrix
 from nvrq.render_plan import default_image_path
 
 __all__ = ["import_nurec", "read_archive_json"]
@@ -125,25 +127,14 @@ def _timestamps(value, where, fld) -> np.ndarray:
 
 
 def _spec_ftheta(model, where, fld) -> dict:
-    from nvrq.geometry.cameras import camera_from_model
-
     mtype = _get(model, "type", where, fld)
     if mtype != "ftheta":
         raise InputError(where, f"{fld}.type", "ftheta", repr(mtype))
     params = _get(model, "parameters", where, fld)
     if not isinstance(params, dict):
         raise InputError(where, f"{fld}.parameters", "a JSON object", type(params).__name__)
-    keys = (
-        "resolution",
-        "principal_point",
-        "reference_poly",
-        "pixeldist_to_angle_poly",
-        "angle_to_pixeldist_poly",
-        "max_angle",
-        "linear_cde",
-    )
     spec = {"type": "ftheta"}
-    for k in keys:
+    for k in CAMERA_MODEL_SCHEMA["ftheta"]:
         if k in params:
             spec[k] = params[k]
     ref = spec.get("reference_poly")
@@ -175,8 +166,6 @@ def _tracks_block(doc, sequence_id, where):
 
 
 def _read_tracks(doc, sequence_id, where, nre_to_world, scale) -> list[dict]:
-    from nvrq.geometry.poses import matrix_to_pose7, pose7_to_matrix
-
     block = _tracks_block(doc, sequence_id, where)
     td = _get(block, "tracks_data", where, "")
     cd = _get(block, "cuboidtracks_data", where, "")

@@ -19,8 +19,8 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from nvrq.synth import people
-from nvrq.synth import textures as tx
+import nvrq.synth.people as people
+import nvrq.synth.textures as tx
 from nvrq.synth.layout import World
 
 __all__ = ["Assets", "build_assets", "box_faces", "FACE_NAMES"]

@@ -22,6 +22,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from nvrq.synth.textures import CAR_COLOURS
+
 __all__ = ["Road", "Actor", "World", "SIZES", "ROAD_TYPES", "LIGHTINGS", "CLASSES"]
 
 ROAD_TYPES = ("urban", "highway", "residential", "rural")
@@ -156,8 +158,6 @@ class _Builder:
         coverage = rng.uniform(0.08, 0.3) if few_views else rng.uniform(0.55, 1.0)
         profile = rng.dirichlet(np.full(6, 0.8))
         profile = 0.25 + 0.75 * profile / profile.max()
-        from nvrq.synth.textures import CAR_COLOURS
-
         colour = CAR_COLOURS[int(rng.integers(len(CAR_COLOURS)))]
         self.count[cls] += 1
         tid = f"{cls}-{self.count[cls]:03d}"

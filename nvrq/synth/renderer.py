@@ -25,6 +25,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from nvrq.geometry.cameras import camera_from_model
+
 __all__ = ["VirtualCamera", "virtual_camera", "face_homography", "draw_faces", "clip_near"]
 
 NEAR = 0.2  # metres
@@ -60,8 +62,6 @@ def virtual_camera(model: dict, *, pixel_budget: float = 1.35) -> VirtualCamera:
     The virtual focal length is the real one at the image centre, reduced when needed so
     the virtual image covers every visible ray with at most ``pixel_budget * W * H`` pixels.
     """
-    from nvrq.geometry.cameras import camera_from_model
-
     W, H = (int(v) for v in model["resolution"])
     if model["type"] == "pinhole":
         (fx, fy), (cx, cy) = model["focal_length"], model["principal_point"]

@@ -61,7 +61,11 @@ def _page_text(at: AppTest) -> str:
 
 def test_sign_in_by_name_then_instructions(study):
     at = _app()
-    assert at.button(key="sign_in") is not None
+    # the sign-in page: a name field and its button, nobody signed in, no rating buttons yet
+    assert at.button(key="sign_in").label == "Sign in"
+    assert at.text_input(key="name_input").value == ""
+    assert "rater" not in at.session_state
+    assert {b.key for b in at.button} == {"sign_in"}
     at.text_input(key="name_input").input("sim-cheat")  # reserved prefix is refused
     at.button(key="sign_in").click().run()
     assert at.error and "sim-" in at.error[0].value
@@ -69,7 +73,7 @@ def test_sign_in_by_name_then_instructions(study):
     at.button(key="sign_in").click().run()
     assert at.session_state["rater"] == "ann"
     assert at.query_params["rater"] == "ann"  # a reload keeps the rater signed in
-    assert "Reference" in at.markdown[0].value and at.button(key="start")
+    assert "Reference" in at.markdown[0].value and at.button(key="start").label == "Start"
 
 
 def test_query_param_sign_in_and_training_first(study):

@@ -19,12 +19,8 @@ from nvrq.geometry.cameras import CAMERA_MODEL_TYPES, CameraModel, camera_from_m
 SHARED = Path(__file__).resolve().parents[2].parent / "shared"
 FTHETA_VECTORS = SHARED / "ref" / "ftheta_vectors.json"
 
-PINHOLE = {
-    "type": "pinhole",
-    "resolution": [1920, 1080],
-    "focal_length": [1200.0, 1190.0],
-    "principal_point": [955.2, 541.7],
-}
+PINHOLE = {"type": "pinhole", "resolution": [1920, 1080], "focal_length": [1200.0, 1190.0],
+           "principal_point": [955.2, 541.7]}
 # a moderately distorted automotive camera with every coefficient group in use
 OPENCV_MILD = {
     "type": "opencv_pinhole",
@@ -36,21 +32,11 @@ OPENCV_MILD = {
     "thin_prism_coeffs": [0.0007, -0.0002, 0.0005, 0.0001],
 }
 # wide-angle barrel distortion that folds back (r*icD(r^2) peaks) inside a 120 deg cone
-OPENCV_WIDE = {
-    "type": "opencv_pinhole",
-    "resolution": [1280, 720],
-    "focal_length": [520.0, 520.0],
-    "principal_point": [639.5, 359.5],
-    "radial_coeffs": [-0.32, 0.11, -0.015, 0.0, 0.0, 0.0],
-    "tangential_coeffs": [0.0005, 0.0002],
-}
-FISHEYE = {
-    "type": "opencv_fisheye",
-    "resolution": [1920, 1080],
-    "focal_length": [560.0, 561.5],
-    "principal_point": [958.4, 542.9],
-    "radial_coeffs": [0.05, -0.012, 0.003, -0.0004],
-}
+OPENCV_WIDE = {"type": "opencv_pinhole", "resolution": [1280, 720], "focal_length": [520.0, 520.0],
+               "principal_point": [639.5, 359.5], "radial_coeffs": [-0.32, 0.11, -0.015, 0.0, 0.0, 0.0],
+               "tangential_coeffs": [0.0005, 0.0002]}
+FISHEYE = {"type": "opencv_fisheye", "resolution": [1920, 1080], "focal_length": [560.0, 561.5],
+           "principal_point": [958.4, 542.9], "radial_coeffs": [0.05, -0.012, 0.003, -0.0004]}
 # k1 < 0 only: theta_d = theta - 0.3 theta^3 peaks at theta = 1/sqrt(0.9) < pi/2
 FISHEYE_FOLD = {**FISHEYE, "focal_length": [900.0, 901.0], "radial_coeffs": [-0.3, 0.0, 0.0, 0.0]}
 FTHETA_WIDE = {  # 200 deg f-theta: max_angle beyond pi/2
@@ -336,23 +322,24 @@ def test_registry_names():
         (
             {"type": "kannala", "resolution": [10, 10]},
             "camera model: type: expected one of "
-            "['ftheta', 'opencv_fisheye', 'opencv_pinhole', 'pinhole'], got 'kannala'",
+            "{'pinhole', 'opencv_pinhole', 'opencv_fisheye', 'ftheta'}, got 'kannala'",
         ),
         (
             {k: v for k, v in FTHETA_BW.items() if k != "max_angle"},
-            "camera model: ftheta.max_angle: expected a positive number, got missing",
+            "camera model: ftheta.max_angle: expected this ftheta parameter to be present, got missing",
         ),
         (
             {**OPENCV_MILD, "radial_coeffs": [0.1, 0.2, 0.3, 0.4]},
-            "camera model: opencv_pinhole.radial_coeffs: expected a list of 6 finite numbers, got 4 values",
+            "camera model: opencv_pinhole.radial_coeffs: expected a list of 6 numbers, got shape 4",
         ),
         (
             {**FTHETA_BW, "angle_to_pixeldist_poly": [0.0, 952.0]},
-            "camera model: ftheta.angle_to_pixeldist_poly: expected a list of 6 finite numbers, got 2 values",
+            "camera model: ftheta.angle_to_pixeldist_poly: expected a list of 6 numbers, got shape 2",
         ),
         (
             {k: v for k, v in FISHEYE.items() if k != "focal_length"},
-            "camera model: opencv_fisheye.focal_length: expected a list of 2 finite numbers, got missing",
+            "camera model: opencv_fisheye.focal_length: expected this opencv_fisheye parameter to be "
+            "present, got missing",
         ),
         (
             {**PINHOLE, "focal_length": [1000.0, -5.0]},
@@ -360,16 +347,17 @@ def test_registry_names():
         ),
         (
             {**PINHOLE, "principal_point": ["a", 3]},
-            "camera model: pinhole.principal_point: expected a list of 2 finite numbers, got ['a', 3]",
+            "camera model: pinhole.principal_point: expected a list of 2 numbers, "
+            "got non-numeric or ragged values",
         ),
         (
             {**PINHOLE, "resolution": [1920.5, 1080]},
-            "camera model: pinhole.resolution: expected [W, H], two positive integers, got [1920.5, 1080]",
+            "camera model: pinhole.resolution: expected two positive integers [W, H], got [1920.5, 1080.0]",
         ),
         (
             {**FTHETA_BW, "reference_poly": "FORWARD"},
             "camera model: ftheta.reference_poly: expected one of "
-            "['PIXELDIST_TO_ANGLE', 'ANGLE_TO_PIXELDIST'], got 'FORWARD'",
+            "PIXELDIST_TO_ANGLE or ANGLE_TO_PIXELDIST, got 'FORWARD'",
         ),
         (
             {**FTHETA_BW, "linear_cde": [0.0, 1.0, 0.0]},
@@ -396,6 +384,8 @@ def test_registry_names():
     ],
 )
 def test_bad_model_raises_input_error_naming_the_field(model, message):
+    # names, lengths and defaults: data_schema.scene.validate_camera_model's wording (the one
+    # validator); positive focal lengths and f-theta polynomials: the camera classes' checks
     with pytest.raises(InputError) as err:
         camera_from_model(model)
     assert str(err.value) == message
@@ -412,3 +402,28 @@ def test_missing_opencv_coefficient_lists_mean_zeros():
     bare = camera_from_model({**PINHOLE, "type": "opencv_pinhole"})
     pts = _points_within(CAMERAS["pinhole"], 200, seed=4)
     np.testing.assert_array_equal(bare.project(pts)[0], CAMERAS["pinhole"].project(pts)[0])
+
+
+@pytest.mark.parametrize("name", sorted(MODELS))
+@pytest.mark.parametrize("tiny", [5e-324, 1e-310, 1e-200])
+def test_subnormal_point_projects_onto_its_own_ray(name, tiny):
+    # regression: for x = y = z = 5e-324 the fisheye returned (0.627, 0.627, 0.463) because
+    # hypot() of subnormals rounds; the direction (1, 1, 1) / sqrt(3) is exact by symmetry
+    cam = CAMERAS[name]
+    uv, projectable = cam.project(np.array([tiny, tiny, tiny]))
+    uv_ref, projectable_ref = cam.project(np.array([1.0, 1.0, 1.0]))
+    assert projectable == projectable_ref
+    np.testing.assert_array_equal(uv, uv_ref)
+    if projectable:
+        np.testing.assert_allclose(cam.unproject(uv), np.full(3, 1 / np.sqrt(3)), atol=1e-7)
+
+
+@pytest.mark.parametrize("name", ["fisheye", "ftheta_wide"])
+def test_point_one_ulp_inside_the_angle_limit_unprojects_onto_its_ray(name):
+    # regression: (0, 254, 1e-13) is 2.2e-16 rad inside the fisheye's pi/2 limit; the
+    # inverted distortion came back at the limit itself and unproject gave NaN
+    cam = CAMERAS[name]
+    p = np.array([0.0, 254.0, 1e-13])
+    uv, projectable = cam.project(p)
+    assert projectable
+    np.testing.assert_allclose(cam.unproject(uv), p / np.linalg.norm(p), atol=1e-7)

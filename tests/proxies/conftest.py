@@ -8,6 +8,7 @@ import pytest
 from PIL import Image
 
 from data_schema.tables import PAIRS_COLUMNS, pair_id
+from nvrq.cli import main
 
 #: the cat of scikit-image's 'chelsea' photo (300 x 451), inclusive box
 CAT_BOX = (100, 20, 330, 290)
@@ -67,3 +68,11 @@ def crop_input(image: np.ndarray, box, size: int) -> np.ndarray:
     import cv2
 
     return cv2.resize(sq, (size, size), interpolation=cv2.INTER_CUBIC)
+
+
+def run_proxy(tmp_path, pairs: pd.DataFrame, kind: str, out_name: str, *options: str):
+    """Write ``pairs`` to ``tmp_path/pairs.csv``, run ``nvrq proxy KIND pairs.csv --out OUT
+    OPTIONS...`` and return ``(exit status, OUT path)``."""
+    pairs.to_csv(tmp_path / "pairs.csv", index=False)
+    out = tmp_path / out_name
+    return main(["proxy", kind, str(tmp_path / "pairs.csv"), "--out", str(out), *options]), out

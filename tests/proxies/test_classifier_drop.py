@@ -11,10 +11,9 @@ import pytest
 import torch
 from skimage import data
 
-from nvrq.cli import main
 from nvrq.proxies.classifier_drop import imagenet_drop, load_classifier, top_class_drop
 
-from .conftest import CAT_BOX, crop_input
+from .conftest import CAT_BOX, crop_input, run_proxy
 
 
 def test_top_class_drop_hand_worked():
@@ -83,31 +82,11 @@ def test_transformers_classifier_folder(cat_scene, tmp_path):
 
 
 def test_cli_imagenet_and_bad_classifier(cat_scene, tmp_path, effnet, capsys):
-    cat_scene.to_csv(tmp_path / "pairs.csv", index=False)
-    rc = main(
-        [
-            "proxy",
-            "imagenet",
-            str(tmp_path / "pairs.csv"),
-            "--out",
-            str(tmp_path / "p.csv"),
-            "--quiet",
-        ]
-    )
+    rc, path = run_proxy(tmp_path, cat_scene, "imagenet", "p.csv", "--quiet")
     assert rc == 0
-    out = pd.read_csv(tmp_path / "p.csv")
+    out = pd.read_csv(path)
     assert (
         out.columns.tolist() == ["pair_id", "imagenet_drop"] and out["imagenet_drop"].iloc[1] > 0.2
     )
-    rc = main(
-        [
-            "proxy",
-            "imagenet",
-            str(tmp_path / "pairs.csv"),
-            "--out",
-            str(tmp_path / "q.csv"),
-            "--classifier",
-            str(tmp_path / "nope"),
-        ]
-    )
+    rc, _ = run_proxy(tmp_path, cat_scene, "imagenet", "q.csv", "--classifier", str(tmp_path / "nope"))
     assert rc == 2 and "--classifier" in capsys.readouterr().err

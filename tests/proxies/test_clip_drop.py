@@ -16,11 +16,10 @@ import torch
 from skimage import data
 
 from data_schema.errors import InputError
-from nvrq.cli import main
 from nvrq.proxies import load_class_maps
 from nvrq.proxies.clip_drop import ZeroShotCLIP, clip_drop, load_clip, zero_shot_probs
 
-from .conftest import CAT_BOX, crop_input
+from .conftest import CAT_BOX, crop_input, run_proxy
 
 MAPS = load_class_maps()
 MEAN, STD = [0.48, 0.45, 0.40], [0.26, 0.26, 0.27]
@@ -40,26 +39,11 @@ def clip_folder(tmp_path_factory):
     (d / "merges.txt").write_text("#version: 0.2\ni n\ne r\n")
     CLIPTokenizer(str(d / "vocab.json"), str(d / "merges.txt")).save_pretrained(d)
     torch.manual_seed(0)
+    tiny = dict(hidden_size=32, intermediate_size=64, num_hidden_layers=2, num_attention_heads=2)
     cfg = CLIPConfig(
-        text_config=dict(
-            vocab_size=len(vocab) + 2,
-            hidden_size=32,
-            intermediate_size=64,
-            num_hidden_layers=2,
-            num_attention_heads=2,
-            max_position_embeddings=160,
-            bos_token_id=0,
-            eos_token_id=1,
-            pad_token_id=1,
-        ),
-        vision_config=dict(
-            hidden_size=32,
-            intermediate_size=64,
-            num_hidden_layers=2,
-            num_attention_heads=2,
-            image_size=32,
-            patch_size=8,
-        ),
+        text_config=dict(tiny, vocab_size=len(vocab) + 2, max_position_embeddings=160,
+                         bos_token_id=0, eos_token_id=1, pad_token_id=1),
+        vision_config=dict(tiny, image_size=32, patch_size=8),
         projection_dim=16,
     )
     CLIPModel(cfg).save_pretrained(d)
@@ -135,30 +119,8 @@ def test_null_category_is_nan_and_unknown_class_is_an_error(cat_scene, clip_fold
 
 
 def test_cli_clip(cat_scene, clip_folder, tmp_path, capsys):
-    cat_scene.to_csv(tmp_path / "pairs.csv", index=False)
-    rc = main(
-        [
-            "proxy",
-            "clip",
-            str(tmp_path / "pairs.csv"),
-            "--clip",
-            str(clip_folder),
-            "--out",
-            str(tmp_path / "c.parquet"),
-            "--quiet",
-        ]
-    )
+    rc, path = run_proxy(tmp_path, cat_scene, "clip", "c.parquet", "--clip", str(clip_folder), "--quiet")
     assert rc == 0
-    assert pd.read_parquet(tmp_path / "c.parquet").columns.tolist() == ["pair_id", "clip_drop"]
-    rc = main(
-        [
-            "proxy",
-            "clip",
-            str(tmp_path / "pairs.csv"),
-            "--clip",
-            str(tmp_path / "none"),
-            "--out",
-            str(tmp_path / "d.csv"),
-        ]
-    )
+    assert pd.read_parquet(path).columns.tolist() == ["pair_id", "clip_drop"]
+    rc, _ = run_proxy(tmp_path, cat_scene, "clip", "d.csv", "--clip", str(tmp_path / "none"))
     assert rc == 2 and "--clip" in capsys.readouterr().err

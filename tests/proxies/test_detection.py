@@ -13,9 +13,10 @@ import pandas as pd
 import pytest
 
 from data_schema.errors import InputError
-from nvrq.cli import main
 from nvrq.proxies import load_class_maps
 from nvrq.proxies.detection import detection_confidence, iou_matrix, validate_detections
+
+from .conftest import run_proxy
 
 COCO = load_class_maps()["coco"]
 
@@ -119,40 +120,19 @@ def test_cli_writes_proxy_table(tmp_path, capsys):
     pairs = _pairs(
         ("p0", "automobile", "r/0.png", (0, 0, 9, 9)), ("p1", "rider", "r/0.png", (20, 0, 29, 9))
     )
-    pairs.to_csv(tmp_path / "pairs.csv", index=False)
     pd.DataFrame(
         [dict(path="r/0.png", x0=20, y0=0, x1=30, y1=10, score=0.66, coco_class="bicycle")]
     ).to_csv(tmp_path / "dets.csv", index=False)
-    rc = main(
-        [
-            "proxy",
-            "detection",
-            str(tmp_path / "pairs.csv"),
-            "--detections",
-            str(tmp_path / "dets.csv"),
-            "--out",
-            str(tmp_path / "proxy.csv"),
-        ]
-    )
+    rc, path = run_proxy(tmp_path, pairs, "detection", "proxy.csv", "--detections", str(tmp_path / "dets.csv"))
     assert rc == 0
-    out = pd.read_csv(tmp_path / "proxy.csv")
+    out = pd.read_csv(path)
     assert out.columns.tolist() == ["pair_id", "s_det"]
     assert out["s_det"].tolist() == [0.0, 0.66]
     # a paths mismatch is one error line, exit 2
     pd.DataFrame(
         [dict(path="elsewhere.png", x0=0, y0=0, x1=1, y1=1, score=0.5, coco_class="car")]
     ).to_csv(tmp_path / "bad.csv", index=False)
-    rc = main(
-        [
-            "proxy",
-            "detection",
-            str(tmp_path / "pairs.csv"),
-            "--detections",
-            str(tmp_path / "bad.csv"),
-            "--out",
-            str(tmp_path / "p2.csv"),
-        ]
-    )
+    rc, _ = run_proxy(tmp_path, pairs, "detection", "p2.csv", "--detections", str(tmp_path / "bad.csv"))
     assert rc == 2 and "render_path" in capsys.readouterr().err
     assert not (tmp_path / "p2.csv").exists()
 
@@ -160,16 +140,5 @@ def test_cli_writes_proxy_table(tmp_path, capsys):
 def test_yolo_backend_missing_weights_is_one_line_error(tmp_path, capsys):
     # the optional backend checks the weights file before importing ultralytics
     pairs = _pairs(("p0", "automobile", "r/0.png", (0, 0, 9, 9)))
-    pairs.to_csv(tmp_path / "pairs.csv", index=False)
-    rc = main(
-        [
-            "proxy",
-            "detect",
-            str(tmp_path / "pairs.csv"),
-            "--yolo",
-            str(tmp_path / "none.pt"),
-            "--out",
-            str(tmp_path / "dets.csv"),
-        ]
-    )
+    rc, _ = run_proxy(tmp_path, pairs, "detect", "dets.csv", "--yolo", str(tmp_path / "none.pt"))
     assert rc == 2 and "--yolo" in capsys.readouterr().err

@@ -50,15 +50,16 @@ def test_batch_size_does_not_change_scores(tiny_scene, effnet):
     np.testing.assert_allclose(a.table.iloc[:, 1], b.table.iloc[:, 1], atol=2e-5)
 
 
-def test_more_noise_lower_s(tiny_scene, effnet):
-    # the fixture adds noise sigma 4, 10, 16 for offsets -1, 0, +1; the -1 renders should score
-    # higher than the +1 renders for most objects
+def test_more_noise_lower_s_for_every_object(tiny_scene, effnet):
+    # the fixture adds pixel noise of sigma 4, 10, 16 to the renders at offsets -1, 0, +1
+    # (conftest.tiny_scene): for each of the 6 objects S must fall strictly with the noise.
+    # Measured margins with efficientnet-lite0 are 0.01-0.03, far above the 2e-5 batch jitter.
     _, pairs = tiny_scene
     res = score_pairs(pairs, metrics=["nvrq:efficientnet-lite0"], encoder=effnet, progress=False)
-    s = pd.Series(res.table.iloc[:, 1].to_numpy(), index=pairs.index)
-    lo = s[pairs.y_offset_m == -1.0].to_numpy()
-    hi = s[pairs.y_offset_m == 1.0].to_numpy()
-    assert (lo > hi).mean() >= 0.5
+    s = pairs.assign(s=res.table.iloc[:, 1].to_numpy()).pivot_table(
+        index=["track_id", "timestamp_us"], columns="y_offset_m", values="s")
+    assert s.shape == (6, 3)
+    assert (s[-1.0] > s[0.0] + 1e-3).all() and (s[0.0] > s[1.0] + 1e-3).all(), s
 
 
 def test_cli_writes_metrics_and_timing(tiny_scene, tmp_path, capsys):

@@ -13,13 +13,13 @@ monotonic, so that nothing outside it can fold back into the image).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
 
 from data_schema.errors import InputError
+from data_schema.scene import CAMERA_MODEL_SCHEMA, validate_camera_model
 
 __all__ = ["CameraModel", "ModelParams", "camera_from_model", "register_camera_model"]
 
@@ -30,6 +30,8 @@ def register_camera_model(cls: type[CameraModel]) -> type[CameraModel]:
     """Class decorator: make ``cls`` available under ``model['type'] == cls.type_name``."""
     if cls.type_name in _REGISTRY:
         raise ValueError(f"camera model type {cls.type_name!r} registered twice")
+    if cls.type_name not in CAMERA_MODEL_SCHEMA:
+        raise ValueError(f"camera model type {cls.type_name!r} is not a scene-format model type")
     _REGISTRY[cls.type_name] = cls
     return cls
 
@@ -39,24 +41,26 @@ def camera_from_model(
 ) -> CameraModel:
     """Build the camera of a SPEC model dict (``{'type': ..., 'resolution': [W, H], ...}``).
 
-    Errors are :class:`InputError` naming ``where`` and the field, ``"{type}.{param}"`` by
-    default, or ``field_prefix + param`` when given (e.g. ``"cameras.front.model."``).
-    Keys a model does not use are ignored.
+    Parameter names, lengths and defaults are checked by the scene format's one validator,
+    :func:`data_schema.scene.validate_camera_model`; the camera class adds only checks on
+    values (e.g. a positive focal length). Errors are :class:`InputError` naming ``where``
+    and the field, ``"{type}.{param}"`` by default, or ``field_prefix + param`` when given
+    (e.g. ``"cameras.front.model."``). Keys a model does not use are ignored.
     """
-    prefix = "" if field_prefix is None else field_prefix
-    if not isinstance(model, Mapping):
-        raise InputError(
-            where, prefix.rstrip(".") or None, "a camera model object", type(model).__name__
-        )
-    kind = model.get("type")
-    if not isinstance(kind, str) or kind not in _REGISTRY:
-        raise InputError(where, f"{prefix}type", f"one of {sorted(_REGISTRY)}", repr(kind))
-    params = ModelParams(model, where=where, prefix=f"{kind}." if field_prefix is None else prefix)
-    return _REGISTRY[kind].from_params(params)
+    if field_prefix is None:
+        kind = model.get("type") if isinstance(model, Mapping) else None
+        fld = kind if isinstance(kind, str) and kind in _REGISTRY else ""
+    else:
+        fld = field_prefix.rstrip(".")
+    checked = validate_camera_model(model, where, fld)
+    params = ModelParams(checked, where=where, prefix=f"{fld}." if fld else "")
+    return _REGISTRY[checked["type"]].from_params(params)
 
 
 class ModelParams:
-    """Typed, validated access to one model dict; every error names ``prefix + key``."""
+    """A model dict checked by :func:`~data_schema.scene.validate_camera_model` (every
+    parameter present, of the right length, finite, defaults filled), with typed access and
+    the value checks of the camera classes; every error names ``prefix + key``."""
 
     def __init__(self, model: Mapping[str, Any], *, where: str, prefix: str):
         self.model, self.where, self.prefix = model, where, prefix
@@ -64,69 +68,43 @@ class ModelParams:
     def error(self, key: str, expected: str, got: object) -> InputError:
         return InputError(self.where, f"{self.prefix}{key}", expected, got)
 
-    def vector(self, key: str, n: int, *, default: float | None = None) -> np.ndarray:
-        """``(n,)`` float64; a missing key gives ``default`` everywhere if one is given."""
-        expected = f"a list of {n} finite numbers"
-        if key not in self.model:
-            if default is None:
-                raise self.error(key, expected, "missing")
-            return np.full(n, float(default))
-        value = self.model[key]
-        try:
-            arr = np.asarray(value, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise self.error(key, expected, repr(value)) from None
-        if arr.shape != (n,):
-            got = f"{arr.size} values" if arr.ndim == 1 else f"shape {arr.shape}"
-            raise self.error(key, expected, got)
-        if not np.all(np.isfinite(arr)):
-            raise self.error(key, expected, repr(value))
-        return arr
+    def vector(self, key: str) -> np.ndarray:
+        """The list parameter ``key`` as a float64 array."""
+        return np.asarray(self.model[key], dtype=np.float64)
 
-    def positive_vector(self, key: str, n: int) -> np.ndarray:
-        arr = self.vector(key, n)
+    def positive_vector(self, key: str) -> np.ndarray:
+        arr = self.vector(key)
         if not np.all(arr > 0):
-            raise self.error(key, f"a list of {n} positive numbers", arr.tolist())
+            raise self.error(key, f"a list of {arr.size} positive numbers", arr.tolist())
         return arr
-
-    def scalar(self, key: str, *, positive: bool = False) -> float:
-        value = self.model.get(key)
-        expected = "a positive number" if positive else "a finite number"
-        if value is None:
-            raise self.error(key, expected, "missing")
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise self.error(key, expected, repr(value))
-        if not math.isfinite(value) or (positive and value <= 0):
-            raise self.error(key, expected, value)
-        return float(value)
-
-    def choice(self, key: str, allowed: tuple[str, ...]) -> str:
-        value = self.model.get(key)
-        if value not in allowed:
-            raise self.error(
-                key, f"one of {list(allowed)}", "missing" if value is None else repr(value)
-            )
-        return value
 
     def resolution(self) -> tuple[int, int]:
-        value = self.model.get("resolution")
-        expected = "[W, H], two positive integers"
-        if value is None:
-            raise self.error("resolution", expected, "missing")
-        try:
-            arr = np.asarray(value, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise self.error("resolution", expected, repr(value)) from None
-        if arr.shape != (2,) or not np.all(np.isfinite(arr) & (arr >= 1) & (arr == np.round(arr))):
-            raise self.error("resolution", expected, repr(value))
-        return int(arr[0]), int(arr[1])
+        w, h = self.model["resolution"]
+        return int(w), int(h)
+
+    def kwargs(self) -> dict[str, Any]:
+        """Every parameter of the model type as a constructor keyword: ``resolution`` a
+        ``(W, H)`` tuple, lists float64 arrays, numbers floats, names strings."""
+        out: dict[str, Any] = {}
+        for key, (length, _default) in CAMERA_MODEL_SCHEMA[self.model["type"]].items():
+            value = self.model[key]
+            if key == "resolution":
+                out[key] = self.resolution()
+            elif isinstance(value, str):
+                out[key] = value
+            else:
+                out[key] = float(value) if length == 0 else self.vector(key)
+        return out
 
 
 class CameraModel:
     """Base of every camera model: ``project``, ``unproject``, ``in_image`` on any leading dims.
 
-    Subclasses set ``type_name``, implement ``from_params``, ``_project(x, y, z, rho, theta)``
-    (uv for all points; only projectable ones are kept) and ``_unproject(u, v)`` (rays,
+    Subclasses set ``type_name``, take every parameter of their model type as a keyword
+    argument, may add value checks in ``check_values``, implement ``_project(x, y, z, rho, theta)``
+    (uv for all points; only projectable ones are kept; ``x, y, z`` arrive divided by the
+    point's largest ``|component|``, so a model may only use their ratios) and
+    ``_unproject(u, v)`` (rays,
     NaN outside the model's valid range) and set ``self.max_valid_angle``.
     """
 
@@ -137,8 +115,16 @@ class CameraModel:
         self._resolution = (int(resolution[0]), int(resolution[1]))
 
     @classmethod
-    def from_params(cls, params: ModelParams) -> CameraModel:  # pragma: no cover - abstract
-        raise TypeError(f"{cls.__name__} does not implement from_params")
+    def from_params(cls, params: ModelParams) -> CameraModel:
+        """The camera of a validated model dict, after :meth:`check_values`."""
+        cls.check_values(params)
+        return cls(**params.kwargs())
+
+    @classmethod
+    def check_values(cls, params: ModelParams) -> None:
+        """Checks on parameter values beyond the scene format's (default: focal lengths > 0)."""
+        if "focal_length" in params.model:
+            params.positive_vector("focal_length")
 
     @property
     def resolution(self) -> tuple[int, int]:
@@ -154,7 +140,7 @@ class CameraModel:
         pts = np.asarray(points_cam, dtype=np.float64)
         if pts.shape[-1:] != (3,):
             raise ValueError(f"points_cam: expected shape (..., 3), got {pts.shape}")
-        x, y, z = pts[..., 0], pts[..., 1], pts[..., 2]
+        x, y, z = _direction_scaled(pts)
         rho = np.hypot(x, y)
         theta = np.arctan2(rho, z)
         projectable = (z > 0) & (theta < self.max_valid_angle)
@@ -167,8 +153,10 @@ class CameraModel:
     def unproject(self, uv: np.ndarray) -> np.ndarray:
         """Pixel coordinates ``(..., 2)`` -> unit rays ``(..., 3)`` in the camera frame.
 
-        A pixel whose ray would lie at or beyond ``max_valid_angle`` (e.g. outside a
-        fisheye's image circle, or past the fold of a distortion polynomial) gets NaN.
+        A pixel whose ray would lie beyond ``max_valid_angle`` (e.g. outside a fisheye's
+        image circle, or past the fold of a distortion polynomial) gets NaN; the limit
+        itself is kept, to rounding (see ``_valid_angle``), so that every projectable
+        point's pixel unprojects to its ray.
         """
         pix = np.asarray(uv, dtype=np.float64)
         if pix.shape[-1:] != (2,):
@@ -189,6 +177,16 @@ class CameraModel:
         u, v = pix[..., 0], pix[..., 1]
         return (u >= 0) & (u <= w - 1) & (v >= 0) & (v <= h - 1)
 
+    def _valid_angle(self, theta: np.ndarray) -> np.ndarray:
+        """``theta`` from an inverted distortion, NaN where it lies beyond ``max_valid_angle``.
+
+        The inversion is exact only to rounding: a projectable point just inside the limit
+        can come back a few ulps past it, so angles within ``1e-12 * max_valid_angle`` of
+        the limit are kept (clamped to it); anything farther out is NaN.
+        """
+        limit = self.max_valid_angle
+        return np.where(theta <= limit * (1 + 1e-12), np.minimum(theta, limit), np.nan)
+
     def _project(self, x, y, z, rho, theta):  # pragma: no cover - abstract
         raise TypeError(f"{type(self).__name__} does not implement _project")
 
@@ -197,6 +195,20 @@ class CameraModel:
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(resolution={self._resolution})"
+
+
+def _direction_scaled(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(..., 3)`` -> ``x, y, z`` divided by each point's largest ``|component|``.
+
+    Projection depends only on a point's direction, but radii and ratios of tiny
+    (subnormal) coordinates lose every significant bit (``hypot(5e-324, 5e-324)`` is
+    ``5e-324``); scaling first keeps the direction exact. Points whose largest component
+    is 0, infinite or NaN are left as they are.
+    """
+    with np.errstate(all="ignore"):
+        scale = np.max(np.abs(pts), axis=-1)
+    scale = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
+    return pts[..., 0] / scale, pts[..., 1] / scale, pts[..., 2] / scale
 
 
 def rays_from_angle(theta: np.ndarray, du: np.ndarray, dv: np.ndarray) -> np.ndarray:

@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from ._base import CameraModel, ModelParams, rays_from_angle, register_camera_model
+from ._base import CameraModel, rays_from_angle, register_camera_model
 from ._radial import MonotonicMap, horner, poly_derivative
 
 __all__ = ["OpenCVFisheyeCamera"]
@@ -50,15 +50,6 @@ class OpenCVFisheyeCamera(CameraModel):
         )
         self.max_valid_angle = min(math.pi / 2, self._map.x_lim)
 
-    @classmethod
-    def from_params(cls, p: ModelParams) -> OpenCVFisheyeCamera:
-        return cls(
-            resolution=p.resolution(),
-            focal_length=p.positive_vector("focal_length", 2),
-            principal_point=p.vector("principal_point", 2),
-            radial_coeffs=p.vector("radial_coeffs", 4),
-        )
-
     def _project(self, x, y, z, rho, theta):
         safe = np.where(rho > 0, rho, 1.0)
         dist = self._map(theta)  # theta_d, normalised image units
@@ -69,5 +60,4 @@ class OpenCVFisheyeCamera(CameraModel):
         (fx, fy), (cx, cy) = self.focal_length, self.principal_point
         a, b = (u - cx) / fx, (v - cy) / fy
         theta = self._map.inverse(np.hypot(a, b))
-        theta = np.where(theta < self.max_valid_angle, theta, np.nan)
-        return rays_from_angle(theta, a, b)
+        return rays_from_angle(self._valid_angle(theta), a, b)

@@ -23,12 +23,13 @@ import math
 
 import numpy as np
 
+from data_schema.scene import FTHETA_REFERENCE_POLYS
+
 from ._base import CameraModel, ModelParams, rays_from_angle, register_camera_model
 from ._radial import MonotonicMap, horner, poly_derivative
 
 __all__ = ["FThetaCamera"]
 
-_REFERENCES = ("PIXELDIST_TO_ANGLE", "ANGLE_TO_PIXELDIST")
 _GRID = 20001
 
 
@@ -58,8 +59,10 @@ class FThetaCamera(CameraModel):
         linear_cde=(1.0, 0.0, 0.0),
     ):
         super().__init__(resolution=resolution)
-        if reference_poly not in _REFERENCES:
-            raise ValueError(f"reference_poly must be one of {_REFERENCES}, got {reference_poly!r}")
+        if reference_poly not in FTHETA_REFERENCE_POLYS:
+            raise ValueError(
+                f"reference_poly must be one of {FTHETA_REFERENCE_POLYS}, got {reference_poly!r}"
+            )
         self.principal_point = np.asarray(principal_point, dtype=np.float64).reshape(2)
         self.reference_poly = reference_poly
         self.bw_poly = np.asarray(pixeldist_to_angle_poly, dtype=np.float64).reshape(6)
@@ -84,32 +87,23 @@ class FThetaCamera(CameraModel):
         self.max_valid_angle = min(self.max_angle, math.pi / 2, theta_mono)
 
     @classmethod
-    def from_params(cls, p: ModelParams) -> FThetaCamera:
-        reference = p.choice("reference_poly", _REFERENCES)
-        cde = p.vector("linear_cde", 3) if "linear_cde" in p.model else np.array([1.0, 0.0, 0.0])
+    def check_values(cls, p: ModelParams) -> None:
+        """``linear_cde`` invertible; the reference polynomial starts at 0 and increases."""
+        cde = p.vector("linear_cde")
         if cde[0] - cde[2] * cde[1] == 0:
             raise p.error("linear_cde", "[c, d, e] with c - e*d != 0 (invertible)", cde.tolist())
         key = (
             "pixeldist_to_angle_poly"
-            if reference == "PIXELDIST_TO_ANGLE"
+            if p.model["reference_poly"] == "PIXELDIST_TO_ANGLE"
             else "angle_to_pixeldist_poly"
         )
-        polys = {k: p.vector(k, 6) for k in ("pixeldist_to_angle_poly", "angle_to_pixeldist_poly")}
-        if polys[key][0] != 0 or polys[key][1] <= 0:
+        poly = p.vector(key)
+        if poly[0] != 0 or poly[1] <= 0:
             raise p.error(
                 key,
                 "a polynomial with c0 == 0 and c1 > 0 (increasing from the principal point)",
-                polys[key].tolist(),
+                poly.tolist(),
             )
-        return cls(
-            resolution=p.resolution(),
-            principal_point=p.vector("principal_point", 2),
-            reference_poly=reference,
-            pixeldist_to_angle_poly=polys["pixeldist_to_angle_poly"],
-            angle_to_pixeldist_poly=polys["angle_to_pixeldist_poly"],
-            max_angle=p.scalar("max_angle", positive=True),
-            linear_cde=cde,
-        )
 
     def _project(self, x, y, z, rho, theta):
         if self.reference_poly == "ANGLE_TO_PIXELDIST":
@@ -131,8 +125,7 @@ class FThetaCamera(CameraModel):
             theta = np.where(dist <= self._map.x_lim, self._map(dist), np.nan)
         else:
             theta = self._map.inverse(dist)
-        theta = np.where(theta < self.max_valid_angle, theta, np.nan)
-        return rays_from_angle(theta, pu, pv)
+        return rays_from_angle(self._valid_angle(theta), pu, pv)
 
     def __repr__(self) -> str:
         return (

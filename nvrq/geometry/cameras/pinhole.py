@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from ._base import CameraModel, ModelParams, register_camera_model
+from ._base import CameraModel, register_camera_model
 from ._radial import MonotonicMap
 
 __all__ = ["OpenCVPinholeCamera", "PinholeCamera"]
@@ -47,14 +47,6 @@ class PinholeCamera(CameraModel):
         self.focal_length = np.asarray(focal_length, dtype=np.float64).reshape(2)
         self.principal_point = np.asarray(principal_point, dtype=np.float64).reshape(2)
         self.max_valid_angle = math.pi / 2
-
-    @classmethod
-    def from_params(cls, p: ModelParams) -> PinholeCamera:
-        return cls(
-            resolution=p.resolution(),
-            focal_length=p.positive_vector("focal_length", 2),
-            principal_point=p.vector("principal_point", 2),
-        )
 
     def _distort(self, a, b):
         return a, b
@@ -148,17 +140,6 @@ class OpenCVPinholeCamera(PinholeCamera):
         w, h = self.resolution
         corners = np.array([[-0.5, -0.5], [w - 0.5, -0.5], [-0.5, h - 0.5], [w - 0.5, h - 0.5]])
         return float(np.max(np.hypot(*self._normalised(corners[:, 0], corners[:, 1]))))
-
-    @classmethod
-    def from_params(cls, p: ModelParams) -> OpenCVPinholeCamera:
-        return cls(
-            resolution=p.resolution(),
-            focal_length=p.positive_vector("focal_length", 2),
-            principal_point=p.vector("principal_point", 2),
-            radial_coeffs=p.vector("radial_coeffs", 6, default=0.0),
-            tangential_coeffs=p.vector("tangential_coeffs", 2, default=0.0),
-            thin_prism_coeffs=p.vector("thin_prism_coeffs", 4, default=0.0),
-        )
 
     def _icd(self, s, *, derivative=False):
         """``icD(s)``, its denominator, and (if asked) ``d(r icD(r^2))/dr`` and ``d icD/ds``."""
