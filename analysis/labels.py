@@ -27,17 +27,14 @@ _VOTE_ONLY = ("rater_id", "vote", "voted_at", "response_ms", "kind", "gold_expec
 
 
 def item_table(votes: pd.DataFrame) -> pd.DataFrame:
-    """Per-item labels from one-row-per-vote ``votes``; one row per item, sorted by ``item_id``
-    so that everything downstream (fits, bootstrap draws) is independent of the row order of
-    the ratings file."""
+    """Per-item labels from one-row-per-vote ``votes``; one row per item, in first-seen order."""
     test = votes[votes["kind"] == "test"]
     labels = good_vote_fraction(test["item_id"], test["vote"])
     codes = pd.factorize(test["item_id"])[0]
     _, first = np.unique(codes, return_index=True)
     keep = [c for c in test.columns if c not in _VOTE_ONLY and c != "item_id"]
     meta = test.iloc[first][keep].reset_index(drop=True)
-    items = pd.concat([labels, meta], axis=1)
-    return items.sort_values("item_id", kind="stable").reset_index(drop=True)
+    return pd.concat([labels, meta], axis=1)
 
 
 def join_metrics(items: pd.DataFrame, tables: list[tuple[str, pd.DataFrame]]):

@@ -20,13 +20,14 @@ True
 from __future__ import annotations
 
 import dataclasses
+from datetime import datetime, timedelta, timezone
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from annotate.store import Store
+from annotate.store import Store, utc_iso
 from data_schema.errors import InputError
 from data_schema.perturbation import labels, perturbation_array
 from data_schema.raters import SIM_PREFIX
@@ -90,6 +91,9 @@ def simulate(study, *, raters: int = 5, seed: int = 0, progress: bool = True) ->
                        "careless": careless, "theta": float(rng.normal(0.45, 0.08)),
                        "width": float(rng.uniform(0.04, 0.12)), "lapse": 0.02})
     active = list(range(raters))
+    # A simulated clock (from now, advancing by each response time) stamps the votes, so the
+    # export's order -- by vote time -- and everything computed from it repeat run to run.
+    clock = datetime.now(timezone.utc)
     bar = tqdm(desc="simulated votes", unit="vote", disable=not progress)
     while active:  # round-robin, one vote each, so balanced assignment is exercised
         for i in list(active):
@@ -100,8 +104,10 @@ def simulate(study, *, raters: int = 5, seed: int = 0, progress: bool = True) ->
                 continue
             pg = 0.5 if par["careless"] else float(p_good(sev[key], theta=par["theta"],
                                                           width=par["width"], lapse=par["lapse"]))
+            response_ms = int(rng.lognormal(np.log(900), 0.4))
+            clock += timedelta(milliseconds=response_ms)
             study.store.record_vote(par["rater_id"], key, int(rng.random() < pg),
-                                    response_ms=int(rng.lognormal(np.log(900), 0.4)))
+                                    response_ms=response_ms, voted_at=utc_iso(clock))
             bar.update()
     bar.close()
     return pd.DataFrame(params)

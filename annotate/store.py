@@ -95,9 +95,14 @@ INSERT INTO item_loads (study, item, voted, claimed, last_claim)
 """
 
 
+def utc_iso(t: datetime) -> str:
+    """``t`` (aware) as ISO 8601 in UTC with milliseconds, e.g. ``2026-01-01T12:00:00.123Z``."""
+    return t.astimezone(timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%f")[:-3] + "Z"
+
+
 def utc_now_iso() -> str:
     """Current time, ISO 8601 in UTC with milliseconds, e.g. ``2026-01-01T12:00:00.123Z``."""
-    return datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%f")[:-3] + "Z"
+    return utc_iso(datetime.now(timezone.utc))
 
 
 def token_digest(token: str) -> str:
