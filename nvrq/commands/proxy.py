@@ -41,6 +41,17 @@ def _model_opts(p) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
+def _runtime_opts(p) -> None:
+    """``--runtime``, ``--cache-dir`` of the proxy models (fp32; nvrq.encoders.runtimes)."""
+    from nvrq.proxies.classifier_drop import PROXY_RUNTIMES
+
+    p.add_argument("--runtime", default="auto", choices=list(PROXY_RUNTIMES),
+                   help="model runtime (default auto: on CPU the fastest exported runtime identical "
+                        "to torch fp32, else torch; --device cuda runs torch)")
+    p.add_argument("--cache-dir", default=None,
+                   help="exported-model cache (default $NVRQ_CACHE, else ~/.cache/nvrq)")
+
+
 def register(sub) -> None:
     p = sub.add_parser(
         "proxy",
@@ -85,6 +96,7 @@ def register(sub) -> None:
     i.add_argument(
         "--weights", default=None, help="a .pth for efficientnet-lite0, or the classifier folder"
     )
+    _runtime_opts(i)
     add_engine_args(i)
     i.set_defaults(func=run_imagenet)
 
@@ -96,6 +108,7 @@ def register(sub) -> None:
     c.add_argument(
         "--clip", required=True, help="local Hugging Face CLIP folder (CLIPModel + tokenizer)"
     )
+    _runtime_opts(c)
     add_engine_args(c)
     c.set_defaults(func=run_clip)
 
@@ -146,7 +159,8 @@ def run_imagenet(args) -> int:
     _check_out(args.out)
     pairs = _read_pairs(args.pairs, ("gt_path", "gt_x0", "gt_y0", "gt_x1", "gt_y1"))
     prepare_device(args)
-    clf = load_classifier(args.classifier, weights=args.weights, device=args.device)
+    clf = load_classifier(args.classifier, weights=args.weights, device=args.device,
+                          **_runtime_kwargs(args))
     out = imagenet_drop(pairs, clf, scene_root=args.scene, batch_size=args.batch_size,
                         progress=not args.quiet, where=str(args.pairs))
     write_table(out, args.out)
@@ -171,11 +185,15 @@ def run_clip(args) -> int:
         where=str(args.pairs),
     )
     prepare_device(args)
-    clip = load_clip(args.clip, prompts=maps["clip_prompts"], device=args.device)
+    clip = load_clip(args.clip, prompts=maps["clip_prompts"], device=args.device, **_runtime_kwargs(args))
     out = clip_drop(pairs, clip, category_map=maps["clip_category"], scene_root=args.scene,
                     batch_size=args.batch_size, progress=not args.quiet, where=str(args.pairs))
     write_table(out, args.out)
     return 0
+
+
+def _runtime_kwargs(args) -> dict:
+    return {"runtime": args.runtime, "threads": args.threads, "cache_dir": args.cache_dir}
 
 
 def _ray_proxy(args, kind: str) -> int:
@@ -187,10 +205,10 @@ def _ray_proxy(args, kind: str) -> int:
     check_engine_args(args)
     if kind == "imagenet":
         scorer = ImagenetScorer(args.classifier, weights=args.weights, device=args.device,
-                                batch_size=args.batch_size)
+                                batch_size=args.batch_size, runtime=args.runtime, cache_dir=args.cache_dir)
     else:
         maps = load_class_maps(args.class_map)
         scorer = ClipScorer(args.clip, prompts=tuple(maps["clip_prompts"].items()),
                             category_map=tuple(maps["clip_category"].items()), device=args.device,
-                            batch_size=args.batch_size)
+                            batch_size=args.batch_size, runtime=args.runtime, cache_dir=args.cache_dir)
     return run_ray(args, scorer)

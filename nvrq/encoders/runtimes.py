@@ -28,6 +28,7 @@ import json
 import os
 import sys
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -36,7 +37,7 @@ from data_schema.errors import InputError
 
 __all__ = ["RUNTIMES", "PRECISIONS", "SUPPORTED", "AUTO_ORDER", "IDENTITY_TOL", "cache_root",
            "weights_hash", "identity_images", "max_nvrq_change", "RuntimeEncoder", "wrap_runtime",
-           "export_dir", "runtime_version", "embed_graph", "exported"]
+           "export_dir", "runtime_version", "embed_graph", "exported", "GraphSpec", "ExportableModel"]
 
 RUNTIMES = ("auto", "torch", "openvino", "onnxruntime")
 PRECISIONS = ("fp32", "bf16", "int8")
@@ -110,21 +111,78 @@ def max_nvrq_change(ref: np.ndarray, other: np.ndarray) -> float:
 
 
 def embed_graph(encoder):
-    """A torch module: uint8 NHWC crops -> embeddings, normalisation and pooling inside."""
+    """A torch module: uint8 NHWC crops -> embeddings, normalisation and pooling inside.
+
+    ``encoder``: an :class:`~nvrq.encoders.registry.Encoder`, or any object with its
+    interface plus ``graph_output(model, pixel_values)`` (an :class:`ExportableModel`).
+    """
     import torch
+
+    forward = getattr(encoder, "graph_output", None)
+    if forward is None:
+        def forward(model, x):
+            return encoder._backend.embed_tokens(model, x, encoder.spec)
 
     class EmbedGraph(torch.nn.Module):
         def __init__(self):
             super().__init__()
             self.model = encoder.model
-            self.register_buffer("mean", encoder._mean.cpu())
-            self.register_buffer("std", encoder._std.cpu())
+            self.register_buffer("mean", torch.tensor(encoder.spec.mean, dtype=torch.float32).view(1, 3, 1, 1))
+            self.register_buffer("std", torch.tensor(encoder.spec.std, dtype=torch.float32).view(1, 3, 1, 1))
 
         def forward(self, images):
             x = images.permute(0, 3, 1, 2).float().div(255.0)
-            return encoder._backend.embed_tokens(self.model, (x - self.mean) / self.std, encoder.spec)
+            return forward(self.model, (x - self.mean) / self.std)
 
     return EmbedGraph().eval()
+
+
+@dataclass(frozen=True)
+class GraphSpec:
+    """What the exporter needs to know of a model that is not a registry encoder."""
+
+    name: str
+    input_size: int
+    mean: tuple[float, float, float]
+    std: tuple[float, float, float]
+
+
+class ExportableModel:
+    """Any torch model's output on uint8 crops, exported and cached like an encoder.
+
+    The proxy classifiers use it (the ImageNet logits, CLIP's projected image embedding):
+    ``forward(model, pixel_values (B, 3, S, S)) -> (B, K)`` is the exported computation;
+    ``identity = (meta key, measure(torch_out, runtime_out) -> float)`` replaces max |dNVRQ|
+    as the export's identity check (the auto rule compares it with :data:`IDENTITY_TOL`).
+    ``name`` names the cache folder (with the weights' hash), so it must differ from the
+    registry encoder's name when the weights are the same (efficientnet-lite0's head).
+    """
+
+    def __init__(self, name: str, model, *, input_size: int, mean, std, forward, identity,
+                 device: str = "cpu"):
+        import torch
+
+        self.spec = GraphSpec(name, int(input_size), tuple(mean), tuple(std))
+        self.model, self.device = model, torch.device(device)
+        self._forward, self.identity = forward, identity
+
+    def graph_output(self, model, pixel_values):
+        return self._forward(model, pixel_values)
+
+    def embed(self, images: np.ndarray) -> np.ndarray:
+        """The torch reference: outputs (B, K) float32 of uint8 RGB inputs (B, S, S, 3)."""
+        import torch
+
+        from nvrq.crops import normalised_tensor
+
+        x = normalised_tensor(np.asarray(images), self.spec.mean, self.spec.std, device=self.device)
+        with torch.inference_mode():
+            return self._forward(self.model, x).float().cpu().numpy()
+
+
+def _identity(encoder):
+    """(meta key, measure) of the export's identity check: max |dNVRQ| unless the model says."""
+    return getattr(encoder, "identity", None) or ("max_dnvrq_vs_torch", max_nvrq_change)
 
 
 class _FixedPositions:
@@ -187,8 +245,9 @@ def _export(encoder, runtime: str, folder: Path) -> None:
             (tmp / "model.onnx").unlink()
         ref = encoder.embed(images := identity_images(encoder.spec.input_size))
         got = _session(runtime, tmp, "fp32", threads=None, model_file=None)(images)
+        key, measure = _identity(encoder)
         meta = {"encoder": encoder.spec.name, "runtime": runtime, "version": runtime_version(runtime),
-                "max_dnvrq_vs_torch": max_nvrq_change(ref, got),
+                key: measure(ref, got),
                 "max_abs_embedding_diff": float(np.max(np.abs(ref - got)))}
         (tmp / "meta.json").write_text(json.dumps(meta, indent=2))
         os.chmod(tmp, 0o755)
@@ -317,8 +376,8 @@ def _auto(encoder, precision: str, device: str, cache_dir) -> str:
             print(f"{rt} export of {encoder.spec.name} failed ({type(exc).__name__}: {exc}); "
                   "trying the next runtime", file=sys.stderr)
             continue
-        if meta["max_dnvrq_vs_torch"] <= IDENTITY_TOL or precision != "fp32":
+        key = _identity(encoder)[0]
+        if meta[key] <= IDENTITY_TOL or precision != "fp32":
             return rt
-        print(f"{rt}: max |dNVRQ| {meta['max_dnvrq_vs_torch']:.2g} against torch > {IDENTITY_TOL}; "
-              "not used", file=sys.stderr)
+        print(f"{rt}: {key} {meta[key]:.2g} > {IDENTITY_TOL}; not used", file=sys.stderr)
     return "torch"

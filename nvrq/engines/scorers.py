@@ -67,6 +67,8 @@ class ImagenetScorer:
     weights: str | None = None
     device: str = "cpu"
     batch_size: int = 32
+    runtime: str = "torch"  # the proxy model's runtime on each worker (exported once, cached)
+    cache_dir: str | None = None
     columns: tuple = ("imagenet_drop",)
     pixel_columns: tuple = ()
     extra_columns: tuple = ()
@@ -78,7 +80,8 @@ class ImagenetScorer:
     def load(self):
         from nvrq.proxies.classifier_drop import load_classifier
 
-        return load_classifier(self.classifier, weights=self.weights, device=self.device)
+        return load_classifier(self.classifier, weights=self.weights, device=self.device,
+                               runtime=self.runtime, cache_dir=self.cache_dir)
 
     def score(self, model, batch, extra: dict, timings: dict) -> dict:
         from nvrq.proxies.classifier_drop import top_class_drop
@@ -88,7 +91,8 @@ class ImagenetScorer:
         return {"imagenet_drop": top_class_drop(p_gt, p_r)}
 
     def options(self) -> dict:
-        return {"columns": list(self.columns), "classifier": self.classifier, "weights": self.weights}
+        return {"columns": list(self.columns), "classifier": self.classifier, "weights": self.weights,
+                "runtime": self.runtime}
 
 
 @dataclass(frozen=True)
@@ -100,6 +104,8 @@ class ClipScorer:
     category_map: tuple  # ((label_class, category or None), ...)
     device: str = "cpu"
     batch_size: int = 32
+    runtime: str = "torch"  # the image tower's runtime on each worker (exported once, cached)
+    cache_dir: str | None = None
     columns: tuple = ("clip_drop",)
     pixel_columns: tuple = ()
     extra_columns: tuple = ("label_class",)
@@ -111,7 +117,8 @@ class ClipScorer:
     def load(self):
         from nvrq.proxies.clip_drop import load_clip
 
-        return load_clip(self.clip, prompts=dict(self.prompts), device=self.device)
+        return load_clip(self.clip, prompts=dict(self.prompts), device=self.device,
+                         runtime=self.runtime, cache_dir=self.cache_dir)
 
     def score(self, model, batch, extra: dict, timings: dict) -> dict:
         from nvrq.proxies.clip_drop import true_category_index
@@ -125,7 +132,8 @@ class ClipScorer:
         return {"clip_drop": drop}
 
     def options(self) -> dict:
-        return {"columns": list(self.columns), "clip": self.clip, "prompts": [list(p) for p in self.prompts]}
+        return {"columns": list(self.columns), "clip": self.clip, "prompts": [list(p) for p in self.prompts],
+                "runtime": self.runtime}
 
 
 def timing_per_column(scorer, timings: dict) -> dict:

@@ -13,6 +13,13 @@ offline) or any ``transformers`` image classifier folder (``AutoModelForImageCla
 with ``preprocessor_config.json``; e.g. the paper's EVA-02), loaded with
 ``local_files_only``.
 
+Runtimes (``runtime``: ``torch``, ``openvino``, ``onnxruntime`` or ``auto``; fp32 only): the
+classifier's logits graph (normalisation inside) is exported and cached by
+:mod:`nvrq.encoders.runtimes` like an encoder, under ``CLASSIFIER-logits``; the export's
+identity check is the max |softmax change| on the identity images, and ``auto`` picks the
+first runtime with it <= ``IDENTITY_TOL`` (else torch; ``device='cuda'`` always torch). The
+softmax and Eq. 9 run in float64 on the logits either way.
+
 >>> import numpy as np
 >>> top_class_drop(np.array([[0.7, 0.2, 0.1]]), np.array([[0.4, 0.5, 0.1]])).round(6).tolist()
 [0.3]
@@ -24,7 +31,7 @@ import json
 import os
 import sys
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -43,9 +50,13 @@ __all__ = [
     "pair_probabilities",
     "imagenet_drop",
     "DEFAULT_CLASSIFIER",
+    "PROXY_RUNTIMES",
+    "max_softmax_change",
 ]
 
 DEFAULT_CLASSIFIER = "efficientnet-lite0"
+#: runtimes of the proxy models (fp32 only; see :mod:`nvrq.encoders.runtimes`)
+PROXY_RUNTIMES = ("auto", "torch", "openvino", "onnxruntime")
 
 
 def top_class_drop(p_gt: np.ndarray, p_render: np.ndarray) -> np.ndarray:
@@ -55,9 +66,29 @@ def top_class_drop(p_gt: np.ndarray, p_render: np.ndarray) -> np.ndarray:
     return p_gt[rows, c_hat] - p_render[rows, c_hat]
 
 
+def _softmax64(logits: np.ndarray) -> np.ndarray:
+    import torch
+
+    return torch.softmax(torch.as_tensor(logits).double(), dim=1).numpy()
+
+
+def max_softmax_change(ref_logits: np.ndarray, other_logits: np.ndarray) -> float:
+    """max |softmax(ref) - softmax(other)| over every image and class: the classifier export's
+    identity measure (Eq. 9's drop then moves by at most twice it)."""
+    return float(np.max(np.abs(_softmax64(ref_logits) - _softmax64(other_logits))))
+
+
+def _logits(model, pixel_values):
+    out = model(pixel_values)
+    return out.logits if hasattr(out, "logits") else out
+
+
 @dataclass
 class ImageClassifier:
-    """``model(pixel_values (B, 3, S, S)) -> logits (B, C)``; ``mean``/``std`` on [0, 1] RGB."""
+    """``model(pixel_values (B, 3, S, S)) -> logits (B, C)``; ``mean``/``std`` on [0, 1] RGB.
+
+    ``runtime``: where the logits come from (``torch``, or an exported runtime after
+    :meth:`on_runtime`)."""
 
     name: str
     model: object
@@ -65,16 +96,36 @@ class ImageClassifier:
     mean: tuple[float, float, float]
     std: tuple[float, float, float]
     device: str = "cpu"
+    runtime: str = "torch"
+    _run: object = field(default=None, repr=False)
+
+    def logits(self, images: np.ndarray) -> np.ndarray:
+        """Logits (B, C) float32 of uint8 RGB inputs (B, S, S, 3) on :attr:`runtime`."""
+        import torch
+
+        if self._run is not None:
+            return self._run(images)
+        x = normalised_tensor(images, self.mean, self.std, device=self.device)
+        with torch.inference_mode():
+            return _logits(self.model, x).float().cpu().numpy()
 
     def probabilities(self, images: np.ndarray) -> np.ndarray:
         """Softmax probabilities (B, C) float64 of uint8 RGB inputs (B, S, S, 3)."""
-        import torch
+        return _softmax64(self.logits(images))
 
-        x = normalised_tensor(images, self.mean, self.std, device=self.device)
-        with torch.inference_mode():
-            out = self.model(x)
-            logits = out.logits if hasattr(out, "logits") else out
-            return torch.softmax(logits.double(), dim=1).cpu().numpy()
+    def on_runtime(self, runtime: str = "auto", *, threads: int | None = None,
+                   cache_dir=None) -> ImageClassifier:
+        """Run the logits on ``runtime`` (module docstring); returns ``self``."""
+        from nvrq.encoders.runtimes import ExportableModel, wrap_runtime
+
+        graph = ExportableModel(f"{self.name}-logits", self.model, input_size=self.input_size,
+                                mean=self.mean, std=self.std, forward=_logits, device=self.device,
+                                identity=("max_dprob_vs_torch", max_softmax_change))
+        wrapped = wrap_runtime(graph, runtime=runtime, precision="fp32", threads=threads,
+                               cache_dir=cache_dir)
+        self.runtime = wrapped.runtime
+        self._run = None if wrapped is graph else wrapped.embed
+        return self
 
 
 def preprocessor_stats(folder: Path, default_size: int | None) -> tuple[int, tuple, tuple]:
@@ -103,13 +154,21 @@ def preprocessor_stats(folder: Path, default_size: int | None) -> tuple[int, tup
 
 
 def load_classifier(
-    name: str = DEFAULT_CLASSIFIER, *, weights: str | os.PathLike | None = None, device: str = "cpu"
+    name: str = DEFAULT_CLASSIFIER, *, weights: str | os.PathLike | None = None, device: str = "cpu",
+    runtime: str = "torch", threads: int | None = None, cache_dir=None,
 ) -> ImageClassifier:
-    """``efficientnet-lite0`` (``weights``: optional ``.pth``) or a transformers classifier folder."""
+    """``efficientnet-lite0`` (``weights``: optional ``.pth``) or a transformers classifier folder,
+    its logits on ``runtime`` (:meth:`ImageClassifier.on_runtime`; ``cache_dir``: the export
+    cache, default ``$NVRQ_CACHE`` else ``~/.cache/nvrq``)."""
+    clf = _load_torch_classifier(name, weights=weights, device=device)
+    return clf.on_runtime(runtime, threads=threads, cache_dir=cache_dir)
+
+
+def _load_torch_classifier(name: str, *, weights, device: str) -> ImageClassifier:
     if name == DEFAULT_CLASSIFIER:
         enc = load_encoder(
             name, weights=weights, device=device, runtime="torch"
-        )  # full model incl. the ImageNet head (the exported graph is the embedding only)
+        )  # full model incl. the ImageNet head (the encoder's export is the embedding only)
         return ImageClassifier(
             name, enc.model, enc.spec.input_size, enc.spec.mean, enc.spec.std, device
         )

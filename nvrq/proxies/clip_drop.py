@@ -10,6 +10,14 @@ empty (NaN) for a class mapped to no category.
 Crops are black-padded to a square and bicubic-resized to CLIP's input size, then CLIP's
 normalisation (SPEC section 4).
 
+Runtimes (``runtime``: ``torch``, ``openvino``, ``onnxruntime`` or ``auto``; fp32 only): the
+image tower up to the projected embedding ``g`` is exported and cached by
+:mod:`nvrq.encoders.runtimes` under ``clip-image``; the text vectors stay torch (embedded
+once). The identity check is ``exp(logit_scale) * max ||g^ - g^'||`` over the identity
+images (``g^`` = unit embedding): it bounds the change of every zero-shot logit for any
+prompts, so of every probability by half of it and of ``clip_drop`` by it. ``auto`` picks
+the first runtime with it <= ``IDENTITY_TOL`` (else torch; ``device='cuda'`` always torch).
+
 >>> import numpy as np
 >>> t = np.eye(2); g = np.array([[1.0, 0.0], [0.0, 1.0]])
 >>> zero_shot_probs(g, t, logit_scale=np.log(2.0)).round(4).tolist()  # softmax([2, 0]), softmax([0, 2])
@@ -19,7 +27,7 @@ normalisation (SPEC section 4).
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -30,7 +38,8 @@ from nvrq.crops import normalised_tensor
 from nvrq.proxies import mapped_labels
 from nvrq.proxies.classifier_drop import pair_probabilities, preprocessor_stats
 
-__all__ = ["ZeroShotCLIP", "zero_shot_probs", "load_clip", "clip_drop", "true_category_index"]
+__all__ = ["ZeroShotCLIP", "zero_shot_probs", "load_clip", "clip_drop", "true_category_index",
+           "max_logit_change_bound"]
 
 
 def zero_shot_probs(
@@ -51,9 +60,29 @@ def _features(out):
     return out if not hasattr(out, "pooler_output") else out.pooler_output
 
 
+def max_logit_change_bound(ref: np.ndarray, other: np.ndarray, *, logit_scale: float) -> float:
+    """``exp(logit_scale) * max_i ||ref_i/|ref_i| - other_i/|other_i|||``: a bound on the change
+    of any zero-shot logit ``exp(s) * cos(g, t)`` (|t^| = 1, Cauchy-Schwarz) between two
+    image-embedding sets (N, D).
+
+    >>> round(max_logit_change_bound(np.array([[1.0, 0.0]]), np.array([[0.0, 2.0]]), logit_scale=0.0), 6)
+    1.414214
+    """
+    a = ref / np.linalg.norm(ref, axis=1, keepdims=True)
+    b = other / np.linalg.norm(other, axis=1, keepdims=True)
+    return float(np.exp(logit_scale) * np.max(np.linalg.norm(a - b, axis=1))) if len(a) else 0.0
+
+
+def _image_features(model, pixel_values):
+    return _features(model.get_image_features(pixel_values=pixel_values))
+
+
 @dataclass
 class ZeroShotCLIP:
-    """A CLIP model with its K category prompts embedded once: ``text_feats (K, D)``."""
+    """A CLIP model with its K category prompts embedded once: ``text_feats (K, D)``.
+
+    ``runtime``: where the image embeddings come from (``torch``, or an exported runtime
+    after :meth:`on_runtime`)."""
 
     model: object
     categories: list[str]
@@ -62,6 +91,8 @@ class ZeroShotCLIP:
     mean: tuple[float, float, float]
     std: tuple[float, float, float]
     device: str = "cpu"
+    runtime: str = "torch"
+    _run: object = field(default=None, repr=False)
 
     @classmethod
     def from_model(
@@ -99,28 +130,47 @@ class ZeroShotCLIP:
         )
 
     def image_features(self, images: np.ndarray) -> np.ndarray:
-        """Projected image embeddings (B, D) of uint8 RGB inputs (B, S, S, 3)."""
+        """Projected image embeddings (B, D) float64 of uint8 RGB inputs (B, S, S, 3)."""
         import torch
 
+        if self._run is not None:
+            return self._run(images).astype(np.float64)
         x = normalised_tensor(images, self.mean, self.std, device=self.device)
         with torch.inference_mode():
-            return (
-                _features(self.model.get_image_features(pixel_values=x))
-                .double()
-                .cpu()
-                .numpy()
-            )
+            return _image_features(self.model, x).double().cpu().numpy()
+
+    @property
+    def logit_scale(self) -> float:
+        return float(self.model.logit_scale.detach().cpu())
 
     def probabilities(self, images: np.ndarray) -> np.ndarray:
         """Zero-shot category probabilities (B, K)."""
-        scale = float(self.model.logit_scale.detach().cpu())
-        return zero_shot_probs(self.image_features(images), self.text_feats, logit_scale=scale)
+        return zero_shot_probs(self.image_features(images), self.text_feats, logit_scale=self.logit_scale)
+
+    def on_runtime(self, runtime: str = "auto", *, threads: int | None = None,
+                   cache_dir=None) -> ZeroShotCLIP:
+        """Run the image tower on ``runtime`` (module docstring); returns ``self``."""
+        from functools import partial
+
+        from nvrq.encoders.runtimes import ExportableModel, wrap_runtime
+
+        bound = partial(max_logit_change_bound, logit_scale=self.logit_scale)
+        graph = ExportableModel("clip-image", self.model, input_size=self.input_size, mean=self.mean,
+                                std=self.std, forward=_image_features, device=self.device,
+                                identity=("max_dlogit_bound_vs_torch", bound))
+        wrapped = wrap_runtime(graph, runtime=runtime, precision="fp32", threads=threads,
+                               cache_dir=cache_dir)
+        self.runtime = wrapped.runtime
+        self._run = None if wrapped is graph else wrapped.embed
+        return self
 
 
 def load_clip(
-    folder: str | os.PathLike, *, prompts: dict[str, str], device: str = "cpu"
+    folder: str | os.PathLike, *, prompts: dict[str, str], device: str = "cpu",
+    runtime: str = "torch", threads: int | None = None, cache_dir=None,
 ) -> ZeroShotCLIP:
-    """CLIPModel + tokenizer + preprocessor config from a local Hugging Face folder (never the hub)."""
+    """CLIPModel + tokenizer + preprocessor config from a local Hugging Face folder (never the hub);
+    the image tower on ``runtime`` (:meth:`ZeroShotCLIP.on_runtime`)."""
     folder = Path(folder)
     if not folder.is_dir():
         raise InputError(
@@ -143,7 +193,7 @@ def load_clip(
     categories = list(prompts)
     enc = tok([prompts[c] for c in categories], padding=True, return_tensors="np")
     size, mean, std = preprocessor_stats(folder, int(model.config.vision_config.image_size))
-    return ZeroShotCLIP.from_model(
+    clip = ZeroShotCLIP.from_model(
         model,
         categories=categories,
         input_ids=enc["input_ids"],
@@ -153,6 +203,7 @@ def load_clip(
         std=std,
         device=device,
     )
+    return clip.on_runtime(runtime, threads=threads, cache_dir=cache_dir)
 
 
 def true_category_index(

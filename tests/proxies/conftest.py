@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -12,6 +14,7 @@ from nvrq.cli import main
 
 #: the cat of scikit-image's 'chelsea' photo (300 x 451), inclusive box
 CAT_BOX = (100, 20, 330, 290)
+CLIP_MEAN, CLIP_STD = [0.48, 0.45, 0.40], [0.26, 0.26, 0.27]
 
 
 @pytest.fixture
@@ -76,3 +79,33 @@ def run_proxy(tmp_path, pairs: pd.DataFrame, kind: str, out_name: str, *options:
     pairs.to_csv(tmp_path / "pairs.csv", index=False)
     out = tmp_path / out_name
     return main(["proxy", kind, str(tmp_path / "pairs.csv"), "--out", str(out), *options]), out
+
+
+@pytest.fixture(scope="session")
+def clip_folder(tmp_path_factory):
+    """A tiny random-weight CLIP folder: CLIPModel, a hand-made BPE tokenizer, preprocessor config."""
+    import torch
+    from transformers import CLIPConfig, CLIPModel, CLIPTokenizer
+
+    d = tmp_path_factory.mktemp("tinyclip")
+    vocab = {"<|startoftext|>": 0, "<|endoftext|>": 1}
+    for ch in "abcdefghijklmnopqrstuvwxyz":
+        vocab[ch] = len(vocab)
+        vocab[ch + "</w>"] = len(vocab)
+    vocab.update({"in": len(vocab), "er": len(vocab) + 1})
+    (d / "vocab.json").write_text(json.dumps(vocab))
+    (d / "merges.txt").write_text("#version: 0.2\ni n\ne r\n")
+    CLIPTokenizer(str(d / "vocab.json"), str(d / "merges.txt")).save_pretrained(d)
+    torch.manual_seed(0)
+    tiny = dict(hidden_size=32, intermediate_size=64, num_hidden_layers=2, num_attention_heads=2)
+    cfg = CLIPConfig(
+        text_config=dict(tiny, vocab_size=len(vocab) + 2, max_position_embeddings=160,
+                         bos_token_id=0, eos_token_id=1, pad_token_id=1),
+        vision_config=dict(tiny, image_size=32, patch_size=8),
+        projection_dim=16,
+    )
+    CLIPModel(cfg).save_pretrained(d)
+    (d / "preprocessor_config.json").write_text(
+        json.dumps({"image_mean": CLIP_MEAN, "image_std": CLIP_STD, "crop_size": {"height": 32, "width": 32}})
+    )
+    return d

@@ -7,8 +7,6 @@ text features constructed to point at the GT crop's embedding.
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pandas as pd
 import pytest
@@ -19,38 +17,10 @@ from data_schema.errors import InputError
 from nvrq.proxies import load_class_maps
 from nvrq.proxies.clip_drop import ZeroShotCLIP, clip_drop, load_clip, zero_shot_probs
 
-from .conftest import CAT_BOX, crop_input, run_proxy
+from .conftest import CAT_BOX, CLIP_MEAN, CLIP_STD, crop_input, run_proxy
 
 MAPS = load_class_maps()
-MEAN, STD = [0.48, 0.45, 0.40], [0.26, 0.26, 0.27]
-
-
-@pytest.fixture(scope="module")
-def clip_folder(tmp_path_factory):
-    from transformers import CLIPConfig, CLIPModel, CLIPTokenizer
-
-    d = tmp_path_factory.mktemp("tinyclip")
-    vocab = {"<|startoftext|>": 0, "<|endoftext|>": 1}
-    for ch in "abcdefghijklmnopqrstuvwxyz":
-        vocab[ch] = len(vocab)
-        vocab[ch + "</w>"] = len(vocab)
-    vocab.update({"in": len(vocab), "er": len(vocab) + 1})
-    (d / "vocab.json").write_text(json.dumps(vocab))
-    (d / "merges.txt").write_text("#version: 0.2\ni n\ne r\n")
-    CLIPTokenizer(str(d / "vocab.json"), str(d / "merges.txt")).save_pretrained(d)
-    torch.manual_seed(0)
-    tiny = dict(hidden_size=32, intermediate_size=64, num_hidden_layers=2, num_attention_heads=2)
-    cfg = CLIPConfig(
-        text_config=dict(tiny, vocab_size=len(vocab) + 2, max_position_embeddings=160,
-                         bos_token_id=0, eos_token_id=1, pad_token_id=1),
-        vision_config=dict(tiny, image_size=32, patch_size=8),
-        projection_dim=16,
-    )
-    CLIPModel(cfg).save_pretrained(d)
-    (d / "preprocessor_config.json").write_text(
-        json.dumps({"image_mean": MEAN, "image_std": STD, "crop_size": {"height": 32, "width": 32}})
-    )
-    return d
+MEAN, STD = CLIP_MEAN, CLIP_STD
 
 
 def test_zero_shot_probs_is_clip_softmax():
