@@ -20,6 +20,7 @@ CASES = {
     "bench_score.py": (["--pairs", "14", "--naive-pairs", "4", "--batch-sizes", "8", "--random-scene",
                         "--seconds", "0.2", "--encoders", "efficientnet-lite0", "--int8", ""],
                        "e_speedup_over_naive"),
+    "bench_proxy.py": (["--crops", "8", "--batch-size", "4", "--rounds", "1"], "ratio vs torch"),
     "bench_analyze.py": (["--rows", "20000"], "s"),
     "bench_analyze_pairs.py": (["--rows", "20000", "--clips", "12"], "peak RSS"),
     "bench_raters.py": (["--raters", "2", "--seconds", "4", "--think", "0.4", "0.6", "--frames", "2"],

@@ -4,6 +4,8 @@
 object with the same interface (``embed(uint8 (N, S, S, 3)) -> float32 (N, D)``, ``spec``)
 that runs on ``runtime`` at ``precision``. The exported graph takes the uint8 crops and does
 the normalisation and pooling itself, so nothing but the crops crosses into the runtime.
+The proxy models (ImageNet classifier logits, CLIP's image tower) go the same way as an
+:class:`ExportableModel`, which brings its own output and identity measure.
 
 Cache (``cache_dir``, else ``$NVRQ_CACHE``, else ``~/.cache/nvrq``)::
 
