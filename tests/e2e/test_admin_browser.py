@@ -66,7 +66,12 @@ def test_vote_in_one_tab_appears_on_admin_page_without_reload(tmp_path):
             rater.get_by_role("button", name="Start").click()
             good = rater.get_by_role("button", name="Good (G)")
             good.wait_for(state="visible", timeout=30000)
+            time.sleep(0.4)  # the app drops presses within ANNOTATE_MIN_RESPONSE_MS (250) of drawing
             good.click()
+            deadline = time.time() + 30
+            while len(study.store.votes()) != 1:  # the vote is stored; now the admin tab must show it
+                assert time.time() < deadline, "the vote was not recorded"
+                time.sleep(0.1)
             deadline = time.time() + 30  # a few refresh periods (annotate.admin.REFRESH_S)
             while _votes_shown(admin) != 1:
                 assert time.time() < deadline, "the admin page did not refresh by itself"
