@@ -104,10 +104,11 @@ def simulate(study, *, raters: int = 5, seed: int = 0, progress: bool = True) ->
                 continue
             pg = 0.5 if par["careless"] else float(p_good(sev[key], theta=par["theta"],
                                                           width=par["width"], lapse=par["lapse"]))
+            vote = int(rng.random() < pg)  # drawn before the response time, as ever
             response_ms = int(rng.lognormal(np.log(900), 0.4))
             clock += timedelta(milliseconds=response_ms)
-            study.store.record_vote(par["rater_id"], key, int(rng.random() < pg),
-                                    response_ms=response_ms, voted_at=utc_iso(clock))
+            study.store.record_vote(par["rater_id"], key, vote, response_ms=response_ms,
+                                    voted_at=utc_iso(clock))
             bar.update()
     bar.close()
     return pd.DataFrame(params)
