@@ -72,75 +72,98 @@ def summary_table(
     y_all = items[target].to_numpy(np.float64)
     label_all, label_why = binary_label(items, target)
     do_boot = clusters is not None and n_boot > 0
-    counts = None
-    if do_boot:
-        n_clusters = int(clusters.max()) + 1 if len(clusters) else 0
-        counts = bs.draw_cluster_counts(n_clusters, n_boot, seed=seed) if n_clusters else None
-    rows, reps, y_rank_all = [], {}, None
+    counts = _draw_counts(clusters, n_boot, seed=seed) if do_boot else None
+    rows, reps, y_rank_cache = [], {}, {}
     for m in tqdm(metrics, desc="metrics", unit="metric", disable=not progress):
         hb = directions[m]
         x_all = items[m].to_numpy(np.float64)
         ok = np.isfinite(x_all) & np.isfinite(y_all)
         x, y = (x_all, y_all) if ok.all() else (x_all[ok], y_all[ok])
-        xo = x if hb else -x  # oriented: higher = better
-        p, p_why = stats.pearson(x, y)
-        rx = stats.rank_within(x)  # ranks computed once per column, reused below
-        if ok.all():
-            if y_rank_all is None:
-                y_rank_all = stats.rank_within(y)
-            ry = y_rank_all
-        else:
-            ry = stats.rank_within(y)
-        s, s_why = stats.pearson(rx, ry)  # Spearman = Pearson of average ranks
-        k, k_why = stats.kendall(x, y)
-        lg, lg_why, lg_note = stats.logistic_plcc(x, y, seed=seed)
-        if label_all is None:
-            auc, auc_why = float("nan"), label_why
-        else:
-            r_xo = rx if hb else (x.shape[0] + 1.0) - rx  # ranks of -x
-            auc, auc_why = stats.roc_auc(label_all[ok], xo, ranks=r_xo)
-        row = {
-            "metric": m,
-            "higher_better": hb,
-            "n": int(ok.sum()),
-            "plcc": abs(p),
-            "srcc": abs(s),
-            "roc_auc": auc,
-            "krcc": abs(k),
-            "plcc_logistic": lg,
-            "plcc_signed": p,
-            "srcc_signed": s,
-            "krcc_signed": k,
-        }
-        why = [
-            f"plcc, srcc, krcc: {p_why or s_why or k_why}" if (p_why or s_why or k_why) else None,
-            f"roc_auc: {auc_why}" if auc_why else None,
-            f"plcc_logistic: {lg_why}" if lg_why and lg_why != (p_why or s_why) else None,
-        ]
-        for name in RANK_BY:
-            row[f"{name}_ci_lo"] = row[f"{name}_ci_hi"] = np.nan
-        if counts is not None and not (p_why and s_why):
-            r = bs.replicate_stats(
-                xo, y, None if label_all is None else label_all[ok], clusters[ok], counts
-            )
-            r = {"plcc": np.abs(r["plcc"]), "srcc": np.abs(r["srcc"]), "roc_auc": r["roc_auc"]}
-            reps[m] = r
-            for name in RANK_BY:
-                if np.isnan(row[name]):
-                    continue
-                lo, hi, ci_why = bs.percentile_ci(r[name])
-                row[f"{name}_ci_lo"], row[f"{name}_ci_hi"] = lo, hi
-                if ci_why:
-                    why.append(f"{name} CI: {ci_why}")
+        label = None if label_all is None else label_all[ok]
+        ry = _y_ranks(y, all_rows=bool(ok.all()), cache=y_rank_cache)
+        row, why, skip_boot = _point_row(
+            m, x, y, ry, hb=hb, label=label, label_why=label_why, seed=seed
+        )
+        row["n"] = int(ok.sum())
+        if counts is not None and not skip_boot:
+            xo = x if hb else -x  # oriented: higher = better
+            reps[m] = _bootstrap_cis(row, why, xo, y, label, clusters[ok], counts)
         elif do_boot and counts is None:
             why.append("CIs: no tracks to resample")
         row["reason"] = _join(*why)
-        row["note"] = lg_note
         rows.append(row)
     table = pd.DataFrame(rows, columns=_COLUMNS[:-5] + ["reason", "note"])
     out = _mark_best(table, reps, rank_by=rank_by)
-    out.attrs["srcc_replicates"] = {m: r["srcc"] for m, r in reps.items()}  # analysis.noninferiority
+    out.attrs["srcc_replicates"] = {
+        m: r["srcc"] for m, r in reps.items()
+    }  # analysis.noninferiority
     return out
+
+
+def _draw_counts(clusters: np.ndarray, n_boot: int, *, seed: int) -> np.ndarray | None:
+    """Bootstrap draw counts per track, or ``None`` when there are no tracks."""
+    n_clusters = int(clusters.max()) + 1 if len(clusters) else 0
+    return bs.draw_cluster_counts(n_clusters, n_boot, seed=seed) if n_clusters else None
+
+
+def _y_ranks(y: np.ndarray, *, all_rows: bool, cache: dict) -> np.ndarray:
+    """Average ranks of the target; computed once when every row is finite."""
+    if not all_rows:
+        return stats.rank_within(y)
+    if "all" not in cache:
+        cache["all"] = stats.rank_within(y)
+    return cache["all"]
+
+
+def _point_row(m, x, y, ry, *, hb, label, label_why, seed) -> tuple[dict, list, bool]:
+    """Point estimates of one metric: the row (without n/reason), its reasons, skip-bootstrap."""
+    xo = x if hb else -x  # oriented: higher = better
+    p, p_why = stats.pearson(x, y)
+    rx = stats.rank_within(x)  # ranks computed once per column, reused below
+    s, s_why = stats.pearson(rx, ry)  # Spearman = Pearson of average ranks
+    k, k_why = stats.kendall(x, y)
+    lg, lg_why, lg_note = stats.logistic_plcc(x, y, seed=seed)
+    if label is None:
+        auc, auc_why = float("nan"), label_why
+    else:
+        r_xo = rx if hb else (x.shape[0] + 1.0) - rx  # ranks of -x
+        auc, auc_why = stats.roc_auc(label, xo, ranks=r_xo)
+    row = {
+        "metric": m,
+        "higher_better": hb,
+        "n": 0,
+        "plcc": abs(p),
+        "srcc": abs(s),
+        "roc_auc": auc,
+        "krcc": abs(k),
+        "plcc_logistic": lg,
+        "plcc_signed": p,
+        "srcc_signed": s,
+        "krcc_signed": k,
+    }
+    why = [
+        f"plcc, srcc, krcc: {p_why or s_why or k_why}" if (p_why or s_why or k_why) else None,
+        f"roc_auc: {auc_why}" if auc_why else None,
+        f"plcc_logistic: {lg_why}" if lg_why and lg_why != (p_why or s_why) else None,
+    ]
+    for name in RANK_BY:
+        row[f"{name}_ci_lo"] = row[f"{name}_ci_hi"] = np.nan
+    row["note"] = lg_note
+    return row, why, bool(p_why and s_why)
+
+
+def _bootstrap_cis(row: dict, why: list, xo, y, label, clusters, counts) -> dict:
+    """Fill the CI columns of ``row`` from cluster-bootstrap replicates; return the replicates."""
+    r = bs.replicate_stats(xo, y, label, clusters, counts)
+    r = {"plcc": np.abs(r["plcc"]), "srcc": np.abs(r["srcc"]), "roc_auc": r["roc_auc"]}
+    for name in RANK_BY:
+        if np.isnan(row[name]):
+            continue
+        lo, hi, ci_why = bs.percentile_ci(r[name])
+        row[f"{name}_ci_lo"], row[f"{name}_ci_hi"] = lo, hi
+        if ci_why:
+            why.append(f"{name} CI: {ci_why}")
+    return r
 
 
 _COLUMNS = [
