@@ -16,6 +16,7 @@ import sys
 from rich.console import Console
 from rich.table import Table
 
+from analysis.all_pairs import run_pairs_analysis
 from analysis.pipeline import run_analysis
 from analysis.report import summary_display, write_report
 from data_schema.cliargs import CommaList, DeprecatedFileOption, flags_in_errors
@@ -175,14 +176,9 @@ def _run(args) -> int:
     return 0
 
 
-def _run_pairs(args):
-    from analysis.all_pairs import run_pairs_analysis
-
-    if args.screen or args.exclude_raters or args.stability:
-        raise InputError("--pairs", None, "no rater or stability options (there are no votes)",
-                         "--screen/--exclude-raters/--stability")
-    return run_pairs_analysis(
-        args.pairs,
+def _common_options(args) -> dict:
+    """The keyword options both analyses take, from the parsed arguments."""
+    return dict(
         metrics_paths=args.metrics_tables,
         lower=args.lower_better,
         higher=args.higher_better,
@@ -195,23 +191,21 @@ def _run_pairs(args):
     )
 
 
-def _run_ratings(args):
+def _run_pairs(args):
+    if args.screen or args.exclude_raters or args.stability:
+        raise InputError("--pairs", None, "no rater or stability options (there are no votes)",
+                         "--screen/--exclude-raters/--stability")
+    return run_pairs_analysis(args.pairs, **_common_options(args))
 
+
+def _run_ratings(args):
     return run_analysis(
         args.ratings,
-        metrics_paths=args.metrics_tables,
-        lower=args.lower_better,
-        higher=args.higher_better,
-        target=args.target,
         exclude_raters=args.exclude_raters,
         screen=args.screen,
         aggregate_method=args.aggregate,
-        n_boot=args.bootstrap,
-        seed=args.seed,
-        rank_by=args.rank_by,
-        timing_paths=args.timing,
         stability_dir=args.stability,
-        progress=not args.quiet,
+        **_common_options(args),
     )
 
 

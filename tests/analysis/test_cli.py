@@ -36,6 +36,12 @@ def _run(args, capsys):
     return rc, capsys.readouterr()
 
 
+def _run_quick(d, metrics_table, capsys, *extra):
+    """``analyze`` on the fixture's ratings without bootstrap, into ``d / "o"``."""
+    args = [d / "ratings.csv", "--metrics-table", metrics_table, "--lower-better", "blurriness"]
+    return _run([*args, *extra, "--bootstrap", "0", "--out", d / "o"], capsys)
+
+
 def test_end_to_end_report(data, capsys):
     d, ratings, metrics = data
     stab = d / "stab"
@@ -53,18 +59,12 @@ def test_end_to_end_report(data, capsys):
     rc, cap = _run(
         [
             d / "ratings.csv",
-            "--metrics-table",
-            d / "metrics.csv",
-            "--lower-better",
-            "blurriness",
-            "--bootstrap",
-            "200",
-            "--stability",
-            stab,
-            "--exclude-raters",
-            "sim-4",
-            "--out",
-            out,
+            "--metrics-table", d / "metrics.csv",
+            "--lower-better", "blurriness",
+            "--bootstrap", "200",
+            "--stability", stab,
+            "--exclude-raters", "sim-4",
+            "--out", out,
         ],
         capsys,
     )
@@ -130,24 +130,7 @@ def test_target_proxy_and_undefined_metric(data, capsys):
     d, ratings, metrics = data
     metrics["flat"] = 0.5  # constant metric -> empty with reason
     metrics.to_csv(d / "m2.csv", index=False)
-    rc, cap = _run(
-        [
-            d / "ratings.csv",
-            "--metrics-table",
-            d / "m2.csv",
-            "--lower-better",
-            "blurriness",
-            "--higher-better",
-            "flat",
-            "--target",
-            "s_det",
-            "--bootstrap",
-            "0",
-            "--out",
-            d / "o",
-        ],
-        capsys,
-    )
+    rc, cap = _run_quick(d, d / "m2.csv", capsys, "--higher-better", "flat", "--target", "s_det")
     assert rc == 0, cap.err
     s = pd.read_csv(d / "o" / "summary.csv").set_index("metric")
     assert np.isnan(s.loc["flat", "plcc"]) and "constant metric" in s.loc["flat", "reason"]
@@ -166,20 +149,7 @@ def test_unknown_metric_ids_are_counted(data, capsys):
     d, ratings, metrics = data
     extra = pd.concat([metrics, metrics.head(3).assign(pair_id=["x:1", "x:2", "x:3"])])
     extra.to_csv(d / "m3.csv", index=False)
-    rc, cap = _run(
-        [
-            d / "ratings.csv",
-            "--metrics-table",
-            d / "m3.csv",
-            "--lower-better",
-            "blurriness",
-            "--bootstrap",
-            "0",
-            "--out",
-            d / "o",
-        ],
-        capsys,
-    )
+    rc, cap = _run_quick(d, d / "m3.csv", capsys)
     assert rc == 0
     assert "3 pair ids are not rated items" in (d / "o" / "report.md").read_text()
 
@@ -228,15 +198,8 @@ def test_screen_excludes_a_fast_straight_liner(data, capsys):
     spam = ratings[(ratings["rater_id"] == "sim-0") & (ratings["kind"] == "test")].copy()
     spam["rater_id"], spam["vote"], spam["response_ms"] = "spammer", 1, 120
     pd.concat([ratings, spam]).to_csv(d / "r.csv", index=False)
-    args = [
-        d / "r.csv",
-        "--metrics-table",
-        d / "metrics.csv",
-        "--lower-better",
-        "blurriness",
-        "--bootstrap",
-        "0",
-    ]
+    args = [d / "r.csv", "--metrics-table", d / "metrics.csv", "--lower-better", "blurriness"]
+    args += ["--bootstrap", "0"]
     rc, cap = _run(args + ["--out", d / "plain"], capsys)
     r = pd.read_csv(d / "plain" / "raters.csv").set_index("rater_id")
     assert rc == 0 and not r["excluded"].any()  # flags reported, not applied without --screen
