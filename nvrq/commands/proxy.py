@@ -8,14 +8,21 @@ local Ultralytics YOLO model (optional extra ``[yolo]``).
 from __future__ import annotations
 
 from data_schema.errors import InputError
-from data_schema.tables import read_table, write_table
+from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS, read_table, write_table
 from nvrq.commands._encoder import add_model_arguments, prepare_device
 from nvrq.engines import add_engine_args
+from nvrq.engines.cli import check_engine_args, run_ray
+from nvrq.engines.scorers import ClipScorer, ImagenetScorer
 from nvrq.proxies import load_class_maps
+from nvrq.proxies.classifier_drop import PROXY_RUNTIMES, imagenet_drop, load_classifier
+from nvrq.proxies.clip_drop import clip_drop, load_clip, true_category_index
 from nvrq.proxies.detection import detection_confidence, read_detections
 from nvrq.proxies.yolo import run_yolo
 
 __all__ = ["register"]
+
+#: the GT image and box columns the confidence-drop proxies read besides the render's
+GT_BOX = ("gt_path", *GT_BOX_COLUMNS)
 
 
 def _common(p) -> None:
@@ -43,8 +50,6 @@ def _model_opts(p) -> None:
 
 def _runtime_opts(p) -> None:
     """``--runtime``, ``--cache-dir`` of the proxy models (fp32; nvrq.encoders.runtimes)."""
-    from nvrq.proxies.classifier_drop import PROXY_RUNTIMES
-
     p.add_argument("--runtime", default="auto", choices=list(PROXY_RUNTIMES),
                    help="model runtime (default auto: on CPU the fastest exported runtime identical "
                         "to torch fp32, else torch; --device cuda runs torch)")
@@ -119,7 +124,7 @@ def _check_out(out) -> None:
 
 
 def _read_pairs(path, extra=()):
-    need = ("pair_id", "label_class", "render_path", "r_x0", "r_y0", "r_x1", "r_y1", *extra)
+    need = ("pair_id", "label_class", "render_path", *RENDER_BOX_COLUMNS, *extra)
     return read_table(path, required=need, what="pairs table")
 
 
@@ -150,46 +155,42 @@ def run_detect(args) -> int:
     return 0
 
 
-def run_imagenet(args) -> int:
-    from data_schema.tables import write_table
-    from nvrq.proxies.classifier_drop import imagenet_drop, load_classifier
-
+def _run_drop(args, kind: str, score) -> int:
+    """One confidence-drop proxy: Ray engine, or ``score(pairs)`` here, written to ``--out``."""
     if args.engine == "ray":
-        return _ray_proxy(args, "imagenet")
+        return _ray_proxy(args, kind)
     _check_out(args.out)
-    pairs = _read_pairs(args.pairs, ("gt_path", "gt_x0", "gt_y0", "gt_x1", "gt_y1"))
-    prepare_device(args)
-    clf = load_classifier(args.classifier, weights=args.weights, device=args.device,
-                          **_runtime_kwargs(args))
-    out = imagenet_drop(pairs, clf, scene_root=args.scene, batch_size=args.batch_size,
-                        progress=not args.quiet, where=str(args.pairs))
+    maps = load_class_maps(args.class_map) if kind == "clip" else None
+    pairs = _read_pairs(args.pairs, GT_BOX)
+    out = score(pairs, maps)
     write_table(out, args.out)
     return 0
+
+
+def run_imagenet(args) -> int:
+    def score(pairs, _maps):
+        prepare_device(args)
+        clf = load_classifier(args.classifier, weights=args.weights, device=args.device,
+                              **_runtime_kwargs(args))
+        return imagenet_drop(pairs, clf, scene_root=args.scene, batch_size=args.batch_size,
+                             progress=not args.quiet, where=str(args.pairs))
+
+    return _run_drop(args, "imagenet", score)
 
 
 def run_clip(args) -> int:
-    from data_schema.tables import write_table
-    from nvrq.proxies import load_class_maps
-    from nvrq.proxies.clip_drop import clip_drop, load_clip, true_category_index
+    def score(pairs, maps):
+        # unknown classes fail before the model loads
+        true_category_index(pairs["label_class"], maps["clip_category"],
+                            list(maps["clip_prompts"]), where=str(args.pairs))
+        prepare_device(args)
+        clip = load_clip(args.clip, prompts=maps["clip_prompts"], device=args.device,
+                         **_runtime_kwargs(args))
+        return clip_drop(pairs, clip, category_map=maps["clip_category"], scene_root=args.scene,
+                         batch_size=args.batch_size, progress=not args.quiet,
+                         where=str(args.pairs))
 
-    if args.engine == "ray":
-        return _ray_proxy(args, "clip")
-    _check_out(args.out)
-    maps = load_class_maps(args.class_map)
-    pairs = _read_pairs(args.pairs, ("gt_path", "gt_x0", "gt_y0", "gt_x1", "gt_y1"))
-    # unknown classes fail before the model loads
-    true_category_index(
-        pairs["label_class"],
-        maps["clip_category"],
-        list(maps["clip_prompts"]),
-        where=str(args.pairs),
-    )
-    prepare_device(args)
-    clip = load_clip(args.clip, prompts=maps["clip_prompts"], device=args.device, **_runtime_kwargs(args))
-    out = clip_drop(pairs, clip, category_map=maps["clip_category"], scene_root=args.scene,
-                    batch_size=args.batch_size, progress=not args.quiet, where=str(args.pairs))
-    write_table(out, args.out)
-    return 0
+    return _run_drop(args, "clip", score)
 
 
 def _runtime_kwargs(args) -> dict:
@@ -198,10 +199,6 @@ def _runtime_kwargs(args) -> dict:
 
 def _ray_proxy(args, kind: str) -> int:
     """``--engine ray``: the same proxy per crop batch on a Ray cluster (nvrq.engines.scorers)."""
-    from nvrq.engines.cli import check_engine_args, run_ray
-    from nvrq.engines.scorers import ClipScorer, ImagenetScorer
-    from nvrq.proxies import load_class_maps
-
     check_engine_args(args)
     if kind == "imagenet":
         scorer = ImagenetScorer(args.classifier, weights=args.weights, device=args.device,
