@@ -203,15 +203,11 @@ def _on_vote(study: Study, rater: str, key: str, token: str, vote: int) -> None:
     if rt < _min_response_ms():  # drawn a moment ago: the rater has not seen it yet
         log.info("annotate app: press %d ms after drawing dropped (rater %s)", rt, rater)
         return
-    try:
-        study.check_current()
-        status = study.store.record_shown_vote(rater, key, vote, response_ms=rt)
-    except StudyChanged:
-        log.exception("annotate app: vote refused")
-        st.session_state["notice"] = ("error", MSG_CHANGED)
-        return
-    except (sqlite3.Error, OSError):
-        _storage_failed("recording a vote")
+    ok, status = _on_current_study(
+        study, lambda: study.store.record_shown_vote(rater, key, vote, response_ms=rt),
+        refused="vote", doing="recording a vote",
+    )
+    if not ok:
         return
     st.session_state["shown"] = (None, None, None)  # a repeated press of this token is dropped
     if status != "recorded":
@@ -221,17 +217,27 @@ def _on_vote(study: Study, rater: str, key: str, token: str, vote: int) -> None:
 def _on_undo(study: Study, rater: str, token: str) -> None:
     if token != _shown()[2]:
         return
+    ok, _ = _on_current_study(
+        study, lambda: study.store.undo_last(rater), refused="undo", doing="undoing a vote"
+    )
+    if ok:
+        st.session_state["shown"] = (None, None, None)
+
+
+def _on_current_study(study: Study, action, *, refused: str, doing: str) -> tuple[bool, object]:
+    """``action()`` if the study on disk is still the one served; (succeeded, its result).
+
+    A changed study or a storage failure leaves a notice for the rater instead.
+    """
     try:
         study.check_current()
-        study.store.undo_last(rater)
+        return True, action()
     except StudyChanged:
-        log.exception("annotate app: undo refused")
+        log.exception("annotate app: %s refused", refused)
         st.session_state["notice"] = ("error", MSG_CHANGED)
-        return
     except (sqlite3.Error, OSError):
-        _storage_failed("undoing a vote")
-        return
-    st.session_state["shown"] = (None, None, None)
+        _storage_failed(doing)
+    return False, None
 
 
 def _show_notice() -> None:

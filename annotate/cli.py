@@ -138,6 +138,12 @@ def _cmd_simulate(args) -> int:
     return 0
 
 
+def _add_address(p) -> None:
+    """The rater app's address options (``serve`` and the sign-in links of ``add-rater``)."""
+    p.add_argument("--host", default="127.0.0.1")
+    p.add_argument("--port", type=int, default=8501)
+
+
 def build_parser() -> ArgumentParser:
     p = ArgumentParser(prog="annotate", description="Rating studies of render quality.")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
@@ -167,14 +173,12 @@ def build_parser() -> ArgumentParser:
     b.set_defaults(func=_cmd_build)
     s = sub.add_parser("serve", help="serve the rater app (Streamlit)")
     s.add_argument("study")
-    s.add_argument("--host", default="127.0.0.1")
-    s.add_argument("--port", type=int, default=8501)
+    _add_address(s)
     s.set_defaults(func=_cmd_serve)
     a = sub.add_parser("add-rater", help="register a rater and print the sign-in link")
     a.add_argument("study")
     a.add_argument("name")
-    a.add_argument("--host", default="127.0.0.1")
-    a.add_argument("--port", type=int, default=8501)
+    _add_address(a)
     a.set_defaults(func=_cmd_add_rater)
     e = sub.add_parser("export", help="write ratings.csv (SPEC section 5)")
     e.add_argument("study")
