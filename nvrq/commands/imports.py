@@ -4,8 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from data_schema.cliargs import allow_negative_lists
-from nvrq.commands.synth import add_perturb_option, parse_offsets, perturb_grid
+from nvrq.commands.synth import add_view_options, parse_offsets, perturb_grid
 from nvrq.sources.kitti import import_kitti
 from nvrq.sources.nurec import import_nurec
 
@@ -27,10 +26,7 @@ def register(sub) -> None:
     )
     n.add_argument("archive", help="NuRec scene archive (.usdz, a zip)")
     n.add_argument("out", help="output scene folder")
-    n.add_argument(
-        "--offsets", default="-3,-2,-1,0,1,2,3", help="render offsets in metres (left > 0)"
-    )
-    add_perturb_option(n)
+    add_view_options(n)
     n.add_argument(
         "--sequence", default=None, help="rig trajectory sequence_id (default: the first)"
     )
@@ -40,7 +36,6 @@ def register(sub) -> None:
         metavar="FILE",
         help="table of clip_id + attribute columns (lighting, road_type, ...) for scene.json",
     )
-    allow_negative_lists(n)
     n.set_defaults(func=_run_nurec)
     k = kinds.add_parser(
         "kitti",

@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-from data_schema.cliargs import allow_negative_lists
 from data_schema.errors import InputError
 from data_schema.scene import load_scene
-from nvrq.commands.synth import add_perturb_option, parse_offsets, perturb_grid
+from nvrq.commands.synth import add_view_options, parse_offsets, perturb_grid
 from nvrq.render_plan import render_plan, write_render_plan
 
 __all__ = ["register", "run"]
@@ -19,13 +18,11 @@ def register(sub) -> None:
         "its inverse, the timestamp and the path images.csv expects.",
     )
     p.add_argument("scene", help="scene folder (scene.json + images.csv; images need not exist)")
-    p.add_argument(
-        "--offsets", default=None, help="offsets in metres (default: those in images.csv)"
+    add_view_options(
+        p, offsets_default=None, offsets_help="offsets in metres (default: those in images.csv)"
     )
-    add_perturb_option(p)
     p.add_argument("--cameras", default=None, help="comma list of camera names (default: all)")
     p.add_argument("--out", required=True, help="output plan (.csv or .json)")
-    allow_negative_lists(p)
     p.set_defaults(func=run)
 
 

@@ -7,7 +7,7 @@ from data_schema.perturbation import parse_perturb
 from data_schema.tables import parse_offsets
 from nvrq.synth import generate_scene
 
-__all__ = ["register", "run", "parse_offsets", "parse_size", "allow_negative_lists", "add_perturb_option",
+__all__ = ["register", "run", "parse_offsets", "parse_size", "allow_negative_lists", "add_perturb_option", "add_view_options",
            "perturb_grid"]
 
 
@@ -19,6 +19,21 @@ def add_perturb_option(parser) -> None:
         "{x,y,z,roll,pitch,yaw}, metres/degrees in the rig frame, e.g. y=-3:3:1,z=0:2:0.5,yaw=-10:10:5; "
         "replaces --offsets",
     )
+
+
+def add_view_options(
+    parser,
+    *,
+    offsets_default: str | None = "-3,-2,-1,0,1,2,3",
+    offsets_help: str = "render offsets in metres (left > 0)",
+) -> None:
+    """The views to render: ``--offsets`` (lateral, metres) and ``--perturb`` (6-DoF grid).
+
+    Also lets the parser take negative comma lists such as ``-3,-2,-1`` as values.
+    """
+    parser.add_argument("--offsets", default=offsets_default, help=offsets_help)
+    add_perturb_option(parser)
+    allow_negative_lists(parser)
 
 
 def perturb_grid(args):
@@ -46,16 +61,12 @@ def register(sub) -> None:
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--seconds", type=float, default=10.0, help="clip length (default 10)")
     p.add_argument("--fps", type=float, default=10.0, help="frame rate (default 10)")
-    p.add_argument(
-        "--offsets", default="-3,-2,-1,0,1,2,3", help="render offsets in metres (left > 0)"
-    )
-    add_perturb_option(p)
+    add_view_options(p)
     p.add_argument(
         "--cameras", default="pinhole", help="comma list from {pinhole, ftheta} (default pinhole)"
     )
     p.add_argument("--size", default="1280x720", help="image size WxH (default 1280x720)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    allow_negative_lists(p)
     p.set_defaults(func=run)
 
 
