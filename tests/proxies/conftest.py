@@ -36,23 +36,10 @@ def cat_scene(tmp_path):
     for off, path, cls in ((0.0, "r0.png", "automobile"), (1.0, "r1.png", "automobile")):
         rows.append(
             dict(
-                pair_id=pair_id("c", "front", "cat", 0, off),
-                clip_id="c",
-                camera="front",
-                track_id="cat",
-                label_class=cls,
-                timestamp_us=0,
-                y_offset_m=off,
-                gt_path="gt.png",
-                render_path=path,
-                gt_x0=x0,
-                gt_y0=y0,
-                gt_x1=x1,
-                gt_y1=y1,
-                r_x0=x0,
-                r_y0=y0,
-                r_x1=x1,
-                r_y1=y1,
+                pair_id=pair_id("c", "front", "cat", 0, off), clip_id="c", camera="front",
+                track_id="cat", label_class=cls, timestamp_us=0, y_offset_m=off,
+                gt_path="gt.png", render_path=path,
+                gt_x0=x0, gt_y0=y0, gt_x1=x1, gt_y1=y1, r_x0=x0, r_y0=y0, r_x1=x1, r_y1=y1,
             )
         )
     pairs = pd.DataFrame(rows, columns=list(PAIRS_COLUMNS))
