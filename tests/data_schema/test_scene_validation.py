@@ -7,11 +7,12 @@ are the ones SPEC section 7 asks for (file, field, what was expected).
 from __future__ import annotations
 
 import copy
+import importlib.util
 import json
 import subprocess
 import sys
+from pathlib import Path
 
-import numpy as np
 import pandas as pd
 import pytest
 
@@ -19,21 +20,15 @@ from data_schema.errors import InputError
 from data_schema.scene import load_scene, save_scene
 from nvrq.cli import main
 
+_spec = importlib.util.spec_from_file_location(
+    "scene_validation_world", Path(__file__).resolve().parents[1] / "malformed" / "malformed_world.py")
+_world = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_world)
+
 
 def valid_doc() -> dict:
-    T_sensor_rig = [[0, 0, 1, 0], [-1, 0, 0, 0], [0, -1, 0, 1.5], [0, 0, 0, 1]]
-    return {
-        "clip_id": "clip",
-        "attributes": {"lighting": "daytime", "road_type": "urban"},
-        "cameras": {"front": {"T_sensor_rig": T_sensor_rig, "model": {
-            "type": "pinhole", "resolution": [640, 480], "focal_length": [500.0, 500.0],
-            "principal_point": [319.5, 239.5]}}},
-        "rig_trajectory": {"timestamps_us": [0, 100000],
-                           "T_rig_world": [np.eye(4).tolist(), np.eye(4).tolist()]},
-        "tracks": [{"track_id": "car-1", "label_class": "automobile", "dims_lwh": [4.5, 1.9, 1.6],
-                    "timestamps_us": [0, 100000],
-                    "poses": [[15, 0, 0.8, 0, 0, 0, 1], [16, 0, 0.8, 0, 0, 0, 1]]}],
-    }
+    """A valid scene.json: the malformed corpus's (one pinhole camera, two frames, one track)."""
+    return _world.scene_doc()
 
 
 def valid_images() -> pd.DataFrame:
@@ -63,13 +58,7 @@ def test_quaternions_are_normalised(tmp_path):
 
 
 def _set(doc, path, value):
-    obj = doc
-    for k in path[:-1]:
-        obj = obj[k]
-    if value is KeyError:
-        del obj[path[-1]]
-    else:
-        obj[path[-1]] = value
+    _world.set_in(doc, path, value)
 
 
 ROT_BAD = [[1, 0, 0, 0], [0, 1, 0.01, 0], [0, 0, 1, 0], [0, 0, 0, 1]]

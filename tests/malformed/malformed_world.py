@@ -42,6 +42,17 @@ def scene_doc() -> dict:
     }
 
 
+def set_in(doc: dict, path: tuple, value) -> None:
+    """Set ``doc[path[0]][path[1]]...`` to ``value``; ``value is KeyError`` deletes that key."""
+    obj = doc
+    for k in path[:-1]:
+        obj = obj[k]
+    if value is KeyError:
+        del obj[path[-1]]
+    else:
+        obj[path[-1]] = value
+
+
 IMAGES_CSV = ("camera,timestamp_us,source,y_offset_m,path\n"
               "front,0,gt,0.0,gt.png\nfront,0,render,1.0,r.png\n")
 

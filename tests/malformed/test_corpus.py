@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
-from malformed_world import IMAGES_CSV, copy_into, scene_doc, snapshot, write_scene
+from malformed_world import IMAGES_CSV, copy_into, scene_doc, set_in, snapshot, write_scene
 
 from data_schema.outputs import REPORT_MARKER
 
@@ -55,15 +55,7 @@ def _doc_case(kind, name, mutate, *fragments):
 
 
 def _set(path, value):
-    def m(doc):
-        obj = doc
-        for k in path[:-1]:
-            obj = obj[k]
-        if value is KeyError:
-            del obj[path[-1]]
-        else:
-            obj[path[-1]] = value
-    return m
+    return lambda doc: set_in(doc, path, value)
 
 
 ROT_BAD = [[1, 0, 0, 0], [0, 1, 0.01, 0], [0, 0, 1, 0], [0, 0, 0, 1]]
@@ -87,32 +79,21 @@ for _n, _p, _v, _f in [
     _doc_case("scene.json", _n, _set(_p, _v), _f)
 
 
-@case("scene.json", "invalid JSON")
-def _(world, tmp):
-    scene = write_scene(tmp / "scene")
-    (scene / "scene.json").write_text('{"clip_id": "clip", "cameras": {')
-    return "nvrq", _pairs_cmd(scene, tmp), ["scene.json"]
+def _scene_json_case(name, text):
+    @case("scene.json", name)
+    def _c(world, tmp):
+        scene = write_scene(tmp / "scene")
+        if text is None:
+            (scene / "scene.json").unlink()
+        else:
+            (scene / "scene.json").write_text(text)
+        return "nvrq", _pairs_cmd(scene, tmp), ["scene.json"]
 
 
-@case("scene.json", "empty file")
-def _(world, tmp):
-    scene = write_scene(tmp / "scene")
-    (scene / "scene.json").write_text("")
-    return "nvrq", _pairs_cmd(scene, tmp), ["scene.json"]
-
-
-@case("scene.json", "no scene.json")
-def _(world, tmp):
-    scene = write_scene(tmp / "scene")
-    (scene / "scene.json").unlink()
-    return "nvrq", _pairs_cmd(scene, tmp), ["scene.json"]
-
-
-@case("scene.json", "a JSON list")
-def _(world, tmp):
-    scene = write_scene(tmp / "scene")
-    (scene / "scene.json").write_text("[]")
-    return "nvrq", _pairs_cmd(scene, tmp), ["scene.json"]
+# (case name, the scene.json text; None: no scene.json at all)
+for _n, _t in [("invalid JSON", '{"clip_id": "clip", "cameras": {'), ("empty file", ""),
+               ("no scene.json", None), ("a JSON list", "[]")]:
+    _scene_json_case(_n, _t)
 
 
 # ---------------------------------------------------------------- tracks (in scene.json)
@@ -299,13 +280,8 @@ def _metrics(world, tmp, text_or_edit) -> Path:
     return out
 
 
-def _mdup(df):
-    df.loc[1, "pair_id"] = df.loc[0, "pair_id"]
-    return df
-
-
 METRIC_EDITS = [
-    ("duplicated pair_id", _mdup, "pair_id"),
+    ("duplicated pair_id", _dup, "pair_id"),
     ("non-numeric value", _col("psnr", "high", [0]), "psnr"),
     ("header only", "pair_id,psnr\n", "header only"),
     ("no matching pair", lambda df: df.assign(pair_id="other:" + df["pair_id"]), "pair_id"),
@@ -520,16 +496,15 @@ def _(world, tmp):
                     "--metrics", "psnr", "--out", str(tmp / "m.csv")], ["--out", "folder"]
 
 
-@case("outputs", "pairs --out SCENE/images.csv")
-def _(world, tmp):
-    scene = write_scene(tmp / "scene")
-    return "nvrq", ["pairs", str(scene), "--out", str(scene / "images.csv")], ["--out", "scene folder"]
+def _out_into_scene(command, name):
+    @case("outputs", f"{command} --out SCENE/{name}")
+    def _c(world, tmp):
+        scene = write_scene(tmp / "scene")
+        return "nvrq", [command, str(scene), "--out", str(scene / name)], ["--out", "scene folder"]
 
 
-@case("outputs", "pairs --out SCENE/scene.json")
-def _(world, tmp):
-    scene = write_scene(tmp / "scene")
-    return "nvrq", ["pairs", str(scene), "--out", str(scene / "scene.json")], ["--out", "scene folder"]
+_out_into_scene("pairs", "images.csv")
+_out_into_scene("pairs", "scene.json")
 
 
 for _f in ("items.csv", "metrics.csv", "votes.sqlite", "manifest.json", "new.csv"):
@@ -602,10 +577,7 @@ def _(world, tmp):
     return "nvrq", ["synth", str(tmp / "home"), "--seconds", "0.1"], ["OUT", "scene folder"]
 
 
-@case("outputs", "render-plan --out SCENE/images.csv")
-def _(world, tmp):
-    scene = write_scene(tmp / "scene")
-    return "nvrq", ["render-plan", str(scene), "--out", str(scene / "images.csv")], ["--out", "scene folder"]
+_out_into_scene("render-plan", "images.csv")
 
 
 @case("outputs", "proxy detection --out the pairs table")
