@@ -271,13 +271,18 @@ def _(world, tmp):
 
 # ---------------------------------------------------------------- metrics tables (build, analyze)
 
-def _metrics(world, tmp, text_or_edit) -> Path:
-    out = tmp / "metrics.csv"
+def _edited_copy(world, tmp, name: str, text_or_edit) -> Path:
+    """``tmp / name``: the given text, or ``world / name`` read, edited and written back."""
+    out = tmp / name
     if isinstance(text_or_edit, str):
         out.write_text(text_or_edit)
     else:
-        text_or_edit(pd.read_csv(world / "metrics.csv")).to_csv(out, index=False)
+        text_or_edit(pd.read_csv(world / name)).to_csv(out, index=False)
     return out
+
+
+def _metrics(world, tmp, text_or_edit) -> Path:
+    return _edited_copy(world, tmp, "metrics.csv", text_or_edit)
 
 
 METRIC_EDITS = [
@@ -308,12 +313,7 @@ for _n, _e, _f in METRIC_EDITS:
 # ---------------------------------------------------------------- ratings (analyze)
 
 def _ratings(world, tmp, edit) -> Path:
-    out = tmp / "ratings.csv"
-    if isinstance(edit, str):
-        out.write_text(edit)
-    else:
-        edit(pd.read_csv(world / "ratings.csv")).to_csv(out, index=False)
-    return out
+    return _edited_copy(world, tmp, "ratings.csv", edit)
 
 
 def _two_offsets(df):
