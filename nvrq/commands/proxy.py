@@ -57,6 +57,14 @@ def _runtime_opts(p) -> None:
                    help="exported-model cache (default $NVRQ_CACHE, else ~/.cache/nvrq)")
 
 
+def _drop_parser(psub, name: str, help_text: str):
+    """A confidence-drop proxy's parser with the pairs, output, class-map and model options."""
+    p = psub.add_parser(name, help=help_text)
+    _common(p)
+    _model_opts(p)
+    return p
+
+
 def register(sub) -> None:
     p = sub.add_parser(
         "proxy",
@@ -87,11 +95,7 @@ def register(sub) -> None:
     _model_opts(y)
     y.set_defaults(func=run_detect)
 
-    i = psub.add_parser(
-        "imagenet", help="imagenet_drop: ImageNet top-class confidence drop (Eq. 9)"
-    )
-    _common(i)
-    _model_opts(i)
+    i = _drop_parser(psub, "imagenet", "imagenet_drop: ImageNet top-class confidence drop (Eq. 9)")
     i.add_argument(
         "--classifier",
         default="efficientnet-lite0",
@@ -105,11 +109,7 @@ def register(sub) -> None:
     add_engine_args(i)
     i.set_defaults(func=run_imagenet)
 
-    c = psub.add_parser(
-        "clip", help="clip_drop: CLIP zero-shot true-category confidence drop (Eq. 10)"
-    )
-    _common(c)
-    _model_opts(c)
+    c = _drop_parser(psub, "clip", "clip_drop: CLIP zero-shot true-category confidence drop (Eq. 10)")
     c.add_argument(
         "--clip", required=True, help="local Hugging Face CLIP folder (CLIPModel + tokenizer)"
     )

@@ -7,18 +7,13 @@ reloaded or touched.
 
 from __future__ import annotations
 
-import os
 import re
-import signal
-import subprocess
-import sys
 import time
-import urllib.request
 from pathlib import Path
 
 import pytest
 
-from tests.e2e.test_rater_browser import ARGS, CHROMIUM, _free_port, _toy
+from tests.e2e.browser_support import ARGS, CHROMIUM, serve, stop, toy
 
 pytestmark = [pytest.mark.browser,
               pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="needs /usr/bin/chromium")]
@@ -29,33 +24,17 @@ def _votes_shown(page) -> int:
     return int(re.search(r"(\d+) votes\.", page.inner_text("body")).group(1))
 
 
-def _wait_server(url, server):
-    deadline = time.time() + 60
-    while True:
-        try:
-            urllib.request.urlopen(url + "_stcore/health", timeout=1)
-            return
-        except OSError:
-            assert time.time() < deadline and server.poll() is None, "server did not start"
-            time.sleep(0.2)
-
-
 def test_vote_in_one_tab_appears_on_admin_page_without_reload(tmp_path):
     from playwright.sync_api import sync_playwright
 
     from annotate.study import build_study, load_study
 
-    scene, pairs = _toy().make_toy(tmp_path)
+    scene, pairs = toy().make_toy(tmp_path)
     study = load_study(build_study(tmp_path / "study", pairs, scene=str(scene), tracks=1,
                                    frames_per_track=2, n_training=0, n_gold=1, n_repeats=1,
                                    size=64, progress=False))
-    port = _free_port()
-    server = subprocess.Popen([sys.executable, "-m", "annotate.cli", "serve", str(study.root),
-                               "--port", str(port)], start_new_session=True,
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    url = f"http://127.0.0.1:{port}/"
+    server, url = serve(study.root)
     try:
-        _wait_server(url, server)
         with sync_playwright() as pw:
             browser = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
             admin = browser.new_context().new_page()
@@ -79,6 +58,5 @@ def test_vote_in_one_tab_appears_on_admin_page_without_reload(tmp_path):
             assert "ann" not in admin.url
             browser.close()
     finally:
-        os.killpg(server.pid, signal.SIGKILL)
-        server.wait(timeout=10)
+        stop(server)
     assert len(study.store.votes()) == 1

@@ -13,41 +13,26 @@ own. Waits are for enabled buttons with generous timeouts (a loaded 2-core machi
 
 from __future__ import annotations
 
-import importlib.util
-import os
 import resource
-import signal
-import socket
 import subprocess
-import sys
 import time
 import urllib.parse
-import urllib.request
 from pathlib import Path
 
 import pandas as pd
 import pytest
 
-CHROMIUM = "/usr/bin/chromium"
+from tests.e2e.browser_support import ARGS, CHROMIUM, serve, settled, stop, toy
+
 pytestmark = [pytest.mark.browser,
               pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="needs /usr/bin/chromium")]
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-        "--disable-component-update", "--disable-sync", "--no-first-run"]
 T = 30000  # ms: generous waits for a loaded machine
-
-
-def _toy():
-    path = Path(__file__).parents[1] / "annotate" / "toy.py"
-    spec = importlib.util.spec_from_file_location("annotate_toy_e2e2", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
 
 
 def _build(root: Path, tmp: Path):
     from annotate.study import build_study, load_study
 
-    scene, pairs = _toy().make_toy(tmp)
+    scene, pairs = toy("annotate_toy_e2e2").make_toy(tmp)
     # 1 training + 1 track x 2 frames x 3 offsets + 2 gold + 1 repeat = 10 items per rater
     build_study(root, pairs, scene=str(scene), tracks=1, frames_per_track=2, n_training=1,
                 n_gold=1, n_repeats=1, size=64, progress=False)
@@ -55,26 +40,11 @@ def _build(root: Path, tmp: Path):
 
 
 def _serve(root: Path, log: Path) -> tuple[subprocess.Popen, str]:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    proc = subprocess.Popen([sys.executable, "-m", "annotate.cli", "serve", str(root), "--port",
-                             str(port)], start_new_session=True, stdout=subprocess.DEVNULL,
-                            stderr=open(log, "wb"))  # noqa: SIM115 (the child owns it)
-    url = f"http://127.0.0.1:{port}/"
-    deadline = time.time() + 90
-    while True:
-        try:
-            urllib.request.urlopen(url + "_stcore/health", timeout=2)
-            return proc, url
-        except OSError:
-            assert time.time() < deadline and proc.poll() is None, "server did not start"
-            time.sleep(0.2)
+    return serve(root, log=log, start_s=90, probe_s=2, stop_s=30)
 
 
 def _stop(proc: subprocess.Popen) -> None:
-    os.killpg(proc.pid, signal.SIGKILL)
-    proc.wait(timeout=30)
+    stop(proc, wait_s=30)
 
 
 @pytest.fixture(scope="module")
@@ -105,23 +75,9 @@ def _ready(page) -> None:
     page.wait_for_function("() => !document.querySelector('[data-stale=\"true\"]')", timeout=T)
 
 
-# (progress text, or 'done' once the rater is done; image URLs) read in one go
-_SNAPSHOT = """() => {
-  const p = document.querySelector('[data-testid=stProgress]');
-  const text = document.body.innerText.includes('All done') ? 'done' : (p ? p.innerText : '');
-  return [text, Array.from(document.querySelectorAll('img')).map(i => i.getAttribute('src'))];
-}"""
-
-
 def _screen(page) -> tuple[str, tuple]:
     """(progress text or 'done', image URLs) of a settled page."""
-    page.wait_for_function(
-        "() => !document.querySelector('[data-stale=\"true\"]') &&"
-        " ((document.querySelector('[data-testid=stProgress]') &&"
-        "   document.querySelectorAll('img').length === 2) ||"
-        "  document.body.innerText.includes('All done'))", timeout=T)
-    text, srcs = page.evaluate(_SNAPSHOT)  # one read: the panel may redraw in between
-    return text.strip(), tuple(srcs)
+    return settled(page, timeout_ms=T)
 
 
 def _moved(page, old: tuple) -> tuple:

@@ -8,58 +8,22 @@ the offset, clip, track or item kind.
 
 from __future__ import annotations
 
-import importlib.util
-import os
-import signal
-import socket
-import subprocess
-import sys
 import time
-import urllib.request
 from pathlib import Path
 
 import pandas as pd
 import pytest
 
-CHROMIUM = "/usr/bin/chromium"
+from tests.e2e.browser_support import ARGS, CHROMIUM, serve, settled, stop, toy
+
 pytestmark = [pytest.mark.browser,
               pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="needs /usr/bin/chromium")]
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-        "--disable-component-update", "--disable-sync", "--no-first-run"]
 SECRETS = ("+1.00", "-1.00", "+0.00", "offset", "toy", "trk-", "front", "gold", "repeat", "psnr")
-
-
-def _toy():
-    path = Path(__file__).parents[1] / "annotate" / "toy.py"
-    spec = importlib.util.spec_from_file_location("annotate_toy_e2e", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-# (progress text, or 'done' once the rater is done; image URLs) read in one go
-_SNAPSHOT = """() => {
-  const p = document.querySelector('[data-testid=stProgress]');
-  const text = document.body.innerText.includes('All done') ? 'done' : (p ? p.innerText : '');
-  return [text, Array.from(document.querySelectorAll('img')).map(i => i.getAttribute('src'))];
-}"""
 
 
 def _state(page) -> tuple[str, tuple]:
     """(progress/done text, image URLs) once the app has finished its rerun."""
-    page.wait_for_function(
-        "() => !document.querySelector('[data-stale=\"true\"]') &&"
-        " ((document.querySelector('[data-testid=stProgress]') &&"
-        "   document.querySelectorAll('img').length === 2) ||"
-        "  document.body.innerText.includes('All done'))", timeout=40000)
-    text, srcs = page.evaluate(_SNAPSHOT)  # one read: the panel may redraw in between
-    return text.strip(), tuple(srcs)
+    return settled(page, timeout_ms=40000)
 
 
 def _wait_moved(page, old: tuple) -> tuple:
@@ -99,26 +63,14 @@ def test_two_raters_vote_with_keyboard_reload_and_export(tmp_path):
     from annotate.cli import main
     from annotate.study import build_study, load_study
 
-    scene, pairs = _toy().make_toy(tmp_path)
+    scene, pairs = toy().make_toy(tmp_path)
     # 1 training + 1 track x 2 frames x 3 offsets + 2 gold + 1 repeat = 10 items per rater
     root = build_study(tmp_path / "study", pairs, scene=str(scene), tracks=1, frames_per_track=2,
                        n_training=1, n_gold=1, n_repeats=1, size=64, progress=False)
     n_items = len(load_study(root).items)
     assert n_items == 10
-    port = _free_port()
-    server = subprocess.Popen([sys.executable, "-m", "annotate.cli", "serve", str(root),
-                               "--port", str(port)], start_new_session=True,
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    url = f"http://127.0.0.1:{port}/"
+    server, url = serve(root)
     try:
-        deadline = time.time() + 60
-        while True:
-            try:
-                urllib.request.urlopen(url + "_stcore/health", timeout=1)
-                break
-            except OSError:
-                assert time.time() < deadline and server.poll() is None, "server did not start"
-                time.sleep(0.2)
         with sync_playwright() as pw:
             browser = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
             pages = {r: browser.new_context().new_page() for r in ("alice", "bob")}
@@ -158,8 +110,7 @@ def test_two_raters_vote_with_keyboard_reload_and_export(tmp_path):
                     assert state["alice"] == before
             browser.close()
     finally:
-        os.killpg(server.pid, signal.SIGKILL)
-        server.wait(timeout=10)
+        stop(server)
     assert seen and all(len(a) == n_items for a in acked.values())
     out = tmp_path / "ratings.csv"
     assert main(["export", str(root), "--out", str(out)]) == 0

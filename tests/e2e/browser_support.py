@@ -1,0 +1,88 @@
+"""What the real-browser tests share: Chromium and its flags, the toy study, a served app.
+
+A server runs in its own process group on 127.0.0.1 and is stopped with that group.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+__all__ = ["ARGS", "CHROMIUM", "SNAPSHOT", "free_port", "serve", "settled", "stop", "toy"]
+
+CHROMIUM = "/usr/bin/chromium"
+ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+        "--disable-component-update", "--disable-sync", "--no-first-run"]
+
+# (progress text, or 'done' once the rater is done; image URLs) read in one go
+SNAPSHOT = """() => {
+  const p = document.querySelector('[data-testid=stProgress]');
+  const text = document.body.innerText.includes('All done') ? 'done' : (p ? p.innerText : '');
+  return [text, Array.from(document.querySelectorAll('img')).map(i => i.getAttribute('src'))];
+}"""
+
+
+def toy(module_name: str = "annotate_toy_e2e"):
+    """The toy scene + pairs maker of ``tests/annotate/toy.py``."""
+    path = Path(__file__).parents[1] / "annotate" / "toy.py"
+    spec = importlib.util.spec_from_file_location(module_name, path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def serve(root: Path, *, log: Path | None = None, start_s: float = 60, probe_s: float = 1,
+          stop_s: float = 10) -> tuple[subprocess.Popen, str]:
+    """``annotate serve ROOT`` on a free local port; (process, base URL) once it answers.
+
+    The server's stderr goes to ``log`` (or nowhere); a server that does not come up within
+    ``start_s`` seconds is stopped and the test fails.
+    """
+    port = free_port()
+    stderr = subprocess.DEVNULL if log is None else open(log, "wb")  # noqa: SIM115 (the child owns it)
+    proc = subprocess.Popen([sys.executable, "-m", "annotate.cli", "serve", str(root), "--port",
+                             str(port)], start_new_session=True, stdout=subprocess.DEVNULL,
+                            stderr=stderr)
+    url = f"http://127.0.0.1:{port}/"
+    deadline = time.time() + start_s
+    try:
+        while True:
+            try:
+                urllib.request.urlopen(url + "_stcore/health", timeout=probe_s)
+                return proc, url
+            except OSError:
+                assert time.time() < deadline and proc.poll() is None, "server did not start"
+                time.sleep(0.2)
+    except BaseException:
+        stop(proc, wait_s=stop_s)
+        raise
+
+
+def stop(proc: subprocess.Popen, *, wait_s: float = 10) -> None:
+    """Kill the server's whole process group and reap it."""
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait(timeout=wait_s)
+
+
+def settled(page, *, timeout_ms: int) -> tuple[str, tuple]:
+    """(progress text or 'done', image URLs) once the app has finished its rerun."""
+    page.wait_for_function(
+        "() => !document.querySelector('[data-stale=\"true\"]') &&"
+        " ((document.querySelector('[data-testid=stProgress]') &&"
+        "   document.querySelectorAll('img').length === 2) ||"
+        "  document.body.innerText.includes('All done'))", timeout=timeout_ms)
+    text, srcs = page.evaluate(SNAPSHOT)  # one read: the panel may redraw in between
+    return text.strip(), tuple(srcs)
