@@ -24,6 +24,11 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
+import pyarrow.compute as pc
+import pyarrow.parquet as pq
+import pyarrow.types as pt
+from tqdm.auto import tqdm
 
 from analysis import breakdowns
 from analysis.inputs import NON_METRIC_COLUMNS, classify_columns
@@ -42,7 +47,6 @@ RATER_COLUMNS = ["rater_id", "simulated", "excluded", "excluded_reason"]
 
 
 def _is_numeric(t) -> bool:
-    import pyarrow.types as pt
 
     return pt.is_integer(t) or pt.is_floating(t) or pt.is_boolean(t) or pt.is_null(t)
 
@@ -51,14 +55,12 @@ class TableSource:
     """A table file or a clip-partitioned dataset, readable clip by clip as pyarrow tables."""
 
     def __init__(self, path, *, what: str):
-        import pyarrow as pa
 
         self.path, self.what = str(path), what
         self.dataset = ds.is_dataset(path)
         if self.dataset:
             files = ds.dataset_files(path, what=what)
             ds.check_schemas(files, root=path)
-            import pyarrow.parquet as pq
 
             self.schema = pq.read_schema(files[0][1])
             self.by_clip: dict[str, list[Path]] = {}
@@ -81,14 +83,11 @@ class TableSource:
         if ds.PARTITION not in self.schema.names:
             raise InputError(self.path, "column 'clip_id'", "a pairs dataset partitioned by clip_id "
                              "or a table with a clip_id column", "neither")
-        import pyarrow.compute as pc
 
         return sorted(map(str, pc.unique(self.table.column(ds.PARTITION).cast("string")).to_pylist()))
 
     def clip(self, clip_id: str, columns: list[str]):
         """The clip's rows (pyarrow table with ``columns`` that exist), or ``None``."""
-        import pyarrow as pa
-        import pyarrow.parquet as pq
 
         cols = [c for c in columns if c in self.schema.names]
         if self.dataset:
@@ -148,7 +147,6 @@ class _Columns:
 
 def _plan(pairs: TableSource, metrics: list[TableSource]):
     """(numeric columns, label columns, per-metric-source columns), checking names and types."""
-    import pyarrow.types as pt
 
     numeric, labels, seen = [], list(_KEEP[:3]), {}
     for name in pairs.schema.names:
@@ -233,7 +231,6 @@ def read_all_pairs(pairs_path, *, metrics_paths=(), progress: bool = True):
     Returns ``(items, clusters, unknown_ids)``; ``unknown_ids[path]`` counts pair ids of a metric
     dataset that are not in the pairs input.
     """
-    from tqdm.auto import tqdm
 
     pairs = TableSource(pairs_path, what="pairs table")
     metrics = [TableSource(p, what="metrics table") for p in metrics_paths]

@@ -33,8 +33,11 @@ from pathlib import Path
 from urllib.parse import quote, unquote
 
 import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
 
 from data_schema.errors import InputError
+from data_schema.tables import atomic_write_text, read_table
 
 __all__ = [
     "PARTITION",
@@ -116,7 +119,6 @@ def dataset_files(path, *, what: str = "dataset") -> list[tuple[str, Path]]:
 
 def check_schemas(files: Sequence[tuple[str, Path]], *, root) -> list[str]:
     """One schema for all files (names, order-free, and types); returns the column names."""
-    import pyarrow.parquet as pq
 
     first_file, first = None, None
     for _, f in files:
@@ -156,7 +158,6 @@ def iter_clips(path, *, columns: Sequence[str] | None = None, required: Sequence
     ``columns``: read only these (``clip_id`` is always added); ``required``: columns that must
     exist (``clip_id`` counts as present).
     """
-    import pyarrow.parquet as pq
 
     root = Path(path)
     files = dataset_files(root, what=what)
@@ -184,7 +185,6 @@ def read_dataset(path, *, columns: Sequence[str] | None = None, required: Sequen
 
 def read_any(path, *, required: Sequence[str] = (), what: str = "table", dtype=None) -> pd.DataFrame:
     """A table file (:func:`~data_schema.tables.read_table`) or a partitioned dataset folder."""
-    from data_schema.tables import read_table
 
     if is_dataset(path):
         return read_dataset(path, required=required, what=what)
@@ -193,7 +193,6 @@ def read_any(path, *, required: Sequence[str] = (), what: str = "table", dtype=N
 
 def write_manifest(root, files: Sequence[str], *, rows: int, extra: dict | None = None) -> None:
     """Write ``_dataset.json`` atomically (the last step of a complete dataset)."""
-    from data_schema.tables import atomic_write_text
 
     doc = {"format": "nvrq-dataset", "version": 1, "partition": PARTITION,
            "rows": int(rows), "files": sorted(files), **(extra or {})}
@@ -224,8 +223,6 @@ class DatasetWriter:
         return self
 
     def write(self, clip_id: str, df: pd.DataFrame, *, name: str = "part-0") -> None:
-        import pyarrow as pa
-        import pyarrow.parquet as pq
 
         table = pa.Table.from_pandas(df.drop(columns=[PARTITION], errors="ignore"), preserve_index=False)
         for c in self.string_columns & set(table.column_names):

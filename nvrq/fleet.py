@@ -19,10 +19,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+from tqdm.auto import tqdm
 
 from data_schema.datasets import DatasetWriter
 from data_schema.errors import InputError
-from nvrq.pairs import DROP_REASONS, PAIRS_OUTPUT_COLUMNS, PairStats
+from data_schema.scene import load_scene
+from nvrq.pairs import DROP_REASONS, PAIRS_OUTPUT_COLUMNS, PairStats, make_pairs
 
 __all__ = ["find_scenes", "FleetResult", "fleet_pairs"]
 
@@ -76,8 +80,6 @@ def _add_stats(total: PairStats, s: PairStats) -> None:
 
 
 def _clip_pairs(scene_dir: Path, *, attributes, min_side, min_area):
-    from data_schema.scene import load_scene
-    from nvrq.pairs import make_pairs
 
     scene = load_scene(scene_dir)
     if attributes is not None:
@@ -97,8 +99,6 @@ def _unify(writer: DatasetWriter, attrs_by_file: dict[str, list[str]]) -> None:
         for a in union:
             if a not in df.columns:
                 df[a] = None
-        import pyarrow as pa
-        import pyarrow.parquet as pq
 
         df = df[[c for c in PAIRS_OUTPUT_COLUMNS if c in df.columns] + union + ["scene_root"]]
         t = pa.Table.from_pandas(df, preserve_index=False)
@@ -113,7 +113,6 @@ def fleet_pairs(scene_dirs, out, *, min_side: float = 30, min_area: float = 0, a
 
     ``attributes``: a :class:`nvrq.clip_attributes.ClipAttributes` or ``None``.
     """
-    from tqdm.auto import tqdm
 
     res, seen, attrs_by_file = FleetResult(), {}, {}
     with DatasetWriter(out) as writer:

@@ -11,6 +11,9 @@ import sys
 from collections.abc import Sequence
 
 from data_schema.errors import InputError
+from nvrq.calibrate import resolve_tau
+from nvrq.metrics import split_column
+from nvrq.score_core import check_tau
 
 __all__ = ["add_model_arguments", "add_encoder_arguments", "prepare_device", "encoder_for_metrics",
            "load_encoder_and_tau", "add_runtime_arguments"]
@@ -65,7 +68,6 @@ def encoder_for_metrics(metrics: Sequence[str], default: str | None) -> str:
     else the registry default. Two different encoders, or one that contradicts ``--encoder``,
     is an error."""
     from nvrq.encoders import DEFAULT_ENCODER, get_spec
-    from nvrq.metrics import split_column
 
     named = {split_column(m.strip())[1] for m in metrics} - {None}
     if len(named) > 1:
@@ -78,8 +80,6 @@ def encoder_for_metrics(metrics: Sequence[str], default: str | None) -> str:
 
 
 def _resolve_tau(name: str, args) -> float:
-    from nvrq.calibrate import resolve_tau
-    from nvrq.score_core import check_tau
 
     tau, source = resolve_tau(name, tau=args.tau, config=args.config)
     if tau is None:

@@ -3,6 +3,14 @@ a reduced precision against torch fp32 and record it (:mod:`nvrq.encoders.drift`
 
 from __future__ import annotations
 
+from pathlib import Path
+
+from data_schema.errors import InputError
+from data_schema.tables import read_table
+from nvrq.encoders import DEFAULT_ENCODER, build_random, get_spec, load_encoder
+from nvrq.encoders.drift import DEFAULT_MIN_SPEARMAN, check_runtime, pair_inputs, write_record
+from nvrq.scoring import REQUIRED_COLUMNS
+
 __all__ = ["register", "run"]
 
 
@@ -32,13 +40,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from pathlib import Path
 
-    from data_schema.errors import InputError
-    from data_schema.tables import read_table
-    from nvrq.encoders import DEFAULT_ENCODER, build_random, get_spec, load_encoder
-    from nvrq.encoders.drift import DEFAULT_MIN_SPEARMAN, check_runtime, pair_inputs, write_record
-    from nvrq.scoring import REQUIRED_COLUMNS
 
     name = args.encoder or DEFAULT_ENCODER
     spec = get_spec(name)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from nvrq.clip_attributes import read_clip_attributes
 from nvrq.commands.synth import add_view_options, parse_offsets, perturb_grid
 from nvrq.sources.kitti import import_kitti
 from nvrq.sources.nurec import import_nurec
@@ -52,7 +53,6 @@ def _run_nurec(args) -> int:
 
     attributes = None
     if args.clip_attributes:
-        from nvrq.clip_attributes import read_clip_attributes
 
         attributes = read_clip_attributes(args.clip_attributes)
     out = import_nurec(

@@ -3,10 +3,16 @@ scene folders, ``--out DATASET/`` (a Parquet dataset partitioned by clip_id, :mo
 
 from __future__ import annotations
 
+import dataclasses
+import sys
 import time
+from pathlib import Path
 
+from data_schema.errors import InputError
 from data_schema.scene import load_scene
 from data_schema.tables import MIN_SIDE_PX, write_table
+from nvrq.clip_attributes import read_clip_attributes
+from nvrq.fleet import find_scenes, fleet_pairs
 from nvrq.pairs import make_pairs
 
 __all__ = ["register", "run"]
@@ -35,14 +41,12 @@ def run(args) -> int:
     t0 = time.perf_counter()
     attributes = None
     if args.clip_attributes:
-        from nvrq.clip_attributes import read_clip_attributes
 
         attributes = read_clip_attributes(args.clip_attributes)
     if _is_fleet(args):
         return _run_fleet(args, attributes, t0)
     scene = load_scene(args.scene[0])
     if attributes is not None:
-        import dataclasses
 
         scene = dataclasses.replace(scene, attributes=attributes.for_clip(scene.clip_id, scene.attributes))
     pairs, stats = make_pairs(scene, min_side=args.min_side, min_area=args.min_area, progress=not args.quiet)
@@ -53,9 +57,7 @@ def run(args) -> int:
 
 def _is_fleet(args) -> bool:
     """A dataset is written for several scenes, a folder of scene folders, or a suffix-less --out."""
-    from pathlib import Path
 
-    from data_schema.errors import InputError
 
     first = Path(args.scene[0])
     many = len(args.scene) > 1 or (first.is_dir() and not (first / "scene.json").is_file()
@@ -68,9 +70,7 @@ def _is_fleet(args) -> bool:
 
 
 def _run_fleet(args, attributes, t0) -> int:
-    import sys
 
-    from nvrq.fleet import find_scenes, fleet_pairs
 
     res = fleet_pairs(find_scenes(args.scene), args.out, min_side=args.min_side, min_area=args.min_area,
                       attributes=attributes, keep_going=args.keep_going, progress=not args.quiet)

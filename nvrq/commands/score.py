@@ -11,11 +11,15 @@ from data_schema.cliargs import comma_list
 from data_schema.errors import InputError
 from data_schema.tables import read_table, timing_path, write_table
 from nvrq.commands._encoder import (
+    _resolve_tau,
     add_encoder_arguments,
     encoder_for_metrics,
     load_encoder_and_tau,
 )
 from nvrq.engines import add_engine_args
+from nvrq.engines.cli import check_engine_args, run_ray
+from nvrq.engines.scorers import MetricScorer
+from nvrq.metrics import split_column
 from nvrq.score_core import encoder_columns
 from nvrq.scoring import REQUIRED_COLUMNS, resolve_metrics, score_pairs
 
@@ -48,7 +52,6 @@ def run(args) -> int:
     raw = comma_list(args.metrics)
     encoder_name = encoder_for_metrics(raw, args.encoder)
     columns = resolve_metrics(raw, encoder_name)
-    from nvrq.engines.cli import check_engine_args
 
     check_engine_args(args)
     if args.engine == "ray":
@@ -86,10 +89,6 @@ def _report(res, *, uses_encoder: bool, file) -> None:
 
 
 def _ray(args, columns, encoder_name) -> int:
-    from nvrq.commands._encoder import _resolve_tau
-    from nvrq.engines.cli import run_ray
-    from nvrq.engines.scorers import MetricScorer
-    from nvrq.score_core import encoder_columns
 
     enc_cols = encoder_columns(columns)
     tau = _resolve_tau(encoder_name, args) if any(c.startswith("nvrq_ca:") for c in enc_cols) else None
@@ -103,7 +102,6 @@ def runtime_columns(table, timing, encoder, *, tag: str | None):
     """Tag encoder columns (``nvrq:E`` -> ``nvrq:E@TAG``) and add ``runtime, precision,
     threads, device`` to the timing rows (empty runtime/precision for encoder-free metrics,
     which run in the one decode thread)."""
-    from nvrq.metrics import split_column
 
     timing = timing.copy()
     enc_rows = timing["metric"].map(lambda m: split_column(m)[1] is not None)

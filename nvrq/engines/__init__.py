@@ -8,6 +8,8 @@ the Ray engine runs.
 
 from __future__ import annotations
 
+from data_schema.errors import InputError
+
 __all__ = ["ENGINES", "RAY_EXTRA", "add_engine_args", "require_ray"]
 
 ENGINES = ("local", "ray")
@@ -32,7 +34,6 @@ def add_engine_args(parser) -> None:
 
 def require_ray():
     """Import ``ray`` and ``ray.data`` or stop with a one-line error naming the extra."""
-    from data_schema.errors import InputError
 
     try:
         import ray

@@ -7,6 +7,8 @@ import sys
 from pathlib import Path
 
 from data_schema.errors import InputError
+from nvrq.engines import require_ray
+from nvrq.engines.ray_engine import RayJob, score_on_ray
 
 __all__ = ["check_engine_args", "run_ray"]
 
@@ -37,8 +39,6 @@ def check_engine_args(args) -> None:
 
 def run_ray(args, scorer, *, timing_path=None) -> int:
     """Run ``scorer`` (:mod:`nvrq.engines.scorers`) over ``args.pairs`` on Ray into ``args.out``."""
-    from nvrq.engines import require_ray
-    from nvrq.engines.ray_engine import RayJob, score_on_ray
 
     require_ray()
     job = RayJob(pairs=str(args.pairs), out=str(args.out), scorer=scorer, shard_pairs=args.shard_pairs,

@@ -18,6 +18,7 @@ writes (each shard through a temporary file and a rename, so a killed driver lea
 
 from __future__ import annotations
 
+import logging
 import pickle
 import socket
 import sys
@@ -28,10 +29,15 @@ from functools import lru_cache
 
 import numpy as np
 import pandas as pd
+from tqdm import tqdm
 
 from data_schema.errors import InputError
+from data_schema.tables import read_table
 from nvrq.engines import require_ray
 from nvrq.engines import shards as sh
+from nvrq.engines.scorers import timing_per_column
+from nvrq.score_core import iter_crop_batches, score_crop_batch
+from nvrq.scoring import REQUIRED_COLUMNS
 
 __all__ = ["RayJob", "connect", "check_address", "score_on_ray"]
 
@@ -77,7 +83,6 @@ def connect(address: str | None = None):
     if ray.is_initialized():
         yield ray
         return
-    import logging
 
     ray.init(address=address, include_dashboard=False, log_to_driver=False,
              logging_level=logging.WARNING, configure_logging=True)
@@ -90,7 +95,6 @@ def connect(address: str | None = None):
 @lru_cache(maxsize=4)
 def _pairs_table(path: str) -> pd.DataFrame:
     """A pairs file read once per worker process (a dataset's clip file or a whole table)."""
-    from data_schema.tables import read_table
 
     if path.endswith(".parquet"):
         return pd.read_parquet(path)
@@ -99,7 +103,6 @@ def _pairs_table(path: str) -> pd.DataFrame:
 
 def _decode_shard(row: dict, *, scorer) -> dict:
     """CPU task: the shard's crops (decode + crop) and its pixel metrics."""
-    from nvrq.score_core import iter_crop_batches, score_crop_batch
 
     shard = row["shard"]
     df = _pairs_table(shard.path).iloc[list(shard.rows)].reset_index(drop=True)
@@ -131,7 +134,6 @@ class _ModelActor:
 
 def _finish(payload: bytes, scorer, model) -> bytes:
     """The shard's model columns (if any) and its table ``pair_id`` + columns, pickled."""
-    from nvrq.engines.scorers import timing_per_column
 
     pair_ids, batches, values, extra, timings = pickle.loads(payload)
     for b in batches if scorer.model_columns else ():
@@ -183,9 +185,7 @@ def _input_error(exc: BaseException) -> InputError | None:
 def score_on_ray(job: RayJob, *, timing_path, address: str | None = None) -> dict:
     """Run (or resume) ``job``; write ``timing_path`` at the end; returns counts
     ``{pairs, shards, shards_done_before, pairs_scored, seconds}``."""
-    from tqdm import tqdm
 
-    from nvrq.scoring import REQUIRED_COLUMNS
 
     t0 = time.perf_counter()
     require_ray()

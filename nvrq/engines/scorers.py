@@ -14,6 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from nvrq.encoders import load_encoder
+from nvrq.proxies.classifier_drop import load_classifier, top_class_drop
+from nvrq.proxies.clip_drop import load_clip, true_category_index
 from nvrq.score_core import encoder_columns, pair_outputs, score_crop_batch
 
 __all__ = ["MetricScorer", "ImagenetScorer", "ClipScorer", "timing_per_column"]
@@ -42,7 +45,6 @@ class MetricScorer:
         return [c for c in self.columns if c not in self.model_columns]
 
     def load(self):
-        from nvrq.encoders import load_encoder
 
         return load_encoder(self.encoder, weights=self.weights, device=self.device,
                             runtime=self.runtime, cache_dir=self.cache_dir)
@@ -78,13 +80,11 @@ class ImagenetScorer:
         return list(self.columns)
 
     def load(self):
-        from nvrq.proxies.classifier_drop import load_classifier
 
         return load_classifier(self.classifier, weights=self.weights, device=self.device,
                                runtime=self.runtime, cache_dir=self.cache_dir)
 
     def score(self, model, batch, extra: dict, timings: dict) -> dict:
-        from nvrq.proxies.classifier_drop import top_class_drop
 
         p_gt, p_r = pair_outputs(batch, model.probabilities, size=model.input_size,
                                  batch_size=self.batch_size, timings=timings)
@@ -115,13 +115,11 @@ class ClipScorer:
         return list(self.columns)
 
     def load(self):
-        from nvrq.proxies.clip_drop import load_clip
 
         return load_clip(self.clip, prompts=dict(self.prompts), device=self.device,
                          runtime=self.runtime, cache_dir=self.cache_dir)
 
     def score(self, model, batch, extra: dict, timings: dict) -> dict:
-        from nvrq.proxies.clip_drop import true_category_index
 
         c = true_category_index(extra["label_class"][batch.rows], dict(self.category_map), model.categories)
         p_gt, p_r = pair_outputs(batch, model.probabilities, size=model.input_size,

@@ -24,10 +24,12 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
 
 from data_schema import datasets as ds
 from data_schema.errors import InputError
-from data_schema.tables import atomic_path, atomic_write_text, read_table
+from data_schema.tables import atomic_path, atomic_write_text, read_table, write_table
 
 __all__ = ["Shard", "PairsSource", "read_sources", "plan_shards", "Plan", "load_or_create_plan",
            "write_shard", "finalize"]
@@ -66,7 +68,6 @@ class Shard:
 def read_sources(pairs_path, *, required) -> list[PairsSource]:
     """The pairs input as sources: per clip file of a dataset, or per clip of a table file
     (which then needs a ``clip_id`` column)."""
-    import pyarrow.parquet as pq
 
     p = Path(pairs_path)
     if ds.is_dataset(p):
@@ -159,8 +160,6 @@ def load_or_create_plan(out, pairs_path, sources, *, options: dict, max_pairs: i
 
 def write_shard(out, shard: Shard, table: pd.DataFrame, timing: dict) -> None:
     """Write one shard's metrics atomically (hidden temporary file, then rename)."""
-    import pyarrow as pa
-    import pyarrow.parquet as pq
 
     t = pa.Table.from_pandas(table, preserve_index=False)
     t = t.replace_schema_metadata({**(t.schema.metadata or {}), TIMING_KEY: json.dumps(timing).encode()})
@@ -171,9 +170,7 @@ def write_shard(out, shard: Shard, table: pd.DataFrame, timing: dict) -> None:
 
 def finalize(plan: Plan, *, timing_path) -> pd.DataFrame:
     """All shards present: write ``METRICS.timing.csv`` and ``_dataset.json``; returns the timing."""
-    import pyarrow.parquet as pq
 
-    from data_schema.tables import write_table
 
     missing = [s.name for s in plan.shards if not (plan.out / s.name).is_file()]
     if missing:
