@@ -47,7 +47,6 @@ RATER_COLUMNS = ["rater_id", "simulated", "excluded", "excluded_reason"]
 
 
 def _is_numeric(t) -> bool:
-
     return pt.is_integer(t) or pt.is_floating(t) or pt.is_boolean(t) or pt.is_null(t)
 
 
@@ -55,7 +54,6 @@ class TableSource:
     """A table file or a clip-partitioned dataset, readable clip by clip as pyarrow tables."""
 
     def __init__(self, path, *, what: str):
-
         self.path, self.what = str(path), what
         self.dataset = ds.is_dataset(path)
         if self.dataset:

@@ -28,6 +28,8 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from data_schema.datasets import partition_dir, write_manifest
+
 N_CLIPS = 919
 CLASSES = ["automobile", "heavy_truck", "pedestrian", "cyclist", "bus"]
 OFFSETS = np.array([-3.0, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0])
@@ -60,8 +62,6 @@ def _clip_tables(clip: str, n: int, rng: np.random.Generator):
 
 
 def generate(root: Path, rows: int, seed: int, n_clips: int = N_CLIPS) -> None:
-    from data_schema.datasets import partition_dir, write_manifest
-
     rng = np.random.default_rng(seed)
     sizes = np.full(n_clips, rows // n_clips)
     sizes[: rows - sizes.sum()] += 1

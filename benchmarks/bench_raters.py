@@ -26,9 +26,11 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import dataclasses
 import os
 import signal
 import socket
+import sqlite3
 import subprocess
 import sys
 import tempfile
@@ -40,6 +42,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pandas as pd
+
+from annotate.store import Store
+from annotate.study import build_study, load_study
+from data_schema.tables import pair_id
 
 __all__ = ["RaterClient", "Screen", "make_scene", "start_server", "stop_server", "main"]
 
@@ -135,7 +141,6 @@ def _read_element(el, fragment_id: str, screen: Screen) -> None:
 # ---- a study and a server ----------------------------------------------------------------
 def make_scene(root: Path, *, n_frames: int = 8, n_tracks: int = 4, seed: int = 0) -> Path:
     """A synthetic clip (noise + coloured boxes; renders blurred by |offset|); returns pairs.csv."""
-    from data_schema.tables import pair_id
 
     rng = np.random.default_rng(seed)
     (root / "scene" / "images").mkdir(parents=True, exist_ok=True)
@@ -235,7 +240,6 @@ async def _round(url: str, names: list[str], *, seconds: float, think, seed: int
 def run_load(n_list: list[int], *, seconds: float, think: tuple[float, float], seed: int = 0,
              frames: int = 8) -> pd.DataFrame:
     """Build a study, serve it, and drive each N in turn; one row per N."""
-    from annotate.study import build_study, load_study
 
     with tempfile.TemporaryDirectory(prefix="bench_raters_") as tmp:
         tmp = Path(tmp)
@@ -289,7 +293,6 @@ def server_cpu_s(pid: int) -> float:
 
 def _prefill(store, items: list[str], raters: list[str]) -> None:
     """Every rater in ``raters`` assigned and voted on every item (one transaction)."""
-    import sqlite3
 
     now = time.time()
     with sqlite3.connect(store.path) as con:
@@ -306,9 +309,6 @@ def db_work(study, *, sizes: tuple[int, int], n_votes: int = 40) -> list[dict]:
     ``n_votes`` times; the store runs with ``synchronous=NORMAL`` here so that the disk sync
     (the same at any size) does not hide the database work being compared.
     """
-    import dataclasses
-
-    from annotate.store import Store
 
     study = dataclasses.replace(study, store=Store(study.store.path, study.store.study,
                                                    synchronous="NORMAL"))

@@ -21,12 +21,22 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import tempfile
 import time
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pandas as pd
+
+from data_schema.datasets import DatasetWriter, read_dataset
+from data_schema.tables import GT_BOX_COLUMNS, PAIRS_COLUMNS, pair_boxes, pair_id, pair_image_paths
+from nvrq.crops import cut_box, encoder_input, read_rgb
+from nvrq.encoders import ENCODERS, build_random, get_spec, load_encoder
+from nvrq.engines.ray_engine import RayJob, score_on_ray
+from nvrq.engines.scorers import MetricScorer
+from nvrq.scoring import score_pairs
 
 OFFSETS = (-3.0, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0)
 BOXES = [(100, 200, 299, 349), (420, 180, 579, 339), (700, 250, 779, 409)]
@@ -35,8 +45,6 @@ COLUMNS = ["psnr", "ssim", "nvrq:efficientnet-lite0", "nvrq_ca:efficientnet-lite
 
 
 def _image(rng, h=540, w=960):
-    import cv2
-
     coarse = rng.integers(0, 256, (h // 24 + 1, w // 24 + 1, 3)).astype(np.float32)
     img = cv2.resize(coarse, (w, h), interpolation=cv2.INTER_CUBIC) + rng.normal(0, 6, (h, w, 3))
     return np.clip(img, 0, 255).astype(np.uint8)
@@ -44,10 +52,6 @@ def _image(rng, h=540, w=960):
 
 def write_fleet(root: Path, *, clips: int, frames: int) -> Path:
     """Scenes under ``root`` and their pairs dataset ``root/pairs`` (SPEC columns)."""
-    import cv2
-
-    from data_schema.datasets import DatasetWriter
-    from data_schema.tables import PAIRS_COLUMNS, pair_id
 
     rng = np.random.default_rng(0)
     with DatasetWriter(root / "pairs") as w:
@@ -73,10 +77,6 @@ def write_fleet(root: Path, *, clips: int, frames: int) -> Path:
 
 
 def run_local(pairs_ds: Path) -> tuple[float, pd.DataFrame]:
-    from data_schema.datasets import read_dataset
-    from nvrq.encoders import load_encoder
-    from nvrq.scoring import score_pairs
-
     pairs = read_dataset(pairs_ds)
     t0 = time.perf_counter()
     enc = load_encoder("efficientnet-lite0")
@@ -86,10 +86,6 @@ def run_local(pairs_ds: Path) -> tuple[float, pd.DataFrame]:
 
 def run_ray(pairs_ds: Path, out: Path) -> tuple[float, float, pd.DataFrame]:
     import ray
-
-    from data_schema.datasets import read_dataset
-    from nvrq.engines.ray_engine import RayJob, score_on_ray
-    from nvrq.engines.scorers import MetricScorer
 
     t0 = time.perf_counter()
     ray.init(include_dashboard=False, log_to_driver=False)
@@ -105,7 +101,6 @@ def run_ray(pairs_ds: Path, out: Path) -> tuple[float, float, pd.DataFrame]:
 
 def _cpu() -> float:
     """CPU seconds of this process (all threads): robust to other load on a shared machine."""
-    import resource
 
     r = resource.getrusage(resource.RUSAGE_SELF)
     return r.ru_utime + r.ru_stime
@@ -114,11 +109,6 @@ def _cpu() -> float:
 def stages(pairs_ds: Path) -> None:
     """Per-stage costs on this machine (decode, crop, encoder images/s per encoder)."""
     import torch
-
-    from data_schema.datasets import read_dataset
-    from data_schema.tables import GT_BOX_COLUMNS, pair_boxes, pair_image_paths
-    from nvrq.crops import cut_box, encoder_input, read_rgb
-    from nvrq.encoders import ENCODERS, build_random, get_spec
 
     pairs = read_dataset(pairs_ds).head(210)
     paths = pd.unique(pair_image_paths(pairs, "gt_path"))[:10]

@@ -12,11 +12,11 @@ import tempfile
 import time
 from pathlib import Path
 
+from nvrq.commands.synth import parse_size
+from nvrq.synth import generate_scene
+
 
 def main() -> None:
-    from nvrq.commands.synth import parse_size
-    from nvrq.synth import generate_scene
-
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--seconds", type=float, default=2.0)
     ap.add_argument("--size", default="1280x720")

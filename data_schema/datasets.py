@@ -223,7 +223,6 @@ class DatasetWriter:
         return self
 
     def write(self, clip_id: str, df: pd.DataFrame, *, name: str = "part-0") -> None:
-
         table = pa.Table.from_pandas(df.drop(columns=[PARTITION], errors="ignore"), preserve_index=False)
         for c in self.string_columns & set(table.column_names):
             i = table.column_names.index(c)

@@ -80,7 +80,6 @@ def _add_stats(total: PairStats, s: PairStats) -> None:
 
 
 def _clip_pairs(scene_dir: Path, *, attributes, min_side, min_area):
-
     scene = load_scene(scene_dir)
     if attributes is not None:
         scene = dataclasses.replace(scene, attributes=attributes.for_clip(scene.clip_id, scene.attributes))

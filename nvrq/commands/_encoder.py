@@ -80,7 +80,6 @@ def encoder_for_metrics(metrics: Sequence[str], default: str | None) -> str:
 
 
 def _resolve_tau(name: str, args) -> float:
-
     tau, source = resolve_tau(name, tau=args.tau, config=args.config)
     if tau is None:
         raise InputError("--tau", None, f"a tau for encoder {name}: run `nvrq calibrate-tau PAIRS "

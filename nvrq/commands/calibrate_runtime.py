@@ -40,8 +40,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-
-
     name = args.encoder or DEFAULT_ENCODER
     spec = get_spec(name)
     for opt in ("sample", "calib"):

@@ -50,7 +50,6 @@ def register(sub) -> None:
 
 
 def _run_nurec(args) -> int:
-
     attributes = None
     if args.clip_attributes:
 

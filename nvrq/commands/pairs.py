@@ -58,7 +58,6 @@ def run(args) -> int:
 def _is_fleet(args) -> bool:
     """A dataset is written for several scenes, a folder of scene folders, or a suffix-less --out."""
 
-
     first = Path(args.scene[0])
     many = len(args.scene) > 1 or (first.is_dir() and not (first / "scene.json").is_file()
                                    and any(first.glob("*/scene.json")))
@@ -70,8 +69,6 @@ def _is_fleet(args) -> bool:
 
 
 def _run_fleet(args, attributes, t0) -> int:
-
-
     res = fleet_pairs(find_scenes(args.scene), args.out, min_side=args.min_side, min_area=args.min_area,
                       attributes=attributes, keep_going=args.keep_going, progress=not args.quiet)
     for clip, reason in res.failed:

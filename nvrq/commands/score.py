@@ -47,8 +47,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-
-
     raw = comma_list(args.metrics)
     encoder_name = encoder_for_metrics(raw, args.encoder)
     columns = resolve_metrics(raw, encoder_name)
@@ -89,7 +87,6 @@ def _report(res, *, uses_encoder: bool, file) -> None:
 
 
 def _ray(args, columns, encoder_name) -> int:
-
     enc_cols = encoder_columns(columns)
     tau = _resolve_tau(encoder_name, args) if any(c.startswith("nvrq_ca:") for c in enc_cols) else None
     scorer = MetricScorer(tuple(columns), encoder=encoder_name, weights=args.weights, device=args.device,

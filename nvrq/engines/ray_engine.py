@@ -186,7 +186,6 @@ def score_on_ray(job: RayJob, *, timing_path, address: str | None = None) -> dic
     """Run (or resume) ``job``; write ``timing_path`` at the end; returns counts
     ``{pairs, shards, shards_done_before, pairs_scored, seconds}``."""
 
-
     t0 = time.perf_counter()
     require_ray()
     if address:

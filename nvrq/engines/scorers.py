@@ -45,7 +45,6 @@ class MetricScorer:
         return [c for c in self.columns if c not in self.model_columns]
 
     def load(self):
-
         return load_encoder(self.encoder, weights=self.weights, device=self.device,
                             runtime=self.runtime, cache_dir=self.cache_dir)
 
@@ -80,12 +79,10 @@ class ImagenetScorer:
         return list(self.columns)
 
     def load(self):
-
         return load_classifier(self.classifier, weights=self.weights, device=self.device,
                                runtime=self.runtime, cache_dir=self.cache_dir)
 
     def score(self, model, batch, extra: dict, timings: dict) -> dict:
-
         p_gt, p_r = pair_outputs(batch, model.probabilities, size=model.input_size,
                                  batch_size=self.batch_size, timings=timings)
         return {"imagenet_drop": top_class_drop(p_gt, p_r)}
@@ -115,12 +112,10 @@ class ClipScorer:
         return list(self.columns)
 
     def load(self):
-
         return load_clip(self.clip, prompts=dict(self.prompts), device=self.device,
                          runtime=self.runtime, cache_dir=self.cache_dir)
 
     def score(self, model, batch, extra: dict, timings: dict) -> dict:
-
         c = true_category_index(extra["label_class"][batch.rows], dict(self.category_map), model.categories)
         p_gt, p_r = pair_outputs(batch, model.probabilities, size=model.input_size,
                                  batch_size=self.batch_size, timings=timings)

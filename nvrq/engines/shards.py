@@ -171,7 +171,6 @@ def write_shard(out, shard: Shard, table: pd.DataFrame, timing: dict) -> None:
 def finalize(plan: Plan, *, timing_path) -> pd.DataFrame:
     """All shards present: write ``METRICS.timing.csv`` and ``_dataset.json``; returns the timing."""
 
-
     missing = [s.name for s in plan.shards if not (plan.out / s.name).is_file()]
     if missing:
         raise InputError(plan.out, f"shard {missing[0]}", "every planned shard written", f"{len(missing)} missing")
