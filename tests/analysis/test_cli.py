@@ -42,8 +42,8 @@ def _run_quick(d, metrics_table, capsys, *extra):
     return _run([*args, *extra, "--bootstrap", "0", "--out", d / "o"], capsys)
 
 
-def test_end_to_end_report(data, capsys):
-    d, ratings, metrics = data
+def _stability_dir(d):
+    """A one-row ``stability.csv`` (the folder ``nvrq stability`` writes) under ``d / "stab"``."""
     stab = d / "stab"
     stab.mkdir()
     pd.DataFrame(
@@ -55,6 +55,12 @@ def test_end_to_end_report(data, capsys):
             "mean_abs_change": [0.01],
         }
     ).to_csv(stab / "stability.csv", index=False)
+    return stab
+
+
+def test_end_to_end_report(data, capsys):
+    d, ratings, metrics = data
+    stab = _stability_dir(d)
     out = d / "report"
     rc, cap = _run(
         [
