@@ -11,7 +11,9 @@ import sys
 from collections.abc import Sequence
 
 from data_schema.errors import InputError
+from nvrq import encoders
 from nvrq.calibrate import resolve_tau
+from nvrq.encoders import DEFAULT_ENCODER, get_spec
 from nvrq.metrics import split_column
 from nvrq.score_core import check_tau
 
@@ -67,8 +69,6 @@ def encoder_for_metrics(metrics: Sequence[str], default: str | None) -> str:
     """The encoder: the one named in ``metrics`` (``nvrq:ENC``), else ``default`` (``--encoder``),
     else the registry default. Two different encoders, or one that contradicts ``--encoder``,
     is an error."""
-    from nvrq.encoders import DEFAULT_ENCODER, get_spec
-
     named = {split_column(m.strip())[1] for m in metrics} - {None}
     if len(named) > 1:
         raise InputError("--metrics", None, "one encoder for all nvrq/nvrq_ca metrics", ", ".join(sorted(named)))
@@ -94,13 +94,13 @@ def load_encoder_and_tau(args, *, needs_tau: bool, name: str | None = None):
     """``(encoder, tau)`` for a command built with :func:`add_encoder_arguments`: encoder ``name``
     (default ``--encoder``, else the registry default) with ``--weights`` on ``--device``; ``tau``
     from ``--tau``, the config (``--config``) or the registry when ``needs_tau``, else ``None``."""
-    from nvrq.encoders import DEFAULT_ENCODER, get_spec, load_encoder
-
     name = name or args.encoder or DEFAULT_ENCODER
     get_spec(name)
     tau = _resolve_tau(name, args) if needs_tau else None
     prepare_device(args)
-    return load_encoder(name, weights=args.weights, device=args.device,
-                        runtime=getattr(args, "runtime", "auto"), precision=getattr(args, "precision", "fp32"),
-                        threads=getattr(args, "threads", None), cache_dir=getattr(args, "cache_dir", None),
-                        min_spearman=getattr(args, "min_spearman", None)), tau
+    encoder = encoders.load_encoder(  # through the module: tests patch nvrq.encoders.load_encoder
+        name, weights=args.weights, device=args.device,
+        runtime=getattr(args, "runtime", "auto"), precision=getattr(args, "precision", "fp32"),
+        threads=getattr(args, "threads", None), cache_dir=getattr(args, "cache_dir", None),
+        min_spearman=getattr(args, "min_spearman", None))
+    return encoder, tau
