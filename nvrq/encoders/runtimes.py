@@ -39,7 +39,8 @@ from data_schema.errors import InputError
 
 __all__ = ["RUNTIMES", "PRECISIONS", "SUPPORTED", "AUTO_ORDER", "IDENTITY_TOL", "cache_root",
            "weights_hash", "identity_images", "max_nvrq_change", "RuntimeEncoder", "wrap_runtime",
-           "export_dir", "runtime_version", "embed_graph", "exported", "GraphSpec", "ExportableModel"]
+           "export_dir", "runtime_version", "embed_graph", "exported", "GraphSpec", "ExportableModel",
+           "exported_forward"]
 
 RUNTIMES = ("auto", "torch", "openvino", "onnxruntime")
 PRECISIONS = ("fp32", "bf16", "int8")
@@ -332,6 +333,15 @@ def _check_combo(runtime: str, precision: str, device: str) -> None:
     if runtime != "auto" and (runtime, precision) not in SUPPORTED:
         ok = ", ".join(sorted(f"{r}/{p}" for r, p in SUPPORTED))
         raise InputError("precision", None, f"a supported runtime/precision ({ok})", f"{runtime}/{precision}")
+
+
+def exported_forward(graph, *, runtime: str = "auto", threads: int | None = None, cache_dir=None):
+    """``(runtime, run)`` for a proxy model's fp32 ``graph`` (:class:`ExportableModel`): the runtime
+    :func:`wrap_runtime` chose and its forward function, or ``None`` where that is torch (the
+    model's own forward)."""
+    wrapped = wrap_runtime(graph, runtime=runtime, precision="fp32", threads=threads,
+                           cache_dir=cache_dir)
+    return wrapped.runtime, (None if wrapped is graph else wrapped.embed)
 
 
 def wrap_runtime(encoder, *, runtime: str = "auto", precision: str = "fp32", threads: int | None = None,

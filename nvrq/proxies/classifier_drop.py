@@ -116,15 +116,13 @@ class ImageClassifier:
     def on_runtime(self, runtime: str = "auto", *, threads: int | None = None,
                    cache_dir=None) -> ImageClassifier:
         """Run the logits on ``runtime`` (module docstring); returns ``self``."""
-        from nvrq.encoders.runtimes import ExportableModel, wrap_runtime
+        from nvrq.encoders.runtimes import ExportableModel, exported_forward
 
         graph = ExportableModel(f"{self.name}-logits", self.model, input_size=self.input_size,
                                 mean=self.mean, std=self.std, forward=_logits, device=self.device,
                                 identity=("max_dprob_vs_torch", max_softmax_change))
-        wrapped = wrap_runtime(graph, runtime=runtime, precision="fp32", threads=threads,
-                               cache_dir=cache_dir)
-        self.runtime = wrapped.runtime
-        self._run = None if wrapped is graph else wrapped.embed
+        self.runtime, self._run = exported_forward(graph, runtime=runtime, threads=threads,
+                                                   cache_dir=cache_dir)
         return self
 
 

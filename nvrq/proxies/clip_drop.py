@@ -152,16 +152,14 @@ class ZeroShotCLIP:
         """Run the image tower on ``runtime`` (module docstring); returns ``self``."""
         from functools import partial
 
-        from nvrq.encoders.runtimes import ExportableModel, wrap_runtime
+        from nvrq.encoders.runtimes import ExportableModel, exported_forward
 
         bound = partial(max_logit_change_bound, logit_scale=self.logit_scale)
         graph = ExportableModel("clip-image", self.model, input_size=self.input_size, mean=self.mean,
                                 std=self.std, forward=_image_features, device=self.device,
                                 identity=("max_dlogit_bound_vs_torch", bound))
-        wrapped = wrap_runtime(graph, runtime=runtime, precision="fp32", threads=threads,
-                               cache_dir=cache_dir)
-        self.runtime = wrapped.runtime
-        self._run = None if wrapped is graph else wrapped.embed
+        self.runtime, self._run = exported_forward(graph, runtime=runtime, threads=threads,
+                                                   cache_dir=cache_dir)
         return self
 
 
