@@ -60,32 +60,41 @@ class MetricScorer:
                 "runtime": self.runtime if enc else None}
 
 
-@dataclass(frozen=True)
-class ImagenetScorer:
-    """``nvrq proxy imagenet``: Eq. 9, the ImageNet top-class confidence drop."""
+@dataclass(frozen=True, kw_only=True)
+class _ProxyScorer:
+    """What both proxy scorers share: one model column computed in the actors from the GT and
+    render crops' class probabilities (:func:`~nvrq.score_core.pair_outputs`)."""
 
-    classifier: str
-    weights: str | None = None
     device: str = "cpu"
     batch_size: int = 32
     runtime: str = "torch"  # the proxy model's runtime on each worker (exported once, cached)
     cache_dir: str | None = None
-    columns: tuple = ("imagenet_drop",)
     pixel_columns: tuple = ()
-    extra_columns: tuple = ()
 
     @property
     def model_columns(self) -> list[str]:
         return list(self.columns)
+
+    def _probabilities(self, model, batch, timings: dict):
+        return pair_outputs(batch, model.probabilities, size=model.input_size,
+                            batch_size=self.batch_size, timings=timings)
+
+
+@dataclass(frozen=True)
+class ImagenetScorer(_ProxyScorer):
+    """``nvrq proxy imagenet``: Eq. 9, the ImageNet top-class confidence drop."""
+
+    classifier: str
+    weights: str | None = None
+    columns: tuple = ("imagenet_drop",)
+    extra_columns: tuple = ()
 
     def load(self):
         return load_classifier(self.classifier, weights=self.weights, device=self.device,
                                runtime=self.runtime, cache_dir=self.cache_dir)
 
     def score(self, model, batch, extra: dict, timings: dict) -> dict:
-        p_gt, p_r = pair_outputs(batch, model.probabilities, size=model.input_size,
-                                 batch_size=self.batch_size, timings=timings)
-        return {"imagenet_drop": top_class_drop(p_gt, p_r)}
+        return {"imagenet_drop": top_class_drop(*self._probabilities(model, batch, timings))}
 
     def options(self) -> dict:
         return {"columns": list(self.columns), "classifier": self.classifier, "weights": self.weights,
@@ -93,23 +102,14 @@ class ImagenetScorer:
 
 
 @dataclass(frozen=True)
-class ClipScorer:
+class ClipScorer(_ProxyScorer):
     """``nvrq proxy clip``: Eq. 10, the CLIP zero-shot true-category confidence drop."""
 
     clip: str
     prompts: tuple  # ((category, prompt), ...)
     category_map: tuple  # ((label_class, category or None), ...)
-    device: str = "cpu"
-    batch_size: int = 32
-    runtime: str = "torch"  # the image tower's runtime on each worker (exported once, cached)
-    cache_dir: str | None = None
     columns: tuple = ("clip_drop",)
-    pixel_columns: tuple = ()
     extra_columns: tuple = ("label_class",)
-
-    @property
-    def model_columns(self) -> list[str]:
-        return list(self.columns)
 
     def load(self):
         return load_clip(self.clip, prompts=dict(self.prompts), device=self.device,
@@ -117,8 +117,7 @@ class ClipScorer:
 
     def score(self, model, batch, extra: dict, timings: dict) -> dict:
         c = true_category_index(extra["label_class"][batch.rows], dict(self.category_map), model.categories)
-        p_gt, p_r = pair_outputs(batch, model.probabilities, size=model.input_size,
-                                 batch_size=self.batch_size, timings=timings)
+        p_gt, p_r = self._probabilities(model, batch, timings)
         drop = np.full(len(batch.rows), np.nan)
         ok = np.flatnonzero(c >= 0)
         drop[ok] = p_gt[ok, c[ok]] - p_r[ok, c[ok]]
