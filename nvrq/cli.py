@@ -18,7 +18,7 @@ from data_schema.cliargs import flags_in_errors
 from data_schema.datasets import MANIFEST
 from data_schema.errors import ArgumentParser, run_cli
 from data_schema.outputs import check_output_file, check_output_folder
-from nvrq.commands.score import timing_path
+from data_schema.tables import timing_path
 
 __all__ = ["main", "build_parser"]
 
@@ -66,7 +66,6 @@ def check_outputs(args) -> None:
     if kind == "file" and Path(args.out).suffix == "":
         # a Parquet dataset folder (several clips, --engine ray; data_schema.datasets): its
         # manifest path gets the file rule; the command checks what the folder already holds
-
         check_output_file(Path(args.out) / MANIFEST, inputs=inputs, option=option)
     elif kind == "file":
         check_output_file(args.out, inputs=inputs, option=option)

@@ -23,7 +23,7 @@ from nvrq.metrics import split_column
 from nvrq.score_core import encoder_columns
 from nvrq.scoring import REQUIRED_COLUMNS, resolve_metrics, score_pairs
 
-__all__ = ["register", "run", "timing_path", "runtime_columns"]
+__all__ = ["register", "run", "runtime_columns"]
 
 
 def register(sub) -> None:
