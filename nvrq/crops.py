@@ -34,19 +34,27 @@ from data_schema.errors import InputError
 __all__ = ["read_rgb", "cut_box", "pad_to_square", "encoder_input", "resize_to", "normalised_tensor"]
 
 
+#: OpenCV >= 4.10 decodes straight to R, G, B
+_IMREAD_RGB = getattr(cv2, "IMREAD_COLOR_RGB", None)
+
+
 def read_rgb(path: str | os.PathLike) -> np.ndarray:
     """Decode an image file into an RGB ``uint8`` array (H, W, 3).
 
-    OpenCV returns B, G, R; the channels are reversed here (``cv2.COLOR_BGR2RGB``) so the
-    result is in the file's own R, G, B order. Grey and RGBA files become 3-channel RGB.
+    OpenCV returns B, G, R unless asked for R, G, B (``cv2.IMREAD_COLOR_RGB``, OpenCV >= 4.10;
+    older builds swap with ``cv2.COLOR_BGR2RGB``): the result is in the file's own R, G, B order. Grey and RGBA files become 3-channel RGB.
     Raises :class:`InputError` if the file is missing or cannot be decoded.
     """
     path = os.fspath(path)
-    bgr = cv2.imread(path, cv2.IMREAD_COLOR)
-    if bgr is None:
+    if _IMREAD_RGB is not None:  # the decoder writes R, G, B: no full-frame channel swap
+        image = cv2.imread(path, _IMREAD_RGB)
+    else:
+        image = cv2.imread(path, cv2.IMREAD_COLOR)
+        image = None if image is None else cv2.cvtColor(image, cv2.COLOR_BGR2RGB)
+    if image is None:
         got = "no such file" if not os.path.exists(path) else "an undecodable file"
         raise InputError(path, None, "a readable image file", got)
-    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+    return image
 
 
 def cut_box(image: np.ndarray, box: Sequence[int], *, where: str = "box") -> np.ndarray:

@@ -8,7 +8,8 @@ Every command that compares crops (``nvrq score``, ``calibrate-tau``, ``stabilit
   (:func:`nvrq.crops.read_rgb`), one GT image's pairs never straddle two batches, and the GT
   crop shared by every render offset of an object at a frame appears once in ``gt_crops``.
   With ``background=True`` one thread decodes ahead (bounded queue; its exceptions are
-  re-raised in the caller).
+  re-raised in the caller); ``decode_threads`` decode a batch's images in parallel.
+  :func:`decode_schedule` chooses both so that decoding does not stall a CPU encoder.
 - :func:`score_crop_batch` is pure (no files, globals or CLI): it maps one batch to its metric
   columns. Pixel metrics compare the GT crop with the render crop bicubic-resized to the GT
   crop's size (SPEC section 4); ``nvrq``/``nvrq_ca`` use encoder embeddings, each GT crop
@@ -34,6 +35,7 @@ import queue
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,7 +48,7 @@ from nvrq.metrics import REGISTRY, split_column
 
 __all__ = ["CropBatch", "iter_crop_batches", "score_crop_batch", "embed_crops", "encoder_inputs",
            "run_batched", "pair_outputs", "read_crops", "check_metric_args", "check_tau",
-           "encoder_columns", "nvrq_similarity", "nvrq_ca", "W_LOW", "CROP_COLUMNS"]
+           "encoder_columns", "decode_schedule", "usable_cores", "nvrq_similarity", "nvrq_ca", "W_LOW", "CROP_COLUMNS"]
 
 W_LOW = 0.1
 #: the pairs-table columns :func:`iter_crop_batches` reads (besides ``scene_root``)
@@ -249,10 +251,15 @@ def _plan(pairs: pd.DataFrame, *, scene_root, base, where: str) -> _Plan:
 
 def _chunks(gt_paths: np.ndarray, max_pairs: int) -> list[np.ndarray]:
     """Row groups: whole GT images (first-appearance order) packed up to ``max_pairs`` rows; an
-    image with more pairs than that is a chunk of its own."""
-    groups = pd.Series(np.arange(len(gt_paths))).groupby(gt_paths, sort=False).groups.values()
-    chunks, cur = [], []
-    for g in groups:
+    image with more pairs than that is a chunk of its own. The first chunk is the first image
+    alone, so the encoder waits for one image's files rather than a full chunk's.
+
+    >>> [c.tolist() for c in _chunks(np.array(list("aabbccd")), 4)]
+    [[0, 1], [2, 3, 4, 5], [6]]
+    """
+    groups = list(pd.Series(np.arange(len(gt_paths))).groupby(gt_paths, sort=False).groups.values())
+    chunks, cur = [np.asarray(groups[0], np.int64)] if groups else [], []
+    for g in groups[1:]:
         g = np.asarray(g, np.int64)
         if cur and sum(map(len, cur)) + len(g) > max_pairs:
             chunks.append(np.concatenate(cur))
@@ -263,10 +270,11 @@ def _chunks(gt_paths: np.ndarray, max_pairs: int) -> list[np.ndarray]:
     return chunks
 
 
-def _load_batch(rows: np.ndarray, plan: _Plan, where: str) -> CropBatch:
-    """Decode the images of ``rows`` once each and cut their crops (copies)."""
+def _load_batch(rows: np.ndarray, plan: _Plan, where: str, pool: ThreadPoolExecutor | None) -> CropBatch:
+    """Decode the images of ``rows`` once each (on ``pool`` when given) and cut their crops (copies)."""
     t0 = time.perf_counter()
-    images = {p: read_rgb(p) for p in pd.unique(np.concatenate([plan.gt_paths[rows], plan.r_paths[rows]]))}
+    paths = pd.unique(np.concatenate([plan.gt_paths[rows], plan.r_paths[rows]]))
+    images = dict(zip(paths, pool.map(read_rgb, paths) if pool is not None else map(read_rgb, paths), strict=True))
     seconds = time.perf_counter() - t0
     gt_keys: dict[tuple, int] = {}
     gt_crops, gt_index, r_crops = [], np.empty(len(rows), np.int64), []
@@ -321,18 +329,67 @@ def _in_background(items: Iterator, *, maxsize: int = 2) -> Iterator:
 
 def iter_crop_batches(pairs: pd.DataFrame, *, scene_root: str | os.PathLike | None = None,
                       base: str | os.PathLike | None = None, max_pairs: int = 256,
-                      background: bool = True, where: str = "pairs") -> Iterator[CropBatch]:
+                      background: bool = True, decode_threads: int = 1,
+                      where: str = "pairs") -> Iterator[CropBatch]:
     """:class:`CropBatch` es covering every row of ``pairs`` once (see the module docstring).
 
     ``pairs``: SPEC section 3 columns (:data:`CROP_COLUMNS`; image paths relative to
     ``scene_root`` or the ``scene_root`` column, itself relative to ``base``). A batch holds
     whole GT images up to ``max_pairs`` pairs (more only when one image has more pairs).
+    ``background``: decode one thread ahead of the caller; ``decode_threads`` > 1: a batch's
+    images are decoded that many at a time (OpenCV releases the GIL while decoding);
+    :func:`decode_schedule` picks both for an encoder.
     Bad columns, boxes and paths raise :class:`InputError` naming ``where`` and the row.
     """
     _check_positive("max_pairs", max_pairs)
+    _check_positive("decode_threads", decode_threads)
     plan = _plan(pairs, scene_root=scene_root, base=base, where=where)
-    batches = (_load_batch(rows, plan, where) for rows in _chunks(plan.gt_paths, max_pairs))
-    return _in_background(batches) if background else batches
+
+    def batches() -> Iterator[CropBatch]:
+        pool = ThreadPoolExecutor(decode_threads, thread_name_prefix="nvrq-decode") if decode_threads > 1 else None
+        try:
+            for rows in _chunks(plan.gt_paths, max_pairs):
+                yield _load_batch(rows, plan, where, pool)
+        finally:
+            if pool is not None:
+                pool.shutdown(wait=True, cancel_futures=True)
+    return _in_background(batches()) if background else batches()
+
+
+def usable_cores() -> int:
+    """CPU cores this process may run on (its affinity mask where the OS has one)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # no affinity API (macOS, Windows)
+        return os.cpu_count() or 1
+
+
+def decode_schedule(encoder=None, *, pixel_metrics: bool = False, cores: int | None = None) -> tuple[bool, int]:
+    """``(background, decode_threads)`` for :func:`iter_crop_batches` beside ``encoder``.
+
+    A CPU encoder whose threads take every core, alone: decode *between* encoder passes, on
+    every core. Decoding beside such an encoder takes a core its thread pool waits on at each
+    layer, which costs it more than the decoding itself (efficientnet-lite0, 2 cores, 1280x720
+    PNG: torch at 0.80-0.86 of its encoder-alone rate overlapped, 0.85-0.92 in phases;
+    ``benchmarks/bench_score.py``). With ``pixel_metrics`` (computed in the caller's thread,
+    one core) one background thread decodes while they run (measured as fast as phases, or a
+    little faster). Otherwise (a GPU encoder, spare cores, no encoder): decode in the
+    background on the cores the encoder or the caller's thread leaves free.
+
+    >>> class Cpu:  # an encoder on the CPU with 2 threads
+    ...     device, threads = "cpu", 2
+    >>> decode_schedule(Cpu(), cores=2), decode_schedule(Cpu(), pixel_metrics=True, cores=2)
+    ((False, 2), (True, 1))
+    >>> decode_schedule(Cpu(), cores=16), decode_schedule(None, cores=4)
+    ((True, 14), (True, 3))
+    """
+    cores = cores or usable_cores()
+    if encoder is None or not str(getattr(encoder, "device", "cpu")).startswith("cpu"):
+        return True, max(1, cores - 1)
+    threads = int(getattr(encoder, "threads", None) or cores)
+    if threads < cores:
+        return True, cores - threads
+    return (True, 1) if pixel_metrics else (False, cores)
 
 
 def read_crops(paths: Sequence[str | os.PathLike], boxes: np.ndarray, *,

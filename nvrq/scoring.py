@@ -3,8 +3,10 @@
 :func:`score_pairs` is a short driver over the one crop-scoring core
 (:mod:`nvrq.score_core`):
 
-1. :func:`~nvrq.score_core.iter_crop_batches` groups pairs by GT image; a background thread
-   decodes each batch's images once (:func:`nvrq.crops.read_rgb`) and cuts the crops.
+1. :func:`~nvrq.score_core.iter_crop_batches` groups pairs by GT image, decodes each batch's
+   images once (:func:`nvrq.crops.read_rgb`) and cuts the crops: in a background thread when
+   cores are left over beside the encoder, else between encoder passes on every core
+   (:func:`~nvrq.score_core.decode_schedule`).
 2. :func:`~nvrq.score_core.score_crop_batch` computes the pixel metrics and, for
    ``nvrq``/``nvrq_ca``, embeds each GT crop once: the GT crop of an object at a frame is
    shared by every render offset, so a frame with 7 offsets needs 8 encoder images for
@@ -43,6 +45,7 @@ from nvrq.score_core import (
     CROP_COLUMNS,
     W_LOW,
     check_metric_args,
+    decode_schedule,
     encoder_columns,
     iter_crop_batches,
     nvrq_ca,
@@ -135,7 +138,10 @@ def score_pairs(
     times = {"decode": 0.0}
     n_decoded = n_encoded = 0
     t_start = time.perf_counter()
-    batches = iter_crop_batches(pairs, scene_root=scene_root, base=base, max_pairs=max_pairs, where=where)
+    background, decode_threads = decode_schedule(encoder if uses_encoder else None,
+                                                 pixel_metrics=len(encoder_columns(metrics)) < len(metrics))
+    batches = iter_crop_batches(pairs, scene_root=scene_root, base=base, max_pairs=max_pairs,
+                                background=background, decode_threads=decode_threads, where=where)
     with tqdm(total=n, unit="pair", file=sys.stderr, disable=not progress, desc="score",
               dynamic_ncols=True) as bar:
         for batch in batches:

@@ -20,7 +20,9 @@ Default on CPU (``runtime='auto'``): the first of :data:`AUTO_ORDER` that export
 passes the identity check (max |dNVRQ| <= :data:`IDENTITY_TOL`), else torch. Order by
 measurement on the 2-core machine (see ``benchmarks/bench_score.py``): OpenVINO fp32 ran
 DINOv2-S at 13.4-13.8 img/s against 9.7-11.5 for ONNX Runtime and 8.3-10.7 for torch, and
-efficientnet-lite0 at 125-159 against 121-182 and 34-47. ``device='cuda'`` always uses torch.
+efficientnet-lite0 at 346-365 against 312-348 for ONNX Runtime and 150-180 for torch (its
+allocator tuned, :mod:`nvrq.encoders.memory`; 50-65 without), batch 8 and 32.
+``device='cuda'`` always uses torch.
 """
 
 from __future__ import annotations

@@ -11,8 +11,11 @@ against the same kind of reference: pixel metrics to 1e-9, embedding metrics to 
 
 from __future__ import annotations
 
+import shutil
+
 import cv2
 import numpy as np
+import pandas as pd
 import pytest
 from PIL import Image
 from scipy.spatial.distance import cosine
@@ -100,7 +103,7 @@ def test_score_pairs_matches_per_pair_reference(tiny_scene, encoder):
 
 
 def test_batches_keep_gt_images_whole_and_share_gt_crops(tiny_scene):
-    _, pairs = tiny_scene
+    root, pairs = tiny_scene
     fg = list(iter_crop_batches(pairs, max_pairs=4, background=False))
     bg = list(iter_crop_batches(pairs, max_pairs=4, background=True))
     # the fixture has 9 pairs per GT image: max_pairs=4 still gives one batch per image
@@ -111,15 +114,32 @@ def test_batches_keep_gt_images_whole_and_share_gt_crops(tiny_scene):
         assert np.array_equal(a.rows, b.rows) and np.array_equal(a.gt_index, b.gt_index)
         assert all(np.array_equal(x, y) for x, y in zip(a.render_crops, b.render_crops, strict=True))
         assert pairs["gt_path"].iloc[a.rows].nunique() == 1
-    big = list(iter_crop_batches(pairs, max_pairs=100, background=False))
-    assert len(big) == 1 and len(big[0].gt_crops) == 6
+    # the first batch is the first image alone (the encoder starts sooner); later images pack
+    shutil.copy(root / pairs["gt_path"].iloc[0], root / "gt" / "copy.png")
+    three = pd.concat([pairs, pairs.iloc[:9].assign(gt_path="gt/copy.png")], ignore_index=True)
+    big = list(iter_crop_batches(three, max_pairs=100, background=False))
+    assert [len(b.rows) for b in big] == [9, 18] and [len(b.gt_crops) for b in big] == [3, 6]
+    assert [b.n_images_decoded for b in big] == [4, 2 + 6]  # GT image(s) + renders, each once
 
 
-def test_background_decode_error_reaches_the_caller(tiny_scene):
+def test_parallel_decoding_gives_the_same_batches(tiny_scene):
+    _, pairs = tiny_scene
+    one = list(iter_crop_batches(pairs, background=False))
+    for background in (False, True):
+        many = list(iter_crop_batches(pairs, background=background, decode_threads=3))
+        assert [b.rows.tolist() for b in many] == [b.rows.tolist() for b in one]
+        for a, b in zip(one, many, strict=True):
+            assert a.n_images_decoded == b.n_images_decoded and np.array_equal(a.gt_index, b.gt_index)
+            assert all(np.array_equal(x, y) for x, y in zip(a.gt_crops + a.render_crops,
+                                                            b.gt_crops + b.render_crops, strict=True))
+
+
+@pytest.mark.parametrize("background, threads", [(True, 1), (True, 2), (False, 2)])
+def test_background_decode_error_reaches_the_caller(tiny_scene, background, threads):
     root, pairs = tiny_scene
     (root / pairs["render_path"].iloc[-1]).write_bytes(b"not an image")  # found, fails to decode
     with pytest.raises(InputError, match="undecodable"):
-        list(iter_crop_batches(pairs, max_pairs=2, background=True))
+        list(iter_crop_batches(pairs, max_pairs=2, background=background, decode_threads=threads))
 
 
 def test_core_names_its_parameters(tiny_scene, encoder):
@@ -135,6 +155,8 @@ def test_core_names_its_parameters(tiny_scene, encoder):
         score_crop_batch(batch, metrics=["nope"])
     with pytest.raises(InputError, match=r"^max_pairs: "):
         iter_crop_batches(tiny_scene[1], max_pairs=0)
+    with pytest.raises(InputError, match=r"^decode_threads: "):
+        iter_crop_batches(tiny_scene[1], decode_threads=0)
 
 
 def test_embed_crops_and_run_batched_equal_one_at_a_time(encoder):
