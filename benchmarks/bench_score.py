@@ -11,7 +11,8 @@ weights, ``efficientnet-lite0`` with its pip weights when installed, else random
   pipeline: pairs/s of :func:`nvrq.scoring.score_pairs` with the default runtime and with
       torch, and ``pipeline / encoder-alone`` = pairs/s / (images/s / encoder images per pair)
       (target >= 0.9). Each pipeline run scores whole GT frames for about
-      ``--pipeline-seconds`` of encoder work (steady state, not the first batch's wait);
+      ``--pipeline-seconds`` of encoder work (steady state, not the first batch's wait), in
+      ``--rounds`` rounds interleaved with the encoder-alone rates, averaged;
   ``decode_bound``: the best ratio any schedule can reach on this machine when decoding
       takes CPU from the encoder: ``T / (T + D / threads)``, T the encoder-alone seconds for
       the run's crops and D the seconds to decode and cut them with no encoder running;
@@ -27,7 +28,7 @@ Scene: ``nvrq.synth.generate_scene`` (7 offsets, 1280x720 PNG) + ``nvrq.pairs.ma
 when available, else a random scene (smooth noise images, 7 offsets, boxes valid in every
 offset).
 
-    python benchmarks/bench_score.py [--pairs 150] [--pipeline-seconds 10] [--batch-sizes 8,32]
+    python benchmarks/bench_score.py [--pairs 150] [--pipeline-seconds 10] [--rounds 2] [--batch-sizes 8,32]
         [--threads 2] [--encoders dinov2-small,efficientnet-lite0]
         [--int8 dinov2-small,efficientnet-lite0] [--json OUT]
 """
@@ -229,21 +230,29 @@ def bench_encoder(name: str, scene: pd.DataFrame, args, cache: str) -> dict:
     encoders["plain_torch"] = PlainTorch(name, args.threads)
     per_pair = 1 + scene["gt_path"].nunique() / len(scene)  # about; measured below per run
     for bs in args.batch_sizes:
-        rates = side_by_side(encoders, bs, args.seconds)
-        for rt in ("torch", "default"):
-            # whole frames worth about --pipeline-seconds of encoder work at the alone rate
-            run = whole_frames(scene, int(args.pipeline_seconds * rates[rt] / per_pair))
-            res = score_pairs(run, metrics=col, encoder=encoders[rt], batch_size=bs, progress=False)
-            ipp = res.n_encoder_images / res.n_pairs
-            pps = res.n_pairs / res.timing.attrs["wall_seconds"]
-            t_alone = res.n_encoder_images / rates[rt]
-            decode = decode_alone_seconds(run)
-            out.update({f"b{bs}_{rt}_pipeline_pairs": res.n_pairs, f"b{bs}_{rt}_pipeline_pairs_per_s": pps,
+        # rounds of (every encoder alone, then each pipeline), averaged: the machine drifts
+        alone, piped, runs = {k: [] for k in encoders}, {"torch": [], "default": []}, {}
+        for _ in range(args.rounds):
+            for k, v in side_by_side(encoders, bs, args.seconds / args.rounds, rounds=1).items():
+                alone[k].append(v)
+            for rt in piped:
+                # whole frames worth about --pipeline-seconds of encoder work at the alone rate
+                runs.setdefault(rt, whole_frames(scene, int(args.pipeline_seconds * alone[rt][0] / per_pair)))
+                res = score_pairs(runs[rt], metrics=col, encoder=encoders[rt], batch_size=bs, progress=False)
+                piped[rt].append(res)
+        rates = {k: float(np.mean(v)) for k, v in alone.items()}
+        for rt, results in piped.items():
+            n_pairs, n_images = results[0].n_pairs, results[0].n_encoder_images
+            ipp = n_images / n_pairs
+            pps = n_pairs / float(np.mean([r.timing.attrs["wall_seconds"] for r in results]))
+            t_alone = n_images / rates[rt]
+            decode = decode_alone_seconds(runs[rt])
+            out.update({f"b{bs}_{rt}_pipeline_pairs": n_pairs, f"b{bs}_{rt}_pipeline_pairs_per_s": pps,
                         f"b{bs}_{rt}_pipeline_over_encoder_alone": pps / (rates[rt] / ipp),
                         f"b{bs}_{rt}_decode_bound": t_alone / (t_alone + decode / args.threads)})
             if rt == "default":
                 out[f"b{bs}_encoder_images_per_pair"] = ipp
-                out[f"b{bs}_decode_seconds_per_pair"] = decode / res.n_pairs
+                out[f"b{bs}_decode_seconds_per_pair"] = decode / n_pairs
         out.update({f"b{bs}_torch_images_per_s": rates["torch"],
                     f"b{bs}_plain_torch_images_per_s": rates["plain_torch"],
                     f"b{bs}_default_images_per_s": rates["default"],
@@ -265,6 +274,8 @@ def main(argv=None) -> int:
     ap.add_argument("--batch-sizes", default="8,32", help="encoder batch sizes (default 8,32)")
     ap.add_argument("--threads", type=int, default=2, help="encoder threads (default 2)")
     ap.add_argument("--seconds", type=float, default=8.0, help="seconds per encoder-alone rate (default 8)")
+    ap.add_argument("--rounds", type=int, default=2,
+                    help="interleaved rounds of encoder-alone and pipeline runs, averaged (default 2)")
     ap.add_argument("--encoders", default="dinov2-small,efficientnet-lite0")
     ap.add_argument("--int8", default="dinov2-small,efficientnet-lite0", help="encoders given an int8 check")
     ap.add_argument("--int8-pairs", type=int, default=100, help="pairs in the int8 drift check (default 100)")

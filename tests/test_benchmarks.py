@@ -17,7 +17,7 @@ BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
 CASES = {
     "bench_pairs.py": (["--tracks", "6", "--frames", "12", "--loop-sample", "50"], "speed-up (vectorised / loop)"),
     "bench_synth.py": (["--seconds", "0.2", "--size", "160x96"], "images per second per camera"),
-    "bench_score.py": (["--pairs", "14", "--pipeline-seconds", "0.5", "--naive-pairs", "4", "--batch-sizes", "8",
+    "bench_score.py": (["--pairs", "14", "--pipeline-seconds", "0.5", "--rounds", "1", "--naive-pairs", "4", "--batch-sizes", "8",
                         "--random-scene", "--seconds", "0.2", "--encoders", "efficientnet-lite0", "--int8", ""],
                        "e_speedup_over_naive"),
     "bench_proxy.py": (["--crops", "8", "--batch-size", "4", "--rounds", "1"], "ratio vs torch"),
