@@ -148,16 +148,10 @@ class PlainTorch:
         return float(proc.stdout.split()[-1])
 
 
-def side_by_side(encoders: dict, batch_size: int, seconds: float, rounds: int = 2) -> dict:
-    """images/s of each encoder, measured in interleaved rounds and averaged."""
-    rates = {k: [] for k in encoders}
-    for _ in range(rounds):
-        for k, enc in encoders.items():
-            if isinstance(enc, PlainTorch):
-                rates[k].append(enc.images_per_s(batch_size, seconds / rounds))
-            else:
-                rates[k].append(encoder_images_per_s(enc, batch_size, seconds / rounds))
-    return {k: float(np.mean(v)) for k, v in rates.items()}
+def alone_rates(encoders: dict, batch_size: int, seconds: float) -> dict:
+    """images/s of each encoder alone, one after the other (``seconds`` each)."""
+    return {k: enc.images_per_s(batch_size, seconds) if isinstance(enc, PlainTorch)
+            else encoder_images_per_s(enc, batch_size, seconds) for k, enc in encoders.items()}
 
 
 def whole_frames(pairs: pd.DataFrame, n_pairs: int) -> pd.DataFrame:
@@ -181,7 +175,8 @@ def decode_alone_seconds(pairs: pd.DataFrame) -> float:
     return time.perf_counter() - t0
 
 
-def load_pairs(root: Path, n_pairs: int, use_random: bool) -> tuple[pd.DataFrame, str]:
+def scene_pairs(root: Path, use_random: bool) -> tuple[pd.DataFrame, str]:
+    """The pairs of the whole benchmark scene (synthetic, else random images) and its source."""
     pairs = None if use_random else synth_scene(root, seconds=2.0)
     source = "nvrq.synth.generate_scene"
     if pairs is None or len(pairs) == 0:
@@ -233,7 +228,7 @@ def bench_encoder(name: str, scene: pd.DataFrame, args, cache: str) -> dict:
         # rounds of (every encoder alone, then each pipeline), averaged: the machine drifts
         alone, piped, runs = {k: [] for k in encoders}, {"torch": [], "default": []}, {}
         for _ in range(args.rounds):
-            for k, v in side_by_side(encoders, bs, args.seconds / args.rounds, rounds=1).items():
+            for k, v in alone_rates(encoders, bs, args.seconds / args.rounds).items():
                 alone[k].append(v)
             for rt in piped:
                 # whole frames worth about --pipeline-seconds of encoder work at the alone rate
@@ -290,7 +285,7 @@ def main(argv=None) -> int:
     torch.set_num_threads(args.threads)
     cv2.setNumThreads(1)  # as `nvrq score` does
     with tempfile.TemporaryDirectory() as tmp:
-        pairs, source = load_pairs(Path(tmp) / "scene", args.pairs, args.random_scene)
+        pairs, source = scene_pairs(Path(tmp) / "scene", args.random_scene)
         out = {"scene": source, "scene_pairs": len(pairs), "threads": args.threads, "cpus": os.cpu_count(),
                "load_average_at_start": os.getloadavg()[0], "encoders": []}
         for name in args.encoders.split(","):

@@ -30,7 +30,7 @@ from tqdm import tqdm
 from data_schema.errors import InputError
 from data_schema.tables import GT_BOX_COLUMNS, atomic_write_text, pair_boxes, pair_image_paths
 from nvrq.encoders import get_spec
-from nvrq.score_core import embed_crops, nvrq_similarity, read_crops
+from nvrq.score_core import check_positive, embed_crops, nvrq_similarity, read_crops
 
 __all__ = ["config_path", "read_tau_config", "write_tau", "resolve_tau", "recommend_tau",
            "unrelated_pairs", "Calibration", "calibrate_tau"]
@@ -121,8 +121,7 @@ def _check_calibrate_args(encoder, **counts: int) -> None:
     if encoder is None or not hasattr(encoder, "embed"):
         raise InputError("encoder", None, "a loaded encoder", encoder)
     for name, value in counts.items():
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-            raise InputError(name, None, "a positive integer", value)
+        check_positive(name, value)
 
 
 def _embed_gt_crops(paths, boxes: np.ndarray, encoder, *, batch_size: int, progress: bool,

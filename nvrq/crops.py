@@ -42,7 +42,8 @@ def read_rgb(path: str | os.PathLike) -> np.ndarray:
     """Decode an image file into an RGB ``uint8`` array (H, W, 3).
 
     OpenCV returns B, G, R unless asked for R, G, B (``cv2.IMREAD_COLOR_RGB``, OpenCV >= 4.10;
-    older builds swap with ``cv2.COLOR_BGR2RGB``): the result is in the file's own R, G, B order. Grey and RGBA files become 3-channel RGB.
+    older builds swap with ``cv2.COLOR_BGR2RGB``): the result is in the file's own R, G, B
+    order. Grey and RGBA files become 3-channel RGB.
     Raises :class:`InputError` if the file is missing or cannot be decoded.
     """
     path = os.fspath(path)

@@ -48,7 +48,8 @@ from nvrq.metrics import REGISTRY, split_column
 
 __all__ = ["CropBatch", "iter_crop_batches", "score_crop_batch", "embed_crops", "encoder_inputs",
            "run_batched", "pair_outputs", "read_crops", "check_metric_args", "check_tau",
-           "encoder_columns", "decode_schedule", "usable_cores", "nvrq_similarity", "nvrq_ca", "W_LOW", "CROP_COLUMNS"]
+           "encoder_columns", "check_positive", "decode_schedule", "usable_cores", "nvrq_similarity", "nvrq_ca",
+           "W_LOW", "CROP_COLUMNS"]
 
 W_LOW = 0.1
 #: the pairs-table columns :func:`iter_crop_batches` reads (besides ``scene_root``)
@@ -126,7 +127,7 @@ def run_batched(crops: Sequence[np.ndarray], fn: Callable[[np.ndarray], np.ndarr
     """``fn`` (uint8 (B, size, size, 3) -> (B, D)) over :func:`encoder_inputs` of ``crops``,
     ``batch_size`` crops at a time -> (N, D) (``(0, 0)`` for no crops). Adds ``prepare`` and
     ``forward`` seconds to ``timings``."""
-    _check_positive("batch_size", batch_size)
+    check_positive("batch_size", batch_size)
     times = timings if timings is not None else {}
     parts = []
     for k in range(0, len(crops), batch_size):
@@ -162,7 +163,8 @@ def embed_crops(crops: Sequence[np.ndarray], encoder, *, batch_size: int = 32,
 
 # --- the pure per-batch scorer -----------------------------------------------------------------
 
-def _check_positive(name: str, value) -> None:
+def check_positive(name: str, value) -> None:
+    """:class:`InputError` naming ``name`` unless ``value`` is a positive integer (not a bool)."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
         raise InputError(name, None, "a positive integer", value)
 
@@ -182,7 +184,7 @@ def check_metric_args(metrics: Sequence[str], *, encoder=None, tau=None, batch_s
             raise InputError("metrics", None, f"metric columns among {known}", m)
     if not metrics:
         raise InputError("metrics", None, "at least one metric", "none")
-    _check_positive("batch_size", batch_size)
+    check_positive("batch_size", batch_size)
     enc_cols = encoder_columns(metrics)
     if enc_cols and encoder is None:
         raise InputError("encoder", None, f"a loaded encoder for {', '.join(enc_cols)}", None)
@@ -341,8 +343,8 @@ def iter_crop_batches(pairs: pd.DataFrame, *, scene_root: str | os.PathLike | No
     :func:`decode_schedule` picks both for an encoder.
     Bad columns, boxes and paths raise :class:`InputError` naming ``where`` and the row.
     """
-    _check_positive("max_pairs", max_pairs)
-    _check_positive("decode_threads", decode_threads)
+    check_positive("max_pairs", max_pairs)
+    check_positive("decode_threads", decode_threads)
     plan = _plan(pairs, scene_root=scene_root, base=base, where=where)
 
     def batches() -> Iterator[CropBatch]:

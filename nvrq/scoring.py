@@ -57,6 +57,8 @@ __all__ = ["nvrq_similarity", "nvrq_ca", "W_LOW", "resolve_metrics", "ScoreResul
            "score_pairs", "timing_table", "REQUIRED_COLUMNS"]
 
 REQUIRED_COLUMNS = ("pair_id", *CROP_COLUMNS)
+
+
 def resolve_metrics(metrics: Sequence[str], encoder: str) -> list[str]:
     """Output column names for metric names: ``nvrq`` -> ``nvrq:ENCODER`` (``encoder``'s name).
 
@@ -133,13 +135,14 @@ def score_pairs(
                          f"columns {', '.join(map(str, pairs.columns))}")
     metrics = list(metrics)
     check_metric_args(metrics, encoder=encoder, tau=tau, batch_size=batch_size)
-    n, uses_encoder = len(pairs), bool(encoder_columns(metrics))
+    n, n_enc_cols = len(pairs), len(encoder_columns(metrics))
+    uses_encoder = n_enc_cols > 0
     values = {m: np.full(n, np.nan) for m in metrics}
     times = {"decode": 0.0}
     n_decoded = n_encoded = 0
     t_start = time.perf_counter()
     background, decode_threads = decode_schedule(encoder if uses_encoder else None,
-                                                 pixel_metrics=len(encoder_columns(metrics)) < len(metrics))
+                                                 pixel_metrics=n_enc_cols < len(metrics))
     batches = iter_crop_batches(pairs, scene_root=scene_root, base=base, max_pairs=max_pairs,
                                 background=background, decode_threads=decode_threads, where=where)
     with tqdm(total=n, unit="pair", file=sys.stderr, disable=not progress, desc="score",

@@ -14,6 +14,7 @@ from data_schema.errors import InputError
 from nvrq import encoders
 from nvrq.calibrate import resolve_tau
 from nvrq.encoders import DEFAULT_ENCODER, get_spec
+from nvrq.encoders.runtimes import PRECISIONS, RUNTIMES
 from nvrq.metrics import split_column
 from nvrq.score_core import check_tau
 
@@ -44,10 +45,10 @@ def add_encoder_arguments(p, *, tau: bool = True) -> None:
 
 def add_runtime_arguments(p) -> None:
     """``--runtime``, ``--precision``, ``--min-spearman``, ``--cache-dir`` (nvrq.encoders.runtimes)."""
-    p.add_argument("--runtime", default="auto", choices=["auto", "torch", "openvino", "onnxruntime"],
+    p.add_argument("--runtime", default="auto", choices=RUNTIMES,
                    help="encoder runtime (default auto: on CPU the fastest runtime identical to torch "
                         "fp32, else torch)")
-    p.add_argument("--precision", default="fp32", choices=["fp32", "bf16", "int8"],
+    p.add_argument("--precision", default="fp32", choices=PRECISIONS,
                    help="encoder precision (default fp32; bf16/int8 need `nvrq calibrate-runtime` first)")
     p.add_argument("--min-spearman", type=float, default=None,
                    help="NVRQ Spearman a reduced precision's drift check must reach (default 0.999)")

@@ -9,6 +9,7 @@ from data_schema.errors import InputError
 from data_schema.tables import read_table
 from nvrq.encoders import DEFAULT_ENCODER, build_random, get_spec, load_encoder
 from nvrq.encoders.drift import DEFAULT_MIN_SPEARMAN, check_runtime, pair_inputs, write_record
+from nvrq.encoders.runtimes import PRECISIONS
 from nvrq.scoring import REQUIRED_COLUMNS
 
 __all__ = ["register", "run"]
@@ -25,7 +26,7 @@ def register(sub) -> None:
     p.add_argument("--weights", default=None, help="local weights (HF model folder or .pth)")
     p.add_argument("--runtime", default="openvino", choices=["openvino", "onnxruntime"],
                    help="runtime checked against torch fp32 (default openvino)")
-    p.add_argument("--precision", default="int8", choices=["fp32", "bf16", "int8"],
+    p.add_argument("--precision", default="int8", choices=PRECISIONS,
                    help="precision checked (default int8; onnxruntime: fp32 or int8)")
     p.add_argument("--scene", default=None, help="scene folder (default: the scene_root column)")
     p.add_argument("--sample", type=int, default=200, help="pairs checked (default 200)")

@@ -41,7 +41,7 @@ from tqdm import tqdm
 from data_schema.errors import InputError
 from nvrq.crops import normalised_tensor
 from nvrq.encoders import load_encoder
-from nvrq.score_core import iter_crop_batches, pair_outputs
+from nvrq.score_core import check_positive, iter_crop_batches, pair_outputs
 
 __all__ = [
     "ImageClassifier",
@@ -208,8 +208,7 @@ def pair_probabilities(
     """``(rows (P,), p_gt (P, C), p_render (P, C))`` per crop batch of ``pairs``, through the one
     scoring core (:mod:`nvrq.score_core`): ``model.probabilities(uint8 (B, S, S, 3))`` with
     ``S = model.input_size``, each GT crop run once, ``batch_size`` crops per forward pass."""
-    if isinstance(batch_size, bool) or not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
-        raise InputError("batch_size", None, "a positive integer", batch_size)
+    check_positive("batch_size", batch_size)
     batches = iter_crop_batches(pairs, scene_root=scene_root, where=where)
     with tqdm(total=len(pairs), unit="pair", file=sys.stderr, disable=not progress, desc=desc) as bar:
         for batch in batches:
