@@ -48,7 +48,7 @@ from nvrq.metrics import REGISTRY, split_column
 
 __all__ = ["CropBatch", "iter_crop_batches", "score_crop_batch", "embed_crops", "encoder_inputs",
            "run_batched", "pair_outputs", "read_crops", "check_metric_args", "check_tau",
-           "encoder_columns", "check_positive", "decode_schedule", "usable_cores", "nvrq_similarity", "nvrq_ca",
+           "encoder_columns", "column_seconds", "check_positive", "decode_schedule", "gt_groups", "pack_groups", "usable_cores", "nvrq_similarity", "nvrq_ca",
            "W_LOW", "CROP_COLUMNS"]
 
 W_LOW = 0.1
@@ -174,6 +174,19 @@ def encoder_columns(metrics: Sequence[str]) -> list[str]:
     return [m for m in metrics if REGISTRY[split_column(m)[0]].needs_encoder]
 
 
+def column_seconds(columns: Sequence[str], model_columns, timings: dict) -> list[float]:
+    """Seconds per column of ``timings`` (the keys in the module docstring, plus ``decode``):
+    the shared decode plus the column's own calls, or, for one of ``model_columns``, all
+    model input preparation and passes (``prepare + forward``).
+
+    >>> column_seconds(["psnr", "nvrq:e"], {"nvrq:e"}, {"decode": 1.0, "psnr": 0.5, "forward": 2.0})
+    [1.5, 3.0]
+    """
+    decode = float(timings.get("decode", 0.0))
+    model = float(timings.get("prepare", 0.0)) + float(timings.get("forward", 0.0))
+    return [decode + (model if c in model_columns else float(timings.get(c, 0.0))) for c in columns]
+
+
 def check_metric_args(metrics: Sequence[str], *, encoder=None, tau=None, batch_size: int = 32) -> None:
     """Validate :func:`score_crop_batch`'s arguments; :class:`InputError` names the parameter."""
     for m in metrics:
@@ -251,25 +264,46 @@ def _plan(pairs: pd.DataFrame, *, scene_root, base, where: str) -> _Plan:
                  pair_boxes(pairs, RENDER_BOX_COLUMNS, where=where))
 
 
+def gt_groups(gt_paths: np.ndarray) -> list[np.ndarray]:
+    """Positions (int64) of each GT image's rows, images in first-appearance order.
+
+    >>> [g.tolist() for g in gt_groups(np.array(list("abab")))]
+    [[0, 2], [1, 3]]
+    """
+    codes, _ = pd.factorize(np.asarray(gt_paths))
+    order = np.argsort(codes, kind="stable")
+    return np.split(order.astype(np.int64), np.flatnonzero(np.diff(codes[order])) + 1) if len(order) else []
+
+
+def pack_groups(groups: Sequence[np.ndarray], max_pairs: int) -> list[np.ndarray]:
+    """Whole ``groups`` packed in order, up to ``max_pairs`` rows each; a group with more rows
+    than that is a pack of its own (crop batches here, Ray shards in :mod:`nvrq.engines.shards`).
+
+    >>> [p.tolist() for p in pack_groups([np.array([0, 1]), np.array([2]), np.array([3, 4, 5])], 3)]
+    [[0, 1, 2], [3, 4, 5]]
+    """
+    packs, cur, size = [], [], 0
+    for g in groups:
+        if cur and size + len(g) > max_pairs:
+            packs.append(np.concatenate(cur))
+            cur, size = [], 0
+        cur.append(np.asarray(g, np.int64))
+        size += len(g)
+    if cur:
+        packs.append(np.concatenate(cur))
+    return packs
+
+
 def _chunks(gt_paths: np.ndarray, max_pairs: int) -> list[np.ndarray]:
-    """Row groups: whole GT images (first-appearance order) packed up to ``max_pairs`` rows; an
-    image with more pairs than that is a chunk of its own. The first chunk is the first image
-    alone, so the encoder waits for one image's files rather than a full chunk's.
+    """Row groups: whole GT images (first-appearance order) packed up to ``max_pairs`` rows
+    (:func:`pack_groups`). The first chunk is the first image alone, so the encoder waits for
+    one image's files rather than a full chunk's.
 
     >>> [c.tolist() for c in _chunks(np.array(list("aabbccd")), 4)]
     [[0, 1], [2, 3, 4, 5], [6]]
     """
-    groups = list(pd.Series(np.arange(len(gt_paths))).groupby(gt_paths, sort=False).groups.values())
-    chunks, cur = [np.asarray(groups[0], np.int64)] if groups else [], []
-    for g in groups[1:]:
-        g = np.asarray(g, np.int64)
-        if cur and sum(map(len, cur)) + len(g) > max_pairs:
-            chunks.append(np.concatenate(cur))
-            cur = []
-        cur.append(g)
-    if cur:
-        chunks.append(np.concatenate(cur))
-    return chunks
+    groups = gt_groups(gt_paths)
+    return [groups[0], *pack_groups(groups[1:], max_pairs)] if groups else []
 
 
 def _load_batch(rows: np.ndarray, plan: _Plan, where: str, pool: ThreadPoolExecutor | None) -> CropBatch:

@@ -45,6 +45,7 @@ from nvrq.score_core import (
     CROP_COLUMNS,
     W_LOW,
     check_metric_args,
+    column_seconds,
     decode_schedule,
     encoder_columns,
     iter_crop_batches,
@@ -98,11 +99,10 @@ def timing_table(metrics: Sequence[str], times: dict, *, n_pairs: int, wall: flo
     """``metric, seconds, pairs``: each column's own seconds (``times[column]`` for a pixel
     metric; ``prepare + forward`` for an encoder metric) plus ``times['decode']``; the stage
     totals go to ``.attrs`` (``wall_seconds``, ``forward_seconds``, ...)."""
-    enc = set(encoder_columns(metrics))
     decode, prepare, forward = (times.get(k, 0.0) for k in ("decode", "prepare", "forward"))
     timing = pd.DataFrame({
         "metric": list(metrics),
-        "seconds": [decode + (prepare + forward if m in enc else times.get(m, 0.0)) for m in metrics],
+        "seconds": column_seconds(metrics, set(encoder_columns(metrics)), times),
         "pairs": n_pairs,
     })
     timing.attrs.update(wall_seconds=wall, forward_seconds=forward, decode_seconds=decode,

@@ -10,11 +10,12 @@ from __future__ import annotations
 from data_schema.errors import InputError
 from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS, read_table, write_table
 from nvrq.commands._encoder import add_model_arguments, prepare_device
+from nvrq.encoders.runtimes import RUNTIMES
 from nvrq.engines import add_engine_args
 from nvrq.engines.cli import check_engine_args, run_ray
 from nvrq.engines.scorers import ClipScorer, ImagenetScorer
 from nvrq.proxies import load_class_maps
-from nvrq.proxies.classifier_drop import PROXY_RUNTIMES, imagenet_drop, load_classifier
+from nvrq.proxies.classifier_drop import imagenet_drop, load_classifier
 from nvrq.proxies.clip_drop import clip_drop, load_clip, true_category_index
 from nvrq.proxies.detection import detection_confidence, read_detections
 from nvrq.proxies.yolo import run_yolo
@@ -50,7 +51,7 @@ def _model_opts(p) -> None:
 
 def _runtime_opts(p) -> None:
     """``--runtime``, ``--cache-dir`` of the proxy models (fp32; nvrq.encoders.runtimes)."""
-    p.add_argument("--runtime", default="auto", choices=list(PROXY_RUNTIMES),
+    p.add_argument("--runtime", default="auto", choices=list(RUNTIMES),
                    help="model runtime (default auto: on CPU the fastest exported runtime identical "
                         "to torch fp32, else torch; --device cuda runs torch)")
     p.add_argument("--cache-dir", default=None,

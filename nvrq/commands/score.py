@@ -92,7 +92,7 @@ def _ray(args, columns, encoder_name) -> int:
     scorer = MetricScorer(tuple(columns), encoder=encoder_name, weights=args.weights, device=args.device,
                           tau=tau, batch_size=args.batch_size, runtime=args.runtime,
                           cache_dir=args.cache_dir)
-    return run_ray(args, scorer, timing_path=timing_path(args.out))
+    return run_ray(args, scorer)
 
 
 def runtime_columns(table, timing, encoder, *, tag: str | None):

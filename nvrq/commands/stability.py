@@ -14,7 +14,7 @@ from pathlib import Path
 from data_schema.cliargs import comma_list
 from data_schema.errors import InputError
 from data_schema.outputs import mark_report
-from data_schema.tables import MIN_SIDE_PX, read_table, write_table
+from data_schema.tables import GT_BOX_COLUMNS, MIN_SIDE_PX, read_table, write_table
 from nvrq.commands._encoder import (
     add_encoder_arguments,
     encoder_for_metrics,
@@ -53,8 +53,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-_PAIRS_COLUMNS = ("pair_id", "clip_id", "camera", "track_id", "timestamp_us", "gt_path",
-                  "gt_x0", "gt_y0", "gt_x1", "gt_y1")
+_PAIRS_COLUMNS = ("pair_id", "clip_id", "camera", "track_id", "timestamp_us", "gt_path", *GT_BOX_COLUMNS)
 
 
 def run(args) -> int:

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from data_schema.errors import InputError
-from nvrq.engines import require_ray
+from data_schema.tables import timing_path
 from nvrq.engines.ray_engine import RayJob, score_on_ray
 
 __all__ = ["check_engine_args", "run_ray"]
@@ -37,15 +37,13 @@ def check_engine_args(args) -> None:
         raise InputError("--actors", None, "a positive number of actors", args.actors)
 
 
-def run_ray(args, scorer, *, timing_path=None) -> int:
-    """Run ``scorer`` (:mod:`nvrq.engines.scorers`) over ``args.pairs`` on Ray into ``args.out``."""
+def run_ray(args, scorer) -> int:
+    """Run ``scorer`` (:mod:`nvrq.engines.scorers`) over ``args.pairs`` on Ray into ``args.out``
+    (timing table beside it, :func:`data_schema.tables.timing_path`)."""
 
-    require_ray()
     job = RayJob(pairs=str(args.pairs), out=str(args.out), scorer=scorer, shard_pairs=args.shard_pairs,
                  actors=args.actors, progress=not args.quiet)
-    out = Path(args.out)
-    res = score_on_ray(job, timing_path=timing_path or out.with_name(out.name + ".timing.csv"),
-                       address=args.address)
+    res = score_on_ray(job, timing_path=timing_path(args.out), address=args.address)
     done = f"{res['shards_done_before']} of {res['shards']} shards were already written; " \
         if res["shards_done_before"] else ""
     print(f"{done}scored {res['pairs_scored']} pairs in {res['seconds']:.1f} s on Ray -> {args.out}",

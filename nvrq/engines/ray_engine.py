@@ -54,10 +54,6 @@ class RayJob:
     actors: int | None = None
     progress: bool = True
 
-    @property
-    def columns(self) -> list[str]:
-        return list(self.scorer.columns)
-
 
 def check_address(address: str) -> None:
     """One-line error when nothing listens at ``HOST:PORT`` (Ray would otherwise wait a minute)."""

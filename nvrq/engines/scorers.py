@@ -17,7 +17,7 @@ import numpy as np
 from nvrq.encoders import load_encoder
 from nvrq.proxies.classifier_drop import load_classifier, top_class_drop
 from nvrq.proxies.clip_drop import load_clip, true_category_index
-from nvrq.score_core import encoder_columns, pair_outputs, score_crop_batch
+from nvrq.score_core import column_seconds, encoder_columns, pair_outputs, score_crop_batch
 
 __all__ = ["MetricScorer", "ImagenetScorer", "ClipScorer", "timing_per_column"]
 
@@ -129,9 +129,5 @@ class ClipScorer(_ProxyScorer):
 
 
 def timing_per_column(scorer, timings: dict) -> dict:
-    """Seconds per column, by the local engine's rule (:func:`nvrq.scoring.timing_table`): the
-    shared decode plus the column's own calls, or all model input preparation and passes."""
-    decode = float(timings.get("decode", 0.0))
-    model = float(timings.get("prepare", 0.0)) + float(timings.get("forward", 0.0))
-    return {c: decode + (model if c in scorer.model_columns else float(timings.get(c, 0.0)))
-            for c in scorer.columns}
+    """Seconds per column, by the local engine's rule (:func:`nvrq.score_core.column_seconds`)."""
+    return dict(zip(scorer.columns, column_seconds(scorer.columns, scorer.model_columns, timings), strict=True))

@@ -30,6 +30,7 @@ import pyarrow.parquet as pq
 from data_schema import datasets as ds
 from data_schema.errors import InputError
 from data_schema.tables import atomic_path, atomic_write_text, read_table, write_table
+from nvrq.score_core import gt_groups, pack_groups
 
 __all__ = ["Shard", "PairsSource", "read_sources", "plan_shards", "Plan", "load_or_create_plan",
            "write_shard", "finalize"]
@@ -97,22 +98,8 @@ def plan_shards(sources: list[PairsSource], *, max_pairs: int) -> list[Shard]:
     """Cut every source into shards of whole GT groups (first-seen order), <= ``max_pairs`` each."""
     shards: list[Shard] = []
     for src in sources:
-        codes, _ = pd.factorize(src.gt_paths)
-        order = np.argsort(codes, kind="stable")
-        bounds = np.flatnonzero(np.diff(codes[order])) + 1
-        groups = np.split(src.rows[order], bounds) if len(order) else []
-        cur: list[np.ndarray] = []
-        size = 0
-        for g in groups:
-            if cur and size + len(g) > max_pairs:
-                shards.append(Shard(len(shards), src.clip_id, src.path, tuple(np.concatenate(cur).tolist()),
-                                    src.base))
-                cur, size = [], 0
-            cur.append(g)
-            size += len(g)
-        if cur:
-            shards.append(Shard(len(shards), src.clip_id, src.path, tuple(np.concatenate(cur).tolist()),
-                                src.base))
+        for rows in pack_groups([src.rows[g] for g in gt_groups(src.gt_paths)], max_pairs):
+            shards.append(Shard(len(shards), src.clip_id, src.path, tuple(rows.tolist()), src.base))
     return shards
 
 

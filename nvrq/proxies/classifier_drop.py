@@ -50,13 +50,10 @@ __all__ = [
     "pair_probabilities",
     "imagenet_drop",
     "DEFAULT_CLASSIFIER",
-    "PROXY_RUNTIMES",
     "max_softmax_change",
 ]
 
 DEFAULT_CLASSIFIER = "efficientnet-lite0"
-#: runtimes of the proxy models (fp32 only; see :mod:`nvrq.encoders.runtimes`)
-PROXY_RUNTIMES = ("auto", "torch", "openvino", "onnxruntime")
 
 
 def top_class_drop(p_gt: np.ndarray, p_render: np.ndarray) -> np.ndarray:
