@@ -48,7 +48,7 @@ from nvrq.metrics import REGISTRY, split_column
 
 __all__ = ["CropBatch", "iter_crop_batches", "score_crop_batch", "embed_crops", "encoder_inputs",
            "run_batched", "pair_outputs", "read_crops", "check_metric_args", "check_tau",
-           "encoder_columns", "column_seconds", "check_positive", "decode_schedule", "gt_groups", "pack_groups", "usable_cores", "nvrq_similarity", "nvrq_ca",
+           "encoder_columns", "needs_tau", "column_seconds", "check_positive", "decode_schedule", "gt_groups", "pack_groups", "usable_cores", "nvrq_similarity", "nvrq_ca",
            "W_LOW", "CROP_COLUMNS"]
 
 W_LOW = 0.1
@@ -187,6 +187,15 @@ def column_seconds(columns: Sequence[str], model_columns, timings: dict) -> list
     return [decode + (model if c in model_columns else float(timings.get(c, 0.0))) for c in columns]
 
 
+def needs_tau(metrics: Sequence[str]) -> bool:
+    """Whether ``metrics`` hold an NVRQ-CA column (which needs the knee ``tau``).
+
+    >>> needs_tau(["psnr", "nvrq:e"]), needs_tau(["nvrq_ca:e"])
+    (False, True)
+    """
+    return any(split_column(m)[0] == "nvrq_ca" for m in metrics)
+
+
 def check_metric_args(metrics: Sequence[str], *, encoder=None, tau=None, batch_size: int = 32) -> None:
     """Validate :func:`score_crop_batch`'s arguments; :class:`InputError` names the parameter."""
     for m in metrics:
@@ -201,7 +210,7 @@ def check_metric_args(metrics: Sequence[str], *, encoder=None, tau=None, batch_s
     enc_cols = encoder_columns(metrics)
     if enc_cols and encoder is None:
         raise InputError("encoder", None, f"a loaded encoder for {', '.join(enc_cols)}", None)
-    if any(split_column(c)[0] == "nvrq_ca" for c in enc_cols):
+    if needs_tau(metrics):
         check_tau(tau)
 
 

@@ -10,16 +10,18 @@ from __future__ import annotations
 import sys
 from collections.abc import Sequence
 
+from data_schema.cliargs import comma_list
 from data_schema.errors import InputError
 from nvrq import encoders
 from nvrq.calibrate import resolve_tau
 from nvrq.encoders import DEFAULT_ENCODER, get_spec
 from nvrq.encoders.runtimes import PRECISIONS, RUNTIMES
 from nvrq.metrics import split_column
-from nvrq.score_core import check_tau
+from nvrq.score_core import check_tau, encoder_columns, needs_tau
+from nvrq.scoring import resolve_metrics
 
 __all__ = ["add_model_arguments", "add_encoder_arguments", "prepare_device", "encoder_for_metrics",
-           "load_encoder_and_tau", "add_runtime_arguments"]
+           "load_encoder_and_tau", "add_runtime_arguments", "metric_columns", "encoder_for_columns"]
 
 
 def add_model_arguments(p, *, batch_help: str = "crops per forward pass (default 32)") -> None:
@@ -105,3 +107,19 @@ def load_encoder_and_tau(args, *, needs_tau: bool, name: str | None = None):
         threads=getattr(args, "threads", None), cache_dir=getattr(args, "cache_dir", None),
         min_spearman=getattr(args, "min_spearman", None))
     return encoder, tau
+
+
+def metric_columns(args) -> tuple[list[str], str]:
+    """``(columns, encoder name)`` of ``--metrics`` and ``--encoder``: the encoder as
+    :func:`encoder_for_metrics` picks it, the columns as :func:`nvrq.scoring.resolve_metrics`."""
+    raw = comma_list(args.metrics)
+    name = encoder_for_metrics(raw, args.encoder)
+    return resolve_metrics(raw, name), name
+
+
+def encoder_for_columns(args, columns: Sequence[str], name: str):
+    """``(encoder, tau)`` that ``columns`` need (:func:`load_encoder_and_tau`), ``(None, None)``
+    when no column needs an encoder."""
+    if not encoder_columns(columns):
+        return None, None
+    return load_encoder_and_tau(args, needs_tau=needs_tau(columns), name=name)

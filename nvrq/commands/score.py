@@ -7,21 +7,20 @@ from pathlib import Path
 
 import cv2
 
-from data_schema.cliargs import comma_list
 from data_schema.errors import InputError
 from data_schema.tables import read_table, timing_path, write_table
 from nvrq.commands._encoder import (
     _resolve_tau,
     add_encoder_arguments,
-    encoder_for_metrics,
-    load_encoder_and_tau,
+    encoder_for_columns,
+    metric_columns,
 )
 from nvrq.engines import add_engine_args
 from nvrq.engines.cli import check_engine_args, run_ray
 from nvrq.engines.scorers import MetricScorer
 from nvrq.metrics import split_column
-from nvrq.score_core import encoder_columns
-from nvrq.scoring import REQUIRED_COLUMNS, resolve_metrics, score_pairs
+from nvrq.score_core import needs_tau
+from nvrq.scoring import REQUIRED_COLUMNS, score_pairs
 
 __all__ = ["register", "run", "runtime_columns"]
 
@@ -47,21 +46,14 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    raw = comma_list(args.metrics)
-    encoder_name = encoder_for_metrics(raw, args.encoder)
-    columns = resolve_metrics(raw, encoder_name)
-
+    columns, encoder_name = metric_columns(args)
     check_engine_args(args)
     if args.engine == "ray":
         return _ray(args, columns, encoder_name)
     pairs = read_table(args.pairs, required=REQUIRED_COLUMNS, what="pairs table")
     if not str(args.out).lower().endswith((".csv", ".parquet")):
         raise InputError(args.out, None, "an output file ending in .csv or .parquet", args.out)
-    enc_cols = encoder_columns(columns)
-    encoder = tau = None
-    if enc_cols:
-        needs_tau = any(c.startswith("nvrq_ca:") for c in enc_cols)
-        encoder, tau = load_encoder_and_tau(args, needs_tau=needs_tau, name=encoder_name)
+    encoder, tau = encoder_for_columns(args, columns, encoder_name)
     cv2.setNumThreads(1)  # crops are small; leave the cores to the encoder and the decode thread
     res = score_pairs(pairs, metrics=columns, encoder=encoder, tau=tau, scene_root=args.scene,
                       base=Path(args.pairs).resolve().parent, batch_size=args.batch_size,
@@ -69,7 +61,7 @@ def run(args) -> int:
     table, timing = runtime_columns(res.table, res.timing, encoder, tag=args.column_tag)
     write_table(table, args.out)
     tpath = write_table(timing, timing_path(args.out))
-    _report(res, uses_encoder=bool(enc_cols), file=sys.stderr)
+    _report(res, uses_encoder=encoder is not None, file=sys.stderr)
     print(f"-> {args.out}, {tpath}")
     return 0
 
@@ -87,8 +79,7 @@ def _report(res, *, uses_encoder: bool, file) -> None:
 
 
 def _ray(args, columns, encoder_name) -> int:
-    enc_cols = encoder_columns(columns)
-    tau = _resolve_tau(encoder_name, args) if any(c.startswith("nvrq_ca:") for c in enc_cols) else None
+    tau = _resolve_tau(encoder_name, args) if needs_tau(columns) else None
     scorer = MetricScorer(tuple(columns), encoder=encoder_name, weights=args.weights, device=args.device,
                           tau=tau, batch_size=args.batch_size, runtime=args.runtime,
                           cache_dir=args.cache_dir)

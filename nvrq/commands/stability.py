@@ -11,17 +11,10 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from data_schema.cliargs import comma_list
 from data_schema.errors import InputError
 from data_schema.outputs import mark_report
 from data_schema.tables import GT_BOX_COLUMNS, MIN_SIDE_PX, read_table, write_table
-from nvrq.commands._encoder import (
-    add_encoder_arguments,
-    encoder_for_metrics,
-    load_encoder_and_tau,
-)
-from nvrq.score_core import encoder_columns
-from nvrq.scoring import resolve_metrics
+from nvrq.commands._encoder import add_encoder_arguments, encoder_for_columns, metric_columns
 from nvrq.stability import plot_stability, run_stability
 
 __all__ = ["register", "run"]
@@ -57,18 +50,12 @@ _PAIRS_COLUMNS = ("pair_id", "clip_id", "camera", "track_id", "timestamp_us", "g
 
 
 def run(args) -> int:
-    raw = comma_list(args.metrics)
-    encoder_name = encoder_for_metrics(raw, args.encoder)
-    columns = resolve_metrics(raw, encoder_name)
+    columns, encoder_name = metric_columns(args)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise InputError(out, None, "an output directory", "an existing file")
     pairs = read_table(args.pairs, required=_PAIRS_COLUMNS, what="pairs table")
-    enc_cols = encoder_columns(columns)
-    encoder = tau = None
-    if enc_cols:
-        needs_tau = any(c.startswith("nvrq_ca:") for c in enc_cols)
-        encoder, tau = load_encoder_and_tau(args, needs_tau=needs_tau, name=encoder_name)
+    encoder, tau = encoder_for_columns(args, columns, encoder_name)
     samples, stab, snr = run_stability(
         pairs, metrics=columns, encoder=encoder, tau=tau, n_objects=args.n_objects,
         seed=args.seed, min_side=args.min_side, batch_size=args.batch_size,
