@@ -31,6 +31,7 @@ from data_schema.perturbation import (
     EXTRA_PERTURBATION_COLUMNS,
     VIEW_COLUMNS,
     labels,
+    lateral,
     perturbation_array,
 )
 from data_schema.tables import PAIRS_COLUMNS, offset_cm, parse_offsets
@@ -72,9 +73,7 @@ def _view_keys(views) -> list[str]:
     views = list(views)
     if all(isinstance(v, str) for v in views):
         return views
-    P = np.zeros((len(views), 6))
-    P[:, 1] = np.asarray(views, float)
-    return labels(P)
+    return labels(lateral(views))
 
 
 def _view_order(label: str) -> tuple:
