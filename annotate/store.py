@@ -248,6 +248,12 @@ class Store:
         with self._connect() as con:
             return pd.read_sql_query(sql + " ORDER BY voted_at, rowid", con, params=params)
 
+    def other_study_votes(self) -> int:
+        """Votes in the file recorded under another study id (a study rebuilt in this folder)."""
+        with self._connect() as con:
+            return int(con.execute("SELECT COUNT(*) FROM votes WHERE study != ?",
+                                   (self.study,)).fetchone()[0])
+
     def history(self) -> pd.DataFrame:
         """The append-only log: columns id, rater, item, action, vote, at, response_ms."""
         with self._connect() as con:

@@ -23,7 +23,6 @@ relative to the pairs file), else an error. The roots are recorded per clip in t
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import secrets
@@ -466,8 +465,7 @@ def unplaced_votes(study: Study) -> dict[str, int]:
     unknown = int((~votes["item"].isin(study.items.index)).sum())
     if unknown:
         out["for items not in items.csv"] = unknown
-    with contextlib.closing(sqlite3.connect(study.store.path)) as con:
-        other = con.execute("SELECT COUNT(*) FROM votes WHERE study != ?", (study.store.study,)).fetchone()[0]
+    other = study.store.other_study_votes()
     if other:
-        out["recorded under another study id (the folder was rebuilt)"] = int(other)
+        out["recorded under another study id (the folder was rebuilt)"] = other
     return out
