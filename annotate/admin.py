@@ -29,7 +29,7 @@ _LIVE_COLS = ["rater_id", "agreement", "kappa", "youden_j", "j_p", "skill_p", "f
 
 def live_raters(study, ratings: pd.DataFrame) -> pd.DataFrame:
     """Progress per rater joined with the screening numbers and flags so far."""
-    prog = rater_progress(study)
+    prog = rater_progress(study, ratings)
     if ratings.empty:
         return prog.assign(flags="")
     r = screening.screen(screening.rater_table(ratings), use_rule=False)

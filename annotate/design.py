@@ -31,6 +31,7 @@ from data_schema.perturbation import (
     EXTRA_PERTURBATION_COLUMNS,
     VIEW_COLUMNS,
     labels,
+    lateral,
     perturbation_array,
 )
 from data_schema.tables import PAIRS_COLUMNS, offset_cm, parse_offsets
@@ -72,9 +73,7 @@ def _view_keys(views) -> list[str]:
     views = list(views)
     if all(isinstance(v, str) for v in views):
         return views
-    P = np.zeros((len(views), 6))
-    P[:, 1] = np.asarray(views, float)
-    return labels(P)
+    return labels(lateral(views))
 
 
 def _view_order(label: str) -> tuple:
@@ -92,9 +91,8 @@ def choose_views(spec: str, pairs: pd.DataFrame) -> list[str]:
     >>> choose_views("all", pd.DataFrame({"y_offset_m": [1.0, 0.0], "yaw_deg": [0.0, 5.0]}))
     ['y=+1.00', 'yaw=+5.00']
     """
-    have = labels(perturbation_array(pairs))
     if str(spec).strip().lower() == "all":
-        return sorted(set(have), key=_view_order)
+        return sorted(set(labels(perturbation_array(pairs))), key=_view_order)
     lat = pairs[~pairs.reindex(columns=list(EXTRA_PERTURBATION_COLUMNS), fill_value=0.0).ne(0).any(axis=1)]
     return _view_keys(choose_offsets(spec, lat["y_offset_m"]))
 

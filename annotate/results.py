@@ -145,9 +145,13 @@ def gold_failures(ratings: pd.DataFrame) -> pd.DataFrame:
                     ].reset_index(drop=True)
 
 
-def rater_progress(study) -> pd.DataFrame:
-    """Per rater: votes by kind, gold failures, median response time (ms)."""
-    ratings = ratings_table(study)
+def rater_progress(study, ratings: pd.DataFrame | None = None) -> pd.DataFrame:
+    """Per rater: votes by kind, gold failures, median response time (ms).
+
+    ``ratings`` is :func:`ratings_table` of ``study`` when the caller has it already.
+    """
+    if ratings is None:
+        ratings = ratings_table(study)
     raters = study.store.raters()
     counts = ratings.pivot_table(index="rater_id", columns="kind", values="vote", aggfunc="size",
                                  fill_value=0).reindex(raters, fill_value=0)

@@ -110,6 +110,12 @@ def token_digest(token: str) -> str:
     return hashlib.sha256(token.encode("utf-8")).hexdigest()
 
 
+def _check_vote(rater: str, item: str, vote) -> None:
+    """Raise :class:`InputError` unless ``vote`` is 1 (good) or 0 (bad), not a bool."""
+    if vote not in (0, 1) or isinstance(vote, bool):
+        raise InputError("vote", f"{rater}/{item}", "1 (good) or 0 (bad)", repr(vote))
+
+
 class Store:
     """Votes, raters and assignments of one study in the SQLite file ``path``."""
 
@@ -174,19 +180,11 @@ class Store:
     def record_vote(self, rater: str, item: str, vote: int, *, response_ms: int | None = None,
                     voted_at: str | None = None) -> None:
         """Store ``vote`` (1 good, 0 bad) of ``rater`` on ``item``; durable when this returns."""
-        if vote not in (0, 1) or isinstance(vote, bool):
-            raise InputError("vote", f"{rater}/{item}", "1 (good) or 0 (bad)", repr(vote))
+        _check_vote(rater, item, vote)
         at = voted_at or utc_now_iso()
         rt = None if response_ms is None else int(response_ms)
         with self._transaction() as con:
-            con.execute(
-                "INSERT INTO votes (study, rater, item, vote, voted_at, response_ms) "
-                "VALUES (?, ?, ?, ?, ?, ?) ON CONFLICT (study, rater, item) DO UPDATE SET "
-                "vote = excluded.vote, voted_at = excluded.voted_at, response_ms = excluded.response_ms",
-                (self.study, rater, item, int(vote), at, rt))
-            con.execute(
-                "INSERT INTO history (study, rater, item, action, vote, at, response_ms) "
-                "VALUES (?, ?, ?, 'vote', ?, ?, ?)", (self.study, rater, item, int(vote), at, rt))
+            self._insert_vote(con, rater, item, vote, at, rt)
 
     def record_shown_vote(self, rater: str, item: str, vote: int, *,
                           response_ms: int | None = None) -> str:
@@ -196,8 +194,7 @@ class Store:
         tab: the standing vote is kept) or ``'unassigned'`` (not an item handed to the rater).
         The check and the write are one transaction, so two tabs cannot both record.
         """
-        if vote not in (0, 1) or isinstance(vote, bool):
-            raise InputError("vote", f"{rater}/{item}", "1 (good) or 0 (bad)", repr(vote))
+        _check_vote(rater, item, vote)
         at, rt = utc_now_iso(), None if response_ms is None else int(response_ms)
         with self._transaction() as con:
             if con.execute("SELECT 1 FROM votes WHERE study = ? AND rater = ? AND item = ?",
@@ -206,11 +203,20 @@ class Store:
             if not con.execute("SELECT 1 FROM assignments WHERE study = ? AND rater = ? AND item = ?",
                                (self.study, rater, item)).fetchone():
                 return "unassigned"
-            con.execute("INSERT INTO votes (study, rater, item, vote, voted_at, response_ms) "
-                        "VALUES (?, ?, ?, ?, ?, ?)", (self.study, rater, item, int(vote), at, rt))
-            con.execute("INSERT INTO history (study, rater, item, action, vote, at, response_ms) "
-                        "VALUES (?, ?, ?, 'vote', ?, ?, ?)", (self.study, rater, item, int(vote), at, rt))
+            self._insert_vote(con, rater, item, vote, at, rt)  # no standing vote: a plain insert
         return "recorded"
+
+    def _insert_vote(self, con: sqlite3.Connection, rater: str, item: str, vote: int, at: str,
+                     rt: int | None) -> None:
+        """Write the vote (replacing a standing one) and its history row, inside ``con``'s transaction."""
+        con.execute(
+            "INSERT INTO votes (study, rater, item, vote, voted_at, response_ms) "
+            "VALUES (?, ?, ?, ?, ?, ?) ON CONFLICT (study, rater, item) DO UPDATE SET "
+            "vote = excluded.vote, voted_at = excluded.voted_at, response_ms = excluded.response_ms",
+            (self.study, rater, item, int(vote), at, rt))
+        con.execute(
+            "INSERT INTO history (study, rater, item, action, vote, at, response_ms) "
+            "VALUES (?, ?, ?, 'vote', ?, ?, ?)", (self.study, rater, item, int(vote), at, rt))
 
     def skip(self, rater: str, item: str, *, reason: str) -> None:
         """Take ``item`` out of the rater's queue (it cannot be shown); it is never handed out again."""
@@ -241,6 +247,12 @@ class Store:
             sql, params = sql + " AND rater = ?", params + (rater,)
         with self._connect() as con:
             return pd.read_sql_query(sql + " ORDER BY voted_at, rowid", con, params=params)
+
+    def other_study_votes(self) -> int:
+        """Votes in the file recorded under another study id (a study rebuilt in this folder)."""
+        with self._connect() as con:
+            return int(con.execute("SELECT COUNT(*) FROM votes WHERE study != ?",
+                                   (self.study,)).fetchone()[0])
 
     def history(self) -> pd.DataFrame:
         """The append-only log: columns id, rater, item, action, vote, at, response_ms."""

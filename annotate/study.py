@@ -23,7 +23,6 @@ relative to the pairs file), else an error. The roots are recorded per clip in t
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import secrets
@@ -108,7 +107,6 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
                           n_gold=n_gold, n_repeats=n_repeats, size=size, image_format=image_format,
                           access=access, break_every=break_every)
     pairs = _read_pairs(Path(pairs_path), scene)
-    opts["pairs_file"] = pairs.attrs["path"]
     rng = np.random.default_rng(seed)
     pairs, rows, chosen_offsets, record = _choose_items(pairs, rng, opts)
     _check_images(rows, where=str(pairs_path))
@@ -118,8 +116,8 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
     try:
         items = _cut_crops(rows, pairs, tmp, rng=rng, opts=opts, where=str(pairs_path), progress=progress)
         metric_cols = _write_tables(tmp, items, metrics)
-        manifest = _manifest(out, pairs, items, opts, metric_cols=metric_cols,
-                             offsets=chosen_offsets, tracks=record)
+        manifest = _manifest(out, pairs, items, opts, pairs_file=Path(pairs_path).resolve(),
+                             metric_cols=metric_cols, offsets=chosen_offsets, tracks=record)
         _write_manifest(tmp, manifest)
         if out.exists():
             out.rmdir()
@@ -156,9 +154,7 @@ def _read_pairs(pairs_path: Path, scene) -> pd.DataFrame:
         raise InputError(pairs_path, None, "at least one pair", "an empty table")
     roots = pair_scene_roots(pairs, scene_root=scene, base=pairs_path.resolve().parent,
                              where=str(pairs_path))
-    pairs = pairs.assign(_root=roots, _row=np.arange(len(pairs)) + 2)
-    pairs.attrs["path"] = str(pairs_path.resolve())
-    return pairs
+    return pairs.assign(_root=roots, _row=np.arange(len(pairs)) + 2)
 
 
 def _read_study_metrics(paths, pairs: pd.DataFrame) -> pd.DataFrame | None:
@@ -186,8 +182,7 @@ def _choose_items(pairs: pd.DataFrame, rng: np.random.Generator, opts: dict):
     chosen_views = choose_views(opts["offsets"], pairs)
     opts["view_columns"] = view_cols = view_columns(pairs)  # [] for lateral-only pairs
     if view_cols:
-        pairs = with_perturbation_columns(pairs).copy()
-        pairs.attrs["path"] = opts["pairs_file"]
+        pairs = with_perturbation_columns(pairs)
     chosen_offsets = chosen_views if view_cols else sorted(float(v.partition("=")[2] or 0) for v in chosen_views)
     tests, record = select_test_pairs(pairs, offsets=chosen_views, n_tracks=int(opts["tracks"]),
                                       frames_per_track=int(opts["frames_per_track"]), rng=rng)
@@ -278,7 +273,7 @@ def _write_tables(tmp: Path, items: pd.DataFrame, metrics: pd.DataFrame | None) 
     return [c for c in metrics.columns if c != "pair_id"]
 
 
-def _manifest(out: Path, pairs: pd.DataFrame, items: pd.DataFrame, opts: dict, *,
+def _manifest(out: Path, pairs: pd.DataFrame, items: pd.DataFrame, opts: dict, *, pairs_file: Path,
               metric_cols: list[str], offsets: list[float], tracks) -> dict:
     """The study's ``manifest.json`` (every option and choice)."""
     roots = pairs.drop_duplicates("clip_id").set_index("clip_id")["_root"]
@@ -291,7 +286,7 @@ def _manifest(out: Path, pairs: pd.DataFrame, items: pd.DataFrame, opts: dict, *
         "options": {"tracks": int(opts["tracks"]), "frames_per_track": int(opts["frames_per_track"]),
                     "offsets": str(opts["offsets"]), "n_training": int(opts["n_training"]),
                     "n_gold_per_type": int(opts["n_gold"]), "n_repeats": int(opts["n_repeats"])},
-        "pairs": pairs.attrs["path"],
+        "pairs": str(pairs_file),
         "metrics": [str(Path(p).resolve()) for p in opts["metrics_paths"]],
         "metric_columns": metric_cols,
         "attribute_columns": attribute_columns(pairs.drop(columns=["_root", "_row"])),
@@ -470,8 +465,7 @@ def unplaced_votes(study: Study) -> dict[str, int]:
     unknown = int((~votes["item"].isin(study.items.index)).sum())
     if unknown:
         out["for items not in items.csv"] = unknown
-    with contextlib.closing(sqlite3.connect(study.store.path)) as con:
-        other = con.execute("SELECT COUNT(*) FROM votes WHERE study != ?", (study.store.study,)).fetchone()[0]
+    other = study.store.other_study_votes()
     if other:
-        out["recorded under another study id (the folder was rebuilt)"] = int(other)
+        out["recorded under another study id (the folder was rebuilt)"] = other
     return out

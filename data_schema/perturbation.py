@@ -90,11 +90,14 @@ def _hundredths(P: np.ndarray) -> np.ndarray:
 def labels(P: np.ndarray) -> list[str]:
     """``P: (N, 6)`` -> readable labels (module docstring); equal labels mean the same view
     at the 0.01 precision of ``pair_id``."""
-    out = []
-    for row in _hundredths(P):
+    H = _hundredths(P)
+    # each distinct view is formatted once (np.unique(H, axis=0) sorts rows as bytes: slower)
+    view = pd.DataFrame(H).groupby(list(range(6)), sort=False).ngroup().to_numpy()  # 0..K-1
+    names = []
+    for row in H[np.unique(view, return_index=True)[1]]:
         parts = [f"{a}={v / 100:+.2f}" for a, v in zip(AXES, row, strict=True) if v != 0]
-        out.append(",".join(parts) if parts else "none")
-    return out
+        names.append(",".join(parts) if parts else "none")
+    return [names[k] for k in view.tolist()]
 
 
 def axes(P: np.ndarray) -> np.ndarray:

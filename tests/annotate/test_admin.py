@@ -59,3 +59,13 @@ def test_admin_page_shows_live_screening_and_new_votes(study):
     table = _raters(at).set_index("rater_id")
     assert "zoe" in table.index and int(table.loc["sim-1", "test"]) == before
     assert int(table.loc["zoe", ["training", "test", "gold", "repeat"]].sum()) == 1
+
+
+def test_live_raters_reads_the_ratings_once(study, monkeypatch):
+    from annotate import admin, results
+    ratings = ratings_table(study)
+    want = admin.live_raters(study, ratings)
+    assert want.drop(columns=admin._LIVE_COLS[1:]).equals(results.rater_progress(study))
+    calls = []
+    monkeypatch.setattr(results, "ratings_table", lambda s: calls.append(s) or ratings)
+    assert admin.live_raters(study, ratings).equals(want) and calls == []

@@ -29,6 +29,7 @@ def test_design_counts_offsets_and_even_frames(make_study, toy_inputs):
     # both label classes represented (toy: even tracks automobile, odd pedestrian)
     assert {t["label_class"] for t in m["tracks"]} == {"automobile", "pedestrian"}
     assert m["seed"] == 0 and m["scene_roots"]["toy"] == str(toy_inputs[0].resolve())
+    assert m["pairs"] == str(toy_inputs[1].resolve())
 
 
 def test_spread_frames_and_usable_frames_hand_examples():
