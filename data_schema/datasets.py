@@ -25,9 +25,6 @@ types); the first difference is an error naming both files.
 from __future__ import annotations
 
 import json
-import os
-import shutil
-import tempfile
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from urllib.parse import quote, unquote
@@ -37,7 +34,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from data_schema.errors import InputError
-from data_schema.tables import atomic_write_text, read_table
+from data_schema.tables import atomic_folder, atomic_write_text, read_table
 
 __all__ = [
     "PARTITION",
@@ -217,9 +214,8 @@ class DatasetWriter:
     def __enter__(self) -> DatasetWriter:
         if self.out.exists() and not self.out.is_dir():
             raise InputError(self.out, None, "a dataset folder (or a new path)", "an existing file")
-        self.out.parent.mkdir(parents=True, exist_ok=True)
-        self.tmp = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.", suffix=".part", dir=self.out.parent))
-        os.chmod(self.tmp, 0o755)
+        self._folder = atomic_folder(self.out)
+        self.tmp = self._folder.__enter__()
         return self
 
     def write(self, clip_id: str, df: pd.DataFrame, *, name: str = "part-0") -> None:
@@ -238,14 +234,6 @@ class DatasetWriter:
         (self.tmp / name).write_text(text, encoding="utf-8")
 
     def __exit__(self, exc_type, exc, tb) -> None:
-        if exc_type is not None:
-            shutil.rmtree(self.tmp, ignore_errors=True)
-            return
-        write_manifest(self.tmp, self.files, rows=self.rows)
-        old = None
-        if self.out.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.", suffix=".old", dir=self.out.parent))
-            os.replace(self.out, old / self.out.name)
-        os.replace(self.tmp, self.out)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
+        if exc_type is None:
+            write_manifest(self.tmp, self.files, rows=self.rows)
+        self._folder.__exit__(exc_type, exc, tb)
