@@ -26,7 +26,8 @@ from annotate.results import alpha_nominal
 from data_schema.errors import InputError
 from data_schema.tables import TIMING_COLUMNS, read_table, timing_path
 
-__all__ = ["Analysis", "run_analysis", "read_timing", "read_stability", "BOOT_CELL_LIMIT"]
+__all__ = ["Analysis", "run_analysis", "read_timing", "find_timing_files", "read_stability",
+           "boot_size", "BOOT_CELL_LIMIT"]
 
 #: Above this many item-replicates (items x --bootstrap) the bootstrap is skipped, with a
 #: note in the report (the point estimates are still exact; CIs would take too long).
@@ -96,6 +97,11 @@ def read_timing(paths) -> pd.DataFrame | None:
     return t
 
 
+def find_timing_files(timing_paths, metrics_paths) -> list:
+    """The ``--timing`` files, then the ``METRICS.timing.csv`` that exist beside the metrics tables."""
+    return list(timing_paths) + [timing_path(p) for p in metrics_paths if timing_path(p).is_file()]
+
+
 def read_stability(directory):
     """``DIR/stability.csv`` and ``DIR/snr.csv`` if present: ``(stability, snr)`` or Nones."""
     d = Path(directory)
@@ -118,10 +124,7 @@ def read_stability(directory):
 def _read_inputs(ratings_path, metrics_paths, timing_paths):
     votes = read_ratings(ratings_path)
     tables = [(str(p), read_metrics(p)) for p in metrics_paths]
-    timing_files = list(timing_paths) + [
-        timing_path(p) for p in metrics_paths if timing_path(p).is_file()
-    ]
-    return votes, tables, timing_files
+    return votes, tables, find_timing_files(timing_paths, metrics_paths)
 
 
 def _screen_raters(votes, ratings_path, *, screen, exclude_raters):
@@ -181,11 +184,13 @@ def _columns(items, unknown, notes, *, target, tgt, lower, higher, where):
     return items, classified
 
 
-def _boot_size(items, n_boot, notes):
+def boot_size(items, n_boot, notes, *, unit: str = "item") -> int:
+    """``n_boot``, or 0 with a note when ``items`` x ``n_boot`` is above :data:`BOOT_CELL_LIMIT`
+    (``unit``: what a row of ``items`` is, for the note)."""
     if n_boot * len(items) > BOOT_CELL_LIMIT:
         notes.append(
-            f"bootstrap skipped: {len(items)} items x {n_boot} replicates is above "
-            f"{BOOT_CELL_LIMIT:.0e} item-replicates; pass a smaller --bootstrap for CIs"
+            f"bootstrap skipped: {len(items)} {unit}s x {n_boot} replicates is above "
+            f"{BOOT_CELL_LIMIT:.0e} {unit}-replicates; pass a smaller --bootstrap for CIs"
         )
         return 0
     return n_boot
@@ -277,7 +282,7 @@ def run_analysis(
     clusters = pd.factorize(
         pd.MultiIndex.from_arrays([items["clip_id"].astype(str), items["track_id"].astype(str)])
     )[0]
-    n_boot = _boot_size(items, n_boot, notes)
+    n_boot = boot_size(items, n_boot, notes)
     summary = summary_table(items, metrics, directions, target=tgt, clusters=clusters,
                             n_boot=n_boot, seed=seed, rank_by=rank_by, progress=progress)
     ceiling = _ceiling(kept, summary, tgt, seed=seed)
