@@ -230,14 +230,18 @@ def _by_offset(items, columns):
                       breakdowns.offset_table(items, cols, by="label_class")], ignore_index=True)
 
 
-def _model_comparison(items, metrics, directions, *, method, seed):
-    """Majority against the model, side by side: label counts and |SRCC| / ROC AUC per metric."""
+def _model_comparison(items, metrics, directions, summary, tgt, *, method, seed):
+    """Majority against the model, side by side: label counts and |SRCC| / ROC AUC per metric.
+
+    ``summary`` (against ``tgt``) serves as the model's column when ``tgt`` is ``p_good``: the
+    point estimates do not depend on the bootstrap."""
     if method == "majority":
         return None
     differ = int((items["majority_good"] != items["model_good"]).sum())
     kw = {"n_boot": 0, "seed": seed, "progress": False}
     maj = summary_table(items, metrics, directions, target="gvf", **kw)
-    mod = summary_table(items, metrics, directions, target="p_good", **kw)
+    mod = summary if tgt == "p_good" else summary_table(items, metrics, directions,
+                                                          target="p_good", **kw)
     table = pd.DataFrame({
         "metric": maj["metric"], "srcc_majority": maj["srcc"], f"srcc_{method}": mod["srcc"],
         "roc_auc_majority": maj["roc_auc"], f"roc_auc_{method}": mod["roc_auc"],
@@ -298,6 +302,6 @@ def run_analysis(
         counts=_counts(votes, kept, items, raters, clusters), timing=read_timing(timing_files),
         stability=stab, snr=snr, notes=notes, unknown_ids=unknown, n_boot=n_boot, seed=seed,
         rank_by=rank_by, screen=screen, ceiling=ceiling,
-        comparison=_model_comparison(items, metrics, directions, method=aggregate_method,
-                                     seed=seed),
+        comparison=_model_comparison(items, metrics, directions, summary, tgt,
+                                     method=aggregate_method, seed=seed),
     )
