@@ -104,10 +104,8 @@ class TableSource:
     def lookup(self, pair_ids, columns: list[str]):
         """Positions of ``pair_ids`` in a file table (-1: absent) and its ``columns`` as float64."""
         if self.index is None:
+            # unique: read_table already rejects a repeated pair_id (data_schema.tables.check_metrics)
             self.index = pd.Index(self.table.column("pair_id").cast("string").to_pandas())
-            if self.index.has_duplicates:
-                dup = self.index[self.index.duplicated()][0]
-                raise InputError(self.path, "pair_id", "each pair once", f"{dup!r} again")
             self.values = {c: self.table.column(c).to_numpy(zero_copy_only=False).astype(np.float64)
                            for c in columns}
             self.matched = np.zeros(self.n_rows, dtype=bool)
@@ -234,7 +232,7 @@ def read_all_pairs(pairs_path, *, metrics_paths=(), progress: bool = True):
     metrics = [TableSource(p, what="metrics table") for p in metrics_paths]
     numeric, labels, per_source = _plan(pairs, metrics)
     clips = pairs.clips()
-    out = _Columns(pairs.n_rows, numeric, [ds.PARTITION] + labels)
+    out = _Columns(pairs.n_rows, numeric, labels)  # labels start with clip_id (_KEEP)
     read_cols = ["pair_id"] + [c for c in labels + numeric if c in pairs.schema.names]
     unknown = {str(p): 0 for p in metrics_paths}
     for clip in tqdm(clips, desc="read", unit="clip", disable=not progress):
