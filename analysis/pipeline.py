@@ -20,6 +20,7 @@ from analysis.aggregate import aggregate
 from analysis.ceiling import noise_ceiling, vote_matrix
 from analysis.inputs import classify_columns, read_metrics, read_ratings
 from analysis.labels import item_table, join_metrics
+from analysis.noninferiority import DEFAULT_MARGIN
 from analysis.summary import summary_table
 from annotate import screening
 from annotate.results import alpha_nominal
@@ -65,7 +66,7 @@ class Analysis:
     ceiling: dict = field(default_factory=dict)
     comparison: dict | None = None
     source: str = "ratings"  # or "pairs": analyze --pairs (no votes; see analysis.all_pairs)
-    margin: float = 0.02  # non-inferiority margin (analysis.noninferiority)
+    margin: float = DEFAULT_MARGIN  # non-inferiority margin (analysis.noninferiority)
 
 
 def read_timing(paths) -> pd.DataFrame | None:
