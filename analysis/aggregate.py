@@ -1,6 +1,7 @@
 """Probabilistic aggregation of binary votes with Toloka's crowd-kit (``analyze --aggregate``).
 
-``majority``: the item label is ``majority_good`` (GVF >= 0.5) and no model is fitted.
+``majority``: the item label is ``majority_good`` (GVF >= 0.5, from
+:func:`annotate.results.good_vote_fraction`, the one definition) and no model is fitted.
 ``dawid-skene`` (Dawid & Skene 1979: one 2x2 confusion matrix per rater, EM) and ``glad``
 (Whitehill et al. 2009: one skill per rater and one difficulty per item) fit crowd-kit's
 models to the kept raters' test votes. The per-item posterior ``p_good = P(good | votes)``
@@ -24,6 +25,8 @@ import warnings
 
 import numpy as np
 import pandas as pd
+
+from annotate.results import good_vote_fraction
 
 __all__ = ["METHODS", "aggregate"]
 
@@ -92,10 +95,10 @@ def aggregate(test_votes: pd.DataFrame, *, method: str, seed: int = 0):
     ``majority``)."""
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-    tasks = pd.unique(test_votes["item_id"].astype(str))
-    if method == "majority":
-        v = test_votes.groupby(test_votes["item_id"].astype(str))["vote"].mean()
-        p = (v.reindex(tasks) >= 0.5).to_numpy(np.float64)
+    item_ids = test_votes["item_id"].astype(str)
+    tasks = pd.unique(item_ids)
+    if method == "majority":  # first-seen order, as tasks
+        p = good_vote_fraction(item_ids, test_votes["vote"])["majority_good"].to_numpy(np.float64)
         skills = pd.DataFrame({"rater_id": pd.Series(dtype=str)})
     else:
         fit = {"dawid-skene": _dawid_skene, "glad": _glad, "mace": _mace}[method]

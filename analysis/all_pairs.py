@@ -32,11 +32,11 @@ from tqdm.auto import tqdm
 
 from analysis import breakdowns
 from analysis.inputs import NON_METRIC_COLUMNS, classify_columns
-from analysis.pipeline import BOOT_CELL_LIMIT, Analysis, read_timing
+from analysis.pipeline import Analysis, boot_size, find_timing_files, read_timing
 from analysis.summary import summary_table
 from data_schema import datasets as ds
 from data_schema.errors import InputError
-from data_schema.tables import read_table, timing_path
+from data_schema.tables import read_table
 
 __all__ = ["TableSource", "read_all_pairs", "run_pairs_analysis", "RATER_COLUMNS"]
 
@@ -104,10 +104,8 @@ class TableSource:
     def lookup(self, pair_ids, columns: list[str]):
         """Positions of ``pair_ids`` in a file table (-1: absent) and its ``columns`` as float64."""
         if self.index is None:
+            # unique: read_table already rejects a repeated pair_id (data_schema.tables.check_metrics)
             self.index = pd.Index(self.table.column("pair_id").cast("string").to_pandas())
-            if self.index.has_duplicates:
-                dup = self.index[self.index.duplicated()][0]
-                raise InputError(self.path, "pair_id", "each pair once", f"{dup!r} again")
             self.values = {c: self.table.column(c).to_numpy(zero_copy_only=False).astype(np.float64)
                            for c in columns}
             self.matched = np.zeros(self.n_rows, dtype=bool)
@@ -234,7 +232,7 @@ def read_all_pairs(pairs_path, *, metrics_paths=(), progress: bool = True):
     metrics = [TableSource(p, what="metrics table") for p in metrics_paths]
     numeric, labels, per_source = _plan(pairs, metrics)
     clips = pairs.clips()
-    out = _Columns(pairs.n_rows, numeric, [ds.PARTITION] + labels)
+    out = _Columns(pairs.n_rows, numeric, labels)  # labels start with clip_id (_KEEP)
     read_cols = ["pair_id"] + [c for c in labels + numeric if c in pairs.schema.names]
     unknown = {str(p): 0 for p in metrics_paths}
     for clip in tqdm(clips, desc="read", unit="clip", disable=not progress):
@@ -274,16 +272,12 @@ def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), tar
     for path, n in unknown.items():
         if n:
             notes.append(f"{path}: {n} pair ids are not in the pairs (ignored)")
-    if n_boot * len(items) > BOOT_CELL_LIMIT:
-        notes.append(f"bootstrap skipped: {len(items)} pairs x {n_boot} replicates is above "
-                     f"{BOOT_CELL_LIMIT:.0e} pair-replicates; pass a smaller --bootstrap for CIs")
-        n_boot = 0
+    n_boot = boot_size(items, n_boot, notes, unit="pair")
     summary = summary_table(items, metrics, directions, target=target, clusters=clusters,
                             n_boot=n_boot, seed=seed, rank_by=rank_by, progress=progress)
     categories = breakdowns.category_table(items, metrics, by=["label_class"] + attributes,
                                            target=target, progress=progress)
-    timing_files = list(timing_paths) + [timing_path(p) for p in metrics_paths
-                                         if timing_path(p).is_file()]
+    timing = read_timing(find_timing_files(timing_paths, metrics_paths))
     counts = {"votes": 0, "test_votes": 0, "test_votes_kept": 0, "items": len(items),
               "tracks": int(clusters.max()) + 1 if len(clusters) else 0,
               "clips": int(items[ds.PARTITION].nunique()), "raters": 0, "raters_simulated": 0,
@@ -293,5 +287,5 @@ def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), tar
         directions=directions, attributes=attributes, proxies=proxies, summary=summary,
         categories=categories, by_offset=breakdowns.offset_table(items, [target] + metrics),
         encoders=breakdowns.encoder_table(summary), raters=pd.DataFrame(columns=RATER_COLUMNS),
-        alpha={}, counts=counts, timing=read_timing(timing_files), notes=notes, unknown_ids=unknown,
+        alpha={}, counts=counts, timing=timing, notes=notes, unknown_ids=unknown,
         n_boot=n_boot, seed=seed, rank_by=rank_by, source="pairs")

@@ -16,9 +16,12 @@ import sys
 from rich.console import Console
 from rich.table import Table
 
+from analysis.aggregate import METHODS
 from analysis.all_pairs import run_pairs_analysis
+from analysis.noninferiority import DEFAULT_MARGIN
 from analysis.pipeline import run_analysis
 from analysis.report import summary_display, write_report
+from analysis.summary import RANK_BY
 from data_schema.cliargs import CommaList, DeprecatedFileOption, flags_in_errors
 from data_schema.errors import ArgumentParser, InputError, run_cli
 from data_schema.outputs import check_output_folder
@@ -97,7 +100,7 @@ def _add_options(p: ArgumentParser) -> None:
     )
     p.add_argument(
         "--aggregate",
-        choices=("majority", "dawid-skene", "glad", "mace"),
+        choices=METHODS,
         default="majority",
         help="item labels: majority vote (GVF, default) or a crowd-kit model whose posterior "
         "P(good) becomes the target (0.5 threshold for ROC AUC)",
@@ -105,8 +108,9 @@ def _add_options(p: ArgumentParser) -> None:
     p.add_argument(
         "--margin",
         type=float,
-        default=0.02,
-        help="non-inferiority margin on SRCC for the recommended cheapest metric (default 0.02)",
+        default=DEFAULT_MARGIN,
+        help="non-inferiority margin on SRCC for the recommended cheapest metric "
+        f"(default {DEFAULT_MARGIN})",
     )
     p.add_argument(
         "--timing",
@@ -132,7 +136,7 @@ def _add_options(p: ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=0, help="bootstrap seed (default 0)")
     p.add_argument(
         "--rank-by",
-        choices=("srcc", "plcc", "roc_auc"),
+        choices=RANK_BY,
         default="srcc",
         help="statistic that picks the best metric (default srcc)",
     )

@@ -20,13 +20,15 @@ from analysis.aggregate import aggregate
 from analysis.ceiling import noise_ceiling, vote_matrix
 from analysis.inputs import classify_columns, read_metrics, read_ratings
 from analysis.labels import item_table, join_metrics
+from analysis.noninferiority import DEFAULT_MARGIN
 from analysis.summary import summary_table
 from annotate import screening
 from annotate.results import alpha_nominal
 from data_schema.errors import InputError
 from data_schema.tables import TIMING_COLUMNS, read_table, timing_path
 
-__all__ = ["Analysis", "run_analysis", "read_timing", "read_stability", "BOOT_CELL_LIMIT"]
+__all__ = ["Analysis", "run_analysis", "read_timing", "find_timing_files", "read_stability",
+           "boot_size", "BOOT_CELL_LIMIT"]
 
 #: Above this many item-replicates (items x --bootstrap) the bootstrap is skipped, with a
 #: note in the report (the point estimates are still exact; CIs would take too long).
@@ -64,7 +66,7 @@ class Analysis:
     ceiling: dict = field(default_factory=dict)
     comparison: dict | None = None
     source: str = "ratings"  # or "pairs": analyze --pairs (no votes; see analysis.all_pairs)
-    margin: float = 0.02  # non-inferiority margin (analysis.noninferiority)
+    margin: float = DEFAULT_MARGIN  # non-inferiority margin (analysis.noninferiority)
 
 
 def read_timing(paths) -> pd.DataFrame | None:
@@ -96,6 +98,11 @@ def read_timing(paths) -> pd.DataFrame | None:
     return t
 
 
+def find_timing_files(timing_paths, metrics_paths) -> list:
+    """The ``--timing`` files, then the ``METRICS.timing.csv`` that exist beside the metrics tables."""
+    return list(timing_paths) + [timing_path(p) for p in metrics_paths if timing_path(p).is_file()]
+
+
 def read_stability(directory):
     """``DIR/stability.csv`` and ``DIR/snr.csv`` if present: ``(stability, snr)`` or Nones."""
     d = Path(directory)
@@ -118,10 +125,7 @@ def read_stability(directory):
 def _read_inputs(ratings_path, metrics_paths, timing_paths):
     votes = read_ratings(ratings_path)
     tables = [(str(p), read_metrics(p)) for p in metrics_paths]
-    timing_files = list(timing_paths) + [
-        timing_path(p) for p in metrics_paths if timing_path(p).is_file()
-    ]
-    return votes, tables, timing_files
+    return votes, tables, find_timing_files(timing_paths, metrics_paths)
 
 
 def _screen_raters(votes, ratings_path, *, screen, exclude_raters):
@@ -181,11 +185,13 @@ def _columns(items, unknown, notes, *, target, tgt, lower, higher, where):
     return items, classified
 
 
-def _boot_size(items, n_boot, notes):
+def boot_size(items, n_boot, notes, *, unit: str = "item") -> int:
+    """``n_boot``, or 0 with a note when ``items`` x ``n_boot`` is above :data:`BOOT_CELL_LIMIT`
+    (``unit``: what a row of ``items`` is, for the note)."""
     if n_boot * len(items) > BOOT_CELL_LIMIT:
         notes.append(
-            f"bootstrap skipped: {len(items)} items x {n_boot} replicates is above "
-            f"{BOOT_CELL_LIMIT:.0e} item-replicates; pass a smaller --bootstrap for CIs"
+            f"bootstrap skipped: {len(items)} {unit}s x {n_boot} replicates is above "
+            f"{BOOT_CELL_LIMIT:.0e} {unit}-replicates; pass a smaller --bootstrap for CIs"
         )
         return 0
     return n_boot
@@ -225,14 +231,18 @@ def _by_offset(items, columns):
                       breakdowns.offset_table(items, cols, by="label_class")], ignore_index=True)
 
 
-def _model_comparison(items, metrics, directions, *, method, seed):
-    """Majority against the model, side by side: label counts and |SRCC| / ROC AUC per metric."""
+def _model_comparison(items, metrics, directions, summary, tgt, *, method, seed):
+    """Majority against the model, side by side: label counts and |SRCC| / ROC AUC per metric.
+
+    ``summary`` (against ``tgt``) serves as the model's column when ``tgt`` is ``p_good``: the
+    point estimates do not depend on the bootstrap."""
     if method == "majority":
         return None
     differ = int((items["majority_good"] != items["model_good"]).sum())
     kw = {"n_boot": 0, "seed": seed, "progress": False}
     maj = summary_table(items, metrics, directions, target="gvf", **kw)
-    mod = summary_table(items, metrics, directions, target="p_good", **kw)
+    mod = summary if tgt == "p_good" else summary_table(items, metrics, directions,
+                                                          target="p_good", **kw)
     table = pd.DataFrame({
         "metric": maj["metric"], "srcc_majority": maj["srcc"], f"srcc_{method}": mod["srcc"],
         "roc_auc_majority": maj["roc_auc"], f"roc_auc_{method}": mod["roc_auc"],
@@ -277,7 +287,7 @@ def run_analysis(
     clusters = pd.factorize(
         pd.MultiIndex.from_arrays([items["clip_id"].astype(str), items["track_id"].astype(str)])
     )[0]
-    n_boot = _boot_size(items, n_boot, notes)
+    n_boot = boot_size(items, n_boot, notes)
     summary = summary_table(items, metrics, directions, target=tgt, clusters=clusters,
                             n_boot=n_boot, seed=seed, rank_by=rank_by, progress=progress)
     ceiling = _ceiling(kept, summary, tgt, seed=seed)
@@ -293,6 +303,6 @@ def run_analysis(
         counts=_counts(votes, kept, items, raters, clusters), timing=read_timing(timing_files),
         stability=stab, snr=snr, notes=notes, unknown_ids=unknown, n_boot=n_boot, seed=seed,
         rank_by=rank_by, screen=screen, ceiling=ceiling,
-        comparison=_model_comparison(items, metrics, directions, method=aggregate_method,
-                                     seed=seed),
+        comparison=_model_comparison(items, metrics, directions, summary, tgt,
+                                     method=aggregate_method, seed=seed),
     )

@@ -13,9 +13,6 @@ from __future__ import annotations
 
 import base64
 import html
-import os
-import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -30,7 +27,7 @@ from analysis.pipeline import Analysis
 from analysis.summary import binary_label
 from annotate.screening import ScreenRule
 from data_schema.outputs import check_output_folder, mark_report
-from data_schema.tables import write_table
+from data_schema.tables import atomic_folder, write_table
 
 __all__ = ["write_report", "summary_display", "format_table_text"]
 
@@ -381,20 +378,7 @@ def _build(a: Analysis, d: Path) -> None:
 def write_report(a: Analysis, out_dir) -> Path:
     """Write the report directory atomically (build beside it, then swap it into place)."""
     out = check_output_folder(out_dir, kind="report", option="out_dir")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".part", dir=out.parent))
-    os.chmod(tmp, 0o755)
-    try:
+    with atomic_folder(out) as tmp:
         _build(a, tmp)
         mark_report(tmp)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    old = None
-    if out.exists():
-        old = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".old", dir=out.parent))
-        os.replace(out, old / out.name)
-    os.replace(tmp, out)
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
     return out

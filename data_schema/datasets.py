@@ -25,9 +25,6 @@ types); the first difference is an error naming both files.
 from __future__ import annotations
 
 import json
-import os
-import shutil
-import tempfile
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from urllib.parse import quote, unquote
@@ -37,7 +34,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from data_schema.errors import InputError
-from data_schema.tables import atomic_write_text, read_table
+from data_schema.tables import atomic_folder, atomic_write_text
 
 __all__ = [
     "PARTITION",
@@ -50,7 +47,6 @@ __all__ = [
     "check_schemas",
     "read_dataset",
     "iter_clips",
-    "read_any",
     "write_manifest",
     "DatasetWriter",
 ]
@@ -151,44 +147,25 @@ def _restore_clip(df: pd.DataFrame, clip_id: str) -> pd.DataFrame:
     return df
 
 
-def iter_clips(path, *, columns: Sequence[str] | None = None, required: Sequence[str] = (),
-               what: str = "dataset") -> Iterator[tuple[str, pd.DataFrame]]:
-    """Yield ``(clip_id, table)`` per clip (all of the clip's files), checking schema first.
-
-    ``columns``: read only these (``clip_id`` is always added); ``required``: columns that must
-    exist (``clip_id`` counts as present).
-    """
+def iter_clips(path, *, what: str = "dataset") -> Iterator[tuple[str, pd.DataFrame]]:
+    """Yield ``(clip_id, table)`` per clip (all of the clip's files), checking schema first."""
 
     root = Path(path)
     files = dataset_files(root, what=what)
-    names = check_schemas(files, root=root)
-    missing = [c for c in required if c not in names and c != PARTITION]
-    if missing:
-        raise InputError(root, f"column {missing[0]!r}", f"the columns {', '.join(required)}",
-                         f"columns {', '.join(names)}")
-    cols = None if columns is None else [c for c in columns if c != PARTITION and c in names]
+    check_schemas(files, root=root)
     by_clip: dict[str, list[Path]] = {}
     for clip, f in files:
         by_clip.setdefault(clip, []).append(f)
     for clip, fs in by_clip.items():
-        parts = [pq.read_table(f, columns=cols).to_pandas() for f in fs]
+        parts = [pq.read_table(f).to_pandas() for f in fs]
         df = parts[0] if len(parts) == 1 else pd.concat(parts, ignore_index=True)
         yield clip, _restore_clip(df, clip)
 
 
-def read_dataset(path, *, columns: Sequence[str] | None = None, required: Sequence[str] = (),
-                 what: str = "dataset") -> pd.DataFrame:
+def read_dataset(path, *, what: str = "dataset") -> pd.DataFrame:
     """The whole dataset as one table (clips in sorted order), ``clip_id`` after ``pair_id``."""
-    frames = [df for _, df in iter_clips(path, columns=columns, required=required, what=what)]
+    frames = [df for _, df in iter_clips(path, what=what)]
     return pd.concat(frames, ignore_index=True)
-
-
-def read_any(path, *, required: Sequence[str] = (), what: str = "table", dtype=None) -> pd.DataFrame:
-    """A table file (:func:`~data_schema.tables.read_table`) or a partitioned dataset folder."""
-
-    if is_dataset(path):
-        return read_dataset(path, required=required, what=what)
-    return read_table(path, required=required, what=what, dtype=dtype)
 
 
 def write_manifest(root, files: Sequence[str], *, rows: int, extra: dict | None = None) -> None:
@@ -217,9 +194,8 @@ class DatasetWriter:
     def __enter__(self) -> DatasetWriter:
         if self.out.exists() and not self.out.is_dir():
             raise InputError(self.out, None, "a dataset folder (or a new path)", "an existing file")
-        self.out.parent.mkdir(parents=True, exist_ok=True)
-        self.tmp = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.", suffix=".part", dir=self.out.parent))
-        os.chmod(self.tmp, 0o755)
+        self._folder = atomic_folder(self.out)
+        self.tmp = self._folder.__enter__()
         return self
 
     def write(self, clip_id: str, df: pd.DataFrame, *, name: str = "part-0") -> None:
@@ -238,14 +214,6 @@ class DatasetWriter:
         (self.tmp / name).write_text(text, encoding="utf-8")
 
     def __exit__(self, exc_type, exc, tb) -> None:
-        if exc_type is not None:
-            shutil.rmtree(self.tmp, ignore_errors=True)
-            return
-        write_manifest(self.tmp, self.files, rows=self.rows)
-        old = None
-        if self.out.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.", suffix=".old", dir=self.out.parent))
-            os.replace(self.out, old / self.out.name)
-        os.replace(self.tmp, self.out)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
+        if exc_type is None:
+            write_manifest(self.tmp, self.files, rows=self.rows)
+        self._folder.__exit__(exc_type, exc, tb)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import os
 import re
+import shutil
 import tempfile
 from collections.abc import Iterable, Sequence
 from pathlib import Path, PurePosixPath, PureWindowsPath
@@ -37,6 +38,7 @@ __all__ = [
     "write_table",
     "atomic_write_text",
     "atomic_path",
+    "atomic_folder",
     "GT_BOX_COLUMNS",
     "RENDER_BOX_COLUMNS",
     "pair_scene_roots",
@@ -329,6 +331,44 @@ class atomic_path:
         self.tmp.unlink(missing_ok=True)
         if isinstance(exc, OSError):
             raise _write_error(self.target, exc) from None
+        return False
+
+
+class atomic_folder:
+    """Context manager yielding a new empty folder (mode 0o755) beside ``target``; on success it
+    takes the place of ``target`` (a folder already there is moved aside, then removed), on an
+    exception it is removed and ``target`` is left as it was.
+
+    >>> import tempfile, pathlib
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> with atomic_folder(d / "out") as tmp:
+    ...     _ = (tmp / "x.txt").write_text("hi")
+    >>> (d / "out" / "x.txt").read_text(), sorted(p.name for p in d.iterdir())
+    ('hi', ['out'])
+    """
+
+    def __init__(self, target: str | os.PathLike):
+        self.target = Path(target)
+
+    def __enter__(self) -> Path:
+        out = self.target
+        out.parent.mkdir(parents=True, exist_ok=True)
+        self.tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".part", dir=out.parent))
+        os.chmod(self.tmp, 0o755)
+        return self.tmp
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        out = self.target
+        if exc_type is not None:
+            shutil.rmtree(self.tmp, ignore_errors=True)
+            return False
+        old = None
+        if out.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".old", dir=out.parent))
+            os.replace(out, old / out.name)
+        os.replace(self.tmp, out)
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
         return False
 
 

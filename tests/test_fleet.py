@@ -115,3 +115,22 @@ def test_reader_errors_missing_shard_unfinished_mixed_no_clip_id(tmp_path):
     _write(tmp_path / "n" / "p.parquet", a)
     with pytest.raises(InputError, match="partitioned by clip_id"):
         ds.read_dataset(tmp_path / "n")
+
+
+def test_dataset_writer_swaps_in_whole_or_not_at_all(tmp_path):
+    a = pd.DataFrame({"pair_id": ["a:1"], "psnr": [1.0]})
+    with ds.DatasetWriter(tmp_path / "new" / "m") as w:  # the parent folder is created
+        w.write("a", a)
+    out = tmp_path / "new" / "m"
+    assert out.stat().st_mode & 0o777 == 0o755
+    with pytest.raises(RuntimeError), ds.DatasetWriter(out) as w:
+        w.write("b", a)
+        raise RuntimeError
+    assert ds.read_dataset(out)["clip_id"].tolist() == ["a"]  # the old dataset stays
+    with ds.DatasetWriter(out) as w:
+        w.write("b", a)
+    assert ds.read_dataset(out)["clip_id"].tolist() == ["b"]  # replaced, no clip a left
+    assert [p.name for p in out.parent.iterdir()] == ["m"]  # no .part / .old folders behind
+    (tmp_path / "f").write_text("x")
+    with pytest.raises(InputError, match="an existing file"), ds.DatasetWriter(tmp_path / "f"):
+        pass

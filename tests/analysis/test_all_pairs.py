@@ -109,3 +109,27 @@ def test_cli_report_and_errors(data, capsys):
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and msg in err[0] and "Traceback" not in err[0]
         assert not (d / "r2").exists()
+
+
+def test_bootstrap_skip_note_and_timing_beside_metrics(data, monkeypatch):
+    import analysis.pipeline as pipeline
+    from tests.analysis.synth import make_ratings
+
+    d, full = data
+    monkeypatch.setattr(pipeline, "BOOT_CELL_LIMIT", 100)
+    pd.DataFrame({"metric": ["clip_drop"], "seconds": [2.0], "pairs": [len(full)]}).to_csv(
+        d / "proxy.timing.csv", index=False)
+    a = run_pairs_analysis(d / "pairs", metrics_paths=[d / "metrics", d / "proxy.csv"],
+                           target="clip_drop", n_boot=10, progress=False)
+    assert a.n_boot == 0 and a.notes[-1] == (
+        "bootstrap skipped: 120 pairs x 10 replicates is above 1e+02 pair-replicates; "
+        "pass a smaller --bootstrap for CIs")
+    assert a.timing.set_index("metric").loc["clip_drop", "pairs_per_s"] == len(full) / 2.0
+    ratings, metrics = make_ratings()
+    ratings.to_csv(d / "r.csv", index=False)
+    metrics.to_csv(d / "m.csv", index=False)
+    a = pipeline.run_analysis(d / "r.csv", metrics_paths=[d / "m.csv"], lower=["blurriness"],
+                              n_boot=10, progress=False)
+    assert a.n_boot == 0 and a.notes[-1] == (
+        "bootstrap skipped: 120 items x 10 replicates is above 1e+02 item-replicates; "
+        "pass a smaller --bootstrap for CIs")

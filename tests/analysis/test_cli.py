@@ -232,3 +232,24 @@ def test_no_metric_columns_still_reports_gvf(data, capsys):
     assert rc == 0, cap.err
     assert len(pd.read_csv(d / "o" / "summary.csv")) == 0
     assert "No metric has a defined SRCC" in (d / "o" / "report.html").read_text()
+
+
+def test_report_is_replaced_whole_or_not_at_all(data, capsys, monkeypatch):
+    import analysis.report as report
+
+    d, _, _ = data
+    rc, cap = _run_quick(d, d / "metrics.csv", capsys)
+    assert rc == 0, cap.err
+    before = sorted(p.name for p in (d / "o").iterdir())
+    siblings = sorted(p.name for p in d.iterdir())
+
+    def broken(a, tmp):
+        (tmp / "report.html").write_text("half")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(report, "_build", broken)
+    with pytest.raises(KeyboardInterrupt):
+        report.write_report(None, d / "o")
+    assert sorted(p.name for p in (d / "o").iterdir()) == before  # the old report stays
+    assert (d / "o" / "report.html").read_text() != "half"
+    assert sorted(p.name for p in d.iterdir()) == siblings  # no .part folder left
