@@ -48,6 +48,8 @@ __all__ = [
     "lateral",
     "view_columns",
     "VIEW_COLUMNS",
+    "extra_columns",
+    "views_from",
 ]
 
 #: The six components, in the order of a perturbation vector ``(6,)``.
@@ -62,6 +64,24 @@ LABEL_COLUMN = "perturbation"
 _LIMITS = {"m": 20.0, "deg": 90.0}
 #: The columns a table gains when some view is not lateral (after the SPEC columns).
 VIEW_COLUMNS = (*EXTRA_PERTURBATION_COLUMNS, LABEL_COLUMN)
+
+
+def extra_columns(P: np.ndarray, columns=EXTRA_PERTURBATION_COLUMNS) -> list[str]:
+    """``list(columns)`` when some view of ``P: (N, 6)`` is not lateral, else ``[]``: the
+    optional columns a table gains (lateral-only tables keep exactly their SPEC columns).
+
+    >>> extra_columns(lateral([-1.0, 1.0])), extra_columns(np.eye(6)[[2]], ("z_offset_m",))
+    ([], ['z_offset_m'])
+    """
+    return [] if is_lateral(P).all() else list(columns)
+
+
+def views_from(offsets, perturbations) -> np.ndarray:
+    """The views ``(K, 6)``: ``perturbations`` when given (they replace the offsets), else the
+    lateral ``offsets`` (metres)."""
+    if perturbations is None:
+        return lateral([float(o) for o in offsets])
+    return np.asarray(perturbations, float).reshape(-1, 6)
 
 
 def perturbation_array(table: pd.DataFrame) -> np.ndarray:
@@ -192,4 +212,4 @@ def parse_perturb(text: str, *, option: str = "perturb") -> np.ndarray:
 def view_columns(table: pd.DataFrame) -> list[str]:
     """:data:`VIEW_COLUMNS` when some row of ``table`` is not lateral, else ``[]`` (so
     lateral-only studies and ratings keep exactly their former columns)."""
-    return [] if is_lateral(perturbation_array(table)).all() else list(VIEW_COLUMNS)
+    return extra_columns(perturbation_array(table), VIEW_COLUMNS)

@@ -37,9 +37,8 @@ from tqdm import tqdm
 
 from data_schema.errors import InputError
 from data_schema.perturbation import (
-    EXTRA_PERTURBATION_COLUMNS,
     PERTURBATION_COLUMNS,
-    is_lateral,
+    extra_columns,
     labels,
     lateral,
 )
@@ -337,7 +336,7 @@ def _render_all(clip: _Clip, views: np.ndarray, out: Path, progress: bool) -> tu
 def _write_tables(clip: _Clip, views: np.ndarray, out: Path, image_rows: list, deg_rows: list) -> None:
     """``degradation.csv``, ``images.csv`` and ``scene.json`` (extra perturbation columns only
     when some view is not lateral)."""
-    extra = [] if is_lateral(views).all() else list(EXTRA_PERTURBATION_COLUMNS)
+    extra = extra_columns(views)
     deg = pd.DataFrame(deg_rows, columns=["camera", "timestamp_us", "track_id", *PERTURBATION_COLUMNS,
                                           "severity", *ARTEFACTS])
     deg[["severity", *ARTEFACTS]] = deg[["severity", *ARTEFACTS]].round(5)
