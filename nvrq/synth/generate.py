@@ -126,7 +126,7 @@ def camera_models(size: tuple[int, int]) -> dict[str, dict]:
     return out
 
 
-def _parse(seconds, fps, views, cameras, size):
+def _parse(seconds, fps, cameras, size):
     if not (isinstance(seconds, int | float) and math.isfinite(seconds) and seconds > 0):
         raise InputError("seconds", None, "a positive number of seconds", seconds)
     if not (isinstance(fps, int | float) and math.isfinite(fps) and 0 < fps <= 1000):
@@ -364,7 +364,7 @@ def generate_scene(
     ``size (W, H)`` pixels; ``offsets`` lateral metres (left > 0), or ``perturbations``
     ``(K, 6)`` ``(dx, dy, dz, roll, pitch, yaw)`` (metres, degrees), which replace them.
     """
-    cam_names, (W, H) = _parse(seconds, fps, (), cameras, size)
+    cam_names, (W, H) = _parse(seconds, fps, cameras, size)
     views = _views(offsets, perturbations)
     if not isinstance(seed, int | np.integer) or seed < 0:
         raise InputError("--seed", None, "a non-negative integer", seed)
