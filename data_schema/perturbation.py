@@ -37,6 +37,7 @@ __all__ = [
     "PERTURBATION_COLUMNS",
     "EXTRA_PERTURBATION_COLUMNS",
     "LABEL_COLUMN",
+    "LIMITS",
     "perturbation_array",
     "with_perturbation_columns",
     "labels",
@@ -61,7 +62,8 @@ PERTURBATION_COLUMNS = ("x_offset_m", "y_offset_m", "z_offset_m", "roll_deg", "p
 EXTRA_PERTURBATION_COLUMNS = tuple(c for c in PERTURBATION_COLUMNS if c != "y_offset_m")
 #: Readable label column of pairs tables, ratings and plans.
 LABEL_COLUMN = "perturbation"
-_LIMITS = {"m": 20.0, "deg": 90.0}
+#: The largest magnitude of a component, per unit (metres, degrees).
+LIMITS = {"m": 20.0, "deg": 90.0}
 #: The columns a table gains when some view is not lateral (after the SPEC columns).
 VIEW_COLUMNS = (*EXTRA_PERTURBATION_COLUMNS, LABEL_COLUMN)
 
@@ -177,8 +179,8 @@ def _grid(axis: str, spec: str, text: str, option: str) -> list[float]:
                              "(at most 1000 values)", text)
         n = int(math.floor((stop - start) / step + 1e-9)) + 1
         values = [round(start + i * step, 10) for i in range(n)]
-    if any(abs(v) > _LIMITS[unit] for v in values):
-        raise InputError(option, None, f"{axis} values within +-{_LIMITS[unit]:g} {unit}", text)
+    if any(abs(v) > LIMITS[unit] for v in values):
+        raise InputError(option, None, f"{axis} values within +-{LIMITS[unit]:g} {unit}", text)
     return values
 
 

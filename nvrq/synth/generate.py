@@ -37,6 +37,7 @@ from tqdm import tqdm
 
 from data_schema.errors import InputError
 from data_schema.perturbation import (
+    LIMITS,
     PERTURBATION_COLUMNS,
     extra_columns,
     labels,
@@ -145,16 +146,17 @@ def _parse(seconds, fps, cameras, size):
 
 def _views(offsets, perturbations) -> np.ndarray:
     """The render views ``(K, 6)``: ``perturbations`` when given, else the lateral ``offsets``."""
+    m, deg = LIMITS["m"], LIMITS["deg"]
     if perturbations is None:
         offs = [float(o) for o in offsets]
-        if not offs or not all(math.isfinite(o) and abs(o) <= 20 for o in offs) or len(set(offs)) != len(offs):
-            raise InputError("offsets", None, "distinct lateral offsets in metres within [-20, 20]", offsets)
+        if not offs or not all(math.isfinite(o) and abs(o) <= m for o in offs) or len(set(offs)) != len(offs):
+            raise InputError("offsets", None, f"distinct lateral offsets in metres within [-{m:g}, {m:g}]", offsets)
         return lateral(offs)
     P = np.asarray(perturbations, dtype=np.float64)
     if P.ndim != 2 or P.shape[1] != 6 or not len(P) or not np.isfinite(P).all() \
-            or np.abs(P[:, :3]).max() > 20 or np.abs(P[:, 3:]).max() > 90 or len(set(labels(P))) != len(P):
-        raise InputError("perturbations", None, "distinct (K, 6) rows (dx, dy, dz in [-20, 20] m; "
-                         "roll, pitch, yaw in [-90, 90] deg)", np.shape(P))
+            or np.abs(P[:, :3]).max() > m or np.abs(P[:, 3:]).max() > deg or len(set(labels(P))) != len(P):
+        raise InputError("perturbations", None, f"distinct (K, 6) rows (dx, dy, dz in [-{m:g}, {m:g}] m; "
+                         f"roll, pitch, yaw in [-{deg:g}, {deg:g}] deg)", np.shape(P))
     return P
 
 
