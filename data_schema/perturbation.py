@@ -37,6 +37,7 @@ __all__ = [
     "PERTURBATION_COLUMNS",
     "EXTRA_PERTURBATION_COLUMNS",
     "LABEL_COLUMN",
+    "LIMITS",
     "perturbation_array",
     "with_perturbation_columns",
     "labels",
@@ -48,6 +49,8 @@ __all__ = [
     "lateral",
     "view_columns",
     "VIEW_COLUMNS",
+    "extra_columns",
+    "views_from",
 ]
 
 #: The six components, in the order of a perturbation vector ``(6,)``.
@@ -59,9 +62,28 @@ PERTURBATION_COLUMNS = ("x_offset_m", "y_offset_m", "z_offset_m", "roll_deg", "p
 EXTRA_PERTURBATION_COLUMNS = tuple(c for c in PERTURBATION_COLUMNS if c != "y_offset_m")
 #: Readable label column of pairs tables, ratings and plans.
 LABEL_COLUMN = "perturbation"
-_LIMITS = {"m": 20.0, "deg": 90.0}
+#: The largest magnitude of a component, per unit (metres, degrees).
+LIMITS = {"m": 20.0, "deg": 90.0}
 #: The columns a table gains when some view is not lateral (after the SPEC columns).
 VIEW_COLUMNS = (*EXTRA_PERTURBATION_COLUMNS, LABEL_COLUMN)
+
+
+def extra_columns(P: np.ndarray, columns=EXTRA_PERTURBATION_COLUMNS) -> list[str]:
+    """``list(columns)`` when some view of ``P: (N, 6)`` is not lateral, else ``[]``: the
+    optional columns a table gains (lateral-only tables keep exactly their SPEC columns).
+
+    >>> extra_columns(lateral([-1.0, 1.0])), extra_columns(np.eye(6)[[2]], ("z_offset_m",))
+    ([], ['z_offset_m'])
+    """
+    return [] if is_lateral(P).all() else list(columns)
+
+
+def views_from(offsets, perturbations) -> np.ndarray:
+    """The views ``(K, 6)``: ``perturbations`` when given (they replace the offsets), else the
+    lateral ``offsets`` (metres)."""
+    if perturbations is None:
+        return lateral([float(o) for o in offsets])
+    return np.asarray(perturbations, float).reshape(-1, 6)
 
 
 def perturbation_array(table: pd.DataFrame) -> np.ndarray:
@@ -160,8 +182,8 @@ def _grid(axis: str, spec: str, text: str, option: str) -> list[float]:
                              "(at most 1000 values)", text)
         n = int(math.floor((stop - start) / step + 1e-9)) + 1
         values = [round(start + i * step, 10) for i in range(n)]
-    if any(abs(v) > _LIMITS[unit] for v in values):
-        raise InputError(option, None, f"{axis} values within +-{_LIMITS[unit]:g} {unit}", text)
+    if any(abs(v) > LIMITS[unit] for v in values):
+        raise InputError(option, None, f"{axis} values within +-{LIMITS[unit]:g} {unit}", text)
     return values
 
 
@@ -195,4 +217,4 @@ def parse_perturb(text: str, *, option: str = "perturb") -> np.ndarray:
 def view_columns(table: pd.DataFrame) -> list[str]:
     """:data:`VIEW_COLUMNS` when some row of ``table`` is not lateral, else ``[]`` (so
     lateral-only studies and ratings keep exactly their former columns)."""
-    return [] if is_lateral(perturbation_array(table)).all() else list(VIEW_COLUMNS)
+    return extra_columns(perturbation_array(table), VIEW_COLUMNS)

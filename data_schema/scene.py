@@ -22,7 +22,13 @@ import pandas as pd
 
 from data_schema.errors import InputError
 from data_schema.perturbation import EXTRA_PERTURBATION_COLUMNS, PERTURBATION_COLUMNS
-from data_schema.tables import IMAGES_COLUMNS, atomic_write_text, inside_scene, write_table
+from data_schema.tables import (
+    IMAGES_COLUMNS,
+    atomic_write_text,
+    check_scene_path,
+    inside_scene,
+    write_table,
+)
 
 __all__ = [
     "CAMERA_MODEL_SCHEMA",
@@ -206,8 +212,17 @@ def _poses7(value, n: int, where: str, fld: str) -> np.ndarray:
     return poses
 
 
-def _resolve_image(root: Path, rel: str, where: str, fld: str, check: bool) -> None:
-    inside_scene(root, rel, where=where, field=fld)  # the path rule shared with pairs tables
+def _resolve_image(root: Path, rel: str, where: str, fld: str, check: bool, linked: dict) -> None:
+    """The path rule shared with pairs tables (:func:`inside_scene`). ``linked`` (one load's
+    cache) holds, per parent folder, whether a folder on its way is a symlink: each distinct
+    folder is checked once, the file itself every row; only then does ``inside_scene`` run."""
+    check_scene_path(rel, where=where, field=fld)
+    folder = Path(rel).parts[:-1]
+    if folder not in linked:
+        linked[folder] = any(os.path.islink(os.path.join(str(root), *folder[:k]))
+                             for k in range(1, len(folder) + 1))
+    if linked[folder] or os.path.islink(os.path.join(str(root), rel)):
+        inside_scene(root, rel, where=where, field=fld)
     if check and not (root / rel).is_file():
         raise InputError(where, fld, "an existing image file", f"{rel} (not found)")
 
@@ -240,6 +255,7 @@ def _load_images(root: Path, cameras: dict, check_images: bool) -> pd.DataFrame:
     if gt_moved.any():
         i = int(np.argmax(gt_moved))
         raise InputError(where, f"row {i + 2}", "zero perturbation columns for a gt image", "non-zero")
+    linked = {}
     for i, row in enumerate(df.itertuples(index=False)):
         r = f"row {i + 2}"
         if row.camera not in cameras:
@@ -249,7 +265,7 @@ def _load_images(root: Path, cameras: dict, check_images: bool) -> pd.DataFrame:
             raise InputError(where, f"{r}, column source", "'gt' or 'render'", repr(row.source))
         if row.source == "gt" and row.y_offset_m != 0:
             raise InputError(where, f"{r}, column y_offset_m", "0 for a gt image", row.y_offset_m)
-        _resolve_image(root, row.path, where, f"{r}, column path", check_images)
+        _resolve_image(root, row.path, where, f"{r}, column path", check_images, linked)
     dup = df.duplicated(["camera", "timestamp_us", "source", *PERTURBATION_COLUMNS])
     if dup.any():
         i = int(np.argmax(dup.to_numpy()))

@@ -62,7 +62,7 @@ def check_outputs(args) -> None:
     if kind is None or getattr(args, "out", None) is None:
         return
     inputs = [getattr(args, a) for a in INPUT_ARGS if getattr(args, a, None) is not None]
-    option = "--out" if args.command not in ("synth", "import") else "OUT"
+    option = "OUT" if kind == "scene" else "--out"  # the scene writers take a positional OUT
     if kind == "file" and Path(args.out).suffix == "":
         # a Parquet dataset folder (several clips, --engine ray; data_schema.datasets): its
         # manifest path gets the file rule; the command checks what the folder already holds

@@ -28,7 +28,7 @@ from data_schema.errors import InputError
 from data_schema.scene import load_scene
 from nvrq.pairs import DROP_REASONS, PAIRS_OUTPUT_COLUMNS, PairStats, make_pairs
 
-__all__ = ["find_scenes", "FleetResult", "fleet_pairs"]
+__all__ = ["find_scenes", "FleetResult", "clip_pairs", "fleet_pairs"]
 
 
 def find_scenes(paths) -> list[Path]:
@@ -79,11 +79,13 @@ def _add_stats(total: PairStats, s: PairStats) -> None:
         total.dropped[k] += s.dropped[k]
 
 
-def _clip_pairs(scene_dir: Path, *, attributes, min_side, min_area):
+def clip_pairs(scene_dir, *, attributes=None, min_side: float, min_area: float, progress: bool = False):
+    """``(clip_id, pairs, stats)`` of one scene folder: :func:`nvrq.pairs.make_pairs` after
+    applying the :class:`nvrq.clip_attributes.ClipAttributes` ``attributes`` (if any)."""
     scene = load_scene(scene_dir)
     if attributes is not None:
         scene = dataclasses.replace(scene, attributes=attributes.for_clip(scene.clip_id, scene.attributes))
-    pairs, stats = make_pairs(scene, min_side=min_side, min_area=min_area, progress=False)
+    pairs, stats = make_pairs(scene, min_side=min_side, min_area=min_area, progress=progress)
     return scene.clip_id, pairs, stats
 
 
@@ -117,7 +119,7 @@ def fleet_pairs(scene_dirs, out, *, min_side: float = 30, min_area: float = 0, a
     with DatasetWriter(out) as writer:
         for d in tqdm(scene_dirs, desc="pairs", unit="clip", disable=not progress):
             try:
-                clip, pairs, stats = _clip_pairs(d, attributes=attributes, min_side=min_side,
+                clip, pairs, stats = clip_pairs(d, attributes=attributes, min_side=min_side,
                                                  min_area=min_area)
                 if clip in seen:
                     raise InputError(d / "scene.json", "clip_id", "a clip id unique in the fleet",

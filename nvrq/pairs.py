@@ -82,18 +82,23 @@ class PairStats:
         """Count candidates with axis ``axis_names (C,)``, GT present ``has_gt (C,)`` and
         view code ``worst (C,)`` (0 valid, 1-3 as :func:`view_validity`)."""
         for axis in dict.fromkeys(axis_names.tolist()):
-            sel = axis_names == axis
             c = self.by_axis.setdefault(axis, {"candidates": 0, "kept": 0, **dict.fromkeys(DROP_REASONS, 0)})
-            c["candidates"] += int(sel.sum())
-            c["kept"] += int((sel & has_gt & (worst == 0)).sum())
-            c["no_gt_image"] += int((sel & ~has_gt).sum())
-            for reason, code in zip(DROP_REASONS[1:], (1, 2, 3), strict=True):
-                c[reason] += int((sel & has_gt & (worst == code)).sum())
-        self.candidates += len(axis_names)
-        self.kept += int((has_gt & (worst == 0)).sum())
-        self.dropped["no_gt_image"] += int((~has_gt).sum())
-        for reason, code in zip(DROP_REASONS[1:], (1, 2, 3), strict=True):
-            self.dropped[reason] += int(((worst == code) & has_gt).sum())
+            for k, n in _counts(axis_names == axis, has_gt, worst).items():
+                c[k] += n
+        total = _counts(np.ones(len(axis_names), bool), has_gt, worst)
+        self.candidates += total["candidates"]
+        self.kept += total["kept"]
+        for reason in DROP_REASONS:
+            self.dropped[reason] += total[reason]
+
+
+def _counts(sel: np.ndarray, has_gt: np.ndarray, worst: np.ndarray) -> dict:
+    """``{'candidates', 'kept', *DROP_REASONS}`` of the candidates where ``sel`` (as :meth:`PairStats.add`)."""
+    c = {"candidates": int(sel.sum()), "kept": int((sel & has_gt & (worst == 0)).sum()),
+         "no_gt_image": int((sel & ~has_gt).sum())}
+    for reason, code in zip(DROP_REASONS[1:], (1, 2, 3), strict=True):
+        c[reason] = int((sel & has_gt & (worst == code)).sum())
+    return c
 
 
 def track_boxes_at(scene: Scene, query_us: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

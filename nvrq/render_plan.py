@@ -37,12 +37,13 @@ import pandas as pd
 
 from data_schema.errors import InputError
 from data_schema.perturbation import (
-    EXTRA_PERTURBATION_COLUMNS,
-    LABEL_COLUMN,
+    VIEW_COLUMNS,
+    extra_columns,
     is_lateral,
     labels,
     lateral,
     perturbation_array,
+    views_from,
 )
 from data_schema.tables import atomic_write_text, write_table
 from nvrq.geometry.poses import (
@@ -64,8 +65,8 @@ PLAN_COLUMNS = (
     "T_sensor_world",
     "T_world_sensor",
 )
-#: Appended to :data:`PLAN_COLUMNS` when some view is not lateral.
-PLAN_PERTURBATION_COLUMNS = (*EXTRA_PERTURBATION_COLUMNS, LABEL_COLUMN)
+#: Appended to :data:`PLAN_COLUMNS` when some view is not lateral (the columns every table gains).
+PLAN_PERTURBATION_COLUMNS = VIEW_COLUMNS
 
 
 def default_image_path(camera: str, timestamp_us: int, source: str, y_offset_m: float = 0.0, *,
@@ -99,10 +100,8 @@ def plan_poses(T_rig_world: np.ndarray, T_sensor_rig: np.ndarray, views: np.ndar
 
 def _plan_views(scene, offsets, perturbations) -> np.ndarray:
     """The views ``(K, 6)`` to plan: ``perturbations``, else ``offsets``, else those listed."""
-    if perturbations is not None:
-        return np.asarray(perturbations, float).reshape(-1, 6)
-    if offsets is not None:
-        return lateral([float(o) for o in offsets])
+    if perturbations is not None or offsets is not None:
+        return views_from(offsets, perturbations)
     renders = scene.images[scene.images.source == "render"]
     if renders.empty:
         raise InputError(scene.root / "images.csv", "y_offset_m", "render rows or an --offsets list",
@@ -148,7 +147,7 @@ def render_plan(scene, *, offsets=None, perturbations=None, cameras=None) -> pd.
                 rows.append((name, int(t), float(v[1]), path, P["T_sensor_rig"][k], P["T_sensor_world"][i, k],
                              P["T_world_sensor"][i, k], *v[[0, 2, 3, 4, 5]].tolist(), keys[k]))
     plan = pd.DataFrame(rows, columns=[*PLAN_COLUMNS, *PLAN_PERTURBATION_COLUMNS])
-    return plan if not is_lateral(views).all() else plan.loc[:, list(PLAN_COLUMNS)]
+    return plan.loc[:, [*PLAN_COLUMNS, *extra_columns(views, PLAN_PERTURBATION_COLUMNS)]]
 
 
 def write_render_plan(plan: pd.DataFrame, out: str | Path, *, clip_id: str = "") -> Path:

@@ -50,10 +50,7 @@ def register(sub) -> None:
 
 
 def _run_nurec(args) -> int:
-    attributes = None
-    if args.clip_attributes:
-
-        attributes = read_clip_attributes(args.clip_attributes)
+    attributes = read_clip_attributes(args.clip_attributes) if args.clip_attributes else None
     out = import_nurec(
         args.archive, args.out, offsets=parse_offsets(args.offsets), sequence=args.sequence,
         perturbations=perturb_grid(args), clip_attributes=attributes,

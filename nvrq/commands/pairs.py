@@ -3,17 +3,14 @@ scene folders, ``--out DATASET/`` (a Parquet dataset partitioned by clip_id, :mo
 
 from __future__ import annotations
 
-import dataclasses
 import sys
 import time
 from pathlib import Path
 
 from data_schema.errors import InputError
-from data_schema.scene import load_scene
 from data_schema.tables import MIN_SIDE_PX, write_table
 from nvrq.clip_attributes import read_clip_attributes
-from nvrq.fleet import find_scenes, fleet_pairs
-from nvrq.pairs import make_pairs
+from nvrq.fleet import clip_pairs, find_scenes, fleet_pairs
 
 __all__ = ["register", "run"]
 
@@ -39,17 +36,11 @@ def register(sub) -> None:
 
 def run(args) -> int:
     t0 = time.perf_counter()
-    attributes = None
-    if args.clip_attributes:
-
-        attributes = read_clip_attributes(args.clip_attributes)
+    attributes = read_clip_attributes(args.clip_attributes) if args.clip_attributes else None
     if _is_fleet(args):
         return _run_fleet(args, attributes, t0)
-    scene = load_scene(args.scene[0])
-    if attributes is not None:
-
-        scene = dataclasses.replace(scene, attributes=attributes.for_clip(scene.clip_id, scene.attributes))
-    pairs, stats = make_pairs(scene, min_side=args.min_side, min_area=args.min_area, progress=not args.quiet)
+    _, pairs, stats = clip_pairs(args.scene[0], attributes=attributes, min_side=args.min_side,
+                                 min_area=args.min_area, progress=not args.quiet)
     write_table(pairs, args.out)
     print(f"{stats.summary()} -> {args.out} ({time.perf_counter() - t0:.1f} s)")
     return 0

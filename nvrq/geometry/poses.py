@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from data_schema.perturbation import lateral
+
 __all__ = [
     "quat_to_rotmat",
     "rotmat_to_quat",
@@ -248,9 +250,7 @@ def offset_T_sensor_rig(T_sensor_rig: np.ndarray, y_offsets_m: np.ndarray) -> np
     [0.0, 2.0, 0.0]
     """
     y = np.atleast_1d(np.asarray(y_offsets_m, dtype=np.float64))
-    P = np.zeros(y.shape + (6,))
-    P[..., 1] = y
-    return perturb_T_sensor_rig(T_sensor_rig, P.reshape(-1, 6)).reshape(y.shape + (4, 4))
+    return perturb_T_sensor_rig(T_sensor_rig, lateral(y.ravel())).reshape(y.shape + (4, 4))
 
 
 def T_sensor_world(T_rig_world: np.ndarray, T_sensor_rig: np.ndarray) -> np.ndarray:

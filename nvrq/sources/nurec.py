@@ -41,12 +41,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
-from data_schema.perturbation import (
-    EXTRA_PERTURBATION_COLUMNS,
-    PERTURBATION_COLUMNS,
-    is_lateral,
-    lateral,
-)
+from data_schema.perturbation import PERTURBATION_COLUMNS, extra_columns, views_from
 from data_schema.scene import CAMERA_MODEL_SCHEMA, save_scene
 from data_schema.tables import IMAGES_COLUMNS
 from nvrq.geometry.cameras import camera_from_model
@@ -327,8 +322,7 @@ def import_nurec(
     ``attributes`` (NuRec archives carry none); ``None``: empty attributes.
     """
     archive, out = Path(archive), Path(out)
-    views = lateral([float(o) for o in offsets]) if perturbations is None \
-        else np.asarray(perturbations, float).reshape(-1, 6)
+    views = views_from(offsets, perturbations)
     rig, rig_member = read_archive_json(archive, "rig_trajectories.json")
     where = f"{archive}:{rig_member}"
     nre_to_world, scale = _world_to_nre(rig, where)
@@ -345,5 +339,4 @@ def import_nurec(
     }
     images = pd.DataFrame(image_rows, columns=["camera", "timestamp_us", "source", *PERTURBATION_COLUMNS, "path"])
     images = images.drop_duplicates(["camera", "timestamp_us", "source", *PERTURBATION_COLUMNS])
-    extra = [] if is_lateral(views).all() else list(EXTRA_PERTURBATION_COLUMNS)
-    return save_scene(doc, images.loc[:, [*IMAGES_COLUMNS, *extra]], out)
+    return save_scene(doc, images.loc[:, [*IMAGES_COLUMNS, *extra_columns(views)]], out)

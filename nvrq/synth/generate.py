@@ -37,9 +37,9 @@ from tqdm import tqdm
 
 from data_schema.errors import InputError
 from data_schema.perturbation import (
-    EXTRA_PERTURBATION_COLUMNS,
+    LIMITS,
     PERTURBATION_COLUMNS,
-    is_lateral,
+    extra_columns,
     labels,
     lateral,
 )
@@ -127,7 +127,7 @@ def camera_models(size: tuple[int, int]) -> dict[str, dict]:
     return out
 
 
-def _parse(seconds, fps, views, cameras, size):
+def _parse(seconds, fps, cameras, size):
     if not (isinstance(seconds, int | float) and math.isfinite(seconds) and seconds > 0):
         raise InputError("seconds", None, "a positive number of seconds", seconds)
     if not (isinstance(fps, int | float) and math.isfinite(fps) and 0 < fps <= 1000):
@@ -146,16 +146,17 @@ def _parse(seconds, fps, views, cameras, size):
 
 def _views(offsets, perturbations) -> np.ndarray:
     """The render views ``(K, 6)``: ``perturbations`` when given, else the lateral ``offsets``."""
+    m, deg = LIMITS["m"], LIMITS["deg"]
     if perturbations is None:
         offs = [float(o) for o in offsets]
-        if not offs or not all(math.isfinite(o) and abs(o) <= 20 for o in offs) or len(set(offs)) != len(offs):
-            raise InputError("offsets", None, "distinct lateral offsets in metres within [-20, 20]", offsets)
+        if not offs or not all(math.isfinite(o) and abs(o) <= m for o in offs) or len(set(offs)) != len(offs):
+            raise InputError("offsets", None, f"distinct lateral offsets in metres within [-{m:g}, {m:g}]", offsets)
         return lateral(offs)
     P = np.asarray(perturbations, dtype=np.float64)
     if P.ndim != 2 or P.shape[1] != 6 or not len(P) or not np.isfinite(P).all() \
-            or np.abs(P[:, :3]).max() > 20 or np.abs(P[:, 3:]).max() > 90 or len(set(labels(P))) != len(P):
-        raise InputError("perturbations", None, "distinct (K, 6) rows (dx, dy, dz in [-20, 20] m; "
-                         "roll, pitch, yaw in [-90, 90] deg)", np.shape(P))
+            or np.abs(P[:, :3]).max() > m or np.abs(P[:, 3:]).max() > deg or len(set(labels(P))) != len(P):
+        raise InputError("perturbations", None, f"distinct (K, 6) rows (dx, dy, dz in [-{m:g}, {m:g}] m; "
+                         f"roll, pitch, yaw in [-{deg:g}, {deg:g}] deg)", np.shape(P))
     return P
 
 
@@ -337,7 +338,7 @@ def _render_all(clip: _Clip, views: np.ndarray, out: Path, progress: bool) -> tu
 def _write_tables(clip: _Clip, views: np.ndarray, out: Path, image_rows: list, deg_rows: list) -> None:
     """``degradation.csv``, ``images.csv`` and ``scene.json`` (extra perturbation columns only
     when some view is not lateral)."""
-    extra = [] if is_lateral(views).all() else list(EXTRA_PERTURBATION_COLUMNS)
+    extra = extra_columns(views)
     deg = pd.DataFrame(deg_rows, columns=["camera", "timestamp_us", "track_id", *PERTURBATION_COLUMNS,
                                           "severity", *ARTEFACTS])
     deg[["severity", *ARTEFACTS]] = deg[["severity", *ARTEFACTS]].round(5)
@@ -365,7 +366,7 @@ def generate_scene(
     ``size (W, H)`` pixels; ``offsets`` lateral metres (left > 0), or ``perturbations``
     ``(K, 6)`` ``(dx, dy, dz, roll, pitch, yaw)`` (metres, degrees), which replace them.
     """
-    cam_names, (W, H) = _parse(seconds, fps, (), cameras, size)
+    cam_names, (W, H) = _parse(seconds, fps, cameras, size)
     views = _views(offsets, perturbations)
     if not isinstance(seed, int | np.integer) or seed < 0:
         raise InputError("--seed", None, "a non-negative integer", seed)

@@ -159,3 +159,30 @@ def test_console_script_exit_status(tmp_path):
     assert proc.returncode == 2
     assert proc.stderr.strip().count("\n") == 0 and "model.type" in proc.stderr
     assert json.loads((tmp_path / "scene.json").read_text())["format"] == "nvrq-scene"
+
+
+def test_symlinked_image_folders_checked_per_load(tmp_path):
+    """A folder symlink is checked once per distinct folder and load (not cached across loads):
+    one that stays inside the scene is accepted, one that leaves it is refused on every row."""
+    scene, outside = tmp_path / "scene", tmp_path / "outside"
+    (scene / "real").mkdir(parents=True)
+    outside.mkdir()
+    for d in (scene / "real", outside):
+        for p in ("gt.png", "r.png"):
+            (d / p).write_bytes(b"")
+    images = valid_images().assign(path=["img/gt.png", "img/r.png"])
+    save_scene(valid_doc(), images, scene)
+    (scene / "img").symlink_to(scene / "real")
+    assert len(load_scene(scene).images) == 2
+    (scene / "img").unlink()
+    (scene / "img").symlink_to(outside)
+    with pytest.raises(InputError) as exc:
+        load_scene(scene)
+    assert str(exc.value) == (f"{scene / 'images.csv'}: row 2, column path: expected a file inside the "
+                              "scene folder (a symlink leaves it), got img/gt.png")
+    (scene / "img").unlink()
+    (scene / "img").mkdir()
+    for p in ("gt.png", "r.png"):
+        (scene / "img" / p).symlink_to(outside / p)
+    with pytest.raises(InputError, match="symlink leaves it"):
+        load_scene(scene)
