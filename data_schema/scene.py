@@ -22,13 +22,7 @@ import pandas as pd
 
 from data_schema.errors import InputError
 from data_schema.perturbation import EXTRA_PERTURBATION_COLUMNS, PERTURBATION_COLUMNS
-from data_schema.tables import (
-    IMAGES_COLUMNS,
-    atomic_write_text,
-    check_scene_path,
-    inside_scene,
-    write_table,
-)
+from data_schema.tables import IMAGES_COLUMNS, atomic_write_text, inside_scene, write_table
 
 __all__ = [
     "CAMERA_MODEL_SCHEMA",
@@ -213,16 +207,8 @@ def _poses7(value, n: int, where: str, fld: str) -> np.ndarray:
 
 
 def _resolve_image(root: Path, rel: str, where: str, fld: str, check: bool, linked: dict) -> None:
-    """The path rule shared with pairs tables (:func:`inside_scene`). ``linked`` (one load's
-    cache) holds, per parent folder, whether a folder on its way is a symlink: each distinct
-    folder is checked once, the file itself every row; only then does ``inside_scene`` run."""
-    check_scene_path(rel, where=where, field=fld)
-    folder = Path(rel).parts[:-1]
-    if folder not in linked:
-        linked[folder] = any(os.path.islink(os.path.join(str(root), *folder[:k]))
-                             for k in range(1, len(folder) + 1))
-    if linked[folder] or os.path.islink(os.path.join(str(root), rel)):
-        inside_scene(root, rel, where=where, field=fld)
+    # the path rule shared with pairs tables; ``linked`` is this load's folder cache
+    inside_scene(root, rel, where=where, field=fld, linked=linked)
     if check and not (root / rel).is_file():
         raise InputError(where, fld, "an existing image file", f"{rel} (not found)")
 

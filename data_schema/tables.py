@@ -278,12 +278,21 @@ def check_scene_path(rel, *, where: str, field: str) -> str:
     return rel
 
 
-def inside_scene(root, rel: str, *, where: str, field: str) -> str:
-    """``root/rel`` as a string after :func:`check_scene_path`; a symlink must stay in ``root``."""
+def inside_scene(root, rel: str, *, where: str, field: str, linked: dict | None = None) -> str:
+    """``root/rel`` as a string after :func:`check_scene_path`; a symlink must stay in ``root``.
+
+    ``linked``: one table's cache, per parent folder of ``rel``, of whether a folder on its way
+    is a symlink, so rows in the same few folders check each folder once (the file every time).
+    """
     check_scene_path(rel, where=where, field=field)
     path = os.path.join(str(root), rel)
-    if os.path.islink(path) or any(os.path.islink(os.path.join(str(root), *Path(rel).parts[:k]))
-                                   for k in range(1, len(Path(rel).parts))):
+    parts = Path(rel).parts
+    via_link = None if linked is None else linked.get(parts[:-1])
+    if via_link is None:
+        via_link = any(os.path.islink(os.path.join(str(root), *parts[:k])) for k in range(1, len(parts)))
+        if linked is not None:
+            linked[parts[:-1]] = via_link
+    if via_link or os.path.islink(path):
         real, base = os.path.realpath(path), os.path.realpath(str(root))
         if os.path.commonpath([real, base]) != base:
             raise InputError(where, field, "a file inside the scene folder (a symlink leaves it)", rel)
