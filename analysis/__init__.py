@@ -1,4 +1,4 @@
-"""analysis stage of the NVRQ toolkit: ``analyze RATINGS.csv`` (SPEC section 6).
+"""analysis stage of the NVRQ toolkit: ``analyze RATINGS.csv`` (docs/FORMATS.md §6).
 
 Modules, in data-flow order:
 

@@ -154,7 +154,7 @@ def _plan(pairs: TableSource, metrics: list[TableSource]):
     numeric.insert(0, "y_offset_m")
     for need in ("pair_id", "track_id", "label_class", "y_offset_m"):
         if need not in pairs.columns:
-            raise InputError(pairs.path, f"column {need!r}", "a pairs table (SPEC section 3)", "no such column")
+            raise InputError(pairs.path, f"column {need!r}", "a pairs table (docs/FORMATS.md §3)", "no such column")
     per_source = []
     for src in metrics:
         if "pair_id" not in src.schema.names:

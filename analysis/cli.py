@@ -1,11 +1,11 @@
-"""The ``analyze`` command (SPEC section 6): a thin shell over :func:`analysis.pipeline.run_analysis`.
+"""The ``analyze`` command (docs/FORMATS.md §6): a thin shell over :func:`analysis.pipeline.run_analysis`.
 
 ``analyze RATINGS.csv [--metrics-table METRICS ...] [--lower-better A,B] [--higher-better A,B]
 [--target COLUMN] [--exclude-raters A,B] [--screen] [--aggregate METHOD] [--timing FILE ...]
 [--stability DIR]
 [--bootstrap N] [--seed S] [--rank-by {srcc,plcc,roc_auc}] --out REPORT_DIR``
 
-Bad input ends with one line on stderr and exit status 2 (SPEC section 7).
+Bad input ends with one line on stderr and exit status 2 (docs/FORMATS.md §7).
 """
 
 from __future__ import annotations

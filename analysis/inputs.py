@@ -1,9 +1,9 @@
-"""Reading and checking ``ratings.csv`` and metric tables (SPEC sections 4, 5, 7).
+"""Reading and checking ``ratings.csv`` and metric tables (docs/FORMATS.md §4, §5, §7).
 
 Which columns are metrics — the written rule:
 
 1. Known non-metric columns are never metrics: the ratings columns (``item_id, rater_id,
-   vote, voted_at, response_ms, kind``), the pair columns of SPEC section 3 (``clip_id``,
+   vote, voted_at, response_ms, kind``), the pair columns of docs/FORMATS.md §3 (``clip_id``,
    ``camera``, ``track_id``, ``label_class``, ``timestamp_us``, ``y_offset_m``, paths and
    box corners), ``pair_id``, ``gold_expected`` and the per-item labels ``analyze`` itself
    writes (``n_votes, n_good, gvf, majority_good, gvf_ci_lo, gvf_ci_hi, p_good,
@@ -63,9 +63,9 @@ def _line(row_index: int) -> str:
 
 
 def read_ratings(path) -> pd.DataFrame:
-    """Read ``ratings.csv`` and check it (SPEC sections 5 and 7); returns one row per vote.
+    """Read ``ratings.csv`` and check it (docs/FORMATS.md §5 and §7); returns one row per vote.
 
-    Checks: the SPEC columns exist; at least one row; ``vote`` is 0 or 1; ``kind`` is one of
+    Checks: the contract columns exist; at least one row; ``vote`` is 0 or 1; ``kind`` is one of
     ``{'test', 'gold', 'training', 'repeat'}``; ``response_ms`` is numeric; no rater has two
     rows for the same (item, kind).
     """
@@ -126,7 +126,7 @@ def read_ratings(path) -> pd.DataFrame:
 
 def _check_item_metadata(df: pd.DataFrame, path) -> None:
     """``timestamp_us`` an integer, ``y_offset_m`` a number, and each item's pair metadata
-    (SPEC section 5: clip, camera, track, class, timestamp, offset) the same on all its rows."""
+    (docs/FORMATS.md §5: clip, camera, track, class, timestamp, offset) the same on all its rows."""
     for col, what in (("timestamp_us", "an integer timestamp in microseconds"),
                       ("y_offset_m", "a number of metres")):
         num = pd.to_numeric(df[col], errors="coerce")

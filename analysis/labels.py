@@ -1,4 +1,4 @@
-"""Votes to per-item labels (SPEC section 6) and the join of metric tables onto the items.
+"""Votes to per-item labels (docs/FORMATS.md §6) and the join of metric tables onto the items.
 
 Only ``kind == 'test'`` votes count. Per item: ``n_votes``, ``n_good``,
 ``gvf = n_good / n_votes`` (the good-vote fraction), ``majority_good = gvf >= 0.5``

@@ -1,4 +1,4 @@
-"""The per-metric table (SPEC section 6): correlations, ROC AUC, logistic PLCC, bootstrap CIs,
+"""The per-metric table (docs/FORMATS.md §6): correlations, ROC AUC, logistic PLCC, bootstrap CIs,
 the best metric and which differences from it are significant.
 
 Columns of the returned table (one row per metric):

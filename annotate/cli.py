@@ -149,7 +149,7 @@ def build_parser() -> ArgumentParser:
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
     b = sub.add_parser("build", help="build a study folder from a pairs table")
     b.add_argument("study", metavar="STUDY", help="new study folder (absent or empty)")
-    b.add_argument("--pairs", required=True, help="pairs table (SPEC section 3)")
+    b.add_argument("--pairs", required=True, help="pairs table (docs/FORMATS.md §3)")
     b.add_argument("--scene", help="scene folder the pairs' image paths are relative to "
                    "(default: the pairs table's scene_root column)")
     b.add_argument("--metrics-table", dest="metrics_tables", action="append", default=[], metavar="FILE",
@@ -180,7 +180,7 @@ def build_parser() -> ArgumentParser:
     a.add_argument("name")
     _add_address(a)
     a.set_defaults(func=_cmd_add_rater)
-    e = sub.add_parser("export", help="write ratings.csv (SPEC section 5)")
+    e = sub.add_parser("export", help="write ratings.csv (docs/FORMATS.md §5)")
     e.add_argument("study")
     e.add_argument("--out", required=True)
     e.set_defaults(func=_cmd_export)

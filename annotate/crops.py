@@ -1,6 +1,6 @@
 """Display crops of a study: cut once, padded to a shared square, resized to display size.
 
-Convention: boxes are inclusive pixel indices ``[x0, y0, x1, y1]`` (SPEC section 3): the
+Convention: boxes are inclusive pixel indices ``[x0, y0, x1, y1]`` (docs/FORMATS.md §3): the
 crop is ``image[y0:y1+1, x0:x1+1]``. Images stay BGR uint8 from ``cv2.imread`` to
 ``cv2.imwrite`` (both use BGR), so colours are saved unchanged.
 

@@ -1,6 +1,6 @@
 """The study design (paper section 4): which tracks, frames and views raters see.
 
-Pure functions on a pairs table (SPEC section 3). A *track* is ``(clip_id, track_id)``; a
+Pure functions on a pairs table (docs/FORMATS.md §3). A *track* is ``(clip_id, track_id)``; a
 *frame* of it is ``(camera, timestamp_us)``. A *view* is a render perturbation, keyed by its
 label (:mod:`data_schema.perturbation`; a lateral offset ``y`` is the view ``y=+1.00``, 0 is
 ``none``). A frame is usable when the pairs table holds the object in **every** chosen view
@@ -43,7 +43,7 @@ _EXTRA_NON_ATTRIBUTES = ("scene_root", *VIEW_COLUMNS)
 
 
 def attribute_columns(pairs: pd.DataFrame) -> list[str]:
-    """Scene attribute columns: those after the SPEC columns (``scene_root``, ``_*`` excluded)."""
+    """Scene attribute columns: those after the contract columns (``scene_root``, ``_*`` excluded)."""
     return [c for c in pairs.columns if c not in PAIRS_COLUMNS
             and c not in _EXTRA_NON_ATTRIBUTES and not str(c).startswith("_")]
 

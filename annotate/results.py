@@ -1,6 +1,6 @@
-"""What a study's votes say: the ratings table (SPEC section 5), GVF, agreement, gold checks.
+"""What a study's votes say: the ratings table (docs/FORMATS.md §5), GVF, agreement, gold checks.
 
-- :func:`ratings_table`: one row per standing vote, SPEC section 5 columns in order, then
+- :func:`ratings_table`: one row per standing vote, docs/FORMATS.md §5 columns in order, then
   attributes and (when the study has them) metric columns.
 - :func:`good_vote_fraction`: THE definition of the Good Vote Fraction (paper section 4):
   per item ``n_votes, n_good, gvf = n_good / n_votes, majority_good = gvf >= 0.5`` (a tie
@@ -42,7 +42,7 @@ _Z95 = 1.959963984540054
 
 
 def ratings_table(study) -> pd.DataFrame:
-    """SPEC section 5 table of ``study`` (an :class:`annotate.study.Study`)."""
+    """docs/FORMATS.md §5 table of ``study`` (an :class:`annotate.study.Study`)."""
     votes = study.store.votes()
     items = study.items
     attrs = list(study.manifest.get("attribute_columns", []))

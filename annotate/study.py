@@ -10,7 +10,7 @@ Layout of ``STUDY/``::
     crops/          <opaque id>.jpg|png display crops (names reveal nothing)
     votes.sqlite    the vote store (created on first use)
 
-Item kinds (SPEC section 5): ``test``; ``training`` (shown first, excluded from analysis);
+Item kinds (docs/FORMATS.md §5): ``test``; ``training`` (shown first, excluded from analysis);
 ``gold`` (hidden: key and item_id ``gold-good:<pair_id>`` shows the GT crop twice and must
 be rated good; ``gold-bad:<pair_id>`` a severely broken copy, must be rated bad);
 ``repeat`` (key ``repeat:<pair_id>``, item_id the original test item's id).

@@ -2,7 +2,7 @@
 
 Writes (once; ``--data DIR`` keeps it for reruns) three Parquet datasets partitioned by
 ``clip_id`` over 919 clips, as ``nvrq pairs`` (fleet) and ``nvrq score --engine ray`` write
-them: the pairs (every SPEC column, two scene attributes, ``scene_root``), a metrics dataset
+them: the pairs (every contract column, two scene attributes, ``scene_root``), a metrics dataset
 (``psnr, ssim, gmsd``) and a proxy dataset (``clip_drop``). Then runs
 
     analyze --pairs PAIRS --metrics-table METRICS --metrics-table PROXY --target clip_drop --out REPORT

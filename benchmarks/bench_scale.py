@@ -51,7 +51,7 @@ def _image(rng, h=540, w=960):
 
 
 def write_fleet(root: Path, *, clips: int, frames: int) -> Path:
-    """Scenes under ``root`` and their pairs dataset ``root/pairs`` (SPEC columns)."""
+    """Scenes under ``root`` and their pairs dataset ``root/pairs`` (contract columns)."""
 
     rng = np.random.default_rng(0)
     with DatasetWriter(root / "pairs") as w:

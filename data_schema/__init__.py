@@ -1,4 +1,4 @@
-"""File formats exchanged by every stage of the NVRQ toolkit (see SPEC.md).
+"""File formats exchanged by every stage of the NVRQ toolkit (see docs/FORMATS.md).
 
 ``data_schema`` imports nothing else of this project.
 """

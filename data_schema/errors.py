@@ -1,7 +1,7 @@
 """One error type for bad user input: it names the file, the field and what was expected.
 
 Every command catches :class:`InputError` at the top level, prints ``str(err)`` as one
-line and exits with status 2 (SPEC section 7).
+line and exits with status 2 (docs/FORMATS.md §7).
 
 >>> str(InputError("scene.json", "cameras.front.T_sensor_rig", "a 4x4 matrix", "3x4"))
 'scene.json: cameras.front.T_sensor_rig: expected a 4x4 matrix, got 3x4'
@@ -69,7 +69,7 @@ class ArgumentParser(argparse.ArgumentParser):
     """``argparse.ArgumentParser`` whose usage errors are one stderr line and exit status 2.
 
     Subparsers made with ``add_subparsers`` inherit the class, so every subcommand of a CLI
-    built on it reports a bad argument the same way as bad input (SPEC section 7).
+    built on it reports a bad argument the same way as bad input (docs/FORMATS.md §7).
     """
 
     def error(self, message: str):

@@ -1,6 +1,6 @@
 """Output-path safety: no command overwrites its inputs or the folders the toolkit manages.
 
-The rule, the same for every command that writes (SPEC section 7):
+The rule, the same for every command that writes (docs/FORMATS.md §7):
 
 1. An output is never one of the command's inputs (same path, a link to it, or a folder that
    holds an input).
@@ -46,7 +46,7 @@ __all__ = [
 
 #: The marker file in every report folder written by the toolkit.
 REPORT_MARKER = ".nvrq-report"
-#: A folder holding this file is a scene folder (SPEC section 2).
+#: A folder holding this file is a scene folder (docs/FORMATS.md §2).
 SCENE_FILE = "scene.json"
 #: A folder holding this file is a study folder (``annotate build``).
 STUDY_FILE = "manifest.json"

@@ -1,4 +1,4 @@
-"""Novel-view perturbations (SPEC section 1, generalised): six components, labels, axes.
+"""Novel-view perturbations (docs/FORMATS.md §1, generalised): six components, labels, axes.
 
 A render is taken from a virtual camera moved away from the real one by a *perturbation*
 ``(dx, dy, dz, roll, pitch, yaw)`` in the rig frame (x forward, y left, z up): metres for
@@ -6,7 +6,7 @@ the translation, degrees for the rotation. ``nvrq.geometry.poses.perturb_T_senso
 turns it into ``T_sensor'_rig``; this module holds the facts every table shares:
 
 - the six table columns :data:`PERTURBATION_COLUMNS` (``y_offset_m`` is the paper's lateral
-  offset and keeps its SPEC name; the other five are optional and default to 0, so tables
+  offset and keeps its contract name; the other five are optional and default to 0, so tables
   written before they existed load unchanged);
 - the readable label (column :data:`LABEL_COLUMN`): the non-zero components at 0.01
   precision, e.g. ``'y=+2.00'``, ``'z=+0.50,yaw=-5.00'``, ``'none'`` for the real camera;
@@ -58,19 +58,19 @@ AXES = ("x", "y", "z", "roll", "pitch", "yaw")
 AXIS_UNITS = {"x": "m", "y": "m", "z": "m", "roll": "deg", "pitch": "deg", "yaw": "deg"}
 #: Table columns of the six components (same order as :data:`AXES`).
 PERTURBATION_COLUMNS = ("x_offset_m", "y_offset_m", "z_offset_m", "roll_deg", "pitch_deg", "yaw_deg")
-#: The optional columns (all but the SPEC's ``y_offset_m``), 0 when absent.
+#: The optional columns (all but the contract's ``y_offset_m``), 0 when absent.
 EXTRA_PERTURBATION_COLUMNS = tuple(c for c in PERTURBATION_COLUMNS if c != "y_offset_m")
 #: Readable label column of pairs tables, ratings and plans.
 LABEL_COLUMN = "perturbation"
 #: The largest magnitude of a component, per unit (metres, degrees).
 LIMITS = {"m": 20.0, "deg": 90.0}
-#: The columns a table gains when some view is not lateral (after the SPEC columns).
+#: The columns a table gains when some view is not lateral (after the contract columns).
 VIEW_COLUMNS = (*EXTRA_PERTURBATION_COLUMNS, LABEL_COLUMN)
 
 
 def extra_columns(P: np.ndarray, columns=EXTRA_PERTURBATION_COLUMNS) -> list[str]:
     """``list(columns)`` when some view of ``P: (N, 6)`` is not lateral, else ``[]``: the
-    optional columns a table gains (lateral-only tables keep exactly their SPEC columns).
+    optional columns a table gains (lateral-only tables keep exactly their contract columns).
 
     >>> extra_columns(lateral([-1.0, 1.0])), extra_columns(np.eye(6)[[2]], ("z_offset_m",))
     ([], ['z_offset_m'])
@@ -146,7 +146,7 @@ def is_lateral(P: np.ndarray) -> np.ndarray:
 
 
 def view_suffix(P: np.ndarray) -> list[str]:
-    """The view part of ``pair_id``: ``'+2.00'`` for a lateral view (unchanged SPEC format),
+    """The view part of ``pair_id``: ``'+2.00'`` for a lateral view (unchanged contract format),
     else the label, e.g. ``'z=+0.50'``.
 
     >>> view_suffix(np.array([[0, -0.5, 0, 0, 0, 0], [0, 0, 1, 0, 0, 0.0]]))

@@ -1,4 +1,4 @@
-"""Rater ids (SPEC section 5, ``ratings.csv`` column ``rater_id``): their form and the
+"""Rater ids (docs/FORMATS.md §5, ``ratings.csv`` column ``rater_id``): their form and the
 prefix reserved for simulated raters, shared by the rater app, the simulator and analysis.
 
 >>> check_rater_name("ann.b")

@@ -1,4 +1,4 @@
-"""The scene folder (SPEC section 2): ``scene.json`` + ``images.csv`` + image files.
+"""The scene folder (docs/FORMATS.md §2): ``scene.json`` + ``images.csv`` + image files.
 
 :func:`load_scene` reads and validates a scene into typed objects; every problem raises
 :class:`~data_schema.errors.InputError` naming the file and the field, e.g.
@@ -64,7 +64,7 @@ FTHETA_REFERENCE_POLYS = ("PIXELDIST_TO_ANGLE", "ANGLE_TO_PIXELDIST")
 
 @dataclass(frozen=True)
 class CameraCalib:
-    """A camera: ``T_sensor_rig: (4, 4)`` and its validated ``model`` dict (SPEC section 2)."""
+    """A camera: ``T_sensor_rig: (4, 4)`` and its validated ``model`` dict (docs/FORMATS.md §2)."""
 
     name: str
     T_sensor_rig: np.ndarray
@@ -261,7 +261,7 @@ def _load_images(root: Path, cameras: dict, check_images: bool) -> pd.DataFrame:
 
 
 def load_scene(root: str | os.PathLike, *, check_images: bool = True) -> Scene:
-    """Load and validate the scene folder ``root`` (SPEC section 2).
+    """Load and validate the scene folder ``root`` (docs/FORMATS.md §2).
 
     ``check_images=False`` accepts an ``images.csv`` whose files do not exist yet (a scene
     imported for rendering); path safety is checked either way.
@@ -336,7 +336,7 @@ def _jsonable(x):
 
 
 def save_scene(scene_doc: dict, images: pd.DataFrame, root: str | os.PathLike) -> Path:
-    """Write ``scene_doc`` (the SPEC section 2 dict; numpy arrays allowed) and ``images``.
+    """Write ``scene_doc`` (the docs/FORMATS.md §2 dict; numpy arrays allowed) and ``images``.
 
     ``format`` and ``version`` are filled in when absent. Both files are written atomically.
     Returns ``root``.

@@ -1,4 +1,4 @@
-"""Tabular formats (SPEC sections 3-5): column names, reading with validation, atomic writing.
+"""Tabular formats (docs/FORMATS.md §3-5): column names, reading with validation, atomic writing.
 
 Tables are CSV or Parquet, chosen by the file suffix (``.csv`` / ``.parquet``).
 Writing is atomic: the table goes to a temporary file beside the target and is renamed
@@ -54,29 +54,29 @@ __all__ = [
 
 TABLE_SUFFIXES = (".csv", ".parquet")
 
-#: SPEC section 3: the default smallest shorter box side (pixels) of a usable object crop,
+#: docs/FORMATS.md §3: the default smallest shorter box side (pixels) of a usable object crop,
 #: shared by ``nvrq pairs --min-side`` and ``nvrq stability --min-side``.
 MIN_SIDE_PX = 30
 
-#: SPEC section 2, images.csv
+#: docs/FORMATS.md §2, images.csv
 IMAGES_COLUMNS = ("camera", "timestamp_us", "source", "y_offset_m", "path")
 
-#: SPEC section 3, fixed columns of a pairs table (scene attributes follow as extra columns).
+#: docs/FORMATS.md §3, fixed columns of a pairs table (scene attributes follow as extra columns).
 PAIRS_COLUMNS = (
     "pair_id", "clip_id", "camera", "track_id", "label_class", "timestamp_us", "y_offset_m",
     "gt_path", "render_path", "gt_x0", "gt_y0", "gt_x1", "gt_y1", "r_x0", "r_y0", "r_x1", "r_y1",
 )
 
-#: SPEC section 5, the pair metadata carried into ratings.csv (attributes follow).
+#: docs/FORMATS.md §5, the pair metadata carried into ratings.csv (attributes follow).
 PAIR_META_COLUMNS = ("clip_id", "camera", "track_id", "label_class", "timestamp_us", "y_offset_m")
 
-#: SPEC section 5, fixed leading columns of ratings.csv.
+#: docs/FORMATS.md §5, fixed leading columns of ratings.csv.
 RATINGS_COLUMNS = ("item_id", "rater_id", "vote", "voted_at", "response_ms", "kind")
 
-#: SPEC section 5, the values of ratings.csv's ``kind`` (and of a study item's kind).
+#: docs/FORMATS.md §5, the values of ratings.csv's ``kind`` (and of a study item's kind).
 ITEM_KINDS = ("test", "gold", "training", "repeat")
 
-#: SPEC section 4, the columns of ``METRICS.timing.csv``.
+#: docs/FORMATS.md §4, the columns of ``METRICS.timing.csv``.
 TIMING_COLUMNS = ("metric", "seconds", "pairs")
 
 
@@ -91,7 +91,7 @@ def timing_path(metrics_path: str | os.PathLike) -> Path:
 
 
 def pair_id(clip_id: str, camera: str, track_id: str, timestamp_us: int, y_offset_m: float) -> str:
-    """SPEC section 3 pair id.
+    """docs/FORMATS.md §3 pair id.
 
     >>> pair_id("clip", "front", "car-1", 100000, 1.0)
     'clip:front:car-1:100000:+1.00'
@@ -207,7 +207,7 @@ def _numeric(df: pd.DataFrame, col: str, where: str, what: str, *, integer: bool
 
 
 def check_pairs(df: pd.DataFrame, *, where: str) -> pd.DataFrame:
-    """SPEC section 3 checks of the columns present: unique non-empty ``pair_id``; integer
+    """docs/FORMATS.md §3 checks of the columns present: unique non-empty ``pair_id``; integer
     ``timestamp_us`` and box corners; finite ``y_offset_m``; ``gt_path``/``render_path``
     inside the scene folder (:func:`check_scene_path`). Returns ``df`` (numbers converted)."""
     _unique_ids(df, "pair_id", where)
@@ -237,7 +237,7 @@ def _outside_scene(paths: pd.Series):
 
 
 def check_metrics(df: pd.DataFrame, *, where: str) -> pd.DataFrame:
-    """SPEC section 4 checks: at least one row; each ``pair_id`` once; numeric metric values."""
+    """docs/FORMATS.md §4 checks: at least one row; each ``pair_id`` once; numeric metric values."""
     if len(df) == 0:
         raise InputError(where, None, "at least one metrics row", "a header only")
     _unique_ids(df, "pair_id", where)
@@ -254,7 +254,7 @@ def check_metrics(df: pd.DataFrame, *, where: str) -> pd.DataFrame:
 
 
 def read_metrics(path) -> pd.DataFrame:
-    """Read a metrics table (SPEC section 4): ``pair_id`` + numeric metric columns."""
+    """Read a metrics table (docs/FORMATS.md §4): ``pair_id`` + numeric metric columns."""
     return read_table(path, required=("pair_id",), what="metrics table", dtype={"pair_id": str})
 
 

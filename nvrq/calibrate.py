@@ -155,7 +155,7 @@ class Calibration:
 def calibrate_tau(pairs: pd.DataFrame, encoder, *, scene_root=None, max_crops: int = 400,
                   max_pairs: int = 20000, seed: int = 0, allow_same_class: bool = False,
                   batch_size: int = 32, progress: bool = True, where: str = "pairs") -> Calibration:
-    """Measure ``encoder``'s noise floor on the GT crops of ``pairs`` (SPEC section 3 table).
+    """Measure ``encoder``'s noise floor on the GT crops of ``pairs`` (docs/FORMATS.md §3 table).
 
     One GT crop per (camera, track, timestamp) is used; at most ``max_crops`` of them
     (uniform sample, ``seed``), then at most ``max_pairs`` unrelated pairs among them.

@@ -4,11 +4,11 @@ Convention:
     Images are handled as RGB ``uint8`` arrays of shape (H, W, 3), channel order R, G, B.
     Files on disk are ordinary RGB image files; OpenCV decodes them as B, G, R, so
     :func:`read_rgb` swaps the channels once right after decoding. A box is
-    ``[x0, y0, x1, y1]`` in inclusive pixel indices (SPEC section 3): the crop is
+    ``[x0, y0, x1, y1]`` in inclusive pixel indices (docs/FORMATS.md §3): the crop is
     ``image[y0:y1 + 1, x0:x1 + 1]``, so the box ``[2, 1, 4, 1]`` is 3 pixels wide and
     1 pixel tall.
 
-Encoder input (SPEC section 4, paper section 5.1): the crop is padded with black to a
+Encoder input (docs/FORMATS.md §4, paper section 5.1): the crop is padded with black to a
 square, content centred (the odd pixel of padding goes to the bottom/right), then
 bicubic-resized (``cv2.INTER_CUBIC``) to the encoder's input size.
 
@@ -104,7 +104,7 @@ def encoder_input(crop: np.ndarray, size: int) -> np.ndarray:
 def resize_to(crop: np.ndarray, height: int, width: int) -> np.ndarray:
     """Bicubic-resize ``crop`` (h, w, C) to (height, width, C) (no-op if already that size).
 
-    Used for pixel metrics: the render crop is brought to the GT crop's size (SPEC section 4).
+    Used for pixel metrics: the render crop is brought to the GT crop's size (docs/FORMATS.md §4).
     """
     if crop.shape[:2] == (height, width):
         return crop

@@ -3,7 +3,7 @@
 Each entry says its direction (``higher_better``), its value range and whether it needs
 an image encoder. ``analyze`` reads directions from here; ``nvrq score`` computes the
 metrics from here. Encoder metrics are *families*: the column ``nvrq:dinov2-small`` is
-the family ``nvrq`` with encoder ``dinov2-small`` (SPEC section 4).
+the family ``nvrq`` with encoder ``dinov2-small`` (docs/FORMATS.md §4).
 
 >>> metric_info("nvrq_ca:dinov2-reg-small").higher_better
 True
@@ -81,7 +81,7 @@ register(MetricInfo("imagenet_drop", False, (-1.0, 1.0), kind="proxy",
 register(MetricInfo("clip_drop", False, (-1.0, 1.0), kind="proxy",
                     description="CLIP zero-shot true-category confidence drop (paper Eq. 10)"))
 
-# Weight-free pixel metrics on raw crops (SPEC section 4; definitions in nvrq/pixel_metrics.py).
+# Weight-free pixel metrics on raw crops (docs/FORMATS.md §4; definitions in nvrq/pixel_metrics.py).
 from nvrq import pixel_metrics as _px  # noqa: E402  (numpy + OpenCV; no torch)
 
 register(MetricInfo("psnr", True, (0.0, float("inf")), fn=_px.psnr,

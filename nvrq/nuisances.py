@@ -1,7 +1,7 @@
 """Nuisances a good object-quality metric should ignore (the stability study, paper Fig. 4).
 
 Each function returns the *other* crop of a GT-vs-perturbed pair; the GT crop itself is
-``image[y0:y1+1, x0:x1+1]`` of the inclusive box ``[x0, y0, x1, y1]`` (SPEC section 3).
+``image[y0:y1+1, x0:x1+1]`` of the inclusive box ``[x0, y0, x1, y1]`` (docs/FORMATS.md §3).
 ``strength`` is in each nuisance's natural unit (see :data:`NUISANCE_STRENGTHS`).
 
 - ``box_jitter``: the box shifted by ``strength`` x its size in a random direction

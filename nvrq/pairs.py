@@ -1,4 +1,4 @@
-"""GT / novel-view box pairs (SPEC section 3; paper sections 3.2 and 5.1).
+"""GT / novel-view box pairs (docs/FORMATS.md §3; paper sections 3.2 and 5.1).
 
 For every camera, frame and render perturbation of a scene, every object box is projected
 into the GT view (the real camera) and into the novel view (the virtual camera moved by the
@@ -266,9 +266,9 @@ def _assemble(scene: Scene, frames_out: list[pd.DataFrame]) -> pd.DataFrame:
 def make_pairs(
     scene: Scene, *, min_side: float = MIN_SIDE_PX, min_area: float = 0, progress: bool = True
 ) -> tuple[pd.DataFrame, PairStats]:
-    """All valid GT/render box pairs of ``scene`` (SPEC section 3).
+    """All valid GT/render box pairs of ``scene`` (docs/FORMATS.md §3).
 
-    Returns the pairs table (columns :data:`PAIRS_OUTPUT_COLUMNS`: the SPEC columns, the
+    Returns the pairs table (columns :data:`PAIRS_OUTPUT_COLUMNS`: the contract columns, the
     five optional perturbation components and the perturbation label; then one column per
     scene attribute, then ``scene_root``) and the :class:`PairStats`. A candidate (camera,
     frame, track, render view) invalid in the GT view is counted under the GT view's

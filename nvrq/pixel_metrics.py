@@ -1,4 +1,4 @@
-"""Weight-free full-reference pixel metrics on raw crops (SPEC section 4).
+"""Weight-free full-reference pixel metrics on raw crops (docs/FORMATS.md §4).
 
 Every function takes ``gt`` and ``render``: uint8 RGB crops of equal shape (H, W, 3) --
 the render crop already bicubic-resized to the GT crop's size -- and returns a float.

@@ -1,6 +1,6 @@
 """Render plans: the virtual camera pose of every (camera, frame, view) a renderer must draw.
 
-For each camera, frame and view (a lateral offset ``y``, paper Eq. 1-2, SPEC section 1, or
+For each camera, frame and view (a lateral offset ``y``, paper Eq. 1-2, docs/FORMATS.md §1, or
 a perturbation ``(dx, dy, dz, roll, pitch, yaw)``, see
 :func:`nvrq.geometry.poses.perturb_T_sensor_rig`)::
 

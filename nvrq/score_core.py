@@ -12,7 +12,7 @@ Every command that compares crops (``nvrq score``, ``calibrate-tau``, ``stabilit
   :func:`decode_schedule` chooses both so that decoding does not stall a CPU encoder.
 - :func:`score_crop_batch` is pure (no files, globals or CLI): it maps one batch to its metric
   columns. Pixel metrics compare the GT crop with the render crop bicubic-resized to the GT
-  crop's size (SPEC section 4); ``nvrq``/``nvrq_ca`` use encoder embeddings, each GT crop
+  crop's size (docs/FORMATS.md §4); ``nvrq``/``nvrq_ca`` use encoder embeddings, each GT crop
   embedded once (paper Eq. 4, 5 in :mod:`nvrq.scoring`).
 - :func:`encoder_inputs`, :func:`run_batched` and :func:`embed_crops` are the lower pieces:
   square-pad + bicubic resize of a crop list, and a model run over it ``batch_size`` at a time.
@@ -115,7 +115,7 @@ class CropBatch:
 
 def encoder_inputs(crops: Sequence[np.ndarray], size: int) -> np.ndarray:
     """Encoder inputs (N, size, size, 3) uint8 of ``crops``: black square pad + bicubic resize
-    (:func:`nvrq.crops.encoder_input`, SPEC section 4)."""
+    (:func:`nvrq.crops.encoder_input`, docs/FORMATS.md §4)."""
     out = np.empty((len(crops), size, size, 3), np.uint8)
     for k, crop in enumerate(crops):
         out[k] = encoder_input(crop, size)
@@ -378,7 +378,7 @@ def iter_crop_batches(pairs: pd.DataFrame, *, scene_root: str | os.PathLike | No
                       where: str = "pairs") -> Iterator[CropBatch]:
     """:class:`CropBatch` es covering every row of ``pairs`` once (see the module docstring).
 
-    ``pairs``: SPEC section 3 columns (:data:`CROP_COLUMNS`; image paths relative to
+    ``pairs``: docs/FORMATS.md §3 columns (:data:`CROP_COLUMNS`; image paths relative to
     ``scene_root`` or the ``scene_root`` column, itself relative to ``base``). A batch holds
     whole GT images up to ``max_pairs`` pairs (more only when one image has more pairs).
     ``background``: decode one thread ahead of the caller; ``decode_threads`` > 1: a batch's

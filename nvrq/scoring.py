@@ -123,7 +123,7 @@ def score_pairs(
     progress: bool = True,
     where: str = "pairs",
 ) -> ScoreResult:
-    """Score every row of ``pairs`` (SPEC section 3 columns; ``scene_root`` column or argument).
+    """Score every row of ``pairs`` (docs/FORMATS.md §3 columns; ``scene_root`` column or argument).
 
     ``metrics``: column names from :func:`resolve_metrics`. ``encoder``: a loaded
     :class:`nvrq.encoders.Encoder`, needed for ``nvrq:*``/``nvrq_ca:*``; ``tau`` for NVRQ-CA.

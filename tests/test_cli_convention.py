@@ -56,7 +56,7 @@ def test_non_square_display_size_is_refused(tmp_path, capsys):
 
 
 def test_min_side_has_one_default():
-    # the two commands read the same constant (30 px, SPEC section 3), no longer 30 and 32
+    # the two commands read the same constant (30 px, docs/FORMATS.md §3), no longer 30 and 32
     p = nvrq_parser()
     assert p.parse_args(["pairs", "s", "--out", "p.csv"]).min_side == MIN_SIDE_PX == 30
     assert p.parse_args(["stability", "p.csv", "--out", "d"]).min_side == MIN_SIDE_PX

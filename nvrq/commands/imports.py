@@ -1,4 +1,4 @@
-"""``nvrq import {nurec,kitti} ...``: turn external data into a scene folder (SPEC section 2)."""
+"""``nvrq import {nurec,kitti} ...``: turn external data into a scene folder (docs/FORMATS.md §2)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""``nvrq pairs SCENE --out PAIRS.{csv,parquet}`` (SPEC section 3); several scenes, or a folder of
+"""``nvrq pairs SCENE --out PAIRS.{csv,parquet}`` (docs/FORMATS.md §3); several scenes, or a folder of
 scene folders, ``--out DATASET/`` (a Parquet dataset partitioned by clip_id, :mod:`nvrq.fleet`)."""
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
-    p = sub.add_parser("pairs", help="GT/novel-view box pairs of a scene (SPEC section 3)",
+    p = sub.add_parser("pairs", help="GT/novel-view box pairs of a scene (docs/FORMATS.md §3)",
                        description="Project every 3D box into the GT view and every novel view; "
                                    "keep the boxes valid in both.")
     p.add_argument("scene", nargs="+", help="scene folder (scene.json + images.csv); several, or a "

@@ -1,4 +1,4 @@
-"""``nvrq score PAIRS --out METRICS.{csv,parquet}`` (SPEC section 4)."""
+"""``nvrq score PAIRS --out METRICS.{csv,parquet}`` (docs/FORMATS.md §4)."""
 
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ __all__ = ["register", "run", "runtime_columns"]
 
 
 def register(sub) -> None:
-    p = sub.add_parser("score", help="NVRQ, NVRQ-CA and pixel metrics per pair (SPEC section 4)",
+    p = sub.add_parser("score", help="NVRQ, NVRQ-CA and pixel metrics per pair (docs/FORMATS.md §4)",
                        description="Score every GT/render crop pair of a pairs table. Writes "
                                    "METRICS and METRICS.timing.csv (metric, seconds, pairs).")
     p.add_argument("pairs", help="pairs table from `nvrq pairs` (.csv or .parquet)")

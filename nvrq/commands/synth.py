@@ -54,7 +54,7 @@ def register(sub) -> None:
     p = sub.add_parser(
         "synth",
         help="write a synthetic driving clip with known degradation",
-        description="Procedural driving clip (scene folder per SPEC section 2) with GT "
+        description="Procedural driving clip (scene folder per docs/FORMATS.md §2) with GT "
         "images, renders at lateral offsets and degradation.csv.",
     )
     p.add_argument("out", help="output scene folder")

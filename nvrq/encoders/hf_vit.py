@@ -36,7 +36,7 @@ def _classes(arch: str):
 
 
 def missing_weights_error(spec, weights) -> InputError:
-    """The one-line error for encoder weights that cannot be found (SPEC section 4)."""
+    """The one-line error for encoder weights that cannot be found (docs/FORMATS.md §4)."""
     where = weights if weights is not None else f"encoder {spec.name}"
     return InputError(
         where, "weights",

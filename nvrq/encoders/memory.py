@@ -5,8 +5,8 @@ glibc serves large blocks (one efficientnet-lite0 activation is ~150 MB at batch
 again. Measured on the 2-core machine (efficientnet-lite0, batch 32, 3 batches): 1.3 M page
 faults and ~2 s of kernel time per 3 batches as shipped, 12-50 k faults and < 0.1 s with
 ``M_MMAP_MAX = 0`` (large blocks come from the heap) and ``M_TRIM_THRESHOLD = INT_MAX`` (the
-heap is not trimmed after each batch); identical embeddings. See
-``../shared/notes/perf-2026-12-01.md`` beside the repository. The cost: the process keeps its peak heap.
+heap is not trimmed after each batch); identical embeddings (re-measure with
+``benchmarks/bench_score.py``). The cost: the process keeps its peak heap.
 
 >>> tune_allocator() in (True, False)
 True

@@ -3,7 +3,7 @@
 Each :class:`EncoderSpec` says where the weights come from (Hugging Face repo id, or a pip
 package), the input size, the normalisation constants, the token layout (how many prefix
 tokens -- class + register -- precede the patch tokens) and the NVRQ-CA ``tau``
-(SPEC section 4). Backends live one per file (``hf_vit``, ``segformer``, ``efficientnet``);
+(docs/FORMATS.md §4). Backends live one per file (``hf_vit``, ``segformer``, ``efficientnet``);
 each provides ``load(spec, weights)`` and ``build_random(spec, overrides)`` returning an
 ``nn.Module`` plus ``embed_tokens(model, pixel_values) -> (B, D)``.
 

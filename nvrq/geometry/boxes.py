@@ -4,7 +4,7 @@ Convention: a box's own frame has x along its length, y along its width, z along
 height, origin at the box centre. Corner ``i`` has signs ``(sx, sy, sz)`` =
 ``CORNER_SIGNS[i]``, i.e. corner = centre + R @ (sx*l/2, sy*w/2, sz*h/2).
 
-Pixel boxes are inclusive integer indices (SPEC section 3):
+Pixel boxes are inclusive integer indices (docs/FORMATS.md §3):
 ``x0 = floor(min u), y0 = floor(min v), x1 = ceil(max u), y1 = ceil(max v)`` and the crop
 is ``image[y0:y1 + 1, x0:x1 + 1]``. Worked number: corners spanning u in [10.2, 49.5]
 give ``x0 = 10, x1 = 50`` and a crop 41 pixels wide.

@@ -256,6 +256,6 @@ def offset_T_sensor_rig(T_sensor_rig: np.ndarray, y_offsets_m: np.ndarray) -> np
 def T_sensor_world(T_rig_world: np.ndarray, T_sensor_rig: np.ndarray) -> np.ndarray:
     """Camera poses in the world, ``T_rig_world @ T_sensor_rig`` (broadcasting ``(..., 4, 4)``).
 
-    The view is rendered with its inverse, ``T_world_sensor`` (SPEC section 1).
+    The view is rendered with its inverse, ``T_world_sensor`` (docs/FORMATS.md §1).
     """
     return np.asarray(T_rig_world, dtype=np.float64) @ np.asarray(T_sensor_rig, dtype=np.float64)

@@ -5,7 +5,7 @@ classifier's softmax probabilities. Positive = the render lost confidence in wha
 crop shows; 0 for an identical render. The GT crop is classified once and shared by every
 render offset of the object.
 
-Crops enter the classifier as the encoders' do (SPEC section 4): black-padded to a square,
+Crops enter the classifier as the encoders' do (docs/FORMATS.md §4): black-padded to a square,
 bicubic-resized to the model's input size, then the model's own normalisation.
 
 Classifiers: ``efficientnet-lite0`` (default; ImageNet weights from the pip package, works

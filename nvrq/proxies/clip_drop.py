@@ -8,7 +8,7 @@ category (``label_class`` -> category map): ``clip_drop = p(GT, c*) - p(render, 
 empty (NaN) for a class mapped to no category.
 
 Crops are black-padded to a square and bicubic-resized to CLIP's input size, then CLIP's
-normalisation (SPEC section 4).
+normalisation (docs/FORMATS.md §4).
 
 Runtimes (``runtime``: ``torch``, ``openvino``, ``onnxruntime`` or ``auto``; fp32 only): the
 image tower up to the projected embedding ``g`` is exported and cached by

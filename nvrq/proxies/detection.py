@@ -12,7 +12,7 @@ detector; confidence ``>= MIN_SCORE`` only):
 Convention:
     Detection boxes ``x0, y0, x1, y1`` are continuous pixel-edge coordinates, the image
     spanning ``[0, W] x [0, H]`` (Ultralytics, torchvision and COCO use this). A pair's
-    render box is inclusive pixel indices (SPEC section 3), so it covers
+    render box is inclusive pixel indices (docs/FORMATS.md §3), so it covers
     ``[r_x0, r_x1 + 1] x [r_y0, r_y1 + 1]``: the box ``[0, 0, 9, 9]`` is the 10 x 10 square
     ``[0, 10] x [0, 10]``.
 
@@ -139,7 +139,7 @@ def detection_confidence(
 ) -> pd.DataFrame:
     """``s_det`` (paper Eq. 7-8) of every pair -> DataFrame ``pair_id, s_det`` (pairs' order).
 
-    ``pairs``: SPEC section 3 columns (``pair_id, label_class, render_path, r_x0..r_y1``).
+    ``pairs``: docs/FORMATS.md §3 columns (``pair_id, label_class, render_path, r_x0..r_y1``).
     ``dets``: a validated DETS table (:func:`validate_detections`). ``coco_map``: lower-cased
     ``label_class`` -> allowed COCO classes (a class absent from the map is an error).
     """

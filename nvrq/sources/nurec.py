@@ -1,4 +1,4 @@
-"""Import a NVIDIA NuRec scene archive (``.usdz``, a zip) as a scene folder (SPEC section 2).
+"""Import a NVIDIA NuRec scene archive (``.usdz``, a zip) as a scene folder (docs/FORMATS.md §2).
 
 Read from the archive (members found by file name, at any depth):
 
@@ -23,7 +23,7 @@ Frames (convention): ``T_rig_worlds`` map rig -> world (NCore's local world).
 ``p_nre = world_to_nre @ p_world``, and the track poses are given in the NRE frame, so the
 importer writes ``T_box_world = inv(world_to_nre) @ T_box_nre``. ``world_to_nre`` may carry
 a uniform scale ``s`` (``R = s * Q``); box dimensions are then divided by ``s``.
-f-theta ``parameters`` become the SPEC model unchanged (same names; the principal point is
+f-theta ``parameters`` become the scene.json model unchanged (same names; the principal point is
 in the same pixel-centre convention).
 
 ``images.csv`` lists the GT image and one render per ``--offsets`` value (or per
@@ -266,7 +266,7 @@ def _camera_frames(frames: dict, uid: str, where: str, tfld: str, rig_ts: np.nda
 
 def _cameras_and_images(rig: dict, traj: dict, where: str, tfld: str, rig_ts: np.ndarray,
                         views: np.ndarray) -> tuple[dict, list]:
-    """SPEC cameras of the trajectory's sequence and the ``images.csv`` rows (GT + one render
+    """scene.json cameras of the trajectory's sequence and the ``images.csv`` rows (GT + one render
     per view, columns ``camera, timestamp_us, source, *PERTURBATION_COLUMNS, path``)."""
     frames = _get(traj, "cameras_frame_timestamps_us", where, tfld)
     calibs = _get(rig, "camera_calibrations", where, "")

@@ -1,6 +1,6 @@
 """Built-in synthetic driving scenes with known degradation (``nvrq synth``).
 
-``generate_scene(out, seed=..., ...)`` writes a SPEC section 2 scene folder plus
+``generate_scene(out, seed=..., ...)`` writes a docs/FORMATS.md §2 scene folder plus
 ``degradation.csv``; :mod:`nvrq.synth.artefacts` exposes the artefact functions.
 """
 

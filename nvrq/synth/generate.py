@@ -1,4 +1,4 @@
-"""``generate_scene``: write a complete synthetic scene folder (SPEC section 2).
+"""``generate_scene``: write a complete synthetic scene folder (docs/FORMATS.md §2).
 
 Output layout::
 
@@ -80,7 +80,7 @@ DEGRADATION_COLUMNS = (
 
 
 def camera_models(size: tuple[int, int]) -> dict[str, dict]:
-    """SPEC camera entries for ``size (W, H)``: 'front' (opencv_pinhole, 60 deg wide, mild
+    """scene.json camera entries for ``size (W, H)``: 'front' (opencv_pinhole, 60 deg wide, mild
     barrel distortion) and 'front_wide' (f-theta, 120 deg wide, image corners beyond
     ``max_angle``). Both mounted 1.5 m high looking forward, pitched down 2 deg."""
     W, H = size
@@ -179,7 +179,7 @@ def _write_png(path: Path, img: np.ndarray) -> None:
 
 
 def scene_document(world, cams: dict, clip_id: str) -> dict:
-    """The SPEC section 2 ``scene.json`` dict of a synthetic ``world`` seen by ``cams``.
+    """The docs/FORMATS.md §2 ``scene.json`` dict of a synthetic ``world`` seen by ``cams``.
 
     Tracks hold the frames where each actor is present (box centres, ``[x, y, z, qx, qy, qz, qw]``).
     """

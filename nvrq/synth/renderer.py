@@ -57,7 +57,7 @@ class VirtualCamera:
 
 
 def virtual_camera(model: dict, *, pixel_budget: float = 1.35) -> VirtualCamera:
-    """Build the virtual pinhole for a SPEC camera ``model`` dict.
+    """Build the virtual pinhole for a scene.json camera ``model`` dict.
 
     The virtual focal length is the real one at the image centre, reduced when needed so
     the virtual image covers every visible ray with at most ``pixel_budget * W * H`` pixels.

@@ -1,4 +1,4 @@
-"""A small synthetic ``ratings.csv`` for the analysis tests (SPEC section 5 columns).
+"""A small synthetic ``ratings.csv`` for the analysis tests (docs/FORMATS.md §5 columns).
 
 Quality falls with |y_offset_m|; GVF follows it through simulated raters; the metric
 columns are noisy functions of the same quality (``nvrq``/``nvrq_ca`` higher-better,

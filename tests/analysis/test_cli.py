@@ -1,4 +1,4 @@
-"""``analyze`` end to end on a synthetic ratings.csv, and its bad-input behaviour (SPEC 6, 7)."""
+"""``analyze`` end to end on a synthetic ratings.csv, and its bad-input behaviour (docs/FORMATS.md §6, §7)."""
 
 import re
 import sys

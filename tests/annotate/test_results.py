@@ -1,4 +1,4 @@
-"""Export (SPEC section 5), GVF, Krippendorff's alpha, simulate, and the CLI shell."""
+"""Export (docs/FORMATS.md §5), GVF, Krippendorff's alpha, simulate, and the CLI shell."""
 
 from __future__ import annotations
 

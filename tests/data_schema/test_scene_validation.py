@@ -1,7 +1,7 @@
 """Every validation error of the scene folder (issue 2 item 2): exit status 2 and a one-line message.
 
 Each case starts from a valid scene and breaks one thing; the expected message fragments
-are the ones SPEC section 7 asks for (file, field, what was expected).
+are the ones docs/FORMATS.md §7 asks for (file, field, what was expected).
 """
 
 from __future__ import annotations

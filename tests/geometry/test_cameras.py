@@ -209,7 +209,7 @@ def test_points_past_the_fold_are_not_projectable_although_opencv_maps_them_insi
 
 
 def test_ftheta_wider_than_180_degrees_still_needs_positive_depth():
-    # max_angle = 1.75 rad (200 deg FOV), but SPEC section 3 requires positive depth
+    # max_angle = 1.75 rad (200 deg FOV), but docs/FORMATS.md §3 requires positive depth
     cam = CAMERAS["ftheta_wide"]
     theta = np.array([1.5, 1.55, 1.6, 1.7])  # the last two are behind the image plane
     pts = np.stack([np.sin(theta), np.zeros(4), np.cos(theta)], axis=1)

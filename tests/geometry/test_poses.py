@@ -21,7 +21,7 @@ rng = np.random.default_rng(7)
 
 
 def test_quaternion_matrix_match_scipy():
-    q = Rotation.random(500, random_state=1).as_quat()  # scipy: [x, y, z, w] like SPEC
+    q = Rotation.random(500, random_state=1).as_quat()  # scipy: [x, y, z, w] like docs/FORMATS.md §1
     np.testing.assert_allclose(quat_to_rotmat(q), Rotation.from_quat(q).as_matrix(), atol=1e-12)
     back = rotmat_to_quat(Rotation.from_quat(q).as_matrix())
     # same rotation (q and -q are equal): |<q, back>| = 1

@@ -21,7 +21,7 @@ CLIP_MEAN, CLIP_STD = [0.48, 0.45, 0.40], [0.26, 0.26, 0.27]
 def cat_scene(tmp_path):
     """GT = chelsea; renders: identical copy (+0.00 m) and the cat box blacked out (+1.00 m).
 
-    Returns pairs (SPEC section 3 columns + scene_root): row 0 identical, row 1 blacked out.
+    Returns pairs (docs/FORMATS.md §3 columns + scene_root): row 0 identical, row 1 blacked out.
     """
     from skimage import data
 
@@ -48,7 +48,7 @@ def cat_scene(tmp_path):
 
 
 def crop_input(image: np.ndarray, box, size: int) -> np.ndarray:
-    """Independent encoder input: black square pad (content centred) + bicubic resize (SPEC section 4), re-implemented here."""
+    """Independent encoder input: black square pad (content centred) + bicubic resize (docs/FORMATS.md §4), re-implemented here."""
     x0, y0, x1, y1 = box
     crop = image[y0 : y1 + 1, x0 : x1 + 1]
     h, w = crop.shape[:2]

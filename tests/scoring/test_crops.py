@@ -32,7 +32,7 @@ def test_read_rgb_missing_file_is_input_error(tmp_path):
 
 def test_cut_box_is_inclusive():
     img = np.arange(10 * 8 * 3).reshape(10, 8, 3)
-    crop = cut_box(img, (2, 3, 4, 7))  # x0=2..4 (3 columns), y0=3..7 (5 rows), SPEC section 3
+    crop = cut_box(img, (2, 3, 4, 7))  # x0=2..4 (3 columns), y0=3..7 (5 rows), docs/FORMATS.md §3
     assert crop.shape == (5, 3, 3)
     assert crop[0, 0, 0] == img[3, 2, 0] and crop[-1, -1, 0] == img[7, 4, 0]
 

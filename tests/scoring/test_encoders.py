@@ -83,7 +83,7 @@ def test_siglip_has_no_prefix_and_segformer_pools_feature_map():
 
 
 def test_registry_constants():
-    # taus from SPEC section 4 / the paper
+    # taus from docs/FORMATS.md §4 / the paper
     assert {n: ENCODERS[n].tau for n in ["dinov2-small", "dinov2-reg-base", "clip-b16",
                                          "siglip-b16", "segformer-b0"]} == {
         "dinov2-small": 0.65, "dinov2-reg-base": 0.65, "clip-b16": 0.70, "siglip-b16": 0.55,

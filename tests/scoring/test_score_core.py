@@ -1,7 +1,7 @@
 """The one crop-scoring core (nvrq.score_core) against an independent per-pair computation.
 
 Reference per pair: read both image files with Pillow, slice the inclusive boxes with numpy,
-bicubic-resize the render crop to the GT crop's size (SPEC section 4; cv2.INTER_CUBIC is the
+bicubic-resize the render crop to the GT crop's size (docs/FORMATS.md §4; cv2.INTER_CUBIC is the
 resampler the spec names), call the registry's metric function; for NVRQ pad each crop to a
 black square and resize it here, embed GT and render crops one at a time, and take
 ``(cos + 1) / 2`` (paper Eq. 4) with SciPy's cosine distance and Eq. 5 written out below.

@@ -1,4 +1,4 @@
-"""Camera models: one class per ``model['type']`` of SPEC section 2, one registry.
+"""Camera models: one class per ``model['type']`` of docs/FORMATS.md §2, one registry.
 
 ``camera_from_model(model)`` builds the camera of a scene's model dict; every camera has
 ``resolution -> (W, H)``, ``project(points_cam (..., 3)) -> (uv (..., 2), projectable (...,))``,

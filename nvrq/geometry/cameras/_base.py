@@ -1,6 +1,6 @@
 """Camera-model base class, registry and parameter validation.
 
-Convention (SPEC section 1): camera frame x right, y down, z forward; pixels u right,
+Convention (docs/FORMATS.md §1): camera frame x right, y down, z forward; pixels u right,
 v down, the centre of pixel (column i, row j) at (u=i, v=j). A pixel centre is inside
 the image iff ``0 <= u <= W-1`` and ``0 <= v <= H-1``.
 
@@ -39,7 +39,7 @@ def register_camera_model(cls: type[CameraModel]) -> type[CameraModel]:
 def camera_from_model(
     model: Mapping[str, Any], *, where: str = "camera model", field_prefix: str | None = None
 ) -> CameraModel:
-    """Build the camera of a SPEC model dict (``{'type': ..., 'resolution': [W, H], ...}``).
+    """Build the camera of a scene.json camera model dict (``{'type': ..., 'resolution': [W, H], ...}``).
 
     Parameter names, lengths and defaults are checked by the scene format's one validator,
     :func:`data_schema.scene.validate_camera_model`; the camera class adds only checks on

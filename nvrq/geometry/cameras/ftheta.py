@@ -9,7 +9,7 @@ and back: ``p = inv(A) @ ([u, v] - pp)``, ``theta = bw(|p|)`` (pixeldist_to_angl
 The polynomial named by ``reference_poly`` is exact; the other direction is its numerical
 inverse (Newton), as in NCore. Polynomials are ascending (``c0 + c1 t + ... + c5 t**5``).
 
-Differences from NCore: ``principal_point`` stays in SPEC's pixel-centre convention
+Differences from NCore: ``principal_point`` stays in docs/FORMATS.md §1's pixel-centre convention
 (NCore adds 0.5 internally and returns corner-origin coordinates); validity is split into
 ``projectable`` (``z > 0`` and ``theta < max_valid_angle``) and :meth:`in_image`.
 ``max_valid_angle = min(max_angle, pi/2, end of the reference polynomial's increasing
