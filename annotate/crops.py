@@ -1,8 +1,8 @@
 """Display crops of a study: cut once, padded to a shared square, resized to display size.
 
-Convention: boxes are inclusive pixel indices ``[x0, y0, x1, y1]`` (docs/FORMATS.md §3): the
-crop is ``image[y0:y1+1, x0:x1+1]``. Images stay BGR uint8 from ``cv2.imread`` to
-``cv2.imwrite`` (both use BGR), so colours are saved unchanged.
+Boxes are cut with :func:`nvrq.crops.cut_box` (inclusive pixel indices, docs/FORMATS.md §3)
+and padded with :func:`nvrq.crops.pad_to_square`, the scorer's own functions. Images stay BGR
+uint8 from ``cv2.imread`` to ``cv2.imwrite`` (both use BGR), so colours are saved unchanged.
 
 Both crops of an item are centred on black squares of the *same* side (the largest side of
 the two crops), then resized to ``size`` x ``size``; so the object keeps its relative scale
@@ -25,8 +25,9 @@ import cv2
 import numpy as np
 
 from data_schema.errors import InputError
+from nvrq.crops import pad_to_square
 
-__all__ = ["cut", "pad_pair", "pad_to_square", "broken_render", "read_bgr", "write_image"]
+__all__ = ["pad_pair", "broken_render", "read_bgr", "write_image"]
 
 
 def read_bgr(path: Path, *, where: str, field: str) -> np.ndarray:
@@ -39,29 +40,11 @@ def read_bgr(path: Path, *, where: str, field: str) -> np.ndarray:
     return img
 
 
-def cut(img: np.ndarray, box, *, where: str, field: str) -> np.ndarray:
-    """``img[y0:y1+1, x0:x1+1]`` for an inclusive box inside the image; (h, w, 3)."""
-    x0, y0, x1, y1 = (int(v) for v in box)
-    h, w = img.shape[:2]
-    if not (0 <= x0 <= x1 < w and 0 <= y0 <= y1 < h):
-        raise InputError(where, field, f"a box inside the {w}x{h} image", [x0, y0, x1, y1])
-    return img[y0:y1 + 1, x0:x1 + 1]
-
-
-def pad_to_square(crop: np.ndarray, side: int) -> np.ndarray:
-    """Centre ``crop`` (h, w, 3) on a black (side, side, 3) canvas (side >= h, w)."""
-    h, w = crop.shape[:2]
-    out = np.zeros((side, side, crop.shape[2]), dtype=crop.dtype)
-    top, left = (side - h) // 2, (side - w) // 2
-    out[top:top + h, left:left + w] = crop
-    return out
-
-
 def pad_pair(ref: np.ndarray, ren: np.ndarray, *, size: int) -> tuple[np.ndarray, np.ndarray]:
     """Both crops on a common black square, resized to (size, size, 3) each."""
     side = max(ref.shape[0], ref.shape[1], ren.shape[0], ren.shape[1])
     interp = cv2.INTER_AREA if side > size else cv2.INTER_CUBIC
-    return tuple(cv2.resize(pad_to_square(c, side), (size, size), interpolation=interp)
+    return tuple(cv2.resize(pad_to_square(c, side=side), (size, size), interpolation=interp)
                  for c in (ref, ren))
 
 

@@ -55,6 +55,7 @@ from data_schema.tables import (
     read_metrics,
     read_table,
 )
+from nvrq.crops import cut_box
 
 __all__ = ["build_study", "load_study", "Study", "StudyChanged", "crop_path", "unplaced_votes"]
 
@@ -246,12 +247,12 @@ def _cut_crops(rows, pairs: pd.DataFrame, tmp: Path, *, rng, opts: dict, where: 
     for k, (r, kind, key, item_id, expected) in enumerate(
             tqdm(rows, desc="cutting crops", unit="item", disable=not progress)):
         line = int(r["_row"])
-        gt = _crops.cut(image(r, "gt_path"), [r[c] for c in GT_BOX_COLUMNS],
+        gt = cut_box(image(r, "gt_path"), [r[c] for c in GT_BOX_COLUMNS],
                         where=where, field=f"line {line}: gt box")
         if kind == "gold":
             ren = gt.copy() if expected == 1 else _crops.broken_render(gt, rng=rng)
         else:
-            ren = _crops.cut(image(r, "render_path"), [r[c] for c in RENDER_BOX_COLUMNS],
+            ren = cut_box(image(r, "render_path"), [r[c] for c in RENDER_BOX_COLUMNS],
                              where=where, field=f"line {line}: render box")
         a, b = _crops.pad_pair(gt, ren, size=size)
         ref_file, ren_file = f"{ids[2 * k]}.{fmt}", f"{ids[2 * k + 1]}.{fmt}"

@@ -58,29 +58,39 @@ def read_rgb(path: str | os.PathLike) -> np.ndarray:
     return image
 
 
-def cut_box(image: np.ndarray, box: Sequence[int], *, where: str = "box") -> np.ndarray:
+def cut_box(image: np.ndarray, box: Sequence[int], *, where: str = "box",
+            field: str | None = None) -> np.ndarray:
     """The inclusive crop ``image[y0:y1+1, x0:x1+1]`` (a view) of ``image`` (H, W, C).
 
     ``box`` is ``[x0, y0, x1, y1]`` (inclusive). A box that is empty or reaches outside the
-    image raises :class:`InputError` (``where`` names it in the message).
+    image raises :class:`InputError` naming ``where`` and ``field`` (default
+    ``"box [x0, y0, x1, y1]"``).
     """
     x0, y0, x1, y1 = (int(v) for v in box)
     h, w = image.shape[:2]
     if not (0 <= x0 <= x1 < w and 0 <= y0 <= y1 < h):
-        raise InputError(where, "box [x0, y0, x1, y1]",
+        raise InputError(where, field or "box [x0, y0, x1, y1]",
                          f"0 <= x0 <= x1 < {w} and 0 <= y0 <= y1 < {h} (image W x H = {w} x {h})",
                          [x0, y0, x1, y1])
     return image[y0:y1 + 1, x0:x1 + 1]
 
 
-def pad_to_square(crop: np.ndarray) -> np.ndarray:
-    """Pad ``crop`` (H, W, C) with zeros (black) to (S, S, C), S = max(H, W), content centred.
+def pad_to_square(crop: np.ndarray, *, side: int | None = None) -> np.ndarray:
+    """Centre ``crop`` (H, W, C) on a black (zero) square canvas (S, S, C).
 
-    The content starts at row ``(S - H) // 2`` and column ``(S - W) // 2``.
+    ``side``: S, at least ``max(H, W)``; default ``max(H, W)`` (then a square crop is returned
+    as it is). The content starts at row ``(S - H) // 2`` and column ``(S - W) // 2`` (the odd
+    pixel of padding goes to the bottom/right).
+
+    >>> import numpy as np
+    >>> pad_to_square(np.ones((2, 2, 1), np.uint8), side=4)[:, :, 0].tolist()
+    [[0, 0, 0, 0], [0, 1, 1, 0], [0, 1, 1, 0], [0, 0, 0, 0]]
     """
     h, w = crop.shape[:2]
-    s = max(h, w)
-    if h == w:
+    s = max(h, w) if side is None else int(side)
+    if s < max(h, w):
+        raise InputError("side", None, f"at least the crop's longer side {max(h, w)}", s)
+    if h == w == s:
         return crop
     out = np.zeros((s, s) + crop.shape[2:], dtype=crop.dtype)
     top, left = (s - h) // 2, (s - w) // 2

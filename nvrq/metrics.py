@@ -16,7 +16,12 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-__all__ = ["MetricInfo", "REGISTRY", "register", "metric_info", "split_column", "direction"]
+__all__ = ["MetricInfo", "REGISTRY", "register", "metric_info", "split_column", "direction",
+           "DEFAULT_METRICS"]
+
+#: the metrics ``nvrq score`` computes when ``--metrics`` is not given (``nvrq``/``nvrq_ca`` on
+#: the chosen encoder)
+DEFAULT_METRICS = ("psnr", "ssim", "nvrq", "nvrq_ca")
 
 
 @dataclass(frozen=True)

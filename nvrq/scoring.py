@@ -113,7 +113,7 @@ def timing_table(metrics: Sequence[str], times: dict, *, n_pairs: int, wall: flo
 def score_pairs(
     pairs: pd.DataFrame,
     *,
-    metrics: Sequence[str] = ("psnr", "ssim", "nvrq", "nvrq_ca"),
+    metrics: Sequence[str],
     encoder=None,
     tau: float | None = None,
     scene_root: str | os.PathLike | None = None,

@@ -21,7 +21,8 @@ from nvrq.score_core import check_tau, encoder_columns, needs_tau
 from nvrq.scoring import resolve_metrics
 
 __all__ = ["add_model_arguments", "add_encoder_arguments", "prepare_device", "encoder_for_metrics",
-           "load_encoder_and_tau", "add_runtime_arguments", "metric_columns", "encoder_for_columns"]
+           "load_encoder_and_tau", "add_runtime_arguments", "add_cache_dir_argument", "metric_columns",
+           "encoder_for_columns"]
 
 
 def add_model_arguments(p, *, batch_help: str = "crops per forward pass (default 32)") -> None:
@@ -45,15 +46,22 @@ def add_encoder_arguments(p, *, tau: bool = True) -> None:
     add_runtime_arguments(p)
 
 
-def add_runtime_arguments(p) -> None:
-    """``--runtime``, ``--precision``, ``--min-spearman``, ``--cache-dir`` (nvrq.encoders.runtimes)."""
+def add_runtime_arguments(p, *, precision: bool = True) -> None:
+    """``--runtime``, ``--precision``, ``--min-spearman``, ``--cache-dir`` (nvrq.encoders.runtimes);
+    fp32 models (the proxies' classifiers) take ``precision=False``: no precision options."""
     p.add_argument("--runtime", default="auto", choices=RUNTIMES,
-                   help="encoder runtime (default auto: on CPU the fastest runtime identical to torch "
-                        "fp32, else torch)")
-    p.add_argument("--precision", default="fp32", choices=PRECISIONS,
-                   help="encoder precision (default fp32; bf16/int8 need `nvrq calibrate-runtime` first)")
-    p.add_argument("--min-spearman", type=float, default=None,
-                   help="NVRQ Spearman a reduced precision's drift check must reach (default 0.999)")
+                   help="model runtime (default auto: on CPU the fastest exported runtime identical "
+                        "to torch fp32, else torch)")
+    if precision:
+        p.add_argument("--precision", default="fp32", choices=PRECISIONS,
+                       help="encoder precision (default fp32; bf16/int8 need `nvrq calibrate-runtime` first)")
+        p.add_argument("--min-spearman", type=float, default=None,
+                       help="NVRQ Spearman a reduced precision's drift check must reach (default 0.999)")
+    add_cache_dir_argument(p)
+
+
+def add_cache_dir_argument(p) -> None:
+    """``--cache-dir``: where exported models and drift checks are kept (nvrq.encoders.runtimes)."""
     p.add_argument("--cache-dir", default=None,
                    help="exported-model cache (default $NVRQ_CACHE, else ~/.cache/nvrq)")
 

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from data_schema.errors import InputError
 from data_schema.tables import read_table
+from nvrq.commands._encoder import add_cache_dir_argument
 from nvrq.encoders import DEFAULT_ENCODER, build_random, get_spec, load_encoder
 from nvrq.encoders.drift import DEFAULT_MIN_SPEARMAN, check_runtime, pair_inputs, write_record
 from nvrq.encoders.runtimes import PRECISIONS
@@ -35,7 +36,7 @@ def register(sub) -> None:
     p.add_argument("--seed", type=int, default=0, help="sampling seed (default 0)")
     p.add_argument("--min-spearman", type=float, default=None,
                    help="pass threshold reported here (default 0.999; `score` applies its own)")
-    p.add_argument("--cache-dir", default=None, help="export cache (default $NVRQ_CACHE or ~/.cache/nvrq)")
+    add_cache_dir_argument(p)
     p.add_argument("--random-weights", action="store_true", help="random weights (seed 0; benchmarks and tests without checkpoints)")
     p.set_defaults(func=run)
 

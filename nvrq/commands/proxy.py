@@ -9,8 +9,7 @@ from __future__ import annotations
 
 from data_schema.errors import InputError
 from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS, read_table, write_table
-from nvrq.commands._encoder import add_model_arguments, prepare_device
-from nvrq.encoders.runtimes import RUNTIMES
+from nvrq.commands._encoder import add_model_arguments, add_runtime_arguments, prepare_device
 from nvrq.engines import add_engine_args
 from nvrq.engines.cli import check_engine_args, run_ray
 from nvrq.engines.scorers import ClipScorer, ImagenetScorer
@@ -47,15 +46,6 @@ def _model_opts(p) -> None:
     )
     add_model_arguments(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-
-
-def _runtime_opts(p) -> None:
-    """``--runtime``, ``--cache-dir`` of the proxy models (fp32; nvrq.encoders.runtimes)."""
-    p.add_argument("--runtime", default="auto", choices=list(RUNTIMES),
-                   help="model runtime (default auto: on CPU the fastest exported runtime identical "
-                        "to torch fp32, else torch; --device cuda runs torch)")
-    p.add_argument("--cache-dir", default=None,
-                   help="exported-model cache (default $NVRQ_CACHE, else ~/.cache/nvrq)")
 
 
 def _drop_parser(psub, name: str, help_text: str):
@@ -106,7 +96,7 @@ def register(sub) -> None:
     i.add_argument(
         "--weights", default=None, help="a .pth for efficientnet-lite0, or the classifier folder"
     )
-    _runtime_opts(i)
+    add_runtime_arguments(i, precision=False)
     add_engine_args(i)
     i.set_defaults(func=run_imagenet)
 
@@ -114,7 +104,7 @@ def register(sub) -> None:
     c.add_argument(
         "--clip", required=True, help="local Hugging Face CLIP folder (CLIPModel + tokenizer)"
     )
-    _runtime_opts(c)
+    add_runtime_arguments(c, precision=False)
     add_engine_args(c)
     c.set_defaults(func=run_clip)
 

@@ -18,7 +18,7 @@ from nvrq.commands._encoder import (
 from nvrq.engines import add_engine_args
 from nvrq.engines.cli import check_engine_args, run_ray
 from nvrq.engines.scorers import MetricScorer
-from nvrq.metrics import split_column
+from nvrq.metrics import DEFAULT_METRICS, split_column
 from nvrq.score_core import needs_tau
 from nvrq.scoring import REQUIRED_COLUMNS, score_pairs
 
@@ -31,8 +31,8 @@ def register(sub) -> None:
                                    "METRICS and METRICS.timing.csv (metric, seconds, pairs).")
     p.add_argument("pairs", help="pairs table from `nvrq pairs` (.csv or .parquet)")
     p.add_argument("--out", required=True, help="output metrics table (.csv or .parquet)")
-    p.add_argument("--metrics", default="psnr,ssim,nvrq,nvrq_ca",
-                   help="comma-separated metrics (default psnr,ssim,nvrq,nvrq_ca; also ms_ssim, "
+    p.add_argument("--metrics", default=",".join(DEFAULT_METRICS),
+                   help=f"comma-separated metrics (default {','.join(DEFAULT_METRICS)}; also ms_ssim, "
                         "gmsd, mse, mae)")
     add_encoder_arguments(p)
     p.add_argument("--scene", default=None, help="scene folder the image paths are relative to "
