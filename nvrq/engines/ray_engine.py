@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import logging
 import pickle
+import re
 import socket
 import sys
 import time
@@ -39,7 +40,7 @@ from nvrq.engines.scorers import timing_per_column
 from nvrq.score_core import iter_crop_batches, score_crop_batch
 from nvrq.scoring import REQUIRED_COLUMNS
 
-__all__ = ["RayJob", "connect", "check_address", "score_on_ray"]
+__all__ = ["RayJob", "connect", "check_address", "score_on_ray", "actor_pool"]
 
 
 @dataclass(frozen=True)
@@ -139,6 +140,23 @@ def _finish(payload: bytes, scorer, model) -> bytes:
     return pickle.dumps((table, timing_per_column(scorer, timings)))
 
 
+def actor_pool(ray, n: int) -> dict:
+    """``map_batches`` keywords for a fixed pool of ``n`` actors, in the spelling the installed
+    Ray does not deprecate: ``compute=ActorPoolStrategy(size=n)`` from Ray 2.51 (which deprecates
+    ``concurrency=``), ``concurrency=n`` in Ray 2.9 to 2.50 (which deprecate ``compute=``).
+
+    >>> from types import SimpleNamespace as NS
+    >>> actor_pool(NS(__version__="2.9.3"), 3)
+    {'concurrency': 3}
+    """
+    major, minor = (int(re.match(r"\d+", p).group()) for p in ray.__version__.split(".")[:2])
+    if (major, minor) < (2, 51):
+        return {"concurrency": n}
+    from ray.data import ActorPoolStrategy
+
+    return {"compute": ActorPoolStrategy(size=n)}
+
+
 def _pipeline(ray, job: RayJob, todo: list):
     """The Ray Data stream of finished shards: ``{"shard", "payload"}`` rows."""
     import ray.data
@@ -162,7 +180,7 @@ def _pipeline(ray, job: RayJob, todo: list):
     # actors reserve half a CPU (or a GPU), so decode tasks run beside them and are not fused in
     stream = stream.map_batches(
         _ModelActor, fn_constructor_kwargs={"scorer": scorer, "threads": threads}, batch_size=1,
-        concurrency=n, num_gpus=1 if cuda else 0, num_cpus=1 if cuda else 0.5)
+        **actor_pool(ray, n), num_gpus=1 if cuda else 0, num_cpus=1 if cuda else 0.5)
     return stream
 
 
