@@ -5,7 +5,8 @@
   one panel per metric; mean +/- 1 std per offset; the y axis of a
   lower-is-better metric is inverted and marked with a down arrow, so "better" is up in
   every panel.
-- :func:`speed_accuracy_plot` — pairs/s (log x) against SRCC with the target; Pareto front.
+- :func:`speed_accuracy_plot` — pairs/s (log x) against SRCC with the target; Pareto front;
+  point labels placed by :func:`place_labels` so that none overlap.
 - :func:`roc_plot` — ROC curves of the best metrics against ``majority_good``.
 - :func:`target_histogram` — the distribution of GVF (or the target).
 """
@@ -27,6 +28,7 @@ __all__ = [
     "roc_plot",
     "target_histogram",
     "pareto_front",
+    "place_labels",
     "save_figure",
 ]
 
@@ -112,22 +114,146 @@ def speed_accuracy_plot(summary: pd.DataFrame, timing: pd.DataFrame, *, target_l
     ax = fig.subplots()
     sp, acc = t["pairs_per_s"].to_numpy(float), t["srcc"].to_numpy(float)
     ax.scatter(sp, acc, color="C0", zorder=3)
-    placed: dict[tuple[float, float], int] = {}  # metrics at one point get stacked labels
-    for s, a, name in zip(sp, acc, variant_labels(t), strict=True):
-        key = (round(float(np.log10(s)), 2), round(float(a), 3))
-        n = placed[key] = placed.get(key, -1) + 1
-        ax.annotate(name, (s, a), textcoords="offset points", xytext=(4, 3 - 9 * n), fontsize=7)
     front = pareto_front(sp, acc)
     fs = sp[front][::-1]
     fa = acc[front][::-1]
     ax.step(fs, fa, where="pre", color="C3", linestyle="--", label="Pareto front")
     ax.set_xscale("log")
     _log_ticks(ax.xaxis, sp)
+    ax.margins(y=0.12)  # room for labels above and below the outermost points
     ax.set_xlabel("speed (pairs/s, log scale)")
     ax.set_ylabel(f"|SRCC| with {target_label}")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3, which="both")
+    place_labels(ax, np.column_stack([sp, acc]), variant_labels(t), fontsize=7)
     return fig
+
+
+def place_labels(ax, points: np.ndarray, texts: list[str], *, fontsize: float = 7,
+                 marker_px: float = 5.0, max_rings: int = 16) -> list:
+    """Label each point of ``points`` (N, 2) (data coordinates of ``ax``) so that no two
+    labels overlap, and none covers a point or the legend or leaves the axes.
+
+    A deterministic repel in display space: the figure is drawn once (its layout is then
+    kept), each label is measured with the renderer, and the labels are placed one by one,
+    points in order of falling y then rising x, at the first free candidate spot: right of
+    the point, then left of it, then one, two, ... label heights above and below
+    (``max_rings`` rings). A spot is free when the label overlaps no placed label, no marker
+    (``marker_px``: marker radius in pixels), no legend and stays in the axes; among free
+    spots the first whose leader line crosses no other label wins. A label placed away from
+    its point gets a thin leader line from its nearest edge. Offsets are kept in points, so
+    they scale with the saving dpi. When no spot is free the label takes the candidate that
+    overlaps least.
+
+    Returns the label :class:`~matplotlib.text.Text` objects, in the order of ``points``
+    (leader lines are separate annotations without text).
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.transforms import offset_copy
+
+    fig = ax.get_figure()
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()  # the constrained layout fixes the axes before anything is measured
+    fig.set_layout_engine("none")  # keep that layout: the labels are placed in it
+    renderer = canvas.get_renderer()
+    xy = ax.transData.transform(np.asarray(points, dtype=np.float64))  # (N, 2) pixels
+    area = ax.get_window_extent(renderer)
+    sizes = []
+    for text in texts:
+        probe = ax.annotate(text, (0, 0), xycoords="axes pixels", fontsize=fontsize)
+        box = probe.get_window_extent(renderer)
+        sizes.append((box.width, box.height))
+        probe.remove()
+    pad = marker_px + 1.0
+    avoid = [np.array([x - pad, y - pad, x + pad, y + pad]) for x, y in xy]  # the markers
+    legend = ax.get_legend()
+    if legend is not None:
+        b = legend.get_window_extent(renderer)
+        avoid.append(np.array([b.x0, b.y0, b.x1, b.y1]))
+    boxes: dict[int, np.ndarray] = {}
+    lines: dict[int, np.ndarray] = {}  # (x0, y0, x1, y1) pixels, point to label edge
+    offsets = np.zeros((len(texts), 2))
+    for i in np.lexsort((xy[:, 0], -xy[:, 1])):
+        w, h = sizes[i]
+        best, best_cost = None, (np.inf, np.inf)
+        for dx, dy in _candidates(w, h, pad, max_rings):
+            box = np.array([xy[i, 0] + dx, xy[i, 1] + dy, xy[i, 0] + dx + w, xy[i, 1] + dy + h])
+            line = _leader(xy[i], box, w, h, dx, dy, pad)
+            overlap = (sum(_overlap(box, o, 1.0) for o in boxes.values())
+                       + sum(_overlap(box, o, 0.0) for o in avoid) + _outside(box, area, 1.0))
+            crossings = sum(_crosses(ln, box) for ln in lines.values())
+            if line is not None:
+                crossings += sum(_crosses(line, o) for o in boxes.values())
+            cost = (overlap, crossings)
+            if cost < best_cost:
+                best, best_cost = (dx, dy, box, line), cost
+            if cost == (0.0, 0):
+                break
+        offsets[i] = best[:2]
+        boxes[i] = best[2]
+        if best[3] is not None:
+            lines[i] = best[3]
+    out = []
+    to_pt = 72.0 / fig.dpi
+    style = {"arrowstyle": "-", "color": "0.5", "lw": 0.6, "shrinkA": 0, "shrinkB": marker_px}
+    for i, ((x, y), (dx, dy), text) in enumerate(zip(points, offsets, texts, strict=True)):
+        at = offset_copy(ax.transData, fig=fig, x=dx * to_pt, y=dy * to_pt, units="points")
+        out.append(ax.text(x, y, text, transform=at, ha="left", va="bottom", fontsize=fontsize))
+        if i in lines:
+            ex, ey = lines[i][2:] - xy[i]
+            ax.annotate("", (x, y), xytext=(ex * to_pt, ey * to_pt), textcoords="offset points",
+                        arrowprops=style)
+    return out
+
+
+def _candidates(w: float, h: float, pad: float, rings: int):
+    """Offsets (pixels, lower-left corner of the label from its point), nearest first."""
+    for k in range(rings + 1):
+        for dy in ((-h / 2,) if k == 0 else (-h / 2 + k * (h + 2), -h / 2 - k * (h + 2))):
+            yield pad, dy
+            yield -pad - w, dy
+
+
+def _leader(p: np.ndarray, box: np.ndarray, w, h, dx, dy, pad) -> np.ndarray | None:
+    """The leader line (x0, y0, x1, y1) from point ``p`` to the nearest point of ``box``, or
+    ``None`` when the label sits beside its point (ring 0)."""
+    if abs(dy + h / 2) <= h / 2 and (dx == pad or dx == -pad - w):
+        return None
+    return np.array([p[0], p[1], np.clip(p[0], box[0], box[2]), np.clip(p[1], box[1], box[3])])
+
+
+def _crosses(line: np.ndarray, box: np.ndarray) -> int:
+    """1 when the segment ``line`` (x0, y0, x1, y1) passes through the inside of ``box``
+    (Liang-Barsky clipping; touching the edge does not count), else 0."""
+    x0, y0, x1, y1 = line
+    t0, t1 = 0.0, 1.0
+    for p, q in ((-(x1 - x0), x0 - box[0]), (x1 - x0, box[2] - x0),
+                 (-(y1 - y0), y0 - box[1]), (y1 - y0, box[3] - y0)):
+        if p == 0:
+            if q <= 0:
+                return 0
+            continue
+        t = q / p
+        if p < 0:
+            t0 = max(t0, t)
+        else:
+            t1 = min(t1, t)
+    return int(t1 - t0 > 1e-6)
+
+
+def _overlap(a: np.ndarray, b: np.ndarray, pad: float) -> float:
+    """Overlap area of boxes ``[x0, y0, x1, y1]`` with ``a`` grown by ``pad`` on each side."""
+    wx = min(a[2] + pad, b[2]) - max(a[0] - pad, b[0])
+    wy = min(a[3] + pad, b[3]) - max(a[1] - pad, b[1])
+    return float(wx * wy) if wx > 0 and wy > 0 else 0.0
+
+
+def _outside(box: np.ndarray, area, pad: float) -> float:
+    """Area of ``box`` outside the axes ``area`` shrunk by ``pad``."""
+    w, h = box[2] - box[0], box[3] - box[1]
+    ix = max(0.0, min(box[2], area.x1 - pad) - max(box[0], area.x0 + pad))
+    iy = max(0.0, min(box[3], area.y1 - pad) - max(box[1], area.y0 + pad))
+    return float(w * h - ix * iy)
 
 
 def variant_labels(timing: pd.DataFrame) -> list[str]:
