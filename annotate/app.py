@@ -5,8 +5,9 @@ Run with ``annotate serve STUDY`` (which sets ``ANNOTATE_STUDY``). Pages:
 - sign-in: by name on an open study, ``/?rater=NAME`` directly; ``/?token=TOKEN`` on a
   token study (tokens compared in constant time, a bad one is refused);
 - instructions, then the training items, then the rater's own items: "Reference" left,
-  "Rendered" right, Good (G) / Bad (B) / Undo (U), a ``done / total`` progress bar and a
-  break reminder every ``break_every`` items. Nothing on the page names the offset, clip,
+  "Rendered" right, drawn as large as the window allows at one scale (shown, e.g. "×3.2";
+  :mod:`annotate.layout`), Good (G, blue) / Bad (B, vermillion) / Undo (U) in one row under
+  them, a ``done / total`` progress bar and a break reminder every ``break_every`` items. Nothing on the page names the offset, clip,
   method, metrics or other votes; images are served by content hash, never by file name;
 - ``/?admin=TOKEN``: the live admin page (:mod:`annotate.admin`, refreshes by itself).
 
@@ -48,6 +49,7 @@ import zlib
 import streamlit as st
 
 from annotate.admin import admin_page
+from annotate.layout import page_style, pair_view
 from annotate.study import Study, StudyChanged, crop_path, load_study
 from data_schema.errors import InputError
 from data_schema.raters import check_rater_name
@@ -305,6 +307,7 @@ def voting_panel(study: Study, rater: str) -> None:
         _panel_unavailable(err)
         return
     _show_notice()
+    page_style()
     if key is None:
         st.success(f"All done, thank you, {plain(rater)}! ({prog['done']} / {prog['total']})")
         token = st.session_state["shown"] = (None, None, "done")
@@ -315,18 +318,15 @@ def voting_panel(study: Study, rater: str) -> None:
     if _shown()[0] != key:
         st.session_state["shown"] = (key, time.time(), secrets.token_hex(6))
     token = _shown()[2]
-    size = int(study.manifest.get("display_size", 320))
-    for column, title, image in zip(st.columns(2), ("Reference", "Rendered"), images, strict=True):
-        with column:
-            st.subheader(title)
-            st.image(image, width=size)
-    b1, b2, b3 = st.columns(3)
-    b1.button("Good (G)", key=f"vote_good-{token}", shortcut="g", type="primary",
-              on_click=_on_vote, args=(study, rater, key, token, 1))
-    b2.button("Bad (B)", key=f"vote_bad-{token}", shortcut="b", type="primary",
-              on_click=_on_vote, args=(study, rater, key, token, 0))
-    b3.button("Undo (U)", key=f"undo-{token}", shortcut="u", on_click=_on_undo,
-              args=(study, rater, token))
+    pair_view(("Reference", "Rendered"), images, crop_side=study.items.get("crop_side", {}).get(key),
+              display_size=int(study.manifest.get("display_size", 320)), token=token)
+    with st.container(horizontal=True, horizontal_alignment="center", key="vote_row"):
+        st.button("Good (G)", key=f"vote_good-{token}", shortcut="g", type="primary",
+                  on_click=_on_vote, args=(study, rater, key, token, 1))
+        st.button("Bad (B)", key=f"vote_bad-{token}", shortcut="b", type="primary",
+                  on_click=_on_vote, args=(study, rater, key, token, 0))
+        st.button("Undo (U)", key=f"undo-{token}", shortcut="u", on_click=_on_undo,
+                  args=(study, rater, token))
 
 
 def rater_page(study: Study, rater: str) -> None:

@@ -261,6 +261,7 @@ def _cut_crops(rows, pairs: pd.DataFrame, tmp: Path, *, rng, opts: dict, where: 
         meta = {c: r[c] for c in (*PAIR_META_COLUMNS, *opts["view_columns"], *attrs)}
         items.append({"key": key, "item_id": item_id, "kind": kind, "pair_id": r["pair_id"],
                       "ref_file": ref_file, "ren_file": ren_file,
+                      "crop_side": max(*gt.shape[:2], *ren.shape[:2]),
                       "expected": np.nan if expected is None else expected, **meta})
     return pd.DataFrame(items)
 

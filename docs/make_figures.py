@@ -1,8 +1,9 @@
 """Regenerate the README's figures from a finished ``nvrq demo OUT`` folder.
 
 Usage: ``python docs/make_figures.py OUT`` (needs Debian's Chromium at /usr/bin/chromium).
-Writes ``docs/rater_ui.png`` (the rater app, signed in, first training item) and copies
-``OUT/report/tent.png`` to ``docs/tent.png``.
+Writes ``docs/rater_ui.png`` (the rater app at 1400x900, signed in, first training item) and
+copies ``OUT/report/tent.png`` to ``docs/tent.png``. ``python docs/make_figures.py STUDY``
+(a study folder, e.g. ``OUT/study``) writes ``docs/rater_ui.png`` only.
 """
 
 from __future__ import annotations
@@ -25,14 +26,23 @@ DOCS = Path(__file__).resolve().parent
 
 
 def main(out: Path) -> None:
+    if (out / "manifest.json").is_file():  # a study folder: the rater UI only
+        rater_ui(out)
+        return
+    shutil.copyfile(out / "report" / "tent.png", DOCS / "tent.png")
+    rater_ui(out / "study")
+    print(f"wrote {DOCS / 'tent.png'}")
+
+
+def rater_ui(study: Path) -> None:
+    """``docs/rater_ui.png``: the first training item of ``study`` at 1400x900."""
     from playwright.sync_api import sync_playwright
 
-    shutil.copyfile(out / "report" / "tent.png", DOCS / "tent.png")
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    env = dict(os.environ, ANNOTATE_STUDY=str((out / "study").resolve()))
-    server = subprocess.Popen(serve_command(out / "study", port=port), env=env, start_new_session=True,
+    env = dict(os.environ, ANNOTATE_STUDY=str(study.resolve()))
+    server = subprocess.Popen(serve_command(study, port=port), env=env, start_new_session=True,
                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     url = f"http://127.0.0.1:{port}/"
     try:
@@ -44,17 +54,18 @@ def main(out: Path) -> None:
                 time.sleep(0.2)
         with sync_playwright() as pw:
             browser = pw.chromium.launch(executable_path="/usr/bin/chromium", args=ARGS)
-            page = browser.new_page(viewport={"width": 1100, "height": 760})
+            page = browser.new_page(viewport={"width": 1400, "height": 900})
             page.goto(f"{url}?rater=readme")
             page.get_by_role("button", name="Start").click()
             page.get_by_role("button", name="Good (G)").wait_for(state="visible", timeout=30000)
             page.wait_for_function("document.querySelectorAll('img').length === 2", timeout=30000)
-            time.sleep(1.0)
+            page.mouse.move(0, 0)  # no hover effects in the figure
+            time.sleep(1.0)  # the scale line follows the drawn size within 200 ms
             page.screenshot(path=str(DOCS / "rater_ui.png"))
             browser.close()
     finally:
         os.killpg(server.pid, signal.SIGKILL)
-    print(f"wrote {DOCS / 'rater_ui.png'} and {DOCS / 'tent.png'}")
+    print(f"wrote {DOCS / 'rater_ui.png'}")
 
 
 if __name__ == "__main__":

@@ -243,3 +243,26 @@ def test_press_a_moment_after_drawing_is_dropped(study, monkeypatch):
     shown = _current(at)
     _btn(at, "vote_good").click().run()
     assert study.store.votes("kit").empty and _current(at) == shown
+
+
+def _html(at: AppTest) -> str:
+    return "\n".join(str(e.proto.body) for e in at.get("html"))
+
+
+def test_scale_line_names_the_crops_camera_side_and_old_studies_show_none(study, make_study,
+                                                                          monkeypatch):
+    import pandas as pd
+
+    at = _app(rater="lee")
+    at.button(key="start").click().run()
+    side = int(study.items.at[_current(at), "crop_side"])
+    assert side == 41  # the toy boxes are 31x41 px (inclusive) in both views
+    # stored crops are 64 px: 64 / 41 = 1.56 -> "×1.6" until the browser reports its width
+    assert f'data-side="{side}"' in _html(at) and "<b>×1.6</b>" in _html(at)
+    old = make_study()
+    items = pd.read_csv(old.root / "items.csv").drop(columns=["crop_side"])  # an older study
+    items.to_csv(old.root / "items.csv", index=False)
+    monkeypatch.setenv("ANNOTATE_STUDY", str(old.root))
+    at = _app(rater="lee")
+    at.button(key="start").click().run()
+    assert _has(at, "vote_good") and "data-side" not in _html(at)

@@ -1,0 +1,102 @@
+"""How the rater pages draw an item: crops as large as the window allows, one button row.
+
+Thin Streamlit view helpers shared by the binary page (:mod:`annotate.app`) and the pairwise
+page (:mod:`annotate.pairwise_app`); no study logic here.
+
+- :func:`page_style`: the page's CSS (once per run): little padding, each crop drawn as wide
+  as its column and at most as tall as the window minus the rows above and below it, so the
+  whole item and its buttons fit on screen; the crops of an item share one size (square
+  crops, equal columns), hence one scale. Good and Bad are coloured apart with a
+  colour-blind-safe pair (Okabe-Ito blue and vermillion) and keep their letters.
+- :func:`pair_view`: the titled crops side by side (container key ``pair``) and the scale
+  line, e.g. "All images at the same scale: ×3.2 (shown px per camera px)". The scale is
+  the drawn width over the object's square side in the camera image (``crop_side``, px):
+  the server writes it for the stored crop size and a small script keeps it equal to the
+  size the browser actually draws. Nothing in it names the item.
+
+>>> f"{scale_text(640, 200)}"
+'×3.2'
+>>> f"{scale_text(320, 640)}"
+'×0.5'
+"""
+
+from __future__ import annotations
+
+import math
+
+import streamlit as st
+
+__all__ = ["page_style", "pair_view", "scale_text", "GOOD_COLOUR", "BAD_COLOUR", "ROWS_PX"]
+
+#: Okabe-Ito blue and vermillion: apart for every common colour-vision deficiency
+GOOD_COLOUR, BAD_COLOUR = "#0072B2", "#D55E00"
+#: vertical room (px) the rows around the crops take: padding, progress, titles, scale, buttons
+ROWS_PX = 250
+
+_CSS = f"""<style>
+[data-testid="stMainBlockContainer"] {{ padding: 2.5rem 1.5rem 1rem; max-width: none; }}
+.st-key-pair [data-testid="stFullScreenFrame"] div {{ width: 100%; align-items: center; }}
+.st-key-pair [data-testid="stImage"] img {{
+  width: min(100%, calc(100vh - {ROWS_PX}px)) !important; height: auto !important; }}
+.st-key-pair [data-testid="stElementToolbar"] {{ display: none; }}
+.st-key-pair [data-testid="stMarkdownContainer"] p {{ text-align: center; margin: 0; }}
+.nvrq-scale {{ text-align: center; color: #555; font-size: 0.9rem; }}
+[class*="st-key-vote_good-"] button {{ background: {GOOD_COLOUR}; border-color: {GOOD_COLOUR};
+  color: #fff; }}
+[class*="st-key-vote_bad-"] button {{ background: {BAD_COLOUR}; border-color: {BAD_COLOUR};
+  color: #fff; }}
+[class*="st-key-vote_"] button {{ min-width: 9rem; }}
+[class*="st-key-key_twin-"] {{ display: none; }}
+</style>"""
+
+# Keeps every scale line equal to the width the browser draws the first crop at (installed
+# once per page; the line's data-side is the object's side in camera pixels).
+_SCALE_JS = """<script>
+(() => {
+  if (window.__nvrqScale) return;
+  const update = () => {
+    const img = document.querySelector('.st-key-pair [data-testid="stImage"] img');
+    for (const el of document.querySelectorAll('.nvrq-scale')) {
+      const side = parseFloat(el.dataset.side), b = el.querySelector('b');
+      if (!img || !img.naturalWidth || !(side > 0) || !b) continue;
+      const w = img.getBoundingClientRect().width / side;
+      const text = '\u00d7' + (w < 9.95 ? w.toFixed(1) : w.toFixed(0));
+      if (b.textContent !== text) b.textContent = text;
+    }
+  };
+  window.__nvrqScale = setInterval(update, 200);
+  window.addEventListener('resize', update);
+})();
+</script>"""
+
+
+def scale_text(drawn_px: float, side_px: float) -> str:
+    """``'×S'``: drawn pixels per camera pixel, one decimal below 10 (the script's rule)."""
+    s = float(drawn_px) / float(side_px)
+    return f"×{s:.1f}" if s < 9.95 else f"×{s:.0f}"
+
+
+def page_style() -> None:
+    """The rater page's CSS and the scale script (call once per run, before the item)."""
+    st.html(_CSS)
+    st.html(_SCALE_JS, unsafe_allow_javascript=True)
+
+
+def pair_view(titles, images, *, crop_side: float | None, display_size: int, token: str) -> None:
+    """``images`` (encoded crops, all ``display_size`` px square) under ``titles``, side by side.
+
+    ``crop_side``: the object's square side in camera pixels (None or NaN: an old study
+    without it, no scale line). ``token``: the opaque token of the item on screen, so the
+    scale line is redrawn for every item.
+    """
+    with st.container(key="pair"):
+        for column, title, image in zip(st.columns(len(images)), titles, images, strict=True):
+            with column:
+                st.markdown(f"**{title}**")
+                st.image(image, width="stretch")
+    if crop_side is None or not math.isfinite(float(crop_side)) or float(crop_side) <= 0:
+        return
+    side = float(crop_side)
+    st.html(f'<div class="nvrq-scale" data-side="{side:g}" data-item="{token}">All images at the '
+            f"same scale: <b>{scale_text(display_size, side)}</b> (shown pixels per camera pixel)"
+            "</div>")
