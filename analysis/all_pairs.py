@@ -14,8 +14,9 @@ clip's pairs in the same order, else a hash join on ``pair_id``), and the result
 preallocated columns: float64 for numbers, int32 codes for labels. No ``pair_id`` string
 outlives its clip, so memory is about 8 bytes per number per row plus the statistics'
 working arrays. The items table then goes through the same
-:func:`~analysis.summary.summary_table`, :mod:`~analysis.breakdowns` and report code as the
-ratings path.
+:func:`~analysis.summary.summary_table`, :mod:`~analysis.breakdowns`, per-view tables
+(:func:`analysis.axes.view_tables`: ``by_offset`` and, for 6-DoF pairs, ``by_axis`` with one
+tent plot per axis) and report code as the ratings path.
 """
 
 from __future__ import annotations
@@ -30,19 +31,23 @@ import pyarrow.parquet as pq
 import pyarrow.types as pt
 from tqdm.auto import tqdm
 
-from analysis import breakdowns
+from analysis import axes, breakdowns
 from analysis.inputs import NON_METRIC_COLUMNS, classify_columns
 from analysis.pipeline import Analysis, boot_size, find_timing_files, read_timing
 from analysis.summary import summary_table
 from data_schema import datasets as ds
 from data_schema.errors import InputError
+from data_schema.perturbation import EXTRA_PERTURBATION_COLUMNS
 from data_schema.tables import read_table
 
 __all__ = ["TableSource", "read_all_pairs", "run_pairs_analysis", "RATER_COLUMNS"]
 
 #: Pair columns the analysis uses (identity and breakdowns); the rest of PAIRS_COLUMNS is not read.
 _KEEP = ("clip_id", "track_id", "label_class", "y_offset_m")
-_SKIP = (set(NON_METRIC_COLUMNS) - set(_KEEP)) | {"scene_root"}  # incl. the 6-DoF view columns
+#: The 6-DoF view components (docs/FORMATS.md §9), read as numbers when present: the per-axis
+#: tables and tent plots (:func:`analysis.axes.view_tables`); never metrics.
+_VIEW = EXTRA_PERTURBATION_COLUMNS
+_SKIP = (set(NON_METRIC_COLUMNS) - set(_KEEP) - set(_VIEW)) | {"scene_root"}  # incl. the view label
 RATER_COLUMNS = ["rater_id", "simulated", "excluded", "excluded_reason"]
 
 
@@ -149,6 +154,8 @@ def _plan(pairs: TableSource, metrics: list[TableSource]):
         if name in _SKIP or name in _KEEP or name == "pair_id":
             continue
         t = pairs.schema.field(name).type
+        if name in _VIEW and not _is_numeric(t):
+            raise InputError(pairs.path, f"column {name!r}", "a number (docs/FORMATS.md §9)", str(t))
         (numeric if _is_numeric(t) else labels).append(name)
         seen[name] = pairs.path
     numeric.insert(0, "y_offset_m")
@@ -278,6 +285,7 @@ def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), tar
     categories = breakdowns.category_table(items, metrics, by=["label_class"] + attributes,
                                            target=target, progress=progress)
     timing = read_timing(find_timing_files(timing_paths, metrics_paths))
+    by_offset, by_axis = axes.view_tables(items, [target] + metrics)
     counts = {"votes": 0, "test_votes": 0, "test_votes_kept": 0, "items": len(items),
               "tracks": int(clusters.max()) + 1 if len(clusters) else 0,
               "clips": int(items[ds.PARTITION].nunique()), "raters": 0, "raters_simulated": 0,
@@ -285,7 +293,7 @@ def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), tar
     return Analysis(
         ratings_path=str(pairs_path), target=target, items=items, metrics=metrics,
         directions=directions, attributes=attributes, proxies=proxies, summary=summary,
-        categories=categories, by_offset=breakdowns.offset_table(items, [target] + metrics),
+        categories=categories, by_offset=by_offset, by_axis=by_axis,
         encoders=breakdowns.encoder_table(summary), raters=pd.DataFrame(columns=RATER_COLUMNS),
         alpha={}, counts=counts, timing=timing, notes=notes, unknown_ids=unknown,
         n_boot=n_boot, seed=seed, rank_by=rank_by, source="pairs")

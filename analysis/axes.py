@@ -8,7 +8,9 @@ A rated item's view is a perturbation ``(dx, dy, dz, roll, pitch, yaw)``
 - :func:`axis_table`: long table ``axis, value, column, n, mean, std`` (the per-offset
   table of :func:`analysis.breakdowns.offset_table`, once per axis);
 - :func:`axis_tent_plots`: one tent plot per axis (:func:`analysis.plots.tent_plot`);
-- :func:`lateral_items`: the items the paper's lateral tent plot shows (axis y or none).
+- :func:`lateral_items`: the items the paper's lateral tent plot shows (axis y or none);
+- :func:`view_tables`: both tables at once, ``(by_offset, by_axis)``, the one place the ratings
+  path and ``analyze --pairs`` get them from.
 
 >>> items = pd.DataFrame({"y_offset_m": [0.0, 1.0, 0.0, 0.0], "yaw_deg": [0.0, 0.0, 5.0, 5.0],
 ...                       "gvf": [1.0, 0.5, 0.25, 0.75]})
@@ -26,7 +28,8 @@ from analysis import plots
 from analysis.breakdowns import offset_table
 from data_schema.perturbation import AXES, AXIS_UNITS, axes, axis_values, perturbation_array
 
-__all__ = ["AXIS_TABLE_COLUMNS", "axis_table", "axis_tent_plots", "lateral_items", "item_axes", "is_multi_axis"]
+__all__ = ["AXIS_TABLE_COLUMNS", "axis_table", "axis_tent_plots", "lateral_items", "item_axes",
+           "is_multi_axis", "view_tables"]
 
 AXIS_TABLE_COLUMNS = ["axis", "value", "column", "n", "mean", "std"]
 
@@ -64,6 +67,22 @@ def axis_table(items: pd.DataFrame, columns: list[str]) -> pd.DataFrame:
     if not frames:
         return pd.DataFrame(columns=AXIS_TABLE_COLUMNS)
     return pd.concat(frames, ignore_index=True).loc[:, AXIS_TABLE_COLUMNS]
+
+
+def view_tables(items: pd.DataFrame, columns: list[str], *, by: str | None = None):
+    """``(by_offset, by_axis)`` of ``items`` for ``columns`` (target first, then metrics).
+
+    ``by_offset``: :func:`~analysis.breakdowns.offset_table` of the :func:`lateral_items`
+    (with ``gvf`` added when the items have it), followed, with ``by`` (e.g. ``label_class``),
+    by its per-condition rows (offset x value of ``by``); ``by_axis``: :func:`axis_table`, or
+    ``None`` when every view is lateral (:func:`is_multi_axis`).
+    """
+    lateral = lateral_items(items)
+    cols = columns + ["gvf"] if "gvf" in items.columns and "gvf" not in columns else columns
+    by_offset = offset_table(lateral, cols)
+    if by is not None:
+        by_offset = pd.concat([by_offset, offset_table(lateral, cols, by=by)], ignore_index=True)
+    return by_offset, axis_table(items, columns) if is_multi_axis(items) else None
 
 
 def axis_tent_plots(by_axis: pd.DataFrame, columns: list[str], directions: dict[str, bool], *,

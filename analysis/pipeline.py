@@ -224,13 +224,6 @@ def _ceiling(kept, summary, tgt, *, seed):
     return ceiling
 
 
-def _by_offset(items, columns):
-    """Per offset (``label_class = "all"``) then per condition (offset x class)."""
-    cols = columns if "gvf" in columns else columns + ["gvf"]
-    return pd.concat([breakdowns.offset_table(items, cols),
-                      breakdowns.offset_table(items, cols, by="label_class")], ignore_index=True)
-
-
 def _model_comparison(items, metrics, directions, summary, tgt, *, method, seed):
     """Majority against the model, side by side: label counts and |SRCC| / ROC AUC per metric.
 
@@ -294,11 +287,11 @@ def run_analysis(
     categories = breakdowns.category_table(items, metrics, by=["label_class"] + attributes,
                                            target=tgt, progress=progress)
     stab, snr = read_stability(stability_dir) if stability_dir is not None else (None, None)
+    by_offset, by_axis = axes.view_tables(items, [tgt] + metrics, by="label_class")
     return Analysis(
         ratings_path=str(ratings_path), target=tgt, items=items, metrics=metrics,
         directions=directions, attributes=attributes, proxies=proxies, summary=summary,
-        categories=categories, by_offset=_by_offset(axes.lateral_items(items), [tgt] + metrics),
-        by_axis=axes.axis_table(items, [tgt] + metrics) if axes.is_multi_axis(items) else None,
+        categories=categories, by_offset=by_offset, by_axis=by_axis,
         encoders=breakdowns.encoder_table(summary), raters=raters, alpha=alpha,
         counts=_counts(votes, kept, items, raters, clusters), timing=read_timing(timing_files),
         stability=stab, snr=snr, notes=notes, unknown_ids=unknown, n_boot=n_boot, seed=seed,
