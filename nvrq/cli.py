@@ -51,6 +51,8 @@ def build_parser() -> ArgumentParser:
 #: What each subcommand writes: the kind of its ``--out``/``OUT`` (see data_schema.outputs).
 OUTPUT_KINDS = {"synth": "scene", "import": "scene", "render-plan": "file", "pairs": "file",
                 "score": "file", "proxy": "file", "stability": "report"}
+#: Commands (or ``nvrq proxy`` kinds) that write ``OUT.timing.csv`` beside ``--out``.
+WRITES_TIMING = ("score", "imagenet", "clip")
 #: Parsed arguments that name a command's input files or folders.
 INPUT_ARGS = ("pairs", "scene", "detections", "class_map", "archive", "kitti_root", "yolo",
               "weights", "config", "clip")
@@ -69,7 +71,7 @@ def check_outputs(args) -> None:
         check_output_file(Path(args.out) / MANIFEST, inputs=inputs, option=option)
     elif kind == "file":
         check_output_file(args.out, inputs=inputs, option=option)
-        if args.command == "score":
+        if args.command in WRITES_TIMING or getattr(args, "proxy", None) in WRITES_TIMING:
             check_output_file(timing_path(args.out), inputs=inputs, option="--out (its .timing.csv)")
     else:
         check_output_folder(args.out, kind=kind, inputs=inputs, option=option)

@@ -55,7 +55,7 @@ from nvrq.score_core import (
 )
 
 __all__ = ["nvrq_similarity", "nvrq_ca", "W_LOW", "resolve_metrics", "ScoreResult",
-           "score_pairs", "timing_table", "REQUIRED_COLUMNS"]
+           "score_pairs", "timing_table", "runtime_timing", "REQUIRED_COLUMNS"]
 
 REQUIRED_COLUMNS = ("pair_id", *CROP_COLUMNS)
 
@@ -95,18 +95,41 @@ class ScoreResult:
     n_images_decoded: int
 
 
-def timing_table(metrics: Sequence[str], times: dict, *, n_pairs: int, wall: float) -> pd.DataFrame:
+def timing_table(metrics: Sequence[str], times: dict, *, n_pairs: int, wall: float,
+                 model_columns: Sequence[str] | None = None) -> pd.DataFrame:
     """``metric, seconds, pairs``: each column's own seconds (``times[column]`` for a pixel
-    metric; ``prepare + forward`` for an encoder metric) plus ``times['decode']``; the stage
-    totals go to ``.attrs`` (``wall_seconds``, ``forward_seconds``, ...)."""
+    metric; ``prepare + forward`` for a model column: the encoder metrics, or ``model_columns``
+    such as a proxy's) plus ``times['decode']``; the stage totals go to ``.attrs``
+    (``wall_seconds``, ``forward_seconds``, ...)."""
     decode, prepare, forward = (times.get(k, 0.0) for k in ("decode", "prepare", "forward"))
+    model = set(encoder_columns(metrics) if model_columns is None else model_columns)
     timing = pd.DataFrame({
         "metric": list(metrics),
-        "seconds": column_seconds(metrics, set(encoder_columns(metrics)), times),
+        "seconds": column_seconds(metrics, model, times),
         "pairs": n_pairs,
     })
     timing.attrs.update(wall_seconds=wall, forward_seconds=forward, decode_seconds=decode,
                         prepare_seconds=prepare)
+    return timing
+
+
+def runtime_timing(timing: pd.DataFrame, model, model_columns: Sequence[str]) -> pd.DataFrame:
+    """``timing`` plus the columns ``runtime, precision, threads, device`` (docs/FORMATS.md §8):
+    how ``model`` (an encoder or proxy model, or ``None``) ran, on the rows of ``model_columns``;
+    empty runtime and precision, 1 thread and ``cpu`` on the others (computed in the decode
+    thread).
+
+    >>> t = pd.DataFrame({"metric": ["psnr", "imagenet_drop"], "seconds": [1.0, 2.0], "pairs": 5})
+    >>> m = type("M", (), {"runtime": "openvino", "threads": 2, "device": "cpu"})()
+    >>> runtime_timing(t, m, ["imagenet_drop"]).iloc[:, 3:].to_dict("list")
+    {'runtime': ['', 'openvino'], 'precision': ['', 'fp32'], 'threads': [1, 2], 'device': ['cpu', 'cpu']}
+    """
+    timing = timing.copy()
+    on_model = timing["metric"].isin(list(model_columns))
+    timing["runtime"] = on_model.map({True: getattr(model, "runtime", ""), False: ""})
+    timing["precision"] = on_model.map({True: getattr(model, "precision", "fp32"), False: ""})
+    timing["threads"] = on_model.map({True: getattr(model, "threads", 1), False: 1})
+    timing["device"] = on_model.map({True: str(getattr(model, "device", "cpu")), False: "cpu"})
     return timing
 
 

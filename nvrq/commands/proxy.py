@@ -1,14 +1,23 @@
 """``nvrq proxy detection|imagenet|clip|detect PAIRS ... --out PROXY.{csv,parquet}`` (paper Eq. 6-10).
 
 Each writes ``pair_id`` and one proxy column (``s_det``, ``imagenet_drop``, ``clip_drop``),
-which ``analyze --target`` accepts. ``detect`` writes the DETS table for ``detection`` with a
+which ``analyze --target`` accepts. ``imagenet`` and ``clip`` also write ``PROXY.timing.csv``
+beside it, as ``nvrq score`` does (docs/FORMATS.md §8), for the report's speed chart. ``detect`` writes the DETS table for ``detection`` with a
 local Ultralytics YOLO model (optional extra ``[yolo]``).
 """
 
 from __future__ import annotations
 
+import time
+
 from data_schema.errors import InputError
-from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS, read_table, write_table
+from data_schema.tables import (
+    GT_BOX_COLUMNS,
+    RENDER_BOX_COLUMNS,
+    read_table,
+    timing_path,
+    write_table,
+)
 from nvrq.commands._encoder import add_model_arguments, add_runtime_arguments, prepare_device
 from nvrq.engines import add_engine_args
 from nvrq.engines.cli import check_engine_args, run_ray
@@ -18,6 +27,7 @@ from nvrq.proxies.classifier_drop import imagenet_drop, load_classifier
 from nvrq.proxies.clip_drop import clip_drop, load_clip, true_category_index
 from nvrq.proxies.detection import detection_confidence, read_detections
 from nvrq.proxies.yolo import run_yolo
+from nvrq.scoring import runtime_timing, timing_table
 
 __all__ = ["register"]
 
@@ -147,30 +157,39 @@ def run_detect(args) -> int:
 
 
 def _run_drop(args, kind: str, score) -> int:
-    """One confidence-drop proxy: Ray engine, or ``score(pairs)`` here, written to ``--out``."""
+    """One confidence-drop proxy: Ray engine, or ``score(pairs, maps, timings) -> (table, model)``
+    here, written to ``--out`` with its timing file beside it, as ``nvrq score`` writes one
+    (``PROXY.timing.csv``, docs/FORMATS.md §8), so the report's speed chart places the proxy."""
     if args.engine == "ray":
         return _ray_proxy(args, kind)
     _check_out(args.out)
     maps = load_class_maps(args.class_map) if kind == "clip" else None
     pairs = _read_pairs(args.pairs, GT_BOX)
-    out = score(pairs, maps)
+    times: dict = {}
+    t0 = time.perf_counter()
+    out, model = score(pairs, maps, times)
+    column = [c for c in out.columns if c != "pair_id"]
+    timing = timing_table(column, times, n_pairs=len(pairs), wall=time.perf_counter() - t0,
+                          model_columns=column)
     write_table(out, args.out)
+    tpath = write_table(runtime_timing(timing, model, column), timing_path(args.out))
+    print(f"-> {args.out}, {tpath}")
     return 0
 
 
 def run_imagenet(args) -> int:
-    def score(pairs, _maps):
+    def score(pairs, _maps, timings):
         prepare_device(args)
         clf = load_classifier(args.classifier, weights=args.weights, device=args.device,
                               **_runtime_kwargs(args))
         return imagenet_drop(pairs, clf, scene_root=args.scene, batch_size=args.batch_size,
-                             progress=not args.quiet, where=str(args.pairs))
+                             progress=not args.quiet, where=str(args.pairs), timings=timings), clf
 
     return _run_drop(args, "imagenet", score)
 
 
 def run_clip(args) -> int:
-    def score(pairs, maps):
+    def score(pairs, maps, timings):
         # unknown classes fail before the model loads
         true_category_index(pairs["label_class"], maps["clip_category"],
                             list(maps["clip_prompts"]), where=str(args.pairs))
@@ -179,7 +198,7 @@ def run_clip(args) -> int:
                          **_runtime_kwargs(args))
         return clip_drop(pairs, clip, category_map=maps["clip_category"], scene_root=args.scene,
                          batch_size=args.batch_size, progress=not args.quiet,
-                         where=str(args.pairs))
+                         where=str(args.pairs), timings=timings), clip
 
     return _run_drop(args, "clip", score)
 

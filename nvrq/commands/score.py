@@ -20,7 +20,7 @@ from nvrq.engines.cli import check_engine_args, run_ray
 from nvrq.engines.scorers import MetricScorer
 from nvrq.metrics import DEFAULT_METRICS, split_column
 from nvrq.score_core import needs_tau
-from nvrq.scoring import REQUIRED_COLUMNS, score_pairs
+from nvrq.scoring import REQUIRED_COLUMNS, runtime_timing, score_pairs
 
 __all__ = ["register", "run", "runtime_columns"]
 
@@ -92,14 +92,11 @@ def runtime_columns(table, timing, encoder, *, tag: str | None):
     which run in the one decode thread)."""
 
     timing = timing.copy()
-    enc_rows = timing["metric"].map(lambda m: split_column(m)[1] is not None)
+    enc_cols = [m for m in timing["metric"] if split_column(m)[1] is not None]
     if encoder is not None and tag is None and encoder.precision != "fp32":
         tag = encoder.precision
     if tag:
-        rename = {m: f"{m}@{tag}" for m in timing["metric"][enc_rows]}
+        rename = {m: f"{m}@{tag}" for m in enc_cols}
         table, timing["metric"] = table.rename(columns=rename), timing["metric"].replace(rename)
-    timing["runtime"] = enc_rows.map({True: getattr(encoder, "runtime", ""), False: ""})
-    timing["precision"] = enc_rows.map({True: getattr(encoder, "precision", ""), False: ""})
-    timing["threads"] = enc_rows.map({True: getattr(encoder, "threads", 1), False: 1})
-    timing["device"] = enc_rows.map({True: str(getattr(encoder, "device", "cpu")), False: "cpu"})
-    return table, timing
+        enc_cols = [rename[m] for m in enc_cols]
+    return table, runtime_timing(timing, encoder, enc_cols)

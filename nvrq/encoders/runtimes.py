@@ -338,12 +338,12 @@ def _check_combo(runtime: str, precision: str, device: str) -> None:
 
 
 def exported_forward(graph, *, runtime: str = "auto", threads: int | None = None, cache_dir=None):
-    """``(runtime, run)`` for a proxy model's fp32 ``graph`` (:class:`ExportableModel`): the runtime
-    :func:`wrap_runtime` chose and its forward function, or ``None`` where that is torch (the
-    model's own forward)."""
+    """``(runtime, threads, run)`` for a proxy model's fp32 ``graph`` (:class:`ExportableModel`):
+    the runtime :func:`wrap_runtime` chose, the CPU threads it runs on, and its forward function,
+    or ``None`` where that is torch (the model's own forward)."""
     wrapped = wrap_runtime(graph, runtime=runtime, precision="fp32", threads=threads,
                            cache_dir=cache_dir)
-    return wrapped.runtime, (None if wrapped is graph else wrapped.embed)
+    return wrapped.runtime, wrapped.threads, (None if wrapped is graph else wrapped.embed)
 
 
 def wrap_runtime(encoder, *, runtime: str = "auto", precision: str = "fp32", threads: int | None = None,

@@ -85,7 +85,7 @@ class ImageClassifier:
     """``model(pixel_values (B, 3, S, S)) -> logits (B, C)``; ``mean``/``std`` on [0, 1] RGB.
 
     ``runtime``: where the logits come from (``torch``, or an exported runtime after
-    :meth:`on_runtime`)."""
+    :meth:`on_runtime`); ``threads``: the CPU threads it runs on (set by :meth:`on_runtime`)."""
 
     name: str
     model: object
@@ -94,6 +94,7 @@ class ImageClassifier:
     std: tuple[float, float, float]
     device: str = "cpu"
     runtime: str = "torch"
+    threads: int | None = None
     _run: object = field(default=None, repr=False)
 
     def logits(self, images: np.ndarray) -> np.ndarray:
@@ -118,7 +119,7 @@ class ImageClassifier:
         graph = ExportableModel(f"{self.name}-logits", self.model, input_size=self.input_size,
                                 mean=self.mean, std=self.std, forward=_logits, device=self.device,
                                 identity=("max_dprob_vs_torch", max_softmax_change))
-        self.runtime, self._run = exported_forward(graph, runtime=runtime, threads=threads,
+        self.runtime, self.threads, self._run = exported_forward(graph, runtime=runtime, threads=threads,
                                                    cache_dir=cache_dir)
         return self
 
@@ -201,16 +202,21 @@ def pair_probabilities(
     progress: bool = True,
     desc: str = "proxy",
     where: str = "pairs",
+    timings: dict | None = None,
 ) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """``(rows (P,), p_gt (P, C), p_render (P, C))`` per crop batch of ``pairs``, through the one
     scoring core (:mod:`nvrq.score_core`): ``model.probabilities(uint8 (B, S, S, 3))`` with
-    ``S = model.input_size``, each GT crop run once, ``batch_size`` crops per forward pass."""
+    ``S = model.input_size``, each GT crop run once, ``batch_size`` crops per forward pass.
+    Adds ``decode``, ``prepare`` and ``forward`` seconds to ``timings`` (as ``nvrq score``;
+    :func:`nvrq.scoring.timing_table` turns them into the timing file's rows)."""
     check_positive("batch_size", batch_size)
+    times = timings if timings is not None else {}
     batches = iter_crop_batches(pairs, scene_root=scene_root, where=where)
     with tqdm(total=len(pairs), unit="pair", file=sys.stderr, disable=not progress, desc=desc) as bar:
         for batch in batches:
+            times["decode"] = times.get("decode", 0.0) + batch.decode_seconds
             p_gt, p_r = pair_outputs(batch, model.probabilities, size=model.input_size,
-                                     batch_size=batch_size)
+                                     batch_size=batch_size, timings=times)
             yield batch.rows, p_gt, p_r
             bar.update(len(batch.rows))
 
@@ -223,11 +229,13 @@ def imagenet_drop(
     batch_size: int = 32,
     progress: bool = True,
     where: str = "pairs",
+    timings: dict | None = None,
 ) -> pd.DataFrame:
-    """Eq. 9 for every pair -> DataFrame ``pair_id, imagenet_drop`` (pairs' order)."""
+    """Eq. 9 for every pair -> DataFrame ``pair_id, imagenet_drop`` (pairs' order); stage seconds
+    added to ``timings`` (:func:`pair_probabilities`)."""
     drop = np.full(len(pairs), np.nan)
     for rows, p_gt, p_r in pair_probabilities(pairs, classifier, scene_root=scene_root,
                                               batch_size=batch_size, progress=progress,
-                                              desc="imagenet", where=where):
+                                              desc="imagenet", where=where, timings=timings):
         drop[rows] = top_class_drop(p_gt, p_r)
     return pd.DataFrame({"pair_id": pairs["pair_id"].to_numpy(), "imagenet_drop": drop})

@@ -82,7 +82,7 @@ class ZeroShotCLIP:
     """A CLIP model with its K category prompts embedded once: ``text_feats (K, D)``.
 
     ``runtime``: where the image embeddings come from (``torch``, or an exported runtime
-    after :meth:`on_runtime`)."""
+    after :meth:`on_runtime`); ``threads``: the CPU threads it runs on (set by :meth:`on_runtime`)."""
 
     model: object
     categories: list[str]
@@ -92,6 +92,7 @@ class ZeroShotCLIP:
     std: tuple[float, float, float]
     device: str = "cpu"
     runtime: str = "torch"
+    threads: int | None = None
     _run: object = field(default=None, repr=False)
 
     @classmethod
@@ -158,7 +159,7 @@ class ZeroShotCLIP:
         graph = ExportableModel("clip-image", self.model, input_size=self.input_size, mean=self.mean,
                                 std=self.std, forward=_image_features, device=self.device,
                                 identity=("max_dlogit_bound_vs_torch", bound))
-        self.runtime, self._run = exported_forward(graph, runtime=runtime, threads=threads,
+        self.runtime, self.threads, self._run = exported_forward(graph, runtime=runtime, threads=threads,
                                                    cache_dir=cache_dir)
         return self
 
@@ -224,13 +225,15 @@ def clip_drop(
     batch_size: int = 32,
     progress: bool = True,
     where: str = "pairs",
+    timings: dict | None = None,
 ) -> pd.DataFrame:
-    """Eq. 10 for every pair -> DataFrame ``pair_id, clip_drop`` (pairs' order; NaN: no category)."""
+    """Eq. 10 for every pair -> DataFrame ``pair_id, clip_drop`` (pairs' order; NaN: no category);
+    stage seconds added to ``timings`` (:func:`~nvrq.proxies.classifier_drop.pair_probabilities`)."""
     c_star = true_category_index(pairs["label_class"], category_map, clip.categories, where=where)
     drop = np.full(len(pairs), np.nan)
     for rows, p_gt, p_r in pair_probabilities(pairs, clip, scene_root=scene_root,
                                               batch_size=batch_size, progress=progress,
-                                              desc="clip", where=where):
+                                              desc="clip", where=where, timings=timings):
         c = c_star[rows]
         ok = c >= 0
         k = np.arange(len(rows))[ok]

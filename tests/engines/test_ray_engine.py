@@ -111,6 +111,10 @@ def test_imagenet_proxy_on_ray_equals_a_per_pair_loop(ray_local, fleet, tmp_path
     want = top_class_drop(clf.probabilities(gt), clf.probabilities(rd))
     assert got.pair_id.tolist() == pairs.pair_id.tolist()
     np.testing.assert_allclose(got.imagenet_drop, want, atol=1e-5, rtol=0)
+    # the timing file beside it, as `nvrq score --engine ray` writes one (issue 23 item 8)
+    timing = pd.read_csv(tmp_path / "p.timing.csv")
+    assert timing.metric.tolist() == ["imagenet_drop"] and timing.pairs.tolist() == [len(pairs)]
+    assert timing.seconds[0] > 0
 
 
 def test_resume_after_sigkill_of_the_driver(ray_local, fleet, tmp_path):

@@ -90,3 +90,36 @@ def test_cli_imagenet_and_bad_classifier(cat_scene, tmp_path, effnet, capsys):
     )
     rc, _ = run_proxy(tmp_path, cat_scene, "imagenet", "q.csv", "--classifier", str(tmp_path / "nope"))
     assert rc == 2 and "--classifier" in capsys.readouterr().err
+
+
+def test_cli_imagenet_writes_a_timing_file_as_score_does(cat_scene, tmp_path, effnet):
+    """``nvrq proxy imagenet`` writes PROXY.timing.csv with the columns of ``nvrq score``'s timing
+    file, and the analysis finds it beside the proxy table and places the proxy on its speed chart
+    (issue 23 item 8)."""
+    import time
+
+    from analysis import plots
+    from analysis.pipeline import find_timing_files, read_timing
+    from nvrq.cli import main
+
+    t0 = time.perf_counter()
+    rc, path = run_proxy(tmp_path, cat_scene, "imagenet", "p.csv", "--runtime", "torch", "--threads", "1",
+                         "--quiet")
+    wall = time.perf_counter() - t0
+    assert rc == 0
+    timing = pd.read_csv(tmp_path / "p.timing.csv", keep_default_na=False)
+    assert main(["score", str(tmp_path / "pairs.csv"), "--out", str(tmp_path / "m.csv"), "--metrics", "psnr",
+                 "--quiet"]) == 0
+    score_timing = pd.read_csv(tmp_path / "m.timing.csv", keep_default_na=False)
+    assert timing.columns.tolist() == score_timing.columns.tolist()
+    row = timing.iloc[0]
+    assert (row.metric, row.pairs, row.runtime, row.precision, row.threads, row.device) == \
+        ("imagenet_drop", 2, "torch", "fp32", 1, "cpu")
+    assert 0 < row.seconds < wall  # the model passes and decoding, without loading the model
+    found = find_timing_files([], [path])
+    assert found == [tmp_path / "p.timing.csv"]
+    speed = read_timing(found)
+    assert speed.loc[0, "pairs_per_s"] == pytest.approx(2 / row.seconds)
+    summary = pd.DataFrame({"metric": ["imagenet_drop"], "srcc": [0.5]})
+    fig = plots.speed_accuracy_plot(summary, speed)
+    assert [t.get_text() for t in fig.axes[0].texts] == ["imagenet_drop [torch fp32]"]

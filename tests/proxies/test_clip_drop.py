@@ -92,5 +92,8 @@ def test_cli_clip(cat_scene, clip_folder, tmp_path, capsys):
     rc, path = run_proxy(tmp_path, cat_scene, "clip", "c.parquet", "--clip", str(clip_folder), "--quiet")
     assert rc == 0
     assert pd.read_parquet(path).columns.tolist() == ["pair_id", "clip_drop"]
+    timing = pd.read_csv(tmp_path / "c.timing.csv")  # as nvrq score writes one (issue 23 item 8)
+    assert timing.columns.tolist() == ["metric", "seconds", "pairs", "runtime", "precision", "threads", "device"]
+    assert timing.metric.tolist() == ["clip_drop"] and timing.pairs.tolist() == [2] and timing.seconds[0] > 0
     rc, _ = run_proxy(tmp_path, cat_scene, "clip", "d.csv", "--clip", str(tmp_path / "none"))
     assert rc == 2 and "--clip" in capsys.readouterr().err
