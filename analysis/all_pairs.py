@@ -146,12 +146,13 @@ class _Columns:
         return pd.DataFrame(cols, copy=False)
 
 
-def _plan(pairs: TableSource, metrics: list[TableSource]):
-    """(numeric columns, label columns, per-metric-source columns), checking names and types."""
+def _plan(pairs: TableSource, metrics: list[TableSource], keep=()):
+    """(numeric columns, label columns, per-metric-source columns), checking names and types;
+    ``keep``: pair columns read although the analysis skips them (e.g. ``camera``)."""
 
     numeric, labels, seen = [], list(_KEEP[:3]), {}
     for name in pairs.schema.names:
-        if name in _SKIP or name in _KEEP or name == "pair_id":
+        if (name in _SKIP and name not in keep) or name in _KEEP or name == "pair_id":
             continue
         t = pairs.schema.field(name).type
         if name in _VIEW and not _is_numeric(t):
@@ -228,8 +229,11 @@ def _join_source(out: _Columns, sl: slice, src: TableSource, clip: str, ids, col
         out.num[c][sl.start + pos] = values[c][src_pos]
 
 
-def read_all_pairs(pairs_path, *, metrics_paths=(), progress: bool = True):
+def read_all_pairs(pairs_path, *, metrics_paths=(), progress: bool = True, keep=()):
     """The per-pair items table (categorical labels, float64 numbers) and track codes (n,).
+
+    ``keep``: pair columns to read that the analysis otherwise skips (``--compare-methods``
+    pairs methods on ``camera`` and ``timestamp_us``).
 
     Returns ``(items, clusters, unknown_ids)``; ``unknown_ids[path]`` counts pair ids of a metric
     dataset that are not in the pairs input.
@@ -237,7 +241,7 @@ def read_all_pairs(pairs_path, *, metrics_paths=(), progress: bool = True):
 
     pairs = TableSource(pairs_path, what="pairs table")
     metrics = [TableSource(p, what="metrics table") for p in metrics_paths]
-    numeric, labels, per_source = _plan(pairs, metrics)
+    numeric, labels, per_source = _plan(pairs, metrics, keep)
     clips = pairs.clips()
     out = _Columns(pairs.n_rows, numeric, labels)  # labels start with clip_id (_KEEP)
     read_cols = ["pair_id"] + [c for c in labels + numeric if c in pairs.schema.names]
@@ -264,11 +268,18 @@ def _check_target(items: pd.DataFrame, target: str | None) -> None:
 
 def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), target=None,
                        n_boot: int = 1000, seed: int = 0, rank_by: str = "srcc", timing_paths=(),
-                       progress: bool = True) -> Analysis:
-    """The all-pairs analysis (module docstring); the same :class:`Analysis` as the ratings path."""
-    items, clusters, unknown = read_all_pairs(pairs_path, metrics_paths=metrics_paths, progress=progress)
-    _check_target(items, target)
-    notes = [f"all-pairs analysis: {len(items)} pairs, no votes; target {target}"]
+                       progress: bool = True, compare_methods: bool = False) -> Analysis:
+    """The all-pairs analysis (module docstring); the same :class:`Analysis` as the ratings path.
+
+    With ``compare_methods`` the object columns are kept for :mod:`analysis.methods` and
+    ``target`` may be None (then no metric is correlated: only the leaderboard is reported)."""
+    keep = ("camera", "timestamp_us") if compare_methods else ()  # the view columns are read anyway
+    items, clusters, unknown = read_all_pairs(pairs_path, metrics_paths=metrics_paths, progress=progress,
+                                              keep=keep)
+    if target is not None or not compare_methods:
+        _check_target(items, target)
+    notes = [f"all-pairs analysis: {len(items)} pairs, no votes; "
+             + (f"target {target}" if target is not None else "no target (the methods only)")]
     empty = [c for c in items.columns if c != target and pd.api.types.is_numeric_dtype(items[c])
              and not np.isfinite(items[c].to_numpy(np.float64)).any()]
     if empty:
@@ -280,12 +291,13 @@ def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), tar
         if n:
             notes.append(f"{path}: {n} pair ids are not in the pairs (ignored)")
     n_boot = boot_size(items, n_boot, notes, unit="pair")
-    summary = summary_table(items, metrics, directions, target=target, clusters=clusters,
+    ranked = metrics if target is not None else []  # no target: nothing to correlate
+    summary = summary_table(items, ranked, directions, target=target or "y_offset_m", clusters=clusters,
                             n_boot=n_boot, seed=seed, rank_by=rank_by, progress=progress)
-    categories = breakdowns.category_table(items, metrics, by=["label_class"] + attributes,
-                                           target=target, progress=progress)
+    categories = breakdowns.category_table(items, ranked, by=["label_class"] + attributes,
+                                           target=target or "y_offset_m", progress=progress)
     timing = read_timing(find_timing_files(timing_paths, metrics_paths))
-    by_offset, by_axis = axes.view_tables(items, [target] + metrics)
+    by_offset, by_axis = axes.view_tables(items, ([target] if target else []) + metrics)
     counts = {"votes": 0, "test_votes": 0, "test_votes_kept": 0, "items": len(items),
               "tracks": int(clusters.max()) + 1 if len(clusters) else 0,
               "clips": int(items[ds.PARTITION].nunique()), "raters": 0, "raters_simulated": 0,

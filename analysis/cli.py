@@ -3,7 +3,12 @@
 ``analyze RATINGS.csv [--metrics-table METRICS ...] [--lower-better A,B] [--higher-better A,B]
 [--target COLUMN] [--exclude-raters A,B] [--screen] [--aggregate METHOD] [--timing FILE ...]
 [--stability DIR]
-[--bootstrap N] [--seed S] [--rank-by {srcc,plcc,roc_auc}] --out REPORT_DIR``
+[--bootstrap N] [--seed S] [--rank-by {srcc,plcc,roc_auc}]
+[--compare-methods [--methods A,B] [--leaderboard-metric METRIC]] --out REPORT_DIR``
+
+Pairwise votes (a ``--design pairwise`` study's export) are recognised by their columns and
+analysed by :mod:`analysis.pairwise`; ``--compare-methods`` adds the leaderboard of
+:mod:`analysis.methods` to either path.
 
 Bad input ends with one line on stderr and exit status 2 (docs/FORMATS.md §7).
 """
@@ -18,7 +23,11 @@ from rich.table import Table
 
 from analysis.aggregate import METHODS
 from analysis.all_pairs import run_pairs_analysis
+from analysis.methods import for_analysis
+from analysis.methods_report import leaderboard_display
 from analysis.noninferiority import DEFAULT_MARGIN
+from analysis.pairwise import is_pairwise, run_pairwise_analysis
+from analysis.pairwise_report import bt_display, write_pairwise_report
 from analysis.pipeline import run_analysis
 from analysis.report import summary_display, write_report
 from analysis.summary import RANK_BY
@@ -140,6 +149,17 @@ def _add_options(p: ArgumentParser) -> None:
         default="srcc",
         help="statistic that picks the best metric (default srcc)",
     )
+    p.add_argument(
+        "--compare-methods",
+        action="store_true",
+        help="rank the reconstruction methods of the pairs (column 'method'): methods.csv, "
+        "methods_paired.csv and a leaderboard in the report (--target optional with --pairs)",
+    )
+    p.add_argument("--methods", action=CommaList, default=[], metavar="A,B",
+                   help="with --compare-methods: the methods to compare (default: all)")
+    p.add_argument("--leaderboard-metric", default=None, metavar="METRIC",
+                   help="with --compare-methods: the metric that ranks the methods (default: "
+                   "NVRQ-CA of the first encoder, else the first metric)")
     p.add_argument("--out", required=True, metavar="REPORT_DIR", help="report directory")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
 
@@ -149,6 +169,15 @@ def _print_summary(analysis) -> None:
     t = Table(title=f"metrics against {analysis.target}")
     for c in df.columns:
         t.add_column(c, justify="left" if c in ("metric", "reason", "vs best") else "right")
+    for row in df.itertuples(index=False):
+        t.add_row(*[str(v) for v in row])
+    Console(width=max(120, Console().width)).print(t)
+
+
+def _print(df, title: str) -> None:
+    t = Table(title=title)
+    for c in df.columns:
+        t.add_column(c, justify="left" if c in ("method", "reason", "vs next") else "right")
     for row in df.itertuples(index=False):
         t.add_row(*[str(v) for v in row])
     Console(width=max(120, Console().width)).print(t)
@@ -172,10 +201,20 @@ def _run(args) -> int:
                         inputs=[args.ratings or args.pairs, *args.metrics_tables, *args.timing,
                                 args.stability])
 
+    if (args.methods or args.leaderboard_metric) and not args.compare_methods:
+        raise InputError("--methods/--leaderboard-metric", None, "--compare-methods with them", "none")
+    if args.ratings is not None and is_pairwise(args.ratings):
+        return _run_pairwise(args)
     analysis = _run_pairs(args) if args.pairs is not None else _run_ratings(args)
     analysis.margin = args.margin
+    if args.compare_methods:
+        analysis.methods = for_analysis(analysis, methods=args.methods,
+                                        rank_metric=args.leaderboard_metric)
     out = write_report(analysis, args.out)
-    _print_summary(analysis)
+    if analysis.target is not None:
+        _print_summary(analysis)
+    if analysis.methods is not None:
+        _print(leaderboard_display(analysis.methods), f"methods by {analysis.methods.rank_metric}")
     print(f"report: {out / 'report.html'}", file=sys.stderr)
     return 0
 
@@ -199,7 +238,25 @@ def _run_pairs(args):
     if args.screen or args.exclude_raters or args.stability:
         raise InputError("--pairs", None, "no rater or stability options (there are no votes)",
                          "--screen/--exclude-raters/--stability")
-    return run_pairs_analysis(args.pairs, **_common_options(args))
+    return run_pairs_analysis(args.pairs, compare_methods=args.compare_methods, **_common_options(args))
+
+
+def _run_pairwise(args) -> int:
+    """Pairwise votes: Bradley-Terry, 2AFC agreement and screening (analysis.pairwise)."""
+    for given, flag in ((args.target, "--target"), (args.stability, "--stability"),
+                        (args.aggregate != "majority", "--aggregate"), (args.timing, "--timing"),
+                        (args.methods or args.leaderboard_metric, "--methods/--leaderboard-metric")):
+        if given:
+            raise InputError(flag, None, "no such option with pairwise votes (they rank methods by "
+                             "Bradley-Terry and metrics by 2AFC agreement)", args.ratings)
+    result = run_pairwise_analysis(
+        args.ratings, metrics_paths=args.metrics_tables, lower=args.lower_better,
+        higher=args.higher_better, exclude_raters=args.exclude_raters, screen_raters=args.screen,
+        n_boot=args.bootstrap, seed=args.seed)
+    out = write_pairwise_report(result, args.out)
+    _print(bt_display(result.bradley_terry), "methods by Bradley-Terry (pairwise votes)")
+    print(f"report: {out / 'report.html'}", file=sys.stderr)
+    return 0
 
 
 def _run_ratings(args):

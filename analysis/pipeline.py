@@ -67,6 +67,7 @@ class Analysis:
     comparison: dict | None = None
     source: str = "ratings"  # or "pairs": analyze --pairs (no votes; see analysis.all_pairs)
     margin: float = DEFAULT_MARGIN  # non-inferiority margin (analysis.noninferiority)
+    methods: object | None = None  # analysis.methods.MethodsResult with --compare-methods
 
 
 def read_timing(paths) -> pd.DataFrame | None:

@@ -20,7 +20,7 @@ import pandas as pd
 from jinja2 import Environment, FileSystemLoader
 from markupsafe import Markup
 
-from analysis import plots
+from analysis import methods_report, plots
 from analysis.axes import axis_tent_plots
 from analysis.noninferiority import recommend_from_tables
 from analysis.pipeline import Analysis
@@ -290,7 +290,7 @@ _RATER_COLS = [
 def _figures(a: Analysis, d: Path, tl: str) -> list[dict]:
     figs = []
     cols = [a.target] + a.metrics
-    items = [
+    items = [] if a.target is None else [
         (
             "tent",
             f"Per-offset tent plot ({tl} first, mean +/- 1 std)",
@@ -298,14 +298,16 @@ def _figures(a: Analysis, d: Path, tl: str) -> list[dict]:
         ),
         ("target_hist", f"{tl} distribution", plots.target_histogram(a.items, a.target, label=tl)),
     ]
-    if a.by_axis is not None:  # 6-DoF views: one tent plot per axis instead of the lateral one
+    if a.by_axis is not None and items:  # 6-DoF views: one tent plot per axis instead of the lateral one
         items[:1] = axis_tent_plots(a.by_axis, cols, a.directions, target_label=tl)
-    label, _ = binary_label(a.items, a.target)
+    label, _ = binary_label(a.items, a.target) if items else (None, None)
     if label is not None:
         items.append(
             ("roc", "ROC curves of the best metrics", plots.roc_plot(a.items, a.summary, label))
         )
-    if a.timing is not None:
+    if a.methods is not None:  # --compare-methods: the leaderboard's figures first
+        items[:0] = methods_report.method_figures(a.methods)
+    if a.timing is not None and a.target is not None:
         items.append(
             (
                 "speed_accuracy",
@@ -333,6 +335,9 @@ def _write_tables(a: Analysis, d: Path) -> None:
     write_table(a.categories, d / "categories.csv")
     if a.source == "ratings":
         write_table(a.raters, d / "raters.csv")
+    if a.methods is not None:
+        write_table(a.methods.table, d / "methods.csv")
+        write_table(a.methods.paired, d / "methods_paired.csv")
     for table, name in ((a.encoders if len(a.encoders) else None, "encoders"),
                         (a.stability, "stability"), (a.snr, "snr")):
         if table is not None:
@@ -352,7 +357,8 @@ def _context(a: Analysis, t: dict, figs: list[dict], *, html_out: bool) -> dict:
         "ratings": a.ratings_path,
         "counts": a.counts,
         "figures": figs,
-        "summary_table": table(disp, best_col="_best"),
+        "summary_table": table(disp, best_col="_best") if a.target is not None else "",
+        **methods_report.context(a.methods, table),
         "breakdowns": [{"name": b, "table": table(_category_wide(a.categories, b))}
                        for b in a.categories["breakdown"].unique()],
         "raters_table": table(raters) if a.source == "ratings" else "",

@@ -1,0 +1,428 @@
+"""The leaderboard of reconstruction methods: ``analyze ... --compare-methods`` (docs/FORMATS.md §6).
+
+Input: the per-object table of either ``analyze`` path (every pair joined with its metrics,
+or the rated items with GVF), with a ``method`` column: one row per object, view and method.
+An *object* is ``(clip_id, camera, track_id, timestamp_us, view)``; the view is the
+perturbation of :mod:`data_schema.perturbation` (the lateral offset ``y_offset_m`` and the
+optional 6-DoF columns, at their 0.01 precision).
+
+Outputs (one fact each):
+
+- :data:`TABLE_COLUMNS` (``methods.csv``): per method, metric and group: ``n``,
+  ``n_tracks``, ``mean``, ``median`` and the 95% percentile interval of the mean from a
+  cluster bootstrap over tracks ``(clip_id, track_id)`` (:mod:`analysis.bootstrap`). Groups:
+  ``breakdown = 'all'``; one breakdown per view axis, named by its column (``y_offset_m``,
+  ``yaw_deg``, ...; the real camera's view is value 0 of every axis, as in
+  :mod:`analysis.axes`); ``label_class``; each scene attribute.
+- :data:`PAIRED_COLUMNS` (``methods_paired.csv``): per pair of methods ``(a, b)``, metric and
+  view (``axis = 'all'`` or an axis column with its ``offset``), over the objects both methods
+  scored: ``mean_diff`` = mean of ``x_a - x_b`` in the metric's units with its 95% paired
+  cluster-bootstrap interval and two-sided p-value (:func:`analysis.bootstrap.paired_difference`
+  on the replicate means), ``p_holm`` (Holm over every row of the table), ``win_rate`` (share
+  of objects where ``a`` scores better, by the metric's direction) and ``tie_rate`` (equal
+  values), and ``better``: ``'a'`` or ``'b'`` when ``p_holm < 0.05``, else ``'neither'`` (the
+  interval may include 0: near-identical renders are a tie, never a win).
+  ``n_only_a`` / ``n_only_b`` count objects left out because only one method has a value.
+- the leaderboard (:func:`leaderboard_table`): methods sorted by the mean of one metric over
+  all their objects (default: NVRQ-CA of the first encoder, :func:`default_rank_metric`), each
+  with whether it is better than the next at ``p_holm < 0.05`` in the paired comparison.
+
+All bootstrap statistics share one set of track draws, so they are paired across methods,
+metrics and views. Rules for degenerate input (DESIGN rule 7): a mean needs one value; an
+interval needs two tracks and a bootstrap; undefined values are empty with the reason.
+
+>>> holm(np.array([0.01, 0.04, 0.03, np.nan])).tolist()
+[0.03, 0.06, 0.06, nan]
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from analysis import bootstrap as bs
+from data_schema.errors import InputError
+from data_schema.perturbation import (
+    AXES,
+    PERTURBATION_COLUMNS,
+    axes,
+    axis_values,
+    perturbation_array,
+)
+
+__all__ = [
+    "METHOD_COLUMN",
+    "OBJECT_COLUMNS",
+    "TABLE_COLUMNS",
+    "PAIRED_COLUMNS",
+    "LEADERBOARD_COLUMNS",
+    "ALPHA",
+    "MethodsResult",
+    "holm",
+    "default_rank_metric",
+    "check_methods",
+    "object_codes",
+    "view_breakdowns",
+    "compare_methods",
+    "leaderboard_table",
+    "for_analysis",
+]
+
+METHOD_COLUMN = "method"
+#: The columns that name one object seen from one view (with the view's perturbation).
+OBJECT_COLUMNS = ("clip_id", "camera", "track_id", "timestamp_us")
+TABLE_COLUMNS = ["method", "metric", "breakdown", "group", "n", "n_tracks", "mean", "median",
+                 "ci_lo", "ci_hi", "reason"]
+PAIRED_COLUMNS = ["method_a", "method_b", "metric", "axis", "offset", "n", "n_only_a", "n_only_b",
+                  "mean_diff", "ci_lo", "ci_hi", "p", "p_holm", "win_rate", "tie_rate", "better",
+                  "reason"]
+LEADERBOARD_COLUMNS = ["rank", "method", "metric", "n", "mean", "ci_lo", "ci_hi", "median",
+                       "next", "p_holm_vs_next", "better_than_next"]
+#: Significance level of ``better`` and of the leaderboard's "better than the next".
+ALPHA = 0.05
+_CHUNK_CELLS = 8_000_000  # bootstrap replicates x tracks per matrix product
+
+
+@dataclass
+class MethodsResult:
+    """What ``--compare-methods`` adds to the report (see the module docstring)."""
+
+    methods: list[str]  # every compared method, in leaderboard order
+    metrics: list[str]
+    directions: dict[str, bool]
+    rank_metric: str
+    table: pd.DataFrame  # TABLE_COLUMNS
+    paired: pd.DataFrame  # PAIRED_COLUMNS
+    leaderboard: pd.DataFrame  # LEADERBOARD_COLUMNS
+    n_boot: int = 0
+    notes: list[str] = field(default_factory=list)
+
+
+def holm(p: np.ndarray) -> np.ndarray:
+    """Holm-Bonferroni adjusted p-values of ``p`` (n,); NaN stays NaN and is not counted.
+
+    The i-th smallest of m p-values becomes ``max_{j <= i} min(1, (m - j + 1) p_(j))``
+    (Holm 1979). The module doctest: m = 3 defined values 0.01, 0.03, 0.04 give 3 x 0.01 = 0.03,
+    max(0.03, 2 x 0.03) = 0.06 and max(0.06, 1 x 0.04) = 0.06.
+    """
+    p = np.asarray(p, dtype=np.float64)
+    out = np.full(p.shape, np.nan)
+    ok = np.flatnonzero(np.isfinite(p))
+    if ok.size == 0:
+        return out
+    order = ok[np.argsort(p[ok], kind="stable")]
+    m = order.size
+    adj = np.minimum(1.0, (m - np.arange(m)) * p[order])
+    out[order] = np.maximum.accumulate(adj)
+    return out
+
+
+def default_rank_metric(metrics: list[str]) -> str | None:
+    """NVRQ-CA of the first encoder (``nvrq_ca:ENC`` or ``nvrq_ca``), else the first metric.
+
+    >>> default_rank_metric(["psnr", "nvrq:a", "nvrq_ca:a", "nvrq_ca:b"])
+    'nvrq_ca:a'
+    >>> default_rank_metric(["psnr", "ssim"])
+    'psnr'
+    """
+    for m in metrics:
+        if m == "nvrq_ca" or m.startswith("nvrq_ca:"):
+            return m
+    return metrics[0] if metrics else None
+
+
+def check_methods(items: pd.DataFrame, *, where, methods=None) -> list[str]:
+    """The methods to compare (sorted, or in the order of ``methods``); ``InputError`` unless
+    ``items`` has a ``method`` column with at least two of them (all of ``methods`` among them)."""
+    if METHOD_COLUMN not in items.columns:
+        raise InputError(where, f"column {METHOD_COLUMN!r}", "a method per row to compare "
+                         "(--compare-methods; docs/FORMATS.md §2)", "no such column")
+    col = items[METHOD_COLUMN]
+    present = sorted(map(str, pd.unique(col[col.notna()].astype(str))))
+    if methods:
+        unknown = [m for m in methods if m not in present]
+        if unknown:
+            raise InputError("--methods", unknown[0], "a method of " + str(where) + " ("
+                             + ", ".join(present) + ")", "no such method")
+        present = list(dict.fromkeys(methods))
+    if len(present) < 2:
+        raise InputError(where, f"column {METHOD_COLUMN!r}", "at least two methods to compare "
+                         "(--compare-methods)", "one: " + ", ".join(present) if present else "none")
+    return present
+
+
+def object_codes(items: pd.DataFrame, *, where) -> np.ndarray:
+    """(N,) int64 code of each row's object ``(clip_id, camera, track_id, timestamp_us, view)``.
+
+    The view is compared at the 0.01 precision of pair ids (docs/FORMATS.md §3).
+    """
+    missing = [c for c in OBJECT_COLUMNS if c not in items.columns]
+    if missing:
+        raise InputError(where, f"column {missing[0]!r}", "the object columns "
+                         + ", ".join(OBJECT_COLUMNS) + " to pair methods on", "no such column")
+    view = np.round(perturbation_array(items) * 100).astype(np.int64)
+    keys = [pd.factorize(items[c].astype(str) if c != "timestamp_us" else items[c])[0]
+            for c in OBJECT_COLUMNS] + list(view.T)
+    return pd.MultiIndex.from_arrays(keys).factorize()[0].astype(np.int64)
+
+
+def view_breakdowns(items: pd.DataFrame) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """``(axis, values (N,), member (N,) bool)`` per view breakdown: ``'all'`` (values NaN),
+    then each axis present (its column name), with the real camera's view at value 0."""
+    names, values = axes(perturbation_array(items)), axis_values(perturbation_array(items))
+    n = len(items)
+    out = [("all", np.full(n, np.nan), np.ones(n, bool))]
+    for axis, column in zip(AXES, PERTURBATION_COLUMNS, strict=True):
+        on = names == axis
+        if on.any() or (axis == "y" and (names == "none").any()):
+            out.append((column, np.where(on, values, 0.0), on | (names == "none")))
+    return out
+
+
+def _replicate_means(v, ok, groups, n_groups, clusters, counts):
+    """Per-group mean of ``v`` over ``ok`` rows: point (G,), n (G,), tracks (G,), replicates (B, G).
+
+    ``groups`` (N,) int codes; ``clusters`` (N,) track codes into the columns of ``counts`` (B, K).
+    A replicate's mean weighs each row by how often its track was drawn.
+    """
+    g, c, x = groups[ok], clusters[ok], v[ok]
+    n = np.bincount(g, minlength=n_groups).astype(np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        point = np.bincount(g, weights=x, minlength=n_groups) / n
+    k = counts.shape[1] if counts is not None else int(clusters.max()) + 1 if len(clusters) else 1
+    cell = g.astype(np.int64) * k + c
+    tracks = np.bincount(np.unique(cell) // k, minlength=n_groups)
+    if counts is None or counts.shape[0] == 0:
+        return point, n, tracks, np.empty((0, n_groups))
+    s = np.bincount(cell, weights=x, minlength=n_groups * k).reshape(n_groups, k)
+    w = np.bincount(cell, minlength=n_groups * k).reshape(n_groups, k).astype(np.float64)
+    reps = np.empty((counts.shape[0], n_groups))
+    step = max(1, _CHUNK_CELLS // max(1, k))
+    for b0 in range(0, counts.shape[0], step):
+        cb = counts[b0:b0 + step].astype(np.float64)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            reps[b0:b0 + step] = (cb @ s.T) / (cb @ w.T)
+    return point, n, tracks, reps
+
+
+def _groups_of(items: pd.DataFrame, attributes: list[str]):
+    """``(breakdown, group labels (N,) object, member (N,) bool)`` for methods.csv."""
+    out = []
+    for axis, values, member in view_breakdowns(items):
+        text = ["all"] * len(items) if axis == "all" else [f"{v + 0.0:g}" for v in values]
+        out.append((axis, np.array(text, dtype=object), member))
+    for col in ["label_class", *attributes]:
+        if col in items.columns:
+            lab = items[col].astype(str).to_numpy(dtype=object)
+            out.append((col, lab, items[col].notna().to_numpy()))
+    return out
+
+
+def _method_table(items, metrics, m_codes, methods, attributes, clusters, counts):
+    """methods.csv (:data:`TABLE_COLUMNS`)."""
+    rows = []
+    for breakdown, labels, member in _groups_of(items, attributes):
+        sel = member & (m_codes >= 0)
+        codes, uniq = pd.factorize(pd.Series(labels[sel]), sort=breakdown in ("label_class",))
+        if breakdown in PERTURBATION_COLUMNS:  # numeric order along the axis
+            order = np.argsort(np.array([float(u) for u in uniq]), kind="stable")
+            uniq, codes = uniq[order], np.argsort(order)[codes]
+        gsize = len(uniq)
+        groups = np.full(len(items), -1, np.int64)
+        groups[sel] = m_codes[sel] * gsize + codes
+        for metric in metrics:
+            v = items[metric].to_numpy(np.float64)
+            ok = sel & np.isfinite(v)
+            point, n, tracks, reps = _replicate_means(v, ok, np.maximum(groups, 0), len(methods) * gsize,
+                                                      clusters, counts)
+            med = pd.Series(v[ok]).groupby(groups[ok]).median()
+            for gi in np.flatnonzero(n > 0):
+                lo = hi = np.nan
+                reason = None
+                if reps.shape[0] == 0:
+                    reason = "no bootstrap"
+                elif tracks[gi] < 2:
+                    reason = "fewer than 2 tracks: no interval"
+                else:
+                    lo, hi, reason = bs.percentile_ci(reps[:, gi])
+                rows.append({"method": methods[gi // gsize], "metric": metric, "breakdown": breakdown,
+                             "group": uniq[gi % gsize], "n": int(n[gi]), "n_tracks": int(tracks[gi]),
+                             "mean": point[gi], "median": float(med[gi]), "ci_lo": lo, "ci_hi": hi,
+                             "reason": reason})
+    return pd.DataFrame(rows, columns=TABLE_COLUMNS)
+
+
+def _wide(items, metric, obj, m_codes, n_obj, n_methods):
+    """(n_obj, M) values of ``metric`` per object and method (NaN: no finite value)."""
+    v = items[metric].to_numpy(np.float64)
+    ok = (m_codes >= 0) & np.isfinite(v)
+    out = np.full((n_obj, n_methods), np.nan)
+    out[obj[ok], m_codes[ok]] = v[ok]
+    return out
+
+
+def _paired_rows(a, b, names, metric, hb, vals, obj_views, obj_clusters, counts):
+    """Rows of methods_paired.csv for methods ``a``, ``b`` and one metric, every view."""
+    xa, xb = vals[:, a], vals[:, b]
+    fa, fb = np.isfinite(xa), np.isfinite(xb)
+    both = fa & fb
+    d = np.where(both, xa - xb, np.nan)
+    rows = []
+    for axis, values, member in obj_views:
+        if axis == "all":
+            codes, uniq = np.zeros(len(d), np.int64), np.array([np.nan])
+        else:
+            uniq, codes = np.unique(np.where(member, values, np.nan), return_inverse=True)
+            codes = codes.astype(np.int64)
+        ok = both & member
+        point, n, _, reps = _replicate_means(d, ok, codes, len(uniq), obj_clusters, counts)
+        better_a = (d > 0) if hb else (d < 0)
+        for gi in range(len(uniq)):
+            if axis != "all" and not np.isfinite(uniq[gi]):
+                continue
+            g = ok & (codes == gi)
+            in_view = member & (codes == gi)
+            row = {"method_a": names[a], "method_b": names[b], "metric": metric, "axis": axis,
+                   "offset": uniq[gi], "n": int(n[gi]),
+                   "n_only_a": int((in_view & fa & ~fb).sum()), "n_only_b": int((in_view & fb & ~fa).sum()),
+                   "mean_diff": point[gi], "ci_lo": np.nan, "ci_hi": np.nan, "p": np.nan,
+                   "win_rate": better_a[g].mean() if g.any() else np.nan,
+                   "tie_rate": (d[g] == 0).mean() if g.any() else np.nan, "reason": None}
+            if not g.any():
+                row["reason"] = "no object scored by both methods"
+            elif reps.shape[0] == 0:
+                row["reason"] = "no bootstrap"
+            else:
+                row["ci_lo"], row["ci_hi"], row["p"] = bs.paired_difference(reps[:, gi], np.zeros(reps.shape[0]))
+                if not np.isfinite(row["p"]):
+                    row["reason"] = "bootstrap replicates undefined"
+            rows.append(row)
+    return rows
+
+
+def _paired_table(items, metrics, directions, m_codes, methods, obj, clusters, counts):
+    """methods_paired.csv (:data:`PAIRED_COLUMNS`) and the unpaired-object notes."""
+    n_obj = int(obj.max()) + 1 if len(obj) else 0
+    first = np.full(n_obj, -1, np.int64)
+    first[obj[::-1]] = np.arange(len(obj))[::-1]  # a row of each object: its track and view
+    rep_items = items.iloc[first]
+    obj_views = view_breakdowns(rep_items)
+    obj_clusters = clusters[first]
+    present = np.zeros((n_obj, len(methods)), bool)
+    sel = m_codes >= 0
+    present[obj[sel], m_codes[sel]] = True
+    rows, notes = [], []
+    vals = {m: _wide(items, m, obj, m_codes, n_obj, len(methods)) for m in metrics}
+    for a in range(len(methods)):
+        for b in range(a + 1, len(methods)):
+            for ma, mb in ((a, b), (b, a)):
+                only = int((present[:, ma] & ~present[:, mb]).sum())
+                if only:
+                    notes.append(f"{only} objects of method {methods[ma]!r} have no row of method "
+                                 f"{methods[mb]!r} (not in its pairs): left out of the paired "
+                                 f"{methods[a]!r}-{methods[b]!r} comparison")
+            for metric in metrics:
+                rows += _paired_rows(a, b, methods, metric, directions[metric], vals[metric],
+                                     obj_views, obj_clusters, counts)
+    t = pd.DataFrame(rows, columns=[c for c in PAIRED_COLUMNS if c not in ("p_holm", "better")])
+    t["p_holm"] = holm(t["p"].to_numpy(np.float64))
+    hb = t["metric"].map(directions).astype(bool).to_numpy()
+    oriented = np.where(hb, t["mean_diff"], -t["mean_diff"])
+    sig = t["p_holm"].to_numpy() < ALPHA
+    t["better"] = np.where(sig & (oriented > 0), "a", np.where(sig & (oriented < 0), "b", "neither"))
+    t.loc[~np.isfinite(t["p_holm"].to_numpy()), "better"] = None
+    return t.loc[:, PAIRED_COLUMNS], notes
+
+
+def leaderboard_table(table: pd.DataFrame, paired: pd.DataFrame, *, methods: list[str], metric: str,
+                      higher_better: bool) -> pd.DataFrame:
+    """Methods sorted by their mean ``metric`` over all their objects (best first), each with
+    ``better_than_next``: the paired comparison with the next method says better at
+    ``p_holm < ALPHA`` (:data:`LEADERBOARD_COLUMNS`; empty for the last)."""
+    t = table[(table["breakdown"] == "all") & (table["metric"] == metric)].set_index("method")
+    t = t.reindex(methods)
+    order = t["mean"].sort_values(ascending=not higher_better, kind="stable", na_position="last").index
+    rows = []
+    p_all = paired[(paired["axis"] == "all") & (paired["metric"] == metric)]
+    for i, m in enumerate(order):
+        nxt = order[i + 1] if i + 1 < len(order) else None
+        p = better = None
+        if nxt is not None:
+            r = p_all[((p_all["method_a"] == m) & (p_all["method_b"] == nxt))
+                      | ((p_all["method_a"] == nxt) & (p_all["method_b"] == m))]
+            if len(r):
+                r = r.iloc[0]
+                p = r["p_holm"]
+                side = "a" if r["method_a"] == m else "b"
+                better = bool(r["better"] == side) if r["better"] is not None else None
+        rows.append({"rank": i + 1, "method": m, "metric": metric, "n": t.loc[m, "n"],
+                     "mean": t.loc[m, "mean"], "ci_lo": t.loc[m, "ci_lo"], "ci_hi": t.loc[m, "ci_hi"],
+                     "median": t.loc[m, "median"], "next": nxt, "p_holm_vs_next": p,
+                     "better_than_next": better})
+    return pd.DataFrame(rows, columns=LEADERBOARD_COLUMNS)
+
+
+def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[str, bool], *,
+                    clusters: np.ndarray, attributes=(), n_boot: int = 1000, seed: int = 0,
+                    rank_metric: str | None = None, methods=None, where="items") -> MethodsResult:
+    """The leaderboard tables of ``items`` (module docstring).
+
+    items: one row per object, view and method (``method`` column); metrics: numeric columns
+    with ``directions[m]`` True when higher is better; clusters: (N,) int track codes.
+    ``methods`` restricts (and orders) the methods compared; ``where`` names the input in errors.
+    """
+    names = check_methods(items, where=where, methods=methods)
+    if rank_metric is not None and rank_metric not in metrics:
+        raise InputError("--leaderboard-metric", rank_metric, "a metric column of the inputs ("
+                         + ", ".join(metrics) + ")", "no such metric")
+    rank_metric = rank_metric or default_rank_metric(metrics)
+    if rank_metric is None:
+        raise InputError(where, None, "at least one metric column to rank methods by", "none")
+    m_codes = pd.Categorical(items[METHOD_COLUMN].astype(str), categories=names).codes.astype(np.int64)
+    for m in metrics:  # a method whose rows have no value of a metric: its table did not cover it
+        v = items[m].to_numpy(np.float64)
+        has = np.bincount(m_codes[(m_codes >= 0) & np.isfinite(v)], minlength=len(names))
+        if (has == 0).any():
+            miss = names[int(np.flatnonzero(has == 0)[0])]
+            raise InputError(where, f"column {m!r}", f"values for every compared method (the metrics "
+                             f"table covering the pairs of {miss!r})", f"none for method {miss!r}")
+    obj = object_codes(items, where=where)
+    sel = np.flatnonzero(m_codes >= 0)
+    dup = pd.DataFrame({"o": obj[sel], "m": m_codes[sel]}).duplicated().to_numpy()
+    if dup.any():
+        i = int(sel[np.flatnonzero(dup)[0]])
+        raise InputError(where, METHOD_COLUMN, "one row per object, view and method",
+                         "a second row for " + ":".join(str(items[c].iloc[i]) for c in OBJECT_COLUMNS)
+                         + f" of method {items[METHOD_COLUMN].iloc[i]!r}")
+    k = int(clusters.max()) + 1 if len(clusters) else 0
+    counts = bs.draw_cluster_counts(k, n_boot, seed=seed) if n_boot and k else None
+    table = _method_table(items, metrics, m_codes, names, list(attributes), clusters, counts)
+    hb = directions[rank_metric]
+    overall = table[(table["breakdown"] == "all") & (table["metric"] == rank_metric)]
+    means = overall.set_index("method")["mean"].reindex(names)
+    names = list(means.sort_values(ascending=not hb, kind="stable", na_position="last").index)
+    # the table and the pairs follow the leaderboard: method_a is the higher-ranked one
+    table = table.assign(_o=table["method"].map({m: i for i, m in enumerate(names)}))
+    table = table.sort_values("_o", kind="stable").drop(columns="_o").reset_index(drop=True)
+    m_codes = pd.Categorical(items[METHOD_COLUMN].astype(str), categories=names).codes.astype(np.int64)
+    paired, notes = _paired_table(items, metrics, directions, m_codes, names, obj, clusters, counts)
+    board = leaderboard_table(table, paired, methods=names, metric=rank_metric, higher_better=hb)
+    return MethodsResult(methods=list(board["method"]), metrics=list(metrics), directions=dict(directions),
+                         rank_metric=rank_metric, table=table, paired=paired, leaderboard=board,
+                         n_boot=n_boot if counts is not None else 0, notes=notes)
+
+
+def for_analysis(a, *, methods=None, rank_metric=None) -> MethodsResult:
+    """:func:`compare_methods` on the items of an :class:`analysis.pipeline.Analysis`: its
+    metrics, and GVF (or the model's ``p_good``) first on the ratings path; scene attributes
+    other than ``method`` break the tables down."""
+    votes = [a.target] if a.target in ("gvf", "p_good") else []
+    items = a.items
+    clusters = pd.MultiIndex.from_arrays([items["clip_id"].astype(str),
+                                          items["track_id"].astype(str)]).factorize()[0]
+    return compare_methods(items, votes + list(a.metrics), {**a.directions, **{t: True for t in votes}},
+                           clusters=clusters, attributes=[c for c in a.attributes if c != METHOD_COLUMN],
+                           n_boot=a.n_boot, seed=a.seed, rank_metric=rank_metric, methods=methods,
+                           where=a.ratings_path)

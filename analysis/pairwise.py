@@ -1,0 +1,508 @@
+"""``analyze VOTES.csv`` on pairwise votes: which method do people prefer, and which metric
+agrees with them (docs/FORMATS.md §6).
+
+A pairwise vote (``annotate export`` of a ``--design pairwise`` study, one row per vote) has
+the columns :data:`PAIRWISE_COLUMNS`: the rater saw the GT crop and the renders of methods
+``method_a`` and ``method_b`` of one object and view (``side_a``: where ``a`` was drawn) and
+chose ``choice``: ``'a'``, ``'b'`` or ``'tie'`` (can't tell). The object's columns
+(``clip_id, camera, track_id, label_class, timestamp_us``, the view, attributes) follow.
+A file is read as pairwise when it has these columns (:func:`is_pairwise`).
+
+- **Bradley-Terry** (:func:`bradley_terry`): strengths ``p`` (sum 1) with
+  ``P(i beats j) = p_i / (p_i + p_j)``, the maximum-likelihood fit of the win matrix by the
+  MM algorithm of Hunter (2004), the model of crowd-kit's ``BradleyTerry``, iterated to
+  convergence (crowd-kit 1.4 stops after its second iteration, which is exact for two methods
+  only). A tie counts half a win for each side. ``win_prob`` is the mean of
+  ``P(i beats j)`` over the other methods (two methods: the probability that ``i`` is
+  preferred). The fit is undefined unless the comparison graph is strongly connected (every
+  method won and lost something, directly or through others).
+- **2AFC agreement** of a metric (as in the BAPPS evaluation of LPIPS): per test vote, the
+  metric prefers the side with the better value (by its direction); the vote scores 1 when the
+  rater chose that side, 0 for the other and 0.5 when the rater or the metric ties; the
+  agreement is the mean over votes. Each side's value is the metric of that method's pair
+  (pair id = the object's id + ``:METHOD``, docs/FORMATS.md §3) in ``--metrics-table``.
+  Its ceiling is the agreement between raters: the mean over items with two votes or more of
+  the expected agreement of two different raters of the item (the same scoring of one
+  rater's choice against another's), weighted by the item's votes.
+- Intervals: 95% percentile intervals of a bootstrap that resamples raters and items
+  independently (a vote weighs the product of its rater's and its item's draw counts); the
+  ceiling resamples items only (a rater drawn twice would agree with itself).
+- **Screening** (:func:`rater_table`): gold votes (``kind == 'gold'``: one side is the GT crop
+  itself, so it must be chosen; a tie fails), repeats (``kind == 'repeat'``, the test item
+  shown again with the sides swapped: the same choice is consistent), response speed, and
+  agreement with the other raters' modal choice, with the tests and thresholds of
+  :class:`annotate.screening.ScreenRule`; ``--screen`` excludes flagged raters.
+
+Only ``kind == 'test'`` votes enter the fits and the agreement.
+
+>>> w = np.array([[0.0, 3.0], [1.0, 0.0]])  # a beat b 3 times, b beat a once
+>>> np.round(bradley_terry(w), 3).tolist()
+[0.75, 0.25]
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+from scipy import stats as _st
+
+from analysis import bootstrap as bs
+from analysis.methods import METHOD_COLUMN, view_breakdowns
+from annotate.screening import ScreenRule, screen
+from data_schema.errors import InputError
+from data_schema.perturbation import perturbation_array, view_suffix
+from data_schema.raters import SIM_PREFIX
+from data_schema.tables import ITEM_KINDS, read_metrics, read_table
+
+__all__ = [
+    "PAIRWISE_COLUMNS",
+    "CHOICES",
+    "BT_COLUMNS",
+    "AGREEMENT_COLUMNS",
+    "PairwiseAnalysis",
+    "is_pairwise",
+    "read_pairwise_votes",
+    "bradley_terry",
+    "strongly_connected",
+    "win_matrix",
+    "bt_table",
+    "agreement_table",
+    "rater_table",
+    "side_pair_ids",
+    "run_pairwise_analysis",
+]
+
+#: docs/FORMATS.md §5: the leading columns of a pairwise vote (the object's columns follow).
+PAIRWISE_COLUMNS = ("item_id", "rater_id", "kind", "method_a", "method_b", "side_a", "choice")
+#: The values of ``choice`` and the share of a win each gives to side ``a``.
+CHOICES = {"a": 1.0, "tie": 0.5, "b": 0.0}
+BT_COLUMNS = ["axis", "offset", "method", "n_votes", "wins", "ties", "losses", "score",
+              "score_ci_lo", "score_ci_hi", "win_prob", "win_prob_ci_lo", "win_prob_ci_hi", "reason"]
+AGREEMENT_COLUMNS = ["metric", "higher_better", "n_votes", "agreement", "ci_lo", "ci_hi", "reason"]
+#: The row of the agreement table that holds the agreement between raters (the ceiling).
+CEILING_ROW = "raters (ceiling)"
+_TOL, _MAX_ITER = 1e-12, 20_000
+
+
+def is_pairwise(path) -> bool:
+    """True when the table at ``path`` has the pairwise vote columns (:data:`PAIRWISE_COLUMNS`)."""
+    return set(PAIRWISE_COLUMNS) <= set(_header(path))
+
+
+def _header(path) -> list[str]:
+    from pathlib import Path
+
+    p = Path(path)
+    if p.suffix.lower() == ".parquet" and p.is_file():
+        import pyarrow.parquet as pq
+
+        return list(pq.read_schema(p).names)
+    if p.suffix.lower() == ".csv" and p.is_file():
+        return list(pd.read_csv(p, nrows=0).columns)
+    return []
+
+
+def _line(i: int) -> str:
+    return f"line {i + 2}"
+
+
+def read_pairwise_votes(path) -> pd.DataFrame:
+    """Read and check pairwise votes (one row per vote, module docstring).
+
+    Checks: the columns exist, at least one row; ``choice`` in ``{'a', 'b', 'tie'}``; ``kind``
+    one of :data:`~data_schema.tables.ITEM_KINDS`; ids and methods non-empty, and the two
+    methods of a test or repeat vote differ; one row per (rater, item, kind).
+    """
+    df = read_table(path, required=PAIRWISE_COLUMNS, what="pairwise votes",
+                    dtype={c: str for c in ("item_id", "rater_id", "kind", "method_a", "method_b",
+                                            "side_a", "choice", "clip_id", "camera", "track_id",
+                                            "label_class")})
+    if len(df) == 0:
+        raise InputError(path, None, "at least one vote row", "no rows")
+    for col, allowed in (("choice", tuple(CHOICES)), ("kind", ITEM_KINDS)):
+        bad = ~df[col].isin(allowed)
+        if bad.any():
+            i = int(np.flatnonzero(bad.to_numpy())[0])
+            raise InputError(path, f"{_line(i)}: {col}", "one of " + ", ".join(allowed), df[col].iloc[i])
+    for col in ("item_id", "rater_id", "method_a", "method_b", "side_a"):
+        bad = df[col].isna() | (df[col].astype(str).str.strip() == "")
+        if bad.any():
+            raise InputError(path, f"{_line(int(np.flatnonzero(bad.to_numpy())[0]))}: {col}",
+                             "a value", "empty")
+    same = df["kind"].isin(("test", "repeat")) & (df["method_a"] == df["method_b"])
+    if same.any():
+        i = int(np.flatnonzero(same.to_numpy())[0])
+        raise InputError(path, f"{_line(i)}: method_b", "a method other than method_a",
+                         df["method_b"].iloc[i])
+    dup = df.duplicated(["rater_id", "item_id", "kind"])
+    if dup.any():
+        i = int(np.flatnonzero(dup.to_numpy())[0])
+        raise InputError(path, _line(i), "one row per (rater_id, item_id, kind)",
+                         f"a second row for rater {df['rater_id'].iloc[i]!r}, item {df['item_id'].iloc[i]!r}")
+    if "response_ms" in df.columns:
+        df["response_ms"] = pd.to_numeric(df["response_ms"], errors="coerce")
+    return df
+
+
+# --- Bradley-Terry ------------------------------------------------------------------------
+
+def strongly_connected(w: np.ndarray) -> np.ndarray:
+    """w: (..., M, M) wins -> (...,) bool: every method reaches every other by edges i->j
+    where i beat j (so each won and lost against the rest)."""
+    m = w.shape[-1]
+    r = (w > 0) | np.eye(m, dtype=bool)
+    for _ in range(max(1, int(np.ceil(np.log2(max(m, 2)))))):
+        r = (r.astype(np.int64) @ r.astype(np.int64)) > 0
+    return r.all(axis=(-2, -1))
+
+
+def bradley_terry(w: np.ndarray) -> np.ndarray:
+    """Bradley-Terry strengths of win matrices ``w`` (..., M, M) -> (..., M), summing to 1.
+
+    ``w[..., i, j]``: (weighted) wins of method i over method j; a tie adds 0.5 to both cells.
+    Fitted by the MM iteration ``p_i <- W_i / sum_j n_ij / (p_i + p_j)`` (Hunter 2004) until no
+    strength moves by more than 1e-12. A method without comparisons gets NaN. Where the
+    comparison graph is not strongly connected (:func:`strongly_connected`) the likelihood has
+    no finite maximum and the iteration moves towards its limit (a method that never won
+    tends to 0), the values the table reports with that reason.
+    """
+    w = np.asarray(w, dtype=np.float64)
+    n = w + np.swapaxes(w, -1, -2)
+    wins = w.sum(axis=-1)
+    active = n.sum(axis=-1) > 0
+    m = w.shape[-1]
+    p = np.where(active, 1.0, 0.0)
+    p = p / np.maximum(p.sum(axis=-1, keepdims=True), 1.0)
+    for _ in range(_MAX_ITER):
+        with np.errstate(invalid="ignore", divide="ignore"):
+            pair = p[..., :, None] + p[..., None, :]
+            denom = np.where(n > 0, n / np.where(pair > 0, pair, 1.0), 0.0).sum(axis=-1)
+            new = np.where(denom > 0, wins / np.where(denom > 0, denom, 1.0), 0.0)
+            total = new.sum(axis=-1, keepdims=True)
+            new = np.where(total > 0, new / np.where(total > 0, total, 1.0), 1.0 / m)
+        delta = float(np.abs(new - p).max()) if new.size else 0.0
+        p = new
+        if delta < _TOL:
+            break
+    return np.where(active, p, np.nan)
+
+
+def _win_prob(p: np.ndarray) -> np.ndarray:
+    """(..., M) strengths -> (..., M) mean of p_i / (p_i + p_j) over the other methods with
+    comparisons (finite p_j; two strengths of 0 count as even)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s = p[..., :, None] + p[..., None, :]
+        pr = np.where(s > 0, p[..., :, None] / np.where(s > 0, s, 1.0), 0.5)
+    m = p.shape[-1]
+    other = ~np.eye(m, dtype=bool) & np.isfinite(pr)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = np.where(other, pr, 0.0).sum(axis=-1) / other.sum(axis=-1)
+    return np.where(np.isfinite(p), out, np.nan)
+
+
+def win_matrix(a: np.ndarray, b: np.ndarray, score: np.ndarray, m: int) -> np.ndarray:
+    """(M, M) win matrix of votes: ``a``, ``b`` (V,) method codes, ``score`` (V,) the share of
+    the win going to ``a`` (1, 0.5 or 0); ``w[i, j]`` = summed share of i against j.
+
+    >>> win_matrix(np.array([0, 0, 1]), np.array([1, 1, 0]), np.array([1.0, 0.5, 1.0]), 2).tolist()
+    [[0.0, 1.5], [1.5, 0.0]]
+    """
+    cells = np.concatenate([a * m + b, b * m + a])
+    share = np.concatenate([score, 1.0 - score])
+    return np.bincount(cells, weights=share, minlength=m * m).reshape(m, m)
+
+
+# --- bootstrap over raters and items --------------------------------------------------------
+
+@dataclass
+class _Draws:
+    """Draw counts of raters (B, R) and items (B, I); one draw set for every statistic."""
+
+    raters: np.ndarray
+    items: np.ndarray
+
+    @classmethod
+    def make(cls, n_raters: int, n_items: int, n_boot: int, seed: int) -> _Draws | None:
+        if n_boot <= 0 or n_raters == 0 or n_items == 0:
+            return None
+        return cls(bs.draw_cluster_counts(n_raters, n_boot, seed=seed),
+                   bs.draw_cluster_counts(n_items, n_boot, seed=seed + 1))
+
+    def total(self, r: np.ndarray, i: np.ndarray, values: np.ndarray) -> np.ndarray:
+        """(B,) sum over votes of (rater draws x item draws x value); votes given by their
+        rater ``r`` and item ``i`` codes (V,). Works on the (R, I) grid, never on (B, V)."""
+        grid = np.zeros((self.raters.shape[1], self.items.shape[1]))
+        np.add.at(grid, (r, i), values)
+        return ((self.raters.astype(np.float64) @ grid) * self.items).sum(axis=1)
+
+    def win_matrices(self, a, b, score, m: int, r, i) -> np.ndarray:
+        """(B, M, M) win matrices of the votes (:func:`win_matrix`) in every replicate."""
+        cells = np.concatenate([a * m + b, b * m + a])
+        share = np.concatenate([score, 1.0 - score])
+        rr, ii = np.concatenate([r, r]), np.concatenate([i, i])
+        out = np.zeros((self.raters.shape[0], m * m))
+        for c in np.unique(cells):
+            on = cells == c
+            out[:, c] = self.total(rr[on], ii[on], share[on])
+        return out.reshape(-1, m, m)
+
+
+def _ci(reps: np.ndarray) -> tuple[float, float, str | None]:
+    return bs.percentile_ci(reps) if reps.size else (np.nan, np.nan, "no bootstrap")
+
+
+def bt_table(votes: pd.DataFrame, methods: list[str], *, draws: _Draws | None, r_codes, i_codes) -> pd.DataFrame:
+    """bradley_terry.csv (:data:`BT_COLUMNS`): per view (``axis = 'all'`` and each axis value)
+    and method, the vote counts, strength ``score`` and ``win_prob`` with 95% intervals."""
+    m = len(methods)
+    a = pd.Categorical(votes["method_a"], categories=methods).codes.astype(np.int64)
+    b = pd.Categorical(votes["method_b"], categories=methods).codes.astype(np.int64)
+    s = votes["choice"].map(CHOICES).to_numpy(np.float64)
+    rows = []
+    for axis, values, member in view_breakdowns(votes):
+        for value in ([np.nan] if axis == "all" else np.unique(values[member])):
+            sel = member & ((values == value) if axis != "all" else True)
+            sel &= (a >= 0) & (b >= 0)
+            w = win_matrix(a[sel], b[sel], s[sel], m)
+            p = bradley_terry(w)
+            wp = _win_prob(p)
+            reps_p = reps_w = np.empty((0, m))
+            if draws is not None and sel.any():
+                reps_p = bradley_terry(draws.win_matrices(a[sel], b[sel], s[sel], m,
+                                                          r_codes[sel], i_codes[sel]))
+                reps_w = _win_prob(reps_p)
+            ties = np.bincount(np.r_[a[sel], b[sel]], weights=np.r_[s[sel] == 0.5, s[sel] == 0.5], minlength=m)
+            n = np.bincount(np.r_[a[sel], b[sel]], minlength=m)
+            won = np.bincount(np.r_[a[sel], b[sel]], weights=np.r_[s[sel] == 1.0, s[sel] == 0.0], minlength=m)
+            connected = bool(strongly_connected(w))
+            for k, name in enumerate(methods):
+                reason = None
+                if n[k] == 0:
+                    reason = "no votes"
+                elif not connected:
+                    reason = ("comparison graph not strongly connected (a method won or lost every "
+                              "comparison): the fit is at its limit")
+                lo, hi, why = _ci(reps_p[:, k]) if n[k] else (np.nan, np.nan, None)
+                wlo, whi, _ = _ci(reps_w[:, k]) if n[k] else (np.nan, np.nan, None)
+                rows.append({"axis": axis, "offset": value, "method": name, "n_votes": int(n[k]),
+                             "wins": int(won[k]), "ties": int(ties[k]), "losses": int(n[k] - won[k] - ties[k]),
+                             "score": p[k], "score_ci_lo": lo, "score_ci_hi": hi, "win_prob": wp[k],
+                             "win_prob_ci_lo": wlo, "win_prob_ci_hi": whi,
+                             "reason": "; ".join(r for r in (reason, why) if r) or None})
+    return pd.DataFrame(rows, columns=BT_COLUMNS)
+
+
+# --- 2AFC agreement with people --------------------------------------------------------------
+
+def side_pair_ids(votes: pd.DataFrame, side: str) -> list[str]:
+    """The pair id of each vote's ``side`` (``'a'`` or ``'b'``) render: the object's pair id
+    (docs/FORMATS.md §3) followed by ``:METHOD``."""
+    P = perturbation_array(votes)
+    ts = pd.to_numeric(votes["timestamp_us"]).astype(np.int64)
+    return [f"{c}:{cam}:{t}:{int(s)}:{v}:{meth}" for c, cam, t, s, v, meth in zip(
+        votes["clip_id"], votes["camera"], votes["track_id"], ts, view_suffix(P),
+        votes[f"method_{side}"], strict=True)]
+
+
+def _side_values(votes: pd.DataFrame, tables, side: str) -> dict[str, np.ndarray]:
+    """metric -> (V,) value of each vote's ``side`` render (NaN where the table lacks its pair)."""
+    ids = pd.Index(side_pair_ids(votes, side))
+    out = {}
+    for _, t in tables:
+        pos = pd.Index(t["pair_id"].astype(str)).get_indexer(ids)
+        for c in t.columns:
+            if c in ("pair_id", METHOD_COLUMN, "clip_id"):
+                continue
+            v = pd.to_numeric(t[c], errors="coerce").to_numpy(np.float64)
+            out[c] = np.where(pos >= 0, v[np.maximum(pos, 0)], np.nan)
+    return out
+
+
+def agreement_table(votes, sides: dict, directions: dict[str, bool], *, draws: _Draws | None,
+                    r_codes, i_codes) -> pd.DataFrame:
+    """The 2AFC agreement of each metric with the test votes, and the raters' ceiling
+    (:data:`AGREEMENT_COLUMNS`, module docstring)."""
+    h = votes["choice"].map(CHOICES).to_numpy(np.float64)
+    rows = []
+    for metric, hb in directions.items():
+        va, vb = sides["a"][metric], sides["b"][metric]
+        ok = np.isfinite(va) & np.isfinite(vb)
+        pref = np.where(va == vb, 0.5, ((va > vb) if hb else (va < vb)).astype(np.float64))
+        score = h * pref + (1 - h) * (1 - pref)
+        row = {"metric": metric, "higher_better": hb, "n_votes": int(ok.sum()), "agreement": np.nan,
+               "ci_lo": np.nan, "ci_hi": np.nan, "reason": None}
+        if not ok.any():
+            row["reason"] = "no vote with both sides' values in the metrics tables"
+        else:
+            row["agreement"] = float(score[ok].mean())
+            if draws is None:
+                row["reason"] = "no bootstrap"
+            else:
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    reps = draws.total(r_codes[ok], i_codes[ok], score[ok]) / \
+                        draws.total(r_codes[ok], i_codes[ok], np.ones(ok.sum()))
+                row["ci_lo"], row["ci_hi"], row["reason"] = bs.percentile_ci(reps)
+        rows.append(row)
+    rows.append(_ceiling_row(h, i_codes, draws))
+    return pd.DataFrame(rows, columns=AGREEMENT_COLUMNS)
+
+
+def _ceiling_row(h, i_codes, draws) -> dict:
+    n_items = int(i_codes.max()) + 1 if len(i_codes) else 0
+    k = np.bincount(i_codes, minlength=n_items).astype(np.float64)
+    s1 = np.bincount(i_codes, weights=h, minlength=n_items)
+    s2 = np.bincount(i_codes, weights=h * h, minlength=n_items)
+    q2 = np.bincount(i_codes, weights=(1 - h) ** 2, minlength=n_items)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        agree = (s1 * s1 - s2 + (k - s1) ** 2 - q2) / (k * (k - 1))  # two different raters
+    use = k >= 2
+    row = {"metric": CEILING_ROW, "higher_better": None, "n_votes": int(k[use].sum()),
+           "agreement": np.nan, "ci_lo": np.nan, "ci_hi": np.nan, "reason": None}
+    if not use.any():
+        row["reason"] = "no item with two votes or more"
+        return row
+    wk = np.where(use, k, 0.0)
+    row["agreement"] = float((wk * np.nan_to_num(agree)).sum() / wk.sum())
+    if draws is None:
+        row["reason"] = "no bootstrap"
+    else:
+        c = draws.items.astype(np.float64)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            reps = (c @ (wk * np.nan_to_num(agree))) / (c @ wk)
+        row["ci_lo"], row["ci_hi"], row["reason"] = bs.percentile_ci(reps)
+    return row
+
+
+# --- rater screening ---------------------------------------------------------------------------
+
+def _gold_expected(gold: pd.DataFrame) -> np.ndarray:
+    """The side a gold vote must choose (``'a'``/``'b'``; None where unknown): the column
+    ``gold_expected`` when present, else the side whose method is ``'gt'``."""
+    if "gold_expected" in gold.columns:
+        return gold["gold_expected"].where(gold["gold_expected"].isin(("a", "b"))).to_numpy(dtype=object)
+    return np.where(gold["method_a"] == "gt", "a", np.where(gold["method_b"] == "gt", "b", None))
+
+
+def rater_table(votes: pd.DataFrame, *, rule: ScreenRule | None = None) -> pd.DataFrame:
+    """Per-rater screening numbers of pairwise votes (module docstring), with the columns the
+    ``--screen`` rule reads (:func:`annotate.screening.screen`; ``j_p`` and ``skill_p`` are
+    empty: the binary agreement tests do not apply to three-way choices)."""
+    rule = rule or ScreenRule()
+    r_codes, raters = pd.factorize(votes["rater_id"], sort=True)
+    n_r, kind = len(raters), votes["kind"].to_numpy()
+    out = pd.DataFrame({"rater_id": raters.astype(str)})
+    out["simulated"] = out["rater_id"].str.startswith(SIM_PREFIX)
+    for k in ITEM_KINDS:
+        out[f"n_{k}"] = np.bincount(r_codes[kind == k], minlength=n_r)
+    # agreement with the others' modal choice (items where the others have a unique mode)
+    t = votes[kind == "test"]
+    tr = r_codes[kind == "test"]
+    counts = pd.crosstab(t["item_id"], t["choice"]).reindex(columns=list(CHOICES), fill_value=0)
+    own = pd.get_dummies(t["choice"]).reindex(columns=list(CHOICES), fill_value=0).to_numpy(np.int64)
+    others = counts.loc[t["item_id"]].to_numpy(np.int64) - own
+    top = others.max(axis=1)
+    unique = (others == top[:, None]).sum(axis=1) == 1
+    mode = np.array(list(CHOICES), dtype=object)[others.argmax(axis=1)]
+    agree = (mode == t["choice"].to_numpy(dtype=object)) & unique & (top > 0)
+    comp = np.bincount(tr, weights=unique & (top > 0), minlength=n_r)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out["agreement"] = np.bincount(tr, weights=agree, minlength=n_r) / comp
+    out["n_compared"] = comp.astype(np.int64)
+    out["j_p"] = np.nan
+    out["skill_p"] = np.nan
+    # gold: the GT side must be chosen
+    g = kind == "gold"
+    exp = _gold_expected(votes[g])
+    scored = exp != None  # noqa: E711 (object array)
+    fails = np.bincount(r_codes[g], weights=scored & (votes["choice"].to_numpy(dtype=object)[g] != exp), minlength=n_r)
+    n_scored = np.bincount(r_codes[g], weights=scored, minlength=n_r)
+    out["gold_failures"] = fails.astype(np.int64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out["gold_failure_rate"] = fails / n_scored
+    out["gold_p"] = np.where(n_scored > 0, _st.binom.sf(fails - 1, n_scored, rule.max_gold_failure_rate), np.nan)
+    # repeats: the test item again, sides swapped; the same choice is consistent
+    rep = votes[kind == "repeat"][["rater_id", "item_id", "choice"]]
+    j = rep.merge(t[["rater_id", "item_id", "choice"]], on=["rater_id", "item_id"], suffixes=("_rep", "_test"))
+    jc = pd.Categorical(j["rater_id"], categories=raters).codes
+    same = np.bincount(jc, weights=(j["choice_rep"] == j["choice_test"]).to_numpy(float), minlength=n_r)
+    c = np.bincount(jc, minlength=n_r)
+    out["n_repeat_pairs"] = c.astype(np.int64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out["repeat_consistency"] = same / c
+    out["repeat_p"] = np.where(c > 0, _st.binom.cdf(same, c, rule.min_repeat_consistency), np.nan)
+    # speed, when the export has response times
+    rt = t["response_ms"].to_numpy(np.float64) if "response_ms" in t.columns else np.full(len(t), np.nan)
+    known = np.isfinite(rt)
+    fast = np.bincount(tr[known], weights=rt[known] < rule.min_response_ms, minlength=n_r)
+    nk = np.bincount(tr[known], minlength=n_r)
+    out["median_response_ms"] = pd.Series(rt[known]).groupby(tr[known]).median().reindex(range(n_r)).to_numpy()
+    out["speed_p"] = np.where(nk > 0, _st.binom.sf(fast - 1, nk, 0.5), np.nan)
+    return out
+
+
+# --- the whole analysis ----------------------------------------------------------------------
+
+@dataclass
+class PairwiseAnalysis:
+    """Everything the pairwise report shows (tables: see each function)."""
+
+    votes_path: str
+    methods: list[str]
+    bradley_terry: pd.DataFrame
+    agreement: pd.DataFrame
+    raters: pd.DataFrame
+    counts: dict
+    n_boot: int = 0
+    seed: int = 0
+    screen: bool = False
+    notes: list[str] = field(default_factory=list)
+
+
+def run_pairwise_analysis(votes_path, *, metrics_paths=(), lower=(), higher=(), exclude_raters=(),
+                          screen_raters: bool = False, n_boot: int = 1000, seed: int = 0) -> PairwiseAnalysis:
+    """The pairwise analysis (module docstring); raises ``InputError`` on bad input."""
+    from analysis.inputs import classify_columns
+
+    votes = read_pairwise_votes(votes_path)
+    raters = screen(rater_table(votes), use_rule=screen_raters, exclude=list(exclude_raters))
+    excluded = set(raters.loc[raters["excluded"], "rater_id"])
+    test = votes[(votes["kind"] == "test") & ~votes["rater_id"].isin(excluded)].reset_index(drop=True)
+    if test.empty:
+        raise InputError(votes_path, "kind", "at least one test vote (after exclusions)", "none")
+    methods = sorted(set(test["method_a"]) | set(test["method_b"]))
+    if len(methods) < 2:
+        raise InputError(votes_path, "method_a/method_b", "votes between at least two methods", methods[0])
+    tables = [(str(p), read_metrics(p)) for p in metrics_paths]
+    sides = {s: _side_values(test, tables, s) for s in ("a", "b")}
+    columns = pd.DataFrame({c: v for c, v in sides["a"].items()})
+    metrics, directions, _, _ = classify_columns(columns, lower=set(lower), higher=set(higher),
+                                                 target=None, where=metrics_paths[0] if tables else votes_path)
+    notes = []
+    for path, t in tables:
+        found = pd.Index(t["pair_id"].astype(str)).isin(side_pair_ids(test, "a") + side_pair_ids(test, "b"))
+        if not found.any():
+            raise InputError(path, "pair_id", "the pairs of the voted methods' renders (object id + "
+                             "':METHOD', docs/FORMATS.md §3)", "none matches a vote")
+    for m in metrics:
+        miss = int((~np.isfinite(sides["a"][m]) | ~np.isfinite(sides["b"][m])).sum())
+        if miss:
+            notes.append(f"{m}: {miss} of {len(test)} test votes lack a side's value (left out of its agreement)")
+    r_codes = pd.factorize(test["rater_id"], sort=True)[0]
+    i_codes = pd.factorize(test["item_id"], sort=True)[0]
+    draws = _Draws.make(int(r_codes.max()) + 1, int(i_codes.max()) + 1, n_boot, seed)
+    bt = bt_table(test, methods, draws=draws, r_codes=r_codes, i_codes=i_codes)
+    agreement = agreement_table(test, sides, {m: directions[m] for m in metrics}, draws=draws,
+                                r_codes=r_codes, i_codes=i_codes)
+    counts = {"votes": len(votes), "test_votes": int((votes["kind"] == "test").sum()),
+              "test_votes_kept": len(test), "items": int(test["item_id"].nunique()),
+              "raters": len(raters), "raters_excluded": int(raters["excluded"].sum()),
+              "raters_simulated": int(raters["simulated"].sum()),
+              "gold_votes": int((votes["kind"] == "gold").sum()),
+              "repeat_votes": int((votes["kind"] == "repeat").sum()),
+              "ties": int((test["choice"] == "tie").sum())}
+    return PairwiseAnalysis(votes_path=str(votes_path), methods=methods, bradley_terry=bt,
+                            agreement=agreement, raters=raters, counts=counts,
+                            n_boot=n_boot if draws is not None else 0, seed=seed,
+                            screen=screen_raters, notes=notes)

@@ -1,0 +1,173 @@
+"""The report folder of a pairwise study (``analyze VOTES.csv`` on pairwise votes).
+
+Files: ``bradley_terry.csv`` (:data:`analysis.pairwise.BT_COLUMNS`), ``agreement_2afc.csv``
+(:data:`analysis.pairwise.AGREEMENT_COLUMNS`, the raters' ceiling as its last row),
+``raters.csv`` (screening), the figures as PNG and SVG, ``report.html`` (self-contained)
+and ``report.md``. Written atomically like :func:`analysis.report.write_report`.
+"""
+
+from __future__ import annotations
+
+import base64
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from jinja2 import Environment, FileSystemLoader
+from markupsafe import Markup
+from matplotlib.figure import Figure
+
+from analysis import plots
+from analysis.pairwise import CEILING_ROW, PairwiseAnalysis
+from analysis.report import _html_table, _md_table
+from annotate.screening import ScreenRule
+from data_schema.outputs import check_output_folder, mark_report
+from data_schema.perturbation import AXES, AXIS_UNITS, PERTURBATION_COLUMNS
+from data_schema.tables import atomic_folder, write_table
+
+__all__ = ["write_pairwise_report", "bt_display", "win_prob_plot", "agreement_plot"]
+
+_UNIT = {c: f"{a} ({AXIS_UNITS[a]})" for a, c in zip(AXES, PERTURBATION_COLUMNS, strict=True)}
+
+
+def _interval(v, lo, hi) -> str:
+    if v is None or not np.isfinite(v):
+        return ""
+    return f"{v:.3f}" + (f" [{lo:.3f}, {hi:.3f}]" if np.isfinite(lo) else "")
+
+
+def bt_display(bt: pd.DataFrame, axis: str = "all") -> pd.DataFrame:
+    """The Bradley-Terry rows of one view axis as strings, best first within each view."""
+    t = bt[bt["axis"] == axis].copy()
+    t["_view"] = t["offset"].fillna(0.0)
+    t = t.sort_values(["_view", "score"], ascending=[True, False], kind="stable")
+    rows = []
+    for r in t.itertuples():
+        rows.append({**({} if axis == "all" else {"view": f"{r.offset:g}"}), "method": r.method,
+                     "votes": str(r.n_votes), "won / tied / lost": f"{r.wins} / {r.ties} / {r.losses}",
+                     "win probability": _interval(r.win_prob, r.win_prob_ci_lo, r.win_prob_ci_hi),
+                     "BT score": _interval(r.score, r.score_ci_lo, r.score_ci_hi),
+                     "reason": r.reason if isinstance(r.reason, str) else ""})
+    return pd.DataFrame(rows)
+
+
+def win_prob_plot(bt: pd.DataFrame, methods: list[str]) -> Figure | None:
+    """Win probability (mean P(beats another method)) per method along each view axis,
+    with its 95% interval; ``None`` when the votes have a single view."""
+    axes_ = [a for a in dict.fromkeys(bt["axis"]) if a != "all"]
+    if not axes_:
+        return None
+    fig = Figure(figsize=(4.2 * len(axes_), 3.2), layout="constrained")
+    panels = fig.subplots(1, len(axes_), squeeze=False).ravel()
+    for ax, axis in zip(panels, axes_, strict=True):
+        t = bt[bt["axis"] == axis]
+        for k, m in enumerate(methods):
+            s = t[t["method"] == m].sort_values("offset")
+            x = s["offset"].to_numpy(float)
+            ax.plot(x, s["win_prob"].to_numpy(float), "o-", color=f"C{k % 10}", markersize=3, label=m)
+            lo, hi = s["win_prob_ci_lo"].to_numpy(float), s["win_prob_ci_hi"].to_numpy(float)
+            if np.isfinite(lo).any():
+                ax.fill_between(x, lo, hi, color=f"C{k % 10}", alpha=0.2, linewidth=0)
+        ax.axhline(0.5, color="0.5", linestyle=":", linewidth=0.8)
+        ax.set_ylim(0, 1)
+        ax.set_xlabel(_UNIT.get(axis, axis), fontsize=8)
+        ax.set_ylabel("Bradley-Terry win probability", fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3)
+    panels[0].legend(fontsize=7, title="method", title_fontsize=7)
+    return fig
+
+
+def agreement_plot(agreement: pd.DataFrame) -> Figure | None:
+    """2AFC agreement per metric (bars with 95% intervals) beside the raters' ceiling (band)."""
+    t = agreement[(agreement["metric"] != CEILING_ROW) & np.isfinite(agreement["agreement"].astype(float))]
+    if t.empty:
+        return None
+    t = t.sort_values("agreement")
+    fig = Figure(figsize=(5.5, 0.8 + 0.35 * len(t)), layout="constrained")
+    ax = fig.subplots()
+    y = np.arange(len(t))
+    v = t["agreement"].to_numpy(float)
+    lo, hi = t["ci_lo"].to_numpy(float), t["ci_hi"].to_numpy(float)
+    err = np.where(np.isfinite(lo), [v - lo, hi - v], 0.0)
+    ax.barh(y, v, xerr=err, color="C0", capsize=2)
+    ax.set_yticks(y, t["metric"].tolist(), fontsize=7)
+    c = agreement[agreement["metric"] == CEILING_ROW].iloc[0]
+    if np.isfinite(c["agreement"]):
+        ax.axvline(c["agreement"], color="C3", label="raters (ceiling)")
+        if np.isfinite(c["ci_lo"]):
+            ax.axvspan(c["ci_lo"], c["ci_hi"], color="C3", alpha=0.15, linewidth=0)
+        ax.legend(fontsize=7, loc="lower right")
+    ax.axvline(0.5, color="0.5", linestyle=":", linewidth=0.8)
+    ax.set_xlim(0, 1)
+    ax.set_xlabel("2AFC agreement with the raters' choices", fontsize=8)
+    return fig
+
+
+def _texts(a: PairwiseAnalysis) -> dict:
+    rule = ScreenRule()
+    c = a.counts
+    boot = (f"Intervals: 95% percentile bootstrap over raters and items ({a.n_boot} replicates, "
+            f"seed {a.seed}); the ceiling's over items." if a.n_boot else "No bootstrap (--bootstrap 0).")
+    bt_text = ("Bradley-Terry strengths (sum 1; P(i preferred to j) = p_i / (p_i + p_j)) fitted by "
+               "maximum likelihood (MM algorithm, Hunter 2004) to the test votes; a \"can't tell\" "
+               "counts half a win for each side. Win probability: the mean of P(i preferred to j) "
+               "over the other methods. " + boot)
+    agree_text = ("2AFC agreement (as in the BAPPS evaluation of LPIPS): per test vote, 1 when the "
+                  "rater chose the render the metric scores better, 0 for the other, 0.5 when the "
+                  "rater or the metric ties; each side's value is the metric of that method's pair. "
+                  "Ceiling: the expected agreement of two different raters of the same item.")
+    screen_text = (f"Screening: gold items show the GT crop itself on one side (it must be chosen; "
+                   f"exclusion when the failure rate is significantly above "
+                   f"{rule.max_gold_failure_rate}), repeats show a test item again with the sides "
+                   f"swapped (exclusion when the consistency is significantly below "
+                   f"{rule.min_repeat_consistency}), and a median response significantly below "
+                   f"{rule.min_response_ms:g} ms; one-sided exact binomial tests at level {rule.alpha}. "
+                   + ("Applied (--screen)." if a.screen else "Reported, not applied (run with --screen)."))
+    sim = (f"{c['raters_simulated']} of {c['raters']} raters are simulated (rater_id starting with "
+           "'sim-'): these are not human judgements." if c["raters_simulated"] else "")
+    return {"bt_text": bt_text, "agree_text": agree_text, "screen_text": screen_text, "simulated": sim}
+
+
+def _figures(a: PairwiseAnalysis, d: Path) -> list[dict]:
+    figs = []
+    for name, title, fig in (("bt_win_prob", "Bradley-Terry win probability per view", win_prob_plot(a.bradley_terry, a.methods)),
+                             ("agreement_2afc", "2AFC agreement of each metric with the raters",
+                              agreement_plot(a.agreement))):
+        if fig is None:
+            continue
+        png = plots.save_figure(fig, d, name)
+        figs.append({"title": title, "b64": base64.b64encode(png).decode("ascii"), "file": f"{name}.png"})
+    return figs
+
+
+def _context(a: PairwiseAnalysis, figs, *, html_out: bool) -> dict:
+    table = (lambda df: Markup(_html_table(df))) if html_out else _md_table
+    views = [table(bt_display(a.bradley_terry, axis)) for axis in dict.fromkeys(a.bradley_terry["axis"])
+             if axis != "all"]
+    return {"title": Path(a.votes_path).name, "votes": a.votes_path, "counts": a.counts,
+            "methods": ", ".join(a.methods), "figures": figs, "notes": a.notes,
+            "bt_table": table(bt_display(a.bradley_terry)), "bt_views": views,
+            "agreement_table": table(a.agreement), "raters_table": table(a.raters), **_texts(a)}
+
+
+def _build(a: PairwiseAnalysis, d: Path) -> None:
+    write_table(a.bradley_terry, d / "bradley_terry.csv")
+    write_table(a.agreement, d / "agreement_2afc.csv")
+    write_table(a.raters, d / "raters.csv")
+    figs = _figures(a, d)
+    templates = Path(__file__).parent / "templates"
+    for name, env in (("pairwise.html.j2", Environment(loader=FileSystemLoader(templates), autoescape=True)),
+                      ("pairwise.md.j2", Environment(loader=FileSystemLoader(templates), autoescape=False,
+                                                     keep_trailing_newline=True))):
+        page = env.get_template(name).render(**_context(a, figs, html_out=name.endswith("html.j2")))
+        (d / ("report.html" if name.endswith("html.j2") else "report.md")).write_text(page, encoding="utf-8")
+
+
+def write_pairwise_report(a: PairwiseAnalysis, out_dir) -> Path:
+    """Write the report directory atomically (build beside it, then swap it into place)."""
+    out = check_output_folder(out_dir, kind="report", option="out_dir")
+    with atomic_folder(out) as tmp:
+        _build(a, tmp)
+        mark_report(tmp)
+    return out
