@@ -209,7 +209,8 @@ def _run(args) -> int:
     analysis.margin = args.margin
     if args.compare_methods:
         analysis.methods = for_analysis(analysis, methods=args.methods,
-                                        rank_metric=args.leaderboard_metric)
+                                        rank_metric=args.leaderboard_metric,
+                                        metrics_paths=args.metrics_tables)
     out = write_report(analysis, args.out)
     if analysis.target is not None:
         _print_summary(analysis)

@@ -1,4 +1,4 @@
-"""The leaderboard of reconstruction methods: ``analyze ... --compare-methods`` (docs/FORMATS.md §6).
+"""The leaderboard of reconstruction methods: ``analyze ... --compare-methods`` (docs/FORMATS.md §11).
 
 Input: the per-object table of either ``analyze`` path (every pair joined with its metrics,
 or the rated items with GVF), with a ``method`` column: one row per object, view and method.
@@ -68,6 +68,7 @@ __all__ = [
     "compare_methods",
     "leaderboard_table",
     "for_analysis",
+    "table_columns",
 ]
 
 METHOD_COLUMN = "method"
@@ -138,7 +139,7 @@ def check_methods(items: pd.DataFrame, *, where, methods=None) -> list[str]:
     ``items`` has a ``method`` column with at least two of them (all of ``methods`` among them)."""
     if METHOD_COLUMN not in items.columns:
         raise InputError(where, f"column {METHOD_COLUMN!r}", "a method per row to compare "
-                         "(--compare-methods; docs/FORMATS.md §2)", "no such column")
+                         "(--compare-methods; docs/FORMATS.md §11)", "no such column")
     col = items[METHOD_COLUMN]
     present = sorted(map(str, pd.unique(col[col.notna()].astype(str))))
     if methods:
@@ -364,14 +365,42 @@ def leaderboard_table(table: pd.DataFrame, paired: pd.DataFrame, *, methods: lis
     return pd.DataFrame(rows, columns=LEADERBOARD_COLUMNS)
 
 
+def table_columns(path) -> list[str]:
+    """The column names of a table file or clip-partitioned dataset, read from its header only."""
+    import pyarrow.parquet as pq
+
+    from data_schema import datasets
+
+    if datasets.is_dataset(path):
+        return list(pq.read_schema(datasets.dataset_files(path)[0][1]).names)
+    if str(path).lower().endswith(".parquet"):
+        return list(pq.read_schema(path).names)
+    return list(pd.read_csv(path, nrows=0).columns)
+
+
+def _check_coverage(items, metrics, m_codes, names, *, where, sources) -> None:
+    """Every compared method has values of every metric, else an error naming the metrics
+    table that lacks that method's pairs (``sources``: column -> table path)."""
+    for m in metrics:
+        v = items[m].to_numpy(np.float64)
+        has = np.bincount(m_codes[(m_codes >= 0) & np.isfinite(v)], minlength=len(names))
+        if (has == 0).any():
+            miss = names[int(np.flatnonzero(has == 0)[0])]
+            raise InputError(sources.get(m, where), f"column {m!r}",
+                             f"values for the pairs of every compared method (pair ids ending "
+                             f"':{miss}' of {where})", f"none for method {miss!r}")
+
+
 def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[str, bool], *,
                     clusters: np.ndarray, attributes=(), n_boot: int = 1000, seed: int = 0,
-                    rank_metric: str | None = None, methods=None, where="items") -> MethodsResult:
+                    rank_metric: str | None = None, methods=None, where="items",
+                    sources=None) -> MethodsResult:
     """The leaderboard tables of ``items`` (module docstring).
 
     items: one row per object, view and method (``method`` column); metrics: numeric columns
     with ``directions[m]`` True when higher is better; clusters: (N,) int track codes.
-    ``methods`` restricts (and orders) the methods compared; ``where`` names the input in errors.
+    ``methods`` restricts (and orders) the methods compared; ``where`` names the input in errors,
+    ``sources`` (column -> path) the metrics table a column came from.
     """
     names = check_methods(items, where=where, methods=methods)
     if rank_metric is not None and rank_metric not in metrics:
@@ -381,13 +410,7 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
     if rank_metric is None:
         raise InputError(where, None, "at least one metric column to rank methods by", "none")
     m_codes = pd.Categorical(items[METHOD_COLUMN].astype(str), categories=names).codes.astype(np.int64)
-    for m in metrics:  # a method whose rows have no value of a metric: its table did not cover it
-        v = items[m].to_numpy(np.float64)
-        has = np.bincount(m_codes[(m_codes >= 0) & np.isfinite(v)], minlength=len(names))
-        if (has == 0).any():
-            miss = names[int(np.flatnonzero(has == 0)[0])]
-            raise InputError(where, f"column {m!r}", f"values for every compared method (the metrics "
-                             f"table covering the pairs of {miss!r})", f"none for method {miss!r}")
+    _check_coverage(items, metrics, m_codes, names, where=where, sources=sources or {})
     obj = object_codes(items, where=where)
     sel = np.flatnonzero(m_codes >= 0)
     dup = pd.DataFrame({"o": obj[sel], "m": m_codes[sel]}).duplicated().to_numpy()
@@ -414,10 +437,11 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
                          n_boot=n_boot if counts is not None else 0, notes=notes)
 
 
-def for_analysis(a, *, methods=None, rank_metric=None) -> MethodsResult:
+def for_analysis(a, *, methods=None, rank_metric=None, metrics_paths=()) -> MethodsResult:
     """:func:`compare_methods` on the items of an :class:`analysis.pipeline.Analysis`: its
     metrics, and GVF (or the model's ``p_good``) first on the ratings path; scene attributes
-    other than ``method`` break the tables down."""
+    other than ``method`` break the tables down. ``metrics_paths``: the ``--metrics-table``
+    inputs, named in errors about their columns."""
     votes = [a.target] if a.target in ("gvf", "p_good") else []
     items = a.items
     clusters = pd.MultiIndex.from_arrays([items["clip_id"].astype(str),
@@ -425,4 +449,5 @@ def for_analysis(a, *, methods=None, rank_metric=None) -> MethodsResult:
     return compare_methods(items, votes + list(a.metrics), {**a.directions, **{t: True for t in votes}},
                            clusters=clusters, attributes=[c for c in a.attributes if c != METHOD_COLUMN],
                            n_boot=a.n_boot, seed=a.seed, rank_metric=rank_metric, methods=methods,
-                           where=a.ratings_path)
+                           where=a.ratings_path,
+                           sources={c: str(p) for p in metrics_paths for c in table_columns(p)})

@@ -1,5 +1,6 @@
-"""The leaderboard section of the report (``analyze ... --compare-methods``): its tables as
-text, its sentences and its figures (:mod:`analysis.methods` computes them).
+"""The leaderboard section of the report (``analyze ... --compare-methods``, docs/FORMATS.md
+§11): its tables as text, its sentences and its figures (:mod:`analysis.methods` computes
+them).
 
 - :func:`leaderboard_display`: the leaderboard as strings (mean with its interval, and
   "better than the next" with the Holm-corrected paired p-value);

@@ -1,5 +1,5 @@
 """``analyze VOTES.csv`` on pairwise votes: which method do people prefer, and which metric
-agrees with them (docs/FORMATS.md §6).
+agrees with them (docs/FORMATS.md §11).
 
 A pairwise vote (``annotate export`` of a ``--design pairwise`` study, one row per vote) has
 the columns :data:`PAIRWISE_COLUMNS`: the rater saw the GT crop and the renders of methods
@@ -74,7 +74,7 @@ __all__ = [
     "run_pairwise_analysis",
 ]
 
-#: docs/FORMATS.md §5: the leading columns of a pairwise vote (the object's columns follow).
+#: docs/FORMATS.md §11: the leading columns of a pairwise vote (the object's columns follow).
 PAIRWISE_COLUMNS = ("item_id", "rater_id", "kind", "method_a", "method_b", "side_a", "choice")
 #: The values of ``choice`` and the share of a win each gives to side ``a``.
 CHOICES = {"a": 1.0, "tie": 0.5, "b": 0.0}

@@ -4,7 +4,8 @@ Files: ``report.html`` (self-contained: figures embedded as base64 PNG, inline C
 external URL) and ``report.md`` (figures as relative PNG links), both rendered from the
 Jinja templates in ``templates/`` with the same context, ``summary.csv``, ``items.csv``,
 ``by_offset.csv``, ``categories.csv``, ``raters.csv``, ``encoders.csv`` (when encoder
-families are present), ``stability.csv`` / ``snr.csv`` (when given) and every figure as PNG
+families are present), ``stability.csv`` / ``snr.csv`` (when given), ``methods.csv`` /
+``methods_paired.csv`` (``--compare-methods``, :mod:`analysis.methods`) and every figure as PNG
 and SVG. The directory is built beside the target under a temporary name and renamed into
 place at the end, so a failed run leaves no half-written report.
 """

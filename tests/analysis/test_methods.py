@@ -1,0 +1,188 @@
+"""The leaderboard of methods (analysis.methods, ``analyze --compare-methods``) on hand-built
+pairs and metrics tables with a ``method`` column (tests/analysis/methods_data.py)."""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from analysis import bootstrap as bs
+from analysis.cli import main
+from analysis.methods import compare_methods, holm
+
+sys.path.insert(0, str(Path(__file__).parent))
+from methods_data import NVRQ_CA, make_method_tables  # noqa: E402
+
+DIRECTIONS = {"psnr": True, NVRQ_CA: True}
+
+
+def _items(pairs, metrics):
+    items = pairs.merge(metrics, on="pair_id")
+    clusters = pd.factorize(items["clip_id"] + ":" + items["track_id"])[0]
+    return items, clusters
+
+
+@pytest.fixture(scope="module")
+def result():
+    items, clusters = _items(*make_method_tables())
+    return items, clusters, compare_methods(items, ["psnr", NVRQ_CA], DIRECTIONS, clusters=clusters,
+                                            attributes=["lighting"], n_boot=400, seed=0)
+
+
+def test_holm_against_the_step_down_definition():
+    # Holm (1979) by hand for m = 4: sorted 0.001, 0.01, 0.02, 0.5 -> 4*0.001 = 0.004,
+    # 3*0.01 = 0.03, max(0.03, 2*0.02) = 0.04, max(0.04, 1*0.5) = 0.5; NaN is not a comparison
+    p = np.array([0.02, 0.5, np.nan, 0.001, 0.01])
+    np.testing.assert_allclose(holm(p), [0.04, 0.5, np.nan, 0.004, 0.03])
+
+
+def test_methods_table_against_pandas(result):
+    items, _, res = result
+    t = res.table
+    views = t[(t["breakdown"] == "y_offset_m") & (t["metric"] == "psnr")]
+    for (m, off), g in items.groupby(["method", "y_offset_m"]):
+        row = views[(views["method"] == m) & (views["group"].astype(float) == off)].iloc[0]
+        assert row["n"] == len(g)
+        assert row["mean"] == pytest.approx(g["psnr"].mean())
+        assert row["median"] == pytest.approx(g["psnr"].median())
+        assert row["n_tracks"] == g[["clip_id", "track_id"]].drop_duplicates().shape[0]
+    cls = t[(t["breakdown"] == "label_class") & (t["metric"] == NVRQ_CA)]
+    want = items.groupby(["method", "label_class"])[NVRQ_CA].mean()
+    for r in cls.itertuples():
+        assert r.mean == pytest.approx(want[(r.method, r.group)])
+    assert set(t["breakdown"]) == {"all", "y_offset_m", "label_class", "lighting"}
+
+
+def test_paired_interval_is_the_cluster_bootstrap_of_the_differences(result):
+    """The paired interval at offset +1 equals a direct bootstrap: the same track draws
+    (bootstrap.draw_cluster_counts, seed 0), each drawn track's differences duplicated."""
+    items, clusters, res = result
+    sel = items["y_offset_m"] == 1.0
+    wide = items[sel].pivot_table(index=["clip_id", "track_id", "timestamp_us"], columns="method",
+                                  values="psnr")
+    d = (wide["sharp"] - wide["blurry"]).reset_index()
+    track = pd.factorize(items["clip_id"] + ":" + items["track_id"])
+    code = dict(zip(track[1], range(len(track[1])), strict=True))
+    dc = np.array([code[f"{c}:{t}"] for c, t in zip(d["clip_id"], d["track_id"], strict=True)])
+    counts = bs.draw_cluster_counts(len(track[1]), 400, seed=0)
+    reps = np.array([np.repeat(d[0].to_numpy(), counts[b][dc]).mean() for b in range(400)])
+    lo, hi = np.quantile(reps, [0.025, 0.975])
+    row = res.paired[(res.paired["metric"] == "psnr") & (res.paired["offset"] == 1.0)].iloc[0]
+    assert (row["method_a"], row["method_b"]) == ("sharp", "blurry")
+    assert row["mean_diff"] == pytest.approx(d[0].mean())
+    assert (row["ci_lo"], row["ci_hi"]) == pytest.approx((lo, hi))
+    assert row["win_rate"] == pytest.approx((d[0] > 0).mean())
+
+
+def test_less_degraded_method_leads_and_offset_zero_is_a_tie(result):
+    _, _, res = result
+    assert res.methods == ["sharp", "blurry"] and res.rank_metric == NVRQ_CA
+    board = res.leaderboard
+    assert list(board["method"]) == ["sharp", "blurry"] and board["better_than_next"].iloc[0]
+    p = res.paired
+    for metric in ("psnr", NVRQ_CA):
+        rows = p[(p["metric"] == metric) & (p["axis"] == "y_offset_m")]
+        far = rows[rows["offset"].abs() >= 1]
+        assert len(far) == 4 and (far["ci_lo"] > 0).all() and (far["better"] == "a").all()
+        zero = rows[rows["offset"] == 0].iloc[0]
+        # the methods differ at offset 0 by independent noise only: the interval includes 0
+        assert zero["ci_lo"] < 0 < zero["ci_hi"] and zero["better"] == "neither"
+
+
+def test_direction_aware_win_rate_for_a_lower_is_better_metric():
+    pairs, metrics = make_method_tables()
+    metrics = metrics.assign(lpips=-metrics["psnr"] / 100)  # the same ranking, lower is better
+    items, clusters = _items(pairs, metrics)
+    res = compare_methods(items, ["psnr", "lpips"], {"psnr": True, "lpips": False},
+                          clusters=clusters, n_boot=100, rank_metric="lpips")
+    p = res.paired.set_index(["metric", "axis", "offset"])
+    ps, lp = p.loc[("psnr", "y_offset_m", 2.0)], p.loc[("lpips", "y_offset_m", 2.0)]
+    assert lp["win_rate"] == ps["win_rate"] == 1.0 and lp["better"] == "a"
+    assert lp["mean_diff"] < 0 < ps["mean_diff"]
+    assert list(res.leaderboard["method"]) == ["sharp", "blurry"]
+
+
+def test_an_object_seen_by_one_method_only_is_left_out_and_counted():
+    pairs, metrics = make_method_tables()
+    drop = (pairs["method"] == "blurry") & (pairs["track_id"] == "t0") & (pairs["y_offset_m"] == 2.0)
+    items, clusters = _items(pairs[~drop], metrics)
+    res = compare_methods(items, ["psnr"], {"psnr": True}, clusters=clusters, n_boot=50)
+    row = res.paired[(res.paired["axis"] == "y_offset_m") & (res.paired["offset"] == 2.0)].iloc[0]
+    assert row["n_only_a"] == int(drop.sum()) and row["n_only_b"] == 0
+    assert row["n"] == (pairs["method"] == "sharp").sum() / 5 - drop.sum()
+    assert any(f"{int(drop.sum())} objects of method 'sharp' have no row of method 'blurry'" in n
+               for n in res.notes)
+
+
+def _cli(tmp_path, pairs, metrics, *extra):
+    pairs.to_csv(tmp_path / "pairs.csv", index=False)
+    metrics.to_csv(tmp_path / "metrics.csv", index=False)
+    return main(["--pairs", str(tmp_path / "pairs.csv"), "--metrics-table", str(tmp_path / "metrics.csv"),
+                 "--compare-methods", "--bootstrap", "100", "--quiet", "--out", str(tmp_path / "rep"),
+                 *extra])
+
+
+def test_cli_writes_the_leaderboard(tmp_path, capsys):
+    assert _cli(tmp_path, *make_method_tables()) == 0
+    rep = tmp_path / "rep"
+    for f in ("methods.csv", "methods_paired.csv", "methods_tent.png", "methods_by_class.png"):
+        assert (rep / f).is_file(), f
+    html = (rep / "report.html").read_text()
+    assert "Leaderboard of methods by nvrq_ca:dinov2-small" in html
+    assert "better than blurry" in html and "Metrics against" not in html
+    paired = pd.read_csv(rep / "methods_paired.csv")
+    assert list(paired.columns[:6]) == ["method_a", "method_b", "metric", "axis", "offset", "n"]
+    assert "better than blurry" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("case, message", [
+    ("one method", "pairs.csv: column 'method': expected at least two methods to compare"),
+    ("missing from metrics", "metrics.csv: column 'psnr': expected values for the pairs of every "
+                             "compared method (pair ids ending ':blurry' of"),
+    ("unknown --methods", "--methods: nerf: expected a method of"),
+    ("unknown --leaderboard-metric", "--leaderboard-metric: lpips: expected a metric column"),
+    ("no method column", "pairs.csv: column 'method': expected a method per row"),
+])
+def test_bad_input_is_one_line_exit_2_and_no_output(tmp_path, capsys, case, message):
+    pairs, metrics = make_method_tables()
+    extra = []
+    if case == "one method":
+        pairs = pairs[pairs["method"] == "sharp"]
+    elif case == "missing from metrics":
+        metrics = metrics[~metrics["pair_id"].str.endswith(":blurry")]
+    elif case == "unknown --methods":
+        extra = ["--methods", "sharp,nerf"]
+    elif case == "unknown --leaderboard-metric":
+        extra = ["--leaderboard-metric", "lpips"]
+    else:
+        pairs = pairs.drop(columns="method")
+    assert _cli(tmp_path, pairs, metrics, *extra) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0], err
+    assert not (tmp_path / "rep").exists()
+
+
+def test_ratings_path_ranks_methods_by_gvf_too(tmp_path, capsys):
+    """Binary ratings of a multi-method study (object columns + method): GVF joins the metrics."""
+    pairs, metrics = make_method_tables(n_tracks=3)
+    rng = np.random.default_rng(1)
+    votes = []
+    for r in range(4):
+        scale = pairs["method"].map({"sharp": 0.5, "blurry": 1.5})
+        p_good = np.exp(-scale * pairs["y_offset_m"].abs())
+        votes.append(pairs.assign(item_id=pairs["pair_id"], rater_id=f"sim-{r}", kind="test",
+                                  vote=(rng.random(len(pairs)) < p_good).astype(int),
+                                  voted_at="2026-01-01T00:00:00Z", response_ms=900.0))
+    ratings = pd.concat(votes).drop(columns="pair_id")
+    ratings.to_csv(tmp_path / "ratings.csv", index=False)
+    metrics.to_csv(tmp_path / "metrics.csv", index=False)
+    rc = main([str(tmp_path / "ratings.csv"), "--metrics-table", str(tmp_path / "metrics.csv"),
+               "--compare-methods", "--leaderboard-metric", "gvf", "--bootstrap", "100", "--quiet",
+               "--out", str(tmp_path / "rep")])
+    assert rc == 0, capsys.readouterr().err
+    t = pd.read_csv(tmp_path / "rep" / "methods.csv")
+    assert {"gvf", "psnr", NVRQ_CA} == set(t["metric"])
+    html = (tmp_path / "rep" / "report.html").read_text()
+    assert "Leaderboard of methods by gvf" in html and "Metrics against GVF" in html

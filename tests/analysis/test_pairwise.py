@@ -1,0 +1,176 @@
+"""Pairwise votes (analysis.pairwise, ``analyze VOTES.csv``): Bradley-Terry against SciPy and
+crowd-kit, the 2AFC agreement by hand, the two-way bootstrap, screening, the CLI."""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from crowdkit.aggregation import BradleyTerry
+from scipy.optimize import minimize
+
+from analysis.cli import main
+from analysis.pairwise import (
+    _Draws,
+    agreement_table,
+    bradley_terry,
+    rater_table,
+    run_pairwise_analysis,
+    side_pair_ids,
+)
+
+sys.path.insert(0, str(Path(__file__).parent))
+from methods_data import make_method_tables, make_pairwise_votes  # noqa: E402
+
+
+def _crowdkit_rows(votes: pd.DataFrame) -> pd.DataFrame:
+    """Votes as crowd-kit's (worker, left, right, label) in integer counts with "a tie counts
+    half": every vote becomes two comparisons, both won by the chosen side, or one won by each
+    side for a tie."""
+    rows = []
+    for v in votes.itertuples():
+        a, b = v.method_a, v.method_b
+        labels = {"a": [a, a], "b": [b, b], "tie": [a, b]}[v.choice]
+        rows += [(v.rater_id, a, b, lab) for lab in labels]
+    return pd.DataFrame(rows, columns=["worker", "left", "right", "label"])
+
+
+def test_bradley_terry_is_the_maximum_likelihood_fit():
+    rng = np.random.default_rng(3)
+    w = rng.integers(1, 30, (4, 4)).astype(float) + rng.integers(0, 2, (4, 4)) * 0.5
+    np.fill_diagonal(w, 0)
+
+    def nll(theta):  # -log L of the BT model, theta = log strengths with theta_0 = 0
+        t = np.r_[0.0, theta]
+        return -(w * (t[:, None] - np.logaddexp(t[:, None], t[None, :]))).sum()
+
+    fit = minimize(nll, np.zeros(3), method="BFGS", options={"gtol": 1e-10})
+    want = np.exp(np.r_[0.0, fit.x])
+    np.testing.assert_allclose(bradley_terry(w), want / want.sum(), atol=1e-6)
+    # replicates: a stack of win matrices is fitted one by one
+    np.testing.assert_allclose(bradley_terry(np.stack([w, w.T])), [bradley_terry(w), bradley_terry(w.T)])
+
+
+def test_a_method_that_never_won_tends_to_zero():
+    p = bradley_terry(np.array([[0.0, 5.0], [0.0, 0.0]]))
+    np.testing.assert_allclose(p, [1.0, 0.0], atol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def study():
+    pairs, metrics = make_method_tables()
+    return pairs, metrics, make_pairwise_votes(pairs, n_raters=5)
+
+
+def test_simulated_study_prefers_the_better_method_like_crowdkit(study, tmp_path_factory):
+    _, metrics, votes = study
+    d = tmp_path_factory.mktemp("pw")
+    votes.to_csv(d / "votes.csv", index=False)
+    metrics.to_csv(d / "metrics.csv", index=False)
+    res = run_pairwise_analysis(d / "votes.csv", metrics_paths=[d / "metrics.csv"], n_boot=200)
+    bt = res.bradley_terry.set_index(["axis", "method"]).loc["all"]
+    kit = BradleyTerry(n_iter=100).fit(_crowdkit_rows(votes)).scores_
+    assert bt.loc["sharp", "win_prob"] > 0.5
+    assert abs(bt.loc["sharp", "win_prob"] - kit["sharp"] / (kit["sharp"] + kit["blurry"])) < 0.02
+    assert bt.loc["sharp", "win_prob_ci_lo"] > 0.5
+    # the metrics prefer the less degraded render, as the raters do: agreement well above chance
+    agree = res.agreement.set_index("metric")
+    assert agree.loc["psnr", "agreement"] > 0.7 and agree.loc["psnr", "n_votes"] == len(votes)
+
+
+def test_two_way_bootstrap_weighs_a_vote_by_its_rater_and_item_draws():
+    rng = np.random.default_rng(0)
+    r, i = rng.integers(0, 4, 50), rng.integers(0, 7, 50)
+    x = rng.random(50)
+    draws = _Draws.make(4, 7, 30, seed=1)
+    explicit = (draws.raters[:, r] * draws.items[:, i] * x).sum(axis=1)
+    np.testing.assert_allclose(draws.total(r, i, x), explicit)
+
+
+def _votes(rows):
+    cols = ["item_id", "rater_id", "choice"]
+    df = pd.DataFrame(rows, columns=cols)
+    return df.assign(kind="test", method_a="m1", method_b="m2", side_a="left", clip_id="c",
+                     camera="front", track_id=df["item_id"], timestamp_us=0, y_offset_m=1.0)
+
+
+def test_2afc_agreement_and_ceiling_by_hand():
+    votes = _votes([("i1", "r1", "a"), ("i1", "r2", "b"), ("i1", "r3", "tie"),
+                    ("i2", "r1", "a"), ("i2", "r2", "a")])
+    # psnr prefers m1 (side a) on i1 (30 > 25) and ties on i2 (20 = 20)
+    sides = {"a": {"psnr": np.array([30.0, 30, 30, 20, 20])},
+             "b": {"psnr": np.array([25.0, 25, 25, 20, 20])}}
+    t = agreement_table(votes, sides, {"psnr": True}, draws=None, r_codes=np.zeros(5, int),
+                        i_codes=np.array([0, 0, 0, 1, 1])).set_index("metric")
+    # per vote: 1 (chose a), 0 (chose b), 0.5 (rater tie), 0.5 and 0.5 (metric tie): 2.5 / 5
+    assert t.loc["psnr", "agreement"] == pytest.approx(0.5)
+    # two different raters of i1 (choices 1, 0, 0.5): pairs agree 0, 0.5, 0.5 -> 1/3; of i2: 1;
+    # weighted by the items' votes: (3 * 1/3 + 2 * 1) / 5 = 0.6
+    assert t.loc["raters (ceiling)", "agreement"] == pytest.approx(0.6)
+
+
+def test_side_pair_ids_follow_the_pairs_format():
+    votes = _votes([("t7", "r1", "a")])
+    assert side_pair_ids(votes, "a") == ["c:front:t7:0:+1.00:m1"]
+    assert side_pair_ids(votes, "b") == ["c:front:t7:0:+1.00:m2"]
+
+
+def test_screening_flags_gold_failures_and_inconsistent_repeats():
+    rows = []
+    for r in ("good", "careless"):
+        for k in range(12):
+            rows.append({"item_id": f"g{k}", "rater_id": r, "kind": "gold", "method_a": "gt",
+                         "method_b": "m1", "side_a": "left", "gold_expected": "a",
+                         "choice": "a" if r == "good" else "b"})
+            test_choice = "a"
+            rows.append({"item_id": f"t{k}", "rater_id": r, "kind": "test", "method_a": "m1",
+                         "method_b": "m2", "side_a": "left", "choice": test_choice})
+            rows.append({"item_id": f"t{k}", "rater_id": r, "kind": "repeat", "method_a": "m1",
+                         "method_b": "m2", "side_a": "right",
+                         "choice": test_choice if r == "good" or k % 2 else "b"})
+    t = rater_table(pd.DataFrame(rows)).set_index("rater_id")
+    assert t.loc["good", "gold_failures"] == 0 and t.loc["careless", "gold_failures"] == 12
+    assert t.loc["good", "repeat_consistency"] == 1.0
+    assert t.loc["careless", "repeat_consistency"] == 0.5
+    # exact binomial tail: P(X >= 12), X ~ Bin(12, 0.25)
+    assert t.loc["careless", "gold_p"] == pytest.approx(0.25 ** 12)
+
+
+def test_cli_pairwise_report(study, tmp_path, capsys):
+    pairs, metrics, votes = study
+    votes.to_csv(tmp_path / "votes.csv", index=False)
+    metrics.to_csv(tmp_path / "metrics.csv", index=False)
+    rc = main([str(tmp_path / "votes.csv"), "--metrics-table", str(tmp_path / "metrics.csv"),
+               "--bootstrap", "50", "--quiet", "--out", str(tmp_path / "rep")])
+    assert rc == 0, capsys.readouterr().err
+    rep = tmp_path / "rep"
+    for f in ("bradley_terry.csv", "agreement_2afc.csv", "raters.csv", "report.html", "report.md",
+              "bt_win_prob.png", "agreement_2afc.png"):
+        assert (rep / f).is_file(), f
+    bt = pd.read_csv(rep / "bradley_terry.csv")
+    assert set(bt["axis"]) == {"all", "y_offset_m"}
+    assert "methods by Bradley-Terry" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda v: v.assign(choice=v["choice"].where(v.index != 3, "left")),
+     "votes.csv: line 5: choice: expected one of a, tie, b, got left"),
+    (lambda v: v.assign(method_b=v["method_a"]), "votes.csv: line 2: method_b: expected a method other than"),
+])
+def test_bad_pairwise_votes_one_line_exit_2(study, tmp_path, capsys, change, message):
+    _, _, votes = study
+    change(votes).to_csv(tmp_path / "votes.csv", index=False)
+    assert main([str(tmp_path / "votes.csv"), "--quiet", "--out", str(tmp_path / "rep")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0], err
+    assert not (tmp_path / "rep").exists()
+
+
+def test_metrics_table_without_the_voted_pairs_is_refused(study, tmp_path, capsys):
+    _, metrics, votes = study
+    votes.to_csv(tmp_path / "votes.csv", index=False)
+    metrics.assign(pair_id="x" + metrics["pair_id"]).to_csv(tmp_path / "m.csv", index=False)
+    assert main([str(tmp_path / "votes.csv"), "--metrics-table", str(tmp_path / "m.csv"),
+                 "--quiet", "--out", str(tmp_path / "rep")]) == 2
+    assert "m.csv: pair_id: expected the pairs of the voted methods' renders" in capsys.readouterr().err
