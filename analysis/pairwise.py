@@ -20,7 +20,8 @@ A file is read as pairwise when it has these columns (:func:`is_pairwise`).
   metric prefers the side with the better value (by its direction); the vote scores 1 when the
   rater chose that side, 0 for the other and 0.5 when the rater or the metric ties; the
   agreement is the mean over votes. Each side's value is the metric of that method's pair
-  (pair id = the object's id + ``:METHOD``, docs/FORMATS.md §3) in ``--metrics-table``.
+  (``pair_id_a``/``pair_id_b`` of the export, else the object's id + ``:METHOD``,
+  docs/FORMATS.md §3) in ``--metrics-table``, else the export's ``METRIC_a``/``METRIC_b``.
   Its ceiling is the agreement between raters: the mean over items with two votes or more of
   the expected agreement of two different raters of the item (the same scoring of one
   rater's choice against another's), weighted by the item's votes.
@@ -297,19 +298,32 @@ def bt_table(votes: pd.DataFrame, methods: list[str], *, draws: _Draws | None, r
 # --- 2AFC agreement with people --------------------------------------------------------------
 
 def side_pair_ids(votes: pd.DataFrame, side: str) -> list[str]:
-    """The pair id of each vote's ``side`` (``'a'`` or ``'b'``) render: the object's pair id
-    (docs/FORMATS.md §3) followed by ``:METHOD``."""
+    """The pair id of each vote's ``side`` (``'a'`` or ``'b'``) render: the export's column
+    ``pair_id_a``/``pair_id_b`` where it has one, else the object's pair id (docs/FORMATS.md §3)
+    followed by ``:METHOD``."""
     P = perturbation_array(votes)
     ts = pd.to_numeric(votes["timestamp_us"]).astype(np.int64)
-    return [f"{c}:{cam}:{t}:{int(s)}:{v}:{meth}" for c, cam, t, s, v, meth in zip(
+    ids = [f"{c}:{cam}:{t}:{int(s)}:{v}:{meth}" for c, cam, t, s, v, meth in zip(
         votes["clip_id"], votes["camera"], votes["track_id"], ts, view_suffix(P),
         votes[f"method_{side}"], strict=True)]
+    given = votes.get(f"pair_id_{side}")
+    if given is None:
+        return ids
+    return [g if isinstance(g, str) and g else i for g, i in zip(given, ids, strict=True)]
 
 
 def _side_values(votes: pd.DataFrame, tables, side: str) -> dict[str, np.ndarray]:
-    """metric -> (V,) value of each vote's ``side`` render (NaN where the table lacks its pair)."""
-    ids = pd.Index(side_pair_ids(votes, side))
+    """metric -> (V,) value of each vote's ``side`` render (NaN where unknown): the export's
+    ``METRIC_a``/``METRIC_b`` columns, then (replacing them) the ``--metrics-table`` values of
+    the side's pair."""
+    other = "b" if side == "a" else "a"
     out = {}
+    for c in votes.columns:
+        base = c[:-2]
+        if c.endswith(f"_{side}") and f"{base}_{other}" in votes.columns and base not in (
+                "pair_id", "method", "side"):
+            out[base] = pd.to_numeric(votes[c], errors="coerce").to_numpy(np.float64)
+    ids = pd.Index(side_pair_ids(votes, side))
     for _, t in tables:
         pos = pd.Index(t["pair_id"].astype(str)).get_indexer(ids)
         for c in t.columns:

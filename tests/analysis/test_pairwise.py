@@ -111,9 +111,25 @@ def test_2afc_agreement_and_ceiling_by_hand():
 
 
 def test_side_pair_ids_follow_the_pairs_format():
-    votes = _votes([("t7", "r1", "a")])
-    assert side_pair_ids(votes, "a") == ["c:front:t7:0:+1.00:m1"]
-    assert side_pair_ids(votes, "b") == ["c:front:t7:0:+1.00:m2"]
+    votes = _votes([("t7", "r1", "a"), ("t8", "r1", "b")])
+    assert side_pair_ids(votes, "a") == ["c:front:t7:0:+1.00:m1", "c:front:t8:0:+1.00:m1"]
+    assert side_pair_ids(votes, "b") == ["c:front:t7:0:+1.00:m2", "c:front:t8:0:+1.00:m2"]
+    # the export's own pair ids win where given (a gold vote's GT side has none)
+    votes["pair_id_a"] = ["", "other:id"]
+    assert side_pair_ids(votes, "a") == ["c:front:t7:0:+1.00:m1", "other:id"]
+
+
+def test_the_exports_sided_metric_columns_serve_without_a_metrics_table(study, tmp_path):
+    pairs, metrics, votes = study
+    ids = {s: side_pair_ids(votes, s) for s in ("a", "b")}
+    psnr = metrics.set_index("pair_id")["psnr"]
+    sided = votes.assign(psnr_a=psnr.reindex(ids["a"]).to_numpy(), psnr_b=psnr.reindex(ids["b"]).to_numpy())
+    sided.to_csv(tmp_path / "v.csv", index=False)
+    metrics.to_csv(tmp_path / "m.csv", index=False)
+    a = run_pairwise_analysis(tmp_path / "v.csv", n_boot=0).agreement.set_index("metric")
+    b = run_pairwise_analysis(tmp_path / "v.csv", metrics_paths=[tmp_path / "m.csv"],
+                              n_boot=0).agreement.set_index("metric")
+    assert a.loc["psnr", "agreement"] == b.loc["psnr", "agreement"] > 0.7
 
 
 def test_screening_flags_gold_failures_and_inconsistent_repeats():
