@@ -141,7 +141,7 @@ def check_methods(items: pd.DataFrame, *, where, methods=None) -> list[str]:
         raise InputError(where, f"column {METHOD_COLUMN!r}", "a method per row to compare "
                          "(--compare-methods; docs/FORMATS.md §11)", "no such column")
     col = items[METHOD_COLUMN]
-    present = sorted(map(str, pd.unique(col[col.notna()].astype(str))))
+    present = sorted({str(v) for v in pd.unique(col) if isinstance(v, str) and v})
     if methods:
         unknown = [m for m in methods if m not in present]
         if unknown:
@@ -154,6 +154,13 @@ def check_methods(items: pd.DataFrame, *, where, methods=None) -> list[str]:
     return present
 
 
+def _method_codes(col: pd.Series, names: list[str]) -> np.ndarray:
+    """(N,) int64 index of each row's method in ``names`` (-1: another method or none)."""
+    codes, uniq = pd.factorize(col)
+    lut = np.append(pd.Index(names).get_indexer([str(u) for u in uniq]), -1).astype(np.int64)
+    return lut[codes]
+
+
 def object_codes(items: pd.DataFrame, *, where) -> np.ndarray:
     """(N,) int64 code of each row's object ``(clip_id, camera, track_id, timestamp_us, view)``.
 
@@ -164,8 +171,7 @@ def object_codes(items: pd.DataFrame, *, where) -> np.ndarray:
         raise InputError(where, f"column {missing[0]!r}", "the object columns "
                          + ", ".join(OBJECT_COLUMNS) + " to pair methods on", "no such column")
     view = np.round(perturbation_array(items) * 100).astype(np.int64)
-    keys = [pd.factorize(items[c].astype(str) if c != "timestamp_us" else items[c])[0]
-            for c in OBJECT_COLUMNS] + list(view.T)
+    keys = [pd.factorize(items[c])[0] for c in OBJECT_COLUMNS] + list(view.T)
     return pd.MultiIndex.from_arrays(keys).factorize()[0].astype(np.int64)
 
 
@@ -209,30 +215,32 @@ def _replicate_means(v, ok, groups, n_groups, clusters, counts):
 
 
 def _groups_of(items: pd.DataFrame, attributes: list[str]):
-    """``(breakdown, group labels (N,) object, member (N,) bool)`` for methods.csv."""
+    """``(breakdown, codes (N,) int (-1: not in the breakdown), group labels)`` for methods.csv:
+    the views in their order along each axis, classes and attributes sorted."""
     out = []
     for axis, values, member in view_breakdowns(items):
-        text = ["all"] * len(items) if axis == "all" else [f"{v + 0.0:g}" for v in values]
-        out.append((axis, np.array(text, dtype=object), member))
+        if axis == "all":
+            out.append((axis, np.zeros(len(items), np.int64), ["all"]))
+            continue
+        uniq, inv = np.unique(values[member], return_inverse=True)
+        codes = np.full(len(items), -1, np.int64)
+        codes[member] = inv
+        out.append((axis, codes, [f"{v + 0.0:g}" for v in uniq]))
     for col in ["label_class", *attributes]:
         if col in items.columns:
-            lab = items[col].astype(str).to_numpy(dtype=object)
-            out.append((col, lab, items[col].notna().to_numpy()))
+            codes, uniq = pd.factorize(items[col], sort=True)
+            out.append((col, codes.astype(np.int64), [str(u) for u in uniq]))
     return out
 
 
 def _method_table(items, metrics, m_codes, methods, attributes, clusters, counts):
     """methods.csv (:data:`TABLE_COLUMNS`)."""
     rows = []
-    for breakdown, labels, member in _groups_of(items, attributes):
-        sel = member & (m_codes >= 0)
-        codes, uniq = pd.factorize(pd.Series(labels[sel]), sort=breakdown in ("label_class",))
-        if breakdown in PERTURBATION_COLUMNS:  # numeric order along the axis
-            order = np.argsort(np.array([float(u) for u in uniq]), kind="stable")
-            uniq, codes = uniq[order], np.argsort(order)[codes]
+    for breakdown, codes, uniq in _groups_of(items, attributes):
+        sel = (codes >= 0) & (m_codes >= 0)
         gsize = len(uniq)
         groups = np.full(len(items), -1, np.int64)
-        groups[sel] = m_codes[sel] * gsize + codes
+        groups[sel] = m_codes[sel] * gsize + codes[sel]
         for metric in metrics:
             v = items[metric].to_numpy(np.float64)
             ok = sel & np.isfinite(v)
@@ -409,7 +417,7 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
     rank_metric = rank_metric or default_rank_metric(metrics)
     if rank_metric is None:
         raise InputError(where, None, "at least one metric column to rank methods by", "none")
-    m_codes = pd.Categorical(items[METHOD_COLUMN].astype(str), categories=names).codes.astype(np.int64)
+    m_codes = _method_codes(items[METHOD_COLUMN], names)
     _check_coverage(items, metrics, m_codes, names, where=where, sources=sources or {})
     obj = object_codes(items, where=where)
     sel = np.flatnonzero(m_codes >= 0)
@@ -429,7 +437,7 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
     # the table and the pairs follow the leaderboard: method_a is the higher-ranked one
     table = table.assign(_o=table["method"].map({m: i for i, m in enumerate(names)}))
     table = table.sort_values("_o", kind="stable").drop(columns="_o").reset_index(drop=True)
-    m_codes = pd.Categorical(items[METHOD_COLUMN].astype(str), categories=names).codes.astype(np.int64)
+    m_codes = _method_codes(items[METHOD_COLUMN], names)
     paired, notes = _paired_table(items, metrics, directions, m_codes, names, obj, clusters, counts)
     board = leaderboard_table(table, paired, methods=names, metric=rank_metric, higher_better=hb)
     return MethodsResult(methods=list(board["method"]), metrics=list(metrics), directions=dict(directions),

@@ -3,6 +3,11 @@
 synth (built-in scene) -> pairs -> score (offline encoder + pixel metrics) -> annotate build
 -> simulated raters -> annotate export -> analyze. Each step prints its command line, what it
 made and how long it took, so the demo doubles as a walkthrough of the workflow.
+
+``nvrq demo OUT --methods NAME:SCALE,...`` compares reconstruction methods instead (README
+"Compare reconstructions"): synth renders the clip once per method -> pairs -> score ->
+``analyze --pairs --compare-methods`` (the leaderboard) -> a pairwise study (build, simulated
+raters, export) -> ``analyze`` of its votes (Bradley-Terry and 2AFC agreement).
 """
 
 from __future__ import annotations
@@ -15,7 +20,7 @@ from pathlib import Path
 from data_schema.cliargs import allow_negative_lists
 from data_schema.errors import InputError
 
-__all__ = ["register", "run", "demo_steps"]
+__all__ = ["register", "run", "demo_steps", "method_steps"]
 
 
 def register(sub) -> None:
@@ -28,12 +33,38 @@ def register(sub) -> None:
     p.add_argument("--offsets", default="-3,-2,-1,0,1,2,3", help="render offsets in metres")
     p.add_argument("--encoder", default="efficientnet-lite0", help="encoder for nvrq/nvrq_ca (default: offline)")
     p.add_argument("--raters", type=int, default=5, help="simulated raters (default 5)")
+    p.add_argument("--methods", default=None, metavar="NAME:SCALE,...",
+                   help="compare reconstruction methods: render the clip once per method (artefact "
+                        "severity times SCALE), rank them (analyze --compare-methods) and run a "
+                        "pairwise study, e.g. sharp:0.5,blurry:1.5")
     allow_negative_lists(p)
     p.set_defaults(func=run)
 
 
+def method_steps(out: Path, args) -> list[tuple[str, list[str]]]:
+    """The ``--methods`` demo as (program, argv) steps, in order."""
+    scene, pairs, metrics = out / "scene", out / "pairs.csv", out / "metrics.csv"
+    study, votes = out / "study", out / "votes.csv"
+    return [
+        ("nvrq", ["synth", str(scene), "--seed", str(args.seed), "--seconds", str(args.seconds),
+                  "--size", args.size, "--offsets", args.offsets, "--methods", args.methods]),
+        ("nvrq", ["pairs", str(scene), "--out", str(pairs)]),
+        ("nvrq", ["score", str(pairs), "--out", str(metrics), "--metrics", "psnr,ssim,nvrq,nvrq_ca",
+                  "--encoder", args.encoder]),
+        ("analyze", ["--pairs", str(pairs), "--metrics-table", str(metrics), "--compare-methods",
+                     "--out", str(out / "leaderboard")]),
+        ("annotate", ["build", str(study), "--pairs", str(pairs), "--metrics-table", str(metrics),
+                      "--design", "pairwise", "--seed", str(args.seed)]),
+        ("annotate", ["simulate", str(study), "--raters", str(args.raters), "--seed", str(args.seed)]),
+        ("annotate", ["export", str(study), "--out", str(votes)]),
+        ("analyze", [str(votes), "--metrics-table", str(metrics), "--out", str(out / "pairwise")]),
+    ]
+
+
 def demo_steps(out: Path, args) -> list[tuple[str, list[str]]]:
-    """The demo as (program, argv) steps, in order."""
+    """The demo as (program, argv) steps, in order (:func:`method_steps` with ``--methods``)."""
+    if getattr(args, "methods", None):
+        return method_steps(out, args)
     scene, pairs, metrics = out / "scene", out / "pairs.csv", out / "metrics.csv"
     study, ratings, report = out / "study", out / "ratings.csv", out / "report"
     torch_metrics = out / "metrics_torch.csv"  # the same encoder on torch eager: a second speed point
@@ -83,6 +114,11 @@ def run(args) -> int:
             return rc
         print(f"[{i}/{len(steps)}] done in {time.perf_counter() - t0:.1f} s", flush=True)
     print(f"\nDemo finished in {time.perf_counter() - t_all:.0f} s.")
+    if getattr(args, "methods", None):
+        print(f"Leaderboard: {out / 'leaderboard' / 'report.html'}")
+        print(f"Pairwise study: {out / 'pairwise' / 'report.html'}")
+        print(f"Vote yourself:  annotate serve {out / 'study'}")
+        return 0
     print(f"Report: {out / 'report' / 'report.html'}")
     print(f"Vote yourself:  annotate serve {out / 'study'}   (then: annotate export {out / 'study'} "
           f"--out {out / 'ratings.csv'} && analyze {out / 'ratings.csv'} --timing {out / 'metrics.timing.csv'} "
