@@ -186,3 +186,24 @@ def test_ratings_path_ranks_methods_by_gvf_too(tmp_path, capsys):
     assert {"gvf", "psnr", NVRQ_CA} == set(t["metric"])
     html = (tmp_path / "rep" / "report.html").read_text()
     assert "Leaderboard of methods by gvf" in html and "Metrics against GVF" in html
+
+
+def test_six_dof_views_get_one_breakdown_per_axis():
+    """Views along yaw: methods.csv and methods_paired.csv break down by the yaw column, with
+    the real camera's view (all components 0) as value 0 of both axes (docs/FORMATS.md §9)."""
+    pairs, metrics = make_method_tables(n_tracks=3)
+    yaw = pairs[pairs["y_offset_m"] > 0].assign(
+        yaw_deg=lambda d: d["y_offset_m"] * 5, y_offset_m=0.0,
+        pair_id=lambda d: d["pair_id"].str.replace(r":\+(\d)\.00:", r":yaw=+\g<1>.00:", regex=True))
+    ymet = metrics.set_index("pair_id").loc[pairs.loc[pairs["y_offset_m"] > 0, "pair_id"]]
+    ymet = ymet.assign(psnr=ymet["psnr"] - 1).set_index(yaw["pair_id"]).reset_index()
+    allp = pd.concat([pairs.assign(yaw_deg=0.0), yaw], ignore_index=True)
+    items, clusters = _items(allp, pd.concat([metrics, ymet], ignore_index=True))
+    res = compare_methods(items, ["psnr"], {"psnr": True}, clusters=clusters, n_boot=50)
+    t = res.table[res.table["metric"] == "psnr"]
+    assert set(t["breakdown"]) == {"all", "y_offset_m", "yaw_deg", "label_class"}
+    assert sorted(t.loc[t["breakdown"] == "yaw_deg", "group"].astype(float).unique()) == [0, 5, 10]
+    yaw_rows = res.paired[res.paired["axis"] == "yaw_deg"]
+    assert sorted(yaw_rows["offset"]) == [0.0, 5.0, 10.0]
+    zero = items[(items["y_offset_m"] == 0) & (items["yaw_deg"] == 0) & (items["method"] == "sharp")]
+    assert yaw_rows.loc[yaw_rows["offset"] == 0, "n"].iloc[0] == len(zero)
