@@ -210,7 +210,7 @@ def _run(args) -> int:
     if args.compare_methods:
         analysis.methods = for_analysis(analysis, methods=args.methods,
                                         rank_metric=args.leaderboard_metric,
-                                        metrics_paths=args.metrics_tables)
+                                        metrics_paths=args.metrics_tables, progress=not args.quiet)
     out = write_report(analysis, args.out)
     if analysis.target is not None:
         _print_summary(analysis)

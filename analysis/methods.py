@@ -41,6 +41,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
+from tqdm.auto import tqdm
 
 from analysis import bootstrap as bs
 from data_schema.errors import InputError
@@ -233,8 +234,8 @@ def _groups_of(items: pd.DataFrame, attributes: list[str]):
     return out
 
 
-def _method_table(items, metrics, m_codes, methods, attributes, clusters, counts):
-    """methods.csv (:data:`TABLE_COLUMNS`)."""
+def _method_table(items, metrics, m_codes, methods, attributes, clusters, counts, bar):
+    """methods.csv (:data:`TABLE_COLUMNS`); ``bar`` advances once per breakdown and metric."""
     rows = []
     for breakdown, codes, uniq in _groups_of(items, attributes):
         sel = (codes >= 0) & (m_codes >= 0)
@@ -242,6 +243,7 @@ def _method_table(items, metrics, m_codes, methods, attributes, clusters, counts
         groups = np.full(len(items), -1, np.int64)
         groups[sel] = m_codes[sel] * gsize + codes[sel]
         for metric in metrics:
+            bar.update()
             v = items[metric].to_numpy(np.float64)
             ok = sel & np.isfinite(v)
             point, n, tracks, reps = _replicate_means(v, ok, np.maximum(groups, 0), len(methods) * gsize,
@@ -311,7 +313,7 @@ def _paired_rows(a, b, names, metric, hb, vals, obj_views, obj_clusters, counts)
     return rows
 
 
-def _paired_table(items, metrics, directions, m_codes, methods, obj, clusters, counts):
+def _paired_table(items, metrics, directions, m_codes, methods, obj, clusters, counts, bar):
     """methods_paired.csv (:data:`PAIRED_COLUMNS`) and the unpaired-object notes."""
     n_obj = int(obj.max()) + 1 if len(obj) else 0
     first = np.full(n_obj, -1, np.int64)
@@ -333,6 +335,7 @@ def _paired_table(items, metrics, directions, m_codes, methods, obj, clusters, c
                                  f"{methods[mb]!r} (not in its pairs): left out of the paired "
                                  f"{methods[a]!r}-{methods[b]!r} comparison")
             for metric in metrics:
+                bar.update()
                 rows += _paired_rows(a, b, methods, metric, directions[metric], vals[metric],
                                      obj_views, obj_clusters, counts)
     t = pd.DataFrame(rows, columns=[c for c in PAIRED_COLUMNS if c not in ("p_holm", "better")])
@@ -402,7 +405,7 @@ def _check_coverage(items, metrics, m_codes, names, *, where, sources) -> None:
 def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[str, bool], *,
                     clusters: np.ndarray, attributes=(), n_boot: int = 1000, seed: int = 0,
                     rank_metric: str | None = None, methods=None, where="items",
-                    sources=None) -> MethodsResult:
+                    sources=None, progress: bool = False) -> MethodsResult:
     """The leaderboard tables of ``items`` (module docstring).
 
     items: one row per object, view and method (``method`` column); metrics: numeric columns
@@ -429,7 +432,10 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
                          + f" of method {items[METHOD_COLUMN].iloc[i]!r}")
     k = int(clusters.max()) + 1 if len(clusters) else 0
     counts = bs.draw_cluster_counts(k, n_boot, seed=seed) if n_boot and k else None
-    table = _method_table(items, metrics, m_codes, names, list(attributes), clusters, counts)
+    n_groups = len(view_breakdowns(items)) + sum(c in items.columns for c in ["label_class", *attributes])
+    bar = tqdm(total=len(metrics) * (n_groups + len(names) * (len(names) - 1) // 2),
+               desc="methods", unit="table", disable=not progress)
+    table = _method_table(items, metrics, m_codes, names, list(attributes), clusters, counts, bar)
     hb = directions[rank_metric]
     overall = table[(table["breakdown"] == "all") & (table["metric"] == rank_metric)]
     means = overall.set_index("method")["mean"].reindex(names)
@@ -438,14 +444,16 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
     table = table.assign(_o=table["method"].map({m: i for i, m in enumerate(names)}))
     table = table.sort_values("_o", kind="stable").drop(columns="_o").reset_index(drop=True)
     m_codes = _method_codes(items[METHOD_COLUMN], names)
-    paired, notes = _paired_table(items, metrics, directions, m_codes, names, obj, clusters, counts)
+    paired, notes = _paired_table(items, metrics, directions, m_codes, names, obj, clusters, counts, bar)
+    bar.close()
     board = leaderboard_table(table, paired, methods=names, metric=rank_metric, higher_better=hb)
     return MethodsResult(methods=list(board["method"]), metrics=list(metrics), directions=dict(directions),
                          rank_metric=rank_metric, table=table, paired=paired, leaderboard=board,
                          n_boot=n_boot if counts is not None else 0, notes=notes)
 
 
-def for_analysis(a, *, methods=None, rank_metric=None, metrics_paths=()) -> MethodsResult:
+def for_analysis(a, *, methods=None, rank_metric=None, metrics_paths=(),
+                 progress: bool = False) -> MethodsResult:
     """:func:`compare_methods` on the items of an :class:`analysis.pipeline.Analysis`: its
     metrics, and GVF (or the model's ``p_good``) first on the ratings path; scene attributes
     other than ``method`` break the tables down. ``metrics_paths``: the ``--metrics-table``
@@ -458,4 +466,5 @@ def for_analysis(a, *, methods=None, rank_metric=None, metrics_paths=()) -> Meth
                            clusters=clusters, attributes=[c for c in a.attributes if c != METHOD_COLUMN],
                            n_boot=a.n_boot, seed=a.seed, rank_metric=rank_metric, methods=methods,
                            where=a.ratings_path,
-                           sources={c: str(p) for p in metrics_paths for c in table_columns(p)})
+                           sources={c: str(p) for p in metrics_paths for c in table_columns(p)},
+                           progress=progress)
