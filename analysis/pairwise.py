@@ -55,7 +55,7 @@ from annotate.screening import ScreenRule, screen
 from data_schema.errors import InputError
 from data_schema.perturbation import perturbation_array, view_suffix
 from data_schema.raters import SIM_PREFIX
-from data_schema.tables import ITEM_KINDS, read_metrics, read_table
+from data_schema.tables import ITEM_KINDS, PAIRWISE_VOTES_COLUMNS, read_metrics, read_table
 
 __all__ = [
     "PAIRWISE_COLUMNS",
@@ -75,8 +75,9 @@ __all__ = [
     "run_pairwise_analysis",
 ]
 
-#: docs/FORMATS.md §11: the leading columns of a pairwise vote (the object's columns follow).
-PAIRWISE_COLUMNS = ("item_id", "rater_id", "kind", "method_a", "method_b", "side_a", "choice")
+#: docs/FORMATS.md §11: the leading columns of a pairwise vote (the object's columns follow);
+#: defined once, with the export that writes them.
+PAIRWISE_COLUMNS = PAIRWISE_VOTES_COLUMNS
 #: The values of ``choice`` and the share of a win each gives to side ``a``.
 CHOICES = {"a": 1.0, "tie": 0.5, "b": 0.0}
 BT_COLUMNS = ["axis", "offset", "method", "n_votes", "wins", "ties", "losses", "score",

@@ -4,7 +4,8 @@ The page body is a Streamlit fragment that re-runs by itself every :data:`REFRES
 seconds (no reload): per rater the progress, the agreement with the others so far and the
 screening flags as they form (:mod:`annotate.screening`, the rule ``analyze --screen``
 applies), the GVF histogram, Krippendorff's alpha, gold failures and a ``ratings.csv``
-download. Widget keys (for tests): ``download_ratings``; element keys ``admin_raters``.
+download; for a pairwise study, per rater the answers, side bias, gold failures and repeat
+agreement (:func:`annotate.results.pairwise_raters`) and a ``votes.csv`` download. Widget keys (for tests): ``download_ratings``; element keys ``admin_raters``.
 """
 
 from __future__ import annotations
@@ -17,7 +18,15 @@ import pandas as pd
 import streamlit as st
 
 from annotate import screening
-from annotate.results import gold_failures, gvf_table, nominal_alpha, rater_progress, ratings_table
+from annotate.results import (
+    gold_failures,
+    gvf_table,
+    nominal_alpha,
+    pairwise_raters,
+    pairwise_votes_table,
+    rater_progress,
+    ratings_table,
+)
 
 __all__ = ["REFRESH_S", "admin_page", "live_raters"]
 
@@ -45,7 +54,24 @@ def _gvf_chart(ratings: pd.DataFrame) -> None:
         st.bar_chart(pd.DataFrame({"items": counts}, index=labels))
 
 
+def _live_pairwise(study) -> None:
+    """The pairwise study's page: per-rater answers, side bias, gold and repeats; votes.csv."""
+    votes = pairwise_votes_table(study)
+    st.caption(f"Live: refreshes every {REFRESH_S:g} s; last update "
+               f"{time.strftime('%H:%M:%S')}, {len(votes)} votes.")
+    st.subheader("Raters: progress, answers, side bias, gold, repeats")
+    st.dataframe(pairwise_raters(votes, study.store.raters()), hide_index=True, key="admin_raters")
+    st.subheader("Gold failures (the GT crop itself not chosen)")
+    gold = votes[(votes["kind"] == "gold") & (votes["choice"] != "a")]
+    st.dataframe(gold[["rater_id", "item_id", "choice"]], hide_index=True)
+    st.download_button("Download votes.csv", votes.to_csv(index=False).encode(),
+                       file_name="votes.csv", mime="text/csv", key="download_ratings")
+
+
 def _live_body(study) -> None:
+    if study.design == "pairwise":
+        _live_pairwise(study)
+        return
     ratings = ratings_table(study)
     st.caption(f"Live: refreshes every {REFRESH_S:g} s; last update "
                f"{time.strftime('%H:%M:%S')}, {len(ratings)} votes.")

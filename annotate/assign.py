@@ -28,7 +28,7 @@ import hashlib
 
 import numpy as np
 
-__all__ = ["make_plan", "choose_next", "rater_seed", "plan_total"]
+__all__ = ["make_plan", "choose_next", "rater_seed", "plan_total", "pairwise_sides"]
 
 
 def rater_seed(study_seed: int, rater: str) -> int:
@@ -121,3 +121,31 @@ def plan_total(plan: dict, assigned: list[str], loads: dict[str, int], *,
         if original is None or original in done or original in open_tests:
             n += 1
     return n
+
+
+def pairwise_sides(plan: dict, *, seed: int) -> dict[str, str]:
+    """The side (``'left'``/``'right'``) method A is shown on, per item of a pairwise plan.
+
+    Counterbalanced within the rater: of the training, the test and the gold items, each
+    group has A on the left for half of its items (a seeded shuffle; an odd group's extra
+    item gets a random side), so a rater who always presses one side cannot favour a method.
+    A repeat shows A on the side opposite to its original, so a side-biased rater answers
+    the two differently. Across raters, an item's side is a fair coin.
+
+    >>> plan = make_plan(training=["t"], tests=["a", "b", "c", "d"], golds=["g1", "g2"],
+    ...                  repeats={"r:a": "a"}, seed=1)
+    >>> sides = pairwise_sides(plan, seed=1)
+    >>> sorted(sides[k] for k in "abcd"), sorted(sides[k] for k in ("g1", "g2"))
+    (['left', 'left', 'right', 'right'], ['left', 'right'])
+    >>> sides["r:a"] != sides["a"]
+    True
+    """
+    rng = np.random.default_rng([int(seed), 2])  # a stream of its own: the plan's is unchanged
+    golds = [key for _after, key in plan["specials"] if key not in plan["repeat_of"]]
+    sides: dict[str, str] = {}
+    for group in (plan["training"], plan["order"], golds):
+        left = (rng.permutation(len(group)) + int(rng.integers(2))) % 2 == 0
+        sides.update({key: "left" if lf else "right" for key, lf in zip(group, left, strict=True)})
+    for key, original in plan["repeat_of"].items():
+        sides[key] = "right" if sides[original] == "left" else "left"
+    return sides

@@ -19,7 +19,7 @@ import sqlite3
 import sys
 from pathlib import Path
 
-from annotate.results import gvf_table, ratings_table
+from annotate.results import gvf_table, ratings_table, votes_table
 from annotate.simulate import simulate
 from annotate.study import build_study, load_study, unplaced_votes
 from data_schema.cliargs import (
@@ -74,7 +74,7 @@ def _cmd_build(args) -> int:
                       offsets=args.offsets, votes_per_item=args.votes_per_item, seed=args.seed,
                       n_training=args.training, n_gold=args.gold, n_repeats=args.repeats,
                       size=width, image_format=args.image_format, access=args.access,
-                      break_every=args.break_every)
+                      break_every=args.break_every, design=args.design, methods=args.methods)
     study = load_study(out)
     counts = ", ".join(f"{v} {k}" for k, v in study.manifest["counts"].items())
     print(f"study {out}: {counts} items")
@@ -111,7 +111,7 @@ def _cmd_add_rater(args) -> int:
 def _cmd_export(args) -> int:
     check_output_file(args.out, inputs=[args.study])
     study = load_study(args.study)
-    table = ratings_table(study)
+    table = votes_table(study)
     lost = unplaced_votes(study)
     write_table(table, args.out)
     print(f"{len(table)} votes -> {args.out}", file=sys.stderr)
@@ -124,7 +124,12 @@ def _cmd_export(args) -> int:
 def _cmd_gvf(args) -> int:
     if args.out:
         check_output_file(args.out, inputs=[args.study])
-    table = gvf_table(ratings_table(load_study(args.study)))
+    study = load_study(args.study)
+    if study.design != "binary":
+        raise InputError(Path(args.study) / "manifest.json", "design", "a good/bad (binary) study "
+                         "for a good-vote fraction; export a pairwise study's votes with "
+                         "'annotate export'", study.design)
+    table = gvf_table(ratings_table(study))
     if args.out:
         write_table(table, args.out)
     else:
@@ -169,6 +174,11 @@ def build_parser() -> ArgumentParser:
     b.add_argument("--image-format", default="jpg", choices=["jpg", "png"])
     b.add_argument("--access", default="open", choices=["open", "token"])
     b.add_argument("--break-every", type=int, default=50)
+    b.add_argument("--design", default="binary", choices=["binary", "pairwise"],
+                   help="binary: good/bad votes on (GT, render); pairwise: which of two methods' "
+                   "renders is closer to the GT (the pairs need a method column)")
+    b.add_argument("--methods", help="pairwise: comma list of the methods to compare "
+                   "(default: every method of the pairs table)")
     allow_negative_lists(b)
     b.set_defaults(func=_cmd_build)
     s = sub.add_parser("serve", help="serve the rater app (Streamlit)")
@@ -180,7 +190,8 @@ def build_parser() -> ArgumentParser:
     a.add_argument("name")
     _add_address(a)
     a.set_defaults(func=_cmd_add_rater)
-    e = sub.add_parser("export", help="write ratings.csv (docs/FORMATS.md §5)")
+    e = sub.add_parser("export", help="write ratings.csv (docs/FORMATS.md §5; a pairwise "
+                       "study's votes: §12)")
     e.add_argument("study")
     e.add_argument("--out", required=True)
     e.set_defaults(func=_cmd_export)

@@ -27,7 +27,7 @@ import numpy as np
 from data_schema.errors import InputError
 from nvrq.crops import pad_to_square
 
-__all__ = ["pad_pair", "broken_render", "read_bgr", "write_image"]
+__all__ = ["pad_pair", "pad_group", "broken_render", "read_bgr", "write_image"]
 
 
 def read_bgr(path: Path, *, where: str, field: str) -> np.ndarray:
@@ -42,10 +42,18 @@ def read_bgr(path: Path, *, where: str, field: str) -> np.ndarray:
 
 def pad_pair(ref: np.ndarray, ren: np.ndarray, *, size: int) -> tuple[np.ndarray, np.ndarray]:
     """Both crops on a common black square, resized to (size, size, 3) each."""
-    side = max(ref.shape[0], ref.shape[1], ren.shape[0], ren.shape[1])
+    a, b = pad_group((ref, ren), size=size)
+    return a, b
+
+
+def pad_group(crops, *, size: int) -> list[np.ndarray]:
+    """Every crop (h_i, w_i, 3) centred on one black square (the largest side of all of
+    them, so all keep one scale), resized to (size, size, 3): area averaging when shrinking,
+    bicubic when enlarging."""
+    side = max(max(c.shape[:2]) for c in crops)
     interp = cv2.INTER_AREA if side > size else cv2.INTER_CUBIC
-    return tuple(cv2.resize(pad_to_square(c, side=side), (size, size), interpolation=interp)
-                 for c in (ref, ren))
+    return [cv2.resize(pad_to_square(c, side=side), (size, size), interpolation=interp)
+            for c in crops]
 
 
 def broken_render(crop: np.ndarray, *, rng: np.random.Generator) -> np.ndarray:

@@ -2,6 +2,8 @@
 
 - :func:`ratings_table`: one row per standing vote, docs/FORMATS.md §5 columns in order, then
   attributes and (when the study has them) metric columns.
+- :func:`pairwise_votes_table`: the same for a pairwise study (docs/FORMATS.md §12);
+  :func:`votes_table`: the one of the two the study's design calls for (``annotate export``).
 - :func:`good_vote_fraction`: THE definition of the Good Vote Fraction (paper section 4):
   per item ``n_votes, n_good, gvf = n_good / n_votes, majority_good = gvf >= 0.5`` (a tie
   counts as good) and its Wilson 95% interval ``gvf_ci_lo, gvf_ci_hi``; used by
@@ -24,10 +26,18 @@ import krippendorff
 import numpy as np
 import pandas as pd
 
-from data_schema.tables import ITEM_KINDS, PAIR_META_COLUMNS, RATINGS_COLUMNS
+from annotate.pairwise import choice
+from data_schema.tables import (
+    ITEM_KINDS,
+    PAIR_META_COLUMNS,
+    PAIRWISE_VOTES_COLUMNS,
+    RATINGS_COLUMNS,
+)
 
 __all__ = [
     "ratings_table",
+    "pairwise_votes_table",
+    "votes_table",
     "good_vote_fraction",
     "wilson_interval",
     "gvf_table",
@@ -35,6 +45,7 @@ __all__ = [
     "nominal_alpha",
     "gold_failures",
     "rater_progress",
+    "pairwise_raters",
 ]
 
 #: z of the two-sided 95% Wilson interval
@@ -60,6 +71,46 @@ def ratings_table(study) -> pd.DataFrame:
     cols = [*RATINGS_COLUMNS, *PAIR_META_COLUMNS, *attrs, *metric_cols]
     return df.loc[:, cols].sort_values(["voted_at", "rater_id", "item_id"], kind="stable"
                                        ).reset_index(drop=True)
+
+
+def pairwise_votes_table(study) -> pd.DataFrame:
+    """docs/FORMATS.md §12 votes of a pairwise ``study``: one row per standing vote.
+
+    Columns :data:`~data_schema.tables.PAIRWISE_VOTES_COLUMNS` (``side_a`` from the rater's
+    plan, ``choice`` in {'a', 'b', 'tie'}), ``voted_at, response_ms``, the object's metadata, view and attribute
+    columns, ``pair_id_a, pair_id_b`` (the renders' pairs; empty for the GT crop of a gold
+    item) and, when the study has metrics, ``METRIC_a, METRIC_b`` per metric column.
+    """
+    votes = study.store.votes()
+    items = study.items
+    attrs = [*study.manifest.get("view_columns", []), *study.manifest.get("attribute_columns", [])]
+    attrs = [c for c in attrs if c in items.columns]
+    meta = items.loc[:, ["key", "item_id", "kind", "method_a", "method_b", "pair_id_a", "pair_id_b",
+                         *PAIR_META_COLUMNS, *attrs]]
+    df = votes.merge(meta, left_on="item", right_on="key", how="inner")
+    df = df.rename(columns={"rater": "rater_id"})
+    plans = {r: study.plan_for(r)["sides"] for r in df["rater_id"].unique()}
+    df["side_a"] = [plans[r][k] for r, k in zip(df["rater_id"], df["key"], strict=True)]
+    df["choice"] = choice(df["vote"].to_numpy(), df["side_a"].to_numpy())
+    df["response_ms"] = df["response_ms"].astype("Int64")
+    df[["pair_id_a", "pair_id_b"]] = df[["pair_id_a", "pair_id_b"]].fillna("")
+    metric_cols = list(study.manifest.get("metric_columns", []))
+    sided = []
+    if metric_cols and (study.root / "metrics.csv").is_file():
+        metrics = pd.read_csv(study.root / "metrics.csv", dtype={"pair_id": str})
+        for side in ("a", "b"):
+            named = metrics.rename(columns={"pair_id": f"pair_id_{side}",
+                                            **{m: f"{m}_{side}" for m in metric_cols}})
+            df = df.merge(named, on=f"pair_id_{side}", how="left")
+        sided = [f"{m}_{side}" for m in metric_cols for side in ("a", "b")]
+    cols = [*PAIRWISE_VOTES_COLUMNS, "voted_at", "response_ms", *PAIR_META_COLUMNS, *attrs, "pair_id_a", "pair_id_b", *sided]
+    return df.loc[:, cols].sort_values(["voted_at", "rater_id", "item_id"], kind="stable"
+                                       ).reset_index(drop=True)
+
+
+def votes_table(study) -> pd.DataFrame:
+    """The export of ``study``: :func:`pairwise_votes_table` or :func:`ratings_table`."""
+    return pairwise_votes_table(study) if study.design == "pairwise" else ratings_table(study)
 
 
 def wilson_interval(n_good, n, *, z: float = _Z95):
@@ -159,4 +210,44 @@ def rater_progress(study, ratings: pd.DataFrame | None = None) -> pd.DataFrame:
     fails = gold_failures(ratings).groupby("rater_id").size()
     out["gold_failures"] = fails.reindex(out.index, fill_value=0).astype(int)
     out["median_response_ms"] = ratings.groupby("rater_id")["response_ms"].median().reindex(out.index)
+    return out.rename_axis("rater_id").reset_index()
+
+
+def pairwise_raters(votes: pd.DataFrame, raters: list[str]) -> pd.DataFrame:
+    """Per rater of a pairwise study (:func:`pairwise_votes_table` rows): votes by kind, the
+    share of test answers ``a``/``b``/``tie``, ``left_share`` (of the test answers naming a
+    side, the share pressed on the left: near 0.5 for a rater without a side bias, as A's side
+    is counterbalanced), ``gold_failures`` (gold answers other than ``a``, the GT crop itself),
+    ``repeat_agreement`` (repeats answered as their original, in A/B terms, sides swapped) over
+    ``n_repeat_pairs``, and the median response time (ms).
+
+    >>> v = pd.DataFrame({"rater_id": ["x"] * 4, "kind": ["test", "repeat", "gold", "test"],
+    ...                   "item_id": ["i", "i", "g", "j"], "choice": ["a", "b", "a", "tie"],
+    ...                   "side_a": ["left", "right", "left", "left"], "response_ms": [1, 2, 3, 4]})
+    >>> r = pairwise_raters(v, ["x"]).iloc[0]
+    >>> [float(r[c]) for c in ("test", "gold_failures", "repeat_agreement", "left_share")]
+    [2.0, 0.0, 0.0, 1.0]
+
+    (``i`` answered ``a`` then, sides swapped, ``b``: agreement 0; the one sided test answer,
+    ``a`` with A on the left, was pressed on the left.)
+    """
+    out = votes.pivot_table(index="rater_id", columns="kind", values="choice", aggfunc="size",
+                            fill_value=0).reindex(index=raters, columns=list(ITEM_KINDS),
+                                                  fill_value=0).astype(int)
+    test = votes[votes["kind"] == "test"]
+    shares = pd.crosstab(test["rater_id"], test["choice"], normalize="index")
+    for c in ("a", "b", "tie"):
+        out[f"share_{c}"] = shares.get(c, pd.Series(dtype=float)).reindex(out.index)
+    sided = test[test["choice"] != "tie"]
+    left = (sided["choice"] == "a") == (sided["side_a"] == "left")
+    out["left_share"] = left.groupby(sided["rater_id"]).mean().reindex(out.index)
+    gold = votes[votes["kind"] == "gold"]
+    out["gold_failures"] = (gold["choice"] != "a").groupby(gold["rater_id"]).sum().reindex(
+        out.index, fill_value=0).astype(int)
+    rep = votes[votes["kind"] == "repeat"].merge(test, on=["rater_id", "item_id"],
+                                                 suffixes=("", "_orig"))
+    same = (rep["choice"] == rep["choice_orig"]).groupby(rep["rater_id"])
+    out["n_repeat_pairs"] = same.size().reindex(out.index, fill_value=0).astype(int)
+    out["repeat_agreement"] = same.mean().reindex(out.index)
+    out["median_response_ms"] = votes.groupby("rater_id")["response_ms"].median().reindex(out.index)
     return out.rename_axis("rater_id").reset_index()

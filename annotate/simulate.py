@@ -1,6 +1,6 @@
 """Simulated raters for demos and tests (never mistaken for people: ids are ``sim-*``).
 
-Each item's latent quality is the synthetic scene's ``severity`` (0 perfect .. 1 broken),
+Binary (good/bad) studies. Each item's latent quality is the synthetic scene's ``severity`` (0 perfect .. 1 broken),
 read from ``SCENE/degradation.csv`` (columns camera, timestamp_us, track_id, y_offset_m,
 severity) of the item's clip. A careful rater ``r`` votes good with probability
 
@@ -10,6 +10,13 @@ with a per-rater threshold ``theta_r ~ N(0.45, 0.08)`` (bias), width ``width_r ~
 0.12)`` (noise) and lapse rate 0.02. The last rater is careless: good with probability 0.5
 whatever it sees. Gold items have severity 0 (GT/GT) or 1 (broken). Votes go through the
 same store and assignment as the app's, item by item, in each rater's own order.
+
+Pairwise studies (:mod:`annotate.pairwise`). The renders' severities come from
+degradation.csv's ``method`` column (the GT crop of a gold item: 0); a careful rater answers
+by :func:`p_choice` of ``delta = sev_b - sev_a`` with its own indifference half-width
+``tie_r ~ U(0.01, 0.05)``, width ``width_r ~ U(0.04, 0.12)`` and lapse 0.02, and presses the
+side its plan shows the chosen render on (1 left, 2 right, 0 can't tell); the careless rater
+presses left or right at random.
 
 >>> float(p_good(0.45, theta=0.45, width=0.1, lapse=0.0))
 0.5
@@ -27,12 +34,13 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
+from annotate.pairwise import GT_METHOD, METHOD_COLUMN
 from annotate.store import Store, utc_iso
 from data_schema.errors import InputError
 from data_schema.perturbation import labels, perturbation_array
 from data_schema.raters import SIM_PREFIX
 
-__all__ = ["p_good", "item_severity", "simulate"]
+__all__ = ["p_good", "p_choice", "item_severity", "pairwise_severity", "simulate"]
 
 _JOIN = ["camera", "timestamp_us", "track_id", "y_offset_m"]
 
@@ -43,53 +51,124 @@ def p_good(severity, *, theta: float, width: float, lapse: float):
     return lapse / 2 + (1 - lapse) * (1.0 - 1.0 / (1.0 + np.exp(-(s - theta) / width)))
 
 
-def item_severity(study) -> pd.Series:
-    """Severity per item key: joined from each clip's degradation.csv; gold: 0 or 1."""
-    items = study.items
+def _degradation(study) -> pd.DataFrame:
+    """Each clip's degradation.csv: ``clip_id, camera, timestamp_us, track_id, _cm`` (the view
+    label), ``method`` when the file has one, and ``severity``; one row per render."""
     parts = []
     for clip, root in study.manifest["scene_roots"].items():
         path = Path(root) / "degradation.csv"
         if not path.is_file():
             raise InputError(path, None, "a degradation.csv (written by 'nvrq synth') to simulate raters",
                              "no such file")
-        deg = pd.read_csv(path, dtype={"camera": str, "track_id": str})
+        deg = pd.read_csv(path, dtype={"camera": str, "track_id": str, METHOD_COLUMN: str})
         missing = [c for c in (*_JOIN, "severity") if c not in deg.columns]
         if missing:
             raise InputError(path, f"column {missing[0]!r}", "columns " + ", ".join((*_JOIN, "severity")),
                              ", ".join(deg.columns))
+        if study.design == "pairwise" and METHOD_COLUMN not in deg.columns:
+            raise InputError(path, f"column {METHOD_COLUMN!r}", "the method of each render "
+                             "(one severity per method) to simulate a pairwise study",
+                             "no such column")
         # joined on the view label (0.01 m / deg, as pair_id); old files: lateral views
         deg = deg.assign(_cm=labels(perturbation_array(deg)), clip_id=str(clip))
-        parts.append(deg.drop(columns=["y_offset_m"]).drop_duplicates(["clip_id", *_JOIN[:3], "_cm"]))
-    deg = pd.concat(parts, ignore_index=True)
+        keys = ["clip_id", *_JOIN[:3], "_cm", *([METHOD_COLUMN] if METHOD_COLUMN in deg else [])]
+        parts.append(deg[[*keys, "severity"]].drop_duplicates(keys))
+    return pd.concat(parts, ignore_index=True)
+
+
+_OBJECT_VIEW = ["clip_id", "camera", "timestamp_us", "track_id", "_cm"]
+
+
+def _join_severity(items: pd.DataFrame, deg: pd.DataFrame, method: str | None) -> np.ndarray:
+    """(N,) severity of each item's render (of the method in column ``method`` when given,
+    else of the item's own ``method`` attribute when both tables have one)."""
     it = items.assign(_cm=labels(perturbation_array(items)))
-    merged = it.merge(deg[["clip_id", "camera", "timestamp_us", "track_id", "_cm", "severity"]],
-                      on=["clip_id", "camera", "timestamp_us", "track_id", "_cm"], how="left")
-    sev = pd.Series(merged["severity"].to_numpy(dtype=float), index=items.index)
-    gold = items["kind"] == "gold"
-    sev[gold] = np.where(items.loc[gold, "item_id"].str.startswith("gold-good:"), 0.0, 1.0)
-    lost = sev.index[sev.isna()]
+    on = list(_OBJECT_VIEW)
+    if method is not None:
+        it, on = it.assign(**{METHOD_COLUMN: it[method].astype(str)}), [*on, METHOD_COLUMN]
+    elif METHOD_COLUMN in deg.columns and METHOD_COLUMN in it.columns:
+        it, on = it.assign(**{METHOD_COLUMN: it[METHOD_COLUMN].astype(str)}), [*on, METHOD_COLUMN]
+    else:
+        deg = deg.drop_duplicates(on)
+    return it[on].merge(deg[[*on, "severity"]], on=on, how="left")["severity"].to_numpy(float)
+
+
+def _check_found(sev: pd.Series | pd.DataFrame) -> None:
+    lost = sev.index[np.asarray(sev.isna()).reshape(len(sev), -1).any(axis=1)]
     if len(lost):
         raise InputError("degradation.csv", lost[0], "a severity for every study item", "none")
+
+
+def item_severity(study) -> pd.Series:
+    """Severity per item key: joined from each clip's degradation.csv; gold: 0 or 1."""
+    items = study.items
+    sev = pd.Series(_join_severity(items, _degradation(study), None), index=items.index)
+    gold = items["kind"] == "gold"
+    sev[gold] = np.where(items.loc[gold, "item_id"].str.startswith("gold-good:"), 0.0, 1.0)
+    _check_found(sev)
     return sev
+
+
+def pairwise_severity(study) -> pd.DataFrame:
+    """Per item key of a pairwise study: ``sev_a, sev_b``, the severities of the renders of
+    ``method_a`` and ``method_b`` (degradation.csv with a ``method`` column); the GT crop of
+    a gold item (``method_a = gt``) has severity 0."""
+    items, deg = study.items, _degradation(study)
+    gt = items["method_a"] == GT_METHOD
+    sev_a = np.where(gt, 0.0, _join_severity(items.assign(method_a=items["method_a"].where(~gt, "")),
+                                             deg, "method_a"))
+    out = pd.DataFrame({"sev_a": sev_a, "sev_b": _join_severity(items, deg, "method_b")},
+                       index=items.index)
+    _check_found(out)
+    return out
+
+
+def p_choice(delta, *, tie: float, width: float, lapse: float):
+    """``(p_a, p_b, p_tie)`` of a pairwise answer at ``delta = sev_b - sev_a`` (> 0: A is
+    less degraded); arrays broadcast.
+
+    The rater prefers A when ``delta`` exceeds its indifference half-width ``tie`` by a
+    logistic margin of scale ``width``, B symmetrically, and cannot tell otherwise; a lapse
+    (rate ``lapse``) is a uniform answer among the three. ``p_a + p_b <= 1`` because
+    ``tie >= 0``.
+
+    >>> [round(float(p), 3) for p in p_choice(0.0, tie=0.0, width=0.1, lapse=0.0)]
+    [0.5, 0.5, 0.0]
+    >>> pa, pb, pt = p_choice(0.5, tie=0.02, width=0.05, lapse=0.03)
+    >>> round(float(pa), 3), round(float(pb), 3), round(float(pt), 3)
+    (0.98, 0.01, 0.01)
+
+    (``p_a = 0.03 / 3 + 0.97 * sigmoid((0.5 - 0.02) / 0.05) = 0.01 + 0.97 * 0.99993``.)
+    """
+    d = np.asarray(delta, dtype=float)
+    pa = 1.0 / (1.0 + np.exp(-(d - tie) / width))
+    pb = 1.0 / (1.0 + np.exp(-(-d - tie) / width))
+    pa, pb = lapse / 3 + (1 - lapse) * pa, lapse / 3 + (1 - lapse) * pb
+    return pa, pb, 1.0 - pa - pb
 
 
 def simulate(study, *, raters: int = 5, seed: int = 0, progress: bool = True) -> pd.DataFrame:
     """Let ``raters`` simulated raters (the last careless) rate the study; returns their params."""
     if raters < 1:
         raise InputError("raters", None, "an integer >= 1", raters)
-
-
-    sev = item_severity(study)
+    pairwise = study.design == "pairwise"
+    sev = pairwise_severity(study) if pairwise else item_severity(study)
     # the same store file and code path; NORMAL sync: simulated votes need not survive a power cut
     study = dataclasses.replace(study, store=Store(study.store.path, study.store.study,
-                                                   synchronous="NORMAL"))
+                                                   synchronous="NORMAL",
+                                                   votes=study.store.votes_allowed))
     rng = np.random.default_rng(seed)
     params = []
     for i in range(raters):
         careless = raters > 1 and i == raters - 1
-        params.append({"rater_id": f"{SIM_PREFIX}{'careless' if careless else i + 1}",
-                       "careless": careless, "theta": float(rng.normal(0.45, 0.08)),
-                       "width": float(rng.uniform(0.04, 0.12)), "lapse": 0.02})
+        par = {"rater_id": f"{SIM_PREFIX}{'careless' if careless else i + 1}", "careless": careless}
+        if pairwise:
+            par.update(tie=float(rng.uniform(0.01, 0.05)), width=float(rng.uniform(0.04, 0.12)),
+                       lapse=0.02)
+        else:
+            par.update(theta=float(rng.normal(0.45, 0.08)), width=float(rng.uniform(0.04, 0.12)),
+                       lapse=0.02)
+        params.append(par)
     active = list(range(raters))
     # A simulated clock (from now, advancing by each response time) stamps the votes, so the
     # export's order -- by vote time -- and everything computed from it repeat run to run.
@@ -102,9 +181,12 @@ def simulate(study, *, raters: int = 5, seed: int = 0, progress: bool = True) ->
             if key is None:
                 active.remove(i)
                 continue
-            pg = 0.5 if par["careless"] else float(p_good(sev[key], theta=par["theta"],
-                                                          width=par["width"], lapse=par["lapse"]))
-            vote = int(rng.random() < pg)  # drawn before the response time, as ever
+            if pairwise:
+                vote = _pairwise_vote(study, par, key, sev, rng)
+            else:
+                pg = 0.5 if par["careless"] else float(p_good(sev[key], theta=par["theta"],
+                                                              width=par["width"], lapse=par["lapse"]))
+                vote = int(rng.random() < pg)  # drawn before the response time, as ever
             response_ms = int(rng.lognormal(np.log(900), 0.4))
             clock += timedelta(milliseconds=response_ms)
             study.store.record_vote(par["rater_id"], key, vote, response_ms=response_ms,
@@ -112,3 +194,18 @@ def simulate(study, *, raters: int = 5, seed: int = 0, progress: bool = True) ->
             bar.update()
     bar.close()
     return pd.DataFrame(params)
+
+
+def _pairwise_vote(study, par: dict, key: str, sev: pd.DataFrame, rng) -> int:
+    """The key a simulated rater presses on pairwise item ``key``: 1 left, 2 right, 0 can't
+    tell. A careful rater answers by :func:`p_choice` (then pressed on A's side, which its
+    plan gives); the careless one presses left or right at random."""
+    u = rng.random()
+    if par["careless"]:
+        return 1 if u < 0.5 else 2
+    pa, pb, _ = p_choice(sev.at[key, "sev_b"] - sev.at[key, "sev_a"], tie=par["tie"],
+                         width=par["width"], lapse=par["lapse"])
+    if u >= pa + pb:
+        return 0
+    a_left = study.plan_for(par["rater_id"])["sides"][key] == "left"
+    return 1 if (u < pa) == a_left else 2

@@ -46,7 +46,7 @@ CREATE TABLE IF NOT EXISTS assignments (
     item TEXT NOT NULL, assigned_at REAL NOT NULL, UNIQUE (study, rater, item));
 CREATE TABLE IF NOT EXISTS votes (
     study TEXT NOT NULL, rater TEXT NOT NULL, item TEXT NOT NULL,
-    vote INTEGER NOT NULL CHECK (vote IN (0, 1)), voted_at TEXT NOT NULL, response_ms INTEGER,
+    vote INTEGER NOT NULL CHECK (vote IN ({votes})), voted_at TEXT NOT NULL, response_ms INTEGER,
     UNIQUE (study, rater, item));
 CREATE TABLE IF NOT EXISTS history (
     id INTEGER PRIMARY KEY AUTOINCREMENT, study TEXT NOT NULL, rater TEXT NOT NULL,
@@ -110,28 +110,37 @@ def token_digest(token: str) -> str:
     return hashlib.sha256(token.encode("utf-8")).hexdigest()
 
 
-def _check_vote(rater: str, item: str, vote) -> None:
-    """Raise :class:`InputError` unless ``vote`` is 1 (good) or 0 (bad), not a bool."""
-    if vote not in (0, 1) or isinstance(vote, bool):
-        raise InputError("vote", f"{rater}/{item}", "1 (good) or 0 (bad)", repr(vote))
+#: the stored votes of a good/bad study and what they mean
+BINARY_VOTES = {1: "good", 0: "bad"}
+
+
+def _check_vote(rater: str, item: str, vote, votes: dict[int, str]) -> None:
+    """Raise :class:`InputError` unless ``vote`` is one of ``votes`` (an int, not a bool)."""
+    if vote not in votes or isinstance(vote, bool):
+        named = [f"{v} ({what})" for v, what in votes.items()]
+        raise InputError("vote", f"{rater}/{item}", ", ".join(named[:-1]) + " or " + named[-1],
+                         repr(vote))
 
 
 class Store:
     """Votes, raters and assignments of one study in the SQLite file ``path``."""
 
     def __init__(self, path: str | Path, study: str, *, busy_timeout_ms: int = 30000,
-                 synchronous: str = "FULL"):
+                 synchronous: str = "FULL", votes: dict[int, str] | None = None):
         """``synchronous`` in {'FULL', 'NORMAL'}: FULL (default, the app) syncs every commit
         to disk, so an acknowledged vote survives even a power cut; NORMAL survives a killed
-        process (WAL) but not an OS crash, and saves a disk sync (~3-10 ms) per vote."""
+        process (WAL) but not an OS crash, and saves a disk sync (~3-10 ms) per vote.
+        ``votes``: the vote values a new file accepts and their meaning (default
+        :data:`BINARY_VOTES`, 1 good / 0 bad; a pairwise study: 1 left, 2 right, 0 can't tell)."""
         if synchronous not in ("FULL", "NORMAL"):
             raise InputError("Store", "synchronous", "one of {'FULL', 'NORMAL'}", synchronous)
+        self.votes_allowed = dict(BINARY_VOTES if votes is None else votes)
         self.path = Path(path)
         self.study = str(study)
         self.busy_timeout_ms = int(busy_timeout_ms)
         self.synchronous = synchronous
         with self._connect(create=True) as con:
-            con.executescript(_SCHEMA)
+            con.executescript(_SCHEMA.replace("{votes}", ", ".join(map(str, sorted(self.votes_allowed)))))
             if not con.execute("SELECT 1 FROM sqlite_master WHERE name = 'item_loads'").fetchone():
                 try:  # first use of this file: counters, triggers and backfill in one go
                     con.executescript("BEGIN IMMEDIATE;" + _LOADS + "COMMIT;")
@@ -179,8 +188,9 @@ class Store:
     # ---- votes ---------------------------------------------------------------------------
     def record_vote(self, rater: str, item: str, vote: int, *, response_ms: int | None = None,
                     voted_at: str | None = None) -> None:
-        """Store ``vote`` (1 good, 0 bad) of ``rater`` on ``item``; durable when this returns."""
-        _check_vote(rater, item, vote)
+        """Store ``vote`` (1 good, 0 bad; see ``votes``) of ``rater`` on ``item``; durable
+        when this returns."""
+        _check_vote(rater, item, vote, self.votes_allowed)
         at = voted_at or utc_now_iso()
         rt = None if response_ms is None else int(response_ms)
         with self._transaction() as con:
@@ -194,7 +204,7 @@ class Store:
         tab: the standing vote is kept) or ``'unassigned'`` (not an item handed to the rater).
         The check and the write are one transaction, so two tabs cannot both record.
         """
-        _check_vote(rater, item, vote)
+        _check_vote(rater, item, vote, self.votes_allowed)
         at, rt = utc_now_iso(), None if response_ms is None else int(response_ms)
         with self._transaction() as con:
             if con.execute("SELECT 1 FROM votes WHERE study = ? AND rater = ? AND item = ?",

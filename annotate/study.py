@@ -37,7 +37,8 @@ import pandas as pd
 from tqdm import tqdm
 
 from annotate import crops as _crops
-from annotate.assign import choose_next, make_plan, plan_total, rater_seed
+from annotate import pairwise
+from annotate.assign import choose_next, make_plan, pairwise_sides, plan_total, rater_seed
 from annotate.design import attribute_columns, choose_views, select_test_pairs
 from annotate.store import Store
 from data_schema.errors import InputError
@@ -60,6 +61,11 @@ from nvrq.crops import cut_box
 __all__ = ["build_study", "load_study", "Study", "StudyChanged", "crop_path", "unplaced_votes"]
 
 _MANIFEST = "manifest.json"
+#: study designs (manifest ``design``; absent: binary)
+DESIGNS = ("binary", "pairwise")
+#: the stored vote values of each design and what they mean
+VOTES = {"binary": {1: "good", 0: "bad"},
+         "pairwise": pairwise.VOTE_CODES}
 
 
 def _opaque_ids(rng: np.random.Generator, n: int) -> list[str]:
@@ -93,10 +99,15 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
                 frames_per_track: int = 12, offsets: str = "all", votes_per_item: int = 5,
                 seed: int = 0, n_training: int = 5, n_gold: int = 3, n_repeats: int = 5,
                 size: int = 320, image_format: str = "jpg", access: str = "open",
-                break_every: int = 50, progress: bool = True) -> Path:
+                break_every: int = 50, design: str = "binary", methods: str | None = None,
+                progress: bool = True) -> Path:
     """Build the study folder ``out`` (refused if it exists and is not empty); returns it.
 
     ``metrics_path``: None, a metrics table, or a list of them (joined on ``pair_id``).
+    ``design`` in {'binary', 'pairwise'}: good/bad votes on (GT, render) items, or which of
+    two methods' renders is closer to the GT (:mod:`annotate.pairwise`; the pairs table needs
+    a ``method`` column); ``methods``: a comma list of the methods to compare (pairwise only;
+    default every method of the table).
 
     Stages: check the options, read and check the pairs (and metrics) table, choose the
     items, cut their crops into a temporary folder, write the tables and the manifest, and
@@ -106,16 +117,29 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
                           frames_per_track=frames_per_track, offsets=offsets,
                           votes_per_item=votes_per_item, seed=seed, n_training=n_training,
                           n_gold=n_gold, n_repeats=n_repeats, size=size, image_format=image_format,
-                          access=access, break_every=break_every)
+                          access=access, break_every=break_every, design=design,
+                          methods=methods)
     pairs = _read_pairs(Path(pairs_path), scene)
     rng = np.random.default_rng(seed)
-    pairs, rows, chosen_offsets, record = _choose_items(pairs, rng, opts)
-    _check_images(rows, where=str(pairs_path))
+    if design == "pairwise":
+        opts["methods"] = pairwise.check_methods(pairs, methods, where=str(pairs_path))
+        pairs, rows, chosen_offsets, record = pairwise.choose_items(pairs, rng, opts,
+                                                                    pick_training=_pick_training)
+        pairwise.check_images(rows, where=str(pairs_path), inside=_ImageCache(str(pairs_path)).path)
+    else:
+        pairs, rows, chosen_offsets, record = _choose_items(pairs, rng, opts)
+        _check_images(rows, where=str(pairs_path))
     metrics = _read_study_metrics(opts["metrics_paths"], pairs)
     out = Path(out)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent if out.parent.exists() else None))
     try:
-        items = _cut_crops(rows, pairs, tmp, rng=rng, opts=opts, where=str(pairs_path), progress=progress)
+        if design == "pairwise":
+            items = pairwise.cut_crops(rows, pairs, tmp, ids=_opaque_ids(rng, 3 * len(rows)),
+                                       image=_ImageCache(str(pairs_path)), opts=opts,
+                                       where=str(pairs_path), progress=progress)
+        else:
+            items = _cut_crops(rows, pairs, tmp, rng=rng, opts=opts, where=str(pairs_path),
+                               progress=progress)
         metric_cols = _write_tables(tmp, items, metrics)
         manifest = _manifest(out, pairs, items, opts, pairs_file=Path(pairs_path).resolve(),
                              metric_cols=metric_cols, offsets=chosen_offsets, tracks=record)
@@ -145,6 +169,11 @@ def _check_options(out, pairs_path, **opts) -> dict:
         raise InputError("image_format", None, "one of {'jpg', 'png'}", opts["image_format"])
     if opts["access"] not in ("open", "token"):
         raise InputError("access", None, "one of {'open', 'token'}", opts["access"])
+    if opts["design"] not in DESIGNS:
+        raise InputError("design", None, "one of {'binary', 'pairwise'}", opts["design"])
+    if opts["methods"] is not None and opts["design"] != "pairwise":
+        raise InputError("methods", None, "no method list with --design binary (it compares "
+                         "methods only with --design pairwise)", opts["methods"])
     return opts
 
 
@@ -225,9 +254,14 @@ class _ImageCache:
     def __init__(self, where: str):
         self.where, self.cache = where, {}
 
-    def __call__(self, r: dict, column: str) -> np.ndarray:
+    def path(self, r, column: str) -> str:
+        """The checked path of the image in ``column`` of pairs row ``r``."""
         field = f"line {int(r['_row'])}: column {column!r}"
-        path = inside_scene(r["_root"], r[column], where=self.where, field=field)
+        return inside_scene(r["_root"], r[column], where=self.where, field=field)
+
+    def __call__(self, r, column: str) -> np.ndarray:
+        field = f"line {int(r['_row'])}: column {column!r}"
+        path = self.path(r, column)
         if path not in self.cache:
             if len(self.cache) > 64:
                 self.cache.clear()
@@ -271,7 +305,10 @@ def _write_tables(tmp: Path, items: pd.DataFrame, metrics: pd.DataFrame | None) 
     items.to_csv(tmp / "items.csv", index=False)
     if metrics is None:
         return []
-    metrics[metrics["pair_id"].isin(set(items["pair_id"]))].to_csv(tmp / "metrics.csv", index=False)
+    shown = set(items["pair_id"])
+    if "pair_id_a" in items.columns:  # pairwise: the renders' pairs
+        shown = set(items["pair_id_a"]) | set(items["pair_id_b"])
+    metrics[metrics["pair_id"].isin(shown)].to_csv(tmp / "metrics.csv", index=False)
     return [c for c in metrics.columns if c != "pair_id"]
 
 
@@ -291,12 +328,15 @@ def _manifest(out: Path, pairs: pd.DataFrame, items: pd.DataFrame, opts: dict, *
         "pairs": str(pairs_file),
         "metrics": [str(Path(p).resolve()) for p in opts["metrics_paths"]],
         "metric_columns": metric_cols,
-        "attribute_columns": attribute_columns(pairs.drop(columns=["_root", "_row"])),
+        "attribute_columns": [c for c in attribute_columns(pairs.drop(columns=["_root", "_row"]))
+                              if opts["design"] == "binary" or c != pairwise.METHOD_COLUMN],
         "view_columns": opts["view_columns"],
         "scene_roots": {str(k): str(v) for k, v in roots.items()},
         "offsets": offsets, "tracks": tracks,
         "counts": {kind: int((items["kind"] == kind).sum()) for kind in ITEM_KINDS},
         "training_order": items.loc[items["kind"] == "training", "key"].tolist(),
+        **({"design": "pairwise", "methods": list(opts["methods"])}
+           if opts["design"] == "pairwise" else {}),
     }
 
 
@@ -365,11 +405,19 @@ class Study:
             cache[rater] = plan
         return plan
 
+    @property
+    def design(self) -> str:
+        """``'binary'`` (good/bad; every study built before designs existed) or ``'pairwise'``."""
+        return self.manifest.get("design", "binary")
+
     def new_plan(self, rater: str) -> dict:
         reps = {k: k.split(":", 1)[1] for k in self.keys("repeat")}
-        return make_plan(training=self.manifest["training_order"], tests=self.keys("test"),
-                         golds=self.keys("gold"), repeats=reps,
-                         seed=rater_seed(self.manifest["seed"], rater))
+        seed = rater_seed(self.manifest["seed"], rater)
+        plan = make_plan(training=self.manifest["training_order"], tests=self.keys("test"),
+                         golds=self.keys("gold"), repeats=reps, seed=seed)
+        if self.design == "pairwise":  # which side A is shown on, per item, for this rater
+            plan["sides"] = pairwise_sides(plan, seed=seed)
+        return plan
 
     def next_item(self, rater: str) -> str | None:
         """Key of the rater's next unrated item (None: done)."""
@@ -425,15 +473,22 @@ def load_study(root: str | Path) -> Study:
     items_path = root / "items.csv"
     if not items_path.is_file():
         raise InputError(items_path, None, "the study's items table", "no such file")
-    items = read_table(items_path, required=("key", "item_id", "kind", "pair_id", "ref_file", "ren_file"),
+    design = manifest.get("design", "binary")
+    files = ("ref_file", "a_file", "b_file", "method_a", "method_b") if design == "pairwise" else (
+        "ref_file", "ren_file")
+    items = read_table(items_path, required=("key", "item_id", "kind", "pair_id", *files),
                        what="study items table",
                        dtype={"key": str, "item_id": str, "pair_id": str, "camera": str,
-                              "track_id": str, "clip_id": str})
+                              "track_id": str, "clip_id": str, "method_a": str, "method_b": str,
+                              "pair_id_a": str, "pair_id_b": str, "expected": str}
+                       if design == "pairwise" else
+                       {"key": str, "item_id": str, "pair_id": str, "camera": str,
+                        "track_id": str, "clip_id": str})
     if items["key"].duplicated().any() or items["key"].isna().any():
         raise InputError(items_path, "key", "one row per item key", "a duplicated or empty key")
     db = root / "votes.sqlite"
     try:
-        store = Store(db, manifest["study_id"])
+        store = Store(db, manifest["study_id"], votes=VOTES[design])
     except sqlite3.Error as exc:
         raise InputError(db, None, "a readable SQLite vote store in a writable study folder",
                          f"{type(exc).__name__}: {exc}") from None
@@ -441,6 +496,7 @@ def load_study(root: str | Path) -> Study:
 
 
 #: manifest.json keys every reader relies on, and their JSON types.
+#: (``design``, absent in binary studies, is checked in :func:`_read_manifest`.)
 _MANIFEST_KEYS = {"study_id": str, "seed": int, "access": str, "votes_per_item": int,
                   "training_order": list, "counts": dict}
 
@@ -456,6 +512,8 @@ def _read_manifest(path: Path) -> dict:
     for key, typ in _MANIFEST_KEYS.items():
         if not isinstance(manifest.get(key), typ) or isinstance(manifest.get(key), bool):
             raise InputError(path, key, f"a JSON {typ.__name__}", repr(manifest.get(key)))
+    if manifest.get("design", "binary") not in DESIGNS:
+        raise InputError(path, "design", "one of {'binary', 'pairwise'}", repr(manifest["design"]))
     return manifest
 
 

@@ -23,6 +23,7 @@ from data_schema.errors import InputError
 __all__ = [
     "PAIRS_COLUMNS",
     "RATINGS_COLUMNS",
+    "PAIRWISE_VOTES_COLUMNS",
     "ITEM_KINDS",
     "TIMING_COLUMNS",
     "timing_path",
@@ -72,6 +73,10 @@ PAIR_META_COLUMNS = ("clip_id", "camera", "track_id", "label_class", "timestamp_
 
 #: docs/FORMATS.md §5, fixed leading columns of ratings.csv.
 RATINGS_COLUMNS = ("item_id", "rater_id", "vote", "voted_at", "response_ms", "kind")
+
+#: docs/FORMATS.md §11-12, the leading columns of a pairwise study's votes (``annotate export``
+#: writes them, then ``voted_at, response_ms`` and the object's columns).
+PAIRWISE_VOTES_COLUMNS = ("item_id", "rater_id", "kind", "method_a", "method_b", "side_a", "choice")
 
 #: docs/FORMATS.md §5, the values of ratings.csv's ``kind`` (and of a study item's kind).
 ITEM_KINDS = ("test", "gold", "training", "repeat")

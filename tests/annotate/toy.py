@@ -3,6 +3,11 @@
 One clip, camera ``front`` (160x120), ``n_tracks`` boxes of two classes, ``n_frames`` frames,
 offsets -1, 0, +1 m. Renders are the GT image blurred by ``|offset|`` (sigma 2 per metre);
 ``degradation.csv`` gives ``severity = |offset| / 2``.
+
+``methods={NAME: SCALE, ...}`` makes a multi-method clip by hand (the ``method`` column of
+docs/FORMATS.md §3): one render per method, blurred by ``SCALE`` times as much, one pairs row
+per (object, view, method) with the same GT crop, ``pair_id`` suffixed with ``:NAME``, and
+``degradation.csv`` rows per method with ``severity = SCALE * |offset| / 2``.
 """
 
 from __future__ import annotations
@@ -19,7 +24,8 @@ OFFSETS = (-1.0, 0.0, 1.0)
 
 
 def make_toy(root: Path, *, n_tracks: int = 4, n_frames: int = 6, seed: int = 0,
-             scene_root_column: bool = False) -> tuple[Path, Path]:
+             scene_root_column: bool = False,
+             methods: dict[str, float] | None = None) -> tuple[Path, Path]:
     """Write ``root/scene/...`` images + degradation.csv and ``root/pairs.csv``; return both."""
     rng = np.random.default_rng(seed)
     scene = root / "scene"
@@ -38,23 +44,28 @@ def make_toy(root: Path, *, n_tracks: int = 4, n_frames: int = 6, seed: int = 0,
             boxes.append((x0, y0, x1, y1))
         gt_rel = f"images/gt_{ts}.png"
         cv2.imwrite(str(scene / gt_rel), img)
-        for off in OFFSETS:
-            ren_rel = f"images/render_{ts}_{off:+.1f}.png"
-            ren = img if off == 0 else cv2.GaussianBlur(img, (0, 0), 2.0 * abs(off))
+        for off, (method, scale) in [(o, m) for o in OFFSETS for m in (methods or {None: 1.0}).items()]:
+            tag = "" if method is None else f"{method}_"
+            ren_rel = f"images/render_{tag}{ts}_{off:+.1f}.png"
+            sigma = 2.0 * abs(off) * scale
+            ren = img if sigma == 0 else cv2.GaussianBlur(img, (0, 0), sigma)
             cv2.imwrite(str(scene / ren_rel), ren)
             for t, (x0, y0, x1, y1) in enumerate(boxes):
                 tid = f"trk-{t}"
                 shift = int(round(-4 * off))
+                pid = pair_id("toy", "front", tid, ts, off)
                 rows.append({
-                    "pair_id": pair_id("toy", "front", tid, ts, off), "clip_id": "toy",
+                    "pair_id": pid if method is None else f"{pid}:{method}", "clip_id": "toy",
                     "camera": "front", "track_id": tid,
                     "label_class": "automobile" if t % 2 == 0 else "pedestrian",
                     "timestamp_us": ts, "y_offset_m": off, "gt_path": gt_rel, "render_path": ren_rel,
                     "gt_x0": x0, "gt_y0": y0, "gt_x1": x1, "gt_y1": y1,
                     "r_x0": x0 + shift + 4, "r_y0": y0, "r_x1": x1 + shift + 4, "r_y1": y1,
-                    "lighting": "daytime", "road_type": "urban"})
+                    "lighting": "daytime", "road_type": "urban",
+                    **({} if method is None else {"method": method})})
                 deg.append({"camera": "front", "timestamp_us": ts, "track_id": tid,
-                            "y_offset_m": off, "severity": abs(off) / 2, "blur": abs(off)})
+                            "y_offset_m": off, "severity": scale * abs(off) / 2,
+                            "blur": scale * abs(off), **({} if method is None else {"method": method})})
     pairs = pd.DataFrame(rows)
     if scene_root_column:
         pairs["scene_root"] = "scene"

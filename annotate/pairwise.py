@@ -1,0 +1,223 @@
+"""The pairwise study (docs/FORMATS.md §12): which render of two methods is closer to the GT?
+
+An *object view* is one object of one frame in one view: ``(clip_id, camera, track_id,
+timestamp_us, view)``; its id is the single-method ``pair_id`` of that view (§3, §9). A
+pairs table with a ``method`` column holds one row per object view and method (same GT crop,
+the method's render). A pairwise item shows the GT crop (Reference) and the renders of two
+methods A and B of one object view; A is the earlier of the two in the study's method list.
+
+- :func:`check_methods`: the methods of a study (``--methods`` or every method of the table).
+- :func:`choose_items`: the design of ``annotate build --design pairwise``: object views
+  holding every chosen method are chosen as the binary design chooses pairs (tracks spread
+  over strata, frames along each track, every view; :func:`annotate.design.select_test_pairs`)
+  and each gives one test item per pair of methods. Training items come from other object
+  views (pairs of methods in turn); hidden gold items show the GT crop itself as A
+  (``method_a = gt``; the right answer is ``a``) against one method's render of an object
+  view away from the real camera (``view != none`` when there is one); repeats repeat test
+  items (shown with the sides swapped: :func:`annotate.assign.pairwise_sides`).
+- :func:`cut_crops`: the three display crops of every item on one square (one scale).
+- :func:`choice`: the rater's answer in A/B terms from the side pressed.
+
+Item keys and ids: a test item's id is ``OBJECT_VIEW_ID|A|B``; keys ``training:ID``,
+``gold:OBJECT_VIEW_ID|gt|M`` (key = id) and ``repeat:ID`` (id: the test item's), as in the
+binary study. The votes store the side pressed: 1 left, 2 right, 0 can't tell (the keys).
+
+>>> choice([1, 2, 0, 1], ["left", "left", "right", "right"]).tolist()
+['a', 'b', 'tie', 'b']
+"""
+
+from __future__ import annotations
+
+from itertools import combinations
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from tqdm import tqdm
+
+from annotate import crops as _crops
+from annotate.design import attribute_columns, choose_views, select_test_pairs
+from data_schema.errors import InputError
+from data_schema.perturbation import labels, perturbation_array, view_columns, view_suffix
+from data_schema.perturbation import with_perturbation_columns as _with_views
+from data_schema.tables import GT_BOX_COLUMNS, PAIR_META_COLUMNS, RENDER_BOX_COLUMNS
+from nvrq.crops import cut_box
+
+__all__ = ["METHOD_COLUMN", "GT_METHOD", "VOTE_CODES", "SIDES", "check_methods", "choose_items",
+           "cut_crops", "choice", "object_view_ids"]
+
+#: the pairs table's column naming the method of a render (docs/FORMATS.md §3)
+METHOD_COLUMN = "method"
+#: ``method_a`` of a gold item: the GT crop itself (a reserved method name)
+GT_METHOD = "gt"
+#: stored vote codes of a pairwise study: the key pressed
+VOTE_CODES = {1: "left", 2: "right", 0: "can't tell"}
+SIDES = ("left", "right")
+_OBJECT = ["clip_id", "camera", "track_id", "timestamp_us", "_view"]
+
+
+def object_view_ids(df: pd.DataFrame) -> list[str]:
+    """``CLIP:CAMERA:TRACK:T:VIEW`` per row: the single-method ``pair_id`` of the row's view.
+
+    >>> object_view_ids(pd.DataFrame({"clip_id": ["c"], "camera": ["f"], "track_id": ["t"],
+    ...                               "timestamp_us": [5], "y_offset_m": [1.0]}))
+    ['c:f:t:5:+1.00']
+    """
+    suffix = view_suffix(perturbation_array(df))
+    return [f"{c}:{cam}:{t}:{int(ts)}:{s}" for c, cam, t, ts, s in zip(
+        df["clip_id"], df["camera"], df["track_id"], df["timestamp_us"], suffix, strict=True)]
+
+
+def check_methods(pairs: pd.DataFrame, methods: str | None, *, where: str) -> list[str]:
+    """The study's methods in order: ``methods`` (a comma list) or every method of ``pairs``
+    (sorted). InputError: no ``method`` column, an empty method, a name not in the table or
+    reserved (``gt``), a repeated name, fewer than two."""
+    if METHOD_COLUMN not in pairs.columns:
+        raise InputError(where, f"column {METHOD_COLUMN!r}",
+                         "a method column (one render per method) for --design pairwise",
+                         "no such column")
+    col = pairs[METHOD_COLUMN]
+    bad = col.isna() | (col.astype(str).str.strip() == "")
+    if bad.any():
+        raise InputError(where, f"line {int(np.argmax(bad.to_numpy())) + 2}: column 'method'",
+                         "a method name", "an empty value")
+    have = sorted(set(col.astype(str)))
+    if methods is None:
+        chosen = have
+    else:
+        chosen = [m.strip() for m in str(methods).split(",") if m.strip()]
+        unknown = [m for m in chosen if m not in have]
+        if unknown:
+            raise InputError("methods", None, f"methods of {where}'s method column "
+                             f"({', '.join(have)})", unknown[0])
+        if len(set(chosen)) != len(chosen):
+            raise InputError("methods", None, "each method once", methods)
+    if GT_METHOD in chosen:
+        raise InputError(where, "column 'method'", f"method names other than {GT_METHOD!r} "
+                         "(reserved for the GT crop of gold items)", GT_METHOD)
+    if len(chosen) < 2:
+        raise InputError("methods" if methods is not None else where,
+                         None if methods is not None else "column 'method'",
+                         "at least 2 methods to compare", ", ".join(chosen) or "none")
+    return chosen
+
+
+def _complete_views(pairs: pd.DataFrame, methods: list[str]) -> pd.DataFrame:
+    """Rows of the chosen methods at object views holding every one of them (``_view``,
+    ``_object`` columns added)."""
+    df = pairs[pairs[METHOD_COLUMN].astype(str).isin(methods)]
+    df = df.assign(**{METHOD_COLUMN: df[METHOD_COLUMN].astype(str),
+                      "_view": labels(perturbation_array(df)), "_object": object_view_ids(df)})
+    dup = df.duplicated(["_object", METHOD_COLUMN])
+    if dup.any():
+        row = df[dup].iloc[0]
+        raise InputError("pairs", f"line {int(row['_row'])}",
+                         "one render per object, view and method", f"{row['_object']} "
+                         f"{row[METHOD_COLUMN]} twice")
+    n = df.groupby("_object")[METHOD_COLUMN].transform("nunique")
+    return df[n == len(methods)]
+
+
+def choose_items(pairs: pd.DataFrame, rng: np.random.Generator, opts: dict, *, pick_training):
+    """The pairwise design (module docstring): ``(pairs, rows, chosen views or offsets,
+    per-track record)``; ``rows`` are dicts with ``kind, key, item_id, method_a, method_b``
+    and the pairs rows ``ref`` (GT), ``a`` (None: the GT crop) and ``b``.
+
+    ``pick_training(base, tests, n, rng)`` chooses the training object views (the binary
+    study's rule, offsets spread from small to large).
+    """
+    methods = opts["methods"]
+    full = _complete_views(pairs, methods)
+    if full.empty:
+        raise InputError("pairs", "method", f"object views rendered by every method of "
+                         f"{methods}", "none")
+    opts["view_columns"] = view_cols = view_columns(pairs)
+    if view_cols:
+        full = _with_views(full)
+    by_method = {m: g.set_index("_object") for m, g in full.groupby(METHOD_COLUMN)}
+    base = by_method[methods[0]].reset_index()  # one row per object view
+    chosen_views = choose_views(opts["offsets"], base)
+    chosen_offsets = chosen_views if view_cols else sorted(
+        float(v.partition("=")[2] or 0) for v in chosen_views)
+    tests, record = select_test_pairs(base, offsets=chosen_views, n_tracks=int(opts["tracks"]),
+                                      frames_per_track=int(opts["frames_per_track"]), rng=rng)
+    training = pick_training(base, tests, opts["n_training"], rng)
+    duos = list(combinations(methods, 2))
+
+    def item(obj: str, kind: str, a: str, b: str, prefix: str = "") -> dict:
+        item_id = f"{obj}|{a}|{b}"
+        return {"kind": kind, "key": prefix + item_id, "item_id": item_id, "method_a": a,
+                "method_b": b, "ref": by_method[methods[0]].loc[obj],
+                "a": None if a == GT_METHOD else by_method[a].loc[obj], "b": by_method[b].loc[obj]}
+
+    rows = [item(obj, "training", *duos[i % len(duos)], prefix="training:")
+            for i, obj in enumerate(training["_object"])]
+    test_rows = [item(obj, "test", a, b) for obj in tests["_object"] for a, b in duos]
+    rows += test_rows
+    away = tests[tests["_view"] != "none"] if (tests["_view"] != "none").any() else tests
+    n_gold = min(2 * opts["n_gold"], len(away))
+    for obj in away["_object"].iloc[sorted(rng.choice(len(away), size=n_gold, replace=False))]:
+        m = methods[int(rng.integers(len(methods)))]
+        gold = item(obj, "gold", GT_METHOD, m, prefix="gold:")
+        rows.append({**gold, "item_id": gold["key"]})
+    n_rep = min(opts["n_repeats"], len(test_rows))
+    for i in sorted(rng.choice(len(test_rows), size=n_rep, replace=False).tolist()):
+        r = test_rows[i]
+        rows.append({**r, "kind": "repeat", "key": "repeat:" + r["item_id"]})
+    return pairs, rows, chosen_offsets, record
+
+
+def check_images(rows, *, where: str, inside) -> None:
+    """Every image the items need exists (``inside(row, column)`` resolves a pairs path)."""
+    seen = set()
+    for r in rows:
+        need = [(r["ref"], "gt_path"), (r["b"], "render_path")]
+        if r["a"] is not None:
+            need.append((r["a"], "render_path"))
+        for rec, column in need:
+            path = inside(rec, column)
+            if path not in seen and not Path(path).is_file():
+                raise InputError(where, f"line {int(rec['_row'])}: column {column!r}",
+                                 "an existing image file", f"{rec[column]} (not found)")
+            seen.add(path)
+
+
+def cut_crops(rows, pairs: pd.DataFrame, tmp: Path, *, ids: list[str], image, opts: dict,
+              where: str, progress: bool) -> pd.DataFrame:
+    """Cut the GT, A and B crops of every item, pad the three to one square (the largest side
+    of the three), resize to ``size`` and write them to ``tmp/crops``; the items table."""
+    (tmp / "crops").mkdir()
+    fmt, size = opts["image_format"], int(opts["size"])
+    attrs = [c for c in attribute_columns(pairs.drop(columns=["_root", "_row"]))
+             if c != METHOD_COLUMN]
+    items = []
+    for k, r in enumerate(tqdm(rows, desc="cutting crops", unit="item", disable=not progress)):
+        ref = r["ref"]
+        gt = cut_box(image(ref, "gt_path"), [ref[c] for c in GT_BOX_COLUMNS], where=where,
+                     field=f"line {int(ref['_row'])}: gt box")
+        ren = [gt if rec is None else cut_box(
+            image(rec, "render_path"), [rec[c] for c in RENDER_BOX_COLUMNS], where=where,
+            field=f"line {int(rec['_row'])}: render box") for rec in (r["a"], r["b"])]
+        crops = (gt, *ren)
+        side = max(max(c.shape[:2]) for c in crops)
+        names = {}
+        shown = _crops.pad_group(crops, size=size)
+        for j, (col, out) in enumerate(zip(("ref_file", "a_file", "b_file"), shown, strict=True)):
+            names[col] = f"{ids[3 * k + j]}.{fmt}"
+            _crops.write_image(tmp / "crops" / names[col], out, fmt=fmt)
+        meta = {c: ref[c] for c in (*PAIR_META_COLUMNS, *opts["view_columns"], *attrs)}
+        items.append({"key": r["key"], "item_id": r["item_id"], "kind": r["kind"],
+                      "pair_id": r["ref"].name, "method_a": r["method_a"],
+                      "method_b": r["method_b"],
+                      "pair_id_a": "" if r["a"] is None else r["a"]["pair_id"],
+                      "pair_id_b": r["b"]["pair_id"], **names, "crop_side": side,
+                      "expected": "a" if r["kind"] == "gold" else "", **meta})
+    return pd.DataFrame(items)
+
+
+def choice(vote, side_a) -> np.ndarray:
+    """The answer in A/B terms: ``(N,)`` of ``'a'``, ``'b'``, ``'tie'`` from the stored votes
+    (1 left, 2 right, 0 can't tell) and the side A was shown on (``'left'``/``'right'``)."""
+    v = np.asarray(vote, dtype=np.int64)
+    left_a = np.asarray(side_a, dtype=object) == "left"
+    return np.where(v == 0, "tie", np.where((v == 1) == left_a, "a", "b")).astype(object)
