@@ -283,3 +283,19 @@ def test_methods_pairs_of_a_four_method_list_keep_the_given_order(tmp_path):
                                methods="d,b,a", progress=False))
     duos = sorted(set(zip(s.items["method_a"], s.items["method_b"], strict=True)))
     assert duos == sorted(combinations(["d", "b", "a"], 2))  # A is the earlier in --methods
+
+
+@pytest.mark.slow
+def test_exported_votes_rank_the_methods_in_analyze(tmp_path, pw_inputs):
+    """annotate's export is analyze's pairwise input: the less blurred method ranks first."""
+    from analysis.cli import main as analyze
+
+    s = _build(tmp_path, pw_inputs, votes_per_item=4)
+    assert main(["simulate", str(s.root), "--raters", "5", "--seed", "0"]) == 0
+    votes = tmp_path / "votes.csv"
+    assert main(["export", str(s.root), "--out", str(votes)]) == 0
+    assert analyze([str(votes), "--bootstrap", "50", "--out", str(tmp_path / "report")]) == 0
+    bt = pd.read_csv(tmp_path / "report" / "bradley_terry.csv")
+    overall = bt[bt["axis"] == "all"].set_index("method")["score"]
+    # toy blur scales: alpha 0.5 < gamma 1.0 < beta 1.5 times the single-method toy's
+    assert overall["alpha"] > overall["gamma"] > overall["beta"]
