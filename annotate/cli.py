@@ -25,6 +25,7 @@ from annotate.study import build_study, load_study, unplaced_votes
 from data_schema.cliargs import (
     DeprecatedFileOption,
     DeprecatedSize,
+    add_link_option,
     allow_negative_lists,
     flags_in_errors,
     parse_wxh,
@@ -32,7 +33,7 @@ from data_schema.cliargs import (
 from data_schema.errors import ArgumentParser, InputError, run_cli
 from data_schema.outputs import check_output_file, check_output_folder
 from data_schema.raters import check_rater_name
-from data_schema.tables import write_table
+from data_schema.tables import no_follow_links, write_table
 
 __all__ = ["main", "build_parser", "serve_command", "check_port_free"]
 
@@ -179,6 +180,7 @@ def build_parser() -> ArgumentParser:
                    "renders is closer to the GT (the pairs need a method column)")
     b.add_argument("--methods", help="pairwise: comma list of the methods to compare "
                    "(default: every method of the pairs table)")
+    add_link_option(b)
     allow_negative_lists(b)
     b.set_defaults(func=_cmd_build)
     s = sub.add_parser("serve", help="serve the rater app (Streamlit)")
@@ -216,7 +218,7 @@ def _main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        with flags_in_errors(parser, args, _ALIASES):
+        with flags_in_errors(parser, args, _ALIASES), no_follow_links(getattr(args, "no_follow_links", False)):
             return args.func(args)
     except sqlite3.Error as exc:  # a damaged vote store: one line naming it
         raise InputError(Path(args.study) / "votes.sqlite", None, "a readable SQLite vote store",

@@ -31,7 +31,7 @@ import sys
 from data_schema.errors import InputError
 
 __all__ = ["comma_list", "parse_wxh", "CommaList", "DeprecatedFileOption", "DeprecatedSize", "deprecated",
-           "allow_negative_lists", "NEGATIVE_LIST", "option_for", "flags_in_errors"]
+           "allow_negative_lists", "NEGATIVE_LIST", "option_for", "flags_in_errors", "add_link_option"]
 
 #: A comma list of numbers that may start with a minus sign (``-3,-2,0``): a value, not an option.
 NEGATIVE_LIST = re.compile(r"^-\d*\.?\d+([x,]\s*[-+]?\d*\.?\d+)*$")
@@ -132,3 +132,12 @@ def allow_negative_lists(parser: argparse.ArgumentParser) -> None:
     """Let ``parser`` take values such as ``-3,-2,-1`` or ``-640x360`` (argparse reads a value
     that starts with ``-`` as an option unless it matches the negative-number pattern)."""
     parser._negative_number_matcher = NEGATIVE_LIST
+
+
+def add_link_option(parser: argparse.ArgumentParser) -> None:
+    """``--no-follow-links`` on a command that reads scene images: refuse image paths whose symbolic
+    links lead outside the scene folder (the CLIs apply it with
+    :func:`data_schema.tables.no_follow_links`; docs/FORMATS.md §7)."""
+    parser.add_argument("--no-follow-links", action="store_true",
+                        help="refuse images whose symbolic links lead outside the scene folder "
+                             "(also NVRQ_NO_FOLLOW_LINKS=1; default: links are followed)")

@@ -206,14 +206,15 @@ def _poses7(value, n: int, where: str, fld: str) -> np.ndarray:
     return poses
 
 
-def _resolve_image(root: Path, rel: str, where: str, fld: str, check: bool, linked: dict) -> None:
+def _resolve_image(root: Path, rel: str, where: str, fld: str, check: bool, linked: dict,
+                   follow: bool | None) -> None:
     # the path rule shared with pairs tables; ``linked`` is this load's folder cache
-    inside_scene(root, rel, where=where, field=fld, linked=linked)
+    inside_scene(root, rel, where=where, field=fld, linked=linked, follow=follow)
     if check and not (root / rel).is_file():
         raise InputError(where, fld, "an existing image file", f"{rel} (not found)")
 
 
-def _load_images(root: Path, cameras: dict, check_images: bool) -> pd.DataFrame:
+def _load_images(root: Path, cameras: dict, check_images: bool, follow: bool | None) -> pd.DataFrame:
     path = root / "images.csv"
     where = str(path)
     if not path.is_file():
@@ -251,7 +252,7 @@ def _load_images(root: Path, cameras: dict, check_images: bool) -> pd.DataFrame:
             raise InputError(where, f"{r}, column source", "'gt' or 'render'", repr(row.source))
         if row.source == "gt" and row.y_offset_m != 0:
             raise InputError(where, f"{r}, column y_offset_m", "0 for a gt image", row.y_offset_m)
-        _resolve_image(root, row.path, where, f"{r}, column path", check_images, linked)
+        _resolve_image(root, row.path, where, f"{r}, column path", check_images, linked, follow)
     dup = df.duplicated(["camera", "timestamp_us", "source", *PERTURBATION_COLUMNS])
     if dup.any():
         i = int(np.argmax(dup.to_numpy()))
@@ -260,11 +261,14 @@ def _load_images(root: Path, cameras: dict, check_images: bool) -> pd.DataFrame:
     return df.loc[:, [*IMAGES_COLUMNS, *EXTRA_PERTURBATION_COLUMNS]]
 
 
-def load_scene(root: str | os.PathLike, *, check_images: bool = True) -> Scene:
+def load_scene(root: str | os.PathLike, *, check_images: bool = True,
+               follow_links: bool | None = None) -> Scene:
     """Load and validate the scene folder ``root`` (docs/FORMATS.md §2).
 
     ``check_images=False`` accepts an ``images.csv`` whose files do not exist yet (a scene
-    imported for rendering); path safety is checked either way.
+    imported for rendering); path safety is checked either way. ``follow_links``: whether image
+    paths may lead out of the scene through symbolic links (default: yes, unless
+    ``$NVRQ_NO_FOLLOW_LINKS`` is set; docs/FORMATS.md §7, :func:`data_schema.tables.inside_scene`).
     """
     root = Path(root)
     path = root / "scene.json"
@@ -323,7 +327,7 @@ def load_scene(root: str | os.PathLike, *, check_images: bool = True) -> Scene:
         ts = _timestamps(_get(tr, "timestamps_us", where, fld), where, f"{fld}.timestamps_us")
         poses = _poses7(_get(tr, "poses", where, fld), len(ts), where, f"{fld}.poses")
         tracks.append(Track(tid, label, dims, ts, poses))
-    images = _load_images(root, cameras, check_images)
+    images = _load_images(root, cameras, check_images, follow_links)
     return Scene(root, clip_id, {k: str(v) for k, v in attributes.items()}, cameras, rig_ts, T_rw, tracks, images)
 
 

@@ -7,6 +7,7 @@ into place, so an interrupted command never leaves a half-written file that look
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import re
@@ -47,6 +48,9 @@ __all__ = [
     "check_metrics",
     "check_scene_path",
     "inside_scene",
+    "NO_FOLLOW_LINKS_ENV",
+    "follow_links",
+    "no_follow_links",
     "read_metrics",
     "TABLE_CHECKS",
     "pair_image_paths",
@@ -263,9 +267,45 @@ def read_metrics(path) -> pd.DataFrame:
     return read_table(path, required=("pair_id",), what="metrics table", dtype={"pair_id": str})
 
 
+#: docs/FORMATS.md §7: set to 1 (or pass ``--no-follow-links``) to refuse image paths whose
+#: symbolic links lead outside the scene folder; by default links are followed.
+NO_FOLLOW_LINKS_ENV = "NVRQ_NO_FOLLOW_LINKS"
+
+
+def follow_links(follow: bool | None = None) -> bool:
+    """Whether image paths may follow symbolic links out of the scene folder: ``follow`` when
+    given, else yes unless ``$NVRQ_NO_FOLLOW_LINKS`` is set (to anything but ``''`` or ``0``).
+
+    >>> follow_links(False), follow_links(True)
+    (False, True)
+    """
+    if follow is not None:
+        return bool(follow)
+    return os.environ.get(NO_FOLLOW_LINKS_ENV, "").strip() in ("", "0")
+
+
+@contextlib.contextmanager
+def no_follow_links(strict: bool = True):
+    """Within the block, the strict link rule applies (``strict``; else nothing changes): it sets
+    ``$NVRQ_NO_FOLLOW_LINKS=1``, so threads, subprocesses and a Ray instance started here see it
+    too, and restores the variable on exit. The ``--no-follow-links`` option of the CLIs."""
+    if not strict:
+        yield
+        return
+    old = os.environ.get(NO_FOLLOW_LINKS_ENV)
+    os.environ[NO_FOLLOW_LINKS_ENV] = "1"
+    try:
+        yield
+    finally:
+        if old is None:
+            os.environ.pop(NO_FOLLOW_LINKS_ENV, None)
+        else:
+            os.environ[NO_FOLLOW_LINKS_ENV] = old
+
+
 def check_scene_path(rel, *, where: str, field: str) -> str:
     """The path rule of ``images.csv`` and pairs tables: a non-empty path relative to the
-    scene folder, without ``..`` (checked on the text; symlinks by :func:`inside_scene`).
+    scene folder, without ``..`` (checked on the text; symbolic links by :func:`inside_scene`).
 
     >>> check_scene_path("images/a.png", where="pairs.csv", field="gt_path")
     'images/a.png'
@@ -283,14 +323,20 @@ def check_scene_path(rel, *, where: str, field: str) -> str:
     return rel
 
 
-def inside_scene(root, rel: str, *, where: str, field: str, linked: dict | None = None) -> str:
-    """``root/rel`` as a string after :func:`check_scene_path`; a symlink must stay in ``root``.
+def inside_scene(root, rel: str, *, where: str, field: str, linked: dict | None = None,
+                 follow: bool | None = None) -> str:
+    """``root/rel`` as a string after :func:`check_scene_path` (docs/FORMATS.md §7).
 
-    ``linked``: one table's cache, per parent folder of ``rel``, of whether a folder on its way
-    is a symlink, so rows in the same few folders check each folder once (the file every time).
+    Symbolic links on the way are followed (an image folder linked from other storage), unless
+    :func:`follow_links` of ``follow`` is false: then the resolved file must lie in the
+    resolved ``root``. ``linked``: one table's cache, per parent folder of ``rel``, of whether a
+    folder on its way is a symlink, so rows in the same few folders check each folder once (the
+    file every time).
     """
     check_scene_path(rel, where=where, field=field)
     path = os.path.join(str(root), rel)
+    if follow_links(follow):
+        return path
     parts = Path(rel).parts
     via_link = None if linked is None else linked.get(parts[:-1])
     if via_link is None:
@@ -300,7 +346,8 @@ def inside_scene(root, rel: str, *, where: str, field: str, linked: dict | None 
     if via_link or os.path.islink(path):
         real, base = os.path.realpath(path), os.path.realpath(str(root))
         if os.path.commonpath([real, base]) != base:
-            raise InputError(where, field, "a file inside the scene folder (a symlink leaves it)", rel)
+            raise InputError(where, field, "a file inside the scene folder (a symlink leaves it, and "
+                             f"links are not followed: --no-follow-links or {NO_FOLLOW_LINKS_ENV}=1)", rel)
     return path
 
 
@@ -439,17 +486,18 @@ def pair_scene_roots(df: pd.DataFrame, *, scene_root=None, base=None, where: str
 
 
 def pair_image_paths(df: pd.DataFrame, column: str, *, scene_root=None, base=None,
-                     where: str = "pairs"):
+                     where: str = "pairs", follow: bool | None = None):
     """Absolute image paths of ``column`` (``gt_path`` or ``render_path``), ``(N,)`` object array.
 
-    Every path obeys the scene-folder rule (:func:`inside_scene`) and names an existing file."""
+    Every path obeys the scene-folder rule (:func:`inside_scene`, links followed as ``follow``
+    says) and names an existing file."""
     roots = pair_scene_roots(df, scene_root=scene_root, base=base, where=where)
     rel = df[column].to_numpy(dtype=object)
     seen: dict = {}
     for i, key in enumerate(zip(roots, rel, strict=True)):
-        if key not in seen:  # each distinct image once (lstat calls for the symlink rule)
+        if key not in seen:  # each distinct image once (lstat calls for the strict link rule)
             field = f"{_line(i)}: column {column!r}"
-            seen[key] = inside_scene(*key, where=where, field=field)
+            seen[key] = inside_scene(*key, where=where, field=field, follow=follow)
             if not os.path.isfile(seen[key]):
                 raise InputError(where, field, "an existing image file", f"{key[1]} (not found)")
     return np.array([seen[k] for k in zip(roots, rel, strict=True)], dtype=object)

@@ -18,7 +18,7 @@ from data_schema.cliargs import flags_in_errors
 from data_schema.datasets import MANIFEST
 from data_schema.errors import ArgumentParser, run_cli
 from data_schema.outputs import check_output_file, check_output_folder
-from data_schema.tables import timing_path
+from data_schema.tables import no_follow_links, timing_path
 
 __all__ = ["main", "build_parser"]
 
@@ -80,7 +80,8 @@ def check_outputs(args) -> None:
 def _main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    with flags_in_errors(parser, args, {"scene_root": "scene", "perturbations": "perturb"}):
+    with flags_in_errors(parser, args, {"scene_root": "scene", "perturbations": "perturb"}), \
+            no_follow_links(getattr(args, "no_follow_links", False)):
         check_outputs(args)
         return args.func(args)
 

@@ -262,12 +262,12 @@ class _Plan:
     r_boxes: np.ndarray
 
 
-def _plan(pairs: pd.DataFrame, *, scene_root, base, where: str) -> _Plan:
+def _plan(pairs: pd.DataFrame, *, scene_root, base, where: str, follow: bool | None = None) -> _Plan:
     missing = [c for c in CROP_COLUMNS if c not in pairs.columns]
     if missing:
         raise InputError(where, f"column {missing[0]!r}", f"the columns {', '.join(CROP_COLUMNS)}",
                          f"columns {', '.join(map(str, pairs.columns))}")
-    paths = {c: pair_image_paths(pairs, c, scene_root=scene_root, base=base, where=where)
+    paths = {c: pair_image_paths(pairs, c, scene_root=scene_root, base=base, where=where, follow=follow)
              for c in ("gt_path", "render_path")}
     return _Plan(paths["gt_path"], paths["render_path"], pair_boxes(pairs, GT_BOX_COLUMNS, where=where),
                  pair_boxes(pairs, RENDER_BOX_COLUMNS, where=where))
@@ -375,7 +375,7 @@ def _in_background(items: Iterator, *, maxsize: int = 2) -> Iterator:
 def iter_crop_batches(pairs: pd.DataFrame, *, scene_root: str | os.PathLike | None = None,
                       base: str | os.PathLike | None = None, max_pairs: int = 256,
                       background: bool = True, decode_threads: int = 1,
-                      where: str = "pairs") -> Iterator[CropBatch]:
+                      where: str = "pairs", follow_links: bool | None = None) -> Iterator[CropBatch]:
     """:class:`CropBatch` es covering every row of ``pairs`` once (see the module docstring).
 
     ``pairs``: docs/FORMATS.md §3 columns (:data:`CROP_COLUMNS`; image paths relative to
@@ -384,11 +384,13 @@ def iter_crop_batches(pairs: pd.DataFrame, *, scene_root: str | os.PathLike | No
     ``background``: decode one thread ahead of the caller; ``decode_threads`` > 1: a batch's
     images are decoded that many at a time (OpenCV releases the GIL while decoding);
     :func:`decode_schedule` picks both for an encoder.
-    Bad columns, boxes and paths raise :class:`InputError` naming ``where`` and the row.
+    Bad columns, boxes and paths raise :class:`InputError` naming ``where`` and the row;
+    ``follow_links``: the link rule of :func:`data_schema.tables.inside_scene` (default: the
+    environment's).
     """
     check_positive("max_pairs", max_pairs)
     check_positive("decode_threads", decode_threads)
-    plan = _plan(pairs, scene_root=scene_root, base=base, where=where)
+    plan = _plan(pairs, scene_root=scene_root, base=base, where=where, follow=follow_links)
 
     def batches() -> Iterator[CropBatch]:
         pool = ThreadPoolExecutor(decode_threads, thread_name_prefix="nvrq-decode") if decode_threads > 1 else None

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from data_schema.cliargs import add_link_option
 from data_schema.errors import InputError
 from data_schema.tables import read_table
 from nvrq.commands._encoder import add_cache_dir_argument
@@ -38,6 +39,7 @@ def register(sub) -> None:
                    help="pass threshold reported here (default 0.999; `score` applies its own)")
     add_cache_dir_argument(p)
     p.add_argument("--random-weights", action="store_true", help="random weights (seed 0; benchmarks and tests without checkpoints)")
+    add_link_option(p)
     p.set_defaults(func=run)
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import datetime as dt
 
+from data_schema.cliargs import add_link_option
 from data_schema.tables import read_table
 from nvrq.calibrate import calibrate_tau, config_path, write_tau
 from nvrq.commands._encoder import add_encoder_arguments, load_encoder_and_tau
@@ -28,6 +29,7 @@ def register(sub) -> None:
                    help="also pair objects of the same class (different tracks), e.g. one-class scenes")
     p.add_argument("--write-config", action="store_true", help="store the tau in the --config file")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_link_option(p)
     p.set_defaults(func=run)
 
 

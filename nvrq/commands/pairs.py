@@ -7,6 +7,7 @@ import sys
 import time
 from pathlib import Path
 
+from data_schema.cliargs import add_link_option
 from data_schema.errors import InputError
 from data_schema.tables import MIN_SIDE_PX, write_table
 from nvrq.clip_attributes import read_clip_attributes
@@ -31,6 +32,7 @@ def register(sub) -> None:
                    help=f"shorter side of the box in pixels (default {MIN_SIDE_PX})")
     p.add_argument("--min-area", type=float, default=0, help="box area in square pixels (default 0)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_link_option(p)
     p.set_defaults(func=run)
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import time
 
+from data_schema.cliargs import add_link_option
 from data_schema.errors import InputError
 from data_schema.tables import (
     GT_BOX_COLUMNS,
@@ -56,6 +57,7 @@ def _model_opts(p) -> None:
     )
     add_model_arguments(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_link_option(p)
 
 
 def _drop_parser(psub, name: str, help_text: str):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from data_schema.cliargs import add_link_option
 from data_schema.errors import InputError
 from data_schema.scene import load_scene
 from nvrq.commands.synth import add_view_options, parse_offsets, perturb_grid
@@ -23,6 +24,7 @@ def register(sub) -> None:
     )
     p.add_argument("--cameras", default=None, help="comma list of camera names (default: all)")
     p.add_argument("--out", required=True, help="output plan (.csv or .json)")
+    add_link_option(p)
     p.set_defaults(func=run)
 
 

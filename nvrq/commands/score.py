@@ -7,6 +7,7 @@ from pathlib import Path
 
 import cv2
 
+from data_schema.cliargs import add_link_option
 from data_schema.errors import InputError
 from data_schema.tables import read_table, timing_path, write_table
 from nvrq.commands._encoder import (
@@ -41,6 +42,7 @@ def register(sub) -> None:
                    help="name encoder columns nvrq:ENCODER@TAG (default: @PRECISION for bf16/int8, "
                         "none for fp32), e.g. to keep two runtimes' scores apart")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_link_option(p)
     add_engine_args(p)
     p.set_defaults(func=run)
 

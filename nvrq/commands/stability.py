@@ -11,6 +11,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from data_schema.cliargs import add_link_option
 from data_schema.errors import InputError
 from data_schema.outputs import mark_report
 from data_schema.tables import GT_BOX_COLUMNS, MIN_SIDE_PX, read_table, write_table
@@ -43,6 +44,7 @@ def register(sub) -> None:
         help=f"smallest GT crop side used (default {MIN_SIDE_PX}, as nvrq pairs)"
     )
     p.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_link_option(p)
     p.set_defaults(func=run)
 
 

@@ -33,7 +33,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from data_schema.errors import InputError
-from data_schema.tables import read_table
+from data_schema.tables import follow_links, read_table
 from nvrq.engines import require_ray
 from nvrq.engines import shards as sh
 from nvrq.engines.scorers import timing_per_column
@@ -98,13 +98,14 @@ def _pairs_table(path: str) -> pd.DataFrame:
     return read_table(path, what="pairs table")
 
 
-def _decode_shard(row: dict, *, scorer) -> dict:
-    """CPU task: the shard's crops (decode + crop) and its pixel metrics."""
+def _decode_shard(row: dict, *, scorer, follow: bool) -> dict:
+    """CPU task: the shard's crops (decode + crop) and its pixel metrics. ``follow``: the
+    driver's link rule (:func:`data_schema.tables.follow_links`; a worker's environment may differ)."""
 
     shard = row["shard"]
     df = _pairs_table(shard.path).iloc[list(shard.rows)].reset_index(drop=True)
     batches = list(iter_crop_batches(df, base=shard.base, max_pairs=max(len(df), 1), background=False,
-                                     where=shard.path))
+                                     where=shard.path, follow_links=follow))
     timings = {"decode": sum(b.decode_seconds for b in batches)}
     values = {c: np.full(len(df), np.nan) for c in scorer.columns}
     for b in batches if scorer.pixel_columns else ():
@@ -167,7 +168,7 @@ def _pipeline(ray, job: RayJob, todo: list):
     items = [{"shard": s} for s in todo]
     scorer = job.scorer
     stream = ray.data.from_items(items, override_num_blocks=max(1, len(items))).map(
-        _decode_shard, fn_kwargs={"scorer": scorer}, num_cpus=1)
+        _decode_shard, fn_kwargs={"scorer": scorer, "follow": follow_links()}, num_cpus=1)
     if not scorer.model_columns:
         return stream.map(lambda r: {"shard": r["shard"], "payload": _finish(r["payload"], scorer, None)})
     cpus = int(ray.cluster_resources().get("CPU", 1))

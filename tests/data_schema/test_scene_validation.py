@@ -162,8 +162,9 @@ def test_console_script_exit_status(tmp_path):
 
 
 def test_symlinked_image_folders_checked_per_load(tmp_path):
-    """A folder symlink is checked once per distinct folder and load (not cached across loads):
-    one that stays inside the scene is accepted, one that leaves it is refused on every row."""
+    """Under the strict link rule (follow_links=False, docs/FORMATS.md §7) a folder symlink is
+    checked once per distinct folder and load (not cached across loads): one that stays inside
+    the scene is accepted, one that leaves it is refused on every row. By default both load."""
     scene, outside = tmp_path / "scene", tmp_path / "outside"
     (scene / "real").mkdir(parents=True)
     outside.mkdir()
@@ -173,16 +174,19 @@ def test_symlinked_image_folders_checked_per_load(tmp_path):
     images = valid_images().assign(path=["img/gt.png", "img/r.png"])
     save_scene(valid_doc(), images, scene)
     (scene / "img").symlink_to(scene / "real")
-    assert len(load_scene(scene).images) == 2
+    assert len(load_scene(scene, follow_links=False).images) == 2
     (scene / "img").unlink()
     (scene / "img").symlink_to(outside)
     with pytest.raises(InputError) as exc:
-        load_scene(scene)
+        load_scene(scene, follow_links=False)
     assert str(exc.value) == (f"{scene / 'images.csv'}: row 2, column path: expected a file inside the "
-                              "scene folder (a symlink leaves it), got img/gt.png")
+                              "scene folder (a symlink leaves it, and links are not followed: "
+                              "--no-follow-links or NVRQ_NO_FOLLOW_LINKS=1), got img/gt.png")
+    assert len(load_scene(scene).images) == 2  # followed by default
     (scene / "img").unlink()
     (scene / "img").mkdir()
     for p in ("gt.png", "r.png"):
         (scene / "img" / p).symlink_to(outside / p)
     with pytest.raises(InputError, match="symlink leaves it"):
-        load_scene(scene)
+        load_scene(scene, follow_links=False)
+    assert len(load_scene(scene).images) == 2

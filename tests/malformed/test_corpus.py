@@ -115,13 +115,13 @@ for _n, _p, _v, _f in [
 
 # ---------------------------------------------------------------- images.csv (nvrq pairs)
 
-def _images_case(name, text, *fragments, setup=None):
+def _images_case(name, text, *fragments, setup=None, extra=()):
     @case("images.csv", name)
     def _c(world, tmp):
         scene = write_scene(tmp / "scene", images=text)
         if setup:
             setup(scene, tmp)
-        return "nvrq", _pairs_cmd(scene, tmp), ["images.csv", *fragments]
+        return "nvrq", [*_pairs_cmd(scene, tmp), *extra], ["images.csv", *fragments]
 
 
 _H = "camera,timestamp_us,source,y_offset_m,path\n"
@@ -145,7 +145,9 @@ def _escape_link(scene, tmp):
     (scene / "link.png").symlink_to(tmp / "secret.png")
 
 
-_images_case("symlink leaving the scene", _H + "front,0,gt,0.0,link.png\n", "path", setup=_escape_link)
+# links are followed by default (docs/FORMATS.md §7); the strict rule is opt-in
+_images_case("symlink leaving the scene (strict)", _H + "front,0,gt,0.0,link.png\n", "path", "symlink",
+             setup=_escape_link, extra=["--no-follow-links"])
 
 
 @case("images.csv", "no images.csv")
@@ -223,20 +225,20 @@ def _link_pairs(world, tmp):
     return scene
 
 
-@case("pairs", "score: symlinked images leave the scene")
+@case("pairs", "score: symlinked images leave the scene (strict)")
 def _(world, tmp):
     scene = _link_pairs(world, tmp)
     p = _pairs(world, tmp, lambda df: df)
     return "nvrq", ["score", str(p), "--scene", str(scene), "--metrics", "psnr", "--out",
-                    str(tmp / "m.csv"), "--quiet"], ["pairs.csv", "gt_path", "symlink"]
+                    str(tmp / "m.csv"), "--quiet", "--no-follow-links"], ["pairs.csv", "gt_path", "symlink"]
 
 
-@case("pairs", "build: symlinked images leave the scene")
+@case("pairs", "build: symlinked images leave the scene (strict)")
 def _(world, tmp):
     scene = _link_pairs(world, tmp)
     p = _pairs(world, tmp, lambda df: df)
     return "annotate", ["build", str(tmp / "st"), "--pairs", str(p), "--scene", str(scene), "--tracks",
-                        "1", "--frames-per-track", "1"], ["pairs.csv", "gt_path", "symlink"]
+                        "1", "--frames-per-track", "1", "--no-follow-links"], ["pairs.csv", "gt_path", "symlink"]
 
 
 @case("pairs", "score: not a table suffix")
