@@ -28,8 +28,8 @@ A file is read as pairwise when it has these columns (:func:`is_pairwise`).
 - Intervals: 95% percentile intervals of a bootstrap that resamples raters and items
   independently (a vote weighs the product of its rater's and its item's draw counts); the
   ceiling resamples items only (a rater drawn twice would agree with itself).
-- **Screening** (:func:`rater_table`): gold votes (``kind == 'gold'``: one side is the GT crop
-  itself, so it must be chosen; a tie fails), repeats (``kind == 'repeat'``, the test item
+- **Screening** (:func:`rater_table`): gold votes (``kind == 'gold'``: A is the GT crop
+  itself, so ``a`` must be chosen; a tie fails), repeats (``kind == 'repeat'``, the test item
   shown again with the sides swapped: the same choice is consistent), response speed, and
   agreement with the other raters' modal choice, with the tests and thresholds of
   :class:`annotate.screening.ScreenRule`; ``--screen`` excludes flagged raters.
@@ -51,6 +51,7 @@ from scipy import stats as _st
 
 from analysis import bootstrap as bs
 from analysis.methods import METHOD_COLUMN, view_breakdowns
+from annotate.results import pairwise_raters
 from annotate.screening import ScreenRule, screen
 from data_schema.errors import InputError
 from data_schema.perturbation import perturbation_array, view_suffix
@@ -143,8 +144,8 @@ def read_pairwise_votes(path) -> pd.DataFrame:
         i = int(np.flatnonzero(dup.to_numpy())[0])
         raise InputError(path, _line(i), "one row per (rater_id, item_id, kind)",
                          f"a second row for rater {df['rater_id'].iloc[i]!r}, item {df['item_id'].iloc[i]!r}")
-    if "response_ms" in df.columns:
-        df["response_ms"] = pd.to_numeric(df["response_ms"], errors="coerce")
+    df["response_ms"] = pd.to_numeric(df["response_ms"], errors="coerce") if "response_ms" in df.columns \
+        else np.nan
     return df
 
 
@@ -392,67 +393,46 @@ def _ceiling_row(h, i_codes, draws) -> dict:
 
 # --- rater screening ---------------------------------------------------------------------------
 
-def _gold_expected(gold: pd.DataFrame) -> np.ndarray:
-    """The side a gold vote must choose (``'a'``/``'b'``; None where unknown): the column
-    ``gold_expected`` when present, else the side whose method is ``'gt'``."""
-    if "gold_expected" in gold.columns:
-        return gold["gold_expected"].where(gold["gold_expected"].isin(("a", "b"))).to_numpy(dtype=object)
-    return np.where(gold["method_a"] == "gt", "a", np.where(gold["method_b"] == "gt", "b", None))
-
-
 def rater_table(votes: pd.DataFrame, *, rule: ScreenRule | None = None) -> pd.DataFrame:
-    """Per-rater screening numbers of pairwise votes (module docstring), with the columns the
-    ``--screen`` rule reads (:func:`annotate.screening.screen`; ``j_p`` and ``skill_p`` are
-    empty: the binary agreement tests do not apply to three-way choices)."""
+    """Per-rater screening of pairwise votes: the per-rater answers of
+    :func:`annotate.results.pairwise_raters` (votes per kind, answer shares, side bias,
+    ``gold_failures``, ``repeat_agreement`` over ``n_repeat_pairs``) with the tests the
+    ``--screen`` rule reads (:func:`annotate.screening.screen`): ``gold_p`` (exact binomial,
+    H0: failure rate <= ``rule.max_gold_failure_rate``), ``repeat_p`` (H0: consistency >=
+    ``rule.min_repeat_consistency``) and ``speed_p`` (sign test of the test votes' response
+    times against ``rule.min_response_ms``); ``j_p`` and ``skill_p`` are empty (the binary
+    agreement tests do not apply to three-way choices). ``agreement``: the share of the
+    rater's test votes equal to the other raters' unique modal choice, over ``n_compared``."""
     rule = rule or ScreenRule()
-    r_codes, raters = pd.factorize(votes["rater_id"], sort=True)
-    n_r, kind = len(raters), votes["kind"].to_numpy()
-    out = pd.DataFrame({"rater_id": raters.astype(str)})
-    out["simulated"] = out["rater_id"].str.startswith(SIM_PREFIX)
-    for k in ITEM_KINDS:
-        out[f"n_{k}"] = np.bincount(r_codes[kind == k], minlength=n_r)
-    # agreement with the others' modal choice (items where the others have a unique mode)
-    t = votes[kind == "test"]
-    tr = r_codes[kind == "test"]
+    raters = sorted(votes["rater_id"].astype(str).unique())
+    out = pairwise_raters(votes, raters)
+    out.insert(1, "simulated", out["rater_id"].str.startswith(SIM_PREFIX))
+    t = votes[votes["kind"] == "test"]
+    tr = pd.Categorical(t["rater_id"], categories=raters).codes
+    n_r = len(raters)
     counts = pd.crosstab(t["item_id"], t["choice"]).reindex(columns=list(CHOICES), fill_value=0)
     own = pd.get_dummies(t["choice"]).reindex(columns=list(CHOICES), fill_value=0).to_numpy(np.int64)
     others = counts.loc[t["item_id"]].to_numpy(np.int64) - own
     top = others.max(axis=1)
-    unique = (others == top[:, None]).sum(axis=1) == 1
+    compared = ((others == top[:, None]).sum(axis=1) == 1) & (top > 0)  # a unique modal choice
     mode = np.array(list(CHOICES), dtype=object)[others.argmax(axis=1)]
-    agree = (mode == t["choice"].to_numpy(dtype=object)) & unique & (top > 0)
-    comp = np.bincount(tr, weights=unique & (top > 0), minlength=n_r)
+    agree = compared & (mode == t["choice"].to_numpy(dtype=object))
+    comp = np.bincount(tr, weights=compared, minlength=n_r)
     with np.errstate(invalid="ignore", divide="ignore"):
         out["agreement"] = np.bincount(tr, weights=agree, minlength=n_r) / comp
+        out["gold_failure_rate"] = out["gold_failures"] / out["gold"]
     out["n_compared"] = comp.astype(np.int64)
     out["j_p"] = np.nan
     out["skill_p"] = np.nan
-    # gold: the GT side must be chosen
-    g = kind == "gold"
-    exp = _gold_expected(votes[g])
-    scored = exp != None  # noqa: E711 (object array)
-    fails = np.bincount(r_codes[g], weights=scored & (votes["choice"].to_numpy(dtype=object)[g] != exp), minlength=n_r)
-    n_scored = np.bincount(r_codes[g], weights=scored, minlength=n_r)
-    out["gold_failures"] = fails.astype(np.int64)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out["gold_failure_rate"] = fails / n_scored
-    out["gold_p"] = np.where(n_scored > 0, _st.binom.sf(fails - 1, n_scored, rule.max_gold_failure_rate), np.nan)
-    # repeats: the test item again, sides swapped; the same choice is consistent
-    rep = votes[kind == "repeat"][["rater_id", "item_id", "choice"]]
-    j = rep.merge(t[["rater_id", "item_id", "choice"]], on=["rater_id", "item_id"], suffixes=("_rep", "_test"))
-    jc = pd.Categorical(j["rater_id"], categories=raters).codes
-    same = np.bincount(jc, weights=(j["choice_rep"] == j["choice_test"]).to_numpy(float), minlength=n_r)
-    c = np.bincount(jc, minlength=n_r)
-    out["n_repeat_pairs"] = c.astype(np.int64)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out["repeat_consistency"] = same / c
-    out["repeat_p"] = np.where(c > 0, _st.binom.cdf(same, c, rule.min_repeat_consistency), np.nan)
-    # speed, when the export has response times
-    rt = t["response_ms"].to_numpy(np.float64) if "response_ms" in t.columns else np.full(len(t), np.nan)
+    n_gold, fails = out["gold"].to_numpy(), out["gold_failures"].to_numpy()
+    out["gold_p"] = np.where(n_gold > 0, _st.binom.sf(fails - 1, n_gold, rule.max_gold_failure_rate), np.nan)
+    n_rep = out["n_repeat_pairs"].to_numpy()
+    same = np.round(np.nan_to_num(out["repeat_agreement"].to_numpy(np.float64)) * n_rep)
+    out["repeat_p"] = np.where(n_rep > 0, _st.binom.cdf(same, n_rep, rule.min_repeat_consistency), np.nan)
+    rt = pd.to_numeric(t["response_ms"], errors="coerce").to_numpy(np.float64)
     known = np.isfinite(rt)
     fast = np.bincount(tr[known], weights=rt[known] < rule.min_response_ms, minlength=n_r)
     nk = np.bincount(tr[known], minlength=n_r)
-    out["median_response_ms"] = pd.Series(rt[known]).groupby(tr[known]).median().reindex(range(n_r)).to_numpy()
     out["speed_p"] = np.where(nk > 0, _st.binom.sf(fast - 1, nk, 0.5), np.nan)
     return out
 

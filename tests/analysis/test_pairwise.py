@@ -9,6 +9,7 @@ import pandas as pd
 import pytest
 from crowdkit.aggregation import BradleyTerry
 from scipy.optimize import minimize
+from scipy.stats import binom
 
 from analysis.cli import main
 from analysis.pairwise import (
@@ -19,6 +20,7 @@ from analysis.pairwise import (
     run_pairwise_analysis,
     side_pair_ids,
 )
+from annotate.screening import screen
 
 sys.path.insert(0, str(Path(__file__).parent))
 from methods_data import make_method_tables, make_pairwise_votes  # noqa: E402
@@ -137,20 +139,22 @@ def test_screening_flags_gold_failures_and_inconsistent_repeats():
     for r in ("good", "careless"):
         for k in range(12):
             rows.append({"item_id": f"g{k}", "rater_id": r, "kind": "gold", "method_a": "gt",
-                         "method_b": "m1", "side_a": "left", "gold_expected": "a",
-                         "choice": "a" if r == "good" else "b"})
+                         "method_b": "m1", "side_a": "left", "choice": "a" if r == "good" else "b"})
             test_choice = "a"
             rows.append({"item_id": f"t{k}", "rater_id": r, "kind": "test", "method_a": "m1",
                          "method_b": "m2", "side_a": "left", "choice": test_choice})
             rows.append({"item_id": f"t{k}", "rater_id": r, "kind": "repeat", "method_a": "m1",
                          "method_b": "m2", "side_a": "right",
                          "choice": test_choice if r == "good" or k % 2 else "b"})
-    t = rater_table(pd.DataFrame(rows)).set_index("rater_id")
+    t = rater_table(pd.DataFrame(rows).assign(response_ms=900.0)).set_index("rater_id")
     assert t.loc["good", "gold_failures"] == 0 and t.loc["careless", "gold_failures"] == 12
-    assert t.loc["good", "repeat_consistency"] == 1.0
-    assert t.loc["careless", "repeat_consistency"] == 0.5
-    # exact binomial tail: P(X >= 12), X ~ Bin(12, 0.25)
+    assert t.loc["good", "repeat_agreement"] == 1.0
+    assert t.loc["careless", "repeat_agreement"] == 0.5
+    # exact binomial tails: P(X >= 12), X ~ Bin(12, 0.25); P(X <= 6), X ~ Bin(12, 0.7)
     assert t.loc["careless", "gold_p"] == pytest.approx(0.25 ** 12)
+    assert t.loc["careless", "repeat_p"] == pytest.approx(binom.cdf(6, 12, 0.7))
+    flagged = screen(t.reset_index(), use_rule=True).set_index("rater_id")
+    assert flagged.loc["careless", "excluded"] and not flagged.loc["good", "excluded"]
 
 
 def test_cli_pairwise_report(study, tmp_path, capsys):
