@@ -8,14 +8,12 @@ chose ``choice``: ``'a'``, ``'b'`` or ``'tie'`` (can't tell). The object's colum
 (``clip_id, camera, track_id, label_class, timestamp_us``, the view, attributes) follow.
 A file is read as pairwise when it has these columns (:func:`is_pairwise`).
 
-- **Bradley-Terry** (:func:`bradley_terry`): strengths ``p`` (sum 1) with
-  ``P(i beats j) = p_i / (p_i + p_j)``, the maximum-likelihood fit of the win matrix by the
-  MM algorithm of Hunter (2004), the model of crowd-kit's ``BradleyTerry``, iterated to
-  convergence (crowd-kit 1.4 stops after its second iteration, which is exact for two methods
-  only). A tie counts half a win for each side. ``win_prob`` is the mean of
-  ``P(i beats j)`` over the other methods (two methods: the probability that ``i`` is
-  preferred). The fit is undefined unless the comparison graph is strongly connected (every
-  method won and lost something, directly or through others).
+- **Bradley-Terry** (:func:`bt_table`, the model in :mod:`analysis.bradley_terry`): per view,
+  each method's strength (sum 1) and ``win_prob``, the mean probability of being preferred to
+  another method (two methods: the probability that it is preferred); a tie counts half a
+  win for each side. Without a strongly connected comparison graph (every method won and
+  lost something, directly or through others) the fit has no finite maximum: its limit is
+  reported with that reason.
 - **2AFC agreement** of a metric (as in the BAPPS evaluation of LPIPS): per test vote, the
   metric prefers the side with the better value (by its direction); the vote scores 1 when the
   rater chose that side, 0 for the other and 0.5 when the rater or the metric ties; the
@@ -35,21 +33,21 @@ A file is read as pairwise when it has these columns (:func:`is_pairwise`).
   :class:`annotate.screening.ScreenRule`; ``--screen`` excludes flagged raters.
 
 Only ``kind == 'test'`` votes enter the fits and the agreement.
-
->>> w = np.array([[0.0, 3.0], [1.0, 0.0]])  # a beat b 3 times, b beat a once
->>> np.round(bradley_terry(w), 3).tolist()
-[0.75, 0.25]
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pyarrow.parquet as pq
 from scipy import stats as _st
 
 from analysis import bootstrap as bs
+from analysis.bradley_terry import Draws, bradley_terry, strongly_connected, win_matrix, win_prob
+from analysis.inputs import classify_columns
 from analysis.methods import METHOD_COLUMN, view_breakdowns
 from annotate.results import pairwise_raters
 from annotate.screening import ScreenRule, screen
@@ -66,9 +64,6 @@ __all__ = [
     "PairwiseAnalysis",
     "is_pairwise",
     "read_pairwise_votes",
-    "bradley_terry",
-    "strongly_connected",
-    "win_matrix",
     "bt_table",
     "agreement_table",
     "rater_table",
@@ -86,7 +81,6 @@ BT_COLUMNS = ["axis", "offset", "method", "n_votes", "wins", "ties", "losses", "
 AGREEMENT_COLUMNS = ["metric", "higher_better", "n_votes", "agreement", "ci_lo", "ci_hi", "reason"]
 #: The row of the agreement table that holds the agreement between raters (the ceiling).
 CEILING_ROW = "raters (ceiling)"
-_TOL, _MAX_ITER = 1e-12, 20_000
 
 
 def is_pairwise(path) -> bool:
@@ -95,12 +89,8 @@ def is_pairwise(path) -> bool:
 
 
 def _header(path) -> list[str]:
-    from pathlib import Path
-
     p = Path(path)
     if p.suffix.lower() == ".parquet" and p.is_file():
-        import pyarrow.parquet as pq
-
         return list(pq.read_schema(p).names)
     if p.suffix.lower() == ".csv" and p.is_file():
         return list(pd.read_csv(p, nrows=0).columns)
@@ -149,114 +139,11 @@ def read_pairwise_votes(path) -> pd.DataFrame:
     return df
 
 
-# --- Bradley-Terry ------------------------------------------------------------------------
-
-def strongly_connected(w: np.ndarray) -> np.ndarray:
-    """w: (..., M, M) wins -> (...,) bool: every method reaches every other by edges i->j
-    where i beat j (so each won and lost against the rest)."""
-    m = w.shape[-1]
-    r = (w > 0) | np.eye(m, dtype=bool)
-    for _ in range(max(1, int(np.ceil(np.log2(max(m, 2)))))):
-        r = (r.astype(np.int64) @ r.astype(np.int64)) > 0
-    return r.all(axis=(-2, -1))
-
-
-def bradley_terry(w: np.ndarray) -> np.ndarray:
-    """Bradley-Terry strengths of win matrices ``w`` (..., M, M) -> (..., M), summing to 1.
-
-    ``w[..., i, j]``: (weighted) wins of method i over method j; a tie adds 0.5 to both cells.
-    Fitted by the MM iteration ``p_i <- W_i / sum_j n_ij / (p_i + p_j)`` (Hunter 2004) until no
-    strength moves by more than 1e-12. A method without comparisons gets NaN. Where the
-    comparison graph is not strongly connected (:func:`strongly_connected`) the likelihood has
-    no finite maximum and the iteration moves towards its limit (a method that never won
-    tends to 0), the values the table reports with that reason.
-    """
-    w = np.asarray(w, dtype=np.float64)
-    n = w + np.swapaxes(w, -1, -2)
-    wins = w.sum(axis=-1)
-    active = n.sum(axis=-1) > 0
-    m = w.shape[-1]
-    p = np.where(active, 1.0, 0.0)
-    p = p / np.maximum(p.sum(axis=-1, keepdims=True), 1.0)
-    for _ in range(_MAX_ITER):
-        with np.errstate(invalid="ignore", divide="ignore"):
-            pair = p[..., :, None] + p[..., None, :]
-            denom = np.where(n > 0, n / np.where(pair > 0, pair, 1.0), 0.0).sum(axis=-1)
-            new = np.where(denom > 0, wins / np.where(denom > 0, denom, 1.0), 0.0)
-            total = new.sum(axis=-1, keepdims=True)
-            new = np.where(total > 0, new / np.where(total > 0, total, 1.0), 1.0 / m)
-        delta = float(np.abs(new - p).max()) if new.size else 0.0
-        p = new
-        if delta < _TOL:
-            break
-    return np.where(active, p, np.nan)
-
-
-def _win_prob(p: np.ndarray) -> np.ndarray:
-    """(..., M) strengths -> (..., M) mean of p_i / (p_i + p_j) over the other methods with
-    comparisons (finite p_j; two strengths of 0 count as even)."""
-    with np.errstate(invalid="ignore", divide="ignore"):
-        s = p[..., :, None] + p[..., None, :]
-        pr = np.where(s > 0, p[..., :, None] / np.where(s > 0, s, 1.0), 0.5)
-    m = p.shape[-1]
-    other = ~np.eye(m, dtype=bool) & np.isfinite(pr)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out = np.where(other, pr, 0.0).sum(axis=-1) / other.sum(axis=-1)
-    return np.where(np.isfinite(p), out, np.nan)
-
-
-def win_matrix(a: np.ndarray, b: np.ndarray, score: np.ndarray, m: int) -> np.ndarray:
-    """(M, M) win matrix of votes: ``a``, ``b`` (V,) method codes, ``score`` (V,) the share of
-    the win going to ``a`` (1, 0.5 or 0); ``w[i, j]`` = summed share of i against j.
-
-    >>> win_matrix(np.array([0, 0, 1]), np.array([1, 1, 0]), np.array([1.0, 0.5, 1.0]), 2).tolist()
-    [[0.0, 1.5], [1.5, 0.0]]
-    """
-    cells = np.concatenate([a * m + b, b * m + a])
-    share = np.concatenate([score, 1.0 - score])
-    return np.bincount(cells, weights=share, minlength=m * m).reshape(m, m)
-
-
-# --- bootstrap over raters and items --------------------------------------------------------
-
-@dataclass
-class _Draws:
-    """Draw counts of raters (B, R) and items (B, I); one draw set for every statistic."""
-
-    raters: np.ndarray
-    items: np.ndarray
-
-    @classmethod
-    def make(cls, n_raters: int, n_items: int, n_boot: int, seed: int) -> _Draws | None:
-        if n_boot <= 0 or n_raters == 0 or n_items == 0:
-            return None
-        return cls(bs.draw_cluster_counts(n_raters, n_boot, seed=seed),
-                   bs.draw_cluster_counts(n_items, n_boot, seed=seed + 1))
-
-    def total(self, r: np.ndarray, i: np.ndarray, values: np.ndarray) -> np.ndarray:
-        """(B,) sum over votes of (rater draws x item draws x value); votes given by their
-        rater ``r`` and item ``i`` codes (V,). Works on the (R, I) grid, never on (B, V)."""
-        grid = np.zeros((self.raters.shape[1], self.items.shape[1]))
-        np.add.at(grid, (r, i), values)
-        return ((self.raters.astype(np.float64) @ grid) * self.items).sum(axis=1)
-
-    def win_matrices(self, a, b, score, m: int, r, i) -> np.ndarray:
-        """(B, M, M) win matrices of the votes (:func:`win_matrix`) in every replicate."""
-        cells = np.concatenate([a * m + b, b * m + a])
-        share = np.concatenate([score, 1.0 - score])
-        rr, ii = np.concatenate([r, r]), np.concatenate([i, i])
-        out = np.zeros((self.raters.shape[0], m * m))
-        for c in np.unique(cells):
-            on = cells == c
-            out[:, c] = self.total(rr[on], ii[on], share[on])
-        return out.reshape(-1, m, m)
-
-
 def _ci(reps: np.ndarray) -> tuple[float, float, str | None]:
     return bs.percentile_ci(reps) if reps.size else (np.nan, np.nan, "no bootstrap")
 
 
-def bt_table(votes: pd.DataFrame, methods: list[str], *, draws: _Draws | None, r_codes, i_codes) -> pd.DataFrame:
+def bt_table(votes: pd.DataFrame, methods: list[str], *, draws: Draws | None, r_codes, i_codes) -> pd.DataFrame:
     """bradley_terry.csv (:data:`BT_COLUMNS`): per view (``axis = 'all'`` and each axis value)
     and method, the vote counts, strength ``score`` and ``win_prob`` with 95% intervals."""
     m = len(methods)
@@ -270,12 +157,12 @@ def bt_table(votes: pd.DataFrame, methods: list[str], *, draws: _Draws | None, r
             sel &= (a >= 0) & (b >= 0)
             w = win_matrix(a[sel], b[sel], s[sel], m)
             p = bradley_terry(w)
-            wp = _win_prob(p)
+            wp = win_prob(p)
             reps_p = reps_w = np.empty((0, m))
             if draws is not None and sel.any():
                 reps_p = bradley_terry(draws.win_matrices(a[sel], b[sel], s[sel], m,
                                                           r_codes[sel], i_codes[sel]))
-                reps_w = _win_prob(reps_p)
+                reps_w = win_prob(reps_p)
             ties = np.bincount(np.r_[a[sel], b[sel]], weights=np.r_[s[sel] == 0.5, s[sel] == 0.5], minlength=m)
             n = np.bincount(np.r_[a[sel], b[sel]], minlength=m)
             won = np.bincount(np.r_[a[sel], b[sel]], weights=np.r_[s[sel] == 1.0, s[sel] == 0.0], minlength=m)
@@ -336,7 +223,7 @@ def _side_values(votes: pd.DataFrame, tables, side: str) -> dict[str, np.ndarray
     return out
 
 
-def agreement_table(votes, sides: dict, directions: dict[str, bool], *, draws: _Draws | None,
+def agreement_table(votes, sides: dict, directions: dict[str, bool], *, draws: Draws | None,
                     r_codes, i_codes) -> pd.DataFrame:
     """The 2AFC agreement of each metric with the test votes, and the raters' ceiling
     (:data:`AGREEMENT_COLUMNS`, module docstring)."""
@@ -458,8 +345,6 @@ class PairwiseAnalysis:
 def run_pairwise_analysis(votes_path, *, metrics_paths=(), lower=(), higher=(), exclude_raters=(),
                           screen_raters: bool = False, n_boot: int = 1000, seed: int = 0) -> PairwiseAnalysis:
     """The pairwise analysis (module docstring); raises ``InputError`` on bad input."""
-    from analysis.inputs import classify_columns
-
     votes = read_pairwise_votes(votes_path)
     raters = screen(rater_table(votes), use_rule=screen_raters, exclude=list(exclude_raters))
     excluded = set(raters.loc[raters["excluded"], "rater_id"])
@@ -486,7 +371,7 @@ def run_pairwise_analysis(votes_path, *, metrics_paths=(), lower=(), higher=(), 
             notes.append(f"{m}: {miss} of {len(test)} test votes lack a side's value (left out of its agreement)")
     r_codes = pd.factorize(test["rater_id"], sort=True)[0]
     i_codes = pd.factorize(test["item_id"], sort=True)[0]
-    draws = _Draws.make(int(r_codes.max()) + 1, int(i_codes.max()) + 1, n_boot, seed)
+    draws = Draws.make(int(r_codes.max()) + 1, int(i_codes.max()) + 1, n_boot, seed)
     bt = bt_table(test, methods, draws=draws, r_codes=r_codes, i_codes=i_codes)
     agreement = agreement_table(test, sides, {m: directions[m] for m in metrics}, draws=draws,
                                 r_codes=r_codes, i_codes=i_codes)

@@ -11,15 +11,9 @@ from crowdkit.aggregation import BradleyTerry
 from scipy.optimize import minimize
 from scipy.stats import binom
 
+from analysis.bradley_terry import Draws, bradley_terry
 from analysis.cli import main
-from analysis.pairwise import (
-    _Draws,
-    agreement_table,
-    bradley_terry,
-    rater_table,
-    run_pairwise_analysis,
-    side_pair_ids,
-)
+from analysis.pairwise import agreement_table, rater_table, run_pairwise_analysis, side_pair_ids
 from annotate.screening import screen
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -85,7 +79,7 @@ def test_two_way_bootstrap_weighs_a_vote_by_its_rater_and_item_draws():
     rng = np.random.default_rng(0)
     r, i = rng.integers(0, 4, 50), rng.integers(0, 7, 50)
     x = rng.random(50)
-    draws = _Draws.make(4, 7, 30, seed=1)
+    draws = Draws.make(4, 7, 30, seed=1)
     explicit = (draws.raters[:, r] * draws.items[:, i] * x).sum(axis=1)
     np.testing.assert_allclose(draws.total(r, i, x), explicit)
 
