@@ -7,13 +7,18 @@ Run with ``annotate serve STUDY`` (which sets ``ANNOTATE_STUDY``). Pages:
 - instructions, then the training items, then the rater's own items: "Reference" left,
   "Rendered" right, drawn as large as the window allows at one scale (shown, e.g. "×3.2";
   :mod:`annotate.layout`), Good (G, blue) / Bad (B, vermillion) / Undo (U) in one row under
-  them, a ``done / total`` progress bar and a break reminder every ``break_every`` items. Nothing on the page names the offset, clip,
-  method, metrics or other votes; images are served by content hash, never by file name;
+  them, a ``done / total`` progress bar and a break reminder every ``break_every`` items.
+  A pairwise study (docs/FORMATS.md §12) shows "Left", "Reference" (middle) and "Right":
+  left closer (1 or left arrow), can't tell (0), right closer (2 or right arrow), Undo (U).
+  Nothing on the page names the offset, clip, method, metrics or other votes; images are
+  served by content hash, never by file name;
 - ``/?admin=TOKEN``: the live admin page (:mod:`annotate.admin`, refreshes by itself).
 
 Widget keys (for tests): ``name_input``, ``sign_in``, ``start``, ``download_ratings``; the
-voting buttons are ``vote_good-N``, ``vote_bad-N`` and ``undo-N`` where ``N`` is an opaque
-token of the item on screen (a new one for every displayed item).
+voting buttons are ``vote_good-N``, ``vote_bad-N`` and ``undo-N`` (pairwise: ``vote_left-N``,
+``vote_tie-N``, ``vote_right-N``, ``undo-N`` and the hidden arrow-key twins
+``key_twin-left-N``, ``key_twin-right-N``) where ``N`` is an opaque token of the item on
+screen (a new one for every displayed item).
 
 Robustness rules of the voting panel (a ``st.fragment``: a vote reruns only the panel):
 
@@ -65,6 +70,20 @@ hard to recognise. Do not think too long; your first impression is what we need.
 
 Keys: **G** good, **B** bad, **U** undo the last vote. The first few pairs are training.
 Your progress is saved after every vote; you can close the page and come back any time.
+"""
+
+PAIRWISE_INSTRUCTIONS = """
+You will see three images of the same object. **Reference** (middle) is a real camera photo;
+**Left** and **Right** are the object as two 3D reconstructions draw it from a nearby
+viewpoint, so the angle may differ slightly from the photo.
+
+Answer one question: **which of the two looks more like the reference?** Judge the quality
+of the object: sharpness, shape, colours, missing or broken parts. If you really cannot see a
+difference, say so. Do not think too long; your first impression is what we need.
+
+Keys: **1** or **←** left is closer, **2** or **→** right is closer, **0** can't tell,
+**U** undo the last answer. The first few are training. Your progress is saved after every
+answer; you can close the page and come back any time.
 """
 
 
@@ -262,17 +281,27 @@ def _progress_bar(study: Study, item_kind: str, prog: dict) -> None:
         st.info(f"You have rated {done} pairs. Consider a short break; your progress is saved.")
 
 
-def _display_images(study: Study, key: str) -> tuple[bytes, bytes]:
-    """The item's two crops, each salted with an HMAC of (study, item, side)."""
+def _slots(study: Study, key: str, rater: str) -> tuple[tuple[str, str], ...]:
+    """(position, items.csv file column) of each crop shown, in page order: Reference and
+    Rendered; pairwise: left render, Reference, right render (A's side from the rater's plan)."""
+    if study.design != "pairwise":
+        return (("ref", "ref_file"), ("ren", "ren_file"))
+    a_left = study.plan_for(rater)["sides"][key] == "left"
+    left, right = ("a_file", "b_file") if a_left else ("b_file", "a_file")
+    return (("left", left), ("ref", "ref_file"), ("right", right))
+
+
+def _display_images(study: Study, key: str, rater: str) -> tuple[bytes, ...]:
+    """The item's crops in page order, each salted with an HMAC of (study, item, position)."""
     item = study.items.loc[key]
     secret = study.admin_token().encode()
     out = []
-    for side, col in (("ref", "ref_file"), ("ren", "ren_file")):
+    for side, col in _slots(study, key, rater):
         data = crop_path(study.root, item[col]).read_bytes()
         salt = hmac.new(secret, f"{study.manifest['study_id']}|{key}|{side}".encode(),
                         hashlib.sha256).hexdigest()[:24].encode()
         out.append(salted_image(data, salt))
-    return out[0], out[1]
+    return tuple(out)
 
 
 def _next_on_screen(study: Study, rater: str) -> tuple[str | None, dict, tuple | None]:
@@ -284,7 +313,7 @@ def _next_on_screen(study: Study, rater: str) -> tuple[str | None, dict, tuple |
         if key is None:
             return None, prog, None
         try:
-            return key, prog, _display_images(study, key)
+            return key, prog, _display_images(study, key, rater)
         except (InputError, OSError, ValueError, KeyError):
             log.exception("annotate app: item %s of rater %s cannot be shown; skipped", key, rater)
             study.store.skip(rater, key, reason="crop cannot be shown")
@@ -318,8 +347,13 @@ def voting_panel(study: Study, rater: str) -> None:
     if _shown()[0] != key:
         st.session_state["shown"] = (key, time.time(), secrets.token_hex(6))
     token = _shown()[2]
-    pair_view(("Reference", "Rendered"), images, crop_side=study.items.get("crop_side", {}).get(key),
+    pairwise = study.design == "pairwise"
+    pair_view(("Left", "Reference", "Right") if pairwise else ("Reference", "Rendered"), images,
+              crop_side=study.items.get("crop_side", {}).get(key),
               display_size=int(study.manifest.get("display_size", 320)), token=token)
+    if pairwise:
+        _pairwise_buttons(study, rater, key, token)
+        return
     with st.container(horizontal=True, horizontal_alignment="center", key="vote_row"):
         st.button("Good (G)", key=f"vote_good-{token}", shortcut="g", type="primary",
                   on_click=_on_vote, args=(study, rater, key, token, 1))
@@ -327,6 +361,24 @@ def voting_panel(study: Study, rater: str) -> None:
                   on_click=_on_vote, args=(study, rater, key, token, 0))
         st.button("Undo (U)", key=f"undo-{token}", shortcut="u", on_click=_on_undo,
                   args=(study, rater, token))
+
+
+def _pairwise_buttons(study: Study, rater: str, key: str, token: str) -> None:
+    """Left closer (1), can't tell (0), right closer (2), undo (U) in one row; the arrow keys
+    press hidden twins of the side buttons (a button takes one shortcut)."""
+    with st.container(horizontal=True, horizontal_alignment="center", key="vote_row"):
+        st.button("◀ Left is closer (1 / ←)", key=f"vote_left-{token}", shortcut="1",
+                  on_click=_on_vote, args=(study, rater, key, token, 1))
+        st.button("Can't tell (0)", key=f"vote_tie-{token}", shortcut="0",
+                  on_click=_on_vote, args=(study, rater, key, token, 0))
+        st.button("Right is closer (2 / →) ▶", key=f"vote_right-{token}", shortcut="2",
+                  on_click=_on_vote, args=(study, rater, key, token, 2))
+        st.button("Undo (U)", key=f"undo-{token}", shortcut="u", on_click=_on_undo,
+                  args=(study, rater, token))
+    st.button("Left", key=f"key_twin-left-{token}", shortcut="Left", on_click=_on_vote,
+              args=(study, rater, key, token, 1))
+    st.button("Right", key=f"key_twin-right-{token}", shortcut="Right", on_click=_on_vote,
+              args=(study, rater, key, token, 2))
 
 
 def rater_page(study: Study, rater: str) -> None:
@@ -338,7 +390,7 @@ def rater_page(study: Study, rater: str) -> None:
             return
         if fresh:
             st.title("Image quality study")
-            st.markdown(INSTRUCTIONS)
+            st.markdown(PAIRWISE_INSTRUCTIONS if study.design == "pairwise" else INSTRUCTIONS)
             st.button("Start", key="start", type="primary",
                       on_click=lambda: st.session_state.update(started=True))
             return

@@ -93,7 +93,9 @@ def pair_view(titles, images, *, crop_side: float | None, display_size: int, tok
         for column, title, image in zip(st.columns(len(images)), titles, images, strict=True):
             with column:
                 st.markdown(f"**{title}**")
-                st.image(image, width="stretch")
+                # the crop's own format: "auto" would re-encode a PNG crop as JPEG (lossy)
+                st.image(image, width="stretch",
+                         output_format="PNG" if image[:4] == b"\x89PNG" else "JPEG")
     if crop_side is None or not math.isfinite(float(crop_side)) or float(crop_side) <= 0:
         return
     side = float(crop_side)

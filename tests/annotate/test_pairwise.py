@@ -299,3 +299,63 @@ def test_exported_votes_rank_the_methods_in_analyze(tmp_path, pw_inputs):
     overall = bt[bt["axis"] == "all"].set_index("method")["score"]
     # toy blur scales: alpha 0.5 < gamma 1.0 < beta 1.5 times the single-method toy's
     assert overall["alpha"] > overall["gamma"] > overall["beta"]
+
+
+def test_app_pairwise_page_keys_undo_resume_and_no_method_names(tmp_path, pw_inputs, monkeypatch):
+    """AppTest smoke test of the pairwise page (widgets by key, annotate/app.py lists them)."""
+    from streamlit.testing.v1 import AppTest
+
+    import annotate
+
+    s = _build(tmp_path, pw_inputs, methods="alpha,beta", n_gold=1, n_repeats=1,
+               frames_per_track=1, tracks=1)
+    monkeypatch.setenv("ANNOTATE_STUDY", str(s.root))
+    monkeypatch.setenv("ANNOTATE_MIN_RESPONSE_MS", "0")  # AppTest presses at once
+    app = str(Path(annotate.__file__).with_name("app.py"))
+
+    def run():
+        at = AppTest.from_file(app, default_timeout=20)
+        at.query_params["rater"] = "pia"
+        return at.run()
+
+    def btn(at, name):
+        found = [b for b in at.button if b.key and b.key.startswith(name + "-")]
+        assert len(found) == 1, [b.key for b in at.button]
+        return found[0]
+
+    def text(at):
+        parts = [str(e.value) for k in ("title", "markdown", "info", "success", "error", "text")
+                 for e in at.get(k)]
+        return "\n".join([*parts, *(b.label for b in at.button),
+                          *(e.proto.text for e in at.get("progress"))])
+
+    at = run()
+    assert "Reference" in at.markdown[0].value and "which of the two" in at.markdown[0].value
+    at.button(key="start").click().run()
+    assert [m.value for m in at.markdown][:3] == ["**Left**", "**Reference**", "**Right**"]
+    assert len(at.get("image")) == 3
+    seen, codes = [], {"vote_left": 1, "vote_right": 2, "vote_tie": 0, "key_twin-left": 1,
+                       "key_twin-right": 2}
+    presses = ["vote_left", "key_twin-right", "vote_tie", "vote_right"]
+    for name in presses:
+        seen.append(at.session_state["shown"][0])
+        btn(at, name).click().run()
+    stored = s.store.votes("pia").set_index("item")["vote"]
+    assert [stored[k] for k in seen] == [codes[n] for n in presses]
+    btn(at, "undo").click().run()  # the last answer is taken back: its item is on screen again
+    assert at.session_state["shown"][0] == seen[-1] and seen[-1] not in set(s.store.votes("pia")["item"])
+    at2 = run()  # a new session resumes at the same item, no instructions
+    assert at2.session_state["shown"][0] == seen[-1]
+    while any(b.key and b.key.startswith("vote_left-") for b in at2.button):
+        t = text(at2)
+        for secret in ("alpha", "beta", "gt|", "toy", "trk-", "+1.00", "gold", "repeat"):
+            assert secret not in t, (secret, t)
+        btn(at2, "key_twin-left").click().run()
+    assert "All done" in at2.success[0].value
+    assert len(s.store.votes("pia")) == len(s.items)  # one rater below quota: every item once
+    adm = AppTest.from_file(app, default_timeout=20)
+    adm.query_params["admin"] = s.admin_token()
+    adm.run()
+    assert [b.key for b in adm.get("download_button")] == ["download_ratings"]
+    raters = adm.dataframe[0].value
+    assert raters.set_index("rater_id").loc["pia", "test"] == len(s.keys("test"))

@@ -77,12 +77,15 @@ def stop(proc: subprocess.Popen, *, wait_s: float = 10) -> None:
     proc.wait(timeout=wait_s)
 
 
-def settled(page, *, timeout_ms: int) -> tuple[str, tuple]:
-    """(progress text or 'done', image URLs) once the app has finished its rerun."""
+def settled(page, *, timeout_ms: int, images: int = 2) -> tuple[str, tuple]:
+    """(progress text or 'done', image URLs) once the app has finished its rerun.
+
+    ``images``: the crops an item shows (2; a pairwise study: 3).
+    """
     page.wait_for_function(
-        "() => !document.querySelector('[data-stale=\"true\"]') &&"
+        "(n) => !document.querySelector('[data-stale=\"true\"]') &&"
         " ((document.querySelector('[data-testid=stProgress]') &&"
-        "   document.querySelectorAll('img').length === 2) ||"
-        "  document.body.innerText.includes('All done'))", timeout=timeout_ms)
+        "   document.querySelectorAll('img').length === n) ||"
+        "  document.body.innerText.includes('All done'))", arg=images, timeout=timeout_ms)
     text, srcs = page.evaluate(SNAPSHOT)  # one read: the panel may redraw in between
     return text.strip(), tuple(srcs)
