@@ -37,6 +37,7 @@ from analysis.pipeline import Analysis, boot_size, find_timing_files, read_timin
 from analysis.summary import summary_table
 from data_schema import datasets as ds
 from data_schema.errors import InputError
+from data_schema.methods import METHOD_COLUMN
 from data_schema.perturbation import EXTRA_PERTURBATION_COLUMNS
 from data_schema.tables import read_table
 
@@ -47,7 +48,8 @@ _KEEP = ("clip_id", "track_id", "label_class", "y_offset_m")
 #: The 6-DoF view components (docs/FORMATS.md §9), read as numbers when present: the per-axis
 #: tables and tent plots (:func:`analysis.axes.view_tables`); never metrics.
 _VIEW = EXTRA_PERTURBATION_COLUMNS
-_SKIP = (set(NON_METRIC_COLUMNS) - set(_KEEP) - set(_VIEW)) | {"scene_root"}  # incl. the view label
+# incl. the view label; ``method`` (scenes with methods, docs/FORMATS.md §2) is carried through as a label
+_SKIP = (set(NON_METRIC_COLUMNS) - set(_KEEP) - set(_VIEW) - {METHOD_COLUMN}) | {"scene_root"}
 RATER_COLUMNS = ["rater_id", "simulated", "excluded", "excluded_reason"]
 
 

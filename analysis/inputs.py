@@ -5,7 +5,8 @@ Which columns are metrics — the written rule:
 1. Known non-metric columns are never metrics: the ratings columns (``item_id, rater_id,
    vote, voted_at, response_ms, kind``), the pair columns of docs/FORMATS.md §3 (``clip_id``,
    ``camera``, ``track_id``, ``label_class``, ``timestamp_us``, ``y_offset_m``, paths and
-   box corners), ``pair_id``, ``gold_expected`` and the per-item labels ``analyze`` itself
+   box corners), ``pair_id``, ``method`` (the reconstruction method, docs/FORMATS.md §2; carried
+   through, not an attribute), ``gold_expected`` and the per-item labels ``analyze`` itself
    writes (``n_votes, n_good, gvf, majority_good, gvf_ci_lo, gvf_ci_hi, p_good,
    model_good``).
 2. Registry entries of kind ``proxy`` (``s_det``, ``imagenet_drop``, ``clip_drop``) are
@@ -25,6 +26,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.methods import METHOD_COLUMN
 from data_schema.perturbation import VIEW_COLUMNS
 from data_schema.tables import (
     ITEM_KINDS,
@@ -54,7 +56,7 @@ ITEM_LABEL_COLUMNS = (
     "model_good",
 )
 NON_METRIC_COLUMNS = frozenset(
-    RATINGS_COLUMNS + PAIRS_COLUMNS + ITEM_LABEL_COLUMNS + ("gold_expected",) + VIEW_COLUMNS
+    RATINGS_COLUMNS + PAIRS_COLUMNS + ITEM_LABEL_COLUMNS + ("gold_expected",) + VIEW_COLUMNS + (METHOD_COLUMN,)
 )
 
 

@@ -45,6 +45,7 @@ from tqdm.auto import tqdm
 
 from analysis import bootstrap as bs
 from data_schema.errors import InputError
+from data_schema.methods import METHOD_COLUMN
 from data_schema.perturbation import (
     AXES,
     PERTURBATION_COLUMNS,
@@ -72,7 +73,6 @@ __all__ = [
     "table_columns",
 ]
 
-METHOD_COLUMN = "method"
 #: The columns that name one object seen from one view (with the view's perturbation).
 OBJECT_COLUMNS = ("clip_id", "camera", "track_id", "timestamp_us")
 TABLE_COLUMNS = ["method", "metric", "breakdown", "group", "n", "n_tracks", "mean", "median",

@@ -26,6 +26,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.methods import METHOD_COLUMN
 from data_schema.perturbation import (
     AXES,
     EXTRA_PERTURBATION_COLUMNS,
@@ -39,11 +40,12 @@ from data_schema.tables import PAIRS_COLUMNS, offset_cm, parse_offsets
 __all__ = ["choose_offsets", "choose_views", "attribute_columns", "usable_frames", "choose_tracks",
            "spread_frames", "select_test_pairs"]
 
-_EXTRA_NON_ATTRIBUTES = ("scene_root", *VIEW_COLUMNS)
+_EXTRA_NON_ATTRIBUTES = ("scene_root", *VIEW_COLUMNS, METHOD_COLUMN)
 
 
 def attribute_columns(pairs: pd.DataFrame) -> list[str]:
-    """Scene attribute columns: those after the contract columns (``scene_root``, ``_*`` excluded)."""
+    """Scene attribute columns: those after the contract columns (``scene_root``, the view
+    columns, ``method`` and ``_*`` excluded)."""
     return [c for c in pairs.columns if c not in PAIRS_COLUMNS
             and c not in _EXTRA_NON_ATTRIBUTES and not str(c).startswith("_")]
 

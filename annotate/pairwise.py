@@ -38,6 +38,7 @@ from tqdm import tqdm
 from annotate import crops as _crops
 from annotate.design import attribute_columns, choose_views, select_test_pairs
 from data_schema.errors import InputError
+from data_schema.methods import METHOD_COLUMN
 from data_schema.perturbation import labels, perturbation_array, view_columns, view_suffix
 from data_schema.perturbation import with_perturbation_columns as _with_views
 from data_schema.tables import GT_BOX_COLUMNS, PAIR_META_COLUMNS, RENDER_BOX_COLUMNS
@@ -46,8 +47,6 @@ from nvrq.crops import cut_box
 __all__ = ["METHOD_COLUMN", "GT_METHOD", "VOTE_CODES", "SIDES", "check_methods", "choose_items",
            "cut_crops", "choice", "object_view_ids"]
 
-#: the pairs table's column naming the method of a render (docs/FORMATS.md §3)
-METHOD_COLUMN = "method"
 #: ``method_a`` of a gold item: the GT crop itself (a reserved method name)
 GT_METHOD = "gt"
 #: stored vote codes of a pairwise study: the key pressed
@@ -188,8 +187,7 @@ def cut_crops(rows, pairs: pd.DataFrame, tmp: Path, *, ids: list[str], image, op
     of the three), resize to ``size`` and write them to ``tmp/crops``; the items table."""
     (tmp / "crops").mkdir()
     fmt, size = opts["image_format"], int(opts["size"])
-    attrs = [c for c in attribute_columns(pairs.drop(columns=["_root", "_row"]))
-             if c != METHOD_COLUMN]
+    attrs = attribute_columns(pairs.drop(columns=["_root", "_row"]))
     items = []
     for k, r in enumerate(tqdm(rows, desc="cutting crops", unit="item", disable=not progress)):
         ref = r["ref"]

@@ -57,7 +57,8 @@ def ratings_table(study) -> pd.DataFrame:
     votes = study.store.votes()
     items = study.items
     attrs = list(study.manifest.get("attribute_columns", []))
-    attrs = [*study.manifest.get("view_columns", []), *attrs]  # 6-DoF columns (absent: lateral study)
+    # 6-DoF columns (absent: lateral study) and ``method`` (absent: single-method study)
+    attrs = [*study.manifest.get("view_columns", []), *study.manifest.get("method_columns", []), *attrs]
     meta = items.loc[:, ["key", "item_id", "kind", "pair_id", *PAIR_META_COLUMNS, *attrs]]
     df = votes.merge(meta, left_on="item", right_on="key", how="inner")
     df = df.rename(columns={"rater": "rater_id"})

@@ -2,7 +2,7 @@
 
 Binary (good/bad) studies. Each item's latent quality is the synthetic scene's ``severity`` (0 perfect .. 1 broken),
 read from ``SCENE/degradation.csv`` (columns camera, timestamp_us, track_id, y_offset_m,
-severity) of the item's clip. A careful rater ``r`` votes good with probability
+severity; and ``method`` for a scene with methods) of the item's clip. A careful rater ``r`` votes good with probability
 
     p_good(s) = lapse / 2 + (1 - lapse) * (1 - sigmoid((s - theta_r) / width_r))
 

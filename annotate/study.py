@@ -42,6 +42,7 @@ from annotate.assign import choose_next, make_plan, pairwise_sides, plan_total, 
 from annotate.design import attribute_columns, choose_views, select_test_pairs
 from annotate.store import Store
 from data_schema.errors import InputError
+from data_schema.methods import method_columns
 from data_schema.outputs import check_output_folder
 from data_schema.perturbation import view_columns, with_perturbation_columns
 from data_schema.tables import (
@@ -121,6 +122,9 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
                           methods=methods)
     pairs = _read_pairs(Path(pairs_path), scene)
     rng = np.random.default_rng(seed)
+    # a binary study's items carry the method of their render ([] for single-method pairs);
+    # pairwise items name theirs in method_a/method_b
+    opts["method_columns"] = method_columns(pairs) if design == "binary" else []
     if design == "pairwise":
         opts["methods"] = pairwise.check_methods(pairs, methods, where=str(pairs_path))
         pairs, rows, chosen_offsets, record = pairwise.choose_items(pairs, rng, opts,
@@ -292,7 +296,7 @@ def _cut_crops(rows, pairs: pd.DataFrame, tmp: Path, *, rng, opts: dict, where: 
         ref_file, ren_file = f"{ids[2 * k]}.{fmt}", f"{ids[2 * k + 1]}.{fmt}"
         _crops.write_image(tmp / "crops" / ref_file, a, fmt=fmt)
         _crops.write_image(tmp / "crops" / ren_file, b, fmt=fmt)
-        meta = {c: r[c] for c in (*PAIR_META_COLUMNS, *opts["view_columns"], *attrs)}
+        meta = {c: r[c] for c in (*PAIR_META_COLUMNS, *opts["view_columns"], *opts["method_columns"], *attrs)}
         items.append({"key": key, "item_id": item_id, "kind": kind, "pair_id": r["pair_id"],
                       "ref_file": ref_file, "ren_file": ren_file,
                       "crop_side": max(*gt.shape[:2], *ren.shape[:2]),
@@ -328,9 +332,9 @@ def _manifest(out: Path, pairs: pd.DataFrame, items: pd.DataFrame, opts: dict, *
         "pairs": str(pairs_file),
         "metrics": [str(Path(p).resolve()) for p in opts["metrics_paths"]],
         "metric_columns": metric_cols,
-        "attribute_columns": [c for c in attribute_columns(pairs.drop(columns=["_root", "_row"]))
-                              if opts["design"] == "binary" or c != pairwise.METHOD_COLUMN],
+        "attribute_columns": attribute_columns(pairs.drop(columns=["_root", "_row"])),
         "view_columns": opts["view_columns"],
+        "method_columns": opts["method_columns"],
         "scene_roots": {str(k): str(v) for k, v in roots.items()},
         "offsets": offsets, "tracks": tracks,
         "counts": {kind: int((items["kind"] == kind).sum()) for kind in ITEM_KINDS},

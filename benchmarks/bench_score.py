@@ -22,7 +22,11 @@ weights, ``efficientnet-lite0`` with its pip weights when installed, else random
   int8 (OpenVINO + NNCF, calibrated on GT crops of other pairs): drift check on the scene's
       pairs (NVRQ Spearman vs torch fp32, target >= 0.999) and ``int8 / torch fp32`` speed
       (target for DINOv2-S >= 2.5);
-  (c) encoder images per pair vs the naive 2; (e) speed-up over a naive per-pair loop.
+  (c) encoder images per pair vs the naive 2; (e) speed-up over a naive per-pair loop;
+  methods (``--methods M``, 0 skips): a synthetic clip rendered by M reconstruction methods
+      (``nvrq synth --methods``) scored with the first encoder at once, each GT crop embedded
+      once for every method (``G + M·R`` encoder images), against scoring each method's pairs
+      alone (``M·(G + R)``): both counts, the wall-time speed-up and the max |dNVRQ| (0).
 
 Scene: ``nvrq.synth.generate_scene`` (7 offsets, 1280x720 PNG) + ``nvrq.pairs.make_pairs``
 when available, else a random scene (smooth noise images, 7 offsets, boxes valid in every
@@ -30,7 +34,7 @@ offset).
 
     python benchmarks/bench_score.py [--pairs 150] [--pipeline-seconds 10] [--rounds 2] [--batch-sizes 8,32]
         [--threads 2] [--encoders dinov2-small,efficientnet-lite0]
-        [--int8 dinov2-small,efficientnet-lite0] [--json OUT]
+        [--int8 dinov2-small,efficientnet-lite0] [--methods 3] [--methods-seconds 1] [--json OUT]
 """
 
 from __future__ import annotations
@@ -92,6 +96,40 @@ def synth_scene(root: Path, *, seconds: float, seed: int = 0) -> pd.DataFrame | 
                    size=(1280, 720), progress=False)
     pairs, _ = make_pairs(load_scene(root), progress=False)
     return pairs
+
+
+def methods_numbers(root: Path, encoder, *, n_methods: int, seconds: float, size=(960, 540)) -> dict:
+    """Encoder images and wall time of one pass over an ``n_methods``-method clip's pairs
+    against one pass per method (see the module docstring)."""
+    from data_schema.methods import METHOD_COLUMN
+    from data_schema.scene import load_scene
+    from nvrq.pairs import make_pairs
+    from nvrq.scoring import score_pairs
+    from nvrq.synth.generate import generate_scene
+
+    methods = [(f"m{k}", 0.5 * (k + 1)) for k in range(n_methods)]
+    generate_scene(root, seed=0, seconds=seconds, fps=5.0, offsets=OFFSETS, size=size, methods=methods,
+                   progress=False)
+    pairs, _ = make_pairs(load_scene(root), progress=False)
+    col = [f"nvrq:{encoder.spec.name}"]
+    score_pairs(pairs.iloc[:8], metrics=col, encoder=encoder, progress=False)  # warm-up
+    t0 = time.perf_counter()
+    shared = score_pairs(pairs, metrics=col, encoder=encoder, progress=False)
+    t_shared = time.perf_counter() - t0
+    t0, apart, values = time.perf_counter(), 0, pd.Series(np.nan, index=pairs.index)
+    for _, sub in pairs.groupby(METHOD_COLUMN, sort=False):
+        res = score_pairs(sub, metrics=col, encoder=encoder, progress=False)
+        apart += res.n_encoder_images
+        values[sub.index] = res.table[col[0]].to_numpy()
+    t_apart = time.perf_counter() - t0
+    n_gt = len(pairs.drop_duplicates(["gt_path", "gt_x0", "gt_y0", "gt_x1", "gt_y1"]))
+    return {"methods": n_methods, "methods_pairs": len(pairs), "methods_gt_crops_G": n_gt,
+            "methods_renders_R": len(pairs) // n_methods,
+            "methods_encoder_images_shared": shared.n_encoder_images,
+            "methods_encoder_images_apart": apart,
+            "methods_speedup_shared": t_apart / t_shared,
+            "methods_max_dnvrq_shared": float(np.max(np.abs(
+                shared.table[col[0]].to_numpy() - values.to_numpy())))}
 
 
 def naive_pairs_per_s(pairs: pd.DataFrame, encoder, n: int) -> float:
@@ -275,6 +313,10 @@ def main(argv=None) -> int:
     ap.add_argument("--int8", default="dinov2-small,efficientnet-lite0", help="encoders given an int8 check")
     ap.add_argument("--int8-pairs", type=int, default=100, help="pairs in the int8 drift check (default 100)")
     ap.add_argument("--random-scene", action="store_true", help="skip the synthetic renderer")
+    ap.add_argument("--methods", type=int, default=3,
+                    help="reconstruction methods of the shared-GT clip (default 3; 0 skips it)")
+    ap.add_argument("--methods-seconds", type=float, default=1.0,
+                    help="length of that clip in seconds (default 1)")
     ap.add_argument("--json", default=None, help="also write the numbers to this JSON file")
     args = ap.parse_args(argv)
     args.batch_sizes = [int(b) for b in args.batch_sizes.split(",")]
@@ -298,6 +340,9 @@ def main(argv=None) -> int:
         out["c_encoder_images_vs_naive"] = res.n_encoder_images / res.n_pairs / 2
         out["e_speedup_over_naive"] = (res.n_pairs / res.timing.attrs["wall_seconds"]) / \
             naive_pairs_per_s(some, first, args.naive_pairs)
+        if args.methods > 0:
+            out.update(methods_numbers(Path(tmp) / "methods", first, n_methods=args.methods,
+                                       seconds=args.methods_seconds))
         out["load_average_at_end"] = os.getloadavg()[0]
     report(out)
     if args.json:
@@ -309,6 +354,11 @@ def report(out: dict) -> None:
     for k, v in out.items():
         if k != "encoders":
             print(f"{k:36s} {v:.3f}" if isinstance(v, float) else f"{k:36s} {v}")
+    if "methods" in out:
+        g, m, r = out["methods_gt_crops_G"], out["methods"], out["methods_renders_R"]
+        print(f"--- {m} methods: encoder images {out['methods_encoder_images_shared']} shared "
+              f"(G + M·R = {g} + {m}·{r} = {g + m * r}) vs {out['methods_encoder_images_apart']} per method "
+              f"(M·(G + R) = {m * (g + r)}); speed-up {out['methods_speedup_shared']:.2f}x")
     for e in out["encoders"]:
         print(f"--- {e['encoder']} ({e['weights']})")
         for k, v in e.items():

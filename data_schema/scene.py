@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.methods import METHOD_COLUMN, check_table_methods, method_columns, method_values
 from data_schema.perturbation import EXTRA_PERTURBATION_COLUMNS, PERTURBATION_COLUMNS
 from data_schema.tables import IMAGES_COLUMNS, atomic_write_text, inside_scene, write_table
 
@@ -220,7 +221,7 @@ def _load_images(root: Path, cameras: dict, check_images: bool, follow: bool | N
     if not path.is_file():
         raise InputError(where, None, "an images.csv file in the scene folder", "no such file")
     try:
-        df = pd.read_csv(path, dtype={"camera": str, "source": str, "path": str})
+        df = pd.read_csv(path, dtype={"camera": str, "source": str, "path": str, METHOD_COLUMN: str})
     except pd.errors.EmptyDataError:
         raise InputError(where, None, "a header row " + ",".join(IMAGES_COLUMNS), "an empty file") from None
     missing = [c for c in IMAGES_COLUMNS if c not in df.columns]
@@ -253,12 +254,32 @@ def _load_images(root: Path, cameras: dict, check_images: bool, follow: bool | N
         if row.source == "gt" and row.y_offset_m != 0:
             raise InputError(where, f"{r}, column y_offset_m", "0 for a gt image", row.y_offset_m)
         _resolve_image(root, row.path, where, f"{r}, column path", check_images, linked, follow)
-    dup = df.duplicated(["camera", "timestamp_us", "source", *PERTURBATION_COLUMNS])
+    methods = _check_methods(df, where)
+    dup = df.duplicated(["camera", "timestamp_us", "source", *PERTURBATION_COLUMNS, *methods])
     if dup.any():
         i = int(np.argmax(dup.to_numpy()))
-        raise InputError(where, f"row {i + 2}", "one image per (camera, timestamp_us, source, perturbation)",
-                         "a duplicate")
-    return df.loc[:, [*IMAGES_COLUMNS, *EXTRA_PERTURBATION_COLUMNS]]
+        key = "(camera, timestamp_us, source, perturbation" + (", method)" if methods else ")")
+        raise InputError(where, f"row {i + 2}", f"one image per {key}", "a duplicate")
+    return df.loc[:, [*IMAGES_COLUMNS, *EXTRA_PERTURBATION_COLUMNS, *methods]]
+
+
+def _check_methods(df: pd.DataFrame, where: str) -> list[str]:
+    """The optional ``method`` column (docs/FORMATS.md §2): ``[METHOD_COLUMN]`` when some render
+    names a method (then every render names a valid one and no GT row does; the column is
+    normalised to str), ``[]`` otherwise (a single-method scene, the column dropped)."""
+    if not method_columns(df):
+        return []
+    df[METHOD_COLUMN] = method_values(df)
+    check_table_methods(df, where=where)
+    render = (df["source"] == "render").to_numpy()
+    named = (df[METHOD_COLUMN] != "").to_numpy()
+    for bad, expected in ((~render & named, "an empty method for a gt image (shared by every method)"),
+                          (render & ~named, "a method name for every render (other renders name one)")):
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise InputError(where, f"row {i + 2}, column {METHOD_COLUMN}", expected,
+                             repr(df[METHOD_COLUMN].iloc[i]))
+    return [METHOD_COLUMN]
 
 
 def load_scene(root: str | os.PathLike, *, check_images: bool = True,
@@ -352,6 +373,6 @@ def save_scene(scene_doc: dict, images: pd.DataFrame, root: str | os.PathLike) -
     if missing:
         raise ValueError(f"images table lacks columns {missing}")
     extra = [c for c in EXTRA_PERTURBATION_COLUMNS if c in images.columns]  # written only when used
-    write_table(images, root / "images.csv", columns=(*IMAGES_COLUMNS, *extra))
+    write_table(images, root / "images.csv", columns=(*IMAGES_COLUMNS, *extra, *method_columns(images)))
     atomic_write_text(root / "scene.json", json.dumps(doc, indent=1, default=_jsonable) + "\n")
     return root

@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.methods import METHOD_COLUMN, check_table_methods
 
 __all__ = [
     "PAIRS_COLUMNS",
@@ -218,8 +219,11 @@ def _numeric(df: pd.DataFrame, col: str, where: str, what: str, *, integer: bool
 def check_pairs(df: pd.DataFrame, *, where: str) -> pd.DataFrame:
     """docs/FORMATS.md §3 checks of the columns present: unique non-empty ``pair_id``; integer
     ``timestamp_us`` and box corners; finite ``y_offset_m``; ``gt_path``/``render_path``
-    inside the scene folder (:func:`check_scene_path`). Returns ``df`` (numbers converted)."""
+    inside the scene folder (:func:`check_scene_path`); valid ``method`` names (when the
+    column is there). Returns ``df`` (numbers converted)."""
     _unique_ids(df, "pair_id", where)
+    if METHOD_COLUMN in df.columns:
+        check_table_methods(df, where=where, what="line")
     for col in ("timestamp_us", *GT_BOX_COLUMNS, *RENDER_BOX_COLUMNS):
         if col in df.columns:
             _numeric(df, col, where, "an integer", integer=True)

@@ -8,7 +8,8 @@ rows, unchanged, to ``DATASET/clip_id=<id>/part-0.parquet`` (layout:
 A clip that fails validation stops the run with its one-line error, unless ``keep_going``:
 then the good clips are written, with ``DATASET/failed.csv`` (``clip, reason``) beside them,
 and the caller exits non-zero. Clips with different attribute names get the union of them
-(missing values empty), so every file has one schema.
+(missing values empty), so every file has one schema; likewise ``method`` (docs/FORMATS.md §2),
+empty in the clips without methods when some clip has them.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from tqdm.auto import tqdm
 
 from data_schema.datasets import DatasetWriter
 from data_schema.errors import InputError
+from data_schema.methods import METHOD_COLUMN
 from data_schema.scene import load_scene
 from nvrq.pairs import DROP_REASONS, PAIRS_OUTPUT_COLUMNS, PairStats, make_pairs
 
@@ -89,21 +91,23 @@ def clip_pairs(scene_dir, *, attributes=None, min_side: float, min_area: float, 
     return scene.clip_id, pairs, stats
 
 
-def _unify(writer: DatasetWriter, attrs_by_file: dict[str, list[str]]) -> None:
-    """Give every file the union of attribute columns (first-seen order), missing ones empty."""
+def _unify(writer: DatasetWriter, attrs_by_file: dict[str, list[str]], methods: set[str]) -> None:
+    """Give every file the union of attribute columns (first-seen order), missing ones empty,
+    and a ``method`` column when some file (of ``methods``) has one."""
     union = list(dict.fromkeys(a for attrs in attrs_by_file.values() for a in attrs))
+    method = [METHOD_COLUMN] if methods else []
     for rel, attrs in attrs_by_file.items():
-        if attrs == union:
+        if attrs == union and (rel in methods or not methods):
             continue
         path = writer.tmp / rel
         df = pd.read_parquet(path)
-        for a in union:
+        for a in union + method:
             if a not in df.columns:
                 df[a] = None
 
-        df = df[[c for c in PAIRS_OUTPUT_COLUMNS if c in df.columns] + union + ["scene_root"]]
+        df = df[[c for c in PAIRS_OUTPUT_COLUMNS if c in df.columns] + method + union + ["scene_root"]]
         t = pa.Table.from_pandas(df, preserve_index=False)
-        for a in union:
+        for a in union + method:
             t = t.set_column(t.column_names.index(a), a, t.column(a).cast(pa.string()))
         pq.write_table(t, path)
 
@@ -115,7 +119,7 @@ def fleet_pairs(scene_dirs, out, *, min_side: float = 30, min_area: float = 0, a
     ``attributes``: a :class:`nvrq.clip_attributes.ClipAttributes` or ``None``.
     """
 
-    res, seen, attrs_by_file = FleetResult(), {}, {}
+    res, seen, attrs_by_file, methods = FleetResult(), {}, {}, set()
     with DatasetWriter(out) as writer:
         for d in tqdm(scene_dirs, desc="pairs", unit="clip", disable=not progress):
             try:
@@ -130,16 +134,18 @@ def fleet_pairs(scene_dirs, out, *, min_side: float = 30, min_area: float = 0, a
                 res.failed.append((_clip_name(d), str(err)))
                 continue
             seen[clip] = d
-            attrs = [c for c in pairs.columns if c not in PAIRS_OUTPUT_COLUMNS and c != "scene_root"]
-            writer.string_columns = set(attrs)
+            attrs = [c for c in pairs.columns if c not in (*PAIRS_OUTPUT_COLUMNS, METHOD_COLUMN, "scene_root")]
+            writer.string_columns = {*attrs, METHOD_COLUMN}
             writer.write(clip, pairs)
             attrs_by_file[writer.files[-1]] = attrs
+            if METHOD_COLUMN in pairs.columns:
+                methods.add(writer.files[-1])
             res.clips.append(clip)
             _add_stats(res.stats, stats)
         if not res.clips:
             raise InputError(out, None, "at least one clip that passes validation",
                              f"{len(res.failed)} failed: {res.failed[0][1] if res.failed else 'none given'}")
-        _unify(writer, attrs_by_file)
+        _unify(writer, attrs_by_file, methods)
         if res.failed:
             writer.add_file("failed.csv", pd.DataFrame(res.failed, columns=["clip", "reason"]).to_csv(index=False))
     return res

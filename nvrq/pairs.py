@@ -27,6 +27,7 @@ import pandas as pd
 from tqdm.auto import tqdm
 
 from data_schema.errors import InputError
+from data_schema.methods import METHOD_COLUMN, method_columns, method_suffix, method_values
 from data_schema.perturbation import (
     EXTRA_PERTURBATION_COLUMNS,
     LABEL_COLUMN,
@@ -218,8 +219,11 @@ def _pair_rows(scene, cam_name, r, gt_paths, tr_sel, gb, rb) -> pd.DataFrame:
     for c in EXTRA_PERTURBATION_COLUMNS:  # absent in a hand-built images table: 0
         df[c] = P[:, PERTURBATION_COLUMNS.index(c)]
     df[LABEL_COLUMN] = labels(P)
-    df.insert(0, "pair_id", [f"{scene.clip_id}:{cam_name}:{t}:{s}:{v}"
-                             for t, s, v in zip(tid, ts, view_suffix(P), strict=True)])
+    methods = method_values(r)
+    if METHOD_COLUMN in r.columns:  # a scene with methods (docs/FORMATS.md §3)
+        df[METHOD_COLUMN] = methods
+    df.insert(0, "pair_id", [f"{scene.clip_id}:{cam_name}:{t}:{s}:{v}{m}"
+                             for t, s, v, m in zip(tid, ts, view_suffix(P), method_suffix(methods), strict=True)])
     return df
 
 
@@ -250,16 +254,17 @@ def _camera_pairs(scene: Scene, cam, stats: PairStats, *, min_side, min_area) ->
 
 
 def _assemble(scene: Scene, frames_out: list[pd.DataFrame]) -> pd.DataFrame:
-    cols = list(PAIRS_OUTPUT_COLUMNS) + list(scene.attributes) + ["scene_root"]
+    methods = method_columns(scene.images)  # [] for a single-method scene: the former columns
+    cols = list(PAIRS_OUTPUT_COLUMNS) + methods + list(scene.attributes) + ["scene_root"]
     if frames_out:
         pairs = pd.concat(frames_out, ignore_index=True)
     else:
-        pairs = pd.DataFrame({c: pd.Series(dtype=object) for c in PAIRS_OUTPUT_COLUMNS})
+        pairs = pd.DataFrame({c: pd.Series(dtype=object) for c in (*PAIRS_OUTPUT_COLUMNS, *methods)})
     for k, v in scene.attributes.items():
         pairs[k] = v
     pairs["scene_root"] = str(scene.root.resolve())
     pairs = pairs.loc[:, cols].sort_values(
-        ["camera", "timestamp_us", "track_id", "y_offset_m", *EXTRA_PERTURBATION_COLUMNS], kind="stable")
+        ["camera", "timestamp_us", "track_id", "y_offset_m", *EXTRA_PERTURBATION_COLUMNS, *methods], kind="stable")
     return pairs.reset_index(drop=True)
 
 
@@ -269,8 +274,10 @@ def make_pairs(
     """All valid GT/render box pairs of ``scene`` (docs/FORMATS.md §3).
 
     Returns the pairs table (columns :data:`PAIRS_OUTPUT_COLUMNS`: the contract columns, the
-    five optional perturbation components and the perturbation label; then one column per
-    scene attribute, then ``scene_root``) and the :class:`PairStats`. A candidate (camera,
+    five optional perturbation components and the perturbation label; then ``method`` when
+    the scene has methods (:mod:`data_schema.methods`; one pair per method render, the method
+    ending the pair id); then one column per scene attribute, then ``scene_root``) and the
+    :class:`PairStats` (a candidate per method render). A candidate (camera,
     frame, track, render view) invalid in the GT view is counted under the GT view's
     reason, otherwise under the novel view's; novel views are only projected for boxes
     valid in the GT view. The 8-corner and size criteria are the same in every view.

@@ -70,14 +70,17 @@ PLAN_PERTURBATION_COLUMNS = VIEW_COLUMNS
 
 
 def default_image_path(camera: str, timestamp_us: int, source: str, y_offset_m: float = 0.0, *,
-                       perturbation=None) -> str:
+                       perturbation=None, method: str = "") -> str:
     """The image layout used by ``nvrq synth`` and ``nvrq import``: relative POSIX path.
 
     A lateral view goes to ``render_<y:+.2f>``; a ``perturbation (6,)`` with other non-zero
-    components to ``render_<label>`` with ``=`` dropped and ``,`` as ``_``:
+    components to ``render_<label>`` with ``=`` dropped and ``,`` as ``_``; the render of a
+    named ``method`` (:mod:`data_schema.methods`) one folder deeper, ``render_<...>/<method>``:
 
     >>> default_image_path("front", 5, "render", perturbation=np.array([0, 0, 0.5, 0, 0, -5]))
     'images/front/render_z+0.50_yaw-5.00/5.png'
+    >>> default_image_path("front", 5, "render", 1.0, method="3dgs")
+    'images/front/render_+1.00/3dgs/5.png'
     """
     if source == "gt":
         sub = "gt"
@@ -85,6 +88,8 @@ def default_image_path(camera: str, timestamp_us: int, source: str, y_offset_m: 
         sub = "render_" + labels(perturbation)[0].replace("=", "").replace(",", "_")
     else:
         sub = f"render_{float(y_offset_m):+.2f}"
+    if method and source != "gt":
+        sub += f"/{method}"
     return f"images/{camera}/{sub}/{int(timestamp_us)}.png"
 
 

@@ -1,8 +1,10 @@
-"""``nvrq synth OUT [--seed N] [--seconds S] [--fps F] [--offsets ...] [--cameras ...] [--size WxH]``."""
+"""``nvrq synth OUT [--seed N] [--seconds S] [--fps F] [--offsets ...] [--cameras ...] [--size WxH]
+[--methods NAME:SCALE,...]``."""
 
 from __future__ import annotations
 
 from data_schema.cliargs import allow_negative_lists, parse_wxh
+from data_schema.methods import parse_methods
 from data_schema.perturbation import parse_perturb
 from data_schema.tables import parse_offsets
 from nvrq.synth import generate_scene
@@ -66,11 +68,15 @@ def register(sub) -> None:
         "--cameras", default="pinhole", help="comma list from {pinhole, ftheta} (default pinhole)"
     )
     p.add_argument("--size", default="1280x720", help="image size WxH (default 1280x720)")
+    p.add_argument("--methods", default=None, metavar="NAME:SCALE,...",
+                   help="render the clip once per reconstruction method, its artefact severity times "
+                        "SCALE (>= 0; smaller = better), e.g. 3dgs:0.5,nerf:1.5 (default: one unnamed method)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
+    methods = None if args.methods is None else parse_methods(args.methods, option="--methods")
     cameras = tuple(c.strip() for c in args.cameras.split(",") if c.strip())
     out = generate_scene(
         args.out,
@@ -81,6 +87,7 @@ def run(args) -> int:
         perturbations=perturb_grid(args),
         cameras=cameras,
         size=parse_size(args.size),
+        methods=methods,
         progress=not args.quiet,
     )
     print(f"wrote {out}")

@@ -6,6 +6,7 @@ Output layout::
     OUT/images/<camera>/gt/<timestamp_us>.png
     OUT/images/<camera>/render_<offset:+.2f>/<timestamp_us>.png      (lateral views)
     OUT/images/<camera>/render_<z+0.50_yaw-5.00>/<timestamp_us>.png  (other perturbations)
+    OUT/images/<camera>/render_<view>/<method>/<timestamp_us>.png       (with ``methods``)
 
 GT images come from the true cameras; renders from the virtual cameras of paper Eq. 1-2
 generalised (``T_sensor'_rig = T_pert @ T_sensor_rig``, see
@@ -16,6 +17,12 @@ camera, frame, tracked object whose centre is in front of the virtual camera, an
 ``camera, timestamp_us, track_id, y_offset_m, severity`` and one strength column per
 artefact; the five other perturbation columns follow (in it and in ``images.csv``) only when
 some view is not lateral, so a lateral-only scene is written exactly as before.
+
+Methods (``methods=[(name, scale), ...]``, ``nvrq synth --methods``): each view is rendered
+once, then degraded once per method with the same random draws and every severity (and the
+offset-driven whole-image blur and colour cast) multiplied by the method's scale, so the
+ranking of the methods is known: a smaller scale is a less degraded, better method.
+``images.csv`` and ``degradation.csv`` then end with a ``method`` column (empty for GT rows).
 
 Deterministic: every random draw comes from ``numpy.random.default_rng`` streams keyed by
 the seed (and camera, frame, offset), so one seed gives byte-identical files.
@@ -36,6 +43,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from data_schema.errors import InputError
+from data_schema.methods import METHOD_COLUMN, check_methods, method_columns
 from data_schema.perturbation import (
     LIMITS,
     PERTURBATION_COLUMNS,
@@ -251,9 +259,11 @@ def _build_clip(seed: int, seconds: float, fps: float, cam_names: list, size: tu
     return _Clip(seed, f"synth-{seed:06d}", ts, world, assets, ground, cams, vcams, bgds, global_cast)
 
 
-def _degrade_objects(clip: _Clip, name: str, f: int, view: np.ndarray, Tcw, img, ids, boxes, rng):
-    """Blend every visible object's artefacts into ``img`` (far to near); returns the
-    degradation rows of the objects in front of the virtual camera."""
+def _degrade_objects(clip: _Clip, name: str, f: int, view: np.ndarray, Tcw, img, ids, boxes, rng,
+                     scale: float = 1.0):
+    """Blend every visible object's artefacts into ``img`` (far to near), their severity
+    multiplied by the method's ``scale``; returns the degradation rows of the objects in front
+    of the virtual camera."""
     size = float(perturbation_size(view[None])[0])
     T_wc = np.linalg.inv(Tcw)
     rows, order = [], []
@@ -264,7 +274,7 @@ def _degrade_objects(clip: _Clip, name: str, f: int, view: np.ndarray, Tcw, img,
         if pc[2] <= 0:
             continue
         sev = float(severity(np.array([size]), np.array([np.linalg.norm(pc)]), coverage=actor.coverage)[0])
-        sev = float(np.clip(sev * (1.0 + rng.normal(0.0, 0.03)), 1e-3, 1.0))
+        sev = float(np.clip(sev * (1.0 + rng.normal(0.0, 0.03)) * scale, 1e-3, 1.0))
         st = strengths(np.array([sev]), actor.profile)[0]
         rows.append((name, int(clip.ts[f]), actor.track_id, *view.tolist(), sev, *st.tolist()))
         b = boxes.get(k)
@@ -276,17 +286,19 @@ def _degrade_objects(clip: _Clip, name: str, f: int, view: np.ndarray, Tcw, img,
     return rows
 
 
-def _whole_image_artefacts(clip: _Clip, img: np.ndarray, view: np.ndarray) -> np.ndarray:
-    """Blur and colour cast growing with the perturbation's size."""
-    size = float(perturbation_size(view[None])[0])
+def _whole_image_artefacts(clip: _Clip, img: np.ndarray, view: np.ndarray, scale: float = 1.0) -> np.ndarray:
+    """Blur and colour cast growing with the perturbation's size (times the method's ``scale``)."""
+    size = float(perturbation_size(view[None])[0]) * scale
     img = cv2.GaussianBlur(img, (0, 0), 0.35 + 0.3 * size)
     cast = (clip.global_cast * (1.5 + 2.0 * size)).astype(np.float32)
     return np.clip(img.astype(np.float32) + cast, 0, 255).astype(np.uint8)
 
 
-def _render_frame(clip: _Clip, views: np.ndarray, out: Path, task) -> tuple[list, list]:
-    """GT and every view of one camera frame: image rows ``(camera, t, source, *view, path)``
-    and degradation rows."""
+def _render_frame(clip: _Clip, views: np.ndarray, methods: list, out: Path, task) -> tuple[list, list]:
+    """GT and every view of one camera frame, each view once per method (``(name, scale)``;
+    name ``''`` for none): image rows ``(camera, t, source, *view, path, method)`` and
+    degradation rows (``method`` last). Every method degrades the same clean render with the
+    same random stream, so they differ by their scale only."""
     ci, name, f = task
     cam, vc, bgd = clip.cams[name], clip.vcams[name], clip.bgds[name]
     T_s_rig = perturb_T_sensor_rig(cam["T_sensor_rig"], np.concatenate([views, np.zeros((1, 6))]))
@@ -294,34 +306,34 @@ def _render_frame(clip: _Clip, views: np.ndarray, out: Path, task) -> tuple[list
     render = partial(render_view, clip.world, clip.assets, clip.ground, bgd, vc.K, vc.size)
     img, ids, boxes = render(T_cam_world[-1], f)
     clean0 = (img.copy(), ids, boxes)
-    imgs = [("gt", np.zeros(6), vc.to_real(img))]
+    imgs = [("gt", np.zeros(6), "", vc.to_real(img))]
     deg_rows = []
     for j, view in enumerate(views, start=1):
         Tcw = T_cam_world[j - 1]
-        if not view.any():  # the zero view sees exactly the GT scene
-            img, ids, boxes = (clean0[0].copy(),) + clean0[1:]
-        else:
-            img, ids, boxes = render(Tcw, f)
-        rng = np.random.default_rng([clip.seed, 10, ci, f, j])
-        deg_rows += _degrade_objects(clip, name, f, view, Tcw, img, ids, boxes, rng)
-        imgs.append(("render", view, vc.to_real(_whole_image_artefacts(clip, img, view))))
+        clean = clean0 if not view.any() else render(Tcw, f)  # the zero view sees exactly the GT scene
+        for method, scale in methods:
+            img, ids, boxes = (clean[0].copy(),) + clean[1:]
+            rng = np.random.default_rng([clip.seed, 10, ci, f, j])
+            deg_rows += [(*r, method) for r in _degrade_objects(clip, name, f, view, Tcw, img, ids, boxes, rng,
+                                                                 scale)]
+            imgs.append(("render", view, method, vc.to_real(_whole_image_artefacts(clip, img, view, scale))))
     paths = []
     t = int(clip.ts[f])
-    for source, view, im in imgs:
-        rel = default_image_path(name, t, source, view[1], perturbation=view)
+    for source, view, method, im in imgs:
+        rel = default_image_path(name, t, source, view[1], perturbation=view, method=method)
         _write_png(out / rel, im)
-        paths.append((name, t, source, *view.tolist(), rel))
+        paths.append((name, t, source, *view.tolist(), rel, method))
     return paths, deg_rows
 
 
-def _render_all(clip: _Clip, views: np.ndarray, out: Path, progress: bool) -> tuple[list, list]:
+def _render_all(clip: _Clip, views: np.ndarray, methods: list, out: Path, progress: bool) -> tuple[list, list]:
     """Render every camera frame (two threads); image rows and degradation rows, in order."""
     tasks = [(ci, name, f) for ci, name in enumerate(clip.cams) for f in range(len(clip.ts))]
     workers = min(2, os.cpu_count() or 1)
     image_rows, deg_rows = [], []
-    bar = tqdm(total=len(tasks) * (len(views) + 1), desc=f"synth {clip.clip_id}", unit="img",
+    bar = tqdm(total=len(tasks) * (len(views) * len(methods) + 1), desc=f"synth {clip.clip_id}", unit="img",
                disable=not progress)
-    work = partial(_render_frame, clip, views, out)
+    work = partial(_render_frame, clip, views, methods, out)
     pool = ThreadPoolExecutor(max_workers=workers) if workers > 1 else None
     try:
         for paths, rows in pool.map(work, tasks) if pool else map(work, tasks):
@@ -337,15 +349,16 @@ def _render_all(clip: _Clip, views: np.ndarray, out: Path, progress: bool) -> tu
 
 def _write_tables(clip: _Clip, views: np.ndarray, out: Path, image_rows: list, deg_rows: list) -> None:
     """``degradation.csv``, ``images.csv`` and ``scene.json`` (extra perturbation columns only
-    when some view is not lateral)."""
+    when some view is not lateral, ``method`` last only with methods)."""
     extra = extra_columns(views)
     deg = pd.DataFrame(deg_rows, columns=["camera", "timestamp_us", "track_id", *PERTURBATION_COLUMNS,
-                                          "severity", *ARTEFACTS])
+                                          "severity", *ARTEFACTS, METHOD_COLUMN])
     deg[["severity", *ARTEFACTS]] = deg[["severity", *ARTEFACTS]].round(5)
-    write_table(deg, out / "degradation.csv", columns=[*DEGRADATION_COLUMNS, *extra])
-    images = pd.DataFrame(image_rows, columns=["camera", "timestamp_us", "source", *PERTURBATION_COLUMNS, "path"])
+    write_table(deg, out / "degradation.csv", columns=[*DEGRADATION_COLUMNS, *extra, *method_columns(deg)])
+    images = pd.DataFrame(image_rows, columns=["camera", "timestamp_us", "source", *PERTURBATION_COLUMNS, "path",
+                                               METHOD_COLUMN])
     save_scene(scene_document(clip.world, clip.cams, clip.clip_id),
-               images.loc[:, [*IMAGES_COLUMNS, *extra]], out)
+               images.loc[:, [*IMAGES_COLUMNS, *extra, *method_columns(images)]], out)
 
 
 def generate_scene(
@@ -358,6 +371,7 @@ def generate_scene(
     perturbations=None,
     cameras=("pinhole",),
     size=(1280, 720),
+    methods=None,
     progress: bool = True,
 ) -> Path:
     """Write a synthetic scene folder to ``out`` and return it (see module docstring).
@@ -365,13 +379,17 @@ def generate_scene(
     ``cameras``: kinds from {'pinhole', 'ftheta'} (camera names 'front', 'front_wide');
     ``size (W, H)`` pixels; ``offsets`` lateral metres (left > 0), or ``perturbations``
     ``(K, 6)`` ``(dx, dy, dz, roll, pitch, yaw)`` (metres, degrees), which replace them.
+    ``methods``: None (one unnamed method), or ``[(name, scale), ...]``
+    (:func:`data_schema.methods.check_methods`): every view is rendered once per method, its
+    artefact severity times ``scale`` (so a smaller scale is a better method).
     """
     cam_names, (W, H) = _parse(seconds, fps, cameras, size)
     views = _views(offsets, perturbations)
+    methods = [("", 1.0)] if methods is None else check_methods(methods, option="methods")
     if not isinstance(seed, int | np.integer) or seed < 0:
         raise InputError("--seed", None, "a non-negative integer", seed)
     out = Path(out)
     clip = _build_clip(int(seed), seconds, fps, cam_names, (W, H))
-    image_rows, deg_rows = _render_all(clip, views, out, progress)
+    image_rows, deg_rows = _render_all(clip, views, methods, out, progress)
     _write_tables(clip, views, out, image_rows, deg_rows)
     return out
