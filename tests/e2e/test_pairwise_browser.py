@@ -61,6 +61,24 @@ def _pixels(page) -> list[np.ndarray]:
     return out
 
 
+def _check_layout(page) -> None:
+    """Three crops of one size side by side, the four visible buttons in one row under them."""
+    page.wait_for_function("() => Array.from(document.querySelectorAll('img'))"
+                           ".every(i => i.naturalWidth > 0)", timeout=T)
+    imgs, buttons = page.evaluate("""() => {
+      const box = (e) => { const r = e.getBoundingClientRect(); return [r.x, r.y, r.width, r.height]; };
+      return [Array.from(document.querySelectorAll('img')).map(box),
+              Array.from(document.querySelectorAll('button')).filter(b => b.offsetParent
+                && /closer|tell|Undo/.test(b.innerText)).map(box)];
+    }""")
+    assert len(imgs) == 3 and len(buttons) == 4, (imgs, buttons)
+    assert max(i[2] for i in imgs) - min(i[2] for i in imgs) <= 1 and imgs[0][2] >= 300
+    assert max(i[1] for i in imgs) - min(i[1] for i in imgs) <= 1
+    assert imgs[0][0] < imgs[1][0] < imgs[2][0]
+    assert max(b[1] for b in buttons) - min(b[1] for b in buttons) <= 1
+    assert buttons[0][1] >= imgs[0][1] + imgs[0][3] and buttons[0][1] + buttons[0][3] <= 900
+
+
 def _check_blind(page) -> None:
     html = page.content() + " ".join(page.evaluate(IMAGES)) + page.url
     for secret in SECRETS:
@@ -93,6 +111,7 @@ def test_pairwise_page_keys_undo_reload_swapped_repeat_and_no_method_name(tmp_pa
             _check_blind(page)
             page.get_by_role("button", name="Start").click()
             state = _state(page)
+            _check_layout(page)
             step = 0
             while state[0] != "done":
                 _ready(page)
