@@ -11,9 +11,11 @@ Every command that compares crops (``nvrq score``, ``calibrate-tau``, ``stabilit
   re-raised in the caller); ``decode_threads`` decode a batch's images in parallel.
   :func:`decode_schedule` chooses both so that decoding does not stall a CPU encoder.
 - :func:`score_crop_batch` is pure (no files, globals or CLI): it maps one batch to its metric
-  columns. Pixel metrics compare the GT crop with the render crop bicubic-resized to the GT
-  crop's size (docs/FORMATS.md §4); ``nvrq``/``nvrq_ca`` use encoder embeddings, each GT crop
-  embedded once (paper Eq. 4, 5 in :mod:`nvrq.scoring`).
+  columns. Full-reference pixel metrics compare the GT crop with the render crop
+  bicubic-resized to the GT crop's size (docs/FORMATS.md §4); no-reference metrics
+  (``reference=False`` in :mod:`nvrq.metrics`) score the raw render crop alone, so a batch of
+  them needs no GT crops (``gt_crops=[]``, ``gt_index=None``); ``nvrq``/``nvrq_ca`` use encoder
+  embeddings, each GT crop embedded once (paper Eq. 4, 5 in :mod:`nvrq.scoring`).
 - :func:`encoder_inputs`, :func:`run_batched` and :func:`embed_crops` are the lower pieces:
   square-pad + bicubic resize of a crop list, and a model run over it ``batch_size`` at a time.
 
@@ -26,6 +28,9 @@ holds a batch's decoding time.
 >>> b = CropBatch(np.array([0, 1]), [gt], np.array([0, 0]), [gt, np.full((2, 3, 3), 9, np.uint8)])
 >>> score_crop_batch(b, metrics=["mse"])["mse"].tolist()
 [0.0, 81.0]
+>>> nr = CropBatch(np.array([0]), [], None, [np.full((4, 6, 3), 9, np.uint8)])  # no GT crops
+>>> score_crop_batch(nr, metrics=["entropy"])["entropy"].tolist()
+[0.0]
 """
 
 from __future__ import annotations
@@ -44,11 +49,11 @@ import pandas as pd
 from data_schema.errors import InputError
 from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS, pair_boxes, pair_image_paths
 from nvrq.crops import cut_box, encoder_input, read_rgb, resize_to
-from nvrq.metrics import REGISTRY, split_column
+from nvrq.metrics import REGISTRY, MetricInfo, split_column
 
 __all__ = ["CropBatch", "iter_crop_batches", "score_crop_batch", "embed_crops", "encoder_inputs",
            "run_batched", "pair_outputs", "read_crops", "check_metric_args", "check_tau",
-           "encoder_columns", "needs_tau", "column_seconds", "check_positive", "decode_schedule", "gt_groups", "pack_groups", "usable_cores", "nvrq_similarity", "nvrq_ca",
+           "encoder_columns", "column_info", "reference_columns", "needs_tau", "column_seconds", "check_positive", "decode_schedule", "gt_groups", "pack_groups", "usable_cores", "nvrq_similarity", "nvrq_ca",
            "W_LOW", "CROP_COLUMNS"]
 
 W_LOW = 0.1
@@ -96,6 +101,7 @@ class CropBatch:
     """Crops of ``P`` pairs. ``rows`` (P,) int64: the pairs' positions in the pairs table;
     ``gt_crops``: K unique GT crops (h, w, 3) uint8 RGB; ``gt_index`` (P,) int64: pair k's GT
     crop is ``gt_crops[gt_index[k]]``; ``render_crops``: P render crops (h, w, 3) uint8 RGB.
+    Without GT (no-reference metrics only): ``gt_crops=[]`` and ``gt_index=None``.
     ``n_images_decoded``/``decode_seconds``: image files read to build it and the time spent."""
 
     rows: np.ndarray
@@ -169,6 +175,30 @@ def check_positive(name: str, value) -> None:
         raise InputError(name, None, "a positive integer", value)
 
 
+def column_info(column: str) -> MetricInfo:
+    """The registry entry computing metric column ``column`` (a ``members`` family resolves its
+    member, e.g. ``pyiqa:lpips``); :class:`InputError` naming ``metrics`` when there is none."""
+    family, member = split_column(str(column))
+    info = REGISTRY.get(family)
+    if info is None or info.kind != "metric":
+        known = ", ".join(sorted(n for n, i in REGISTRY.items() if i.kind == "metric"))
+        raise InputError("metrics", None, f"metric columns among {known}", column)
+    if info.members is not None:
+        if member is None:
+            raise InputError("metrics", column, f"{family}:NAME", column)
+        return info.members(member)
+    return info
+
+
+def reference_columns(metrics: Sequence[str]) -> list[str]:
+    """The columns of ``metrics`` that need the GT crop (full-reference and encoder metrics).
+
+    >>> reference_columns(["psnr", "niqe", "nvrq:e", "entropy"])
+    ['psnr', 'nvrq:e']
+    """
+    return [m for m in metrics if column_info(m).needs_encoder or column_info(m).reference]
+
+
 def encoder_columns(metrics: Sequence[str]) -> list[str]:
     """The columns of ``metrics`` that need an encoder (``nvrq:*``, ``nvrq_ca:*``)."""
     return [m for m in metrics if REGISTRY[split_column(m)[0]].needs_encoder]
@@ -199,11 +229,7 @@ def needs_tau(metrics: Sequence[str]) -> bool:
 def check_metric_args(metrics: Sequence[str], *, encoder=None, tau=None, batch_size: int = 32) -> None:
     """Validate :func:`score_crop_batch`'s arguments; :class:`InputError` names the parameter."""
     for m in metrics:
-        family, _ = split_column(str(m))
-        info = REGISTRY.get(family)
-        if info is None or info.kind != "metric":
-            known = ", ".join(sorted(n for n, i in REGISTRY.items() if i.kind == "metric"))
-            raise InputError("metrics", None, f"metric columns among {known}", m)
+        column_info(m)
     if not metrics:
         raise InputError("metrics", None, "at least one metric", "none")
     check_positive("batch_size", batch_size)
@@ -215,13 +241,21 @@ def check_metric_args(metrics: Sequence[str], *, encoder=None, tau=None, batch_s
 
 
 def _pixel_columns(batch: CropBatch, names: list[str], times: dict) -> dict[str, np.ndarray]:
-    """Pixel metrics (P,) per name: GT crop vs render crop resized to the GT crop's size."""
+    """Encoder-free metrics (P,) per name: a full-reference one compares the GT crop with the
+    render crop resized to the GT crop's size; a no-reference one scores the raw render crop."""
     out = {name: np.empty(len(batch.render_crops)) for name in names}
-    fns = {name: REGISTRY[name].fn for name in names}
+    infos = {name: column_info(name) for name in names}
+    full = {n: i.fn for n, i in infos.items() if i.reference}
+    blind = {n: i.fn for n, i in infos.items() if not i.reference}
     for k, crop in enumerate(batch.render_crops):
-        gt = batch.gt_crops[batch.gt_index[k]]
-        rs = resize_to(crop, gt.shape[0], gt.shape[1])
-        for name, fn in fns.items():
+        for name, fn in blind.items():
+            t0 = time.perf_counter()
+            out[name][k] = fn(crop)
+            times[name] = times.get(name, 0.0) + time.perf_counter() - t0
+        if full:
+            gt = batch.gt_crops[batch.gt_index[k]]
+            rs = resize_to(crop, gt.shape[0], gt.shape[1])
+        for name, fn in full.items():
             t0 = time.perf_counter()
             out[name][k] = fn(gt, rs)
             times[name] = times.get(name, 0.0) + time.perf_counter() - t0
@@ -234,10 +268,16 @@ def score_crop_batch(batch: CropBatch, *, metrics: Sequence[str], encoder=None, 
 
     ``metrics``: column names as :func:`nvrq.scoring.resolve_metrics` gives them; ``encoder``
     for ``nvrq:*``/``nvrq_ca:*`` (GT crops embedded once each, ``batch_size`` crops per pass);
-    ``tau`` in (0, 1) for ``nvrq_ca:*``. Per-stage seconds are added to ``timings``.
+    ``tau`` in (0, 1) for ``nvrq_ca:*``. Per-stage seconds are added to ``timings``. A batch
+    without GT crops (``gt_crops=[]``) takes only no-reference metrics.
     """
     metrics = list(metrics)
     check_metric_args(metrics, encoder=encoder, tau=tau, batch_size=batch_size)
+    if len(batch.render_crops) and not len(batch.gt_crops):
+        needs_gt = reference_columns(metrics)
+        if needs_gt:
+            raise InputError("gt_crops", None, f"GT crops for the reference metrics {', '.join(needs_gt)}",
+                             "none")
     times = timings if timings is not None else {}
     enc_cols = encoder_columns(metrics)
     out = _pixel_columns(batch, [m for m in metrics if m not in enc_cols], times)

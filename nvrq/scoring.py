@@ -40,11 +40,13 @@ import pandas as pd
 from tqdm import tqdm
 
 from data_schema.errors import InputError
+from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS, pair_boxes
 from nvrq.metrics import REGISTRY, split_column
 from nvrq.score_core import (
     CROP_COLUMNS,
     W_LOW,
     check_metric_args,
+    column_info,
     column_seconds,
     decode_schedule,
     encoder_columns,
@@ -55,7 +57,8 @@ from nvrq.score_core import (
 )
 
 __all__ = ["nvrq_similarity", "nvrq_ca", "W_LOW", "resolve_metrics", "ScoreResult",
-           "score_pairs", "timing_table", "runtime_timing", "REQUIRED_COLUMNS"]
+           "score_pairs", "timing_table", "runtime_timing", "undefined_counts", "crop_sides",
+           "REQUIRED_COLUMNS"]
 
 REQUIRED_COLUMNS = ("pair_id", *CROP_COLUMNS)
 
@@ -71,8 +74,14 @@ def resolve_metrics(metrics: Sequence[str], encoder: str) -> list[str]:
     for raw in metrics:
         family, enc = split_column(raw.strip())
         info = REGISTRY.get(family)
-        if info is None or info.kind != "metric" or (enc is not None and not info.needs_encoder):
+        if info is None or info.kind != "metric" or (enc is not None and not info.needs_encoder
+                                                      and info.members is None):
             raise InputError("metrics", None, f"metric names among {', '.join(known)}", raw)
+        if info.members is not None:  # pyiqa:NAME, checked by its family
+            col = column_info(f"{family}:{enc}").name if enc else column_info(family).name
+            if col not in columns:
+                columns.append(col)
+            continue
         if info.needs_encoder and enc not in (None, encoder):
             raise InputError("metrics", raw, f"the encoder given as encoder ({encoder})", enc)
         col = f"{family}:{encoder}" if info.needs_encoder else family
@@ -86,13 +95,50 @@ def resolve_metrics(metrics: Sequence[str], encoder: str) -> list[str]:
 @dataclass
 class ScoreResult:
     """``table``: ``pair_id`` + one column per metric, rows in the pairs' order.
-    ``timing``: columns ``metric, seconds, pairs``. ``n_encoder_images``: crops embedded."""
+    ``timing``: columns ``metric, seconds, pairs``. ``n_encoder_images``: crops embedded.
+    ``undefined``: the NaN values per metric and reason (:func:`undefined_counts`)."""
 
     table: pd.DataFrame
     timing: pd.DataFrame
     n_pairs: int
     n_encoder_images: int
     n_images_decoded: int
+    undefined: pd.DataFrame | None = None
+
+
+def crop_sides(pairs: pd.DataFrame, *, where: str = "pairs") -> tuple[np.ndarray, np.ndarray]:
+    """Shorter sides (N,) int64 of the GT and the render crops of ``pairs`` (inclusive boxes)."""
+    out = []
+    for cols in (GT_BOX_COLUMNS, RENDER_BOX_COLUMNS):
+        b = pair_boxes(pairs, cols, where=where)
+        out.append(np.minimum(b[:, 2] - b[:, 0], b[:, 3] - b[:, 1]) + 1)
+    return out[0], out[1]
+
+
+def undefined_counts(values: dict, gt_sides: np.ndarray, render_sides: np.ndarray) -> pd.DataFrame:
+    """``metric, reason, pairs``: how many values of each column are NaN, and why.
+
+    A value is NaN because its crop (the GT crop for a full-reference metric, the raw render
+    crop for a no-reference one) is shorter than the metric's ``min_side``, or otherwise for the
+    metric's ``undefined`` reason (:mod:`nvrq.metrics`). ``values``: ``{column: (N,)}``.
+
+    >>> undefined_counts({"niqe": np.array([np.nan, 1.0, np.nan])}, np.array([99, 99, 99]),
+    ...                  np.array([50, 120, 130])).values.tolist()
+    [['niqe', 'shorter crop side < 96 px', 1], ['niqe', 'undefined', 1]]
+    """
+    rows = []
+    for col, v in values.items():
+        nan = np.isnan(np.asarray(v, np.float64))
+        if not nan.any():
+            continue
+        info = column_info(col)
+        sides = gt_sides if (info.reference or info.needs_encoder) else render_sides
+        small = nan & (sides < info.min_side)
+        if small.any():
+            rows.append((col, f"shorter crop side < {info.min_side} px", int(small.sum())))
+        if (nan & ~small).any():
+            rows.append((col, info.undefined or "undefined", int((nan & ~small).sum())))
+    return pd.DataFrame(rows, columns=["metric", "reason", "pairs"])
 
 
 def timing_table(metrics: Sequence[str], times: dict, *, n_pairs: int, wall: float,
@@ -181,4 +227,6 @@ def score_pairs(
             bar.update(len(batch.rows))
     wall = time.perf_counter() - t_start
     table = pd.DataFrame({"pair_id": pairs["pair_id"].to_numpy(), **values})
-    return ScoreResult(table, timing_table(metrics, times, n_pairs=n, wall=wall), n, n_encoded, n_decoded)
+    undefined = undefined_counts(values, *crop_sides(pairs, where=where))
+    return ScoreResult(table, timing_table(metrics, times, n_pairs=n, wall=wall), n, n_encoded, n_decoded,
+                       undefined)

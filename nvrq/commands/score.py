@@ -34,7 +34,8 @@ def register(sub) -> None:
     p.add_argument("--out", required=True, help="output metrics table (.csv or .parquet)")
     p.add_argument("--metrics", default=",".join(DEFAULT_METRICS),
                    help=f"comma-separated metrics (default {','.join(DEFAULT_METRICS)}; also ms_ssim, "
-                        "gmsd, mse, mae)")
+                        "gmsd, mse, mae; no-reference: brisque, niqe, piqe, entropy; pyiqa:NAME "
+                        "with pyiqa installed)")
     add_encoder_arguments(p)
     p.add_argument("--scene", default=None, help="scene folder the image paths are relative to "
                                                  "(default: the pairs table's scene_root column)")
@@ -69,7 +70,8 @@ def run(args) -> int:
 
 
 def _report(res, *, uses_encoder: bool, file) -> None:
-    """One summary line: pairs/s, images decoded, encoder images per pair."""
+    """One summary line: pairs/s, images decoded, encoder images per pair; then one line per
+    metric and reason with NaN values (:func:`nvrq.scoring.undefined_counts`)."""
     wall = res.timing.attrs.get("wall_seconds", float("nan"))
     msg = f"scored {res.n_pairs} pairs in {wall:.1f} s ({res.n_pairs / max(wall, 1e-9):.1f} pairs/s); " \
           f"decoded {res.n_images_decoded} images"
@@ -78,6 +80,8 @@ def _report(res, *, uses_encoder: bool, file) -> None:
         msg += (f"; encoder images: {res.n_encoder_images} ({per:.2f} per pair, "
                 f"{2 * res.n_pairs} without GT reuse)")
     print(msg, file=file)
+    for row in (res.undefined.itertuples(index=False) if res.undefined is not None else ()):
+        print(f"{row.metric}: {row.pairs} of {res.n_pairs} pairs NaN ({row.reason})", file=file)
 
 
 def _ray(args, columns, encoder_name) -> int:

@@ -11,7 +11,9 @@ from PIL import Image
 from data_schema import datasets as ds
 from data_schema.tables import PAIRS_COLUMNS, pair_id
 
-METRICS = ["psnr", "ssim", "gmsd", "nvrq:efficientnet-lite0", "nvrq_ca:efficientnet-lite0"]
+#: full-reference, no-reference (render crop alone) and encoder columns
+METRICS = ["psnr", "ssim", "gmsd", "brisque", "piqe", "entropy", "nvrq:efficientnet-lite0",
+           "nvrq_ca:efficientnet-lite0"]
 BOXES = [(10, 20, 59, 79), (80, 10, 139, 49), (150, 60, 189, 109)]  # inclusive x0 y0 x1 y1
 
 

