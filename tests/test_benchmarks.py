@@ -21,6 +21,8 @@ CASES = {
                         "--random-scene", "--seconds", "0.2", "--encoders", "efficientnet-lite0", "--int8", "",
                         "--methods", "2", "--methods-seconds", "0.2"],
                        "methods_speedup_shared"),
+    "bench_metrics.py": (["--seconds", "0.2", "--size", "320x180", "--max-pairs", "30", "--rounds", "1"],
+                         "no-reference metrics at >= 50 crops/s"),
     "bench_proxy.py": (["--crops", "8", "--batch-size", "4", "--rounds", "1"], "ratio vs torch"),
     "bench_analyze.py": (["--rows", "20000"], "s"),
     "bench_analyze_pairs.py": (["--rows", "20000", "--clips", "12"], "peak RSS"),

@@ -16,7 +16,7 @@ from nvrq import encoders
 from nvrq.calibrate import resolve_tau
 from nvrq.encoders import DEFAULT_ENCODER, get_spec
 from nvrq.encoders.runtimes import PRECISIONS, RUNTIMES
-from nvrq.metrics import split_column
+from nvrq.metrics import REGISTRY, split_column
 from nvrq.score_core import check_tau, encoder_columns, needs_tau
 from nvrq.scoring import resolve_metrics
 
@@ -80,7 +80,8 @@ def encoder_for_metrics(metrics: Sequence[str], default: str | None) -> str:
     """The encoder: the one named in ``metrics`` (``nvrq:ENC``), else ``default`` (``--encoder``),
     else the registry default. Two different encoders, or one that contradicts ``--encoder``,
     is an error."""
-    named = {split_column(m.strip())[1] for m in metrics} - {None}
+    families = {name for name, info in REGISTRY.items() if info.needs_encoder}  # not pyiqa:NAME
+    named = {enc for fam, enc in map(split_column, (m.strip() for m in metrics)) if fam in families} - {None}
     if len(named) > 1:
         raise InputError("--metrics", None, "one encoder for all nvrq/nvrq_ca metrics", ", ".join(sorted(named)))
     if named and default is not None and named != {default}:

@@ -68,7 +68,8 @@ def demo_steps(out: Path, args) -> list[tuple[str, list[str]]]:
     scene, pairs, metrics = out / "scene", out / "pairs.csv", out / "metrics.csv"
     study, ratings, report = out / "study", out / "ratings.csv", out / "report"
     torch_metrics = out / "metrics_torch.csv"  # the same encoder on torch eager: a second speed point
-    metric_list = "psnr,ssim,ms_ssim,gmsd,nvrq,nvrq_ca"
+    # full-reference, then no-reference (paper Table 1's classical rows), then the encoder metrics
+    metric_list = "psnr,ssim,ms_ssim,gmsd,brisque,niqe,piqe,entropy,nvrq,nvrq_ca"
     return [
         ("nvrq", ["synth", str(scene), "--seed", str(args.seed), "--seconds", str(args.seconds),
                   "--size", args.size, "--offsets", args.offsets]),
