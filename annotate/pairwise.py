@@ -101,7 +101,7 @@ def check_methods(pairs: pd.DataFrame, methods: str | None, *, where: str) -> li
     return chosen
 
 
-def _complete_views(pairs: pd.DataFrame, methods: list[str]) -> pd.DataFrame:
+def _complete_views(pairs: pd.DataFrame, methods: list[str], *, where: str) -> pd.DataFrame:
     """Rows of the chosen methods at object views holding every one of them (``_view``,
     ``_object`` columns added)."""
     df = pairs[pairs[METHOD_COLUMN].astype(str).isin(methods)]
@@ -110,14 +110,15 @@ def _complete_views(pairs: pd.DataFrame, methods: list[str]) -> pd.DataFrame:
     dup = df.duplicated(["_object", METHOD_COLUMN])
     if dup.any():
         row = df[dup].iloc[0]
-        raise InputError("pairs", f"line {int(row['_row'])}",
+        raise InputError(where, f"line {int(row['_row'])}",
                          "one render per object, view and method", f"{row['_object']} "
                          f"{row[METHOD_COLUMN]} twice")
     n = df.groupby("_object")[METHOD_COLUMN].transform("nunique")
     return df[n == len(methods)]
 
 
-def choose_items(pairs: pd.DataFrame, rng: np.random.Generator, opts: dict, *, pick_training):
+def choose_items(pairs: pd.DataFrame, rng: np.random.Generator, opts: dict, *, pick_training,
+                 where: str = "pairs"):
     """The pairwise design (module docstring): ``(pairs, rows, chosen views or offsets,
     per-track record)``; ``rows`` are dicts with ``kind, key, item_id, method_a, method_b``
     and the pairs rows ``ref`` (GT), ``a`` (None: the GT crop) and ``b``.
@@ -126,9 +127,9 @@ def choose_items(pairs: pd.DataFrame, rng: np.random.Generator, opts: dict, *, p
     study's rule, offsets spread from small to large).
     """
     methods = opts["methods"]
-    full = _complete_views(pairs, methods)
+    full = _complete_views(pairs, methods, where=where)
     if full.empty:
-        raise InputError("pairs", "method", f"object views rendered by every method of "
+        raise InputError(where, "column 'method'", f"object views rendered by every method of "
                          f"{methods}", "none")
     opts["view_columns"] = view_cols = view_columns(pairs)
     if view_cols:

@@ -127,8 +127,8 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
     opts["method_columns"] = method_columns(pairs) if design == "binary" else []
     if design == "pairwise":
         opts["methods"] = pairwise.check_methods(pairs, methods, where=str(pairs_path))
-        pairs, rows, chosen_offsets, record = pairwise.choose_items(pairs, rng, opts,
-                                                                    pick_training=_pick_training)
+        pairs, rows, chosen_offsets, record = pairwise.choose_items(
+            pairs, rng, opts, pick_training=_pick_training, where=str(pairs_path))
         pairwise.check_images(rows, where=str(pairs_path), inside=_ImageCache(str(pairs_path)).path)
     else:
         pairs, rows, chosen_offsets, record = _choose_items(pairs, rng, opts)

@@ -359,3 +359,22 @@ def test_app_pairwise_page_keys_undo_resume_and_no_method_names(tmp_path, pw_inp
     assert [b.key for b in adm.get("download_button")] == ["download_ratings"]
     raters = adm.dataframe[0].value
     assert raters.set_index("rater_id").loc["pia", "test"] == len(s.keys("test"))
+
+
+def test_no_object_view_of_every_method_and_duplicates_are_refused(tmp_path, pw_inputs):
+    scene, pairs = pw_inputs
+    p = pd.read_csv(pairs)
+    # alpha only at offset -1, beta only at +1: no object view has both
+    part = p[((p["method"] == "alpha") & (p["y_offset_m"] == -1)) |
+             ((p["method"] == "beta") & (p["y_offset_m"] == 1))]
+    part.to_csv(tmp_path / "apart.csv", index=False)
+    with pytest.raises(InputError, match=r"apart\.csv: column 'method': expected object views "
+                                         r"rendered by every method"):
+        build_study(tmp_path / "s1", tmp_path / "apart.csv", scene=str(scene), design="pairwise",
+                    methods="alpha,beta", progress=False)
+    dup = pd.concat([p, p.iloc[[0]].assign(pair_id="extra-id")])  # a second alpha render
+    dup.to_csv(tmp_path / "dup.csv", index=False)
+    with pytest.raises(InputError, match=r"dup\.csv: line \d+: expected one render per object"):
+        build_study(tmp_path / "s2", tmp_path / "dup.csv", scene=str(scene), design="pairwise",
+                    progress=False)
+    assert not (tmp_path / "s1").exists() and not (tmp_path / "s2").exists()
