@@ -8,30 +8,35 @@ from pathlib import Path
 import cv2
 
 from data_schema.cliargs import add_link_option
+from data_schema.datasets import is_dataset
 from data_schema.errors import InputError
 from data_schema.tables import read_table, timing_path, write_table
 from nvrq.commands._encoder import (
     _resolve_tau,
     add_encoder_arguments,
     encoder_for_columns,
+    load_encoder_and_tau,
     metric_columns,
 )
 from nvrq.engines import add_engine_args
-from nvrq.engines.cli import check_engine_args, run_ray
+from nvrq.engines.cli import check_engine_args, report_sharded, run_ray
+from nvrq.engines.local import score_dataset
 from nvrq.engines.scorers import MetricScorer
 from nvrq.metrics import DEFAULT_METRICS, split_column
-from nvrq.score_core import needs_tau
+from nvrq.score_core import encoder_columns, needs_tau
 from nvrq.scoring import REQUIRED_COLUMNS, runtime_timing, score_pairs
 
-__all__ = ["register", "run", "runtime_columns"]
+__all__ = ["register", "run", "runtime_columns", "column_renames"]
 
 
 def register(sub) -> None:
     p = sub.add_parser("score", help="NVRQ, NVRQ-CA and pixel metrics per pair (docs/FORMATS.md §4)",
                        description="Score every GT/render crop pair of a pairs table. Writes "
                                    "METRICS and METRICS.timing.csv (metric, seconds, pairs).")
-    p.add_argument("pairs", help="pairs table from `nvrq pairs` (.csv or .parquet)")
-    p.add_argument("--out", required=True, help="output metrics table (.csv or .parquet)")
+    p.add_argument("pairs", help="pairs table from `nvrq pairs` (.csv or .parquet), or a pairs "
+                                 "dataset folder (several clips)")
+    p.add_argument("--out", required=True, help="output metrics table (.csv or .parquet); for a pairs "
+                                                "dataset or --engine ray a folder (resumable)")
     p.add_argument("--metrics", default=",".join(DEFAULT_METRICS),
                    help=f"comma-separated metrics (default {','.join(DEFAULT_METRICS)}; also ms_ssim, "
                         "gmsd, mse, mae; no-reference: brisque, niqe, piqe, entropy; pyiqa:NAME "
@@ -50,9 +55,11 @@ def register(sub) -> None:
 
 def run(args) -> int:
     columns, encoder_name = metric_columns(args)
-    check_engine_args(args)
+    check_engine_args(args, local_datasets=True)
     if args.engine == "ray":
         return _ray(args, columns, encoder_name)
+    if is_dataset(args.pairs):
+        return _local_dataset(args, columns, encoder_name)
     pairs = read_table(args.pairs, required=REQUIRED_COLUMNS, what="pairs table")
     if not str(args.out).lower().endswith((".csv", ".parquet")):
         raise InputError(args.out, None, "an output file ending in .csv or .parquet", args.out)
@@ -84,12 +91,48 @@ def _report(res, *, uses_encoder: bool, file) -> None:
         print(f"{row.metric}: {row.pairs} of {res.n_pairs} pairs NaN ({row.reason})", file=file)
 
 
+def _scorer(args, columns, encoder_name, tau) -> MetricScorer:
+    """What a sharded run computes; its ``options()`` go to ``_plan.json`` (either engine)."""
+    return MetricScorer(tuple(columns), encoder=encoder_name, weights=args.weights, device=args.device,
+                        tau=tau, batch_size=args.batch_size, runtime=args.runtime, cache_dir=args.cache_dir)
+
+
 def _ray(args, columns, encoder_name) -> int:
     tau = _resolve_tau(encoder_name, args) if needs_tau(columns) else None
-    scorer = MetricScorer(tuple(columns), encoder=encoder_name, weights=args.weights, device=args.device,
-                          tau=tau, batch_size=args.batch_size, runtime=args.runtime,
-                          cache_dir=args.cache_dir)
-    return run_ray(args, scorer)
+    return run_ray(args, _scorer(args, columns, encoder_name, tau))
+
+
+def _local_dataset(args, columns, encoder_name) -> int:
+    """A pairs dataset on the local engine: the Ray engine's sharded output and resume, scored
+    shard by shard in this process (:func:`nvrq.engines.local.score_dataset`)."""
+    tau = _resolve_tau(encoder_name, args) if needs_tau(columns) else None
+    rename = column_renames(columns, tag=args.column_tag, precision=args.precision)
+    options = _scorer(args, columns, encoder_name, tau).options()
+    options["columns"] = [rename.get(c, c) for c in columns]
+    if encoder_columns(columns) and args.precision != "fp32":  # fp32 plans (Ray's) have no such key
+        options["precision"] = args.precision
+
+    def load():  # only when a shard is left to do
+        return load_encoder_and_tau(args, needs_tau=False, name=encoder_name)[0]
+
+    cv2.setNumThreads(1)  # as for a table: the cores go to the encoder and the decode thread
+    res = score_dataset(args.pairs, args.out, metrics=columns, options=options,
+                        timing_path=timing_path(args.out), load_encoder=load if encoder_columns(columns) else None,
+                        tau=tau, batch_size=args.batch_size, shard_pairs=args.shard_pairs, rename=rename,
+                        progress=not args.quiet)
+    report_sharded(res, args.out, engine="the local engine")
+    return 0
+
+
+def column_renames(columns, *, tag: str | None, precision: str) -> dict[str, str]:
+    """``{nvrq:E: nvrq:E@TAG}`` for the encoder columns of ``columns``: TAG is ``tag``, else a
+    reduced ``precision`` (bf16/int8), else no renaming (fp32).
+
+    >>> column_renames(["psnr", "nvrq:e"], tag=None, precision="int8")
+    {'nvrq:e': 'nvrq:e@int8'}
+    """
+    tag = tag if tag is not None else (precision if precision != "fp32" else None)
+    return {c: f"{c}@{tag}" for c in encoder_columns(columns)} if tag else {}
 
 
 def runtime_columns(table, timing, encoder, *, tag: str | None):
@@ -99,10 +142,8 @@ def runtime_columns(table, timing, encoder, *, tag: str | None):
 
     timing = timing.copy()
     enc_cols = [m for m in timing["metric"] if split_column(m)[1] is not None]
-    if encoder is not None and tag is None and encoder.precision != "fp32":
-        tag = encoder.precision
-    if tag:
-        rename = {m: f"{m}@{tag}" for m in enc_cols}
+    rename = column_renames(enc_cols, tag=tag, precision="fp32" if encoder is None else encoder.precision)
+    if rename:
         table, timing["metric"] = table.rename(columns=rename), timing["metric"].replace(rename)
         enc_cols = [rename[m] for m in enc_cols]
     return table, runtime_timing(timing, encoder, enc_cols)

@@ -1,40 +1,59 @@
-"""The ``--engine ray`` branch of ``nvrq score`` and ``nvrq proxy imagenet|clip`` (a thin shell
-over :func:`nvrq.engines.ray_engine.score_on_ray`)."""
+"""The engine options of ``nvrq score`` and ``nvrq proxy imagenet|clip``: their checks, the
+``--engine ray`` branch (a thin shell over :func:`nvrq.engines.ray_engine.score_on_ray`) and the
+report line of a sharded run (either engine)."""
 
 from __future__ import annotations
 
 import sys
 from pathlib import Path
 
+from data_schema import datasets as ds
 from data_schema.errors import InputError
 from data_schema.tables import timing_path
 from nvrq.engines.ray_engine import RayJob, score_on_ray
 
-__all__ = ["check_engine_args", "run_ray"]
+__all__ = ["check_engine_args", "sharded_output", "report_sharded", "run_ray"]
 
 
-def check_engine_args(args) -> None:
-    """Options that only make sense with one engine, and the Ray engine's output folder."""
-    if args.engine != "ray":
-        if args.address:
-            raise InputError("--address", None, "--engine ray", f"--engine {args.engine}")
+def sharded_output(args, *, local_datasets: bool = False) -> bool:
+    """Whether the command writes a sharded, resumable folder: always with ``--engine ray``, and
+    on the local engine for a pairs dataset when the command scores datasets locally."""
+    return args.engine == "ray" or (local_datasets and ds.is_dataset(args.pairs))
+
+
+def check_engine_args(args, *, local_datasets: bool = False) -> None:
+    """Options that only make sense with one engine, and a sharded run's output folder
+    (``local_datasets``: the local engine scores a pairs dataset into such a folder too)."""
+    if args.engine != "ray" and args.address:
+        raise InputError("--address", None, "--engine ray", f"--engine {args.engine}")
+    if args.engine == "ray":
+        if getattr(args, "precision", "fp32") != "fp32":
+            raise InputError("--precision", None, "fp32 with --engine ray (reduced precision runs on "
+                             "the local engine)", args.precision)
+        if getattr(args, "column_tag", None) is not None:
+            raise InputError("--column-tag", None, "untagged columns with --engine ray", args.column_tag)
+        if getattr(args, "batch_size", 1) < 1:
+            raise InputError("--batch-size", None, "a positive integer", args.batch_size)
+        if args.actors is not None and args.actors < 1:
+            raise InputError("--actors", None, "a positive number of actors", args.actors)
+    if not sharded_output(args, local_datasets=local_datasets):
         return
-    if getattr(args, "precision", "fp32") != "fp32":
-        raise InputError("--precision", None, "fp32 with --engine ray (reduced precision runs on "
-                         "the local engine)", args.precision)
-    if getattr(args, "column_tag", None) is not None:
-        raise InputError("--column-tag", None, "untagged columns with --engine ray", args.column_tag)
+    why = "--engine ray" if args.engine == "ray" else "a pairs dataset"
     if getattr(args, "scene", None) is not None:
-        raise InputError("--scene", None, "the pairs' scene_root column with --engine ray", args.scene)
+        raise InputError("--scene", None, f"the pairs' scene_root column with {why}", args.scene)
     if Path(args.out).suffix != "":
-        raise InputError("--out", None, "a folder without a suffix for --engine ray (Parquet shards partitioned by clip_id)",
-                         args.out)
-    if getattr(args, "batch_size", 1) < 1:
-        raise InputError("--batch-size", None, "a positive integer", args.batch_size)
+        raise InputError("--out", None, f"a folder without a suffix for {why} (Parquet shards "
+                         "partitioned by clip_id)", args.out)
     if args.shard_pairs < 1:
         raise InputError("--shard-pairs", None, "a positive number of pairs", args.shard_pairs)
-    if args.actors is not None and args.actors < 1:
-        raise InputError("--actors", None, "a positive number of actors", args.actors)
+
+
+def report_sharded(res: dict, out, *, engine: str) -> None:
+    """The one stderr line after a sharded run (:func:`nvrq.engines.shards.run_sharded`'s counts)."""
+    done = f"{res['shards_done_before']} of {res['shards']} shards were already written; " \
+        if res["shards_done_before"] else ""
+    print(f"{done}scored {res['pairs_scored']} pairs in {res['seconds']:.1f} s on {engine} -> {out}",
+          file=sys.stderr)
 
 
 def run_ray(args, scorer) -> int:
@@ -44,8 +63,5 @@ def run_ray(args, scorer) -> int:
     job = RayJob(pairs=str(args.pairs), out=str(args.out), scorer=scorer, shard_pairs=args.shard_pairs,
                  actors=args.actors, progress=not args.quiet)
     res = score_on_ray(job, timing_path=timing_path(args.out), address=args.address)
-    done = f"{res['shards_done_before']} of {res['shards']} shards were already written; " \
-        if res["shards_done_before"] else ""
-    print(f"{done}scored {res['pairs_scored']} pairs in {res['seconds']:.1f} s on Ray -> {args.out}",
-          file=sys.stderr)
+    report_sharded(res, args.out, engine="Ray")
     return 0

@@ -22,18 +22,15 @@ import logging
 import pickle
 import re
 import socket
-import sys
-import time
+from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 import pandas as pd
-from tqdm import tqdm
 
 from data_schema.errors import InputError
-from data_schema.tables import follow_links, read_table
+from data_schema.tables import follow_links
 from nvrq.engines import require_ray
 from nvrq.engines import shards as sh
 from nvrq.engines.scorers import timing_per_column
@@ -89,21 +86,12 @@ def connect(address: str | None = None):
         ray.shutdown()
 
 
-@lru_cache(maxsize=4)
-def _pairs_table(path: str) -> pd.DataFrame:
-    """A pairs file read once per worker process (a dataset's clip file or a whole table)."""
-
-    if path.endswith(".parquet"):
-        return pd.read_parquet(path)
-    return read_table(path, what="pairs table")
-
-
 def _decode_shard(row: dict, *, scorer, follow: bool) -> dict:
     """CPU task: the shard's crops (decode + crop) and its pixel metrics. ``follow``: the
     driver's link rule (:func:`data_schema.tables.follow_links`; a worker's environment may differ)."""
 
     shard = row["shard"]
-    df = _pairs_table(shard.path).iloc[list(shard.rows)].reset_index(drop=True)
+    df = sh.shard_pairs(shard)
     batches = list(iter_crop_batches(df, base=shard.base, max_pairs=max(len(df), 1), background=False,
                                      where=shard.path, follow_links=follow))
     timings = {"decode": sum(b.decode_seconds for b in batches)}
@@ -198,31 +186,25 @@ def _input_error(exc: BaseException) -> InputError | None:
 
 
 def score_on_ray(job: RayJob, *, timing_path, address: str | None = None) -> dict:
-    """Run (or resume) ``job``; write ``timing_path`` at the end; returns counts
-    ``{pairs, shards, shards_done_before, pairs_scored, seconds}``."""
+    """Run (or resume) ``job`` (:func:`nvrq.engines.shards.run_sharded`); write ``timing_path``
+    at the end; returns counts ``{pairs, shards, shards_done_before, pairs_scored, seconds}``."""
 
-    t0 = time.perf_counter()
     require_ray()
     if address:
         check_address(address)  # before anything is written
-    sources = sh.read_sources(job.pairs, required=REQUIRED_COLUMNS + tuple(job.scorer.extra_columns))
-    plan = sh.load_or_create_plan(job.out, job.pairs, sources, options=job.scorer.options(),
-                                  max_pairs=job.shard_pairs)
-    n_todo = sum(len(s.rows) for s in plan.todo)
-    if plan.todo:
-        with connect(address) as ray, tqdm(total=n_todo, unit="pair", desc="score (ray)", file=sys.stderr,
-                                           disable=not job.progress) as bar:
+
+    def compute(todo: list) -> Iterator[sh.ShardResult]:
+        with connect(address) as ray:
             try:
-                for row in _pipeline(ray, job, plan.todo).iter_rows():
+                for row in _pipeline(ray, job, todo).iter_rows():
                     table, timing = pickle.loads(row["payload"])
-                    sh.write_shard(plan.out, row["shard"], table, timing)
-                    bar.update(len(table))
+                    yield row["shard"], table, timing
             except Exception as exc:
                 err = _input_error(exc)
                 if err is None:
                     raise
                 raise err from None
-    sh.finalize(plan, timing_path=timing_path)
-    return {"pairs": plan.doc["n_pairs"], "shards": len(plan.shards),
-            "shards_done_before": len(plan.shards) - len(plan.todo), "pairs_scored": n_todo,
-            "seconds": time.perf_counter() - t0}
+
+    return sh.run_sharded(job.pairs, job.out, required=REQUIRED_COLUMNS + tuple(job.scorer.extra_columns),
+                          options=job.scorer.options(), max_pairs=job.shard_pairs, timing_path=timing_path,
+                          compute=compute, progress=job.progress, desc="score (ray)")

@@ -13,19 +13,29 @@ command again after a crash reuses it and computes only the shards whose files a
 other options or other pairs are an error naming ``_plan.json``. When every shard exists,
 ``_dataset.json`` (the reader's mark of a complete dataset) and ``METRICS.timing.csv`` are
 written. Readers refuse a folder with ``_plan.json`` but no ``_dataset.json``.
+
+Both engines run through :func:`run_sharded` (plan, write each finished shard, finalize): the
+Ray engine computes shards on a cluster (:mod:`nvrq.engines.ray_engine`), the local engine one
+after another in this process (:mod:`nvrq.engines.local`). So their outputs have the same
+layout, rows and columns, and either engine resumes the other's run.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import sys
+import time
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
+from tqdm import tqdm
 
 from data_schema import datasets as ds
 from data_schema.errors import InputError
@@ -33,7 +43,7 @@ from data_schema.tables import atomic_path, atomic_write_text, read_table, write
 from nvrq.score_core import gt_groups, pack_groups
 
 __all__ = ["Shard", "PairsSource", "read_sources", "plan_shards", "Plan", "load_or_create_plan",
-           "write_shard", "finalize"]
+           "shard_pairs", "write_shard", "finalize", "run_sharded"]
 
 TIMING_KEY = b"nvrq_timing"
 
@@ -145,6 +155,21 @@ def load_or_create_plan(out, pairs_path, sources, *, options: dict, max_pairs: i
     return Plan(out, shards, todo, doc)
 
 
+@lru_cache(maxsize=4)
+def _pairs_file(path: str) -> pd.DataFrame:
+    """A pairs file read once per process (a dataset's clip file or a whole table; the last 4 kept)."""
+
+    if path.endswith(".parquet"):
+        return pd.read_parquet(path)
+    return read_table(path, what="pairs table")
+
+
+def shard_pairs(shard: Shard) -> pd.DataFrame:
+    """The shard's rows of its pairs file, in plan order (index 0..n-1)."""
+
+    return _pairs_file(shard.path).iloc[list(shard.rows)].reset_index(drop=True)
+
+
 def write_shard(out, shard: Shard, table: pd.DataFrame, timing: dict) -> None:
     """Write one shard's metrics atomically (hidden temporary file, then rename)."""
 
@@ -175,3 +200,42 @@ def finalize(plan: Plan, *, timing_path) -> pd.DataFrame:
     ds.write_manifest(plan.out, [s.name for s in plan.shards], rows=plan.doc["n_pairs"],
                       extra={"kind": "metrics", "columns": cols})
     return timing
+
+
+#: what an engine yields per finished shard: the shard, its table (``pair_id`` + columns, rows
+#: in plan order) and its seconds per column
+ShardResult = tuple[Shard, pd.DataFrame, dict]
+
+
+def run_sharded(pairs_path, out, *, required, options: dict, max_pairs: int, timing_path,
+                compute: Callable[[list[Shard]], Iterable[ShardResult]], progress: bool = True,
+                desc: str = "score") -> dict:
+    """Run (or resume) a sharded scoring run of ``pairs_path`` into the folder ``out``.
+
+    Plans the shards (:func:`load_or_create_plan`; ``options``: what a resumed run must share),
+    hands the shards still to do to ``compute``, which yields ``(shard, table, seconds per
+    column)`` as each finishes, writes each one atomically as it arrives, then writes the
+    timing table and the manifest (:func:`finalize`). Returns the counts
+    ``{pairs, shards, shards_done_before, pairs_scored, seconds}``.
+    """
+    t0 = time.perf_counter()
+    sources = read_sources(pairs_path, required=required)
+    plan = load_or_create_plan(out, pairs_path, sources, options=options, max_pairs=max_pairs)
+    n_todo = sum(len(s.rows) for s in plan.todo)
+    if plan.todo:
+        results: Iterator[ShardResult] = iter(compute(plan.todo))
+        try:
+            with tqdm(total=n_todo, unit="pair", desc=desc, file=sys.stderr, disable=not progress,
+                      dynamic_ncols=True) as bar:
+                for shard, table, timing in results:
+                    write_shard(plan.out, shard, table, timing)
+                    bar.update(len(table))
+        finally:
+            close = getattr(results, "close", None)
+            if close is not None:  # a generator's clean-up (a Ray session, a model) runs now
+                close()
+            _pairs_file.cache_clear()
+    finalize(plan, timing_path=timing_path)
+    return {"pairs": plan.doc["n_pairs"], "shards": len(plan.shards),
+            "shards_done_before": len(plan.shards) - len(plan.todo), "pairs_scored": n_todo,
+            "seconds": time.perf_counter() - t0}

@@ -88,6 +88,35 @@ def test_ray_equals_local_engine(ray_local, fleet, tmp_path, capfd):
     assert _score(pairs_ds, tmp_path / "m") == 0
 
 
+def test_local_engine_writes_the_ray_engines_output_and_resumes_it(ray_local, fleet, tmp_path):
+    _, pairs_ds = fleet
+    assert _score(pairs_ds, tmp_path / "ray") == 0
+    local_args = ["score", str(pairs_ds), "--metrics", ",".join(METRICS), "--tau", "0.6", "--shard-pairs", "9",
+                  "--quiet"]
+    assert main([*local_args, "--out", str(tmp_path / "local")]) == 0
+    files = {e: sorted(p.relative_to(tmp_path / e).as_posix() for p in (tmp_path / e).rglob("*"))
+             for e in ("ray", "local")}
+    assert files["ray"] == files["local"] and len(files["ray"]) == 2 + 2 + 8  # clip folders, shards
+    for name in (ds.PLAN, ds.MANIFEST):  # the same plan (so either engine resumes the other) and manifest
+        assert (tmp_path / "ray" / name).read_text() == (tmp_path / "local" / name).read_text()
+    on_ray, local = ds.read_dataset(tmp_path / "ray"), ds.read_dataset(tmp_path / "local")
+    pd.testing.assert_frame_equal(on_ray, local, check_exact=False, atol=1e-6, rtol=0)
+    pd.testing.assert_frame_equal(on_ray[["pair_id", "clip_id", *METRICS[:3]]],
+                                  local[["pair_id", "clip_id", *METRICS[:3]]])  # pixel metrics bit-equal
+    ray_timing, local_timing = (pd.read_csv(tmp_path / f"{e}.timing.csv") for e in ("ray", "local"))
+    assert ray_timing.columns.tolist() == local_timing.columns.tolist()
+    assert ray_timing.metric.tolist() == local_timing.metric.tolist() == METRICS
+    # a Ray run that lost three shards is finished by the local engine, the others untouched
+    shards = sorted((tmp_path / "ray").glob("clip_id=*/shard-*.parquet"))
+    for p in shards[2:5]:
+        p.unlink()
+    (tmp_path / "ray" / ds.MANIFEST).unlink()
+    kept = {p: p.stat().st_mtime_ns for p in shards[:2] + shards[5:]}
+    assert main([*local_args, "--out", str(tmp_path / "ray")]) == 0
+    assert all(p.stat().st_mtime_ns == t for p, t in kept.items())
+    pd.testing.assert_frame_equal(ds.read_dataset(tmp_path / "ray"), on_ray, check_exact=False, atol=1e-6, rtol=0)
+
+
 def test_imagenet_proxy_on_ray_equals_a_per_pair_loop(ray_local, fleet, tmp_path):
     from PIL import Image
 
