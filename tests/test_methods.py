@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import shutil
 from pathlib import Path
 from types import SimpleNamespace
@@ -24,6 +25,7 @@ from analysis.inputs import classify_columns
 from annotate.cli import main as annotate_main
 from annotate.simulate import item_severity
 from annotate.study import load_study
+from data_schema import datasets as ds
 from data_schema.errors import InputError
 from data_schema.scene import load_scene
 from nvrq.cli import main as nvrq_main
@@ -217,23 +219,48 @@ def test_analyze_pairs_carries_the_method_through(clip, tmp_path):
     assert "method" not in attributes and "lighting" in attributes
 
 
-def test_fleet_dataset_and_ray_shards_keep_methods_with_their_gt(clip, tmp_path):
-    # a fleet of the 3-method clip and a single-method one: one schema, method empty there
-    single = tmp_path / "single"
-    assert nvrq_main(["synth", str(single), *CLIP, "--seed", "1"]) == 0
-    assert nvrq_main(["pairs", str(clip / "scene"), str(single), "--out", str(tmp_path / "ds"), "--quiet"]) == 0
-    from data_schema import datasets as ds
+@pytest.fixture(scope="module")
+def fleet(clip, tmp_path_factory):
+    """A pairs dataset of the 3-method clip and a single-method clip (seed 1)."""
+    d = tmp_path_factory.mktemp("fleet")
+    assert nvrq_main(["synth", str(d / "single"), *CLIP, "--seed", "1"]) == 0
+    assert nvrq_main(["pairs", str(clip / "scene"), str(d / "single"), "--out", str(d / "ds"), "--quiet"]) == 0
+    return d / "ds"
 
-    table = ds.read_dataset(tmp_path / "ds")
+
+def test_fleet_dataset_and_ray_shards_keep_methods_with_their_gt(fleet):
+    # one schema: method empty in the single-method clip, whose pair ids are unchanged
+    table = ds.read_dataset(fleet)
     by_clip = table.groupby("clip_id")["method"].agg(lambda s: sorted(set(s.fillna(""))))
     assert by_clip["synth-000000"] == sorted(METHODS) and by_clip["synth-000001"] == [""]
     assert not table.loc[table["clip_id"] == "synth-000001", "pair_id"].str.count(":").ne(4).any()
-    shards = plan_shards(read_sources(tmp_path / "ds", required=("pair_id", "gt_path")), max_pairs=7)
+    shards = plan_shards(read_sources(fleet, required=("pair_id", "gt_path")), max_pairs=7)
     owner = {}
     for s in shards:
         part = table[table["clip_id"] == s.clip_id].reset_index(drop=True).iloc[list(s.rows)]
         for g in part["gt_path"].unique():
             assert owner.setdefault((s.clip_id, g), s.index) == s.index  # never split across shards
+
+
+@pytest.mark.slow  # starts a local Ray instance
+def test_ray_engine_scores_method_pairs_as_the_local_engine(fleet, tmp_path):
+    ray = pytest.importorskip("ray")
+    os.environ.setdefault("RAY_AUTH_MODE", "disabled")
+    started = not ray.is_initialized()
+    if started:
+        ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    try:
+        assert nvrq_main(["score", str(fleet), "--out", str(tmp_path / "m"), "--metrics", "psnr,ssim",
+                          "--engine", "ray", "--shard-pairs", "7", "--quiet"]) == 0
+    finally:
+        if started:
+            ray.shutdown()
+    got = ds.read_dataset(tmp_path / "m")
+    pairs = ds.read_dataset(fleet)
+    want = score_pairs(pairs, metrics=["psnr", "ssim"], progress=False).table
+    assert got["pair_id"].tolist() == pairs["pair_id"].tolist()  # every method's pair, once
+    for c in ("psnr", "ssim"):
+        np.testing.assert_array_equal(got[c].to_numpy(), want[c].to_numpy())
 
 
 # --- the binary study on multi-method pairs -------------------------------------------------------
