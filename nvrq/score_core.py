@@ -5,8 +5,10 @@ Every command that compares crops (``nvrq score``, ``calibrate-tau``, ``stabilit
 
 - :func:`iter_crop_batches` turns a pairs table into :class:`CropBatch` es. It reads files:
   pairs are grouped by GT image, each image of a batch is decoded once
-  (:func:`nvrq.crops.read_rgb`), one GT image's pairs never straddle two batches, and the GT
-  crop shared by every render offset of an object at a frame appears once in ``gt_crops``.
+  (:func:`nvrq.crops.read_rgb`), one GT image's pairs (every view and method) never straddle
+  two batches, and the GT crop shared by every render view and method of an object at a frame
+  appears once in ``gt_crops`` (keyed by GT image and box: ``G + M·R`` encoder images for M
+  methods, docs/FORMATS.md §4).
   With ``background=True`` one thread decodes ahead (bounded queue; its exceptions are
   re-raised in the caller); ``decode_threads`` decode a batch's images in parallel.
   :func:`decode_schedule` chooses both so that decoding does not stall a CPU encoder.

@@ -9,8 +9,9 @@
    (:func:`~nvrq.score_core.decode_schedule`).
 2. :func:`~nvrq.score_core.score_crop_batch` computes the pixel metrics and, for
    ``nvrq``/``nvrq_ca``, embeds each GT crop once: the GT crop of an object at a frame is
-   shared by every render offset, so a frame with 7 offsets needs 8 encoder images for
-   7 pairs, not 14. The encoder runs ``batch_size`` crops at a time.
+   shared by every render offset (and method, docs/FORMATS.md §2), so a frame with 7 offsets
+   needs 8 encoder images for 7 pairs, not 14 (3 methods: 22 for 21 pairs, not 24). The
+   encoder runs ``batch_size`` crops at a time.
 3. The columns are assembled in the pairs' order, with the timing table.
 
 NVRQ (paper Eq. 4): ``S = (cos(f_gt, f_render) + 1) / 2``. NVRQ-CA (Eq. 5):
