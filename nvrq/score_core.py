@@ -275,7 +275,7 @@ def score_crop_batch(batch: CropBatch, *, metrics: Sequence[str], encoder=None, 
     """
     metrics = list(metrics)
     check_metric_args(metrics, encoder=encoder, tau=tau, batch_size=batch_size)
-    if len(batch.render_crops) and not len(batch.gt_crops):
+    if len(batch.render_crops) and not len(batch.gt_crops if batch.gt_crops is not None else ()):
         needs_gt = reference_columns(metrics)
         if needs_gt:
             raise InputError("gt_crops", None, f"GT crops for the reference metrics {', '.join(needs_gt)}",

@@ -112,7 +112,7 @@ def niqe_features(render: np.ndarray) -> np.ndarray:
     grey = (check_rgb(render).astype(np.float64) @ np.asarray(SKVIDEO_GREY)).astype(np.float32)
     h, w = grey.shape
     grey = np.ascontiguousarray(grey[:h - h % PATCH, :w - w % PATCH])
-    half = np.asarray(Image.fromarray(grey, mode=None).resize((grey.shape[1] // 2, grey.shape[0] // 2),
+    half = np.asarray(Image.fromarray(grey).resize((grey.shape[1] // 2, grey.shape[0] // 2),
                                                               Image.Resampling.BICUBIC), np.float32)
     return np.hstack([_patch_features(_mscn(grey), PATCH), _patch_features(_mscn(half), PATCH // 2)])
 

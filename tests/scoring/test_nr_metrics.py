@@ -5,6 +5,7 @@ straightforward per-patch loops written from the papers."""
 from __future__ import annotations
 
 import math
+import warnings
 
 import cv2
 import numpy as np
@@ -175,7 +176,9 @@ def test_niqe_equals_a_per_patch_loop(chelsea):
 def test_niqe_equals_scikit_videos_own_function(coffee, monkeypatch):
     # scikit-video's niqe() itself, with the two APIs it uses that NumPy 2 / SciPy removed put back
     # (np.int; scipy.misc.imresize(img, 0.5, 'bicubic', mode='F') was PIL's bicubic resize)
-    import scipy.misc
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)  # scipy.misc is deprecated
+        import scipy.misc
 
     def imresize(arr, size, interp="bicubic", mode=None):
         im = Image.fromarray(np.asarray(arr, np.float32))
