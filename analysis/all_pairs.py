@@ -276,6 +276,7 @@ def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), tar
     With ``compare_methods`` the object columns are kept for :mod:`analysis.methods` and
     ``target`` may be None (then no metric is correlated: only the leaderboard is reported)."""
     keep = ("camera", "timestamp_us") if compare_methods else ()  # the view columns are read anyway
+    timing = read_timing(find_timing_files(timing_paths, metrics_paths))  # before the statistics
     items, clusters, unknown = read_all_pairs(pairs_path, metrics_paths=metrics_paths, progress=progress,
                                               keep=keep)
     if target is not None or not compare_methods:
@@ -298,7 +299,6 @@ def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), tar
                             n_boot=n_boot, seed=seed, rank_by=rank_by, progress=progress)
     categories = breakdowns.category_table(items, ranked, by=["label_class"] + attributes,
                                            target=target or "y_offset_m", progress=progress)
-    timing = read_timing(find_timing_files(timing_paths, metrics_paths))
     by_offset, by_axis = axes.view_tables(items, ([target] if target else []) + metrics)
     counts = {"votes": 0, "test_votes": 0, "test_votes_kept": 0, "items": len(items),
               "tracks": int(clusters.max()) + 1 if len(clusters) else 0,

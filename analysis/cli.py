@@ -31,7 +31,13 @@ from analysis.pairwise_report import bt_display, write_pairwise_report
 from analysis.pipeline import run_analysis
 from analysis.report import summary_display, write_report
 from analysis.summary import RANK_BY
-from data_schema.cliargs import CommaList, DeprecatedFileOption, flags_in_errors
+from data_schema.cliargs import (
+    CommaList,
+    DeprecatedFileOption,
+    flags_in_errors,
+    int_arg,
+    number_arg,
+)
 from data_schema.errors import ArgumentParser, InputError, run_cli
 from data_schema.outputs import check_output_folder
 
@@ -116,7 +122,7 @@ def _add_options(p: ArgumentParser) -> None:
     )
     p.add_argument(
         "--margin",
-        type=float,
+        type=number_arg(low=0),
         default=DEFAULT_MARGIN,
         help="non-inferiority margin on SRCC for the recommended cheapest metric "
         f"(default {DEFAULT_MARGIN})",
@@ -137,12 +143,12 @@ def _add_options(p: ArgumentParser) -> None:
     )
     p.add_argument(
         "--bootstrap",
-        type=int,
+        type=int_arg(low=0),
         default=1000,
         metavar="N",
         help="cluster-bootstrap replicates over tracks (0: no CIs; default 1000)",
     )
-    p.add_argument("--seed", type=int, default=0, help="bootstrap seed (default 0)")
+    p.add_argument("--seed", type=int_arg(low=0), default=0, help="bootstrap seed (default 0)")
     p.add_argument(
         "--rank-by",
         choices=RANK_BY,
@@ -192,8 +198,6 @@ def _main(argv=None) -> int:
 
 
 def _run(args) -> int:
-    if args.bootstrap < 0:
-        raise InputError("--bootstrap", None, "a non-negative number of replicates", args.bootstrap)
     if (args.ratings is None) == (args.pairs is None):
         raise InputError("RATINGS/--pairs", None, "either a ratings file or --pairs PAIRS",
                          "both" if args.pairs else "neither")

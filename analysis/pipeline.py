@@ -265,6 +265,9 @@ def run_analysis(
 ) -> Analysis:
     """The whole analysis (see the module docstring); raises ``InputError`` on bad input."""
     votes, tables, timing_files = _read_inputs(ratings_path, metrics_paths, timing_paths)
+    # every input file is read before the statistics (a bad --timing or --stability ends at once)
+    timing = read_timing(timing_files)
+    stab, snr = read_stability(stability_dir) if stability_dir is not None else (None, None)
     raters, kept = _screen_raters(votes, ratings_path, screen=screen,
                                   exclude_raters=exclude_raters)
     alpha = _agreement(votes, kept)
@@ -287,14 +290,13 @@ def run_analysis(
     ceiling = _ceiling(kept, summary, tgt, seed=seed)
     categories = breakdowns.category_table(items, metrics, by=["label_class"] + attributes,
                                            target=tgt, progress=progress)
-    stab, snr = read_stability(stability_dir) if stability_dir is not None else (None, None)
     by_offset, by_axis = axes.view_tables(items, [tgt] + metrics, by="label_class")
     return Analysis(
         ratings_path=str(ratings_path), target=tgt, items=items, metrics=metrics,
         directions=directions, attributes=attributes, proxies=proxies, summary=summary,
         categories=categories, by_offset=by_offset, by_axis=by_axis,
         encoders=breakdowns.encoder_table(summary), raters=raters, alpha=alpha,
-        counts=_counts(votes, kept, items, raters, clusters), timing=read_timing(timing_files),
+        counts=_counts(votes, kept, items, raters, clusters), timing=timing,
         stability=stab, snr=snr, notes=notes, unknown_ids=unknown, n_boot=n_boot, seed=seed,
         rank_by=rank_by, screen=screen, ceiling=ceiling,
         comparison=_model_comparison(items, metrics, directions, summary, tgt,

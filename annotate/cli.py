@@ -28,6 +28,7 @@ from data_schema.cliargs import (
     add_link_option,
     allow_negative_lists,
     flags_in_errors,
+    int_arg,
     parse_wxh,
 )
 from data_schema.errors import ArgumentParser, InputError, run_cli
@@ -147,7 +148,7 @@ def _cmd_simulate(args) -> int:
 def _add_address(p) -> None:
     """The rater app's address options (``serve`` and the sign-in links of ``add-rater``)."""
     p.add_argument("--host", default="127.0.0.1")
-    p.add_argument("--port", type=int, default=8501)
+    p.add_argument("--port", type=int_arg(high=65535), default=8501)
 
 
 def build_parser() -> ArgumentParser:
@@ -162,19 +163,19 @@ def build_parser() -> ArgumentParser:
                    help="metrics table (pair_id + metric columns) for the export; repeatable")
     b.add_argument("--metrics", dest="metrics_tables", action=DeprecatedFileOption, new="--metrics-table",
                    help=argparse.SUPPRESS)
-    b.add_argument("--tracks", type=int, default=12)
-    b.add_argument("--frames-per-track", type=int, default=12)
+    b.add_argument("--tracks", type=int_arg(), default=12)
+    b.add_argument("--frames-per-track", type=int_arg(), default=12)
     b.add_argument("--offsets", default="all", help="'all' or a comma list of metres, e.g. -1,0,1")
-    b.add_argument("--votes-per-item", type=int, default=5)
-    b.add_argument("--seed", type=int, default=0)
-    b.add_argument("--training", type=int, default=5, help="training items (shown first)")
-    b.add_argument("--gold", type=int, default=3, help="hidden gold items of each kind")
-    b.add_argument("--repeats", type=int, default=5, help="repeated test items")
+    b.add_argument("--votes-per-item", type=int_arg(), default=5)
+    b.add_argument("--seed", type=int_arg(low=0), default=0)
+    b.add_argument("--training", type=int_arg(low=0), default=5, help="training items (shown first)")
+    b.add_argument("--gold", type=int_arg(low=0), default=3, help="hidden gold items of each kind")
+    b.add_argument("--repeats", type=int_arg(low=0), default=5, help="repeated test items")
     b.add_argument("--size", default="320x320", action=DeprecatedSize, metavar="WxH",
                    help="display size of each crop, a square WxH in pixels (default 320x320)")
     b.add_argument("--image-format", default="jpg", choices=["jpg", "png"])
     b.add_argument("--access", default="open", choices=["open", "token"])
-    b.add_argument("--break-every", type=int, default=50)
+    b.add_argument("--break-every", type=int_arg(), default=50)
     b.add_argument("--design", default="binary", choices=["binary", "pairwise"],
                    help="binary: good/bad votes on (GT, render); pairwise: which of two methods' "
                    "renders is closer to the GT (the pairs need a method column)")
@@ -203,8 +204,8 @@ def build_parser() -> ArgumentParser:
     g.set_defaults(func=_cmd_gvf)
     m = sub.add_parser("simulate", help="add simulated raters (ids sim-*)")
     m.add_argument("study")
-    m.add_argument("--raters", type=int, default=5)
-    m.add_argument("--seed", type=int, default=0)
+    m.add_argument("--raters", type=int_arg(), default=5)
+    m.add_argument("--seed", type=int_arg(low=0), default=0)
     m.set_defaults(func=_cmd_simulate)
     return p
 

@@ -10,6 +10,8 @@ The rule, one per kind of argument:
   because ``--metrics`` lists metric names.
 - **Image sizes**: ``WxH`` in pixels, e.g. ``--size 960x540`` (a square such as a study's
   display crops is ``320x320``).
+- **Numbers** are checked when the command line is parsed (``type=int_arg(...)`` /
+  ``number_arg(...)``), before any file is read or model loaded: ``--batch-size 0`` ends at once.
 - **Defaults shared by commands** come from one constant (e.g. ``--min-side`` from
   :data:`data_schema.tables.MIN_SIDE_PX`).
 
@@ -28,10 +30,11 @@ import contextlib
 import re
 import sys
 
-from data_schema.errors import InputError
+from data_schema.errors import InputError, check_int, check_number
 
 __all__ = ["comma_list", "parse_wxh", "CommaList", "DeprecatedFileOption", "DeprecatedSize", "deprecated",
-           "allow_negative_lists", "NEGATIVE_LIST", "option_for", "flags_in_errors", "add_link_option"]
+           "allow_negative_lists", "NEGATIVE_LIST", "option_for", "flags_in_errors", "add_link_option",
+           "int_arg", "number_arg", "checked_arg"]
 
 #: A comma list of numbers that may start with a minus sign (``-3,-2,0``): a value, not an option.
 NEGATIVE_LIST = re.compile(r"^-\d*\.?\d+([x,]\s*[-+]?\d*\.?\d+)*$")
@@ -141,3 +144,56 @@ def add_link_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-follow-links", action="store_true",
                         help="refuse images whose symbolic links lead outside the scene folder "
                              "(also NVRQ_NO_FOLLOW_LINKS=1; default: links are followed)")
+
+
+def checked_arg(convert, check, what: str = "a number"):
+    """An argparse ``type``: ``convert`` the text, then ``check`` the value (a library check that
+    raises :class:`InputError`, such as :func:`~data_schema.errors.check_int`; its result, else
+    the value, is the option's value); a failure is argparse's one-line usage error naming the
+    option, with the check's ``expected`` text."""
+
+    def parse(text: str):
+        try:
+            value = convert(text)
+        except (TypeError, ValueError):
+            try:
+                check(float(text))  # a number of the wrong kind says what was expected
+            except (TypeError, ValueError, InputError) as err:
+                expected = getattr(err, "expected", what)
+                raise argparse.ArgumentTypeError(f"expected {expected}, got {text}") from None
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text}") from None
+        try:
+            checked = check(value)
+        except InputError as err:
+            raise argparse.ArgumentTypeError(f"expected {err.expected}, got {text}") from None
+        return value if checked is None else checked
+
+    parse.__name__ = what  # argparse names the type in some messages
+    return parse
+
+
+def int_arg(*, low: int = 1, high: int | None = None):
+    """argparse ``type`` of an integer option in ``[low, high]`` (:func:`~data_schema.errors.check_int`).
+
+    >>> int_arg(low=0)("3")
+    3
+    >>> int_arg()("0")
+    Traceback (most recent call last):
+    ...
+    argparse.ArgumentTypeError: expected a positive integer, got 0
+    """
+    return checked_arg(int, lambda v: check_int("value", v, low=low, high=high), "an integer")
+
+
+def number_arg(*, low: float | None = None, high: float | None = None, low_open: bool = False,
+               high_open: bool = False):
+    """argparse ``type`` of a finite real option within the bounds
+    (:func:`~data_schema.errors.check_number`; ``nan`` and ``inf`` are refused).
+
+    >>> number_arg(low=0, low_open=True)("nan")
+    Traceback (most recent call last):
+    ...
+    argparse.ArgumentTypeError: expected a positive number, got nan
+    """
+    return checked_arg(float, lambda v: check_number("value", v, low=low, high=high, low_open=low_open,
+                                                   high_open=high_open), "a number")

@@ -48,7 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from data_schema.errors import InputError
+from data_schema.errors import InputError, check_int
 from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS, pair_boxes, pair_image_paths
 from nvrq.crops import cut_box, encoder_input, read_rgb, resize_to
 from nvrq.metrics import REGISTRY, MetricInfo, split_column
@@ -172,9 +172,9 @@ def embed_crops(crops: Sequence[np.ndarray], encoder, *, batch_size: int = 32,
 # --- the pure per-batch scorer -----------------------------------------------------------------
 
 def check_positive(name: str, value) -> None:
-    """:class:`InputError` naming ``name`` unless ``value`` is a positive integer (not a bool)."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise InputError(name, None, "a positive integer", value)
+    """:class:`InputError` naming ``name`` unless ``value`` is a positive integer (not a bool;
+    :func:`data_schema.errors.check_int`)."""
+    check_int(name, value, low=1)
 
 
 def column_info(column: str) -> MetricInfo:

@@ -10,7 +10,7 @@ from __future__ import annotations
 import sys
 from collections.abc import Sequence
 
-from data_schema.cliargs import comma_list
+from data_schema.cliargs import checked_arg, comma_list, int_arg, number_arg
 from data_schema.errors import InputError
 from nvrq import encoders
 from nvrq.calibrate import resolve_tau
@@ -27,9 +27,9 @@ __all__ = ["add_model_arguments", "add_encoder_arguments", "prepare_device", "en
 
 def add_model_arguments(p, *, batch_help: str = "crops per forward pass (default 32)") -> None:
     """``--batch-size``, ``--device``, ``--threads``."""
-    p.add_argument("--batch-size", type=int, default=32, help=batch_help)
+    p.add_argument("--batch-size", type=int_arg(), default=32, help=batch_help)
     p.add_argument("--device", default="cpu", help="torch device, e.g. cpu or cuda (default cpu)")
-    p.add_argument("--threads", type=int, default=None, help="torch CPU threads (default: all cores)")
+    p.add_argument("--threads", type=int_arg(), default=None, help="torch CPU threads (default: all cores)")
 
 
 def add_encoder_arguments(p, *, tau: bool = True) -> None:
@@ -38,7 +38,7 @@ def add_encoder_arguments(p, *, tau: bool = True) -> None:
     p.add_argument("--weights", default=None,
                    help="local weights: a Hugging Face model folder, or a .pth for efficientnet-lite0")
     if tau:
-        p.add_argument("--tau", type=float, default=None,
+        p.add_argument("--tau", type=checked_arg(float, check_tau), default=None,
                        help="NVRQ-CA tau (default: user config, then registry)")
     p.add_argument("--config", default=None,
                    help="tau config file (default $NVRQ_CONFIG or ~/.config/nvrq/tau.json)")
@@ -55,7 +55,7 @@ def add_runtime_arguments(p, *, precision: bool = True) -> None:
     if precision:
         p.add_argument("--precision", default="fp32", choices=PRECISIONS,
                        help="encoder precision (default fp32; bf16/int8 need `nvrq calibrate-runtime` first)")
-        p.add_argument("--min-spearman", type=float, default=None,
+        p.add_argument("--min-spearman", type=number_arg(low=-1, high=1), default=None,
                        help="NVRQ Spearman a reduced precision's drift check must reach (default 0.999)")
     add_cache_dir_argument(p)
 
@@ -71,7 +71,7 @@ def prepare_device(args) -> None:
     import torch
 
     if getattr(args, "threads", None) is not None:
-        torch.set_num_threads(max(1, args.threads))
+        torch.set_num_threads(args.threads)  # a positive integer (checked when parsed)
     if str(args.device).startswith("cuda") and not torch.cuda.is_available():
         raise InputError("--device", None, "an available device (cpu, or cuda with a GPU)", args.device)
 

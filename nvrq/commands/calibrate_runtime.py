@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from data_schema.cliargs import add_link_option
+from data_schema.cliargs import add_link_option, int_arg, number_arg
 from data_schema.errors import InputError
 from data_schema.tables import read_table
 from nvrq.commands._encoder import add_cache_dir_argument
@@ -31,11 +31,11 @@ def register(sub) -> None:
     p.add_argument("--precision", default="int8", choices=PRECISIONS,
                    help="precision checked (default int8; onnxruntime: fp32 or int8)")
     p.add_argument("--scene", default=None, help="scene folder (default: the scene_root column)")
-    p.add_argument("--sample", type=int, default=200, help="pairs checked (default 200)")
-    p.add_argument("--calib", type=int, default=150,
+    p.add_argument("--sample", type=int_arg(), default=200, help="pairs checked (default 200)")
+    p.add_argument("--calib", type=int_arg(), default=150,
                    help="other pairs whose GT crops calibrate int8 (default 150)")
-    p.add_argument("--seed", type=int, default=0, help="sampling seed (default 0)")
-    p.add_argument("--min-spearman", type=float, default=None,
+    p.add_argument("--seed", type=int_arg(low=0), default=0, help="sampling seed (default 0)")
+    p.add_argument("--min-spearman", type=number_arg(low=-1, high=1), default=None,
                    help="pass threshold reported here (default 0.999; `score` applies its own)")
     add_cache_dir_argument(p)
     p.add_argument("--random-weights", action="store_true", help="random weights (seed 0; benchmarks and tests without checkpoints)")
@@ -46,9 +46,6 @@ def register(sub) -> None:
 def run(args) -> int:
     name = args.encoder or DEFAULT_ENCODER
     spec = get_spec(name)
-    for opt in ("sample", "calib"):
-        if getattr(args, opt) < 1:
-            raise InputError(f"--{opt}", None, "a positive integer", getattr(args, opt))
     if (args.runtime, args.precision) == ("onnxruntime", "bf16"):
         raise InputError("--precision", None, "fp32 or int8 with --runtime onnxruntime", args.precision)
     pairs = read_table(args.pairs, required=REQUIRED_COLUMNS, what="pairs table")

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import datetime as dt
 
-from data_schema.cliargs import add_link_option
+from data_schema.cliargs import add_link_option, int_arg
 from data_schema.tables import read_table
 from nvrq.calibrate import calibrate_tau, config_path, write_tau
 from nvrq.commands._encoder import add_encoder_arguments, load_encoder_and_tau
@@ -22,9 +22,9 @@ def register(sub) -> None:
     p.add_argument("pairs", help="pairs table from `nvrq pairs` (.csv or .parquet)")
     add_encoder_arguments(p, tau=False)
     p.add_argument("--scene", default=None, help="scene folder (default: the scene_root column)")
-    p.add_argument("--max-crops", type=int, default=400, help="GT crops sampled (default 400)")
-    p.add_argument("--max-pairs", type=int, default=20000, help="unrelated pairs sampled (default 20000)")
-    p.add_argument("--seed", type=int, default=0, help="sampling seed (default 0)")
+    p.add_argument("--max-crops", type=int_arg(), default=400, help="GT crops sampled (default 400)")
+    p.add_argument("--max-pairs", type=int_arg(), default=20000, help="unrelated pairs sampled (default 20000)")
+    p.add_argument("--seed", type=int_arg(low=0), default=0, help="sampling seed (default 0)")
     p.add_argument("--allow-same-class", action="store_true",
                    help="also pair objects of the same class (different tracks), e.g. one-class scenes")
     p.add_argument("--write-config", action="store_true", help="store the tau in the --config file")

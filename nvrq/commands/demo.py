@@ -17,8 +17,10 @@ import time
 from importlib.metadata import distribution
 from pathlib import Path
 
-from data_schema.cliargs import allow_negative_lists
+from data_schema.cliargs import allow_negative_lists, int_arg, number_arg, parse_wxh
 from data_schema.errors import InputError
+from data_schema.tables import parse_offsets
+from nvrq.encoders import get_spec
 
 __all__ = ["register", "run", "demo_steps", "method_steps"]
 
@@ -27,12 +29,12 @@ def register(sub) -> None:
     p = sub.add_parser("demo", help="synthetic scene -> pairs -> scores -> study -> simulated votes -> report",
                        description="Run the whole workflow offline on a built-in synthetic scene.")
     p.add_argument("out", help="output folder (created; must be empty or absent)")
-    p.add_argument("--seed", type=int, default=0, help="scene seed (default 0)")
-    p.add_argument("--seconds", type=float, default=6.0, help="clip length in seconds (default 6)")
+    p.add_argument("--seed", type=int_arg(low=0), default=0, help="scene seed (default 0)")
+    p.add_argument("--seconds", type=number_arg(low=0, low_open=True), default=6.0, help="clip length in seconds (default 6)")
     p.add_argument("--size", default="960x540", help="image size WxH (default 960x540)")
     p.add_argument("--offsets", default="-3,-2,-1,0,1,2,3", help="render offsets in metres")
     p.add_argument("--encoder", default="efficientnet-lite0", help="encoder for nvrq/nvrq_ca (default: offline)")
-    p.add_argument("--raters", type=int, default=5, help="simulated raters (default 5)")
+    p.add_argument("--raters", type=int_arg(), default=5, help="simulated raters (default 5)")
     p.add_argument("--methods", default=None, metavar="NAME:SCALE,...",
                    help="compare reconstruction methods: render the clip once per method (artefact "
                         "severity times SCALE), rank them (analyze --compare-methods) and run a "
@@ -101,6 +103,10 @@ def _entry(program: str):
 
 def run(args) -> int:
     out = Path(args.out)
+    # the arguments the steps pass on are checked before the first step (numbers when parsed)
+    parse_wxh(args.size, option="--size")
+    parse_offsets(args.offsets, field="--offsets")
+    get_spec(args.encoder)
     if out.exists() and any(out.iterdir()):
         raise InputError(out, None, "an empty or absent output folder", "a folder with files in it")
     out.mkdir(parents=True, exist_ok=True)

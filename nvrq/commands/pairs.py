@@ -7,7 +7,7 @@ import sys
 import time
 from pathlib import Path
 
-from data_schema.cliargs import add_link_option
+from data_schema.cliargs import add_link_option, number_arg
 from data_schema.errors import InputError
 from data_schema.tables import MIN_SIDE_PX, write_table
 from nvrq.clip_attributes import read_clip_attributes
@@ -28,9 +28,9 @@ def register(sub) -> None:
                    help="table of clip_id + attribute columns (e.g. lighting, road_type) to apply")
     p.add_argument("--keep-going", action="store_true",
                    help="several clips: write the good ones and failed.csv, exit 1 if any failed")
-    p.add_argument("--min-side", type=float, default=MIN_SIDE_PX,
+    p.add_argument("--min-side", type=number_arg(low=0), default=MIN_SIDE_PX,
                    help=f"shorter side of the box in pixels (default {MIN_SIDE_PX})")
-    p.add_argument("--min-area", type=float, default=0, help="box area in square pixels (default 0)")
+    p.add_argument("--min-area", type=number_arg(low=0), default=0, help="box area in square pixels (default 0)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     add_link_option(p)
     p.set_defaults(func=run)

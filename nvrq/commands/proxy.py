@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 
-from data_schema.cliargs import add_link_option
+from data_schema.cliargs import add_link_option, int_arg
 from data_schema.errors import InputError
 from data_schema.tables import (
     GT_BOX_COLUMNS,
@@ -94,7 +94,7 @@ def register(sub) -> None:
     y.add_argument(
         "--out", required=True, help="DETS table (.csv or .parquet) for `nvrq proxy detection`"
     )
-    y.add_argument("--imgsz", type=int, default=640, help="inference size (default 640)")
+    y.add_argument("--imgsz", type=int_arg(), default=640, help="inference size (default 640)")
     _model_opts(y)
     y.set_defaults(func=run_detect)
 

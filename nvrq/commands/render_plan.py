@@ -31,12 +31,13 @@ def register(sub) -> None:
 def run(args) -> int:
     if not str(args.out).lower().endswith((".csv", ".json")):
         raise InputError("--out", None, "a plan file ending in .csv or .json", args.out)
-    scene = load_scene(args.scene, check_images=False)
     offsets = None if args.offsets is None else parse_offsets(args.offsets, field="--offsets")
+    views = perturb_grid(args)  # the arguments before the scene is read
     cameras = (
         None if args.cameras is None else [c.strip() for c in args.cameras.split(",") if c.strip()]
     )
-    plan = render_plan(scene, offsets=offsets, perturbations=perturb_grid(args), cameras=cameras)
+    scene = load_scene(args.scene, check_images=False)
+    plan = render_plan(scene, offsets=offsets, perturbations=views, cameras=cameras)
     write_render_plan(plan, args.out, clip_id=scene.clip_id)
     print(f"{len(plan)} renders -> {args.out}")
     return 0

@@ -60,9 +60,9 @@ def run(args) -> int:
         return _ray(args, columns, encoder_name)
     if is_dataset(args.pairs):
         return _local_dataset(args, columns, encoder_name)
-    pairs = read_table(args.pairs, required=REQUIRED_COLUMNS, what="pairs table")
     if not str(args.out).lower().endswith((".csv", ".parquet")):
         raise InputError(args.out, None, "an output file ending in .csv or .parquet", args.out)
+    pairs = read_table(args.pairs, required=REQUIRED_COLUMNS, what="pairs table")
     encoder, tau = encoder_for_columns(args, columns, encoder_name)
     cv2.setNumThreads(1)  # crops are small; leave the cores to the encoder and the decode thread
     res = score_pairs(pairs, metrics=columns, encoder=encoder, tau=tau, scene_root=args.scene,

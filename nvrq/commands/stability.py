@@ -11,7 +11,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from data_schema.cliargs import add_link_option
+from data_schema.cliargs import add_link_option, int_arg
 from data_schema.errors import InputError
 from data_schema.outputs import mark_report
 from data_schema.tables import GT_BOX_COLUMNS, MIN_SIDE_PX, read_table, write_table
@@ -37,10 +37,10 @@ def register(sub) -> None:
         "psnr,ssim,gmsd,nvrq:dinov2-small,nvrq_ca:dinov2-small)",
     )
     add_encoder_arguments(p)
-    p.add_argument("--n-objects", type=int, default=60, help="GT crops sampled (default 60)")
-    p.add_argument("--seed", type=int, default=0, help="sampling and perturbation seed (default 0)")
+    p.add_argument("--n-objects", type=int_arg(low=2), default=60, help="GT crops sampled (default 60)")
+    p.add_argument("--seed", type=int_arg(low=0), default=0, help="sampling and perturbation seed (default 0)")
     p.add_argument(
-        "--min-side", type=int, default=MIN_SIDE_PX,
+        "--min-side", type=int_arg(), default=MIN_SIDE_PX,
         help=f"smallest GT crop side used (default {MIN_SIDE_PX}, as nvrq pairs)"
     )
     p.add_argument("--quiet", action="store_true", help="no progress bars")

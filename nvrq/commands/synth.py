@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from data_schema.cliargs import allow_negative_lists, parse_wxh
+from data_schema.cliargs import allow_negative_lists, int_arg, number_arg, parse_wxh
 from data_schema.methods import parse_methods
 from data_schema.perturbation import parse_perturb
 from data_schema.tables import parse_offsets
@@ -60,9 +60,9 @@ def register(sub) -> None:
         "images, renders at lateral offsets and degradation.csv.",
     )
     p.add_argument("out", help="output scene folder")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--seconds", type=float, default=10.0, help="clip length (default 10)")
-    p.add_argument("--fps", type=float, default=10.0, help="frame rate (default 10)")
+    p.add_argument("--seed", type=int_arg(low=0), default=0, help="random seed (default 0)")
+    p.add_argument("--seconds", type=number_arg(low=0, low_open=True), default=10.0, help="clip length (default 10)")
+    p.add_argument("--fps", type=number_arg(low=0, high=1000, low_open=True), default=10.0, help="frame rate (default 10)")
     add_view_options(p)
     p.add_argument(
         "--cameras", default="pinhole", help="comma list from {pinhole, ftheta} (default pinhole)"

@@ -10,6 +10,7 @@ the Ray engine runs.
 
 from __future__ import annotations
 
+from data_schema.cliargs import int_arg
 from data_schema.errors import InputError
 
 __all__ = ["ENGINES", "RAY_EXTRA", "add_engine_args", "require_ray"]
@@ -28,10 +29,10 @@ def add_engine_args(parser) -> None:
     g.add_argument("--address", default=None, metavar="ADDR",
                    help="--engine ray: join the cluster at ADDR (HEAD:6379, or auto); default: start "
                         "a local Ray instance sized to this machine")
-    g.add_argument("--actors", type=int, default=None, metavar="N",
+    g.add_argument("--actors", type=int_arg(), default=None, metavar="N",
                    help="--engine ray: encoder actors (default: one per GPU with --device cuda, else "
                         "one per 2 CPUs)")
-    g.add_argument("--shard-pairs", type=int, default=256, metavar="N",
+    g.add_argument("--shard-pairs", type=int_arg(), default=256, metavar="N",
                    help="pairs per output shard of a sharded run (--engine ray, or a pairs dataset), "
                         "GT groups kept whole (default 256)")
 

@@ -32,10 +32,6 @@ def check_engine_args(args, *, local_datasets: bool = False) -> None:
                              "the local engine)", args.precision)
         if getattr(args, "column_tag", None) is not None:
             raise InputError("--column-tag", None, "untagged columns with --engine ray", args.column_tag)
-        if getattr(args, "batch_size", 1) < 1:
-            raise InputError("--batch-size", None, "a positive integer", args.batch_size)
-        if args.actors is not None and args.actors < 1:
-            raise InputError("--actors", None, "a positive number of actors", args.actors)
     if not sharded_output(args, local_datasets=local_datasets):
         return
     why = "--engine ray" if args.engine == "ray" else "a pairs dataset"
@@ -44,8 +40,6 @@ def check_engine_args(args, *, local_datasets: bool = False) -> None:
     if Path(args.out).suffix != "":
         raise InputError("--out", None, f"a folder without a suffix for {why} (Parquet shards "
                          "partitioned by clip_id)", args.out)
-    if args.shard_pairs < 1:
-        raise InputError("--shard-pairs", None, "a positive number of pairs", args.shard_pairs)
 
 
 def report_sharded(res: dict, out, *, engine: str) -> None:

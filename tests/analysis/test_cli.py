@@ -253,3 +253,21 @@ def test_report_is_replaced_whole_or_not_at_all(data, capsys, monkeypatch):
     assert sorted(p.name for p in (d / "o").iterdir()) == before  # the old report stays
     assert (d / "o" / "report.html").read_text() != "half"
     assert sorted(p.name for p in d.iterdir()) == siblings  # no .part folder left
+
+
+def test_bad_stability_or_timing_input_ends_before_the_statistics(data, capsys, monkeypatch):
+    """Every input file is read before the bootstrap (issue 23 item 2): a missing --stability
+    folder or a broken --timing file ends the run before any statistic is computed."""
+    import analysis.pipeline
+
+    def computed(*args, **kwargs):
+        raise AssertionError("statistics computed before the inputs were all read")
+
+    monkeypatch.setattr(analysis.pipeline, "summary_table", computed)
+    d, _, _ = data
+    rc, cap = _run_quick(d, d / "metrics.csv", capsys, "--stability", d / "no-such-dir")
+    assert rc == 2 and "no-such-dir" in cap.err and len(cap.err.strip().splitlines()) == 1
+    (d / "bad.timing.csv").write_text("metric,seconds\npsnr,1\n")
+    rc, cap = _run_quick(d, d / "metrics.csv", capsys, "--timing", d / "bad.timing.csv")
+    assert rc == 2 and "bad.timing.csv" in cap.err and len(cap.err.strip().splitlines()) == 1
+    assert not (d / "o").exists()

@@ -43,8 +43,12 @@ def test_tau_from_option_then_config_and_checked_before_loading(tmp_path, monkey
                                 needs_tau=True) == ("dinov2-small", 0.42)
     assert load_encoder_and_tau(_args("--config", str(cfg), "--tau", "0.3"),
                                 needs_tau=True, name="dinov2-small")[1] == 0.3
+    with pytest.raises(SystemExit):  # refused when the command line is parsed (issue 23 item 2)
+        _args("--tau", "1.5")
+    args = _args()
+    args.tau = 1.5  # a caller's bad value: still refused before loading
     with pytest.raises(InputError, match=r"^tau: expected a number strictly between 0 and 1"):
-        load_encoder_and_tau(_args("--tau", "1.5"), needs_tau=True)
+        load_encoder_and_tau(args, needs_tau=True)
     assert loaded == ["dinov2-small", "dinov2-small"]  # the bad tau stopped before loading
 
 

@@ -1,0 +1,100 @@
+"""Every argument is checked before anything is read, loaded or exported (issue 23 item 2).
+
+Each case gives a command a bad argument and inputs that do not exist: had the command read its
+inputs or loaded a model first, it would fail on the missing file (or on the patched loaders
+below) instead of naming the option. Each must end with exit status 2, one stderr line naming
+the option, quickly, with nothing created (no output, no export cache).
+"""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from analysis.cli import main as analyze_main
+from annotate.cli import main as annotate_main
+from nvrq.cli import main as nvrq_main
+
+MAINS = {"nvrq": nvrq_main, "annotate": annotate_main, "analyze": analyze_main}
+
+SCORE = ["score", "{tmp}/in/pairs.csv", "--out", "{tmp}/m.csv", "--metrics", "psnr,nvrq",
+         "--cache-dir", "{tmp}/cache"]
+CASES = [
+    ("nvrq", [*SCORE, "--batch-size", "0"], "--batch-size"),
+    ("nvrq", [*SCORE, "--threads", "0"], "--threads"),
+    ("nvrq", [*SCORE, "--tau", "1.5"], "--tau"),
+    ("nvrq", [*SCORE, "--min-spearman", "2"], "--min-spearman"),
+    ("nvrq", [*SCORE, "--batch-size", "many"], "--batch-size"),
+    ("nvrq", ["score", "{tmp}/in/pairs", "--out", "{tmp}/m", "--engine", "ray", "--shard-pairs", "0"],
+     "--shard-pairs"),
+    ("nvrq", ["score", "{tmp}/in/pairs", "--out", "{tmp}/m", "--engine", "ray", "--actors", "0"], "--actors"),
+    ("nvrq", ["score", "{tmp}/in/pairs.csv", "--out", "{tmp}/m.txt", "--metrics", "nvrq"], "m.txt"),
+    ("nvrq", ["proxy", "imagenet", "{tmp}/in/pairs.csv", "--out", "{tmp}/p.csv", "--batch-size", "0"],
+     "--batch-size"),
+    ("nvrq", ["proxy", "clip", "{tmp}/in/pairs.csv", "--clip", "{tmp}/in/clip", "--out", "{tmp}/p.csv",
+              "--threads", "-2"], "--threads"),
+    ("nvrq", ["proxy", "detect", "{tmp}/in/pairs.csv", "--yolo", "{tmp}/in/y.pt", "--out", "{tmp}/d.csv",
+              "--imgsz", "0"], "--imgsz"),
+    ("nvrq", ["stability", "{tmp}/in/pairs.csv", "--out", "{tmp}/st", "--n-objects", "1"], "--n-objects"),
+    ("nvrq", ["stability", "{tmp}/in/pairs.csv", "--out", "{tmp}/st", "--seed", "-1"], "--seed"),
+    ("nvrq", ["stability", "{tmp}/in/pairs.csv", "--out", "{tmp}/st", "--batch-size", "0"], "--batch-size"),
+    ("nvrq", ["calibrate-tau", "{tmp}/in/pairs.csv", "--max-crops", "0"], "--max-crops"),
+    ("nvrq", ["calibrate-tau", "{tmp}/in/pairs.csv", "--batch-size", "0"], "--batch-size"),
+    ("nvrq", ["calibrate-runtime", "{tmp}/in/pairs.csv", "--sample", "0", "--cache-dir", "{tmp}/cache"],
+     "--sample"),
+    ("nvrq", ["calibrate-runtime", "{tmp}/in/pairs.csv", "--min-spearman", "5"], "--min-spearman"),
+    ("nvrq", ["pairs", "{tmp}/in/scene", "--out", "{tmp}/p.csv", "--min-area", "-1"], "--min-area"),
+    ("nvrq", ["synth", "{tmp}/s", "--fps", "0"], "--fps"),
+    ("nvrq", ["synth", "{tmp}/s", "--seconds", "nan"], "--seconds"),
+    ("nvrq", ["synth", "{tmp}/s", "--seed", "-3"], "--seed"),
+    ("nvrq", ["render-plan", "{tmp}/in/scene", "--offsets", "a,b", "--out", "{tmp}/plan.csv"], "--offsets"),
+    ("nvrq", ["import", "nurec", "{tmp}/in/a.usdz", "{tmp}/s", "--offsets", "x"], "--offsets"),
+    ("nvrq", ["demo", "{tmp}/demo", "--raters", "0"], "--raters"),
+    ("nvrq", ["demo", "{tmp}/demo", "--seconds", "0"], "--seconds"),
+    ("nvrq", ["demo", "{tmp}/demo", "--size", "0x0"], "--size"),
+    ("nvrq", ["demo", "{tmp}/demo", "--offsets", "left"], "--offsets"),
+    ("nvrq", ["demo", "{tmp}/demo", "--encoder", "nope"], "--encoder"),
+    ("annotate", ["build", "{tmp}/study", "--pairs", "{tmp}/in/pairs.csv", "--tracks", "0"], "--tracks"),
+    ("annotate", ["build", "{tmp}/study", "--pairs", "{tmp}/in/pairs.csv", "--training", "-1"], "--training"),
+    ("annotate", ["build", "{tmp}/study", "--pairs", "{tmp}/in/pairs.csv", "--break-every", "0"],
+     "--break-every"),
+    ("annotate", ["simulate", "{tmp}/in/study", "--raters", "0"], "--raters"),
+    ("annotate", ["serve", "{tmp}/in/study", "--port", "70000"], "--port"),
+    ("analyze", ["{tmp}/in/ratings.csv", "--out", "{tmp}/rep", "--bootstrap", "-1"], "--bootstrap"),
+    ("analyze", ["{tmp}/in/ratings.csv", "--out", "{tmp}/rep", "--seed", "-1"], "--seed"),
+    ("analyze", ["{tmp}/in/ratings.csv", "--out", "{tmp}/rep", "--margin", "nan"], "--margin"),
+]
+
+
+def _loaded(*args, **kwargs):
+    raise AssertionError("a model was loaded or exported before the arguments were checked")
+
+
+@pytest.fixture
+def no_models(monkeypatch):
+    """Every way a command loads, exports or builds something expensive fails the test."""
+    import nvrq.commands.calibrate_runtime as cr
+    import nvrq.commands.demo as demo
+    import nvrq.commands.proxy as proxy
+    import nvrq.commands.synth as synth
+    import nvrq.encoders as enc
+    import nvrq.encoders.runtimes as rt
+
+    for mod, name in [(enc, "load_encoder"), (rt, "wrap_runtime"), (rt, "exported"), (cr, "load_encoder"),
+                      (cr, "build_random"), (proxy, "load_classifier"), (proxy, "load_clip"),
+                      (proxy, "run_yolo"), (synth, "generate_scene"), (demo, "_entry")]:
+        monkeypatch.setattr(mod, name, _loaded)
+
+
+@pytest.mark.parametrize("prog, argv, option", CASES, ids=[f"{p} {' '.join(a[:1] + a[-2:])}" for p, a, _ in CASES])
+def test_bad_argument_ends_before_any_work(prog, argv, option, tmp_path, capsys, no_models):
+    t0 = time.perf_counter()
+    rc = MAINS[prog]([a.format(tmp=tmp_path) for a in argv])
+    seconds = time.perf_counter() - t0
+    err = capsys.readouterr().err
+    assert rc == 2, err
+    assert err.count("\n") == 1 and err.startswith("error: ") and option in err, err
+    assert "Traceback" not in err and "export" not in err
+    assert seconds < 2.0, seconds  # no model, no file: parsing only
+    assert list(tmp_path.iterdir()) == []  # no output, no export cache, no study, no report
