@@ -36,6 +36,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.methods import METHOD_COLUMN, method_columns, method_values
 from data_schema.perturbation import (
     VIEW_COLUMNS,
     extra_columns,
@@ -116,11 +117,13 @@ def _plan_views(scene, offsets, perturbations) -> np.ndarray:
 
 def render_plan(scene, *, offsets=None, perturbations=None, cameras=None) -> pd.DataFrame:
     """Plan rows (columns :data:`PLAN_COLUMNS`, matrices as (4, 4) arrays; then
-    :data:`PLAN_PERTURBATION_COLUMNS` when some view is not lateral) for ``scene``.
+    :data:`PLAN_PERTURBATION_COLUMNS` when some view is not lateral; then ``method`` for a
+    scene with methods) for ``scene``.
 
     ``offsets``: lateral metres, or ``perturbations (K, 6)`` (which take precedence);
     default the render views listed in ``images.csv``. Frames are the timestamps
-    ``images.csv`` lists for the camera, or the rig timestamps when it lists none. ``path``
+    ``images.csv`` lists for the camera, or the rig timestamps when it lists none. A scene
+    with methods (docs/FORMATS.md §2) gets one row per view and method (same pose). ``path``
     is the render's ``images.csv`` path when listed, else :func:`default_image_path`.
     """
     images = scene.images
@@ -132,8 +135,10 @@ def render_plan(scene, *, offsets=None, perturbations=None, cameras=None) -> pd.
             "cameras", None, f"cameras of the scene ({', '.join(scene.cameras)})", unknown[0]
         )
     renders = images[images.source == "render"]
+    r_methods = method_values(renders)
+    methods = list(dict.fromkeys(r_methods.tolist()))  # [''] without methods
     listed = dict(zip(zip(renders.camera, renders.timestamp_us.astype(int), labels(perturbation_array(renders)),
-                          strict=True),
+                          r_methods, strict=True),
                       renders.path, strict=True))
     keys = labels(views)
     rows = []
@@ -147,12 +152,13 @@ def render_plan(scene, *, offsets=None, perturbations=None, cameras=None) -> pd.
         P = plan_poses(T_rw, cam.T_sensor_rig, views)
         for i, t in enumerate(ts):
             for k, v in enumerate(views):
-                path = listed.get((name, int(t), keys[k])) or default_image_path(
-                    name, t, "render", v[1], perturbation=v)
-                rows.append((name, int(t), float(v[1]), path, P["T_sensor_rig"][k], P["T_sensor_world"][i, k],
-                             P["T_world_sensor"][i, k], *v[[0, 2, 3, 4, 5]].tolist(), keys[k]))
-    plan = pd.DataFrame(rows, columns=[*PLAN_COLUMNS, *PLAN_PERTURBATION_COLUMNS])
-    return plan.loc[:, [*PLAN_COLUMNS, *extra_columns(views, PLAN_PERTURBATION_COLUMNS)]]
+                for m in methods:
+                    path = listed.get((name, int(t), keys[k], m)) or default_image_path(
+                        name, t, "render", v[1], perturbation=v, method=m)
+                    rows.append((name, int(t), float(v[1]), path, P["T_sensor_rig"][k], P["T_sensor_world"][i, k],
+                                 P["T_world_sensor"][i, k], *v[[0, 2, 3, 4, 5]].tolist(), keys[k], m))
+    plan = pd.DataFrame(rows, columns=[*PLAN_COLUMNS, *PLAN_PERTURBATION_COLUMNS, METHOD_COLUMN])
+    return plan.loc[:, [*PLAN_COLUMNS, *extra_columns(views, PLAN_PERTURBATION_COLUMNS), *method_columns(plan)]]
 
 
 def write_render_plan(plan: pd.DataFrame, out: str | Path, *, clip_id: str = "") -> Path:
@@ -169,7 +175,7 @@ def write_render_plan(plan: pd.DataFrame, out: str | Path, *, clip_id: str = "")
                 "y_offset_m": float(r.y_offset_m),
                 "path": r.path,
             }
-            d.update({c: getattr(r, c) for c in PLAN_PERTURBATION_COLUMNS if c in plan.columns})
+            d.update({c: getattr(r, c) for c in (*PLAN_PERTURBATION_COLUMNS, METHOD_COLUMN) if c in plan.columns})
             d.update({m: np.asarray(getattr(r, m)).tolist() for m in mats})
             renders.append(d)
         atomic_write_text(out, json.dumps({"clip_id": clip_id, "renders": renders}) + "\n")

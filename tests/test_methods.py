@@ -334,3 +334,19 @@ def test_bad_method_in_a_pairs_table_is_a_one_line_error(clip, tmp_path, capsys)
     err = capsys.readouterr().err.strip()
     assert "p.csv: line 6, column method: expected a method name" in err and err.count("\n") == 0
     assert not (tmp_path / "m.csv").exists()
+
+
+def test_render_plan_of_a_method_scene_has_a_row_per_view_and_method(clip):
+    from nvrq.render_plan import render_plan
+
+    scene = load_scene(clip / "scene")
+    plan = render_plan(scene)
+    assert plan.columns[-1] == "method" and len(plan) == 18  # 2 frames x 3 views x 3 methods
+    renders = scene.images[scene.images["source"] == "render"]
+    assert set(zip(plan["path"], plan["method"], strict=True)) == \
+        set(zip(renders["path"], renders["method"], strict=True))
+    one = plan.groupby(["timestamp_us", "y_offset_m"])["T_world_sensor"]  # one pose for every method
+    assert all(all(np.array_equal(m, g.iloc[0]) for m in g) for _, g in one)
+    new = render_plan(scene, offsets=[2.0])  # an unlisted view: each method's default path
+    assert sorted(new.loc[new["timestamp_us"] == 0, "path"]) == \
+        [f"images/front/render_+2.00/{m}/0.png" for m in ("bad", "good", "same")]
