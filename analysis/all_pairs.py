@@ -8,7 +8,8 @@ files or datasets), joined on ``pair_id``. Column roles follow
 :func:`analysis.inputs.classify_columns` (the same rule as the ratings path); the target is a
 numeric column named by ``--target`` (e.g. ``clip_drop``).
 
-Streaming: the pairs input is read clip by clip (only the columns the analysis uses), each
+Streaming: the pairs input is read clip by clip (only the columns the analysis uses; rows in
+the canonical order, sorted by ``clip_id`` then ``pair_id``, docs/FORMATS.md §6), each
 clip's rows of every metric dataset are joined to it (a zero-cost check when both list the
 clip's pairs in the same order, else a hash join on ``pair_id``), and the result goes into
 preallocated columns: float64 for numbers, int32 codes for labels. No ``pair_id`` string
@@ -187,27 +188,44 @@ def _plan(pairs: TableSource, metrics: list[TableSource], keep=()):
     return numeric, labels, per_source
 
 
+def _canonical_order(ids) -> np.ndarray | None:
+    """The clip's rows sorted by ``pair_id`` (stable), or ``None`` when they are already."""
+    order = pc.sort_indices(ids).to_numpy()
+    return None if (order[1:] > order[:-1]).all() else order
+
+
 def _fill_clip(out: _Columns, clip: str, base, metrics, per_source, unknown: dict) -> None:
+    """Append one clip's rows in the canonical order (sorted by ``pair_id``, docs/FORMATS.md §6),
+    whatever the input's row order: the labels, numbers and track codes from the sorted rows;
+    the metric joins match the rows as read (so the fast same-order join still applies) and
+    write each value at its row's sorted place."""
     n = base.num_rows
     sl = slice(out.at, out.at + n)
+    ids = base.column("pair_id")
+    order = _canonical_order(ids)
+    rows, place = (base, None) if order is None else (base.take(order), np.empty(n, np.int64))
+    if place is not None:
+        place[order] = np.arange(n)  # input row -> its sorted position
     for c in out.codes:
         if c == ds.PARTITION:
             out.codes[c][sl] = out.cats[c].setdefault(clip, len(out.cats[c]))
-        elif c in base.column_names:
-            out.add_labels(c, base.column(c), sl)
-    for c in base.column_names:
+        elif c in rows.column_names:
+            out.add_labels(c, rows.column(c), sl)
+    for c in rows.column_names:
         if c in out.num:
-            out.num[c][sl] = base.column(c).to_numpy().astype(np.float64)
-    tcodes = pd.factorize(base.column("track_id").cast("string").to_pandas())[0]
+            out.num[c][sl] = rows.column(c).to_numpy().astype(np.float64)
+    tcodes = pd.factorize(rows.column("track_id").cast("string").to_pandas())[0]
     out.track[sl] = tcodes + out.n_tracks
     out.n_tracks += int(tcodes.max()) + 1 if n else 0
-    ids = base.column("pair_id")
     for src, cols in zip(metrics, per_source, strict=True):
-        _join_source(out, sl, src, clip, ids, cols, unknown)
+        _join_source(out, sl, src, clip, ids, cols, unknown, place)
     out.at += n
 
 
-def _join_source(out: _Columns, sl: slice, src: TableSource, clip: str, ids, cols, unknown) -> None:
+def _join_source(out: _Columns, sl: slice, src: TableSource, clip: str, ids, cols, unknown,
+                 place: np.ndarray | None) -> None:
+    """Join ``src``'s ``cols`` onto the clip's rows ``ids`` (as read); ``place``: each read
+    row's position in the output slice (``None``: the same)."""
     if src.dataset:
         t = src.clip(clip, ["pair_id"] + cols)
         if t is None:
@@ -227,8 +245,9 @@ def _join_source(out: _Columns, sl: slice, src: TableSource, clip: str, ids, col
         src_pos_all, values = src.lookup(ids, cols)
         hit = src_pos_all >= 0
         pos, src_pos = np.flatnonzero(hit), src_pos_all[hit]
+    at = sl.start + (pos if place is None else place[pos])
     for c in cols:
-        out.num[c][sl.start + pos] = values[c][src_pos]
+        out.num[c][at] = values[c][src_pos]
 
 
 def read_all_pairs(pairs_path, *, metrics_paths=(), progress: bool = True, keep=()):

@@ -23,8 +23,10 @@ import math
 
 import numpy as np
 import pandas as pd
+from scipy import sparse
 
 from analysis import stats
+from analysis.bootstrap import weighted_pearson
 
 __all__ = ["split_half", "spearman_brown", "noise_ceiling", "vote_matrix"]
 
@@ -46,23 +48,77 @@ def vote_matrix(test_votes: pd.DataFrame) -> np.ndarray:
     return m
 
 
-def split_half(mat: np.ndarray, half: np.ndarray) -> dict:
-    """Pearson and Spearman correlation over items of the two halves' GVF (``half``: (R,)
-    bool, True = first half); items without a vote in both halves are left out."""
+def _half_gvf(mat: np.ndarray, half: np.ndarray):
+    """Each half's GVF of every item and whether the item has a vote in both halves:
+    ``(ga (I,), gb (I,), ok (I,) bool)``; ``ga, gb`` are meaningless where ``ok`` is False.
+
+    The sums are of 0/1 votes, hence exact whatever the order, so a subset or a resample of
+    the items indexes these arrays instead of recomputing them."""
     has = np.isfinite(mat)
     v = np.where(has, mat, 0.0)
     na, nb = has[:, half].sum(1), has[:, ~half].sum(1)
-    ok = (na > 0) & (nb > 0)
-    ga = v[ok][:, half].sum(1) / na[ok]
-    gb = v[ok][:, ~half].sum(1) / nb[ok]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return v[:, half].sum(1) / na, v[:, ~half].sum(1) / nb, (na > 0) & (nb > 0)
+
+
+def split_half(mat: np.ndarray, half: np.ndarray) -> dict:
+    """Pearson and Spearman correlation over items of the two halves' GVF (``half``: (R,)
+    bool, True = first half); items without a vote in both halves are left out."""
+    return _correlate(*_half_gvf(mat, half))
+
+
+def _correlate(ga, gb, ok) -> dict:
+    ga, gb = ga[ok], gb[ok]
     p, _ = stats.pearson(ga, gb)
     s, _ = stats.pearson(stats.rank_within(ga), stats.rank_within(gb))
     return {"pearson": p, "spearman": s, "n": int(ok.sum())}
 
 
-def _reliability(mat, halves):
-    rs = np.array([[d["pearson"], d["spearman"]] for d in (split_half(mat, h) for h in halves)])
+def _mean_reliability(rs: np.ndarray) -> np.ndarray:
+    """Mean Spearman-Brown reliability over splits of ``rs`` (S, 2) half correlations."""
     return np.nanmean(spearman_brown(rs), axis=0) if np.isfinite(rs).any() else np.full(2, np.nan)
+
+
+def _boot_reliability(per_split, n_items: int, rng, n_boot: int) -> list[float]:
+    """The Pearson reliability of ``n_boot`` resamples of the items (draws
+    ``rng.integers(0, I, I)`` per replicate); ``per_split``: :func:`_half_gvf` of each split.
+
+    Columnar: in each split an item is one of a few distinct pairs of half GVFs (fractions
+    ``k / n``), so a resample is a count per pair, and its Pearson r the weighted r of the
+    pairs (:func:`analysis.bootstrap.weighted_pearson`: the r of the duplicated data, up to
+    rounding), for every split at once: no pass over the items per split and replicate."""
+    n_splits = len(per_split)
+    codes, xs, ys = [], [], []  # per split: (I,) pair index (-1: not in both halves), values
+    for ga, gb, ok in per_split:
+        a, a_values = pd.factorize(ga[ok])
+        b, b_values = pd.factorize(gb[ok])
+        pair, pairs = pd.factorize(a.astype(np.int64) * len(b_values) + b)
+        c = np.full(n_items, -1, dtype=np.int64)
+        c[ok] = pair
+        codes.append(c)
+        xs.append(np.asarray(a_values, np.float64)[pairs // len(b_values)])
+        ys.append(np.asarray(b_values, np.float64)[pairs % len(b_values)])
+    width = max(1, max(len(x) for x in xs))
+    sizes = np.array([len(x) for x in xs])
+    start = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    n_bins = int(sizes.sum())
+    flat = np.concatenate([np.where(c >= 0, c + s0, n_bins) for c, s0 in zip(codes, start, strict=True)])
+    # (bins, items) 0/1: which pair of each split an item is; counts of a resample = it @ draws
+    member = sparse.csr_matrix((np.ones(flat.size), (flat, np.tile(np.arange(n_items), n_splits))),
+                               shape=(n_bins + 2, n_items))
+    X, Y = np.zeros((n_splits, width)), np.zeros((n_splits, width))
+    at = np.full((n_splits, width), n_bins + 1)  # padding: an always-empty bin
+    for k in range(n_splits):
+        X[k, : sizes[k]], Y[k, : sizes[k]] = xs[k], ys[k]
+        at[k, : sizes[k]] = start[k] + np.arange(sizes[k])
+    out = []
+    for _ in range(n_boot):
+        w = np.bincount(rng.integers(0, n_items, n_items), minlength=n_items).astype(np.float64)
+        counts = member @ w
+        rs = np.zeros((n_splits, 2))  # column 1 (Spearman) is not needed here
+        rs[:, 0] = weighted_pearson(X, Y, counts[at])
+        out.append(_mean_reliability(rs)[0] if np.isfinite(rs[:, 0]).any() else np.nan)
+    return out
 
 
 def _halves(n_r: int, n_splits: int, rng) -> list[np.ndarray]:
@@ -94,9 +150,10 @@ def noise_ceiling(mat: np.ndarray, *, n_splits: int = 20, n_boot: int = 200, see
         return {**out, "reason": "needs >= 2 raters and >= 3 items"}
     rng = np.random.default_rng(seed)
     halves = _halves(n_r, n_splits, rng)
-    rel_p, rel_s = _reliability(mat, halves)
-    boot = [_reliability(mat[rng.integers(0, n_items, n_items)], halves)[0]
-            for _ in range(n_boot)]
+    per_split = [_half_gvf(mat, h) for h in halves]
+    rs = np.array([[d["pearson"], d["spearman"]] for d in (_correlate(*g) for g in per_split)])
+    rel_p, rel_s = _mean_reliability(rs)
+    boot = _boot_reliability(per_split, n_items, rng, n_boot)
     lo, hi = (np.nanpercentile(boot, [2.5, 97.5]) if np.isfinite(boot).any() else (nan, nan))
     out.update(reliability=float(rel_p), reliability_ci_lo=float(lo), reliability_ci_hi=float(hi),
                srcc_reliability=float(rel_s),

@@ -39,6 +39,7 @@ from data_schema.tables import (
 from nvrq.metrics import direction, metric_info
 
 __all__ = [
+    "CANONICAL_VOTE_ORDER",
     "NON_METRIC_COLUMNS",
     "read_ratings",
     "read_metrics",
@@ -55,6 +56,9 @@ ITEM_LABEL_COLUMNS = (
     "p_good",
     "model_good",
 )
+#: The canonical order of votes (docs/FORMATS.md §6): :func:`read_ratings` sorts by these keys
+#: (unique per vote), so every result is the same for any row order of the file.
+CANONICAL_VOTE_ORDER = ("item_id", "rater_id", "kind")
 NON_METRIC_COLUMNS = frozenset(
     RATINGS_COLUMNS + PAIRS_COLUMNS + ITEM_LABEL_COLUMNS + ("gold_expected",) + VIEW_COLUMNS + (METHOD_COLUMN,)
 )
@@ -65,11 +69,13 @@ def _line(row_index: int) -> str:
 
 
 def read_ratings(path) -> pd.DataFrame:
-    """Read ``ratings.csv`` and check it (docs/FORMATS.md §5 and §7); returns one row per vote.
+    """Read ``ratings.csv`` and check it (docs/FORMATS.md §5 and §7); returns one row per vote
+    in the canonical order (:data:`CANONICAL_VOTE_ORDER`, docs/FORMATS.md §6), whatever the
+    file's row order.
 
     Checks: the contract columns exist; at least one row; ``vote`` is 0 or 1; ``kind`` is one of
     ``{'test', 'gold', 'training', 'repeat'}``; ``response_ms`` is numeric; no rater has two
-    rows for the same (item, kind).
+    rows for the same (item, kind). Errors name the file's line.
     """
     df = read_table(
         path,
@@ -113,8 +119,13 @@ def read_ratings(path) -> pd.DataFrame:
             path, f"{_line(i)}: response_ms", "a number of milliseconds", df["response_ms"].iloc[i]
         )
     df["response_ms"] = rt.astype(np.float64)
-    _check_item_metadata(df, path)
-    dup = df.duplicated(["rater_id", "item_id", "kind"], keep="first")
+    # sorted codes of the order's keys: the checks below and the canonical sort share them
+    codes = {c: pd.factorize(df[c], sort=True)[0] for c in CANONICAL_VOTE_ORDER}
+    _check_item_metadata(df, path, codes["item_id"])
+    key = codes["item_id"].astype(np.int64)
+    for c in CANONICAL_VOTE_ORDER[1:]:
+        key = key * (int(codes[c].max()) + 1) + codes[c]
+    dup = pd.Series(key).duplicated(keep="first")  # the same (item, rater, kind) again
     if dup.any():
         i = int(np.flatnonzero(dup.to_numpy())[0])
         raise InputError(
@@ -123,12 +134,18 @@ def read_ratings(path) -> pd.DataFrame:
             "one row per (rater_id, item_id, kind) (a changed vote keeps only the last)",
             f"a second row for rater {df['rater_id'].iloc[i]!r}, item {df['item_id'].iloc[i]!r}",
         )
+    order = np.argsort(key, kind="stable")  # unique keys: a total order
+    if (order[1:] < order[:-1]).any():
+        df = df.take(order).reset_index(drop=True)
     return df
 
 
-def _check_item_metadata(df: pd.DataFrame, path) -> None:
+def _check_item_metadata(df: pd.DataFrame, path, item_codes: np.ndarray) -> None:
     """``timestamp_us`` an integer, ``y_offset_m`` a number, and each item's pair metadata
-    (docs/FORMATS.md §5: clip, camera, track, class, timestamp, offset) the same on all its rows."""
+    (docs/FORMATS.md §5: clip, camera, track, class, timestamp, offset) the same on all its rows.
+
+    ``item_codes``: (n,) int codes of ``df['item_id']``. A differing item is reported at its
+    last row (the item that appears first in the file among those that differ)."""
     for col, what in (("timestamp_us", "an integer timestamp in microseconds"),
                       ("y_offset_m", "a number of metres")):
         num = pd.to_numeric(df[col], errors="coerce")
@@ -139,13 +156,19 @@ def _check_item_metadata(df: pd.DataFrame, path) -> None:
             i = int(np.flatnonzero(bad.to_numpy())[0])
             raise InputError(path, f"{_line(i)}: {col}", what, df[col].iloc[i])
         df[col] = num
+    rows = np.arange(len(df))
+    first = np.empty(int(item_codes.max()) + 1, dtype=np.int64)
+    first[item_codes[::-1]] = rows[::-1]  # each item's first row
     for col in PAIR_META_COLUMNS:
-        n = df.groupby("item_id", sort=False)[col].nunique(dropna=False)
-        if (n > 1).any():
-            item = n.index[np.flatnonzero((n > 1).to_numpy())[0]]
-            i = int(np.flatnonzero((df["item_id"] == item).to_numpy())[-1])
-            raise InputError(path, f"{_line(i)}: {col}", f"one {col} per item (item {item!r})",
-                             ", ".join(map(str, df.loc[df["item_id"] == item, col].unique()[:3])))
+        values = pd.factorize(df[col], use_na_sentinel=False)[0]  # a missing value is a value
+        differs = values != values[first[item_codes]]
+        if differs.any():
+            bad_items = np.unique(item_codes[differs])
+            code = bad_items[np.argmin(first[bad_items])]
+            item = df["item_id"].iloc[first[code]]
+            at = np.flatnonzero(item_codes == code)
+            raise InputError(path, f"{_line(int(at[-1]))}: {col}", f"one {col} per item (item {item!r})",
+                             ", ".join(map(str, df[col].iloc[at].unique()[:3])))
 
 
 def classify_columns(

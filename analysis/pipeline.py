@@ -144,7 +144,7 @@ def _agreement(votes, kept):
     alpha = {}
     for name, v in (("all raters", votes), ("kept raters", kept)):
         t = v[v["kind"] == "test"]
-        a, why = alpha_nominal(t["item_id"].to_numpy(), t["vote"].to_numpy())
+        a, why = alpha_nominal(t["item_id"], t["vote"])
         alpha[name] = {"alpha": a, "reason": why, "votes": len(t)}
     return alpha
 

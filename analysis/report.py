@@ -251,13 +251,27 @@ def _label_texts(a: Analysis) -> dict:
     return {"ceiling_text": ceiling_text, "comparison_text": comparison_text}
 
 
+#: The report header's line on row order (docs/FORMATS.md §6), for readers of older reports.
+ORDER_TEXT = {
+    "ratings": "Row order: results use the canonical order (items sorted by item_id; votes by "
+               "item_id, rater_id, kind), so a reordered ratings file gives this same report. "
+               "Reports made before this rule followed the file's row order and may differ in "
+               "bootstrap intervals, logistic fits and last digits.",
+    "pairs": "Row order: results use the canonical order (pairs sorted by clip_id, then pair_id), "
+             "so reordered inputs give this same report. Reports made before this rule followed "
+             "the input's row order and may differ in bootstrap intervals, logistic fits and "
+             "last digits.",
+}
+
+
 def _texts(a: Analysis) -> dict:
     tl = "GVF" if a.target == "gvf" else a.target
     notes = list(a.notes)
     if a.proxies:
         notes.append("proxy columns (use --target): " + ", ".join(a.proxies))
     return {"best_text": _best_text(a), "method_text": _method_text(a, tl), "target_label": tl,
-            "notes": notes, **_rater_texts(a), **_label_texts(a)}
+            "notes": notes, "order_text": ORDER_TEXT[a.source], **_rater_texts(a),
+            **_label_texts(a)}
 
 
 _RATER_COLS = [

@@ -130,10 +130,15 @@ def wilson_interval(n_good, n, *, z: float = _Z95):
     return mid - half, mid + half
 
 
+def _column(values) -> pd.Series:
+    """``values`` (n,) as a Series (a Series as it is: no copy to Python objects)."""
+    return values if isinstance(values, pd.Series) else pd.Series(np.asarray(values, dtype=object))
+
+
 def good_vote_fraction(item_ids, votes) -> pd.DataFrame:
     """Per item (first-seen order): ``item_id, n_votes, n_good, gvf, majority_good,
     gvf_ci_lo, gvf_ci_hi`` from parallel arrays of item ids and 0/1 test votes."""
-    codes, uniques = pd.factorize(np.asarray(item_ids, dtype=object))
+    codes, uniques = pd.factorize(_column(item_ids))
     n = np.bincount(codes, minlength=len(uniques))
     good = np.bincount(codes, weights=np.asarray(votes, np.float64), minlength=len(uniques))
     gvf = good / np.maximum(n, 1)
@@ -163,13 +168,15 @@ def alpha_nominal(units, values) -> tuple[float, str | None]:
     >>> alpha_nominal(["a", "a", "b", "b"], [1, 1, 0, 0])
     (1.0, None)
     """
-    df = pd.DataFrame({"u": np.asarray(units, dtype=object), "v": np.asarray(values, dtype=object)})
-    df = df[df["v"].notna()]
-    u_codes, _ = pd.factorize(df["u"])
-    v_codes, v_uniques = pd.factorize(df["v"])
-    counts = np.zeros((u_codes.max() + 1 if len(u_codes) else 0, len(v_uniques)))  # (U, V)
-    np.add.at(counts, (u_codes, v_codes), 1.0)
-    counts = counts[counts.sum(axis=1) >= 2]
+    units, values = _column(units), _column(values)
+    keep = values.notna().to_numpy()
+    if not keep.all():
+        units, values = units[keep], values[keep]
+    u_codes, u_uniques = pd.factorize(units, use_na_sentinel=False)
+    v_codes, v_uniques = pd.factorize(values)
+    n_u, n_v = len(u_uniques), len(v_uniques)
+    counts = np.bincount(u_codes * n_v + v_codes, minlength=n_u * n_v).reshape(n_u, n_v)  # (U, V)
+    counts = counts.astype(np.float64)[counts.sum(axis=1) >= 2]
     if len(counts) == 0:
         return float("nan"), "no unit has two values"
     if (counts.sum(axis=0) > 0).sum() < 2:

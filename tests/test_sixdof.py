@@ -106,10 +106,21 @@ def test_scene_written_before_6dof_is_reproduced_byte_for_byte_and_pairs_are_unc
 
 def test_ratings_written_before_6dof_give_the_same_report_tables(tmp_path):
     _ok(analyze_main([str(OLD / "ratings.csv"), "--out", str(tmp_path / "r"), "--bootstrap", "200", "--quiet"]))
+    # bootstrap columns: since the canonical row order (docs/FORMATS.md §6, issue 23) the draws
+    # go to tracks in sorted order, not in this file's order, so they differ by Monte Carlo
+    # noise only (200 replicates); the report's header says so for reports made before
+    boot = [c for c in pd.read_csv(OLD / "report_summary.csv").columns
+            if c.endswith(("_ci_lo", "_ci_hi")) or c in ("p_vs_best", "significant_vs_best")]
     for name in ("summary.csv", "by_offset.csv", "categories.csv"):
         new, old = pd.read_csv(tmp_path / "r" / name), pd.read_csv(OLD / f"report_{name}")
         if "label_class" in new.columns and name == "by_offset.csv":  # per-condition rows added
             new = new[new["label_class"] == "all"].reset_index(drop=True)
+        exact = [c for c in old.columns if c not in boot and c != "plcc_logistic"]
         # the same numbers in every old column (issue 14 added columns: ceiling, CIs)
-        pd.testing.assert_frame_equal(new[old.columns], old, rtol=1e-12, atol=1e-12)
+        pd.testing.assert_frame_equal(new[exact], old[exact], rtol=1e-12, atol=1e-12)
+        if name == "summary.csv":  # the fit's stopping point moves with the order of its sums
+            np.testing.assert_allclose(new["plcc_logistic"], old["plcc_logistic"], rtol=1e-7)
+            ci = [c for c in boot if c.endswith(("_ci_lo", "_ci_hi"))]
+            np.testing.assert_allclose(new[ci], old[ci], atol=0.1)
     assert not (tmp_path / "r" / "by_axis.csv").exists() and (tmp_path / "r" / "tent.png").is_file()
+    assert "Reports made before this rule followed the file's row order" in (tmp_path / "r" / "report.md").read_text()

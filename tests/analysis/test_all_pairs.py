@@ -57,6 +57,7 @@ def test_items_equal_a_pandas_join(data):
     items, clusters, unknown = read_all_pairs(d / "pairs", metrics_paths=[d / "metrics", d / "proxy.csv"],
                                               progress=False)
     assert len(items) == len(full) and unknown == {str(d / "metrics"): 0, str(d / "proxy.csv"): 0}
+    full = full.sort_values(["clip_id", "pair_id"], kind="stable")  # the canonical order (FORMATS §6)
     for c in ("psnr", "ssim", "clip_drop", "y_offset_m"):
         np.testing.assert_array_equal(items[c].to_numpy(), full[c].to_numpy())
     for c in ("clip_id", "label_class", "lighting"):
