@@ -193,7 +193,9 @@ def _main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     with flags_in_errors(parser, args, {"n_boot": "bootstrap", "metrics_paths": "metrics_tables",
-                                        "timing_paths": "timing", "stability_dir": "stability"}):
+                                        "timing_paths": "timing", "stability_dir": "stability",
+                                        "lower": "lower_better", "higher": "higher_better",
+                                        "exclude": "exclude_raters", "rank_metric": "leaderboard_metric"}):
         return _run(args)
 
 

@@ -181,12 +181,12 @@ def classify_columns(
     both = lower & higher
     if both:
         raise InputError(
-            "--lower-better/--higher-better", sorted(both)[0], "one direction per metric", "both"
+            "higher", sorted(both)[0], "one direction per metric", "both"
         )
     for name in sorted(lower | higher):
         if name not in df.columns:
             raise InputError(
-                "--lower-better/--higher-better",
+                "lower" if name in lower else "higher",
                 name,
                 "a column of the ratings or metrics",
                 "no such column",

@@ -146,7 +146,7 @@ def check_methods(items: pd.DataFrame, *, where, methods=None) -> list[str]:
     if methods:
         unknown = [m for m in methods if m not in present]
         if unknown:
-            raise InputError("--methods", unknown[0], "a method of " + str(where) + " ("
+            raise InputError("methods", unknown[0], "a method of " + str(where) + " ("
                              + ", ".join(present) + ")", "no such method")
         present = list(dict.fromkeys(methods))
     if len(present) < 2:
@@ -415,7 +415,7 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
     """
     names = check_methods(items, where=where, methods=methods)
     if rank_metric is not None and rank_metric not in metrics:
-        raise InputError("--leaderboard-metric", rank_metric, "a metric column of the inputs ("
+        raise InputError("rank_metric", rank_metric, "a metric column of the inputs ("
                          + ", ".join(metrics) + ")", "no such metric")
     rank_metric = rank_metric or default_rank_metric(metrics)
     if rank_metric is None:

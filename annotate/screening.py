@@ -360,7 +360,7 @@ def screen(
     unknown = sorted(set(exclude) - set(raters["rater_id"]))
     if unknown:
         raise InputError(
-            "--exclude-raters", unknown[0], "a rater id of the ratings", "no such rater"
+            "exclude", unknown[0], "a rater id of the ratings", "no such rater"
         )
     flags = [[] for _ in range(len(raters))]
     for mask, text in _checks(raters, rule):

@@ -105,13 +105,15 @@ def _chosen_parser(parser: argparse.ArgumentParser, args) -> argparse.ArgumentPa
 
 
 def option_for(parser: argparse.ArgumentParser, args, name: str, aliases: dict | None = None) -> str | None:
-    """The command-line spelling (``--flag`` or ``POSITIONAL``) of the library parameter ``name``."""
-    dest = (aliases or {}).get(name, name)
-    for action in _chosen_parser(parser, args)._actions:
-        if action.dest == dest and action.help != argparse.SUPPRESS:
-            if action.option_strings:
-                return max(action.option_strings, key=len)
-            return str(action.metavar or action.dest).upper()
+    """The command-line spelling (``--flag`` or ``POSITIONAL``) of the library parameter ``name``:
+    the option of its alias (``aliases[name]``) where the chosen command has one, else of ``name``."""
+    actions = _chosen_parser(parser, args)._actions
+    for dest in dict.fromkeys(d for d in ((aliases or {}).get(name), name) if d):
+        for action in actions:
+            if action.dest == dest and action.help != argparse.SUPPRESS:
+                if action.option_strings:
+                    return max(action.option_strings, key=len)
+                return str(action.metavar or action.dest).upper()
     return None
 
 
@@ -120,7 +122,9 @@ def flags_in_errors(parser: argparse.ArgumentParser, args, aliases: dict | None 
     """Library errors name the parameter (``tracks``); the CLI speaks of its flag (``--tracks``).
 
     Re-raises an :class:`InputError` whose ``where`` is a parameter of the chosen command with
-    that parameter's option; ``aliases`` maps parameter names to argparse dests where they differ.
+    that parameter's option; ``aliases`` maps parameter names to argparse dests where they differ
+    (an alias the chosen command lacks falls back to the parameter's own name, so
+    ``{"weights": "yolo"}`` gives ``--yolo`` where that exists and ``--weights`` elsewhere).
     """
     try:
         yield

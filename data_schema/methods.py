@@ -112,7 +112,7 @@ def check_table_methods(table: pd.DataFrame, *, where: object, line_offset: int 
         check_method_name(values[i], where=where, field=f"{what} {i + line_offset}, column {METHOD_COLUMN}")
 
 
-def parse_methods(text: str, *, option: str = "--methods") -> list[tuple[str, float]]:
+def parse_methods(text: str, *, option: str = "methods") -> list[tuple[str, float]]:
     """``'NAME:SCALE,...'`` -> ``[(name, scale), ...]`` in the given order, checked by
     :func:`check_methods`. Errors name ``option``."""
     items = [s.strip() for s in str(text).split(",") if s.strip()]

@@ -97,7 +97,7 @@ def _check_not_managed(out: Path, option: str, *, allow: Path | None = None) -> 
                          str(out))
 
 
-def check_output_file(out, *, inputs: Iterable = (), option: str = "--out") -> Path:
+def check_output_file(out, *, inputs: Iterable = (), option: str = "out") -> Path:
     """Check an output file path against the rule (module docstring); returns it."""
     target = _resolve(out)
     if target.is_dir():
@@ -111,7 +111,7 @@ def _is_empty_dir(p: Path) -> bool:
     return p.is_dir() and not any(p.iterdir())
 
 
-def check_output_folder(out, *, kind: str, inputs: Iterable = (), option: str = "--out") -> Path:
+def check_output_folder(out, *, kind: str, inputs: Iterable = (), option: str = "out") -> Path:
     """Check an output folder of ``kind`` in ``{'report', 'scene', 'study'}``; returns it.
 
     ``report`` may replace an empty folder or a report folder of ours; ``scene`` an empty

@@ -80,7 +80,7 @@ def check_outputs(args) -> None:
 def _main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    with flags_in_errors(parser, args, {"scene_root": "scene", "perturbations": "perturb"}), \
+    with flags_in_errors(parser, args, {"scene_root": "scene", "perturbations": "perturb", "weights": "yolo"}), \
             no_follow_links(getattr(args, "no_follow_links", False)):
         check_outputs(args)
         return args.func(args)

@@ -72,3 +72,65 @@ def test_usage_errors_are_one_line(parser, argv, capsys):
         parser().parse_args(argv)
     err = capsys.readouterr().err
     assert exc.value.code == 2 and err.count("\n") == 1 and err.startswith("error: ")
+
+
+def _library_modules():
+    """Every module of the four packages except the command-line layer (``*/cli.py``, ``nvrq/commands``)."""
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    for pkg in ("data_schema", "nvrq", "annotate", "analysis"):
+        for path in sorted((root / pkg).rglob("*.py")):
+            if path.name != "cli.py" and "commands" not in path.relative_to(root).parts:
+                yield path
+
+
+def test_library_errors_name_parameters_not_flags():
+    # the library names its parameters (`encoder`); only the CLI layer speaks of flags (--encoder),
+    # through data_schema.cliargs.flags_in_errors
+    import ast
+
+    flagged = []
+    for path in _library_modules():
+        text = path.read_text(encoding="utf-8")
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, ast.Call) and getattr(node.func, "id", None) == "InputError" and node.args:
+                where = node.args[0]
+                if isinstance(where, ast.Constant) and str(where.value).startswith("--"):
+                    flagged.append(f"{path.name}:{node.lineno} {where.value}")
+            if not isinstance(node, ast.FunctionDef):
+                continue
+            defaults = dict(zip([a.arg for a in node.args.kwonlyargs], node.args.kw_defaults, strict=True))
+            for name in ("option", "where"):
+                d = defaults.get(name)
+                if isinstance(d, ast.Constant) and str(d.value).startswith("--"):
+                    flagged.append(f"{path.name}:{node.lineno} {name}={d.value}")
+    assert flagged == []
+
+
+@pytest.mark.parametrize("argv, name, flag", [
+    (["score", "p.csv", "--out", "m.csv"], "encoder", "--encoder"),
+    (["score", "p.csv", "--out", "m.csv"], "batch_size", "--batch-size"),
+    (["score", "p.csv", "--out", "m.csv"], "scene_root", "--scene"),  # an alias
+    (["score", "p.csv", "--out", "m.csv"], "weights", "--weights"),  # alias 'yolo' absent: own name
+    (["proxy", "detect", "p.csv", "--out", "d.csv", "--yolo", "y.pt"], "weights", "--yolo"),
+    (["score", "p.csv", "--out", "m.csv"], "no_such_parameter", None),
+])
+def test_parameter_names_map_to_the_chosen_commands_flags(argv, name, flag):
+    from data_schema.cliargs import option_for
+
+    parser = nvrq_parser()
+    args = parser.parse_args(argv)
+    assert option_for(parser, args, name, {"scene_root": "scene", "weights": "yolo"}) == flag
+
+
+def test_a_library_error_reaches_the_cli_as_its_flag(tmp_path, capsys):
+    from nvrq.cli import main
+    from nvrq.encoders import get_spec
+
+    with pytest.raises(InputError, match="^encoder: expected one of"):
+        get_spec("resnet-9000")
+    (tmp_path / "p.csv").write_text("pair_id\n")
+    assert main(["score", str(tmp_path / "p.csv"), "--out", str(tmp_path / "m.csv"),
+                 "--encoder", "resnet-9000"]) == 2
+    assert capsys.readouterr().err.startswith("error: --encoder: expected one of")

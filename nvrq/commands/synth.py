@@ -40,7 +40,7 @@ def add_view_options(
 
 def perturb_grid(args):
     """The ``(K, 6)`` views of ``--perturb``, or None when it was not given."""
-    return None if args.perturb is None else parse_perturb(args.perturb, option="--perturb")
+    return None if args.perturb is None else parse_perturb(args.perturb)
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -76,7 +76,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    methods = None if args.methods is None else parse_methods(args.methods, option="--methods")
+    methods = None if args.methods is None else parse_methods(args.methods)
     cameras = tuple(c.strip() for c in args.cameras.split(",") if c.strip())
     out = generate_scene(
         args.out,

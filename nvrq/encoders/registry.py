@@ -111,7 +111,7 @@ def get_spec(name: str) -> EncoderSpec:
     """The registry entry of encoder ``name``; :class:`InputError` listing the known ones."""
     spec = ENCODERS.get(name)
     if spec is None:
-        raise InputError("--encoder", None, f"one of {', '.join(sorted(ENCODERS))}", name)
+        raise InputError("encoder", None, f"one of {', '.join(sorted(ENCODERS))}", name)
     return spec
 
 

@@ -63,7 +63,7 @@ def check_address(address: str) -> None:
         with socket.create_connection((host, int(port)), timeout=3):
             return
     except (OSError, ValueError) as exc:
-        raise InputError("--address", None, "a running Ray cluster at HOST:PORT (ray start --head)",
+        raise InputError("address", None, "a running Ray cluster at HOST:PORT (ray start --head)",
                          f"{address} ({type(exc).__name__}: {exc})") from None
 
 
@@ -163,7 +163,7 @@ def _pipeline(ray, job: RayJob, todo: list):
     gpus = int(ray.cluster_resources().get("GPU", 0))
     cuda = scorer.device.startswith("cuda")
     if cuda and gpus < 1:
-        raise InputError("--device", None, "a GPU in the Ray cluster for --device cuda", "none")
+        raise InputError("device", None, "a GPU in the Ray cluster for a cuda device", "none")
     n = job.actors or (gpus if cuda else max(1, cpus // 2))
     threads = None if cuda else max(1, cpus // n)
     # actors reserve half a CPU (or a GPU), so decode tasks run beside them and are not fused in

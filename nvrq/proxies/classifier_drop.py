@@ -150,13 +150,14 @@ def preprocessor_stats(folder: Path, default_size: int | None) -> tuple[int, tup
 
 
 def load_classifier(
-    name: str = DEFAULT_CLASSIFIER, *, weights: str | os.PathLike | None = None, device: str = "cpu",
+    classifier: str = DEFAULT_CLASSIFIER, *, weights: str | os.PathLike | None = None, device: str = "cpu",
     runtime: str = "torch", threads: int | None = None, cache_dir=None,
 ) -> ImageClassifier:
-    """``efficientnet-lite0`` (``weights``: optional ``.pth``) or a transformers classifier folder,
-    its logits on ``runtime`` (:meth:`ImageClassifier.on_runtime`; ``cache_dir``: the export
-    cache, default ``$NVRQ_CACHE`` else ``~/.cache/nvrq``)."""
-    clf = _load_torch_classifier(name, weights=weights, device=device)
+    """``classifier``: ``efficientnet-lite0`` (``weights``: optional ``.pth``) or a transformers
+    classifier folder (or that folder given as ``weights``), its logits on ``runtime``
+    (:meth:`ImageClassifier.on_runtime`; ``cache_dir``: the export cache, default
+    ``$NVRQ_CACHE`` else ``~/.cache/nvrq``)."""
+    clf = _load_torch_classifier(classifier, weights=weights, device=device)
     return clf.on_runtime(runtime, threads=threads, cache_dir=cache_dir)
 
 
@@ -171,11 +172,11 @@ def _load_torch_classifier(name: str, *, weights, device: str) -> ImageClassifie
     folder = Path(weights if weights is not None else name)
     if not folder.is_dir():
         raise InputError(
-            "--classifier",
+            "classifier" if weights is None else "weights",
             None,
             f"{DEFAULT_CLASSIFIER} or a Hugging Face image-classifier "
             "folder (AutoModelForImageClassification)",
-            name,
+            str(folder),
         )
     os.environ["HF_HUB_OFFLINE"] = "1"
     from transformers import AutoModelForImageClassification

@@ -165,15 +165,15 @@ class ZeroShotCLIP:
 
 
 def load_clip(
-    folder: str | os.PathLike, *, prompts: dict[str, str], device: str = "cpu",
+    clip: str | os.PathLike, *, prompts: dict[str, str], device: str = "cpu",
     runtime: str = "torch", threads: int | None = None, cache_dir=None,
 ) -> ZeroShotCLIP:
-    """CLIPModel + tokenizer + preprocessor config from a local Hugging Face folder (never the hub);
-    the image tower on ``runtime`` (:meth:`ZeroShotCLIP.on_runtime`)."""
-    folder = Path(folder)
+    """CLIPModel + tokenizer + preprocessor config from ``clip``, a local Hugging Face folder
+    (never the hub); the image tower on ``runtime`` (:meth:`ZeroShotCLIP.on_runtime`)."""
+    folder = Path(clip)
     if not folder.is_dir():
         raise InputError(
-            "--clip",
+            "clip",
             None,
             "a local CLIP model folder (CLIPModel, tokenizer, "
             "preprocessor_config.json); nvrq never downloads",

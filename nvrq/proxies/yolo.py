@@ -69,7 +69,7 @@ def run_yolo(
     weights = Path(weights)
     if not weights.is_file():
         raise InputError(
-            "--yolo",
+            "weights",
             None,
             "a local Ultralytics weights file (.pt); nvrq never downloads",
             str(weights),
@@ -78,7 +78,7 @@ def run_yolo(
         from ultralytics import YOLO
     except ImportError:
         raise InputError(
-            "--yolo", None, "the ultralytics package: pip install 'nvrq[yolo]'", "not installed"
+            "weights", None, "the ultralytics package: pip install 'nvrq[yolo]'", "not installed"
         ) from None
     model = YOLO(os.fspath(weights))
     rel = pairs["render_path"].astype(str).to_numpy(dtype=object)

@@ -387,7 +387,7 @@ def generate_scene(
     views = _views(offsets, perturbations)
     methods = [("", 1.0)] if methods is None else check_methods(methods, option="methods")
     if not isinstance(seed, int | np.integer) or seed < 0:
-        raise InputError("--seed", None, "a non-negative integer", seed)
+        raise InputError("seed", None, "a non-negative integer", seed)
     out = Path(out)
     clip = _build_clip(int(seed), seconds, fps, cam_names, (W, H))
     image_rows, deg_rows = _render_all(clip, views, methods, out, progress)
