@@ -15,14 +15,15 @@ The rule, the same for every command that writes (docs/FORMATS.md §7):
    folder; a new study folder must be absent or empty (votes are never overwritten).
 
 Each check raises :class:`~data_schema.errors.InputError` naming the option (``where``) and
-returns the output path. Library functions pass the parameter name, the CLI its ``--flag``.
+returns the output path. ``option`` is the parameter named (default ``out``), which the CLIs
+report as their flag (:func:`data_schema.cliargs.flags_in_errors`).
 
 >>> import tempfile
 >>> d = Path(tempfile.mkdtemp()); _ = (d / "pairs.csv").write_text("x")
 >>> check_output_file(d / "pairs.csv", inputs=[d / "pairs.csv"])
 Traceback (most recent call last):
 ...
-data_schema.errors.InputError: --out: expected an output path that is not an input, got the input pairs.csv
+data_schema.errors.InputError: out: expected an output path that is not an input, got the input pairs.csv
 """
 
 from __future__ import annotations

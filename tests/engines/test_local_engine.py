@@ -21,7 +21,8 @@ from nvrq.engines import local
 sys.path.insert(0, str(Path(__file__).parent))
 from fleet_data import METRICS, write_fleet  # noqa: E402
 
-PIXEL, ENCODER = METRICS[:3], METRICS[3:]
+ENCODER = [c for c in METRICS if ":" in c]  # nvrq:E, nvrq_ca:E
+PIXEL = [c for c in METRICS if c not in ENCODER]  # full- and no-reference pixel metrics
 #: `nvrq score` without Ray: the module is made unimportable before the CLI runs
 NO_RAY = "import sys; sys.modules['ray'] = None; from nvrq.cli import main; sys.exit(main(sys.argv[1:]))"
 
