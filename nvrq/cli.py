@@ -19,6 +19,7 @@ from data_schema.datasets import MANIFEST
 from data_schema.errors import ArgumentParser, run_cli
 from data_schema.outputs import check_output_file, check_output_folder
 from data_schema.tables import no_follow_links, timing_path
+from nvrq.commands._encoder import check_model_options
 
 __all__ = ["main", "build_parser"]
 
@@ -83,6 +84,7 @@ def _main(argv=None) -> int:
     with flags_in_errors(parser, args, {"scene_root": "scene", "perturbations": "perturb", "weights": "yolo"}), \
             no_follow_links(getattr(args, "no_follow_links", False)):
         check_outputs(args)
+        check_model_options(args)
         return args.func(args)
 
 

@@ -98,3 +98,29 @@ def test_bad_argument_ends_before_any_work(prog, argv, option, tmp_path, capsys,
     assert "Traceback" not in err and "export" not in err
     assert seconds < 2.0, seconds  # no model, no file: parsing only
     assert list(tmp_path.iterdir()) == []  # no output, no export cache, no study, no report
+
+
+RUNTIME_CASES = [
+    ("nvrq", [*SCORE, "--runtime", "openvino", "--device", "cuda"], "--runtime"),
+    ("nvrq", [*SCORE, "--runtime", "onnxruntime", "--precision", "bf16"], "--precision"),
+    ("nvrq", ["proxy", "imagenet", "{tmp}/in/pairs.csv", "--out", "{tmp}/p.csv", "--runtime", "onnxruntime",
+              "--device", "cuda:0"], "--runtime"),
+    ("nvrq", ["calibrate-runtime", "{tmp}/in/pairs.csv", "--runtime", "onnxruntime", "--precision", "bf16"],
+     "--precision"),
+]
+
+
+@pytest.mark.parametrize("prog, argv, option", RUNTIME_CASES, ids=[" ".join(a[-4:]) for _, a, _ in RUNTIME_CASES])
+def test_runtime_combination_is_refused_before_any_work(prog, argv, option, tmp_path, capsys, no_models):
+    """An exported runtime on a GPU, or a precision the runtime lacks: refused before the pairs are
+    read or the torch weights load (the library checks it first too: nvrq.encoders.load_encoder)."""
+    test_bad_argument_ends_before_any_work(prog, argv, option, tmp_path, capsys, no_models)
+
+
+def test_load_encoder_checks_the_runtime_before_the_weights(monkeypatch):
+    import nvrq.encoders.registry as reg
+    from data_schema.errors import InputError
+
+    monkeypatch.setattr(reg, "_backend", _loaded)
+    with pytest.raises(InputError, match="runtime"):
+        reg.load_encoder("efficientnet-lite0", runtime="openvino", device="cuda")

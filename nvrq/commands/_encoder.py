@@ -15,12 +15,12 @@ from data_schema.errors import InputError
 from nvrq import encoders
 from nvrq.calibrate import resolve_tau
 from nvrq.encoders import DEFAULT_ENCODER, get_spec
-from nvrq.encoders.runtimes import PRECISIONS, RUNTIMES
+from nvrq.encoders.runtimes import PRECISIONS, RUNTIMES, check_runtime_combo
 from nvrq.metrics import REGISTRY, split_column
 from nvrq.score_core import check_tau, encoder_columns, needs_tau
 from nvrq.scoring import resolve_metrics
 
-__all__ = ["add_model_arguments", "add_encoder_arguments", "prepare_device", "encoder_for_metrics",
+__all__ = ["check_model_options", "add_model_arguments", "add_encoder_arguments", "prepare_device", "encoder_for_metrics",
            "load_encoder_and_tau", "add_runtime_arguments", "add_cache_dir_argument", "metric_columns",
            "encoder_for_columns"]
 
@@ -64,6 +64,13 @@ def add_cache_dir_argument(p) -> None:
     """``--cache-dir``: where exported models and drift checks are kept (nvrq.encoders.runtimes)."""
     p.add_argument("--cache-dir", default=None,
                    help="exported-model cache (default $NVRQ_CACHE, else ~/.cache/nvrq)")
+
+
+def check_model_options(args) -> None:
+    """A model command's ``--runtime``/``--precision``/``--device`` combination
+    (:func:`nvrq.encoders.runtimes.check_runtime_combo`), before anything is read or loaded."""
+    if hasattr(args, "runtime"):
+        check_runtime_combo(args.runtime, getattr(args, "precision", "fp32"), str(getattr(args, "device", "cpu")))
 
 
 def prepare_device(args) -> None:

@@ -6,7 +6,6 @@ from __future__ import annotations
 from pathlib import Path
 
 from data_schema.cliargs import add_link_option, int_arg, number_arg
-from data_schema.errors import InputError
 from data_schema.tables import read_table
 from nvrq.commands._encoder import add_cache_dir_argument
 from nvrq.encoders import DEFAULT_ENCODER, build_random, get_spec, load_encoder
@@ -46,8 +45,6 @@ def register(sub) -> None:
 def run(args) -> int:
     name = args.encoder or DEFAULT_ENCODER
     spec = get_spec(name)
-    if (args.runtime, args.precision) == ("onnxruntime", "bf16"):
-        raise InputError("--precision", None, "fp32 or int8 with --runtime onnxruntime", args.precision)
     pairs = read_table(args.pairs, required=REQUIRED_COLUMNS, what="pairs table")
     base = Path(args.pairs).resolve().parent
     gt, render = pair_inputs(pairs, spec.input_size, n=args.sample + args.calib, seed=args.seed,

@@ -27,6 +27,7 @@ import numpy as np
 
 from data_schema.errors import InputError
 from nvrq.crops import normalised_tensor
+from nvrq.encoders.runtimes import check_runtime_combo
 
 __all__ = ["EncoderSpec", "ENCODERS", "DEFAULT_ENCODER", "get_spec", "Encoder",
            "load_encoder", "build_random"]
@@ -186,6 +187,7 @@ def load_encoder(name: str, *, weights: str | os.PathLike | None = None, device:
     drift check on record (:mod:`nvrq.encoders.drift`; Spearman >= ``min_spearman``).
     """
     spec = get_spec(name)
+    check_runtime_combo(runtime, precision, str(device))  # before the weights load
     _set_offline()
     model = _backend(spec).load(spec, weights)
     return _on_runtime(Encoder(spec, model, device=device), runtime=runtime, precision=precision,
@@ -203,6 +205,7 @@ def build_random(name: str, *, seed: int = 0, device: str = "cpu", overrides: di
     import torch
 
     spec = get_spec(name)
+    check_runtime_combo(runtime, precision, str(device))
     torch.manual_seed(seed)
     model = _backend(spec).build_random(spec, dict(overrides or {}))
     return _on_runtime(Encoder(spec, model, device=device), runtime=runtime, precision=precision,

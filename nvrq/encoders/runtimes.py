@@ -39,7 +39,7 @@ import numpy as np
 
 from data_schema.errors import InputError
 
-__all__ = ["RUNTIMES", "PRECISIONS", "SUPPORTED", "AUTO_ORDER", "IDENTITY_TOL", "cache_root",
+__all__ = ["RUNTIMES", "PRECISIONS", "SUPPORTED", "AUTO_ORDER", "IDENTITY_TOL", "cache_root", "check_runtime_combo",
            "weights_hash", "identity_images", "max_nvrq_change", "RuntimeEncoder", "wrap_runtime",
            "export_dir", "runtime_version", "embed_graph", "exported", "GraphSpec", "ExportableModel",
            "exported_forward"]
@@ -325,7 +325,9 @@ def exported(encoder, runtime: str, *, cache_dir=None, whash: str | None = None)
     return folder, json.loads((folder / "meta.json").read_text()), whash
 
 
-def _check_combo(runtime: str, precision: str, device: str) -> None:
+def check_runtime_combo(runtime: str, precision: str, device: str) -> None:
+    """InputError naming ``runtime`` or ``precision`` unless the pair is known, supported, and
+    runs on ``device`` (the exported runtimes run on the CPU); checked before any model loads."""
     if runtime not in RUNTIMES:
         raise InputError("runtime", None, f"one of {', '.join(RUNTIMES)}", runtime)
     if precision not in PRECISIONS:
@@ -354,7 +356,7 @@ def wrap_runtime(encoder, *, runtime: str = "auto", precision: str = "fp32", thr
     The torch encoder gets ``runtime``/``precision``/``threads`` attributes too.
     """
     device = str(encoder.device)
-    _check_combo(runtime, precision, device)
+    check_runtime_combo(runtime, precision, device)
     if runtime == "auto":
         runtime = _auto(encoder, precision, device, cache_dir)
     if runtime == "torch":

@@ -20,7 +20,13 @@ from nvrq.encoders.drift import (
     require_check,
     write_record,
 )
-from nvrq.encoders.runtimes import IDENTITY_TOL, _auto, _check_combo, max_nvrq_change, weights_hash
+from nvrq.encoders.runtimes import (
+    IDENTITY_TOL,
+    _auto,
+    check_runtime_combo,
+    max_nvrq_change,
+    weights_hash,
+)
 
 pytest.importorskip("openvino")
 pytest.importorskip("onnxruntime")
@@ -86,7 +92,7 @@ def test_auto_uses_an_exact_runtime_on_cpu_and_torch_on_cuda(shared_cache):
     assert enc.runtime == "openvino"
     assert _auto(enc, "fp32", "cuda", shared_cache) == "torch"
     with pytest.raises(InputError, match="torch for device cuda"):
-        _check_combo("openvino", "fp32", "cuda")
+        check_runtime_combo("openvino", "fp32", "cuda")
 
 
 def test_weights_hash_changes_with_any_weight():
