@@ -60,3 +60,31 @@ def test_join_counts_unknown_ids_and_rejects_duplicate_columns():
     assert unknown == {"m1.csv": 1}
     with pytest.raises(InputError, match="also in m1.csv"):
         join_metrics(items.copy(), [("m1.csv", t1), ("m2.csv", t1)])
+
+
+def _votes_file(tmp_path, rows):
+    cols = ["item_id", "rater_id", "vote", "voted_at", "response_ms", "kind", "clip_id", "camera",
+            "track_id", "label_class", "timestamp_us", "y_offset_m"]
+    df = pd.DataFrame([dict(zip(cols, r, strict=True)) for r in rows])
+    df.to_csv(tmp_path / "r.csv", index=False)
+    return tmp_path / "r.csv"
+
+
+def test_per_item_checks_name_the_first_item_in_the_file_at_its_last_row(tmp_path):
+    from analysis.inputs import read_ratings
+
+    def row(item, rater, clip, kind="test"):
+        return [item, rater, 1, "t", 900, kind, clip, "front", "t1", "car", 0, 1.0]
+
+    # items "b" (lines 2 and 5) and "a" (lines 3 and 4) both have two clips; "b" comes first
+    # in the file, so it is the one reported, at its last line (5), with its values in file order
+    path = _votes_file(tmp_path, [row("b", "r1", "c1"), row("a", "r1", "c3"), row("a", "r2", "c4"),
+                                  row("b", "r2", "c2")])
+    with pytest.raises(InputError, match=r"line 5: clip_id: expected one clip_id per item \(item 'b'\), "
+                                         r"got c1, c2"):
+        read_ratings(path)
+    # a second (rater, item, kind) row is reported at its own line (the first stays)
+    path = _votes_file(tmp_path, [row("a", "r1", "c1"), row("b", "r1", "c1"), row("a", "r2", "c1"),
+                                  row("a", "r1", "c1", "gold"), row("a", "r1", "c1")])
+    with pytest.raises(InputError, match=r"line 6: .*a second row for rater 'r1', item 'a'"):
+        read_ratings(path)
