@@ -89,11 +89,16 @@ def is_pairwise(path) -> bool:
 
 
 def _header(path) -> list[str]:
+    """The column names of the table at ``path``; none when it cannot be read (an empty or broken
+    file: the table's reader then says what is wrong, in one line)."""
     p = Path(path)
-    if p.suffix.lower() == ".parquet" and p.is_file():
-        return list(pq.read_schema(p).names)
-    if p.suffix.lower() == ".csv" and p.is_file():
-        return list(pd.read_csv(p, nrows=0).columns)
+    try:
+        if p.suffix.lower() == ".parquet" and p.is_file():
+            return list(pq.read_schema(p).names)
+        if p.suffix.lower() == ".csv" and p.is_file():
+            return list(pd.read_csv(p, nrows=0).columns)
+    except (ValueError, OSError):  # pandas' EmptyDataError/ParserError, pyarrow's ArrowInvalid
+        return []
     return []
 
 
