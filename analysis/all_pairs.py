@@ -315,9 +315,9 @@ def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), tar
     n_boot = boot_size(items, n_boot, notes, unit="pair")
     ranked = metrics if target is not None else []  # no target: nothing to correlate
     summary = summary_table(items, ranked, directions, target=target or "y_offset_m", clusters=clusters,
-                            n_boot=n_boot, seed=seed, rank_by=rank_by, progress=progress)
+                            n_boot=n_boot, seed=seed, rank_by=rank_by, progress=progress and bool(ranked))
     categories = breakdowns.category_table(items, ranked, by=["label_class"] + attributes,
-                                           target=target or "y_offset_m", progress=progress)
+                                           target=target or "y_offset_m", progress=progress and bool(ranked))
     by_offset, by_axis = axes.view_tables(items, ([target] if target else []) + metrics)
     counts = {"votes": 0, "test_votes": 0, "test_votes_kept": 0, "items": len(items),
               "tracks": int(clusters.max()) + 1 if len(clusters) else 0,

@@ -82,3 +82,25 @@ def test_walkthrough_is_what_the_demo_runs(tmp_path):
 def test_readme_figures_exist():
     for img in re.findall(r"\]\((docs/[^)]+\.png)\)", README):
         assert (REPO / img).is_file(), img
+
+
+def test_compare_reconstructions_is_what_the_methods_demo_runs():
+    """``nvrq demo OUT --methods ...`` runs the README's "Compare reconstructions" commands."""
+    from argparse import Namespace
+
+    from nvrq.commands.demo import demo_steps
+
+    assert "nvrq demo out/methods --methods sharp:0.5,blurry:1.5" in CLI
+    args = Namespace(seed=0, seconds=6.0, size="960x540", offsets="-3,-2,-1,0,1,2,3",
+                     encoder="efficientnet-lite0", raters=5, methods="sharp:0.5,blurry:1.5")
+    section = README[README.index("## Compare reconstructions"):]
+    section = section[:section.index("\n## ")]
+    shown = [shlex.split(c) for c in CLI if c in section]
+
+    def parsed(argv):
+        ns = vars(parser_for(argv[0]).parse_args(argv[1:]))
+        return {k: v for k, v in ns.items() if k != "func"}
+
+    shown = [parsed(c) for c in shown]
+    for program, argv in demo_steps(Path("out/methods"), args):
+        assert parsed([program, *argv]) in shown, f"README does not show `{program} {' '.join(argv)}`"

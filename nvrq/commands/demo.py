@@ -19,6 +19,7 @@ from pathlib import Path
 
 from data_schema.cliargs import allow_negative_lists, int_arg, number_arg, parse_wxh
 from data_schema.errors import InputError
+from data_schema.methods import parse_methods
 from data_schema.tables import parse_offsets
 from nvrq.encoders import get_spec
 
@@ -107,6 +108,10 @@ def run(args) -> int:
     parse_wxh(args.size, option="--size")
     parse_offsets(args.offsets, field="--offsets")
     get_spec(args.encoder)
+    if args.methods is not None:
+        names = [name for name, _ in parse_methods(args.methods, option="--methods")]
+        if len(names) < 2:
+            raise InputError("--methods", None, "at least two NAME:SCALE methods to compare", args.methods)
     if out.exists() and any(out.iterdir()):
         raise InputError(out, None, "an empty or absent output folder", "a folder with files in it")
     out.mkdir(parents=True, exist_ok=True)
