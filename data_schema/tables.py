@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
-from data_schema.methods import METHOD_COLUMN, check_table_methods
+from data_schema.methods import METHOD_COLUMN, check_table_methods, method_suffix
 
 __all__ = [
     "PAIRS_COLUMNS",
@@ -100,15 +100,17 @@ def timing_path(metrics_path: str | os.PathLike) -> Path:
     return path.with_name(path.stem + ".timing.csv")
 
 
-def pair_id(clip_id: str, camera: str, track_id: str, timestamp_us: int, y_offset_m: float) -> str:
-    """docs/FORMATS.md §3 pair id.
+def pair_id(clip_id: str, camera: str, track_id: str, timestamp_us: int, y_offset_m: float, *,
+            method: str = "") -> str:
+    """docs/FORMATS.md §3 pair id (of a lateral view; ``method``: the render's method, if any).
 
     >>> pair_id("clip", "front", "car-1", 100000, 1.0)
     'clip:front:car-1:100000:+1.00'
-    >>> pair_id("clip", "front", "car-1", 0, -0.5)
-    'clip:front:car-1:0:-0.50'
+    >>> pair_id("clip", "front", "car-1", 0, -0.5, method="3dgs")
+    'clip:front:car-1:0:-0.50:3dgs'
     """
-    return f"{clip_id}:{camera}:{track_id}:{int(timestamp_us)}:{float(y_offset_m):+.2f}"
+    base = f"{clip_id}:{camera}:{track_id}:{int(timestamp_us)}:{float(y_offset_m):+.2f}"
+    return base + method_suffix([method])[0]
 
 
 def offset_cm(y_offset_m) -> np.ndarray:
