@@ -28,8 +28,8 @@ TARGET = 50.0  # crops/s per no-reference metric on 2 cores (issue 22)
 def demo_crops(root: Path, *, seconds: float, size: tuple[int, int], max_pairs: int):
     """(GT crops, render crops) of the demo clip's first ``max_pairs`` pairs, cut once."""
     from data_schema.scene import load_scene
+    from nvrq.crop_batches import iter_crop_batches
     from nvrq.pairs import make_pairs
-    from nvrq.score_core import iter_crop_batches
     from nvrq.synth.generate import generate_scene
 
     generate_scene(root, seed=0, seconds=seconds, fps=10.0, offsets=(-3, -2, -1, 0, 1, 2, 3),

@@ -142,7 +142,7 @@ def methods_numbers(root: Path, encoder, *, n_methods: int, seconds: float, roun
 
 def naive_pairs_per_s(pairs: pd.DataFrame, encoder, n: int) -> float:
     from nvrq.crops import cut_box, encoder_input, read_rgb
-    from nvrq.scoring import nvrq_similarity
+    from nvrq.formulas import nvrq_similarity
 
     sub = pairs.iloc[:n]
     size = encoder.spec.input_size
@@ -213,7 +213,7 @@ def whole_frames(pairs: pd.DataFrame, n_pairs: int) -> pd.DataFrame:
 
 def decode_alone_seconds(pairs: pd.DataFrame) -> float:
     """Seconds to decode and cut every crop of ``pairs`` with nothing else running."""
-    from nvrq.score_core import iter_crop_batches
+    from nvrq.crop_batches import iter_crop_batches
 
     t0 = time.perf_counter()
     for _ in iter_crop_batches(pairs, background=False):

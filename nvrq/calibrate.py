@@ -29,8 +29,10 @@ from tqdm import tqdm
 
 from data_schema.errors import InputError
 from data_schema.tables import GT_BOX_COLUMNS, atomic_write_text, pair_boxes, pair_image_paths
+from nvrq.crop_batches import read_crops
 from nvrq.encoders import get_spec
-from nvrq.score_core import check_positive, embed_crops, nvrq_similarity, read_crops
+from nvrq.formulas import nvrq_similarity
+from nvrq.score_core import check_positive, embed_crops
 
 __all__ = ["config_path", "read_tau_config", "write_tau", "resolve_tau", "recommend_tau",
            "unrelated_pairs", "Calibration", "calibrate_tau"]

@@ -1,12 +1,11 @@
 """``nvrq score``: NVRQ, NVRQ-CA and pixel metrics for every pair of a pairs table.
 
-:func:`score_pairs` is a short driver over the one crop-scoring core
-(:mod:`nvrq.score_core`):
+:func:`score_pairs` is a short driver over the one crop-scoring core:
 
-1. :func:`~nvrq.score_core.iter_crop_batches` groups pairs by GT image, decodes each batch's
+1. :func:`~nvrq.crop_batches.iter_crop_batches` groups pairs by GT image, decodes each batch's
    images once (:func:`nvrq.crops.read_rgb`) and cuts the crops: in a background thread when
    cores are left over beside the encoder, else between encoder passes on every core
-   (:func:`~nvrq.score_core.decode_schedule`).
+   (:func:`~nvrq.crop_batches.decode_schedule`).
 2. :func:`~nvrq.score_core.score_crop_batch` computes the pixel metrics and, for
    ``nvrq``/``nvrq_ca``, embeds each GT crop once: the GT crop of an object at a frame is
    shared by every render offset (and method, docs/FORMATS.md §2), so a frame with 7 offsets
@@ -14,18 +13,16 @@
    encoder runs ``batch_size`` crops at a time.
 3. The columns are assembled in the pairs' order, with the timing table.
 
-NVRQ (paper Eq. 4): ``S = (cos(f_gt, f_render) + 1) / 2``. NVRQ-CA (Eq. 5):
-``S / tau * w`` for ``S < tau``, else ``w + (1 - w) * ((S - tau) / (1 - tau))**2``, ``w = 0.1``
-(:func:`nvrq_similarity`, :func:`nvrq_ca`, defined in :mod:`nvrq.score_core`).
+The formulas (paper Eq. 4, 5) are :mod:`nvrq.formulas`; the same core scores crops held in
+memory through the Python API (:mod:`nvrq.api`).
 
 Timing (``ScoreResult.timing``; ``METRICS.timing.csv``): per metric column, its own compute
 seconds (pixel metric calls; for ``nvrq``/``nvrq_ca`` the encoder input preparation and
 forward passes) plus the shared image decoding seconds -- roughly what that metric alone
 would cost on these pairs.
 
->>> import numpy as np
->>> nvrq_ca(np.array([0.0, 0.325, 0.65, 1.0]), tau=0.65).round(4).tolist()
-[0.0, 0.05, 0.1, 1.0]
+>>> timing_table(["psnr"], {"decode": 1.0, "psnr": 0.5}, n_pairs=3, wall=2.0).to_dict("records")
+[{'metric': 'psnr', 'seconds': 1.5, 'pairs': 3}]
 """
 
 from __future__ import annotations
@@ -42,23 +39,18 @@ from tqdm import tqdm
 
 from data_schema.errors import InputError
 from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS, pair_boxes
+from nvrq.crop_batches import CROP_COLUMNS, decode_schedule, iter_crop_batches
 from nvrq.metrics import REGISTRY, split_column
 from nvrq.score_core import (
-    CROP_COLUMNS,
-    W_LOW,
     check_metric_args,
     column_info,
     column_seconds,
-    decode_schedule,
     encoder_columns,
-    iter_crop_batches,
-    nvrq_ca,
-    nvrq_similarity,
     score_crop_batch,
 )
 
-__all__ = ["nvrq_similarity", "nvrq_ca", "W_LOW", "resolve_metrics", "ScoreResult",
-           "score_pairs", "timing_table", "runtime_timing", "undefined_counts", "crop_sides",
+__all__ = ["resolve_metrics", "ScoreResult", "score_pairs", "timing_table", "runtime_timing",
+           "undefined_counts", "crop_sides",
            "REQUIRED_COLUMNS"]
 
 REQUIRED_COLUMNS = ("pair_id", *CROP_COLUMNS)
@@ -197,7 +189,7 @@ def score_pairs(
 
     ``metrics``: column names from :func:`resolve_metrics`. ``encoder``: a loaded
     :class:`nvrq.encoders.Encoder`, needed for ``nvrq:*``/``nvrq_ca:*``; ``tau`` for NVRQ-CA.
-    ``max_pairs``: pairs per crop batch (:func:`nvrq.score_core.iter_crop_batches`).
+    ``max_pairs``: pairs per crop batch (:func:`nvrq.crop_batches.iter_crop_batches`).
     """
     missing = [c for c in REQUIRED_COLUMNS if c not in pairs.columns]
     if missing:

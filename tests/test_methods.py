@@ -29,9 +29,9 @@ from data_schema import datasets as ds
 from data_schema.errors import InputError
 from data_schema.scene import load_scene
 from nvrq.cli import main as nvrq_main
+from nvrq.crop_batches import iter_crop_batches
 from nvrq.engines.shards import plan_shards, read_sources
 from nvrq.pairs import PAIRS_OUTPUT_COLUMNS, make_pairs
-from nvrq.score_core import iter_crop_batches
 from nvrq.scoring import score_pairs
 
 OLD = Path(__file__).parent / "data" / "pre_sixdof"

@@ -16,8 +16,9 @@ from nvrq import encoders
 from nvrq.calibrate import resolve_tau
 from nvrq.encoders import DEFAULT_ENCODER, get_spec
 from nvrq.encoders.runtimes import PRECISIONS, RUNTIMES, check_runtime_combo
+from nvrq.formulas import check_tau
 from nvrq.metrics import REGISTRY, split_column
-from nvrq.score_core import check_tau, encoder_columns, needs_tau
+from nvrq.score_core import encoder_columns, needs_tau
 from nvrq.scoring import resolve_metrics
 
 __all__ = ["check_model_options", "add_model_arguments", "add_encoder_arguments", "prepare_device", "encoder_for_metrics",

@@ -100,7 +100,7 @@ def drift_stats(ref_gt, ref_r, low_gt, low_r) -> dict:
     >>> round(d["min_cosine"], 6), d["max_dnvrq"]
     (1.0, 0.0)
     """
-    from nvrq.scoring import nvrq_similarity
+    from nvrq.formulas import nvrq_similarity
 
     ref, low = np.concatenate([ref_gt, ref_r]), np.concatenate([low_gt, low_r])
     cos = np.einsum("nd,nd->n", ref, low) / (np.linalg.norm(ref, axis=1) * np.linalg.norm(low, axis=1))

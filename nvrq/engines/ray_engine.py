@@ -6,7 +6,7 @@ Stages (Ray Data, streaming):
    ``clip_id`` column) and plans shards (:mod:`nvrq.engines.shards`): GT groups stay whole,
    so every GT crop is still embedded once. Shards already on disk are skipped (resume).
 2. CPU tasks (one per shard): read the shard's pairs rows, decode each image once and cut
-   the crops (:func:`nvrq.score_core.iter_crop_batches`), and compute the pixel metrics with
+   the crops (:func:`nvrq.crop_batches.iter_crop_batches`), and compute the pixel metrics with
    :func:`nvrq.score_core.score_crop_batch`.
 3. An actor pool holds the encoder (one GPU per actor with ``--device cuda``, CPU actors
    otherwise) and computes NVRQ / NVRQ-CA with the same :func:`score_crop_batch`.
@@ -31,10 +31,11 @@ import pandas as pd
 
 from data_schema.errors import InputError
 from data_schema.tables import follow_links
+from nvrq.crop_batches import iter_crop_batches
 from nvrq.engines import require_ray
 from nvrq.engines import shards as sh
 from nvrq.engines.scorers import timing_per_column
-from nvrq.score_core import iter_crop_batches, score_crop_batch
+from nvrq.score_core import score_crop_batch
 from nvrq.scoring import REQUIRED_COLUMNS
 
 __all__ = ["RayJob", "connect", "check_address", "score_on_ray", "actor_pool"]

@@ -40,7 +40,7 @@ from tqdm import tqdm
 from data_schema import datasets as ds
 from data_schema.errors import InputError
 from data_schema.tables import atomic_path, atomic_write_text, read_table, write_table
-from nvrq.score_core import gt_groups, pack_groups
+from nvrq.crop_batches import gt_groups, pack_groups
 
 __all__ = ["Shard", "PairsSource", "read_sources", "plan_shards", "Plan", "load_or_create_plan",
            "shard_pairs", "write_shard", "finalize", "run_sharded"]

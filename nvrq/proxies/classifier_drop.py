@@ -39,9 +39,10 @@ import pandas as pd
 from tqdm import tqdm
 
 from data_schema.errors import InputError
+from nvrq.crop_batches import iter_crop_batches
 from nvrq.crops import normalised_tensor
 from nvrq.encoders import load_encoder
-from nvrq.score_core import check_positive, iter_crop_batches, pair_outputs
+from nvrq.score_core import check_positive, pair_outputs
 
 __all__ = [
     "ImageClassifier",

@@ -108,7 +108,7 @@ def test_efficientnet_normalisation_and_rgb_order_classify_known_photos():
 
 
 def test_identical_crops_give_s_one():
-    from nvrq.scoring import nvrq_similarity
+    from nvrq.formulas import nvrq_similarity
 
     enc = load_encoder("efficientnet-lite0")
     x = _images(3, 224, seed=5)

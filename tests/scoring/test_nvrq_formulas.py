@@ -7,7 +7,8 @@ import pytest
 from scipy.spatial.distance import cosine
 
 from data_schema.errors import InputError
-from nvrq.scoring import W_LOW, nvrq_ca, nvrq_similarity, resolve_metrics
+from nvrq.formulas import W_LOW, nvrq_ca, nvrq_similarity
+from nvrq.scoring import resolve_metrics
 
 
 def test_nvrq_is_cosine_mapped_to_unit_interval():

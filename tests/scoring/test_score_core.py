@@ -21,12 +21,12 @@ from PIL import Image
 from scipy.spatial.distance import cosine
 
 from data_schema.errors import InputError
+from nvrq.crop_batches import iter_crop_batches
 from nvrq.encoders import build_random
 from nvrq.metrics import REGISTRY
 from nvrq.score_core import (
     CropBatch,
     embed_crops,
-    iter_crop_batches,
     run_batched,
     score_crop_batch,
 )

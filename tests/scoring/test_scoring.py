@@ -9,7 +9,8 @@ import pytest
 from nvrq.cli import main
 from nvrq.crops import cut_box, encoder_input, read_rgb
 from nvrq.encoders import load_encoder
-from nvrq.scoring import nvrq_ca, score_pairs
+from nvrq.formulas import nvrq_ca
+from nvrq.scoring import score_pairs
 
 
 @pytest.fixture(scope="module")

@@ -13,7 +13,8 @@ from scipy.stats import spearmanr
 
 from nvrq.crops import cut_box, encoder_input, read_rgb
 from nvrq.encoders import load_encoder
-from nvrq.scoring import nvrq_similarity, score_pairs
+from nvrq.formulas import nvrq_similarity
+from nvrq.scoring import score_pairs
 
 synth = pytest.importorskip("nvrq.synth.generate")
 
