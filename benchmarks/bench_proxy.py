@@ -27,7 +27,7 @@ def _classifiers(cache: str, threads: int) -> dict:
                 for rt in ("torch", "openvino", "onnxruntime")}
     from nvrq.encoders import build_random
 
-    enc = build_random("efficientnet-lite0")
+    enc = build_random("efficientnet-lite0", runtime="torch")
     base = ImageClassifier("efficientnet-lite0-random", enc.model, 224, enc.spec.mean, enc.spec.std)
     return {rt: ImageClassifier(**{k: getattr(base, k) for k in ("name", "model", "input_size", "mean", "std")})
             .on_runtime(rt, threads=threads, cache_dir=cache) for rt in ("torch", "openvino", "onnxruntime")}

@@ -33,7 +33,8 @@ import pandas as pd
 from data_schema.datasets import DatasetWriter, read_dataset
 from data_schema.tables import GT_BOX_COLUMNS, PAIRS_COLUMNS, pair_boxes, pair_id, pair_image_paths
 from nvrq.crops import cut_box, encoder_input, read_rgb
-from nvrq.encoders import ENCODERS, build_random, get_spec, load_encoder
+from nvrq.encoders import ENCODERS, EncoderConfig, build_random, get_spec, load_encoder
+from nvrq.encoders.memory import tune_allocator
 from nvrq.engines.ray_engine import RayJob, score_on_ray
 from nvrq.engines.scorers import MetricScorer
 from nvrq.scoring import score_pairs
@@ -78,6 +79,7 @@ def write_fleet(root: Path, *, clips: int, frames: int) -> Path:
 
 def run_local(pairs_ds: Path) -> tuple[float, pd.DataFrame]:
     pairs = read_dataset(pairs_ds)
+    tune_allocator()  # as `nvrq score` and the Ray actors do
     t0 = time.perf_counter()
     enc = load_encoder("efficientnet-lite0")
     res = score_pairs(pairs, metrics=COLUMNS, encoder=enc, tau=0.76, progress=False)
@@ -90,7 +92,7 @@ def run_ray(pairs_ds: Path, out: Path) -> tuple[float, float, pd.DataFrame]:
     t0 = time.perf_counter()
     ray.init(include_dashboard=False, log_to_driver=False)
     start = time.perf_counter() - t0
-    scorer = MetricScorer(tuple(COLUMNS), encoder="efficientnet-lite0", tau=0.76)
+    scorer = MetricScorer(tuple(COLUMNS), encoder=EncoderConfig("efficientnet-lite0"), tau=0.76)
     job = RayJob(pairs=str(pairs_ds), out=str(out), scorer=scorer, progress=False)
     t1 = time.perf_counter()
     score_on_ray(job, timing_path=out.with_name("ray.timing.csv"))
@@ -126,7 +128,7 @@ def stages(pairs_ds: Path) -> None:
     rng = np.random.default_rng(0)
     for name in ENCODERS:
         spec = get_spec(name)
-        enc = build_random(name)
+        enc = build_random(name, runtime="torch")
         x = rng.integers(0, 256, (BATCH, spec.input_size, spec.input_size, 3), dtype=np.uint8)
         enc.embed(x[:2])
         t0, c0 = time.perf_counter(), _cpu()

@@ -170,8 +170,6 @@ def encoder_images_per_s(encoder, batch_size: int, seconds: float) -> float:
 
 _PLAIN = """
 import sys, torch, cv2
-import nvrq.encoders.memory as memory
-memory.tune_allocator = lambda: False  # glibc defaults, as a plain torch process runs
 sys.path.insert(0, {bench!r})
 import bench_score
 name, threads, bs, seconds = {name!r}, {threads}, {bs}, {seconds}
@@ -327,6 +325,9 @@ def main(argv=None) -> int:
                     help="length of that clip in seconds (default 1)")
     ap.add_argument("--json", default=None, help="also write the numbers to this JSON file")
     args = ap.parse_args(argv)
+    from nvrq.encoders.memory import tune_allocator
+
+    tune_allocator()  # as the nvrq commands do (the plain-torch subprocess keeps glibc's defaults)
     args.batch_sizes = [int(b) for b in args.batch_sizes.split(",")]
     args.int8 = [e for e in args.int8.split(",") if e]
 

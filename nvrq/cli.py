@@ -11,6 +11,7 @@ OpenCV but never a deep-learning runtime.
 from __future__ import annotations
 
 import importlib
+import os
 import sys
 from pathlib import Path
 
@@ -89,7 +90,11 @@ def _main(argv=None) -> int:
 
 
 def main(argv=None) -> int:
-    """Entry point of the ``nvrq`` console script."""
+    """Entry point of the ``nvrq`` console script. Sets the Hugging Face hub offline for the
+    process (the library reads model folders with ``local_files_only`` and never downloads;
+    this also keeps transformers from asking the hub about them)."""
+    os.environ["HF_HUB_OFFLINE"] = "1"
+    os.environ["TRANSFORMERS_OFFLINE"] = "1"
     return run_cli(_main, argv)
 
 

@@ -198,7 +198,8 @@ def usable_cores() -> int:
 
 
 def decode_schedule(encoder=None, *, pixel_metrics: bool = False, cores: int | None = None) -> tuple[bool, int]:
-    """``(background, decode_threads)`` for :func:`iter_crop_batches` beside ``encoder``.
+    """``(background, decode_threads)`` for :func:`iter_crop_batches` beside ``encoder``
+    (an :class:`~nvrq.encoders.Encoder`: its ``device`` and ``threads``).
 
     A CPU encoder whose threads take every core, alone: decode *between* encoder passes, on
     every core. Decoding beside such an encoder takes a core its thread pool waits on at each
@@ -217,9 +218,9 @@ def decode_schedule(encoder=None, *, pixel_metrics: bool = False, cores: int | N
     ((True, 14), (True, 3))
     """
     cores = cores or usable_cores()
-    if encoder is None or not str(getattr(encoder, "device", "cpu")).startswith("cpu"):
+    if encoder is None or not str(encoder.device).startswith("cpu"):
         return True, max(1, cores - 1)
-    threads = int(getattr(encoder, "threads", None) or cores)
+    threads = int(encoder.threads or cores)
     if threads < cores:
         return True, cores - threads
     return (True, 1) if pixel_metrics else (False, cores)

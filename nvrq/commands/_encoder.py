@@ -14,16 +14,16 @@ from data_schema.cliargs import checked_arg, comma_list, int_arg, number_arg
 from data_schema.errors import InputError
 from nvrq import encoders
 from nvrq.calibrate import resolve_tau
-from nvrq.encoders import DEFAULT_ENCODER, get_spec
+from nvrq.encoders import DEFAULT_ENCODER, EncoderConfig, get_spec
 from nvrq.encoders.runtimes import PRECISIONS, RUNTIMES, check_runtime_combo
 from nvrq.formulas import check_tau
 from nvrq.metrics import REGISTRY, split_column
 from nvrq.score_core import encoder_columns, needs_tau
 from nvrq.scoring import resolve_metrics
 
-__all__ = ["check_model_options", "add_model_arguments", "add_encoder_arguments", "prepare_device", "encoder_for_metrics",
-           "load_encoder_and_tau", "add_runtime_arguments", "add_cache_dir_argument", "metric_columns",
-           "encoder_for_columns"]
+__all__ = ["check_model_options", "add_model_arguments", "add_encoder_arguments", "prepare_device",
+           "encoder_for_metrics", "encoder_options", "load_encoder_and_tau", "add_runtime_arguments",
+           "add_cache_dir_argument", "metric_columns", "encoder_for_columns"]
 
 
 def add_model_arguments(p, *, batch_help: str = "crops per forward pass (default 32)") -> None:
@@ -75,13 +75,18 @@ def check_model_options(args) -> None:
 
 
 def prepare_device(args) -> None:
-    """Apply ``--threads`` and refuse ``--device cuda`` without a GPU (before any model loads)."""
+    """Apply ``--threads`` and refuse ``--device cuda`` without a GPU (before any model loads);
+    keep freed activations in the heap (:func:`nvrq.encoders.memory.tune_allocator`, a
+    process-wide setting the commands make and the library leaves to its caller)."""
     import torch
+
+    from nvrq.encoders.memory import tune_allocator
 
     if getattr(args, "threads", None) is not None:
         torch.set_num_threads(args.threads)  # a positive integer (checked when parsed)
     if str(args.device).startswith("cuda") and not torch.cuda.is_available():
         raise InputError("--device", None, "an available device (cpu, or cuda with a GPU)", args.device)
+    tune_allocator()
 
 
 def encoder_for_metrics(metrics: Sequence[str], default: str | None) -> str:
@@ -110,19 +115,26 @@ def _resolve_tau(name: str, args) -> float:
     return tau
 
 
-def load_encoder_and_tau(args, *, needs_tau: bool, name: str | None = None):
-    """``(encoder, tau)`` for a command built with :func:`add_encoder_arguments`: encoder ``name``
-    (default ``--encoder``, else the registry default) with ``--weights`` on ``--device``; ``tau``
-    from ``--tau``, the config (``--config``) or the registry when ``needs_tau``, else ``None``."""
+def encoder_options(args, name: str | None = None) -> EncoderConfig:
+    """The :class:`~nvrq.encoders.EncoderConfig` of a command built with
+    :func:`add_encoder_arguments`: encoder ``name`` (default ``--encoder``, else the registry
+    default) with ``--weights``, ``--device``, ``--runtime``, ``--precision``, ``--threads``,
+    ``--cache-dir`` and ``--min-spearman``."""
     name = name or args.encoder or DEFAULT_ENCODER
     get_spec(name)
-    tau = _resolve_tau(name, args) if needs_tau else None
+    return EncoderConfig(name, weights=args.weights, device=args.device, runtime=args.runtime,
+                         precision=args.precision, threads=args.threads, cache_dir=args.cache_dir,
+                         min_spearman=args.min_spearman)
+
+
+def load_encoder_and_tau(args, *, needs_tau: bool, name: str | None = None):
+    """``(encoder, tau)`` for a command built with :func:`add_encoder_arguments`: the encoder of
+    :func:`encoder_options`; ``tau`` from ``--tau``, the config (``--config``) or the registry
+    when ``needs_tau``, else ``None``."""
+    cfg = encoder_options(args, name)
+    tau = _resolve_tau(cfg.name, args) if needs_tau else None
     prepare_device(args)
-    encoder = encoders.load_encoder(  # through the module: tests patch nvrq.encoders.load_encoder
-        name, weights=args.weights, device=args.device,
-        runtime=getattr(args, "runtime", "auto"), precision=getattr(args, "precision", "fp32"),
-        threads=getattr(args, "threads", None), cache_dir=getattr(args, "cache_dir", None),
-        min_spearman=getattr(args, "min_spearman", None))
+    encoder = encoders.load_encoder(cfg)  # through the module: tests patch nvrq.encoders.load_encoder
     return encoder, tau
 
 

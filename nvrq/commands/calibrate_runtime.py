@@ -51,7 +51,7 @@ def run(args) -> int:
                              scene_root=args.scene, base=base, where=str(args.pairs))
     calib = gt[args.sample:] if len(gt) > args.sample else gt  # disjoint from the checked pairs when possible
     gt, render = gt[:args.sample], render[:args.sample]
-    enc = (build_random(name) if args.random_weights
+    enc = (build_random(name, runtime="torch") if args.random_weights
            else load_encoder(name, weights=args.weights, runtime="torch"))
     rec = check_runtime(enc, gt, render, runtime=args.runtime, precision=args.precision,
                         calib=calib, cache_dir=args.cache_dir)

@@ -15,6 +15,7 @@ from nvrq.commands._encoder import (
     _resolve_tau,
     add_encoder_arguments,
     encoder_for_columns,
+    encoder_options,
     load_encoder_and_tau,
     metric_columns,
 )
@@ -93,8 +94,8 @@ def _report(res, *, uses_encoder: bool, file) -> None:
 
 def _scorer(args, columns, encoder_name, tau) -> MetricScorer:
     """What a sharded run computes; its ``options()`` go to ``_plan.json`` (either engine)."""
-    return MetricScorer(tuple(columns), encoder=encoder_name, weights=args.weights, device=args.device,
-                        tau=tau, batch_size=args.batch_size, runtime=args.runtime, cache_dir=args.cache_dir)
+    return MetricScorer(tuple(columns), encoder=encoder_options(args, encoder_name), tau=tau,
+                        batch_size=args.batch_size)
 
 
 def _ray(args, columns, encoder_name) -> int:

@@ -5,11 +5,14 @@ from nvrq.encoders.registry import (
     DEFAULT_ENCODER,
     ENCODERS,
     Encoder,
+    EncoderConfig,
     EncoderSpec,
+    TorchEncoder,
     build_random,
+    encoder_config,
     get_spec,
     load_encoder,
 )
 
-__all__ = ["DEFAULT_ENCODER", "ENCODERS", "Encoder", "EncoderSpec", "build_random", "get_spec",
-           "load_encoder"]
+__all__ = ["DEFAULT_ENCODER", "ENCODERS", "Encoder", "EncoderConfig", "EncoderSpec", "TorchEncoder",
+           "build_random", "encoder_config", "get_spec", "load_encoder"]

@@ -21,7 +21,8 @@ from __future__ import annotations
 
 import importlib
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -29,8 +30,8 @@ from data_schema.errors import InputError
 from nvrq.crops import normalised_tensor
 from nvrq.encoders.runtimes import check_runtime_combo
 
-__all__ = ["EncoderSpec", "ENCODERS", "DEFAULT_ENCODER", "get_spec", "Encoder",
-           "load_encoder", "build_random"]
+__all__ = ["EncoderSpec", "ENCODERS", "DEFAULT_ENCODER", "get_spec", "Encoder", "TorchEncoder",
+           "EncoderConfig", "encoder_config", "load_encoder", "build_random"]
 
 IMAGENET_MEAN = (0.485, 0.456, 0.406)
 IMAGENET_STD = (0.229, 0.224, 0.225)
@@ -120,18 +121,25 @@ def _backend(spec: EncoderSpec):
     return importlib.import_module(f"nvrq.encoders.{spec.backend}")
 
 
-class Encoder:
-    """A loaded encoder: ``embed(images (B, S, S, 3) uint8 RGB) -> (B, D) float32``.
+class TorchEncoder:
+    """An :class:`Encoder` running its torch module (``runtime`` torch, ``precision`` fp32).
 
-    ``S`` must be ``spec.input_size``. Normalisation ``(x / 255 - mean) / std`` happens here,
-    on the device, so callers hand over plain uint8 crops from :func:`nvrq.crops.encoder_input`.
+    ``embed(images (B, S, S, 3) uint8 RGB) -> (B, D) float32``, ``S = spec.input_size``.
+    Normalisation ``(x / 255 - mean) / std`` happens here, on the device, so callers hand over
+    plain uint8 crops from :func:`nvrq.crops.encoder_input`. ``threads``: torch's CPU threads
+    when it was made (``torch.set_num_threads`` is process-wide: the commands set it from
+    ``--threads``; the library leaves it to its caller).
     """
+
+    runtime = "torch"
+    precision = "fp32"
 
     def __init__(self, spec: EncoderSpec, model, *, device: str = "cpu"):
         import torch
 
         self.spec = spec
         self.device = torch.device(device)
+        self.threads = torch.get_num_threads()
         self._backend = _backend(spec)
         self.model = model.to(self.device).eval()
         # convolutional backends run ~1.5x faster on CPU with NHWC weights (measured for
@@ -166,63 +174,131 @@ class Encoder:
         return feats.float().cpu().numpy()
 
 
-def _set_offline() -> None:
-    # Never download: the hub stays offline in this process (transformers reads these).
-    os.environ["HF_HUB_OFFLINE"] = "1"
-    os.environ["TRANSFORMERS_OFFLINE"] = "1"
+@runtime_checkable
+class Encoder(Protocol):
+    """What the scoring core needs of a loaded encoder (:func:`load_encoder` returns one).
 
-
-def load_encoder(name: str, *, weights: str | os.PathLike | None = None, device: str = "cpu",
-                 runtime: str = "auto", precision: str = "fp32", threads: int | None = None,
-                 cache_dir=None, min_spearman: float | None = None):
-    """Load encoder ``name`` with real weights from ``weights`` or the local cache, never the net.
-
-    ``weights``: a Hugging Face model folder (transformer encoders) or a ``.pth`` state dict
-    (efficientnet-lite0). Missing weights raise :class:`InputError` naming the encoder and
-    the ways to provide them.
-
-    ``runtime`` (``auto``, ``torch``, ``openvino``, ``onnxruntime``) and ``precision``
-    (``fp32``, ``bf16``, ``int8``): see :mod:`nvrq.encoders.runtimes`; ``auto`` is the fastest
-    exact exported runtime on CPU, torch on a GPU. A reduced precision needs a passing
-    drift check on record (:mod:`nvrq.encoders.drift`; Spearman >= ``min_spearman``).
+    ``embed(images)``: uint8 RGB encoder inputs (B, S, S, 3), ``S = spec.input_size`` ->
+    embeddings (B, D) float32. ``runtime`` (``torch``, ``openvino``, ``onnxruntime``),
+    ``precision`` (``fp32``, ``bf16``, ``int8``), ``threads`` and ``device`` (``str(device)``
+    names it, e.g. ``cpu``, ``cuda:0``) say how it runs (the timing table records them).
+    :class:`TorchEncoder` and :class:`nvrq.encoders.runtimes.RuntimeEncoder` are the two kinds.
     """
-    spec = get_spec(name)
-    check_runtime_combo(runtime, precision, str(device))  # before the weights load
-    _set_offline()
-    model = _backend(spec).load(spec, weights)
-    return _on_runtime(Encoder(spec, model, device=device), runtime=runtime, precision=precision,
-                       threads=threads, cache_dir=cache_dir, min_spearman=min_spearman)
+
+    spec: EncoderSpec
+    runtime: str
+    precision: str
+    threads: int
+    device: Any
+
+    def embed(self, images: np.ndarray) -> np.ndarray: ...
 
 
-def build_random(name: str, *, seed: int = 0, device: str = "cpu", overrides: dict | None = None,
-                 runtime: str = "torch", precision: str = "fp32", threads: int | None = None,
-                 cache_dir=None, min_spearman: float | None = None):
-    """Encoder ``name``'s architecture with random weights (tests, speed benchmarks).
+@dataclass(frozen=True)
+class EncoderConfig:
+    """Everything that says which encoder runs and how: built once (from the command's options,
+    or by an API user) and handed whole to :func:`load_encoder` or a Ray actor.
+
+    ``name``: a registry encoder; ``weights``: a Hugging Face model folder or a ``.pth``
+    (default: the local cache / pip package); ``device``: a torch device (``cpu``, ``cuda``);
+    ``runtime`` {'auto', 'torch', 'openvino', 'onnxruntime'} and ``precision`` {'fp32',
+    'bf16', 'int8'} (:mod:`nvrq.encoders.runtimes`; ``auto``: on CPU the fastest exported
+    runtime identical to torch fp32, torch on a GPU); ``threads``: CPU threads of an exported
+    runtime (default: all; torch's own are ``torch.set_num_threads``, which the commands set
+    from ``--threads``); ``cache_dir``: the exported-model cache (default ``$NVRQ_CACHE``, else
+    ``~/.cache/nvrq``); ``min_spearman``: the NVRQ Spearman a reduced precision's drift check
+    must reach (default :data:`nvrq.encoders.drift.DEFAULT_MIN_SPEARMAN`).
+
+    >>> EncoderConfig("dinov2-small", device="cuda").runtime
+    'auto'
+    >>> EncoderConfig(runtime="tensorrt")
+    Traceback (most recent call last):
+    ...
+    data_schema.errors.InputError: runtime: expected one of auto, torch, openvino, onnxruntime, got tensorrt
+    """
+
+    name: str = DEFAULT_ENCODER
+    weights: str | None = None
+    device: str = "cpu"
+    runtime: str = "auto"
+    precision: str = "fp32"
+    threads: int | None = None
+    cache_dir: str | None = None
+    min_spearman: float | None = None
+
+    def __post_init__(self):  # checked here, before anything is loaded
+        check_runtime_combo(self.runtime, self.precision, str(self.device))
+        if self.threads is not None and (isinstance(self.threads, bool) or not isinstance(self.threads, int)
+                                         or self.threads < 1):
+            raise InputError("threads", None, "a positive integer or None", self.threads)
+        for key in ("weights", "cache_dir"):  # paths are kept as strings: picklable, comparable
+            value = getattr(self, key)
+            if value is not None:
+                object.__setattr__(self, key, os.fspath(value))
+        object.__setattr__(self, "device", str(self.device))
+
+
+def encoder_config(encoder: EncoderConfig | str | None = None, **options) -> EncoderConfig:
+    """``encoder`` as an :class:`EncoderConfig`: a config (``options`` replace its fields), a
+    registry name with ``options``, or ``None`` for the default encoder.
+
+    >>> encoder_config("dinov2-small", threads=2).threads
+    2
+    """
+    if isinstance(encoder, EncoderConfig):
+        return replace(encoder, **options) if options else encoder
+    if encoder is not None and not isinstance(encoder, str):
+        raise InputError("encoder", None, "an encoder name or an EncoderConfig", type(encoder).__name__)
+    return EncoderConfig(encoder or DEFAULT_ENCODER, **options)
+
+
+def load_encoder(encoder: EncoderConfig | str | None = None, **options) -> Encoder:
+    """Load an encoder with real weights from ``weights`` or the local cache, never the net.
+
+    ``encoder``: an :class:`EncoderConfig`, or a registry name with the config's fields as
+    keywords (``load_encoder("dinov2-small", device="cuda")``). ``weights``: a Hugging Face
+    model folder (transformer encoders, read with ``local_files_only``) or a ``.pth`` state
+    dict (efficientnet-lite0). Missing weights raise :class:`InputError` naming the encoder
+    and the ways to provide them. A reduced ``precision`` needs a passing drift check on
+    record (:mod:`nvrq.encoders.drift`; Spearman >= ``min_spearman``).
+
+    Process-wide settings are left alone: ``nvrq`` commands also set the Hugging Face hub
+    offline and tune glibc's allocator (:func:`nvrq.encoders.memory.tune_allocator`, an
+    opt-in for API users: ~2x faster CPU batches for efficientnet-lite0).
+    """
+    cfg = encoder_config(encoder, **options)
+    spec = get_spec(cfg.name)
+    model = _backend(spec).load(spec, cfg.weights)
+    return _on_runtime(TorchEncoder(spec, model, device=cfg.device), cfg)
+
+
+def build_random(encoder: EncoderConfig | str | None = None, *, seed: int = 0,
+                 overrides: dict | None = None, **options) -> Encoder:
+    """The encoder's architecture with random weights (tests, speed benchmarks).
 
     ``overrides`` changes the architecture config (e.g. ``{'num_hidden_layers': 2}``);
-    the other options as in :func:`load_encoder` (default runtime here: torch).
+    ``encoder`` and ``options`` as in :func:`load_encoder` (the same defaults: ``runtime='auto'``
+    exports the random model too; pass ``runtime='torch'`` to get the torch module).
     """
     import torch
 
-    spec = get_spec(name)
-    check_runtime_combo(runtime, precision, str(device))
+    cfg = encoder_config(encoder, **options)
+    spec = get_spec(cfg.name)
     torch.manual_seed(seed)
     model = _backend(spec).build_random(spec, dict(overrides or {}))
-    return _on_runtime(Encoder(spec, model, device=device), runtime=runtime, precision=precision,
-                       threads=threads, cache_dir=cache_dir, min_spearman=min_spearman)
+    return _on_runtime(TorchEncoder(spec, model, device=cfg.device), cfg)
 
 
-def _on_runtime(encoder: Encoder, *, runtime, precision, threads, cache_dir, min_spearman):
+def _on_runtime(encoder: TorchEncoder, cfg: EncoderConfig) -> Encoder:
     from nvrq.encoders.drift import require_check
-    from nvrq.encoders.memory import tune_allocator
     from nvrq.encoders.runtimes import wrap_runtime
 
-    tune_allocator()  # every embedding command starts here
     model_file = None
-    if runtime == "auto" and precision != "fp32":
+    runtime = cfg.runtime
+    if runtime == "auto" and cfg.precision != "fp32":
         runtime = "openvino"  # the only runtime with bf16, and the better int8 (measured)
-    if precision != "fp32":
-        model_file = require_check(encoder, runtime=runtime, precision=precision,
-                                   cache_dir=cache_dir, min_spearman=min_spearman)
-    return wrap_runtime(encoder, runtime=runtime, precision=precision, threads=threads,
-                        cache_dir=cache_dir, model_file=model_file)
+    if cfg.precision != "fp32":
+        model_file = require_check(encoder, runtime=runtime, precision=cfg.precision,
+                                   cache_dir=cfg.cache_dir, min_spearman=cfg.min_spearman)
+    return wrap_runtime(encoder, runtime=runtime, precision=cfg.precision, threads=cfg.threads,
+                        cache_dir=cfg.cache_dir, model_file=model_file)

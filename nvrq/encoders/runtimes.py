@@ -1,6 +1,6 @@
 """Encoder runtimes: the torch model exported once to OpenVINO or ONNX Runtime, cached on disk.
 
-:func:`wrap_runtime` turns a loaded torch :class:`~nvrq.encoders.registry.Encoder` into an
+:func:`wrap_runtime` turns a loaded :class:`~nvrq.encoders.registry.TorchEncoder` into an
 object with the same interface (``embed(uint8 (N, S, S, 3)) -> float32 (N, D)``, ``spec``)
 that runs on ``runtime`` at ``precision``. The exported graph takes the uint8 crops and does
 the normalisation and pooling itself, so nothing but the crops crosses into the runtime.
@@ -118,7 +118,7 @@ def max_nvrq_change(ref: np.ndarray, other: np.ndarray) -> float:
 def embed_graph(encoder):
     """A torch module: uint8 NHWC crops -> embeddings, normalisation and pooling inside.
 
-    ``encoder``: an :class:`~nvrq.encoders.registry.Encoder`, or any object with its
+    ``encoder``: a :class:`~nvrq.encoders.registry.TorchEncoder`, or any object with its
     interface plus ``graph_output(model, pixel_values)`` (an :class:`ExportableModel`).
     """
     import torch
@@ -294,7 +294,7 @@ def _session(runtime: str, folder: Path, precision: str, *, threads, model_file)
 
 
 class RuntimeEncoder:
-    """An exported encoder with the torch :class:`Encoder` interface (``embed``, ``spec``).
+    """An exported encoder (the :class:`~nvrq.encoders.registry.Encoder` protocol).
 
     ``runtime``, ``precision``, ``threads`` and ``device`` describe how it runs (written to
     the timing file); ``weights_hash`` identifies the weights (drift-check records).
@@ -345,7 +345,11 @@ def exported_forward(graph, *, runtime: str = "auto", threads: int | None = None
     or ``None`` where that is torch (the model's own forward)."""
     wrapped = wrap_runtime(graph, runtime=runtime, precision="fp32", threads=threads,
                            cache_dir=cache_dir)
-    return wrapped.runtime, wrapped.threads, (None if wrapped is graph else wrapped.embed)
+    if wrapped is graph:  # torch: the model's own forward, on torch's threads
+        import torch
+
+        return "torch", threads or torch.get_num_threads(), None
+    return wrapped.runtime, wrapped.threads, wrapped.embed
 
 
 def wrap_runtime(encoder, *, runtime: str = "auto", precision: str = "fp32", threads: int | None = None,
@@ -353,15 +357,13 @@ def wrap_runtime(encoder, *, runtime: str = "auto", precision: str = "fp32", thr
     """``encoder`` (torch, fp32) on ``runtime`` at ``precision``; see the module docstring.
 
     ``model_file``: a reduced-precision model made by ``nvrq calibrate-runtime`` (int8).
-    The torch encoder gets ``runtime``/``precision``/``threads`` attributes too.
+    On torch, ``encoder`` itself is returned.
     """
     device = str(encoder.device)
     check_runtime_combo(runtime, precision, device)
     if runtime == "auto":
         runtime = _auto(encoder, precision, device, cache_dir)
     if runtime == "torch":
-        encoder.runtime, encoder.precision = "torch", "fp32"
-        encoder.threads = threads or _torch_threads()
         return encoder
     folder, meta, whash = exported(encoder, runtime, cache_dir=cache_dir)
     if precision == "int8" and model_file is None:
@@ -369,12 +371,6 @@ def wrap_runtime(encoder, *, runtime: str = "auto", precision: str = "fp32", thr
     run = _session(runtime, folder, precision, threads=threads, model_file=model_file)
     return RuntimeEncoder(encoder.spec, run, runtime=runtime, precision=precision,
                           threads=threads or os.cpu_count(), whash=whash, meta=meta)
-
-
-def _torch_threads() -> int:
-    import torch
-
-    return torch.get_num_threads()
 
 
 def _auto(encoder, precision: str, device: str, cache_dir) -> str:

@@ -14,7 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nvrq.encoders import load_encoder
+from nvrq.encoders import EncoderConfig, load_encoder
+from nvrq.encoders.memory import tune_allocator
 from nvrq.proxies.classifier_drop import load_classifier, top_class_drop
 from nvrq.proxies.clip_drop import load_clip, true_category_index
 from nvrq.score_core import column_seconds, encoder_columns, pair_outputs, score_crop_batch
@@ -27,26 +28,27 @@ class MetricScorer:
     """``nvrq score``: pixel metrics and NVRQ / NVRQ-CA columns (:func:`score_crop_batch`)."""
 
     columns: tuple
-    encoder: str | None = None
-    weights: str | None = None
-    device: str = "cpu"
+    encoder: EncoderConfig = EncoderConfig()  # every option travels to the actors whole
     tau: float | None = None
     batch_size: int = 32
     extra_columns: tuple = ()
-    runtime: str = "auto"
-    cache_dir: str | None = None
 
     @property
     def model_columns(self) -> list[str]:
         return encoder_columns(self.columns)
 
     @property
+    def device(self) -> str:
+        """Where the actors run the encoder (the engine asks every scorer)."""
+        return self.encoder.device
+
+    @property
     def pixel_columns(self) -> list[str]:
         return [c for c in self.columns if c not in self.model_columns]
 
     def load(self):
-        return load_encoder(self.encoder, weights=self.weights, device=self.device,
-                            runtime=self.runtime, cache_dir=self.cache_dir)
+        tune_allocator()  # the actor's process is the engine's own (see prepare_device)
+        return load_encoder(self.encoder)
 
     def score(self, model, batch, extra: dict, timings: dict) -> dict:
         return score_crop_batch(batch, metrics=self.model_columns, encoder=model, tau=self.tau,
@@ -55,9 +57,9 @@ class MetricScorer:
     def options(self) -> dict:
         """What a resumed run must share with the first (``_plan.json``)."""
         enc = bool(self.model_columns)
-        return {"columns": list(self.columns), "encoder": self.encoder if enc else None,
-                "weights": self.weights if enc else None, "tau": self.tau if enc else None,
-                "runtime": self.runtime if enc else None}
+        return {"columns": list(self.columns), "encoder": self.encoder.name if enc else None,
+                "weights": self.encoder.weights if enc else None, "tau": self.tau if enc else None,
+                "runtime": self.encoder.runtime if enc else None}
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -67,7 +69,7 @@ class _ProxyScorer:
 
     device: str = "cpu"
     batch_size: int = 32
-    runtime: str = "torch"  # the proxy model's runtime on each worker (exported once, cached)
+    runtime: str = "auto"  # the proxy model's runtime on each worker (exported once, cached)
     cache_dir: str | None = None
     pixel_columns: tuple = ()
 

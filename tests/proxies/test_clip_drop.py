@@ -34,7 +34,7 @@ def test_zero_shot_probs_is_clip_softmax():
 def test_folder_path_matches_clipmodel_forward(cat_scene, clip_folder):
     from transformers import AutoTokenizer, CLIPModel
 
-    clip = load_clip(clip_folder, prompts=MAPS["clip_prompts"])
+    clip = load_clip(clip_folder, prompts=MAPS["clip_prompts"], runtime="torch")
     assert clip.categories[0] == "automobile" and clip.input_size == 32
     out = clip_drop(cat_scene, clip, category_map=MAPS["clip_category"], progress=False)
     drops = out["clip_drop"].to_numpy()
@@ -59,7 +59,7 @@ def test_folder_path_matches_clipmodel_forward(cat_scene, clip_folder):
 def test_blacked_out_render_gives_positive_drop(cat_scene, clip_folder):
     # text feature of the true category = the GT crop's own image embedding; the other four are
     # orthogonal to it, so p(GT, c*) is high and the black render (another embedding) loses it
-    base = load_clip(clip_folder, prompts=MAPS["clip_prompts"])
+    base = load_clip(clip_folder, prompts=MAPS["clip_prompts"], runtime="torch")
     g = base.image_features(crop_input(data.chelsea(), CAT_BOX, 32)[None])[0]
     rng = np.random.default_rng(0)
     others = rng.normal(size=(4, g.size))
@@ -75,7 +75,7 @@ def test_blacked_out_render_gives_positive_drop(cat_scene, clip_folder):
 
 
 def test_null_category_is_nan_and_unknown_class_is_an_error(cat_scene, clip_folder):
-    clip = load_clip(clip_folder, prompts=MAPS["clip_prompts"])
+    clip = load_clip(clip_folder, prompts=MAPS["clip_prompts"], runtime="torch")
     pairs = cat_scene.assign(label_class=["misc", "person"])
     out = clip_drop(pairs, clip, category_map=MAPS["clip_category"], progress=False)["clip_drop"]
     assert np.isnan(out.iloc[0]) and np.isfinite(out.iloc[1])

@@ -36,7 +36,7 @@ def test_encoder_comes_from_metrics_or_option():
 
 def test_tau_from_option_then_config_and_checked_before_loading(tmp_path, monkeypatch):
     loaded = []
-    monkeypatch.setattr("nvrq.encoders.load_encoder", lambda name, **kw: loaded.append(name) or name)
+    monkeypatch.setattr("nvrq.encoders.load_encoder", lambda cfg: loaded.append(cfg.name) or cfg.name)
     cfg = tmp_path / "tau.json"
     cfg.write_text(json.dumps({"dinov2-small": {"tau": 0.42}}))
     assert load_encoder_and_tau(_args("--config", str(cfg), "--encoder", "dinov2-small"),

@@ -35,7 +35,7 @@ def _perturb_hook(positions, scale=50.0):
     ("clip-b16", "post_layernorm", 1),      # [CLS, patches]; we apply post_layernorm to all tokens
 ])
 def test_gap_excludes_class_and_register_tokens(name, final_norm, n_prefix):
-    enc = build_random(name, overrides=SMALL)
+    enc = build_random(name, overrides=SMALL, runtime="torch")
     assert enc.spec.n_prefix_tokens == n_prefix
     x = _images(2, 224)
     base = enc.embed(x)
@@ -52,7 +52,7 @@ def test_gap_excludes_class_and_register_tokens(name, final_norm, n_prefix):
 
 def test_token_count_matches_layout():
     # DINOv2-reg at 224 with patch 14: 16 x 16 = 256 patches + 1 CLS + 4 registers
-    enc = build_random("dinov2-reg-small", overrides=SMALL)
+    enc = build_random("dinov2-reg-small", overrides=SMALL, runtime="torch")
     with torch.inference_mode():
         tokens = final_tokens(enc.model, enc.pixel_values(_images(1, 224)))
     assert tokens.shape == (1, 256 + 5, 384)
@@ -61,7 +61,7 @@ def test_token_count_matches_layout():
 def test_clip_pools_post_layernormed_patch_tokens():
     # Choice (documented in hf_vit): CLIP's last_hidden_state is pre-LayerNorm; we apply
     # post_layernorm per token, then average the patch tokens (index 1 onwards).
-    enc = build_random("clip-b16", overrides=SMALL)
+    enc = build_random("clip-b16", overrides=SMALL, runtime="torch")
     x = _images(2, 224, seed=3)
     with torch.inference_mode():
         pv = enc.pixel_values(x)
@@ -73,7 +73,7 @@ def test_clip_pools_post_layernormed_patch_tokens():
 
 
 def test_siglip_has_no_prefix_and_segformer_pools_feature_map():
-    enc = build_random("siglip-b16", overrides=SMALL)
+    enc = build_random("siglip-b16", overrides=SMALL, runtime="torch")
     x = _images(1, 224)
     with torch.inference_mode():
         tokens = enc.model(pixel_values=enc.pixel_values(x)).last_hidden_state

@@ -46,9 +46,10 @@ def shared_cache(tmp_path_factory):
     return tmp_path_factory.mktemp("runtime_cache")
 
 
-def _random(name, **kw):
+def _random(name, runtime="torch", **kw):
+    """A tiny random-weight encoder; the torch reference unless ``runtime`` names another."""
     spec = ENCODERS[name]
-    return build_random(name, overrides=TINY[spec.backend], **kw)
+    return build_random(name, overrides=TINY[spec.backend], runtime=runtime, **kw)
 
 
 def _images(n, size, seed=0):

@@ -39,7 +39,7 @@ PIXEL = ["psnr", "ssim", "gmsd", "mse", "mae"]
 
 @pytest.fixture(scope="module")
 def encoder():
-    return build_random(ENC, seed=1, overrides=TINY)
+    return build_random(ENC, seed=1, overrides=TINY, runtime="torch")
 
 
 def _crop(root, rel, box):
