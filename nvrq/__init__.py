@@ -1,3 +1,52 @@
-"""NVRQ core: scenes, geometry, GT/novel-view box pairs, crops, encoders and metrics."""
+"""NVRQ core: scenes, geometry, GT/novel-view box pairs, crops, encoders and metrics.
+
+The public Python API (docs/PYTHON.md) is exported here and imported on first use, so
+``import nvrq`` itself loads nothing heavy:
+
+- scoring in memory: :func:`score_crops`, :func:`score_frame`, :class:`Evaluator`
+  (:mod:`nvrq.api`);
+- encoders: :class:`EncoderConfig`, :func:`load_encoder` (:mod:`nvrq.encoders`);
+- geometry: :func:`project_boxes` (the ``nvrq pairs`` rule for one frame, :mod:`nvrq.pairs`),
+  :func:`camera_from_model` and the camera classes (:mod:`nvrq.geometry.cameras`).
+
+>>> import nvrq
+>>> sorted(nvrq.__all__)[:3]
+['DROP_REASONS', 'EncoderConfig', 'Evaluator']
+"""
+
+from __future__ import annotations
+
+import importlib
 
 __version__ = "0.1.0"
+
+#: public name -> the module defining it
+_EXPORTS = {
+    "score_crops": "nvrq.api",
+    "score_frame": "nvrq.api",
+    "Evaluator": "nvrq.api",
+    "EncoderConfig": "nvrq.encoders.registry",
+    "load_encoder": "nvrq.encoders.registry",
+    "project_boxes": "nvrq.pairs",
+    "DROP_REASONS": "nvrq.pairs",
+    "camera_from_model": "nvrq.geometry.cameras",
+    "PinholeCamera": "nvrq.geometry.cameras",
+    "OpenCVPinholeCamera": "nvrq.geometry.cameras",
+    "OpenCVFisheyeCamera": "nvrq.geometry.cameras",
+    "FThetaCamera": "nvrq.geometry.cameras",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str):
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'nvrq' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later look-ups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *__all__])

@@ -34,6 +34,7 @@ from data_schema.perturbation import (
     PERTURBATION_COLUMNS,
     axes,
     labels,
+    lateral,
     perturbation_array,
     view_suffix,
 )
@@ -48,7 +49,8 @@ from nvrq.geometry.poses import (
     pose7_to_matrix,
 )
 
-__all__ = ["DROP_REASONS", "PAIRS_OUTPUT_COLUMNS", "PairStats", "track_boxes_at", "view_validity", "make_pairs"]
+__all__ = ["DROP_REASONS", "PAIRS_OUTPUT_COLUMNS", "PairStats", "track_boxes_at", "view_validity", "make_pairs",
+           "project_boxes"]
 
 #: Why a candidate box (camera, frame, track, render view) was dropped, in order of precedence.
 DROP_REASONS = ("no_gt_image", "unprojectable", "outside_image", "too_small")
@@ -266,6 +268,93 @@ def _assemble(scene: Scene, frames_out: list[pd.DataFrame]) -> pd.DataFrame:
     pairs = pairs.loc[:, cols].sort_values(
         ["camera", "timestamp_us", "track_id", "y_offset_m", *EXTRA_PERTURBATION_COLUMNS, *methods], kind="stable")
     return pairs.reset_index(drop=True)
+
+
+def project_boxes(
+    camera, *, T_sensor_rig: np.ndarray, T_rig_world: np.ndarray, T_box_world: np.ndarray,
+    dims_lwh: np.ndarray, perturbations: np.ndarray | None = None, offsets: np.ndarray | None = None,
+    min_side: float = MIN_SIDE_PX, min_area: float = 0,
+) -> pd.DataFrame:
+    """``nvrq pairs``' rule for one frame, in memory: every box in the GT view and in each
+    novel view, kept or dropped with its reason (no scene folder).
+
+    Parameters
+    ----------
+    camera : CameraModel or dict
+        A camera (:mod:`nvrq.geometry.cameras`), or a scene.json camera model dict
+        (``{'type': 'pinhole', 'resolution': [W, H], ...}``, docs/FORMATS.md §2).
+    T_sensor_rig : (4, 4)
+        The camera's mounting in the rig frame (scene.json ``T_sensor_rig``).
+    T_rig_world : (4, 4)
+        The rig pose at this frame (rig -> world).
+    T_box_world : (M, 4, 4)
+        Box centre poses (box -> world); ``dims_lwh`` (M, 3) their length, width, height (m).
+    perturbations : (K, 6), optional
+        Novel views ``(dx, dy, dz, roll, pitch, yaw)`` in metres and degrees, in the rig frame
+        (:func:`nvrq.geometry.poses.perturb_T_sensor_rig`); or ``offsets`` (K,), lateral
+        offsets in metres (``dy`` alone; positive = left). One of the two.
+    min_side, min_area : float
+        As :func:`make_pairs` (pixels).
+
+    Returns
+    -------
+    pandas.DataFrame
+        M * K rows, box-major: ``box`` (0..M-1), ``view`` (0..K-1), ``kept`` (bool), ``reason``
+        (``''`` when kept, else ``unprojectable``, ``outside_image`` or ``too_small``, the GT
+        view's reason first, as :data:`DROP_REASONS`), and the inclusive pixel boxes
+        ``gt_x0, gt_y0, gt_x1, gt_y1`` and ``r_x0, r_y0, r_x1, r_y1`` (meaningful where kept).
+
+    >>> cam = {"type": "pinhole", "resolution": [640, 480], "focal_length": [500, 500],
+    ...        "principal_point": [319.5, 239.5]}
+    >>> T_cam = np.array([[0, 0, 1, 0], [-1, 0, 0, 0], [0, -1, 0, 1.5], [0, 0, 0, 1.0]])  # x fwd, z up
+    >>> T_box = np.eye(4); T_box[:3, 3] = [10, 0, 1]
+    >>> out = project_boxes(cam, T_sensor_rig=T_cam, T_rig_world=np.eye(4), T_box_world=T_box[None],
+    ...                     dims_lwh=[[4.0, 2.0, 1.5]], offsets=[0.0, 50.0])
+    >>> out[["view", "kept", "reason"]].values.tolist()
+    [[0, True, ''], [1, False, 'outside_image']]
+
+    The nearest face (x = 8 m ahead, y = -1..1 m) gives ``u = 500 * (-y) / 8 + 319.5`` = 257..382:
+
+    >>> out.loc[0, ["r_x0", "r_x1"]].tolist()
+    [257, 382]
+    """
+    from nvrq.geometry.cameras import CameraModel
+
+    if (perturbations is None) == (offsets is None):
+        raise InputError("perturbations", None, "exactly one of perturbations (K, 6) and offsets (K,)",
+                         "both" if offsets is not None else "neither")
+    views = lateral(np.asarray(offsets, np.float64).reshape(-1)) if offsets is not None \
+        else np.asarray(perturbations, np.float64)
+    if views.ndim != 2 or views.shape[1] != 6 or not np.isfinite(views).all():
+        raise InputError("perturbations", None, "a finite (K, 6) array (dx, dy, dz, roll, pitch, yaw)",
+                         f"shape {views.shape}")
+    model = camera if isinstance(camera, CameraModel) else camera_from_model(camera, where="camera")
+    arrays = {}
+    for name, value, shape in (("T_sensor_rig", T_sensor_rig, (4, 4)), ("T_rig_world", T_rig_world, (4, 4)),
+                               ("T_box_world", T_box_world, (None, 4, 4)), ("dims_lwh", dims_lwh, (None, 3))):
+        arr = np.asarray(value, np.float64)
+        if arr.ndim != len(shape) or any(s is not None and a != s for a, s in zip(arr.shape, shape, strict=True)):
+            want = "(M, " + ", ".join(map(str, shape[1:])) + ")" if shape[0] is None else str(shape)
+            raise InputError(name, None, f"an array of shape {want}", f"shape {arr.shape}")
+        arrays[name] = arr
+    if len(arrays["T_box_world"]) != len(arrays["dims_lwh"]):
+        raise InputError("dims_lwh", None, f"one row per box ({len(arrays['T_box_world'])})",
+                         f"{len(arrays['dims_lwh'])} rows")
+    for name, value in (("min_side", min_side), ("min_area", min_area)):
+        if not isinstance(value, int | float | np.number) or not np.isfinite(value) or value < 0:
+            raise InputError(name, None, "a non-negative number of pixels", value)
+    m, k = len(arrays["T_box_world"]), len(views)
+    corners = box_corners(arrays["T_box_world"], arrays["dims_lwh"])
+    code, box_gt, box = _view_codes(model, arrays["T_sensor_rig"], arrays["T_rig_world"][None],
+                                    np.zeros(m, np.int64), corners, views, min_side=min_side, min_area=min_area)
+    reasons = np.array(["", *DROP_REASONS[1:]], dtype=object)
+    out = pd.DataFrame({"box": np.repeat(np.arange(m), k), "view": np.tile(np.arange(k), m),
+                        "kept": (code == 0).reshape(-1), "reason": reasons[code.reshape(-1)]})
+    for j, name in enumerate(("x0", "y0", "x1", "y1")):
+        out[f"gt_{name}"] = np.repeat(box_gt[:, j], k)
+    for j, name in enumerate(("x0", "y0", "x1", "y1")):
+        out[f"r_{name}"] = box[:, :, j].reshape(-1)
+    return out
 
 
 def make_pairs(

@@ -1,0 +1,124 @@
+"""Pairs per second: the Python API (``nvrq.Evaluator``) against ``nvrq score`` on the same pairs.
+
+One synthetic clip (``nvrq.synth.generate_scene``), its pairs (``make_pairs``), one encoder
+loaded once and shared, so start-up (imports, model load, runtime export) is outside both
+timings. Measured in this one run, interleaved over ``--rounds``:
+
+- ``nvrq score``: :func:`nvrq.scoring.score_pairs`, the command's driver (it reads and decodes
+  the images, cuts the crops, scores them);
+- API, crops: the same GT frames' crops handed to :meth:`nvrq.Evaluator.score_crops` in chunks
+  of whole GT frames (as ``score_pairs`` batches them), the frames decoded in the timed loop
+  too, so both do the same work;
+- API, frames: :meth:`nvrq.Evaluator.score_frame` per (GT image, render image), frames decoded
+  in the loop (one encoder call per render image: smaller batches).
+
+The ratio API / ``nvrq score`` is the API's own overhead (target >= 0.95). The numbers are
+checked equal before timing. Run: ``python benchmarks/bench_api.py [--seconds 2 --size 640x360]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+import nvrq
+from data_schema.scene import load_scene
+from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS
+from nvrq.crop_batches import gt_groups, pack_groups
+from nvrq.crops import cut_box, read_rgb
+from nvrq.encoders.memory import tune_allocator
+from nvrq.pairs import make_pairs
+from nvrq.scoring import score_pairs
+from nvrq.synth.generate import generate_scene
+
+METRICS = ["psnr", "ssim", "nvrq", "nvrq_ca"]
+
+
+def api_crops(ev: nvrq.Evaluator, pairs: pd.DataFrame, root: Path, max_pairs: int) -> pd.DataFrame:
+    """Every pair through ``ev.score_crops``, whole GT frames per call (up to ``max_pairs``)."""
+    out = []
+    gb, rb = pairs[list(GT_BOX_COLUMNS)].to_numpy(), pairs[list(RENDER_BOX_COLUMNS)].to_numpy()
+    for rows in pack_groups(gt_groups(pairs["gt_path"].to_numpy()), max_pairs):
+        images, shared, gts, renders = {}, {}, [], []
+        for i in rows:
+            g = pairs.gt_path.iat[i]
+            img = images.get(g)
+            if img is None:
+                img = images[g] = read_rgb(root / g)
+            gts.append(shared.setdefault((g, *gb[i]), cut_box(img, gb[i])))
+            r = pairs.render_path.iat[i]
+            rimg = images.get(r)
+            if rimg is None:
+                rimg = images[r] = read_rgb(root / r)
+            renders.append(cut_box(rimg, rb[i]))
+        out.append(ev.score_crops(gts, renders).set_index(pd.Index(rows)))
+    return pd.concat(out).sort_index()
+
+
+def api_frames(ev: nvrq.Evaluator, pairs: pd.DataFrame, root: Path) -> pd.DataFrame:
+    """Every pair through ``ev.score_frame``, one call per (GT image, render image)."""
+    out, gt_cache = [], {}
+    for (g, r), rows in pairs.groupby(["gt_path", "render_path"], sort=False):
+        gt = gt_cache.get(g)
+        if gt is None:
+            gt_cache.clear()
+            gt = gt_cache[g] = read_rgb(root / g)
+        res = ev.score_frame(gt, read_rgb(root / r), rows[list(GT_BOX_COLUMNS)].to_numpy(),
+                             rows[list(RENDER_BOX_COLUMNS)].to_numpy())
+        out.append(res.set_index(rows.index))
+    return pd.concat(out).sort_index()
+
+
+def timed(fn):
+    t0 = time.perf_counter()
+    res = fn()
+    return time.perf_counter() - t0, res
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--seconds", type=float, default=2.0, help="clip length (default 2)")
+    ap.add_argument("--size", default="640x360", help="image size WxH (default 640x360)")
+    ap.add_argument("--encoder", default="efficientnet-lite0")
+    ap.add_argument("--runtime", default="auto", help="encoder runtime (default auto, as nvrq score)")
+    ap.add_argument("--rounds", type=int, default=3, help="interleaved timing rounds (default 3)")
+    args = ap.parse_args(argv)
+    tune_allocator()  # as the nvrq commands do
+    w, h = (int(v) for v in args.size.split("x"))
+    with tempfile.TemporaryDirectory() as tmp:
+        root = generate_scene(Path(tmp) / "scene", seed=0, seconds=args.seconds, fps=5.0,
+                              offsets=(-2, -1, 0, 1, 2), size=(w, h), progress=False)
+        pairs, _ = make_pairs(load_scene(root), progress=False)
+        ev = nvrq.Evaluator(metrics=METRICS, encoder=args.encoder, runtime=args.runtime)
+        enc, tau = ev.encoder, ev.tau
+
+        def cli():
+            return score_pairs(pairs, metrics=ev.columns, encoder=enc, tau=tau, progress=False).table
+
+        ref = cli()
+        for name, got in (("crops", api_crops(ev, pairs, root, 256)), ("frames", api_frames(ev, pairs, root))):
+            diff = np.nanmax(np.abs(got[ev.columns].to_numpy() - ref[ev.columns].to_numpy())[np.isfinite(ref[ev.columns].to_numpy())])
+            assert diff < 1e-6, (name, diff)
+        secs = {"nvrq score": [], "API crops": [], "API frames": []}
+        for _ in range(args.rounds):
+            secs["nvrq score"].append(timed(cli)[0])
+            secs["API crops"].append(timed(lambda: api_crops(ev, pairs, root, 256))[0])
+            secs["API frames"].append(timed(lambda: api_frames(ev, pairs, root))[0])
+    n = len(pairs)
+    print(f"{n} pairs, {pairs.gt_path.nunique()} GT frames, {args.size}, encoder {args.encoder} "
+          f"({enc.runtime}, {enc.threads} threads), metrics {', '.join(ev.columns)}; {args.rounds} rounds")
+    base = n / np.mean(secs["nvrq score"])
+    for k, v in secs.items():
+        rate = n / np.mean(v)
+        print(f"  {k:11s}: {rate:7.1f} pairs/s (rounds: {', '.join(f'{n / s:.1f}' for s in v)}); "
+              f"{rate / base:.2f}x nvrq score")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

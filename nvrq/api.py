@@ -1,0 +1,422 @@
+"""NVRQ from Python: score crops and frames held in memory, inside any evaluation loop.
+
+The functions here are a thin door onto the same core as ``nvrq score``
+(:func:`nvrq.score_core.score_crop_batch`: the same crop cutter, resize, encoder inputs and
+metric functions), so the numbers equal the command's on the same pairs:
+
+- :func:`score_crops`: GT and render crops -> one row per pair, one column per metric, named
+  as ``nvrq score`` names them (``psnr``, ``nvrq:ENCODER``, ``nvrq_ca:ENCODER``, ...).
+- :func:`score_frame`: a GT image, a render image and their (N, 4) boxes; the GT image is cut
+  once and equal GT boxes share one crop (embedded once).
+- :class:`Evaluator`: loads the encoder (and its exported runtime) once, scores with
+  :meth:`~Evaluator.score_crops` / :meth:`~Evaluator.score_frame`, and accumulates
+  torchmetrics-style: :meth:`~Evaluator.update` with optional per-pair labels (view, class,
+  any key), :meth:`~Evaluator.compute` (the summary per label group), :meth:`~Evaluator.reset`.
+
+Convention:
+    A crop or image is a numpy ``uint8`` array (H, W, 3), channels R, G, B, or a torch tensor
+    (3, H, W) of ``uint8`` or of floats in [0, 1] (on any device; a float value ``x`` is the
+    level ``round(255 x)``, so ``u / 255`` gives back ``u`` exactly). Sizes may differ from
+    pair to pair. A box is ``[x0, y0, x1, y1]`` in inclusive pixel indices, as in the pairs
+    table (docs/FORMATS.md §3): the crop is ``image[y0:y1 + 1, x0:x1 + 1]``.
+
+Bad input raises :class:`data_schema.errors.InputError` (a ``ValueError``) naming the argument
+(``render_crops[3]``, ``gt_boxes``, ``metrics``) and what was expected.
+
+>>> import numpy as np
+>>> gt = np.zeros((4, 6, 3), np.uint8)
+>>> score_crops([gt, gt], [gt, np.full((2, 3, 3), 9, np.uint8)], metrics=["mse", "psnr"]).round(3)
+    mse    psnr
+0   0.0     inf
+1  81.0  29.046
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+
+from data_schema.cliargs import comma_list
+from data_schema.errors import InputError
+from nvrq.crops import cut_box
+from nvrq.encoders.registry import DEFAULT_ENCODER, Encoder, EncoderConfig, encoder_config, get_spec
+from nvrq.metrics import REGISTRY, split_column
+from nvrq.score_core import (
+    CropBatch,
+    check_positive,
+    encoder_columns,
+    needs_tau,
+    reference_columns,
+    score_crop_batch,
+)
+from nvrq.scoring import resolve_metrics
+
+__all__ = ["score_crops", "score_frame", "Evaluator", "as_rgb_uint8"]
+
+_CROP = "a numpy uint8 (H, W, 3) RGB array, or a torch tensor (3, H, W) of uint8 or of floats in [0, 1]"
+
+
+def _describe(x) -> str:
+    shape = tuple(getattr(x, "shape", ()))
+    dtype = getattr(x, "dtype", None)
+    return f"{type(x).__module__.split('.')[0]} {dtype} {shape}" if dtype is not None else type(x).__name__
+
+
+def _torch_tensor(x) -> bool:
+    torch = sys.modules.get("torch")  # a tensor exists only if torch is imported
+    return torch is not None and isinstance(x, torch.Tensor)
+
+
+def _hwc(x, name: str):
+    """``x`` checked and seen as (H, W, 3): the numpy array itself, or a torch tensor's
+    (H, W, 3) view (not copied, still on its device)."""
+    if isinstance(x, np.ndarray):
+        if x.dtype != np.uint8 or x.ndim != 3 or x.shape[2] != 3 or 0 in x.shape:
+            raise InputError(name, None, _CROP, _describe(x))
+        return x
+    if _torch_tensor(x):
+        import torch
+
+        ok_dtype = x.dtype == torch.uint8 or x.is_floating_point()
+        if not ok_dtype or x.ndim != 3 or x.shape[0] != 3 or 0 in x.shape:
+            raise InputError(name, None, _CROP, _describe(x))
+        if x.is_floating_point():
+            lo, hi = torch.aminmax(x.detach())
+            lo, hi = float(lo), float(hi)
+            if not (0.0 <= lo and hi <= 1.0):  # NaN fails both
+                raise InputError(name, None, "float values in [0, 1]", f"values in [{lo:.4g}, {hi:.4g}]")
+        return x.permute(1, 2, 0)
+    raise InputError(name, None, _CROP, _describe(x))
+
+
+def _to_uint8(hwc) -> np.ndarray:
+    """A checked (H, W, 3) numpy array or torch view -> numpy uint8 (H, W, 3) on the host."""
+    if isinstance(hwc, np.ndarray):
+        return hwc
+    import torch
+
+    with torch.no_grad():
+        if hwc.is_floating_point():
+            hwc = hwc.mul(255.0).round_().to(torch.uint8)
+        return np.ascontiguousarray(hwc.cpu().numpy())
+
+
+def as_rgb_uint8(x, *, name: str = "image") -> np.ndarray:
+    """One crop or image as a numpy ``uint8`` (H, W, 3) RGB array (the module's convention).
+
+    ``x``: numpy uint8 (H, W, 3) (returned as is), or a torch tensor (3, H, W), uint8 or float
+    in [0, 1] (``round(255 x)``, copied to the host). :class:`InputError` naming ``name``
+    otherwise.
+
+    >>> as_rgb_uint8(np.zeros((2, 3, 3), np.uint8)).shape
+    (2, 3, 3)
+    >>> as_rgb_uint8(np.zeros((2, 3), np.uint8), name="crop")
+    Traceback (most recent call last):
+    ...
+    data_schema.errors.InputError: crop: expected a numpy uint8 (H, W, 3) RGB array, or a torch tensor (3, H, W) of uint8 or of floats in [0, 1], got numpy uint8 (2, 3)
+    """
+    return _to_uint8(_hwc(x, name))
+
+
+def _as_list(items, name: str) -> list:
+    """A sequence of crops: a list/tuple, or a batch array/tensor split along its first axis."""
+    if isinstance(items, (list, tuple)):
+        return list(items)
+    if isinstance(items, np.ndarray) or _torch_tensor(items):
+        if items.ndim != 4:
+            raise InputError(name, None, "a list of crops, or a batch (N, H, W, 3) numpy / (N, 3, H, W) torch",
+                             _describe(items))
+        return list(items)
+    raise InputError(name, None, "a list of crops (" + _CROP + ")", _describe(items))
+
+
+def _boxes(boxes, name: str) -> np.ndarray:
+    """(N, 4) int64 inclusive boxes; :class:`InputError` naming ``name`` otherwise."""
+    if _torch_tensor(boxes):
+        boxes = boxes.detach().cpu().numpy()
+    arr = np.asarray(boxes)
+    if arr.ndim != 2 or arr.shape[1] != 4 or not (np.issubdtype(arr.dtype, np.integer)
+                                                 or (np.issubdtype(arr.dtype, np.floating)
+                                                     and np.all(arr == np.round(arr)))):
+        raise InputError(name, None, "an (N, 4) array of integer inclusive pixel boxes x0, y0, x1, y1",
+                         f"{arr.dtype} {arr.shape}")
+    return arr.astype(np.int64)
+
+
+def _encoder_name(columns: Sequence[str], encoder) -> str:
+    """The encoder: named in ``columns`` (``nvrq:ENC``), else ``encoder``'s, else the default."""
+    named = {enc for fam, enc in map(split_column, (m.strip() for m in columns))
+             if enc is not None and fam in REGISTRY and REGISTRY[fam].needs_encoder}
+    given = None if encoder is None else (encoder if isinstance(encoder, str)
+                                          else encoder.name if isinstance(encoder, EncoderConfig)
+                                          else encoder.spec.name)
+    if len(named) > 1:
+        raise InputError("metrics", None, "one encoder for all nvrq/nvrq_ca metrics", ", ".join(sorted(named)))
+    if named and given is not None and named != {given}:
+        raise InputError("metrics", None, f"the encoder given as encoder ({given})", named.pop())
+    name = named.pop() if named else (given or DEFAULT_ENCODER)
+    get_spec(name)
+    return name
+
+
+class Evaluator:
+    """Scores pairs of crops with one loaded encoder, and accumulates them for a summary.
+
+    Parameters
+    ----------
+    metrics : sequence of str, or a comma-separated str
+        Metric names (``psnr``, ``ssim``, ``ms_ssim``, ``gmsd``, ``mse``, ``mae``, ``nvrq``,
+        ``nvrq_ca``, ...) or columns (``nvrq:dinov2-small``); see :mod:`nvrq.metrics`.
+    encoder : str, EncoderConfig or Encoder, optional
+        For ``nvrq``/``nvrq_ca``: a registry name (default ``efficientnet-lite0``), an
+        :class:`~nvrq.encoders.EncoderConfig`, or an encoder already loaded
+        (:func:`nvrq.encoders.load_encoder`). Loaded once, here.
+    weights, device, runtime
+        With a name: the :class:`~nvrq.encoders.EncoderConfig` fields (``runtime='auto'``: on
+        CPU the fastest exported runtime identical to torch fp32; torch on ``cuda``).
+    tau : float, optional
+        The NVRQ-CA knee; default as ``nvrq score``: the user config, then the registry.
+    batch_size : int
+        Crops per encoder pass.
+
+    Convention: see the module docstring. ``compute()`` summarises the pairs given to
+    ``update()`` since the last ``reset()``.
+
+    >>> ev = Evaluator(metrics=["mae"])
+    >>> gt = np.zeros((4, 4, 3), np.uint8)
+    >>> _ = ev.update([gt, gt], [gt, gt + 10], labels={"view": ["+1m", "+2m"]})
+    >>> _ = ev.update([gt], [gt + 30], labels={"view": ["+2m"]})
+    >>> ev.compute()
+      view  pairs   mae
+    0  +1m      1   0.0
+    1  +2m      2  20.0
+    """
+
+    def __init__(self, *, metrics, encoder: str | EncoderConfig | Encoder | None = None,
+                 weights=None, device: str = "cpu", runtime: str = "auto", tau: float | None = None,
+                 batch_size: int = 32):
+        raw = comma_list(metrics) if isinstance(metrics, str) else [str(m) for m in metrics]
+        name = _encoder_name(raw, encoder)
+        self.columns = resolve_metrics(raw, name)
+        check_positive("batch_size", batch_size)
+        self.batch_size = batch_size
+        self.encoder = None
+        self.tau = None
+        if needs_tau(self.columns):
+            from nvrq.calibrate import resolve_tau
+            from nvrq.formulas import check_tau
+
+            self.tau = resolve_tau(name, tau=tau)[0]
+            if self.tau is None:
+                raise InputError("tau", None, f"a tau for encoder {name} (none in the registry or the user "
+                                 "config: `nvrq calibrate-tau` measures one)", None)
+            check_tau(self.tau)
+        if encoder_columns(self.columns):
+            self.encoder = self._load(encoder, name, weights=weights, device=device, runtime=runtime)
+        self.reset()
+
+    @staticmethod
+    def _load(encoder, name: str, **options) -> Encoder:
+        if isinstance(encoder, Encoder):
+            return encoder
+        from nvrq.encoders import load_encoder
+
+        if isinstance(encoder, EncoderConfig):
+            return load_encoder(encoder)
+        return load_encoder(encoder_config(name, **options))
+
+    # --- scoring ---------------------------------------------------------------------------
+
+    def score_crops(self, gt_crops, render_crops) -> pd.DataFrame:
+        """One row per pair, one column per metric (see :func:`score_crops`)."""
+        renders = _as_list(render_crops, "render_crops")
+        if gt_crops is None:  # no-reference metrics only
+            self._check_no_reference("gt_crops")
+            return self._score([], None, [as_rgb_uint8(r, name=f"render_crops[{k}]") for k, r in enumerate(renders)])
+        gts = _as_list(gt_crops, "gt_crops")
+        if len(gts) != len(renders):
+            raise InputError("render_crops", None, f"one render crop per GT crop ({len(gts)})",
+                             f"{len(renders)} crops")
+        seen: dict[int, int] = {}  # id of a GT object -> its crop (the list keeps the objects alive)
+        gt_u8, index = [], np.empty(len(gts), np.int64)
+        for k, g in enumerate(gts):
+            j = seen.get(id(g))
+            if j is None:
+                j = seen[id(g)] = len(gt_u8)
+                gt_u8.append(as_rgb_uint8(g, name=f"gt_crops[{k}]"))
+            index[k] = j
+        r_u8 = [as_rgb_uint8(r, name=f"render_crops[{k}]") for k, r in enumerate(renders)]
+        return self._score(gt_u8, index, r_u8)
+
+    def score_frame(self, gt_image, render_image, gt_boxes, render_boxes) -> pd.DataFrame:
+        """One row per box pair (see :func:`score_frame`)."""
+        r_hwc, rb = _hwc(render_image, "render_image"), _boxes(render_boxes, "render_boxes")
+        if gt_image is None:  # no-reference metrics only
+            self._check_no_reference("gt_image")
+            return self._score([], None, [_to_uint8(cut_box(r_hwc, b, where=f"render_boxes[{k}]"))
+                                          for k, b in enumerate(rb)])
+        gt_hwc, gb = _hwc(gt_image, "gt_image"), _boxes(gt_boxes, "gt_boxes")
+        if len(gb) != len(rb):
+            raise InputError("render_boxes", None, f"one render box per GT box ({len(gb)})", f"{len(rb)} boxes")
+        seen: dict[tuple, int] = {}  # one crop per distinct GT box, as crop_batches does per GT image
+        gt_u8, index = [], np.empty(len(gb), np.int64)
+        for k, box in enumerate(gb):
+            j = seen.get(key := tuple(box.tolist()))
+            if j is None:
+                j = seen[key] = len(gt_u8)
+                gt_u8.append(_to_uint8(cut_box(gt_hwc, box, where=f"gt_boxes[{k}]")))
+            index[k] = j
+        r_u8 = [_to_uint8(cut_box(r_hwc, b, where=f"render_boxes[{k}]")) for k, b in enumerate(rb)]
+        return self._score(gt_u8, index, r_u8)
+
+    def _check_no_reference(self, name: str) -> None:
+        needs_gt = reference_columns(self.columns)
+        if needs_gt:
+            raise InputError(name, None, f"the GT for the reference metrics {', '.join(needs_gt)} "
+                             "(only no-reference metrics score renders alone)", None)
+
+    def _score(self, gt_u8: list, gt_index: np.ndarray | None, r_u8: list) -> pd.DataFrame:
+        """The core on one batch: ``gt_index`` None (and no GT crops) for no-reference metrics."""
+        index = None if gt_index is None else np.asarray(gt_index, np.int64)
+        batch = CropBatch(np.arange(len(r_u8), dtype=np.int64), gt_u8, index, r_u8)
+        cols = score_crop_batch(batch, metrics=self.columns, encoder=self.encoder, tau=self.tau,
+                                batch_size=self.batch_size)
+        return pd.DataFrame(cols, columns=self.columns)
+
+    # --- accumulation ----------------------------------------------------------------------
+
+    def reset(self) -> None:
+        """Forget the pairs given to :meth:`update`."""
+        self._parts: list[pd.DataFrame] = []
+        self._label_keys: list[str] = []
+
+    def update(self, gt_crops, render_crops, *, labels: Mapping | pd.DataFrame | None = None) -> pd.DataFrame:
+        """Score crops (as :meth:`score_crops`) and keep them for :meth:`compute`.
+
+        ``labels``: per-pair keys, ``{key: one value for all pairs, or (N,) values}`` or a
+        DataFrame of N rows (e.g. ``view``, ``class``, ``track_id``). Returns the scored rows
+        (labels first, then the metric columns).
+        """
+        return self._keep(self.score_crops(gt_crops, render_crops), labels)
+
+    def update_frame(self, gt_image, render_image, gt_boxes, render_boxes, *,
+                     labels: Mapping | pd.DataFrame | None = None) -> pd.DataFrame:
+        """Score a frame's box pairs (as :meth:`score_frame`) and keep them for :meth:`compute`."""
+        return self._keep(self.score_frame(gt_image, render_image, gt_boxes, render_boxes), labels)
+
+    def _keep(self, scores: pd.DataFrame, labels) -> pd.DataFrame:
+        n = len(scores)
+        lab = _labels(labels, n)
+        clash = [k for k in lab.columns if k in self.columns or k == "pairs"]
+        if clash:
+            raise InputError("labels", clash[0], "label keys other than the metric columns and 'pairs'", clash[0])
+        rows = pd.concat([lab, scores], axis=1)
+        self._label_keys.extend(k for k in lab.columns if k not in self._label_keys)
+        self._parts.append(rows)
+        return rows
+
+    @property
+    def pairs(self) -> pd.DataFrame:
+        """Every pair given to :meth:`update` since :meth:`reset`: labels, then metric columns."""
+        if not self._parts:
+            return pd.DataFrame(columns=[*self._label_keys, *self.columns])
+        return pd.concat(self._parts, ignore_index=True).loc[:, [*self._label_keys, *self.columns]]
+
+    def compute(self, by: Sequence[str] | None = None) -> pd.DataFrame:
+        """The summary: one row per label group (``by``, default every label key given to
+        :meth:`update`, in first-seen order; none: one row of all pairs), with ``pairs`` (the
+        group's pair count) and each metric's mean over the group (NaN values skipped)."""
+        table = self.pairs
+        keys = list(self._label_keys if by is None else by)
+        missing = [k for k in keys if k not in self._label_keys]
+        if missing:
+            raise InputError("by", None, f"label keys among {', '.join(self._label_keys) or 'none'}", missing[0])
+        values = table[self.columns].astype(np.float64)
+        if not keys:
+            return pd.DataFrame([{"pairs": len(table), **values.mean().to_dict()}], columns=["pairs", *self.columns])
+        grouped = values.groupby([table[k] for k in keys], sort=True, dropna=False)
+        out = grouped.mean()
+        out.insert(0, "pairs", grouped.size())
+        return out.reset_index()
+
+
+def _labels(labels, n: int) -> pd.DataFrame:
+    """Per-pair labels as an (n, K) DataFrame."""
+    if labels is None:
+        return pd.DataFrame(index=range(n))
+    if isinstance(labels, pd.DataFrame):
+        if len(labels) != n:
+            raise InputError("labels", None, f"{n} rows, one per pair", f"{len(labels)} rows")
+        return labels.reset_index(drop=True)
+    if not isinstance(labels, Mapping):
+        raise InputError("labels", None, "a mapping {key: value or (N,) values} or a DataFrame",
+                         type(labels).__name__)
+    cols = {}
+    for key, value in labels.items():
+        if np.ndim(value) == 0:
+            cols[str(key)] = [value] * n
+        elif len(value) != n:
+            raise InputError("labels", str(key), f"one value, or {n} values (one per pair)", f"{len(value)} values")
+        else:
+            cols[str(key)] = list(value)
+    return pd.DataFrame(cols, index=range(n))
+
+
+def score_crops(gt_crops, render_crops, *, metrics, encoder=None, weights=None, device: str = "cpu",
+                runtime: str = "auto", tau: float | None = None, batch_size: int = 32) -> pd.DataFrame:
+    """Metrics of pairs of crops held in memory: one row per pair, one column per metric.
+
+    Parameters
+    ----------
+    gt_crops, render_crops : sequence of N crops
+        Each a numpy uint8 (H, W, 3) RGB array or a torch tensor (3, H, W) (uint8, or float in
+        [0, 1]); a batch array (N, H, W, 3) / tensor (N, 3, H, W) also works. Sizes may differ
+        from pair to pair. The same GT array object repeated in ``gt_crops`` is embedded once.
+        ``gt_crops=None`` when every metric is a no-reference one (``niqe``, ``brisque``, ...:
+        the render crop alone).
+    metrics, encoder, weights, device, runtime, tau, batch_size
+        As :class:`Evaluator` (which loads the encoder; build one to score many batches).
+
+    Returns
+    -------
+    pandas.DataFrame
+        N rows; the columns ``nvrq score`` writes for these metrics (``psnr``,
+        ``nvrq:ENCODER``, ...), with the same values: pixel metrics compare the GT crop with
+        the render crop bicubic-resized to the GT crop's size; NVRQ (paper Eq. 4) and NVRQ-CA
+        (Eq. 5) compare the crops' encoder embeddings (docs/FORMATS.md §4).
+
+    >>> gt = np.full((8, 8, 3), 100, np.uint8)
+    >>> score_crops([gt], [gt + 1], metrics="psnr,mae").round(3).to_dict("records")
+    [{'psnr': 48.131, 'mae': 1.0}]
+    """
+    ev = Evaluator(metrics=metrics, encoder=encoder, weights=weights, device=device, runtime=runtime,
+                   tau=tau, batch_size=batch_size)
+    return ev.score_crops(gt_crops, render_crops)
+
+
+def score_frame(gt_image, render_image, gt_boxes, render_boxes, *, metrics, encoder=None, weights=None,
+                device: str = "cpu", runtime: str = "auto", tau: float | None = None,
+                batch_size: int = 32) -> pd.DataFrame:
+    """Metrics of N box pairs of one GT image and one render image (see :func:`score_crops`).
+
+    Parameters
+    ----------
+    gt_image, render_image : image
+        numpy uint8 (H, W, 3) RGB, or a torch tensor (3, H, W) (uint8, or float in [0, 1]);
+        the two may differ in size. A torch image is cut where it lies; only the crops are
+        brought to the host. ``gt_image=None`` (and ``gt_boxes=None``) for no-reference metrics.
+    gt_boxes, render_boxes : (N, 4) int
+        Inclusive pixel boxes ``x0, y0, x1, y1`` (the pairs table's ``gt_*``/``r_*``
+        columns). The GT image is cut once per distinct GT box, and those crops are shared.
+
+    >>> img = np.zeros((10, 10, 3), np.uint8)
+    >>> score_frame(img, img + 2, [[0, 0, 3, 3], [0, 0, 3, 3]], [[0, 0, 3, 3], [2, 2, 9, 9]],
+    ...             metrics=["mae"])["mae"].tolist()
+    [2.0, 2.0]
+    """
+    ev = Evaluator(metrics=metrics, encoder=encoder, weights=weights, device=device, runtime=runtime,
+                   tau=tau, batch_size=batch_size)
+    return ev.score_frame(gt_image, render_image, gt_boxes, render_boxes)
