@@ -19,14 +19,13 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from analysis import plots
 from analysis.methods import ALPHA, MethodsResult
-from data_schema.perturbation import AXES, AXIS_UNITS, PERTURBATION_COLUMNS
+from analysis.plots import VIEW_AXIS_LABELS
+from data_schema.perturbation import PERTURBATION_COLUMNS
 
 __all__ = ["context", "leaderboard_display", "paired_display", "leaderboard_text", "methods_tent_plot",
            "method_class_heatmap", "method_figures"]
-
-_UNIT = {c: f"{a} ({AXIS_UNITS[a]})" for a, c in zip(AXES, PERTURBATION_COLUMNS, strict=True)}
-
 
 def _num(v, digits: int = 3) -> str:
     return "" if v is None or not np.isfinite(v) else f"{v:.{digits}f}"
@@ -68,7 +67,7 @@ def paired_display(res: MethodsResult, metric: str | None = None) -> pd.DataFram
     rows = []
     for r in t.itertuples():
         names = {"a": r.method_a, "b": r.method_b}
-        view = "all" if r.axis == "all" else f"{_UNIT.get(r.axis, r.axis)} = {r.offset:g}"
+        view = "all" if r.axis == "all" else f"{VIEW_AXIS_LABELS.get(r.axis, r.axis)} = {r.offset:g}"
         diff = _num(r.mean_diff, 4)
         if np.isfinite(r.ci_lo):
             diff += f" [{r.ci_lo:.4f}, {r.ci_hi:.4f}]"
@@ -104,13 +103,7 @@ def methods_tent_plot(table: pd.DataFrame, metrics: list[str], directions: dict[
                       methods: list[str], *, axis: str = "y_offset_m") -> Figure:
     """One panel per metric: per method, the mean (line) and its 95% interval (band) along
     ``axis`` (rows of methods.csv with ``breakdown == axis``). ``len(fig.axes) == len(metrics)``."""
-    n = len(metrics)
-    ncols = min(4, n)
-    nrows = math.ceil(n / ncols)
-    fig = Figure(figsize=(3.4 * ncols, 2.9 * nrows), layout="constrained")
-    axes = fig.subplots(nrows, ncols, squeeze=False).ravel()
-    for ax in axes[n:]:
-        fig.delaxes(ax)
+    fig, axes = plots.panel_grid(len(metrics), width=3.4, height=2.9)
     t = table[table["breakdown"] == axis]
     for ax, metric in zip(axes, metrics, strict=False):
         for k, m in enumerate(methods):
@@ -128,7 +121,7 @@ def methods_tent_plot(table: pd.DataFrame, metrics: list[str], directions: dict[
             ax.invert_yaxis()
             title += " \u2193 (lower is better)"
         ax.set_title(title, fontsize=9)
-        ax.set_xlabel(_UNIT.get(axis, axis), fontsize=8)
+        ax.set_xlabel(VIEW_AXIS_LABELS.get(axis, axis), fontsize=8)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=7, title="method", title_fontsize=7)
@@ -169,7 +162,7 @@ def method_figures(res: MethodsResult) -> list[tuple[str, str, object]]:
     for axis in dict.fromkeys(res.table["breakdown"]):
         if axis in PERTURBATION_COLUMNS:
             name = "methods_tent" if axis == "y_offset_m" else f"methods_tent_{axis}"
-            out.append((name, f"Methods along {_UNIT[axis]}: mean and 95% interval per method",
+            out.append((name, f"Methods along {VIEW_AXIS_LABELS[axis]}: mean and 95% interval per method",
                         methods_tent_plot(res.table, res.metrics, res.directions, res.methods, axis=axis)))
     heat = method_class_heatmap(res.table, res.rank_metric, res.methods,
                                 higher_better=res.directions[res.rank_metric])

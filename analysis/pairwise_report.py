@@ -13,21 +13,17 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from jinja2 import Environment, FileSystemLoader
 from markupsafe import Markup
 from matplotlib.figure import Figure
 
 from analysis import plots
 from analysis.pairwise import CEILING_ROW, PairwiseAnalysis
-from analysis.report import _html_table, _md_table
+from analysis.plots import VIEW_AXIS_LABELS
+from analysis.report import _html_table, _md_table, render_pages, write_report_folder
 from annotate.screening import ScreenRule
-from data_schema.outputs import check_output_folder, mark_report
-from data_schema.perturbation import AXES, AXIS_UNITS, PERTURBATION_COLUMNS
-from data_schema.tables import atomic_folder, write_table
+from data_schema.tables import write_table
 
 __all__ = ["write_pairwise_report", "bt_display", "win_prob_plot", "agreement_plot"]
-
-_UNIT = {c: f"{a} ({AXIS_UNITS[a]})" for a, c in zip(AXES, PERTURBATION_COLUMNS, strict=True)}
 
 
 def _interval(v, lo, hi) -> str:
@@ -70,7 +66,7 @@ def win_prob_plot(bt: pd.DataFrame, methods: list[str]) -> Figure | None:
                 ax.fill_between(x, lo, hi, color=f"C{k % 10}", alpha=0.2, linewidth=0)
         ax.axhline(0.5, color="0.5", linestyle=":", linewidth=0.8)
         ax.set_ylim(0, 1)
-        ax.set_xlabel(_UNIT.get(axis, axis), fontsize=8)
+        ax.set_xlabel(VIEW_AXIS_LABELS.get(axis, axis), fontsize=8)
         ax.set_ylabel("Bradley-Terry win probability", fontsize=8)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
@@ -156,18 +152,9 @@ def _build(a: PairwiseAnalysis, d: Path) -> None:
     write_table(a.agreement, d / "agreement_2afc.csv")
     write_table(a.raters, d / "raters.csv")
     figs = _figures(a, d)
-    templates = Path(__file__).parent / "templates"
-    for name, env in (("pairwise.html.j2", Environment(loader=FileSystemLoader(templates), autoescape=True)),
-                      ("pairwise.md.j2", Environment(loader=FileSystemLoader(templates), autoescape=False,
-                                                     keep_trailing_newline=True))):
-        page = env.get_template(name).render(**_context(a, figs, html_out=name.endswith("html.j2")))
-        (d / ("report.html" if name.endswith("html.j2") else "report.md")).write_text(page, encoding="utf-8")
+    render_pages(d, "pairwise", lambda html_out: _context(a, figs, html_out=html_out))
 
 
 def write_pairwise_report(a: PairwiseAnalysis, out_dir) -> Path:
     """Write the report directory atomically (build beside it, then swap it into place)."""
-    out = check_output_folder(out_dir, kind="report", option="out_dir")
-    with atomic_folder(out) as tmp:
-        _build(a, tmp)
-        mark_report(tmp)
-    return out
+    return write_report_folder(lambda d: _build(a, d), out_dir)

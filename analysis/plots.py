@@ -22,7 +22,11 @@ import pandas as pd
 from matplotlib.figure import Figure
 from sklearn.metrics import roc_curve
 
+from data_schema.perturbation import AXES, AXIS_UNITS, PERTURBATION_COLUMNS
+
 __all__ = [
+    "VIEW_AXIS_LABELS",
+    "panel_grid",
     "tent_plot",
     "speed_accuracy_plot",
     "roc_plot",
@@ -31,6 +35,27 @@ __all__ = [
     "place_labels",
     "save_figure",
 ]
+
+
+#: The x-axis label of each view column, e.g. ``'y (m)'`` for ``y_offset_m``.
+VIEW_AXIS_LABELS = {c: f"{a} ({AXIS_UNITS[a]})" for a, c in zip(AXES, PERTURBATION_COLUMNS, strict=True)}
+
+
+def panel_grid(n: int, *, width: float, height: float) -> tuple[Figure, np.ndarray]:
+    """A figure of ``n`` panels, at most four a row, each ``width`` x ``height`` inches:
+    ``(fig, axes (n,))``; the unused cells of the last row are removed.
+
+    >>> fig, axes = panel_grid(5, width=3.0, height=2.0)
+    >>> len(axes), len(fig.axes), fig.get_size_inches().tolist()
+    (5, 5, [12.0, 4.0])
+    """
+    ncols = min(4, n)
+    nrows = math.ceil(n / ncols)
+    fig = Figure(figsize=(width * ncols, height * nrows), layout="constrained")
+    axes = fig.subplots(nrows, ncols, squeeze=False).ravel()
+    for ax in axes[n:]:
+        fig.delaxes(ax)
+    return fig, axes[:n]
 
 
 def tent_plot(
@@ -45,13 +70,7 @@ def tent_plot(
     by_offset: long table ``y_offset_m, column, n, mean, std`` (see
     :func:`analysis.breakdowns.offset_table`). ``len(fig.axes) == len(columns)``.
     """
-    n = len(columns)
-    ncols = min(4, n)
-    nrows = math.ceil(n / ncols)
-    fig = Figure(figsize=(3.2 * ncols, 2.8 * nrows), layout="constrained")
-    axes = fig.subplots(nrows, ncols, squeeze=False).ravel()
-    for ax in axes[n:]:
-        fig.delaxes(ax)
+    fig, axes = panel_grid(len(columns), width=3.2, height=2.8)
     if "label_class" in by_offset.columns:
         by_offset = by_offset[by_offset["label_class"] == "all"]
     for i, (ax, col) in enumerate(zip(axes, columns, strict=False)):

@@ -30,7 +30,7 @@ from annotate.screening import ScreenRule
 from data_schema.outputs import check_output_folder, mark_report
 from data_schema.tables import atomic_folder, write_table
 
-__all__ = ["write_report", "summary_display", "format_table_text"]
+__all__ = ["write_report", "write_report_folder", "render_pages", "summary_display", "format_table_text"]
 
 _DISPLAY = [
     "metric",
@@ -382,24 +382,35 @@ def _context(a: Analysis, t: dict, figs: list[dict], *, html_out: bool) -> dict:
     }
 
 
+def render_pages(d: Path, template: str, context) -> None:
+    """Render ``templates/TEMPLATE.html.j2`` to ``d/report.html`` (HTML-escaped) and
+    ``templates/TEMPLATE.md.j2`` to ``d/report.md``; ``context(html_out=bool)`` gives each
+    page's variables."""
+    templates = Path(__file__).parent / "templates"
+    for suffix, out, escape in ((".html.j2", "report.html", True), (".md.j2", "report.md", False)):
+        env = Environment(loader=FileSystemLoader(templates), autoescape=escape, keep_trailing_newline=not escape)
+        page = env.get_template(template + suffix).render(**context(html_out=escape))
+        (d / out).write_text(page, encoding="utf-8")
+
+
+def write_report_folder(build, out_dir) -> Path:
+    """Write a report directory atomically: ``build(folder)`` fills a folder beside ``out_dir``
+    that is marked as a report and swapped into place; an existing folder that is not a report
+    is refused (:func:`data_schema.outputs.check_output_folder`)."""
+    out = check_output_folder(out_dir, kind="report", option="out_dir")
+    with atomic_folder(out) as tmp:
+        build(tmp)
+        mark_report(tmp)
+    return out
+
+
 def _build(a: Analysis, d: Path) -> None:
     t = _texts(a)
     _write_tables(a, d)
     figs = _figures(a, d, t["target_label"])
-    templates = Path(__file__).parent / "templates"
-    html_env = Environment(loader=FileSystemLoader(templates), autoescape=True)
-    md_env = Environment(loader=FileSystemLoader(templates), autoescape=False,
-                         keep_trailing_newline=True)
-    page = html_env.get_template("report.html.j2").render(**_context(a, t, figs, html_out=True))
-    (d / "report.html").write_text(page, encoding="utf-8")
-    md = md_env.get_template("report.md.j2").render(**_context(a, t, figs, html_out=False))
-    (d / "report.md").write_text(md, encoding="utf-8")
+    render_pages(d, "report", lambda html_out: _context(a, t, figs, html_out=html_out))
 
 
 def write_report(a: Analysis, out_dir) -> Path:
     """Write the report directory atomically (build beside it, then swap it into place)."""
-    out = check_output_folder(out_dir, kind="report", option="out_dir")
-    with atomic_folder(out) as tmp:
-        _build(a, tmp)
-        mark_report(tmp)
-    return out
+    return write_report_folder(lambda d: _build(a, d), out_dir)
