@@ -38,7 +38,7 @@ from tqdm import tqdm
 from annotate import crops as _crops
 from annotate.design import attribute_columns, choose_views, select_test_pairs
 from data_schema.errors import InputError
-from data_schema.methods import METHOD_COLUMN
+from data_schema.methods import GT_METHOD, METHOD_COLUMN
 from data_schema.perturbation import labels, perturbation_array, view_columns, view_suffix
 from data_schema.perturbation import with_perturbation_columns as _with_views
 from data_schema.tables import GT_BOX_COLUMNS, PAIR_META_COLUMNS, RENDER_BOX_COLUMNS
@@ -47,8 +47,6 @@ from nvrq.crops import cut_box
 __all__ = ["METHOD_COLUMN", "GT_METHOD", "VOTE_CODES", "SIDES", "check_methods", "choose_items",
            "cut_crops", "choice", "object_view_ids"]
 
-#: ``method_a`` of a gold item: the GT crop itself (a reserved method name)
-GT_METHOD = "gt"
 #: stored vote codes of a pairwise study: the key pressed
 VOTE_CODES = {1: "left", 2: "right", 0: "can't tell"}
 SIDES = ("left", "right")
@@ -69,8 +67,9 @@ def object_view_ids(df: pd.DataFrame) -> list[str]:
 
 def check_methods(pairs: pd.DataFrame, methods: str | None, *, where: str) -> list[str]:
     """The study's methods in order: ``methods`` (a comma list) or every method of ``pairs``
-    (sorted). InputError: no ``method`` column, an empty method, a name not in the table or
-    reserved (``gt``), a repeated name, fewer than two."""
+    (sorted). InputError: no ``method`` column, an empty method, a name not in the table, a
+    repeated name, fewer than two. (The pairs reader has checked the names: never the reserved
+    :data:`GT_METHOD`, :func:`data_schema.methods.check_method_name`.)"""
     if METHOD_COLUMN not in pairs.columns:
         raise InputError(where, f"column {METHOD_COLUMN!r}",
                          "a method column (one render per method) for --design pairwise",
@@ -91,9 +90,6 @@ def check_methods(pairs: pd.DataFrame, methods: str | None, *, where: str) -> li
                              f"({', '.join(have)})", unknown[0])
         if len(set(chosen)) != len(chosen):
             raise InputError("methods", None, "each method once", methods)
-    if GT_METHOD in chosen:
-        raise InputError(where, "column 'method'", f"method names other than {GT_METHOD!r} "
-                         "(reserved for the GT crop of gold items)", GT_METHOD)
     if len(chosen) < 2:
         raise InputError("methods" if methods is not None else where,
                          None if methods is not None else "column 'method'",

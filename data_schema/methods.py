@@ -34,15 +34,19 @@ import pandas as pd
 
 from data_schema.errors import InputError
 
-__all__ = ["METHOD_COLUMN", "check_method_name", "method_values", "method_columns", "method_suffix",
+__all__ = ["METHOD_COLUMN", "GT_METHOD", "check_method_name", "method_values", "method_columns", "method_suffix",
            "parse_methods", "check_methods", "check_table_methods"]
 
 #: The optional column naming the reconstruction method of a render (empty: none).
 METHOD_COLUMN = "method"
 
+#: The reserved name of the GT crop where a method is expected (``method_a`` of a pairwise
+#: study's gold items, docs/FORMATS.md §12): never a method's name.
+GT_METHOD = "gt"
+
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
-#: read as missing values by CSV readers; 'gt' names the GT crop of a pairwise study's gold items
-_RESERVED = {"na", "null", "none", "gt"}
+#: read as missing values by CSV readers, and the GT crop's name
+_RESERVED = {"na", "null", "none", GT_METHOD}
 _EXPECTED = ("a method name of letters, digits, '_', '-' and '.' (starting with a letter or digit, "
              "at most 64 characters, with a letter, not NA/null/none/gt), e.g. 3dgs")
 
@@ -57,18 +61,21 @@ def check_method_name(name, *, where: object, field: str | None) -> str:
     ...
     data_schema.errors.InputError: --methods: expected a method name of letters, digits, '_', '-' and '.' (starting with a letter or digit, at most 64 characters, with a letter, not NA/null/none/gt), e.g. 3dgs, got 'a:b'
     """
-    text = name if isinstance(name, str) else None
-    ok = text is not None and _NAME.fullmatch(text) is not None and re.search("[A-Za-z]", text) is not None \
-        and text.lower() not in _RESERVED
-    if ok:
-        try:
-            float(text)  # 'inf', 'nan', '1e3' read back as numbers
-            ok = False
-        except ValueError:
-            pass
-    if not ok:
+    if not _is_method_name(name):
         raise InputError(where, field, _EXPECTED, repr(name))
-    return text
+    return name
+
+
+def _is_method_name(name) -> bool:
+    """Whether ``name`` follows the rule of :func:`check_method_name`."""
+    if not (isinstance(name, str) and _NAME.fullmatch(name) and re.search("[A-Za-z]", name)
+            and name.lower() not in _RESERVED):
+        return False
+    try:
+        float(name)  # 'inf', 'nan', '1e3' read back as numbers
+    except ValueError:
+        return True
+    return False
 
 
 def method_values(table: pd.DataFrame) -> np.ndarray:
@@ -99,16 +106,9 @@ def check_table_methods(table: pd.DataFrame, *, where: object, line_offset: int 
     """Every non-empty ``method`` value of ``table`` is a valid name; errors name the row
     (``what`` + position + ``line_offset``, e.g. ``row 5`` of a CSV with a header)."""
     values = method_values(table)
-    uniq = pd.unique(values)
-    bad = {}
-    for v in uniq:
-        if v:
-            try:
-                check_method_name(v, where=where, field=None)
-            except InputError:
-                bad[v] = True
+    bad = [v for v in pd.unique(values) if v and not _is_method_name(v)]
     if bad:
-        i = int(np.flatnonzero([v in bad for v in values])[0])
+        i = int(np.flatnonzero(pd.Series(values).isin(bad).to_numpy())[0])
         check_method_name(values[i], where=where, field=f"{what} {i + line_offset}, column {METHOD_COLUMN}")
 
 
