@@ -9,8 +9,9 @@ timings. Measured in this one run, interleaved over ``--rounds``:
 - API, crops: the same GT frames' crops handed to :meth:`nvrq.Evaluator.score_crops` in chunks
   of whole GT frames (as ``score_pairs`` batches them), the frames decoded in the timed loop
   too, so both do the same work;
-- API, frames: :meth:`nvrq.Evaluator.score_frame` per (GT image, render image), frames decoded
-  in the loop (one encoder call per render image: smaller batches).
+- API, frames: :meth:`nvrq.Evaluator.update_frame` per (GT image, render image), frames
+  decoded in the loop, as an evaluation loop calls it (the Evaluator scores every
+  ``update_pairs`` pairs at once).
 
 The ratio API / ``nvrq score`` is the API's own overhead (target >= 0.95). The numbers are
 checked equal before timing. Run: ``python benchmarks/bench_api.py [--seconds 2 --size 640x360]``.
@@ -61,17 +62,18 @@ def api_crops(ev: nvrq.Evaluator, pairs: pd.DataFrame, root: Path, max_pairs: in
 
 
 def api_frames(ev: nvrq.Evaluator, pairs: pd.DataFrame, root: Path) -> pd.DataFrame:
-    """Every pair through ``ev.score_frame``, one call per (GT image, render image)."""
-    out, gt_cache = [], {}
+    """Every pair through ``ev.update_frame``, one call per (GT image, render image); the
+    Evaluator scores them in batches of ``update_pairs`` pairs."""
+    ev.reset()
+    gt_cache = {}
     for (g, r), rows in pairs.groupby(["gt_path", "render_path"], sort=False):
         gt = gt_cache.get(g)
         if gt is None:
             gt_cache.clear()
             gt = gt_cache[g] = read_rgb(root / g)
-        res = ev.score_frame(gt, read_rgb(root / r), rows[list(GT_BOX_COLUMNS)].to_numpy(),
-                             rows[list(RENDER_BOX_COLUMNS)].to_numpy())
-        out.append(res.set_index(rows.index))
-    return pd.concat(out).sort_index()
+        ev.update_frame(gt, read_rgb(root / r), rows[list(GT_BOX_COLUMNS)].to_numpy(),
+                        rows[list(RENDER_BOX_COLUMNS)].to_numpy(), labels={"row": rows.index.to_numpy()})
+    return ev.pairs.set_index("row").sort_index()
 
 
 def timed(fn):

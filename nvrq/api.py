@@ -181,14 +181,17 @@ class Evaluator:
         The NVRQ-CA knee; default as ``nvrq score``: the user config, then the registry.
     batch_size : int
         Crops per encoder pass.
+    update_pairs : int
+        :meth:`update` scores once this many pairs are pending (default 256, the pairs per crop
+        batch of ``nvrq score``), so small updates still fill the encoder's batches.
 
     Convention: see the module docstring. ``compute()`` summarises the pairs given to
     ``update()`` since the last ``reset()``.
 
     >>> ev = Evaluator(metrics=["mae"])
     >>> gt = np.zeros((4, 4, 3), np.uint8)
-    >>> _ = ev.update([gt, gt], [gt, gt + 10], labels={"view": ["+1m", "+2m"]})
-    >>> _ = ev.update([gt], [gt + 30], labels={"view": ["+2m"]})
+    >>> ev.update([gt, gt], [gt, gt + 10], labels={"view": ["+1m", "+2m"]})
+    >>> ev.update([gt], [gt + 30], labels={"view": ["+2m"]})
     >>> ev.compute()
       view  pairs   mae
     0  +1m      1   0.0
@@ -197,12 +200,13 @@ class Evaluator:
 
     def __init__(self, *, metrics, encoder: str | EncoderConfig | Encoder | None = None,
                  weights=None, device: str = "cpu", runtime: str = "auto", tau: float | None = None,
-                 batch_size: int = 32):
+                 batch_size: int = 32, update_pairs: int = 256):
         raw = comma_list(metrics) if isinstance(metrics, str) else [str(m) for m in metrics]
         name = _encoder_name(raw, encoder)
         self.columns = resolve_metrics(raw, name)
         check_positive("batch_size", batch_size)
-        self.batch_size = batch_size
+        check_positive("update_pairs", update_pairs)
+        self.batch_size, self.update_pairs = batch_size, update_pairs
         self.encoder = None
         self.tau = None
         if needs_tau(self.columns):
@@ -232,10 +236,18 @@ class Evaluator:
 
     def score_crops(self, gt_crops, render_crops) -> pd.DataFrame:
         """One row per pair, one column per metric (see :func:`score_crops`)."""
+        return self._score(*self._crops(gt_crops, render_crops))
+
+    def score_frame(self, gt_image, render_image, gt_boxes, render_boxes) -> pd.DataFrame:
+        """One row per box pair (see :func:`score_frame`)."""
+        return self._score(*self._frame_crops(gt_image, render_image, gt_boxes, render_boxes))
+
+    def _crops(self, gt_crops, render_crops) -> tuple[list, np.ndarray | None, list]:
+        """Checked host crops ``(gt_u8, gt_index, r_u8)`` of a crop list (GT objects once)."""
         renders = _as_list(render_crops, "render_crops")
         if gt_crops is None:  # no-reference metrics only
             self._check_no_reference("gt_crops")
-            return self._score([], None, [as_rgb_uint8(r, name=f"render_crops[{k}]") for k, r in enumerate(renders)])
+            return [], None, [as_rgb_uint8(r, name=f"render_crops[{k}]") for k, r in enumerate(renders)]
         gts = _as_list(gt_crops, "gt_crops")
         if len(gts) != len(renders):
             raise InputError("render_crops", None, f"one render crop per GT crop ({len(gts)})",
@@ -248,16 +260,14 @@ class Evaluator:
                 j = seen[id(g)] = len(gt_u8)
                 gt_u8.append(as_rgb_uint8(g, name=f"gt_crops[{k}]"))
             index[k] = j
-        r_u8 = [as_rgb_uint8(r, name=f"render_crops[{k}]") for k, r in enumerate(renders)]
-        return self._score(gt_u8, index, r_u8)
+        return gt_u8, index, [as_rgb_uint8(r, name=f"render_crops[{k}]") for k, r in enumerate(renders)]
 
-    def score_frame(self, gt_image, render_image, gt_boxes, render_boxes) -> pd.DataFrame:
-        """One row per box pair (see :func:`score_frame`)."""
+    def _frame_crops(self, gt_image, render_image, gt_boxes, render_boxes) -> tuple[list, np.ndarray | None, list]:
+        """Checked host crops ``(gt_u8, gt_index, r_u8)`` of a frame pair (one crop per GT box)."""
         r_hwc, rb = _hwc(render_image, "render_image"), _boxes(render_boxes, "render_boxes")
         if gt_image is None:  # no-reference metrics only
             self._check_no_reference("gt_image")
-            return self._score([], None, [_to_uint8(cut_box(r_hwc, b, where=f"render_boxes[{k}]"))
-                                          for k, b in enumerate(rb)])
+            return [], None, [_to_uint8(cut_box(r_hwc, b, where=f"render_boxes[{k}]")) for k, b in enumerate(rb)]
         gt_hwc, gb = _hwc(gt_image, "gt_image"), _boxes(gt_boxes, "gt_boxes")
         if len(gb) != len(rb):
             raise InputError("render_boxes", None, f"one render box per GT box ({len(gb)})", f"{len(rb)} boxes")
@@ -269,8 +279,7 @@ class Evaluator:
                 j = seen[key] = len(gt_u8)
                 gt_u8.append(_to_uint8(cut_box(gt_hwc, box, where=f"gt_boxes[{k}]")))
             index[k] = j
-        r_u8 = [_to_uint8(cut_box(r_hwc, b, where=f"render_boxes[{k}]")) for k, b in enumerate(rb)]
-        return self._score(gt_u8, index, r_u8)
+        return gt_u8, index, [_to_uint8(cut_box(r_hwc, b, where=f"render_boxes[{k}]")) for k, b in enumerate(rb)]
 
     def _check_no_reference(self, name: str) -> None:
         needs_gt = reference_columns(self.columns)
@@ -289,38 +298,58 @@ class Evaluator:
     # --- accumulation ----------------------------------------------------------------------
 
     def reset(self) -> None:
-        """Forget the pairs given to :meth:`update`."""
+        """Forget the pairs given to :meth:`update` (scored or still pending)."""
         self._parts: list[pd.DataFrame] = []
+        self._pending: list[tuple[pd.DataFrame, list, np.ndarray | None, list]] = []
         self._label_keys: list[str] = []
 
-    def update(self, gt_crops, render_crops, *, labels: Mapping | pd.DataFrame | None = None) -> pd.DataFrame:
-        """Score crops (as :meth:`score_crops`) and keep them for :meth:`compute`.
+    def update(self, gt_crops, render_crops, *, labels: Mapping | pd.DataFrame | None = None) -> None:
+        """Add pairs of crops (as :meth:`score_crops` takes them) for :meth:`compute`.
 
         ``labels``: per-pair keys, ``{key: one value for all pairs, or (N,) values}`` or a
-        DataFrame of N rows (e.g. ``view``, ``class``, ``track_id``). Returns the scored rows
-        (labels first, then the metric columns).
+        DataFrame of N rows (e.g. ``view``, ``class``, ``track_id``). The crops are checked and
+        brought to the host now; they are scored in batches of at least ``update_pairs`` pairs
+        (full encoder batches, as ``nvrq score`` runs them) and by :meth:`compute` /
+        :attr:`pairs`.
         """
-        return self._keep(self.score_crops(gt_crops, render_crops), labels)
+        self._add(self._crops(gt_crops, render_crops), labels)
 
     def update_frame(self, gt_image, render_image, gt_boxes, render_boxes, *,
-                     labels: Mapping | pd.DataFrame | None = None) -> pd.DataFrame:
-        """Score a frame's box pairs (as :meth:`score_frame`) and keep them for :meth:`compute`."""
-        return self._keep(self.score_frame(gt_image, render_image, gt_boxes, render_boxes), labels)
+                     labels: Mapping | pd.DataFrame | None = None) -> None:
+        """Add a frame's box pairs (as :meth:`score_frame` takes them) for :meth:`compute`."""
+        self._add(self._frame_crops(gt_image, render_image, gt_boxes, render_boxes), labels)
 
-    def _keep(self, scores: pd.DataFrame, labels) -> pd.DataFrame:
-        n = len(scores)
-        lab = _labels(labels, n)
+    def _add(self, crops: tuple, labels) -> None:
+        lab = _labels(labels, len(crops[2]))
         clash = [k for k in lab.columns if k in self.columns or k == "pairs"]
         if clash:
             raise InputError("labels", clash[0], "label keys other than the metric columns and 'pairs'", clash[0])
-        rows = pd.concat([lab, scores], axis=1)
+        if self._pending and (crops[1] is None) != (self._pending[0][2] is None):
+            self._flush()  # a no-reference batch is not mixed with one that has GT crops
         self._label_keys.extend(k for k in lab.columns if k not in self._label_keys)
-        self._parts.append(rows)
-        return rows
+        self._pending.append((lab, *crops))
+        if sum(len(p[3]) for p in self._pending) >= self.update_pairs:
+            self._flush()
+
+    def _flush(self) -> None:
+        """Score the pending pairs in one core call (their GT crops listed one after another)."""
+        if not self._pending:
+            return
+        gt_u8, index, r_u8 = [], [], []
+        for _, g, i, r in self._pending:
+            if i is not None:
+                index.append(np.asarray(i) + len(gt_u8))
+            gt_u8.extend(g)
+            r_u8.extend(r)
+        scores = self._score(gt_u8, np.concatenate(index) if index else None, r_u8)
+        labels = pd.concat([p[0] for p in self._pending], ignore_index=True)
+        self._parts.append(pd.concat([labels, scores], axis=1))
+        self._pending = []
 
     @property
     def pairs(self) -> pd.DataFrame:
         """Every pair given to :meth:`update` since :meth:`reset`: labels, then metric columns."""
+        self._flush()
         if not self._parts:
             return pd.DataFrame(columns=[*self._label_keys, *self.columns])
         return pd.concat(self._parts, ignore_index=True).loc[:, [*self._label_keys, *self.columns]]

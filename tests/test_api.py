@@ -117,6 +117,27 @@ def test_repeated_gt_object_is_embedded_once(evaluator):
     pd.testing.assert_frame_equal(shared, copies)
 
 
+def test_small_updates_are_scored_in_full_encoder_batches(evaluator):
+    rng = np.random.default_rng(2)
+    gts = [rng.integers(0, 256, (20, 24, 3), dtype=np.uint8) for _ in range(40)]
+    renders = [rng.integers(0, 256, (18, 30, 3), dtype=np.uint8) for _ in range(40)]
+    seen = []
+    embed = evaluator.encoder.embed
+    evaluator.encoder.embed = lambda x: seen.append(len(x)) or embed(x)
+    try:
+        evaluator.reset()
+        for k in range(40):  # one pair per update: nothing is scored until compute / pairs
+            evaluator.update([gts[k]], [renders[k]], labels={"k": k})
+        assert seen == []
+        got = evaluator.pairs
+    finally:
+        del evaluator.encoder.embed
+        evaluator.reset()
+    assert seen == [32, 32, 16]  # 40 GT + 40 render crops in batch_size 32, not 40 calls of 2
+    pd.testing.assert_frame_equal(got[COLUMNS], evaluator.score_crops(gts, renders))
+    assert got["k"].tolist() == list(range(40))
+
+
 def test_evaluator_summary_is_the_groupby_of_nvrq_score(clip, evaluator):
     root, pairs, want = clip
     gts, renders = _crops(root, pairs)
