@@ -45,7 +45,7 @@ from data_schema.tables import GT_BOX_COLUMNS, PAIR_META_COLUMNS, RENDER_BOX_COL
 from nvrq.crops import cut_box
 
 __all__ = ["METHOD_COLUMN", "GT_METHOD", "VOTE_CODES", "SIDES", "check_methods", "choose_items",
-           "cut_crops", "choice", "object_view_ids"]
+           "needed_images", "cut_crops", "choice", "object_view_ids"]
 
 #: stored vote codes of a pairwise study: the key pressed
 VOTE_CODES = {1: "left", 2: "right", 0: "can't tell"}
@@ -163,19 +163,14 @@ def choose_items(pairs: pd.DataFrame, rng: np.random.Generator, opts: dict, *, p
     return pairs, rows, chosen_offsets, record
 
 
-def check_images(rows, *, where: str, inside) -> None:
-    """Every image the items need exists (``inside(row, column)`` resolves a pairs path)."""
-    seen = set()
+def needed_images(rows):
+    """``(pairs record, column)`` of every image the items ``rows`` show: the GT crop's image
+    and the renders of A (unless it is the GT crop) and B."""
     for r in rows:
-        need = [(r["ref"], "gt_path"), (r["b"], "render_path")]
+        yield r["ref"], "gt_path"
         if r["a"] is not None:
-            need.append((r["a"], "render_path"))
-        for rec, column in need:
-            path = inside(rec, column)
-            if path not in seen and not Path(path).is_file():
-                raise InputError(where, f"line {int(rec['_row'])}: column {column!r}",
-                                 "an existing image file", f"{rec[column]} (not found)")
-            seen.add(path)
+            yield r["a"], "render_path"
+        yield r["b"], "render_path"
 
 
 def cut_crops(rows, pairs: pd.DataFrame, tmp: Path, *, ids: list[str], image, opts: dict,

@@ -129,10 +129,12 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
         opts["methods"] = pairwise.check_methods(pairs, methods, where=str(pairs_path))
         pairs, rows, chosen_offsets, record = pairwise.choose_items(
             pairs, rng, opts, pick_training=_pick_training, where=str(pairs_path))
-        pairwise.check_images(rows, where=str(pairs_path), inside=_ImageCache(str(pairs_path)).path)
+        _check_images(pairwise.needed_images(rows), where=str(pairs_path))
     else:
         pairs, rows, chosen_offsets, record = _choose_items(pairs, rng, opts)
-        _check_images(rows, where=str(pairs_path))
+        _check_images(((r, column) for r, kind, *_ in rows
+                       for column in (("gt_path",) if kind == "gold" else ("gt_path", "render_path"))),
+                      where=str(pairs_path))
     metrics = _read_study_metrics(opts["metrics_paths"], pairs)
     out = Path(out)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent if out.parent.exists() else None))
@@ -239,16 +241,17 @@ def _choose_items(pairs: pd.DataFrame, rng: np.random.Generator, opts: dict):
     return pairs, rows, chosen_offsets, record
 
 
-def _check_images(rows, *, where: str) -> None:
-    """Every image the items need lies in its scene folder and exists (before any crop is cut)."""
+def _check_images(needed, *, where: str) -> None:
+    """Every image the items need (``needed``: ``(pairs record, column)``) lies in its scene
+    folder and exists (before any crop is cut)."""
     seen = set()
-    for r, kind, *_ in rows:
-        for column in ("gt_path",) if kind == "gold" else ("gt_path", "render_path"):
-            field = f"line {int(r['_row'])}: column {column!r}"
-            path = inside_scene(r["_root"], r[column], where=where, field=field)
-            if path not in seen and not os.path.isfile(path):
-                raise InputError(where, field, "an existing image file", f"{r[column]} (not found)")
-            seen.add(path)
+    paths = _ImageCache(where)
+    for r, column in needed:
+        path = paths.path(r, column)
+        if path not in seen and not os.path.isfile(path):
+            raise InputError(where, f"line {int(r['_row'])}: column {column!r}", "an existing image file",
+                             f"{r[column]} (not found)")
+        seen.add(path)
 
 
 class _ImageCache:
