@@ -171,19 +171,15 @@ def _add_options(p: ArgumentParser) -> None:
 
 
 def _print_summary(analysis) -> None:
-    df = summary_display(analysis, with_ci=False)
-    t = Table(title=f"metrics against {analysis.target}")
-    for c in df.columns:
-        t.add_column(c, justify="left" if c in ("metric", "reason", "vs best") else "right")
-    for row in df.itertuples(index=False):
-        t.add_row(*[str(v) for v in row])
-    Console(width=max(120, Console().width)).print(t)
+    _print(summary_display(analysis, with_ci=False), f"metrics against {analysis.target}",
+           left=("metric", "reason", "vs best"))
 
 
-def _print(df, title: str) -> None:
+def _print(df, title: str, *, left=("method", "reason", "vs next")) -> None:
+    """``df`` as a table on stdout: the ``left`` columns left-aligned, the others right."""
     t = Table(title=title)
     for c in df.columns:
-        t.add_column(c, justify="left" if c in ("method", "reason", "vs next") else "right")
+        t.add_column(c, justify="left" if c in left else "right")
     for row in df.itertuples(index=False):
         t.add_row(*[str(v) for v in row])
     Console(width=max(120, Console().width)).print(t)
