@@ -52,9 +52,14 @@ from analysis.methods import METHOD_COLUMN, view_breakdowns
 from annotate.results import pairwise_raters
 from annotate.screening import ScreenRule, screen
 from data_schema.errors import InputError
-from data_schema.perturbation import perturbation_array, view_suffix
 from data_schema.raters import SIM_PREFIX
-from data_schema.tables import ITEM_KINDS, PAIRWISE_VOTES_COLUMNS, read_metrics, read_table
+from data_schema.tables import (
+    ITEM_KINDS,
+    PAIRWISE_VOTES_COLUMNS,
+    pair_ids,
+    read_metrics,
+    read_table,
+)
 
 __all__ = [
     "PAIRWISE_COLUMNS",
@@ -195,11 +200,7 @@ def side_pair_ids(votes: pd.DataFrame, side: str) -> list[str]:
     """The pair id of each vote's ``side`` (``'a'`` or ``'b'``) render: the export's column
     ``pair_id_a``/``pair_id_b`` where it has one, else the object's pair id (docs/FORMATS.md §3)
     followed by ``:METHOD``."""
-    P = perturbation_array(votes)
-    ts = pd.to_numeric(votes["timestamp_us"]).astype(np.int64)
-    ids = [f"{c}:{cam}:{t}:{int(s)}:{v}:{meth}" for c, cam, t, s, v, meth in zip(
-        votes["clip_id"], votes["camera"], votes["track_id"], ts, view_suffix(P),
-        votes[f"method_{side}"], strict=True)]
+    ids = pair_ids(votes, votes[f"method_{side}"].astype(str))
     given = votes.get(f"pair_id_{side}")
     if given is None:
         return ids

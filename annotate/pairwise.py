@@ -39,9 +39,9 @@ from annotate import crops as _crops
 from annotate.design import attribute_columns, choose_views, select_test_pairs
 from data_schema.errors import InputError
 from data_schema.methods import GT_METHOD, METHOD_COLUMN
-from data_schema.perturbation import labels, perturbation_array, view_columns, view_suffix
+from data_schema.perturbation import labels, perturbation_array, view_columns
 from data_schema.perturbation import with_perturbation_columns as _with_views
-from data_schema.tables import GT_BOX_COLUMNS, PAIR_META_COLUMNS, RENDER_BOX_COLUMNS
+from data_schema.tables import GT_BOX_COLUMNS, PAIR_META_COLUMNS, RENDER_BOX_COLUMNS, pair_ids
 from nvrq.crops import cut_box
 
 __all__ = ["METHOD_COLUMN", "GT_METHOD", "VOTE_CODES", "SIDES", "check_methods", "choose_items",
@@ -60,9 +60,7 @@ def object_view_ids(df: pd.DataFrame) -> list[str]:
     ...                               "timestamp_us": [5], "y_offset_m": [1.0]}))
     ['c:f:t:5:+1.00']
     """
-    suffix = view_suffix(perturbation_array(df))
-    return [f"{c}:{cam}:{t}:{int(ts)}:{s}" for c, cam, t, ts, s in zip(
-        df["clip_id"], df["camera"], df["track_id"], df["timestamp_us"], suffix, strict=True)]
+    return pair_ids(df)
 
 
 def check_methods(pairs: pd.DataFrame, methods: str | None, *, where: str) -> list[str]:

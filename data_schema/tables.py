@@ -21,6 +21,7 @@ import pandas as pd
 
 from data_schema.errors import InputError
 from data_schema.methods import METHOD_COLUMN, check_table_methods, method_suffix
+from data_schema.perturbation import perturbation_array, view_suffix
 
 __all__ = [
     "PAIRS_COLUMNS",
@@ -34,6 +35,7 @@ __all__ = [
     "TABLE_SUFFIXES",
     "MIN_SIDE_PX",
     "pair_id",
+    "pair_ids",
     "offset_cm",
     "parse_offsets",
     "read_table",
@@ -111,6 +113,23 @@ def pair_id(clip_id: str, camera: str, track_id: str, timestamp_us: int, y_offse
     """
     base = f"{clip_id}:{camera}:{track_id}:{int(timestamp_us)}:{float(y_offset_m):+.2f}"
     return base + method_suffix([method])[0]
+
+
+def pair_ids(df: pd.DataFrame, methods=None) -> list[str]:
+    """docs/FORMATS.md §3 and §9 pair id of each row of ``df`` (``clip_id, camera, track_id,
+    timestamp_us`` and the view columns): ``CLIP:CAMERA:TRACK:T:VIEW``, then ``:METHOD`` for a
+    row with a method in ``methods`` ((N,), ``''`` for none; default: no method).
+
+    >>> df = pd.DataFrame({"clip_id": ["c", "c"], "camera": ["f", "f"], "track_id": ["t", "t"],
+    ...                    "timestamp_us": [5, 5], "y_offset_m": [1.0, 0.0], "yaw_deg": [0.0, 5.0]})
+    >>> pair_ids(df), pair_ids(df, ["3dgs", ""])
+    (['c:f:t:5:+1.00', 'c:f:t:5:yaw=+5.00'], ['c:f:t:5:+1.00:3dgs', 'c:f:t:5:yaw=+5.00'])
+    """
+    ts = pd.to_numeric(df["timestamp_us"]).astype(np.int64)
+    views = view_suffix(perturbation_array(df))
+    suffix = [""] * len(df) if methods is None else method_suffix(methods)
+    return [f"{c}:{cam}:{t}:{s}:{v}{m}" for c, cam, t, s, v, m in zip(
+        df["clip_id"], df["camera"], df["track_id"], ts, views, suffix, strict=True)]
 
 
 def offset_cm(y_offset_m) -> np.ndarray:
