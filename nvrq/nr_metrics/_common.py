@@ -31,10 +31,17 @@ SKVIDEO_GREY = (0.2989, 0.5870, 0.1140)
 
 
 def check_rgb(crop: np.ndarray) -> np.ndarray:
-    """``crop`` as given, or ValueError unless it is a uint8 (H, W, 3) RGB array."""
+    """``crop`` as given, or :class:`InputError` (a ValueError) naming the metric functions'
+    parameter ``render`` unless it is a uint8 (H, W, 3) RGB array.
+
+    >>> check_rgb(np.zeros((2, 2), np.float32))
+    Traceback (most recent call last):
+    ...
+    data_schema.errors.InputError: render: expected a uint8 (H, W, 3) RGB crop, got float32 (2, 2)
+    """
     crop = np.asarray(crop)
     if crop.ndim != 3 or crop.shape[2] != 3 or crop.dtype != np.uint8:
-        raise ValueError(f"expected a uint8 (H, W, 3) RGB crop, got {crop.dtype} {crop.shape}")
+        raise InputError("render", None, "a uint8 (H, W, 3) RGB crop", f"{crop.dtype} {crop.shape}")
     return crop
 
 

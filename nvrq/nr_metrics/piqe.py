@@ -30,7 +30,7 @@ import math
 import cv2
 import numpy as np
 
-from nvrq.nr_metrics._common import rgb2gray_matlab
+from nvrq.nr_metrics._common import check_rgb, rgb2gray_matlab
 
 __all__ = ["piqe", "piqe_blocks", "MIN_SIDE", "BLOCK"]
 
@@ -79,7 +79,7 @@ def piqe_blocks(render: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray,
 def piqe(render: np.ndarray) -> float:
     """PIQE of a uint8 (H, W, 3) RGB crop in [0, 100]; NaN if the shorter side is below
     :data:`MIN_SIDE` (module docstring)."""
-    if min(np.asarray(render).shape[:2]) < MIN_SIDE:
+    if min(check_rgb(render).shape[:2]) < MIN_SIDE:
         return math.nan
     var, active, artifact, noise = piqe_blocks(render)
     dist = np.sum(artifact * (1.0 - var) + noise * var)
