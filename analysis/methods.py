@@ -179,7 +179,8 @@ def object_codes(items: pd.DataFrame, *, where) -> np.ndarray:
 def view_breakdowns(items: pd.DataFrame) -> list[tuple[str, np.ndarray, np.ndarray]]:
     """``(axis, values (N,), member (N,) bool)`` per view breakdown: ``'all'`` (values NaN),
     then each axis present (its column name), with the real camera's view at value 0."""
-    names, values = axes(perturbation_array(items)), axis_values(perturbation_array(items))
+    P = perturbation_array(items)
+    names, values = axes(P), axis_values(P)
     n = len(items)
     out = [("all", np.full(n, np.nan), np.ones(n, bool))]
     for axis, column in zip(AXES, PERTURBATION_COLUMNS, strict=True):
@@ -280,6 +281,7 @@ def _paired_rows(a, b, names, metric, hb, vals, obj_views, obj_clusters, counts)
     fa, fb = np.isfinite(xa), np.isfinite(xb)
     both = fa & fb
     d = np.where(both, xa - xb, np.nan)
+    better_a = (d > 0) if hb else (d < 0)  # a scores better, by the metric's direction
     rows = []
     for axis, values, member in obj_views:
         if axis == "all":
@@ -289,7 +291,6 @@ def _paired_rows(a, b, names, metric, hb, vals, obj_views, obj_clusters, counts)
             codes = codes.astype(np.int64)
         ok = both & member
         point, n, _, reps = _replicate_means(d, ok, codes, len(uniq), obj_clusters, counts)
-        better_a = (d > 0) if hb else (d < 0)
         for gi in range(len(uniq)):
             if axis != "all" and not np.isfinite(uniq[gi]):
                 continue

@@ -45,7 +45,7 @@ def leaderboard_display(res: MethodsResult) -> pd.DataFrame:
         if np.isfinite(r.ci_lo):
             mean += f" [{r.ci_lo:.3f}, {r.ci_hi:.3f}]"
         vs = ""
-        if r.next is not None and isinstance(r.next, str):
+        if isinstance(r.next, str):
             p = _p(r.p_holm_vs_next, res.n_boot)
             if r.better_than_next is None or (isinstance(r.better_than_next, float)
                                               and math.isnan(r.better_than_next)):
@@ -63,7 +63,6 @@ def paired_display(res: MethodsResult, metric: str | None = None) -> pd.DataFram
     """Paired comparisons of ``metric`` (default: the ranking metric) as strings."""
     metric = metric or res.rank_metric
     t = res.paired[res.paired["metric"] == metric]
-    names = {"a": None, "b": None}
     rows = []
     for r in t.itertuples():
         names = {"a": r.method_a, "b": r.method_b}
