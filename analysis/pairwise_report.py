@@ -13,13 +13,12 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from markupsafe import Markup
 from matplotlib.figure import Figure
 
 from analysis import plots
 from analysis.pairwise import CEILING_ROW, PairwiseAnalysis
 from analysis.plots import VIEW_AXIS_LABELS
-from analysis.report import _html_table, _md_table, render_pages, write_report_folder
+from analysis.report import render_pages, write_report_folder
 from annotate.screening import ScreenRule
 from data_schema.tables import write_table
 
@@ -137,8 +136,7 @@ def _figures(a: PairwiseAnalysis, d: Path) -> list[dict]:
     return figs
 
 
-def _context(a: PairwiseAnalysis, figs, *, html_out: bool) -> dict:
-    table = (lambda df: Markup(_html_table(df))) if html_out else _md_table
+def _context(a: PairwiseAnalysis, figs, *, table) -> dict:
     views = [table(bt_display(a.bradley_terry, axis)) for axis in dict.fromkeys(a.bradley_terry["axis"])
              if axis != "all"]
     return {"title": Path(a.votes_path).name, "votes": a.votes_path, "counts": a.counts,
@@ -152,7 +150,7 @@ def _build(a: PairwiseAnalysis, d: Path) -> None:
     write_table(a.agreement, d / "agreement_2afc.csv")
     write_table(a.raters, d / "raters.csv")
     figs = _figures(a, d)
-    render_pages(d, "pairwise", lambda html_out: _context(a, figs, html_out=html_out))
+    render_pages(d, "pairwise", lambda table: _context(a, figs, table=table))
 
 
 def write_pairwise_report(a: PairwiseAnalysis, out_dir) -> Path:

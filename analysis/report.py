@@ -359,10 +359,8 @@ def _write_tables(a: Analysis, d: Path) -> None:
             write_table(table, d / f"{name}.csv")
 
 
-def _context(a: Analysis, t: dict, figs: list[dict], *, html_out: bool) -> dict:
-    """What both templates show; tables rendered as HTML (``html_out``) or Markdown."""
-    table = (lambda df, **kw: Markup(_html_table(df, **kw))) if html_out else (
-        lambda df, **kw: _md_table(df.drop(columns=[kw["best_col"]]) if kw else df))
+def _context(a: Analysis, t: dict, figs: list[dict], *, table) -> dict:
+    """What both templates show; ``table`` renders a DataFrame for the page (:func:`render_pages`)."""
     disp = summary_display(a).assign(_best=a.summary["best"].to_numpy(bool))
     raters = a.raters[[c for c in _RATER_COLS if c in a.raters.columns]]
     opt = {"encoders": a.encoders if len(a.encoders) else None, "stability": a.stability,
@@ -382,14 +380,24 @@ def _context(a: Analysis, t: dict, figs: list[dict], *, html_out: bool) -> dict:
     }
 
 
+def _html_page_table(df: pd.DataFrame, *, best_col: str | None = None) -> Markup:
+    return Markup(_html_table(df, best_col=best_col))
+
+
+def _md_page_table(df: pd.DataFrame, *, best_col: str | None = None) -> str:
+    return _md_table(df if best_col is None else df.drop(columns=[best_col]))
+
+
 def render_pages(d: Path, template: str, context) -> None:
     """Render ``templates/TEMPLATE.html.j2`` to ``d/report.html`` (HTML-escaped) and
-    ``templates/TEMPLATE.md.j2`` to ``d/report.md``; ``context(html_out=bool)`` gives each
-    page's variables."""
+    ``templates/TEMPLATE.md.j2`` to ``d/report.md``; ``context(table=...)`` gives each page's
+    variables, its tables rendered by ``table(df, best_col=None)`` (an HTML table, the rows
+    where ``best_col`` is true marked, or a Markdown table without that column)."""
     templates = Path(__file__).parent / "templates"
-    for suffix, out, escape in ((".html.j2", "report.html", True), (".md.j2", "report.md", False)):
+    for suffix, out, escape, table in ((".html.j2", "report.html", True, _html_page_table),
+                                       (".md.j2", "report.md", False, _md_page_table)):
         env = Environment(loader=FileSystemLoader(templates), autoescape=escape, keep_trailing_newline=not escape)
-        page = env.get_template(template + suffix).render(**context(html_out=escape))
+        page = env.get_template(template + suffix).render(**context(table=table))
         (d / out).write_text(page, encoding="utf-8")
 
 
@@ -408,7 +416,7 @@ def _build(a: Analysis, d: Path) -> None:
     t = _texts(a)
     _write_tables(a, d)
     figs = _figures(a, d, t["target_label"])
-    render_pages(d, "report", lambda html_out: _context(a, t, figs, html_out=html_out))
+    render_pages(d, "report", lambda table: _context(a, t, figs, table=table))
 
 
 def write_report(a: Analysis, out_dir) -> Path:
