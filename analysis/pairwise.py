@@ -207,10 +207,10 @@ def side_pair_ids(votes: pd.DataFrame, side: str) -> list[str]:
     return [g if isinstance(g, str) and g else i for g, i in zip(given, ids, strict=True)]
 
 
-def _side_values(votes: pd.DataFrame, tables, side: str) -> dict[str, np.ndarray]:
+def _side_values(votes: pd.DataFrame, tables, side: str, ids: list[str]) -> dict[str, np.ndarray]:
     """metric -> (V,) value of each vote's ``side`` render (NaN where unknown): the export's
     ``METRIC_a``/``METRIC_b`` columns, then (replacing them) the ``--metrics-table`` values of
-    the side's pair."""
+    the side's pair (``ids``: :func:`side_pair_ids`)."""
     other = "b" if side == "a" else "a"
     out = {}
     for c in votes.columns:
@@ -218,7 +218,7 @@ def _side_values(votes: pd.DataFrame, tables, side: str) -> dict[str, np.ndarray
         if c.endswith(f"_{side}") and f"{base}_{other}" in votes.columns and base not in (
                 "pair_id", "method", "side"):
             out[base] = pd.to_numeric(votes[c], errors="coerce").to_numpy(np.float64)
-    ids = pd.Index(side_pair_ids(votes, side))
+    ids = pd.Index(ids)
     for _, t in tables:
         pos = pd.Index(t["pair_id"].astype(str)).get_indexer(ids)
         for c in t.columns:
@@ -361,16 +361,16 @@ def run_pairwise_analysis(votes_path, *, metrics_paths=(), lower=(), higher=(), 
     if len(methods) < 2:
         raise InputError(votes_path, "method_a/method_b", "votes between at least two methods", methods[0])
     tables = [(str(p), read_metrics(p)) for p in metrics_paths]
-    sides = {s: _side_values(test, tables, s) for s in ("a", "b")}
+    ids = {s: side_pair_ids(test, s) for s in ("a", "b")}
+    for path, t in tables:
+        if not pd.Index(t["pair_id"].astype(str)).isin(ids["a"] + ids["b"]).any():
+            raise InputError(path, "pair_id", "the pairs of the voted methods' renders (object id + "
+                             "':METHOD', docs/FORMATS.md §3)", "none matches a vote")
+    sides = {s: _side_values(test, tables, s, ids[s]) for s in ("a", "b")}
     columns = pd.DataFrame({c: v for c, v in sides["a"].items()})
     metrics, directions, _, _ = classify_columns(columns, lower=set(lower), higher=set(higher),
                                                  target=None, where=metrics_paths[0] if tables else votes_path)
     notes = []
-    for path, t in tables:
-        found = pd.Index(t["pair_id"].astype(str)).isin(side_pair_ids(test, "a") + side_pair_ids(test, "b"))
-        if not found.any():
-            raise InputError(path, "pair_id", "the pairs of the voted methods' renders (object id + "
-                             "':METHOD', docs/FORMATS.md §3)", "none matches a vote")
     for m in metrics:
         miss = int((~np.isfinite(sides["a"][m]) | ~np.isfinite(sides["b"][m])).sum())
         if miss:
