@@ -112,12 +112,12 @@ from nvrq import pixel_metrics as _px  # noqa: E402  (numpy + OpenCV; no torch)
 
 register(MetricInfo("psnr", True, (0.0, float("inf")), fn=_px.psnr,
                     description="PSNR in dB over RGB, data range 255 (inf for identical crops)"))
-register(MetricInfo("ssim", True, (-1.0, 1.0), fn=_px.ssim, min_side=11,
+register(MetricInfo("ssim", True, (-1.0, 1.0), fn=_px.ssim, min_side=_px.SSIM_MIN_SIDE,
                     description="SSIM (Gaussian 11x11, sigma 1.5), RGB channels averaged"))
-register(MetricInfo("ms_ssim", True, (0.0, 1.0), fn=_px.ms_ssim, min_side=11,
+register(MetricInfo("ms_ssim", True, (0.0, 1.0), fn=_px.ms_ssim, min_side=_px.SSIM_MIN_SIDE,
                     description="MS-SSIM on up to 5 scales (as many as the crop holds, weights "
                                 "renormalised); NaN when the shorter crop side < 11 px"))
-register(MetricInfo("gmsd", False, (0.0, 1.0), fn=_px.gmsd, min_side=2,
+register(MetricInfo("gmsd", False, (0.0, 1.0), fn=_px.gmsd, min_side=_px.GMSD_MIN_SIDE,
                     description="gradient magnitude similarity deviation (Xue et al. 2014)"))
 register(MetricInfo("mse", False, (0.0, 255.0 ** 2), fn=_px.mse,
                     description="mean squared error over RGB (0-255)"))

@@ -41,11 +41,15 @@ import numpy as np
 
 __all__ = [
     "psnr", "ssim", "ms_ssim", "ms_ssim_scales", "gmsd", "mse", "mae", "MS_SSIM_WEIGHTS",
-    "MS_SSIM_FULL_SIDE",
+    "MS_SSIM_FULL_SIDE", "SSIM_MIN_SIDE", "GMSD_MIN_SIDE",
 ]
 
 DATA_RANGE = 255.0
 _K1, _K2, _WIN, _SIGMA = 0.01, 0.03, 11, 1.5
+#: shorter crop side (px) from which SSIM and MS-SSIM are defined: the Gaussian window's
+SSIM_MIN_SIDE = _WIN
+#: shorter crop side (px) from which GMSD is defined (a gradient needs two pixels)
+GMSD_MIN_SIDE = 2
 MS_SSIM_WEIGHTS = (0.0448, 0.2856, 0.3001, 0.2363, 0.1333)
 #: shorter side from which all 5 scales are used: floor(176 / 2**4) = 11 = the window size.
 MS_SSIM_FULL_SIDE = _WIN * 2 ** (len(MS_SSIM_WEIGHTS) - 1)
@@ -159,7 +163,7 @@ def _gradient_magnitude(y: np.ndarray) -> np.ndarray:
 def gmsd(gt: np.ndarray, render: np.ndarray) -> float:
     """Gradient magnitude similarity deviation (lower is better; 0 for identical crops)."""
     _check(gt, render)
-    if min(gt.shape[:2]) < 2:
+    if min(gt.shape[:2]) < GMSD_MIN_SIDE:
         return math.nan
     m1, m2 = _gradient_magnitude(_luma(gt)), _gradient_magnitude(_luma(render))
     c = 170.0
