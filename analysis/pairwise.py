@@ -42,13 +42,12 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import pyarrow.parquet as pq
 from scipy import stats as _st
 
 from analysis import bootstrap as bs
 from analysis.bradley_terry import Draws, bradley_terry, strongly_connected, win_matrix, win_prob
 from analysis.inputs import classify_columns
-from analysis.methods import METHOD_COLUMN, view_breakdowns
+from analysis.methods import METHOD_COLUMN, table_columns, view_breakdowns
 from annotate.results import pairwise_raters
 from annotate.screening import ScreenRule, screen
 from data_schema.errors import InputError
@@ -97,14 +96,12 @@ def _header(path) -> list[str]:
     """The column names of the table at ``path``; none when it cannot be read (an empty or broken
     file: the table's reader then says what is wrong, in one line)."""
     p = Path(path)
+    if p.suffix.lower() not in (".csv", ".parquet") or not p.is_file():
+        return []
     try:
-        if p.suffix.lower() == ".parquet" and p.is_file():
-            return list(pq.read_schema(p).names)
-        if p.suffix.lower() == ".csv" and p.is_file():
-            return list(pd.read_csv(p, nrows=0).columns)
+        return table_columns(p)
     except (ValueError, OSError):  # pandas' EmptyDataError/ParserError, pyarrow's ArrowInvalid
         return []
-    return []
 
 
 def _line(i: int) -> str:
