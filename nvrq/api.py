@@ -236,18 +236,19 @@ class Evaluator:
 
     def score_crops(self, gt_crops, render_crops) -> pd.DataFrame:
         """One row per pair, one column per metric (see :func:`score_crops`)."""
-        return self._score(*self._crops(gt_crops, render_crops))
+        return self._score(*self._crops(gt_crops, render_crops)[:3])
 
     def score_frame(self, gt_image, render_image, gt_boxes, render_boxes) -> pd.DataFrame:
         """One row per box pair (see :func:`score_frame`)."""
-        return self._score(*self._frame_crops(gt_image, render_image, gt_boxes, render_boxes))
+        return self._score(*self._frame_crops(gt_image, render_image, gt_boxes, render_boxes)[:3])
 
-    def _crops(self, gt_crops, render_crops) -> tuple[list, np.ndarray | None, list]:
-        """Checked host crops ``(gt_u8, gt_index, r_u8)`` of a crop list (GT objects once)."""
+    def _crops(self, gt_crops, render_crops) -> tuple:
+        """Checked host crops ``(gt_u8, gt_index, r_u8, gt_keys, owner)`` of a crop list (GT
+        objects once; ``gt_keys``: each GT crop's identity, valid while ``owner`` is held)."""
         renders = _as_list(render_crops, "render_crops")
         if gt_crops is None:  # no-reference metrics only
             self._check_no_reference("gt_crops")
-            return [], None, [as_rgb_uint8(r, name=f"render_crops[{k}]") for k, r in enumerate(renders)]
+            return [], None, [as_rgb_uint8(r, name=f"render_crops[{k}]") for k, r in enumerate(renders)], [], None
         gts = _as_list(gt_crops, "gt_crops")
         if len(gts) != len(renders):
             raise InputError("render_crops", None, f"one render crop per GT crop ({len(gts)})",
@@ -260,14 +261,16 @@ class Evaluator:
                 j = seen[id(g)] = len(gt_u8)
                 gt_u8.append(as_rgb_uint8(g, name=f"gt_crops[{k}]"))
             index[k] = j
-        return gt_u8, index, [as_rgb_uint8(r, name=f"render_crops[{k}]") for k, r in enumerate(renders)]
+        r_u8 = [as_rgb_uint8(r, name=f"render_crops[{k}]") for k, r in enumerate(renders)]
+        return gt_u8, index, r_u8, [("crop", i) for i in seen], gts
 
-    def _frame_crops(self, gt_image, render_image, gt_boxes, render_boxes) -> tuple[list, np.ndarray | None, list]:
-        """Checked host crops ``(gt_u8, gt_index, r_u8)`` of a frame pair (one crop per GT box)."""
+    def _frame_crops(self, gt_image, render_image, gt_boxes, render_boxes) -> tuple:
+        """Checked host crops ``(gt_u8, gt_index, r_u8, gt_keys, owner)`` of a frame pair (one
+        crop per GT box; ``gt_keys``: GT image identity and box, valid while ``owner`` is held)."""
         r_hwc, rb = _hwc(render_image, "render_image"), _boxes(render_boxes, "render_boxes")
         if gt_image is None:  # no-reference metrics only
             self._check_no_reference("gt_image")
-            return [], None, [_to_uint8(cut_box(r_hwc, b, where=f"render_boxes[{k}]")) for k, b in enumerate(rb)]
+            return [], None, [_to_uint8(cut_box(r_hwc, b, where=f"render_boxes[{k}]")) for k, b in enumerate(rb)], [], None
         gt_hwc, gb = _hwc(gt_image, "gt_image"), _boxes(gt_boxes, "gt_boxes")
         if len(gb) != len(rb):
             raise InputError("render_boxes", None, f"one render box per GT box ({len(gb)})", f"{len(rb)} boxes")
@@ -279,7 +282,8 @@ class Evaluator:
                 j = seen[key] = len(gt_u8)
                 gt_u8.append(_to_uint8(cut_box(gt_hwc, box, where=f"gt_boxes[{k}]")))
             index[k] = j
-        return gt_u8, index, [_to_uint8(cut_box(r_hwc, b, where=f"render_boxes[{k}]")) for k, b in enumerate(rb)]
+        r_u8 = [_to_uint8(cut_box(r_hwc, b, where=f"render_boxes[{k}]")) for k, b in enumerate(rb)]
+        return gt_u8, index, r_u8, [("frame", id(gt_image), *key) for key in seen], gt_image
 
     def _check_no_reference(self, name: str) -> None:
         needs_gt = reference_columns(self.columns)
@@ -300,7 +304,7 @@ class Evaluator:
     def reset(self) -> None:
         """Forget the pairs given to :meth:`update` (scored or still pending)."""
         self._parts: list[pd.DataFrame] = []
-        self._pending: list[tuple[pd.DataFrame, list, np.ndarray | None, list]] = []
+        self._pending: list[tuple] = []  # (labels, gt_u8, gt_index, r_u8, gt_keys, owner)
         self._label_keys: list[str] = []
 
     def update(self, gt_crops, render_crops, *, labels: Mapping | pd.DataFrame | None = None) -> None:
@@ -332,14 +336,21 @@ class Evaluator:
             self._flush()
 
     def _flush(self) -> None:
-        """Score the pending pairs in one core call (their GT crops listed one after another)."""
+        """Score the pending pairs in one core call; a GT crop given again (the same GT object,
+        or the same box of the same GT image object) is embedded once, as in one call."""
         if not self._pending:
             return
-        gt_u8, index, r_u8 = [], [], []
-        for _, g, i, r in self._pending:
+        gt_u8, index, r_u8, position = [], [], [], {}
+        for _, g, i, r, keys, _owner in self._pending:
             if i is not None:
-                index.append(np.asarray(i) + len(gt_u8))
-            gt_u8.extend(g)
+                local = np.empty(len(g), np.int64)
+                for j, (crop, key) in enumerate(zip(g, keys, strict=True)):
+                    p = position.get(key)
+                    if p is None:
+                        p = position[key] = len(gt_u8)
+                        gt_u8.append(crop)
+                    local[j] = p
+                index.append(local[np.asarray(i, np.int64)])
             r_u8.extend(r)
         scores = self._score(gt_u8, np.concatenate(index) if index else None, r_u8)
         labels = pd.concat([p[0] for p in self._pending], ignore_index=True)

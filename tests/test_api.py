@@ -138,6 +138,28 @@ def test_small_updates_are_scored_in_full_encoder_batches(evaluator):
     assert got["k"].tolist() == list(range(40))
 
 
+def test_update_frame_shares_gt_crops_across_views(evaluator):
+    # one GT image object, three render views of its 2 boxes: 2 GT + 6 render crops embedded
+    rng = np.random.default_rng(3)
+    gt = rng.integers(0, 256, (60, 80, 3), dtype=np.uint8)
+    boxes = np.array([[0, 0, 29, 29], [40, 10, 79, 49]])
+    views = [rng.integers(0, 256, (60, 80, 3), dtype=np.uint8) for _ in range(3)]
+    seen = []
+    embed = evaluator.encoder.embed
+    evaluator.encoder.embed = lambda x: seen.append(len(x)) or embed(x)
+    try:
+        evaluator.reset()
+        for v, img in enumerate(views):
+            evaluator.update_frame(gt, img, boxes, boxes, labels={"view": v})
+        got = evaluator.pairs
+    finally:
+        del evaluator.encoder.embed
+        evaluator.reset()
+    assert sum(seen) == 2 + 6
+    want = pd.concat([evaluator.score_frame(gt, img, boxes, boxes) for img in views], ignore_index=True)
+    pd.testing.assert_frame_equal(got[COLUMNS], want)
+
+
 def test_evaluator_summary_is_the_groupby_of_nvrq_score(clip, evaluator):
     root, pairs, want = clip
     gts, renders = _crops(root, pairs)
