@@ -54,18 +54,12 @@ _Z95 = 1.959963984540054
 
 def ratings_table(study) -> pd.DataFrame:
     """docs/FORMATS.md §5 table of ``study`` (an :class:`annotate.study.Study`)."""
-    votes = study.store.votes()
-    items = study.items
     attrs = list(study.manifest.get("attribute_columns", []))
     # 6-DoF columns (absent: lateral study) and ``method`` (absent: single-method study)
     attrs = [*study.manifest.get("view_columns", []), *study.manifest.get("method_columns", []), *attrs]
-    meta = items.loc[:, ["key", "item_id", "kind", "pair_id", *PAIR_META_COLUMNS, *attrs]]
-    df = votes.merge(meta, left_on="item", right_on="key", how="inner")
-    df = df.rename(columns={"rater": "rater_id"})
-    df["response_ms"] = df["response_ms"].astype("Int64")
-    metric_cols = list(study.manifest.get("metric_columns", []))
-    if metric_cols and (study.root / "metrics.csv").is_file():
-        metrics = pd.read_csv(study.root / "metrics.csv", dtype={"pair_id": str})
+    df = _voted_items(study, ["item_id", "kind", "pair_id", *PAIR_META_COLUMNS, *attrs])
+    metric_cols, metrics = _study_metrics(study)
+    if metrics is not None:
         df = df.merge(metrics, on="pair_id", how="left")
         # gold items show GT against GT or a broken copy: the pair's metrics do not apply
         df.loc[df["kind"] == "gold", metric_cols] = np.nan
@@ -82,23 +76,17 @@ def pairwise_votes_table(study) -> pd.DataFrame:
     columns, ``pair_id_a, pair_id_b`` (the renders' pairs; empty for the GT crop of a gold
     item) and, when the study has metrics, ``METRIC_a, METRIC_b`` per metric column.
     """
-    votes = study.store.votes()
-    items = study.items
     attrs = [*study.manifest.get("view_columns", []), *study.manifest.get("attribute_columns", [])]
-    attrs = [c for c in attrs if c in items.columns]
-    meta = items.loc[:, ["key", "item_id", "kind", "method_a", "method_b", "pair_id_a", "pair_id_b",
-                         *PAIR_META_COLUMNS, *attrs]]
-    df = votes.merge(meta, left_on="item", right_on="key", how="inner")
-    df = df.rename(columns={"rater": "rater_id"})
+    attrs = [c for c in attrs if c in study.items.columns]
+    df = _voted_items(study, ["item_id", "kind", "method_a", "method_b", "pair_id_a", "pair_id_b",
+                              *PAIR_META_COLUMNS, *attrs])
     plans = {r: study.plan_for(r)["sides"] for r in df["rater_id"].unique()}
     df["side_a"] = [plans[r][k] for r, k in zip(df["rater_id"], df["key"], strict=True)]
     df["choice"] = choice(df["vote"].to_numpy(), df["side_a"].to_numpy())
-    df["response_ms"] = df["response_ms"].astype("Int64")
     df[["pair_id_a", "pair_id_b"]] = df[["pair_id_a", "pair_id_b"]].fillna("")
-    metric_cols = list(study.manifest.get("metric_columns", []))
+    metric_cols, metrics = _study_metrics(study)
     sided = []
-    if metric_cols and (study.root / "metrics.csv").is_file():
-        metrics = pd.read_csv(study.root / "metrics.csv", dtype={"pair_id": str})
+    if metrics is not None:
         for side in ("a", "b"):
             named = metrics.rename(columns={"pair_id": f"pair_id_{side}",
                                             **{m: f"{m}_{side}" for m in metric_cols}})
@@ -107,6 +95,25 @@ def pairwise_votes_table(study) -> pd.DataFrame:
     cols = [*PAIRWISE_VOTES_COLUMNS, "voted_at", "response_ms", *PAIR_META_COLUMNS, *attrs, "pair_id_a", "pair_id_b", *sided]
     return df.loc[:, cols].sort_values(["voted_at", "rater_id", "item_id"], kind="stable"
                                        ).reset_index(drop=True)
+
+
+def _voted_items(study, columns: list[str]) -> pd.DataFrame:
+    """The study's standing votes joined with the ``columns`` of their items (``key`` kept;
+    ``rater`` renamed ``rater_id``; ``response_ms`` as nullable integers)."""
+    meta = study.items.loc[:, ["key", *columns]]
+    df = study.store.votes().merge(meta, left_on="item", right_on="key", how="inner")
+    df = df.rename(columns={"rater": "rater_id"})
+    df["response_ms"] = df["response_ms"].astype("Int64")
+    return df
+
+
+def _study_metrics(study) -> tuple[list[str], pd.DataFrame | None]:
+    """The study's metric columns and its ``metrics.csv`` (None without metrics or file)."""
+    metric_cols = list(study.manifest.get("metric_columns", []))
+    path = study.root / "metrics.csv"
+    if metric_cols and path.is_file():
+        return metric_cols, pd.read_csv(path, dtype={"pair_id": str})
+    return metric_cols, None
 
 
 def votes_table(study) -> pd.DataFrame:
