@@ -22,14 +22,11 @@ from matplotlib.figure import Figure
 from analysis import plots
 from analysis.methods import ALPHA, MethodsResult
 from analysis.plots import VIEW_AXIS_LABELS
+from analysis.text import fmt, interval_text
 from data_schema.perturbation import PERTURBATION_COLUMNS
 
 __all__ = ["context", "leaderboard_display", "paired_display", "leaderboard_text", "methods_tent_plot",
            "method_class_heatmap", "method_figures"]
-
-def _num(v, digits: int = 3) -> str:
-    return "" if v is None or not np.isfinite(v) else f"{v:.{digits}f}"
-
 
 def _p(p, n_boot: int) -> str:
     if p is None or not np.isfinite(p):
@@ -41,9 +38,7 @@ def leaderboard_display(res: MethodsResult) -> pd.DataFrame:
     """The leaderboard as strings: rank, method, n, mean [95% CI], median, vs the next."""
     rows = []
     for r in res.leaderboard.itertuples():
-        mean = _num(r.mean)
-        if np.isfinite(r.ci_lo):
-            mean += f" [{r.ci_lo:.3f}, {r.ci_hi:.3f}]"
+        mean = interval_text(r.mean, r.ci_lo, r.ci_hi)
         vs = ""
         if isinstance(r.next, str):
             p = _p(r.p_holm_vs_next, res.n_boot)
@@ -55,7 +50,7 @@ def leaderboard_display(res: MethodsResult) -> pd.DataFrame:
             else:
                 vs = f"not significantly better than {r.next} ({p}, Holm)"
         rows.append({"rank": str(r.rank), "method": r.method, "n": str(r.n),
-                     res.rank_metric: mean, "median": _num(r.median), "vs next": vs})
+                     res.rank_metric: mean, "median": fmt(r.median), "vs next": vs})
     return pd.DataFrame(rows, columns=["rank", "method", "n", res.rank_metric, "median", "vs next"])
 
 
@@ -67,15 +62,13 @@ def paired_display(res: MethodsResult, metric: str | None = None) -> pd.DataFram
     for r in t.itertuples():
         names = {"a": r.method_a, "b": r.method_b}
         view = "all" if r.axis == "all" else f"{VIEW_AXIS_LABELS.get(r.axis, r.axis)} = {r.offset:g}"
-        diff = _num(r.mean_diff, 4)
-        if np.isfinite(r.ci_lo):
-            diff += f" [{r.ci_lo:.4f}, {r.ci_hi:.4f}]"
+        diff = interval_text(r.mean_diff, r.ci_lo, r.ci_hi, digits=4)
         verdict = ("" if r.better is None else
                    f"{names[r.better]} better" if r.better in names else
                    "neither (no significant difference)")
         rows.append({"a vs b": f"{r.method_a} vs {r.method_b}", "view": view, "n": str(r.n),
                      "mean a - b": diff, "p (Holm)": _p(r.p_holm, res.n_boot),
-                     "a wins": _num(r.win_rate, 2), "ties": _num(r.tie_rate, 2), "result": verdict,
+                     "a wins": fmt(r.win_rate, 2), "ties": fmt(r.tie_rate, 2), "result": verdict,
                      "left out (a only / b only)": f"{r.n_only_a} / {r.n_only_b}"})
     return pd.DataFrame(rows)
 

@@ -19,16 +19,11 @@ from analysis import plots
 from analysis.pairwise import CEILING_ROW, PairwiseAnalysis
 from analysis.plots import VIEW_AXIS_LABELS
 from analysis.report import render_pages, write_report_folder
+from analysis.text import interval_text
 from annotate.screening import ScreenRule
 from data_schema.tables import write_table
 
 __all__ = ["write_pairwise_report", "bt_display", "win_prob_plot", "agreement_plot"]
-
-
-def _interval(v, lo, hi) -> str:
-    if v is None or not np.isfinite(v):
-        return ""
-    return f"{v:.3f}" + (f" [{lo:.3f}, {hi:.3f}]" if np.isfinite(lo) else "")
 
 
 def bt_display(bt: pd.DataFrame, axis: str = "all") -> pd.DataFrame:
@@ -40,8 +35,8 @@ def bt_display(bt: pd.DataFrame, axis: str = "all") -> pd.DataFrame:
     for r in t.itertuples():
         rows.append({**({} if axis == "all" else {"view": f"{r.offset:g}"}), "method": r.method,
                      "votes": str(r.n_votes), "won / tied / lost": f"{r.wins} / {r.ties} / {r.losses}",
-                     "win probability": _interval(r.win_prob, r.win_prob_ci_lo, r.win_prob_ci_hi),
-                     "BT score": _interval(r.score, r.score_ci_lo, r.score_ci_hi),
+                     "win probability": interval_text(r.win_prob, r.win_prob_ci_lo, r.win_prob_ci_hi),
+                     "BT score": interval_text(r.score, r.score_ci_lo, r.score_ci_hi),
                      "reason": r.reason if isinstance(r.reason, str) else ""})
     return pd.DataFrame(rows)
 

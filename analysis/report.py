@@ -26,6 +26,8 @@ from analysis.axes import axis_tent_plots
 from analysis.noninferiority import recommend_from_tables
 from analysis.pipeline import Analysis
 from analysis.summary import binary_label
+from analysis.text import fmt as _fmt
+from analysis.text import interval_text
 from annotate.screening import ScreenRule
 from data_schema.outputs import check_output_folder, mark_report
 from data_schema.tables import atomic_folder, write_table
@@ -47,22 +49,8 @@ _DISPLAY = [
 ]
 
 
-def _fmt(v, digits: int = 3) -> str:
-    if v is None or (isinstance(v, float) and not np.isfinite(v)) or v is pd.NA:
-        return ""
-    if isinstance(v, (bool, np.bool_)):
-        return "yes" if v else "no"
-    if isinstance(v, (float, np.floating)):
-        return f"{v:.{digits}f}"
-    return str(v)
-
-
 def _ci(row, name) -> str:
-    v = _fmt(row[name])
-    lo, hi = row.get(f"{name}_ci_lo"), row.get(f"{name}_ci_hi")
-    if v and lo is not None and np.isfinite(lo):
-        v += f" [{lo:.3f}, {hi:.3f}]"
-    return v
+    return interval_text(row[name], row.get(f"{name}_ci_lo"), row.get(f"{name}_ci_hi"))
 
 
 def _of_ceiling(row) -> str:
