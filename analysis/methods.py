@@ -235,10 +235,11 @@ def _groups_of(items: pd.DataFrame, attributes: list[str]):
     return out
 
 
-def _method_table(items, metrics, m_codes, methods, attributes, clusters, counts, bar):
-    """methods.csv (:data:`TABLE_COLUMNS`); ``bar`` advances once per breakdown and metric."""
+def _method_table(items, metrics, m_codes, methods, breakdowns, clusters, counts, bar):
+    """methods.csv (:data:`TABLE_COLUMNS`) over ``breakdowns`` (:func:`_groups_of`); ``bar``
+    advances once per breakdown and metric."""
     rows = []
-    for breakdown, codes, uniq in _groups_of(items, attributes):
+    for breakdown, codes, uniq in breakdowns:
         sel = (codes >= 0) & (m_codes >= 0)
         gsize = len(uniq)
         groups = np.full(len(items), -1, np.int64)
@@ -433,10 +434,10 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
                          + f" of method {items[METHOD_COLUMN].iloc[i]!r}")
     k = int(clusters.max()) + 1 if len(clusters) else 0
     counts = bs.draw_cluster_counts(k, n_boot, seed=seed) if n_boot and k else None
-    n_groups = len(view_breakdowns(items)) + sum(c in items.columns for c in ["label_class", *attributes])
-    bar = tqdm(total=len(metrics) * (n_groups + len(names) * (len(names) - 1) // 2),
+    breakdowns = _groups_of(items, list(attributes))
+    bar = tqdm(total=len(metrics) * (len(breakdowns) + len(names) * (len(names) - 1) // 2),
                desc="methods", unit="table", disable=not progress)
-    table = _method_table(items, metrics, m_codes, names, list(attributes), clusters, counts, bar)
+    table = _method_table(items, metrics, m_codes, names, breakdowns, clusters, counts, bar)
     hb = directions[rank_metric]
     overall = table[(table["breakdown"] == "all") & (table["metric"] == rank_metric)]
     means = overall.set_index("method")["mean"].reindex(names)
