@@ -1,7 +1,7 @@
 """How the rater pages draw an item: crops as large as the window allows, one button row.
 
-Thin Streamlit view helpers shared by the binary page (:mod:`annotate.app`) and the pairwise
-page (:mod:`annotate.pairwise_app`); no study logic here.
+Thin Streamlit view helpers shared by the binary and the pairwise rater pages of
+:mod:`annotate.app`; no study logic here.
 
 - :func:`page_style`: the page's CSS (once per run): little padding, each crop drawn as wide
   as its column and at most as tall as the window minus the rows above and below it, so the
