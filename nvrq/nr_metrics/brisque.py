@@ -42,6 +42,7 @@ import cv2
 import numpy as np
 from scipy.special import digamma, gammaln
 
+from data_schema.errors import InputError
 from nvrq.nr_metrics._common import SKIMAGE_GREY, check_rgb, package_data
 
 __all__ = ["brisque", "brisque_features", "load_model", "MIN_SIDE"]
@@ -157,7 +158,8 @@ def load_model() -> tuple[np.ndarray, np.ndarray, float, float, np.ndarray, np.n
                 row[int(idx) - 1] = float(val)
             rows.append(row)
     if header.get("svm_type") != "epsilon_svr" or header.get("kernel_type") != "rbf":
-        raise ValueError(f"{svm_path}: expected an epsilon_svr model with an rbf kernel, got {header}")
+        raise InputError(svm_path, "svm_type/kernel_type", "an epsilon_svr model with an rbf kernel",
+                         f"{header.get('svm_type')}/{header.get('kernel_type')}")
     with open(norm_path, "rb") as f:
         ranges = pickle.load(f)  # the installed package's own file
     lo = np.asarray(ranges["min_"], np.float64).ravel()
