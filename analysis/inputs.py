@@ -36,6 +36,7 @@ from data_schema.tables import (
     read_metrics,
     read_table,
 )
+from data_schema.tables import csv_line as _line
 from nvrq.metrics import direction, metric_info
 
 __all__ = [
@@ -62,10 +63,6 @@ CANONICAL_VOTE_ORDER = ("item_id", "rater_id", "kind")
 NON_METRIC_COLUMNS = frozenset(
     RATINGS_COLUMNS + PAIRS_COLUMNS + ITEM_LABEL_COLUMNS + ("gold_expected",) + VIEW_COLUMNS + (METHOD_COLUMN,)
 )
-
-
-def _line(row_index: int) -> str:
-    return f"line {row_index + 2}"  # header is line 1
 
 
 def read_ratings(path) -> pd.DataFrame:

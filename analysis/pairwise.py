@@ -59,6 +59,7 @@ from data_schema.tables import (
     read_metrics,
     read_table,
 )
+from data_schema.tables import csv_line as _line
 
 __all__ = [
     "PAIRWISE_COLUMNS",
@@ -102,10 +103,6 @@ def _header(path) -> list[str]:
         return table_columns(p)
     except (ValueError, OSError):  # pandas' EmptyDataError/ParserError, pyarrow's ArrowInvalid
         return []
-
-
-def _line(i: int) -> str:
-    return f"line {i + 2}"
 
 
 def read_pairwise_votes(path) -> pd.DataFrame:

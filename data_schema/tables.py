@@ -36,6 +36,7 @@ __all__ = [
     "MIN_SIDE_PX",
     "pair_id",
     "pair_ids",
+    "csv_line",
     "offset_cm",
     "parse_offsets",
     "read_table",
@@ -206,8 +207,17 @@ def require_columns(df: pd.DataFrame, required: Sequence[str], *, where: object)
     return df
 
 
-def _line(i: int) -> str:
-    return f"line {i + 2}"  # the header is line 1
+def csv_line(i: int) -> str:
+    """``'line N'`` of the table row at position ``i`` (0-based) in its CSV file (the header is
+    line 1), as errors name it.
+
+    >>> csv_line(0)
+    'line 2'
+    """
+    return f"line {i + 2}"
+
+
+_line = csv_line
 
 
 def _first(mask) -> int:
