@@ -40,7 +40,7 @@ from annotate import crops as _crops
 from annotate import pairwise
 from annotate.assign import choose_next, make_plan, pairwise_sides, plan_total, rater_seed
 from annotate.design import attribute_columns, choose_views, select_test_pairs
-from annotate.store import Store
+from annotate.store import BINARY_VOTES, Store
 from data_schema.errors import InputError
 from data_schema.methods import method_columns
 from data_schema.outputs import check_output_folder
@@ -65,8 +65,7 @@ _MANIFEST = "manifest.json"
 #: study designs (manifest ``design``; absent: binary)
 DESIGNS = ("binary", "pairwise")
 #: the stored vote values of each design and what they mean
-VOTES = {"binary": {1: "good", 0: "bad"},
-         "pairwise": pairwise.VOTE_CODES}
+VOTES = {"binary": BINARY_VOTES, "pairwise": pairwise.VOTE_CODES}
 
 
 def _opaque_ids(rng: np.random.Generator, n: int) -> list[str]:
