@@ -42,8 +42,7 @@ import pandas as pd
 from data_schema.cliargs import comma_list
 from data_schema.errors import InputError
 from nvrq.crops import cut_box
-from nvrq.encoders.registry import DEFAULT_ENCODER, Encoder, EncoderConfig, encoder_config, get_spec
-from nvrq.metrics import REGISTRY, split_column
+from nvrq.encoders.registry import Encoder, EncoderConfig, encoder_config
 from nvrq.score_core import (
     CropBatch,
     check_positive,
@@ -52,7 +51,7 @@ from nvrq.score_core import (
     reference_columns,
     score_crop_batch,
 )
-from nvrq.scoring import resolve_metrics
+from nvrq.scoring import encoder_for_metrics, resolve_metrics
 
 __all__ = ["score_crops", "score_frame", "Evaluator", "as_rgb_uint8"]
 
@@ -147,19 +146,12 @@ def _boxes(boxes, name: str) -> np.ndarray:
 
 
 def _encoder_name(columns: Sequence[str], encoder) -> str:
-    """The encoder: named in ``columns`` (``nvrq:ENC``), else ``encoder``'s, else the default."""
-    named = {enc for fam, enc in map(split_column, (m.strip() for m in columns))
-             if enc is not None and fam in REGISTRY and REGISTRY[fam].needs_encoder}
+    """The encoder of ``columns`` (:func:`nvrq.scoring.encoder_for_metrics`), ``encoder`` given
+    as a name, an :class:`EncoderConfig` or a loaded encoder."""
     given = None if encoder is None else (encoder if isinstance(encoder, str)
                                           else encoder.name if isinstance(encoder, EncoderConfig)
                                           else encoder.spec.name)
-    if len(named) > 1:
-        raise InputError("metrics", None, "one encoder for all nvrq/nvrq_ca metrics", ", ".join(sorted(named)))
-    if named and given is not None and named != {given}:
-        raise InputError("metrics", None, f"the encoder given as encoder ({given})", named.pop())
-    name = named.pop() if named else (given or DEFAULT_ENCODER)
-    get_spec(name)
-    return name
+    return encoder_for_metrics(columns, given)
 
 
 class Evaluator:

@@ -49,7 +49,7 @@ from nvrq.score_core import (
     score_crop_batch,
 )
 
-__all__ = ["resolve_metrics", "ScoreResult", "score_pairs", "timing_table", "runtime_timing",
+__all__ = ["encoder_for_metrics", "resolve_metrics", "ScoreResult", "score_pairs", "timing_table", "runtime_timing",
            "undefined_counts", "crop_sides",
            "REQUIRED_COLUMNS"]
 
@@ -83,6 +83,29 @@ def resolve_metrics(metrics: Sequence[str], encoder: str) -> list[str]:
     if not columns:
         raise InputError("metrics", None, "at least one metric", "none")
     return columns
+
+
+def encoder_for_metrics(metrics: Sequence[str], encoder: str | None = None) -> str:
+    """The encoder that ``metrics`` use: the one a column names (``nvrq:ENC``), else
+    ``encoder``, else the registry default. Two different encoders in ``metrics``, or one that
+    contradicts ``encoder``, is an error naming ``metrics``.
+
+    >>> encoder_for_metrics(["psnr", "nvrq_ca:dinov2-small"])
+    'dinov2-small'
+    >>> encoder_for_metrics(["nvrq"], "dinov2-small")
+    'dinov2-small'
+    """
+    from nvrq.encoders.registry import DEFAULT_ENCODER, get_spec
+
+    families = {name for name, info in REGISTRY.items() if info.needs_encoder}  # not pyiqa:NAME
+    named = {enc for fam, enc in map(split_column, (m.strip() for m in metrics)) if fam in families} - {None}
+    if len(named) > 1:
+        raise InputError("metrics", None, "one encoder for all nvrq/nvrq_ca metrics", ", ".join(sorted(named)))
+    if named and encoder is not None and named != {encoder}:
+        raise InputError("metrics", None, f"the encoder given as encoder ({encoder})", named.pop())
+    name = named.pop() if named else (encoder or DEFAULT_ENCODER)
+    get_spec(name)
+    return name
 
 
 @dataclass

@@ -17,12 +17,11 @@ from nvrq.calibrate import resolve_tau
 from nvrq.encoders import DEFAULT_ENCODER, EncoderConfig, get_spec
 from nvrq.encoders.runtimes import PRECISIONS, RUNTIMES, check_runtime_combo
 from nvrq.formulas import check_tau
-from nvrq.metrics import REGISTRY, split_column
 from nvrq.score_core import encoder_columns, needs_tau
-from nvrq.scoring import resolve_metrics
+from nvrq.scoring import encoder_for_metrics, resolve_metrics
 
 __all__ = ["check_model_options", "add_model_arguments", "add_encoder_arguments", "prepare_device",
-           "encoder_for_metrics", "encoder_options", "load_encoder_and_tau", "add_runtime_arguments",
+           "encoder_options", "load_encoder_and_tau", "add_runtime_arguments",
            "add_cache_dir_argument", "metric_columns", "encoder_for_columns"]
 
 
@@ -87,21 +86,6 @@ def prepare_device(args) -> None:
     if str(args.device).startswith("cuda") and not torch.cuda.is_available():
         raise InputError("--device", None, "an available device (cpu, or cuda with a GPU)", args.device)
     tune_allocator()
-
-
-def encoder_for_metrics(metrics: Sequence[str], default: str | None) -> str:
-    """The encoder: the one named in ``metrics`` (``nvrq:ENC``), else ``default`` (``--encoder``),
-    else the registry default. Two different encoders, or one that contradicts ``--encoder``,
-    is an error."""
-    families = {name for name, info in REGISTRY.items() if info.needs_encoder}  # not pyiqa:NAME
-    named = {enc for fam, enc in map(split_column, (m.strip() for m in metrics)) if fam in families} - {None}
-    if len(named) > 1:
-        raise InputError("--metrics", None, "one encoder for all nvrq/nvrq_ca metrics", ", ".join(sorted(named)))
-    if named and default is not None and named != {default}:
-        raise InputError("--metrics", None, f"the encoder given by --encoder ({default})", named.pop())
-    name = named.pop() if named else (default or DEFAULT_ENCODER)
-    get_spec(name)
-    return name
 
 
 def _resolve_tau(name: str, args) -> float:

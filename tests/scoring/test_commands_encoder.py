@@ -11,11 +11,8 @@ import pytest
 
 from data_schema.errors import InputError
 from nvrq.cli import main
-from nvrq.commands._encoder import (
-    add_encoder_arguments,
-    encoder_for_metrics,
-    load_encoder_and_tau,
-)
+from nvrq.commands._encoder import add_encoder_arguments, load_encoder_and_tau
+from nvrq.scoring import encoder_for_metrics
 
 
 def _args(*argv):
@@ -30,7 +27,7 @@ def test_encoder_comes_from_metrics_or_option():
     assert encoder_for_metrics(["psnr"], None) == "efficientnet-lite0"
     with pytest.raises(InputError, match="one encoder"):
         encoder_for_metrics(["nvrq:dinov2-small", "nvrq_ca:clip-b16"], None)
-    with pytest.raises(InputError, match="--encoder"):
+    with pytest.raises(InputError, match=r"^metrics: .*given as encoder \(clip-b16\)"):
         encoder_for_metrics(["nvrq:dinov2-small"], "clip-b16")
 
 
