@@ -17,8 +17,9 @@ Outputs (one fact each):
 - :data:`PAIRED_COLUMNS` (``methods_paired.csv``): per pair of methods ``(a, b)``, metric and
   view (``axis = 'all'`` or an axis column with its ``offset``), over the objects both methods
   scored: ``mean_diff`` = mean of ``x_a - x_b`` in the metric's units with its 95% paired
-  cluster-bootstrap interval and two-sided p-value (:func:`analysis.bootstrap.paired_difference`
-  on the replicate means), ``p_holm`` (Holm over every row of the table), ``win_rate`` (share
+  cluster-bootstrap interval (:func:`analysis.bootstrap.paired_difference` on the replicate
+  means) and two-sided add-one bootstrap p-value (:func:`analysis.bootstrap.monte_carlo_p`,
+  never 0), ``p_holm`` (Holm over every row of the table), ``win_rate`` (share
   of objects where ``a`` scores better, by the metric's direction) and ``tie_rate`` (equal
   values), and ``better``: ``'a'`` or ``'b'`` when ``p_holm < 0.05``, else ``'neither'`` (the
   interval may include 0: near-identical renders are a tie, never a win).
@@ -308,7 +309,8 @@ def _paired_rows(a, b, names, metric, hb, vals, obj_views, obj_clusters, counts)
             elif reps.shape[0] == 0:
                 row["reason"] = "no bootstrap"
             else:
-                row["ci_lo"], row["ci_hi"], row["p"] = bs.paired_difference(reps[:, gi], np.zeros(reps.shape[0]))
+                row["ci_lo"], row["ci_hi"], _ = bs.paired_difference(reps[:, gi], np.zeros(reps.shape[0]))
+                row["p"] = bs.monte_carlo_p(reps[:, gi])
                 if not np.isfinite(row["p"]):
                     row["reason"] = "bootstrap replicates undefined"
             rows.append(row)
@@ -413,7 +415,8 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
     items: one row per object, view and method (``method`` column); metrics: numeric columns
     with ``directions[m]`` True when higher is better; clusters: (N,) int track codes.
     ``methods`` restricts (and orders) the methods compared; ``where`` names the input in errors,
-    ``sources`` (column -> path) the metrics table a column came from.
+    ``sources`` (column -> path) the metrics table a column came from. ``n_boot`` is raised to
+    :func:`analysis.bootstrap.replicates_for` the number of paired rows (Holm over all of them).
     """
     names = check_methods(items, where=where, methods=methods)
     if rank_metric is not None and rank_metric not in metrics:
@@ -433,6 +436,11 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
                          "a second row for " + ":".join(str(items[c].iloc[i]) for c in OBJECT_COLUMNS)
                          + f" of method {items[METHOD_COLUMN].iloc[i]!r}")
     k = int(clusters.max()) + 1 if len(clusters) else 0
+    # enough replicates that Holm over every paired row can still call a decisive difference
+    n_views = sum(1 if axis == "all" else len(np.unique(values[member]))
+                  for axis, values, member in view_breakdowns(items))
+    n_boot = bs.replicates_for(n_boot, len(metrics) * len(names) * (len(names) - 1) // 2 * n_views,
+                               alpha=ALPHA)
     counts = bs.draw_cluster_counts(k, n_boot, seed=seed) if n_boot and k else None
     breakdowns = _groups_of(items, list(attributes))
     bar = tqdm(total=len(metrics) * (len(breakdowns) + len(names) * (len(names) - 1) // 2),

@@ -28,10 +28,10 @@ from data_schema.perturbation import PERTURBATION_COLUMNS
 __all__ = ["context", "leaderboard_display", "paired_display", "leaderboard_text", "methods_tent_plot",
            "method_class_heatmap", "method_figures"]
 
-def _p(p, n_boot: int) -> str:
+def _p(p) -> str:
     if p is None or not np.isfinite(p):
         return ""
-    return f"p<{1 / n_boot:.3g}" if p == 0 and n_boot else f"p={p:.3f}"
+    return f"p={p:.3g}" if p < 0.001 else f"p={p:.3f}"
 
 
 def leaderboard_display(res: MethodsResult) -> pd.DataFrame:
@@ -41,7 +41,7 @@ def leaderboard_display(res: MethodsResult) -> pd.DataFrame:
         mean = interval_text(r.mean, r.ci_lo, r.ci_hi)
         vs = ""
         if isinstance(r.next, str):
-            p = _p(r.p_holm_vs_next, res.n_boot)
+            p = _p(r.p_holm_vs_next)
             if r.better_than_next is None or (isinstance(r.better_than_next, float)
                                               and math.isnan(r.better_than_next)):
                 vs = f"vs {r.next}: undefined"
@@ -67,7 +67,7 @@ def paired_display(res: MethodsResult, metric: str | None = None) -> pd.DataFram
                    f"{names[r.better]} better" if r.better in names else
                    "neither (no significant difference)")
         rows.append({"a vs b": f"{r.method_a} vs {r.method_b}", "view": view, "n": str(r.n),
-                     "mean a - b": diff, "p (Holm)": _p(r.p_holm, res.n_boot),
+                     "mean a - b": diff, "p (Holm)": _p(r.p_holm),
                      "a wins": fmt(r.win_rate, 2), "ties": fmt(r.tie_rate, 2), "result": verdict,
                      "left out (a only / b only)": f"{r.n_only_a} / {r.n_only_b}"})
     return pd.DataFrame(rows)

@@ -66,8 +66,10 @@ def test_paired_interval_is_the_cluster_bootstrap_of_the_differences(result):
     track = pd.factorize(items["clip_id"] + ":" + items["track_id"])
     code = dict(zip(track[1], range(len(track[1])), strict=True))
     dc = np.array([code[f"{c}:{t}"] for c, t in zip(d["clip_id"], d["track_id"], strict=True)])
-    counts = bs.draw_cluster_counts(len(track[1]), 400, seed=0)
-    reps = np.array([np.repeat(d[0].to_numpy(), counts[b][dc]).mean() for b in range(400)])
+    # --bootstrap 400, raised for Holm over the paired rows (bootstrap.replicates_for)
+    assert res.n_boot == bs.replicates_for(400, len(res.paired)) > 400
+    counts = bs.draw_cluster_counts(len(track[1]), res.n_boot, seed=0)
+    reps = np.array([np.repeat(d[0].to_numpy(), counts[b][dc]).mean() for b in range(res.n_boot)])
     lo, hi = np.quantile(reps, [0.025, 0.975])
     row = res.paired[(res.paired["metric"] == "psnr") & (res.paired["offset"] == 1.0)].iloc[0]
     assert (row["method_a"], row["method_b"]) == ("sharp", "blurry")
