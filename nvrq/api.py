@@ -145,6 +145,27 @@ def _boxes(boxes, name: str) -> np.ndarray:
     return arr.astype(np.int64)
 
 
+def _share(keys: Sequence, make, *, seen: dict | None = None, out: list | None = None) -> tuple:
+    """``(out, index, seen)``: ``out`` gains ``make(k)`` for each ``keys[k]`` not yet in ``seen``
+    (key -> its position in ``out``); ``index`` (len(keys),) int64 is each key's position. The GT
+    crops of one call, and of the pending calls of :meth:`Evaluator._flush`, are shared this way.
+
+    >>> keys = ["a", "b", "a"]
+    >>> _share(keys, lambda k: keys[k].upper())[:2]
+    (['A', 'B'], array([0, 1, 0]))
+    """
+    seen = {} if seen is None else seen
+    out = [] if out is None else out
+    index = np.empty(len(keys), np.int64)
+    for k, key in enumerate(keys):
+        j = seen.get(key)
+        if j is None:
+            j = seen[key] = len(out)
+            out.append(make(k))
+        index[k] = j
+    return out, index, seen
+
+
 def _encoder_name(columns: Sequence[str], encoder) -> str:
     """The encoder of ``columns`` (:func:`nvrq.scoring.encoder_for_metrics`), ``encoder`` given
     as a name, an :class:`EncoderConfig` or a loaded encoder."""
@@ -245,14 +266,8 @@ class Evaluator:
         if len(gts) != len(renders):
             raise InputError("render_crops", None, f"one render crop per GT crop ({len(gts)})",
                              f"{len(renders)} crops")
-        seen: dict[int, int] = {}  # id of a GT object -> its crop (the list keeps the objects alive)
-        gt_u8, index = [], np.empty(len(gts), np.int64)
-        for k, g in enumerate(gts):
-            j = seen.get(id(g))
-            if j is None:
-                j = seen[id(g)] = len(gt_u8)
-                gt_u8.append(as_rgb_uint8(g, name=f"gt_crops[{k}]"))
-            index[k] = j
+        # one crop per GT object (by id; the list keeps the objects alive)
+        gt_u8, index, seen = _share([id(g) for g in gts], lambda k: as_rgb_uint8(gts[k], name=f"gt_crops[{k}]"))
         r_u8 = [as_rgb_uint8(r, name=f"render_crops[{k}]") for k, r in enumerate(renders)]
         return gt_u8, index, r_u8, [("crop", i) for i in seen], gts
 
@@ -266,14 +281,9 @@ class Evaluator:
         gt_hwc, gb = _hwc(gt_image, "gt_image"), _boxes(gt_boxes, "gt_boxes")
         if len(gb) != len(rb):
             raise InputError("render_boxes", None, f"one render box per GT box ({len(gb)})", f"{len(rb)} boxes")
-        seen: dict[tuple, int] = {}  # one crop per distinct GT box, as crop_batches does per GT image
-        gt_u8, index = [], np.empty(len(gb), np.int64)
-        for k, box in enumerate(gb):
-            j = seen.get(key := tuple(box.tolist()))
-            if j is None:
-                j = seen[key] = len(gt_u8)
-                gt_u8.append(_to_uint8(cut_box(gt_hwc, box, where=f"gt_boxes[{k}]")))
-            index[k] = j
+        # one crop per distinct GT box, as crop_batches does per GT image
+        gt_u8, index, seen = _share([tuple(b) for b in gb.tolist()],
+                                    lambda k: _to_uint8(cut_box(gt_hwc, gb[k], where=f"gt_boxes[{k}]")))
         r_u8 = [_to_uint8(cut_box(r_hwc, b, where=f"render_boxes[{k}]")) for k, b in enumerate(rb)]
         return gt_u8, index, r_u8, [("frame", id(gt_image), *key) for key in seen], gt_image
 
@@ -335,13 +345,7 @@ class Evaluator:
         gt_u8, index, r_u8, position = [], [], [], {}
         for _, g, i, r, keys, _owner in self._pending:
             if i is not None:
-                local = np.empty(len(g), np.int64)
-                for j, (crop, key) in enumerate(zip(g, keys, strict=True)):
-                    p = position.get(key)
-                    if p is None:
-                        p = position[key] = len(gt_u8)
-                        gt_u8.append(crop)
-                    local[j] = p
+                local = _share(keys, g.__getitem__, seen=position, out=gt_u8)[1]
                 index.append(local[np.asarray(i, np.int64)])
             r_u8.extend(r)
         scores = self._score(gt_u8, np.concatenate(index) if index else None, r_u8)
