@@ -110,8 +110,6 @@ def _local_dataset(args, columns, encoder_name) -> int:
     rename = column_renames(columns, tag=args.column_tag, precision=args.precision)
     options = _scorer(args, columns, encoder_name, tau).options()
     options["columns"] = [rename.get(c, c) for c in columns]
-    if encoder_columns(columns) and args.precision != "fp32":  # fp32 plans (Ray's) have no such key
-        options["precision"] = args.precision
 
     def load():  # only when a shard is left to do
         return load_encoder_and_tau(args, needs_tau=False, name=encoder_name)[0]

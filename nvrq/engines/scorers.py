@@ -57,9 +57,12 @@ class MetricScorer:
     def options(self) -> dict:
         """What a resumed run must share with the first (``_plan.json``)."""
         enc = bool(self.model_columns)
-        return {"columns": list(self.columns), "encoder": self.encoder.name if enc else None,
+        opts = {"columns": list(self.columns), "encoder": self.encoder.name if enc else None,
                 "weights": self.encoder.weights if enc else None, "tau": self.tau if enc else None,
                 "runtime": self.encoder.runtime if enc else None}
+        if enc and self.encoder.precision != "fp32":  # fp32 plans (all of Ray's) have no such key
+            opts["precision"] = self.encoder.precision
+        return opts
 
 
 @dataclass(frozen=True, kw_only=True)
