@@ -66,7 +66,7 @@ def test_walkthrough_is_what_the_demo_runs(tmp_path):
     from nvrq.commands.demo import demo_steps
 
     args = Namespace(seed=0, seconds=6.0, size="960x540", offsets="-3,-2,-1,0,1,2,3",
-                     encoder="efficientnet-lite0", raters=5)
+                     encoder="efficientnet-lite0", raters=5, methods=None)
     steps = demo_steps(Path("out"), args)
     readme_cmds = [shlex.split(c) for c in CLI]
 

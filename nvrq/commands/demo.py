@@ -66,7 +66,7 @@ def method_steps(out: Path, args) -> list[tuple[str, list[str]]]:
 
 def demo_steps(out: Path, args) -> list[tuple[str, list[str]]]:
     """The demo as (program, argv) steps, in order (:func:`method_steps` with ``--methods``)."""
-    if getattr(args, "methods", None):
+    if args.methods:
         return method_steps(out, args)
     scene, pairs, metrics = out / "scene", out / "pairs.csv", out / "metrics.csv"
     study, ratings, report = out / "study", out / "ratings.csv", out / "report"
@@ -126,7 +126,7 @@ def run(args) -> int:
             return rc
         print(f"[{i}/{len(steps)}] done in {time.perf_counter() - t0:.1f} s", flush=True)
     print(f"\nDemo finished in {time.perf_counter() - t_all:.0f} s.")
-    if getattr(args, "methods", None):
+    if args.methods:
         print(f"Leaderboard: {out / 'leaderboard' / 'report.html'}")
         print(f"Pairwise study: {out / 'pairwise' / 'report.html'}")
         print(f"Vote yourself:  annotate serve {out / 'study'}")
