@@ -40,12 +40,11 @@ import numpy as np
 import pandas as pd
 
 from data_schema.cliargs import comma_list
-from data_schema.errors import InputError
+from data_schema.errors import InputError, check_int
 from nvrq.crops import cut_box
 from nvrq.encoders.registry import Encoder, EncoderConfig, encoder_config
 from nvrq.score_core import (
     CropBatch,
-    check_positive,
     encoder_columns,
     needs_tau,
     reference_columns,
@@ -217,8 +216,8 @@ class Evaluator:
         raw = comma_list(metrics) if isinstance(metrics, str) else [str(m) for m in metrics]
         name = _encoder_name(raw, encoder)
         self.columns = resolve_metrics(raw, name)
-        check_positive("batch_size", batch_size)
-        check_positive("update_pairs", update_pairs)
+        check_int("batch_size", batch_size)
+        check_int("update_pairs", update_pairs)
         self.batch_size, self.update_pairs = batch_size, update_pairs
         self.encoder = None
         self.tau = None

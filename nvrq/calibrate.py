@@ -27,12 +27,12 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from data_schema.errors import InputError
+from data_schema.errors import InputError, check_int
 from data_schema.tables import GT_BOX_COLUMNS, atomic_write_text, pair_boxes, pair_image_paths
 from nvrq.crop_batches import read_crops
 from nvrq.encoders import get_spec
 from nvrq.formulas import nvrq_similarity
-from nvrq.score_core import check_positive, embed_crops
+from nvrq.score_core import embed_crops
 
 __all__ = ["config_path", "read_tau_config", "write_tau", "resolve_tau", "recommend_tau",
            "unrelated_pairs", "Calibration", "calibrate_tau"]
@@ -123,7 +123,7 @@ def _check_calibrate_args(encoder, **counts: int) -> None:
     if encoder is None or not hasattr(encoder, "embed"):
         raise InputError("encoder", None, "a loaded encoder", encoder)
     for name, value in counts.items():
-        check_positive(name, value)
+        check_int(name, value)
 
 
 def _embed_gt_crops(paths, boxes: np.ndarray, encoder, *, batch_size: int, progress: bool,

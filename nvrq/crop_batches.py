@@ -26,10 +26,10 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from data_schema.errors import InputError
+from data_schema.errors import InputError, check_int
 from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS, pair_boxes, pair_image_paths
 from nvrq.crops import cut_box, read_rgb
-from nvrq.score_core import CropBatch, check_positive
+from nvrq.score_core import CropBatch
 
 __all__ = ["CROP_COLUMNS", "iter_crop_batches", "read_crops", "gt_groups", "pack_groups",
            "decode_schedule", "usable_cores"]
@@ -174,8 +174,8 @@ def iter_crop_batches(pairs: pd.DataFrame, *, scene_root: str | os.PathLike | No
     ``follow_links``: the link rule of :func:`data_schema.tables.inside_scene` (default: the
     environment's).
     """
-    check_positive("max_pairs", max_pairs)
-    check_positive("decode_threads", decode_threads)
+    check_int("max_pairs", max_pairs)
+    check_int("decode_threads", decode_threads)
     plan = _plan(pairs, scene_root=scene_root, base=base, where=where, follow=follow_links)
 
     def batches() -> Iterator[CropBatch]:

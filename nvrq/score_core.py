@@ -44,7 +44,7 @@ from nvrq.metrics import REGISTRY, MetricInfo, split_column
 
 __all__ = ["CropBatch", "score_crop_batch", "embed_crops", "encoder_inputs", "run_batched",
            "pair_outputs", "check_metric_args", "encoder_columns", "column_info", "reference_columns",
-           "needs_tau", "column_seconds", "check_positive"]
+           "needs_tau", "column_seconds"]
 
 
 @dataclass(frozen=True)
@@ -84,7 +84,7 @@ def run_batched(crops: Sequence[np.ndarray], fn: Callable[[np.ndarray], np.ndarr
     """``fn`` (uint8 (B, size, size, 3) -> (B, D)) over :func:`encoder_inputs` of ``crops``,
     ``batch_size`` crops at a time -> (N, D) (``(0, 0)`` for no crops). Adds ``prepare`` and
     ``forward`` seconds to ``timings``."""
-    check_positive("batch_size", batch_size)
+    check_int("batch_size", batch_size)
     times = timings if timings is not None else {}
     parts = []
     for k in range(0, len(crops), batch_size):
@@ -119,12 +119,6 @@ def embed_crops(crops: Sequence[np.ndarray], encoder, *, batch_size: int = 32,
 
 
 # --- the pure per-batch scorer -----------------------------------------------------------------
-
-def check_positive(name: str, value) -> None:
-    """:class:`InputError` naming ``name`` unless ``value`` is a positive integer (not a bool;
-    :func:`data_schema.errors.check_int`)."""
-    check_int(name, value, low=1)
-
 
 def column_info(column: str) -> MetricInfo:
     """The registry entry computing metric column ``column`` (a ``members`` family resolves its
@@ -183,7 +177,7 @@ def check_metric_args(metrics: Sequence[str], *, encoder=None, tau=None, batch_s
         column_info(m)
     if not metrics:
         raise InputError("metrics", None, "at least one metric", "none")
-    check_positive("batch_size", batch_size)
+    check_int("batch_size", batch_size)
     enc_cols = encoder_columns(metrics)
     if enc_cols and encoder is None:
         raise InputError("encoder", None, f"a loaded encoder for {', '.join(enc_cols)}", None)

@@ -17,8 +17,9 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Mapping, Sequence
 
+from data_schema.errors import check_int
 from nvrq.engines import shards as sh
-from nvrq.score_core import check_metric_args, check_positive
+from nvrq.score_core import check_metric_args
 from nvrq.scoring import REQUIRED_COLUMNS, score_pairs
 
 __all__ = ["score_dataset"]
@@ -41,7 +42,7 @@ def score_dataset(pairs, out, *, metrics: Sequence[str], options: Mapping, timin
     metrics, rename = list(metrics), dict(rename or {})
     # bad arguments stop here, before the plan is written (the loader stands for the encoder)
     check_metric_args(metrics, encoder=load_encoder, tau=tau, batch_size=batch_size)
-    check_positive("shard_pairs", shard_pairs)
+    check_int("shard_pairs", shard_pairs)
 
     def compute(todo: list[sh.Shard]) -> Iterator[sh.ShardResult]:
         encoder = load_encoder() if load_encoder is not None else None

@@ -38,11 +38,11 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from data_schema.errors import InputError
+from data_schema.errors import InputError, check_int
 from nvrq.crop_batches import iter_crop_batches
 from nvrq.crops import normalised_tensor
 from nvrq.encoders import load_encoder
-from nvrq.score_core import check_positive, pair_outputs
+from nvrq.score_core import pair_outputs
 
 __all__ = [
     "ImageClassifier",
@@ -210,7 +210,7 @@ def pair_probabilities(
     ``S = model.input_size``, each GT crop run once, ``batch_size`` crops per forward pass.
     Adds ``decode``, ``prepare`` and ``forward`` seconds to ``timings`` (as ``nvrq score``;
     :func:`nvrq.scoring.timing_table` turns them into the timing file's rows)."""
-    check_positive("batch_size", batch_size)
+    check_int("batch_size", batch_size)
     times = timings if timings is not None else {}
     batches = iter_crop_batches(pairs, scene_root=scene_root, where=where)
     with tqdm(total=len(pairs), unit="pair", file=sys.stderr, disable=not progress, desc=desc) as bar:
