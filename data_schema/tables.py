@@ -217,9 +217,6 @@ def csv_line(i: int) -> str:
     return f"line {i + 2}"
 
 
-_line = csv_line
-
-
 def _first(mask) -> int:
     return int(np.flatnonzero(np.asarray(mask))[0])
 
@@ -229,11 +226,11 @@ def _unique_ids(df: pd.DataFrame, col: str, where: str) -> None:
         return
     empty = df[col].isna() | (df[col].astype(str).str.strip() == "")
     if empty.any():
-        raise InputError(where, f"{_line(_first(empty))}: {col}", f"a {col}", "empty")
+        raise InputError(where, f"{csv_line(_first(empty))}: {col}", f"a {col}", "empty")
     dup = df[col].astype(str).duplicated()
     if dup.any():
         i = _first(dup)
-        raise InputError(where, f"{_line(i)}: {col}", "each pair once", f"{df[col].iloc[i]!r} again")
+        raise InputError(where, f"{csv_line(i)}: {col}", "each pair once", f"{df[col].iloc[i]!r} again")
 
 
 def _numeric(df: pd.DataFrame, col: str, where: str, what: str, *, integer: bool = False) -> None:
@@ -243,7 +240,7 @@ def _numeric(df: pd.DataFrame, col: str, where: str, what: str, *, integer: bool
         bad |= ~bad & (num.fillna(0) != np.round(num.fillna(0))).to_numpy()
     if bad.any():
         i = _first(bad)
-        raise InputError(where, f"{_line(i)}: column {col!r}", what, repr(df[col].iloc[i]))
+        raise InputError(where, f"{csv_line(i)}: column {col!r}", what, repr(df[col].iloc[i]))
     df[col] = num.astype(np.int64) if integer else num.astype(np.float64)
 
 
@@ -265,7 +262,7 @@ def check_pairs(df: pd.DataFrame, *, where: str) -> pd.DataFrame:
             bad = _outside_scene(df[col])
             if bad.any():  # vectorised screen; the first offender gets the full message
                 i = _first(bad)
-                check_scene_path(df[col].iloc[i], where=where, field=f"{_line(i)}: column {col!r}")
+                check_scene_path(df[col].iloc[i], where=where, field=f"{csv_line(i)}: column {col!r}")
     return df
 
 
@@ -292,7 +289,7 @@ def check_metrics(df: pd.DataFrame, *, where: str) -> pd.DataFrame:
         bad = conv.isna() & df[col].notna()
         if bad.any():
             i = _first(bad)
-            raise InputError(where, f"{_line(i)}: column {col!r}", "a numeric metric value", df[col].iloc[i])
+            raise InputError(where, f"{csv_line(i)}: column {col!r}", "a numeric metric value", df[col].iloc[i])
         df[col] = conv
     return df
 
@@ -531,7 +528,7 @@ def pair_image_paths(df: pd.DataFrame, column: str, *, scene_root=None, base=Non
     seen: dict = {}
     for i, key in enumerate(zip(roots, rel, strict=True)):
         if key not in seen:  # each distinct image once (lstat calls for the strict link rule)
-            field = f"{_line(i)}: column {column!r}"
+            field = f"{csv_line(i)}: column {column!r}"
             seen[key] = inside_scene(*key, where=where, field=field, follow=follow)
             if not os.path.isfile(seen[key]):
                 raise InputError(where, field, "an existing image file", f"{key[1]} (not found)")
