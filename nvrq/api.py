@@ -214,6 +214,13 @@ class Evaluator:
                  weights=None, device: str = "cpu", runtime: str = "auto", tau: float | None = None,
                  batch_size: int = 32, update_pairs: int = 256):
         raw = comma_list(metrics) if isinstance(metrics, str) else [str(m) for m in metrics]
+        if encoder is not None and not isinstance(encoder, str):
+            # a config or a loaded encoder carries its own loading options: none is dropped silently
+            for option, value, default in (("weights", weights, None), ("device", device, "cpu"),
+                                           ("runtime", runtime, "auto")):
+                if value != default:
+                    raise InputError(option, None, f"no {option} beside an EncoderConfig or a loaded "
+                                     "encoder (give it in the config)", value)
         name = _encoder_name(raw, encoder)
         self.columns = resolve_metrics(raw, name)
         check_int("batch_size", batch_size)

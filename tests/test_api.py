@@ -257,6 +257,11 @@ def test_unknown_metric_and_bad_options_name_the_parameter():
         nvrq.Evaluator(metrics=["nvrq"], runtime="tensorrt")
     with pytest.raises(InputError, match=r"^tau: expected a number strictly between 0 and 1"):
         nvrq.Evaluator(metrics=["nvrq_ca"], tau=1.5)
+    # a config carries its own loading options: one beside it is an error, never dropped
+    from nvrq.encoders import EncoderConfig
+
+    with pytest.raises(InputError, match=r"^device: expected no device beside an EncoderConfig"):
+        nvrq.Evaluator(metrics=["nvrq"], encoder=EncoderConfig("efficientnet-lite0"), device="cuda")
 
 
 def test_no_reference_metrics_need_no_gt():
