@@ -8,6 +8,7 @@ reader), as numpy uint8 HWC and as torch float CHW in [0, 1].
 
 from __future__ import annotations
 
+import contextlib
 import subprocess
 import sys
 
@@ -101,18 +102,28 @@ def test_score_frame_equals_nvrq_score(clip, evaluator):
     _assert_equal_to_cli(got.astype(float), want)
 
 
+@contextlib.contextmanager
+def embed_batches(evaluator):
+    """The crop count of every encoder call made inside the block, on a reset evaluator (the
+    encoder is restored and the evaluator reset after, whatever happens)."""
+    seen: list[int] = []
+    embed = evaluator.encoder.embed
+    evaluator.encoder.embed = lambda x: seen.append(len(x)) or embed(x)
+    evaluator.reset()
+    try:
+        yield seen
+    finally:
+        del evaluator.encoder.embed
+        evaluator.reset()
+
+
 def test_repeated_gt_object_is_embedded_once(evaluator):
     rng = np.random.default_rng(0)
     gt = rng.integers(0, 256, (30, 20, 3), dtype=np.uint8)
     renders = [rng.integers(0, 256, (25, 25, 3), dtype=np.uint8) for _ in range(4)]
-    seen = []
-    embed = evaluator.encoder.embed
-    evaluator.encoder.embed = lambda x: seen.append(len(x)) or embed(x)
-    try:
+    with embed_batches(evaluator) as seen:
         shared = evaluator.score_crops([gt] * 4, renders)
         copies = evaluator.score_crops([gt.copy() for _ in range(4)], renders)
-    finally:
-        del evaluator.encoder.embed
     assert sum(seen) == (1 + 4) + (4 + 4)  # one GT + 4 renders, then 4 GT copies + 4 renders
     pd.testing.assert_frame_equal(shared, copies)
 
@@ -121,18 +132,11 @@ def test_small_updates_are_scored_in_full_encoder_batches(evaluator):
     rng = np.random.default_rng(2)
     gts = [rng.integers(0, 256, (20, 24, 3), dtype=np.uint8) for _ in range(40)]
     renders = [rng.integers(0, 256, (18, 30, 3), dtype=np.uint8) for _ in range(40)]
-    seen = []
-    embed = evaluator.encoder.embed
-    evaluator.encoder.embed = lambda x: seen.append(len(x)) or embed(x)
-    try:
-        evaluator.reset()
+    with embed_batches(evaluator) as seen:
         for k in range(40):  # one pair per update: nothing is scored until compute / pairs
             evaluator.update([gts[k]], [renders[k]], labels={"k": k})
         assert seen == []
         got = evaluator.pairs
-    finally:
-        del evaluator.encoder.embed
-        evaluator.reset()
     assert seen == [32, 32, 16]  # 40 GT + 40 render crops in batch_size 32, not 40 calls of 2
     pd.testing.assert_frame_equal(got[COLUMNS], evaluator.score_crops(gts, renders))
     assert got["k"].tolist() == list(range(40))
@@ -144,17 +148,10 @@ def test_update_frame_shares_gt_crops_across_views(evaluator):
     gt = rng.integers(0, 256, (60, 80, 3), dtype=np.uint8)
     boxes = np.array([[0, 0, 29, 29], [40, 10, 79, 49]])
     views = [rng.integers(0, 256, (60, 80, 3), dtype=np.uint8) for _ in range(3)]
-    seen = []
-    embed = evaluator.encoder.embed
-    evaluator.encoder.embed = lambda x: seen.append(len(x)) or embed(x)
-    try:
-        evaluator.reset()
+    with embed_batches(evaluator) as seen:
         for v, img in enumerate(views):
             evaluator.update_frame(gt, img, boxes, boxes, labels={"view": v})
         got = evaluator.pairs
-    finally:
-        del evaluator.encoder.embed
-        evaluator.reset()
     assert sum(seen) == 2 + 6
     want = pd.concat([evaluator.score_frame(gt, img, boxes, boxes) for img in views], ignore_index=True)
     pd.testing.assert_frame_equal(got[COLUMNS], want)
