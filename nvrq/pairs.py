@@ -27,7 +27,7 @@ import pandas as pd
 from tqdm.auto import tqdm
 
 from data_schema.errors import InputError
-from data_schema.methods import METHOD_COLUMN, method_columns, method_suffix, method_values
+from data_schema.methods import METHOD_COLUMN, method_columns, method_values
 from data_schema.perturbation import (
     EXTRA_PERTURBATION_COLUMNS,
     LABEL_COLUMN,
@@ -36,10 +36,9 @@ from data_schema.perturbation import (
     labels,
     lateral,
     perturbation_array,
-    view_suffix,
 )
 from data_schema.scene import Scene
-from data_schema.tables import MIN_SIDE_PX, PAIRS_COLUMNS
+from data_schema.tables import MIN_SIDE_PX, PAIRS_COLUMNS, pair_ids
 from nvrq.geometry.boxes import box_corners, box_sides, pixel_box
 from nvrq.geometry.cameras import camera_from_model
 from nvrq.geometry.poses import (
@@ -224,8 +223,7 @@ def _pair_rows(scene, cam_name, r, gt_paths, tr_sel, gb, rb) -> pd.DataFrame:
     methods = method_values(r)
     if METHOD_COLUMN in r.columns:  # a scene with methods (docs/FORMATS.md §3)
         df[METHOD_COLUMN] = methods
-    df.insert(0, "pair_id", [f"{scene.clip_id}:{cam_name}:{t}:{s}:{v}{m}"
-                             for t, s, v, m in zip(tid, ts, view_suffix(P), method_suffix(methods), strict=True)])
+    df.insert(0, "pair_id", pair_ids(df, methods))
     return df
 
 
