@@ -30,11 +30,11 @@ import pandas as pd
 import nvrq
 from data_schema.scene import load_scene
 from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS
-from nvrq.crop_batches import gt_groups, pack_groups
 from nvrq.crops import cut_box, read_rgb
 from nvrq.encoders.memory import tune_allocator
 from nvrq.pairs import make_pairs
-from nvrq.scoring import score_pairs
+from nvrq.scoring.batches import gt_groups, pack_groups
+from nvrq.scoring.driver import score_pairs
 from nvrq.synth.generate import generate_scene
 
 METRICS = ["psnr", "ssim", "nvrq", "nvrq_ca"]

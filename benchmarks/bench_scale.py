@@ -37,7 +37,7 @@ from nvrq.encoders import ENCODERS, EncoderConfig, build_random, get_spec, load_
 from nvrq.encoders.memory import tune_allocator
 from nvrq.engines.ray_engine import RayJob, score_on_ray
 from nvrq.engines.scorers import MetricScorer
-from nvrq.scoring import score_pairs
+from nvrq.scoring.driver import score_pairs
 
 OFFSETS = (-3.0, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0)
 BOXES = [(100, 200, 299, 349), (420, 180, 579, 339), (700, 250, 779, 409)]

@@ -19,8 +19,8 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 
 from data_schema.errors import check_int
 from nvrq.engines import shards as sh
-from nvrq.score_core import check_metric_args
-from nvrq.scoring import REQUIRED_COLUMNS, score_pairs
+from nvrq.scoring.core import check_metric_args
+from nvrq.scoring.driver import REQUIRED_COLUMNS, score_pairs
 
 __all__ = ["score_dataset"]
 

@@ -16,9 +16,10 @@ import numpy as np
 
 from nvrq.encoders import EncoderConfig, load_encoder
 from nvrq.encoders.memory import tune_allocator
+from nvrq.metrics.resolve import encoder_columns
 from nvrq.proxies.classifier_drop import load_classifier, top_class_drop
 from nvrq.proxies.clip_drop import load_clip, true_category_index
-from nvrq.score_core import column_seconds, encoder_columns, pair_outputs, score_crop_batch
+from nvrq.scoring.core import column_seconds, pair_outputs, score_crop_batch
 
 __all__ = ["MetricScorer", "ImagenetScorer", "ClipScorer", "timing_per_column"]
 

@@ -39,10 +39,10 @@ import pandas as pd
 from tqdm import tqdm
 
 from data_schema.errors import InputError, check_int
-from nvrq.crop_batches import iter_crop_batches
 from nvrq.crops import normalised_tensor
 from nvrq.encoders import load_encoder
-from nvrq.score_core import pair_outputs
+from nvrq.scoring.batches import iter_crop_batches
+from nvrq.scoring.core import pair_outputs
 
 __all__ = [
     "ImageClassifier",

@@ -113,7 +113,7 @@ def test_python_api_gives_the_golden_table(scene, torch_threads, tmp_path):
         gts.append(gt_crops[key])
         renders.append(images[row.render_path][row.r_y0:row.r_y1 + 1, row.r_x0:row.r_x1 + 1])
     # the same encoder passes as nvrq score: its crop batches are the first GT image's pairs, then
-    # the other images' pairs, grouped by image in first-appearance order (nvrq.crop_batches),
+    # the other images' pairs, grouped by image in first-appearance order (nvrq.scoring.batches),
     # each batch run as its GT crops then its render crops, 32 crops per pass
     codes = pd.factorize(pairs["gt_path"])[0]
     order = np.argsort(codes, kind="stable")

@@ -6,7 +6,7 @@ package, never copied here. The 36 features are computed exactly as that package
 features its model was trained on (``BRISQUE.score``), vectorised:
 
 1. grey: scikit-image ``rgb2gray`` of the crop scaled to [0, 1] (weights
-   :data:`~nvrq.nr_metrics._common.SKIMAGE_GREY`);
+   :data:`~nvrq.metrics.no_reference._common.SKIMAGE_GREY`);
 2. MSCN coefficients ``(I - mu) / (sigma + 1/255)``, ``mu`` and ``sigma`` from a 7x7 Gaussian
    window (sigma 7/6, normalised), zero padding (``scipy.signal.convolve2d(..., 'same')``),
    ``sigma = sqrt(|mu^2 - (w * I^2)|)``;
@@ -43,7 +43,7 @@ import numpy as np
 from scipy.special import digamma, gammaln
 
 from data_schema.errors import InputError
-from nvrq.nr_metrics._common import SKIMAGE_GREY, check_rgb, package_data
+from nvrq.metrics.no_reference._common import SKIMAGE_GREY, check_rgb, package_data
 
 __all__ = ["brisque", "brisque_features", "load_model", "MIN_SIDE"]
 

@@ -2,7 +2,7 @@
 
 As MATLAB's ``piqe`` (Image Processing Toolbox) computes it, vectorised over blocks:
 
-1. grey: MATLAB ``rgb2gray`` (:func:`~nvrq.nr_metrics._common.rgb2gray_matlab`); the crop is
+1. grey: MATLAB ``rgb2gray`` (:func:`~nvrq.metrics.no_reference._common.rgb2gray_matlab`); the crop is
    padded (``'symmetric'``, bottom/right) to whole 16x16 blocks and scaled to
    ``round(255 * I / max(I))``;
 2. MSCN ``(I - mu) / (sigma + 1)``, 7x7 Gaussian window (sigma 7/6), replicated borders;
@@ -30,7 +30,7 @@ import math
 import cv2
 import numpy as np
 
-from nvrq.nr_metrics._common import check_rgb, rgb2gray_matlab
+from nvrq.metrics.no_reference._common import check_rgb, rgb2gray_matlab
 
 __all__ = ["piqe", "piqe_blocks", "MIN_SIDE", "BLOCK"]
 

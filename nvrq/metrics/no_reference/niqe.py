@@ -7,7 +7,7 @@ scikit-video's ``skvideo/measure/data/niqe_image_params.mat``, read from the ins
 NumPy/SciPy). The features are computed as scikit-video's ``skvideo.measure.niqe`` computes the
 features that model was estimated from, vectorised over patches:
 
-1. grey: scikit-video ``rgb2gray`` (:data:`~nvrq.nr_metrics._common.SKVIDEO_GREY`), float32,
+1. grey: scikit-video ``rgb2gray`` (:data:`~nvrq.metrics.no_reference._common.SKVIDEO_GREY`), float32,
    values 0-255; the crop is cut to whole 96x96 patches (bottom/right remainder dropped);
 2. a second scale: the cut crop halved with Pillow's bicubic resampling (what
    ``scipy.misc.imresize(img, 0.5, interp='bicubic', mode='F')`` did);
@@ -36,7 +36,7 @@ import scipy.ndimage
 import scipy.special
 from PIL import Image
 
-from nvrq.nr_metrics._common import SKVIDEO_GREY, check_rgb, package_data
+from nvrq.metrics.no_reference._common import SKVIDEO_GREY, check_rgb, package_data
 
 __all__ = ["niqe", "niqe_features", "load_pristine", "PATCH"]
 

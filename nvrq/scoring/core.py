@@ -3,14 +3,15 @@
 Every command that compares crops (``nvrq score``, ``calibrate-tau``, ``stability``, the
 ``imagenet``/``clip`` proxies), the distributed engines and the Python API
 (:mod:`nvrq.api`) run through these functions; none of them reads a file (reading crops
-from a pairs table is :mod:`nvrq.crop_batches`):
+from a pairs table is :mod:`nvrq.scoring.batches`). Which columns need what (an encoder, the GT
+crop, tau) is :mod:`nvrq.metrics.resolve`'s to say:
 
 - :func:`score_crop_batch` maps one :class:`CropBatch` to its metric columns. Full-reference
   pixel metrics compare the GT crop with the render crop bicubic-resized to the GT crop's size
-  (docs/FORMATS.md §4); no-reference metrics (``reference=False`` in :mod:`nvrq.metrics`)
+  (docs/FORMATS.md §4); no-reference metrics (``reference=False`` in :mod:`nvrq.metrics.registry`)
   score the raw render crop alone, so a batch of them needs no GT crops (``gt_crops=[]``,
   ``gt_index=None``); ``nvrq``/``nvrq_ca`` use encoder embeddings, each GT crop embedded once
-  (paper Eq. 4, 5 in :mod:`nvrq.formulas`).
+  (paper Eq. 4, 5 in :mod:`nvrq.metrics.formulas`).
 - :func:`encoder_inputs`, :func:`run_batched` and :func:`embed_crops` are the lower pieces:
   square-pad + bicubic resize of a crop list, and a model run over it ``batch_size`` at a time.
 - :func:`check_metric_args` validates the arguments once, naming the parameter.
@@ -39,12 +40,17 @@ import numpy as np
 
 from data_schema.errors import InputError, check_int
 from nvrq.crops import encoder_input, resize_to
-from nvrq.formulas import check_tau, nvrq_ca, nvrq_similarity
-from nvrq.metrics import REGISTRY, MetricInfo, split_column
+from nvrq.metrics.formulas import check_tau, nvrq_ca, nvrq_similarity
+from nvrq.metrics.resolve import (
+    column_info,
+    encoder_columns,
+    needs_tau,
+    reference_columns,
+    split_column,
+)
 
 __all__ = ["CropBatch", "score_crop_batch", "embed_crops", "encoder_inputs", "run_batched",
-           "pair_outputs", "check_metric_args", "encoder_columns", "column_info", "reference_columns",
-           "needs_tau", "column_seconds"]
+           "pair_outputs", "check_metric_args", "column_seconds"]
 
 
 @dataclass(frozen=True)
@@ -120,35 +126,6 @@ def embed_crops(crops: Sequence[np.ndarray], encoder, *, batch_size: int = 32,
 
 # --- the pure per-batch scorer -----------------------------------------------------------------
 
-def column_info(column: str) -> MetricInfo:
-    """The registry entry computing metric column ``column`` (a ``members`` family resolves its
-    member, e.g. ``pyiqa:lpips``); :class:`InputError` naming ``metrics`` when there is none."""
-    family, member = split_column(str(column))
-    info = REGISTRY.get(family)
-    if info is None or info.kind != "metric":
-        known = ", ".join(sorted(n for n, i in REGISTRY.items() if i.kind == "metric"))
-        raise InputError("metrics", None, f"metric columns among {known}", column)
-    if info.members is not None:
-        if member is None:
-            raise InputError("metrics", column, f"{family}:NAME", column)
-        return info.members(member)
-    return info
-
-
-def reference_columns(metrics: Sequence[str]) -> list[str]:
-    """The columns of ``metrics`` that need the GT crop (full-reference and encoder metrics).
-
-    >>> reference_columns(["psnr", "niqe", "nvrq:e", "entropy"])
-    ['psnr', 'nvrq:e']
-    """
-    return [m for m in metrics if column_info(m).needs_encoder or column_info(m).reference]
-
-
-def encoder_columns(metrics: Sequence[str]) -> list[str]:
-    """The columns of ``metrics`` that need an encoder (``nvrq:*``, ``nvrq_ca:*``)."""
-    return [m for m in metrics if REGISTRY[split_column(m)[0]].needs_encoder]
-
-
 def column_seconds(columns: Sequence[str], model_columns, timings: dict) -> list[float]:
     """Seconds per column of ``timings`` (the keys in the module docstring, plus ``decode``):
     the shared decode plus the column's own calls, or, for one of ``model_columns``, all
@@ -160,15 +137,6 @@ def column_seconds(columns: Sequence[str], model_columns, timings: dict) -> list
     decode = float(timings.get("decode", 0.0))
     model = float(timings.get("prepare", 0.0)) + float(timings.get("forward", 0.0))
     return [decode + (model if c in model_columns else float(timings.get(c, 0.0))) for c in columns]
-
-
-def needs_tau(metrics: Sequence[str]) -> bool:
-    """Whether ``metrics`` hold an NVRQ-CA column (which needs the knee ``tau``).
-
-    >>> needs_tau(["psnr", "nvrq:e"]), needs_tau(["nvrq_ca:e"])
-    (False, True)
-    """
-    return any(split_column(m)[0] == "nvrq_ca" for m in metrics)
 
 
 def check_metric_args(metrics: Sequence[str], *, encoder=None, tau=None, batch_size: int = 32) -> None:
@@ -189,9 +157,9 @@ def _pixel_columns(batch: CropBatch, names: list[str], times: dict) -> dict[str,
     """Encoder-free metrics (P,) per name: a full-reference one compares the GT crop with the
     render crop resized to the GT crop's size; a no-reference one scores the raw render crop."""
     out = {name: np.empty(len(batch.render_crops)) for name in names}
-    infos = {name: column_info(name) for name in names}
-    full = {n: i.fn for n, i in infos.items() if i.reference}
-    blind = {n: i.fn for n, i in infos.items() if not i.reference}
+    with_gt = set(reference_columns(names))
+    full = {n: column_info(n).fn for n in names if n in with_gt}
+    blind = {n: column_info(n).fn for n in names if n not in with_gt}
     for k, crop in enumerate(batch.render_crops):
         for name, fn in blind.items():
             t0 = time.perf_counter()
@@ -211,7 +179,7 @@ def score_crop_batch(batch: CropBatch, *, metrics: Sequence[str], encoder=None, 
                      batch_size: int = 32, timings: dict | None = None) -> dict[str, np.ndarray]:
     """Metric columns ``{column: (P,) float64}`` of one :class:`CropBatch`, in ``metrics`` order.
 
-    ``metrics``: column names as :func:`nvrq.scoring.resolve_metrics` gives them; ``encoder``
+    ``metrics``: column names as :func:`nvrq.metrics.resolve_metrics` gives them; ``encoder``
     for ``nvrq:*``/``nvrq_ca:*`` (GT crops embedded once each, ``batch_size`` crops per pass);
     ``tau`` in (0, 1) for ``nvrq_ca:*``. Per-stage seconds are added to ``timings``. A batch
     without GT crops (``gt_crops=[]``) takes only no-reference metrics.

@@ -1,7 +1,7 @@
 """Crops from a pairs table: read each image once, group pairs by GT image, schedule decoding.
 
-- :func:`iter_crop_batches` turns a pairs table into :class:`~nvrq.score_core.CropBatch` es
-  for the in-memory core (:func:`nvrq.score_core.score_crop_batch`): pairs are grouped by GT
+- :func:`iter_crop_batches` turns a pairs table into :class:`~nvrq.scoring.core.CropBatch` es
+  for the in-memory core (:func:`nvrq.scoring.core.score_crop_batch`): pairs are grouped by GT
   image, each image of a batch is decoded once (:func:`nvrq.crops.read_rgb`), one GT image's
   pairs (every view and method) never straddle two batches, and the GT crop shared by every
   render view and method of an object at a frame appears once in ``gt_crops`` (keyed by GT
@@ -26,10 +26,16 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from data_schema.errors import InputError, check_int
-from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS, pair_boxes, pair_image_paths
+from data_schema.errors import check_int
+from data_schema.tables import (
+    GT_BOX_COLUMNS,
+    RENDER_BOX_COLUMNS,
+    pair_boxes,
+    pair_image_paths,
+    require_columns,
+)
 from nvrq.crops import cut_box, read_rgb
-from nvrq.score_core import CropBatch
+from nvrq.scoring.core import CropBatch
 
 __all__ = ["CROP_COLUMNS", "iter_crop_batches", "read_crops", "gt_groups", "pack_groups",
            "decode_schedule", "usable_cores"]
@@ -49,10 +55,7 @@ class _Plan:
 
 
 def _plan(pairs: pd.DataFrame, *, scene_root, base, where: str, follow: bool | None = None) -> _Plan:
-    missing = [c for c in CROP_COLUMNS if c not in pairs.columns]
-    if missing:
-        raise InputError(where, f"column {missing[0]!r}", f"the columns {', '.join(CROP_COLUMNS)}",
-                         f"columns {', '.join(map(str, pairs.columns))}")
+    require_columns(pairs, CROP_COLUMNS, where=where)
     paths = {c: pair_image_paths(pairs, c, scene_root=scene_root, base=base, where=where, follow=follow)
              for c in ("gt_path", "render_path")}
     return _Plan(paths["gt_path"], paths["render_path"], pair_boxes(pairs, GT_BOX_COLUMNS, where=where),

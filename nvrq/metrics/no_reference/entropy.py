@@ -2,7 +2,7 @@
 
 MATLAB's ``entropy(I)`` of a uint8 grey image: the 256-bin histogram ``imhist``, its empty bins
 dropped, ``p = counts / numel(I)``, ``E = -sum(p .* log2(p))`` bits. The crop is first made grey
-with MATLAB's ``rgb2gray`` (:func:`~nvrq.nr_metrics._common.rgb2gray_matlab`). Range [0, 8]: 0 for
+with MATLAB's ``rgb2gray`` (:func:`~nvrq.metrics.no_reference._common.rgb2gray_matlab`). Range [0, 8]: 0 for
 a flat crop, 8 when all 256 levels are equally frequent. Defined for every crop.
 
 >>> import numpy as np
@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from nvrq.nr_metrics._common import rgb2gray_matlab
+from nvrq.metrics.no_reference._common import rgb2gray_matlab
 
 __all__ = ["entropy", "grey_entropy"]
 

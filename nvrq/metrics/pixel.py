@@ -39,9 +39,11 @@ import math
 import cv2
 import numpy as np
 
+from data_schema.errors import InputError
+
 __all__ = [
     "psnr", "ssim", "ms_ssim", "ms_ssim_scales", "gmsd", "mse", "mae", "MS_SSIM_WEIGHTS",
-    "MS_SSIM_FULL_SIDE", "SSIM_MIN_SIDE", "GMSD_MIN_SIDE",
+    "SSIM_MIN_SIDE", "GMSD_MIN_SIDE",
 ]
 
 DATA_RANGE = 255.0
@@ -51,13 +53,21 @@ SSIM_MIN_SIDE = _WIN
 #: shorter crop side (px) from which GMSD is defined (a gradient needs two pixels)
 GMSD_MIN_SIDE = 2
 MS_SSIM_WEIGHTS = (0.0448, 0.2856, 0.3001, 0.2363, 0.1333)
-#: shorter side from which all 5 scales are used: floor(176 / 2**4) = 11 = the window size.
-MS_SSIM_FULL_SIDE = _WIN * 2 ** (len(MS_SSIM_WEIGHTS) - 1)
 
 
 def _check(gt: np.ndarray, render: np.ndarray) -> None:
-    if gt.shape != render.shape or gt.ndim != 3 or gt.shape[2] != 3:
-        raise ValueError(f"expected two (H, W, 3) crops of equal shape, got {gt.shape} and {render.shape}")
+    """:class:`InputError` naming ``gt`` or ``render`` unless they are (H, W, 3) crops of one shape.
+
+    >>> _check(np.zeros((4, 4, 3)), np.zeros((4, 5, 3)))
+    Traceback (most recent call last):
+    ...
+    data_schema.errors.InputError: render: expected a crop of the GT crop's shape (4, 4, 3) (resized to it), got (4, 5, 3)
+    """
+    if gt.ndim != 3 or gt.shape[2] != 3:
+        raise InputError("gt", None, "an (H, W, 3) RGB crop", str(gt.shape))
+    if render.shape != gt.shape:
+        raise InputError("render", None, f"a crop of the GT crop's shape {gt.shape} (resized to it)",
+                         str(render.shape))
 
 
 def mse(gt: np.ndarray, render: np.ndarray) -> float:
