@@ -38,14 +38,9 @@ import pyarrow.parquet as pq
 from tqdm import tqdm
 
 from data_schema import datasets as ds
+from data_schema import tables
 from data_schema.errors import InputError
-from data_schema.tables import (
-    atomic_path,
-    atomic_write_text,
-    read_table,
-    require_columns,
-    write_table,
-)
+from data_schema.tables import atomic_path, atomic_write_text, read_table, write_table
 from nvrq.scoring.batches import gt_groups, pack_groups
 
 __all__ = ["Shard", "PairsSource", "read_sources", "plan_shards", "Plan", "load_or_create_plan",
@@ -90,7 +85,7 @@ def read_sources(pairs_path, *, required) -> list[PairsSource]:
     if ds.is_dataset(p):
         files = ds.dataset_files(p, what="pairs dataset")
         names = ds.check_schemas(files, root=p)
-        require_columns(pd.DataFrame(columns=list(names)), tuple(required), where=p)  # the schema's columns
+        tables.require_columns(pd.DataFrame(columns=list(names)), tuple(required), where=p)  # the schema's
         out = []
         for clip, f in files:
             t = pq.read_table(f, columns=["pair_id", "gt_path"]).to_pandas()

@@ -43,7 +43,7 @@ def split_column(column: str) -> tuple[str, str | None]:
     Parameters
     ----------
     column : str
-        A metrics-table column name.
+        e.g. ``nvrq:dinov2-small`` (family ``nvrq``, member the encoder) or ``psnr``.
 
     Returns
     -------
@@ -104,12 +104,12 @@ def column_info(column: str, *, kind: str | None = "metric", default=_RAISE) -> 
 
 
 def direction(column: str) -> bool | None:
-    """Whether higher values of ``column`` (a metric or proxy column) are better.
+    """Whether higher values of ``column`` are better.
 
     Parameters
     ----------
     column : str
-        A metrics-table column name.
+        Any column of a metrics or proxy table.
 
     Returns
     -------
@@ -205,17 +205,18 @@ def encoder_for_metrics(metrics: Sequence[str], encoder: str | None = None) -> s
 
 
 def encoder_columns(metrics: Sequence[str]) -> list[str]:
-    """The columns of ``metrics`` computed from encoder embeddings (``nvrq:*``, ``nvrq_ca:*``).
+    """The columns of ``metrics`` computed from encoder embeddings (``nvrq:*``, ``nvrq_ca:*``):
+    the one rule of "is this an encoder column".
 
     Parameters
     ----------
     metrics : sequence of str
-        Metric columns (:func:`column_info` knows each).
+        Column names, each one :func:`column_info` knows (a tag ``@TAG`` may follow the encoder).
 
     Returns
     -------
     list of str
-        Those columns, in order.
+        The encoder columns, in the order of ``metrics``.
 
     >>> encoder_columns(["psnr", "nvrq:e", "nvrq_ca:e@int8"])
     ['nvrq:e', 'nvrq_ca:e@int8']
@@ -224,17 +225,18 @@ def encoder_columns(metrics: Sequence[str]) -> list[str]:
 
 
 def reference_columns(metrics: Sequence[str]) -> list[str]:
-    """The columns of ``metrics`` that need the GT crop (full-reference and encoder metrics).
+    """The columns of ``metrics`` that need the GT crop (full-reference and encoder metrics);
+    the others score the render crop alone.
 
     Parameters
     ----------
     metrics : sequence of str
-        Metric columns (:func:`column_info` knows each).
+        Metric columns known to :func:`column_info`.
 
     Returns
     -------
     list of str
-        Those columns, in order.
+        Those that compare with the GT crop, in order.
 
     >>> reference_columns(["psnr", "niqe", "nvrq:e", "entropy"])
     ['psnr', 'nvrq:e']

@@ -64,7 +64,25 @@ class ScoreResult:
 
 
 def crop_sides(pairs: pd.DataFrame, *, where: str = "pairs") -> tuple[np.ndarray, np.ndarray]:
-    """Shorter sides (N,) int64 of the GT and the render crops of ``pairs`` (inclusive boxes)."""
+    """The shorter sides of the GT and the render crops (inclusive boxes).
+
+    Parameters
+    ----------
+    pairs : pandas.DataFrame
+        With the ``gt_*`` and ``r_*`` box columns.
+    where : str
+        What errors name.
+
+    Returns
+    -------
+    tuple of two (N,) int64
+        ``(gt_sides, render_sides)``.
+
+    Raises
+    ------
+    InputError
+        For missing or bad box columns.
+    """
     out = []
     for cols in (GT_BOX_COLUMNS, RENDER_BOX_COLUMNS):
         b = pair_boxes(pairs, cols, where=where)
@@ -77,7 +95,19 @@ def undefined_counts(values: dict, gt_sides: np.ndarray, render_sides: np.ndarra
 
     A value is NaN because its crop (the GT crop for a full-reference metric, the raw render
     crop for a no-reference one) is shorter than the metric's ``min_side``, or otherwise for the
-    metric's ``undefined`` reason (:mod:`nvrq.metrics.registry`). ``values``: ``{column: (N,)}``.
+    metric's ``undefined`` reason (:mod:`nvrq.metrics.registry`).
+
+    Parameters
+    ----------
+    values : dict
+        ``{column: (N,)}`` metric values.
+    gt_sides, render_sides : (N,) int
+        Shorter crop sides (:func:`crop_sides`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``metric, reason, pairs``; a row per column and reason with NaN values.
 
     >>> undefined_counts({"niqe": np.array([np.nan, 1.0, np.nan])}, np.array([99, 99, 99]),
     ...                  np.array([50, 120, 130])).values.tolist()
@@ -101,10 +131,28 @@ def undefined_counts(values: dict, gt_sides: np.ndarray, render_sides: np.ndarra
 
 def timing_table(metrics: Sequence[str], times: dict, *, n_pairs: int, wall: float,
                  model_columns: Sequence[str] | None = None) -> pd.DataFrame:
-    """``metric, seconds, pairs``: each column's own seconds (``times[column]`` for a pixel
-    metric; ``prepare + forward`` for a model column: the encoder metrics, or ``model_columns``
-    such as a proxy's) plus ``times['decode']``; the stage totals go to ``.attrs``
-    (``wall_seconds``, ``forward_seconds``, ...)."""
+    """The timing table of a run.
+
+    Parameters
+    ----------
+    metrics : sequence of str
+        The columns, in order.
+    times : dict
+        Seconds by key (:func:`nvrq.scoring.core.column_seconds`).
+    n_pairs : int
+        Pairs scored.
+    wall : float
+        The run's wall-clock seconds.
+    model_columns : sequence of str, optional
+        The columns a model computes (default: the encoder metrics; a proxy's otherwise).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``metric, seconds, pairs``: each column's own seconds (``times[column]`` for a pixel
+        metric, ``prepare + forward`` for a model column) plus ``times['decode']``; the stage
+        totals in ``.attrs`` (``wall_seconds``, ``forward_seconds``, ...).
+    """
     decode, prepare, forward = (times.get(k, 0.0) for k in ("decode", "prepare", "forward"))
     model = set(encoder_columns(metrics) if model_columns is None else model_columns)
     timing = pd.DataFrame({
@@ -118,10 +166,22 @@ def timing_table(metrics: Sequence[str], times: dict, *, n_pairs: int, wall: flo
 
 
 def runtime_timing(timing: pd.DataFrame, model, model_columns: Sequence[str]) -> pd.DataFrame:
-    """``timing`` plus the columns ``runtime, precision, threads, device`` (docs/FORMATS.md §8):
-    how ``model`` (an encoder or proxy model, or ``None``) ran, on the rows of ``model_columns``;
-    empty runtime and precision, 1 thread and ``cpu`` on the others (computed in the decode
-    thread).
+    """How each column ran (docs/FORMATS.md §8).
+
+    Parameters
+    ----------
+    timing : pandas.DataFrame
+        A :func:`timing_table`.
+    model : object or None
+        An encoder or proxy model (its ``runtime``, ``precision``, ``threads``, ``device``).
+    model_columns : sequence of str
+        The rows ``model`` computed.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``timing`` plus ``runtime, precision, threads, device``: the model's on its rows;
+        empty runtime and precision, 1 thread and ``cpu`` on the others (the decode thread's).
 
     >>> t = pd.DataFrame({"metric": ["psnr", "imagenet_drop"], "seconds": [1.0, 2.0], "pairs": 5})
     >>> m = type("M", (), {"runtime": "openvino", "threads": 2, "device": "cpu"})()
@@ -150,11 +210,38 @@ def score_pairs(
     progress: bool = True,
     where: str = "pairs",
 ) -> ScoreResult:
-    """Score every row of ``pairs`` (docs/FORMATS.md §3 columns; ``scene_root`` column or argument).
+    """Score every row of ``pairs`` (the module docstring's three steps).
 
-    ``metrics``: column names from :func:`nvrq.metrics.resolve_metrics`. ``encoder``: a loaded
-    :class:`nvrq.encoders.Encoder`, needed for ``nvrq:*``/``nvrq_ca:*``; ``tau`` for NVRQ-CA.
-    ``max_pairs``: pairs per crop batch (:func:`nvrq.scoring.batches.iter_crop_batches`).
+    Parameters
+    ----------
+    pairs : pandas.DataFrame
+        docs/FORMATS.md §3 columns (:data:`REQUIRED_COLUMNS`).
+    metrics : sequence of str
+        Column names from :func:`nvrq.metrics.resolve_metrics`.
+    encoder : Encoder, optional
+        Loaded; needed for ``nvrq:*``/``nvrq_ca:*``.
+    tau : float, optional
+        For NVRQ-CA.
+    scene_root, base : path, optional
+        Where image paths are relative to (else the ``scene_root`` column, relative to ``base``).
+    batch_size : int
+        Crops per encoder pass.
+    max_pairs : int
+        Pairs per crop batch (:func:`nvrq.scoring.batches.iter_crop_batches`).
+    progress : bool
+        A progress bar on stderr.
+    where : str
+        What errors name (the pairs file).
+
+    Returns
+    -------
+    ScoreResult
+
+    Raises
+    ------
+    InputError
+        For missing columns, bad boxes or images (naming ``where`` and the row), or a bad
+        argument (naming the parameter), before anything is scored.
     """
     require_columns(pairs, REQUIRED_COLUMNS, where=where)
     metrics = list(metrics)

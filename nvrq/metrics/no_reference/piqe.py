@@ -52,7 +52,19 @@ def _normalised(grey: np.ndarray) -> np.ndarray:
 
 
 def piqe_blocks(render: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Per 16x16 block (n,), row-major: MSCN variance, active, noticeable-artifact and noise flags."""
+    """PIQE's block statistics (module docstring).
+
+    Parameters
+    ----------
+    render : (H, W, 3) uint8
+        An RGB crop.
+
+    Returns
+    -------
+    tuple of four (n,) arrays
+        Per 16x16 block, row-major: MSCN variance, and the active, noticeable-artifact and
+        noise flags.
+    """
     grey = rgb2gray_matlab(render)
     if grey.max() == 0:  # all black: MATLAB's 0/0 leaves no active block
         n = (-(-grey.shape[0] // BLOCK)) * (-(-grey.shape[1] // BLOCK))
@@ -77,8 +89,23 @@ def piqe_blocks(render: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray,
 
 
 def piqe(render: np.ndarray) -> float:
-    """PIQE of a uint8 (H, W, 3) RGB crop in [0, 100]; NaN if the shorter side is below
-    :data:`MIN_SIDE` (module docstring)."""
+    """PIQE of the render crop, as MATLAB's ``piqe`` (module docstring).
+
+    Parameters
+    ----------
+    render : (H, W, 3) uint8
+        The render crop, used at its own size.
+
+    Returns
+    -------
+    float
+        In [0, 100], lower is better; NaN if the shorter side is below :data:`MIN_SIDE`.
+
+    Raises
+    ------
+    InputError
+        Unless ``render`` is a uint8 (H, W, 3) RGB array.
+    """
     if min(check_rgb(render).shape[:2]) < MIN_SIDE:
         return math.nan
     var, active, artifact, noise = piqe_blocks(render)
