@@ -131,6 +131,17 @@ def test_pyiqa_unknown_name_and_missing_package(fake_pyiqa, monkeypatch, capsys,
     assert direction("pyiqa:musiq") is None  # analyze then asks for --lower-better/--higher-better
 
 
+def test_a_broken_pyiqa_is_not_taken_for_an_unknown_metric(fake_pyiqa):
+    # only "unknown name" and "not installed" (InputError) make a column unknown; any other
+    # failure of pyiqa reaches the caller (it was swallowed by an `except ValueError` before)
+    def broken():
+        raise ValueError("pyiqa's own bug")
+
+    fake_pyiqa.list_models = broken
+    with pytest.raises(ValueError, match="pyiqa's own bug"):
+        direction("pyiqa:nr_mean")
+
+
 def test_pyiqa_real_package_where_installed():
     pyiqa = pytest.importorskip("pyiqa")
     pyiqa_bridge.metric_entry.cache_clear()
