@@ -4,7 +4,7 @@ One synthetic clip (``nvrq.synth.generate_scene``), its pairs (``make_pairs``), 
 loaded once and shared, so start-up (imports, model load, runtime export) is outside both
 timings. Measured in this one run, interleaved over ``--rounds``:
 
-- ``nvrq score``: :func:`nvrq.scoring.score_pairs`, the command's driver (it reads and decodes
+- ``nvrq score``: :func:`nvrq.scoring.driver.score_pairs`, the command's driver (it reads and decodes
   the images, cuts the crops, scores them);
 - API, crops: the same GT frames' crops handed to :meth:`nvrq.Evaluator.score_crops` in chunks
   of whole GT frames (as ``score_pairs`` batches them), the frames decoded in the timed loop

@@ -8,7 +8,7 @@ weights, ``efficientnet-lite0`` with its pip weights when installed, else random
       allocator ``nvrq`` tunes, :mod:`nvrq.encoders.memory`), torch eager fp32 in a plain
       process (glibc defaults: the baseline the issue measured), and the default CPU runtime
       (``runtime='auto'``: the fastest exported runtime identical to torch fp32);
-  pipeline: pairs/s of :func:`nvrq.scoring.score_pairs` with the default runtime and with
+  pipeline: pairs/s of :func:`nvrq.scoring.driver.score_pairs` with the default runtime and with
       torch, and ``pipeline / encoder-alone`` = pairs/s / (images/s / encoder images per pair)
       (target >= 0.9). Each pipeline run scores whole GT frames for about
       ``--pipeline-seconds`` of encoder work (steady state, not the first batch's wait), in

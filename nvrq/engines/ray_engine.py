@@ -6,8 +6,8 @@ Stages (Ray Data, streaming):
    ``clip_id`` column) and plans shards (:mod:`nvrq.engines.shards`): GT groups stay whole,
    so every GT crop is still embedded once. Shards already on disk are skipped (resume).
 2. CPU tasks (one per shard): read the shard's pairs rows, decode each image once and cut
-   the crops (:func:`nvrq.crop_batches.iter_crop_batches`), and compute the pixel metrics with
-   :func:`nvrq.score_core.score_crop_batch`.
+   the crops (:func:`nvrq.scoring.batches.iter_crop_batches`), and compute the pixel metrics with
+   :func:`nvrq.scoring.core.score_crop_batch`.
 3. An actor pool holds the encoder (one GPU per actor with ``--device cuda``, CPU actors
    otherwise) and computes NVRQ / NVRQ-CA with the same :func:`score_crop_batch`.
 4. The driver writes each finished shard atomically as it arrives, then the manifest.
