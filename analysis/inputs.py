@@ -37,7 +37,7 @@ from data_schema.tables import (
     read_table,
 )
 from data_schema.tables import csv_line as _line
-from nvrq.metrics import direction, metric_info
+from nvrq.metrics import column_info, direction
 
 __all__ = [
     "CANONICAL_VOTE_ORDER",
@@ -192,7 +192,7 @@ def classify_columns(
     for col in df.columns:
         if col in NON_METRIC_COLUMNS or col == target:
             continue
-        info = metric_info(col)
+        info = column_info(col, kind=None, default=None)
         numeric = pd.api.types.is_numeric_dtype(df[col]) and not pd.api.types.is_bool_dtype(df[col])
         if info is not None and info.kind == "proxy" and col not in lower | higher:
             proxies.append(col)

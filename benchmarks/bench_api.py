@@ -4,7 +4,7 @@ One synthetic clip (``nvrq.synth.generate_scene``), its pairs (``make_pairs``), 
 loaded once and shared, so start-up (imports, model load, runtime export) is outside both
 timings. Measured in this one run, interleaved over ``--rounds``:
 
-- ``nvrq score``: :func:`nvrq.scoring.score_pairs`, the command's driver (it reads and decodes
+- ``nvrq score``: :func:`nvrq.scoring.driver.score_pairs`, the command's driver (it reads and decodes
   the images, cuts the crops, scores them);
 - API, crops: the same GT frames' crops handed to :meth:`nvrq.Evaluator.score_crops` in chunks
   of whole GT frames (as ``score_pairs`` batches them), the frames decoded in the timed loop
@@ -30,11 +30,11 @@ import pandas as pd
 import nvrq
 from data_schema.scene import load_scene
 from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS
-from nvrq.crop_batches import gt_groups, pack_groups
 from nvrq.crops import cut_box, read_rgb
 from nvrq.encoders.memory import tune_allocator
 from nvrq.pairs import make_pairs
-from nvrq.scoring import score_pairs
+from nvrq.scoring.batches import gt_groups, pack_groups
+from nvrq.scoring.driver import score_pairs
 from nvrq.synth.generate import generate_scene
 
 METRICS = ["psnr", "ssim", "nvrq", "nvrq_ca"]

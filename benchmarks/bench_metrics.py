@@ -28,8 +28,8 @@ TARGET = 50.0  # crops/s per no-reference metric on 2 cores (issue 22)
 def demo_crops(root: Path, *, seconds: float, size: tuple[int, int], max_pairs: int):
     """(GT crops, render crops) of the demo clip's first ``max_pairs`` pairs, cut once."""
     from data_schema.scene import load_scene
-    from nvrq.crop_batches import iter_crop_batches
     from nvrq.pairs import make_pairs
+    from nvrq.scoring.batches import iter_crop_batches
     from nvrq.synth.generate import generate_scene
 
     generate_scene(root, seed=0, seconds=seconds, fps=10.0, offsets=(-3, -2, -1, 0, 1, 2, 3),
@@ -54,7 +54,7 @@ def main(argv=None) -> int:
     import cv2
 
     from nvrq.crops import resize_to
-    from nvrq.metrics import REGISTRY
+    from nvrq.metrics import REGISTRY, reference_columns
 
     cv2.setNumThreads(1)
     w, h = (int(v) for v in args.size.split("x"))
@@ -66,13 +66,14 @@ def main(argv=None) -> int:
     print(f"demo clip {args.size}, {args.seconds:g} s: {len(renders)} pairs; render crop shorter side "
           f"median {np.median(sides):.0f} px (min {sides.min()}, max {sides.max()})")
     metrics = [n for n, i in REGISTRY.items() if i.kind == "metric" and i.fn is not None]
+    with_gt = set(reference_columns(metrics))
     n = len(renders)
     per_crop = {m: np.zeros(n) for m in metrics}  # seconds per crop, summed over rounds
     values = {}
     for _ in range(args.rounds):
         for m in metrics:
             info = REGISTRY[m]
-            args_of = (lambda k: (gts[k], resized[k])) if info.reference else (lambda k: (renders[k],))
+            args_of = (lambda k: (gts[k], resized[k])) if m in with_gt else (lambda k: (renders[k],))
             v = np.empty(n)
             for k in range(n):
                 t = time.perf_counter()
@@ -85,7 +86,7 @@ def main(argv=None) -> int:
         rate = n * args.rounds / per_crop[m].sum()
         ok = ~np.isnan(values[m])
         defined = ok.sum() * args.rounds / per_crop[m][ok].sum() if ok.any() else float("nan")
-        kind = "FR" if REGISTRY[m].reference else "NR"
+        kind = "FR" if m in with_gt else "NR"
         print(f"{m:10s} {kind:5s} {rate:9.1f} {1 - ok.mean():6.1%} {defined:22.1f}")
         if kind == "NR" and min(rate, defined) < TARGET:
             slow.append(m)

@@ -4,7 +4,7 @@ Writes a fleet of synthetic clips (smooth random 960x540 PNG images, 3 objects x
 per frame: 1,008 pairs in 4 clips by default) as a pairs dataset partitioned by clip_id,
 then scores it with ``psnr, ssim, nvrq, nvrq_ca`` (efficientnet-lite0, CPU):
 
-- local: :func:`nvrq.scoring.score_pairs` in this process (encoder load included);
+- local: :func:`nvrq.scoring.driver.score_pairs` in this process (encoder load included);
 - ray: :func:`nvrq.engines.ray_engine.score_on_ray` on a local Ray instance started first
   (its start-up is printed separately: a cluster is started once, not per run).
 
@@ -37,7 +37,7 @@ from nvrq.encoders import ENCODERS, EncoderConfig, build_random, get_spec, load_
 from nvrq.encoders.memory import tune_allocator
 from nvrq.engines.ray_engine import RayJob, score_on_ray
 from nvrq.engines.scorers import MetricScorer
-from nvrq.scoring import score_pairs
+from nvrq.scoring.driver import score_pairs
 
 OFFSETS = (-3.0, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0)
 BOXES = [(100, 200, 299, 349), (420, 180, 579, 339), (700, 250, 779, 409)]

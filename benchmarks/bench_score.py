@@ -8,7 +8,7 @@ weights, ``efficientnet-lite0`` with its pip weights when installed, else random
       allocator ``nvrq`` tunes, :mod:`nvrq.encoders.memory`), torch eager fp32 in a plain
       process (glibc defaults: the baseline the issue measured), and the default CPU runtime
       (``runtime='auto'``: the fastest exported runtime identical to torch fp32);
-  pipeline: pairs/s of :func:`nvrq.scoring.score_pairs` with the default runtime and with
+  pipeline: pairs/s of :func:`nvrq.scoring.driver.score_pairs` with the default runtime and with
       torch, and ``pipeline / encoder-alone`` = pairs/s / (images/s / encoder images per pair)
       (target >= 0.9). Each pipeline run scores whole GT frames for about
       ``--pipeline-seconds`` of encoder work (steady state, not the first batch's wait), in
@@ -109,7 +109,7 @@ def methods_numbers(root: Path, encoder, *, n_methods: int, seconds: float, roun
     from data_schema.methods import METHOD_COLUMN
     from data_schema.scene import load_scene
     from nvrq.pairs import make_pairs
-    from nvrq.scoring import score_pairs
+    from nvrq.scoring.driver import score_pairs
     from nvrq.synth.generate import generate_scene
 
     methods = [(f"m{k}", 0.5 * (k + 1)) for k in range(n_methods)]
@@ -142,7 +142,7 @@ def methods_numbers(root: Path, encoder, *, n_methods: int, seconds: float, roun
 
 def naive_pairs_per_s(pairs: pd.DataFrame, encoder, n: int) -> float:
     from nvrq.crops import cut_box, encoder_input, read_rgb
-    from nvrq.formulas import nvrq_similarity
+    from nvrq.metrics.formulas import nvrq_similarity
 
     sub = pairs.iloc[:n]
     size = encoder.spec.input_size
@@ -211,7 +211,7 @@ def whole_frames(pairs: pd.DataFrame, n_pairs: int) -> pd.DataFrame:
 
 def decode_alone_seconds(pairs: pd.DataFrame) -> float:
     """Seconds to decode and cut every crop of ``pairs`` with nothing else running."""
-    from nvrq.crop_batches import iter_crop_batches
+    from nvrq.scoring.batches import iter_crop_batches
 
     t0 = time.perf_counter()
     for _ in iter_crop_batches(pairs, background=False):
@@ -243,7 +243,7 @@ def bench_encoder(name: str, scene: pd.DataFrame, args, cache: str) -> dict:
     """Every number of one encoder (see the module docstring)."""
     from nvrq.encoders.drift import check_runtime, pair_inputs
     from nvrq.encoders.runtimes import wrap_runtime
-    from nvrq.scoring import score_pairs
+    from nvrq.scoring.driver import score_pairs
 
     pairs = whole_frames(scene, args.pairs)
     torch_enc, weights = make_encoder(name, args.threads)
@@ -342,7 +342,7 @@ def main(argv=None) -> int:
         for name in args.encoders.split(","):
             out["encoders"].append(bench_encoder(name, pairs, args, str(Path(tmp) / "cache")))
         first, _ = make_encoder(args.encoders.split(",")[0], args.threads)
-        from nvrq.scoring import score_pairs
+        from nvrq.scoring.driver import score_pairs
 
         some = whole_frames(pairs, args.pairs)
         res = score_pairs(some, metrics=[f"nvrq:{first.spec.name}"], encoder=first, progress=False)

@@ -1,8 +1,12 @@
 """NVRQ from Python: score crops and frames held in memory, inside any evaluation loop.
 
 The functions here are a thin door onto the same core as ``nvrq score``
-(:func:`nvrq.score_core.score_crop_batch`: the same crop cutter, resize, encoder inputs and
-metric functions), so the numbers equal the command's on the same pairs:
+(:func:`nvrq.scoring.core.score_crop_batch`: the same crop cutter, resize, encoder inputs and
+metric functions; the columns resolved by :mod:`nvrq.metrics.resolve`), so the numbers equal
+the command's on the same pairs. The functions and :class:`Evaluator` share pure helpers, as
+torchmetrics' functional and class metrics do: :func:`score_crops` keeps no state, the class
+adds only what it holds (the loaded encoder, the pending and scored pairs). Neither imports the
+table driver (:mod:`nvrq.scoring.driver`):
 
 - :func:`score_crops`: GT and render crops -> one row per pair, one column per metric, named
   as ``nvrq score`` names them (``psnr``, ``nvrq:ENCODER``, ``nvrq_ca:ENCODER``, ...).
@@ -35,6 +39,7 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -43,14 +48,14 @@ from data_schema.cliargs import comma_list
 from data_schema.errors import InputError, check_int
 from nvrq.crops import cut_box
 from nvrq.encoders.registry import Encoder, EncoderConfig, encoder_config
-from nvrq.score_core import (
-    CropBatch,
+from nvrq.metrics.resolve import (
     encoder_columns,
+    encoder_for_metrics,
     needs_tau,
     reference_columns,
-    score_crop_batch,
+    resolve_metrics,
 )
-from nvrq.scoring import encoder_for_metrics, resolve_metrics
+from nvrq.scoring.core import CropBatch, score_crop_batch
 
 __all__ = ["score_crops", "score_frame", "Evaluator", "as_rgb_uint8"]
 
@@ -166,12 +171,125 @@ def _share(keys: Sequence, make, *, seen: dict | None = None, out: list | None =
 
 
 def _encoder_name(columns: Sequence[str], encoder) -> str:
-    """The encoder of ``columns`` (:func:`nvrq.scoring.encoder_for_metrics`), ``encoder`` given
+    """The encoder of ``columns`` (:func:`nvrq.metrics.encoder_for_metrics`), ``encoder`` given
     as a name, an :class:`EncoderConfig` or a loaded encoder."""
     given = None if encoder is None else (encoder if isinstance(encoder, str)
                                           else encoder.name if isinstance(encoder, EncoderConfig)
                                           else encoder.spec.name)
     return encoder_for_metrics(columns, given)
+
+
+# --- the pure helpers behind score_crops / score_frame and Evaluator (torchmetrics' pattern) ---
+
+@dataclass(frozen=True)
+class _Setup:
+    """What scoring needs, resolved once: the metric columns, the loaded encoder (``None``
+    without encoder metrics), NVRQ-CA's tau (``None`` without it) and the encoder batch size."""
+
+    columns: tuple[str, ...]
+    encoder: Encoder | None
+    tau: float | None
+    batch_size: int
+
+
+def _setup(metrics, encoder, *, weights, device: str, runtime: str, tau, batch_size: int) -> _Setup:
+    """Check the options, resolve the columns and tau (:func:`nvrq.calibrate.require_tau`), and
+    load the encoder when a column needs one (last, after every check)."""
+    raw = comma_list(metrics) if isinstance(metrics, str) else [str(m) for m in metrics]
+    if encoder is not None and not isinstance(encoder, str):
+        # a config or a loaded encoder carries its own loading options: none is dropped silently
+        for option, value, default in (("weights", weights, None), ("device", device, "cpu"),
+                                       ("runtime", runtime, "auto")):
+            if value != default:
+                raise InputError(option, None, f"no {option} beside an EncoderConfig or a loaded "
+                                 "encoder (give it in the config)", value)
+    name = _encoder_name(raw, encoder)
+    columns = tuple(resolve_metrics(raw, name))
+    check_int("batch_size", batch_size)
+    if needs_tau(columns):
+        from nvrq.calibrate import require_tau
+
+        tau = require_tau(name, tau=tau)[0]
+    else:
+        tau = None
+    loaded = _load(encoder, name, weights=weights, device=device, runtime=runtime) \
+        if encoder_columns(columns) else None
+    return _Setup(columns, loaded, tau, batch_size)
+
+
+def _load(encoder, name: str, **options) -> Encoder:
+    if isinstance(encoder, Encoder):
+        return encoder
+    from nvrq.encoders import load_encoder
+
+    if isinstance(encoder, EncoderConfig):
+        return load_encoder(encoder)
+    return load_encoder(encoder_config(name, **options))
+
+
+def _check_no_reference(columns: Sequence[str], name: str) -> None:
+    """No GT (``name`` is None): only no-reference metrics can run."""
+    needs_gt = reference_columns(columns)
+    if needs_gt:
+        raise InputError(name, None, f"the GT for the reference metrics {', '.join(needs_gt)} "
+                         "(only no-reference metrics score renders alone)", None)
+
+
+def _crop_inputs(columns: Sequence[str], gt_crops, render_crops) -> tuple:
+    """Checked host crops ``(gt_u8, gt_index, r_u8, gt_keys, owner)`` of a crop list (GT
+    objects once; ``gt_keys``: each GT crop's identity, valid while ``owner`` is held)."""
+    renders = _as_list(render_crops, "render_crops")
+    if gt_crops is None:  # no-reference metrics only
+        _check_no_reference(columns, "gt_crops")
+        return [], None, [as_rgb_uint8(r, name=f"render_crops[{k}]") for k, r in enumerate(renders)], [], None
+    gts = _as_list(gt_crops, "gt_crops")
+    if len(gts) != len(renders):
+        raise InputError("render_crops", None, f"one render crop per GT crop ({len(gts)})",
+                         f"{len(renders)} crops")
+    # one crop per GT object (by id; the list keeps the objects alive)
+    gt_u8, index, seen = _share([id(g) for g in gts], lambda k: as_rgb_uint8(gts[k], name=f"gt_crops[{k}]"))
+    r_u8 = [as_rgb_uint8(r, name=f"render_crops[{k}]") for k, r in enumerate(renders)]
+    return gt_u8, index, r_u8, [("crop", i) for i in seen], gts
+
+
+def _frame_inputs(columns: Sequence[str], gt_image, render_image, gt_boxes, render_boxes) -> tuple:
+    """Checked host crops ``(gt_u8, gt_index, r_u8, gt_keys, owner)`` of a frame pair (one
+    crop per GT box; ``gt_keys``: GT image identity and box, valid while ``owner`` is held)."""
+    r_hwc, rb = _hwc(render_image, "render_image"), _boxes(render_boxes, "render_boxes")
+    if gt_image is None:  # no-reference metrics only
+        _check_no_reference(columns, "gt_image")
+        return [], None, [_to_uint8(cut_box(r_hwc, b, where=f"render_boxes[{k}]")) for k, b in enumerate(rb)], [], None
+    gt_hwc, gb = _hwc(gt_image, "gt_image"), _boxes(gt_boxes, "gt_boxes")
+    if len(gb) != len(rb):
+        raise InputError("render_boxes", None, f"one render box per GT box ({len(gb)})", f"{len(rb)} boxes")
+    # one crop per distinct GT box, as nvrq.scoring.batches does per GT image
+    gt_u8, index, seen = _share([tuple(b) for b in gb.tolist()],
+                                lambda k: _to_uint8(cut_box(gt_hwc, gb[k], where=f"gt_boxes[{k}]")))
+    r_u8 = [_to_uint8(cut_box(r_hwc, b, where=f"render_boxes[{k}]")) for k, b in enumerate(rb)]
+    return gt_u8, index, r_u8, [("frame", id(gt_image), *key) for key in seen], gt_image
+
+
+def _score(setup: _Setup, gt_u8: list, gt_index: np.ndarray | None, r_u8: list) -> pd.DataFrame:
+    """The core on one batch (:func:`nvrq.scoring.core.score_crop_batch`): ``gt_index`` None (and
+    no GT crops) for no-reference metrics."""
+    index = None if gt_index is None else np.asarray(gt_index, np.int64)
+    batch = CropBatch(np.arange(len(r_u8), dtype=np.int64), gt_u8, index, r_u8)
+    cols = score_crop_batch(batch, metrics=list(setup.columns), encoder=setup.encoder, tau=setup.tau,
+                            batch_size=setup.batch_size)
+    return pd.DataFrame(cols, columns=list(setup.columns))
+
+
+def _summary(table: pd.DataFrame, columns: Sequence[str], keys: Sequence[str]) -> pd.DataFrame:
+    """One row per group of ``table`` by ``keys`` (none: one row), with ``pairs`` and each
+    metric column's mean (NaN values skipped)."""
+    columns = list(columns)
+    values = table[columns].astype(np.float64)
+    if not keys:
+        return pd.DataFrame([{"pairs": len(table), **values.mean().to_dict()}], columns=["pairs", *columns])
+    grouped = values.groupby([table[k] for k in keys], sort=True, dropna=False)
+    out = grouped.mean()
+    out.insert(0, "pairs", grouped.size())
+    return out.reset_index()
 
 
 class Evaluator:
@@ -181,7 +299,7 @@ class Evaluator:
     ----------
     metrics : sequence of str, or a comma-separated str
         Metric names (``psnr``, ``ssim``, ``ms_ssim``, ``gmsd``, ``mse``, ``mae``, ``nvrq``,
-        ``nvrq_ca``, ...) or columns (``nvrq:dinov2-small``); see :mod:`nvrq.metrics`.
+        ``nvrq_ca``, ...) or columns (``nvrq:dinov2-small``); see :mod:`nvrq.metrics.registry`.
     encoder : str, EncoderConfig or Encoder, optional
         For ``nvrq``/``nvrq_ca``: a registry name (default ``efficientnet-lite0``), an
         :class:`~nvrq.encoders.EncoderConfig`, or an encoder already loaded
@@ -190,12 +308,18 @@ class Evaluator:
         With a name: the :class:`~nvrq.encoders.EncoderConfig` fields (``runtime='auto'``: on
         CPU the fastest exported runtime identical to torch fp32; torch on ``cuda``).
     tau : float, optional
-        The NVRQ-CA knee; default as ``nvrq score``: the user config, then the registry.
+        The NVRQ-CA knee; default as ``nvrq score``: the user config, then the registry
+        (:func:`nvrq.calibrate.require_tau`).
     batch_size : int
         Crops per encoder pass.
     update_pairs : int
         :meth:`update` scores once this many pairs are pending (default 256, the pairs per crop
         batch of ``nvrq score``), so small updates still fill the encoder's batches.
+
+    Raises
+    ------
+    InputError
+        Naming the argument (``metrics``, ``tau``, ``batch_size``, ...) before the encoder loads.
 
     Convention: see the module docstring. ``compute()`` summarises the pairs given to
     ``update()`` since the last ``reset()``.
@@ -213,99 +337,41 @@ class Evaluator:
     def __init__(self, *, metrics, encoder: str | EncoderConfig | Encoder | None = None,
                  weights=None, device: str = "cpu", runtime: str = "auto", tau: float | None = None,
                  batch_size: int = 32, update_pairs: int = 256):
-        raw = comma_list(metrics) if isinstance(metrics, str) else [str(m) for m in metrics]
-        if encoder is not None and not isinstance(encoder, str):
-            # a config or a loaded encoder carries its own loading options: none is dropped silently
-            for option, value, default in (("weights", weights, None), ("device", device, "cpu"),
-                                           ("runtime", runtime, "auto")):
-                if value != default:
-                    raise InputError(option, None, f"no {option} beside an EncoderConfig or a loaded "
-                                     "encoder (give it in the config)", value)
-        name = _encoder_name(raw, encoder)
-        self.columns = resolve_metrics(raw, name)
-        check_int("batch_size", batch_size)
-        check_int("update_pairs", update_pairs)
-        self.batch_size, self.update_pairs = batch_size, update_pairs
-        self.encoder = None
-        self.tau = None
-        if needs_tau(self.columns):
-            from nvrq.calibrate import resolve_tau
-            from nvrq.formulas import check_tau
-
-            self.tau = resolve_tau(name, tau=tau)[0]
-            if self.tau is None:
-                raise InputError("tau", None, f"a tau for encoder {name} (none in the registry or the user "
-                                 "config: `nvrq calibrate-tau` measures one)", None)
-            check_tau(self.tau)
-        if encoder_columns(self.columns):
-            self.encoder = self._load(encoder, name, weights=weights, device=device, runtime=runtime)
+        self.update_pairs = check_int("update_pairs", update_pairs)
+        self._setup = _setup(metrics, encoder, weights=weights, device=device, runtime=runtime, tau=tau,
+                             batch_size=batch_size)
         self.reset()
 
-    @staticmethod
-    def _load(encoder, name: str, **options) -> Encoder:
-        if isinstance(encoder, Encoder):
-            return encoder
-        from nvrq.encoders import load_encoder
+    @property
+    def columns(self) -> list[str]:
+        """The metric columns, as ``nvrq score`` names them."""
+        return list(self._setup.columns)
 
-        if isinstance(encoder, EncoderConfig):
-            return load_encoder(encoder)
-        return load_encoder(encoder_config(name, **options))
+    @property
+    def encoder(self) -> Encoder | None:
+        """The loaded encoder (``None`` without encoder metrics)."""
+        return self._setup.encoder
+
+    @property
+    def tau(self) -> float | None:
+        """NVRQ-CA's knee (``None`` without NVRQ-CA)."""
+        return self._setup.tau
+
+    @property
+    def batch_size(self) -> int:
+        """Crops per encoder pass."""
+        return self._setup.batch_size
 
     # --- scoring ---------------------------------------------------------------------------
 
     def score_crops(self, gt_crops, render_crops) -> pd.DataFrame:
         """One row per pair, one column per metric (see :func:`score_crops`)."""
-        return self._score(*self._crops(gt_crops, render_crops)[:3])
+        return _score(self._setup, *_crop_inputs(self._setup.columns, gt_crops, render_crops)[:3])
 
     def score_frame(self, gt_image, render_image, gt_boxes, render_boxes) -> pd.DataFrame:
         """One row per box pair (see :func:`score_frame`)."""
-        return self._score(*self._frame_crops(gt_image, render_image, gt_boxes, render_boxes)[:3])
-
-    def _crops(self, gt_crops, render_crops) -> tuple:
-        """Checked host crops ``(gt_u8, gt_index, r_u8, gt_keys, owner)`` of a crop list (GT
-        objects once; ``gt_keys``: each GT crop's identity, valid while ``owner`` is held)."""
-        renders = _as_list(render_crops, "render_crops")
-        if gt_crops is None:  # no-reference metrics only
-            self._check_no_reference("gt_crops")
-            return [], None, [as_rgb_uint8(r, name=f"render_crops[{k}]") for k, r in enumerate(renders)], [], None
-        gts = _as_list(gt_crops, "gt_crops")
-        if len(gts) != len(renders):
-            raise InputError("render_crops", None, f"one render crop per GT crop ({len(gts)})",
-                             f"{len(renders)} crops")
-        # one crop per GT object (by id; the list keeps the objects alive)
-        gt_u8, index, seen = _share([id(g) for g in gts], lambda k: as_rgb_uint8(gts[k], name=f"gt_crops[{k}]"))
-        r_u8 = [as_rgb_uint8(r, name=f"render_crops[{k}]") for k, r in enumerate(renders)]
-        return gt_u8, index, r_u8, [("crop", i) for i in seen], gts
-
-    def _frame_crops(self, gt_image, render_image, gt_boxes, render_boxes) -> tuple:
-        """Checked host crops ``(gt_u8, gt_index, r_u8, gt_keys, owner)`` of a frame pair (one
-        crop per GT box; ``gt_keys``: GT image identity and box, valid while ``owner`` is held)."""
-        r_hwc, rb = _hwc(render_image, "render_image"), _boxes(render_boxes, "render_boxes")
-        if gt_image is None:  # no-reference metrics only
-            self._check_no_reference("gt_image")
-            return [], None, [_to_uint8(cut_box(r_hwc, b, where=f"render_boxes[{k}]")) for k, b in enumerate(rb)], [], None
-        gt_hwc, gb = _hwc(gt_image, "gt_image"), _boxes(gt_boxes, "gt_boxes")
-        if len(gb) != len(rb):
-            raise InputError("render_boxes", None, f"one render box per GT box ({len(gb)})", f"{len(rb)} boxes")
-        # one crop per distinct GT box, as crop_batches does per GT image
-        gt_u8, index, seen = _share([tuple(b) for b in gb.tolist()],
-                                    lambda k: _to_uint8(cut_box(gt_hwc, gb[k], where=f"gt_boxes[{k}]")))
-        r_u8 = [_to_uint8(cut_box(r_hwc, b, where=f"render_boxes[{k}]")) for k, b in enumerate(rb)]
-        return gt_u8, index, r_u8, [("frame", id(gt_image), *key) for key in seen], gt_image
-
-    def _check_no_reference(self, name: str) -> None:
-        needs_gt = reference_columns(self.columns)
-        if needs_gt:
-            raise InputError(name, None, f"the GT for the reference metrics {', '.join(needs_gt)} "
-                             "(only no-reference metrics score renders alone)", None)
-
-    def _score(self, gt_u8: list, gt_index: np.ndarray | None, r_u8: list) -> pd.DataFrame:
-        """The core on one batch: ``gt_index`` None (and no GT crops) for no-reference metrics."""
-        index = None if gt_index is None else np.asarray(gt_index, np.int64)
-        batch = CropBatch(np.arange(len(r_u8), dtype=np.int64), gt_u8, index, r_u8)
-        cols = score_crop_batch(batch, metrics=self.columns, encoder=self.encoder, tau=self.tau,
-                                batch_size=self.batch_size)
-        return pd.DataFrame(cols, columns=self.columns)
+        return _score(self._setup, *_frame_inputs(self._setup.columns, gt_image, render_image, gt_boxes,
+                                                  render_boxes)[:3])
 
     # --- accumulation ----------------------------------------------------------------------
 
@@ -324,12 +390,12 @@ class Evaluator:
         (full encoder batches, as ``nvrq score`` runs them) and by :meth:`compute` /
         :attr:`pairs`.
         """
-        self._add(self._crops(gt_crops, render_crops), labels)
+        self._add(_crop_inputs(self._setup.columns, gt_crops, render_crops), labels)
 
     def update_frame(self, gt_image, render_image, gt_boxes, render_boxes, *,
                      labels: Mapping | pd.DataFrame | None = None) -> None:
         """Add a frame's box pairs (as :meth:`score_frame` takes them) for :meth:`compute`."""
-        self._add(self._frame_crops(gt_image, render_image, gt_boxes, render_boxes), labels)
+        self._add(_frame_inputs(self._setup.columns, gt_image, render_image, gt_boxes, render_boxes), labels)
 
     def _add(self, crops: tuple, labels) -> None:
         lab = _labels(labels, len(crops[2]))
@@ -354,7 +420,7 @@ class Evaluator:
                 local = _share(keys, g.__getitem__, seen=position, out=gt_u8)[1]
                 index.append(local[np.asarray(i, np.int64)])
             r_u8.extend(r)
-        scores = self._score(gt_u8, np.concatenate(index) if index else None, r_u8)
+        scores = _score(self._setup, gt_u8, np.concatenate(index) if index else None, r_u8)
         labels = pd.concat([p[0] for p in self._pending], ignore_index=True)
         self._parts.append(pd.concat([labels, scores], axis=1))
         self._pending = []
@@ -376,13 +442,7 @@ class Evaluator:
         missing = [k for k in keys if k not in self._label_keys]
         if missing:
             raise InputError("by", None, f"label keys among {', '.join(self._label_keys) or 'none'}", missing[0])
-        values = table[self.columns].astype(np.float64)
-        if not keys:
-            return pd.DataFrame([{"pairs": len(table), **values.mean().to_dict()}], columns=["pairs", *self.columns])
-        grouped = values.groupby([table[k] for k in keys], sort=True, dropna=False)
-        out = grouped.mean()
-        out.insert(0, "pairs", grouped.size())
-        return out.reset_index()
+        return _summary(table, self.columns, keys)
 
 
 def _labels(labels, n: int) -> pd.DataFrame:
@@ -434,9 +494,9 @@ def score_crops(gt_crops, render_crops, *, metrics, encoder=None, weights=None, 
     >>> score_crops([gt], [gt + 1], metrics="psnr,mae").round(3).to_dict("records")
     [{'psnr': 48.131, 'mae': 1.0}]
     """
-    ev = Evaluator(metrics=metrics, encoder=encoder, weights=weights, device=device, runtime=runtime,
-                   tau=tau, batch_size=batch_size)
-    return ev.score_crops(gt_crops, render_crops)
+    setup = _setup(metrics, encoder, weights=weights, device=device, runtime=runtime, tau=tau,
+                   batch_size=batch_size)
+    return _score(setup, *_crop_inputs(setup.columns, gt_crops, render_crops)[:3])
 
 
 def score_frame(gt_image, render_image, gt_boxes, render_boxes, *, metrics, encoder=None, weights=None,
@@ -459,6 +519,6 @@ def score_frame(gt_image, render_image, gt_boxes, render_boxes, *, metrics, enco
     ...             metrics=["mae"])["mae"].tolist()
     [2.0, 2.0]
     """
-    ev = Evaluator(metrics=metrics, encoder=encoder, weights=weights, device=device, runtime=runtime,
-                   tau=tau, batch_size=batch_size)
-    return ev.score_frame(gt_image, render_image, gt_boxes, render_boxes)
+    setup = _setup(metrics, encoder, weights=weights, device=device, runtime=runtime, tau=tau,
+                   batch_size=batch_size)
+    return _score(setup, *_frame_inputs(setup.columns, gt_image, render_image, gt_boxes, render_boxes)[:3])

@@ -6,9 +6,10 @@ encoder gives to two objects that have nothing to do with each other (its noise 
 Below that, NVRQ-CA (Eq. 5) maps S into the low band [0, w).
 
 Config file (JSON ``{"ENCODER": {"tau": 0.61, ...}}``), first found of: the ``config``
-argument (``--config``), ``$NVRQ_CONFIG``, ``$XDG_CONFIG_HOME/nvrq/tau.json``,
-``~/.config/nvrq/tau.json``. ``nvrq score`` takes tau from ``--tau``, else this file, else
-the encoder registry.
+argument, ``$NVRQ_CONFIG``, ``$XDG_CONFIG_HOME/nvrq/tau.json``, ``~/.config/nvrq/tau.json``.
+The one tau rule, :func:`require_tau`: the ``tau`` given, else this file's, else the encoder
+registry's (``nvrq score`` and the Python API both ask it; the value is checked by
+:func:`nvrq.metrics.formulas.check_tau`).
 
 >>> import numpy as np
 >>> recommend_tau(np.array([0.2, 0.4, 0.9]))
@@ -28,13 +29,19 @@ import pandas as pd
 from tqdm import tqdm
 
 from data_schema.errors import InputError, check_int
-from data_schema.tables import GT_BOX_COLUMNS, atomic_write_text, pair_boxes, pair_image_paths
-from nvrq.crop_batches import read_crops
+from data_schema.tables import (
+    GT_BOX_COLUMNS,
+    atomic_write_text,
+    pair_boxes,
+    pair_image_paths,
+    require_columns,
+)
 from nvrq.encoders import get_spec
-from nvrq.formulas import nvrq_similarity
-from nvrq.score_core import embed_crops
+from nvrq.metrics.formulas import check_tau, nvrq_similarity
+from nvrq.scoring.batches import read_crops
+from nvrq.scoring.core import embed_crops
 
-__all__ = ["config_path", "read_tau_config", "write_tau", "resolve_tau", "recommend_tau",
+__all__ = ["config_path", "read_tau_config", "write_tau", "require_tau", "recommend_tau",
            "unrelated_pairs", "Calibration", "calibrate_tau"]
 
 
@@ -71,28 +78,71 @@ def write_tau(path: str | os.PathLike, encoder: str, tau: float, **info) -> Path
     return path
 
 
-def resolve_tau(encoder: str, *, tau: float | None = None,
-                config: str | os.PathLike | None = None) -> tuple[float | None, str]:
-    """``(tau, where it came from)``: ``--tau`` > user config > registry (``None`` if none)."""
+def require_tau(encoder: str, *, tau: float | None = None,
+                config: str | os.PathLike | None = None) -> tuple[float, str]:
+    """The NVRQ-CA knee for ``encoder``, by the one tau rule: ``tau`` > user config > registry.
+
+    Parameters
+    ----------
+    encoder : str
+        A registry encoder name.
+    tau : float, optional
+        A tau given by the caller; it wins.
+    config : path, optional
+        The tau config file (default :func:`config_path`'s).
+
+    Returns
+    -------
+    tuple of (float, str)
+        ``(tau, source)``: ``source`` is ``'argument'`` (the ``tau`` given), the config file's
+        path, or ``'registry'``.
+
+    Raises
+    ------
+    InputError
+        Naming ``tau`` when the value found is not in (0, 1) (:func:`check_tau`; the config file
+        and its key for a config value), or when there is none; naming ``encoder`` for an
+        unknown encoder.
+    """
     spec = get_spec(encoder)
     if tau is not None:
-        return float(tau), "--tau"
+        check_tau(tau)
+        return float(tau), "argument"
     path = config_path(config)
     entry = read_tau_config(path).get(encoder)
     if entry is not None:
         value = entry.get("tau") if isinstance(entry, dict) else None
-        if not isinstance(value, (int, float)) or not 0 < value < 1:
-            raise InputError(path, f"{encoder}.tau", "a number in (0, 1)", value)
+        check_tau(value, where=path, field=f"{encoder}.tau")
         return float(value), str(path)
+    if spec.tau is None:
+        raise InputError("tau", None, f"a tau for encoder {encoder} (`nvrq calibrate-tau` measures one "
+                         "and can store it in the user config)", "none in the registry or the user config")
+    check_tau(spec.tau)
     return spec.tau, "registry"
 
 
 def recommend_tau(s_unrelated: np.ndarray) -> float:
-    """The calibration rule: the median of S over unrelated GT crop pairs."""
+    """The calibration rule: the median of S over unrelated GT crop pairs.
+
+    Parameters
+    ----------
+    s_unrelated : (M,) array
+        S (paper Eq. 4) of unrelated GT crop pairs; non-finite values are left out.
+
+    Returns
+    -------
+    float
+        Their median.
+
+    Raises
+    ------
+    InputError
+        Naming ``s_unrelated`` when no finite value is left.
+    """
     s = np.asarray(s_unrelated, np.float64)
     s = s[np.isfinite(s)]
     if s.size == 0:
-        raise ValueError("no unrelated pairs to calibrate tau on")
+        raise InputError("s_unrelated", None, "S of at least one unrelated GT crop pair", "none")
     return float(np.median(s))
 
 
@@ -163,10 +213,7 @@ def calibrate_tau(pairs: pd.DataFrame, encoder, *, scene_root=None, max_crops: i
     (uniform sample, ``seed``), then at most ``max_pairs`` unrelated pairs among them.
     """
     _check_calibrate_args(encoder, max_crops=max_crops, max_pairs=max_pairs, batch_size=batch_size)
-    need = ["track_id", "label_class", "gt_path", *GT_BOX_COLUMNS]
-    missing = [c for c in need if c not in pairs.columns]
-    if missing:
-        raise InputError(where, f"column {missing[0]!r}", f"the columns {', '.join(need)}", "missing")
+    require_columns(pairs, ["track_id", "label_class", "gt_path", *GT_BOX_COLUMNS], where=where)
     keys = [c for c in ("camera", "track_id", "timestamp_us") if c in pairs.columns]
     crops = pairs.drop_duplicates(subset=keys + ["gt_path"]).reset_index(drop=True)
     if len(crops) > max_crops:
@@ -178,7 +225,7 @@ def calibrate_tau(pairs: pd.DataFrame, encoder, *, scene_root=None, max_crops: i
         what = "different tracks" + ("" if allow_same_class else " and classes")
         raise InputError(where, "track_id/label_class",
                          f"GT crops of at least two objects of {what}"
-                         + ("" if allow_same_class else " (or pass --allow-same-class)"),
+                         + ("" if allow_same_class else " (or `allow_same_class`)"),
                          f"{crops['track_id'].nunique()} tracks, {crops['label_class'].nunique()} classes")
     used = np.unique(np.concatenate([i, j]))
     crops = crops.iloc[used].reset_index(drop=True)

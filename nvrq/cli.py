@@ -10,17 +10,19 @@ OpenCV but never a deep-learning runtime.
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import os
+import re
 import sys
 from pathlib import Path
 
-from data_schema.cliargs import flags_in_errors
+from data_schema.cliargs import flags_in_errors, option_for
 from data_schema.datasets import MANIFEST
-from data_schema.errors import ArgumentParser, run_cli
+from data_schema.errors import ArgumentParser, InputError, run_cli
 from data_schema.outputs import check_output_file, check_output_folder
 from data_schema.tables import no_follow_links, timing_path
-from nvrq.commands._encoder import check_model_options
+from nvrq.commands.model_options import check_model_options
 
 __all__ = ["main", "build_parser"]
 
@@ -79,10 +81,40 @@ def check_outputs(args) -> None:
         check_output_folder(args.out, kind=kind, inputs=inputs, option=option)
 
 
+#: a parameter named in a library hint: ``allow_same_class`` between backticks
+_HINT_PARAMETER = re.compile(r"`([a-z][a-z0-9_]*)`")
+
+
+@contextlib.contextmanager
+def hints_as_flags(parser, args, aliases: dict | None = None):
+    """A library hint names a parameter between backticks (``(or `allow_same_class`)``); the
+    command line speaks of the chosen command's option (``(or --allow-same-class)``, the rule of
+    :func:`data_schema.cliargs.option_for`). Names without an option are left as written.
+
+    >>> import argparse
+    >>> p = argparse.ArgumentParser()
+    >>> _ = p.add_argument("--allow-same-class", action="store_true")
+    >>> with hints_as_flags(p, p.parse_args([])):
+    ...     raise InputError("pairs.csv", None, "two classes (or `allow_same_class`; see `nvrq`)", "one")
+    Traceback (most recent call last):
+    ...
+    data_schema.errors.InputError: pairs.csv: expected two classes (or --allow-same-class; see `nvrq`), got one
+    """
+    try:
+        yield
+    except InputError as err:
+        expected = _HINT_PARAMETER.sub(lambda m: option_for(parser, args, m.group(1), aliases) or m.group(0),
+                                       str(err.expected))
+        if expected == err.expected:
+            raise
+        raise InputError(err.where, err.field, expected, err.got) from None
+
+
 def _main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    with flags_in_errors(parser, args, {"scene_root": "scene", "perturbations": "perturb", "weights": "yolo"}), \
+    aliases = {"scene_root": "scene", "perturbations": "perturb", "weights": "yolo"}
+    with hints_as_flags(parser, args, aliases), flags_in_errors(parser, args, aliases), \
             no_follow_links(getattr(args, "no_follow_links", False)):
         check_outputs(args)
         check_model_options(args)

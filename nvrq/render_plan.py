@@ -110,7 +110,7 @@ def _plan_views(scene, offsets, perturbations) -> np.ndarray:
         return views_from(offsets, perturbations)
     renders = scene.images[scene.images.source == "render"]
     if renders.empty:
-        raise InputError(scene.root / "images.csv", "y_offset_m", "render rows or an --offsets list",
+        raise InputError(scene.root / "images.csv", "y_offset_m", "render rows or `offsets`",
                          "no render rows")
     return np.unique(perturbation_array(renders), axis=0)  # lateral-only: increasing y
 

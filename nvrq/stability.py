@@ -44,7 +44,7 @@ from data_schema.tables import (
     pair_image_paths,
 )
 from nvrq.crops import cut_box, read_rgb
-from nvrq.metrics import metric_info
+from nvrq.metrics.resolve import direction
 from nvrq.nuisances import (
     NUISANCE_STRENGTHS,
     expose,
@@ -53,7 +53,7 @@ from nvrq.nuisances import (
     scaled_box,
     shifted_box,
 )
-from nvrq.score_core import CropBatch, check_metric_args, score_crop_batch
+from nvrq.scoring.core import CropBatch, check_metric_args, score_crop_batch
 from nvrq.synth.artefacts import ARTEFACTS, apply_artefact
 
 __all__ = [
@@ -222,7 +222,7 @@ def score_samples(gts: list[np.ndarray], samples: list[Sample], *, metrics: list
                   tau: float | None = None, batch_size: int = 32, max_pairs: int = 256,
                   progress: bool = True) -> dict[str, np.ndarray]:
     """Metric values (N,) for every ``(gts[sample.obj], sample.crop)``, through the one scoring
-    core (:func:`nvrq.score_core.score_crop_batch`), exactly as ``nvrq score`` computes them."""
+    core (:func:`nvrq.scoring.core.score_crop_batch`), exactly as ``nvrq score`` computes them."""
     check_metric_args(metrics, encoder=encoder, tau=tau, batch_size=batch_size)
     values = {m: np.full(len(samples), np.nan) for m in metrics}
     with tqdm(total=len(samples), desc="score", unit="sample", file=sys.stderr,
@@ -335,7 +335,7 @@ def run_stability(
         d = meta.copy()
         d.insert(0, "metric", m)
         d["value"] = v
-        d["change"] = pooled_change(v, higher_better=metric_info(m).higher_better)
+        d["change"] = pooled_change(v, higher_better=direction(m))
         frames.append(d)
     table = pd.concat(frames, ignore_index=True)
     stab, snr = summarise(table)

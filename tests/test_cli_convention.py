@@ -108,6 +108,63 @@ def test_library_errors_name_parameters_not_flags():
     assert flagged == []
 
 
+def _strings(tree):
+    """``(line, text)`` of every string a module builds, docstrings and argparse calls
+    (``add_argument``/``add_parser``: the parser's own text) left out; an f-string is one text."""
+    import ast
+
+    skip = set()
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        if isinstance(body, list) and body and isinstance(body[0], ast.Expr) \
+                and isinstance(body[0].value, ast.Constant):
+            skip.add(id(body[0].value))
+        if isinstance(node, ast.Call) and getattr(node.func, "attr", None) in ("add_argument", "add_parser"):
+            skip.update(id(n) for n in ast.walk(node))
+        if isinstance(node, ast.JoinedStr):
+            skip.update(id(v) for v in node.values)
+            if id(node) not in skip:
+                yield node.lineno, "".join(v.value if isinstance(v, ast.Constant) else "{}" for v in node.values)
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in skip:
+            yield node.lineno, node.value
+
+
+def test_nvrq_library_hints_name_parameters_not_flags():
+    # a hint names the parameter between backticks (`weights`, `allow_same_class`); nvrq's entry
+    # point turns it into the chosen command's option (nvrq.cli.hints_as_flags). Another
+    # program's command line between backticks (`ray start --head`) is not ours.
+    import ast
+    import re
+    from pathlib import Path
+
+    flag = re.compile(r"(?<![\w-])--[a-z][a-z0-9-]*")
+    foreign = re.compile(r"`(?!(?:nvrq|annotate|analyze)\b)[^`]*`")
+    flagged = []
+    root = Path(__file__).resolve().parents[1]
+    for path in _library_modules():
+        if path.relative_to(root).parts[0] != "nvrq":
+            continue
+        for line, text in _strings(ast.parse(path.read_text(encoding="utf-8"))):
+            found = flag.findall(foreign.sub("", text))
+            if found:
+                flagged.append(f"{path.name}:{line} {', '.join(found)}")
+    assert flagged == []
+
+
+def test_a_library_hint_names_the_parameter():
+    # the command line gets --allow-same-class (tests/scoring/test_calibrate.py); the library says
+    # the parameter's name
+    import pandas as pd
+
+    from nvrq.calibrate import calibrate_tau
+
+    one_class = pd.DataFrame({"pair_id": ["p", "q"], "track_id": ["a", "b"], "label_class": "car",
+                              "gt_path": "g.png", "gt_x0": 0, "gt_y0": 0, "gt_x1": 9, "gt_y1": 9})
+    with pytest.raises(InputError, match=r"\(or `allow_same_class`\), got 2 tracks, 1 classes$"):
+        calibrate_tau(one_class, type("Encoder", (), {"embed": None})())
+
+
 @pytest.mark.parametrize("argv, name, flag", [
     (["score", "p.csv", "--out", "m.csv"], "encoder", "--encoder"),
     (["score", "p.csv", "--out", "m.csv"], "batch_size", "--batch-size"),

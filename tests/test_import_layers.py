@@ -51,3 +51,155 @@ def test_command_line_parsers_load_no_deep_learning_runtime():
                           timeout=120)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert proc.stdout.strip() == "[]"
+
+
+# --- the module import graph ---------------------------------------------------------------------
+#
+# Edges are every import statement of a module, at its top *and* inside functions: a deferred
+# import (kept for start-up cost) is still a dependency, and the one cycle the tree had
+# (nvrq.metrics <-> nvrq.pyiqa_bridge, issue 26) ran through a function-level import. An import
+# ``from a.b import c`` points at ``a.b.c`` when that is a module, else at ``a.b``; a package's
+# ``__init__`` is a module of its own (its re-exports are its edges) and is not added as an edge
+# of every import of one of its submodules, which would make each re-exporting package a cycle.
+
+def _module_names() -> dict[str, Path]:
+    out = {}
+    for package in STAGES:
+        for path in sorted((ROOT / package).rglob("*.py")):
+            parts = list(path.relative_to(ROOT).with_suffix("").parts)
+            out[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    return out
+
+
+def _module_graph() -> dict[str, set[str]]:
+    """Module name -> the project modules it imports (see the comment above)."""
+    modules = _module_names()
+
+    def target(name: str) -> str | None:
+        while name and name not in modules:
+            name = name.rpartition(".")[0]
+        return name or None
+
+    graph = {}
+    for name, path in modules.items():
+        package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+        edges = set()
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level:
+                    up = package.split(".")[:len(package.split(".")) - node.level + 1]
+                    base = ".".join([*up, base] if base else up)
+                names = [f"{base}.{a.name}" for a in node.names]
+            else:
+                continue
+            edges.update(t for t in map(target, names) if t is not None and t != name)
+        graph[name] = edges
+    return graph
+
+
+def _strongly_connected(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Tarjan's strongly connected components of ``graph`` (iterative)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    out = []
+    for root in graph:
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph[root])))]
+        index[root] = low[root] = len(index)
+        stack.append(root)
+        on_stack.add(root)
+        while work:
+            v, edges = work[-1]
+            w = next(edges, None)
+            if w is not None:
+                if w not in index:
+                    index[w] = low[w] = len(index)
+                    stack.append(w)
+                    on_stack.add(w)
+                    work.append((w, iter(sorted(graph[w]))))
+                elif w in on_stack:
+                    low[v] = min(low[v], index[w])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[v])
+            if low[v] == index[v]:
+                comp = []
+                while True:
+                    w = stack.pop()
+                    on_stack.discard(w)
+                    comp.append(w)
+                    if w == v:
+                        break
+                out.append(sorted(comp))
+    return out
+
+
+def test_strongly_connected_components_of_a_known_graph():
+    # a -> b -> c -> a is one component; d -> a alone; e alone (a hand-drawn graph)
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}, "e": set()}
+    assert sorted(_strongly_connected(graph)) == [["a", "b", "c"], ["d"], ["e"]]
+
+
+def test_module_graph_counts_function_level_and_relative_imports():
+    graph = _module_graph()
+    assert "nvrq.metrics.formulas" in graph["nvrq.encoders.drift"]  # imported inside a function
+    assert "nvrq.metrics.pixel" in graph["nvrq.metrics.registry"]  # from nvrq.metrics import pixel
+
+
+def test_no_import_cycle_anywhere():
+    cycles = [c for c in _strongly_connected(_module_graph()) if len(c) > 1]
+    assert cycles == []
+
+
+def _reachable(graph: dict[str, set[str]], start: str) -> set[str]:
+    seen, todo = set(), [start]
+    while todo:
+        for w in graph[todo.pop()] - seen:
+            seen.add(w)
+            todo.append(w)
+    return seen
+
+
+#: within nvrq: each package may not reach the modules above it (metric facts <- scoring <- api,
+#: engines <- commands); ``nvrq.metrics.info`` is a leaf of the metrics package
+NVRQ_LAYERS = {
+    "nvrq.metrics": ("nvrq.scoring", "nvrq.api", "nvrq.engines", "nvrq.commands", "nvrq.cli"),
+    "nvrq.scoring": ("nvrq.api", "nvrq.engines", "nvrq.commands", "nvrq.cli"),
+    "nvrq.api": ("nvrq.scoring.driver", "nvrq.engines", "nvrq.commands", "nvrq.cli"),
+}
+
+
+@pytest.mark.parametrize("package", sorted(NVRQ_LAYERS))
+def test_nvrq_packages_reach_no_layer_above(package):
+    graph = _module_graph()
+    bad = {}
+    for name in graph:
+        if name == package or name.startswith(package + "."):
+            above = sorted(m for m in _reachable(graph, name) if m.startswith(NVRQ_LAYERS[package]))
+            if above:
+                bad[name] = above
+    assert bad == {}
+
+
+def test_metric_info_is_a_leaf_and_the_api_imports_no_driver():
+    graph = _module_graph()
+    assert not {m for m in graph["nvrq.metrics.info"] if m.startswith("nvrq")}
+    # the Python front door calls the core and the resolver, never the table driver (no tqdm,
+    # no decode threads); at run time too
+    assert {"nvrq.scoring.core", "nvrq.metrics.resolve"} <= graph["nvrq.api"]
+    code = ("import sys, numpy as np, nvrq\n"
+            "gt = np.zeros((8, 8, 3), np.uint8)\n"
+            "nvrq.score_crops([gt], [gt + 1], metrics=['psnr', 'niqe'])\n"
+            "print(sorted(m for m in ('tqdm', 'torch', 'nvrq.scoring.driver', 'nvrq.scoring.batches')"
+            " if m in sys.modules))\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT,
+                          timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stdout.strip() == "[]"

@@ -29,10 +29,10 @@ from data_schema import datasets as ds
 from data_schema.errors import InputError
 from data_schema.scene import load_scene
 from nvrq.cli import main as nvrq_main
-from nvrq.crop_batches import iter_crop_batches
 from nvrq.engines.shards import plan_shards, read_sources
 from nvrq.pairs import PAIRS_OUTPUT_COLUMNS, make_pairs
-from nvrq.scoring import score_pairs
+from nvrq.scoring.batches import iter_crop_batches
+from nvrq.scoring.driver import score_pairs
 
 OLD = Path(__file__).parent / "data" / "pre_sixdof"
 CLIP = ["--seed", "0", "--seconds", "0.5", "--fps", "4", "--size", "320x180", "--offsets=-1,0,1", "--quiet"]

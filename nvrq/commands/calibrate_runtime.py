@@ -7,11 +7,11 @@ from pathlib import Path
 
 from data_schema.cliargs import add_link_option, int_arg, number_arg
 from data_schema.tables import read_table
-from nvrq.commands._encoder import add_cache_dir_argument
-from nvrq.encoders import DEFAULT_ENCODER, build_random, get_spec, load_encoder
+from nvrq.commands.model_options import add_cache_dir_argument
+from nvrq.encoders import build_random, get_spec, load_encoder
 from nvrq.encoders.drift import DEFAULT_MIN_SPEARMAN, check_runtime, pair_inputs, write_record
 from nvrq.encoders.runtimes import PRECISIONS
-from nvrq.scoring import REQUIRED_COLUMNS
+from nvrq.scoring.driver import REQUIRED_COLUMNS
 
 __all__ = ["register", "run"]
 
@@ -23,7 +23,7 @@ def register(sub) -> None:
                                    "|dNVRQ|, and record the check (CACHE/runtime_checks.json), which "
                                    "`nvrq score --precision` requires.")
     p.add_argument("pairs", help="pairs table from `nvrq pairs` (.csv or .parquet)")
-    p.add_argument("--encoder", default=None, help="encoder (default efficientnet-lite0)")
+    p.add_argument("--encoder", default=None, help=f"encoder (default {get_spec().name})")
     p.add_argument("--weights", default=None, help="local weights (HF model folder or .pth)")
     p.add_argument("--runtime", default="openvino", choices=["openvino", "onnxruntime"],
                    help="runtime checked against torch fp32 (default openvino)")
@@ -43,8 +43,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    name = args.encoder or DEFAULT_ENCODER
-    spec = get_spec(name)
+    spec = get_spec(args.encoder)
+    name = spec.name
     pairs = read_table(args.pairs, required=REQUIRED_COLUMNS, what="pairs table")
     base = Path(args.pairs).resolve().parent
     gt, render = pair_inputs(pairs, spec.input_size, n=args.sample + args.calib, seed=args.seed,

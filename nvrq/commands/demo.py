@@ -34,7 +34,8 @@ def register(sub) -> None:
     p.add_argument("--seconds", type=number_arg(low=0, low_open=True), default=6.0, help="clip length in seconds (default 6)")
     p.add_argument("--size", default="960x540", help="image size WxH (default 960x540)")
     p.add_argument("--offsets", default="-3,-2,-1,0,1,2,3", help="render offsets in metres")
-    p.add_argument("--encoder", default="efficientnet-lite0", help="encoder for nvrq/nvrq_ca (default: offline)")
+    p.add_argument("--encoder", default=get_spec().name,
+                   help=f"encoder for nvrq/nvrq_ca (default {get_spec().name}: offline)")
     p.add_argument("--raters", type=int_arg(), default=5, help="simulated raters (default 5)")
     p.add_argument("--methods", default=None, metavar="NAME:SCALE,...",
                    help="compare reconstruction methods: render the clip once per method (artefact "

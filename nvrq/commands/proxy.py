@@ -19,7 +19,7 @@ from data_schema.tables import (
     timing_path,
     write_table,
 )
-from nvrq.commands._encoder import add_model_arguments, add_runtime_arguments, prepare_device
+from nvrq.commands.model_options import add_model_arguments, add_runtime_arguments, prepare_device
 from nvrq.engines import add_engine_args
 from nvrq.engines.cli import check_engine_args, run_ray
 from nvrq.engines.scorers import ClipScorer, ImagenetScorer
@@ -28,7 +28,7 @@ from nvrq.proxies.classifier_drop import imagenet_drop, load_classifier
 from nvrq.proxies.clip_drop import clip_drop, load_clip, true_category_index
 from nvrq.proxies.detection import detection_confidence, read_detections
 from nvrq.proxies.yolo import run_yolo
-from nvrq.scoring import runtime_timing, timing_table
+from nvrq.scoring.driver import runtime_timing, timing_table
 
 __all__ = ["register"]
 

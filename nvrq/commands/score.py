@@ -11,9 +11,9 @@ from data_schema.cliargs import add_link_option
 from data_schema.datasets import is_dataset
 from data_schema.errors import InputError
 from data_schema.tables import read_table, timing_path, write_table
-from nvrq.commands._encoder import (
-    _resolve_tau,
+from nvrq.commands.model_options import (
     add_encoder_arguments,
+    command_tau,
     encoder_for_columns,
     encoder_options,
     load_encoder_and_tau,
@@ -23,9 +23,9 @@ from nvrq.engines import add_engine_args
 from nvrq.engines.cli import check_engine_args, report_sharded, run_ray
 from nvrq.engines.local import score_dataset
 from nvrq.engines.scorers import MetricScorer
-from nvrq.metrics import DEFAULT_METRICS, split_column
-from nvrq.score_core import encoder_columns, needs_tau
-from nvrq.scoring import REQUIRED_COLUMNS, runtime_timing, score_pairs
+from nvrq.metrics.registry import DEFAULT_METRICS
+from nvrq.metrics.resolve import encoder_columns, needs_tau
+from nvrq.scoring.driver import REQUIRED_COLUMNS, runtime_timing, score_pairs
 
 __all__ = ["register", "run", "runtime_columns", "column_renames"]
 
@@ -79,7 +79,7 @@ def run(args) -> int:
 
 def _report(res, *, uses_encoder: bool, file) -> None:
     """One summary line: pairs/s, images decoded, encoder images per pair; then one line per
-    metric and reason with NaN values (:func:`nvrq.scoring.undefined_counts`)."""
+    metric and reason with NaN values (:func:`nvrq.scoring.driver.undefined_counts`)."""
     wall = res.timing.attrs.get("wall_seconds", float("nan"))
     msg = f"scored {res.n_pairs} pairs in {wall:.1f} s ({res.n_pairs / max(wall, 1e-9):.1f} pairs/s); " \
           f"decoded {res.n_images_decoded} images"
@@ -99,14 +99,14 @@ def _scorer(args, columns, encoder_name, tau) -> MetricScorer:
 
 
 def _ray(args, columns, encoder_name) -> int:
-    tau = _resolve_tau(encoder_name, args) if needs_tau(columns) else None
+    tau = command_tau(encoder_name, args) if needs_tau(columns) else None
     return run_ray(args, _scorer(args, columns, encoder_name, tau))
 
 
 def _local_dataset(args, columns, encoder_name) -> int:
     """A pairs dataset on the local engine: the Ray engine's sharded output and resume, scored
     shard by shard in this process (:func:`nvrq.engines.local.score_dataset`)."""
-    tau = _resolve_tau(encoder_name, args) if needs_tau(columns) else None
+    tau = command_tau(encoder_name, args) if needs_tau(columns) else None
     rename = column_renames(columns, tag=args.column_tag, precision=args.precision)
     options = _scorer(args, columns, encoder_name, tau).options()
     options["columns"] = [rename.get(c, c) for c in columns]
@@ -140,7 +140,7 @@ def runtime_columns(table, timing, encoder, *, tag: str | None):
     which run in the one decode thread)."""
 
     timing = timing.copy()
-    enc_cols = [m for m in timing["metric"] if split_column(m)[1] is not None]
+    enc_cols = encoder_columns(timing["metric"].tolist())
     rename = column_renames(enc_cols, tag=tag, precision="fp32" if encoder is None else encoder.precision)
     if rename:
         table, timing["metric"] = table.rename(columns=rename), timing["metric"].replace(rename)

@@ -75,19 +75,19 @@ def require_check(encoder, *, runtime: str, precision: str, cache_dir=None,
     threshold = DEFAULT_MIN_SPEARMAN if min_spearman is None else float(min_spearman)
     name = encoder.spec.name
     rec = find_record(name, runtime, precision, weights_hash(encoder.model), cache_dir)
-    how = (f"run `nvrq calibrate-runtime PAIRS --encoder {name} --runtime {runtime} "
-           f"--precision {precision}` first")
+    how = (f"`nvrq calibrate-runtime` on pairs of your data first (from Python: {__name__}.check_runtime, "
+           "then write_record)")
     if rec is None:
         raise InputError("precision", None, f"a drift check on record for {name} {runtime}/{precision}: "
                          f"{how}", "none")
     if not rec["nvrq_spearman"] >= threshold:
         raise InputError("precision", None,
-                         f"NVRQ Spearman >= {threshold} against fp32 for {name} {runtime}/{precision} "
-                         f"(set by --min-spearman; or {how} on other data)",
+                         f"NVRQ Spearman >= {threshold} (`min_spearman`) against fp32 for {name} "
+                         f"{runtime}/{precision} (or a new drift check on other pairs: {how})",
                          f"{rec['nvrq_spearman']:.5f} on record")
     model_file = rec.get("model_file")
     if precision == "int8" and (not model_file or not Path(model_file).is_file()):
-        raise InputError("precision", None, f"the int8 model on record: {how}", model_file or "none")
+        raise InputError("precision", None, f"the int8 model on record for {name}: {how}", model_file or "none")
     return Path(model_file) if model_file else None
 
 
@@ -100,7 +100,7 @@ def drift_stats(ref_gt, ref_r, low_gt, low_r) -> dict:
     >>> round(d["min_cosine"], 6), d["max_dnvrq"]
     (1.0, 0.0)
     """
-    from nvrq.formulas import nvrq_similarity
+    from nvrq.metrics.formulas import nvrq_similarity
 
     ref, low = np.concatenate([ref_gt, ref_r]), np.concatenate([low_gt, low_r])
     cos = np.einsum("nd,nd->n", ref, low) / (np.linalg.norm(ref, axis=1) * np.linalg.norm(low, axis=1))

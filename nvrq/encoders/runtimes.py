@@ -108,7 +108,7 @@ def identity_images(size: int, n: int = 8, *, seed: int = 0) -> np.ndarray:
 
 def max_nvrq_change(ref: np.ndarray, other: np.ndarray) -> float:
     """max |dNVRQ| over consecutive pairs (0,1), (2,3), ... of two embedding sets (N, D)."""
-    from nvrq.formulas import nvrq_similarity
+    from nvrq.metrics.formulas import nvrq_similarity
 
     a = nvrq_similarity(ref[0::2], ref[1::2])
     b = nvrq_similarity(other[0::2], other[1::2])

@@ -1,6 +1,6 @@
-"""Execution engines for scoring: ``local`` (one process, :mod:`nvrq.scoring`; the default) and
+"""Execution engines for scoring: ``local`` (one process, :mod:`nvrq.scoring.driver`; the default) and
 ``ray`` (a Ray cluster, :mod:`nvrq.engines.ray_engine`). Both call the same per-batch function
-of :mod:`nvrq.score_core`, so they give the same numbers. A pairs dataset (a folder partitioned
+of :mod:`nvrq.scoring.core`, so they give the same numbers. A pairs dataset (a folder partitioned
 by clip_id) is scored by either into the same sharded, resumable output folder
 (:mod:`nvrq.engines.shards`; locally clip by clip, :mod:`nvrq.engines.local`).
 

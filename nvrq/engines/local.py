@@ -3,7 +3,7 @@
 The run has the Ray engine's plan, output and resume (:func:`nvrq.engines.shards.run_sharded`):
 the dataset is cut into the same shards (whole GT groups within a clip, at most
 ``shard_pairs`` pairs each), each shard is scored in this process by the local driver
-(:func:`nvrq.scoring.score_pairs`, with its decoding beside the encoder) and written atomically
+(:func:`nvrq.scoring.driver.score_pairs`, with its decoding beside the encoder) and written atomically
 as soon as it is done, then the timing table and ``_dataset.json`` are written. A killed run,
 started again with the same command, computes only the shards whose files are missing.
 
@@ -19,8 +19,8 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 
 from data_schema.errors import check_int
 from nvrq.engines import shards as sh
-from nvrq.score_core import check_metric_args
-from nvrq.scoring import REQUIRED_COLUMNS, score_pairs
+from nvrq.scoring.core import check_metric_args
+from nvrq.scoring.driver import REQUIRED_COLUMNS, score_pairs
 
 __all__ = ["score_dataset"]
 
@@ -31,7 +31,7 @@ def score_dataset(pairs, out, *, metrics: Sequence[str], options: Mapping, timin
                   progress: bool = True) -> dict:
     """Score (or finish scoring) the pairs dataset ``pairs`` into the folder ``out``.
 
-    ``metrics``: column names (:func:`nvrq.scoring.resolve_metrics`); ``load_encoder()``
+    ``metrics``: column names (:func:`nvrq.metrics.resolve_metrics`); ``load_encoder()``
     returns the encoder that ``nvrq:*``/``nvrq_ca:*`` need (called once, only when a shard is
     left to do); ``tau`` for NVRQ-CA. ``rename`` maps a column to the name it is written under
     (e.g. ``nvrq:E`` -> ``nvrq:E@int8``). ``options`` go to ``_plan.json``: what a resumed run

@@ -6,8 +6,8 @@ Stages (Ray Data, streaming):
    ``clip_id`` column) and plans shards (:mod:`nvrq.engines.shards`): GT groups stay whole,
    so every GT crop is still embedded once. Shards already on disk are skipped (resume).
 2. CPU tasks (one per shard): read the shard's pairs rows, decode each image once and cut
-   the crops (:func:`nvrq.crop_batches.iter_crop_batches`), and compute the pixel metrics with
-   :func:`nvrq.score_core.score_crop_batch`.
+   the crops (:func:`nvrq.scoring.batches.iter_crop_batches`), and compute the pixel metrics with
+   :func:`nvrq.scoring.core.score_crop_batch`.
 3. An actor pool holds the encoder (one GPU per actor with ``--device cuda``, CPU actors
    otherwise) and computes NVRQ / NVRQ-CA with the same :func:`score_crop_batch`.
 4. The driver writes each finished shard atomically as it arrives, then the manifest.
@@ -31,12 +31,12 @@ import pandas as pd
 
 from data_schema.errors import InputError
 from data_schema.tables import follow_links
-from nvrq.crop_batches import iter_crop_batches
 from nvrq.engines import require_ray
 from nvrq.engines import shards as sh
 from nvrq.engines.scorers import timing_per_column
-from nvrq.score_core import score_crop_batch
-from nvrq.scoring import REQUIRED_COLUMNS
+from nvrq.scoring.batches import iter_crop_batches
+from nvrq.scoring.core import score_crop_batch
+from nvrq.scoring.driver import REQUIRED_COLUMNS
 
 __all__ = ["RayJob", "connect", "check_address", "score_on_ray", "actor_pool"]
 
@@ -64,7 +64,7 @@ def check_address(address: str) -> None:
         with socket.create_connection((host, int(port)), timeout=3):
             return
     except (OSError, ValueError) as exc:
-        raise InputError("address", None, "a running Ray cluster at HOST:PORT (ray start --head)",
+        raise InputError("address", None, "a running Ray cluster at HOST:PORT (`ray start --head`)",
                          f"{address} ({type(exc).__name__}: {exc})") from None
 
 

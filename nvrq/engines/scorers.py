@@ -1,11 +1,11 @@
 """What an engine computes per crop batch: metric columns (``nvrq score``) or a proxy column
 (``nvrq proxy imagenet|clip``). Each scorer is a small picklable description; ``load()`` builds
 its model once in an actor, ``score(model, batch, extra, timings)`` maps one
-:class:`~nvrq.score_core.CropBatch` to ``{column: (P,) float64}``.
+:class:`~nvrq.scoring.core.CropBatch` to ``{column: (P,) float64}``.
 
 ``pixel_columns`` are computed in the CPU tasks, ``model_columns`` in the actors, both with the
-same core functions the local commands use (:func:`~nvrq.score_core.score_crop_batch`,
-:func:`~nvrq.score_core.pair_outputs`).
+same core functions the local commands use (:func:`~nvrq.scoring.core.score_crop_batch`,
+:func:`~nvrq.scoring.core.pair_outputs`).
 """
 
 from __future__ import annotations
@@ -16,9 +16,10 @@ import numpy as np
 
 from nvrq.encoders import EncoderConfig, load_encoder
 from nvrq.encoders.memory import tune_allocator
+from nvrq.metrics.resolve import encoder_columns
 from nvrq.proxies.classifier_drop import load_classifier, top_class_drop
 from nvrq.proxies.clip_drop import load_clip, true_category_index
-from nvrq.score_core import column_seconds, encoder_columns, pair_outputs, score_crop_batch
+from nvrq.scoring.core import column_seconds, pair_outputs, score_crop_batch
 
 __all__ = ["MetricScorer", "ImagenetScorer", "ClipScorer", "timing_per_column"]
 
@@ -68,7 +69,7 @@ class MetricScorer:
 @dataclass(frozen=True, kw_only=True)
 class _ProxyScorer:
     """What both proxy scorers share: one model column computed in the actors from the GT and
-    render crops' class probabilities (:func:`~nvrq.score_core.pair_outputs`)."""
+    render crops' class probabilities (:func:`~nvrq.scoring.core.pair_outputs`)."""
 
     device: str = "cpu"
     batch_size: int = 32
@@ -134,5 +135,5 @@ class ClipScorer(_ProxyScorer):
 
 
 def timing_per_column(scorer, timings: dict) -> dict:
-    """Seconds per column, by the local engine's rule (:func:`nvrq.score_core.column_seconds`)."""
+    """Seconds per column, by the local engine's rule (:func:`nvrq.scoring.core.column_seconds`)."""
     return dict(zip(scorer.columns, column_seconds(scorer.columns, scorer.model_columns, timings), strict=True))

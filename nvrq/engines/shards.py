@@ -38,9 +38,10 @@ import pyarrow.parquet as pq
 from tqdm import tqdm
 
 from data_schema import datasets as ds
+from data_schema import tables
 from data_schema.errors import InputError
 from data_schema.tables import atomic_path, atomic_write_text, read_table, write_table
-from nvrq.crop_batches import gt_groups, pack_groups
+from nvrq.scoring.batches import gt_groups, pack_groups
 
 __all__ = ["Shard", "PairsSource", "read_sources", "plan_shards", "Plan", "load_or_create_plan",
            "shard_pairs", "write_shard", "finalize", "run_sharded"]
@@ -84,10 +85,7 @@ def read_sources(pairs_path, *, required) -> list[PairsSource]:
     if ds.is_dataset(p):
         files = ds.dataset_files(p, what="pairs dataset")
         names = ds.check_schemas(files, root=p)
-        missing = [c for c in required if c not in names]
-        if missing:
-            raise InputError(p, f"column {missing[0]!r}", f"the columns {', '.join(required)}",
-                             f"columns {', '.join(names)}")
+        tables.require_columns(pd.DataFrame(columns=list(names)), tuple(required), where=p)  # the schema's
         out = []
         for clip, f in files:
             t = pq.read_table(f, columns=["pair_id", "gt_path"]).to_pandas()
@@ -145,7 +143,7 @@ def load_or_create_plan(out, pairs_path, sources, *, options: dict, max_pairs: i
         old = json.loads(plan_file.read_text(encoding="utf-8"))
         for key in doc:
             if old.get(key) != doc[key]:
-                raise InputError(plan_file, key, f"the same {key} as this run (or another --out)",
+                raise InputError(plan_file, key, f"the same {key} as this run (or another `out` folder)",
                                  str(old.get(key))[:60])
     elif out.exists() and any(out.iterdir()):
         raise InputError(out, None, "a new or empty folder, or an earlier run of this command", "other files")

@@ -76,7 +76,7 @@ def mapped_labels(labels, mapping: dict, section: str, *, where: str = "pairs") 
             where,
             "label_class",
             f"classes listed in the class map's {section!r} section "
-            "(edit nvrq/proxies/class_maps.json or pass --class-map)",
+            "(edit nvrq/proxies/class_maps.json or use a `class_map` file of that layout)",
             ", ".join(unknown),
         )
     return low

@@ -39,10 +39,10 @@ import pandas as pd
 from tqdm import tqdm
 
 from data_schema.errors import InputError, check_int
-from nvrq.crop_batches import iter_crop_batches
 from nvrq.crops import normalised_tensor
 from nvrq.encoders import load_encoder
-from nvrq.score_core import pair_outputs
+from nvrq.scoring.batches import iter_crop_batches
+from nvrq.scoring.core import pair_outputs
 
 __all__ = [
     "ImageClassifier",
@@ -206,10 +206,10 @@ def pair_probabilities(
     timings: dict | None = None,
 ) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """``(rows (P,), p_gt (P, C), p_render (P, C))`` per crop batch of ``pairs``, through the one
-    scoring core (:mod:`nvrq.score_core`): ``model.probabilities(uint8 (B, S, S, 3))`` with
+    scoring core (:mod:`nvrq.scoring.core`): ``model.probabilities(uint8 (B, S, S, 3))`` with
     ``S = model.input_size``, each GT crop run once, ``batch_size`` crops per forward pass.
     Adds ``decode``, ``prepare`` and ``forward`` seconds to ``timings`` (as ``nvrq score``;
-    :func:`nvrq.scoring.timing_table` turns them into the timing file's rows)."""
+    :func:`nvrq.scoring.driver.timing_table` turns them into the timing file's rows)."""
     check_int("batch_size", batch_size)
     times = timings if timings is not None else {}
     batches = iter_crop_batches(pairs, scene_root=scene_root, where=where)

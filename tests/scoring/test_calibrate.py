@@ -13,7 +13,7 @@ from nvrq.calibrate import (
     calibrate_tau,
     config_path,
     read_tau_config,
-    resolve_tau,
+    require_tau,
     unrelated_pairs,
     write_tau,
 )
@@ -41,15 +41,15 @@ def test_config_roundtrip_and_tau_priority(tmp_path, monkeypatch):
     cfg = tmp_path / "tau.json"
     monkeypatch.setenv("NVRQ_CONFIG", str(cfg))
     assert config_path() == cfg
-    assert resolve_tau("dinov2-small") == (0.65, "registry")
+    assert require_tau("dinov2-small") == (0.65, "registry")
     write_tau(cfg, "dinov2-small", 0.6, rule="median")
     write_tau(cfg, "clip-b16", 0.72)
     assert read_tau_config(cfg)["dinov2-small"] == {"tau": 0.6, "rule": "median"}
-    assert resolve_tau("dinov2-small") == (0.6, str(cfg))
-    assert resolve_tau("dinov2-small", tau=0.5) == (0.5, "--tau")
+    assert require_tau("dinov2-small") == (0.6, str(cfg))
+    assert require_tau("dinov2-small", tau=0.5) == (0.5, "argument")  # the library names no flag
     cfg.write_text(json.dumps({"clip-b16": {"tau": 3}}))
     with pytest.raises(InputError, match="clip-b16.tau"):
-        resolve_tau("clip-b16")
+        require_tau("clip-b16")
     cfg.write_text("{not json")
     with pytest.raises(InputError, match="JSON"):
         read_tau_config(cfg)

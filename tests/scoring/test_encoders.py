@@ -108,7 +108,7 @@ def test_efficientnet_normalisation_and_rgb_order_classify_known_photos():
 
 
 def test_identical_crops_give_s_one():
-    from nvrq.formulas import nvrq_similarity
+    from nvrq.metrics.formulas import nvrq_similarity
 
     enc = load_encoder("efficientnet-lite0")
     x = _images(3, 224, seed=5)
@@ -116,13 +116,22 @@ def test_identical_crops_give_s_one():
     np.testing.assert_allclose(nvrq_similarity(f, enc.embed(x.copy())), 1.0, atol=1e-6)
 
 
-def test_missing_weights_is_input_error_naming_encoder(tmp_path, monkeypatch):
+def test_missing_weights_is_input_error_naming_encoder(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("HF_HOME", str(tmp_path / "hf"))  # an empty hub cache
     monkeypatch.setenv("HF_HUB_CACHE", str(tmp_path / "hf" / "hub"))
     with pytest.raises(InputError) as err:
         load_encoder("dinov2-small")
     msg = str(err.value)
-    assert "dinov2-small" in msg and "--weights" in msg and "facebook/dinov2-small" in msg
+    assert "dinov2-small" in msg and "`weights` (a local" in msg and "facebook/dinov2-small" in msg
+    # the command line names its option instead (nvrq.cli.hints_as_flags)
+    from nvrq.cli import main
+    from nvrq.scoring.driver import REQUIRED_COLUMNS
+
+    (tmp_path / "p.csv").write_text(",".join(REQUIRED_COLUMNS) + "\n")
+    assert main(["score", str(tmp_path / "p.csv"), "--out", str(tmp_path / "m.csv"), "--metrics", "nvrq",
+                 "--encoder", "dinov2-small", "--quiet"]) == 2
+    cli = capsys.readouterr().err
+    assert "expected weights for encoder dinov2-small: --weights (a local" in cli and "`weights`" not in cli
     (tmp_path / "empty").mkdir()
     with pytest.raises(InputError, match="dinov2-reg-small"):
         load_encoder("dinov2-reg-small", weights=tmp_path / "empty")  # a folder without weights

@@ -13,13 +13,13 @@ import pytest
 from PIL import Image
 
 from data_schema.errors import InputError
-from nvrq import pyiqa_bridge
 from nvrq.cli import main
-from nvrq.metrics import direction, metric_info
-from nvrq.nr_metrics import brisque, entropy, niqe, piqe
-from nvrq.pixel_metrics import mae
-from nvrq.score_core import CropBatch, reference_columns, score_crop_batch
-from nvrq.scoring import resolve_metrics, score_pairs
+from nvrq.metrics import column_info, direction, pyiqa_bridge
+from nvrq.metrics.no_reference import brisque, entropy, niqe, piqe
+from nvrq.metrics.pixel import mae
+from nvrq.metrics.resolve import reference_columns, resolve_metrics
+from nvrq.scoring.core import CropBatch, score_crop_batch
+from nvrq.scoring.driver import score_pairs
 
 NR = ["brisque", "niqe", "piqe", "entropy"]
 
@@ -70,7 +70,7 @@ def test_cli_prints_nan_counts(tiny_scene, tmp_path, capsys):
 
 def test_directions_and_registry_flags():
     assert [direction(m) for m in NR] == [False, False, False, True]
-    assert all(not metric_info(m).reference for m in NR) and metric_info("ssim").reference
+    assert all(not column_info(m).reference for m in NR) and column_info("ssim").reference
 
 
 # --- the PyIQA bridge --------------------------------------------------------------------------
@@ -105,7 +105,7 @@ def test_pyiqa_bridge_with_a_stand_in_module(fake_pyiqa):
     cols = resolve_metrics(["pyiqa:fr_mae", "pyiqa:nr_mean", "psnr"], "efficientnet-lite0")
     assert cols == ["pyiqa:fr_mae", "pyiqa:nr_mean", "psnr"]
     assert direction("pyiqa:fr_mae") is False and direction("pyiqa:nr_mean") is True
-    assert metric_info("pyiqa:fr_mae").reference and not metric_info("pyiqa:nr_mean").reference
+    assert column_info("pyiqa:fr_mae").reference and not column_info("pyiqa:nr_mean").reference
     rng = np.random.default_rng(0)
     gt = rng.integers(0, 256, (20, 30, 3), dtype=np.uint8)
     render = rng.integers(0, 256, (20, 30, 3), dtype=np.uint8)  # same size: no resize
@@ -128,7 +128,18 @@ def test_pyiqa_unknown_name_and_missing_package(fake_pyiqa, monkeypatch, capsys,
                  "--metrics", "pyiqa:musiq"]) == 2
     err_line = capsys.readouterr().err.strip()
     assert err_line.count("\n") == 0 and "pip install pyiqa torchvision" in err_line
-    assert metric_info("pyiqa:musiq") is None  # analyze then asks for --lower-better/--higher-better
+    assert direction("pyiqa:musiq") is None  # analyze then asks for --lower-better/--higher-better
+
+
+def test_a_broken_pyiqa_is_not_taken_for_an_unknown_metric(fake_pyiqa):
+    # only "unknown name" and "not installed" (InputError) make a column unknown; any other
+    # failure of pyiqa reaches the caller (it was swallowed by an `except ValueError` before)
+    def broken():
+        raise ValueError("pyiqa's own bug")
+
+    fake_pyiqa.list_models = broken
+    with pytest.raises(ValueError, match="pyiqa's own bug"):
+        direction("pyiqa:nr_mean")
 
 
 def test_pyiqa_real_package_where_installed():

@@ -106,7 +106,7 @@ def test_weights_hash_changes_with_any_weight():
 
 
 def test_reduced_precision_is_refused_without_a_passing_check(shared_cache):
-    with pytest.raises(InputError, match="nvrq calibrate-runtime PAIRS --encoder dinov2-small"):
+    with pytest.raises(InputError, match="drift check on record for dinov2-small openvino/bf16: `nvrq calibrate-runtime`"):
         _random("dinov2-small", runtime="openvino", precision="bf16", cache_dir=shared_cache)
     ref = _random("dinov2-small")
     key = record_key("dinov2-small", "openvino", "bf16", weights_hash(ref.model))

@@ -13,8 +13,8 @@ from scipy.stats import spearmanr
 
 from nvrq.crops import cut_box, encoder_input, read_rgb
 from nvrq.encoders import load_encoder
-from nvrq.formulas import nvrq_similarity
-from nvrq.scoring import score_pairs
+from nvrq.metrics.formulas import nvrq_similarity
+from nvrq.scoring.driver import score_pairs
 
 synth = pytest.importorskip("nvrq.synth.generate")
 

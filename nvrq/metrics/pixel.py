@@ -39,9 +39,11 @@ import math
 import cv2
 import numpy as np
 
+from data_schema.errors import InputError
+
 __all__ = [
     "psnr", "ssim", "ms_ssim", "ms_ssim_scales", "gmsd", "mse", "mae", "MS_SSIM_WEIGHTS",
-    "MS_SSIM_FULL_SIDE", "SSIM_MIN_SIDE", "GMSD_MIN_SIDE",
+    "SSIM_MIN_SIDE", "GMSD_MIN_SIDE",
 ]
 
 DATA_RANGE = 255.0
@@ -51,30 +53,86 @@ SSIM_MIN_SIDE = _WIN
 #: shorter crop side (px) from which GMSD is defined (a gradient needs two pixels)
 GMSD_MIN_SIDE = 2
 MS_SSIM_WEIGHTS = (0.0448, 0.2856, 0.3001, 0.2363, 0.1333)
-#: shorter side from which all 5 scales are used: floor(176 / 2**4) = 11 = the window size.
-MS_SSIM_FULL_SIDE = _WIN * 2 ** (len(MS_SSIM_WEIGHTS) - 1)
 
 
 def _check(gt: np.ndarray, render: np.ndarray) -> None:
-    if gt.shape != render.shape or gt.ndim != 3 or gt.shape[2] != 3:
-        raise ValueError(f"expected two (H, W, 3) crops of equal shape, got {gt.shape} and {render.shape}")
+    """:class:`InputError` naming ``gt`` or ``render`` unless they are (H, W, 3) crops of one shape.
+
+    >>> _check(np.zeros((4, 4, 3)), np.zeros((4, 5, 3)))
+    Traceback (most recent call last):
+    ...
+    data_schema.errors.InputError: render: expected a crop of the GT crop's shape (4, 4, 3) (resized to it), got (4, 5, 3)
+    """
+    if gt.ndim != 3 or gt.shape[2] != 3:
+        raise InputError("gt", None, "an (H, W, 3) RGB crop", str(gt.shape))
+    if render.shape != gt.shape:
+        raise InputError("render", None, f"a crop of the GT crop's shape {gt.shape} (resized to it)",
+                         str(render.shape))
 
 
 def mse(gt: np.ndarray, render: np.ndarray) -> float:
-    """Mean squared error over all H*W*3 values (0-255 scale)."""
+    """Mean squared error over all H*W*3 values (0-255 scale).
+
+    Parameters
+    ----------
+    gt, render : (H, W, 3) uint8
+        RGB crops of one shape (the render crop resized to the GT crop's).
+
+    Returns
+    -------
+    float
+        In [0, 255^2]; 0 for identical crops.
+
+    Raises
+    ------
+    InputError
+        Naming ``gt`` or ``render`` for crops of other shapes.
+    """
     _check(gt, render)
     d = gt.astype(np.float64) - render.astype(np.float64)
     return float(np.mean(d * d))
 
 
 def mae(gt: np.ndarray, render: np.ndarray) -> float:
-    """Mean absolute error over all H*W*3 values (0-255 scale)."""
+    """Mean absolute error over all H*W*3 values (0-255 scale).
+
+    Parameters
+    ----------
+    gt, render : (H, W, 3) uint8
+        The GT crop and the render crop at its size.
+
+    Returns
+    -------
+    float
+        In [0, 255]; lower is better.
+
+    Raises
+    ------
+    InputError
+        As :func:`mse`.
+    """
     _check(gt, render)
     return float(np.mean(np.abs(gt.astype(np.float64) - render.astype(np.float64))))
 
 
 def psnr(gt: np.ndarray, render: np.ndarray) -> float:
-    """PSNR in dB, ``10 log10(255^2 / mse)``; ``inf`` when the crops are identical."""
+    """PSNR in dB, ``10 log10(255^2 / mse)`` over all three channels.
+
+    Parameters
+    ----------
+    gt, render : (H, W, 3) uint8
+        Equal-shape RGB crops, values 0-255 (``data_range`` 255).
+
+    Returns
+    -------
+    float
+        ``inf`` when the crops are identical (as scikit-image).
+
+    Raises
+    ------
+    InputError
+        As :func:`mse`.
+    """
     err = mse(gt, render)
     return math.inf if err == 0 else float(10.0 * np.log10(DATA_RANGE ** 2 / err))
 
@@ -98,7 +156,24 @@ def _ssim_cs_maps(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]
 
 
 def ssim(gt: np.ndarray, render: np.ndarray) -> float:
-    """Mean SSIM, per RGB channel then averaged; NaN if a crop side is < 11 pixels."""
+    """Mean SSIM (module docstring: scikit-image's with Gaussian weights), per RGB channel,
+    then averaged.
+
+    Parameters
+    ----------
+    gt, render : (H, W, 3) uint8
+        Crops of one shape; both sides at least :data:`SSIM_MIN_SIDE` for a value.
+
+    Returns
+    -------
+    float
+        In [-1, 1]; NaN if a crop side is < 11 pixels.
+
+    Raises
+    ------
+    InputError
+        Naming ``render`` when its shape is not ``gt``'s (resizing is the caller's job).
+    """
     _check(gt, render)
     if min(gt.shape[:2]) < _WIN:
         return math.nan
@@ -113,7 +188,17 @@ def _half(x: np.ndarray) -> np.ndarray:
 
 
 def ms_ssim_scales(side: int) -> int:
-    """Scales MS-SSIM uses for a crop whose shorter side is ``side`` (0 if below 11 px).
+    """Scales MS-SSIM uses for a crop whose shorter side is ``side``.
+
+    Parameters
+    ----------
+    side : int
+        The shorter crop side in pixels.
+
+    Returns
+    -------
+    int
+        ``M`` in 0..5: 0 below 11 px (module docstring).
 
     >>> [ms_ssim_scales(s) for s in (10, 11, 21, 22, 30, 44, 88, 175, 176, 1000)]
     [0, 1, 1, 2, 2, 3, 4, 4, 5, 5]
@@ -125,7 +210,23 @@ def ms_ssim_scales(side: int) -> int:
 
 
 def ms_ssim(gt: np.ndarray, render: np.ndarray) -> float:
-    """Multi-scale SSIM on the scales the crop holds (module docstring); NaN below 11 px."""
+    """Multi-scale SSIM on the scales the crop holds (module docstring).
+
+    Parameters
+    ----------
+    gt, render : (H, W, 3) uint8
+        Crops of one shape; :func:`ms_ssim_scales` of the shorter side sets the scales.
+
+    Returns
+    -------
+    float
+        In [0, 1]; NaN below 11 px.
+
+    Raises
+    ------
+    InputError
+        As :func:`mse`.
+    """
     _check(gt, render)
     n_scales = ms_ssim_scales(min(gt.shape[:2]))
     if n_scales == 0:
@@ -161,7 +262,23 @@ def _gradient_magnitude(y: np.ndarray) -> np.ndarray:
 
 
 def gmsd(gt: np.ndarray, render: np.ndarray) -> float:
-    """Gradient magnitude similarity deviation (lower is better; 0 for identical crops)."""
+    """Gradient magnitude similarity deviation, Xue et al. 2014 (module docstring).
+
+    Parameters
+    ----------
+    gt, render : (H, W, 3) uint8
+        Crops of one shape, both sides at least :data:`GMSD_MIN_SIDE`.
+
+    Returns
+    -------
+    float
+        Lower is better; 0 for identical crops, NaN for a smaller crop.
+
+    Raises
+    ------
+    InputError
+        For a ``gt`` that is not (H, W, 3), or a ``render`` of another shape.
+    """
     _check(gt, render)
     if min(gt.shape[:2]) < GMSD_MIN_SIDE:
         return math.nan

@@ -1,4 +1,4 @@
-"""The shared encoder-and-tau CLI loader (nvrq/commands/_encoder.py): tau comes from --tau >
+"""The model options and the encoder-and-tau CLI loader (nvrq/commands/model_options.py): tau comes from --tau >
 config > registry and is checked before the model loads, the encoder named in --metrics is the
 one loaded, and the commands report the core's parameter errors as the options typed."""
 
@@ -11,8 +11,8 @@ import pytest
 
 from data_schema.errors import InputError
 from nvrq.cli import main
-from nvrq.commands._encoder import add_encoder_arguments, load_encoder_and_tau
-from nvrq.scoring import encoder_for_metrics
+from nvrq.commands.model_options import add_encoder_arguments, load_encoder_and_tau
+from nvrq.metrics.resolve import encoder_for_metrics
 
 
 def _args(*argv):

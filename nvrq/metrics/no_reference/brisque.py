@@ -6,7 +6,7 @@ package, never copied here. The 36 features are computed exactly as that package
 features its model was trained on (``BRISQUE.score``), vectorised:
 
 1. grey: scikit-image ``rgb2gray`` of the crop scaled to [0, 1] (weights
-   :data:`~nvrq.nr_metrics._common.SKIMAGE_GREY`);
+   :data:`~nvrq.metrics.no_reference._common.SKIMAGE_GREY`);
 2. MSCN coefficients ``(I - mu) / (sigma + 1/255)``, ``mu`` and ``sigma`` from a 7x7 Gaussian
    window (sigma 7/6, normalised), zero padding (``scipy.signal.convolve2d(..., 'same')``),
    ``sigma = sqrt(|mu^2 - (w * I^2)|)``;
@@ -43,7 +43,7 @@ import numpy as np
 from scipy.special import digamma, gammaln
 
 from data_schema.errors import InputError
-from nvrq.nr_metrics._common import SKIMAGE_GREY, check_rgb, package_data
+from nvrq.metrics.no_reference._common import SKIMAGE_GREY, check_rgb, package_data
 
 __all__ = ["brisque", "brisque_features", "load_model", "MIN_SIDE"]
 
@@ -127,7 +127,18 @@ def _scale_features(grey: np.ndarray) -> np.ndarray:
 
 
 def brisque_features(render: np.ndarray) -> np.ndarray:
-    """The 36 unscaled BRISQUE features (36,) of a uint8 (H, W, 3) RGB crop (module docstring)."""
+    """The BRISQUE features before the model's scaling (module docstring, steps 1-4).
+
+    Parameters
+    ----------
+    render : (H, W, 3) uint8
+        A crop, RGB, at its own size.
+
+    Returns
+    -------
+    (36,) float64
+        18 at full scale, then 18 at half scale.
+    """
     grey = check_rgb(render).astype(np.float64) @ (np.asarray(SKIMAGE_GREY) / 255.0)
     half = cv2.resize(grey, None, fx=0.5, fy=0.5, interpolation=cv2.INTER_CUBIC)
     return np.concatenate([_scale_features(grey), _scale_features(half)])
@@ -135,8 +146,18 @@ def brisque_features(render: np.ndarray) -> np.ndarray:
 
 @lru_cache(maxsize=1)
 def load_model() -> tuple[np.ndarray, np.ndarray, float, float, np.ndarray, np.ndarray]:
-    """``(support_vectors (n, 36), coefs (n,), gamma, rho, feature_min (36,), feature_max (36,))``
-    of the ``brisque`` package's model (a libsvm text model and a pickle of the ranges)."""
+    """The ``brisque`` package's model (a libsvm text model and a pickle of the ranges), read once.
+
+    Returns
+    -------
+    tuple
+        ``(support_vectors (n, 36), coefs (n,), gamma, rho, feature_min (36,), feature_max (36,))``.
+
+    Raises
+    ------
+    InputError
+        When the ``brisque`` package or its model files are missing.
+    """
     svm_path = package_data("brisque", "models", "svm.txt", what="its BRISQUE model")
     norm_path = package_data("brisque", "models", "normalize.pickle", what="its BRISQUE feature ranges")
     header: dict[str, str] = {}
@@ -168,8 +189,24 @@ def load_model() -> tuple[np.ndarray, np.ndarray, float, float, np.ndarray, np.n
 
 
 def brisque(render: np.ndarray) -> float:
-    """BRISQUE of a uint8 (H, W, 3) RGB crop at its own size; NaN if the shorter side is below
-    :data:`MIN_SIDE` or the crop is all black. Lower is better; not clipped (module docstring)."""
+    """BRISQUE of the render crop at its own size (module docstring).
+
+    Parameters
+    ----------
+    render : (H, W, 3) uint8
+        The raw render crop (no GT: a no-reference metric).
+
+    Returns
+    -------
+    float
+        Lower is better; not clipped. NaN if the shorter side is below :data:`MIN_SIDE` or the
+        crop is all black.
+
+    Raises
+    ------
+    InputError
+        Naming ``render`` unless it is a uint8 (H, W, 3) array.
+    """
     if min(check_rgb(render).shape[:2]) < MIN_SIDE:
         return math.nan
     feats = brisque_features(render)

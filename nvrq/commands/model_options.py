@@ -1,8 +1,9 @@
-"""The CLI pieces shared by every command that runs a model (score, calibrate-tau, stability,
-proxy): the encoder/tau/device options and one encoder-and-tau loader. Library functions
-validate their own arguments and name the parameter (``batch_size``); commands do not re-check,
-and ``nvrq``'s entry point reports such an error as the option (``--batch-size``,
-:func:`data_schema.cliargs.flags_in_errors`).
+"""The model options shared by every command that runs a model (score, calibrate-tau, stability,
+proxy): encoder, weights, tau and its config, metrics, batch size, runtime, precision, device and
+threads, and the one encoder-and-tau loader. Library functions validate their own arguments and
+name the parameter (``batch_size``); commands do not re-check, and ``nvrq``'s entry point reports
+such an error as the option (``--batch-size``, :func:`data_schema.cliargs.flags_in_errors`).
+The tau itself comes from the library's one rule, :func:`nvrq.calibrate.require_tau`.
 """
 
 from __future__ import annotations
@@ -13,15 +14,14 @@ from collections.abc import Sequence
 from data_schema.cliargs import checked_arg, comma_list, int_arg, number_arg
 from data_schema.errors import InputError
 from nvrq import encoders
-from nvrq.calibrate import resolve_tau
-from nvrq.encoders import DEFAULT_ENCODER, EncoderConfig, get_spec
+from nvrq.calibrate import require_tau
+from nvrq.encoders import EncoderConfig, get_spec
 from nvrq.encoders.runtimes import PRECISIONS, RUNTIMES, check_runtime_combo
-from nvrq.formulas import check_tau
-from nvrq.score_core import encoder_columns, needs_tau
-from nvrq.scoring import encoder_for_metrics, resolve_metrics
+from nvrq.metrics.formulas import check_tau
+from nvrq.metrics.resolve import encoder_columns, encoder_for_metrics, needs_tau, resolve_metrics
 
 __all__ = ["check_model_options", "add_model_arguments", "add_encoder_arguments", "prepare_device",
-           "encoder_options", "load_encoder_and_tau", "add_runtime_arguments",
+           "encoder_options", "command_tau", "load_encoder_and_tau", "add_runtime_arguments",
            "add_cache_dir_argument", "metric_columns", "encoder_for_columns"]
 
 
@@ -34,7 +34,7 @@ def add_model_arguments(p, *, batch_help: str = "crops per forward pass (default
 
 def add_encoder_arguments(p, *, tau: bool = True) -> None:
     """``--encoder``, ``--weights``, ``--config`` (+ ``--tau``) and :func:`add_model_arguments`."""
-    p.add_argument("--encoder", default=None, help="encoder for nvrq/nvrq_ca (default efficientnet-lite0)")
+    p.add_argument("--encoder", default=None, help=f"encoder for nvrq/nvrq_ca (default {get_spec().name})")
     p.add_argument("--weights", default=None,
                    help="local weights: a Hugging Face model folder, or a .pth for efficientnet-lite0")
     if tau:
@@ -88,14 +88,12 @@ def prepare_device(args) -> None:
     tune_allocator()
 
 
-def _resolve_tau(name: str, args) -> float:
-    tau, source = resolve_tau(name, tau=args.tau, config=args.config)
-    if tau is None:
-        raise InputError("--tau", None, f"a tau for encoder {name}: run `nvrq calibrate-tau PAIRS "
-                         f"--encoder {name} --write-config` or pass --tau",
-                         "none in the registry or the user config")
-    check_tau(tau)  # a bad --tau stops here, before the model loads
-    print(f"tau = {tau:.3f} for {name} (from {source})", file=sys.stderr)
+def command_tau(name: str, args) -> float:
+    """The tau of encoder ``name`` for a command with ``--tau``/``--config``
+    (:func:`nvrq.calibrate.require_tau`, before the model loads), reported on stderr with where it
+    came from (``--tau``, the config file or the registry)."""
+    tau, source = require_tau(name, tau=args.tau, config=args.config)
+    print(f"tau = {tau:.3f} for {name} (from {'--tau' if source == 'argument' else source})", file=sys.stderr)
     return tau
 
 
@@ -104,8 +102,7 @@ def encoder_options(args, name: str | None = None) -> EncoderConfig:
     :func:`add_encoder_arguments`: encoder ``name`` (default ``--encoder``, else the registry
     default) with ``--weights``, ``--device``, ``--runtime``, ``--precision``, ``--threads``,
     ``--cache-dir`` and ``--min-spearman``."""
-    name = name or args.encoder or DEFAULT_ENCODER
-    get_spec(name)
+    name = get_spec(name or args.encoder).name
     return EncoderConfig(name, weights=args.weights, device=args.device, runtime=args.runtime,
                          precision=args.precision, threads=args.threads, cache_dir=args.cache_dir,
                          min_spearman=args.min_spearman)
@@ -116,7 +113,7 @@ def load_encoder_and_tau(args, *, needs_tau: bool, name: str | None = None):
     :func:`encoder_options`; ``tau`` from ``--tau``, the config (``--config``) or the registry
     when ``needs_tau``, else ``None``."""
     cfg = encoder_options(args, name)
-    tau = _resolve_tau(cfg.name, args) if needs_tau else None
+    tau = command_tau(cfg.name, args) if needs_tau else None
     prepare_device(args)
     encoder = encoders.load_encoder(cfg)  # through the module: tests patch nvrq.encoders.load_encoder
     return encoder, tau
@@ -124,7 +121,7 @@ def load_encoder_and_tau(args, *, needs_tau: bool, name: str | None = None):
 
 def metric_columns(args) -> tuple[list[str], str]:
     """``(columns, encoder name)`` of ``--metrics`` and ``--encoder``: the encoder as
-    :func:`encoder_for_metrics` picks it, the columns as :func:`nvrq.scoring.resolve_metrics`."""
+    :func:`encoder_for_metrics` picks it, the columns as :func:`nvrq.metrics.resolve_metrics`."""
     raw = comma_list(args.metrics)
     name = encoder_for_metrics(raw, args.encoder)
     return resolve_metrics(raw, name), name

@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pandas as pd
 import pytest
+from skimage.metrics import peak_signal_noise_ratio, structural_similarity
 
 from nvrq.cli import main
 from nvrq.crops import cut_box, encoder_input, read_rgb
 from nvrq.encoders import load_encoder
-from nvrq.formulas import nvrq_ca
-from nvrq.scoring import score_pairs
+from nvrq.metrics.formulas import nvrq_ca
+from nvrq.scoring.driver import score_pairs
 
 
 @pytest.fixture(scope="module")
@@ -93,3 +95,22 @@ def test_cli_errors_exit_2(tiny_scene, tmp_path, capsys):
     assert main(["score", str(tmp_path / "bad.csv"), "--out", str(tmp_path / "m.csv")]) == 2
     assert "gt_x0" in capsys.readouterr().err
     assert not (tmp_path / "m.csv").exists()
+
+
+def test_render_resized_to_gt_size_in_scoring(tiny_scene):
+    # score_pairs cuts both crops and bicubic-resizes the render crop to the GT size; redo it
+    # by hand with OpenCV + scikit-image for one pair whose boxes differ in size.
+    root, pairs = tiny_scene
+    pairs = pairs.iloc[[4]].copy()
+    pairs["r_x1"] += 7  # render box 7 px wider than the GT box
+    res = score_pairs(pairs, metrics=["psnr", "ssim"], progress=False)
+    row = pairs.iloc[0]
+    gt_img = cv2.cvtColor(cv2.imread(str(root / row.gt_path)), cv2.COLOR_BGR2RGB)
+    r_img = cv2.cvtColor(cv2.imread(str(root / row.render_path)), cv2.COLOR_BGR2RGB)
+    gt = gt_img[row.gt_y0:row.gt_y1 + 1, row.gt_x0:row.gt_x1 + 1]
+    rc = r_img[row.r_y0:row.r_y1 + 1, row.r_x0:row.r_x1 + 1]
+    rc = cv2.resize(rc, (gt.shape[1], gt.shape[0]), interpolation=cv2.INTER_CUBIC)
+    assert res.table["psnr"].iloc[0] == pytest.approx(peak_signal_noise_ratio(gt, rc, data_range=255))
+    assert res.table["ssim"].iloc[0] == pytest.approx(structural_similarity(
+        gt, rc, channel_axis=-1, data_range=255, gaussian_weights=True, sigma=1.5,
+        use_sample_covariance=False), abs=1e-7)

@@ -2,19 +2,20 @@
 
 :func:`score_pairs` is a short driver over the one crop-scoring core:
 
-1. :func:`~nvrq.crop_batches.iter_crop_batches` groups pairs by GT image, decodes each batch's
+1. :func:`~nvrq.scoring.batches.iter_crop_batches` groups pairs by GT image, decodes each batch's
    images once (:func:`nvrq.crops.read_rgb`) and cuts the crops: in a background thread when
    cores are left over beside the encoder, else between encoder passes on every core
-   (:func:`~nvrq.crop_batches.decode_schedule`).
-2. :func:`~nvrq.score_core.score_crop_batch` computes the pixel metrics and, for
+   (:func:`~nvrq.scoring.batches.decode_schedule`).
+2. :func:`~nvrq.scoring.core.score_crop_batch` computes the pixel metrics and, for
    ``nvrq``/``nvrq_ca``, embeds each GT crop once: the GT crop of an object at a frame is
    shared by every render offset (and method, docs/FORMATS.md §2), so a frame with 7 offsets
    needs 8 encoder images for 7 pairs, not 14 (3 methods: 22 for 21 pairs, not 24). The
    encoder runs ``batch_size`` crops at a time.
 3. The columns are assembled in the pairs' order, with the timing table.
 
-The formulas (paper Eq. 4, 5) are :mod:`nvrq.formulas`; the same core scores crops held in
-memory through the Python API (:mod:`nvrq.api`).
+The formulas (paper Eq. 4, 5) are :mod:`nvrq.metrics.formulas`, the metric columns are
+resolved by :mod:`nvrq.metrics.resolve`; the same core scores crops held in memory through the
+Python API (:mod:`nvrq.api`).
 
 Timing (``ScoreResult.timing``; ``METRICS.timing.csv``): per metric column, its own compute
 seconds (pixel metric calls; for ``nvrq``/``nvrq_ca`` the encoder input preparation and
@@ -37,75 +38,15 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from data_schema.errors import InputError
-from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS, pair_boxes
-from nvrq.crop_batches import CROP_COLUMNS, decode_schedule, iter_crop_batches
-from nvrq.metrics import REGISTRY, split_column
-from nvrq.score_core import (
-    check_metric_args,
-    column_info,
-    column_seconds,
-    encoder_columns,
-    score_crop_batch,
-)
+from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS, pair_boxes, require_columns
+from nvrq.metrics.resolve import column_info, encoder_columns, reference_columns
+from nvrq.scoring.batches import CROP_COLUMNS, decode_schedule, iter_crop_batches
+from nvrq.scoring.core import check_metric_args, column_seconds, score_crop_batch
 
-__all__ = ["encoder_for_metrics", "resolve_metrics", "ScoreResult", "score_pairs", "timing_table", "runtime_timing",
-           "undefined_counts", "crop_sides",
+__all__ = ["ScoreResult", "score_pairs", "timing_table", "runtime_timing", "undefined_counts", "crop_sides",
            "REQUIRED_COLUMNS"]
 
 REQUIRED_COLUMNS = ("pair_id", *CROP_COLUMNS)
-
-
-def resolve_metrics(metrics: Sequence[str], encoder: str) -> list[str]:
-    """Output column names for metric names: ``nvrq`` -> ``nvrq:ENCODER`` (``encoder``'s name).
-
-    >>> resolve_metrics(["psnr", "nvrq", "nvrq_ca"], "dinov2-small")
-    ['psnr', 'nvrq:dinov2-small', 'nvrq_ca:dinov2-small']
-    """
-    known = sorted(n for n, i in REGISTRY.items() if i.kind == "metric")
-    columns: list[str] = []
-    for raw in metrics:
-        family, enc = split_column(raw.strip())
-        info = REGISTRY.get(family)
-        if info is None or info.kind != "metric" or (enc is not None and not info.needs_encoder
-                                                      and info.members is None):
-            raise InputError("metrics", None, f"metric names among {', '.join(known)}", raw)
-        if info.members is not None:  # pyiqa:NAME, checked by its family
-            col = column_info(f"{family}:{enc}").name if enc else column_info(family).name
-            if col not in columns:
-                columns.append(col)
-            continue
-        if info.needs_encoder and enc not in (None, encoder):
-            raise InputError("metrics", raw, f"the encoder given as encoder ({encoder})", enc)
-        col = f"{family}:{encoder}" if info.needs_encoder else family
-        if col not in columns:
-            columns.append(col)
-    if not columns:
-        raise InputError("metrics", None, "at least one metric", "none")
-    return columns
-
-
-def encoder_for_metrics(metrics: Sequence[str], encoder: str | None = None) -> str:
-    """The encoder that ``metrics`` use: the one a column names (``nvrq:ENC``), else
-    ``encoder``, else the registry default. Two different encoders in ``metrics``, or one that
-    contradicts ``encoder``, is an error naming ``metrics``.
-
-    >>> encoder_for_metrics(["psnr", "nvrq_ca:dinov2-small"])
-    'dinov2-small'
-    >>> encoder_for_metrics(["nvrq"], "dinov2-small")
-    'dinov2-small'
-    """
-    from nvrq.encoders.registry import DEFAULT_ENCODER, get_spec
-
-    families = {name for name, info in REGISTRY.items() if info.needs_encoder}  # not pyiqa:NAME
-    named = {enc for fam, enc in map(split_column, (m.strip() for m in metrics)) if fam in families} - {None}
-    if len(named) > 1:
-        raise InputError("metrics", None, "one encoder for all nvrq/nvrq_ca metrics", ", ".join(sorted(named)))
-    if named and encoder is not None and named != {encoder}:
-        raise InputError("metrics", None, f"the encoder given as encoder ({encoder})", named.pop())
-    name = named.pop() if named else (encoder or DEFAULT_ENCODER)
-    get_spec(name)
-    return name
 
 
 @dataclass
@@ -123,7 +64,25 @@ class ScoreResult:
 
 
 def crop_sides(pairs: pd.DataFrame, *, where: str = "pairs") -> tuple[np.ndarray, np.ndarray]:
-    """Shorter sides (N,) int64 of the GT and the render crops of ``pairs`` (inclusive boxes)."""
+    """The shorter sides of the GT and the render crops (inclusive boxes).
+
+    Parameters
+    ----------
+    pairs : pandas.DataFrame
+        With the ``gt_*`` and ``r_*`` box columns.
+    where : str
+        What errors name.
+
+    Returns
+    -------
+    tuple of two (N,) int64
+        ``(gt_sides, render_sides)``.
+
+    Raises
+    ------
+    InputError
+        For missing or bad box columns.
+    """
     out = []
     for cols in (GT_BOX_COLUMNS, RENDER_BOX_COLUMNS):
         b = pair_boxes(pairs, cols, where=where)
@@ -136,19 +95,32 @@ def undefined_counts(values: dict, gt_sides: np.ndarray, render_sides: np.ndarra
 
     A value is NaN because its crop (the GT crop for a full-reference metric, the raw render
     crop for a no-reference one) is shorter than the metric's ``min_side``, or otherwise for the
-    metric's ``undefined`` reason (:mod:`nvrq.metrics`). ``values``: ``{column: (N,)}``.
+    metric's ``undefined`` reason (:mod:`nvrq.metrics.registry`).
+
+    Parameters
+    ----------
+    values : dict
+        ``{column: (N,)}`` metric values.
+    gt_sides, render_sides : (N,) int
+        Shorter crop sides (:func:`crop_sides`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``metric, reason, pairs``; a row per column and reason with NaN values.
 
     >>> undefined_counts({"niqe": np.array([np.nan, 1.0, np.nan])}, np.array([99, 99, 99]),
     ...                  np.array([50, 120, 130])).values.tolist()
     [['niqe', 'shorter crop side < 96 px', 1], ['niqe', 'undefined', 1]]
     """
     rows = []
+    with_gt = set(reference_columns(list(values)))
     for col, v in values.items():
         nan = np.isnan(np.asarray(v, np.float64))
         if not nan.any():
             continue
         info = column_info(col)
-        sides = gt_sides if (info.reference or info.needs_encoder) else render_sides
+        sides = gt_sides if col in with_gt else render_sides
         small = nan & (sides < info.min_side)
         if small.any():
             rows.append((col, f"shorter crop side < {info.min_side} px", int(small.sum())))
@@ -159,10 +131,28 @@ def undefined_counts(values: dict, gt_sides: np.ndarray, render_sides: np.ndarra
 
 def timing_table(metrics: Sequence[str], times: dict, *, n_pairs: int, wall: float,
                  model_columns: Sequence[str] | None = None) -> pd.DataFrame:
-    """``metric, seconds, pairs``: each column's own seconds (``times[column]`` for a pixel
-    metric; ``prepare + forward`` for a model column: the encoder metrics, or ``model_columns``
-    such as a proxy's) plus ``times['decode']``; the stage totals go to ``.attrs``
-    (``wall_seconds``, ``forward_seconds``, ...)."""
+    """The timing table of a run.
+
+    Parameters
+    ----------
+    metrics : sequence of str
+        The columns, in order.
+    times : dict
+        Seconds by key (:func:`nvrq.scoring.core.column_seconds`).
+    n_pairs : int
+        Pairs scored.
+    wall : float
+        The run's wall-clock seconds.
+    model_columns : sequence of str, optional
+        The columns a model computes (default: the encoder metrics; a proxy's otherwise).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``metric, seconds, pairs``: each column's own seconds (``times[column]`` for a pixel
+        metric, ``prepare + forward`` for a model column) plus ``times['decode']``; the stage
+        totals in ``.attrs`` (``wall_seconds``, ``forward_seconds``, ...).
+    """
     decode, prepare, forward = (times.get(k, 0.0) for k in ("decode", "prepare", "forward"))
     model = set(encoder_columns(metrics) if model_columns is None else model_columns)
     timing = pd.DataFrame({
@@ -176,10 +166,22 @@ def timing_table(metrics: Sequence[str], times: dict, *, n_pairs: int, wall: flo
 
 
 def runtime_timing(timing: pd.DataFrame, model, model_columns: Sequence[str]) -> pd.DataFrame:
-    """``timing`` plus the columns ``runtime, precision, threads, device`` (docs/FORMATS.md §8):
-    how ``model`` (an encoder or proxy model, or ``None``) ran, on the rows of ``model_columns``;
-    empty runtime and precision, 1 thread and ``cpu`` on the others (computed in the decode
-    thread).
+    """How each column ran (docs/FORMATS.md §8).
+
+    Parameters
+    ----------
+    timing : pandas.DataFrame
+        A :func:`timing_table`.
+    model : object or None
+        An encoder or proxy model (its ``runtime``, ``precision``, ``threads``, ``device``).
+    model_columns : sequence of str
+        The rows ``model`` computed.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``timing`` plus ``runtime, precision, threads, device``: the model's on its rows;
+        empty runtime and precision, 1 thread and ``cpu`` on the others (the decode thread's).
 
     >>> t = pd.DataFrame({"metric": ["psnr", "imagenet_drop"], "seconds": [1.0, 2.0], "pairs": 5})
     >>> m = type("M", (), {"runtime": "openvino", "threads": 2, "device": "cpu"})()
@@ -208,16 +210,40 @@ def score_pairs(
     progress: bool = True,
     where: str = "pairs",
 ) -> ScoreResult:
-    """Score every row of ``pairs`` (docs/FORMATS.md §3 columns; ``scene_root`` column or argument).
+    """Score every row of ``pairs`` (the module docstring's three steps).
 
-    ``metrics``: column names from :func:`resolve_metrics`. ``encoder``: a loaded
-    :class:`nvrq.encoders.Encoder`, needed for ``nvrq:*``/``nvrq_ca:*``; ``tau`` for NVRQ-CA.
-    ``max_pairs``: pairs per crop batch (:func:`nvrq.crop_batches.iter_crop_batches`).
+    Parameters
+    ----------
+    pairs : pandas.DataFrame
+        docs/FORMATS.md §3 columns (:data:`REQUIRED_COLUMNS`).
+    metrics : sequence of str
+        Column names from :func:`nvrq.metrics.resolve_metrics`.
+    encoder : Encoder, optional
+        Loaded; needed for ``nvrq:*``/``nvrq_ca:*``.
+    tau : float, optional
+        For NVRQ-CA.
+    scene_root, base : path, optional
+        Where image paths are relative to (else the ``scene_root`` column, relative to ``base``).
+    batch_size : int
+        Crops per encoder pass.
+    max_pairs : int
+        Pairs per crop batch (:func:`nvrq.scoring.batches.iter_crop_batches`).
+    progress : bool
+        A progress bar on stderr.
+    where : str
+        What errors name (the pairs file).
+
+    Returns
+    -------
+    ScoreResult
+
+    Raises
+    ------
+    InputError
+        For missing columns, bad boxes or images (naming ``where`` and the row), or a bad
+        argument (naming the parameter), before anything is scored.
     """
-    missing = [c for c in REQUIRED_COLUMNS if c not in pairs.columns]
-    if missing:
-        raise InputError(where, f"column {missing[0]!r}", f"the columns {', '.join(REQUIRED_COLUMNS)}",
-                         f"columns {', '.join(map(str, pairs.columns))}")
+    require_columns(pairs, REQUIRED_COLUMNS, where=where)
     metrics = list(metrics)
     check_metric_args(metrics, encoder=encoder, tau=tau, batch_size=batch_size)
     n, n_enc_cols = len(pairs), len(encoder_columns(metrics))

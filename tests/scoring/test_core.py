@@ -1,4 +1,4 @@
-"""The one crop-scoring core (nvrq.score_core) against an independent per-pair computation.
+"""The one crop-scoring core (nvrq.scoring.core) against an independent per-pair computation.
 
 Reference per pair: read both image files with Pillow, slice the inclusive boxes with numpy,
 bicubic-resize the render crop to the GT crop's size (docs/FORMATS.md §4; cv2.INTER_CUBIC is the
@@ -21,16 +21,11 @@ from PIL import Image
 from scipy.spatial.distance import cosine
 
 from data_schema.errors import InputError
-from nvrq.crop_batches import iter_crop_batches
 from nvrq.encoders import build_random
 from nvrq.metrics import REGISTRY
-from nvrq.score_core import (
-    CropBatch,
-    embed_crops,
-    run_batched,
-    score_crop_batch,
-)
-from nvrq.scoring import score_pairs
+from nvrq.scoring.batches import iter_crop_batches
+from nvrq.scoring.core import CropBatch, embed_crops, run_batched, score_crop_batch
+from nvrq.scoring.driver import score_pairs
 
 ENC = "dinov2-small"
 TINY = {"num_hidden_layers": 1, "hidden_size": 32, "num_attention_heads": 2, "intermediate_size": 64}

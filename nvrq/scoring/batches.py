@@ -1,7 +1,7 @@
 """Crops from a pairs table: read each image once, group pairs by GT image, schedule decoding.
 
-- :func:`iter_crop_batches` turns a pairs table into :class:`~nvrq.score_core.CropBatch` es
-  for the in-memory core (:func:`nvrq.score_core.score_crop_batch`): pairs are grouped by GT
+- :func:`iter_crop_batches` turns a pairs table into :class:`~nvrq.scoring.core.CropBatch` es
+  for the in-memory core (:func:`nvrq.scoring.core.score_crop_batch`): pairs are grouped by GT
   image, each image of a batch is decoded once (:func:`nvrq.crops.read_rgb`), one GT image's
   pairs (every view and method) never straddle two batches, and the GT crop shared by every
   render view and method of an object at a frame appears once in ``gt_crops`` (keyed by GT
@@ -26,10 +26,16 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from data_schema.errors import InputError, check_int
-from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS, pair_boxes, pair_image_paths
+from data_schema.errors import check_int
+from data_schema.tables import (
+    GT_BOX_COLUMNS,
+    RENDER_BOX_COLUMNS,
+    pair_boxes,
+    pair_image_paths,
+    require_columns,
+)
 from nvrq.crops import cut_box, read_rgb
-from nvrq.score_core import CropBatch
+from nvrq.scoring.core import CropBatch
 
 __all__ = ["CROP_COLUMNS", "iter_crop_batches", "read_crops", "gt_groups", "pack_groups",
            "decode_schedule", "usable_cores"]
@@ -49,10 +55,7 @@ class _Plan:
 
 
 def _plan(pairs: pd.DataFrame, *, scene_root, base, where: str, follow: bool | None = None) -> _Plan:
-    missing = [c for c in CROP_COLUMNS if c not in pairs.columns]
-    if missing:
-        raise InputError(where, f"column {missing[0]!r}", f"the columns {', '.join(CROP_COLUMNS)}",
-                         f"columns {', '.join(map(str, pairs.columns))}")
+    require_columns(pairs, CROP_COLUMNS, where=where)
     paths = {c: pair_image_paths(pairs, c, scene_root=scene_root, base=base, where=where, follow=follow)
              for c in ("gt_path", "render_path")}
     return _Plan(paths["gt_path"], paths["render_path"], pair_boxes(pairs, GT_BOX_COLUMNS, where=where),
@@ -60,7 +63,17 @@ def _plan(pairs: pd.DataFrame, *, scene_root, base, where: str, follow: bool | N
 
 
 def gt_groups(gt_paths: np.ndarray) -> list[np.ndarray]:
-    """Positions (int64) of each GT image's rows, images in first-appearance order.
+    """The rows of each GT image, images in first-appearance order.
+
+    Parameters
+    ----------
+    gt_paths : (N,) array
+        Each row's GT image.
+
+    Returns
+    -------
+    list of int64 arrays
+        Row positions per image.
 
     >>> [g.tolist() for g in gt_groups(np.array(list("abab")))]
     [[0, 2], [1, 3]]
@@ -71,8 +84,18 @@ def gt_groups(gt_paths: np.ndarray) -> list[np.ndarray]:
 
 
 def pack_groups(groups: Sequence[np.ndarray], max_pairs: int) -> list[np.ndarray]:
-    """Whole ``groups`` packed in order, up to ``max_pairs`` rows each; a group with more rows
-    than that is a pack of its own (crop batches here, Ray shards in :mod:`nvrq.engines.shards`).
+    """Whole ``groups`` packed in order (crop batches here, Ray shards in :mod:`nvrq.engines.shards`).
+
+    Parameters
+    ----------
+    groups : sequence of int arrays
+        Row groups, kept whole.
+    max_pairs : int
+        Rows per pack; a group with more rows than that is a pack of its own.
+
+    Returns
+    -------
+    list of int64 arrays
 
     >>> [p.tolist() for p in pack_groups([np.array([0, 1]), np.array([2]), np.array([3, 4, 5])], 3)]
     [[0, 1, 2], [3, 4, 5]]
@@ -164,15 +187,34 @@ def iter_crop_batches(pairs: pd.DataFrame, *, scene_root: str | os.PathLike | No
                       where: str = "pairs", follow_links: bool | None = None) -> Iterator[CropBatch]:
     """:class:`CropBatch` es covering every row of ``pairs`` once (see the module docstring).
 
-    ``pairs``: docs/FORMATS.md §3 columns (:data:`CROP_COLUMNS`; image paths relative to
-    ``scene_root`` or the ``scene_root`` column, itself relative to ``base``). A batch holds
-    whole GT images up to ``max_pairs`` pairs (more only when one image has more pairs).
-    ``background``: decode one thread ahead of the caller; ``decode_threads`` > 1: a batch's
-    images are decoded that many at a time (OpenCV releases the GIL while decoding);
-    :func:`decode_schedule` picks both for an encoder.
-    Bad columns, boxes and paths raise :class:`InputError` naming ``where`` and the row;
-    ``follow_links``: the link rule of :func:`data_schema.tables.inside_scene` (default: the
-    environment's).
+    Parameters
+    ----------
+    pairs : pandas.DataFrame
+        docs/FORMATS.md §3 columns (:data:`CROP_COLUMNS`; image paths relative to
+        ``scene_root`` or the ``scene_root`` column, itself relative to ``base``).
+    scene_root, base : path, optional
+        Where the image paths are relative to.
+    max_pairs : int
+        A batch holds whole GT images up to this many pairs (more only when one image has more).
+    background : bool
+        Decode one thread ahead of the caller.
+    decode_threads : int
+        > 1: a batch's images are decoded that many at a time (OpenCV releases the GIL while
+        decoding); :func:`decode_schedule` picks this and ``background`` for an encoder.
+    where : str
+        What errors name (the pairs file).
+    follow_links : bool, optional
+        The link rule of :func:`data_schema.tables.inside_scene` (default: the environment's).
+
+    Returns
+    -------
+    iterator of CropBatch
+
+    Raises
+    ------
+    InputError
+        For bad columns, boxes and paths, naming ``where`` and the row; naming ``max_pairs`` or
+        ``decode_threads``.
     """
     check_int("max_pairs", max_pairs)
     check_int("decode_threads", decode_threads)
@@ -190,7 +232,13 @@ def iter_crop_batches(pairs: pd.DataFrame, *, scene_root: str | os.PathLike | No
 
 
 def usable_cores() -> int:
-    """CPU cores this process may run on (its affinity mask where the OS has one)."""
+    """CPU cores this process may run on.
+
+    Returns
+    -------
+    int
+        Its affinity mask's size where the OS has one, else the machine's cores.
+    """
     try:
         return len(os.sched_getaffinity(0))
     except AttributeError:  # no affinity API (macOS, Windows)
@@ -198,8 +246,24 @@ def usable_cores() -> int:
 
 
 def decode_schedule(encoder=None, *, pixel_metrics: bool = False, cores: int | None = None) -> tuple[bool, int]:
-    """``(background, decode_threads)`` for :func:`iter_crop_batches` beside ``encoder``
-    (an :class:`~nvrq.encoders.Encoder`: its ``device`` and ``threads``).
+    """How :func:`iter_crop_batches` decodes beside ``encoder``.
+
+    Parameters
+    ----------
+    encoder : Encoder, optional
+        Its ``device`` and ``threads`` count; ``None`` without an encoder.
+    pixel_metrics : bool
+        Whether encoder-free metrics run in the caller's thread too.
+    cores : int, optional
+        Default: :func:`usable_cores`.
+
+    Returns
+    -------
+    tuple of (bool, int)
+        ``(background, decode_threads)``.
+
+    Notes
+    -----
 
     A CPU encoder whose threads take every core, alone: decode *between* encoder passes, on
     every core. Decoding beside such an encoder takes a core its thread pool waits on at each
@@ -228,8 +292,27 @@ def decode_schedule(encoder=None, *, pixel_metrics: bool = False, cores: int | N
 
 def read_crops(paths: Sequence[str | os.PathLike], boxes: np.ndarray, *,
                where: str = "crops") -> list[np.ndarray]:
-    """Crops ``boxes`` (N, 4) inclusive ``[x0, y0, x1, y1]`` of images ``paths`` (N,), as copies;
-    each image decoded once (used for GT-only crop sets, e.g. ``calibrate-tau``)."""
+    """Crops of images, each image decoded once (for GT-only crop sets, e.g. ``calibrate-tau``).
+
+    Parameters
+    ----------
+    paths : sequence of path
+        The image of each crop (N,).
+    boxes : (N, 4) int
+        Inclusive ``[x0, y0, x1, y1]``.
+    where : str
+        What errors name.
+
+    Returns
+    -------
+    list of (h, w, 3) uint8
+        Copies, in order.
+
+    Raises
+    ------
+    InputError
+        For an unreadable image or a box outside it, naming ``where`` and the row.
+    """
     paths = [os.fspath(p) for p in paths]
     boxes = np.asarray(boxes, np.int64).reshape(-1, 4)
     crops: list = [None] * len(paths)

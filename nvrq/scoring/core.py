@@ -3,14 +3,15 @@
 Every command that compares crops (``nvrq score``, ``calibrate-tau``, ``stability``, the
 ``imagenet``/``clip`` proxies), the distributed engines and the Python API
 (:mod:`nvrq.api`) run through these functions; none of them reads a file (reading crops
-from a pairs table is :mod:`nvrq.crop_batches`):
+from a pairs table is :mod:`nvrq.scoring.batches`). Which columns need what (an encoder, the GT
+crop, tau) is :mod:`nvrq.metrics.resolve`'s to say:
 
 - :func:`score_crop_batch` maps one :class:`CropBatch` to its metric columns. Full-reference
   pixel metrics compare the GT crop with the render crop bicubic-resized to the GT crop's size
-  (docs/FORMATS.md §4); no-reference metrics (``reference=False`` in :mod:`nvrq.metrics`)
+  (docs/FORMATS.md §4); no-reference metrics (``reference=False`` in :mod:`nvrq.metrics.registry`)
   score the raw render crop alone, so a batch of them needs no GT crops (``gt_crops=[]``,
   ``gt_index=None``); ``nvrq``/``nvrq_ca`` use encoder embeddings, each GT crop embedded once
-  (paper Eq. 4, 5 in :mod:`nvrq.formulas`).
+  (paper Eq. 4, 5 in :mod:`nvrq.metrics.formulas`).
 - :func:`encoder_inputs`, :func:`run_batched` and :func:`embed_crops` are the lower pieces:
   square-pad + bicubic resize of a crop list, and a model run over it ``batch_size`` at a time.
 - :func:`check_metric_args` validates the arguments once, naming the parameter.
@@ -39,21 +40,36 @@ import numpy as np
 
 from data_schema.errors import InputError, check_int
 from nvrq.crops import encoder_input, resize_to
-from nvrq.formulas import check_tau, nvrq_ca, nvrq_similarity
-from nvrq.metrics import REGISTRY, MetricInfo, split_column
+from nvrq.metrics.formulas import check_tau, nvrq_ca, nvrq_similarity
+from nvrq.metrics.resolve import (
+    column_info,
+    encoder_columns,
+    needs_tau,
+    reference_columns,
+    split_column,
+)
 
 __all__ = ["CropBatch", "score_crop_batch", "embed_crops", "encoder_inputs", "run_batched",
-           "pair_outputs", "check_metric_args", "encoder_columns", "column_info", "reference_columns",
-           "needs_tau", "column_seconds"]
+           "pair_outputs", "check_metric_args", "column_seconds"]
 
 
 @dataclass(frozen=True)
 class CropBatch:
-    """Crops of ``P`` pairs. ``rows`` (P,) int64: the pairs' positions in the pairs table;
-    ``gt_crops``: K unique GT crops (h, w, 3) uint8 RGB; ``gt_index`` (P,) int64: pair k's GT
-    crop is ``gt_crops[gt_index[k]]``; ``render_crops``: P render crops (h, w, 3) uint8 RGB.
-    Without GT (no-reference metrics only): ``gt_crops=[]`` and ``gt_index=None``.
-    ``n_images_decoded``/``decode_seconds``: image files read to build it and the time spent."""
+    """Crops of ``P`` pairs.
+
+    Attributes
+    ----------
+    rows : (P,) int64
+        The pairs' positions in the pairs table.
+    gt_crops : list of K (h, w, 3) uint8 RGB
+        The unique GT crops (``[]`` without GT: no-reference metrics only).
+    gt_index : (P,) int64 or None
+        Pair k's GT crop is ``gt_crops[gt_index[k]]`` (``None`` without GT).
+    render_crops : list of P (h, w, 3) uint8 RGB
+        The render crops.
+    n_images_decoded, decode_seconds
+        Image files read to build it and the time spent.
+    """
 
     rows: np.ndarray
     gt_crops: list[np.ndarray]
@@ -71,8 +87,20 @@ class CropBatch:
 # --- encoder inputs and model runs -------------------------------------------------------------
 
 def encoder_inputs(crops: Sequence[np.ndarray], size: int) -> np.ndarray:
-    """Encoder inputs (N, size, size, 3) uint8 of ``crops``: black square pad + bicubic resize
-    (:func:`nvrq.crops.encoder_input`, docs/FORMATS.md §4)."""
+    """Encoder inputs of ``crops``: black square pad + bicubic resize (:func:`nvrq.crops.encoder_input`,
+    docs/FORMATS.md §4).
+
+    Parameters
+    ----------
+    crops : sequence of (h, w, 3) uint8
+        RGB crops of any sizes.
+    size : int
+        The encoder's input side.
+
+    Returns
+    -------
+    (N, size, size, 3) uint8
+    """
     out = np.empty((len(crops), size, size, 3), np.uint8)
     for k, crop in enumerate(crops):
         out[k] = encoder_input(crop, size)
@@ -81,9 +109,31 @@ def encoder_inputs(crops: Sequence[np.ndarray], size: int) -> np.ndarray:
 
 def run_batched(crops: Sequence[np.ndarray], fn: Callable[[np.ndarray], np.ndarray], *, size: int,
                 batch_size: int = 32, timings: dict | None = None) -> np.ndarray:
-    """``fn`` (uint8 (B, size, size, 3) -> (B, D)) over :func:`encoder_inputs` of ``crops``,
-    ``batch_size`` crops at a time -> (N, D) (``(0, 0)`` for no crops). Adds ``prepare`` and
-    ``forward`` seconds to ``timings``."""
+    """A model over the encoder inputs of ``crops``, ``batch_size`` crops at a time.
+
+    Parameters
+    ----------
+    crops : sequence of (h, w, 3) uint8
+        The crops, in order.
+    fn : callable
+        uint8 (B, size, size, 3) -> (B, D), e.g. an encoder's ``embed``.
+    size : int
+        The side :func:`encoder_inputs` resizes to.
+    batch_size : int
+        Crops per call of ``fn``.
+    timings : dict, optional
+        Gains ``prepare`` (input building) and ``forward`` (``fn``) seconds.
+
+    Returns
+    -------
+    (N, D) array
+        ``(0, 0)`` for no crops.
+
+    Raises
+    ------
+    InputError
+        Naming ``batch_size`` unless it is a positive integer.
+    """
     check_int("batch_size", batch_size)
     times = timings if timings is not None else {}
     parts = []
@@ -100,8 +150,21 @@ def run_batched(crops: Sequence[np.ndarray], fn: Callable[[np.ndarray], np.ndarr
 
 def pair_outputs(batch: CropBatch, fn: Callable[[np.ndarray], np.ndarray], *, size: int,
                  batch_size: int = 32, timings: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """``(out_gt, out_render)``, each (P, D): ``fn`` (see :func:`run_batched`) of pair k's GT crop
-    and render crop; every GT crop of the batch is run once."""
+    """The model outputs of each pair's GT crop and render crop; every GT crop of the batch is
+    run once (then indexed by ``batch.gt_index``).
+
+    Parameters
+    ----------
+    batch : CropBatch
+        Crops with GT.
+    fn, size, batch_size, timings
+        As :func:`run_batched`.
+
+    Returns
+    -------
+    tuple of two (P, D) arrays
+        ``(out_gt, out_render)``: row k for pair k.
+    """
     k = len(batch.gt_crops)
     out = run_batched([*batch.gt_crops, *batch.render_crops], fn, size=size, batch_size=batch_size,
                       timings=timings)
@@ -110,8 +173,28 @@ def pair_outputs(batch: CropBatch, fn: Callable[[np.ndarray], np.ndarray], *, si
 
 def embed_crops(crops: Sequence[np.ndarray], encoder, *, batch_size: int = 32,
                 timings: dict | None = None) -> np.ndarray:
-    """Embeddings (N, D) of ``crops`` (each (h, w, 3) uint8 RGB) by ``encoder``
-    (``encoder.embed(uint8 (B, S, S, 3)) -> (B, D)``, ``S = encoder.spec.input_size``)."""
+    """Embeddings of ``crops`` by ``encoder`` (:func:`run_batched` of ``encoder.embed``).
+
+    Parameters
+    ----------
+    crops : sequence of (h, w, 3) uint8 RGB
+        Crops of any sizes.
+    encoder : Encoder
+        ``encoder.embed(uint8 (B, S, S, 3)) -> (B, D)``, ``S = encoder.spec.input_size``.
+    batch_size : int
+        Crops per forward pass.
+    timings : dict, optional
+        See :func:`run_batched`.
+
+    Returns
+    -------
+    (N, D) float array
+
+    Raises
+    ------
+    InputError
+        Naming ``encoder`` when it is None, or ``batch_size``.
+    """
     if encoder is None:
         raise InputError("encoder", None, "a loaded encoder", None)
     return run_batched(crops, encoder.embed, size=encoder.spec.input_size, batch_size=batch_size,
@@ -120,39 +203,22 @@ def embed_crops(crops: Sequence[np.ndarray], encoder, *, batch_size: int = 32,
 
 # --- the pure per-batch scorer -----------------------------------------------------------------
 
-def column_info(column: str) -> MetricInfo:
-    """The registry entry computing metric column ``column`` (a ``members`` family resolves its
-    member, e.g. ``pyiqa:lpips``); :class:`InputError` naming ``metrics`` when there is none."""
-    family, member = split_column(str(column))
-    info = REGISTRY.get(family)
-    if info is None or info.kind != "metric":
-        known = ", ".join(sorted(n for n, i in REGISTRY.items() if i.kind == "metric"))
-        raise InputError("metrics", None, f"metric columns among {known}", column)
-    if info.members is not None:
-        if member is None:
-            raise InputError("metrics", column, f"{family}:NAME", column)
-        return info.members(member)
-    return info
-
-
-def reference_columns(metrics: Sequence[str]) -> list[str]:
-    """The columns of ``metrics`` that need the GT crop (full-reference and encoder metrics).
-
-    >>> reference_columns(["psnr", "niqe", "nvrq:e", "entropy"])
-    ['psnr', 'nvrq:e']
-    """
-    return [m for m in metrics if column_info(m).needs_encoder or column_info(m).reference]
-
-
-def encoder_columns(metrics: Sequence[str]) -> list[str]:
-    """The columns of ``metrics`` that need an encoder (``nvrq:*``, ``nvrq_ca:*``)."""
-    return [m for m in metrics if REGISTRY[split_column(m)[0]].needs_encoder]
-
-
 def column_seconds(columns: Sequence[str], model_columns, timings: dict) -> list[float]:
-    """Seconds per column of ``timings`` (the keys in the module docstring, plus ``decode``):
-    the shared decode plus the column's own calls, or, for one of ``model_columns``, all
-    model input preparation and passes (``prepare + forward``).
+    """Seconds per column: the shared decode plus the column's own calls, or, for one of
+    ``model_columns``, all model input preparation and passes (``prepare + forward``).
+
+    Parameters
+    ----------
+    columns : sequence of str
+        The columns, in the order wanted.
+    model_columns : collection of str
+        The columns a model computes.
+    timings : dict
+        Seconds by key (the keys in the module docstring, plus ``decode``).
+
+    Returns
+    -------
+    list of float
 
     >>> column_seconds(["psnr", "nvrq:e"], {"nvrq:e"}, {"decode": 1.0, "psnr": 0.5, "forward": 2.0})
     [1.5, 3.0]
@@ -162,17 +228,25 @@ def column_seconds(columns: Sequence[str], model_columns, timings: dict) -> list
     return [decode + (model if c in model_columns else float(timings.get(c, 0.0))) for c in columns]
 
 
-def needs_tau(metrics: Sequence[str]) -> bool:
-    """Whether ``metrics`` hold an NVRQ-CA column (which needs the knee ``tau``).
-
-    >>> needs_tau(["psnr", "nvrq:e"]), needs_tau(["nvrq_ca:e"])
-    (False, True)
-    """
-    return any(split_column(m)[0] == "nvrq_ca" for m in metrics)
-
-
 def check_metric_args(metrics: Sequence[str], *, encoder=None, tau=None, batch_size: int = 32) -> None:
-    """Validate :func:`score_crop_batch`'s arguments; :class:`InputError` names the parameter."""
+    """Validate :func:`score_crop_batch`'s arguments once, before any crop is read.
+
+    Parameters
+    ----------
+    metrics : sequence of str
+        Metric columns, at least one.
+    encoder : optional
+        Needed (not None) for encoder columns; a loader standing for one will do.
+    tau : float, optional
+        Checked (:func:`nvrq.metrics.check_tau`) when a column is NVRQ-CA.
+    batch_size : int
+        A positive integer.
+
+    Raises
+    ------
+    InputError
+        Naming the parameter that is wrong.
+    """
     for m in metrics:
         column_info(m)
     if not metrics:
@@ -189,9 +263,9 @@ def _pixel_columns(batch: CropBatch, names: list[str], times: dict) -> dict[str,
     """Encoder-free metrics (P,) per name: a full-reference one compares the GT crop with the
     render crop resized to the GT crop's size; a no-reference one scores the raw render crop."""
     out = {name: np.empty(len(batch.render_crops)) for name in names}
-    infos = {name: column_info(name) for name in names}
-    full = {n: i.fn for n, i in infos.items() if i.reference}
-    blind = {n: i.fn for n, i in infos.items() if not i.reference}
+    with_gt = set(reference_columns(names))
+    full = {n: column_info(n).fn for n in names if n in with_gt}
+    blind = {n: column_info(n).fn for n in names if n not in with_gt}
     for k, crop in enumerate(batch.render_crops):
         for name, fn in blind.items():
             t0 = time.perf_counter()
@@ -209,12 +283,33 @@ def _pixel_columns(batch: CropBatch, names: list[str], times: dict) -> dict[str,
 
 def score_crop_batch(batch: CropBatch, *, metrics: Sequence[str], encoder=None, tau=None,
                      batch_size: int = 32, timings: dict | None = None) -> dict[str, np.ndarray]:
-    """Metric columns ``{column: (P,) float64}`` of one :class:`CropBatch`, in ``metrics`` order.
+    """The metric columns of one :class:`CropBatch`.
 
-    ``metrics``: column names as :func:`nvrq.scoring.resolve_metrics` gives them; ``encoder``
-    for ``nvrq:*``/``nvrq_ca:*`` (GT crops embedded once each, ``batch_size`` crops per pass);
-    ``tau`` in (0, 1) for ``nvrq_ca:*``. Per-stage seconds are added to ``timings``. A batch
-    without GT crops (``gt_crops=[]``) takes only no-reference metrics.
+    Parameters
+    ----------
+    batch : CropBatch
+        The crops. A batch without GT crops (``gt_crops=[]``) takes only no-reference metrics.
+    metrics : sequence of str
+        Column names as :func:`nvrq.metrics.resolve_metrics` gives them.
+    encoder : Encoder, optional
+        For ``nvrq:*``/``nvrq_ca:*``: GT crops embedded once each, ``batch_size`` crops per pass.
+    tau : float, optional
+        In (0, 1), for ``nvrq_ca:*``.
+    batch_size : int
+        Crops per encoder pass.
+    timings : dict, optional
+        Gains the per-stage seconds (module docstring).
+
+    Returns
+    -------
+    dict
+        ``{column: (P,) float64}`` in ``metrics`` order.
+
+    Raises
+    ------
+    InputError
+        Naming the parameter (:func:`check_metric_args`), or ``gt_crops`` when reference
+        metrics get none.
     """
     metrics = list(metrics)
     check_metric_args(metrics, encoder=encoder, tau=tau, batch_size=batch_size)

@@ -2,7 +2,7 @@
 
 As MATLAB's ``piqe`` (Image Processing Toolbox) computes it, vectorised over blocks:
 
-1. grey: MATLAB ``rgb2gray`` (:func:`~nvrq.nr_metrics._common.rgb2gray_matlab`); the crop is
+1. grey: MATLAB ``rgb2gray`` (:func:`~nvrq.metrics.no_reference._common.rgb2gray_matlab`); the crop is
    padded (``'symmetric'``, bottom/right) to whole 16x16 blocks and scaled to
    ``round(255 * I / max(I))``;
 2. MSCN ``(I - mu) / (sigma + 1)``, 7x7 Gaussian window (sigma 7/6), replicated borders;
@@ -30,7 +30,7 @@ import math
 import cv2
 import numpy as np
 
-from nvrq.nr_metrics._common import check_rgb, rgb2gray_matlab
+from nvrq.metrics.no_reference._common import check_rgb, rgb2gray_matlab
 
 __all__ = ["piqe", "piqe_blocks", "MIN_SIDE", "BLOCK"]
 
@@ -52,7 +52,19 @@ def _normalised(grey: np.ndarray) -> np.ndarray:
 
 
 def piqe_blocks(render: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Per 16x16 block (n,), row-major: MSCN variance, active, noticeable-artifact and noise flags."""
+    """PIQE's block statistics (module docstring).
+
+    Parameters
+    ----------
+    render : (H, W, 3) uint8
+        An RGB crop.
+
+    Returns
+    -------
+    tuple of four (n,) arrays
+        Per 16x16 block, row-major: MSCN variance, and the active, noticeable-artifact and
+        noise flags.
+    """
     grey = rgb2gray_matlab(render)
     if grey.max() == 0:  # all black: MATLAB's 0/0 leaves no active block
         n = (-(-grey.shape[0] // BLOCK)) * (-(-grey.shape[1] // BLOCK))
@@ -77,8 +89,23 @@ def piqe_blocks(render: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray,
 
 
 def piqe(render: np.ndarray) -> float:
-    """PIQE of a uint8 (H, W, 3) RGB crop in [0, 100]; NaN if the shorter side is below
-    :data:`MIN_SIDE` (module docstring)."""
+    """PIQE of the render crop, as MATLAB's ``piqe`` (module docstring).
+
+    Parameters
+    ----------
+    render : (H, W, 3) uint8
+        The render crop, used at its own size.
+
+    Returns
+    -------
+    float
+        In [0, 100], lower is better; NaN if the shorter side is below :data:`MIN_SIDE`.
+
+    Raises
+    ------
+    InputError
+        Unless ``render`` is a uint8 (H, W, 3) RGB array.
+    """
     if min(check_rgb(render).shape[:2]) < MIN_SIDE:
         return math.nan
     var, active, artifact, noise = piqe_blocks(render)

@@ -17,6 +17,7 @@ from functools import cache, partial
 import numpy as np
 
 from data_schema.errors import InputError
+from nvrq.metrics.info import MetricInfo
 
 __all__ = ["metric_entry", "require_pyiqa", "INSTALL_HINT"]
 
@@ -25,7 +26,23 @@ INSTALL_HINT = ("pyiqa installed for pyiqa: metrics (pip install pyiqa torchvisi
 
 
 def require_pyiqa(column: str):
-    """The ``pyiqa`` module, or one-line InputError naming ``column`` and what to install."""
+    """The ``pyiqa`` module.
+
+    Parameters
+    ----------
+    column : str
+        The column that needs it (named in the error).
+
+    Returns
+    -------
+    module
+        ``pyiqa``.
+
+    Raises
+    ------
+    InputError
+        One line naming ``column`` and what to install, when pyiqa cannot be imported.
+    """
     try:
         return importlib.import_module("pyiqa")
     except ImportError as exc:
@@ -70,10 +87,24 @@ def _score(name: str, *crops: np.ndarray) -> float:
 
 @cache
 def metric_entry(name: str):
-    """The :class:`nvrq.metrics.MetricInfo` of the column ``pyiqa:NAME``; one-line InputError when
-    pyiqa is missing or does not know ``name`` (the message says how to list its names)."""
-    from nvrq.metrics import MetricInfo
+    """The registry entry of the column ``pyiqa:NAME`` (the ``pyiqa`` family's ``members``).
 
+    Parameters
+    ----------
+    name : str
+        A PyIQA metric name (``pyiqa.list_models()``).
+
+    Returns
+    -------
+    MetricInfo
+        Direction and full/no reference as PyIQA declares them; ``fn`` scores one crop or pair.
+
+    Raises
+    ------
+    InputError
+        One line naming the column when pyiqa is not installed or does not know ``name`` (the
+        message says how to list its names). Any other failure of pyiqa propagates.
+    """
     column = f"pyiqa:{name}"
     pyiqa = require_pyiqa(column)
     known = list(pyiqa.list_models())

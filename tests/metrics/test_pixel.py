@@ -4,17 +4,16 @@ from __future__ import annotations
 
 import math
 
-import cv2
 import numpy as np
 import pytest
 from scipy.signal import convolve2d
 from skimage.metrics import mean_squared_error, peak_signal_noise_ratio, structural_similarity
 from skimage.transform import downscale_local_mean
 
-from nvrq import pixel_metrics as P
-from nvrq.metrics import direction, metric_info
+from nvrq.metrics import column_info, direction
+from nvrq.metrics import pixel as P
 
-from .conftest import smooth_image
+from ..scoring.conftest import smooth_image
 
 
 def _pair(seed, h, w, noise=12.0):
@@ -127,25 +126,4 @@ def test_ms_ssim_is_defined_from_11_px_and_falls_with_noise():
 
 def test_registry_directions():
     assert direction("psnr") is True and direction("gmsd") is False and direction("mse") is False
-    assert metric_info("ssim").fn is P.ssim and not metric_info("psnr").needs_encoder
-
-
-def test_render_resized_to_gt_size_in_scoring(tiny_scene):
-    # score_pairs cuts both crops and bicubic-resizes the render crop to the GT size; redo it
-    # by hand with OpenCV + scikit-image for one pair whose boxes differ in size.
-    from nvrq.scoring import score_pairs
-
-    root, pairs = tiny_scene
-    pairs = pairs.iloc[[4]].copy()
-    pairs["r_x1"] += 7  # render box 7 px wider than the GT box
-    res = score_pairs(pairs, metrics=["psnr", "ssim"], progress=False)
-    row = pairs.iloc[0]
-    gt_img = cv2.cvtColor(cv2.imread(str(root / row.gt_path)), cv2.COLOR_BGR2RGB)
-    r_img = cv2.cvtColor(cv2.imread(str(root / row.render_path)), cv2.COLOR_BGR2RGB)
-    gt = gt_img[row.gt_y0:row.gt_y1 + 1, row.gt_x0:row.gt_x1 + 1]
-    rc = r_img[row.r_y0:row.r_y1 + 1, row.r_x0:row.r_x1 + 1]
-    rc = cv2.resize(rc, (gt.shape[1], gt.shape[0]), interpolation=cv2.INTER_CUBIC)
-    assert res.table["psnr"].iloc[0] == pytest.approx(peak_signal_noise_ratio(gt, rc, data_range=255))
-    assert res.table["ssim"].iloc[0] == pytest.approx(structural_similarity(
-        gt, rc, channel_axis=-1, data_range=255, gaussian_weights=True, sigma=1.5,
-        use_sample_covariance=False), abs=1e-7)
+    assert column_info("ssim").fn is P.ssim and not column_info("psnr").needs_encoder

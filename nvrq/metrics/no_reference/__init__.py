@@ -11,9 +11,9 @@ metric is undefined for that crop, e.g. too small; see each module). Lower is be
 - :func:`entropy` -- MATLAB's ``entropy`` of the grey crop.
 """
 
-from nvrq.nr_metrics.brisque import brisque
-from nvrq.nr_metrics.entropy import entropy
-from nvrq.nr_metrics.niqe import niqe
-from nvrq.nr_metrics.piqe import piqe
+from nvrq.metrics.no_reference.brisque import brisque
+from nvrq.metrics.no_reference.entropy import entropy
+from nvrq.metrics.no_reference.niqe import niqe
+from nvrq.metrics.no_reference.piqe import piqe
 
 __all__ = ["brisque", "niqe", "piqe", "entropy"]

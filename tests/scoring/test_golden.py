@@ -1,0 +1,168 @@
+"""The golden metrics table: ``nvrq score``, the Python API and the Ray engine give, byte for byte,
+the table kept in ``tests/scoring/data/golden/metrics.csv`` on a small synthetic scene.
+
+The scene is not stored: ``nvrq synth`` regenerates it (byte-deterministic for a seed; the image
+hashes in ``scene.sha256`` tell a changed scene from a changed scorer). The golden table was
+written by ``nvrq score`` (command in ``golden.json``) before issue 26 moved the scoring modules;
+it pins every encoder-free metric and NVRQ / NVRQ-CA on the offline ``efficientnet-lite0``
+(torch runtime, 2 torch threads: the encoder's float sums depend on the thread count and on the
+pass sizes, so the three paths run the same passes with the same threads). A deliberate change
+of a metric regenerates its column (``python tests/scoring/test_golden.py --write``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from PIL import Image
+
+from data_schema.tables import write_table
+from nvrq.cli import main
+
+DATA = Path(__file__).parent / "data" / "golden"
+SPEC = json.loads((DATA / "golden.json").read_text(encoding="utf-8"))
+ENCODER = SPEC["encoder"]
+THREADS = SPEC["threads"]
+
+
+def _scene_files(scene: Path) -> str:
+    """``sha256  path`` lines of every file of the scene folder (sorted)."""
+    return "".join(f"{hashlib.sha256(p.read_bytes()).hexdigest()}  {p.relative_to(scene).as_posix()}\n"
+                   for p in sorted(scene.rglob("*")) if p.is_file())
+
+
+def _make_scene(root: Path) -> tuple[Path, Path]:
+    scene, pairs = root / "scene", root / "pairs.csv"
+    assert main(["synth", str(scene), *SPEC["synth"], "--quiet"]) == 0
+    assert main(["pairs", str(scene), "--out", str(pairs), *SPEC["pairs"], "--quiet"]) == 0
+    return scene, pairs
+
+
+@pytest.fixture(scope="module")
+def scene(tmp_path_factory):
+    """The regenerated scene folder and its pairs table; the scene's bytes are the recorded ones."""
+    scene, pairs = _make_scene(tmp_path_factory.mktemp("golden"))
+    assert _scene_files(scene) == (DATA / "scene.sha256").read_text(encoding="utf-8")
+    return scene, pairs
+
+
+@pytest.fixture
+def torch_threads(monkeypatch, tmp_path):
+    """The golden's torch thread count, restored afterwards; no user tau config (the registry's tau)."""
+    torch = pytest.importorskip("torch")
+    monkeypatch.setenv("NVRQ_CONFIG", str(tmp_path / "no-tau-config.json"))
+    old = torch.get_num_threads()
+    torch.set_num_threads(THREADS)
+    yield
+    torch.set_num_threads(old)
+
+
+def _csv_bytes(table: pd.DataFrame, path: Path) -> bytes:
+    """``table`` written as ``nvrq score`` writes a CSV (:func:`data_schema.tables.write_table`)."""
+    write_table(table, path)
+    return path.read_bytes()
+
+
+def _golden() -> bytes:
+    return (DATA / "metrics.csv").read_bytes()
+
+
+def _score_args(pairs: Path, out: Path) -> list[str]:
+    return ["score", str(pairs), "--out", str(out), "--metrics", ",".join(SPEC["metrics"]),
+            "--encoder", ENCODER, "--runtime", SPEC["runtime"], "--threads", str(THREADS), "--quiet"]
+
+
+def test_golden_scene_defines_every_metric_somewhere():
+    table = pd.read_csv(DATA / "metrics.csv")
+    columns = [c for c in table.columns if c != "pair_id"]
+    assert len(table) >= 30 and len(columns) == len(SPEC["metrics"])
+    assert all(table[c].notna().any() for c in columns), table.notna().sum()
+
+
+def test_nvrq_score_gives_the_golden_table(scene, torch_threads, tmp_path):
+    _, pairs = scene
+    assert main(_score_args(pairs, tmp_path / "metrics.csv")) == 0
+    assert (tmp_path / "metrics.csv").read_bytes() == _golden()
+
+
+def _rgb(path: Path) -> np.ndarray:
+    return np.asarray(Image.open(path).convert("RGB"))  # PNG: Pillow decodes the same pixels as OpenCV
+
+
+def test_python_api_gives_the_golden_table(scene, torch_threads, tmp_path):
+    import nvrq
+
+    root, pairs_path = scene
+    pairs = pd.read_csv(pairs_path)
+    images: dict[str, np.ndarray] = {}
+    gt_crops: dict[tuple, np.ndarray] = {}  # one array per GT crop: the API embeds it once, as nvrq score
+    gts, renders = [], []
+    for row in pairs.itertuples(index=False):
+        for rel in (row.gt_path, row.render_path):
+            if rel not in images:
+                images[rel] = _rgb(root / rel)
+        key = (row.gt_path, row.gt_x0, row.gt_y0, row.gt_x1, row.gt_y1)
+        if key not in gt_crops:
+            gt_crops[key] = images[row.gt_path][row.gt_y0:row.gt_y1 + 1, row.gt_x0:row.gt_x1 + 1]
+        gts.append(gt_crops[key])
+        renders.append(images[row.render_path][row.r_y0:row.r_y1 + 1, row.r_x0:row.r_x1 + 1])
+    # the same encoder passes as nvrq score: its crop batches are the first GT image's pairs, then
+    # the other images' pairs, grouped by image in first-appearance order (nvrq.scoring.batches),
+    # each batch run as its GT crops then its render crops, 32 crops per pass
+    codes = pd.factorize(pairs["gt_path"])[0]
+    order = np.argsort(codes, kind="stable")
+    batches = [order[codes[order] == 0], order[codes[order] > 0]]
+    ev = nvrq.Evaluator(metrics=SPEC["metrics"], encoder=ENCODER, runtime=SPEC["runtime"])
+    parts = [ev.score_crops([gts[i] for i in idx], [renders[i] for i in idx]) for idx in batches]
+    table = pd.concat(parts, ignore_index=True).set_axis(np.concatenate(batches)).sort_index()
+    table.insert(0, "pair_id", pairs["pair_id"].to_numpy())
+    assert _csv_bytes(table, tmp_path / "api.csv") == _golden()
+
+
+@pytest.mark.slow  # starts a local Ray instance
+def test_ray_engine_gives_the_golden_table(scene, torch_threads, tmp_path):
+    ray = pytest.importorskip("ray")
+    import os
+
+    from data_schema import datasets as ds
+
+    os.environ.setdefault("RAY_AUTH_MODE", "disabled")
+    # 2 CPUs: one encoder actor with 2 torch threads (nvrq.engines.ray_engine), as the golden
+    ray.init(num_cpus=THREADS, include_dashboard=False, log_to_driver=False)
+    try:
+        _, pairs = scene
+        args = _score_args(pairs, tmp_path / "ray")
+        assert main([*args[:args.index("--threads")], "--quiet", "--engine", "ray"]) == 0
+    finally:
+        ray.shutdown()
+    table = ds.read_dataset(tmp_path / "ray").drop(columns="clip_id")
+    assert _csv_bytes(table, tmp_path / "ray.csv") == _golden()
+
+
+def write_golden(root: Path) -> None:
+    """Regenerate the scene hashes and the golden table (after a deliberate change of a metric)."""
+    import os
+
+    import torch
+
+    os.environ["NVRQ_CONFIG"] = str(root / "no-tau-config.json")  # the registry's tau
+    scene, pairs = _make_scene(root)
+    (DATA / "scene.sha256").write_text(_scene_files(scene), encoding="utf-8")
+    torch.set_num_threads(THREADS)
+    assert main(_score_args(pairs, DATA / "metrics.csv")) == 0
+    (DATA / "metrics.timing.csv").unlink()
+
+
+if __name__ == "__main__":
+    import tempfile
+
+    if sys.argv[1:] != ["--write"]:
+        sys.exit("usage: python tests/scoring/test_golden.py --write")
+    with tempfile.TemporaryDirectory() as tmp:
+        write_golden(Path(tmp))
