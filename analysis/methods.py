@@ -85,7 +85,6 @@ LEADERBOARD_COLUMNS = ["rank", "method", "metric", "n", "mean", "ci_lo", "ci_hi"
                        "next", "p_holm_vs_next", "better_than_next"]
 #: Significance level of ``better`` and of the leaderboard's "better than the next".
 ALPHA = 0.05
-_CHUNK_CELLS = 8_000_000  # bootstrap replicates x tracks per matrix product
 
 
 @dataclass
@@ -209,7 +208,7 @@ def _replicate_means(v, ok, groups, n_groups, clusters, counts):
     s = np.bincount(cell, weights=x, minlength=n_groups * k).reshape(n_groups, k)
     w = np.bincount(cell, minlength=n_groups * k).reshape(n_groups, k).astype(np.float64)
     reps = np.empty((counts.shape[0], n_groups))
-    step = max(1, _CHUNK_CELLS // max(1, k))
+    step = max(1, bs.CHUNK_CELLS // max(1, k))
     for b0 in range(0, counts.shape[0], step):
         cb = counts[b0:b0 + step].astype(np.float64)
         with np.errstate(invalid="ignore", divide="ignore"):
