@@ -150,7 +150,7 @@ def p_choice(delta, *, tie: float, width: float, lapse: float):
 def simulate(study, *, raters: int = 5, seed: int = 0, progress: bool = True) -> pd.DataFrame:
     """Let ``raters`` simulated raters (the last careless) rate the study; returns their params."""
     if raters < 1:
-        raise InputError("raters", None, "an integer >= 1", raters)
+        raise InputError(param="raters", expected="an integer >= 1", got=raters)
     pairwise = study.design == "pairwise"
     sev = pairwise_severity(study) if pairwise else item_severity(study)
     # the same store file and code path; NORMAL sync: simulated votes need not survive a power cut

@@ -149,7 +149,7 @@ def _nuisance_crop(name: str, s, *, o: int, row, gts: list, r, image: _Images, b
         return jpeg_roundtrip(gts[o], int(round(100 - s)))
     if name == "view_shift":
         return _view_shift(row, by_track[(row["clip_id"], row["camera"], row["track_id"])], s, image)
-    raise InputError("nuisances", name, f"one of {', '.join(NUISANCE_STRENGTHS)}", name)
+    raise InputError(param="nuisances", field=name, expected=f"one of {', '.join(NUISANCE_STRENGTHS)}", got=name)
 
 
 def _object_samples(o: int, row, *, seed: int, gts: list, nuisances: dict, artefact_strengths,
@@ -281,7 +281,7 @@ def _check_study_args(*, n_objects: int, min_side: int) -> None:
     """``n_objects >= 2`` (occlusion borrows another object), ``min_side >= 1``; else InputError."""
     for name, value, low in (("n_objects", n_objects, 2), ("min_side", min_side, 1)):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-            raise InputError(name, None, f"an integer >= {low}", value)
+            raise InputError(param=name, expected=f"an integer >= {low}", got=value)
 
 
 def run_stability(
