@@ -13,6 +13,13 @@ axis; raters never see which (items are opaque).
   strata are visited round-robin in a seeded random order, one random track each visit.
 - :func:`spread_frames`: ``k`` frames evenly along the track (by time), first and last
   included.
+- :func:`pick_training`: the training items, outside the test set, offsets from small to large.
+
+The two study designs, good/bad votes (:class:`annotate.binary.BinaryDesign`) and which of two
+methods (:class:`annotate.pairwise.PairwiseDesign`), are two implementations of
+:class:`Design`: ``annotate build`` (:func:`annotate.study.build_study`) checks its options into
+one frozen :class:`StudyOptions`, lets the design choose the items (a :class:`Choice`), checks
+the images they need, cuts their crops and adds the design's manifest keys.
 
 >>> spread_frames(10, 4)
 [0, 3, 6, 9]
@@ -21,6 +28,11 @@ axis; raters never see which (items are opaque).
 """
 
 from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 import pandas as pd
@@ -38,7 +50,7 @@ from data_schema.perturbation import (
 from data_schema.tables import PAIRS_COLUMNS, offset_cm, parse_offsets
 
 __all__ = ["choose_offsets", "choose_views", "attribute_columns", "usable_frames", "choose_tracks",
-           "spread_frames", "select_test_pairs"]
+           "spread_frames", "select_test_pairs", "pick_training", "StudyOptions", "Choice", "Design"]
 
 _EXTRA_NON_ATTRIBUTES = ("scene_root", *VIEW_COLUMNS, METHOD_COLUMN)
 
@@ -65,8 +77,8 @@ def choose_offsets(spec: str, available) -> list[float]:
         chosen = sorted(set(offset_cm(parse_offsets(spec, field="offsets")).tolist()))
         missing = [c for c in chosen if c not in have]
         if missing or not chosen:
-            raise InputError("offsets", None,
-                             f"offsets present in the pairs table ({[h / 100 for h in have]})", spec)
+            raise InputError(param="offsets", expected=f"offsets present in the pairs table ({[h / 100 for h in have]})",
+                             got=spec)
     return [c / 100 for c in chosen]
 
 
@@ -169,3 +181,120 @@ def select_test_pairs(pairs: pd.DataFrame, *, offsets: list[float], n_tracks: in
     order = ["y_offset_m", *[c for c in EXTRA_PERTURBATION_COLUMNS if c in sel.columns]]
     return sel.sort_values(["clip_id", "track_id", "timestamp_us", "camera", *order], kind="stable"
                            ).reset_index(drop=True), record
+
+
+def pick_training(pairs: pd.DataFrame, tests: pd.DataFrame, n: int,
+                  rng: np.random.Generator) -> pd.DataFrame:
+    """The training items of a study: ``n`` rows of ``pairs`` outside the test set (else from
+    it), their offsets spread from small to large.
+
+    Parameters
+    ----------
+    pairs : pandas.DataFrame
+        The candidates (``pair_id``, ``y_offset_m``): pairs, or one row per object view.
+    tests : pandas.DataFrame
+        The chosen test rows (``pair_id``).
+    n : int
+        How many (fewer when there are fewer candidates).
+    rng : numpy.random.Generator
+        Breaks ties between equal offsets.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The chosen rows of ``pairs``, by increasing ``|y_offset_m|``.
+    """
+    pool = pairs[~pairs["pair_id"].isin(set(tests["pair_id"]))]
+    if pool.empty:
+        pool = tests
+    n = min(n, len(pool))
+    if n == 0:
+        return pool.iloc[:0]
+    order = pool.assign(_a=pool["y_offset_m"].abs(), _r=rng.random(len(pool))).sort_values(["_a", "_r"])
+    idx = np.round(np.linspace(0, len(order) - 1, n)).astype(int)
+    return order.iloc[sorted(set(idx.tolist()))].drop(columns=["_a", "_r"])
+
+
+@dataclass(frozen=True)
+class StudyOptions:
+    """The options of ``annotate build`` (:func:`annotate.study.build_study`), checked there.
+
+    ``offsets``: ``'all'`` or a comma list of lateral offsets (:func:`choose_views`);
+    ``methods``: the comma list of methods a pairwise study compares (None: every method of
+    the pairs table); ``metrics_paths``: the metrics tables joined on ``pair_id``. The rest are
+    the counts of the design (tracks, frames per track, training, gold and repeat items),
+    votes per item, the seed, the display size and format, the access mode, the break
+    interval and the design's name.
+    """
+
+    tracks: int = 12
+    frames_per_track: int = 12
+    offsets: str = "all"
+    votes_per_item: int = 5
+    seed: int = 0
+    n_training: int = 5
+    n_gold: int = 3
+    n_repeats: int = 5
+    size: int = 320
+    image_format: str = "jpg"
+    access: str = "open"
+    break_every: int = 50
+    design: str = "binary"
+    methods: str | None = None
+    scene: str | None = None
+    metrics_paths: tuple = ()
+
+
+@dataclass(frozen=True)
+class Choice:
+    """The items a design chose (:meth:`Design.choose_items`).
+
+    ``pairs``: the pairs table the items come from (with the 6-DoF columns of
+    :func:`data_schema.perturbation.with_perturbation_columns` when it has views); ``rows``:
+    one per item in items.csv order, in the design's own form; ``offsets``: the chosen offsets
+    in metres (lateral-only pairs) or view labels; ``tracks``: the per-track record of the
+    chosen tracks and frames (manifest ``tracks``); ``view_columns``: the view columns items
+    carry (``[]`` for lateral-only pairs); ``method_columns``: ``['method']`` when each item
+    shows one method's render of multi-method pairs; ``methods``: the methods a pairwise study
+    compares.
+    """
+
+    pairs: pd.DataFrame
+    rows: list
+    offsets: list
+    tracks: list
+    view_columns: list
+    method_columns: list = field(default_factory=list)
+    methods: list = field(default_factory=list)
+
+
+class Design(Protocol):
+    """A study design: what ``annotate build`` asks of it (module docstring).
+
+    ``name``: the manifest's ``design``; ``votes``: the stored vote values and their meaning
+    (:class:`annotate.store.Store`); ``crops_per_item``: the display crops of an item, each
+    named by one opaque id.
+    """
+
+    name: str
+    votes: dict
+    crops_per_item: int
+
+    def choose_items(self, pairs: pd.DataFrame, rng: np.random.Generator, opts: StudyOptions, *,
+                     where: str) -> Choice:
+        """The items of the study from the checked pairs table (``_root``, ``_row`` columns)."""
+        ...
+
+    def needed_images(self, rows) -> Iterator[tuple[object, str]]:
+        """``(pairs record, column)`` of every image the items show."""
+        ...
+
+    def cut_crops(self, choice: Choice, folder: Path, *, ids: list[str], rng: np.random.Generator,
+                  image, opts: StudyOptions, where: str, progress: bool) -> pd.DataFrame:
+        """Write the items' crops into ``folder/crops`` (file names from ``ids``, in order);
+        the items table. ``image(record, column)`` reads a pairs row's image."""
+        ...
+
+    def manifest_extras(self, choice: Choice) -> dict:
+        """Keys the design adds at the end of the manifest."""
+        ...
