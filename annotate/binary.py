@@ -17,6 +17,7 @@ Items of a multi-method pairs table carry the ``method`` of their render.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -106,7 +107,7 @@ class BinaryDesign:
         return Choice(pairs=pairs, rows=rows, offsets=chosen_offsets, tracks=record,
                       view_columns=view_cols, method_columns=method_columns(pairs))
 
-    def needed_images(self, rows):
+    def needed_images(self, rows) -> Iterator[tuple[object, str]]:
         """``(pairs record, column)`` of every image the items show: the GT image, and the
         render unless the item is gold (its second crop is made from the GT crop)."""
         for r in rows:

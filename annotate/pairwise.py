@@ -30,6 +30,7 @@ binary study. The votes store the side pressed: 1 left, 2 right, 0 can't tell (t
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from itertools import combinations
 from pathlib import Path
 
@@ -202,7 +203,7 @@ class PairwiseDesign:
         return Choice(pairs=pairs, rows=rows, offsets=chosen_offsets, tracks=record,
                       view_columns=view_cols, methods=methods)
 
-    def needed_images(self, rows):
+    def needed_images(self, rows) -> Iterator[tuple[object, str]]:
         """``(pairs record, column)`` of every image the items ``rows`` show: the GT crop's
         image and the renders of A (unless it is the GT crop) and B."""
         for r in rows:

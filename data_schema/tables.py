@@ -81,10 +81,11 @@ PAIRS_COLUMNS = (
 #: docs/FORMATS.md §5, the pair metadata carried into ratings.csv (attributes follow).
 PAIR_META_COLUMNS = ("clip_id", "camera", "track_id", "label_class", "timestamp_us", "y_offset_m")
 
-#: docs/FORMATS.md §3, §11-12: the columns that, with the view (the perturbation columns of
-#: :mod:`data_schema.perturbation`), name one object seen from one view, an *object view*: the
-#: key on which the renders of several methods are paired. Its id is the pair id without a
-#: method (:func:`pair_ids`), its view compared at the 0.01 precision of pair ids.
+#: docs/FORMATS.md §3, §11-12: the columns that name one object in one frame (one GT crop)
+#: and, with the view (the perturbation columns of :mod:`data_schema.perturbation`), one object
+#: seen from one view, an *object view*: the key on which the renders of several methods are
+#: paired. Its id is the pair id without a method (:func:`pair_ids`), the view compared at the
+#: 0.01 precision of pair ids.
 OBJECT_COLUMNS = ("clip_id", "camera", "track_id", "timestamp_us")
 
 #: docs/FORMATS.md §5, fixed leading columns of ratings.csv.

@@ -39,6 +39,7 @@ from data_schema.errors import InputError
 from data_schema.tables import (
     GT_BOX_COLUMNS,
     MIN_SIDE_PX,
+    OBJECT_COLUMNS,
     atomic_path,
     pair_boxes,
     pair_image_paths,
@@ -94,7 +95,7 @@ def _objects(
     b = pair_boxes(pairs, _GT_BOX, where=where)
     df[_GT_BOX] = b
     df["_short"] = np.minimum(b[:, 2] - b[:, 0], b[:, 3] - b[:, 1]) + 1
-    keys = ["clip_id", "camera", "track_id", "timestamp_us"]
+    keys = list(OBJECT_COLUMNS)  # one GT crop per object and frame
     frames = df.drop_duplicates(keys).sort_values(keys, kind="stable").reset_index(drop=True)
     frames["_rank"] = frames.groupby(keys[:3]).cumcount()
     big = frames[frames["_short"] >= min_side]
