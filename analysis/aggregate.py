@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 
 from annotate.results import good_vote_fraction
-from data_schema.errors import InputError
+from data_schema.errors import check_choice
 
 __all__ = ["METHODS", "aggregate"]
 
@@ -113,9 +113,7 @@ def aggregate(test_votes: pd.DataFrame, *, method: str, seed: int = 0):
     InputError
         ``method`` is not one of :data:`METHODS`.
     """
-    if method not in METHODS:
-        raise InputError(param="method", expected="one of {" + ", ".join(map(repr, METHODS)) + "}",
-                         got=repr(method))
+    check_choice("method", method, METHODS)
     item_ids = test_votes["item_id"].astype(str)
     tasks = pd.unique(item_ids)
     if method == "majority":  # first-seen order, as tasks

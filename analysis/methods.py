@@ -139,9 +139,7 @@ def compared_methods(items: pd.DataFrame, *, where, methods=None) -> list[str]:
     Parameters
     ----------
     items : pandas.DataFrame
-        The per-object table, one row per object, view and method.
-    where : object
-        The input named in errors.
+        The per-object table, one row per object, view and method; ``where`` names it in errors.
     methods : list of str, optional
         The methods to compare (each a method of ``items``; a repeat counts once).
 
@@ -177,9 +175,27 @@ def _method_codes(col: pd.Series, names: list[str]) -> np.ndarray:
 
 
 def object_codes(items: pd.DataFrame, *, where) -> np.ndarray:
-    """(N,) int64 code of each row's object ``(clip_id, camera, track_id, timestamp_us, view)``.
+    """(N,) int64 code of each row's object view (:data:`data_schema.tables.OBJECT_COLUMNS`
+    and the view): rows share a code exactly when they share a pair id without method.
 
     The view is compared at the 0.01 precision of pair ids (docs/FORMATS.md §3).
+
+    Parameters
+    ----------
+    items : pandas.DataFrame
+        (N rows) the object columns and the view columns.
+    where : object
+        The input named in errors.
+
+    Returns
+    -------
+    numpy.ndarray
+        (N,) int64 codes 0, 1, ... in order of first appearance.
+
+    Raises
+    ------
+    InputError
+        An object column is missing.
     """
     require_columns(items, OBJECT_COLUMNS, where=where)
     view = np.round(perturbation_array(items) * 100).astype(np.int64)

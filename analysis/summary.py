@@ -22,7 +22,7 @@ from tqdm import tqdm
 
 from analysis import bootstrap as bs
 from analysis import stats
-from data_schema.errors import InputError
+from data_schema.errors import check_choice
 
 __all__ = ["RANK_BY", "summary_table", "binary_label"]
 
@@ -97,9 +97,7 @@ def summary_table(
     InputError
         ``rank_by`` is not one of :data:`RANK_BY`.
     """
-    if rank_by not in RANK_BY:
-        raise InputError(param="rank_by", expected="one of {" + ", ".join(map(repr, RANK_BY)) + "}",
-                         got=repr(rank_by))
+    check_choice("rank_by", rank_by, RANK_BY)
     y_all = items[target].to_numpy(np.float64)
     label_all, label_why = binary_label(items, target)
     do_boot = clusters is not None and n_boot > 0

@@ -25,14 +25,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from annotate import crops as _crops
-from annotate.design import (
-    Choice,
-    StudyOptions,
-    attribute_columns,
-    choose_views,
-    pick_training,
-    select_test_pairs,
-)
+from annotate.design import Choice, StudyOptions, attribute_columns, choose_tests
 from annotate.store import BINARY_VOTES
 from data_schema.methods import method_columns
 from data_schema.perturbation import view_columns, with_perturbation_columns
@@ -53,39 +46,13 @@ class BinaryDesign:
 
     def choose_items(self, pairs: pd.DataFrame, rng: np.random.Generator, opts: StudyOptions, *,
                      where: str) -> Choice:
-        """The items of a good/bad study.
-
-        Parameters
-        ----------
-        pairs : pandas.DataFrame
-            The checked pairs table (``_root``, ``_row`` columns).
-        rng : numpy.random.Generator
-            The study's generator.
-        opts : StudyOptions
-            ``offsets``, ``tracks``, ``frames_per_track``, ``n_training``, ``n_gold`` and
-            ``n_repeats`` are used.
-        where : str
-            The pairs table, named in errors.
-
-        Returns
-        -------
-        Choice
-            ``pairs`` with the 6-DoF columns when it has views.
-
-        Raises
-        ------
-        InputError
-            Offsets not in the table, or no frame holding every chosen view.
-        """
-        chosen_views = choose_views(opts.offsets, pairs)
+        """The items of a good/bad study (:meth:`annotate.design.Design.choose_items`; the
+        module docstring): ``choice.pairs`` gains the 6-DoF columns when the pairs have views,
+        ``choice.method_columns`` is ``['method']`` for multi-method pairs."""
         view_cols = view_columns(pairs)  # [] for lateral-only pairs
         if view_cols:
             pairs = with_perturbation_columns(pairs)
-        chosen_offsets = chosen_views if view_cols else sorted(
-            float(v.partition("=")[2] or 0) for v in chosen_views)
-        tests, record = select_test_pairs(pairs, offsets=chosen_views, n_tracks=int(opts.tracks),
-                                          frames_per_track=int(opts.frames_per_track), rng=rng)
-        training = pick_training(pairs, tests, opts.n_training, rng)
+        chosen_offsets, tests, record, training = choose_tests(pairs, rng, opts, has_views=bool(view_cols))
         gold_src = tests.iloc[sorted(rng.choice(len(tests), size=min(2 * opts.n_gold, len(tests)),
                                                 replace=False).tolist())]
         rep_src = tests.iloc[sorted(rng.choice(len(tests), size=min(opts.n_repeats, len(tests)),
@@ -117,39 +84,10 @@ class BinaryDesign:
 
     def cut_crops(self, choice: Choice, folder: Path, *, ids: list[str], rng: np.random.Generator,
                   image, opts: StudyOptions, where: str, progress: bool) -> pd.DataFrame:
-        """Cut, pad and write the two display crops of every item into ``folder/crops``.
-
-        Parameters
-        ----------
-        choice : Choice
-            From :meth:`choose_items`.
-        folder : pathlib.Path
-            The study folder being written.
-        ids : list of str
-            Two crop names per item, in order.
-        rng : numpy.random.Generator
-            Draws the damage of the gold-bad crops.
-        image : callable
-            ``image(record, column)``: a pairs row's image (:class:`annotate.crops.ImageCache`).
-        opts : StudyOptions
-            ``image_format`` and ``size`` are used.
-        where : str
-            The pairs table, named in errors.
-        progress : bool
-            Show a progress bar.
-
-        Returns
-        -------
-        pandas.DataFrame
-            The items table (docs/FORMATS.md §5): key, item_id, kind, pair_id, ref_file,
-            ren_file, crop_side, expected, the pair metadata, view and method columns and the
-            scene attributes.
-
-        Raises
-        ------
-        InputError
-            An unreadable image or a box outside it.
-        """
+        """The GT crop and the render (gold: the GT crop, or its broken copy drawn from
+        ``rng``) of every item on one square (:meth:`annotate.design.Design.cut_crops`); the
+        items table has ``ref_file, ren_file`` and the pairs row's metadata, view, method and
+        attribute columns."""
         (folder / "crops").mkdir()
         fmt, size = opts.image_format, int(opts.size)
         attrs = attribute_columns(choice.pairs.drop(columns=["_root", "_row"]))

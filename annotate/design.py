@@ -14,6 +14,7 @@ axis; raters never see which (items are opaque).
 - :func:`spread_frames`: ``k`` frames evenly along the track (by time), first and last
   included.
 - :func:`pick_training`: the training items, outside the test set, offsets from small to large.
+- :func:`choose_tests`: the views, test rows and training rows of a study, by the three above.
 
 The two study designs, good/bad votes (:class:`annotate.binary.BinaryDesign`) and which of two
 methods (:class:`annotate.pairwise.PairwiseDesign`), are two implementations of
@@ -50,7 +51,8 @@ from data_schema.perturbation import (
 from data_schema.tables import PAIRS_COLUMNS, offset_cm, parse_offsets
 
 __all__ = ["choose_offsets", "choose_views", "attribute_columns", "usable_frames", "choose_tracks",
-           "spread_frames", "select_test_pairs", "pick_training", "StudyOptions", "Choice", "Design"]
+           "spread_frames", "select_test_pairs", "pick_training", "choose_tests", "StudyOptions", "Choice",
+           "Design"]
 
 _EXTRA_NON_ATTRIBUTES = ("scene_root", *VIEW_COLUMNS, METHOD_COLUMN)
 
@@ -215,9 +217,49 @@ def pick_training(pairs: pd.DataFrame, tests: pd.DataFrame, n: int,
     return order.iloc[sorted(set(idx.tolist()))].drop(columns=["_a", "_r"])
 
 
+def choose_tests(table: pd.DataFrame, rng: np.random.Generator, opts: StudyOptions, *,
+                 has_views: bool) -> tuple[list, pd.DataFrame, list[dict], pd.DataFrame]:
+    """The chosen views and the test and training rows of a study, from one row per pair (the
+    good/bad study) or per object view (the pairwise study).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        The candidate rows (``pair_id``, the object and view columns, ``label_class``).
+    rng : numpy.random.Generator
+        The study's generator: tracks, frames, then training rows are drawn from it.
+    opts : StudyOptions
+        ``offsets``, ``tracks``, ``frames_per_track`` and ``n_training`` are used.
+    has_views : bool
+        The pairs have 6-DoF views (else lateral offsets only).
+
+    Returns
+    -------
+    offsets : list
+        The chosen view labels, or offsets in metres for lateral-only pairs (manifest ``offsets``).
+    tests : pandas.DataFrame
+        The test rows (:func:`select_test_pairs`).
+    tracks : list of dict
+        The record of the chosen tracks and frames (manifest ``tracks``).
+    training : pandas.DataFrame
+        The training rows (:func:`pick_training`).
+
+    Raises
+    ------
+    InputError
+        Offsets the table lacks, or no frame holding every chosen view.
+    """
+    views = choose_views(opts.offsets, table)
+    offsets = views if has_views else sorted(float(v.partition("=")[2] or 0) for v in views)
+    tests, record = select_test_pairs(table, offsets=views, n_tracks=int(opts.tracks),
+                                      frames_per_track=int(opts.frames_per_track), rng=rng)
+    return offsets, tests, record, pick_training(table, tests, opts.n_training, rng)
+
+
 @dataclass(frozen=True)
 class StudyOptions:
-    """The options of ``annotate build`` (:func:`annotate.study.build_study`), checked there.
+    """The options of ``annotate build``, checked (and defaulted) by
+    :func:`annotate.study.build_study`.
 
     ``offsets``: ``'all'`` or a comma list of lateral offsets (:func:`choose_views`);
     ``methods``: the comma list of methods a pairwise study compares (None: every method of
@@ -227,22 +269,22 @@ class StudyOptions:
     interval and the design's name.
     """
 
-    tracks: int = 12
-    frames_per_track: int = 12
-    offsets: str = "all"
-    votes_per_item: int = 5
-    seed: int = 0
-    n_training: int = 5
-    n_gold: int = 3
-    n_repeats: int = 5
-    size: int = 320
-    image_format: str = "jpg"
-    access: str = "open"
-    break_every: int = 50
-    design: str = "binary"
-    methods: str | None = None
-    scene: str | None = None
-    metrics_paths: tuple = ()
+    tracks: int
+    frames_per_track: int
+    offsets: str
+    votes_per_item: int
+    seed: int
+    n_training: int
+    n_gold: int
+    n_repeats: int
+    size: int
+    image_format: str
+    access: str
+    break_every: int
+    design: str
+    methods: str | None
+    scene: str | None
+    metrics_paths: tuple
 
 
 @dataclass(frozen=True)
@@ -282,17 +324,68 @@ class Design(Protocol):
 
     def choose_items(self, pairs: pd.DataFrame, rng: np.random.Generator, opts: StudyOptions, *,
                      where: str) -> Choice:
-        """The items of the study from the checked pairs table (``_root``, ``_row`` columns)."""
+        """The items of the study.
+
+        Parameters
+        ----------
+        pairs : pandas.DataFrame
+            The checked pairs table (``_root`` scene folder and ``_row`` line columns).
+        rng : numpy.random.Generator
+            The study's generator (every choice is seeded).
+        opts : StudyOptions
+            The checked options.
+        where : str
+            The pairs table, named in errors.
+
+        Returns
+        -------
+        Choice
+
+        Raises
+        ------
+        InputError
+            Options the table cannot satisfy (offsets or methods it lacks, no frame holding
+            every chosen view).
+        """
         ...
 
     def needed_images(self, rows) -> Iterator[tuple[object, str]]:
-        """``(pairs record, column)`` of every image the items show."""
+        """``(pairs record, column)`` of every image the items ``rows`` show."""
         ...
 
     def cut_crops(self, choice: Choice, folder: Path, *, ids: list[str], rng: np.random.Generator,
                   image, opts: StudyOptions, where: str, progress: bool) -> pd.DataFrame:
-        """Write the items' crops into ``folder/crops`` (file names from ``ids``, in order);
-        the items table. ``image(record, column)`` reads a pairs row's image."""
+        """Cut the crops of every item, pad them to one square and write them into ``folder/crops``.
+
+        Parameters
+        ----------
+        choice : Choice
+            From :meth:`choose_items`.
+        folder : pathlib.Path
+            The study folder being written.
+        ids : list of str
+            :attr:`crops_per_item` crop file names per item, in order.
+        rng : numpy.random.Generator
+            The study's generator, for crops drawn at random.
+        image : callable
+            ``image(record, column)``: a pairs row's image (:class:`annotate.crops.ImageCache`).
+        opts : StudyOptions
+            ``image_format`` and ``size`` (the display square) are used.
+        where : str
+            The pairs table, named in errors.
+        progress : bool
+            Show a progress bar.
+
+        Returns
+        -------
+        pandas.DataFrame
+            The items table (docs/FORMATS.md §5, §12).
+
+        Raises
+        ------
+        InputError
+            An unreadable image or a box outside it.
+        """
         ...
 
     def manifest_extras(self, choice: Choice) -> dict:

@@ -39,14 +39,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from annotate import crops as _crops
-from annotate.design import (
-    Choice,
-    StudyOptions,
-    attribute_columns,
-    choose_views,
-    pick_training,
-    select_test_pairs,
-)
+from annotate.design import Choice, StudyOptions, attribute_columns, choose_tests
 from data_schema.errors import InputError
 from data_schema.methods import GT_METHOD, METHOD_COLUMN, table_methods
 from data_schema.perturbation import labels, perturbation_array, view_columns
@@ -61,28 +54,14 @@ VOTE_CODES = {1: "left", 2: "right", 0: "can't tell"}
 
 
 def study_methods(pairs: pd.DataFrame, methods: str | None, *, where: str) -> list[str]:
-    """The methods a pairwise study compares, in order.
+    """The methods a pairwise study compares, in order: ``methods`` (a comma list of methods
+    of ``pairs``), or with None every method ``pairs`` holds
+    (:func:`data_schema.methods.table_methods`, sorted). ``pairs`` is the checked pairs table
+    (its reader has checked the names: never the reserved :data:`GT_METHOD`), named ``where``
+    in errors.
 
-    Parameters
-    ----------
-    pairs : pandas.DataFrame
-        The checked pairs table (the reader has checked the names: never the reserved
-        :data:`GT_METHOD`, :func:`data_schema.methods.check_method_name`).
-    methods : str or None
-        A comma list of methods of the table; None: every method it holds
-        (:func:`data_schema.methods.table_methods`, sorted).
-    where : str
-        The pairs table, named in errors.
-
-    Returns
-    -------
-    list of str
-
-    Raises
-    ------
-    InputError
-        No ``method`` column, an empty method, a name not in the table or a repeated one
-        (naming the parameter ``methods``), fewer than two.
+    Raises :class:`InputError` for no ``method`` column, an empty method, a name not in the
+    table or a repeated one (naming the parameter ``methods``), or fewer than two.
     """
     have = table_methods(pairs, where=where,
                          expected="a method column (one render per method) for --design pairwise")
@@ -136,32 +115,10 @@ class PairwiseDesign:
 
     def choose_items(self, pairs: pd.DataFrame, rng: np.random.Generator, opts: StudyOptions, *,
                      where: str) -> Choice:
-        """The items of a pairwise study.
-
-        Parameters
-        ----------
-        pairs : pandas.DataFrame
-            The checked pairs table (``_root``, ``_row`` columns) with a ``method`` column.
-        rng : numpy.random.Generator
-            The study's generator.
-        opts : StudyOptions
-            ``methods``, ``offsets``, ``tracks``, ``frames_per_track``, ``n_training``,
-            ``n_gold`` and ``n_repeats`` are used.
-        where : str
-            The pairs table, named in errors.
-
-        Returns
-        -------
-        Choice
-            ``pairs`` unchanged, the compared ``methods``; the training object views are
-            chosen by :func:`annotate.design.pick_training` (offsets spread from small to large).
-
-        Raises
-        ------
-        InputError
-            Bad methods (:func:`study_methods`), two renders of one object view and method, no
-            object view rendered by every method, offsets not in the table.
-        """
+        """The items of a pairwise study (:meth:`annotate.design.Design.choose_items`; the
+        module docstring): ``choice.pairs`` is ``pairs``, ``choice.methods`` the compared ones
+        (:func:`study_methods`). Errors also for two renders of one object view and method,
+        or no object view rendered by every method."""
         methods = study_methods(pairs, opts.methods, where=where)
         full = _complete_views(pairs, methods, where=where)
         if full.empty:
@@ -172,12 +129,7 @@ class PairwiseDesign:
             full = _with_views(full)
         by_method = {m: g.set_index("_object") for m, g in full.groupby(METHOD_COLUMN)}
         base = by_method[methods[0]].reset_index()  # one row per object view
-        chosen_views = choose_views(opts.offsets, base)
-        chosen_offsets = chosen_views if view_cols else sorted(
-            float(v.partition("=")[2] or 0) for v in chosen_views)
-        tests, record = select_test_pairs(base, offsets=chosen_views, n_tracks=int(opts.tracks),
-                                          frames_per_track=int(opts.frames_per_track), rng=rng)
-        training = pick_training(base, tests, opts.n_training, rng)
+        chosen_offsets, tests, record, training = choose_tests(base, rng, opts, has_views=bool(view_cols))
         duos = list(combinations(methods, 2))
 
         def item(obj: str, kind: str, a: str, b: str, prefix: str = "") -> dict:
@@ -214,38 +166,9 @@ class PairwiseDesign:
 
     def cut_crops(self, choice: Choice, folder: Path, *, ids: list[str], rng: np.random.Generator,
                   image, opts: StudyOptions, where: str, progress: bool) -> pd.DataFrame:
-        """Cut the GT, A and B crops of every item, pad the three to one square (the largest
-        side of the three), resize to ``size`` and write them to ``folder/crops``.
-
-        Parameters
-        ----------
-        choice : Choice
-            From :meth:`choose_items`.
-        folder : pathlib.Path
-            The study folder being written.
-        ids : list of str
-            Three crop names per item, in order.
-        rng : numpy.random.Generator
-            Unused (no crop of this design is random).
-        image : callable
-            ``image(record, column)``: a pairs row's image (:class:`annotate.crops.ImageCache`).
-        opts : StudyOptions
-            ``image_format`` and ``size`` are used.
-        where : str
-            The pairs table, named in errors.
-        progress : bool
-            Show a progress bar.
-
-        Returns
-        -------
-        pandas.DataFrame
-            The items table (docs/FORMATS.md §12).
-
-        Raises
-        ------
-        InputError
-            An unreadable image or a box outside it.
-        """
+        """The GT, A and B crops of every item on one square, the largest side of the three
+        (:meth:`annotate.design.Design.cut_crops`; ``rng`` is not used); the items table has
+        ``ref_file, a_file, b_file``, the methods and their pair ids."""
         (folder / "crops").mkdir()
         fmt, size = opts.image_format, int(opts.size)
         attrs = attribute_columns(choice.pairs.drop(columns=["_root", "_row"]))

@@ -17,7 +17,7 @@ import numbers
 import os
 import sys
 
-__all__ = ["InputError", "run_cli", "ArgumentParser", "check_int", "check_number"]
+__all__ = ["InputError", "run_cli", "ArgumentParser", "check_int", "check_number", "check_choice"]
 
 
 class InputError(ValueError):
@@ -82,8 +82,26 @@ def _rebuild(cls, where, field, expected, got, param):
 
 
 def check_int(name: str, value, *, low: int = 1, high: int | None = None) -> int:
-    """``value`` when it is an integer (not a bool) in ``[low, high]``, else an :class:`InputError`
-    naming ``name``: the one check of counts, sizes and seeds (library parameters and CLI options).
+    """``value`` when it is an integer (not a bool) in ``[low, high]``: the one check of counts,
+    sizes and seeds (library parameters and CLI options).
+
+    Parameters
+    ----------
+    name : str
+        The parameter, named in the error (its ``param``).
+    value : object
+        The value to check.
+    low, high : int, optional
+        The bounds, both included (``high=None``: none).
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    InputError
+        ``value`` is not such an integer.
 
     >>> check_int("batch_size", 32)
     32
@@ -104,8 +122,9 @@ def check_int(name: str, value, *, low: int = 1, high: int | None = None) -> int
 
 def check_number(name: str, value, *, low: float | None = None, high: float | None = None,
                  low_open: bool = False, high_open: bool = False) -> float:
-    """``value`` when it is a finite real number (not a bool) within the bounds (``low``/``high``,
-    excluded when ``low_open``/``high_open``), else an :class:`InputError` naming ``name``.
+    """``value`` as a float when it is a finite real number (not a bool) within the bounds
+    ``low``/``high`` (None: none; excluded when ``low_open``/``high_open``), else an
+    :class:`InputError` whose ``param`` is ``name`` (as :func:`check_int`).
 
     >>> check_number("tau", 1.0, low=0, high=1, low_open=True, high_open=True)
     Traceback (most recent call last):
@@ -130,6 +149,20 @@ def check_number(name: str, value, *, low: float | None = None, high: float | No
             expected = "a finite number"
         raise InputError(param=name, expected=expected, got=value)
     return float(value)
+
+
+def check_choice(name: str, value, choices):
+    """``value`` when it is one of ``choices``, else an :class:`InputError` whose ``param`` is
+    ``name``, listing them.
+
+    >>> check_choice("rank_by", "auc", ("srcc", "plcc"))
+    Traceback (most recent call last):
+    ...
+    data_schema.errors.InputError: rank_by: expected one of {'srcc', 'plcc'}, got 'auc'
+    """
+    if value not in choices:
+        raise InputError(param=name, expected="one of {" + ", ".join(map(repr, choices)) + "}", got=repr(value))
+    return value
 
 
 def run_cli(main, argv=None) -> int:

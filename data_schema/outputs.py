@@ -100,7 +100,22 @@ def _check_not_managed(out: Path, option: str, *, allow: Path | None = None) -> 
 
 
 def check_output_file(out, *, inputs: Iterable = (), option: str = "out") -> Path:
-    """Check an output file path against the rule (module docstring); returns it."""
+    """Check an output file path against the rule (module docstring).
+
+    Parameters
+    ----------
+    out : str or os.PathLike
+        The output file.
+    inputs : iterable of paths
+        The command's inputs (None entries are skipped).
+    option : str
+        The parameter named in errors (its ``param``; the CLIs show their flag).
+
+    Returns
+    -------
+    pathlib.Path
+        ``out`` as given, once it obeys the rule (else :class:`InputError`).
+    """
     target = _resolve(out)
     if target.is_dir():
         raise InputError(param=option, expected="an output file path", got=f"{out} (an existing folder)")
@@ -114,10 +129,12 @@ def _is_empty_dir(p: Path) -> bool:
 
 
 def check_output_folder(out, *, kind: str, inputs: Iterable = (), option: str = "out") -> Path:
-    """Check an output folder of ``kind`` in ``{'report', 'scene', 'study'}``; returns it.
+    """Check the output folder ``out`` of ``kind`` in ``{'report', 'scene', 'study'}`` against
+    the rule (module docstring), as :func:`check_output_file` checks a file; returns ``out``.
 
     ``report`` may replace an empty folder or a report folder of ours; ``scene`` an empty
-    folder or a scene folder; ``study`` only an empty one.
+    folder or a scene folder; ``study`` only an empty one. An unknown ``kind`` is an
+    :class:`InputError` too.
     """
     if kind not in ("report", "scene", "study"):
         raise InputError(param="kind", expected="one of {'report', 'scene', 'study'}", got=kind)

@@ -126,9 +126,21 @@ def pair_id(clip_id: str, camera: str, track_id: str, timestamp_us: int, y_offse
 
 
 def pair_ids(df: pd.DataFrame, methods=None) -> list[str]:
-    """docs/FORMATS.md §3 and §9 pair id of each row of ``df`` (``clip_id, camera, track_id,
-    timestamp_us`` and the view columns): ``CLIP:CAMERA:TRACK:T:VIEW``, then ``:METHOD`` for a
-    row with a method in ``methods`` ((N,), ``''`` for none; default: no method).
+    """docs/FORMATS.md §3 and §9 pair id of each row of ``df``: ``CLIP:CAMERA:TRACK:T:VIEW``,
+    then ``:METHOD`` for a row with a method. Without methods it is the id of the row's object
+    view (:data:`OBJECT_COLUMNS` and the view).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        (N rows) :data:`OBJECT_COLUMNS` and the view columns (``y_offset_m``, the optional
+        6-DoF ones).
+    methods : sequence of str, optional
+        (N,) each row's method, ``''`` for none (default: no method).
+
+    Returns
+    -------
+    list of str
 
     >>> df = pd.DataFrame({"clip_id": ["c", "c"], "camera": ["f", "f"], "track_id": ["t", "t"],
     ...                    "timestamp_us": [5, 5], "y_offset_m": [1.0, 0.0], "yaw_deg": [0.0, 5.0]})
@@ -155,8 +167,21 @@ def offset_cm(y_offset_m) -> np.ndarray:
 def parse_offsets(text: str, *, field: str = "offsets") -> list[float]:
     """A comma list of render offsets in metres -> floats in the given order.
 
-    Raises :class:`InputError` naming ``field`` unless every item is a finite number and
-    there is at least one.
+    Parameters
+    ----------
+    text : str
+        E.g. ``'-3,-2,0,1.5'``.
+    field : str
+        The parameter or option named in errors (its ``param``).
+
+    Returns
+    -------
+    list of float
+
+    Raises
+    ------
+    InputError
+        An item is not a finite number, or there is none.
 
     >>> parse_offsets("-3,-2, 0,1.5")
     [-3.0, -2.0, 0.0, 1.5]
@@ -468,10 +493,17 @@ class atomic_path:
 
 
 class atomic_folder:
-    """Context manager yielding a new empty folder (``mode``, default 0o755) beside ``target``;
-    on success it takes the place of ``target`` (a folder already there is moved aside, then
-    removed), on an exception it is removed and ``target`` is left as it was. The parent
-    folders of ``target`` are created when missing.
+    """Context manager yielding a new empty folder beside ``target``; on success it takes the
+    place of ``target`` (a folder already there is moved aside, then removed), on an exception
+    it is removed and ``target`` is left as it was. The parent folders of ``target`` are created
+    when missing.
+
+    Parameters
+    ----------
+    target : str or os.PathLike
+        The folder to write.
+    mode : int
+        The new folder's mode (default 0o755; a study folder is 0o700).
 
     >>> import tempfile, pathlib
     >>> d = pathlib.Path(tempfile.mkdtemp())

@@ -25,6 +25,13 @@ _spec.loader.exec_module(toy)
 _PROTOCOL = ("choose_items", "needed_images", "cut_crops", "manifest_extras")
 
 
+def _opts(**kw) -> StudyOptions:
+    """Options as build_study checks them: its defaults, then ``kw``."""
+    defaults = {k: v.default for k, v in inspect.signature(build_study).parameters.items()
+                if v.default is not inspect.Parameter.empty and k not in ("metrics_path", "progress")}
+    return StudyOptions(**{**defaults, "metrics_paths": (), **kw})
+
+
 @pytest.mark.parametrize("design", [BinaryDesign(), PairwiseDesign()], ids=["binary", "pairwise"])
 def test_each_design_has_the_protocols_methods_with_its_signature(design):
     for name in _PROTOCOL:
@@ -42,7 +49,7 @@ def test_the_registry_holds_both_designs_with_their_vote_codes():
 
 
 def test_options_are_frozen():
-    opts = StudyOptions(tracks=2)
+    opts = _opts(tracks=2)
     with pytest.raises(dataclasses.FrozenInstanceError):
         opts.tracks = 3  # type: ignore[misc]
 
@@ -53,7 +60,7 @@ def test_choosing_twice_with_one_seed_gives_the_same_items(tmp_path, design, met
     # is the first one again
     scene, pairs_path = toy.make_toy(tmp_path, methods=methods)
     pairs = _read_pairs(pairs_path, str(scene))
-    opts = StudyOptions(tracks=2, frames_per_track=2, n_training=2, n_gold=1, n_repeats=2, design=design)
+    opts = _opts(tracks=2, frames_per_track=2, n_training=2, n_gold=1, n_repeats=2, design=design)
     before = dataclasses.asdict(opts)
     first, second = (DESIGNS[design].choose_items(pairs, np.random.default_rng(3), opts, where="pairs.csv")
                      for _ in range(2))
