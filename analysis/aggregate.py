@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 
 from annotate.results import good_vote_fraction
+from data_schema.errors import check_choice
 
 __all__ = ["METHODS", "aggregate"]
 
@@ -89,12 +90,30 @@ def _mace(answers, *, seed):
 
 
 def aggregate(test_votes: pd.DataFrame, *, method: str, seed: int = 0):
-    """Per-item ``p_good`` and per-rater model quality from test votes (``item_id, rater_id,
-    vote``). Returns ``(items, raters)``: ``items`` has ``item_id, p_good, model_good`` in
-    first-seen order; ``raters`` has ``rater_id`` and the model's columns (empty for
-    ``majority``)."""
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    """Per-item ``p_good`` and per-rater model quality from test votes (module docstring).
+
+    Parameters
+    ----------
+    test_votes : pandas.DataFrame
+        One row per test vote: ``item_id, rater_id, vote`` (1 good, 0 bad).
+    method : {'majority', 'dawid-skene', 'glad', 'mace'}
+        The aggregation (:data:`METHODS`).
+    seed : int
+        Seeds the EM restarts of ``mace``.
+
+    Returns
+    -------
+    items : pandas.DataFrame
+        ``item_id, p_good, model_good`` in first-seen order.
+    raters : pandas.DataFrame
+        ``rater_id`` and the model's columns (no rows for ``majority``).
+
+    Raises
+    ------
+    InputError
+        ``method`` is not one of :data:`METHODS`.
+    """
+    check_choice("method", method, METHODS)
     item_ids = test_votes["item_id"].astype(str)
     tasks = pd.unique(item_ids)
     if method == "majority":  # first-seen order, as tasks

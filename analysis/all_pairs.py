@@ -279,12 +279,13 @@ def read_all_pairs(pairs_path, *, metrics_paths=(), progress: bool = True, keep=
 
 def _check_target(items: pd.DataFrame, target: str | None) -> None:
     if target is None:
-        raise InputError("target", None, "a numeric per-pair column (e.g. clip_drop) of the pairs or metrics", "none")
+        raise InputError(param="target", expected="a numeric per-pair column (e.g. clip_drop) of the "
+                         "pairs or metrics", got="none")
     if target not in items.columns or not pd.api.types.is_numeric_dtype(items[target]):
-        raise InputError("target", target, "a numeric column of the pairs or metrics",
-                         "no such column" if target not in items.columns else items[target].dtype)
+        raise InputError(param="target", field=target, expected="a numeric column of the pairs or metrics",
+                         got="no such column" if target not in items.columns else items[target].dtype)
     if not np.isfinite(items[target].to_numpy(np.float64)).any():
-        raise InputError("target", target, "some finite values", "none")
+        raise InputError(param="target", field=target, expected="some finite values", got="none")
 
 
 def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), target=None,

@@ -26,6 +26,7 @@ import numpy as np
 from analysis.stats import N_MIN
 
 __all__ = [
+    "CHUNK_CELLS",
     "draw_cluster_counts",
     "weighted_ranks",
     "weighted_pearson",
@@ -35,6 +36,12 @@ __all__ = [
     "monte_carlo_p",
     "replicates_for",
 ]
+
+#: The most cells (bootstrap replicates x items, tracks or clusters) one weighted product of
+#: the bootstrap holds at a time; replicates are processed in chunks of at most this size.
+#: Chunking bounds the memory only: every replicate is computed on its own, so the results
+#: do not depend on it.
+CHUNK_CELLS = 8_000_000
 
 
 def draw_cluster_counts(n_clusters: int, n_boot: int, *, seed: int) -> np.ndarray:
@@ -84,7 +91,7 @@ def weighted_pearson(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> np.ndarray:
     return np.clip(r, -1.0, 1.0)
 
 
-def replicate_stats(x, y, label, cluster, counts, *, chunk_cells: int = 8_000_000):
+def replicate_stats(x, y, label, cluster, counts, *, chunk_cells: int = CHUNK_CELLS):
     """Bootstrap replicates of signed plcc, srcc and roc_auc of metric x against target y.
 
     x, y: (n,) finite; label: (n,) bool or None (no AUC); cluster: (n,) int cluster index

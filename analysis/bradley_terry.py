@@ -27,7 +27,6 @@ from analysis import bootstrap as bs
 __all__ = ["win_matrix", "bradley_terry", "strongly_connected", "win_prob", "Draws"]
 
 _TOL, _MAX_ITER = 1e-12, 20_000
-_CHUNK_CELLS = 4_000_000  # bootstrap replicates x items per matrix product
 
 
 def strongly_connected(w: np.ndarray) -> np.ndarray:
@@ -113,11 +112,11 @@ class Draws:
     def total(self, r: np.ndarray, i: np.ndarray, values: np.ndarray) -> np.ndarray:
         """(B,) sum over votes of (rater draws x item draws x value); votes given by their
         rater ``r`` and item ``i`` codes (V,). Works on the (R, I) grid, never on (B, V), and
-        on at most :data:`_CHUNK_CELLS` replicate-items at a time."""
+        on at most :data:`analysis.bootstrap.CHUNK_CELLS` replicate-items at a time."""
         grid = np.zeros((self.raters.shape[1], self.items.shape[1]))
         np.add.at(grid, (r, i), values)
         out = np.empty(self.raters.shape[0])
-        step = max(1, _CHUNK_CELLS // max(1, grid.shape[1]))
+        step = max(1, bs.CHUNK_CELLS // max(1, grid.shape[1]))
         for b0 in range(0, len(out), step):
             sl = slice(b0, b0 + step)
             out[sl] = ((self.raters[sl].astype(np.float64) @ grid) * self.items[sl]).sum(axis=1)

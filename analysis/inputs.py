@@ -178,15 +178,15 @@ def classify_columns(
     both = lower & higher
     if both:
         raise InputError(
-            "higher", sorted(both)[0], "one direction per metric", "both"
+            param="higher", field=sorted(both)[0], expected="one direction per metric", got="both"
         )
     for name in sorted(lower | higher):
         if name not in df.columns:
             raise InputError(
-                "lower" if name in lower else "higher",
-                name,
-                "a column of the ratings or metrics",
-                "no such column",
+                param="lower" if name in lower else "higher",
+                field=name,
+                expected="a column of the ratings or metrics",
+                got="no such column",
             )
     metrics, directions, attributes, proxies = [], {}, [], []
     for col in df.columns:

@@ -46,7 +46,7 @@ from tqdm.auto import tqdm
 
 from analysis import bootstrap as bs
 from data_schema.errors import InputError
-from data_schema.methods import METHOD_COLUMN
+from data_schema.methods import METHOD_COLUMN, table_methods
 from data_schema.perturbation import (
     AXES,
     PERTURBATION_COLUMNS,
@@ -54,10 +54,10 @@ from data_schema.perturbation import (
     axis_values,
     perturbation_array,
 )
+from data_schema.tables import OBJECT_COLUMNS, require_columns, table_columns
 
 __all__ = [
     "METHOD_COLUMN",
-    "OBJECT_COLUMNS",
     "TABLE_COLUMNS",
     "PAIRED_COLUMNS",
     "LEADERBOARD_COLUMNS",
@@ -65,17 +65,14 @@ __all__ = [
     "MethodsResult",
     "holm",
     "default_rank_metric",
-    "check_methods",
+    "compared_methods",
     "object_codes",
     "view_breakdowns",
     "compare_methods",
     "leaderboard_table",
     "for_analysis",
-    "table_columns",
 ]
 
-#: The columns that name one object seen from one view (with the view's perturbation).
-OBJECT_COLUMNS = ("clip_id", "camera", "track_id", "timestamp_us")
 TABLE_COLUMNS = ["method", "metric", "breakdown", "group", "n", "n_tracks", "mean", "median",
                  "ci_lo", "ci_hi", "reason"]
 PAIRED_COLUMNS = ["method_a", "method_b", "metric", "axis", "offset", "n", "n_only_a", "n_only_b",
@@ -85,7 +82,6 @@ LEADERBOARD_COLUMNS = ["rank", "method", "metric", "n", "mean", "ci_lo", "ci_hi"
                        "next", "p_holm_vs_next", "better_than_next"]
 #: Significance level of ``better`` and of the leaderboard's "better than the next".
 ALPHA = 0.05
-_CHUNK_CELLS = 8_000_000  # bootstrap replicates x tracks per matrix product
 
 
 @dataclass
@@ -136,19 +132,34 @@ def default_rank_metric(metrics: list[str]) -> str | None:
     return metrics[0] if metrics else None
 
 
-def check_methods(items: pd.DataFrame, *, where, methods=None) -> list[str]:
-    """The methods to compare (sorted, or in the order of ``methods``); ``InputError`` unless
-    ``items`` has a ``method`` column with at least two of them (all of ``methods`` among them)."""
-    if METHOD_COLUMN not in items.columns:
-        raise InputError(where, f"column {METHOD_COLUMN!r}", "a method per row to compare "
-                         "(--compare-methods; docs/FORMATS.md §11)", "no such column")
-    col = items[METHOD_COLUMN]
-    present = sorted({str(v) for v in pd.unique(col) if isinstance(v, str) and v})
+def compared_methods(items: pd.DataFrame, *, where, methods=None) -> list[str]:
+    """The methods ``--compare-methods`` compares: those ``items`` holds
+    (:func:`data_schema.methods.table_methods`, sorted), or ``methods`` in their order.
+
+    Parameters
+    ----------
+    items : pandas.DataFrame
+        The per-object table, one row per object, view and method; ``where`` names it in errors.
+    methods : list of str, optional
+        The methods to compare (each a method of ``items``; a repeat counts once).
+
+    Returns
+    -------
+    list of str
+
+    Raises
+    ------
+    InputError
+        ``items`` has no ``method`` column, a name of ``methods`` is not among its methods
+        (naming the parameter ``methods``), or fewer than two methods remain.
+    """
+    present = table_methods(items, where=where, expected="a method per row to compare "
+                            "(--compare-methods; docs/FORMATS.md §11)")
     if methods:
         unknown = [m for m in methods if m not in present]
         if unknown:
-            raise InputError("methods", unknown[0], "a method of " + str(where) + " ("
-                             + ", ".join(present) + ")", "no such method")
+            raise InputError(param="methods", field=unknown[0], expected="a method of " + str(where) + " ("
+                             + ", ".join(present) + ")", got="no such method")
         present = list(dict.fromkeys(methods))
     if len(present) < 2:
         raise InputError(where, f"column {METHOD_COLUMN!r}", "at least two methods to compare "
@@ -164,14 +175,29 @@ def _method_codes(col: pd.Series, names: list[str]) -> np.ndarray:
 
 
 def object_codes(items: pd.DataFrame, *, where) -> np.ndarray:
-    """(N,) int64 code of each row's object ``(clip_id, camera, track_id, timestamp_us, view)``.
+    """(N,) int64 code of each row's object view (:data:`data_schema.tables.OBJECT_COLUMNS`
+    and the view): rows share a code exactly when they share a pair id without method.
 
     The view is compared at the 0.01 precision of pair ids (docs/FORMATS.md §3).
+
+    Parameters
+    ----------
+    items : pandas.DataFrame
+        (N rows) the object columns and the view columns.
+    where : object
+        The input named in errors.
+
+    Returns
+    -------
+    numpy.ndarray
+        (N,) int64 codes 0, 1, ... in order of first appearance.
+
+    Raises
+    ------
+    InputError
+        An object column is missing.
     """
-    missing = [c for c in OBJECT_COLUMNS if c not in items.columns]
-    if missing:
-        raise InputError(where, f"column {missing[0]!r}", "the object columns "
-                         + ", ".join(OBJECT_COLUMNS) + " to pair methods on", "no such column")
+    require_columns(items, OBJECT_COLUMNS, where=where)
     view = np.round(perturbation_array(items) * 100).astype(np.int64)
     keys = [pd.factorize(items[c])[0] for c in OBJECT_COLUMNS] + list(view.T)
     return pd.MultiIndex.from_arrays(keys).factorize()[0].astype(np.int64)
@@ -209,7 +235,7 @@ def _replicate_means(v, ok, groups, n_groups, clusters, counts):
     s = np.bincount(cell, weights=x, minlength=n_groups * k).reshape(n_groups, k)
     w = np.bincount(cell, minlength=n_groups * k).reshape(n_groups, k).astype(np.float64)
     reps = np.empty((counts.shape[0], n_groups))
-    step = max(1, _CHUNK_CELLS // max(1, k))
+    step = max(1, bs.CHUNK_CELLS // max(1, k))
     for b0 in range(0, counts.shape[0], step):
         cb = counts[b0:b0 + step].astype(np.float64)
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -380,19 +406,6 @@ def leaderboard_table(table: pd.DataFrame, paired: pd.DataFrame, *, methods: lis
     return pd.DataFrame(rows, columns=LEADERBOARD_COLUMNS)
 
 
-def table_columns(path) -> list[str]:
-    """The column names of a table file or clip-partitioned dataset, read from its header only."""
-    import pyarrow.parquet as pq
-
-    from data_schema import datasets
-
-    if datasets.is_dataset(path):
-        return list(pq.read_schema(datasets.dataset_files(path)[0][1]).names)
-    if str(path).lower().endswith(".parquet"):
-        return list(pq.read_schema(path).names)
-    return list(pd.read_csv(path, nrows=0).columns)
-
-
 def _check_coverage(items, metrics, m_codes, names, *, where, sources) -> None:
     """Every compared method has values of every metric, else an error naming the metrics
     table that lacks that method's pairs (``sources``: column -> table path)."""
@@ -418,10 +431,10 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
     ``sources`` (column -> path) the metrics table a column came from. ``n_boot`` is raised to
     :func:`analysis.bootstrap.replicates_for` the number of paired rows (Holm over all of them).
     """
-    names = check_methods(items, where=where, methods=methods)
+    names = compared_methods(items, where=where, methods=methods)
     if rank_metric is not None and rank_metric not in metrics:
-        raise InputError("rank_metric", rank_metric, "a metric column of the inputs ("
-                         + ", ".join(metrics) + ")", "no such metric")
+        raise InputError(param="rank_metric", field=rank_metric, expected="a metric column of the inputs ("
+                         + ", ".join(metrics) + ")", got="no such metric")
     rank_metric = rank_metric or default_rank_metric(metrics)
     if rank_metric is None:
         raise InputError(where, None, "at least one metric column to rank methods by", "none")

@@ -47,7 +47,7 @@ from scipy import stats as _st
 from analysis import bootstrap as bs
 from analysis.bradley_terry import Draws, bradley_terry, strongly_connected, win_matrix, win_prob
 from analysis.inputs import classify_columns
-from analysis.methods import METHOD_COLUMN, table_columns, view_breakdowns
+from analysis.methods import METHOD_COLUMN, view_breakdowns
 from annotate.results import pairwise_raters
 from annotate.screening import ScreenRule, screen
 from data_schema.errors import InputError
@@ -58,6 +58,7 @@ from data_schema.tables import (
     pair_ids,
     read_metrics,
     read_table,
+    table_columns,
 )
 from data_schema.tables import csv_line as _line
 

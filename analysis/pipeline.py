@@ -165,11 +165,11 @@ def _check_target(items, target):
         return
     if target not in items.columns or target in ("n_votes", "n_good", "majority_good"):
         raise InputError(
-            "target", target, "a numeric per-item column of the ratings or metrics",
-            "no such column",
+            param="target", field=target, expected="a numeric per-item column of the ratings or metrics",
+            got="no such column",
         )
     if not pd.api.types.is_numeric_dtype(items[target]):
-        raise InputError("target", target, "a numeric column", items[target].dtype)
+        raise InputError(param="target", field=target, expected="a numeric column", got=items[target].dtype)
 
 
 def _columns(items, unknown, notes, *, target, tgt, lower, higher, where):

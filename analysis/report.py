@@ -32,7 +32,7 @@ from annotate.screening import ScreenRule
 from data_schema.outputs import check_output_folder, mark_report
 from data_schema.tables import atomic_folder, write_table
 
-__all__ = ["write_report", "write_report_folder", "render_pages", "summary_display", "format_table_text"]
+__all__ = ["write_report", "write_report_folder", "render_pages", "summary_display"]
 
 _DISPLAY = [
     "metric",
@@ -98,18 +98,6 @@ def summary_display(a: Analysis, *, with_ci: bool = True) -> pd.DataFrame:
         )
     cols = _DISPLAY if with_ci else [c for c in _DISPLAY if c != "srcc / ceiling"]
     return pd.DataFrame(rows, columns=_DISPLAY)[cols]
-
-
-def format_table_text(df: pd.DataFrame) -> str:
-    """Plain-text aligned table (the terminal fallback without ``rich``)."""
-    cols = list(df.columns)
-    cells = [[str(c) for c in cols]] + [
-        [_fmt(v) for v in row] for row in df.itertuples(index=False)
-    ]
-    widths = [max(len(r[i]) for r in cells) for i in range(len(cols))]
-    lines = ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip() for r in cells]
-    lines.insert(1, "  ".join("-" * w for w in widths))
-    return "\n".join(lines)
 
 
 def _html_table(df: pd.DataFrame, *, best_col: str | None = None) -> str:

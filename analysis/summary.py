@@ -22,6 +22,7 @@ from tqdm import tqdm
 
 from analysis import bootstrap as bs
 from analysis import stats
+from data_schema.errors import check_choice
 
 __all__ = ["RANK_BY", "summary_table", "binary_label"]
 
@@ -64,11 +65,39 @@ def summary_table(
 ) -> pd.DataFrame:
     """One row per metric of ``items`` (one row per item) against the ``target`` column.
 
-    clusters: (n_items,) int track index for the bootstrap (``None`` or ``n_boot == 0``: no
-    bootstrap, CI columns empty).
+    Parameters
+    ----------
+    items : pandas.DataFrame
+        One row per item: the metric columns and ``target``.
+    metrics : list of str
+        The metric columns.
+    directions : dict of str to bool
+        True where higher is better.
+    target : str
+        The column the metrics are compared with (GVF by default).
+    clusters : numpy.ndarray, optional
+        (n_items,) int track index for the bootstrap (``None`` or ``n_boot == 0``: no
+        bootstrap, CI columns empty).
+    n_boot : int
+        Bootstrap replicates.
+    seed : int
+        Seeds the bootstrap.
+    rank_by : {'srcc', 'plcc', 'roc_auc'}
+        The statistic the metrics are ranked by (:data:`RANK_BY`).
+    progress : bool
+        Show a progress bar.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per metric (docs/FORMATS.md §6, ``summary.csv``).
+
+    Raises
+    ------
+    InputError
+        ``rank_by`` is not one of :data:`RANK_BY`.
     """
-    if rank_by not in RANK_BY:
-        raise ValueError(f"rank_by must be one of {RANK_BY}, got {rank_by!r}")
+    check_choice("rank_by", rank_by, RANK_BY)
     y_all = items[target].to_numpy(np.float64)
     label_all, label_why = binary_label(items, target)
     do_boot = clusters is not None and n_boot > 0

@@ -25,9 +25,11 @@ import cv2
 import numpy as np
 
 from data_schema.errors import InputError
+from data_schema.tables import inside_scene
 from nvrq.crops import pad_to_square
 
-__all__ = ["pad_pair", "pad_group", "broken_render", "read_bgr", "write_image"]
+__all__ = ["pad_pair", "pad_group", "broken_render", "read_bgr", "write_image", "opaque_ids",
+           "ImageCache"]
 
 
 def read_bgr(path: Path, *, where: str, field: str) -> np.ndarray:
@@ -81,3 +83,54 @@ def write_image(path: Path, img: np.ndarray, *, fmt: str) -> None:
     if not ok:
         raise OSError(f"could not encode {path}")
     path.write_bytes(buf.tobytes())
+
+
+def opaque_ids(rng: np.random.Generator, n: int) -> list[str]:
+    """``n`` distinct 16-hex-digit crop file names (seeded, so a rebuild names crops the same).
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The study's generator (8 bytes drawn per id).
+    n : int
+        How many.
+
+    Returns
+    -------
+    list of str
+    """
+    ids: list[str] = []
+    seen: set[str] = set()
+    while len(ids) < n:
+        s = rng.bytes(8).hex()
+        if s not in seen:
+            seen.add(s)
+            ids.append(s)
+    return ids
+
+
+class ImageCache:
+    """Images of a pairs table read once each (the last 64 kept), their paths checked by the
+    scene-folder rule of :func:`data_schema.tables.inside_scene`.
+
+    ``image(r, column)`` is the BGR image (:func:`read_bgr`) in ``column`` (``gt_path`` or
+    ``render_path``) of the pairs record ``r`` (with the ``_root`` scene folder and ``_row``
+    line columns of :func:`annotate.study.build_study`'s table); errors name ``where``.
+    """
+
+    def __init__(self, where: str):
+        self.where, self.cache = where, {}
+
+    def path(self, r, column: str) -> str:
+        """The checked path of the image in ``column`` of pairs row ``r``."""
+        field = f"line {int(r['_row'])}: column {column!r}"
+        return inside_scene(r["_root"], r[column], where=self.where, field=field)
+
+    def __call__(self, r, column: str) -> np.ndarray:
+        field = f"line {int(r['_row'])}: column {column!r}"
+        path = self.path(r, column)
+        if path not in self.cache:
+            if len(self.cache) > 64:
+                self.cache.clear()
+            self.cache[path] = read_bgr(Path(path), where=self.where, field=field)
+        return self.cache[path]

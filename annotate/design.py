@@ -13,6 +13,14 @@ axis; raters never see which (items are opaque).
   strata are visited round-robin in a seeded random order, one random track each visit.
 - :func:`spread_frames`: ``k`` frames evenly along the track (by time), first and last
   included.
+- :func:`pick_training`: the training items, outside the test set, offsets from small to large.
+- :func:`choose_tests`: the views, test rows and training rows of a study, by the three above.
+
+The two study designs, good/bad votes (:class:`annotate.binary.BinaryDesign`) and which of two
+methods (:class:`annotate.pairwise.PairwiseDesign`), are two implementations of
+:class:`Design`: ``annotate build`` (:func:`annotate.study.build_study`) checks its options into
+one frozen :class:`StudyOptions`, lets the design choose the items (a :class:`Choice`), checks
+the images they need, cuts their crops and adds the design's manifest keys.
 
 >>> spread_frames(10, 4)
 [0, 3, 6, 9]
@@ -21,6 +29,11 @@ axis; raters never see which (items are opaque).
 """
 
 from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 import pandas as pd
@@ -38,7 +51,8 @@ from data_schema.perturbation import (
 from data_schema.tables import PAIRS_COLUMNS, offset_cm, parse_offsets
 
 __all__ = ["choose_offsets", "choose_views", "attribute_columns", "usable_frames", "choose_tracks",
-           "spread_frames", "select_test_pairs"]
+           "spread_frames", "select_test_pairs", "pick_training", "choose_tests", "StudyOptions", "Choice",
+           "Design"]
 
 _EXTRA_NON_ATTRIBUTES = ("scene_root", *VIEW_COLUMNS, METHOD_COLUMN)
 
@@ -65,8 +79,8 @@ def choose_offsets(spec: str, available) -> list[float]:
         chosen = sorted(set(offset_cm(parse_offsets(spec, field="offsets")).tolist()))
         missing = [c for c in chosen if c not in have]
         if missing or not chosen:
-            raise InputError("offsets", None,
-                             f"offsets present in the pairs table ({[h / 100 for h in have]})", spec)
+            raise InputError(param="offsets", expected=f"offsets present in the pairs table ({[h / 100 for h in have]})",
+                             got=spec)
     return [c / 100 for c in chosen]
 
 
@@ -169,3 +183,211 @@ def select_test_pairs(pairs: pd.DataFrame, *, offsets: list[float], n_tracks: in
     order = ["y_offset_m", *[c for c in EXTRA_PERTURBATION_COLUMNS if c in sel.columns]]
     return sel.sort_values(["clip_id", "track_id", "timestamp_us", "camera", *order], kind="stable"
                            ).reset_index(drop=True), record
+
+
+def pick_training(pairs: pd.DataFrame, tests: pd.DataFrame, n: int,
+                  rng: np.random.Generator) -> pd.DataFrame:
+    """The training items of a study: ``n`` rows of ``pairs`` outside the test set (else from
+    it), their offsets spread from small to large.
+
+    Parameters
+    ----------
+    pairs : pandas.DataFrame
+        The candidates (``pair_id``, ``y_offset_m``): pairs, or one row per object view.
+    tests : pandas.DataFrame
+        The chosen test rows (``pair_id``).
+    n : int
+        How many (fewer when there are fewer candidates).
+    rng : numpy.random.Generator
+        Breaks ties between equal offsets.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The chosen rows of ``pairs``, by increasing ``|y_offset_m|``.
+    """
+    pool = pairs[~pairs["pair_id"].isin(set(tests["pair_id"]))]
+    if pool.empty:
+        pool = tests
+    n = min(n, len(pool))
+    if n == 0:
+        return pool.iloc[:0]
+    order = pool.assign(_a=pool["y_offset_m"].abs(), _r=rng.random(len(pool))).sort_values(["_a", "_r"])
+    idx = np.round(np.linspace(0, len(order) - 1, n)).astype(int)
+    return order.iloc[sorted(set(idx.tolist()))].drop(columns=["_a", "_r"])
+
+
+def choose_tests(table: pd.DataFrame, rng: np.random.Generator, opts: StudyOptions, *,
+                 has_views: bool) -> tuple[list, pd.DataFrame, list[dict], pd.DataFrame]:
+    """The chosen views and the test and training rows of a study, from one row per pair (the
+    good/bad study) or per object view (the pairwise study).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        The candidate rows (``pair_id``, the object and view columns, ``label_class``).
+    rng : numpy.random.Generator
+        The study's generator: tracks, frames, then training rows are drawn from it.
+    opts : StudyOptions
+        ``offsets``, ``tracks``, ``frames_per_track`` and ``n_training`` are used.
+    has_views : bool
+        The pairs have 6-DoF views (else lateral offsets only).
+
+    Returns
+    -------
+    offsets : list
+        The chosen view labels, or offsets in metres for lateral-only pairs (manifest ``offsets``).
+    tests : pandas.DataFrame
+        The test rows (:func:`select_test_pairs`).
+    tracks : list of dict
+        The record of the chosen tracks and frames (manifest ``tracks``).
+    training : pandas.DataFrame
+        The training rows (:func:`pick_training`).
+
+    Raises
+    ------
+    InputError
+        Offsets the table lacks, or no frame holding every chosen view.
+    """
+    views = choose_views(opts.offsets, table)
+    offsets = views if has_views else sorted(float(v.partition("=")[2] or 0) for v in views)
+    tests, record = select_test_pairs(table, offsets=views, n_tracks=int(opts.tracks),
+                                      frames_per_track=int(opts.frames_per_track), rng=rng)
+    return offsets, tests, record, pick_training(table, tests, opts.n_training, rng)
+
+
+@dataclass(frozen=True)
+class StudyOptions:
+    """The options of ``annotate build``, checked (and defaulted) by
+    :func:`annotate.study.build_study`.
+
+    ``offsets``: ``'all'`` or a comma list of lateral offsets (:func:`choose_views`);
+    ``methods``: the comma list of methods a pairwise study compares (None: every method of
+    the pairs table); ``metrics_paths``: the metrics tables joined on ``pair_id``. The rest are
+    the counts of the design (tracks, frames per track, training, gold and repeat items),
+    votes per item, the seed, the display size and format, the access mode, the break
+    interval and the design's name.
+    """
+
+    tracks: int
+    frames_per_track: int
+    offsets: str
+    votes_per_item: int
+    seed: int
+    n_training: int
+    n_gold: int
+    n_repeats: int
+    size: int
+    image_format: str
+    access: str
+    break_every: int
+    design: str
+    methods: str | None
+    scene: str | None
+    metrics_paths: tuple
+
+
+@dataclass(frozen=True)
+class Choice:
+    """The items a design chose (:meth:`Design.choose_items`).
+
+    ``pairs``: the pairs table the items come from (with the 6-DoF columns of
+    :func:`data_schema.perturbation.with_perturbation_columns` when it has views); ``rows``:
+    one per item in items.csv order, in the design's own form; ``offsets``: the chosen offsets
+    in metres (lateral-only pairs) or view labels; ``tracks``: the per-track record of the
+    chosen tracks and frames (manifest ``tracks``); ``view_columns``: the view columns items
+    carry (``[]`` for lateral-only pairs); ``method_columns``: ``['method']`` when each item
+    shows one method's render of multi-method pairs; ``methods``: the methods a pairwise study
+    compares.
+    """
+
+    pairs: pd.DataFrame
+    rows: list
+    offsets: list
+    tracks: list
+    view_columns: list
+    method_columns: list = field(default_factory=list)
+    methods: list = field(default_factory=list)
+
+
+class Design(Protocol):
+    """A study design: what ``annotate build`` asks of it (module docstring).
+
+    ``name``: the manifest's ``design``; ``votes``: the stored vote values and their meaning
+    (:class:`annotate.store.Store`); ``crops_per_item``: the display crops of an item, each
+    named by one opaque id.
+    """
+
+    name: str
+    votes: dict
+    crops_per_item: int
+
+    def choose_items(self, pairs: pd.DataFrame, rng: np.random.Generator, opts: StudyOptions, *,
+                     where: str) -> Choice:
+        """The items of the study.
+
+        Parameters
+        ----------
+        pairs : pandas.DataFrame
+            The checked pairs table (``_root`` scene folder and ``_row`` line columns).
+        rng : numpy.random.Generator
+            The study's generator (every choice is seeded).
+        opts : StudyOptions
+            The checked options.
+        where : str
+            The pairs table, named in errors.
+
+        Returns
+        -------
+        Choice
+
+        Raises
+        ------
+        InputError
+            Options the table cannot satisfy (offsets or methods it lacks, no frame holding
+            every chosen view).
+        """
+        ...
+
+    def needed_images(self, rows) -> Iterator[tuple[object, str]]:
+        """``(pairs record, column)`` of every image the items ``rows`` show."""
+        ...
+
+    def cut_crops(self, choice: Choice, folder: Path, *, ids: list[str], rng: np.random.Generator,
+                  image, opts: StudyOptions, where: str, progress: bool) -> pd.DataFrame:
+        """Cut the crops of every item, pad them to one square and write them into ``folder/crops``.
+
+        Parameters
+        ----------
+        choice : Choice
+            From :meth:`choose_items`.
+        folder : pathlib.Path
+            The study folder being written.
+        ids : list of str
+            :attr:`crops_per_item` crop file names per item, in order.
+        rng : numpy.random.Generator
+            The study's generator, for crops drawn at random.
+        image : callable
+            ``image(record, column)``: a pairs row's image (:class:`annotate.crops.ImageCache`).
+        opts : StudyOptions
+            ``image_format`` and ``size`` (the display square) are used.
+        where : str
+            The pairs table, named in errors.
+        progress : bool
+            Show a progress bar.
+
+        Returns
+        -------
+        pandas.DataFrame
+            The items table (docs/FORMATS.md §5, §12).
+
+        Raises
+        ------
+        InputError
+            An unreadable image or a box outside it.
+        """
+        ...
+
+    def manifest_extras(self, choice: Choice) -> dict:
+        """Keys the design adds at the end of the manifest."""
+        ...

@@ -1,21 +1,23 @@
 """The pairwise study (docs/FORMATS.md §12): which render of two methods is closer to the GT?
 
-An *object view* is one object of one frame in one view: ``(clip_id, camera, track_id,
-timestamp_us, view)``; its id is the single-method ``pair_id`` of that view (§3, §9). A
+An *object view* is one object of one frame in one view: the columns
+:data:`data_schema.tables.OBJECT_COLUMNS` and the view; its id is the single-method
+``pair_id`` of that view (§3, §9: :func:`data_schema.tables.pair_ids` without methods). A
 pairs table with a ``method`` column holds one row per object view and method (same GT crop,
 the method's render). A pairwise item shows the GT crop (Reference) and the renders of two
 methods A and B of one object view; A is the earlier of the two in the study's method list.
 
-- :func:`check_methods`: the methods of a study (``--methods`` or every method of the table).
-- :func:`choose_items`: the design of ``annotate build --design pairwise``: object views
-  holding every chosen method are chosen as the binary design chooses pairs (tracks spread
-  over strata, frames along each track, every view; :func:`annotate.design.select_test_pairs`)
-  and each gives one test item per pair of methods. Training items come from other object
-  views (pairs of methods in turn); hidden gold items show the GT crop itself as A
-  (``method_a = gt``; the right answer is ``a``) against one method's render of an object
-  view away from the real camera (``view != none`` when there is one); repeats repeat test
-  items (shown with the sides swapped: :func:`annotate.assign.pairwise_sides`).
-- :func:`cut_crops`: the three display crops of every item on one square (one scale).
+- :func:`study_methods`: the methods of a study (``--methods`` or every method of the table).
+- :class:`PairwiseDesign` (:class:`annotate.design.Design`), the design of ``annotate build
+  --design pairwise``: object views holding every chosen method are chosen as the binary
+  design chooses pairs (tracks spread over strata, frames along each track, every view;
+  :func:`annotate.design.select_test_pairs`) and each gives one test item per pair of
+  methods. Training items come from other object views (pairs of methods in turn); hidden
+  gold items show the GT crop itself as A (``method_a = gt``; the right answer is ``a``)
+  against one method's render of an object view away from the real camera (``view !=
+  none`` when there is one); repeats repeat test items (shown with the sides swapped:
+  :func:`annotate.assign.pairwise_sides`). Its crops: the three display crops of every item
+  on one square (one scale).
 - :func:`choice`: the rater's answer in A/B terms from the side pressed.
 
 Item keys and ids: a test item's id is ``OBJECT_VIEW_ID|A|B``; keys ``training:ID``,
@@ -28,6 +30,7 @@ binary study. The votes store the side pressed: 1 left, 2 right, 0 can't tell (t
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from itertools import combinations
 from pathlib import Path
 
@@ -36,62 +39,52 @@ import pandas as pd
 from tqdm import tqdm
 
 from annotate import crops as _crops
-from annotate.design import attribute_columns, choose_views, select_test_pairs
+from annotate.design import Choice, StudyOptions, attribute_columns, choose_tests
 from data_schema.errors import InputError
-from data_schema.methods import GT_METHOD, METHOD_COLUMN
+from data_schema.methods import GT_METHOD, METHOD_COLUMN, table_methods
 from data_schema.perturbation import labels, perturbation_array, view_columns
 from data_schema.perturbation import with_perturbation_columns as _with_views
 from data_schema.tables import GT_BOX_COLUMNS, PAIR_META_COLUMNS, RENDER_BOX_COLUMNS, pair_ids
 from nvrq.crops import cut_box
 
-__all__ = ["METHOD_COLUMN", "GT_METHOD", "VOTE_CODES", "SIDES", "check_methods", "choose_items",
-           "needed_images", "cut_crops", "choice", "object_view_ids"]
+__all__ = ["METHOD_COLUMN", "GT_METHOD", "VOTE_CODES", "study_methods", "PairwiseDesign", "choice"]
 
 #: stored vote codes of a pairwise study: the key pressed
 VOTE_CODES = {1: "left", 2: "right", 0: "can't tell"}
-SIDES = ("left", "right")
-_OBJECT = ["clip_id", "camera", "track_id", "timestamp_us", "_view"]
 
 
-def object_view_ids(df: pd.DataFrame) -> list[str]:
-    """``CLIP:CAMERA:TRACK:T:VIEW`` per row: the single-method ``pair_id`` of the row's view.
+def study_methods(pairs: pd.DataFrame, methods: str | None, *, where: str) -> list[str]:
+    """The methods a pairwise study compares, in order: ``methods`` (a comma list of methods
+    of ``pairs``), or with None every method ``pairs`` holds
+    (:func:`data_schema.methods.table_methods`, sorted). ``pairs`` is the checked pairs table
+    (its reader has checked the names: never the reserved :data:`GT_METHOD`), named ``where``
+    in errors.
 
-    >>> object_view_ids(pd.DataFrame({"clip_id": ["c"], "camera": ["f"], "track_id": ["t"],
-    ...                               "timestamp_us": [5], "y_offset_m": [1.0]}))
-    ['c:f:t:5:+1.00']
+    Raises :class:`InputError` for no ``method`` column, an empty method, a name not in the
+    table or a repeated one (naming the parameter ``methods``), or fewer than two.
     """
-    return pair_ids(df)
-
-
-def check_methods(pairs: pd.DataFrame, methods: str | None, *, where: str) -> list[str]:
-    """The study's methods in order: ``methods`` (a comma list) or every method of ``pairs``
-    (sorted). InputError: no ``method`` column, an empty method, a name not in the table, a
-    repeated name, fewer than two. (The pairs reader has checked the names: never the reserved
-    :data:`GT_METHOD`, :func:`data_schema.methods.check_method_name`.)"""
-    if METHOD_COLUMN not in pairs.columns:
-        raise InputError(where, f"column {METHOD_COLUMN!r}",
-                         "a method column (one render per method) for --design pairwise",
-                         "no such column")
+    have = table_methods(pairs, where=where,
+                         expected="a method column (one render per method) for --design pairwise")
     col = pairs[METHOD_COLUMN]
     bad = col.isna() | (col.astype(str).str.strip() == "")
     if bad.any():
         raise InputError(where, f"line {int(np.argmax(bad.to_numpy())) + 2}: column 'method'",
                          "a method name", "an empty value")
-    have = sorted(set(col.astype(str)))
     if methods is None:
         chosen = have
     else:
         chosen = [m.strip() for m in str(methods).split(",") if m.strip()]
         unknown = [m for m in chosen if m not in have]
         if unknown:
-            raise InputError("methods", None, f"methods of {where}'s method column "
-                             f"({', '.join(have)})", unknown[0])
+            raise InputError(param="methods", expected=f"methods of {where}'s method column "
+                             f"({', '.join(have)})", got=unknown[0])
         if len(set(chosen)) != len(chosen):
-            raise InputError("methods", None, "each method once", methods)
+            raise InputError(param="methods", expected="each method once", got=methods)
     if len(chosen) < 2:
-        raise InputError("methods" if methods is not None else where,
-                         None if methods is not None else "column 'method'",
-                         "at least 2 methods to compare", ", ".join(chosen) or "none")
+        expected, got = "at least 2 methods to compare", ", ".join(chosen) or "none"
+        if methods is not None:
+            raise InputError(param="methods", expected=expected, got=got)
+        raise InputError(where, "column 'method'", expected, got)
     return chosen
 
 
@@ -100,7 +93,7 @@ def _complete_views(pairs: pd.DataFrame, methods: list[str], *, where: str) -> p
     ``_object`` columns added)."""
     df = pairs[pairs[METHOD_COLUMN].astype(str).isin(methods)]
     df = df.assign(**{METHOD_COLUMN: df[METHOD_COLUMN].astype(str),
-                      "_view": labels(perturbation_array(df)), "_object": object_view_ids(df)})
+                      "_view": labels(perturbation_array(df)), "_object": pair_ids(df)})
     dup = df.duplicated(["_object", METHOD_COLUMN])
     if dup.any():
         row = df[dup].iloc[0]
@@ -111,96 +104,101 @@ def _complete_views(pairs: pd.DataFrame, methods: list[str], *, where: str) -> p
     return df[n == len(methods)]
 
 
-def choose_items(pairs: pd.DataFrame, rng: np.random.Generator, opts: dict, *, pick_training,
-                 where: str = "pairs"):
-    """The pairwise design (module docstring): ``(pairs, rows, chosen views or offsets,
-    per-track record)``; ``rows`` are dicts with ``kind, key, item_id, method_a, method_b``
-    and the pairs rows ``ref`` (GT), ``a`` (None: the GT crop) and ``b``.
+class PairwiseDesign:
+    """The pairwise design (module docstring). Each row of its :class:`~annotate.design.Choice`
+    is a dict: ``kind``, ``key``, ``item_id``, ``method_a``, ``method_b`` and the pairs records
+    ``ref`` (the GT crop's), ``a`` (None: the GT crop itself) and ``b``."""
 
-    ``pick_training(base, tests, n, rng)`` chooses the training object views (the binary
-    study's rule, offsets spread from small to large).
-    """
-    methods = opts["methods"]
-    full = _complete_views(pairs, methods, where=where)
-    if full.empty:
-        raise InputError(where, "column 'method'", f"object views rendered by every method of "
-                         f"{methods}", "none")
-    opts["view_columns"] = view_cols = view_columns(pairs)
-    if view_cols:
-        full = _with_views(full)
-    by_method = {m: g.set_index("_object") for m, g in full.groupby(METHOD_COLUMN)}
-    base = by_method[methods[0]].reset_index()  # one row per object view
-    chosen_views = choose_views(opts["offsets"], base)
-    chosen_offsets = chosen_views if view_cols else sorted(
-        float(v.partition("=")[2] or 0) for v in chosen_views)
-    tests, record = select_test_pairs(base, offsets=chosen_views, n_tracks=int(opts["tracks"]),
-                                      frames_per_track=int(opts["frames_per_track"]), rng=rng)
-    training = pick_training(base, tests, opts["n_training"], rng)
-    duos = list(combinations(methods, 2))
+    name = "pairwise"
+    votes = VOTE_CODES
+    crops_per_item = 3
 
-    def item(obj: str, kind: str, a: str, b: str, prefix: str = "") -> dict:
-        item_id = f"{obj}|{a}|{b}"
-        return {"kind": kind, "key": prefix + item_id, "item_id": item_id, "method_a": a,
-                "method_b": b, "ref": by_method[methods[0]].loc[obj],
-                "a": None if a == GT_METHOD else by_method[a].loc[obj], "b": by_method[b].loc[obj]}
+    def choose_items(self, pairs: pd.DataFrame, rng: np.random.Generator, opts: StudyOptions, *,
+                     where: str) -> Choice:
+        """The items of a pairwise study (:meth:`annotate.design.Design.choose_items`; the
+        module docstring): ``choice.pairs`` is ``pairs``, ``choice.methods`` the compared ones
+        (:func:`study_methods`). Errors also for two renders of one object view and method,
+        or no object view rendered by every method."""
+        methods = study_methods(pairs, opts.methods, where=where)
+        full = _complete_views(pairs, methods, where=where)
+        if full.empty:
+            raise InputError(where, "column 'method'", f"object views rendered by every method of "
+                             f"{methods}", "none")
+        view_cols = view_columns(pairs)
+        if view_cols:
+            full = _with_views(full)
+        by_method = {m: g.set_index("_object") for m, g in full.groupby(METHOD_COLUMN)}
+        base = by_method[methods[0]].reset_index()  # one row per object view
+        chosen_offsets, tests, record, training = choose_tests(base, rng, opts, has_views=bool(view_cols))
+        duos = list(combinations(methods, 2))
 
-    rows = [item(obj, "training", *duos[i % len(duos)], prefix="training:")
-            for i, obj in enumerate(training["_object"])]
-    test_rows = [item(obj, "test", a, b) for obj in tests["_object"] for a, b in duos]
-    rows += test_rows
-    away = tests[tests["_view"] != "none"] if (tests["_view"] != "none").any() else tests
-    n_gold = min(2 * opts["n_gold"], len(away))
-    for obj in away["_object"].iloc[sorted(rng.choice(len(away), size=n_gold, replace=False))]:
-        m = methods[int(rng.integers(len(methods)))]
-        gold = item(obj, "gold", GT_METHOD, m, prefix="gold:")
-        rows.append({**gold, "item_id": gold["key"]})
-    n_rep = min(opts["n_repeats"], len(test_rows))
-    for i in sorted(rng.choice(len(test_rows), size=n_rep, replace=False).tolist()):
-        r = test_rows[i]
-        rows.append({**r, "kind": "repeat", "key": "repeat:" + r["item_id"]})
-    return pairs, rows, chosen_offsets, record
+        def item(obj: str, kind: str, a: str, b: str, prefix: str = "") -> dict:
+            item_id = f"{obj}|{a}|{b}"
+            return {"kind": kind, "key": prefix + item_id, "item_id": item_id, "method_a": a,
+                    "method_b": b, "ref": by_method[methods[0]].loc[obj],
+                    "a": None if a == GT_METHOD else by_method[a].loc[obj], "b": by_method[b].loc[obj]}
 
+        rows = [item(obj, "training", *duos[i % len(duos)], prefix="training:")
+                for i, obj in enumerate(training["_object"])]
+        test_rows = [item(obj, "test", a, b) for obj in tests["_object"] for a, b in duos]
+        rows += test_rows
+        away = tests[tests["_view"] != "none"] if (tests["_view"] != "none").any() else tests
+        n_gold = min(2 * opts.n_gold, len(away))
+        for obj in away["_object"].iloc[sorted(rng.choice(len(away), size=n_gold, replace=False))]:
+            m = methods[int(rng.integers(len(methods)))]
+            gold = item(obj, "gold", GT_METHOD, m, prefix="gold:")
+            rows.append({**gold, "item_id": gold["key"]})
+        n_rep = min(opts.n_repeats, len(test_rows))
+        for i in sorted(rng.choice(len(test_rows), size=n_rep, replace=False).tolist()):
+            r = test_rows[i]
+            rows.append({**r, "kind": "repeat", "key": "repeat:" + r["item_id"]})
+        return Choice(pairs=pairs, rows=rows, offsets=chosen_offsets, tracks=record,
+                      view_columns=view_cols, methods=methods)
 
-def needed_images(rows):
-    """``(pairs record, column)`` of every image the items ``rows`` show: the GT crop's image
-    and the renders of A (unless it is the GT crop) and B."""
-    for r in rows:
-        yield r["ref"], "gt_path"
-        if r["a"] is not None:
-            yield r["a"], "render_path"
-        yield r["b"], "render_path"
+    def needed_images(self, rows) -> Iterator[tuple[object, str]]:
+        """``(pairs record, column)`` of every image the items ``rows`` show: the GT crop's
+        image and the renders of A (unless it is the GT crop) and B."""
+        for r in rows:
+            yield r["ref"], "gt_path"
+            if r["a"] is not None:
+                yield r["a"], "render_path"
+            yield r["b"], "render_path"
 
+    def cut_crops(self, choice: Choice, folder: Path, *, ids: list[str], rng: np.random.Generator,
+                  image, opts: StudyOptions, where: str, progress: bool) -> pd.DataFrame:
+        """The GT, A and B crops of every item on one square, the largest side of the three
+        (:meth:`annotate.design.Design.cut_crops`; ``rng`` is not used); the items table has
+        ``ref_file, a_file, b_file``, the methods and their pair ids."""
+        (folder / "crops").mkdir()
+        fmt, size = opts.image_format, int(opts.size)
+        attrs = attribute_columns(choice.pairs.drop(columns=["_root", "_row"]))
+        items = []
+        for k, r in enumerate(tqdm(choice.rows, desc="cutting crops", unit="item", disable=not progress)):
+            ref = r["ref"]
+            gt = cut_box(image(ref, "gt_path"), [ref[c] for c in GT_BOX_COLUMNS], where=where,
+                         field=f"line {int(ref['_row'])}: gt box")
+            ren = [gt if rec is None else cut_box(
+                image(rec, "render_path"), [rec[c] for c in RENDER_BOX_COLUMNS], where=where,
+                field=f"line {int(rec['_row'])}: render box") for rec in (r["a"], r["b"])]
+            crops = (gt, *ren)
+            side = max(max(c.shape[:2]) for c in crops)
+            names = {}
+            shown = _crops.pad_group(crops, size=size)
+            for j, (col, out) in enumerate(zip(("ref_file", "a_file", "b_file"), shown, strict=True)):
+                names[col] = f"{ids[3 * k + j]}.{fmt}"
+                _crops.write_image(folder / "crops" / names[col], out, fmt=fmt)
+            meta = {c: ref[c] for c in (*PAIR_META_COLUMNS, *choice.view_columns, *attrs)}
+            items.append({"key": r["key"], "item_id": r["item_id"], "kind": r["kind"],
+                          "pair_id": r["ref"].name, "method_a": r["method_a"],
+                          "method_b": r["method_b"],
+                          "pair_id_a": "" if r["a"] is None else r["a"]["pair_id"],
+                          "pair_id_b": r["b"]["pair_id"], **names, "crop_side": side,
+                          "expected": "a" if r["kind"] == "gold" else "", **meta})
+        return pd.DataFrame(items)
 
-def cut_crops(rows, pairs: pd.DataFrame, tmp: Path, *, ids: list[str], image, opts: dict,
-              where: str, progress: bool) -> pd.DataFrame:
-    """Cut the GT, A and B crops of every item, pad the three to one square (the largest side
-    of the three), resize to ``size`` and write them to ``tmp/crops``; the items table."""
-    (tmp / "crops").mkdir()
-    fmt, size = opts["image_format"], int(opts["size"])
-    attrs = attribute_columns(pairs.drop(columns=["_root", "_row"]))
-    items = []
-    for k, r in enumerate(tqdm(rows, desc="cutting crops", unit="item", disable=not progress)):
-        ref = r["ref"]
-        gt = cut_box(image(ref, "gt_path"), [ref[c] for c in GT_BOX_COLUMNS], where=where,
-                     field=f"line {int(ref['_row'])}: gt box")
-        ren = [gt if rec is None else cut_box(
-            image(rec, "render_path"), [rec[c] for c in RENDER_BOX_COLUMNS], where=where,
-            field=f"line {int(rec['_row'])}: render box") for rec in (r["a"], r["b"])]
-        crops = (gt, *ren)
-        side = max(max(c.shape[:2]) for c in crops)
-        names = {}
-        shown = _crops.pad_group(crops, size=size)
-        for j, (col, out) in enumerate(zip(("ref_file", "a_file", "b_file"), shown, strict=True)):
-            names[col] = f"{ids[3 * k + j]}.{fmt}"
-            _crops.write_image(tmp / "crops" / names[col], out, fmt=fmt)
-        meta = {c: ref[c] for c in (*PAIR_META_COLUMNS, *opts["view_columns"], *attrs)}
-        items.append({"key": r["key"], "item_id": r["item_id"], "kind": r["kind"],
-                      "pair_id": r["ref"].name, "method_a": r["method_a"],
-                      "method_b": r["method_b"],
-                      "pair_id_a": "" if r["a"] is None else r["a"]["pair_id"],
-                      "pair_id_b": r["b"]["pair_id"], **names, "crop_side": side,
-                      "expected": "a" if r["kind"] == "gold" else "", **meta})
-    return pd.DataFrame(items)
+    def manifest_extras(self, choice: Choice) -> dict:
+        """``design`` and the compared ``methods``."""
+        return {"design": "pairwise", "methods": list(choice.methods)}
 
 
 def choice(vote, side_a) -> np.ndarray:

@@ -360,7 +360,7 @@ def screen(
     unknown = sorted(set(exclude) - set(raters["rater_id"]))
     if unknown:
         raise InputError(
-            "exclude", unknown[0], "a rater id of the ratings", "no such rater"
+            param="exclude", field=unknown[0], expected="a rater id of the ratings", got="no such rater"
         )
     flags = [[] for _ in range(len(raters))]
     for mask, text in _checks(raters, rule):

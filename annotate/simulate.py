@@ -39,6 +39,7 @@ from annotate.store import Store, utc_iso
 from data_schema.errors import InputError
 from data_schema.perturbation import labels, perturbation_array
 from data_schema.raters import SIM_PREFIX
+from data_schema.tables import require_columns
 
 __all__ = ["p_good", "p_choice", "item_severity", "pairwise_severity", "simulate"]
 
@@ -61,10 +62,7 @@ def _degradation(study) -> pd.DataFrame:
             raise InputError(path, None, "a degradation.csv (written by 'nvrq synth') to simulate raters",
                              "no such file")
         deg = pd.read_csv(path, dtype={"camera": str, "track_id": str, METHOD_COLUMN: str})
-        missing = [c for c in (*_JOIN, "severity") if c not in deg.columns]
-        if missing:
-            raise InputError(path, f"column {missing[0]!r}", "columns " + ", ".join((*_JOIN, "severity")),
-                             ", ".join(deg.columns))
+        require_columns(deg, (*_JOIN, "severity"), where=path)
         if study.design == "pairwise" and METHOD_COLUMN not in deg.columns:
             raise InputError(path, f"column {METHOD_COLUMN!r}", "the method of each render "
                              "(one severity per method) to simulate a pairwise study",
@@ -150,7 +148,7 @@ def p_choice(delta, *, tie: float, width: float, lapse: float):
 def simulate(study, *, raters: int = 5, seed: int = 0, progress: bool = True) -> pd.DataFrame:
     """Let ``raters`` simulated raters (the last careless) rate the study; returns their params."""
     if raters < 1:
-        raise InputError("raters", None, "an integer >= 1", raters)
+        raise InputError(param="raters", expected="an integer >= 1", got=raters)
     pairwise = study.design == "pairwise"
     sev = pairwise_severity(study) if pairwise else item_severity(study)
     # the same store file and code path; NORMAL sync: simulated votes need not survive a power cut

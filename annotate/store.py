@@ -118,8 +118,8 @@ def _check_vote(rater: str, item: str, vote, votes: dict[int, str]) -> None:
     """Raise :class:`InputError` unless ``vote`` is one of ``votes`` (an int, not a bool)."""
     if vote not in votes or isinstance(vote, bool):
         named = [f"{v} ({what})" for v, what in votes.items()]
-        raise InputError("vote", f"{rater}/{item}", ", ".join(named[:-1]) + " or " + named[-1],
-                         repr(vote))
+        raise InputError(param="vote", field=f"{rater}/{item}", expected=", ".join(named[:-1]) + " or " + named[-1],
+                         got=repr(vote))
 
 
 class Store:

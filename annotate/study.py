@@ -26,72 +26,38 @@ from __future__ import annotations
 import json
 import os
 import secrets
-import shutil
 import sqlite3
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from tqdm import tqdm
 
-from annotate import crops as _crops
-from annotate import pairwise
 from annotate.assign import choose_next, make_plan, pairwise_sides, plan_total, rater_seed
-from annotate.design import attribute_columns, choose_views, select_test_pairs
-from annotate.store import BINARY_VOTES, Store
+from annotate.binary import BinaryDesign
+from annotate.crops import ImageCache, opaque_ids
+from annotate.design import Choice, Design, StudyOptions, attribute_columns
+from annotate.pairwise import PairwiseDesign
+from annotate.store import Store
 from data_schema.errors import InputError
-from data_schema.methods import method_columns
 from data_schema.outputs import check_output_folder
-from data_schema.perturbation import view_columns, with_perturbation_columns
 from data_schema.tables import (
-    GT_BOX_COLUMNS,
     ITEM_KINDS,
-    PAIR_META_COLUMNS,
     PAIRS_COLUMNS,
-    RENDER_BOX_COLUMNS,
+    atomic_folder,
     atomic_write_text,
-    inside_scene,
     pair_scene_roots,
     read_metrics,
     read_table,
 )
-from nvrq.crops import cut_box
 
 __all__ = ["build_study", "load_study", "Study", "StudyChanged", "crop_path", "unplaced_votes"]
 
 _MANIFEST = "manifest.json"
-#: study designs (manifest ``design``; absent: binary)
-DESIGNS = ("binary", "pairwise")
+#: study designs by name (manifest ``design``; absent: binary)
+DESIGNS: dict[str, Design] = {d.name: d for d in (BinaryDesign(), PairwiseDesign())}
 #: the stored vote values of each design and what they mean
-VOTES = {"binary": BINARY_VOTES, "pairwise": pairwise.VOTE_CODES}
-
-
-def _opaque_ids(rng: np.random.Generator, n: int) -> list[str]:
-    """``n`` distinct 16-hex-digit ids (seeded, so a rebuild names crops the same)."""
-    ids: list[str] = []
-    seen: set[str] = set()
-    while len(ids) < n:
-        s = rng.bytes(8).hex()
-        if s not in seen:
-            seen.add(s)
-            ids.append(s)
-    return ids
-
-
-def _pick_training(pairs: pd.DataFrame, tests: pd.DataFrame, n: int,
-                   rng: np.random.Generator) -> pd.DataFrame:
-    """``n`` pairs outside the test set (else from it), offsets spread from small to large."""
-    pool = pairs[~pairs["pair_id"].isin(set(tests["pair_id"]))]
-    if pool.empty:
-        pool = tests
-    n = min(n, len(pool))
-    if n == 0:
-        return pool.iloc[:0]
-    order = pool.assign(_a=pool["y_offset_m"].abs(), _r=rng.random(len(pool))).sort_values(["_a", "_r"])
-    idx = np.round(np.linspace(0, len(order) - 1, n)).astype(int)
-    return order.iloc[sorted(set(idx.tolist()))].drop(columns=["_a", "_r"])
+VOTES = {name: d.votes for name, d in DESIGNS.items()}
 
 
 def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = None,
@@ -101,17 +67,56 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
                 size: int = 320, image_format: str = "jpg", access: str = "open",
                 break_every: int = 50, design: str = "binary", methods: str | None = None,
                 progress: bool = True) -> Path:
-    """Build the study folder ``out`` (refused if it exists and is not empty); returns it.
+    """Build the study folder ``out`` (refused if it exists and is not empty).
 
-    ``metrics_path``: None, a metrics table, or a list of them (joined on ``pair_id``).
-    ``design`` in {'binary', 'pairwise'}: good/bad votes on (GT, render) items, or which of
-    two methods' renders is closer to the GT (:mod:`annotate.pairwise`; the pairs table needs
-    a ``method`` column); ``methods``: a comma list of the methods to compare (pairwise only;
-    default every method of the table).
+    Stages: check the options (:class:`annotate.design.StudyOptions`), read and check the
+    pairs (and metrics) table, let the design choose the items, check the images they need,
+    cut their crops into a new folder beside ``out``, write the tables and the manifest, and
+    put the folder in place (:class:`data_schema.tables.atomic_folder`: nothing is left
+    behind when a stage fails). The folder is private to its owner (mode 0o700: it holds the
+    admin token and the votes).
 
-    Stages: check the options, read and check the pairs (and metrics) table, choose the
-    items, cut their crops into a temporary folder, write the tables and the manifest, and
-    rename the folder into place (nothing is left behind when a stage fails).
+    Parameters
+    ----------
+    out : str or pathlib.Path
+        The study folder.
+    pairs_path : str or pathlib.Path
+        The pairs table (docs/FORMATS.md §3).
+    scene : str, optional
+        The scene folder (else the pairs table's ``scene_root`` column).
+    metrics_path : path or list of paths, optional
+        Metrics tables (joined on ``pair_id``) copied into the study for the admin page.
+    tracks, frames_per_track, n_training, n_gold, n_repeats : int
+        The design's counts (``n_gold``: gold items per type).
+    offsets : str
+        ``'all'`` or a comma list of lateral offsets in metres.
+    votes_per_item, break_every : int
+        Votes collected per item; a break offered every ``break_every`` votes.
+    seed : int
+        Seeds every choice and crop name (a rebuild gives the same study).
+    size : int
+        The side of the square display crops in pixels (>= 32).
+    image_format : {'jpg', 'png'}
+    access : {'open', 'token'}
+    design : {'binary', 'pairwise'}
+        Good/bad votes on (GT, render) items (:mod:`annotate.binary`), or which of two
+        methods' renders is closer to the GT (:mod:`annotate.pairwise`; the pairs table needs
+        a ``method`` column).
+    methods : str, optional
+        A comma list of the methods to compare (pairwise only; default every method of the
+        table).
+    progress : bool
+        Show a progress bar.
+
+    Returns
+    -------
+    pathlib.Path
+        ``out``.
+
+    Raises
+    ------
+    InputError
+        A bad option (naming the parameter), a bad pairs or metrics table, a missing image.
     """
     opts = _check_options(out, pairs_path, scene=scene, metrics_path=metrics_path, tracks=tracks,
                           frames_per_track=frames_per_track, offsets=offsets,
@@ -119,67 +124,48 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
                           n_gold=n_gold, n_repeats=n_repeats, size=size, image_format=image_format,
                           access=access, break_every=break_every, design=design,
                           methods=methods)
-    pairs = _read_pairs(Path(pairs_path), scene)
+    study_design = DESIGNS[opts.design]
+    where = str(pairs_path)
+    pairs = _read_pairs(Path(pairs_path), opts.scene)
     rng = np.random.default_rng(seed)
-    # a binary study's items carry the method of their render ([] for single-method pairs);
-    # pairwise items name theirs in method_a/method_b
-    opts["method_columns"] = method_columns(pairs) if design == "binary" else []
-    if design == "pairwise":
-        opts["methods"] = pairwise.check_methods(pairs, methods, where=str(pairs_path))
-        pairs, rows, chosen_offsets, record = pairwise.choose_items(
-            pairs, rng, opts, pick_training=_pick_training, where=str(pairs_path))
-        _check_images(pairwise.needed_images(rows), where=str(pairs_path))
-    else:
-        pairs, rows, chosen_offsets, record = _choose_items(pairs, rng, opts)
-        _check_images(((r, column) for r, kind, *_ in rows
-                       for column in (("gt_path",) if kind == "gold" else ("gt_path", "render_path"))),
-                      where=str(pairs_path))
-    metrics = _read_study_metrics(opts["metrics_paths"], pairs)
+    choice = study_design.choose_items(pairs, rng, opts, where=where)
+    _check_images(study_design.needed_images(choice.rows), where=where)
+    metrics = _read_study_metrics(opts.metrics_paths, choice.pairs)
+    ids = opaque_ids(rng, study_design.crops_per_item * len(choice.rows))
     out = Path(out)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent if out.parent.exists() else None))
-    try:
-        if design == "pairwise":
-            items = pairwise.cut_crops(rows, pairs, tmp, ids=_opaque_ids(rng, 3 * len(rows)),
-                                       image=_ImageCache(str(pairs_path)), opts=opts,
-                                       where=str(pairs_path), progress=progress)
-        else:
-            items = _cut_crops(rows, pairs, tmp, rng=rng, opts=opts, where=str(pairs_path),
-                               progress=progress)
+    with atomic_folder(out, mode=0o700) as tmp:
+        items = study_design.cut_crops(choice, tmp, ids=ids, rng=rng, image=ImageCache(where),
+                                       opts=opts, where=where, progress=progress)
         metric_cols = _write_tables(tmp, items, metrics)
-        manifest = _manifest(out, pairs, items, opts, pairs_file=Path(pairs_path).resolve(),
-                             metric_cols=metric_cols, offsets=chosen_offsets, tracks=record)
+        manifest = _manifest(out, choice, items, opts, extras=study_design.manifest_extras(choice),
+                             pairs_file=Path(pairs_path).resolve(), metric_cols=metric_cols)
         _write_manifest(tmp, manifest)
-        if out.exists():
-            out.rmdir()
-        os.replace(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return out
 
 
-def _check_options(out, pairs_path, **opts) -> dict:
-    """Check ``build_study``'s keyword arguments (errors name the parameter); returns them
-    with ``metrics_paths``, the list of metrics tables (``metrics_path``: a path or a list)."""
-    mp = opts["metrics_path"]
-    opts["metrics_paths"] = [] if mp is None else [mp] if isinstance(mp, str | os.PathLike) else list(mp)
+def _check_options(out, pairs_path, **opts) -> StudyOptions:
+    """Check ``build_study``'s keyword arguments (errors name the parameter); the frozen
+    options, with ``metrics_paths`` the tuple of metrics tables (``metrics_path``: a path or
+    a list)."""
+    mp = opts.pop("metrics_path")
+    opts["metrics_paths"] = () if mp is None else (mp,) if isinstance(mp, str | os.PathLike) else tuple(mp)
     check_output_folder(out, kind="study", option="out",
                         inputs=[pairs_path, *opts["metrics_paths"], opts["scene"]])
     for name, lo in (("tracks", 1), ("frames_per_track", 1), ("votes_per_item", 1), ("size", 32),
                      ("break_every", 1), ("n_training", 0), ("n_gold", 0), ("n_repeats", 0)):
         val = opts[name]
         if isinstance(val, bool) or not isinstance(val, int | np.integer) or val < lo:
-            raise InputError(name, None, f"an integer >= {lo}", val)
+            raise InputError(param=name, expected=f"an integer >= {lo}", got=val)
     if opts["image_format"] not in ("jpg", "png"):
-        raise InputError("image_format", None, "one of {'jpg', 'png'}", opts["image_format"])
+        raise InputError(param="image_format", expected="one of {'jpg', 'png'}", got=opts["image_format"])
     if opts["access"] not in ("open", "token"):
-        raise InputError("access", None, "one of {'open', 'token'}", opts["access"])
+        raise InputError(param="access", expected="one of {'open', 'token'}", got=opts["access"])
     if opts["design"] not in DESIGNS:
-        raise InputError("design", None, "one of {'binary', 'pairwise'}", opts["design"])
+        raise InputError(param="design", expected="one of {'binary', 'pairwise'}", got=opts["design"])
     if opts["methods"] is not None and opts["design"] != "pairwise":
-        raise InputError("methods", None, "no method list with --design binary (it compares "
-                         "methods only with --design pairwise)", opts["methods"])
-    return opts
+        raise InputError(param="methods", expected="no method list with --design binary (it compares "
+                         "methods only with --design pairwise)", got=opts["methods"])
+    return StudyOptions(**opts)
 
 
 def _read_pairs(pairs_path: Path, scene) -> pd.DataFrame:
@@ -211,99 +197,17 @@ def _read_study_metrics(paths, pairs: pd.DataFrame) -> pd.DataFrame | None:
     return merged
 
 
-def _choose_items(pairs: pd.DataFrame, rng: np.random.Generator, opts: dict):
-    """The pairs (with 6-DoF columns when they have views), rows ``(pair record, kind, key,
-    item_id, expected)`` of every item, the chosen offsets or views and the per-track record."""
-    chosen_views = choose_views(opts["offsets"], pairs)
-    opts["view_columns"] = view_cols = view_columns(pairs)  # [] for lateral-only pairs
-    if view_cols:
-        pairs = with_perturbation_columns(pairs)
-    chosen_offsets = chosen_views if view_cols else sorted(float(v.partition("=")[2] or 0) for v in chosen_views)
-    tests, record = select_test_pairs(pairs, offsets=chosen_views, n_tracks=int(opts["tracks"]),
-                                      frames_per_track=int(opts["frames_per_track"]), rng=rng)
-    training = _pick_training(pairs, tests, opts["n_training"], rng)
-    gold_src = tests.iloc[sorted(rng.choice(len(tests), size=min(2 * opts["n_gold"], len(tests)),
-                                            replace=False).tolist())]
-    rep_src = tests.iloc[sorted(rng.choice(len(tests), size=min(opts["n_repeats"], len(tests)),
-                                           replace=False).tolist())]
-
-    def recs(df: pd.DataFrame) -> list[dict]:
-        return df.to_dict("records")
-
-    rows = [(r, "training", "training:" + r["pair_id"], r["pair_id"], None) for r in recs(training)]
-    rows += [(r, "test", r["pair_id"], r["pair_id"], None) for r in recs(tests)]
-    for i, r in enumerate(recs(gold_src)):
-        tag = "gold-good" if i % 2 == 0 else "gold-bad"
-        rows.append((r, "gold", f"{tag}:{r['pair_id']}", f"{tag}:{r['pair_id']}",
-                     int(tag == "gold-good")))
-    rows += [(r, "repeat", "repeat:" + r["pair_id"], r["pair_id"], None) for r in recs(rep_src)]
-    return pairs, rows, chosen_offsets, record
-
-
 def _check_images(needed, *, where: str) -> None:
     """Every image the items need (``needed``: ``(pairs record, column)``) lies in its scene
     folder and exists (before any crop is cut)."""
     seen = set()
-    paths = _ImageCache(where)
+    paths = ImageCache(where)
     for r, column in needed:
         path = paths.path(r, column)
         if path not in seen and not os.path.isfile(path):
             raise InputError(where, f"line {int(r['_row'])}: column {column!r}", "an existing image file",
                              f"{r[column]} (not found)")
         seen.add(path)
-
-
-class _ImageCache:
-    """Images of the pairs table read once each (the last 64 kept), paths checked by the
-    scene-folder rule of :func:`data_schema.tables.inside_scene`."""
-
-    def __init__(self, where: str):
-        self.where, self.cache = where, {}
-
-    def path(self, r, column: str) -> str:
-        """The checked path of the image in ``column`` of pairs row ``r``."""
-        field = f"line {int(r['_row'])}: column {column!r}"
-        return inside_scene(r["_root"], r[column], where=self.where, field=field)
-
-    def __call__(self, r, column: str) -> np.ndarray:
-        field = f"line {int(r['_row'])}: column {column!r}"
-        path = self.path(r, column)
-        if path not in self.cache:
-            if len(self.cache) > 64:
-                self.cache.clear()
-            self.cache[path] = _crops.read_bgr(Path(path), where=self.where, field=field)
-        return self.cache[path]
-
-
-def _cut_crops(rows, pairs: pd.DataFrame, tmp: Path, *, rng, opts: dict, where: str,
-               progress: bool) -> pd.DataFrame:
-    """Cut, pad and write the two display crops of every item into ``tmp/crops``; the items."""
-    (tmp / "crops").mkdir()
-    fmt, size = opts["image_format"], int(opts["size"])
-    attrs = attribute_columns(pairs.drop(columns=["_root", "_row"]))
-    ids = _opaque_ids(rng, 2 * len(rows))
-    image = _ImageCache(where)
-    items = []
-    for k, (r, kind, key, item_id, expected) in enumerate(
-            tqdm(rows, desc="cutting crops", unit="item", disable=not progress)):
-        line = int(r["_row"])
-        gt = cut_box(image(r, "gt_path"), [r[c] for c in GT_BOX_COLUMNS],
-                        where=where, field=f"line {line}: gt box")
-        if kind == "gold":
-            ren = gt.copy() if expected == 1 else _crops.broken_render(gt, rng=rng)
-        else:
-            ren = cut_box(image(r, "render_path"), [r[c] for c in RENDER_BOX_COLUMNS],
-                             where=where, field=f"line {line}: render box")
-        a, b = _crops.pad_pair(gt, ren, size=size)
-        ref_file, ren_file = f"{ids[2 * k]}.{fmt}", f"{ids[2 * k + 1]}.{fmt}"
-        _crops.write_image(tmp / "crops" / ref_file, a, fmt=fmt)
-        _crops.write_image(tmp / "crops" / ren_file, b, fmt=fmt)
-        meta = {c: r[c] for c in (*PAIR_META_COLUMNS, *opts["view_columns"], *opts["method_columns"], *attrs)}
-        items.append({"key": key, "item_id": item_id, "kind": kind, "pair_id": r["pair_id"],
-                      "ref_file": ref_file, "ren_file": ren_file,
-                      "crop_side": max(*gt.shape[:2], *ren.shape[:2]),
-                      "expected": np.nan if expected is None else expected, **meta})
-    return pd.DataFrame(items)
 
 
 def _write_tables(tmp: Path, items: pd.DataFrame, metrics: pd.DataFrame | None) -> list[str]:
@@ -318,31 +222,31 @@ def _write_tables(tmp: Path, items: pd.DataFrame, metrics: pd.DataFrame | None) 
     return [c for c in metrics.columns if c != "pair_id"]
 
 
-def _manifest(out: Path, pairs: pd.DataFrame, items: pd.DataFrame, opts: dict, *, pairs_file: Path,
-              metric_cols: list[str], offsets: list[float], tracks) -> dict:
-    """The study's ``manifest.json`` (every option and choice)."""
+def _manifest(out: Path, choice: Choice, items: pd.DataFrame, opts: StudyOptions, *, extras: dict,
+              pairs_file: Path, metric_cols: list[str]) -> dict:
+    """The study's ``manifest.json`` (every option and choice; the design's ``extras`` last)."""
+    pairs = choice.pairs
     roots = pairs.drop_duplicates("clip_id").set_index("clip_id")["_root"]
     return {
         "format": "nvrq-study", "version": 1,
         "study_id": f"{out.resolve().name}-{secrets.token_hex(4)}",
-        "seed": int(opts["seed"]), "access": opts["access"],
-        "votes_per_item": int(opts["votes_per_item"]), "break_every": int(opts["break_every"]),
-        "display_size": int(opts["size"]), "image_format": opts["image_format"],
-        "options": {"tracks": int(opts["tracks"]), "frames_per_track": int(opts["frames_per_track"]),
-                    "offsets": str(opts["offsets"]), "n_training": int(opts["n_training"]),
-                    "n_gold_per_type": int(opts["n_gold"]), "n_repeats": int(opts["n_repeats"])},
+        "seed": int(opts.seed), "access": opts.access,
+        "votes_per_item": int(opts.votes_per_item), "break_every": int(opts.break_every),
+        "display_size": int(opts.size), "image_format": opts.image_format,
+        "options": {"tracks": int(opts.tracks), "frames_per_track": int(opts.frames_per_track),
+                    "offsets": str(opts.offsets), "n_training": int(opts.n_training),
+                    "n_gold_per_type": int(opts.n_gold), "n_repeats": int(opts.n_repeats)},
         "pairs": str(pairs_file),
-        "metrics": [str(Path(p).resolve()) for p in opts["metrics_paths"]],
+        "metrics": [str(Path(p).resolve()) for p in opts.metrics_paths],
         "metric_columns": metric_cols,
         "attribute_columns": attribute_columns(pairs.drop(columns=["_root", "_row"])),
-        "view_columns": opts["view_columns"],
-        "method_columns": opts["method_columns"],
+        "view_columns": list(choice.view_columns),
+        "method_columns": list(choice.method_columns),
         "scene_roots": {str(k): str(v) for k, v in roots.items()},
-        "offsets": offsets, "tracks": tracks,
+        "offsets": choice.offsets, "tracks": choice.tracks,
         "counts": {kind: int((items["kind"] == kind).sum()) for kind in ITEM_KINDS},
         "training_order": items.loc[items["kind"] == "training", "key"].tolist(),
-        **({"design": "pairwise", "methods": list(opts["methods"])}
-           if opts["design"] == "pairwise" else {}),
+        **extras,
     }
 
 

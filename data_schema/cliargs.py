@@ -121,18 +121,21 @@ def option_for(parser: argparse.ArgumentParser, args, name: str, aliases: dict |
 def flags_in_errors(parser: argparse.ArgumentParser, args, aliases: dict | None = None):
     """Library errors name the parameter (``tracks``); the CLI speaks of its flag (``--tracks``).
 
-    Re-raises an :class:`InputError` whose ``where`` is a parameter of the chosen command with
-    that parameter's option; ``aliases`` maps parameter names to argparse dests where they differ
-    (an alias the chosen command lacks falls back to the parameter's own name, so
-    ``{"weights": "yolo"}`` gives ``--yolo`` where that exists and ``--weights`` elsewhere).
+    Re-raises an :class:`InputError` whose ``param`` (or, in the former form without ``param``,
+    whose ``where``) is a parameter of the chosen command with that parameter's option as its
+    ``param``; ``aliases`` maps parameter names to argparse dests where they differ (an alias the
+    chosen command lacks falls back to the parameter's own name, so ``{"weights": "yolo"}`` gives
+    ``--yolo`` where that exists and ``--weights`` elsewhere).
     """
     try:
         yield
     except InputError as err:
-        flag = option_for(parser, args, err.where, aliases)
+        named = err.param is not None
+        flag = option_for(parser, args, err.param if named else err.where, aliases)
         if flag is None:
             raise
-        raise InputError(flag, err.field, err.expected, err.got) from None
+        raise InputError(err.where if named else None, err.field, err.expected, err.got,
+                         param=flag) from None
 
 
 def allow_negative_lists(parser: argparse.ArgumentParser) -> None:

@@ -5,6 +5,8 @@ line and exits with status 2 (docs/FORMATS.md §7).
 
 >>> str(InputError("scene.json", "cameras.front.T_sensor_rig", "a 4x4 matrix", "3x4"))
 'scene.json: cameras.front.T_sensor_rig: expected a 4x4 matrix, got 3x4'
+>>> str(InputError(param="tracks", expected="an integer >= 1", got=0))
+'tracks: expected an integer >= 1, got 0'
 """
 
 from __future__ import annotations
@@ -15,24 +17,54 @@ import numbers
 import os
 import sys
 
-__all__ = ["InputError", "run_cli", "ArgumentParser", "check_int", "check_number"]
+__all__ = ["InputError", "run_cli", "ArgumentParser", "check_int", "check_number", "check_choice"]
 
 
 class InputError(ValueError):
-    """Bad user input. ``where`` is a file (or option), ``field`` the key/row/column inside it.
+    """Bad user input, said in one line.
 
-    The message is a single line: ``"{where}: {field}: expected {expected}, got {got}"``.
+    Parameters
+    ----------
+    where : object, optional
+        The file (or table, folder, store) the bad value is in; ``None`` when the value came
+        from a parameter.
+    field : str, optional
+        The key, row or column inside it (or the item of a parameter's value).
+    expected : str
+        What was expected (required).
+    got : object, optional
+        What was found (``None``: not said). Shortened to 120 characters, on one line.
+    param : str, optional
+        The library parameter (``tracks``) or command-line option (``--tracks``) whose value
+        is bad. The CLIs name their flag for a parameter
+        (:func:`data_schema.cliargs.flags_in_errors`).
+
+    Notes
+    -----
+    The message is ``"{where}: {param}: {field}: expected {expected}, got {got}"``, absent
+    parts left out. The former positional form ``InputError(where, field, expected, got)``
+    with a parameter name as ``where`` still works and prints the same line (its ``param``
+    is then None).
+
+    Raises
+    ------
+    TypeError
+        ``expected`` is missing.
     """
 
-    def __init__(self, where: object, field: str | None, expected: str, got: object = None):
-        self.where = str(where)
+    def __init__(self, where: object = None, field: str | None = None, expected: str | None = None,
+                 got: object = None, *, param: str | None = None):
+        if expected is None:
+            raise TypeError("InputError() needs expected")
+        self.where = None if where is None else str(where)
+        self.param = None if param is None else str(param)
         self.field = field
         self.expected = expected
         self.got = got
-        parts = [self.where]
+        parts = [p for p in (self.where, self.param) if p is not None]
         if field:
             parts.append(str(field))
-        msg = ": ".join(parts) + f": expected {expected}"
+        msg = ": ".join([*parts, f"expected {expected}"])
         if got is not None:
             got_s = str(got).replace("\n", " ")
             if len(got_s) > 120:
@@ -40,10 +72,36 @@ class InputError(ValueError):
             msg += f", got {got_s}"
         super().__init__(msg)
 
+    def __reduce__(self):
+        # pickled with its fields (the default would call InputError(message))
+        return (_rebuild, (type(self), self.where, self.field, self.expected, self.got, self.param))
+
+
+def _rebuild(cls, where, field, expected, got, param):
+    return cls(where, field, expected, got, param=param)
+
 
 def check_int(name: str, value, *, low: int = 1, high: int | None = None) -> int:
-    """``value`` when it is an integer (not a bool) in ``[low, high]``, else an :class:`InputError`
-    naming ``name``: the one check of counts, sizes and seeds (library parameters and CLI options).
+    """``value`` when it is an integer (not a bool) in ``[low, high]``: the one check of counts,
+    sizes and seeds (library parameters and CLI options).
+
+    Parameters
+    ----------
+    name : str
+        The parameter, named in the error (its ``param``).
+    value : object
+        The value to check.
+    low, high : int, optional
+        The bounds, both included (``high=None``: none).
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    InputError
+        ``value`` is not such an integer.
 
     >>> check_int("batch_size", 32)
     32
@@ -58,14 +116,15 @@ def check_int(name: str, value, *, low: int = 1, high: int | None = None) -> int
             expected = f"an integer in [{low}, {high}]"
         else:
             expected = {1: "a positive integer", 0: "a non-negative integer"}.get(low, f"an integer >= {low}")
-        raise InputError(name, None, expected, value)
+        raise InputError(param=name, expected=expected, got=value)
     return int(value)
 
 
 def check_number(name: str, value, *, low: float | None = None, high: float | None = None,
                  low_open: bool = False, high_open: bool = False) -> float:
-    """``value`` when it is a finite real number (not a bool) within the bounds (``low``/``high``,
-    excluded when ``low_open``/``high_open``), else an :class:`InputError` naming ``name``.
+    """``value`` as a float when it is a finite real number (not a bool) within the bounds
+    ``low``/``high`` (None: none; excluded when ``low_open``/``high_open``), else an
+    :class:`InputError` whose ``param`` is ``name`` (as :func:`check_int`).
 
     >>> check_number("tau", 1.0, low=0, high=1, low_open=True, high_open=True)
     Traceback (most recent call last):
@@ -88,8 +147,22 @@ def check_number(name: str, value, *, low: float | None = None, high: float | No
             expected = f"a number {'<' if high_open else '<='} {high:g}"
         else:
             expected = "a finite number"
-        raise InputError(name, None, expected, value)
+        raise InputError(param=name, expected=expected, got=value)
     return float(value)
+
+
+def check_choice(name: str, value, choices):
+    """``value`` when it is one of ``choices``, else an :class:`InputError` whose ``param`` is
+    ``name``, listing them.
+
+    >>> check_choice("rank_by", "auc", ("srcc", "plcc"))
+    Traceback (most recent call last):
+    ...
+    data_schema.errors.InputError: rank_by: expected one of {'srcc', 'plcc'}, got 'auc'
+    """
+    if value not in choices:
+        raise InputError(param=name, expected="one of {" + ", ".join(map(repr, choices)) + "}", got=repr(value))
+    return value
 
 
 def run_cli(main, argv=None) -> int:

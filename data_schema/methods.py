@@ -15,11 +15,18 @@ The facts every table shares live here:
   a word a CSV reader takes for a missing value (``NA``, ``null``, ``none``) and not ``gt``
   (the GT crop's name in pairwise studies). So a name never breaks a pair id (``:``), a comma
   list, a path or a CSV round trip;
+- :func:`method_values` and :func:`table_methods`, the one rule for which methods a table
+  holds: a row's method is its ``method`` value, ``''`` where the column is absent or empty;
+  the table holds the distinct non-empty ones (what ``annotate build --design pairwise`` and
+  ``analyze --compare-methods`` choose from);
 - :func:`method_suffix`, the part a method adds to a pair id (``':3dgs'``; nothing for none);
-- :func:`parse_methods`, the ``NAME:SCALE,...`` list of ``nvrq synth --methods``.
+- :func:`parse_methods` and :func:`check_method_scales`, the ``NAME:SCALE,...`` list of
+  ``nvrq synth --methods``.
 
 >>> method_suffix(["3dgs", ""])
 [':3dgs', '']
+>>> table_methods(pd.DataFrame({"method": ["nerf", "", "3dgs", "nerf"]}))
+['3dgs', 'nerf']
 >>> parse_methods("3dgs:0.5,nerf:1.5")
 [('3dgs', 0.5), ('nerf', 1.5)]
 """
@@ -34,8 +41,8 @@ import pandas as pd
 
 from data_schema.errors import InputError
 
-__all__ = ["METHOD_COLUMN", "GT_METHOD", "check_method_name", "method_values", "method_columns", "method_suffix",
-           "parse_methods", "check_methods", "check_table_methods"]
+__all__ = ["METHOD_COLUMN", "GT_METHOD", "check_method_name", "method_values", "table_methods", "method_columns",
+           "method_suffix", "parse_methods", "check_method_scales", "check_table_methods"]
 
 #: The optional column naming the reconstruction method of a render (empty: none).
 METHOD_COLUMN = "method"
@@ -51,18 +58,38 @@ _EXPECTED = ("a method name of letters, digits, '_', '-' and '.' (starting with 
              "at most 64 characters, with a letter, not NA/null/none/gt), e.g. 3dgs")
 
 
-def check_method_name(name, *, where: object, field: str | None) -> str:
+def check_method_name(name, *, where: object = None, field: str | None = None,
+                      param: str | None = None) -> str:
     """``name`` if it is a valid method name (module docstring), else :class:`InputError`.
+
+    Parameters
+    ----------
+    name : object
+        The name to check.
+    where, field : optional
+        The file and the row/column the name is in (a table's value).
+    param : str, optional
+        The parameter or option the name came from (a list of methods given by the user).
+
+    Returns
+    -------
+    str
+        ``name``.
+
+    Raises
+    ------
+    InputError
+        ``name`` breaks the rule, naming ``where``, ``param`` and ``field``.
 
     >>> check_method_name("3dgut-v2", where="images.csv", field="row 3, column method")
     '3dgut-v2'
-    >>> check_method_name("a:b", where="--methods", field=None)
+    >>> check_method_name("a:b", param="methods")
     Traceback (most recent call last):
     ...
-    data_schema.errors.InputError: --methods: expected a method name of letters, digits, '_', '-' and '.' (starting with a letter or digit, at most 64 characters, with a letter, not NA/null/none/gt), e.g. 3dgs, got 'a:b'
+    data_schema.errors.InputError: methods: expected a method name of letters, digits, '_', '-' and '.' (starting with a letter or digit, at most 64 characters, with a letter, not NA/null/none/gt), e.g. 3dgs, got 'a:b'
     """
     if not _is_method_name(name):
-        raise InputError(where, field, _EXPECTED, repr(name))
+        raise InputError(where, field, _EXPECTED, repr(name), param=param)
     return name
 
 
@@ -86,14 +113,50 @@ def method_values(table: pd.DataFrame) -> np.ndarray:
     return col.where(col.notna(), "").astype(str).to_numpy(dtype=object)
 
 
+def table_methods(table: pd.DataFrame, *, where: object = None, expected: str | None = None) -> list[str]:
+    """The methods ``table`` holds: the distinct non-empty values of :func:`method_values`, sorted.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Any table of the toolkit (``images.csv``, pairs, study items, per-object items).
+    where : object, optional
+        The table's file, named in the error.
+    expected : str, optional
+        What a caller needs the column for. When given, a table without a ``method`` column is
+        an error; without it such a table holds no method (``[]``).
+
+    Returns
+    -------
+    list of str
+        The method names in sorted order; ``[]`` for a single-method table.
+
+    Raises
+    ------
+    InputError
+        ``table`` has no ``method`` column and ``expected`` is given: ``where``, ``column
+        'method'``, ``expected``, got ``no such column``.
+
+    >>> table_methods(pd.DataFrame({"x": [1]}))
+    []
+    >>> table_methods(pd.DataFrame({"x": [1]}), where="pairs.csv", expected="a method column")
+    Traceback (most recent call last):
+    ...
+    data_schema.errors.InputError: pairs.csv: column 'method': expected a method column, got no such column
+    """
+    if METHOD_COLUMN not in table.columns and expected is not None:
+        raise InputError(where, f"column {METHOD_COLUMN!r}", expected, "no such column")
+    return sorted(v for v in pd.unique(method_values(table)) if v)
+
+
 def method_columns(table: pd.DataFrame) -> list[str]:
-    """``[METHOD_COLUMN]`` when some row of ``table`` names a method, else ``[]`` (so tables of
-    single-method scenes keep exactly their former columns).
+    """``[METHOD_COLUMN]`` when ``table`` holds a method (:func:`table_methods`), else ``[]`` (so
+    tables of single-method scenes keep exactly their former columns).
 
     >>> method_columns(pd.DataFrame({"method": ["", "a"]})), method_columns(pd.DataFrame({"x": [1]}))
     (['method'], [])
     """
-    return [METHOD_COLUMN] if (method_values(table) != "").any() else []
+    return [METHOD_COLUMN] if table_methods(table) else []
 
 
 def method_suffix(methods) -> list[str]:
@@ -114,29 +177,63 @@ def check_table_methods(table: pd.DataFrame, *, where: object, line_offset: int 
 
 def parse_methods(text: str, *, option: str = "methods") -> list[tuple[str, float]]:
     """``'NAME:SCALE,...'`` -> ``[(name, scale), ...]`` in the given order, checked by
-    :func:`check_methods`. Errors name ``option``."""
+    :func:`check_method_scales`.
+
+    Parameters
+    ----------
+    text : str
+        The ``--methods`` value of ``nvrq synth`` / ``nvrq demo``.
+    option : str
+        The parameter or option named in errors.
+
+    Returns
+    -------
+    list of (str, float)
+
+    Raises
+    ------
+    InputError
+        An empty list, an item without ``:``, or a list :func:`check_method_scales` refuses.
+    """
     items = [s.strip() for s in str(text).split(",") if s.strip()]
     if not items:
-        raise InputError(option, None, "a comma list of NAME:SCALE items, e.g. 3dgs:0.5,nerf:1.5", text)
+        raise InputError(param=option, expected="a comma list of NAME:SCALE items, e.g. 3dgs:0.5,nerf:1.5", got=text)
     out = []
     for item in items:
         name, sep, scale = item.rpartition(":")
         if not sep:
-            raise InputError(option, None, "NAME:SCALE items, e.g. 3dgs:0.5", item)
+            raise InputError(param=option, expected="NAME:SCALE items, e.g. 3dgs:0.5", got=item)
         try:
             value = float(scale)
         except ValueError:
             value = scale
         out.append((name, value))
-    return check_methods(out, option=option)
+    return check_method_scales(out, option=option)
 
 
-def check_methods(methods, *, option: str = "methods") -> list[tuple[str, float]]:
-    """``[(name, scale), ...]`` checked: names by :func:`check_method_name`, each once; a scale
-    is a finite number >= 0 (``nvrq synth`` multiplies the artefact severity by it: 0 = a
-    perfect render, 1 = the usual one). At least one. Errors name ``option``.
+def check_method_scales(methods, *, option: str = "methods") -> list[tuple[str, float]]:
+    """The methods of a synthetic scene, checked: names by :func:`check_method_name`, each once;
+    a scale is a finite number >= 0 (``nvrq synth`` multiplies the artefact severity by it:
+    0 = a perfect render, 1 = the usual one). At least one.
 
-    >>> check_methods([("a", 1), ("a", 2)])
+    Parameters
+    ----------
+    methods : iterable of (str, float)
+        ``(name, scale)`` pairs.
+    option : str
+        The parameter or option named in errors.
+
+    Returns
+    -------
+    list of (str, float)
+        The pairs in the given order, scales as floats.
+
+    Raises
+    ------
+    InputError
+        Not a list of pairs, none, a bad or repeated name, or a bad scale.
+
+    >>> check_method_scales([("a", 1), ("a", 2)])
     Traceback (most recent call last):
     ...
     data_schema.errors.InputError: methods: a: expected each method name once, got again
@@ -144,18 +241,18 @@ def check_methods(methods, *, option: str = "methods") -> list[tuple[str, float]
     try:
         items = [(name, scale) for name, scale in methods]
     except (TypeError, ValueError):
-        raise InputError(option, None, "a list of (name, scale) pairs", repr(methods)) from None
+        raise InputError(param=option, expected="a list of (name, scale) pairs", got=repr(methods)) from None
     if not items:
-        raise InputError(option, None, "at least one NAME:SCALE method", "none")
+        raise InputError(param=option, expected="at least one NAME:SCALE method", got="none")
     out, seen = [], set()
     for name, scale in items:
-        check_method_name(name, where=option, field=None)
+        check_method_name(name, param=option)
         ok = isinstance(scale, int | float | np.integer | np.floating) and not isinstance(scale, bool) \
             and math.isfinite(scale) and scale >= 0
         if not ok:
-            raise InputError(option, name, "a finite scale >= 0 after ':'", scale)
+            raise InputError(param=option, field=name, expected="a finite scale >= 0 after ':'", got=scale)
         if name in seen:
-            raise InputError(option, name, "each method name once", "again")
+            raise InputError(param=option, field=name, expected="each method name once", got="again")
         seen.add(name)
         out.append((name, float(scale)))
     return out

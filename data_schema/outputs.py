@@ -84,25 +84,41 @@ def _check_inputs(out: Path, inputs: Iterable, option: str) -> None:
             continue
         ip = _resolve(inp)
         if _same(out, ip):
-            raise InputError(option, None, "an output path that is not an input", f"the input {Path(inp).name}")
+            raise InputError(param=option, expected="an output path that is not an input",
+                             got=f"the input {Path(inp).name}")
         if out in ip.parents:
-            raise InputError(option, None, "an output folder that holds none of the inputs",
-                             f"a folder holding the input {Path(inp).name}")
+            raise InputError(param=option, expected="an output folder that holds none of the inputs",
+                             got=f"a folder holding the input {Path(inp).name}")
 
 
 def _check_not_managed(out: Path, option: str, *, allow: Path | None = None) -> None:
     found = managed_folder(out.parent if allow is not None and out == allow else out)
     if found is not None and found[0] != allow:
         folder, kind = found
-        raise InputError(option, None, f"a path outside the {kind} folder {folder} (the toolkit manages it)",
-                         str(out))
+        raise InputError(param=option, expected=f"a path outside the {kind} folder {folder} (the toolkit manages it)",
+                         got=str(out))
 
 
 def check_output_file(out, *, inputs: Iterable = (), option: str = "out") -> Path:
-    """Check an output file path against the rule (module docstring); returns it."""
+    """Check an output file path against the rule (module docstring).
+
+    Parameters
+    ----------
+    out : str or os.PathLike
+        The output file.
+    inputs : iterable of paths
+        The command's inputs (None entries are skipped).
+    option : str
+        The parameter named in errors (its ``param``; the CLIs show their flag).
+
+    Returns
+    -------
+    pathlib.Path
+        ``out`` as given, once it obeys the rule (else :class:`InputError`).
+    """
     target = _resolve(out)
     if target.is_dir():
-        raise InputError(option, None, "an output file path", f"{out} (an existing folder)")
+        raise InputError(param=option, expected="an output file path", got=f"{out} (an existing folder)")
     _check_inputs(target, inputs, option)
     _check_not_managed(target, option)
     return Path(out)
@@ -113,16 +129,18 @@ def _is_empty_dir(p: Path) -> bool:
 
 
 def check_output_folder(out, *, kind: str, inputs: Iterable = (), option: str = "out") -> Path:
-    """Check an output folder of ``kind`` in ``{'report', 'scene', 'study'}``; returns it.
+    """Check the output folder ``out`` of ``kind`` in ``{'report', 'scene', 'study'}`` against
+    the rule (module docstring), as :func:`check_output_file` checks a file; returns ``out``.
 
     ``report`` may replace an empty folder or a report folder of ours; ``scene`` an empty
-    folder or a scene folder; ``study`` only an empty one.
+    folder or a scene folder; ``study`` only an empty one. An unknown ``kind`` is an
+    :class:`InputError` too.
     """
     if kind not in ("report", "scene", "study"):
-        raise InputError("kind", None, "one of {'report', 'scene', 'study'}", kind)
+        raise InputError(param="kind", expected="one of {'report', 'scene', 'study'}", got=kind)
     target = _resolve(out)
     if target.exists() and not target.is_dir():
-        raise InputError(option, None, f"a {kind} folder", f"{out} (an existing file)")
+        raise InputError(param=option, expected=f"a {kind} folder", got=f"{out} (an existing file)")
     _check_inputs(target, inputs, option)
     own = None
     if target.is_dir() and not _is_empty_dir(target):
@@ -134,7 +152,7 @@ def check_output_folder(out, *, kind: str, inputs: Iterable = (), option: str = 
             what = {"report": f"an absent or empty folder, or a report folder of ours (with {REPORT_MARKER})",
                     "scene": "an absent or empty folder, or a previous scene folder",
                     "study": "a new or empty study folder (votes are never overwritten)"}[kind]
-            raise InputError(option, None, what, f"{out} (a folder with other files)")
+            raise InputError(param=option, expected=what, got=f"{out} (a folder with other files)")
     _check_not_managed(target, option, allow=own)
     return Path(out)
 

@@ -172,18 +172,18 @@ def _grid(axis: str, spec: str, text: str, option: str) -> list[float]:
     except ValueError:
         nums = []
     if len(nums) not in (1, 3) or not all(math.isfinite(v) for v in nums):
-        raise InputError(option, None, f"{axis}=START:STOP:STEP or {axis}=VALUE in {unit}", text)
+        raise InputError(param=option, expected=f"{axis}=START:STOP:STEP or {axis}=VALUE in {unit}", got=text)
     if len(nums) == 1:
         values = nums
     else:
         start, stop, step = nums
         if step <= 0 or stop < start or (stop - start) / step > 1000:
-            raise InputError(option, None, f"{axis}=START:STOP:STEP with STEP > 0 and STOP >= START "
-                             "(at most 1000 values)", text)
+            raise InputError(param=option, expected=f"{axis}=START:STOP:STEP with STEP > 0 and STOP >= START "
+                             "(at most 1000 values)", got=text)
         n = int(math.floor((stop - start) / step + 1e-9)) + 1
         values = [round(start + i * step, 10) for i in range(n)]
     if any(abs(v) > LIMITS[unit] for v in values):
-        raise InputError(option, None, f"{axis} values within +-{LIMITS[unit]:g} {unit}", text)
+        raise InputError(param=option, expected=f"{axis} values within +-{LIMITS[unit]:g} {unit}", got=text)
     return values
 
 
@@ -195,15 +195,15 @@ def parse_perturb(text: str, *, option: str = "perturb") -> np.ndarray:
     """
     items = [s.strip() for s in str(text).split(",") if s.strip()]
     if not items:
-        raise InputError(option, None, "a comma list of AXIS=START:STOP:STEP items, e.g. "
-                         "y=-3:3:1,yaw=-10:10:5", text)
+        raise InputError(param=option, expected="a comma list of AXIS=START:STOP:STEP items, e.g. "
+                         "y=-3:3:1,yaw=-10:10:5", got=text)
     rows, seen = [], set()
     for item in items:
         axis, eq, spec = item.partition("=")
         axis = axis.strip().lower()
         if not eq or axis not in AXES:
-            raise InputError(option, None, f"items AXIS=START:STOP:STEP with AXIS in {{{', '.join(AXES)}}}",
-                             item)
+            raise InputError(param=option, expected=f"items AXIS=START:STOP:STEP with AXIS in {{{', '.join(AXES)}}}",
+                             got=item)
         for v in _grid(axis, spec.strip(), item, option):
             p = np.zeros(6)
             p[AXES.index(axis)] = v

@@ -23,7 +23,13 @@ import pandas as pd
 from data_schema.errors import InputError
 from data_schema.methods import METHOD_COLUMN, check_table_methods, method_columns, method_values
 from data_schema.perturbation import EXTRA_PERTURBATION_COLUMNS, PERTURBATION_COLUMNS
-from data_schema.tables import IMAGES_COLUMNS, atomic_write_text, inside_scene, write_table
+from data_schema.tables import (
+    IMAGES_COLUMNS,
+    atomic_write_text,
+    inside_scene,
+    require_columns,
+    write_table,
+)
 
 __all__ = [
     "CAMERA_MODEL_SCHEMA",
@@ -224,10 +230,7 @@ def _load_images(root: Path, cameras: dict, check_images: bool, follow: bool | N
         df = pd.read_csv(path, dtype={"camera": str, "source": str, "path": str, METHOD_COLUMN: str})
     except pd.errors.EmptyDataError:
         raise InputError(where, None, "a header row " + ",".join(IMAGES_COLUMNS), "an empty file") from None
-    missing = [c for c in IMAGES_COLUMNS if c not in df.columns]
-    if missing:
-        raise InputError(where, f"column {missing[0]!r}", "the columns " + ", ".join(IMAGES_COLUMNS),
-                         ", ".join(map(str, df.columns)))
+    require_columns(df, IMAGES_COLUMNS, where=where)
     for col in ("timestamp_us", *PERTURBATION_COLUMNS):
         if col not in df.columns:  # an optional perturbation column: 0 (lateral-only scene)
             df[col] = 0.0
@@ -254,7 +257,7 @@ def _load_images(root: Path, cameras: dict, check_images: bool, follow: bool | N
         if row.source == "gt" and row.y_offset_m != 0:
             raise InputError(where, f"{r}, column y_offset_m", "0 for a gt image", row.y_offset_m)
         _resolve_image(root, row.path, where, f"{r}, column path", check_images, linked, follow)
-    methods = _check_methods(df, where)
+    methods = _method_column(df, where)
     dup = df.duplicated(["camera", "timestamp_us", "source", *PERTURBATION_COLUMNS, *methods])
     if dup.any():
         i = int(np.argmax(dup.to_numpy()))
@@ -263,7 +266,7 @@ def _load_images(root: Path, cameras: dict, check_images: bool, follow: bool | N
     return df.loc[:, [*IMAGES_COLUMNS, *EXTRA_PERTURBATION_COLUMNS, *methods]]
 
 
-def _check_methods(df: pd.DataFrame, where: str) -> list[str]:
+def _method_column(df: pd.DataFrame, where: str) -> list[str]:
     """The optional ``method`` column (docs/FORMATS.md §2): ``[METHOD_COLUMN]`` when some render
     names a method (then every render names a valid one and no GT row does; the column is
     normalised to str), ``[]`` otherwise (a single-method scene, the column dropped)."""
@@ -364,14 +367,32 @@ def save_scene(scene_doc: dict, images: pd.DataFrame, root: str | os.PathLike) -
     """Write ``scene_doc`` (the docs/FORMATS.md §2 dict; numpy arrays allowed) and ``images``.
 
     ``format`` and ``version`` are filled in when absent. Both files are written atomically.
-    Returns ``root``.
+
+    Parameters
+    ----------
+    scene_doc : dict
+        The scene.json content.
+    images : pandas.DataFrame
+        The images.csv rows (:data:`data_schema.tables.IMAGES_COLUMNS`, then the optional
+        perturbation and method columns, written only when used).
+    root : str or os.PathLike
+        The scene folder (created when missing).
+
+    Returns
+    -------
+    pathlib.Path
+        ``root``.
+
+    Raises
+    ------
+    InputError
+        ``images`` lacks a column of :data:`~data_schema.tables.IMAGES_COLUMNS`, or a file
+        cannot be written.
     """
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
     doc = {"format": FORMAT, "version": VERSION, **scene_doc}
-    missing = [c for c in IMAGES_COLUMNS if c not in images.columns]
-    if missing:
-        raise ValueError(f"images table lacks columns {missing}")
+    require_columns(images, IMAGES_COLUMNS, where=root / "images.csv")
     extra = [c for c in EXTRA_PERTURBATION_COLUMNS if c in images.columns]  # written only when used
     write_table(images, root / "images.csv", columns=(*IMAGES_COLUMNS, *extra, *method_columns(images)))
     atomic_write_text(root / "scene.json", json.dumps(doc, indent=1, default=_jsonable) + "\n")

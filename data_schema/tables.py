@@ -31,6 +31,7 @@ __all__ = [
     "TIMING_COLUMNS",
     "timing_path",
     "PAIR_META_COLUMNS",
+    "OBJECT_COLUMNS",
     "IMAGES_COLUMNS",
     "TABLE_SUFFIXES",
     "MIN_SIDE_PX",
@@ -40,6 +41,7 @@ __all__ = [
     "offset_cm",
     "parse_offsets",
     "read_table",
+    "table_columns",
     "require_columns",
     "write_table",
     "atomic_write_text",
@@ -79,6 +81,13 @@ PAIRS_COLUMNS = (
 #: docs/FORMATS.md §5, the pair metadata carried into ratings.csv (attributes follow).
 PAIR_META_COLUMNS = ("clip_id", "camera", "track_id", "label_class", "timestamp_us", "y_offset_m")
 
+#: docs/FORMATS.md §3, §11-12: the columns that name one object in one frame (one GT crop)
+#: and, with the view (the perturbation columns of :mod:`data_schema.perturbation`), one object
+#: seen from one view, an *object view*: the key on which the renders of several methods are
+#: paired. Its id is the pair id without a method (:func:`pair_ids`), the view compared at the
+#: 0.01 precision of pair ids.
+OBJECT_COLUMNS = ("clip_id", "camera", "track_id", "timestamp_us")
+
 #: docs/FORMATS.md §5, fixed leading columns of ratings.csv.
 RATINGS_COLUMNS = ("item_id", "rater_id", "vote", "voted_at", "response_ms", "kind")
 
@@ -117,20 +126,33 @@ def pair_id(clip_id: str, camera: str, track_id: str, timestamp_us: int, y_offse
 
 
 def pair_ids(df: pd.DataFrame, methods=None) -> list[str]:
-    """docs/FORMATS.md §3 and §9 pair id of each row of ``df`` (``clip_id, camera, track_id,
-    timestamp_us`` and the view columns): ``CLIP:CAMERA:TRACK:T:VIEW``, then ``:METHOD`` for a
-    row with a method in ``methods`` ((N,), ``''`` for none; default: no method).
+    """docs/FORMATS.md §3 and §9 pair id of each row of ``df``: ``CLIP:CAMERA:TRACK:T:VIEW``,
+    then ``:METHOD`` for a row with a method. Without methods it is the id of the row's object
+    view (:data:`OBJECT_COLUMNS` and the view).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        (N rows) :data:`OBJECT_COLUMNS` and the view columns (``y_offset_m``, the optional
+        6-DoF ones).
+    methods : sequence of str, optional
+        (N,) each row's method, ``''`` for none (default: no method).
+
+    Returns
+    -------
+    list of str
 
     >>> df = pd.DataFrame({"clip_id": ["c", "c"], "camera": ["f", "f"], "track_id": ["t", "t"],
     ...                    "timestamp_us": [5, 5], "y_offset_m": [1.0, 0.0], "yaw_deg": [0.0, 5.0]})
     >>> pair_ids(df), pair_ids(df, ["3dgs", ""])
     (['c:f:t:5:+1.00', 'c:f:t:5:yaw=+5.00'], ['c:f:t:5:+1.00:3dgs', 'c:f:t:5:yaw=+5.00'])
     """
-    ts = pd.to_numeric(df["timestamp_us"]).astype(np.int64)
+    clip, camera, track, ts = (df[c] for c in OBJECT_COLUMNS)
+    ts = pd.to_numeric(ts).astype(np.int64)
     views = view_suffix(perturbation_array(df))
     suffix = [""] * len(df) if methods is None else method_suffix(methods)
     return [f"{c}:{cam}:{t}:{s}:{v}{m}" for c, cam, t, s, v, m in zip(
-        df["clip_id"], df["camera"], df["track_id"], ts, views, suffix, strict=True)]
+        clip, camera, track, ts, views, suffix, strict=True)]
 
 
 def offset_cm(y_offset_m) -> np.ndarray:
@@ -145,8 +167,21 @@ def offset_cm(y_offset_m) -> np.ndarray:
 def parse_offsets(text: str, *, field: str = "offsets") -> list[float]:
     """A comma list of render offsets in metres -> floats in the given order.
 
-    Raises :class:`InputError` naming ``field`` unless every item is a finite number and
-    there is at least one.
+    Parameters
+    ----------
+    text : str
+        E.g. ``'-3,-2,0,1.5'``.
+    field : str
+        The parameter or option named in errors (its ``param``).
+
+    Returns
+    -------
+    list of float
+
+    Raises
+    ------
+    InputError
+        An item is not a finite number, or there is none.
 
     >>> parse_offsets("-3,-2, 0,1.5")
     [-3.0, -2.0, 0.0, 1.5]
@@ -155,9 +190,9 @@ def parse_offsets(text: str, *, field: str = "offsets") -> list[float]:
     try:
         values = [float(t) for t in str(text).split(",") if t.strip()]
     except ValueError:
-        raise InputError(field, None, expected, text) from None
+        raise InputError(param=field, expected=expected, got=text) from None
     if not values or not all(math.isfinite(v) for v in values):
-        raise InputError(field, None, expected, text)
+        raise InputError(param=field, expected=expected, got=text)
     return values
 
 
@@ -195,6 +230,36 @@ def read_table(
     require_columns(df, required, where=path)
     check = TABLE_CHECKS.get(what)
     return df if check is None else check(df, where=str(path))
+
+
+def table_columns(path: str | os.PathLike) -> list[str]:
+    """The column names of a table file (CSV or Parquet) or of a clip-partitioned dataset
+    (:mod:`data_schema.datasets`), read from its header (or first file's schema) only.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A ``.csv`` or ``.parquet`` file, or a dataset folder.
+
+    Returns
+    -------
+    list of str
+        The columns in file order.
+
+    Raises
+    ------
+    InputError
+        A dataset folder without partitions or unfinished (:func:`data_schema.datasets.dataset_files`).
+    """
+    import pyarrow.parquet as pq
+
+    from data_schema import datasets
+
+    if datasets.is_dataset(path):
+        return list(pq.read_schema(datasets.dataset_files(path)[0][1]).names)
+    if str(path).lower().endswith(".parquet"):
+        return list(pq.read_schema(path).names)
+    return list(pd.read_csv(path, nrows=0).columns)
 
 
 def require_columns(df: pd.DataFrame, required: Sequence[str], *, where: object) -> pd.DataFrame:
@@ -428,9 +493,17 @@ class atomic_path:
 
 
 class atomic_folder:
-    """Context manager yielding a new empty folder (mode 0o755) beside ``target``; on success it
-    takes the place of ``target`` (a folder already there is moved aside, then removed), on an
-    exception it is removed and ``target`` is left as it was.
+    """Context manager yielding a new empty folder beside ``target``; on success it takes the
+    place of ``target`` (a folder already there is moved aside, then removed), on an exception
+    it is removed and ``target`` is left as it was. The parent folders of ``target`` are created
+    when missing.
+
+    Parameters
+    ----------
+    target : str or os.PathLike
+        The folder to write.
+    mode : int
+        The new folder's mode (default 0o755; a study folder is 0o700).
 
     >>> import tempfile, pathlib
     >>> d = pathlib.Path(tempfile.mkdtemp())
@@ -440,14 +513,15 @@ class atomic_folder:
     ('hi', ['out'])
     """
 
-    def __init__(self, target: str | os.PathLike):
+    def __init__(self, target: str | os.PathLike, *, mode: int = 0o755):
         self.target = Path(target)
+        self.mode = mode
 
     def __enter__(self) -> Path:
         out = self.target
         out.parent.mkdir(parents=True, exist_ok=True)
         self.tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".part", dir=out.parent))
-        os.chmod(self.tmp, 0o755)
+        os.chmod(self.tmp, self.mode)
         return self.tmp
 
     def __exit__(self, exc_type, exc, tb) -> bool:
@@ -506,7 +580,7 @@ def pair_scene_roots(df: pd.DataFrame, *, scene_root=None, base=None, where: str
     if scene_root is not None:
         root = Path(scene_root).resolve()
         if not root.is_dir():
-            raise InputError("scene_root", None, "an existing scene folder", str(scene_root))
+            raise InputError(param="scene_root", expected="an existing scene folder", got=str(scene_root))
         return np.full(len(df), str(root), dtype=object)
     if "scene_root" not in df.columns:
         raise InputError(where, "column 'scene_root'",

@@ -89,7 +89,7 @@ def pad_to_square(crop: np.ndarray, *, side: int | None = None) -> np.ndarray:
     h, w = crop.shape[:2]
     s = max(h, w) if side is None else int(side)
     if s < max(h, w):
-        raise InputError("side", None, f"at least the crop's longer side {max(h, w)}", s)
+        raise InputError(param="side", expected=f"at least the crop's longer side {max(h, w)}", got=s)
     if h == w == s:
         return crop
     out = np.zeros((s, s) + crop.shape[2:], dtype=crop.dtype)

@@ -319,13 +319,13 @@ def project_boxes(
     from nvrq.geometry.cameras import CameraModel
 
     if (perturbations is None) == (offsets is None):
-        raise InputError("perturbations", None, "exactly one of perturbations (K, 6) and offsets (K,)",
-                         "both" if offsets is not None else "neither")
+        raise InputError(param="perturbations", expected="exactly one of perturbations (K, 6) and offsets (K,)",
+                         got="both" if offsets is not None else "neither")
     views = lateral(np.asarray(offsets, np.float64).reshape(-1)) if offsets is not None \
         else np.asarray(perturbations, np.float64)
     if views.ndim != 2 or views.shape[1] != 6 or not np.isfinite(views).all():
-        raise InputError("perturbations", None, "a finite (K, 6) array (dx, dy, dz, roll, pitch, yaw)",
-                         f"shape {views.shape}")
+        raise InputError(param="perturbations", expected="a finite (K, 6) array (dx, dy, dz, roll, pitch, yaw)",
+                         got=f"shape {views.shape}")
     model = camera if isinstance(camera, CameraModel) else camera_from_model(camera, where="camera")
     arrays = {}
     for name, value, shape in (("T_sensor_rig", T_sensor_rig, (4, 4)), ("T_rig_world", T_rig_world, (4, 4)),
@@ -333,14 +333,14 @@ def project_boxes(
         arr = np.asarray(value, np.float64)
         if arr.ndim != len(shape) or any(s is not None and a != s for a, s in zip(arr.shape, shape, strict=True)):
             want = "(M, " + ", ".join(map(str, shape[1:])) + ")" if shape[0] is None else str(shape)
-            raise InputError(name, None, f"an array of shape {want}", f"shape {arr.shape}")
+            raise InputError(param=name, expected=f"an array of shape {want}", got=f"shape {arr.shape}")
         arrays[name] = arr
     if len(arrays["T_box_world"]) != len(arrays["dims_lwh"]):
-        raise InputError("dims_lwh", None, f"one row per box ({len(arrays['T_box_world'])})",
-                         f"{len(arrays['dims_lwh'])} rows")
+        raise InputError(param="dims_lwh", expected=f"one row per box ({len(arrays['T_box_world'])})",
+                         got=f"{len(arrays['dims_lwh'])} rows")
     for name, value in (("min_side", min_side), ("min_area", min_area)):
         if not isinstance(value, int | float | np.number) or not np.isfinite(value) or value < 0:
-            raise InputError(name, None, "a non-negative number of pixels", value)
+            raise InputError(param=name, expected="a non-negative number of pixels", got=value)
     m, k = len(arrays["T_box_world"]), len(views)
     corners = box_corners(arrays["T_box_world"], arrays["dims_lwh"])
     code, box_gt, box = _view_codes(model, arrays["T_sensor_rig"], arrays["T_rig_world"][None],
@@ -372,7 +372,7 @@ def make_pairs(
 
     for name, value in (("min_side", min_side), ("min_area", min_area)):
         if not isinstance(value, int | float | np.number) or not np.isfinite(value) or value < 0:
-            raise InputError(name, None, "a non-negative number of pixels", value)
+            raise InputError(param=name, expected="a non-negative number of pixels", got=value)
     stats = PairStats()
     cams = list(scene.cameras.values())
     frames_out = []

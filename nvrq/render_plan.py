@@ -132,7 +132,7 @@ def render_plan(scene, *, offsets=None, perturbations=None, cameras=None) -> pd.
     unknown = [c for c in names if c not in scene.cameras]
     if unknown:
         raise InputError(
-            "cameras", None, f"cameras of the scene ({', '.join(scene.cameras)})", unknown[0]
+            param="cameras", expected=f"cameras of the scene ({', '.join(scene.cameras)})", got=unknown[0]
         )
     renders = images[images.source == "render"]
     r_methods = method_values(renders)

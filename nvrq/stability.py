@@ -39,6 +39,7 @@ from data_schema.errors import InputError
 from data_schema.tables import (
     GT_BOX_COLUMNS,
     MIN_SIDE_PX,
+    OBJECT_COLUMNS,
     atomic_path,
     pair_boxes,
     pair_image_paths,
@@ -94,7 +95,7 @@ def _objects(
     b = pair_boxes(pairs, _GT_BOX, where=where)
     df[_GT_BOX] = b
     df["_short"] = np.minimum(b[:, 2] - b[:, 0], b[:, 3] - b[:, 1]) + 1
-    keys = ["clip_id", "camera", "track_id", "timestamp_us"]
+    keys = list(OBJECT_COLUMNS)  # one GT crop per object and frame
     frames = df.drop_duplicates(keys).sort_values(keys, kind="stable").reset_index(drop=True)
     frames["_rank"] = frames.groupby(keys[:3]).cumcount()
     big = frames[frames["_short"] >= min_side]
@@ -149,7 +150,7 @@ def _nuisance_crop(name: str, s, *, o: int, row, gts: list, r, image: _Images, b
         return jpeg_roundtrip(gts[o], int(round(100 - s)))
     if name == "view_shift":
         return _view_shift(row, by_track[(row["clip_id"], row["camera"], row["track_id"])], s, image)
-    raise InputError("nuisances", name, f"one of {', '.join(NUISANCE_STRENGTHS)}", name)
+    raise InputError(param="nuisances", field=name, expected=f"one of {', '.join(NUISANCE_STRENGTHS)}", got=name)
 
 
 def _object_samples(o: int, row, *, seed: int, gts: list, nuisances: dict, artefact_strengths,
@@ -281,7 +282,7 @@ def _check_study_args(*, n_objects: int, min_side: int) -> None:
     """``n_objects >= 2`` (occlusion borrows another object), ``min_side >= 1``; else InputError."""
     for name, value, low in (("n_objects", n_objects, 2), ("min_side", min_side, 1)):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-            raise InputError(name, None, f"an integer >= {low}", value)
+            raise InputError(param=name, expected=f"an integer >= {low}", got=value)
 
 
 def run_stability(

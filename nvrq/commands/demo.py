@@ -112,7 +112,7 @@ def run(args) -> int:
     if args.methods is not None:
         names = [name for name, _ in parse_methods(args.methods, option="--methods")]
         if len(names) < 2:
-            raise InputError("--methods", None, "at least two NAME:SCALE methods to compare", args.methods)
+            raise InputError(param="--methods", expected="at least two NAME:SCALE methods to compare", got=args.methods)
     if out.exists() and any(out.iterdir()):
         raise InputError(out, None, "an empty or absent output folder", "a folder with files in it")
     out.mkdir(parents=True, exist_ok=True)

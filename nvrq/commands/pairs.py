@@ -56,8 +56,8 @@ def _is_fleet(args) -> bool:
                                    and any(first.glob("*/scene.json")))
     to_file = Path(args.out).suffix != ""  # a dataset folder has no suffix
     if many and to_file:
-        raise InputError("--out", None, "a folder for several clips (a Parquet dataset partitioned by "
-                         "clip_id)", args.out)
+        raise InputError(param="--out", expected="a folder for several clips (a Parquet dataset partitioned by "
+                         "clip_id)", got=args.out)
     return many or not to_file
 
 

@@ -30,7 +30,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     if not str(args.out).lower().endswith((".csv", ".json")):
-        raise InputError("--out", None, "a plan file ending in .csv or .json", args.out)
+        raise InputError(param="--out", expected="a plan file ending in .csv or .json", got=args.out)
     offsets = None if args.offsets is None else parse_offsets(args.offsets, field="--offsets")
     views = perturb_grid(args)  # the arguments before the scene is read
     cameras = (

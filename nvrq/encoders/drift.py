@@ -78,16 +78,17 @@ def require_check(encoder, *, runtime: str, precision: str, cache_dir=None,
     how = (f"`nvrq calibrate-runtime` on pairs of your data first (from Python: {__name__}.check_runtime, "
            "then write_record)")
     if rec is None:
-        raise InputError("precision", None, f"a drift check on record for {name} {runtime}/{precision}: "
-                         f"{how}", "none")
+        raise InputError(param="precision", expected=f"a drift check on record for {name} {runtime}/{precision}: "
+                         f"{how}", got="none")
     if not rec["nvrq_spearman"] >= threshold:
-        raise InputError("precision", None,
-                         f"NVRQ Spearman >= {threshold} (`min_spearman`) against fp32 for {name} "
+        raise InputError(param="precision",
+                         expected=f"NVRQ Spearman >= {threshold} (`min_spearman`) against fp32 for {name} "
                          f"{runtime}/{precision} (or a new drift check on other pairs: {how})",
-                         f"{rec['nvrq_spearman']:.5f} on record")
+                         got=f"{rec['nvrq_spearman']:.5f} on record")
     model_file = rec.get("model_file")
     if precision == "int8" and (not model_file or not Path(model_file).is_file()):
-        raise InputError("precision", None, f"the int8 model on record for {name}: {how}", model_file or "none")
+        raise InputError(param="precision", expected=f"the int8 model on record for {name}: {how}",
+                         got=model_file or "none")
     return Path(model_file) if model_file else None
 
 

@@ -133,7 +133,7 @@ def get_spec(name: str | None = None) -> EncoderSpec:
     """
     spec = ENCODERS.get(DEFAULT_ENCODER if name is None else name)
     if spec is None:
-        raise InputError("encoder", None, f"one of {', '.join(sorted(ENCODERS))}", name)
+        raise InputError(param="encoder", expected=f"one of {', '.join(sorted(ENCODERS))}", got=name)
     return spec
 
 
@@ -253,7 +253,7 @@ class EncoderConfig:
         check_runtime_combo(self.runtime, self.precision, str(self.device))
         if self.threads is not None and (isinstance(self.threads, bool) or not isinstance(self.threads, int)
                                          or self.threads < 1):
-            raise InputError("threads", None, "a positive integer or None", self.threads)
+            raise InputError(param="threads", expected="a positive integer or None", got=self.threads)
         for key in ("weights", "cache_dir"):  # paths are kept as strings: picklable, comparable
             value = getattr(self, key)
             if value is not None:
@@ -271,7 +271,8 @@ def encoder_config(encoder: EncoderConfig | str | None = None, **options) -> Enc
     if isinstance(encoder, EncoderConfig):
         return replace(encoder, **options) if options else encoder
     if encoder is not None and not isinstance(encoder, str):
-        raise InputError("encoder", None, "an encoder name or an EncoderConfig", type(encoder).__name__)
+        raise InputError(param="encoder", expected="an encoder name or an EncoderConfig",
+                         got=type(encoder).__name__)
     return EncoderConfig(encoder, **options)
 
 

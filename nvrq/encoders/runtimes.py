@@ -329,14 +329,16 @@ def check_runtime_combo(runtime: str, precision: str, device: str) -> None:
     """InputError naming ``runtime`` or ``precision`` unless the pair is known, supported, and
     runs on ``device`` (the exported runtimes run on the CPU); checked before any model loads."""
     if runtime not in RUNTIMES:
-        raise InputError("runtime", None, f"one of {', '.join(RUNTIMES)}", runtime)
+        raise InputError(param="runtime", expected=f"one of {', '.join(RUNTIMES)}", got=runtime)
     if precision not in PRECISIONS:
-        raise InputError("precision", None, f"one of {', '.join(PRECISIONS)}", precision)
+        raise InputError(param="precision", expected=f"one of {', '.join(PRECISIONS)}", got=precision)
     if runtime not in ("auto", "torch") and not device.startswith("cpu"):
-        raise InputError("runtime", None, f"torch for device {device} ({runtime} runs on the CPU)", runtime)
+        raise InputError(param="runtime", expected=f"torch for device {device} ({runtime} runs on the CPU)",
+                         got=runtime)
     if runtime != "auto" and (runtime, precision) not in SUPPORTED:
         ok = ", ".join(sorted(f"{r}/{p}" for r, p in SUPPORTED))
-        raise InputError("precision", None, f"a supported runtime/precision ({ok})", f"{runtime}/{precision}")
+        raise InputError(param="precision", expected=f"a supported runtime/precision ({ok})",
+                         got=f"{runtime}/{precision}")
 
 
 def exported_forward(graph, *, runtime: str = "auto", threads: int | None = None, cache_dir=None):

@@ -44,5 +44,5 @@ def require_ray():
         import ray
         import ray.data  # noqa: F401
     except ImportError:
-        raise InputError("engine", None, f"Ray installed ({RAY_EXTRA})", "ray is not installed") from None
+        raise InputError(param="engine", expected=f"Ray installed ({RAY_EXTRA})", got="ray is not installed") from None
     return ray

@@ -64,8 +64,8 @@ def check_address(address: str) -> None:
         with socket.create_connection((host, int(port)), timeout=3):
             return
     except (OSError, ValueError) as exc:
-        raise InputError("address", None, "a running Ray cluster at HOST:PORT (`ray start --head`)",
-                         f"{address} ({type(exc).__name__}: {exc})") from None
+        raise InputError(param="address", expected="a running Ray cluster at HOST:PORT (`ray start --head`)",
+                         got=f"{address} ({type(exc).__name__}: {exc})") from None
 
 
 @contextmanager
@@ -164,7 +164,7 @@ def _pipeline(ray, job: RayJob, todo: list):
     gpus = int(ray.cluster_resources().get("GPU", 0))
     cuda = scorer.device.startswith("cuda")
     if cuda and gpus < 1:
-        raise InputError("device", None, "a GPU in the Ray cluster for a cuda device", "none")
+        raise InputError(param="device", expected="a GPU in the Ray cluster for a cuda device", got="none")
     n = job.actors or (gpus if cuda else max(1, cpus // 2))
     threads = None if cuda else max(1, cpus // n)
     # actors reserve half a CPU (or a GPU), so decode tasks run beside them and are not fused in
@@ -179,7 +179,8 @@ def _input_error(exc: BaseException) -> InputError | None:
     seen = exc
     for _ in range(10):
         if isinstance(seen, InputError):
-            return InputError(seen.where, seen.field, seen.expected, seen.got)
+            return InputError(seen.where, seen.field, seen.expected, seen.got,
+                              param=getattr(seen, "param", None))
         seen = getattr(seen, "cause", None) or seen.__cause__
         if seen is None:
             return None

@@ -173,11 +173,10 @@ def _load_torch_classifier(name: str, *, weights, device: str) -> ImageClassifie
     folder = Path(weights if weights is not None else name)
     if not folder.is_dir():
         raise InputError(
-            "classifier" if weights is None else "weights",
-            None,
-            f"{DEFAULT_CLASSIFIER} or a Hugging Face image-classifier "
+            param="classifier" if weights is None else "weights",
+            expected=f"{DEFAULT_CLASSIFIER} or a Hugging Face image-classifier "
             "folder (AutoModelForImageClassification)",
-            str(folder),
+            got=str(folder),
         )
     from transformers import AutoModelForImageClassification
 

@@ -173,11 +173,10 @@ def load_clip(
     folder = Path(clip)
     if not folder.is_dir():
         raise InputError(
-            "clip",
-            None,
-            "a local CLIP model folder (CLIPModel, tokenizer, "
+            param="clip",
+            expected="a local CLIP model folder (CLIPModel, tokenizer, "
             "preprocessor_config.json); nvrq never downloads",
-            str(folder),
+            got=str(folder),
         )
     from transformers import AutoTokenizer, CLIPModel
 

@@ -69,16 +69,15 @@ def run_yolo(
     weights = Path(weights)
     if not weights.is_file():
         raise InputError(
-            "weights",
-            None,
-            "a local Ultralytics weights file (.pt); nvrq never downloads",
-            str(weights),
+            param="weights",
+            expected="a local Ultralytics weights file (.pt); nvrq never downloads",
+            got=str(weights),
         )
     try:
         from ultralytics import YOLO
     except ImportError:
         raise InputError(
-            "weights", None, "the ultralytics package: pip install 'nvrq[yolo]'", "not installed"
+            param="weights", expected="the ultralytics package: pip install 'nvrq[yolo]'", got="not installed"
         ) from None
     model = YOLO(os.fspath(weights))
     rel = pairs["render_path"].astype(str).to_numpy(dtype=object)

@@ -237,7 +237,7 @@ def _pick_trajectory(rig: dict, where: str, sequence: str | None):
     elif sequence in seq_ids:
         k = seq_ids.index(sequence)
     else:
-        raise InputError("sequence", None, f"one of {', '.join(seq_ids)}", sequence)
+        raise InputError(param="sequence", expected=f"one of {', '.join(seq_ids)}", got=sequence)
     traj, tfld = trajs[k], f"rig_trajectories[{k}]"
     rig_ts = _timestamps(
         _get(traj, "T_rig_world_timestamps_us", where, tfld),

@@ -43,7 +43,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from data_schema.errors import InputError
-from data_schema.methods import METHOD_COLUMN, check_methods, method_columns
+from data_schema.methods import METHOD_COLUMN, check_method_scales, method_columns
 from data_schema.perturbation import (
     LIMITS,
     PERTURBATION_COLUMNS,
@@ -137,18 +137,18 @@ def camera_models(size: tuple[int, int]) -> dict[str, dict]:
 
 def _parse(seconds, fps, cameras, size):
     if not (isinstance(seconds, int | float) and math.isfinite(seconds) and seconds > 0):
-        raise InputError("seconds", None, "a positive number of seconds", seconds)
+        raise InputError(param="seconds", expected="a positive number of seconds", got=seconds)
     if not (isinstance(fps, int | float) and math.isfinite(fps) and 0 < fps <= 1000):
-        raise InputError("fps", None, "a frame rate in (0, 1000]", fps)
+        raise InputError(param="fps", expected="a frame rate in (0, 1000]", got=fps)
     cams = list(cameras)
     bad = [c for c in cams if c not in CAMERA_KINDS]
     if not cams or bad or len(set(cams)) != len(cams):
         raise InputError(
-            "cameras", None, f"distinct camera kinds from {{{', '.join(CAMERA_KINDS)}}}", cameras
+            param="cameras", expected=f"distinct camera kinds from {{{', '.join(CAMERA_KINDS)}}}", got=cameras
         )
     W, H = (int(v) for v in size)
     if len(tuple(size)) != 2 or W < 64 or H < 48 or W > 8192 or H > 8192:
-        raise InputError("size", None, "WxH with 64 <= W <= 8192 and 48 <= H <= 8192", size)
+        raise InputError(param="size", expected="WxH with 64 <= W <= 8192 and 48 <= H <= 8192", got=size)
     return [CAMERA_KINDS[c] for c in cams], (W, H)
 
 
@@ -158,13 +158,14 @@ def _views(offsets, perturbations) -> np.ndarray:
     if perturbations is None:
         offs = [float(o) for o in offsets]
         if not offs or not all(math.isfinite(o) and abs(o) <= m for o in offs) or len(set(offs)) != len(offs):
-            raise InputError("offsets", None, f"distinct lateral offsets in metres within [-{m:g}, {m:g}]", offsets)
+            raise InputError(param="offsets", expected=f"distinct lateral offsets in metres within [-{m:g}, {m:g}]",
+                             got=offsets)
         return lateral(offs)
     P = np.asarray(perturbations, dtype=np.float64)
     if P.ndim != 2 or P.shape[1] != 6 or not len(P) or not np.isfinite(P).all() \
             or np.abs(P[:, :3]).max() > m or np.abs(P[:, 3:]).max() > deg or len(set(labels(P))) != len(P):
-        raise InputError("perturbations", None, f"distinct (K, 6) rows (dx, dy, dz in [-{m:g}, {m:g}] m; "
-                         f"roll, pitch, yaw in [-{deg:g}, {deg:g}] deg)", np.shape(P))
+        raise InputError(param="perturbations", expected=f"distinct (K, 6) rows (dx, dy, dz in [-{m:g}, {m:g}] m; "
+                         f"roll, pitch, yaw in [-{deg:g}, {deg:g}] deg)", got=np.shape(P))
     return P
 
 
@@ -380,14 +381,14 @@ def generate_scene(
     ``size (W, H)`` pixels; ``offsets`` lateral metres (left > 0), or ``perturbations``
     ``(K, 6)`` ``(dx, dy, dz, roll, pitch, yaw)`` (metres, degrees), which replace them.
     ``methods``: None (one unnamed method), or ``[(name, scale), ...]``
-    (:func:`data_schema.methods.check_methods`): every view is rendered once per method, its
+    (:func:`data_schema.methods.check_method_scales`): every view is rendered once per method, its
     artefact severity times ``scale`` (so a smaller scale is a better method).
     """
     cam_names, (W, H) = _parse(seconds, fps, cameras, size)
     views = _views(offsets, perturbations)
-    methods = [("", 1.0)] if methods is None else check_methods(methods, option="methods")
+    methods = [("", 1.0)] if methods is None else check_method_scales(methods, option="methods")
     if not isinstance(seed, int | np.integer) or seed < 0:
-        raise InputError("seed", None, "a non-negative integer", seed)
+        raise InputError(param="seed", expected="a non-negative integer", got=seed)
     out = Path(out)
     clip = _build_clip(int(seed), seconds, fps, cam_names, (W, H))
     image_rows, deg_rows = _render_all(clip, views, methods, out, progress)

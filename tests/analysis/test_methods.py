@@ -209,3 +209,25 @@ def test_six_dof_views_get_one_breakdown_per_axis():
     assert sorted(yaw_rows["offset"]) == [0.0, 5.0, 10.0]
     zero = items[(items["y_offset_m"] == 0) & (items["yaw_deg"] == 0) & (items["method"] == "sharp")]
     assert yaw_rows.loc[yaw_rows["offset"] == 0, "n"].iloc[0] == len(zero)
+
+
+@pytest.mark.parametrize("chunk", [7, 10**12])  # a few replicates per product, or all at once
+def test_the_bootstrap_chunk_size_bounds_memory_only(result, monkeypatch, chunk):
+    # analysis.bootstrap.CHUNK_CELLS is the one chunk size; the replicate means do not depend
+    # on it (each replicate is its own weighted mean)
+    from analysis.methods import _replicate_means
+
+    items, clusters, _ = result
+    v = items["psnr"].to_numpy(np.float64)
+    ok = np.isfinite(v)
+    groups = pd.factorize(items["method"])[0]
+    counts = bs.draw_cluster_counts(int(clusters.max()) + 1, 50, seed=1)
+    reference = _replicate_means(v, ok, groups, groups.max() + 1, clusters, counts)
+    monkeypatch.setattr(bs, "CHUNK_CELLS", chunk)
+    chunked = _replicate_means(v, ok, groups, groups.max() + 1, clusters, counts)
+    for a, b in zip(reference, chunked, strict=True):
+        np.testing.assert_allclose(a, b, rtol=1e-12)
+    # and the replicate means by their definition: weighted by how often each track was drawn
+    w = counts[:, clusters].astype(np.float64)
+    g0 = ok & (groups == 0)
+    np.testing.assert_allclose(chunked[3][:, 0], (w[:, g0] * v[g0]).sum(1) / w[:, g0].sum(1), rtol=1e-12)
