@@ -33,6 +33,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.text import comma_list
 
 __all__ = ["METHOD_COLUMN", "GT_METHOD", "check_method_name", "method_values", "method_columns", "method_suffix",
            "parse_methods", "check_methods", "check_table_methods"]
@@ -115,7 +116,7 @@ def check_table_methods(table: pd.DataFrame, *, where: object, line_offset: int 
 def parse_methods(text: str, *, option: str = "methods") -> list[tuple[str, float]]:
     """``'NAME:SCALE,...'`` -> ``[(name, scale), ...]`` in the given order, checked by
     :func:`check_methods`. Errors name ``option``."""
-    items = [s.strip() for s in str(text).split(",") if s.strip()]
+    items = comma_list(text)
     if not items:
         raise InputError(option, None, "a comma list of NAME:SCALE items, e.g. 3dgs:0.5,nerf:1.5", text)
     out = []

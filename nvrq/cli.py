@@ -2,7 +2,9 @@
 
 Each subcommand lives in ``nvrq/commands/<name>.py`` and exposes
 ``register(subparsers)``, which adds its parser and sets ``func`` (called with the
-parsed ``argparse.Namespace``; returns an exit status). Imports sit at module top except
+parsed ``argparse.Namespace``; returns an exit status); the options several commands share
+are modules of their own there (:mod:`nvrq.commands.args`, the conventions of all three CLIs;
+:mod:`nvrq.commands.engine_options`). Imports sit at module top except
 those of heavy optional packages (torch, transformers, ray, openvino, onnxruntime, ...),
 which stay inside the functions that need them, so ``nvrq --help`` loads numpy, pandas and
 OpenCV but never a deep-learning runtime.
@@ -10,17 +12,15 @@ OpenCV but never a deep-learning runtime.
 
 from __future__ import annotations
 
-import importlib
 import os
 import sys
 from pathlib import Path
 
-from data_schema.cliargs import flags_in_errors
 from data_schema.datasets import MANIFEST
-from data_schema.errors import ArgumentParser, run_cli
 from data_schema.outputs import check_output_file, check_output_folder
 from data_schema.tables import no_follow_links, timing_path
 from nvrq.commands._encoder import check_model_options
+from nvrq.commands.args import ArgumentParser, command_parser, flags_in_errors, run_cli
 
 __all__ = ["main", "build_parser"]
 
@@ -40,14 +40,10 @@ COMMAND_MODULES = [
 
 
 def build_parser() -> ArgumentParser:
-    parser = ArgumentParser(
-        prog="nvrq",
-        description="Object-level quality of novel-view synthesis in driving scenes (NVRQ).",
-    )
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for name in COMMAND_MODULES:
-        importlib.import_module(name).register(sub)  # a missing module is an install error
-    return parser
+    """The ``nvrq`` parser: every subcommand of :data:`COMMAND_MODULES`
+    (:func:`nvrq.commands.args.command_parser`)."""
+    return command_parser("nvrq", "Object-level quality of novel-view synthesis in driving scenes (NVRQ).",
+                          COMMAND_MODULES)
 
 
 #: What each subcommand writes: the kind of its ``--out``/``OUT`` (see data_schema.outputs).

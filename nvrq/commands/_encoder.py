@@ -2,7 +2,7 @@
 proxy): the encoder/tau/device options and one encoder-and-tau loader. Library functions
 validate their own arguments and name the parameter (``batch_size``); commands do not re-check,
 and ``nvrq``'s entry point reports such an error as the option (``--batch-size``,
-:func:`data_schema.cliargs.flags_in_errors`).
+:func:`nvrq.commands.args.flags_in_errors`).
 """
 
 from __future__ import annotations
@@ -10,10 +10,11 @@ from __future__ import annotations
 import sys
 from collections.abc import Sequence
 
-from data_schema.cliargs import checked_arg, comma_list, int_arg, number_arg
 from data_schema.errors import InputError
+from data_schema.text import comma_list
 from nvrq import encoders
 from nvrq.calibrate import resolve_tau
+from nvrq.commands.args import checked_arg, int_arg, number_arg
 from nvrq.encoders import DEFAULT_ENCODER, EncoderConfig, get_spec
 from nvrq.encoders.runtimes import PRECISIONS, RUNTIMES, check_runtime_combo
 from nvrq.formulas import check_tau

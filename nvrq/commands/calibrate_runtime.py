@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from data_schema.cliargs import add_link_option, int_arg, number_arg
 from data_schema.tables import read_table
 from nvrq.commands._encoder import add_cache_dir_argument
+from nvrq.commands.args import add_link_option, int_arg, number_arg
 from nvrq.encoders import DEFAULT_ENCODER, build_random, get_spec, load_encoder
 from nvrq.encoders.drift import DEFAULT_MIN_SPEARMAN, check_runtime, pair_inputs, write_record
 from nvrq.encoders.runtimes import PRECISIONS

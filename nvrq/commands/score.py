@@ -7,7 +7,6 @@ from pathlib import Path
 
 import cv2
 
-from data_schema.cliargs import add_link_option
 from data_schema.datasets import is_dataset
 from data_schema.errors import InputError
 from data_schema.tables import read_table, timing_path, write_table
@@ -19,8 +18,8 @@ from nvrq.commands._encoder import (
     load_encoder_and_tau,
     metric_columns,
 )
-from nvrq.engines import add_engine_args
-from nvrq.engines.cli import check_engine_args, report_sharded, run_ray
+from nvrq.commands.args import add_link_option
+from nvrq.commands.engine_options import add_engine_args, check_engine_args, report_sharded, run_ray
 from nvrq.engines.local import score_dataset
 from nvrq.engines.scorers import MetricScorer
 from nvrq.metrics import DEFAULT_METRICS, split_column
