@@ -34,10 +34,12 @@ from tqdm.auto import tqdm
 
 from analysis import axes, breakdowns
 from analysis.inputs import NON_METRIC_COLUMNS, classify_columns
+from analysis.methods import for_analysis
+from analysis.noninferiority import DEFAULT_MARGIN
 from analysis.pipeline import Analysis, boot_size, find_timing_files, read_timing
 from analysis.summary import summary_table
 from data_schema import datasets as ds
-from data_schema.errors import InputError
+from data_schema.errors import InputError, check_number
 from data_schema.methods import METHOD_COLUMN
 from data_schema.perturbation import EXTRA_PERTURBATION_COLUMNS
 from data_schema.tables import read_table
@@ -290,11 +292,37 @@ def _check_target(items: pd.DataFrame, target: str | None) -> None:
 
 def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), target=None,
                        n_boot: int = 1000, seed: int = 0, rank_by: str = "srcc", timing_paths=(),
-                       progress: bool = True, compare_methods: bool = False) -> Analysis:
+                       margin: float = DEFAULT_MARGIN, compare_methods: bool = False, methods=None,
+                       rank_metric: str | None = None, progress: bool = True) -> Analysis:
     """The all-pairs analysis (module docstring); the same :class:`Analysis` as the ratings path.
 
-    With ``compare_methods`` the object columns are kept for :mod:`analysis.methods` and
-    ``target`` may be None (then no metric is correlated: only the leaderboard is reported)."""
+    Parameters
+    ----------
+    pairs_path : str or Path
+        A pairs dataset folder, or a pairs table with ``clip_id``.
+    metrics_paths, lower, higher, n_boot, seed, rank_by, timing_paths, margin, methods, rank_metric
+        As for :func:`analysis.pipeline.run_analysis`.
+    target : str, optional
+        A numeric per-pair column (e.g. ``clip_drop``) of the pairs or metrics; required unless
+        ``compare_methods``.
+    compare_methods : bool, optional
+        Keep the object columns and rank the reconstruction methods
+        (:func:`analysis.methods.for_analysis`); ``target`` may then be None (no metric is
+        correlated: only the leaderboard is reported).
+    progress : bool, optional
+        Show progress bars.
+
+    Returns
+    -------
+    Analysis
+        With ``source = 'pairs'``; ``methods`` is the leaderboard with ``compare_methods``.
+
+    Raises
+    ------
+    InputError
+        On bad input (files, columns, parameters), naming it.
+    """
+    check_number("margin", margin, low=0)
     keep = ("camera", "timestamp_us") if compare_methods else ()  # the view columns are read anyway
     timing = read_timing(find_timing_files(timing_paths, metrics_paths))  # before the statistics
     items, clusters, unknown = read_all_pairs(pairs_path, metrics_paths=metrics_paths, progress=progress,
@@ -330,4 +358,8 @@ def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), tar
         categories=categories, by_offset=by_offset, by_axis=by_axis,
         encoders=breakdowns.encoder_table(summary), raters=pd.DataFrame(columns=RATER_COLUMNS),
         alpha={}, counts=counts, timing=timing, notes=notes, unknown_ids=unknown,
-        n_boot=n_boot, seed=seed, rank_by=rank_by, source="pairs")
+        n_boot=n_boot, seed=seed, rank_by=rank_by, source="pairs", margin=margin,
+        methods=for_analysis(items, target=target, metrics=metrics, directions=directions,
+                             attributes=attributes, n_boot=n_boot, seed=seed, where=pairs_path,
+                             methods=methods, rank_metric=rank_metric, metrics_paths=metrics_paths,
+                             progress=progress) if compare_methods else None)

@@ -23,7 +23,6 @@ from rich.table import Table
 
 from analysis.aggregate import METHODS
 from analysis.all_pairs import run_pairs_analysis
-from analysis.methods import for_analysis
 from analysis.methods_report import leaderboard_display
 from analysis.noninferiority import DEFAULT_MARGIN
 from analysis.pairwise import is_pairwise, run_pairwise_analysis
@@ -31,143 +30,114 @@ from analysis.pairwise_report import bt_display, write_pairwise_report
 from analysis.pipeline import run_analysis
 from analysis.report import summary_display, write_report
 from analysis.summary import RANK_BY
-from data_schema.cliargs import (
+from data_schema.errors import InputError
+from data_schema.outputs import check_output_folder
+from nvrq.commands.args import (
+    ArgumentParser,
     CommaList,
     DeprecatedFileOption,
     flags_in_errors,
     int_arg,
     number_arg,
+    run_cli,
 )
-from data_schema.errors import ArgumentParser, InputError, run_cli
-from data_schema.outputs import check_output_folder
 
 __all__ = ["build_parser", "main"]
 
 
 def build_parser() -> ArgumentParser:
+    """The ``analyze`` parser (one command, no subcommands): the option groups of
+    :data:`OPTION_GROUPS`, in order."""
     p = ArgumentParser(
         prog="analyze",
         description="Which metric agrees with human judgements? Correlations, ROC AUC, bootstrap "
         "CIs, breakdowns, rater screening and an offline HTML report.",
     )
-    p.add_argument(
-        "ratings",
-        metavar="RATINGS",
-        nargs="?",
-        help="ratings.csv (or .parquet) from `annotate export` (or use --pairs)",
-    )
-    p.add_argument(
-        "--pairs",
-        metavar="PAIRS",
-        default=None,
-        help="instead of RATINGS: every pair of a pairs dataset (or a table with clip_id), "
-        "joined with --metrics-table, against --target (analysis.all_pairs)",
-    )
-    p.add_argument(
-        "--metrics-table",
-        dest="metrics_tables",
-        action="append",
-        default=[],
-        metavar="FILE",
-        help="metrics table (pair_id + metric columns) joined on item_id; repeatable",
-    )
-    p.add_argument("--metrics", dest="metrics_tables", action=DeprecatedFileOption,
-                   new="--metrics-table", help=argparse.SUPPRESS)
-    p.add_argument(
-        "--lower-better",
-        action=CommaList,
-        nargs="+",
-        default=[],
-        metavar="A,B",
-        help="metric columns where lower is better (comma list; the old space-separated form is deprecated)",
-    )
-    p.add_argument(
-        "--higher-better",
-        action=CommaList,
-        nargs="+",
-        default=[],
-        metavar="A,B",
-        help="metric columns where higher is better (comma list; the old space-separated form is deprecated)",
-    )
-    _add_options(p)
+    for add_options in OPTION_GROUPS:
+        add_options(p)
     return p
 
 
-def _add_options(p: ArgumentParser) -> None:
-    """The options that choose what is analysed and how."""
-    p.add_argument(
-        "--target",
-        metavar="COLUMN",
-        default=None,
-        help="a numeric per-item column to correlate with instead of GVF (e.g. s_det)",
-    )
-    p.add_argument(
-        "--exclude-raters",
-        action=CommaList,
-        default=[],
-        metavar="A,B",
-        help="rater ids to leave out (comma list; repeatable)",
-    )
-    p.add_argument(
-        "--screen",
-        action="store_true",
-        help="exclude raters by the documented screening rule (see the report)",
-    )
-    p.add_argument(
-        "--aggregate",
-        choices=METHODS,
-        default="majority",
-        help="item labels: majority vote (GVF, default) or a crowd-kit model whose posterior "
-        "P(good) becomes the target (0.5 threshold for ROC AUC)",
-    )
-    p.add_argument(
-        "--margin",
-        type=number_arg(low=0),
-        default=DEFAULT_MARGIN,
-        help="non-inferiority margin on SRCC for the recommended cheapest metric "
-        f"(default {DEFAULT_MARGIN})",
-    )
-    p.add_argument(
-        "--timing",
-        action="append",
-        default=[],
-        metavar="FILE",
-        help="timing table (metric, seconds, pairs); repeatable; METRICS.timing.csv beside a "
-        "--metrics-table file is found automatically",
-    )
-    p.add_argument(
-        "--stability",
-        metavar="DIR",
-        default=None,
-        help="directory with stability.csv and/or snr.csv to include",
-    )
-    p.add_argument(
-        "--bootstrap",
-        type=int_arg(low=0),
-        default=1000,
-        metavar="N",
-        help="cluster-bootstrap replicates over tracks (0: no CIs; default 1000)",
-    )
+def _input_options(p: ArgumentParser) -> None:
+    """What is analysed: the votes (or every pair), the metrics and their directions, the target."""
+    p.add_argument("ratings", metavar="RATINGS", nargs="?",
+                   help="ratings.csv (or .parquet) from `annotate export` (or use --pairs)")
+    p.add_argument("--pairs", metavar="PAIRS", default=None,
+                   help="instead of RATINGS: every pair of a pairs dataset (or a table with clip_id), "
+                   "joined with --metrics-table, against --target (analysis.all_pairs)")
+    p.add_argument("--metrics-table", dest="metrics_tables", action="append", default=[], metavar="FILE",
+                   help="metrics table (pair_id + metric columns) joined on item_id; repeatable")
+    p.add_argument("--metrics", dest="metrics_tables", action=DeprecatedFileOption,
+                   new="--metrics-table", help=argparse.SUPPRESS)
+    p.add_argument("--lower-better", action=CommaList, nargs="+", default=[], metavar="A,B",
+                   help="metric columns where lower is better (comma list; the old space-separated "
+                   "form is deprecated)")
+    p.add_argument("--higher-better", action=CommaList, nargs="+", default=[], metavar="A,B",
+                   help="metric columns where higher is better (comma list; the old space-separated "
+                   "form is deprecated)")
+    p.add_argument("--target", metavar="COLUMN", default=None,
+                   help="a numeric per-item column to correlate with instead of GVF (e.g. s_det)")
+
+
+def _rater_options(p: ArgumentParser) -> None:
+    """Which raters count and how their votes become item labels (ratings only)."""
+    p.add_argument("--exclude-raters", action=CommaList, default=[], metavar="A,B",
+                   help="rater ids to leave out (comma list; repeatable)")
+    p.add_argument("--screen", action="store_true",
+                   help="exclude raters by the documented screening rule (see the report)")
+    p.add_argument("--aggregate", choices=METHODS, default="majority",
+                   help="item labels: majority vote (GVF, default) or a crowd-kit model whose posterior "
+                   "P(good) becomes the target (0.5 threshold for ROC AUC)")
+
+
+def _cost_options(p: ArgumentParser) -> None:
+    """The cheapest-metric recommendation and what the report adds beside the correlations:
+    speed (timing tables) and the stability study."""
+    p.add_argument("--margin", type=number_arg(low=0), default=DEFAULT_MARGIN,
+                   help="non-inferiority margin on SRCC for the recommended cheapest metric "
+                   f"(default {DEFAULT_MARGIN})")
+    p.add_argument("--timing", action="append", default=[], metavar="FILE",
+                   help="timing table (metric, seconds, pairs); repeatable; METRICS.timing.csv beside a "
+                   "--metrics-table file is found automatically")
+    p.add_argument("--stability", metavar="DIR", default=None,
+                   help="directory with stability.csv and/or snr.csv to include")
+
+
+def _statistics_options(p: ArgumentParser) -> None:
+    """The bootstrap and the statistic that picks the best metric."""
+    p.add_argument("--bootstrap", type=int_arg(low=0), default=1000, metavar="N",
+                   help="cluster-bootstrap replicates over tracks (0: no CIs; default 1000)")
     p.add_argument("--seed", type=int_arg(low=0), default=0, help="bootstrap seed (default 0)")
-    p.add_argument(
-        "--rank-by",
-        choices=RANK_BY,
-        default="srcc",
-        help="statistic that picks the best metric (default srcc)",
-    )
-    p.add_argument(
-        "--compare-methods",
-        action="store_true",
-        help="rank the reconstruction methods of the pairs (column 'method'): methods.csv, "
-        "methods_paired.csv and a leaderboard in the report (--target optional with --pairs)",
-    )
+    p.add_argument("--rank-by", choices=RANK_BY, default="srcc",
+                   help="statistic that picks the best metric (default srcc)")
+
+
+def _methods_options(p: ArgumentParser) -> None:
+    """The leaderboard of reconstruction methods (analysis.methods)."""
+    p.add_argument("--compare-methods", action="store_true",
+                   help="rank the reconstruction methods of the pairs (column 'method'): methods.csv, "
+                   "methods_paired.csv and a leaderboard in the report (--target optional with --pairs)")
     p.add_argument("--methods", action=CommaList, default=[], metavar="A,B",
                    help="with --compare-methods: the methods to compare (default: all)")
     p.add_argument("--leaderboard-metric", default=None, metavar="METRIC",
                    help="with --compare-methods: the metric that ranks the methods (default: "
                    "NVRQ-CA of the first encoder, else the first metric)")
+
+
+def _output_options(p: ArgumentParser) -> None:
+    """Where the report goes, and the progress bars."""
     p.add_argument("--out", required=True, metavar="REPORT_DIR", help="report directory")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
+
+
+#: The option groups of ``analyze``, in the order ``analyze --help`` lists them.
+OPTION_GROUPS = (_input_options, _rater_options, _cost_options, _statistics_options, _methods_options,
+                 _output_options)
+
+#: Library parameter names that differ from this CLI's argparse dests.
+_ALIASES = {"n_boot": "bootstrap", "metrics_paths": "metrics_tables", "timing_paths": "timing",
+            "stability_dir": "stability", "lower": "lower_better", "higher": "higher_better",
+            "exclude": "exclude_raters", "rank_metric": "leaderboard_metric"}
 
 
 def _print_summary(analysis) -> None:
@@ -188,10 +158,7 @@ def _print(df, title: str, *, left=("method", "reason", "vs next")) -> None:
 def _main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    with flags_in_errors(parser, args, {"n_boot": "bootstrap", "metrics_paths": "metrics_tables",
-                                        "timing_paths": "timing", "stability_dir": "stability",
-                                        "lower": "lower_better", "higher": "higher_better",
-                                        "exclude": "exclude_raters", "rank_metric": "leaderboard_metric"}):
+    with flags_in_errors(parser, args, _ALIASES):
         return _run(args)
 
 
@@ -208,11 +175,6 @@ def _run(args) -> int:
     if args.ratings is not None and is_pairwise(args.ratings):
         return _run_pairwise(args)
     analysis = _run_pairs(args) if args.pairs is not None else _run_ratings(args)
-    analysis.margin = args.margin
-    if args.compare_methods:
-        analysis.methods = for_analysis(analysis, methods=args.methods,
-                                        rank_metric=args.leaderboard_metric,
-                                        metrics_paths=args.metrics_tables, progress=not args.quiet)
     out = write_report(analysis, args.out)
     if analysis.target is not None:
         _print_summary(analysis)
@@ -224,24 +186,17 @@ def _run(args) -> int:
 
 def _common_options(args) -> dict:
     """The keyword options both analyses take, from the parsed arguments."""
-    return dict(
-        metrics_paths=args.metrics_tables,
-        lower=args.lower_better,
-        higher=args.higher_better,
-        target=args.target,
-        n_boot=args.bootstrap,
-        seed=args.seed,
-        rank_by=args.rank_by,
-        timing_paths=args.timing,
-        progress=not args.quiet,
-    )
+    return dict(metrics_paths=args.metrics_tables, lower=args.lower_better, higher=args.higher_better,
+                target=args.target, n_boot=args.bootstrap, seed=args.seed, rank_by=args.rank_by,
+                timing_paths=args.timing, margin=args.margin, compare_methods=args.compare_methods,
+                methods=args.methods, rank_metric=args.leaderboard_metric, progress=not args.quiet)
 
 
 def _run_pairs(args):
     if args.screen or args.exclude_raters or args.stability:
         raise InputError("--pairs", None, "no rater or stability options (there are no votes)",
                          "--screen/--exclude-raters/--stability")
-    return run_pairs_analysis(args.pairs, compare_methods=args.compare_methods, **_common_options(args))
+    return run_pairs_analysis(args.pairs, **_common_options(args))
 
 
 def _run_pairwise(args) -> int:
@@ -274,7 +229,8 @@ def _run_ratings(args):
 
 
 def main(argv=None) -> int:
-    """Entry point of the ``analyze`` console script."""
+    """Entry point of the ``analyze`` console script: analyse ``argv`` (default
+    ``sys.argv[1:]``) and return the exit status (2 for bad input, :func:`nvrq.commands.args.run_cli`)."""
     return run_cli(_main, argv)
 
 

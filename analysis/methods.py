@@ -475,19 +475,54 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
                          n_boot=n_boot if counts is not None else 0, notes=notes)
 
 
-def for_analysis(a, *, methods=None, rank_metric=None, metrics_paths=(),
+def for_analysis(items: pd.DataFrame, *, target: str | None, metrics, directions: dict, attributes,
+                 n_boot: int, seed: int, where, methods=None, rank_metric=None, metrics_paths=(),
                  progress: bool = False) -> MethodsResult:
-    """:func:`compare_methods` on the items of an :class:`analysis.pipeline.Analysis`: its
-    metrics, and GVF (or the model's ``p_good``) first on the ratings path; scene attributes
-    other than ``method`` break the tables down. ``metrics_paths``: the ``--metrics-table``
-    inputs, named in errors about their columns."""
-    votes = [a.target] if a.target in ("gvf", "p_good") else []
-    items = a.items
+    """:func:`compare_methods` on the items of either ``analyze`` path.
+
+    Parameters
+    ----------
+    items : DataFrame
+        The per-object table (:attr:`analysis.pipeline.Analysis.items`): the rated items, or
+        every pair, with ``clip_id``, ``track_id`` and ``method``.
+    target : str or None
+        The analysis target; GVF (or the model's ``p_good``) is compared first on the ratings
+        path, any other target is not compared.
+    metrics : list of str
+        The metric columns, compared in this order.
+    directions : dict
+        Metric -> whether higher is better.
+    attributes : list of str
+        Scene attributes; those other than ``method`` break the tables down.
+    n_boot, seed : int
+        Bootstrap replicates over tracks and their seed.
+    where : str or Path
+        The input named in errors (the ratings or pairs file).
+    methods : list of str, optional
+        The methods to compare (default: all).
+    rank_metric : str, optional
+        The metric that ranks the leaderboard (default :func:`default_rank_metric`).
+    metrics_paths : sequence of path, optional
+        The ``--metrics-table`` inputs, named in errors about their columns.
+    progress : bool, optional
+        Show progress bars.
+
+    Returns
+    -------
+    MethodsResult
+        As :func:`compare_methods`.
+
+    Raises
+    ------
+    InputError
+        As :func:`compare_methods` (unknown methods or rank metric, no ``method`` column, ...).
+    """
+    votes = [target] if target in ("gvf", "p_good") else []
     clusters = pd.MultiIndex.from_arrays([items["clip_id"].astype(str),
                                           items["track_id"].astype(str)]).factorize()[0]
-    return compare_methods(items, votes + list(a.metrics), {**a.directions, **{t: True for t in votes}},
-                           clusters=clusters, attributes=[c for c in a.attributes if c != METHOD_COLUMN],
-                           n_boot=a.n_boot, seed=a.seed, rank_metric=rank_metric, methods=methods,
-                           where=a.ratings_path,
+    return compare_methods(items, votes + list(metrics), {**directions, **{t: True for t in votes}},
+                           clusters=clusters, attributes=[c for c in attributes if c != METHOD_COLUMN],
+                           n_boot=n_boot, seed=seed, rank_metric=rank_metric, methods=methods,
+                           where=str(where),
                            sources={c: str(p) for p in metrics_paths for c in table_columns(p)},
                            progress=progress)

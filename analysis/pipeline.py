@@ -20,11 +20,12 @@ from analysis.aggregate import aggregate
 from analysis.ceiling import noise_ceiling, vote_matrix
 from analysis.inputs import classify_columns, read_metrics, read_ratings
 from analysis.labels import item_table, join_metrics
+from analysis.methods import MethodsResult, for_analysis
 from analysis.noninferiority import DEFAULT_MARGIN
 from analysis.summary import summary_table
 from annotate import screening
 from annotate.results import alpha_nominal
-from data_schema.errors import InputError
+from data_schema.errors import InputError, check_number
 from data_schema.tables import TIMING_COLUMNS, read_table, timing_path
 
 __all__ = ["Analysis", "run_analysis", "read_timing", "find_timing_files", "read_stability",
@@ -67,7 +68,7 @@ class Analysis:
     comparison: dict | None = None
     source: str = "ratings"  # or "pairs": analyze --pairs (no votes; see analysis.all_pairs)
     margin: float = DEFAULT_MARGIN  # non-inferiority margin (analysis.noninferiority)
-    methods: object | None = None  # analysis.methods.MethodsResult with --compare-methods
+    methods: MethodsResult | None = None  # the leaderboard with compare_methods
 
 
 def read_timing(paths) -> pd.DataFrame | None:
@@ -261,9 +262,61 @@ def run_analysis(
     rank_by: str = "srcc",
     timing_paths=(),
     stability_dir=None,
+    margin: float = DEFAULT_MARGIN,
+    compare_methods: bool = False,
+    methods=None,
+    rank_metric: str | None = None,
     progress: bool = True,
 ) -> Analysis:
-    """The whole analysis (see the module docstring); raises ``InputError`` on bad input."""
+    """The whole analysis of a ratings table (see the module docstring).
+
+    Parameters
+    ----------
+    ratings_path : str or Path
+        ``ratings.csv`` (or ``.parquet``) from ``annotate export`` (docs/FORMATS.md §5).
+    metrics_paths : sequence of path, optional
+        Metrics tables (``pair_id`` + metric columns) joined on ``item_id``.
+    lower, higher : sequence of str, optional
+        Metric columns where lower / higher is better (columns the metric registry does not know).
+    target : str, optional
+        A numeric per-item column to correlate with (default: GVF, or ``p_good`` with a model).
+    exclude_raters : sequence of str, optional
+        Rater ids to leave out.
+    screen : bool, optional
+        Also exclude raters by the screening rule (:mod:`annotate.screening`).
+    aggregate_method : str, optional
+        Item labels: ``'majority'`` (GVF) or a crowd-kit model (:data:`analysis.aggregate.METHODS`).
+    n_boot, seed : int, optional
+        Cluster-bootstrap replicates over tracks (0: no CIs) and their seed.
+    rank_by : str, optional
+        The statistic that picks the best metric (:data:`analysis.summary.RANK_BY`).
+    timing_paths : sequence of path, optional
+        Timing tables; ``METRICS.timing.csv`` beside a metrics table is found automatically.
+    stability_dir : str or Path, optional
+        A folder with ``stability.csv`` and/or ``snr.csv``.
+    margin : float, optional
+        Non-inferiority margin on SRCC for the recommended cheapest metric (>= 0;
+        :mod:`analysis.noninferiority`).
+    compare_methods : bool, optional
+        Also rank the reconstruction methods of the items (:func:`analysis.methods.for_analysis`).
+    methods : list of str, optional
+        With ``compare_methods``: the methods to compare (default: all).
+    rank_metric : str, optional
+        With ``compare_methods``: the metric that ranks the methods.
+    progress : bool, optional
+        Show progress bars.
+
+    Returns
+    -------
+    Analysis
+        Every result table; ``methods`` is the leaderboard with ``compare_methods``, else None.
+
+    Raises
+    ------
+    InputError
+        On bad input (files, columns, parameters), naming it.
+    """
+    check_number("margin", margin, low=0)
     votes, tables, timing_files = _read_inputs(ratings_path, metrics_paths, timing_paths)
     # every input file is read before the statistics (a bad --timing or --stability ends at once)
     timing = read_timing(timing_files)
@@ -301,4 +354,9 @@ def run_analysis(
         rank_by=rank_by, screen=screen, ceiling=ceiling,
         comparison=_model_comparison(items, metrics, directions, summary, tgt,
                                      method=aggregate_method, seed=seed),
+        margin=margin,
+        methods=for_analysis(items, target=tgt, metrics=metrics, directions=directions,
+                             attributes=attributes, n_boot=n_boot, seed=seed, where=ratings_path,
+                             methods=methods, rank_metric=rank_metric, metrics_paths=metrics_paths,
+                             progress=progress) if compare_methods else None,
     )

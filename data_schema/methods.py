@@ -40,6 +40,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.text import comma_list
 
 __all__ = ["METHOD_COLUMN", "GT_METHOD", "check_method_name", "method_values", "table_methods", "method_columns",
            "method_suffix", "parse_methods", "check_method_scales", "check_table_methods"]
@@ -195,7 +196,7 @@ def parse_methods(text: str, *, option: str = "methods") -> list[tuple[str, floa
     InputError
         An empty list, an item without ``:``, or a list :func:`check_method_scales` refuses.
     """
-    items = [s.strip() for s in str(text).split(",") if s.strip()]
+    items = comma_list(text)
     if not items:
         raise InputError(param=option, expected="a comma list of NAME:SCALE items, e.g. 3dgs:0.5,nerf:1.5", got=text)
     out = []

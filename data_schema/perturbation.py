@@ -30,6 +30,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.text import comma_list
 
 __all__ = [
     "AXES",
@@ -193,7 +194,7 @@ def parse_perturb(text: str, *, option: str = "perturb") -> np.ndarray:
 
     ``option`` names the parameter in errors (the CLI passes ``'--perturb'``).
     """
-    items = [s.strip() for s in str(text).split(",") if s.strip()]
+    items = comma_list(text)
     if not items:
         raise InputError(param=option, expected="a comma list of AXIS=START:STOP:STEP items, e.g. "
                          "y=-3:3:1,yaw=-10:10:5", got=text)

@@ -18,7 +18,7 @@ import time
 import urllib.request
 from pathlib import Path
 
-from annotate.cli import serve_command
+from annotate.commands.serve import serve_command
 
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
         "--disable-component-update", "--disable-sync", "--no-first-run"]

@@ -44,8 +44,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from data_schema.cliargs import comma_list
 from data_schema.errors import InputError, check_int
+from data_schema.text import comma_list
 from nvrq.crops import cut_box
 from nvrq.encoders.registry import Encoder, EncoderConfig, encoder_config
 from nvrq.metrics.resolve import (

@@ -2,7 +2,9 @@
 
 Each subcommand lives in ``nvrq/commands/<name>.py`` and exposes
 ``register(subparsers)``, which adds its parser and sets ``func`` (called with the
-parsed ``argparse.Namespace``; returns an exit status). Imports sit at module top except
+parsed ``argparse.Namespace``; returns an exit status); the options several commands share
+are modules of their own there (:mod:`nvrq.commands.args`, the conventions of all three CLIs;
+:mod:`nvrq.commands.engine_options`). Imports sit at module top except
 those of heavy optional packages (torch, transformers, ray, openvino, onnxruntime, ...),
 which stay inside the functions that need them, so ``nvrq --help`` loads numpy, pandas and
 OpenCV but never a deep-learning runtime.
@@ -10,18 +12,14 @@ OpenCV but never a deep-learning runtime.
 
 from __future__ import annotations
 
-import contextlib
-import importlib
 import os
-import re
 import sys
 from pathlib import Path
 
-from data_schema.cliargs import flags_in_errors, option_for
 from data_schema.datasets import MANIFEST
-from data_schema.errors import ArgumentParser, InputError, run_cli
 from data_schema.outputs import check_output_file, check_output_folder
 from data_schema.tables import no_follow_links, timing_path
+from nvrq.commands.args import ArgumentParser, command_parser, flags_in_errors, run_cli
 from nvrq.commands.model_options import check_model_options
 
 __all__ = ["main", "build_parser"]
@@ -42,14 +40,10 @@ COMMAND_MODULES = [
 
 
 def build_parser() -> ArgumentParser:
-    parser = ArgumentParser(
-        prog="nvrq",
-        description="Object-level quality of novel-view synthesis in driving scenes (NVRQ).",
-    )
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for name in COMMAND_MODULES:
-        importlib.import_module(name).register(sub)  # a missing module is an install error
-    return parser
+    """The ``nvrq`` parser: every subcommand of :data:`COMMAND_MODULES`
+    (:func:`nvrq.commands.args.command_parser`)."""
+    return command_parser("nvrq", "Object-level quality of novel-view synthesis in driving scenes (NVRQ).",
+                          COMMAND_MODULES)
 
 
 #: What each subcommand writes: the kind of its ``--out``/``OUT`` (see data_schema.outputs).
@@ -81,41 +75,11 @@ def check_outputs(args) -> None:
         check_output_folder(args.out, kind=kind, inputs=inputs, option=option)
 
 
-#: a parameter named in a library hint: ``allow_same_class`` between backticks
-_HINT_PARAMETER = re.compile(r"`([a-z][a-z0-9_]*)`")
-
-
-@contextlib.contextmanager
-def hints_as_flags(parser, args, aliases: dict | None = None):
-    """A library hint names a parameter between backticks (``(or `allow_same_class`)``); the
-    command line speaks of the chosen command's option (``(or --allow-same-class)``, the rule of
-    :func:`data_schema.cliargs.option_for`). Names without an option are left as written.
-
-    >>> import argparse
-    >>> p = argparse.ArgumentParser()
-    >>> _ = p.add_argument("--allow-same-class", action="store_true")
-    >>> with hints_as_flags(p, p.parse_args([])):
-    ...     raise InputError("pairs.csv", None, "two classes (or `allow_same_class`; see `nvrq`)", "one")
-    Traceback (most recent call last):
-    ...
-    data_schema.errors.InputError: pairs.csv: expected two classes (or --allow-same-class; see `nvrq`), got one
-    """
-    try:
-        yield
-    except InputError as err:
-        expected = _HINT_PARAMETER.sub(lambda m: option_for(parser, args, m.group(1), aliases) or m.group(0),
-                                       str(err.expected))
-        if expected == err.expected:
-            raise
-        raise InputError(err.where, err.field, expected, err.got) from None
-
-
 def _main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     aliases = {"scene_root": "scene", "perturbations": "perturb", "weights": "yolo"}
-    with hints_as_flags(parser, args, aliases), flags_in_errors(parser, args, aliases), \
-            no_follow_links(getattr(args, "no_follow_links", False)):
+    with flags_in_errors(parser, args, aliases), no_follow_links(getattr(args, "no_follow_links", False)):
         check_outputs(args)
         check_model_options(args)
         return args.func(args)

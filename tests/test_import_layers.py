@@ -66,8 +66,7 @@ def _module_names() -> dict[str, Path]:
     out = {}
     for package in STAGES:
         for path in sorted((ROOT / package).rglob("*.py")):
-            parts = list(path.relative_to(ROOT).with_suffix("").parts)
-            out[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+            out[_module_name(path)] = path
     return out
 
 
@@ -203,3 +202,62 @@ def test_metric_info_is_a_leaf_and_the_api_imports_no_driver():
                           timeout=120)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert proc.stdout.strip() == "[]"
+
+
+#: The command layer, on top of every stage: the three entry points (and ``python -m nvrq``) and
+#: their subcommand modules (``nvrq.commands.args`` holds the argument conventions all three share).
+COMMAND_LAYER = ("nvrq.cli", "nvrq.__main__", "nvrq.commands", "annotate.cli", "annotate.commands",
+                 "analysis.cli")
+
+
+def _in_command_layer(module: str) -> bool:
+    return any(module == c or module.startswith(c + ".") for c in COMMAND_LAYER)
+
+
+def _module_name(path: Path) -> str:
+    parts = path.relative_to(ROOT).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _imported_modules(path: Path, text: str | None = None) -> set[str]:
+    """Every module the file ``path`` (its ``text``, default: read) imports by name, relative
+    imports resolved: ``from a.b import c`` gives ``a.b`` and ``a.b.c`` (``c`` may be a module)."""
+    package = _module_name(path).split(".")
+    if path.name != "__init__.py":
+        package = package[:-1]
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8") if text is None else text)):
+        if isinstance(node, ast.ImportFrom):
+            base = package[:len(package) - node.level + 1] if node.level else []
+            module = ".".join([*base, *([node.module] if node.module else [])])
+            out.add(module)
+            out.update(f"{module}.{a.name}" for a in node.names)
+        elif isinstance(node, ast.Import):
+            out.update(a.name for a in node.names)
+    return out
+
+
+def test_only_the_command_layer_imports_the_command_layer():
+    # the library of every stage is callable without its CLI: no module outside the command
+    # layer imports an entry point or a subcommand module (the CLIs import the library)
+    bad = {}
+    for package in STAGES:
+        for path in sorted((ROOT / package).rglob("*.py")):
+            if _in_command_layer(_module_name(path)):
+                continue
+            hits = sorted(m for m in _imported_modules(path) if _in_command_layer(m))
+            if hits:
+                bad[str(path.relative_to(ROOT))] = hits
+    assert bad == {}
+
+
+def test_the_command_layer_rule_sees_every_kind_of_import():
+    # the rule's import reader on a hand-written module with each kind of import
+    lib = ROOT / "nvrq" / "engines" / "example.py"  # as if it were in nvrq.engines (not written)
+    text = ("import nvrq.commands.args\nfrom nvrq import cli\nfrom ..commands import score\n"
+            "from annotate.commands.serve import base_url\nimport numpy\n")
+    modules = {m for m in _imported_modules(lib, text) if _in_command_layer(m)}
+    assert modules == {"nvrq.commands.args", "nvrq.cli", "nvrq.commands", "nvrq.commands.score",
+                       "annotate.commands.serve", "annotate.commands.serve.base_url"}
+    assert not _in_command_layer("nvrq.client") and _in_command_layer("analysis.cli")
+

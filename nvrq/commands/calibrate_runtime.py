@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from data_schema.cliargs import add_link_option, int_arg, number_arg
 from data_schema.tables import read_table
+from nvrq.commands.args import add_link_option, int_arg, number_arg
 from nvrq.commands.model_options import add_cache_dir_argument
 from nvrq.encoders import build_random, get_spec, load_encoder
 from nvrq.encoders.drift import DEFAULT_MIN_SPEARMAN, check_runtime, pair_inputs, write_record

@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import datetime as dt
 
-from data_schema.cliargs import add_link_option, int_arg
 from data_schema.tables import read_table
 from nvrq.calibrate import calibrate_tau, config_path, write_tau
+from nvrq.commands.args import add_link_option, int_arg
 from nvrq.commands.model_options import add_encoder_arguments, load_encoder_and_tau
 
 __all__ = ["register", "run"]

@@ -17,10 +17,10 @@ import time
 from importlib.metadata import distribution
 from pathlib import Path
 
-from data_schema.cliargs import allow_negative_lists, int_arg, number_arg, parse_wxh
 from data_schema.errors import InputError
 from data_schema.methods import parse_methods
 from data_schema.tables import parse_offsets
+from nvrq.commands.args import allow_negative_lists, int_arg, number_arg, parse_wxh
 from nvrq.encoders import get_spec
 
 __all__ = ["register", "run", "demo_steps", "method_steps"]

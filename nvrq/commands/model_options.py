@@ -2,7 +2,7 @@
 proxy): encoder, weights, tau and its config, metrics, batch size, runtime, precision, device and
 threads, and the one encoder-and-tau loader. Library functions validate their own arguments and
 name the parameter (``batch_size``); commands do not re-check, and ``nvrq``'s entry point reports
-such an error as the option (``--batch-size``, :func:`data_schema.cliargs.flags_in_errors`).
+such an error as the option (``--batch-size``, :func:`nvrq.commands.args.flags_in_errors`).
 The tau itself comes from the library's one rule, :func:`nvrq.calibrate.require_tau`.
 """
 
@@ -11,10 +11,11 @@ from __future__ import annotations
 import sys
 from collections.abc import Sequence
 
-from data_schema.cliargs import checked_arg, comma_list, int_arg, number_arg
 from data_schema.errors import InputError
+from data_schema.text import comma_list
 from nvrq import encoders
 from nvrq.calibrate import require_tau
+from nvrq.commands.args import checked_arg, int_arg, number_arg
 from nvrq.encoders import EncoderConfig, get_spec
 from nvrq.encoders.runtimes import PRECISIONS, RUNTIMES, check_runtime_combo
 from nvrq.metrics.formulas import check_tau

@@ -7,10 +7,10 @@ import sys
 import time
 from pathlib import Path
 
-from data_schema.cliargs import add_link_option, number_arg
 from data_schema.errors import InputError
 from data_schema.tables import MIN_SIDE_PX, write_table
 from nvrq.clip_attributes import read_clip_attributes
+from nvrq.commands.args import add_link_option, number_arg
 from nvrq.fleet import clip_pairs, find_scenes, fleet_pairs
 
 __all__ = ["register", "run"]

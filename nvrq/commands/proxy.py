@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import time
 
-from data_schema.cliargs import add_link_option, int_arg
 from data_schema.errors import InputError
 from data_schema.tables import (
     GT_BOX_COLUMNS,
@@ -19,9 +18,9 @@ from data_schema.tables import (
     timing_path,
     write_table,
 )
+from nvrq.commands.args import add_link_option, int_arg
+from nvrq.commands.engine_options import add_engine_args, check_engine_args, run_ray
 from nvrq.commands.model_options import add_model_arguments, add_runtime_arguments, prepare_device
-from nvrq.engines import add_engine_args
-from nvrq.engines.cli import check_engine_args, run_ray
 from nvrq.engines.scorers import ClipScorer, ImagenetScorer
 from nvrq.proxies import load_class_maps
 from nvrq.proxies.classifier_drop import imagenet_drop, load_classifier

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
-from data_schema.cliargs import add_link_option
 from data_schema.errors import InputError
 from data_schema.scene import load_scene
+from data_schema.text import comma_list
+from nvrq.commands.args import add_link_option
 from nvrq.commands.synth import add_view_options, parse_offsets, perturb_grid
 from nvrq.render_plan import render_plan, write_render_plan
 
@@ -33,9 +34,7 @@ def run(args) -> int:
         raise InputError(param="--out", expected="a plan file ending in .csv or .json", got=args.out)
     offsets = None if args.offsets is None else parse_offsets(args.offsets, field="--offsets")
     views = perturb_grid(args)  # the arguments before the scene is read
-    cameras = (
-        None if args.cameras is None else [c.strip() for c in args.cameras.split(",") if c.strip()]
-    )
+    cameras = None if args.cameras is None else comma_list(args.cameras)
     scene = load_scene(args.scene, check_images=False)
     plan = render_plan(scene, offsets=offsets, perturbations=views, cameras=cameras)
     write_render_plan(plan, args.out, clip_id=scene.clip_id)

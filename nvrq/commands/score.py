@@ -7,10 +7,11 @@ from pathlib import Path
 
 import cv2
 
-from data_schema.cliargs import add_link_option
 from data_schema.datasets import is_dataset
 from data_schema.errors import InputError
 from data_schema.tables import read_table, timing_path, write_table
+from nvrq.commands.args import add_link_option
+from nvrq.commands.engine_options import add_engine_args, check_engine_args, report_sharded, run_ray
 from nvrq.commands.model_options import (
     add_encoder_arguments,
     command_tau,
@@ -19,8 +20,6 @@ from nvrq.commands.model_options import (
     load_encoder_and_tau,
     metric_columns,
 )
-from nvrq.engines import add_engine_args
-from nvrq.engines.cli import check_engine_args, report_sharded, run_ray
 from nvrq.engines.local import score_dataset
 from nvrq.engines.scorers import MetricScorer
 from nvrq.metrics.registry import DEFAULT_METRICS

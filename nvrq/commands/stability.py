@@ -11,10 +11,10 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from data_schema.cliargs import add_link_option, int_arg
 from data_schema.errors import InputError
 from data_schema.outputs import mark_report
 from data_schema.tables import GT_BOX_COLUMNS, MIN_SIDE_PX, read_table, write_table
+from nvrq.commands.args import add_link_option, int_arg
 from nvrq.commands.model_options import add_encoder_arguments, encoder_for_columns, metric_columns
 from nvrq.stability import plot_stability, run_stability
 

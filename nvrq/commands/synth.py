@@ -3,13 +3,14 @@
 
 from __future__ import annotations
 
-from data_schema.cliargs import allow_negative_lists, int_arg, number_arg, parse_wxh
 from data_schema.methods import parse_methods
 from data_schema.perturbation import parse_perturb
 from data_schema.tables import parse_offsets
+from data_schema.text import comma_list
+from nvrq.commands.args import allow_negative_lists, int_arg, number_arg, parse_wxh
 from nvrq.synth import generate_scene
 
-__all__ = ["register", "run", "parse_offsets", "parse_size", "allow_negative_lists", "add_perturb_option", "add_view_options",
+__all__ = ["register", "run", "parse_offsets", "parse_size", "add_perturb_option", "add_view_options",
            "perturb_grid"]
 
 
@@ -44,7 +45,7 @@ def perturb_grid(args):
 
 
 def parse_size(text: str) -> tuple[int, int]:
-    """``"1280x720"`` -> ``(1280, 720)`` (the WxH rule of :mod:`data_schema.cliargs`).
+    """``"1280x720"`` -> ``(1280, 720)`` (the WxH rule of :func:`nvrq.commands.args.parse_wxh`).
 
     >>> parse_size("640x360")
     (640, 360)
@@ -77,7 +78,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     methods = None if args.methods is None else parse_methods(args.methods)
-    cameras = tuple(c.strip() for c in args.cameras.split(",") if c.strip())
+    cameras = tuple(comma_list(args.cameras))
     out = generate_scene(
         args.out,
         seed=args.seed,

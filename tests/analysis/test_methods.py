@@ -231,3 +231,26 @@ def test_the_bootstrap_chunk_size_bounds_memory_only(result, monkeypatch, chunk)
     w = counts[:, clusters].astype(np.float64)
     g0 = ok & (groups == 0)
     np.testing.assert_allclose(chunked[3][:, 0], (w[:, g0] * v[g0]).sum(1) / w[:, g0].sum(1), rtol=1e-12)
+
+
+def test_the_pairs_analysis_is_built_with_its_margin_and_leaderboard(tmp_path):
+    # the library computes the leaderboard itself (the CLI no longer sets it afterwards): the
+    # same tables as compare_methods called directly on the analysis' items and metrics
+    from analysis.all_pairs import run_pairs_analysis
+    from data_schema.errors import InputError
+
+    pairs, metrics = make_method_tables()
+    pairs.to_csv(tmp_path / "pairs.csv", index=False)
+    metrics.to_csv(tmp_path / "metrics.csv", index=False)
+    kw = dict(metrics_paths=[tmp_path / "metrics.csv"], n_boot=100, progress=False)
+    a = run_pairs_analysis(tmp_path / "pairs.csv", compare_methods=True, margin=0.05, **kw)
+    assert a.margin == 0.05 and set(a.attributes) - {"method"} == {"lighting"}
+    clusters = pd.factorize(a.items["clip_id"].astype(str) + ":" + a.items["track_id"].astype(str))[0]
+    want = compare_methods(a.items, a.metrics, a.directions, clusters=clusters, attributes=["lighting"],
+                           n_boot=100, seed=0)
+    assert a.methods.methods == want.methods and a.methods.rank_metric == want.rank_metric
+    for name in ("table", "paired", "leaderboard"):
+        pd.testing.assert_frame_equal(getattr(a.methods, name), getattr(want, name))
+    assert run_pairs_analysis(tmp_path / "pairs.csv", target="psnr", **kw).methods is None
+    with pytest.raises(InputError, match="^margin: expected a non-negative number"):
+        run_pairs_analysis(tmp_path / "pairs.csv", compare_methods=True, margin=-0.1, **kw)

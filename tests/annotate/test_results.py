@@ -6,7 +6,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from annotate.cli import main, serve_command
+from annotate.cli import main
+from annotate.commands.serve import serve_command
 from annotate.results import gvf_table, nominal_alpha, ratings_table
 from annotate.simulate import p_good, simulate
 from data_schema.tables import PAIR_META_COLUMNS, RATINGS_COLUMNS

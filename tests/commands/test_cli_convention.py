@@ -8,10 +8,10 @@ import pytest
 
 from analysis.cli import build_parser as analyze_parser
 from annotate.cli import build_parser as annotate_parser
-from data_schema.cliargs import parse_wxh
 from data_schema.errors import InputError
 from data_schema.tables import MIN_SIDE_PX
 from nvrq.cli import build_parser as nvrq_parser
+from nvrq.commands.args import parse_wxh
 
 
 def test_metrics_tables_are_repeatable_and_old_spelling_is_noted(capsys):
@@ -78,7 +78,7 @@ def _library_modules():
     """Every module of the four packages except the command-line layer (``*/cli.py``, ``nvrq/commands``)."""
     from pathlib import Path
 
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     for pkg in ("data_schema", "nvrq", "annotate", "analysis"):
         for path in sorted((root / pkg).rglob("*.py")):
             if path.name != "cli.py" and "commands" not in path.relative_to(root).parts:
@@ -87,7 +87,7 @@ def _library_modules():
 
 def test_library_errors_name_parameters_not_flags():
     # the library names its parameters (`encoder`); only the CLI layer speaks of flags (--encoder),
-    # through data_schema.cliargs.flags_in_errors
+    # through nvrq.commands.args.flags_in_errors
     import ast
 
     flagged = []
@@ -132,7 +132,7 @@ def _strings(tree):
 
 def test_nvrq_library_hints_name_parameters_not_flags():
     # a hint names the parameter between backticks (`weights`, `allow_same_class`); nvrq's entry
-    # point turns it into the chosen command's option (nvrq.cli.hints_as_flags). Another
+    # point turns it into the chosen command's option (nvrq.commands.args.flags_in_errors). Another
     # program's command line between backticks (`ray start --head`) is not ours.
     import ast
     import re
@@ -141,7 +141,7 @@ def test_nvrq_library_hints_name_parameters_not_flags():
     flag = re.compile(r"(?<![\w-])--[a-z][a-z0-9-]*")
     foreign = re.compile(r"`(?!(?:nvrq|annotate|analyze)\b)[^`]*`")
     flagged = []
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     for path in _library_modules():
         if path.relative_to(root).parts[0] != "nvrq":
             continue
@@ -174,7 +174,7 @@ def test_a_library_hint_names_the_parameter():
     (["score", "p.csv", "--out", "m.csv"], "no_such_parameter", None),
 ])
 def test_parameter_names_map_to_the_chosen_commands_flags(argv, name, flag):
-    from data_schema.cliargs import option_for
+    from nvrq.commands.args import option_for
 
     parser = nvrq_parser()
     args = parser.parse_args(argv)

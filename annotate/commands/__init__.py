@@ -1,0 +1,2 @@
+"""Subcommands of the ``annotate`` CLI, one module each with ``register(sub)`` and ``run(args)``
+(see :mod:`annotate.cli`)."""

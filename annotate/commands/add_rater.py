@@ -1,0 +1,35 @@
+"""``annotate add-rater STUDY NAME [--host H] [--port P]``: register a rater, print the sign-in link."""
+
+from __future__ import annotations
+
+import secrets
+
+from annotate.commands.serve import add_address_options, base_url
+from annotate.study import load_study
+from data_schema.raters import check_rater_name
+
+__all__ = ["register", "run"]
+
+
+def register(sub) -> None:
+    """Add ``add-rater`` to the ``annotate`` subcommands ``sub``."""
+    a = sub.add_parser("add-rater", help="register a rater and print the sign-in link")
+    a.add_argument("study")
+    a.add_argument("name")
+    add_address_options(a)
+    a.set_defaults(func=run)
+
+
+def run(args) -> int:
+    """Register ``args.name`` (with a secret token on a token-access study) and print its link."""
+    study = load_study(args.study)
+    name = check_rater_name(args.name)
+    base = base_url(args.host, args.port)
+    if study.manifest["access"] == "token":
+        token = secrets.token_urlsafe(18)
+        study.store.add_rater(name, plan=study.new_plan(name), token=token)
+        print(f"{base}?token={token}")
+    else:
+        study.plan_for(name)
+        print(f"{base}?rater={name}")
+    return 0

@@ -1,0 +1,75 @@
+"""``annotate build STUDY --pairs PAIRS [...]``: a study folder from a pairs table
+(:func:`annotate.study.build_study`)."""
+
+from __future__ import annotations
+
+import argparse
+
+from annotate.commands.serve import base_url
+from annotate.study import build_study, load_study
+from data_schema.errors import InputError
+from data_schema.outputs import check_output_folder
+from nvrq.commands.args import (
+    DeprecatedFileOption,
+    DeprecatedSize,
+    add_link_option,
+    allow_negative_lists,
+    int_arg,
+    parse_wxh,
+)
+
+__all__ = ["register", "run"]
+
+
+def register(sub) -> None:
+    """Add ``build`` to the ``annotate`` subcommands ``sub``."""
+    b = sub.add_parser("build", help="build a study folder from a pairs table")
+    b.add_argument("study", metavar="STUDY", help="new study folder (absent or empty)")
+    b.add_argument("--pairs", required=True, help="pairs table (docs/FORMATS.md §3)")
+    b.add_argument("--scene", help="scene folder the pairs' image paths are relative to "
+                   "(default: the pairs table's scene_root column)")
+    b.add_argument("--metrics-table", dest="metrics_tables", action="append", default=[], metavar="FILE",
+                   help="metrics table (pair_id + metric columns) for the export; repeatable")
+    b.add_argument("--metrics", dest="metrics_tables", action=DeprecatedFileOption, new="--metrics-table",
+                   help=argparse.SUPPRESS)
+    b.add_argument("--tracks", type=int_arg(), default=12)
+    b.add_argument("--frames-per-track", type=int_arg(), default=12)
+    b.add_argument("--offsets", default="all", help="'all' or a comma list of metres, e.g. -1,0,1")
+    b.add_argument("--votes-per-item", type=int_arg(), default=5)
+    b.add_argument("--seed", type=int_arg(low=0), default=0)
+    b.add_argument("--training", type=int_arg(low=0), default=5, help="training items (shown first)")
+    b.add_argument("--gold", type=int_arg(low=0), default=3, help="hidden gold items of each kind")
+    b.add_argument("--repeats", type=int_arg(low=0), default=5, help="repeated test items")
+    b.add_argument("--size", default="320x320", action=DeprecatedSize, metavar="WxH",
+                   help="display size of each crop, a square WxH in pixels (default 320x320)")
+    b.add_argument("--image-format", default="jpg", choices=["jpg", "png"])
+    b.add_argument("--access", default="open", choices=["open", "token"])
+    b.add_argument("--break-every", type=int_arg(), default=50)
+    b.add_argument("--design", default="binary", choices=["binary", "pairwise"],
+                   help="binary: good/bad votes on (GT, render); pairwise: which of two methods' "
+                   "renders is closer to the GT (the pairs need a method column)")
+    b.add_argument("--methods", help="pairwise: comma list of the methods to compare "
+                   "(default: every method of the pairs table)")
+    add_link_option(b)
+    allow_negative_lists(b)
+    b.set_defaults(func=run)
+
+
+def run(args) -> int:
+    """Build the study; print its item counts and the admin page's link."""
+    check_output_folder(args.study, kind="study", option="STUDY",
+                        inputs=[args.pairs, *args.metrics_tables, args.scene])
+    width, height = parse_wxh(args.size, option="--size")
+    if width != height:
+        raise InputError("--size", None, "a square WxH (display crops are square), e.g. 320x320", args.size)
+    out = build_study(args.study, args.pairs, scene=args.scene, metrics_path=args.metrics_tables or None,
+                      tracks=args.tracks, frames_per_track=args.frames_per_track,
+                      offsets=args.offsets, votes_per_item=args.votes_per_item, seed=args.seed,
+                      n_training=args.training, n_gold=args.gold, n_repeats=args.repeats,
+                      size=width, image_format=args.image_format, access=args.access,
+                      break_every=args.break_every, design=args.design, methods=args.methods)
+    study = load_study(out)
+    counts = ", ".join(f"{v} {k}" for k, v in study.manifest["counts"].items())
+    print(f"study {out}: {counts} items")
+    print(f"admin page: {base_url()}?admin={study.admin_token()}")
+    return 0

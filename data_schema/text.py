@@ -1,0 +1,30 @@
+"""Text forms shared by the formats, the library and the command lines.
+
+A comma list (``"psnr,ssim"``) is how a list of names travels as one string: in a command-line
+option (:mod:`nvrq.commands.args`), in a library parameter that also takes a string
+(``nvrq.api``'s ``metrics="psnr,ssim"``), and inside the grid texts of
+:mod:`data_schema.perturbation` and :mod:`data_schema.methods`.
+
+>>> comma_list("psnr, ssim,,nvrq")
+['psnr', 'ssim', 'nvrq']
+"""
+
+from __future__ import annotations
+
+__all__ = ["comma_list"]
+
+
+def comma_list(text) -> list[str]:
+    """Split a comma list into its stripped, non-blank items.
+
+    Parameters
+    ----------
+    text : object
+        The list as text (any object; ``str(text)`` is split), e.g. ``"a, b,,c"``.
+
+    Returns
+    -------
+    list of str
+        The items in order, white space stripped and blank entries dropped: ``['a', 'b', 'c']``.
+    """
+    return [s.strip() for s in str(text).split(",") if s.strip()]
