@@ -45,6 +45,7 @@ import pandas as pd
 from tqdm.auto import tqdm
 
 from analysis import bootstrap as bs
+from data_schema.datasets import table_columns
 from data_schema.errors import InputError
 from data_schema.methods import METHOD_COLUMN, table_methods
 from data_schema.perturbation import (
@@ -54,7 +55,7 @@ from data_schema.perturbation import (
     axis_values,
     perturbation_array,
 )
-from data_schema.tables import OBJECT_COLUMNS, require_columns, table_columns
+from data_schema.tables import OBJECT_COLUMNS, require_columns
 
 __all__ = [
     "METHOD_COLUMN",

@@ -50,6 +50,7 @@ from analysis.inputs import classify_columns
 from analysis.methods import METHOD_COLUMN, view_breakdowns
 from annotate.results import pairwise_raters
 from annotate.screening import ScreenRule, screen
+from data_schema.datasets import table_columns
 from data_schema.errors import InputError
 from data_schema.raters import SIM_PREFIX
 from data_schema.tables import (
@@ -58,7 +59,6 @@ from data_schema.tables import (
     pair_ids,
     read_metrics,
     read_table,
-    table_columns,
 )
 from data_schema.tables import csv_line as _line
 

@@ -49,6 +49,7 @@ __all__ = [
     "iter_clips",
     "write_manifest",
     "DatasetWriter",
+    "table_columns",
 ]
 
 PARTITION = "clip_id"
@@ -217,3 +218,29 @@ class DatasetWriter:
         if exc_type is None:
             write_manifest(self.tmp, self.files, rows=self.rows)
         self._folder.__exit__(exc_type, exc, tb)
+
+
+def table_columns(path: str | Path) -> list[str]:
+    """The column names of a table file (CSV or Parquet) or of a clip-partitioned dataset
+    (this module's layout), read from its header (or first file's schema) only.
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``.csv`` or ``.parquet`` file, or a dataset folder.
+
+    Returns
+    -------
+    list of str
+        The columns in file order.
+
+    Raises
+    ------
+    InputError
+        A dataset folder without partitions or unfinished (:func:`dataset_files`).
+    """
+    if is_dataset(path):
+        return list(pq.read_schema(dataset_files(path)[0][1]).names)
+    if str(path).lower().endswith(".parquet"):
+        return list(pq.read_schema(path).names)
+    return list(pd.read_csv(path, nrows=0).columns)

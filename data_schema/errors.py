@@ -34,7 +34,7 @@ class InputError(ValueError):
     param : str, optional
         The library parameter (``tracks``) or command-line option (``--tracks``) whose value
         is bad. The CLIs name their flag for a parameter
-        (:func:`data_schema.cliargs.flags_in_errors`).
+        (:func:`nvrq.commands.args.flags_in_errors`).
 
     Notes
     -----

@@ -41,7 +41,6 @@ __all__ = [
     "offset_cm",
     "parse_offsets",
     "read_table",
-    "table_columns",
     "require_columns",
     "write_table",
     "atomic_write_text",
@@ -230,36 +229,6 @@ def read_table(
     require_columns(df, required, where=path)
     check = TABLE_CHECKS.get(what)
     return df if check is None else check(df, where=str(path))
-
-
-def table_columns(path: str | os.PathLike) -> list[str]:
-    """The column names of a table file (CSV or Parquet) or of a clip-partitioned dataset
-    (:mod:`data_schema.datasets`), read from its header (or first file's schema) only.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        A ``.csv`` or ``.parquet`` file, or a dataset folder.
-
-    Returns
-    -------
-    list of str
-        The columns in file order.
-
-    Raises
-    ------
-    InputError
-        A dataset folder without partitions or unfinished (:func:`data_schema.datasets.dataset_files`).
-    """
-    import pyarrow.parquet as pq
-
-    from data_schema import datasets
-
-    if datasets.is_dataset(path):
-        return list(pq.read_schema(datasets.dataset_files(path)[0][1]).names)
-    if str(path).lower().endswith(".parquet"):
-        return list(pq.read_schema(path).names)
-    return list(pd.read_csv(path, nrows=0).columns)
 
 
 def require_columns(df: pd.DataFrame, required: Sequence[str], *, where: object) -> pd.DataFrame:

@@ -1,6 +1,6 @@
 """InputError's one meaning of ``where`` (issue 26 item 7): the file; a bad parameter or option
 is ``param``. The message a user reads is the same line as before, and the CLIs still name
-their flag for a parameter (data_schema.cliargs.flags_in_errors)."""
+their flag for a parameter (nvrq.commands.args.flags_in_errors)."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from data_schema.cliargs import flags_in_errors
-from data_schema.errors import ArgumentParser, InputError, check_int
+from data_schema.errors import InputError, check_int
+from nvrq.commands.args import ArgumentParser, flags_in_errors
 
 ROOT = Path(__file__).resolve().parents[2]
 

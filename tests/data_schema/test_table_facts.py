@@ -14,9 +14,10 @@ import pytest
 
 from analysis.methods import compared_methods, object_codes
 from annotate.pairwise import study_methods
+from data_schema.datasets import table_columns
 from data_schema.errors import InputError
 from data_schema.methods import method_columns, table_methods
-from data_schema.tables import OBJECT_COLUMNS, pair_ids, table_columns
+from data_schema.tables import OBJECT_COLUMNS, pair_ids
 
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGES = ("data_schema", "nvrq", "annotate", "analysis")
@@ -46,7 +47,7 @@ def _definitions(name: str) -> list[str]:
 @pytest.mark.parametrize("name, home", [
     ("table_methods", "data_schema/methods.py"),
     ("OBJECT_COLUMNS", "data_schema/tables.py"),
-    ("table_columns", "data_schema/tables.py"),
+    ("table_columns", "data_schema/datasets.py"),
     ("require_columns", "data_schema/tables.py"),
 ])
 def test_each_table_fact_has_one_definition(name, home):
