@@ -8,7 +8,7 @@ corner; a 2-D array's rows are image rows.
 - :func:`imresize_half`: MATLAB ``imresize(I, 0.5)`` of a double image, i.e. bicubic
   (Keys, a = -0.5) *with antialiasing*: the kernel is stretched to 8 input pixels
   (``0.5 * cubic(0.5 x)``), each output row of weights normalised to sum 1, borders mirrored
-  (``[1 .. n, n .. 1]``, the edge pixel repeated); output size ``ceil(n / 2)``. Separable, 10
+  (``[1 .. n, n .. 1]``, the edge pixel repeated); output size ``ceil(n / 2)``. Separable, 8
   taps per output along each axis. Neither OpenCV's ``INTER_CUBIC``/``INTER_AREA`` nor
   scikit-image's ``rescale`` is this filter.
 - :func:`mscn`: ``(I - mu) / (sigma + 1)``, ``mu`` and ``sigma**2 = |w * I**2 - mu**2|`` from
@@ -42,7 +42,8 @@ import cv2
 import numpy as np
 from scipy.special import gammaln
 
-__all__ = ["imresize_half", "mscn", "ZERO", "ggd_shape", "aggd_shape", "aggd_stats", "SHAPES", "WINDOW"]
+__all__ = ["imresize_half", "mscn", "ZERO", "ggd_shape", "aggd_shape", "aggd_stats", "aggd_from_moments",
+           "moments", "circular_products", "SHAPES", "WINDOW"]
 
 #: the shape table of both releases, ``0.2:0.001:10`` (MATLAB computes ``0.2 + k * 0.001``)
 SHAPES = 0.2 + 0.001 * np.arange(9801)
@@ -93,7 +94,7 @@ def mscn(image: np.ndarray, *, padding: str) -> np.ndarray:
     mu = cv2.sepFilter2D(image, cv2.CV_64F, WINDOW, WINDOW, borderType=border)
     second = cv2.sepFilter2D(image * image, cv2.CV_64F, WINDOW, WINDOW, borderType=border)
     m = (image - mu) / (np.sqrt(np.abs(second - mu * mu)) + 1.0)
-    m[np.abs(m) < ZERO] = 0.0
+    m[(m < ZERO) & (m > -ZERO)] = 0.0
     return m
 
 
@@ -120,6 +121,8 @@ def _resize_taps(n_in: int) -> tuple[np.ndarray, np.ndarray]:
     weights /= weights.sum(axis=1, keepdims=True)
     mirror = np.concatenate([np.arange(n_in), np.arange(n_in)[::-1]])
     index = mirror[np.mod(ind.astype(np.int64) - 1, 2 * n_in)]
+    used = (weights != 0).any(axis=0)  # MATLAB drops all-zero columns (here the two outer taps)
+    index, weights = index[:, used], weights[:, used]
     for arr in (index, weights):
         arr.flags.writeable = False
     return index, weights
@@ -136,7 +139,7 @@ def _resize_matrix(n_in: int) -> np.ndarray:
 def imresize_half(image: np.ndarray) -> np.ndarray:
     """MATLAB ``imresize(image, 0.5)`` of a float64 (H, W) image -> (ceil(H/2), ceil(W/2)) float64
     (bicubic with antialiasing, not rounded; module docstring): rows, then columns (MATLAB's
-    order), each output the weighted sum of its 10 taps (in tap order, the same on every
+    order), each output the weighted sum of its 8 taps (in tap order, the same on every
     machine: no BLAS)."""
     rows, wr = _resize_taps(image.shape[0])
     half = np.einsum("ot,otw->ow", wr, image[rows])
@@ -147,17 +150,18 @@ def imresize_half(image: np.ndarray) -> np.ndarray:
 def _nearest(table: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Index of the entry of the increasing ``table`` nearest to each ``q`` (the lower on a tie;
     0 where ``q`` is NaN)."""
-    hi = np.clip(np.searchsorted(table, q), 1, len(table) - 1)
+    hi = np.searchsorted(table, q)
+    np.minimum(np.maximum(hi, 1, out=hi), len(table) - 1, out=hi)
     lower = np.abs(q - table[hi - 1]) <= np.abs(table[hi] - q)
-    idx = np.where(lower, hi - 1, hi)
-    return np.where(np.isnan(q), 0, idx)
+    idx = hi - lower
+    idx[np.isnan(q)] = 0
+    return idx
 
 
 def ggd_shape(rho: np.ndarray) -> np.ndarray:
     """GGD shape (BRISQUE's ``estimateggdparam``): the table shape whose
     ``Gamma(1/a) Gamma(3/a) / Gamma(2/a)^2`` is nearest to ``rho = E[x^2] / E[|x|]^2``."""
-    with np.errstate(invalid="ignore"):
-        return SHAPES[_nearest(_NEG_R_GGD, -np.asarray(rho, np.float64))]
+    return SHAPES[_nearest(_NEG_R_GGD, -np.asarray(rho, np.float64))]
 
 
 def aggd_shape(r_norm: np.ndarray) -> np.ndarray:
@@ -166,12 +170,34 @@ def aggd_shape(r_norm: np.ndarray) -> np.ndarray:
     return SHAPES[_nearest(_R_AGGD, np.asarray(r_norm, np.float64))]
 
 
-def aggd_stats(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(alpha, left_std, right_std)``, each (n,), of ``estimateaggdparam`` for every row of
-    ``x`` (n, m): ``left_std = sqrt(mean(x[x < 0]^2))``, ``right_std`` over ``x > 0`` (NaN for an
-    empty side, as MATLAB's mean of nothing), ``gammahat = left/right``,
-    ``rhat = mean(|x|)^2 / mean(x^2)``, ``rhatnorm = rhat (g^3 + 1)(g + 1) / (g^2 + 1)^2`` and
-    ``alpha = aggd_shape(rhatnorm)``."""
+def _axis_parts(n: int, d: int) -> list[tuple[slice, slice]]:
+    """``(target, source)`` slices of one axis of length ``n`` for ``np.roll(a, d)[target] =
+    a[source]``, ``d`` in {-1, 0, 1}."""
+    if d == 0:
+        return [(slice(None), slice(None))]
+    if d == 1:
+        return [(slice(1, None), slice(None, -1)), (slice(0, 1), slice(n - 1, n))]
+    return [(slice(None, -1), slice(1, None)), (slice(n - 1, n), slice(0, 1))]
+
+
+def circular_products(m: np.ndarray, shifts) -> np.ndarray:
+    """``(len(shifts) + 1, N)`` float64: the maps ``m`` (..., h, w) and ``m * circshift(m, s)`` for
+    each shift ``s = (dy, dx)``, ``|dy|, |dx| <= 1``, shifting the last two axes (MATLAB
+    ``circshift``, ``np.roll``), each raveled; written slice by slice, no rolled copies."""
+    h, w = m.shape[-2:]
+    out = np.empty((len(shifts) + 1, *m.shape))
+    out[0] = m
+    for k, (dy, dx) in enumerate(shifts, start=1):
+        for ty, sy in _axis_parts(h, dy):
+            for tx, sx in _axis_parts(w, dx):
+                np.multiply(m[..., ty, tx], m[..., sy, sx], out=out[k][..., ty, tx])
+    return out.reshape(len(shifts) + 1, -1)
+
+
+def moments(x: np.ndarray) -> tuple[np.ndarray, ...]:
+    """``(mean_sq, mean_abs, left_sq, right_sq)``, each (n,), of every row of ``x`` (n, m):
+    ``mean(x^2)``, ``mean(|x|)`` and the mean squares over ``x < 0`` / ``x > 0`` (MATLAB's
+    ``vec(vec < 0)``, ``vec(vec > 0)``: zeros on neither side; NaN for an empty side)."""
     m = x.shape[1]
     neg = np.minimum(x, 0.0)
     neg_sq = np.einsum("ij,ij->i", neg, neg)
@@ -180,9 +206,22 @@ def aggd_stats(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     n_pos = np.count_nonzero(x, axis=1) - n_neg
     sum_abs = x.sum(axis=1) - 2.0 * neg.sum(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
-        left = np.sqrt(neg_sq / n_neg)
-        right = np.sqrt((sum_sq - neg_sq) / n_pos)
+        return sum_sq / m, sum_abs / m, neg_sq / n_neg, (sum_sq - neg_sq) / n_pos
+
+
+def aggd_stats(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(alpha, left_std, right_std)``, each (n,), of ``estimateaggdparam`` for every row of
+    ``x`` (n, m): ``left_std = sqrt(mean(x[x < 0]^2))``, ``right_std`` over ``x > 0`` (NaN for an
+    empty side, as MATLAB's mean of nothing), ``gammahat = left/right``,
+    ``rhat = mean(|x|)^2 / mean(x^2)``, ``rhatnorm = rhat (g^3 + 1)(g + 1) / (g^2 + 1)^2`` and
+    ``alpha = aggd_shape(rhatnorm)``."""
+    return aggd_from_moments(*moments(x))
+
+
+def aggd_from_moments(mean_sq, mean_abs, left_sq, right_sq) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`aggd_stats` from the :func:`moments` of the rows."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        left, right = np.sqrt(left_sq), np.sqrt(right_sq)
         g = left / right
-        rhat = (sum_abs / m) ** 2 / (sum_sq / m)
-        r_norm = rhat * (g ** 3 + 1) * (g + 1) / (g ** 2 + 1) ** 2
+        r_norm = mean_abs ** 2 / mean_sq * (g ** 3 + 1) * (g + 1) / (g ** 2 + 1) ** 2
     return aggd_shape(r_norm), left, right

@@ -48,7 +48,14 @@ import numpy as np
 from scipy.special import gammaln
 
 from nvrq.nr_metrics._common import check_rgb, rgb2gray_matlab
-from nvrq.nr_metrics._nss import aggd_stats, ggd_shape, imresize_half, mscn
+from nvrq.nr_metrics._nss import (
+    aggd_from_moments,
+    circular_products,
+    ggd_shape,
+    imresize_half,
+    moments,
+    mscn,
+)
 
 __all__ = ["brisque", "brisque_features", "load_model", "MIN_SIDE", "MODEL_PATH"]
 
@@ -61,17 +68,16 @@ _SHIFTS = ((0, 1), (1, 0), (1, 1), (-1, 1))
 
 def _scale_features(grey: np.ndarray) -> np.ndarray:
     """The 18 features (18,) of one scale of a float64 grey image (H, W) with values 0-255."""
-    m = mscn(grey, padding="zero")
-    x = m.ravel()
-    mean_sq = np.dot(x, x) / x.size
-    mean_abs = np.abs(x).sum() / x.size
+    maps = circular_products(mscn(grey, padding="zero"), _SHIFTS)  # the MSCN map, its 4 products
+    mean_sq, mean_abs, left_sq, right_sq = moments(maps)
     with np.errstate(invalid="ignore", divide="ignore"):
-        alpha0 = ggd_shape(np.array([mean_sq / mean_abs ** 2]))[0]  # NaN rho (all 0): 0.2
-    products = np.stack([(m * np.roll(m, s, axis=(0, 1))).ravel() for s in _SHIFTS])
-    alpha, left, right = aggd_stats(products)
+        alpha0 = ggd_shape(mean_sq[:1] / mean_abs[:1] ** 2)[0]  # NaN (all 0): the first, 0.2
+    alpha, left, right = aggd_from_moments(mean_sq[1:], mean_abs[1:], left_sq[1:], right_sq[1:])
     eta = (right - left) * np.exp(gammaln(2.0 / alpha) - 0.5 * (gammaln(1.0 / alpha) + gammaln(3.0 / alpha)))
-    rest = np.stack([alpha, eta, left * left, right * right], axis=1).ravel()
-    return np.concatenate([[alpha0, mean_sq], rest])
+    out = np.empty(18)
+    out[0], out[1] = alpha0, mean_sq[0]
+    out[2::4], out[3::4], out[4::4], out[5::4] = alpha, eta, left_sq[1:], right_sq[1:]
+    return out
 
 
 def brisque_features(render: np.ndarray) -> np.ndarray:
@@ -115,5 +121,5 @@ def brisque(render: np.ndarray) -> float:
         return math.nan
     sv, coefs, gamma, rho, lo, hi = load_model()
     x = -1.0 + 2.0 * (feats - lo) / (hi - lo)
-    d2 = np.sum((sv - x) ** 2, axis=1)
+    d2 = np.einsum("ij,ij->i", sv - x, sv - x)  # |x_i - x|^2 per support vector
     return float(coefs @ np.exp(-gamma * d2) - rho)
