@@ -132,8 +132,8 @@ from nvrq.nr_metrics.piqe import MIN_SIDE as _PIQE_MIN_SIDE  # noqa: E402
 
 register(MetricInfo("brisque", False, (-float("inf"), float("inf")), fn=_nr.brisque, reference=False,
                     min_side=_BRISQUE_MIN_SIDE,
-                    undefined="a neighbour-product map without negative or positive values "
-                              "(AGGD fit undefined, as in the original release)",
+                    undefined="a neighbour-product map without negative or without positive values: "
+                              "no AGGD fit, as in the original release",
                     description="BRISQUE (Mittal et al. 2012), the original release's LIVE-trained SVR "
                                 "(allmodel), as PyIQA / MATLAB compute it; not clipped (may leave 0-100)"))
 register(MetricInfo("niqe", False, (0.0, float("inf")), fn=_nr.niqe, reference=False,
