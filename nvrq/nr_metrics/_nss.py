@@ -14,15 +14,16 @@ corner; a 2-D array's rows are image rows.
 - :func:`mscn`: ``(I - mu) / (sigma + 1)``, ``mu`` and ``sigma**2 = |w * I**2 - mu**2|`` from
   the 7x7 Gaussian of ``fspecial('gaussian', 7, 7/6)`` (normalised), correlated with zero
   padding (BRISQUE's ``filter2(w, I, 'same')``) or replicated borders (NIQE's
-  ``imfilter(I, w, 'replicate')``).
+  ``imfilter(I, w, 'replicate')``); a coefficient below :data:`ZERO` (1e-9) in magnitude is 0
+  (our one rule: where the exact value is 0 the float residue's sign is rounding).
 - :func:`ggd_shape` / :func:`aggd_shape`: the shape nearest to the moment ratio in the table
   ``gam = 0.2:0.001:10`` (9801 values), as the releases' ``min(abs(...))`` / ``min((...).^2)``
   (the first on a tie; the first, 0.2, where the ratio is NaN, as MATLAB's ``min`` of an all-NaN
   vector). A binary search in the monotone table, not a scan.
 
->>> m = _resize_matrix(4)            # 4 -> 2 pixels: each output row sums to 1
->>> m.shape, np.allclose(m.sum(axis=1), 1.0)
-((2, 4), True)
+>>> index, weights = _resize_taps(4)  # 4 -> 2 pixels, 8 taps each (mirrored), weights sum to 1
+>>> index.tolist(), np.allclose(weights.sum(axis=1), 1.0)
+([[2, 1, 0, 0, 1, 2, 3, 3], [0, 0, 1, 2, 3, 3, 2, 1]], True)
 >>> imresize_half(np.full((5, 3), 7.0))   # a constant stays constant; 5 x 3 -> 3 x 2
 array([[7., 7.],
        [7., 7.],
@@ -126,14 +127,6 @@ def _resize_taps(n_in: int) -> tuple[np.ndarray, np.ndarray]:
     for arr in (index, weights):
         arr.flags.writeable = False
     return index, weights
-
-
-def _resize_matrix(n_in: int) -> np.ndarray:
-    """(ceil(n_in / 2), n_in) float64: the weights of :func:`_resize_taps` as a dense matrix."""
-    index, weights = _resize_taps(n_in)
-    matrix = np.zeros((len(index), n_in))
-    np.add.at(matrix, (np.repeat(np.arange(len(index)), index.shape[1]), index.ravel()), weights.ravel())
-    return matrix
 
 
 def imresize_half(image: np.ndarray) -> np.ndarray:

@@ -27,9 +27,9 @@ Rules (docs/FORMATS.md §4): the SVR output as it is, not clipped to [0, 100] (a
 the LIVE distortions may leave it). The crop is used at its own size; NaN when its shorter side is
 below :data:`MIN_SIDE` (our rule: the half-scale crop must hold the 7x7 window) or where a feature
 is undefined as in the release (a neighbour-product map with no negative or no positive value:
-MATLAB's mean of nothing; e.g. two-level stripes). Where a 7x7 window holds one value its MSCN
-coefficient is exactly 0 (:func:`nvrq.nr_metrics._nss.mscn`; the references' rounding leaves
-+-1e-16 there).
+MATLAB's mean of nothing; e.g. two-level stripes). An MSCN coefficient below 1e-9 in magnitude is 0
+(:func:`nvrq.nr_metrics._nss.mscn`: where its exact value is 0, a flat window or the middle of
+a ramp, the references' float residue has the sign of their rounding).
 
 >>> import numpy as np
 >>> rng = np.random.default_rng(0)

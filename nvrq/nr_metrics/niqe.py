@@ -29,8 +29,8 @@ the same number. NaN when a side is below :data:`PATCH` (no whole block) or no b
 features. With fewer than two blocks whose 36 features are all defined (e.g. a 96-191 px crop:
 one block) the crop covariance is taken as 0 (ours: the references have none -- NumPy's
 covariance of one row is NaN, and MATLAB's ``nancov`` of one row treats it as a vector and
-returns one variance). Where a 7x7 window holds one value its MSCN coefficient is
-exactly 0 (:func:`nvrq.nr_metrics._nss.mscn`).
+returns one variance). An MSCN coefficient below 1e-9 in magnitude is 0
+(:func:`nvrq.nr_metrics._nss.mscn`).
 
 >>> import numpy as np
 >>> flat = np.full((96, 96, 3), 128, np.uint8)   # one block, all MSCN 0: no AGGD fit
