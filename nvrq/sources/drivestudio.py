@@ -36,7 +36,8 @@ drivestudio file that states it (``datasets/<d>/<d>_preprocess.py`` writes the l
     ``dimensions.x`` is the width and ``dimensions.y`` the length (pandaset-devkit README), so
     the box's own x is across the object: the importer turns PandaSet boxes by +90 deg about
     their z (``T_box = obj_to_world @ Rz(90)``, ``dims = [y, x, z]``), which leaves the 8
-    corners where they are and makes x the length. No ``instances/`` (EmerNeRF's folders):
+    corners where they are and makes x the length (:mod:`nvrq.sources.drivestudio_instances`
+    reads and checks these files). No ``instances/`` (EmerNeRF's folders):
     no tracks.
 Re-based world (``source_world``)
     drivestudio trains in ``inv(ego_pose/000.txt) @ world`` (Waymo, PandaSet, Argoverse 2,
@@ -59,7 +60,6 @@ camera offset so that every camera's image of its last frame shows it.
 
 from __future__ import annotations
 
-import json
 import os
 import re
 import shutil
@@ -71,70 +71,28 @@ import pandas as pd
 from PIL import Image, UnidentifiedImageError
 
 from data_schema.errors import InputError, check_number
-from data_schema.perturbation import PERTURBATION_COLUMNS, extra_columns, views_from
-from data_schema.scene import check_rigid, save_scene
+from data_schema.perturbation import PERTURBATION_COLUMNS, extra_columns, is_lateral, views_from
+from data_schema.scene import check_rigid, save_scene, validate_camera_model
 from data_schema.tables import IMAGES_COLUMNS, atomic_folder
-from nvrq.geometry.cameras import camera_from_model
-from nvrq.geometry.poses import matrix_to_pose7
 from nvrq.render_plan import default_image_path
-from nvrq.sources.kitti import KITTI_CLASS_MAP, R_SENSOR_RIG
+from nvrq.sources.drivestudio_instances import read_instances
+from nvrq.sources.drivestudio_meta import (
+    CAMERA_NAMES,
+    CLASS_MAPS,
+    DATASETS,
+    DEFAULT_FPS,
+    OPENCV_TO_FLU,
+    PER_FRAME,
+    map_class,
+)
 
 __all__ = ["DATASETS", "CAMERA_NAMES", "DEFAULT_FPS", "CLASS_MAPS", "OPENCV_TO_FLU", "DrivestudioScene",
-           "map_class", "read_drivestudio", "import_drivestudio"]
+           "map_class", "read_drivestudio", "write_drivestudio", "import_drivestudio"]
 
-#: drivestudio's dataset folder names (``--dataset``).
-DATASETS = ("waymo", "nuscenes", "pandaset", "argoverse", "nuplan", "kitti")
-#: Datasets with per-frame camera -> world extrinsics ``extrinsics/{t:03d}_{cam}.txt``.
-PER_FRAME = ("nuscenes", "pandaset")
-#: Camera names by index (drivestudio ``datasets/dataset_meta.py``).
-CAMERA_NAMES = {
-    "waymo": ("front_camera", "front_left_camera", "front_right_camera", "left_camera", "right_camera"),
-    "nuscenes": ("CAM_FRONT", "CAM_FRONT_LEFT", "CAM_FRONT_RIGHT", "CAM_BACK_LEFT", "CAM_BACK_RIGHT", "CAM_BACK"),
-    "pandaset": ("front_camera", "front_left_camera", "front_right_camera", "left_camera", "right_camera",
-                 "back_camera"),
-    "argoverse": ("ring_front_center", "ring_front_left", "ring_front_right", "ring_side_left", "ring_side_right",
-                  "ring_rear_left", "ring_rear_right"),
-    "nuplan": ("CAM_F0", "CAM_L0", "CAM_R0", "CAM_L1", "CAM_R1", "CAM_L2", "CAM_R2", "CAM_B0"),
-    "kitti": ("CAM_LEFT", "CAM_RIGHT"),
-}
-#: Frame rate of each dataset's processed frames (Hz); nuScenes: its 2 Hz keyframes.
-DEFAULT_FPS = {"waymo": 10.0, "nuscenes": 2.0, "pandaset": 10.0, "argoverse": 10.0, "nuplan": 10.0, "kitti": 10.0}
-#: OpenCV camera axes (x right, y down, z forward) -> x forward, y left, z up: Waymo's
-#: ``OPENCV2DATASET`` rotation, the same matrix as the KITTI importer's camera -> rig rotation.
-OPENCV_TO_FLU = R_SENSOR_RIG
-#: ``class_name`` -> our ``label_class`` per dataset (docs/FORMATS.md §13); any other name is
-#: kept; nuScenes ``human.pedestrian.*`` -> ``person`` (:func:`map_class`).
-CLASS_MAPS = {
-    "waymo": {"Vehicle": "automobile", "Pedestrian": "person", "Cyclist": "rider"},
-    "nuscenes": {"vehicle.car": "automobile", "vehicle.emergency.police": "automobile",
-                 "vehicle.bus.bendy": "bus", "vehicle.bus.rigid": "bus",
-                 "vehicle.truck": "heavy_truck", "vehicle.trailer": "heavy_truck"},
-    "pandaset": {"Car": "automobile", "Pickup Truck": "automobile", "Bus": "bus",
-                 "Medium-sized Truck": "heavy_truck", "Semi-truck": "heavy_truck",
-                 "Pedestrian": "person", "Pedestrian with Object": "person"},
-    "argoverse": {"REGULAR_VEHICLE": "automobile", "BUS": "bus", "ARTICULATED_BUS": "bus", "SCHOOL_BUS": "bus",
-                  "BOX_TRUCK": "heavy_truck", "TRUCK": "heavy_truck", "TRUCK_CAB": "heavy_truck",
-                  "VEHICULAR_TRAILER": "heavy_truck", "PEDESTRIAN": "person", "OFFICIAL_SIGNALER": "person",
-                  "BICYCLIST": "rider", "MOTORCYCLIST": "rider", "WHEELED_RIDER": "rider"},
-    "nuplan": {"vehicle": "automobile", "pedestrian": "person"},
-    "kitti": dict(KITTI_CLASS_MAP),  # the one KITTI table (``nvrq import kitti``)
-}
-_RZ90 = np.array([[0.0, -1.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
 _IMAGE = re.compile(r"^(\d+)_(\d+)\.jpg$")
 _PER_CAMERA_FILE = re.compile(r"^(\d+)\.txt$")
 _PER_FRAME_FILE = re.compile(r"^(\d+)_(\d+)\.txt$")
 _HZ = re.compile(r"_(\d+(?:\.\d+)?)Hz$")
-
-
-def map_class(dataset: str, class_name: str) -> str:
-    """Our ``label_class`` of a drivestudio ``class_name`` (:data:`CLASS_MAPS`; others kept).
-
-    >>> map_class("nuscenes", "human.pedestrian.adult"), map_class("waymo", "Cyclist"), map_class("waymo", "Sign")
-    ('person', 'rider', 'Sign')
-    """
-    if dataset == "nuscenes" and class_name.startswith("human.pedestrian."):
-        return "person"
-    return CLASS_MAPS.get(dataset, {}).get(class_name, class_name)
 
 
 @dataclass
@@ -287,129 +245,12 @@ def _image_size(paths) -> tuple[int, int]:
     return size
 
 
-def _json(path: Path):
-    if not path.is_file():
-        raise InputError(path, None, "a drivestudio instances file", "no such file")
-    try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(path, None, "valid JSON", str(exc)) from None
-
-
-def _listed(path: Path, frame_instances, keys: set, n_frames: int) -> dict[str, np.ndarray]:
-    """Object key -> the frames ``frame_instances.json`` lists it in (sorted), checked."""
-    if not isinstance(frame_instances, dict):
-        raise InputError(path, None, "an object {frame: [object keys]}", type(frame_instances).__name__)
-    listed: dict[str, list] = {}
-    for f, objs in frame_instances.items():
-        if not str(f).isdigit() or int(f) >= n_frames:
-            raise InputError(path, f"frame {f!r}", f"a frame of the layout (0-{n_frames - 1})", f)
-        if not isinstance(objs, list):
-            raise InputError(path, f"frame {f}", "a list of object keys", type(objs).__name__)
-        for k in objs:
-            if str(k) not in keys:
-                raise InputError(path, f"frame {f}", "objects of instances_info.json", f"unknown object {k!r}")
-            listed.setdefault(str(k), []).append(int(f))
-    return {k: np.unique(v) for k, v in listed.items()}
-
-
-def _box_sizes(info_path: Path, fld: str, sizes: list) -> np.ndarray:
-    """``box_size`` entries -> ``(n, 3)``; an error names the first that is not 3 positive numbers."""
-    try:
-        arr = np.asarray(sizes)
-    except ValueError:  # ragged
-        arr = np.zeros(0)
-    if arr.ndim == 2 and arr.shape[1] == 3 and np.issubdtype(arr.dtype, np.number) \
-            and np.isfinite(arr).all() and (arr > 0).all():
-        return arr.astype(np.float64)
-    if not sizes:
-        return np.zeros((0, 3))
-    for i, s in enumerate(sizes):
-        good = isinstance(s, list) and len(s) == 3 and all(
-            isinstance(x, int | float) and not isinstance(x, bool) and np.isfinite(x) and x > 0 for x in s)
-        if not good:
-            raise InputError(info_path, f"{fld}.frame_annotations.box_size[{i}]", "3 positive numbers [l, w, h]", s)
-    return np.asarray(sizes, dtype=np.float64)  # e.g. a bool among the numbers
-
-
-def _track(info_path: Path, key: str, inst, dataset: str, n_frames: int, listed: dict):
-    """One instance -> ``(track_id, label_class, frames (n,), T_box_world (n, 4, 4), dims (3,))`` or None."""
-    fld = key
-    if not isinstance(inst, dict):
-        raise InputError(info_path, fld, "an object with id, class_name, frame_annotations", type(inst).__name__)
-    for name in ("id", "class_name", "frame_annotations"):
-        if name not in inst:
-            raise InputError(info_path, f"{fld}.{name}", "this field", "missing")
-    tid, cls, ann = str(inst["id"]), inst["class_name"], inst["frame_annotations"]
-    if not tid or ":" in tid:
-        raise InputError(info_path, f"{fld}.id", "a non-empty id without ':'", repr(tid))
-    if not isinstance(cls, str) or not cls:
-        raise InputError(info_path, f"{fld}.class_name", "a class name", repr(cls))
-    cols = {}
-    for name in ("frame_idx", "obj_to_world", "box_size"):
-        v = ann.get(name) if isinstance(ann, dict) else None
-        if not isinstance(v, list):
-            raise InputError(info_path, f"{fld}.frame_annotations.{name}", "a list", type(v).__name__)
-        cols[name] = v
-    n = len(cols["frame_idx"])
-    for name in ("obj_to_world", "box_size"):
-        if len(cols[name]) != n:
-            raise InputError(info_path, f"{fld}.frame_annotations.{name}", f"{n} entries (one per frame_idx)",
-                             len(cols[name]))
-    frames = np.asarray(cols["frame_idx"])
-    if frames.ndim != 1 or (n and not np.issubdtype(frames.dtype, np.integer)) \
-            or np.any(frames < 0) or np.any(frames >= n_frames) or len(np.unique(frames)) != n:
-        raise InputError(info_path, f"{fld}.frame_annotations.frame_idx",
-                         f"distinct frames of the layout (0-{n_frames - 1})", cols["frame_idx"])
-    sizes = _box_sizes(info_path, fld, cols["box_size"])
-    keep = np.isin(frames, listed.get(key, np.zeros(0, np.int64)))
-    if not keep.any():
-        return None  # never listed in frame_instances: drivestudio drops it too
-    order = np.argsort(frames[keep], kind="stable")
-    try:
-        T = np.asarray(cols["obj_to_world"], dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InputError(info_path, f"{fld}.frame_annotations.obj_to_world", "4x4 matrices", "ragged values") from None
-    if T.shape != (n, 4, 4):
-        raise InputError(info_path, f"{fld}.frame_annotations.obj_to_world", "4x4 matrices", f"shape {T.shape}")
-    check_rigid(T, str(info_path), f"{fld}.frame_annotations.obj_to_world")
-    T, dims = T[keep][order], sizes[keep].mean(axis=0)
-    if dataset == "pandaset":  # dimensions.x is the width: make the box's x its length
-        T, dims = T @ _RZ90, dims[[1, 0, 2]]
-    return tid, map_class(dataset, cls), frames[keep][order], T, dims
-
-
 def _tracks(root: Path, dataset: str, n_frames: int, frame_us: np.ndarray, hold_us: int) -> tuple[list, list]:
     folder = root / "instances"
     if not folder.is_dir():
         return [], [f"note: {root} has no instances/ folder (an EmerNeRF-style layout): the scene has no tracks"]
-    info_path, fi_path = folder / "instances_info.json", folder / "frame_instances.json"
-    info, frame_instances = _json(info_path), _json(fi_path)
-    if not isinstance(info, dict):
-        raise InputError(info_path, None, "an object {key: instance}", type(info).__name__)
-    listed = _listed(fi_path, frame_instances, {str(k) for k in info}, n_frames)
-    found = {str(k): _track(info_path, str(k), v, dataset, n_frames, listed) for k, v in info.items()}
-    for key, frames in listed.items():  # a listed object must be annotated in that frame
-        missing = np.setdiff1d(frames, np.asarray(info[key]["frame_annotations"]["frame_idx"]))
-        if len(missing):
-            raise InputError(fi_path, f"frame {missing[0]}", f"objects annotated in that frame in {info_path.name}",
-                             f"object {key!r}")
-    kept = [t for t in found.values() if t is not None]
-    ids = [t[0] for t in kept]
-    dup = next((i for i in ids if ids.count(i) > 1), None)
-    if dup is not None:
-        raise InputError(info_path, "id", "a distinct id per object", f"{dup!r} twice")
-    poses = matrix_to_pose7(np.concatenate([t[3] for t in kept])) if kept else np.zeros((0, 7))
-    tracks, start = [], 0
-    for tid, label, frames, _, dims in kept:
-        p = poses[start:start + len(frames)]
-        start += len(frames)
-        ts = frame_us[frames]
-        if hold_us:  # every camera's image of the last frame shows the box
-            ts, p = np.append(ts, ts[-1] + hold_us), np.concatenate([p, p[-1:]])
-        tracks.append({"track_id": tid, "label_class": label, "dims_lwh": dims.tolist(),
-                       "timestamps_us": ts.tolist(), "poses": p.tolist()})
-    return tracks, []
+    return read_instances(folder, n_frames=n_frames, frame_us=frame_us, hold_us=hold_us,
+                          label_of=lambda name: map_class(dataset, name), turn_z90=dataset == "pandaset"), []
 
 
 def read_drivestudio(scene_dir: str | os.PathLike, *, dataset: str | None = None, fps: float | None = None,
@@ -491,8 +332,8 @@ def read_drivestudio(scene_dir: str | os.PathLike, *, dataset: str | None = None
             else np.linalg.inv(raw0)
     for i, c in enumerate(cams):
         W, H = _image_size(paths[i])
-        models[c] = {**models[c], "resolution": [int(W), int(H)]}
-        camera_from_model(models[c], where=str(root / "intrinsics" / f"{c}.txt"), field_prefix="")
+        models[c] = validate_camera_model({**models[c], "resolution": [int(W), int(H)]},
+                                          str(root / "intrinsics" / f"{c}.txt"), "")
     hold = int(offs.max()) if len(offs) else 0
     tracks, more = _tracks(root, dataset, n_frames, frame_us, hold)
     doc = {
@@ -522,14 +363,15 @@ def write_drivestudio(ds: DrivestudioScene, out: str | os.PathLike, *, offsets=(
     """
     out = Path(out)
     views = views_from(offsets, perturbations)
+    lateral = is_lateral(views)
     rows, links = [], []
     for i, name in enumerate(ds.cameras):
         for t, src in zip(ds.image_us[i].tolist(), ds.image_paths[i], strict=True):
             rel = _gt_path(name, t)
             links.append((src, rel))
             rows.append((name, t, "gt", *[0.0] * 6, rel))
-            rows += [(name, t, "render", *v.tolist(), default_image_path(name, t, "render", v[1], perturbation=v))
-                     for v in views]
+            rows += [(name, t, "render", *v.tolist(), default_image_path(  # a lateral view by its offset alone
+                name, t, "render", v[1], perturbation=None if lat else v)) for v, lat in zip(views, lateral, strict=True)]
     images = pd.DataFrame(rows, columns=["camera", "timestamp_us", "source", *PERTURBATION_COLUMNS, "path"])
     images = images.drop_duplicates(["camera", "timestamp_us", "source", *PERTURBATION_COLUMNS])
     with atomic_folder(out) as tmp:
