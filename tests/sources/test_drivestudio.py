@@ -98,6 +98,10 @@ def test_every_camera_pose_is_reproduced_to_1e9(tmp_path, source, variant):
         assert np.abs(got - expected[c]).max() < 1e-9, (variant, name)
         # the rig stays x forward, y left, z up: its z axis is the world's up within a few degrees
         assert (T_rw[:, 2, 2] > np.cos(np.radians(5))).all()
+    # drivestudio's re-based world: inv(ego_pose/000.txt) @ world, nuScenes inv(extrinsics/000_0.txt)
+    first = layout.root / ("extrinsics/000_0.txt" if variant == "nuscenes" else "ego_pose/000.txt")
+    np.testing.assert_allclose(scene.source_world.T_world_source @ np.loadtxt(first), np.eye(4), atol=1e-9)
+    assert scene.source_world.name == "drivestudio"
 
 
 def _expected_boxes(source_scene, layout, offsets) -> dict:
@@ -270,3 +274,16 @@ def test_copy_time_rule_and_source_world(tmp_path, source):
     np.testing.assert_allclose(scene.source_world.T_world_source @ X0, np.eye(4), atol=1e-9)
     with pytest.raises(InputError, match="per-camera extrinsics.* for waymo, got per-frame files"):
         read_drivestudio(hz, dataset="waymo")  # per-frame files are not Waymo's kind
+
+
+def test_source_world_key_is_validated(tmp_path, source):
+    layout = _layout(tmp_path, source, "kitti")
+    out = import_drivestudio(layout.root, tmp_path / "out", offsets=[0.0])
+    doc = json.loads((out / "scene.json").read_text())
+    doc["source_world"]["T_world_source"][0][0] = 2.0  # not a rotation
+    (out / "scene.json").write_text(json.dumps(doc))
+    with pytest.raises(InputError, match="source_world.T_world_source"):
+        load_scene(out, check_images=False)
+    del doc["source_world"]  # optional: a scene without it loads as before
+    (out / "scene.json").write_text(json.dumps(doc))
+    assert load_scene(out, check_images=False).source_world is None
