@@ -13,6 +13,8 @@ this one run and on warm files, each is timed (best of ``--rounds``):
 
 The claim (issue 27): the import is bound by copying images, not by the geometry, i.e.
 ``import --copy / copy only`` is close to 1 and the geometry is a small part of the import.
+Wall and CPU (user + system of this process) seconds are both printed: on a shared machine the
+wall times of file operations swing with the other processes; CPU time much less.
 Run: ``python benchmarks/bench_import.py [--frames 200] [--cameras 5] [--size 1920x1280]``.
 """
 
@@ -40,13 +42,11 @@ from nvrq.synth.layout import build_world  # noqa: E402
 from tests.sources.drivestudio_layout import camera_ring, write_layout  # noqa: E402
 
 
-def _best(fn, rounds: int) -> float:
-    best = float("inf")
-    for _ in range(rounds):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
+def _timed(fn) -> tuple[float, float]:
+    """``(wall seconds, CPU seconds of this process, user + system)`` of one call."""
+    t0, c0 = time.perf_counter(), time.process_time()
+    fn()
+    return time.perf_counter() - t0, time.process_time() - c0
 
 
 def _source(tmp: Path, frames: int, size: tuple[int, int]):
@@ -107,29 +107,31 @@ def bench(tmp: Path, source, variant: str, n_cams: int, frames: int, blob: bytes
              "link": link_only, "import_link": lambda: import_drivestudio(layout.root, out, offsets=[0.0, 1.0, 2.0]),
              "read": lambda: read_drivestudio(layout.root), "files": lambda: _read_files_only(layout.root)}
     copy_only()  # warm the page cache: every timing below reads warm files
-    best = dict.fromkeys(steps, float("inf"))
+    wall, cpu = dict.fromkeys(steps, float("inf")), dict.fromkeys(steps, float("inf"))
     for _ in range(rounds):  # interleaved, so that a slow spell of the shared disk hits every step
         for name, fn in steps.items():
             if name.startswith("import"):
                 shutil.rmtree(out, ignore_errors=True)
-            best[name] = min(best[name], _best(fn, 1))
-    t_copy, t_imp_copy, t_link, t_imp_link, t_read, t_files = (best[k] for k in steps)
+            w, c = _timed(fn)
+            wall[name], cpu[name] = min(wall[name], w), min(cpu[name], c)
     n_tracks = len(load_scene(out, check_images=False).tracks)
     print(f"\n{variant}: {frames} frames x {n_cams} cameras = {len(srcs)} images of "
           f"{models[0]['resolution'][0]}x{models[0]['resolution'][1]} ({len(blob) / 1e3:.0f} kB each), "
-          f"{n_tracks} tracks")
-    print(f"  copy only            {t_copy:8.3f} s")
-    print(f"  import --copy        {t_imp_copy:8.3f} s   {frames / t_imp_copy:8.0f} frames/s   "
-          f"import/copy {t_imp_copy / t_copy:.2f}")
-    print(f"  link only            {t_link:8.3f} s")
-    print(f"  import (links)       {t_imp_link:8.3f} s   {frames / t_imp_link:8.0f} frames/s   "
-          f"import/link {t_imp_link / t_link:.2f}")
-    geometry = max(t_read - t_files, 0.0)
-    print(f"  of which read+check  {t_read:8.3f} s   (read_drivestudio: every file read and checked, the geometry)")
-    print(f"    read files only    {t_files:8.3f} s   (its text files and image headers)")
-    print(f"    geometry, checks   {geometry:8.3f} s   ({100 * geometry / t_imp_copy:.0f}% of import --copy)")
-    print(f"  the rest             {max(t_imp_copy - t_read - t_copy, 0.0):8.3f} s   "
-          "(scene.json, images.csv, folders; import --copy - read - copy)")
+          f"{n_tracks} tracks; best of {rounds}, wall and CPU (user + system) seconds")
+    rows = [("copy only", "copy", ""), ("import --copy", "import_copy", "copy"), ("link only", "link", ""),
+            ("import (links)", "import_link", "link"), ("read+check", "read", ""), ("read files only", "files", "")]
+    for label, key, base in rows:
+        line = f"  {label:18s} {wall[key]:7.3f} s  cpu {cpu[key]:7.3f} s"
+        if key.startswith("import"):
+            line += (f"   {frames / wall[key]:5.0f} frames/s   import/{base} wall {wall[key] / wall[base]:.2f}"
+                     f"  cpu {cpu[key] / cpu[base]:.2f}")
+        print(line)
+    geo_w, geo_c = max(wall["read"] - wall["files"], 0.0), max(cpu["read"] - cpu["files"], 0.0)
+    print(f"  geometry, checks   {geo_w:7.3f} s  cpu {geo_c:7.3f} s   (read+check - read files only: "
+          f"{100 * geo_c / cpu['import_copy']:.0f}% of import --copy's CPU)")
+    rest = max(cpu["import_copy"] - cpu["read"] - cpu["copy"], 0.0)
+    print(f"  the rest           cpu {rest:7.3f} s   (scene.json, images.csv, folders: import --copy - read+check "
+          "- copy only)")
 
 
 def main() -> None:
