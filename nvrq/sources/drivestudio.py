@@ -157,6 +157,8 @@ def _scan_images(root: Path) -> dict[tuple[int, int], Path]:
 def _pick_cameras(all_cams: list[int], names: tuple, cameras) -> list[int]:
     if cameras is None:
         return all_cams
+    if not list(cameras):
+        raise InputError("cameras", None, "at least one camera index or name", "an empty list")
     by_name = {(names[c] if c < len(names) else f"cam{c}"): c for c in all_cams}
     picked = []
     for item in cameras:
@@ -184,9 +186,7 @@ def _extrinsics_kind(root: Path) -> str:
 
 def _dataset(root: Path, kind: str, n_cams: int, dataset: str | None) -> tuple[str, list[str]]:
     """The dataset (``dataset`` or the one the files fit) and a note when it was inferred."""
-    if dataset is not None:
-        if dataset not in DATASETS:
-            raise InputError("dataset", None, "one of {" + ", ".join(DATASETS) + "}", dataset)
+    if dataset is not None:  # a name of DATASETS (read_drivestudio checked it first)
         if (dataset in PER_FRAME) != (kind == "per_frame"):
             want = "per-frame extrinsics/{t:03d}_{cam}.txt" if dataset in PER_FRAME \
                 else "per-camera extrinsics/{cam}.txt with ego_pose/"

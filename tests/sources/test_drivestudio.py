@@ -272,6 +272,10 @@ def test_copy_time_rule_and_source_world(tmp_path, source):
     # nuScenes: drivestudio's world is inv(extrinsics/000_0.txt) @ world (nuscenes_sourceloader.py)
     X0 = np.loadtxt(hz / "extrinsics" / "000_0.txt")
     np.testing.assert_allclose(scene.source_world.T_world_source @ X0, np.eye(4), atol=1e-9)
+    with pytest.raises(InputError, match="cameras: expected at least one camera"):
+        read_drivestudio(hz, cameras=[])
+    with pytest.raises(InputError, match=r"cameras: expected distinct cameras .*0=CAM_FRONT"):
+        read_drivestudio(hz, cameras=["CAM_MIDDLE"])
     with pytest.raises(InputError, match="per-camera extrinsics.* for waymo, got per-frame files"):
         read_drivestudio(hz, dataset="waymo")  # per-frame files are not Waymo's kind
 
