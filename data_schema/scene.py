@@ -35,6 +35,7 @@ __all__ = [
     "CAMERA_MODEL_SCHEMA",
     "CameraCalib",
     "Track",
+    "SourceWorld",
     "Scene",
     "load_scene",
     "save_scene",
@@ -89,9 +90,21 @@ class Track:
     poses: np.ndarray
 
 
+@dataclass(frozen=True)
+class SourceWorld:
+    """The optional ``source_world`` of scene.json (docs/FORMATS.md §2): the world of the tool a
+    scene was imported from. ``T_world_source: (4, 4)`` maps points of the scene's world into
+    that tool's world (e.g. drivestudio's world re-based on the first ego pose)."""
+
+    name: str
+    dataset: str
+    T_world_source: np.ndarray
+
+
 @dataclass
 class Scene:
-    """A validated scene folder. ``T_rig_world: (F, 4, 4)`` at ``rig_timestamps_us: (F,)``."""
+    """A validated scene folder. ``T_rig_world: (F, 4, 4)`` at ``rig_timestamps_us: (F,)``;
+    ``source_world`` when the scene was imported from a tool with its own world (else None)."""
 
     root: Path
     clip_id: str
@@ -101,6 +114,7 @@ class Scene:
     T_rig_world: np.ndarray
     tracks: list[Track]
     images: pd.DataFrame = field(repr=False)
+    source_world: SourceWorld | None = None
 
 
 def _get(obj: dict, key: str, where: str, prefix: str):
@@ -351,8 +365,23 @@ def load_scene(root: str | os.PathLike, *, check_images: bool = True,
         ts = _timestamps(_get(tr, "timestamps_us", where, fld), where, f"{fld}.timestamps_us")
         poses = _poses7(_get(tr, "poses", where, fld), len(ts), where, f"{fld}.poses")
         tracks.append(Track(tid, label, dims, ts, poses))
+    source_world = _source_world(doc.get("source_world"), where)
     images = _load_images(root, cameras, check_images, follow_links)
-    return Scene(root, clip_id, {k: str(v) for k, v in attributes.items()}, cameras, rig_ts, T_rw, tracks, images)
+    return Scene(root, clip_id, {k: str(v) for k, v in attributes.items()}, cameras, rig_ts, T_rw, tracks, images,
+                 source_world)
+
+
+def _source_world(value, where: str) -> SourceWorld | None:
+    """The optional ``source_world`` key: ``{"name", "dataset", "T_world_source": rigid 4x4}``."""
+    if value is None:
+        return None
+    for key in ("name", "dataset"):
+        v = _get(value, key, where, "source_world")
+        if not isinstance(v, str) or (key == "name" and not v):
+            raise InputError(where, f"source_world.{key}", "a " + ("non-empty " if key == "name" else "") + "string",
+                             repr(v))
+    T = check_rigid(_get(value, "T_world_source", where, "source_world"), where, "source_world.T_world_source")
+    return SourceWorld(value["name"], value["dataset"], T)
 
 
 def _jsonable(x):

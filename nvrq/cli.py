@@ -52,7 +52,7 @@ OUTPUT_KINDS = {"synth": "scene", "import": "scene", "render-plan": "file", "pai
 #: Commands (or ``nvrq proxy`` kinds) that write ``OUT.timing.csv`` beside ``--out``.
 WRITES_TIMING = ("score", "imagenet", "clip")
 #: Parsed arguments that name a command's input files or folders.
-INPUT_ARGS = ("pairs", "scene", "detections", "class_map", "archive", "kitti_root", "yolo",
+INPUT_ARGS = ("pairs", "scene", "detections", "class_map", "archive", "kitti_root", "scene_dir", "yolo",
               "weights", "config", "clip")
 
 

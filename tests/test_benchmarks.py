@@ -31,6 +31,7 @@ CASES = {
                      "x nvrq score"),
     "bench_raters.py": (["--raters", "2", "--seconds", "4", "--think", "0.4", "0.6", "--frames", "2"],
                         "0 votes lost"),
+    "bench_import.py": (["--frames", "6", "--size", "160x96", "--rounds", "1"], "import/copy"),
 }
 
 

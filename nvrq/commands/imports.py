@@ -1,11 +1,15 @@
-"""``nvrq import {nurec,kitti} ...``: turn external data into a scene folder (docs/FORMATS.md §2)."""
+"""``nvrq import {nurec,kitti,drivestudio} ...``: turn external data into a scene folder
+(docs/FORMATS.md §2, §13)."""
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
+from data_schema.cliargs import comma_list, number_arg
 from nvrq.clip_attributes import read_clip_attributes
 from nvrq.commands.synth import add_view_options, parse_offsets, perturb_grid
+from nvrq.sources.drivestudio import DATASETS, read_drivestudio, write_drivestudio
 from nvrq.sources.kitti import import_kitti
 from nvrq.sources.nurec import import_nurec
 
@@ -15,7 +19,7 @@ __all__ = ["register"]
 def register(sub) -> None:
     p = sub.add_parser(
         "import",
-        help="import a NuRec archive or a KITTI frame as a scene folder",
+        help="import a NuRec archive, a drivestudio scene or a KITTI frame as a scene folder",
         description="Convert external data into a scene folder (scene.json + images.csv).",
     )
     kinds = p.add_subparsers(dest="source", metavar="SOURCE", required=True)
@@ -47,6 +51,24 @@ def register(sub) -> None:
     k.add_argument("frame", help="frame id, e.g. 000123")
     k.add_argument("out", help="output scene folder")
     k.set_defaults(func=_run_kitti)
+    d = kinds.add_parser(
+        "drivestudio",
+        help="a drivestudio / OmniRe / EmerNeRF processed scene folder (Waymo, nuScenes, PandaSet, ...)",
+        description="Import a drivestudio processed scene (images/, intrinsics/, extrinsics/, ego_pose/, "
+        "instances/; docs/FORMATS.md section 13): the GT images are linked (--copy copies them), "
+        "images.csv lists the renders to produce.",
+    )
+    d.add_argument("scene_dir", help="processed scene folder, e.g. data/waymo/processed/training/023")
+    d.add_argument("out", help="output scene folder")
+    add_view_options(d)
+    d.add_argument("--fps", type=number_arg(low=0, high=1000, low_open=True), default=None,
+                   help="frame rate in Hz (default: the dataset's, 10; nuScenes 2 or its _NHz folder suffix)")
+    d.add_argument("--cameras", default=None,
+                   help="comma list of camera indices or names to import (default: all)")
+    d.add_argument("--dataset", default=None, choices=DATASETS,
+                   help="the source dataset, drivestudio's folder name (default: inferred from the files)")
+    d.add_argument("--copy", action="store_true", help="copy the GT images (default: symbolic links)")
+    d.set_defaults(func=_run_drivestudio)
 
 
 def _run_nurec(args) -> int:
@@ -62,4 +84,17 @@ def _run_nurec(args) -> int:
 def _run_kitti(args) -> int:
     out = import_kitti(Path(args.kitti_root), args.frame, Path(args.out))
     print(f"wrote {out}")
+    return 0
+
+
+def _run_drivestudio(args) -> int:
+    offsets, perturbations = parse_offsets(args.offsets), perturb_grid(args)
+    cameras = None if args.cameras is None else comma_list(args.cameras)
+    ds = read_drivestudio(args.scene_dir, dataset=args.dataset, fps=args.fps, cameras=cameras)
+    for note in ds.notes:
+        print(note, file=sys.stderr)
+    out = write_drivestudio(ds, args.out, offsets=offsets, perturbations=perturbations, copy=args.copy)
+    n_frames = ds.image_paths.shape[1]
+    print(f"wrote {out} ({ds.dataset}: {n_frames} frames at {ds.fps:g} Hz x {len(ds.cameras)} cameras, "
+          f"{len(ds.doc['tracks'])} tracks)")
     return 0
