@@ -6,8 +6,9 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from data_schema.cliargs import comma_list, number_arg
+from data_schema.text import comma_list
 from nvrq.clip_attributes import read_clip_attributes
+from nvrq.commands.args import number_arg
 from nvrq.commands.synth import add_view_options, parse_offsets, perturb_grid
 from nvrq.sources.drivestudio import DATASETS, read_drivestudio, write_drivestudio
 from nvrq.sources.kitti import import_kitti
