@@ -22,7 +22,12 @@ import pandas as pd
 
 from data_schema.errors import InputError
 from data_schema.methods import METHOD_COLUMN, check_table_methods, method_columns, method_values
-from data_schema.perturbation import EXTRA_PERTURBATION_COLUMNS, PERTURBATION_COLUMNS
+from data_schema.perturbation import (
+    EXTRA_PERTURBATION_COLUMNS,
+    PERTURBATION_COLUMNS,
+    is_lateral,
+    perturbation_array,
+)
 from data_schema.tables import IMAGES_COLUMNS, atomic_write_text, inside_scene, write_table
 
 __all__ = [
@@ -32,6 +37,7 @@ __all__ = [
     "Scene",
     "load_scene",
     "save_scene",
+    "write_images",
     "validate_camera_model",
     "check_rigid",
 ]
@@ -369,10 +375,21 @@ def save_scene(scene_doc: dict, images: pd.DataFrame, root: str | os.PathLike) -
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
     doc = {"format": FORMAT, "version": VERSION, **scene_doc}
+    write_images(images, root)
+    atomic_write_text(root / "scene.json", json.dumps(doc, indent=1, default=_jsonable) + "\n")
+    return root
+
+
+def write_images(images: pd.DataFrame, root: str | os.PathLike) -> Path:
+    """Write ``images`` as ``root/images.csv`` (docs/FORMATS.md §2), atomically: the contract
+    columns, then the optional perturbation columns (§9) it has when some view is not lateral,
+    then ``method`` when some row names one. Returns the file's path."""
     missing = [c for c in IMAGES_COLUMNS if c not in images.columns]
     if missing:
         raise ValueError(f"images table lacks columns {missing}")
     extra = [c for c in EXTRA_PERTURBATION_COLUMNS if c in images.columns]  # written only when used
-    write_table(images, root / "images.csv", columns=(*IMAGES_COLUMNS, *extra, *method_columns(images)))
-    atomic_write_text(root / "scene.json", json.dumps(doc, indent=1, default=_jsonable) + "\n")
-    return root
+    if is_lateral(perturbation_array(images)).all():
+        extra = []
+    path = Path(root) / "images.csv"
+    write_table(images, path, columns=(*IMAGES_COLUMNS, *extra, *method_columns(images)))
+    return path

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from nvrq.clip_attributes import read_clip_attributes
+from nvrq.commands.import_renders import register_renders
 from nvrq.commands.synth import add_view_options, parse_offsets, perturb_grid
 from nvrq.sources.kitti import import_kitti
 from nvrq.sources.nurec import import_nurec
@@ -47,6 +48,7 @@ def register(sub) -> None:
     k.add_argument("frame", help="frame id, e.g. 000123")
     k.add_argument("out", help="output scene folder")
     k.set_defaults(func=_run_kitti)
+    register_renders(kinds)
 
 
 def _run_nurec(args) -> int:
