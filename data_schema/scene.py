@@ -381,9 +381,21 @@ def save_scene(scene_doc: dict, images: pd.DataFrame, root: str | os.PathLike) -
 
 
 def write_images(images: pd.DataFrame, root: str | os.PathLike) -> Path:
-    """Write ``images`` as ``root/images.csv`` (docs/FORMATS.md §2), atomically: the contract
-    columns, then the optional perturbation columns (§9) it has when some view is not lateral,
-    then ``method`` when some row names one. Returns the file's path."""
+    """Write ``images`` as ``root/images.csv`` (docs/FORMATS.md §2), atomically.
+
+    Parameters
+    ----------
+    images : DataFrame
+        The rows; written are the contract columns, then the optional perturbation columns
+        (§9) it has when some view is not lateral, then ``method`` when some row names one.
+    root : path
+        The scene folder.
+
+    Returns
+    -------
+    Path
+        ``root / "images.csv"``.
+    """
     missing = [c for c in IMAGES_COLUMNS if c not in images.columns]
     if missing:
         raise ValueError(f"images table lacks columns {missing}")

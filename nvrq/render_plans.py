@@ -143,12 +143,22 @@ def plan_poses(T_rig_world: np.ndarray, T_sensor_rig: np.ndarray, views: np.ndar
 
 
 def source_world(scene: Scene) -> dict | None:
-    """The optional ``source_world`` of ``scene.json`` (docs/FORMATS.md §13), checked:
-    ``{"name": str, "dataset": str, "T_world_source": (4, 4)}``, or ``None`` when absent.
+    """The optional ``source_world`` of ``scene.json`` (docs/FORMATS.md §13), checked.
 
     ``T_world_source`` maps points of the scene's world to the source dataset's own world
     (``nvrq import drivestudio`` records drivestudio's re-basing there). Read from the scene
-    folder's ``scene.json`` (the scene model does not hold the key).
+    folder's ``scene.json``, as the scene model does not hold the key: the one place to
+    replace once it does.
+
+    Parameters
+    ----------
+    scene : Scene
+
+    Returns
+    -------
+    dict or None
+        ``{"name": str, "dataset": str, "T_world_source": (4, 4) float64}``; ``None`` when
+        the key is absent.
 
     Raises
     ------
@@ -261,8 +271,8 @@ def _plan_views(scene, offsets, perturbations) -> np.ndarray:
 
 
 def _intrinsics(scene: Scene, name: str) -> dict:
-    """One camera's K ``(3, 3)`` (NaN without one), size, OpenCV coefficients and the CSV
-    ``distortion`` object, from its camera class (:mod:`nvrq.geometry.cameras`)."""
+    """One camera's K ``(3, 3)`` (NaN without one), size and OpenCV coefficients, from its
+    camera class (:mod:`nvrq.geometry.cameras`)."""
     model = scene.cameras[name].model
     cam = camera_from_model(model, where=str(scene.root / "scene.json"), field_prefix=f"cameras.{name}.model.")
     K = np.full((3, 3), np.nan)
@@ -275,9 +285,8 @@ def _intrinsics(scene: Scene, name: str) -> dict:
         radial[:len(r)] = r
         tangential[:] = getattr(cam, "tangential_coeffs", tangential)
         prism[:] = getattr(cam, "thin_prism_coeffs", prism)
-    given = _K_PARAMS if hasattr(cam, "focal_length") else ("type", "resolution")
     return {"K": K, "size": cam.resolution, "type": model["type"], "radial": radial, "tangential": tangential,
-            "prism": prism, "distortion": {k: v for k, v in model.items() if k not in given}}
+            "prism": prism}
 
 
 def render_plan(scene, *, offsets=None, perturbations=None, cameras=None, method: str | None = None,
@@ -404,12 +413,21 @@ def _distortion_json(plan: RenderPlan) -> list[str]:
 
 
 def plan_table(scene, **options) -> pd.DataFrame:
-    """The plan of :func:`render_plan` (same parameters) as rows.
+    """The plan of :func:`render_plan` as rows (the rows of the CSV plan).
 
-    Columns: :data:`PLAN_COLUMNS` (matrices as (4, 4) arrays; ``T_world_sensor`` is
-    ``viewmats``), :data:`PLAN_CAMERA_COLUMNS` (``fx``-``cy`` NaN for ``ftheta``;
-    ``distortion`` a JSON string), then :data:`PLAN_PERTURBATION_COLUMNS` when some view is
-    not lateral, then ``method`` when some row names one.
+    Parameters
+    ----------
+    scene : Scene, path or RenderPlan
+        A scene (or folder), planned with ``options`` (those of :func:`render_plan`), or a
+        plan already made.
+
+    Returns
+    -------
+    DataFrame
+        Columns :data:`PLAN_COLUMNS` (matrices as (4, 4) arrays; ``T_world_sensor`` is
+        ``viewmats``), :data:`PLAN_CAMERA_COLUMNS` (``fx``-``cy`` NaN for ``ftheta``;
+        ``distortion`` a JSON string), then :data:`PLAN_PERTURBATION_COLUMNS` when some view is
+        not lateral, then ``method`` when some row names one.
     """
     return _table(scene if isinstance(scene, RenderPlan) else render_plan(scene, **options))
 
@@ -434,8 +452,28 @@ def _table(plan: RenderPlan) -> pd.DataFrame:
 
 
 def plan_format(out: str | os.PathLike, fmt: str | None = None) -> str:
-    """The format of a plan file: its suffix (``.csv``, ``.json``, ``.npz``), which ``fmt``,
-    when given, must name. Raises :class:`InputError` naming ``out`` or ``format``."""
+    """The format of a plan file, from its suffix.
+
+    Parameters
+    ----------
+    out : path
+        The plan file: ``.csv``, ``.json`` or ``.npz``.
+    fmt : {'csv', 'json', 'npz'}, optional
+        When given, the format the suffix must name.
+
+    Returns
+    -------
+    str
+        One of :data:`PLAN_FORMATS`.
+
+    Raises
+    ------
+    InputError
+        Naming ``out`` (another suffix) or ``format`` (an unknown one, or not the suffix's).
+
+    >>> plan_format("plan.NPZ")
+    'npz'
+    """
     suffix = Path(out).suffix.lower().lstrip(".")
     expected = "a plan file ending in " + ", ".join(f".{f}" for f in PLAN_FORMATS)
     if fmt is not None and fmt not in PLAN_FORMATS:

@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-from data_schema.methods import check_method_name
 from nvrq.sources.renders import LAYOUTS, import_renders
 
 __all__ = ["register_renders"]
@@ -38,9 +37,6 @@ def register_renders(kinds) -> None:
 
 
 def _run(args) -> int:
-    for name in ("method", "existing_method"):  # the arguments before the scene is read
-        if getattr(args, name) is not None:
-            check_method_name(getattr(args, name), where=name, field=None)
     result = import_renders(args.scene, args.render_dir, method=args.method, layout=args.layout,
                             allow_missing=args.allow_missing, link=args.link,
                             existing_method=args.existing_method)

@@ -127,8 +127,7 @@ def render_files(plan: RenderPlan, render_dir, *, layout: str = "plan") -> tuple
     InputError
         An unknown layout, or (``order``) two files for one row.
     """
-    if layout not in LAYOUTS:
-        raise InputError("layout", None, "one of {" + ", ".join(map(repr, LAYOUTS)) + "}", repr(layout))
+    _check_layout(layout)
     folder = Path(render_dir)
     present = _visible_files(folder, recursive=layout == "plan")
     if layout == "plan":
@@ -149,9 +148,13 @@ def render_files(plan: RenderPlan, render_dir, *, layout: str = "plan") -> tuple
     return files, unexpected
 
 
-def _check_names(method, existing_method, layout) -> None:
+def _check_layout(layout) -> None:
     if layout not in LAYOUTS:
         raise InputError("layout", None, "one of {" + ", ".join(map(repr, LAYOUTS)) + "}", repr(layout))
+
+
+def _check_names(method, existing_method, layout) -> None:
+    _check_layout(layout)
     for name, value in (("method", method), ("existing_method", existing_method)):
         if value is not None:
             check_method_name(value, where=name, field=None)
