@@ -318,7 +318,8 @@ def import_renders(scene, render_dir, *, method: str | None = None, layout: str 
     dst = {}
     for i, src in zip(rows, srcs, strict=True):
         path = Path(plan.paths[i])
-        dst[i] = path.with_suffix(src.suffix.lower()).as_posix() if src.suffix.lower() != path.suffix else plan.paths[i]
+        same = src.suffix.lower() == path.suffix.lower()
+        dst[i] = plan.paths[i] if same else path.with_suffix(src.suffix.lower()).as_posix()
         if (scene.root / dst[i]).is_dir():
             raise InputError(scene.root / dst[i], None, "a render file path", "an existing folder")
     images = _new_images(scene, plan, placeholders, dst, method or "")
