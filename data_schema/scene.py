@@ -22,7 +22,12 @@ import pandas as pd
 
 from data_schema.errors import InputError
 from data_schema.methods import METHOD_COLUMN, check_table_methods, method_columns, method_values
-from data_schema.perturbation import EXTRA_PERTURBATION_COLUMNS, PERTURBATION_COLUMNS
+from data_schema.perturbation import (
+    EXTRA_PERTURBATION_COLUMNS,
+    PERTURBATION_COLUMNS,
+    is_lateral,
+    perturbation_array,
+)
 from data_schema.tables import (
     IMAGES_COLUMNS,
     atomic_write_text,
@@ -39,6 +44,7 @@ __all__ = [
     "Scene",
     "load_scene",
     "save_scene",
+    "write_images",
     "validate_camera_model",
     "check_rigid",
 ]
@@ -421,8 +427,37 @@ def save_scene(scene_doc: dict, images: pd.DataFrame, root: str | os.PathLike) -
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
     doc = {"format": FORMAT, "version": VERSION, **scene_doc}
-    require_columns(images, IMAGES_COLUMNS, where=root / "images.csv")
-    extra = [c for c in EXTRA_PERTURBATION_COLUMNS if c in images.columns]  # written only when used
-    write_table(images, root / "images.csv", columns=(*IMAGES_COLUMNS, *extra, *method_columns(images)))
+    write_images(images, root)
     atomic_write_text(root / "scene.json", json.dumps(doc, indent=1, default=_jsonable) + "\n")
     return root
+
+
+def write_images(images: pd.DataFrame, root: str | os.PathLike) -> Path:
+    """Write ``images`` as ``root/images.csv`` (docs/FORMATS.md §2), atomically.
+
+    Parameters
+    ----------
+    images : DataFrame
+        The rows; written are the contract columns, then the optional perturbation columns
+        (§9) it has when some view is not lateral, then ``method`` when some row names one.
+    root : path
+        The scene folder.
+
+    Returns
+    -------
+    Path
+        ``root / "images.csv"``.
+
+    Raises
+    ------
+    InputError
+        ``images`` lacks a column of :data:`~data_schema.tables.IMAGES_COLUMNS`, or the file
+        cannot be written.
+    """
+    require_columns(images, IMAGES_COLUMNS, where=Path(root) / "images.csv")
+    extra = [c for c in EXTRA_PERTURBATION_COLUMNS if c in images.columns]  # written only when used
+    if is_lateral(perturbation_array(images)).all():
+        extra = []
+    path = Path(root) / "images.csv"
+    write_table(images, path, columns=(*IMAGES_COLUMNS, *extra, *method_columns(images)))
+    return path

@@ -7,7 +7,9 @@ The public Python API (docs/PYTHON.md) is exported here and imported on first us
   (:mod:`nvrq.api`);
 - encoders: :class:`EncoderConfig`, :func:`load_encoder` (:mod:`nvrq.encoders`);
 - geometry: :func:`project_boxes` (the ``nvrq pairs`` rule for one frame, :mod:`nvrq.pairs`),
-  :func:`camera_from_model` and the camera classes (:mod:`nvrq.geometry.cameras`).
+  :func:`camera_from_model` and the camera classes (:mod:`nvrq.geometry.cameras`);
+- rendering: :func:`render_plan` (the views to render as arrays: ``viewmats``, ``Ks``, sizes,
+  paths; a :class:`RenderPlan`, :mod:`nvrq.render_plans`).
 
 >>> import nvrq
 >>> sorted(nvrq.__all__)[:3]
@@ -34,6 +36,8 @@ _EXPORTS = {
     "OpenCVPinholeCamera": "nvrq.geometry.cameras",
     "OpenCVFisheyeCamera": "nvrq.geometry.cameras",
     "FThetaCamera": "nvrq.geometry.cameras",
+    "render_plan": "nvrq.render_plans",
+    "RenderPlan": "nvrq.render_plans",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -337,16 +337,16 @@ def test_bad_method_in_a_pairs_table_is_a_one_line_error(clip, tmp_path, capsys)
 
 
 def test_render_plan_of_a_method_scene_has_a_row_per_view_and_method(clip):
-    from nvrq.render_plan import render_plan
+    from nvrq.render_plans import plan_table
 
     scene = load_scene(clip / "scene")
-    plan = render_plan(scene)
+    plan = plan_table(scene)
     assert plan.columns[-1] == "method" and len(plan) == 18  # 2 frames x 3 views x 3 methods
     renders = scene.images[scene.images["source"] == "render"]
     assert set(zip(plan["path"], plan["method"], strict=True)) == \
         set(zip(renders["path"], renders["method"], strict=True))
     one = plan.groupby(["timestamp_us", "y_offset_m"])["T_world_sensor"]  # one pose for every method
     assert all(all(np.array_equal(m, g.iloc[0]) for m in g) for _, g in one)
-    new = render_plan(scene, offsets=[2.0])  # an unlisted view: each method's default path
+    new = plan_table(scene, offsets=[2.0])  # an unlisted view: each method's default path
     assert sorted(new.loc[new["timestamp_us"] == 0, "path"]) == \
         [f"images/front/render_+2.00/{m}/0.png" for m in ("bad", "good", "same")]

@@ -9,6 +9,7 @@ from pathlib import Path
 from data_schema.text import comma_list
 from nvrq.clip_attributes import read_clip_attributes
 from nvrq.commands.args import number_arg
+from nvrq.commands.import_renders import register_renders
 from nvrq.commands.synth import add_view_options, parse_offsets, perturb_grid
 from nvrq.sources.drivestudio import DATASETS, read_drivestudio, write_drivestudio
 from nvrq.sources.kitti import import_kitti
@@ -70,6 +71,7 @@ def register(sub) -> None:
                    help="the source dataset, drivestudio's folder name (default: inferred from the files)")
     d.add_argument("--copy", action="store_true", help="copy the GT images (default: symbolic links)")
     d.set_defaults(func=_run_drivestudio)
+    register_renders(kinds)
 
 
 def _run_nurec(args) -> int:

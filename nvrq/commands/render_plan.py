@@ -1,13 +1,14 @@
-"""``nvrq render-plan SCENE [--offsets ...] [--cameras ...] --out PLAN.{csv,json}``."""
+"""``nvrq render-plan SCENE [--offsets ...] [--cameras ...] [--method NAME] [--world scene|source]
+--out PLAN.{csv,json,npz} [--format csv|json|npz]``."""
 
 from __future__ import annotations
 
-from data_schema.errors import InputError
+from data_schema.methods import check_method_name
 from data_schema.scene import load_scene
 from data_schema.text import comma_list
 from nvrq.commands.args import add_link_option
 from nvrq.commands.synth import add_view_options, parse_offsets, perturb_grid
-from nvrq.render_plan import render_plan, write_render_plan
+from nvrq.render_plans import PLAN_FORMATS, WORLDS, plan_format, render_plan, write_render_plan
 
 __all__ = ["register", "run"]
 
@@ -15,28 +16,40 @@ __all__ = ["register", "run"]
 def register(sub) -> None:
     p = sub.add_parser(
         "render-plan",
-        help="virtual camera poses a renderer must draw (paper Eq. 1-2)",
+        help="virtual cameras a renderer must draw (paper Eq. 1-2), with their intrinsics",
         description="For every camera, frame and offset: T_sensor'_rig, T_sensor_world, "
-        "its inverse, the timestamp and the path images.csv expects.",
+        "its inverse (the view matrix), the camera's K, distortion and size, the timestamp and "
+        "the path images.csv expects (docs/FORMATS.md §14).",
     )
     p.add_argument("scene", help="scene folder (scene.json + images.csv; images need not exist)")
     add_view_options(
         p, offsets_default=None, offsets_help="offsets in metres (default: those in images.csv)"
     )
     p.add_argument("--cameras", default=None, help="comma list of camera names (default: all)")
-    p.add_argument("--out", required=True, help="output plan (.csv or .json)")
+    p.add_argument("--method", default=None, metavar="NAME",
+                   help="plan this method's renders only, at its paths (default: every method of "
+                        "the scene, or none); give nvrq import renders the same --method")
+    p.add_argument("--world", choices=WORLDS, default="scene",
+                   help="world of the poses: the scene's (default), or the source dataset's own "
+                        "(a scene imported from drivestudio: scene.json source_world)")
+    p.add_argument("--out", required=True, help="output plan (.csv, .json or .npz)")
+    p.add_argument("--format", choices=PLAN_FORMATS, default=None,
+                   help="plan format (default: from the --out suffix, which it must match)")
     add_link_option(p)
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    if not str(args.out).lower().endswith((".csv", ".json")):
-        raise InputError(param="--out", expected="a plan file ending in .csv or .json", got=args.out)
+    plan_format(args.out, args.format)  # the arguments before the scene is read
     offsets = None if args.offsets is None else parse_offsets(args.offsets, field="--offsets")
-    views = perturb_grid(args)  # the arguments before the scene is read
+    views = perturb_grid(args)
+    if args.method is not None:
+        check_method_name(args.method, where="method", field=None)
     cameras = None if args.cameras is None else comma_list(args.cameras)
     scene = load_scene(args.scene, check_images=False)
-    plan = render_plan(scene, offsets=offsets, perturbations=views, cameras=cameras)
-    write_render_plan(plan, args.out, clip_id=scene.clip_id)
-    print(f"{len(plan)} renders -> {args.out}")
+    plan = render_plan(scene, offsets=offsets, perturbations=views, cameras=cameras, method=args.method,
+                       world=args.world)
+    write_render_plan(plan, args.out, format=args.format)
+    world = "" if args.world == "scene" else f" (poses in the {args.world} world)"
+    print(f"{len(plan)} renders -> {args.out}{world}")
     return 0

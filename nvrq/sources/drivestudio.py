@@ -74,7 +74,7 @@ from data_schema.errors import InputError, check_number
 from data_schema.perturbation import PERTURBATION_COLUMNS, extra_columns, is_lateral, views_from
 from data_schema.scene import check_rigid, save_scene, validate_camera_model
 from data_schema.tables import IMAGES_COLUMNS, atomic_folder
-from nvrq.render_plan import default_image_path
+from nvrq.render_plans import default_image_path
 from nvrq.sources.drivestudio_instances import read_instances
 from nvrq.sources.drivestudio_meta import (
     CAMERA_NAMES,

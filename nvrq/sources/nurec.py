@@ -27,7 +27,7 @@ f-theta ``parameters`` become the scene.json model unchanged (same names; the pr
 in the same pixel-centre convention).
 
 ``images.csv`` lists the GT image and one render per ``--offsets`` value (or per
-``--perturb`` view, with the perturbation columns) for every kept frame, at :func:`nvrq.render_plan.default_image_path`; the files do not exist yet (the
+``--perturb`` view, with the perturbation columns) for every kept frame, at :func:`nvrq.render_plans.default_image_path`; the files do not exist yet (the
 user's renderer writes them, see ``nvrq render-plan``).
 """
 
@@ -46,7 +46,7 @@ from data_schema.scene import CAMERA_MODEL_SCHEMA, save_scene
 from data_schema.tables import IMAGES_COLUMNS
 from nvrq.geometry.cameras import camera_from_model
 from nvrq.geometry.poses import matrix_to_pose7, pose7_to_matrix
-from nvrq.render_plan import default_image_path
+from nvrq.render_plans import default_image_path
 
 __all__ = ["import_nurec", "read_archive_json"]
 

@@ -54,7 +54,7 @@ from data_schema.perturbation import (
 from data_schema.scene import save_scene
 from data_schema.tables import IMAGES_COLUMNS, atomic_path, write_table
 from nvrq.geometry.poses import T_sensor_world, matrix_to_pose7, perturb_T_sensor_rig
-from nvrq.render_plan import default_image_path
+from nvrq.render_plans import default_image_path
 from nvrq.synth.artefacts import ARTEFACTS, blend_into
 from nvrq.synth.assets import build_assets
 from nvrq.synth.degradation import perturbation_size, severity, strengths

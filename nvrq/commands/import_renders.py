@@ -1,0 +1,44 @@
+"""``nvrq import renders SCENE DIR [--method NAME] [--layout plan|order] [--allow-missing] [--link]
+[--existing-method NAME]``: register a renderer's output (:mod:`nvrq.sources.renders`)."""
+
+from __future__ import annotations
+
+from nvrq.sources.renders import LAYOUTS, import_renders
+
+__all__ = ["register_renders"]
+
+
+def register_renders(kinds) -> None:
+    """Add the ``renders`` kind to the ``nvrq import`` subparsers ``kinds``."""
+    r = kinds.add_parser(
+        "renders",
+        help="register a renderer's output in a scene (the render rows of images.csv)",
+        description="Copy (or link) the renders of the scene's render plan from DIR into the scene "
+        "and point images.csv at them (docs/FORMATS.md §14). DIR holds each render at its plan "
+        "path (--layout plan) or as 00000.png, 00001.png, ... in plan order (--layout order).",
+    )
+    r.add_argument("scene", help="scene folder whose images.csv lists the render rows")
+    r.add_argument("render_dir", metavar="DIR", help="folder of renders (not the scene folder)")
+    r.add_argument("--method", default=None, metavar="NAME",
+                   help="reconstruction method of these renders (images.csv method column; "
+                        "the same --method as nvrq render-plan)")
+    r.add_argument("--layout", choices=LAYOUTS, default="plan",
+                   help="plan: DIR/<plan path>; order: DIR/00000.png (or .jpg, .jpeg), ... in plan "
+                        "row order (default plan)")
+    r.add_argument("--allow-missing", action="store_true",
+                   help="leave views without a render out (their render rows are removed) "
+                        "instead of failing")
+    r.add_argument("--link", action="store_true",
+                   help="symbolic links to the files in DIR instead of copies")
+    r.add_argument("--existing-method", default=None, metavar="NAME",
+                   help="first name the scene's unnamed renders NAME (paths unchanged), so that "
+                        "--method adds a second method")
+    r.set_defaults(func=_run)
+
+
+def _run(args) -> int:
+    result = import_renders(args.scene, args.render_dir, method=args.method, layout=args.layout,
+                            allow_missing=args.allow_missing, link=args.link,
+                            existing_method=args.existing_method)
+    print(result.summary())
+    return 0
