@@ -80,7 +80,6 @@ __all__ = [
     "plan_poses",
     "plan_table",
     "render_plan",
-    "source_world",
     "write_render_plan",
 ]
 
