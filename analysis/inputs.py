@@ -207,8 +207,8 @@ def classify_columns(
             raise InputError(
                 where,
                 f"column {col!r}",
-                "a metric with a known direction; say --lower-better "
-                f"{col} or --higher-better {col}",
+                "a metric with a known direction; say `lower_better` "
+                f"{col} or `higher_better` {col}",
                 "an unknown metric",
             )
         metrics.append(col)

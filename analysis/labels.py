@@ -53,7 +53,7 @@ def join_metrics(items: pd.DataFrame, tables: list[tuple[str, pd.DataFrame]]):
                 raise InputError(
                     path,
                     f"column {c!r}",
-                    "each metric column in one --metrics file",
+                    "each metric column in one metrics table",
                     f"also in {seen[c]}",
                 )
             seen[c] = path

@@ -155,7 +155,7 @@ def compared_methods(items: pd.DataFrame, *, where, methods=None) -> list[str]:
         (naming the parameter ``methods``), or fewer than two methods remain.
     """
     present = table_methods(items, where=where, expected="a method per row to compare "
-                            "(--compare-methods; docs/FORMATS.md §11)")
+                            "(`compare_methods`; docs/FORMATS.md §11)")
     if methods:
         unknown = [m for m in methods if m not in present]
         if unknown:
@@ -164,7 +164,7 @@ def compared_methods(items: pd.DataFrame, *, where, methods=None) -> list[str]:
         present = list(dict.fromkeys(methods))
     if len(present) < 2:
         raise InputError(where, f"column {METHOD_COLUMN!r}", "at least two methods to compare "
-                         "(--compare-methods)", "one: " + ", ".join(present) if present else "none")
+                         "(`compare_methods`)", "one: " + ", ".join(present) if present else "none")
     return present
 
 

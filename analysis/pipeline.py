@@ -193,7 +193,7 @@ def boot_size(items, n_boot, notes, *, unit: str = "item") -> int:
     if n_boot * len(items) > BOOT_CELL_LIMIT:
         notes.append(
             f"bootstrap skipped: {len(items)} {unit}s x {n_boot} replicates is above "
-            f"{BOOT_CELL_LIMIT:.0e} {unit}-replicates; pass a smaller --bootstrap for CIs"
+            f"{BOOT_CELL_LIMIT:.0e} {unit}-replicates; fewer bootstrap replicates give CIs"
         )
         return 0
     return n_boot

@@ -64,7 +64,7 @@ def study_methods(pairs: pd.DataFrame, methods: str | None, *, where: str) -> li
     table or a repeated one (naming the parameter ``methods``), or fewer than two.
     """
     have = table_methods(pairs, where=where,
-                         expected="a method column (one render per method) for --design pairwise")
+                         expected="a method column (one render per method) for `design` pairwise")
     col = pairs[METHOD_COLUMN]
     bad = col.isna() | (col.astype(str).str.strip() == "")
     if bad.any():

@@ -163,8 +163,8 @@ def _check_options(out, pairs_path, **opts) -> StudyOptions:
     if opts["design"] not in DESIGNS:
         raise InputError(param="design", expected="one of {'binary', 'pairwise'}", got=opts["design"])
     if opts["methods"] is not None and opts["design"] != "pairwise":
-        raise InputError(param="methods", expected="no method list with --design binary (it compares "
-                         "methods only with --design pairwise)", got=opts["methods"])
+        raise InputError(param="methods", expected="no method list with `design` binary (it compares "
+                         "methods only with `design` pairwise)", got=opts["methods"])
     return StudyOptions(**opts)
 
 

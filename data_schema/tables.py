@@ -413,7 +413,7 @@ def inside_scene(root, rel: str, *, where: str, field: str, linked: dict | None 
         real, base = os.path.realpath(path), os.path.realpath(str(root))
         if os.path.commonpath([real, base]) != base:
             raise InputError(where, field, "a file inside the scene folder (a symlink leaves it, and "
-                             f"links are not followed: --no-follow-links or {NO_FOLLOW_LINKS_ENV}=1)", rel)
+                             f"links are not followed: `no_follow_links` or {NO_FOLLOW_LINKS_ENV}=1)", rel)
     return path
 
 

@@ -78,21 +78,21 @@ def _hwc(x, name: str):
     (H, W, 3) view (not copied, still on its device)."""
     if isinstance(x, np.ndarray):
         if x.dtype != np.uint8 or x.ndim != 3 or x.shape[2] != 3 or 0 in x.shape:
-            raise InputError(name, None, _CROP, _describe(x))
+            raise InputError(param=name, expected=_CROP, got=_describe(x))
         return x
     if _torch_tensor(x):
         import torch
 
         ok_dtype = x.dtype == torch.uint8 or x.is_floating_point()
         if not ok_dtype or x.ndim != 3 or x.shape[0] != 3 or 0 in x.shape:
-            raise InputError(name, None, _CROP, _describe(x))
+            raise InputError(param=name, expected=_CROP, got=_describe(x))
         if x.is_floating_point():
             lo, hi = torch.aminmax(x.detach())
             lo, hi = float(lo), float(hi)
             if not (0.0 <= lo and hi <= 1.0):  # NaN fails both
-                raise InputError(name, None, "float values in [0, 1]", f"values in [{lo:.4g}, {hi:.4g}]")
+                raise InputError(param=name, expected="float values in [0, 1]", got=f"values in [{lo:.4g}, {hi:.4g}]")
         return x.permute(1, 2, 0)
-    raise InputError(name, None, _CROP, _describe(x))
+    raise InputError(param=name, expected=_CROP, got=_describe(x))
 
 
 def _to_uint8(hwc) -> np.ndarray:
@@ -130,10 +130,9 @@ def _as_list(items, name: str) -> list:
         return list(items)
     if isinstance(items, np.ndarray) or _torch_tensor(items):
         if items.ndim != 4:
-            raise InputError(name, None, "a list of crops, or a batch (N, H, W, 3) numpy / (N, 3, H, W) torch",
-                             _describe(items))
+            raise InputError(param=name, expected="a list of crops, or a batch (N, H, W, 3) numpy / (N, 3, H, W) torch", got=_describe(items))
         return list(items)
-    raise InputError(name, None, "a list of crops (" + _CROP + ")", _describe(items))
+    raise InputError(param=name, expected="a list of crops (" + _CROP + ")", got=_describe(items))
 
 
 def _boxes(boxes, name: str) -> np.ndarray:
@@ -144,8 +143,7 @@ def _boxes(boxes, name: str) -> np.ndarray:
     if arr.ndim != 2 or arr.shape[1] != 4 or not (np.issubdtype(arr.dtype, np.integer)
                                                  or (np.issubdtype(arr.dtype, np.floating)
                                                      and np.all(arr == np.round(arr)))):
-        raise InputError(name, None, "an (N, 4) array of integer inclusive pixel boxes x0, y0, x1, y1",
-                         f"{arr.dtype} {arr.shape}")
+        raise InputError(param=name, expected="an (N, 4) array of integer inclusive pixel boxes x0, y0, x1, y1", got=f"{arr.dtype} {arr.shape}")
     return arr.astype(np.int64)
 
 
@@ -201,8 +199,8 @@ def _setup(metrics, encoder, *, weights, device: str, runtime: str, tau, batch_s
         for option, value, default in (("weights", weights, None), ("device", device, "cpu"),
                                        ("runtime", runtime, "auto")):
             if value != default:
-                raise InputError(option, None, f"no {option} beside an EncoderConfig or a loaded "
-                                 "encoder (give it in the config)", value)
+                raise InputError(param=option, expected=f"no {option} beside an EncoderConfig or a loaded "
+                                 "encoder (give it in the config)", got=value)
     name = _encoder_name(raw, encoder)
     columns = tuple(resolve_metrics(raw, name))
     check_int("batch_size", batch_size)
@@ -231,8 +229,8 @@ def _check_no_reference(columns: Sequence[str], name: str) -> None:
     """No GT (``name`` is None): only no-reference metrics can run."""
     needs_gt = reference_columns(columns)
     if needs_gt:
-        raise InputError(name, None, f"the GT for the reference metrics {', '.join(needs_gt)} "
-                         "(only no-reference metrics score renders alone)", None)
+        raise InputError(param=name, expected=f"the GT for the reference metrics {', '.join(needs_gt)} "
+                         "(only no-reference metrics score renders alone)", got=None)
 
 
 def _crop_inputs(columns: Sequence[str], gt_crops, render_crops) -> tuple:
@@ -244,8 +242,7 @@ def _crop_inputs(columns: Sequence[str], gt_crops, render_crops) -> tuple:
         return [], None, [as_rgb_uint8(r, name=f"render_crops[{k}]") for k, r in enumerate(renders)], [], None
     gts = _as_list(gt_crops, "gt_crops")
     if len(gts) != len(renders):
-        raise InputError("render_crops", None, f"one render crop per GT crop ({len(gts)})",
-                         f"{len(renders)} crops")
+        raise InputError(param="render_crops", expected=f"one render crop per GT crop ({len(gts)})", got=f"{len(renders)} crops")
     # one crop per GT object (by id; the list keeps the objects alive)
     gt_u8, index, seen = _share([id(g) for g in gts], lambda k: as_rgb_uint8(gts[k], name=f"gt_crops[{k}]"))
     r_u8 = [as_rgb_uint8(r, name=f"render_crops[{k}]") for k, r in enumerate(renders)]
@@ -261,7 +258,7 @@ def _frame_inputs(columns: Sequence[str], gt_image, render_image, gt_boxes, rend
         return [], None, [_to_uint8(cut_box(r_hwc, b, where=f"render_boxes[{k}]")) for k, b in enumerate(rb)], [], None
     gt_hwc, gb = _hwc(gt_image, "gt_image"), _boxes(gt_boxes, "gt_boxes")
     if len(gb) != len(rb):
-        raise InputError("render_boxes", None, f"one render box per GT box ({len(gb)})", f"{len(rb)} boxes")
+        raise InputError(param="render_boxes", expected=f"one render box per GT box ({len(gb)})", got=f"{len(rb)} boxes")
     # one crop per distinct GT box, as nvrq.scoring.batches does per GT image
     gt_u8, index, seen = _share([tuple(b) for b in gb.tolist()],
                                 lambda k: _to_uint8(cut_box(gt_hwc, gb[k], where=f"gt_boxes[{k}]")))
@@ -401,7 +398,7 @@ class Evaluator:
         lab = _labels(labels, len(crops[2]))
         clash = [k for k in lab.columns if k in self.columns or k == "pairs"]
         if clash:
-            raise InputError("labels", clash[0], "label keys other than the metric columns and 'pairs'", clash[0])
+            raise InputError(param="labels", field=clash[0], expected="label keys other than the metric columns and 'pairs'", got=clash[0])
         if self._pending and (crops[1] is None) != (self._pending[0][2] is None):
             self._flush()  # a no-reference batch is not mixed with one that has GT crops
         self._label_keys.extend(k for k in lab.columns if k not in self._label_keys)
@@ -441,7 +438,7 @@ class Evaluator:
         keys = list(self._label_keys if by is None else by)
         missing = [k for k in keys if k not in self._label_keys]
         if missing:
-            raise InputError("by", None, f"label keys among {', '.join(self._label_keys) or 'none'}", missing[0])
+            raise InputError(param="by", expected=f"label keys among {', '.join(self._label_keys) or 'none'}", got=missing[0])
         return _summary(table, self.columns, keys)
 
 
@@ -451,17 +448,16 @@ def _labels(labels, n: int) -> pd.DataFrame:
         return pd.DataFrame(index=range(n))
     if isinstance(labels, pd.DataFrame):
         if len(labels) != n:
-            raise InputError("labels", None, f"{n} rows, one per pair", f"{len(labels)} rows")
+            raise InputError(param="labels", expected=f"{n} rows, one per pair", got=f"{len(labels)} rows")
         return labels.reset_index(drop=True)
     if not isinstance(labels, Mapping):
-        raise InputError("labels", None, "a mapping {key: value or (N,) values} or a DataFrame",
-                         type(labels).__name__)
+        raise InputError(param="labels", expected="a mapping {key: value or (N,) values} or a DataFrame", got=type(labels).__name__)
     cols = {}
     for key, value in labels.items():
         if np.ndim(value) == 0:
             cols[str(key)] = [value] * n
         elif len(value) != n:
-            raise InputError("labels", str(key), f"one value, or {n} values (one per pair)", f"{len(value)} values")
+            raise InputError(param="labels", field=str(key), expected=f"one value, or {n} values (one per pair)", got=f"{len(value)} values")
         else:
             cols[str(key)] = list(value)
     return pd.DataFrame(cols, index=range(n))

@@ -115,8 +115,8 @@ def require_tau(encoder: str, *, tau: float | None = None,
         check_tau(value, where=path, field=f"{encoder}.tau")
         return float(value), str(path)
     if spec.tau is None:
-        raise InputError("tau", None, f"a tau for encoder {encoder} (`nvrq calibrate-tau` measures one "
-                         "and can store it in the user config)", "none in the registry or the user config")
+        raise InputError(param="tau", expected=f"a tau for encoder {encoder} (`nvrq calibrate-tau` measures one "
+                         "and can store it in the user config)", got="none in the registry or the user config")
     check_tau(spec.tau)
     return spec.tau, "registry"
 
@@ -142,7 +142,7 @@ def recommend_tau(s_unrelated: np.ndarray) -> float:
     s = np.asarray(s_unrelated, np.float64)
     s = s[np.isfinite(s)]
     if s.size == 0:
-        raise InputError("s_unrelated", None, "S of at least one unrelated GT crop pair", "none")
+        raise InputError(param="s_unrelated", expected="S of at least one unrelated GT crop pair", got="none")
     return float(np.median(s))
 
 
@@ -171,7 +171,7 @@ def unrelated_pairs(track_ids: np.ndarray, classes: np.ndarray, *, max_pairs: in
 def _check_calibrate_args(encoder, **counts: int) -> None:
     """Validate :func:`calibrate_tau`'s keyword arguments (naming each parameter)."""
     if encoder is None or not hasattr(encoder, "embed"):
-        raise InputError("encoder", None, "a loaded encoder", encoder)
+        raise InputError(param="encoder", expected="a loaded encoder", got=encoder)
     for name, value in counts.items():
         check_int(name, value)
 

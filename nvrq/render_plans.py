@@ -438,11 +438,11 @@ def plan_format(out: str | os.PathLike, fmt: str | None = None) -> str:
     suffix = Path(out).suffix.lower().lstrip(".")
     expected = "a plan file ending in " + ", ".join(f".{f}" for f in PLAN_FORMATS)
     if fmt is not None and fmt not in PLAN_FORMATS:
-        raise InputError("format", None, "one of {" + ", ".join(PLAN_FORMATS) + "}", repr(fmt))
+        raise InputError(param="format", expected="one of {" + ", ".join(PLAN_FORMATS) + "}", got=repr(fmt))
     if suffix not in PLAN_FORMATS:
-        raise InputError("out", None, expected, str(out))
+        raise InputError(param="out", expected=expected, got=str(out))
     if fmt is not None and fmt != suffix:
-        raise InputError("format", None, f"the format of the output's suffix (.{suffix})", fmt)
+        raise InputError(param="format", expected=f"the format of the output's suffix (.{suffix})", got=fmt)
     return suffix
 
 

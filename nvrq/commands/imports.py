@@ -95,7 +95,7 @@ def _run_drivestudio(args) -> int:
     cameras = None if args.cameras is None else comma_list(args.cameras)
     ds = read_drivestudio(args.scene_dir, dataset=args.dataset, fps=args.fps, cameras=cameras)
     for note in ds.notes:
-        print(note, file=sys.stderr)
+        print(note.replace("`dataset`", "--dataset"), file=sys.stderr)  # the library names its parameter
     out = write_drivestudio(ds, args.out, offsets=offsets, perturbations=perturbations, copy=args.copy)
     n_frames = ds.image_paths.shape[1]
     print(f"wrote {out} ({ds.dataset}: {n_frames} frames at {ds.fps:g} Hz x {len(ds.cameras)} cameras, "

@@ -64,10 +64,9 @@ def _check(gt: np.ndarray, render: np.ndarray) -> None:
     data_schema.errors.InputError: render: expected a crop of the GT crop's shape (4, 4, 3) (resized to it), got (4, 5, 3)
     """
     if gt.ndim != 3 or gt.shape[2] != 3:
-        raise InputError("gt", None, "an (H, W, 3) RGB crop", str(gt.shape))
+        raise InputError(param="gt", expected="an (H, W, 3) RGB crop", got=str(gt.shape))
     if render.shape != gt.shape:
-        raise InputError("render", None, f"a crop of the GT crop's shape {gt.shape} (resized to it)",
-                         str(render.shape))
+        raise InputError(param="render", expected=f"a crop of the GT crop's shape {gt.shape} (resized to it)", got=str(render.shape))
 
 
 def mse(gt: np.ndarray, render: np.ndarray) -> float:

@@ -46,7 +46,7 @@ def require_pyiqa(column: str):
     try:
         return importlib.import_module("pyiqa")
     except ImportError as exc:
-        raise InputError("metrics", column, INSTALL_HINT, f"{type(exc).__name__}: {exc}") from None
+        raise InputError(param="metrics", field=column, expected=INSTALL_HINT, got=f"{type(exc).__name__}: {exc}") from None
 
 
 @cache
@@ -109,8 +109,8 @@ def metric_entry(name: str):
     pyiqa = require_pyiqa(column)
     known = list(pyiqa.list_models())
     if name not in known:
-        raise InputError("metrics", column, "a PyIQA metric name (list them with: python -c "
-                         "\"import pyiqa; print(pyiqa.list_models())\")", name)
+        raise InputError(param="metrics", field=column, expected="a PyIQA metric name (list them with: python -c "
+                         "\"import pyiqa; print(pyiqa.list_models())\")", got=name)
     mode, lower = _mode(pyiqa, name)
     reference = mode.upper() == "FR"
     return MetricInfo(column, not lower, (-float("inf"), float("inf")), fn=partial(_score, name),

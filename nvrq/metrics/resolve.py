@@ -89,13 +89,13 @@ def column_info(column: str, *, kind: str | None = "metric", default=_RAISE) -> 
     try:
         if info is None or (kind is not None and info.kind != kind):
             known = ", ".join(sorted(n for n, i in REGISTRY.items() if kind is None or i.kind == kind))
-            raise InputError("metrics", None, f"{_KINDS[kind]} among {known}", column)
+            raise InputError(param="metrics", expected=f"{_KINDS[kind]} among {known}", got=column)
         if info.members is not None:
             if member is None:
-                raise InputError("metrics", column, f"{family}:NAME", column)
+                raise InputError(param="metrics", field=column, expected=f"{family}:NAME", got=column)
             return info.members(member)
         if info.needs_encoder != (member is not None):
-            raise InputError("metrics", column, f"{family}:ENCODER" if info.needs_encoder else family, column)
+            raise InputError(param="metrics", field=column, expected=f"{family}:ENCODER" if info.needs_encoder else family, got=column)
         return info
     except InputError:  # unknown, or a member that is unknown or not installed
         if default is _RAISE:
@@ -152,19 +152,19 @@ def resolve_metrics(metrics: Sequence[str], encoder: str) -> list[str]:
         info = REGISTRY.get(family)
         if info is None or info.kind != "metric" or (enc is not None and not info.needs_encoder
                                                       and info.members is None):
-            raise InputError("metrics", None, f"metric names among {', '.join(known)}", raw)
+            raise InputError(param="metrics", expected=f"metric names among {', '.join(known)}", got=raw)
         if info.members is not None:  # pyiqa:NAME, checked by its family
             col = column_info(f"{family}:{enc}" if enc else family).name
         elif info.needs_encoder:
             if enc not in (None, encoder):
-                raise InputError("metrics", raw, f"the encoder given as encoder ({encoder})", enc)
+                raise InputError(param="metrics", field=raw, expected=f"the encoder given as encoder ({encoder})", got=enc)
             col = f"{family}:{encoder}"
         else:
             col = family
         if col not in columns:
             columns.append(col)
     if not columns:
-        raise InputError("metrics", None, "at least one metric", "none")
+        raise InputError(param="metrics", expected="at least one metric", got="none")
     return columns
 
 
@@ -198,9 +198,9 @@ def encoder_for_metrics(metrics: Sequence[str], encoder: str | None = None) -> s
     families = {name for name, info in REGISTRY.items() if info.needs_encoder}  # not pyiqa:NAME
     named = {enc for fam, enc in map(split_column, (m.strip() for m in metrics)) if fam in families} - {None}
     if len(named) > 1:
-        raise InputError("metrics", None, "one encoder for all nvrq/nvrq_ca metrics", ", ".join(sorted(named)))
+        raise InputError(param="metrics", expected="one encoder for all nvrq/nvrq_ca metrics", got=", ".join(sorted(named)))
     if named and encoder is not None and named != {encoder}:
-        raise InputError("metrics", None, f"the encoder given as encoder ({encoder})", named.pop())
+        raise InputError(param="metrics", expected=f"the encoder given as encoder ({encoder})", got=named.pop())
     return get_spec(named.pop() if named else encoder).name
 
 

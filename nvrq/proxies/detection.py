@@ -156,10 +156,7 @@ def detection_confidence(
     pair_codes, det_codes = codes[:n], codes[n:]
     if len(dets) and not np.isin(pair_codes, det_codes).any():
         raise InputError(
-            "detections",
-            "path",
-            "paths that match the pairs' render_path (as in images.csv)",
-            f"e.g. {det_paths[0]!r} vs {paths[0]!r}" if n else "no pairs",
+            param="detections", field="path", expected="paths that match the pairs' render_path (as in images.csv)", got=f"e.g. {det_paths[0]!r} vs {paths[0]!r}" if n else "no pairs",
         )
     left = pd.DataFrame({"code": pair_codes, "i": np.arange(n)})
     right = pd.DataFrame({"code": det_codes, "j": np.arange(len(dets))})

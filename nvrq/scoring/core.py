@@ -196,7 +196,7 @@ def embed_crops(crops: Sequence[np.ndarray], encoder, *, batch_size: int = 32,
         Naming ``encoder`` when it is None, or ``batch_size``.
     """
     if encoder is None:
-        raise InputError("encoder", None, "a loaded encoder", None)
+        raise InputError(param="encoder", expected="a loaded encoder", got=None)
     return run_batched(crops, encoder.embed, size=encoder.spec.input_size, batch_size=batch_size,
                        timings=timings)
 
@@ -250,11 +250,11 @@ def check_metric_args(metrics: Sequence[str], *, encoder=None, tau=None, batch_s
     for m in metrics:
         column_info(m)
     if not metrics:
-        raise InputError("metrics", None, "at least one metric", "none")
+        raise InputError(param="metrics", expected="at least one metric", got="none")
     check_int("batch_size", batch_size)
     enc_cols = encoder_columns(metrics)
     if enc_cols and encoder is None:
-        raise InputError("encoder", None, f"a loaded encoder for {', '.join(enc_cols)}", None)
+        raise InputError(param="encoder", expected=f"a loaded encoder for {', '.join(enc_cols)}", got=None)
     if needs_tau(metrics):
         check_tau(tau)
 
@@ -316,8 +316,7 @@ def score_crop_batch(batch: CropBatch, *, metrics: Sequence[str], encoder=None, 
     if len(batch.render_crops) and not len(batch.gt_crops if batch.gt_crops is not None else ()):
         needs_gt = reference_columns(metrics)
         if needs_gt:
-            raise InputError("gt_crops", None, f"GT crops for the reference metrics {', '.join(needs_gt)}",
-                             "none")
+            raise InputError(param="gt_crops", expected=f"GT crops for the reference metrics {', '.join(needs_gt)}", got="none")
     times = timings if timings is not None else {}
     enc_cols = encoder_columns(metrics)
     out = _pixel_columns(batch, [m for m in metrics if m not in enc_cols], times)

@@ -158,7 +158,7 @@ def _pick_cameras(all_cams: list[int], names: tuple, cameras) -> list[int]:
     if cameras is None:
         return all_cams
     if not list(cameras):
-        raise InputError("cameras", None, "at least one camera index or name", "an empty list")
+        raise InputError(param="cameras", expected="at least one camera index or name", got="an empty list")
     by_name = {(names[c] if c < len(names) else f"cam{c}"): c for c in all_cams}
     picked = []
     for item in cameras:
@@ -166,7 +166,7 @@ def _pick_cameras(all_cams: list[int], names: tuple, cameras) -> list[int]:
         c = int(s) if s.isdigit() else by_name.get(s)
         if c not in all_cams or c in picked:
             known = ", ".join(f"{c}={n}" for n, c in by_name.items())
-            raise InputError("cameras", None, f"distinct cameras of the layout, by index or name ({known})", s)
+            raise InputError(param="cameras", expected=f"distinct cameras of the layout, by index or name ({known})", got=s)
         picked.append(c)
     return sorted(picked)
 
@@ -200,9 +200,9 @@ def _dataset(root: Path, kind: str, n_cams: int, dataset: str | None) -> tuple[s
         why = f"per-camera extrinsics, {n_cams} cameras"
     if len(guess) != 1:
         fits = " or ".join(d for d in DATASETS if d not in PER_FRAME)
-        raise InputError(root, None, f"--dataset NAME for this folder (its {why} fit none of {fits} by camera count)",
-                         "no --dataset")
-    return guess[0], [f"note: {root}: dataset {guess[0]} ({why}); --dataset overrides it"]
+        raise InputError(root, None, f"`dataset` for this folder (its {why} fit none of {fits} by camera count)",
+                         "none given")
+    return guess[0], [f"note: {root}: dataset {guess[0]} ({why}); `dataset` overrides it"]
 
 
 def _fps(root: Path, dataset: str, fps) -> float:
@@ -280,7 +280,7 @@ def read_drivestudio(scene_dir: str | os.PathLike, *, dataset: str | None = None
     """
     root = Path(scene_dir)
     if dataset is not None and dataset not in DATASETS:
-        raise InputError("dataset", None, "one of {" + ", ".join(DATASETS) + "}", dataset)
+        raise InputError(param="dataset", expected="one of {" + ", ".join(DATASETS) + "}", got=dataset)
     if not root.is_dir():
         raise InputError(root, None, "a drivestudio scene folder", "no such folder")
     found = _scan_images(root)
@@ -327,7 +327,7 @@ def read_drivestudio(scene_dir: str | os.PathLike, *, dataset: str | None = None
         order = np.argsort(img_us.reshape(-1), kind="stable")
         rig_us, T_rw = img_us.reshape(-1)[order], T_all.reshape(-1, 4, 4)[order]
         if np.any(np.diff(rig_us) <= 0):
-            raise InputError("fps", None, f"a frame interval above {int(offs.max())} us (one per camera)", rate)
+            raise InputError(param="fps", expected=f"a frame interval above {int(offs.max())} us (one per camera)", got=rate)
         T_world_source = np.linalg.inv(_matrices([root / "ego_pose" / "000.txt"])[0]) if dataset == "pandaset" \
             else np.linalg.inv(raw0)
     for i, c in enumerate(cams):
@@ -384,7 +384,7 @@ def write_drivestudio(ds: DrivestudioScene, out: str | os.PathLike, *, offsets=(
             try:
                 shutil.copyfile(src, dst) if copy else os.symlink(os.path.abspath(src), dst)
             except OSError as exc:
-                raise InputError(out / rel, None, "a writable output (with symbolic links, or use --copy)",
+                raise InputError(out / rel, None, "a writable output (with symbolic links, or `copy`)",
                                  exc.strerror or type(exc).__name__) from None
         save_scene(ds.doc, images.loc[:, [*IMAGES_COLUMNS, *extra_columns(views)]], tmp)
     return out

@@ -150,7 +150,7 @@ def render_files(plan: RenderPlan, render_dir, *, layout: str = "plan") -> tuple
 
 def _check_layout(layout) -> None:
     if layout not in LAYOUTS:
-        raise InputError("layout", None, "one of {" + ", ".join(map(repr, LAYOUTS)) + "}", repr(layout))
+        raise InputError(param="layout", expected="one of {" + ", ".join(map(repr, LAYOUTS)) + "}", got=repr(layout))
 
 
 def _check_names(method, existing_method, layout) -> None:
@@ -172,13 +172,12 @@ def _named_scene(scene, method: str | None, existing_method: str | None):
     names = sorted(set(method_values(images)[render]) - {""})
     if existing_method is not None:
         if names:
-            raise InputError("existing_method", None, "a scene whose renders name no method",
-                             "renders of " + ", ".join(names))
+            raise InputError(param="existing_method", expected="a scene whose renders name no method", got="renders of " + ", ".join(names))
         images[METHOD_COLUMN] = np.where(render, existing_method, "")
         names = [existing_method]
     if not method and names:
-        raise InputError("method", None, "a method name: the scene's renders name methods ("
-                         + ", ".join(names) + ")", "none")
+        raise InputError(param="method", expected="a method name: the scene's renders name methods ("
+                         + ", ".join(names) + ")", got="none")
     placeholders = np.zeros(len(images), bool)
     if method and not names:
         on_disk = [p for p in images.path[render] if (scene.root / p).is_file()]
@@ -303,7 +302,7 @@ def import_renders(scene, render_dir, *, method: str | None = None, layout: str 
         raise InputError(folder, None, "a folder of renders", "no such folder")
     scene = load_scene(scene, check_images=False)
     if folder.resolve() == scene.root.resolve():
-        raise InputError("render_dir", None, "a folder of renders other than the scene folder", str(folder))
+        raise InputError(param="render_dir", expected="a folder of renders other than the scene folder", got=str(folder))
     scene, placeholders = _named_scene(scene, method, existing_method)
     plan = render_plan(scene, method=method)
     files, unexpected = render_files(plan, folder, layout=layout)

@@ -124,7 +124,7 @@ def test_bootstrap_skip_note_and_timing_beside_metrics(data, monkeypatch):
                            target="clip_drop", n_boot=10, progress=False)
     assert a.n_boot == 0 and a.notes[-1] == (
         "bootstrap skipped: 120 pairs x 10 replicates is above 1e+02 pair-replicates; "
-        "pass a smaller --bootstrap for CIs")
+        "fewer bootstrap replicates give CIs")
     assert a.timing.set_index("metric").loc["clip_drop", "pairs_per_s"] == len(full) / 2.0
     ratings, metrics = make_ratings()
     ratings.to_csv(d / "r.csv", index=False)
@@ -133,4 +133,4 @@ def test_bootstrap_skip_note_and_timing_beside_metrics(data, monkeypatch):
                               n_boot=10, progress=False)
     assert a.n_boot == 0 and a.notes[-1] == (
         "bootstrap skipped: 120 items x 10 replicates is above 1e+02 item-replicates; "
-        "pass a smaller --bootstrap for CIs")
+        "fewer bootstrap replicates give CIs")

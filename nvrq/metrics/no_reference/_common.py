@@ -32,7 +32,7 @@ def check_rgb(crop: np.ndarray) -> np.ndarray:
     """
     crop = np.asarray(crop)
     if crop.ndim != 3 or crop.shape[2] != 3 or crop.dtype != np.uint8:
-        raise InputError("render", None, "a uint8 (H, W, 3) RGB crop", f"{crop.dtype} {crop.shape}")
+        raise InputError(param="render", expected="a uint8 (H, W, 3) RGB crop", got=f"{crop.dtype} {crop.shape}")
     return crop
 
 
