@@ -136,7 +136,6 @@ def test_library_hints_name_parameters_not_flags():
     # program's command line between backticks (`ray start --head`) is not ours.
     import ast
     import re
-    from pathlib import Path
 
     flag = re.compile(r"(?<![\w-])--[a-z][a-z0-9-]*")
     foreign = re.compile(r"`(?!(?:nvrq|annotate|analyze)\b)[^`]*`")
