@@ -181,7 +181,7 @@ def test_symlinked_image_folders_checked_per_load(tmp_path):
         load_scene(scene, follow_links=False)
     assert str(exc.value) == (f"{scene / 'images.csv'}: row 2, column path: expected a file inside the "
                               "scene folder (a symlink leaves it, and links are not followed: "
-                              "--no-follow-links or NVRQ_NO_FOLLOW_LINKS=1), got img/gt.png")
+                              "`no_follow_links` or NVRQ_NO_FOLLOW_LINKS=1), got img/gt.png")
     assert len(load_scene(scene).images) == 2  # followed by default
     (scene / "img").unlink()
     (scene / "img").mkdir()
