@@ -1,4 +1,12 @@
-"""Shared test fixtures."""
+"""Shared test fixtures.
+
+The folders of ``tests/`` mirror the packages they test (``metrics/``, ``scoring/``, ``commands/``
+for nvrq's command layer, ``api/``, ``pairs/``, ``sources/``, ``geometry/``, ``engines/``,
+``proxies/``, ``synth/``, ``data_schema/``, ``annotate/``, ``analysis/``); ``workflows/`` runs
+commands end to end, ``e2e/`` drives a real browser, ``malformed/`` is the bad-input corpus and
+``data/`` holds files written by earlier versions. Only project-wide checks sit at the top: the
+import layers, the README's commands and the benchmarks' smoke runs.
+"""
 
 from __future__ import annotations
 

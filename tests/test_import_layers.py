@@ -261,3 +261,10 @@ def test_the_command_layer_rule_sees_every_kind_of_import():
                        "annotate.commands.serve", "annotate.commands.serve.base_url"}
     assert not _in_command_layer("nvrq.client") and _in_command_layer("analysis.cli")
 
+
+
+def test_tests_mirror_the_packages():
+    # issue 26: tests live in the folder of the package they test (tests/conftest.py says which);
+    # only the project-wide checks stay at the top of tests/
+    loose = sorted(p.name for p in (ROOT / "tests").glob("test_*.py"))
+    assert loose == ["test_benchmarks.py", "test_import_layers.py", "test_readme.py"]

@@ -22,7 +22,7 @@ from nvrq.cli import main as nvrq_main
 from nvrq.pairs import make_pairs
 from nvrq.synth import generate_scene
 
-OLD = Path(__file__).parent / "data" / "pre_sixdof"
+OLD = Path(__file__).resolve().parents[1] / "data" / "pre_sixdof"
 
 
 def _ok(rc):

@@ -293,7 +293,7 @@ def test_python_doc_runs_and_matches_the_cli(tmp_path, monkeypatch, capsys):
     import shlex
     from pathlib import Path
 
-    text = (Path(__file__).resolve().parents[1] / "docs" / "PYTHON.md").read_text(encoding="utf-8")
+    text = (Path(__file__).resolve().parents[2] / "docs" / "PYTHON.md").read_text(encoding="utf-8")
     blocks = re.findall(r"```(bash|python)\n(.*?)```", text, flags=re.S)
     assert sum(lang == "python" for lang, _ in blocks) >= 2
     monkeypatch.chdir(tmp_path)

@@ -34,7 +34,7 @@ from nvrq.pairs import PAIRS_OUTPUT_COLUMNS, make_pairs
 from nvrq.scoring.batches import iter_crop_batches
 from nvrq.scoring.driver import score_pairs
 
-OLD = Path(__file__).parent / "data" / "pre_sixdof"
+OLD = Path(__file__).resolve().parents[1] / "data" / "pre_sixdof"
 CLIP = ["--seed", "0", "--seconds", "0.5", "--fps", "4", "--size", "320x180", "--offsets=-1,0,1", "--quiet"]
 METHODS = {"good": 0.5, "bad": 1.5, "same": 1.0}
 KEY = ["camera", "timestamp_us", "track_id", "y_offset_m"]
