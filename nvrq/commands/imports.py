@@ -11,7 +11,8 @@ from nvrq.clip_attributes import read_clip_attributes
 from nvrq.commands.args import number_arg
 from nvrq.commands.import_renders import register_renders
 from nvrq.commands.synth import add_view_options, parse_offsets, perturb_grid
-from nvrq.sources.drivestudio import DATASETS, read_drivestudio, write_drivestudio
+from nvrq.sources.drivestudio import read_drivestudio, write_drivestudio
+from nvrq.sources.drivestudio_meta import DATASETS
 from nvrq.sources.kitti import import_kitti
 from nvrq.sources.nurec import import_nurec
 

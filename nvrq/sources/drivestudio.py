@@ -78,7 +78,6 @@ from nvrq.render_plans import default_image_path
 from nvrq.sources.drivestudio_instances import read_instances
 from nvrq.sources.drivestudio_meta import (
     CAMERA_NAMES,
-    CLASS_MAPS,
     DATASETS,
     DEFAULT_FPS,
     OPENCV_TO_FLU,
@@ -86,8 +85,7 @@ from nvrq.sources.drivestudio_meta import (
     map_class,
 )
 
-__all__ = ["DATASETS", "CAMERA_NAMES", "DEFAULT_FPS", "CLASS_MAPS", "OPENCV_TO_FLU", "DrivestudioScene",
-           "map_class", "read_drivestudio", "write_drivestudio", "import_drivestudio"]
+__all__ = ["DrivestudioScene", "read_drivestudio", "write_drivestudio", "import_drivestudio"]
 
 _IMAGE = re.compile(r"^(\d+)_(\d+)\.jpg$")
 _PER_CAMERA_FILE = re.compile(r"^(\d+)\.txt$")

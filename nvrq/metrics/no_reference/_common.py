@@ -15,7 +15,7 @@ import numpy as np
 
 from data_schema.errors import InputError
 
-__all__ = ["rgb2gray_matlab", "check_rgb", "MATLAB_GREY"]
+__all__ = ["rgb2gray_matlab", "check_rgb", "below_side", "MATLAB_GREY"]
 
 #: MATLAB ``rgb2gray`` (the NTSC luma of ``rgb2ntsc``, as MATLAB documents it to 15 digits)
 MATLAB_GREY = (0.298936021293775, 0.587043074451121, 0.114020904255103)
@@ -34,6 +34,16 @@ def check_rgb(crop: np.ndarray) -> np.ndarray:
     if crop.ndim != 3 or crop.shape[2] != 3 or crop.dtype != np.uint8:
         raise InputError(param="render", expected="a uint8 (H, W, 3) RGB crop", got=f"{crop.dtype} {crop.shape}")
     return crop
+
+
+def below_side(render: np.ndarray, side: int) -> bool:
+    """Whether the checked crop ``render`` (:func:`check_rgb`) has a side shorter than ``side``
+    px: the no-reference metrics are NaN for such crops.
+
+    >>> below_side(np.zeros((95, 200, 3), np.uint8), 96), below_side(np.zeros((96, 96, 3), np.uint8), 96)
+    (True, False)
+    """
+    return min(check_rgb(render).shape[:2]) < side
 
 
 def rgb2gray_matlab(crop: np.ndarray) -> np.ndarray:

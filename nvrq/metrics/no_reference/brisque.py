@@ -47,7 +47,7 @@ from pathlib import Path
 import numpy as np
 from scipy.special import gammaln
 
-from nvrq.metrics.no_reference._common import check_rgb, rgb2gray_matlab
+from nvrq.metrics.no_reference._common import below_side, rgb2gray_matlab
 from nvrq.metrics.no_reference._nss import (
     aggd_from_moments,
     circular_products,
@@ -112,9 +112,9 @@ def brisque(render: np.ndarray) -> float:
     Raises
     ------
     data_schema.errors.InputError
-        ``render`` is not a uint8 (H, W, 3) array.
+        From :func:`~nvrq.metrics.no_reference._common.check_rgb`.
     """
-    if min(check_rgb(render).shape[:2]) < MIN_SIDE:
+    if below_side(render, MIN_SIDE):
         return math.nan
     feats = brisque_features(render)
     if not np.all(np.isfinite(feats)):

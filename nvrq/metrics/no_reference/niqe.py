@@ -47,7 +47,7 @@ from pathlib import Path
 import numpy as np
 from scipy.special import gammaln
 
-from nvrq.metrics.no_reference._common import check_rgb, rgb2gray_matlab
+from nvrq.metrics.no_reference._common import below_side, rgb2gray_matlab
 from nvrq.metrics.no_reference._nss import aggd_stats, circular_products, imresize_half, mscn
 
 __all__ = ["niqe", "niqe_features", "load_pristine", "PATCH", "MODEL_PATH"]
@@ -95,24 +95,24 @@ def load_pristine() -> tuple[np.ndarray, np.ndarray]:
 
 
 def niqe(render: np.ndarray) -> float:
-    """NIQE of a uint8 (H, W, 3) RGB crop at its own size.
+    """NIQE: the distance of a crop's block statistics to the pristine model (module docstring).
 
     Parameters
     ----------
-    render : (H, W, 3) uint8 RGB array.
+    render : (H, W, 3) uint8 RGB array
+        The crop at its own size (grey by MATLAB ``rgb2gray``; every whole 96x96 block).
 
     Returns
     -------
     float
-        The distance to the pristine model, lower is better; NaN if a side is below
-        :data:`PATCH` or no block has defined features (module docstring).
+        Lower is better. NaN when a side is below :data:`PATCH` or no block has defined features.
 
     Raises
     ------
     data_schema.errors.InputError
         ``render`` is not a uint8 (H, W, 3) array.
     """
-    if min(check_rgb(render).shape[:2]) < PATCH:
+    if below_side(render, PATCH):
         return math.nan
     feats = niqe_features(render)
     mu_p, cov_p = load_pristine()

@@ -30,7 +30,7 @@ import math
 import cv2
 import numpy as np
 
-from nvrq.metrics.no_reference._common import check_rgb, rgb2gray_matlab
+from nvrq.metrics.no_reference._common import below_side, rgb2gray_matlab
 
 __all__ = ["piqe", "piqe_blocks", "MIN_SIDE", "BLOCK"]
 
@@ -106,7 +106,7 @@ def piqe(render: np.ndarray) -> float:
     InputError
         Unless ``render`` is a uint8 (H, W, 3) RGB array.
     """
-    if min(check_rgb(render).shape[:2]) < MIN_SIDE:
+    if below_side(render, MIN_SIDE):
         return math.nan
     var, active, artifact, noise = piqe_blocks(render)
     dist = np.sum(artifact * (1.0 - var) + noise * var)
