@@ -1,0 +1,143 @@
+"""The reverse-proxy configuration that puts one public port in front of K rater workers.
+
+``annotate serve --workers K`` prints it for its ports (:mod:`annotate.workers`). The proxy
+must be *sticky*: a Streamlit session lives in one worker, and so do the images its pages
+show (``/media/...`` URLs held in that worker's memory), so every request of one browser
+must reach one worker, the websocket included.
+
+- nginx (:func:`nginx_conf`): an ``http``-context file for ``/etc/nginx/conf.d/``. Open
+  source nginx has no sticky-cookie directive, so the file makes one: a browser without the
+  ``nvrq_worker`` cookie gets a random one (``$request_id``), and ``hash ... consistent``
+  maps the cookie to a worker; the websocket upgrade is passed on and kept open for an hour.
+- Caddy (:func:`caddy_conf`): a Caddyfile site block; ``lb_policy cookie`` is Caddy's own
+  sticky-cookie policy and websockets pass through by themselves.
+
+TLS and the public address are the proxy's too (README "Run a public study"); these
+configurations listen on plain HTTP at ``listen`` and leave TLS to be added there.
+
+>>> print(caddy_conf([8501, 8502], listen=8080))
+# Caddy: one public port for `annotate serve --workers 2` (ports 8501-8502)
+:8080 {
+	reverse_proxy 127.0.0.1:8501 127.0.0.1:8502 {
+		lb_policy cookie nvrq_worker
+	}
+}
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from data_schema.errors import InputError
+
+__all__ = ["nginx_conf", "caddy_conf", "proxy_conf", "PROXIES", "COOKIE", "upstream_host"]
+
+#: The cookie that pins a browser to one worker.
+COOKIE = "nvrq_worker"
+#: The proxies a configuration can be printed for.
+PROXIES = ("nginx", "caddy")
+
+
+def upstream_host(host: str) -> str:
+    """The address the proxy reaches the workers at: a wildcard bind is reached on loopback.
+
+    >>> upstream_host("0.0.0.0"), upstream_host("::"), upstream_host("10.0.0.5"), upstream_host("::1")
+    ('127.0.0.1', '[::1]', '10.0.0.5', '[::1]')
+    """
+    host = str(host)
+    if host in ("0.0.0.0", ""):
+        return "127.0.0.1"
+    if host == "::":
+        return "[::1]"
+    return f"[{host}]" if ":" in host else host
+
+
+def _title(proxy: str, ports: Sequence[int]) -> str:
+    return (f"# {proxy}: one public port for `annotate serve --workers {len(ports)}` "
+            f"(ports {ports[0]}-{ports[-1]})")
+
+
+def nginx_conf(ports: Sequence[int], *, host: str = "127.0.0.1", listen: int = 80) -> str:
+    """An nginx ``http``-context configuration proxying ``listen`` to the workers, sticky.
+
+    Parameters
+    ----------
+    ports : sequence of int
+        The workers' ports (all on ``host``).
+    host : str, optional
+        The workers' bind address (a wildcard becomes loopback, :func:`upstream_host`).
+    listen : int, optional
+        The public port nginx listens on (default 80).
+
+    Returns
+    -------
+    str
+        The file's text (``map`` blocks, one ``upstream`` and one ``server``).
+    """
+    servers = "\n".join(f"    server {upstream_host(host)}:{int(p)};" for p in ports)
+    return f"""{_title("nginx", ports)}
+map $cookie_{COOKIE} $nvrq_worker {{
+    ""      $request_id;
+    default $cookie_{COOKIE};
+}}
+map $http_upgrade $nvrq_connection {{
+    default upgrade;
+    ""      close;
+}}
+upstream nvrq_raters {{
+    hash $nvrq_worker consistent;
+{servers}
+}}
+server {{
+    listen {int(listen)};
+    server_name _;
+    location / {{
+        proxy_pass http://nvrq_raters;
+        proxy_http_version 1.1;
+        proxy_set_header Upgrade $http_upgrade;
+        proxy_set_header Connection $nvrq_connection;
+        proxy_set_header Host $http_host;
+        proxy_set_header X-Forwarded-For $proxy_add_x_forwarded_for;
+        proxy_set_header X-Forwarded-Proto $scheme;
+        proxy_read_timeout 1h;
+        proxy_send_timeout 1h;
+        proxy_buffering off;
+        add_header Set-Cookie "{COOKIE}=$nvrq_worker; Path=/; HttpOnly; SameSite=Lax" always;
+    }}
+}}
+"""
+
+
+def caddy_conf(ports: Sequence[int], *, host: str = "127.0.0.1", listen: int = 80) -> str:
+    """A Caddyfile site block proxying ``listen`` to the workers with a sticky cookie.
+
+    Parameters
+    ----------
+    ports : sequence of int
+        The workers' ports (all on ``host``).
+    host : str, optional
+        The workers' bind address (a wildcard becomes loopback, :func:`upstream_host`).
+    listen : int, optional
+        The public port Caddy listens on (default 80).
+
+    Returns
+    -------
+    str
+        The Caddyfile's text.
+    """
+    upstreams = " ".join(f"{upstream_host(host)}:{int(p)}" for p in ports)
+    return (f"{_title('Caddy', ports)}\n:{int(listen)} {{\n\treverse_proxy {upstreams} {{\n"
+            f"\t\tlb_policy cookie {COOKIE}\n\t}}\n}}")
+
+
+def proxy_conf(proxy: str, ports: Sequence[int], *, host: str = "127.0.0.1", listen: int = 80) -> str:
+    """The configuration of ``proxy`` (one of :data:`PROXIES`) for the workers on ``ports``.
+
+    Raises
+    ------
+    InputError
+        Naming ``proxy`` when it is not one of :data:`PROXIES`.
+    """
+    if proxy not in PROXIES:
+        raise InputError(param="proxy", expected="one of {'nginx', 'caddy'}", got=repr(proxy))
+    return (nginx_conf if proxy == "nginx" else caddy_conf)(ports, host=host, listen=listen)
