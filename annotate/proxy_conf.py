@@ -18,9 +18,9 @@ configurations listen on plain HTTP at ``listen`` and leave TLS to be added ther
 >>> print(caddy_conf([8501, 8502], listen=8080))
 # Caddy: one public port for `annotate serve --workers 2` (ports 8501-8502)
 :8080 {
-	reverse_proxy 127.0.0.1:8501 127.0.0.1:8502 {
-		lb_policy cookie nvrq_worker
-	}
+    reverse_proxy 127.0.0.1:8501 127.0.0.1:8502 {
+        lb_policy cookie nvrq_worker
+    }
 }
 """
 
@@ -126,8 +126,8 @@ def caddy_conf(ports: Sequence[int], *, host: str = "127.0.0.1", listen: int = 8
         The Caddyfile's text.
     """
     upstreams = " ".join(f"{upstream_host(host)}:{int(p)}" for p in ports)
-    return (f"{_title('Caddy', ports)}\n:{int(listen)} {{\n\treverse_proxy {upstreams} {{\n"
-            f"\t\tlb_policy cookie {COOKIE}\n\t}}\n}}")
+    return (f"{_title('Caddy', ports)}\n:{int(listen)} {{\n    reverse_proxy {upstreams} {{\n"
+            f"        lb_policy cookie {COOKIE}\n    }}\n}}")
 
 
 def proxy_conf(proxy: str, ports: Sequence[int], *, host: str = "127.0.0.1", listen: int = 80) -> str:
