@@ -1,11 +1,14 @@
 """``annotate serve STUDY [--host H] [--port P] [--workers K]``: serve the rater app (Streamlit).
 
-``annotate serve`` *becomes* ``streamlit run annotate/app.py`` (the process is replaced, so
+``annotate serve`` *becomes* ``streamlit run annotate/serve_app.py`` (the rater app of
+:mod:`annotate.app`, imported once per process; the process is replaced, so
 a signal to ``annotate serve`` reaches the server itself and nothing outlives it), bound to
 127.0.0.1 unless ``--host`` says otherwise, headless, without usage statistics, file
 watcher, static file serving or error details in the browser, and without Streamlit's full
 garbage collection after every script run (about 40 ms of CPU per vote, holding the GIL: it
-alone saturated a core at 25 raters); the study folder reaches the app in the environment
+alone saturated a core at 25 raters) and without "magic" (Streamlit recompiles the script
+with it for every new session, clearing its script cache: about 50 ms of CPU per rater
+signing in; the app has no bare expressions to show); the study folder reaches the app in the environment
 variable ``ANNOTATE_STUDY``. A port in use is refused up front.
 
 ``--workers K`` (K > 1) runs K such servers on the ports ``--port`` .. ``--port + K - 1``
@@ -35,8 +38,8 @@ __all__ = ["register", "run", "serve_command", "check_port_free", "base_url", "a
 
 #: Where the rater app listens unless ``--host`` / ``--port`` say otherwise.
 DEFAULT_HOST, DEFAULT_PORT = "127.0.0.1", 8501
-#: The Streamlit script of the rater app.
-APP = Path(__file__).parents[1] / "app.py"
+#: The Streamlit script of the rater app (it calls annotate.app.main).
+APP = Path(__file__).parents[1] / "serve_app.py"
 
 
 def serve_command(study: str | Path, *, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT) -> list[str]:
@@ -62,7 +65,7 @@ def serve_command(study: str | Path, *, host: str = DEFAULT_HOST, port: int = DE
             "--server.fileWatcherType", "none", "--server.runOnSave", "false",
             "--server.enableStaticServing", "false", "--client.toolbarMode", "minimal",
             "--client.showErrorDetails", "none", "--global.developmentMode", "false",
-            "--runner.postScriptGC", "false"]
+            "--runner.postScriptGC", "false", "--runner.magicEnabled", "false"]
 
 
 def check_port_free(host: str, port: int) -> None:
