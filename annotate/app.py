@@ -111,7 +111,7 @@ MSG_UNAVAILABLE = "The study is not available right now. Please try again in a m
 MSG_TOO_FAST = ("Too fast: that press came before you could look at the images, so it did not "
                 "count. Please look at the images, then answer.")
 MSG_NO_UNDO = (f"Nothing to undo: Undo takes back only your last {UNDO_DEPTH} answers given "
-               "in this window since it was opened.")
+               "since this page was opened or reloaded.")
 MSG_NONE_FREE = ("No item is free right now: other raters are working on the ones left for "
                  "you. Please retry in a minute.")
 _MD_SPECIAL = re.compile(r"([\\`*_{}\[\]()<>#+\-.!|~:/&=])")

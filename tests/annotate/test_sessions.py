@@ -174,22 +174,26 @@ def test_attack_sybil_claim_flood_cannot_lock_out_a_real_rater(tmp_path, monkeyp
     assert not study.waiting("carol")
 
 
-def test_attack_sybil_flood_in_the_app_says_retry_never_all_done(tmp_path, monkeypatch):
-    study = _binary(tmp_path, n_training=0, votes_per_item=1)  # 3 test items, quota 1
+@pytest.mark.parametrize("design", sorted(DESIGNS))
+def test_attack_sybil_flood_in_the_app_says_retry_never_all_done(design, tmp_path, monkeypatch):
+    build, vote_button = DESIGNS[design]
+    study = build(tmp_path, n_training=0, votes_per_item=1)
+    n_tests = len(study.keys("test"))
+    assert n_tests == 3  # one object in one frame at three offsets (pairwise: one pair of methods)
     monkeypatch.setenv("ANNOTATE_STUDY", str(study.root))
-    for i in range(3):  # three names that press Start, see an item, and leave
+    for i in range(n_tests):  # names that press Start, see an item, and leave
         _app(rater=f"sybil{i}").button(key="start").click().run()
     at = _app(rater="carol")
     at.button(key="start").click().run()
-    while any(b.key.startswith("vote_good-") for b in at.button if b.key):
-        _btn(at, "vote_good").click().run()
+    while any(b.key.startswith(vote_button + "-") for b in at.button if b.key):
+        _btn(at, vote_button).click().run()
     text = _page_text(at)
     assert "No item is free right now" in text and "All done" not in text
     assert not set(study.keys("test")) & set(study.store.votes("carol")["item"])
     _later(monkeypatch, CLAIM_LEASE_S + 1)
     at.button(key="retry").click().run()
-    while any(b.key.startswith("vote_good-") for b in at.button if b.key):
-        _btn(at, "vote_good").click().run()
+    while any(b.key.startswith(vote_button + "-") for b in at.button if b.key):
+        _btn(at, vote_button).click().run()
     assert "All done" in at.success[0].value
     assert sorted(study.store.votes("carol")["item"]) == sorted(study.items.index)
 
