@@ -330,7 +330,8 @@ class Study:
         return plan
 
     def next_item(self, rater: str) -> str | None:
-        """Key of the rater's next unrated item (None: done)."""
+        """Key of the rater's next unrated item (None: done, or, when :meth:`waiting` says
+        so, nothing free until other raters' claims end)."""
         plan = self.plan_for(rater)
         return self.store.next_item(
             rater, lambda a, v, loads: choose_next(plan, a, v, loads, quota=self.quota))
