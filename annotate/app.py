@@ -18,7 +18,8 @@ Widget keys (for tests): ``name_input``, ``sign_in``, ``start``, ``download_rati
 voting buttons are ``vote_good-N``, ``vote_bad-N`` and ``undo-N`` (pairwise: ``vote_left-N``,
 ``vote_tie-N``, ``vote_right-N``, ``undo-N`` and the hidden arrow-key twins
 ``key_twin-left-N``, ``key_twin-right-N``) where ``N`` is an opaque token of the item on
-screen (a new one for every displayed item).
+screen (a new one for every displayed item); ``undo-done`` and ``retry`` when no item is on
+screen.
 
 Robustness rules of the voting panel (a ``st.fragment``: a vote reruns only the panel):
 
@@ -27,7 +28,14 @@ Robustness rules of the voting panel (a ``st.fragment``: a vote reruns only the 
   after the next item was chosen) is dropped; so is a press less than
   ``ANNOTATE_MIN_RESPONSE_MS`` (environment, default 250) after the item was drawn: no one
   judges a new pair that fast, it is the tail of a double press that a busy browser
-  delivered after drawing the next item;
+  delivered after drawing the next item. The rater is told ("too fast") and the history
+  logs it (action ``too_fast``);
+- Undo (U) takes back only this browser session's own votes, the last
+  :data:`annotate.store.UNDO_DEPTH` at most (each session has a random id); a new session
+  of the same rater has nothing to undo;
+- an item on screen is claimed for :data:`annotate.store.CLAIM_LEASE_S` seconds (renewed on
+  every redraw); when the rater's remaining items are all claimed by others, the page says
+  no item is free right now and offers to retry, never "All done";
 - a vote is recorded only while the item is the rater's and unvoted (one transaction), so a
   second tab of the same rater is told the item was already rated elsewhere and moves on;
 - every displayed image has its own URL: the crop's bytes get a comment keyed by the item
@@ -55,6 +63,7 @@ import streamlit as st
 
 from annotate.admin import admin_page
 from annotate.layout import page_style, pair_view
+from annotate.store import UNDO_DEPTH
 from annotate.study import Study, StudyChanged, crop_path, load_study
 from data_schema.errors import InputError
 from data_schema.raters import check_rater_name
@@ -99,6 +108,12 @@ MSG_CHANGED = ("This study was changed on the server, so votes cannot be recorde
 MSG_ELSEWHERE = "You already rated this pair in another tab or window. Here is your next one."
 MSG_SKIPPED = "One pair could not be shown and was skipped. Please go on with the next one."
 MSG_UNAVAILABLE = "The study is not available right now. Please try again in a moment."
+MSG_TOO_FAST = ("Too fast: that press came before you could look at the images, so it did not "
+                "count. Please look at the images, then answer.")
+MSG_NO_UNDO = (f"Nothing to undo: Undo takes back only your last {UNDO_DEPTH} answers given "
+               "since this page was opened or reloaded.")
+MSG_NONE_FREE = ("No item is free right now: other raters are working on the ones left for "
+                 "you. Please retry in a minute.")
 _MD_SPECIAL = re.compile(r"([\\`*_{}\[\]()<>#+\-.!|~:/&=])")
 
 
@@ -207,6 +222,11 @@ def _shown() -> tuple:
     return st.session_state.get("shown", (None, None, None))
 
 
+def _session_id() -> str:
+    """This browser session's random id (logged with its votes; Undo reaches only these)."""
+    return st.session_state.setdefault("session_id", secrets.token_hex(8))
+
+
 def _min_response_ms() -> int:
     return int(os.environ.get("ANNOTATE_MIN_RESPONSE_MS", "250"))
 
@@ -223,9 +243,14 @@ def _on_vote(study: Study, rater: str, key: str, token: str, vote: int) -> None:
     rt = int(round((time.time() - shown_at) * 1000))
     if rt < _min_response_ms():  # drawn a moment ago: the rater has not seen it yet
         log.info("annotate app: press %d ms after drawing dropped (rater %s)", rt, rater)
+        _on_current_study(study, lambda: study.store.record_too_fast(
+            rater, key, vote, response_ms=rt, session=_session_id()),
+            refused="too-fast log", doing="logging a too-fast press")
+        st.session_state.setdefault("notice", ("warning", MSG_TOO_FAST))
         return
     ok, status = _on_current_study(
-        study, lambda: study.store.record_shown_vote(rater, key, vote, response_ms=rt),
+        study, lambda: study.store.record_shown_vote(rater, key, vote, response_ms=rt,
+                                                     session=_session_id()),
         refused="vote", doing="recording a vote",
     )
     if not ok:
@@ -238,11 +263,13 @@ def _on_vote(study: Study, rater: str, key: str, token: str, vote: int) -> None:
 def _on_undo(study: Study, rater: str, token: str) -> None:
     if token != _shown()[2]:
         return
-    ok, _ = _on_current_study(
-        study, lambda: study.store.undo_last(rater), refused="undo", doing="undoing a vote"
-    )
+    ok, item = _on_current_study(
+        study, lambda: study.store.undo_last(rater, session=_session_id()), refused="undo",
+        doing="undoing a vote")
     if ok:
         st.session_state["shown"] = (None, None, None)
+        if item is None:
+            st.session_state["notice"] = ("info", MSG_NO_UNDO)
 
 
 def _on_current_study(study: Study, action, *, refused: str, doing: str) -> tuple[bool, object]:
@@ -265,6 +292,8 @@ def _show_notice() -> None:
     kind, text = st.session_state.pop("notice", (None, None))
     if kind == "error":
         st.error(text)
+    elif kind == "warning":
+        st.warning(text)
     elif kind == "info":
         st.info(text)
 
@@ -338,10 +367,7 @@ def voting_panel(study: Study, rater: str) -> None:
     _show_notice()
     page_style()
     if key is None:
-        st.success(f"All done, thank you, {plain(rater)}! ({prog['done']} / {prog['total']})")
-        token = st.session_state["shown"] = (None, None, "done")
-        st.button("Undo last vote (U)", key="undo-done", shortcut="u", on_click=_on_undo,
-                  args=(study, rater, token[2]))
+        _no_item(study, rater, prog)
         return
     _progress_bar(study, study.items.at[key, "kind"], prog)
     if _shown()[0] != key:
@@ -361,6 +387,24 @@ def voting_panel(study: Study, rater: str) -> None:
                   on_click=_on_vote, args=(study, rater, key, token, 0))
         st.button("Undo (U)", key=f"undo-{token}", shortcut="u", on_click=_on_undo,
                   args=(study, rater, token))
+
+
+def _no_item(study: Study, rater: str, prog: dict) -> None:
+    """Nothing to show: "All done", or, while others' claims hold the rater's remaining
+    items, "no item is free right now" with a retry button."""
+    try:
+        waiting = study.waiting(rater)
+    except (sqlite3.Error, OSError) as err:
+        _panel_unavailable(err)
+        return
+    if waiting:
+        st.info(MSG_NONE_FREE)
+        st.button("Retry", key="retry")
+    else:
+        st.success(f"All done, thank you, {plain(rater)}! ({prog['done']} / {prog['total']})")
+    token = st.session_state["shown"] = (None, None, "done")
+    st.button("Undo last vote (U)", key="undo-done", shortcut="u", on_click=_on_undo,
+              args=(study, rater, token[2]))
 
 
 def _pairwise_buttons(study: Study, rater: str, key: str, token: str) -> None:

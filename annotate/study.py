@@ -330,10 +330,21 @@ class Study:
         return plan
 
     def next_item(self, rater: str) -> str | None:
-        """Key of the rater's next unrated item (None: done)."""
+        """Key of the rater's next unrated item (None: done, or, when :meth:`waiting` says
+        so, nothing free until other raters' claims end)."""
         plan = self.plan_for(rater)
         return self.store.next_item(
             rater, lambda a, v, loads: choose_next(plan, a, v, loads, quota=self.quota))
+
+    def waiting(self, rater: str) -> bool:
+        """Whether the rater has items left that other raters' claims hold right now (when
+        :meth:`next_item` gives None: True means "retry in a minute", False "all done").
+
+        The same choice as :meth:`next_item` with standing votes only, claims not counted.
+        """
+        plan = self.plan_for(rater)
+        assigned, voted, votes = self.store.rater_state(rater)
+        return choose_next(plan, assigned, voted, votes, quota=self.quota) is not None
 
     def progress(self, rater: str) -> dict:
         """``{'training_done', 'training_total', 'done', 'total'}`` (done/total exclude training).

@@ -23,7 +23,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    """Write the votes table; warn on stderr about votes that could not be placed."""
+    """Write the votes table; on stderr, warn about votes that could not be placed and name,
+    per rater, the votes undone and the presses dropped as too fast (from the history)."""
     check_output_file(args.out, inputs=[args.study])
     study = load_study(args.study)
     table = votes_table(study)
@@ -33,4 +34,8 @@ def run(args) -> int:
     if lost:
         print(f"warning: {sum(lost.values())} votes not exported: "
               + "; ".join(f"{n} {why}" for why, n in lost.items()), file=sys.stderr)
+    acts = study.store.action_counts()
+    for r in acts[(acts["votes_undone"] > 0) | (acts["too_fast"] > 0)].itertuples():
+        print(f"rater {r.rater}: {r.votes_undone} votes undone, {r.too_fast} presses too fast "
+              "(not in the table; the store's history keeps them)", file=sys.stderr)
     return 0
