@@ -106,6 +106,19 @@ def test_crowd_participant_param_gives_one_identity_per_participant(make_study, 
     assert _vote_all(p1) == len(s.items)
     link = [b for b in p1.get("link_button") if b.proto.id and "completion" in b.proto.id]
     assert link and link[0].proto.url == PROLIFIC
+    # the export maps the crowd raters of ratings.csv to the panel's participant ids
+    import pandas as pd
+
+    from annotate.cli import main
+
+    out, who = s.root.parent / "ratings.csv", s.root.parent / "participants.csv"
+    assert main(["export", str(s.root), "--out", str(out), "--participants", str(who.with_suffix(".txt"))]) == 2
+    assert not out.exists()  # refused before anything is written
+    assert main(["export", str(s.root), "--out", str(out), "--participants", str(who)]) == 0
+    table = pd.read_csv(who, dtype=str)
+    assert table.columns.tolist() == ["rater_id", "participant", "arrived_at"]
+    assert dict(zip(table["participant"], table["rater_id"], strict=True)) == got
+    assert set(pd.read_csv(out)["rater_id"]) == {p1.session_state["rater"]}
 
 
 def test_check_access_names_the_bad_parameter():
