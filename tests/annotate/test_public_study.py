@@ -3,7 +3,8 @@
 Every path the nginx snippet refuses is a real endpoint of ``annotate serve`` (it answers with
 its own content, not Streamlit's page that every unknown path gets), and with nginx
 installed the snippet itself passes ``nginx -t`` and, run in front of a served study with a
-throwaway certificate, refuses those paths while the app's page and health check pass.
+throwaway certificate, refuses those paths while the app's page and health check pass and a
+browser (when there is one) gets through to the app's websocket.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.e2e.browser_support import free_port, serve, stop
+from tests.e2e.browser_support import ARGS, CHROMIUM, free_port, serve, stop
 
 README = (Path(__file__).parents[2] / "README.md").read_text()
 SECTION = README.split("## Run a public study", 1)[1].split("\n## ", 1)[0]
@@ -103,6 +104,17 @@ def test_nginx_accepts_the_snippet_and_refuses_the_blocked_paths(served):
         for _, path in BLOCKED:
             assert _get(front + _probe(path), insecure)[0] == 404, path
             assert _get(url.rstrip("/") + _probe(path))[0] == 200  # the app itself still answers
+        if Path(CHROMIUM).exists():  # the app's websocket passes the proxy: a crowd arrival starts
+            from playwright.sync_api import sync_playwright
+
+            with sync_playwright() as pw:
+                browser = pw.chromium.launch(executable_path=CHROMIUM,
+                                             args=[*ARGS, "--ignore-certificate-errors"])
+                page = browser.new_context(ignore_https_errors=True).new_page()
+                page.goto(front + "/")
+                page.get_by_role("button", name="Start").wait_for(state="visible", timeout=40000)
+                assert "token=" in page.url
+                browser.close()
     finally:
         os.killpg(proxy.pid, signal.SIGKILL)
         proxy.wait(timeout=10)
