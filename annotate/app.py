@@ -193,6 +193,10 @@ def _crowd_sign_in(study: Study) -> str | None:
     except CrowdRefused as why:
         st.session_state["crowd_refused"] = str(why)
         return None
+    except (sqlite3.Error, OSError):
+        log.exception("annotate app: a crowd arrival could not be registered")
+        st.session_state["crowd_refused"] = MSG_UNAVAILABLE
+        return None
     st.query_params.from_dict({"token": token})
     _sign_in(study, rater)
     return rater

@@ -230,3 +230,19 @@ def test_build_prints_the_admin_token_once_and_serve_points_to_the_secrets_file(
     assert "admin page: https://study.example.org/?admin=" in text and str(root / "secrets.json") in text
     assert "participants' link: https://study.example.org/?PROLIFIC_PID=" in text
     assert PROLIFIC in text
+
+
+def test_crowd_arrival_when_the_store_fails_says_so_and_registers_nobody(make_study, monkeypatch):
+    from annotate.store import Store
+
+    s = _served(make_study, monkeypatch, access="crowd")
+
+    def locked(*args, **kwargs):
+        raise sqlite3.OperationalError("database is locked")
+
+    monkeypatch.setattr(Store, "add_rater", locked)
+    at = _app()
+    assert "rater" not in at.session_state and "token" not in at.query_params
+    assert at.info and "not available" in at.info[0].value
+    monkeypatch.undo()
+    assert s.store.raters() == []
