@@ -198,6 +198,31 @@ def test_add_rater_links_use_a_real_host_or_the_public_url(make_study):
     assert rc == 2 and "--host" in err, err  # an open study's link would be refused by serve
 
 
+def _serve_says(root, *extra, until: str) -> str:
+    """What ``annotate serve ROOT EXTRA`` prints on stderr up to its first line holding ``until``."""
+    from tests.e2e.browser_support import free_port
+
+    proc = subprocess.Popen([sys.executable, "-m", "annotate.cli", "serve", str(root), "--port",
+                             str(free_port()), *extra], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        lines, deadline = [], time.time() + 60
+        while not any(until in x for x in lines):
+            assert time.time() < deadline and proc.poll() is None, lines
+            lines.append(proc.stderr.readline())
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=10)
+    return "".join(lines)
+
+
+def test_serve_does_not_print_the_admin_token(make_study):
+    s = make_study()
+    text = _serve_says(s.root, until="admin")
+    assert s.admin_token() not in text and str(s.root / "secrets.json") in text
+    assert "http://127.0.0.1:" in text  # the real host and port
+
+
 def test_build_prints_the_admin_token_once_and_serve_points_to_the_secrets_file(toy_inputs, tmp_path):
     scene, pairs = toy_inputs
     root = tmp_path / "study"
@@ -210,22 +235,7 @@ def test_build_prints_the_admin_token_once_and_serve_points_to_the_secrets_file(
     assert rc == 0, err
     assert f"https://study.example.org/?admin={admin}" in out
     # serve: the public base in every link, the secrets file named, the token never printed
-    from tests.e2e.browser_support import free_port
-
-    port = free_port()
-    proc = subprocess.Popen([sys.executable, "-m", "annotate.cli", "serve", root, "--port", str(port),
-                             "--public-url", "https://study.example.org/"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
-    try:
-        lines, deadline = [], time.time() + 60
-        while not any("finished raters" in x for x in lines):
-            assert time.time() < deadline and proc.poll() is None, lines
-            lines.append(proc.stderr.readline())
-    finally:
-        os.killpg(proc.pid, signal.SIGKILL)
-        proc.wait(timeout=10)
-    text = "".join(lines)
+    text = _serve_says(root, "--public-url", "https://study.example.org/", until="finished raters")
     assert admin not in text
     assert "admin page: https://study.example.org/?admin=" in text and str(root / "secrets.json") in text
     assert "participants' link: https://study.example.org/?PROLIFIC_PID=" in text
