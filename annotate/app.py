@@ -2,8 +2,11 @@
 
 Run with ``annotate serve STUDY`` (which sets ``ANNOTATE_STUDY``). Pages:
 
-- sign-in: by name on an open study, ``/?rater=NAME`` directly; ``/?token=TOKEN`` on a
-  token study (tokens compared in constant time, a bad one is refused);
+- sign-in (:mod:`annotate.access`): by name on an open study, ``/?rater=NAME`` directly;
+  ``/?token=TOKEN`` on a token study (tokens compared in constant time, a bad one is
+  refused); on a crowd study an arrival without a token gets a fresh identity (one per
+  participant with the study's participant parameter) and the address becomes
+  ``/?token=TOKEN``, so a reload resumes; a finished crowd rater is shown the completion URL;
 - instructions, then the training items, then the rater's own items: "Reference" left,
   "Rendered" right, drawn as large as the window allows at one scale (shown, e.g. "×3.2";
   :mod:`annotate.layout`), Good (G, blue) / Bad (B, vermillion) / Undo (U) in one row under
@@ -14,7 +17,8 @@ Run with ``annotate serve STUDY`` (which sets ``ANNOTATE_STUDY``). Pages:
   served by content hash, never by file name;
 - ``/?admin=TOKEN``: the live admin page (:mod:`annotate.admin`, refreshes by itself).
 
-Widget keys (for tests): ``name_input``, ``sign_in``, ``start``, ``download_ratings``; the
+Widget keys (for tests): ``name_input``, ``sign_in``, ``start``, ``download_ratings``,
+``completion`` (the completion link of a crowd study); the
 voting buttons are ``vote_good-N``, ``vote_bad-N`` and ``undo-N`` (pairwise: ``vote_left-N``,
 ``vote_tie-N``, ``vote_right-N``, ``undo-N`` and the hidden arrow-key twins
 ``key_twin-left-N``, ``key_twin-right-N``) where ``N`` is an opaque token of the item on
@@ -61,6 +65,7 @@ import zlib
 
 import streamlit as st
 
+from annotate.access import CrowdRefused, crowd_arrival
 from annotate.admin import admin_page
 from annotate.layout import page_style, pair_view
 from annotate.store import UNDO_DEPTH
@@ -174,7 +179,7 @@ def signed_in_rater(study: Study) -> str | None:
     if "rater" in st.session_state:
         return st.session_state["rater"]
     qp = st.query_params
-    if study.manifest["access"] == "token":
+    if study.manifest["access"] in ("token", "crowd"):
         token = qp.get("token")
         if token:
             rater = study.store.rater_for_token(token)
@@ -183,6 +188,8 @@ def signed_in_rater(study: Study) -> str | None:
                 return None
             _sign_in(study, rater)
             return rater
+        if study.manifest["access"] == "crowd":
+            return _crowd_sign_in(study)
     elif qp.get("rater"):
         try:
             name = check_rater_name(qp["rater"])
@@ -192,6 +199,22 @@ def signed_in_rater(study: Study) -> str | None:
         _sign_in(study, name)
         return name
     return None
+
+
+def _crowd_sign_in(study: Study) -> str | None:
+    """A crowd arrival: its identity, the address rewritten to carry it (a reload resumes)."""
+    try:
+        rater, token = crowd_arrival(study, st.query_params.to_dict())
+    except CrowdRefused as why:
+        st.session_state["crowd_refused"] = str(why)
+        return None
+    except (sqlite3.Error, OSError):
+        log.exception("annotate app: a crowd arrival could not be registered")
+        st.session_state["crowd_refused"] = MSG_UNAVAILABLE
+        return None
+    st.query_params.from_dict({"token": token})
+    _sign_in(study, rater)
+    return rater
 
 
 def _on_sign_in(study: Study) -> None:
@@ -207,7 +230,10 @@ def _on_sign_in(study: Study) -> None:
 
 def sign_in_page(study: Study) -> None:
     st.title("Image quality study")
-    if study.manifest["access"] == "token":
+    if "crowd_refused" in st.session_state:
+        st.info(st.session_state.pop("crowd_refused"))
+        return
+    if study.manifest["access"] != "open":
         if not st.query_params.get("token"):
             st.info("Please open the personal link you received to take part.")
         return
@@ -402,6 +428,9 @@ def _no_item(study: Study, rater: str, prog: dict) -> None:
         st.button("Retry", key="retry")
     else:
         st.success(f"All done, thank you, {plain(rater)}! ({prog['done']} / {prog['total']})")
+        if study.manifest.get("completion_url"):
+            st.link_button("Finish and return to the panel", study.manifest["completion_url"],
+                           type="primary", key="completion")
     token = st.session_state["shown"] = (None, None, "done")
     st.button("Undo last vote (U)", key="undo-done", shortcut="u", on_click=_on_undo,
               args=(study, rater, token[2]))

@@ -65,6 +65,9 @@ CREATE TABLE IF NOT EXISTS votes (
 CREATE TABLE IF NOT EXISTS skipped (
     study TEXT NOT NULL, rater TEXT NOT NULL, item TEXT NOT NULL, at TEXT NOT NULL,
     reason TEXT, UNIQUE (study, rater, item));
+CREATE TABLE IF NOT EXISTS participants (
+    study TEXT NOT NULL, rater TEXT NOT NULL, participant TEXT NOT NULL, arrived_at TEXT NOT NULL,
+    UNIQUE (study, participant));
 """
 
 # The append-only log ({name}: the migration builds the new layout beside the old one).
@@ -436,6 +439,19 @@ class Store:
             if hmac.compare_digest(stored, digest):
                 found = rater
         return found
+
+    def record_participant(self, rater: str, participant: str) -> None:
+        """Record that crowd rater ``rater`` is the panel's participant ``participant`` (first
+        arrival kept)."""
+        with self._transaction() as con:
+            con.execute("INSERT OR IGNORE INTO participants (study, rater, participant, arrived_at) "
+                        "VALUES (?, ?, ?, ?)", (self.study, rater, participant, utc_now_iso()))
+
+    def participants(self) -> pd.DataFrame:
+        """Crowd raters and the panel's participant ids: columns rater, participant, arrived_at."""
+        with self._connect() as con:
+            return pd.read_sql_query("SELECT rater, participant, arrived_at FROM participants "
+                                     "WHERE study = ? ORDER BY arrived_at, rowid", con, params=(self.study,))
 
     # ---- assignment ----------------------------------------------------------------------
     def next_item(self, rater: str, chooser: Callable[..., str | None], *,
