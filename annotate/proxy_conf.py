@@ -8,16 +8,20 @@ must reach one worker, the websocket included.
 - nginx (:func:`nginx_conf`): an ``http``-context file for ``/etc/nginx/conf.d/``. Open
   source nginx has no sticky-cookie directive, so the file makes one: a browser without the
   ``nvrq_worker`` cookie gets a random one (``$request_id``), and ``hash ... consistent``
-  maps the cookie to a worker; the websocket upgrade is passed on and kept open for an hour.
+  maps the cookie to a worker; the websocket upgrade is passed on and kept open for a day.
 - Caddy (:func:`caddy_conf`): a Caddyfile site block; ``lb_policy cookie`` is Caddy's own
   sticky-cookie policy and websockets pass through by themselves.
 
-TLS and the public address are the proxy's too (README "Run a public study"); these
-configurations listen on plain HTTP at ``listen`` and leave TLS to be added there.
+Both refuse the Streamlit endpoints raters never use (``/_stcore/metrics``,
+``/_stcore/agent/``), as README "Run a public study" asks of a proxy. TLS is the proxy's
+too (that section); these configurations listen on plain HTTP at ``listen`` and leave the
+certificate lines to be added there.
 
 >>> print(caddy_conf([8501, 8502], listen=8080))
 # Caddy: one public port for `annotate serve --workers 2` (ports 8501-8502)
 :8080 {
+    respond /_stcore/metrics 404
+    respond /_stcore/agent/* 404
     reverse_proxy 127.0.0.1:8501 127.0.0.1:8502 {
         lb_policy cookie nvrq_worker
     }
@@ -91,6 +95,8 @@ upstream nvrq_raters {{
 server {{
     listen {int(listen)};
     server_name _;
+    location = /_stcore/metrics {{ return 404; }}
+    location ^~ /_stcore/agent/ {{ return 404; }}
     location / {{
         proxy_pass http://nvrq_raters;
         proxy_http_version 1.1;
@@ -99,8 +105,8 @@ server {{
         proxy_set_header Host $http_host;
         proxy_set_header X-Forwarded-For $proxy_add_x_forwarded_for;
         proxy_set_header X-Forwarded-Proto $scheme;
-        proxy_read_timeout 1h;
-        proxy_send_timeout 1h;
+        proxy_read_timeout 1d;
+        proxy_send_timeout 1d;
         proxy_buffering off;
         add_header Set-Cookie "{COOKIE}=$nvrq_worker; Path=/; HttpOnly; SameSite=Lax" always;
     }}
@@ -126,8 +132,9 @@ def caddy_conf(ports: Sequence[int], *, host: str = "127.0.0.1", listen: int = 8
         The Caddyfile's text.
     """
     upstreams = " ".join(f"{upstream_host(host)}:{int(p)}" for p in ports)
-    return (f"{_title('Caddy', ports)}\n:{int(listen)} {{\n    reverse_proxy {upstreams} {{\n"
-            f"        lb_policy cookie {COOKIE}\n    }}\n}}")
+    return (f"{_title('Caddy', ports)}\n:{int(listen)} {{\n"
+            "    respond /_stcore/metrics 404\n    respond /_stcore/agent/* 404\n"
+            f"    reverse_proxy {upstreams} {{\n        lb_policy cookie {COOKIE}\n    }}\n}}")
 
 
 def proxy_conf(proxy: str, ports: Sequence[int], *, host: str = "127.0.0.1", listen: int = 80) -> str:

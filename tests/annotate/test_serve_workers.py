@@ -234,6 +234,7 @@ def test_nginx_in_front_of_the_workers_is_sticky(served, tmp_path):
         for url in images * 3:
             status, headers = get(url, cookie)
             assert (status, headers["X-Nvrq-Upstream"]) == (200, upstream)
+        assert get("/_stcore/metrics", cookie)[0] == 404  # refused by the proxy (README)
         others = {get("/", f"nvrq_worker=other{i}")[1]["X-Nvrq-Upstream"] for i in range(16)}
         assert others == {f"127.0.0.1:{p}" for p in ports}  # 2**-15 chance of one worker only
     finally:
