@@ -64,7 +64,7 @@ import streamlit as st
 
 from annotate.access import CrowdRefused, crowd_arrival
 from annotate.admin import admin_page
-from annotate.display import display_crops, salted_image
+from annotate.display import item_display, salted_image
 from annotate.layout import page_style, pair_view
 from annotate.store import UNDO_DEPTH
 from annotate.study import Study, StudyChanged, load_study
@@ -320,8 +320,8 @@ def _slots(study: Study, key: str, rater: str) -> tuple[tuple[str, str], ...]:
 
 def _display_images(study: Study, key: str, rater: str) -> tuple[bytes, ...]:
     """The item's crops in page order, each salted with an HMAC of (study, item, position)
-    (read and salted once per process, :func:`annotate.display.display_crops`)."""
-    return display_crops(study).get(key, _slots(study, key, rater))
+    (read and salted once per process, :func:`annotate.display.item_display`)."""
+    return item_display(study).crops(key, _slots(study, key, rater))
 
 
 def _next_on_screen(study: Study, rater: str) -> tuple[str | None, dict, tuple | None]:
@@ -359,13 +359,14 @@ def voting_panel(study: Study, rater: str) -> None:
     if key is None:
         _no_item(study, rater, prog)
         return
-    _progress_bar(study, study.items.at[key, "kind"], prog)
+    facts = item_display(study)  # per-item facts as dicts, made once per process
+    _progress_bar(study, facts.kind[key], prog)
     if _shown()[0] != key:
         st.session_state["shown"] = (key, time.time(), secrets.token_hex(6))
     token = _shown()[2]
     pairwise = study.design == "pairwise"
     pair_view(("Left", "Reference", "Right") if pairwise else ("Reference", "Rendered"), images,
-              crop_side=study.items.get("crop_side", {}).get(key),
+              crop_side=facts.crop_side.get(key),
               display_size=int(study.manifest.get("display_size", 320)), token=token)
     if pairwise:
         _pairwise_buttons(study, rater, key, token)

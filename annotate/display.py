@@ -1,4 +1,5 @@
-"""The crops a rater page shows, read and salted once per server process.
+"""What a rater page shows of an item, read once per server process: its salted crops, its
+kind and its crop side.
 
 Every displayed crop carries a salt (an HMAC of the study id, the item and its position on
 the page, keyed by the study's admin token) embedded as metadata, so its bytes, hence the
@@ -7,7 +8,8 @@ crop's. A study never changes its crops (a rebuilt one has a new study id and is
 :meth:`annotate.study.Study.check_current` before anything is drawn), so a server keeps
 each salted crop in memory after its first showing instead of reading the file and
 computing the HMAC on every vote; the cache lives in this module, which a Streamlit rerun
-does not re-execute, one per study folder and study id.
+does not re-execute, one per study folder and study id. So are the per-item facts the page
+needs on every vote (kind, crop side), as plain dicts instead of DataFrame lookups.
 """
 
 from __future__ import annotations
@@ -19,9 +21,9 @@ import zlib
 
 from annotate.study import Study, crop_path
 
-__all__ = ["salted_image", "DisplayCrops", "display_crops"]
+__all__ = ["salted_image", "ItemDisplay", "item_display"]
 
-_CACHES: dict[tuple[str, str], DisplayCrops] = {}
+_CACHES: dict[tuple[str, str], ItemDisplay] = {}
 _LOCK = threading.Lock()
 
 
@@ -51,15 +53,26 @@ def salted_image(data: bytes, salt: bytes) -> bytes:
     raise ValueError("crop: expected JPEG or PNG bytes")
 
 
-class DisplayCrops:
-    """Salted crops of one study, by ``(item key, position, items.csv file column)``."""
+class ItemDisplay:
+    """One study's items as the page shows them.
+
+    Attributes
+    ----------
+    kind : dict
+        Item key -> ``items.csv`` kind (training, test, gold, repeat).
+    crop_side : dict
+        Item key -> the object's square side in camera pixels (empty for a study without
+        the column: no scale line).
+    """
 
     def __init__(self, study: Study):
         self.study = study
         self._secret = study.admin_token().encode()
         self._crops: dict[tuple[str, str, str], bytes] = {}
+        self.kind = study.items["kind"].to_dict()
+        self.crop_side = study.items["crop_side"].to_dict() if "crop_side" in study.items else {}
 
-    def get(self, key: str, slots) -> tuple[bytes, ...]:
+    def crops(self, key: str, slots) -> tuple[bytes, ...]:
         """The crops of item ``key`` for ``slots``, ``((position, file column), ...)``.
 
         Raises what reading the crop raises (InputError, OSError, KeyError, ValueError); a
@@ -77,11 +90,11 @@ class DisplayCrops:
         return tuple(out)
 
 
-def display_crops(study: Study) -> DisplayCrops:
-    """The process's :class:`DisplayCrops` of ``study`` (one per folder and study id)."""
+def item_display(study: Study) -> ItemDisplay:
+    """The process's :class:`ItemDisplay` of ``study`` (one per folder and study id)."""
     ident = (str(study.root), str(study.manifest["study_id"]))
-    crops = _CACHES.get(ident)
-    if crops is None:
+    found = _CACHES.get(ident)
+    if found is None:
         with _LOCK:
-            crops = _CACHES.setdefault(ident, DisplayCrops(study))
-    return crops
+            found = _CACHES.setdefault(ident, ItemDisplay(study))
+    return found
