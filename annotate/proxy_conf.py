@@ -5,11 +5,11 @@ must be *sticky*: a Streamlit session lives in one worker, and so do the images 
 show (``/media/...`` URLs held in that worker's memory), so every request of one browser
 must reach one worker, the websocket included.
 
-- nginx (:func:`nginx_conf`): an ``http``-context file for ``/etc/nginx/conf.d/``. Open
+- nginx: an ``http``-context file for ``/etc/nginx/conf.d/``. Open
   source nginx has no sticky-cookie directive, so the file makes one: a browser without the
   ``nvrq_worker`` cookie gets a random one (``$request_id``), and ``hash ... consistent``
   maps the cookie to a worker; the websocket upgrade is passed on and kept open for a day.
-- Caddy (:func:`caddy_conf`): a Caddyfile site block; ``lb_policy cookie`` is Caddy's own
+- Caddy: a Caddyfile site block; ``lb_policy cookie`` is Caddy's own
   sticky-cookie policy and websockets pass through by themselves.
 
 Both refuse the Streamlit endpoints raters never use (``/_stcore/metrics``,
@@ -17,8 +17,8 @@ Both refuse the Streamlit endpoints raters never use (``/_stcore/metrics``,
 too (that section); these configurations listen on plain HTTP at ``listen`` and leave the
 certificate lines to be added there.
 
->>> print(caddy_conf([8501, 8502], listen=8080))
-# Caddy: one public port for `annotate serve --workers 2` (ports 8501-8502)
+>>> print(proxy_conf("caddy", [8501, 8502], listen=8080))
+# caddy: one public port for `annotate serve --workers 2` (ports 8501-8502)
 :8080 {
     respond /_stcore/metrics 404
     respond /_stcore/agent/* 404
@@ -34,7 +34,7 @@ from collections.abc import Sequence
 
 from data_schema.errors import InputError
 
-__all__ = ["nginx_conf", "caddy_conf", "proxy_conf", "PROXIES", "COOKIE", "upstream_host"]
+__all__ = ["proxy_conf", "PROXIES", "COOKIE", "upstream_host"]
 
 #: The cookie that pins a browser to one worker.
 COOKIE = "nvrq_worker"
@@ -56,30 +56,10 @@ def upstream_host(host: str) -> str:
     return f"[{host}]" if ":" in host else host
 
 
-def _title(proxy: str, ports: Sequence[int]) -> str:
-    return (f"# {proxy}: one public port for `annotate serve --workers {len(ports)}` "
-            f"(ports {ports[0]}-{ports[-1]})")
-
-
-def nginx_conf(ports: Sequence[int], *, host: str = "127.0.0.1", listen: int = 80) -> str:
-    """An nginx ``http``-context configuration proxying ``listen`` to the workers, sticky.
-
-    Parameters
-    ----------
-    ports : sequence of int
-        The workers' ports (all on ``host``).
-    host : str, optional
-        The workers' bind address (a wildcard becomes loopback, :func:`upstream_host`).
-    listen : int, optional
-        The public port nginx listens on (default 80).
-
-    Returns
-    -------
-    str
-        The file's text (``map`` blocks, one ``upstream`` and one ``server``).
-    """
-    servers = "\n".join(f"    server {upstream_host(host)}:{int(p)};" for p in ports)
-    return f"""{_title("nginx", ports)}
+def _nginx(upstreams: list[str], listen: int, title: str) -> str:
+    """The nginx file (see :func:`proxy_conf`)."""
+    servers = "\n".join(f"    server {u};" for u in upstreams)
+    return f"""{title}
 map $cookie_{COOKIE} $nvrq_worker {{
     ""      $request_id;
     default $cookie_{COOKIE};
@@ -114,31 +94,34 @@ server {{
 """
 
 
-def caddy_conf(ports: Sequence[int], *, host: str = "127.0.0.1", listen: int = 80) -> str:
-    """A Caddyfile site block proxying ``listen`` to the workers with a sticky cookie.
+
+
+def _caddy(upstreams: list[str], listen: int, title: str) -> str:
+    """The Caddyfile (see :func:`proxy_conf`)."""
+    return (f"{title}\n:{int(listen)} {{\n"
+            "    respond /_stcore/metrics 404\n    respond /_stcore/agent/* 404\n"
+            f"    reverse_proxy {' '.join(upstreams)} {{\n        lb_policy cookie {COOKIE}\n    }}\n}}")
+
+
+def proxy_conf(proxy: str, ports: Sequence[int], *, host: str = "127.0.0.1", listen: int = 80) -> str:
+    """The configuration of a sticky reverse proxy on ``listen`` for the workers on ``ports``.
 
     Parameters
     ----------
+    proxy : {'nginx', 'caddy'}
+        nginx: an ``http``-context file (``map`` blocks, one ``upstream``, one ``server``);
+        caddy: a Caddyfile site block.
     ports : sequence of int
         The workers' ports (all on ``host``).
     host : str, optional
         The workers' bind address (a wildcard becomes loopback, :func:`upstream_host`).
     listen : int, optional
-        The public port Caddy listens on (default 80).
+        The public port the proxy listens on (default 80).
 
     Returns
     -------
     str
-        The Caddyfile's text.
-    """
-    upstreams = " ".join(f"{upstream_host(host)}:{int(p)}" for p in ports)
-    return (f"{_title('Caddy', ports)}\n:{int(listen)} {{\n"
-            "    respond /_stcore/metrics 404\n    respond /_stcore/agent/* 404\n"
-            f"    reverse_proxy {upstreams} {{\n        lb_policy cookie {COOKIE}\n    }}\n}}")
-
-
-def proxy_conf(proxy: str, ports: Sequence[int], *, host: str = "127.0.0.1", listen: int = 80) -> str:
-    """The configuration of ``proxy`` (one of :data:`PROXIES`) for the workers on ``ports``.
+        The file's text.
 
     Raises
     ------
@@ -147,4 +130,7 @@ def proxy_conf(proxy: str, ports: Sequence[int], *, host: str = "127.0.0.1", lis
     """
     if proxy not in PROXIES:
         raise InputError(param="proxy", expected="one of {'nginx', 'caddy'}", got=repr(proxy))
-    return (nginx_conf if proxy == "nginx" else caddy_conf)(ports, host=host, listen=listen)
+    title = (f"# {proxy}: one public port for `annotate serve --workers {len(ports)}` "
+             f"(ports {ports[0]}-{ports[-1]})")
+    upstreams = [f"{upstream_host(host)}:{int(p)}" for p in ports]
+    return (_nginx if proxy == "nginx" else _caddy)(upstreams, int(listen), title)

@@ -181,12 +181,13 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-def start_server(study: Path, port: int, *, workers: int = 1, log=subprocess.DEVNULL) -> subprocess.Popen:
+def start_server(study: Path, port: int, *, workers: int = 1, log=subprocess.DEVNULL,
+                 stdout=subprocess.DEVNULL) -> subprocess.Popen:
     """``annotate serve STUDY --workers K`` on 127.0.0.1 from ``port``, in its own process
-    group, once every worker answers."""
+    group, once every worker answers (``stdout``: where the printed proxy configuration goes)."""
     proc = subprocess.Popen([sys.executable, "-m", "annotate.cli", "serve", str(study),
                              "--port", str(port), "--workers", str(workers)],
-                            start_new_session=True, stdout=subprocess.DEVNULL, stderr=log)
+                            start_new_session=True, stdout=stdout, stderr=log)
     deadline = time.time() + 120
     for p in range(port, port + workers):
         while True:

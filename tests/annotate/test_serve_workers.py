@@ -1,5 +1,6 @@
 """``annotate serve --workers K``: K servers on one study, consistent through the vote store,
-stopped with their supervisor, and the printed proxy configuration accepted by the real proxy.
+and the printed proxy configuration accepted by the real proxy (that the workers stop with
+their supervisor is tests/annotate/test_serve.py's signal test).
 
 The servers are driven at the websocket level by the client of ``benchmarks/bench_raters.py``
 (Streamlit's own protobuf messages, as a browser sends them). nginx and Caddy are Debian
@@ -12,7 +13,6 @@ import asyncio
 import importlib.util
 import os
 import shutil
-import signal
 import socket
 import subprocess
 import sys
@@ -23,7 +23,7 @@ from pathlib import Path
 
 import pytest
 
-from annotate.proxy_conf import caddy_conf, nginx_conf
+from annotate.proxy_conf import proxy_conf
 
 _spec = importlib.util.spec_from_file_location(
     "bench_raters_for_worker_tests", Path(__file__).parents[2] / "benchmarks" / "bench_raters.py")
@@ -36,27 +36,6 @@ toy = importlib.util.module_from_spec(_toy_spec)
 _toy_spec.loader.exec_module(toy)
 
 QUOTA = 1
-
-
-def _free_ports(n: int) -> int:
-    """The first of ``n`` consecutive free ports on 127.0.0.1."""
-    for _ in range(50):
-        first = bench.free_port()
-        if first + n - 1 > 65535:
-            continue
-        socks = []
-        try:
-            for p in range(first, first + n):
-                s = socket.socket()
-                socks.append(s)
-                s.bind(("127.0.0.1", p))
-            return first
-        except OSError:
-            continue
-        finally:
-            for s in socks:
-                s.close()
-    raise RuntimeError("no consecutive free ports")
 
 
 def _listening(port: int) -> bool:
@@ -79,26 +58,6 @@ def _group_members(pgid: int) -> list[int]:
     return out
 
 
-def _start_workers(root: Path, first: int, workers: int, out: Path) -> subprocess.Popen:
-    """``annotate serve ROOT --workers K`` in its own process group, once every port answers."""
-    with out.open("w") as fh:
-        proc = subprocess.Popen([sys.executable, "-m", "annotate.cli", "serve", str(root), "--port",
-                                 str(first), "--workers", str(workers), "--proxy-port", "8080"],
-                                start_new_session=True, stdout=fh, stderr=subprocess.DEVNULL)
-    deadline = time.time() + 120
-    for port in range(first, first + workers):
-        while True:
-            try:
-                urllib.request.urlopen(f"http://127.0.0.1:{port}/_stcore/health", timeout=2)
-                break
-            except OSError:
-                if proc.poll() is not None or time.time() > deadline:
-                    bench.stop_server(proc)
-                    raise RuntimeError("annotate serve --workers did not start") from None
-                time.sleep(0.2)
-    return proc
-
-
 @pytest.fixture(scope="module")
 def served(tmp_path_factory):
     """A binary study (no training, quota 1) served by two workers: (root, ports, proc, stdout)."""
@@ -109,8 +68,9 @@ def served(tmp_path_factory):
     root = build_study(tmp / "study", pairs, scene=str(scene), tracks=2, frames_per_track=3,
                        n_training=0, n_gold=1, n_repeats=0, votes_per_item=QUOTA, size=64,
                        progress=False)
-    first = _free_ports(2)
-    proc = _start_workers(root, first, 2, tmp / "stdout.txt")
+    first = bench.free_ports(2)
+    with (tmp / "stdout.txt").open("w") as out:
+        proc = bench.start_server(root, first, workers=2, stdout=out)
     try:
         yield root, [first, first + 1], proc, (tmp / "stdout.txt").read_text()
     finally:
@@ -128,7 +88,7 @@ def test_two_workers_on_consecutive_ports_in_the_callers_group(served):
     # the supervisor and one streamlit process per port, all in the group of `annotate serve`
     assert proc.pid in members and len(members) >= 3
     # the printed configuration names exactly these ports
-    assert stdout.startswith(nginx_conf(ports, listen=8080)), stdout
+    assert stdout.startswith(proxy_conf("nginx", ports)), stdout
 
 
 def test_a_vote_through_one_worker_is_seen_by_the_other(served):
@@ -199,8 +159,8 @@ def test_nginx_in_front_of_the_workers_is_sticky(served, tmp_path):
     in the worker that drew them), while other cookies reach both workers.
     """
     root, ports, _proc, stdout = served
-    listen = _free_ports(1)
-    conf = stdout.split("\n\n", 1)[0].replace("listen 8080;", f"listen 127.0.0.1:{listen};")
+    listen = bench.free_port()
+    conf = stdout.split("\n\n", 1)[0].replace("listen 80;", f"listen 127.0.0.1:{listen};")
     conf = conf.replace("proxy_pass http://nvrq_raters;", "proxy_pass http://nvrq_raters;\n"
                         "        add_header X-Nvrq-Upstream $upstream_addr always;")
     _nginx_files(tmp_path, conf)
@@ -268,7 +228,7 @@ def _nginx_files(folder: Path, conf: str) -> None:
 @pytest.mark.skipif(shutil.which("nginx") is None, reason="nginx not installed (apt-get install -y nginx)")
 @pytest.mark.parametrize("host", ["127.0.0.1", "0.0.0.0", "::1"])
 def test_nginx_accepts_the_configuration(tmp_path, host):
-    _nginx_files(tmp_path, nginx_conf([8501, 8502, 8503], host=host, listen=8080))
+    _nginx_files(tmp_path, proxy_conf("nginx", [8501, 8502, 8503], host=host, listen=8080))
     r = subprocess.run(["nginx", "-t", "-p", str(tmp_path), "-c", "nginx.conf", "-e", "error.log"],
                        capture_output=True, text=True, timeout=60)
     assert r.returncode == 0 and "test is successful" in r.stderr, r.stderr
@@ -276,31 +236,12 @@ def test_nginx_accepts_the_configuration(tmp_path, host):
 
 @pytest.mark.skipif(shutil.which("caddy") is None, reason="caddy not installed (apt-get install -y caddy)")
 def test_caddy_accepts_the_configuration(tmp_path):
-    (tmp_path / "Caddyfile").write_text(caddy_conf([8501, 8502], listen=8080))
+    (tmp_path / "Caddyfile").write_text(proxy_conf("caddy", [8501, 8502], listen=8080))
     r = subprocess.run(["caddy", "validate", "--config", str(tmp_path / "Caddyfile"), "--adapter",
                         "caddyfile"], capture_output=True, text=True, timeout=60,
                        env=dict(os.environ, HOME=str(tmp_path), XDG_DATA_HOME=str(tmp_path),
                                 XDG_CONFIG_HOME=str(tmp_path)))
     assert r.returncode == 0, r.stderr + r.stdout
-
-
-@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL], ids=["SIGTERM", "SIGKILL"])
-def test_workers_stop_with_the_supervisor(make_study, tmp_path, sig):
-    """A signal to the `annotate serve` process alone (SIGKILL included) stops every worker."""
-    root = make_study(n_training=1).root
-    first = _free_ports(2)
-    proc = _start_workers(root, first, 2, tmp_path / "stdout.txt")
-    try:
-        assert len(_group_members(proc.pid)) >= 3
-        os.kill(proc.pid, sig)
-        proc.wait(timeout=30)
-        deadline = time.time() + 30
-        while _listening(first) or _listening(first + 1) or _group_members(proc.pid):
-            assert time.time() < deadline, "a worker outlived `annotate serve --workers`"
-            time.sleep(0.2)
-    finally:
-        if _group_members(proc.pid):
-            os.killpg(proc.pid, signal.SIGKILL)
 
 
 def test_workers_past_the_last_port_are_refused(make_study):
