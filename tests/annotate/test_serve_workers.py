@@ -249,3 +249,14 @@ def test_workers_past_the_last_port_are_refused(make_study):
                         "--port", "65535", "--workers", "2"], capture_output=True, text=True, timeout=60)
     lines = r.stderr.strip().splitlines()
     assert r.returncode == 2 and len(lines) == 1 and "--workers" in lines[0], r.stderr
+
+
+def test_one_worker_ending_stops_the_others_and_gives_its_status():
+    """supervise returns the first worker's exit status once it has stopped the rest."""
+    from annotate.workers import supervise
+
+    sleeper = [sys.executable, "-c", "import time; time.sleep(120)"]
+    failing = [sys.executable, "-c", "import sys, time; time.sleep(0.5); sys.exit(3)"]
+    t0 = time.time()
+    assert supervise([sleeper, failing], env=dict(os.environ), poll_s=0.05) == 3
+    assert time.time() - t0 < 60  # the sleeper was stopped, not waited for
