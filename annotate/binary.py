@@ -7,10 +7,14 @@ or bad (0). :class:`BinaryDesign` is the default design of ``annotate build``
 - choose: tracks spread over strata, frames along each track, every chosen view
   (:func:`annotate.design.select_test_pairs`) give the test items; training items come from
   other pairs (:func:`annotate.design.pick_training`); hidden gold items alternate
-  ``gold-good:<pair_id>`` (the GT crop twice, must be rated good) and ``gold-bad:<pair_id>``
-  (a severely broken copy of the GT crop, :func:`annotate.crops.broken_render`, must be rated
-  bad); repeats repeat test items (key ``repeat:<pair_id>``, item id the test item's);
-- cut: the GT and render crops of every item on one square (:func:`annotate.crops.pad_pair`).
+  ``gold-good:<pair_id>`` (the GT crop against a copy of the GT image, must be rated good)
+  and ``gold-bad:<pair_id>`` (against a severely broken copy,
+  :func:`annotate.crops.broken_render`, must be rated bad); repeats repeat test items (key
+  ``repeat:<pair_id>``, item id the test item's);
+- cut: the GT and render crops of every item on one square (:func:`annotate.crops.pad_pair`),
+  written by :class:`annotate.crops.CropWriter` (dithered, no two alike; a gold copy and a
+  repeat cut with their boxes moved by :func:`annotate.crops.draw_shift`, a gold copy's file
+  size matched to a real render's).
 
 Items of a multi-method pairs table carry the ``method`` of their render.
 """
@@ -84,8 +88,8 @@ class BinaryDesign:
 
     def cut_crops(self, choice: Choice, folder: Path, *, ids: list[str], rng: np.random.Generator,
                   image, opts: StudyOptions, where: str, progress: bool) -> pd.DataFrame:
-        """The GT crop and the render (gold: the GT crop, or its broken copy drawn from
-        ``rng``) of every item on one square (:meth:`annotate.design.Design.cut_crops`); the
+        """The GT crop and the render (gold: a copy of the GT image, or its broken copy drawn
+        from ``rng``; module docstring) of every item on one square (:meth:`annotate.design.Design.cut_crops`); the
         items table has ``ref_file, ren_file`` and the pairs row's metadata, view, method and
         attribute columns."""
         (folder / "crops").mkdir()

@@ -13,7 +13,7 @@ methods A and B of one object view; A is the earlier of the two in the study's m
   design chooses pairs (tracks spread over strata, frames along each track, every view;
   :func:`annotate.design.select_test_pairs`) and each gives one test item per pair of
   methods. Training items come from other object views (pairs of methods in turn); hidden
-  gold items show the GT crop itself as A (``method_a = gt``; the right answer is ``a``)
+  gold items show a copy of the GT image as A (``method_a = gt``; the right answer is ``a``)
   against one method's render of an object view away from the real camera (``view !=
   none`` when there is one); repeats repeat test items (shown with the sides swapped:
   :func:`annotate.assign.pairwise_sides`). Its crops: the three display crops of every item

@@ -19,8 +19,11 @@ when, with N items of which K are gold, the K gold items' scores are stochastica
 smaller than the real items' (two-sided Mann-Whitney U test, SciPy, p < 0.01), or, for a
 yes/no detector flagging n items of which k are gold, when the hypergeometric upper tail
 P(X >= k; N, K, n) (SciPy) is below 0.01. The byte detectors must flag nothing at all.
-On the code before the change the identical, hash and pixel detectors found every gold-good
-item and every repeat (p of order 1e-9), and the size ratio every gold-bad item.
+On the code before the change (toy study below, 80 binary / 224 pairwise items, 6 gold, 6
+repeats) 93 (binary) and 518 (pairwise) crops repeated another's bytes; the identical
+detector flagged exactly the gold-good items (binary p = 2.4e-4, pairwise p = 6e-12); a crop
+hash seen before flagged 11 binary items holding all 6 repeats (p = 1e-6); every gold-bad
+render's file was 4.6-6.9x its reference (PNG), above every real item's 1.8-3.0x.
 """
 
 from __future__ import annotations
