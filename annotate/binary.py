@@ -92,10 +92,9 @@ class BinaryDesign:
         from ``rng``; module docstring) of every item on one square (:meth:`annotate.design.Design.cut_crops`); the
         items table has ``ref_file, ren_file`` and the pairs row's metadata, view, method and
         attribute columns."""
-        (folder / "crops").mkdir()
         fmt, size = opts.image_format, int(opts.size)
-        attrs = attribute_columns(choice.pairs.drop(columns=["_root", "_row"]))
         writer = _crops.CropWriter(folder / "crops", fmt=fmt, rng=rng)
+        attrs = attribute_columns(choice.pairs.drop(columns=["_root", "_row"]))
         items = []
         for k, row in enumerate(tqdm(choice.rows, desc="cutting crops", unit="item", disable=not progress)):
             r, kind, expected = row["ref"], row["kind"], row["expected"]

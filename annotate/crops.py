@@ -170,7 +170,8 @@ def soften(crop: np.ndarray, sigma_display: float, *, side: int, size: int) -> n
 
 
 class CropWriter:
-    """Writes the display crops of a study into ``folder`` as ``fmt`` (module docstring).
+    """Writes the display crops of a study into the new ``folder`` as ``fmt`` (module
+    docstring).
 
     Every crop is :func:`dither`-ed with ``rng`` (the study's generator, so a rebuild with
     the same seed writes the same bytes), encoded (JPEG: with a quality drawn from
@@ -182,6 +183,7 @@ class CropWriter:
 
     def __init__(self, folder: Path, *, fmt: str, rng: np.random.Generator):
         self.folder, self.fmt, self.rng = Path(folder), fmt, rng
+        self.folder.mkdir()
         self.seen: set[bytes] = set()
         self.ratios: list[float] = []
 

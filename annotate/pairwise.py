@@ -172,10 +172,9 @@ class PairwiseDesign:
         :func:`annotate.crops.draw_shift`, its file size matched to a real render's; a
         repeat: every box moved so); the items table has ``ref_file, a_file, b_file``, the
         methods and their pair ids."""
-        (folder / "crops").mkdir()
         fmt, size = opts.image_format, int(opts.size)
-        attrs = attribute_columns(choice.pairs.drop(columns=["_root", "_row"]))
         writer = _crops.CropWriter(folder / "crops", fmt=fmt, rng=rng)
+        attrs = attribute_columns(choice.pairs.drop(columns=["_root", "_row"]))
         items = []
         for k, r in enumerate(tqdm(choice.rows, desc="cutting crops", unit="item", disable=not progress)):
             ref, kind = r["ref"], r["kind"]
