@@ -93,7 +93,9 @@ class BinaryDesign:
         items table has ``ref_file, ren_file`` and the pairs row's metadata, view, method and
         attribute columns."""
         fmt, size = opts.image_format, int(opts.size)
-        writer = _crops.CropWriter(folder / "crops", fmt=fmt, rng=rng)
+        golds = [row["expected"] for row in choice.rows if row["kind"] == "gold"]
+        writer = _crops.CropWriter(folder / "crops", fmt=fmt, rng=rng,
+                                   groups={"good": golds.count(1), "bad": golds.count(0)})
         attrs = attribute_columns(choice.pairs.drop(columns=["_root", "_row"]))
         items = []
         for k, row in enumerate(tqdm(choice.rows, desc="cutting crops", unit="item", disable=not progress)):

@@ -117,17 +117,19 @@ def write_image(path: Path, img: np.ndarray, *, fmt: str, quality: int = 95) -> 
 
 
 def dither(img: np.ndarray, *, rng: np.random.Generator, share: float = DITHER_SHARE) -> np.ndarray:
-    """A copy of ``img`` (uint8, any shape) with a random ``share`` of its values moved one
-    grey level up or down (clipped to 0..255): invisible, but no two dithered copies of one
-    image are alike.
+    """A copy of ``img`` (uint8, any shape) with a random ``share`` (in steps of 1/128) of its
+    values moved one grey level up or down (clipped to 0..255): invisible, but no two dithered
+    copies of one image are alike.
 
     >>> img = np.full((32, 32, 3), 100, np.uint8)
     >>> d = dither(img, rng=np.random.default_rng(0))
     >>> int(np.abs(d.astype(int) - img).max()), 0.03 < float(np.mean(d != img)) < 0.1
     (1, True)
     """
-    step = (rng.integers(0, 2, size=img.shape, dtype=np.int16) * 2 - 1) * (rng.random(img.shape) < share)
-    return np.clip(img.astype(np.int16) + step, 0, 255).astype(np.uint8)
+    n = np.uint8(round(share * 128))  # one random byte per value: < n down, n..2n-1 up
+    r = np.frombuffer(rng.bytes(img.size), np.uint8).reshape(img.shape)
+    up, down = ((r - n) < n).view(np.uint8), (r < n).view(np.uint8)
+    return cv2.subtract(cv2.add(img, up), down)  # saturating: 0 and 255 stay in range
 
 
 def draw_shift(rng: np.random.Generator, box) -> tuple[int, int]:
@@ -178,14 +180,20 @@ class CropWriter:
     :data:`JPEG_QUALITIES`) and written only if no crop of the study has the same bytes
     (else dithered again). :meth:`note_real` records the render/reference file size ratio of
     a real item; :meth:`matched` picks a gold item's made-up crop (and JPEG quality) whose
-    file is as large as one of those ratios says.
+    file is as large as one of those ratios says. ``groups`` (``{name: count}``, e.g. the
+    number of good and of bad gold items) spreads the ratios of each group's items over the
+    real ones: the i-th item of a group of n takes a ratio at a random quantile within one
+    of n equal strata, each stratum once, in a random order (Latin hypercube sampling), so a
+    handful of gold items follows the real items' size distribution closely.
     """
 
-    def __init__(self, folder: Path, *, fmt: str, rng: np.random.Generator):
+    def __init__(self, folder: Path, *, fmt: str, rng: np.random.Generator,
+                 groups: dict[str, int] | None = None):
         self.folder, self.fmt, self.rng = Path(folder), fmt, rng
         self.folder.mkdir()
         self.seen: set[bytes] = set()
         self.ratios: list[float] = []
+        self.strata = {g: (n, rng.permutation(n).tolist()) for g, n in (groups or {}).items() if n}
 
     def write(self, name: str, img: np.ndarray, *, quality: int | None = None) -> int:
         """Write ``img`` (BGR uint8) dithered as ``folder/name`` (JPEG: with ``quality``, else
@@ -204,16 +212,27 @@ class CropWriter:
         """Record a real item's render/reference file size ratio."""
         self.ratios.append(ren_bytes / ref_bytes)
 
+    def target_ratio(self, group: str | None = None) -> float:
+        """A render/reference size ratio drawn from the real items noted so far (1 before
+        any): at a quantile within the next stratum of ``group`` (class docstring), or at a
+        uniform random quantile."""
+        u = float(self.rng.random())
+        if group in self.strata and self.strata[group][1]:
+            n, order = self.strata[group]
+            u = (order.pop() + u) / n
+        return float(np.quantile(self.ratios, u)) if self.ratios else 1.0
+
     def matched(self, make: Callable[[float], np.ndarray], ref_bytes: int, *, lo: float,
-                hi: float, steps: int = 12) -> tuple[np.ndarray, int]:
-        """``(make(p), quality)`` for the ``p`` in ``[lo, hi]`` and JPEG quality (of
-        :data:`JPEG_QUALITIES`) whose dithered file is nearest to ``ref_bytes`` times a ratio
-        drawn from the real items noted so far (1 before any), by bisection on ``p`` (the
-        file size must change monotonically with it); pass the quality on to :meth:`write`."""
-        ratio = self.ratios[int(self.rng.integers(len(self.ratios)))] if self.ratios else 1.0
-        target, seed = ratio * ref_bytes, int(self.rng.integers(2**63))
+                hi: float, group: str | None = None, steps: int = 8) -> tuple[np.ndarray, int]:
+        """``(make(p), quality)`` for the ``p`` in ``[lo, hi]`` whose dithered file is nearest
+        to ``ref_bytes`` times :meth:`target_ratio` (of ``group``), by bisection on ``p`` (the
+        file size must change monotonically with it); JPEG: at a quality drawn from
+        :data:`JPEG_QUALITIES` as for any crop, or, when that misses the size by more than 2%,
+        at the quality that meets it best. Pass the quality on to :meth:`write`."""
+        target, seed = self.target_ratio(group) * ref_bytes, int(self.rng.integers(2**63))
         best = None
-        for q in JPEG_QUALITIES if self.fmt == "jpg" else (95,):
+        first = int(self.rng.integers(len(JPEG_QUALITIES)))  # as drawn for a real crop ...
+        for q in (JPEG_QUALITIES[first:] + JPEG_QUALITIES[:first]) if self.fmt == "jpg" else (95,):
             def size(p: float, q=q) -> int:
                 img = dither(make(p), rng=np.random.default_rng(seed))
                 return len(encode(img, fmt=self.fmt, quality=q))
@@ -222,6 +241,8 @@ class CropWriter:
             miss = abs(size(p) - target)
             if best is None or miss < best[0]:
                 best = (miss, p, q)
+            if miss <= 0.02 * target:  # ... unless another quality meets the size better
+                break
         return make(best[1]), best[2]
 
 
@@ -230,8 +251,8 @@ class CropWriter:
         """The display crop ``j`` of ``crops`` (camera crops (h_i, w_i, 3) shown on one square,
         :func:`pad_group`; ``crops[j]`` a copy cut from the GT image) for a gold item, and its
         JPEG quality (:meth:`matched` against the reference's ``ref_bytes``): blurred by at
-        most :data:`MAX_GOLD_BLUR` display pixels, or with ``broken_seed``
-        :func:`broken_render`-ed with noise up to :data:`MAX_BAD_NOISE`."""
+        most :data:`MAX_GOLD_BLUR` display pixels (group ``'good'``), or with ``broken_seed``
+        :func:`broken_render`-ed with noise up to :data:`MAX_BAD_NOISE` (group ``'bad'``)."""
         side = max(max(c.shape[:2]) for c in crops)
 
         def make(p: float) -> np.ndarray:
@@ -240,8 +261,9 @@ class CropWriter:
                         broken_render(crops[j], rng=np.random.default_rng(broken_seed), noise=p))
             return pad_group(shown, size=size)[j]
 
-        hi = MAX_GOLD_BLUR if broken_seed is None else MAX_BAD_NOISE
-        return self.matched(make, ref_bytes, lo=0.0, hi=hi)
+        if broken_seed is None:
+            return self.matched(make, ref_bytes, lo=0.0, hi=MAX_GOLD_BLUR, group="good")
+        return self.matched(make, ref_bytes, lo=0.0, hi=MAX_BAD_NOISE, group="bad")
 
 
 def _bisect(size: Callable[[float], int], target: float, lo: float, hi: float, steps: int) -> float:

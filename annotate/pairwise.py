@@ -173,7 +173,8 @@ class PairwiseDesign:
         repeat: every box moved so); the items table has ``ref_file, a_file, b_file``, the
         methods and their pair ids."""
         fmt, size = opts.image_format, int(opts.size)
-        writer = _crops.CropWriter(folder / "crops", fmt=fmt, rng=rng)
+        writer = _crops.CropWriter(folder / "crops", fmt=fmt, rng=rng,
+                                   groups={"good": sum(r["kind"] == "gold" for r in choice.rows)})
         attrs = attribute_columns(choice.pairs.drop(columns=["_root", "_row"]))
         items = []
         for k, r in enumerate(tqdm(choice.rows, desc="cutting crops", unit="item", disable=not progress)):

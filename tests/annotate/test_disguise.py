@@ -131,6 +131,20 @@ def test_size_ratio_does_not_find_gold(built):
     if design == "binary":
         bad = scored["item_id"].str.startswith("gold-bad:").to_numpy()
         assert _mwu_p(ratio[~(gold & ~bad)], bad[~(gold & ~bad)]) > ALPHA
+    if s.manifest["image_format"] == "jpg":  # the quantisation tables in the JPEG header
+        q = np.array([_dqt_sum(served[k][1]) for k in scored.index])
+        assert _mwu_p(q, gold) > ALPHA, (q[gold], np.unique(q[~gold], return_counts=True))
+
+
+def _dqt_sum(data: bytes) -> int:
+    """The sum of a JPEG's quantisation table entries (lower: a higher quality)."""
+    i, total = 2, 0
+    while data[i] == 0xFF and data[i + 1] != 0xDA:
+        n = int.from_bytes(data[i + 2:i + 4], "big")
+        if data[i + 1] == 0xDB:
+            total += sum(data[i + 4:i + 2 + n])  # 8-bit tables: id byte + 64 entries each
+        i += 2 + n
+    return total
 
 
 def test_decoded_pixels_do_not_find_gold_or_repeats(built):
