@@ -50,7 +50,7 @@ DITHER_SHARE = 1 / 16
 #: largest move of a gold copy's or a repeat's box, as a share of the box's longer side
 MAX_SHIFT = 0.08
 #: largest Gaussian blur (sigma, display pixels) of a gold copy when matching a file size
-MAX_GOLD_BLUR = 1.0
+MAX_GOLD_BLUR = 1.5
 #: largest noise (sigma, grey levels) of a broken render when matching a file size
 MAX_BAD_NOISE = 80.0
 
@@ -84,20 +84,20 @@ def pad_group(crops, *, size: int) -> list[np.ndarray]:
 def broken_render(crop: np.ndarray, *, rng: np.random.Generator, noise: float = 40.0) -> np.ndarray:
     """A severely broken copy of ``crop`` (h, w, 3) uint8 for a gold "bad" item.
 
-    Heavy Gaussian blur (sigma = 15% of the longer side), Gaussian noise (sigma ``noise``
-    grey levels; :meth:`CropWriter.matched` chooses it to match a real render's file size)
-    and three black holes of a quarter of the side each.
+    Three black holes of a quarter of the side each, then a heavy Gaussian blur (sigma = 15%
+    of the longer side: the holes become dark smears) and Gaussian noise (sigma ``noise`` grey
+    levels; :meth:`CropWriter.matched` chooses it to match a real render's file size).
     """
     h, w = crop.shape[:2]
-    sigma = max(2.0, 0.15 * max(h, w))
-    out = cv2.GaussianBlur(crop, (0, 0), sigmaX=sigma, sigmaY=sigma).astype(np.float32)
-    out += rng.normal(0.0, 1.0, size=out.shape).astype(np.float32) * np.float32(noise)
-    out = np.clip(out, 0, 255).astype(np.uint8)
+    out = crop.copy()
     hh, hw = max(1, h // 4), max(1, w // 4)
     for _ in range(3):
         y, x = int(rng.integers(0, h - hh + 1)), int(rng.integers(0, w - hw + 1))
         out[y:y + hh, x:x + hw] = 0
-    return out
+    sigma = max(2.0, 0.15 * max(h, w))
+    out = cv2.GaussianBlur(out, (0, 0), sigmaX=sigma, sigmaY=sigma).astype(np.float32)
+    out += rng.normal(0.0, 1.0, size=out.shape).astype(np.float32) * np.float32(noise)
+    return np.clip(out, 0, 255).astype(np.uint8)
 
 
 def encode(img: np.ndarray, *, fmt: str, quality: int = 95) -> bytes:
@@ -227,7 +227,7 @@ class CropWriter:
         """``(make(p), quality)`` for the ``p`` in ``[lo, hi]`` whose dithered file is nearest
         to ``ref_bytes`` times :meth:`target_ratio` (of ``group``), by bisection on ``p`` (the
         file size must change monotonically with it); JPEG: at a quality drawn from
-        :data:`JPEG_QUALITIES` as for any crop, or, when that misses the size by more than 2%,
+        :data:`JPEG_QUALITIES` as for any crop, or, when that misses the size by more than 5%,
         at the quality that meets it best. Pass the quality on to :meth:`write`."""
         target, seed = self.target_ratio(group) * ref_bytes, int(self.rng.integers(2**63))
         best = None
@@ -241,7 +241,7 @@ class CropWriter:
             miss = abs(size(p) - target)
             if best is None or miss < best[0]:
                 best = (miss, p, q)
-            if miss <= 0.02 * target:  # ... unless another quality meets the size better
+            if miss <= 0.05 * target:  # ... unless another quality meets the size better
                 break
         return make(best[1]), best[2]
 

@@ -78,12 +78,12 @@ def make_toy(root: Path, *, n_tracks: int = 4, n_frames: int = 6, seed: int = 0,
 def copy_gap(gt_image: np.ndarray, box, shown: np.ndarray, *, side: int, size: int, max_shift: int) -> float:
     """How far a gold item's copy ``shown`` (size, size, 3) is from the GT image cut at the
     inclusive ``box`` moved by at most ``max_shift`` pixels each way: the smallest mean
-    absolute difference (grey levels) over those moves, both sides blurred by 1.5 display
-    pixels (a copy may be blurred by up to 1). Made independently of annotate.crops: cut,
+    absolute difference (grey levels) over those moves, both sides blurred by 2 display
+    pixels (a copy may be blurred by up to 1.5, annotate.crops.MAX_GOLD_BLUR). Made independently of annotate.crops: cut,
     centre on a black square of ``side``, resize bicubic (enlarging) or area (shrinking)."""
     h, w = gt_image.shape[:2]
     x0, y0, x1, y1 = (int(v) for v in box)
-    blur = lambda im: cv2.GaussianBlur(im.astype(np.float32), (0, 0), 1.5)  # noqa: E731
+    blur = lambda im: cv2.GaussianBlur(im.astype(np.float32), (0, 0), 2.0)  # noqa: E731
     target, best = blur(shown), np.inf
     for dx in range(-max_shift, max_shift + 1):
         for dy in range(-max_shift, max_shift + 1):
