@@ -5,7 +5,8 @@ seconds (no reload): per rater the progress, the agreement with the others so fa
 screening flags as they form (:mod:`annotate.screening`, the rule ``analyze --screen``
 applies), the GVF histogram, Krippendorff's alpha, gold failures and a ``ratings.csv``
 download; for a pairwise study, per rater the answers, side bias, gold failures and repeat
-agreement (:func:`annotate.results.pairwise_raters`) and a ``votes.csv`` download. Widget keys (for tests): ``download_ratings``; element keys ``admin_raters``.
+agreement (:func:`annotate.results.pairwise_raters`) and a ``votes.csv`` download; both
+raters tables add the votes each rater undid and the presses dropped as too fast. Widget keys (for tests): ``download_ratings``; element keys ``admin_raters``.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from annotate.results import (
     ratings_table,
 )
 
-__all__ = ["REFRESH_S", "admin_page", "live_raters"]
+__all__ = ["REFRESH_S", "admin_page", "live_raters", "with_actions"]
 
 #: Seconds between two refreshes of the admin page.
 REFRESH_S = 3.0
@@ -43,6 +44,16 @@ def live_raters(study, ratings: pd.DataFrame) -> pd.DataFrame:
         return prog.assign(flags="")
     r = screening.screen(screening.rater_table(ratings), use_rule=False)
     return prog.merge(r[_LIVE_COLS], on="rater_id", how="left").fillna({"flags": ""})
+
+
+def with_actions(study, raters: pd.DataFrame) -> pd.DataFrame:
+    """``raters`` (a ``rater_id`` column) with ``votes_undone`` and ``too_fast`` (presses
+    dropped as too fast) per rater, counted in the store's history (0 for none)."""
+    acts = study.store.action_counts().rename(columns={"rater": "rater_id"})
+    out = raters.merge(acts, on="rater_id", how="left")
+    cols = ["votes_undone", "too_fast"]
+    out[cols] = out[cols].fillna(0).astype(int)
+    return out
 
 
 def _gvf_chart(ratings: pd.DataFrame) -> None:
@@ -60,7 +71,8 @@ def _live_pairwise(study) -> None:
     st.caption(f"Live: refreshes every {REFRESH_S:g} s; last update "
                f"{time.strftime('%H:%M:%S')}, {len(votes)} votes.")
     st.subheader("Raters: progress, answers, side bias, gold, repeats")
-    st.dataframe(pairwise_raters(votes, study.store.raters()), hide_index=True, key="admin_raters")
+    st.dataframe(with_actions(study, pairwise_raters(votes, study.store.raters())), hide_index=True,
+                 key="admin_raters")
     st.subheader("Gold failures (the GT crop itself not chosen)")
     gold = votes[(votes["kind"] == "gold") & (votes["choice"] != "a")]
     st.dataframe(gold[["rater_id", "item_id", "choice"]], hide_index=True)
@@ -76,7 +88,8 @@ def _live_body(study) -> None:
     st.caption(f"Live: refreshes every {REFRESH_S:g} s; last update "
                f"{time.strftime('%H:%M:%S')}, {len(ratings)} votes.")
     st.subheader("Raters: progress, agreement so far, flags")
-    st.dataframe(live_raters(study, ratings), hide_index=True, key="admin_raters")
+    st.dataframe(with_actions(study, live_raters(study, ratings)), hide_index=True,
+                 key="admin_raters")
     _gvf_chart(ratings)
     alpha, note = nominal_alpha(ratings)
     st.metric("Krippendorff's alpha (nominal)", "undefined" if alpha is None else f"{alpha:.3f}",

@@ -2,8 +2,11 @@
 
 Run with ``annotate serve STUDY`` (which sets ``ANNOTATE_STUDY``). Pages:
 
-- sign-in: by name on an open study, ``/?rater=NAME`` directly; ``/?token=TOKEN`` on a
-  token study (tokens compared in constant time, a bad one is refused);
+- sign-in (:mod:`annotate.access`): by name on an open study, ``/?rater=NAME`` directly;
+  ``/?token=TOKEN`` on a token study (tokens compared in constant time, a bad one is
+  refused); on a crowd study an arrival without a token gets a fresh identity (one per
+  participant with the study's participant parameter) and the address becomes
+  ``/?token=TOKEN``, so a reload resumes; a finished crowd rater is shown the completion URL;
 - instructions, then the training items, then the rater's own items: "Reference" left,
   "Rendered" right, drawn as large as the window allows at one scale (shown, e.g. "×3.2";
   :mod:`annotate.layout`), Good (G, blue) / Bad (B, vermillion) / Undo (U) in one row under
@@ -14,11 +17,13 @@ Run with ``annotate serve STUDY`` (which sets ``ANNOTATE_STUDY``). Pages:
   served by content hash, never by file name;
 - ``/?admin=TOKEN``: the live admin page (:mod:`annotate.admin`, refreshes by itself).
 
-Widget keys (for tests): ``name_input``, ``sign_in``, ``start``, ``download_ratings``; the
+Widget keys (for tests): ``name_input``, ``sign_in``, ``start``, ``download_ratings``,
+``completion`` (the completion link of a crowd study); the
 voting buttons are ``vote_good-N``, ``vote_bad-N`` and ``undo-N`` (pairwise: ``vote_left-N``,
 ``vote_tie-N``, ``vote_right-N``, ``undo-N`` and the hidden arrow-key twins
 ``key_twin-left-N``, ``key_twin-right-N``) where ``N`` is an opaque token of the item on
-screen (a new one for every displayed item).
+screen (a new one for every displayed item); ``undo-done`` and ``retry`` when no item is on
+screen.
 
 Robustness rules of the voting panel (a ``st.fragment``: a vote reruns only the panel):
 
@@ -27,7 +32,14 @@ Robustness rules of the voting panel (a ``st.fragment``: a vote reruns only the 
   after the next item was chosen) is dropped; so is a press less than
   ``ANNOTATE_MIN_RESPONSE_MS`` (environment, default 250) after the item was drawn: no one
   judges a new pair that fast, it is the tail of a double press that a busy browser
-  delivered after drawing the next item;
+  delivered after drawing the next item. The rater is told ("too fast") and the history
+  logs it (action ``too_fast``);
+- Undo (U) takes back only this browser session's own votes, the last
+  :data:`annotate.store.UNDO_DEPTH` at most (each session has a random id); a new session
+  of the same rater has nothing to undo;
+- an item on screen is claimed for :data:`annotate.store.CLAIM_LEASE_S` seconds (renewed on
+  every redraw); when the rater's remaining items are all claimed by others, the page says
+  no item is free right now and offers to retry, never "All done";
 - a vote is recorded only while the item is the rater's and unvoted (one transaction), so a
   second tab of the same rater is told the item was already rated elsewhere and moves on;
 - every displayed image has its own URL: the crop's bytes get a comment keyed by the item
@@ -53,8 +65,10 @@ import zlib
 
 import streamlit as st
 
+from annotate.access import CrowdRefused, crowd_arrival
 from annotate.admin import admin_page
 from annotate.layout import page_style, pair_view
+from annotate.store import UNDO_DEPTH
 from annotate.study import Study, StudyChanged, crop_path, load_study
 from data_schema.errors import InputError
 from data_schema.raters import check_rater_name
@@ -99,6 +113,12 @@ MSG_CHANGED = ("This study was changed on the server, so votes cannot be recorde
 MSG_ELSEWHERE = "You already rated this pair in another tab or window. Here is your next one."
 MSG_SKIPPED = "One pair could not be shown and was skipped. Please go on with the next one."
 MSG_UNAVAILABLE = "The study is not available right now. Please try again in a moment."
+MSG_TOO_FAST = ("Too fast: that press came before you could look at the images, so it did not "
+                "count. Please look at the images, then answer.")
+MSG_NO_UNDO = (f"Nothing to undo: Undo takes back only your last {UNDO_DEPTH} answers given "
+               "since this page was opened or reloaded.")
+MSG_NONE_FREE = ("No item is free right now: other raters are working on the ones left for "
+                 "you. Please retry in a minute.")
 _MD_SPECIAL = re.compile(r"([\\`*_{}\[\]()<>#+\-.!|~:/&=])")
 
 
@@ -159,7 +179,7 @@ def signed_in_rater(study: Study) -> str | None:
     if "rater" in st.session_state:
         return st.session_state["rater"]
     qp = st.query_params
-    if study.manifest["access"] == "token":
+    if study.manifest["access"] in ("token", "crowd"):
         token = qp.get("token")
         if token:
             rater = study.store.rater_for_token(token)
@@ -168,6 +188,8 @@ def signed_in_rater(study: Study) -> str | None:
                 return None
             _sign_in(study, rater)
             return rater
+        if study.manifest["access"] == "crowd":
+            return _crowd_sign_in(study)
     elif qp.get("rater"):
         try:
             name = check_rater_name(qp["rater"])
@@ -177,6 +199,22 @@ def signed_in_rater(study: Study) -> str | None:
         _sign_in(study, name)
         return name
     return None
+
+
+def _crowd_sign_in(study: Study) -> str | None:
+    """A crowd arrival: its identity, the address rewritten to carry it (a reload resumes)."""
+    try:
+        rater, token = crowd_arrival(study, st.query_params.to_dict())
+    except CrowdRefused as why:
+        st.session_state["crowd_refused"] = str(why)
+        return None
+    except (sqlite3.Error, OSError):
+        log.exception("annotate app: a crowd arrival could not be registered")
+        st.session_state["crowd_refused"] = MSG_UNAVAILABLE
+        return None
+    st.query_params.from_dict({"token": token})
+    _sign_in(study, rater)
+    return rater
 
 
 def _on_sign_in(study: Study) -> None:
@@ -192,7 +230,10 @@ def _on_sign_in(study: Study) -> None:
 
 def sign_in_page(study: Study) -> None:
     st.title("Image quality study")
-    if study.manifest["access"] == "token":
+    if "crowd_refused" in st.session_state:
+        st.info(st.session_state.pop("crowd_refused"))
+        return
+    if study.manifest["access"] != "open":
         if not st.query_params.get("token"):
             st.info("Please open the personal link you received to take part.")
         return
@@ -205,6 +246,11 @@ def sign_in_page(study: Study) -> None:
 def _shown() -> tuple:
     """(item key, shown at, token) of the item on screen, or Nones."""
     return st.session_state.get("shown", (None, None, None))
+
+
+def _session_id() -> str:
+    """This browser session's random id (logged with its votes; Undo reaches only these)."""
+    return st.session_state.setdefault("session_id", secrets.token_hex(8))
 
 
 def _min_response_ms() -> int:
@@ -223,9 +269,14 @@ def _on_vote(study: Study, rater: str, key: str, token: str, vote: int) -> None:
     rt = int(round((time.time() - shown_at) * 1000))
     if rt < _min_response_ms():  # drawn a moment ago: the rater has not seen it yet
         log.info("annotate app: press %d ms after drawing dropped (rater %s)", rt, rater)
+        _on_current_study(study, lambda: study.store.record_too_fast(
+            rater, key, vote, response_ms=rt, session=_session_id()),
+            refused="too-fast log", doing="logging a too-fast press")
+        st.session_state.setdefault("notice", ("warning", MSG_TOO_FAST))
         return
     ok, status = _on_current_study(
-        study, lambda: study.store.record_shown_vote(rater, key, vote, response_ms=rt),
+        study, lambda: study.store.record_shown_vote(rater, key, vote, response_ms=rt,
+                                                     session=_session_id()),
         refused="vote", doing="recording a vote",
     )
     if not ok:
@@ -238,11 +289,13 @@ def _on_vote(study: Study, rater: str, key: str, token: str, vote: int) -> None:
 def _on_undo(study: Study, rater: str, token: str) -> None:
     if token != _shown()[2]:
         return
-    ok, _ = _on_current_study(
-        study, lambda: study.store.undo_last(rater), refused="undo", doing="undoing a vote"
-    )
+    ok, item = _on_current_study(
+        study, lambda: study.store.undo_last(rater, session=_session_id()), refused="undo",
+        doing="undoing a vote")
     if ok:
         st.session_state["shown"] = (None, None, None)
+        if item is None:
+            st.session_state["notice"] = ("info", MSG_NO_UNDO)
 
 
 def _on_current_study(study: Study, action, *, refused: str, doing: str) -> tuple[bool, object]:
@@ -265,6 +318,8 @@ def _show_notice() -> None:
     kind, text = st.session_state.pop("notice", (None, None))
     if kind == "error":
         st.error(text)
+    elif kind == "warning":
+        st.warning(text)
     elif kind == "info":
         st.info(text)
 
@@ -338,10 +393,7 @@ def voting_panel(study: Study, rater: str) -> None:
     _show_notice()
     page_style()
     if key is None:
-        st.success(f"All done, thank you, {plain(rater)}! ({prog['done']} / {prog['total']})")
-        token = st.session_state["shown"] = (None, None, "done")
-        st.button("Undo last vote (U)", key="undo-done", shortcut="u", on_click=_on_undo,
-                  args=(study, rater, token[2]))
+        _no_item(study, rater, prog)
         return
     _progress_bar(study, study.items.at[key, "kind"], prog)
     if _shown()[0] != key:
@@ -361,6 +413,27 @@ def voting_panel(study: Study, rater: str) -> None:
                   on_click=_on_vote, args=(study, rater, key, token, 0))
         st.button("Undo (U)", key=f"undo-{token}", shortcut="u", on_click=_on_undo,
                   args=(study, rater, token))
+
+
+def _no_item(study: Study, rater: str, prog: dict) -> None:
+    """Nothing to show: "All done", or, while others' claims hold the rater's remaining
+    items, "no item is free right now" with a retry button."""
+    try:
+        waiting = study.waiting(rater)
+    except (sqlite3.Error, OSError) as err:
+        _panel_unavailable(err)
+        return
+    if waiting:
+        st.info(MSG_NONE_FREE)
+        st.button("Retry", key="retry")
+    else:
+        st.success(f"All done, thank you, {plain(rater)}! ({prog['done']} / {prog['total']})")
+        if study.manifest.get("completion_url"):
+            st.link_button("Finish and return to the panel", study.manifest["completion_url"],
+                           type="primary", key="completion")
+    token = st.session_state["shown"] = (None, None, "done")
+    st.button("Undo last vote (U)", key="undo-done", shortcut="u", on_click=_on_undo,
+              args=(study, rater, token[2]))
 
 
 def _pairwise_buttons(study: Study, rater: str, key: str, token: str) -> None:

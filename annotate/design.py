@@ -265,8 +265,8 @@ class StudyOptions:
     ``methods``: the comma list of methods a pairwise study compares (None: every method of
     the pairs table); ``metrics_paths``: the metrics tables joined on ``pair_id``. The rest are
     the counts of the design (tracks, frames per track, training, gold and repeat items),
-    votes per item, the seed, the display size and format, the access mode, the break
-    interval and the design's name.
+    votes per item, the seed, the display size and format, the access mode (and a crowd
+    study's participant parameter and completion URL), the break interval and the design's name.
     """
 
     tracks: int
@@ -285,6 +285,8 @@ class StudyOptions:
     methods: str | None
     scene: str | None
     metrics_paths: tuple
+    participant_param: str | None = None
+    completion_url: str | None = None
 
 
 @dataclass(frozen=True)

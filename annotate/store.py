@@ -3,11 +3,17 @@
 Every vote is committed at once (WAL journal, ``synchronous=FULL``, a busy timeout, a new
 connection per operation) so a vote the app has acknowledged survives a killed server.
 ``votes`` holds one row per ``(study, rater, item)`` (a changed vote replaces the old one);
-``history`` is append-only and records every vote and undo with its time.
+``history`` is append-only and records every vote, undo and too-fast press with its time and
+the browser session it came from.
 
 The store also hands out items: :meth:`Store.next_item` returns the rater's next unrated
 item, assigning a new one (see :func:`annotate.assign.choose_next`) inside one
-``BEGIN IMMEDIATE`` transaction so two raters never race for the last slot of an item.
+``BEGIN IMMEDIATE`` transaction so two raters never race for the last slot of an item. An
+assigned item without a vote is a *claim* that holds one of the item's ``votes_per_item``
+slots for :data:`CLAIM_LEASE_S` seconds after it was last handed out, then frees it.
+
+Undo is bounded (:meth:`Store.undo_last`): a browser session can take back only its own
+:data:`UNDO_DEPTH` most recent votes, never a vote of an earlier session of the same rater.
 
 >>> import tempfile, pathlib
 >>> s = Store(pathlib.Path(tempfile.mkdtemp()) / "votes.sqlite", "demo")
@@ -35,7 +41,14 @@ import pandas as pd
 
 from data_schema.errors import InputError
 
-__all__ = ["Store", "utc_now_iso", "token_digest"]
+__all__ = ["Store", "utc_now_iso", "token_digest", "UNDO_DEPTH", "CLAIM_LEASE_S", "SCHEMA_VERSION"]
+
+#: How many of its own most recent votes a browser session can undo.
+UNDO_DEPTH = 3
+#: Seconds an item handed out but not voted on holds its slot (renewed each time it is shown).
+CLAIM_LEASE_S = 120.0
+#: ``PRAGMA user_version`` of a store file in the current layout (0: before sessions and leases).
+SCHEMA_VERSION = 1
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS raters (
@@ -43,24 +56,39 @@ CREATE TABLE IF NOT EXISTS raters (
     plan TEXT NOT NULL DEFAULT '{}', UNIQUE (study, rater));
 CREATE TABLE IF NOT EXISTS assignments (
     id INTEGER PRIMARY KEY AUTOINCREMENT, study TEXT NOT NULL, rater TEXT NOT NULL,
-    item TEXT NOT NULL, assigned_at REAL NOT NULL, UNIQUE (study, rater, item));
+    item TEXT NOT NULL, assigned_at REAL NOT NULL, active_at REAL, UNIQUE (study, rater, item));
 CREATE TABLE IF NOT EXISTS votes (
     study TEXT NOT NULL, rater TEXT NOT NULL, item TEXT NOT NULL,
     vote INTEGER NOT NULL CHECK (vote IN ({votes})), voted_at TEXT NOT NULL, response_ms INTEGER,
     UNIQUE (study, rater, item));
-CREATE TABLE IF NOT EXISTS history (
-    id INTEGER PRIMARY KEY AUTOINCREMENT, study TEXT NOT NULL, rater TEXT NOT NULL,
-    item TEXT NOT NULL, action TEXT NOT NULL CHECK (action IN ('vote', 'undo')),
-    vote INTEGER, at TEXT NOT NULL, response_ms INTEGER);
-CREATE INDEX IF NOT EXISTS assignments_item ON assignments (study, item);
+{history}CREATE INDEX IF NOT EXISTS assignments_item ON assignments (study, item);
 CREATE TABLE IF NOT EXISTS skipped (
     study TEXT NOT NULL, rater TEXT NOT NULL, item TEXT NOT NULL, at TEXT NOT NULL,
     reason TEXT, UNIQUE (study, rater, item));
+CREATE TABLE IF NOT EXISTS participants (
+    study TEXT NOT NULL, rater TEXT NOT NULL, participant TEXT NOT NULL, arrived_at TEXT NOT NULL,
+    UNIQUE (study, participant));
+"""
+
+# The append-only log ({name}: the migration builds the new layout beside the old one).
+_HISTORY = """
+CREATE TABLE IF NOT EXISTS {name} (
+    id INTEGER PRIMARY KEY AUTOINCREMENT, study TEXT NOT NULL, rater TEXT NOT NULL,
+    item TEXT NOT NULL, action TEXT NOT NULL CHECK (action IN ('vote', 'undo', 'too_fast')),
+    vote INTEGER, at TEXT NOT NULL, response_ms INTEGER, session TEXT);
+"""
+
+# Version 0 -> 1 (sessions and claim leases), in one transaction; each step checks the
+# columns first, so a file made in the new layout only gets the indexes and the version.
+_INDEXES_V1 = """
+CREATE INDEX IF NOT EXISTS history_session ON history (study, rater, session);
+CREATE INDEX IF NOT EXISTS assignments_live ON assignments (study, active_at);
 """
 
 # Per-item counters kept by triggers, so handing out an item reads one row per item instead
 # of every rater's assignments and votes: ``voted`` standing votes, ``claimed`` assignments
-# without a vote, ``last_claim`` the newest assignment time.
+# without a vote, ``last_claim`` the newest assignment time. (Item hand-out reads ``voted``
+# only; live claims come from ``assignments.active_at``, whose lease is per claim.)
 _LOADS = """
 CREATE TABLE item_loads (
     study TEXT NOT NULL, item TEXT NOT NULL, voted INTEGER NOT NULL DEFAULT 0,
@@ -95,6 +123,11 @@ INSERT INTO item_loads (study, item, voted, claimed, last_claim)
 """
 
 
+def _clock() -> float:
+    """Seconds since the epoch for claim leases (one place, so tests can move time on)."""
+    return time.time()
+
+
 def utc_iso(t: datetime) -> str:
     """``t`` (aware) as ISO 8601 in UTC with milliseconds, e.g. ``2026-01-01T12:00:00.123Z``."""
     return t.astimezone(timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%f")[:-3] + "Z"
@@ -122,6 +155,43 @@ def _check_vote(rater: str, item: str, vote, votes: dict[int, str]) -> None:
                          got=repr(vote))
 
 
+def _columns(con: sqlite3.Connection, table: str) -> set[str]:
+    return {row[1] for row in con.execute(f"PRAGMA table_info({table})")}
+
+
+def _migrate(con: sqlite3.Connection) -> None:
+    """Bring a store file to :data:`SCHEMA_VERSION` in one transaction; every row is kept.
+
+    Version 1 adds ``history.session`` and the ``too_fast`` action (SQLite cannot change a
+    CHECK constraint, so the log is copied, ids included, into a table of the new layout)
+    and ``assignments.active_at``, the start of a claim's lease (an unvoted assignment's is
+    its assignment time). Another process migrating at the same time waits, then finds the
+    version set and does nothing.
+    """
+    con.execute("BEGIN IMMEDIATE")
+    try:
+        if con.execute("PRAGMA user_version").fetchone()[0] < 1:
+            if "session" not in _columns(con, "history"):
+                con.execute(_HISTORY.replace("{name}", "history_v1"))
+                con.execute("INSERT INTO history_v1 (id, study, rater, item, action, vote, at, "
+                            "response_ms) SELECT id, study, rater, item, action, vote, at, "
+                            "response_ms FROM history ORDER BY id")
+                con.execute("DROP TABLE history")
+                con.execute("ALTER TABLE history_v1 RENAME TO history")
+            if "active_at" not in _columns(con, "assignments"):
+                con.execute("ALTER TABLE assignments ADD COLUMN active_at REAL")
+                con.execute("UPDATE assignments SET active_at = assigned_at WHERE NOT EXISTS ("
+                            "SELECT 1 FROM votes v WHERE v.study = assignments.study AND "
+                            "v.rater = assignments.rater AND v.item = assignments.item)")
+            for statement in _INDEXES_V1.split(";")[:-1]:  # (executescript would commit)
+                con.execute(statement)
+            con.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
+    except BaseException:
+        con.execute("ROLLBACK")
+        raise
+    con.execute("COMMIT")
+
+
 class Store:
     """Votes, raters and assignments of one study in the SQLite file ``path``."""
 
@@ -140,7 +210,8 @@ class Store:
         self.busy_timeout_ms = int(busy_timeout_ms)
         self.synchronous = synchronous
         with self._connect(create=True) as con:
-            con.executescript(_SCHEMA.replace("{votes}", ", ".join(map(str, sorted(self.votes_allowed)))))
+            con.executescript(_SCHEMA.replace("{votes}", ", ".join(map(str, sorted(self.votes_allowed))))
+                              .replace("{history}", _HISTORY.replace("{name}", "history")))
             if not con.execute("SELECT 1 FROM sqlite_master WHERE name = 'item_loads'").fetchone():
                 try:  # first use of this file: counters, triggers and backfill in one go
                     con.executescript("BEGIN IMMEDIATE;" + _LOADS + "COMMIT;")
@@ -149,6 +220,8 @@ class Store:
                         con.execute("ROLLBACK")
                     if "already exists" not in str(err):
                         raise
+            if con.execute("PRAGMA user_version").fetchone()[0] < SCHEMA_VERSION:
+                _migrate(con)
         # An idle connection held open for the store's lifetime: closing the *last* connection
         # of a WAL database checkpoints it (a sync each time); operations still each open
         # their own connection.
@@ -194,15 +267,17 @@ class Store:
         at = voted_at or utc_now_iso()
         rt = None if response_ms is None else int(response_ms)
         with self._transaction() as con:
-            self._insert_vote(con, rater, item, vote, at, rt)
+            self._insert_vote(con, rater, item, vote, at, rt, None)
 
     def record_shown_vote(self, rater: str, item: str, vote: int, *,
-                          response_ms: int | None = None) -> str:
+                          response_ms: int | None = None, session: str | None = None) -> str:
         """Record the vote of ``rater`` on ``item`` only if the item is theirs and still open.
 
         Returns ``'recorded'``, ``'already'`` (the rater voted on it already, e.g. in another
         tab: the standing vote is kept) or ``'unassigned'`` (not an item handed to the rater).
         The check and the write are one transaction, so two tabs cannot both record.
+        ``session``: the browser session that cast it (logged; :meth:`undo_last` reaches only
+        the votes of its own session).
         """
         _check_vote(rater, item, vote, self.votes_allowed)
         at, rt = utc_now_iso(), None if response_ms is None else int(response_ms)
@@ -213,20 +288,33 @@ class Store:
             if not con.execute("SELECT 1 FROM assignments WHERE study = ? AND rater = ? AND item = ?",
                                (self.study, rater, item)).fetchone():
                 return "unassigned"
-            self._insert_vote(con, rater, item, vote, at, rt)  # no standing vote: a plain insert
+            self._insert_vote(con, rater, item, vote, at, rt, session)  # no standing vote: an insert
         return "recorded"
 
+    def record_too_fast(self, rater: str, item: str, vote: int, *, response_ms: int,
+                        session: str | None = None) -> None:
+        """Log a press that came too soon after ``item`` was drawn (it is not a vote)."""
+        _check_vote(rater, item, vote, self.votes_allowed)
+        with self._transaction(synchronous="NORMAL") as con:
+            con.execute("INSERT INTO history (study, rater, item, action, vote, at, response_ms, "
+                        "session) VALUES (?, ?, ?, 'too_fast', ?, ?, ?, ?)",
+                        (self.study, rater, item, int(vote), utc_now_iso(), int(response_ms), session))
+
     def _insert_vote(self, con: sqlite3.Connection, rater: str, item: str, vote: int, at: str,
-                     rt: int | None) -> None:
-        """Write the vote (replacing a standing one) and its history row, inside ``con``'s transaction."""
+                     rt: int | None, session: str | None) -> None:
+        """Write the vote (replacing a standing one) and its history row, and end the rater's
+        claim on the item, inside ``con``'s transaction."""
         con.execute(
             "INSERT INTO votes (study, rater, item, vote, voted_at, response_ms) "
             "VALUES (?, ?, ?, ?, ?, ?) ON CONFLICT (study, rater, item) DO UPDATE SET "
             "vote = excluded.vote, voted_at = excluded.voted_at, response_ms = excluded.response_ms",
             (self.study, rater, item, int(vote), at, rt))
         con.execute(
-            "INSERT INTO history (study, rater, item, action, vote, at, response_ms) "
-            "VALUES (?, ?, ?, 'vote', ?, ?, ?)", (self.study, rater, item, int(vote), at, rt))
+            "INSERT INTO history (study, rater, item, action, vote, at, response_ms, session) "
+            "VALUES (?, ?, ?, 'vote', ?, ?, ?, ?)", (self.study, rater, item, int(vote), at, rt,
+                                                    session))
+        con.execute("UPDATE assignments SET active_at = NULL WHERE study = ? AND rater = ? AND "
+                    "item = ?", (self.study, rater, item))
 
     def skip(self, rater: str, item: str, *, reason: str) -> None:
         """Take ``item`` out of the rater's queue (it cannot be shown); it is never handed out again."""
@@ -234,20 +322,45 @@ class Store:
             con.execute("INSERT OR IGNORE INTO skipped (study, rater, item, at, reason) VALUES "
                         "(?, ?, ?, ?, ?)", (self.study, rater, item, utc_now_iso(), reason))
 
-    def undo_last(self, rater: str) -> str | None:
-        """Remove the rater's most recent vote that still stands; returns its item (or None)."""
+    def undo_last(self, rater: str, *, session: str, depth: int = UNDO_DEPTH) -> str | None:
+        """Take back the newest vote of ``rater`` that ``session`` cast and that still stands,
+        among the ``depth`` most recent votes of that session; returns its item (or None).
+
+        A vote stands for this session while it is the item's latest vote or undo in the log
+        (not undone, not replaced since). A session that cast no vote undoes nothing, so
+        opening the rater's link again cannot erase earlier work. The undo is logged.
+
+        >>> import tempfile, pathlib
+        >>> s = Store(pathlib.Path(tempfile.mkdtemp()) / "votes.sqlite", "demo")
+        >>> for item in "abcd":
+        ...     _ = s.next_item("ann", lambda *_: item)
+        ...     _ = s.record_shown_vote("ann", item, 1, session="tab1")
+        >>> s.undo_last("ann", session="tab2")  # another session: nothing of tab1's
+        >>> [s.undo_last("ann", session="tab1") for _ in range(4)]  # at most the last 3
+        ['d', 'c', 'b', None]
+        """
+        if not session:
+            raise InputError("undo_last", "session", "the browser session's id", repr(session))
         with self._transaction() as con:
-            row = con.execute(
-                "SELECT h.item FROM history h JOIN votes v ON v.study = h.study AND "
-                "v.rater = h.rater AND v.item = h.item WHERE h.study = ? AND h.rater = ? AND "
-                "h.action = 'vote' ORDER BY h.id DESC LIMIT 1", (self.study, rater)).fetchone()
-            if row is None:
+            item = None
+            for hid, candidate in con.execute(
+                    "SELECT id, item FROM history WHERE study = ? AND rater = ? AND session = ? "
+                    "AND action = 'vote' ORDER BY id DESC LIMIT ?",
+                    (self.study, rater, session, int(depth))).fetchall():
+                latest = con.execute(
+                    "SELECT MAX(id) FROM history WHERE study = ? AND rater = ? AND item = ? AND "
+                    "action IN ('vote', 'undo')", (self.study, rater, candidate)).fetchone()[0]
+                if latest == hid:
+                    item = candidate
+                    break
+            if item is None or not con.execute(
+                    "DELETE FROM votes WHERE study = ? AND rater = ? AND item = ?",
+                    (self.study, rater, item)).rowcount:
                 return None
-            con.execute("DELETE FROM votes WHERE study = ? AND rater = ? AND item = ?",
-                        (self.study, rater, row[0]))
-            con.execute("INSERT INTO history (study, rater, item, action, vote, at) "
-                        "VALUES (?, ?, ?, 'undo', NULL, ?)", (self.study, rater, row[0], utc_now_iso()))
-        return row[0]
+            con.execute("INSERT INTO history (study, rater, item, action, vote, at, session) "
+                        "VALUES (?, ?, ?, 'undo', NULL, ?, ?)",
+                        (self.study, rater, item, utc_now_iso(), session))
+        return item
 
     def votes(self, rater: str | None = None) -> pd.DataFrame:
         """Current votes: columns rater, item, vote, voted_at, response_ms (oldest first)."""
@@ -265,11 +378,22 @@ class Store:
                                    (self.study,)).fetchone()[0])
 
     def history(self) -> pd.DataFrame:
-        """The append-only log: columns id, rater, item, action, vote, at, response_ms."""
+        """The append-only log: columns id, rater, item, action (``'vote'``, ``'undo'`` or
+        ``'too_fast'``, a press that did not count), vote, at, response_ms, session (the
+        browser session; empty for rows written before sessions were logged)."""
         with self._connect() as con:
             return pd.read_sql_query(
-                "SELECT id, rater, item, action, vote, at, response_ms FROM history "
+                "SELECT id, rater, item, action, vote, at, response_ms, session FROM history "
                 "WHERE study = ? ORDER BY id", con, params=(self.study,))
+
+    def action_counts(self) -> pd.DataFrame:
+        """Per rater with any history: columns rater, votes_undone (undo rows) and too_fast
+        (presses dropped as too fast), from the log."""
+        with self._connect() as con:
+            return pd.read_sql_query(
+                "SELECT rater, SUM(action = 'undo') AS votes_undone, SUM(action = 'too_fast') "
+                "AS too_fast FROM history WHERE study = ? GROUP BY rater ORDER BY MIN(id)",
+                con, params=(self.study,))
 
     # ---- raters --------------------------------------------------------------------------
     def add_rater(self, rater: str, *, plan: dict, token: str | None = None) -> bool:
@@ -316,35 +440,52 @@ class Store:
                 found = rater
         return found
 
+    def record_participant(self, rater: str, participant: str) -> None:
+        """Record that crowd rater ``rater`` is the panel's participant ``participant`` (first
+        arrival kept)."""
+        with self._transaction() as con:
+            con.execute("INSERT OR IGNORE INTO participants (study, rater, participant, arrived_at) "
+                        "VALUES (?, ?, ?, ?)", (self.study, rater, participant, utc_now_iso()))
+
+    def participants(self) -> pd.DataFrame:
+        """Crowd raters and the panel's participant ids: columns rater, participant, arrived_at."""
+        with self._connect() as con:
+            return pd.read_sql_query("SELECT rater, participant, arrived_at FROM participants "
+                                     "WHERE study = ? ORDER BY arrived_at, rowid", con, params=(self.study,))
+
     # ---- assignment ----------------------------------------------------------------------
     def next_item(self, rater: str, chooser: Callable[..., str | None], *,
-                  claim_ttl_s: float = 3600.0) -> str | None:
+                  lease_s: float = CLAIM_LEASE_S) -> str | None:
         """The rater's next unrated item: the oldest assigned, unvoted, unskipped one, else a new one.
 
         ``chooser(assigned: list[str], voted: set[str], loads: dict[str, int])`` picks the new
-        item (or None when the rater is done); ``loads`` counts, per item not yet assigned to
-        the rater, the standing votes plus the open claims (assignments without a vote) of
-        other raters; open claims stop counting once the item's newest claim is older than
-        ``claim_ttl_s``. The work reads the rater's own rows and one counter row per item,
-        never the other raters' votes or assignments. An assignment is committed without a
-        disk sync of its own (WAL, synchronous NORMAL): losing one to a power cut only means
-        handing the item out again, and the next vote's synced commit makes it durable too.
+        item (or None when nothing is free for the rater); ``loads`` counts, per item, the
+        standing votes plus the live claims of other raters: an item handed out and not voted
+        on is claimed for ``lease_s`` seconds from the last time it was handed out (returning
+        the rater's open item renews its lease), so an abandoned tab frees its item after at
+        most ``lease_s``. The work reads the rater's own rows, one counter row per item and
+        the live claims (an index range), never the other raters' votes. An assignment is
+        committed without a disk sync of its own (WAL, synchronous NORMAL): losing one to a
+        power cut only means handing the item out again; the next vote's synced commit
+        makes it durable too.
         """
+        now = _clock()
         with self._transaction(synchronous="NORMAL") as con:
             row = con.execute(
-                "SELECT a.item FROM assignments a WHERE a.study = ? AND a.rater = ? AND NOT EXISTS "
+                "SELECT a.id, a.item FROM assignments a WHERE a.study = ? AND a.rater = ? AND NOT EXISTS "
                 "(SELECT 1 FROM votes v WHERE v.study = a.study AND v.rater = a.rater AND "
                 "v.item = a.item) AND NOT EXISTS (SELECT 1 FROM skipped s WHERE s.study = a.study "
                 "AND s.rater = a.rater AND s.item = a.item) ORDER BY a.id LIMIT 1",
                 (self.study, rater)).fetchone()
             if row is not None:
-                return row[0]
+                con.execute("UPDATE assignments SET active_at = ? WHERE id = ?", (now, row[0]))
+                return row[1]
             assigned, voted = self._own(con, rater)
-            loads = self._loads(con, claims_after=time.time() - claim_ttl_s)
+            loads = self._loads(con, claims_after=now - lease_s, rater=rater)
             item = chooser(assigned, voted, loads)
             if item is not None:
-                con.execute("INSERT INTO assignments (study, rater, item, assigned_at) "
-                            "VALUES (?, ?, ?, ?)", (self.study, rater, item, time.time()))
+                con.execute("INSERT INTO assignments (study, rater, item, assigned_at, active_at) "
+                            "VALUES (?, ?, ?, ?, ?)", (self.study, rater, item, now, now))
         return item
 
     def _own(self, con: sqlite3.Connection, rater: str) -> tuple[list[str], set[str]]:
@@ -355,15 +496,18 @@ class Store:
             "SELECT item FROM votes WHERE study = ? AND rater = ?", (self.study, rater))}
         return assigned, voted
 
-    def _loads(self, con: sqlite3.Connection, *, claims_after: float | None) -> dict[str, int]:
-        """Per item: standing votes (+ open claims whose newest is after ``claims_after``)."""
-        if claims_after is None:
-            sql, params = "SELECT item, voted FROM item_loads WHERE study = ?", (self.study,)
-        else:
-            sql = ("SELECT item, voted + CASE WHEN last_claim > ? THEN claimed ELSE 0 END "
-                   "FROM item_loads WHERE study = ?")
-            params = (claims_after, self.study)
-        return {item: n for item, n in con.execute(sql, params) if n > 0}
+    def _loads(self, con: sqlite3.Connection, *, claims_after: float | None,
+               rater: str | None = None) -> dict[str, int]:
+        """Per item: standing votes (+ claims of raters other than ``rater`` whose lease
+        started after ``claims_after``: a claim ends with its vote, see :meth:`_insert_vote`)."""
+        loads = {item: n for item, n in con.execute(
+            "SELECT item, voted FROM item_loads WHERE study = ? AND voted > 0", (self.study,))}
+        if claims_after is not None:
+            for item, n in con.execute(
+                    "SELECT item, COUNT(*) FROM assignments WHERE study = ? AND active_at > ? "
+                    "AND rater != ? GROUP BY item", (self.study, claims_after, rater or "")):
+                loads[item] = loads.get(item, 0) + n
+        return loads
 
     def rater_state(self, rater: str) -> tuple[list[str], set[str], dict[str, int]]:
         """``(assigned, voted, votes per item)`` for progress: own rows plus the item counters."""

@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from annotate.access import check_access
 from annotate.assign import choose_next, make_plan, pairwise_sides, plan_total, rater_seed
 from annotate.binary import BinaryDesign
 from annotate.crops import ImageCache, opaque_ids
@@ -67,6 +68,7 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
                 seed: int = 0, n_training: int = 5, n_gold: int = 3, n_repeats: int = 5,
                 size: int = 320, image_format: str = "jpg", access: str = "open",
                 break_every: int = 50, design: str = "binary", methods: str | None = None,
+                participant_param: str | None = None, completion_url: str | None = None,
                 progress: bool = True) -> Path:
     """Build the study folder ``out`` (refused if it exists and is not empty).
 
@@ -98,7 +100,12 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
     size : int
         The side of the square display crops in pixels (>= 32).
     image_format : {'jpg', 'png'}
-    access : {'open', 'token'}
+    access : {'open', 'token', 'crowd'}
+        Who may rate (:mod:`annotate.access`): anyone by name (served on loopback only),
+        per-rater token links, or a fresh identity per arrival.
+    participant_param, completion_url : str, optional
+        Crowd only: the query parameter with the panel's participant id (one identity per
+        participant), and the URL shown to a rater who has finished.
     design : {'binary', 'pairwise'}
         Good/bad votes on (GT, render) items (:mod:`annotate.binary`), or which of two
         methods' renders is closer to the GT (:mod:`annotate.pairwise`; the pairs table needs
@@ -124,7 +131,8 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
                           votes_per_item=votes_per_item, seed=seed, n_training=n_training,
                           n_gold=n_gold, n_repeats=n_repeats, size=size, image_format=image_format,
                           access=access, break_every=break_every, design=design,
-                          methods=methods)
+                          methods=methods, participant_param=participant_param,
+                          completion_url=completion_url)
     study_design = DESIGNS[opts.design]
     where = str(pairs_path)
     pairs = _read_pairs(Path(pairs_path), opts.scene)
@@ -159,8 +167,8 @@ def _check_options(out, pairs_path, **opts) -> StudyOptions:
             raise InputError(param=name, expected=f"an integer >= {lo}", got=val)
     if opts["image_format"] not in ("jpg", "png"):
         raise InputError(param="image_format", expected="one of {'jpg', 'png'}", got=opts["image_format"])
-    if opts["access"] not in ("open", "token"):
-        raise InputError(param="access", expected="one of {'open', 'token'}", got=opts["access"])
+    check_access(opts["access"], participant_param=opts["participant_param"],
+                 completion_url=opts["completion_url"])
     if opts["design"] not in DESIGNS:
         raise InputError(param="design", expected="one of {'binary', 'pairwise'}", got=opts["design"])
     if opts["methods"] is not None and opts["design"] != "pairwise":
@@ -231,7 +239,9 @@ def _manifest(out: Path, choice: Choice, items: pd.DataFrame, opts: StudyOptions
     return {
         "format": "nvrq-study", "version": 1,
         "study_id": f"{out.resolve().name}-{secrets.token_hex(4)}",
-        "seed": int(opts.seed), "access": opts.access,
+        "seed": int(opts.seed),
+        **check_access(opts.access, participant_param=opts.participant_param,
+                       completion_url=opts.completion_url),
         "votes_per_item": int(opts.votes_per_item), "break_every": int(opts.break_every),
         "display_size": int(opts.size), "image_format": opts.image_format,
         "options": {"tracks": int(opts.tracks), "frames_per_track": int(opts.frames_per_track),
@@ -331,10 +341,21 @@ class Study:
         return plan
 
     def next_item(self, rater: str) -> str | None:
-        """Key of the rater's next unrated item (None: done)."""
+        """Key of the rater's next unrated item (None: done, or, when :meth:`waiting` says
+        so, nothing free until other raters' claims end)."""
         plan = self.plan_for(rater)
         return self.store.next_item(
             rater, lambda a, v, loads: choose_next(plan, a, v, loads, quota=self.quota))
+
+    def waiting(self, rater: str) -> bool:
+        """Whether the rater has items left that other raters' claims hold right now (when
+        :meth:`next_item` gives None: True means "retry in a minute", False "all done").
+
+        The same choice as :meth:`next_item` with standing votes only, claims not counted.
+        """
+        plan = self.plan_for(rater)
+        assigned, voted, votes = self.store.rater_state(rater)
+        return choose_next(plan, assigned, voted, votes, quota=self.quota) is not None
 
     def progress(self, rater: str) -> dict:
         """``{'training_done', 'training_total', 'done', 'total'}`` (done/total exclude training).

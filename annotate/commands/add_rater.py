@@ -1,9 +1,11 @@
-"""``annotate add-rater STUDY NAME [--host H] [--port P]``: register a rater, print the sign-in link."""
+"""``annotate add-rater STUDY NAME [--host H] [--port P] [--public-url BASE]``: register a rater,
+print the sign-in link (a token link on a token or crowd study)."""
 
 from __future__ import annotations
 
 import secrets
 
+from annotate.access import check_serving
 from annotate.commands.serve import add_address_options, base_url
 from annotate.study import load_study
 from data_schema.raters import check_rater_name
@@ -21,11 +23,12 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    """Register ``args.name`` (with a secret token on a token-access study) and print its link."""
+    """Register ``args.name`` (with a secret token on a token or crowd study) and print its link."""
     study = load_study(args.study)
     name = check_rater_name(args.name)
-    base = base_url(args.host, args.port)
-    if study.manifest["access"] == "token":
+    base = base_url(args.host, args.port, public_url=args.public_url)
+    check_serving(study.manifest["access"], host=args.host, public_url=args.public_url)
+    if study.manifest["access"] in ("token", "crowd"):
         token = secrets.token_urlsafe(18)
         study.store.add_rater(name, plan=study.new_plan(name), token=token)
         print(f"{base}?token={token}")

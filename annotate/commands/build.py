@@ -43,7 +43,14 @@ def register(sub) -> None:
     b.add_argument("--size", default="320x320", action=DeprecatedSize, metavar="WxH",
                    help="display size of each crop, a square WxH in pixels (default 320x320)")
     b.add_argument("--image-format", default="jpg", choices=["jpg", "png"])
-    b.add_argument("--access", default="open", choices=["open", "token"])
+    b.add_argument("--access", default="open", choices=["open", "token", "crowd"],
+                   help="open: raters by name, served on this machine only; token: per-rater "
+                   "links (add-rater); crowd: a fresh identity per arrival (docs/FORMATS.md §8)")
+    b.add_argument("--participant-param", metavar="NAME", help="crowd: the panel's participant id "
+                   "parameter, e.g. PROLIFIC_PID (one identity per participant)")
+    b.add_argument("--completion-url", metavar="URL", help="crowd: shown to a rater who has finished")
+    b.add_argument("--public-url", metavar="BASE", help="the address raters will use, for the "
+                   "printed admin link (default: annotate serve's own, http://127.0.0.1:8501/)")
     b.add_argument("--break-every", type=int_arg(), default=50)
     b.add_argument("--design", default="binary", choices=["binary", "pairwise"],
                    help="binary: good/bad votes on (GT, render); pairwise: which of two methods' "
@@ -56,9 +63,11 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    """Build the study; print its item counts and the admin page's link."""
+    """Build the study; print its item counts and the admin page's link (the only time the
+    admin token is printed)."""
     check_output_folder(args.study, kind="study", option="STUDY",
                         inputs=[args.pairs, *args.metrics_tables, args.scene])
+    admin_base = base_url(public_url=args.public_url)
     width, height = parse_wxh(args.size, option="--size")
     if width != height:
         raise InputError("--size", None, "a square WxH (display crops are square), e.g. 320x320", args.size)
@@ -67,9 +76,11 @@ def run(args) -> int:
                       offsets=args.offsets, votes_per_item=args.votes_per_item, seed=args.seed,
                       n_training=args.training, n_gold=args.gold, n_repeats=args.repeats,
                       size=width, image_format=args.image_format, access=args.access,
-                      break_every=args.break_every, design=args.design, methods=args.methods)
+                      break_every=args.break_every, design=args.design, methods=args.methods,
+                      participant_param=args.participant_param, completion_url=args.completion_url)
     study = load_study(out)
     counts = ", ".join(f"{v} {k}" for k, v in study.manifest["counts"].items())
     print(f"study {out}: {counts} items")
-    print(f"admin page: {base_url()}?admin={study.admin_token()}")
+    print(f"admin page: {admin_base}?admin={study.admin_token()} "
+          f"(the admin token is printed only now; it is kept in {out / 'secrets.json'})")
     return 0

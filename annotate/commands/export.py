@@ -1,14 +1,17 @@
-"""``annotate export STUDY --out RATINGS``: the votes as ratings.csv (docs/FORMATS.md §5; a
-pairwise study's votes: §12)."""
+"""``annotate export STUDY --out RATINGS [--participants FILE]``: the votes as ratings.csv
+(docs/FORMATS.md §5; a pairwise study's votes: §12); a crowd study's raters and the panel's
+participant ids as a second table (§8)."""
 
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 from annotate.results import votes_table
 from annotate.study import load_study, unplaced_votes
+from data_schema.errors import InputError
 from data_schema.outputs import check_output_file
-from data_schema.tables import write_table
+from data_schema.tables import TABLE_SUFFIXES, write_table
 
 __all__ = ["register", "run"]
 
@@ -19,18 +22,35 @@ def register(sub) -> None:
                        "study's votes: §12)")
     e.add_argument("study")
     e.add_argument("--out", required=True)
+    e.add_argument("--participants", metavar="FILE", help="also write the crowd raters' panel "
+                   "participant ids: rater_id, participant, arrived_at")
     e.set_defaults(func=run)
 
 
 def run(args) -> int:
-    """Write the votes table; warn on stderr about votes that could not be placed."""
+    """Write the votes table (and the participants table); on stderr, warn about votes that
+    could not be placed and name, per rater, the votes undone and the presses dropped as too
+    fast (from the history)."""
     check_output_file(args.out, inputs=[args.study])
+    if args.participants is not None:  # both checked before either is written
+        check_output_file(args.participants, inputs=[args.study, args.out], option="participants")
+        if Path(args.participants).suffix.lower() not in TABLE_SUFFIXES:
+            raise InputError(param="participants", expected="a table file ending in .csv or .parquet",
+                             got=args.participants)
     study = load_study(args.study)
     table = votes_table(study)
     lost = unplaced_votes(study)
     write_table(table, args.out)
     print(f"{len(table)} votes -> {args.out}", file=sys.stderr)
+    if args.participants is not None:
+        who = study.store.participants().rename(columns={"rater": "rater_id"})
+        write_table(who, args.participants)
+        print(f"{len(who)} participants -> {args.participants}", file=sys.stderr)
     if lost:
         print(f"warning: {sum(lost.values())} votes not exported: "
               + "; ".join(f"{n} {why}" for why, n in lost.items()), file=sys.stderr)
+    acts = study.store.action_counts()
+    for r in acts[(acts["votes_undone"] > 0) | (acts["too_fast"] > 0)].itertuples():
+        print(f"rater {r.rater}: {r.votes_undone} votes undone, {r.too_fast} presses too fast "
+              "(not in the table; the store's history keeps them)", file=sys.stderr)
     return 0

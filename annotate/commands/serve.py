@@ -1,4 +1,4 @@
-"""``annotate serve STUDY [--host H] [--port P]``: serve the rater app (Streamlit).
+"""``annotate serve STUDY [--host H] [--port P] [--public-url BASE]``: serve the rater app (Streamlit).
 
 ``annotate serve`` *becomes* ``streamlit run annotate/app.py`` (the process is replaced, so
 a signal to ``annotate serve`` reaches the server itself and nothing outlives it), bound to
@@ -6,24 +6,31 @@ a signal to ``annotate serve`` reaches the server itself and nothing outlives it
 watcher, static file serving or error details in the browser, and without Streamlit's full
 garbage collection after every script run (about 40 ms of CPU per vote, holding the GIL: it
 alone saturated a core at 25 raters); the study folder reaches the app in the environment
-variable ``ANNOTATE_STUDY``. A port in use is refused up front.
+variable ``ANNOTATE_STUDY``. A port in use is refused up front, and so is an open-access
+study on an address others can reach (:func:`annotate.access.check_serving`).
 
 The address options and the app's URL are shared with ``add-rater`` and ``build``, which
-print sign-in and admin links.
+print sign-in and admin links: ``--public-url`` (the address raters use, e.g. a TLS reverse
+proxy's) is the base of every printed link, else the bound address (this machine's name for a
+wildcard bind). ``serve`` prints the admin page's address but never the admin token (it would
+end up in logs); ``build`` prints it once, and it stays in ``STUDY/secrets.json``.
 """
 
 from __future__ import annotations
 
+import ipaddress
 import os
 import socket
 import sys
 from pathlib import Path
+from urllib.parse import urlsplit
 
+from annotate.access import check_serving
 from annotate.study import load_study
 from data_schema.errors import InputError
 from nvrq.commands.args import int_arg
 
-__all__ = ["register", "run", "serve_command", "check_port_free", "base_url", "add_address_options",
+__all__ = ["register", "run", "serve_command", "check_port_free", "base_url", "add_address_options", "links",
            "DEFAULT_HOST", "DEFAULT_PORT"]
 
 #: Where the rater app listens unless ``--host`` / ``--port`` say otherwise.
@@ -82,26 +89,53 @@ def check_port_free(host: str, port: int) -> None:
                              f"{port} ({err.strerror or err})") from None
 
 
-def base_url(host: str = DEFAULT_HOST, port: int = DEFAULT_PORT) -> str:
-    """The rater app's URL, e.g. ``http://127.0.0.1:8501/``.
+def base_url(host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, *, public_url: str | None = None) -> str:
+    """The rater app's URL, e.g. ``http://127.0.0.1:8501/``: the base of every printed link.
 
     Parameters
     ----------
     host : str, optional
-        The app's address (default 127.0.0.1).
+        The app's bind address (default 127.0.0.1). A wildcard (``0.0.0.0``, ``::``) binds
+        every interface and is no address to open: this machine's name stands for it.
     port : int, optional
         The app's port (default 8501).
+    public_url : str, optional
+        The address raters use (e.g. ``https://study.example.org/``, a reverse proxy's);
+        an absolute http(s) URL, used as it is (with a final ``/``) instead of host and port.
 
     Returns
     -------
     str
-        ``http://HOST:PORT/``.
+        ``public_url``, else ``http://HOST:PORT/`` (an IPv6 address in brackets).
+
+    Raises
+    ------
+    InputError
+        Naming ``public_url`` when it is not an absolute http(s) URL without query or fragment.
+
+    >>> base_url("::1", 8502), base_url(public_url="https://study.example.org")
+    ('http://[::1]:8502/', 'https://study.example.org/')
     """
+    if public_url is not None:
+        parts = urlsplit(str(public_url))
+        if parts.scheme not in ("http", "https") or not parts.netloc or parts.query or parts.fragment:
+            raise InputError(param="public_url", expected="an absolute http:// or https:// URL without "
+                             "query, e.g. https://study.example.org/", got=public_url)
+        return str(public_url).rstrip("/") + "/"
+    host = str(host).strip("[]")
+    try:
+        addr = ipaddress.ip_address(host)
+    except ValueError:
+        addr = None
+    if addr is not None and addr.is_unspecified:
+        host = socket.getfqdn()
+    elif addr is not None and addr.version == 6:
+        host = f"[{host}]"
     return f"http://{host}:{port}/"
 
 
 def add_address_options(p) -> None:
-    """Add the rater app's address options, ``--host`` and ``--port``.
+    """Add the rater app's address options, ``--host``, ``--port`` and ``--public-url``.
 
     Parameters
     ----------
@@ -110,6 +144,34 @@ def add_address_options(p) -> None:
     """
     p.add_argument("--host", default=DEFAULT_HOST)
     p.add_argument("--port", type=int_arg(high=65535), default=DEFAULT_PORT)
+    p.add_argument("--public-url", metavar="BASE", help="the address raters use (e.g. a TLS reverse "
+                   "proxy's https://study.example.org/): the base of every printed link")
+
+
+def links(study, base: str) -> list[str]:
+    """What ``serve`` says on starting: where, the admin page (the token named, not printed)
+    and, for a crowd study, the participants' link and completion URL.
+
+    Parameters
+    ----------
+    study : annotate.study.Study
+    base : str
+        The app's public base URL (:func:`base_url`).
+
+    Returns
+    -------
+    list of str
+        One line each.
+    """
+    out = [f"serving {study.root} at {base}",
+           f"admin page: {base}?admin=ADMIN_TOKEN (ADMIN_TOKEN: admin_token in {study.root / 'secrets.json'})"]
+    if study.manifest["access"] == "crowd":
+        param = study.manifest.get("participant_param")
+        out.append(f"participants' link: {base}" + (f"?{param}=PARTICIPANT_ID (the panel fills in "
+                                                    f"{param})" if param else " (each arrival gets its own identity)"))
+        if study.manifest.get("completion_url"):
+            out.append(f"finished raters are shown: {study.manifest['completion_url']}")
+    return out
 
 
 def register(sub) -> None:
@@ -123,9 +185,11 @@ def register(sub) -> None:
 def run(args) -> int:
     """Replace this process with the Streamlit server of ``args.study`` (see the module docstring)."""
     study = load_study(args.study)  # fail here, not in the browser
+    base = base_url(args.host, args.port, public_url=args.public_url)
+    check_serving(study.manifest["access"], host=args.host, public_url=args.public_url)
     check_port_free(args.host, args.port)
-    print(f"serving {study.root} at {base_url(args.host, args.port)} "
-          f"(admin: ?admin={study.admin_token()})", file=sys.stderr, flush=True)
+    for line in links(study, base):
+        print(line, file=sys.stderr, flush=True)
     env = dict(os.environ, ANNOTATE_STUDY=str(study.root))
     argv = serve_command(study.root, host=args.host, port=args.port)
     sys.stdout.flush()

@@ -100,11 +100,12 @@ def test_vote_must_be_0_or_1(tmp_path):
 
 def test_undo_removes_latest_standing_vote(tmp_path):
     s = Store(tmp_path / "v.sqlite", "s")
-    s.record_vote("r", "a", 1)
-    s.record_vote("r", "b", 0)
-    assert s.undo_last("r") == "b"
-    assert s.undo_last("r") == "a"
-    assert s.undo_last("r") is None
+    for item, vote in (("a", 1), ("b", 0)):
+        s.next_item("r", lambda *_, item=item: item)
+        s.record_shown_vote("r", item, vote, session="tab")
+    assert s.undo_last("r", session="tab") == "b"
+    assert s.undo_last("r", session="tab") == "a"
+    assert s.undo_last("r", session="tab") is None
     assert s.votes().empty and s.history()["action"].tolist() == ["vote", "vote", "undo", "undo"]
 
 
@@ -160,9 +161,9 @@ def test_item_counters_match_a_full_recount_after_random_operations(tmp_path):
             key = store.next_item(r, lambda a, v, loads, r=r: choose_next(plans[r], a, v, loads,
                                                                           quota=3))
             if key is not None and rng.random() < 0.8:
-                store.record_vote(r, key, int(rng.integers(2)))
+                store.record_shown_vote(r, key, int(rng.integers(2)), session=r)
         elif op < 0.8:
-            store.undo_last(r)
+            store.undo_last(r, session=r)
     con = sqlite3.connect(tmp_path / "v.sqlite")
     counters = {i: (v, c) for i, v, c in con.execute(
         "SELECT item, voted, claimed FROM item_loads WHERE study = 's'") if v or c}

@@ -15,7 +15,8 @@ import time
 import urllib.request
 from pathlib import Path
 
-__all__ = ["ARGS", "CHROMIUM", "SNAPSHOT", "free_port", "serve", "settled", "stop", "toy"]
+__all__ = ["ARGS", "CHROMIUM", "SNAPSHOT", "free_port", "ready", "serve", "settled", "stop", "toy",
+           "wait_moved"]
 
 CHROMIUM = "/usr/bin/chromium"
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
@@ -89,3 +90,27 @@ def settled(page, *, timeout_ms: int, images: int = 2) -> tuple[str, tuple]:
         "  document.body.innerText.includes('All done'))", arg=images, timeout=timeout_ms)
     text, srcs = page.evaluate(SNAPSHOT)  # one read: the panel may redraw in between
     return text.strip(), tuple(srcs)
+
+
+def wait_moved(page, old: tuple, *, timeout_s: float = 40) -> tuple:
+    """The page's :func:`settled` state once its progress text differs from ``old``'s."""
+    deadline = time.time() + timeout_s
+    while time.time() < deadline:
+        now = settled(page, timeout_ms=40000)
+        if now[0] != old[0]:
+            time.sleep(0.4)  # let the rerun finish rendering (the app drops presses < 250 ms)
+            return settled(page, timeout_ms=40000)
+        time.sleep(0.05)
+    raise AssertionError(f"the page did not advance from {old[0]!r}")
+
+
+def ready(page, names=("Good (G)", "Bad (B)")) -> None:
+    """Wait until the vote buttons ``names`` of the current item are rendered and enabled.
+
+    A shortcut key pressed while Streamlit is still re-rendering can be lost on a loaded
+    machine, so a test never presses before the buttons can take it.
+    """
+    for name in names:
+        button = page.get_by_role("button", name=name)
+        button.wait_for(state="visible", timeout=30000)
+        page.wait_for_function("(b) => !b.disabled", arg=button.element_handle(), timeout=30000)

@@ -15,6 +15,8 @@ import pandas as pd
 import pytest
 
 from tests.e2e.browser_support import ARGS, CHROMIUM, serve, settled, stop, toy
+from tests.e2e.browser_support import ready as _ready
+from tests.e2e.browser_support import wait_moved as _wait_moved
 
 pytestmark = [pytest.mark.browser,
               pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="needs /usr/bin/chromium")]
@@ -24,29 +26,6 @@ SECRETS = ("+1.00", "-1.00", "+0.00", "offset", "toy", "trk-", "front", "gold", 
 def _state(page) -> tuple[str, tuple]:
     """(progress/done text, image URLs) once the app has finished its rerun."""
     return settled(page, timeout_ms=40000)
-
-
-def _wait_moved(page, old: tuple) -> tuple:
-    deadline = time.time() + 40
-    while time.time() < deadline:
-        now = _state(page)
-        if now[0] != old[0]:
-            time.sleep(0.4)  # let the rerun finish rendering (the app drops presses < 250 ms)
-            return _state(page)
-        time.sleep(0.05)
-    raise AssertionError(f"the page did not advance from {old[0]!r}")
-
-
-def _ready(page) -> None:
-    """Wait until the vote buttons of the current item are rendered and enabled.
-
-    A shortcut key pressed while Streamlit is still re-rendering can be lost on a loaded
-    machine, so the test never presses before the buttons can take it.
-    """
-    for name in ("Good (G)", "Bad (B)"):
-        button = page.get_by_role("button", name=name)
-        button.wait_for(state="visible", timeout=30000)
-        page.wait_for_function("(b) => !b.disabled", arg=button.element_handle(), timeout=30000)
 
 
 def _check_blind(page, seen: list[str]) -> None:

@@ -624,6 +624,15 @@ ARG_CASES = [
                                               "--scene", "{world}/toy/scene", "--votes-per-item", "0"],
      ["--votes-per-item"]),
     ("build without --pairs", "annotate", ["build", "{tmp}/st"], ["--pairs"]),
+    ("build --participant-param on an open study", "annotate", [
+        "build", "{tmp}/st", "--pairs", "{world}/toy/pairs.csv", "--scene", "{world}/toy/scene",
+        "--participant-param", "PROLIFIC_PID"], ["--participant-param", "crowd"]),
+    ("build --completion-url not http", "annotate", [
+        "build", "{tmp}/st", "--pairs", "{world}/toy/pairs.csv", "--scene", "{world}/toy/scene",
+        "--access", "crowd", "--completion-url", "javascript:alert(1)"], ["--completion-url", "http"]),
+    ("build --public-url with a query", "annotate", [
+        "build", "{tmp}/st", "--pairs", "{world}/toy/pairs.csv", "--public-url", "https://x.org/?a=1"],
+     ["--public-url"]),
     ("annotate unknown command", "annotate", ["rate"], ["rate"]),
     ("analyze --bootstrap -1", "analyze", ["{world}/ratings.csv", "--bootstrap", "-1", "--out", "{tmp}/r"],
      ["--bootstrap"]),
@@ -660,6 +669,12 @@ def _(world, tmp):
 def _(world, tmp):
     st = _study(world, tmp)
     return "annotate", ["add-rater", str(st), "sim-9"], ["rater", "name"]
+
+
+@case("arguments", "add-rater of an open study on a public host")
+def _(world, tmp):
+    st = _study(world, tmp)
+    return "annotate", ["add-rater", str(st), "ann", "--host", "0.0.0.0"], ["--host", "loopback"]
 
 
 @pytest.mark.parametrize("name", sorted(CASES))

@@ -8,6 +8,11 @@ it pins every encoder-free metric and NVRQ / NVRQ-CA on the offline ``efficientn
 (torch runtime, 2 torch threads: the encoder's float sums depend on the thread count and on the
 pass sizes, so the three paths run the same passes with the same threads). A deliberate change
 of a metric regenerates its column (``python tests/scoring/test_golden.py --write``).
+
+The scene's pixels also depend on the libraries that draw and resample it (OpenCV above all):
+``environment.json`` records the versions the golden was written with, and a changed scene names
+them. After such a change, check that the scorer still gives the pre-change commit's table on the
+new scene before regenerating.
 """
 
 from __future__ import annotations
@@ -37,6 +42,14 @@ def _scene_files(scene: Path) -> str:
                    for p in sorted(scene.rglob("*")) if p.is_file())
 
 
+def _versions() -> dict[str, str]:
+    """Versions of the libraries the scene's pixels and the table's floats depend on."""
+    from importlib.metadata import version
+
+    return {name: version(name) for name in
+            ("numpy", "scipy", "opencv-contrib-python-headless", "pillow", "torch")}
+
+
 def _make_scene(root: Path) -> tuple[Path, Path]:
     scene, pairs = root / "scene", root / "pairs.csv"
     assert main(["synth", str(scene), *SPEC["synth"], "--quiet"]) == 0
@@ -48,7 +61,9 @@ def _make_scene(root: Path) -> tuple[Path, Path]:
 def scene(tmp_path_factory):
     """The regenerated scene folder and its pairs table; the scene's bytes are the recorded ones."""
     scene, pairs = _make_scene(tmp_path_factory.mktemp("golden"))
-    assert _scene_files(scene) == (DATA / "scene.sha256").read_text(encoding="utf-8")
+    recorded = json.loads((DATA / "environment.json").read_text(encoding="utf-8"))
+    assert _scene_files(scene) == (DATA / "scene.sha256").read_text(encoding="utf-8"), (
+        f"the regenerated scene differs from scene.sha256: written with {recorded}, now {_versions()}")
     return scene, pairs
 
 
@@ -154,6 +169,7 @@ def write_golden(root: Path) -> None:
     os.environ["NVRQ_CONFIG"] = str(root / "no-tau-config.json")  # the registry's tau
     scene, pairs = _make_scene(root)
     (DATA / "scene.sha256").write_text(_scene_files(scene), encoding="utf-8")
+    (DATA / "environment.json").write_text(json.dumps(_versions(), indent=2) + "\n", encoding="utf-8")
     torch.set_num_threads(THREADS)
     assert main(_score_args(pairs, DATA / "metrics.csv")) == 0
     (DATA / "metrics.timing.csv").unlink()

@@ -81,8 +81,19 @@ def _scale_features(grey: np.ndarray) -> np.ndarray:
 
 
 def brisque_features(render: np.ndarray) -> np.ndarray:
-    """The 36 unscaled BRISQUE features (36,) of a uint8 (H, W, 3) RGB crop (module docstring):
-    18 at full scale, then 18 at half scale; NaN where undefined."""
+    """The 36 unscaled BRISQUE features of a crop (module docstring).
+
+    Parameters
+    ----------
+    render : (H, W, 3) uint8 RGB array
+        The crop at its own size (luma of MATLAB ``rgb2ycbcr``).
+
+    Returns
+    -------
+    (36,) float64 array
+        18 features at full scale, then 18 at half scale (MATLAB ``imresize(0.5)``); NaN where
+        undefined.
+    """
     grey = rgb2gray_matlab(render).astype(np.float64)
     return np.concatenate([_scale_features(grey), _scale_features(imresize_half(grey))])
 

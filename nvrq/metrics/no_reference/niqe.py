@@ -77,9 +77,19 @@ def _block_features(m: np.ndarray, side: int) -> np.ndarray:
 
 
 def niqe_features(render: np.ndarray) -> np.ndarray:
-    """(n_blocks, 36) features of a uint8 (H, W, 3) RGB crop with both sides >= :data:`PATCH`:
-    per whole 96x96 block (row-major), 18 at full scale then 18 at half scale; NaN where
-    undefined (module docstring)."""
+    """The NIQE features of every whole 96x96 block of a crop (module docstring).
+
+    Parameters
+    ----------
+    render : (H, W, 3) uint8 RGB array
+        The crop, both sides at least :data:`PATCH` (grey by MATLAB ``rgb2gray``).
+
+    Returns
+    -------
+    (n_blocks, 36) float64 array
+        One row per block (row-major): 18 features at full scale, then 18 at half scale (MATLAB
+        ``imresize(0.5)``); NaN where undefined.
+    """
     grey = rgb2gray_matlab(render).astype(np.float64)
     h, w = grey.shape
     grey = np.ascontiguousarray(grey[:h - h % PATCH, :w - w % PATCH])
