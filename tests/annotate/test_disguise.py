@@ -191,3 +191,24 @@ def test_a_rebuild_with_the_seed_writes_the_same_bytes(tmp_path, design):
     first, again, other = build("a", 5), build("b", 5), build("c", 6)
     assert first == again
     assert not set(first[0].values()) & set(other[0].values())
+
+
+def test_gold_size_targets_take_one_quantile_stratum_each(tmp_path):
+    from annotate.crops import CropWriter
+
+    w = CropWriter(tmp_path / "crops", fmt="png", rng=np.random.default_rng(0), groups={"good": 4})
+    for r in range(100):  # real ratios 0.00 .. 0.99
+        w.note_real(100, r)
+    got = sorted(w.target_ratio("good") for _ in range(4))
+    # numpy quantile of 0..0.99 at u in [k/4, (k+1)/4) lies in [0.99 k/4, 0.99 (k+1)/4]
+    assert [int(g / 0.2475) for g in got] == [0, 1, 2, 3]
+    assert w.target_ratio("good") >= 0 and w.target_ratio() <= 0.99  # strata used up: uniform
+
+
+def test_matched_meets_the_drawn_size():
+    from annotate.crops import _bisect
+
+    # size(p) = 1000 + 100 p rises; 1037 is met at p = 0.37 (to 2^-12 after 12 halvings)
+    assert abs(_bisect(lambda p: 1000 + 100 * p, 1037, 0.0, 1.0, 12) - 0.37) < 1e-3
+    assert abs(_bisect(lambda p: 1000 - 100 * p, 963, 0.0, 1.0, 12) - 0.37) < 1e-3  # falling
+    assert _bisect(lambda p: 1000 + 100 * p, 5000, 0.0, 1.0, 12) == 1.0  # out of reach: the end
