@@ -116,6 +116,16 @@ def paired_display(res: MethodsResult, metric: str | None = None) -> pd.DataFram
     return pd.DataFrame(rows)
 
 
+def _diff_text(v: float, scale: float) -> str:
+    """A signed difference with 3 significant digits of ``scale`` (the largest |difference|).
+
+    >>> _diff_text(5.75e-05, 0.16), _diff_text(0.0798, 0.16), _diff_text(-4.43, 6.0)
+    ('+0.000', '+0.080', '-4.43')
+    """
+    d = max(0, 2 - int(np.floor(np.log10(scale)))) if np.isfinite(scale) and scale > 0 else 3
+    return f"{v:+.{d}f}"
+
+
 def _class_offset_rows(res: MethodsResult, metric: str) -> pd.DataFrame:
     """The paired rows of ``metric`` per class and view along the first axis (``by`` =
     ``label_class,view``), empty without them."""
@@ -134,13 +144,14 @@ def class_offset_display(res: MethodsResult, metric: str | None = None) -> pd.Da
     if t.empty:
         return pd.DataFrame()
     offsets = sorted(t["offset"].unique())
+    scale = float(np.nanmax(np.abs(t["mean_diff"].to_numpy(float))))
     rows = []
     for (a, b, cls), g in t.groupby(["method_a", "method_b", "group"], sort=False):
         row = {"a - b": f"{a} - {b}", "class": cls}
         for r in g.itertuples():
             mark = (r.better if r.better != "neither" else "-") if isinstance(r.better, str) \
                 else f"{r.n_tracks} tracks"
-            row[view_text(r.axis, r.offset)] = f"{r.mean_diff:+.3g} ({mark})"
+            row[view_text(r.axis, r.offset)] = f"{_diff_text(r.mean_diff, scale)} ({mark})"
         rows.append(row)
     cols = ["a - b", "class", *[view_text(t["axis"].iloc[0], o) for o in offsets]]
     return pd.DataFrame(rows).reindex(columns=cols).fillna("")
@@ -201,6 +212,7 @@ def methods_tent_plot(table: pd.DataFrame, metrics: list[str], directions: dict[
         ax.set_title(metric, fontsize=9)
         ax.set_ylabel(direction_label(metric, directions.get(metric)), fontsize=8)
         ax.set_xlabel(VIEW_AXIS_LABELS.get(axis, axis), fontsize=8)
+        plots.offset_ticks(ax)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=6, title="method (off-path objects)", title_fontsize=6)
@@ -217,7 +229,7 @@ def method_class_heatmap(table: pd.DataFrame, metric: str, methods: list[str], *
     classes = sorted(t["group"].unique())
     piv = {c: t.pivot(index="method", columns="group", values=c).reindex(index=methods, columns=classes)
            for c in ("mean", "n", "n_tracks")}
-    fig = Figure(figsize=(2.4 + 1.3 * len(classes), 1.2 + 0.55 * len(methods)), layout="constrained")
+    fig = Figure(figsize=(2.4 + 1.3 * len(classes), max(2.6, 1.2 + 0.55 * len(methods))), layout="constrained")
     ax = fig.subplots()
     v = piv["mean"].to_numpy(float)
     im = ax.imshow(v, cmap="viridis" if higher_better else "viridis_r", aspect="auto")
@@ -231,7 +243,7 @@ def method_class_heatmap(table: pd.DataFrame, metric: str, methods: list[str], *
     ax.set_xticks(range(len(classes)), classes, fontsize=8, rotation=30, ha="right")
     ax.set_yticks(range(len(methods)), methods, fontsize=8)
     cb = fig.colorbar(im, ax=ax)
-    cb.set_label("mean " + direction_label(metric, higher_better), fontsize=7)
+    cb.set_label(direction_label("mean " + metric, higher_better).replace(" (", "\n("), fontsize=7)
     ax.set_title(f"{metric} by method and class", fontsize=9)
     return fig
 
@@ -249,7 +261,7 @@ def class_offset_heatmap(res: MethodsResult, metric: str | None = None) -> Figur
     classes = sorted(t["group"].unique())
     offsets = sorted(t["offset"].unique())
     sign = 1.0 if res.directions[metric] else -1.0
-    fig = Figure(figsize=(2.6 + 0.95 * len(offsets), (0.9 + 0.55 * len(classes)) * len(pairs)),
+    fig = Figure(figsize=(max(4.5, 1.6 + 0.95 * len(offsets)), (1.7 + 0.55 * len(classes)) * len(pairs)),
                  layout="constrained")
     panels = fig.subplots(len(pairs), 1, squeeze=False).ravel()
     for ax, (a, b) in zip(panels, pairs, strict=True):
@@ -267,16 +279,17 @@ def class_offset_heatmap(res: MethodsResult, metric: str | None = None) -> Figur
                 better = piv["better"].iat[i, j]
                 mark = better if isinstance(better, str) and better != "neither" else \
                     "-" if isinstance(better, str) else "no test"
-                ax.text(j, i, f"{v[i, j]:+.3g} ({mark})\nn={int(piv['n'].iat[i, j])}, "
+                ax.text(j, i, f"{_diff_text(v[i, j], lim)} ({mark})\nn={int(piv['n'].iat[i, j])}, "
                         f"{int(piv['n_tracks'].iat[i, j])} tr.", ha="center", va="center", fontsize=6,
                         color="white" if abs(v[i, j]) > 0.6 * lim else "black")
         ax.set_xticks(range(len(offsets)), [offset_text(o) for o in offsets], fontsize=8)
         ax.set_yticks(range(len(classes)), classes, fontsize=8)
         ax.set_xlabel(VIEW_AXIS_LABELS.get(s["axis"].iloc[0], s["axis"].iloc[0]), fontsize=8)
         ax.set_title(f"{metric}: {a} - {b} (blue: {a} better)", fontsize=9)
-        cb = fig.colorbar(im, ax=ax)
-        cb.set_label(f"{b} better \u2190  {a} - {b}" + ("" if sign > 0 else " (negated)")
-                     + f"  \u2192 {a} better", fontsize=7)
+        cb = fig.colorbar(im, ax=ax, orientation="horizontal", location="bottom", shrink=0.8, aspect=40)
+        cb.set_label(f"\u2190 {b} better    {a} - {b}" + ("" if sign > 0 else " (negated: lower is better)")
+                     + f"    {a} better \u2192", fontsize=7)
+        cb.ax.tick_params(labelsize=7)
     return fig
 
 

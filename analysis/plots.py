@@ -20,14 +20,17 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter
 from sklearn.metrics import roc_curve
 
+from analysis.text import offset_text
 from data_schema.perturbation import AXES, AXIS_UNITS, PERTURBATION_COLUMNS
 
 __all__ = [
     "VIEW_AXIS_LABELS",
     "method_colours",
     "direction_label",
+    "offset_ticks",
     "panel_grid",
     "tent_plot",
     "speed_accuracy_plot",
@@ -63,6 +66,12 @@ def direction_label(metric: str, higher_better: bool | None) -> str:
     if higher_better is None:
         return metric
     return f"{metric} (higher is better \u2191)" if higher_better else f"{metric} (lower is better \u2193)"
+
+
+def offset_ticks(ax) -> None:
+    """Tick labels of the x axis written as every table writes offsets
+    (:func:`analysis.text.offset_text`: ``-1``, ``0``, ``+1``)."""
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: offset_text(round(v, 6))))
 
 
 def panel_grid(n: int, *, width: float, height: float) -> tuple[Figure, np.ndarray]:
