@@ -125,15 +125,21 @@ def _methods_options(p: ArgumentParser) -> None:
     p.add_argument("--leaderboard-metric", default=None, metavar="METRIC",
                    help="with --compare-methods: the metric that ranks the methods (default: "
                    "NVRQ-CA of the first encoder, else the first metric)")
-    p.add_argument("--leaderboard-view", choices=PATHS, default="off-path",
-                   help="with --compare-methods: rank on the novel views (off-path, default) or on "
-                   "the recorded view (on-path, offset 0)")
-    p.add_argument("--by", action=CommaList, default=[], metavar="A,B",
-                   help="with --compare-methods: also compare the methods per cell of these columns "
-                   "crossed: class, offset and clip attributes (e.g. class,offset or lighting,offset)")
+    p.add_argument("--leaderboard-view", choices=PATHS, default="off-path", help=_HELP["view"])
+    p.add_argument("--by", action=CommaList, default=[], metavar="A,B", help=_HELP["by"])
     p.add_argument("--min-clusters", type=int_arg(low=2), default=MIN_CLUSTERS, metavar="K",
-                   help="with --compare-methods: the fewest tracks a group needs for an interval and "
-                   f"a p-value (default {MIN_CLUSTERS}; docs/FORMATS.md §11)")
+                   help=_HELP["min_clusters"])
+
+
+#: The help of the leaderboard's options on honest statistics (issue 29).
+_HELP = {
+    "view": "with --compare-methods: rank on the novel views (off-path, default) or on the recorded "
+            "view (on-path, offset 0)",
+    "by": "with --compare-methods: also compare the methods per cell of these columns crossed: class, "
+          "offset and clip attributes (e.g. class,offset or lighting,offset)",
+    "min_clusters": "with --compare-methods: the fewest tracks a group needs for an interval and a "
+                    f"p-value (default {MIN_CLUSTERS}; docs/FORMATS.md §11)",
+}
 
 
 def _output_options(p: ArgumentParser) -> None:

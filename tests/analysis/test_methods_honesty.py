@@ -231,7 +231,8 @@ def test_formats_and_code_agree_on_the_leaderboard_tables():
     text = (ROOT / "docs" / "FORMATS.md").read_text()
     sec = text[text.index("## 11."):text.index("## 12.")]
     for name, cols in (("methods.csv", TABLE_COLUMNS), ("methods_paired.csv", PAIRED_COLUMNS)):
-        listed = sec[sec.index(f"- `{name}`: `") + len(name) + 6:]
+        head = f"- `{name}`: `"
+        listed = sec[sec.index(head) + len(head):]
         listed = listed[:listed.index("`")].replace("\n", " ")
         assert [c.strip() for c in listed.split(",")] == cols, name
     assert "never a win" not in sec and "on-path" in sec and "off-path" in sec
