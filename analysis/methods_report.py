@@ -74,12 +74,17 @@ def p_text(p, floor, test, *, raw=None) -> str:
     return f"p = {_g(p)}" + (" (the smallest possible)" if at_floor and raw is None else "")
 
 
-def _vs_next(r) -> str:
+def _vs_next(r, paired: pd.DataFrame) -> str:
+    """"Better than the next" of leaderboard row ``r``: the verdict, the Holm p-value (``≤``
+    when the test's own p sat at its Monte Carlo floor) and the smallest p its test allows."""
     if not isinstance(r.next, str):
         return ""
     if r.better_than_next is None or (isinstance(r.better_than_next, float) and np.isnan(r.better_than_next)):
         return f"vs {r.next}: undefined"
-    p = p_text(r.p_holm_vs_next, r.p_floor_vs_next, None, raw=r.p_holm_vs_next)
+    row = paired[(paired["axis"] == r.view) & (paired["by"] == "") & (paired["metric"] == r.metric)
+                 & paired["method_a"].isin([r.method, r.next]) & paired["method_b"].isin([r.method, r.next])]
+    raw, test = (row["p"].iloc[0], row["p_test"].iloc[0]) if len(row) else (r.p_holm_vs_next, None)
+    p = p_text(r.p_holm_vs_next, r.p_floor_vs_next, test, raw=raw)
     floor = f"; smallest possible p {_g(r.p_floor_vs_next)}" if np.isfinite(r.p_floor_vs_next) else ""
     verdict = "better than" if r.better_than_next else "not significantly better than"
     return f"{verdict} {r.next} ({p}, Holm{floor})"
@@ -89,7 +94,8 @@ def leaderboard_display(res: MethodsResult) -> pd.DataFrame:
     """The leaderboard as strings: rank, method, n (tracks), mean [95% CI], median, vs the next."""
     head = f"{res.rank_metric} ({res.rank_view})"
     rows = [{"rank": str(r.rank), "method": r.method, "n (tracks)": f"{r.n} ({r.n_tracks})",
-             head: interval_text(r.mean, r.ci_lo, r.ci_hi), "median": fmt(r.median), "vs next": _vs_next(r)}
+             head: interval_text(r.mean, r.ci_lo, r.ci_hi), "median": fmt(r.median),
+             "vs next": _vs_next(r, res.paired)}
             for r in res.leaderboard.itertuples()]
     return pd.DataFrame(rows, columns=["rank", "method", "n (tracks)", head, "median", "vs next"])
 
@@ -150,7 +156,7 @@ def class_offset_display(res: MethodsResult, metric: str | None = None) -> pd.Da
         row = {"a - b": f"{a} - {b}", "class": cls}
         for r in g.itertuples():
             mark = (r.better if r.better != "neither" else "-") if isinstance(r.better, str) \
-                else f"{r.n_tracks} tracks"
+                else f"{r.n_tracks} track{'s' if r.n_tracks != 1 else ''}"
             row[view_text(r.axis, r.offset)] = f"{_diff_text(r.mean_diff, scale)} ({mark})"
         rows.append(row)
     cols = ["a - b", "class", *[view_text(t["axis"].iloc[0], o) for o in offsets]]
