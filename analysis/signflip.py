@@ -29,6 +29,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from analysis.bootstrap import CHUNK_CELLS
+
 __all__ = ["EXACT_MAX_TRACKS", "sign_patterns", "draw_signs", "sign_flip_p"]
 
 #: Up to this many tracks the p-value enumerates every sign pattern (2^16 = 65,536).
@@ -92,7 +94,11 @@ def sign_flip_p(sums: np.ndarray, *, signs: np.ndarray | None,
     mc = np.flatnonzero(n > exact_max)
     if signs is not None and mc.size:
         b = signs.shape[0]
-        null = np.abs(x[mc] @ signs.T.astype(np.float64))  # (rows, B)
-        p[mc] = (1.0 + (null >= tol[mc, None]).sum(axis=1)) / (b + 1.0)
+        reached = np.zeros(mc.size)
+        step = max(1, CHUNK_CELLS // max(1, signs.shape[1]))  # patterns per product: bounded memory
+        for b0 in range(0, b, step):
+            null = np.abs(x[mc] @ signs[b0:b0 + step].T.astype(np.float64))  # (rows, chunk)
+            reached += (null >= tol[mc, None]).sum(axis=1)
+        p[mc] = (1.0 + reached) / (b + 1.0)
         floor[mc] = 1.0 / (b + 1.0)
     return p, floor, exact

@@ -172,6 +172,16 @@ def test_monte_carlo_sign_flip_beyond_16_tracks():
     assert p[0] == floor[0] == 1 / 1000
 
 
+def test_monte_carlo_patterns_in_chunks_bound_memory_only(monkeypatch):
+    import analysis.signflip as sf
+
+    x = np.random.default_rng(4).normal(0.2, 1.0, (3, 20))
+    signs = draw_signs(20, 500, seed=0)
+    whole = sign_flip_p(x, signs=signs)[0]
+    monkeypatch.setattr(sf, "CHUNK_CELLS", 7)  # one pattern per product
+    np.testing.assert_array_equal(sign_flip_p(x, signs=signs)[0], whole)
+
+
 def test_paired_p_is_the_sign_flip_test_of_the_track_sums(crossed):
     items, res = crossed
     # independently: per track, the sum of sharp - blurry PSNR at offset +1 (pandas), and
