@@ -175,8 +175,9 @@ def leaderboard_text(res: MethodsResult) -> str:
                  f"tracks. \"Better than the next\": the paired comparison on the objects both methods "
                  f"scored (same clip, camera, track, timestamp and view); its p-value is a two-sided "
                  f"sign-flip test over tracks (exact up to 16 tracks, else Monte Carlo with "
-                 f"{res.n_boot} sign patterns), Holm-corrected over the comparisons of "
-                 f"methods_paired.csv, below {ALPHA}, and its interval excludes 0. The smallest "
+                 f"{res.n_boot} sign patterns), Holm-corrected over the rows of methods_paired.csv "
+                 f"without a by (a --by breakdown is a family of its own), below {ALPHA}, and its "
+                 f"interval excludes 0. The smallest "
                  f"p-value n tracks allow is 2/2^n (1/({res.n_boot}+1) by Monte Carlo): "
                  f"\"p <\" marks a p-value at that floor.")
     else:
