@@ -235,6 +235,15 @@ def test_off_path_and_on_path_replace_all_and_the_leaderboard_ranks_off_path():
     assert on.methods == ["blurry", "sharp"] and on.leaderboard["better_than_next"].iloc[0]
 
 
+def test_only_the_recorded_view_ranks_on_path_with_a_note():
+    pairs, metrics = make_method_tables()
+    keep = pairs["y_offset_m"] == 0
+    _, res = _compare(pairs[keep], metrics[metrics["pair_id"].isin(pairs.loc[keep, "pair_id"])])
+    assert res.rank_view == "on-path" and (res.leaderboard["view"] == "on-path").all()
+    assert "no off-path objects: the leaderboard ranks the on-path view" in res.notes
+    assert set(res.paired["axis"]) == {"on-path", "y_offset_m"}
+
+
 def test_formats_and_code_agree_on_the_leaderboard_tables():
     # docs/FORMATS.md §11 lists the columns of methods.csv and methods_paired.csv in order,
     # and says what offset 0 (on-path) reports
