@@ -293,7 +293,8 @@ def _check_target(items: pd.DataFrame, target: str | None) -> None:
 def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), target=None,
                        n_boot: int = 1000, seed: int = 0, rank_by: str = "srcc", timing_paths=(),
                        margin: float = DEFAULT_MARGIN, compare_methods: bool = False, methods=None,
-                       rank_metric: str | None = None, progress: bool = True) -> Analysis:
+                       rank_metric: str | None = None, progress: bool = True, min_clusters: int = 5,
+                       by=(), rank_view: str = "off-path") -> Analysis:
     """The all-pairs analysis (module docstring); the same :class:`Analysis` as the ratings path.
 
     Parameters
@@ -302,6 +303,8 @@ def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), tar
         A pairs dataset folder, or a pairs table with ``clip_id``.
     metrics_paths, lower, higher, n_boot, seed, rank_by, timing_paths, margin, methods, rank_metric
         As for :func:`analysis.pipeline.run_analysis`.
+    min_clusters, by, rank_view : optional
+        With ``compare_methods``: as :func:`analysis.methods.compare_methods`.
     target : str, optional
         A numeric per-pair column (e.g. ``clip_drop``) of the pairs or metrics; required unless
         ``compare_methods``.
@@ -362,4 +365,5 @@ def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), tar
         methods=for_analysis(items, target=target, metrics=metrics, directions=directions,
                              attributes=attributes, n_boot=n_boot, seed=seed, where=pairs_path,
                              methods=methods, rank_metric=rank_metric, metrics_paths=metrics_paths,
-                             progress=progress) if compare_methods else None)
+                             progress=progress, min_clusters=min_clusters, by=by,
+                             rank_view=rank_view) if compare_methods else None)

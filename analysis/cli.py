@@ -4,7 +4,8 @@
 [--target COLUMN] [--exclude-raters A,B] [--screen] [--aggregate METHOD] [--timing FILE ...]
 [--stability DIR]
 [--bootstrap N] [--seed S] [--rank-by {srcc,plcc,roc_auc}]
-[--compare-methods [--methods A,B] [--leaderboard-metric METRIC]] --out REPORT_DIR``
+[--compare-methods [--methods A,B] [--leaderboard-metric METRIC] [--leaderboard-view VIEW]
+[--by A,B] [--min-clusters K]] --out REPORT_DIR``
 
 Pairwise votes (a ``--design pairwise`` study's export) are recognised by their columns and
 analysed by :mod:`analysis.pairwise`; ``--compare-methods`` adds the leaderboard of
@@ -23,6 +24,8 @@ from rich.table import Table
 
 from analysis.aggregate import METHODS
 from analysis.all_pairs import run_pairs_analysis
+from analysis.method_cells import PATHS
+from analysis.methods import MIN_CLUSTERS
 from analysis.methods_report import leaderboard_display
 from analysis.noninferiority import DEFAULT_MARGIN
 from analysis.pairwise import is_pairwise, run_pairwise_analysis
@@ -122,6 +125,21 @@ def _methods_options(p: ArgumentParser) -> None:
     p.add_argument("--leaderboard-metric", default=None, metavar="METRIC",
                    help="with --compare-methods: the metric that ranks the methods (default: "
                    "NVRQ-CA of the first encoder, else the first metric)")
+    p.add_argument("--leaderboard-view", choices=PATHS, default="off-path", help=_HELP["view"])
+    p.add_argument("--by", action=CommaList, default=[], metavar="A,B", help=_HELP["by"])
+    p.add_argument("--min-clusters", type=int_arg(low=2), default=MIN_CLUSTERS, metavar="K",
+                   help=_HELP["min_clusters"])
+
+
+#: The help of the leaderboard's options on honest statistics (issue 29).
+_HELP = {
+    "view": "with --compare-methods: rank on the novel views (off-path, default) or on the recorded "
+            "view (on-path, offset 0)",
+    "by": "with --compare-methods: also compare the methods per cell of these columns crossed: class, "
+          "offset and clip attributes (e.g. class,offset or lighting,offset)",
+    "min_clusters": "with --compare-methods: the fewest tracks a group needs for an interval and a "
+                    f"p-value (default {MIN_CLUSTERS}; docs/FORMATS.md §11)",
+}
 
 
 def _output_options(p: ArgumentParser) -> None:
@@ -137,7 +155,8 @@ OPTION_GROUPS = (_input_options, _rater_options, _cost_options, _statistics_opti
 #: Library parameter names that differ from this CLI's argparse dests.
 _ALIASES = {"n_boot": "bootstrap", "metrics_paths": "metrics_tables", "timing_paths": "timing",
             "stability_dir": "stability", "lower": "lower_better", "higher": "higher_better",
-            "exclude": "exclude_raters", "rank_metric": "leaderboard_metric"}
+            "exclude": "exclude_raters", "rank_metric": "leaderboard_metric",
+            "rank_view": "leaderboard_view"}
 
 
 def _print_summary(analysis) -> None:
@@ -170,8 +189,10 @@ def _run(args) -> int:
                         inputs=[args.ratings or args.pairs, *args.metrics_tables, *args.timing,
                                 args.stability])
 
-    if (args.methods or args.leaderboard_metric) and not args.compare_methods:
-        raise InputError("--methods/--leaderboard-metric", None, "--compare-methods with them", "none")
+    if (args.methods or args.leaderboard_metric or args.by or args.min_clusters != MIN_CLUSTERS
+            or args.leaderboard_view != "off-path") and not args.compare_methods:
+        raise InputError("--methods/--leaderboard-metric/--leaderboard-view/--by/--min-clusters", None,
+                         "--compare-methods with them", "none")
     if args.ratings is not None and is_pairwise(args.ratings):
         return _run_pairwise(args)
     analysis = _run_pairs(args) if args.pairs is not None else _run_ratings(args)
@@ -189,7 +210,8 @@ def _common_options(args) -> dict:
     return dict(metrics_paths=args.metrics_tables, lower=args.lower_better, higher=args.higher_better,
                 target=args.target, n_boot=args.bootstrap, seed=args.seed, rank_by=args.rank_by,
                 timing_paths=args.timing, margin=args.margin, compare_methods=args.compare_methods,
-                methods=args.methods, rank_metric=args.leaderboard_metric, progress=not args.quiet)
+                methods=args.methods, rank_metric=args.leaderboard_metric, progress=not args.quiet,
+                min_clusters=args.min_clusters, by=args.by, rank_view=args.leaderboard_view)
 
 
 def _run_pairs(args):
@@ -203,7 +225,7 @@ def _run_pairwise(args) -> int:
     """Pairwise votes: Bradley-Terry, 2AFC agreement and screening (analysis.pairwise)."""
     for given, flag in ((args.target, "--target"), (args.stability, "--stability"),
                         (args.aggregate != "majority", "--aggregate"), (args.timing, "--timing"),
-                        (args.methods or args.leaderboard_metric, "--methods/--leaderboard-metric")):
+                        (args.methods or args.leaderboard_metric or args.by, "--methods/--leaderboard-metric/--by")):
         if given:
             raise InputError(flag, None, "no such option with pairwise votes (they rank methods by "
                              "Bradley-Terry and metrics by 2AFC agreement)", args.ratings)

@@ -267,6 +267,9 @@ def run_analysis(
     methods=None,
     rank_metric: str | None = None,
     progress: bool = True,
+    min_clusters: int = 5,
+    by=(),
+    rank_view: str = "off-path",
 ) -> Analysis:
     """The whole analysis of a ratings table (see the module docstring).
 
@@ -305,6 +308,8 @@ def run_analysis(
         With ``compare_methods``: the metric that ranks the methods.
     progress : bool, optional
         Show progress bars.
+    min_clusters, by, rank_view : optional
+        With ``compare_methods``: as :func:`analysis.methods.compare_methods`.
 
     Returns
     -------
@@ -358,5 +363,6 @@ def run_analysis(
         methods=for_analysis(items, target=tgt, metrics=metrics, directions=directions,
                              attributes=attributes, n_boot=n_boot, seed=seed, where=ratings_path,
                              methods=methods, rank_metric=rank_metric, metrics_paths=metrics_paths,
-                             progress=progress) if compare_methods else None,
+                             progress=progress, min_clusters=min_clusters, by=by,
+                             rank_view=rank_view) if compare_methods else None,
     )

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-__all__ = ["fmt", "interval_text"]
+__all__ = ["fmt", "interval_text", "offset_text"]
 
 
 def fmt(v, digits: int = 3) -> str:
@@ -35,3 +35,15 @@ def interval_text(v, lo, hi, digits: int = 3) -> str:
     if text and lo is not None and np.isfinite(lo):
         text += f" [{lo:.{digits}f}, {hi:.{digits}f}]"
     return text
+
+
+def offset_text(v) -> str:
+    """A view's value along its axis, the one way every table and figure writes it: signed,
+    shortest form, ``0`` for the recorded view (``''`` when undefined).
+
+    >>> offset_text(3.0), offset_text(-1.5), offset_text(0.0), offset_text(-0.0), offset_text(float("nan"))
+    ('+3', '-1.5', '0', '0', '')
+    """
+    if v is None or not np.isfinite(v):
+        return ""
+    return "0" if v == 0 else f"{v:+g}"

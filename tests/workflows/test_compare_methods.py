@@ -2,7 +2,7 @@
 by two methods (artefact scales 0.5 and 1.5) is ranked by ``analyze --compare-methods``, and a
 pairwise study of it with 5 simulated raters confirms the ranking (docs/FORMATS.md §11-12).
 
-What the clip shows (measured, seeds 0 and 1): NVRQ-CA ranks the less degraded method first
+What the clip shows (measured at 320x180, seeds 0 and 1): NVRQ-CA ranks the less degraded method first
 at every offset. PSNR does so at offset 0 only: at |offset| >= 1 the render is seen from
 another viewpoint than the GT crop, and under that misalignment the blurrier render scores
 no worse (at -1 m on seed 1 significantly better: -0.35 dB [-0.51, -0.15]). The leaderboard
@@ -32,7 +32,9 @@ def _ok(rc):
 @pytest.fixture(scope="module")
 def clip(tmp_path_factory):
     d = tmp_path_factory.mktemp("compare")
-    _ok(nvrq_main(["synth", str(d / "scene"), "--seconds", "1", "--fps", "5", "--size", "320x180",
+    # 640x360 keeps 12 tracks (320x180: 8): a sign-flip test over 8 tracks cannot go below
+    # 2/2^8, and Holm over the 14 paired rows of two metrics then calls nothing (issue 29)
+    _ok(nvrq_main(["synth", str(d / "scene"), "--seconds", "1", "--fps", "5", "--size", "640x360",
                    "--offsets", "-2,-1,0,1,2", "--methods", METHODS, "--quiet"]))
     _ok(nvrq_main(["pairs", str(d / "scene"), "--out", str(d / "pairs.csv")]))
     _ok(nvrq_main(["score", str(d / "pairs.csv"), "--out", str(d / "metrics.csv"), "--metrics",
@@ -46,24 +48,28 @@ def test_leaderboard_puts_the_less_degraded_method_first(clip):
     paired = pd.read_csv(clip / "board" / "methods_paired.csv")
     table = pd.read_csv(clip / "board" / "methods.csv")
     assert (paired[["method_a", "method_b"]] == ["sharp", "blurry"]).all(axis=None)
-    for metric in (NVRQ_CA, "psnr"):
-        overall = table[(table["metric"] == metric) & (table["breakdown"] == "all")].set_index("method")
+    # NVRQ-CA ranks sharp first off the recorded path, PSNR on it only (module docstring)
+    for metric, view in ((NVRQ_CA, "off-path"), ("psnr", "on-path")):
+        overall = table[(table["metric"] == metric) & (table["breakdown"] == view)].set_index("method")
         assert overall.loc["sharp", "mean"] > overall.loc["blurry", "mean"]
-        rows = paired[(paired["metric"] == metric) & (paired["axis"] == "y_offset_m")]
+        rows = paired[(paired["metric"] == metric) & (paired["axis"] == "y_offset_m") & paired["by"].isna()]
         assert sorted(rows["offset"]) == [-2, -1, 0, 1, 2]
         # every verdict is the paired interval's: 'a' or 'b' only when it excludes 0 (Holm p < 0.05)
         excludes = (rows["ci_lo"] > 0) | (rows["ci_hi"] < 0)
         assert ((rows["better"] != "neither") <= (excludes & (rows["p_holm"] < 0.05))).all()
-        assert (rows["better"] == np.where(rows["mean_diff"] > 0, "a", "b"))[rows["better"] != "neither"].all()
+        named = np.where(rows["mean_diff"] > 0, "sharp", "blurry")  # better names the method
+        assert (rows["better"] == named)[rows["better"] != "neither"].all()
     nv = paired[(paired["metric"] == NVRQ_CA) & (paired["axis"] == "y_offset_m")]
     far = nv[nv["offset"].abs() >= 1]
-    assert (far["ci_lo"] > 0).all() and (far["better"] == "a").all(), far
-    # offset 0: both methods barely degrade (severity 0.02 x scale); the difference is a small
-    # fraction of those at |offset| >= 1, whatever the verdict
+    assert (far["ci_lo"] > 0).all() and (far["better"] == "sharp").all(), far
+    # offset 0 is the on-path row: tested like any view (at 320x180 its difference was under a
+    # quarter of those at |offset| >= 1; at 640x360 the blur shows there too, 0.037 against
+    # 0.080 at +-2 m, and the test says so)
     zero = nv[nv["offset"] == 0].iloc[0]
-    assert abs(zero["mean_diff"]) < 0.25 * far["mean_diff"].min()
+    on = paired[(paired["metric"] == NVRQ_CA) & (paired["axis"] == "on-path")].iloc[0]
+    assert (on[["n", "mean_diff", "p", "better"]] == zero[["n", "mean_diff", "p", "better"]]).all()
     ps = paired[(paired["metric"] == "psnr") & (paired["axis"] == "y_offset_m")]
-    assert ps.loc[ps["offset"] == 0, "better"].iloc[0] == "a"  # aligned crops: PSNR sees the blur
+    assert ps.loc[ps["offset"] == 0, "better"].iloc[0] == "sharp"  # aligned crops: PSNR sees the blur
     html = (clip / "board" / "report.html").read_text()
     assert "Leaderboard of methods by " + NVRQ_CA in html and "better than blurry" in html
 
