@@ -265,3 +265,17 @@ def test_default_screening_fits_and_ceiling_use_the_raters_kept(tmp_path, capsys
                  "--out", str(tmp_path / "all")]) == 0
     assert "kept despite its flags: careless (" in capsys.readouterr().err
     assert not pd.read_csv(tmp_path / "all" / "raters.csv")["excluded"].any()
+
+
+@pytest.mark.parametrize("extra", [["--compare-methods"], ["--rank-by", "plcc"], ["--margin", "0.05"],
+                                   ["--target", "x"], ["--aggregate", "glad"], ["--timing", "t.csv"],
+                                   ["--compare-methods", "--methods", "sharp,blurry"]])
+def test_options_of_other_inputs_are_refused_with_pairwise_votes(study, tmp_path, capsys, extra):
+    """Issue 29: `analyze votes.csv --compare-methods` on pairwise votes used to ignore the flag."""
+    _, _, votes = study
+    votes.to_csv(tmp_path / "votes.csv", index=False)
+    rc = main([str(tmp_path / "votes.csv"), *extra, "--quiet", "--out", str(tmp_path / "rep")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1, err
+    assert err[0].startswith(f"error: {extra[0]}: expected no {extra[0]} with pairwise votes"), err
+    assert not (tmp_path / "rep").exists()
