@@ -48,7 +48,7 @@ from scipy import stats as _st
 
 from analysis import bootstrap as bs
 from analysis.bradley_terry import Draws, bradley_terry, strongly_connected, win_matrix, win_prob
-from analysis.inputs import classify_columns
+from analysis.inputs import classify_columns, drop_empty_columns
 from analysis.methods import METHOD_COLUMN, view_breakdowns
 from analysis.text import no_votes_left
 from annotate.results import pairwise_raters
@@ -397,10 +397,12 @@ def run_pairwise_analysis(votes_path, *, metrics_paths=(), lower=(), higher=(), 
             raise InputError(path, "pair_id", "the pairs of the voted methods' renders (object id + "
                              "':METHOD', docs/FORMATS.md §3)", "none matches a vote")
     sides = {s: _side_values(test, tables, s, ids[s]) for s in ("a", "b")}
-    columns = pd.DataFrame({c: v for c, v in sides["a"].items()})
+    # a metric with no value on any voted render is undefined for these crops: a note, no row
+    _, notes = drop_empty_columns(pd.concat([pd.DataFrame(sides[s]) for s in ("a", "b")]), unit="voted render")
+    columns = pd.DataFrame({c: v for c, v in sides["a"].items()
+                            if np.isfinite(np.r_[v, sides["b"][c]]).any()})
     metrics, directions, _, _ = classify_columns(columns, lower=set(lower), higher=set(higher),
                                                  target=None, where=metrics_paths[0] if tables else votes_path)
-    notes = []
     for m in metrics:
         miss = int((~np.isfinite(sides["a"][m]) | ~np.isfinite(sides["b"][m])).sum())
         if miss:

@@ -18,7 +18,7 @@ import pandas as pd
 from analysis import axes, breakdowns
 from analysis.aggregate import aggregate
 from analysis.ceiling import noise_ceiling, vote_matrix
-from analysis.inputs import classify_columns, read_metrics, read_ratings
+from analysis.inputs import classify_columns, drop_empty_columns, read_metrics, read_ratings
 from analysis.labels import item_table, join_metrics
 from analysis.methods import MethodsResult, for_analysis
 from analysis.noninferiority import DEFAULT_MARGIN
@@ -175,10 +175,8 @@ def _check_target(items, target):
 
 
 def _columns(items, unknown, notes, *, target, tgt, lower, higher, where):
-    empty = [c for c in items.columns if c != tgt and items[c].isna().all()]
-    if empty:
-        notes.append("empty columns ignored: " + ", ".join(map(str, empty)))
-        items = items.drop(columns=empty)
+    items, empty_notes = drop_empty_columns(items, keep=(tgt,))
+    notes += empty_notes
     classified = classify_columns(
         items, lower=set(lower), higher=set(higher), target=target, where=where
     )

@@ -55,7 +55,7 @@ def screening_text(raters: pd.DataFrame, *, applied: bool) -> str:
     text = (f"Excluded {len(ex)} of {n} raters: " + "; ".join(
         f"{r.rater_id} ({r.excluded_reason})" for r in ex.itertuples()) + "."
         if len(ex) else f"No rater excluded ({n} raters).")
-    flags = raters["flags"].fillna("").astype(str)
+    flags = raters.get("flags", pd.Series("", index=raters.index)).fillna("").astype(str)
     kept = raters[~raters["excluded"].astype(bool) & (flags != "")]
     if len(kept) and not applied:
         text += " Screening off (--no-screen): kept despite its flags: " + "; ".join(

@@ -279,3 +279,13 @@ def test_options_of_other_inputs_are_refused_with_pairwise_votes(study, tmp_path
     assert rc == 2 and len(err) == 1, err
     assert err[0].startswith(f"error: {extra[0]}: expected no {extra[0]} with pairwise votes"), err
     assert not (tmp_path / "rep").exists()
+
+
+def test_a_metric_nan_on_every_render_is_reported_undefined(study, tmp_path):
+    _, metrics, votes = study
+    votes.to_csv(tmp_path / "votes.csv", index=False)
+    metrics.assign(niqe=np.nan).to_csv(tmp_path / "metrics.csv", index=False)
+    res = run_pairwise_analysis(tmp_path / "votes.csv", metrics_paths=[tmp_path / "metrics.csv"], n_boot=0)
+    assert "niqe" not in set(res.agreement["metric"]) and "psnr" in set(res.agreement["metric"])
+    n = 2 * int((votes["kind"] == "test").sum())  # both sides of every test vote kept
+    assert f"niqe: undefined for every one of these {n} voted renders, left out" in " ".join(res.notes)
