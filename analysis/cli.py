@@ -207,8 +207,9 @@ def _run(args) -> int:
         analysis = run_pairs_analysis(args.pairs, **_common_options(args))
     else:
         analysis = _run_ratings(args)
+    out = write_report(analysis, args.out)  # then the terminal: an error stays one line
+    if args.pairs is None:
         _print_screening(analysis.raters, applied=analysis.screen)
-    out = write_report(analysis, args.out)
     if analysis.target is not None:
         _print_summary(analysis)
     if analysis.methods is not None:
@@ -246,8 +247,8 @@ def _run_pairwise(args) -> int:
         args.ratings, metrics_paths=args.metrics_tables, lower=args.lower_better,
         higher=args.higher_better, exclude_raters=args.exclude_raters,
         screen_raters=not args.no_screen, n_boot=args.bootstrap, seed=args.seed)
-    _print_screening(result.raters, applied=result.screen)
     out = write_pairwise_report(result, args.out)
+    _print_screening(result.raters, applied=result.screen)
     _print(bt_display(result.bradley_terry), "methods by Bradley-Terry (pairwise votes)")
     print(f"report: {out / 'report.html'}", file=sys.stderr)
     return 0
