@@ -33,7 +33,7 @@ import pyarrow.types as pt
 from tqdm.auto import tqdm
 
 from analysis import axes, breakdowns
-from analysis.inputs import NON_METRIC_COLUMNS, classify_columns
+from analysis.inputs import NON_METRIC_COLUMNS, classify_columns, drop_empty_columns
 from analysis.methods import for_analysis
 from analysis.noninferiority import DEFAULT_MARGIN
 from analysis.pipeline import Analysis, boot_size, find_timing_files, read_timing
@@ -334,11 +334,10 @@ def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), tar
         _check_target(items, target)
     notes = [f"all-pairs analysis: {len(items)} pairs, no votes; "
              + (f"target {target}" if target is not None else "no target (the methods only)")]
-    empty = [c for c in items.columns if c != target and pd.api.types.is_numeric_dtype(items[c])
-             and not np.isfinite(items[c].to_numpy(np.float64)).any()]
-    if empty:
-        notes.append("empty columns ignored: " + ", ".join(map(str, empty)))
-        items = items.drop(columns=empty)
+    numeric = [c for c in items.columns if pd.api.types.is_numeric_dtype(items[c])]
+    items, empty_notes = drop_empty_columns(items, keep=[c for c in items.columns if c not in numeric]
+                                            + [target], unit="pair")
+    notes += empty_notes
     metrics, directions, attributes, proxies = classify_columns(
         items, lower=set(lower), higher=set(higher), target=target, where=pairs_path)
     for path, n in unknown.items():

@@ -19,7 +19,7 @@ from analysis import plots
 from analysis.pairwise import CEILING_ROW, PairwiseAnalysis
 from analysis.plots import VIEW_AXIS_LABELS
 from analysis.report import render_pages, write_report_folder
-from analysis.text import interval_text, offset_text
+from analysis.text import interval_text, offset_text, screening_text
 from annotate.screening import ScreenRule
 from data_schema.tables import write_table
 
@@ -118,13 +118,19 @@ def _texts(a: PairwiseAnalysis) -> dict:
                   "rater chose the render the metric scores better, 0 for the other, 0.5 when the "
                   "rater or the metric ties; each side's value is the metric of that method's pair. "
                   "Ceiling: the expected agreement of two different raters of the same item.")
-    screen_text = (f"Screening: gold items show the GT crop itself on one side (it must be chosen; "
-                   f"exclusion when the failure rate is significantly above "
-                   f"{rule.max_gold_failure_rate}), repeats show a test item again with the sides "
-                   f"swapped (exclusion when the consistency is significantly below "
-                   f"{rule.min_repeat_consistency}), and a median response significantly below "
-                   f"{rule.min_response_ms:g} ms; one-sided exact binomial tests at level {rule.alpha}. "
-                   + ("Applied (--screen)." if a.screen else "Reported, not applied (run with --screen)."))
+    screen_text = (screening_text(a.raters, applied=a.screen) + " Bradley-Terry, the agreement and "
+                   "its ceiling use the raters kept. "
+                   f"Screening rule ({'applied' if a.screen else 'off: --no-screen'}): gold items "
+                   f"show the GT crop itself on one side (it must be chosen; exclusion when the "
+                   f"failure rate is significantly above {rule.max_gold_failure_rate}), repeats show "
+                   f"a test item again with the sides swapped (exclusion when the consistency is "
+                   f"significantly below {rule.min_repeat_consistency}), a median response "
+                   f"significantly below {rule.min_response_ms:g} ms (one-sided exact binomial "
+                   f"tests at level {rule.alpha}), and agreement with the others on sides: the "
+                   f"side pressed against the side of the other raters' modal choice (A's side is "
+                   f"counterbalanced, so a rater who does not look scores J = 0), excluded when J is "
+                   f"significantly below {rule.min_j} or shows no skill (Fisher p >= "
+                   f"{rule.skill_alpha}), as for binary votes.")
     sim = (f"{c['raters_simulated']} of {c['raters']} raters are simulated (rater_id starting with "
            "'sim-'): these are not human judgements." if c["raters_simulated"] else "")
     return {"bt_text": bt_text, "agree_text": agree_text, "screen_text": screen_text, "simulated": sim}

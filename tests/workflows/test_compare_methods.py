@@ -86,10 +86,11 @@ def test_pairwise_study_confirms_the_ranking(clip):
     overall = bt[bt["axis"] == "all"].set_index("method")
     ours = overall.loc["sharp", "win_prob"]
     assert ours > 0.5
-    # crowd-kit's BradleyTerry on the exported test votes; "a tie counts half" in its integer
+    # crowd-kit's BradleyTerry on the exported test votes of the raters kept; "a tie counts half" in its integer
     # counts: each vote is two comparisons won by the chosen side, a tie one for each side
     v = pd.read_csv(votes)
-    v = v[v["kind"] == "test"]
+    raters = pd.read_csv(clip / "pairwise" / "raters.csv")  # the fit uses the raters screening kept
+    v = v[(v["kind"] == "test") & v["rater_id"].isin(raters.loc[~raters["excluded"], "rater_id"])]
     rows = []
     for r in v.itertuples():
         won = {"a": [r.method_a] * 2, "b": [r.method_b] * 2, "tie": [r.method_a, r.method_b]}[r.choice]
@@ -99,3 +100,19 @@ def test_pairwise_study_confirms_the_ranking(clip):
     assert abs(ours - s["sharp"] / (s["sharp"] + s["blurry"])) < 0.02
     agree = pd.read_csv(clip / "pairwise" / "agreement_2afc.csv").set_index("metric")
     assert np.isfinite(agree.loc[NVRQ_CA, "agreement"]) and agree.loc[NVRQ_CA, "n_votes"] > 0
+
+
+def test_default_report_excludes_the_careless_simulated_rater(clip):
+    """Issue 29: with default options the pairwise report leaves out the simulated rater who
+    presses at random (caught by the agreement tests on sides, whatever its gold and repeats
+    say) and keeps the careful ones; Bradley-Terry and the ceiling use the raters kept."""
+    if not (clip / "votes.csv").is_file():
+        test_pairwise_study_confirms_the_ranking(clip)
+    r = pd.read_csv(clip / "pairwise" / "raters.csv").set_index("rater_id")
+    assert r.loc["sim-careless", "excluded"] and "agreement with the others" in r.loc["sim-careless", "flags"]
+    assert not r.drop("sim-careless")["excluded"].any()
+    v = pd.read_csv(clip / "votes.csv")
+    bt = pd.read_csv(clip / "pairwise" / "bradley_terry.csv")
+    kept = v[(v["kind"] == "test") & (v["rater_id"] != "sim-careless")]
+    assert bt.loc[bt["axis"] == "all", "n_votes"].iloc[0] == len(kept)
+    assert "Excluded 1 of 5 raters: sim-careless (screening:" in (clip / "pairwise" / "report.html").read_text()
