@@ -5,7 +5,7 @@ Modules, in data-flow order:
 - :mod:`analysis.inputs` — read and check ratings.csv and metric tables; which columns are
   metrics, attributes and proxies (the written rule).
 - :mod:`annotate.screening` (one stage down, shared with the live admin page) — per-rater
-  numbers and the ``--screen`` rule.
+  numbers and the screening rule (``analyze``'s default).
 - :mod:`analysis.labels` — votes to per-item GVF; join of metric tables.
 - :mod:`analysis.stats` — columnar (grouped) PLCC/SRCC/KRCC/ROC AUC/logistic PLCC and the
   undefined-statistic rule; :mod:`analysis.bootstrap` — cluster bootstrap over tracks;

@@ -33,7 +33,7 @@ import pyarrow.types as pt
 from tqdm.auto import tqdm
 
 from analysis import axes, breakdowns
-from analysis.inputs import NON_METRIC_COLUMNS, classify_columns
+from analysis.inputs import NON_METRIC_COLUMNS, classify_columns, drop_empty_columns
 from analysis.methods import for_analysis
 from analysis.noninferiority import DEFAULT_MARGIN
 from analysis.pipeline import Analysis, boot_size, find_timing_files, read_timing
@@ -293,7 +293,8 @@ def _check_target(items: pd.DataFrame, target: str | None) -> None:
 def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), target=None,
                        n_boot: int = 1000, seed: int = 0, rank_by: str = "srcc", timing_paths=(),
                        margin: float = DEFAULT_MARGIN, compare_methods: bool = False, methods=None,
-                       rank_metric: str | None = None, progress: bool = True) -> Analysis:
+                       rank_metric: str | None = None, progress: bool = True, min_clusters: int = 5,
+                       by=(), rank_view: str = "off-path") -> Analysis:
     """The all-pairs analysis (module docstring); the same :class:`Analysis` as the ratings path.
 
     Parameters
@@ -302,6 +303,8 @@ def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), tar
         A pairs dataset folder, or a pairs table with ``clip_id``.
     metrics_paths, lower, higher, n_boot, seed, rank_by, timing_paths, margin, methods, rank_metric
         As for :func:`analysis.pipeline.run_analysis`.
+    min_clusters, by, rank_view : optional
+        With ``compare_methods``: as :func:`analysis.methods.compare_methods`.
     target : str, optional
         A numeric per-pair column (e.g. ``clip_drop``) of the pairs or metrics; required unless
         ``compare_methods``.
@@ -331,11 +334,10 @@ def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), tar
         _check_target(items, target)
     notes = [f"all-pairs analysis: {len(items)} pairs, no votes; "
              + (f"target {target}" if target is not None else "no target (the methods only)")]
-    empty = [c for c in items.columns if c != target and pd.api.types.is_numeric_dtype(items[c])
-             and not np.isfinite(items[c].to_numpy(np.float64)).any()]
-    if empty:
-        notes.append("empty columns ignored: " + ", ".join(map(str, empty)))
-        items = items.drop(columns=empty)
+    numeric = [c for c in items.columns if pd.api.types.is_numeric_dtype(items[c])]
+    items, empty_notes = drop_empty_columns(items, keep=[c for c in items.columns if c not in numeric]
+                                            + [target], unit="pair")
+    notes += empty_notes
     metrics, directions, attributes, proxies = classify_columns(
         items, lower=set(lower), higher=set(higher), target=target, where=pairs_path)
     for path, n in unknown.items():
@@ -362,4 +364,5 @@ def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), tar
         methods=for_analysis(items, target=target, metrics=metrics, directions=directions,
                              attributes=attributes, n_boot=n_boot, seed=seed, where=pairs_path,
                              methods=methods, rank_metric=rank_metric, metrics_paths=metrics_paths,
-                             progress=progress) if compare_methods else None)
+                             progress=progress, min_clusters=min_clusters, by=by,
+                             rank_view=rank_view) if compare_methods else None)

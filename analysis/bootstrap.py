@@ -33,7 +33,6 @@ __all__ = [
     "replicate_stats",
     "percentile_ci",
     "paired_difference",
-    "monte_carlo_p",
     "replicates_for",
 ]
 
@@ -147,26 +146,10 @@ def paired_difference(best: np.ndarray, other: np.ndarray, *, level: float = 0.9
     return float(lo), float(hi), p
 
 
-def monte_carlo_p(d: np.ndarray) -> float:
-    """Two-sided bootstrap p-value of the replicates ``d`` (B,) against 0, with the add-one
-    rule ``2 (1 + min(#{d <= 0}, #{d >= 0})) / (B + 1)`` (Davison & Hinkley 1997, eq. 4.11;
-    capped at 1) over defined replicates. It is never 0: the smallest value, ``2 / (B + 1)``,
-    is what B replicates can resolve, so a multiplicity correction (Holm) can raise it.
-
-    >>> monte_carlo_p(np.arange(1.0, 100.0))  # every replicate above 0: 2 / 100
-    0.02
-    """
-    d = np.asarray(d, dtype=np.float64)
-    d = d[np.isfinite(d)]
-    if d.shape[0] == 0:
-        return float("nan")
-    k = min(int((d <= 0).sum()), int((d >= 0).sum()))
-    return min(1.0, 2.0 * (1 + k) / (d.shape[0] + 1))
-
-
 def replicates_for(n_boot: int, n_tests: int, *, alpha: float = 0.05) -> int:
-    """Replicates for ``n_tests`` add-one bootstrap p-values under Holm: at least ``n_boot``,
-    and enough that the smallest p, ``2 / (B + 1)``, times ``n_tests`` is below ``alpha / 2``
+    """Replicates for ``n_tests`` Monte Carlo p-values under Holm: at least ``n_boot``, and
+    enough that ``2 / (B + 1)`` (twice the floor of an add-one Monte Carlo p-value, such as
+    the sign-flip test of :mod:`analysis.signflip`) times ``n_tests`` is below ``alpha / 2``
     (``B >= 4 n_tests / alpha``), so a decisive difference can be called in a family that size.
 
     >>> replicates_for(1000, 12), replicates_for(1000, 32), replicates_for(0, 5)

@@ -1,16 +1,20 @@
 """The ``analyze`` command (docs/FORMATS.md §6): a thin shell over :func:`analysis.pipeline.run_analysis`.
 
 ``analyze RATINGS.csv [--metrics-table METRICS ...] [--lower-better A,B] [--higher-better A,B]
-[--target COLUMN] [--exclude-raters A,B] [--screen] [--aggregate METHOD] [--timing FILE ...]
+[--target COLUMN] [--exclude-raters A,B] [--no-screen] [--aggregate METHOD] [--timing FILE ...]
 [--stability DIR]
 [--bootstrap N] [--seed S] [--rank-by {srcc,plcc,roc_auc}]
-[--compare-methods [--methods A,B] [--leaderboard-metric METRIC]] --out REPORT_DIR``
+[--compare-methods [--methods A,B] [--leaderboard-metric METRIC] [--leaderboard-view VIEW]
+[--by A,B] [--min-clusters K]] --out REPORT_DIR``
 
 Pairwise votes (a ``--design pairwise`` study's export) are recognised by their columns and
 analysed by :mod:`analysis.pairwise`; ``--compare-methods`` adds the leaderboard of
 :mod:`analysis.methods` to either path.
 
-Bad input ends with one line on stderr and exit status 2 (docs/FORMATS.md §7).
+Raters flagged by screening (:mod:`annotate.screening`) are excluded unless ``--no-screen``;
+who and why is printed and written in the report. An option that does not apply to the input
+(:data:`NOT_FOR`) is refused, never ignored. Bad input ends with one line on stderr and exit
+status 2 (docs/FORMATS.md §7).
 """
 
 from __future__ import annotations
@@ -23,6 +27,8 @@ from rich.table import Table
 
 from analysis.aggregate import METHODS
 from analysis.all_pairs import run_pairs_analysis
+from analysis.method_cells import PATHS
+from analysis.methods import MIN_CLUSTERS
 from analysis.methods_report import leaderboard_display
 from analysis.noninferiority import DEFAULT_MARGIN
 from analysis.pairwise import is_pairwise, run_pairwise_analysis
@@ -30,6 +36,7 @@ from analysis.pairwise_report import bt_display, write_pairwise_report
 from analysis.pipeline import run_analysis
 from analysis.report import summary_display, write_report
 from analysis.summary import RANK_BY
+from analysis.text import screening_text
 from data_schema.errors import InputError
 from data_schema.outputs import check_output_folder
 from nvrq.commands.args import (
@@ -39,6 +46,7 @@ from nvrq.commands.args import (
     flags_in_errors,
     int_arg,
     number_arg,
+    option_for,
     run_cli,
 )
 
@@ -83,11 +91,22 @@ def _rater_options(p: ArgumentParser) -> None:
     """Which raters count and how their votes become item labels (ratings only)."""
     p.add_argument("--exclude-raters", action=CommaList, default=[], metavar="A,B",
                    help="rater ids to leave out (comma list; repeatable)")
-    p.add_argument("--screen", action="store_true",
-                   help="exclude raters by the documented screening rule (see the report)")
+    p.add_argument("--no-screen", action="store_true",
+                   help="keep the raters the screening rule flags (by default they are excluded; "
+                   "raters.csv and the report say who and why)")
+    p.add_argument("--screen", action=_ScreenIsDefault, nargs=0, default=False, help=argparse.SUPPRESS)
     p.add_argument("--aggregate", choices=METHODS, default="majority",
                    help="item labels: majority vote (GVF, default) or a crowd-kit model whose posterior "
                    "P(good) becomes the target (0.5 threshold for ROC AUC)")
+
+
+class _ScreenIsDefault(argparse.Action):
+    """The old ``--screen``: screening is now the default, so it changes nothing; one note."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"note: {option_string} is deprecated: screening is on by default (--no-screen keeps "
+              "the flagged raters)", file=sys.stderr)
+        setattr(namespace, self.dest, True)
 
 
 def _cost_options(p: ArgumentParser) -> None:
@@ -122,6 +141,21 @@ def _methods_options(p: ArgumentParser) -> None:
     p.add_argument("--leaderboard-metric", default=None, metavar="METRIC",
                    help="with --compare-methods: the metric that ranks the methods (default: "
                    "NVRQ-CA of the first encoder, else the first metric)")
+    p.add_argument("--leaderboard-view", choices=PATHS, default="off-path", help=_HELP["view"])
+    p.add_argument("--by", action=CommaList, default=[], metavar="A,B", help=_HELP["by"])
+    p.add_argument("--min-clusters", type=int_arg(low=2), default=MIN_CLUSTERS, metavar="K",
+                   help=_HELP["min_clusters"])
+
+
+#: The help of the leaderboard's options on honest statistics (issue 29).
+_HELP = {
+    "view": "with --compare-methods: rank on the novel views (off-path, default) or on the recorded "
+            "view (on-path, offset 0)",
+    "by": "with --compare-methods: also compare the methods per cell of these columns crossed: class, "
+          "offset and clip attributes (e.g. class,offset or lighting,offset)",
+    "min_clusters": "with --compare-methods: the fewest tracks a group needs for an interval and a "
+                    f"p-value (default {MIN_CLUSTERS}; docs/FORMATS.md §11)",
+}
 
 
 def _output_options(p: ArgumentParser) -> None:
@@ -137,7 +171,19 @@ OPTION_GROUPS = (_input_options, _rater_options, _cost_options, _statistics_opti
 #: Library parameter names that differ from this CLI's argparse dests.
 _ALIASES = {"n_boot": "bootstrap", "metrics_paths": "metrics_tables", "timing_paths": "timing",
             "stability_dir": "stability", "lower": "lower_better", "higher": "higher_better",
-            "exclude": "exclude_raters", "rank_metric": "leaderboard_metric"}
+            "exclude": "exclude_raters", "rank_metric": "leaderboard_metric",
+            "rank_view": "leaderboard_view", "screen": "no_screen", "screen_raters": "no_screen"}
+
+#: Per input other than a ratings table: the options that do not apply to it (argparse dests),
+#: and why. One given with a value other than its default is refused (one line, exit 2).
+NOT_FOR = {
+    "pairwise votes": (("target", "stability", "aggregate", "timing", "compare_methods", "methods",
+                        "leaderboard_metric", "leaderboard_view", "by", "min_clusters",
+                        "rank_by", "margin"),
+                       "they rank methods by Bradley-Terry and metrics by 2AFC agreement"),
+    "--pairs": (("exclude_raters", "no_screen", "screen", "stability", "aggregate"),
+                "there are no votes: no raters to screen or labels to aggregate"),
+}
 
 
 def _print_summary(analysis) -> None:
@@ -170,12 +216,21 @@ def _run(args) -> int:
                         inputs=[args.ratings or args.pairs, *args.metrics_tables, *args.timing,
                                 args.stability])
 
-    if (args.methods or args.leaderboard_metric) and not args.compare_methods:
-        raise InputError("--methods/--leaderboard-metric", None, "--compare-methods with them", "none")
+    if (args.methods or args.leaderboard_metric or args.by or args.min_clusters != MIN_CLUSTERS
+            or args.leaderboard_view != "off-path") and not args.compare_methods:
+        raise InputError("--methods/--leaderboard-metric/--leaderboard-view/--by/--min-clusters", None,
+                         "--compare-methods with them", "none")
     if args.ratings is not None and is_pairwise(args.ratings):
+        _check_applies(args, "pairwise votes", args.ratings)
         return _run_pairwise(args)
-    analysis = _run_pairs(args) if args.pairs is not None else _run_ratings(args)
-    out = write_report(analysis, args.out)
+    if args.pairs is not None:
+        _check_applies(args, "--pairs", args.pairs)
+        analysis = run_pairs_analysis(args.pairs, **_common_options(args))
+    else:
+        analysis = _run_ratings(args)
+    out = write_report(analysis, args.out)  # then the terminal: an error stays one line
+    if args.pairs is None:
+        _print_screening(analysis.raters, applied=analysis.screen)
     if analysis.target is not None:
         _print_summary(analysis)
     if analysis.methods is not None:
@@ -189,29 +244,33 @@ def _common_options(args) -> dict:
     return dict(metrics_paths=args.metrics_tables, lower=args.lower_better, higher=args.higher_better,
                 target=args.target, n_boot=args.bootstrap, seed=args.seed, rank_by=args.rank_by,
                 timing_paths=args.timing, margin=args.margin, compare_methods=args.compare_methods,
-                methods=args.methods, rank_metric=args.leaderboard_metric, progress=not args.quiet)
+                methods=args.methods, rank_metric=args.leaderboard_metric, progress=not args.quiet,
+                min_clusters=args.min_clusters, by=args.by, rank_view=args.leaderboard_view)
 
 
-def _run_pairs(args):
-    if args.screen or args.exclude_raters or args.stability:
-        raise InputError("--pairs", None, "no rater or stability options (there are no votes)",
-                         "--screen/--exclude-raters/--stability")
-    return run_pairs_analysis(args.pairs, **_common_options(args))
+def _check_applies(args, kind: str, path) -> None:
+    """Refuse the first option of :data:`NOT_FOR` ``[kind]`` given with a non-default value."""
+    parser = build_parser()
+    dests, why = NOT_FOR[kind]
+    for dest in dests:
+        if getattr(args, dest) != parser.get_default(dest):
+            flag = option_for(parser, args, dest) or "--" + dest.replace("_", "-")  # hidden: --screen
+            raise InputError(flag, None, f"no {flag} with {kind} ({why})", path)
+
+
+def _print_screening(raters, *, applied: bool) -> None:
+    """Who screening (or --exclude-raters) left out and why, as the report says it (stderr)."""
+    print(screening_text(raters, applied=applied), file=sys.stderr)
 
 
 def _run_pairwise(args) -> int:
     """Pairwise votes: Bradley-Terry, 2AFC agreement and screening (analysis.pairwise)."""
-    for given, flag in ((args.target, "--target"), (args.stability, "--stability"),
-                        (args.aggregate != "majority", "--aggregate"), (args.timing, "--timing"),
-                        (args.methods or args.leaderboard_metric, "--methods/--leaderboard-metric")):
-        if given:
-            raise InputError(flag, None, "no such option with pairwise votes (they rank methods by "
-                             "Bradley-Terry and metrics by 2AFC agreement)", args.ratings)
     result = run_pairwise_analysis(
         args.ratings, metrics_paths=args.metrics_tables, lower=args.lower_better,
-        higher=args.higher_better, exclude_raters=args.exclude_raters, screen_raters=args.screen,
-        n_boot=args.bootstrap, seed=args.seed)
+        higher=args.higher_better, exclude_raters=args.exclude_raters,
+        screen_raters=not args.no_screen, n_boot=args.bootstrap, seed=args.seed)
     out = write_pairwise_report(result, args.out)
+    _print_screening(result.raters, applied=result.screen)
     _print(bt_display(result.bradley_terry), "methods by Bradley-Terry (pairwise votes)")
     print(f"report: {out / 'report.html'}", file=sys.stderr)
     return 0
@@ -221,7 +280,7 @@ def _run_ratings(args):
     return run_analysis(
         args.ratings,
         exclude_raters=args.exclude_raters,
-        screen=args.screen,
+        screen=not args.no_screen,
         aggregate_method=args.aggregate,
         stability_dir=args.stability,
         **_common_options(args),

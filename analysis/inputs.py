@@ -45,6 +45,7 @@ __all__ = [
     "read_ratings",
     "read_metrics",
     "classify_columns",
+    "drop_empty_columns",
 ]
 
 ITEM_LABEL_COLUMNS = (
@@ -214,3 +215,41 @@ def classify_columns(
         metrics.append(col)
         directions[col] = bool(d)
     return metrics, directions, attributes, proxies
+
+
+def drop_empty_columns(items: pd.DataFrame, *, keep=(), unit: str = "item") -> tuple[pd.DataFrame, list[str]]:
+    """``items`` without the columns that hold no value (numeric: no finite value; else all
+    missing), except those in ``keep``, and the report's notes on them.
+
+    A metric of the registry with no value is *undefined for these crops*, a note of its own
+    that says the crop size it needs (``min_side``) or when else it is NaN; other empty columns
+    share one "empty columns ignored" note. ``unit``: what a row is, for the notes.
+
+    >>> t = pd.DataFrame({"niqe": [np.nan, np.nan], "psnr": [30.0, 31.0], "x": [None, None]})
+    >>> kept, notes = drop_empty_columns(t, unit="pair")
+    >>> list(kept.columns), notes[0]
+    (['psnr'], 'niqe: undefined for every one of these 2 pairs, left out (NaN on all; a crop with \
+a shorter side below 96 px gives NaN)')
+    >>> notes[1]
+    'empty columns ignored: x'
+    """
+    def empty(c) -> bool:
+        col = items[c]
+        if pd.api.types.is_numeric_dtype(col) and not pd.api.types.is_bool_dtype(col):
+            return not np.isfinite(col.to_numpy(np.float64)).any()
+        return bool(col.isna().all())
+
+    gone = [c for c in items.columns if c not in keep and empty(c)]
+    notes, other = [], []
+    for c in gone:
+        info = column_info(str(c), kind="metric", default=None)
+        if info is None:
+            other.append(str(c))
+            continue
+        why = [f"a crop with a shorter side below {info.min_side} px gives NaN"] if info.min_side > 1 else []
+        why += [f"so does {info.undefined}"] if info.undefined else []
+        notes.append(f"{c}: undefined for every one of these {len(items)} {unit}s, left out (NaN on "
+                     "all" + "".join(f"; {w}" for w in why) + ")")
+    if other:
+        notes.append("empty columns ignored: " + ", ".join(other))
+    return items.drop(columns=gone), notes

@@ -4,33 +4,39 @@ Input: the per-object table of either ``analyze`` path (every pair joined with i
 or the rated items with GVF), with a ``method`` column: one row per object, view and method.
 An *object* is ``(clip_id, camera, track_id, timestamp_us, view)``; the view is the
 perturbation of :mod:`data_schema.perturbation` (the lateral offset ``y_offset_m`` and the
-optional 6-DoF columns, at their 0.01 precision).
+optional 6-DoF columns, at their 0.01 precision). *On-path* is the recorded view (offset 0),
+*off-path* every other view (:mod:`analysis.method_cells`).
 
 Outputs (one fact each):
 
 - :data:`TABLE_COLUMNS` (``methods.csv``): per method, metric and group: ``n``,
   ``n_tracks``, ``mean``, ``median`` and the 95% percentile interval of the mean from a
   cluster bootstrap over tracks ``(clip_id, track_id)`` (:mod:`analysis.bootstrap`). Groups:
-  ``breakdown = 'all'``; one breakdown per view axis, named by its column (``y_offset_m``,
-  ``yaw_deg``, ...; the real camera's view is value 0 of every axis, as in
-  :mod:`analysis.axes`); ``label_class``; each scene attribute.
+  ``breakdown = 'off-path'`` and ``'on-path'`` (group ``'all'``); one breakdown per view axis,
+  named by its column (``y_offset_m``, ``yaw_deg``, ...; the real camera's view is value 0 of
+  every axis, as in :mod:`analysis.axes`; values as :func:`analysis.text.offset_text`);
+  ``label_class``; each scene attribute.
 - :data:`PAIRED_COLUMNS` (``methods_paired.csv``): per pair of methods ``(a, b)``, metric and
-  view (``axis = 'all'`` or an axis column with its ``offset``), over the objects both methods
-  scored: ``mean_diff`` = mean of ``x_a - x_b`` in the metric's units with its 95% paired
-  cluster-bootstrap interval (:func:`analysis.bootstrap.paired_difference` on the replicate
-  means) and two-sided add-one bootstrap p-value (:func:`analysis.bootstrap.monte_carlo_p`,
-  never 0), ``p_holm`` (Holm over every row of the table), ``win_rate`` (share
-  of objects where ``a`` scores better, by the metric's direction) and ``tie_rate`` (equal
-  values), and ``better``: ``'a'`` or ``'b'`` when ``p_holm < 0.05``, else ``'neither'`` (the
-  interval may include 0: near-identical renders are a tie, never a win).
-  ``n_only_a`` / ``n_only_b`` count objects left out because only one method has a value.
+  cell (``axis = 'off-path'`` or ``'on-path'``, or an axis column with its ``offset``; with
+  ``by``, also per value of the crossed columns: ``by`` and ``group``), over the objects both
+  methods scored: ``mean_diff`` = mean of ``x_a - x_b`` in the metric's units with its 95%
+  paired cluster-bootstrap interval (:func:`analysis.bootstrap.paired_difference` on the
+  replicate means), the two-sided sign-flip p-value over tracks (:mod:`analysis.signflip`:
+  exact up to 16 tracks, else Monte Carlo; ``p_floor`` the smallest it can give, ``p_test``
+  which), ``p_holm`` (Holm over the rows of one ``by``), ``win_rate`` (share of objects where
+  ``a`` scores better, by the metric's direction) and ``tie_rate`` (equal values), and
+  ``better``: the name of the better method when ``p_holm < 0.05`` and the interval excludes
+  0, else ``'neither'``. ``n_only_a`` / ``n_only_b`` count objects left out because only one
+  method has a value.
 - the leaderboard (:func:`leaderboard_table`): methods sorted by the mean of one metric over
-  all their objects (default: NVRQ-CA of the first encoder, :func:`default_rank_metric`), each
-  with whether it is better than the next at ``p_holm < 0.05`` in the paired comparison.
+  their off-path objects (default: NVRQ-CA of the first encoder, :func:`default_rank_metric`),
+  each with whether it is better than the next at ``p_holm < 0.05`` in the paired comparison.
 
-All bootstrap statistics share one set of track draws, so they are paired across methods,
-metrics and views. Rules for degenerate input (DESIGN rule 7): a mean needs one value; an
-interval needs two tracks and a bootstrap; undefined values are empty with the reason.
+All bootstrap statistics share one set of track draws, and all Monte Carlo p-values one set
+of sign patterns, so they are paired across methods, metrics and views. Rules for degenerate
+input (DESIGN rule 7): a mean needs one value; an interval and a p-value need ``min_clusters``
+tracks (default 5, :data:`MIN_CLUSTERS`) and a bootstrap; undefined values are empty with the
+reason, which names the count of tracks.
 
 >>> holm(np.array([0.01, 0.04, 0.03, np.nan])).tolist()
 [0.03, 0.06, 0.06, nan]
@@ -45,16 +51,13 @@ import pandas as pd
 from tqdm.auto import tqdm
 
 from analysis import bootstrap as bs
+from analysis.method_cells import PATHS, cell_breakdowns, on_path, parse_by, view_breakdowns
+from analysis.signflip import draw_signs, sign_flip_p
+from analysis.text import offset_text
 from data_schema.datasets import table_columns
 from data_schema.errors import InputError
 from data_schema.methods import METHOD_COLUMN, table_methods
-from data_schema.perturbation import (
-    AXES,
-    PERTURBATION_COLUMNS,
-    axes,
-    axis_values,
-    perturbation_array,
-)
+from data_schema.perturbation import perturbation_array
 from data_schema.tables import OBJECT_COLUMNS, require_columns
 
 __all__ = [
@@ -63,11 +66,13 @@ __all__ = [
     "PAIRED_COLUMNS",
     "LEADERBOARD_COLUMNS",
     "ALPHA",
+    "MIN_CLUSTERS",
     "MethodsResult",
     "holm",
     "default_rank_metric",
     "compared_methods",
     "object_codes",
+    "too_few_tracks",
     "view_breakdowns",
     "compare_methods",
     "leaderboard_table",
@@ -76,13 +81,18 @@ __all__ = [
 
 TABLE_COLUMNS = ["method", "metric", "breakdown", "group", "n", "n_tracks", "mean", "median",
                  "ci_lo", "ci_hi", "reason"]
-PAIRED_COLUMNS = ["method_a", "method_b", "metric", "axis", "offset", "n", "n_only_a", "n_only_b",
-                  "mean_diff", "ci_lo", "ci_hi", "p", "p_holm", "win_rate", "tie_rate", "better",
-                  "reason"]
-LEADERBOARD_COLUMNS = ["rank", "method", "metric", "n", "mean", "ci_lo", "ci_hi", "median",
-                       "next", "p_holm_vs_next", "better_than_next"]
+PAIRED_COLUMNS = ["method_a", "method_b", "metric", "axis", "offset", "n", "n_tracks", "n_only_a",
+                  "n_only_b", "mean_diff", "ci_lo", "ci_hi", "p", "p_holm", "p_floor", "p_test",
+                  "win_rate", "tie_rate", "better", "by", "group", "reason"]
+LEADERBOARD_COLUMNS = ["rank", "method", "metric", "n", "n_tracks", "mean", "ci_lo", "ci_hi", "median",
+                       "next", "p_holm_vs_next", "better_than_next", "view", "p_floor_vs_next"]
 #: Significance level of ``better`` and of the leaderboard's "better than the next".
 ALPHA = 0.05
+#: The fewest tracks (clusters) of a group that gets an interval and a p-value. Below 5, a
+#: share ``K^(1-K)`` of the bootstrap's resamples draws one track K times (50% at K = 2, 11%
+#: at 3, 1.6% at 4; 0.16% at 5), so a "95% interval" spans little more than the tracks' own
+#: means; and the sign-flip test over K tracks cannot go below ``2 / 2^K`` (0.0625 at K = 5).
+MIN_CLUSTERS = 5
 
 
 @dataclass
@@ -98,6 +108,9 @@ class MethodsResult:
     leaderboard: pd.DataFrame  # LEADERBOARD_COLUMNS
     n_boot: int = 0
     notes: list[str] = field(default_factory=list)
+    rank_view: str = "off-path"  # the view the leaderboard ranks on (PATHS)
+    min_clusters: int = 5  # the fewest tracks of an interval or a p-value
+    by: str = ""  # the crossed breakdown of methods_paired.csv ('' for none)
 
 
 def holm(p: np.ndarray) -> np.ndarray:
@@ -204,20 +217,6 @@ def object_codes(items: pd.DataFrame, *, where) -> np.ndarray:
     return pd.MultiIndex.from_arrays(keys).factorize()[0].astype(np.int64)
 
 
-def view_breakdowns(items: pd.DataFrame) -> list[tuple[str, np.ndarray, np.ndarray]]:
-    """``(axis, values (N,), member (N,) bool)`` per view breakdown: ``'all'`` (values NaN),
-    then each axis present (its column name), with the real camera's view at value 0."""
-    P = perturbation_array(items)
-    names, values = axes(P), axis_values(P)
-    n = len(items)
-    out = [("all", np.full(n, np.nan), np.ones(n, bool))]
-    for axis, column in zip(AXES, PERTURBATION_COLUMNS, strict=True):
-        on = names == axis
-        if on.any() or (axis == "y" and (names == "none").any()):
-            out.append((column, np.where(on, values, 0.0), on | (names == "none")))
-    return out
-
-
 def _replicate_means(v, ok, groups, n_groups, clusters, counts):
     """Per-group mean of ``v`` over ``ok`` rows: point (G,), n (G,), tracks (G,), replicates (B, G).
 
@@ -246,16 +245,15 @@ def _replicate_means(v, ok, groups, n_groups, clusters, counts):
 
 def _groups_of(items: pd.DataFrame, attributes: list[str]):
     """``(breakdown, codes (N,) int (-1: not in the breakdown), group labels)`` for methods.csv:
-    the views in their order along each axis, classes and attributes sorted."""
-    out = []
-    for axis, values, member in view_breakdowns(items):
-        if axis == "all":
-            out.append((axis, np.zeros(len(items), np.int64), ["all"]))
-            continue
+    off and on the recorded path, the views in their order along each axis, classes and
+    attributes sorted."""
+    on = on_path(items)
+    out = [(path, np.where(on == (path == "on-path"), 0, -1).astype(np.int64), ["all"]) for path in PATHS]
+    for axis, values, member in view_breakdowns(items)[1:]:
         uniq, inv = np.unique(values[member], return_inverse=True)
         codes = np.full(len(items), -1, np.int64)
         codes[member] = inv
-        out.append((axis, codes, [f"{v + 0.0:g}" for v in uniq]))
+        out.append((axis, codes, [offset_text(v) for v in uniq]))
     for col in ["label_class", *attributes]:
         if col in items.columns:
             codes, uniq = pd.factorize(items[col], sort=True)
@@ -263,9 +261,19 @@ def _groups_of(items: pd.DataFrame, attributes: list[str]):
     return out
 
 
-def _method_table(items, metrics, m_codes, methods, breakdowns, clusters, counts, bar):
+def too_few_tracks(n_tracks: int, min_clusters: int) -> str:
+    """The reason of a group without interval or p-value: its count of tracks.
+
+    >>> too_few_tracks(2, 5)
+    '2 tracks, fewer than the 5 an interval or p-value needs'
+    """
+    return f"{n_tracks} track{'s' if n_tracks != 1 else ''}, fewer than the {min_clusters} an interval or p-value needs"
+
+
+def _method_table(items, metrics, m_codes, methods, breakdowns, clusters, counts, bar, min_clusters):
     """methods.csv (:data:`TABLE_COLUMNS`) over ``breakdowns`` (:func:`_groups_of`); ``bar``
-    advances once per breakdown and metric."""
+    advances once per breakdown and metric; a group of fewer than ``min_clusters`` tracks
+    gets no interval."""
     rows = []
     for breakdown, codes, uniq in breakdowns:
         sel = (codes >= 0) & (m_codes >= 0)
@@ -282,10 +290,10 @@ def _method_table(items, metrics, m_codes, methods, breakdowns, clusters, counts
             for gi in np.flatnonzero(n > 0):
                 lo = hi = np.nan
                 reason = None
-                if reps.shape[0] == 0:
+                if tracks[gi] < min_clusters:
+                    reason = too_few_tracks(int(tracks[gi]), min_clusters)
+                elif reps.shape[0] == 0:
                     reason = "no bootstrap"
-                elif tracks[gi] < 2:
-                    reason = "fewer than 2 tracks: no interval"
                 else:
                     lo, hi, reason = bs.percentile_ci(reps[:, gi])
                 rows.append({"method": methods[gi // gsize], "metric": metric, "breakdown": breakdown,
@@ -304,59 +312,103 @@ def _wide(items, metric, obj, m_codes, n_obj, n_methods):
     return out
 
 
-def _paired_rows(a, b, names, metric, hb, vals, obj_views, obj_clusters, counts):
-    """Rows of methods_paired.csv for methods ``a``, ``b`` and one metric, every view."""
+@dataclass
+class _Draws:
+    """What every paired row shares: the track of each object (n_obj,), the bootstrap's
+    track counts (B, K) and the Monte Carlo sign patterns (B, K) (None without bootstrap)."""
+
+    clusters: np.ndarray
+    counts: np.ndarray | None
+    signs: np.ndarray | None
+    min_clusters: int
+
+
+def _track_sums(d, ok, codes, n_cells, clusters, k) -> np.ndarray:
+    """(G, K) sum of ``d`` per cell and track over ``ok`` objects; NaN where the track has none."""
+    cell = codes[ok] * k + clusters[ok]
+    s = np.bincount(cell, weights=d[ok], minlength=n_cells * k).reshape(n_cells, k)
+    has = np.bincount(cell, minlength=n_cells * k).reshape(n_cells, k) > 0
+    return np.where(has, s, np.nan)
+
+
+def _paired_rows(a, b, names, metric, hb, vals, breakdowns, draws: _Draws):
+    """Rows of methods_paired.csv for methods ``a``, ``b`` and one metric, every cell of
+    ``breakdowns`` (:func:`analysis.method_cells.cell_breakdowns` of the objects)."""
     xa, xb = vals[:, a], vals[:, b]
     fa, fb = np.isfinite(xa), np.isfinite(xb)
     both = fa & fb
     d = np.where(both, xa - xb, np.nan)
     better_a = (d > 0) if hb else (d < 0)  # a scores better, by the metric's direction
     rows = []
-    for axis, values, member in obj_views:
-        if axis == "all":
-            codes, uniq = np.zeros(len(d), np.int64), np.array([np.nan])
-        else:
-            uniq, codes = np.unique(np.where(member, values, np.nan), return_inverse=True)
-            codes = codes.astype(np.int64)
+    for bd in breakdowns:
+        member = bd.codes >= 0
         ok = both & member
-        point, n, _, reps = _replicate_means(d, ok, codes, len(uniq), obj_clusters, counts)
-        for gi in range(len(uniq)):
-            if axis != "all" and not np.isfinite(uniq[gi]):
-                continue
-            g = ok & (codes == gi)
-            in_view = member & (codes == gi)
-            row = {"method_a": names[a], "method_b": names[b], "metric": metric, "axis": axis,
-                   "offset": uniq[gi], "n": int(n[gi]),
-                   "n_only_a": int((in_view & fa & ~fb).sum()), "n_only_b": int((in_view & fb & ~fa).sum()),
+        codes = np.maximum(bd.codes, 0)
+        point, n, tracks, reps = _replicate_means(d, ok, codes, len(bd.cells), draws.clusters, draws.counts)
+        defined = (tracks >= draws.min_clusters) & (n > 0)
+        p = floor = np.full(len(bd.cells), np.nan)
+        exact = np.zeros(len(bd.cells), bool)
+        if draws.counts is not None and defined.any():
+            sums = _track_sums(d, ok, codes, len(bd.cells), draws.clusters, draws.counts.shape[1])
+            p, floor, exact = sign_flip_p(np.where(defined[:, None], sums, np.nan), signs=draws.signs)
+        n_a = np.bincount(codes[member & fa & ~fb], minlength=len(bd.cells))
+        n_b = np.bincount(codes[member & fb & ~fa], minlength=len(bd.cells))
+        wins = np.bincount(codes[ok], weights=better_a[ok], minlength=len(bd.cells))
+        ties = np.bincount(codes[ok], weights=d[ok] == 0, minlength=len(bd.cells))
+        for gi, (group, axis, offset) in enumerate(bd.cells):
+            row = {"method_a": names[a], "method_b": names[b], "metric": metric, "by": bd.by,
+                   "group": group, "axis": axis, "offset": offset, "n": int(n[gi]),
+                   "n_tracks": int(tracks[gi]), "n_only_a": int(n_a[gi]), "n_only_b": int(n_b[gi]),
                    "mean_diff": point[gi], "ci_lo": np.nan, "ci_hi": np.nan, "p": np.nan,
-                   "win_rate": better_a[g].mean() if g.any() else np.nan,
-                   "tie_rate": (d[g] == 0).mean() if g.any() else np.nan, "reason": None}
-            if not g.any():
+                   "p_floor": np.nan, "p_test": None,
+                   "win_rate": wins[gi] / n[gi] if n[gi] else np.nan,
+                   "tie_rate": ties[gi] / n[gi] if n[gi] else np.nan, "reason": None}
+            if not n[gi]:
                 row["reason"] = "no object scored by both methods"
+            elif not defined[gi]:
+                row["reason"] = too_few_tracks(int(tracks[gi]), draws.min_clusters)
             elif reps.shape[0] == 0:
                 row["reason"] = "no bootstrap"
             else:
                 row["ci_lo"], row["ci_hi"], _ = bs.paired_difference(reps[:, gi], np.zeros(reps.shape[0]))
-                row["p"] = bs.monte_carlo_p(reps[:, gi])
-                if not np.isfinite(row["p"]):
-                    row["reason"] = "bootstrap replicates undefined"
+                row.update(p=p[gi], p_floor=floor[gi], p_test="exact" if exact[gi] else "monte-carlo")
             rows.append(row)
     return rows
 
 
-def _paired_table(items, metrics, directions, m_codes, methods, obj, clusters, counts, bar):
-    """methods_paired.csv (:data:`PAIRED_COLUMNS`) and the unpaired-object notes."""
+def _verdicts(t: pd.DataFrame, directions: dict[str, bool]) -> pd.DataFrame:
+    """``p_holm`` (Holm within the rows of one ``by``) and ``better`` (the better method's
+    name where ``p_holm < ALPHA`` and the interval excludes 0, else ``'neither'``)."""
+    t["p_holm"] = np.nan
+    for _, idx in t.groupby("by", sort=False).groups.items():
+        t.loc[idx, "p_holm"] = holm(t.loc[idx, "p"].to_numpy(np.float64))
+    hb = t["metric"].map(directions).astype(bool).to_numpy()
+    sign = np.where(hb, 1.0, -1.0)
+    lo, hi = t["ci_lo"].to_numpy(np.float64) * sign, t["ci_hi"].to_numpy(np.float64) * sign
+    sig = t["p_holm"].to_numpy() < ALPHA
+    a_wins = sig & (np.minimum(lo, hi) > 0)
+    b_wins = sig & (np.maximum(lo, hi) < 0)
+    t["better"] = np.where(a_wins, t["method_a"], np.where(b_wins, t["method_b"], "neither"))
+    t.loc[~np.isfinite(t["p_holm"].to_numpy()), "better"] = None
+    return t
+
+
+def _objects(items, obj, m_codes, n_methods):
+    """A row of each object (``first`` (n_obj,) row index) and which methods have it (n_obj, M)."""
     n_obj = int(obj.max()) + 1 if len(obj) else 0
     first = np.full(n_obj, -1, np.int64)
     first[obj[::-1]] = np.arange(len(obj))[::-1]  # a row of each object: its track and view
-    rep_items = items.iloc[first]
-    obj_views = view_breakdowns(rep_items)
-    obj_clusters = clusters[first]
-    present = np.zeros((n_obj, len(methods)), bool)
+    present = np.zeros((n_obj, n_methods), bool)
     sel = m_codes >= 0
     present[obj[sel], m_codes[sel]] = True
+    return first, present
+
+
+def _paired_table(items, metrics, directions, m_codes, methods, obj, breakdowns, draws, bar):
+    """methods_paired.csv (:data:`PAIRED_COLUMNS`) and the unpaired-object notes."""
+    first, present = _objects(items, obj, m_codes, len(methods))
     rows, notes = [], []
-    vals = {m: _wide(items, m, obj, m_codes, n_obj, len(methods)) for m in metrics}
+    vals = {m: _wide(items, m, obj, m_codes, len(first), len(methods)) for m in metrics}
     for a in range(len(methods)):
         for b in range(a + 1, len(methods)):
             for ma, mb in ((a, b), (b, a)):
@@ -368,42 +420,37 @@ def _paired_table(items, metrics, directions, m_codes, methods, obj, clusters, c
             for metric in metrics:
                 bar.update()
                 rows += _paired_rows(a, b, methods, metric, directions[metric], vals[metric],
-                                     obj_views, obj_clusters, counts)
+                                     breakdowns, draws)
     t = pd.DataFrame(rows, columns=[c for c in PAIRED_COLUMNS if c not in ("p_holm", "better")])
-    t["p_holm"] = holm(t["p"].to_numpy(np.float64))
-    hb = t["metric"].map(directions).astype(bool).to_numpy()
-    oriented = np.where(hb, t["mean_diff"], -t["mean_diff"])
-    sig = t["p_holm"].to_numpy() < ALPHA
-    t["better"] = np.where(sig & (oriented > 0), "a", np.where(sig & (oriented < 0), "b", "neither"))
-    t.loc[~np.isfinite(t["p_holm"].to_numpy()), "better"] = None
-    return t.loc[:, PAIRED_COLUMNS], notes
+    return _verdicts(t, directions).loc[:, PAIRED_COLUMNS], notes
 
 
 def leaderboard_table(table: pd.DataFrame, paired: pd.DataFrame, *, methods: list[str], metric: str,
-                      higher_better: bool) -> pd.DataFrame:
-    """Methods sorted by their mean ``metric`` over all their objects (best first), each with
-    ``better_than_next``: the paired comparison with the next method says better at
-    ``p_holm < ALPHA`` (:data:`LEADERBOARD_COLUMNS`; empty for the last)."""
-    t = table[(table["breakdown"] == "all") & (table["metric"] == metric)].set_index("method")
+                      higher_better: bool, view: str = "off-path") -> pd.DataFrame:
+    """Methods sorted by their mean ``metric`` over their objects of ``view`` (``'off-path'``
+    or ``'on-path'``; best first), each with ``better_than_next``: the paired comparison with
+    the next method on that view says better at ``p_holm < ALPHA`` (:data:`LEADERBOARD_COLUMNS`;
+    empty for the last and where the comparison is undefined)."""
+    t = table[(table["breakdown"] == view) & (table["metric"] == metric)].set_index("method")
     t = t.reindex(methods)
     order = t["mean"].sort_values(ascending=not higher_better, kind="stable", na_position="last").index
     rows = []
-    p_all = paired[(paired["axis"] == "all") & (paired["metric"] == metric)]
+    p_view = paired[(paired["axis"] == view) & (paired["by"] == "") & (paired["metric"] == metric)]
     for i, m in enumerate(order):
         nxt = order[i + 1] if i + 1 < len(order) else None
-        p = better = None
+        p = better = floor = None
         if nxt is not None:
-            r = p_all[((p_all["method_a"] == m) & (p_all["method_b"] == nxt))
-                      | ((p_all["method_a"] == nxt) & (p_all["method_b"] == m))]
+            r = p_view[((p_view["method_a"] == m) & (p_view["method_b"] == nxt))
+                       | ((p_view["method_a"] == nxt) & (p_view["method_b"] == m))]
             if len(r):
                 r = r.iloc[0]
-                p = r["p_holm"]
-                side = "a" if r["method_a"] == m else "b"
-                better = bool(r["better"] == side) if r["better"] is not None else None
+                p, floor = r["p_holm"], r["p_floor"]
+                better = bool(r["better"] == m) if isinstance(r["better"], str) else None
         rows.append({"rank": i + 1, "method": m, "metric": metric, "n": t.loc[m, "n"],
-                     "mean": t.loc[m, "mean"], "ci_lo": t.loc[m, "ci_lo"], "ci_hi": t.loc[m, "ci_hi"],
-                     "median": t.loc[m, "median"], "next": nxt, "p_holm_vs_next": p,
-                     "better_than_next": better})
+                     "n_tracks": t.loc[m, "n_tracks"], "mean": t.loc[m, "mean"],
+                     "ci_lo": t.loc[m, "ci_lo"], "ci_hi": t.loc[m, "ci_hi"], "median": t.loc[m, "median"],
+                     "next": nxt, "p_holm_vs_next": p, "better_than_next": better, "view": view,
+                     "p_floor_vs_next": floor})
     return pd.DataFrame(rows, columns=LEADERBOARD_COLUMNS)
 
 
@@ -420,18 +467,62 @@ def _check_coverage(items, metrics, m_codes, names, *, where, sources) -> None:
                              f"':{miss}' of {where})", f"none for method {miss!r}")
 
 
+def _check_options(min_clusters, rank_view) -> None:
+    """``min_clusters`` an integer >= 2 and ``rank_view`` one of :data:`PATHS`."""
+    if isinstance(min_clusters, bool) or not isinstance(min_clusters, (int, np.integer)) or min_clusters < 2:
+        raise InputError(param="min_clusters", expected="an integer >= 2 (tracks an interval needs)",
+                         got=repr(min_clusters))
+    if rank_view not in PATHS:
+        raise InputError(param="rank_view", field=str(rank_view), expected="one of {" + ", ".join(PATHS) + "}",
+                         got="no such view")
+
+
 def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[str, bool], *,
                     clusters: np.ndarray, attributes=(), n_boot: int = 1000, seed: int = 0,
                     rank_metric: str | None = None, methods=None, where="items",
-                    sources=None, progress: bool = False) -> MethodsResult:
+                    sources=None, progress: bool = False, min_clusters: int = MIN_CLUSTERS,
+                    by=(), rank_view: str = "off-path") -> MethodsResult:
     """The leaderboard tables of ``items`` (module docstring).
 
-    items: one row per object, view and method (``method`` column); metrics: numeric columns
-    with ``directions[m]`` True when higher is better; clusters: (N,) int track codes.
-    ``methods`` restricts (and orders) the methods compared; ``where`` names the input in errors,
-    ``sources`` (column -> path) the metrics table a column came from. ``n_boot`` is raised to
-    :func:`analysis.bootstrap.replicates_for` the number of paired rows (Holm over all of them).
+    Parameters
+    ----------
+    items : pandas.DataFrame
+        One row per object, view and method (``method`` column).
+    metrics : list of str
+        Numeric columns of ``items``, with ``directions[m]`` True when higher is better.
+    clusters : numpy.ndarray
+        (N,) int track codes of the rows.
+    attributes : sequence of str, optional
+        Scene attributes that break methods.csv down (and that ``by`` may name).
+    n_boot, seed : int, optional
+        Bootstrap replicates over tracks (raised to :func:`analysis.bootstrap.replicates_for`
+        the largest Holm family of paired rows; 0: no intervals and no p-values) and the seed.
+    rank_metric : str, optional
+        The metric that ranks the leaderboard (default :func:`default_rank_metric`).
+    methods : list of str, optional
+        Restricts (and orders) the methods compared.
+    where, sources : optional
+        The input named in errors; column -> the metrics table it came from.
+    min_clusters : int, optional
+        The fewest tracks of a group with an interval and a p-value (>= 2; :data:`MIN_CLUSTERS`).
+    by : sequence of str, optional
+        A crossed breakdown of methods_paired.csv: ``class``, a scene attribute, and ``offset``
+        (each view) (:func:`analysis.method_cells.parse_by`).
+    rank_view : {'off-path', 'on-path'}, optional
+        The views the leaderboard ranks on (the other when these have no objects, with a note).
+
+    Returns
+    -------
+    MethodsResult
+
+    Raises
+    ------
+    InputError
+        Unknown methods, rank metric or ``by`` names; no ``method`` column; a method without
+        values of a metric; two rows of one object and method; a bad ``min_clusters`` or
+        ``rank_view``.
     """
+    _check_options(min_clusters, rank_view)
     names = compared_methods(items, where=where, methods=methods)
     if rank_metric is not None and rank_metric not in metrics:
         raise InputError(param="rank_metric", field=rank_metric, expected="a metric column of the inputs ("
@@ -439,6 +530,7 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
     rank_metric = rank_metric or default_rank_metric(metrics)
     if rank_metric is None:
         raise InputError(where, None, "at least one metric column to rank methods by", "none")
+    by_cols, with_view = parse_by(by, items.columns, attributes=list(attributes))
     m_codes = _method_codes(items[METHOD_COLUMN], names)
     _check_coverage(items, metrics, m_codes, names, where=where, sources=sources or {})
     obj = object_codes(items, where=where)
@@ -449,36 +541,53 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
         raise InputError(where, METHOD_COLUMN, "one row per object, view and method",
                          "a second row for " + ":".join(str(items[c].iloc[i]) for c in OBJECT_COLUMNS)
                          + f" of method {items[METHOD_COLUMN].iloc[i]!r}")
+    first, _ = _objects(items, obj, m_codes, len(names))
+    objects = items.iloc[first]
+    cells = cell_breakdowns(objects)
+    if by_cols or with_view:
+        cells += cell_breakdowns(objects, by=by_cols, with_view=with_view)
     k = int(clusters.max()) + 1 if len(clusters) else 0
-    # enough replicates that Holm over every paired row can still call a decisive difference
-    n_views = sum(1 if axis == "all" else len(np.unique(values[member]))
-                  for axis, values, member in view_breakdowns(items))
-    n_boot = bs.replicates_for(n_boot, len(metrics) * len(names) * (len(names) - 1) // 2 * n_views,
+    # enough replicates that Holm over the largest family of paired rows can still call a
+    # decisive difference (a Monte Carlo p-value's floor is 1 / (B + 1))
+    family = max(sum(len(c.cells) for c in cells if c.by == f) for f in {c.by for c in cells})
+    n_boot = bs.replicates_for(n_boot, len(metrics) * len(names) * (len(names) - 1) // 2 * family,
                                alpha=ALPHA)
     counts = bs.draw_cluster_counts(k, n_boot, seed=seed) if n_boot and k else None
+    draws = _Draws(clusters[first], counts, draw_signs(k, n_boot, seed=seed + 1) if counts is not None else None,
+                   min_clusters)
     breakdowns = _groups_of(items, list(attributes))
     bar = tqdm(total=len(metrics) * (len(breakdowns) + len(names) * (len(names) - 1) // 2),
                desc="methods", unit="table", disable=not progress)
-    table = _method_table(items, metrics, m_codes, names, breakdowns, clusters, counts, bar)
+    table = _method_table(items, metrics, m_codes, names, breakdowns, clusters, counts, bar, min_clusters)
     hb = directions[rank_metric]
-    overall = table[(table["breakdown"] == "all") & (table["metric"] == rank_metric)]
-    means = overall.set_index("method")["mean"].reindex(names)
+    notes = []
+    ranked = table[(table["breakdown"] == rank_view) & (table["metric"] == rank_metric)]
+    if ranked.empty:
+        other = PATHS[1 - PATHS.index(rank_view)]
+        notes.append(f"no {rank_view} objects: the leaderboard ranks the {other} view")
+        rank_view = other
+        ranked = table[(table["breakdown"] == rank_view) & (table["metric"] == rank_metric)]
+    means = ranked.set_index("method")["mean"].reindex(names)
     names = list(means.sort_values(ascending=not hb, kind="stable", na_position="last").index)
     # the table and the pairs follow the leaderboard: method_a is the higher-ranked one
     table = table.assign(_o=table["method"].map({m: i for i, m in enumerate(names)}))
     table = table.sort_values("_o", kind="stable").drop(columns="_o").reset_index(drop=True)
     m_codes = _method_codes(items[METHOD_COLUMN], names)
-    paired, notes = _paired_table(items, metrics, directions, m_codes, names, obj, clusters, counts, bar)
+    paired, unpaired = _paired_table(items, metrics, directions, m_codes, names, obj, cells, draws, bar)
     bar.close()
-    board = leaderboard_table(table, paired, methods=names, metric=rank_metric, higher_better=hb)
+    board = leaderboard_table(table, paired, methods=names, metric=rank_metric, higher_better=hb,
+                              view=rank_view)
     return MethodsResult(methods=list(board["method"]), metrics=list(metrics), directions=dict(directions),
                          rank_metric=rank_metric, table=table, paired=paired, leaderboard=board,
-                         n_boot=n_boot if counts is not None else 0, notes=notes)
+                         n_boot=n_boot if counts is not None else 0, notes=notes + unpaired,
+                         rank_view=rank_view, min_clusters=int(min_clusters),
+                         by=",".join([*by_cols, *(["view"] if with_view else [])]))
 
 
 def for_analysis(items: pd.DataFrame, *, target: str | None, metrics, directions: dict, attributes,
                  n_boot: int, seed: int, where, methods=None, rank_metric=None, metrics_paths=(),
-                 progress: bool = False) -> MethodsResult:
+                 progress: bool = False, min_clusters: int = MIN_CLUSTERS, by=(),
+                 rank_view: str = "off-path") -> MethodsResult:
     """:func:`compare_methods` on the items of either ``analyze`` path.
 
     Parameters
@@ -507,6 +616,8 @@ def for_analysis(items: pd.DataFrame, *, target: str | None, metrics, directions
         The ``--metrics-table`` inputs, named in errors about their columns.
     progress : bool, optional
         Show progress bars.
+    min_clusters, by, rank_view : optional
+        As :func:`compare_methods`.
 
     Returns
     -------
@@ -526,4 +637,4 @@ def for_analysis(items: pd.DataFrame, *, target: str | None, metrics, directions
                            n_boot=n_boot, seed=seed, rank_metric=rank_metric, methods=methods,
                            where=str(where),
                            sources={c: str(p) for p in metrics_paths for c in table_columns(p)},
-                           progress=progress)
+                           progress=progress, min_clusters=min_clusters, by=by, rank_view=rank_view)

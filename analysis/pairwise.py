@@ -30,7 +30,9 @@ A file is read as pairwise when it has these columns (:func:`is_pairwise`).
   itself, so ``a`` must be chosen; a tie fails), repeats (``kind == 'repeat'``, the test item
   shown again with the sides swapped: the same choice is consistent), response speed, and
   agreement with the other raters' modal choice, with the tests and thresholds of
-  :class:`annotate.screening.ScreenRule`; ``--screen`` excludes flagged raters.
+  :class:`annotate.screening.ScreenRule`, and the binary design's agreement tests on sides
+  (:func:`_side_agreement`); flagged raters are excluded unless ``screen_raters`` is off
+  (``--no-screen``), so the fits, the agreement and the ceiling use the raters kept.
 
 Only ``kind == 'test'`` votes enter the fits and the agreement.
 """
@@ -46,10 +48,11 @@ from scipy import stats as _st
 
 from analysis import bootstrap as bs
 from analysis.bradley_terry import Draws, bradley_terry, strongly_connected, win_matrix, win_prob
-from analysis.inputs import classify_columns
+from analysis.inputs import classify_columns, drop_empty_columns
 from analysis.methods import METHOD_COLUMN, view_breakdowns
+from analysis.text import no_votes_left
 from annotate.results import pairwise_raters
-from annotate.screening import ScreenRule, screen
+from annotate.screening import ScreenRule, agreement_tests, screen
 from data_schema.datasets import table_columns
 from data_schema.errors import InputError
 from data_schema.raters import SIM_PREFIX
@@ -285,12 +288,13 @@ def rater_table(votes: pd.DataFrame, *, rule: ScreenRule | None = None) -> pd.Da
     """Per-rater screening of pairwise votes: the per-rater answers of
     :func:`annotate.results.pairwise_raters` (votes per kind, answer shares, side bias,
     ``gold_failures``, ``repeat_agreement`` over ``n_repeat_pairs``) with the tests the
-    ``--screen`` rule reads (:func:`annotate.screening.screen`): ``gold_p`` (exact binomial,
+    screening rule reads (:func:`annotate.screening.screen`): ``gold_p`` (exact binomial,
     H0: failure rate <= ``rule.max_gold_failure_rate``), ``repeat_p`` (H0: consistency >=
-    ``rule.min_repeat_consistency``) and ``speed_p`` (sign test of the test votes' response
-    times against ``rule.min_response_ms``); ``j_p`` and ``skill_p`` are empty (the binary
-    agreement tests do not apply to three-way choices). ``agreement``: the share of the
-    rater's test votes equal to the other raters' unique modal choice, over ``n_compared``."""
+    ``rule.min_repeat_consistency``), ``speed_p`` (sign test of the test votes' response
+    times against ``rule.min_response_ms``), and the agreement tests of the binary design
+    on sides (:func:`_side_agreement`): ``youden_j``, ``j_p`` and ``skill_p``. ``agreement``:
+    the share of the rater's test votes equal to the other raters' unique modal choice, over
+    ``n_compared``."""
     rule = rule or ScreenRule()
     raters = sorted(votes["rater_id"].astype(str).unique())
     out = pairwise_raters(votes, raters)
@@ -310,8 +314,12 @@ def rater_table(votes: pd.DataFrame, *, rule: ScreenRule | None = None) -> pd.Da
         out["agreement"] = np.bincount(tr, weights=agree, minlength=n_r) / comp
         out["gold_failure_rate"] = out["gold_failures"] / out["gold"]
     out["n_compared"] = comp.astype(np.int64)
-    out["j_p"] = np.nan
-    out["skill_p"] = np.nan
+    sided = compared & (mode != "tie") & (t["choice"].to_numpy(dtype=object) != "tie")
+    a_left = t["side_a"].to_numpy(dtype=object) == "left"
+    res = _side_agreement(tr, n_r, sided, mode_left=(mode == "a") == a_left,
+                          pressed_left=(t["choice"].to_numpy(dtype=object) == "a") == a_left)
+    out["youden_j"] = res["youden_j"]
+    _, out["j_p"], out["skill_p"], _ = agreement_tests(res, rule)
     n_gold, fails = out["gold"].to_numpy(), out["gold_failures"].to_numpy()
     out["gold_p"] = np.where(n_gold > 0, _st.binom.sf(fails - 1, n_gold, rule.max_gold_failure_rate), np.nan)
     n_rep = out["n_repeat_pairs"].to_numpy()
@@ -323,6 +331,29 @@ def rater_table(votes: pd.DataFrame, *, rule: ScreenRule | None = None) -> pd.Da
     nk = np.bincount(tr[known], minlength=n_r)
     out["speed_p"] = np.where(nk > 0, _st.binom.sf(fast - 1, nk, 0.5), np.nan)
     return out
+
+
+def _side_agreement(codes, n_r: int, sided, *, mode_left, pressed_left) -> dict:
+    """The binary design's agreement statistics on sides, per rater (``codes``: (V,) rater
+    codes of the test votes).
+
+    Over the test votes where the other raters' unique modal choice is ``a`` or ``b`` and the
+    rater chose a side (``sided``), the consensus label is the side the modal choice was
+    shown on (``mode_left``, "good" = left) and the vote the side pressed (``pressed_left``).
+    As A's side is counterbalanced per rater (:func:`annotate.assign.pairwise_sides`), a rater
+    who presses without looking, with any side bias, has ``J = 0`` and no association,
+    whatever the methods' base rates; an attentive rater presses where the others' choice
+    is. Returns :func:`annotate.screening.consensus_stats`' keys ``n_compared, n_cons_good,
+    n_cons_bad, sensitivity, specificity, youden_j`` as (R,) arrays."""
+    ml, pl = sided & mode_left, sided & ~mode_left
+    n1 = np.bincount(codes, weights=ml, minlength=n_r)
+    n0 = np.bincount(codes, weights=pl, minlength=n_r)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sens = np.bincount(codes, weights=ml & pressed_left, minlength=n_r) / n1
+        spec = np.bincount(codes, weights=pl & ~pressed_left, minlength=n_r) / n0
+    return {"n_compared": (n1 + n0).astype(np.int64), "n_cons_good": n1.astype(np.int64),
+            "n_cons_bad": n0.astype(np.int64), "sensitivity": sens, "specificity": spec,
+            "youden_j": sens + spec - 1.0}
 
 
 # --- the whole analysis ----------------------------------------------------------------------
@@ -339,19 +370,23 @@ class PairwiseAnalysis:
     counts: dict
     n_boot: int = 0
     seed: int = 0
-    screen: bool = False
+    screen: bool = True
     notes: list[str] = field(default_factory=list)
 
 
 def run_pairwise_analysis(votes_path, *, metrics_paths=(), lower=(), higher=(), exclude_raters=(),
-                          screen_raters: bool = False, n_boot: int = 1000, seed: int = 0) -> PairwiseAnalysis:
-    """The pairwise analysis (module docstring); raises ``InputError`` on bad input."""
+                          screen_raters: bool = True, n_boot: int = 1000, seed: int = 0) -> PairwiseAnalysis:
+    """The pairwise analysis (module docstring); raises ``InputError`` on bad input.
+
+    ``screen_raters`` (default True) excludes the raters the screening rule flags, as
+    ``exclude_raters`` does by name; the fits, the agreement and its ceiling use the test
+    votes of the raters kept."""
     votes = read_pairwise_votes(votes_path)
     raters = screen(rater_table(votes), use_rule=screen_raters, exclude=list(exclude_raters))
     excluded = set(raters.loc[raters["excluded"], "rater_id"])
     test = votes[(votes["kind"] == "test") & ~votes["rater_id"].isin(excluded)].reset_index(drop=True)
     if test.empty:
-        raise InputError(votes_path, "kind", "at least one test vote (after exclusions)", "none")
+        raise InputError(votes_path, "kind", no_votes_left(screen_raters), "none")
     methods = sorted(set(test["method_a"]) | set(test["method_b"]))
     if len(methods) < 2:
         raise InputError(votes_path, "method_a/method_b", "votes between at least two methods", methods[0])
@@ -362,10 +397,12 @@ def run_pairwise_analysis(votes_path, *, metrics_paths=(), lower=(), higher=(), 
             raise InputError(path, "pair_id", "the pairs of the voted methods' renders (object id + "
                              "':METHOD', docs/FORMATS.md §3)", "none matches a vote")
     sides = {s: _side_values(test, tables, s, ids[s]) for s in ("a", "b")}
-    columns = pd.DataFrame({c: v for c, v in sides["a"].items()})
+    # a metric with no value on any voted render is undefined for these crops: a note, no row
+    _, notes = drop_empty_columns(pd.concat([pd.DataFrame(sides[s]) for s in ("a", "b")]), unit="voted render")
+    columns = pd.DataFrame({c: v for c, v in sides["a"].items()
+                            if np.isfinite(np.r_[v, sides["b"][c]]).any()})
     metrics, directions, _, _ = classify_columns(columns, lower=set(lower), higher=set(higher),
                                                  target=None, where=metrics_paths[0] if tables else votes_path)
-    notes = []
     for m in metrics:
         miss = int((~np.isfinite(sides["a"][m]) | ~np.isfinite(sides["b"][m])).sum())
         if miss:

@@ -19,7 +19,7 @@ from analysis import plots
 from analysis.pairwise import CEILING_ROW, PairwiseAnalysis
 from analysis.plots import VIEW_AXIS_LABELS
 from analysis.report import render_pages, write_report_folder
-from analysis.text import interval_text
+from analysis.text import interval_text, offset_text, screening_text
 from annotate.screening import ScreenRule
 from data_schema.tables import write_table
 
@@ -33,7 +33,7 @@ def bt_display(bt: pd.DataFrame, axis: str = "all") -> pd.DataFrame:
     t = t.sort_values(["_view", "score"], ascending=[True, False], kind="stable")
     rows = []
     for r in t.itertuples():
-        rows.append({**({} if axis == "all" else {"view": f"{r.offset:g}"}), "method": r.method,
+        rows.append({**({} if axis == "all" else {"view": offset_text(r.offset)}), "method": r.method,
                      "votes": str(r.n_votes), "won / tied / lost": f"{r.wins} / {r.ties} / {r.losses}",
                      "win probability": interval_text(r.win_prob, r.win_prob_ci_lo, r.win_prob_ci_hi),
                      "BT score": interval_text(r.score, r.score_ci_lo, r.score_ci_hi),
@@ -43,28 +43,39 @@ def bt_display(bt: pd.DataFrame, axis: str = "all") -> pd.DataFrame:
 
 def win_prob_plot(bt: pd.DataFrame, methods: list[str]) -> Figure | None:
     """Win probability (mean P(beats another method)) per method along each view axis,
-    with its 95% interval; ``None`` when the votes have a single view."""
+    with its 95% interval; with two methods one line, P(first beats second) (the other is its
+    mirror image); each method in its colour (:func:`analysis.plots.method_colours`). ``None``
+    when the votes have a single view."""
     axes_ = [a for a in dict.fromkeys(bt["axis"]) if a != "all"]
     if not axes_:
         return None
+    colours = plots.method_colours(methods)
+    if len(methods) == 2:  # the line of the method preferred overall: P above 0.5 is its lead
+        overall = bt[bt["axis"] == "all"].set_index("method")["win_prob"].reindex(methods)
+        methods = list(overall.sort_values(ascending=False, kind="stable", na_position="last").index)
+    shown = methods[:1] if len(methods) == 2 else methods
+    ylabel = (f"P({methods[0]} beats {methods[1]})" if len(methods) == 2
+              else "Bradley-Terry win probability (higher is better)")
     fig = Figure(figsize=(4.2 * len(axes_), 3.2), layout="constrained")
     panels = fig.subplots(1, len(axes_), squeeze=False).ravel()
     for ax, axis in zip(panels, axes_, strict=True):
         t = bt[bt["axis"] == axis]
-        for k, m in enumerate(methods):
+        for m in shown:
             s = t[t["method"] == m].sort_values("offset")
             x = s["offset"].to_numpy(float)
-            ax.plot(x, s["win_prob"].to_numpy(float), "o-", color=f"C{k % 10}", markersize=3, label=m)
+            label = ylabel if len(methods) == 2 else m
+            ax.plot(x, s["win_prob"].to_numpy(float), "o-", color=colours[m], markersize=3, label=label)
             lo, hi = s["win_prob_ci_lo"].to_numpy(float), s["win_prob_ci_hi"].to_numpy(float)
             if np.isfinite(lo).any():
-                ax.fill_between(x, lo, hi, color=f"C{k % 10}", alpha=0.2, linewidth=0)
+                ax.fill_between(x, lo, hi, color=colours[m], alpha=0.2, linewidth=0)
         ax.axhline(0.5, color="0.5", linestyle=":", linewidth=0.8)
         ax.set_ylim(0, 1)
         ax.set_xlabel(VIEW_AXIS_LABELS.get(axis, axis), fontsize=8)
-        ax.set_ylabel("Bradley-Terry win probability", fontsize=8)
+        ax.set_ylabel(ylabel, fontsize=8)
+        plots.offset_ticks(ax)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
-    panels[0].legend(fontsize=7, title="method", title_fontsize=7)
+    panels[0].legend(fontsize=7, title=None if len(methods) == 2 else "method", title_fontsize=7)
     return fig
 
 
@@ -107,13 +118,19 @@ def _texts(a: PairwiseAnalysis) -> dict:
                   "rater chose the render the metric scores better, 0 for the other, 0.5 when the "
                   "rater or the metric ties; each side's value is the metric of that method's pair. "
                   "Ceiling: the expected agreement of two different raters of the same item.")
-    screen_text = (f"Screening: gold items show the GT crop itself on one side (it must be chosen; "
-                   f"exclusion when the failure rate is significantly above "
-                   f"{rule.max_gold_failure_rate}), repeats show a test item again with the sides "
-                   f"swapped (exclusion when the consistency is significantly below "
-                   f"{rule.min_repeat_consistency}), and a median response significantly below "
-                   f"{rule.min_response_ms:g} ms; one-sided exact binomial tests at level {rule.alpha}. "
-                   + ("Applied (--screen)." if a.screen else "Reported, not applied (run with --screen)."))
+    screen_text = (screening_text(a.raters, applied=a.screen) + " Bradley-Terry, the agreement and "
+                   "its ceiling use the raters kept. "
+                   f"Screening rule ({'applied' if a.screen else 'off: --no-screen'}): gold items "
+                   f"show the GT crop itself on one side (it must be chosen; exclusion when the "
+                   f"failure rate is significantly above {rule.max_gold_failure_rate}), repeats show "
+                   f"a test item again with the sides swapped (exclusion when the consistency is "
+                   f"significantly below {rule.min_repeat_consistency}), a median response "
+                   f"significantly below {rule.min_response_ms:g} ms (one-sided exact binomial "
+                   f"tests at level {rule.alpha}), and agreement with the others on sides: the "
+                   f"side pressed against the side of the other raters' modal choice (A's side is "
+                   f"counterbalanced, so a rater who does not look scores J = 0), excluded when J is "
+                   f"significantly below {rule.min_j} or shows no skill (Fisher p >= "
+                   f"{rule.skill_alpha}), as for binary votes.")
     sim = (f"{c['raters_simulated']} of {c['raters']} raters are simulated (rater_id starting with "
            "'sim-'): these are not human judgements." if c["raters_simulated"] else "")
     return {"bt_text": bt_text, "agree_text": agree_text, "screen_text": screen_text, "simulated": sim}

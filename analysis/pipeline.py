@@ -18,11 +18,12 @@ import pandas as pd
 from analysis import axes, breakdowns
 from analysis.aggregate import aggregate
 from analysis.ceiling import noise_ceiling, vote_matrix
-from analysis.inputs import classify_columns, read_metrics, read_ratings
+from analysis.inputs import classify_columns, drop_empty_columns, read_metrics, read_ratings
 from analysis.labels import item_table, join_metrics
 from analysis.methods import MethodsResult, for_analysis
 from analysis.noninferiority import DEFAULT_MARGIN
 from analysis.summary import summary_table
+from analysis.text import no_votes_left
 from annotate import screening
 from annotate.results import alpha_nominal
 from data_schema.errors import InputError, check_number
@@ -63,7 +64,7 @@ class Analysis:
     n_boot: int = 0
     seed: int = 0
     rank_by: str = "srcc"
-    screen: bool = False
+    screen: bool = True
     ceiling: dict = field(default_factory=dict)
     comparison: dict | None = None
     source: str = "ratings"  # or "pairs": analyze --pairs (no votes; see analysis.all_pairs)
@@ -137,7 +138,7 @@ def _screen_raters(votes, ratings_path, *, screen, exclude_raters):
     excluded = set(raters.loc[raters["excluded"], "rater_id"])
     kept = votes[~votes["rater_id"].isin(excluded)]
     if not (kept["kind"] == "test").any():
-        raise InputError(ratings_path, "kind", "at least one test vote (after exclusions)", "none")
+        raise InputError(ratings_path, "kind", no_votes_left(screen), "none")
     return raters, kept
 
 
@@ -174,10 +175,8 @@ def _check_target(items, target):
 
 
 def _columns(items, unknown, notes, *, target, tgt, lower, higher, where):
-    empty = [c for c in items.columns if c != tgt and items[c].isna().all()]
-    if empty:
-        notes.append("empty columns ignored: " + ", ".join(map(str, empty)))
-        items = items.drop(columns=empty)
+    items, empty_notes = drop_empty_columns(items, keep=(tgt,))
+    notes += empty_notes
     classified = classify_columns(
         items, lower=set(lower), higher=set(higher), target=target, where=where
     )
@@ -255,7 +254,7 @@ def run_analysis(
     higher=(),
     target: str | None = None,
     exclude_raters=(),
-    screen: bool = False,
+    screen: bool = True,
     aggregate_method: str = "majority",
     n_boot: int = 1000,
     seed: int = 0,
@@ -267,6 +266,9 @@ def run_analysis(
     methods=None,
     rank_metric: str | None = None,
     progress: bool = True,
+    min_clusters: int = 5,
+    by=(),
+    rank_view: str = "off-path",
 ) -> Analysis:
     """The whole analysis of a ratings table (see the module docstring).
 
@@ -283,7 +285,8 @@ def run_analysis(
     exclude_raters : sequence of str, optional
         Rater ids to leave out.
     screen : bool, optional
-        Also exclude raters by the screening rule (:mod:`annotate.screening`).
+        Also exclude the raters the screening rule flags (:mod:`annotate.screening`; default
+        True; False keeps them, their flags still in ``raters``).
     aggregate_method : str, optional
         Item labels: ``'majority'`` (GVF) or a crowd-kit model (:data:`analysis.aggregate.METHODS`).
     n_boot, seed : int, optional
@@ -305,6 +308,8 @@ def run_analysis(
         With ``compare_methods``: the metric that ranks the methods.
     progress : bool, optional
         Show progress bars.
+    min_clusters, by, rank_view : optional
+        With ``compare_methods``: as :func:`analysis.methods.compare_methods`.
 
     Returns
     -------
@@ -358,5 +363,6 @@ def run_analysis(
         methods=for_analysis(items, target=tgt, metrics=metrics, directions=directions,
                              attributes=attributes, n_boot=n_boot, seed=seed, where=ratings_path,
                              methods=methods, rank_metric=rank_metric, metrics_paths=metrics_paths,
-                             progress=progress) if compare_methods else None,
+                             progress=progress, min_clusters=min_clusters, by=by,
+                             rank_view=rank_view) if compare_methods else None,
     )

@@ -20,12 +20,17 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter
 from sklearn.metrics import roc_curve
 
+from analysis.text import offset_text
 from data_schema.perturbation import AXES, AXIS_UNITS, PERTURBATION_COLUMNS
 
 __all__ = [
     "VIEW_AXIS_LABELS",
+    "method_colours",
+    "direction_label",
+    "offset_ticks",
     "panel_grid",
     "tent_plot",
     "speed_accuracy_plot",
@@ -39,6 +44,34 @@ __all__ = [
 
 #: The x-axis label of each view column, e.g. ``'y (m)'`` for ``y_offset_m``.
 VIEW_AXIS_LABELS = {c: f"{a} ({AXIS_UNITS[a]})" for a, c in zip(AXES, PERTURBATION_COLUMNS, strict=True)}
+
+
+def method_colours(methods) -> dict[str, str]:
+    """One colour per method, the same in every figure (the leaderboard's and the pairwise
+    study's): the methods sorted by name take ``C0``, ``C1``, ... in turn, so a method keeps
+    its colour whatever the order a figure lists them in.
+
+    >>> method_colours(["sharp", "blurry"])
+    {'blurry': 'C0', 'sharp': 'C1'}
+    """
+    return {m: f"C{i % 10}" for i, m in enumerate(sorted(dict.fromkeys(map(str, methods))))}
+
+
+def direction_label(metric: str, higher_better: bool | None) -> str:
+    """An axis label naming the metric and its direction.
+
+    >>> direction_label("lpips", False), direction_label("psnr", True)
+    ('lpips (lower is better \u2193)', 'psnr (higher is better \u2191)')
+    """
+    if higher_better is None:
+        return metric
+    return f"{metric} (higher is better \u2191)" if higher_better else f"{metric} (lower is better \u2193)"
+
+
+def offset_ticks(ax) -> None:
+    """Tick labels of the x axis written as every table writes offsets
+    (:func:`analysis.text.offset_text`: ``-1``, ``0``, ``+1``)."""
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: offset_text(round(v, 6))))
 
 
 def panel_grid(n: int, *, width: float, height: float) -> tuple[Figure, np.ndarray]:

@@ -27,7 +27,7 @@ from analysis.noninferiority import recommend_from_tables
 from analysis.pipeline import Analysis
 from analysis.summary import binary_label
 from analysis.text import fmt as _fmt
-from analysis.text import interval_text
+from analysis.text import interval_text, screening_text
 from annotate.screening import ScreenRule
 from data_schema.outputs import check_output_folder, mark_report
 from data_schema.tables import atomic_folder, write_table
@@ -179,14 +179,7 @@ def _rater_texts(a: Analysis) -> dict:
     alpha_text = "Krippendorff's alpha (nominal) over test votes: " + "; ".join(
         f"{k}: {_fmt(v['alpha'])}" + (f" ({v['reason']})" if v["reason"] else "")
         + f" from {v['votes']} votes" for k, v in a.alpha.items()) + "."
-    ex = a.raters[a.raters["excluded"]]
-    screen_text = ("Excluded raters: " + "; ".join(
-        f"{r.rater_id} ({r.excluded_reason})" for r in ex.itertuples())
-        if len(ex) else "No rater excluded.")
-    if not a.screen:
-        screen_text += (
-            " Screening flags are reported but not applied (run with --screen to apply them)."
-        )
+    screen_text = screening_text(a.raters, applied=a.screen)
     sim = ""
     if a.counts["raters_simulated"]:
         sim = (
@@ -195,7 +188,8 @@ def _rater_texts(a: Analysis) -> dict:
         )
     rule = ScreenRule()
     screen_rule = (
-        f"--screen rule (one-sided tests at level {rule.alpha} each): exclude a rater whose "
+        f"Screening rule ({'applied' if a.screen else 'off: --no-screen'}; one-sided tests at "
+        f"level {rule.alpha} each): exclude a rater whose "
         f"chance-corrected agreement with the leave-one-out consensus (Youden J = sensitivity + "
         f"specificity - 1, consensus by backward elimination) is significantly below "
         f"{rule.min_j} (z-test, j_p) or who shows no skill (one-sided Fisher exact test of "

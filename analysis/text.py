@@ -1,6 +1,7 @@
 """How the reports write numbers: one cell format and one "value [interval]" format, shared by
 the report (:mod:`analysis.report`), the leaderboard section (:mod:`analysis.methods_report`)
-and the pairwise report (:mod:`analysis.pairwise_report`).
+and the pairwise report (:mod:`analysis.pairwise_report`); and the sentence that says which
+raters were left out and why (:func:`screening_text`, also printed by ``analyze``).
 
 >>> fmt(0.61234), fmt(float("nan")), fmt(True), fmt(7)
 ('0.612', '', 'yes', '7')
@@ -13,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-__all__ = ["fmt", "interval_text"]
+__all__ = ["fmt", "interval_text", "offset_text", "screening_text", "no_votes_left"]
 
 
 def fmt(v, digits: int = 3) -> str:
@@ -35,3 +36,47 @@ def interval_text(v, lo, hi, digits: int = 3) -> str:
     if text and lo is not None and np.isfinite(lo):
         text += f" [{lo:.{digits}f}, {hi:.{digits}f}]"
     return text
+
+
+def offset_text(v) -> str:
+    """A view's value along its axis, the one way every table and figure writes it: signed,
+    shortest form, ``0`` for the recorded view (``''`` when undefined).
+
+    >>> offset_text(3.0), offset_text(-1.5), offset_text(0.0), offset_text(-0.0), offset_text(float("nan"))
+    ('+3', '-1.5', '0', '0', '')
+    """
+    if v is None or not np.isfinite(v):
+        return ""
+    return "0" if v == 0 else f"{v:+g}"
+
+
+def screening_text(raters: pd.DataFrame, *, applied: bool) -> str:
+    """Who was excluded and why, and who was flagged but kept, from a screened rater table
+    (:func:`annotate.screening.screen`: ``rater_id, flags, excluded, excluded_reason``);
+    ``applied``: whether the screening rule excluded (``analyze``'s default).
+
+    >>> r = pd.DataFrame({"rater_id": ["ann", "bob"], "flags": ["", "gold failures"],
+    ...                   "excluded": [False, True], "excluded_reason": ["", "screening: gold failures"]})
+    >>> screening_text(r, applied=True)
+    'Excluded 1 of 2 raters: bob (screening: gold failures).'
+    >>> screening_text(r.assign(excluded=False), applied=False)
+    'No rater excluded (2 raters). Screening off (--no-screen): kept despite its flags: bob (gold failures).'
+    """
+    ex = raters[raters["excluded"].astype(bool)]
+    n = len(raters)
+    text = (f"Excluded {len(ex)} of {n} raters: " + "; ".join(
+        f"{r.rater_id} ({r.excluded_reason})" for r in ex.itertuples()) + "."
+        if len(ex) else f"No rater excluded ({n} raters).")
+    flags = raters.get("flags", pd.Series("", index=raters.index)).fillna("").astype(str)
+    kept = raters[~raters["excluded"].astype(bool) & (flags != "")]
+    if len(kept) and not applied:
+        text += " Screening off (--no-screen): kept despite its flags: " + "; ".join(
+            f"{r.rater_id} ({r.flags})" for r in kept.itertuples()) + "."
+    return text
+
+
+def no_votes_left(screened: bool) -> str:
+    """What a vote table that the exclusions left without test votes should have had (the
+    error of both designs; with screening on, how to keep the flagged raters)."""
+    return ("at least one test vote after exclusions (screening flagged every rater left; "
+            "`screen` off keeps them)" if screened else "at least one test vote after exclusions")

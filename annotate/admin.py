@@ -2,8 +2,8 @@
 
 The page body is a Streamlit fragment that re-runs by itself every :data:`REFRESH_S`
 seconds (no reload): per rater the progress, the agreement with the others so far and the
-screening flags as they form (:mod:`annotate.screening`, the rule ``analyze --screen``
-applies), the GVF histogram, Krippendorff's alpha, gold failures and a ``ratings.csv``
+screening flags as they form (:mod:`annotate.screening`, the rule ``analyze`` applies by
+default), the GVF histogram, Krippendorff's alpha, gold failures and a ``ratings.csv``
 download; for a pairwise study, per rater the answers, side bias, gold failures and repeat
 agreement (:func:`annotate.results.pairwise_raters`) and a ``votes.csv`` download; both
 raters tables add the votes each rater undid and the presses dropped as too fast. Widget keys (for tests): ``download_ratings``; element keys ``admin_raters``.

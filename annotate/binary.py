@@ -7,10 +7,14 @@ or bad (0). :class:`BinaryDesign` is the default design of ``annotate build``
 - choose: tracks spread over strata, frames along each track, every chosen view
   (:func:`annotate.design.select_test_pairs`) give the test items; training items come from
   other pairs (:func:`annotate.design.pick_training`); hidden gold items alternate
-  ``gold-good:<pair_id>`` (the GT crop twice, must be rated good) and ``gold-bad:<pair_id>``
-  (a severely broken copy of the GT crop, :func:`annotate.crops.broken_render`, must be rated
-  bad); repeats repeat test items (key ``repeat:<pair_id>``, item id the test item's);
-- cut: the GT and render crops of every item on one square (:func:`annotate.crops.pad_pair`).
+  ``gold-good:<pair_id>`` (the GT crop against a copy of the GT image, must be rated good)
+  and ``gold-bad:<pair_id>`` (against a severely broken copy,
+  :func:`annotate.crops.broken_render`, must be rated bad); repeats repeat test items (key
+  ``repeat:<pair_id>``, item id the test item's);
+- cut: the GT and render crops of every item on one square (:func:`annotate.crops.pad_pair`),
+  written by :class:`annotate.crops.CropWriter` (dithered, no two alike; a gold copy and a
+  repeat cut with their boxes moved by :func:`annotate.crops.draw_shift`, a gold copy's file
+  size matched to a real render's).
 
 Items of a multi-method pairs table carry the ``method`` of their render.
 """
@@ -84,28 +88,41 @@ class BinaryDesign:
 
     def cut_crops(self, choice: Choice, folder: Path, *, ids: list[str], rng: np.random.Generator,
                   image, opts: StudyOptions, where: str, progress: bool) -> pd.DataFrame:
-        """The GT crop and the render (gold: the GT crop, or its broken copy drawn from
-        ``rng``) of every item on one square (:meth:`annotate.design.Design.cut_crops`); the
+        """The GT crop and the render (gold: a copy of the GT image, or its broken copy drawn
+        from ``rng``; module docstring) of every item on one square (:meth:`annotate.design.Design.cut_crops`); the
         items table has ``ref_file, ren_file`` and the pairs row's metadata, view, method and
         attribute columns."""
-        (folder / "crops").mkdir()
         fmt, size = opts.image_format, int(opts.size)
+        golds = [row["expected"] for row in choice.rows if row["kind"] == "gold"]
+        writer = _crops.CropWriter(folder / "crops", fmt=fmt, rng=rng,
+                                   groups={"good": golds.count(1), "bad": golds.count(0)})
         attrs = attribute_columns(choice.pairs.drop(columns=["_root", "_row"]))
         items = []
         for k, row in enumerate(tqdm(choice.rows, desc="cutting crops", unit="item", disable=not progress)):
             r, kind, expected = row["ref"], row["kind"], row["expected"]
             line = int(r["_row"])
-            gt = cut_box(image(r, "gt_path"), [r[c] for c in GT_BOX_COLUMNS],
-                         where=where, field=f"line {line}: gt box")
-            if kind == "gold":
-                ren = gt.copy() if expected == 1 else _crops.broken_render(gt, rng=rng)
-            else:
-                ren = cut_box(image(r, "render_path"), [r[c] for c in RENDER_BOX_COLUMNS],
-                              where=where, field=f"line {line}: render box")
-            a, b = _crops.pad_pair(gt, ren, size=size)
             ref_file, ren_file = f"{ids[2 * k]}.{fmt}", f"{ids[2 * k + 1]}.{fmt}"
-            _crops.write_image(folder / "crops" / ref_file, a, fmt=fmt)
-            _crops.write_image(folder / "crops" / ren_file, b, fmt=fmt)
+            gt_box = [r[c] for c in GT_BOX_COLUMNS]
+            shift = _crops.draw_shift(rng, gt_box) if kind in ("gold", "repeat") else (0, 0)
+            gt_img = image(r, "gt_path")
+            gt = cut_box(gt_img, _crops.shift_box(gt_box, shift if kind == "repeat" else (0, 0), gt_img.shape),
+                         where=where, field=f"line {line}: gt box")
+            if kind == "gold":  # the GT image cut with the box moved: a good copy, or broken
+                ren = cut_box(gt_img, _crops.shift_box(gt_box, shift, gt_img.shape), where=where,
+                              field=f"line {line}: gt box")
+                a, _ = _crops.pad_pair(gt, ren, size=size)
+                seed = None if expected == 1 else int(rng.integers(2**63))
+                b, q = writer.gold((gt, ren), 1, writer.write(ref_file, a), size=size, broken_seed=seed)
+                writer.write(ren_file, b, quality=q)
+            else:
+                ren_img = image(r, "render_path")
+                ren = cut_box(ren_img, _crops.shift_box([r[c] for c in RENDER_BOX_COLUMNS], shift,
+                                                        ren_img.shape),
+                              where=where, field=f"line {line}: render box")
+                a, b = _crops.pad_pair(gt, ren, size=size)
+                ref_bytes, ren_bytes = writer.write(ref_file, a), writer.write(ren_file, b)
+                if kind != "repeat":
+                    writer.note_real(ref_bytes, ren_bytes)
             meta = {c: r[c] for c in (*PAIR_META_COLUMNS, *choice.view_columns, *choice.method_columns, *attrs)}
             items.append({"key": row["key"], "item_id": row["item_id"], "kind": kind, "pair_id": r["pair_id"],
                           "ref_file": ref_file, "ren_file": ren_file,

@@ -8,6 +8,14 @@ Both crops of an item are centred on black squares of the *same* side (the large
 the two crops), then resized to ``size`` x ``size``; so the object keeps its relative scale
 and both images appear equally large on screen.
 
+Gold and repeats must not be told from real items by their files (docs/FORMATS.md §8,
+"served crops"). :class:`CropWriter` writes every crop of a study: each one dithered
+(:func:`dither`: a random sixteenth of its colour values moved by one grey level), no two
+files alike in their bytes; a gold item's made-up crop (the GT copy, the broken render) is
+matched in file size to a ren/ref size ratio drawn from the study's real items
+(:meth:`CropWriter.matched`). A gold copy and a repeat are cut with their boxes moved by a
+few pixels (:func:`draw_shift`, :func:`shift_box`), so their pixels match no other crop.
+
 >>> import numpy as np
 >>> a = np.full((10, 20, 3), 255, np.uint8); b = np.full((4, 4, 3), 255, np.uint8)
 >>> pa, pb = pad_pair(a, b, size=40)
@@ -19,6 +27,8 @@ and both images appear equally large on screen.
 
 from __future__ import annotations
 
+import hashlib
+from collections.abc import Callable
 from pathlib import Path
 
 import cv2
@@ -29,7 +39,20 @@ from data_schema.tables import inside_scene
 from nvrq.crops import pad_to_square
 
 __all__ = ["pad_pair", "pad_group", "broken_render", "read_bgr", "write_image", "opaque_ids",
-           "ImageCache"]
+           "ImageCache", "dither", "encode", "draw_shift", "shift_box", "soften", "CropWriter",
+           "DITHER_SHARE", "JPEG_QUALITIES", "MAX_SHIFT", "MAX_GOLD_BLUR", "MAX_BAD_NOISE"]
+
+#: JPEG qualities a written crop is encoded with (one drawn per crop; the quantisation
+#: tables then differ between crops, the look does not)
+JPEG_QUALITIES = (93, 94, 95, 96)
+#: share of a written crop's colour values moved by one grey level (:func:`dither`)
+DITHER_SHARE = 1 / 16
+#: largest move of a gold copy's or a repeat's box, as a share of the box's longer side
+MAX_SHIFT = 0.08
+#: largest Gaussian blur (sigma, display pixels) of a gold copy when matching a file size
+MAX_GOLD_BLUR = 1.5
+#: largest noise (sigma, grey levels) of a broken render when matching a file size
+MAX_BAD_NOISE = 80.0
 
 
 def read_bgr(path: Path, *, where: str, field: str) -> np.ndarray:
@@ -58,31 +81,205 @@ def pad_group(crops, *, size: int) -> list[np.ndarray]:
             for c in crops]
 
 
-def broken_render(crop: np.ndarray, *, rng: np.random.Generator) -> np.ndarray:
+def broken_render(crop: np.ndarray, *, rng: np.random.Generator, noise: float = 40.0) -> np.ndarray:
     """A severely broken copy of ``crop`` (h, w, 3) uint8 for a gold "bad" item.
 
-    Heavy Gaussian blur (sigma = 15% of the longer side), Gaussian noise (sigma 40 grey
-    levels) and three black holes of a quarter of the side each.
+    Three black holes of a quarter of the side each, then a heavy Gaussian blur (sigma = 15%
+    of the longer side: the holes become dark smears) and Gaussian noise (sigma ``noise`` grey
+    levels; :meth:`CropWriter.matched` chooses it to match a real render's file size).
     """
     h, w = crop.shape[:2]
-    sigma = max(2.0, 0.15 * max(h, w))
-    out = cv2.GaussianBlur(crop, (0, 0), sigmaX=sigma, sigmaY=sigma).astype(np.float32)
-    out += rng.normal(0.0, 40.0, size=out.shape).astype(np.float32)
-    out = np.clip(out, 0, 255).astype(np.uint8)
+    out = crop.copy()
     hh, hw = max(1, h // 4), max(1, w // 4)
     for _ in range(3):
         y, x = int(rng.integers(0, h - hh + 1)), int(rng.integers(0, w - hw + 1))
         out[y:y + hh, x:x + hw] = 0
-    return out
+    sigma = max(2.0, 0.15 * max(h, w))
+    out = cv2.GaussianBlur(out, (0, 0), sigmaX=sigma, sigmaY=sigma).astype(np.float32)
+    out += rng.normal(0.0, 1.0, size=out.shape).astype(np.float32) * np.float32(noise)
+    return np.clip(out, 0, 255).astype(np.uint8)
 
 
-def write_image(path: Path, img: np.ndarray, *, fmt: str) -> None:
-    """Write a BGR uint8 image as ``fmt`` in {'jpg', 'png'} (JPEG quality 95)."""
-    params = [cv2.IMWRITE_JPEG_QUALITY, 95] if fmt == "jpg" else [cv2.IMWRITE_PNG_COMPRESSION, 3]
+def encode(img: np.ndarray, *, fmt: str, quality: int = 95) -> bytes:
+    """A BGR uint8 image encoded as ``fmt`` in {'jpg', 'png'} (JPEG: ``quality``)."""
+    params = [cv2.IMWRITE_JPEG_QUALITY, int(quality)] if fmt == "jpg" else [cv2.IMWRITE_PNG_COMPRESSION, 3]
     ok, buf = cv2.imencode("." + fmt, img, params)
     if not ok:
-        raise OSError(f"could not encode {path}")
-    path.write_bytes(buf.tobytes())
+        raise OSError(f"could not encode a {img.shape} image as {fmt}")
+    return buf.tobytes()
+
+
+def write_image(path: Path, img: np.ndarray, *, fmt: str, quality: int = 95) -> bytes:
+    """Write a BGR uint8 image as ``fmt`` in {'jpg', 'png'} (:func:`encode`); the bytes."""
+    data = encode(img, fmt=fmt, quality=quality)
+    path.write_bytes(data)
+    return data
+
+
+def dither(img: np.ndarray, *, rng: np.random.Generator, share: float = DITHER_SHARE) -> np.ndarray:
+    """A copy of ``img`` (uint8, any shape) with a random ``share`` (in steps of 1/128) of its
+    values moved one grey level up or down (clipped to 0..255): invisible, but no two dithered
+    copies of one image are alike.
+
+    >>> img = np.full((32, 32, 3), 100, np.uint8)
+    >>> d = dither(img, rng=np.random.default_rng(0))
+    >>> int(np.abs(d.astype(int) - img).max()), 0.03 < float(np.mean(d != img)) < 0.1
+    (1, True)
+    """
+    n = np.uint8(round(share * 128))  # one random byte per value: < n down, n..2n-1 up
+    r = np.frombuffer(rng.bytes(img.size), np.uint8).reshape(img.shape)
+    up, down = ((r - n) < n).view(np.uint8), (r < n).view(np.uint8)
+    return cv2.subtract(cv2.add(img, up), down)  # saturating: 0 and 255 stay in range
+
+
+def draw_shift(rng: np.random.Generator, box) -> tuple[int, int]:
+    """A random move ``(dx, dy)`` in pixels, not both 0, each at most :data:`MAX_SHIFT` of the
+    inclusive box ``[x0, y0, x1, y1]``'s longer side (at least 1 pixel).
+
+    >>> dx, dy = draw_shift(np.random.default_rng(0), [0, 0, 99, 49])
+    >>> max(abs(dx), abs(dy)) <= 8 and (dx, dy) != (0, 0)
+    True
+    """
+    x0, y0, x1, y1 = (int(v) for v in box)
+    m = max(1, int(round(MAX_SHIFT * max(x1 - x0 + 1, y1 - y0 + 1))))
+    while True:
+        dx, dy = (int(v) for v in rng.integers(-m, m + 1, size=2))
+        if dx or dy:
+            return dx, dy
+
+
+def shift_box(box, shift: tuple[int, int], shape) -> list[int]:
+    """The inclusive box ``[x0, y0, x1, y1]`` moved by ``shift = (dx, dy)``, each part cut
+    back so that the box stays inside an image of ``shape`` (H, W, ...); its size is kept.
+
+    >>> shift_box([2, 2, 5, 5], (3, -4), (8, 10))
+    [5, 0, 8, 3]
+    """
+    x0, y0, x1, y1 = (int(v) for v in box)
+    h, w = shape[:2]
+    dx = int(np.clip(shift[0], -x0, max(-x0, w - 1 - x1)))
+    dy = int(np.clip(shift[1], -y0, max(-y0, h - 1 - y1)))
+    return [x0 + dx, y0 + dy, x1 + dx, y1 + dy]
+
+
+def soften(crop: np.ndarray, sigma_display: float, *, side: int, size: int) -> np.ndarray:
+    """``crop`` blurred by ``sigma_display`` pixels of the ``size`` x ``size`` display (its
+    square of ``side`` camera pixels is resized to it); 0 returns it unchanged."""
+    if sigma_display <= 0:
+        return crop
+    sigma = sigma_display * side / size
+    return cv2.GaussianBlur(crop, (0, 0), sigmaX=sigma, sigmaY=sigma)
+
+
+class CropWriter:
+    """Writes the display crops of a study into the new ``folder`` as ``fmt`` (module
+    docstring).
+
+    Every crop is :func:`dither`-ed with ``rng`` (the study's generator, so a rebuild with
+    the same seed writes the same bytes), encoded (JPEG: with a quality drawn from
+    :data:`JPEG_QUALITIES`) and written only if no crop of the study has the same bytes
+    (else dithered again). :meth:`note_real` records the render/reference file size ratio of
+    a real item; :meth:`matched` picks a gold item's made-up crop (and JPEG quality) whose
+    file is as large as one of those ratios says. ``groups`` (``{name: count}``, e.g. the
+    number of good and of bad gold items) spreads the ratios of each group's items over the
+    real ones: the i-th item of a group of n takes a ratio at a random quantile within one
+    of n equal strata, each stratum once, in a random order (Latin hypercube sampling), so a
+    handful of gold items follows the real items' size distribution closely.
+    """
+
+    def __init__(self, folder: Path, *, fmt: str, rng: np.random.Generator,
+                 groups: dict[str, int] | None = None):
+        self.folder, self.fmt, self.rng = Path(folder), fmt, rng
+        self.folder.mkdir()
+        self.seen: set[bytes] = set()
+        self.ratios: list[float] = []
+        self.strata = {g: (n, rng.permutation(n).tolist()) for g, n in (groups or {}).items() if n}
+
+    def write(self, name: str, img: np.ndarray, *, quality: int | None = None) -> int:
+        """Write ``img`` (BGR uint8) dithered as ``folder/name`` (JPEG: with ``quality``, else
+        one drawn from :data:`JPEG_QUALITIES`); its file size in bytes."""
+        if quality is None:
+            quality = JPEG_QUALITIES[int(self.rng.integers(len(JPEG_QUALITIES)))]
+        while True:
+            data = write_image(self.folder / name, dither(img, rng=self.rng), fmt=self.fmt,
+                               quality=quality)
+            digest = hashlib.sha256(data).digest()
+            if digest not in self.seen:
+                self.seen.add(digest)
+                return len(data)
+
+    def note_real(self, ref_bytes: int, ren_bytes: int) -> None:
+        """Record a real item's render/reference file size ratio."""
+        self.ratios.append(ren_bytes / ref_bytes)
+
+    def target_ratio(self, group: str | None = None) -> float:
+        """A render/reference size ratio drawn from the real items noted so far (1 before
+        any): at a quantile within the next stratum of ``group`` (class docstring), or at a
+        uniform random quantile."""
+        u = float(self.rng.random())
+        if group in self.strata and self.strata[group][1]:
+            n, order = self.strata[group]
+            u = (order.pop() + u) / n
+        return float(np.quantile(self.ratios, u)) if self.ratios else 1.0
+
+    def matched(self, make: Callable[[float], np.ndarray], ref_bytes: int, *, lo: float,
+                hi: float, group: str | None = None, steps: int = 8) -> tuple[np.ndarray, int]:
+        """``(make(p), quality)`` for the ``p`` in ``[lo, hi]`` whose dithered file is nearest
+        to ``ref_bytes`` times :meth:`target_ratio` (of ``group``), by bisection on ``p`` (the
+        file size must change monotonically with it); JPEG: at a quality drawn from
+        :data:`JPEG_QUALITIES` as for any crop, or, when that misses the size by more than 5%,
+        at the quality that meets it best. Pass the quality on to :meth:`write`."""
+        target, seed = self.target_ratio(group) * ref_bytes, int(self.rng.integers(2**63))
+        best = None
+        first = int(self.rng.integers(len(JPEG_QUALITIES)))  # as drawn for a real crop ...
+        for q in (JPEG_QUALITIES[first:] + JPEG_QUALITIES[:first]) if self.fmt == "jpg" else (95,):
+            def size(p: float, q=q) -> int:
+                img = dither(make(p), rng=np.random.default_rng(seed))
+                return len(encode(img, fmt=self.fmt, quality=q))
+
+            p = _bisect(size, target, lo, hi, steps)
+            miss = abs(size(p) - target)
+            if best is None or miss < best[0]:
+                best = (miss, p, q)
+            if miss <= 0.05 * target:  # ... unless another quality meets the size better
+                break
+        return make(best[1]), best[2]
+
+
+    def gold(self, crops, j: int, ref_bytes: int, *, size: int,
+             broken_seed: int | None = None) -> tuple[np.ndarray, int]:
+        """The display crop ``j`` of ``crops`` (camera crops (h_i, w_i, 3) shown on one square,
+        :func:`pad_group`; ``crops[j]`` a copy cut from the GT image) for a gold item, and its
+        JPEG quality (:meth:`matched` against the reference's ``ref_bytes``): blurred by at
+        most :data:`MAX_GOLD_BLUR` display pixels (group ``'good'``), or with ``broken_seed``
+        :func:`broken_render`-ed with noise up to :data:`MAX_BAD_NOISE` (group ``'bad'``)."""
+        side = max(max(c.shape[:2]) for c in crops)
+
+        def make(p: float) -> np.ndarray:
+            shown = list(crops)
+            shown[j] = (soften(crops[j], p, side=side, size=size) if broken_seed is None else
+                        broken_render(crops[j], rng=np.random.default_rng(broken_seed), noise=p))
+            return pad_group(shown, size=size)[j]
+
+        if broken_seed is None:
+            return self.matched(make, ref_bytes, lo=0.0, hi=MAX_GOLD_BLUR, group="good")
+        return self.matched(make, ref_bytes, lo=0.0, hi=MAX_BAD_NOISE, group="bad")
+
+
+def _bisect(size: Callable[[float], int], target: float, lo: float, hi: float, steps: int) -> float:
+    """The ``p`` in ``[lo, hi]`` whose ``size(p)`` (monotonic in ``p``) is nearest ``target``."""
+    s_lo, s_hi = size(lo), size(hi)
+    rising = s_hi >= s_lo
+    if (target <= s_lo) == rising or (target >= s_hi) == rising:  # beyond an end: that end
+        return lo if abs(s_lo - target) <= abs(s_hi - target) else hi
+    a, b = lo, hi
+    for _ in range(steps):
+        mid = (a + b) / 2
+        if (size(mid) < target) == rising:
+            a = mid
+        else:
+            b = mid
+    return (a + b) / 2
 
 
 def opaque_ids(rng: np.random.Generator, n: int) -> list[str]:

@@ -13,7 +13,7 @@ methods A and B of one object view; A is the earlier of the two in the study's m
   design chooses pairs (tracks spread over strata, frames along each track, every view;
   :func:`annotate.design.select_test_pairs`) and each gives one test item per pair of
   methods. Training items come from other object views (pairs of methods in turn); hidden
-  gold items show the GT crop itself as A (``method_a = gt``; the right answer is ``a``)
+  gold items show a copy of the GT image as A (``method_a = gt``; the right answer is ``a``)
   against one method's render of an object view away from the real camera (``view !=
   none`` when there is one); repeats repeat test items (shown with the sides swapped:
   :func:`annotate.assign.pairwise_sides`). Its crops: the three display crops of every item
@@ -167,26 +167,39 @@ class PairwiseDesign:
     def cut_crops(self, choice: Choice, folder: Path, *, ids: list[str], rng: np.random.Generator,
                   image, opts: StudyOptions, where: str, progress: bool) -> pd.DataFrame:
         """The GT, A and B crops of every item on one square, the largest side of the three
-        (:meth:`annotate.design.Design.cut_crops`; ``rng`` is not used); the items table has
-        ``ref_file, a_file, b_file``, the methods and their pair ids."""
-        (folder / "crops").mkdir()
+        (:meth:`annotate.design.Design.cut_crops`), written by :class:`annotate.crops.CropWriter`
+        with ``rng`` (a gold item's A: the GT image cut with its box moved by
+        :func:`annotate.crops.draw_shift`, its file size matched to a real render's; a
+        repeat: every box moved so); the items table has ``ref_file, a_file, b_file``, the
+        methods and their pair ids."""
         fmt, size = opts.image_format, int(opts.size)
+        writer = _crops.CropWriter(folder / "crops", fmt=fmt, rng=rng,
+                                   groups={"good": sum(r["kind"] == "gold" for r in choice.rows)})
         attrs = attribute_columns(choice.pairs.drop(columns=["_root", "_row"]))
         items = []
         for k, r in enumerate(tqdm(choice.rows, desc="cutting crops", unit="item", disable=not progress)):
-            ref = r["ref"]
-            gt = cut_box(image(ref, "gt_path"), [ref[c] for c in GT_BOX_COLUMNS], where=where,
-                         field=f"line {int(ref['_row'])}: gt box")
-            ren = [gt if rec is None else cut_box(
-                image(rec, "render_path"), [rec[c] for c in RENDER_BOX_COLUMNS], where=where,
-                field=f"line {int(rec['_row'])}: render box") for rec in (r["a"], r["b"])]
+            ref, kind = r["ref"], r["kind"]
+            gt_img, gt_box = image(ref, "gt_path"), [ref[c] for c in GT_BOX_COLUMNS]
+            shift = _crops.draw_shift(rng, gt_box) if kind in ("gold", "repeat") else (0, 0)
+            moved = shift if kind == "repeat" else (0, 0)
+            gt = _cut(gt_img, gt_box, moved, ref, "gt", where)
+            # A: a render, or (gold) the GT image cut with the box moved
+            ren = [_cut(gt_img, gt_box, shift, ref, "gt", where) if rec is None else _cut(
+                image(rec, "render_path"), [rec[c] for c in RENDER_BOX_COLUMNS], moved, rec,
+                "render", where) for rec in (r["a"], r["b"])]
             crops = (gt, *ren)
             side = max(max(c.shape[:2]) for c in crops)
-            names = {}
+            names = {col: f"{ids[3 * k + j]}.{fmt}" for j, col in enumerate(("ref_file", "a_file", "b_file"))}
             shown = _crops.pad_group(crops, size=size)
-            for j, (col, out) in enumerate(zip(("ref_file", "a_file", "b_file"), shown, strict=True)):
-                names[col] = f"{ids[3 * k + j]}.{fmt}"
-                _crops.write_image(folder / "crops" / names[col], out, fmt=fmt)
+            written = {}
+            for col, out in zip(names, shown, strict=True):
+                q = None
+                if col == "a_file" and r["a"] is None:  # gold: A's file size as a real render's
+                    out, q = writer.gold(crops, 1, written["ref_file"], size=size)
+                written[col] = writer.write(names[col], out, quality=q)
+            if kind in ("test", "training"):
+                writer.note_real(written["ref_file"], written["a_file"])
+                writer.note_real(written["ref_file"], written["b_file"])
             meta = {c: ref[c] for c in (*PAIR_META_COLUMNS, *choice.view_columns, *attrs)}
             items.append({"key": r["key"], "item_id": r["item_id"], "kind": r["kind"],
                           "pair_id": r["ref"].name, "method_a": r["method_a"],
@@ -199,6 +212,13 @@ class PairwiseDesign:
     def manifest_extras(self, choice: Choice) -> dict:
         """``design`` and the compared ``methods``."""
         return {"design": "pairwise", "methods": list(choice.methods)}
+
+
+def _cut(img: np.ndarray, box, shift: tuple[int, int], rec, what: str, where: str) -> np.ndarray:
+    """The crop of ``img`` at ``box`` moved by ``shift`` (:func:`annotate.crops.shift_box`);
+    errors name the pairs line of ``rec`` and the ``what`` box."""
+    return cut_box(img, _crops.shift_box(box, shift, img.shape), where=where,
+                   field=f"line {int(rec['_row'])}: {what} box")
 
 
 def choice(vote, side_a) -> np.ndarray:

@@ -35,11 +35,12 @@ Per rater (``raters.csv``):
   straight-lining rater has ``youden_j = 0`` and is caught by the agreement test.
 - ``simulated``: id starts with ``sim-``.
 
-The ``--screen`` rule: a rater is excluded when any test above is significant at level
-``alpha`` (one-sided, per test): agreement (``j_p``), gold (``gold_p``), repeats
-(``repeat_p``) or speed (``speed_p``); or no skill shown: ``skill_p >= skill_alpha`` (with
-at least ``min_class_votes`` items in each consensus class, a rater whose votes cannot be
-told from a coin or a single button at that level). Flags name every test that fired. Thresholds and
+The screening rule (``analyze`` applies it by default; ``--no-screen`` keeps flagged
+raters): a rater is excluded when any test above is significant at level ``alpha``
+(one-sided, per test): agreement (``j_p``), gold (``gold_p``), repeats (``repeat_p``) or
+speed (``speed_p``); or no skill shown: ``skill_p >= skill_alpha`` (with at least
+``min_class_votes`` items in each consensus class, a rater whose votes cannot be told from a
+coin or a single button at that level). Flags name every test that fired. Thresholds and
 level are in :class:`ScreenRule`; the false-exclusion rate measured on simulated panels is
 in docs/FORMATS.md.
 """
@@ -65,6 +66,7 @@ __all__ = [
     "j_test",
     "fisher_skill_p",
     "screen_agreement",
+    "agreement_tests",
     "SIM_PREFIX",
 ]
 
@@ -73,7 +75,7 @@ __all__ = [
 
 @dataclass(frozen=True)
 class ScreenRule:
-    """Thresholds and test level of the ``--screen`` rule (see the module docstring)."""
+    """Thresholds and test level of the screening rule (see the module docstring)."""
 
     alpha: float = 0.01
     min_j: float = 0.35
@@ -209,8 +211,11 @@ def fisher_skill_p(res: dict):
     return np.where((n1 > 0) & (n0 > 0), p, np.nan)
 
 
-def _flags(res: dict, rule: ScreenRule):
-    """(j_z, j_p, skill_p, flag) of :func:`consensus_stats` output under ``rule``."""
+def agreement_tests(res: dict, rule: ScreenRule):
+    """``(j_z, j_p, skill_p, flag)`` of :func:`consensus_stats`-like output under ``rule``:
+    the J test (:func:`j_test` against ``rule.min_j``), the Fisher skill test (NaN with fewer
+    than ``rule.min_class_votes`` items in a consensus class) and the agreement flag. Also
+    serves the pairwise screening (:func:`analysis.pairwise.rater_table`)."""
     z, p = _j_p(res, rule)
     skill_p = fisher_skill_p(res)
     enough = np.minimum(res["n_cons_good"], res["n_cons_bad"]) >= rule.min_class_votes
@@ -231,7 +236,7 @@ def screen_agreement(votes: np.ndarray, *, rule: ScreenRule | None = None) -> di
     use = np.ones(v.shape[:-1], bool)
     for _ in range(max(v.shape[-2] - 2, 0)):
         res = consensus_stats(v, use)
-        flag = _flags(res, rule)[3] & use
+        flag = agreement_tests(res, rule)[3] & use
         j = np.where(flag, np.nan_to_num(res["youden_j"], nan=-2.0), np.inf)
         worst = np.argmin(j, axis=-1)[..., None]
         drop = flag.any(-1) & (use.sum(-1) > 2)
@@ -239,7 +244,7 @@ def screen_agreement(votes: np.ndarray, *, rule: ScreenRule | None = None) -> di
             break
         np.put_along_axis(use, worst, np.take_along_axis(use, worst, -1) & ~drop[..., None], -1)
     out = consensus_stats(v, use)
-    z, p, skill_p, flag = _flags(out, rule)
+    z, p, skill_p, flag = agreement_tests(out, rule)
     out.update(j_z=z, j_p=p, skill_p=skill_p, in_consensus=use, flag_agreement=flag)
     return out
 
@@ -353,8 +358,9 @@ def screen(
 ) -> pd.DataFrame:
     """Add ``flags`` (every significant test), ``excluded`` and ``excluded_reason``.
 
-    Flags are always computed and reported; raters are excluded only by ``exclude``
-    (``--exclude-raters``) or, with ``use_rule`` (``--screen``), by a flag.
+    Flags are always computed and reported; raters are excluded by ``exclude``
+    (``--exclude-raters``) and, with ``use_rule`` (``analyze``'s default; ``--no-screen``
+    turns it off), by a flag: ``excluded_reason`` is then ``screening: `` and the flags.
     """
     rule = rule or ScreenRule()
     unknown = sorted(set(exclude) - set(raters["rater_id"]))
@@ -372,7 +378,7 @@ def screen(
     by_rule = np.array([bool(f) for f in flags], dtype=bool) & use_rule
     out["excluded"] = manual | by_rule
     out["excluded_reason"] = [
-        "; ".join((["--exclude-raters"] if m else []) + (["--screen: " + f] if b else []))
+        "; ".join((["--exclude-raters"] if m else []) + (["screening: " + f] if b else []))
         for m, b, f in zip(manual, by_rule, out["flags"], strict=True)
     ]
     return out

@@ -8,7 +8,9 @@ severity; and ``method`` for a scene with methods) of the item's clip. A careful
 
 with a per-rater threshold ``theta_r ~ N(0.45, 0.08)`` (bias), width ``width_r ~ U(0.04,
 0.12)`` (noise) and lapse rate 0.02. The last rater is careless: good with probability 0.5
-whatever it sees. Gold items have severity 0 (GT/GT) or 1 (broken). Votes go through the
+whatever it sees. Ids are ``sim-1, sim-2, ...`` and ``sim-careless``; a study simulated
+again gets new ids (:func:`new_rater_ids`), or a refusal when its test items need fewer votes
+than the new raters. Gold items have severity 0 (GT/GT) or 1 (broken). Votes go through the
 same store and assignment as the app's, item by item, in each rater's own order.
 
 Pairwise studies (:mod:`annotate.pairwise`). The renders' severities come from
@@ -41,7 +43,7 @@ from data_schema.perturbation import labels, perturbation_array
 from data_schema.raters import SIM_PREFIX
 from data_schema.tables import require_columns
 
-__all__ = ["p_good", "p_choice", "item_severity", "pairwise_severity", "simulate"]
+__all__ = ["p_good", "p_choice", "item_severity", "pairwise_severity", "new_rater_ids", "simulate"]
 
 _JOIN = ["camera", "timestamp_us", "track_id", "y_offset_m"]
 
@@ -145,10 +147,56 @@ def p_choice(delta, *, tie: float, width: float, lapse: float):
     return pa, pb, 1.0 - pa - pb
 
 
+def new_rater_ids(existing, raters: int) -> list[str]:
+    """Ids for ``raters`` more simulated raters beside the ``existing`` rater ids: careful raters
+    numbered on from the highest ``sim-N``, the last (with ``raters > 1``) careless:
+    ``sim-careless``, else ``sim-careless-2``, ... (a study simulated again gets new raters,
+    never the ones that already voted).
+
+    >>> new_rater_ids([], 3)
+    ['sim-1', 'sim-2', 'sim-careless']
+    >>> new_rater_ids(["sim-1", "sim-2", "sim-careless", "ann"], 2)
+    ['sim-3', 'sim-careless-2']
+    """
+    taken = set(existing)
+    nums = [int(r[len(SIM_PREFIX):]) for r in taken
+            if r.startswith(SIM_PREFIX) and r[len(SIM_PREFIX):].isdigit()]
+    first = max(nums, default=0) + 1
+    careful = raters - 1 if raters > 1 else raters
+    ids = [f"{SIM_PREFIX}{first + i}" for i in range(careful)]
+    if raters > 1:
+        name, k = f"{SIM_PREFIX}careless", 1
+        while name in taken:
+            k += 1
+            name = f"{SIM_PREFIX}careless-{k}"
+        ids.append(name)
+    return ids
+
+
+def _check_room(study, raters: int) -> None:
+    """Refuse more simulated raters than the test votes the study still needs (each item
+    ``votes_per_item``): they would vote on nothing but training and gold."""
+    loads = study.store.item_loads()
+    room = sum(max(study.quota - loads.get(k, 0), 0) for k in study.keys("test"))
+    if room < raters:
+        sims = sum(r.startswith(SIM_PREFIX) for r in study.store.raters())
+        need = (f"at most {room} more rater(s): the test items need {room} more votes"
+                if room else "a study whose test items still need votes")
+        raise InputError(param="raters", expected=f"{need} ({study.quota} per item; {sims} simulated "
+                         "raters so far: build a new study, or one with more votes per item, to "
+                         "simulate more)", got=raters)
+
+
 def simulate(study, *, raters: int = 5, seed: int = 0, progress: bool = True) -> pd.DataFrame:
-    """Let ``raters`` simulated raters (the last careless) rate the study; returns their params."""
+    """Let ``raters`` new simulated raters (the last careless) rate the study; returns their
+    parameters and ``test_votes``, the test votes each recorded.
+
+    Rater ids are new (:func:`new_rater_ids`) when the study was simulated before; raises
+    :class:`InputError` (``raters``) when the study's test items need fewer votes than
+    ``raters`` (a simulated rater would vote on no test item)."""
     if raters < 1:
         raise InputError(param="raters", expected="an integer >= 1", got=raters)
+    _check_room(study, raters)
     pairwise = study.design == "pairwise"
     sev = pairwise_severity(study) if pairwise else item_severity(study)
     # the same store file and code path; NORMAL sync: simulated votes need not survive a power cut
@@ -157,9 +205,9 @@ def simulate(study, *, raters: int = 5, seed: int = 0, progress: bool = True) ->
                                                    votes=study.store.votes_allowed))
     rng = np.random.default_rng(seed)
     params = []
-    for i in range(raters):
+    for i, rater_id in enumerate(new_rater_ids(study.store.raters(), raters)):
         careless = raters > 1 and i == raters - 1
-        par = {"rater_id": f"{SIM_PREFIX}{'careless' if careless else i + 1}", "careless": careless}
+        par = {"rater_id": rater_id, "careless": careless, "test_votes": 0}
         if pairwise:
             par.update(tie=float(rng.uniform(0.01, 0.05)), width=float(rng.uniform(0.04, 0.12)),
                        lapse=0.02)
@@ -189,6 +237,7 @@ def simulate(study, *, raters: int = 5, seed: int = 0, progress: bool = True) ->
             clock += timedelta(milliseconds=response_ms)
             study.store.record_vote(par["rater_id"], key, vote, response_ms=response_ms,
                                     voted_at=utc_iso(clock))
+            par["test_votes"] += int(study.items.at[key, "kind"] == "test")
             bar.update()
     bar.close()
     return pd.DataFrame(params)

@@ -11,8 +11,9 @@ Layout of ``STUDY/``::
     votes.sqlite    the vote store (created on first use)
 
 Item kinds (docs/FORMATS.md §5): ``test``; ``training`` (shown first, excluded from analysis);
-``gold`` (hidden: key and item_id ``gold-good:<pair_id>`` shows the GT crop twice and must
-be rated good; ``gold-bad:<pair_id>`` a severely broken copy, must be rated bad);
+``gold`` (hidden: key and item_id ``gold-good:<pair_id>`` shows the GT crop against a copy
+of the GT image and must be rated good; ``gold-bad:<pair_id>`` a severely broken copy, must be
+rated bad; :mod:`annotate.crops` makes gold and repeats look like real items in their bytes);
 ``repeat`` (key ``repeat:<pair_id>``, item_id the original test item's id).
 
 Scene folder: ``gt_path``/``render_path`` are relative to the scene folder. It is

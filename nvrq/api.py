@@ -433,12 +433,20 @@ class Evaluator:
     def compute(self, by: Sequence[str] | None = None) -> pd.DataFrame:
         """The summary: one row per label group (``by``, default every label key given to
         :meth:`update`, in first-seen order; none: one row of all pairs), with ``pairs`` (the
-        group's pair count) and each metric's mean over the group (NaN values skipped)."""
+        group's pair count) and each metric's mean over the group (NaN values skipped). A
+        metric NaN on every pair (e.g. crops below its ``min_side``) gets a ``UserWarning``."""
+        import warnings
+
+        from nvrq.scoring.driver import empty_column_warning
+
         table = self.pairs
         keys = list(self._label_keys if by is None else by)
         missing = [k for k in keys if k not in self._label_keys]
         if missing:
             raise InputError(param="by", expected=f"label keys among {', '.join(self._label_keys) or 'none'}", got=missing[0])
+        for c in self.columns:
+            if len(table) and not np.isfinite(table[c].to_numpy(np.float64)).any():
+                warnings.warn(empty_column_warning(c, len(table)).removeprefix("warning: "), stacklevel=2)
         return _summary(table, self.columns, keys)
 
 

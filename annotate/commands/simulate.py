@@ -1,5 +1,6 @@
 """``annotate simulate STUDY [--raters N] [--seed S]``: add simulated raters (ids ``sim-*``,
-:func:`annotate.simulate.simulate`)."""
+new ones when the study was simulated before; refused when its test items need fewer votes
+than N: :func:`annotate.simulate.simulate`)."""
 
 from __future__ import annotations
 
@@ -20,7 +21,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    """Simulate the raters' votes and print their parameters."""
+    """Simulate the raters' votes and print their parameters and test votes."""
     params = simulate(load_study(args.study), raters=args.raters, seed=args.seed)
     print(params.to_string(index=False))
     return 0

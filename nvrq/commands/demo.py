@@ -56,7 +56,7 @@ def method_steps(out: Path, args) -> list[tuple[str, list[str]]]:
         ("nvrq", ["score", str(pairs), "--out", str(metrics), "--metrics", "psnr,ssim,nvrq,nvrq_ca",
                   "--encoder", args.encoder]),
         ("analyze", ["--pairs", str(pairs), "--metrics-table", str(metrics), "--compare-methods",
-                     "--out", str(out / "leaderboard")]),
+                     "--by", "class,offset", "--out", str(out / "leaderboard")]),
         ("annotate", ["build", str(study), "--pairs", str(pairs), "--metrics-table", str(metrics),
                       "--design", "pairwise", "--seed", str(args.seed)]),
         ("annotate", ["simulate", str(study), "--raters", str(args.raters), "--seed", str(args.seed)]),

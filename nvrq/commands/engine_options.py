@@ -13,6 +13,7 @@ from data_schema.tables import timing_path
 from nvrq.commands.args import int_arg
 from nvrq.engines import ENGINES
 from nvrq.engines.ray_engine import RayJob, score_on_ray
+from nvrq.scoring.driver import empty_column_warning
 
 __all__ = ["add_engine_args", "check_engine_args", "sharded_output", "report_sharded", "run_ray"]
 
@@ -95,13 +96,14 @@ def check_engine_args(args, *, local_datasets: bool = False) -> None:
 
 
 def report_sharded(res: dict, out, *, engine: str) -> None:
-    """Print the one stderr line after a sharded run.
+    """Print the one stderr line after a sharded run, and a warning line per metric column
+    with no value (:func:`nvrq.scoring.driver.empty_column_warning`).
 
     Parameters
     ----------
     res : dict
         :func:`nvrq.engines.shards.run_sharded`'s counts (``shards``, ``shards_done_before``,
-        ``pairs_scored``, ``seconds``).
+        ``pairs_scored``, ``seconds``, ``empty_columns``).
     out : str or Path
         The output folder.
     engine : str
@@ -111,6 +113,8 @@ def report_sharded(res: dict, out, *, engine: str) -> None:
         if res["shards_done_before"] else ""
     print(f"{done}scored {res['pairs_scored']} pairs in {res['seconds']:.1f} s on {engine} -> {out}",
           file=sys.stderr)
+    for metric in res.get("empty_columns", ()):
+        print(empty_column_warning(metric, res["pairs"]), file=sys.stderr)
 
 
 def run_ray(args, scorer) -> int:

@@ -24,7 +24,7 @@ from nvrq.engines.local import score_dataset
 from nvrq.engines.scorers import MetricScorer
 from nvrq.metrics.registry import DEFAULT_METRICS
 from nvrq.metrics.resolve import encoder_columns, needs_tau
-from nvrq.scoring.driver import REQUIRED_COLUMNS, runtime_timing, score_pairs
+from nvrq.scoring.driver import REQUIRED_COLUMNS, empty_column_warnings, runtime_timing, score_pairs
 
 __all__ = ["register", "run", "runtime_columns", "column_renames"]
 
@@ -78,7 +78,8 @@ def run(args) -> int:
 
 def _report(res, *, uses_encoder: bool, file) -> None:
     """One summary line: pairs/s, images decoded, encoder images per pair; then one line per
-    metric and reason with NaN values (:func:`nvrq.scoring.driver.undefined_counts`)."""
+    metric and reason with NaN values (:func:`nvrq.scoring.driver.undefined_counts`), and a
+    ``warning:`` line per metric NaN on every pair (:func:`~nvrq.scoring.driver.empty_column_warnings`)."""
     wall = res.timing.attrs.get("wall_seconds", float("nan"))
     msg = f"scored {res.n_pairs} pairs in {wall:.1f} s ({res.n_pairs / max(wall, 1e-9):.1f} pairs/s); " \
           f"decoded {res.n_images_decoded} images"
@@ -89,6 +90,8 @@ def _report(res, *, uses_encoder: bool, file) -> None:
     print(msg, file=file)
     for row in (res.undefined.itertuples(index=False) if res.undefined is not None else ()):
         print(f"{row.metric}: {row.pairs} of {res.n_pairs} pairs NaN ({row.reason})", file=file)
+    for line in empty_column_warnings(res.undefined, res.n_pairs):
+        print(line, file=file)
 
 
 def _scorer(args, columns, encoder_name, tau) -> MetricScorer:

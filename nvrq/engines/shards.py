@@ -44,7 +44,7 @@ from data_schema.tables import atomic_path, atomic_write_text, read_table, write
 from nvrq.scoring.batches import gt_groups, pack_groups
 
 __all__ = ["Shard", "PairsSource", "read_sources", "plan_shards", "Plan", "load_or_create_plan",
-           "shard_pairs", "write_shard", "finalize", "run_sharded"]
+           "shard_pairs", "write_shard", "finalize", "run_sharded", "empty_columns"]
 
 TIMING_KEY = b"nvrq_timing"
 
@@ -214,7 +214,8 @@ def run_sharded(pairs_path, out, *, required, options: dict, max_pairs: int, tim
     hands the shards still to do to ``compute``, which yields ``(shard, table, seconds per
     column)`` as each finishes, writes each one atomically as it arrives, then writes the
     timing table and the manifest (:func:`finalize`). Returns the counts
-    ``{pairs, shards, shards_done_before, pairs_scored, seconds}``.
+    ``{pairs, shards, shards_done_before, pairs_scored, seconds, empty_columns}``
+    (:func:`empty_columns`).
     """
     t0 = time.perf_counter()
     sources = read_sources(pairs_path, required=required)
@@ -236,4 +237,16 @@ def run_sharded(pairs_path, out, *, required, options: dict, max_pairs: int, tim
     finalize(plan, timing_path=timing_path)
     return {"pairs": plan.doc["n_pairs"], "shards": len(plan.shards),
             "shards_done_before": len(plan.shards) - len(plan.todo), "pairs_scored": n_todo,
-            "seconds": time.perf_counter() - t0}
+            "seconds": time.perf_counter() - t0, "empty_columns": empty_columns(plan)}
+
+
+def empty_columns(plan: Plan) -> list[str]:
+    """The metric columns of a finished run with no finite value in any shard (a metric NaN on
+    every pair: undefined for these crops); reads each shard's columns until each has one."""
+    left = list(plan.doc["columns"])
+    for s in plan.shards:
+        if not left:
+            break
+        t = pq.read_table(plan.out / s.name, columns=left)
+        left = [c for c in left if not np.isfinite(t[c].to_numpy().astype(np.float64)).any()]
+    return left

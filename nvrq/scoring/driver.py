@@ -44,7 +44,7 @@ from nvrq.scoring.batches import CROP_COLUMNS, decode_schedule, iter_crop_batche
 from nvrq.scoring.core import check_metric_args, column_seconds, score_crop_batch
 
 __all__ = ["ScoreResult", "score_pairs", "timing_table", "runtime_timing", "undefined_counts", "crop_sides",
-           "REQUIRED_COLUMNS"]
+           "empty_column_warning", "empty_column_warnings", "REQUIRED_COLUMNS"]
 
 REQUIRED_COLUMNS = ("pair_id", *CROP_COLUMNS)
 
@@ -127,6 +127,28 @@ def undefined_counts(values: dict, gt_sides: np.ndarray, render_sides: np.ndarra
         if (nan & ~small).any():
             rows.append((col, info.undefined or "undefined", int((nan & ~small).sum())))
     return pd.DataFrame(rows, columns=["metric", "reason", "pairs"])
+
+
+def empty_column_warning(metric: str, n_pairs: int, why: str = "") -> str:
+    """The one ``warning:`` line of a metric that is NaN on every one of ``n_pairs`` pairs
+    (``why``: the reasons, when known), printed wherever a run's summary is."""
+    return (f"warning: {metric} is NaN on all {n_pairs} pairs: undefined for these crops, its column "
+            f"is empty" + (f" ({why})" if why else ""))
+
+
+def empty_column_warnings(undefined: pd.DataFrame | None, n_pairs: int) -> list[str]:
+    """:func:`empty_column_warning` for each metric of :func:`undefined_counts`' table that is
+    NaN on all ``n_pairs`` pairs, with its reasons and counts.
+
+    >>> u = undefined_counts({"niqe": np.full(3, np.nan), "psnr": np.array([np.nan, 1.0, 2.0])},
+    ...                      np.array([99, 99, 99]), np.array([50, 60, 70]))
+    >>> empty_column_warnings(u, 3)
+    ['warning: niqe is NaN on all 3 pairs: undefined for these crops, its column is empty (shorter crop side < 96 px: 3)']
+    """
+    if undefined is None or not n_pairs:
+        return []
+    return [empty_column_warning(metric, n_pairs, "; ".join(f"{r.reason}: {r.pairs}" for r in rows.itertuples()))
+            for metric, rows in undefined.groupby("metric", sort=False) if rows["pairs"].sum() == n_pairs]
 
 
 def timing_table(metrics: Sequence[str], times: dict, *, n_pairs: int, wall: float,

@@ -112,6 +112,18 @@ def test_cli_report_and_errors(data, capsys):
         assert not (d / "r2").exists()
 
 
+@pytest.mark.parametrize("extra", [["--no-screen"], ["--exclude-raters", "ann"], ["--aggregate", "glad"],
+                                   ["--screen"]])
+def test_rater_options_are_refused_with_pairs(data, capsys, extra):
+    """Issue 29: an option that does not apply to --pairs (no votes) ends the run, never a no-op."""
+    d, _ = data
+    rc = main(["--pairs", str(d / "pairs"), "--metrics-table", str(d / "metrics"), "--target", "psnr",
+               *extra, "--out", str(d / "r3"), "--quiet"])
+    err = [line for line in capsys.readouterr().err.strip().splitlines() if not line.startswith("note:")]
+    assert rc == 2 and len(err) == 1 and f"expected no {extra[0]} with --pairs" in err[0], err
+    assert not (d / "r3").exists()
+
+
 def test_bootstrap_skip_note_and_timing_beside_metrics(data, monkeypatch):
     import analysis.pipeline as pipeline
     from tests.analysis.synth import make_ratings

@@ -70,6 +70,7 @@ def test_end_to_end_report(data, capsys):
             "--bootstrap", "200",
             "--stability", stab,
             "--exclude-raters", "sim-4",
+            "--no-screen",  # the numbers below are recomputed from every other rater's votes
             "--out", out,
         ],
         capsys,
@@ -199,30 +200,37 @@ def test_bad_metrics_file_and_missing_file(data, capsys):
     assert rc == 2 and "nope.csv" in cap.err
 
 
-def test_screen_excludes_a_fast_straight_liner(data, capsys):
+def test_screening_excludes_a_fast_straight_liner_by_default(data, capsys):
     d, ratings, metrics = data
     spam = ratings[(ratings["rater_id"] == "sim-0") & (ratings["kind"] == "test")].copy()
     spam["rater_id"], spam["vote"], spam["response_ms"] = "spammer", 1, 120
     pd.concat([ratings, spam]).to_csv(d / "r.csv", index=False)
     args = [d / "r.csv", "--metrics-table", d / "metrics.csv", "--lower-better", "blurriness"]
     args += ["--bootstrap", "0"]
-    rc, cap = _run(args + ["--out", d / "plain"], capsys)
-    r = pd.read_csv(d / "plain" / "raters.csv").set_index("rater_id")
-    assert rc == 0 and not r["excluded"].any()  # flags reported, not applied without --screen
+    rc, cap = _run(args + ["--no-screen", "--out", d / "kept"], capsys)
+    r = pd.read_csv(d / "kept" / "raters.csv").set_index("rater_id")
+    assert rc == 0 and not r["excluded"].any()  # --no-screen: flags reported, nobody excluded
     assert (
         "median response" in r.loc["spammer", "flags"]
         and "agreement with the others" in r.loc["spammer", "flags"]  # J = 0 when straight-lining
     )
-    rc, cap = _run(args + ["--screen", "--out", d / "screened"], capsys)
+    assert "Screening off (--no-screen): kept despite its flags: " in cap.err and "spammer (" in cap.err
+    rc, cap = _run(args + ["--out", d / "screened"], capsys)
     r = pd.read_csv(d / "screened" / "raters.csv").set_index("rater_id")
-    assert r.loc["spammer", "excluded"]
+    assert rc == 0 and r.loc["spammer", "excluded"]
     # every exclusion is by the rule, with its flags as the reason (noisy sim raters may be flagged too)
     ex = r[r["excluded"]]
     assert all(
-        reason == "--screen: " + f
+        reason == "screening: " + f
         for reason, f in zip(ex["excluded_reason"], ex["flags"], strict=True)
     )
-    assert "spammer (--screen:" in (d / "screened" / "report.html").read_text()
+    assert f"Excluded {len(ex)} of {len(r)} raters: " in cap.err  # on the terminal, who and why
+    assert "spammer (screening: " + r.loc["spammer", "flags"] in cap.err
+    assert "spammer (screening:" in (d / "screened" / "report.html").read_text()
+    # the old --screen is the default now: the same report, and one note
+    rc, cap = _run(args + ["--screen", "--out", d / "old"], capsys)
+    assert rc == 0 and "note: --screen is deprecated" in cap.err
+    assert pd.read_csv(d / "old" / "raters.csv")["excluded"].tolist() == r["excluded"].tolist()
 
 
 def test_no_metric_columns_still_reports_gvf(data, capsys):

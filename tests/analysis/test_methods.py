@@ -52,7 +52,7 @@ def test_methods_table_against_pandas(result):
     want = items.groupby(["method", "label_class"])[NVRQ_CA].mean()
     for r in cls.itertuples():
         assert r.mean == pytest.approx(want[(r.method, r.group)])
-    assert set(t["breakdown"]) == {"all", "y_offset_m", "label_class", "lighting"}
+    assert set(t["breakdown"]) == {"off-path", "on-path", "y_offset_m", "label_class", "lighting"}
 
 
 def test_paired_interval_is_the_cluster_bootstrap_of_the_differences(result):
@@ -87,7 +87,7 @@ def test_less_degraded_method_leads_and_offset_zero_is_a_tie(result):
     for metric in ("psnr", NVRQ_CA):
         rows = p[(p["metric"] == metric) & (p["axis"] == "y_offset_m")]
         far = rows[rows["offset"].abs() >= 1]
-        assert len(far) == 4 and (far["ci_lo"] > 0).all() and (far["better"] == "a").all()
+        assert len(far) == 4 and (far["ci_lo"] > 0).all() and (far["better"] == "sharp").all()
         zero = rows[rows["offset"] == 0].iloc[0]
         # the methods differ at offset 0 by independent noise only: the interval includes 0
         assert zero["ci_lo"] < 0 < zero["ci_hi"] and zero["better"] == "neither"
@@ -101,7 +101,7 @@ def test_direction_aware_win_rate_for_a_lower_is_better_metric():
                           clusters=clusters, n_boot=100, rank_metric="lpips")
     p = res.paired.set_index(["metric", "axis", "offset"])
     ps, lp = p.loc[("psnr", "y_offset_m", 2.0)], p.loc[("lpips", "y_offset_m", 2.0)]
-    assert lp["win_rate"] == ps["win_rate"] == 1.0 and lp["better"] == "a"
+    assert lp["win_rate"] == ps["win_rate"] == 1.0 and lp["better"] == "sharp"
     assert lp["mean_diff"] < 0 < ps["mean_diff"]
     assert list(res.leaderboard["method"]) == ["sharp", "blurry"]
 
@@ -203,7 +203,7 @@ def test_six_dof_views_get_one_breakdown_per_axis():
     items, clusters = _items(allp, pd.concat([metrics, ymet], ignore_index=True))
     res = compare_methods(items, ["psnr"], {"psnr": True}, clusters=clusters, n_boot=50)
     t = res.table[res.table["metric"] == "psnr"]
-    assert set(t["breakdown"]) == {"all", "y_offset_m", "yaw_deg", "label_class"}
+    assert set(t["breakdown"]) == {"off-path", "on-path", "y_offset_m", "yaw_deg", "label_class"}
     assert sorted(t.loc[t["breakdown"] == "yaw_deg", "group"].astype(float).unique()) == [0, 5, 10]
     yaw_rows = res.paired[res.paired["axis"] == "yaw_deg"]
     assert sorted(yaw_rows["offset"]) == [0.0, 5.0, 10.0]

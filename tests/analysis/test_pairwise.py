@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 from crowdkit.aggregation import BradleyTerry
 from scipy.optimize import minimize
-from scipy.stats import binom
+from scipy.stats import binom, fisher_exact
 
 from analysis.bradley_terry import Draws, bradley_terry
 from analysis.cli import main
@@ -190,3 +190,102 @@ def test_metrics_table_without_the_voted_pairs_is_refused(study, tmp_path, capsy
     assert main([str(tmp_path / "votes.csv"), "--metrics-table", str(tmp_path / "m.csv"),
                  "--quiet", "--out", str(tmp_path / "rep")]) == 2
     assert "m.csv: pair_id: expected the pairs of the voted methods' renders" in capsys.readouterr().err
+
+
+def _sided_votes(*, n_items=200, honest=5, seed=0) -> pd.DataFrame:
+    """Test votes of ``honest`` raters who prefer ``m2`` (b) 90% of the time and one careless
+    rater who presses left 70% of the time without looking; A's side counterbalanced per
+    rater (half the items left), as :func:`annotate.assign.pairwise_sides` shows it. No gold
+    and no repeats: only the agreement tests can catch the careless rater."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    for r in [f"h{k}" for k in range(honest)] + ["careless"]:
+        a_left = rng.permutation(n_items) % 2 == 0
+        for i in range(n_items):
+            if r == "careless":
+                choice = "a" if (rng.random() < 0.7) == a_left[i] else "b"
+            else:
+                choice = rng.choice(["b", "a", "tie"], p=[0.9, 0.05, 0.05])
+            rows.append({"item_id": f"i{i}", "rater_id": r, "kind": "test", "method_a": "m1",
+                         "method_b": "m2", "side_a": "left" if a_left[i] else "right",
+                         "choice": choice, "response_ms": 900.0, "clip_id": "c", "camera": "front",
+                         "track_id": f"t{i % 20}", "label_class": "automobile",
+                         "timestamp_us": 1000 * (i // 20), "y_offset_m": 1.0})
+    return pd.DataFrame(rows)
+
+
+def test_a_rater_who_does_not_look_is_flagged_by_the_sides_he_pressed():
+    votes = _sided_votes()
+    t = rater_table(votes).set_index("rater_id")
+    # by hand: per vote, the other raters' unique modal choice (a or b) and the rater's choice
+    # (a or b) as sides; scipy's one-sided Fisher exact test of pressed side against mode side
+    for r in ("h0", "careless"):
+        mine = votes[votes["rater_id"] == r].set_index("item_id")
+        others = votes[votes["rater_id"] != r]
+        table = np.zeros((2, 2), int)
+        for item, v in mine.iterrows():
+            counts = others[others["item_id"] == item]["choice"].value_counts()
+            top = counts[counts == counts.max()]
+            if len(top) != 1 or top.index[0] == "tie" or v["choice"] == "tie":
+                continue
+            left = v["side_a"] == "left"
+            mode_left = (top.index[0] == "a") == left
+            pressed_left = (v["choice"] == "a") == left
+            table[int(not mode_left), int(not pressed_left)] += 1
+        n1, n0 = table.sum(axis=1)
+        assert t.loc[r, "youden_j"] == pytest.approx(table[0, 0] / n1 + table[1, 1] / n0 - 1)
+        p = fisher_exact(table, alternative="greater").pvalue
+        assert t.loc[r, "skill_p"] == pytest.approx(p, rel=1e-6)
+    assert t.loc["careless", "youden_j"] < 0.15 < 0.6 < t.drop("careless")["youden_j"].min()
+    flagged = screen(t.reset_index(), use_rule=True).set_index("rater_id")
+    assert flagged.loc["careless", "excluded"]
+    assert "agreement with the others" in flagged.loc["careless", "flags"]
+    assert not flagged.drop("careless")["excluded"].any()
+
+
+def test_default_screening_fits_and_ceiling_use_the_raters_kept(tmp_path, capsys):
+    votes = _sided_votes()
+    votes.to_csv(tmp_path / "votes.csv", index=False)
+    screened = run_pairwise_analysis(tmp_path / "votes.csv", n_boot=0)
+    kept = run_pairwise_analysis(tmp_path / "votes.csv", n_boot=0, screen_raters=False)
+    assert screened.screen and screened.raters.set_index("rater_id").loc["careless", "excluded"]
+    # the same analysis with the careless rater removed by hand gives the default's numbers
+    votes[votes["rater_id"] != "careless"].to_csv(tmp_path / "honest.csv", index=False)
+    honest = run_pairwise_analysis(tmp_path / "honest.csv", n_boot=0, screen_raters=False)
+    ceiling = {a.agreement.iloc[-1]["agreement"] for a in (screened, honest)}
+    assert len(ceiling) == 1 and ceiling.pop() > kept.agreement.iloc[-1]["agreement"]
+    pd.testing.assert_frame_equal(screened.bradley_terry, honest.bradley_terry)
+    # the command says who and why, and the report too; --no-screen keeps the rater
+    assert main([str(tmp_path / "votes.csv"), "--bootstrap", "0", "--quiet", "--out",
+                 str(tmp_path / "rep")]) == 0
+    err = capsys.readouterr().err
+    assert "Excluded 1 of 6 raters: careless (screening: agreement with the others" in err
+    assert "careless (screening: agreement" in (tmp_path / "rep" / "report.html").read_text()
+    assert main([str(tmp_path / "votes.csv"), "--no-screen", "--bootstrap", "0", "--quiet",
+                 "--out", str(tmp_path / "all")]) == 0
+    assert "kept despite its flags: careless (" in capsys.readouterr().err
+    assert not pd.read_csv(tmp_path / "all" / "raters.csv")["excluded"].any()
+
+
+@pytest.mark.parametrize("extra", [["--compare-methods"], ["--rank-by", "plcc"], ["--margin", "0.05"],
+                                   ["--target", "x"], ["--aggregate", "glad"], ["--timing", "t.csv"],
+                                   ["--compare-methods", "--methods", "sharp,blurry"]])
+def test_options_of_other_inputs_are_refused_with_pairwise_votes(study, tmp_path, capsys, extra):
+    """Issue 29: `analyze votes.csv --compare-methods` on pairwise votes used to ignore the flag."""
+    _, _, votes = study
+    votes.to_csv(tmp_path / "votes.csv", index=False)
+    rc = main([str(tmp_path / "votes.csv"), *extra, "--quiet", "--out", str(tmp_path / "rep")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1, err
+    assert err[0].startswith(f"error: {extra[0]}: expected no {extra[0]} with pairwise votes"), err
+    assert not (tmp_path / "rep").exists()
+
+
+def test_a_metric_nan_on_every_render_is_reported_undefined(study, tmp_path):
+    _, metrics, votes = study
+    votes.to_csv(tmp_path / "votes.csv", index=False)
+    metrics.assign(niqe=np.nan).to_csv(tmp_path / "metrics.csv", index=False)
+    res = run_pairwise_analysis(tmp_path / "votes.csv", metrics_paths=[tmp_path / "metrics.csv"], n_boot=0)
+    assert "niqe" not in set(res.agreement["metric"]) and "psnr" in set(res.agreement["metric"])
+    n = 2 * int((votes["kind"] == "test").sum())  # both sides of every test vote kept
+    assert f"niqe: undefined for every one of these {n} voted renders, left out" in " ".join(res.notes)

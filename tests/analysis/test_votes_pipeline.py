@@ -34,7 +34,9 @@ def test_aggregate_dawid_skene_end_to_end(tmp_path, capsys):
     assert m["srcc"] == pytest.approx(want)
     assert (summary["srcc_ceiling"] > 0).all() and (summary["srcc_ceiling"] <= 1).all()
     raters = pd.read_csv(out / "raters.csv")
-    assert raters["model_sensitivity"].between(0, 1).all()
+    kept = ~raters["excluded"]  # screening (the default) leaves flagged raters out of the model
+    assert raters.loc[kept, "model_sensitivity"].between(0, 1).all()
+    assert raters.loc[~kept, "model_sensitivity"].isna().all()
     md = (out / "report.md").read_text()
     differ = int((items["majority_good"] != items["model_good"]).sum())
     assert f"majority vote against dawid-skene: {differ} of {len(items)} item labels differ" in md

@@ -111,6 +111,35 @@ def test_serve_binds_localhost_by_default():
     assert build_parser().parse_args(["serve", "S"]).host == "127.0.0.1"
 
 
+def test_simulating_again_adds_new_raters_with_votes_or_refuses(make_study, capsys):
+    """Issue 29: `annotate simulate --raters 2 --seed 1` on a simulated study used to add raters
+    with 0 votes (the ids of the first run, who had voted on everything) and exit 0."""
+    s = make_study(tracks=4, frames_per_track=6, votes_per_item=6, n_gold=2)
+    first = simulate(s, raters=3, seed=0, progress=False)
+    n_tests = len(s.keys("test"))
+    assert first["rater_id"].tolist() == ["sim-1", "sim-2", "sim-careless"]
+    assert (first["test_votes"] == n_tests).all()  # 3 raters of a 6-vote quota: every test item
+    again = simulate(s, raters=2, seed=1, progress=False)
+    assert again["rater_id"].tolist() == ["sim-3", "sim-careless-2"]
+    votes = ratings_table(s)
+    tests = votes[votes["kind"] == "test"]
+    assert (again["test_votes"] == n_tests).all()
+    assert tests.groupby("rater_id").size().to_dict() == dict.fromkeys(
+        ["sim-1", "sim-2", "sim-careless", "sim-3", "sim-careless-2"], n_tests)
+    # 5 of 6 votes per item are in: two more raters share the last votes, then no more
+    assert main(["simulate", str(s.root), "--raters", "2", "--seed", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "sim-4" in out and "sim-careless-3" in out and "test_votes" in out
+    tests = ratings_table(s).query("kind == 'test'")
+    assert (tests.groupby("item_id").size() == 6).all()
+    assert tests.groupby("rater_id").size()[["sim-4", "sim-careless-3"]].sum() == n_tests
+    before = len(ratings_table(s))
+    assert main(["simulate", str(s.root), "--raters", "1", "--seed", "3"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--raters: expected a study whose test items still need votes" in err[0]
+    assert len(ratings_table(s)) == before and "sim-5" not in s.store.raters()
+
+
 def test_simulated_votes_export_in_the_same_order_every_run(make_study):
     # Export orders votes by vote time; simulated votes are stamped by a simulated clock, so two
     # runs with one seed give the same ratings rows in the same order (before, wall-clock

@@ -73,3 +73,27 @@ def make_toy(root: Path, *, n_tracks: int = 4, n_frames: int = 6, seed: int = 0,
     pairs_path = root / "pairs.csv"
     pairs.to_csv(pairs_path, index=False)
     return scene, pairs_path
+
+
+def copy_gap(gt_image: np.ndarray, box, shown: np.ndarray, *, side: int, size: int, max_shift: int) -> float:
+    """How far a gold item's copy ``shown`` (size, size, 3) is from the GT image cut at the
+    inclusive ``box`` moved by at most ``max_shift`` pixels each way: the smallest mean
+    absolute difference (grey levels) over those moves, both sides blurred by 2 display
+    pixels (a copy may be blurred by up to 1.5, annotate.crops.MAX_GOLD_BLUR). Made independently of annotate.crops: cut,
+    centre on a black square of ``side``, resize bicubic (enlarging) or area (shrinking)."""
+    h, w = gt_image.shape[:2]
+    x0, y0, x1, y1 = (int(v) for v in box)
+    blur = lambda im: cv2.GaussianBlur(im.astype(np.float32), (0, 0), 2.0)  # noqa: E731
+    target, best = blur(shown), np.inf
+    for dx in range(-max_shift, max_shift + 1):
+        for dy in range(-max_shift, max_shift + 1):
+            if not (0 <= x0 + dx and x1 + dx < w and 0 <= y0 + dy and y1 + dy < h):
+                continue
+            c = gt_image[y0 + dy:y1 + dy + 1, x0 + dx:x1 + dx + 1]
+            sq = np.zeros((side, side, 3), np.uint8)
+            top, left = (side - c.shape[0]) // 2, (side - c.shape[1]) // 2
+            sq[top:top + c.shape[0], left:left + c.shape[1]] = c
+            interp = cv2.INTER_AREA if side > size else cv2.INTER_CUBIC
+            best = min(best, float(np.abs(blur(cv2.resize(sq, (size, size), interpolation=interp))
+                                          - target).mean()))
+    return best

@@ -56,11 +56,11 @@ def test_disk_full_during_build_leaves_nothing(world, tmp_path, capfd, monkeypat
     calls = {"n": 0}
     real = annotate.crops.write_image
 
-    def fill_up(path, img, *, fmt):
+    def fill_up(path, img, **kw):
         calls["n"] += 1
         if calls["n"] > 3:
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
-        real(path, img, fmt=fmt)
+        return real(path, img, **kw)
 
     monkeypatch.setattr(annotate.crops, "write_image", fill_up)
     rc = main(["build", str(tmp_path / "st"), "--pairs", str(world / "toy" / "pairs.csv"), "--scene",
