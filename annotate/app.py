@@ -53,23 +53,21 @@ Robustness rules of the voting panel (a ``st.fragment``: a vote reruns only the 
 
 from __future__ import annotations
 
-import hashlib
-import hmac
 import logging
 import os
 import re
 import secrets
 import sqlite3
 import time
-import zlib
 
 import streamlit as st
 
 from annotate.access import CrowdRefused, crowd_arrival
 from annotate.admin import admin_page
+from annotate.display import item_display, salted_image
 from annotate.layout import page_style, pair_view
 from annotate.store import UNDO_DEPTH
-from annotate.study import Study, StudyChanged, crop_path, load_study
+from annotate.study import Study, StudyChanged, load_study
 from data_schema.errors import InputError
 from data_schema.raters import check_rater_name
 
@@ -129,32 +127,6 @@ def plain(text: object) -> str:
     \[Click\]\(http\:\/\/x\.y\/\) \_a\_
     """
     return _MD_SPECIAL.sub(r"\\\1", str(text))
-
-
-def salted_image(data: bytes, salt: bytes) -> bytes:
-    """``data`` (JPEG or PNG bytes) with ``salt`` embedded as metadata; pixels unchanged.
-
-    JPEG: a COM segment after SOI; PNG: a private ancillary ``prVt`` chunk after IHDR.
-    Decoders ignore both, but the bytes (hence Streamlit's content-hash URL) differ per salt.
-
-    >>> import cv2, numpy as np
-    >>> img = np.full((8, 8, 3), 90, np.uint8)
-    >>> for ext in (".jpg", ".png"):
-    ...     raw = cv2.imencode(ext, img)[1].tobytes()
-    ...     a, b = salted_image(raw, b"a"), salted_image(raw, b"b")
-    ...     dec = cv2.imdecode(np.frombuffer(a, np.uint8), cv2.IMREAD_COLOR)
-    ...     print(a != b, np.array_equal(dec, cv2.imdecode(np.frombuffer(raw, np.uint8), 1)))
-    True True
-    True True
-    """
-    if data[:2] == b"\xff\xd8":
-        return data[:2] + b"\xff\xfe" + (len(salt) + 2).to_bytes(2, "big") + salt + data[2:]
-    if data[:8] == b"\x89PNG\r\n\x1a\n":
-        end = 8 + 12 + int.from_bytes(data[8:12], "big")  # signature + IHDR chunk
-        chunk = b"prVt" + salt
-        return (data[:end] + len(salt).to_bytes(4, "big") + chunk
-                + zlib.crc32(chunk).to_bytes(4, "big") + data[end:])
-    raise ValueError("crop: expected JPEG or PNG bytes")
 
 
 @st.cache_resource(show_spinner=False)
@@ -347,16 +319,9 @@ def _slots(study: Study, key: str, rater: str) -> tuple[tuple[str, str], ...]:
 
 
 def _display_images(study: Study, key: str, rater: str) -> tuple[bytes, ...]:
-    """The item's crops in page order, each salted with an HMAC of (study, item, position)."""
-    item = study.items.loc[key]
-    secret = study.admin_token().encode()
-    out = []
-    for side, col in _slots(study, key, rater):
-        data = crop_path(study.root, item[col]).read_bytes()
-        salt = hmac.new(secret, f"{study.manifest['study_id']}|{key}|{side}".encode(),
-                        hashlib.sha256).hexdigest()[:24].encode()
-        out.append(salted_image(data, salt))
-    return tuple(out)
+    """The item's crops in page order, each salted with an HMAC of (study, item, position)
+    (read and salted once per process, :func:`annotate.display.item_display`)."""
+    return item_display(study).crops(key, _slots(study, key, rater))
 
 
 def _next_on_screen(study: Study, rater: str) -> tuple[str | None, dict, tuple | None]:
@@ -391,17 +356,17 @@ def voting_panel(study: Study, rater: str) -> None:
         _panel_unavailable(err)
         return
     _show_notice()
-    page_style()
     if key is None:
         _no_item(study, rater, prog)
         return
-    _progress_bar(study, study.items.at[key, "kind"], prog)
+    facts = item_display(study)  # per-item facts as dicts, made once per process
+    _progress_bar(study, facts.kind[key], prog)
     if _shown()[0] != key:
         st.session_state["shown"] = (key, time.time(), secrets.token_hex(6))
     token = _shown()[2]
     pairwise = study.design == "pairwise"
     pair_view(("Left", "Reference", "Right") if pairwise else ("Reference", "Rendered"), images,
-              crop_side=study.items.get("crop_side", {}).get(key),
+              crop_side=facts.crop_side.get(key),
               display_size=int(study.manifest.get("display_size", 320)), token=token)
     if pairwise:
         _pairwise_buttons(study, rater, key, token)
@@ -468,6 +433,7 @@ def rater_page(study: Study, rater: str) -> None:
                       on_click=lambda: st.session_state.update(started=True))
             return
         st.session_state["started"] = True
+    page_style()  # outside the panel: drawn once per page, not again with every vote
     voting_panel(study, rater)
 
 

@@ -1,24 +1,31 @@
-"""Load on one rater server: N concurrent raters at the websocket level, vote -> next item.
+"""Load on the rater server: N concurrent raters at the websocket level, vote -> next item,
+with K = 1 and K = 2 server processes (``annotate serve --workers K``) side by side.
 
-Builds a study from a small synthetic scene, starts a real ``annotate serve`` on 127.0.0.1
-and drives N rater sessions at once, each speaking Streamlit's own websocket protocol (the
-``BackMsg``/``ForwardMsg`` protobufs of the installed ``streamlit.proto``, as the browser
-does): sign in by ``?rater=``, press Start, then repeatedly think 0.8-1.6 s and press
-"Good" or "Bad" (a button trigger sent as a fragment rerun, exactly what a key press sends).
+Builds a study from a small synthetic scene, starts a real ``annotate serve --workers K`` on
+127.0.0.1 for each K (one study each, built alike) and drives N rater sessions at once, each
+speaking Streamlit's own websocket protocol (the ``BackMsg``/``ForwardMsg`` protobufs of the
+installed ``streamlit.proto``, as the browser does): sign in by ``?rater=``, press Start,
+then repeatedly think 0.8-1.6 s (``--think``) and press "Good" or "Bad" (a button trigger
+sent as a fragment rerun, exactly what a key press sends). Raters arrive spread over the
+first ``--arrive`` seconds (default: the longest think time) and rater ``i`` talks to worker
+``i mod K``, as a sticky proxy spreads sessions (the proxy's own work is not measured).
 The latency of a vote is the time from sending the press to the server's
 ``script_finished`` of the run that shows the next item. After each round the votes in the
 SQLite store are compared with the presses the clients saw acknowledged ("lost" must be 0).
-Prints one line per N: p50/p95/max latency in ms, votes, votes lost and the server's CPU
-time per vote (sign-ins included; on a shared machine the latencies move with the load, the
-CPU time much less). Target: 30 concurrent
-raters at p95 < 1 s, 0 votes lost.
+For each N the K rounds run one after the other, both servers up, so they meet the same
+machine. Prints one line per (N, K): p50/p95/max latency in ms, votes, votes lost and the
+servers' CPU time per vote (all processes of the serve's process group, sign-ins included;
+on a shared machine the latencies move with the load, the CPU time much less), then a table
+of K = 1 and K = 2 side by side. Targets: 300 concurrent raters with K = 2 at p95 < 1 s,
+max < 3 s, 0 votes lost, with ``--think 2 4``; at most 12 ms of server CPU per vote.
 
 First, measured side by side in the same run: the store's work per vote (next item,
 progress, record) with ~300 and with ~3,000 votes already stored, and their ratio (about 1:
 the work does not grow with the study; issue 13 measured 11.8 ms at 351 votes and
 19.6 ms at 3,120 before the per-item counters).
 
-    python benchmarks/bench_raters.py                       # N = 10, 20, 30; 40 s each
+    python benchmarks/bench_raters.py                       # N = 10, 20, 30; K = 1, 2; 40 s each
+    python benchmarks/bench_raters.py --raters 100,200,300 --think 2 4   # issue 30's goal
     python benchmarks/bench_raters.py --raters 2 --seconds 5 --think 0.4 0.6   # smoke run
 """
 
@@ -47,7 +54,8 @@ from annotate.store import Store
 from annotate.study import build_study, load_study
 from data_schema.tables import pair_id
 
-__all__ = ["RaterClient", "Screen", "make_scene", "start_server", "stop_server", "main"]
+__all__ = ["RaterClient", "Screen", "make_scene", "start_server", "stop_server", "free_ports",
+           "group_cpu_s", "side_by_side", "run_load", "main"]
 
 WS_PATH = "_stcore/stream"
 
@@ -173,21 +181,41 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-def start_server(study: Path, port: int, *, log=subprocess.DEVNULL) -> subprocess.Popen:
-    """``annotate serve STUDY`` on 127.0.0.1:port in its own process group, once it answers."""
+def start_server(study: Path, port: int, *, workers: int = 1, log=subprocess.DEVNULL,
+                 stdout=subprocess.DEVNULL) -> subprocess.Popen:
+    """``annotate serve STUDY --workers K`` on 127.0.0.1 from ``port``, in its own process
+    group, once every worker answers (``stdout``: where the printed proxy configuration goes)."""
     proc = subprocess.Popen([sys.executable, "-m", "annotate.cli", "serve", str(study),
-                             "--port", str(port)], start_new_session=True,
-                            stdout=subprocess.DEVNULL, stderr=log)
-    deadline = time.time() + 90
+                             "--port", str(port), "--workers", str(workers)],
+                            start_new_session=True, stdout=stdout, stderr=log)
+    deadline = time.time() + 120
+    for p in range(port, port + workers):
+        while True:
+            try:
+                urllib.request.urlopen(f"http://127.0.0.1:{p}/_stcore/health", timeout=2)
+                break
+            except OSError:
+                if proc.poll() is not None or time.time() > deadline:
+                    stop_server(proc)
+                    raise RuntimeError("annotate serve did not start") from None
+                time.sleep(0.2)
+    return proc
+
+
+def free_ports(n: int) -> int:
+    """The first of ``n`` consecutive free ports on 127.0.0.1."""
     while True:
+        first, socks = free_port(), []
         try:
-            urllib.request.urlopen(f"http://127.0.0.1:{port}/_stcore/health", timeout=2)
-            return proc
+            for p in range(first, first + n):
+                socks.append(socket.socket())
+                socks[-1].bind(("127.0.0.1", p))
+            return first
         except OSError:
-            if proc.poll() is not None or time.time() > deadline:
-                stop_server(proc)
-                raise RuntimeError("annotate serve did not start") from None
-            time.sleep(0.2)
+            continue
+        finally:
+            for sock in socks:
+                sock.close()
 
 
 def stop_server(proc: subprocess.Popen) -> None:
@@ -200,8 +228,9 @@ def stop_server(proc: subprocess.Popen) -> None:
 
 # ---- the load --------------------------------------------------------------------------
 async def _rater(url: str, name: str, *, until: float, think: tuple[float, float],
-                 rng: np.random.Generator, lat: list[float]) -> int:
-    """One rater's session; returns the number of acknowledged votes."""
+                 rng: np.random.Generator, lat: list[float], arrive: float = 0.0) -> int:
+    """One rater's session, opened after ``U(0, arrive)`` s; returns the acknowledged votes."""
+    await asyncio.sleep(float(rng.uniform(0, arrive)))
     c = RaterClient(url)
     screen = await c.open(f"rater={name}")
     if "Start" in screen.buttons:
@@ -228,58 +257,88 @@ async def _warm_up(url: str) -> None:
     await c.close()
 
 
-async def _round(url: str, names: list[str], *, seconds: float, think, seed: int):
+async def _round(urls: list[str], names: list[str], *, seconds: float, think, seed: int,
+                 arrive: float = 0.0):
+    """Rater ``i`` on ``urls[i % len(urls)]``; (latencies, acknowledged votes per rater)."""
     lat: list[float] = []
     until = time.time() + seconds
     acked = await asyncio.gather(*[
-        _rater(url, n, until=until, think=think, rng=np.random.default_rng([seed, i]), lat=lat)
+        _rater(urls[i % len(urls)], n, until=until, think=think,
+               rng=np.random.default_rng([seed, i]), lat=lat, arrive=arrive)
         for i, n in enumerate(names)])
     return lat, dict(zip(names, acked, strict=True))
 
 
 def run_load(n_list: list[int], *, seconds: float, think: tuple[float, float], seed: int = 0,
-             frames: int = 8) -> pd.DataFrame:
-    """Build a study, serve it, and drive each N in turn; one row per N."""
+             frames: int = 8, workers: tuple[int, ...] = (1, 2),
+             arrive: float | None = None) -> pd.DataFrame:
+    """Build a study per K, serve each with K workers, and drive each N on each; one row per (N, K)."""
 
+    arrive = think[1] if arrive is None else arrive
     with tempfile.TemporaryDirectory(prefix="bench_raters_") as tmp:
         tmp = Path(tmp)
         pairs = make_scene(tmp, n_frames=frames)
         opts = dict(scene=str(tmp / "scene"), tracks=4, frames_per_track=frames,
                     votes_per_item=max(n_list), n_training=2, n_gold=2, n_repeats=3, size=96,
                     progress=False)
-        root = build_study(tmp / "study", pairs, **opts)
         work = db_work(load_study(build_study(tmp / "work", pairs, **opts)), sizes=(300, 3000))
         for w in work:
             print(f"store work per vote at {w['stored_votes']:5d} stored votes: "
                   f"{w['ms_per_vote']:.2f} ms", flush=True)
         print(f"store work ratio (largest / smallest study): "
               f"{work[-1]['ms_per_vote'] / work[0]['ms_per_vote']:.2f}", flush=True)
-        store = load_study(root).store
-        port = free_port()
-        server = start_server(root, port)
-        rows = []
+        servers, rows = {}, []
         try:
-            asyncio.run(_warm_up(f"http://127.0.0.1:{port}/"))
-            for k, n in enumerate(n_list):
-                names = [f"load{k}-{i}" for i in range(n)]
-                cpu0 = server_cpu_s(server.pid)
-                lat, acked = asyncio.run(_round(f"http://127.0.0.1:{port}/", names,
-                                                seconds=seconds, think=think, seed=seed + k))
-                stored = store.votes()
-                stored = stored[stored["rater"].isin(names)].groupby("rater").size()
-                lost = sum(max(0, a - int(stored.get(r, 0))) for r, a in acked.items())
-                ms = np.asarray(lat) * 1000
-                rows.append({"raters": n, "votes": int(sum(acked.values())),
-                             "p50_ms": float(np.percentile(ms, 50)) if len(ms) else float("nan"),
-                             "p95_ms": float(np.percentile(ms, 95)) if len(ms) else float("nan"),
-                             "max_ms": float(ms.max()) if len(ms) else float("nan"),
-                             "votes_lost": int(lost),
-                             "server_cpu_ms_per_vote": (server_cpu_s(server.pid) - cpu0) * 1000
-                             / max(1, sum(acked.values()))})
-                print(_line(rows[-1]), flush=True)
+            for k in workers:
+                root = build_study(tmp / f"study-k{k}", pairs, **opts)
+                first = free_ports(k)
+                servers[k] = (load_study(root).store, start_server(root, first, workers=k),
+                              [f"http://127.0.0.1:{p}/" for p in range(first, first + k)])
+                for url in servers[k][2]:
+                    asyncio.run(_warm_up(url))
+            for j, n in enumerate(n_list):
+                for k in workers:
+                    store, server, urls = servers[k]
+                    names = [f"load{j}-k{k}-{i}" for i in range(n)]
+                    cpu0 = group_cpu_s(server.pid)
+                    lat, acked = asyncio.run(_round(urls, names, seconds=seconds, think=think,
+                                                    seed=seed + j, arrive=arrive))
+                    cpu = group_cpu_s(server.pid) - cpu0
+                    rows.append(_row(n, k, lat, acked, store, cpu))
+                    print(_line(rows[-1]), flush=True)
         finally:
-            stop_server(server)
+            for _store, server, _urls in servers.values():
+                stop_server(server)
     return pd.DataFrame(rows)
+
+
+def _row(n: int, k: int, lat: list[float], acked: dict[str, int], store, cpu_s: float) -> dict:
+    """One (N, K) result: latency percentiles, votes, votes lost against the store, CPU per vote."""
+    stored = store.votes()
+    stored = stored[stored["rater"].isin(list(acked))].groupby("rater").size()
+    lost = sum(max(0, a - int(stored.get(r, 0))) for r, a in acked.items())
+    ms = np.asarray(lat) * 1000
+    votes = int(sum(acked.values()))
+    return {"raters": n, "workers": k, "votes": votes,
+            "p50_ms": float(np.percentile(ms, 50)) if len(ms) else float("nan"),
+            "p95_ms": float(np.percentile(ms, 95)) if len(ms) else float("nan"),
+            "max_ms": float(ms.max()) if len(ms) else float("nan"),
+            "votes_lost": int(lost), "server_cpu_ms_per_vote": cpu_s * 1000 / max(1, votes)}
+
+
+def group_cpu_s(pgid: int) -> float:
+    """User + system CPU seconds of the live processes of process group ``pgid`` (Linux ``/proc``)."""
+    total = 0.0
+    for d in Path("/proc").iterdir():
+        if not d.name.isdigit():
+            continue
+        try:
+            fields = (d / "stat").read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[2]) == pgid:
+            total += server_cpu_s(int(d.name))
+    return total if Path("/proc").is_dir() else float("nan")
 
 
 def server_cpu_s(pid: int) -> float:
@@ -328,25 +387,47 @@ def db_work(study, *, sizes: tuple[int, int], n_votes: int = 40) -> list[dict]:
 
 
 def _line(r: dict) -> str:
-    return (f"N={r['raters']:3d} raters: vote->next item p50 {r['p50_ms']:.0f} ms, "
-            f"p95 {r['p95_ms']:.0f} ms, max {r['max_ms']:.0f} ms; {r['votes']} votes, "
-            f"{r['votes_lost']} votes lost; server CPU {r['server_cpu_ms_per_vote']:.0f} ms per vote")
+    return (f"N={r['raters']:3d} raters, K={r['workers']} workers: vote->next item p50 "
+            f"{r['p50_ms']:.0f} ms, p95 {r['p95_ms']:.0f} ms, max {r['max_ms']:.0f} ms; "
+            f"{r['votes']} votes, {r['votes_lost']} votes lost; "
+            f"server CPU {r['server_cpu_ms_per_vote']:.1f} ms per vote")
+
+
+def side_by_side(table: pd.DataFrame) -> pd.DataFrame:
+    """One row per N, the figures of every K in columns (``p95_ms K=1``, ``p95_ms K=2``, ...)."""
+    wide = table.pivot(index="raters", columns="workers",
+                       values=["p50_ms", "p95_ms", "max_ms", "server_cpu_ms_per_vote", "votes",
+                               "votes_lost"])
+    wide.columns = [f"{what} K={k}" for what, k in wide.columns]
+    return wide.round(1)
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--raters", default="10,20,30", help="comma list of concurrent raters N")
+    ap.add_argument("--workers", default="1,2", help="comma list of server processes K (serve --workers)")
     ap.add_argument("--seconds", type=float, default=40.0, help="duration of each round")
     ap.add_argument("--think", type=float, nargs=2, default=(0.8, 1.6), metavar=("MIN", "MAX"))
+    ap.add_argument("--arrive", type=float, default=None,
+                    help="raters arrive spread over this many seconds (default: think MAX)")
     ap.add_argument("--frames", type=int, default=8, help="frames of the synthetic clip")
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args(argv)
     n_list = [int(v) for v in args.raters.split(",")]
+    k_list = tuple(int(v) for v in args.workers.split(","))
     table = run_load(n_list, seconds=args.seconds, think=tuple(args.think), seed=args.seed,
-                     frames=args.frames)
-    ok = table[(table["raters"] >= 30)]
-    print(f"target (30 raters: p95 < 1000 ms, 0 lost): "
-          f"{'met' if len(ok) and (ok['p95_ms'] < 1000).all() and not ok['votes_lost'].any() else 'not met / not run'}")
+                     frames=args.frames, workers=k_list, arrive=args.arrive)
+    with pd.option_context("display.width", 250, "display.max_columns", 40):
+        print(side_by_side(table).to_string())
+    print(f"votes lost in all rounds: {int(table['votes_lost'].sum())}")
+    cpu = table["server_cpu_ms_per_vote"]
+    print(f"server CPU per vote: {cpu.min():.1f}-{cpu.max():.1f} ms (target <= 12 ms: "
+          f"{'met' if (cpu <= 12).all() else 'not met'})")
+    goal = table[(table["raters"] >= 300) & (table["workers"] == 2)]
+    met = len(goal) and ((goal["p95_ms"] < 1000) & (goal["max_ms"] < 3000)
+                         & (goal["votes_lost"] == 0)).all()
+    print("target (300 raters, K = 2: p95 < 1000 ms, max < 3000 ms, 0 lost): "
+          f"{'met' if met else 'not met' if len(goal) else 'not run'}")
     return 0
 
 

@@ -1,13 +1,21 @@
-"""``annotate serve STUDY [--host H] [--port P] [--public-url BASE]``: serve the rater app (Streamlit).
+"""``annotate serve STUDY [--host H] [--port P] [--public-url BASE] [--workers K]``: serve the rater app (Streamlit).
 
-``annotate serve`` *becomes* ``streamlit run annotate/app.py`` (the process is replaced, so
+``annotate serve`` *becomes* ``streamlit run annotate/serve_app.py`` (the rater app of
+:mod:`annotate.app`, imported once per process; the process is replaced, so
 a signal to ``annotate serve`` reaches the server itself and nothing outlives it), bound to
 127.0.0.1 unless ``--host`` says otherwise, headless, without usage statistics, file
 watcher, static file serving or error details in the browser, and without Streamlit's full
 garbage collection after every script run (about 40 ms of CPU per vote, holding the GIL: it
-alone saturated a core at 25 raters); the study folder reaches the app in the environment
-variable ``ANNOTATE_STUDY``. A port in use is refused up front, and so is an open-access
-study on an address others can reach (:func:`annotate.access.check_serving`).
+alone saturated a core at 25 raters) and without "magic" (Streamlit recompiles the script
+with it for every new session, clearing its script cache: about 50 ms of CPU per rater
+signing in; the app has no bare expressions to show); the study folder reaches the app in
+the environment variable ``ANNOTATE_STUDY``. A port in use is refused up front, and so is
+an open-access study on an address others can reach (:func:`annotate.access.check_serving`).
+
+``--workers K`` (K > 1) runs K such servers on the ports ``--port`` .. ``--port + K - 1``
+under a supervisor (:mod:`annotate.workers`: they stop with it and with its process group)
+and prints to stdout the configuration of a sticky reverse proxy (``--proxy``, nginx or
+Caddy, :mod:`annotate.proxy_conf`) that serves them all on ``--proxy-port``.
 
 The address options and the app's URL are shared with ``add-rater`` and ``build``, which
 print sign-in and admin links: ``--public-url`` (the address raters use, e.g. a TLS reverse
@@ -26,17 +34,19 @@ from pathlib import Path
 from urllib.parse import urlsplit
 
 from annotate.access import check_serving
+from annotate.proxy_conf import PROXIES, proxy_conf
 from annotate.study import load_study
+from annotate.workers import supervise, worker_ports
 from data_schema.errors import InputError
 from nvrq.commands.args import int_arg
 
 __all__ = ["register", "run", "serve_command", "check_port_free", "base_url", "add_address_options", "links",
-           "DEFAULT_HOST", "DEFAULT_PORT"]
+           "add_worker_options", "serve_workers", "DEFAULT_HOST", "DEFAULT_PORT"]
 
 #: Where the rater app listens unless ``--host`` / ``--port`` say otherwise.
 DEFAULT_HOST, DEFAULT_PORT = "127.0.0.1", 8501
-#: The Streamlit script of the rater app.
-APP = Path(__file__).parents[1] / "app.py"
+#: The Streamlit script of the rater app (it calls annotate.app.main).
+APP = Path(__file__).parents[1] / "serve_app.py"
 
 
 def serve_command(study: str | Path, *, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT) -> list[str]:
@@ -62,7 +72,7 @@ def serve_command(study: str | Path, *, host: str = DEFAULT_HOST, port: int = DE
             "--server.fileWatcherType", "none", "--server.runOnSave", "false",
             "--server.enableStaticServing", "false", "--client.toolbarMode", "minimal",
             "--client.showErrorDetails", "none", "--global.developmentMode", "false",
-            "--runner.postScriptGC", "false"]
+            "--runner.postScriptGC", "false", "--runner.magicEnabled", "false"]
 
 
 def check_port_free(host: str, port: int) -> None:
@@ -179,7 +189,28 @@ def register(sub) -> None:
     s = sub.add_parser("serve", help="serve the rater app (Streamlit)")
     s.add_argument("study")
     add_address_options(s)
+    add_worker_options(s)
     s.set_defaults(func=run)
+
+
+def add_worker_options(p) -> None:
+    """Add ``--workers``, ``--proxy`` and ``--proxy-port`` (README "Serve with several workers")."""
+    p.add_argument("--workers", type=int_arg(high=64), default=1,
+                   help="server processes on consecutive ports from --port (default 1)")
+    p.add_argument("--proxy", choices=PROXIES, default="nginx",
+                   help="reverse proxy whose configuration --workers prints (default nginx)")
+    p.add_argument("--proxy-port", type=int_arg(high=65535), default=80,
+                   help="public port of that proxy configuration (default 80)")
+
+
+def serve_workers(study_root: Path, args, env: dict) -> int:
+    """Print the proxy configuration for ``args.workers`` servers, then supervise them."""
+    ports = worker_ports(args.port, args.workers)
+    print(proxy_conf(args.proxy, ports, host=args.host, listen=args.proxy_port), flush=True)
+    print(f"{args.workers} workers: " + ", ".join(base_url(args.host, p) for p in ports)
+          + f"; one public port is the proxy's (configuration above, {args.proxy})",
+          file=sys.stderr, flush=True)
+    return supervise([serve_command(study_root, host=args.host, port=p) for p in ports], env=env)
 
 
 def run(args) -> int:
@@ -187,10 +218,16 @@ def run(args) -> int:
     study = load_study(args.study)  # fail here, not in the browser
     base = base_url(args.host, args.port, public_url=args.public_url)
     check_serving(study.manifest["access"], host=args.host, public_url=args.public_url)
-    check_port_free(args.host, args.port)
+    if args.port + args.workers - 1 > 65535:
+        raise InputError("--workers", None, f"at most {65536 - args.port} workers from --port {args.port}",
+                         args.workers)
+    for port in worker_ports(args.port, args.workers):
+        check_port_free(args.host, port)
     for line in links(study, base):
         print(line, file=sys.stderr, flush=True)
     env = dict(os.environ, ANNOTATE_STUDY=str(study.root))
+    if args.workers > 1:
+        return serve_workers(study.root, args, env)
     argv = serve_command(study.root, host=args.host, port=args.port)
     sys.stdout.flush()
     os.execve(argv[0], argv, env)  # replaced: signals and exit status are the server's own

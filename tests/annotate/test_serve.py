@@ -46,16 +46,20 @@ def small_study(make_study):
     return make_study(n_training=1)
 
 
+@pytest.mark.parametrize("workers", [1, 2], ids=["one-process", "two-workers"])
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL], ids=["SIGTERM", "SIGKILL"])
-def test_signal_to_serve_leaves_nothing_listening(small_study, sig):
-    port = bench.free_port()
-    proc = bench.start_server(small_study.root, port)
+def test_signal_to_serve_leaves_nothing_listening(small_study, sig, workers):
+    """A signal to the `annotate serve` process alone (SIGKILL included) stops every server:
+    with --workers, its supervised workers too (annotate.workers)."""
+    port = bench.free_ports(workers)
+    proc = bench.start_server(small_study.root, port, workers=workers)
+    ports = range(port, port + workers)
     try:
-        assert _listening(port)
+        assert all(_listening(p) for p in ports)
         os.kill(proc.pid, sig)  # only the `annotate serve` process itself, not its group
         proc.wait(timeout=30)
-        deadline = time.time() + 10
-        while _listening(port) or _group_alive(proc.pid):
+        deadline = time.time() + 30
+        while any(_listening(p) for p in ports) or _group_alive(proc.pid):
             assert time.time() < deadline, "a server outlived `annotate serve`"
             time.sleep(0.2)
     finally:
