@@ -10,7 +10,9 @@ Pairwise votes (a ``--design pairwise`` study's export) are recognised by their 
 analysed by :mod:`analysis.pairwise`; ``--compare-methods`` adds the leaderboard of
 :mod:`analysis.methods` to either path.
 
-Bad input ends with one line on stderr and exit status 2 (docs/FORMATS.md §7).
+Bad input ends with one line on stderr and exit status 2 (docs/FORMATS.md §7). The analyses
+(SciPy, scikit-learn, matplotlib) are imported when a run needs them, so ``analyze --help``
+loads none of them.
 """
 
 from __future__ import annotations
@@ -18,28 +20,19 @@ from __future__ import annotations
 import argparse
 import sys
 
-from rich.console import Console
-from rich.table import Table
-
-from analysis.aggregate import METHODS
-from analysis.all_pairs import run_pairs_analysis
-from analysis.methods_report import leaderboard_display
-from analysis.noninferiority import DEFAULT_MARGIN
-from analysis.pairwise import is_pairwise, run_pairwise_analysis
-from analysis.pairwise_report import bt_display, write_pairwise_report
-from analysis.pipeline import run_analysis
-from analysis.report import summary_display, write_report
-from analysis.summary import RANK_BY
+from analysis.choices import DEFAULT_MARGIN, METHODS, RANK_BY
 from data_schema.errors import InputError
 from data_schema.outputs import check_output_folder
 from nvrq.commands.args import (
     ArgumentParser,
     CommaList,
     DeprecatedFileOption,
+    add_version,
     flags_in_errors,
     int_arg,
     number_arg,
     run_cli,
+    show_progress,
 )
 
 __all__ = ["build_parser", "main"]
@@ -53,6 +46,7 @@ def build_parser() -> ArgumentParser:
         description="Which metric agrees with human judgements? Correlations, ROC AUC, bootstrap "
         "CIs, breakdowns, rater screening and an offline HTML report.",
     )
+    add_version(p)
     for add_options in OPTION_GROUPS:
         add_options(p)
     return p
@@ -141,12 +135,17 @@ _ALIASES = {"n_boot": "bootstrap", "metrics_paths": "metrics_tables", "timing_pa
 
 
 def _print_summary(analysis) -> None:
+    from analysis.report import summary_display
+
     _print(summary_display(analysis, with_ci=False), f"metrics against {analysis.target}",
            left=("metric", "reason", "vs best"))
 
 
 def _print(df, title: str, *, left=("method", "reason", "vs next")) -> None:
     """``df`` as a table on stdout: the ``left`` columns left-aligned, the others right."""
+    from rich.console import Console
+    from rich.table import Table
+
     t = Table(title=title)
     for c in df.columns:
         t.add_column(c, justify="left" if c in left else "right")
@@ -163,6 +162,10 @@ def _main(argv=None) -> int:
 
 
 def _run(args) -> int:
+    from analysis.methods_report import leaderboard_display
+    from analysis.pairwise import is_pairwise
+    from analysis.report import write_report
+
     if (args.ratings is None) == (args.pairs is None):
         raise InputError("RATINGS/--pairs", None, "either a ratings file or --pairs PAIRS",
                          "both" if args.pairs else "neither")
@@ -189,18 +192,23 @@ def _common_options(args) -> dict:
     return dict(metrics_paths=args.metrics_tables, lower=args.lower_better, higher=args.higher_better,
                 target=args.target, n_boot=args.bootstrap, seed=args.seed, rank_by=args.rank_by,
                 timing_paths=args.timing, margin=args.margin, compare_methods=args.compare_methods,
-                methods=args.methods, rank_metric=args.leaderboard_metric, progress=not args.quiet)
+                methods=args.methods, rank_metric=args.leaderboard_metric, progress=show_progress(args))
 
 
 def _run_pairs(args):
     if args.screen or args.exclude_raters or args.stability:
         raise InputError("--pairs", None, "no rater or stability options (there are no votes)",
                          "--screen/--exclude-raters/--stability")
+    from analysis.all_pairs import run_pairs_analysis
+
     return run_pairs_analysis(args.pairs, **_common_options(args))
 
 
 def _run_pairwise(args) -> int:
     """Pairwise votes: Bradley-Terry, 2AFC agreement and screening (analysis.pairwise)."""
+    from analysis.pairwise import run_pairwise_analysis
+    from analysis.pairwise_report import bt_display, write_pairwise_report
+
     for given, flag in ((args.target, "--target"), (args.stability, "--stability"),
                         (args.aggregate != "majority", "--aggregate"), (args.timing, "--timing"),
                         (args.methods or args.leaderboard_metric, "--methods/--leaderboard-metric")):
@@ -218,6 +226,8 @@ def _run_pairwise(args) -> int:
 
 
 def _run_ratings(args):
+    from analysis.pipeline import run_analysis
+
     return run_analysis(
         args.ratings,
         exclude_raters=args.exclude_raters,

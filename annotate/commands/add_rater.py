@@ -14,8 +14,8 @@ __all__ = ["register", "run"]
 def register(sub) -> None:
     """Add ``add-rater`` to the ``annotate`` subcommands ``sub``."""
     a = sub.add_parser("add-rater", help="register a rater and print the sign-in link")
-    a.add_argument("study")
-    a.add_argument("name")
+    a.add_argument("study", metavar="STUDY", help="study folder made by 'annotate build'")
+    a.add_argument("name", metavar="NAME", help="the rater's name (1-40 letters, digits, '.', '_' or '-')")
     add_address_options(a)
     a.set_defaults(func=run)
 

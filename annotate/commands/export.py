@@ -17,8 +17,9 @@ def register(sub) -> None:
     """Add ``export`` to the ``annotate`` subcommands ``sub``."""
     e = sub.add_parser("export", help="write ratings.csv (docs/FORMATS.md §5; a pairwise "
                        "study's votes: §12)")
-    e.add_argument("study")
-    e.add_argument("--out", required=True)
+    e.add_argument("study", metavar="STUDY", help="study folder made by 'annotate build'")
+    e.add_argument("--out", required=True, metavar="RATINGS",
+                   help="the votes table to write (.csv or .parquet; required)")
     e.set_defaults(func=run)
 
 

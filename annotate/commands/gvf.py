@@ -16,8 +16,8 @@ __all__ = ["register", "run"]
 def register(sub) -> None:
     """Add ``gvf`` to the ``annotate`` subcommands ``sub``."""
     g = sub.add_parser("gvf", help="per-item good-vote fraction of test items")
-    g.add_argument("study")
-    g.add_argument("--out")
+    g.add_argument("study", metavar="STUDY", help="study folder made by 'annotate build' (good/bad design)")
+    g.add_argument("--out", metavar="FILE", help="table to write (.csv or .parquet; default: print it)")
     g.set_defaults(func=run)
 
 

@@ -108,14 +108,16 @@ def add_address_options(p) -> None:
     p : argparse.ArgumentParser
         The parser of ``serve``, or of ``add-rater`` (its sign-in links).
     """
-    p.add_argument("--host", default=DEFAULT_HOST)
-    p.add_argument("--port", type=int_arg(high=65535), default=DEFAULT_PORT)
+    p.add_argument("--host", default=DEFAULT_HOST,
+                   help=f"address the rater app listens on (default {DEFAULT_HOST}: this machine only)")
+    p.add_argument("--port", type=int_arg(high=65535), default=DEFAULT_PORT,
+                   help=f"port of the rater app (default {DEFAULT_PORT})")
 
 
 def register(sub) -> None:
     """Add ``serve`` to the ``annotate`` subcommands ``sub``."""
     s = sub.add_parser("serve", help="serve the rater app (Streamlit)")
-    s.add_argument("study")
+    s.add_argument("study", metavar="STUDY", help="study folder made by 'annotate build'")
     add_address_options(s)
     s.set_defaults(func=run)
 

@@ -10,7 +10,7 @@ from pathlib import Path
 from data_schema import datasets as ds
 from data_schema.errors import InputError
 from data_schema.tables import timing_path
-from nvrq.commands.args import int_arg
+from nvrq.commands.args import int_arg, show_progress
 from nvrq.engines import ENGINES
 from nvrq.engines.ray_engine import RayJob, score_on_ray
 
@@ -131,7 +131,7 @@ def run_ray(args, scorer) -> int:
     """
 
     job = RayJob(pairs=str(args.pairs), out=str(args.out), scorer=scorer, shard_pairs=args.shard_pairs,
-                 actors=args.actors, progress=not args.quiet)
+                 actors=args.actors, progress=show_progress(args))
     res = score_on_ray(job, timing_path=timing_path(args.out), address=args.address)
     report_sharded(res, args.out, engine="Ray")
     return 0

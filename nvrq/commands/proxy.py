@@ -18,7 +18,7 @@ from data_schema.tables import (
     timing_path,
     write_table,
 )
-from nvrq.commands.args import add_link_option, int_arg
+from nvrq.commands.args import add_link_option, int_arg, show_progress
 from nvrq.commands.engine_options import add_engine_args, check_engine_args, run_ray
 from nvrq.commands.model_options import add_model_arguments, add_runtime_arguments, prepare_device
 from nvrq.engines.scorers import ClipScorer, ImagenetScorer
@@ -150,7 +150,7 @@ def run_detect(args) -> int:
         scene_root=args.scene,
         device=args.device,
         imgsz=args.imgsz,
-        progress=not args.quiet,
+        progress=show_progress(args),
         where=str(args.pairs),
     )
     write_table(dets, args.out)
@@ -184,7 +184,7 @@ def run_imagenet(args) -> int:
         clf = load_classifier(args.classifier, weights=args.weights, device=args.device,
                               **_runtime_kwargs(args))
         return imagenet_drop(pairs, clf, scene_root=args.scene, batch_size=args.batch_size,
-                             progress=not args.quiet, where=str(args.pairs), timings=timings), clf
+                             progress=show_progress(args), where=str(args.pairs), timings=timings), clf
 
     return _run_drop(args, "imagenet", score)
 
@@ -198,7 +198,7 @@ def run_clip(args) -> int:
         clip = load_clip(args.clip, prompts=maps["clip_prompts"], device=args.device,
                          **_runtime_kwargs(args))
         return clip_drop(pairs, clip, category_map=maps["clip_category"], scene_root=args.scene,
-                         batch_size=args.batch_size, progress=not args.quiet,
+                         batch_size=args.batch_size, progress=show_progress(args),
                          where=str(args.pairs), timings=timings), clip
 
     return _run_drop(args, "clip", score)

@@ -10,7 +10,7 @@ import cv2
 from data_schema.datasets import is_dataset
 from data_schema.errors import InputError
 from data_schema.tables import read_table, timing_path, write_table
-from nvrq.commands.args import add_link_option
+from nvrq.commands.args import add_link_option, show_progress
 from nvrq.commands.engine_options import add_engine_args, check_engine_args, report_sharded, run_ray
 from nvrq.commands.model_options import (
     add_encoder_arguments,
@@ -67,7 +67,7 @@ def run(args) -> int:
     cv2.setNumThreads(1)  # crops are small; leave the cores to the encoder and the decode thread
     res = score_pairs(pairs, metrics=columns, encoder=encoder, tau=tau, scene_root=args.scene,
                       base=Path(args.pairs).resolve().parent, batch_size=args.batch_size,
-                      progress=not args.quiet, where=str(args.pairs))
+                      progress=show_progress(args), where=str(args.pairs))
     table, timing = runtime_columns(res.table, res.timing, encoder, tag=args.column_tag)
     write_table(table, args.out)
     tpath = write_table(timing, timing_path(args.out))
@@ -117,7 +117,7 @@ def _local_dataset(args, columns, encoder_name) -> int:
     res = score_dataset(args.pairs, args.out, metrics=columns, options=options,
                         timing_path=timing_path(args.out), load_encoder=load if encoder_columns(columns) else None,
                         tau=tau, batch_size=args.batch_size, shard_pairs=args.shard_pairs, rename=rename,
-                        progress=not args.quiet)
+                        progress=show_progress(args))
     report_sharded(res, args.out, engine="the local engine")
     return 0
 

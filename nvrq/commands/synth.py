@@ -7,7 +7,7 @@ from data_schema.methods import parse_methods
 from data_schema.perturbation import parse_perturb
 from data_schema.tables import parse_offsets
 from data_schema.text import comma_list
-from nvrq.commands.args import allow_negative_lists, int_arg, number_arg, parse_wxh
+from nvrq.commands.args import allow_negative_lists, int_arg, number_arg, parse_wxh, show_progress
 from nvrq.synth import generate_scene
 
 __all__ = ["register", "run", "parse_offsets", "parse_size", "add_perturb_option", "add_view_options",
@@ -89,7 +89,7 @@ def run(args) -> int:
         cameras=cameras,
         size=parse_size(args.size),
         methods=methods,
-        progress=not args.quiet,
+        progress=show_progress(args),
     )
     print(f"wrote {out}")
     return 0
