@@ -43,7 +43,7 @@ def _ready(page) -> None:
     A shortcut key pressed while Streamlit is still re-rendering can be lost on a loaded
     machine, so the test never presses before the buttons can take it.
     """
-    for name in ("Good (G)", "Bad (B)"):
+    for name in ("Good", "Bad"):
         button = page.get_by_role("button", name=name)
         button.wait_for(state="visible", timeout=30000)
         page.wait_for_function("(b) => !b.disabled", arg=button.element_handle(), timeout=30000)
