@@ -28,7 +28,7 @@ from annotate.results import (
     ratings_table,
 )
 
-__all__ = ["REFRESH_S", "MISSING", "admin_page", "live_raters", "shown"]
+__all__ = ["REFRESH_S", "admin_page", "live_raters", "shown"]
 
 #: Seconds between two refreshes of the admin page.
 REFRESH_S = 3.0

@@ -5,7 +5,6 @@ from __future__ import annotations
 import secrets
 
 from annotate.commands.serve import add_address_options, base_url
-from annotate.study import load_study
 from data_schema.raters import check_rater_name
 
 __all__ = ["register", "run"]
@@ -22,6 +21,8 @@ def register(sub) -> None:
 
 def run(args) -> int:
     """Register ``args.name`` (with a secret token on a token-access study) and print its link."""
+    from annotate.study import load_study
+
     study = load_study(args.study)
     name = check_rater_name(args.name)
     base = base_url(args.host, args.port)

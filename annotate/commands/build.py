@@ -13,7 +13,6 @@ from annotate.load import (
     load_text,
     rater_load,
 )
-from annotate.study import build_study, load_study
 from data_schema.errors import InputError
 from data_schema.outputs import check_output_folder
 from nvrq.commands.args import (
@@ -71,14 +70,16 @@ def register(sub) -> None:
                    "renders is closer to the GT (the pairs need a method column; default binary)")
     b.add_argument("--methods", metavar="A,B", help="pairwise: comma list of the methods to compare "
                    "(default: every method of the pairs table)")
-    b.add_argument("--quiet", action="store_true", help="no progress bar (none is drawn off a terminal)")
     add_link_option(b)
+    b.add_argument("--quiet", action="store_true", help="no progress bar (none is drawn off a terminal)")
     allow_negative_lists(b)
     b.set_defaults(func=run)
 
 
 def run(args) -> int:
     """Build the study; print its item counts and the admin page's link."""
+    from annotate.study import build_study, load_study
+
     check_output_folder(args.study, kind="study", option="STUDY",
                         inputs=[args.pairs, *args.metrics_tables, args.scene])
     width, height = parse_wxh(args.size, option="--size")

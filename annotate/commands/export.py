@@ -5,10 +5,7 @@ from __future__ import annotations
 
 import sys
 
-from annotate.results import votes_table
-from annotate.study import load_study, unplaced_votes
 from data_schema.outputs import check_output_file
-from data_schema.tables import write_table
 
 __all__ = ["register", "run"]
 
@@ -25,6 +22,10 @@ def register(sub) -> None:
 
 def run(args) -> int:
     """Write the votes table; warn on stderr about votes that could not be placed."""
+    from annotate.results import votes_table
+    from annotate.study import load_study, unplaced_votes
+    from data_schema.tables import write_table
+
     check_output_file(args.out, inputs=[args.study])
     study = load_study(args.study)
     table = votes_table(study)

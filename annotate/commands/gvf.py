@@ -4,11 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from annotate.results import gvf_table, ratings_table
-from annotate.study import load_study
 from data_schema.errors import InputError
 from data_schema.outputs import check_output_file
-from data_schema.tables import write_table
 
 __all__ = ["register", "run"]
 
@@ -23,6 +20,10 @@ def register(sub) -> None:
 
 def run(args) -> int:
     """Write the GVF table to ``args.out``, or print it when no ``--out`` is given."""
+    from annotate.results import gvf_table, ratings_table
+    from annotate.study import load_study
+    from data_schema.tables import write_table
+
     if args.out:
         check_output_file(args.out, inputs=[args.study])
     study = load_study(args.study)

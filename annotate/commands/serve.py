@@ -19,7 +19,6 @@ import socket
 import sys
 from pathlib import Path
 
-from annotate.study import load_study
 from data_schema.errors import InputError
 from nvrq.commands.args import int_arg
 
@@ -124,6 +123,8 @@ def register(sub) -> None:
 
 def run(args) -> int:
     """Replace this process with the Streamlit server of ``args.study`` (see the module docstring)."""
+    from annotate.study import load_study
+
     study = load_study(args.study)  # fail here, not in the browser
     check_port_free(args.host, args.port)
     print(f"serving {study.root} at {base_url(args.host, args.port)} "

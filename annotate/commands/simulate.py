@@ -3,8 +3,6 @@
 
 from __future__ import annotations
 
-from annotate.simulate import simulate
-from annotate.study import load_study
 from nvrq.commands.args import int_arg, show_progress
 
 __all__ = ["register", "run"]
@@ -23,6 +21,9 @@ def register(sub) -> None:
 
 def run(args) -> int:
     """Simulate the raters' votes and print their parameters."""
+    from annotate.simulate import simulate
+    from annotate.study import load_study
+
     params = simulate(load_study(args.study), raters=args.raters, seed=args.seed,
                       progress=show_progress(args))
     print(params.to_string(index=False))

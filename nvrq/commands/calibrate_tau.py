@@ -7,8 +7,6 @@ from __future__ import annotations
 
 import datetime as dt
 
-from data_schema.tables import read_table
-from nvrq.calibrate import calibrate_tau, config_path, write_tau
 from nvrq.commands.args import add_link_option, int_arg, show_progress
 from nvrq.commands.model_options import add_encoder_arguments, load_encoder_and_tau
 
@@ -34,6 +32,9 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from data_schema.tables import read_table
+    from nvrq.calibrate import calibrate_tau, config_path, write_tau
+
     pairs = read_table(args.pairs, what="pairs table")
     encoder, _ = load_encoder_and_tau(args, needs_tau=False)
     cal = calibrate_tau(pairs, encoder, scene_root=args.scene, max_crops=args.max_crops,

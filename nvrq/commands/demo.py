@@ -18,8 +18,6 @@ from importlib.metadata import distribution
 from pathlib import Path
 
 from data_schema.errors import InputError
-from data_schema.methods import parse_methods
-from data_schema.tables import parse_offsets
 from nvrq.commands.args import allow_negative_lists, int_arg, number_arg, parse_wxh
 from nvrq.encoders import get_spec
 
@@ -104,6 +102,9 @@ def _entry(program: str):
 
 
 def run(args) -> int:
+    from data_schema.methods import parse_methods
+    from data_schema.tables import parse_offsets
+
     out = Path(args.out)
     # the arguments the steps pass on are checked before the first step (numbers when parsed)
     parse_wxh(args.size, option="--size")

@@ -7,12 +7,9 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from data_schema import datasets as ds
 from data_schema.errors import InputError
-from data_schema.tables import timing_path
 from nvrq.commands.args import int_arg, show_progress
 from nvrq.engines import ENGINES
-from nvrq.engines.ray_engine import RayJob, score_on_ray
 
 __all__ = ["add_engine_args", "check_engine_args", "sharded_output", "report_sharded", "run_ray"]
 
@@ -57,6 +54,8 @@ def sharded_output(args, *, local_datasets: bool = False) -> bool:
         True with ``--engine ray``, and on the local engine for a pairs dataset when
         ``local_datasets``.
     """
+    from data_schema import datasets as ds
+
     return args.engine == "ray" or (local_datasets and ds.is_dataset(args.pairs))
 
 
@@ -129,6 +128,9 @@ def run_ray(args, scorer) -> int:
     int
         The exit status, 0.
     """
+    from data_schema.tables import timing_path
+    from nvrq.engines.ray_engine import RayJob, score_on_ray
+
 
     job = RayJob(pairs=str(args.pairs), out=str(args.out), scorer=scorer, shard_pairs=args.shard_pairs,
                  actors=args.actors, progress=show_progress(args))

@@ -8,10 +8,8 @@ import time
 from pathlib import Path
 
 from data_schema.errors import InputError
-from data_schema.tables import MIN_SIDE_PX, write_table
-from nvrq.clip_attributes import read_clip_attributes
+from data_schema.tables import MIN_SIDE_PX
 from nvrq.commands.args import add_link_option, number_arg, show_progress
-from nvrq.fleet import clip_pairs, find_scenes, fleet_pairs
 
 __all__ = ["register", "run"]
 
@@ -37,6 +35,10 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from data_schema.tables import write_table
+    from nvrq.clip_attributes import read_clip_attributes
+    from nvrq.fleet import clip_pairs
+
     t0 = time.perf_counter()
     attributes = read_clip_attributes(args.clip_attributes) if args.clip_attributes else None
     if _is_fleet(args):
@@ -62,6 +64,8 @@ def _is_fleet(args) -> bool:
 
 
 def _run_fleet(args, attributes, t0) -> int:
+    from nvrq.fleet import find_scenes, fleet_pairs
+
     res = fleet_pairs(find_scenes(args.scene), args.out, min_side=args.min_side, min_area=args.min_area,
                       attributes=attributes, keep_going=args.keep_going, progress=show_progress(args))
     for clip, reason in res.failed:

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from data_schema.errors import InputError
 from data_schema.outputs import mark_report
-from data_schema.tables import GT_BOX_COLUMNS, MIN_SIDE_PX, read_table, write_table
+from data_schema.tables import GT_BOX_COLUMNS, MIN_SIDE_PX
 from nvrq.commands.args import add_link_option, int_arg, show_progress
 from nvrq.commands.model_options import add_encoder_arguments, encoder_for_columns, metric_columns
 
@@ -51,6 +51,7 @@ _PAIRS_COLUMNS = ("pair_id", "clip_id", "camera", "track_id", "timestamp_us", "g
 
 
 def run(args) -> int:
+    from data_schema.tables import read_table, write_table
     from nvrq.stability import plot_stability, run_stability  # SciPy, matplotlib: not for --help
 
     columns, encoder_name = metric_columns(args)
