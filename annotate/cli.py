@@ -40,10 +40,10 @@ def build_parser() -> ArgumentParser:
 
 
 def _main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)  # --help and --version end here
     from data_schema.tables import no_follow_links  # pandas: after --help has answered
 
-    parser = build_parser()
-    args = parser.parse_args(argv)
     try:
         with flags_in_errors(parser, args, _ALIASES), no_follow_links(getattr(args, "no_follow_links", False)):
             return args.func(args)

@@ -78,10 +78,10 @@ def check_outputs(args) -> None:
 
 
 def _main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)  # --help and --version end here
     from data_schema.tables import no_follow_links  # pandas: after --help has answered
 
-    parser = build_parser()
-    args = parser.parse_args(argv)
     aliases = {"scene_root": "scene", "perturbations": "perturb", "weights": "yolo"}
     with flags_in_errors(parser, args, aliases), no_follow_links(getattr(args, "no_follow_links", False)):
         check_outputs(args)

@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from nvrq.sources.renders import LAYOUTS
+from nvrq.choices import LAYOUTS
 
 __all__ = ["register_renders"]
 

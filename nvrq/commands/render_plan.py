@@ -4,9 +4,9 @@
 from __future__ import annotations
 
 from data_schema.text import comma_list
+from nvrq.choices import PLAN_FORMATS, WORLDS
 from nvrq.commands.args import add_link_option
 from nvrq.commands.synth import add_view_options, perturb_grid
-from nvrq.render_plans import PLAN_FORMATS, WORLDS
 
 __all__ = ["register", "run"]
 

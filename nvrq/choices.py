@@ -1,0 +1,21 @@
+"""Choices of the render-plan and renders commands, in a module light enough for ``nvrq --help``.
+
+Each is defined here once and re-exported where it is used (:mod:`nvrq.render_plans`,
+:mod:`nvrq.sources.renders`, which import pandas and OpenCV), so the command parsers read them
+without importing those (tests/test_import_layers.py, benchmarks/bench_cli_help.py).
+
+>>> PLAN_FORMATS, WORLDS, LAYOUTS
+(('csv', 'json', 'npz'), ('scene', 'source'), ('plan', 'order'))
+"""
+
+from __future__ import annotations
+
+__all__ = ["PLAN_FORMATS", "WORLDS", "LAYOUTS"]
+
+#: The file formats of a render plan (nvrq.render_plans; docs/FORMATS.md §14).
+PLAN_FORMATS = ("csv", "json", "npz")
+#: The worlds a plan's poses can be given in: the scene's, or the source dataset's (scene.json
+#: ``source_world``).
+WORLDS = ("scene", "source")
+#: The layouts of a folder of renders (nvrq.sources.renders).
+LAYOUTS = ("plan", "order")
