@@ -18,7 +18,7 @@ The public Python API (docs/PYTHON.md) is exported here and imported on first us
 
 from __future__ import annotations
 
-import importlib
+from nvrq.lazy import lazy_exports
 
 __version__ = "0.1.0"
 
@@ -44,14 +44,4 @@ _EXPORTS = {
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str):
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'nvrq' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value  # later look-ups skip this function
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted([*globals(), *__all__])
+__getattr__, __dir__ = lazy_exports("nvrq", _EXPORTS, globals())

@@ -22,7 +22,7 @@ and OpenCV, never torch or pandas (``analyze`` reads directions from here).
 (True, False, 96)
 """
 
-import importlib
+from nvrq.lazy import lazy_exports
 
 #: public name -> the module defining it
 _EXPORTS = {
@@ -38,14 +38,4 @@ __all__ = ["MetricInfo", "REGISTRY", "register", "DEFAULT_METRICS", "column_info
            "needs_tau", "split_column", "nvrq_similarity", "nvrq_ca", "check_tau", "W_LOW"]
 
 
-def __getattr__(name: str):
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'nvrq.metrics' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value  # later look-ups skip this function
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted([*globals(), *__all__])
+__getattr__, __dir__ = lazy_exports("nvrq.metrics", _EXPORTS, globals())
