@@ -28,6 +28,11 @@ from nvrq.commands.args import (
 __all__ = ["register", "run"]
 
 
+def _items_per_rater(text: str) -> int | None:
+    """``--items-per-rater``: a positive integer, or ``all`` (None: no cap)."""
+    return None if str(text).strip().lower() == "all" else int_arg()(text)
+
+
 def register(sub) -> None:
     """Add ``build`` to the ``annotate`` subcommands ``sub``."""
     b = sub.add_parser("build", help="build a study folder from a pairs table")
@@ -52,9 +57,9 @@ def register(sub) -> None:
                    help="training items, shown first, clearly different ones first (default 5)")
     b.add_argument("--gold", type=int_arg(low=0), default=3, help="hidden gold items of each kind (default 3)")
     b.add_argument("--repeats", type=int_arg(low=0), default=5, help="repeated test items (default 5)")
-    b.add_argument("--items-per-rater", type=int_arg(), default=DEFAULT_ITEMS_PER_RATER, metavar="N",
-                   help="the most items one rater is given, training, gold and repeats included "
-                   f"(default {DEFAULT_ITEMS_PER_RATER}: about {SESSION_MINUTES} min at "
+    b.add_argument("--items-per-rater", type=_items_per_rater, default=DEFAULT_ITEMS_PER_RATER, metavar="N",
+                   help="the most items one rater is given, training, gold and repeats included, or "
+                   f"'all' (default {DEFAULT_ITEMS_PER_RATER}: about {SESSION_MINUTES} min at "
                    f"{SECONDS_PER_VOTE:g} s per vote)")
     b.add_argument("--size", default="320x320", action=DeprecatedSize, metavar="WxH",
                    help="display size of each crop, a square WxH in pixels (default 320x320)")

@@ -34,6 +34,19 @@ def test_default_load_fits_the_session_at_the_stated_pace():
     assert DEFAULT_ITEMS_PER_RATER == 800 == SESSION_MINUTES * 60 / SECONDS_PER_VOTE
     args = build_parser().parse_args(["build", "st", "--pairs", "p.csv"])
     assert args.items_per_rater == DEFAULT_ITEMS_PER_RATER
+    # 'all': no cap (the demo's simulated raters each rate every item, as before the cap)
+    assert build_parser().parse_args(["build", "st", "--pairs", "p.csv", "--items-per-rater", "all"]
+                                     ).items_per_rater is None
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["build", "st", "--pairs", "p.csv", "--items-per-rater", "0"])
+    from argparse import Namespace
+
+    from nvrq.commands.demo import demo_steps, method_steps
+
+    for steps, methods in ((demo_steps, None), (method_steps, "a,b")):
+        opts = Namespace(seed=0, seconds=1.0, size="64x64", offsets="0", methods=methods, raters=2, encoder="e")
+        builds = [argv for prog, argv in steps(Path("o"), opts) if argv[0] == "build"]
+        assert builds and all(argv[-2:] == ["--items-per-rater", "all"] for argv in builds)
 
 
 def test_build_prints_the_load_and_a_rater_gets_no_more(toy_inputs, tmp_path, capsys):
