@@ -131,7 +131,6 @@ def run_ray(args, scorer) -> int:
     from data_schema.tables import timing_path
     from nvrq.engines.ray_engine import RayJob, score_on_ray
 
-
     job = RayJob(pairs=str(args.pairs), out=str(args.out), scorer=scorer, shard_pairs=args.shard_pairs,
                  actors=args.actors, progress=show_progress(args))
     res = score_on_ray(job, timing_path=timing_path(args.out), address=args.address)

@@ -154,7 +154,6 @@ def runtime_columns(table, timing, encoder, *, tag: str | None):
     from nvrq.metrics.resolve import encoder_columns
     from nvrq.scoring.driver import runtime_timing
 
-
     timing = timing.copy()
     enc_cols = encoder_columns(timing["metric"].tolist())
     rename = column_renames(enc_cols, tag=tag, precision="fp32" if encoder is None else encoder.precision)
