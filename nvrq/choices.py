@@ -1,8 +1,9 @@
-"""Choices of the render-plan and renders commands, in a module light enough for ``nvrq --help``.
+"""Choices and defaults of nvrq commands, in a module light enough for ``nvrq --help``.
 
 Each is defined here once and re-exported where it is used (:mod:`nvrq.render_plans`,
-:mod:`nvrq.sources.renders`, which import pandas and OpenCV), so the command parsers read them
-without importing those (tests/test_import_layers.py, benchmarks/bench_cli_help.py).
+:mod:`nvrq.sources.renders`, :mod:`nvrq.metrics.registry`, which import pandas or OpenCV), so
+the command parsers read them without importing those (tests/test_import_layers.py,
+benchmarks/bench_cli_help.py).
 
 >>> PLAN_FORMATS, WORLDS, LAYOUTS
 (('csv', 'json', 'npz'), ('scene', 'source'), ('plan', 'order'))
@@ -10,7 +11,7 @@ without importing those (tests/test_import_layers.py, benchmarks/bench_cli_help.
 
 from __future__ import annotations
 
-__all__ = ["PLAN_FORMATS", "WORLDS", "LAYOUTS"]
+__all__ = ["PLAN_FORMATS", "WORLDS", "LAYOUTS", "DEFAULT_METRICS"]
 
 #: The file formats of a render plan (nvrq.render_plans; docs/FORMATS.md §14).
 PLAN_FORMATS = ("csv", "json", "npz")
@@ -19,3 +20,6 @@ PLAN_FORMATS = ("csv", "json", "npz")
 WORLDS = ("scene", "source")
 #: The layouts of a folder of renders (nvrq.sources.renders).
 LAYOUTS = ("plan", "order")
+#: The metrics ``nvrq score`` computes when ``--metrics`` is not given (``nvrq``/``nvrq_ca`` on
+#: the chosen encoder; nvrq.metrics.registry).
+DEFAULT_METRICS = ("psnr", "ssim", "nvrq", "nvrq_ca")

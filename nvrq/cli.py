@@ -7,8 +7,10 @@ are modules of their own there (:mod:`nvrq.commands.args`, the conventions of al
 :mod:`nvrq.commands.engine_options`). Imports sit at module top except
 the library a command runs, which its ``run`` imports: a command module imports at its top
 only what its parser needs (the conventions, option defaults and choices), so ``nvrq --help``
-and ``nvrq COMMAND --help`` load neither a deep-learning runtime nor SciPy or matplotlib
-(tests/test_import_layers.py) and answer fast (benchmarks/bench_cli_help.py).
+and ``nvrq COMMAND --help`` load neither a deep-learning runtime nor SciPy, matplotlib, pandas
+or OpenCV (tests/test_import_layers.py) and answer fast (benchmarks/bench_cli_help.py).
+Choices and defaults the parsers need from heavy modules live in light ones
+(:mod:`nvrq.choices`, :mod:`data_schema.defaults`).
 """
 
 from __future__ import annotations

@@ -37,16 +37,17 @@ def test_no_module_imports_a_later_stage(package):
     assert {k: v for k, v in bad.items() if v} == {}
 
 
-#: what no ``--help`` may import: deep-learning runtimes, plotting, the web app, the analyses
+#: what no ``--help`` may import: deep-learning runtimes, plotting, the web app, the analyses,
+#: and the table and image libraries (pandas alone costs about 0.5 s of CPU)
 HELP_FREE = ("torch", "transformers", "ray", "openvino", "onnxruntime", "matplotlib", "streamlit",
-             "playwright", "ultralytics", "scipy", "sklearn")
+             "playwright", "ultralytics", "scipy", "sklearn", "pandas", "pyarrow", "cv2")
 
 
 @pytest.mark.parametrize("cli", ["nvrq.cli", "annotate.cli", "analysis.cli"])
 def test_help_imports_no_heavy_package(cli):
     # `PROG --help` and `PROG COMMAND --help` of every subcommand (issue 29 item 10: --help answers
-    # in under 1 s, benchmarks/bench_cli_help.py times it): torch, matplotlib, streamlit, SciPy
-    # and scikit-learn are imported by the commands that run them, never for their help
+    # in under 1 s, benchmarks/bench_cli_help.py times it): torch, matplotlib, streamlit, SciPy,
+    # scikit-learn, pandas and OpenCV are imported by the commands that run them, never for help
     code = (
         "import contextlib, io, sys\n"
         f"import {cli} as cli\n"

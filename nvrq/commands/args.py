@@ -15,7 +15,7 @@ of argument:
 - **Numbers** are checked when the command line is parsed (``type=int_arg(...)`` /
   ``number_arg(...)``), before any file is read or model loaded: ``--batch-size 0`` ends at once.
 - **Defaults shared by commands** come from one constant (e.g. ``--min-side`` from
-  :data:`data_schema.tables.MIN_SIDE_PX`).
+  :data:`data_schema.defaults.MIN_SIDE_PX`).
 
 Old spellings keep working and print one ``note:`` line on stderr saying the new one.
 

@@ -121,7 +121,6 @@ def load_encoder_and_tau(args, *, needs_tau: bool, name: str | None = None):
     :func:`encoder_options`; ``tau`` from ``--tau``, the config (``--config``) or the registry
     when ``needs_tau``, else ``None``."""
     from nvrq import encoders
-    from nvrq.metrics.resolve import needs_tau
 
     cfg = encoder_options(args, name)
     tau = command_tau(cfg.name, args) if needs_tau else None

@@ -7,8 +7,8 @@ import sys
 import time
 from pathlib import Path
 
+from data_schema.defaults import MIN_SIDE_PX
 from data_schema.errors import InputError
-from data_schema.tables import MIN_SIDE_PX
 from nvrq.commands.args import add_link_option, number_arg, show_progress
 
 __all__ = ["register", "run"]

@@ -11,7 +11,6 @@ from __future__ import annotations
 import time
 
 from data_schema.errors import InputError
-from data_schema.tables import GT_BOX_COLUMNS
 from nvrq.commands.args import add_link_option, int_arg, show_progress
 from nvrq.commands.engine_options import add_engine_args, check_engine_args, run_ray
 from nvrq.commands.model_options import add_model_arguments, add_runtime_arguments, prepare_device
@@ -19,7 +18,6 @@ from nvrq.commands.model_options import add_model_arguments, add_runtime_argumen
 __all__ = ["register"]
 
 #: the GT image and box columns the confidence-drop proxies read besides the render's
-GT_BOX = ("gt_path", *GT_BOX_COLUMNS)
 
 
 def _common(p) -> None:
@@ -157,7 +155,7 @@ def _run_drop(args, kind: str, score) -> int:
     """One confidence-drop proxy: Ray engine, or ``score(pairs, maps, timings) -> (table, model)``
     here, written to ``--out`` with its timing file beside it, as ``nvrq score`` writes one
     (``PROXY.timing.csv``, docs/FORMATS.md §8), so the report's speed chart places the proxy."""
-    from data_schema.tables import timing_path, write_table
+    from data_schema.tables import GT_BOX_COLUMNS, timing_path, write_table
     from nvrq.proxies import load_class_maps
     from nvrq.scoring.driver import runtime_timing, timing_table
 
@@ -165,7 +163,7 @@ def _run_drop(args, kind: str, score) -> int:
         return _ray_proxy(args, kind)
     _check_out(args.out)
     maps = load_class_maps(args.class_map) if kind == "clip" else None
-    pairs = _read_pairs(args.pairs, GT_BOX)
+    pairs = _read_pairs(args.pairs, ("gt_path", *GT_BOX_COLUMNS))
     times: dict = {}
     t0 = time.perf_counter()
     out, model = score(pairs, maps, times)

@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from data_schema.errors import InputError
+from nvrq.choices import DEFAULT_METRICS
 from nvrq.commands.args import add_link_option, show_progress
 from nvrq.commands.engine_options import add_engine_args, check_engine_args, report_sharded, run_ray
 from nvrq.commands.model_options import (
@@ -17,7 +18,6 @@ from nvrq.commands.model_options import (
     load_encoder_and_tau,
     metric_columns,
 )
-from nvrq.metrics.registry import DEFAULT_METRICS
 
 if TYPE_CHECKING:
     from nvrq.engines.scorers import MetricScorer

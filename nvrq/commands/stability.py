@@ -11,9 +11,9 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from data_schema.defaults import MIN_SIDE_PX
 from data_schema.errors import InputError
 from data_schema.outputs import mark_report
-from data_schema.tables import GT_BOX_COLUMNS, MIN_SIDE_PX
 from nvrq.commands.args import add_link_option, int_arg, show_progress
 from nvrq.commands.model_options import add_encoder_arguments, encoder_for_columns, metric_columns
 
@@ -47,18 +47,18 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-_PAIRS_COLUMNS = ("pair_id", "clip_id", "camera", "track_id", "timestamp_us", "gt_path", *GT_BOX_COLUMNS)
 
 
 def run(args) -> int:
-    from data_schema.tables import read_table, write_table
+    from data_schema.tables import GT_BOX_COLUMNS, read_table, write_table
     from nvrq.stability import plot_stability, run_stability  # SciPy, matplotlib: not for --help
 
     columns, encoder_name = metric_columns(args)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise InputError(out, None, "an output directory", "an existing file")
-    pairs = read_table(args.pairs, required=_PAIRS_COLUMNS, what="pairs table")
+    pairs = read_table(args.pairs, required=("pair_id", "clip_id", "camera", "track_id", "timestamp_us",
+                                             "gt_path", *GT_BOX_COLUMNS), what="pairs table")
     encoder, tau = encoder_for_columns(args, columns, encoder_name)
     samples, stab, snr = run_stability(
         pairs, metrics=columns, encoder=encoder, tau=tau, n_objects=args.n_objects,
