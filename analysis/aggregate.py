@@ -26,12 +26,12 @@ import warnings
 import numpy as np
 import pandas as pd
 
+from analysis.choices import METHODS  # one definition of analyze's choices
 from annotate.results import good_vote_fraction
 from data_schema.errors import check_choice
 
 __all__ = ["METHODS", "aggregate"]
 
-METHODS = ("majority", "dawid-skene", "glad", "mace")
 
 
 def _answers(test_votes: pd.DataFrame) -> pd.DataFrame:

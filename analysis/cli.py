@@ -14,7 +14,8 @@ analysed by :mod:`analysis.pairwise`; ``--compare-methods`` adds the leaderboard
 Raters flagged by screening (:mod:`annotate.screening`) are excluded unless ``--no-screen``;
 who and why is printed and written in the report. An option that does not apply to the input
 (:data:`NOT_FOR`) is refused, never ignored. Bad input ends with one line on stderr and exit
-status 2 (docs/FORMATS.md §7).
+status 2 (docs/FORMATS.md §7). The analyses (SciPy, scikit-learn, matplotlib) are imported
+when a run needs them, so ``analyze --help`` loads none of them.
 """
 
 from __future__ import annotations
@@ -22,32 +23,20 @@ from __future__ import annotations
 import argparse
 import sys
 
-from rich.console import Console
-from rich.table import Table
-
-from analysis.aggregate import METHODS
-from analysis.all_pairs import run_pairs_analysis
-from analysis.method_cells import PATHS
-from analysis.methods import MIN_CLUSTERS
-from analysis.methods_report import leaderboard_display
-from analysis.noninferiority import DEFAULT_MARGIN
-from analysis.pairwise import is_pairwise, run_pairwise_analysis
-from analysis.pairwise_report import bt_display, write_pairwise_report
-from analysis.pipeline import run_analysis
-from analysis.report import summary_display, write_report
-from analysis.summary import RANK_BY
-from analysis.text import screening_text
+from analysis.choices import DEFAULT_MARGIN, METHODS, MIN_CLUSTERS, PATHS, RANK_BY
 from data_schema.errors import InputError
 from data_schema.outputs import check_output_folder
 from nvrq.commands.args import (
     ArgumentParser,
     CommaList,
     DeprecatedFileOption,
+    add_version,
     flags_in_errors,
     int_arg,
     number_arg,
     option_for,
     run_cli,
+    show_progress,
 )
 
 __all__ = ["build_parser", "main"]
@@ -61,6 +50,7 @@ def build_parser() -> ArgumentParser:
         description="Which metric agrees with human judgements? Correlations, ROC AUC, bootstrap "
         "CIs, breakdowns, rater screening and an offline HTML report.",
     )
+    add_version(p)
     for add_options in OPTION_GROUPS:
         add_options(p)
     return p
@@ -187,12 +177,17 @@ NOT_FOR = {
 
 
 def _print_summary(analysis) -> None:
+    from analysis.report import summary_display
+
     _print(summary_display(analysis, with_ci=False), f"metrics against {analysis.target}",
            left=("metric", "reason", "vs best"))
 
 
 def _print(df, title: str, *, left=("method", "reason", "vs next")) -> None:
     """``df`` as a table on stdout: the ``left`` columns left-aligned, the others right."""
+    from rich.console import Console
+    from rich.table import Table
+
     t = Table(title=title)
     for c in df.columns:
         t.add_column(c, justify="left" if c in left else "right")
@@ -209,6 +204,10 @@ def _main(argv=None) -> int:
 
 
 def _run(args) -> int:
+    from analysis.methods_report import leaderboard_display
+    from analysis.pairwise import is_pairwise
+    from analysis.report import write_report
+
     if (args.ratings is None) == (args.pairs is None):
         raise InputError("RATINGS/--pairs", None, "either a ratings file or --pairs PAIRS",
                          "both" if args.pairs else "neither")
@@ -224,6 +223,8 @@ def _run(args) -> int:
         _check_applies(args, "pairwise votes", args.ratings)
         return _run_pairwise(args)
     if args.pairs is not None:
+        from analysis.all_pairs import run_pairs_analysis
+
         _check_applies(args, "--pairs", args.pairs)
         analysis = run_pairs_analysis(args.pairs, **_common_options(args))
     else:
@@ -244,7 +245,7 @@ def _common_options(args) -> dict:
     return dict(metrics_paths=args.metrics_tables, lower=args.lower_better, higher=args.higher_better,
                 target=args.target, n_boot=args.bootstrap, seed=args.seed, rank_by=args.rank_by,
                 timing_paths=args.timing, margin=args.margin, compare_methods=args.compare_methods,
-                methods=args.methods, rank_metric=args.leaderboard_metric, progress=not args.quiet,
+                methods=args.methods, rank_metric=args.leaderboard_metric, progress=show_progress(args),
                 min_clusters=args.min_clusters, by=args.by, rank_view=args.leaderboard_view)
 
 
@@ -260,11 +261,16 @@ def _check_applies(args, kind: str, path) -> None:
 
 def _print_screening(raters, *, applied: bool) -> None:
     """Who screening (or --exclude-raters) left out and why, as the report says it (stderr)."""
+    from analysis.text import screening_text
+
     print(screening_text(raters, applied=applied), file=sys.stderr)
 
 
 def _run_pairwise(args) -> int:
     """Pairwise votes: Bradley-Terry, 2AFC agreement and screening (analysis.pairwise)."""
+    from analysis.pairwise import run_pairwise_analysis
+    from analysis.pairwise_report import bt_display, write_pairwise_report
+
     result = run_pairwise_analysis(
         args.ratings, metrics_paths=args.metrics_tables, lower=args.lower_better,
         higher=args.higher_better, exclude_raters=args.exclude_raters,
@@ -277,6 +283,8 @@ def _run_pairwise(args) -> int:
 
 
 def _run_ratings(args):
+    from analysis.pipeline import run_analysis
+
     return run_analysis(
         args.ratings,
         exclude_raters=args.exclude_raters,

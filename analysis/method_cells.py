@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from analysis.choices import PATHS
 from data_schema.errors import InputError
 from data_schema.perturbation import (
     AXES,
@@ -33,8 +34,6 @@ from data_schema.perturbation import (
 
 __all__ = ["PATHS", "VIEW", "Breakdown", "on_path", "view_breakdowns", "parse_by", "cell_breakdowns"]
 
-#: The two halves of the views: off the recorded path first (what a benchmark ranks on).
-PATHS = ("off-path", "on-path")
 #: The name of the views in a crossed breakdown (``--by class,view``; ``offset`` is accepted).
 VIEW = "view"
 _ALIASES = {"class": "label_class", "offset": VIEW, "offsets": VIEW, "views": VIEW}

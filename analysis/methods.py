@@ -51,6 +51,7 @@ import pandas as pd
 from tqdm.auto import tqdm
 
 from analysis import bootstrap as bs
+from analysis.choices import MIN_CLUSTERS
 from analysis.method_cells import PATHS, cell_breakdowns, on_path, parse_by, view_breakdowns
 from analysis.signflip import draw_signs, sign_flip_p
 from analysis.text import offset_text
@@ -88,11 +89,6 @@ LEADERBOARD_COLUMNS = ["rank", "method", "metric", "n", "n_tracks", "mean", "ci_
                        "next", "p_holm_vs_next", "better_than_next", "view", "p_floor_vs_next"]
 #: Significance level of ``better`` and of the leaderboard's "better than the next".
 ALPHA = 0.05
-#: The fewest tracks (clusters) of a group that gets an interval and a p-value. Below 5, a
-#: share ``K^(1-K)`` of the bootstrap's resamples draws one track K times (50% at K = 2, 11%
-#: at 3, 1.6% at 4; 0.16% at 5), so a "95% interval" spans little more than the tracks' own
-#: means; and the sign-flip test over K tracks cannot go below ``2 / 2^K`` (0.0625 at K = 5).
-MIN_CLUSTERS = 5
 
 
 @dataclass

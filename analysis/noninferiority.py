@@ -22,10 +22,11 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from analysis.choices import DEFAULT_MARGIN  # one definition of analyze's choices
+
 __all__ = ["DEFAULT_MARGIN", "TIE_TOL", "Recommendation", "upper_bound", "recommend",
            "recommend_from_tables"]
 
-DEFAULT_MARGIN = 0.02
 TIE_TOL = 1e-12
 
 

@@ -22,11 +22,11 @@ from tqdm import tqdm
 
 from analysis import bootstrap as bs
 from analysis import stats
+from analysis.choices import RANK_BY  # one definition of analyze's choices
 from data_schema.errors import check_choice
 
 __all__ = ["RANK_BY", "summary_table", "binary_label"]
 
-RANK_BY = ("srcc", "plcc", "roc_auc")
 
 
 def binary_label(items: pd.DataFrame, target: str) -> tuple[np.ndarray | None, str | None]:

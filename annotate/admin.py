@@ -29,12 +29,21 @@ from annotate.results import (
     ratings_table,
 )
 
-__all__ = ["REFRESH_S", "admin_page", "live_raters", "with_actions"]
+__all__ = ["REFRESH_S", "admin_page", "live_raters", "shown", "with_actions"]
 
 #: Seconds between two refreshes of the admin page.
 REFRESH_S = 3.0
 
 _LIVE_COLS = ["rater_id", "agreement", "kappa", "youden_j", "j_p", "skill_p", "flags"]
+
+#: What a table cell without a value shows (a rater with no test votes yet has no agreement).
+MISSING = "—"
+
+
+def shown(table: pd.DataFrame):
+    """``table`` as the page shows it: missing values as :data:`MISSING` (not ``None`` or
+    ``nan``), numbers to 3 decimals; the values themselves stay numbers (sortable)."""
+    return table.style.format(na_rep=MISSING, precision=3)
 
 
 def live_raters(study, ratings: pd.DataFrame) -> pd.DataFrame:
@@ -71,11 +80,11 @@ def _live_pairwise(study) -> None:
     st.caption(f"Live: refreshes every {REFRESH_S:g} s; last update "
                f"{time.strftime('%H:%M:%S')}, {len(votes)} votes.")
     st.subheader("Raters: progress, answers, side bias, gold, repeats")
-    st.dataframe(with_actions(study, pairwise_raters(votes, study.store.raters())), hide_index=True,
-                 key="admin_raters")
+    st.dataframe(shown(with_actions(study, pairwise_raters(votes, study.store.raters()))),
+                 hide_index=True, key="admin_raters")
     st.subheader("Gold failures (the GT crop itself not chosen)")
     gold = votes[(votes["kind"] == "gold") & (votes["choice"] != "a")]
-    st.dataframe(gold[["rater_id", "item_id", "choice"]], hide_index=True)
+    st.dataframe(shown(gold[["rater_id", "item_id", "choice"]]), hide_index=True)
     st.download_button("Download votes.csv", votes.to_csv(index=False).encode(),
                        file_name="votes.csv", mime="text/csv", key="download_ratings")
 
@@ -88,7 +97,7 @@ def _live_body(study) -> None:
     st.caption(f"Live: refreshes every {REFRESH_S:g} s; last update "
                f"{time.strftime('%H:%M:%S')}, {len(ratings)} votes.")
     st.subheader("Raters: progress, agreement so far, flags")
-    st.dataframe(with_actions(study, live_raters(study, ratings)), hide_index=True,
+    st.dataframe(shown(with_actions(study, live_raters(study, ratings))), hide_index=True,
                  key="admin_raters")
     _gvf_chart(ratings)
     alpha, note = nominal_alpha(ratings)
@@ -96,7 +105,7 @@ def _live_body(study) -> None:
               help=note)
     st.caption(note)
     st.subheader("Gold failures")
-    st.dataframe(gold_failures(ratings), hide_index=True)
+    st.dataframe(shown(gold_failures(ratings)), hide_index=True)
     st.download_button("Download ratings.csv", ratings.to_csv(index=False).encode(),
                        file_name="ratings.csv", mime="text/csv", key="download_ratings")
 

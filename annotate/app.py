@@ -10,7 +10,7 @@ Run with ``annotate serve STUDY`` (which sets ``ANNOTATE_STUDY``). Pages:
 - instructions, then the training items, then the rater's own items: "Reference" left,
   "Rendered" right, drawn as large as the window allows at one scale (shown, e.g. "×3.2";
   :mod:`annotate.layout`), Good (G, blue) / Bad (B, vermillion) / Undo (U) in one row under
-  them, a ``done / total`` progress bar and a break reminder every ``break_every`` items.
+  them (each key shown once: Streamlit draws a button's shortcut beside its label), a ``done / total`` progress bar and a break reminder every ``break_every`` items.
   A pairwise study (docs/FORMATS.md §12) shows "Left", "Reference" (middle) and "Right":
   left closer (1 or left arrow), can't tell (0), right closer (2 or right arrow), Undo (U).
   Nothing on the page names the offset, clip, method, metrics or other votes; images are
@@ -372,11 +372,11 @@ def voting_panel(study: Study, rater: str) -> None:
         _pairwise_buttons(study, rater, key, token)
         return
     with st.container(horizontal=True, horizontal_alignment="center", key="vote_row"):
-        st.button("Good (G)", key=f"vote_good-{token}", shortcut="g", type="primary",
+        st.button("Good", key=f"vote_good-{token}", shortcut="g", type="primary",
                   on_click=_on_vote, args=(study, rater, key, token, 1))
-        st.button("Bad (B)", key=f"vote_bad-{token}", shortcut="b", type="primary",
+        st.button("Bad", key=f"vote_bad-{token}", shortcut="b", type="primary",
                   on_click=_on_vote, args=(study, rater, key, token, 0))
-        st.button("Undo (U)", key=f"undo-{token}", shortcut="u", on_click=_on_undo,
+        st.button("Undo", key=f"undo-{token}", shortcut="u", on_click=_on_undo,
                   args=(study, rater, token))
 
 
@@ -397,7 +397,7 @@ def _no_item(study: Study, rater: str, prog: dict) -> None:
             st.link_button("Finish and return to the panel", study.manifest["completion_url"],
                            type="primary", key="completion")
     token = st.session_state["shown"] = (None, None, "done")
-    st.button("Undo last vote (U)", key="undo-done", shortcut="u", on_click=_on_undo,
+    st.button("Undo last vote", key="undo-done", shortcut="u", on_click=_on_undo,
               args=(study, rater, token[2]))
 
 
@@ -405,13 +405,13 @@ def _pairwise_buttons(study: Study, rater: str, key: str, token: str) -> None:
     """Left closer (1), can't tell (0), right closer (2), undo (U) in one row; the arrow keys
     press hidden twins of the side buttons (a button takes one shortcut)."""
     with st.container(horizontal=True, horizontal_alignment="center", key="vote_row"):
-        st.button("◀ Left is closer (1 / ←)", key=f"vote_left-{token}", shortcut="1",
+        st.button("◀ Left is closer (or ←)", key=f"vote_left-{token}", shortcut="1",
                   on_click=_on_vote, args=(study, rater, key, token, 1))
-        st.button("Can't tell (0)", key=f"vote_tie-{token}", shortcut="0",
+        st.button("Can't tell", key=f"vote_tie-{token}", shortcut="0",
                   on_click=_on_vote, args=(study, rater, key, token, 0))
-        st.button("Right is closer (2 / →) ▶", key=f"vote_right-{token}", shortcut="2",
+        st.button("Right is closer (or →) ▶", key=f"vote_right-{token}", shortcut="2",
                   on_click=_on_vote, args=(study, rater, key, token, 2))
-        st.button("Undo (U)", key=f"undo-{token}", shortcut="u", on_click=_on_undo,
+        st.button("Undo", key=f"undo-{token}", shortcut="u", on_click=_on_undo,
                   args=(study, rater, token))
     st.button("Left", key=f"key_twin-left-{token}", shortcut="Left", on_click=_on_vote,
               args=(study, rater, key, token, 1))

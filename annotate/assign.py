@@ -9,7 +9,9 @@ after a seeded number of test items. :func:`choose_next` then picks, in this ord
 2. a special that is due (a repeat only once the rater has voted on its original);
 3. the test item with the fewest votes or live claims by *other* raters among those below
    the quota ``votes_per_item``, ties broken by the rater's own random order — so every
-   item reaches its quota before any gets more, and a half-finished study is balanced;
+   item reaches its quota before any gets more, and a half-finished study is balanced —
+   until the rater has had the plan's ``max_tests`` test items (``annotate build
+   --items-per-rater``);
 4. any special left (repeats only with a voted original); else ``None``: the rater is done.
 
 >>> plan = {"training": ["t1"], "order": ["a", "b", "c"], "specials": [[1, "g1"]],
@@ -42,21 +44,26 @@ def rater_seed(study_seed: int, rater: str) -> int:
 
 
 def make_plan(*, training: list[str], tests: list[str], golds: list[str],
-              repeats: dict[str, str], seed: int) -> dict:
+              repeats: dict[str, str], seed: int, max_tests: int | None = None) -> dict:
     """The rater's plan (JSON-able dict).
 
     ``repeats`` maps a repeat item key to its original test item key. Gold items are spread
     over the whole test sequence; a repeat is due at least a quarter of the sequence after
-    a random point, so it rarely follows its original closely.
+    a random point, so it rarely follows its original closely. ``max_tests``: the most test
+    items the rater is given (None: no cap; the plan's ``max_tests``); the sequence the
+    specials are spread over is then that long.
     """
     rng = np.random.default_rng(seed)
     order = [tests[i] for i in rng.permutation(len(tests))]
-    n = max(len(order), 1)
+    n = max(len(order) if max_tests is None else min(len(order), max_tests), 1)
     specials = [[int(rng.integers(1, n + 1)), g] for g in golds]
     specials += [[int(min(n, rng.integers(1, n + 1) + n // 4)), r] for r in sorted(repeats)]
     specials.sort(key=lambda s: (s[0], s[1]))
-    return {"training": list(training), "order": order, "specials": specials,
+    plan = {"training": list(training), "order": order, "specials": specials,
             "repeat_of": dict(repeats)}
+    if max_tests is not None:
+        plan["max_tests"] = int(max_tests)
+    return plan
 
 
 def _eligible(plan: dict, key: str, voted: set[str]) -> bool:
@@ -83,7 +90,8 @@ def choose_next(plan: dict, assigned: list[str], voted: set[str], loads: dict[st
         if after <= n_tests and _eligible(plan, key, voted):
             return key
     best, best_load = None, None
-    for key in order:  # rater's order breaks ties: the first with the lowest load wins
+    capped = n_tests >= plan.get("max_tests", n_tests + 1)  # the rater's share of tests is done
+    for key in ([] if capped else order):  # rater's order breaks ties: the lowest load wins
         if key in done:
             continue
         load = loads.get(key, 0)
@@ -113,7 +121,11 @@ def plan_total(plan: dict, assigned: list[str], loads: dict[str, int], *,
     n = sum(1 for k in assigned if k not in training)
     open_tests = {k for k in plan["order"]
                   if k not in done and (quota is None or loads.get(k, 0) < quota)}
-    n += len(open_tests)
+    if "max_tests" in plan:  # no more than the rater's share
+        n_tests = sum(1 for k in plan["order"] if k in done)
+        n += min(len(open_tests), max(plan["max_tests"] - n_tests, 0))
+    else:
+        n += len(open_tests)
     for _after, key in plan["specials"]:
         if key in done:
             continue

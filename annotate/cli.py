@@ -3,7 +3,8 @@
 Each subcommand lives in ``annotate/commands/<name>.py`` and exposes ``register(sub)``, which
 adds its parser and sets ``func`` to its ``run(args)`` (returns an exit status), as the
 ``nvrq`` commands do (:mod:`nvrq.cli`). The argument conventions are
-:mod:`nvrq.commands.args`.
+:mod:`nvrq.commands.args`. A command imports the library it runs (pandas, OpenCV, the study)
+in ``run``, so ``annotate --help`` answers without them.
 """
 
 from __future__ import annotations
@@ -13,7 +14,6 @@ import sys
 from pathlib import Path
 
 from data_schema.errors import InputError
-from data_schema.tables import no_follow_links
 from nvrq.commands.args import ArgumentParser, command_parser, flags_in_errors, run_cli
 
 __all__ = ["main", "build_parser"]
@@ -41,7 +41,9 @@ def build_parser() -> ArgumentParser:
 
 def _main(argv=None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(argv)  # --help and --version end here
+    from data_schema.tables import no_follow_links  # pandas: after --help has answered
+
     try:
         with flags_in_errors(parser, args, _ALIASES), no_follow_links(getattr(args, "no_follow_links", False)):
             return args.func(args)

@@ -13,7 +13,8 @@ axis; raters never see which (items are opaque).
   strata are visited round-robin in a seeded random order, one random track each visit.
 - :func:`spread_frames`: ``k`` frames evenly along the track (by time), first and last
   included.
-- :func:`pick_training`: the training items, outside the test set, offsets from small to large.
+- :func:`pick_training`: the training items, outside the test set, offsets from large to small
+  (the first ones clearly different from their GT crop).
 - :func:`choose_tests`: the views, test rows and training rows of a study, by the three above.
 
 The two study designs, good/bad votes (:class:`annotate.binary.BinaryDesign`) and which of two
@@ -188,7 +189,9 @@ def select_test_pairs(pairs: pd.DataFrame, *, offsets: list[float], n_tracks: in
 def pick_training(pairs: pd.DataFrame, tests: pd.DataFrame, n: int,
                   rng: np.random.Generator) -> pd.DataFrame:
     """The training items of a study: ``n`` rows of ``pairs`` outside the test set (else from
-    it), their offsets spread from small to large.
+    it), their offsets spread from large to small: a rater's first items are clearly different
+    (the largest ``|y_offset_m|`` there is, 2 m or more when the table has it), the subtle
+    ones come last.
 
     Parameters
     ----------
@@ -204,7 +207,7 @@ def pick_training(pairs: pd.DataFrame, tests: pd.DataFrame, n: int,
     Returns
     -------
     pandas.DataFrame
-        The chosen rows of ``pairs``, by increasing ``|y_offset_m|``.
+        The chosen rows of ``pairs``, by decreasing ``|y_offset_m|``.
     """
     pool = pairs[~pairs["pair_id"].isin(set(tests["pair_id"]))]
     if pool.empty:
@@ -212,7 +215,7 @@ def pick_training(pairs: pd.DataFrame, tests: pd.DataFrame, n: int,
     n = min(n, len(pool))
     if n == 0:
         return pool.iloc[:0]
-    order = pool.assign(_a=pool["y_offset_m"].abs(), _r=rng.random(len(pool))).sort_values(["_a", "_r"])
+    order = pool.assign(_a=-pool["y_offset_m"].abs(), _r=rng.random(len(pool))).sort_values(["_a", "_r"])
     idx = np.round(np.linspace(0, len(order) - 1, n)).astype(int)
     return order.iloc[sorted(set(idx.tolist()))].drop(columns=["_a", "_r"])
 
@@ -266,7 +269,8 @@ class StudyOptions:
     the pairs table); ``metrics_paths``: the metrics tables joined on ``pair_id``. The rest are
     the counts of the design (tracks, frames per track, training, gold and repeat items),
     votes per item, the seed, the display size and format, the access mode (and a crowd
-    study's participant parameter and completion URL), the break interval and the design's name.
+    study's participant parameter and completion URL), the break interval, the design's name
+    and the cap on one rater's items (None: none).
     """
 
     tracks: int
@@ -287,6 +291,7 @@ class StudyOptions:
     metrics_paths: tuple
     participant_param: str | None = None
     completion_url: str | None = None
+    items_per_rater: int | None = None
 
 
 @dataclass(frozen=True)

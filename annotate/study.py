@@ -39,6 +39,7 @@ from annotate.assign import choose_next, make_plan, pairwise_sides, plan_total, 
 from annotate.binary import BinaryDesign
 from annotate.crops import ImageCache, opaque_ids
 from annotate.design import Choice, Design, StudyOptions, attribute_columns
+from annotate.load import DEFAULT_ITEMS_PER_RATER, check_items_per_rater
 from annotate.pairwise import PairwiseDesign
 from annotate.store import Store
 from data_schema.errors import InputError
@@ -69,7 +70,7 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
                 size: int = 320, image_format: str = "jpg", access: str = "open",
                 break_every: int = 50, design: str = "binary", methods: str | None = None,
                 participant_param: str | None = None, completion_url: str | None = None,
-                progress: bool = True) -> Path:
+                items_per_rater: int | None = DEFAULT_ITEMS_PER_RATER, progress: bool = True) -> Path:
     """Build the study folder ``out`` (refused if it exists and is not empty).
 
     Stages: check the options (:class:`annotate.design.StudyOptions`), read and check the
@@ -113,6 +114,10 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
     methods : str, optional
         A comma list of the methods to compare (pairwise only; default every method of the
         table).
+    items_per_rater : int or None
+        The most items one rater is given, training, gold and repeats included (default
+        :data:`annotate.load.DEFAULT_ITEMS_PER_RATER`, about 20 minutes); None: every item.
+        More than the training, gold and repeat items together.
     progress : bool
         Show a progress bar.
 
@@ -132,12 +137,15 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
                           n_gold=n_gold, n_repeats=n_repeats, size=size, image_format=image_format,
                           access=access, break_every=break_every, design=design,
                           methods=methods, participant_param=participant_param,
-                          completion_url=completion_url)
+                          completion_url=completion_url, items_per_rater=items_per_rater)
     study_design = DESIGNS[opts.design]
     where = str(pairs_path)
     pairs = _read_pairs(Path(pairs_path), opts.scene)
     rng = np.random.default_rng(seed)
     choice = study_design.choose_items(pairs, rng, opts, where=where)
+    if opts.items_per_rater is not None:
+        kinds = pd.Series([r["kind"] for r in choice.rows])
+        check_items_per_rater(opts.items_per_rater, kinds.value_counts().to_dict())
     _check_images(study_design.needed_images(choice.rows), where=where)
     metrics = _read_study_metrics(opts.metrics_paths, choice.pairs)
     ids = opaque_ids(rng, study_design.crops_per_item * len(choice.rows))
@@ -171,6 +179,9 @@ def _check_options(out, pairs_path, **opts) -> StudyOptions:
                  completion_url=opts["completion_url"])
     if opts["design"] not in DESIGNS:
         raise InputError(param="design", expected="one of {'binary', 'pairwise'}", got=opts["design"])
+    cap = opts["items_per_rater"]
+    if cap is not None and (isinstance(cap, bool) or not isinstance(cap, int | np.integer) or cap < 1):
+        raise InputError(param="items_per_rater", expected="a positive integer or None", got=cap)
     if opts["methods"] is not None and opts["design"] != "pairwise":
         raise InputError(param="methods", expected="no method list with `design` binary (it compares "
                          "methods only with `design` pairwise)", got=opts["methods"])
@@ -243,6 +254,7 @@ def _manifest(out: Path, choice: Choice, items: pd.DataFrame, opts: StudyOptions
         **check_access(opts.access, participant_param=opts.participant_param,
                        completion_url=opts.completion_url),
         "votes_per_item": int(opts.votes_per_item), "break_every": int(opts.break_every),
+        "items_per_rater": None if opts.items_per_rater is None else int(opts.items_per_rater),
         "display_size": int(opts.size), "image_format": opts.image_format,
         "options": {"tracks": int(opts.tracks), "frames_per_track": int(opts.frames_per_track),
                     "offsets": str(opts.offsets), "n_training": int(opts.n_training),
@@ -331,11 +343,21 @@ class Study:
         """``'binary'`` (good/bad; every study built before designs existed) or ``'pairwise'``."""
         return self.manifest.get("design", "binary")
 
+    @property
+    def tests_per_rater(self) -> int | None:
+        """The test items one rater is given at most: the manifest's ``items_per_rater`` less
+        the training, gold and repeat items (None: no cap, as in studies built before it)."""
+        cap = self.manifest.get("items_per_rater")
+        if cap is None:
+            return None
+        return int(cap) - sum(len(self.keys(k)) for k in ("training", "gold", "repeat"))
+
     def new_plan(self, rater: str) -> dict:
         reps = {k: k.split(":", 1)[1] for k in self.keys("repeat")}
         seed = rater_seed(self.manifest["seed"], rater)
         plan = make_plan(training=self.manifest["training_order"], tests=self.keys("test"),
-                         golds=self.keys("gold"), repeats=reps, seed=seed)
+                         golds=self.keys("gold"), repeats=reps, seed=seed,
+                         max_tests=self.tests_per_rater)
         if self.design == "pairwise":  # which side A is shown on, per item, for this rater
             plan["sides"] = pairwise_sides(plan, seed=seed)
         return plan

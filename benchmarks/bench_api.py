@@ -14,7 +14,15 @@ timings. Measured in this one run, interleaved over ``--rounds``:
   ``update_pairs`` pairs at once).
 
 The ratio API / ``nvrq score`` is the API's own overhead (target >= 0.95). The numbers are
-checked equal before timing. Run: ``python benchmarks/bench_api.py [--seconds 2 --size 640x360]``.
+checked equal before timing.
+
+Then one pair per call, as a training loop scoring a sample now and then calls it: the function
+``nvrq.score_crops`` (after its first call, which loads the encoder into the API's cache,
+:func:`nvrq.api.clear_encoder_cache`) against ``Evaluator.score_crops`` with its encoder
+loaded, interleaved over ``--calls`` calls, medians side by side (target: the function at most
+1.5x the Evaluator; before the cache every call reloaded the encoder, 710 ms against 66 ms).
+
+Run: ``python benchmarks/bench_api.py [--seconds 2 --size 640x360]``.
 """
 
 from __future__ import annotations
@@ -76,6 +84,23 @@ def api_frames(ev: nvrq.Evaluator, pairs: pd.DataFrame, root: Path) -> pd.DataFr
     return ev.pairs.set_index("row").sort_index()
 
 
+def one_pair_calls(ev: nvrq.Evaluator, gt, render, *, encoder: str, runtime: str, calls: int) -> dict:
+    """Seconds of one-pair calls: the function ``nvrq.score_crops`` (its first call, then
+    ``calls`` more) and ``ev.score_crops`` interleaved with them; the results checked equal."""
+    metrics = list(ev.columns)
+    nvrq.clear_encoder_cache()
+    first, got = timed(lambda: nvrq.score_crops([gt], [render], metrics=metrics, encoder=encoder,
+                                                runtime=runtime))
+    want = ev.score_crops([gt], [render])
+    assert np.allclose(got.to_numpy(), want.to_numpy(), rtol=0, atol=1e-6, equal_nan=True)
+    fn, cls = [], []
+    for _ in range(calls):
+        fn.append(timed(lambda: nvrq.score_crops([gt], [render], metrics=metrics, encoder=encoder,
+                                                 runtime=runtime))[0])
+        cls.append(timed(lambda: ev.score_crops([gt], [render]))[0])
+    return {"first": first, "function": fn, "Evaluator": cls}
+
+
 def timed(fn):
     t0 = time.perf_counter()
     res = fn()
@@ -89,6 +114,7 @@ def main(argv=None) -> int:
     ap.add_argument("--encoder", default="efficientnet-lite0")
     ap.add_argument("--runtime", default="auto", help="encoder runtime (default auto, as nvrq score)")
     ap.add_argument("--rounds", type=int, default=3, help="interleaved timing rounds (default 3)")
+    ap.add_argument("--calls", type=int, default=30, help="interleaved one-pair calls (default 30)")
     args = ap.parse_args(argv)
     tune_allocator()  # as the nvrq commands do
     w, h = (int(v) for v in args.size.split("x"))
@@ -111,6 +137,10 @@ def main(argv=None) -> int:
             secs["nvrq score"].append(timed(cli)[0])
             secs["API crops"].append(timed(lambda: api_crops(ev, pairs, root, 256))[0])
             secs["API frames"].append(timed(lambda: api_frames(ev, pairs, root))[0])
+        p0 = pairs.iloc[0]
+        one = one_pair_calls(ev, cut_box(read_rgb(root / p0.gt_path), p0[list(GT_BOX_COLUMNS)].to_numpy()),
+                             cut_box(read_rgb(root / p0.render_path), p0[list(RENDER_BOX_COLUMNS)].to_numpy()),
+                             encoder=args.encoder, runtime=args.runtime, calls=args.calls)
     n = len(pairs)
     print(f"{n} pairs, {pairs.gt_path.nunique()} GT frames, {args.size}, encoder {args.encoder} "
           f"({enc.runtime}, {enc.threads} threads), metrics {', '.join(ev.columns)}; {args.rounds} rounds")
@@ -119,6 +149,10 @@ def main(argv=None) -> int:
         rate = n / np.mean(v)
         print(f"  {k:11s}: {rate:7.1f} pairs/s (rounds: {', '.join(f'{n / s:.1f}' for s in v)}); "
               f"{rate / base:.2f}x nvrq score")
+    fn_ms, ev_ms = 1000 * np.median(one["function"]), 1000 * np.median(one["Evaluator"])
+    print(f"one pair per call, median of {args.calls} interleaved calls: nvrq.score_crops {fn_ms:.1f} ms "
+          f"(first call, loading the encoder: {1000 * one['first']:.0f} ms), Evaluator.score_crops "
+          f"{ev_ms:.1f} ms; function / Evaluator = {fn_ms / ev_ms:.2f}x (target <= 1.5x)")
     return 0
 
 

@@ -72,7 +72,7 @@ class Screen:
     status: str = ""
 
     def vote_id(self) -> str | None:
-        return self.buttons.get("Good (G)")
+        return self.buttons.get("Good")
 
 
 class RaterClient:
@@ -241,7 +241,7 @@ async def _rater(url: str, name: str, *, until: float, think: tuple[float, float
             await asyncio.sleep(float(rng.uniform(*think)))
             old = screen.vote_id()
             t0 = time.perf_counter()
-            screen = await c.press("Good (G)" if rng.random() < 0.6 else "Bad (B)")
+            screen = await c.press("Good" if rng.random() < 0.6 else "Bad")
             if screen.vote_id() != old:  # the next item (or "All done") is on screen: acked
                 lat.append(time.perf_counter() - t0)
                 acked += 1

@@ -19,6 +19,7 @@ from pathlib import Path, PurePosixPath, PureWindowsPath
 import numpy as np
 import pandas as pd
 
+from data_schema.defaults import MIN_SIDE_PX  # shared by nvrq pairs and nvrq stability
 from data_schema.errors import InputError
 from data_schema.methods import METHOD_COLUMN, check_table_methods, method_suffix
 from data_schema.perturbation import perturbation_array, view_suffix
@@ -64,9 +65,6 @@ __all__ = [
 
 TABLE_SUFFIXES = (".csv", ".parquet")
 
-#: docs/FORMATS.md §3: the default smallest shorter box side (pixels) of a usable object crop,
-#: shared by ``nvrq pairs --min-side`` and ``nvrq stability --min-side``.
-MIN_SIDE_PX = 30
 
 #: docs/FORMATS.md §2, images.csv
 IMAGES_COLUMNS = ("camera", "timestamp_us", "source", "y_offset_m", "path")

@@ -57,7 +57,7 @@ def rater_ui(study: Path) -> None:
             page = browser.new_page(viewport={"width": 1400, "height": 900})
             page.goto(f"{url}?rater=readme")
             page.get_by_role("button", name="Start").click()
-            page.get_by_role("button", name="Good (G)").wait_for(state="visible", timeout=30000)
+            page.get_by_role("button", name="Good").wait_for(state="visible", timeout=30000)
             page.wait_for_function("document.querySelectorAll('img').length === 2", timeout=30000)
             page.mouse.move(0, 0)  # no hover effects in the figure
             time.sleep(1.0)  # the scale line follows the drawn size within 200 ms

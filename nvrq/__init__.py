@@ -3,8 +3,8 @@
 The public Python API (docs/PYTHON.md) is exported here and imported on first use, so
 ``import nvrq`` itself loads nothing heavy:
 
-- scoring in memory: :func:`score_crops`, :func:`score_frame`, :class:`Evaluator`
-  (:mod:`nvrq.api`);
+- scoring in memory: :func:`score_crops`, :func:`score_frame`, :class:`Evaluator`,
+  :func:`clear_encoder_cache` (:mod:`nvrq.api`);
 - encoders: :class:`EncoderConfig`, :func:`load_encoder` (:mod:`nvrq.encoders`);
 - geometry: :func:`project_boxes` (the ``nvrq pairs`` rule for one frame, :mod:`nvrq.pairs`),
   :func:`camera_from_model` and the camera classes (:mod:`nvrq.geometry.cameras`);
@@ -18,7 +18,7 @@ The public Python API (docs/PYTHON.md) is exported here and imported on first us
 
 from __future__ import annotations
 
-import importlib
+from nvrq.lazy import lazy_exports
 
 __version__ = "0.1.0"
 
@@ -27,6 +27,7 @@ _EXPORTS = {
     "score_crops": "nvrq.api",
     "score_frame": "nvrq.api",
     "Evaluator": "nvrq.api",
+    "clear_encoder_cache": "nvrq.api",
     "EncoderConfig": "nvrq.encoders.registry",
     "load_encoder": "nvrq.encoders.registry",
     "project_boxes": "nvrq.pairs",
@@ -43,14 +44,4 @@ _EXPORTS = {
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str):
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'nvrq' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value  # later look-ups skip this function
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted([*globals(), *__all__])
+__getattr__, __dir__ = lazy_exports("nvrq", _EXPORTS, globals())

@@ -4,14 +4,18 @@ The functions here are a thin door onto the same core as ``nvrq score``
 (:func:`nvrq.scoring.core.score_crop_batch`: the same crop cutter, resize, encoder inputs and
 metric functions; the columns resolved by :mod:`nvrq.metrics.resolve`), so the numbers equal
 the command's on the same pairs. The functions and :class:`Evaluator` share pure helpers, as
-torchmetrics' functional and class metrics do: :func:`score_crops` keeps no state, the class
-adds only what it holds (the loaded encoder, the pending and scored pairs). Neither imports the
-table driver (:mod:`nvrq.scoring.driver`):
+torchmetrics' functional and class metrics do: :func:`score_crops` keeps no state of its own
+but the encoders it loaded (a small cache keyed by :class:`~nvrq.encoders.EncoderConfig`,
+emptied by :func:`clear_encoder_cache`), the class adds only what it holds (its loaded
+encoder, the pending and scored pairs). Neither imports the table driver
+(:mod:`nvrq.scoring.driver`):
 
 - :func:`score_crops`: GT and render crops -> one row per pair, one column per metric, named
   as ``nvrq score`` names them (``psnr``, ``nvrq:ENCODER``, ``nvrq_ca:ENCODER``, ...).
 - :func:`score_frame`: a GT image, a render image and their (N, 4) boxes; the GT image is cut
   once and equal GT boxes share one crop (embedded once).
+- :func:`clear_encoder_cache`: forget the encoders the two functions loaded (their memory is
+  freed once nothing else holds them).
 - :class:`Evaluator`: loads the encoder (and its exported runtime) once, scores with
   :meth:`~Evaluator.score_crops` / :meth:`~Evaluator.score_frame`, and accumulates
   torchmetrics-style: :meth:`~Evaluator.update` with optional per-pair labels (view, class,
@@ -38,6 +42,8 @@ Bad input raises :class:`data_schema.errors.InputError` (a ``ValueError``) namin
 from __future__ import annotations
 
 import sys
+import threading
+from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -57,7 +63,8 @@ from nvrq.metrics.resolve import (
 )
 from nvrq.scoring.core import CropBatch, score_crop_batch
 
-__all__ = ["score_crops", "score_frame", "Evaluator", "as_rgb_uint8"]
+__all__ = ["score_crops", "score_frame", "Evaluator", "as_rgb_uint8", "clear_encoder_cache",
+           "ENCODER_CACHE_SIZE"]
 
 _CROP = "a numpy uint8 (H, W, 3) RGB array, or a torch tensor (3, H, W) of uint8 or of floats in [0, 1]"
 
@@ -190,9 +197,11 @@ class _Setup:
     batch_size: int
 
 
-def _setup(metrics, encoder, *, weights, device: str, runtime: str, tau, batch_size: int) -> _Setup:
+def _setup(metrics, encoder, *, weights, device: str, runtime: str, tau, batch_size: int,
+           cached: bool = False) -> _Setup:
     """Check the options, resolve the columns and tau (:func:`nvrq.calibrate.require_tau`), and
-    load the encoder when a column needs one (last, after every check)."""
+    load the encoder when a column needs one (last, after every check); ``cached``: take it
+    from the encoder cache (:func:`_cached_encoder`) instead of loading a new one."""
     raw = comma_list(metrics) if isinstance(metrics, str) else [str(m) for m in metrics]
     if encoder is not None and not isinstance(encoder, str):
         # a config or a loaded encoder carries its own loading options: none is dropped silently
@@ -210,19 +219,73 @@ def _setup(metrics, encoder, *, weights, device: str, runtime: str, tau, batch_s
         tau = require_tau(name, tau=tau)[0]
     else:
         tau = None
-    loaded = _load(encoder, name, weights=weights, device=device, runtime=runtime) \
+    loaded = _load(encoder, name, cached=cached, weights=weights, device=device, runtime=runtime) \
         if encoder_columns(columns) else None
     return _Setup(columns, loaded, tau, batch_size)
 
 
-def _load(encoder, name: str, **options) -> Encoder:
+def _load(encoder, name: str, *, cached: bool, **options) -> Encoder:
     if isinstance(encoder, Encoder):
         return encoder
+    config = encoder if isinstance(encoder, EncoderConfig) else encoder_config(name, **options)
+    if cached:
+        return _cached_encoder(config)
     from nvrq.encoders import load_encoder
 
-    if isinstance(encoder, EncoderConfig):
-        return load_encoder(encoder)
-    return load_encoder(encoder_config(name, **options))
+    return load_encoder(config)
+
+
+# --- the encoders score_crops / score_frame loaded, kept for their next call -----------------
+
+#: How many loaded encoders :func:`score_crops` / :func:`score_frame` keep (the least recently
+#: used one is dropped first).
+ENCODER_CACHE_SIZE = 2
+_ENCODERS: OrderedDict[EncoderConfig, Encoder] = OrderedDict()
+_ENCODERS_LOCK = threading.Lock()
+
+
+def _cached_encoder(config: EncoderConfig) -> Encoder:
+    """The encoder of ``config``, loaded on the first call (:func:`nvrq.encoders.load_encoder`)
+    and kept in a least-recently-used cache of :data:`ENCODER_CACHE_SIZE` entries keyed by the
+    frozen config (name, weights path, device, runtime, precision, threads, cache folder)."""
+    with _ENCODERS_LOCK:
+        found = _ENCODERS.get(config)
+        if found is not None:
+            _ENCODERS.move_to_end(config)
+            return found
+    from nvrq.encoders import load_encoder
+
+    loaded = load_encoder(config)  # outside the lock: a load takes seconds
+    with _ENCODERS_LOCK:
+        loaded = _ENCODERS.setdefault(config, loaded)  # a concurrent load of it wins once
+        _ENCODERS.move_to_end(config)
+        while len(_ENCODERS) > ENCODER_CACHE_SIZE:
+            _ENCODERS.popitem(last=False)
+    return loaded
+
+
+def clear_encoder_cache() -> int:
+    """Forget the encoders :func:`score_crops` and :func:`score_frame` keep between calls.
+
+    The two functions load an encoder on their first call with a given
+    :class:`~nvrq.encoders.EncoderConfig` (encoder name, ``weights``, ``device``, ``runtime``, ...)
+    and reuse it afterwards (up to :data:`ENCODER_CACHE_SIZE` of them, least recently used
+    dropped first). Clear the cache to free their memory (a GPU encoder's too, once nothing else
+    holds it), or after the weights file behind a config changed on disk. An
+    :class:`Evaluator` holds its own encoder and is not affected.
+
+    Returns
+    -------
+    int
+        How many encoders were dropped.
+
+    >>> clear_encoder_cache()
+    0
+    """
+    with _ENCODERS_LOCK:
+        n = len(_ENCODERS)
+        _ENCODERS.clear()
+    return n
 
 
 def _check_no_reference(columns: Sequence[str], name: str) -> None:
@@ -484,7 +547,9 @@ def score_crops(gt_crops, render_crops, *, metrics, encoder=None, weights=None, 
         ``gt_crops=None`` when every metric is a no-reference one (``niqe``, ``brisque``, ...:
         the render crop alone).
     metrics, encoder, weights, device, runtime, tau, batch_size
-        As :class:`Evaluator` (which loads the encoder; build one to score many batches).
+        As :class:`Evaluator`. An encoder given by name or config is loaded on the first call
+        and kept for the next ones with the same config (:func:`clear_encoder_cache` frees it);
+        an :class:`Evaluator` also keeps the pending pairs and sums them up.
 
     Returns
     -------
@@ -499,7 +564,7 @@ def score_crops(gt_crops, render_crops, *, metrics, encoder=None, weights=None, 
     [{'psnr': 48.131, 'mae': 1.0}]
     """
     setup = _setup(metrics, encoder, weights=weights, device=device, runtime=runtime, tau=tau,
-                   batch_size=batch_size)
+                   batch_size=batch_size, cached=True)
     return _score(setup, *_crop_inputs(setup.columns, gt_crops, render_crops)[:3])
 
 
@@ -524,5 +589,5 @@ def score_frame(gt_image, render_image, gt_boxes, render_boxes, *, metrics, enco
     [2.0, 2.0]
     """
     setup = _setup(metrics, encoder, weights=weights, device=device, runtime=runtime, tau=tau,
-                   batch_size=batch_size)
+                   batch_size=batch_size, cached=True)
     return _score(setup, *_frame_inputs(setup.columns, gt_image, render_image, gt_boxes, render_boxes)[:3])

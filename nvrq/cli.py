@@ -5,9 +5,12 @@ Each subcommand lives in ``nvrq/commands/<name>.py`` and exposes
 parsed ``argparse.Namespace``; returns an exit status); the options several commands share
 are modules of their own there (:mod:`nvrq.commands.args`, the conventions of all three CLIs;
 :mod:`nvrq.commands.engine_options`). Imports sit at module top except
-those of heavy optional packages (torch, transformers, ray, openvino, onnxruntime, ...),
-which stay inside the functions that need them, so ``nvrq --help`` loads numpy, pandas and
-OpenCV but never a deep-learning runtime.
+the library a command runs, which its ``run`` imports: a command module imports at its top
+only what its parser needs (the conventions, option defaults and choices), so ``nvrq --help``
+and ``nvrq COMMAND --help`` load neither a deep-learning runtime nor SciPy, matplotlib, pandas
+or OpenCV (tests/test_import_layers.py) and answer fast (benchmarks/bench_cli_help.py).
+Choices and defaults the parsers need from heavy modules live in light ones
+(:mod:`nvrq.choices`, :mod:`data_schema.defaults`).
 """
 
 from __future__ import annotations
@@ -16,9 +19,7 @@ import os
 import sys
 from pathlib import Path
 
-from data_schema.datasets import MANIFEST
 from data_schema.outputs import check_output_file, check_output_folder
-from data_schema.tables import no_follow_links, timing_path
 from nvrq.commands.args import ArgumentParser, command_parser, flags_in_errors, run_cli
 from nvrq.commands.model_options import check_model_options
 
@@ -58,6 +59,9 @@ INPUT_ARGS = ("pairs", "scene", "detections", "class_map", "archive", "kitti_roo
 
 def check_outputs(args) -> None:
     """Refuse an output that is an input or lies in a scene/study folder (before any work)."""
+    from data_schema.datasets import MANIFEST
+    from data_schema.tables import timing_path
+
     kind = OUTPUT_KINDS.get(args.command)
     if kind is None or getattr(args, "out", None) is None:
         return
@@ -77,7 +81,9 @@ def check_outputs(args) -> None:
 
 def _main(argv=None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(argv)  # --help and --version end here
+    from data_schema.tables import no_follow_links  # pandas: after --help has answered
+
     aliases = {"scene_root": "scene", "perturbations": "perturb", "weights": "yolo"}
     with flags_in_errors(parser, args, aliases), no_follow_links(getattr(args, "no_follow_links", False)):
         check_outputs(args)

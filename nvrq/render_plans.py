@@ -60,6 +60,7 @@ from data_schema.perturbation import (
 )
 from data_schema.scene import Scene, load_scene
 from data_schema.tables import atomic_path, atomic_write_text, write_table
+from nvrq.choices import PLAN_FORMATS, WORLDS  # plan file formats (by suffix), worlds
 from nvrq.geometry.cameras import camera_from_model
 from nvrq.geometry.poses import (
     T_sensor_world,
@@ -98,10 +99,6 @@ PLAN_COLUMNS = (
 PLAN_CAMERA_COLUMNS = ("camera_model", "width", "height", "fx", "fy", "cx", "cy", "distortion")
 #: Appended to the columns above when some view is not lateral (the columns every table gains).
 PLAN_PERTURBATION_COLUMNS = VIEW_COLUMNS
-#: Plan file formats, by suffix.
-PLAN_FORMATS = ("csv", "json", "npz")
-#: The worlds a plan's poses can be written in: the scene's own, or the source dataset's.
-WORLDS = ("scene", "source")
 
 #: scene.json model parameters that the K matrix and the image size already give.
 _K_PARAMS = ("type", "resolution", "focal_length", "principal_point")

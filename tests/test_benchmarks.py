@@ -27,11 +27,12 @@ CASES = {
     "bench_analyze.py": (["--items", "300", "--raters", "4", "--pairs", "20000", "--clips", "12"],
                          "ratings rows/s over pairs rows/s"),
     "bench_analyze_pairs.py": (["--rows", "20000", "--clips", "12"], "peak RSS"),
-    "bench_api.py": (["--seconds", "0.4", "--size", "320x180", "--rounds", "1", "--runtime", "torch"],
-                     "x nvrq score"),
+    "bench_api.py": (["--seconds", "0.4", "--size", "320x180", "--rounds", "1", "--runtime", "torch",
+                      "--calls", "3"], "function / Evaluator"),
     "bench_raters.py": (["--raters", "2", "--seconds", "4", "--think", "0.4", "0.6", "--frames", "2"],
                         "0 votes lost"),
     "bench_import.py": (["--frames", "6", "--size", "160x96", "--rounds", "1"], "import/copy"),
+    "bench_cli_help.py": (["--rounds", "1", "--programs", "annotate,analyze"], "target (every --help"),
 }
 
 

@@ -1,5 +1,6 @@
 """The stage order of imports (data_schema <- nvrq <- annotate <- analysis; commands on top)
-and the command-line entry points' import cost (no deep-learning runtime for ``--help``)."""
+and the command-line entry points' import cost (no deep-learning runtime, plotting, web app
+or SciPy for ``--help``)."""
 
 from __future__ import annotations
 
@@ -36,21 +37,39 @@ def test_no_module_imports_a_later_stage(package):
     assert {k: v for k, v in bad.items() if v} == {}
 
 
-def test_command_line_parsers_load_no_deep_learning_runtime():
-    # `nvrq --help`, `annotate --help` and `analyze --help` build every parser; the heavy
-    # optional packages must stay deferred to the commands that use them
+#: what no ``--help`` may import: deep-learning runtimes, plotting, the web app, the analyses,
+#: and the table and image libraries (pandas alone costs about 0.5 s of CPU)
+HELP_FREE = ("torch", "transformers", "ray", "openvino", "onnxruntime", "matplotlib", "streamlit",
+             "playwright", "ultralytics", "scipy", "sklearn", "pandas", "pyarrow", "cv2")
+
+
+@pytest.mark.parametrize("cli", ["nvrq.cli", "annotate.cli", "analysis.cli"])
+def test_help_imports_no_heavy_package(cli):
+    # `PROG --help` and `PROG COMMAND --help` of every subcommand (issue 29 item 10: --help answers
+    # in under 1 s, benchmarks/bench_cli_help.py times it): torch, matplotlib, streamlit, SciPy,
+    # scikit-learn, pandas and OpenCV are imported by the commands that run them, never for help
     code = (
-        "import sys\n"
-        "import nvrq.cli, annotate.cli, analysis.cli\n"
-        "for m in (nvrq.cli, annotate.cli, analysis.cli): m.build_parser()\n"
-        "heavy = ('torch', 'transformers', 'ray', 'openvino', 'onnxruntime', 'streamlit',"
-        " 'playwright', 'ultralytics')\n"
-        "print(sorted(h for h in heavy if h in sys.modules))\n"
+        "import contextlib, io, sys\n"
+        f"import {cli} as cli\n"
+        "def commands(parser, path=()):\n"  # every (sub)command, nested ones too
+        "    yield path\n"
+        "    for a in parser._actions:\n"
+        "        for name, sub in (a.choices.items() if isinstance(a.choices, dict) else ()):\n"
+        "            if hasattr(sub, '_actions'):\n"
+        "                yield from commands(sub, (*path, name))\n"
+        "names = list(commands(cli.build_parser()))[1:]\n"
+        "for argv in [['--help'], *[[*n, '--help'] for n in names]]:\n"
+        "    with contextlib.redirect_stdout(io.StringIO()) as out:\n"
+        "        assert cli.main(argv) == 0, argv\n"
+        "    assert 'usage:' in out.getvalue(), argv\n"
+        f"print(len(names), sorted(h for h in {HELP_FREE!r} if h in sys.modules))\n"
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT,
-                          timeout=120)
+                          timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
-    assert proc.stdout.strip() == "[]"
+    n, heavy = proc.stdout.strip().split(" ", 1)
+    assert heavy == "[]"
+    assert int(n) >= {"nvrq.cli": 10, "annotate.cli": 6, "analysis.cli": 0}[cli]
 
 
 # --- the module import graph ---------------------------------------------------------------------

@@ -7,7 +7,6 @@ import secrets
 
 from annotate.access import check_serving
 from annotate.commands.serve import add_address_options, base_url
-from annotate.study import load_study
 from data_schema.raters import check_rater_name
 
 __all__ = ["register", "run"]
@@ -16,14 +15,16 @@ __all__ = ["register", "run"]
 def register(sub) -> None:
     """Add ``add-rater`` to the ``annotate`` subcommands ``sub``."""
     a = sub.add_parser("add-rater", help="register a rater and print the sign-in link")
-    a.add_argument("study")
-    a.add_argument("name")
+    a.add_argument("study", metavar="STUDY", help="study folder made by 'annotate build'")
+    a.add_argument("name", metavar="NAME", help="the rater's name (1-40 letters, digits, '.', '_' or '-')")
     add_address_options(a)
     a.set_defaults(func=run)
 
 
 def run(args) -> int:
     """Register ``args.name`` (with a secret token on a token or crowd study) and print its link."""
+    from annotate.study import load_study
+
     study = load_study(args.study)
     name = check_rater_name(args.name)
     base = base_url(args.host, args.port, public_url=args.public_url)

@@ -6,7 +6,13 @@ from __future__ import annotations
 import argparse
 
 from annotate.commands.serve import base_url
-from annotate.study import build_study, load_study
+from annotate.load import (
+    DEFAULT_ITEMS_PER_RATER,
+    SECONDS_PER_VOTE,
+    SESSION_MINUTES,
+    load_text,
+    rater_load,
+)
 from data_schema.errors import InputError
 from data_schema.outputs import check_output_folder
 from nvrq.commands.args import (
@@ -16,48 +22,68 @@ from nvrq.commands.args import (
     allow_negative_lists,
     int_arg,
     parse_wxh,
+    show_progress,
 )
 
 __all__ = ["register", "run"]
+
+
+def _items_per_rater(text: str) -> int | None:
+    """``--items-per-rater``: a positive integer, or ``all`` (None: no cap)."""
+    return None if str(text).strip().lower() == "all" else int_arg()(text)
 
 
 def register(sub) -> None:
     """Add ``build`` to the ``annotate`` subcommands ``sub``."""
     b = sub.add_parser("build", help="build a study folder from a pairs table")
     b.add_argument("study", metavar="STUDY", help="new study folder (absent or empty)")
-    b.add_argument("--pairs", required=True, help="pairs table (docs/FORMATS.md §3)")
-    b.add_argument("--scene", help="scene folder the pairs' image paths are relative to "
+    b.add_argument("--pairs", required=True, metavar="PAIRS", help="pairs table (docs/FORMATS.md §3; required)")
+    b.add_argument("--scene", metavar="SCENE", help="scene folder the pairs' image paths are relative to "
                    "(default: the pairs table's scene_root column)")
     b.add_argument("--metrics-table", dest="metrics_tables", action="append", default=[], metavar="FILE",
-                   help="metrics table (pair_id + metric columns) for the export; repeatable")
+                   help="metrics table (pair_id + metric columns) for the export; repeatable "
+                   "(default: none)")
     b.add_argument("--metrics", dest="metrics_tables", action=DeprecatedFileOption, new="--metrics-table",
                    help=argparse.SUPPRESS)
-    b.add_argument("--tracks", type=int_arg(), default=12)
-    b.add_argument("--frames-per-track", type=int_arg(), default=12)
-    b.add_argument("--offsets", default="all", help="'all' or a comma list of metres, e.g. -1,0,1")
-    b.add_argument("--votes-per-item", type=int_arg(), default=5)
-    b.add_argument("--seed", type=int_arg(low=0), default=0)
-    b.add_argument("--training", type=int_arg(low=0), default=5, help="training items (shown first)")
-    b.add_argument("--gold", type=int_arg(low=0), default=3, help="hidden gold items of each kind")
-    b.add_argument("--repeats", type=int_arg(low=0), default=5, help="repeated test items")
+    b.add_argument("--tracks", type=int_arg(), default=12,
+                   help="tracks, spread over classes and scene attributes (default 12)")
+    b.add_argument("--frames-per-track", type=int_arg(), default=12,
+                   help="frames spread evenly along each track (default 12)")
+    b.add_argument("--offsets", default="all",
+                   help="'all' or a comma list of metres, e.g. -1,0,1 (default all)")
+    b.add_argument("--votes-per-item", type=int_arg(), default=5, help="votes collected per item (default 5)")
+    b.add_argument("--seed", type=int_arg(low=0), default=0, help="seed of every choice (default 0)")
+    b.add_argument("--training", type=int_arg(low=0), default=5,
+                   help="training items, shown first, clearly different ones first (default 5)")
+    b.add_argument("--gold", type=int_arg(low=0), default=3, help="hidden gold items of each kind (default 3)")
+    b.add_argument("--repeats", type=int_arg(low=0), default=5, help="repeated test items (default 5)")
+    b.add_argument("--items-per-rater", type=_items_per_rater, default=DEFAULT_ITEMS_PER_RATER, metavar="N",
+                   help="the most items one rater is given, training, gold and repeats included, or "
+                   f"'all' (default {DEFAULT_ITEMS_PER_RATER}: about {SESSION_MINUTES} min at "
+                   f"{SECONDS_PER_VOTE:g} s per vote)")
     b.add_argument("--size", default="320x320", action=DeprecatedSize, metavar="WxH",
                    help="display size of each crop, a square WxH in pixels (default 320x320)")
-    b.add_argument("--image-format", default="jpg", choices=["jpg", "png"])
+    b.add_argument("--image-format", default="jpg", choices=["jpg", "png"],
+                   help="format of the display crops (default jpg)")
     b.add_argument("--access", default="open", choices=["open", "token", "crowd"],
                    help="open: raters by name, served on this machine only; token: per-rater "
-                   "links (add-rater); crowd: a fresh identity per arrival (docs/FORMATS.md §8)")
+                   "links (add-rater); crowd: a fresh identity per arrival (docs/FORMATS.md §8; "
+                   "default open)")
     b.add_argument("--participant-param", metavar="NAME", help="crowd: the panel's participant id "
-                   "parameter, e.g. PROLIFIC_PID (one identity per participant)")
-    b.add_argument("--completion-url", metavar="URL", help="crowd: shown to a rater who has finished")
+                   "parameter, e.g. PROLIFIC_PID (one identity per participant; default: none)")
+    b.add_argument("--completion-url", metavar="URL", help="crowd: shown to a rater who has finished "
+                   "(default: none)")
     b.add_argument("--public-url", metavar="BASE", help="the address raters will use, for the "
                    "printed admin link (default: annotate serve's own, http://127.0.0.1:8501/)")
-    b.add_argument("--break-every", type=int_arg(), default=50)
+    b.add_argument("--break-every", type=int_arg(), default=50, metavar="N",
+                   help="offer a break every N votes (default 50)")
     b.add_argument("--design", default="binary", choices=["binary", "pairwise"],
                    help="binary: good/bad votes on (GT, render); pairwise: which of two methods' "
-                   "renders is closer to the GT (the pairs need a method column)")
-    b.add_argument("--methods", help="pairwise: comma list of the methods to compare "
+                   "renders is closer to the GT (the pairs need a method column; default binary)")
+    b.add_argument("--methods", metavar="A,B", help="pairwise: comma list of the methods to compare "
                    "(default: every method of the pairs table)")
     add_link_option(b)
+    b.add_argument("--quiet", action="store_true", help="no progress bar (none is drawn off a terminal)")
     allow_negative_lists(b)
     b.set_defaults(func=run)
 
@@ -65,6 +91,8 @@ def register(sub) -> None:
 def run(args) -> int:
     """Build the study; print its item counts and the admin page's link (the only time the
     admin token is printed)."""
+    from annotate.study import build_study, load_study
+
     check_output_folder(args.study, kind="study", option="STUDY",
                         inputs=[args.pairs, *args.metrics_tables, args.scene])
     admin_base = base_url(public_url=args.public_url)
@@ -77,10 +105,14 @@ def run(args) -> int:
                       n_training=args.training, n_gold=args.gold, n_repeats=args.repeats,
                       size=width, image_format=args.image_format, access=args.access,
                       break_every=args.break_every, design=args.design, methods=args.methods,
-                      participant_param=args.participant_param, completion_url=args.completion_url)
+                      participant_param=args.participant_param, completion_url=args.completion_url,
+                      items_per_rater=args.items_per_rater, progress=show_progress(args))
     study = load_study(out)
     counts = ", ".join(f"{v} {k}" for k, v in study.manifest["counts"].items())
     print(f"study {out}: {counts} items")
+    load = rater_load(study.manifest["counts"], items_per_rater=args.items_per_rater,
+                      votes_per_item=args.votes_per_item)
+    print(load_text(load, votes_per_item=args.votes_per_item))
     print(f"admin page: {admin_base}?admin={study.admin_token()} "
           f"(the admin token is printed only now; it is kept in {out / 'secrets.json'})")
     return 0

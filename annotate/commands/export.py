@@ -7,11 +7,9 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from annotate.results import votes_table
-from annotate.study import load_study, unplaced_votes
 from data_schema.errors import InputError
 from data_schema.outputs import check_output_file
-from data_schema.tables import TABLE_SUFFIXES, write_table
+from data_schema.tables import TABLE_SUFFIXES
 
 __all__ = ["register", "run"]
 
@@ -20,10 +18,11 @@ def register(sub) -> None:
     """Add ``export`` to the ``annotate`` subcommands ``sub``."""
     e = sub.add_parser("export", help="write ratings.csv (docs/FORMATS.md §5; a pairwise "
                        "study's votes: §12)")
-    e.add_argument("study")
-    e.add_argument("--out", required=True)
+    e.add_argument("study", metavar="STUDY", help="study folder made by 'annotate build'")
+    e.add_argument("--out", required=True, metavar="RATINGS",
+                   help="the votes table to write (.csv or .parquet; required)")
     e.add_argument("--participants", metavar="FILE", help="also write the crowd raters' panel "
-                   "participant ids: rater_id, participant, arrived_at")
+                   "participant ids: rater_id, participant, arrived_at (default: not written)")
     e.set_defaults(func=run)
 
 
@@ -31,6 +30,10 @@ def run(args) -> int:
     """Write the votes table (and the participants table); on stderr, warn about votes that
     could not be placed and name, per rater, the votes undone and the presses dropped as too
     fast (from the history)."""
+    from annotate.results import votes_table
+    from annotate.study import load_study, unplaced_votes
+    from data_schema.tables import write_table
+
     check_output_file(args.out, inputs=[args.study])
     if args.participants is not None:  # both checked before either is written
         check_output_file(args.participants, inputs=[args.study, args.out], option="participants")

@@ -4,11 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from annotate.results import gvf_table, ratings_table
-from annotate.study import load_study
 from data_schema.errors import InputError
 from data_schema.outputs import check_output_file
-from data_schema.tables import write_table
 
 __all__ = ["register", "run"]
 
@@ -16,13 +13,17 @@ __all__ = ["register", "run"]
 def register(sub) -> None:
     """Add ``gvf`` to the ``annotate`` subcommands ``sub``."""
     g = sub.add_parser("gvf", help="per-item good-vote fraction of test items")
-    g.add_argument("study")
-    g.add_argument("--out")
+    g.add_argument("study", metavar="STUDY", help="study folder made by 'annotate build' (good/bad design)")
+    g.add_argument("--out", metavar="FILE", help="table to write (.csv or .parquet; default: print it)")
     g.set_defaults(func=run)
 
 
 def run(args) -> int:
     """Write the GVF table to ``args.out``, or print it when no ``--out`` is given."""
+    from annotate.results import gvf_table, ratings_table
+    from annotate.study import load_study
+    from data_schema.tables import write_table
+
     if args.out:
         check_output_file(args.out, inputs=[args.study])
     study = load_study(args.study)

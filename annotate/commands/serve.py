@@ -35,7 +35,6 @@ from urllib.parse import urlsplit
 
 from annotate.access import check_serving
 from annotate.proxy_conf import PROXIES, proxy_conf
-from annotate.study import load_study
 from annotate.workers import supervise, worker_ports
 from data_schema.errors import InputError
 from nvrq.commands.args import int_arg
@@ -152,10 +151,13 @@ def add_address_options(p) -> None:
     p : argparse.ArgumentParser
         The parser of ``serve``, or of ``add-rater`` (its sign-in links).
     """
-    p.add_argument("--host", default=DEFAULT_HOST)
-    p.add_argument("--port", type=int_arg(high=65535), default=DEFAULT_PORT)
+    p.add_argument("--host", default=DEFAULT_HOST,
+                   help=f"address the rater app listens on (default {DEFAULT_HOST}: this machine only)")
+    p.add_argument("--port", type=int_arg(high=65535), default=DEFAULT_PORT,
+                   help=f"port of the rater app (default {DEFAULT_PORT})")
     p.add_argument("--public-url", metavar="BASE", help="the address raters use (e.g. a TLS reverse "
-                   "proxy's https://study.example.org/): the base of every printed link")
+                   "proxy's https://study.example.org/): the base of every printed link (default: "
+                   "http://HOST:PORT/)")
 
 
 def links(study, base: str) -> list[str]:
@@ -187,7 +189,7 @@ def links(study, base: str) -> list[str]:
 def register(sub) -> None:
     """Add ``serve`` to the ``annotate`` subcommands ``sub``."""
     s = sub.add_parser("serve", help="serve the rater app (Streamlit)")
-    s.add_argument("study")
+    s.add_argument("study", metavar="STUDY", help="study folder made by 'annotate build'")
     add_address_options(s)
     add_worker_options(s)
     s.set_defaults(func=run)
@@ -215,6 +217,8 @@ def serve_workers(study_root: Path, args, env: dict) -> int:
 
 def run(args) -> int:
     """Replace this process with the Streamlit server of ``args.study`` (see the module docstring)."""
+    from annotate.study import load_study
+
     study = load_study(args.study)  # fail here, not in the browser
     base = base_url(args.host, args.port, public_url=args.public_url)
     check_serving(study.manifest["access"], host=args.host, public_url=args.public_url)

@@ -15,7 +15,7 @@ of argument:
 - **Numbers** are checked when the command line is parsed (``type=int_arg(...)`` /
   ``number_arg(...)``), before any file is read or model loaded: ``--batch-size 0`` ends at once.
 - **Defaults shared by commands** come from one constant (e.g. ``--min-side`` from
-  :data:`data_schema.tables.MIN_SIDE_PX`).
+  :data:`data_schema.defaults.MIN_SIDE_PX`).
 
 Old spellings keep working and print one ``note:`` line on stderr saying the new one.
 
@@ -40,7 +40,7 @@ import sys
 from data_schema.errors import InputError, check_int, check_number
 from data_schema.text import comma_list
 
-__all__ = ["ArgumentParser", "command_parser", "run_cli", "parse_wxh", "CommaList", "DeprecatedFileOption", "DeprecatedSize",
+__all__ = ["ArgumentParser", "command_parser", "run_cli", "add_version", "show_progress", "parse_wxh", "CommaList", "DeprecatedFileOption", "DeprecatedSize",
            "deprecated", "allow_negative_lists", "NEGATIVE_LIST", "option_for", "flags_in_errors",
            "add_link_option", "int_arg", "number_arg", "checked_arg"]
 
@@ -48,12 +48,28 @@ __all__ = ["ArgumentParser", "command_parser", "run_cli", "parse_wxh", "CommaLis
 NEGATIVE_LIST = re.compile(r"^-\d*\.?\d+([x,]\s*[-+]?\d*\.?\d+)*$")
 
 
+class _HelpFormatter(argparse.HelpFormatter):
+    """argparse's formatter, except that a comma-list option that still takes the deprecated
+    space-separated form (:class:`CommaList` with ``nargs='+'``) is shown as the one list it
+    is: ``--lower-better A,B``, not ``--lower-better A,B [A,B ...]``."""
+
+    def _format_args(self, action, default_metavar):
+        if isinstance(action, CommaList) and action.nargs == "+":
+            return self._metavar_formatter(action, default_metavar)(1)[0]
+        return super()._format_args(action, default_metavar)
+
+
 class ArgumentParser(argparse.ArgumentParser):
     """``argparse.ArgumentParser`` whose usage errors are one stderr line and exit status 2.
 
     Subparsers made with ``add_subparsers`` inherit the class, so every subcommand of a CLI
-    built on it reports a bad argument the same way as bad input (docs/FORMATS.md §7).
+    built on it reports a bad argument the same way as bad input (docs/FORMATS.md §7). Its help
+    shows a comma list as one ``A,B`` value (:class:`CommaList`).
     """
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("formatter_class", _HelpFormatter)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str):
         """Print ``error: PROG: MESSAGE (see PROG --help)`` as one line and exit with status 2.
@@ -91,10 +107,47 @@ def command_parser(prog: str, description: str, modules) -> ArgumentParser:
         The parser; the chosen subcommand's name is ``args.command``.
     """
     parser = ArgumentParser(prog=prog, description=description)
+    add_version(parser)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in modules:
         importlib.import_module(name).register(sub)  # a missing module is an install error
     return parser
+
+
+def add_version(parser: argparse.ArgumentParser) -> None:
+    """Add ``--version`` (prints ``PROG VERSION``, the toolkit's version, and exits 0).
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        A program's top-level parser (``nvrq``, ``annotate``, ``analyze``).
+    """
+    from nvrq import __version__  # the package's own attribute: nothing heavy is imported
+
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}",
+                        help="print the program's version and exit")
+
+
+def show_progress(args) -> bool:
+    """Whether a command draws progress bars: not asked to be ``--quiet`` and standard error is
+    a terminal (a log file or a pipe gets no bar redrawn line by line).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed arguments (a command without ``--quiet`` counts as not quiet).
+
+    Returns
+    -------
+    bool
+
+    >>> import argparse, io, contextlib
+    >>> with contextlib.redirect_stderr(io.StringIO()):
+    ...     show_progress(argparse.Namespace(quiet=False))
+    False
+    """
+    stream = sys.stderr
+    return not getattr(args, "quiet", False) and bool(getattr(stream, "isatty", lambda: False)())
 
 
 def run_cli(main, argv=None) -> int:

@@ -5,13 +5,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from data_schema.tables import read_table
 from nvrq.commands.args import add_link_option, int_arg, number_arg
 from nvrq.commands.model_options import add_cache_dir_argument
-from nvrq.encoders import build_random, get_spec, load_encoder
-from nvrq.encoders.drift import DEFAULT_MIN_SPEARMAN, check_runtime, pair_inputs, write_record
+from nvrq.encoders import get_spec
 from nvrq.encoders.runtimes import PRECISIONS
-from nvrq.scoring.driver import REQUIRED_COLUMNS
 
 __all__ = ["register", "run"]
 
@@ -43,6 +40,11 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from data_schema.tables import read_table
+    from nvrq.encoders import build_random, load_encoder
+    from nvrq.encoders.drift import DEFAULT_MIN_SPEARMAN, check_runtime, pair_inputs, write_record
+    from nvrq.scoring.driver import REQUIRED_COLUMNS
+
     spec = get_spec(args.encoder)
     name = spec.name
     pairs = read_table(args.pairs, required=REQUIRED_COLUMNS, what="pairs table")

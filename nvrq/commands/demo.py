@@ -18,8 +18,6 @@ from importlib.metadata import distribution
 from pathlib import Path
 
 from data_schema.errors import InputError
-from data_schema.methods import parse_methods
-from data_schema.tables import parse_offsets
 from nvrq.commands.args import allow_negative_lists, int_arg, number_arg, parse_wxh
 from nvrq.encoders import get_spec
 
@@ -45,6 +43,10 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
+#: the demo's simulated raters each rate every item (a human's share is capped by default)
+_EVERY_ITEM = ("--items-per-rater", "all")
+
+
 def method_steps(out: Path, args) -> list[tuple[str, list[str]]]:
     """The ``--methods`` demo as (program, argv) steps, in order."""
     scene, pairs, metrics = out / "scene", out / "pairs.csv", out / "metrics.csv"
@@ -58,7 +60,7 @@ def method_steps(out: Path, args) -> list[tuple[str, list[str]]]:
         ("analyze", ["--pairs", str(pairs), "--metrics-table", str(metrics), "--compare-methods",
                      "--by", "class,offset", "--out", str(out / "leaderboard")]),
         ("annotate", ["build", str(study), "--pairs", str(pairs), "--metrics-table", str(metrics),
-                      "--design", "pairwise", "--seed", str(args.seed)]),
+                      "--design", "pairwise", "--seed", str(args.seed), *_EVERY_ITEM]),
         ("annotate", ["simulate", str(study), "--raters", str(args.raters), "--seed", str(args.seed)]),
         ("annotate", ["export", str(study), "--out", str(votes)]),
         ("analyze", [str(votes), "--metrics-table", str(metrics), "--out", str(out / "pairwise")]),
@@ -83,7 +85,7 @@ def demo_steps(out: Path, args) -> list[tuple[str, list[str]]]:
         ("nvrq", ["score", str(pairs), "--out", str(torch_metrics), "--metrics", "nvrq",
                   "--encoder", args.encoder, "--runtime", "torch", "--column-tag", "torch"]),
         ("annotate", ["build", str(study), "--pairs", str(pairs), "--metrics-table", str(metrics),
-                      "--seed", str(args.seed)]),
+                      "--seed", str(args.seed), *_EVERY_ITEM]),
         ("annotate", ["simulate", str(study), "--raters", str(args.raters), "--seed", str(args.seed)]),
         ("annotate", ["export", str(study), "--out", str(ratings)]),
         ("analyze", [str(ratings), "--timing", str(out / "metrics.timing.csv"), "--metrics-table", str(torch_metrics),
@@ -104,6 +106,9 @@ def _entry(program: str):
 
 
 def run(args) -> int:
+    from data_schema.methods import parse_methods
+    from data_schema.tables import parse_offsets
+
     out = Path(args.out)
     # the arguments the steps pass on are checked before the first step (numbers when parsed)
     parse_wxh(args.size, option="--size")

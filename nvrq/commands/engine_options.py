@@ -7,13 +7,9 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from data_schema import datasets as ds
 from data_schema.errors import InputError
-from data_schema.tables import timing_path
-from nvrq.commands.args import int_arg
+from nvrq.commands.args import int_arg, show_progress
 from nvrq.engines import ENGINES
-from nvrq.engines.ray_engine import RayJob, score_on_ray
-from nvrq.scoring.driver import empty_column_warning
 
 __all__ = ["add_engine_args", "check_engine_args", "sharded_output", "report_sharded", "run_ray"]
 
@@ -58,6 +54,8 @@ def sharded_output(args, *, local_datasets: bool = False) -> bool:
         True with ``--engine ray``, and on the local engine for a pairs dataset when
         ``local_datasets``.
     """
+    from data_schema import datasets as ds
+
     return args.engine == "ray" or (local_datasets and ds.is_dataset(args.pairs))
 
 
@@ -113,6 +111,8 @@ def report_sharded(res: dict, out, *, engine: str) -> None:
         if res["shards_done_before"] else ""
     print(f"{done}scored {res['pairs_scored']} pairs in {res['seconds']:.1f} s on {engine} -> {out}",
           file=sys.stderr)
+    from nvrq.scoring.driver import empty_column_warning
+
     for metric in res.get("empty_columns", ()):
         print(empty_column_warning(metric, res["pairs"]), file=sys.stderr)
 
@@ -133,9 +133,11 @@ def run_ray(args, scorer) -> int:
     int
         The exit status, 0.
     """
+    from data_schema.tables import timing_path
+    from nvrq.engines.ray_engine import RayJob, score_on_ray
 
     job = RayJob(pairs=str(args.pairs), out=str(args.out), scorer=scorer, shard_pairs=args.shard_pairs,
-                 actors=args.actors, progress=not args.quiet)
+                 actors=args.actors, progress=show_progress(args))
     res = score_on_ray(job, timing_path=timing_path(args.out), address=args.address)
     report_sharded(res, args.out, engine="Ray")
     return 0

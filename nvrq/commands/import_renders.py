@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from nvrq.sources.renders import LAYOUTS, import_renders
+from nvrq.choices import LAYOUTS
 
 __all__ = ["register_renders"]
 
@@ -37,6 +37,8 @@ def register_renders(kinds) -> None:
 
 
 def _run(args) -> int:
+    from nvrq.sources.renders import import_renders
+
     result = import_renders(args.scene, args.render_dir, method=args.method, layout=args.layout,
                             allow_missing=args.allow_missing, link=args.link,
                             existing_method=args.existing_method)

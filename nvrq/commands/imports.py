@@ -7,14 +7,10 @@ import sys
 from pathlib import Path
 
 from data_schema.text import comma_list
-from nvrq.clip_attributes import read_clip_attributes
 from nvrq.commands.args import number_arg
 from nvrq.commands.import_renders import register_renders
-from nvrq.commands.synth import add_view_options, parse_offsets, perturb_grid
-from nvrq.sources.drivestudio import read_drivestudio, write_drivestudio
+from nvrq.commands.synth import add_view_options, perturb_grid
 from nvrq.sources.drivestudio_meta import DATASETS
-from nvrq.sources.kitti import import_kitti
-from nvrq.sources.nurec import import_nurec
 
 __all__ = ["register"]
 
@@ -76,9 +72,12 @@ def register(sub) -> None:
 
 
 def _run_nurec(args) -> int:
+    from nvrq.clip_attributes import read_clip_attributes
+    from nvrq.sources.nurec import import_nurec
+
     attributes = read_clip_attributes(args.clip_attributes) if args.clip_attributes else None
     out = import_nurec(
-        args.archive, args.out, offsets=parse_offsets(args.offsets), sequence=args.sequence,
+        args.archive, args.out, offsets=_parse_offsets(args.offsets), sequence=args.sequence,
         perturbations=perturb_grid(args), clip_attributes=attributes,
     )
     print(f"wrote {out}")
@@ -86,13 +85,17 @@ def _run_nurec(args) -> int:
 
 
 def _run_kitti(args) -> int:
+    from nvrq.sources.kitti import import_kitti
+
     out = import_kitti(Path(args.kitti_root), args.frame, Path(args.out))
     print(f"wrote {out}")
     return 0
 
 
 def _run_drivestudio(args) -> int:
-    offsets, perturbations = parse_offsets(args.offsets), perturb_grid(args)
+    from nvrq.sources.drivestudio import read_drivestudio, write_drivestudio
+
+    offsets, perturbations = _parse_offsets(args.offsets), perturb_grid(args)
     cameras = None if args.cameras is None else comma_list(args.cameras)
     ds = read_drivestudio(args.scene_dir, dataset=args.dataset, fps=args.fps, cameras=cameras)
     for note in ds.notes:
@@ -102,3 +105,10 @@ def _run_drivestudio(args) -> int:
     print(f"wrote {out} ({ds.dataset}: {n_frames} frames at {ds.fps:g} Hz x {len(ds.cameras)} cameras, "
           f"{len(ds.doc['tracks'])} tracks)")
     return 0
+
+
+def _parse_offsets(text, **kw):
+    """:func:`data_schema.tables.parse_offsets` (imported here: pandas is not needed for ``--help``)."""
+    from data_schema.tables import parse_offsets
+
+    return parse_offsets(text, **kw)

@@ -10,16 +10,17 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 from data_schema.errors import InputError
 from data_schema.text import comma_list
-from nvrq import encoders
-from nvrq.calibrate import require_tau
 from nvrq.commands.args import checked_arg, int_arg, number_arg
-from nvrq.encoders import EncoderConfig, get_spec
-from nvrq.encoders.runtimes import PRECISIONS, RUNTIMES, check_runtime_combo
+from nvrq.encoders import get_spec
+from nvrq.encoders.runtimes import PRECISIONS, RUNTIMES
 from nvrq.metrics.formulas import check_tau
-from nvrq.metrics.resolve import encoder_columns, encoder_for_metrics, needs_tau, resolve_metrics
+
+if TYPE_CHECKING:  # the encoder registry imports OpenCV: not for --help
+    from nvrq.encoders import EncoderConfig
 
 __all__ = ["check_model_options", "add_model_arguments", "add_encoder_arguments", "prepare_device",
            "encoder_options", "command_tau", "load_encoder_and_tau", "add_runtime_arguments",
@@ -70,6 +71,8 @@ def add_cache_dir_argument(p) -> None:
 def check_model_options(args) -> None:
     """A model command's ``--runtime``/``--precision``/``--device`` combination
     (:func:`nvrq.encoders.runtimes.check_runtime_combo`), before anything is read or loaded."""
+    from nvrq.encoders.runtimes import check_runtime_combo
+
     if hasattr(args, "runtime"):
         check_runtime_combo(args.runtime, getattr(args, "precision", "fp32"), str(getattr(args, "device", "cpu")))
 
@@ -93,6 +96,8 @@ def command_tau(name: str, args) -> float:
     """The tau of encoder ``name`` for a command with ``--tau``/``--config``
     (:func:`nvrq.calibrate.require_tau`, before the model loads), reported on stderr with where it
     came from (``--tau``, the config file or the registry)."""
+    from nvrq.calibrate import require_tau
+
     tau, source = require_tau(name, tau=args.tau, config=args.config)
     print(f"tau = {tau:.3f} for {name} (from {'--tau' if source == 'argument' else source})", file=sys.stderr)
     return tau
@@ -103,6 +108,8 @@ def encoder_options(args, name: str | None = None) -> EncoderConfig:
     :func:`add_encoder_arguments`: encoder ``name`` (default ``--encoder``, else the registry
     default) with ``--weights``, ``--device``, ``--runtime``, ``--precision``, ``--threads``,
     ``--cache-dir`` and ``--min-spearman``."""
+    from nvrq.encoders import EncoderConfig
+
     name = get_spec(name or args.encoder).name
     return EncoderConfig(name, weights=args.weights, device=args.device, runtime=args.runtime,
                          precision=args.precision, threads=args.threads, cache_dir=args.cache_dir,
@@ -113,6 +120,8 @@ def load_encoder_and_tau(args, *, needs_tau: bool, name: str | None = None):
     """``(encoder, tau)`` for a command built with :func:`add_encoder_arguments`: the encoder of
     :func:`encoder_options`; ``tau`` from ``--tau``, the config (``--config``) or the registry
     when ``needs_tau``, else ``None``."""
+    from nvrq import encoders
+
     cfg = encoder_options(args, name)
     tau = command_tau(cfg.name, args) if needs_tau else None
     prepare_device(args)
@@ -123,6 +132,8 @@ def load_encoder_and_tau(args, *, needs_tau: bool, name: str | None = None):
 def metric_columns(args) -> tuple[list[str], str]:
     """``(columns, encoder name)`` of ``--metrics`` and ``--encoder``: the encoder as
     :func:`encoder_for_metrics` picks it, the columns as :func:`nvrq.metrics.resolve_metrics`."""
+    from nvrq.metrics.resolve import encoder_for_metrics, resolve_metrics
+
     raw = comma_list(args.metrics)
     name = encoder_for_metrics(raw, args.encoder)
     return resolve_metrics(raw, name), name
@@ -131,6 +142,8 @@ def metric_columns(args) -> tuple[list[str], str]:
 def encoder_for_columns(args, columns: Sequence[str], name: str):
     """``(encoder, tau)`` that ``columns`` need (:func:`load_encoder_and_tau`), ``(None, None)``
     when no column needs an encoder."""
+    from nvrq.metrics.resolve import encoder_columns, needs_tau
+
     if not encoder_columns(columns):
         return None, None
     return load_encoder_and_tau(args, needs_tau=needs_tau(columns), name=name)

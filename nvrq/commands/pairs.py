@@ -7,11 +7,9 @@ import sys
 import time
 from pathlib import Path
 
+from data_schema.defaults import MIN_SIDE_PX
 from data_schema.errors import InputError
-from data_schema.tables import MIN_SIDE_PX, write_table
-from nvrq.clip_attributes import read_clip_attributes
-from nvrq.commands.args import add_link_option, number_arg
-from nvrq.fleet import clip_pairs, find_scenes, fleet_pairs
+from nvrq.commands.args import add_link_option, number_arg, show_progress
 
 __all__ = ["register", "run"]
 
@@ -37,12 +35,16 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from data_schema.tables import write_table
+    from nvrq.clip_attributes import read_clip_attributes
+    from nvrq.fleet import clip_pairs
+
     t0 = time.perf_counter()
     attributes = read_clip_attributes(args.clip_attributes) if args.clip_attributes else None
     if _is_fleet(args):
         return _run_fleet(args, attributes, t0)
     _, pairs, stats = clip_pairs(args.scene[0], attributes=attributes, min_side=args.min_side,
-                                 min_area=args.min_area, progress=not args.quiet)
+                                 min_area=args.min_area, progress=show_progress(args))
     write_table(pairs, args.out)
     print(f"{stats.summary()} -> {args.out} ({time.perf_counter() - t0:.1f} s)")
     return 0
@@ -62,8 +64,10 @@ def _is_fleet(args) -> bool:
 
 
 def _run_fleet(args, attributes, t0) -> int:
+    from nvrq.fleet import find_scenes, fleet_pairs
+
     res = fleet_pairs(find_scenes(args.scene), args.out, min_side=args.min_side, min_area=args.min_area,
-                      attributes=attributes, keep_going=args.keep_going, progress=not args.quiet)
+                      attributes=attributes, keep_going=args.keep_going, progress=show_progress(args))
     for clip, reason in res.failed:
         print(f"failed: {clip}: {reason}", file=sys.stderr)
     print(f"{res.summary()} -> {args.out} ({time.perf_counter() - t0:.1f} s)")

@@ -11,28 +11,13 @@ from __future__ import annotations
 import time
 
 from data_schema.errors import InputError
-from data_schema.tables import (
-    GT_BOX_COLUMNS,
-    RENDER_BOX_COLUMNS,
-    read_table,
-    timing_path,
-    write_table,
-)
-from nvrq.commands.args import add_link_option, int_arg
+from nvrq.commands.args import add_link_option, int_arg, show_progress
 from nvrq.commands.engine_options import add_engine_args, check_engine_args, run_ray
 from nvrq.commands.model_options import add_model_arguments, add_runtime_arguments, prepare_device
-from nvrq.engines.scorers import ClipScorer, ImagenetScorer
-from nvrq.proxies import load_class_maps
-from nvrq.proxies.classifier_drop import imagenet_drop, load_classifier
-from nvrq.proxies.clip_drop import clip_drop, load_clip, true_category_index
-from nvrq.proxies.detection import detection_confidence, read_detections
-from nvrq.proxies.yolo import run_yolo
-from nvrq.scoring.driver import runtime_timing, timing_table
 
 __all__ = ["register"]
 
 #: the GT image and box columns the confidence-drop proxies read besides the render's
-GT_BOX = ("gt_path", *GT_BOX_COLUMNS)
 
 
 def _common(p) -> None:
@@ -126,11 +111,17 @@ def _check_out(out) -> None:
 
 
 def _read_pairs(path, extra=()):
+    from data_schema.tables import RENDER_BOX_COLUMNS, read_table
+
     need = ("pair_id", "label_class", "render_path", *RENDER_BOX_COLUMNS, *extra)
     return read_table(path, required=need, what="pairs table")
 
 
 def run_detection(args) -> int:
+    from data_schema.tables import write_table
+    from nvrq.proxies import load_class_maps
+    from nvrq.proxies.detection import detection_confidence, read_detections
+
     _check_out(args.out)
     maps = load_class_maps(args.class_map)
     pairs = _read_pairs(args.pairs)
@@ -141,6 +132,9 @@ def run_detection(args) -> int:
 
 
 def run_detect(args) -> int:
+    from data_schema.tables import write_table
+    from nvrq.proxies.yolo import run_yolo
+
     _check_out(args.out)
     pairs = _read_pairs(args.pairs)
     prepare_device(args)
@@ -150,7 +144,7 @@ def run_detect(args) -> int:
         scene_root=args.scene,
         device=args.device,
         imgsz=args.imgsz,
-        progress=not args.quiet,
+        progress=show_progress(args),
         where=str(args.pairs),
     )
     write_table(dets, args.out)
@@ -161,11 +155,15 @@ def _run_drop(args, kind: str, score) -> int:
     """One confidence-drop proxy: Ray engine, or ``score(pairs, maps, timings) -> (table, model)``
     here, written to ``--out`` with its timing file beside it, as ``nvrq score`` writes one
     (``PROXY.timing.csv``, docs/FORMATS.md §8), so the report's speed chart places the proxy."""
+    from data_schema.tables import GT_BOX_COLUMNS, timing_path, write_table
+    from nvrq.proxies import load_class_maps
+    from nvrq.scoring.driver import runtime_timing, timing_table
+
     if args.engine == "ray":
         return _ray_proxy(args, kind)
     _check_out(args.out)
     maps = load_class_maps(args.class_map) if kind == "clip" else None
-    pairs = _read_pairs(args.pairs, GT_BOX)
+    pairs = _read_pairs(args.pairs, ("gt_path", *GT_BOX_COLUMNS))
     times: dict = {}
     t0 = time.perf_counter()
     out, model = score(pairs, maps, times)
@@ -179,17 +177,21 @@ def _run_drop(args, kind: str, score) -> int:
 
 
 def run_imagenet(args) -> int:
+    from nvrq.proxies.classifier_drop import imagenet_drop, load_classifier
+
     def score(pairs, _maps, timings):
         prepare_device(args)
         clf = load_classifier(args.classifier, weights=args.weights, device=args.device,
                               **_runtime_kwargs(args))
         return imagenet_drop(pairs, clf, scene_root=args.scene, batch_size=args.batch_size,
-                             progress=not args.quiet, where=str(args.pairs), timings=timings), clf
+                             progress=show_progress(args), where=str(args.pairs), timings=timings), clf
 
     return _run_drop(args, "imagenet", score)
 
 
 def run_clip(args) -> int:
+    from nvrq.proxies.clip_drop import clip_drop, load_clip, true_category_index
+
     def score(pairs, maps, timings):
         # unknown classes fail before the model loads
         true_category_index(pairs["label_class"], maps["clip_category"],
@@ -198,7 +200,7 @@ def run_clip(args) -> int:
         clip = load_clip(args.clip, prompts=maps["clip_prompts"], device=args.device,
                          **_runtime_kwargs(args))
         return clip_drop(pairs, clip, category_map=maps["clip_category"], scene_root=args.scene,
-                         batch_size=args.batch_size, progress=not args.quiet,
+                         batch_size=args.batch_size, progress=show_progress(args),
                          where=str(args.pairs), timings=timings), clip
 
     return _run_drop(args, "clip", score)
@@ -210,6 +212,9 @@ def _runtime_kwargs(args) -> dict:
 
 def _ray_proxy(args, kind: str) -> int:
     """``--engine ray``: the same proxy per crop batch on a Ray cluster (nvrq.engines.scorers)."""
+    from nvrq.engines.scorers import ClipScorer, ImagenetScorer
+    from nvrq.proxies import load_class_maps
+
     check_engine_args(args)
     if kind == "imagenet":
         scorer = ImagenetScorer(args.classifier, weights=args.weights, device=args.device,

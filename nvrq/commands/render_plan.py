@@ -3,12 +3,10 @@
 
 from __future__ import annotations
 
-from data_schema.methods import check_method_name
-from data_schema.scene import load_scene
 from data_schema.text import comma_list
+from nvrq.choices import PLAN_FORMATS, WORLDS
 from nvrq.commands.args import add_link_option
-from nvrq.commands.synth import add_view_options, parse_offsets, perturb_grid
-from nvrq.render_plans import PLAN_FORMATS, WORLDS, plan_format, render_plan, write_render_plan
+from nvrq.commands.synth import add_view_options, perturb_grid
 
 __all__ = ["register", "run"]
 
@@ -40,8 +38,12 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from data_schema.methods import check_method_name
+    from data_schema.scene import load_scene
+    from nvrq.render_plans import plan_format, render_plan, write_render_plan
+
     plan_format(args.out, args.format)  # the arguments before the scene is read
-    offsets = None if args.offsets is None else parse_offsets(args.offsets, field="--offsets")
+    offsets = None if args.offsets is None else _parse_offsets(args.offsets, field="--offsets")
     views = perturb_grid(args)
     if args.method is not None:
         check_method_name(args.method, where="method", field=None)
@@ -53,3 +55,10 @@ def run(args) -> int:
     world = "" if args.world == "scene" else f" (poses in the {args.world} world)"
     print(f"{len(plan)} renders -> {args.out}{world}")
     return 0
+
+
+def _parse_offsets(text, **kw):
+    """:func:`data_schema.tables.parse_offsets` (imported here: pandas is not needed for ``--help``)."""
+    from data_schema.tables import parse_offsets
+
+    return parse_offsets(text, **kw)

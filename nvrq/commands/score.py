@@ -4,13 +4,11 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import cv2
-
-from data_schema.datasets import is_dataset
 from data_schema.errors import InputError
-from data_schema.tables import read_table, timing_path, write_table
-from nvrq.commands.args import add_link_option
+from nvrq.choices import DEFAULT_METRICS
+from nvrq.commands.args import add_link_option, show_progress
 from nvrq.commands.engine_options import add_engine_args, check_engine_args, report_sharded, run_ray
 from nvrq.commands.model_options import (
     add_encoder_arguments,
@@ -20,11 +18,9 @@ from nvrq.commands.model_options import (
     load_encoder_and_tau,
     metric_columns,
 )
-from nvrq.engines.local import score_dataset
-from nvrq.engines.scorers import MetricScorer
-from nvrq.metrics.registry import DEFAULT_METRICS
-from nvrq.metrics.resolve import encoder_columns, needs_tau
-from nvrq.scoring.driver import REQUIRED_COLUMNS, empty_column_warnings, runtime_timing, score_pairs
+
+if TYPE_CHECKING:
+    from nvrq.engines.scorers import MetricScorer
 
 __all__ = ["register", "run", "runtime_columns", "column_renames"]
 
@@ -54,6 +50,12 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    import cv2
+
+    from data_schema.datasets import is_dataset
+    from data_schema.tables import read_table, timing_path, write_table
+    from nvrq.scoring.driver import REQUIRED_COLUMNS, score_pairs
+
     columns, encoder_name = metric_columns(args)
     check_engine_args(args, local_datasets=True)
     if args.engine == "ray":
@@ -67,7 +69,7 @@ def run(args) -> int:
     cv2.setNumThreads(1)  # crops are small; leave the cores to the encoder and the decode thread
     res = score_pairs(pairs, metrics=columns, encoder=encoder, tau=tau, scene_root=args.scene,
                       base=Path(args.pairs).resolve().parent, batch_size=args.batch_size,
-                      progress=not args.quiet, where=str(args.pairs))
+                      progress=show_progress(args), where=str(args.pairs))
     table, timing = runtime_columns(res.table, res.timing, encoder, tag=args.column_tag)
     write_table(table, args.out)
     tpath = write_table(timing, timing_path(args.out))
@@ -90,17 +92,23 @@ def _report(res, *, uses_encoder: bool, file) -> None:
     print(msg, file=file)
     for row in (res.undefined.itertuples(index=False) if res.undefined is not None else ()):
         print(f"{row.metric}: {row.pairs} of {res.n_pairs} pairs NaN ({row.reason})", file=file)
+    from nvrq.scoring.driver import empty_column_warnings
+
     for line in empty_column_warnings(res.undefined, res.n_pairs):
         print(line, file=file)
 
 
 def _scorer(args, columns, encoder_name, tau) -> MetricScorer:
     """What a sharded run computes; its ``options()`` go to ``_plan.json`` (either engine)."""
+    from nvrq.engines.scorers import MetricScorer
+
     return MetricScorer(tuple(columns), encoder=encoder_options(args, encoder_name), tau=tau,
                         batch_size=args.batch_size)
 
 
 def _ray(args, columns, encoder_name) -> int:
+    from nvrq.metrics.resolve import needs_tau
+
     tau = command_tau(encoder_name, args) if needs_tau(columns) else None
     return run_ray(args, _scorer(args, columns, encoder_name, tau))
 
@@ -108,6 +116,12 @@ def _ray(args, columns, encoder_name) -> int:
 def _local_dataset(args, columns, encoder_name) -> int:
     """A pairs dataset on the local engine: the Ray engine's sharded output and resume, scored
     shard by shard in this process (:func:`nvrq.engines.local.score_dataset`)."""
+    import cv2
+
+    from data_schema.tables import timing_path
+    from nvrq.engines.local import score_dataset
+    from nvrq.metrics.resolve import encoder_columns, needs_tau
+
     tau = command_tau(encoder_name, args) if needs_tau(columns) else None
     rename = column_renames(columns, tag=args.column_tag, precision=args.precision)
     options = _scorer(args, columns, encoder_name, tau).options()
@@ -120,7 +134,7 @@ def _local_dataset(args, columns, encoder_name) -> int:
     res = score_dataset(args.pairs, args.out, metrics=columns, options=options,
                         timing_path=timing_path(args.out), load_encoder=load if encoder_columns(columns) else None,
                         tau=tau, batch_size=args.batch_size, shard_pairs=args.shard_pairs, rename=rename,
-                        progress=not args.quiet)
+                        progress=show_progress(args))
     report_sharded(res, args.out, engine="the local engine")
     return 0
 
@@ -132,6 +146,8 @@ def column_renames(columns, *, tag: str | None, precision: str) -> dict[str, str
     >>> column_renames(["psnr", "nvrq:e"], tag=None, precision="int8")
     {'nvrq:e': 'nvrq:e@int8'}
     """
+    from nvrq.metrics.resolve import encoder_columns
+
     tag = tag if tag is not None else (precision if precision != "fp32" else None)
     return {c: f"{c}@{tag}" for c in encoder_columns(columns)} if tag else {}
 
@@ -140,6 +156,8 @@ def runtime_columns(table, timing, encoder, *, tag: str | None):
     """Tag encoder columns (``nvrq:E`` -> ``nvrq:E@TAG``) and add ``runtime, precision,
     threads, device`` to the timing rows (empty runtime/precision for encoder-free metrics,
     which run in the one decode thread)."""
+    from nvrq.metrics.resolve import encoder_columns
+    from nvrq.scoring.driver import runtime_timing
 
     timing = timing.copy()
     enc_cols = encoder_columns(timing["metric"].tolist())

@@ -11,12 +11,11 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from data_schema.defaults import MIN_SIDE_PX
 from data_schema.errors import InputError
 from data_schema.outputs import mark_report
-from data_schema.tables import GT_BOX_COLUMNS, MIN_SIDE_PX, read_table, write_table
-from nvrq.commands.args import add_link_option, int_arg
+from nvrq.commands.args import add_link_option, int_arg, show_progress
 from nvrq.commands.model_options import add_encoder_arguments, encoder_for_columns, metric_columns
-from nvrq.stability import plot_stability, run_stability
 
 __all__ = ["register", "run"]
 
@@ -48,20 +47,23 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-_PAIRS_COLUMNS = ("pair_id", "clip_id", "camera", "track_id", "timestamp_us", "gt_path", *GT_BOX_COLUMNS)
 
 
 def run(args) -> int:
+    from data_schema.tables import GT_BOX_COLUMNS, read_table, write_table
+    from nvrq.stability import plot_stability, run_stability  # SciPy, matplotlib: not for --help
+
     columns, encoder_name = metric_columns(args)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise InputError(out, None, "an output directory", "an existing file")
-    pairs = read_table(args.pairs, required=_PAIRS_COLUMNS, what="pairs table")
+    pairs = read_table(args.pairs, required=("pair_id", "clip_id", "camera", "track_id", "timestamp_us",
+                                             "gt_path", *GT_BOX_COLUMNS), what="pairs table")
     encoder, tau = encoder_for_columns(args, columns, encoder_name)
     samples, stab, snr = run_stability(
         pairs, metrics=columns, encoder=encoder, tau=tau, n_objects=args.n_objects,
         seed=args.seed, min_side=args.min_side, batch_size=args.batch_size,
-        progress=not args.quiet, where=str(args.pairs))
+        progress=show_progress(args), where=str(args.pairs))
     out.mkdir(parents=True, exist_ok=True)
     mark_report(out)  # a report folder of ours: a later run may replace it
     write_table(samples, out / "samples.csv")

@@ -3,14 +3,10 @@
 
 from __future__ import annotations
 
-from data_schema.methods import parse_methods
-from data_schema.perturbation import parse_perturb
-from data_schema.tables import parse_offsets
 from data_schema.text import comma_list
-from nvrq.commands.args import allow_negative_lists, int_arg, number_arg, parse_wxh
-from nvrq.synth import generate_scene
+from nvrq.commands.args import allow_negative_lists, int_arg, number_arg, parse_wxh, show_progress
 
-__all__ = ["register", "run", "parse_offsets", "parse_size", "add_perturb_option", "add_view_options",
+__all__ = ["register", "run", "parse_size", "add_perturb_option", "add_view_options",
            "perturb_grid"]
 
 
@@ -41,6 +37,8 @@ def add_view_options(
 
 def perturb_grid(args):
     """The ``(K, 6)`` views of ``--perturb``, or None when it was not given."""
+    from data_schema.perturbation import parse_perturb
+
     return None if args.perturb is None else parse_perturb(args.perturb)
 
 
@@ -77,6 +75,10 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from data_schema.methods import parse_methods
+    from data_schema.tables import parse_offsets
+    from nvrq.synth import generate_scene
+
     methods = None if args.methods is None else parse_methods(args.methods)
     cameras = tuple(comma_list(args.cameras))
     out = generate_scene(
@@ -89,7 +91,7 @@ def run(args) -> int:
         cameras=cameras,
         size=parse_size(args.size),
         methods=methods,
-        progress=not args.quiet,
+        progress=show_progress(args),
     )
     print(f"wrote {out}")
     return 0

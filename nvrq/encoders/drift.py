@@ -21,7 +21,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy.stats import spearmanr
 
 from data_schema.errors import InputError
 from nvrq.encoders.runtimes import cache_root, exported, weights_hash
@@ -101,6 +100,8 @@ def drift_stats(ref_gt, ref_r, low_gt, low_r) -> dict:
     >>> round(d["min_cosine"], 6), d["max_dnvrq"]
     (1.0, 0.0)
     """
+    from scipy.stats import spearmanr  # here: `nvrq --help` reads this module's default
+
     from nvrq.metrics.formulas import nvrq_similarity
 
     ref, low = np.concatenate([ref_gt, ref_r]), np.concatenate([low_gt, low_r])

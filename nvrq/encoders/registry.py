@@ -27,7 +27,6 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from data_schema.errors import InputError
-from nvrq.crops import normalised_tensor
 from nvrq.encoders.runtimes import check_runtime_combo
 
 __all__ = ["EncoderSpec", "ENCODERS", "DEFAULT_ENCODER", "get_spec", "Encoder", "TorchEncoder",
@@ -173,6 +172,8 @@ class TorchEncoder:
     def pixel_values(self, images: np.ndarray):
         """uint8 (B, S, S, 3) RGB -> normalised float tensor (B, 3, S, S) on the device."""
         import torch
+
+        from nvrq.crops import normalised_tensor  # OpenCV: not for `nvrq --help`
 
 
         images = np.asarray(images)

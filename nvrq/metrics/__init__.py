@@ -12,27 +12,30 @@
   MAE); :mod:`~nvrq.metrics.no_reference`: BRISQUE, NIQE, PIQE, entropy on the render crop alone;
   :mod:`~nvrq.metrics.pyiqa_bridge`: PyIQA's metrics as columns ``pyiqa:NAME``.
 
-Running them over crops and tables is :mod:`nvrq.scoring`. Importing this package loads numpy,
-OpenCV and SciPy, never torch or pandas (``analyze`` reads directions from here).
+Running them over crops and tables is :mod:`nvrq.scoring`. The names below are imported from
+their modules on first use, so importing one light module (``nvrq.metrics.formulas``, as the
+commands' parsers do) does not load the metrics themselves (OpenCV); the registry loads numpy
+and OpenCV, never torch or pandas (``analyze`` reads directions from here).
 
+>>> from nvrq.metrics import column_info, direction
 >>> direction("psnr"), direction("gmsd"), column_info("niqe").min_side
 (True, False, 96)
 """
 
-from nvrq.metrics.formulas import W_LOW, check_tau, nvrq_ca, nvrq_similarity
-from nvrq.metrics.info import MetricInfo
-from nvrq.metrics.registry import DEFAULT_METRICS, REGISTRY, register
-from nvrq.metrics.resolve import (
-    column_info,
-    direction,
-    encoder_columns,
-    encoder_for_metrics,
-    needs_tau,
-    reference_columns,
-    resolve_metrics,
-    split_column,
-)
+from nvrq.lazy import lazy_exports
+
+#: public name -> the module defining it
+_EXPORTS = {
+    **dict.fromkeys(("W_LOW", "check_tau", "nvrq_ca", "nvrq_similarity"), "nvrq.metrics.formulas"),
+    "MetricInfo": "nvrq.metrics.info",
+    **dict.fromkeys(("DEFAULT_METRICS", "REGISTRY", "register"), "nvrq.metrics.registry"),
+    **dict.fromkeys(("column_info", "direction", "encoder_columns", "encoder_for_metrics", "needs_tau",
+                     "reference_columns", "resolve_metrics", "split_column"), "nvrq.metrics.resolve"),
+}
 
 __all__ = ["MetricInfo", "REGISTRY", "register", "DEFAULT_METRICS", "column_info", "direction",
            "resolve_metrics", "encoder_for_metrics", "encoder_columns", "reference_columns",
            "needs_tau", "split_column", "nvrq_similarity", "nvrq_ca", "check_tau", "W_LOW"]
+
+
+__getattr__, __dir__ = lazy_exports("nvrq.metrics", _EXPORTS, globals())

@@ -17,6 +17,7 @@ column (its entry, direction, encoder, tau) are answered by :mod:`nvrq.metrics.r
 
 from __future__ import annotations
 
+from nvrq.choices import DEFAULT_METRICS  # the metrics of nvrq score without --metrics
 from nvrq.metrics import no_reference as _nr
 from nvrq.metrics import pixel as _px  # numpy + OpenCV; no torch
 from nvrq.metrics import pyiqa_bridge as _pyiqa  # imports pyiqa only when a column is used
@@ -27,9 +28,6 @@ from nvrq.metrics.no_reference.piqe import MIN_SIDE as _PIQE_MIN_SIDE
 
 __all__ = ["REGISTRY", "register", "DEFAULT_METRICS"]
 
-#: the metrics ``nvrq score`` computes when ``--metrics`` is not given (``nvrq``/``nvrq_ca`` on
-#: the chosen encoder)
-DEFAULT_METRICS = ("psnr", "ssim", "nvrq", "nvrq_ca")
 
 REGISTRY: dict[str, MetricInfo] = {}
 

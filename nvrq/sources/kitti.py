@@ -20,13 +20,14 @@ from __future__ import annotations
 import os
 import shutil
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import cv2
 import numpy as np
-import pandas as pd
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 from data_schema.errors import InputError
-from data_schema.scene import save_scene
 
 __all__ = ["KITTI_CLASS_MAP", "read_calib_P2", "read_labels", "kitti_scene_doc", "import_kitti",
            "R_SENSOR_RIG"]
@@ -63,6 +64,8 @@ def read_calib_P2(path: str | os.PathLike) -> np.ndarray:
 
 def read_labels(path: str | os.PathLike) -> pd.DataFrame:
     """A KITTI ``label_2`` file as a table (columns :data:`LABEL_COLUMNS`)."""
+    import pandas as pd  # here: the nvrq parser reads this module's class map
+
     path = Path(path)
     if not path.is_file():
         raise InputError(path, None, "a KITTI label file", "no such file")
@@ -119,6 +122,11 @@ def kitti_scene_doc(P2: np.ndarray, labels: pd.DataFrame, *, image_size: tuple[i
 
 def import_kitti(kitti_root: str | os.PathLike, frame: str, out: str | os.PathLike) -> Path:
     """Write the scene folder ``out`` for KITTI frame ``frame`` (e.g. ``'000000'``) of ``kitti_root``."""
+    import cv2
+    import pandas as pd
+
+    from data_schema.scene import save_scene
+
     root, out = Path(kitti_root), Path(out)
     image = root / "image_2" / f"{frame}.png"
     if not image.is_file():

@@ -58,13 +58,12 @@ from data_schema.methods import METHOD_COLUMN, check_method_name, method_values
 from data_schema.perturbation import PERTURBATION_COLUMNS, labels, perturbation_array
 from data_schema.scene import load_scene, write_images
 from data_schema.tables import atomic_path
+from nvrq.choices import LAYOUTS  # the layouts of a folder of renders (module docstring)
 from nvrq.crops import read_rgb
 from nvrq.render_plans import RenderPlan, render_plan
 
 __all__ = ["LAYOUTS", "ORDER_SUFFIXES", "RendersImport", "import_renders", "render_files"]
 
-#: The layouts of a folder of renders (module docstring).
-LAYOUTS = ("plan", "order")
 #: File suffixes of the ``order`` layout (compared in lower case).
 ORDER_SUFFIXES = (".png", ".jpg", ".jpeg")
 _ORDER_NAME = re.compile(r"(\d{5,})(\.[A-Za-z]+)")

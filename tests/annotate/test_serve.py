@@ -95,7 +95,7 @@ def test_server_refuses_a_study_rebuilt_under_it_and_export_reports_foreign_vote
             screen = await c.press("Start")
             first = screen.vote_id()
             await asyncio.sleep(0.3)  # a rater looks first (the app drops presses < 100 ms)
-            screen = await c.press("Good (G)")  # recorded in the original study
+            screen = await c.press("Good")  # recorded in the original study
             assert screen.vote_id() != first
             scene, pairs = toy_inputs
             shutil.rmtree(root)
@@ -103,7 +103,7 @@ def test_server_refuses_a_study_rebuilt_under_it_and_export_reports_foreign_vote
                         n_training=1, size=64, progress=False)
             load_study(root)  # e.g. the organiser looks at it: the new votes.sqlite exists
             await asyncio.sleep(0.3)
-            screen = await c.press("Good (G)")
+            screen = await c.press("Good")
             await c.close()
             return screen
 

@@ -277,6 +277,43 @@ def test_no_reference_metrics_need_no_gt():
         nvrq.score_crops(None, crops, metrics=["entropy", "psnr"])
 
 
+def test_score_crops_keeps_its_encoder_until_the_cache_is_cleared(monkeypatch, evaluator):
+    # issue 29 item 7: the functions reloaded the encoder on every call (710 ms against 66 ms
+    # through an Evaluator); now a config loads once, up to ENCODER_CACHE_SIZE configs are kept
+    # (least recently used dropped), clear_encoder_cache() forgets them
+    from nvrq import api, encoders
+
+    loads = []
+    real = encoders.load_encoder
+    monkeypatch.setattr(encoders, "load_encoder", lambda cfg: loads.append(cfg) or real(cfg))
+    nvrq.clear_encoder_cache()
+    rng = np.random.default_rng(0)
+    gt = rng.integers(0, 256, (40, 30, 3), dtype=np.uint8)
+    ren = np.clip(gt.astype(int) + 20, 0, 255).astype(np.uint8)
+    first = nvrq.score_crops([gt], [ren], metrics=METRICS, encoder=ENC, runtime="torch")
+    again = nvrq.score_frame(gt, ren, [[0, 0, 29, 39]], [[0, 0, 29, 39]], metrics=["nvrq"],
+                             encoder=encoders.EncoderConfig(ENC, runtime="torch"))
+    assert len(loads) == 1  # the same config, given by name or as a config: one load
+    # the cached encoder gives what the Evaluator's own gives
+    pd.testing.assert_frame_equal(first, evaluator.score_crops([gt], [ren]), rtol=0, atol=1e-6)
+    assert again.iat[0, 0] == first[f"nvrq:{ENC}"].iat[0]
+    nvrq.score_crops([gt], [ren], metrics=["nvrq"], encoder=ENC, runtime="torch", device="cpu:0")
+    nvrq.score_crops([gt], [ren], metrics=["nvrq"], encoder=ENC, runtime="torch")  # still kept
+    assert [c.device for c in loads] == ["cpu", "cpu:0"] and api.ENCODER_CACHE_SIZE == 2
+    nvrq.score_crops([gt], [ren], metrics=["nvrq"],
+                     encoder=encoders.EncoderConfig(ENC, runtime="torch", device="cpu:1"))
+    nvrq.score_crops([gt], [ren], metrics=["nvrq"], encoder=ENC, runtime="torch")  # kept (used last)
+    nvrq.score_crops([gt], [ren], metrics=["nvrq"], encoder=ENC, runtime="torch", device="cpu:0")
+    assert [c.device for c in loads] == ["cpu", "cpu:0", "cpu:1", "cpu:0"]  # cpu:0 was dropped
+    assert nvrq.clear_encoder_cache() == 2
+    nvrq.score_crops([gt], [ren], metrics=["nvrq"], encoder=ENC, runtime="torch")
+    assert len(loads) == 5
+    # pixel metrics alone load nothing
+    nvrq.score_crops([gt], [ren], metrics=["psnr"])
+    assert len(loads) == 5
+    nvrq.clear_encoder_cache()
+
+
 def test_import_nvrq_stays_light():
     code = ("import sys, nvrq; heavy = [m for m in ('torch', 'pandas', 'cv2', 'transformers') if m in sys.modules];"
             "print(','.join(heavy))")

@@ -104,7 +104,7 @@ def wait_moved(page, old: tuple, *, timeout_s: float = 40) -> tuple:
     raise AssertionError(f"the page did not advance from {old[0]!r}")
 
 
-def ready(page, names=("Good (G)", "Bad (B)")) -> None:
+def ready(page, names=("Good", "Bad")) -> None:
     """Wait until the vote buttons ``names`` of the current item are rendered and enabled.
 
     A shortcut key pressed while Streamlit is still re-rendering can be lost on a loaded

@@ -43,7 +43,7 @@ def test_vote_in_one_tab_appears_on_admin_page_without_reload(tmp_path):
             rater = browser.new_context().new_page()
             rater.goto(f"{url}?rater=ann")
             rater.get_by_role("button", name="Start").click()
-            good = rater.get_by_role("button", name="Good (G)")
+            good = rater.get_by_role("button", name="Good")
             good.wait_for(state="visible", timeout=30000)
             time.sleep(0.4)  # the app drops presses within ANNOTATE_MIN_RESPONSE_MS (250) of drawing
             good.click()

@@ -35,7 +35,7 @@ def _state(page) -> tuple[str, tuple]:
 
 def _ready(page) -> None:
     """The answer buttons are on screen and enabled and no rerun is pending."""
-    button = page.get_by_role("button", name="Can't tell (0)")
+    button = page.get_by_role("button", name="Can't tell")
     button.wait_for(state="visible", timeout=T)
     page.wait_for_function("(b) => !b.disabled", arg=button.element_handle(), timeout=T)
     page.wait_for_function("() => !document.querySelector('[data-stale=\"true\"]')", timeout=T)

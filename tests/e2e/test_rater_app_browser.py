@@ -68,7 +68,7 @@ def browser():
 
 def _ready(page) -> None:
     """The vote buttons are on screen and enabled, and no rerun is pending."""
-    for name in ("Good (G)", "Bad (B)"):
+    for name in ("Good", "Bad"):
         button = page.get_by_role("button", name=name)
         button.wait_for(state="visible", timeout=T)
         page.wait_for_function("(b) => !b.disabled", arg=button.element_handle(), timeout=T)

@@ -68,7 +68,7 @@ def _check(got: dict, width: int, height: int, side: float) -> None:
     (lx, ly, lw, lh), (rx, ry, rw, rh) = got["imgs"]
     assert lw >= 0.4 * width and abs(lw - rw) <= 1 and abs(lh - rh) <= 1, got["imgs"]
     assert abs(ly - ry) <= 1 and lx + lw <= rx, got["imgs"]  # side by side
-    row = [got["buttons"][n] for n in ("Good (G)", "Bad (B)", "Undo (U)")]
+    row = [got["buttons"][n] for n in ("Good", "Bad", "Undo")]
     assert max(b[1] for b in row) - min(b[1] for b in row) <= 1, row  # one row
     assert row[0][0] < row[1][0] < row[2][0] and row[0][1] >= ly + lh  # under the pair
     assert max(b[1] + b[3] for b in row) <= height  # the whole item fits on screen

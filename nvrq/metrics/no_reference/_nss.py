@@ -41,17 +41,23 @@ from functools import lru_cache
 
 import cv2
 import numpy as np
-from scipy.special import gammaln
 
 __all__ = ["imresize_half", "mscn", "ZERO", "ggd_shape", "aggd_shape", "aggd_stats", "aggd_from_moments",
            "moments", "circular_products", "SHAPES", "WINDOW"]
 
 #: the shape table of both releases, ``0.2:0.001:10`` (MATLAB computes ``0.2 + k * 0.001``)
 SHAPES = 0.2 + 0.001 * np.arange(9801)
-# Gamma(2/a)^2 / (Gamma(1/a) Gamma(3/a)): increasing in a (AGGD); its reciprocal decreasing (GGD)
-_LOG_R = 2.0 * gammaln(2.0 / SHAPES) - gammaln(1.0 / SHAPES) - gammaln(3.0 / SHAPES)
-_R_AGGD = np.exp(_LOG_R)
-_NEG_R_GGD = -np.exp(-_LOG_R)  # -(Gamma(1/a) Gamma(3/a) / Gamma(2/a)^2), increasing
+
+
+@lru_cache(maxsize=1)
+def _ratio_tables() -> tuple[np.ndarray, np.ndarray]:
+    """``(r_aggd, neg_r_ggd)`` over :data:`SHAPES`: Gamma(2/a)^2 / (Gamma(1/a) Gamma(3/a)),
+    increasing in a (AGGD), and minus its reciprocal, increasing too (GGD). Made on first use
+    (SciPy's gammaln; ``nvrq --help`` imports this module but not SciPy)."""
+    from scipy.special import gammaln
+
+    log_r = 2.0 * gammaln(2.0 / SHAPES) - gammaln(1.0 / SHAPES) - gammaln(3.0 / SHAPES)
+    return np.exp(log_r), -np.exp(-log_r)
 
 
 def _gaussian_window() -> np.ndarray:
@@ -154,13 +160,13 @@ def _nearest(table: np.ndarray, q: np.ndarray) -> np.ndarray:
 def ggd_shape(rho: np.ndarray) -> np.ndarray:
     """GGD shape (BRISQUE's ``estimateggdparam``): the table shape whose
     ``Gamma(1/a) Gamma(3/a) / Gamma(2/a)^2`` is nearest to ``rho = E[x^2] / E[|x|]^2``."""
-    return SHAPES[_nearest(_NEG_R_GGD, -np.asarray(rho, np.float64))]
+    return SHAPES[_nearest(_ratio_tables()[1], -np.asarray(rho, np.float64))]
 
 
 def aggd_shape(r_norm: np.ndarray) -> np.ndarray:
     """AGGD shape (``estimateaggdparam``): the table shape whose ``Gamma(2/a)^2 / (Gamma(1/a)
     Gamma(3/a))`` is nearest to the normalised moment ratio ``r_norm``."""
-    return SHAPES[_nearest(_R_AGGD, np.asarray(r_norm, np.float64))]
+    return SHAPES[_nearest(_ratio_tables()[0], np.asarray(r_norm, np.float64))]
 
 
 def _axis_parts(n: int, d: int) -> list[tuple[slice, slice]]:

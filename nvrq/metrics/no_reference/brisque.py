@@ -45,7 +45,6 @@ from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
-from scipy.special import gammaln
 
 from nvrq.metrics.no_reference._common import below_side, rgb2gray_matlab
 from nvrq.metrics.no_reference._nss import (
@@ -68,6 +67,8 @@ _SHIFTS = ((0, 1), (1, 0), (1, 1), (-1, 1))
 
 def _scale_features(grey: np.ndarray) -> np.ndarray:
     """The 18 features (18,) of one scale of a float64 grey image (H, W) with values 0-255."""
+    from scipy.special import gammaln  # on first use: `nvrq --help` imports this module
+
     maps = circular_products(mscn(grey, padding="zero"), _SHIFTS)  # the MSCN map, its 4 products
     mean_sq, mean_abs, left_sq, right_sq = moments(maps)
     with np.errstate(invalid="ignore", divide="ignore"):

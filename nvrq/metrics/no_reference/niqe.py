@@ -45,7 +45,6 @@ from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
-from scipy.special import gammaln
 
 from nvrq.metrics.no_reference._common import below_side, rgb2gray_matlab
 from nvrq.metrics.no_reference._nss import aggd_stats, circular_products, imresize_half, mscn
@@ -62,6 +61,8 @@ _SHIFTS = ((0, 1), (1, 0), (1, 1), (1, -1))
 def _block_features(m: np.ndarray, side: int) -> np.ndarray:
     """(n_blocks, 18) features of the ``side`` x ``side`` blocks of the MSCN map ``m`` (whose
     sides are multiples of ``side``), blocks in row-major order."""
+    from scipy.special import gammaln  # on first use: `nvrq --help` imports this module
+
     h, w = m.shape
     b = m.reshape(h // side, side, w // side, side).transpose(0, 2, 1, 3).reshape(-1, side, side)
     n = len(b)

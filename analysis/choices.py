@@ -1,0 +1,30 @@
+"""The choices ``analyze`` offers, in a module light enough for ``analyze --help``.
+
+Each is defined here once and re-exported where it is used (:mod:`analysis.aggregate`,
+:mod:`analysis.summary`, :mod:`analysis.noninferiority`, :mod:`analysis.methods`,
+:mod:`analysis.method_cells`), so the command's parser reads them
+without importing the analyses (SciPy, scikit-learn, matplotlib).
+
+>>> RANK_BY[0], METHODS[0], DEFAULT_MARGIN
+('srcc', 'majority', 0.02)
+"""
+
+from __future__ import annotations
+
+__all__ = ["METHODS", "RANK_BY", "DEFAULT_MARGIN", "MIN_CLUSTERS", "PATHS"]
+
+#: How votes become item labels: majority vote (GVF) or a crowd-kit model (analysis.aggregate).
+METHODS = ("majority", "dawid-skene", "glad", "mace")
+#: The statistics that can pick the best metric (analysis.summary).
+RANK_BY = ("srcc", "plcc", "roc_auc")
+#: The non-inferiority margin on SRCC of the recommended cheapest metric (analysis.noninferiority).
+DEFAULT_MARGIN = 0.02
+#: The fewest tracks (clusters) of a group that gets an interval and a p-value (analysis.methods).
+#: Below 5, a share ``K^(1-K)`` of the bootstrap's resamples draws one track K times (50% at
+#: K = 2, 11% at 3, 1.6% at 4; 0.16% at 5), so a "95% interval" spans little more than the
+#: tracks' own means; and the sign-flip test over K tracks cannot go below ``2 / 2^K`` (0.0625
+#: at K = 5).
+MIN_CLUSTERS = 5
+#: The two halves of the views: off the recorded path first, what a benchmark ranks on
+#: (analysis.method_cells).
+PATHS = ("off-path", "on-path")

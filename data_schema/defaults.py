@@ -1,0 +1,15 @@
+"""Defaults several commands share, in a module light enough for their ``--help`` (no pandas).
+
+Each is defined here once; :mod:`data_schema.tables` re-exports it with the table facts.
+
+>>> MIN_SIDE_PX
+30
+"""
+
+from __future__ import annotations
+
+__all__ = ["MIN_SIDE_PX"]
+
+#: docs/FORMATS.md §3: the default smallest shorter box side (pixels) of a usable object crop,
+#: shared by ``nvrq pairs --min-side`` and ``nvrq stability --min-side``.
+MIN_SIDE_PX = 30

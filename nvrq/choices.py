@@ -1,0 +1,25 @@
+"""Choices and defaults of nvrq commands, in a module light enough for ``nvrq --help``.
+
+Each is defined here once and re-exported where it is used (:mod:`nvrq.render_plans`,
+:mod:`nvrq.sources.renders`, :mod:`nvrq.metrics.registry`, which import pandas or OpenCV), so
+the command parsers read them without importing those (tests/test_import_layers.py,
+benchmarks/bench_cli_help.py).
+
+>>> PLAN_FORMATS, WORLDS, LAYOUTS
+(('csv', 'json', 'npz'), ('scene', 'source'), ('plan', 'order'))
+"""
+
+from __future__ import annotations
+
+__all__ = ["PLAN_FORMATS", "WORLDS", "LAYOUTS", "DEFAULT_METRICS"]
+
+#: The file formats of a render plan (nvrq.render_plans; docs/FORMATS.md §14).
+PLAN_FORMATS = ("csv", "json", "npz")
+#: The worlds a plan's poses can be given in: the scene's, or the source dataset's (scene.json
+#: ``source_world``).
+WORLDS = ("scene", "source")
+#: The layouts of a folder of renders (nvrq.sources.renders).
+LAYOUTS = ("plan", "order")
+#: The metrics ``nvrq score`` computes when ``--metrics`` is not given (``nvrq``/``nvrq_ca`` on
+#: the chosen encoder; nvrq.metrics.registry).
+DEFAULT_METRICS = ("psnr", "ssim", "nvrq", "nvrq_ca")
