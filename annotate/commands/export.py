@@ -9,7 +9,6 @@ from pathlib import Path
 
 from data_schema.errors import InputError
 from data_schema.outputs import check_output_file
-from data_schema.tables import TABLE_SUFFIXES
 
 __all__ = ["register", "run"]
 
@@ -32,7 +31,7 @@ def run(args) -> int:
     fast (from the history)."""
     from annotate.results import votes_table
     from annotate.study import load_study, unplaced_votes
-    from data_schema.tables import write_table
+    from data_schema.tables import TABLE_SUFFIXES, write_table
 
     check_output_file(args.out, inputs=[args.study])
     if args.participants is not None:  # both checked before either is written
