@@ -130,7 +130,7 @@ def proxy_conf(proxy: str, ports: Sequence[int], *, host: str = "127.0.0.1", lis
     """
     if proxy not in PROXIES:
         raise InputError(param="proxy", expected="one of {'nginx', 'caddy'}", got=repr(proxy))
-    title = (f"# {proxy}: one public port for `annotate serve --workers {len(ports)}` "
+    title = (f"# {proxy}: one public port for the {len(ports)} workers of `annotate serve` "
              f"(ports {ports[0]}-{ports[-1]})")
     upstreams = [f"{upstream_host(host)}:{int(p)}" for p in ports]
     return (_nginx if proxy == "nginx" else _caddy)(upstreams, int(listen), title)

@@ -500,7 +500,7 @@ class Evaluator:
         metric NaN on every pair (e.g. crops below its ``min_side``) gets a ``UserWarning``."""
         import warnings
 
-        from nvrq.scoring.driver import empty_column_warning
+        from nvrq.scoring.core import empty_column_warning
 
         table = self.pairs
         keys = list(self._label_keys if by is None else by)

@@ -95,7 +95,7 @@ def check_engine_args(args, *, local_datasets: bool = False) -> None:
 
 def report_sharded(res: dict, out, *, engine: str) -> None:
     """Print the one stderr line after a sharded run, and a warning line per metric column
-    with no value (:func:`nvrq.scoring.driver.empty_column_warning`).
+    with no value (:func:`nvrq.scoring.core.empty_column_warning`).
 
     Parameters
     ----------
@@ -111,7 +111,7 @@ def report_sharded(res: dict, out, *, engine: str) -> None:
         if res["shards_done_before"] else ""
     print(f"{done}scored {res['pairs_scored']} pairs in {res['seconds']:.1f} s on {engine} -> {out}",
           file=sys.stderr)
-    from nvrq.scoring.driver import empty_column_warning
+    from nvrq.scoring.core import empty_column_warning
 
     for metric in res.get("empty_columns", ()):
         print(empty_column_warning(metric, res["pairs"]), file=sys.stderr)

@@ -50,7 +50,7 @@ from nvrq.metrics.resolve import (
 )
 
 __all__ = ["CropBatch", "score_crop_batch", "embed_crops", "encoder_inputs", "run_batched",
-           "pair_outputs", "check_metric_args", "column_seconds"]
+           "pair_outputs", "check_metric_args", "column_seconds", "empty_column_warning"]
 
 
 @dataclass(frozen=True)
@@ -327,3 +327,10 @@ def score_crop_batch(batch: CropBatch, *, metrics: Sequence[str], encoder=None, 
         for col in enc_cols:
             out[col] = s if split_column(col)[0] == "nvrq" else nvrq_ca(s, tau=tau)
     return {m: np.asarray(out[m], np.float64) for m in metrics}
+
+
+def empty_column_warning(metric: str, n_pairs: int, why: str = "") -> str:
+    """The one ``warning:`` line of a metric that is NaN on every one of ``n_pairs`` pairs
+    (``why``: the reasons, when known), printed wherever a run's summary is."""
+    return (f"warning: {metric} is NaN on all {n_pairs} pairs: undefined for these crops, its column "
+            f"is empty" + (f" ({why})" if why else ""))

@@ -41,7 +41,12 @@ from tqdm import tqdm
 from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS, pair_boxes, require_columns
 from nvrq.metrics.resolve import column_info, encoder_columns, reference_columns
 from nvrq.scoring.batches import CROP_COLUMNS, decode_schedule, iter_crop_batches
-from nvrq.scoring.core import check_metric_args, column_seconds, score_crop_batch
+from nvrq.scoring.core import (
+    check_metric_args,
+    column_seconds,
+    empty_column_warning,
+    score_crop_batch,
+)
 
 __all__ = ["ScoreResult", "score_pairs", "timing_table", "runtime_timing", "undefined_counts", "crop_sides",
            "empty_column_warning", "empty_column_warnings", "REQUIRED_COLUMNS"]
@@ -127,13 +132,6 @@ def undefined_counts(values: dict, gt_sides: np.ndarray, render_sides: np.ndarra
         if (nan & ~small).any():
             rows.append((col, info.undefined or "undefined", int((nan & ~small).sum())))
     return pd.DataFrame(rows, columns=["metric", "reason", "pairs"])
-
-
-def empty_column_warning(metric: str, n_pairs: int, why: str = "") -> str:
-    """The one ``warning:`` line of a metric that is NaN on every one of ``n_pairs`` pairs
-    (``why``: the reasons, when known), printed wherever a run's summary is."""
-    return (f"warning: {metric} is NaN on all {n_pairs} pairs: undefined for these crops, its column "
-            f"is empty" + (f" ({why})" if why else ""))
 
 
 def empty_column_warnings(undefined: pd.DataFrame | None, n_pairs: int) -> list[str]:
