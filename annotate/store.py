@@ -477,16 +477,20 @@ class Store:
                 "v.item = a.item) AND NOT EXISTS (SELECT 1 FROM skipped s WHERE s.study = a.study "
                 "AND s.rater = a.rater AND s.item = a.item) ORDER BY a.id LIMIT 1",
                 (self.study, rater)).fetchone()
-            if row is not None:
+            if row is None:
+                assigned, voted = self._own(con, rater)
+                loads = self._loads(con, claims_after=now - lease_s, rater=rater)
+                item = chooser(assigned, voted, loads)
+                if item is not None:
+                    con.execute("INSERT INTO assignments (study, rater, item, assigned_at, active_at) "
+                                "VALUES (?, ?, ?, ?, ?)", (self.study, rater, item, now, now))
+                return item
+        try:  # the open item is the rater's already: renewing its lease is best effort
+            with self._transaction(synchronous="NORMAL") as con:
                 con.execute("UPDATE assignments SET active_at = ? WHERE id = ?", (now, row[0]))
-                return row[1]
-            assigned, voted = self._own(con, rater)
-            loads = self._loads(con, claims_after=now - lease_s, rater=rater)
-            item = chooser(assigned, voted, loads)
-            if item is not None:
-                con.execute("INSERT INTO assignments (study, rater, item, assigned_at, active_at) "
-                            "VALUES (?, ?, ?, ?, ?)", (self.study, rater, item, now, now))
-        return item
+        except sqlite3.OperationalError:  # e.g. a full disk: the lease just runs out sooner
+            pass
+        return row[1]
 
     def _own(self, con: sqlite3.Connection, rater: str) -> tuple[list[str], set[str]]:
         assigned = [r[0] for r in con.execute(
