@@ -87,7 +87,7 @@ def brisque_features(render: np.ndarray) -> np.ndarray:
     Parameters
     ----------
     render : (H, W, 3) uint8 RGB array
-        The crop at its own size (luma of MATLAB ``rgb2ycbcr``).
+        The crop at its own size (MATLAB ``rgb2gray``, rounded, as the release takes it; not the luma of ``rgb2ycbcr``).
 
     Returns
     -------
