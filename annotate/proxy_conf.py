@@ -18,7 +18,7 @@ too (that section); these configurations listen on plain HTTP at ``listen`` and 
 certificate lines to be added there.
 
 >>> print(proxy_conf("caddy", [8501, 8502], listen=8080))
-# caddy: one public port for `annotate serve --workers 2` (ports 8501-8502)
+# caddy: one public port for the 2 workers of `annotate serve` (ports 8501-8502)
 :8080 {
     respond /_stcore/metrics 404
     respond /_stcore/agent/* 404
