@@ -29,7 +29,8 @@ from annotate.results import (
     ratings_table,
 )
 
-__all__ = ["REFRESH_S", "admin_page", "live_raters", "shown", "with_actions"]
+__all__ = ["REFRESH_S", "admin_page", "live_raters", "shown",  # the page, its tables
+           "with_actions"]
 
 #: Seconds between two refreshes of the admin page.
 REFRESH_S = 3.0
