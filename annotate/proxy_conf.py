@@ -56,7 +56,7 @@ def upstream_host(host: str) -> str:
     return f"[{host}]" if ":" in host else host
 
 
-def _nginx(upstreams: list[str], listen: int, title: str) -> str:
+def _nginx(upstreams: list[str], listen: int, title: str, loopback: bool) -> str:
     """The nginx file (see :func:`proxy_conf`)."""
     servers = "\n".join(f"    server {u};" for u in upstreams)
     return f"""{title}
@@ -73,7 +73,7 @@ upstream nvrq_raters {{
 {servers}
 }}
 server {{
-    listen {int(listen)};
+    listen {"127.0.0.1:" if loopback else ""}{int(listen)};
     server_name _;
     location = /_stcore/metrics {{ return 404; }}
     location ^~ /_stcore/agent/ {{ return 404; }}
@@ -96,14 +96,15 @@ server {{
 
 
 
-def _caddy(upstreams: list[str], listen: int, title: str) -> str:
+def _caddy(upstreams: list[str], listen: int, title: str, loopback: bool) -> str:
     """The Caddyfile (see :func:`proxy_conf`)."""
-    return (f"{title}\n:{int(listen)} {{\n"
+    return (f"{title}\n:{int(listen)} {{\n" + ("    bind 127.0.0.1\n" if loopback else "") +
             "    respond /_stcore/metrics 404\n    respond /_stcore/agent/* 404\n"
             f"    reverse_proxy {' '.join(upstreams)} {{\n        lb_policy cookie {COOKIE}\n    }}\n}}")
 
 
-def proxy_conf(proxy: str, ports: Sequence[int], *, host: str = "127.0.0.1", listen: int = 80) -> str:
+def proxy_conf(proxy: str, ports: Sequence[int], *, host: str = "127.0.0.1", listen: int = 80,
+               loopback: bool = False) -> str:
     """The configuration of a sticky reverse proxy on ``listen`` for the workers on ``ports``.
 
     Parameters
@@ -117,6 +118,9 @@ def proxy_conf(proxy: str, ports: Sequence[int], *, host: str = "127.0.0.1", lis
         The workers' bind address (a wildcard becomes loopback, :func:`upstream_host`).
     listen : int, optional
         The public port the proxy listens on (default 80).
+    loopback : bool, optional
+        Listen on 127.0.0.1 only (an open-access study, which is for this machine only:
+        :func:`annotate.access.check_serving`); default: every interface.
 
     Returns
     -------
@@ -133,4 +137,4 @@ def proxy_conf(proxy: str, ports: Sequence[int], *, host: str = "127.0.0.1", lis
     title = (f"# {proxy}: one public port for the {len(ports)} workers of `annotate serve` "
              f"(ports {ports[0]}-{ports[-1]})")
     upstreams = [f"{upstream_host(host)}:{int(p)}" for p in ports]
-    return (_nginx if proxy == "nginx" else _caddy)(upstreams, int(listen), title)
+    return (_nginx if proxy == "nginx" else _caddy)(upstreams, int(listen), title, bool(loopback))

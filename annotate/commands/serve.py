@@ -205,10 +205,12 @@ def add_worker_options(p) -> None:
                    help="public port of that proxy configuration (default 80)")
 
 
-def serve_workers(study_root: Path, args, env: dict) -> int:
-    """Print the proxy configuration for ``args.workers`` servers, then supervise them."""
+def serve_workers(study_root: Path, args, env: dict, *, loopback: bool) -> int:
+    """Print the proxy configuration for ``args.workers`` servers (listening on loopback only
+    when ``loopback``: an open study), then supervise them."""
     ports = worker_ports(args.port, args.workers)
-    print(proxy_conf(args.proxy, ports, host=args.host, listen=args.proxy_port), flush=True)
+    print(proxy_conf(args.proxy, ports, host=args.host, listen=args.proxy_port, loopback=loopback),
+          flush=True)
     print(f"{args.workers} workers: " + ", ".join(base_url(args.host, p) for p in ports)
           + f"; one public port is the proxy's (configuration above, {args.proxy})",
           file=sys.stderr, flush=True)
@@ -220,7 +222,11 @@ def run(args) -> int:
     from annotate.study import load_study
 
     study = load_study(args.study)  # fail here, not in the browser
-    base = base_url(args.host, args.port, public_url=args.public_url)
+    is_open = study.manifest["access"] == "open"
+    if args.workers > 1:  # raters come through the proxy: its port (loopback only when open)
+        base = base_url("127.0.0.1" if is_open else "0.0.0.0", args.proxy_port, public_url=args.public_url)
+    else:
+        base = base_url(args.host, args.port, public_url=args.public_url)
     check_serving(study.manifest["access"], host=args.host, public_url=args.public_url)
     if args.port + args.workers - 1 > 65535:
         raise InputError("--workers", None, f"at most {65536 - args.port} workers from --port {args.port}",
@@ -231,7 +237,7 @@ def run(args) -> int:
         print(line, file=sys.stderr, flush=True)
     env = dict(os.environ, ANNOTATE_STUDY=str(study.root))
     if args.workers > 1:
-        return serve_workers(study.root, args, env)
+        return serve_workers(study.root, args, env, loopback=is_open)
     argv = serve_command(study.root, host=args.host, port=args.port)
     sys.stdout.flush()
     os.execve(argv[0], argv, env)  # replaced: signals and exit status are the server's own

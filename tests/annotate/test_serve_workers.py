@@ -87,8 +87,10 @@ def test_two_workers_on_consecutive_ports_in_the_callers_group(served):
     members = _group_members(proc.pid)
     # the supervisor and one streamlit process per port, all in the group of `annotate serve`
     assert proc.pid in members and len(members) >= 3
-    # the printed configuration names exactly these ports
-    assert stdout.startswith(proxy_conf("nginx", ports)), stdout
+    # the printed configuration names exactly these ports; the study is open-access, which is
+    # for this machine only, so its proxy listens on loopback alone (review of issue 30)
+    assert stdout.startswith(proxy_conf("nginx", ports, loopback=True)), stdout
+    assert "listen 127.0.0.1:80;" in stdout
 
 
 def test_a_vote_through_one_worker_is_seen_by_the_other(served):
@@ -226,17 +228,19 @@ def _nginx_files(folder: Path, conf: str) -> None:
 
 
 @pytest.mark.skipif(shutil.which("nginx") is None, reason="nginx not installed (apt-get install -y nginx)")
-@pytest.mark.parametrize("host", ["127.0.0.1", "0.0.0.0", "::1"])
-def test_nginx_accepts_the_configuration(tmp_path, host):
-    _nginx_files(tmp_path, proxy_conf("nginx", [8501, 8502, 8503], host=host, listen=8080))
+@pytest.mark.parametrize("host,loopback", [("127.0.0.1", False), ("0.0.0.0", False), ("::1", False),
+                                           ("127.0.0.1", True)])
+def test_nginx_accepts_the_configuration(tmp_path, host, loopback):
+    _nginx_files(tmp_path, proxy_conf("nginx", [8501, 8502, 8503], host=host, listen=8080, loopback=loopback))
     r = subprocess.run(["nginx", "-t", "-p", str(tmp_path), "-c", "nginx.conf", "-e", "error.log"],
                        capture_output=True, text=True, timeout=60)
     assert r.returncode == 0 and "test is successful" in r.stderr, r.stderr
 
 
 @pytest.mark.skipif(shutil.which("caddy") is None, reason="caddy not installed (apt-get install -y caddy)")
-def test_caddy_accepts_the_configuration(tmp_path):
-    (tmp_path / "Caddyfile").write_text(proxy_conf("caddy", [8501, 8502], listen=8080))
+@pytest.mark.parametrize("loopback", [False, True])
+def test_caddy_accepts_the_configuration(tmp_path, loopback):
+    (tmp_path / "Caddyfile").write_text(proxy_conf("caddy", [8501, 8502], listen=8080, loopback=loopback))
     r = subprocess.run(["caddy", "validate", "--config", str(tmp_path / "Caddyfile"), "--adapter",
                         "caddyfile"], capture_output=True, text=True, timeout=60,
                        env=dict(os.environ, HOME=str(tmp_path), XDG_DATA_HOME=str(tmp_path),
