@@ -154,7 +154,11 @@ def signed_in_rater(study: Study) -> str | None:
     if study.manifest["access"] in ("token", "crowd"):
         token = qp.get("token")
         if token:
-            rater = study.store.rater_for_token(token)
+            try:
+                rater = study.store.rater_for_token(token)
+            except (sqlite3.Error, OSError) as err:  # one message, as a crowd arrival's
+                _panel_unavailable(err)
+                return None
             if rater is None:
                 st.error("This sign-in link is not valid. Please ask for a new one.")
                 return None

@@ -487,7 +487,9 @@ class Store:
                 return item
         try:  # the open item is the rater's already: renewing its lease is best effort
             with self._transaction(synchronous="NORMAL") as con:
-                con.execute("UPDATE assignments SET active_at = ? WHERE id = ?", (now, row[0]))
+                con.execute("UPDATE assignments SET active_at = ? WHERE id = ? AND NOT EXISTS (SELECT 1 "
+                            "FROM votes v WHERE v.study = ? AND v.rater = ? AND v.item = ?)",
+                            (now, row[0], self.study, rater, row[1]))  # not if voted meanwhile
         except sqlite3.OperationalError:  # e.g. a full disk: the lease just runs out sooner
             pass
         return row[1]
