@@ -33,6 +33,7 @@ import pyarrow.types as pt
 from tqdm.auto import tqdm
 
 from analysis import axes, breakdowns
+from analysis.choices import MIN_CLUSTERS
 from analysis.inputs import NON_METRIC_COLUMNS, classify_columns, drop_empty_columns
 from analysis.methods import for_analysis
 from analysis.noninferiority import DEFAULT_MARGIN
@@ -293,7 +294,7 @@ def _check_target(items: pd.DataFrame, target: str | None) -> None:
 def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), target=None,
                        n_boot: int = 1000, seed: int = 0, rank_by: str = "srcc", timing_paths=(),
                        margin: float = DEFAULT_MARGIN, compare_methods: bool = False, methods=None,
-                       rank_metric: str | None = None, progress: bool = True, min_clusters: int = 5,
+                       rank_metric: str | None = None, progress: bool = True, min_clusters: int = MIN_CLUSTERS,
                        by=(), rank_view: str = "off-path") -> Analysis:
     """The all-pairs analysis (module docstring); the same :class:`Analysis` as the ratings path.
 

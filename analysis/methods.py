@@ -105,7 +105,7 @@ class MethodsResult:
     n_boot: int = 0
     notes: list[str] = field(default_factory=list)
     rank_view: str = "off-path"  # the view the leaderboard ranks on (PATHS)
-    min_clusters: int = 5  # the fewest tracks of an interval or a p-value
+    min_clusters: int = MIN_CLUSTERS  # the fewest tracks of an interval or a p-value
     by: str = ""  # the crossed breakdown of methods_paired.csv ('' for none)
 
 

@@ -27,6 +27,7 @@ from matplotlib.figure import Figure
 from analysis import plots
 from analysis.methods import ALPHA, MethodsResult
 from analysis.plots import VIEW_AXIS_LABELS, direction_label, method_colours
+from analysis.signflip import EXACT_MAX_TRACKS
 from analysis.text import fmt, interval_text, offset_text
 from data_schema.perturbation import AXES, AXIS_UNITS, PERTURBATION_COLUMNS
 
@@ -174,7 +175,7 @@ def leaderboard_text(res: MethodsResult) -> str:
                  f"{res.n_boot} replicates, given only where a group has at least {res.min_clusters} "
                  f"tracks. \"Better than the next\": the paired comparison on the objects both methods "
                  f"scored (same clip, camera, track, timestamp and view); its p-value is a two-sided "
-                 f"sign-flip test over tracks (exact up to 16 tracks, else Monte Carlo with "
+                 f"sign-flip test over tracks (exact up to {EXACT_MAX_TRACKS} tracks, else Monte Carlo with "
                  f"{res.n_boot} sign patterns), Holm-corrected over the rows of methods_paired.csv "
                  f"without a by (a --by breakdown is a family of its own), below {ALPHA}, and its "
                  f"interval excludes 0. The smallest "

@@ -18,6 +18,7 @@ import pandas as pd
 from analysis import axes, breakdowns
 from analysis.aggregate import aggregate
 from analysis.ceiling import noise_ceiling, vote_matrix
+from analysis.choices import MIN_CLUSTERS
 from analysis.inputs import classify_columns, drop_empty_columns, read_metrics, read_ratings
 from analysis.labels import item_table, join_metrics
 from analysis.methods import MethodsResult, for_analysis
@@ -266,7 +267,7 @@ def run_analysis(
     methods=None,
     rank_metric: str | None = None,
     progress: bool = True,
-    min_clusters: int = 5,
+    min_clusters: int = MIN_CLUSTERS,
     by=(),
     rank_view: str = "off-path",
 ) -> Analysis:

@@ -132,7 +132,10 @@ def crowd_identity(secret: str, participant: str | None = None) -> tuple[str, st
 
     Without ``participant`` both are fresh random values; with it, both are HMAC-SHA256 of
     the participant id under ``secret`` (the study's secret), so the same participant always
-    gets the same identity and nobody without the secret can compute it.
+    gets the same identity. The token cannot be computed without the secret, but the server
+    hands it to anyone who arrives with that participant id: with ``participant``, the panel's
+    participant id is the credential (keep it as private as the panel does), and arbitrary ids
+    make new identities, as fresh arrivals without it do.
 
     Returns
     -------
