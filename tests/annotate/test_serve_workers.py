@@ -162,7 +162,7 @@ def test_nginx_in_front_of_the_workers_is_sticky(served, tmp_path):
     """
     root, ports, _proc, stdout = served
     listen = bench.free_port()
-    conf = stdout.split("\n\n", 1)[0].replace("listen 80;", f"listen 127.0.0.1:{listen};")
+    conf = stdout.split("\n\n", 1)[0].replace("listen 127.0.0.1:80;", f"listen 127.0.0.1:{listen};")
     conf = conf.replace("proxy_pass http://nvrq_raters;", "proxy_pass http://nvrq_raters;\n"
                         "        add_header X-Nvrq-Upstream $upstream_addr always;")
     _nginx_files(tmp_path, conf)
