@@ -398,9 +398,8 @@ def run_pairwise_analysis(votes_path, *, metrics_paths=(), lower=(), higher=(), 
                              "':METHOD', docs/FORMATS.md §3)", "none matches a vote")
     sides = {s: _side_values(test, tables, s, ids[s]) for s in ("a", "b")}
     # a metric with no value on any voted render is undefined for these crops: a note, no row
-    _, notes = drop_empty_columns(pd.concat([pd.DataFrame(sides[s]) for s in ("a", "b")]), unit="voted render")
-    columns = pd.DataFrame({c: v for c, v in sides["a"].items()
-                            if np.isfinite(np.r_[v, sides["b"][c]]).any()})
+    kept, notes = drop_empty_columns(pd.concat([pd.DataFrame(sides[s]) for s in ("a", "b")]), unit="voted render")
+    columns = pd.DataFrame({c: sides["a"][c] for c in kept.columns})
     metrics, directions, _, _ = classify_columns(columns, lower=set(lower), higher=set(higher),
                                                  target=None, where=metrics_paths[0] if tables else votes_path)
     for m in metrics:
