@@ -9,8 +9,8 @@ defined).
 
 Rule for "where they apply":
 
-- a function needs a ``Parameters`` section if it takes any parameter besides
-  ``self``/``cls`` (positional, keyword-only, ``*args`` or ``**kwargs``);
+- a function needs a ``Parameters`` section if it takes any parameter (positional,
+  keyword-only, ``*args`` or ``**kwargs``);
 - a function needs a ``Returns`` section if it returns a value: its return annotation is
   present and is not ``None``, or (without an annotation) its body has a ``return <value>``
   statement; a generator (a ``yield`` in its own body) needs a ``Yields`` section instead;
@@ -89,10 +89,10 @@ def _own_nodes(func: ast.AST):
         stack.extend(ast.iter_child_nodes(node))
 
 
-def _takes_parameters(args: ast.arguments) -> bool:
-    """Whether a signature has a parameter other than a leading ``self``/``cls``."""
+def _takes_parameters(args: ast.arguments, *, method: bool = False) -> bool:
+    """Whether a signature has a parameter (besides a method's leading ``self``/``cls``)."""
     positional = [a.arg for a in args.posonlyargs + args.args]
-    if positional and positional[0] in ("self", "cls"):
+    if method and positional and positional[0] in ("self", "cls"):
         positional = positional[1:]
     return bool(positional or args.kwonlyargs or args.vararg or args.kwarg)
 
@@ -146,7 +146,7 @@ def _class_needs(cls: ast.ClassDef) -> list[tuple[str, ...]]:
             return [("Attributes", "Parameters")]
     for node in cls.body:
         if isinstance(node, ast.FunctionDef) and node.name == "__init__":
-            if _takes_parameters(node.args):
+            if _takes_parameters(node.args, method=True):
                 return [("Parameters",)]
     return []
 
@@ -202,7 +202,7 @@ def f(x) -> int:
     x : int
         A value.
     """
-def g(self):
+def g():
     yield 1
 def h():
     return None
@@ -217,6 +217,8 @@ class P:
     assert _function_needs(f) == [("Parameters",), ("Returns",)]
     assert _sections(ast.get_docstring(f)) == {"Parameters"}
     assert _function_needs(g) == [("Yields",)]
+    assert _function_needs(ast.parse("def d(cls): return cls").body[0]) == [
+        ("Parameters",), ("Returns",)]  # a module-level function's ``cls`` is a parameter
     assert _function_needs(h) == []
     assert _class_needs(r) == [("Attributes", "Parameters")]
     assert _class_needs(p) == [("Parameters",)]
