@@ -1,5 +1,7 @@
 """Results along each perturbation axis (6-DoF novel views, issue "beyond lateral").
 
+Layer: analysis (statistics of votes and metrics).
+
 A rated item's view is a perturbation ``(dx, dy, dz, roll, pitch, yaw)``
 (:mod:`data_schema.perturbation`). Items of the real camera's view (axis ``'none'``, value
 0) belong to every axis, as the centre of its tent; items with several non-zero components
@@ -35,19 +37,51 @@ AXIS_TABLE_COLUMNS = ["axis", "value", "column", "n", "mean", "std"]
 
 
 def item_axes(items: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
-    """``(axis names (N,), signed values (N,))`` of the items' views (absent columns: 0)."""
+    """``(axis names (N,), signed values (N,))`` of the items' views (absent columns: 0).
+
+    Parameters
+    ----------
+    items : pandas.DataFrame
+        Items with perturbation columns.
+
+    Returns
+    -------
+    axes : (N,) object array of str
+    values : (N,) float64
+        Metres or degrees.
+    """
     P = perturbation_array(items)
     return axes(P), axis_values(P)
 
 
 def is_multi_axis(items: pd.DataFrame) -> bool:
-    """True when some item's view is not lateral (then the report shows one tent per axis)."""
+    """True when some item's view is not lateral (then the report shows one tent per axis).
+
+    Parameters
+    ----------
+    items : pandas.DataFrame
+        Items with perturbation columns.
+
+    Returns
+    -------
+    bool
+    """
     names, _ = item_axes(items)
     return bool(np.isin(names, ["y", "none"], invert=True).any())
 
 
 def lateral_items(items: pd.DataFrame) -> pd.DataFrame:
-    """The items on the lateral axis (and the real camera's view); all of a lateral study."""
+    """The items on the lateral axis (and the real camera's view); all of a lateral study.
+
+    Parameters
+    ----------
+    items : pandas.DataFrame
+        Items with perturbation columns.
+
+    Returns
+    -------
+    pandas.DataFrame
+    """
     names, _ = item_axes(items)
     return items[np.isin(names, ["y", "none"])]
 
@@ -55,7 +89,20 @@ def lateral_items(items: pd.DataFrame) -> pd.DataFrame:
 def axis_table(items: pd.DataFrame, columns: list[str]) -> pd.DataFrame:
     """Long table :data:`AXIS_TABLE_COLUMNS`: per axis with items (in the order x, y, z,
     roll, pitch, yaw) and value along it, ``n``, mean and sample std of each column; the
-    axis-'none' items are value 0 of every axis."""
+    axis-'none' items are value 0 of every axis.
+
+    Parameters
+    ----------
+    items : pandas.DataFrame
+        Items with perturbation columns.
+    columns : list of str
+        The value columns summarised.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns :data:`AXIS_TABLE_COLUMNS`.
+    """
     names, values = item_axes(items)
     frames = []
     for axis in AXES:
@@ -76,6 +123,20 @@ def view_tables(items: pd.DataFrame, columns: list[str], *, by: str | None = Non
     (with ``gvf`` added when the items have it), followed, with ``by`` (e.g. ``label_class``),
     by its per-condition rows (offset x value of ``by``); ``by_axis``: :func:`axis_table`, or
     ``None`` when every view is lateral (:func:`is_multi_axis`).
+
+    Parameters
+    ----------
+    items : pandas.DataFrame
+        Items with perturbation columns.
+    columns : list of str
+        Target first, then metrics.
+    by : str, optional
+        A condition column (e.g. ``label_class``).
+
+    Returns
+    -------
+    by_offset : pandas.DataFrame
+    by_axis : pandas.DataFrame or None
     """
     lateral = lateral_items(items)
     cols = columns + ["gvf"] if "gvf" in items.columns and "gvf" not in columns else columns
@@ -88,7 +149,24 @@ def view_tables(items: pd.DataFrame, columns: list[str], *, by: str | None = Non
 def axis_tent_plots(by_axis: pd.DataFrame, columns: list[str], directions: dict[str, bool], *,
                     target_label: str = "GVF") -> list[tuple[str, str, object]]:
     """``(name, title, figure)`` per axis of ``by_axis`` (:func:`axis_table`): name
-    ``tent_<axis>``, x = the value along the axis in its unit."""
+    ``tent_<axis>``, x = the value along the axis in its unit.
+
+    Parameters
+    ----------
+    by_axis : pandas.DataFrame
+        :func:`axis_table`.
+    columns : list of str
+        Target first, then metrics.
+    directions : dict
+        Column -> whether higher is better.
+    target_label : str, optional
+        The target's axis label.
+
+    Returns
+    -------
+    list of (str, str, matplotlib.figure.Figure)
+        ``(name, title, figure)``.
+    """
     out = []
     for axis in dict.fromkeys(by_axis["axis"]):
         t = by_axis[by_axis["axis"] == axis].rename(columns={"value": "y_offset_m"})

@@ -1,5 +1,7 @@
 """Seeded cluster bootstrap over tracks: confidence intervals and paired differences.
 
+Layer: analysis (statistics of votes and metrics).
+
 Items of one object track (``(clip_id, track_id)``) are not independent (the same car at
 several offsets and frames), so the bootstrap resamples *tracks* with replacement and keeps
 all items of every drawn track. A draw is represented by per-item weights (how many times
@@ -44,7 +46,21 @@ CHUNK_CELLS = 8_000_000
 
 
 def draw_cluster_counts(n_clusters: int, n_boot: int, *, seed: int) -> np.ndarray:
-    """(B, K) int32: how often each of K clusters is drawn in each of B replicates."""
+    """(B, K) int32: how often each of K clusters is drawn in each of B replicates.
+
+    Parameters
+    ----------
+    n_clusters : int
+        Clusters K.
+    n_boot : int
+        Replicates B.
+    seed : int
+        Seed of the draws.
+
+    Returns
+    -------
+    (B, K) int32
+    """
     rng = np.random.default_rng(seed)
     draws = rng.integers(0, n_clusters, size=(n_boot, n_clusters))
     counts = np.zeros((n_boot, n_clusters), dtype=np.int32)
@@ -53,7 +69,19 @@ def draw_cluster_counts(n_clusters: int, n_boot: int, *, seed: int) -> np.ndarra
 
 
 def weighted_ranks(x: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """Average ranks of x (n,) in data where item i appears w[b, i] times: (B, n) float64."""
+    """Average ranks of x (n,) in data where item i appears w[b, i] times: (B, n) float64.
+
+    Parameters
+    ----------
+    x : (n,) float64
+        Values.
+    w : (B, n) int
+        Multiplicity of each item in each replicate.
+
+    Returns
+    -------
+    (B, n) float64
+    """
     order = np.argsort(x, kind="stable")
     xs = x[order]
     new = np.r_[True, xs[1:] != xs[:-1]]
@@ -68,7 +96,20 @@ def weighted_ranks(x: np.ndarray, w: np.ndarray) -> np.ndarray:
 
 
 def weighted_pearson(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """Pearson r per replicate: x, y (n,) or (B, n); w (B, n). Returns (B,), NaN if undefined."""
+    """Pearson r per replicate: x, y (n,) or (B, n); w (B, n). Returns (B,), NaN if undefined.
+
+    Parameters
+    ----------
+    x, y : (n,) or (B, n) float64
+        Paired values.
+    w : (B, n) int
+        Multiplicity of each item in each replicate.
+
+    Returns
+    -------
+    (B,) float64
+        NaN where undefined.
+    """
     sw = w.sum(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         mx = (w * x).sum(axis=1) / sw
@@ -95,6 +136,26 @@ def replicate_stats(x, y, label, cluster, counts, *, chunk_cells: int = CHUNK_CE
 
     x, y: (n,) finite; label: (n,) bool or None (no AUC); cluster: (n,) int cluster index
     into the columns of counts (B, K). Returns dict name -> (B,) float64 (NaN = undefined).
+
+    Parameters
+    ----------
+    x : (n,) float64
+        Metric values, finite.
+    y : (n,) float64
+        Target values, finite.
+    label : (n,) bool or None
+        Binary target of the AUC (``None``: no AUC).
+    cluster : (n,) int
+        Cluster of each item, a column of ``counts``.
+    counts : (B, K) int32
+        :func:`draw_cluster_counts`.
+    chunk_cells : int, optional
+        Replicates x items computed at once (memory bound).
+
+    Returns
+    -------
+    dict
+        ``'plcc'``, ``'srcc'`` (and ``'roc_auc'``) -> (B,) float64, NaN where undefined.
     """
     n_boot = counts.shape[0]
     out = {k: np.full(n_boot, np.nan) for k in ("plcc", "srcc", "roc_auc")}
@@ -121,6 +182,21 @@ def percentile_ci(reps: np.ndarray, *, level: float = 0.95, min_defined: float =
 
     Undefined replicates (NaN) are left out; if fewer than ``min_defined`` of them are
     defined the interval is empty with the reason.
+
+    Parameters
+    ----------
+    reps : (B,) float64
+        Replicates, NaN where undefined.
+    level : float, optional
+        Coverage of the interval.
+    min_defined : float, optional
+        Smallest share of defined replicates.
+
+    Returns
+    -------
+    lo, hi : float
+        NaN when undefined.
+    reason : str or None
     """
     ok = np.isfinite(reps)
     if reps.shape[0] == 0 or ok.mean() < min_defined:
@@ -135,6 +211,20 @@ def paired_difference(best: np.ndarray, other: np.ndarray, *, level: float = 0.9
 
     The difference is significant at ``1 - level`` when the interval excludes 0. The p-value
     is ``2 * min(P(d <= 0), P(d >= 0))`` over defined replicates (capped at 1).
+
+    Parameters
+    ----------
+    best, other : (B,) float64
+        Paired replicates of two statistics.
+    level : float, optional
+        Coverage of the interval.
+
+    Returns
+    -------
+    lo, hi : float
+        Interval of ``best - other``.
+    p : float
+        Two-sided bootstrap p-value, in [0, 1].
     """
     d = best - other
     d = d[np.isfinite(d)]
@@ -151,6 +241,19 @@ def replicates_for(n_boot: int, n_tests: int, *, alpha: float = 0.05) -> int:
     enough that ``2 / (B + 1)`` (twice the floor of an add-one Monte Carlo p-value, such as
     the sign-flip test of :mod:`analysis.signflip`) times ``n_tests`` is below ``alpha / 2``
     (``B >= 4 n_tests / alpha``), so a decisive difference can be called in a family that size.
+
+    Parameters
+    ----------
+    n_boot : int
+        The replicates asked for.
+    n_tests : int
+        Tests in the Holm family.
+    alpha : float, optional
+        Family-wise error rate.
+
+    Returns
+    -------
+    int
 
     >>> replicates_for(1000, 12), replicates_for(1000, 32), replicates_for(0, 5)
     (1000, 2560, 0)

@@ -1,6 +1,8 @@
 """The Bradley-Terry model of pairwise comparisons and the two-way bootstrap of a pairwise study
 (docs/FORMATS.md §11).
 
+Layer: analysis (statistics of votes and metrics).
+
 - :func:`win_matrix`: votes -> wins of each method over each other (a tie is half a win each);
 - :func:`bradley_terry`: strengths ``p`` (sum 1) with ``P(i beats j) = p_i / (p_i + p_j)``,
   the maximum-likelihood fit by the MM algorithm of Hunter (2004), the model of crowd-kit's
@@ -31,7 +33,17 @@ _TOL, _MAX_ITER = 1e-12, 20_000
 
 def strongly_connected(w: np.ndarray) -> np.ndarray:
     """w: (..., M, M) wins -> (...,) bool: every method reaches every other by edges i->j
-    where i beat j (so each won and lost against the rest)."""
+    where i beat j (so each won and lost against the rest).
+
+    Parameters
+    ----------
+    w : (..., M, M) float64
+        Win matrices.
+
+    Returns
+    -------
+    (...,) bool
+    """
     m = w.shape[-1]
     r = (w > 0) | np.eye(m, dtype=bool)
     for _ in range(max(1, int(np.ceil(np.log2(max(m, 2)))))):
@@ -48,6 +60,16 @@ def bradley_terry(w: np.ndarray) -> np.ndarray:
     comparison graph is not strongly connected (:func:`strongly_connected`) the likelihood has
     no finite maximum and the iteration moves towards its limit (a method that never won
     tends to 0), the values the table reports with that reason.
+
+    Parameters
+    ----------
+    w : (..., M, M) float64
+        Win matrices.
+
+    Returns
+    -------
+    (..., M) float64
+        Strengths summing to 1; NaN for a method without comparisons.
     """
     w = np.asarray(w, dtype=np.float64)
     n = w + np.swapaxes(w, -1, -2)
@@ -72,7 +94,18 @@ def bradley_terry(w: np.ndarray) -> np.ndarray:
 
 def win_prob(p: np.ndarray) -> np.ndarray:
     """(..., M) strengths -> (..., M) mean of p_i / (p_i + p_j) over the other methods with
-    comparisons (finite p_j; two strengths of 0 count as even)."""
+    comparisons (finite p_j; two strengths of 0 count as even).
+
+    Parameters
+    ----------
+    p : (..., M) float64
+        Strengths.
+
+    Returns
+    -------
+    (..., M) float64
+        In [0, 1].
+    """
     with np.errstate(invalid="ignore", divide="ignore"):
         s = p[..., :, None] + p[..., None, :]
         pr = np.where(s > 0, p[..., :, None] / np.where(s > 0, s, 1.0), 0.5)
@@ -87,6 +120,19 @@ def win_matrix(a: np.ndarray, b: np.ndarray, score: np.ndarray, m: int) -> np.nd
     """(M, M) win matrix of votes: ``a``, ``b`` (V,) method codes, ``score`` (V,) the share of
     the win going to ``a`` (1, 0.5 or 0); ``w[i, j]`` = summed share of i against j.
 
+    Parameters
+    ----------
+    a, b : (V,) int
+        Method codes of the two sides of each vote.
+    score : (V,) float64
+        Share of the win going to ``a``: 1, 0.5 or 0.
+    m : int
+        Number of methods M.
+
+    Returns
+    -------
+    (M, M) float64
+
     >>> win_matrix(np.array([0, 0, 1]), np.array([1, 1, 0]), np.array([1.0, 0.5, 1.0]), 2).tolist()
     [[0.0, 1.5], [1.5, 0.0]]
     """
@@ -97,7 +143,15 @@ def win_matrix(a: np.ndarray, b: np.ndarray, score: np.ndarray, m: int) -> np.nd
 
 @dataclass
 class Draws:
-    """Draw counts of raters (B, R) and items (B, I); one draw set for every statistic."""
+    """Draw counts of raters (B, R) and items (B, I); one draw set for every statistic.
+
+    Attributes
+    ----------
+    raters : (B, R) int
+        How often each rater is drawn in each replicate.
+    items : (B, I) int
+        How often each item is drawn in each replicate.
+    """
 
     raters: np.ndarray
     items: np.ndarray

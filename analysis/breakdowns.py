@@ -1,5 +1,7 @@
 """Breakdowns: per category (paper Table 2), per offset (Fig. 3), per encoder (Table 3).
 
+Layer: analysis (statistics of votes and metrics).
+
 All grouped statistics are columnar: one argsort per metric column, reused by every
 grouping; group sums by ``np.bincount``. Undefined groups follow the rule of
 :mod:`analysis.stats` (empty value + ``reason``).
@@ -56,6 +58,25 @@ def category_table(
 ) -> pd.DataFrame:
     """Long table: for each column in ``by``, each of its values and each metric:
     ``n`` items, ``k`` distinct clips, |PLCC|, |SRCC|, signed values and ``reason``.
+
+    Parameters
+    ----------
+    items : pandas.DataFrame
+        One row per item with the target, metric and attribute columns.
+    metrics : list of str
+        Metric columns.
+    by : list of str
+        Attribute columns to break down by.
+    target : str, optional
+        The target column.
+    clip_col : str, optional
+        The clip column (for ``k``).
+    progress : bool, optional
+        Show a progress bar.
+
+    Returns
+    -------
+    pandas.DataFrame
     """
     y_all = items[target].to_numpy(np.float64)
     clip_codes_all = (
@@ -151,6 +172,21 @@ def offset_table(
     of the mean; ``sampling_std`` (GVF only): the item spread expected from vote sampling
     alone (:func:`_sampling_std`). Only finite values count; rows without an offset are
     left out.
+
+    Parameters
+    ----------
+    items : pandas.DataFrame
+        One row per item.
+    columns : list of str
+        Value columns summarised.
+    offset_col : str, optional
+        The offset column, metres.
+    by : str, optional
+        A condition column.
+
+    Returns
+    -------
+    pandas.DataFrame
     """
     off = items[offset_col].to_numpy(np.float64)
     keep = np.isfinite(off)
@@ -189,6 +225,15 @@ def encoder_table(summary: pd.DataFrame) -> pd.DataFrame:
     """Paper Table 3: one row per encoder with |PLCC| and |SRCC| of ``nvrq`` and ``nvrq_ca``.
 
     Empty when the summary has no encoder-family columns (``nvrq:ENC``, ``nvrq_ca:ENC``).
+
+    Parameters
+    ----------
+    summary : pandas.DataFrame
+        The analysis summary (``metric, plcc, srcc``).
+
+    Returns
+    -------
+    pandas.DataFrame
     """
     rows = {}
     for _, r in summary.iterrows():  # one row per metric column, not per item

@@ -1,5 +1,7 @@
 """The noise ceiling: how well could any metric agree with these votes?
 
+Layer: analysis (statistics of votes and metrics).
+
 Split-half reliability of the per-item GVF: the raters are split at random into two halves,
 each half gives every item its own GVF, and the correlation ``r`` of the two over items
 (those with a vote in both halves) is Spearman-Brown corrected to the full panel:
@@ -32,7 +34,18 @@ __all__ = ["split_half", "spearman_brown", "noise_ceiling", "vote_matrix"]
 
 
 def spearman_brown(r):
-    """Reliability of the full panel from the half-panel correlation ``r``: ``2r / (1 + r)``."""
+    """Reliability of the full panel from the half-panel correlation ``r``: ``2r / (1 + r)``.
+
+    Parameters
+    ----------
+    r : float or array
+        Half-panel correlation.
+
+    Returns
+    -------
+    float or array
+        Shaped as ``r``.
+    """
     r = np.asarray(r, dtype=np.float64)
     with np.errstate(invalid="ignore", divide="ignore"):
         return 2 * r / (1 + r)
@@ -40,7 +53,18 @@ def spearman_brown(r):
 
 def vote_matrix(test_votes: pd.DataFrame) -> np.ndarray:
     """(items, raters) float 0/1 test votes, NaN where a rater did not rate an item; items and
-    raters in sorted id order, so the random halves do not depend on the ratings' row order."""
+    raters in sorted id order, so the random halves do not depend on the ratings' row order.
+
+    Parameters
+    ----------
+    test_votes : pandas.DataFrame
+        One row per test vote (``item_id``, ``rater_id``, ``vote``).
+
+    Returns
+    -------
+    (I, R) float64
+        0/1 votes, NaN where missing.
+    """
     i, _ = pd.factorize(test_votes["item_id"], sort=True)
     r, raters = pd.factorize(test_votes["rater_id"], sort=True)
     m = np.full((i.max() + 1 if len(i) else 0, len(raters)), np.nan)
@@ -63,7 +87,20 @@ def _half_gvf(mat: np.ndarray, half: np.ndarray):
 
 def split_half(mat: np.ndarray, half: np.ndarray) -> dict:
     """Pearson and Spearman correlation over items of the two halves' GVF (``half``: (R,)
-    bool, True = first half); items without a vote in both halves are left out."""
+    bool, True = first half); items without a vote in both halves are left out.
+
+    Parameters
+    ----------
+    mat : (I, R) float64
+        :func:`vote_matrix`.
+    half : (R,) bool
+        True for the raters of the first half.
+
+    Returns
+    -------
+    dict
+        ``pearson``, ``spearman`` and ``n`` (items used).
+    """
     return _correlate(*_half_gvf(mat, half))
 
 
@@ -141,7 +178,23 @@ def noise_ceiling(mat: np.ndarray, *, n_splits: int = 20, n_boot: int = 200, see
 
     Returns a dict: ``reliability, reliability_ci_lo, reliability_ci_hi, plcc_ceiling,
     srcc_ceiling, srcc_reliability, reason`` (NaN values and a reason when fewer than two
-    raters or three items make it undefined)."""
+    raters or three items make it undefined).
+
+    Parameters
+    ----------
+    mat : (I, R) float64
+        :func:`vote_matrix`.
+    n_splits : int, optional
+        Random rater splits averaged.
+    n_boot : int, optional
+        Bootstrap replicates over items.
+    seed : int, optional
+        Seed of the splits and the bootstrap.
+
+    Returns
+    -------
+    dict
+    """
     n_items, n_r = mat.shape
     nan = float("nan")
     out = dict.fromkeys(("reliability", "reliability_ci_lo", "reliability_ci_hi",

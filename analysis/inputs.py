@@ -1,5 +1,7 @@
 """Reading and checking ``ratings.csv`` and metric tables (docs/FORMATS.md §4, §5, §7).
 
+Layer: analysis (input tables).
+
 Which columns are metrics — the written rule:
 
 1. Known non-metric columns are never metrics: the ratings columns (``item_id, rater_id,
@@ -74,6 +76,21 @@ def read_ratings(path) -> pd.DataFrame:
     Checks: the contract columns exist; at least one row; ``vote`` is 0 or 1; ``kind`` is one of
     ``{'test', 'gold', 'training', 'repeat'}``; ``response_ms`` is numeric; no rater has two
     rows for the same (item, kind). Errors name the file's line.
+
+    Parameters
+    ----------
+    path : str or Path
+        ``ratings.csv``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per vote.
+
+    Raises
+    ------
+    InputError
+        A check fails; the error names the file's line.
     """
     df = read_table(
         path,
@@ -175,6 +192,31 @@ def classify_columns(
     """Split the columns of the joined votes into (metrics, directions, attributes, proxies).
 
     See the module docstring for the rule. ``target`` (if given) is neither metric nor attribute.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The votes joined with metric tables.
+    lower, higher : set of str
+        Metrics declared lower- or higher-is-better.
+    target : str or None
+        The target column.
+    where : object
+        The file named in errors.
+
+    Returns
+    -------
+    metrics : list of str
+    directions : dict
+        Metric -> whether higher is better.
+    attributes : list of str
+    proxies : list of str
+
+    Raises
+    ------
+    InputError
+        A metric of unknown direction, a column given both directions or absent, or a
+        non-numeric column given a direction.
     """
     both = lower & higher
     if both:
@@ -224,6 +266,20 @@ def drop_empty_columns(items: pd.DataFrame, *, keep=(), unit: str = "item") -> t
     A metric of the registry with no value is *undefined for these crops*, a note of its own
     that says the crop size it needs (``min_side``) or when else it is NaN; other empty columns
     share one "empty columns ignored" note. ``unit``: what a row is, for the notes.
+
+    Parameters
+    ----------
+    items : pandas.DataFrame
+        One row per item (or pair).
+    keep : iterable of str, optional
+        Columns kept even when empty.
+    unit : str, optional
+        What a row is, for the notes.
+
+    Returns
+    -------
+    kept : pandas.DataFrame
+    notes : list of str
 
     >>> t = pd.DataFrame({"niqe": [np.nan, np.nan], "psnr": [30.0, 31.0], "x": [None, None]})
     >>> kept, notes = drop_empty_columns(t, unit="pair")

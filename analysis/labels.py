@@ -1,5 +1,7 @@
 """Votes to per-item labels (docs/FORMATS.md §6) and the join of metric tables onto the items.
 
+Layer: analysis (statistics of votes and metrics).
+
 Only ``kind == 'test'`` votes count. Per item: ``n_votes``, ``n_good``,
 ``gvf = n_good / n_votes`` (the good-vote fraction), ``majority_good = gvf >= 0.5``
 (a tie counts as good) and the Wilson 95% interval ``gvf_ci_lo, gvf_ci_hi`` — all from
@@ -27,7 +29,18 @@ _VOTE_ONLY = ("rater_id", "vote", "voted_at", "response_ms", "kind", "gold_expec
 
 
 def item_table(votes: pd.DataFrame) -> pd.DataFrame:
-    """Per-item labels from one-row-per-vote ``votes``; one row per item, in first-seen order."""
+    """Per-item labels from one-row-per-vote ``votes``; one row per item, in first-seen order.
+
+    Parameters
+    ----------
+    votes : pandas.DataFrame
+        One row per vote.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per item.
+    """
     test = votes[votes["kind"] == "test"]
     labels = good_vote_fraction(test["item_id"], test["vote"])
     codes = pd.factorize(test["item_id"])[0]
@@ -43,6 +56,26 @@ def join_metrics(items: pd.DataFrame, tables: list[tuple[str, pd.DataFrame]]):
     A column given by two metric files is an error; a metric-file column that the ratings
     already carry replaces it (noted). Returns ``(items, unknown_ids, notes)`` where
     ``unknown_ids[path]`` counts pair ids of the file that are not rated items.
+
+    Parameters
+    ----------
+    items : pandas.DataFrame
+        :func:`item_table`.
+    tables : list of (str, pandas.DataFrame)
+        ``(path, metrics table)``.
+
+    Returns
+    -------
+    items : pandas.DataFrame
+        With the metric columns.
+    unknown_ids : dict
+        Path -> count of pair ids not among the items.
+    notes : list of str
+
+    Raises
+    ------
+    InputError
+        A column given by two metric files.
     """
     unknown, notes, seen = {}, [], {}
     index = pd.Index(items["item_id"])

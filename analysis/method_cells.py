@@ -1,6 +1,8 @@
 """The cells the method comparison breaks objects into (docs/FORMATS.md §11): on and off the
 recorded path, each view, and crossed breakdowns (``--by class,offset``).
 
+Layer: analysis (statistics of votes and metrics).
+
 - *On-path* is the recorded camera's own view (every perturbation component 0: offset 0);
   *off-path* is every other view, the novel views a reconstruction is benchmarked on.
 - A crossed breakdown names columns of the objects (``label_class``, a scene attribute such
@@ -43,7 +45,17 @@ _ALIASES = {"class": "label_class", "offset": VIEW, "offsets": VIEW, "views": VI
 class Breakdown:
     """One breakdown of objects into cells: ``codes`` (N,) the cell of each object (-1: in
     none), ``cells`` one ``(group, axis, offset)`` per code; ``by`` names the crossed columns
-    (``''`` for the default breakdowns by view)."""
+    (``''`` for the default breakdowns by view).
+
+    Attributes
+    ----------
+    by : str
+        The crossed columns (``''``: by view).
+    codes : (N,) int64
+        Cell of each object, -1 in none.
+    cells : list of (object, str, float)
+        ``(group, axis, offset)`` per code.
+    """
 
     by: str
     codes: np.ndarray
@@ -51,13 +63,34 @@ class Breakdown:
 
 
 def on_path(items: pd.DataFrame) -> np.ndarray:
-    """(N,) bool: the row's view is the recorded camera's (every component 0 at 0.01)."""
+    """(N,) bool: the row's view is the recorded camera's (every component 0 at 0.01).
+
+    Parameters
+    ----------
+    items : pandas.DataFrame
+        Rows with perturbation columns.
+
+    Returns
+    -------
+    (N,) bool
+    """
     return axes(perturbation_array(items)) == "none"
 
 
 def view_breakdowns(items: pd.DataFrame) -> list[tuple[str, np.ndarray, np.ndarray]]:
     """``(axis, values (N,), member (N,) bool)`` per view breakdown: ``'all'`` (values NaN),
-    then each axis present (its column name), with the real camera's view at value 0."""
+    then each axis present (its column name), with the real camera's view at value 0.
+
+    Parameters
+    ----------
+    items : pandas.DataFrame
+        Rows with perturbation columns.
+
+    Returns
+    -------
+    list of (str, (N,) float64, (N,) bool)
+        ``(axis, values, member)``.
+    """
     P = perturbation_array(items)
     names, values = axes(P), axis_values(P)
     n = len(items)
@@ -72,6 +105,22 @@ def view_breakdowns(items: pd.DataFrame) -> list[tuple[str, np.ndarray, np.ndarr
 def parse_by(by, columns, *, attributes) -> tuple[list[str], bool]:
     """``(columns, with_view)`` of a crossed breakdown ``by`` (names; ``class`` is
     ``label_class``, ``offset`` or ``view`` the views).
+
+    Parameters
+    ----------
+    by : sequence of str
+        Breakdown names.
+    columns : iterable of str
+        The table's columns.
+    attributes : iterable of str
+        The scene attribute columns.
+
+    Returns
+    -------
+    columns : list of str
+        The crossed columns.
+    with_view : bool
+        Whether the views are crossed too.
 
     Raises
     ------
@@ -109,6 +158,19 @@ def cell_breakdowns(objects: pd.DataFrame, *, by=(), with_view: bool = False) ->
     Without ``by`` and ``with_view``: the default ones, on/off path then each view axis
     present (the recorded view is value 0 of every axis). With them: the crossing of the
     ``by`` columns with each view axis (``with_view``) or with on/off path.
+
+    Parameters
+    ----------
+    objects : pandas.DataFrame
+        One row per object.
+    by : sequence of str, optional
+        Columns to cross.
+    with_view : bool, optional
+        Cross them with each view axis (else with on/off path).
+
+    Returns
+    -------
+    list of Breakdown
     """
     n = len(objects)
     parts = [pd.factorize(objects[c], sort=True) for c in by]

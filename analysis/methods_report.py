@@ -2,6 +2,8 @@
 §11): its tables as text, its sentences and its figures (:mod:`analysis.methods` computes
 them).
 
+Layer: analysis (method leaderboard report).
+
 - :func:`leaderboard_display`: the leaderboard as strings (mean with its interval, tracks, and
   "better than the next" with the Holm-corrected paired p-value and the smallest p-value its
   test can give);
@@ -41,6 +43,17 @@ _AXIS_OF = dict(zip(PERTURBATION_COLUMNS, AXES, strict=True))
 def view_text(axis: str, offset) -> str:
     """A view of methods_paired.csv as text: ``'off-path'``, ``'on-path'`` or e.g. ``'y = +3 m'``.
 
+    Parameters
+    ----------
+    axis : str
+        A perturbation column name, ``'on-path'`` or ``'off-path'``.
+    offset : float
+        The value along it, metres or degrees.
+
+    Returns
+    -------
+    str
+
     >>> view_text("y_offset_m", 3.0), view_text("yaw_deg", -5.0), view_text("off-path", float("nan"))
     ('y = +3 m', 'yaw = -5 deg', 'off-path')
     """
@@ -60,6 +73,22 @@ def p_text(p, floor, test, *, raw=None) -> str:
     ``1 / (B + 1)`` reads ``p < floor`` (the test could not resolve less), and Holm's version
     of it ``p ≤ ...`` (a bound scaled by Holm); an exact p at its floor ``2 / 2^n`` is that
     exact value, marked as the smallest n tracks allow.
+
+    Parameters
+    ----------
+    p : float
+        The p-value (Holm-adjusted when ``raw`` is given).
+    floor : float
+        The smallest p its test can give.
+    test : str or None
+        ``{'monte-carlo', 'exact'}``.
+    raw : float, optional
+        The p-value before Holm.
+
+    Returns
+    -------
+    str
+        ``''`` when ``p`` is NaN.
 
     >>> p_text(0.0004, 0.0004, "monte-carlo"), p_text(0.0128, 0.0004, "monte-carlo", raw=0.0004)
     ('p < 0.0004', 'p ≤ 0.013')
@@ -92,7 +121,17 @@ def _vs_next(r, paired: pd.DataFrame) -> str:
 
 
 def leaderboard_display(res: MethodsResult) -> pd.DataFrame:
-    """The leaderboard as strings: rank, method, n (tracks), mean [95% CI], median, vs the next."""
+    """The leaderboard as strings: rank, method, n (tracks), mean [95% CI], median, vs the next.
+
+    Parameters
+    ----------
+    res : MethodsResult
+        The method comparison.
+
+    Returns
+    -------
+    pandas.DataFrame
+    """
     head = f"{res.rank_metric} ({res.rank_view})"
     rows = [{"rank": str(r.rank), "method": r.method, "n (tracks)": f"{r.n} ({r.n_tracks})",
              head: interval_text(r.mean, r.ci_lo, r.ci_hi), "median": fmt(r.median),
@@ -108,7 +147,19 @@ def _verdict(r) -> str:
 
 
 def paired_display(res: MethodsResult, metric: str | None = None) -> pd.DataFrame:
-    """Paired comparisons of ``metric`` (default: the ranking metric) per view, as strings."""
+    """Paired comparisons of ``metric`` (default: the ranking metric) per view, as strings.
+
+    Parameters
+    ----------
+    res : MethodsResult
+        The method comparison.
+    metric : str, optional
+        Default: the ranking metric.
+
+    Returns
+    -------
+    pandas.DataFrame
+    """
     metric = metric or res.rank_metric
     t = res.paired[(res.paired["metric"] == metric) & (res.paired["by"] == "")]
     rows = []
@@ -145,7 +196,19 @@ def _class_offset_rows(res: MethodsResult, metric: str) -> pd.DataFrame:
 def class_offset_display(res: MethodsResult, metric: str | None = None) -> pd.DataFrame:
     """``metric``'s paired difference per class (rows) and offset (columns), each pair of
     methods in turn: ``mean_diff`` and the verdict (the better method, ``-`` for neither, or
-    the count of tracks when too few for a test). Empty without ``by = class,offset``."""
+    the count of tracks when too few for a test). Empty without ``by = class,offset``.
+
+    Parameters
+    ----------
+    res : MethodsResult
+        The method comparison.
+    metric : str, optional
+        Default: the ranking metric.
+
+    Returns
+    -------
+    pandas.DataFrame
+    """
     metric = metric or res.rank_metric
     t = _class_offset_rows(res, metric)
     if t.empty:
@@ -165,7 +228,17 @@ def class_offset_display(res: MethodsResult, metric: str | None = None) -> pd.Da
 
 
 def leaderboard_text(res: MethodsResult) -> str:
-    """How to read the leaderboard (one paragraph)."""
+    """How to read the leaderboard (one paragraph).
+
+    Parameters
+    ----------
+    res : MethodsResult
+        The method comparison.
+
+    Returns
+    -------
+    str
+    """
     hb = res.directions[res.rank_metric]
     text = (f"Methods ranked by their mean {res.rank_metric} over their {res.rank_view} objects "
             f"({'the recorded view' if res.rank_view == 'on-path' else 'every view but the recorded one'}; "
@@ -199,7 +272,25 @@ def methods_tent_plot(table: pd.DataFrame, metrics: list[str], directions: dict[
                       methods: list[str], *, axis: str = "y_offset_m") -> Figure:
     """One panel per metric: per method, the mean (line) and its 95% interval (band) along
     ``axis`` (rows of methods.csv with ``breakdown == axis``); the y axis names the metric and
-    its direction, the legend each method's objects and tracks. ``len(fig.axes) == len(metrics)``."""
+    its direction, the legend each method's objects and tracks. ``len(fig.axes) == len(metrics)``.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        methods.csv rows.
+    metrics : list of str
+        One panel each.
+    directions : dict
+        Metric -> whether higher is better.
+    methods : list of str
+        Methods, leaderboard order.
+    axis : str, optional
+        The view axis column.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     fig, axes = plots.panel_grid(len(metrics), width=3.6, height=3.0)
     t = table[table["breakdown"] == axis]
     colours = method_colours(methods)
@@ -230,7 +321,23 @@ def methods_tent_plot(table: pd.DataFrame, metrics: list[str], directions: dict[
 def method_class_heatmap(table: pd.DataFrame, metric: str, methods: list[str], *,
                          higher_better: bool) -> Figure | None:
     """Mean ``metric`` per method (rows, leaderboard order) and object class (columns), each
-    cell annotated with its value, n and tracks; the colour scale runs from worse to better."""
+    cell annotated with its value, n and tracks; the colour scale runs from worse to better.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        methods.csv rows.
+    metric : str
+        The metric shown.
+    methods : list of str
+        Methods, leaderboard order.
+    higher_better : bool
+        The metric's direction.
+
+    Returns
+    -------
+    matplotlib.figure.Figure or None
+    """
     t = table[(table["breakdown"] == "label_class") & (table["metric"] == metric)]
     if t.empty:
         return None
@@ -260,7 +367,19 @@ def class_offset_heatmap(res: MethodsResult, metric: str | None = None) -> Figur
     """The paired difference of ``metric`` per class (rows) and offset (columns), one panel per
     pair of methods next in the leaderboard, coloured towards the better method (diverging,
     centred on 0); each cell gives the difference, the verdict and n with its tracks. ``None``
-    without ``by = class,offset`` rows."""
+    without ``by = class,offset`` rows.
+
+    Parameters
+    ----------
+    res : MethodsResult
+        The method comparison.
+    metric : str, optional
+        Default: the ranking metric.
+
+    Returns
+    -------
+    matplotlib.figure.Figure or None
+    """
     metric = metric or res.rank_metric
     t = _class_offset_rows(res, metric)
     if t.empty:
@@ -302,7 +421,18 @@ def class_offset_heatmap(res: MethodsResult, metric: str | None = None) -> Figur
 
 
 def method_figures(res: MethodsResult) -> list[tuple[str, str, object]]:
-    """``(name, title, figure)`` of the leaderboard: a tent plot per view axis, the heatmaps."""
+    """``(name, title, figure)`` of the leaderboard: a tent plot per view axis, the heatmaps.
+
+    Parameters
+    ----------
+    res : MethodsResult
+        The method comparison.
+
+    Returns
+    -------
+    list of (str, str, matplotlib.figure.Figure)
+        ``(name, title, figure)``.
+    """
     out = []
     for axis in dict.fromkeys(res.table["breakdown"]):
         if axis in PERTURBATION_COLUMNS:
@@ -322,7 +452,20 @@ def method_figures(res: MethodsResult) -> list[tuple[str, str, object]]:
 
 def context(res: MethodsResult | None, table) -> dict:
     """The report templates' leaderboard section; ``table`` renders a DataFrame (HTML or
-    Markdown). Empty strings without ``--compare-methods`` (``res`` None)."""
+    Markdown). Empty strings without ``--compare-methods`` (``res`` None).
+
+    Parameters
+    ----------
+    res : MethodsResult or None
+        The method comparison (``None``: none made).
+    table : callable
+        ``table(DataFrame) -> str``, HTML or Markdown.
+
+    Returns
+    -------
+    dict
+        Template variables.
+    """
     if res is None:
         return {"leaderboard_table": "", "leaderboard_text": "", "leaderboard_paired": "",
                 "leaderboard_notes": [], "rank_metric": "", "leaderboard_cells": ""}

@@ -1,5 +1,7 @@
 """The cheapest metric that is good enough: a non-inferiority recommendation.
 
+Layer: analysis (statistics of votes and metrics).
+
 Best metric: the highest |SRCC|; ties (equal |SRCC| within :data:`TIE_TOL`, e.g. NVRQ and
 NVRQ-CA, which share their ranks by construction) go to the faster metric by measured
 pairs/s, then to the alphabetically first name. A candidate is *non-inferior* when the
@@ -34,7 +36,23 @@ TIE_TOL = 1e-12
 class Recommendation:
     """``metric``: the recommended one (``best`` when no faster one is non-inferior);
     ``bound``: its upper bound of SRCC(best) - SRCC(metric) (0 for the best itself);
-    ``checked``: (metric, bound) of every faster candidate, fastest first."""
+    ``checked``: (metric, bound) of every faster candidate, fastest first.
+
+    Attributes
+    ----------
+    metric : str
+        The recommended metric.
+    best : str
+        The metric of highest |SRCC|.
+    bound : float
+        Upper bound of SRCC(best) - SRCC(metric).
+    margin : float
+        The non-inferiority margin.
+    level : float
+        One-sided coverage of the bound.
+    checked : tuple of (str, float)
+        ``(metric, bound)`` of every faster candidate, fastest first.
+    """
 
     metric: str
     best: str
@@ -57,7 +75,20 @@ class Recommendation:
 
 def upper_bound(best: np.ndarray, other: np.ndarray, *, level: float = 0.95) -> float:
     """One-sided ``level`` upper bound of ``best - other`` over paired replicates (B,) each
-    (NaN replicates dropped; NaN when none is left)."""
+    (NaN replicates dropped; NaN when none is left).
+
+    Parameters
+    ----------
+    best, other : (B,) float64
+        Paired bootstrap replicates.
+    level : float, optional
+        One-sided coverage.
+
+    Returns
+    -------
+    float
+        NaN when no replicate is defined.
+    """
     d = np.asarray(best, float) - np.asarray(other, float)
     d = d[np.isfinite(d)]
     return float(np.quantile(d, level)) if len(d) else float("nan")
@@ -73,7 +104,25 @@ def recommend(srcc: dict, speed: dict, reps: dict, *, margin: float = DEFAULT_MA
               level: float = 0.95) -> Recommendation | None:
     """``srcc``: metric -> |SRCC| (finite ones count); ``speed``: metric -> pairs/s;
     ``reps``: metric -> (B,) bootstrap |SRCC| replicates on shared draws. ``None`` when no
-    metric has an SRCC."""
+    metric has an SRCC.
+
+    Parameters
+    ----------
+    srcc : dict
+        Metric -> |SRCC|.
+    speed : dict
+        Metric -> pairs per second.
+    reps : dict
+        Metric -> (B,) bootstrap |SRCC| replicates on shared draws.
+    margin : float, optional
+        The non-inferiority margin on |SRCC|.
+    level : float, optional
+        One-sided coverage of the bound.
+
+    Returns
+    -------
+    Recommendation or None
+    """
     srcc = {m: float(s) for m, s in srcc.items() if np.isfinite(s)}
     if not srcc:
         return None
@@ -94,7 +143,21 @@ def recommend(srcc: dict, speed: dict, reps: dict, *, margin: float = DEFAULT_MA
 def recommend_from_tables(summary: pd.DataFrame, timing: pd.DataFrame | None, *,
                           margin: float = DEFAULT_MARGIN) -> Recommendation | None:
     """:func:`recommend` on the analysis summary (``metric, srcc``; replicates in
-    ``summary.attrs['srcc_replicates']``) and the timing (``metric, pairs_per_s``)."""
+    ``summary.attrs['srcc_replicates']``) and the timing (``metric, pairs_per_s``).
+
+    Parameters
+    ----------
+    summary : pandas.DataFrame
+        The analysis summary (``metric, srcc``).
+    timing : pandas.DataFrame or None
+        The timing table (``metric, pairs_per_s``).
+    margin : float, optional
+        The non-inferiority margin on |SRCC|.
+
+    Returns
+    -------
+    Recommendation or None
+    """
     if timing is None or summary.empty:
         return None
     speed = dict(zip(timing["metric"], timing["pairs_per_s"], strict=True))

@@ -1,6 +1,8 @@
 """``analyze VOTES.csv`` on pairwise votes: which method do people prefer, and which metric
 agrees with them (docs/FORMATS.md §11).
 
+Layer: analysis (pairwise study statistics).
+
 A pairwise vote (``annotate export`` of a ``--design pairwise`` study, one row per vote) has
 the columns :data:`PAIRWISE_COLUMNS`: the rater saw the GT crop and the renders of methods
 ``method_a`` and ``method_b`` of one object and view (``side_a``: where ``a`` was drawn) and
@@ -93,7 +95,17 @@ CEILING_ROW = "raters (ceiling)"
 
 
 def is_pairwise(path) -> bool:
-    """True when the table at ``path`` has the pairwise vote columns (:data:`PAIRWISE_COLUMNS`)."""
+    """True when the table at ``path`` has the pairwise vote columns (:data:`PAIRWISE_COLUMNS`).
+
+    Parameters
+    ----------
+    path : str or Path
+        A votes table.
+
+    Returns
+    -------
+    bool
+    """
     return set(PAIRWISE_COLUMNS) <= set(_header(path))
 
 
@@ -115,6 +127,21 @@ def read_pairwise_votes(path) -> pd.DataFrame:
     Checks: the columns exist, at least one row; ``choice`` in ``{'a', 'b', 'tie'}``; ``kind``
     one of :data:`~data_schema.tables.ITEM_KINDS`; ids and methods non-empty, and the two
     methods of a test or repeat vote differ; one row per (rater, item, kind).
+
+    Parameters
+    ----------
+    path : str or Path
+        A pairwise votes table (docs/FORMATS.md §12).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per vote.
+
+    Raises
+    ------
+    InputError
+        A check fails.
     """
     df = read_table(path, required=PAIRWISE_COLUMNS, what="pairwise votes",
                     dtype={c: str for c in ("item_id", "rater_id", "kind", "method_a", "method_b",
@@ -153,7 +180,24 @@ def _ci(reps: np.ndarray) -> tuple[float, float, str | None]:
 
 def bt_table(votes: pd.DataFrame, methods: list[str], *, draws: Draws | None, r_codes, i_codes) -> pd.DataFrame:
     """bradley_terry.csv (:data:`BT_COLUMNS`): per view (``axis = 'all'`` and each axis value)
-    and method, the vote counts, strength ``score`` and ``win_prob`` with 95% intervals."""
+    and method, the vote counts, strength ``score`` and ``win_prob`` with 95% intervals.
+
+    Parameters
+    ----------
+    votes : pandas.DataFrame
+        Test votes of the raters kept.
+    methods : list of str
+        The methods compared.
+    draws : Draws or None
+        Shared bootstrap draws (``None``: no intervals).
+    r_codes, i_codes : (V,) int
+        Rater and item code of each vote (columns of ``draws``).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns :data:`BT_COLUMNS`.
+    """
     m = len(methods)
     a = pd.Categorical(votes["method_a"], categories=methods).codes.astype(np.int64)
     b = pd.Categorical(votes["method_b"], categories=methods).codes.astype(np.int64)
@@ -197,7 +241,20 @@ def bt_table(votes: pd.DataFrame, methods: list[str], *, draws: Draws | None, r_
 def side_pair_ids(votes: pd.DataFrame, side: str) -> list[str]:
     """The pair id of each vote's ``side`` (``'a'`` or ``'b'``) render: the export's column
     ``pair_id_a``/``pair_id_b`` where it has one, else the object's pair id (docs/FORMATS.md §3)
-    followed by ``:METHOD``."""
+    followed by ``:METHOD``.
+
+    Parameters
+    ----------
+    votes : pandas.DataFrame
+        Pairwise votes.
+    side : str
+        ``{'a', 'b'}``.
+
+    Returns
+    -------
+    list of str
+        One pair id per vote.
+    """
     ids = pair_ids(votes, votes[f"method_{side}"].astype(str))
     given = votes.get(f"pair_id_{side}")
     if given is None:
@@ -230,7 +287,27 @@ def _side_values(votes: pd.DataFrame, tables, side: str, ids: list[str]) -> dict
 def agreement_table(votes, sides: dict, directions: dict[str, bool], *, draws: Draws | None,
                     r_codes, i_codes) -> pd.DataFrame:
     """The 2AFC agreement of each metric with the test votes, and the raters' ceiling
-    (:data:`AGREEMENT_COLUMNS`, module docstring)."""
+    (:data:`AGREEMENT_COLUMNS`, module docstring).
+
+    Parameters
+    ----------
+    votes : pandas.DataFrame
+        Test votes of the raters kept.
+    sides : dict
+        ``{'a': {metric: (V,) float64}, 'b': {...}}``: each vote's metric values of its two
+        renders.
+    directions : dict
+        Metric -> whether higher is better.
+    draws : Draws or None
+        Shared bootstrap draws (``None``: no intervals).
+    r_codes, i_codes : (V,) int
+        Rater and item code of each vote.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns :data:`AGREEMENT_COLUMNS`.
+    """
     h = votes["choice"].map(CHOICES).to_numpy(np.float64)
     rows = []
     for metric, hb in directions.items():
@@ -294,7 +371,20 @@ def rater_table(votes: pd.DataFrame, *, rule: ScreenRule | None = None) -> pd.Da
     times against ``rule.min_response_ms``), and the agreement tests of the binary design
     on sides (:func:`_side_agreement`): ``youden_j``, ``j_p`` and ``skill_p``. ``agreement``:
     the share of the rater's test votes equal to the other raters' unique modal choice, over
-    ``n_compared``."""
+    ``n_compared``.
+
+    Parameters
+    ----------
+    votes : pandas.DataFrame
+        Pairwise votes, all kinds.
+    rule : ScreenRule, optional
+        The screening rule (default: the default rule).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per rater.
+    """
     rule = rule or ScreenRule()
     raters = sorted(votes["rater_id"].astype(str).unique())
     out = pairwise_raters(votes, raters)
@@ -360,7 +450,31 @@ def _side_agreement(codes, n_r: int, sided, *, mode_left, pressed_left) -> dict:
 
 @dataclass
 class PairwiseAnalysis:
-    """Everything the pairwise report shows (tables: see each function)."""
+    """Everything the pairwise report shows (tables: see each function).
+
+    Attributes
+    ----------
+    votes_path : str
+        The votes table read.
+    methods : list of str
+        The methods compared.
+    bradley_terry : pandas.DataFrame
+        :func:`bt_table`.
+    agreement : pandas.DataFrame
+        :func:`agreement_table`.
+    raters : pandas.DataFrame
+        :func:`rater_table`.
+    counts : dict
+        Vote and rater counts.
+    n_boot : int
+        Bootstrap replicates.
+    seed : int
+        Their seed.
+    screen : bool
+        Whether screening excluded raters.
+    notes : list of str
+        Notes for the report.
+    """
 
     votes_path: str
     methods: list[str]
@@ -380,7 +494,29 @@ def run_pairwise_analysis(votes_path, *, metrics_paths=(), lower=(), higher=(), 
 
     ``screen_raters`` (default True) excludes the raters the screening rule flags, as
     ``exclude_raters`` does by name; the fits, the agreement and its ceiling use the test
-    votes of the raters kept."""
+    votes of the raters kept.
+
+    Parameters
+    ----------
+    votes_path : str or Path
+        A pairwise votes table.
+    metrics_paths : sequence of str, optional
+        Metrics tables joined on the renders' pair ids.
+    lower, higher : sequence of str, optional
+        Metrics declared lower- or higher-is-better.
+    exclude_raters : sequence of str, optional
+        Raters left out by name.
+    screen_raters : bool, optional
+        Exclude the raters the screening rule flags.
+    n_boot : int, optional
+        Bootstrap replicates (0: no intervals).
+    seed : int, optional
+        Seed of the bootstrap.
+
+    Returns
+    -------
+    PairwiseAnalysis
+    """
     votes = read_pairwise_votes(votes_path)
     raters = screen(rater_table(votes), use_rule=screen_raters, exclude=list(exclude_raters))
     excluded = set(raters.loc[raters["excluded"], "rater_id"])

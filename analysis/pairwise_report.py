@@ -1,5 +1,7 @@
 """The report folder of a pairwise study (``analyze VOTES.csv`` on pairwise votes).
 
+Layer: analysis (pairwise study report).
+
 Files: ``bradley_terry.csv`` (:data:`analysis.pairwise.BT_COLUMNS`), ``agreement_2afc.csv``
 (:data:`analysis.pairwise.AGREEMENT_COLUMNS`, the raters' ceiling as its last row),
 ``raters.csv`` (screening), the figures as PNG and SVG, ``report.html`` (self-contained)
@@ -27,7 +29,19 @@ __all__ = ["write_pairwise_report", "bt_display", "win_prob_plot", "agreement_pl
 
 
 def bt_display(bt: pd.DataFrame, axis: str = "all") -> pd.DataFrame:
-    """The Bradley-Terry rows of one view axis as strings, best first within each view."""
+    """The Bradley-Terry rows of one view axis as strings, best first within each view.
+
+    Parameters
+    ----------
+    bt : pandas.DataFrame
+        :func:`analysis.pairwise.bt_table`.
+    axis : str, optional
+        The view axis (``'all'``: every view together).
+
+    Returns
+    -------
+    pandas.DataFrame
+    """
     t = bt[bt["axis"] == axis].copy()
     t["_view"] = t["offset"].fillna(0.0)
     t = t.sort_values(["_view", "score"], ascending=[True, False], kind="stable")
@@ -45,7 +59,19 @@ def win_prob_plot(bt: pd.DataFrame, methods: list[str]) -> Figure | None:
     """Win probability (mean P(beats another method)) per method along each view axis,
     with its 95% interval; with two methods one line, P(first beats second) (the other is its
     mirror image); each method in its colour (:func:`analysis.plots.method_colours`). ``None``
-    when the votes have a single view."""
+    when the votes have a single view.
+
+    Parameters
+    ----------
+    bt : pandas.DataFrame
+        :func:`analysis.pairwise.bt_table`.
+    methods : list of str
+        The methods compared.
+
+    Returns
+    -------
+    matplotlib.figure.Figure or None
+    """
     axes_ = [a for a in dict.fromkeys(bt["axis"]) if a != "all"]
     if not axes_:
         return None
@@ -80,7 +106,17 @@ def win_prob_plot(bt: pd.DataFrame, methods: list[str]) -> Figure | None:
 
 
 def agreement_plot(agreement: pd.DataFrame) -> Figure | None:
-    """2AFC agreement per metric (bars with 95% intervals) beside the raters' ceiling (band)."""
+    """2AFC agreement per metric (bars with 95% intervals) beside the raters' ceiling (band).
+
+    Parameters
+    ----------
+    agreement : pandas.DataFrame
+        :func:`analysis.pairwise.agreement_table`.
+
+    Returns
+    -------
+    matplotlib.figure.Figure or None
+    """
     t = agreement[(agreement["metric"] != CEILING_ROW) & np.isfinite(agreement["agreement"].astype(float))]
     if t.empty:
         return None
@@ -166,5 +202,18 @@ def _build(a: PairwiseAnalysis, d: Path) -> None:
 
 
 def write_pairwise_report(a: PairwiseAnalysis, out_dir) -> Path:
-    """Write the report directory atomically (build beside it, then swap it into place)."""
+    """Write the report directory atomically (build beside it, then swap it into place).
+
+    Parameters
+    ----------
+    a : PairwiseAnalysis
+        The analysis.
+    out_dir : str or Path
+        The report folder, replaced as a whole.
+
+    Returns
+    -------
+    Path
+        ``out_dir``.
+    """
     return write_report_folder(lambda d: _build(a, d), out_dir)

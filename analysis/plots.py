@@ -1,5 +1,7 @@
 """Report figures (matplotlib, no pyplot state: each function returns a new ``Figure``).
 
+Layer: analysis (report figures).
+
 - :func:`tent_plot` — paper Fig. 3: x = render offset ``y_offset_m``; the human GVF panel
   first (with dashed lines at mean +/- the spread expected from vote sampling alone), then
   one panel per metric; mean +/- 1 std per offset; the y axis of a
@@ -51,6 +53,16 @@ def method_colours(methods) -> dict[str, str]:
     study's): the methods sorted by name take ``C0``, ``C1``, ... in turn, so a method keeps
     its colour whatever the order a figure lists them in.
 
+    Parameters
+    ----------
+    methods : iterable of str
+        Method names.
+
+    Returns
+    -------
+    dict
+        Method -> matplotlib colour (``'C0'``, ``'C1'``, ...).
+
     >>> method_colours(["sharp", "blurry"])
     {'blurry': 'C0', 'sharp': 'C1'}
     """
@@ -59,6 +71,17 @@ def method_colours(methods) -> dict[str, str]:
 
 def direction_label(metric: str, higher_better: bool | None) -> str:
     """An axis label naming the metric and its direction.
+
+    Parameters
+    ----------
+    metric : str
+        The metric's name.
+    higher_better : bool or None
+        Its direction (``None``: unknown, no arrow).
+
+    Returns
+    -------
+    str
 
     >>> direction_label("lpips", False), direction_label("psnr", True)
     ('lpips (lower is better \u2193)', 'psnr (higher is better \u2191)')
@@ -70,13 +93,31 @@ def direction_label(metric: str, higher_better: bool | None) -> str:
 
 def offset_ticks(ax) -> None:
     """Tick labels of the x axis written as every table writes offsets
-    (:func:`analysis.text.offset_text`: ``-1``, ``0``, ``+1``)."""
+    (:func:`analysis.text.offset_text`: ``-1``, ``0``, ``+1``).
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axes, changed in place.
+    """
     ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: offset_text(round(v, 6))))
 
 
 def panel_grid(n: int, *, width: float, height: float) -> tuple[Figure, np.ndarray]:
     """A figure of ``n`` panels, at most four a row, each ``width`` x ``height`` inches:
     ``(fig, axes (n,))``; the unused cells of the last row are removed.
+
+    Parameters
+    ----------
+    n : int
+        Panels.
+    width, height : float, inches
+        Size of one panel.
+
+    Returns
+    -------
+    fig : matplotlib.figure.Figure
+    axes : (n,) object array of matplotlib.axes.Axes
 
     >>> fig, axes = panel_grid(5, width=3.0, height=2.0)
     >>> len(axes), len(fig.axes), fig.get_size_inches().tolist()
@@ -102,6 +143,21 @@ def tent_plot(
 
     by_offset: long table ``y_offset_m, column, n, mean, std`` (see
     :func:`analysis.breakdowns.offset_table`). ``len(fig.axes) == len(columns)``.
+
+    Parameters
+    ----------
+    by_offset : pandas.DataFrame
+        Long table ``y_offset_m, column, n, mean, std``.
+    columns : list of str
+        Target first, then metrics.
+    directions : dict
+        Column -> whether higher is better.
+    target_label : str, optional
+        The target's axis label.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
     fig, axes = panel_grid(len(columns), width=3.2, height=2.8)
     if "label_class" in by_offset.columns:
@@ -141,6 +197,18 @@ def tent_plot(
 def pareto_front(speed: np.ndarray, accuracy: np.ndarray) -> np.ndarray:
     """Indices of the points not dominated in (higher speed, higher accuracy), by speed desc.
 
+    Parameters
+    ----------
+    speed : (N,) float64
+        Pairs per second.
+    accuracy : (N,) float64
+        E.g. |SRCC|.
+
+    Returns
+    -------
+    (P,) int64
+        Indices of the front, by falling speed.
+
     >>> pareto_front(np.array([1.0, 10.0, 100.0, 5.0]), np.array([0.9, 0.8, 0.5, 0.7])).tolist()
     [2, 1, 0]
     """
@@ -155,7 +223,21 @@ def pareto_front(speed: np.ndarray, accuracy: np.ndarray) -> np.ndarray:
 
 
 def speed_accuracy_plot(summary: pd.DataFrame, timing: pd.DataFrame, *, target_label: str = "GVF"):
-    """Scatter of pairs/s (log x) against |SRCC| for metrics with timings; ``None`` if none."""
+    """Scatter of pairs/s (log x) against |SRCC| for metrics with timings; ``None`` if none.
+
+    Parameters
+    ----------
+    summary : pandas.DataFrame
+        The analysis summary (``metric, srcc``).
+    timing : pandas.DataFrame
+        The timing table (``metric, pairs_per_s``).
+    target_label : str, optional
+        The target's name in the axis label.
+
+    Returns
+    -------
+    matplotlib.figure.Figure or None
+    """
     if summary.empty:
         return None
     t = summary.merge(timing, on="metric", how="inner")
@@ -199,6 +281,26 @@ def place_labels(ax, points: np.ndarray, texts: list[str], *, fontsize: float = 
 
     Returns the label :class:`~matplotlib.text.Text` objects, in the order of ``points``
     (leader lines are separate annotations without text).
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axes the points are drawn in.
+    points : (N, 2) float64
+        Data coordinates.
+    texts : list of str
+        One label per point.
+    fontsize : float, optional
+        Label size, points.
+    marker_px : float, optional
+        Marker radius, pixels.
+    max_rings : int, optional
+        Candidate rings above and below a point.
+
+    Returns
+    -------
+    list of matplotlib.text.Text
+        In the order of ``points``.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.transforms import offset_copy
@@ -340,6 +442,21 @@ def roc_plot(items: pd.DataFrame, summary: pd.DataFrame, label: np.ndarray, *, t
     """ROC curves of the ``top`` metrics by ROC AUC; ``None`` if no AUC is defined.
 
     label: (n_items,) bool; scores are negated for lower-is-better metrics.
+
+    Parameters
+    ----------
+    items : pandas.DataFrame
+        One row per item with the metric columns.
+    summary : pandas.DataFrame
+        The analysis summary (``metric, roc_auc, higher_better``).
+    label : (n_items,) bool
+        Binary target.
+    top : int, optional
+        Metrics drawn.
+
+    Returns
+    -------
+    matplotlib.figure.Figure or None
     """
     if summary.empty:
         return None
@@ -366,7 +483,21 @@ def roc_plot(items: pd.DataFrame, summary: pd.DataFrame, label: np.ndarray, *, t
 
 
 def target_histogram(items: pd.DataFrame, target: str, *, label: str = "GVF") -> Figure:
-    """Histogram of the per-item target (GVF: bins of width 0.1 on [0, 1])."""
+    """Histogram of the per-item target (GVF: bins of width 0.1 on [0, 1]).
+
+    Parameters
+    ----------
+    items : pandas.DataFrame
+        One row per item.
+    target : str
+        The target column.
+    label : str, optional
+        Its axis label.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     v = items[target].to_numpy(float)
     v = v[np.isfinite(v)]
     fig = Figure(figsize=(4.5, 3.2), layout="constrained")
@@ -379,7 +510,22 @@ def target_histogram(items: pd.DataFrame, target: str, *, label: str = "GVF") ->
 
 
 def save_figure(fig: Figure, directory, name: str) -> bytes:
-    """Write ``name.png`` and ``name.svg`` into ``directory``; returns the PNG bytes."""
+    """Write ``name.png`` and ``name.svg`` into ``directory``; returns the PNG bytes.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure.
+    directory : str or Path
+        An existing folder.
+    name : str
+        File stem.
+
+    Returns
+    -------
+    bytes
+        The PNG.
+    """
     d = Path(directory)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=120, metadata={"Software": None})

@@ -1,6 +1,8 @@
 """The paired sign-flip (permutation) test over tracks of the method comparison
 (docs/FORMATS.md §11).
 
+Layer: analysis (statistics of votes and metrics).
+
 Under the null hypothesis that two methods are equally good, the paired differences of one
 track are as likely to come out with the opposite sign: flipping the sign of a whole track's
 differences gives another equally likely data set. The statistic is the sum of the
@@ -41,6 +43,15 @@ _RTOL = 100 * np.finfo(np.float64).eps
 def sign_patterns(n: int) -> np.ndarray:
     """(2^n, n) float64: every pattern of signs +1/-1 of ``n`` tracks, the identity first.
 
+    Parameters
+    ----------
+    n : int
+        Tracks.
+
+    Returns
+    -------
+    (2**n, n) float64
+
     >>> sign_patterns(2).tolist()
     [[1.0, 1.0], [-1.0, 1.0], [1.0, -1.0], [-1.0, -1.0]]
     """
@@ -49,7 +60,21 @@ def sign_patterns(n: int) -> np.ndarray:
 
 
 def draw_signs(n_tracks: int, n_draws: int, *, seed: int) -> np.ndarray:
-    """(B, K) int8 random signs +1/-1 of K tracks in each of B Monte Carlo patterns."""
+    """(B, K) int8 random signs +1/-1 of K tracks in each of B Monte Carlo patterns.
+
+    Parameters
+    ----------
+    n_tracks : int
+        Tracks K.
+    n_draws : int
+        Patterns B.
+    seed : int
+        Seed of the draws.
+
+    Returns
+    -------
+    (B, K) int8
+    """
     rng = np.random.default_rng(seed)
     return (1 - 2 * rng.integers(0, 2, size=(n_draws, n_tracks))).astype(np.int8)
 

@@ -1,5 +1,7 @@
 """Correlation statistics of a metric against a per-item target, columnar and grouped.
 
+Layer: analysis (statistics of votes and metrics).
+
 Every function works on whole columns (numpy), optionally split into groups by integer
 ``codes`` — no per-row Python, so the same code runs on 30M rows and on 300.
 
@@ -54,6 +56,20 @@ def rank_within(x: np.ndarray, codes: np.ndarray | None = None, *, order: np.nda
     group); order: optional precomputed ``np.argsort(x, kind='stable')`` to reuse between
     groupings. Returns (n,) float64 ranks, equal to ``scipy.stats.rankdata`` per group.
 
+    Parameters
+    ----------
+    x : (n,) float64
+        Finite values.
+    codes : (n,) int, optional
+        Group of each row, non-negative (``None``: one group).
+    order : (n,) int, optional
+        ``np.argsort(x, kind='stable')``, to reuse.
+
+    Returns
+    -------
+    (n,) float64
+        1-based average ranks within each group.
+
     >>> rank_within(np.array([3.0, 1.0, 3.0, 2.0]))
     array([3.5, 1. , 3.5, 2. ])
     >>> rank_within(np.array([3.0, 1.0, 3.0, 2.0]), np.array([0, 0, 1, 1]))
@@ -95,7 +111,18 @@ def rank_within(x: np.ndarray, codes: np.ndarray | None = None, *, order: np.nda
 
 
 def undefined_reason(x: np.ndarray, y: np.ndarray) -> str | None:
-    """The written rule: why a correlation of x (n,) with y (n,) is undefined, or ``None``."""
+    """The written rule: why a correlation of x (n,) with y (n,) is undefined, or ``None``.
+
+    Parameters
+    ----------
+    x, y : (n,) float64
+        Paired values.
+
+    Returns
+    -------
+    str or None
+        Why the correlation is undefined (n < 3, a constant column), or ``None``.
+    """
     if x.shape[0] < N_MIN:
         return "n < 3"
     if x.min() == x.max():
@@ -106,7 +133,19 @@ def undefined_reason(x: np.ndarray, y: np.ndarray) -> str | None:
 
 
 def group_counts(codes: np.ndarray, n_groups: int) -> np.ndarray:
-    """Rows per group: (G,) int64."""
+    """Rows per group: (G,) int64.
+
+    Parameters
+    ----------
+    codes : (n,) int
+        Group of each row, in ``[0, n_groups)``.
+    n_groups : int
+        Number of groups G.
+
+    Returns
+    -------
+    (G,) int64
+    """
     return np.bincount(codes, minlength=n_groups)
 
 
@@ -124,6 +163,22 @@ def grouped_pearson(x: np.ndarray, y: np.ndarray, codes: np.ndarray, n_groups: i
 
     Returns ``(r (G,) float64, reasons (G,) object)``; undefined groups have NaN and a reason.
     Two-pass (centred) sums, so large offsets do not lose precision.
+
+    Parameters
+    ----------
+    x, y : (n,) float64
+        Paired values.
+    codes : (n,) int
+        Group of each row, in ``[0, n_groups)``.
+    n_groups : int
+        Number of groups G.
+
+    Returns
+    -------
+    r : (G,) float64
+        NaN where undefined.
+    reasons : (G,) object
+        Why each undefined group is, else ``None``.
     """
     if n_groups == 1:  # fast path without group bookkeeping (same formulas)
         return _pearson_one(x, y)
@@ -162,6 +217,24 @@ def grouped_spearman(x, y, codes, n_groups, *, x_order=None, y_order=None):
 
     x, y, codes: (n,); optional argsorts of x and y to reuse. Returns like
     :func:`grouped_pearson`.
+
+    Parameters
+    ----------
+    x, y : (n,) float64
+        Paired values.
+    codes : (n,) int
+        Group of each row, in ``[0, n_groups)``.
+    n_groups : int
+        Number of groups G.
+    x_order, y_order : (n,) int, optional
+        Stable argsorts of ``x`` and ``y``, to reuse.
+
+    Returns
+    -------
+    r : (G,) float64
+        NaN where undefined.
+    reasons : (G,) object
+        Why each undefined group is, else ``None``.
     """
     rx = rank_within(x, codes, order=x_order)
     ry = rank_within(y, codes, order=y_order)
@@ -178,17 +251,53 @@ def _one(fn, x, y):
 
 
 def pearson(x, y) -> tuple[float, str | None]:
-    """Signed Pearson r of x (n,) and y (n,) (finite values), with the undefined-rule reason."""
+    """Signed Pearson r of x (n,) and y (n,) (finite values), with the undefined-rule reason.
+
+    Parameters
+    ----------
+    x, y : (n,) float64
+        Paired finite values.
+
+    Returns
+    -------
+    r : float
+        In [-1, 1]; NaN when undefined.
+    reason : str or None
+    """
     return _one(grouped_pearson, x, y)
 
 
 def spearman(x, y) -> tuple[float, str | None]:
-    """Signed Spearman rho (average ranks for ties) of x (n,) and y (n,)."""
+    """Signed Spearman rho (average ranks for ties) of x (n,) and y (n,).
+
+    Parameters
+    ----------
+    x, y : (n,) float64
+        Paired finite values.
+
+    Returns
+    -------
+    rho : float
+        In [-1, 1]; NaN when undefined.
+    reason : str or None
+    """
     return _one(grouped_spearman, x, y)
 
 
 def kendall(x, y) -> tuple[float, str | None]:
-    """Kendall's tau-b of x (n,) and y (n,) (``scipy.stats.kendalltau``, O(n log n))."""
+    """Kendall's tau-b of x (n,) and y (n,) (``scipy.stats.kendalltau``, O(n log n)).
+
+    Parameters
+    ----------
+    x, y : (n,) float64
+        Paired finite values.
+
+    Returns
+    -------
+    tau : float
+        In [-1, 1]; NaN when undefined.
+    reason : str or None
+    """
     x = np.asarray(x, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)
     why = undefined_reason(x, y)
@@ -203,6 +312,21 @@ def roc_auc(labels, scores, *, ranks: np.ndarray | None = None) -> tuple[float, 
     Mann-Whitney form with average ranks, which equals ``sklearn.metrics.roc_auc_score``
     including ties. Undefined with one class only or n < 3. ``ranks`` (n,): precomputed
     :func:`rank_within` of ``scores``, to reuse.
+
+    Parameters
+    ----------
+    labels : (n,) bool or {0, 1}
+        Binary labels.
+    scores : (n,) float64
+        Scores, higher meaning label 1.
+    ranks : (n,) float64, optional
+        :func:`rank_within` of ``scores``.
+
+    Returns
+    -------
+    auc : float
+        In [0, 1]; NaN when undefined.
+    reason : str or None
 
     >>> roc_auc(np.array([0, 0, 1, 1]), np.array([0.1, 0.4, 0.35, 0.8]))
     (0.75, None)
@@ -222,7 +346,24 @@ def roc_auc(labels, scores, *, ranks: np.ndarray | None = None) -> tuple[float, 
 
 
 def logistic4(x, b1, b2, b3, b4):
-    """VQEG 4-parameter logistic: ``(b1 - b2) / (1 + exp(-(x - b3) / |b4|)) + b2``."""
+    """VQEG 4-parameter logistic: ``(b1 - b2) / (1 + exp(-(x - b3) / |b4|)) + b2``.
+
+    Parameters
+    ----------
+    x : float or array
+        Metric values.
+    b1, b2 : float
+        The two plateaus.
+    b3 : float
+        Midpoint.
+    b4 : float
+        Scale (its absolute value is used).
+
+    Returns
+    -------
+    float or array
+        Shaped as ``x``.
+    """
     z = np.clip(-(x - b3) / (np.abs(b4) + 1e-300), -500, 500)
     return (b1 - b2) / (1.0 + np.exp(z)) + b2
 
@@ -235,6 +376,26 @@ def logistic_plcc(x, y, *, max_fit_points: int = 200_000, seed: int = 0):
     its interquartile range; three scale guesses are tried. Above ``max_fit_points`` items the
     parameters are fitted on a seeded sample of that size (the PLCC is still computed on all).
     Returns ``(value, reason, note)``.
+
+    Parameters
+    ----------
+    x : (n,) float64
+        Metric values.
+    y : (n,) float64
+        Target values.
+    max_fit_points : int, optional
+        Largest sample the logistic is fitted on.
+    seed : int, optional
+        Seed of that sample.
+
+    Returns
+    -------
+    value : float
+        |PLCC| in [0, 1]; NaN when undefined.
+    reason : str or None
+        Why it is undefined.
+    note : str or None
+        Whether the fit used a sample.
     """
     x = np.asarray(x, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)

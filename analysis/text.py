@@ -3,6 +3,8 @@ the report (:mod:`analysis.report`), the leaderboard section (:mod:`analysis.met
 and the pairwise report (:mod:`analysis.pairwise_report`); and the sentence that says which
 raters were left out and why (:func:`screening_text`, also printed by ``analyze``).
 
+Layer: analysis (report text).
+
 >>> fmt(0.61234), fmt(float("nan")), fmt(True), fmt(7)
 ('0.612', '', 'yes', '7')
 >>> interval_text(0.61234, 0.54, 0.68), interval_text(0.5, float("nan"), float("nan"), digits=2)
@@ -19,7 +21,19 @@ __all__ = ["fmt", "interval_text", "offset_text", "screening_text", "no_votes_le
 
 def fmt(v, digits: int = 3) -> str:
     """A table cell: ``''`` for a missing or non-finite number, ``yes``/``no`` for a bool,
-    ``digits`` decimals for a float, else ``str(v)``."""
+    ``digits`` decimals for a float, else ``str(v)``.
+
+    Parameters
+    ----------
+    v : object
+        The value.
+    digits : int, optional
+        Decimals of a float.
+
+    Returns
+    -------
+    str
+    """
     if v is None or (isinstance(v, float) and not np.isfinite(v)) or v is pd.NA:
         return ""
     if isinstance(v, (bool, np.bool_)):
@@ -31,7 +45,19 @@ def fmt(v, digits: int = 3) -> str:
 
 def interval_text(v, lo, hi, digits: int = 3) -> str:
     """``v`` (:func:`fmt`) followed by its interval ``[lo, hi]`` when ``lo`` is a finite
-    number; ``''`` when ``v`` is undefined."""
+    number; ``''`` when ``v`` is undefined.
+
+    Parameters
+    ----------
+    v, lo, hi : float
+        Value and interval bounds.
+    digits : int, optional
+        Decimals.
+
+    Returns
+    -------
+    str
+    """
     text = fmt(v, digits)
     if text and lo is not None and np.isfinite(lo):
         text += f" [{lo:.{digits}f}, {hi:.{digits}f}]"
@@ -41,6 +67,15 @@ def interval_text(v, lo, hi, digits: int = 3) -> str:
 def offset_text(v) -> str:
     """A view's value along its axis, the one way every table and figure writes it: signed,
     shortest form, ``0`` for the recorded view (``''`` when undefined).
+
+    Parameters
+    ----------
+    v : float
+        Value along the axis, metres or degrees.
+
+    Returns
+    -------
+    str
 
     >>> offset_text(3.0), offset_text(-1.5), offset_text(0.0), offset_text(-0.0), offset_text(float("nan"))
     ('+3', '-1.5', '0', '0', '')
@@ -54,6 +89,17 @@ def screening_text(raters: pd.DataFrame, *, applied: bool) -> str:
     """Who was excluded and why, and who was flagged but kept, from a screened rater table
     (:func:`annotate.screening.screen`: ``rater_id, flags, excluded, excluded_reason``);
     ``applied``: whether the screening rule excluded (``analyze``'s default).
+
+    Parameters
+    ----------
+    raters : pandas.DataFrame
+        A screened rater table.
+    applied : bool
+        Whether the screening rule excluded.
+
+    Returns
+    -------
+    str
 
     >>> r = pd.DataFrame({"rater_id": ["ann", "bob"], "flags": ["", "gold failures"],
     ...                   "excluded": [False, True], "excluded_reason": ["", "screening: gold failures"]})
@@ -77,6 +123,16 @@ def screening_text(raters: pd.DataFrame, *, applied: bool) -> str:
 
 def no_votes_left(screened: bool) -> str:
     """What a vote table that the exclusions left without test votes should have had (the
-    error of both designs; with screening on, how to keep the flagged raters)."""
+    error of both designs; with screening on, how to keep the flagged raters).
+
+    Parameters
+    ----------
+    screened : bool
+        Whether screening was on.
+
+    Returns
+    -------
+    str
+    """
     return ("at least one test vote after exclusions (screening flagged every rater left; "
             "`screen` off keeps them)" if screened else "at least one test vote after exclusions")

@@ -1,5 +1,7 @@
 """The study owner's live admin page (``/?admin=TOKEN`` of the rater app).
 
+Layer: annotate (rating study).
+
 The page body is a Streamlit fragment that re-runs by itself every :data:`REFRESH_S`
 seconds (no reload): per rater the progress, the agreement with the others so far and the
 screening flags as they form (:mod:`annotate.screening`, the rule ``analyze`` applies by
@@ -43,12 +45,35 @@ MISSING = "—"
 
 def shown(table: pd.DataFrame):
     """``table`` as the page shows it: missing values as :data:`MISSING` (not ``None`` or
-    ``nan``), numbers to 3 decimals; the values themselves stay numbers (sortable)."""
+    ``nan``), numbers to 3 decimals; the values themselves stay numbers (sortable).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        A table of the page.
+
+    Returns
+    -------
+    pandas.io.formats.style.Styler
+    """
     return table.style.format(na_rep=MISSING, precision=3)
 
 
 def live_raters(study, ratings: pd.DataFrame) -> pd.DataFrame:
-    """Progress per rater joined with the screening numbers and flags so far."""
+    """Progress per rater joined with the screening numbers and flags so far.
+
+    Parameters
+    ----------
+    study : Study
+        An open study.
+    ratings : pandas.DataFrame
+        Its votes so far (:func:`annotate.results.votes_table`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per rater.
+    """
     prog = rater_progress(study, ratings)
     if ratings.empty:
         return prog.assign(flags="")
@@ -58,7 +83,20 @@ def live_raters(study, ratings: pd.DataFrame) -> pd.DataFrame:
 
 def with_actions(study, raters: pd.DataFrame) -> pd.DataFrame:
     """``raters`` (a ``rater_id`` column) with ``votes_undone`` and ``too_fast`` (presses
-    dropped as too fast) per rater, counted in the store's history (0 for none)."""
+    dropped as too fast) per rater, counted in the store's history (0 for none).
+
+    Parameters
+    ----------
+    study : Study
+        An open study.
+    raters : pandas.DataFrame
+        A table with a ``rater_id`` column.
+
+    Returns
+    -------
+    pandas.DataFrame
+        A copy with ``votes_undone`` and ``too_fast``.
+    """
     acts = study.store.action_counts().rename(columns={"rater": "rater_id"})
     out = raters.merge(acts, on="rater_id", how="left")
     cols = ["votes_undone", "too_fast"]
@@ -115,7 +153,15 @@ _live = st.fragment(run_every=REFRESH_S)(_live_body)
 
 
 def admin_page(study, token: str) -> None:
-    """The admin page of ``study`` when ``token`` is its admin token, else an error."""
+    """The admin page of ``study`` when ``token`` is its admin token, else an error.
+
+    Parameters
+    ----------
+    study : Study
+        An open study.
+    token : str
+        The token given in the page's URL.
+    """
     if not hmac.compare_digest(str(token).encode(), study.admin_token().encode()):
         st.error("Admin token not valid.")
         return

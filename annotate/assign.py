@@ -1,5 +1,7 @@
 """Which item a rater sees next: per-rater plans and balanced assignment (pure functions).
 
+Layer: annotate (rating study).
+
 A rater's *plan* is fixed when the rater signs in for the first time and stored with the
 rater: the training items in study order, then the test items in a random order seeded by
 the study seed and the rater id, and the hidden gold and repeat items ("specials"), each due
@@ -36,6 +38,18 @@ __all__ = ["make_plan", "choose_next", "rater_seed", "plan_total", "pairwise_sid
 def rater_seed(study_seed: int, rater: str) -> int:
     """A 63-bit seed from the study seed and the rater id (stable across runs and machines).
 
+    Parameters
+    ----------
+    study_seed : int
+        The study's seed.
+    rater : str
+        The rater id.
+
+    Returns
+    -------
+    int
+        In ``[0, 2**63)``.
+
     >>> rater_seed(0, "ann") == rater_seed(0, "ann") != rater_seed(1, "ann")
     True
     """
@@ -52,6 +66,26 @@ def make_plan(*, training: list[str], tests: list[str], golds: list[str],
     a random point, so it rarely follows its original closely. ``max_tests``: the most test
     items the rater is given (None: no cap; the plan's ``max_tests``); the sequence the
     specials are spread over is then that long.
+
+    Parameters
+    ----------
+    training : list of str
+        Training item keys, shown first in this order.
+    tests : list of str
+        Test item keys.
+    golds : list of str
+        Gold item keys.
+    repeats : dict
+        Repeat item key -> its original test item key.
+    seed : int
+        The rater's seed (:func:`rater_seed`).
+    max_tests : int, optional
+        Cap on the rater's test items.
+
+    Returns
+    -------
+    dict
+        The plan.
     """
     rng = np.random.default_rng(seed)
     order = [tests[i] for i in rng.permutation(len(tests))]
@@ -78,6 +112,24 @@ def choose_next(plan: dict, assigned: list[str], voted: set[str], loads: dict[st
     ``assigned``: keys already assigned to this rater; ``voted``: those it voted on;
     ``loads``: per test key, votes plus live claims of the other raters; ``quota``: votes
     wanted per test item (``None``: every rater rates every item).
+
+    Parameters
+    ----------
+    plan : dict
+        The rater's plan (:func:`make_plan`).
+    assigned : list of str
+        Keys already assigned to the rater.
+    voted : set of str
+        Keys it voted on.
+    loads : dict
+        Test key -> votes plus live claims of the other raters.
+    quota : int or None
+        Votes wanted per test item (``None``: every rater rates every item).
+
+    Returns
+    -------
+    str or None
+        The next item key.
     """
     done = set(assigned)
     for key in plan["training"]:
@@ -115,6 +167,21 @@ def plan_total(plan: dict, assigned: list[str], loads: dict[str, int], *,
 
     Assigned items, plus test items still open to the rater, plus specials not yet shown
     (a repeat only if its original is assigned to the rater or still open to it).
+
+    Parameters
+    ----------
+    plan : dict
+        The rater's plan.
+    assigned : list of str
+        Keys already assigned to the rater.
+    loads : dict
+        Test key -> votes plus live claims of the other raters.
+    quota : int or None
+        Votes wanted per test item.
+
+    Returns
+    -------
+    int
     """
     done = set(assigned)
     training = set(plan["training"])
@@ -143,6 +210,18 @@ def pairwise_sides(plan: dict, *, seed: int) -> dict[str, str]:
     item gets a random side), so a rater who always presses one side cannot favour a method.
     A repeat shows A on the side opposite to its original, so a side-biased rater answers
     the two differently. Across raters, an item's side is a fair coin.
+
+    Parameters
+    ----------
+    plan : dict
+        The rater's plan (:func:`make_plan`).
+    seed : int
+        The rater's seed.
+
+    Returns
+    -------
+    dict
+        Item key -> ``{'left', 'right'}``.
 
     >>> plan = make_plan(training=["t"], tests=["a", "b", "c", "d"], golds=["g1", "g2"],
     ...                  repeats={"r:a": "a"}, seed=1)

@@ -1,5 +1,7 @@
 """The ``annotate`` command: build, serve, add-rater, export, gvf, simulate (thin shell).
 
+Layer: commands (CLI shell) of ``annotate``.
+
 Each subcommand lives in ``annotate/commands/<name>.py`` and exposes ``register(sub)``, which
 adds its parser and sets ``func`` to its ``run(args)`` (returns an exit status), as the
 ``nvrq`` commands do (:mod:`nvrq.cli`). The argument conventions are
@@ -35,7 +37,12 @@ _ALIASES = {"n_training": "training", "n_gold": "gold", "n_repeats": "repeats",
 
 def build_parser() -> ArgumentParser:
     """The ``annotate`` parser: every subcommand of :data:`COMMAND_MODULES`
-    (:func:`nvrq.commands.args.command_parser`)."""
+    (:func:`nvrq.commands.args.command_parser`).
+
+    Returns
+    -------
+    ArgumentParser
+    """
     return command_parser("annotate", "Rating studies of render quality.", COMMAND_MODULES)
 
 
@@ -54,7 +61,18 @@ def _main(argv=None) -> int:
 
 def main(argv=None) -> int:
     """Entry point of the ``annotate`` console script: run the subcommand of ``argv`` (default
-    ``sys.argv[1:]``) and return its exit status (2 for bad input, :func:`nvrq.commands.args.run_cli`)."""
+    ``sys.argv[1:]``) and return its exit status (2 for bad input, :func:`nvrq.commands.args.run_cli`).
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments (default ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        The exit status.
+    """
     return run_cli(_main, argv)
 
 

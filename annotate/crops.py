@@ -1,5 +1,7 @@
 """Display crops of a study: cut once, padded to a shared square, resized to display size.
 
+Layer: annotate (rating study).
+
 Boxes are cut with :func:`nvrq.crops.cut_box` (inclusive pixel indices, docs/FORMATS.md §3)
 and padded with :func:`nvrq.crops.pad_to_square`, the scorer's own functions. Images stay BGR
 uint8 from ``cv2.imread`` to ``cv2.imwrite`` (both use BGR), so colours are saved unchanged.
@@ -56,7 +58,22 @@ MAX_BAD_NOISE = 80.0
 
 
 def read_bgr(path: Path, *, where: str, field: str) -> np.ndarray:
-    """Read a colour image as BGR uint8 (H, W, 3); InputError naming ``where``/``field``."""
+    """Read a colour image as BGR uint8 (H, W, 3); InputError naming ``where``/``field``.
+
+    Parameters
+    ----------
+    path : Path
+        The image file.
+    where : str
+        The table named in errors.
+    field : str
+        The field named in errors (e.g. ``'row 3: gt_path'``).
+
+    Returns
+    -------
+    (H, W, 3) uint8
+        BGR.
+    """
     if not Path(path).is_file():  # checked first: OpenCV would print a [ WARN ] line
         raise InputError(where, field, "an existing image file", f"{path} (not found)")
     img = cv2.imread(str(path), cv2.IMREAD_COLOR)
@@ -66,7 +83,19 @@ def read_bgr(path: Path, *, where: str, field: str) -> np.ndarray:
 
 
 def pad_pair(ref: np.ndarray, ren: np.ndarray, *, size: int) -> tuple[np.ndarray, np.ndarray]:
-    """Both crops on a common black square, resized to (size, size, 3) each."""
+    """Both crops on a common black square, resized to (size, size, 3) each.
+
+    Parameters
+    ----------
+    ref, ren : (h, w, 3) uint8
+        Reference and render crops, BGR.
+    size : int
+        Display side, pixels.
+
+    Returns
+    -------
+    ref, ren : (size, size, 3) uint8
+    """
     a, b = pad_group((ref, ren), size=size)
     return a, b
 
@@ -74,7 +103,19 @@ def pad_pair(ref: np.ndarray, ren: np.ndarray, *, size: int) -> tuple[np.ndarray
 def pad_group(crops, *, size: int) -> list[np.ndarray]:
     """Every crop (h_i, w_i, 3) centred on one black square (the largest side of all of
     them, so all keep one scale), resized to (size, size, 3): area averaging when shrinking,
-    bicubic when enlarging."""
+    bicubic when enlarging.
+
+    Parameters
+    ----------
+    crops : sequence of (h_i, w_i, 3) uint8
+        Crops, BGR.
+    size : int
+        Display side, pixels.
+
+    Returns
+    -------
+    list of (size, size, 3) uint8
+    """
     side = max(max(c.shape[:2]) for c in crops)
     interp = cv2.INTER_AREA if side > size else cv2.INTER_CUBIC
     return [cv2.resize(pad_to_square(c, side=side), (size, size), interpolation=interp)
@@ -87,6 +128,19 @@ def broken_render(crop: np.ndarray, *, rng: np.random.Generator, noise: float = 
     Three black holes of a quarter of the side each, then a heavy Gaussian blur (sigma = 15%
     of the longer side: the holes become dark smears) and Gaussian noise (sigma ``noise`` grey
     levels; :meth:`CropWriter.matched` chooses it to match a real render's file size).
+
+    Parameters
+    ----------
+    crop : (h, w, 3) uint8
+        The crop, BGR.
+    rng : numpy.random.Generator
+        Source of the holes and the noise.
+    noise : float, optional
+        Standard deviation of the noise, grey levels.
+
+    Returns
+    -------
+    (h, w, 3) uint8
     """
     h, w = crop.shape[:2]
     out = crop.copy()
@@ -101,7 +155,22 @@ def broken_render(crop: np.ndarray, *, rng: np.random.Generator, noise: float = 
 
 
 def encode(img: np.ndarray, *, fmt: str, quality: int = 95) -> bytes:
-    """A BGR uint8 image encoded as ``fmt`` in {'jpg', 'png'} (JPEG: ``quality``)."""
+    """A BGR uint8 image encoded as ``fmt`` in {'jpg', 'png'} (JPEG: ``quality``).
+
+    Parameters
+    ----------
+    img : (H, W, 3) uint8
+        BGR image.
+    fmt : str
+        ``{'jpg', 'png'}``.
+    quality : int, optional
+        JPEG quality, 0-100.
+
+    Returns
+    -------
+    bytes
+        The file's content.
+    """
     params = [cv2.IMWRITE_JPEG_QUALITY, int(quality)] if fmt == "jpg" else [cv2.IMWRITE_PNG_COMPRESSION, 3]
     ok, buf = cv2.imencode("." + fmt, img, params)
     if not ok:
@@ -110,7 +179,24 @@ def encode(img: np.ndarray, *, fmt: str, quality: int = 95) -> bytes:
 
 
 def write_image(path: Path, img: np.ndarray, *, fmt: str, quality: int = 95) -> bytes:
-    """Write a BGR uint8 image as ``fmt`` in {'jpg', 'png'} (:func:`encode`); the bytes."""
+    """Write a BGR uint8 image as ``fmt`` in {'jpg', 'png'} (:func:`encode`); the bytes.
+
+    Parameters
+    ----------
+    path : Path
+        The file to write.
+    img : (H, W, 3) uint8
+        BGR image.
+    fmt : str
+        ``{'jpg', 'png'}``.
+    quality : int, optional
+        JPEG quality, 0-100.
+
+    Returns
+    -------
+    bytes
+        The bytes written.
+    """
     data = encode(img, fmt=fmt, quality=quality)
     path.write_bytes(data)
     return data
@@ -120,6 +206,20 @@ def dither(img: np.ndarray, *, rng: np.random.Generator, share: float = DITHER_S
     """A copy of ``img`` (uint8, any shape) with a random ``share`` (in steps of 1/128) of its
     values moved one grey level up or down (clipped to 0..255): invisible, but no two dithered
     copies of one image are alike.
+
+    Parameters
+    ----------
+    img : uint8 array, any shape
+        The image.
+    rng : numpy.random.Generator
+        Chooses the values moved and their direction.
+    share : float, optional
+        Fraction of values moved, in [0, 1].
+
+    Returns
+    -------
+    uint8 array
+        Same shape as ``img``.
 
     >>> img = np.full((32, 32, 3), 100, np.uint8)
     >>> d = dither(img, rng=np.random.default_rng(0))
@@ -135,6 +235,18 @@ def dither(img: np.ndarray, *, rng: np.random.Generator, share: float = DITHER_S
 def draw_shift(rng: np.random.Generator, box) -> tuple[int, int]:
     """A random move ``(dx, dy)`` in pixels, not both 0, each at most :data:`MAX_SHIFT` of the
     inclusive box ``[x0, y0, x1, y1]``'s longer side (at least 1 pixel).
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        Source of the move.
+    box : (4,) int
+        ``[x0, y0, x1, y1]``, inclusive pixels.
+
+    Returns
+    -------
+    (int, int)
+        ``(dx, dy)`` in pixels.
 
     >>> dx, dy = draw_shift(np.random.default_rng(0), [0, 0, 99, 49])
     >>> max(abs(dx), abs(dy)) <= 8 and (dx, dy) != (0, 0)
@@ -152,6 +264,20 @@ def shift_box(box, shift: tuple[int, int], shape) -> list[int]:
     """The inclusive box ``[x0, y0, x1, y1]`` moved by ``shift = (dx, dy)``, each part cut
     back so that the box stays inside an image of ``shape`` (H, W, ...); its size is kept.
 
+    Parameters
+    ----------
+    box : (4,) int
+        ``[x0, y0, x1, y1]``, inclusive pixels.
+    shift : (int, int)
+        ``(dx, dy)`` in pixels.
+    shape : tuple
+        Image shape ``(H, W, ...)``.
+
+    Returns
+    -------
+    list of int
+        The moved box, inclusive pixels.
+
     >>> shift_box([2, 2, 5, 5], (3, -4), (8, 10))
     [5, 0, 8, 3]
     """
@@ -164,7 +290,23 @@ def shift_box(box, shift: tuple[int, int], shape) -> list[int]:
 
 def soften(crop: np.ndarray, sigma_display: float, *, side: int, size: int) -> np.ndarray:
     """``crop`` blurred by ``sigma_display`` pixels of the ``size`` x ``size`` display (its
-    square of ``side`` camera pixels is resized to it); 0 returns it unchanged."""
+    square of ``side`` camera pixels is resized to it); 0 returns it unchanged.
+
+    Parameters
+    ----------
+    crop : (h, w, 3) uint8
+        The crop, BGR.
+    sigma_display : float, display pixels
+        Blur standard deviation as seen on the display.
+    side : int, pixels
+        Side of the padded square the crop sits on, camera pixels.
+    size : int, pixels
+        Display side.
+
+    Returns
+    -------
+    (h, w, 3) uint8
+    """
     if sigma_display <= 0:
         return crop
     sigma = sigma_display * side / size
@@ -185,6 +327,17 @@ class CropWriter:
     real ones: the i-th item of a group of n takes a ratio at a random quantile within one
     of n equal strata, each stratum once, in a random order (Latin hypercube sampling), so a
     handful of gold items follows the real items' size distribution closely.
+
+    Parameters
+    ----------
+    folder : Path
+        The new crops folder.
+    fmt : str
+        ``{'jpg', 'png'}``.
+    rng : numpy.random.Generator
+        The study's generator.
+    groups : dict, optional
+        ``{name: count}`` of gold item groups.
     """
 
     def __init__(self, folder: Path, *, fmt: str, rng: np.random.Generator,
@@ -313,6 +466,11 @@ class ImageCache:
     ``image(r, column)`` is the BGR image (:func:`read_bgr`) in ``column`` (``gt_path`` or
     ``render_path``) of the pairs record ``r`` (with the ``_root`` scene folder and ``_row``
     line columns of :func:`annotate.study.build_study`'s table); errors name ``where``.
+
+    Parameters
+    ----------
+    where : str
+        The table named in errors.
     """
 
     def __init__(self, where: str):

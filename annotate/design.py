@@ -1,5 +1,7 @@
 """The study design (paper section 4): which tracks, frames and views raters see.
 
+Layer: annotate (rating study).
+
 Pure functions on a pairs table (docs/FORMATS.md §3). A *track* is ``(clip_id, track_id)``; a
 *frame* of it is ``(camera, timestamp_us)``. A *view* is a render perturbation, keyed by its
 label (:mod:`data_schema.perturbation`; a lateral offset ``y`` is the view ``y=+1.00``, 0 is
@@ -60,13 +62,40 @@ _EXTRA_NON_ATTRIBUTES = ("scene_root", *VIEW_COLUMNS, METHOD_COLUMN)
 
 def attribute_columns(pairs: pd.DataFrame) -> list[str]:
     """Scene attribute columns: those after the contract columns (``scene_root``, the view
-    columns, ``method`` and ``_*`` excluded)."""
+    columns, ``method`` and ``_*`` excluded).
+
+    Parameters
+    ----------
+    pairs : pandas.DataFrame
+        A pairs table.
+
+    Returns
+    -------
+    list of str
+    """
     return [c for c in pairs.columns if c not in PAIRS_COLUMNS
             and c not in _EXTRA_NON_ATTRIBUTES and not str(c).startswith("_")]
 
 
 def choose_offsets(spec: str, available) -> list[float]:
     """Chosen offsets (sorted, metres) from ``'all'`` or ``'0,1.5,-1.5'``, among ``available``.
+
+    Parameters
+    ----------
+    spec : str
+        ``'all'`` or a comma list of offsets, metres.
+    available : iterable of float
+        The offsets of the pairs table, metres.
+
+    Returns
+    -------
+    list of float
+        Sorted, metres.
+
+    Raises
+    ------
+    InputError
+        No offset, or one not in ``available``.
 
     >>> choose_offsets("all", [0.0, 1.0, -1.0, 1.0])
     [-1.0, 0.0, 1.0]
@@ -105,6 +134,18 @@ def choose_views(spec: str, pairs: pd.DataFrame) -> list[str]:
     """Chosen view labels: ``'all'`` -> every view of ``pairs`` (old tables: their offsets);
     else a comma list of lateral offsets in metres (:func:`parse_offsets`).
 
+    Parameters
+    ----------
+    spec : str
+        ``'all'`` or a comma list of lateral offsets, metres.
+    pairs : pandas.DataFrame
+        The pairs table.
+
+    Returns
+    -------
+    list of str
+        View labels (:func:`data_schema.perturbation.labels`).
+
     >>> choose_views("all", pd.DataFrame({"y_offset_m": [1.0, 0.0], "yaw_deg": [0.0, 5.0]}))
     ['y=+1.00', 'yaw=+5.00']
     """
@@ -119,6 +160,17 @@ def usable_frames(pairs: pd.DataFrame, offsets: list) -> pd.DataFrame:
 
     ``offsets``: view labels, or lateral offsets in metres. Columns: clip_id, track_id,
     camera, timestamp_us, label_class + attribute columns.
+
+    Parameters
+    ----------
+    pairs : pandas.DataFrame
+        The pairs table.
+    offsets : list
+        View labels, or lateral offsets in metres.
+
+    Returns
+    -------
+    pandas.DataFrame
     """
     want = set(_view_keys(offsets))
     df = pairs.assign(_cm=labels(perturbation_array(pairs)))
@@ -132,7 +184,22 @@ def usable_frames(pairs: pd.DataFrame, offsets: list) -> pd.DataFrame:
 
 
 def choose_tracks(frames: pd.DataFrame, n_tracks: int, rng: np.random.Generator) -> list[tuple]:
-    """``n_tracks`` (clip_id, track_id) keys spread over label class x attribute strata."""
+    """``n_tracks`` (clip_id, track_id) keys spread over label class x attribute strata.
+
+    Parameters
+    ----------
+    frames : pandas.DataFrame
+        :func:`usable_frames`.
+    n_tracks : int
+        Tracks wanted.
+    rng : numpy.random.Generator
+        Source of the draw.
+
+    Returns
+    -------
+    list of (str, str)
+        ``(clip_id, track_id)``.
+    """
     attrs = [c for c in frames.columns if c not in ("clip_id", "track_id", "camera", "timestamp_us")]
     tracks = frames.drop_duplicates(["clip_id", "track_id"])
     strata: dict[tuple, list[tuple]] = {}
@@ -151,7 +218,19 @@ def choose_tracks(frames: pd.DataFrame, n_tracks: int, rng: np.random.Generator)
 
 
 def spread_frames(n: int, k: int) -> list[int]:
-    """Indices of ``min(n, k)`` positions spread evenly over ``range(n)``."""
+    """Indices of ``min(n, k)`` positions spread evenly over ``range(n)``.
+
+    Parameters
+    ----------
+    n : int
+        Positions available.
+    k : int
+        Positions wanted.
+
+    Returns
+    -------
+    list of int
+    """
     if n <= k:
         return list(range(n))
     return sorted(set(np.round(np.linspace(0, n - 1, k)).astype(int).tolist()))
@@ -160,7 +239,28 @@ def spread_frames(n: int, k: int) -> list[int]:
 def select_test_pairs(pairs: pd.DataFrame, *, offsets: list[float], n_tracks: int,
                       frames_per_track: int, rng: np.random.Generator
                       ) -> tuple[pd.DataFrame, list[dict]]:
-    """Test pairs of the design and a JSON-able record of the chosen tracks and frames."""
+    """Test pairs of the design and a JSON-able record of the chosen tracks and frames.
+
+    Parameters
+    ----------
+    pairs : pandas.DataFrame
+        The pairs table.
+    offsets : list
+        View labels, or lateral offsets in metres.
+    n_tracks : int
+        Tracks wanted.
+    frames_per_track : int
+        Frames per track.
+    rng : numpy.random.Generator
+        Source of the draw.
+
+    Returns
+    -------
+    pairs : pandas.DataFrame
+        The test pairs.
+    tracks : list of dict
+        The chosen tracks and frames (manifest ``tracks``).
+    """
     frames = usable_frames(pairs, offsets)
     if frames.empty:
         raise InputError("pairs", "y_offset_m",
@@ -271,6 +371,41 @@ class StudyOptions:
     votes per item, the seed, the display size and format, the access mode (and a crowd
     study's participant parameter and completion URL), the break interval, the design's name
     and the cap on one rater's items (None: none).
+
+    Attributes
+    ----------
+    tracks, frames_per_track : int
+        Tracks, and frames per track.
+    offsets : str
+        ``'all'`` or a comma list of lateral offsets, metres.
+    votes_per_item : int
+        Votes wanted per test item.
+    seed : int
+        Seed of the design and the crops.
+    n_training, n_gold, n_repeats : int
+        Training, gold and repeat items.
+    size : int
+        Display side, pixels.
+    image_format : str
+        ``{'jpg', 'png'}``.
+    access : str
+        ``{'open', 'token', 'crowd'}``.
+    break_every : int
+        Items between breaks.
+    design : str
+        The design's name.
+    methods : str or None
+        Comma list of methods a pairwise study compares.
+    scene : str or None
+        Scene folder of the pairs' image paths.
+    metrics_paths : tuple of str
+        Metrics tables joined on ``pair_id``.
+    participant_param : str or None
+        A crowd study's participant parameter.
+    completion_url : str or None
+        A crowd study's completion URL.
+    items_per_rater : int or None
+        Cap on one rater's items.
     """
 
     tracks: int
@@ -306,6 +441,23 @@ class Choice:
     carry (``[]`` for lateral-only pairs); ``method_columns``: ``['method']`` when each item
     shows one method's render of multi-method pairs; ``methods``: the methods a pairwise study
     compares.
+
+    Attributes
+    ----------
+    pairs : pandas.DataFrame
+        The pairs table the items come from.
+    rows : list
+        One per item, in items.csv order.
+    offsets : list
+        Chosen offsets (metres) or view labels.
+    tracks : list of dict
+        The chosen tracks and frames.
+    view_columns : list of str
+        View columns the items carry.
+    method_columns : list of str
+        ``['method']`` or ``[]``.
+    methods : list of str
+        Methods a pairwise study compares.
     """
 
     pairs: pd.DataFrame

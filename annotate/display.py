@@ -1,6 +1,8 @@
 """What a rater page shows of an item, read once per server process: its salted crops, its
 kind and its crop side.
 
+Layer: annotate (rating study).
+
 Every displayed crop carries a salt (an HMAC of the study id, the item and its position on
 the page, keyed by the study's admin token) embedded as metadata, so its bytes, hence the
 URL the page serves it under, differ between items and positions while the pixels stay the
@@ -33,6 +35,17 @@ def salted_image(data: bytes, salt: bytes) -> bytes:
     JPEG: a COM segment after SOI; PNG: a private ancillary ``prVt`` chunk after IHDR.
     Decoders ignore both, but the bytes (hence Streamlit's content-hash URL) differ per salt.
 
+    Parameters
+    ----------
+    data : bytes
+        A JPEG or PNG file.
+    salt : bytes
+        The metadata to embed.
+
+    Returns
+    -------
+    bytes
+
     >>> import cv2, numpy as np
     >>> img = np.full((8, 8, 3), 90, np.uint8)
     >>> for ext in (".jpg", ".png"):
@@ -55,6 +68,11 @@ def salted_image(data: bytes, salt: bytes) -> bytes:
 
 class ItemDisplay:
     """One study's items as the page shows them.
+
+    Parameters
+    ----------
+    study : Study
+        An open study.
 
     Attributes
     ----------
@@ -91,7 +109,17 @@ class ItemDisplay:
 
 
 def item_display(study: Study) -> ItemDisplay:
-    """The process's :class:`ItemDisplay` of ``study`` (one per folder and study id)."""
+    """The process's :class:`ItemDisplay` of ``study`` (one per folder and study id).
+
+    Parameters
+    ----------
+    study : Study
+        An open study.
+
+    Returns
+    -------
+    ItemDisplay
+    """
     ident = (str(study.root), str(study.manifest["study_id"]))
     found = _CACHES.get(ident)
     if found is None:

@@ -1,5 +1,7 @@
 """How the rater pages draw an item: crops as large as the window allows, one button row.
 
+Layer: annotate (rating study).
+
 Thin Streamlit view helpers shared by the binary and the pairwise rater pages of
 :mod:`annotate.app`; no study logic here.
 
@@ -71,7 +73,19 @@ _SCALE_JS = """<script>
 
 
 def scale_text(drawn_px: float, side_px: float) -> str:
-    """``'×S'``: drawn pixels per camera pixel, one decimal below 10 (the script's rule)."""
+    """``'×S'``: drawn pixels per camera pixel, one decimal below 10 (the script's rule).
+
+    Parameters
+    ----------
+    drawn_px : float
+        Display pixels the object's square is drawn on.
+    side_px : float
+        Its side in camera pixels.
+
+    Returns
+    -------
+    str
+    """
     s = float(drawn_px) / float(side_px)
     return f"×{s:.1f}" if s < 9.95 else f"×{s:.0f}"
 
@@ -88,6 +102,19 @@ def pair_view(titles, images, *, crop_side: float | None, display_size: int, tok
     ``crop_side``: the object's square side in camera pixels (None or NaN: an old study
     without it, no scale line). ``token``: the opaque token of the item on screen, so the
     scale line is redrawn for every item.
+
+    Parameters
+    ----------
+    titles : sequence of str
+        One caption per image.
+    images : sequence of bytes
+        Encoded crops.
+    crop_side : float or None
+        The object's square side, camera pixels.
+    display_size : int
+        Side of each crop on screen, pixels.
+    token : str
+        The opaque token of the item on screen.
     """
     with st.container(key="pair"):
         for column, title, image in zip(st.columns(len(images)), titles, images, strict=True):

@@ -1,5 +1,7 @@
 """A rater's load: how many items one rater sees, and about how long that takes.
 
+Layer: annotate (rating study).
+
 ``annotate build`` prints it and caps it (``--items-per-rater``, :data:`DEFAULT_ITEMS_PER_RATER`
 by default: about :data:`SESSION_MINUTES` minutes at :data:`SECONDS_PER_VOTE`).
 
@@ -41,6 +43,18 @@ _FIXED = ("training", "gold", "repeat")
 def check_items_per_rater(items_per_rater, counts: dict) -> int:
     """``items_per_rater`` checked against a study's item ``counts`` (by kind): room for the
     training, gold and repeat items every rater sees, and at least one test item.
+
+    Parameters
+    ----------
+    items_per_rater : int
+        The cap on one rater's items.
+    counts : dict
+        Items by kind (``training``, ``test``, ``gold``, ``repeat``).
+
+    Returns
+    -------
+    int
+        ``items_per_rater``.
 
     Raises
     ------
@@ -89,6 +103,17 @@ def rater_load(counts: dict, *, items_per_rater: int | None, votes_per_item: int
 
 def load_text(load: dict, *, votes_per_item: int) -> str:
     """The line ``annotate build`` prints about :func:`rater_load`'s result.
+
+    Parameters
+    ----------
+    load : dict
+        :func:`rater_load`'s result (``items``, ``test``, ``minutes``, ``raters_needed``).
+    votes_per_item : int
+        Votes wanted per test item.
+
+    Returns
+    -------
+    str
 
     >>> load_text({"items": 800, "test": 784, "minutes": 20.0, "raters_needed": 7}, votes_per_item=5)
     'each rater: up to 800 items (784 of them test items), about 20 min at 1.5 s per vote; 7 raters give every test item its 5 votes'

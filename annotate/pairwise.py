@@ -1,5 +1,7 @@
 """The pairwise study (docs/FORMATS.md §12): which render of two methods is closer to the GT?
 
+Layer: annotate (rating study).
+
 An *object view* is one object of one frame in one view: the columns
 :data:`data_schema.tables.OBJECT_COLUMNS` and the view; its id is the single-method
 ``pair_id`` of that view (§3, §9: :func:`data_schema.tables.pair_ids` without methods). A
@@ -62,6 +64,19 @@ def study_methods(pairs: pd.DataFrame, methods: str | None, *, where: str) -> li
 
     Raises :class:`InputError` for no ``method`` column, an empty method, a name not in the
     table or a repeated one (naming the parameter ``methods``), or fewer than two.
+
+    Parameters
+    ----------
+    pairs : pandas.DataFrame
+        The checked pairs table.
+    methods : str or None
+        Comma list of methods, or ``None`` for all.
+    where : str
+        The pairs table, named in errors.
+
+    Returns
+    -------
+    list of str
     """
     have = table_methods(pairs, where=where,
                          expected="a method column (one render per method) for `design` pairwise")
@@ -223,7 +238,20 @@ def _cut(img: np.ndarray, box, shift: tuple[int, int], rec, what: str, where: st
 
 def choice(vote, side_a) -> np.ndarray:
     """The answer in A/B terms: ``(N,)`` of ``'a'``, ``'b'``, ``'tie'`` from the stored votes
-    (1 left, 2 right, 0 can't tell) and the side A was shown on (``'left'``/``'right'``)."""
+    (1 left, 2 right, 0 can't tell) and the side A was shown on (``'left'``/``'right'``).
+
+    Parameters
+    ----------
+    vote : (N,) int
+        Stored votes: 1 left, 2 right, 0 can't tell.
+    side_a : (N,) str
+        The side A was shown on, ``{'left', 'right'}``.
+
+    Returns
+    -------
+    (N,) object array of str
+        ``{'a', 'b', 'tie'}``.
+    """
     v = np.asarray(vote, dtype=np.int64)
     left_a = np.asarray(side_a, dtype=object) == "left"
     return np.where(v == 0, "tie", np.where((v == 1) == left_a, "a", "b")).astype(object)

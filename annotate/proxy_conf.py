@@ -1,5 +1,7 @@
 """The reverse-proxy configuration that puts one public port in front of K rater workers.
 
+Layer: annotate (rating study; serving).
+
 ``annotate serve --workers K`` prints it for its ports (:mod:`annotate.workers`). The proxy
 must be *sticky*: a Streamlit session lives in one worker, and so do the images its pages
 show (``/media/...`` URLs held in that worker's memory), so every request of one browser
@@ -44,6 +46,16 @@ PROXIES = ("nginx", "caddy")
 
 def upstream_host(host: str) -> str:
     """The address the proxy reaches the workers at: a wildcard bind is reached on loopback.
+
+    Parameters
+    ----------
+    host : str
+        The workers' bind address.
+
+    Returns
+    -------
+    str
+        An address (IPv6 in brackets) for the proxy's upstream.
 
     >>> upstream_host("0.0.0.0"), upstream_host("::"), upstream_host("10.0.0.5"), upstream_host("::1")
     ('127.0.0.1', '[::1]', '10.0.0.5', '[::1]')

@@ -1,5 +1,7 @@
 """What a study's votes say: the ratings table (docs/FORMATS.md §5), GVF, agreement, gold checks.
 
+Layer: annotate (rating study).
+
 - :func:`ratings_table`: one row per standing vote, docs/FORMATS.md §5 columns in order, then
   attributes and (when the study has them) metric columns.
 - :func:`pairwise_votes_table`: the same for a pairwise study (docs/FORMATS.md §12);
@@ -53,7 +55,18 @@ _Z95 = 1.959963984540054
 
 
 def ratings_table(study) -> pd.DataFrame:
-    """docs/FORMATS.md §5 table of ``study`` (an :class:`annotate.study.Study`)."""
+    """docs/FORMATS.md §5 table of ``study`` (an :class:`annotate.study.Study`).
+
+    Parameters
+    ----------
+    study : Study
+        An open study.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns of docs/FORMATS.md §5.
+    """
     attrs = list(study.manifest.get("attribute_columns", []))
     # 6-DoF columns (absent: lateral study) and ``method`` (absent: single-method study)
     attrs = [*study.manifest.get("view_columns", []), *study.manifest.get("method_columns", []), *attrs]
@@ -75,6 +88,15 @@ def pairwise_votes_table(study) -> pd.DataFrame:
     plan, ``choice`` in {'a', 'b', 'tie'}), ``voted_at, response_ms``, the object's metadata, view and attribute
     columns, ``pair_id_a, pair_id_b`` (the renders' pairs; empty for the GT crop of a gold
     item) and, when the study has metrics, ``METRIC_a, METRIC_b`` per metric column.
+
+    Parameters
+    ----------
+    study : Study
+        An open pairwise study.
+
+    Returns
+    -------
+    pandas.DataFrame
     """
     attrs = [*study.manifest.get("view_columns", []), *study.manifest.get("attribute_columns", [])]
     attrs = [c for c in attrs if c in study.items.columns]
@@ -117,12 +139,36 @@ def _study_metrics(study) -> tuple[list[str], pd.DataFrame | None]:
 
 
 def votes_table(study) -> pd.DataFrame:
-    """The export of ``study``: :func:`pairwise_votes_table` or :func:`ratings_table`."""
+    """The export of ``study``: :func:`pairwise_votes_table` or :func:`ratings_table`.
+
+    Parameters
+    ----------
+    study : Study
+        An open study.
+
+    Returns
+    -------
+    pandas.DataFrame
+    """
     return pairwise_votes_table(study) if study.design == "pairwise" else ratings_table(study)
 
 
 def wilson_interval(n_good, n, *, z: float = _Z95):
     """Wilson score interval of a proportion ``n_good / n`` (arrays); NaN where ``n == 0``.
+
+    Parameters
+    ----------
+    n_good : array of int
+        Successes.
+    n : array of int
+        Trials.
+    z : float, optional
+        Normal quantile (default: 95 %).
+
+    Returns
+    -------
+    lo, hi : array of float64
+        Bounds in [0, 1]; NaN where ``n == 0``.
 
     >>> lo, hi = wilson_interval(np.array([2]), np.array([3]))
     >>> round(float(lo[0]), 4), round(float(hi[0]), 4)
@@ -144,7 +190,20 @@ def _column(values) -> pd.Series:
 
 def good_vote_fraction(item_ids, votes) -> pd.DataFrame:
     """Per item (first-seen order): ``item_id, n_votes, n_good, gvf, majority_good,
-    gvf_ci_lo, gvf_ci_hi`` from parallel arrays of item ids and 0/1 test votes."""
+    gvf_ci_lo, gvf_ci_hi`` from parallel arrays of item ids and 0/1 test votes.
+
+    Parameters
+    ----------
+    item_ids : (n,) array-like
+        Item of each vote.
+    votes : (n,) array of int
+        0/1 test votes.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per item.
+    """
     codes, uniques = pd.factorize(_column(item_ids))
     n = np.bincount(codes, minlength=len(uniques))
     good = np.bincount(codes, weights=np.asarray(votes, np.float64), minlength=len(uniques))
@@ -157,7 +216,18 @@ def good_vote_fraction(item_ids, votes) -> pd.DataFrame:
 
 
 def gvf_table(ratings: pd.DataFrame) -> pd.DataFrame:
-    """Per-item GVF over ``kind == test`` votes, by item id; other item columns kept (first)."""
+    """Per-item GVF over ``kind == test`` votes, by item id; other item columns kept (first).
+
+    Parameters
+    ----------
+    ratings : pandas.DataFrame
+        A ratings table (docs/FORMATS.md §5).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per test item.
+    """
     test = ratings[ratings["kind"] == "test"]
     extra = [c for c in test.columns if c not in (*RATINGS_COLUMNS,)]
     out = good_vote_fraction(test["item_id"], test["vote"]).set_index("item_id").sort_index()
@@ -171,6 +241,20 @@ def alpha_nominal(units, values) -> tuple[float, str | None]:
 
     Missing values are ignored. Returns ``(alpha, None)``, or ``(nan, reason)`` when it is
     undefined: no unit has two values, or only one value occurs.
+
+    Parameters
+    ----------
+    units : (n,) array-like
+        Unit (item) of each vote.
+    values : (n,) array-like
+        Nominal value of each vote.
+
+    Returns
+    -------
+    alpha : float
+        NaN when undefined.
+    reason : str or None
+        Why it is undefined.
 
     >>> alpha_nominal(["a", "a", "b", "b"], [1, 1, 0, 0])
     (1.0, None)
@@ -192,7 +276,20 @@ def alpha_nominal(units, values) -> tuple[float, str | None]:
 
 
 def nominal_alpha(ratings: pd.DataFrame) -> tuple[float | None, str]:
-    """Krippendorff's alpha (nominal) of test votes and a note; ``None`` when undefined."""
+    """Krippendorff's alpha (nominal) of test votes and a note; ``None`` when undefined.
+
+    Parameters
+    ----------
+    ratings : pandas.DataFrame
+        A ratings table.
+
+    Returns
+    -------
+    alpha : float or None
+        ``None`` when undefined.
+    note : str
+        What it was computed on, or why it is undefined.
+    """
     test = ratings[ratings["kind"] == "test"]
     if test["rater_id"].nunique() < 2:
         return None, "needs votes from at least 2 raters"
@@ -204,7 +301,18 @@ def nominal_alpha(ratings: pd.DataFrame) -> tuple[float | None, str]:
 
 
 def gold_failures(ratings: pd.DataFrame) -> pd.DataFrame:
-    """Gold votes against the gold answer: columns rater_id, item_id, vote, expected."""
+    """Gold votes against the gold answer: columns rater_id, item_id, vote, expected.
+
+    Parameters
+    ----------
+    ratings : pandas.DataFrame
+        A ratings table.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``rater_id, item_id, vote, expected``.
+    """
     gold = ratings[ratings["kind"] == "gold"].copy()
     gold["expected"] = gold["item_id"].str.startswith("gold-good:").astype(int)
     return gold.loc[gold["vote"] != gold["expected"], ["rater_id", "item_id", "vote", "expected"]
@@ -215,6 +323,18 @@ def rater_progress(study, ratings: pd.DataFrame | None = None) -> pd.DataFrame:
     """Per rater: votes by kind, gold failures, median response time (ms).
 
     ``ratings`` is :func:`ratings_table` of ``study`` when the caller has it already.
+
+    Parameters
+    ----------
+    study : Study
+        An open study.
+    ratings : pandas.DataFrame, optional
+        Its ratings table, when already made.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per rater.
     """
     if ratings is None:
         ratings = ratings_table(study)
@@ -235,6 +355,18 @@ def pairwise_raters(votes: pd.DataFrame, raters: list[str]) -> pd.DataFrame:
     is counterbalanced), ``gold_failures`` (gold answers other than ``a``, the GT crop itself),
     ``repeat_agreement`` (repeats answered as their original, in A/B terms, sides swapped) over
     ``n_repeat_pairs``, and the median response time (ms).
+
+    Parameters
+    ----------
+    votes : pandas.DataFrame
+        Pairwise votes table rows.
+    raters : list of str
+        The raters to report.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per rater.
 
     >>> v = pd.DataFrame({"rater_id": ["x"] * 4, "kind": ["test", "repeat", "gold", "test"],
     ...                   "item_id": ["i", "i", "g", "j"], "choice": ["a", "b", "a", "tie"],

@@ -1,5 +1,7 @@
 """Simulated raters for demos and tests (never mistaken for people: ids are ``sim-*``).
 
+Layer: annotate (rating study).
+
 Binary (good/bad) studies. Each item's latent quality is the synthetic scene's ``severity`` (0 perfect .. 1 broken),
 read from ``SCENE/degradation.csv`` (columns camera, timestamp_us, track_id, y_offset_m,
 severity; and ``method`` for a scene with methods) of the item's clip. A careful rater ``r`` votes good with probability
@@ -49,7 +51,24 @@ _JOIN = ["camera", "timestamp_us", "track_id", "y_offset_m"]
 
 
 def p_good(severity, *, theta: float, width: float, lapse: float):
-    """Probability of a "good" vote at ``severity`` (array or scalar)."""
+    """Probability of a "good" vote at ``severity`` (array or scalar).
+
+    Parameters
+    ----------
+    severity : float or array
+        Latent severity, 0 (perfect) to 1 (broken).
+    theta : float
+        The rater's threshold (severity of a 50 % vote without lapses).
+    width : float
+        Logistic scale of the rater's noise.
+    lapse : float
+        Rate of random votes, in [0, 1].
+
+    Returns
+    -------
+    float or array
+        Probability in [0, 1], shaped as ``severity``.
+    """
     s = np.asarray(severity, dtype=float)
     return lapse / 2 + (1 - lapse) * (1.0 - 1.0 / (1.0 + np.exp(-(s - theta) / width)))
 
@@ -100,7 +119,18 @@ def _check_found(sev: pd.Series | pd.DataFrame) -> None:
 
 
 def item_severity(study) -> pd.Series:
-    """Severity per item key: joined from each clip's degradation.csv; gold: 0 or 1."""
+    """Severity per item key: joined from each clip's degradation.csv; gold: 0 or 1.
+
+    Parameters
+    ----------
+    study : Study
+        An open binary study of synthetic scenes.
+
+    Returns
+    -------
+    pandas.Series
+        Severity in [0, 1] by item key.
+    """
     items = study.items
     sev = pd.Series(_join_severity(items, _degradation(study), None), index=items.index)
     gold = items["kind"] == "gold"
@@ -112,7 +142,18 @@ def item_severity(study) -> pd.Series:
 def pairwise_severity(study) -> pd.DataFrame:
     """Per item key of a pairwise study: ``sev_a, sev_b``, the severities of the renders of
     ``method_a`` and ``method_b`` (degradation.csv with a ``method`` column); the GT crop of
-    a gold item (``method_a = gt``) has severity 0."""
+    a gold item (``method_a = gt``) has severity 0.
+
+    Parameters
+    ----------
+    study : Study
+        An open pairwise study of synthetic scenes.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``sev_a, sev_b`` by item key.
+    """
     items, deg = study.items, _degradation(study)
     gt = items["method_a"] == GT_METHOD
     sev_a = np.where(gt, 0.0, _join_severity(items.assign(method_a=items["method_a"].where(~gt, "")),
@@ -131,6 +172,22 @@ def p_choice(delta, *, tie: float, width: float, lapse: float):
     logistic margin of scale ``width``, B symmetrically, and cannot tell otherwise; a lapse
     (rate ``lapse``) is a uniform answer among the three. ``p_a + p_b <= 1`` because
     ``tie >= 0``.
+
+    Parameters
+    ----------
+    delta : float or array
+        ``sev_b - sev_a``.
+    tie : float
+        Indifference half-width, >= 0.
+    width : float
+        Logistic scale.
+    lapse : float
+        Rate of uniform answers, in [0, 1].
+
+    Returns
+    -------
+    p_a, p_b, p_tie : float or array
+        Shaped as ``delta``; they sum to 1.
 
     >>> [round(float(p), 3) for p in p_choice(0.0, tie=0.0, width=0.1, lapse=0.0)]
     [0.5, 0.5, 0.0]
@@ -152,6 +209,17 @@ def new_rater_ids(existing, raters: int) -> list[str]:
     numbered on from the highest ``sim-N``, the last (with ``raters > 1``) careless:
     ``sim-careless``, else ``sim-careless-2``, ... (a study simulated again gets new raters,
     never the ones that already voted).
+
+    Parameters
+    ----------
+    existing : iterable of str
+        Rater ids already in the study.
+    raters : int
+        How many new ids.
+
+    Returns
+    -------
+    list of str
 
     >>> new_rater_ids([], 3)
     ['sim-1', 'sim-2', 'sim-careless']
@@ -193,7 +261,29 @@ def simulate(study, *, raters: int = 5, seed: int = 0, progress: bool = True) ->
 
     Rater ids are new (:func:`new_rater_ids`) when the study was simulated before; raises
     :class:`InputError` (``raters``) when the study's test items need fewer votes than
-    ``raters`` (a simulated rater would vote on no test item)."""
+    ``raters`` (a simulated rater would vote on no test item).
+
+    Parameters
+    ----------
+    study : Study
+        An open study of synthetic scenes.
+    raters : int, optional
+        New simulated raters (the last careless).
+    seed : int, optional
+        Seed of the raters' parameters and votes.
+    progress : bool, optional
+        Show a progress bar.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per new rater: its parameters and ``test_votes``.
+
+    Raises
+    ------
+    InputError
+        ``raters`` exceeds the votes the test items still need.
+    """
     if raters < 1:
         raise InputError(param="raters", expected="an integer >= 1", got=raters)
     _check_room(study, raters)

@@ -1,5 +1,7 @@
 """Several rater-app processes on one study: ``annotate serve --workers K``.
 
+Layer: annotate (rating study; serving).
+
 One Streamlit process runs its scripts on one core (the GIL), so past about a hundred
 concurrent raters the votes queue. ``K`` workers serve the same study folder on the
 consecutive ports ``port, port + 1, ..., port + K - 1``; they share nothing but the study's
@@ -39,6 +41,17 @@ _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
 
 def worker_ports(port: int, workers: int) -> list[int]:
     """The ports of ``workers`` processes starting at ``port``.
+
+    Parameters
+    ----------
+    port : int
+        The first port.
+    workers : int
+        Number of processes.
+
+    Returns
+    -------
+    list of int
 
     >>> worker_ports(8501, 3)
     [8501, 8502, 8503]

@@ -1,5 +1,7 @@
 """File formats exchanged by every stage of the NVRQ toolkit (see docs/FORMATS.md).
 
+Layer: data_schema (file formats), the lowest layer.
+
 ``data_schema`` imports nothing else of this project.
 """
 

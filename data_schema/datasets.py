@@ -1,5 +1,7 @@
 """Parquet datasets partitioned by ``clip_id``: the multi-clip form of pairs and metrics tables.
 
+Layer: data_schema (file formats).
+
 Layout (Hive partitioning, readable by pyarrow, Ray Data, Spark, DuckDB)::
 
     DATASET/clip_id=<quoted clip id>/<name>.parquet   one or more files per clip
@@ -58,17 +60,49 @@ PLAN = "_plan.json"
 
 
 def partition_dir(clip_id: str) -> str:
-    """Folder name of one clip's partition."""
+    """Folder name of one clip's partition.
+
+    Parameters
+    ----------
+    clip_id : str
+        The clip id, any text.
+
+    Returns
+    -------
+    str
+        ``clip_id=<clip id, URL-quoted>``.
+    """
     return f"{PARTITION}={quote(str(clip_id), safe='')}"
 
 
 def clip_from_dir(name: str) -> str:
-    """Inverse of :func:`partition_dir`."""
+    """Inverse of :func:`partition_dir`.
+
+    Parameters
+    ----------
+    name : str
+        A partition folder name, ``clip_id=<quoted clip id>``.
+
+    Returns
+    -------
+    str
+        The clip id, unquoted.
+    """
     return unquote(name.split("=", 1)[1])
 
 
 def is_dataset(path) -> bool:
-    """True when ``path`` is a folder (a partitioned dataset) rather than a table file."""
+    """True when ``path`` is a folder (a partitioned dataset) rather than a table file.
+
+    Parameters
+    ----------
+    path : str or Path
+        A table file or a dataset folder.
+
+    Returns
+    -------
+    bool
+    """
     return Path(path).is_dir()
 
 
@@ -92,6 +126,18 @@ def dataset_files(path, *, what: str = "dataset") -> list[tuple[str, Path]]:
 
     Raises :class:`InputError` for a folder without ``clip_id=`` partitions, an unfinished run,
     or a file listed in ``_dataset.json`` that is missing.
+
+    Parameters
+    ----------
+    path : str or Path
+        The dataset folder.
+    what : str, optional
+        What the folder is, named in errors (e.g. ``'pairs dataset'``).
+
+    Returns
+    -------
+    list of (str, Path)
+        ``(clip_id, file)`` per Parquet file.
     """
     root = Path(path)
     if not root.is_dir():
@@ -115,7 +161,20 @@ def dataset_files(path, *, what: str = "dataset") -> list[tuple[str, Path]]:
 
 
 def check_schemas(files: Sequence[tuple[str, Path]], *, root) -> list[str]:
-    """One schema for all files (names, order-free, and types); returns the column names."""
+    """One schema for all files (names, order-free, and types); returns the column names.
+
+    Parameters
+    ----------
+    files : sequence of (str, Path)
+        ``(clip_id, file)`` pairs, as :func:`dataset_files` returns them.
+    root : str or Path
+        The dataset folder, named in errors.
+
+    Returns
+    -------
+    list of str
+        The shared column names, in the first file's order.
+    """
 
     first_file, first = None, None
     for _, f in files:
@@ -149,7 +208,22 @@ def _restore_clip(df: pd.DataFrame, clip_id: str) -> pd.DataFrame:
 
 
 def iter_clips(path, *, what: str = "dataset") -> Iterator[tuple[str, pd.DataFrame]]:
-    """Yield ``(clip_id, table)`` per clip (all of the clip's files), checking schema first."""
+    """Yield ``(clip_id, table)`` per clip (all of the clip's files), checking schema first.
+
+    Parameters
+    ----------
+    path : str or Path
+        The dataset folder.
+    what : str, optional
+        What the folder is, named in errors.
+
+    Yields
+    ------
+    clip_id : str
+        One clip, in sorted order.
+    table : pandas.DataFrame
+        That clip's rows, with its ``clip_id`` column restored.
+    """
 
     root = Path(path)
     files = dataset_files(root, what=what)
@@ -164,13 +238,38 @@ def iter_clips(path, *, what: str = "dataset") -> Iterator[tuple[str, pd.DataFra
 
 
 def read_dataset(path, *, what: str = "dataset") -> pd.DataFrame:
-    """The whole dataset as one table (clips in sorted order), ``clip_id`` after ``pair_id``."""
+    """The whole dataset as one table (clips in sorted order), ``clip_id`` after ``pair_id``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The dataset folder.
+    what : str, optional
+        What the folder is, named in errors.
+
+    Returns
+    -------
+    pandas.DataFrame
+        All rows of all clips.
+    """
     frames = [df for _, df in iter_clips(path, what=what)]
     return pd.concat(frames, ignore_index=True)
 
 
 def write_manifest(root, files: Sequence[str], *, rows: int, extra: dict | None = None) -> None:
-    """Write ``_dataset.json`` atomically (the last step of a complete dataset)."""
+    """Write ``_dataset.json`` atomically (the last step of a complete dataset).
+
+    Parameters
+    ----------
+    root : str or Path
+        The dataset folder (usually the hidden folder being written).
+    files : sequence of str
+        The Parquet files, relative to ``root``.
+    rows : int
+        The total number of rows.
+    extra : dict, optional
+        More keys for the manifest.
+    """
 
     doc = {"format": "nvrq-dataset", "version": 1, "partition": PARTITION,
            "rows": int(rows), "files": sorted(files), **(extra or {})}
@@ -184,6 +283,13 @@ class DatasetWriter:
     ``write(clip_id, df)`` drops the ``clip_id`` column and writes
     ``clip_id=<id>/part-0.parquet``; string columns named in ``string_columns`` are stored as
     strings even when all values are missing, so every clip has one schema.
+
+    Parameters
+    ----------
+    out : str or Path
+        The dataset folder to (re)place.
+    string_columns : sequence of str, optional
+        Columns stored as strings whatever their values.
     """
 
     def __init__(self, out, *, string_columns: Sequence[str] = ()):

@@ -1,5 +1,7 @@
 """Defaults several commands share, in a module light enough for their ``--help`` (no pandas).
 
+Layer: data_schema (file formats).
+
 Each is defined here once; :mod:`data_schema.tables` re-exports it with the table facts.
 
 >>> MIN_SIDE_PX

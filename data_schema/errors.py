@@ -1,5 +1,7 @@
 """One error type for bad user input: it names the file, the field and what was expected.
 
+Layer: data_schema (file formats).
+
 Every command catches :class:`InputError` at the top level, prints ``str(err)`` as one
 line and exits with status 2 (docs/FORMATS.md §7; :func:`nvrq.commands.args.run_cli`).
 
@@ -123,6 +125,26 @@ def check_number(name: str, value, *, low: float | None = None, high: float | No
     ``low``/``high`` (None: none; excluded when ``low_open``/``high_open``), else an
     :class:`InputError` whose ``param`` is ``name`` (as :func:`check_int`).
 
+    Parameters
+    ----------
+    name : str
+        The parameter, named in the error (its ``param``).
+    value : object
+        The value to check.
+    low, high : float, optional
+        The bounds (``None``: none).
+    low_open, high_open : bool, optional
+        Exclude ``low`` / ``high`` themselves.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    InputError
+        ``value`` is not such a number.
+
     >>> check_number("tau", 1.0, low=0, high=1, low_open=True, high_open=True)
     Traceback (most recent call last):
     ...
@@ -151,6 +173,25 @@ def check_number(name: str, value, *, low: float | None = None, high: float | No
 def check_choice(name: str, value, choices):
     """``value`` when it is one of ``choices``, else an :class:`InputError` whose ``param`` is
     ``name``, listing them.
+
+    Parameters
+    ----------
+    name : str
+        The parameter, named in the error (its ``param``).
+    value : object
+        The value to check.
+    choices : collection
+        The allowed values, listed in the error.
+
+    Returns
+    -------
+    object
+        ``value`` itself.
+
+    Raises
+    ------
+    InputError
+        ``value`` is not one of ``choices``.
 
     >>> check_choice("rank_by", "auc", ("srcc", "plcc"))
     Traceback (most recent call last):

@@ -1,5 +1,7 @@
 """Reconstruction methods in one scene (docs/FORMATS.md §2-3): the optional ``method`` column.
 
+Layer: data_schema (file formats).
+
 A scene may hold the renders of several reconstruction methods (e.g. 3DGS and 3DGUT of the
 same clip): ``images.csv`` then has a ``method`` column naming, on every render row, the
 method that produced it; GT rows leave it empty (the real image is shared by all methods).
@@ -107,7 +109,18 @@ def _is_method_name(name) -> bool:
 
 
 def method_values(table: pd.DataFrame) -> np.ndarray:
-    """Each row's method ``(N,)`` object array of str; ``''`` where none (no column, empty or NaN)."""
+    """Each row's method ``(N,)`` object array of str; ``''`` where none (no column, empty or NaN).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Any table, with or without a ``method`` column.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(N,)`` object array of str, one per row.
+    """
     if METHOD_COLUMN not in table.columns:
         return np.full(len(table), "", dtype=object)
     col = table[METHOD_COLUMN]
@@ -154,6 +167,15 @@ def method_columns(table: pd.DataFrame) -> list[str]:
     """``[METHOD_COLUMN]`` when ``table`` holds a method (:func:`table_methods`), else ``[]`` (so
     tables of single-method scenes keep exactly their former columns).
 
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Any table.
+
+    Returns
+    -------
+    list of str
+
     >>> method_columns(pd.DataFrame({"method": ["", "a"]})), method_columns(pd.DataFrame({"x": [1]}))
     (['method'], [])
     """
@@ -161,14 +183,42 @@ def method_columns(table: pd.DataFrame) -> list[str]:
 
 
 def method_suffix(methods) -> list[str]:
-    """The pair-id part of each method: ``':NAME'``, or ``''`` for none (ids unchanged)."""
+    """The pair-id part of each method: ``':NAME'``, or ``''`` for none (ids unchanged).
+
+    Parameters
+    ----------
+    methods : iterable of str
+        One method per row (``''`` for none).
+
+    Returns
+    -------
+    list of str
+        One suffix per method.
+    """
     return [f":{m}" if m else "" for m in methods]
 
 
 def check_table_methods(table: pd.DataFrame, *, where: object, line_offset: int = 2,
                         what: str = "row") -> None:
     """Every non-empty ``method`` value of ``table`` is a valid name; errors name the row
-    (``what`` + position + ``line_offset``, e.g. ``row 5`` of a CSV with a header)."""
+    (``what`` + position + ``line_offset``, e.g. ``row 5`` of a CSV with a header).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        The table read from ``where``.
+    where : object
+        The file, named in errors.
+    line_offset : int, optional
+        Added to the 0-based row position to name the line (2: CSV with a header).
+    what : str, optional
+        What a row is called in errors.
+
+    Raises
+    ------
+    InputError
+        A method value is not a valid name.
+    """
     values = method_values(table)
     bad = [v for v in pd.unique(values) if v and not _is_method_name(v)]
     if bad:

@@ -1,5 +1,7 @@
 """Novel-view perturbations (docs/FORMATS.md §1, generalised): six components, labels, axes.
 
+Layer: data_schema (file formats).
+
 A render is taken from a virtual camera moved away from the real one by a *perturbation*
 ``(dx, dy, dz, roll, pitch, yaw)`` in the rig frame (x forward, y left, z up): metres for
 the translation, degrees for the rotation. ``nvrq.geometry.poses.perturb_T_sensor_rig``
@@ -73,6 +75,17 @@ def extra_columns(P: np.ndarray, columns=EXTRA_PERTURBATION_COLUMNS) -> list[str
     """``list(columns)`` when some view of ``P: (N, 6)`` is not lateral, else ``[]``: the
     optional columns a table gains (lateral-only tables keep exactly their contract columns).
 
+    Parameters
+    ----------
+    P : (N, 6) float64
+        Perturbations ``(dx, dy, dz, roll, pitch, yaw)``: metres, degrees, rig frame.
+    columns : sequence of str, optional
+        The optional columns to add.
+
+    Returns
+    -------
+    list of str
+
     >>> extra_columns(lateral([-1.0, 1.0])), extra_columns(np.eye(6)[[2]], ("z_offset_m",))
     ([], ['z_offset_m'])
     """
@@ -81,14 +94,38 @@ def extra_columns(P: np.ndarray, columns=EXTRA_PERTURBATION_COLUMNS) -> list[str
 
 def views_from(offsets, perturbations) -> np.ndarray:
     """The views ``(K, 6)``: ``perturbations`` when given (they replace the offsets), else the
-    lateral ``offsets`` (metres)."""
+    lateral ``offsets`` (metres).
+
+    Parameters
+    ----------
+    offsets : (K,) float, metres, or None
+        Lateral offsets.
+    perturbations : (K, 6) float64 or None
+        Full perturbations (metres, degrees, rig frame); take precedence.
+
+    Returns
+    -------
+    (K, 6) float64
+        The views, metres and degrees.
+    """
     if perturbations is None:
         return lateral([float(o) for o in offsets])
     return np.asarray(perturbations, float).reshape(-1, 6)
 
 
 def perturbation_array(table: pd.DataFrame) -> np.ndarray:
-    """The ``(N, 6)`` perturbations of a table's rows; absent optional columns count as 0."""
+    """The ``(N, 6)`` perturbations of a table's rows; absent optional columns count as 0.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        A table with ``y_offset_m`` and optionally the other :data:`PERTURBATION_COLUMNS`.
+
+    Returns
+    -------
+    (N, 6) float64
+        ``(dx, dy, dz, roll, pitch, yaw)`` per row: metres, degrees, rig frame.
+    """
     n = len(table)
     return np.stack([table[c].to_numpy(np.float64) if c in table.columns else np.zeros(n)
                      for c in PERTURBATION_COLUMNS], axis=-1).reshape(n, 6)
@@ -96,7 +133,20 @@ def perturbation_array(table: pd.DataFrame) -> np.ndarray:
 
 def with_perturbation_columns(table: pd.DataFrame, *, label: bool = True) -> pd.DataFrame:
     """A copy of ``table`` with every absent optional component column set to 0 (and the
-    label column added when ``label`` and absent). Old tables thus read as lateral-only."""
+    label column added when ``label`` and absent). Old tables thus read as lateral-only.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        A pairs, metrics or study table.
+    label : bool, optional
+        Also add the label column when absent.
+
+    Returns
+    -------
+    pandas.DataFrame
+        A copy with every component column.
+    """
     out = table.copy()
     for c in EXTRA_PERTURBATION_COLUMNS:
         if c not in out.columns:
@@ -112,7 +162,18 @@ def _hundredths(P: np.ndarray) -> np.ndarray:
 
 def labels(P: np.ndarray) -> list[str]:
     """``P: (N, 6)`` -> readable labels (module docstring); equal labels mean the same view
-    at the 0.01 precision of ``pair_id``."""
+    at the 0.01 precision of ``pair_id``.
+
+    Parameters
+    ----------
+    P : (N, 6) float64
+        Perturbations: metres, degrees, rig frame.
+
+    Returns
+    -------
+    list of str
+        One label per view.
+    """
     H = _hundredths(P)
     # each distinct view is formatted once (np.unique(H, axis=0) sorts rows as bytes: slower)
     view = pd.DataFrame(H).groupby(list(range(6)), sort=False).ngroup().to_numpy()  # 0..K-1
@@ -124,7 +185,18 @@ def labels(P: np.ndarray) -> list[str]:
 
 
 def axes(P: np.ndarray) -> np.ndarray:
-    """``P: (N, 6)`` -> axis names ``(N,)``: the only non-zero component, 'none' or 'combined'."""
+    """``P: (N, 6)`` -> axis names ``(N,)``: the only non-zero component, 'none' or 'combined'.
+
+    Parameters
+    ----------
+    P : (N, 6) float64
+        Perturbations: metres, degrees, rig frame.
+
+    Returns
+    -------
+    (N,) object array of str
+        ``'x'``, ``'y'``, ..., ``'none'`` or ``'combined'``.
+    """
     nz = _hundredths(P) != 0
     count = nz.sum(axis=1)
     names = np.array(AXES, dtype=object)[np.argmax(nz, axis=1)] if len(nz) else np.array([], object)
@@ -132,7 +204,18 @@ def axes(P: np.ndarray) -> np.ndarray:
 
 
 def axis_values(P: np.ndarray) -> np.ndarray:
-    """``P: (N, 6)`` -> the signed value along the axis ``(N,)`` (0 for 'none', NaN for 'combined')."""
+    """``P: (N, 6)`` -> the signed value along the axis ``(N,)`` (0 for 'none', NaN for 'combined').
+
+    Parameters
+    ----------
+    P : (N, 6) float64
+        Perturbations: metres, degrees, rig frame.
+
+    Returns
+    -------
+    (N,) float64
+        Metres for a translation axis, degrees for a rotation.
+    """
     P = np.asarray(P, np.float64).reshape(-1, 6)
     nz = _hundredths(P) != 0
     count = nz.sum(axis=1)
@@ -141,7 +224,17 @@ def axis_values(P: np.ndarray) -> np.ndarray:
 
 
 def is_lateral(P: np.ndarray) -> np.ndarray:
-    """``(N,)`` True where only ``y`` may be non-zero (the paper's lateral offsets, and 0)."""
+    """``(N,)`` True where only ``y`` may be non-zero (the paper's lateral offsets, and 0).
+
+    Parameters
+    ----------
+    P : (N, 6) float64
+        Perturbations: metres, degrees, rig frame.
+
+    Returns
+    -------
+    (N,) bool
+    """
     nz = _hundredths(P) != 0
     return ~nz[:, [0, 2, 3, 4, 5]].any(axis=1)
 
@@ -149,6 +242,16 @@ def is_lateral(P: np.ndarray) -> np.ndarray:
 def view_suffix(P: np.ndarray) -> list[str]:
     """The view part of ``pair_id``: ``'+2.00'`` for a lateral view (unchanged contract format),
     else the label, e.g. ``'z=+0.50'``.
+
+    Parameters
+    ----------
+    P : (N, 6) float64
+        Perturbations: metres, degrees, rig frame.
+
+    Returns
+    -------
+    list of str
+        One suffix per view.
 
     >>> view_suffix(np.array([[0, -0.5, 0, 0, 0, 0], [0, 0, 1, 0, 0, 0.0]]))
     ['-0.50', 'z=+1.00']
@@ -159,7 +262,18 @@ def view_suffix(P: np.ndarray) -> list[str]:
 
 
 def lateral(offsets_m) -> np.ndarray:
-    """Lateral offsets ``(K,)`` metres -> perturbations ``(K, 6)``."""
+    """Lateral offsets ``(K,)`` metres -> perturbations ``(K, 6)``.
+
+    Parameters
+    ----------
+    offsets_m : (K,) float, metres
+        Lateral offsets along the rig's y axis (left positive).
+
+    Returns
+    -------
+    (K, 6) float64
+        Perturbations with only ``dy`` set.
+    """
     y = np.atleast_1d(np.asarray(offsets_m, np.float64))
     P = np.zeros((len(y), 6))
     P[:, 1] = y
@@ -193,6 +307,24 @@ def parse_perturb(text: str, *, option: str = "perturb") -> np.ndarray:
     grid value, duplicates (e.g. several zeros) kept once, in order of appearance.
 
     ``option`` names the parameter in errors (the CLI passes ``'--perturb'``).
+
+    Parameters
+    ----------
+    text : str
+        Comma list of ``AXIS=START:STOP:STEP`` (stop included) or ``AXIS=VALUE`` items,
+        ``AXIS`` in :data:`AXES`; metres for translations, degrees for rotations.
+    option : str, optional
+        The parameter named in errors.
+
+    Returns
+    -------
+    (K, 6) float64
+        One single-axis perturbation per grid value.
+
+    Raises
+    ------
+    InputError
+        A malformed item, unknown component or empty grid.
     """
     items = comma_list(text)
     if not items:
@@ -217,5 +349,15 @@ def parse_perturb(text: str, *, option: str = "perturb") -> np.ndarray:
 
 def view_columns(table: pd.DataFrame) -> list[str]:
     """:data:`VIEW_COLUMNS` when some row of ``table`` is not lateral, else ``[]`` (so
-    lateral-only studies and ratings keep exactly their former columns)."""
+    lateral-only studies and ratings keep exactly their former columns).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        A table with perturbation columns.
+
+    Returns
+    -------
+    list of str
+    """
     return extra_columns(perturbation_array(table), VIEW_COLUMNS)

@@ -1,6 +1,8 @@
 """Rater ids (docs/FORMATS.md §5, ``ratings.csv`` column ``rater_id``): their form and the
 prefix reserved for simulated raters, shared by the rater app, the simulator and analysis.
 
+Layer: data_schema (file formats).
+
 >>> check_rater_name("ann.b")
 'ann.b'
 >>> check_rater_name("sim-1")
@@ -25,7 +27,25 @@ _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,39}$")
 
 def check_rater_name(name: str, *, allow_sim: bool = False) -> str:
     """A rater id: 1-40 of ``A-Z a-z 0-9 _ . -`` starting alphanumeric; ``sim-*`` is reserved
-    unless ``allow_sim``. Returns the stripped name; raises :class:`InputError` otherwise."""
+    unless ``allow_sim``. Returns the stripped name; raises :class:`InputError` otherwise.
+
+    Parameters
+    ----------
+    name : str
+        The rater id to check.
+    allow_sim : bool, optional
+        Accept the ``sim-`` prefix (the simulator's raters).
+
+    Returns
+    -------
+    str
+        The stripped name.
+
+    Raises
+    ------
+    InputError
+        A name of another form.
+    """
     name = str(name).strip()
     if not _NAME.match(name):
         raise InputError("rater", "name", "1-40 letters, digits, '_', '.', '-'", repr(name))

@@ -1,5 +1,7 @@
 """Text forms shared by the formats, the library and the command lines.
 
+Layer: data_schema (file formats).
+
 A comma list (``"psnr,ssim"``) is how a list of names travels as one string: in a command-line
 option (:mod:`nvrq.commands.args`), in a library parameter that also takes a string
 (``nvrq.api``'s ``metrics="psnr,ssim"``), and inside the grid texts of

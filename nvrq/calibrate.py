@@ -1,5 +1,7 @@
 """NVRQ-CA ``tau`` calibration and the small user config that stores calibrated taus.
 
+Layer: nvrq core, scoring support (tau calibration).
+
 Rule: ``tau`` is the **median** of S (paper Eq. 4) over GT crops of *unrelated* objects --
 pairs of GT crops from different tracks *and* different classes -- i.e. the similarity an
 encoder gives to two objects that have nothing to do with each other (its noise floor).
@@ -46,7 +48,18 @@ __all__ = ["config_path", "read_tau_config", "write_tau", "require_tau", "recomm
 
 
 def config_path(config: str | os.PathLike | None = None) -> Path:
-    """The tau config file in use (it need not exist yet)."""
+    """The tau config file in use (it need not exist yet).
+
+    Parameters
+    ----------
+    config : str or PathLike, optional
+        An explicit file; else ``$NVRQ_CONFIG``, else ``$XDG_CONFIG_HOME/nvrq/tau.json``
+        (``~/.config`` by default).
+
+    Returns
+    -------
+    Path
+    """
     if config is not None:
         return Path(config)
     if os.environ.get("NVRQ_CONFIG"):
@@ -56,7 +69,18 @@ def config_path(config: str | os.PathLike | None = None) -> Path:
 
 
 def read_tau_config(path: str | os.PathLike) -> dict:
-    """The config's content (``{}`` if the file does not exist)."""
+    """The config's content (``{}`` if the file does not exist).
+
+    Parameters
+    ----------
+    path : str or PathLike
+        The config file.
+
+    Returns
+    -------
+    dict
+        ``{encoder: {'tau': float, ...}}``.
+    """
     path = Path(path)
     if not path.is_file():
         return {}
@@ -70,7 +94,24 @@ def read_tau_config(path: str | os.PathLike) -> dict:
 
 
 def write_tau(path: str | os.PathLike, encoder: str, tau: float, **info) -> Path:
-    """Store ``tau`` (and ``info``) for ``encoder`` in the config, keeping other entries."""
+    """Store ``tau`` (and ``info``) for ``encoder`` in the config, keeping other entries.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        The config file (created with its folder).
+    encoder : str
+        The encoder name.
+    tau : float
+        The calibrated tau.
+    **info
+        More fields stored with it (e.g. counts, the pairs file).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     path = Path(path)
     data = read_tau_config(path)
     data[encoder] = {"tau": float(tau), **info}
@@ -151,6 +192,24 @@ def unrelated_pairs(track_ids: np.ndarray, classes: np.ndarray, *, max_pairs: in
     """Index pairs (i, j), i < j, of crops from different tracks and (unless
     ``allow_same_class``) different classes; a uniform sample of at most ``max_pairs``.
 
+    Parameters
+    ----------
+    track_ids : (N,) array of str
+        Track of each crop.
+    classes : (N,) array of str
+        Class of each crop.
+    max_pairs : int
+        Largest number of pairs returned.
+    seed : int, optional
+        Seed of the sample.
+    allow_same_class : bool, optional
+        Also pair crops of the same class (different tracks).
+
+    Returns
+    -------
+    i, j : (M,) int64
+        Crop indices, ``i < j``, ``M <= max_pairs``.
+
     >>> i, j = unrelated_pairs(np.array(["a", "a", "b", "c"]), np.array(["car", "car", "car", "ped"]),
     ...                        max_pairs=10)
     >>> sorted(zip(i.tolist(), j.tolist()))
@@ -189,7 +248,19 @@ def _embed_gt_crops(paths, boxes: np.ndarray, encoder, *, batch_size: int, progr
 
 @dataclass
 class Calibration:
-    """``s``: S of every unrelated pair (M,); ``tau``: the median; counts for the report."""
+    """``s``: S of every unrelated pair (M,); ``tau``: the median; counts for the report.
+
+    Attributes
+    ----------
+    encoder : str
+        The encoder name.
+    s : (M,) float64
+        S (paper Eq. 4) of every unrelated pair.
+    tau : float
+        Their median.
+    n_crops : int
+        GT crops used.
+    """
 
     encoder: str
     s: np.ndarray
@@ -211,6 +282,33 @@ def calibrate_tau(pairs: pd.DataFrame, encoder, *, scene_root=None, max_crops: i
 
     One GT crop per (camera, track, timestamp) is used; at most ``max_crops`` of them
     (uniform sample, ``seed``), then at most ``max_pairs`` unrelated pairs among them.
+
+    Parameters
+    ----------
+    pairs : pandas.DataFrame
+        A pairs table (docs/FORMATS.md §3).
+    encoder : Encoder
+        The encoder to calibrate.
+    scene_root : str or Path, optional
+        Where image paths are resolved from.
+    max_crops : int, optional
+        Largest number of GT crops sampled.
+    max_pairs : int, optional
+        Largest number of unrelated pairs.
+    seed : int, optional
+        Seed of both samples.
+    allow_same_class : bool, optional
+        Also pair crops of the same class.
+    batch_size : int, optional
+        Crops per forward pass.
+    progress : bool, optional
+        Show a progress bar.
+    where : str, optional
+        The table named in errors.
+
+    Returns
+    -------
+    Calibration
     """
     _check_calibrate_args(encoder, max_crops=max_crops, max_pairs=max_pairs, batch_size=batch_size)
     require_columns(pairs, ["track_id", "label_class", "gt_path", *GT_BOX_COLUMNS], where=where)

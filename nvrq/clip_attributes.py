@@ -1,6 +1,8 @@
 """A clip attributes table: ``clip_id`` plus one column per scene attribute (e.g. ``lighting``,
 ``road_type``), so a fleet's breakdowns (paper Table 2) need no hand edits of ``scene.json``.
 
+Layer: nvrq core, sources (clip attributes of a fleet).
+
 Rule: every non-empty cell of the clip's row sets that attribute, replacing a value from
 ``scene.json``; an empty cell leaves the scene's value (if any). Values are strings.
 ``nvrq import nurec --clip-attributes FILE`` writes them into ``scene.json``;
@@ -33,7 +35,17 @@ _RESERVED = frozenset(PAIRS_COLUMNS) | {"scene_root"}
 
 @dataclass(frozen=True)
 class ClipAttributes:
-    """Attributes per clip id: ``rows[clip_id] = {name: value}`` (empty cells left out)."""
+    """Attributes per clip id: ``rows[clip_id] = {name: value}`` (empty cells left out).
+
+    Attributes
+    ----------
+    rows : dict
+        ``{clip_id: {name: value}}``.
+    columns : list of str
+        The attribute columns, in file order.
+    where : str
+        The file, named in errors.
+    """
 
     rows: dict
     columns: list
@@ -71,6 +83,22 @@ class ClipAttributes:
 
 
 def read_clip_attributes(path) -> ClipAttributes:
-    """Read a clip attributes table (.csv or .parquet); all cells are read as strings."""
+    """Read a clip attributes table (.csv or .parquet); all cells are read as strings.
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``.csv`` or ``.parquet`` table with a ``clip_id`` column.
+
+    Returns
+    -------
+    ClipAttributes
+
+    Raises
+    ------
+    InputError
+        No ``clip_id`` column or no attribute column, an attribute named like a pairs
+        column, or a repeated clip id.
+    """
     df = read_table(path, required=("clip_id",), what="clip attributes table", dtype=str)
     return ClipAttributes.from_frame(df, where=str(path))

@@ -1,5 +1,7 @@
 """Object crops: read an image once, cut inclusive pixel boxes, make encoder inputs.
 
+Layer: nvrq core, geometry (image crops).
+
 Convention:
     Images are handled as RGB ``uint8`` arrays of shape (H, W, 3), channel order R, G, B.
     Files on disk are ordinary RGB image files; OpenCV decodes them as B, G, R, so
@@ -45,6 +47,16 @@ def read_rgb(path: str | os.PathLike) -> np.ndarray:
     older builds swap with ``cv2.COLOR_BGR2RGB``): the result is in the file's own R, G, B
     order. Grey and RGBA files become 3-channel RGB.
     Raises :class:`InputError` if the file is missing or cannot be decoded.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        An image file OpenCV can decode.
+
+    Returns
+    -------
+    (H, W, 3) uint8
+        RGB.
     """
     path = os.fspath(path)
     if _IMREAD_RGB is not None:  # the decoder writes R, G, B: no full-frame channel swap
@@ -65,6 +77,22 @@ def cut_box(image: np.ndarray, box: Sequence[int], *, where: str = "box",
     ``box`` is ``[x0, y0, x1, y1]`` (inclusive). A box that is empty or reaches outside the
     image raises :class:`InputError` naming ``where`` and ``field`` (default
     ``"box [x0, y0, x1, y1]"``).
+
+    Parameters
+    ----------
+    image : (H, W, C) array
+        The image.
+    box : (4,) int
+        ``[x0, y0, x1, y1]``, inclusive pixels.
+    where : str, optional
+        The file or table named in errors.
+    field : str, optional
+        The field named in errors.
+
+    Returns
+    -------
+    (y1 - y0 + 1, x1 - x0 + 1, C) array
+        A view of ``image``.
     """
     x0, y0, x1, y1 = (int(v) for v in box)
     h, w = image.shape[:2]
@@ -81,6 +109,18 @@ def pad_to_square(crop: np.ndarray, *, side: int | None = None) -> np.ndarray:
     ``side``: S, at least ``max(H, W)``; default ``max(H, W)`` (then a square crop is returned
     as it is). The content starts at row ``(S - H) // 2`` and column ``(S - W) // 2`` (the odd
     pixel of padding goes to the bottom/right).
+
+    Parameters
+    ----------
+    crop : (H, W, C) array
+        The crop.
+    side : int, optional
+        ``S``, pixels, at least ``max(H, W)``.
+
+    Returns
+    -------
+    (S, S, C) array
+        Same dtype as ``crop``.
 
     >>> import numpy as np
     >>> pad_to_square(np.ones((2, 2, 1), np.uint8), side=4)[:, :, 0].tolist()
@@ -101,6 +141,18 @@ def pad_to_square(crop: np.ndarray, *, side: int | None = None) -> np.ndarray:
 def encoder_input(crop: np.ndarray, size: int) -> np.ndarray:
     """Square-pad ``crop`` (H, W, 3) and bicubic-resize it to (size, size, 3), dtype kept.
 
+    Parameters
+    ----------
+    crop : (H, W, 3) array
+        The crop, RGB.
+    size : int
+        Output side, pixels.
+
+    Returns
+    -------
+    (size, size, 3) array
+        Same dtype as ``crop``.
+
     >>> import numpy as np
     >>> encoder_input(np.full((10, 20, 3), 7, np.uint8), 8).shape
     (8, 8, 3)
@@ -115,6 +167,18 @@ def resize_to(crop: np.ndarray, height: int, width: int) -> np.ndarray:
     """Bicubic-resize ``crop`` (h, w, C) to (height, width, C) (no-op if already that size).
 
     Used for pixel metrics: the render crop is brought to the GT crop's size (docs/FORMATS.md §4).
+
+    Parameters
+    ----------
+    crop : (h, w, C) array
+        The crop.
+    height, width : int
+        Target size, pixels.
+
+    Returns
+    -------
+    (height, width, C) array
+        Same dtype as ``crop``.
     """
     if crop.shape[:2] == (height, width):
         return crop
@@ -126,6 +190,19 @@ def normalised_tensor(images: np.ndarray, mean, std, *, device="cpu"):
 
     Values are ``(x / 255 - mean) / std`` per channel (``mean``/``std``: 3 numbers on [0, 1]
     RGB, or tensors broadcastable to ``(1, 3, 1, 1)``). Used by every encoder and classifier.
+
+    Parameters
+    ----------
+    images : (B, S, S, 3) uint8
+        RGB crops.
+    mean, std : (3,) float or torch.Tensor
+        Per-channel normalisation of RGB in [0, 1].
+    device : str or torch.device, optional
+        Where the tensor goes.
+
+    Returns
+    -------
+    (B, 3, S, S) float32 torch.Tensor
     """
     import torch
 

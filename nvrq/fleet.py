@@ -1,5 +1,7 @@
 """Pairs of many clips at once: one Parquet dataset partitioned by ``clip_id``.
 
+Layer: nvrq core, sources to pairs (multi-clip pairs datasets).
+
 ``nvrq pairs A B ... --out DATASET/`` (or ``nvrq pairs FLEET/ --out DATASET/`` where FLEET
 holds scene folders) runs :func:`nvrq.pairs.make_pairs` clip by clip and writes each clip's
 rows, unchanged, to ``DATASET/clip_id=<id>/part-0.parquet`` (layout:
@@ -35,7 +37,22 @@ __all__ = ["find_scenes", "FleetResult", "clip_pairs", "fleet_pairs"]
 
 def find_scenes(paths) -> list[Path]:
     """Scene folders from ``paths``: each is a scene folder (with ``scene.json``) or a folder
-    whose sub-folders are scene folders (sorted by name)."""
+    whose sub-folders are scene folders (sorted by name).
+
+    Parameters
+    ----------
+    paths : iterable of str or Path
+        Scene folders, or folders of scene folders.
+
+    Returns
+    -------
+    list of Path
+
+    Raises
+    ------
+    InputError
+        A path that is neither.
+    """
     out = []
     for p in map(Path, paths):
         if (p / "scene.json").is_file():
@@ -53,7 +70,17 @@ def find_scenes(paths) -> list[Path]:
 
 @dataclass
 class FleetResult:
-    """What :func:`fleet_pairs` did: pair counts over all clips, the clips written and the failed."""
+    """What :func:`fleet_pairs` did: pair counts over all clips, the clips written and the failed.
+
+    Attributes
+    ----------
+    stats : PairStats
+        Pair counts summed over the clips written.
+    clips : list of str
+        The clip ids written.
+    failed : list of (str, str)
+        ``(clip, reason)`` of each clip skipped with ``keep_going``.
+    """
 
     stats: PairStats = field(default_factory=PairStats)
     clips: list = field(default_factory=list)
@@ -83,7 +110,28 @@ def _add_stats(total: PairStats, s: PairStats) -> None:
 
 def clip_pairs(scene_dir, *, attributes=None, min_side: float, min_area: float, progress: bool = False):
     """``(clip_id, pairs, stats)`` of one scene folder: :func:`nvrq.pairs.make_pairs` after
-    applying the :class:`nvrq.clip_attributes.ClipAttributes` ``attributes`` (if any)."""
+    applying the :class:`nvrq.clip_attributes.ClipAttributes` ``attributes`` (if any).
+
+    Parameters
+    ----------
+    scene_dir : str or Path
+        A scene folder.
+    attributes : ClipAttributes, optional
+        Clip attributes that override the scene's.
+    min_side : float, pixels
+        Smallest box side kept.
+    min_area : float, pixels
+        Smallest box area kept.
+    progress : bool, optional
+        Show a progress bar.
+
+    Returns
+    -------
+    clip_id : str
+    pairs : pandas.DataFrame
+        The pairs table (docs/FORMATS.md §3).
+    stats : PairStats
+    """
     scene = load_scene(scene_dir)
     if attributes is not None:
         scene = dataclasses.replace(scene, attributes=attributes.for_clip(scene.clip_id, scene.attributes))
@@ -117,6 +165,32 @@ def fleet_pairs(scene_dirs, out, *, min_side: float = 30, min_area: float = 0, a
     """Pairs of every scene in ``scene_dirs`` into the dataset folder ``out`` (module docstring).
 
     ``attributes``: a :class:`nvrq.clip_attributes.ClipAttributes` or ``None``.
+
+    Parameters
+    ----------
+    scene_dirs : iterable of Path
+        Scene folders (:func:`find_scenes`).
+    out : str or Path
+        The dataset folder, written atomically.
+    min_side : float, pixels, optional
+        Smallest box side kept.
+    min_area : float, pixels, optional
+        Smallest box area kept.
+    attributes : ClipAttributes, optional
+        Clip attributes that override the scenes'.
+    keep_going : bool, optional
+        Skip a clip that fails validation (listed in ``failed.csv``) instead of stopping.
+    progress : bool, optional
+        Show a progress bar.
+
+    Returns
+    -------
+    FleetResult
+
+    Raises
+    ------
+    InputError
+        A clip fails (without ``keep_going``), a clip id repeats, or no clip passes.
     """
 
     res, seen, attrs_by_file, methods = FleetResult(), {}, {}, set()

@@ -1,5 +1,7 @@
 """Nuisances a good object-quality metric should ignore (the stability study, paper Fig. 4).
 
+Layer: nvrq core, metrics support (nuisances of the stability study).
+
 Each function returns the *other* crop of a GT-vs-perturbed pair; the GT crop itself is
 ``image[y0:y1+1, x0:x1+1]`` of the inclusive box ``[x0, y0, x1, y1]`` (docs/FORMATS.md §3).
 ``strength`` is in each nuisance's natural unit (see :data:`NUISANCE_STRENGTHS`).
@@ -51,7 +53,20 @@ NUISANCE_STRENGTHS: dict[str, tuple[float, ...]] = {
 
 
 def clamp_box(box: np.ndarray, size: tuple[int, int]) -> np.ndarray:
-    """Move an inclusive box (4,) inside an image of ``size (W, H)`` keeping its size when it fits."""
+    """Move an inclusive box (4,) inside an image of ``size (W, H)`` keeping its size when it fits.
+
+    Parameters
+    ----------
+    box : (4,) int
+        ``[x0, y0, x1, y1]``, inclusive pixels.
+    size : (int, int)
+        ``(W, H)`` of the image, pixels.
+
+    Returns
+    -------
+    (4,) int64
+        The moved box, inclusive pixels.
+    """
     W, H = size
     x0, y0, x1, y1 = (int(v) for v in box)
     w, h = min(x1 - x0 + 1, W), min(y1 - y0 + 1, H)
@@ -63,7 +78,24 @@ def clamp_box(box: np.ndarray, size: tuple[int, int]) -> np.ndarray:
 def shifted_box(
     box: np.ndarray, fraction: float, theta: float, size: tuple[int, int]
 ) -> np.ndarray:
-    """Inclusive ``box`` (4,) shifted by ``fraction`` of its width/height along angle ``theta``."""
+    """Inclusive ``box`` (4,) shifted by ``fraction`` of its width/height along angle ``theta``.
+
+    Parameters
+    ----------
+    box : (4,) int
+        ``[x0, y0, x1, y1]``, inclusive pixels.
+    fraction : float
+        Shift as a fraction of the box's width (x) and height (y).
+    theta : float, radians
+        Direction of the shift (0: +u, pi/2: +v).
+    size : (int, int)
+        ``(W, H)`` of the image, pixels.
+
+    Returns
+    -------
+    (4,) int64
+        Inclusive pixels, clamped into the image (:func:`clamp_box`).
+    """
     w, h = box[2] - box[0] + 1, box[3] - box[1] + 1
     dx = int(round(fraction * w * math.cos(theta)))
     dy = int(round(fraction * h * math.sin(theta)))
@@ -71,7 +103,22 @@ def shifted_box(
 
 
 def scaled_box(box: np.ndarray, factor: float, size: tuple[int, int]) -> np.ndarray:
-    """Inclusive ``box`` (4,) scaled by ``factor`` about its centre (sides rounded, at least 2 px)."""
+    """Inclusive ``box`` (4,) scaled by ``factor`` about its centre (sides rounded, at least 2 px).
+
+    Parameters
+    ----------
+    box : (4,) int
+        ``[x0, y0, x1, y1]``, inclusive pixels.
+    factor : float
+        Scale of both sides.
+    size : (int, int)
+        ``(W, H)`` of the image, pixels.
+
+    Returns
+    -------
+    (4,) int64
+        Inclusive pixels, clamped into the image (:func:`clamp_box`).
+    """
     cx, cy = (box[0] + box[2]) / 2.0, (box[1] + box[3]) / 2.0
     w = max(int(round((box[2] - box[0] + 1) * factor)), 2)
     h = max(int(round((box[3] - box[1] + 1) * factor)), 2)
@@ -81,7 +128,24 @@ def scaled_box(box: np.ndarray, factor: float, size: tuple[int, int]) -> np.ndar
 
 def occlude(crop: np.ndarray, occluder: np.ndarray, area: float, corner: int) -> np.ndarray:
     """``crop (H, W, 3)`` with ``occluder`` resized to ``sqrt(area) H x sqrt(area) W`` pasted in
-    corner ``corner`` (0 top-left, 1 top-right, 2 bottom-left, 3 bottom-right)."""
+    corner ``corner`` (0 top-left, 1 top-right, 2 bottom-left, 3 bottom-right).
+
+    Parameters
+    ----------
+    crop : (H, W, 3) uint8
+        RGB crop.
+    occluder : (h, w, 3) uint8
+        RGB patch to paste.
+    area : float
+        Occluded fraction of the crop, in (0, 1].
+    corner : int
+        ``{0, 1, 2, 3}``: top-left, top-right, bottom-left, bottom-right.
+
+    Returns
+    -------
+    (H, W, 3) uint8
+        A new crop.
+    """
     h, w = crop.shape[:2]
     oh, ow = max(int(round(h * math.sqrt(area))), 1), max(int(round(w * math.sqrt(area))), 1)
     patch = cv2.resize(occluder, (ow, oh), interpolation=cv2.INTER_AREA)
@@ -93,12 +157,37 @@ def occlude(crop: np.ndarray, occluder: np.ndarray, area: float, corner: int) ->
 
 
 def expose(crop: np.ndarray, gain: float) -> np.ndarray:
-    """Exposure change: ``clip(round(crop * gain), 0, 255)`` as uint8."""
+    """Exposure change: ``clip(round(crop * gain), 0, 255)`` as uint8.
+
+    Parameters
+    ----------
+    crop : (H, W, 3) uint8
+        RGB crop.
+    gain : float
+        Exposure factor.
+
+    Returns
+    -------
+    (H, W, 3) uint8
+    """
     return np.clip(np.rint(crop.astype(np.float32) * gain), 0, 255).astype(np.uint8)
 
 
 def jpeg_roundtrip(crop: np.ndarray, quality: int) -> np.ndarray:
-    """Encode ``crop`` (RGB) as JPEG at ``quality`` with OpenCV and decode it again (RGB)."""
+    """Encode ``crop`` (RGB) as JPEG at ``quality`` with OpenCV and decode it again (RGB).
+
+    Parameters
+    ----------
+    crop : (H, W, 3) uint8
+        RGB crop.
+    quality : int
+        JPEG quality, 0-100.
+
+    Returns
+    -------
+    (H, W, 3) uint8
+        RGB.
+    """
     ok, buf = cv2.imencode(
         ".jpg", np.ascontiguousarray(crop[..., ::-1]), [cv2.IMWRITE_JPEG_QUALITY, int(quality)]
     )

@@ -1,5 +1,7 @@
 """GT / novel-view box pairs (docs/FORMATS.md §3; paper sections 3.2 and 5.1).
 
+Layer: nvrq core, geometry (GT / novel-view box pairs).
+
 For every camera, frame and render perturbation of a scene, every object box is projected
 into the GT view (the real camera) and into the novel view (the virtual camera moved by the
 render's perturbation ``(dx, dy, dz, roll, pitch, yaw)`` in the rig frame, paper Eq. 1-2
@@ -60,7 +62,21 @@ PAIRS_OUTPUT_COLUMNS = (*PAIRS_COLUMNS, *EXTRA_PERTURBATION_COLUMNS, LABEL_COLUM
 @dataclass
 class PairStats:
     """Counts of a :func:`make_pairs` run: candidates, kept pairs and drops per reason, in
-    total and per perturbation axis (``by_axis[axis]`` = ``{'candidates', 'kept', *reasons}``)."""
+    total and per perturbation axis (``by_axis[axis]`` = ``{'candidates', 'kept', *reasons}``).
+
+    Attributes
+    ----------
+    candidates : int
+        (camera, frame, track, view) combinations considered.
+    kept : int
+        Valid pairs.
+    dropped : dict
+        Reason -> count, reasons :data:`DROP_REASONS`.
+    frames_outside_trajectory : int
+        Frames whose time lies outside the rig trajectory.
+    by_axis : dict
+        Perturbation axis -> ``{'candidates', 'kept', *reasons}`` counts.
+    """
 
     candidates: int = 0
     kept: int = 0
@@ -108,6 +124,20 @@ def track_boxes_at(scene: Scene, query_us: np.ndarray) -> tuple[np.ndarray, np.n
 
     ``query_us: (F,)`` -> ``(track_index: (M,), frame_index: (M,), T_box_world: (M, 4, 4))`` for
     the M (track, frame) combinations inside the track's own time span (never extrapolated).
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    query_us : (F,) int64, microseconds
+        Frame times.
+
+    Returns
+    -------
+    track_index : (M,) int64
+    frame_index : (M,) int64
+    T_box_world : (M, 4, 4) float64
+        Box-centre poses, box frame to world frame (metres).
     """
     q = np.asarray(query_us, dtype=np.int64)
     tr_idx, fr_idx, mats = [], [], []
@@ -131,6 +161,24 @@ def view_validity(
     with ``code`` 0 = valid, 1 = some corner unprojectable (behind the camera or beyond the
     model's range), 2 = some corner outside the image, 3 = too small. ``box`` is only
     meaningful where ``code == 0``.
+
+    Parameters
+    ----------
+    camera : CameraModel
+        The (real or virtual) camera.
+    corners_sensor : (..., 8, 3) float64, metres
+        Box corners in the camera frame.
+    min_side : float, pixels
+        Smallest box side.
+    min_area : float, pixels
+        Smallest box area.
+
+    Returns
+    -------
+    code : (...,) int8
+        0 valid, 1 unprojectable, 2 outside the image, 3 too small.
+    box : (..., 4) int64
+        ``[x0, y0, x1, y1]`` inclusive pixels, where ``code == 0``.
     """
     uv, projectable = camera.project(corners_sensor)
     projectable = projectable & np.isfinite(uv).all(axis=-1)
@@ -286,7 +334,9 @@ def project_boxes(
     T_rig_world : (4, 4)
         The rig pose at this frame (rig -> world).
     T_box_world : (M, 4, 4)
-        Box centre poses (box -> world); ``dims_lwh`` (M, 3) their length, width, height (m).
+        Box centre poses (box -> world).
+    dims_lwh : (M, 3)
+        Their length, width, height (m).
     perturbations : (K, 6), optional
         Novel views ``(dx, dy, dz, roll, pitch, yaw)`` in metres and degrees, in the rig frame
         (:func:`nvrq.geometry.poses.perturb_T_sensor_rig`); or ``offsets`` (K,), lateral
@@ -368,6 +418,23 @@ def make_pairs(
     frame, track, render view) invalid in the GT view is counted under the GT view's
     reason, otherwise under the novel view's; novel views are only projected for boxes
     valid in the GT view. The 8-corner and size criteria are the same in every view.
+
+    Parameters
+    ----------
+    scene : Scene
+        A validated scene (docs/FORMATS.md §2).
+    min_side : float, pixels, optional
+        Smallest box side kept, in every view.
+    min_area : float, pixels, optional
+        Smallest box area kept.
+    progress : bool, optional
+        Show a progress bar.
+
+    Returns
+    -------
+    pairs : pandas.DataFrame
+        The pairs table.
+    stats : PairStats
     """
 
     for name, value in (("min_side", min_side), ("min_area", min_area)):

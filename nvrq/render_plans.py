@@ -1,5 +1,7 @@
 """Render plans: the virtual camera of every (camera, frame, view) a renderer must draw.
 
+Layer: nvrq core, geometry (render plans).
+
 For each camera, frame and view (a lateral offset ``y``, paper Eq. 1-2, docs/FORMATS.md §1, or
 a perturbation ``(dx, dy, dz, roll, pitch, yaw)``, see
 :func:`nvrq.geometry.poses.perturb_T_sensor_rig`)::
@@ -112,6 +114,26 @@ def default_image_path(camera: str, timestamp_us: int, source: str, y_offset_m: 
     components to ``render_<label>`` with ``=`` dropped and ``,`` as ``_``; the render of a
     named ``method`` (:mod:`data_schema.methods`) one folder deeper, ``render_<...>/<method>``:
 
+    Parameters
+    ----------
+    camera : str
+        Camera name.
+    timestamp_us : int, microseconds
+        Frame time.
+    source : str
+        ``{'gt', 'render'}``.
+    y_offset_m : float, metres, optional
+        Lateral offset (left > 0).
+    perturbation : (6,) float64, optional
+        ``(dx, dy, dz, roll, pitch, yaw)``: metres, degrees, rig frame; replaces ``y_offset_m``.
+    method : str, optional
+        Reconstruction method (``''``: none).
+
+    Returns
+    -------
+    str
+        Relative POSIX path.
+
     >>> default_image_path("front", 5, "render", perturbation=np.array([0, 0, 0.5, 0, 0, -5]))
     'images/front/render_z+0.50_yaw-5.00/5.png'
     >>> default_image_path("front", 5, "render", 1.0, method="3dgs")
@@ -131,7 +153,23 @@ def default_image_path(camera: str, timestamp_us: int, source: str, y_offset_m: 
 def plan_poses(T_rig_world: np.ndarray, T_sensor_rig: np.ndarray, views: np.ndarray) -> dict:
     """Poses for frames ``T_rig_world: (F, 4, 4)``, one camera ``T_sensor_rig: (4, 4)`` and
     views: lateral offsets ``(K,)`` or perturbations ``(K, 6)``. Returns ``T_sensor_rig
-    (K, 4, 4)``, ``T_sensor_world`` and ``T_world_sensor`` ``(F, K, 4, 4)``."""
+    (K, 4, 4)``, ``T_sensor_world`` and ``T_world_sensor`` ``(F, K, 4, 4)``.
+
+    Parameters
+    ----------
+    T_rig_world : (F, 4, 4) float64
+        Rig poses, rig frame to world frame (metres).
+    T_sensor_rig : (4, 4) float64
+        The camera mounting, sensor frame to rig frame.
+    views : (K,) float64 or (K, 6) float64
+        Lateral offsets (metres) or perturbations (metres, degrees, rig frame).
+
+    Returns
+    -------
+    dict
+        ``T_sensor_rig: (K, 4, 4)``, ``T_sensor_world: (F, K, 4, 4)`` and
+        ``T_world_sensor: (F, K, 4, 4)``.
+    """
     views = np.asarray(views, float)
     T_sr = perturb_T_sensor_rig(T_sensor_rig, views if views.ndim == 2 else lateral(views))
     T_sw = T_sensor_world(np.asarray(T_rig_world, float)[:, None], T_sr[None])
@@ -378,6 +416,8 @@ def plan_table(scene, **options) -> pd.DataFrame:
     scene : Scene, path or RenderPlan
         A scene (or folder), planned with ``options`` (those of :func:`render_plan`), or a
         plan already made.
+    **options
+        Keywords of :func:`render_plan` (ignored for a plan already made).
 
     Returns
     -------

@@ -1,6 +1,8 @@
 """The stability study (``nvrq stability``): how far nuisances move a metric, relative to
 how far true reconstruction artefacts move it (the paper's Fig. 4, measured).
 
+Layer: nvrq core, metrics support (the stability study).
+
 Samples: ``n_objects`` GT crops drawn (seeded) from a pairs table. Each is compared with
 perturbed versions of itself -- the nuisances of :mod:`nvrq.nuisances` (box and scale
 jitter, occlusion by another sampled object's crop, exposure, JPEG, the same track one or
@@ -74,7 +76,21 @@ _GT_BOX = list(GT_BOX_COLUMNS)
 
 @dataclass
 class Sample:
-    """One GT-vs-perturbed crop pair: ``obj`` indexes the GT crop list."""
+    """One GT-vs-perturbed crop pair: ``obj`` indexes the GT crop list.
+
+    Attributes
+    ----------
+    obj : int
+        Index into the GT crop list.
+    perturbation : str
+        The nuisance or artefact name.
+    kind : str
+        ``{'nuisance', 'artefact'}``.
+    strength : float
+        Its strength.
+    crop : (h, w, 3) uint8
+        The perturbed crop, RGB.
+    """
 
     obj: int
     perturbation: str
@@ -180,7 +196,33 @@ def build_samples(
     progress: bool = True,
     where: str = "pairs",
 ) -> tuple[list[np.ndarray], list[Sample]]:
-    """GT crops (list of (h, w, 3)) and every perturbed :class:`Sample` of them (see module doc)."""
+    """GT crops (list of (h, w, 3)) and every perturbed :class:`Sample` of them (see module doc).
+
+    Parameters
+    ----------
+    pairs : pandas.DataFrame
+        A pairs table (docs/FORMATS.md §3).
+    n_objects : int, optional
+        GT crops drawn.
+    seed : int, optional
+        Seed of the draw and of the perturbations.
+    min_side : int, pixels, optional
+        Smallest GT box side drawn.
+    nuisances : dict, optional
+        Nuisance name -> strengths (default ``NUISANCE_STRENGTHS``).
+    artefact_strengths : sequence of float, optional
+        Strengths of each artefact, in [0, 1].
+    progress : bool, optional
+        Show a progress bar.
+    where : str, optional
+        The table named in errors.
+
+    Returns
+    -------
+    gts : list of (h, w, 3) uint8
+        GT crops, RGB.
+    samples : list of Sample
+    """
     nuisances = NUISANCE_STRENGTHS if nuisances is None else nuisances
     rng = np.random.default_rng(seed)
     chosen, frames = _objects(pairs, n_objects=n_objects, min_side=min_side, rng=rng, where=where)
@@ -223,7 +265,32 @@ def score_samples(gts: list[np.ndarray], samples: list[Sample], *, metrics: list
                   tau: float | None = None, batch_size: int = 32, max_pairs: int = 256,
                   progress: bool = True) -> dict[str, np.ndarray]:
     """Metric values (N,) for every ``(gts[sample.obj], sample.crop)``, through the one scoring
-    core (:func:`nvrq.scoring.core.score_crop_batch`), exactly as ``nvrq score`` computes them."""
+    core (:func:`nvrq.scoring.core.score_crop_batch`), exactly as ``nvrq score`` computes them.
+
+    Parameters
+    ----------
+    gts : list of (h, w, 3) uint8
+        GT crops, RGB.
+    samples : list of Sample
+        The perturbed crops.
+    metrics : list of str
+        Metric names (the registry's).
+    encoder : Encoder, optional
+        Needed by encoder metrics.
+    tau : float, optional
+        NVRQ-CA knee.
+    batch_size : int, optional
+        Crops per forward pass.
+    max_pairs : int, optional
+        Pairs per scoring batch.
+    progress : bool, optional
+        Show a progress bar.
+
+    Returns
+    -------
+    dict
+        Metric name -> ``(N,)`` float64 values, one per sample.
+    """
     check_metric_args(metrics, encoder=encoder, tau=tau, batch_size=batch_size)
     values = {m: np.full(len(samples), np.nan) for m in metrics}
     with tqdm(total=len(samples), desc="score", unit="sample", file=sys.stderr,
@@ -239,7 +306,20 @@ def score_samples(gts: list[np.ndarray], samples: list[Sample], *, metrics: list
 
 def pooled_change(values: np.ndarray, *, higher_better: bool) -> np.ndarray:
     """Pooled percentile drop (N,) of ``values`` (N,): the fraction of the other finite samples the
-    metric scores better (ties half); NaN stays NaN. See the module docstring."""
+    metric scores better (ties half); NaN stays NaN. See the module docstring.
+
+    Parameters
+    ----------
+    values : (N,) float64
+        One metric's values over all samples.
+    higher_better : bool
+        The metric's direction.
+
+    Returns
+    -------
+    (N,) float64
+        In [0, 1]; NaN where ``values`` is NaN.
+    """
     v = np.asarray(values, np.float64)
     q = v if higher_better else -v
     ok = ~np.isnan(q)
@@ -253,7 +333,20 @@ def pooled_change(values: np.ndarray, *, higher_better: bool) -> np.ndarray:
 
 def summarise(samples: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
     """``samples`` (metric, nuisance_or_artefact, kind, strength, object, value, change) ->
-    (stability table, snr table) -- the two CSVs of ``nvrq stability``."""
+    (stability table, snr table) -- the two CSVs of ``nvrq stability``.
+
+    Parameters
+    ----------
+    samples : pandas.DataFrame
+        One row per sample and metric.
+
+    Returns
+    -------
+    stability : pandas.DataFrame
+        Mean change per metric, nuisance or artefact, kind and strength.
+    snr : pandas.DataFrame
+        ``metric, nuisance, snr, nuisance_change, artefact_change``.
+    """
     ok = samples.dropna(subset=["change"])
     stab = (
         ok.groupby(["metric", "nuisance_or_artefact", "kind", "strength"], sort=False)["change"]
@@ -300,7 +393,39 @@ def run_stability(
     progress: bool = True,
     where: str = "pairs",
 ) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
-    """The whole study -> ``(samples, stability, snr)`` tables (see :func:`summarise`)."""
+    """The whole study -> ``(samples, stability, snr)`` tables (see :func:`summarise`).
+
+    Parameters
+    ----------
+    pairs : pandas.DataFrame
+        A pairs table (docs/FORMATS.md §3).
+    metrics : list of str
+        Metric names (the registry's).
+    encoder : Encoder, optional
+        Needed by encoder metrics.
+    tau : float, optional
+        NVRQ-CA knee.
+    n_objects : int, optional
+        GT crops drawn.
+    seed : int, optional
+        Seed of the draw and of the perturbations.
+    min_side : int, pixels, optional
+        Smallest GT box side drawn.
+    nuisances : dict, optional
+        Nuisance name -> strengths.
+    artefact_strengths : sequence of float, optional
+        Strengths of each artefact, in [0, 1].
+    batch_size : int, optional
+        Crops per forward pass.
+    progress : bool, optional
+        Show a progress bar.
+    where : str, optional
+        The table named in errors.
+
+    Returns
+    -------
+    samples, stability, snr : pandas.DataFrame
+    """
     _check_study_args(n_objects=n_objects, min_side=min_side)
     check_metric_args(metrics, encoder=encoder, tau=tau, batch_size=batch_size)
     gts, samples = build_samples(
@@ -345,7 +470,22 @@ def run_stability(
 
 def plot_stability(stab: pd.DataFrame, snr: pd.DataFrame, out_stem) -> list:
     """Two panels -> ``out_stem.png`` and ``out_stem.svg``: (a) SNR per nuisance and metric (log
-    scale), (b) mean change vs strength under box jitter (solid) and artefacts (dashed)."""
+    scale), (b) mean change vs strength under box jitter (solid) and artefacts (dashed).
+
+    Parameters
+    ----------
+    stab : pandas.DataFrame
+        The stability table (:func:`summarise`).
+    snr : pandas.DataFrame
+        The SNR table.
+    out_stem : str or Path
+        Output path without suffix.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
     import matplotlib
     import matplotlib.ticker
 

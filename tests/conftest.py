@@ -5,7 +5,7 @@ for nvrq's command layer, ``api/``, ``pairs/``, ``sources/``, ``geometry/``, ``e
 ``proxies/``, ``synth/``, ``data_schema/``, ``annotate/``, ``analysis/``); ``workflows/`` runs
 commands end to end, ``e2e/`` drives a real browser, ``malformed/`` is the bad-input corpus and
 ``data/`` holds files written by earlier versions. Only project-wide checks sit at the top: the
-import layers, the README's commands and the benchmarks' smoke runs.
+import layers, the README's commands, the benchmarks' smoke runs and the numpydoc count.
 """
 
 from __future__ import annotations

@@ -1,5 +1,8 @@
 """``annotate add-rater STUDY NAME [--host H] [--port P] [--public-url BASE]``: register a rater,
-print the sign-in link (a token link on a token or crowd study)."""
+print the sign-in link (a token link on a token or crowd study).
+
+Layer: commands (CLI shell) of ``annotate``.
+"""
 
 from __future__ import annotations
 
@@ -13,7 +16,13 @@ __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
-    """Add ``add-rater`` to the ``annotate`` subcommands ``sub``."""
+    """Add ``add-rater`` to the ``annotate`` subcommands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``annotate`` subcommand parsers.
+    """
     a = sub.add_parser("add-rater", help="register a rater and print the sign-in link")
     a.add_argument("study", metavar="STUDY", help="study folder made by 'annotate build'")
     a.add_argument("name", metavar="NAME", help="the rater's name (1-40 letters, digits, '.', '_' or '-')")
@@ -22,7 +31,20 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    """Register ``args.name`` (with a secret token on a token or crowd study) and print its link."""
+    """Register ``args.name`` (with a secret token on a token or crowd study) and print its link.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of ``annotate add-rater``.
+
+    Returns
+    -------
+    int
+        The exit status, 0 on success (bad input raises
+        :class:`~data_schema.errors.InputError`, status 2 through
+        :func:`~nvrq.commands.args.run_cli`).
+    """
     from annotate.study import load_study
 
     study = load_study(args.study)

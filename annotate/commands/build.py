@@ -1,5 +1,8 @@
 """``annotate build STUDY --pairs PAIRS [...]``: a study folder from a pairs table
-(:func:`annotate.study.build_study`)."""
+(:func:`annotate.study.build_study`).
+
+Layer: commands (CLI shell) of ``annotate``.
+"""
 
 from __future__ import annotations
 
@@ -34,7 +37,13 @@ def _items_per_rater(text: str) -> int | None:
 
 
 def register(sub) -> None:
-    """Add ``build`` to the ``annotate`` subcommands ``sub``."""
+    """Add ``build`` to the ``annotate`` subcommands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``annotate`` subcommand parsers.
+    """
     b = sub.add_parser("build", help="build a study folder from a pairs table")
     b.add_argument("study", metavar="STUDY", help="new study folder (absent or empty)")
     b.add_argument("--pairs", required=True, metavar="PAIRS", help="pairs table (docs/FORMATS.md §3; required)")
@@ -90,7 +99,20 @@ def register(sub) -> None:
 
 def run(args) -> int:
     """Build the study; print its item counts and the admin page's link (the only time the
-    admin token is printed)."""
+    admin token is printed).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of ``annotate build``.
+
+    Returns
+    -------
+    int
+        The exit status, 0 on success (bad input raises
+        :class:`~data_schema.errors.InputError`, status 2 through
+        :func:`~nvrq.commands.args.run_cli`).
+    """
     from annotate.study import build_study, load_study
 
     check_output_folder(args.study, kind="study", option="STUDY",

@@ -1,6 +1,9 @@
 """``annotate export STUDY --out RATINGS [--participants FILE]``: the votes as ratings.csv
 (docs/FORMATS.md §5; a pairwise study's votes: §12); a crowd study's raters and the panel's
-participant ids as a second table (§8)."""
+participant ids as a second table (§8).
+
+Layer: commands (CLI shell) of ``annotate``.
+"""
 
 from __future__ import annotations
 
@@ -14,7 +17,13 @@ __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
-    """Add ``export`` to the ``annotate`` subcommands ``sub``."""
+    """Add ``export`` to the ``annotate`` subcommands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``annotate`` subcommand parsers.
+    """
     e = sub.add_parser("export", help="write ratings.csv (docs/FORMATS.md §5; a pairwise "
                        "study's votes: §12)")
     e.add_argument("study", metavar="STUDY", help="study folder made by 'annotate build'")
@@ -28,7 +37,20 @@ def register(sub) -> None:
 def run(args) -> int:
     """Write the votes table (and the participants table); on stderr, warn about votes that
     could not be placed and name, per rater, the votes undone and the presses dropped as too
-    fast (from the history)."""
+    fast (from the history).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of ``annotate export``.
+
+    Returns
+    -------
+    int
+        The exit status, 0 on success (bad input raises
+        :class:`~data_schema.errors.InputError`, status 2 through
+        :func:`~nvrq.commands.args.run_cli`).
+    """
     from annotate.results import votes_table
     from annotate.study import load_study, unplaced_votes
     from data_schema.tables import TABLE_SUFFIXES, write_table

@@ -1,4 +1,7 @@
-"""``annotate gvf STUDY [--out FILE]``: the good-vote fraction of each test item (binary studies)."""
+"""``annotate gvf STUDY [--out FILE]``: the good-vote fraction of each test item (binary studies).
+
+Layer: commands (CLI shell) of ``annotate``.
+"""
 
 from __future__ import annotations
 
@@ -11,7 +14,13 @@ __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
-    """Add ``gvf`` to the ``annotate`` subcommands ``sub``."""
+    """Add ``gvf`` to the ``annotate`` subcommands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``annotate`` subcommand parsers.
+    """
     g = sub.add_parser("gvf", help="per-item good-vote fraction of test items")
     g.add_argument("study", metavar="STUDY", help="study folder made by 'annotate build' (good/bad design)")
     g.add_argument("--out", metavar="FILE", help="table to write (.csv or .parquet; default: print it)")
@@ -19,7 +28,20 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    """Write the GVF table to ``args.out``, or print it when no ``--out`` is given."""
+    """Write the GVF table to ``args.out``, or print it when no ``--out`` is given.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of ``annotate gvf``.
+
+    Returns
+    -------
+    int
+        The exit status, 0 on success (bad input raises
+        :class:`~data_schema.errors.InputError`, status 2 through
+        :func:`~nvrq.commands.args.run_cli`).
+    """
     from annotate.results import gvf_table, ratings_table
     from annotate.study import load_study
     from data_schema.tables import write_table

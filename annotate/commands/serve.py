@@ -1,5 +1,7 @@
 """``annotate serve STUDY [--host H] [--port P] [--public-url BASE] [--workers K]``: serve the rater app (Streamlit).
 
+Layer: commands (CLI shell) of ``annotate``.
+
 ``annotate serve`` *becomes* ``streamlit run annotate/serve_app.py`` (the rater app of
 :mod:`annotate.app`, imported once per process; the process is replaced, so
 a signal to ``annotate serve`` reaches the server itself and nothing outlives it), bound to
@@ -187,7 +189,13 @@ def links(study, base: str) -> list[str]:
 
 
 def register(sub) -> None:
-    """Add ``serve`` to the ``annotate`` subcommands ``sub``."""
+    """Add ``serve`` to the ``annotate`` subcommands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``annotate`` subcommand parsers.
+    """
     s = sub.add_parser("serve", help="serve the rater app (Streamlit)")
     s.add_argument("study", metavar="STUDY", help="study folder made by 'annotate build'")
     add_address_options(s)
@@ -196,7 +204,13 @@ def register(sub) -> None:
 
 
 def add_worker_options(p) -> None:
-    """Add ``--workers``, ``--proxy`` and ``--proxy-port`` (README "Serve with several workers")."""
+    """Add ``--workers``, ``--proxy`` and ``--proxy-port`` (README "Serve with several workers").
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The ``serve`` parser.
+    """
     p.add_argument("--workers", type=int_arg(high=64), default=1,
                    help="server processes on consecutive ports from --port (default 1)")
     p.add_argument("--proxy", choices=PROXIES, default="nginx",
@@ -207,7 +221,24 @@ def add_worker_options(p) -> None:
 
 def serve_workers(study_root: Path, args, env: dict, *, loopback: bool) -> int:
     """Print the proxy configuration for ``args.workers`` servers (listening on loopback only
-    when ``loopback``: an open study), then supervise them."""
+    when ``loopback``: an open study), then supervise them.
+
+    Parameters
+    ----------
+    study_root : Path
+        The study folder.
+    args : argparse.Namespace
+        The parsed options of ``annotate serve``.
+    env : dict
+        The servers' environment.
+    loopback : bool
+        Servers listen on 127.0.0.1 only.
+
+    Returns
+    -------
+    int
+        The exit status of the supervised servers.
+    """
     ports = worker_ports(args.port, args.workers)
     print(proxy_conf(args.proxy, ports, host=args.host, listen=args.proxy_port, loopback=loopback),
           flush=True)
@@ -218,7 +249,20 @@ def serve_workers(study_root: Path, args, env: dict, *, loopback: bool) -> int:
 
 
 def run(args) -> int:
-    """Replace this process with the Streamlit server of ``args.study`` (see the module docstring)."""
+    """Replace this process with the Streamlit server of ``args.study`` (see the module docstring).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of ``annotate serve``.
+
+    Returns
+    -------
+    int
+        The exit status, 0 on success (bad input raises
+        :class:`~data_schema.errors.InputError`, status 2 through
+        :func:`~nvrq.commands.args.run_cli`).
+    """
     from annotate.study import load_study
 
     study = load_study(args.study)  # fail here, not in the browser

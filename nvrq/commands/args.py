@@ -1,5 +1,7 @@
 """One convention for the arguments of ``nvrq``, ``annotate`` and ``analyze`` (docs/FORMATS.md).
 
+Layer: commands (CLI shell).
+
 The command layer of all three CLIs shares this module: their parser class, how a command runs
 (:func:`run_cli`: one error line, exit status 2) and the argument rules. The rule, one per kind
 of argument:
@@ -65,6 +67,11 @@ class ArgumentParser(argparse.ArgumentParser):
     Subparsers made with ``add_subparsers`` inherit the class, so every subcommand of a CLI
     built on it reports a bad argument the same way as bad input (docs/FORMATS.md §7). Its help
     shows a comma list as one ``A,B`` value (:class:`CommaList`).
+
+    Parameters
+    ----------
+    *args, **kwargs
+        As for ``argparse.ArgumentParser``.
     """
 
     def __init__(self, *args, **kwargs):
@@ -243,7 +250,19 @@ class CommaList(argparse.Action):
 
 
 class DeprecatedFileOption(argparse.Action):
-    """An old spelling of a repeatable file option (``new``): appends to the same list, with a note."""
+    """An old spelling of a repeatable file option (``new``): appends to the same list, with a note.
+
+    Parameters
+    ----------
+    option_strings : list of str
+        The old spellings.
+    dest : str
+        The list the values go to (shared with ``new``).
+    new : str
+        The current spelling, named in the note.
+    **kwargs
+        As for ``argparse.Action``.
+    """
 
     def __init__(self, option_strings, dest, *, new: str, **kwargs):
         self.new = new
@@ -325,6 +344,11 @@ def flags_in_errors(parser: argparse.ArgumentParser, args, aliases: dict | None 
     ----------
     parser, args, aliases
         As for :func:`option_for`.
+
+    Yields
+    ------
+    None
+        The block runs inside; its :class:`InputError` is re-raised with flag names.
 
     Raises
     ------

@@ -1,5 +1,8 @@
 """``nvrq calibrate-runtime PAIRS --encoder E --runtime R --precision P``: measure the drift of
-a reduced precision against torch fp32 and record it (:mod:`nvrq.encoders.drift`)."""
+a reduced precision against torch fp32 and record it (:mod:`nvrq.encoders.drift`).
+
+Layer: commands (CLI shell).
+"""
 
 from __future__ import annotations
 
@@ -14,6 +17,13 @@ __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
+    """Add ``calibrate-runtime`` to the ``nvrq`` subcommands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``nvrq`` subcommand parsers.
+    """
     p = sub.add_parser("calibrate-runtime", help="drift check of a runtime/precision against torch fp32",
                        description="Embed the GT and render crops of a sample of pairs in torch fp32 and "
                                    "in RUNTIME/PRECISION; report mean/min cosine, NVRQ Spearman and max "
@@ -40,6 +50,20 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    """Run ``nvrq calibrate-runtime``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of ``nvrq calibrate-runtime``.
+
+    Returns
+    -------
+    int
+        The exit status, 0 on success (bad input raises
+        :class:`~data_schema.errors.InputError`, status 2 through
+        :func:`~nvrq.commands.args.run_cli`).
+    """
     from data_schema.tables import read_table
     from nvrq.encoders import build_random, load_encoder
     from nvrq.encoders.drift import DEFAULT_MIN_SPEARMAN, check_runtime, pair_inputs, write_record

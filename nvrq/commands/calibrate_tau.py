@@ -1,5 +1,7 @@
 """``nvrq calibrate-tau PAIRS --encoder ENC``: an encoder's NVRQ-CA tau from its noise floor.
 
+Layer: commands (CLI shell).
+
 Rule: tau = median of S over GT crops of unrelated objects (different tracks and classes).
 """
 
@@ -14,6 +16,13 @@ __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
+    """Add ``calibrate-tau`` to the ``nvrq`` subcommands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``nvrq`` subcommand parsers.
+    """
     p = sub.add_parser("calibrate-tau", help="measure an encoder's NVRQ-CA tau (median S of unrelated objects)",
                        description="S (paper Eq. 4) over GT crops of unrelated objects -- different "
                                    "tracks and classes, GT vs GT -- and the tau it recommends: the median.")
@@ -32,6 +41,20 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    """Run ``nvrq calibrate-tau``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of ``nvrq calibrate-tau``.
+
+    Returns
+    -------
+    int
+        The exit status, 0 on success (bad input raises
+        :class:`~data_schema.errors.InputError`, status 2 through
+        :func:`~nvrq.commands.args.run_cli`).
+    """
     from data_schema.tables import read_table
     from nvrq.calibrate import calibrate_tau, config_path, write_tau
 

@@ -1,5 +1,7 @@
 """``nvrq demo OUT``: from nothing to a report, running the same commands a user would.
 
+Layer: commands (CLI shell).
+
 synth (built-in scene) -> pairs -> score (offline encoder + pixel metrics) -> annotate build
 -> simulated raters -> annotate export -> analyze. Each step prints its command line, what it
 made and how long it took, so the demo doubles as a walkthrough of the workflow.
@@ -25,6 +27,13 @@ __all__ = ["register", "run", "demo_steps", "method_steps"]
 
 
 def register(sub) -> None:
+    """Add ``demo`` to the ``nvrq`` subcommands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``nvrq`` subcommand parsers.
+    """
     p = sub.add_parser("demo", help="synthetic scene -> pairs -> scores -> study -> simulated votes -> report",
                        description="Run the whole workflow offline on a built-in synthetic scene.")
     p.add_argument("out", help="output folder (created; must be empty or absent)")
@@ -48,7 +57,20 @@ _EVERY_ITEM = ("--items-per-rater", "all")
 
 
 def method_steps(out: Path, args) -> list[tuple[str, list[str]]]:
-    """The ``--methods`` demo as (program, argv) steps, in order."""
+    """The ``--methods`` demo as (program, argv) steps, in order.
+
+    Parameters
+    ----------
+    out : Path
+        The demo's output folder.
+    args : argparse.Namespace
+        The parsed options of ``nvrq demo``.
+
+    Returns
+    -------
+    list of (str, list of str)
+        ``(program, argv)`` per step; program ``{'nvrq', 'annotate', 'analyze'}``.
+    """
     scene, pairs, metrics = out / "scene", out / "pairs.csv", out / "metrics.csv"
     study, votes = out / "study", out / "votes.csv"
     return [
@@ -68,7 +90,20 @@ def method_steps(out: Path, args) -> list[tuple[str, list[str]]]:
 
 
 def demo_steps(out: Path, args) -> list[tuple[str, list[str]]]:
-    """The demo as (program, argv) steps, in order (:func:`method_steps` with ``--methods``)."""
+    """The demo as (program, argv) steps, in order (:func:`method_steps` with ``--methods``).
+
+    Parameters
+    ----------
+    out : Path
+        The demo's output folder.
+    args : argparse.Namespace
+        The parsed options of ``nvrq demo``.
+
+    Returns
+    -------
+    list of (str, list of str)
+        ``(program, argv)`` per step.
+    """
     if args.methods:
         return method_steps(out, args)
     scene, pairs, metrics = out / "scene", out / "pairs.csv", out / "metrics.csv"
@@ -106,6 +141,20 @@ def _entry(program: str):
 
 
 def run(args) -> int:
+    """Run ``nvrq demo``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of ``nvrq demo``.
+
+    Returns
+    -------
+    int
+        The exit status, 0 on success (bad input raises
+        :class:`~data_schema.errors.InputError`, status 2 through
+        :func:`~nvrq.commands.args.run_cli`).
+    """
     from data_schema.methods import parse_methods
     from data_schema.tables import parse_offsets
 

@@ -1,6 +1,9 @@
 """The engine options of ``nvrq score`` and ``nvrq proxy imagenet|clip``: the options themselves,
 their checks, the ``--engine ray`` branch (a thin shell over
-:func:`nvrq.engines.ray_engine.score_on_ray`) and the report line of a sharded run (either engine)."""
+:func:`nvrq.engines.ray_engine.score_on_ray`) and the report line of a sharded run (either engine).
+
+Layer: commands (CLI shell).
+"""
 
 from __future__ import annotations
 

@@ -1,5 +1,8 @@
 """``nvrq import renders SCENE DIR [--method NAME] [--layout plan|order] [--allow-missing] [--link]
-[--existing-method NAME]``: register a renderer's output (:mod:`nvrq.sources.renders`)."""
+[--existing-method NAME]``: register a renderer's output (:mod:`nvrq.sources.renders`).
+
+Layer: commands (CLI shell).
+"""
 
 from __future__ import annotations
 
@@ -9,7 +12,13 @@ __all__ = ["register_renders"]
 
 
 def register_renders(kinds) -> None:
-    """Add the ``renders`` kind to the ``nvrq import`` subparsers ``kinds``."""
+    """Add the ``renders`` kind to the ``nvrq import`` subparsers ``kinds``.
+
+    Parameters
+    ----------
+    kinds : argparse._SubParsersAction
+        The ``nvrq import`` kind parsers.
+    """
     r = kinds.add_parser(
         "renders",
         help="register a renderer's output in a scene (the render rows of images.csv)",

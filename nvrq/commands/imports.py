@@ -1,5 +1,8 @@
 """``nvrq import {nurec,kitti,drivestudio} ...``: turn external data into a scene folder
-(docs/FORMATS.md §2, §13)."""
+(docs/FORMATS.md §2, §13).
+
+Layer: commands (CLI shell).
+"""
 
 from __future__ import annotations
 
@@ -16,6 +19,13 @@ __all__ = ["register"]
 
 
 def register(sub) -> None:
+    """Add ``import`` to the ``nvrq`` subcommands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``nvrq`` subcommand parsers.
+    """
     p = sub.add_parser(
         "import",
         help="import a NuRec archive, a drivestudio scene or a KITTI frame as a scene folder",

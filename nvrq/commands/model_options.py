@@ -4,6 +4,8 @@ threads, and the one encoder-and-tau loader. Library functions validate their ow
 name the parameter (``batch_size``); commands do not re-check, and ``nvrq``'s entry point reports
 such an error as the option (``--batch-size``, :func:`nvrq.commands.args.flags_in_errors`).
 The tau itself comes from the library's one rule, :func:`nvrq.calibrate.require_tau`.
+
+Layer: commands (CLI shell).
 """
 
 from __future__ import annotations
@@ -28,14 +30,30 @@ __all__ = ["check_model_options", "add_model_arguments", "add_encoder_arguments"
 
 
 def add_model_arguments(p, *, batch_help: str = "crops per forward pass (default 32)") -> None:
-    """``--batch-size``, ``--device``, ``--threads``."""
+    """``--batch-size``, ``--device``, ``--threads``.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The command's parser.
+    batch_help : str, optional
+        The help of ``--batch-size``.
+    """
     p.add_argument("--batch-size", type=int_arg(), default=32, help=batch_help)
     p.add_argument("--device", default="cpu", help="torch device, e.g. cpu or cuda (default cpu)")
     p.add_argument("--threads", type=int_arg(), default=None, help="torch CPU threads (default: all cores)")
 
 
 def add_encoder_arguments(p, *, tau: bool = True) -> None:
-    """``--encoder``, ``--weights``, ``--config`` (+ ``--tau``) and :func:`add_model_arguments`."""
+    """``--encoder``, ``--weights``, ``--config`` (+ ``--tau``) and :func:`add_model_arguments`.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The command's parser.
+    tau : bool, optional
+        Also add ``--tau``.
+    """
     p.add_argument("--encoder", default=None, help=f"encoder for nvrq/nvrq_ca (default {get_spec().name})")
     p.add_argument("--weights", default=None,
                    help="local weights: a Hugging Face model folder, or a .pth for efficientnet-lite0")
@@ -50,7 +68,15 @@ def add_encoder_arguments(p, *, tau: bool = True) -> None:
 
 def add_runtime_arguments(p, *, precision: bool = True) -> None:
     """``--runtime``, ``--precision``, ``--min-spearman``, ``--cache-dir`` (nvrq.encoders.runtimes);
-    fp32 models (the proxies' classifiers) take ``precision=False``: no precision options."""
+    fp32 models (the proxies' classifiers) take ``precision=False``: no precision options.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The command's parser.
+    precision : bool, optional
+        Also add ``--precision`` and ``--min-spearman``.
+    """
     p.add_argument("--runtime", default="auto", choices=RUNTIMES,
                    help="model runtime (default auto: on CPU the fastest exported runtime identical "
                         "to torch fp32, else torch)")
@@ -63,14 +89,31 @@ def add_runtime_arguments(p, *, precision: bool = True) -> None:
 
 
 def add_cache_dir_argument(p) -> None:
-    """``--cache-dir``: where exported models and drift checks are kept (nvrq.encoders.runtimes)."""
+    """``--cache-dir``: where exported models and drift checks are kept (nvrq.encoders.runtimes).
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The command's parser.
+    """
     p.add_argument("--cache-dir", default=None,
                    help="exported-model cache (default $NVRQ_CACHE, else ~/.cache/nvrq)")
 
 
 def check_model_options(args) -> None:
     """A model command's ``--runtime``/``--precision``/``--device`` combination
-    (:func:`nvrq.encoders.runtimes.check_runtime_combo`), before anything is read or loaded."""
+    (:func:`nvrq.encoders.runtimes.check_runtime_combo`), before anything is read or loaded.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options.
+
+    Raises
+    ------
+    InputError
+        An unknown or unsupported combination.
+    """
     from nvrq.encoders.runtimes import check_runtime_combo
 
     if hasattr(args, "runtime"):
@@ -80,7 +123,18 @@ def check_model_options(args) -> None:
 def prepare_device(args) -> None:
     """Apply ``--threads`` and refuse ``--device cuda`` without a GPU (before any model loads);
     keep freed activations in the heap (:func:`nvrq.encoders.memory.tune_allocator`, a
-    process-wide setting the commands make and the library leaves to its caller)."""
+    process-wide setting the commands make and the library leaves to its caller).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options (``threads``, ``device``).
+
+    Raises
+    ------
+    InputError
+        ``--device cuda`` without a GPU.
+    """
     import torch
 
     from nvrq.encoders.memory import tune_allocator
@@ -95,7 +149,20 @@ def prepare_device(args) -> None:
 def command_tau(name: str, args) -> float:
     """The tau of encoder ``name`` for a command with ``--tau``/``--config``
     (:func:`nvrq.calibrate.require_tau`, before the model loads), reported on stderr with where it
-    came from (``--tau``, the config file or the registry)."""
+    came from (``--tau``, the config file or the registry).
+
+    Parameters
+    ----------
+    name : str
+        The encoder name.
+    args : argparse.Namespace
+        The parsed options (``tau``, ``config``).
+
+    Returns
+    -------
+    float
+        tau.
+    """
     from nvrq.calibrate import require_tau
 
     tau, source = require_tau(name, tau=args.tau, config=args.config)
@@ -107,7 +174,19 @@ def encoder_options(args, name: str | None = None) -> EncoderConfig:
     """The :class:`~nvrq.encoders.EncoderConfig` of a command built with
     :func:`add_encoder_arguments`: encoder ``name`` (default ``--encoder``, else the registry
     default) with ``--weights``, ``--device``, ``--runtime``, ``--precision``, ``--threads``,
-    ``--cache-dir`` and ``--min-spearman``."""
+    ``--cache-dir`` and ``--min-spearman``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options.
+    name : str, optional
+        The encoder (default ``args.encoder``).
+
+    Returns
+    -------
+    EncoderConfig
+    """
     from nvrq.encoders import EncoderConfig
 
     name = get_spec(name or args.encoder).name
@@ -119,7 +198,22 @@ def encoder_options(args, name: str | None = None) -> EncoderConfig:
 def load_encoder_and_tau(args, *, needs_tau: bool, name: str | None = None):
     """``(encoder, tau)`` for a command built with :func:`add_encoder_arguments`: the encoder of
     :func:`encoder_options`; ``tau`` from ``--tau``, the config (``--config``) or the registry
-    when ``needs_tau``, else ``None``."""
+    when ``needs_tau``, else ``None``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options.
+    needs_tau : bool
+        Whether a metric needs tau.
+    name : str, optional
+        The encoder (default ``args.encoder``).
+
+    Returns
+    -------
+    encoder : Encoder
+    tau : float or None
+    """
     from nvrq import encoders
 
     cfg = encoder_options(args, name)
@@ -131,7 +225,19 @@ def load_encoder_and_tau(args, *, needs_tau: bool, name: str | None = None):
 
 def metric_columns(args) -> tuple[list[str], str]:
     """``(columns, encoder name)`` of ``--metrics`` and ``--encoder``: the encoder as
-    :func:`encoder_for_metrics` picks it, the columns as :func:`nvrq.metrics.resolve_metrics`."""
+    :func:`encoder_for_metrics` picks it, the columns as :func:`nvrq.metrics.resolve_metrics`.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options (``metrics``, ``encoder``).
+
+    Returns
+    -------
+    columns : list of str
+        Output column names.
+    encoder_name : str
+    """
     from nvrq.metrics.resolve import encoder_for_metrics, resolve_metrics
 
     raw = comma_list(args.metrics)
@@ -141,7 +247,22 @@ def metric_columns(args) -> tuple[list[str], str]:
 
 def encoder_for_columns(args, columns: Sequence[str], name: str):
     """``(encoder, tau)`` that ``columns`` need (:func:`load_encoder_and_tau`), ``(None, None)``
-    when no column needs an encoder."""
+    when no column needs an encoder.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options.
+    columns : sequence of str
+        Output column names (:func:`metric_columns`).
+    name : str
+        The encoder name.
+
+    Returns
+    -------
+    encoder : Encoder or None
+    tau : float or None
+    """
     from nvrq.metrics.resolve import encoder_columns, needs_tau
 
     if not encoder_columns(columns):

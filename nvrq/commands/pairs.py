@@ -1,5 +1,8 @@
 """``nvrq pairs SCENE --out PAIRS.{csv,parquet}`` (docs/FORMATS.md §3); several scenes, or a folder of
-scene folders, ``--out DATASET/`` (a Parquet dataset partitioned by clip_id, :mod:`nvrq.fleet`)."""
+scene folders, ``--out DATASET/`` (a Parquet dataset partitioned by clip_id, :mod:`nvrq.fleet`).
+
+Layer: commands (CLI shell).
+"""
 
 from __future__ import annotations
 
@@ -15,6 +18,13 @@ __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
+    """Add ``pairs`` to the ``nvrq`` subcommands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``nvrq`` subcommand parsers.
+    """
     p = sub.add_parser("pairs", help="GT/novel-view box pairs of a scene (docs/FORMATS.md §3)",
                        description="Project every 3D box into the GT view and every novel view; "
                                    "keep the boxes valid in both.")
@@ -35,6 +45,20 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    """Run ``nvrq pairs``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of ``nvrq pairs``.
+
+    Returns
+    -------
+    int
+        The exit status, 0 on success (bad input raises
+        :class:`~data_schema.errors.InputError`, status 2 through
+        :func:`~nvrq.commands.args.run_cli`).
+    """
     from data_schema.tables import write_table
     from nvrq.clip_attributes import read_clip_attributes
     from nvrq.fleet import clip_pairs

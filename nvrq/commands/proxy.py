@@ -1,5 +1,7 @@
 """``nvrq proxy detection|imagenet|clip|detect PAIRS ... --out PROXY.{csv,parquet}`` (paper Eq. 6-10).
 
+Layer: commands (CLI shell).
+
 Each writes ``pair_id`` and one proxy column (``s_det``, ``imagenet_drop``, ``clip_drop``),
 which ``analyze --target`` accepts. ``imagenet`` and ``clip`` also write ``PROXY.timing.csv``
 beside it, as ``nvrq score`` does (docs/FORMATS.md §8), for the report's speed chart. ``detect`` writes the DETS table for ``detection`` with a
@@ -53,6 +55,13 @@ def _drop_parser(psub, name: str, help_text: str):
 
 
 def register(sub) -> None:
+    """Add ``proxy`` to the ``nvrq`` subcommands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``nvrq`` subcommand parsers.
+    """
     p = sub.add_parser(
         "proxy",
         help="downstream proxies per pair: detection, ImageNet, CLIP (Eq. 6-10)",

@@ -1,5 +1,8 @@
 """``nvrq render-plan SCENE [--offsets ...] [--cameras ...] [--method NAME] [--world scene|source]
---out PLAN.{csv,json,npz} [--format csv|json|npz]``."""
+--out PLAN.{csv,json,npz} [--format csv|json|npz]``.
+
+Layer: commands (CLI shell).
+"""
 
 from __future__ import annotations
 
@@ -12,6 +15,13 @@ __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
+    """Add ``render-plan`` to the ``nvrq`` subcommands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``nvrq`` subcommand parsers.
+    """
     p = sub.add_parser(
         "render-plan",
         help="virtual cameras a renderer must draw (paper Eq. 1-2), with their intrinsics",
@@ -38,6 +48,20 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    """Run ``nvrq render-plan``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of ``nvrq render-plan``.
+
+    Returns
+    -------
+    int
+        The exit status, 0 on success (bad input raises
+        :class:`~data_schema.errors.InputError`, status 2 through
+        :func:`~nvrq.commands.args.run_cli`).
+    """
     from data_schema.methods import check_method_name
     from data_schema.scene import load_scene
     from nvrq.render_plans import plan_format, render_plan, write_render_plan

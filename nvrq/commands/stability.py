@@ -1,5 +1,7 @@
 """``nvrq stability PAIRS --metrics ... --out DIR``: the stability study (see :mod:`nvrq.stability`).
 
+Layer: commands (CLI shell).
+
 Writes ``DIR/stability.csv`` (metric, nuisance_or_artefact, kind, strength, mean_abs_change, n),
 ``DIR/snr.csv`` (metric, nuisance, snr, nuisance_change, artefact_change; ``nuisance = 'all'``
 is the overall ratio), ``DIR/samples.csv`` (every scored sample: raw value and change) and
@@ -21,6 +23,13 @@ __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
+    """Add ``stability`` to the ``nvrq`` subcommands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``nvrq`` subcommand parsers.
+    """
     p = sub.add_parser(
         "stability",
         help="how far nuisances vs artefacts move each metric (paper Fig. 4)",
@@ -50,6 +59,20 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    """Run ``nvrq stability``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of ``nvrq stability``.
+
+    Returns
+    -------
+    int
+        The exit status, 0 on success (bad input raises
+        :class:`~data_schema.errors.InputError`, status 2 through
+        :func:`~nvrq.commands.args.run_cli`).
+    """
     from data_schema.tables import GT_BOX_COLUMNS, read_table, write_table
     from nvrq.stability import plot_stability, run_stability  # SciPy, matplotlib: not for --help
 

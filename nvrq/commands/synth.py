@@ -1,5 +1,8 @@
 """``nvrq synth OUT [--seed N] [--seconds S] [--fps F] [--offsets ...] [--cameras ...] [--size WxH]
-[--methods NAME:SCALE,...]``."""
+[--methods NAME:SCALE,...]``.
+
+Layer: commands (CLI shell).
+"""
 
 from __future__ import annotations
 
@@ -11,7 +14,13 @@ __all__ = ["register", "run", "parse_size", "add_perturb_option", "add_view_opti
 
 
 def add_perturb_option(parser) -> None:
-    """``--perturb AXIS=START:STOP:STEP,...`` (6-DoF grid; replaces ``--offsets`` when given)."""
+    """``--perturb AXIS=START:STOP:STEP,...`` (6-DoF grid; replaces ``--offsets`` when given).
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The command's parser.
+    """
     parser.add_argument(
         "--perturb", default=None, metavar="GRID",
         help="6-DoF views as a comma list of AXIS=START:STOP:STEP (or AXIS=VALUE), AXIS in "
@@ -29,6 +38,15 @@ def add_view_options(
     """The views to render: ``--offsets`` (lateral, metres) and ``--perturb`` (6-DoF grid).
 
     Also lets the parser take negative comma lists such as ``-3,-2,-1`` as values.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The command's parser.
+    offsets_default : str or None, optional
+        Default of ``--offsets`` (a comma list of metres).
+    offsets_help : str, optional
+        The help of ``--offsets``.
     """
     parser.add_argument("--offsets", default=offsets_default, help=offsets_help)
     add_perturb_option(parser)
@@ -36,7 +54,18 @@ def add_view_options(
 
 
 def perturb_grid(args):
-    """The ``(K, 6)`` views of ``--perturb``, or None when it was not given."""
+    """The ``(K, 6)`` views of ``--perturb``, or None when it was not given.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options (``perturb``).
+
+    Returns
+    -------
+    (K, 6) float64 or None
+        ``(dx, dy, dz, roll, pitch, yaw)``: metres, degrees, rig frame.
+    """
     from data_schema.perturbation import parse_perturb
 
     return None if args.perturb is None else parse_perturb(args.perturb)
@@ -45,6 +74,16 @@ def perturb_grid(args):
 def parse_size(text: str) -> tuple[int, int]:
     """``"1280x720"`` -> ``(1280, 720)`` (the WxH rule of :func:`nvrq.commands.args.parse_wxh`).
 
+    Parameters
+    ----------
+    text : str
+        ``WxH``, pixels.
+
+    Returns
+    -------
+    (int, int)
+        ``(W, H)``.
+
     >>> parse_size("640x360")
     (640, 360)
     """
@@ -52,6 +91,13 @@ def parse_size(text: str) -> tuple[int, int]:
 
 
 def register(sub) -> None:
+    """Add ``synth`` to the ``nvrq`` subcommands ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``nvrq`` subcommand parsers.
+    """
     p = sub.add_parser(
         "synth",
         help="write a synthetic driving clip with known degradation",
@@ -75,6 +121,20 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    """Run ``nvrq synth``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of ``nvrq synth``.
+
+    Returns
+    -------
+    int
+        The exit status, 0 on success (bad input raises
+        :class:`~data_schema.errors.InputError`, status 2 through
+        :func:`~nvrq.commands.args.run_cli`).
+    """
     from data_schema.methods import parse_methods
     from data_schema.tables import parse_offsets
     from nvrq.synth import generate_scene

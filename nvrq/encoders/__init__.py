@@ -1,4 +1,6 @@
 """Image encoders for NVRQ: the registry (:mod:`nvrq.encoders.registry`) and one backend
+
+Layer: nvrq core, encoders.
 module per model family (``hf_vit``, ``segformer``, ``efficientnet``)."""
 
 from nvrq.encoders.registry import (

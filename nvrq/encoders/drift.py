@@ -1,5 +1,7 @@
 """Reduced precision (bf16, int8) is opt-in and measured: drift checks and their records.
 
+Layer: nvrq core, encoders.
+
 ``nvrq calibrate-runtime PAIRS --encoder E --runtime R --precision P`` embeds a sample of
 crops in torch fp32 and in ``R``/``P`` (:func:`drift_stats`) and records the result
 (:func:`write_record`) in ``CACHE/runtime_checks.json`` (``CACHE`` as in
@@ -32,15 +34,59 @@ DEFAULT_MIN_SPEARMAN = 0.999
 
 
 def records_path(cache_dir=None) -> Path:
+    """The drift-check records file, ``<cache>/runtime_checks.json``.
+
+    Parameters
+    ----------
+    cache_dir : str or Path, optional
+        The export cache (default: :func:`~nvrq.encoders.runtimes.cache_root`).
+
+    Returns
+    -------
+    Path
+    """
     return cache_root(cache_dir) / "runtime_checks.json"
 
 
 def record_key(encoder_name: str, runtime: str, precision: str, whash: str) -> str:
-    """``'dinov2-small|openvino|int8|<first 16 hex of the weights hash>'``."""
+    """``'dinov2-small|openvino|int8|<first 16 hex of the weights hash>'``.
+
+    Parameters
+    ----------
+    encoder_name : str
+        A registry encoder name.
+    runtime : str
+        ``{'openvino', 'onnxruntime', 'torch'}``.
+    precision : str
+        ``{'fp32', 'bf16', 'int8'}``.
+    whash : str
+        The weights' SHA-256 hex digest (:func:`~nvrq.encoders.runtimes.weights_hash`).
+
+    Returns
+    -------
+    str
+    """
     return f"{encoder_name}|{runtime}|{precision}|{whash[:16]}"
 
 
 def read_records(cache_dir=None) -> dict:
+    """Every drift-check record on file, by :func:`record_key` (empty when there is no file).
+
+    Parameters
+    ----------
+    cache_dir : str or Path, optional
+        The export cache.
+
+    Returns
+    -------
+    dict
+        ``{key: record}``.
+
+    Raises
+    ------
+    InputError
+        The records file is not valid JSON.
+    """
     path = records_path(cache_dir)
     if not path.is_file():
         return {}
@@ -51,7 +97,20 @@ def read_records(cache_dir=None) -> dict:
 
 
 def write_record(record: dict, cache_dir=None) -> Path:
-    """Add or replace ``record`` (needs ``key``) in the records file, atomically."""
+    """Add or replace ``record`` (needs ``key``) in the records file, atomically.
+
+    Parameters
+    ----------
+    record : dict
+        A record as :func:`check_runtime` returns it.
+    cache_dir : str or Path, optional
+        The export cache.
+
+    Returns
+    -------
+    Path
+        The records file.
+    """
     path = records_path(cache_dir)
     path.parent.mkdir(parents=True, exist_ok=True)
     records = read_records(cache_dir)
@@ -64,13 +123,56 @@ def write_record(record: dict, cache_dir=None) -> Path:
 
 
 def find_record(encoder_name: str, runtime: str, precision: str, whash: str, cache_dir=None) -> dict | None:
+    """The drift-check record of one encoder, runtime, precision and weights, if any.
+
+    Parameters
+    ----------
+    encoder_name : str
+        A registry encoder name.
+    runtime : str
+        ``{'openvino', 'onnxruntime', 'torch'}``.
+    precision : str
+        ``{'fp32', 'bf16', 'int8'}``.
+    whash : str
+        The weights' SHA-256 hex digest.
+    cache_dir : str or Path, optional
+        The export cache.
+
+    Returns
+    -------
+    dict or None
+    """
     return read_records(cache_dir).get(record_key(encoder_name, runtime, precision, whash))
 
 
 def require_check(encoder, *, runtime: str, precision: str, cache_dir=None,
                   min_spearman: float | None = None) -> Path | None:
     """The model file of a passing drift check of ``encoder`` at ``runtime``/``precision``
-    (``None`` for bf16, which needs no file); :class:`InputError` saying how to run one."""
+    (``None`` for bf16, which needs no file); :class:`InputError` saying how to run one.
+
+    Parameters
+    ----------
+    encoder : TorchEncoder
+        The encoder, torch fp32.
+    runtime : str
+        ``{'openvino', 'onnxruntime', 'torch'}``.
+    precision : str
+        ``{'bf16', 'int8'}``.
+    cache_dir : str or Path, optional
+        The export cache.
+    min_spearman : float, optional
+        The NVRQ Spearman the check must have reached (default :data:`DEFAULT_MIN_SPEARMAN`).
+
+    Returns
+    -------
+    Path or None
+        The reduced-precision model file (``None`` for bf16).
+
+    Raises
+    ------
+    InputError
+        No passing check on record.
+    """
     threshold = DEFAULT_MIN_SPEARMAN if min_spearman is None else float(min_spearman)
     name = encoder.spec.name
     rec = find_record(name, runtime, precision, weights_hash(encoder.model), cache_dir)
@@ -95,6 +197,19 @@ def drift_stats(ref_gt, ref_r, low_gt, low_r) -> dict:
     """Embeddings of the same pairs' GT and render crops, fp32 (``ref_*``) and reduced
     (``low_*``), (N, D) each -> mean/min cosine (per crop), NVRQ Spearman, max |dNVRQ|.
 
+    Parameters
+    ----------
+    ref_gt, ref_r : (N, D) float32
+        fp32 embeddings of the GT and render crops.
+    low_gt, low_r : (N, D) float32
+        Reduced-precision embeddings of the same crops.
+
+    Returns
+    -------
+    dict
+        ``mean_cosine``, ``min_cosine`` (over the 2N crops), ``nvrq_spearman`` (NaN when
+        N < 3 or constant), ``max_dnvrq`` and ``n_pairs``.
+
     >>> e = np.eye(3)[[0, 1, 2]] + 0.1
     >>> d = drift_stats(e, e[::-1], e, e[::-1])
     >>> round(d["min_cosine"], 6), d["max_dnvrq"]
@@ -115,7 +230,24 @@ def drift_stats(ref_gt, ref_r, low_gt, low_r) -> dict:
 
 def quantize_int8(encoder, runtime: str, calib_images: np.ndarray, *, cache_dir=None) -> Path:
     """An int8 model of ``encoder`` on ``runtime`` in the export cache, calibrated on
-    ``calib_images`` (uint8 (N, S, S, 3); OpenVINO only) -> its file."""
+    ``calib_images`` (uint8 (N, S, S, 3); OpenVINO only) -> its file.
+
+    Parameters
+    ----------
+    encoder : TorchEncoder
+        The encoder, torch fp32.
+    runtime : str
+        ``{'openvino', 'onnxruntime'}``.
+    calib_images : (N, S, S, 3) uint8
+        RGB calibration crops, ``S = spec.input_size``.
+    cache_dir : str or Path, optional
+        The export cache.
+
+    Returns
+    -------
+    Path
+        The int8 model file.
+    """
     folder, _, _ = exported(encoder, runtime, cache_dir=cache_dir)
     digest = hashlib.sha256(np.ascontiguousarray(calib_images).tobytes()).hexdigest()[:12]
     if runtime == "onnxruntime":
@@ -147,7 +279,28 @@ def quantize_int8(encoder, runtime: str, calib_images: np.ndarray, *, cache_dir=
 def pair_inputs(pairs, size: int, *, n: int, seed: int = 0, scene_root=None, base=None,
                 where: str = "pairs") -> tuple[np.ndarray, np.ndarray]:
     """Encoder inputs (k, size, size, 3) of the GT and of the render crops of ``n`` pairs
-    drawn without replacement (seeded; all pairs when there are fewer); each image decoded once."""
+    drawn without replacement (seeded; all pairs when there are fewer); each image decoded once.
+
+    Parameters
+    ----------
+    pairs : str, Path or pandas.DataFrame
+        A pairs table (docs/FORMATS.md §3).
+    size : int
+        Encoder input side ``S``, pixels.
+    n : int
+        How many pairs to draw.
+    seed : int, optional
+        Seed of the draw.
+    scene_root, base : str or Path, optional
+        Where image paths are resolved from.
+    where : str, optional
+        The table named in errors.
+
+    Returns
+    -------
+    gt, render : (k, S, S, 3) uint8
+        RGB encoder inputs, ``k = min(n, len(pairs))``.
+    """
     from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS, pair_boxes, pair_image_paths
     from nvrq.crops import cut_box, encoder_input, read_rgb
 
@@ -173,6 +326,29 @@ def check_runtime(encoder, gt: np.ndarray, render: np.ndarray, *, runtime: str, 
     ``gt``/``render`` (uint8 (N, S, S, 3)); the record to store (see :func:`write_record`).
 
     ``calib``: crops the int8 quantization is calibrated on (default ``gt``).
+
+    Parameters
+    ----------
+    encoder : TorchEncoder
+        The encoder, torch fp32.
+    gt, render : (N, S, S, 3) uint8
+        RGB crops of the same pairs.
+    runtime : str
+        ``{'openvino', 'onnxruntime', 'torch'}``.
+    precision : str
+        ``{'fp32', 'bf16', 'int8'}``.
+    calib : (M, S, S, 3) uint8, optional
+        int8 calibration crops (default ``gt``).
+    cache_dir : str or Path, optional
+        The export cache.
+    batch_size : int, optional
+        Crops per forward pass.
+
+    Returns
+    -------
+    dict
+        The record: ``key``, the encoder, runtime, precision, :func:`drift_stats` and the
+        model file.
     """
     from nvrq.encoders.runtimes import wrap_runtime
 

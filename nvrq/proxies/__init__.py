@@ -1,5 +1,7 @@
 """Downstream proxies of render quality (paper Eq. 6-10), one per-pair column each.
 
+Layer: nvrq core, proxies (downstream quality proxies).
+
 - :mod:`nvrq.proxies.detection` -- detection confidence ``s_det`` on the render box (Eq. 6-8).
 - :mod:`nvrq.proxies.classifier_drop` -- ImageNet top-class confidence drop ``imagenet_drop`` (Eq. 9).
 - :mod:`nvrq.proxies.clip_drop` -- CLIP zero-shot true-category confidence drop ``clip_drop`` (Eq. 10).
@@ -29,6 +31,16 @@ def load_class_maps(path: str | os.PathLike | None = None) -> dict:
     category or None}, 'clip_prompts': {category: prompt}}`` (keys lower-cased).
 
     ``path``: a JSON file of the same layout (default: the shipped ``class_maps.json``).
+
+    Parameters
+    ----------
+    path : str or PathLike, optional
+        A JSON file of the same layout (default: the shipped ``class_maps.json``).
+
+    Returns
+    -------
+    dict
+        ``{'coco': ..., 'clip_category': ..., 'clip_prompts': ...}``.
 
     >>> maps = load_class_maps()
     >>> maps["coco"]["automobile"], maps["clip_category"]["heavy_truck"]
@@ -68,7 +80,29 @@ def load_class_maps(path: str | os.PathLike | None = None) -> dict:
 
 def mapped_labels(labels, mapping: dict, section: str, *, where: str = "pairs") -> np.ndarray:
     """Lower-cased ``labels`` ``(N,)`` object array; :class:`InputError` naming ``where`` if a
-    label is missing from ``mapping`` (the class map's ``section``, e.g. ``'coco'``)."""
+    label is missing from ``mapping`` (the class map's ``section``, e.g. ``'coco'``).
+
+    Parameters
+    ----------
+    labels : (N,) array-like of str
+        ``label_class`` per pair.
+    mapping : dict
+        One section of the class maps, keyed by lower-cased label class.
+    section : str
+        The section's name, for errors (e.g. ``'coco'``).
+    where : str, optional
+        The table named in errors.
+
+    Returns
+    -------
+    (N,) object array of str
+        The lower-cased labels.
+
+    Raises
+    ------
+    InputError
+        A label is absent from ``mapping``.
+    """
     low = np.array([str(x).lower() for x in labels], dtype=object)
     unknown = sorted(set(low) - set(mapping))
     if unknown:

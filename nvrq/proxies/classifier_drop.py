@@ -1,5 +1,7 @@
 """ImageNet confidence drop (paper Eq. 9): ``imagenet_drop`` per pair.
 
+Layer: nvrq core, proxies (downstream quality proxies).
+
 ``c^ = argmax_c f(GT, c)``; ``imagenet_drop = f(GT, c^) - f(render, c^)`` with ``f`` the
 classifier's softmax probabilities. Positive = the render lost confidence in what the GT
 crop shows; 0 for an identical render. The GT crop is classified once and shared by every
@@ -58,7 +60,18 @@ DEFAULT_CLASSIFIER = "efficientnet-lite0"
 
 
 def top_class_drop(p_gt: np.ndarray, p_render: np.ndarray) -> np.ndarray:
-    """Eq. 9 from probabilities ``p_gt, p_render: (N, C)`` -> ``(N,)``."""
+    """Eq. 9 from probabilities ``p_gt, p_render: (N, C)`` -> ``(N,)``.
+
+    Parameters
+    ----------
+    p_gt, p_render : (N, C) float
+        Softmax probabilities of the GT and render crops.
+
+    Returns
+    -------
+    (N,) float64
+        ``p_gt[c^] - p_render[c^]`` with ``c^ = argmax p_gt``, in [-1, 1].
+    """
     c_hat = np.argmax(p_gt, axis=1)
     rows = np.arange(len(c_hat))
     return p_gt[rows, c_hat] - p_render[rows, c_hat]
@@ -72,7 +85,18 @@ def _softmax64(logits: np.ndarray) -> np.ndarray:
 
 def max_softmax_change(ref_logits: np.ndarray, other_logits: np.ndarray) -> float:
     """max |softmax(ref) - softmax(other)| over every image and class: the classifier export's
-    identity measure (Eq. 9's drop then moves by at most twice it)."""
+    identity measure (Eq. 9's drop then moves by at most twice it).
+
+    Parameters
+    ----------
+    ref_logits, other_logits : (N, C) float
+        Logits of the same images from two runtimes.
+
+    Returns
+    -------
+    float
+        In [0, 1].
+    """
     return float(np.max(np.abs(_softmax64(ref_logits) - _softmax64(other_logits))))
 
 
@@ -86,7 +110,25 @@ class ImageClassifier:
     """``model(pixel_values (B, 3, S, S)) -> logits (B, C)``; ``mean``/``std`` on [0, 1] RGB.
 
     ``runtime``: where the logits come from (``torch``, or an exported runtime after
-    :meth:`on_runtime`); ``threads``: the CPU threads it runs on (set by :meth:`on_runtime`)."""
+    :meth:`on_runtime`); ``threads``: the CPU threads it runs on (set by :meth:`on_runtime`).
+
+    Attributes
+    ----------
+    name : str
+        The classifier, named in outputs.
+    model : torch.nn.Module
+        ``model(pixel_values (B, 3, S, S)) -> logits (B, C)``.
+    input_size : int
+        Input side ``S``, pixels.
+    mean, std : (3,) float
+        Normalisation of RGB in [0, 1].
+    device : str
+        A torch device.
+    runtime : str
+        ``{'torch', 'openvino', 'onnxruntime'}``.
+    threads : int or None
+        CPU threads of an exported runtime.
+    """
 
     name: str
     model: object
@@ -157,7 +199,27 @@ def load_classifier(
     """``classifier``: ``efficientnet-lite0`` (``weights``: optional ``.pth``) or a transformers
     classifier folder (or that folder given as ``weights``), its logits on ``runtime``
     (:meth:`ImageClassifier.on_runtime`; ``cache_dir``: the export cache, default
-    ``$NVRQ_CACHE`` else ``~/.cache/nvrq``)."""
+    ``$NVRQ_CACHE`` else ``~/.cache/nvrq``).
+
+    Parameters
+    ----------
+    classifier : str, optional
+        ``'efficientnet-lite0'`` or a transformers image-classifier folder.
+    weights : str or PathLike, optional
+        A ``.pth`` (efficientnet-lite0) or the classifier folder.
+    device : str, optional
+        A torch device.
+    runtime : str, optional
+        ``{'auto', 'torch', 'openvino', 'onnxruntime'}``.
+    threads : int, optional
+        CPU threads of an exported runtime.
+    cache_dir : str or Path, optional
+        The export cache.
+
+    Returns
+    -------
+    ImageClassifier
+    """
     clf = _load_torch_classifier(classifier, weights=weights, device=device)
     return clf.on_runtime(runtime, threads=threads, cache_dir=cache_dir)
 
@@ -208,7 +270,34 @@ def pair_probabilities(
     scoring core (:mod:`nvrq.scoring.core`): ``model.probabilities(uint8 (B, S, S, 3))`` with
     ``S = model.input_size``, each GT crop run once, ``batch_size`` crops per forward pass.
     Adds ``decode``, ``prepare`` and ``forward`` seconds to ``timings`` (as ``nvrq score``;
-    :func:`nvrq.scoring.driver.timing_table` turns them into the timing file's rows)."""
+    :func:`nvrq.scoring.driver.timing_table` turns them into the timing file's rows).
+
+    Parameters
+    ----------
+    pairs : pandas.DataFrame
+        A pairs table (docs/FORMATS.md §3).
+    model : ImageClassifier or ZeroShotCLIP
+        Anything with ``probabilities(uint8 (B, S, S, 3)) -> (B, C)`` and ``input_size``.
+    scene_root : str or Path, optional
+        Where image paths are resolved from.
+    batch_size : int, optional
+        Crops per forward pass.
+    progress : bool, optional
+        Show a progress bar.
+    desc : str, optional
+        The progress bar's label.
+    where : str, optional
+        The table named in errors.
+    timings : dict, optional
+        Stage seconds are added to it.
+
+    Yields
+    ------
+    rows : (P,) int
+        Row positions in ``pairs``.
+    p_gt, p_render : (P, C) float
+        Probabilities of the GT and render crops.
+    """
     check_int("batch_size", batch_size)
     times = timings if timings is not None else {}
     batches = iter_crop_batches(pairs, scene_root=scene_root, where=where)
@@ -232,7 +321,30 @@ def imagenet_drop(
     timings: dict | None = None,
 ) -> pd.DataFrame:
     """Eq. 9 for every pair -> DataFrame ``pair_id, imagenet_drop`` (pairs' order); stage seconds
-    added to ``timings`` (:func:`pair_probabilities`)."""
+    added to ``timings`` (:func:`pair_probabilities`).
+
+    Parameters
+    ----------
+    pairs : pandas.DataFrame
+        A pairs table (docs/FORMATS.md §3).
+    classifier : ImageClassifier
+        The classifier.
+    scene_root : str or Path, optional
+        Where image paths are resolved from.
+    batch_size : int, optional
+        Crops per forward pass.
+    progress : bool, optional
+        Show a progress bar.
+    where : str, optional
+        The table named in errors.
+    timings : dict, optional
+        Stage seconds are added to it.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``pair_id, imagenet_drop``.
+    """
     drop = np.full(len(pairs), np.nan)
     for rows, p_gt, p_r in pair_probabilities(pairs, classifier, scene_root=scene_root,
                                               batch_size=batch_size, progress=progress,

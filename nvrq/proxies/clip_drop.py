@@ -1,5 +1,7 @@
 """CLIP zero-shot confidence drop on the true category (paper Eq. 10): ``clip_drop`` per pair.
 
+Layer: nvrq core, proxies (downstream quality proxies).
+
 The K categories (automobile, person, animal, large vehicle, rail vehicle) each have one
 descriptive prompt (``class_maps.json``). For an image ``x``,
 ``p(x, c) = softmax_c(logit_scale * cos(g(x), t_c))`` with ``g`` CLIP's projected image
@@ -46,7 +48,22 @@ def zero_shot_probs(
     image_feats: np.ndarray, text_feats: np.ndarray, *, logit_scale: float
 ) -> np.ndarray:
     """``image_feats (N, D)``, ``text_feats (K, D)`` -> softmax over K of ``exp(logit_scale) * cos``
-    (``logit_scale`` is CLIP's log-parameterised temperature) -> (N, K)."""
+    (``logit_scale`` is CLIP's log-parameterised temperature) -> (N, K).
+
+    Parameters
+    ----------
+    image_feats : (N, D) float
+        Image embeddings (any norm).
+    text_feats : (K, D) float
+        Prompt embeddings.
+    logit_scale : float
+        CLIP's log temperature.
+
+    Returns
+    -------
+    (N, K) float64
+        Probabilities, rows sum to 1.
+    """
     a = image_feats / np.linalg.norm(image_feats, axis=1, keepdims=True)
     b = text_feats / np.linalg.norm(text_feats, axis=1, keepdims=True)
     z = np.exp(logit_scale) * (a @ b.T)
@@ -65,6 +82,17 @@ def max_logit_change_bound(ref: np.ndarray, other: np.ndarray, *, logit_scale: f
     of any zero-shot logit ``exp(s) * cos(g, t)`` (|t^| = 1, Cauchy-Schwarz) between two
     image-embedding sets (N, D).
 
+    Parameters
+    ----------
+    ref, other : (N, D) float
+        Embeddings of the same images from two runtimes.
+    logit_scale : float
+        CLIP's log temperature.
+
+    Returns
+    -------
+    float
+
     >>> round(max_logit_change_bound(np.array([[1.0, 0.0]]), np.array([[0.0, 2.0]]), logit_scale=0.0), 6)
     1.414214
     """
@@ -82,7 +110,27 @@ class ZeroShotCLIP:
     """A CLIP model with its K category prompts embedded once: ``text_feats (K, D)``.
 
     ``runtime``: where the image embeddings come from (``torch``, or an exported runtime
-    after :meth:`on_runtime`); ``threads``: the CPU threads it runs on (set by :meth:`on_runtime`)."""
+    after :meth:`on_runtime`); ``threads``: the CPU threads it runs on (set by :meth:`on_runtime`).
+
+    Attributes
+    ----------
+    model : transformers.CLIPModel
+        The CLIP model.
+    categories : list of str
+        The K categories.
+    text_feats : (K, D) float32
+        Their prompts' embeddings.
+    input_size : int
+        Image side ``S``, pixels.
+    mean, std : (3,) float
+        Normalisation of RGB in [0, 1].
+    device : str
+        A torch device.
+    runtime : str
+        ``{'torch', 'openvino', 'onnxruntime'}``.
+    threads : int or None
+        CPU threads of an exported runtime.
+    """
 
     model: object
     categories: list[str]
@@ -169,7 +217,27 @@ def load_clip(
     runtime: str = "auto", threads: int | None = None, cache_dir=None,
 ) -> ZeroShotCLIP:
     """CLIPModel + tokenizer + preprocessor config from ``clip``, a local Hugging Face folder
-    (never the hub); the image tower on ``runtime`` (:meth:`ZeroShotCLIP.on_runtime`)."""
+    (never the hub); the image tower on ``runtime`` (:meth:`ZeroShotCLIP.on_runtime`).
+
+    Parameters
+    ----------
+    clip : str or PathLike
+        A local Hugging Face CLIP folder.
+    prompts : dict
+        Category -> prompt.
+    device : str, optional
+        A torch device.
+    runtime : str, optional
+        ``{'auto', 'torch', 'openvino', 'onnxruntime'}``.
+    threads : int, optional
+        CPU threads of an exported runtime.
+    cache_dir : str or Path, optional
+        The export cache.
+
+    Returns
+    -------
+    ZeroShotCLIP
+    """
     folder = Path(clip)
     if not folder.is_dir():
         raise InputError(
@@ -206,7 +274,23 @@ def load_clip(
 def true_category_index(
     labels, category_map: dict, categories: list[str], *, where: str = "pairs"
 ) -> np.ndarray:
-    """Index (N,) into ``categories`` of each ``label_class``; -1 where the map says null."""
+    """Index (N,) into ``categories`` of each ``label_class``; -1 where the map says null.
+
+    Parameters
+    ----------
+    labels : (N,) array-like of str
+        ``label_class`` per pair.
+    category_map : dict
+        Lower-cased label class -> category or ``None``.
+    categories : list of str
+        The model's categories.
+    where : str, optional
+        The table named in errors.
+
+    Returns
+    -------
+    (N,) int64
+    """
     pos = {c: k for k, c in enumerate(categories)}
     low = mapped_labels(labels, category_map, "clip_category", where=where)
     return np.array(
@@ -226,7 +310,32 @@ def clip_drop(
     timings: dict | None = None,
 ) -> pd.DataFrame:
     """Eq. 10 for every pair -> DataFrame ``pair_id, clip_drop`` (pairs' order; NaN: no category);
-    stage seconds added to ``timings`` (:func:`~nvrq.proxies.classifier_drop.pair_probabilities`)."""
+    stage seconds added to ``timings`` (:func:`~nvrq.proxies.classifier_drop.pair_probabilities`).
+
+    Parameters
+    ----------
+    pairs : pandas.DataFrame
+        A pairs table (docs/FORMATS.md §3).
+    clip : ZeroShotCLIP
+        The model.
+    category_map : dict
+        Lower-cased label class -> category or ``None``.
+    scene_root : str or Path, optional
+        Where image paths are resolved from.
+    batch_size : int, optional
+        Crops per forward pass.
+    progress : bool, optional
+        Show a progress bar.
+    where : str, optional
+        The table named in errors.
+    timings : dict, optional
+        Stage seconds are added to it.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``pair_id, clip_drop``.
+    """
     c_star = true_category_index(pairs["label_class"], category_map, clip.categories, where=where)
     drop = np.full(len(pairs), np.nan)
     for rows, p_gt, p_r in pair_probabilities(pairs, clip, scene_root=scene_root,

@@ -1,5 +1,7 @@
 """Detection confidence on the render box (paper Eq. 6-8): ``s_det`` per pair.
 
+Layer: nvrq core, proxies (downstream quality proxies).
+
 For each pair's render box ``b`` and the detections ``D`` of the render image (any
 detector; confidence ``>= MIN_SCORE`` only):
 
@@ -51,12 +53,36 @@ MIN_SCORE = 0.1
 
 
 def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """IoU of every box ``a: (N, 4)`` with every box ``b: (M, 4)`` (continuous xyxy) -> (N, M)."""
+    """IoU of every box ``a: (N, 4)`` with every box ``b: (M, 4)`` (continuous xyxy) -> (N, M).
+
+    Parameters
+    ----------
+    a : (N, 4) float64
+        Boxes ``[x0, y0, x1, y1]``, continuous pixels.
+    b : (M, 4) float64
+        Boxes, same convention.
+
+    Returns
+    -------
+    (N, M) float64
+        IoU in [0, 1].
+    """
     return iou_pairs(np.asarray(a, np.float64)[:, None, :], np.asarray(b, np.float64)[None, :, :])
 
 
 def iou_pairs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Element-wise IoU of broadcastable box arrays ``(..., 4)`` (continuous xyxy); 0 for empty unions."""
+    """Element-wise IoU of broadcastable box arrays ``(..., 4)`` (continuous xyxy); 0 for empty unions.
+
+    Parameters
+    ----------
+    a, b : (..., 4) float64
+        Boxes ``[x0, y0, x1, y1]``, continuous pixels, broadcastable.
+
+    Returns
+    -------
+    (...,) float64
+        IoU in [0, 1].
+    """
     iw = np.clip(np.minimum(a[..., 2], b[..., 2]) - np.maximum(a[..., 0], b[..., 0]), 0, None)
     ih = np.clip(np.minimum(a[..., 3], b[..., 3]) - np.maximum(a[..., 1], b[..., 1]), 0, None)
     inter = iw * ih
@@ -68,13 +94,39 @@ def iou_pairs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def render_boxes_xyxy(pairs: pd.DataFrame) -> np.ndarray:
-    """Inclusive render boxes ``r_x0..r_y1`` (N, 4) -> continuous ``[x0, y0, x1 + 1, y1 + 1]``."""
+    """Inclusive render boxes ``r_x0..r_y1`` (N, 4) -> continuous ``[x0, y0, x1 + 1, y1 + 1]``.
+
+    Parameters
+    ----------
+    pairs : pandas.DataFrame
+        A pairs table with ``r_x0, r_y0, r_x1, r_y1`` (inclusive pixels).
+
+    Returns
+    -------
+    (N, 4) float64
+        Continuous pixel boxes.
+    """
     box = pairs[["r_x0", "r_y0", "r_x1", "r_y1"]].to_numpy(np.float64)
     return box + np.array([0.0, 0.0, 1.0, 1.0])
 
 
 def read_detections(path: str | os.PathLike) -> pd.DataFrame:
-    """Read and validate a DETS table (:data:`DETS_COLUMNS`); ``coco_class`` lower-cased."""
+    """Read and validate a DETS table (:data:`DETS_COLUMNS`); ``coco_class`` lower-cased.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        A DETS table (CSV or Parquet).
+
+    Returns
+    -------
+    pandas.DataFrame
+
+    Raises
+    ------
+    InputError
+        A missing column or an invalid value.
+    """
     dets = read_table(path, required=DETS_COLUMNS, what="detections table")
     return validate_detections(dets, where=str(path))
 
@@ -142,6 +194,26 @@ def detection_confidence(
     ``pairs``: docs/FORMATS.md §3 columns (``pair_id, label_class, render_path, r_x0..r_y1``).
     ``dets``: a validated DETS table (:func:`validate_detections`). ``coco_map``: lower-cased
     ``label_class`` -> allowed COCO classes (a class absent from the map is an error).
+
+    Parameters
+    ----------
+    pairs : pandas.DataFrame
+        A pairs table.
+    dets : pandas.DataFrame
+        A validated DETS table.
+    coco_map : dict
+        Lower-cased label class -> allowed COCO classes.
+    iou_min : float, optional
+        Smallest IoU of a match.
+    min_score : float, optional
+        Smallest detection confidence considered.
+    where : str, optional
+        The table named in errors.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``pair_id, s_det``.
     """
     require_columns(pairs, ("pair_id", "label_class", "render_path", *RENDER_BOX_COLUMNS),
                     where=where)

@@ -1,5 +1,7 @@
 """Optional detector backend: Ultralytics YOLO from a local weights file writes a DETS table.
 
+Layer: nvrq core, proxies (downstream quality proxies).
+
 Install with ``pip install 'nvrq[yolo]'``. ``ultralytics`` is imported lazily, only by
 :func:`run_yolo`; nothing is downloaded (the weights file must exist). Settings as in the
 paper's proxy: confidence >= 0.1, per-class NMS at IoU 0.45 (``agnostic_nms=False``).
@@ -29,6 +31,24 @@ NMS_IOU = 0.45
 def results_to_table(paths: Sequence[str], boxes, scores, classes, names: dict) -> pd.DataFrame:
     """One image per entry: ``boxes[k] (n_k, 4)`` xyxy, ``scores[k] (n_k,)``, ``classes[k] (n_k,)``
     integer ids into ``names`` -> DETS table (path, x0, y0, x1, y1, score, coco_class).
+
+    Parameters
+    ----------
+    paths : sequence of str
+        One image path per entry.
+    boxes : sequence of (n_k, 4) float
+        ``[x0, y0, x1, y1]`` pixels.
+    scores : sequence of (n_k,) float
+        Confidences.
+    classes : sequence of (n_k,) int
+        Class ids.
+    names : dict
+        Class id -> COCO class name.
+
+    Returns
+    -------
+    pandas.DataFrame
+        A DETS table.
 
     >>> results_to_table(["a.png"], [np.array([[1.0, 2, 3, 4]])], [np.array([0.5])], [np.array([2])],
     ...                  {2: "car"}).values.tolist()
@@ -65,7 +85,30 @@ def run_yolo(
     where: str = "pairs",
 ) -> pd.DataFrame:
     """Detect on every distinct render image of ``pairs``; ``path`` is written as in the pairs
-    table (``render_path``, relative to the scene folder)."""
+    table (``render_path``, relative to the scene folder).
+
+    Parameters
+    ----------
+    pairs : pandas.DataFrame
+        A pairs table.
+    weights : str or PathLike
+        A local YOLO weights file.
+    scene_root : str or Path, optional
+        Where image paths are resolved from.
+    device : str, optional
+        A torch device.
+    imgsz : int, optional
+        Inference size, pixels.
+    progress : bool, optional
+        Show a progress bar.
+    where : str, optional
+        The table named in errors.
+
+    Returns
+    -------
+    pandas.DataFrame
+        A DETS table.
+    """
     weights = Path(weights)
     if not weights.is_file():
         raise InputError(

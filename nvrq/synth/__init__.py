@@ -1,5 +1,7 @@
 """Built-in synthetic driving scenes with known degradation (``nvrq synth``).
 
+Layer: nvrq core, synth (synthetic scenes).
+
 ``generate_scene(out, seed=..., ...)`` writes a docs/FORMATS.md §2 scene folder plus
 ``degradation.csv``; :mod:`nvrq.synth.artefacts` exposes the artefact functions.
 """

@@ -1,5 +1,7 @@
 """Reconstruction artefacts of novel-view renders, applied to crops or whole images.
 
+Layer: nvrq core, synth (synthetic scenes).
+
 Each artefact maps a ``(H, W, 3)`` uint8 image and a strength in [0, 1] (0 = unchanged,
 1 = the object is badly broken) to a new image of the same shape. Sizes scale with the
 image, so one strength looks alike on a small and a large crop. "Lateral" is the image's
@@ -33,7 +35,19 @@ ARTEFACTS = ("blur", "ghost", "floaters", "smear", "color_shift", "holes")
 
 
 def fast_blur(img: np.ndarray, sigma: float) -> np.ndarray:
-    """Gaussian blur; large sigmas go through a shrunken copy (area-resize down, blur, linear up)."""
+    """Gaussian blur; large sigmas go through a shrunken copy (area-resize down, blur, linear up).
+
+    Parameters
+    ----------
+    img : (H, W, C) uint8
+        The image.
+    sigma : float, pixels
+        Gaussian standard deviation; below 0.15 the image is copied unchanged.
+
+    Returns
+    -------
+    (H, W, C) uint8
+    """
     if sigma < 0.15:
         return img.copy()
     if sigma <= 3.0:
@@ -133,6 +147,22 @@ def apply_artefact(
     """One artefact ``name`` in :data:`ARTEFACTS` at ``strength`` in [0, 1] on ``image (H, W, 3)`` uint8.
 
     Returns a new array; strength 0 returns an exact copy.
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8
+        The image.
+    name : str
+        One of :data:`ARTEFACTS`.
+    strength : float
+        In [0, 1]; 0 leaves the image unchanged.
+    rng : numpy.random.Generator
+        Source of the artefact's randomness.
+
+    Returns
+    -------
+    (H, W, 3) uint8
+        A new image.
     """
     if name not in _FUNCS:
         raise InputError("artefact", "name", f"one of {', '.join(ARTEFACTS)}", repr(name))
@@ -150,7 +180,22 @@ def apply_artefact(
 
 
 def apply_artefacts(image: np.ndarray, strengths, *, rng: np.random.Generator) -> np.ndarray:
-    """All artefacts in the order of :data:`ARTEFACTS`; ``strengths`` (6,) or a name -> strength dict."""
+    """All artefacts in the order of :data:`ARTEFACTS`; ``strengths`` (6,) or a name -> strength dict.
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8
+        The image.
+    strengths : (6,) float or dict
+        One strength in [0, 1] per artefact, in the order of :data:`ARTEFACTS`, or by name.
+    rng : numpy.random.Generator
+        Source of the artefacts' randomness.
+
+    Returns
+    -------
+    (H, W, 3) uint8
+        A new image.
+    """
     if isinstance(strengths, dict):
         strengths = [float(strengths.get(a, 0.0)) for a in ARTEFACTS]
     order = ("color_shift", "smear", "blur", "ghost", "floaters", "holes")
@@ -176,6 +221,23 @@ def blend_into(
 
     ``box`` [x0, y0, x1, y1] (exclusive end) bounds the actor's pixels; the damaged region
     spills a little beyond the silhouette as severity grows (ghosts and floaters do).
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8
+        The view, changed in place.
+    ids : (H, W) int
+        Object-id buffer (actor index, -1 none).
+    k : int
+        The actor to degrade.
+    box : (4,) int
+        ``[x0, y0, x1, y1]`` pixels, exclusive end.
+    strengths : (6,) float
+        Artefact strengths in [0, 1], in the order of :data:`ARTEFACTS`.
+    severity : float
+        The actor's severity in [0, 1] (how far the damage spills).
+    rng : numpy.random.Generator
+        Source of the artefacts' randomness.
     """
     H, W = ids.shape
     x0, y0, x1, y1 = box

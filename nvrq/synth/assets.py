@@ -1,5 +1,7 @@
 """Textured geometry of a world: box faces (vehicles, buildings) and billboards (people, trees).
 
+Layer: nvrq core, synth (synthetic scenes).
+
 Vehicles are one or two textured boxes (car: body + cabin; truck: cab + trailer; bus: one
 box); people and riders are camera-facing impostors whose texture (front/back or side
 view) is chosen by the viewing angle; trees and lamps are camera-facing billboards.
@@ -37,7 +39,22 @@ _SHADE = {"front": 0.9, "rear": 0.84, "left": 0.78, "right": 0.72, "top": 1.0}
 
 
 def box_faces(centre: np.ndarray, dims: np.ndarray):
-    """Faces of an axis-aligned box: corners ``(5, 4, 3)`` and outward normals ``(5, 3)``."""
+    """Faces of an axis-aligned box: corners ``(5, 4, 3)`` and outward normals ``(5, 3)``.
+
+    Parameters
+    ----------
+    centre : (3,) float64, metres
+        Box centre, in the frame the corners are wanted in.
+    dims : (3,) float64, metres
+        Extent along x, y, z.
+
+    Returns
+    -------
+    corners : (5, 4, 3) float64, metres
+        The four sides and the top, corners TL, TR, BR, BL seen from outside.
+    normals : (5, 3) float64
+        Outward unit normals.
+    """
     half = np.asarray(dims, float) / 2
     corners = np.array([[np.multiply(s, half) for s in _SIGNS[f][0]] for f in FACE_NAMES]) + centre
     normals = np.array([_SIGNS[f][1] for f in FACE_NAMES], float)
@@ -53,6 +70,33 @@ class Assets:
     (A, 4, 3)`` box frame, ``actor_normals (A, 3)``, ``actor_tex (A,)``, ``actor_owner (A,)``.
     Billboards ``bb_base (B, 3)``, ``bb_size (B, 2)`` [width, height] m, ``bb_tex (B,)``.
     ``impostors``: actor index -> (tex front/rear, tex side, tex side flipped, w front, w side).
+
+    Attributes
+    ----------
+    textures : list of (h, w, 4) uint8
+        BGR-A textures.
+    static_corners : (S, 4, 3) float64
+        Scenery faces, metres, world frame.
+    static_normals : (S, 3) float64
+        Their outward normals.
+    static_tex : (S,) int
+        Their texture indices.
+    actor_corners : (A, 4, 3) float64
+        Actor faces, metres, box frame.
+    actor_normals : (A, 3) float64
+        Their outward normals.
+    actor_tex : (A,) int
+        Their texture indices.
+    actor_owner : (A,) int
+        The actor each face belongs to.
+    bb_base : (B, 3) float64
+        Billboard bottom centres, metres, world frame.
+    bb_size : (B, 2) float64
+        Billboard ``[width, height]``, metres.
+    bb_tex : (B,) int
+        Billboard texture indices.
+    impostors : dict
+        Actor index -> ``(tex front/rear, tex side, tex side flipped, w front, w side)``.
     """
 
     textures: list = field(default_factory=list)
@@ -164,7 +208,19 @@ def _vehicle_parts(cls, dims, colour, rng):
 
 
 def build_assets(world: World, rng: np.random.Generator) -> Assets:
-    """Textures and face tables of every actor and every piece of scenery."""
+    """Textures and face tables of every actor and every piece of scenery.
+
+    Parameters
+    ----------
+    world : World
+        The clip's world.
+    rng : numpy.random.Generator
+        Source of the textures' randomness.
+
+    Returns
+    -------
+    Assets
+    """
     lit = world.lighting
     a = Assets()
     ac, an, at, ao = [], [], [], []

@@ -1,5 +1,7 @@
 """Latent render quality of each object: severity in [0, 1] and per-artefact strengths.
 
+Layer: nvrq core, synth (synthetic scenes).
+
 A reconstruction degrades as the virtual camera leaves the training trajectory. Here the
 severity of an object grows with the lateral offset ``|y|`` at a per-object rate set by
 its training-view ``coverage`` (objects seen in few views break down early) and with the
@@ -34,6 +36,16 @@ M_PER_DEG = 0.2
 def perturbation_size(perturbations: np.ndarray) -> np.ndarray:
     """``(K, 6)`` perturbations -> size ``(K,)`` (module docstring).
 
+    Parameters
+    ----------
+    perturbations : (K, 6) float64
+        ``(dx, dy, dz, roll, pitch, yaw)``: metres, degrees, rig frame.
+
+    Returns
+    -------
+    (K,) float64, metres
+        ``|dx| + |dy| + |dz| + M_PER_DEG * (|roll| + |pitch| + |yaw|)``.
+
     >>> perturbation_size(np.array([[0, -2.0, 0, 0, 0, 0], [0, 0, 0.5, 0, 0, -5.0]])).tolist()
     [2.0, 1.5]
     """
@@ -42,7 +54,22 @@ def perturbation_size(perturbations: np.ndarray) -> np.ndarray:
 
 
 def severity(abs_offset: np.ndarray, depth: np.ndarray, *, coverage: float) -> np.ndarray:
-    """``abs_offset, depth: (N,)`` metres -> severity ``(N,)`` in [0, 1] (module docstring)."""
+    """``abs_offset, depth: (N,)`` metres -> severity ``(N,)`` in [0, 1] (module docstring).
+
+    Parameters
+    ----------
+    abs_offset : (N,) float64, metres
+        Size of the perturbation (``|y|`` for a lateral view).
+    depth : (N,) float64, metres
+        Object depth in the camera.
+    coverage : float
+        The object's training-view coverage in (0, 1].
+
+    Returns
+    -------
+    (N,) float64
+        Severity in [0, 1].
+    """
     y = np.abs(np.asarray(abs_offset, float))
     rate = 0.06 + 0.5 * (1.0 - coverage)
     s0 = 0.02 + 0.05 * (1.0 - coverage)
@@ -51,5 +78,18 @@ def severity(abs_offset: np.ndarray, depth: np.ndarray, *, coverage: float) -> n
 
 
 def strengths(sev: np.ndarray, profile: np.ndarray) -> np.ndarray:
-    """``sev (N,)``, ``profile (6,)`` -> artefact strengths ``(N, 6)`` in [0, 1]."""
+    """``sev (N,)``, ``profile (6,)`` -> artefact strengths ``(N, 6)`` in [0, 1].
+
+    Parameters
+    ----------
+    sev : (N,) float64
+        Severities in [0, 1].
+    profile : (6,) float64
+        The object's artefact weights in [0.25, 1].
+
+    Returns
+    -------
+    (N, 6) float64
+        Artefact strengths in [0, 1].
+    """
     return np.clip(np.asarray(sev, float)[:, None] * np.asarray(profile, float)[None, :], 0.0, 1.0)

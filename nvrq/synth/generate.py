@@ -1,5 +1,7 @@
 """``generate_scene``: write a complete synthetic scene folder (docs/FORMATS.md §2).
 
+Layer: nvrq core, synth (synthetic scenes).
+
 Output layout::
 
     OUT/scene.json, OUT/images.csv, OUT/degradation.csv
@@ -90,7 +92,18 @@ DEGRADATION_COLUMNS = (
 def camera_models(size: tuple[int, int]) -> dict[str, dict]:
     """scene.json camera entries for ``size (W, H)``: 'front' (opencv_pinhole, 60 deg wide, mild
     barrel distortion) and 'front_wide' (f-theta, 120 deg wide, image corners beyond
-    ``max_angle``). Both mounted 1.5 m high looking forward, pitched down 2 deg."""
+    ``max_angle``). Both mounted 1.5 m high looking forward, pitched down 2 deg.
+
+    Parameters
+    ----------
+    size : (int, int)
+        ``(W, H)`` pixels.
+
+    Returns
+    -------
+    dict
+        Camera name -> ``{"model": dict, "T_sensor_rig": (4, 4) float64}``.
+    """
     W, H = size
     cx, cy = (W - 1) / 2, (H - 1) / 2
     f = (W / 2) / math.tan(math.radians(30))
@@ -191,6 +204,20 @@ def scene_document(world, cams: dict, clip_id: str) -> dict:
     """The docs/FORMATS.md §2 ``scene.json`` dict of a synthetic ``world`` seen by ``cams``.
 
     Tracks hold the frames where each actor is present (box centres, ``[x, y, z, qx, qy, qz, qw]``).
+
+    Parameters
+    ----------
+    world : World
+        The clip's world.
+    cams : dict
+        Camera name -> ``scene.json`` camera entry (:func:`camera_models`).
+    clip_id : str
+        The clip id written to the document.
+
+    Returns
+    -------
+    dict
+        The ``scene.json`` document.
     """
     ts = world.timestamps_us
     tracks = []
@@ -383,6 +410,32 @@ def generate_scene(
     ``methods``: None (one unnamed method), or ``[(name, scale), ...]``
     (:func:`data_schema.methods.check_method_scales`): every view is rendered once per method, its
     artefact severity times ``scale`` (so a smaller scale is a better method).
+
+    Parameters
+    ----------
+    out : Path
+        The scene folder to write.
+    seed : int, optional
+        Fixes the clip.
+    seconds, fps : float, optional
+        Clip length (seconds) and frame rate (Hz).
+    offsets : sequence of float, metres, optional
+        Lateral views (left > 0).
+    perturbations : (K, 6) float64, optional
+        ``(dx, dy, dz, roll, pitch, yaw)`` views, metres and degrees; replace ``offsets``.
+    cameras : sequence of str, optional
+        Kinds from ``{'pinhole', 'ftheta'}``.
+    size : (int, int), optional
+        ``(W, H)`` pixels.
+    methods : list of (str, float), optional
+        ``(name, severity scale)`` per method; ``None``: one unnamed method.
+    progress : bool, optional
+        Show a progress bar.
+
+    Returns
+    -------
+    Path
+        ``out``.
     """
     cam_names, (W, H) = _parse(seconds, fps, cameras, size)
     views = _views(offsets, perturbations)

@@ -1,5 +1,7 @@
 """Ground and sky: a world-aligned ground texture and the per-camera sky/fog background.
 
+Layer: nvrq core, synth (synthetic scenes).
+
 The ground (road with lane markings, crosswalks, kerbs, sidewalks, grass) is one raster
 in world x/y; a view draws it with a single homography. Because the rig stays level on
 the flat road, each camera's sky, fog and headlight falloff are the same image in every
@@ -27,7 +29,15 @@ __all__ = ["Ground", "build_ground", "Background", "camera_background", "draw_gr
 
 @dataclass
 class Ground:
-    """``texture: (Ht, Wt, 3)`` uint8 BGR; ``A: (3, 3)`` texel (col, row, 1) -> world (x, y, 1)."""
+    """``texture: (Ht, Wt, 3)`` uint8 BGR; ``A: (3, 3)`` texel (col, row, 1) -> world (x, y, 1).
+
+    Attributes
+    ----------
+    texture : (Ht, Wt, 3) uint8
+        BGR ground raster.
+    A : (3, 3) float64
+        Texel ``(col, row, 1)`` -> world ``(x, y, 1)``, metres.
+    """
 
     texture: np.ndarray
     A: np.ndarray
@@ -36,7 +46,17 @@ class Ground:
 @dataclass
 class Background:
     """Per camera: ground weight ``wg: (Hv, Wv, 1)`` float32, premultiplied sky/fog ``bg: (Hv, Wv, 3)``,
-    and ``row0``, the first virtual-image row that can show ground."""
+    and ``row0``, the first virtual-image row that can show ground.
+
+    Attributes
+    ----------
+    wg : (Hv, Wv, 1) float32
+        Ground weight.
+    bg : (Hv, Wv, 3) float32
+        Premultiplied sky/fog colour, BGR.
+    row0 : int
+        First virtual-image row that can show ground.
+    """
 
     wg: np.ndarray
     bg: np.ndarray
@@ -46,7 +66,23 @@ class Background:
 def build_ground(
     world: World, rng: np.random.Generator, *, res: float = 0.08, max_side: int = 6000
 ) -> Ground:
-    """Rasterise the clip's ground (see module docstring)."""
+    """Rasterise the clip's ground (see module docstring).
+
+    Parameters
+    ----------
+    world : World
+        The clip's world.
+    rng : numpy.random.Generator
+        Source of the texture's randomness.
+    res : float, optional
+        Metres per texel.
+    max_side : int, optional
+        Largest raster side, texels.
+
+    Returns
+    -------
+    Ground
+    """
     road = world.road
     kerb = road.half_width
     s_lo, s_hi = world.s_range
@@ -136,6 +172,21 @@ def camera_background(
     """Sky gradient, distance fog and (at night) headlight falloff for one virtual camera.
 
     ``K: (3, 3)``, ``size (Wv, Hv)``; the rig is level with its origin on the ground.
+
+    Parameters
+    ----------
+    K : (3, 3) float64
+        Virtual pinhole intrinsics, pixels.
+    size : (int, int)
+        ``(Wv, Hv)`` pixels.
+    T_sensor_rig : (4, 4) float64
+        Camera mounting, sensor frame to rig frame (metres).
+    lighting : str
+        ``{'daytime', 'nighttime'}``.
+
+    Returns
+    -------
+    Background
     """
     Wv, Hv = size
     u, v = np.meshgrid(np.arange(Wv, dtype=np.float32), np.arange(Hv, dtype=np.float32))
@@ -173,7 +224,21 @@ def camera_background(
 def draw_ground(
     image: np.ndarray, ground: Ground, bgd: Background, K: np.ndarray, T_world_cam: np.ndarray
 ) -> None:
-    """Fill ``image (Hv, Wv, 3)`` with ground and sky for the camera ``T_world_cam (4, 4)``."""
+    """Fill ``image (Hv, Wv, 3)`` with ground and sky for the camera ``T_world_cam (4, 4)``.
+
+    Parameters
+    ----------
+    image : (Hv, Wv, 3) uint8
+        The view, filled in place.
+    ground : Ground
+        The clip's ground raster.
+    bgd : Background
+        The camera's sky and fog.
+    K : (3, 3) float64
+        Virtual pinhole intrinsics, pixels.
+    T_world_cam : (4, 4) float64
+        World frame to camera frame (metres).
+    """
     Hv, Wv = image.shape[:2]
     r0 = bgd.row0
     if r0 > 0:

@@ -1,5 +1,7 @@
 """The synthetic world of one clip: road, ego trajectory, traffic and roadside scenery.
 
+Layer: nvrq core, synth (synthetic scenes).
+
 Everything is drawn from one ``numpy.random.Generator``, so a seed fixes the clip.
 
 Convention: world frame z up, road on the plane z = 0. The road centreline starts at the
@@ -41,7 +43,19 @@ SIZES = {
 
 @dataclass
 class Road:
-    """A constant-curvature road; lanes of width ``lane_w`` each side of a median."""
+    """A constant-curvature road; lanes of width ``lane_w`` each side of a median.
+
+    Attributes
+    ----------
+    kappa : float, 1/m
+        Signed curvature of the centreline (left > 0).
+    lanes_per_dir : int
+        Lanes in each direction.
+    lane_w, median_w, shoulder_w : float, metres
+        Widths of a lane, the median and the shoulder.
+    road_type : str
+        One of :data:`ROAD_TYPES`.
+    """
 
     kappa: float
     lanes_per_dir: int
@@ -92,6 +106,27 @@ class Actor:
     ``present: (F,)`` marks the frames it is tracked and drawn. ``coverage`` in (0, 1] is
     the fraction of training views that saw it (low = breaks down early); ``profile``
     (6,) the relative weight of each artefact kind.
+
+    Attributes
+    ----------
+    track_id : str
+        Track id in ``scene.json``.
+    label_class : str
+        One of :data:`CLASSES`.
+    dims : (3,) float64, metres
+        Length, width, height.
+    T_box_world : (F, 4, 4) float64
+        Box-centre poses, box frame to world frame (metres).
+    present : (F,) bool
+        Frames where it is tracked and drawn.
+    colour : tuple
+        RGB body colour.
+    coverage : float
+        Fraction of training views that saw it, in (0, 1].
+    profile : (6,) float64
+        Relative weight of each artefact kind.
+    behaviour : str
+        E.g. ``'parked'``, ``'oncoming'``, ``'crossing'``, ``'same_direction'``.
     """
 
     track_id: str
@@ -107,7 +142,27 @@ class Actor:
 
 @dataclass
 class World:
-    """A clip's world (see module docstring). Scenery items are plain dicts for the renderer."""
+    """A clip's world (see module docstring). Scenery items are plain dicts for the renderer.
+
+    Attributes
+    ----------
+    road : Road
+        The road.
+    lighting : str
+        One of :data:`LIGHTINGS`.
+    timestamps_us : (F,) int64, microseconds
+        Frame times.
+    T_rig_world : (F, 4, 4) float64
+        Ego rig poses, rig frame to world frame (metres).
+    actors : list of Actor
+        The traffic participants.
+    buildings, billboards : list of dict
+        Scenery for the renderer.
+    crosswalks : list of float, metres
+        Arc-length positions of the crosswalks.
+    s_range : (float, float), metres
+        Arc-length range the scenery covers.
+    """
 
     road: Road
     lighting: str

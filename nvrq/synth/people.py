@@ -1,5 +1,7 @@
 """Impostor textures of people: pedestrians (front and side views) and bicycle riders.
 
+Layer: nvrq core, synth (synthetic scenes).
+
 Figures are drawn with OpenCV primitives (head, hair, torso, arms, legs; bicycle wheels
 and frame) on a transparent :class:`~nvrq.synth.textures.Material` at 80 texels per metre.
 
@@ -103,7 +105,19 @@ def _person_colours(rng):
 
 
 def person_views(height: float, rng) -> tuple[Material, Material]:
-    """(front, side) impostor views of a pedestrian; alpha marks the figure."""
+    """(front, side) impostor views of a pedestrian; alpha marks the figure.
+
+    Parameters
+    ----------
+    height : float, metres
+        The pedestrian's height.
+    rng : numpy.random.Generator
+        Source of the figure's randomness.
+
+    Returns
+    -------
+    front, side : Material
+    """
     ppm = 80
     h = int(height * ppm)
     cols = _person_colours(rng)
@@ -117,7 +131,19 @@ def person_views(height: float, rng) -> tuple[Material, Material]:
 
 
 def rider_views(length: float, height: float, rng) -> tuple[Material, Material]:
-    """(rear, side) impostor views of a bicycle rider; alpha marks rider and bicycle."""
+    """(rear, side) impostor views of a bicycle rider; alpha marks rider and bicycle.
+
+    Parameters
+    ----------
+    length, height : float, metres
+        Size of the rider's box.
+    rng : numpy.random.Generator
+        Source of the figure's randomness.
+
+    Returns
+    -------
+    rear, side : Material
+    """
     ppm = 80
     h = int(height * ppm)
     cols = _person_colours(rng)

@@ -1,5 +1,7 @@
 """Painter's-algorithm renderer of a synthetic world (numpy + OpenCV, no ray tracing).
 
+Layer: nvrq core, synth (synthetic scenes).
+
 Each view is drawn in an ideal *virtual pinhole* camera: the ground plane is one
 homography warp of a world-aligned ground texture, the sky a per-camera gradient, and
 every visible face (box faces and camera-facing billboards) is warped from its texture
@@ -38,6 +40,17 @@ class VirtualCamera:
 
     ``map1, map2``: fixed-point remap tables (``None`` when the real camera is this pinhole);
     ``real_size (W, H)``.
+
+    Attributes
+    ----------
+    K : (3, 3) float64
+        Ideal pinhole intrinsics, pixels.
+    size : (int, int)
+        ``(Wv, Hv)`` of the virtual image, pixels.
+    real_size : (int, int)
+        ``(W, H)`` of the real camera, pixels.
+    map1, map2 : ndarray or None
+        ``cv2.remap`` fixed-point tables, virtual to real image.
     """
 
     K: np.ndarray
@@ -61,6 +74,17 @@ def virtual_camera(model: dict, *, pixel_budget: float = 1.35) -> VirtualCamera:
 
     The virtual focal length is the real one at the image centre, reduced when needed so
     the virtual image covers every visible ray with at most ``pixel_budget * W * H`` pixels.
+
+    Parameters
+    ----------
+    model : dict
+        A ``scene.json`` camera model.
+    pixel_budget : float, optional
+        Largest virtual image, as a multiple of the real ``W * H``.
+
+    Returns
+    -------
+    VirtualCamera
     """
     W, H = (int(v) for v in model["resolution"])
     if model["type"] == "pinhole":
@@ -94,6 +118,20 @@ def face_homography(
     ``corners_cam: (4, 3)`` camera-frame corners TL, TR, BR, BL (seen from outside);
     ``tex_size (tw, th)``: texel (0, 0) is the TL corner and (tw-1, th-1) the BR corner.
     Exact for points in front of the camera, even when other corners are behind it.
+
+    Parameters
+    ----------
+    K : (3, 3) float64
+        Virtual pinhole intrinsics, pixels.
+    corners_cam : (4, 3) float64, metres
+        Face corners TL, TR, BR, BL in the camera frame.
+    tex_size : (int, int)
+        ``(tw, th)`` texels.
+
+    Returns
+    -------
+    (3, 3) float64
+        Texel ``(col, row, 1)`` -> virtual pixel ``(u, v, 1)``.
     """
     tw, th = tex_size
     O = corners_cam[0]
@@ -103,7 +141,20 @@ def face_homography(
 
 
 def clip_near(poly: np.ndarray, near: float = NEAR) -> np.ndarray:
-    """Clip a camera-frame polygon ``(N, 3)`` to ``z >= near`` (Sutherland-Hodgman); ``(M, 3)``."""
+    """Clip a camera-frame polygon ``(N, 3)`` to ``z >= near`` (Sutherland-Hodgman); ``(M, 3)``.
+
+    Parameters
+    ----------
+    poly : (N, 3) float64, metres
+        Polygon in the camera frame.
+    near : float, metres, optional
+        The near plane.
+
+    Returns
+    -------
+    (M, 3) float64
+        The clipped polygon (empty when wholly behind).
+    """
     out = []
     n = len(poly)
     for i in range(n):
@@ -132,6 +183,23 @@ def draw_faces(
     ``corners_cam: (N, 4, 3)`` TL, TR, BR, BL in the camera frame; ``tex_ids, obj_ids:
     (N,)`` (obj -1 = scenery). ``boxes`` collects each object's drawn pixel bounds
     ``[x0, y0, x1, y1]`` (exclusive end) — updated in place.
+
+    Parameters
+    ----------
+    image : (Hv, Wv, 3) uint8
+        The view, drawn in place.
+    ids : (Hv, Wv) int16
+        Object-id buffer, drawn in place.
+    K : (3, 3) float64
+        Virtual pinhole intrinsics, pixels.
+    corners_cam : (N, 4, 3) float64, metres
+        Face corners TL, TR, BR, BL in the camera frame.
+    textures : list of (h, w, 4) uint8
+        BGR-A textures.
+    tex_ids, obj_ids : (N,) int
+        Texture and object (-1 scenery) of each face.
+    boxes : dict
+        Object -> drawn pixel bounds ``[x0, y0, x1, y1]`` (exclusive end), updated in place.
     """
     Hv, Wv = image.shape[:2]
     if len(corners_cam) == 0:

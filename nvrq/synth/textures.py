@@ -1,5 +1,7 @@
 """Procedural textures of the synthetic scenes: vehicles, buildings, trees and lamps.
 
+Layer: nvrq core, synth (synthetic scenes).
+
 A texture is drawn as a :class:`Material` (albedo, emissive light, alpha) and turned into
 the final ``(H, W, 4)`` uint8 **BGR-A** image by :func:`finalize` for the clip's lighting
 (day: albedo times a flat-shading factor; night: dim albedo plus the lit lamps).
@@ -42,13 +44,34 @@ CAR_COLOURS = [(200, 30, 30), (30, 60, 170), (230, 230, 230), (25, 25, 25), (150
 
 
 def bgr(rgb) -> tuple[int, int, int]:
-    """RGB triple -> BGR triple of ints (OpenCV's drawing order)."""
+    """RGB triple -> BGR triple of ints (OpenCV's drawing order).
+
+    Parameters
+    ----------
+    rgb : (3,) int
+        Red, green, blue.
+
+    Returns
+    -------
+    (int, int, int)
+        Blue, green, red.
+    """
     return int(rgb[2]), int(rgb[1]), int(rgb[0])
 
 
 @dataclass
 class Material:
-    """albedo, emissive: (H, W, 3) uint8 BGR; alpha: (H, W) uint8."""
+    """albedo, emissive: (H, W, 3) uint8 BGR; alpha: (H, W) uint8.
+
+    Attributes
+    ----------
+    albedo : (H, W, 3) uint8
+        BGR reflectance.
+    emissive : (H, W, 3) uint8
+        BGR light emitted at night.
+    alpha : (H, W) uint8
+        Coverage.
+    """
 
     albedo: np.ndarray
     emissive: np.ndarray
@@ -75,7 +98,22 @@ def _noise(m: Material, rng: np.random.Generator, amp: float) -> None:
 
 
 def finalize(m: Material, *, lighting: str, shade: float) -> np.ndarray:
-    """Material -> (H, W, 4) uint8 BGR-A texture for ``lighting`` in {'daytime', 'nighttime'}."""
+    """Material -> (H, W, 4) uint8 BGR-A texture for ``lighting`` in {'daytime', 'nighttime'}.
+
+    Parameters
+    ----------
+    m : Material
+        The drawn material.
+    lighting : str
+        ``{'daytime', 'nighttime'}``.
+    shade : float
+        Flat-shading factor of the face.
+
+    Returns
+    -------
+    (H, W, 4) uint8
+        BGR-A texture.
+    """
     gain = shade if lighting == "daytime" else 0.16 * shade
     rgb = m.albedo.astype(np.float32) * gain
     if lighting != "daytime":
@@ -101,6 +139,27 @@ def vehicle_side(
 
     ``window_band`` = (top, bottom) as fractions of the height; ``kind`` in
     {'car_body', 'car_cabin', 'bus', 'cab', 'trailer'}.
+
+    Parameters
+    ----------
+    length, height : float, metres
+        Size of the face.
+    rgb : (3,) int
+        Body colour.
+    rng : numpy.random.Generator
+        Source of the texture's randomness.
+    kind : str
+        ``{'car_body', 'car_cabin', 'bus', 'cab', 'trailer'}``.
+    window_band : (float, float), optional
+        ``(top, bottom)`` of the windows, fractions of the height.
+    wheels : bool, optional
+        Draw wheels.
+    lit_windows : float, optional
+        Fraction of windows lit at night.
+
+    Returns
+    -------
+    Material
     """
     w, h = int(length * PPM), int(height * PPM)
     m = Material.blank(h, w, rgb)
@@ -141,7 +200,25 @@ def vehicle_side(
 
 
 def vehicle_end(width: float, height: float, rgb, rng, *, front: bool, kind: str) -> Material:
-    """Front or rear face of a vehicle part with lights (lit at night), grille, windscreen."""
+    """Front or rear face of a vehicle part with lights (lit at night), grille, windscreen.
+
+    Parameters
+    ----------
+    width, height : float, metres
+        Size of the face.
+    rgb : (3,) int
+        Body colour.
+    rng : numpy.random.Generator
+        Source of the texture's randomness.
+    front : bool
+        Front (headlights, windscreen) or rear.
+    kind : str
+        ``{'car_body', 'car_cabin', 'bus', 'cab', 'trailer'}``.
+
+    Returns
+    -------
+    Material
+    """
     w, h = int(width * PPM), int(height * PPM)
     m = Material.blank(h, w, rgb)
     _noise(m, rng, 5.0)
@@ -178,14 +255,42 @@ def vehicle_end(width: float, height: float, rgb, rng, *, front: bool, kind: str
 
 
 def plain_face(width: float, height: float, rgb, rng, *, ppm: float = PPM) -> Material:
-    """An untextured face (roof, plain trailer side) with a little noise."""
+    """An untextured face (roof, plain trailer side) with a little noise.
+
+    Parameters
+    ----------
+    width, height : float, metres
+        Size of the face.
+    rgb : (3,) int
+        Colour.
+    rng : numpy.random.Generator
+        Source of the noise.
+    ppm : float, optional
+        Texels per metre.
+
+    Returns
+    -------
+    Material
+    """
     m = Material.blank(int(height * ppm), int(width * ppm), rgb)
     _noise(m, rng, 5.0)
     return m
 
 
 def tree_texture(height: float, rng) -> Material:
-    """A tree billboard: trunk and a blobby crown (alpha cut-out)."""
+    """A tree billboard: trunk and a blobby crown (alpha cut-out).
+
+    Parameters
+    ----------
+    height : float, metres
+        Tree height.
+    rng : numpy.random.Generator
+        Source of the texture's randomness.
+
+    Returns
+    -------
+    Material
+    """
     ppm = 12
     h, w = int(height * ppm), int(height * 0.6 * ppm)
     m = Material.blank(h, w, (0, 0, 0), alpha=0)
@@ -203,7 +308,17 @@ def tree_texture(height: float, rng) -> Material:
 
 
 def lamp_texture(height: float) -> Material:
-    """A street-lamp billboard: pole and a head that glows at night."""
+    """A street-lamp billboard: pole and a head that glows at night.
+
+    Parameters
+    ----------
+    height : float, metres
+        Lamp height.
+
+    Returns
+    -------
+    Material
+    """
     ppm = 20
     h, w = int(height * ppm), int(1.2 * ppm)
     m = Material.blank(h, w, (0, 0, 0), alpha=0)
@@ -216,7 +331,23 @@ def lamp_texture(height: float) -> Material:
 
 
 def facade(width: float, height: float, rgb, rng, *, lit: float) -> Material:
-    """A building facade with a grid of windows (a fraction ``lit`` glows at night)."""
+    """A building facade with a grid of windows (a fraction ``lit`` glows at night).
+
+    Parameters
+    ----------
+    width, height : float, metres
+        Size of the facade.
+    rgb : (3,) int
+        Wall colour.
+    rng : numpy.random.Generator
+        Source of the texture's randomness.
+    lit : float
+        Fraction of windows lit at night.
+
+    Returns
+    -------
+    Material
+    """
     ppm = 10
     m = plain_face(width, height, rgb, rng, ppm=ppm)
     h, w = m.shape

@@ -1,5 +1,7 @@
 """Render one clean view of a world: ground, sky, scenery and actors in painter's order.
 
+Layer: nvrq core, synth (synthetic scenes).
+
 ``render_view`` works in the virtual pinhole of :mod:`nvrq.synth.renderer` and returns the
 image, an object-id buffer and each actor's drawn pixel bounds (used to place artefacts).
 """
@@ -20,7 +22,22 @@ _MAX_DIST = 260.0
 
 def billboard_quads(base: np.ndarray, size: np.ndarray, cam_pos: np.ndarray) -> np.ndarray:
     """Camera-facing vertical quads: ``base (N, 3)`` bottom centre, ``size (N, 2)`` [w, h] ->
-    world corners ``(N, 4, 3)`` TL, TR, BR, BL as seen from ``cam_pos (3,)``."""
+    world corners ``(N, 4, 3)`` TL, TR, BR, BL as seen from ``cam_pos (3,)``.
+
+    Parameters
+    ----------
+    base : (N, 3) float64, metres
+        Bottom centres, world frame.
+    size : (N, 2) float64, metres
+        ``[width, height]``.
+    cam_pos : (3,) float64, metres
+        Camera centre, world frame.
+
+    Returns
+    -------
+    (N, 4, 3) float64, metres
+        World corners TL, TR, BR, BL.
+    """
     d = base[:, :2] - cam_pos[:2]
     n = np.linalg.norm(d, axis=1, keepdims=True)
     d = d / np.maximum(n, 1e-6)
@@ -45,6 +62,34 @@ def render_view(
 
     Returns ``image (Hv, Wv, 3)`` uint8 BGR, ``ids (Hv, Wv)`` int16 actor index (-1 none)
     and ``boxes``: actor index -> [x0, y0, x1, y1] (exclusive end) of its drawn pixels.
+
+    Parameters
+    ----------
+    world : World
+        The clip's world.
+    assets : Assets
+        Its textures and faces.
+    ground : Ground
+        Its ground raster.
+    bgd : Background
+        The camera's sky and fog.
+    K : (3, 3) float64
+        Virtual pinhole intrinsics, pixels.
+    size : (int, int)
+        ``(Wv, Hv)`` pixels.
+    T_cam_world : (4, 4) float64
+        Camera frame to world frame (metres).
+    frame : int
+        Frame index.
+
+    Returns
+    -------
+    image : (Hv, Wv, 3) uint8
+        BGR view.
+    ids : (Hv, Wv) int16
+        Actor index per pixel, -1 none.
+    boxes : dict
+        Actor index -> ``[x0, y0, x1, y1]`` drawn pixels, exclusive end.
     """
     Wv, Hv = size
     T_world_cam = np.linalg.inv(T_cam_world)

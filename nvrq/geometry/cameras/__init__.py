@@ -1,5 +1,7 @@
 """Camera models: one class per ``model['type']`` of docs/FORMATS.md §2, one registry.
 
+Layer: nvrq core, geometry.
+
 ``camera_from_model(model)`` builds the camera of a scene's model dict; every camera has
 ``resolution -> (W, H)``, ``project(points_cam (..., 3)) -> (uv (..., 2), projectable (...,))``,
 ``unproject(uv (..., 2)) -> unit rays (..., 3)`` and ``in_image(uv) -> (...,) bool``.

@@ -1,5 +1,7 @@
 """Camera-model base class, registry and parameter validation.
 
+Layer: nvrq core, geometry.
+
 Convention (docs/FORMATS.md §1): camera frame x right, y down, z forward; pixels u right,
 v down, the centre of pixel (column i, row j) at (u=i, v=j). A pixel centre is inside
 the image iff ``0 <= u <= W-1`` and ``0 <= v <= H-1``.
@@ -27,7 +29,23 @@ _REGISTRY: dict[str, type[CameraModel]] = {}
 
 
 def register_camera_model(cls: type[CameraModel]) -> type[CameraModel]:
-    """Class decorator: make ``cls`` available under ``model['type'] == cls.type_name``."""
+    """Class decorator: make ``cls`` available under ``model['type'] == cls.type_name``.
+
+    Parameters
+    ----------
+    cls : type
+        A :class:`CameraModel` subclass whose ``type_name`` is a scene-format model type.
+
+    Returns
+    -------
+    type
+        ``cls`` itself (so it decorates).
+
+    Raises
+    ------
+    ValueError
+        The type name is registered twice or not a scene-format type.
+    """
     if cls.type_name in _REGISTRY:
         raise ValueError(f"camera model type {cls.type_name!r} registered twice")
     if cls.type_name not in CAMERA_MODEL_SCHEMA:
@@ -46,6 +64,25 @@ def camera_from_model(
     values (e.g. a positive focal length). Errors are :class:`InputError` naming ``where``
     and the field, ``"{type}.{param}"`` by default, or ``field_prefix + param`` when given
     (e.g. ``"cameras.front.model."``). Keys a model does not use are ignored.
+
+    Parameters
+    ----------
+    model : mapping
+        The camera model dict of ``scene.json`` (``type``, ``resolution`` and the type's
+        parameters).
+    where : str, optional
+        The file or object named in errors.
+    field_prefix : str, optional
+        Prefix of the field named in errors (default ``"{type}."``).
+
+    Returns
+    -------
+    CameraModel
+
+    Raises
+    ------
+    InputError
+        An unknown type, or a missing or invalid parameter.
     """
     if field_prefix is None:
         kind = model.get("type") if isinstance(model, Mapping) else None
@@ -60,7 +97,17 @@ def camera_from_model(
 class ModelParams:
     """A model dict checked by :func:`~data_schema.scene.validate_camera_model` (every
     parameter present, of the right length, finite, defaults filled), with typed access and
-    the value checks of the camera classes; every error names ``prefix + key``."""
+    the value checks of the camera classes; every error names ``prefix + key``.
+
+    Parameters
+    ----------
+    model : mapping
+        The camera model dict.
+    where : str
+        The file or object named in errors.
+    prefix : str
+        Prefix of the field named in errors.
+    """
 
     def __init__(self, model: Mapping[str, Any], *, where: str, prefix: str):
         self.model, self.where, self.prefix = model, where, prefix
@@ -106,6 +153,11 @@ class CameraModel:
     point's largest ``|component|``, so a model may only use their ratios) and
     ``_unproject(u, v)`` (rays,
     NaN outside the model's valid range) and set ``self.max_valid_angle``.
+
+    Parameters
+    ----------
+    resolution : (int, int)
+        ``(W, H)`` in pixels.
     """
 
     type_name: ClassVar[str]

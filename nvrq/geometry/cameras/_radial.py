@@ -1,5 +1,7 @@
 """Monotonic 1D maps (distortion polynomials) and their vectorised inverses.
 
+Layer: nvrq core, geometry.
+
 Every distorted model here has a radial function ``y = f(x)`` (angle -> pixel distance,
 undistorted -> distorted radius, ...). It is only usable where it is strictly increasing:
 past its first maximum (or a pole) two different rays map to the same radius and points
@@ -23,6 +25,18 @@ Fn = Callable[[np.ndarray], np.ndarray]
 def horner(coeffs: np.ndarray, x: np.ndarray) -> np.ndarray:
     """``sum_i coeffs[i] * x**i`` (ascending coefficients), same shape as ``x``.
 
+    Parameters
+    ----------
+    coeffs : (D,) float64
+        Polynomial coefficients, ascending.
+    x : ndarray
+        Points, any shape.
+
+    Returns
+    -------
+    ndarray of float64
+        Same shape as ``x``.
+
     >>> horner(np.array([1.0, 2.0, 3.0]), np.array([0.0, 2.0])).tolist()
     [1.0, 17.0]
     """
@@ -34,7 +48,18 @@ def horner(coeffs: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 
 def poly_derivative(coeffs: np.ndarray) -> np.ndarray:
-    """Ascending coefficients of the derivative: ``[c1, 2 c2, 3 c3, ...]``."""
+    """Ascending coefficients of the derivative: ``[c1, 2 c2, 3 c3, ...]``.
+
+    Parameters
+    ----------
+    coeffs : (D,) float64
+        Polynomial coefficients, ascending.
+
+    Returns
+    -------
+    (D - 1,) float64
+        The derivative's coefficients, ascending.
+    """
     coeffs = np.asarray(coeffs, dtype=np.float64)
     return coeffs[1:] * np.arange(1, len(coeffs))
 
@@ -53,6 +78,18 @@ class MonotonicMap:
     over ``[y0, min(y_lim, lookup_max)]``, built once; larger ``y`` fall back to a search in
     the dense samples) and polishes with vectorised Newton steps (at most ``iterations``,
     stopping early when every step is below ``1e-13 * (1 + |x|)``).
+
+    Parameters
+    ----------
+    f, df : callable
+        The map and its derivative, vectorised over arrays.
+    grid : (M,) float64
+        Increasing samples of the candidate domain, ``grid[0] == 0``.
+    ok : callable, optional
+        ``ok(x) -> bool array``: False where the map is unusable (e.g. a vanishing
+        denominator).
+    lookup_max : float, optional
+        Upper end of the uniform-in-``y`` inverse table (default: ``y_lim``).
     """
 
     def __init__(

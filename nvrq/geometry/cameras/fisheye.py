@@ -1,5 +1,7 @@
 """OpenCV fisheye camera (``opencv_fisheye``, as ``cv2.fisheye.projectPoints`` with alpha 0).
 
+Layer: nvrq core, geometry.
+
 For a camera-frame point at angle ``theta = atan2(hypot(x, y), z)`` from the optical axis:
 
     theta_d = theta (1 + k1 theta**2 + k2 theta**4 + k3 theta**6 + k4 theta**8)
@@ -25,6 +27,17 @@ __all__ = ["OpenCVFisheyeCamera"]
 @register_camera_model
 class OpenCVFisheyeCamera(CameraModel):
     """OpenCV fisheye; ``unproject`` inverts ``theta_d`` by table lookup and Newton steps.
+
+    Parameters
+    ----------
+    resolution : (int, int)
+        ``(W, H)`` in pixels.
+    focal_length : (float, float)
+        ``(fx, fy)`` in pixels.
+    principal_point : (float, float)
+        ``(cx, cy)`` in pixels, pixel-centre convention.
+    radial_coeffs : (4,) float, optional
+        ``k1 .. k4``.
 
     >>> cam = OpenCVFisheyeCamera(resolution=(200, 200), focal_length=(100, 100),
     ...                           principal_point=(99.5, 99.5), radial_coeffs=(0, 0, 0, 0))

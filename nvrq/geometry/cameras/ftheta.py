@@ -1,5 +1,7 @@
 """NVIDIA f-theta camera (NCore's ``FThetaCameraModel`` parameters and behaviour).
 
+Layer: nvrq core, geometry.
+
 Model, for a camera-frame point at angle ``theta = atan2(hypot(x, y), z)``:
 
     rho = fw(theta)                                  # angle_to_pixeldist_poly, pixels
@@ -36,6 +38,23 @@ _GRID = 20001
 @register_camera_model
 class FThetaCamera(CameraModel):
     """f-theta camera; see the module docstring for the equations.
+
+    Parameters
+    ----------
+    resolution : (int, int)
+        ``(W, H)`` in pixels.
+    principal_point : (float, float)
+        ``(cx, cy)`` in pixels, pixel-centre convention.
+    reference_poly : str
+        Which polynomial is exact, one of ``FTHETA_REFERENCE_POLYS``.
+    pixeldist_to_angle_poly : (6,) float
+        Backward polynomial, pixels to radians, ascending.
+    angle_to_pixeldist_poly : (6,) float
+        Forward polynomial, radians to pixels, ascending.
+    max_angle : float, radians
+        Largest angle from the optical axis.
+    linear_cde : (3,) float, optional
+        ``(c, d, e)`` of the linear term ``A = [[c, d], [e, 1]]``.
 
     >>> cam = FThetaCamera(resolution=(100, 80), principal_point=(49.5, 39.5),
     ...     reference_poly="ANGLE_TO_PIXELDIST", pixeldist_to_angle_poly=[0, 0.01, 0, 0, 0, 0],

@@ -1,5 +1,7 @@
 """Pinhole cameras: ideal (``pinhole``) and OpenCV's 12-coefficient model (``opencv_pinhole``).
 
+Layer: nvrq core, geometry.
+
 OpenCV model (``cv2.projectPoints`` with distCoeffs ``k1,k2,p1,p2,k3,k4,k5,k6,s1,s2,s3,s4``),
 for ``a = x/z, b = y/z, s = a**2 + b**2``:
 
@@ -32,6 +34,15 @@ __all__ = ["OpenCVPinholeCamera", "PinholeCamera"]
 @register_camera_model
 class PinholeCamera(CameraModel):
     """Ideal pinhole: ``u = fx x/z + cx``, ``v = fy y/z + cy``.
+
+    Parameters
+    ----------
+    resolution : (int, int)
+        ``(W, H)`` in pixels.
+    focal_length : (float, float)
+        ``(fx, fy)`` in pixels.
+    principal_point : (float, float)
+        ``(cx, cy)`` in pixels, pixel-centre convention.
 
     >>> cam = PinholeCamera(resolution=(640, 480), focal_length=(500, 500),
     ...                     principal_point=(319.5, 239.5))
@@ -74,6 +85,21 @@ class OpenCVPinholeCamera(PinholeCamera):
     steps with the analytic Jacobian, damped to stay inside the valid disk ``r < r_lim`` (at
     most 50, stopping once a step is below 1e-12 normalised units);
     pixels that do not converge or lie past the fold get NaN.
+
+    Parameters
+    ----------
+    resolution : (int, int)
+        ``(W, H)`` in pixels.
+    focal_length : (float, float)
+        ``(fx, fy)`` in pixels.
+    principal_point : (float, float)
+        ``(cx, cy)`` in pixels, pixel-centre convention.
+    radial_coeffs : (6,) float, optional
+        ``k1 .. k6``.
+    tangential_coeffs : (2,) float, optional
+        ``p1, p2``.
+    thin_prism_coeffs : (4,) float, optional
+        ``s1 .. s4``.
     """
 
     type_name = "opencv_pinhole"
