@@ -30,7 +30,7 @@ import math
 import cv2
 import numpy as np
 
-from nvrq.metrics.no_reference._common import below_side, rgb2gray_matlab
+from nvrq.metrics.no_reference._common import _below_side, _rgb2gray, check_rgb
 
 __all__ = ["piqe", "piqe_blocks", "MIN_SIDE", "BLOCK"]
 
@@ -65,7 +65,12 @@ def piqe_blocks(render: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray,
         Per 16x16 block, row-major: MSCN variance, and the active, noticeable-artifact and
         noise flags.
     """
-    grey = rgb2gray_matlab(render)
+    return _piqe_blocks(check_rgb(render))
+
+
+def _piqe_blocks(render: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`piqe_blocks` without the input check."""
+    grey = _rgb2gray(render)
     if grey.max() == 0:  # all black: MATLAB's 0/0 leaves no active block
         n = (-(-grey.shape[0] // BLOCK)) * (-(-grey.shape[1] // BLOCK))
         return np.zeros(n), np.zeros(n, bool), np.zeros(n, bool), np.zeros(n, bool)
@@ -106,8 +111,13 @@ def piqe(render: np.ndarray) -> float:
     InputError
         Unless ``render`` is a uint8 (H, W, 3) RGB array.
     """
-    if below_side(render, MIN_SIDE):
+    return _piqe(check_rgb(render))
+
+
+def _piqe(render: np.ndarray) -> float:
+    """:func:`piqe` without the input check (the scoring core checks once per run)."""
+    if _below_side(render, MIN_SIDE):
         return math.nan
-    var, active, artifact, noise = piqe_blocks(render)
+    var, active, artifact, noise = _piqe_blocks(render)
     dist = np.sum(artifact * (1.0 - var) + noise * var)
     return float(100.0 * (dist + 1.0) / (active.sum() + 1.0))
