@@ -23,13 +23,13 @@ from nvrq.metrics import no_reference as _nr
 from nvrq.metrics import pixel as _px  # numpy + OpenCV; no torch
 from nvrq.metrics import pyiqa_bridge as _pyiqa  # imports pyiqa only when a column is used
 from nvrq.metrics.info import MetricInfo, MetricKind
+from nvrq.metrics.no_reference.brisque import MIN_SIDE as _BRISQUE_MIN_SIDE
 from nvrq.metrics.no_reference.brisque import _brisque
 from nvrq.metrics.no_reference.entropy import _entropy
-from nvrq.metrics.no_reference.niqe import _niqe
-from nvrq.metrics.no_reference.piqe import _piqe
-from nvrq.metrics.no_reference.brisque import MIN_SIDE as _BRISQUE_MIN_SIDE
 from nvrq.metrics.no_reference.niqe import PATCH as _NIQE_PATCH
+from nvrq.metrics.no_reference.niqe import _niqe
 from nvrq.metrics.no_reference.piqe import MIN_SIDE as _PIQE_MIN_SIDE
+from nvrq.metrics.no_reference.piqe import _piqe
 
 __all__ = ["REGISTRY", "register", "DEFAULT_METRICS"]
 

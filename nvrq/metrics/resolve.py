@@ -22,9 +22,8 @@ True
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import difflib
+from collections.abc import Sequence
 
 from data_schema.errors import InputError
 from nvrq.encoders.registry import get_spec

@@ -1,0 +1,334 @@
+"""The scoring plan: what a scoring run computes, resolved and checked once, at the boundary.
+
+Scoring layer, above :mod:`nvrq.metrics` and below the commands, the Python API and the engines.
+:func:`resolve_plan` is the one place that parses and checks the metric list, the encoder, tau
+and the batch options, and makes a :class:`ScorePlan`; :func:`plan_from_args` makes it from
+``nvrq score``'s options. The CLI, the Python API (:func:`nvrq.score_crops`,
+:func:`nvrq.score_frame`, :class:`nvrq.Evaluator`), the local engine and Ray all build this one
+plan and pass it down: nothing below it validates again, and the core
+(:func:`nvrq.scoring.core.compute_columns`) dispatches on each column's
+:class:`~nvrq.metrics.info.MetricKind`, never on its name. A plan is also the scorer the engines
+run (``load``, ``score``, ``options``), and it serialises to JSON (:meth:`ScorePlan.to_json`)
+for the shard manifests.
+
+>>> plan = resolve_plan("psnr,entropy")
+>>> plan.columns, [c.kind.value for c in plan.specs], plan.tau
+(('psnr', 'entropy'), ['pair', 'render'], None)
+>>> ScorePlan.from_json(plan.to_json()) == plan
+True
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import asdict, dataclass, field
+
+from data_schema.errors import check_int
+from data_schema.text import comma_list
+from nvrq.encoders.registry import EncoderConfig, encoder_config
+from nvrq.metrics.formulas import check_tau
+from nvrq.metrics.info import MetricKind
+from nvrq.metrics.resolve import column_info, encoder_for_metrics, metric_kind, resolve_metrics
+
+__all__ = ["ColumnSpec", "ScorePlan", "resolve_plan", "plan_from_args", "COMPUTED_KINDS"]
+
+#: the kinds the crop-pair core computes; ``frame`` and ``set`` metrics have their own scorers
+COMPUTED_KINDS = (MetricKind.PAIR, MetricKind.RENDER, MetricKind.ENCODER)
+
+
+@dataclass(frozen=True)
+class ColumnSpec:
+    """One metric column as the core runs it, looked up once in the registry.
+
+    Attributes
+    ----------
+    name : str
+        The column (``psnr``, ``nvrq:ENCODER``).
+    kind : MetricKind
+        What it consumes: ``pair``, ``render`` or ``encoder``.
+    kernel : callable or None
+        ``pair``: ``kernel(gt, render) -> float``; ``render``: ``kernel(render) -> float`` (the
+        entry's unchecked ``compute``, else its ``fn``); ``None`` for ``encoder``.
+    from_similarity : callable or None
+        ``encoder``: ``(S (N,), tau) -> (N,)`` float64, ``S`` the similarities (paper Eq. 4).
+    min_side : int
+        Shorter crop side (px) below which the value is NaN.
+    undefined : str
+        When else it is NaN.
+    """
+
+    name: str
+    kind: MetricKind
+    kernel: Callable | None
+    from_similarity: Callable | None
+    min_side: int
+    undefined: str
+
+
+def _spec(column: str) -> ColumnSpec:
+    """The :class:`ColumnSpec` of a resolved column (an entry lookup, no check)."""
+    info = column_info(column)
+    return ColumnSpec(column, metric_kind(column), info.compute or info.fn, info.from_similarity,
+                      info.min_side, info.undefined)
+
+
+@dataclass(frozen=True)
+class ScorePlan:
+    """What a scoring run computes, resolved once (:func:`resolve_plan`).
+
+    Parameters
+    ----------
+    columns : tuple of str
+        The metric columns, as :func:`nvrq.metrics.resolve_metrics` names them.
+    encoder : EncoderConfig, optional
+        The encoder of the ``encoder`` columns (``None`` without any).
+    tau : float, optional
+        NVRQ-CA's knee when a column needs it, else ``None``.
+    batch_size : int
+        Crops per encoder pass.
+    max_pairs : int
+        Pairs per crop batch (whole GT images kept together).
+    extra_columns : tuple of str
+        Pairs-table columns an engine hands to :meth:`score` (none for metrics).
+    tau_source : str, optional
+        Where tau came from (``argument``, a config file, ``registry``); not serialised.
+
+    Attributes
+    ----------
+    specs : tuple of ColumnSpec
+        One per column, in order.
+    """
+
+    columns: tuple
+    encoder: EncoderConfig | None = None
+    tau: float | None = None
+    batch_size: int = 32
+    max_pairs: int = 256
+    extra_columns: tuple = ()
+    tau_source: str | None = field(default=None, compare=False)
+    specs: tuple = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "columns", tuple(self.columns))
+        object.__setattr__(self, "specs", tuple(_spec(c) for c in self.columns))
+
+    @property
+    def encoder_specs(self) -> tuple:
+        """The specs of the ``encoder`` columns."""
+        return tuple(s for s in self.specs if s.kind is MetricKind.ENCODER)
+
+    @property
+    def pixel_specs(self) -> tuple:
+        """The specs of the encoder-free columns (``pair`` and ``render``)."""
+        return tuple(s for s in self.specs if s.kind is not MetricKind.ENCODER)
+
+    @property
+    def model_columns(self) -> list[str]:
+        """The columns an encoder computes (the engines run them in their model actors)."""
+        return [s.name for s in self.encoder_specs]
+
+    @property
+    def pixel_columns(self) -> list[str]:
+        """The encoder-free columns (the engines run them in their CPU tasks)."""
+        return [s.name for s in self.pixel_specs]
+
+    @property
+    def reference_columns(self) -> list[str]:
+        """The columns that need the GT crop (``pair`` and ``encoder``)."""
+        return [s.name for s in self.specs if s.kind is not MetricKind.RENDER]
+
+    @property
+    def device(self) -> str:
+        """Where the encoder runs (``cpu`` without one)."""
+        return self.encoder.device if self.encoder is not None else "cpu"
+
+    def load(self):
+        """The loaded encoder of :attr:`encoder` (an engine's model actor calls it once).
+
+        Returns
+        -------
+        Encoder
+        """
+        from nvrq.encoders import load_encoder
+        from nvrq.encoders.memory import tune_allocator
+
+        tune_allocator()  # the actor's process is the engine's own (see prepare_device)
+        return load_encoder(self.encoder)
+
+    def score(self, model, batch, extra: dict, timings: dict) -> dict:
+        """The encoder columns of one crop batch (an engine's model actor).
+
+        Parameters
+        ----------
+        model : Encoder
+            From :meth:`load`.
+        batch : CropBatch
+            The crops.
+        extra : dict
+            Unused (metrics need no extra pairs columns).
+        timings : dict
+            Gains ``prepare`` and ``forward`` seconds.
+
+        Returns
+        -------
+        dict
+            ``{column: (P,) float64}``.
+        """
+        from nvrq.scoring.core import compute_columns
+
+        return compute_columns(batch, self.encoder_specs, encoder=model, tau=self.tau,
+                               batch_size=self.batch_size, timings=timings)
+
+    def options(self) -> dict:
+        """What a resumed sharded run must share with the first (``_plan.json``'s keys).
+
+        Returns
+        -------
+        dict
+            ``columns, encoder, weights, tau, runtime`` (and ``precision`` when not fp32).
+        """
+        enc = bool(self.model_columns) and self.encoder is not None
+        opts = {"columns": list(self.columns), "encoder": self.encoder.name if enc else None,
+                "weights": self.encoder.weights if enc else None, "tau": self.tau if enc else None,
+                "runtime": self.encoder.runtime if enc else None}
+        if enc and self.encoder.precision != "fp32":  # fp32 plans (all of Ray's) have no such key
+            opts["precision"] = self.encoder.precision
+        return opts
+
+    def to_dict(self) -> dict:
+        """The plan as JSON-ready values (:meth:`from_dict` reads them back).
+
+        Returns
+        -------
+        dict
+        """
+        return {"columns": list(self.columns), "encoder": None if self.encoder is None else asdict(self.encoder),
+                "tau": self.tau, "batch_size": self.batch_size, "max_pairs": self.max_pairs,
+                "extra_columns": list(self.extra_columns)}
+
+    def to_json(self) -> str:
+        """The plan as a JSON text.
+
+        Returns
+        -------
+        str
+        """
+        return json.dumps(self.to_dict(), sort_keys=True)
+
+    @classmethod
+    def from_dict(cls, doc: Mapping) -> ScorePlan:
+        """A plan from :meth:`to_dict`'s values.
+
+        Parameters
+        ----------
+        doc : mapping
+            As :meth:`to_dict` writes it.
+
+        Returns
+        -------
+        ScorePlan
+        """
+        enc = doc.get("encoder")
+        return cls(tuple(doc["columns"]), None if enc is None else EncoderConfig(**enc), doc.get("tau"),
+                   int(doc.get("batch_size", 32)), int(doc.get("max_pairs", 256)),
+                   tuple(doc.get("extra_columns", ())))
+
+    @classmethod
+    def from_json(cls, text: str) -> ScorePlan:
+        """A plan from :meth:`to_json`'s text.
+
+        Parameters
+        ----------
+        text : str
+
+        Returns
+        -------
+        ScorePlan
+        """
+        return cls.from_dict(json.loads(text))
+
+
+def _resolve_tau(columns: Sequence[str], name: str, tau, config) -> tuple[float | None, str | None]:
+    """``(tau, source)`` when a column needs tau (:func:`nvrq.calibrate.require_tau`: ``tau`` >
+    user config > registry; ``config=False``: only the ``tau`` given, checked), else ``(None, None)``."""
+    if not any(column_info(c).needs_tau for c in columns):
+        return None, None
+    if config is False:
+        check_tau(tau)
+        return float(tau), "argument"
+    from nvrq.calibrate import require_tau
+
+    return require_tau(name, tau=tau, config=config)
+
+
+def resolve_plan(metrics, *, encoder: EncoderConfig | str | None = None, encoder_options: Mapping | None = None,
+                 tau: float | None = None, tau_config=None, batch_size: int = 32,
+                 max_pairs: int = 256) -> ScorePlan:
+    """Parse and check everything a scoring run needs, once, and make its :class:`ScorePlan`.
+
+    Parameters
+    ----------
+    metrics : str or sequence of str
+        Metric names or columns (``psnr``, ``nvrq``, ``nvrq_ca:dinov2-small``, ``pyiqa:NAME``),
+        or one comma-separated text.
+    encoder : EncoderConfig or str, optional
+        The encoder of ``nvrq``/``nvrq_ca`` (default: the one a column names, else the
+        registry's default encoder).
+    encoder_options : mapping, optional
+        :class:`~nvrq.encoders.EncoderConfig` fields (``weights``, ``device``, ``runtime``,
+        ...) for an encoder given by name.
+    tau : float, optional
+        NVRQ-CA's knee; default the user config's, then the registry's.
+    tau_config : path or False, optional
+        The tau config file (default ``$NVRQ_CONFIG`` or ``~/.config/nvrq/tau.json``);
+        ``False``: no default, ``tau`` must be given when a column needs it.
+    batch_size : int
+        Crops per encoder pass (positive).
+    max_pairs : int
+        Pairs per crop batch (positive).
+
+    Returns
+    -------
+    ScorePlan
+        ``encoder`` is ``None`` and ``tau`` is ``None`` when no column needs them.
+
+    Raises
+    ------
+    InputError
+        Naming ``metrics`` (an unknown name, with the closest spelling; two encoders),
+        ``encoder``, ``tau``, ``batch_size`` or ``max_pairs``.
+    """
+    raw = comma_list(metrics) if isinstance(metrics, str) else [str(m) for m in metrics]
+    given = encoder.name if isinstance(encoder, EncoderConfig) else encoder
+    name = encoder_for_metrics(raw, given)
+    columns = resolve_metrics(raw, name)
+    check_int("batch_size", batch_size)
+    check_int("max_pairs", max_pairs)
+    tau, source = _resolve_tau(columns, name, tau, tau_config)
+    uses_encoder = any(metric_kind(c) is MetricKind.ENCODER for c in columns)
+    config = None
+    if uses_encoder:
+        config = encoder if isinstance(encoder, EncoderConfig) else encoder_config(name, **dict(encoder_options or {}))
+    return ScorePlan(tuple(columns), config, tau, batch_size, max_pairs, tau_source=source)
+
+
+def plan_from_args(args) -> ScorePlan:
+    """The :class:`ScorePlan` of ``nvrq score``'s options (``--metrics``, ``--encoder``,
+    ``--weights``, ``--device``, ``--runtime``, ``--precision``, ``--threads``, ``--cache-dir``,
+    ``--min-spearman``, ``--tau``, ``--config``, ``--batch-size``).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options.
+
+    Returns
+    -------
+    ScorePlan
+    """
+    options = {"weights": args.weights, "device": args.device, "runtime": args.runtime,
+               "precision": args.precision, "threads": args.threads, "cache_dir": args.cache_dir,
+               "min_spearman": args.min_spearman}
+    return resolve_plan(args.metrics, encoder=args.encoder, encoder_options=options, tau=args.tau,
+                        tau_config=args.config, batch_size=args.batch_size)
