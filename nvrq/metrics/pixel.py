@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import math
 
-import cv2
 import numpy as np
 
 from data_schema.errors import InputError
@@ -154,6 +153,8 @@ def _psnr(gt: np.ndarray, render: np.ndarray) -> float:
 
 def _blur(x: np.ndarray) -> np.ndarray:
     """11x11 Gaussian (sigma 1.5) of (H, W, C) float64, mirror border ('reflect' as SciPy)."""
+    import cv2  # on first use (the registry is read by `nvrq score --help`)
+
     return cv2.GaussianBlur(x, (_WIN, _WIN), _SIGMA, sigmaY=_SIGMA, borderType=cv2.BORDER_REFLECT)
 
 
@@ -281,6 +282,8 @@ def _gradient_magnitude(y: np.ndarray) -> np.ndarray:
     ave = 0.25 * (p[:-1, :-1] + p[1:, :-1] + p[:-1, 1:] + p[1:, 1:])
     d = ave[0::2, 0::2]
     dx = np.array([[1.0, 0.0, -1.0]] * 3) / 3.0
+    import cv2
+
     gx = cv2.filter2D(d, cv2.CV_64F, dx, borderType=cv2.BORDER_CONSTANT)
     gy = cv2.filter2D(d, cv2.CV_64F, dx.T.copy(), borderType=cv2.BORDER_CONSTANT)
     return np.sqrt(gx * gx + gy * gy)

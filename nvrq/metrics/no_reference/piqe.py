@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import math
 
-import cv2
 import numpy as np
 
 from nvrq.metrics.no_reference._common import _below_side, _rgb2gray, check_rgb
@@ -46,6 +45,8 @@ def _normalised(grey: np.ndarray) -> np.ndarray:
     x = np.pad(grey, ((0, -h % BLOCK), (0, -w % BLOCK)), mode="symmetric").astype(np.float64)
     peak = x.max()
     x = np.floor(255.0 * x / peak + 0.5)  # MATLAB round (non-negative values)
+    import cv2  # on first use (the registry is read by `nvrq score --help`)
+
     mu = cv2.GaussianBlur(x, (7, 7), 7.0 / 6.0, sigmaY=7.0 / 6.0, borderType=cv2.BORDER_REPLICATE)
     second = cv2.GaussianBlur(x * x, (7, 7), 7.0 / 6.0, sigmaY=7.0 / 6.0, borderType=cv2.BORDER_REPLICATE)
     return (x - mu) / (np.sqrt(np.abs(second - mu * mu)) + 1.0)
