@@ -219,8 +219,8 @@ def run_cli(main, argv=None) -> int:
         return 2
     except SystemExit as exc:  # argparse (usage errors, --help) exits; report its status
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
-    except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
+    except KeyboardInterrupt as exc:  # a command may say what was kept and how to resume
+        print("interrupted" + (f": {exc.args[0]}" if exc.args else ""), file=sys.stderr)
         return 130
     return int(rc or 0)
 

@@ -21,6 +21,15 @@ _KIND_HELP = {"pair": "full reference (GT and render crops)", "render": "no refe
               "encoder": "encoder embeddings (on --encoder)"}
 
 
+#: what Ctrl-C says of a table output (written whole at the end) and of a sharded one
+_RESUME_TABLE = ("nothing was written to {out} (a metrics table is written whole at the end, so a rerun "
+                 "starts from zero); dataset outputs resume: write a pairs dataset with `nvrq pairs SCENE "
+                 "--out PAIRS_DIR` (an --out without a suffix), score it with `nvrq score PAIRS_DIR --out "
+                 "METRICS_DIR`, and a rerun of an interrupted run computes only the missing shards")
+_RESUME_DATASET = ("the finished shards are kept in {out}; run the same command again to compute only the "
+                   "missing ones")
+
+
 def metrics_help() -> str:
     """``--metrics``' help: the default list and every metric of the registry, by kind.
 
@@ -118,7 +127,10 @@ def _local_table(args, plan: ScorePlan) -> int:
     pairs = read_pairs(args.pairs, scene_root=args.scene)
     encoder = _load_encoder(args, plan)
     cv2.setNumThreads(1)  # crops are small; leave the cores to the encoder and the decode thread
-    res = score_pairs(pairs, plan, encoder=encoder, progress=show_progress(args), where=str(args.pairs))
+    try:
+        res = score_pairs(pairs, plan, encoder=encoder, progress=show_progress(args), where=str(args.pairs))
+    except KeyboardInterrupt:
+        raise KeyboardInterrupt(_RESUME_TABLE.format(out=args.out)) from None
     table, timing = runtime_columns(res.table, res.timing, encoder, tag=args.column_tag,
                                     model_columns=plan.model_columns)
     write_table(table, args.out)
@@ -162,9 +174,12 @@ def _local_dataset(args, plan: ScorePlan) -> int:
         return _load_encoder(args, plan)
 
     cv2.setNumThreads(1)  # as for a table: the cores go to the encoder and the decode thread
-    res = score_dataset(args.pairs, args.out, plan, timing_path=timing_path(args.out),
-                        load_encoder=load if plan.encoder_specs else None, shard_pairs=args.shard_pairs,
-                        rename=rename, progress=show_progress(args))
+    try:
+        res = score_dataset(args.pairs, args.out, plan, timing_path=timing_path(args.out),
+                            load_encoder=load if plan.encoder_specs else None, shard_pairs=args.shard_pairs,
+                            rename=rename, progress=show_progress(args))
+    except KeyboardInterrupt:
+        raise KeyboardInterrupt(_RESUME_DATASET.format(out=args.out)) from None
     report_sharded(res, args.out, engine="the local engine")
     return 0
 

@@ -131,7 +131,10 @@ def _load_batch(rows: np.ndarray, plan: _Plan, where: str, pool: ThreadPoolExecu
     """Decode the images of ``rows`` once each (on ``pool`` when given) and cut their crops (copies)."""
     t0 = time.perf_counter()
     paths = pd.unique(np.concatenate([plan.gt_paths[rows], plan.r_paths[rows]]))
-    images = dict(zip(paths, pool.map(read_rgb, paths) if pool is not None else map(read_rgb, paths), strict=True))
+    try:
+        images = dict(zip(paths, pool.map(read_rgb, paths) if pool is not None else map(read_rgb, paths), strict=True))
+    except InputError:  # an image that cannot be read: every one is then looked for
+        raise _Unreadable from None
     seconds = time.perf_counter() - t0
     gt_keys: dict[tuple, int] = {}
     gt_crops, gt_index, r_crops = [], np.empty(len(rows), np.int64), []
@@ -145,6 +148,10 @@ def _load_batch(rows: np.ndarray, plan: _Plan, where: str, pool: ThreadPoolExecu
         rc = cut_box(images[plan.r_paths[i]], plan.r_boxes[i], where=f"{where}: pair {i + 2} render box")
         r_crops.append(rc.copy())
     return CropBatch(np.asarray(rows, np.int64), gt_crops, gt_index, r_crops, len(images), seconds)
+
+
+class _Unreadable(Exception):
+    """A batch met an unreadable image (:func:`_all_unreadable` then names every one)."""
 
 
 def _unreadable(path: str) -> str | None:
@@ -261,9 +268,7 @@ def iter_crop_batches(pairs: pd.DataFrame | PairsTable, *, scene_root: str | os.
             for k, rows in enumerate(chunks):
                 try:
                     batch = _load_batch(rows, plan, where, pool)
-                except InputError as exc:
-                    if exc.expected != "a readable image file":
-                        raise
+                except _Unreadable:
                     raise _all_unreadable(plan, chunks[k:], where) from None
                 yield batch
         finally:

@@ -192,7 +192,7 @@ class ScorePlan:
         opts = {"columns": list(self.columns), "encoder": self.encoder.name if enc else None,
                 "weights": self.encoder.weights if enc else None, "tau": self.tau if enc else None,
                 "runtime": self.encoder.runtime if enc else None}
-        if enc and self.encoder.precision != "fp32":  # fp32 plans (all of Ray's) have no such key
+        if enc and self.encoder.precision != EncoderConfig.precision:  # fp32 plans (all of Ray's) have no such key
             opts["precision"] = self.encoder.precision
         return opts
 
