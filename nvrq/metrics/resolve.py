@@ -23,7 +23,8 @@ True
 from __future__ import annotations
 
 import difflib
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 from data_schema.errors import InputError
 from nvrq.encoders.registry import get_spec
@@ -32,7 +33,7 @@ from nvrq.metrics.registry import REGISTRY
 
 __all__ = ["split_column", "column_info", "direction", "resolve_metrics", "encoder_for_metrics",
            "encoder_columns", "reference_columns", "needs_tau", "metric_kind", "closest_metric",
-           "metric_names"]
+           "metric_names", "ColumnSpec", "column_specs"]
 
 _RAISE = object()
 #: ``column_info``'s kinds, and how its error names them
@@ -359,3 +360,59 @@ def needs_tau(metrics: Sequence[str]) -> bool:
     (False, True)
     """
     return any(column_info(m).needs_tau for m in metrics)
+
+
+@dataclass(frozen=True)
+class ColumnSpec:
+    """One metric column as the scoring core runs it, looked up once (:func:`column_specs`).
+
+    Attributes
+    ----------
+    name : str
+        The column (``psnr``, ``nvrq:ENCODER``).
+    kind : MetricKind
+        What it consumes (:func:`metric_kind`).
+    kernel : callable or None
+        ``pair``: ``kernel(gt, render) -> float``; ``render``: ``kernel(render) -> float`` (the
+        entry's unchecked ``compute``, else its ``fn``); ``None`` for ``encoder``.
+    from_similarity : callable or None
+        ``encoder``: ``(S (N,), tau) -> (N,)`` float64, ``S`` the similarities (paper Eq. 4).
+    needs_tau : bool
+        Whether it uses NVRQ-CA's knee.
+    min_side : int
+        Shorter crop side (px) below which the value is NaN.
+    undefined : str
+        When else it is NaN.
+    """
+
+    name: str
+    kind: MetricKind
+    kernel: Callable | None
+    from_similarity: Callable | None
+    needs_tau: bool
+    min_side: int
+    undefined: str
+
+
+def column_specs(columns: Sequence[str]) -> tuple[ColumnSpec, ...]:
+    """The :class:`ColumnSpec` of each column, every registry fact the core needs, in one call.
+
+    Parameters
+    ----------
+    columns : sequence of str
+        Metric columns :func:`column_info` knows.
+
+    Returns
+    -------
+    tuple of ColumnSpec
+        In order.
+
+    >>> [(s.name, s.kind.value, s.needs_tau) for s in column_specs(["psnr", "nvrq_ca:e"])]
+    [('psnr', 'pair', False), ('nvrq_ca:e', 'encoder', True)]
+    """
+    out = []
+    for c in columns:
+        info = column_info(c)
+        out.append(ColumnSpec(c, metric_kind(c), info.compute or info.fn, info.from_similarity, info.needs_tau,
+                              info.min_side, info.undefined))
+    return tuple(out)

@@ -21,7 +21,7 @@ True
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 
 from data_schema.errors import check_int
@@ -29,48 +29,12 @@ from data_schema.text import comma_list
 from nvrq.encoders.registry import EncoderConfig, encoder_config
 from nvrq.metrics.formulas import check_tau
 from nvrq.metrics.info import MetricKind
-from nvrq.metrics.resolve import column_info, encoder_for_metrics, metric_kind, resolve_metrics
+from nvrq.metrics.resolve import ColumnSpec, column_specs, encoder_for_metrics, resolve_metrics
 
 __all__ = ["ColumnSpec", "ScorePlan", "resolve_plan", "plan_from_args", "COMPUTED_KINDS"]
 
 #: the kinds the crop-pair core computes; ``frame`` and ``set`` metrics have their own scorers
 COMPUTED_KINDS = (MetricKind.PAIR, MetricKind.RENDER, MetricKind.ENCODER)
-
-
-@dataclass(frozen=True)
-class ColumnSpec:
-    """One metric column as the core runs it, looked up once in the registry.
-
-    Attributes
-    ----------
-    name : str
-        The column (``psnr``, ``nvrq:ENCODER``).
-    kind : MetricKind
-        What it consumes: ``pair``, ``render`` or ``encoder``.
-    kernel : callable or None
-        ``pair``: ``kernel(gt, render) -> float``; ``render``: ``kernel(render) -> float`` (the
-        entry's unchecked ``compute``, else its ``fn``); ``None`` for ``encoder``.
-    from_similarity : callable or None
-        ``encoder``: ``(S (N,), tau) -> (N,)`` float64, ``S`` the similarities (paper Eq. 4).
-    min_side : int
-        Shorter crop side (px) below which the value is NaN.
-    undefined : str
-        When else it is NaN.
-    """
-
-    name: str
-    kind: MetricKind
-    kernel: Callable | None
-    from_similarity: Callable | None
-    min_side: int
-    undefined: str
-
-
-def _spec(column: str) -> ColumnSpec:
-    """The :class:`ColumnSpec` of a resolved column (an entry lookup, no check)."""
-    info = column_info(column)
-    return ColumnSpec(column, metric_kind(column), info.compute or info.fn, info.from_similarity,
-                      info.min_side, info.undefined)
 
 
 @dataclass(frozen=True)
@@ -93,11 +57,17 @@ class ScorePlan:
         Pairs-table columns an engine hands to :meth:`score` (none for metrics).
     tau_source : str, optional
         Where tau came from (``argument``, a config file, ``registry``); not serialised.
+    specs : tuple of ColumnSpec, optional
+        One per column, in order (:func:`nvrq.metrics.resolve.column_specs`; looked up when
+        not given).
 
     Attributes
     ----------
-    specs : tuple of ColumnSpec
-        One per column, in order.
+    encoder_specs, pixel_specs : tuple of ColumnSpec
+        The ``encoder`` columns' specs, and the others'.
+    model_columns, pixel_columns, reference_columns : tuple of str
+        The columns an encoder computes (the engines' model actors), the encoder-free ones
+        (their CPU tasks), and those that need the GT crop (``pair`` and ``encoder``).
     """
 
     columns: tuple
@@ -107,41 +77,25 @@ class ScorePlan:
     max_pairs: int = 256
     extra_columns: tuple = ()
     tau_source: str | None = field(default=None, compare=False)
-    specs: tuple = field(init=False, repr=False, compare=False)
+    specs: tuple | None = field(default=None, repr=False, compare=False)
+    encoder_specs: tuple = field(init=False, repr=False, compare=False)
+    pixel_specs: tuple = field(init=False, repr=False, compare=False)
+    model_columns: tuple = field(init=False, repr=False, compare=False)
+    pixel_columns: tuple = field(init=False, repr=False, compare=False)
+    reference_columns: tuple = field(init=False, repr=False, compare=False)
+    device: str = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
-        object.__setattr__(self, "columns", tuple(self.columns))
-        object.__setattr__(self, "specs", tuple(_spec(c) for c in self.columns))
-
-    @property
-    def encoder_specs(self) -> tuple:
-        """The specs of the ``encoder`` columns."""
-        return tuple(s for s in self.specs if s.kind is MetricKind.ENCODER)
-
-    @property
-    def pixel_specs(self) -> tuple:
-        """The specs of the encoder-free columns (``pair`` and ``render``)."""
-        return tuple(s for s in self.specs if s.kind is not MetricKind.ENCODER)
-
-    @property
-    def model_columns(self) -> list[str]:
-        """The columns an encoder computes (the engines run them in their model actors)."""
-        return [s.name for s in self.encoder_specs]
-
-    @property
-    def pixel_columns(self) -> list[str]:
-        """The encoder-free columns (the engines run them in their CPU tasks)."""
-        return [s.name for s in self.pixel_specs]
-
-    @property
-    def reference_columns(self) -> list[str]:
-        """The columns that need the GT crop (``pair`` and ``encoder``)."""
-        return [s.name for s in self.specs if s.kind is not MetricKind.RENDER]
-
-    @property
-    def device(self) -> str:
-        """Where the encoder runs (``cpu`` without one)."""
-        return self.encoder.device if self.encoder is not None else "cpu"
+        columns = tuple(self.columns)
+        specs = tuple(self.specs) if self.specs is not None else column_specs(columns)
+        enc = tuple(s for s in specs if s.kind is MetricKind.ENCODER)
+        pixel = tuple(s for s in specs if s.kind is not MetricKind.ENCODER)
+        for key, value in (("columns", columns), ("specs", specs), ("encoder_specs", enc), ("pixel_specs", pixel),
+                           ("model_columns", tuple(s.name for s in enc)),
+                           ("pixel_columns", tuple(s.name for s in pixel)),
+                           ("reference_columns", tuple(s.name for s in specs if s.kind is not MetricKind.RENDER)),
+                           ("device", self.encoder.device if self.encoder is not None else "cpu")):
+            object.__setattr__(self, key, value)
 
     def load(self):
         """The loaded encoder of :attr:`encoder` (an engine's model actor calls it once).
@@ -249,10 +203,10 @@ class ScorePlan:
         return cls.from_dict(json.loads(text))
 
 
-def _resolve_tau(columns: Sequence[str], name: str, tau, config) -> tuple[float | None, str | None]:
+def _resolve_tau(specs: Sequence[ColumnSpec], name: str, tau, config) -> tuple[float | None, str | None]:
     """``(tau, source)`` when a column needs tau (:func:`nvrq.calibrate.require_tau`: ``tau`` >
     user config > registry; ``config=False``: only the ``tau`` given, checked), else ``(None, None)``."""
-    if not any(column_info(c).needs_tau for c in columns):
+    if not any(s.needs_tau for s in specs):
         return None, None
     if config is False:
         check_tau(tau)
@@ -305,12 +259,12 @@ def resolve_plan(metrics, *, encoder: EncoderConfig | str | None = None, encoder
     columns = resolve_metrics(raw, name)
     check_int("batch_size", batch_size)
     check_int("max_pairs", max_pairs)
-    tau, source = _resolve_tau(columns, name, tau, tau_config)
-    uses_encoder = any(metric_kind(c) is MetricKind.ENCODER for c in columns)
+    specs = column_specs(columns)
+    tau, source = _resolve_tau(specs, name, tau, tau_config)
     config = None
-    if uses_encoder:
+    if any(s.kind is MetricKind.ENCODER for s in specs):
         config = encoder if isinstance(encoder, EncoderConfig) else encoder_config(name, **dict(encoder_options or {}))
-    return ScorePlan(tuple(columns), config, tau, batch_size, max_pairs, tau_source=source)
+    return ScorePlan(tuple(columns), config, tau, batch_size, max_pairs, tau_source=source, specs=specs)
 
 
 def plan_from_args(args) -> ScorePlan:
