@@ -48,7 +48,13 @@ from data_schema.errors import InputError, check_int
 from nvrq.crops import encoder_input, resize_to
 from nvrq.metrics.formulas import check_tau, nvrq_similarity
 from nvrq.metrics.info import MetricKind
-from nvrq.metrics.resolve import column_info, encoder_columns, needs_tau, reference_columns
+from nvrq.metrics.resolve import (
+    column_info,
+    column_specs,
+    encoder_columns,
+    needs_tau,
+    reference_columns,
+)
 
 __all__ = ["CropBatch", "score_crop_batch", "compute_columns", "embed_crops", "encoder_inputs",
            "run_batched", "pair_outputs", "check_metric_args", "column_seconds", "empty_column_warning"]
@@ -358,17 +364,14 @@ def score_crop_batch(batch: CropBatch, *, metrics: Sequence[str], encoder=None, 
         Naming the parameter (:func:`check_metric_args`), or ``gt_crops`` when reference
         metrics get none.
     """
-    from nvrq.scoring.plan import ScorePlan
-
     metrics = list(metrics)
     check_metric_args(metrics, encoder=encoder, tau=tau, batch_size=batch_size)
     if len(batch.render_crops) and not len(batch.gt_crops if batch.gt_crops is not None else ()):
         needs_gt = reference_columns(metrics)
         if needs_gt:
             raise InputError(param="gt_crops", expected=f"GT crops for the reference metrics {', '.join(needs_gt)}", got="none")
-    plan = ScorePlan(tuple(metrics), tau=tau if needs_tau(metrics) else None, batch_size=batch_size)
-    return compute_columns(batch, plan.specs, encoder=encoder, tau=plan.tau, batch_size=batch_size,
-                           timings=timings)
+    return compute_columns(batch, column_specs(metrics), encoder=encoder, tau=tau if needs_tau(metrics) else None,
+                           batch_size=batch_size, timings=timings)
 
 
 def empty_column_warning(metric: str, n_pairs: int, why: str = "") -> str:

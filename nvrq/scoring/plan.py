@@ -203,7 +203,7 @@ class ScorePlan:
         return cls.from_dict(json.loads(text))
 
 
-def _resolve_tau(specs: Sequence[ColumnSpec], name: str, tau, config) -> tuple[float | None, str | None]:
+def _plan_tau(specs: Sequence[ColumnSpec], name: str, tau, config) -> tuple[float | None, str | None]:
     """``(tau, source)`` when a column needs tau (:func:`nvrq.calibrate.require_tau`: ``tau`` >
     user config > registry; ``config=False``: only the ``tau`` given, checked), else ``(None, None)``."""
     if not any(s.needs_tau for s in specs):
@@ -260,7 +260,7 @@ def resolve_plan(metrics, *, encoder: EncoderConfig | str | None = None, encoder
     check_int("batch_size", batch_size)
     check_int("max_pairs", max_pairs)
     specs = column_specs(columns)
-    tau, source = _resolve_tau(specs, name, tau, tau_config)
+    tau, source = _plan_tau(specs, name, tau, tau_config)
     config = None
     if any(s.kind is MetricKind.ENCODER for s in specs):
         config = encoder if isinstance(encoder, EncoderConfig) else encoder_config(name, **dict(encoder_options or {}))
