@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from data_schema.errors import InputError
@@ -119,13 +120,14 @@ def _local_table(args, plan: ScorePlan) -> int:
     """A pairs table scored in this process into one metrics table and its timing table."""
     import cv2
 
-    from data_schema.tables import read_pairs, timing_path, write_table
-    from nvrq.scoring.driver import score_pairs
+    from data_schema.tables import TableKind, pairs_table, read_table, timing_path, write_table
+    from nvrq.scoring.driver import REQUIRED_COLUMNS, score_pairs
 
     if not str(args.out).lower().endswith((".csv", ".parquet")):
         raise InputError(args.out, None, "an output file ending in .csv or .parquet", args.out)
-    pairs = read_pairs(args.pairs, scene_root=args.scene)
-    encoder = _load_encoder(args, plan)
+    frame = read_table(args.pairs, required=REQUIRED_COLUMNS, kind=TableKind.PAIRS)
+    encoder = _load_encoder(args, plan)  # a missing model is said before the images are looked for
+    pairs = pairs_table(frame, scene_root=args.scene, base=Path(args.pairs).resolve().parent, where=str(args.pairs))
     cv2.setNumThreads(1)  # crops are small; leave the cores to the encoder and the decode thread
     try:
         res = score_pairs(pairs, plan, encoder=encoder, progress=show_progress(args), where=str(args.pairs))
