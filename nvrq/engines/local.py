@@ -74,7 +74,7 @@ def score_dataset(pairs, out, plan: ScorePlan, *, timing_path, load_encoder: Cal
     def compute(todo: list[sh.Shard]) -> Iterator[sh.ShardResult]:
         encoder = load_encoder() if load_encoder is not None else None
         for shard in todo:  # planned clip by clip
-            res = score_pairs(sh.shard_pairs(shard), plan, encoder=encoder, base=shard.base, progress=False,
+            res = score_pairs(sh.shard_pairs(shard), plan=plan, encoder=encoder, base=shard.base, progress=False,
                               where=shard.path)
             seconds = dict(zip(res.timing["metric"], res.timing["seconds"].astype(float), strict=True))
             yield (shard, res.table.rename(columns=rename),
