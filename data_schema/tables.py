@@ -8,12 +8,14 @@ into place, so an interrupted command never leaves a half-written file that look
 from __future__ import annotations
 
 import contextlib
+import enum
 import math
 import os
 import re
 import shutil
 import tempfile
 from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
 from pathlib import Path, PurePosixPath, PureWindowsPath
 
 import numpy as np
@@ -61,6 +63,12 @@ __all__ = [
     "TABLE_CHECKS",
     "pair_image_paths",
     "pair_boxes",
+    "TableKind",
+    "PairsTable",
+    "read_pairs",
+    "pairs_table",
+    "MetricsTable",
+    "read_metrics_table",
 ]
 
 TABLE_SUFFIXES = (".csv", ".parquet")
@@ -200,17 +208,57 @@ def _check_suffix(path: Path, what: str) -> str:
     return suffix
 
 
+class TableKind(str, enum.Enum):
+    """The kinds of table :func:`read_table` reads; each kind has its checks
+    (:data:`TABLE_CHECKS`) and its name in errors (the value).
+
+    >>> TableKind.PAIRS.value, TableKind("metrics table") is TableKind.METRICS
+    ('pairs table', True)
+    """
+
+    TABLE = "table"
+    PAIRS = "pairs table"
+    METRICS = "metrics table"
+
+
 def read_table(
     path: str | os.PathLike,
     *,
     required: Sequence[str] = (),
-    what: str = "table",
+    what: str | None = None,
     dtype: dict | None = None,
+    kind: TableKind | None = None,
 ) -> pd.DataFrame:
     """Read a CSV/Parquet table and check that ``required`` columns are present.
 
-    Raises :class:`InputError` naming the file and the first missing column.
+    Parameters
+    ----------
+    path : path
+        A ``.csv`` or ``.parquet`` file.
+    required : sequence of str
+        Columns it must have.
+    what : str, optional
+        The name errors give the table (default: ``kind``'s). A ``what`` equal to a
+        :class:`TableKind`'s value (``'pairs table'``) chooses that kind when ``kind`` is not
+        given (the spelling before issue 34; prefer ``kind``).
+    dtype : dict, optional
+        CSV column dtypes.
+    kind : TableKind, optional
+        The table's kind: its checks (:data:`TABLE_CHECKS`) run once, here.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The table, numbers converted by the kind's checks.
+
+    Raises
+    ------
+    InputError
+        Naming the file and the first missing column or bad value.
     """
+    if kind is None:
+        kind = TableKind(what) if what in {k.value for k in TableKind} else TableKind.TABLE
+    what = what or kind.value
     path = Path(path)
     suffix = _check_suffix(path, what)
     if not path.is_file():
@@ -225,7 +273,7 @@ def read_table(
     except Exception as exc:  # parser errors of either format
         raise InputError(path, None, f"a readable {what}", f"{type(exc).__name__}: {exc}") from None
     require_columns(df, required, where=path)
-    check = TABLE_CHECKS.get(what)
+    check = TABLE_CHECKS.get(kind)
     return df if check is None else check(df, where=str(path))
 
 
@@ -328,7 +376,7 @@ def check_metrics(df: pd.DataFrame, *, where: str) -> pd.DataFrame:
 
 def read_metrics(path) -> pd.DataFrame:
     """Read a metrics table (docs/FORMATS.md §4): ``pair_id`` + numeric metric columns."""
-    return read_table(path, required=("pair_id",), what="metrics table", dtype={"pair_id": str})
+    return read_table(path, required=("pair_id",), kind=TableKind.METRICS, dtype={"pair_id": str})
 
 
 #: docs/FORMATS.md §7: set to 1 (or pass ``--no-follow-links``) to refuse image paths whose
@@ -415,8 +463,8 @@ def inside_scene(root, rel: str, *, where: str, field: str, linked: dict | None 
     return path
 
 
-#: The checks applied by :func:`read_table` to a table of each kind (its ``what``).
-TABLE_CHECKS = {"pairs table": check_pairs, "metrics table": check_metrics}
+#: The checks applied by :func:`read_table` to a table of each :class:`TableKind`.
+TABLE_CHECKS = {TableKind.PAIRS: check_pairs, TableKind.METRICS: check_metrics}
 
 
 class atomic_path:
@@ -590,3 +638,147 @@ def pair_boxes(df: pd.DataFrame, columns, *, where: str = "pairs"):
         raise InputError(where, f"row {i + 2}, columns {', '.join(columns)}", "integer pixel indices",
                          vals[i].tolist())
     return arr.astype(np.int64)
+
+
+# --- typed tables: read and checked once, then handed down --------------------------------------
+
+@dataclass(frozen=True)
+class PairsTable:
+    """A pairs table read and checked once (:func:`read_pairs`): boxes as integer arrays and
+    image paths made absolute, so nothing downstream parses or checks them again.
+
+    Attributes
+    ----------
+    frame : pandas.DataFrame
+        The N rows, numbers converted (:func:`check_pairs`).
+    gt_boxes, render_boxes : (N, 4) int64
+        Inclusive pixel boxes ``x0, y0, x1, y1`` (:data:`GT_BOX_COLUMNS`, :data:`RENDER_BOX_COLUMNS`).
+    gt_paths, render_paths : (N,) object arrays of str
+        Absolute image paths, each inside its scene folder and an existing file.
+    where : str
+        What errors name (the pairs file).
+    """
+
+    frame: pd.DataFrame
+    gt_boxes: np.ndarray
+    render_boxes: np.ndarray
+    gt_paths: np.ndarray
+    render_paths: np.ndarray
+    where: str
+
+    def __len__(self) -> int:
+        return len(self.frame)
+
+    def take(self, rows) -> PairsTable:
+        """The rows ``rows`` (positions), in that order.
+
+        Parameters
+        ----------
+        rows : (K,) int array
+
+        Returns
+        -------
+        PairsTable
+        """
+        rows = np.asarray(rows, np.int64)
+        return PairsTable(self.frame.iloc[rows].reset_index(drop=True), self.gt_boxes[rows],
+                          self.render_boxes[rows], self.gt_paths[rows], self.render_paths[rows], self.where)
+
+
+#: the columns a :class:`PairsTable` needs (besides ``scene_root`` or a scene folder)
+PAIRS_CROP_COLUMNS = ("pair_id", "gt_path", "render_path", *("gt_x0", "gt_y0", "gt_x1", "gt_y1"),
+                      *("r_x0", "r_y0", "r_x1", "r_y1"))
+
+
+def pairs_table(df: pd.DataFrame, *, scene_root=None, base=None, where: str = "pairs",
+                follow: bool | None = None) -> PairsTable:
+    """A :class:`PairsTable` of pairs held in memory: the columns, boxes and image paths
+    checked once.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        docs/FORMATS.md §3 columns (:data:`PAIRS_CROP_COLUMNS`).
+    scene_root, base : path, optional
+        Where the image paths are relative to (:func:`pair_scene_roots`).
+    where : str
+        What errors name.
+    follow : bool, optional
+        The link rule (:func:`follow_links`).
+
+    Returns
+    -------
+    PairsTable
+
+    Raises
+    ------
+    InputError
+        A missing column, a bad box, or an image path outside its scene or missing.
+    """
+    require_columns(df, PAIRS_CROP_COLUMNS, where=where)
+    paths = [pair_image_paths(df, c, scene_root=scene_root, base=base, where=where, follow=follow)
+             for c in ("gt_path", "render_path")]
+    return PairsTable(df, pair_boxes(df, GT_BOX_COLUMNS, where=where), pair_boxes(df, RENDER_BOX_COLUMNS, where=where),
+                      paths[0], paths[1], str(where))
+
+
+def read_pairs(path, *, scene_root=None, follow: bool | None = None) -> PairsTable:
+    """Read a pairs table file once, typed (:class:`PairsTable`).
+
+    Parameters
+    ----------
+    path : path
+        A ``.csv`` or ``.parquet`` pairs table (docs/FORMATS.md §3).
+    scene_root : path, optional
+        The scene folder its image paths are relative to (default: its ``scene_root`` column,
+        relative to the file's folder).
+    follow : bool, optional
+        The link rule (:func:`follow_links`).
+
+    Returns
+    -------
+    PairsTable
+
+    Raises
+    ------
+    InputError
+        Naming the file, the row and the column of the first bad value.
+    """
+    df = read_table(path, required=PAIRS_CROP_COLUMNS, kind=TableKind.PAIRS)
+    return pairs_table(df, scene_root=scene_root, base=Path(path).resolve().parent, where=str(path),
+                       follow=follow)
+
+
+@dataclass(frozen=True)
+class MetricsTable:
+    """A metrics table read and checked once (:func:`read_metrics_table`).
+
+    Attributes
+    ----------
+    frame : pandas.DataFrame
+        ``pair_id`` (str) and numeric metric columns, N rows.
+    columns : tuple of str
+        The metric columns (every column but ``pair_id``), in file order.
+    where : str
+        The file.
+    """
+
+    frame: pd.DataFrame
+    columns: tuple
+    where: str
+
+
+def read_metrics_table(path) -> MetricsTable:
+    """Read a metrics table file once, typed (:class:`MetricsTable`; :func:`read_metrics`'s checks).
+
+    Parameters
+    ----------
+    path : path
+        A ``.csv`` or ``.parquet`` metrics table (docs/FORMATS.md §4).
+
+    Returns
+    -------
+    MetricsTable
+    """
+    df = read_metrics(path)
+    return MetricsTable(df, tuple(c for c in df.columns if c != "pair_id"), str(path))

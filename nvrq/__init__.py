@@ -4,7 +4,8 @@ The public Python API (docs/PYTHON.md) is exported here and imported on first us
 ``import nvrq`` itself loads nothing heavy:
 
 - scoring in memory: :func:`score_crops`, :func:`score_frame`, :class:`Evaluator`,
-  :func:`clear_encoder_cache` (:mod:`nvrq.api`);
+  :func:`clear_encoder_cache` (:mod:`nvrq.api`); the scoring plan they, ``nvrq score`` and the
+  engines share: :func:`resolve_plan` -> :class:`ScorePlan` (:mod:`nvrq.scoring.plan`);
 - encoders: :class:`EncoderConfig`, :func:`load_encoder` (:mod:`nvrq.encoders`);
 - geometry: :func:`project_boxes` (the ``nvrq pairs`` rule for one frame, :mod:`nvrq.pairs`),
   :func:`camera_from_model` and the camera classes (:mod:`nvrq.geometry.cameras`);
@@ -28,6 +29,8 @@ _EXPORTS = {
     "score_frame": "nvrq.api",
     "Evaluator": "nvrq.api",
     "clear_encoder_cache": "nvrq.api",
+    "ScorePlan": "nvrq.scoring.plan",
+    "resolve_plan": "nvrq.scoring.plan",
     "EncoderConfig": "nvrq.encoders.registry",
     "load_encoder": "nvrq.encoders.registry",
     "project_boxes": "nvrq.pairs",

@@ -45,23 +45,15 @@ import sys
 import threading
 from collections import OrderedDict
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError, check_int
-from data_schema.text import comma_list
 from nvrq.crops import cut_box
-from nvrq.encoders.registry import Encoder, EncoderConfig, encoder_config
-from nvrq.metrics.resolve import (
-    encoder_columns,
-    encoder_for_metrics,
-    needs_tau,
-    reference_columns,
-    resolve_metrics,
-)
-from nvrq.scoring.core import CropBatch, score_crop_batch
+from nvrq.encoders.registry import Encoder, EncoderConfig
+from nvrq.scoring.core import CropBatch, compute_columns
+from nvrq.scoring.plan import ScorePlan, resolve_plan
 
 __all__ = ["score_crops", "score_frame", "Evaluator", "as_rgb_uint8", "clear_encoder_cache",
            "ENCODER_CACHE_SIZE"]
@@ -175,34 +167,26 @@ def _share(keys: Sequence, make, *, seen: dict | None = None, out: list | None =
     return out, index, seen
 
 
-def _encoder_name(columns: Sequence[str], encoder) -> str:
-    """The encoder of ``columns`` (:func:`nvrq.metrics.encoder_for_metrics`), ``encoder`` given
-    as a name, an :class:`EncoderConfig` or a loaded encoder."""
-    given = None if encoder is None else (encoder if isinstance(encoder, str)
-                                          else encoder.name if isinstance(encoder, EncoderConfig)
-                                          else encoder.spec.name)
-    return encoder_for_metrics(columns, given)
-
-
 # --- the pure helpers behind score_crops / score_frame and Evaluator (torchmetrics' pattern) ---
 
-@dataclass(frozen=True)
-class _Setup:
-    """What scoring needs, resolved once: the metric columns, the loaded encoder (``None``
-    without encoder metrics), NVRQ-CA's tau (``None`` without it) and the encoder batch size."""
-
-    columns: tuple[str, ...]
-    encoder: Encoder | None
-    tau: float | None
-    batch_size: int
+#: the options score_crops, score_frame and Evaluator take besides ``metrics`` and ``encoder``
+_OPTIONS = {"weights": None, "device": "cpu", "runtime": "auto", "tau": None, "batch_size": 32}
 
 
-def _setup(metrics, encoder, *, weights, device: str, runtime: str, tau, batch_size: int,
-           cached: bool = False) -> _Setup:
-    """Check the options, resolve the columns and tau (:func:`nvrq.calibrate.require_tau`), and
-    load the encoder when a column needs one (last, after every check); ``cached``: take it
-    from the encoder cache (:func:`_cached_encoder`) instead of loading a new one."""
-    raw = comma_list(metrics) if isinstance(metrics, str) else [str(m) for m in metrics]
+def _plan(metrics, encoder, options: dict) -> ScorePlan:
+    """The run's :class:`~nvrq.scoring.plan.ScorePlan` (:func:`~nvrq.scoring.plan.resolve_plan`:
+    the columns, the encoder's config, tau by :func:`nvrq.calibrate.require_tau`), every option
+    checked once, here; ``metrics`` may be a plan already made (then no other option)."""
+    unknown = sorted(set(options) - set(_OPTIONS))
+    if unknown:
+        raise TypeError(f"unexpected keyword argument {unknown[0]!r} (options: {', '.join(_OPTIONS)})")
+    if isinstance(metrics, ScorePlan):
+        if options or encoder is not None and not isinstance(encoder, Encoder):
+            raise InputError(param="metrics", expected="a ScorePlan alone (its encoder, tau and batch size "
+                             "are its own; a loaded encoder may be given)", got=", ".join(options) or "encoder")
+        return metrics
+    opts = {**_OPTIONS, **options}
+    weights, device, runtime = opts["weights"], opts["device"], opts["runtime"]
     if encoder is not None and not isinstance(encoder, str):
         # a config or a loaded encoder carries its own loading options: none is dropped silently
         for option, value, default in (("weights", weights, None), ("device", device, "cpu"),
@@ -210,29 +194,23 @@ def _setup(metrics, encoder, *, weights, device: str, runtime: str, tau, batch_s
             if value != default:
                 raise InputError(param=option, expected=f"no {option} beside an EncoderConfig or a loaded "
                                  "encoder (give it in the config)", got=value)
-    name = _encoder_name(raw, encoder)
-    columns = tuple(resolve_metrics(raw, name))
-    check_int("batch_size", batch_size)
-    if needs_tau(columns):
-        from nvrq.calibrate import require_tau
-
-        tau = require_tau(name, tau=tau)[0]
-    else:
-        tau = None
-    loaded = _load(encoder, name, cached=cached, weights=weights, device=device, runtime=runtime) \
-        if encoder_columns(columns) else None
-    return _Setup(columns, loaded, tau, batch_size)
+    given = encoder.spec.name if isinstance(encoder, Encoder) else encoder
+    options = {"weights": weights, "device": device, "runtime": runtime} if not isinstance(encoder, EncoderConfig) else None
+    return resolve_plan(metrics, encoder=given, encoder_options=options, tau=opts["tau"], batch_size=opts["batch_size"])
 
 
-def _load(encoder, name: str, *, cached: bool, **options) -> Encoder:
+def _load(encoder, plan: ScorePlan, *, cached: bool) -> Encoder | None:
+    """The loaded encoder of ``plan`` (``None`` without encoder columns): ``encoder`` itself
+    when it is loaded, else the plan's config, loaded (from the cache with ``cached``)."""
+    if not plan.encoder_specs:
+        return None
     if isinstance(encoder, Encoder):
         return encoder
-    config = encoder if isinstance(encoder, EncoderConfig) else encoder_config(name, **options)
     if cached:
-        return _cached_encoder(config)
+        return _cached_encoder(plan.encoder)
     from nvrq.encoders import load_encoder
 
-    return load_encoder(config)
+    return load_encoder(plan.encoder)
 
 
 # --- the encoders score_crops / score_frame loaded, kept for their next call -----------------
@@ -288,20 +266,20 @@ def clear_encoder_cache() -> int:
     return n
 
 
-def _check_no_reference(columns: Sequence[str], name: str) -> None:
+def _check_no_reference(plan: ScorePlan, name: str) -> None:
     """No GT (``name`` is None): only no-reference metrics can run."""
-    needs_gt = reference_columns(columns)
+    needs_gt = plan.reference_columns
     if needs_gt:
         raise InputError(param=name, expected=f"the GT for the reference metrics {', '.join(needs_gt)} "
                          "(only no-reference metrics score renders alone)", got=None)
 
 
-def _crop_inputs(columns: Sequence[str], gt_crops, render_crops) -> tuple:
+def _crop_inputs(plan: ScorePlan, gt_crops, render_crops) -> tuple:
     """Checked host crops ``(gt_u8, gt_index, r_u8, gt_keys, owner)`` of a crop list (GT
     objects once; ``gt_keys``: each GT crop's identity, valid while ``owner`` is held)."""
     renders = _as_list(render_crops, "render_crops")
     if gt_crops is None:  # no-reference metrics only
-        _check_no_reference(columns, "gt_crops")
+        _check_no_reference(plan, "gt_crops")
         return [], None, [as_rgb_uint8(r, name=f"render_crops[{k}]") for k, r in enumerate(renders)], [], None
     gts = _as_list(gt_crops, "gt_crops")
     if len(gts) != len(renders):
@@ -312,12 +290,12 @@ def _crop_inputs(columns: Sequence[str], gt_crops, render_crops) -> tuple:
     return gt_u8, index, r_u8, [("crop", i) for i in seen], gts
 
 
-def _frame_inputs(columns: Sequence[str], gt_image, render_image, gt_boxes, render_boxes) -> tuple:
+def _frame_inputs(plan: ScorePlan, gt_image, render_image, gt_boxes, render_boxes) -> tuple:
     """Checked host crops ``(gt_u8, gt_index, r_u8, gt_keys, owner)`` of a frame pair (one
     crop per GT box; ``gt_keys``: GT image identity and box, valid while ``owner`` is held)."""
     r_hwc, rb = _hwc(render_image, "render_image"), _boxes(render_boxes, "render_boxes")
     if gt_image is None:  # no-reference metrics only
-        _check_no_reference(columns, "gt_image")
+        _check_no_reference(plan, "gt_image")
         return [], None, [_to_uint8(cut_box(r_hwc, b, where=f"render_boxes[{k}]")) for k, b in enumerate(rb)], [], None
     gt_hwc, gb = _hwc(gt_image, "gt_image"), _boxes(gt_boxes, "gt_boxes")
     if len(gb) != len(rb):
@@ -329,14 +307,13 @@ def _frame_inputs(columns: Sequence[str], gt_image, render_image, gt_boxes, rend
     return gt_u8, index, r_u8, [("frame", id(gt_image), *key) for key in seen], gt_image
 
 
-def _score(setup: _Setup, gt_u8: list, gt_index: np.ndarray | None, r_u8: list) -> pd.DataFrame:
-    """The core on one batch (:func:`nvrq.scoring.core.score_crop_batch`): ``gt_index`` None (and
-    no GT crops) for no-reference metrics."""
+def _score(plan: ScorePlan, encoder, gt_u8: list, gt_index: np.ndarray | None, r_u8: list) -> pd.DataFrame:
+    """The core on one batch (:func:`nvrq.scoring.core.compute_columns`, the plan checked once):
+    ``gt_index`` None (and no GT crops) for no-reference metrics."""
     index = None if gt_index is None else np.asarray(gt_index, np.int64)
     batch = CropBatch(np.arange(len(r_u8), dtype=np.int64), gt_u8, index, r_u8)
-    cols = score_crop_batch(batch, metrics=list(setup.columns), encoder=setup.encoder, tau=setup.tau,
-                            batch_size=setup.batch_size)
-    return pd.DataFrame(cols, columns=list(setup.columns))
+    cols = compute_columns(batch, plan.specs, encoder=encoder, tau=plan.tau, batch_size=plan.batch_size)
+    return pd.DataFrame(cols, columns=list(plan.columns))
 
 
 def _summary(table: pd.DataFrame, columns: Sequence[str], keys: Sequence[str]) -> pd.DataFrame:
@@ -357,24 +334,25 @@ class Evaluator:
 
     Parameters
     ----------
-    metrics : sequence of str, or a comma-separated str
+    metrics : sequence of str, a comma-separated str, or ScorePlan
         Metric names (``psnr``, ``ssim``, ``ms_ssim``, ``gmsd``, ``mse``, ``mae``, ``nvrq``,
         ``nvrq_ca``, ...) or columns (``nvrq:dinov2-small``); see :mod:`nvrq.metrics.registry`.
+        Or a plan made by :func:`nvrq.scoring.plan.resolve_plan` (then no other option but a
+        loaded ``encoder``).
     encoder : str, EncoderConfig or Encoder, optional
         For ``nvrq``/``nvrq_ca``: a registry name (default ``efficientnet-lite0``), an
         :class:`~nvrq.encoders.EncoderConfig`, or an encoder already loaded
         (:func:`nvrq.encoders.load_encoder`). Loaded once, here.
-    weights, device, runtime
-        With a name: the :class:`~nvrq.encoders.EncoderConfig` fields (``runtime='auto'``: on
-        CPU the fastest exported runtime identical to torch fp32; torch on ``cuda``).
-    tau : float, optional
-        The NVRQ-CA knee; default as ``nvrq score``: the user config, then the registry
-        (:func:`nvrq.calibrate.require_tau`).
-    batch_size : int
-        Crops per encoder pass.
     update_pairs : int
         :meth:`update` scores once this many pairs are pending (default 256, the pairs per crop
         batch of ``nvrq score``), so small updates still fill the encoder's batches.
+    **options
+        ``weights``, ``device`` (default ``cpu``), ``runtime`` (default ``auto``): with an
+        encoder name, the :class:`~nvrq.encoders.EncoderConfig` fields (``runtime='auto'``: on
+        CPU the fastest exported runtime identical to torch fp32; torch on ``cuda``).
+        ``tau``: the NVRQ-CA knee; default as ``nvrq score``: the user config, then the
+        registry (:func:`nvrq.calibrate.require_tau`). ``batch_size``: crops per encoder pass
+        (default 32). All go to :func:`nvrq.scoring.plan.resolve_plan`, checked once.
 
     Raises
     ------
@@ -395,43 +373,47 @@ class Evaluator:
     """
 
     def __init__(self, *, metrics, encoder: str | EncoderConfig | Encoder | None = None,
-                 weights=None, device: str = "cpu", runtime: str = "auto", tau: float | None = None,
-                 batch_size: int = 32, update_pairs: int = 256):
+                 update_pairs: int = 256, **options):
         self.update_pairs = check_int("update_pairs", update_pairs)
-        self._setup = _setup(metrics, encoder, weights=weights, device=device, runtime=runtime, tau=tau,
-                             batch_size=batch_size)
+        self._plan = _plan(metrics, encoder, options)
+        self._encoder = _load(encoder, self._plan, cached=False)
         self.reset()
+
+    @property
+    def plan(self) -> ScorePlan:
+        """The scoring plan, resolved once (:func:`nvrq.scoring.plan.resolve_plan`)."""
+        return self._plan
 
     @property
     def columns(self) -> list[str]:
         """The metric columns, as ``nvrq score`` names them."""
-        return list(self._setup.columns)
+        return list(self._plan.columns)
 
     @property
     def encoder(self) -> Encoder | None:
         """The loaded encoder (``None`` without encoder metrics)."""
-        return self._setup.encoder
+        return self._encoder
 
     @property
     def tau(self) -> float | None:
         """NVRQ-CA's knee (``None`` without NVRQ-CA)."""
-        return self._setup.tau
+        return self._plan.tau
 
     @property
     def batch_size(self) -> int:
         """Crops per encoder pass."""
-        return self._setup.batch_size
+        return self._plan.batch_size
 
     # --- scoring ---------------------------------------------------------------------------
 
     def score_crops(self, gt_crops, render_crops) -> pd.DataFrame:
         """One row per pair, one column per metric (see :func:`score_crops`)."""
-        return _score(self._setup, *_crop_inputs(self._setup.columns, gt_crops, render_crops)[:3])
+        return _score(self._plan, self._encoder, *_crop_inputs(self._plan, gt_crops, render_crops)[:3])
 
     def score_frame(self, gt_image, render_image, gt_boxes, render_boxes) -> pd.DataFrame:
         """One row per box pair (see :func:`score_frame`)."""
-        return _score(self._setup, *_frame_inputs(self._setup.columns, gt_image, render_image, gt_boxes,
-                                                  render_boxes)[:3])
+        return _score(self._plan, self._encoder, *_frame_inputs(self._plan, gt_image, render_image, gt_boxes,
+                                                                render_boxes)[:3])
 
     # --- accumulation ----------------------------------------------------------------------
 
@@ -450,12 +432,12 @@ class Evaluator:
         (full encoder batches, as ``nvrq score`` runs them) and by :meth:`compute` /
         :attr:`pairs`.
         """
-        self._add(_crop_inputs(self._setup.columns, gt_crops, render_crops), labels)
+        self._add(_crop_inputs(self._plan, gt_crops, render_crops), labels)
 
     def update_frame(self, gt_image, render_image, gt_boxes, render_boxes, *,
                      labels: Mapping | pd.DataFrame | None = None) -> None:
         """Add a frame's box pairs (as :meth:`score_frame` takes them) for :meth:`compute`."""
-        self._add(_frame_inputs(self._setup.columns, gt_image, render_image, gt_boxes, render_boxes), labels)
+        self._add(_frame_inputs(self._plan, gt_image, render_image, gt_boxes, render_boxes), labels)
 
     def _add(self, crops: tuple, labels) -> None:
         lab = _labels(labels, len(crops[2]))
@@ -480,7 +462,7 @@ class Evaluator:
                 local = _share(keys, g.__getitem__, seen=position, out=gt_u8)[1]
                 index.append(local[np.asarray(i, np.int64)])
             r_u8.extend(r)
-        scores = _score(self._setup, gt_u8, np.concatenate(index) if index else None, r_u8)
+        scores = _score(self._plan, self._encoder, gt_u8, np.concatenate(index) if index else None, r_u8)
         labels = pd.concat([p[0] for p in self._pending], ignore_index=True)
         self._parts.append(pd.concat([labels, scores], axis=1))
         self._pending = []
@@ -534,8 +516,7 @@ def _labels(labels, n: int) -> pd.DataFrame:
     return pd.DataFrame(cols, index=range(n))
 
 
-def score_crops(gt_crops, render_crops, *, metrics, encoder=None, weights=None, device: str = "cpu",
-                runtime: str = "auto", tau: float | None = None, batch_size: int = 32) -> pd.DataFrame:
+def score_crops(gt_crops, render_crops, *, metrics, encoder=None, **options) -> pd.DataFrame:
     """Metrics of pairs of crops held in memory: one row per pair, one column per metric.
 
     Parameters
@@ -546,8 +527,8 @@ def score_crops(gt_crops, render_crops, *, metrics, encoder=None, weights=None, 
         from pair to pair. The same GT array object repeated in ``gt_crops`` is embedded once.
         ``gt_crops=None`` when every metric is a no-reference one (``niqe``, ``brisque``, ...:
         the render crop alone).
-    metrics, encoder, weights, device, runtime, tau, batch_size
-        As :class:`Evaluator`. An encoder given by name or config is loaded on the first call
+    metrics, encoder, **options
+        As :class:`Evaluator` (``weights``, ``device``, ``runtime``, ``tau``, ``batch_size``). An encoder given by name or config is loaded on the first call
         and kept for the next ones with the same config (:func:`clear_encoder_cache` frees it);
         an :class:`Evaluator` also keeps the pending pairs and sums them up.
 
@@ -563,14 +544,12 @@ def score_crops(gt_crops, render_crops, *, metrics, encoder=None, weights=None, 
     >>> score_crops([gt], [gt + 1], metrics="psnr,mae").round(3).to_dict("records")
     [{'psnr': 48.131, 'mae': 1.0}]
     """
-    setup = _setup(metrics, encoder, weights=weights, device=device, runtime=runtime, tau=tau,
-                   batch_size=batch_size, cached=True)
-    return _score(setup, *_crop_inputs(setup.columns, gt_crops, render_crops)[:3])
+    plan = _plan(metrics, encoder, options)
+    return _score(plan, _load(encoder, plan, cached=True), *_crop_inputs(plan, gt_crops, render_crops)[:3])
 
 
-def score_frame(gt_image, render_image, gt_boxes, render_boxes, *, metrics, encoder=None, weights=None,
-                device: str = "cpu", runtime: str = "auto", tau: float | None = None,
-                batch_size: int = 32) -> pd.DataFrame:
+def score_frame(gt_image, render_image, gt_boxes, render_boxes, *, metrics, encoder=None,
+                **options) -> pd.DataFrame:
     """Metrics of N box pairs of one GT image and one render image (see :func:`score_crops`).
 
     Parameters
@@ -588,6 +567,6 @@ def score_frame(gt_image, render_image, gt_boxes, render_boxes, *, metrics, enco
     ...             metrics=["mae"])["mae"].tolist()
     [2.0, 2.0]
     """
-    setup = _setup(metrics, encoder, weights=weights, device=device, runtime=runtime, tau=tau,
-                   batch_size=batch_size, cached=True)
-    return _score(setup, *_frame_inputs(setup.columns, gt_image, render_image, gt_boxes, render_boxes)[:3])
+    plan = _plan(metrics, encoder, options)
+    return _score(plan, _load(encoder, plan, cached=True),
+                  *_frame_inputs(plan, gt_image, render_image, gt_boxes, render_boxes)[:3])

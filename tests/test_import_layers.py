@@ -210,8 +210,10 @@ def test_metric_info_is_a_leaf_and_the_api_imports_no_driver():
     graph = _module_graph()
     assert not {m for m in graph["nvrq.metrics.info"] if m.startswith("nvrq")}
     # the Python front door calls the core and the resolver, never the table driver (no tqdm,
-    # no decode threads); at run time too
-    assert {"nvrq.scoring.core", "nvrq.metrics.resolve"} <= graph["nvrq.api"]
+    # no decode threads); at run time too. Since issue 34 the resolver is reached through the
+    # one scoring plan (nvrq.scoring.plan.resolve_plan, which calls nvrq.metrics.resolve)
+    assert {"nvrq.scoring.core", "nvrq.scoring.plan"} <= graph["nvrq.api"]
+    assert "nvrq.metrics.resolve" in graph["nvrq.scoring.plan"]
     code = ("import sys, numpy as np, nvrq\n"
             "gt = np.zeros((8, 8, 3), np.uint8)\n"
             "nvrq.score_crops([gt], [gt + 1], metrics=['psnr', 'niqe'])\n"

@@ -44,16 +44,50 @@ from data_schema.text import comma_list
 
 __all__ = ["ArgumentParser", "command_parser", "run_cli", "add_version", "show_progress", "parse_wxh", "CommaList", "DeprecatedFileOption", "DeprecatedSize",
            "deprecated", "allow_negative_lists", "NEGATIVE_LIST", "option_for", "flags_in_errors",
-           "add_link_option", "int_arg", "number_arg", "checked_arg"]
+           "add_link_option", "int_arg", "number_arg", "checked_arg", "LazyHelp"]
 
 #: A comma list of numbers that may start with a minus sign (``-3,-2,0``): a value, not an option.
 NEGATIVE_LIST = re.compile(r"^-\d*\.?\d+([x,]\s*[-+]?\d*\.?\d+)*$")
 
 
+class LazyHelp(str):
+    """An option's help text made when the help is shown (e.g. from a registry that the parser
+    must not import while it is built); as a string it is ``placeholder``.
+
+    Parameters
+    ----------
+    render : callable
+        ``render() -> str``: the help text.
+    placeholder : str
+        The text before it is rendered.
+
+    Returns
+    -------
+    LazyHelp
+
+    >>> print(LazyHelp(lambda: "metrics: psnr, ssim").render())
+    metrics: psnr, ssim
+    """
+
+    def __new__(cls, render, placeholder: str = "see --help"):
+        obj = super().__new__(cls, placeholder)
+        obj.render = render
+        return obj
+
+
 class _HelpFormatter(argparse.HelpFormatter):
     """argparse's formatter, except that a comma-list option that still takes the deprecated
     space-separated form (:class:`CommaList` with ``nargs='+'``) is shown as the one list it
-    is: ``--lower-better A,B``, not ``--lower-better A,B [A,B ...]``."""
+    is: ``--lower-better A,B``, not ``--lower-better A,B [A,B ...]``; a :class:`LazyHelp` is
+    rendered when shown."""
+
+    def _expand_help(self, action):
+        if isinstance(action.help, LazyHelp):
+            import copy
+
+            action = copy.copy(action)
+            action.help = action.help.render().replace("%", "%%")
+        return super()._expand_help(action)
 
     def _format_args(self, action, default_metavar):
         if isinstance(action, CommaList) and action.nargs == "+":
@@ -192,8 +226,8 @@ def run_cli(main, argv=None) -> int:
         return 2
     except SystemExit as exc:  # argparse (usage errors, --help) exits; report its status
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
-    except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
+    except KeyboardInterrupt as exc:  # a command may say what was kept and how to resume
+        print("interrupted" + (f": {exc.args[0]}" if exc.args else ""), file=sys.stderr)
         return 130
     return int(rc or 0)
 

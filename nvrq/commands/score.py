@@ -8,21 +8,51 @@ from typing import TYPE_CHECKING
 
 from data_schema.errors import InputError
 from nvrq.choices import DEFAULT_METRICS
-from nvrq.commands.args import add_link_option, show_progress
+from nvrq.commands.args import LazyHelp, add_link_option, show_progress
 from nvrq.commands.engine_options import add_engine_args, check_engine_args, report_sharded, run_ray
-from nvrq.commands.model_options import (
-    add_encoder_arguments,
-    command_tau,
-    encoder_for_columns,
-    encoder_options,
-    load_encoder_and_tau,
-    metric_columns,
-)
+from nvrq.commands.model_options import add_encoder_arguments, prepare_device
 
 if TYPE_CHECKING:
-    from nvrq.engines.scorers import MetricScorer
+    from nvrq.scoring.plan import ScorePlan
 
-__all__ = ["register", "run", "runtime_columns", "column_renames"]
+__all__ = ["register", "run", "runtime_columns", "column_renames", "metrics_help"]
+
+#: how the help names each kind of metric nvrq score computes
+_KIND_HELP = {"pair": "full reference (GT and render crops)", "render": "no reference (render crop alone)",
+              "encoder": "encoder embeddings (on --encoder)"}
+
+
+#: what Ctrl-C says of a table output (written whole at the end) and of a sharded one
+_RESUME_TABLE = ("nothing was written to {out} (a metrics table is written whole at the end, so a rerun "
+                 "starts from zero); dataset outputs resume: write a pairs dataset with `nvrq pairs SCENE "
+                 "--out PAIRS_DIR` (an --out without a suffix), score it with `nvrq score PAIRS_DIR --out "
+                 "METRICS_DIR`, and a rerun of an interrupted run computes only the missing shards")
+_RESUME_DATASET = ("the finished shards are kept in {out}; run the same command again to compute only the "
+                   "missing ones")
+
+
+def metrics_help() -> str:
+    """``--metrics``' help: the default list and every metric of the registry, by kind.
+
+    Returns
+    -------
+    str
+        One paragraph (the registry read when the help is shown; it imports no OpenCV).
+    """
+    from nvrq.metrics.registry import REGISTRY
+
+    groups: dict[str, list[str]] = {}
+    for name, info in REGISTRY.items():
+        if info.kind != "metric":
+            continue
+        if info.members is not None:
+            groups.setdefault("family", []).append(f"{name}:NAME")
+        elif info.consumes is not None:
+            groups.setdefault(str(getattr(info.consumes, "value", info.consumes)), []).append(name)
+    parts = [f"{_KIND_HELP.get(k, k)}: {', '.join(v)}" for k, v in groups.items() if k != "family"]
+    family = ", ".join(groups.get("family", []))
+    return (f"comma-separated metrics (default {','.join(DEFAULT_METRICS)}); " + "; ".join(parts)
+            + (f"; {family} (with that package installed)" if family else ""))
 
 
 def register(sub) -> None:
@@ -33,10 +63,7 @@ def register(sub) -> None:
                                  "dataset folder (several clips)")
     p.add_argument("--out", required=True, help="output metrics table (.csv or .parquet); for a pairs "
                                                 "dataset or --engine ray a folder (resumable)")
-    p.add_argument("--metrics", default=",".join(DEFAULT_METRICS),
-                   help=f"comma-separated metrics (default {','.join(DEFAULT_METRICS)}; also ms_ssim, "
-                        "gmsd, mse, mae; no-reference: brisque, niqe, piqe, entropy; pyiqa:NAME "
-                        "with pyiqa installed)")
+    p.add_argument("--metrics", default=",".join(DEFAULT_METRICS), help=LazyHelp(metrics_help))
     add_encoder_arguments(p)
     p.add_argument("--scene", default=None, help="scene folder the image paths are relative to "
                                                  "(default: the pairs table's scene_root column)")
@@ -50,27 +77,64 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    """``nvrq score``: make the plan once (:func:`nvrq.scoring.plan.plan_from_args`), then score
+    the pairs table (this process), a pairs dataset (the local engine) or either on Ray.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options.
+
+    Returns
+    -------
+    int
+        The exit status, 0.
+    """
+    from data_schema.datasets import is_dataset
+    from nvrq.scoring.plan import plan_from_args
+
+    plan = plan_from_args(args)
+    check_engine_args(args, local_datasets=True)
+    if plan.tau is not None:
+        source = "--tau" if plan.tau_source == "argument" else plan.tau_source
+        print(f"tau = {plan.tau:.3f} for {plan.encoder.name} (from {source})", file=sys.stderr)
+    if args.engine == "ray":
+        return run_ray(args, plan)
+    if is_dataset(args.pairs):
+        return _local_dataset(args, plan)
+    return _local_table(args, plan)
+
+
+def _load_encoder(args, plan: ScorePlan):
+    """The plan's encoder, loaded (``None`` without encoder columns), after ``--threads`` and
+    the device are applied (:func:`nvrq.commands.model_options.prepare_device`)."""
+    if not plan.encoder_specs:
+        return None
+    from nvrq import encoders
+
+    prepare_device(args)
+    return encoders.load_encoder(plan.encoder)  # through the module: tests patch nvrq.encoders.load_encoder
+
+
+def _local_table(args, plan: ScorePlan) -> int:
+    """A pairs table scored in this process into one metrics table and its timing table."""
     import cv2
 
-    from data_schema.datasets import is_dataset
-    from data_schema.tables import read_table, timing_path, write_table
+    from data_schema.tables import TableKind, pairs_table, read_table, timing_path, write_table
     from nvrq.scoring.driver import REQUIRED_COLUMNS, score_pairs
 
-    columns, encoder_name = metric_columns(args)
-    check_engine_args(args, local_datasets=True)
-    if args.engine == "ray":
-        return _ray(args, columns, encoder_name)
-    if is_dataset(args.pairs):
-        return _local_dataset(args, columns, encoder_name)
     if not str(args.out).lower().endswith((".csv", ".parquet")):
         raise InputError(args.out, None, "an output file ending in .csv or .parquet", args.out)
-    pairs = read_table(args.pairs, required=REQUIRED_COLUMNS, what="pairs table")
-    encoder, tau = encoder_for_columns(args, columns, encoder_name)
+    frame = read_table(args.pairs, required=REQUIRED_COLUMNS, kind=TableKind.PAIRS)
+    encoder = _load_encoder(args, plan)  # a missing model is said before the images are looked for
+    pairs = pairs_table(frame, scene_root=args.scene, base=Path(args.pairs).resolve().parent, where=str(args.pairs))
     cv2.setNumThreads(1)  # crops are small; leave the cores to the encoder and the decode thread
-    res = score_pairs(pairs, metrics=columns, encoder=encoder, tau=tau, scene_root=args.scene,
-                      base=Path(args.pairs).resolve().parent, batch_size=args.batch_size,
-                      progress=show_progress(args), where=str(args.pairs))
-    table, timing = runtime_columns(res.table, res.timing, encoder, tag=args.column_tag)
+    try:
+        res = score_pairs(pairs, plan, encoder=encoder, progress=show_progress(args), where=str(args.pairs))
+    except KeyboardInterrupt:
+        raise KeyboardInterrupt(_RESUME_TABLE.format(out=args.out)) from None
+    table, timing = runtime_columns(res.table, res.timing, encoder, tag=args.column_tag,
+                                    model_columns=plan.model_columns)
     write_table(table, args.out)
     tpath = write_table(timing, timing_path(args.out))
     _report(res, uses_encoder=encoder is not None, file=sys.stderr)
@@ -98,43 +162,26 @@ def _report(res, *, uses_encoder: bool, file) -> None:
         print(line, file=file)
 
 
-def _scorer(args, columns, encoder_name, tau) -> MetricScorer:
-    """What a sharded run computes; its ``options()`` go to ``_plan.json`` (either engine)."""
-    from nvrq.engines.scorers import MetricScorer
-
-    return MetricScorer(tuple(columns), encoder=encoder_options(args, encoder_name), tau=tau,
-                        batch_size=args.batch_size)
-
-
-def _ray(args, columns, encoder_name) -> int:
-    from nvrq.metrics.resolve import needs_tau
-
-    tau = command_tau(encoder_name, args) if needs_tau(columns) else None
-    return run_ray(args, _scorer(args, columns, encoder_name, tau))
-
-
-def _local_dataset(args, columns, encoder_name) -> int:
+def _local_dataset(args, plan: ScorePlan) -> int:
     """A pairs dataset on the local engine: the Ray engine's sharded output and resume, scored
     shard by shard in this process (:func:`nvrq.engines.local.score_dataset`)."""
     import cv2
 
     from data_schema.tables import timing_path
     from nvrq.engines.local import score_dataset
-    from nvrq.metrics.resolve import encoder_columns, needs_tau
 
-    tau = command_tau(encoder_name, args) if needs_tau(columns) else None
-    rename = column_renames(columns, tag=args.column_tag, precision=args.precision)
-    options = _scorer(args, columns, encoder_name, tau).options()
-    options["columns"] = [rename.get(c, c) for c in columns]
+    rename = column_renames(plan.model_columns, tag=args.column_tag, precision=args.precision)
 
     def load():  # only when a shard is left to do
-        return load_encoder_and_tau(args, needs_tau=False, name=encoder_name)[0]
+        return _load_encoder(args, plan)
 
     cv2.setNumThreads(1)  # as for a table: the cores go to the encoder and the decode thread
-    res = score_dataset(args.pairs, args.out, metrics=columns, options=options,
-                        timing_path=timing_path(args.out), load_encoder=load if encoder_columns(columns) else None,
-                        tau=tau, batch_size=args.batch_size, shard_pairs=args.shard_pairs, rename=rename,
-                        progress=show_progress(args))
+    try:
+        res = score_dataset(args.pairs, args.out, plan, timing_path=timing_path(args.out),
+                            load_encoder=load if plan.encoder_specs else None, shard_pairs=args.shard_pairs,
+                            rename=rename, progress=show_progress(args))
+    except KeyboardInterrupt:
+        raise KeyboardInterrupt(_RESUME_DATASET.format(out=args.out)) from None
     report_sharded(res, args.out, engine="the local engine")
     return 0
 
@@ -152,15 +199,35 @@ def column_renames(columns, *, tag: str | None, precision: str) -> dict[str, str
     return {c: f"{c}@{tag}" for c in encoder_columns(columns)} if tag else {}
 
 
-def runtime_columns(table, timing, encoder, *, tag: str | None):
+def runtime_columns(table, timing, encoder, *, tag: str | None, model_columns=None):
     """Tag encoder columns (``nvrq:E`` -> ``nvrq:E@TAG``) and add ``runtime, precision,
     threads, device`` to the timing rows (empty runtime/precision for encoder-free metrics,
-    which run in the one decode thread)."""
-    from nvrq.metrics.resolve import encoder_columns
+    which run in the one decode thread).
+
+    Parameters
+    ----------
+    table, timing : pandas.DataFrame
+        The metrics table and its timing table.
+    encoder : Encoder or None
+        The encoder that ran (its precision picks the default tag).
+    tag : str, optional
+        ``--column-tag``.
+    model_columns : sequence of str, optional
+        The encoder columns (the plan's; default: looked up in the registry).
+
+    Returns
+    -------
+    tuple of two pandas.DataFrame
+        The renamed table and the timing table with the runtime columns.
+    """
     from nvrq.scoring.driver import runtime_timing
 
     timing = timing.copy()
-    enc_cols = encoder_columns(timing["metric"].tolist())
+    if model_columns is None:
+        from nvrq.metrics.resolve import encoder_columns
+
+        model_columns = encoder_columns(timing["metric"].tolist())
+    enc_cols = list(model_columns)
     rename = column_renames(enc_cols, tag=tag, precision="fp32" if encoder is None else encoder.precision)
     if rename:
         table, timing["metric"] = table.rename(columns=rename), timing["metric"].replace(rename)

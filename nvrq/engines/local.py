@@ -1,11 +1,12 @@
 """``nvrq score DATASET --out METRICS/`` on the local engine: a pairs dataset, shard by shard.
 
-The run has the Ray engine's plan, output and resume (:func:`nvrq.engines.shards.run_sharded`):
-the dataset is cut into the same shards (whole GT groups within a clip, at most
-``shard_pairs`` pairs each), each shard is scored in this process by the local driver
-(:func:`nvrq.scoring.driver.score_pairs`, with its decoding beside the encoder) and written atomically
-as soon as it is done, then the timing table and ``_dataset.json`` are written. A killed run,
-started again with the same command, computes only the shards whose files are missing.
+Engines layer. The run has the Ray engine's plan, output and resume
+(:func:`nvrq.engines.shards.run_sharded`): the dataset is cut into the same shards (whole GT
+groups within a clip, at most ``shard_pairs`` pairs each), each shard is scored in this process
+by the local driver (:func:`nvrq.scoring.driver.score_pairs`, with its decoding beside the
+encoder) and written atomically as soon as it is done, then the timing table and
+``_dataset.json`` are written. A killed run, started again with the same command, computes only
+the shards whose files are missing.
 
 Memory stays bounded by a clip and a shard: the shards come clip by clip, each reads its rows
 from its clip's file (:func:`nvrq.engines.shards.shard_pairs`; a few clip files kept), and
@@ -15,44 +16,69 @@ when some shard is left to do. No Ray needed.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping
 
 from data_schema.errors import check_int
 from nvrq.engines import shards as sh
-from nvrq.scoring.core import check_metric_args
-from nvrq.scoring.driver import REQUIRED_COLUMNS, score_pairs
+from nvrq.scoring.driver import score_pairs
+from nvrq.scoring.plan import ScorePlan
 
 __all__ = ["score_dataset"]
 
 
-def score_dataset(pairs, out, *, metrics: Sequence[str], options: Mapping, timing_path,
-                  load_encoder: Callable[[], object] | None = None, tau: float | None = None,
-                  batch_size: int = 32, shard_pairs: int = 256, rename: Mapping[str, str] | None = None,
+def score_dataset(pairs, out, plan: ScorePlan, *, timing_path, load_encoder: Callable[[], object] | None = None,
+                  shard_pairs: int = 256, rename: Mapping[str, str] | None = None,
                   progress: bool = True) -> dict:
     """Score (or finish scoring) the pairs dataset ``pairs`` into the folder ``out``.
 
-    ``metrics``: column names (:func:`nvrq.metrics.resolve_metrics`); ``load_encoder()``
-    returns the encoder that ``nvrq:*``/``nvrq_ca:*`` need (called once, only when a shard is
-    left to do); ``tau`` for NVRQ-CA. ``rename`` maps a column to the name it is written under
-    (e.g. ``nvrq:E`` -> ``nvrq:E@int8``). ``options`` go to ``_plan.json``: what a resumed run
-    must share with the first (their ``columns`` are the written names). ``timing_path``: the
-    timing table (``metric, seconds, pairs``) written when every shard exists.
-    Returns the counts of :func:`nvrq.engines.shards.run_sharded`.
+    Parameters
+    ----------
+    pairs : path
+        A pairs dataset (a folder partitioned by ``clip_id``) or a table with ``clip_id``.
+    out : path
+        The output folder (sharded, resumable).
+    plan : ScorePlan
+        What to compute (:func:`nvrq.scoring.plan.resolve_plan`), checked there once.
+    timing_path : path
+        The timing table (``metric, seconds, pairs``), written when every shard exists.
+    load_encoder : callable, optional
+        ``load_encoder()`` returns the encoder of the plan's encoder columns; called once, only
+        when a shard is left to do.
+    shard_pairs : int
+        Pairs per shard (GT groups kept whole).
+    rename : mapping, optional
+        A column -> the name it is written under (``nvrq:E`` -> ``nvrq:E@int8``).
+    progress : bool
+        A progress bar on stderr.
+
+    Returns
+    -------
+    dict
+        The counts of :func:`nvrq.engines.shards.run_sharded`.
+
+    Raises
+    ------
+    InputError
+        Naming ``shard_pairs``, or ``encoder`` when the plan has encoder columns and no loader,
+        before the plan file is written.
     """
-    metrics, rename = list(metrics), dict(rename or {})
-    # bad arguments stop here, before the plan is written (the loader stands for the encoder)
-    check_metric_args(metrics, encoder=load_encoder, tau=tau, batch_size=batch_size)
+    rename = dict(rename or {})
     check_int("shard_pairs", shard_pairs)
+    if plan.encoder_specs and load_encoder is None:
+        from data_schema.errors import InputError
+
+        raise InputError(param="encoder", expected=f"a loaded encoder for {', '.join(plan.model_columns)}", got=None)
+    options = {**plan.options(), "columns": [rename.get(c, c) for c in plan.columns],
+               "score_plan": plan.to_dict()}
 
     def compute(todo: list[sh.Shard]) -> Iterator[sh.ShardResult]:
         encoder = load_encoder() if load_encoder is not None else None
         for shard in todo:  # planned clip by clip
-            res = score_pairs(sh.shard_pairs(shard), metrics=metrics, encoder=encoder, tau=tau,
-                              base=shard.base, batch_size=batch_size, progress=False, where=shard.path)
+            res = score_pairs(sh.shard_pairs(shard), plan=plan, encoder=encoder, base=shard.base, progress=False,
+                              where=shard.path)
             seconds = dict(zip(res.timing["metric"], res.timing["seconds"].astype(float), strict=True))
             yield (shard, res.table.rename(columns=rename),
                    {rename.get(c, c): s for c, s in seconds.items()})
 
-    return sh.run_sharded(pairs, out, required=REQUIRED_COLUMNS, options=dict(options),
-                          max_pairs=shard_pairs, timing_path=timing_path, compute=compute,
-                          progress=progress, desc="score")
+    return sh.run_sharded(pairs, out, sh.ShardJob(options, shard_pairs, timing_path, progress=progress),
+                          compute=compute)

@@ -35,8 +35,7 @@ from nvrq.engines import require_ray
 from nvrq.engines import shards as sh
 from nvrq.engines.scorers import timing_per_column
 from nvrq.scoring.batches import iter_crop_batches
-from nvrq.scoring.core import score_crop_batch
-from nvrq.scoring.driver import REQUIRED_COLUMNS
+from nvrq.scoring.core import compute_columns
 
 __all__ = ["RayJob", "connect", "check_address", "score_on_ray", "actor_pool"]
 
@@ -97,8 +96,8 @@ def _decode_shard(row: dict, *, scorer, follow: bool) -> dict:
                                      where=shard.path, follow_links=follow))
     timings = {"decode": sum(b.decode_seconds for b in batches)}
     values = {c: np.full(len(df), np.nan) for c in scorer.columns}
-    for b in batches if scorer.pixel_columns else ():
-        for c, v in score_crop_batch(b, metrics=list(scorer.pixel_columns), timings=timings).items():
+    for b in batches if scorer.pixel_columns else ():  # a ScorePlan's encoder-free columns, checked by it
+        for c, v in compute_columns(b, scorer.pixel_specs, timings=timings).items():
             values[c][b.rows] = v
     extra = {c: df[c].to_numpy() for c in scorer.extra_columns}
     return {"shard": shard, "payload": pickle.dumps((df["pair_id"].to_numpy(), batches, values, extra, timings))}
@@ -207,6 +206,9 @@ def score_on_ray(job: RayJob, *, timing_path, address: str | None = None) -> dic
                     raise
                 raise err from None
 
-    return sh.run_sharded(job.pairs, job.out, required=REQUIRED_COLUMNS + tuple(job.scorer.extra_columns),
-                          options=job.scorer.options(), max_pairs=job.shard_pairs, timing_path=timing_path,
-                          compute=compute, progress=job.progress, desc="score (ray)")
+    options = job.scorer.options()
+    if hasattr(job.scorer, "to_dict"):  # a ScorePlan: recorded whole beside what must match
+        options["score_plan"] = job.scorer.to_dict()
+    return sh.run_sharded(job.pairs, job.out, sh.ShardJob(options, job.shard_pairs, timing_path,
+                                                          tuple(job.scorer.extra_columns), job.progress,
+                                                          "score (ray)"), compute=compute)

@@ -4,7 +4,7 @@ its model once in an actor, ``score(model, batch, extra, timings)`` maps one
 :class:`~nvrq.scoring.core.CropBatch` to ``{column: (P,) float64}``.
 
 ``pixel_columns`` are computed in the CPU tasks, ``model_columns`` in the actors, both with the
-same core functions the local commands use (:func:`~nvrq.scoring.core.score_crop_batch`,
+same core functions the local commands use (:func:`~nvrq.scoring.core.compute_columns`,
 :func:`~nvrq.scoring.core.pair_outputs`).
 """
 
@@ -14,56 +14,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nvrq.encoders import EncoderConfig, load_encoder
-from nvrq.encoders.memory import tune_allocator
-from nvrq.metrics.resolve import encoder_columns
 from nvrq.proxies.classifier_drop import load_classifier, top_class_drop
 from nvrq.proxies.clip_drop import load_clip, true_category_index
-from nvrq.scoring.core import column_seconds, pair_outputs, score_crop_batch
+from nvrq.scoring.core import column_seconds, pair_outputs
+from nvrq.scoring.plan import ScorePlan
 
 __all__ = ["MetricScorer", "ImagenetScorer", "ClipScorer", "timing_per_column"]
 
 
-@dataclass(frozen=True)
-class MetricScorer:
-    """``nvrq score``: pixel metrics and NVRQ / NVRQ-CA columns (:func:`score_crop_batch`)."""
-
-    columns: tuple
-    encoder: EncoderConfig = EncoderConfig()  # every option travels to the actors whole
-    tau: float | None = None
-    batch_size: int = 32
-    extra_columns: tuple = ()
-
-    @property
-    def model_columns(self) -> list[str]:
-        return encoder_columns(self.columns)
-
-    @property
-    def device(self) -> str:
-        """Where the actors run the encoder (the engine asks every scorer)."""
-        return self.encoder.device
-
-    @property
-    def pixel_columns(self) -> list[str]:
-        return [c for c in self.columns if c not in self.model_columns]
-
-    def load(self):
-        tune_allocator()  # the actor's process is the engine's own (see prepare_device)
-        return load_encoder(self.encoder)
-
-    def score(self, model, batch, extra: dict, timings: dict) -> dict:
-        return score_crop_batch(batch, metrics=self.model_columns, encoder=model, tau=self.tau,
-                                batch_size=self.batch_size, timings=timings)
-
-    def options(self) -> dict:
-        """What a resumed run must share with the first (``_plan.json``)."""
-        enc = bool(self.model_columns)
-        opts = {"columns": list(self.columns), "encoder": self.encoder.name if enc else None,
-                "weights": self.encoder.weights if enc else None, "tau": self.tau if enc else None,
-                "runtime": self.encoder.runtime if enc else None}
-        if enc and self.encoder.precision != "fp32":  # fp32 plans (all of Ray's) have no such key
-            opts["precision"] = self.encoder.precision
-        return opts
+#: ``nvrq score``'s scorer is its plan (:class:`~nvrq.scoring.plan.ScorePlan`: ``load``,
+#: ``score``, ``options``, ``model_columns``, ``pixel_columns``); ``MetricScorer`` is its former
+#: name, kept working (deprecated: build the plan with :func:`nvrq.scoring.plan.resolve_plan`).
+MetricScorer = ScorePlan
 
 
 @dataclass(frozen=True, kw_only=True)

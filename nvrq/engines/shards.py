@@ -44,7 +44,7 @@ from data_schema.tables import atomic_path, atomic_write_text, read_table, write
 from nvrq.scoring.batches import gt_groups, pack_groups
 
 __all__ = ["Shard", "PairsSource", "read_sources", "plan_shards", "Plan", "load_or_create_plan",
-           "shard_pairs", "write_shard", "finalize", "run_sharded", "empty_columns"]
+           "shard_pairs", "write_shard", "finalize", "run_sharded", "empty_columns", "ShardJob"]
 
 TIMING_KEY = b"nvrq_timing"
 
@@ -129,6 +129,11 @@ def _fingerprint(sources: list[PairsSource]) -> str:
     return h.hexdigest()
 
 
+#: keys of ``_plan.json`` a resumed run need not share: the whole scoring plan (its batch
+#: sizes may differ; what must match is in the compared keys, the plan's ``options()``)
+_NOT_COMPARED = ("score_plan",)
+
+
 def load_or_create_plan(out, pairs_path, sources, *, options: dict, max_pairs: int) -> Plan:
     """Create ``out/_plan.json`` or check that the existing one is this run's; list missing shards."""
     out = Path(out)
@@ -141,7 +146,7 @@ def load_or_create_plan(out, pairs_path, sources, *, options: dict, max_pairs: i
     plan_file = out / ds.PLAN
     if plan_file.is_file():
         old = json.loads(plan_file.read_text(encoding="utf-8"))
-        for key in doc:
+        for key in (k for k in doc if k not in _NOT_COMPARED):
             if old.get(key) != doc[key]:
                 raise InputError(plan_file, key, f"the same {key} as this run (or another `out` folder)",
                                  str(old.get(key))[:60])
@@ -205,26 +210,72 @@ def finalize(plan: Plan, *, timing_path) -> pd.DataFrame:
 ShardResult = tuple[Shard, pd.DataFrame, dict]
 
 
-def run_sharded(pairs_path, out, *, required, options: dict, max_pairs: int, timing_path,
-                compute: Callable[[list[Shard]], Iterable[ShardResult]], progress: bool = True,
-                desc: str = "score") -> dict:
+@dataclass(frozen=True)
+class ShardJob:
+    """What a sharded run shares with its resumptions, and how it runs.
+
+    Attributes
+    ----------
+    options : dict
+        What a resumed run must share with the first (``_plan.json``'s keys; ``columns`` the
+        written names); a ``score_plan`` key (:meth:`nvrq.scoring.plan.ScorePlan.to_dict`) is
+        recorded and not compared.
+    shard_pairs : int
+        Pairs per shard (GT groups kept whole).
+    timing_path : path
+        The timing table written at the end.
+    extra_columns : tuple of str
+        Pairs columns the scorer needs besides :data:`nvrq.scoring.driver.REQUIRED_COLUMNS`.
+    progress : bool
+        A progress bar on stderr.
+    desc : str
+        The progress bar's label.
+    """
+
+    options: dict
+    shard_pairs: int
+    timing_path: object
+    extra_columns: tuple = ()
+    progress: bool = True
+    desc: str = "score"
+
+
+def run_sharded(pairs_path, out, job: ShardJob, *,
+                compute: Callable[[list[Shard]], Iterable[ShardResult]]) -> dict:
     """Run (or resume) a sharded scoring run of ``pairs_path`` into the folder ``out``.
 
-    Plans the shards (:func:`load_or_create_plan`; ``options``: what a resumed run must share),
-    hands the shards still to do to ``compute``, which yields ``(shard, table, seconds per
-    column)`` as each finishes, writes each one atomically as it arrives, then writes the
-    timing table and the manifest (:func:`finalize`). Returns the counts
-    ``{pairs, shards, shards_done_before, pairs_scored, seconds, empty_columns}``
-    (:func:`empty_columns`).
+    Plans the shards (:func:`load_or_create_plan`), hands the shards still to do to
+    ``compute``, which yields ``(shard, table, seconds per column)`` as each finishes, writes
+    each one atomically as it arrives, then writes the timing table and the manifest
+    (:func:`finalize`).
+
+    Parameters
+    ----------
+    pairs_path : path
+        A pairs dataset, or a table with ``clip_id``.
+    out : path
+        The output folder.
+    job : ShardJob
+        The options, shard size, timing path and progress.
+    compute : callable
+        ``compute(todo) -> iterable of (shard, table, seconds)``.
+
+    Returns
+    -------
+    dict
+        ``{pairs, shards, shards_done_before, pairs_scored, seconds, empty_columns}``
+        (:func:`empty_columns`).
     """
+    from nvrq.scoring.driver import REQUIRED_COLUMNS
+
     t0 = time.perf_counter()
-    sources = read_sources(pairs_path, required=required)
-    plan = load_or_create_plan(out, pairs_path, sources, options=options, max_pairs=max_pairs)
+    sources = read_sources(pairs_path, required=REQUIRED_COLUMNS + tuple(job.extra_columns))
+    plan = load_or_create_plan(out, pairs_path, sources, options=job.options, max_pairs=job.shard_pairs)
     n_todo = sum(len(s.rows) for s in plan.todo)
     if plan.todo:
         results: Iterator[ShardResult] = iter(compute(plan.todo))
         try:
-            with tqdm(total=n_todo, unit="pair", desc=desc, file=sys.stderr, disable=not progress,
+            with tqdm(total=n_todo, unit="pair", desc=job.desc, file=sys.stderr, disable=not job.progress,
                       dynamic_ncols=True) as bar:
                 for shard, table, timing in results:
                     write_shard(plan.out, shard, table, timing)
@@ -234,7 +285,7 @@ def run_sharded(pairs_path, out, *, required, options: dict, max_pairs: int, tim
             if close is not None:  # a generator's clean-up (a Ray session, a model) runs now
                 close()
             _pairs_file.cache_clear()
-    finalize(plan, timing_path=timing_path)
+    finalize(plan, timing_path=job.timing_path)
     return {"pairs": plan.doc["n_pairs"], "shards": len(plan.shards),
             "shards_done_before": len(plan.shards) - len(plan.todo), "pairs_scored": n_todo,
             "seconds": time.perf_counter() - t0, "empty_columns": empty_columns(plan)}

@@ -1,6 +1,7 @@
 """Every metric fact in one package: what each metric is, and the functions that compute them.
 
-- :mod:`~nvrq.metrics.info`: :class:`MetricInfo`, what the registry knows of one metric;
+- :mod:`~nvrq.metrics.info`: :class:`MetricInfo`, what the registry knows of one metric, and
+  :class:`MetricKind`, what it consumes (``pair``, ``render``, ``encoder``, ``frame``, ``set``);
 - :mod:`~nvrq.metrics.registry`: :data:`REGISTRY`, every metric and proxy registered once (name,
   direction, range, reference or not, encoder family, smallest crop side), and
   :data:`DEFAULT_METRICS`;
@@ -27,13 +28,15 @@ from nvrq.lazy import lazy_exports
 #: public name -> the module defining it
 _EXPORTS = {
     **dict.fromkeys(("W_LOW", "check_tau", "nvrq_ca", "nvrq_similarity"), "nvrq.metrics.formulas"),
-    "MetricInfo": "nvrq.metrics.info",
+    **dict.fromkeys(("MetricInfo", "MetricKind"), "nvrq.metrics.info"),
     **dict.fromkeys(("DEFAULT_METRICS", "REGISTRY", "register"), "nvrq.metrics.registry"),
     **dict.fromkeys(("column_info", "direction", "encoder_columns", "encoder_for_metrics", "needs_tau",
-                     "reference_columns", "resolve_metrics", "split_column"), "nvrq.metrics.resolve"),
+                     "reference_columns", "resolve_metrics", "split_column", "metric_kind", "closest_metric",
+                     "metric_names", "ColumnSpec", "column_specs"), "nvrq.metrics.resolve"),
 }
 
-__all__ = ["MetricInfo", "REGISTRY", "register", "DEFAULT_METRICS", "column_info", "direction",
+__all__ = ["MetricInfo", "MetricKind", "metric_kind", "closest_metric", "metric_names", "ColumnSpec",
+           "column_specs", "REGISTRY", "register", "DEFAULT_METRICS", "column_info", "direction",
            "resolve_metrics", "encoder_for_metrics", "encoder_columns", "reference_columns",
            "needs_tau", "split_column", "nvrq_similarity", "nvrq_ca", "check_tau", "W_LOW"]
 

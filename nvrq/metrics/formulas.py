@@ -74,10 +74,20 @@ def nvrq_ca(s: np.ndarray, *, tau: float, w_low: float = W_LOW) -> np.ndarray:
     [0.0, 0.05, 0.1, 1.0]
     """
     check_tau(tau)
+    return _nvrq_ca(s, tau, w_low)
+
+
+def _nvrq_ca(s: np.ndarray, tau: float, w_low: float = W_LOW) -> np.ndarray:
+    """:func:`nvrq_ca` without the tau check (the scoring plan checks tau once per run)."""
     s = np.asarray(s, np.float64)
     low = s / tau * w_low
     high = w_low + (1.0 - w_low) * ((s - tau) / (1.0 - tau)) ** 2
     return np.where(s < tau, low, high)
+
+
+def _nvrq(s: np.ndarray, tau: float | None = None) -> np.ndarray:
+    """NVRQ's column from the similarities ``s`` (N,): ``s`` itself (paper Eq. 4; ``tau`` unused)."""
+    return np.asarray(s, np.float64)
 
 
 def check_tau(tau, *, where: object = "tau", field: str | None = None) -> None:

@@ -1,17 +1,43 @@
-"""What the registry knows of one metric: :class:`MetricInfo` (a leaf module: it imports nothing
-of :mod:`nvrq.metrics`, so the registry and the PyIQA bridge both build entries without an import
+"""What the registry knows of one metric: :class:`MetricInfo` and the kinds of input a metric
+consumes, :class:`MetricKind` (metrics layer; a leaf module: it imports nothing of
+:mod:`nvrq.metrics`, so the registry and the PyIQA bridge both build entries without an import
 cycle).
 
 >>> MetricInfo("mae", False, (0.0, 255.0)).reference
 True
+>>> [k.value for k in MetricKind]
+['pair', 'render', 'encoder', 'frame', 'set']
 """
 
 from __future__ import annotations
 
+import enum
 from collections.abc import Callable
 from dataclasses import dataclass
 
-__all__ = ["MetricInfo"]
+__all__ = ["MetricInfo", "MetricKind"]
+
+
+class MetricKind(str, enum.Enum):
+    """What a metric consumes, and so how the scoring core computes it.
+
+    - ``PAIR``: the GT crop and the render crop resized to it, ``fn(gt, render) -> float``;
+    - ``RENDER``: the raw render crop alone, ``fn(render) -> float`` (no reference);
+    - ``ENCODER``: the GT and render crops' embeddings by the chosen encoder; the core computes
+      their similarity ``S = (cos + 1) / 2`` (paper Eq. 4) once per pair and the entry's
+      ``from_similarity(S, tau)`` turns it into the column (``needs_tau``: whether it uses tau);
+    - ``FRAME``: a whole frame (e.g. a detector's boxes against the projected boxes);
+    - ``SET``: two sets of items (e.g. a distance between two feature distributions).
+
+    The scoring core of ``nvrq score`` computes the first three; ``FRAME`` and ``SET`` metrics
+    are registered for the per-frame and per-set scorers.
+    """
+
+    PAIR = "pair"
+    RENDER = "render"
+    ENCODER = "encoder"
+    FRAME = "frame"
+    SET = "set"
 
 
 @dataclass(frozen=True)
@@ -27,6 +53,13 @@ class MetricInfo:
     (``nvrq proxy``). ``min_side``: the shorter crop side (px) below which the value is NaN;
     ``undefined``: when else it is NaN (run summaries count both). ``members(name)``: the entry
     of the column ``family:name`` of a family of external metrics.
+
+    ``consumes``: the :class:`MetricKind` (default: ``encoder`` with ``needs_encoder``, else
+    ``pair`` with ``reference``, else ``render``; :func:`nvrq.metrics.resolve.metric_kind`).
+    ``compute``: ``fn`` without its input checks, for the scoring core, which checks its inputs
+    once per run (default: ``fn`` itself). ``from_similarity(s, tau) -> (N,) float64``: an
+    encoder metric's column from the similarities ``s`` (N,); ``needs_tau``: whether it uses
+    the NVRQ-CA knee ``tau``.
     """
 
     name: str
@@ -40,3 +73,7 @@ class MetricInfo:
     min_side: int = 1
     undefined: str = ""
     members: Callable[[str], MetricInfo] | None = None
+    consumes: MetricKind | None = None
+    compute: Callable | None = None
+    from_similarity: Callable | None = None
+    needs_tau: bool = False

@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import math
 
-import cv2
 import numpy as np
 
 from data_schema.errors import InputError
@@ -88,6 +87,11 @@ def mse(gt: np.ndarray, render: np.ndarray) -> float:
         Naming ``gt`` or ``render`` for crops of other shapes.
     """
     _check(gt, render)
+    return _mse(gt, render)
+
+
+def _mse(gt: np.ndarray, render: np.ndarray) -> float:
+    """:func:`mse` without the input check (the scoring core checks once per run)."""
     d = gt.astype(np.float64) - render.astype(np.float64)
     return float(np.mean(d * d))
 
@@ -111,6 +115,11 @@ def mae(gt: np.ndarray, render: np.ndarray) -> float:
         As :func:`mse`.
     """
     _check(gt, render)
+    return _mae(gt, render)
+
+
+def _mae(gt: np.ndarray, render: np.ndarray) -> float:
+    """:func:`mae` without the input check."""
     return float(np.mean(np.abs(gt.astype(np.float64) - render.astype(np.float64))))
 
 
@@ -132,12 +141,20 @@ def psnr(gt: np.ndarray, render: np.ndarray) -> float:
     InputError
         As :func:`mse`.
     """
-    err = mse(gt, render)
+    _check(gt, render)
+    return _psnr(gt, render)
+
+
+def _psnr(gt: np.ndarray, render: np.ndarray) -> float:
+    """:func:`psnr` without the input check."""
+    err = _mse(gt, render)
     return math.inf if err == 0 else float(10.0 * np.log10(DATA_RANGE ** 2 / err))
 
 
 def _blur(x: np.ndarray) -> np.ndarray:
     """11x11 Gaussian (sigma 1.5) of (H, W, C) float64, mirror border ('reflect' as SciPy)."""
+    import cv2  # on first use (the registry is read by `nvrq score --help`)
+
     return cv2.GaussianBlur(x, (_WIN, _WIN), _SIGMA, sigmaY=_SIGMA, borderType=cv2.BORDER_REFLECT)
 
 
@@ -174,6 +191,11 @@ def ssim(gt: np.ndarray, render: np.ndarray) -> float:
         Naming ``render`` when its shape is not ``gt``'s (resizing is the caller's job).
     """
     _check(gt, render)
+    return _ssim(gt, render)
+
+
+def _ssim(gt: np.ndarray, render: np.ndarray) -> float:
+    """:func:`ssim` without the input check."""
     if min(gt.shape[:2]) < _WIN:
         return math.nan
     s, _ = _ssim_cs_maps(gt.astype(np.float64), render.astype(np.float64))
@@ -227,6 +249,11 @@ def ms_ssim(gt: np.ndarray, render: np.ndarray) -> float:
         As :func:`mse`.
     """
     _check(gt, render)
+    return _ms_ssim(gt, render)
+
+
+def _ms_ssim(gt: np.ndarray, render: np.ndarray) -> float:
+    """:func:`ms_ssim` without the input check."""
     n_scales = ms_ssim_scales(min(gt.shape[:2]))
     if n_scales == 0:
         return math.nan
@@ -255,6 +282,8 @@ def _gradient_magnitude(y: np.ndarray) -> np.ndarray:
     ave = 0.25 * (p[:-1, :-1] + p[1:, :-1] + p[:-1, 1:] + p[1:, 1:])
     d = ave[0::2, 0::2]
     dx = np.array([[1.0, 0.0, -1.0]] * 3) / 3.0
+    import cv2
+
     gx = cv2.filter2D(d, cv2.CV_64F, dx, borderType=cv2.BORDER_CONSTANT)
     gy = cv2.filter2D(d, cv2.CV_64F, dx.T.copy(), borderType=cv2.BORDER_CONSTANT)
     return np.sqrt(gx * gx + gy * gy)
@@ -279,6 +308,11 @@ def gmsd(gt: np.ndarray, render: np.ndarray) -> float:
         For a ``gt`` that is not (H, W, 3), or a ``render`` of another shape.
     """
     _check(gt, render)
+    return _gmsd(gt, render)
+
+
+def _gmsd(gt: np.ndarray, render: np.ndarray) -> float:
+    """:func:`gmsd` without the input check."""
     if min(gt.shape[:2]) < GMSD_MIN_SIDE:
         return math.nan
     m1, m2 = _gradient_magnitude(_luma(gt)), _gradient_magnitude(_luma(render))

@@ -18,13 +18,18 @@ column (its entry, direction, encoder, tau) are answered by :mod:`nvrq.metrics.r
 from __future__ import annotations
 
 from nvrq.choices import DEFAULT_METRICS  # the metrics of nvrq score without --metrics
+from nvrq.metrics import formulas as _f
 from nvrq.metrics import no_reference as _nr
 from nvrq.metrics import pixel as _px  # numpy + OpenCV; no torch
 from nvrq.metrics import pyiqa_bridge as _pyiqa  # imports pyiqa only when a column is used
-from nvrq.metrics.info import MetricInfo
+from nvrq.metrics.info import MetricInfo, MetricKind
 from nvrq.metrics.no_reference.brisque import MIN_SIDE as _BRISQUE_MIN_SIDE
+from nvrq.metrics.no_reference.brisque import _brisque
+from nvrq.metrics.no_reference.entropy import _entropy
 from nvrq.metrics.no_reference.niqe import PATCH as _NIQE_PATCH
+from nvrq.metrics.no_reference.niqe import _niqe
 from nvrq.metrics.no_reference.piqe import MIN_SIDE as _PIQE_MIN_SIDE
+from nvrq.metrics.no_reference.piqe import _piqe
 
 __all__ = ["REGISTRY", "register", "DEFAULT_METRICS"]
 
@@ -56,9 +61,11 @@ def register(info: MetricInfo) -> MetricInfo:
     return info
 
 
-register(MetricInfo("nvrq", True, (0.0, 1.0), needs_encoder=True,
+register(MetricInfo("nvrq", True, (0.0, 1.0), needs_encoder=True, consumes=MetricKind.ENCODER,
+                    from_similarity=_f._nvrq,
                     description="NVRQ (paper Eq. 4): (cos(f_gt, f_render) + 1) / 2"))
-register(MetricInfo("nvrq_ca", True, (0.0, 1.0), needs_encoder=True,
+register(MetricInfo("nvrq_ca", True, (0.0, 1.0), needs_encoder=True, consumes=MetricKind.ENCODER,
+                    from_similarity=_f._nvrq_ca, needs_tau=True,
                     description="NVRQ-CA (paper Eq. 5): curve-adjusted NVRQ"))
 # Downstream proxies (paper Eq. 6-10), written by `nvrq proxy`; analysed with --target.
 register(MetricInfo("s_det", True, (0.0, 1.0), kind="proxy",
@@ -69,34 +76,34 @@ register(MetricInfo("clip_drop", False, (-1.0, 1.0), kind="proxy",
                     description="CLIP zero-shot true-category confidence drop (paper Eq. 10)"))
 
 # Weight-free pixel metrics on raw crops (docs/FORMATS.md §4; definitions in nvrq/metrics/pixel.py).
-register(MetricInfo("psnr", True, (0.0, float("inf")), fn=_px.psnr,
+register(MetricInfo("psnr", True, (0.0, float("inf")), fn=_px.psnr, compute=_px._psnr, consumes=MetricKind.PAIR,
                     description="PSNR in dB over RGB, data range 255 (inf for identical crops)"))
-register(MetricInfo("ssim", True, (-1.0, 1.0), fn=_px.ssim, min_side=_px.SSIM_MIN_SIDE,
+register(MetricInfo("ssim", True, (-1.0, 1.0), fn=_px.ssim, compute=_px._ssim, consumes=MetricKind.PAIR, min_side=_px.SSIM_MIN_SIDE,
                     description="SSIM (Gaussian 11x11, sigma 1.5), RGB channels averaged"))
-register(MetricInfo("ms_ssim", True, (0.0, 1.0), fn=_px.ms_ssim, min_side=_px.SSIM_MIN_SIDE,
+register(MetricInfo("ms_ssim", True, (0.0, 1.0), fn=_px.ms_ssim, compute=_px._ms_ssim, consumes=MetricKind.PAIR, min_side=_px.SSIM_MIN_SIDE,
                     description="MS-SSIM on up to 5 scales (as many as the crop holds, weights "
                                 "renormalised); NaN when the shorter crop side < 11 px"))
-register(MetricInfo("gmsd", False, (0.0, 1.0), fn=_px.gmsd, min_side=_px.GMSD_MIN_SIDE,
+register(MetricInfo("gmsd", False, (0.0, 1.0), fn=_px.gmsd, compute=_px._gmsd, consumes=MetricKind.PAIR, min_side=_px.GMSD_MIN_SIDE,
                     description="gradient magnitude similarity deviation (Xue et al. 2014)"))
-register(MetricInfo("mse", False, (0.0, 255.0 ** 2), fn=_px.mse,
+register(MetricInfo("mse", False, (0.0, 255.0 ** 2), fn=_px.mse, compute=_px._mse, consumes=MetricKind.PAIR,
                     description="mean squared error over RGB (0-255)"))
-register(MetricInfo("mae", False, (0.0, 255.0), fn=_px.mae,
+register(MetricInfo("mae", False, (0.0, 255.0), fn=_px.mae, compute=_px._mae, consumes=MetricKind.PAIR,
                     description="mean absolute error over RGB (0-255)"))
 
 # No-reference metrics on the raw render crop (paper Table 1; definitions in nvrq/metrics/no_reference/).
-register(MetricInfo("brisque", False, (-float("inf"), float("inf")), fn=_nr.brisque, reference=False,
+register(MetricInfo("brisque", False, (-float("inf"), float("inf")), fn=_nr.brisque, compute=_brisque, consumes=MetricKind.RENDER, reference=False,
                     min_side=_BRISQUE_MIN_SIDE,
                     undefined="a neighbour-product map without negative or without positive values: "
                               "no AGGD fit, as in the original release",
                     description="BRISQUE (Mittal et al. 2012), the original release's LIVE-trained SVR "
                                 "(allmodel), as PyIQA / MATLAB compute it; not clipped (may leave 0-100)"))
-register(MetricInfo("niqe", False, (0.0, float("inf")), fn=_nr.niqe, reference=False,
+register(MetricInfo("niqe", False, (0.0, float("inf")), fn=_nr.niqe, compute=_niqe, consumes=MetricKind.RENDER, reference=False,
                     min_side=_NIQE_PATCH,
                     description="NIQE (Mittal et al. 2013), the original release's pristine model, as "
                                 "MATLAB / basicsr compute it, every whole 96x96 block"))
-register(MetricInfo("piqe", False, (0.0, 100.0), fn=_nr.piqe, reference=False, min_side=_PIQE_MIN_SIDE,
+register(MetricInfo("piqe", False, (0.0, 100.0), fn=_nr.piqe, compute=_piqe, consumes=MetricKind.RENDER, reference=False, min_side=_PIQE_MIN_SIDE,
                     description="PIQE (Venkatanath et al. 2015), as MATLAB's piqe, 16x16 blocks"))
-register(MetricInfo("entropy", True, (0.0, 8.0), fn=_nr.entropy, reference=False,
+register(MetricInfo("entropy", True, (0.0, 8.0), fn=_nr.entropy, compute=_entropy, consumes=MetricKind.RENDER, reference=False,
                     description="Shannon entropy (bits) of the 256-bin grey histogram, as MATLAB's entropy"))
 
 # PyIQA's metrics, when pyiqa is installed (nvrq/metrics/pyiqa_bridge.py): columns pyiqa:NAME.

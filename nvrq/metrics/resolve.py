@@ -22,15 +22,18 @@ True
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import difflib
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 from data_schema.errors import InputError
 from nvrq.encoders.registry import get_spec
-from nvrq.metrics.info import MetricInfo
+from nvrq.metrics.info import MetricInfo, MetricKind
 from nvrq.metrics.registry import REGISTRY
 
 __all__ = ["split_column", "column_info", "direction", "resolve_metrics", "encoder_for_metrics",
-           "encoder_columns", "reference_columns", "needs_tau"]
+           "encoder_columns", "reference_columns", "needs_tau", "metric_kind", "closest_metric",
+           "metric_names", "ColumnSpec", "column_specs"]
 
 _RAISE = object()
 #: ``column_info``'s kinds, and how its error names them
@@ -55,6 +58,104 @@ def split_column(column: str) -> tuple[str, str | None]:
     """
     family, sep, member = str(column).partition(":")
     return (family, member) if sep else (family, None)
+
+
+def metric_names(kind: str | None = "metric") -> list[str]:
+    """The registered names of ``kind`` (``'metric'``, ``'proxy'`` or ``None`` for both), sorted.
+
+    Parameters
+    ----------
+    kind : {'metric', 'proxy', None}
+        The entries to list.
+
+    Returns
+    -------
+    list of str
+        Family names (``nvrq``, ``pyiqa``) stand for their columns.
+
+    >>> "psnr" in metric_names(), "s_det" in metric_names()
+    (True, False)
+    """
+    return sorted(n for n, i in REGISTRY.items() if kind is None or i.kind == kind)
+
+
+def _pyiqa_knows(name: str) -> bool | None:
+    """Whether PyIQA lists ``name`` (``None`` when pyiqa is not installed)."""
+    import importlib
+
+    try:
+        pyiqa = importlib.import_module("pyiqa")
+    except ImportError:
+        return None
+    return name in set(pyiqa.list_models())
+
+
+def closest_metric(name: str, kind: str | None = "metric") -> str | None:
+    """The spelling of a registered metric closest to the unknown ``name``, for the error's hint.
+
+    Parameters
+    ----------
+    name : str
+        The name as given (``PSNR``, ``lpips``, ``nvrq-ca``, ``psrn``).
+    kind : {'metric', 'proxy', None}
+        The entries to look among.
+
+    Returns
+    -------
+    str or None
+        The same name in another case or with ``-`` for ``_`` (``PSNR`` -> ``psnr``), else the
+        nearest registered name (:func:`difflib.get_close_matches`, cutoff 0.75), else
+        ``pyiqa:NAME`` when the ``pyiqa`` family is registered and PyIQA knows ``NAME`` or is
+        not installed (``lpips`` -> ``pyiqa:lpips``); ``None`` when nothing fits.
+
+    >>> closest_metric("PSNR"), closest_metric("nvrq-ca"), closest_metric("psrn")
+    ('psnr', 'nvrq_ca', 'psnr')
+    """
+    names = metric_names(kind)
+    family, member = split_column(name.strip())
+    folded = {n.lower().replace("-", "_"): n for n in names}
+    key = family.lower().replace("-", "_")
+    if key in folded:
+        hit = folded[key]
+        return hit if member is None else f"{hit}:{member}"
+    near = difflib.get_close_matches(key, list(folded), n=1, cutoff=0.75)
+    if near:
+        return folded[near[0]] if member is None else f"{folded[near[0]]}:{member}"
+    if "pyiqa" in names and member is None and _pyiqa_knows(family.lower()) is not False:
+        return f"pyiqa:{family.lower()}"
+    return None
+
+
+def _unknown(raw: str, kind: str | None, expected: str) -> InputError:
+    """The one-line error of an unknown metric name, with :func:`closest_metric`'s hint."""
+    hint = closest_metric(raw, kind)
+    got = raw if hint is None else f"{raw} (did you mean {hint}?)"
+    return InputError(param="metrics", expected=expected, got=got)
+
+
+def metric_kind(column: str) -> MetricKind:
+    """What the column ``column`` consumes (:class:`~nvrq.metrics.info.MetricKind`).
+
+    Parameters
+    ----------
+    column : str
+        A metric column :func:`column_info` knows.
+
+    Returns
+    -------
+    MetricKind
+        The entry's ``consumes``; when it has none, ``ENCODER`` for an encoder family, ``PAIR``
+        for a full-reference metric, ``RENDER`` for a no-reference one.
+
+    >>> metric_kind("psnr").value, metric_kind("niqe").value, metric_kind("nvrq_ca:e").value
+    ('pair', 'render', 'encoder')
+    """
+    info = column_info(column)
+    if info.consumes is not None:
+        return MetricKind(info.consumes)
+    if info.needs_encoder:
+        return MetricKind.ENCODER
+    return MetricKind.PAIR if info.reference else MetricKind.RENDER
 
 
 def column_info(column: str, *, kind: str | None = "metric", default=_RAISE) -> MetricInfo:
@@ -88,8 +189,7 @@ def column_info(column: str, *, kind: str | None = "metric", default=_RAISE) -> 
     info = REGISTRY.get(family)
     try:
         if info is None or (kind is not None and info.kind != kind):
-            known = ", ".join(sorted(n for n, i in REGISTRY.items() if kind is None or i.kind == kind))
-            raise InputError(param="metrics", expected=f"{_KINDS[kind]} among {known}", got=column)
+            raise _unknown(column, kind, f"{_KINDS[kind]} among {', '.join(metric_names(kind))}")
         if info.members is not None:
             if member is None:
                 raise InputError(param="metrics", field=column, expected=f"{family}:NAME", got=column)
@@ -145,14 +245,14 @@ def resolve_metrics(metrics: Sequence[str], encoder: str) -> list[str]:
     >>> resolve_metrics(["psnr", "nvrq", "nvrq_ca"], "dinov2-small")
     ['psnr', 'nvrq:dinov2-small', 'nvrq_ca:dinov2-small']
     """
-    known = sorted(n for n, i in REGISTRY.items() if i.kind == "metric")
+    known = metric_names()
     columns: list[str] = []
     for raw in metrics:
         family, enc = split_column(raw.strip())
         info = REGISTRY.get(family)
         if info is None or info.kind != "metric" or (enc is not None and not info.needs_encoder
                                                       and info.members is None):
-            raise InputError(param="metrics", expected=f"metric names among {', '.join(known)}", got=raw)
+            raise _unknown(raw, "metric", f"metric names among {', '.join(known)}")
         if info.members is not None:  # pyiqa:NAME, checked by its family
             col = column_info(f"{family}:{enc}" if enc else family).name
         elif info.needs_encoder:
@@ -195,7 +295,7 @@ def encoder_for_metrics(metrics: Sequence[str], encoder: str | None = None) -> s
     >>> encoder_for_metrics(["nvrq"], "dinov2-small")
     'dinov2-small'
     """
-    families = {name for name, info in REGISTRY.items() if info.needs_encoder}  # not pyiqa:NAME
+    families = {name for name, info in REGISTRY.items() if info.needs_encoder or info.consumes == MetricKind.ENCODER}
     named = {enc for fam, enc in map(split_column, (m.strip() for m in metrics)) if fam in families} - {None}
     if len(named) > 1:
         raise InputError(param="metrics", expected="one encoder for all nvrq/nvrq_ca metrics", got=", ".join(sorted(named)))
@@ -221,7 +321,7 @@ def encoder_columns(metrics: Sequence[str]) -> list[str]:
     >>> encoder_columns(["psnr", "nvrq:e", "nvrq_ca:e@int8"])
     ['nvrq:e', 'nvrq_ca:e@int8']
     """
-    return [m for m in metrics if column_info(m).needs_encoder]
+    return [m for m in metrics if metric_kind(m) is MetricKind.ENCODER]
 
 
 def reference_columns(metrics: Sequence[str]) -> list[str]:
@@ -241,8 +341,7 @@ def reference_columns(metrics: Sequence[str]) -> list[str]:
     >>> reference_columns(["psnr", "niqe", "nvrq:e", "entropy"])
     ['psnr', 'nvrq:e']
     """
-    infos = [column_info(m) for m in metrics]
-    return [m for m, info in zip(metrics, infos, strict=True) if info.needs_encoder or info.reference]
+    return [m for m in metrics if metric_kind(m) in (MetricKind.PAIR, MetricKind.ENCODER)]
 
 
 def needs_tau(metrics: Sequence[str]) -> bool:
@@ -260,4 +359,60 @@ def needs_tau(metrics: Sequence[str]) -> bool:
     >>> needs_tau(["psnr", "nvrq:e"]), needs_tau(["nvrq_ca:e"])
     (False, True)
     """
-    return any(split_column(m)[0] == "nvrq_ca" for m in metrics)
+    return any(column_info(m).needs_tau for m in metrics)
+
+
+@dataclass(frozen=True)
+class ColumnSpec:
+    """One metric column as the scoring core runs it, looked up once (:func:`column_specs`).
+
+    Attributes
+    ----------
+    name : str
+        The column (``psnr``, ``nvrq:ENCODER``).
+    kind : MetricKind
+        What it consumes (:func:`metric_kind`).
+    kernel : callable or None
+        ``pair``: ``kernel(gt, render) -> float``; ``render``: ``kernel(render) -> float`` (the
+        entry's unchecked ``compute``, else its ``fn``); ``None`` for ``encoder``.
+    from_similarity : callable or None
+        ``encoder``: ``(S (N,), tau) -> (N,)`` float64, ``S`` the similarities (paper Eq. 4).
+    needs_tau : bool
+        Whether it uses NVRQ-CA's knee.
+    min_side : int
+        Shorter crop side (px) below which the value is NaN.
+    undefined : str
+        When else it is NaN.
+    """
+
+    name: str
+    kind: MetricKind
+    kernel: Callable | None
+    from_similarity: Callable | None
+    needs_tau: bool
+    min_side: int
+    undefined: str
+
+
+def column_specs(columns: Sequence[str]) -> tuple[ColumnSpec, ...]:
+    """The :class:`ColumnSpec` of each column, every registry fact the core needs, in one call.
+
+    Parameters
+    ----------
+    columns : sequence of str
+        Metric columns :func:`column_info` knows.
+
+    Returns
+    -------
+    tuple of ColumnSpec
+        In order.
+
+    >>> [(s.name, s.kind.value, s.needs_tau) for s in column_specs(["psnr", "nvrq_ca:e"])]
+    [('psnr', 'pair', False), ('nvrq_ca:e', 'encoder', True)]
+    """
+    out = []
+    for c in columns:
+        info = column_info(c)
+        out.append(ColumnSpec(c, metric_kind(c), info.compute or info.fn, info.from_similarity, info.needs_tau,
+                              info.min_side, info.undefined))
+    return tuple(out)

@@ -26,10 +26,11 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from data_schema.errors import check_int
+from data_schema.errors import InputError, check_int
 from data_schema.tables import (
     GT_BOX_COLUMNS,
     RENDER_BOX_COLUMNS,
+    PairsTable,
     pair_boxes,
     pair_image_paths,
     require_columns,
@@ -54,7 +55,9 @@ class _Plan:
     r_boxes: np.ndarray
 
 
-def _plan(pairs: pd.DataFrame, *, scene_root, base, where: str, follow: bool | None = None) -> _Plan:
+def _plan(pairs, *, scene_root, base, where: str, follow: bool | None = None) -> _Plan:
+    if isinstance(pairs, PairsTable):  # read and checked once (data_schema.tables.read_pairs)
+        return _Plan(pairs.gt_paths, pairs.render_paths, pairs.gt_boxes, pairs.render_boxes)
     require_columns(pairs, CROP_COLUMNS, where=where)
     paths = {c: pair_image_paths(pairs, c, scene_root=scene_root, base=base, where=where, follow=follow)
              for c in ("gt_path", "render_path")}
@@ -128,7 +131,10 @@ def _load_batch(rows: np.ndarray, plan: _Plan, where: str, pool: ThreadPoolExecu
     """Decode the images of ``rows`` once each (on ``pool`` when given) and cut their crops (copies)."""
     t0 = time.perf_counter()
     paths = pd.unique(np.concatenate([plan.gt_paths[rows], plan.r_paths[rows]]))
-    images = dict(zip(paths, pool.map(read_rgb, paths) if pool is not None else map(read_rgb, paths), strict=True))
+    try:
+        images = dict(zip(paths, pool.map(read_rgb, paths) if pool is not None else map(read_rgb, paths), strict=True))
+    except InputError:  # an image that cannot be read: every one is then looked for
+        raise _Unreadable from None
     seconds = time.perf_counter() - t0
     gt_keys: dict[tuple, int] = {}
     gt_crops, gt_index, r_crops = [], np.empty(len(rows), np.int64), []
@@ -142,6 +148,38 @@ def _load_batch(rows: np.ndarray, plan: _Plan, where: str, pool: ThreadPoolExecu
         rc = cut_box(images[plan.r_paths[i]], plan.r_boxes[i], where=f"{where}: pair {i + 2} render box")
         r_crops.append(rc.copy())
     return CropBatch(np.asarray(rows, np.int64), gt_crops, gt_index, r_crops, len(images), seconds)
+
+
+class _Unreadable(Exception):
+    """A batch met an unreadable image (:func:`_all_unreadable` then names every one)."""
+
+
+def _unreadable(path: str) -> str | None:
+    """Why the image ``path`` cannot be read (``None`` when it can)."""
+    try:
+        read_rgb(path)
+    except InputError as exc:
+        return str(exc.got)
+    return None
+
+
+def _all_unreadable(plan: _Plan, chunks: list[np.ndarray], where: str) -> InputError:
+    """One error naming every unreadable image of ``chunks`` (issue 38: all bad files in one
+    pass, with their count, rather than the first alone), grouped by reason, relative to the
+    folder they share."""
+    rows = np.concatenate(chunks) if chunks else np.zeros(0, np.int64)
+    paths = [str(p) for p in pd.unique(np.concatenate([plan.gt_paths[rows], plan.r_paths[rows]]))]
+    bad: dict[str, list[str]] = {}
+    for p in paths:
+        why = _unreadable(p)
+        if why is not None:
+            bad.setdefault(why, []).append(p)
+    found = [p for ps in bad.values() for p in ps]
+    root = os.path.commonpath([os.path.dirname(p) for p in found]) if found else ""
+    listed = "; ".join(f"{why}: {', '.join(os.path.relpath(p, root) for p in ps)}" for why, ps in bad.items())
+    n = len(found)
+    return InputError(where, f"images under {root} ({listed})", "readable image files",
+                      f"{n} unreadable image{'s' if n != 1 else ''} of {len(paths)}")
 
 
 _DONE = object()
@@ -181,7 +219,7 @@ def _in_background(items: Iterator, *, maxsize: int = 2) -> Iterator:
                 pass
 
 
-def iter_crop_batches(pairs: pd.DataFrame, *, scene_root: str | os.PathLike | None = None,
+def iter_crop_batches(pairs: pd.DataFrame | PairsTable, *, scene_root: str | os.PathLike | None = None,
                       base: str | os.PathLike | None = None, max_pairs: int = 256,
                       background: bool = True, decode_threads: int = 1,
                       where: str = "pairs", follow_links: bool | None = None) -> Iterator[CropBatch]:
@@ -189,9 +227,11 @@ def iter_crop_batches(pairs: pd.DataFrame, *, scene_root: str | os.PathLike | No
 
     Parameters
     ----------
-    pairs : pandas.DataFrame
+    pairs : pandas.DataFrame or PairsTable
         docs/FORMATS.md §3 columns (:data:`CROP_COLUMNS`; image paths relative to
-        ``scene_root`` or the ``scene_root`` column, itself relative to ``base``).
+        ``scene_root`` or the ``scene_root`` column, itself relative to ``base``), or a
+        :class:`~data_schema.tables.PairsTable` read and checked once (``scene_root``, ``base``
+        and ``follow_links`` are then its own).
     scene_root, base : path, optional
         Where the image paths are relative to.
     max_pairs : int
@@ -214,7 +254,8 @@ def iter_crop_batches(pairs: pd.DataFrame, *, scene_root: str | os.PathLike | No
     ------
     InputError
         For bad columns, boxes and paths, naming ``where`` and the row; naming ``max_pairs`` or
-        ``decode_threads``.
+        ``decode_threads``; for unreadable images, one error listing every one of them from
+        the first batch that has one on, with their count.
     """
     check_int("max_pairs", max_pairs)
     check_int("decode_threads", decode_threads)
@@ -222,9 +263,14 @@ def iter_crop_batches(pairs: pd.DataFrame, *, scene_root: str | os.PathLike | No
 
     def batches() -> Iterator[CropBatch]:
         pool = ThreadPoolExecutor(decode_threads, thread_name_prefix="nvrq-decode") if decode_threads > 1 else None
+        chunks = _chunks(plan.gt_paths, max_pairs)
         try:
-            for rows in _chunks(plan.gt_paths, max_pairs):
-                yield _load_batch(rows, plan, where, pool)
+            for k, rows in enumerate(chunks):
+                try:
+                    batch = _load_batch(rows, plan, where, pool)
+                except _Unreadable:
+                    raise _all_unreadable(plan, chunks[k:], where) from None
+                yield batch
         finally:
             if pool is not None:
                 pool.shutdown(wait=True, cancel_futures=True)

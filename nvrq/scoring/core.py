@@ -4,7 +4,13 @@ Every command that compares crops (``nvrq score``, ``calibrate-tau``, ``stabilit
 ``imagenet``/``clip`` proxies), the distributed engines and the Python API
 (:mod:`nvrq.api`) run through these functions; none of them reads a file (reading crops
 from a pairs table is :mod:`nvrq.scoring.batches`). Which columns need what (an encoder, the GT
-crop, tau) is :mod:`nvrq.metrics.resolve`'s to say:
+crop, tau) is :mod:`nvrq.metrics.resolve`'s to say, once, in the run's plan
+(:mod:`nvrq.scoring.plan`):
+
+- :func:`compute_columns` is the core: one :class:`CropBatch` and the plan's column specs ->
+  the columns, dispatched on each column's kind (``pair``, ``render``, ``encoder``), with no
+  check and no name comparison; the driver, the engines and the Python API call it;
+- :func:`score_crop_batch` is its public, checking wrapper (one check, then the core);
 
 - :func:`score_crop_batch` maps one :class:`CropBatch` to its metric columns. Full-reference
   pixel metrics compare the GT crop with the render crop bicubic-resized to the GT crop's size
@@ -40,17 +46,18 @@ import numpy as np
 
 from data_schema.errors import InputError, check_int
 from nvrq.crops import encoder_input, resize_to
-from nvrq.metrics.formulas import check_tau, nvrq_ca, nvrq_similarity
+from nvrq.metrics.formulas import check_tau, nvrq_similarity
+from nvrq.metrics.info import MetricKind
 from nvrq.metrics.resolve import (
     column_info,
+    column_specs,
     encoder_columns,
     needs_tau,
     reference_columns,
-    split_column,
 )
 
-__all__ = ["CropBatch", "score_crop_batch", "embed_crops", "encoder_inputs", "run_batched",
-           "pair_outputs", "check_metric_args", "column_seconds", "empty_column_warning"]
+__all__ = ["CropBatch", "score_crop_batch", "compute_columns", "embed_crops", "encoder_inputs",
+           "run_batched", "pair_outputs", "check_metric_args", "column_seconds", "empty_column_warning"]
 
 
 @dataclass(frozen=True)
@@ -135,6 +142,11 @@ def run_batched(crops: Sequence[np.ndarray], fn: Callable[[np.ndarray], np.ndarr
         Naming ``batch_size`` unless it is a positive integer.
     """
     check_int("batch_size", batch_size)
+    return _run_batched(crops, fn, size, batch_size, timings)
+
+
+def _run_batched(crops, fn, size: int, batch_size: int, timings: dict | None) -> np.ndarray:
+    """:func:`run_batched` without the check (the plan checked ``batch_size``)."""
     times = timings if timings is not None else {}
     parts = []
     for k in range(0, len(crops), batch_size):
@@ -165,9 +177,14 @@ def pair_outputs(batch: CropBatch, fn: Callable[[np.ndarray], np.ndarray], *, si
     tuple of two (P, D) arrays
         ``(out_gt, out_render)``: row k for pair k.
     """
+    check_int("batch_size", batch_size)
+    return _pair_outputs(batch, fn, size, batch_size, timings)
+
+
+def _pair_outputs(batch: CropBatch, fn, size: int, batch_size: int, timings: dict | None):
+    """:func:`pair_outputs` without the check."""
     k = len(batch.gt_crops)
-    out = run_batched([*batch.gt_crops, *batch.render_crops], fn, size=size, batch_size=batch_size,
-                      timings=timings)
+    out = _run_batched([*batch.gt_crops, *batch.render_crops], fn, size, batch_size, timings)
     return out[:k][np.asarray(batch.gt_index, np.int64)], out[k:]
 
 
@@ -259,13 +276,12 @@ def check_metric_args(metrics: Sequence[str], *, encoder=None, tau=None, batch_s
         check_tau(tau)
 
 
-def _pixel_columns(batch: CropBatch, names: list[str], times: dict) -> dict[str, np.ndarray]:
-    """Encoder-free metrics (P,) per name: a full-reference one compares the GT crop with the
-    render crop resized to the GT crop's size; a no-reference one scores the raw render crop."""
-    out = {name: np.empty(len(batch.render_crops)) for name in names}
-    with_gt = set(reference_columns(names))
-    full = {n: column_info(n).fn for n in names if n in with_gt}
-    blind = {n: column_info(n).fn for n in names if n not in with_gt}
+def _pixel_columns(batch: CropBatch, specs, times: dict) -> dict[str, np.ndarray]:
+    """Encoder-free columns (P,) per spec: a ``pair`` one compares the GT crop with the render
+    crop resized to the GT crop's size; a ``render`` one scores the raw render crop."""
+    out = {spec.name: np.empty(len(batch.render_crops)) for spec in specs}
+    full = {s.name: s.kernel for s in specs if s.kind is MetricKind.PAIR}
+    blind = {s.name: s.kernel for s in specs if s.kind is MetricKind.RENDER}
     for k, crop in enumerate(batch.render_crops):
         for name, fn in blind.items():
             t0 = time.perf_counter()
@@ -281,9 +297,46 @@ def _pixel_columns(batch: CropBatch, names: list[str], times: dict) -> dict[str,
     return out
 
 
+def compute_columns(batch: CropBatch, specs: Sequence, *, encoder=None, tau: float | None = None,
+                    batch_size: int = 32, timings: dict | None = None) -> dict[str, np.ndarray]:
+    """The core: the columns of ``specs`` for one :class:`CropBatch`, with no check.
+
+    Parameters
+    ----------
+    batch : CropBatch
+        The crops (GT crops for ``pair`` and ``encoder`` columns).
+    specs : sequence of ColumnSpec
+        The plan's columns (:attr:`nvrq.scoring.plan.ScorePlan.specs`), already checked.
+    encoder : Encoder, optional
+        For ``encoder`` columns: each GT crop embedded once, ``batch_size`` crops per pass; the
+        similarity ``S`` (paper Eq. 4) is computed once and each column's ``from_similarity``
+        maps it.
+    tau : float, optional
+        The plan's tau, for the columns that use it.
+    batch_size : int
+        Crops per encoder pass.
+    timings : dict, optional
+        Gains the per-stage seconds (module docstring).
+
+    Returns
+    -------
+    dict
+        ``{column: (P,) float64}`` in ``specs`` order.
+    """
+    times = timings if timings is not None else {}
+    out = _pixel_columns(batch, [s for s in specs if s.kind is not MetricKind.ENCODER], times)
+    enc = [s for s in specs if s.kind is MetricKind.ENCODER]
+    if enc:
+        f_gt, f_render = _pair_outputs(batch, encoder.embed, encoder.spec.input_size, batch_size, times)
+        sim = nvrq_similarity(f_gt, f_render)
+        for spec in enc:
+            out[spec.name] = spec.from_similarity(sim, tau)
+    return {s.name: np.asarray(out[s.name], np.float64) for s in specs}
+
+
 def score_crop_batch(batch: CropBatch, *, metrics: Sequence[str], encoder=None, tau=None,
                      batch_size: int = 32, timings: dict | None = None) -> dict[str, np.ndarray]:
-    """The metric columns of one :class:`CropBatch`.
+    """The metric columns of one :class:`CropBatch` (checked, then :func:`compute_columns`).
 
     Parameters
     ----------
@@ -317,16 +370,8 @@ def score_crop_batch(batch: CropBatch, *, metrics: Sequence[str], encoder=None, 
         needs_gt = reference_columns(metrics)
         if needs_gt:
             raise InputError(param="gt_crops", expected=f"GT crops for the reference metrics {', '.join(needs_gt)}", got="none")
-    times = timings if timings is not None else {}
-    enc_cols = encoder_columns(metrics)
-    out = _pixel_columns(batch, [m for m in metrics if m not in enc_cols], times)
-    if enc_cols:
-        f_gt, f_render = pair_outputs(batch, encoder.embed, size=encoder.spec.input_size,
-                                      batch_size=batch_size, timings=times)
-        s = nvrq_similarity(f_gt, f_render)
-        for col in enc_cols:
-            out[col] = s if split_column(col)[0] == "nvrq" else nvrq_ca(s, tau=tau)
-    return {m: np.asarray(out[m], np.float64) for m in metrics}
+    return compute_columns(batch, column_specs(metrics), encoder=encoder, tau=tau if needs_tau(metrics) else None,
+                           batch_size=batch_size, timings=timings)
 
 
 def empty_column_warning(metric: str, n_pairs: int, why: str = "") -> str:

@@ -38,15 +38,23 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from data_schema.tables import GT_BOX_COLUMNS, RENDER_BOX_COLUMNS, pair_boxes, require_columns
+from data_schema.tables import (
+    GT_BOX_COLUMNS,
+    RENDER_BOX_COLUMNS,
+    PairsTable,
+    pair_boxes,
+    pairs_table,
+)
+from nvrq.metrics.info import MetricKind
 from nvrq.metrics.resolve import column_info, encoder_columns, reference_columns
 from nvrq.scoring.batches import CROP_COLUMNS, decode_schedule, iter_crop_batches
 from nvrq.scoring.core import (
     check_metric_args,
     column_seconds,
+    compute_columns,
     empty_column_warning,
-    score_crop_batch,
 )
+from nvrq.scoring.plan import ScorePlan
 
 __all__ = ["ScoreResult", "score_pairs", "timing_table", "runtime_timing", "undefined_counts", "crop_sides",
            "empty_column_warning", "empty_column_warnings", "REQUIRED_COLUMNS"]
@@ -217,41 +225,54 @@ def runtime_timing(timing: pd.DataFrame, model, model_columns: Sequence[str]) ->
     return timing
 
 
-def score_pairs(
-    pairs: pd.DataFrame,
-    *,
-    metrics: Sequence[str],
-    encoder=None,
-    tau: float | None = None,
-    scene_root: str | os.PathLike | None = None,
-    base: str | os.PathLike | None = None,
-    batch_size: int = 32,
-    max_pairs: int = 256,
-    progress: bool = True,
-    where: str = "pairs",
-) -> ScoreResult:
-    """Score every row of ``pairs`` (the module docstring's three steps).
+#: the keywords :func:`score_pairs` still takes instead of a plan (before issue 34)
+_PLAN_KEYWORDS = ("metrics", "tau", "batch_size", "max_pairs")
+
+
+def _legacy_plan(encoder, legacy: dict) -> ScorePlan:
+    """The plan of :func:`score_pairs`' former keywords (``metrics``, ``tau``, ``batch_size``,
+    ``max_pairs``), checked as before (:func:`nvrq.scoring.core.check_metric_args`)."""
+    unknown = sorted(set(legacy) - set(_PLAN_KEYWORDS))
+    if unknown:
+        raise TypeError(f"score_pairs() got an unexpected keyword argument {unknown[0]!r}")
+    metrics = list(legacy.get("metrics") or ())
+    tau, batch_size = legacy.get("tau"), legacy.get("batch_size", 32)
+    check_metric_args(metrics, encoder=encoder, tau=tau, batch_size=batch_size)
+    from nvrq.metrics.resolve import needs_tau
+
+    return ScorePlan(tuple(metrics), tau=tau if needs_tau(metrics) else None, batch_size=batch_size,
+                     max_pairs=legacy.get("max_pairs", 256))
+
+
+def _sides(boxes: np.ndarray) -> np.ndarray:
+    """Shorter sides (N,) of inclusive boxes (N, 4)."""
+    return np.minimum(boxes[:, 2] - boxes[:, 0], boxes[:, 3] - boxes[:, 1]) + 1
+
+
+def score_pairs(pairs: pd.DataFrame | PairsTable, plan: ScorePlan | None = None, *, encoder=None,
+                scene_root: str | os.PathLike | None = None, base: str | os.PathLike | None = None,
+                progress: bool = True, where: str = "pairs", **legacy) -> ScoreResult:
+    """Score every row of ``pairs`` by ``plan`` (the module docstring's three steps).
 
     Parameters
     ----------
-    pairs : pandas.DataFrame
-        docs/FORMATS.md §3 columns (:data:`REQUIRED_COLUMNS`).
-    metrics : sequence of str
-        Column names from :func:`nvrq.metrics.resolve_metrics`.
+    pairs : pandas.DataFrame or PairsTable
+        docs/FORMATS.md §3 columns (:data:`REQUIRED_COLUMNS`), or a table read and checked once
+        (:func:`data_schema.tables.read_pairs`).
+    plan : ScorePlan
+        What to compute (:func:`nvrq.scoring.plan.resolve_plan`), checked once there.
     encoder : Encoder, optional
-        Loaded; needed for ``nvrq:*``/``nvrq_ca:*``.
-    tau : float, optional
-        For NVRQ-CA.
+        Loaded; needed for the plan's encoder columns.
     scene_root, base : path, optional
-        Where image paths are relative to (else the ``scene_root`` column, relative to ``base``).
-    batch_size : int
-        Crops per encoder pass.
-    max_pairs : int
-        Pairs per crop batch (:func:`nvrq.scoring.batches.iter_crop_batches`).
+        Where image paths are relative to (else the ``scene_root`` column, relative to ``base``);
+        a :class:`PairsTable`'s are its own.
     progress : bool
         A progress bar on stderr.
     where : str
         What errors name (the pairs file).
+    **legacy
+        Without ``plan``: ``metrics`` (columns), ``tau``, ``batch_size`` and ``max_pairs``, as
+        before issue 34; they are checked here and make the plan.
 
     Returns
     -------
@@ -263,32 +284,49 @@ def score_pairs(
         For missing columns, bad boxes or images (naming ``where`` and the row), or a bad
         argument (naming the parameter), before anything is scored.
     """
-    require_columns(pairs, REQUIRED_COLUMNS, where=where)
-    metrics = list(metrics)
-    check_metric_args(metrics, encoder=encoder, tau=tau, batch_size=batch_size)
-    n, n_enc_cols = len(pairs), len(encoder_columns(metrics))
-    uses_encoder = n_enc_cols > 0
-    values = {m: np.full(n, np.nan) for m in metrics}
+    if plan is None:
+        plan = _legacy_plan(encoder, legacy)
+    elif legacy:
+        raise TypeError(f"score_pairs() takes a plan or {', '.join(_PLAN_KEYWORDS)}, not both")
+    table = pairs if isinstance(pairs, PairsTable) else pairs_table(pairs, scene_root=scene_root, base=base, where=where)
+    n, uses_encoder = len(table), bool(plan.encoder_specs)
+    values = {m: np.full(n, np.nan) for m in plan.columns}
     times = {"decode": 0.0}
-    n_decoded = n_encoded = 0
+    counts = [0, 0]  # images decoded, crops encoded
     t_start = time.perf_counter()
     background, decode_threads = decode_schedule(encoder if uses_encoder else None,
-                                                 pixel_metrics=n_enc_cols < len(metrics))
-    batches = iter_crop_batches(pairs, scene_root=scene_root, base=base, max_pairs=max_pairs,
-                                background=background, decode_threads=decode_threads, where=where)
+                                                 pixel_metrics=bool(plan.pixel_specs))
+    batches = iter_crop_batches(table, max_pairs=plan.max_pairs, background=background,
+                                decode_threads=decode_threads, where=table.where)
     with tqdm(total=n, unit="pair", file=sys.stderr, disable=not progress, desc="score",
               dynamic_ncols=True) as bar:
         for batch in batches:
-            cols = score_crop_batch(batch, metrics=metrics, encoder=encoder, tau=tau,
-                                    batch_size=batch_size, timings=times)
+            cols = compute_columns(batch, plan.specs, encoder=encoder, tau=plan.tau,
+                                   batch_size=plan.batch_size, timings=times)
             for m, v in cols.items():
                 values[m][batch.rows] = v
             times["decode"] += batch.decode_seconds
-            n_decoded += batch.n_images_decoded
-            n_encoded += batch.n_crops if uses_encoder else 0
+            counts[0] += batch.n_images_decoded
+            counts[1] += batch.n_crops if uses_encoder else 0
             bar.update(len(batch.rows))
     wall = time.perf_counter() - t_start
-    table = pd.DataFrame({"pair_id": pairs["pair_id"].to_numpy(), **values})
-    undefined = undefined_counts(values, *crop_sides(pairs, where=where))
-    return ScoreResult(table, timing_table(metrics, times, n_pairs=n, wall=wall), n, n_encoded, n_decoded,
-                       undefined)
+    frame = pd.DataFrame({"pair_id": table.frame["pair_id"].to_numpy(), **values})
+    undefined = _undefined(plan, values, _sides(table.gt_boxes), _sides(table.render_boxes))
+    timing = timing_table(plan.columns, times, n_pairs=n, wall=wall, model_columns=plan.model_columns)
+    return ScoreResult(frame, timing, n, counts[1], counts[0], undefined)
+
+
+def _undefined(plan: ScorePlan, values: dict, gt_sides: np.ndarray, render_sides: np.ndarray) -> pd.DataFrame:
+    """:func:`undefined_counts` from the plan's specs (no registry lookup)."""
+    rows = []
+    for spec in plan.specs:
+        nan = np.isnan(np.asarray(values[spec.name], np.float64))
+        if not nan.any():
+            continue
+        sides = render_sides if spec.kind is MetricKind.RENDER else gt_sides
+        small = nan & (sides < spec.min_side)
+        if small.any():
+            rows.append((spec.name, f"shorter crop side < {spec.min_side} px", int(small.sum())))
+        if (nan & ~small).any():
+            rows.append((spec.name, spec.undefined or "undefined", int((nan & ~small).sum())))
+    return pd.DataFrame(rows, columns=["metric", "reason", "pairs"])

@@ -677,6 +677,34 @@ def _(world, tmp):
     return "annotate", ["add-rater", str(st), "ann", "--host", "0.0.0.0"], ["--host", "loopback"]
 
 
+# --- issue 34 / 38 (scoring plan): unknown metric spellings, every corrupt image at once ---------
+
+@case("arguments", "score --metrics lpips names pyiqa:lpips")
+def _(world, tmp):
+    return "nvrq", ["score", str(world / "toy" / "pairs.csv"), "--metrics", "lpips", "--out",
+                    str(tmp / "m.csv")], ["--metrics", "lpips", "did you mean pyiqa:lpips?"]
+
+
+@case("arguments", "score --metrics PSNR names psnr")
+def _(world, tmp):
+    return "nvrq", ["score", str(world / "toy" / "pairs.csv"), "--metrics", "ssim,PSNR", "--out",
+                    str(tmp / "m.csv")], ["--metrics", "PSNR", "did you mean psnr?"]
+
+
+@case("pairs", "score: two corrupt render images, both named with a count")
+def _(world, tmp):
+    import shutil
+
+    scene = tmp / "scene"
+    shutil.copytree(world / "toy" / "scene", scene)
+    p = copy_into(world, "toy/pairs.csv", tmp)
+    renders = sorted(set(pd.read_csv(p)["render_path"]))[:2]
+    (scene / renders[0]).write_bytes(b"not an image")
+    (scene / renders[1]).write_bytes(b"")
+    return "nvrq", ["score", str(p), "--scene", str(scene), "--metrics", "psnr", "--out", str(tmp / "m.csv"),
+                    "--quiet"], ["pairs.csv", "2 unreadable images", Path(renders[0]).name, Path(renders[1]).name]
+
+
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_malformed_input(name, world, tmp_path, capfd):
     prog, argv, fragments = CASES[name](world, tmp_path)

@@ -76,12 +76,16 @@ def test_direction_reference_and_encoder_flags_are_read_by_the_resolver_alone(fi
 
 
 def test_tau_needing_family_is_named_by_the_resolver_alone():
-    # "nvrq_ca" compared against a column's family in nvrq: needs_tau's rule, nowhere else
-    # (analysis' default_rank_metric prefers NVRQ-CA columns: a choice of metric, not this rule)
+    # issue 34: whether a column needs tau is its registry entry's ``needs_tau`` (read by
+    # needs_tau), so "nvrq_ca" is compared against a column's family nowhere in nvrq (before
+    # issue 34 needs_tau compared it; analysis' default_rank_metric prefers NVRQ-CA columns: a
+    # choice of metric, not this rule)
     def compares_nvrq_ca(n):
         return isinstance(n, ast.Compare) and any(
             isinstance(c, ast.Constant) and c.value == "nvrq_ca" for c in [n.left, *n.comparators])
-    assert {w for w in _where(compares_nvrq_ca) if w.startswith("nvrq/")} == {"nvrq/metrics/resolve.py:needs_tau"}
+    assert {w for w in _where(compares_nvrq_ca) if w.startswith("nvrq/")} == set()
+    from nvrq.metrics import needs_tau
+    assert needs_tau(["psnr", "nvrq_ca:e@int8"]) and not needs_tau(["nvrq:e"])
 
 
 def test_default_encoder_is_assigned_once_and_applied_once():

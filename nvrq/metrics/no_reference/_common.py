@@ -46,9 +46,19 @@ def below_side(render: np.ndarray, side: int) -> bool:
     return min(check_rgb(render).shape[:2]) < side
 
 
+def _below_side(render: np.ndarray, side: int) -> bool:
+    """:func:`below_side` without the input check (the scoring core checks once per run)."""
+    return min(render.shape[:2]) < side
+
+
 def rgb2gray_matlab(crop: np.ndarray) -> np.ndarray:
     """MATLAB ``rgb2gray`` of a uint8 (H, W, 3) RGB crop -> uint8 (H, W): the weighted sum
     :data:`MATLAB_GREY`, rounded half away from zero (values are non-negative)."""
-    grey = check_rgb(crop).astype(np.float64) @ np.asarray(MATLAB_GREY)
+    return _rgb2gray(check_rgb(crop))
+
+
+def _rgb2gray(crop: np.ndarray) -> np.ndarray:
+    """:func:`rgb2gray_matlab` without the input check."""
+    grey = crop.astype(np.float64) @ np.asarray(MATLAB_GREY)
     return np.floor(grey + 0.5).clip(0, 255).astype(np.uint8)
 

@@ -39,7 +39,6 @@ from __future__ import annotations
 import math
 from functools import lru_cache
 
-import cv2
 import numpy as np
 
 __all__ = ["imresize_half", "mscn", "ZERO", "ggd_shape", "aggd_shape", "aggd_stats", "aggd_from_moments",
@@ -70,7 +69,7 @@ def _gaussian_window() -> np.ndarray:
 
 #: the 1-D factor of the MSCN window (the 7x7 window is ``np.outer(WINDOW, WINDOW)``)
 WINDOW = _gaussian_window()
-_BORDERS = {"zero": cv2.BORDER_CONSTANT, "replicate": cv2.BORDER_REPLICATE}
+_BORDERS = {"zero": "BORDER_CONSTANT", "replicate": "BORDER_REPLICATE"}  # OpenCV's names (imported on use)
 #: MSCN coefficients smaller in magnitude are 0 (:func:`mscn`): far above double precision's
 #: rounding residue where the exact value is 0, far below any value a natural image has
 ZERO = 1e-9
@@ -97,7 +96,9 @@ def mscn(image: np.ndarray, *, padding: str) -> np.ndarray:
     -------
     (H, W) float64 array ``(I - mu) / (sigma + 1)``.
     """
-    border = _BORDERS[padding]
+    import cv2  # on first use: `nvrq score --help` lists the registry without OpenCV
+
+    border = getattr(cv2, _BORDERS[padding])
     mu = cv2.sepFilter2D(image, cv2.CV_64F, WINDOW, WINDOW, borderType=border)
     second = cv2.sepFilter2D(image * image, cv2.CV_64F, WINDOW, WINDOW, borderType=border)
     m = (image - mu) / (np.sqrt(np.abs(second - mu * mu)) + 1.0)

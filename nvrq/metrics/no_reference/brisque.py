@@ -46,7 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
-from nvrq.metrics.no_reference._common import below_side, rgb2gray_matlab
+from nvrq.metrics.no_reference._common import _below_side, _rgb2gray, check_rgb
 from nvrq.metrics.no_reference._nss import (
     aggd_from_moments,
     circular_products,
@@ -95,7 +95,12 @@ def brisque_features(render: np.ndarray) -> np.ndarray:
         18 features at full scale, then 18 at half scale (MATLAB ``imresize(0.5)``); NaN where
         undefined.
     """
-    grey = rgb2gray_matlab(render).astype(np.float64)
+    return _brisque_features(check_rgb(render))
+
+
+def _brisque_features(render: np.ndarray) -> np.ndarray:
+    """:func:`brisque_features` without the input check."""
+    grey = _rgb2gray(render).astype(np.float64)
     return np.concatenate([_scale_features(grey), _scale_features(imresize_half(grey))])
 
 
@@ -126,9 +131,14 @@ def brisque(render: np.ndarray) -> float:
     data_schema.errors.InputError
         From :func:`~nvrq.metrics.no_reference._common.check_rgb`.
     """
-    if below_side(render, MIN_SIDE):
+    return _brisque(check_rgb(render))
+
+
+def _brisque(render: np.ndarray) -> float:
+    """:func:`brisque` without the input check (the scoring core checks once per run)."""
+    if _below_side(render, MIN_SIDE):
         return math.nan
-    feats = brisque_features(render)
+    feats = _brisque_features(render)
     if not np.all(np.isfinite(feats)):
         return math.nan
     sv, coefs, gamma, rho, lo, hi = load_model()

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from nvrq.metrics.no_reference._common import rgb2gray_matlab
+from nvrq.metrics.no_reference._common import _rgb2gray, rgb2gray_matlab
 
 __all__ = ["entropy", "grey_entropy"]
 
@@ -60,3 +60,8 @@ def entropy(render: np.ndarray) -> float:
         For a crop that is not uint8 (H, W, 3).
     """
     return grey_entropy(rgb2gray_matlab(render))
+
+
+def _entropy(render: np.ndarray) -> float:
+    """:func:`entropy` without the input check (the scoring core checks once per run)."""
+    return grey_entropy(_rgb2gray(render))

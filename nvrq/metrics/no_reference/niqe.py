@@ -46,7 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
-from nvrq.metrics.no_reference._common import below_side, rgb2gray_matlab
+from nvrq.metrics.no_reference._common import _below_side, _rgb2gray, check_rgb
 from nvrq.metrics.no_reference._nss import aggd_stats, circular_products, imresize_half, mscn
 
 __all__ = ["niqe", "niqe_features", "load_pristine", "PATCH", "MODEL_PATH"]
@@ -91,7 +91,12 @@ def niqe_features(render: np.ndarray) -> np.ndarray:
         One row per block (row-major): 18 features at full scale, then 18 at half scale (MATLAB
         ``imresize(0.5)``); NaN where undefined.
     """
-    grey = rgb2gray_matlab(render).astype(np.float64)
+    return _niqe_features(check_rgb(render))
+
+
+def _niqe_features(render: np.ndarray) -> np.ndarray:
+    """:func:`niqe_features` without the input check."""
+    grey = _rgb2gray(render).astype(np.float64)
     h, w = grey.shape
     grey = np.ascontiguousarray(grey[:h - h % PATCH, :w - w % PATCH])
     return np.hstack([_block_features(mscn(grey, padding="replicate"), PATCH),
@@ -123,9 +128,14 @@ def niqe(render: np.ndarray) -> float:
     data_schema.errors.InputError
         ``render`` is not a uint8 (H, W, 3) array.
     """
-    if below_side(render, PATCH):
+    return _niqe(check_rgb(render))
+
+
+def _niqe(render: np.ndarray) -> float:
+    """:func:`niqe` without the input check (the scoring core checks once per run)."""
+    if _below_side(render, PATCH):
         return math.nan
-    feats = niqe_features(render)
+    feats = _niqe_features(render)
     mu_p, cov_p = load_pristine()
     with np.errstate(invalid="ignore"):
         defined = ~np.isnan(feats)

@@ -27,10 +27,9 @@ from __future__ import annotations
 
 import math
 
-import cv2
 import numpy as np
 
-from nvrq.metrics.no_reference._common import below_side, rgb2gray_matlab
+from nvrq.metrics.no_reference._common import _below_side, _rgb2gray, check_rgb
 
 __all__ = ["piqe", "piqe_blocks", "MIN_SIDE", "BLOCK"]
 
@@ -46,6 +45,8 @@ def _normalised(grey: np.ndarray) -> np.ndarray:
     x = np.pad(grey, ((0, -h % BLOCK), (0, -w % BLOCK)), mode="symmetric").astype(np.float64)
     peak = x.max()
     x = np.floor(255.0 * x / peak + 0.5)  # MATLAB round (non-negative values)
+    import cv2  # on first use (the registry is read by `nvrq score --help`)
+
     mu = cv2.GaussianBlur(x, (7, 7), 7.0 / 6.0, sigmaY=7.0 / 6.0, borderType=cv2.BORDER_REPLICATE)
     second = cv2.GaussianBlur(x * x, (7, 7), 7.0 / 6.0, sigmaY=7.0 / 6.0, borderType=cv2.BORDER_REPLICATE)
     return (x - mu) / (np.sqrt(np.abs(second - mu * mu)) + 1.0)
@@ -65,7 +66,12 @@ def piqe_blocks(render: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray,
         Per 16x16 block, row-major: MSCN variance, and the active, noticeable-artifact and
         noise flags.
     """
-    grey = rgb2gray_matlab(render)
+    return _piqe_blocks(check_rgb(render))
+
+
+def _piqe_blocks(render: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`piqe_blocks` without the input check."""
+    grey = _rgb2gray(render)
     if grey.max() == 0:  # all black: MATLAB's 0/0 leaves no active block
         n = (-(-grey.shape[0] // BLOCK)) * (-(-grey.shape[1] // BLOCK))
         return np.zeros(n), np.zeros(n, bool), np.zeros(n, bool), np.zeros(n, bool)
@@ -106,8 +112,13 @@ def piqe(render: np.ndarray) -> float:
     InputError
         Unless ``render`` is a uint8 (H, W, 3) RGB array.
     """
-    if below_side(render, MIN_SIDE):
+    return _piqe(check_rgb(render))
+
+
+def _piqe(render: np.ndarray) -> float:
+    """:func:`piqe` without the input check (the scoring core checks once per run)."""
+    if _below_side(render, MIN_SIDE):
         return math.nan
-    var, active, artifact, noise = piqe_blocks(render)
+    var, active, artifact, noise = _piqe_blocks(render)
     dist = np.sum(artifact * (1.0 - var) + noise * var)
     return float(100.0 * (dist + 1.0) / (active.sum() + 1.0))
