@@ -28,7 +28,7 @@ import json
 import os
 import secrets
 import sqlite3
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -43,6 +43,7 @@ from annotate.load import check_items_per_rater
 from annotate.pairwise import PairwiseDesign
 from annotate.store import Store
 from data_schema.errors import InputError
+from data_schema.options import options_or_keywords
 from data_schema.outputs import check_output_folder
 from data_schema.tables import (
     ITEM_KINDS,
@@ -100,7 +101,8 @@ def build_study(out: str | Path, pairs_path: str | Path, options: StudyOptions |
     InputError
         A bad option (naming the parameter), a bad pairs or metrics table, a missing image.
     """
-    opts = _check_options(out, pairs_path, _options(options, keywords))
+    opts = _check_options(out, pairs_path, options_or_keywords(
+        StudyOptions, options, keywords, who="build_study", renames={"metrics_path": "metrics_paths"}))
     study_design = DESIGNS[opts.design]
     where = str(pairs_path)
     pairs = _read_pairs(Path(pairs_path), opts.scene)
@@ -121,22 +123,6 @@ def build_study(out: str | Path, pairs_path: str | Path, options: StudyOptions |
                              pairs_file=Path(pairs_path).resolve(), metric_cols=metric_cols)
         _write_manifest(tmp, manifest)
     return out
-
-
-def _options(options: StudyOptions | None, keywords: dict) -> StudyOptions:
-    """``options``, or the options from ``build_study``'s former keyword arguments."""
-    if not keywords:
-        return StudyOptions() if options is None else options
-    if options is not None:
-        raise TypeError("build_study: give `options` or the former keyword arguments, not both")
-    keywords = dict(keywords)
-    if "metrics_path" in keywords:
-        keywords["metrics_paths"] = keywords.pop("metrics_path")
-    names = {f.name for f in fields(StudyOptions)}
-    unknown = sorted(set(keywords) - names)
-    if unknown:
-        raise TypeError(f"build_study() got an unexpected keyword argument {unknown[0]!r}")
-    return StudyOptions(**keywords)
 
 
 def _check_options(out, pairs_path, opts: StudyOptions) -> StudyOptions:
