@@ -212,6 +212,8 @@ def read_table(
     Raises :class:`InputError` naming the file and the first missing column.
     """
     path = Path(path)
+    if not path.exists():  # before the suffix: a missing path is missing, whatever its name
+        raise InputError(path, None, f"an existing {what} file", "no such file")
     suffix = _check_suffix(path, what)
     if not path.is_file():
         raise InputError(path, None, f"an existing {what} file", "no such file")
