@@ -319,10 +319,10 @@ def run_pairs_analysis(pairs_path, options: AnalysisOptions | None = None, **key
         On bad input (files, columns, parameters), naming it.
     """
     o = analysis_options(keywords, options=options, who="run_pairs_analysis")
-    check_number("margin", o.margin, low=0)
     if o.target is None and o.compare is None:  # said before any input is read
         raise InputError(param="target", expected="a numeric per-pair column (e.g. clip_drop) of the pairs "
                          "or metrics (needed unless the methods are compared)", got="none")
+    check_number("margin", o.margin, low=0)
     target = o.target
     keep = ("camera", "timestamp_us") if o.compare else ()  # the view columns are read anyway
     timing = read_timing(find_timing_files(o.timing_paths, o.metrics_paths))  # before the statistics

@@ -51,10 +51,6 @@ class MethodOptions:
     progress : bool
         Show a progress bar; an analysis sets its own.
 
-    Returns
-    -------
-    MethodOptions
-        A frozen value (:func:`dataclasses.replace` changes a field).
     """
 
     methods: tuple | list | None = None
@@ -85,10 +81,6 @@ class SummaryOptions:
     progress : bool
         Show a progress bar.
 
-    Returns
-    -------
-    SummaryOptions
-        A frozen value.
     """
 
     target: str = "gvf"
@@ -133,10 +125,6 @@ class AnalysisOptions:
     progress : bool
         Show progress bars.
 
-    Returns
-    -------
-    AnalysisOptions
-        A frozen value.
     """
 
     metrics_paths: tuple | list = ()

@@ -299,28 +299,25 @@ class StudyOptions:
     items_per_rater : int or None
         The most items one rater is given (None: every item).
 
-    Returns
-    -------
-    StudyOptions
-        A frozen value; change one field with :func:`dataclasses.replace`.
+    A frozen value: :func:`dataclasses.replace` makes a changed copy.
     """
 
     tracks: int = 12
     frames_per_track: int = 12
     offsets: str = "all"
     votes_per_item: int = 5
+    scene: str | None = None
     seed: int = 0
     n_training: int = 5
     n_gold: int = 3
     n_repeats: int = 5
+    metrics_paths: tuple = ()
     size: int = 320
     image_format: str = "jpg"
     access: str = "open"
     break_every: int = 50
-    design: str = "binary"
     methods: str | None = None
-    scene: str | None = None
-    metrics_paths: tuple = ()
+    design: str = "binary"
     participant_param: str | None = None
     completion_url: str | None = None
     items_per_rater: int | None = DEFAULT_ITEMS_PER_RATER

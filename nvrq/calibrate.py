@@ -222,10 +222,6 @@ class CalibrationOptions:
     batch_size : int
         Crops per encoder batch.
 
-    Returns
-    -------
-    CalibrationOptions
-        A frozen value.
     """
 
     max_crops: int = 400

@@ -306,10 +306,6 @@ class StabilityOptions:
     batch_size : int
         Crop pairs per scoring batch.
 
-    Returns
-    -------
-    StabilityOptions
-        A frozen value.
     """
 
     n_objects: int = 60
@@ -337,13 +333,10 @@ def run_stability(pairs: pd.DataFrame, options: StabilityOptions | None = None, 
         The embedding model of the encoder metrics.
     tau : float, optional
         The NVRQ threshold.
-    progress : bool
-        Show progress bars.
-    where : str
-        The input named in errors.
+    progress, where : bool, str
+        Show progress bars; the input named in errors.
     **keywords
-        Deprecated spelling, kept for earlier callers: the fields of :class:`StabilityOptions`
-        as keywords. Not together with ``options``.
+        The former spelling (deprecated): :class:`StabilityOptions`' fields as keywords.
 
     Returns
     -------

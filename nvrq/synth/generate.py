@@ -387,10 +387,6 @@ class SynthOptions:
         (:func:`data_schema.methods.check_method_scales`): every view is rendered once per
         method, its artefact severity times ``scale`` (a smaller scale is a better method).
 
-    Returns
-    -------
-    SynthOptions
-        A frozen value.
     """
 
     seed: int = 0

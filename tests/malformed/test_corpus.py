@@ -9,6 +9,7 @@ behave the same in a few subprocess runs.
 
 from __future__ import annotations
 
+import functools
 import json
 from pathlib import Path
 
@@ -740,12 +741,14 @@ MESSAGE_CASES = [
         "--pairs", "{tmp}/pairs.csv", "--metrics-table", "{tmp}/metrics.csv", "--out", "{tmp}/r", "--quiet"],
      ["--target", "unless the methods are compared"]),
 ]
+
+
+def _message_case(world, tmp, *, prog, argv, fragments):
+    return prog, [a.format(tmp=tmp, world=world) for a in argv], fragments
+
+
 for _n, _prog, _argv, _f in MESSAGE_CASES:
-    def _mk(prog=_prog, argv=_argv, frag=_f, name=_n):
-        @case("messages", name)
-        def _a(world, tmp):
-            return prog, [a.format(tmp=tmp, world=world) for a in argv], frag
-    _mk()
+    case("messages", _n)(functools.partial(_message_case, prog=_prog, argv=_argv, fragments=_f))
 
 _MESSAGE_NAMES = sorted(n for n in CASES if n.startswith("messages/"))
 
