@@ -4,9 +4,9 @@
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
 from annotate.commands.serve import base_url
-from annotate.design import StudyOptions
 from annotate.load import (
     DEFAULT_ITEMS_PER_RATER,
     SECONDS_PER_VOTE,
@@ -25,6 +25,9 @@ from nvrq.commands.args import (
     parse_wxh,
     show_progress,
 )
+
+if TYPE_CHECKING:
+    from annotate.design import StudyOptions
 
 __all__ = ["register", "run", "options_from_args"]
 
@@ -108,6 +111,8 @@ def options_from_args(args) -> StudyOptions:
     InputError
         ``--size`` is not a square WxH.
     """
+    from annotate.design import StudyOptions  # pandas: not for --help
+
     width, height = parse_wxh(args.size, option="--size")
     if width != height:
         raise InputError("--size", None, "a square WxH (display crops are square), e.g. 320x320", args.size)
