@@ -22,6 +22,7 @@ tent plot per axis) and report code as the ratings path.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -33,10 +34,9 @@ import pyarrow.types as pt
 from tqdm.auto import tqdm
 
 from analysis import axes, breakdowns
-from analysis.choices import MIN_CLUSTERS
 from analysis.inputs import NON_METRIC_COLUMNS, classify_columns, drop_empty_columns
 from analysis.methods import for_analysis
-from analysis.noninferiority import DEFAULT_MARGIN
+from analysis.options import AnalysisOptions, SummaryOptions, analysis_options
 from analysis.pipeline import Analysis, boot_size, find_timing_files, read_timing
 from analysis.summary import summary_table
 from data_schema import datasets as ds
@@ -291,30 +291,22 @@ def _check_target(items: pd.DataFrame, target: str | None) -> None:
         raise InputError(param="target", field=target, expected="some finite values", got="none")
 
 
-def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), target=None,
-                       n_boot: int = 1000, seed: int = 0, rank_by: str = "srcc", timing_paths=(),
-                       margin: float = DEFAULT_MARGIN, compare_methods: bool = False, methods=None,
-                       rank_metric: str | None = None, progress: bool = True, min_clusters: int = MIN_CLUSTERS,
-                       by=(), rank_view: str = "off-path") -> Analysis:
+def run_pairs_analysis(pairs_path, options: AnalysisOptions | None = None, **keywords) -> Analysis:
     """The all-pairs analysis (module docstring); the same :class:`Analysis` as the ratings path.
 
     Parameters
     ----------
     pairs_path : str or Path
         A pairs dataset folder, or a pairs table with ``clip_id``.
-    metrics_paths, lower, higher, n_boot, seed, rank_by, timing_paths, margin, methods, rank_metric
-        As for :func:`analysis.pipeline.run_analysis`.
-    min_clusters, by, rank_view : optional
-        With ``compare_methods``: as :func:`analysis.methods.compare_methods`.
-    target : str, optional
-        A numeric per-pair column (e.g. ``clip_drop``) of the pairs or metrics; required unless
-        ``compare_methods``.
-    compare_methods : bool, optional
-        Keep the object columns and rank the reconstruction methods
-        (:func:`analysis.methods.for_analysis`); ``target`` may then be None (no metric is
-        correlated: only the leaderboard is reported).
-    progress : bool, optional
-        Show progress bars.
+    options : analysis.options.AnalysisOptions, optional
+        As for :func:`analysis.pipeline.run_analysis`; the ratings-only fields
+        (``exclude_raters``, ``screen``, ``aggregate_method``, ``stability_dir``) are not used.
+        ``target`` is a numeric per-pair column (e.g. ``clip_drop``) of the pairs or metrics,
+        required unless ``compare`` is set (then only the leaderboard is reported when it is
+        None).
+    **keywords
+        Deprecated spelling, kept for earlier callers: as for
+        :func:`analysis.pipeline.run_analysis`.
 
     Returns
     -------
@@ -326,12 +318,17 @@ def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), tar
     InputError
         On bad input (files, columns, parameters), naming it.
     """
-    check_number("margin", margin, low=0)
-    keep = ("camera", "timestamp_us") if compare_methods else ()  # the view columns are read anyway
-    timing = read_timing(find_timing_files(timing_paths, metrics_paths))  # before the statistics
-    items, clusters, unknown = read_all_pairs(pairs_path, metrics_paths=metrics_paths, progress=progress,
-                                              keep=keep)
-    if target is not None or not compare_methods:
+    o = analysis_options(keywords, options=options, who="run_pairs_analysis")
+    if o.target is None and o.compare is None:  # said before any input is read
+        raise InputError(param="target", expected="a numeric per-pair column (e.g. clip_drop) of the pairs "
+                         "or metrics (needed unless the methods are compared)", got="none")
+    check_number("margin", o.margin, low=0)
+    target = o.target
+    keep = ("camera", "timestamp_us") if o.compare else ()  # the view columns are read anyway
+    timing = read_timing(find_timing_files(o.timing_paths, o.metrics_paths))  # before the statistics
+    items, clusters, unknown = read_all_pairs(pairs_path, metrics_paths=o.metrics_paths,
+                                              progress=o.progress, keep=keep)
+    if target is not None or not o.compare:
         _check_target(items, target)
     notes = [f"all-pairs analysis: {len(items)} pairs, no votes; "
              + (f"target {target}" if target is not None else "no target (the methods only)")]
@@ -340,30 +337,35 @@ def run_pairs_analysis(pairs_path, *, metrics_paths=(), lower=(), higher=(), tar
                                             + [target], unit="pair")
     notes += empty_notes
     metrics, directions, attributes, proxies = classify_columns(
-        items, lower=set(lower), higher=set(higher), target=target, where=pairs_path)
+        items, lower=set(o.lower), higher=set(o.higher), target=target, where=pairs_path)
     for path, n in unknown.items():
         if n:
             notes.append(f"{path}: {n} pair ids are not in the pairs (ignored)")
-    n_boot = boot_size(items, n_boot, notes, unit="pair")
+    n_boot = boot_size(items, o.n_boot, notes, unit="pair")
     ranked = metrics if target is not None else []  # no target: nothing to correlate
-    summary = summary_table(items, ranked, directions, target=target or "y_offset_m", clusters=clusters,
-                            n_boot=n_boot, seed=seed, rank_by=rank_by, progress=progress and bool(ranked))
+    shown = o.progress and bool(ranked)
+    summary = summary_table(items, ranked, directions, SummaryOptions(
+        target=target or "y_offset_m", n_boot=n_boot, seed=o.seed, rank_by=o.rank_by, progress=shown),
+        clusters=clusters)
     categories = breakdowns.category_table(items, ranked, by=["label_class"] + attributes,
-                                           target=target or "y_offset_m", progress=progress and bool(ranked))
+                                           target=target or "y_offset_m", progress=shown)
     by_offset, by_axis = axes.view_tables(items, ([target] if target else []) + metrics)
-    counts = {"votes": 0, "test_votes": 0, "test_votes_kept": 0, "items": len(items),
-              "tracks": int(clusters.max()) + 1 if len(clusters) else 0,
-              "clips": int(items[ds.PARTITION].nunique()), "raters": 0, "raters_simulated": 0,
-              "raters_excluded": 0, "gold_votes": 0, "repeat_votes": 0}
     return Analysis(
         ratings_path=str(pairs_path), target=target, items=items, metrics=metrics,
         directions=directions, attributes=attributes, proxies=proxies, summary=summary,
         categories=categories, by_offset=by_offset, by_axis=by_axis,
         encoders=breakdowns.encoder_table(summary), raters=pd.DataFrame(columns=RATER_COLUMNS),
-        alpha={}, counts=counts, timing=timing, notes=notes, unknown_ids=unknown,
-        n_boot=n_boot, seed=seed, rank_by=rank_by, source="pairs", margin=margin,
+        alpha={}, counts=_pairs_counts(items, clusters), timing=timing, notes=notes, unknown_ids=unknown,
+        n_boot=n_boot, seed=o.seed, rank_by=o.rank_by, source="pairs", margin=o.margin,
         methods=for_analysis(items, target=target, metrics=metrics, directions=directions,
-                             attributes=attributes, n_boot=n_boot, seed=seed, where=pairs_path,
-                             methods=methods, rank_metric=rank_metric, metrics_paths=metrics_paths,
-                             progress=progress, min_clusters=min_clusters, by=by,
-                             rank_view=rank_view) if compare_methods else None)
+                             attributes=attributes,
+                             options=replace(o.compare, n_boot=n_boot, seed=o.seed, progress=o.progress),
+                             where=pairs_path, metrics_paths=o.metrics_paths) if o.compare else None)
+
+
+def _pairs_counts(items: pd.DataFrame, clusters: np.ndarray) -> dict:
+    """The report's counts of an all-pairs analysis (no votes, no raters)."""
+    return {"votes": 0, "test_votes": 0, "test_votes_kept": 0, "items": len(items),
+            "tracks": int(clusters.max()) + 1 if len(clusters) else 0,
+            "clips": int(items[ds.PARTITION].nunique()), "raters": 0, "raters_simulated": 0,
+            "raters_excluded": 0, "gold_votes": 0, "repeat_votes": 0}

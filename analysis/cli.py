@@ -24,6 +24,7 @@ import argparse
 import sys
 
 from analysis.choices import DEFAULT_MARGIN, METHODS, MIN_CLUSTERS, PATHS, RANK_BY
+from analysis.options import AnalysisOptions, MethodOptions
 from data_schema.errors import InputError
 from data_schema.outputs import check_output_folder
 from nvrq.commands.args import (
@@ -39,7 +40,7 @@ from nvrq.commands.args import (
     show_progress,
 )
 
-__all__ = ["build_parser", "main"]
+__all__ = ["build_parser", "main", "options_from_args"]
 
 
 def build_parser() -> ArgumentParser:
@@ -226,7 +227,7 @@ def _run(args) -> int:
         from analysis.all_pairs import run_pairs_analysis
 
         _check_applies(args, "--pairs", args.pairs)
-        analysis = run_pairs_analysis(args.pairs, **_common_options(args))
+        analysis = run_pairs_analysis(args.pairs, options_from_args(args))
     else:
         analysis = _run_ratings(args)
     out = write_report(analysis, args.out)  # then the terminal: an error stays one line
@@ -240,13 +241,30 @@ def _run(args) -> int:
     return 0
 
 
-def _common_options(args) -> dict:
-    """The keyword options both analyses take, from the parsed arguments."""
-    return dict(metrics_paths=args.metrics_tables, lower=args.lower_better, higher=args.higher_better,
-                target=args.target, n_boot=args.bootstrap, seed=args.seed, rank_by=args.rank_by,
-                timing_paths=args.timing, margin=args.margin, compare_methods=args.compare_methods,
-                methods=args.methods, rank_metric=args.leaderboard_metric, progress=show_progress(args),
-                min_clusters=args.min_clusters, by=args.by, rank_view=args.leaderboard_view)
+def options_from_args(args) -> AnalysisOptions:
+    """The analysis options from ``analyze``'s parsed arguments (the one place they are gathered).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        ``analyze``'s arguments (:func:`build_parser`).
+
+    Returns
+    -------
+    analysis.options.AnalysisOptions
+        The options of :func:`analysis.pipeline.run_analysis` and
+        :func:`analysis.all_pairs.run_pairs_analysis`; ``compare`` is set with
+        ``--compare-methods``.
+    """
+    compare = MethodOptions(methods=args.methods, rank_metric=args.leaderboard_metric,
+                            min_clusters=args.min_clusters, by=args.by,
+                            rank_view=args.leaderboard_view) if args.compare_methods else None
+    return AnalysisOptions(
+        metrics_paths=args.metrics_tables, lower=args.lower_better, higher=args.higher_better,
+        target=args.target, exclude_raters=args.exclude_raters, screen=not args.no_screen,
+        aggregate_method=args.aggregate, n_boot=args.bootstrap, seed=args.seed, rank_by=args.rank_by,
+        timing_paths=args.timing, stability_dir=args.stability, margin=args.margin, compare=compare,
+        progress=show_progress(args))
 
 
 def _check_applies(args, kind: str, path) -> None:
@@ -285,14 +303,7 @@ def _run_pairwise(args) -> int:
 def _run_ratings(args):
     from analysis.pipeline import run_analysis
 
-    return run_analysis(
-        args.ratings,
-        exclude_raters=args.exclude_raters,
-        screen=not args.no_screen,
-        aggregate_method=args.aggregate,
-        stability_dir=args.stability,
-        **_common_options(args),
-    )
+    return run_analysis(args.ratings, options_from_args(args))
 
 
 def main(argv=None) -> int:

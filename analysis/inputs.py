@@ -68,44 +68,9 @@ NON_METRIC_COLUMNS = frozenset(
 )
 
 
-def read_ratings(path) -> pd.DataFrame:
-    """Read ``ratings.csv`` and check it (docs/FORMATS.md §5 and §7); returns one row per vote
-    in the canonical order (:data:`CANONICAL_VOTE_ORDER`, docs/FORMATS.md §6), whatever the
-    file's row order.
-
-    Checks: the contract columns exist; at least one row; ``vote`` is 0 or 1; ``kind`` is one of
-    ``{'test', 'gold', 'training', 'repeat'}``; ``response_ms`` is numeric; no rater has two
-    rows for the same (item, kind). Errors name the file's line.
-
-    Parameters
-    ----------
-    path : str or Path
-        ``ratings.csv``.
-
-    Returns
-    -------
-    pandas.DataFrame
-        One row per vote.
-
-    Raises
-    ------
-    InputError
-        A check fails; the error names the file's line.
-    """
-    df = read_table(
-        path,
-        required=RATINGS_COLUMNS + PAIR_META_COLUMNS,
-        what="ratings table",
-        dtype={
-            "item_id": str,
-            "rater_id": str,
-            "kind": str,
-            "clip_id": str,
-            "track_id": str,
-            "camera": str,
-            "label_class": str,
-        },
-    )
+def _check_vote_columns(df: pd.DataFrame, path) -> None:
+    """At least one row; ``vote`` 0 or 1, ``kind`` an item kind, ids present, ``response_ms``
+    numeric (``vote`` and ``response_ms`` converted in place); errors name the file's line."""
     if len(df) == 0:
         raise InputError(path, None, "at least one vote row", "no rows")
     vote = pd.to_numeric(df["vote"], errors="coerce")
@@ -134,6 +99,32 @@ def read_ratings(path) -> pd.DataFrame:
             path, f"{_line(i)}: response_ms", "a number of milliseconds", df["response_ms"].iloc[i]
         )
     df["response_ms"] = rt.astype(np.float64)
+
+
+def read_ratings(path) -> pd.DataFrame:
+    """Read ``ratings.csv`` and check it (docs/FORMATS.md §5 and §7); returns one row per vote
+    in the canonical order (:data:`CANONICAL_VOTE_ORDER`, docs/FORMATS.md §6), whatever the
+    file's row order.
+
+    Checks: the contract columns exist; at least one row; ``vote`` is 0 or 1; ``kind`` is one of
+    ``{'test', 'gold', 'training', 'repeat'}``; ``response_ms`` is numeric; no rater has two
+    rows for the same (item, kind). Errors name the file's line.
+    """
+    df = read_table(
+        path,
+        required=RATINGS_COLUMNS + PAIR_META_COLUMNS,
+        what="ratings table",
+        dtype={
+            "item_id": str,
+            "rater_id": str,
+            "kind": str,
+            "clip_id": str,
+            "track_id": str,
+            "camera": str,
+            "label_class": str,
+        },
+    )
+    _check_vote_columns(df, path)
     # sorted codes of the order's keys: the checks below and the canonical sort share them
     codes = {c: pd.factorize(df[c], sort=True)[0] for c in CANONICAL_VOTE_ORDER}
     _check_item_metadata(df, path, codes["item_id"])

@@ -44,7 +44,7 @@ reason, which names the count of tracks.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
@@ -53,11 +53,13 @@ from tqdm.auto import tqdm
 from analysis import bootstrap as bs
 from analysis.choices import MIN_CLUSTERS
 from analysis.method_cells import PATHS, cell_breakdowns, on_path, parse_by, view_breakdowns
+from analysis.options import MethodOptions
 from analysis.signflip import draw_signs, sign_flip_p
 from analysis.text import offset_text
 from data_schema.datasets import table_columns
 from data_schema.errors import InputError
 from data_schema.methods import METHOD_COLUMN, table_methods
+from data_schema.options import options_or_keywords
 from data_schema.perturbation import perturbation_array
 from data_schema.tables import OBJECT_COLUMNS, require_columns
 
@@ -474,10 +476,8 @@ def _check_options(min_clusters, rank_view) -> None:
 
 
 def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[str, bool], *,
-                    clusters: np.ndarray, attributes=(), n_boot: int = 1000, seed: int = 0,
-                    rank_metric: str | None = None, methods=None, where="items",
-                    sources=None, progress: bool = False, min_clusters: int = MIN_CLUSTERS,
-                    by=(), rank_view: str = "off-path") -> MethodsResult:
+                    clusters: np.ndarray, options: MethodOptions | None = None, where="items",
+                    sources=None, **keywords) -> MethodsResult:
     """The leaderboard tables of ``items`` (module docstring).
 
     Parameters
@@ -488,24 +488,16 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
         Numeric columns of ``items``, with ``directions[m]`` True when higher is better.
     clusters : numpy.ndarray
         (N,) int track codes of the rows.
-    attributes : sequence of str, optional
-        Scene attributes that break methods.csv down (and that ``by`` may name).
-    n_boot, seed : int, optional
-        Bootstrap replicates over tracks (raised to :func:`analysis.bootstrap.replicates_for`
-        the largest Holm family of paired rows; 0: no intervals and no p-values) and the seed.
-    rank_metric : str, optional
-        The metric that ranks the leaderboard (default :func:`default_rank_metric`).
-    methods : list of str, optional
-        Restricts (and orders) the methods compared.
+    options : analysis.options.MethodOptions, optional
+        The methods compared, the rank metric and view, ``min_clusters``, the ``by`` breakdown,
+        the scene ``attributes``, the bootstrap (``n_boot`` is raised to
+        :func:`analysis.bootstrap.replicates_for` the largest Holm family of paired rows; 0: no
+        intervals and no p-values), its seed and the progress bar.
     where, sources : optional
         The input named in errors; column -> the metrics table it came from.
-    min_clusters : int, optional
-        The fewest tracks of a group with an interval and a p-value (>= 2; :data:`MIN_CLUSTERS`).
-    by : sequence of str, optional
-        A crossed breakdown of methods_paired.csv: ``class``, a scene attribute, and ``offset``
-        (each view) (:func:`analysis.method_cells.parse_by`).
-    rank_view : {'off-path', 'on-path'}, optional
-        The views the leaderboard ranks on (the other when these have no objects, with a note).
+    **keywords
+        Deprecated spelling, kept for earlier callers: the fields of
+        :class:`~analysis.options.MethodOptions` as keywords. Not together with ``options``.
 
     Returns
     -------
@@ -518,18 +510,59 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
         values of a metric; two rows of one object and method; a bad ``min_clusters`` or
         ``rank_view``.
     """
-    _check_options(min_clusters, rank_view)
-    names = compared_methods(items, where=where, methods=methods)
+    o = options_or_keywords(MethodOptions, options, keywords, who="compare_methods")
+    _check_options(o.min_clusters, o.rank_view)
+    names = compared_methods(items, where=where, methods=o.methods)
+    rank_metric = _rank_metric(o.rank_metric, metrics, where=where)
+    by_cols, with_view = parse_by(o.by, items.columns, attributes=list(o.attributes))
+    m_codes = _method_codes(items[METHOD_COLUMN], names)
+    _check_coverage(items, metrics, m_codes, names, where=where, sources=sources or {})
+    obj = object_codes(items, where=where)
+    _check_one_row(items, obj, m_codes, where=where)
+    first, _ = _objects(items, obj, m_codes, len(names))
+    cells = cell_breakdowns(items.iloc[first])
+    if by_cols or with_view:
+        cells += cell_breakdowns(items.iloc[first], by=by_cols, with_view=with_view)
+    k = int(clusters.max()) + 1 if len(clusters) else 0
+    # enough replicates that Holm over the largest family of paired rows can still call a
+    # decisive difference (a Monte Carlo p-value's floor is 1 / (B + 1))
+    family = max(sum(len(c.cells) for c in cells if c.by == f) for f in {c.by for c in cells})
+    n_boot = bs.replicates_for(o.n_boot, len(metrics) * len(names) * (len(names) - 1) // 2 * family,
+                               alpha=ALPHA)
+    counts = bs.draw_cluster_counts(k, n_boot, seed=o.seed) if n_boot and k else None
+    draws = _Draws(clusters[first], counts,
+                   draw_signs(k, n_boot, seed=o.seed + 1) if counts is not None else None, o.min_clusters)
+    breakdowns = _groups_of(items, list(o.attributes))
+    bar = tqdm(total=len(metrics) * (len(breakdowns) + len(names) * (len(names) - 1) // 2),
+               desc="methods", unit="table", disable=not o.progress)
+    table = _method_table(items, metrics, m_codes, names, breakdowns, clusters, counts, bar, o.min_clusters)
+    hb = directions[rank_metric]
+    table, names, rank_view, notes = _rank_methods(table, names, rank_metric, hb, o.rank_view)
+    m_codes = _method_codes(items[METHOD_COLUMN], names)
+    paired, unpaired = _paired_table(items, metrics, directions, m_codes, names, obj, cells, draws, bar)
+    bar.close()
+    board = leaderboard_table(table, paired, methods=names, metric=rank_metric, higher_better=hb,
+                              view=rank_view)
+    return MethodsResult(methods=list(board["method"]), metrics=list(metrics), directions=dict(directions),
+                         rank_metric=rank_metric, table=table, paired=paired, leaderboard=board,
+                         n_boot=n_boot if counts is not None else 0, notes=notes + unpaired,
+                         rank_view=rank_view, min_clusters=int(o.min_clusters),
+                         by=",".join([*by_cols, *(["view"] if with_view else [])]))
+
+
+def _rank_metric(rank_metric: str | None, metrics: list[str], *, where) -> str:
+    """The metric that ranks the leaderboard: ``rank_metric`` (one of ``metrics``) or the default."""
     if rank_metric is not None and rank_metric not in metrics:
         raise InputError(param="rank_metric", field=rank_metric, expected="a metric column of the inputs ("
                          + ", ".join(metrics) + ")", got="no such metric")
     rank_metric = rank_metric or default_rank_metric(metrics)
     if rank_metric is None:
         raise InputError(where, None, "at least one metric column to rank methods by", "none")
-    by_cols, with_view = parse_by(by, items.columns, attributes=list(attributes))
-    m_codes = _method_codes(items[METHOD_COLUMN], names)
-    _check_coverage(items, metrics, m_codes, names, where=where, sources=sources or {})
-    obj = object_codes(items, where=where)
+    return rank_metric
+
+
+def _check_one_row(items: pd.DataFrame, obj: np.ndarray, m_codes: np.ndarray, *, where) -> None:
+    """Refuse a second row of one object and view for one method."""
     sel = np.flatnonzero(m_codes >= 0)
     dup = pd.DataFrame({"o": obj[sel], "m": m_codes[sel]}).duplicated().to_numpy()
     if dup.any():
@@ -537,25 +570,12 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
         raise InputError(where, METHOD_COLUMN, "one row per object, view and method",
                          "a second row for " + ":".join(str(items[c].iloc[i]) for c in OBJECT_COLUMNS)
                          + f" of method {items[METHOD_COLUMN].iloc[i]!r}")
-    first, _ = _objects(items, obj, m_codes, len(names))
-    objects = items.iloc[first]
-    cells = cell_breakdowns(objects)
-    if by_cols or with_view:
-        cells += cell_breakdowns(objects, by=by_cols, with_view=with_view)
-    k = int(clusters.max()) + 1 if len(clusters) else 0
-    # enough replicates that Holm over the largest family of paired rows can still call a
-    # decisive difference (a Monte Carlo p-value's floor is 1 / (B + 1))
-    family = max(sum(len(c.cells) for c in cells if c.by == f) for f in {c.by for c in cells})
-    n_boot = bs.replicates_for(n_boot, len(metrics) * len(names) * (len(names) - 1) // 2 * family,
-                               alpha=ALPHA)
-    counts = bs.draw_cluster_counts(k, n_boot, seed=seed) if n_boot and k else None
-    draws = _Draws(clusters[first], counts, draw_signs(k, n_boot, seed=seed + 1) if counts is not None else None,
-                   min_clusters)
-    breakdowns = _groups_of(items, list(attributes))
-    bar = tqdm(total=len(metrics) * (len(breakdowns) + len(names) * (len(names) - 1) // 2),
-               desc="methods", unit="table", disable=not progress)
-    table = _method_table(items, metrics, m_codes, names, breakdowns, clusters, counts, bar, min_clusters)
-    hb = directions[rank_metric]
+
+
+def _rank_methods(table: pd.DataFrame, names: list[str], rank_metric: str, hb: bool,
+                  rank_view: str) -> tuple[pd.DataFrame, list[str], str, list[str]]:
+    """The methods in leaderboard order (by ``rank_metric``'s mean on ``rank_view``, the other
+    view when it has no objects, with a note), and ``table`` in that order."""
     notes = []
     ranked = table[(table["breakdown"] == rank_view) & (table["metric"] == rank_metric)]
     if ranked.empty:
@@ -568,22 +588,11 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
     # the table and the pairs follow the leaderboard: method_a is the higher-ranked one
     table = table.assign(_o=table["method"].map({m: i for i, m in enumerate(names)}))
     table = table.sort_values("_o", kind="stable").drop(columns="_o").reset_index(drop=True)
-    m_codes = _method_codes(items[METHOD_COLUMN], names)
-    paired, unpaired = _paired_table(items, metrics, directions, m_codes, names, obj, cells, draws, bar)
-    bar.close()
-    board = leaderboard_table(table, paired, methods=names, metric=rank_metric, higher_better=hb,
-                              view=rank_view)
-    return MethodsResult(methods=list(board["method"]), metrics=list(metrics), directions=dict(directions),
-                         rank_metric=rank_metric, table=table, paired=paired, leaderboard=board,
-                         n_boot=n_boot if counts is not None else 0, notes=notes + unpaired,
-                         rank_view=rank_view, min_clusters=int(min_clusters),
-                         by=",".join([*by_cols, *(["view"] if with_view else [])]))
+    return table, names, rank_view, notes
 
 
 def for_analysis(items: pd.DataFrame, *, target: str | None, metrics, directions: dict, attributes,
-                 n_boot: int, seed: int, where, methods=None, rank_metric=None, metrics_paths=(),
-                 progress: bool = False, min_clusters: int = MIN_CLUSTERS, by=(),
-                 rank_view: str = "off-path") -> MethodsResult:
+                 options: MethodOptions, where, metrics_paths=()) -> MethodsResult:
     """:func:`compare_methods` on the items of either ``analyze`` path.
 
     Parameters
@@ -600,20 +609,13 @@ def for_analysis(items: pd.DataFrame, *, target: str | None, metrics, directions
         Metric -> whether higher is better.
     attributes : list of str
         Scene attributes; those other than ``method`` break the tables down.
-    n_boot, seed : int
-        Bootstrap replicates over tracks and their seed.
+    options : analysis.options.MethodOptions
+        The comparison's options, with the analysis's bootstrap, seed and progress (its
+        ``attributes`` are replaced by ``attributes``).
     where : str or Path
         The input named in errors (the ratings or pairs file).
-    methods : list of str, optional
-        The methods to compare (default: all).
-    rank_metric : str, optional
-        The metric that ranks the leaderboard (default :func:`default_rank_metric`).
     metrics_paths : sequence of path, optional
         The ``--metrics-table`` inputs, named in errors about their columns.
-    progress : bool, optional
-        Show progress bars.
-    min_clusters, by, rank_view : optional
-        As :func:`compare_methods`.
 
     Returns
     -------
@@ -629,8 +631,7 @@ def for_analysis(items: pd.DataFrame, *, target: str | None, metrics, directions
     clusters = pd.MultiIndex.from_arrays([items["clip_id"].astype(str),
                                           items["track_id"].astype(str)]).factorize()[0]
     return compare_methods(items, votes + list(metrics), {**directions, **{t: True for t in votes}},
-                           clusters=clusters, attributes=[c for c in attributes if c != METHOD_COLUMN],
-                           n_boot=n_boot, seed=seed, rank_metric=rank_metric, methods=methods,
+                           clusters=clusters,
+                           options=replace(options, attributes=[c for c in attributes if c != METHOD_COLUMN]),
                            where=str(where),
-                           sources={c: str(p) for p in metrics_paths for c in table_columns(p)},
-                           progress=progress, min_clusters=min_clusters, by=by, rank_view=rank_view)
+                           sources={c: str(p) for p in metrics_paths for c in table_columns(p)})

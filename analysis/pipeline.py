@@ -9,7 +9,7 @@ nothing; :mod:`analysis.report` writes the report directory.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -18,11 +18,11 @@ import pandas as pd
 from analysis import axes, breakdowns
 from analysis.aggregate import aggregate
 from analysis.ceiling import noise_ceiling, vote_matrix
-from analysis.choices import MIN_CLUSTERS
 from analysis.inputs import classify_columns, drop_empty_columns, read_metrics, read_ratings
 from analysis.labels import item_table, join_metrics
 from analysis.methods import MethodsResult, for_analysis
 from analysis.noninferiority import DEFAULT_MARGIN
+from analysis.options import AnalysisOptions, SummaryOptions, analysis_options
 from analysis.summary import summary_table
 from analysis.text import no_votes_left
 from annotate import screening
@@ -235,9 +235,9 @@ def _model_comparison(items, metrics, directions, summary, tgt, *, method, seed)
         return None
     differ = int((items["majority_good"] != items["model_good"]).sum())
     kw = {"n_boot": 0, "seed": seed, "progress": False}
-    maj = summary_table(items, metrics, directions, target="gvf", **kw)
+    maj = summary_table(items, metrics, directions, SummaryOptions(target="gvf", **kw))
     mod = summary if tgt == "p_good" else summary_table(items, metrics, directions,
-                                                          target="p_good", **kw)
+                                                          SummaryOptions(target="p_good", **kw))
     table = pd.DataFrame({
         "metric": maj["metric"], "srcc_majority": maj["srcc"], f"srcc_{method}": mod["srcc"],
         "roc_auc_majority": maj["roc_auc"], f"roc_auc_{method}": mod["roc_auc"],
@@ -247,70 +247,21 @@ def _model_comparison(items, metrics, directions, summary, tgt, *, method, seed)
             "good_model": int(items["model_good"].sum()), "table": table}
 
 
-def run_analysis(
-    ratings_path,
-    *,
-    metrics_paths=(),
-    lower=(),
-    higher=(),
-    target: str | None = None,
-    exclude_raters=(),
-    screen: bool = True,
-    aggregate_method: str = "majority",
-    n_boot: int = 1000,
-    seed: int = 0,
-    rank_by: str = "srcc",
-    timing_paths=(),
-    stability_dir=None,
-    margin: float = DEFAULT_MARGIN,
-    compare_methods: bool = False,
-    methods=None,
-    rank_metric: str | None = None,
-    progress: bool = True,
-    min_clusters: int = MIN_CLUSTERS,
-    by=(),
-    rank_view: str = "off-path",
-) -> Analysis:
+def run_analysis(ratings_path, options: AnalysisOptions | None = None, **keywords) -> Analysis:
     """The whole analysis of a ratings table (see the module docstring).
 
     Parameters
     ----------
     ratings_path : str or Path
         ``ratings.csv`` (or ``.parquet``) from ``annotate export`` (docs/FORMATS.md §5).
-    metrics_paths : sequence of path, optional
-        Metrics tables (``pair_id`` + metric columns) joined on ``item_id``.
-    lower, higher : sequence of str, optional
-        Metric columns where lower / higher is better (columns the metric registry does not know).
-    target : str, optional
-        A numeric per-item column to correlate with (default: GVF, or ``p_good`` with a model).
-    exclude_raters : sequence of str, optional
-        Rater ids to leave out.
-    screen : bool, optional
-        Also exclude the raters the screening rule flags (:mod:`annotate.screening`; default
-        True; False keeps them, their flags still in ``raters``).
-    aggregate_method : str, optional
-        Item labels: ``'majority'`` (GVF) or a crowd-kit model (:data:`analysis.aggregate.METHODS`).
-    n_boot, seed : int, optional
-        Cluster-bootstrap replicates over tracks (0: no CIs) and their seed.
-    rank_by : str, optional
-        The statistic that picks the best metric (:data:`analysis.summary.RANK_BY`).
-    timing_paths : sequence of path, optional
-        Timing tables; ``METRICS.timing.csv`` beside a metrics table is found automatically.
-    stability_dir : str or Path, optional
-        A folder with ``stability.csv`` and/or ``snr.csv``.
-    margin : float, optional
-        Non-inferiority margin on SRCC for the recommended cheapest metric (>= 0;
-        :mod:`analysis.noninferiority`).
-    compare_methods : bool, optional
-        Also rank the reconstruction methods of the items (:func:`analysis.methods.for_analysis`).
-    methods : list of str, optional
-        With ``compare_methods``: the methods to compare (default: all).
-    rank_metric : str, optional
-        With ``compare_methods``: the metric that ranks the methods.
-    progress : bool, optional
-        Show progress bars.
-    min_clusters, by, rank_view : optional
-        With ``compare_methods``: as :func:`analysis.methods.compare_methods`.
+    options : analysis.options.AnalysisOptions, optional
+        Every option (metrics and timing tables, target, screening, aggregation, bootstrap,
+        margin, and ``compare`` for the method leaderboard); default ``AnalysisOptions()``.
+    **keywords
+        Deprecated spelling, kept for earlier callers: the fields of
+        :class:`~analysis.options.AnalysisOptions` as keywords, with ``compare_methods=True``
+        and ``methods``, ``rank_metric``, ``min_clusters``, ``by``, ``rank_view`` for
+        ``compare`` (:func:`analysis.options.analysis_options`). Not together with ``options``.
 
     Returns
     -------
@@ -322,33 +273,34 @@ def run_analysis(
     InputError
         On bad input (files, columns, parameters), naming it.
     """
-    check_number("margin", margin, low=0)
-    votes, tables, timing_files = _read_inputs(ratings_path, metrics_paths, timing_paths)
+    o = analysis_options(keywords, options=options, who="run_analysis")
+    check_number("margin", o.margin, low=0)
+    votes, tables, timing_files = _read_inputs(ratings_path, o.metrics_paths, o.timing_paths)
     # every input file is read before the statistics (a bad --timing or --stability ends at once)
     timing = read_timing(timing_files)
-    stab, snr = read_stability(stability_dir) if stability_dir is not None else (None, None)
-    raters, kept = _screen_raters(votes, ratings_path, screen=screen,
-                                  exclude_raters=exclude_raters)
+    stab, snr = read_stability(o.stability_dir) if o.stability_dir is not None else (None, None)
+    raters, kept = _screen_raters(votes, ratings_path, screen=o.screen,
+                                  exclude_raters=o.exclude_raters)
     alpha = _agreement(votes, kept)
-    items, raters = _labels(kept, raters, method=aggregate_method, seed=seed)
+    items, raters = _labels(kept, raters, method=o.aggregate_method, seed=o.seed)
     items, unknown, notes = join_metrics(items, tables)
     for path, table in tables:
         if unknown[str(path)] == len(table):
             raise InputError(path, "pair_id", "pair ids of rated items", "none matches an item")
-    _check_target(items, target)
-    tgt = target or ("gvf" if aggregate_method == "majority" else "p_good")
+    _check_target(items, o.target)
+    tgt = o.target or ("gvf" if o.aggregate_method == "majority" else "p_good")
     items, (metrics, directions, attributes, proxies) = _columns(
-        items, unknown, notes, target=target, tgt=tgt, lower=lower, higher=higher,
+        items, unknown, notes, target=o.target, tgt=tgt, lower=o.lower, higher=o.higher,
         where=ratings_path)
     clusters = pd.factorize(
         pd.MultiIndex.from_arrays([items["clip_id"].astype(str), items["track_id"].astype(str)])
     )[0]
-    n_boot = boot_size(items, n_boot, notes)
-    summary = summary_table(items, metrics, directions, target=tgt, clusters=clusters,
-                            n_boot=n_boot, seed=seed, rank_by=rank_by, progress=progress)
-    ceiling = _ceiling(kept, summary, tgt, seed=seed)
+    n_boot = boot_size(items, o.n_boot, notes)
+    summary = summary_table(items, metrics, directions, SummaryOptions(
+        target=tgt, n_boot=n_boot, seed=o.seed, rank_by=o.rank_by, progress=o.progress), clusters=clusters)
+    ceiling = _ceiling(kept, summary, tgt, seed=o.seed)
     categories = breakdowns.category_table(items, metrics, by=["label_class"] + attributes,
-                                           target=tgt, progress=progress)
+                                           target=tgt, progress=o.progress)
     by_offset, by_axis = axes.view_tables(items, [tgt] + metrics, by="label_class")
     return Analysis(
         ratings_path=str(ratings_path), target=tgt, items=items, metrics=metrics,
@@ -356,14 +308,14 @@ def run_analysis(
         categories=categories, by_offset=by_offset, by_axis=by_axis,
         encoders=breakdowns.encoder_table(summary), raters=raters, alpha=alpha,
         counts=_counts(votes, kept, items, raters, clusters), timing=timing,
-        stability=stab, snr=snr, notes=notes, unknown_ids=unknown, n_boot=n_boot, seed=seed,
-        rank_by=rank_by, screen=screen, ceiling=ceiling,
+        stability=stab, snr=snr, notes=notes, unknown_ids=unknown, n_boot=n_boot, seed=o.seed,
+        rank_by=o.rank_by, screen=o.screen, ceiling=ceiling,
         comparison=_model_comparison(items, metrics, directions, summary, tgt,
-                                     method=aggregate_method, seed=seed),
-        margin=margin,
+                                     method=o.aggregate_method, seed=o.seed),
+        margin=o.margin,
         methods=for_analysis(items, target=tgt, metrics=metrics, directions=directions,
-                             attributes=attributes, n_boot=n_boot, seed=seed, where=ratings_path,
-                             methods=methods, rank_metric=rank_metric, metrics_paths=metrics_paths,
-                             progress=progress, min_clusters=min_clusters, by=by,
-                             rank_view=rank_view) if compare_methods else None,
+                             attributes=attributes,
+                             options=replace(o.compare, n_boot=n_boot, seed=o.seed, progress=o.progress),
+                             where=ratings_path, metrics_paths=o.metrics_paths)
+        if o.compare is not None else None,
     )

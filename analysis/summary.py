@@ -23,7 +23,9 @@ from tqdm import tqdm
 from analysis import bootstrap as bs
 from analysis import stats
 from analysis.choices import RANK_BY  # one definition of analyze's choices
+from analysis.options import SummaryOptions
 from data_schema.errors import check_choice
+from data_schema.options import options_or_keywords
 
 __all__ = ["RANK_BY", "summary_table", "binary_label"]
 
@@ -51,18 +53,9 @@ def _join(*parts) -> str | None:
     return s or None
 
 
-def summary_table(
-    items: pd.DataFrame,
-    metrics: list[str],
-    directions: dict[str, bool],
-    *,
-    target: str = "gvf",
-    clusters: np.ndarray | None = None,
-    n_boot: int = 1000,
-    seed: int = 0,
-    rank_by: str = "srcc",
-    progress: bool = True,
-) -> pd.DataFrame:
+def summary_table(items: pd.DataFrame, metrics: list[str], directions: dict[str, bool],
+                  options: SummaryOptions | None = None, *, clusters: np.ndarray | None = None,
+                  **keywords) -> pd.DataFrame:
     """One row per metric of ``items`` (one row per item) against the ``target`` column.
 
     Parameters
@@ -73,19 +66,15 @@ def summary_table(
         The metric columns.
     directions : dict of str to bool
         True where higher is better.
-    target : str
-        The column the metrics are compared with (GVF by default).
+    options : analysis.options.SummaryOptions, optional
+        The target column (GVF by default), bootstrap replicates and seed, the statistic that
+        ranks (``rank_by``, one of :data:`RANK_BY`) and the progress bar.
     clusters : numpy.ndarray, optional
         (n_items,) int track index for the bootstrap (``None`` or ``n_boot == 0``: no
         bootstrap, CI columns empty).
-    n_boot : int
-        Bootstrap replicates.
-    seed : int
-        Seeds the bootstrap.
-    rank_by : {'srcc', 'plcc', 'roc_auc'}
-        The statistic the metrics are ranked by (:data:`RANK_BY`).
-    progress : bool
-        Show a progress bar.
+    **keywords
+        Deprecated spelling, kept for earlier callers: the fields of
+        :class:`~analysis.options.SummaryOptions` as keywords. Not together with ``options``.
 
     Returns
     -------
@@ -97,13 +86,15 @@ def summary_table(
     InputError
         ``rank_by`` is not one of :data:`RANK_BY`.
     """
-    check_choice("rank_by", rank_by, RANK_BY)
+    o = options_or_keywords(SummaryOptions, options, keywords, who="summary_table")
+    target, n_boot, seed = o.target, o.n_boot, o.seed
+    check_choice("rank_by", o.rank_by, RANK_BY)
     y_all = items[target].to_numpy(np.float64)
     label_all, label_why = binary_label(items, target)
     do_boot = clusters is not None and n_boot > 0
     counts = _draw_counts(clusters, n_boot, seed=seed) if do_boot else None
     rows, reps, y_rank_cache = [], {}, {}
-    for m in tqdm(metrics, desc="metrics", unit="metric", disable=not progress):
+    for m in tqdm(metrics, desc="metrics", unit="metric", disable=not o.progress):
         hb = directions[m]
         x_all = items[m].to_numpy(np.float64)
         ok = np.isfinite(x_all) & np.isfinite(y_all)
@@ -122,7 +113,7 @@ def summary_table(
         row["reason"] = _join(*why)
         rows.append(row)
     table = pd.DataFrame(rows, columns=_COLUMNS[:-5] + ["reason", "note"])
-    out = _mark_best(table, reps, rank_by=rank_by)
+    out = _mark_best(table, reps, rank_by=o.rank_by)
     out.attrs["srcc_replicates"] = {
         m: r["srcc"] for m, r in reps.items()
     }  # analysis.noninferiority

@@ -41,6 +41,7 @@ from typing import Protocol
 import numpy as np
 import pandas as pd
 
+from annotate.load import DEFAULT_ITEMS_PER_RATER
 from data_schema.errors import InputError
 from data_schema.methods import METHOD_COLUMN
 from data_schema.perturbation import (
@@ -361,72 +362,65 @@ def choose_tests(table: pd.DataFrame, rng: np.random.Generator, opts: StudyOptio
 
 @dataclass(frozen=True)
 class StudyOptions:
-    """The options of ``annotate build``, checked (and defaulted) by
+    """The options of ``annotate build``, made once by the CLI
+    (:func:`annotate.commands.build.options_from_args`) or by an API caller, and checked by
     :func:`annotate.study.build_study`.
 
-    ``offsets``: ``'all'`` or a comma list of lateral offsets (:func:`choose_views`);
-    ``methods``: the comma list of methods a pairwise study compares (None: every method of
-    the pairs table); ``metrics_paths``: the metrics tables joined on ``pair_id``. The rest are
-    the counts of the design (tracks, frames per track, training, gold and repeat items),
-    votes per item, the seed, the display size and format, the access mode (and a crowd
-    study's participant parameter and completion URL), the break interval, the design's name
-    and the cap on one rater's items (None: none).
-
-    Attributes
+    Parameters
     ----------
     tracks, frames_per_track : int
-        Tracks, and frames per track.
+        Tracks chosen (spread over classes and scene attributes) and frames per track.
     offsets : str
-        ``'all'`` or a comma list of lateral offsets, metres.
+        ``'all'`` or a comma list of lateral offsets in metres (:func:`choose_views`).
     votes_per_item : int
-        Votes wanted per test item.
+        Votes collected per item.
     seed : int
-        Seed of the design and the crops.
+        Seeds every choice and crop name (a rebuild gives the same study).
     n_training, n_gold, n_repeats : int
-        Training, gold and repeat items.
+        Training items, gold items per type, repeated test items.
     size : int
-        Display side, pixels.
-    image_format : str
-        ``{'jpg', 'png'}``.
-    access : str
-        ``{'open', 'token', 'crowd'}``.
+        The side of the square display crops in pixels (>= 32).
+    image_format : {'jpg', 'png'}
+        The display crops' format.
+    access : {'open', 'token', 'crowd'}
+        Who may rate (:mod:`annotate.access`).
     break_every : int
-        Items between breaks.
-    design : str
-        The design's name.
+        A break offered every ``break_every`` votes.
+    design : {'binary', 'pairwise'}
+        Good/bad votes, or which of two methods' renders is closer to the GT.
     methods : str or None
-        Comma list of methods a pairwise study compares.
+        The comma list of methods a pairwise study compares (None: every method of the table).
     scene : str or None
-        Scene folder of the pairs' image paths.
-    metrics_paths : tuple of str
-        Metrics tables joined on ``pair_id``.
-    participant_param : str or None
-        A crowd study's participant parameter.
-    completion_url : str or None
-        A crowd study's completion URL.
+        The scene folder (None: the pairs table's ``scene_root`` column).
+    metrics_paths : tuple of path
+        Metrics tables joined on ``pair_id`` and copied into the study.
+    participant_param, completion_url : str or None
+        Crowd only: the panel's participant-id parameter and the URL shown at the end.
     items_per_rater : int or None
-        Cap on one rater's items.
+        The most items one rater is given (None: every item).
+
+    A frozen value: :func:`dataclasses.replace` makes a changed copy.
     """
 
-    tracks: int
-    frames_per_track: int
-    offsets: str
-    votes_per_item: int
-    seed: int
-    n_training: int
-    n_gold: int
-    n_repeats: int
-    size: int
-    image_format: str
-    access: str
-    break_every: int
-    design: str
-    methods: str | None
-    scene: str | None
-    metrics_paths: tuple
+    tracks: int = 12
+    frames_per_track: int = 12
+    offsets: str = "all"
+    votes_per_item: int = 5
+    scene: str | None = None
+    seed: int = 0
+    n_training: int = 5
+    n_gold: int = 3
+    n_repeats: int = 5
+    metrics_paths: tuple = ()
+    size: int = 320
+    image_format: str = "jpg"
+    access: str = "open"
+    break_every: int = 50
+    methods: str | None = None
+    design: str = "binary"
     participant_param: str | None = None
     completion_url: str | None = None
-    items_per_rater: int | None = None
+    items_per_rater: int | None = DEFAULT_ITEMS_PER_RATER
 
 
 @dataclass(frozen=True)

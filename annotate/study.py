@@ -28,7 +28,7 @@ import json
 import os
 import secrets
 import sqlite3
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -39,10 +39,11 @@ from annotate.assign import choose_next, make_plan, pairwise_sides, plan_total, 
 from annotate.binary import BinaryDesign
 from annotate.crops import ImageCache, opaque_ids
 from annotate.design import Choice, Design, StudyOptions, attribute_columns
-from annotate.load import DEFAULT_ITEMS_PER_RATER, check_items_per_rater
+from annotate.load import check_items_per_rater
 from annotate.pairwise import PairwiseDesign
 from annotate.store import Store
 from data_schema.errors import InputError
+from data_schema.options import options_or_keywords
 from data_schema.outputs import check_output_folder
 from data_schema.tables import (
     ITEM_KINDS,
@@ -63,14 +64,8 @@ DESIGNS: dict[str, Design] = {d.name: d for d in (BinaryDesign(), PairwiseDesign
 VOTES = {name: d.votes for name, d in DESIGNS.items()}
 
 
-def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = None,
-                metrics_path=None, tracks: int = 12,
-                frames_per_track: int = 12, offsets: str = "all", votes_per_item: int = 5,
-                seed: int = 0, n_training: int = 5, n_gold: int = 3, n_repeats: int = 5,
-                size: int = 320, image_format: str = "jpg", access: str = "open",
-                break_every: int = 50, design: str = "binary", methods: str | None = None,
-                participant_param: str | None = None, completion_url: str | None = None,
-                items_per_rater: int | None = DEFAULT_ITEMS_PER_RATER, progress: bool = True) -> Path:
+def build_study(out: str | Path, pairs_path: str | Path, options: StudyOptions | None = None, *,
+                progress: bool = True, **keywords) -> Path:
     """Build the study folder ``out`` (refused if it exists and is not empty).
 
     Stages: check the options (:class:`annotate.design.StudyOptions`), read and check the
@@ -86,38 +81,13 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
         The study folder.
     pairs_path : str or pathlib.Path
         The pairs table (docs/FORMATS.md §3).
-    scene : str, optional
-        The scene folder (else the pairs table's ``scene_root`` column).
-    metrics_path : path or list of paths, optional
-        Metrics tables (joined on ``pair_id``) copied into the study for the admin page.
-    tracks, frames_per_track, n_training, n_gold, n_repeats : int
-        The design's counts (``n_gold``: gold items per type).
-    offsets : str
-        ``'all'`` or a comma list of lateral offsets in metres.
-    votes_per_item, break_every : int
-        Votes collected per item; a break offered every ``break_every`` votes.
-    seed : int
-        Seeds every choice and crop name (a rebuild gives the same study).
-    size : int
-        The side of the square display crops in pixels (>= 32).
-    image_format : {'jpg', 'png'}
-    access : {'open', 'token', 'crowd'}
-        Who may rate (:mod:`annotate.access`): anyone by name (served on loopback only),
-        per-rater token links, or a fresh identity per arrival.
-    participant_param, completion_url : str, optional
-        Crowd only: the query parameter with the panel's participant id (one identity per
-        participant), and the URL shown to a rater who has finished.
-    design : {'binary', 'pairwise'}
-        Good/bad votes on (GT, render) items (:mod:`annotate.binary`), or which of two
-        methods' renders is closer to the GT (:mod:`annotate.pairwise`; the pairs table needs
-        a ``method`` column).
-    methods : str, optional
-        A comma list of the methods to compare (pairwise only; default every method of the
-        table).
-    items_per_rater : int or None
-        The most items one rater is given, training, gold and repeats included (default
-        :data:`annotate.load.DEFAULT_ITEMS_PER_RATER`, about 20 minutes); None: every item.
-        More than the training, gold and repeat items together.
+    options : annotate.design.StudyOptions, optional
+        Every option of the study (counts, offsets, seed, display, access, design, scene folder,
+        metrics tables; default ``StudyOptions()``).
+    **keywords
+        Deprecated spelling, kept for earlier callers: the fields of
+        :class:`~annotate.design.StudyOptions` as keywords (``metrics_path``: a path or a list,
+        for ``metrics_paths``). Not together with ``options``.
     progress : bool
         Show a progress bar.
 
@@ -131,17 +101,12 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
     InputError
         A bad option (naming the parameter), a bad pairs or metrics table, a missing image.
     """
-    opts = _check_options(out, pairs_path, scene=scene, metrics_path=metrics_path, tracks=tracks,
-                          frames_per_track=frames_per_track, offsets=offsets,
-                          votes_per_item=votes_per_item, seed=seed, n_training=n_training,
-                          n_gold=n_gold, n_repeats=n_repeats, size=size, image_format=image_format,
-                          access=access, break_every=break_every, design=design,
-                          methods=methods, participant_param=participant_param,
-                          completion_url=completion_url, items_per_rater=items_per_rater)
+    opts = _check_options(out, pairs_path, options_or_keywords(
+        StudyOptions, options, keywords, who="build_study", renames={"metrics_path": "metrics_paths"}))
     study_design = DESIGNS[opts.design]
     where = str(pairs_path)
     pairs = _read_pairs(Path(pairs_path), opts.scene)
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(opts.seed)
     choice = study_design.choose_items(pairs, rng, opts, where=where)
     if opts.items_per_rater is not None:
         kinds = pd.Series([r["kind"] for r in choice.rows])
@@ -160,32 +125,31 @@ def build_study(out: str | Path, pairs_path: str | Path, *, scene: str | None = 
     return out
 
 
-def _check_options(out, pairs_path, **opts) -> StudyOptions:
-    """Check ``build_study``'s keyword arguments (errors name the parameter); the frozen
-    options, with ``metrics_paths`` the tuple of metrics tables (``metrics_path``: a path or
-    a list)."""
-    mp = opts.pop("metrics_path")
-    opts["metrics_paths"] = () if mp is None else (mp,) if isinstance(mp, str | os.PathLike) else tuple(mp)
-    check_output_folder(out, kind="study", option="out",
-                        inputs=[pairs_path, *opts["metrics_paths"], opts["scene"]])
+def _check_options(out, pairs_path, opts: StudyOptions) -> StudyOptions:
+    """Check the study's options (errors name the parameter); the options with
+    ``metrics_paths`` a tuple of metrics tables (a single path or None accepted)."""
+    mp = opts.metrics_paths
+    mp = () if mp is None else (mp,) if isinstance(mp, str | os.PathLike) else tuple(mp)
+    opts = replace(opts, metrics_paths=mp)
+    check_output_folder(out, kind="study", option="out", inputs=[pairs_path, *mp, opts.scene])
     for name, lo in (("tracks", 1), ("frames_per_track", 1), ("votes_per_item", 1), ("size", 32),
                      ("break_every", 1), ("n_training", 0), ("n_gold", 0), ("n_repeats", 0)):
-        val = opts[name]
+        val = getattr(opts, name)
         if isinstance(val, bool) or not isinstance(val, int | np.integer) or val < lo:
             raise InputError(param=name, expected=f"an integer >= {lo}", got=val)
-    if opts["image_format"] not in ("jpg", "png"):
-        raise InputError(param="image_format", expected="one of {'jpg', 'png'}", got=opts["image_format"])
-    check_access(opts["access"], participant_param=opts["participant_param"],
-                 completion_url=opts["completion_url"])
-    if opts["design"] not in DESIGNS:
-        raise InputError(param="design", expected="one of {'binary', 'pairwise'}", got=opts["design"])
-    cap = opts["items_per_rater"]
+    if opts.image_format not in ("jpg", "png"):
+        raise InputError(param="image_format", expected="one of {'jpg', 'png'}", got=opts.image_format)
+    check_access(opts.access, participant_param=opts.participant_param,
+                 completion_url=opts.completion_url)
+    if opts.design not in DESIGNS:
+        raise InputError(param="design", expected="one of {'binary', 'pairwise'}", got=opts.design)
+    cap = opts.items_per_rater
     if cap is not None and (isinstance(cap, bool) or not isinstance(cap, int | np.integer) or cap < 1):
         raise InputError(param="items_per_rater", expected="a positive integer or None", got=cap)
-    if opts["methods"] is not None and opts["design"] != "pairwise":
+    if opts.methods is not None and opts.design != "pairwise":
         raise InputError(param="methods", expected="no method list with `design` binary (it compares "
-                         "methods only with `design` pairwise)", got=opts["methods"])
-    return StudyOptions(**opts)
+                         "methods only with `design` pairwise)", got=opts.methods)
+    return opts
 
 
 def _read_pairs(pairs_path: Path, scene) -> pd.DataFrame:

@@ -305,6 +305,44 @@ def _method_column(df: pd.DataFrame, where: str) -> list[str]:
     return [METHOD_COLUMN]
 
 
+def _cameras(doc: dict, where: str) -> dict:
+    """scene.json's ``cameras``, checked: name -> :class:`CameraCalib`."""
+    cams_doc = _get(doc, "cameras", where, "")
+    if not isinstance(cams_doc, dict) or not cams_doc:
+        raise InputError(where, "cameras", "a non-empty object of cameras", repr(cams_doc))
+    cameras = {}
+    for name, cam in cams_doc.items():
+        fld = f"cameras.{name}"
+        T = check_rigid(_get(cam, "T_sensor_rig", where, fld), where, f"{fld}.T_sensor_rig")
+        model = validate_camera_model(_get(cam, "model", where, fld), where, f"{fld}.model")
+        cameras[name] = CameraCalib(name, T, model)
+    return cameras
+
+
+def _tracks(doc: dict, where: str) -> list:
+    """scene.json's ``tracks``, checked: unique ids, a class, positive sizes, poses per timestamp."""
+    tracks_doc = _get(doc, "tracks", where, "")
+    if not isinstance(tracks_doc, list):
+        raise InputError(where, "tracks", "a list of tracks", type(tracks_doc).__name__)
+    tracks, seen = [], set()
+    for i, tr in enumerate(tracks_doc):
+        fld = f"tracks[{i}]"
+        tid = str(_get(tr, "track_id", where, fld))
+        if not tid or ":" in tid or tid in seen:
+            raise InputError(where, f"{fld}.track_id", "a unique non-empty id without ':'", repr(tid))
+        seen.add(tid)
+        label = _get(tr, "label_class", where, fld)
+        if not isinstance(label, str) or not label:
+            raise InputError(where, f"{fld}.label_class", "a class name", repr(label))
+        dims = _array(_get(tr, "dims_lwh", where, fld), (3,), where, f"{fld}.dims_lwh", "3 numbers [l, w, h]")
+        if np.any(dims <= 0):
+            raise InputError(where, f"{fld}.dims_lwh", "positive dimensions", dims.tolist())
+        ts = _timestamps(_get(tr, "timestamps_us", where, fld), where, f"{fld}.timestamps_us")
+        poses = _poses7(_get(tr, "poses", where, fld), len(ts), where, f"{fld}.poses")
+        tracks.append(Track(tid, label, dims, ts, poses))
+    return tracks
+
+
 def load_scene(root: str | os.PathLike, *, check_images: bool = True,
                follow_links: bool | None = None) -> Scene:
     """Load and validate the scene folder ``root`` (docs/FORMATS.md §2).
@@ -337,40 +375,14 @@ def load_scene(root: str | os.PathLike, *, check_images: bool = True,
     attributes = doc.get("attributes", {})
     if not isinstance(attributes, dict) or not all(isinstance(v, str) for v in attributes.values()):
         raise InputError(where, "attributes", "an object of string labels", repr(attributes))
-    cams_doc = _get(doc, "cameras", where, "")
-    if not isinstance(cams_doc, dict) or not cams_doc:
-        raise InputError(where, "cameras", "a non-empty object of cameras", repr(cams_doc))
-    cameras = {}
-    for name, cam in cams_doc.items():
-        fld = f"cameras.{name}"
-        T = check_rigid(_get(cam, "T_sensor_rig", where, fld), where, f"{fld}.T_sensor_rig")
-        model = validate_camera_model(_get(cam, "model", where, fld), where, f"{fld}.model")
-        cameras[name] = CameraCalib(name, T, model)
+    cameras = _cameras(doc, where)
     traj = _get(doc, "rig_trajectory", where, "")
     rig_ts = _timestamps(_get(traj, "timestamps_us", where, "rig_trajectory"), where, "rig_trajectory.timestamps_us")
     T_rw_raw = _get(traj, "T_rig_world", where, "rig_trajectory")
     T_rw = _array(T_rw_raw, (len(rig_ts), 4, 4), where, "rig_trajectory.T_rig_world",
                   f"{len(rig_ts)} 4x4 matrices (one per timestamp)")
     T_rw = check_rigid(T_rw, where, "rig_trajectory.T_rig_world")
-    tracks_doc = _get(doc, "tracks", where, "")
-    if not isinstance(tracks_doc, list):
-        raise InputError(where, "tracks", "a list of tracks", type(tracks_doc).__name__)
-    tracks, seen = [], set()
-    for i, tr in enumerate(tracks_doc):
-        fld = f"tracks[{i}]"
-        tid = str(_get(tr, "track_id", where, fld))
-        if not tid or ":" in tid or tid in seen:
-            raise InputError(where, f"{fld}.track_id", "a unique non-empty id without ':'", repr(tid))
-        seen.add(tid)
-        label = _get(tr, "label_class", where, fld)
-        if not isinstance(label, str) or not label:
-            raise InputError(where, f"{fld}.label_class", "a class name", repr(label))
-        dims = _array(_get(tr, "dims_lwh", where, fld), (3,), where, f"{fld}.dims_lwh", "3 numbers [l, w, h]")
-        if np.any(dims <= 0):
-            raise InputError(where, f"{fld}.dims_lwh", "positive dimensions", dims.tolist())
-        ts = _timestamps(_get(tr, "timestamps_us", where, fld), where, f"{fld}.timestamps_us")
-        poses = _poses7(_get(tr, "poses", where, fld), len(ts), where, f"{fld}.poses")
-        tracks.append(Track(tid, label, dims, ts, poses))
+    tracks = _tracks(doc, where)
     source_world = _source_world(doc.get("source_world"), where)
     images = _load_images(root, cameras, check_images, follow_links)
     return Scene(root, clip_id, {k: str(v) for k, v in attributes.items()}, cameras, rig_ts, T_rw, tracks, images,

@@ -260,6 +260,8 @@ def read_table(
         kind = TableKind(what) if what in {k.value for k in TableKind} else TableKind.TABLE
     what = what or kind.value
     path = Path(path)
+    if not path.exists():  # before the suffix: a missing path is missing, whatever its name
+        raise InputError(path, None, f"an existing {what} file", "no such file")
     suffix = _check_suffix(path, what)
     if not path.is_file():
         raise InputError(path, None, f"an existing {what} file", "no such file")

@@ -31,6 +31,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from data_schema.errors import InputError, check_int
+from data_schema.options import options_or_keywords
 from data_schema.tables import (
     GT_BOX_COLUMNS,
     atomic_write_text,
@@ -43,7 +44,7 @@ from nvrq.metrics.formulas import check_tau, nvrq_similarity
 from nvrq.scoring.batches import read_crops
 from nvrq.scoring.core import embed_crops
 
-__all__ = ["config_path", "read_tau_config", "write_tau", "require_tau", "recommend_tau",
+__all__ = ["CalibrationOptions", "config_path", "read_tau_config", "write_tau", "require_tau", "recommend_tau",
            "unrelated_pairs", "Calibration", "calibrate_tau"]
 
 
@@ -275,41 +276,67 @@ class Calibration:
                 f"mean {self.s.mean():.3f}\nrecommended tau = median = {self.tau:.3f}")
 
 
-def calibrate_tau(pairs: pd.DataFrame, encoder, *, scene_root=None, max_crops: int = 400,
-                  max_pairs: int = 20000, seed: int = 0, allow_same_class: bool = False,
-                  batch_size: int = 32, progress: bool = True, where: str = "pairs") -> Calibration:
+@dataclass(frozen=True)
+class CalibrationOptions:
+    """How :func:`calibrate_tau` samples the GT crops (``nvrq calibrate-tau``'s options).
+
+    Parameters
+    ----------
+    max_crops : int
+        At most this many GT crops, one per (camera, track, timestamp), sampled uniformly.
+    max_pairs : int
+        At most this many unrelated pairs among them.
+    seed : int
+        Seeds both samples.
+    allow_same_class : bool
+        Also pair objects of one class (different tracks).
+    batch_size : int
+        Crops per encoder batch.
+
+    """
+
+    max_crops: int = 400
+    max_pairs: int = 20000
+    seed: int = 0
+    allow_same_class: bool = False
+    batch_size: int = 32
+
+
+def calibrate_tau(pairs: pd.DataFrame, encoder, options: CalibrationOptions | None = None, *,
+                  scene_root=None, progress: bool = True, where: str = "pairs",
+                  **keywords) -> Calibration:
     """Measure ``encoder``'s noise floor on the GT crops of ``pairs`` (docs/FORMATS.md §3 table).
 
-    One GT crop per (camera, track, timestamp) is used; at most ``max_crops`` of them
-    (uniform sample, ``seed``), then at most ``max_pairs`` unrelated pairs among them.
+    One GT crop per (camera, track, timestamp) is used; at most ``options.max_crops`` of them
+    (uniform sample, ``options.seed``), then at most ``options.max_pairs`` unrelated pairs
+    among them.
 
     Parameters
     ----------
     pairs : pandas.DataFrame
-        A pairs table (docs/FORMATS.md §3).
+        The pairs table (``track_id``, ``label_class``, ``gt_path`` and the GT box columns).
     encoder : Encoder
-        The encoder to calibrate.
+        The embedding model whose noise floor is measured.
+    options : CalibrationOptions, optional
+        The sample sizes, seed, class rule and batch size (default ``CalibrationOptions()``).
     scene_root : str or Path, optional
-        Where image paths are resolved from.
-    max_crops : int, optional
-        Largest number of GT crops sampled.
-    max_pairs : int, optional
-        Largest number of unrelated pairs.
-    seed : int, optional
-        Seed of both samples.
-    allow_same_class : bool, optional
-        Also pair crops of the same class.
-    batch_size : int, optional
-        Crops per forward pass.
-    progress : bool, optional
+        The scene folder the image paths are relative to.
+    progress : bool
         Show a progress bar.
-    where : str, optional
-        The table named in errors.
+    where : str
+        The input named in errors.
+    **keywords
+        Deprecated spelling, kept for earlier callers: the fields of :class:`CalibrationOptions`
+        as keywords. Not together with ``options``.
 
     Returns
     -------
     Calibration
+        The similarities of the unrelated pairs and the recommended tau.
     """
+    o = options_or_keywords(CalibrationOptions, options, keywords, who="calibrate_tau")
+    max_crops, max_pairs, seed = o.max_crops, o.max_pairs, o.seed
+    allow_same_class, batch_size = o.allow_same_class, o.batch_size
     _check_calibrate_args(encoder, max_crops=max_crops, max_pairs=max_pairs, batch_size=batch_size)
     require_columns(pairs, ["track_id", "label_class", "gt_path", *GT_BOX_COLUMNS], where=where)
     keys = [c for c in ("camera", "track_id", "timestamp_us") if c in pairs.columns]

@@ -316,10 +316,22 @@ def _assemble(scene: Scene, frames_out: list[pd.DataFrame]) -> pd.DataFrame:
     return pairs.reset_index(drop=True)
 
 
+def _size_rule(sizes: dict) -> tuple[float, float]:
+    """``(min_side, min_area)`` from :func:`project_boxes`' keywords, checked (pixels, >= 0)."""
+    unknown = sorted(set(sizes) - {"min_side", "min_area"})
+    if unknown:
+        raise TypeError(f"project_boxes() got an unexpected keyword argument {unknown[0]!r}")
+    rule = {"min_side": MIN_SIDE_PX, "min_area": 0, **sizes}
+    for name, value in rule.items():
+        if not isinstance(value, int | float | np.number) or not np.isfinite(value) or value < 0:
+            raise InputError(param=name, expected="a non-negative number of pixels", got=value)
+    return rule["min_side"], rule["min_area"]
+
+
 def project_boxes(
     camera, *, T_sensor_rig: np.ndarray, T_rig_world: np.ndarray, T_box_world: np.ndarray,
     dims_lwh: np.ndarray, perturbations: np.ndarray | None = None, offsets: np.ndarray | None = None,
-    min_side: float = MIN_SIDE_PX, min_area: float = 0,
+    **sizes: float,
 ) -> pd.DataFrame:
     """``nvrq pairs``' rule for one frame, in memory: every box in the GT view and in each
     novel view, kept or dropped with its reason (no scene folder).
@@ -341,8 +353,9 @@ def project_boxes(
         Novel views ``(dx, dy, dz, roll, pitch, yaw)`` in metres and degrees, in the rig frame
         (:func:`nvrq.geometry.poses.perturb_T_sensor_rig`); or ``offsets`` (K,), lateral
         offsets in metres (``dy`` alone; positive = left). One of the two.
-    min_side, min_area : float
-        As :func:`make_pairs` (pixels).
+    **sizes : float
+        The rarely changed size rule, as :func:`make_pairs`: ``min_side`` (pixels, default
+        :data:`data_schema.tables.MIN_SIDE_PX`) and ``min_area`` (pixels, default 0).
 
     Returns
     -------
@@ -388,9 +401,7 @@ def project_boxes(
     if len(arrays["T_box_world"]) != len(arrays["dims_lwh"]):
         raise InputError(param="dims_lwh", expected=f"one row per box ({len(arrays['T_box_world'])})",
                          got=f"{len(arrays['dims_lwh'])} rows")
-    for name, value in (("min_side", min_side), ("min_area", min_area)):
-        if not isinstance(value, int | float | np.number) or not np.isfinite(value) or value < 0:
-            raise InputError(param=name, expected="a non-negative number of pixels", got=value)
+    min_side, min_area = _size_rule(sizes)
     m, k = len(arrays["T_box_world"]), len(views)
     corners = box_corners(arrays["T_box_world"], arrays["dims_lwh"])
     code, box_gt, box = _view_codes(model, arrays["T_sensor_rig"], arrays["T_rig_world"][None],

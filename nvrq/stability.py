@@ -38,6 +38,7 @@ from scipy.stats import rankdata
 from tqdm import tqdm
 
 from data_schema.errors import InputError
+from data_schema.options import options_or_keywords
 from data_schema.tables import (
     GT_BOX_COLUMNS,
     MIN_SIDE_PX,
@@ -60,6 +61,7 @@ from nvrq.scoring.core import CropBatch, check_metric_args, score_crop_batch
 from nvrq.synth.artefacts import ARTEFACTS, apply_artefact
 
 __all__ = [
+    "StabilityOptions",
     "ARTEFACT_STRENGTHS",
     "Sample",
     "build_samples",
@@ -378,66 +380,68 @@ def _check_study_args(*, n_objects: int, min_side: int) -> None:
             raise InputError(param=name, expected=f"an integer >= {low}", got=value)
 
 
-def run_stability(
-    pairs: pd.DataFrame,
-    *,
-    metrics: list[str],
-    encoder=None,
-    tau: float | None = None,
-    n_objects: int = 60,
-    seed: int = 0,
-    min_side: int = MIN_SIDE_PX,
-    nuisances: dict | None = None,
-    artefact_strengths=ARTEFACT_STRENGTHS,
-    batch_size: int = 32,
-    progress: bool = True,
-    where: str = "pairs",
-) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+@dataclass(frozen=True)
+class StabilityOptions:
+    """How :func:`run_stability` samples objects and perturbs them (``nvrq stability``'s options).
+
+    Parameters
+    ----------
+    n_objects : int
+        Objects sampled from the pairs table.
+    seed : int
+        Seeds the sample and every perturbation.
+    min_side : int
+        The shortest GT box side (pixels) of a sampled object.
+    nuisances : dict, optional
+        Nuisance name -> strengths (default :data:`nvrq.nuisances` defaults).
+    artefact_strengths : sequence of float
+        Strengths (0-1) of each render artefact.
+    batch_size : int
+        Crop pairs per scoring batch.
+
+    """
+
+    n_objects: int = 60
+    seed: int = 0
+    min_side: int = MIN_SIDE_PX
+    nuisances: dict | None = None
+    artefact_strengths: tuple = ARTEFACT_STRENGTHS
+    batch_size: int = 32
+
+
+def run_stability(pairs: pd.DataFrame, options: StabilityOptions | None = None, *, metrics: list[str],
+                  encoder=None, tau: float | None = None, progress: bool = True, where: str = "pairs",
+                  **keywords) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
     """The whole study -> ``(samples, stability, snr)`` tables (see :func:`summarise`).
 
     Parameters
     ----------
     pairs : pandas.DataFrame
-        A pairs table (docs/FORMATS.md §3).
+        The pairs table (GT paths and boxes).
+    options : StabilityOptions, optional
+        Objects, seed, smallest box, nuisances, artefact strengths, batch size.
     metrics : list of str
-        Metric names (the registry's).
+        The metric columns scored.
     encoder : Encoder, optional
-        Needed by encoder metrics.
+        The embedding model of the encoder metrics.
     tau : float, optional
-        NVRQ-CA knee.
-    n_objects : int, optional
-        GT crops drawn.
-    seed : int, optional
-        Seed of the draw and of the perturbations.
-    min_side : int, pixels, optional
-        Smallest GT box side drawn.
-    nuisances : dict, optional
-        Nuisance name -> strengths.
-    artefact_strengths : sequence of float, optional
-        Strengths of each artefact, in [0, 1].
-    batch_size : int, optional
-        Crops per forward pass.
-    progress : bool, optional
-        Show a progress bar.
-    where : str, optional
-        The table named in errors.
+        The NVRQ threshold.
+    progress, where : bool, str
+        Show progress bars; the input named in errors.
+    **keywords
+        The former spelling (deprecated): :class:`StabilityOptions`' fields as keywords.
 
     Returns
     -------
     samples, stability, snr : pandas.DataFrame
+        Every scored sample, the change per nuisance and strength, the signal-to-nuisance ratios.
     """
-    _check_study_args(n_objects=n_objects, min_side=min_side)
-    check_metric_args(metrics, encoder=encoder, tau=tau, batch_size=batch_size)
-    gts, samples = build_samples(
-        pairs,
-        n_objects=n_objects,
-        seed=seed,
-        min_side=min_side,
-        nuisances=nuisances,
-        artefact_strengths=artefact_strengths,
-        progress=progress,
-        where=where,
-    )
+    o = options_or_keywords(StabilityOptions, options, keywords, who="run_stability")
+    _check_study_args(n_objects=o.n_objects, min_side=o.min_side)
+    check_metric_args(metrics, encoder=encoder, tau=tau, batch_size=o.batch_size)
+    gts, samples = build_samples(pairs, n_objects=o.n_objects, seed=o.seed, min_side=o.min_side,
+                                 nuisances=o.nuisances, artefact_strengths=o.artefact_strengths,
+                                 progress=progress, where=where)
     gt_index = np.array([s.obj for s in samples], np.int64)
     values = score_samples(
         gts,
@@ -445,7 +449,7 @@ def run_stability(
         metrics=metrics,
         encoder=encoder,
         tau=tau,
-        batch_size=batch_size,
+        batch_size=o.batch_size,
         progress=progress,
     )
     meta = pd.DataFrame(

@@ -7,6 +7,7 @@ Layer: commands (CLI shell) of ``annotate``.
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
 from annotate.commands.serve import base_url
 from annotate.load import (
@@ -28,7 +29,10 @@ from nvrq.commands.args import (
     show_progress,
 )
 
-__all__ = ["register", "run"]
+if TYPE_CHECKING:
+    from annotate.design import StudyOptions
+
+__all__ = ["register", "run", "options_from_args"]
 
 
 def _items_per_rater(text: str) -> int | None:
@@ -97,6 +101,40 @@ def register(sub) -> None:
     b.set_defaults(func=run)
 
 
+def options_from_args(args) -> StudyOptions:
+    """The study's options from ``annotate build``'s parsed arguments (the one place they are
+    gathered).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        ``annotate build``'s arguments.
+
+    Returns
+    -------
+    annotate.design.StudyOptions
+        The options :func:`annotate.study.build_study` checks and uses.
+
+    Raises
+    ------
+    InputError
+        ``--size`` is not a square WxH.
+    """
+    from annotate.design import StudyOptions  # pandas: not for --help
+
+    width, height = parse_wxh(args.size, option="--size")
+    if width != height:
+        raise InputError("--size", None, "a square WxH (display crops are square), e.g. 320x320", args.size)
+    return StudyOptions(
+        tracks=args.tracks, frames_per_track=args.frames_per_track, offsets=args.offsets,
+        votes_per_item=args.votes_per_item, seed=args.seed, n_training=args.training,
+        n_gold=args.gold, n_repeats=args.repeats, size=width, image_format=args.image_format,
+        access=args.access, break_every=args.break_every, design=args.design, methods=args.methods,
+        scene=args.scene, metrics_paths=tuple(args.metrics_tables),
+        participant_param=args.participant_param, completion_url=args.completion_url,
+        items_per_rater=args.items_per_rater)
+
+
 def run(args) -> int:
     """Build the study; print its item counts and the admin page's link (the only time the
     admin token is printed).
@@ -118,17 +156,7 @@ def run(args) -> int:
     check_output_folder(args.study, kind="study", option="STUDY",
                         inputs=[args.pairs, *args.metrics_tables, args.scene])
     admin_base = base_url(public_url=args.public_url)
-    width, height = parse_wxh(args.size, option="--size")
-    if width != height:
-        raise InputError("--size", None, "a square WxH (display crops are square), e.g. 320x320", args.size)
-    out = build_study(args.study, args.pairs, scene=args.scene, metrics_path=args.metrics_tables or None,
-                      tracks=args.tracks, frames_per_track=args.frames_per_track,
-                      offsets=args.offsets, votes_per_item=args.votes_per_item, seed=args.seed,
-                      n_training=args.training, n_gold=args.gold, n_repeats=args.repeats,
-                      size=width, image_format=args.image_format, access=args.access,
-                      break_every=args.break_every, design=args.design, methods=args.methods,
-                      participant_param=args.participant_param, completion_url=args.completion_url,
-                      items_per_rater=args.items_per_rater, progress=show_progress(args))
+    out = build_study(args.study, args.pairs, options_from_args(args), progress=show_progress(args))
     study = load_study(out)
     counts = ", ".join(f"{v} {k}" for k, v in study.manifest["counts"].items())
     print(f"study {out}: {counts} items")

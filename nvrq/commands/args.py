@@ -46,8 +46,11 @@ __all__ = ["ArgumentParser", "command_parser", "run_cli", "add_version", "show_p
            "deprecated", "allow_negative_lists", "NEGATIVE_LIST", "option_for", "flags_in_errors",
            "add_link_option", "int_arg", "number_arg", "checked_arg", "LazyHelp"]
 
-#: A comma list of numbers that may start with a minus sign (``-3,-2,0``): a value, not an option.
-NEGATIVE_LIST = re.compile(r"^-\d*\.?\d+([x,]\s*[-+]?\d*\.?\d+)*$")
+#: A value that starts with one minus sign, not an option: a number or a size (``-3``, ``-.5``,
+#: ``-640x360``, ``-3,abc``), or a comma list (``-a,b``; no option name holds a comma). The
+#: command's own check then says what is wrong with it, as it does for ``3,abc``, instead of
+#: argparse's "expected one argument".
+NEGATIVE_LIST = re.compile(r"^-(?!-)(?:\.?\d|[^=]*,)")
 
 
 class LazyHelp(str):
@@ -100,17 +103,14 @@ class ArgumentParser(argparse.ArgumentParser):
 
     Subparsers made with ``add_subparsers`` inherit the class, so every subcommand of a CLI
     built on it reports a bad argument the same way as bad input (docs/FORMATS.md §7). Its help
-    shows a comma list as one ``A,B`` value (:class:`CommaList`).
-
-    Parameters
-    ----------
-    *args, **kwargs
-        As for ``argparse.ArgumentParser``.
+    shows a comma list as one ``A,B`` value (:class:`CommaList`), and a value that starts with a
+    minus sign (``-3,-2``, ``-3,abc``) is taken as the value it is (:data:`NEGATIVE_LIST`).
     """
 
     def __init__(self, *args, **kwargs):
         kwargs.setdefault("formatter_class", _HelpFormatter)
         super().__init__(*args, **kwargs)
+        allow_negative_lists(self)  # every (sub)command: ``--offsets -3,abc`` is a value
 
     def error(self, message: str):
         """Print ``error: PROG: MESSAGE (see PROG --help)`` as one line and exit with status 2.

@@ -56,14 +56,14 @@ def run(args) -> int:
         :func:`~nvrq.commands.args.run_cli`).
     """
     from data_schema.tables import read_table
-    from nvrq.calibrate import calibrate_tau, config_path, write_tau
+    from nvrq.calibrate import CalibrationOptions, calibrate_tau, config_path, write_tau
 
     pairs = read_table(args.pairs, what="pairs table")
     encoder, _ = load_encoder_and_tau(args, needs_tau=False)
-    cal = calibrate_tau(pairs, encoder, scene_root=args.scene, max_crops=args.max_crops,
-                        max_pairs=args.max_pairs, seed=args.seed,
-                        allow_same_class=args.allow_same_class, batch_size=args.batch_size,
-                        progress=show_progress(args), where=str(args.pairs))
+    options = CalibrationOptions(max_crops=args.max_crops, max_pairs=args.max_pairs, seed=args.seed,
+                                 allow_same_class=args.allow_same_class, batch_size=args.batch_size)
+    cal = calibrate_tau(pairs, encoder, options, scene_root=args.scene, progress=show_progress(args),
+                        where=str(args.pairs))
     print(cal.summary())
     if args.write_config:
         path = write_tau(config_path(args.config), cal.encoder, cal.tau,

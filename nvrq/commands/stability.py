@@ -74,7 +74,11 @@ def run(args) -> int:
         :func:`~nvrq.commands.args.run_cli`).
     """
     from data_schema.tables import GT_BOX_COLUMNS, read_table, write_table
-    from nvrq.stability import plot_stability, run_stability  # SciPy, matplotlib: not for --help
+    from nvrq.stability import (  # SciPy, matplotlib: not for --help
+        StabilityOptions,
+        plot_stability,
+        run_stability,
+    )
 
     columns, encoder_name = metric_columns(args)
     out = Path(args.out)
@@ -83,10 +87,10 @@ def run(args) -> int:
     pairs = read_table(args.pairs, required=("pair_id", "clip_id", "camera", "track_id", "timestamp_us",
                                              "gt_path", *GT_BOX_COLUMNS), what="pairs table")
     encoder, tau = encoder_for_columns(args, columns, encoder_name)
-    samples, stab, snr = run_stability(
-        pairs, metrics=columns, encoder=encoder, tau=tau, n_objects=args.n_objects,
-        seed=args.seed, min_side=args.min_side, batch_size=args.batch_size,
-        progress=show_progress(args), where=str(args.pairs))
+    options = StabilityOptions(n_objects=args.n_objects, seed=args.seed, min_side=args.min_side,
+                               batch_size=args.batch_size)
+    samples, stab, snr = run_stability(pairs, options, metrics=columns, encoder=encoder, tau=tau,
+                                       progress=show_progress(args), where=str(args.pairs))
     out.mkdir(parents=True, exist_ok=True)
     mark_report(out)  # a report folder of ours: a later run may replace it
     write_table(samples, out / "samples.csv")

@@ -137,21 +137,13 @@ def run(args) -> int:
     """
     from data_schema.methods import parse_methods
     from data_schema.tables import parse_offsets
-    from nvrq.synth import generate_scene
+    from nvrq.synth import SynthOptions, generate_scene
 
     methods = None if args.methods is None else parse_methods(args.methods)
     cameras = tuple(comma_list(args.cameras))
-    out = generate_scene(
-        args.out,
-        seed=args.seed,
-        seconds=args.seconds,
-        fps=args.fps,
-        offsets=parse_offsets(args.offsets),
-        perturbations=perturb_grid(args),
-        cameras=cameras,
-        size=parse_size(args.size),
-        methods=methods,
-        progress=show_progress(args),
-    )
+    options = SynthOptions(seed=args.seed, seconds=args.seconds, fps=args.fps,
+                           offsets=parse_offsets(args.offsets), perturbations=perturb_grid(args),
+                           cameras=cameras, size=parse_size(args.size), methods=methods)
+    out = generate_scene(args.out, options, progress=show_progress(args))
     print(f"wrote {out}")
     return 0

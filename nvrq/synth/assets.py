@@ -122,62 +122,78 @@ class Assets:
 
 def _vehicle_parts(cls, dims, colour, rng):
     """List of (centre (3,), dims (3,), {face: Material}) in the box frame."""
-    l, w, h = dims
     if cls == "automobile":
-        hb = 0.52 * h
-        body_c, body_d = np.array([0, 0, -h / 2 + hb / 2]), np.array([l, w, hb])
-        hc, lc = h - hb, 0.55 * l
-        cab_c, cab_d = np.array([-0.05 * l, 0, -h / 2 + hb + hc / 2]), np.array([lc, 0.92 * w, hc])
-        return [
-            (
-                body_c,
-                body_d,
-                {
-                    "side": tx.vehicle_side(l, hb, colour, rng, kind="car_body"),
-                    "front": tx.vehicle_end(w, hb, colour, rng, front=True, kind="car_body"),
-                    "rear": tx.vehicle_end(w, hb, colour, rng, front=False, kind="car_body"),
-                    "top": tx.plain_face(w, l, colour, rng),
-                },
-            ),
-            (
-                cab_c,
-                cab_d,
-                {
-                    "side": tx.vehicle_side(
-                        lc,
-                        hc,
-                        colour,
-                        rng,
-                        kind="car_cabin",
-                        window_band=(0.12, 0.92),
-                        wheels=False,
-                    ),
-                    "front": tx.vehicle_end(
-                        0.92 * w, hc, colour, rng, front=True, kind="car_cabin"
-                    ),
-                    "rear": tx.vehicle_end(
-                        0.92 * w, hc, colour, rng, front=False, kind="car_cabin"
-                    ),
-                    "top": tx.plain_face(0.92 * w, lc, colour, rng),
-                },
-            ),
-        ]
+        return _car_parts(dims, colour, rng)
     if cls == "bus":
-        return [
-            (
-                np.zeros(3),
-                np.array([l, w, h]),
-                {
-                    "side": tx.vehicle_side(
-                        l, h, colour, rng, kind="bus", window_band=(0.18, 0.55), lit_windows=0.9
-                    ),
-                    "front": tx.vehicle_end(w, h, colour, rng, front=True, kind="bus"),
-                    "rear": tx.vehicle_end(w, h, colour, rng, front=False, kind="bus"),
-                    "top": tx.plain_face(w, l, (200, 200, 200), rng, ppm=10),
-                },
-            )
-        ]
-    # heavy truck: cab + trailer
+        return _bus_parts(dims, colour, rng)
+    return _truck_parts(dims, colour, rng)
+
+
+def _car_parts(dims, colour, rng):
+    """A car: body and cabin (as :func:`_vehicle_parts`)."""
+    l, w, h = dims
+    hb = 0.52 * h
+    body_c, body_d = np.array([0, 0, -h / 2 + hb / 2]), np.array([l, w, hb])
+    hc, lc = h - hb, 0.55 * l
+    cab_c, cab_d = np.array([-0.05 * l, 0, -h / 2 + hb + hc / 2]), np.array([lc, 0.92 * w, hc])
+    return [
+        (
+            body_c,
+            body_d,
+            {
+                "side": tx.vehicle_side(l, hb, colour, rng, kind="car_body"),
+                "front": tx.vehicle_end(w, hb, colour, rng, front=True, kind="car_body"),
+                "rear": tx.vehicle_end(w, hb, colour, rng, front=False, kind="car_body"),
+                "top": tx.plain_face(w, l, colour, rng),
+            },
+        ),
+        (
+            cab_c,
+            cab_d,
+            {
+                "side": tx.vehicle_side(
+                    lc,
+                    hc,
+                    colour,
+                    rng,
+                    kind="car_cabin",
+                    window_band=(0.12, 0.92),
+                    wheels=False,
+                ),
+                "front": tx.vehicle_end(
+                    0.92 * w, hc, colour, rng, front=True, kind="car_cabin"
+                ),
+                "rear": tx.vehicle_end(
+                    0.92 * w, hc, colour, rng, front=False, kind="car_cabin"
+                ),
+                "top": tx.plain_face(0.92 * w, lc, colour, rng),
+            },
+        ),
+    ]
+
+
+def _bus_parts(dims, colour, rng):
+    """A bus: one box (as :func:`_vehicle_parts`)."""
+    l, w, h = dims
+    return [
+        (
+            np.zeros(3),
+            np.array([l, w, h]),
+            {
+                "side": tx.vehicle_side(
+                    l, h, colour, rng, kind="bus", window_band=(0.18, 0.55), lit_windows=0.9
+                ),
+                "front": tx.vehicle_end(w, h, colour, rng, front=True, kind="bus"),
+                "rear": tx.vehicle_end(w, h, colour, rng, front=False, kind="bus"),
+                "top": tx.plain_face(w, l, (200, 200, 200), rng, ppm=10),
+            },
+        )
+    ]
+
+
+def _truck_parts(dims, colour, rng):
+    """A heavy truck: cab and trailer (as :func:`_vehicle_parts`)."""
+    l, w, h = dims
     lc, hc = 2.4, 0.8 * h
     lt = l - lc - 0.5
     trailer_rgb = (
@@ -205,6 +221,29 @@ def _vehicle_parts(cls, dims, colour, rng):
             },
         ),
     ]
+
+
+def _add_buildings(a: Assets, world: World, rng: np.random.Generator) -> None:
+    """The buildings' faces and facade textures into ``a`` (``static_*``)."""
+    lit = world.lighting
+    sc, sn, st = [], [], []
+    for bld in world.buildings:
+        corners, normals = box_faces(np.zeros(3), bld["dims"])
+        c, s = np.cos(bld["yaw"]), np.sin(bld["yaw"])
+        R = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+        lit_frac = 0.35 if lit != "daytime" else 0.0
+        for j, name in enumerate(FACE_NAMES):
+            if name == "top":
+                mat = tx.plain_face(bld["dims"][1], bld["dims"][0], (110, 105, 100), rng, ppm=2)
+            else:
+                width = bld["dims"][1] if name in ("front", "rear") else bld["dims"][0]
+                mat = tx.facade(width, bld["dims"][2], bld["colour"], rng, lit=lit_frac)
+            sc.append(corners[j] @ R.T + bld["centre"])
+            sn.append(R @ normals[j])
+            st.append(a.add(mat, lit, _SHADE[name]))
+    a.static_corners = np.array(sc, float).reshape(-1, 4, 3)
+    a.static_normals = np.array(sn, float).reshape(-1, 3)
+    a.static_tex = np.array(st, np.int64)
 
 
 def build_assets(world: World, rng: np.random.Generator) -> Assets:
@@ -246,24 +285,7 @@ def build_assets(world: World, rng: np.random.Generator) -> Assets:
     a.actor_tex = np.array(at, np.int64)
     a.actor_owner = np.array(ao, np.int64)
 
-    sc, sn, st = [], [], []
-    for bld in world.buildings:
-        corners, normals = box_faces(np.zeros(3), bld["dims"])
-        c, s = np.cos(bld["yaw"]), np.sin(bld["yaw"])
-        R = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
-        lit_frac = 0.35 if lit != "daytime" else 0.0
-        for j, name in enumerate(FACE_NAMES):
-            if name == "top":
-                mat = tx.plain_face(bld["dims"][1], bld["dims"][0], (110, 105, 100), rng, ppm=2)
-            else:
-                width = bld["dims"][1] if name in ("front", "rear") else bld["dims"][0]
-                mat = tx.facade(width, bld["dims"][2], bld["colour"], rng, lit=lit_frac)
-            sc.append(corners[j] @ R.T + bld["centre"])
-            sn.append(R @ normals[j])
-            st.append(a.add(mat, lit, _SHADE[name]))
-    a.static_corners = np.array(sc, float).reshape(-1, 4, 3)
-    a.static_normals = np.array(sn, float).reshape(-1, 3)
-    a.static_tex = np.array(st, np.int64)
+    _add_buildings(a, world, rng)
 
     tree_ids = [a.add(tx.tree_texture(9.0, rng), lit, 0.85) for _ in range(6)]
     lamp_id = a.add(tx.lamp_texture(7.5), lit, 0.9)

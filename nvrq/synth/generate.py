@@ -46,6 +46,7 @@ from tqdm import tqdm
 
 from data_schema.errors import InputError
 from data_schema.methods import METHOD_COLUMN, check_method_scales, method_columns
+from data_schema.options import options_or_keywords
 from data_schema.perturbation import (
     LIMITS,
     PERTURBATION_COLUMNS,
@@ -66,6 +67,7 @@ from nvrq.synth.renderer import virtual_camera
 from nvrq.synth.view import render_view
 
 __all__ = [
+    "SynthOptions",
     "generate_scene",
     "scene_document",
     "camera_models",
@@ -389,56 +391,67 @@ def _write_tables(clip: _Clip, views: np.ndarray, out: Path, image_rows: list, d
                images.loc[:, [*IMAGES_COLUMNS, *extra, *method_columns(images)]], out)
 
 
-def generate_scene(
-    out: Path,
-    *,
-    seed: int = 0,
-    seconds: float = 10.0,
-    fps: float = 10.0,
-    offsets=(-3, -2, -1, 0, 1, 2, 3),
-    perturbations=None,
-    cameras=("pinhole",),
-    size=(1280, 720),
-    methods=None,
-    progress: bool = True,
-) -> Path:
-    """Write a synthetic scene folder to ``out`` and return it (see module docstring).
-
-    ``cameras``: kinds from {'pinhole', 'ftheta'} (camera names 'front', 'front_wide');
-    ``size (W, H)`` pixels; ``offsets`` lateral metres (left > 0), or ``perturbations``
-    ``(K, 6)`` ``(dx, dy, dz, roll, pitch, yaw)`` (metres, degrees), which replace them.
-    ``methods``: None (one unnamed method), or ``[(name, scale), ...]``
-    (:func:`data_schema.methods.check_method_scales`): every view is rendered once per method, its
-    artefact severity times ``scale`` (so a smaller scale is a better method).
+@dataclass(frozen=True)
+class SynthOptions:
+    """What :func:`generate_scene` draws (``nvrq synth``'s options).
 
     Parameters
     ----------
-    out : Path
-        The scene folder to write.
-    seed : int, optional
-        Fixes the clip.
-    seconds, fps : float, optional
-        Clip length (seconds) and frame rate (Hz).
-    offsets : sequence of float, metres, optional
-        Lateral views (left > 0).
-    perturbations : (K, 6) float64, optional
-        ``(dx, dy, dz, roll, pitch, yaw)`` views, metres and degrees; replace ``offsets``.
-    cameras : sequence of str, optional
-        Kinds from ``{'pinhole', 'ftheta'}``.
-    size : (int, int), optional
-        ``(W, H)`` pixels.
+    seed : int
+        Seeds the layout, the tracks and the artefacts (>= 0).
+    seconds, fps : float
+        Clip length (s) and frame rate (Hz).
+    offsets : sequence of float
+        Lateral novel-view offsets in metres (left > 0).
+    perturbations : (K, 6) array, optional
+        ``(dx, dy, dz, roll, pitch, yaw)`` views (metres, degrees); they replace ``offsets``.
+    cameras : sequence of str
+        Camera kinds from {'pinhole', 'ftheta'} (named 'front', 'front_wide').
+    size : (int, int)
+        Image width and height in pixels.
     methods : list of (str, float), optional
-        ``(name, severity scale)`` per method; ``None``: one unnamed method.
-    progress : bool, optional
+        None (one unnamed method), or ``[(name, scale), ...]``
+        (:func:`data_schema.methods.check_method_scales`): every view is rendered once per
+        method, its artefact severity times ``scale`` (a smaller scale is a better method).
+
+    """
+
+    seed: int = 0
+    seconds: float = 10.0
+    fps: float = 10.0
+    offsets: tuple = (-3, -2, -1, 0, 1, 2, 3)
+    perturbations: object = None
+    cameras: tuple = ("pinhole",)
+    size: tuple = (1280, 720)
+    methods: object = None
+
+
+def generate_scene(out: Path, options: SynthOptions | None = None, *, progress: bool = True,
+                   **keywords) -> Path:
+    """Write a synthetic scene folder to ``out`` and return it (see module docstring).
+
+    Parameters
+    ----------
+    out : pathlib.Path
+        The scene folder to write.
+    options : SynthOptions, optional
+        Seed, clip length, frame rate, views, cameras, image size and methods
+        (default ``SynthOptions()``).
+    progress : bool
         Show a progress bar.
+    **keywords
+        Deprecated spelling, kept for earlier callers: the fields of :class:`SynthOptions` as
+        keywords (``generate_scene(out, seed=1, seconds=2)``). Not together with ``options``.
 
     Returns
     -------
-    Path
+    pathlib.Path
         ``out``.
     """
-    cam_names, (W, H) = _parse(seconds, fps, cameras, size)
-    views = _views(offsets, perturbations)
+    o = options_or_keywords(SynthOptions, options, keywords, who="generate_scene")
+    seed, seconds, fps, methods = o.seed, o.seconds, o.fps, o.methods
+    cam_names, (W, H) = _parse(seconds, fps, o.cameras, o.size)
+    views = _views(o.offsets, o.perturbations)
     methods = [("", 1.0)] if methods is None else check_method_scales(methods, option="methods")
     if not isinstance(seed, int | np.integer) or seed < 0:
         raise InputError(param="seed", expected="a non-negative integer", got=seed)

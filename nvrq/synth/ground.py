@@ -63,6 +63,60 @@ class Background:
     row0: int
 
 
+def _paint_markings(col: np.ndarray, world: World, sd, grass: np.ndarray) -> None:
+    """The lane lines, the median and the crosswalks into ``col (ny, nx, 3)``; ``sd``: the
+    pixels' road coordinates ``s, d (ny, nx)`` and which lie on the road."""
+    road = world.road
+    s, d, on_road = sd
+    ad = np.abs(d)
+    rt = road.road_type
+    white = np.array(bgr((235, 235, 230)), np.float32)
+    yellow = np.array(bgr((230, 190, 40)), np.float32)
+    dash = np.mod(s, 9.0) < 3.0
+    m2 = road.median_w / 2
+    lines = []  # (d position, half width, colour, dashed)
+    if road.median_w > 0:
+        col[ad < m2 - 0.2] = grass
+        lines += [(m2, 0.08, yellow, False), (-m2, 0.08, yellow, False)]
+    elif rt == "rural":
+        lines.append((0.0, 0.07, white, True))
+    else:
+        lines += [(0.13, 0.06, yellow, False), (-0.13, 0.06, yellow, False)]
+    for k in range(1, road.lanes_per_dir):
+        for sg in (-1, 1):
+            lines.append((sg * (m2 + k * road.lane_w), 0.07, white, True))
+    edge = m2 + road.lanes_per_dir * road.lane_w
+    lines += [(edge, 0.08, white, False), (-edge, 0.08, white, False)]
+    for dl, hw, c, dashed in lines:
+        m = np.abs(d - dl) < hw
+        if dashed:
+            m &= dash
+        col[m] = c
+    for sc in world.crosswalks:
+        m = on_road & (np.abs(s - sc) < 2.0) & (np.mod(d, 1.0) < 0.5)
+        col[m] = white
+
+
+def _light_pools(col: np.ndarray, world: World, origin, res: float) -> None:
+    """Night: darken ``col (ny, nx, 3)`` but for the pools of light under the lamps
+    (``origin``: the world x, y of pixel (0, 0); ``res`` metres per pixel)."""
+    ny, nx = col.shape[:2]
+    x0, y0 = origin
+    pool = np.zeros((ny, nx), np.float32)
+    for bb in world.billboards:
+        if bb["kind"] != "lamp":
+            continue
+        cx, cy = (bb["base"][0] - x0) / res, (bb["base"][1] - y0) / res
+        r = 9.0 / res
+        ia, ib = int(max(cy - 2 * r, 0)), int(min(cy + 2 * r, ny))
+        ja, jb = int(max(cx - 2 * r, 0)), int(min(cx + 2 * r, nx))
+        if ia >= ib or ja >= jb:
+            continue
+        yy, xx = np.mgrid[ia:ib, ja:jb].astype(np.float32)
+        pool[ia:ib, ja:jb] += np.exp(-((yy - cy) ** 2 + (xx - cx) ** 2) / (r * r))
+    col *= (0.16 * (1.0 + 3.5 * np.minimum(pool, 1.0)))[..., None]
+
+
 def build_ground(
     world: World, rng: np.random.Generator, *, res: float = 0.08, max_side: int = 6000
 ) -> Ground:
@@ -118,49 +172,13 @@ def build_ground(
         col[(ad > kerb) & (ad < kerb + 1.2)] = np.array(bgr((125, 110, 85)), np.float32)  # gravel
     on_road = ad <= kerb
     col[on_road] = np.array(bgr((78, 78, 82)), np.float32)
-    white = np.array(bgr((235, 235, 230)), np.float32)
-    yellow = np.array(bgr((230, 190, 40)), np.float32)
-    dash = np.mod(s, 9.0) < 3.0
-    m2 = road.median_w / 2
-    lines = []  # (d position, half width, colour, dashed)
-    if road.median_w > 0:
-        col[ad < m2 - 0.2] = grass
-        lines += [(m2, 0.08, yellow, False), (-m2, 0.08, yellow, False)]
-    elif rt == "rural":
-        lines.append((0.0, 0.07, white, True))
-    else:
-        lines += [(0.13, 0.06, yellow, False), (-0.13, 0.06, yellow, False)]
-    for k in range(1, road.lanes_per_dir):
-        for sg in (-1, 1):
-            lines.append((sg * (m2 + k * road.lane_w), 0.07, white, True))
-    edge = m2 + road.lanes_per_dir * road.lane_w
-    lines += [(edge, 0.08, white, False), (-edge, 0.08, white, False)]
-    for dl, hw, c, dashed in lines:
-        m = np.abs(d - dl) < hw
-        if dashed:
-            m &= dash
-        col[m] = c
-    for sc in world.crosswalks:
-        m = on_road & (np.abs(s - sc) < 2.0) & (np.mod(d, 1.0) < 0.5)
-        col[m] = white
+    _paint_markings(col, world, (s, d, on_road), grass)
     # low-frequency stains and fine grain
     small = rng.normal(0.0, 10.0, (max(ny // 40, 2), max(nx // 40, 2))).astype(np.float32)
     col += cv2.resize(small, (nx, ny), interpolation=cv2.INTER_CUBIC)[..., None]
     col += rng.integers(-9, 10, (ny, nx, 1)).astype(np.float32)
     if world.lighting != "daytime":
-        pool = np.zeros((ny, nx), np.float32)
-        for bb in world.billboards:
-            if bb["kind"] != "lamp":
-                continue
-            cx, cy = (bb["base"][0] - x0) / res, (bb["base"][1] - y0) / res
-            r = 9.0 / res
-            ia, ib = int(max(cy - 2 * r, 0)), int(min(cy + 2 * r, ny))
-            ja, jb = int(max(cx - 2 * r, 0)), int(min(cx + 2 * r, nx))
-            if ia >= ib or ja >= jb:
-                continue
-            yy, xx = np.mgrid[ia:ib, ja:jb].astype(np.float32)
-            pool[ia:ib, ja:jb] += np.exp(-((yy - cy) ** 2 + (xx - cx) ** 2) / (r * r))
-        col *= (0.16 * (1.0 + 3.5 * np.minimum(pool, 1.0)))[..., None]
+        _light_pools(col, world, (x0, y0), res)
     tex = np.clip(col, 0, 255).astype(np.uint8)
     A = np.array([[res, 0, x0], [0, res, y0], [0, 0, 1]])
     return Ground(tex, A)

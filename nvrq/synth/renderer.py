@@ -168,6 +168,26 @@ def clip_near(poly: np.ndarray, near: float = NEAR) -> np.ndarray:
     return np.array(out).reshape(-1, 3)
 
 
+def _draw_order(K: np.ndarray, corners_cam: np.ndarray, size: tuple[int, int]):
+    """The faces to draw, far to near (frustum and size culled), with their projected corners
+    ``u, v (N, 4)`` and whether all four lie in front of the near plane ``allin (N,)``."""
+    Wv, Hv = size
+    z = corners_cam[..., 2]
+    keep = (z >= NEAR).any(1)
+    # frustum test on corners in front of the camera (conservative for clipped faces)
+    zc = np.maximum(z, NEAR)
+    u = K[0, 0] * corners_cam[..., 0] / zc + K[0, 2]
+    v = K[1, 1] * corners_cam[..., 1] / zc + K[1, 2]
+    allin = (z >= NEAR).all(1)
+    off = allin & ((u.max(1) < 0) | (u.min(1) > Wv - 1) | (v.max(1) < 0) | (v.min(1) > Hv - 1))
+    tiny = allin & ((u.max(1) - u.min(1)) * (v.max(1) - v.min(1)) < 2.0)
+    keep &= ~off & ~tiny
+    depth = np.linalg.norm(corners_cam.mean(1), axis=1)
+    order = np.flatnonzero(keep)
+    order = order[np.argsort(-depth[order], kind="stable")]
+    return order, u, v, allin
+
+
 def draw_faces(
     image: np.ndarray,
     ids: np.ndarray,
@@ -204,19 +224,7 @@ def draw_faces(
     Hv, Wv = image.shape[:2]
     if len(corners_cam) == 0:
         return
-    z = corners_cam[..., 2]
-    keep = (z >= NEAR).any(1)
-    # frustum test on corners in front of the camera (conservative for clipped faces)
-    zc = np.maximum(z, NEAR)
-    u = K[0, 0] * corners_cam[..., 0] / zc + K[0, 2]
-    v = K[1, 1] * corners_cam[..., 1] / zc + K[1, 2]
-    allin = (z >= NEAR).all(1)
-    off = allin & ((u.max(1) < 0) | (u.min(1) > Wv - 1) | (v.max(1) < 0) | (v.min(1) > Hv - 1))
-    tiny = allin & ((u.max(1) - u.min(1)) * (v.max(1) - v.min(1)) < 2.0)
-    keep &= ~off & ~tiny
-    depth = np.linalg.norm(corners_cam.mean(1), axis=1)
-    order = np.flatnonzero(keep)
-    order = order[np.argsort(-depth[order], kind="stable")]
+    order, u, v, allin = _draw_order(K, corners_cam, (Wv, Hv))
     for i in order:
         c = corners_cam[i]
         if allin[i]:

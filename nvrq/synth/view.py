@@ -48,6 +48,50 @@ def billboard_quads(base: np.ndarray, size: np.ndarray, cam_pos: np.ndarray) -> 
     return np.stack([base - half + up, base + half + up, base + half, base - half], axis=1)
 
 
+def _actor_faces(world: World, assets: Assets, cam_pos: np.ndarray, frame: int):
+    """The faces of the actors present at ``frame`` that face the camera: corners (F, 4, 3) in
+    the world, texture ids (F,) and actor indices (F,)."""
+    present = np.array([a.present[frame] for a in world.actors])
+    own = assets.actor_owner
+    on = present[own]
+    T = np.stack([a.T_box_world[frame] for a in world.actors])[own[on]]
+    local = assets.actor_corners[on]
+    wc = np.einsum("nij,nkj->nki", T[:, :3, :3], local) + T[:, None, :3, 3]
+    wn = np.einsum("nij,nj->ni", T[:, :3, :3], assets.actor_normals[on])
+    vis = np.einsum("ij,ij->i", wn, cam_pos - wc.mean(1)) > 0
+    return wc[vis], assets.actor_tex[on][vis], own[on][vis]
+
+
+def _billboards(world: World, assets: Assets, cam_pos: np.ndarray, frame: int):
+    """The scenery billboards and the impostors of the actors present at ``frame``, turned to
+    the camera: lists of base points, sizes, texture ids and actor indices (-1: scenery)."""
+    base, bsize, btex, bobj = (
+        [assets.bb_base],
+        [assets.bb_size],
+        [assets.bb_tex],
+        [np.full(len(assets.bb_tex), -1)],
+    )
+    for k, (t_front, t_side, t_flip, w_front, w_side) in assets.impostors.items():
+        actor = world.actors[k]
+        if not actor.present[frame]:
+            continue
+        T = actor.T_box_world[frame]
+        b = T[:3, 3] - [0, 0, actor.dims[2] / 2]
+        view = b[:2] - cam_pos[:2]
+        view = view / max(np.linalg.norm(view), 1e-6)
+        heading = T[:2, 0]
+        right = np.array([view[1], -view[0]])
+        if abs(heading @ view) > 0.7:
+            t, w = t_front, w_front
+        else:
+            t, w = (t_side if heading @ right > 0 else t_flip), w_side
+        base.append(b[None])
+        bsize.append(np.array([[w, actor.dims[2]]]))
+        btex.append(np.array([t]))
+        bobj.append(np.array([k]))
+    return base, bsize, btex, bobj
+
+
 def render_view(
     world: World,
     assets: Assets,
@@ -109,44 +153,10 @@ def render_view(
         corners.append(sc[vis])
         tex.append(assets.static_tex[vis])
         obj.append(np.full(int(vis.sum()), -1))
-    # actor boxes
-    if len(assets.actor_owner):
-        present = np.array([a.present[frame] for a in world.actors])
-        own = assets.actor_owner
-        on = present[own]
-        T = np.stack([a.T_box_world[frame] for a in world.actors])[own[on]]
-        local = assets.actor_corners[on]
-        wc = np.einsum("nij,nkj->nki", T[:, :3, :3], local) + T[:, None, :3, 3]
-        wn = np.einsum("nij,nj->ni", T[:, :3, :3], assets.actor_normals[on])
-        vis = np.einsum("ij,ij->i", wn, cam_pos - wc.mean(1)) > 0
-        corners.append(wc[vis])
-        tex.append(assets.actor_tex[on][vis])
-        obj.append(own[on][vis])
-    # billboards: scenery and impostors
-    base, bsize, btex, bobj = (
-        [assets.bb_base],
-        [assets.bb_size],
-        [assets.bb_tex],
-        [np.full(len(assets.bb_tex), -1)],
-    )
-    for k, (t_front, t_side, t_flip, w_front, w_side) in assets.impostors.items():
-        actor = world.actors[k]
-        if not actor.present[frame]:
-            continue
-        T = actor.T_box_world[frame]
-        b = T[:3, 3] - [0, 0, actor.dims[2] / 2]
-        view = b[:2] - cam_pos[:2]
-        view = view / max(np.linalg.norm(view), 1e-6)
-        heading = T[:2, 0]
-        right = np.array([view[1], -view[0]])
-        if abs(heading @ view) > 0.7:
-            t, w = t_front, w_front
-        else:
-            t, w = (t_side if heading @ right > 0 else t_flip), w_side
-        base.append(b[None])
-        bsize.append(np.array([[w, actor.dims[2]]]))
-        btex.append(np.array([t]))
-        bobj.append(np.array([k]))
+    if len(assets.actor_owner):  # actor boxes
+        for part, value in zip((corners, tex, obj), _actor_faces(world, assets, cam_pos, frame), strict=True):
+            part.append(value)
+    base, bsize, btex, bobj = _billboards(world, assets, cam_pos, frame)  # scenery and impostors
     base = np.concatenate(base)
     bsize = np.concatenate(bsize)
     near = np.linalg.norm(base - cam_pos, axis=1) < _MAX_DIST

@@ -26,10 +26,8 @@ _PROTOCOL = ("choose_items", "needed_images", "cut_crops", "manifest_extras")
 
 
 def _opts(**kw) -> StudyOptions:
-    """Options as build_study checks them: its defaults, then ``kw``."""
-    defaults = {k: v.default for k, v in inspect.signature(build_study).parameters.items()
-                if v.default is not inspect.Parameter.empty and k not in ("metrics_path", "progress")}
-    return StudyOptions(**{**defaults, "metrics_paths": (), **kw})
+    """Options as build_study checks them: their defaults, then ``kw``."""
+    return StudyOptions(**kw)
 
 
 @pytest.mark.parametrize("design", [BinaryDesign(), PairwiseDesign()], ids=["binary", "pairwise"])
