@@ -76,7 +76,8 @@ def check_outputs(args) -> None:
         if args.command in WRITES_TIMING or getattr(args, "proxy", None) in WRITES_TIMING:
             check_output_file(timing_path(args.out), inputs=inputs, option="--out (its .timing.csv)")
     else:
-        check_output_folder(args.out, kind=kind, inputs=inputs, option=option)
+        command = args.command if kind == "report" else None  # a report replaces only its own command's
+        check_output_folder(args.out, kind=kind, inputs=inputs, option=option, command=command)
 
 
 def _main(argv=None) -> int:

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from data_schema.defaults import MIN_SIDE_PX
 from data_schema.errors import InputError
-from data_schema.outputs import mark_report
+from data_schema.outputs import mark_report, replacing_note
 from nvrq.commands.args import add_link_option, int_arg, show_progress
 from nvrq.commands.model_options import add_encoder_arguments, encoder_for_columns, metric_columns
 
@@ -47,10 +47,8 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-
-
 def run(args) -> int:
-    from data_schema.tables import GT_BOX_COLUMNS, read_table, write_table
+    from data_schema.tables import GT_BOX_COLUMNS, atomic_folder, read_table, write_table
     from nvrq.stability import plot_stability, run_stability  # SciPy, matplotlib: not for --help
 
     columns, encoder_name = metric_columns(args)
@@ -64,12 +62,16 @@ def run(args) -> int:
         pairs, metrics=columns, encoder=encoder, tau=tau, n_objects=args.n_objects,
         seed=args.seed, min_side=args.min_side, batch_size=args.batch_size,
         progress=show_progress(args), where=str(args.pairs))
-    out.mkdir(parents=True, exist_ok=True)
-    mark_report(out)  # a report folder of ours: a later run may replace it
-    write_table(samples, out / "samples.csv")
-    write_table(stab, out / "stability.csv")
-    write_table(snr, out / "snr.csv")
-    plot_stability(stab, snr, out / "stability")
+    inputs = {"PAIRS": Path(args.pairs), "--metrics": columns, "--n-objects": args.n_objects, "--seed": args.seed}
+    note = replacing_note(out, command="stability", inputs=inputs)
+    with atomic_folder(out) as tmp:  # the whole folder or nothing: no file of an older run stays
+        mark_report(tmp, command="stability", inputs=inputs)  # a later stability run may replace it
+        write_table(samples, tmp / "samples.csv")
+        write_table(stab, tmp / "stability.csv")
+        write_table(snr, tmp / "snr.csv")
+        plot_stability(stab, snr, tmp / "stability")
+    if note:
+        print(note, file=sys.stderr)
     overall = snr[snr.nuisance == "all"].set_index("metric")["snr"]
     print(
         "signal-to-nuisance ratio (all nuisances): "
