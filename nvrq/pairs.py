@@ -27,6 +27,7 @@ import pandas as pd
 from tqdm.auto import tqdm
 
 from data_schema.errors import InputError
+from data_schema.text import plural
 from data_schema.methods import METHOD_COLUMN, method_columns, method_values
 from data_schema.perturbation import (
     EXTRA_PERTURBATION_COLUMNS,
@@ -72,7 +73,7 @@ class PairStats:
         drops = ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in self.dropped.items())
         line = f"{self.kept} pairs kept of {self.candidates} candidate boxes; dropped: {drops}"
         if self.frames_outside_trajectory:
-            line += f"; {self.frames_outside_trajectory} frames outside the rig trajectory skipped"
+            line += f"; {plural(self.frames_outside_trajectory, 'frame')} outside the rig trajectory skipped"
         moved = [a for a in self.by_axis if a not in ("none", "y")]
         if moved:  # only when the scene has views beyond the lateral ones
             for axis, c in self.by_axis.items():
