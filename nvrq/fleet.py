@@ -26,9 +26,9 @@ from tqdm.auto import tqdm
 
 from data_schema.datasets import DatasetWriter
 from data_schema.errors import InputError
-from data_schema.text import plural
 from data_schema.methods import METHOD_COLUMN
 from data_schema.scene import load_scene
+from data_schema.text import plural
 from nvrq.pairs import DROP_REASONS, PAIRS_OUTPUT_COLUMNS, PairStats, make_pairs
 
 __all__ = ["find_scenes", "FleetResult", "clip_pairs", "fleet_pairs"]

@@ -27,7 +27,6 @@ import pandas as pd
 from tqdm.auto import tqdm
 
 from data_schema.errors import InputError
-from data_schema.text import plural
 from data_schema.methods import METHOD_COLUMN, method_columns, method_values
 from data_schema.perturbation import (
     EXTRA_PERTURBATION_COLUMNS,
@@ -40,6 +39,7 @@ from data_schema.perturbation import (
 )
 from data_schema.scene import Scene
 from data_schema.tables import MIN_SIDE_PX, PAIRS_COLUMNS, pair_ids
+from data_schema.text import plural
 from nvrq.geometry.boxes import box_corners, box_sides, pixel_box
 from nvrq.geometry.cameras import camera_from_model
 from nvrq.geometry.poses import (
