@@ -52,7 +52,7 @@ from data_schema.perturbation import (
     lateral,
 )
 from data_schema.scene import save_scene
-from data_schema.tables import IMAGES_COLUMNS, atomic_path, write_table
+from data_schema.tables import IMAGES_COLUMNS, atomic_folder, atomic_path, write_table
 from nvrq.geometry.poses import T_sensor_world, matrix_to_pose7, perturb_T_sensor_rig
 from nvrq.render_plans import default_image_path
 from nvrq.synth.artefacts import ARTEFACTS, blend_into
@@ -377,6 +377,10 @@ def generate_scene(
 ) -> Path:
     """Write a synthetic scene folder to ``out`` and return it (see module docstring).
 
+    The folder is built beside ``out`` and put in its place at the end
+    (:class:`data_schema.tables.atomic_folder`): a scene folder already there is replaced as a
+    whole, and an interrupted run leaves it as it was.
+
     ``cameras``: kinds from {'pinhole', 'ftheta'} (camera names 'front', 'front_wide');
     ``size (W, H)`` pixels; ``offsets`` lateral metres (left > 0), or ``perturbations``
     ``(K, 6)`` ``(dx, dy, dz, roll, pitch, yaw)`` (metres, degrees), which replace them.
@@ -391,6 +395,7 @@ def generate_scene(
         raise InputError(param="seed", expected="a non-negative integer", got=seed)
     out = Path(out)
     clip = _build_clip(int(seed), seconds, fps, cam_names, (W, H))
-    image_rows, deg_rows = _render_all(clip, views, methods, out, progress)
-    _write_tables(clip, views, out, image_rows, deg_rows)
+    with atomic_folder(out) as tmp:  # whole or nothing: no file of a scene already at ``out`` stays
+        image_rows, deg_rows = _render_all(clip, views, methods, tmp, progress)
+        _write_tables(clip, views, tmp, image_rows, deg_rows)
     return out
