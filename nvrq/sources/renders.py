@@ -58,6 +58,7 @@ from data_schema.methods import METHOD_COLUMN, check_method_name, method_values
 from data_schema.perturbation import PERTURBATION_COLUMNS, labels, perturbation_array
 from data_schema.scene import load_scene, write_images
 from data_schema.tables import atomic_path
+from data_schema.text import plural
 from nvrq.choices import LAYOUTS  # the layouts of a folder of renders (module docstring)
 from nvrq.crops import read_rgb
 from nvrq.render_plans import RenderPlan, render_plan
@@ -98,8 +99,7 @@ class RendersImport:
         """One line for the command: the counts and where the rows went."""
         named = f" of method {self.method}" if self.method else ""
         left = " (missing views left out of the pairs)" if self.missing else ""
-        files = "file" if self.changed == 1 else "files"
-        changed = f"; replaced: {self.changed} render {files} changed" if self.changed else ""
+        changed = f"; replaced: {plural(self.changed, 'render file')} changed" if self.changed else ""
         return f"renders{named}, layout {self.layout}: {self.counts()}{left}{changed} -> {self.images_csv}"
 
 
@@ -367,7 +367,7 @@ def import_renders(scene, render_dir, *, method: str | None = None, layout: str 
     if changed and not replace:
         named = f"method {method}'s" if method else "the scene's"
         raise InputError(param="replace", expected=f"`replace` to change {named} renders already in the scene "
-                         "(pairs and metrics made from them go stale)", got=f"{changed} render files that would change")
+                         "(pairs and metrics made from them go stale)", got=f"{plural(changed, 'render file')} that would change")
     for i, src in zip(rows, srcs, strict=True):
         _place(src, scene.root / dst[i], link=link)
     write_images(images, scene.root)

@@ -677,6 +677,66 @@ def _(world, tmp):
     return "annotate", ["add-rater", str(st), "ann", "--host", "0.0.0.0"], ["--host", "loopback"]
 
 
+# ------------------------------------------- outputs and importers (issue 38 items 1, 3, 12; issue 34 item 5)
+
+def _marked(tmp: Path, name: str, command: str) -> Path:
+    from data_schema.outputs import mark_report
+
+    (tmp / name).mkdir()
+    mark_report(tmp / name, command=command)
+    (tmp / name / "stability.csv").write_text("metric\npsnr\n")
+    return tmp / name
+
+
+@case("outputs", "analyze --out a stability report folder")
+def _(world, tmp):
+    st = _marked(tmp, "stab", "stability")
+    return "analyze", [str(world / "ratings.csv"), "--out", str(st), "--bootstrap", "0"], \
+        ["--out", "a report folder of stability's"]
+
+
+@case("outputs", "stability --out an analyze report folder")
+def _(world, tmp):
+    rep = _marked(tmp, "rep", "analyze")
+    return "nvrq", ["stability", str(world / "toy" / "pairs.csv"), "--metrics", "psnr", "--out", str(rep)], \
+        ["--out", "a report folder of analyze's"]
+
+
+@case("outputs", "import drivestudio OUT is its input folder")
+def _(world, tmp):
+    (tmp / "ds" / "images").mkdir(parents=True)
+    return "nvrq", ["import", "drivestudio", str(tmp / "ds"), str(tmp / "ds")], ["OUT", "not an input"]
+
+
+def _synth_with_renders(tmp: Path) -> Path:
+    from nvrq.cli import main
+
+    assert main(["synth", str(tmp / "scene"), "--seconds", "1", "--fps", "1", "--size", "96x54", "--offsets", "1",
+                 "--quiet"]) == 0
+    return tmp / "scene"
+
+
+@case("arguments", "import renders over a method's renders without --replace")
+def _(world, tmp):
+    import cv2
+
+    from nvrq.render_plans import render_plan
+
+    scene = _synth_with_renders(tmp)
+    for p in render_plan(scene).paths:
+        (tmp / "r" / p).parent.mkdir(parents=True, exist_ok=True)
+        cv2.imwrite(str(tmp / "r" / p), 255 - cv2.imread(str(scene / p)))
+    return "nvrq", ["import", "renders", str(scene), str(tmp / "r")], ["--replace", "1 render file that would change"]
+
+
+@case("inputs", "import renders --layout order missing 00000.png")
+def _(world, tmp):
+    scene = _synth_with_renders(tmp)
+    (tmp / "r").mkdir()
+    return "nvrq", ["import", "renders", str(scene), str(tmp / "r"), "--layout", "order", "--allow-missing"], \
+        ["1 missing", "first missing: 00000.png (for images/front/render_+1.00/0.png)"]
+
+
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_malformed_input(name, world, tmp_path, capfd):
     prog, argv, fragments = CASES[name](world, tmp_path)
@@ -705,3 +765,4 @@ def test_corpus_size():
 def test_world_untouched(world):
     """No case wrote into the shared valid inputs it referred to (runs after the cases)."""
     assert snapshot(world) == json.loads((world.parent / f"{world.name}.hashes.json").read_text())
+
