@@ -159,21 +159,21 @@ def main(argv=None) -> int:
     int
         0, or 2 with one line on a bad input.
     """
-    from nvrq.commands.args import run_cli
+    from data_schema.errors import InputError
 
-    def _run(args_list):
-        parser = argparse.ArgumentParser(prog="python -m nvrq.examples.kitti_drivestudio",
-                                         description="A small example drivestudio folder from KITTI object frames.")
-        parser.add_argument("kitti", help="KITTI object folder, e.g. ../shared/realdata/kitti")
-        parser.add_argument("out", help="example folder to write")
-        args = parser.parse_args(args_list)
+    parser = argparse.ArgumentParser(prog="python -m nvrq.examples.kitti_drivestudio",
+                                     description="A small example drivestudio folder from KITTI object frames.")
+    parser.add_argument("kitti", help="KITTI object folder, e.g. ../shared/realdata/kitti")
+    parser.add_argument("out", help="example folder to write")
+    args = parser.parse_args(argv)
+    try:
         written = make_example(args.kitti, args.out)
-        print(f"wrote {len(written)} drivestudio folders under {Path(args.out) / 'drivestudio'} and stand-in "
-              f"renders of methods {', '.join(STAND_IN_SIGMAS)}")
-        return 0
-
-    return run_cli(_run, argv)
-
+    except InputError as exc:  # one line, as every command (a library module: no CLI layer import)
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print(f"wrote {len(written)} drivestudio folders under {Path(args.out) / 'drivestudio'} and stand-in "
+          f"renders of methods {', '.join(STAND_IN_SIGMAS)}")
+    return 0
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -259,6 +259,30 @@ def _tracks(root: Path, dataset: str, n_frames: int, frame_us: np.ndarray, hold_
                   np.asarray(t["timestamps_us"], np.int64), np.asarray(t["poses"], float)) for t in found], []
 
 
+def _per_frame_geometry(root: Path, cams: list, frame_us: np.ndarray, A: np.ndarray, dataset: str, rate: float):
+    """Per-frame layouts (module docstring): ``(T_cw (C, F, 4, 4), T_sr (C, 4, 4), rig_us, T_rw,
+    offs (C,) us, T_world_source)``."""
+    n_frames = len(frame_us)
+    X = _matrices([root / "extrinsics" / f"{t:03d}_{c}.txt" for c in cams for t in range(n_frames)])
+    T_cw = X.reshape(len(cams), n_frames, 4, 4) @ A
+    raw0 = _matrices([root / "extrinsics" / "000_0.txt"])[0]  # camera 0, frame 0
+    first = raw0 @ A
+    T_front = np.eye(4)
+    T_front[:3, :3] = OPENCV_TO_FLU
+    rig0 = first @ T_front.T  # camera 0 at frame 0, turned to x forward, y left, z up
+    T_sr = np.linalg.inv(rig0) @ T_cw[:, 0]
+    offs = np.asarray(cams, np.int64)  # camera c's images at frame time + c us
+    img_us = frame_us[None] + offs[:, None]
+    T_all = T_cw @ np.linalg.inv(T_sr)[:, None]
+    order = np.argsort(img_us.reshape(-1), kind="stable")
+    rig_us, T_rw = img_us.reshape(-1)[order], T_all.reshape(-1, 4, 4)[order]
+    if np.any(np.diff(rig_us) <= 0):
+        raise InputError(param="fps", expected=f"a frame interval above {int(offs.max())} us (one per camera)", got=rate)
+    T_world_source = np.linalg.inv(_matrices([root / "ego_pose" / "000.txt"])[0]) if dataset == "pandaset" \
+        else np.linalg.inv(raw0)
+    return T_cw, T_sr, rig_us, T_rw, offs, T_world_source
+
+
 def read_drivestudio(scene_dir: str | os.PathLike, *, dataset: str | None = None, fps: float | None = None,
                      cameras=None) -> DrivestudioScene:
     """Read and check the drivestudio folder ``scene_dir`` (module docstring) without writing.
@@ -319,23 +343,7 @@ def read_drivestudio(scene_dir: str | os.PathLike, *, dataset: str | None = None
         offs = np.zeros(len(cams), np.int64)
         T_world_source = np.linalg.inv(ego[0])
     else:
-        X = _matrices([root / "extrinsics" / f"{t:03d}_{c}.txt" for c in cams for t in range(n_frames)])
-        T_cw = X.reshape(len(cams), n_frames, 4, 4) @ A
-        raw0 = _matrices([root / "extrinsics" / "000_0.txt"])[0]  # camera 0, frame 0
-        first = raw0 @ A
-        T_front = np.eye(4)
-        T_front[:3, :3] = OPENCV_TO_FLU
-        rig0 = first @ T_front.T  # camera 0 at frame 0, turned to x forward, y left, z up
-        T_sr = np.linalg.inv(rig0) @ T_cw[:, 0]
-        offs = np.asarray(cams, np.int64)  # camera c's images at frame time + c us
-        img_us = frame_us[None] + offs[:, None]
-        T_all = T_cw @ np.linalg.inv(T_sr)[:, None]
-        order = np.argsort(img_us.reshape(-1), kind="stable")
-        rig_us, T_rw = img_us.reshape(-1)[order], T_all.reshape(-1, 4, 4)[order]
-        if np.any(np.diff(rig_us) <= 0):
-            raise InputError(param="fps", expected=f"a frame interval above {int(offs.max())} us (one per camera)", got=rate)
-        T_world_source = np.linalg.inv(_matrices([root / "ego_pose" / "000.txt"])[0]) if dataset == "pandaset" \
-            else np.linalg.inv(raw0)
+        T_cw, T_sr, rig_us, T_rw, offs, T_world_source = _per_frame_geometry(root, cams, frame_us, A, dataset, rate)
     for i, c in enumerate(cams):
         W, H = _image_size(paths[i])
         models[c] = validate_camera_model({**models[c], "resolution": [int(W), int(H)]},
