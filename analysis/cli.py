@@ -22,10 +22,11 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from analysis.choices import DEFAULT_MARGIN, METHODS, MIN_CLUSTERS, PATHS, RANK_BY
 from data_schema.errors import InputError
-from data_schema.outputs import check_output_folder, mark_report, replacing_note
+from data_schema.outputs import REPORT_MARKER, check_output_folder, mark_report, replacing_note
 from nvrq.commands.args import (
     ArgumentParser,
     CommaList,
@@ -205,8 +206,6 @@ def _main(argv=None) -> int:
 
 def _report_inputs(args) -> dict:
     """What a report is made from, for its marker (data_schema.outputs.mark_report)."""
-    from pathlib import Path
-
     paths = {"RATINGS": args.ratings, "--pairs": args.pairs, "--metrics-table": args.metrics_tables,
              "--timing": args.timing, "--stability": args.stability}
     return {k: [Path(p) for p in v] if isinstance(v, list) else None if v is None else Path(v)
@@ -223,7 +222,8 @@ def _run(args) -> int:
     inputs = _report_inputs(args)
     note = replacing_note(args.out, command="analyze", inputs=inputs)  # read before it is replaced
     rc = _analyze(args)
-    mark_report(args.out, command="analyze", inputs=inputs)  # records the inputs for the next run's note
+    if (Path(args.out) / REPORT_MARKER).is_file():  # records the inputs for the next run's note
+        mark_report(args.out, command="analyze", inputs=inputs)
     if note:
         print(note, file=sys.stderr)
     return rc

@@ -113,6 +113,17 @@ def register_importer(kinds, command: ImporterCommand) -> None:
 
 
 def register(sub) -> None:
+    """Add ``nvrq import`` (every :data:`IMPORTERS` entry, then ``renders``) to ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subparsers of ``nvrq``.
+
+    Returns
+    -------
+    None
+    """
     p = sub.add_parser(
         "import",
         help="import a NuRec archive, a drivestudio scene or a KITTI frame as a scene folder",
