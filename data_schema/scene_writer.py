@@ -177,7 +177,7 @@ def write_scene(scene: NewScene, out, *, images: pd.DataFrame, link: bool = Fals
     Returns
     -------
     pathlib.Path
-        ``out``.
+        The scene folder written, ``out`` as given.
 
     Raises
     ------

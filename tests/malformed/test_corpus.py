@@ -766,3 +766,17 @@ def test_world_untouched(world):
     """No case wrote into the shared valid inputs it referred to (runs after the cases)."""
     assert snapshot(world) == json.loads((world.parent / f"{world.name}.hashes.json").read_text())
 
+
+
+def test_analyze_replacing_a_report_from_other_inputs_prints_a_note(world, tmp_path, capfd):
+    # issue 38 item 2 (our choice, docs/FORMATS.md §7): a note naming what changed, not --force
+    from analysis.cli import main
+
+    argv = [str(world / "ratings.csv"), "--out", str(tmp_path / "rep"), "--bootstrap", "0", "--quiet"]
+    assert main(argv) == 0
+    assert main(argv) == 0  # the same inputs: no note
+    assert "note: replacing" not in capfd.readouterr().err
+    assert main([*argv, "--metrics-table", str(world / "metrics.csv")]) == 0
+    err = capfd.readouterr().err
+    assert f"note: replacing the report {tmp_path / 'rep'} made by analyze from other inputs: " \
+           f"--metrics-table added ({world / 'metrics.csv'})" in err

@@ -4,16 +4,9 @@ drivestudio's KITTI-raw layout, imported, and the imported GT boxes of every unt
 checked against KITTI's hand-drawn 2D boxes (IoU >= 0.85, as tests/sources/test_kitti.py does for
 ``nvrq import kitti``).
 
-The layout, written by :func:`nvrq.examples.kitti_drivestudio.write_kitti_layout` (the README's
-example folder), follows datasets/kitti/kitti_preprocess.py of drivestudio: camera 0 is the rectified
-left colour camera (``images/000_0.jpg``, ``intrinsics/0.txt`` = ``K_cam2`` with zero
-distortion), ``extrinsics/0.txt = inv(T_cam2_velo)`` with pykitti's ``T_cam2_velo = T2 @ R0_rect
-@ Tr_velo_to_cam`` (``T2`` the x shift ``P2[0, 3] / P2[0, 0]``), the ego frame is the Velodyne
-frame and ``ego_pose/000.txt`` its pose (the identity: one frame), and each object's
-``obj_to_world`` puts the box centre ``h / 2`` above the bottom centre along the Velodyne z, with
-the tracklet's yaw about it. KITTI's object labels give the bottom centre in the rectified camera
-0 frame and ``rotation_y``; the Velodyne yaw is ``-rotation_y - pi / 2`` (the KITTI devkit's
-conversion between the two frames). Only camera 0 exists here (the object benchmark has no
+The layout is written by :func:`nvrq.examples.kitti_drivestudio.write_kitti_layout` (the README's
+example folder; its module docstring states drivestudio's KITTI-raw conventions, from
+datasets/kitti/kitti_preprocess.py). Only camera 0 exists here (the object benchmark has no
 image_3), so the dataset is named with ``--dataset kitti``.
 """
 
