@@ -13,6 +13,7 @@ work. The module is imported only when the command runs: ``nvrq import --help`` 
 from __future__ import annotations
 
 import importlib
+import re
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -154,8 +155,8 @@ def run_importer(command: ImporterCommand, args) -> int:
 
     importer = importlib.import_module(command.module).IMPORTER
     imported = importer.read(args)
-    for note in imported.notes:
-        print(note, file=sys.stderr)
+    for note in imported.notes:  # the library names its parameters (`dataset`); the user typed flags
+        print(re.sub(r"`([a-z][a-z_]*)`", lambda m: "--" + m.group(1).replace("_", "-"), note), file=sys.stderr)
     out = write_imported(imported, args.out)
     print(f"wrote {out} ({describe(imported)})")
     return 0

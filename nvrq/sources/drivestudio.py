@@ -406,18 +406,18 @@ class DrivestudioImporter:
         Returns
         -------
         ImportedScene
-            The scene, its views, and the notes for the user (``dataset`` named ``--dataset``).
+            The scene, its views, and the notes for the user.
         """
         from data_schema.perturbation import parse_perturb
         from data_schema.tables import parse_offsets
         from data_schema.text import comma_list
 
+        perturbations = None if args.perturb is None else parse_perturb(args.perturb)
+        views = views_from(parse_offsets(args.offsets), perturbations)  # the options first, then the files
         cameras = None if args.cameras is None else comma_list(args.cameras)
         ds = read_drivestudio(args.scene_dir, dataset=args.dataset, fps=args.fps, cameras=cameras)
-        perturbations = None if args.perturb is None else parse_perturb(args.perturb)
-        notes = tuple(n.replace("`dataset`", "--dataset") for n in ds.notes)  # the library names its parameter
-        return ImportedScene(ds.scene, views_from(parse_offsets(args.offsets), perturbations), link=not args.copy,
-                             notes=notes, detail=f"{ds.dataset}, {ds.fps:g} Hz")
+        return ImportedScene(ds.scene, views, link=not args.copy, notes=tuple(ds.notes),
+                             detail=f"{ds.dataset}, {ds.fps:g} Hz")
 
 
 #: The importer of ``nvrq import drivestudio``.

@@ -314,9 +314,10 @@ class NurecImporter:
         from data_schema.tables import parse_offsets
         from nvrq.clip_attributes import read_clip_attributes
 
-        attributes = read_clip_attributes(args.clip_attributes) if args.clip_attributes else None
         perturbations = None if args.perturb is None else parse_perturb(args.perturb)
-        return read_nurec(args.archive, offsets=parse_offsets(args.offsets), perturbations=perturbations,
+        offsets = parse_offsets(args.offsets)  # the options first, then the files
+        attributes = read_clip_attributes(args.clip_attributes) if args.clip_attributes else None
+        return read_nurec(args.archive, offsets=offsets, perturbations=perturbations,
                           sequence=args.sequence, clip_attributes=attributes)
 
 
