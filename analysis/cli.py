@@ -22,11 +22,12 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from analysis.choices import DEFAULT_MARGIN, METHODS, MIN_CLUSTERS, PATHS, RANK_BY
 from analysis.options import AnalysisOptions, MethodOptions
 from data_schema.errors import InputError
-from data_schema.outputs import check_output_folder
+from data_schema.outputs import REPORT_MARKER, check_output_folder, mark_report, replacing_note
 from nvrq.commands.args import (
     ArgumentParser,
     CommaList,
@@ -204,17 +205,36 @@ def _main(argv=None) -> int:
         return _run(args)
 
 
+def _report_inputs(args) -> dict:
+    """What a report is made from, for its marker (data_schema.outputs.mark_report)."""
+    paths = {"RATINGS": args.ratings, "--pairs": args.pairs, "--metrics-table": args.metrics_tables,
+             "--timing": args.timing, "--stability": args.stability}
+    return {k: [Path(p) for p in v] if isinstance(v, list) else None if v is None else Path(v)
+            for k, v in paths.items()}
+
+
 def _run(args) -> int:
+    if (args.ratings is None) == (args.pairs is None):
+        raise InputError("RATINGS/--pairs", None, "either a ratings file or --pairs PAIRS",
+                         "both" if args.pairs else "neither")
+    check_output_folder(args.out, kind="report", option="--out", command="analyze",
+                        inputs=[args.ratings or args.pairs, *args.metrics_tables, *args.timing,
+                                args.stability])
+    inputs = _report_inputs(args)
+    note = replacing_note(args.out, command="analyze", inputs=inputs)  # read before it is replaced
+    rc = _analyze(args)
+    if (Path(args.out) / REPORT_MARKER).is_file():  # records the inputs for the next run's note
+        mark_report(args.out, command="analyze", inputs=inputs)
+    if note:
+        print(note, file=sys.stderr)
+    return rc
+
+
+def _analyze(args) -> int:
     from analysis.methods_report import leaderboard_display
     from analysis.pairwise import is_pairwise
     from analysis.report import write_report
 
-    if (args.ratings is None) == (args.pairs is None):
-        raise InputError("RATINGS/--pairs", None, "either a ratings file or --pairs PAIRS",
-                         "both" if args.pairs else "neither")
-    check_output_folder(args.out, kind="report", option="--out",
-                        inputs=[args.ratings or args.pairs, *args.metrics_tables, *args.timing,
-                                args.stability])
 
     if (args.methods or args.leaderboard_metric or args.by or args.min_clusters != MIN_CLUSTERS
             or args.leaderboard_view != "off-path") and not args.compare_methods:

@@ -375,10 +375,10 @@ def write_report_folder(build, out_dir) -> Path:
     """Write a report directory atomically: ``build(folder)`` fills a folder beside ``out_dir``
     that is marked as a report and swapped into place; an existing folder that is not a report
     is refused (:func:`data_schema.outputs.check_output_folder`)."""
-    out = check_output_folder(out_dir, kind="report", option="out_dir")
+    out = check_output_folder(out_dir, kind="report", option="out_dir", command="analyze")
     with atomic_folder(out) as tmp:
         build(tmp)
-        mark_report(tmp)
+        mark_report(tmp, command="analyze")
     return out
 
 

@@ -9,8 +9,12 @@ The rule, the same for every command that writes (docs/FORMATS.md §7):
    command that makes them (``nvrq synth``/``nvrq import`` and ``annotate build``).
 3. An output file never replaces a folder.
 4. A report folder (``analyze --out``, ``nvrq stability --out``) may replace only a previous
-   report folder of ours, recognised by the marker file :data:`REPORT_MARKER` that is written
-   into every report folder; an empty or absent folder is fine; anything else is refused.
+   report folder *of the same command*, recognised by the marker file :data:`REPORT_MARKER`
+   written into every report folder, which names the command that made it (``analyze``,
+   ``stability``) and the inputs it was made from; an empty or absent folder is fine; anything
+   else (another command's report, other files) is refused. A marker without a command (written
+   before the marker named one) may be replaced by either command. Replacing a report made from
+   other inputs is allowed and says so: :func:`replacing_note` gives the line the command prints.
 5. A new scene folder (``nvrq synth``, ``nvrq import``) may replace only a previous scene
    folder; a new study folder must be absent or empty (votes are never overwritten).
 
@@ -39,10 +43,13 @@ __all__ = [
     "REPORT_MARKER",
     "SCENE_FILE",
     "STUDY_FILE",
+    "REPORT_COMMANDS",
     "managed_folder",
     "check_output_file",
     "check_output_folder",
     "mark_report",
+    "report_marker",
+    "replacing_note",
 ]
 
 #: The marker file in every report folder written by the toolkit.
@@ -53,6 +60,9 @@ SCENE_FILE = "scene.json"
 STUDY_FILE = "manifest.json"
 
 _KINDS = {SCENE_FILE: "scene", STUDY_FILE: "study"}
+#: The commands that write report folders (the ``command`` of :data:`REPORT_MARKER`).
+REPORT_COMMANDS = ("analyze", "stability")
+MARKER_VERSION = 2
 
 
 def _resolve(path) -> Path:
@@ -128,13 +138,39 @@ def _is_empty_dir(p: Path) -> bool:
     return p.is_dir() and not any(p.iterdir())
 
 
-def check_output_folder(out, *, kind: str, inputs: Iterable = (), option: str = "out") -> Path:
-    """Check the output folder ``out`` of ``kind`` in ``{'report', 'scene', 'study'}`` against
-    the rule (module docstring), as :func:`check_output_file` checks a file; returns ``out``.
+def _check_report_command(target: Path, out, command: str | None, option: str) -> None:
+    """Refuse a report folder made by another command than ``command`` (rule 4)."""
+    if command is None:
+        return
+    made_by = (report_marker(target) or {}).get("command")
+    if made_by is not None and made_by != command:
+        raise InputError(param=option, expected=f"an absent or empty folder, or a report folder of {command}'s",
+                         got=f"{out} (a report folder of {made_by}'s; choose another folder)")
 
-    ``report`` may replace an empty folder or a report folder of ours; ``scene`` an empty
-    folder or a scene folder; ``study`` only an empty one. An unknown ``kind`` is an
-    :class:`InputError` too.
+
+def check_output_folder(out, *, kind: str, inputs: Iterable = (), option: str = "out",
+                        command: str | None = None) -> Path:
+    """Check the output folder ``out`` of ``kind`` against the rule (module docstring).
+
+    Parameters
+    ----------
+    out : str or os.PathLike
+        The output folder.
+    kind : {'report', 'scene', 'study'}
+        What the command writes: ``report`` may replace an empty folder or a report folder of
+        ``command``'s; ``scene`` an empty folder or a scene folder; ``study`` only an empty one.
+    inputs : iterable of paths
+        The command's inputs (None entries are skipped).
+    option : str
+        The parameter named in errors.
+    command : {'analyze', 'stability'}, optional
+        The command writing a report (default: any report folder of ours may be replaced).
+
+    Returns
+    -------
+    pathlib.Path
+        ``out`` as given, once it obeys the rule (else :class:`InputError`; an unknown ``kind``
+        too).
     """
     if kind not in ("report", "scene", "study"):
         raise InputError(param="kind", expected="one of {'report', 'scene', 'study'}", got=kind)
@@ -145,7 +181,7 @@ def check_output_folder(out, *, kind: str, inputs: Iterable = (), option: str = 
     own = None
     if target.is_dir() and not _is_empty_dir(target):
         if kind == "report" and (target / REPORT_MARKER).is_file():
-            own = None
+            _check_report_command(target, out, command, option)
         elif kind == "scene" and (target / SCENE_FILE).is_file():
             own = target
         else:
@@ -157,8 +193,100 @@ def check_output_folder(out, *, kind: str, inputs: Iterable = (), option: str = 
     return Path(out)
 
 
-def mark_report(folder) -> Path:
-    """Write the report marker into ``folder`` (see :func:`check_output_folder`)."""
+def _input_record(inputs: dict | None) -> dict:
+    """``inputs`` as JSON: option -> absolute path(s) or values, as strings; None entries dropped."""
+    record = {}
+    for key, value in (inputs or {}).items():
+        values = value if isinstance(value, (list, tuple)) else [value]
+        values = [os.path.abspath(str(v)) if isinstance(v, (Path, os.PathLike)) else str(v)
+                  for v in values if v is not None]
+        if values:
+            record[str(key)] = values
+    return record
+
+
+def mark_report(folder, *, command: str | None = None, inputs: dict | None = None) -> Path:
+    """Write the report marker into ``folder`` (see :func:`check_output_folder`).
+
+    Parameters
+    ----------
+    folder : str or os.PathLike
+        The report folder (or the temporary folder that becomes it).
+    command : {'analyze', 'stability'}, optional
+        The command that made the report (a later run of another command will not replace it).
+    inputs : dict, optional
+        What it was made from: option -> value or list of values (paths as
+        :class:`pathlib.Path`, recorded absolute; other values as text).
+
+    Returns
+    -------
+    pathlib.Path
+        The marker file.
+    """
     path = Path(folder) / REPORT_MARKER
-    path.write_text(json.dumps({"format": "nvrq-report", "version": 1}) + "\n", encoding="utf-8")
+    doc = {"format": "nvrq-report", "version": MARKER_VERSION, "command": command, "inputs": _input_record(inputs)}
+    path.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
     return path
+
+
+def report_marker(folder) -> dict | None:
+    """The marker of the report folder ``folder`` as a dict (``{}`` for an unreadable one), or
+    None when it has none.
+
+    Parameters
+    ----------
+    folder : str or os.PathLike
+        A folder.
+
+    Returns
+    -------
+    dict or None
+        ``format``, ``version`` and, from version 2, ``command`` and ``inputs``.
+    """
+    path = Path(folder) / REPORT_MARKER
+    if not path.is_file():
+        return None
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    return doc if isinstance(doc, dict) else {}
+
+
+def replacing_note(out, *, command: str, inputs: dict | None) -> str | None:
+    """The note a command prints before it replaces the report ``out`` made from other inputs.
+
+    Parameters
+    ----------
+    out : str or os.PathLike
+        The report folder about to be written.
+    command : str
+        The command writing it.
+    inputs : dict
+        What the new report is made from (as :func:`mark_report` takes it).
+
+    Returns
+    -------
+    str or None
+        ``"note: replacing the report OUT made from other inputs: --stability added; ..."``,
+        or None when ``out`` holds no report of ours, or one made from the same inputs.
+    """
+    old = report_marker(_resolve(out))
+    if old is None:
+        return None
+    before = old.get("inputs") if isinstance(old.get("inputs"), dict) else None
+    after = _input_record(inputs)
+    if before is None:
+        return f"note: replacing the report {out} (its marker does not record its inputs)"
+    changes = []
+    for key in sorted(set(before) | set(after)):
+        if key not in before:
+            changes.append(f"{key} added ({', '.join(after[key])})")
+        elif key not in after:
+            changes.append(f"{key} dropped (was {', '.join(before[key])})")
+        elif before[key] != after[key]:
+            changes.append(f"{key} changed (was {', '.join(before[key])})")
+    if not changes:
+        return None
+    return f"note: replacing the report {out} made by {old.get('command') or command} from other inputs: " \
+        + "; ".join(changes)

@@ -43,6 +43,8 @@ __all__ = [
     "SourceWorld",
     "Scene",
     "load_scene",
+    "scene_parts",
+    "check_images_table",
     "save_scene",
     "write_images",
     "validate_camera_model",
@@ -246,8 +248,14 @@ def _load_images(root: Path, cameras: dict, check_images: bool, follow: bool | N
     where = str(path)
     if not path.is_file():
         raise InputError(where, None, "an images.csv file in the scene folder", "no such file")
+    return _read_images(path, root, cameras, check_images, follow, where)
+
+
+def _read_images(source, root: Path, cameras: dict, check_images: bool, follow: bool | None,
+                 where: str) -> pd.DataFrame:
+    """Read and check an images.csv (a path or a text buffer) as :func:`load_scene` does."""
     try:
-        df = pd.read_csv(path, dtype={"camera": str, "source": str, "path": str, METHOD_COLUMN: str})
+        df = pd.read_csv(source, dtype={"camera": str, "source": str, "path": str, METHOD_COLUMN: str})
     except pd.errors.EmptyDataError:
         raise InputError(where, None, "a header row " + ",".join(IMAGES_COLUMNS), "an empty file") from None
     require_columns(df, IMAGES_COLUMNS, where=where)
@@ -363,12 +371,65 @@ def load_scene(root: str | os.PathLike, *, check_images: bool = True,
         doc = json.loads(path.read_text(encoding="utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise InputError(where, None, "valid JSON", str(exc)) from None
+    parts = scene_parts(doc, where)
+    images = _load_images(root, parts["cameras"], check_images, follow_links)
+    return Scene(root, images=images, **parts)
+
+
+def _check_header(doc, where: str) -> None:
     fmt = _get(doc, "format", where, "")
     if fmt != FORMAT:
         raise InputError(where, "format", repr(FORMAT), repr(fmt))
     version = _get(doc, "version", where, "")
     if version != VERSION:
         raise InputError(where, "version", str(VERSION), repr(version))
+
+
+def _tracks(tracks_doc, where: str) -> list[Track]:
+    if not isinstance(tracks_doc, list):
+        raise InputError(where, "tracks", "a list of tracks", type(tracks_doc).__name__)
+    tracks, seen = [], set()
+    for i, tr in enumerate(tracks_doc):
+        fld = f"tracks[{i}]"
+        tid = str(_get(tr, "track_id", where, fld))
+        if not tid or ":" in tid or tid in seen:
+            raise InputError(where, f"{fld}.track_id", "a unique non-empty id without ':'", repr(tid))
+        seen.add(tid)
+        label = _get(tr, "label_class", where, fld)
+        if not isinstance(label, str) or not label:
+            raise InputError(where, f"{fld}.label_class", "a class name", repr(label))
+        dims = _array(_get(tr, "dims_lwh", where, fld), (3,), where, f"{fld}.dims_lwh", "3 numbers [l, w, h]")
+        if np.any(dims <= 0):
+            raise InputError(where, f"{fld}.dims_lwh", "positive dimensions", dims.tolist())
+        ts = _timestamps(_get(tr, "timestamps_us", where, fld), where, f"{fld}.timestamps_us")
+        poses = _poses7(_get(tr, "poses", where, fld), len(ts), where, f"{fld}.poses")
+        tracks.append(Track(tid, label, dims, ts, poses))
+    return tracks
+
+
+def scene_parts(doc, where: str) -> dict:
+    """Check a parsed ``scene.json`` (docs/FORMATS.md §2) and return its typed parts.
+
+    Parameters
+    ----------
+    doc : dict
+        The parsed JSON document (``format`` and ``version`` included).
+    where : str
+        The file named in errors.
+
+    Returns
+    -------
+    dict
+        The :class:`Scene` fields but ``root`` and ``images``: ``clip_id``, ``attributes``,
+        ``cameras``, ``rig_timestamps_us (F,)``, ``T_rig_world (F, 4, 4)``, ``tracks``,
+        ``source_world``.
+
+    Raises
+    ------
+    InputError
+        The first field that breaks the format, named.
+    """
+    _check_header(doc, where)
     clip_id = str(_get(doc, "clip_id", where, ""))
     if not clip_id or ":" in clip_id:
         raise InputError(where, "clip_id", "a non-empty string without ':'", repr(clip_id))
@@ -382,11 +443,38 @@ def load_scene(root: str | os.PathLike, *, check_images: bool = True,
     T_rw = _array(T_rw_raw, (len(rig_ts), 4, 4), where, "rig_trajectory.T_rig_world",
                   f"{len(rig_ts)} 4x4 matrices (one per timestamp)")
     T_rw = check_rigid(T_rw, where, "rig_trajectory.T_rig_world")
-    tracks = _tracks(doc, where)
-    source_world = _source_world(doc.get("source_world"), where)
-    images = _load_images(root, cameras, check_images, follow_links)
-    return Scene(root, clip_id, {k: str(v) for k, v in attributes.items()}, cameras, rig_ts, T_rw, tracks, images,
-                 source_world)
+    return dict(clip_id=clip_id, attributes={k: str(v) for k, v in attributes.items()}, cameras=cameras,
+                rig_timestamps_us=rig_ts, T_rig_world=T_rw, tracks=_tracks(_get(doc, "tracks", where, ""), where),
+                source_world=_source_world(doc.get("source_world"), where))
+
+
+def check_images_table(images: pd.DataFrame, root, cameras: dict, *, where: str) -> pd.DataFrame:
+    """Check an images table as :func:`load_scene` checks ``images.csv`` (files need not exist).
+
+    Parameters
+    ----------
+    images : pandas.DataFrame
+        The rows, as :func:`write_images` would write them.
+    root : str or os.PathLike
+        The scene folder the paths are relative to.
+    cameras : dict
+        The scene's cameras (names are what matters).
+    where : str
+        The file named in errors.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The rows as :func:`load_scene` reads them back.
+    """
+    import io
+
+    buf = io.StringIO()
+    extra = [c for c in EXTRA_PERTURBATION_COLUMNS if c in images.columns]
+    images.loc[:, [c for c in (*IMAGES_COLUMNS, *extra, *method_columns(images)) if c in images.columns]] \
+        .to_csv(buf, index=False)
+    buf.seek(0)
+    return _read_images(buf, Path(root), cameras, False, None, where)
 
 
 def _source_world(value, where: str) -> SourceWorld | None:

@@ -49,6 +49,7 @@ __all__ = [
     "atomic_write_text",
     "atomic_path",
     "atomic_folder",
+    "current_umask",
     "GT_BOX_COLUMNS",
     "RENDER_BOX_COLUMNS",
     "pair_scene_roots",
@@ -469,6 +470,28 @@ def inside_scene(root, rel: str, *, where: str, field: str, linked: dict | None 
 TABLE_CHECKS = {TableKind.PAIRS: check_pairs, TableKind.METRICS: check_metrics}
 
 
+def current_umask() -> int:
+    """The process's umask (read from ``/proc/self/status`` where it can be, else set and restored).
+
+    Returns
+    -------
+    int
+        The umask, e.g. ``0o022``. Temporary files and folders (``mkstemp``, ``mkdtemp``) are
+        private (0600/0700) whatever it is; :class:`atomic_path` and :class:`atomic_folder` give
+        their outputs the mode a plain ``open``/``mkdir`` would have.
+    """
+    try:
+        with open("/proc/self/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
 class atomic_path:
     """Context manager yielding a temporary path beside ``target``; renamed onto it on success.
 
@@ -493,6 +516,7 @@ class atomic_path:
         except OSError as exc:
             raise _write_error(self.target, exc) from None
         os.close(fd)
+        os.chmod(tmp, 0o666 & ~current_umask())  # mkstemp makes 0600: the output follows the umask
         self.tmp = Path(tmp)
         return self.tmp
 
@@ -519,8 +543,9 @@ class atomic_folder:
     ----------
     target : str or os.PathLike
         The folder to write.
-    mode : int
-        The new folder's mode (default 0o755; a study folder is 0o700).
+    mode : int, optional
+        The new folder's mode (default: 0o777 less the umask, as ``mkdir`` makes a folder; a
+        study folder is 0o700).
 
     >>> import tempfile, pathlib
     >>> d = pathlib.Path(tempfile.mkdtemp())
@@ -530,9 +555,9 @@ class atomic_folder:
     ('hi', ['out'])
     """
 
-    def __init__(self, target: str | os.PathLike, *, mode: int = 0o755):
+    def __init__(self, target: str | os.PathLike, *, mode: int | None = None):
         self.target = Path(target)
-        self.mode = mode
+        self.mode = 0o777 & ~current_umask() if mode is None else mode
 
     def __enter__(self) -> Path:
         out = self.target

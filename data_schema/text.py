@@ -13,7 +13,7 @@ option (:mod:`nvrq.commands.args`), in a library parameter that also takes a str
 
 from __future__ import annotations
 
-__all__ = ["comma_list"]
+__all__ = ["comma_list", "plural"]
 
 
 def comma_list(text) -> list[str]:
@@ -30,3 +30,26 @@ def comma_list(text) -> list[str]:
         The items in order, white space stripped and blank entries dropped: ``['a', 'b', 'c']``.
     """
     return [s.strip() for s in str(text).split(",") if s.strip()]
+
+
+def plural(n: int, noun: str, plural_form: str | None = None) -> str:
+    """``n`` and ``noun``, the noun in the plural unless ``n`` is 1.
+
+    Parameters
+    ----------
+    n : int
+        The count.
+    noun : str
+        The singular noun.
+    plural_form : str, optional
+        The plural when it is not ``noun + 's'``.
+
+    Returns
+    -------
+    str
+        e.g. ``'1 camera'``, ``'3 cameras'``, ``'0 tracks'``.
+
+    >>> plural(1, "camera"), plural(2, "frame"), plural(0, "track")
+    ('1 camera', '2 frames', '0 tracks')
+    """
+    return f"{n} {noun if n == 1 else (plural_form or noun + 's')}"

@@ -52,9 +52,10 @@ OUTPUT_KINDS = {"synth": "scene", "import": "scene", "render-plan": "file", "pai
                 "score": "file", "proxy": "file", "stability": "report"}
 #: Commands (or ``nvrq proxy`` kinds) that write ``OUT.timing.csv`` beside ``--out``.
 WRITES_TIMING = ("score", "imagenet", "clip")
-#: Parsed arguments that name a command's input files or folders.
-INPUT_ARGS = ("pairs", "scene", "detections", "class_map", "archive", "kitti_root", "scene_dir", "yolo",
-              "weights", "config", "clip")
+#: Parsed arguments that name a command's input files or folders. A subcommand may add its own
+#: with ``set_defaults(input_args=(...))`` (every ``nvrq import`` importer does, from its
+#: registration: :class:`nvrq.commands.imports.ImporterCommand`).
+INPUT_ARGS = ("pairs", "scene", "detections", "class_map", "yolo", "weights", "config", "clip")
 
 
 def check_outputs(args) -> None:
@@ -65,7 +66,8 @@ def check_outputs(args) -> None:
     kind = OUTPUT_KINDS.get(args.command)
     if kind is None or getattr(args, "out", None) is None:
         return
-    inputs = [getattr(args, a) for a in INPUT_ARGS if getattr(args, a, None) is not None]
+    names = (*INPUT_ARGS, *getattr(args, "input_args", ()))
+    inputs = [getattr(args, a) for a in names if getattr(args, a, None) is not None]
     option = "OUT" if kind == "scene" else "--out"  # the scene writers take a positional OUT
     if kind == "file" and Path(args.out).suffix == "":
         # a Parquet dataset folder (several clips, --engine ray; data_schema.datasets): its
@@ -76,7 +78,8 @@ def check_outputs(args) -> None:
         if args.command in WRITES_TIMING or getattr(args, "proxy", None) in WRITES_TIMING:
             check_output_file(timing_path(args.out), inputs=inputs, option="--out (its .timing.csv)")
     else:
-        check_output_folder(args.out, kind=kind, inputs=inputs, option=option)
+        command = args.command if kind == "report" else None  # a report replaces only its own command's
+        check_output_folder(args.out, kind=kind, inputs=inputs, option=option, command=command)
 
 
 def _main(argv=None) -> int:

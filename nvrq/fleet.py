@@ -30,6 +30,7 @@ from data_schema.datasets import DatasetWriter
 from data_schema.errors import InputError
 from data_schema.methods import METHOD_COLUMN
 from data_schema.scene import load_scene
+from data_schema.text import plural
 from nvrq.pairs import DROP_REASONS, PAIRS_OUTPUT_COLUMNS, PairStats, make_pairs
 
 __all__ = ["find_scenes", "FleetResult", "clip_pairs", "fleet_pairs"]
@@ -87,9 +88,9 @@ class FleetResult:
     failed: list = field(default_factory=list)  # (clip, reason)
 
     def summary(self) -> str:
-        line = f"{len(self.clips)} clips: {self.stats.summary()}"
+        line = f"{plural(len(self.clips), 'clip')}: {self.stats.summary()}"
         if self.failed:
-            line += f"; {len(self.failed)} clips failed (failed.csv)"
+            line += f"; {plural(len(self.failed), 'clip')} failed (failed.csv)"
         return line
 
 

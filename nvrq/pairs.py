@@ -41,6 +41,7 @@ from data_schema.perturbation import (
 )
 from data_schema.scene import Scene
 from data_schema.tables import MIN_SIDE_PX, PAIRS_COLUMNS, pair_ids
+from data_schema.text import plural
 from nvrq.geometry.boxes import box_corners, box_sides, pixel_box
 from nvrq.geometry.cameras import camera_from_model
 from nvrq.geometry.poses import (
@@ -88,7 +89,7 @@ class PairStats:
         drops = ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in self.dropped.items())
         line = f"{self.kept} pairs kept of {self.candidates} candidate boxes; dropped: {drops}"
         if self.frames_outside_trajectory:
-            line += f"; {self.frames_outside_trajectory} frames outside the rig trajectory skipped"
+            line += f"; {plural(self.frames_outside_trajectory, 'frame')} outside the rig trajectory skipped"
         moved = [a for a in self.by_axis if a not in ("none", "y")]
         if moved:  # only when the scene has views beyond the lateral ones
             for axis, c in self.by_axis.items():

@@ -104,3 +104,122 @@ def test_compare_reconstructions_is_what_the_methods_demo_runs():
     shown = [parsed(c) for c in shown]
     for program, argv in demo_steps(Path("out/methods"), args):
         assert parsed([program, *argv]) in shown, f"README does not show `{program} {' '.join(argv)}`"
+
+
+# --- the README runs in order (issue 38 items 2, 24-27) ---------------------------------------
+
+#: Inputs under out/ that the README leaves to the user, with why: your renderer's output.
+USER_MADE = {"out/renders-3dgs": "the gsplat sketch (needs a trained model)",
+             "out/renders-omnire": "another renderer's output"}
+
+
+def _step(command: str) -> tuple[list[str], list[str]]:
+    """``(inputs, outputs)`` under ``out/`` of one README line."""
+    argv = shlex.split(command)
+    if argv[0] not in ("nvrq", "annotate", "analyze"):
+        redirect = argv[argv.index(">") + 1:] if ">" in argv else []
+        outs = redirect or ([argv[-1]] if argv[:3] == ["python", "-m", "nvrq.examples.kitti_drivestudio"] else [])
+        return [], [o for o in outs if o.startswith("out/")]
+    ns = vars(parser_for(argv[0]).parse_args(argv[1:]))
+    values = [x for v in ns.values() for x in (v if isinstance(v, list) else [v])
+              if isinstance(x, str) and x.startswith("out/")]
+    outs = [ns[k] for k in ("out", "study") if isinstance(ns.get(k), str) and ns[k].startswith("out/")]
+    if ns.get("command") in ("score", "proxy") and outs and outs[0].endswith(".csv"):
+        outs.append(outs[0][:-4] + ".timing.csv")  # written beside --out (FORMATS §4)
+    return [v for v in values if v not in outs], outs
+
+
+def test_every_readme_input_under_out_is_made_by_an_earlier_step():
+    # issue 38 item 25: "Scale out" used out/fleet, out/clip-attributes.csv and out/fleet-clip-drop
+    # with no step making them
+    made, missing = set(USER_MADE), []
+    for command in bash_commands():
+        inputs, outputs = _step(command)
+        for path in inputs:
+            # made: the path itself, a folder holding it, or a folder of outputs (a fleet)
+            if not any(path == m or path.startswith(m + "/") or m.startswith(path + "/") for m in made):
+                missing.append((path, command))
+        made.update(outputs)
+    assert missing == []
+
+
+def test_a_report_the_readme_writes_again_keeps_its_inputs():
+    # issue 38 item 2: `analyze --stability ... --out out/report` after `analyze ... --out
+    # out/report` dropped the speed chart and the torch column
+    by_out: dict[str, set] = {}
+    for command in CLI:
+        if not command.startswith("analyze "):
+            continue
+        inputs, outputs = _step(command)
+        before = by_out.setdefault(outputs[0], set(inputs))
+        assert before <= set(inputs), (command, before - set(inputs))
+        by_out[outputs[0]] = set(inputs)
+
+
+def test_readme_names_the_home_folder_variables():
+    # issue 38 item 26: where the README says what the commands write under the home folder
+    section = README[README.index("Under your home folder"):]
+    section = section[:section.index("\n\n")]
+    assert "$NVRQ_CACHE" in section and "$NVRQ_CONFIG" in section
+    assert "~/.cache/nvrq" in section and "~/.config/nvrq/tau.json" in section
+
+
+def test_python_md_states_the_pairs_min_side_default():
+    # issue 38 item 24: docs/PYTHON.md said >= 16 px; the default is data_schema.defaults.MIN_SIDE_PX
+    from data_schema.defaults import MIN_SIDE_PX
+
+    text = (REPO / "docs" / "PYTHON.md").read_text(encoding="utf-8")
+    assert re.findall(r"shorter side >= (\d+) px", text) == [str(MIN_SIDE_PX)]
+
+
+def _block_after(marker: str) -> list[str]:
+    """The commands of the first bash block after ``marker`` in the README."""
+    rest = README[README.index(marker):]
+    block = re.search(r"```bash\n(.*?)```", rest, flags=re.S).group(1)
+    return [line.strip() for line in block.strip().splitlines() if line.strip()]
+
+
+def _run_line(command: str, shared: Path) -> int:
+    """Run one README line in-process (``../shared`` read from ``shared``)."""
+    import subprocess
+
+    argv = shlex.split(command.replace("../shared", str(shared)))
+    if argv[0] == "nvrq":
+        from nvrq.cli import main
+        return main(argv[1:])
+    if argv[0] == "analyze":
+        from analysis.cli import main
+        return main(argv[1:])
+    if argv[:3] == ["python", "-m", "nvrq.examples.kitti_drivestudio"]:
+        from nvrq.examples.kitti_drivestudio import main
+        return main(argv[3:])
+    return subprocess.run(command, shell=True, check=False).returncode  # printf > FILE
+
+
+def test_example_drivestudio_block_runs(shared_dir, tmp_path, monkeypatch, capsys):
+    # issue 38 item 27: import -> render plan -> renders back -> leaderboard, no trained model
+    if not (shared_dir / "realdata" / "kitti").is_dir():
+        pytest.skip("no KITTI frames in ../shared/realdata")
+    monkeypatch.chdir(tmp_path)
+    for command in _block_after("**Try it without a trained model.**"):
+        assert _run_line(command, shared_dir) == 0, command
+    out = capsys.readouterr()
+    assert "methods by psnr" in out.err + out.out
+    board = pytest.importorskip("pandas").read_csv(tmp_path / "out/example-leaderboard/methods.csv")
+    psnr = board[(board.metric == "psnr") & (board.breakdown == "on-path") & (board.group == "all")]
+    psnr = psnr.set_index("method")["mean"]
+    assert psnr["sharp"] > psnr["blurry"]  # a GT blurred by sigma 1 px is closer to it than one by 4 px
+    assert list((tmp_path / "out/example").rglob("*.png"))  # made here, never in the repository
+
+
+def test_scale_out_fleet_block_runs(tmp_path, monkeypatch):
+    # issue 38 item 25: the block that makes the fleet, its attributes table and its pairs dataset
+    monkeypatch.chdir(tmp_path)
+    block = _block_after("A fleet to try it on")
+    for command in block:
+        assert _run_line(command, tmp_path) == 0, command
+    import pandas as pd
+
+    pairs = pd.read_parquet(tmp_path / "out/fleet-pairs")
+    assert set(pairs.clip_id) == {"synth-000001", "synth-000002"}
+    assert set(pairs.weather) == {"rain", "clear"}

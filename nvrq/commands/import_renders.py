@@ -1,8 +1,5 @@
 """``nvrq import renders SCENE DIR [--method NAME] [--layout plan|order] [--allow-missing] [--link]
-[--existing-method NAME]``: register a renderer's output (:mod:`nvrq.sources.renders`).
-
-Layer: commands (CLI shell).
-"""
+[--existing-method NAME] [--replace]``: register a renderer's output (:mod:`nvrq.sources.renders`)."""
 
 from __future__ import annotations
 
@@ -42,7 +39,10 @@ def register_renders(kinds) -> None:
     r.add_argument("--existing-method", default=None, metavar="NAME",
                    help="first name the scene's unnamed renders NAME (paths unchanged), so that "
                         "--method adds a second method")
-    r.set_defaults(func=_run)
+    r.add_argument("--replace", action="store_true",
+                   help="allow changing renders of this method already in the scene (the pairs and "
+                        "metrics made from them go stale); prints how many files changed")
+    r.set_defaults(func=_run, input_args=("scene", "render_dir"))
 
 
 def _run(args) -> int:
@@ -50,6 +50,6 @@ def _run(args) -> int:
 
     result = import_renders(args.scene, args.render_dir, method=args.method, layout=args.layout,
                             allow_missing=args.allow_missing, link=args.link,
-                            existing_method=args.existing_method)
+                            existing_method=args.existing_method, replace=args.replace)
     print(result.summary())
     return 0

@@ -6,7 +6,7 @@ Layer: commands (CLI shell).
 
 from __future__ import annotations
 
-from data_schema.text import comma_list
+from data_schema.text import comma_list, plural
 from nvrq.choices import PLAN_FORMATS, WORLDS
 from nvrq.commands.args import add_link_option
 from nvrq.commands.synth import add_view_options, perturb_grid
@@ -77,7 +77,7 @@ def run(args) -> int:
                        world=args.world)
     write_render_plan(plan, args.out, format=args.format)
     world = "" if args.world == "scene" else f" (poses in the {args.world} world)"
-    print(f"{len(plan)} renders -> {args.out}{world}")
+    print(f"{plural(len(plan), 'render')} -> {args.out}{world}")
     return 0
 
 

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from data_schema.defaults import MIN_SIDE_PX
 from data_schema.errors import InputError
-from data_schema.outputs import mark_report
+from data_schema.outputs import mark_report, replacing_note
 from nvrq.commands.args import add_link_option, int_arg, show_progress
 from nvrq.commands.model_options import add_encoder_arguments, encoder_for_columns, metric_columns
 
@@ -56,29 +56,9 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-
-
 def run(args) -> int:
-    """Run ``nvrq stability``.
-
-    Parameters
-    ----------
-    args : argparse.Namespace
-        The parsed options of ``nvrq stability``.
-
-    Returns
-    -------
-    int
-        The exit status, 0 on success (bad input raises
-        :class:`~data_schema.errors.InputError`, status 2 through
-        :func:`~nvrq.commands.args.run_cli`).
-    """
-    from data_schema.tables import GT_BOX_COLUMNS, read_table, write_table
-    from nvrq.stability import (  # SciPy, matplotlib: not for --help
-        StabilityOptions,
-        plot_stability,
-        run_stability,
-    )
+    from data_schema.tables import GT_BOX_COLUMNS, atomic_folder, read_table, write_table
+    from nvrq.stability import plot_stability, run_stability  # SciPy, matplotlib: not for --help
 
     columns, encoder_name = metric_columns(args)
     out = Path(args.out)
@@ -87,16 +67,20 @@ def run(args) -> int:
     pairs = read_table(args.pairs, required=("pair_id", "clip_id", "camera", "track_id", "timestamp_us",
                                              "gt_path", *GT_BOX_COLUMNS), what="pairs table")
     encoder, tau = encoder_for_columns(args, columns, encoder_name)
-    options = StabilityOptions(n_objects=args.n_objects, seed=args.seed, min_side=args.min_side,
-                               batch_size=args.batch_size)
-    samples, stab, snr = run_stability(pairs, options, metrics=columns, encoder=encoder, tau=tau,
-                                       progress=show_progress(args), where=str(args.pairs))
-    out.mkdir(parents=True, exist_ok=True)
-    mark_report(out)  # a report folder of ours: a later run may replace it
-    write_table(samples, out / "samples.csv")
-    write_table(stab, out / "stability.csv")
-    write_table(snr, out / "snr.csv")
-    plot_stability(stab, snr, out / "stability")
+    samples, stab, snr = run_stability(
+        pairs, metrics=columns, encoder=encoder, tau=tau, n_objects=args.n_objects,
+        seed=args.seed, min_side=args.min_side, batch_size=args.batch_size,
+        progress=show_progress(args), where=str(args.pairs))
+    inputs = {"PAIRS": Path(args.pairs), "--metrics": columns, "--n-objects": args.n_objects, "--seed": args.seed}
+    note = replacing_note(out, command="stability", inputs=inputs)
+    with atomic_folder(out) as tmp:  # the whole folder or nothing: no file of an older run stays
+        mark_report(tmp, command="stability", inputs=inputs)  # a later stability run may replace it
+        write_table(samples, tmp / "samples.csv")
+        write_table(stab, tmp / "stability.csv")
+        write_table(snr, tmp / "snr.csv")
+        plot_stability(stab, snr, tmp / "stability")
+    if note:
+        print(note, file=sys.stderr)
     overall = snr[snr.nuisance == "all"].set_index("metric")["snr"]
     print(
         "signal-to-nuisance ratio (all nuisances): "

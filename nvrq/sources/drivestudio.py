@@ -62,19 +62,18 @@ from __future__ import annotations
 
 import os
 import re
-import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 from PIL import Image, UnidentifiedImageError
 
 from data_schema.errors import InputError, check_number
-from data_schema.perturbation import PERTURBATION_COLUMNS, extra_columns, is_lateral, views_from
-from data_schema.scene import check_rigid, save_scene, validate_camera_model
-from data_schema.tables import IMAGES_COLUMNS, atomic_folder
+from data_schema.perturbation import views_from
+from data_schema.scene import CameraCalib, SourceWorld, Track, check_rigid, validate_camera_model
+from data_schema.scene_writer import NewScene, SceneFrame, scene_doc
 from nvrq.render_plans import default_image_path
+from nvrq.sources.base import ImportedScene, write_imported
 from nvrq.sources.drivestudio_instances import read_instances
 from nvrq.sources.drivestudio_meta import (
     CAMERA_NAMES,
@@ -85,7 +84,8 @@ from nvrq.sources.drivestudio_meta import (
     map_class,
 )
 
-__all__ = ["DrivestudioScene", "read_drivestudio", "write_drivestudio", "import_drivestudio"]
+__all__ = ["DrivestudioScene", "read_drivestudio", "write_drivestudio", "import_drivestudio", "DrivestudioImporter",
+           "IMPORTER"]
 
 _IMAGE = re.compile(r"^(\d+)_(\d+)\.jpg$")
 _PER_CAMERA_FILE = re.compile(r"^(\d+)\.txt$")
@@ -99,7 +99,8 @@ class DrivestudioScene:
 
     ``cameras``: scene camera name -> drivestudio index; ``image_paths (C, F)`` the GT images and
     ``image_us (C, F)`` their timestamps; ``T_cam_world (C, F, 4, 4)`` the layout's camera ->
-    world matrices (OpenCV axes, the layout's world); ``doc`` the scene.json dict; ``notes``
+    world matrices (OpenCV axes, the layout's world); ``scene`` the typed scene
+    (:class:`data_schema.scene_writer.NewScene`; ``doc`` its scene.json dict); ``notes``
     one-line remarks for the user (an inferred dataset, no instances).
     """
 
@@ -111,8 +112,13 @@ class DrivestudioScene:
     image_paths: np.ndarray
     image_us: np.ndarray
     T_cam_world: np.ndarray
-    doc: dict
+    scene: NewScene
     notes: list[str] = field(default_factory=list)
+
+    @property
+    def doc(self) -> dict:
+        """The scene.json document (:func:`data_schema.scene_writer.scene_doc`)."""
+        return scene_doc(self.scene)
 
 
 def _numbers(path: Path, n: int, what: str) -> np.ndarray:
@@ -247,8 +253,34 @@ def _tracks(root: Path, dataset: str, n_frames: int, frame_us: np.ndarray, hold_
     folder = root / "instances"
     if not folder.is_dir():
         return [], [f"note: {root} has no instances/ folder (an EmerNeRF-style layout): the scene has no tracks"]
-    return read_instances(folder, n_frames=n_frames, frame_us=frame_us, hold_us=hold_us,
-                          label_of=lambda name: map_class(dataset, name), turn_z90=dataset == "pandaset"), []
+    found = read_instances(folder, n_frames=n_frames, frame_us=frame_us, hold_us=hold_us,
+                           label_of=lambda name: map_class(dataset, name), turn_z90=dataset == "pandaset")
+    return [Track(t["track_id"], t["label_class"], np.asarray(t["dims_lwh"], float),
+                  np.asarray(t["timestamps_us"], np.int64), np.asarray(t["poses"], float)) for t in found], []
+
+
+def _per_frame_geometry(root: Path, cams: list, frame_us: np.ndarray, A: np.ndarray, dataset: str, rate: float):
+    """Per-frame layouts (module docstring): ``(T_cw (C, F, 4, 4), T_sr (C, 4, 4), rig_us, T_rw,
+    offs (C,) us, T_world_source)``."""
+    n_frames = len(frame_us)
+    X = _matrices([root / "extrinsics" / f"{t:03d}_{c}.txt" for c in cams for t in range(n_frames)])
+    T_cw = X.reshape(len(cams), n_frames, 4, 4) @ A
+    raw0 = _matrices([root / "extrinsics" / "000_0.txt"])[0]  # camera 0, frame 0
+    first = raw0 @ A
+    T_front = np.eye(4)
+    T_front[:3, :3] = OPENCV_TO_FLU
+    rig0 = first @ T_front.T  # camera 0 at frame 0, turned to x forward, y left, z up
+    T_sr = np.linalg.inv(rig0) @ T_cw[:, 0]
+    offs = np.asarray(cams, np.int64)  # camera c's images at frame time + c us
+    img_us = frame_us[None] + offs[:, None]
+    T_all = T_cw @ np.linalg.inv(T_sr)[:, None]
+    order = np.argsort(img_us.reshape(-1), kind="stable")
+    rig_us, T_rw = img_us.reshape(-1)[order], T_all.reshape(-1, 4, 4)[order]
+    if np.any(np.diff(rig_us) <= 0):
+        raise InputError(param="fps", expected=f"a frame interval above {int(offs.max())} us (one per camera)", got=rate)
+    T_world_source = np.linalg.inv(_matrices([root / "ego_pose" / "000.txt"])[0]) if dataset == "pandaset" \
+        else np.linalg.inv(raw0)
+    return T_cw, T_sr, rig_us, T_rw, offs, T_world_source
 
 
 def read_drivestudio(scene_dir: str | os.PathLike, *, dataset: str | None = None, fps: float | None = None,
@@ -311,40 +343,21 @@ def read_drivestudio(scene_dir: str | os.PathLike, *, dataset: str | None = None
         offs = np.zeros(len(cams), np.int64)
         T_world_source = np.linalg.inv(ego[0])
     else:
-        X = _matrices([root / "extrinsics" / f"{t:03d}_{c}.txt" for c in cams for t in range(n_frames)])
-        T_cw = X.reshape(len(cams), n_frames, 4, 4) @ A
-        raw0 = _matrices([root / "extrinsics" / "000_0.txt"])[0]  # camera 0, frame 0
-        first = raw0 @ A
-        T_front = np.eye(4)
-        T_front[:3, :3] = OPENCV_TO_FLU
-        rig0 = first @ T_front.T  # camera 0 at frame 0, turned to x forward, y left, z up
-        T_sr = np.linalg.inv(rig0) @ T_cw[:, 0]
-        offs = np.asarray(cams, np.int64)  # camera c's images at frame time + c us
-        img_us = frame_us[None] + offs[:, None]
-        T_all = T_cw @ np.linalg.inv(T_sr)[:, None]
-        order = np.argsort(img_us.reshape(-1), kind="stable")
-        rig_us, T_rw = img_us.reshape(-1)[order], T_all.reshape(-1, 4, 4)[order]
-        if np.any(np.diff(rig_us) <= 0):
-            raise InputError(param="fps", expected=f"a frame interval above {int(offs.max())} us (one per camera)", got=rate)
-        T_world_source = np.linalg.inv(_matrices([root / "ego_pose" / "000.txt"])[0]) if dataset == "pandaset" \
-            else np.linalg.inv(raw0)
+        T_cw, T_sr, rig_us, T_rw, offs, T_world_source = _per_frame_geometry(root, cams, frame_us, A, dataset, rate)
     for i, c in enumerate(cams):
         W, H = _image_size(paths[i])
         models[c] = validate_camera_model({**models[c], "resolution": [int(W), int(H)]},
                                           str(root / "intrinsics" / f"{c}.txt"), "")
     hold = int(offs.max()) if len(offs) else 0
     tracks, more = _tracks(root, dataset, n_frames, frame_us, hold)
-    doc = {
-        "clip_id": f"{dataset}-{root.resolve().name}".replace(":", "-"),
-        "attributes": {},
-        "cameras": {n: {"T_sensor_rig": T_sr[i], "model": models[c]} for i, (n, c) in enumerate(zip(cam_names, cams,
-                                                                                                       strict=True))},
-        "rig_trajectory": {"timestamps_us": rig_us.tolist(), "T_rig_world": T_rw},
-        "tracks": tracks,
-        "source_world": {"name": "drivestudio", "dataset": dataset, "T_world_source": T_world_source},
-    }
+    image_us = frame_us[None] + offs[:, None]
+    frames = [SceneFrame(n, t, _gt_path(n, t), Path(src)) for i, n in enumerate(cam_names)
+              for t, src in zip(image_us[i].tolist(), paths[i], strict=True)]
+    scene = NewScene(f"{dataset}-{root.resolve().name}".replace(":", "-"),
+                     {n: CameraCalib(n, T_sr[i], models[c]) for i, (n, c) in enumerate(zip(cam_names, cams, strict=True))},
+                     rig_us, T_rw, tracks, frames, {}, SourceWorld("drivestudio", dataset, T_world_source))
     return DrivestudioScene(root, dataset, kind, rate, dict(zip(cam_names, cams, strict=True)), paths,
-                            frame_us[None] + offs[:, None], T_cw, doc, notes + more)
+                            image_us, T_cw, scene, notes + more)
 
 
 def _gt_path(camera: str, t_us: int) -> str:
@@ -354,38 +367,61 @@ def _gt_path(camera: str, t_us: int) -> str:
 
 def write_drivestudio(ds: DrivestudioScene, out: str | os.PathLike, *, offsets=(-3, -2, -1, 0, 1, 2, 3),
                       perturbations=None, copy: bool = False) -> Path:
-    """Write the scene folder ``out`` of ``ds`` (:func:`read_drivestudio`); returns ``out``.
+    """Write the scene folder ``out`` of ``ds`` (:func:`read_drivestudio`) through the one writer.
 
-    GT images are symbolic links to the layout's files (``copy=True``: copies); ``images.csv``
-    lists them and one render per view at :func:`default_image_path` (files still to render).
+    Parameters
+    ----------
+    ds : DrivestudioScene
+        The read folder.
+    out : path
+        The scene folder (whole and atomically: a failure leaves it as it was).
+    offsets : sequence of float
+        Lateral render offsets (metres), used when ``perturbations`` is None.
+    perturbations : numpy.ndarray, (K, 6), optional
+        6-DoF views (docs/FORMATS.md §9).
+    copy : bool
+        Copy the GT images (default: absolute symbolic links to the layout's files).
+
+    Returns
+    -------
+    pathlib.Path
+        ``out``; ``images.csv`` lists the GT images and one render per view at
+        :func:`default_image_path` (files still to render).
     """
-    out = Path(out)
     views = views_from(offsets, perturbations)
-    lateral = is_lateral(views)
-    rows, links = [], []
-    for i, name in enumerate(ds.cameras):
-        for t, src in zip(ds.image_us[i].tolist(), ds.image_paths[i], strict=True):
-            rel = _gt_path(name, t)
-            links.append((src, rel))
-            rows.append((name, t, "gt", *[0.0] * 6, rel))
-            rows += [(name, t, "render", *v.tolist(), default_image_path(  # a lateral view by its offset alone
-                name, t, "render", v[1], perturbation=None if lat else v)) for v, lat in zip(views, lateral, strict=True)]
-    images = pd.DataFrame(rows, columns=["camera", "timestamp_us", "source", *PERTURBATION_COLUMNS, "path"])
-    images = images.drop_duplicates(["camera", "timestamp_us", "source", *PERTURBATION_COLUMNS])
-    with atomic_folder(out) as tmp:
-        made = set()
-        for src, rel in links:
-            dst = tmp / rel
-            if dst.parent not in made:
-                dst.parent.mkdir(parents=True, exist_ok=True)
-                made.add(dst.parent)
-            try:
-                shutil.copyfile(src, dst) if copy else os.symlink(os.path.abspath(src), dst)
-            except OSError as exc:
-                raise InputError(out / rel, None, "a writable output (with symbolic links, or `copy`)",
-                                 exc.strerror or type(exc).__name__) from None
-        save_scene(ds.doc, images.loc[:, [*IMAGES_COLUMNS, *extra_columns(views)]], tmp)
-    return out
+    return write_imported(ImportedScene(ds.scene, views, link=not copy), out)
+
+
+class DrivestudioImporter:
+    """``nvrq import drivestudio SCENE_DIR OUT`` (:class:`nvrq.sources.base.Importer`)."""
+
+    def read(self, args) -> ImportedScene:
+        """Read ``args.scene_dir`` with the views of ``--offsets``/``--perturb``.
+
+        Parameters
+        ----------
+        args : argparse.Namespace
+            ``scene_dir``, ``dataset``, ``fps``, ``cameras``, ``offsets``, ``perturb``, ``copy``.
+
+        Returns
+        -------
+        ImportedScene
+            The scene, its views, and the notes for the user.
+        """
+        from data_schema.perturbation import parse_perturb
+        from data_schema.tables import parse_offsets
+        from data_schema.text import comma_list
+
+        perturbations = None if args.perturb is None else parse_perturb(args.perturb)
+        views = views_from(parse_offsets(args.offsets), perturbations)  # the options first, then the files
+        cameras = None if args.cameras is None else comma_list(args.cameras)
+        ds = read_drivestudio(args.scene_dir, dataset=args.dataset, fps=args.fps, cameras=cameras)
+        return ImportedScene(ds.scene, views, link=not args.copy, notes=tuple(ds.notes),
+                             detail=f"{ds.dataset}, {ds.fps:g} Hz")
+
+
+#: The importer of ``nvrq import drivestudio``.
+IMPORTER = DrivestudioImporter()
 
 
 def import_drivestudio(scene_dir: str | os.PathLike, out: str | os.PathLike, *, offsets=(-3, -2, -1, 0, 1, 2, 3),

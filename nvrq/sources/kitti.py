@@ -18,7 +18,6 @@ points the box's length to the rig's right (yaw = -90 deg).
 from __future__ import annotations
 
 import os
-import shutil
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -29,8 +28,12 @@ if TYPE_CHECKING:
 
 from data_schema.errors import InputError
 
-__all__ = ["KITTI_CLASS_MAP", "read_calib_P2", "read_labels", "kitti_scene_doc", "import_kitti",
-           "R_SENSOR_RIG"]
+if TYPE_CHECKING:  # imported where used: drivestudio_meta (read by the nvrq parser) imports this module
+    from data_schema.scene_writer import NewScene
+    from nvrq.sources.base import ImportedScene
+
+__all__ = ["KITTI_CLASS_MAP", "read_calib_P2", "read_labels", "kitti_scene", "kitti_scene_doc", "read_kitti",
+           "import_kitti", "KittiImporter", "IMPORTER", "R_SENSOR_RIG"]
 
 #: KITTI type -> our label_class (DontCare is dropped).
 KITTI_CLASS_MAP = {
@@ -83,19 +86,41 @@ def read_labels(path: str | os.PathLike) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=LABEL_COLUMNS)
 
 
-def kitti_scene_doc(P2: np.ndarray, labels: pd.DataFrame, *, image_size: tuple[int, int], clip_id: str) -> dict:
-    """The scene.json dict of one KITTI frame (see the module docstring for the frames)."""
+def kitti_scene(P2: np.ndarray, labels: pd.DataFrame, *, image_size: tuple[int, int], clip_id: str,
+                image: str | os.PathLike | None = None, frame: str = "000000") -> NewScene:
+    """The typed scene of one KITTI frame (see the module docstring for the frames).
+
+    Parameters
+    ----------
+    P2 : numpy.ndarray, (3, 4)
+        The projection matrix of the rectified left colour camera.
+    labels : pandas.DataFrame
+        The frame's ``label_2`` rows (:func:`read_labels`); DontCare rows are dropped.
+    image_size : tuple of int
+        ``(W, H)`` pixels.
+    clip_id : str
+        The scene's clip id.
+    image : path, optional
+        The ``image_2`` PNG, copied into the scene at ``images/FRAME.png``.
+    frame : str
+        The frame id (the image's name in the scene).
+
+    Returns
+    -------
+    NewScene
+        One camera ``image_2``, the rig at it (``T_rig_world = I`` at t = 0), one one-sample track
+        per object and the one GT frame.
+    """
+    from data_schema.scene import CameraCalib, Track
+    from data_schema.scene_writer import NewScene, SceneFrame
+
     K = P2[:, :3]
     t = np.linalg.solve(K, P2[:, 3])  # reference camera -> camera 2 translation
     T_sensor_rig = np.eye(4)
     T_sensor_rig[:3, :3] = R_SENSOR_RIG
     W, H = image_size
-    camera = {
-        "T_sensor_rig": T_sensor_rig,
-        "model": {"type": "pinhole", "resolution": [int(W), int(H)],
-                  "focal_length": [float(K[0, 0]), float(K[1, 1])],
-                  "principal_point": [float(K[0, 2]), float(K[1, 2])]},
-    }
+    model = {"type": "pinhole", "resolution": [int(W), int(H)], "focal_length": [float(K[0, 0]), float(K[1, 1])],
+             "principal_point": [float(K[0, 2]), float(K[1, 2])]}
     objs = labels[labels["type"] != "DontCare"].reset_index(drop=True)
     centre_cam = objs[["x", "y", "z"]].to_numpy(float) + t
     centre_cam[:, 1] -= objs["h"].to_numpy(float) / 2
@@ -104,30 +129,77 @@ def kitti_scene_doc(P2: np.ndarray, labels: pd.DataFrame, *, image_size: tuple[i
     tracks = []
     for i, o in objs.iterrows():
         q = [0.0, 0.0, float(np.sin(yaw[i] / 2)), float(np.cos(yaw[i] / 2))]
-        tracks.append({
-            "track_id": f"{i:03d}-{o['type'].lower()}",
-            "label_class": KITTI_CLASS_MAP.get(o["type"], o["type"].lower()),
-            "dims_lwh": [float(o["l"]), float(o["w"]), float(o["h"])],
-            "timestamps_us": [0],
-            "poses": [centre_rig[i].tolist() + q],
-        })
-    return {
-        "clip_id": clip_id,
-        "attributes": {"lighting": "daytime", "road_type": "kitti"},
-        "cameras": {"image_2": camera},
-        "rig_trajectory": {"timestamps_us": [0], "T_rig_world": [np.eye(4)]},
-        "tracks": tracks,
-    }
+        tracks.append(Track(f"{i:03d}-{o['type'].lower()}", KITTI_CLASS_MAP.get(o["type"], o["type"].lower()),
+                            np.array([o["l"], o["w"], o["h"]], float), np.zeros(1, np.int64),
+                            np.array([centre_rig[i].tolist() + q])))
+    frame_image = SceneFrame("image_2", 0, f"images/{frame}.png", None if image is None else Path(image))
+    return NewScene(clip_id, {"image_2": CameraCalib("image_2", T_sensor_rig, model)}, np.zeros(1, np.int64),
+                    np.eye(4)[None], tracks, [frame_image], {"lighting": "daytime", "road_type": "kitti"})
 
 
-def import_kitti(kitti_root: str | os.PathLike, frame: str, out: str | os.PathLike) -> Path:
-    """Write the scene folder ``out`` for KITTI frame ``frame`` (e.g. ``'000000'``) of ``kitti_root``."""
+def kitti_scene_doc(P2: np.ndarray, labels: pd.DataFrame, *, image_size: tuple[int, int], clip_id: str) -> dict:
+    """The scene.json dict of one KITTI frame: :func:`data_schema.scene_writer.scene_doc` of
+    :func:`kitti_scene` (kept for callers of the old name; use :func:`kitti_scene`).
+
+    Parameters
+    ----------
+    P2, labels, image_size, clip_id
+        As :func:`kitti_scene`.
+
+    Returns
+    -------
+    dict
+        The scene.json document.
+    """
+    from data_schema.scene_writer import scene_doc
+
+    return scene_doc(kitti_scene(P2, labels, image_size=image_size, clip_id=clip_id))
+
+
+class KittiImporter:
+    """``nvrq import kitti KITTI_ROOT FRAME OUT`` (:class:`nvrq.sources.base.Importer`)."""
+
+    def read(self, args) -> ImportedScene:
+        """Read the frame ``args.frame`` of ``args.kitti_root``.
+
+        Parameters
+        ----------
+        args : argparse.Namespace
+            ``kitti_root`` and ``frame``.
+
+        Returns
+        -------
+        ImportedScene
+            The scene, its image listed as the GT image and as the render at offset 0.
+        """
+        return read_kitti(args.kitti_root, args.frame)
+
+
+#: The importer of ``nvrq import kitti``.
+IMPORTER = KittiImporter()
+
+
+def read_kitti(kitti_root: str | os.PathLike, frame: str) -> ImportedScene:
+    """Read and check KITTI frame ``frame`` (e.g. ``'000000'``) of ``kitti_root``; nothing written.
+
+    Parameters
+    ----------
+    kitti_root : path
+        The KITTI object folder (``image_2/``, ``label_2/``, ``calib/``).
+    frame : str
+        The frame id.
+
+    Returns
+    -------
+    ImportedScene
+        The scene; one view (offset 0) whose render is the GT image itself, so that
+        ``nvrq pairs`` runs on it.
+    """
     import cv2
-    import pandas as pd
 
-    from data_schema.scene import save_scene
+    from nvrq.sources.base import ImportedScene
 
-    root, out = Path(kitti_root), Path(out)
+    root = Path(kitti_root)
     image = root / "image_2" / f"{frame}.png"
     if not image.is_file():
         raise InputError(image, None, "a KITTI image_2 PNG", "no such file")
@@ -135,12 +207,30 @@ def import_kitti(kitti_root: str | os.PathLike, frame: str, out: str | os.PathLi
     if img is None:
         raise InputError(image, None, "a readable PNG image", "undecodable file")
     H, W = img.shape[:2]
-    doc = kitti_scene_doc(read_calib_P2(root / "calib" / f"{frame}.txt"),
-                          read_labels(root / "label_2" / f"{frame}.txt"),
-                          image_size=(W, H), clip_id=f"kitti-{frame}")
-    (out / "images").mkdir(parents=True, exist_ok=True)
-    rel = f"images/{frame}.png"
-    shutil.copyfile(image, out / rel)
-    images = pd.DataFrame({"camera": ["image_2"] * 2, "timestamp_us": [0, 0], "source": ["gt", "render"],
-                           "y_offset_m": [0.0, 0.0], "path": [rel, rel]})
-    return save_scene(doc, images, out)
+    scene = kitti_scene(read_calib_P2(root / "calib" / f"{frame}.txt"), read_labels(root / "label_2" / f"{frame}.txt"),
+                        image_size=(W, H), clip_id=f"kitti-{frame}", image=image, frame=frame)
+    rel = scene.frames[0].path
+    return ImportedScene(scene, np.zeros((1, 6)), render_path=lambda camera, t, view: rel)
+
+
+def import_kitti(kitti_root: str | os.PathLike, frame: str, out: str | os.PathLike) -> Path:
+    """Write the scene folder ``out`` for KITTI frame ``frame`` of ``kitti_root`` (whole and
+    atomically: :func:`nvrq.sources.base.write_imported`).
+
+    Parameters
+    ----------
+    kitti_root : path
+        The KITTI object folder.
+    frame : str
+        The frame id, e.g. ``'000000'``.
+    out : path
+        The scene folder.
+
+    Returns
+    -------
+    pathlib.Path
+        ``out``.
+    """
+    from nvrq.sources.base import write_imported
+
+    return write_imported(read_kitti(kitti_root, frame), out)

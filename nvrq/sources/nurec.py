@@ -38,17 +38,17 @@ import zipfile
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from data_schema.errors import InputError
-from data_schema.perturbation import PERTURBATION_COLUMNS, extra_columns, views_from
-from data_schema.scene import CAMERA_MODEL_SCHEMA, save_scene
-from data_schema.tables import IMAGES_COLUMNS
+from data_schema.perturbation import views_from
+from data_schema.scene import CAMERA_MODEL_SCHEMA, CameraCalib, Track
+from data_schema.scene_writer import NewScene, SceneFrame
 from nvrq.geometry.cameras import camera_from_model
 from nvrq.geometry.poses import matrix_to_pose7, pose7_to_matrix
 from nvrq.render_plans import default_image_path
+from nvrq.sources.base import ImportedScene, write_imported
 
-__all__ = ["import_nurec", "read_archive_json"]
+__all__ = ["import_nurec", "read_nurec", "read_archive_json", "NurecImporter", "IMPORTER"]
 
 
 def read_archive_json(archive: Path, name: str) -> tuple[dict, str]:
@@ -160,7 +160,7 @@ def _tracks_block(doc, sequence_id, where):
     )
 
 
-def _read_tracks(doc, sequence_id, where, nre_to_world, scale) -> list[dict]:
+def _read_tracks(doc, sequence_id, where, nre_to_world, scale) -> list[Track]:
     block = _tracks_block(doc, sequence_id, where)
     td = _get(block, "tracks_data", where, "")
     cd = _get(block, "cuboidtracks_data", where, "")
@@ -197,15 +197,8 @@ def _read_tracks(doc, sequence_id, where, nre_to_world, scale) -> list[dict]:
             )
         T_world = nre_to_world @ pose7_to_matrix(poses)
         T_world[:, :3, :3] *= scale  # nre_to_world scales by 1/s; boxes keep a pure rotation
-        tracks.append(
-            {
-                "track_id": str(tid),
-                "label_class": str(fields["tracks_label_class"][i]),
-                "dims_lwh": (dims / scale).tolist(),
-                "timestamps_us": ts.tolist(),
-                "poses": matrix_to_pose7(T_world).tolist(),
-            }
-        )
+        tracks.append(Track(str(tid), str(fields["tracks_label_class"][i]), dims / scale, ts,
+                            matrix_to_pose7(T_world)))
     return tracks
 
 
@@ -264,10 +257,9 @@ def _camera_frames(frames: dict, uid: str, where: str, tfld: str, rig_ts: np.nda
     return end[(end >= rig_ts[0]) & (end <= rig_ts[-1])]
 
 
-def _cameras_and_images(rig: dict, traj: dict, where: str, tfld: str, rig_ts: np.ndarray,
-                        views: np.ndarray) -> tuple[dict, list]:
-    """scene.json cameras of the trajectory's sequence and the ``images.csv`` rows (GT + one render
-    per view, columns ``camera, timestamp_us, source, *PERTURBATION_COLUMNS, path``)."""
+def _cameras_and_frames(rig: dict, traj: dict, where: str, tfld: str, rig_ts: np.ndarray) -> tuple[dict, list]:
+    """The cameras of the trajectory's sequence and their GT frames (:class:`SceneFrame`, listed
+    at :func:`default_image_path`, no file: the user copies the camera frames there)."""
     frames = _get(traj, "cameras_frame_timestamps_us", where, tfld)
     calibs = _get(rig, "camera_calibrations", where, "")
     if not isinstance(calibs, dict) or not isinstance(frames, dict):
@@ -277,7 +269,7 @@ def _cameras_and_images(rig: dict, traj: dict, where: str, tfld: str, rig_ts: np
             "an object keyed by '<camera>@<sequence>'",
             type(calibs).__name__,
         )
-    cameras, image_rows = {}, []
+    cameras, frames_out = {}, []
     for uid, cal in calibs.items():
         if uid not in frames:
             continue  # a camera of another sequence
@@ -289,12 +281,9 @@ def _cameras_and_images(rig: dict, traj: dict, where: str, tfld: str, rig_ts: np
         )
         T_sr, _ = _matrix(_get(cal, "T_sensor_rig", where, cfld), where, f"{cfld}.T_sensor_rig")
         model = _spec_ftheta(_get(cal, "camera_model", where, cfld), where, f"{cfld}.camera_model")
-        cameras[name] = {"T_sensor_rig": T_sr.tolist(), "model": model}
-        for t in _camera_frames(frames, uid, where, tfld, rig_ts):
-            image_rows.append((name, int(t), "gt", *[0.0] * 6, default_image_path(name, t, "gt")))
-            for v in views:
-                image_rows.append((name, int(t), "render", *v.tolist(),
-                                   default_image_path(name, t, "render", v[1], perturbation=v)))
+        cameras[name] = CameraCalib(name, T_sr, model)
+        frames_out += [SceneFrame(name, int(t), default_image_path(name, t, "gt"))
+                       for t in _camera_frames(frames, uid, where, tfld, rig_ts)]
     if not cameras:
         raise InputError(
             where,
@@ -302,7 +291,74 @@ def _cameras_and_images(rig: dict, traj: dict, where: str, tfld: str, rig_ts: np
             "frame timestamps for at least one calibrated camera",
             "none",
         )
-    return cameras, image_rows
+    return cameras, frames_out
+
+
+class NurecImporter:
+    """``nvrq import nurec ARCHIVE OUT`` (:class:`nvrq.sources.base.Importer`)."""
+
+    def read(self, args) -> ImportedScene:
+        """Read ``args.archive`` with the views of ``--offsets``/``--perturb``.
+
+        Parameters
+        ----------
+        args : argparse.Namespace
+            ``archive``, ``offsets``, ``perturb``, ``sequence``, ``clip_attributes``.
+
+        Returns
+        -------
+        ImportedScene
+            The scene and its views.
+        """
+        from data_schema.perturbation import parse_perturb
+        from data_schema.tables import parse_offsets
+        from nvrq.clip_attributes import read_clip_attributes
+
+        perturbations = None if args.perturb is None else parse_perturb(args.perturb)
+        offsets = parse_offsets(args.offsets)  # the options first, then the files
+        attributes = read_clip_attributes(args.clip_attributes) if args.clip_attributes else None
+        return read_nurec(args.archive, offsets=offsets, perturbations=perturbations,
+                          sequence=args.sequence, clip_attributes=attributes)
+
+
+#: The importer of ``nvrq import nurec``.
+IMPORTER = NurecImporter()
+
+
+def read_nurec(archive: str | Path, *, offsets=(-3, -2, -1, 0, 1, 2, 3), perturbations=None,
+               sequence: str | None = None, clip_attributes=None) -> ImportedScene:
+    """Read and check the NuRec ``archive`` (module docstring); nothing written.
+
+    Parameters
+    ----------
+    archive : path
+        The ``.usdz`` archive.
+    offsets : sequence of float
+        Lateral render offsets (metres), used when ``perturbations`` is None.
+    perturbations : numpy.ndarray, (K, 6), optional
+        6-DoF views (``dx, dy, dz`` metres, ``roll, pitch, yaw`` degrees, rig frame).
+    sequence : str, optional
+        The rig trajectory's ``sequence_id`` (default: the first).
+    clip_attributes : nvrq.clip_attributes.ClipAttributes, optional
+        Its row for this clip becomes the scene's ``attributes`` (default: none).
+
+    Returns
+    -------
+    ImportedScene
+        The scene (GT frames listed, no files) and the views.
+    """
+    archive = Path(archive)
+    views = views_from(offsets, perturbations)
+    rig, rig_member = read_archive_json(archive, "rig_trajectories.json")
+    where = f"{archive}:{rig_member}"
+    nre_to_world, scale = _world_to_nre(rig, where)
+    seq_ids, k, traj, tfld, rig_ts, T_rw = _pick_trajectory(rig, where, sequence)
+    cameras, frames = _cameras_and_frames(rig, traj, where, tfld, rig_ts)
+    tracks_doc, tr_member = read_archive_json(archive, "sequence_tracks.json")
+    tracks = _read_tracks(tracks_doc, seq_ids[k], f"{archive}:{tr_member}", nre_to_world, scale)
+    attributes = {} if clip_attributes is None else clip_attributes.require(seq_ids[k])
+    scene = NewScene(seq_ids[k], cameras, rig_ts, T_rw, tracks, frames, attributes)
+    return ImportedScene(scene, views)
 
 
 def import_nurec(
@@ -314,29 +370,23 @@ def import_nurec(
     sequence: str | None = None,
     clip_attributes=None,
 ) -> Path:
-    """Convert the NuRec ``archive`` into the scene folder ``out`` (module docstring); returns ``out``.
+    """Convert the NuRec ``archive`` into the scene folder ``out`` (:func:`read_nurec`, then the one
+    writer: whole and atomically).
 
-    ``offsets``: lateral render offsets (metres), or ``perturbations (K, 6)`` (``dx, dy, dz``
-    metres, ``roll, pitch, yaw`` degrees, rig frame), which replace them. ``clip_attributes``: a
-    :class:`nvrq.clip_attributes.ClipAttributes` whose row for this clip becomes the scene's
-    ``attributes`` (NuRec archives carry none); ``None``: empty attributes.
+    Parameters
+    ----------
+    archive : path
+        The ``.usdz`` archive.
+    out : path
+        The scene folder.
+    offsets, perturbations, sequence, clip_attributes
+        As :func:`read_nurec`.
+
+    Returns
+    -------
+    pathlib.Path
+        ``out``.
     """
-    archive, out = Path(archive), Path(out)
-    views = views_from(offsets, perturbations)
-    rig, rig_member = read_archive_json(archive, "rig_trajectories.json")
-    where = f"{archive}:{rig_member}"
-    nre_to_world, scale = _world_to_nre(rig, where)
-    seq_ids, k, traj, tfld, rig_ts, T_rw = _pick_trajectory(rig, where, sequence)
-    cameras, image_rows = _cameras_and_images(rig, traj, where, tfld, rig_ts, views)
-    tracks_doc, tr_member = read_archive_json(archive, "sequence_tracks.json")
-    tracks = _read_tracks(tracks_doc, seq_ids[k], f"{archive}:{tr_member}", nre_to_world, scale)
-    doc = {
-        "clip_id": seq_ids[k],
-        "attributes": {} if clip_attributes is None else clip_attributes.require(seq_ids[k]),
-        "cameras": cameras,
-        "rig_trajectory": {"timestamps_us": rig_ts.tolist(), "T_rig_world": T_rw.tolist()},
-        "tracks": tracks,
-    }
-    images = pd.DataFrame(image_rows, columns=["camera", "timestamp_us", "source", *PERTURBATION_COLUMNS, "path"])
-    images = images.drop_duplicates(["camera", "timestamp_us", "source", *PERTURBATION_COLUMNS])
-    return save_scene(doc, images.loc[:, [*IMAGES_COLUMNS, *extra_columns(views)]], out)
+    imported = read_nurec(archive, offsets=offsets, perturbations=perturbations, sequence=sequence,
+                          clip_attributes=clip_attributes)
+    return write_imported(imported, out)

@@ -58,6 +58,7 @@ from data_schema.methods import METHOD_COLUMN, check_method_name, method_values
 from data_schema.perturbation import PERTURBATION_COLUMNS, labels, perturbation_array
 from data_schema.scene import load_scene, write_images
 from data_schema.tables import atomic_path
+from data_schema.text import plural
 from nvrq.choices import LAYOUTS  # the layouts of a folder of renders (module docstring)
 from nvrq.crops import read_rgb
 from nvrq.render_plans import RenderPlan, render_plan
@@ -73,7 +74,9 @@ _ORDER_NAME = re.compile(r"(\d{5,})(\.[A-Za-z]+)")
 class RendersImport:
     """What :func:`import_renders` did: ``expected`` plan rows, ``imported`` renders, the
     plan rows whose render was ``missing`` (their plan paths) and the ``unexpected`` files
-    (relative to the folder of renders; always empty after a successful import)."""
+    (relative to the folder of renders; always empty after a successful import); ``missing`` names
+    the file to supply, ``{i:05d}.png (for PLAN PATH)`` in the ``order`` layout; ``changed``: the
+    render files already in the scene that the import replaced with other bytes or removed."""
 
     images_csv: Path
     layout: str
@@ -82,6 +85,7 @@ class RendersImport:
     imported: int
     missing: tuple[str, ...]
     unexpected: tuple[str, ...]
+    changed: int = 0
 
     def counts(self) -> str:
         """``'N expected, F found, M missing, U unexpected'`` with the first of each kind."""
@@ -95,7 +99,8 @@ class RendersImport:
         """One line for the command: the counts and where the rows went."""
         named = f" of method {self.method}" if self.method else ""
         left = " (missing views left out of the pairs)" if self.missing else ""
-        return f"renders{named}, layout {self.layout}: {self.counts()}{left} -> {self.images_csv}"
+        changed = f"; replaced: {plural(self.changed, 'render file')} changed" if self.changed else ""
+        return f"renders{named}, layout {self.layout}: {self.counts()}{left}{changed} -> {self.images_csv}"
 
 
 def _visible_files(folder: Path, *, recursive: bool) -> list[str]:
@@ -145,6 +150,35 @@ def render_files(plan: RenderPlan, render_dir, *, layout: str = "plan") -> tuple
         else:
             files[i] = name
     return files, unexpected
+
+
+def _missing_name(plan: RenderPlan, i: int, layout: str) -> str:
+    """The file the user must supply for plan row ``i``: its plan path (``plan``), or
+    ``{i:05d}.png`` with the plan path it goes to (``order``)."""
+    return plan.paths[i] if layout == "plan" else f"{i:05d}.png (for {plan.paths[i]})"
+
+
+def _replaced(scene_root: Path, images: pd.DataFrame, new: pd.DataFrame, placed: dict) -> tuple[int, int]:
+    """``(changed, on_disk)``: how many render files of the scene this import changes (a file of
+    ``images`` on disk that gets other bytes, or whose row goes) and how many it finds on disk.
+
+    ``placed``: scene path -> the file put there."""
+    import filecmp
+
+    old = set(images.path[(images.source == "render").to_numpy()])
+    kept = set(new.path[(new.source == "render").to_numpy()])
+    changed = on_disk = 0
+    for rel in sorted(old):
+        target = scene_root / rel
+        if not target.is_file():
+            continue
+        on_disk += 1
+        src = placed.get(rel)
+        if src is None:
+            changed += rel not in kept
+        elif not (os.path.samefile(src, target) or filecmp.cmp(src, target, shallow=False)):
+            changed += 1
+    return changed, on_disk
 
 
 def _check_layout(layout) -> None:
@@ -263,7 +297,7 @@ def _new_images(scene, plan: RenderPlan, placeholders, dst: dict, method: str) -
 
 def import_renders(scene, render_dir, *, method: str | None = None, layout: str = "plan",
                    allow_missing: bool = False, link: bool = False,
-                   existing_method: str | None = None) -> RendersImport:
+                   existing_method: str | None = None, replace: bool = False) -> RendersImport:
     """Register the renders in ``render_dir`` in the scene folder ``scene`` (module docstring).
 
     Parameters
@@ -282,6 +316,11 @@ def import_renders(scene, render_dir, *, method: str | None = None, layout: str 
         Link the files (absolute symbolic links) instead of copying them.
     existing_method : str, optional
         First name the scene's unnamed renders so (their paths and files stay).
+    replace : bool
+        Allow the import to change render files of this method already in the scene (other
+        bytes at a path, or a row removed); without it such an import is refused, since the
+        pairs and metrics made from them would go stale. Re-importing the same files changes
+        nothing and needs no ``replace``.
 
     Returns
     -------
@@ -293,7 +332,8 @@ def import_renders(scene, render_dir, *, method: str | None = None, layout: str 
     InputError
         Bad names or layout; a scene without render rows; a method the method rules refuse;
         an unexpected, unreadable or wrongly sized file; a missing render (unless
-        ``allow_missing``); no render found. Nothing is changed then.
+        ``allow_missing``); no render found; render files of the method already in the scene
+        that would change, without ``replace``. Nothing is changed then.
     """
     _check_names(method, existing_method, layout)
     folder = Path(render_dir)
@@ -307,7 +347,8 @@ def import_renders(scene, render_dir, *, method: str | None = None, layout: str 
     files, unexpected = render_files(plan, folder, layout=layout)
     rows = [i for i, f in enumerate(files) if f is not None]
     report = RendersImport(scene.root / "images.csv", layout, method or "", len(plan), len(rows),
-                           tuple(plan.paths[i] for i, f in enumerate(files) if f is None), tuple(unexpected))
+                           tuple(_missing_name(plan, i, layout) for i, f in enumerate(files) if f is None),
+                           tuple(unexpected))
     if unexpected or not rows or (report.missing and not allow_missing):
         rule = "every render of the plan" if not allow_missing else "renders of the plan (some at least)"
         raise InputError(folder, f"layout {layout}", f"{rule} and no other file", report.counts())
@@ -321,7 +362,13 @@ def import_renders(scene, render_dir, *, method: str | None = None, layout: str 
         if (scene.root / dst[i]).is_dir():
             raise InputError(scene.root / dst[i], None, "a render file path", "an existing folder")
     images = _new_images(scene, plan, placeholders, dst, method or "")
+    mine = scene.images[(method_values(scene.images) == (method or "")) | placeholders]
+    changed, _ = _replaced(scene.root, mine, images, {dst[i]: src for i, src in zip(rows, srcs, strict=True)})
+    if changed and not replace:
+        named = f"method {method}'s" if method else "the scene's"
+        raise InputError(param="replace", expected=f"`replace` to change {named} renders already in the scene "
+                         "(pairs and metrics made from them go stale)", got=f"{plural(changed, 'render file')} that would change")
     for i, src in zip(rows, srcs, strict=True):
         _place(src, scene.root / dst[i], link=link)
     write_images(images, scene.root)
-    return report
+    return dataclasses.replace(report, changed=changed)

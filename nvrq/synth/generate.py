@@ -55,7 +55,7 @@ from data_schema.perturbation import (
     lateral,
 )
 from data_schema.scene import save_scene
-from data_schema.tables import IMAGES_COLUMNS, atomic_path, write_table
+from data_schema.tables import IMAGES_COLUMNS, atomic_folder, atomic_path, write_table
 from nvrq.geometry.poses import T_sensor_world, matrix_to_pose7, perturb_T_sensor_rig
 from nvrq.render_plans import default_image_path
 from nvrq.synth.artefacts import ARTEFACTS, blend_into
@@ -430,23 +430,16 @@ def generate_scene(out: Path, options: SynthOptions | None = None, *, progress: 
                    **keywords) -> Path:
     """Write a synthetic scene folder to ``out`` and return it (see module docstring).
 
-    Parameters
-    ----------
-    out : pathlib.Path
-        The scene folder to write.
-    options : SynthOptions, optional
-        Seed, clip length, frame rate, views, cameras, image size and methods
-        (default ``SynthOptions()``).
-    progress : bool
-        Show a progress bar.
-    **keywords
-        Deprecated spelling, kept for earlier callers: the fields of :class:`SynthOptions` as
-        keywords (``generate_scene(out, seed=1, seconds=2)``). Not together with ``options``.
+    The folder is built beside ``out`` and put in its place at the end
+    (:class:`data_schema.tables.atomic_folder`): a scene folder already there is replaced as a
+    whole, and an interrupted run leaves it as it was.
 
-    Returns
-    -------
-    pathlib.Path
-        ``out``.
+    ``cameras``: kinds from {'pinhole', 'ftheta'} (camera names 'front', 'front_wide');
+    ``size (W, H)`` pixels; ``offsets`` lateral metres (left > 0), or ``perturbations``
+    ``(K, 6)`` ``(dx, dy, dz, roll, pitch, yaw)`` (metres, degrees), which replace them.
+    ``methods``: None (one unnamed method), or ``[(name, scale), ...]``
+    (:func:`data_schema.methods.check_method_scales`): every view is rendered once per method, its
+    artefact severity times ``scale`` (so a smaller scale is a better method).
     """
     o = options_or_keywords(SynthOptions, options, keywords, who="generate_scene")
     seed, seconds, fps, methods = o.seed, o.seconds, o.fps, o.methods
@@ -457,6 +450,7 @@ def generate_scene(out: Path, options: SynthOptions | None = None, *, progress: 
         raise InputError(param="seed", expected="a non-negative integer", got=seed)
     out = Path(out)
     clip = _build_clip(int(seed), seconds, fps, cam_names, (W, H))
-    image_rows, deg_rows = _render_all(clip, views, methods, out, progress)
-    _write_tables(clip, views, out, image_rows, deg_rows)
+    with atomic_folder(out) as tmp:  # whole or nothing: no file of a scene already at ``out`` stays
+        image_rows, deg_rows = _render_all(clip, views, methods, tmp, progress)
+        _write_tables(clip, views, tmp, image_rows, deg_rows)
     return out

@@ -678,32 +678,64 @@ def _(world, tmp):
     return "annotate", ["add-rater", str(st), "ann", "--host", "0.0.0.0"], ["--host", "loopback"]
 
 
-# --- issue 34 / 38 (scoring plan): unknown metric spellings, every corrupt image at once ---------
+# ------------------------------------------- outputs and importers (issue 38 items 1, 3, 12; issue 34 item 5)
 
-@case("arguments", "score --metrics lpips names pyiqa:lpips")
+def _marked(tmp: Path, name: str, command: str) -> Path:
+    from data_schema.outputs import mark_report
+
+    (tmp / name).mkdir()
+    mark_report(tmp / name, command=command)
+    (tmp / name / "stability.csv").write_text("metric\npsnr\n")
+    return tmp / name
+
+
+@case("outputs", "analyze --out a stability report folder")
 def _(world, tmp):
-    return "nvrq", ["score", str(world / "toy" / "pairs.csv"), "--metrics", "lpips", "--out",
-                    str(tmp / "m.csv")], ["--metrics", "lpips", "did you mean pyiqa:lpips?"]
+    st = _marked(tmp, "stab", "stability")
+    return "analyze", [str(world / "ratings.csv"), "--out", str(st), "--bootstrap", "0"], \
+        ["--out", "a report folder of stability's"]
 
 
-@case("arguments", "score --metrics PSNR names psnr")
+@case("outputs", "stability --out an analyze report folder")
 def _(world, tmp):
-    return "nvrq", ["score", str(world / "toy" / "pairs.csv"), "--metrics", "ssim,PSNR", "--out",
-                    str(tmp / "m.csv")], ["--metrics", "PSNR", "did you mean psnr?"]
+    rep = _marked(tmp, "rep", "analyze")
+    return "nvrq", ["stability", str(world / "toy" / "pairs.csv"), "--metrics", "psnr", "--out", str(rep)], \
+        ["--out", "a report folder of analyze's"]
 
 
-@case("pairs", "score: two corrupt render images, both named with a count")
+@case("outputs", "import drivestudio OUT is its input folder")
 def _(world, tmp):
-    import shutil
+    (tmp / "ds" / "images").mkdir(parents=True)
+    return "nvrq", ["import", "drivestudio", str(tmp / "ds"), str(tmp / "ds")], ["OUT", "not an input"]
 
-    scene = tmp / "scene"
-    shutil.copytree(world / "toy" / "scene", scene)
-    p = copy_into(world, "toy/pairs.csv", tmp)
-    renders = sorted(set(pd.read_csv(p)["render_path"]))[:2]
-    (scene / renders[0]).write_bytes(b"not an image")
-    (scene / renders[1]).write_bytes(b"")
-    return "nvrq", ["score", str(p), "--scene", str(scene), "--metrics", "psnr", "--out", str(tmp / "m.csv"),
-                    "--quiet"], ["pairs.csv", "2 unreadable images", Path(renders[0]).name, Path(renders[1]).name]
+
+def _synth_with_renders(tmp: Path) -> Path:
+    from nvrq.cli import main
+
+    assert main(["synth", str(tmp / "scene"), "--seconds", "1", "--fps", "1", "--size", "96x54", "--offsets", "1",
+                 "--quiet"]) == 0
+    return tmp / "scene"
+
+
+@case("arguments", "import renders over a method's renders without --replace")
+def _(world, tmp):
+    import cv2
+
+    from nvrq.render_plans import render_plan
+
+    scene = _synth_with_renders(tmp)
+    for p in render_plan(scene).paths:
+        (tmp / "r" / p).parent.mkdir(parents=True, exist_ok=True)
+        cv2.imwrite(str(tmp / "r" / p), 255 - cv2.imread(str(scene / p)))
+    return "nvrq", ["import", "renders", str(scene), str(tmp / "r")], ["--replace", "1 render file that would change"]
+
+
+@case("inputs", "import renders --layout order missing 00000.png")
+def _(world, tmp):
+    scene = _synth_with_renders(tmp)
+    (tmp / "r").mkdir()
+    return "nvrq", ["import", "renders", str(scene), str(tmp / "r"), "--layout", "order", "--allow-missing"], \
+        ["1 missing", "first missing: 00000.png (for images/front/render_+1.00/0.png)"]
 
 
 @pytest.mark.parametrize("name", sorted(CASES))
@@ -736,52 +768,16 @@ def test_world_untouched(world):
     assert snapshot(world) == json.loads((world.parent / f"{world.name}.hashes.json").read_text())
 
 
-# ---------------------------------------------------------------- issue 38 items 7-9 (messages)
-# 7: a list that starts with a minus sign is a value, checked by the command as `3,abc` is
-# (argparse said "expected one argument"); 8: a missing --metrics-table (or --pairs) is said to
-# be missing, not to have "no suffix"; 9: the all-pairs analysis without --target names --target.
 
-MESSAGE_CASES = [
-    ("synth --offsets -3,abc", "nvrq", ["synth", "{tmp}/s", "--offsets", "-3,abc"],
-     ["--offsets", "comma list", "got -3,abc"]),
-    ("render-plan --offsets -3,abc", "nvrq", ["render-plan", "{world}/scene", "--out", "{tmp}/plan.csv",
-                                              "--offsets", "-3,abc"], ["--offsets", "comma list", "got -3,abc"]),
-    ("demo --offsets -3,abc", "nvrq", ["demo", "{tmp}/d", "--offsets", "-3,abc"],
-     ["--offsets", "comma list", "got -3,abc"]),
-    ("build --offsets -3,abc", "annotate", ["build", "{tmp}/st", "--pairs", "{world}/toy/pairs.csv", "--scene",
-                                            "{world}/toy/scene", "--offsets", "-3,abc"], ["--offsets", "-3,abc"]),
-    ("analyze --lower-better -a,b", "analyze", ["{world}/ratings.csv", "--lower-better", "-a,b",
-                                                "--bootstrap", "0", "--out", "{tmp}/r", "--quiet"], ["-a"]),
-    ("analyze --metrics-table missing, no suffix", "analyze", [
-        "{world}/ratings.csv", "--metrics-table", "{tmp}/metrics", "--out", "{tmp}/r", "--quiet"],
-     ["metrics", "an existing metrics table", "no such file"]),
-    ("analyze --metrics-table missing .csv", "analyze", [
-        "{world}/ratings.csv", "--metrics-table", "{tmp}/m.csv", "--out", "{tmp}/r", "--quiet"],
-     ["m.csv", "an existing metrics table", "no such file"]),
-    ("analyze --pairs missing, no suffix", "analyze", ["--pairs", "{tmp}/pairs", "--target", "psnr",
-                                                       "--out", "{tmp}/r", "--quiet"],
-     ["pairs", "an existing pairs table", "no such file"]),
-    ("analyze --pairs --metrics-table without --target", "analyze", [
-        "--pairs", "{world}/toy/pairs.csv", "--metrics-table", "{world}/metrics.csv", "--bootstrap", "0",
-        "--out", "{tmp}/r", "--quiet"], ["--target"]),
-    # before any input is read (a missing --target of a 30M-pair run is said at once)
-    ("analyze --pairs --metrics-table without --target, inputs not read", "analyze", [
-        "--pairs", "{tmp}/pairs.csv", "--metrics-table", "{tmp}/metrics.csv", "--out", "{tmp}/r", "--quiet"],
-     ["--target", "unless the methods are compared"]),
-]
+def test_analyze_replacing_a_report_from_other_inputs_prints_a_note(world, tmp_path, capfd):
+    # issue 38 item 2 (our choice, docs/FORMATS.md §7): a note naming what changed, not --force
+    from analysis.cli import main
 
-
-def _message_case(world, tmp, *, prog, argv, fragments):
-    return prog, [a.format(tmp=tmp, world=world) for a in argv], fragments
-
-
-for _n, _prog, _argv, _f in MESSAGE_CASES:
-    case("messages", _n)(functools.partial(_message_case, prog=_prog, argv=_argv, fragments=_f))
-
-_MESSAGE_NAMES = sorted(n for n in CASES if n.startswith("messages/"))
-
-
-@pytest.mark.parametrize("name", _MESSAGE_NAMES)
-def test_message_cases(name, world, tmp_path, capfd):
-    """The cases above (registered after ``test_malformed_input`` was parametrized), checked by it."""
-    test_malformed_input(name, world, tmp_path, capfd)
+    argv = [str(world / "ratings.csv"), "--out", str(tmp_path / "rep"), "--bootstrap", "0", "--quiet"]
+    assert main(argv) == 0
+    assert main(argv) == 0  # the same inputs: no note
+    assert "note: replacing" not in capfd.readouterr().err
+    assert main([*argv, "--metrics-table", str(world / "metrics.csv")]) == 0
+    err = capfd.readouterr().err
+    assert f"note: replacing the report {tmp_path / 'rep'} made by analyze from other inputs: " \
+           f"--metrics-table added ({world / 'metrics.csv'})" in err

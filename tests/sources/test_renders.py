@@ -233,3 +233,43 @@ def test_order_layout_names(one, tmp_path, capsys):
     shutil.copy(renders / "00000.png", renders / "00000.jpeg")
     assert main(["import", "renders", str(scene), str(renders), "--layout", "order"]) == 2
     assert "one file per plan row, got 00000.jpeg and 00000.png" in capsys.readouterr().err
+
+
+def test_reimporting_other_files_needs_replace_and_says_how_many_changed(one, tmp_path, capsys):
+    # issue 38 item 3: the scene's renders are on disk; a second import of other files would make
+    # the pairs and metrics made from them stale: refused without --replace, counted with it
+    scene, ref = one
+    images = (scene / "images.csv").read_bytes()
+    plan = render_plan(scene)
+    before = {p: (scene / p).read_bytes() for p in plan.paths}
+    new = tmp_path / "new"
+    for i, p in enumerate(plan.paths):
+        (new / p).parent.mkdir(parents=True, exist_ok=True)
+        img = cv2.imread(str(scene / p))
+        if i in (2, 5):  # two renders change, the other six are the same bytes
+            img = 255 - img
+        cv2.imwrite(str(new / p), img) if i in (2, 5) else shutil.copyfile(scene / p, new / p)
+    capsys.readouterr()
+    argv = ["import", "renders", str(scene), str(new)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--replace" in err and "2 render files that would change" in err
+    assert {p: (scene / p).read_bytes() for p in plan.paths} == before  # nothing changed
+    assert (scene / "images.csv").read_bytes() == images
+    assert main([*argv, "--replace"]) == 0
+    assert "replaced: 2 render files changed" in capsys.readouterr().out
+    assert (scene / plan.paths[2]).read_bytes() == (new / plan.paths[2]).read_bytes()
+    # the same files again change nothing: no --replace needed, nothing counted
+    assert main(argv) == 0
+    assert "replaced" not in capsys.readouterr().out
+
+
+def test_order_layout_names_the_missing_file_to_supply(one, tmp_path, capsys):
+    # issue 38 item 12: the user supplies 00003.png; the message names it (and the plan path)
+    scene, _ = one
+    paths = _move_out(scene, tmp_path / "renders", layout="order")
+    (tmp_path / "renders" / "00003.png").unlink()
+    capsys.readouterr()
+    assert main(["import", "renders", str(scene), str(tmp_path / "renders"), "--layout", "order"]) == 2
+    err = capsys.readouterr().err
+    assert f"first missing: 00003.png (for {paths[3]})" in err

@@ -1,0 +1,130 @@
+"""The shape every importer shares (nvrq layer): read a source, return an :class:`ImportedScene`.
+
+An importer is one module holding an object that follows :class:`Importer`: its ``read(args)``
+takes the parsed arguments of its ``nvrq import NAME`` subcommand and returns the typed scene
+(:class:`data_schema.scene_writer.NewScene`: cameras, frames, tracks) and the views to plan.
+:func:`write_imported` hands both to the one writer, :func:`data_schema.scene_writer.write_scene`,
+which checks what it writes and writes the folder whole and atomically. The subcommand itself is
+one :class:`nvrq.commands.imports.ImporterCommand` registration, which also names the arguments
+that are inputs (so ``nvrq`` refuses an output over them before any work).
+
+>>> imported = ImportedScene(NewScene("c", {}, np.zeros(0, np.int64), np.zeros((0, 4, 4)), [], []),
+...                          views=np.zeros((1, 6)))
+>>> describe(imported)
+'0 frames x 0 cameras, 0 tracks'
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from data_schema.scene_writer import NewScene, scene_images, write_scene
+from data_schema.text import plural
+from nvrq.render_plans import default_image_path
+
+__all__ = ["Importer", "ImportedScene", "plan_render_path", "write_imported", "describe"]
+
+
+def plan_render_path(camera: str, timestamp_us: int, view: np.ndarray) -> str:
+    """The render path of a view, :func:`nvrq.render_plans.default_image_path`'s layout.
+
+    Parameters
+    ----------
+    camera : str
+        The camera name.
+    timestamp_us : int
+        The frame time, microseconds.
+    view : numpy.ndarray, (6,)
+        ``dx, dy, dz`` metres, ``roll, pitch, yaw`` degrees (a lateral view by its ``dy`` alone).
+
+    Returns
+    -------
+    str
+        e.g. ``images/front/render_+1.00/100000.png``.
+    """
+    return default_image_path(camera, timestamp_us, "render", float(view[1]), perturbation=view)
+
+
+@dataclass(frozen=True)
+class ImportedScene:
+    """What an importer returns: the ``scene``, the ``views (K, 6)`` to plan (rig frame, metres and
+    degrees), whether its frames are ``link``-ed rather than copied, one-line ``notes`` for the
+    user, a ``detail`` for the closing line (e.g. the dataset) and, when the renders are not at
+    :func:`plan_render_path`, the ``render_path(camera, timestamp_us, view)`` to list them at."""
+
+    scene: NewScene
+    views: np.ndarray
+    link: bool = False
+    notes: tuple[str, ...] = ()
+    detail: str = ""
+    render_path: Callable | None = None
+
+
+@runtime_checkable
+class Importer(Protocol):
+    """An importer: ``read(args)`` turns the parsed arguments of its subcommand (an
+    :class:`argparse.Namespace`) into an :class:`ImportedScene`, checking everything it reads
+    and raising :class:`~data_schema.errors.InputError` (one line) on a bad source."""
+
+    def read(self, args) -> ImportedScene:
+        """Read and check the source.
+
+        Parameters
+        ----------
+        args : argparse.Namespace
+            The subcommand's parsed arguments.
+
+        Returns
+        -------
+        ImportedScene
+            The scene and the views to plan.
+        """
+        ...
+
+
+def write_imported(imported: ImportedScene, out: str | os.PathLike) -> Path:
+    """Write ``imported`` as the scene folder ``out`` through the one writer.
+
+    Parameters
+    ----------
+    imported : ImportedScene
+        What an importer read.
+    out : str or os.PathLike
+        The scene folder (replaced whole, atomically; nothing written on an error).
+
+    Returns
+    -------
+    pathlib.Path
+        ``out``.
+    """
+    images = scene_images(imported.scene, imported.views, imported.render_path or plan_render_path)
+    return write_scene(imported.scene, out, images=images, link=imported.link)
+
+
+def describe(imported: ImportedScene) -> str:
+    """``'[DETAIL: ]F frames x C cameras, T tracks'``, with singular nouns for one.
+
+    Parameters
+    ----------
+    imported : ImportedScene
+        What an importer read.
+
+    Returns
+    -------
+    str
+        The summary printed after ``wrote OUT``.
+    """
+    scene = imported.scene
+    n_frames = len({f.timestamp_us for f in scene.frames}) if scene.cameras else 0
+    if scene.cameras:
+        per_cam = [sum(f.camera == c for f in scene.frames) for c in scene.cameras]
+        n_frames = max(per_cam)
+    text = f"{plural(n_frames, 'frame')} x {plural(len(scene.cameras), 'camera')}, " \
+           f"{plural(len(scene.tracks), 'track')}"
+    return f"{imported.detail}: {text}" if imported.detail else text
