@@ -28,7 +28,7 @@ from analysis.pipeline import Analysis
 from analysis.summary import binary_label
 from analysis.text import fmt as _fmt
 from analysis.text import interval_text, screening_text
-from annotate.screening import ScreenRule
+from annotate.screening import EXACT_J_MAX_N, ScreenRule
 from data_schema.outputs import check_output_folder, mark_report
 from data_schema.tables import atomic_folder, write_table
 
@@ -192,7 +192,7 @@ def _rater_texts(a: Analysis) -> dict:
         f"level {rule.alpha} each): exclude a rater whose "
         f"chance-corrected agreement with the leave-one-out consensus (Youden J = sensitivity + "
         f"specificity - 1, consensus by backward elimination) is significantly below "
-        f"{rule.min_j} (z-test, j_p) or who shows no skill (one-sided Fisher exact test of "
+        f"{rule.min_j} (j_p: exact test up to {EXACT_J_MAX_N} compared items, z-test above) or who shows no skill (one-sided Fisher exact test of "
         f"votes against consensus labels, skill_p >= {rule.skill_alpha}, with >= "
         f"{rule.min_class_votes} items per consensus class), whose gold failure rate is "
         f"significantly above {rule.max_gold_failure_rate} or repeat consistency significantly "
