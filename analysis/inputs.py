@@ -25,6 +25,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from data_schema.csv_safe import unquote_frame
 from data_schema.errors import InputError
 from data_schema.methods import METHOD_COLUMN
 from data_schema.perturbation import VIEW_COLUMNS
@@ -91,6 +92,7 @@ def read_ratings(path) -> pd.DataFrame:
     )
     if len(df) == 0:
         raise InputError(path, None, "at least one vote row", "no rows")
+    df = unquote_frame(df)  # cells annotate export quoted against spreadsheet formulas
     vote = pd.to_numeric(df["vote"], errors="coerce")
     bad = ~vote.isin([0, 1])
     if bad.any():

@@ -21,7 +21,7 @@ from analysis.plots import VIEW_AXIS_LABELS
 from analysis.report import render_pages, write_report_folder
 from analysis.text import interval_text, offset_text, screening_text
 from annotate.screening import ScreenRule
-from data_schema.tables import write_table
+from data_schema.csv_safe import write_people_table as write_table
 
 __all__ = ["write_pairwise_report", "bt_display", "win_prob_plot", "agreement_plot"]
 

@@ -26,11 +26,12 @@ from analysis.axes import axis_tent_plots
 from analysis.noninferiority import recommend_from_tables
 from analysis.pipeline import Analysis
 from analysis.summary import binary_label
+from analysis.text import MdText, interval_text, md_escape, screening_text
 from analysis.text import fmt as _fmt
-from analysis.text import interval_text, screening_text
 from annotate.screening import EXACT_J_MAX_N, ScreenRule
+from data_schema.csv_safe import write_people_table as write_table
 from data_schema.outputs import check_output_folder, mark_report
-from data_schema.tables import atomic_folder, write_table
+from data_schema.tables import atomic_folder
 
 __all__ = ["write_report", "write_report_folder", "render_pages", "summary_display"]
 
@@ -110,8 +111,8 @@ def _html_table(df: pd.DataFrame, *, best_col: str | None = None) -> str:
     return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
 
 
-def _md_table(df: pd.DataFrame) -> str:
-    esc = lambda s: s.replace("|", "\\|")  # noqa: E731
+def _md_table(df: pd.DataFrame) -> MdText:
+    esc = lambda s: md_escape(s, cell=True)  # noqa: E731
     lines = [
         "| " + " | ".join(esc(str(c)) for c in df.columns) + " |",
         "|" + "|".join("---" for _ in df.columns) + "|",
@@ -119,7 +120,7 @@ def _md_table(df: pd.DataFrame) -> str:
     lines += [
         "| " + " | ".join(esc(_fmt(v)) for v in row) + " |" for row in df.itertuples(index=False)
     ]
-    return "\n".join(lines)
+    return MdText("\n".join(lines))
 
 
 def _category_wide(cat: pd.DataFrame, breakdown: str) -> pd.DataFrame:
@@ -354,19 +355,25 @@ def _html_page_table(df: pd.DataFrame, *, best_col: str | None = None) -> Markup
     return Markup(_html_table(df, best_col=best_col))
 
 
-def _md_page_table(df: pd.DataFrame, *, best_col: str | None = None) -> str:
+def _md_page_table(df: pd.DataFrame, *, best_col: str | None = None) -> MdText:
     return _md_table(df if best_col is None else df.drop(columns=[best_col]))
+
+
+def _md_finalize(v):
+    return md_escape(v) if isinstance(v, str) else v
 
 
 def render_pages(d: Path, template: str, context) -> None:
     """Render ``templates/TEMPLATE.html.j2`` to ``d/report.html`` (HTML-escaped) and
     ``templates/TEMPLATE.md.j2`` to ``d/report.md``; ``context(table=...)`` gives each page's
     variables, its tables rendered by ``table(df, best_col=None)`` (an HTML table, the rows
-    where ``best_col`` is true marked, or a Markdown table without that column)."""
+    where ``best_col`` is true marked, or a Markdown table without that column). Every text
+    the Markdown page prints is escaped (:func:`analysis.text.md_escape`) but its own tables."""
     templates = Path(__file__).parent / "templates"
     for suffix, out, escape, table in ((".html.j2", "report.html", True, _html_page_table),
                                        (".md.j2", "report.md", False, _md_page_table)):
-        env = Environment(loader=FileSystemLoader(templates), autoescape=escape, keep_trailing_newline=not escape)
+        env = Environment(loader=FileSystemLoader(templates), autoescape=escape, keep_trailing_newline=not escape,
+                          finalize=None if escape else _md_finalize)
         page = env.get_template(template + suffix).render(**context(table=table))
         (d / out).write_text(page, encoding="utf-8")
 

@@ -11,10 +11,52 @@ raters were left out and why (:func:`screening_text`, also printed by ``analyze`
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pandas as pd
 
-__all__ = ["fmt", "interval_text", "offset_text", "screening_text", "no_votes_left"]
+__all__ = ["fmt", "interval_text", "offset_text", "screening_text", "no_votes_left", "md_escape",
+           "MdText"]
+
+# what makes Markdown run or link data: a backslash (it would undo an escape), "<" before what
+# starts raw HTML or an autolink, and "](" of a link or image
+_MD_ACTIVE = re.compile(r"\\|<(?=[A-Za-z/!?])|\]\(")
+
+
+class MdText(str):
+    """Markdown the report made itself (a rendered table): :func:`md_escape` leaves it as is."""
+
+
+def md_escape(text: str, *, cell: bool = False) -> str:
+    """``text`` made inert in Markdown: shown as written, never run as HTML nor made a link.
+
+    A backslash is doubled, ``<`` before a letter, ``/``, ``!`` or ``?`` (raw HTML, an
+    autolink) and ``](`` (a link or image) are backslash-escaped. With ``cell``, for a
+    Markdown table cell, ``|`` is escaped too and line breaks become spaces. :class:`MdText`
+    is returned unchanged.
+
+    Parameters
+    ----------
+    text : str
+        Text that may carry data (names, values, paths).
+    cell : bool
+        The text goes in a Markdown table cell.
+
+    Returns
+    -------
+    str
+        The escaped text; renders as ``text`` itself.
+
+    >>> md_escape('<img src=x onerror=alert(1)> p < 0.01')
+    '\\\\<img src=x onerror=alert(1)> p < 0.01'
+    >>> md_escape("[a](javascript:x) | b", cell=True)
+    '[a\\\\](javascript:x) \\\\| b'
+    """
+    if isinstance(text, MdText):
+        return text
+    out = _MD_ACTIVE.sub(lambda m: "\\" + m.group(0), text)
+    return out.replace("|", "\\|").replace("\r", " ").replace("\n", " ") if cell else out
 
 
 def fmt(v, digits: int = 3) -> str:
