@@ -347,8 +347,9 @@ def run_analysis(
     summary = summary_table(items, metrics, directions, target=tgt, clusters=clusters,
                             n_boot=n_boot, seed=seed, rank_by=rank_by, progress=progress)
     ceiling = _ceiling(kept, summary, tgt, seed=seed)
-    categories = breakdowns.category_table(items, metrics, by=["label_class"] + attributes,
-                                           target=tgt, progress=progress)
+    by_cols, skipped = breakdowns.breakdown_columns(items, attributes)
+    notes += [skipped] if skipped else []
+    categories = breakdowns.category_table(items, metrics, by=by_cols, target=tgt, progress=progress)
     by_offset, by_axis = axes.view_tables(items, [tgt] + metrics, by="label_class")
     return Analysis(
         ratings_path=str(ratings_path), target=tgt, items=items, metrics=metrics,
