@@ -27,7 +27,23 @@ __all__ = ["write_pairwise_report", "bt_display", "win_prob_plot", "agreement_pl
 
 
 def bt_display(bt: pd.DataFrame, axis: str = "all") -> pd.DataFrame:
-    """The Bradley-Terry rows of one view axis as strings, best first within each view."""
+    """The Bradley-Terry rows of one view axis as strings, best first within each view.
+
+    With two methods the strengths (summing to 1) are the win probabilities themselves, so
+    the ``BT score`` column, a repeat of ``win probability``, is left out.
+
+    Parameters
+    ----------
+    bt : pandas.DataFrame
+        ``bradley_terry.csv`` (:data:`analysis.pairwise.BT_COLUMNS`).
+    axis : str
+        ``all`` (the pooled rows) or a view axis.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per (view, method), text cells.
+    """
     t = bt[bt["axis"] == axis].copy()
     t["_view"] = t["offset"].fillna(0.0)
     t = t.sort_values(["_view", "score"], ascending=[True, False], kind="stable")
@@ -38,7 +54,8 @@ def bt_display(bt: pd.DataFrame, axis: str = "all") -> pd.DataFrame:
                      "win probability": interval_text(r.win_prob, r.win_prob_ci_lo, r.win_prob_ci_hi),
                      "BT score": interval_text(r.score, r.score_ci_lo, r.score_ci_hi),
                      "reason": r.reason if isinstance(r.reason, str) else ""})
-    return pd.DataFrame(rows)
+    out = pd.DataFrame(rows)
+    return out.drop(columns="BT score") if bt["method"].nunique() == 2 and len(out) else out
 
 
 def win_prob_plot(bt: pd.DataFrame, methods: list[str]) -> Figure | None:
@@ -113,7 +130,8 @@ def _texts(a: PairwiseAnalysis) -> dict:
     bt_text = ("Bradley-Terry strengths (sum 1; P(i preferred to j) = p_i / (p_i + p_j)) fitted by "
                "maximum likelihood (MM algorithm, Hunter 2004) to the test votes; a \"can't tell\" "
                "counts half a win for each side. Win probability: the mean of P(i preferred to j) "
-               "over the other methods. " + boot)
+               "over the other methods" + (" (with two methods it is the Bradley-Terry strength "
+               "itself, so the table shows it once)" if len(a.methods) == 2 else "") + ". " + boot)
     agree_text = ("2AFC agreement (as in the BAPPS evaluation of LPIPS): per test vote, 1 when the "
                   "rater chose the render the metric scores better, 0 for the other, 0.5 when the "
                   "rater or the metric ties; each side's value is the metric of that method's pair. "

@@ -94,7 +94,7 @@ def summary_display(a: Analysis, *, with_ci: bool = True) -> pd.DataFrame:
                 "plcc_logistic": _fmt(r["plcc_logistic"]),
                 "srcc / ceiling": _of_ceiling(r),
                 "vs best": vs,
-                "reason": r["reason"] or "",
+                "reason": r["reason"] if isinstance(r["reason"], str) else "",
             }
         )
     cols = _DISPLAY if with_ci else [c for c in _DISPLAY if c != "srcc / ceiling"]
@@ -330,6 +330,10 @@ def _write_tables(a: Analysis, d: Path) -> None:
             write_table(table, d / f"{name}.csv")
 
 
+#: What the report's header calls its input: votes, or a pairs table without votes (--pairs).
+INPUT_LABEL = {"ratings": "Ratings", "pairs": "Pairs (no votes; analyze --pairs)"}
+
+
 def _context(a: Analysis, t: dict, figs: list[dict], *, table) -> dict:
     """What both templates show; ``table`` renders a DataFrame for the page (:func:`render_pages`)."""
     disp = summary_display(a).assign(_best=a.summary["best"].to_numpy(bool))
@@ -339,6 +343,7 @@ def _context(a: Analysis, t: dict, figs: list[dict], *, table) -> dict:
     return {
         "title": Path(a.ratings_path).name,
         "ratings": a.ratings_path,
+        "input_label": INPUT_LABEL[a.source],
         "counts": a.counts,
         "figures": figs,
         "summary_table": table(disp, best_col="_best") if a.target is not None else "",

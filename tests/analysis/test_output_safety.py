@@ -39,6 +39,7 @@ def _cells(path):
         return list(csv.reader(f))
 
 
+@pytest.mark.filterwarnings("error")  # issue 38 item 23: analyze prints no warning either
 def test_report_md_escapes_html_and_links_and_csvs_quote_formulas(tmp_path):
     out = _hostile(tmp_path, quoted=False)
     md = (out / "report.md").read_text()
