@@ -18,7 +18,7 @@ from matplotlib.figure import Figure
 from analysis import plots
 from analysis.pairwise import CEILING_ROW, PairwiseAnalysis
 from analysis.plots import VIEW_AXIS_LABELS
-from analysis.report import render_pages, write_report_folder
+from analysis.report import rater_display, render_pages, write_report_folder
 from analysis.text import interval_text, offset_text, screening_text
 from annotate.screening import ScreenRule
 from data_schema.csv_safe import write_people_table as write_table
@@ -172,7 +172,7 @@ def _context(a: PairwiseAnalysis, figs, *, table) -> dict:
     return {"title": Path(a.votes_path).name, "votes": a.votes_path, "counts": a.counts,
             "methods": ", ".join(a.methods), "figures": figs, "notes": a.notes,
             "bt_table": table(bt_display(a.bradley_terry)), "bt_views": views,
-            "agreement_table": table(a.agreement), "raters_table": table(a.raters), **_texts(a)}
+            "agreement_table": table(a.agreement), "raters_table": table(rater_display(a.raters)), **_texts(a)}
 
 
 def _build(a: PairwiseAnalysis, d: Path) -> None:

@@ -26,14 +26,14 @@ from analysis.axes import axis_tent_plots
 from analysis.noninferiority import recommend_from_tables
 from analysis.pipeline import Analysis
 from analysis.summary import binary_label
-from analysis.text import MdText, interval_text, md_escape, screening_text
+from analysis.text import MdText, cell_text, interval_text, md_escape, screening_text
 from analysis.text import fmt as _fmt
 from annotate.screening import EXACT_J_MAX_N, ScreenRule
 from data_schema.csv_safe import write_people_table as write_table
 from data_schema.outputs import check_output_folder, mark_report
 from data_schema.tables import atomic_folder
 
-__all__ = ["write_report", "write_report_folder", "render_pages", "summary_display"]
+__all__ = ["write_report", "write_report_folder", "render_pages", "summary_display", "rater_display"]
 
 _DISPLAY = [
     "metric",
@@ -106,9 +106,11 @@ def _html_table(df: pd.DataFrame, *, best_col: str | None = None) -> str:
     body = []
     for _, r in df.iterrows():  # report tables are small (one row per metric/group/rater)
         cls = ' class="best"' if best_col and r[best_col] else ""
-        tds = "".join(f"<td>{html.escape(_fmt(r[c]))}</td>" for c in df.columns if c != best_col)
+        tds = "".join(f"<td>{html.escape(cell_text(r[c], c))}</td>" for c in df.columns if c != best_col)
         body.append(f"<tr{cls}>{tds}</tr>")
-    return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
+    # a wide table scrolls inside its own box: the page keeps the window's width
+    return (f'<div class="scroll"><table><thead><tr>{head}</tr></thead>'
+            f"<tbody>{''.join(body)}</tbody></table></div>")
 
 
 def _md_table(df: pd.DataFrame) -> MdText:
@@ -118,7 +120,8 @@ def _md_table(df: pd.DataFrame) -> MdText:
         "|" + "|".join("---" for _ in df.columns) + "|",
     ]
     lines += [
-        "| " + " | ".join(esc(_fmt(v)) for v in row) + " |" for row in df.itertuples(index=False)
+        "| " + " | ".join(esc(cell_text(v, c)) for v, c in zip(row, df.columns, strict=True)) + " |"
+        for row in df.itertuples(index=False)
     ]
     return MdText("\n".join(lines))
 
@@ -334,10 +337,33 @@ def _write_tables(a: Analysis, d: Path) -> None:
 INPUT_LABEL = {"ratings": "Ratings", "pairs": "Pairs (no votes; analyze --pairs)"}
 
 
+def rater_display(raters: pd.DataFrame) -> pd.DataFrame:
+    """The raters table for a page: a rater excluded by screening has its flags in
+    ``excluded_reason`` (``screening: FLAGS``), so ``flags`` is left empty there instead of
+    printing the same text twice.
+
+    Parameters
+    ----------
+    raters : pandas.DataFrame
+        Screened raters (:func:`annotate.screening.screen`), any subset of its columns.
+
+    Returns
+    -------
+    pandas.DataFrame
+        A copy, ``flags`` blank where ``excluded_reason`` already carries them.
+    """
+    if not {"flags", "excluded_reason"} <= set(raters.columns):
+        return raters
+    flags = raters["flags"].fillna("").astype(str)
+    reason = raters["excluded_reason"].fillna("").astype(str)
+    said = [bool(f) and f"screening: {f}" in r for f, r in zip(flags, reason, strict=True)]
+    return raters.assign(flags=flags.where(~pd.Series(said, index=raters.index), ""))
+
+
 def _context(a: Analysis, t: dict, figs: list[dict], *, table) -> dict:
     """What both templates show; ``table`` renders a DataFrame for the page (:func:`render_pages`)."""
     disp = summary_display(a).assign(_best=a.summary["best"].to_numpy(bool))
-    raters = a.raters[[c for c in _RATER_COLS if c in a.raters.columns]]
+    raters = rater_display(a.raters[[c for c in _RATER_COLS if c in a.raters.columns]])
     opt = {"encoders": a.encoders if len(a.encoders) else None, "stability": a.stability,
            "snr": a.snr, "comparison": a.comparison["table"] if a.comparison else None}
     return {
