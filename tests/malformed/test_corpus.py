@@ -676,6 +676,29 @@ def _(world, tmp):
     st = _study(world, tmp)
     return "annotate", ["add-rater", str(st), "ann", "--host", "0.0.0.0"], ["--host", "loopback"]
 
+# ---------------------------------------------------------------- issue 38 items 16-38 (analysis)
+# A ratings cell quoted against spreadsheet formulas is read back without its quote, so a
+# quoted non-vote is still named as a bad vote; a quoted number keeps its quote and is refused.
+
+@case("ratings", "vote quoted formula '=1")
+def _(world, tmp):
+    r = _ratings(world, tmp, _col("vote", "'=1", [0]))
+    return "analyze", [str(r), "--out", str(tmp / "rep"), "--bootstrap", "0", "--quiet"], \
+        ["ratings.csv", "vote", "=1"]
+
+
+@case("ratings", "response_ms quoted number '-5")
+def _(world, tmp):
+    r = _ratings(world, tmp, _col("response_ms", "'-5", [0]))
+    return "analyze", [str(r), "--out", str(tmp / "rep"), "--bootstrap", "0", "--quiet"], \
+        ["ratings.csv", "response_ms"]
+
+
+@case("study", "export --raw-csv to a .txt")
+def _(world, tmp):
+    st = _study(world, tmp)
+    return "annotate", ["export", str(st), "--out", str(tmp / "r.txt"), "--raw-csv"], ["r.txt"]
+
 
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_malformed_input(name, world, tmp_path, capfd):
@@ -705,3 +728,4 @@ def test_corpus_size():
 def test_world_untouched(world):
     """No case wrote into the shared valid inputs it referred to (runs after the cases)."""
     assert snapshot(world) == json.loads((world.parent / f"{world.name}.hashes.json").read_text())
+
