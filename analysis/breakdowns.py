@@ -24,7 +24,13 @@ from tqdm import tqdm
 from analysis import stats
 from nvrq.metrics import split_column
 
-__all__ = ["category_table", "offset_table", "encoder_table", "MISSING_GROUP", "ALL_CLASSES"]
+__all__ = ["category_table", "offset_table", "encoder_table", "breakdown_columns", "MISSING_GROUP",
+           "ALL_CLASSES", "MAX_BREAKDOWNS", "MAX_GROUPS"]
+
+#: At most this many attribute columns get a breakdown (besides ``label_class``).
+MAX_BREAKDOWNS = 12
+#: An attribute column with more distinct values than this (an id, a free text) gets none.
+MAX_GROUPS = 20
 
 MISSING_GROUP = "(missing)"
 _CAT_COLUMNS = [
@@ -132,6 +138,58 @@ def category_table(
     if not frames:
         return pd.DataFrame(columns=_CAT_COLUMNS)
     return pd.concat(frames, ignore_index=True)[_CAT_COLUMNS]
+
+
+def breakdown_columns(items: pd.DataFrame, attributes: list[str]) -> tuple[list[str], str | None]:
+    """The columns ``analyze`` breaks the results down by, and a note on what it skipped.
+
+    ``label_class`` always; then, in column order, the first :data:`MAX_BREAKDOWNS` attribute
+    columns (the ratings' text columns that are not part of the contract) with at most
+    :data:`MAX_GROUPS` distinct values. A breakdown costs a table per metric, so a ratings file
+    with thousands of extra columns would otherwise take minutes; columns past the limit are
+    not even counted.
+
+    Parameters
+    ----------
+    items : pandas.DataFrame
+        One row per item, with the ``attributes`` columns.
+    attributes : list of str
+        The attribute columns, in the table's order.
+
+    Returns
+    -------
+    by : list of str
+        ``label_class`` and the chosen attributes.
+    note : str or None
+        For the report: which columns got no breakdown and why; ``None`` when none was skipped.
+
+    >>> t = pd.DataFrame({"label_class": ["car", "ped"], "day": ["a", "b"], "id": ["x", "y"]})
+    >>> breakdown_columns(t, ["day", "id"])
+    (['label_class', 'day', 'id'], None)
+    """
+    chosen, many = [], []
+    for i, col in enumerate(attributes):
+        if len(chosen) == MAX_BREAKDOWNS:
+            rest = attributes[i:]
+            break
+        (chosen if items[col].nunique(dropna=False) <= MAX_GROUPS else many).append(col)
+    else:
+        rest = []
+    if not many and not rest:
+        return ["label_class"] + chosen, None
+    parts = []
+    if many:
+        parts.append(f"{len(many)} with more than {MAX_GROUPS} values ({_names(many)})")
+    if rest:
+        parts.append(f"{len(rest)} past the first {MAX_BREAKDOWNS} ({_names(rest)})")
+    return ["label_class"] + chosen, (
+        f"Breakdowns by label_class and {len(chosen)} attribute columns; no breakdown for "
+        + " and ".join(parts) + ". Drop the columns you do not need from the ratings table, or "
+        "put the ones you do first.")
+
+
+def _names(cols: list[str], k: int = 5) -> str:
+    return ", ".join(cols[:k]) + (f", ... {len(cols) - k} more" if len(cols) > k else "")
 
 
 def _clips_per_group(codes, n_groups, clip_codes_all, ok):

@@ -27,6 +27,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from data_schema.csv_safe import unquote_frame
 from data_schema.errors import InputError
 from data_schema.methods import METHOD_COLUMN
 from data_schema.perturbation import VIEW_COLUMNS
@@ -73,6 +74,7 @@ def _check_vote_columns(df: pd.DataFrame, path) -> None:
     numeric (``vote`` and ``response_ms`` converted in place); errors name the file's line."""
     if len(df) == 0:
         raise InputError(path, None, "at least one vote row", "no rows")
+    df = unquote_frame(df)  # cells annotate export quoted against spreadsheet formulas
     vote = pd.to_numeric(df["vote"], errors="coerce")
     bad = ~vote.isin([0, 1])
     if bad.any():

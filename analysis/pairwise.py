@@ -55,6 +55,7 @@ from analysis.methods import METHOD_COLUMN, view_breakdowns
 from analysis.text import no_votes_left
 from annotate.results import pairwise_raters
 from annotate.screening import ScreenRule, agreement_tests, screen
+from data_schema.csv_safe import unquote_frame
 from data_schema.datasets import table_columns
 from data_schema.errors import InputError
 from data_schema.raters import SIM_PREFIX
@@ -149,6 +150,7 @@ def read_pairwise_votes(path) -> pd.DataFrame:
                                             "label_class")})
     if len(df) == 0:
         raise InputError(path, None, "at least one vote row", "no rows")
+    df = unquote_frame(df)  # cells annotate export quoted against spreadsheet formulas
     for col, allowed in (("choice", tuple(CHOICES)), ("kind", ITEM_KINDS)):
         bad = ~df[col].isin(allowed)
         if bad.any():

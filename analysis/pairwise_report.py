@@ -20,10 +20,10 @@ from matplotlib.figure import Figure
 from analysis import plots
 from analysis.pairwise import CEILING_ROW, PairwiseAnalysis
 from analysis.plots import VIEW_AXIS_LABELS
-from analysis.report import render_pages, write_report_folder
+from analysis.report import rater_display, render_pages, write_report_folder
 from analysis.text import interval_text, offset_text, screening_text
 from annotate.screening import ScreenRule
-from data_schema.tables import write_table
+from data_schema.csv_safe import write_people_table as write_table
 
 __all__ = ["write_pairwise_report", "bt_display", "win_prob_plot", "agreement_plot"]
 
@@ -31,16 +31,20 @@ __all__ = ["write_pairwise_report", "bt_display", "win_prob_plot", "agreement_pl
 def bt_display(bt: pd.DataFrame, axis: str = "all") -> pd.DataFrame:
     """The Bradley-Terry rows of one view axis as strings, best first within each view.
 
+    With two methods the strengths (summing to 1) are the win probabilities themselves, so
+    the ``BT score`` column, a repeat of ``win probability``, is left out.
+
     Parameters
     ----------
     bt : pandas.DataFrame
-        :func:`analysis.pairwise.bt_table`.
-    axis : str, optional
-        The view axis (``'all'``: every view together).
+        ``bradley_terry.csv`` (:data:`analysis.pairwise.BT_COLUMNS`).
+    axis : str
+        ``all`` (the pooled rows) or a view axis.
 
     Returns
     -------
     pandas.DataFrame
+        One row per (view, method), text cells.
     """
     t = bt[bt["axis"] == axis].copy()
     t["_view"] = t["offset"].fillna(0.0)
@@ -52,7 +56,8 @@ def bt_display(bt: pd.DataFrame, axis: str = "all") -> pd.DataFrame:
                      "win probability": interval_text(r.win_prob, r.win_prob_ci_lo, r.win_prob_ci_hi),
                      "BT score": interval_text(r.score, r.score_ci_lo, r.score_ci_hi),
                      "reason": r.reason if isinstance(r.reason, str) else ""})
-    return pd.DataFrame(rows)
+    out = pd.DataFrame(rows)
+    return out.drop(columns="BT score") if bt["method"].nunique() == 2 and len(out) else out
 
 
 def win_prob_plot(bt: pd.DataFrame, methods: list[str]) -> Figure | None:
@@ -149,7 +154,8 @@ def _texts(a: PairwiseAnalysis) -> dict:
     bt_text = ("Bradley-Terry strengths (sum 1; P(i preferred to j) = p_i / (p_i + p_j)) fitted by "
                "maximum likelihood (MM algorithm, Hunter 2004) to the test votes; a \"can't tell\" "
                "counts half a win for each side. Win probability: the mean of P(i preferred to j) "
-               "over the other methods. " + boot)
+               "over the other methods" + (" (with two methods it is the Bradley-Terry strength "
+               "itself, so the table shows it once)" if len(a.methods) == 2 else "") + ". " + boot)
     agree_text = ("2AFC agreement (as in the BAPPS evaluation of LPIPS): per test vote, 1 when the "
                   "rater chose the render the metric scores better, 0 for the other, 0.5 when the "
                   "rater or the metric ties; each side's value is the metric of that method's pair. "
@@ -190,7 +196,7 @@ def _context(a: PairwiseAnalysis, figs, *, table) -> dict:
     return {"title": Path(a.votes_path).name, "votes": a.votes_path, "counts": a.counts,
             "methods": ", ".join(a.methods), "figures": figs, "notes": a.notes,
             "bt_table": table(bt_display(a.bradley_terry)), "bt_views": views,
-            "agreement_table": table(a.agreement), "raters_table": table(a.raters), **_texts(a)}
+            "agreement_table": table(a.agreement), "raters_table": table(rater_display(a.raters)), **_texts(a)}
 
 
 def _build(a: PairwiseAnalysis, d: Path) -> None:

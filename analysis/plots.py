@@ -168,7 +168,10 @@ def tent_plot(
         m = t["mean"].to_numpy(float)
         s = np.nan_to_num(t["std"].to_numpy(float))
         color = "black" if i == 0 else f"C{(i - 1) % 10}"
-        ax.fill_between(x, m - s, m + s, color=color, alpha=0.2, linewidth=0)
+        lo, hi = m - s, m + s
+        if i == 0 and np.nanmin(m, initial=0) >= 0 and np.nanmax(m, initial=1) <= 1:
+            lo, hi = np.clip(lo, 0, 1), np.clip(hi, 0, 1)  # a share (GVF): the band stays in [0, 1]
+        ax.fill_between(x, lo, hi, color=color, alpha=0.2, linewidth=0)
         ax.plot(x, m, "o-", color=color, markersize=3)
         if i == 0 and "sampling_std" in t.columns and t["sampling_std"].notna().any():
             ss = t["sampling_std"].to_numpy(float)
@@ -188,6 +191,9 @@ def tent_plot(
             )
             title += " \u2193 (lower is better)"
         ax.set_title(title, fontsize=9)
+        if 1 < len(np.unique(x)) <= 11:  # ticks where the data are (yaw at -10, -5, 0, +5, +10)
+            ax.set_xticks(np.unique(x))
+            offset_ticks(ax)
         ax.set_xlabel("y offset (m)", fontsize=8)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
@@ -469,12 +475,19 @@ def roc_plot(items: pd.DataFrame, summary: pd.DataFrame, label: np.ndarray, *, t
         return None
     fig = Figure(figsize=(4.5, 4.2), layout="constrained")
     ax = fig.subplots()
+    curves = []  # [(fpr, tpr, [labels])]: metrics that rank the items alike share one curve
     for _, r in s.iterrows():  # one curve per metric
         x = items[r["metric"]].to_numpy(float)
         ok = np.isfinite(x)
         score = x[ok] if r["higher_better"] else -x[ok]
         fpr, tpr, _ = roc_curve(label[ok], score)
-        ax.plot(fpr, tpr, label=f"{r['metric']} (AUC {r['roc_auc']:.3f})")
+        text = f"{r['metric']} (AUC {r['roc_auc']:.3f})"
+        same = [c for c in curves if c[0].shape == fpr.shape and np.array_equal(c[0], fpr)
+                and np.array_equal(c[1], tpr)]
+        (same[0][2].append(text) if same else curves.append((fpr, tpr, [text])))
+    for i, (fpr, tpr, texts) in enumerate(curves):
+        label_ = texts[0] if len(texts) == 1 else " = ".join(texts) + " (identical curves)"
+        ax.plot(fpr, tpr, color=f"C{i}", label=label_)
     ax.plot([0, 1], [0, 1], color="0.6", linestyle=":")
     ax.set_xlabel("false positive rate")
     ax.set_ylabel("true positive rate")

@@ -26,13 +26,14 @@ from analysis.axes import axis_tent_plots
 from analysis.noninferiority import recommend_from_tables
 from analysis.pipeline import Analysis
 from analysis.summary import binary_label
+from analysis.text import MdText, cell_text, interval_text, md_escape, screening_text
 from analysis.text import fmt as _fmt
-from analysis.text import interval_text, screening_text
-from annotate.screening import ScreenRule
+from annotate.screening import EXACT_J_MAX_N, ScreenRule
+from data_schema.csv_safe import write_people_table as write_table
 from data_schema.outputs import check_output_folder, mark_report
-from data_schema.tables import atomic_folder, write_table
+from data_schema.tables import atomic_folder
 
-__all__ = ["write_report", "write_report_folder", "render_pages", "summary_display"]
+__all__ = ["write_report", "write_report_folder", "render_pages", "summary_display", "rater_display"]
 
 _DISPLAY = [
     "metric",
@@ -93,7 +94,7 @@ def summary_display(a: Analysis, *, with_ci: bool = True) -> pd.DataFrame:
                 "plcc_logistic": _fmt(r["plcc_logistic"]),
                 "srcc / ceiling": _of_ceiling(r),
                 "vs best": vs,
-                "reason": r["reason"] or "",
+                "reason": r["reason"] if isinstance(r["reason"], str) else "",
             }
         )
     cols = _DISPLAY if with_ci else [c for c in _DISPLAY if c != "srcc / ceiling"]
@@ -105,21 +106,24 @@ def _html_table(df: pd.DataFrame, *, best_col: str | None = None) -> str:
     body = []
     for _, r in df.iterrows():  # report tables are small (one row per metric/group/rater)
         cls = ' class="best"' if best_col and r[best_col] else ""
-        tds = "".join(f"<td>{html.escape(_fmt(r[c]))}</td>" for c in df.columns if c != best_col)
+        tds = "".join(f"<td>{html.escape(cell_text(r[c], c))}</td>" for c in df.columns if c != best_col)
         body.append(f"<tr{cls}>{tds}</tr>")
-    return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
+    # a wide table scrolls inside its own box: the page keeps the window's width
+    return (f'<div class="scroll"><table><thead><tr>{head}</tr></thead>'
+            f"<tbody>{''.join(body)}</tbody></table></div>")
 
 
-def _md_table(df: pd.DataFrame) -> str:
-    esc = lambda s: s.replace("|", "\\|")  # noqa: E731
+def _md_table(df: pd.DataFrame) -> MdText:
+    esc = lambda s: md_escape(s, cell=True)  # noqa: E731
     lines = [
         "| " + " | ".join(esc(str(c)) for c in df.columns) + " |",
         "|" + "|".join("---" for _ in df.columns) + "|",
     ]
     lines += [
-        "| " + " | ".join(esc(_fmt(v)) for v in row) + " |" for row in df.itertuples(index=False)
+        "| " + " | ".join(esc(cell_text(v, c)) for v, c in zip(row, df.columns, strict=True)) + " |"
+        for row in df.itertuples(index=False)
     ]
-    return "\n".join(lines)
+    return MdText("\n".join(lines))
 
 
 def _category_wide(cat: pd.DataFrame, breakdown: str) -> pd.DataFrame:
@@ -192,7 +196,7 @@ def _rater_texts(a: Analysis) -> dict:
         f"level {rule.alpha} each): exclude a rater whose "
         f"chance-corrected agreement with the leave-one-out consensus (Youden J = sensitivity + "
         f"specificity - 1, consensus by backward elimination) is significantly below "
-        f"{rule.min_j} (z-test, j_p) or who shows no skill (one-sided Fisher exact test of "
+        f"{rule.min_j} (j_p: exact test up to {EXACT_J_MAX_N} compared items, z-test above) or who shows no skill (one-sided Fisher exact test of "
         f"votes against consensus labels, skill_p >= {rule.skill_alpha}, with >= "
         f"{rule.min_class_votes} items per consensus class), whose gold failure rate is "
         f"significantly above {rule.max_gold_failure_rate} or repeat consistency significantly "
@@ -329,15 +333,43 @@ def _write_tables(a: Analysis, d: Path) -> None:
             write_table(table, d / f"{name}.csv")
 
 
+#: What the report's header calls its input: votes, or a pairs table without votes (--pairs).
+INPUT_LABEL = {"ratings": "Ratings", "pairs": "Pairs (no votes; analyze --pairs)"}
+
+
+def rater_display(raters: pd.DataFrame) -> pd.DataFrame:
+    """The raters table for a page: a rater excluded by screening has its flags in
+    ``excluded_reason`` (``screening: FLAGS``), so ``flags`` is left empty there instead of
+    printing the same text twice.
+
+    Parameters
+    ----------
+    raters : pandas.DataFrame
+        Screened raters (:func:`annotate.screening.screen`), any subset of its columns.
+
+    Returns
+    -------
+    pandas.DataFrame
+        A copy, ``flags`` blank where ``excluded_reason`` already carries them.
+    """
+    if not {"flags", "excluded_reason"} <= set(raters.columns):
+        return raters
+    flags = raters["flags"].fillna("").astype(str)
+    reason = raters["excluded_reason"].fillna("").astype(str)
+    said = [bool(f) and f"screening: {f}" in r for f, r in zip(flags, reason, strict=True)]
+    return raters.assign(flags=flags.where(~pd.Series(said, index=raters.index), ""))
+
+
 def _context(a: Analysis, t: dict, figs: list[dict], *, table) -> dict:
     """What both templates show; ``table`` renders a DataFrame for the page (:func:`render_pages`)."""
     disp = summary_display(a).assign(_best=a.summary["best"].to_numpy(bool))
-    raters = a.raters[[c for c in _RATER_COLS if c in a.raters.columns]]
+    raters = rater_display(a.raters[[c for c in _RATER_COLS if c in a.raters.columns]])
     opt = {"encoders": a.encoders if len(a.encoders) else None, "stability": a.stability,
            "snr": a.snr, "comparison": a.comparison["table"] if a.comparison else None}
     return {
         "title": Path(a.ratings_path).name,
         "ratings": a.ratings_path,
+        "input_label": INPUT_LABEL[a.source],
         "counts": a.counts,
         "figures": figs,
         "summary_table": table(disp, best_col="_best") if a.target is not None else "",
@@ -354,19 +386,25 @@ def _html_page_table(df: pd.DataFrame, *, best_col: str | None = None) -> Markup
     return Markup(_html_table(df, best_col=best_col))
 
 
-def _md_page_table(df: pd.DataFrame, *, best_col: str | None = None) -> str:
+def _md_page_table(df: pd.DataFrame, *, best_col: str | None = None) -> MdText:
     return _md_table(df if best_col is None else df.drop(columns=[best_col]))
+
+
+def _md_finalize(v):
+    return md_escape(v) if isinstance(v, str) else v
 
 
 def render_pages(d: Path, template: str, context) -> None:
     """Render ``templates/TEMPLATE.html.j2`` to ``d/report.html`` (HTML-escaped) and
     ``templates/TEMPLATE.md.j2`` to ``d/report.md``; ``context(table=...)`` gives each page's
     variables, its tables rendered by ``table(df, best_col=None)`` (an HTML table, the rows
-    where ``best_col`` is true marked, or a Markdown table without that column)."""
+    where ``best_col`` is true marked, or a Markdown table without that column). Every text
+    the Markdown page prints is escaped (:func:`analysis.text.md_escape`) but its own tables."""
     templates = Path(__file__).parent / "templates"
     for suffix, out, escape, table in ((".html.j2", "report.html", True, _html_page_table),
                                        (".md.j2", "report.md", False, _md_page_table)):
-        env = Environment(loader=FileSystemLoader(templates), autoescape=escape, keep_trailing_newline=not escape)
+        env = Environment(loader=FileSystemLoader(templates), autoescape=escape, keep_trailing_newline=not escape,
+                          finalize=None if escape else _md_finalize)
         page = env.get_template(template + suffix).render(**context(table=table))
         (d / out).write_text(page, encoding="utf-8")
 

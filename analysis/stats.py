@@ -26,9 +26,11 @@ Constancy is exact (``max == min``): no epsilon decides it.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from scipy import stats as _st
-from scipy.optimize import curve_fit
+from scipy.optimize import OptimizeWarning, curve_fit
 
 __all__ = [
     "N_MIN",
@@ -413,19 +415,43 @@ def logistic_plcc(x, y, *, max_fit_points: int = 200_000, seed: int = 0):
     q1, med, q3 = np.percentile(xf, [25, 50, 75])
     spread = float(q3 - q1) or float(xf.std()) or 1.0
     b1, b2 = (hi, lo) if sign > 0 else (lo, hi)
-    best = None
+    best = None  # (well determined, |PLCC|): a fit with estimable parameters is preferred
     for scale in (0.25, 1.0, 4.0):
-        try:
-            with np.errstate(all="ignore"):
-                p, _ = curve_fit(logistic4, xf, yf, p0=[b1, b2, med, spread * scale], maxfev=4000)
-        except (RuntimeError, ValueError, FloatingPointError):
+        fit = _fit_logistic(xf, yf, [b1, b2, med, spread * scale])
+        if fit is None:
             continue
-        fitted = logistic4(x, *p)
+        fitted = logistic4(x, *fit[0])
         if not np.all(np.isfinite(fitted)) or fitted.min() == fitted.max():
             continue
         r = abs(pearson(fitted, y)[0])
-        if np.isfinite(r) and (best is None or r > best):
-            best = r
+        if np.isfinite(r) and (best is None or (fit[1], r) > best):
+            best = (fit[1], r)
     if best is None:
         return float("nan"), "logistic fit did not converge", note
-    return float(best), None, note
+    return float(best[1]), None if best[0] else DEGENERATE_FIT, note
+
+
+#: The reason of a logistic fit whose parameters are not determined by the data.
+DEGENERATE_FIT = ("degenerate fit, value kept: the parameters' covariance could not be "
+                  "estimated (the target is a step or flat along the metric)")
+
+
+def _fit_logistic(x, y, p0):
+    """``(params, well_determined)`` of one :func:`logistic4` fit, ``None`` when it fails.
+
+    SciPy's ``OptimizeWarning`` (parameter covariance not estimable: the fit is degenerate)
+    becomes ``well_determined = False`` instead of a warning on the terminal; other warnings
+    pass through."""
+    with warnings.catch_warnings(record=True) as caught, np.errstate(all="ignore"):
+        warnings.simplefilter("always", OptimizeWarning)
+        try:
+            p, _ = curve_fit(logistic4, x, y, p0=p0, maxfev=4000)
+        except (RuntimeError, ValueError, FloatingPointError):
+            p = None
+    degenerate = False
+    for w in caught:
+        if issubclass(w.category, OptimizeWarning):
+            degenerate = True
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return None if p is None else (p, not degenerate)

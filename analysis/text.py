@@ -13,10 +13,57 @@ Layer: analysis (report text).
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pandas as pd
 
-__all__ = ["fmt", "interval_text", "offset_text", "screening_text", "no_votes_left"]
+__all__ = ["fmt", "cell_text", "interval_text", "offset_text", "screening_text", "no_votes_left",
+           "md_escape", "MdText", "MISSING_TEXT"]
+
+#: What a table shows for a value that is missing by nature (``None``): a dash, not "None".
+MISSING_TEXT = "\u2014"
+_COUNT_NAMES = frozenset({"n", "k", "wins", "ties", "losses", "votes", "gold_failures", "pairs",
+                          "n_tracks", "n_votes"})
+
+# what makes Markdown run or link data: a backslash (it would undo an escape), "<" before what
+# starts raw HTML or an autolink, and "](" of a link or image
+_MD_ACTIVE = re.compile(r"\\|<(?=[A-Za-z/!?])|\]\(")
+
+
+class MdText(str):
+    """Markdown the report made itself (a rendered table): :func:`md_escape` leaves it as is."""
+
+
+def md_escape(text: str, *, cell: bool = False) -> str:
+    """``text`` made inert in Markdown: shown as written, never run as HTML nor made a link.
+
+    A backslash is doubled, ``<`` before a letter, ``/``, ``!`` or ``?`` (raw HTML, an
+    autolink) and ``](`` (a link or image) are backslash-escaped. With ``cell``, for a
+    Markdown table cell, ``|`` is escaped too and line breaks become spaces. :class:`MdText`
+    is returned unchanged.
+
+    Parameters
+    ----------
+    text : str
+        Text that may carry data (names, values, paths).
+    cell : bool
+        The text goes in a Markdown table cell.
+
+    Returns
+    -------
+    str
+        The escaped text; renders as ``text`` itself.
+
+    >>> md_escape('<img src=x onerror=alert(1)> p < 0.01')
+    '\\\\<img src=x onerror=alert(1)> p < 0.01'
+    >>> md_escape("[a](javascript:x) | b", cell=True)
+    '[a\\\\](javascript:x) \\\\| b'
+    """
+    if isinstance(text, MdText):
+        return text
+    out = _MD_ACTIVE.sub(lambda m: "\\" + m.group(0), text)
+    return out.replace("|", "\\|").replace("\r", " ").replace("\n", " ") if cell else out
 
 
 def fmt(v, digits: int = 3) -> str:
@@ -41,6 +88,42 @@ def fmt(v, digits: int = 3) -> str:
     if isinstance(v, (float, np.floating)):
         return f"{v:.{digits}f}"
     return str(v)
+
+
+def _is_count(column) -> bool:
+    c = str(column)
+    return (c in _COUNT_NAMES or c.startswith("n_") or c.endswith("_n") or c.endswith("_ms")
+            or c.endswith(" n"))
+
+
+def cell_text(v, column="") -> str:
+    """A report table's cell: :func:`fmt`, except that a count column (``n``, ``k``,
+    ``n_*``, ``*_n``, wins/ties/losses, milliseconds ``*_ms``) prints a whole number without
+    decimals, and ``None`` or the text ``"None"`` prints as :data:`MISSING_TEXT`.
+
+    Parameters
+    ----------
+    v : object
+        The value.
+    column : str
+        Its column's name.
+
+    Returns
+    -------
+    str
+        The cell's text.
+
+    >>> cell_text(497.0, "nvrq_ca_n"), cell_text(919.4, "median_response_ms"), cell_text(0.5, "k")
+    ('497', '919', '0.500')
+    >>> cell_text(None), cell_text("None"), cell_text(float("nan"), "n")
+    ('\u2014', '\u2014', '')
+    """
+    if v is None or (isinstance(v, str) and v == "None"):
+        return MISSING_TEXT
+    if (isinstance(v, (float, np.floating)) and np.isfinite(v) and _is_count(column)
+            and (float(v).is_integer() or str(column).endswith("_ms"))):
+        return f"{v:.0f}"
+    return fmt(v)
 
 
 def interval_text(v, lo, hi, digits: int = 3) -> str:

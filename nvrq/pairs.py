@@ -161,32 +161,15 @@ def view_validity(
     ``corners_sensor: (..., 8, 3)`` in the camera frame -> ``(code: (...,) int8, box: (..., 4) int64)``
     with ``code`` 0 = valid, 1 = some corner unprojectable (behind the camera or beyond the
     model's range), 2 = some corner outside the image, 3 = too small. ``box`` is only
-    meaningful where ``code == 0``.
-
-    Parameters
-    ----------
-    camera : CameraModel
-        The (real or virtual) camera.
-    corners_sensor : (..., 8, 3) float64, metres
-        Box corners in the camera frame.
-    min_side : float, pixels
-        Smallest box side.
-    min_area : float, pixels
-        Smallest box area.
-
-    Returns
-    -------
-    code : (...,) int8
-        0 valid, 1 unprojectable, 2 outside the image, 3 too small.
-    box : (..., 4) int64
-        ``[x0, y0, x1, y1]`` inclusive pixels, where ``code == 0``.
+    meaningful where ``code == 0``; elsewhere it is ``[0, 0, 0, 0]`` (a corner at a grazing
+    angle projects to 1e20 px and more, beyond any integer box).
     """
     uv, projectable = camera.project(corners_sensor)
     projectable = projectable & np.isfinite(uv).all(axis=-1)
     all_proj = projectable.all(axis=-1)
     uv = np.where(projectable[..., None], uv, 0.0)
     inside = camera.in_image(uv).all(axis=-1)
-    box = pixel_box(uv)
+    box = pixel_box(np.where(inside[..., None, None], uv, 0.0))
     w, h = box_sides(box)
     big = (np.minimum(w, h) >= min_side) & (w * h >= min_area)
     code = np.where(~all_proj, 1, np.where(~inside, 2, np.where(~big, 3, 0))).astype(np.int8)

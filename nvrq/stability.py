@@ -70,6 +70,7 @@ __all__ = [
     "summarise",
     "run_stability",
     "plot_stability",
+    "stability_figure",
 ]
 
 ARTEFACT_STRENGTHS = (0.25, 0.5, 0.75, 1.0)
@@ -474,32 +475,50 @@ def run_stability(pairs: pd.DataFrame, options: StabilityOptions | None = None, 
 
 def plot_stability(stab: pd.DataFrame, snr: pd.DataFrame, out_stem) -> list:
     """Two panels -> ``out_stem.png`` and ``out_stem.svg``: (a) SNR per nuisance and metric (log
-    scale), (b) mean change vs strength under box jitter (solid) and artefacts (dashed).
+    scale), (b) mean change vs strength under box jitter (solid) and artefacts (dashed)."""
+    fig = stability_figure(stab, snr)
+    written = []
+    for ext in ("png", "svg"):
+        target = Path(f"{out_stem}.{ext}")
+        with atomic_path(target) as tmp:
+            fig.savefig(tmp, format=ext, dpi=120)
+        written.append(target)
+    return written
+
+
+def _snr_ticks(axis, values: np.ndarray) -> None:
+    """Log-axis labels at 1-2-5 x 10^k when the values span under two decades (else at powers
+    of ten), written plainly (0.5, 1, 2): a span inside one decade was labelled at 1 only."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    v = values[np.isfinite(values) & (values > 0)]
+    span = np.log10(v.max() / v.min()) if len(v) else 0.0
+    axis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0) if span < 2 else (1.0,),
+                                      numticks=12))
+    axis.set_major_formatter(FuncFormatter(lambda x, _: f"{x:g}"))
+    axis.set_minor_formatter(NullFormatter())
+
+
+def stability_figure(stab: pd.DataFrame, snr: pd.DataFrame):
+    """The figure of :func:`plot_stability` (a matplotlib ``Figure``, not drawn): each panel's
+    legend sits beside it, outside the data.
 
     Parameters
     ----------
-    stab : pandas.DataFrame
-        The stability table (:func:`summarise`).
-    snr : pandas.DataFrame
-        The SNR table.
-    out_stem : str or Path
-        Output path without suffix.
+    stab, snr : pandas.DataFrame
+        ``stability.csv`` and ``snr.csv`` (docs/FORMATS.md §8).
 
     Returns
     -------
-    list of Path
-        The files written.
+    matplotlib.figure.Figure
+        Two axes: SNR bars (log y) and mean change against strength.
     """
-    import matplotlib
-    import matplotlib.ticker
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    from matplotlib.figure import Figure
 
     metrics = list(dict.fromkeys(snr["metric"]))
     names = list(dict.fromkeys(snr["nuisance"]))
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(13, 4.5))
+    fig = Figure(figsize=(15, 4.8), layout="constrained")
+    ax1, ax2 = fig.subplots(1, 2)
     width = 0.8 / max(len(metrics), 1)
     for k, m in enumerate(metrics):
         g = snr[snr.metric == m].set_index("nuisance").reindex(names)
@@ -512,12 +531,11 @@ def plot_stability(stab: pd.DataFrame, snr: pd.DataFrame, out_stem) -> list:
         )
     ax1.axhline(1.0, color="grey", lw=0.8, ls=":")
     ax1.set_yscale("log")
-    ax1.yaxis.set_major_formatter(matplotlib.ticker.ScalarFormatter())
-    ax1.yaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+    _snr_ticks(ax1.yaxis, snr["snr"].to_numpy(np.float64))
     ax1.set_xticks(np.arange(len(names)), names, rotation=30, ha="right")
     ax1.set_ylabel("signal-to-nuisance ratio (artefact / nuisance change)")
     ax1.set_title("(a) SNR per nuisance (higher = more stable)")
-    ax1.legend(fontsize=8)
+    ax1.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
     for k, m in enumerate(metrics):
         g = stab[stab.metric == m]
         color = f"C{k}"
@@ -528,13 +546,5 @@ def plot_stability(stab: pd.DataFrame, snr: pd.DataFrame, out_stem) -> list:
     ax2.set_xlabel("strength (box jitter: fraction of box; artefacts: 0-1)")
     ax2.set_ylabel("mean change (pooled percentile drop)")
     ax2.set_title("(b) response vs strength")
-    ax2.legend(fontsize=7, ncol=2)
-    fig.tight_layout()
-    written = []
-    for ext in ("png", "svg"):
-        target = Path(f"{out_stem}.{ext}")
-        with atomic_path(target) as tmp:
-            fig.savefig(tmp, format=ext, dpi=120)
-        written.append(target)
-    plt.close(fig)
-    return written
+    ax2.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+    return fig

@@ -31,6 +31,9 @@ def register(sub) -> None:
                    help="the votes table to write (.csv or .parquet; required)")
     e.add_argument("--participants", metavar="FILE", help="also write the crowd raters' panel "
                    "participant ids: rater_id, participant, arrived_at (default: not written)")
+    e.add_argument("--raw-csv", action="store_true", help="write text cells as they came (by "
+                   "default a CSV cell starting with = + - @ or a tab gets a leading ' so that a "
+                   "spreadsheet does not run it as a formula; analyze reads either)")
     e.set_defaults(func=run)
 
 
@@ -53,7 +56,8 @@ def run(args) -> int:
     """
     from annotate.results import votes_table
     from annotate.study import load_study, unplaced_votes
-    from data_schema.tables import TABLE_SUFFIXES, write_table
+    from data_schema.csv_safe import write_people_table
+    from data_schema.tables import TABLE_SUFFIXES
 
     check_output_file(args.out, inputs=[args.study])
     if args.participants is not None:  # both checked before either is written
@@ -64,11 +68,12 @@ def run(args) -> int:
     study = load_study(args.study)
     table = votes_table(study)
     lost = unplaced_votes(study)
-    write_table(table, args.out)
+    raw = getattr(args, "raw_csv", False)
+    write_people_table(table, args.out, raw=raw)
     print(f"{len(table)} votes -> {args.out}", file=sys.stderr)
     if args.participants is not None:
         who = study.store.participants().rename(columns={"rater": "rater_id"})
-        write_table(who, args.participants)
+        write_people_table(who, args.participants, raw=raw)
         print(f"{len(who)} participants -> {args.participants}", file=sys.stderr)
     if lost:
         print(f"warning: {sum(lost.values())} votes not exported: "

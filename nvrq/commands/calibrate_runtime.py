@@ -89,4 +89,12 @@ def run(args) -> int:
           f"cosine mean {rec['mean_cosine']:.5f} min {rec['min_cosine']:.5f}; NVRQ Spearman "
           f"{rec['nvrq_spearman']:.5f}; max |dNVRQ| {rec['max_dnvrq']:.2e}; {verdict} Spearman >= {threshold}")
     print(f"recorded in {path}")
+    tag = f"--runtime {args.runtime} --precision {args.precision}"
+    if verdict == "passes":
+        print(f"nvrq score {tag} --encoder {name} may use it: the record is on file.")
+    else:
+        print(f"FAILS the check: nvrq score {tag} --encoder {name} will refuse it. The ranking "
+              f"drifts too far from fp32 (NVRQ Spearman {rec['nvrq_spearman']:.3f} < {threshold}); "
+              "use fp32 on this runtime, or try --precision bf16 (check it the same way). "
+              "README.md 'Reduced precision' lists where int8 passes.")
     return 0

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["CORNER_SIGNS", "box_corners", "pixel_box", "box_sides"]
+__all__ = ["CORNER_SIGNS", "MAX_PIXEL", "box_corners", "pixel_box", "box_sides"]
 
 #: Sign pattern of the 8 corners in the box frame, shape (8, 3).
 CORNER_SIGNS = np.array(
@@ -54,20 +54,20 @@ def box_corners(T_box_world: np.ndarray, dims_lwh: np.ndarray) -> np.ndarray:
     return np.einsum("...ij,...kj->...ki", T[..., :3, :3], local) + T[..., None, :3, 3]
 
 
+#: Largest pixel coordinate :func:`pixel_box` accepts (far beyond any image, far below int64).
+MAX_PIXEL = 2.0**53
+
+
 def pixel_box(uv: np.ndarray) -> np.ndarray:
     """Inclusive integer box ``[x0, y0, x1, y1]`` of points ``uv: (..., K, 2)`` -> ``(..., 4)`` int64.
 
-    Parameters
-    ----------
-    uv : (..., K, 2) float64, pixels
-        Projected points, pixel-centre convention.
-
-    Returns
-    -------
-    (..., 4) int64
-        ``[x0, y0, x1, y1]``, inclusive pixels.
+    Raises ``ValueError`` for a coordinate that is not finite or beyond :data:`MAX_PIXEL`
+    (casting it would give an arbitrary integer): callers mask points outside the image first.
     """
     uv = np.asarray(uv, dtype=np.float64)
+    if uv.size and not (np.abs(uv) <= MAX_PIXEL).all():
+        raise ValueError("pixel_box: every coordinate must be finite and within "
+                         f"{MAX_PIXEL:.0f} px; mask points outside the image first")
     lo = np.floor(uv.min(axis=-2))
     hi = np.ceil(uv.max(axis=-2))
     return np.concatenate([lo, hi], axis=-1).astype(np.int64)

@@ -88,3 +88,34 @@ def test_condition_table_cis_and_sampling_spread():
     s = offset_table(two, ["gvf"])
     assert s.loc[0, "label_class"] == "all"
     assert s.loc[0, "sampling_std"] == pytest.approx(np.sqrt(0.03))
+
+
+def test_thousands_of_text_columns_get_a_capped_set_of_breakdowns(tmp_path, capsys):
+    """Issue 38 item 37 (attack): 3000 extra text columns used to make 3000 breakdowns (about
+    60 ms each). Now label_class, ``lighting`` and the first MAX_BREAKDOWNS - 1 extra columns
+    with few values; an id-like column is skipped, and the report's note says what was."""
+    import sys
+    from pathlib import Path
+
+    from analysis.breakdowns import MAX_BREAKDOWNS, MAX_GROUPS
+    from analysis.cli import main
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from synth import make_ratings
+
+    ratings, metrics = make_ratings()
+    ratings["free_text"] = [f"note {i}" for i in range(len(ratings))]  # > MAX_GROUPS values
+    extra = pd.DataFrame({f"x{i}": np.where(np.arange(len(ratings)) % 2, "a", "b")
+                          for i in range(3000)}, index=ratings.index)
+    pd.concat([ratings, extra], axis=1).to_csv(tmp_path / "r.csv", index=False)
+    metrics.to_csv(tmp_path / "m.csv", index=False)
+    rc = main([str(tmp_path / "r.csv"), "--metrics-table", str(tmp_path / "m.csv"),
+               "--lower-better", "blurriness", "--bootstrap", "0", "--out", str(tmp_path / "o"),
+               "--quiet"])
+    assert rc == 0, capsys.readouterr().err
+    got = list(dict.fromkeys(pd.read_csv(tmp_path / "o" / "categories.csv")["breakdown"]))
+    want = ["label_class", "lighting"] + [f"x{i}" for i in range(MAX_BREAKDOWNS - 1)]
+    assert got == want
+    md = (tmp_path / "o" / "report.md").read_text()
+    assert f"1 with more than {MAX_GROUPS} values (free_text)" in md
+    assert f"{3000 - (MAX_BREAKDOWNS - 1)} past the first {MAX_BREAKDOWNS}" in md

@@ -33,3 +33,30 @@ def test_speed_plot_without_matching_timings_is_none():
     s = pd.DataFrame({"metric": ["a"], "srcc": [0.5]})
     tm = pd.DataFrame({"metric": ["b"], "pairs_per_s": [3.0]})
     assert plots.speed_accuracy_plot(s, tm) is None
+
+
+def test_gvf_band_stays_in_0_1_and_ticks_sit_on_the_data():
+    """Issue 38 item 19: GVF 0.9 +/- 0.3 used to draw a band up to 1.2; yaw views at
+    multiples of 5 got ticks at +-7.5 from matplotlib's locator."""
+    t = pd.DataFrame({"y_offset_m": [-10.0, -5.0, 0.0, 5.0, 10.0], "column": "gvf",
+                      "mean": [0.2, 0.6, 0.9, 0.6, 0.05], "std": 0.3})
+    fig = plots.tent_plot(t, ["gvf"], {})
+    ax = fig.axes[0]
+    band = ax.collections[0].get_paths()[0].vertices[:, 1]
+    assert band.min() >= 0.0 and band.max() <= 1.0
+    assert ax.get_xticks().tolist() == [-10.0, -5.0, 0.0, 5.0, 10.0]
+    fig.canvas.draw()
+    assert [x.get_text() for x in ax.get_xticklabels()] == ["-10", "-5", "0", "+5", "+10"]
+
+
+def test_roc_plot_says_when_curves_are_identical():
+    """Three metrics, two of them a monotone transform of each other (the same ranking, so the
+    same ROC curve: sklearn's roc_curve is rank-based): one line, its legend naming both."""
+    rng = np.random.default_rng(0)
+    a = rng.random(60)
+    items = pd.DataFrame({"a": a, "a_log": np.log(a), "b": rng.random(60)})
+    summary = pd.DataFrame({"metric": ["a", "a_log", "b"], "higher_better": True,
+                            "roc_auc": [0.7, 0.7, 0.5]})
+    fig = plots.roc_plot(items, summary, a + rng.normal(0, 0.2, 60) > 0.5)
+    texts = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert len(texts) == 2 and "identical curves" in texts[0] and "a_log" in texts[0]

@@ -58,3 +58,38 @@ def test_labels_moved_away_from_their_point_get_a_leader_line():
         assert 90 < ln.xy[0] < 100 and abs(ln.xy[1] - 0.6) < 0.002
         line_box = ln.arrow_patch.get_window_extent(renderer)
         assert any(b.expanded(1.0, 1.0).padded(2).overlaps(line_box) for b in labels)
+
+
+def _demo_chart():
+    # the demo report's speed chart (issue 38 item 19): torch eager beside the OpenVINO runs
+    metric = ["psnr", "ssim", "ms_ssim", "gmsd", "brisque", "niqe", "piqe", "entropy",
+              "nvrq:efficientnet-lite0", "nvrq_ca:efficientnet-lite0",
+              "nvrq:efficientnet-lite0@torch"]
+    summary = pd.DataFrame({"metric": metric, "srcc": [0.343, 0.301, 0.260, 0.097, 0.113, 0.632,
+                                                       0.366, 0.249, 0.498, 0.498, 0.498]})
+    timing = pd.DataFrame({"metric": metric,
+                           "pairs_per_s": [900.0, 400.0, 150.0, 700.0, 60.0, 25.0, 40.0, 2000.0,
+                                           80.0, 75.0, 23.0],
+                           "runtime": [""] * 8 + ["openvino", "openvino", "torch"],
+                           "precision": [""] * 8 + ["fp32", "fp32", "fp32"]})
+    return plots.speed_accuracy_plot(summary, timing), metric
+
+
+@pytest.mark.parametrize("chart", [_chart, _demo_chart])
+@pytest.mark.parametrize("dpi", [100, 120])
+def test_speed_chart_labels_cover_no_point(chart, dpi):
+    """Issue 38 item 19: no label's box covers any marker (radius 5 px, the scatter's default
+    size 36 pt^2 is a 6 pt diameter: 4-5 px at these dpi), like the overlap test above."""
+    fig, _ = chart()
+    fig.set_dpi(dpi)
+    FigureCanvasAgg(fig).draw()
+    renderer = fig.canvas.get_renderer()
+    ax = fig.axes[0]
+    pts = ax.collections[0].get_offsets()
+    xy = ax.transData.transform(pts)
+    r = 3.0 * dpi / 72.0  # marker radius in pixels
+    for t in (t for t in ax.texts if t.get_text()):
+        b = t.get_window_extent(renderer)
+        for (x, y), p in zip(xy, pts, strict=True):
+            hit = b.x0 - r < x < b.x1 + r and b.y0 - r < y < b.y1 + r
+            assert not hit, (t.get_text(), tuple(p), b)

@@ -9,6 +9,7 @@ from annotate.screening import (
     ScreenRule,
     consensus_stats,
     fisher_skill_p,
+    j_exact_p,
     j_test,
     rater_table,
     screen,
@@ -91,6 +92,45 @@ def test_fisher_skill_p_matches_scipy_fisher_exact():
     table = [[(vote & lab).sum(), (vote & ~lab).sum()], [(~vote & lab).sum(), (~vote & ~lab).sum()]]
     want = stats.fisher_exact(table, alternative="greater").pvalue
     assert fisher_skill_p(res)[3] == pytest.approx(want)
+
+
+def test_three_test_votes_get_the_exact_j_test_not_the_z_test():
+    """Issue 38 item 16: a rater with 3 test votes, all against the consensus (2 good, 1 bad
+    items), was excluded on a z-test p of 0.0093. Exact: P(a = 0, b = 0) on the H0 boundary
+    s + q = 1.35 is (1 - s)^2 (s - 0.35), largest at s = 1.7 / 3 (derivative zero):
+    (1.3 / 3)^2 (0.65 / 3) = 0.040685 (hand-worked), not significant at 0.01."""
+    rows = [(r, f"i{k}", int(k < 2), "test", 1000) for r in ("o1", "o2") for k in range(3)]
+    rows += [("x", f"i{k}", int(k >= 2), "test", 1000) for k in range(3)]
+    r = screen(rater_table(_votes(rows)), use_rule=True).set_index("rater_id")
+    assert r.loc["x", "n_cons_good"] == 2 and r.loc["x", "n_cons_bad"] == 1
+    assert r.loc["x", "j_p"] == pytest.approx(1.69 / 9 * 0.65 / 3, abs=2e-6)
+    assert not r.loc["x", "excluded"], r.loc["x", "flags"]
+    # one right vote of two on good items: (s - 0.35)(1 - s^2), largest at
+    # s = (0.7 + sqrt(12.49)) / 6 (hand-worked root of 1 + 0.7 s - 3 s^2)
+    s = (0.7 + np.sqrt(12.49)) / 6
+    assert j_exact_p(0.5, 0.0, 2, 1, min_j=0.35) == pytest.approx((s - 0.35) * (1 - s * s),
+                                                                  abs=2e-6)
+
+
+def test_exact_j_p_matches_brute_force_binomials():
+    """j_exact_p against an independent enumeration with scipy.stats.binom and a bounded
+    scipy.optimize search over the H0 boundary (7 good, 5 bad items, 3 and 2 right)."""
+    from scipy.optimize import minimize_scalar
+
+    n1, n0, a, b, mj = 7, 5, 3, 2, 0.35
+
+    def tail(s):
+        q = 1 + mj - s
+        return sum(stats.binom.pmf(i, n1, s) * stats.binom.pmf(k, n0, q)
+                   for i in range(n1 + 1) for k in range(n0 + 1)
+                   if i / n1 + k / n0 <= a / n1 + b / n0 + 1e-12)
+
+    best = minimize_scalar(lambda s: -tail(s), bounds=(mj, 1.0), method="bounded",
+                           options={"xatol": 1e-9})
+    assert j_exact_p(a / n1, b / n0, n1, n0, min_j=mj) == pytest.approx(-best.fun, abs=1e-5)
+    # vectorised over panels, NaN where a class is empty
+    got = j_exact_p([a / n1, 0.0], [b / n0, 0.0], [n1, 3], [n0, 0], min_j=mj)
+    assert got[0] == pytest.approx(-best.fun, abs=1e-5) and np.isnan(got[1])
 
 
 def test_five_repeats_never_exclude_an_honest_rater_alone():

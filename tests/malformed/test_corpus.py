@@ -677,6 +677,29 @@ def _(world, tmp):
     st = _study(world, tmp)
     return "annotate", ["add-rater", str(st), "ann", "--host", "0.0.0.0"], ["--host", "loopback"]
 
+# ---------------------------------------------------------------- issue 38 items 16-38 (analysis)
+# A ratings cell quoted against spreadsheet formulas is read back without its quote, so a
+# quoted non-vote is still named as a bad vote; a quoted number keeps its quote and is refused.
+
+@case("ratings", "vote quoted formula '=1")
+def _(world, tmp):
+    r = _ratings(world, tmp, _col("vote", "'=1", [0]))
+    return "analyze", [str(r), "--out", str(tmp / "rep"), "--bootstrap", "0", "--quiet"], \
+        ["ratings.csv", "vote", "=1"]
+
+
+@case("ratings", "response_ms quoted number '-5")
+def _(world, tmp):
+    r = _ratings(world, tmp, _col("response_ms", "'-5", [0]))
+    return "analyze", [str(r), "--out", str(tmp / "rep"), "--bootstrap", "0", "--quiet"], \
+        ["ratings.csv", "response_ms"]
+
+
+@case("study", "export --raw-csv to a .txt")
+def _(world, tmp):
+    st = _study(world, tmp)
+    return "annotate", ["export", str(st), "--out", str(tmp / "r.txt"), "--raw-csv"], ["r.txt"]
+
 
 # ------------------------------------------- outputs and importers (issue 38 items 1, 3, 12; issue 34 item 5)
 
@@ -767,17 +790,3 @@ def test_world_untouched(world):
     """No case wrote into the shared valid inputs it referred to (runs after the cases)."""
     assert snapshot(world) == json.loads((world.parent / f"{world.name}.hashes.json").read_text())
 
-
-
-def test_analyze_replacing_a_report_from_other_inputs_prints_a_note(world, tmp_path, capfd):
-    # issue 38 item 2 (our choice, docs/FORMATS.md §7): a note naming what changed, not --force
-    from analysis.cli import main
-
-    argv = [str(world / "ratings.csv"), "--out", str(tmp_path / "rep"), "--bootstrap", "0", "--quiet"]
-    assert main(argv) == 0
-    assert main(argv) == 0  # the same inputs: no note
-    assert "note: replacing" not in capfd.readouterr().err
-    assert main([*argv, "--metrics-table", str(world / "metrics.csv")]) == 0
-    err = capfd.readouterr().err
-    assert f"note: replacing the report {tmp_path / 'rep'} made by analyze from other inputs: " \
-           f"--metrics-table added ({world / 'metrics.csv'})" in err
