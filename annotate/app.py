@@ -109,7 +109,7 @@ answer; you can close the page and come back any time.
 """
 
 
-__all__ = ["main", "rater_page", "voting_panel", "sign_in_page", "signed_in_rater",
+__all__ = ["main", "refuse_uploads", "rater_page", "voting_panel", "sign_in_page", "signed_in_rater",
            "plain", "salted_image"]
 
 log = logging.getLogger("annotate.app")
@@ -531,6 +531,29 @@ def rater_page(study: Study, rater: str) -> None:
         st.session_state["started"] = True
     page_style()  # outside the panel: drawn once per page, not again with every vote
     voting_panel(study, rater)
+
+
+def refuse_uploads() -> bool:
+    """Make this server's upload store keep no file (the app has no uploader; see
+    :mod:`annotate.serve_app`). Idempotent; False where no Streamlit server runs (tests).
+
+    Returns
+    -------
+    bool
+        Whether a running server's upload store was closed.
+    """
+    from streamlit.runtime import Runtime
+
+    if not Runtime.exists():
+        return False
+    mgr = Runtime.instance().uploaded_file_mgr
+    if not getattr(mgr, "_annotate_closed", False):
+        def refuse(session_id, file):  # noqa: ARG001 (the store's signature)
+            log.warning("annotate app: an upload was refused (the app has no uploader)")
+
+        mgr.add_file = refuse
+        mgr._annotate_closed = True
+    return True
 
 
 def main() -> None:

@@ -4,7 +4,8 @@
 :mod:`annotate.app`, imported once per process; the process is replaced, so
 a signal to ``annotate serve`` reaches the server itself and nothing outlives it), bound to
 127.0.0.1 unless ``--host`` says otherwise, headless, without usage statistics, file
-watcher, static file serving or error details in the browser, and without Streamlit's full
+watcher, static file serving, file uploads (``server.maxUploadSize`` 0: the app has no
+uploader, issue 38) or error details in the browser, and without Streamlit's full
 garbage collection after every script run (about 40 ms of CPU per vote, holding the GIL: it
 alone saturated a core at 25 raters) and without "magic" (Streamlit recompiles the script
 with it for every new session, clearing its script cache: about 50 ms of CPU per rater
@@ -71,7 +72,8 @@ def serve_command(study: str | Path, *, host: str = DEFAULT_HOST, port: int = DE
             "--server.fileWatcherType", "none", "--server.runOnSave", "false",
             "--server.enableStaticServing", "false", "--client.toolbarMode", "minimal",
             "--client.showErrorDetails", "none", "--global.developmentMode", "false",
-            "--runner.postScriptGC", "false", "--runner.magicEnabled", "false"]
+            "--runner.postScriptGC", "false", "--runner.magicEnabled", "false",
+            "--server.maxUploadSize", "0"]
 
 
 def check_port_free(host: str, port: int) -> None:
@@ -203,6 +205,9 @@ def add_worker_options(p) -> None:
                    help="reverse proxy whose configuration --workers prints (default nginx)")
     p.add_argument("--proxy-port", type=int_arg(high=65535), default=80,
                    help="public port of that proxy configuration (default 80)")
+    p.add_argument("--arrivals-per-minute", type=int_arg(low=0, high=100000), default=20,
+                   metavar="N", help="crowd study: new identities a minute per client address "
+                   "(bursts of 10; behind a proxy, its X-Forwarded-For; 0: no limit; default 20)")
 
 
 def serve_workers(study_root: Path, args, env: dict, *, loopback: bool) -> int:
@@ -235,7 +240,8 @@ def run(args) -> int:
         check_port_free(args.host, port)
     for line in links(study, base):
         print(line, file=sys.stderr, flush=True)
-    env = dict(os.environ, ANNOTATE_STUDY=str(study.root))
+    env = dict(os.environ, ANNOTATE_STUDY=str(study.root),
+               ANNOTATE_ARRIVALS_PER_MINUTE=str(args.arrivals_per_minute))
     if args.workers > 1:
         return serve_workers(study.root, args, env, loopback=is_open)
     argv = serve_command(study.root, host=args.host, port=args.port)
