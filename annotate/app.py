@@ -58,7 +58,6 @@ import os
 import re
 import secrets
 import sqlite3
-import threading
 import time
 
 import streamlit as st
@@ -66,6 +65,7 @@ import streamlit as st
 from annotate.access import (
     ArrivalLimiter,
     CrowdRefused,
+    arrival_limiter,
     check_participant,
     client_address,
     crowd_arrival,
@@ -76,6 +76,7 @@ from annotate.access import (
 from annotate.admin import admin_page
 from annotate.display import item_display, salted_image
 from annotate.layout import page_style, pair_view
+from annotate.load import plural
 from annotate.store import UNDO_DEPTH
 from annotate.study import Study, StudyChanged, load_study
 from data_schema.errors import InputError
@@ -131,8 +132,6 @@ MSG_NONE_FREE = ("No item is free right now: other raters are working on the one
 ARRIVALS_PER_MINUTE = 20
 #: New crowd identities one address may take at once (colleagues behind one router).
 ARRIVAL_BURST = 10
-_LIMITERS: dict[float, ArrivalLimiter] = {}
-_LIMITER_LOCK = threading.Lock()
 MSG_TRAINING_DONE = "Training done — the study starts now. Your answers from here on count."
 MSG_STUDY_FULL = ("This study is full: every image pair got all the answers it needs before "
                   "you arrived, so there is nothing left for you to rate. Thank you. (No "
@@ -230,14 +229,8 @@ def _arrival_limiter() -> ArrivalLimiter | None:
     """The process's limit on new crowd identities per client address (environment
     ``ANNOTATE_ARRIVALS_PER_MINUTE``, set by ``annotate serve --arrivals-per-minute``;
     default :data:`ARRIVALS_PER_MINUTE`; 0: no limit)."""
-    rate = float(os.environ.get("ANNOTATE_ARRIVALS_PER_MINUTE", ARRIVALS_PER_MINUTE))
-    if rate <= 0:
-        return None
-    with _LIMITER_LOCK:
-        found = _LIMITERS.get(rate)
-        if found is None:
-            found = _LIMITERS[rate] = ArrivalLimiter(per_minute=rate, burst=ARRIVAL_BURST)
-    return found
+    return arrival_limiter(float(os.environ.get("ANNOTATE_ARRIVALS_PER_MINUTE", ARRIVALS_PER_MINUTE)),
+                           burst=ARRIVAL_BURST)
 
 
 def _crowd_sign_in(study: Study) -> str | None:
@@ -392,7 +385,8 @@ def _progress_bar(study: Study, item_kind: str, prog: dict) -> None:
     st.progress(min(done / total, 1.0), text=f"{done} / {total}")
     every = int(study.manifest.get("break_every", 50))
     if done and done % every == 0:
-        st.info(f"You have rated {done} pairs. Consider a short break; your progress is saved.")
+        st.info(f"You have rated {plural(done, 'pair')}. Consider a short break; your progress "
+                "is saved.")
 
 
 def _slots(study: Study, key: str, rater: str) -> tuple[tuple[str, str], ...]:
@@ -406,9 +400,9 @@ def _slots(study: Study, key: str, rater: str) -> tuple[tuple[str, str], ...]:
 
 
 def _display_images(study: Study, key: str, rater: str) -> tuple[bytes, ...]:
-    """The item's crops in page order, each salted with an HMAC of (study, item, position)
-    (read and salted once per process, :func:`annotate.display.item_display`)."""
-    return item_display(study).crops(key, _slots(study, key, rater))
+    """The item's crops in page order, each salted with an HMAC of (study, item, position,
+    rater) (files read once per process, :func:`annotate.display.item_display`)."""
+    return item_display(study).crops(key, _slots(study, key, rater), rater)
 
 
 def _next_on_screen(study: Study, rater: str) -> tuple[str | None, dict, tuple | None]:
