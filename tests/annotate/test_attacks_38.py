@@ -338,3 +338,38 @@ def test_attack_admin_tabs_compute_the_tables_once_per_interval(make_study, monk
     monkeypatch.setattr(admin_mod.time, "time", lambda: later)
     admin_mod.admin_tables(s)
     assert calls["ratings_table"] == 2  # recomputed once the interval is over
+
+
+# ---- items 5 and 15: add-rater twice, links for the port in use ----------------------------
+def test_add_rater_twice_is_refused_unless_rotate_and_says_the_old_link_stops(make_study, capsys):
+    from annotate.cli import main
+
+    s = make_study(access="token")
+    assert main(["add-rater", str(s.root), "alice"]) == 0
+    first = capsys.readouterr().out.strip().split("token=", 1)[1]
+    assert main(["add-rater", str(s.root), "alice"]) == 2  # the old code replaced her token
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--rotate" in err[0] and "alice" in err[0], err
+    assert s.store.rater_for_token(first) == "alice"  # her link still works
+    assert main(["add-rater", str(s.root), "alice", "--rotate"]) == 0
+    got = capsys.readouterr()
+    assert "previous link stops working" in got.err
+    assert s.store.rater_for_token(first) is None
+    assert s.store.rater_for_token(got.out.strip().split("token=", 1)[1]) == "alice"
+
+
+def test_add_rater_links_follow_the_served_port_and_the_admin_link_file_is_private(make_study, capsys):
+    from annotate.cli import main
+    from annotate.commands.serve import ADMIN_LINK, record_served
+
+    s = make_study(access="token")
+    assert main(["add-rater", str(s.root), "ann"]) == 0  # never served: the default address
+    assert capsys.readouterr().out.startswith("http://127.0.0.1:8501/?token=")
+    admin = record_served(s, "http://127.0.0.1:8642/")  # what `annotate serve --port 8642` does
+    assert oct(admin.stat().st_mode & 0o777) == "0o600"
+    assert admin.read_text().strip() == f"http://127.0.0.1:8642/?admin={s.admin_token()}"
+    assert main(["add-rater", str(s.root), "bea"]) == 0
+    assert capsys.readouterr().out.startswith("http://127.0.0.1:8642/?token=")
+    assert main(["add-rater", str(s.root), "cy", "--port", "8700"]) == 0  # an option wins
+    assert capsys.readouterr().out.startswith("http://127.0.0.1:8700/?token=")
+    assert (s.root / ADMIN_LINK).name == "admin-link.txt"
