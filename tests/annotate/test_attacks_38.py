@@ -373,3 +373,36 @@ def test_add_rater_links_follow_the_served_port_and_the_admin_link_file_is_priva
     assert main(["add-rater", str(s.root), "cy", "--port", "8700"]) == 0  # an option wins
     assert capsys.readouterr().out.startswith("http://127.0.0.1:8700/?token=")
     assert (s.root / ADMIN_LINK).name == "admin-link.txt"
+
+
+# ---- item 20: training items are objects large enough to recognise -------------------------
+def test_training_items_are_the_larger_objects():
+    import numpy as np
+    import pandas as pd
+
+    from annotate.design import pick_training
+
+    rng = np.random.default_rng(3)
+    side = rng.integers(10, 200, size=60)  # box sides 10-199 px
+    pairs = pd.DataFrame({"pair_id": [f"p{i}" for i in range(60)],
+                          "y_offset_m": np.tile([-2.0, -1.0, 1.0, 2.0], 15),
+                          "gt_x0": 0, "gt_y0": 0, "gt_x1": side, "gt_y1": side // 2})
+    chosen = pick_training(pairs, pairs.iloc[:0], 5, np.random.default_rng(0))
+    got = chosen["gt_x1"].to_numpy()
+    # the median of the 60 sides, by numpy: every training object is at least that large
+    assert len(chosen) == 5 and (got >= np.median(side)).all(), (got, np.median(side))
+    assert chosen["y_offset_m"].abs().iloc[0] == 2.0  # still the clearest offset first
+
+
+# ---- item 21: the admin page's numbers --------------------------------------------------------
+def test_admin_tables_show_a_dash_and_whole_milliseconds():
+    import pandas as pd
+
+    from annotate.admin import MISSING, shown
+
+    table = pd.DataFrame({"rater_id": ["ann", "bea"], "median_response_ms": [1477.0, None],
+                          "kappa": [0.41234, None], "flags": [None, "gold"]})
+    html = shown(table).to_html()
+    assert "1477" in html and "1477.000" not in html
+    assert "0.412" in html and "None" not in html and "nan" not in html
+    assert html.count(MISSING) == 3
