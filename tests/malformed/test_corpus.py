@@ -10,6 +10,7 @@ behave the same in a few subprocess runs.
 from __future__ import annotations
 
 import json
+import sqlite3
 from pathlib import Path
 
 import pandas as pd
@@ -677,6 +678,25 @@ def _(world, tmp):
     return "annotate", ["add-rater", str(st), "ann", "--host", "0.0.0.0"], ["--host", "loopback"]
 
 
+# ---------------------------------------------------------------- issue 38 (annotate helper)
+@case("arguments", "add-rater of a registered name without --rotate")
+def _(world, tmp):
+    """The old code gave alice a new token silently: her first link stopped working."""
+    import json as _json
+
+    from annotate.study import load_study
+
+    st = _study(world, tmp)
+    manifest = _json.loads((st / "manifest.json").read_text())
+    (st / "manifest.json").write_text(_json.dumps({**manifest, "access": "token"}))
+    study = load_study(st)
+    study.store.add_rater("alice", plan=study.new_plan("alice"), token="first-token")
+    study.store._keeper.close()  # the file as a finished command leaves it (WAL checkpointed)
+    with sqlite3.connect(st / "votes.sqlite") as con:
+        con.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+    return "annotate", ["add-rater", str(st), "alice"], ["--rotate", "alice", "registered already"]
+
+
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_malformed_input(name, world, tmp_path, capfd):
     prog, argv, fragments = CASES[name](world, tmp_path)
@@ -705,3 +725,4 @@ def test_corpus_size():
 def test_world_untouched(world):
     """No case wrote into the shared valid inputs it referred to (runs after the cases)."""
     assert snapshot(world) == json.loads((world.parent / f"{world.name}.hashes.json").read_text())
+
