@@ -36,7 +36,7 @@ import numpy as np
 import pandas as pd
 
 from annotate.access import check_access
-from annotate.assign import choose_next, make_plan, pairwise_sides, plan_seed, plan_total
+from annotate.assign import choose_next, make_plan, pairwise_sides, plan_seed, plan_total, rater_seed
 from annotate.binary import BinaryDesign
 from annotate.crops import ImageCache, opaque_ids
 from annotate.design import Choice, Design, StudyOptions, attribute_columns
@@ -60,6 +60,9 @@ __all__ = ["build_study", "load_study", "Study", "StudyChanged", "crop_path", "u
 _MANIFEST = "manifest.json"
 #: study designs by name (manifest ``design``; absent: binary)
 DESIGNS: dict[str, Design] = {d.name: d for d in (BinaryDesign(), PairwiseDesign())}
+#: Simulated raters (``annotate simulate``; a reserved prefix no person can sign in with):
+#: their plans are seeded by the study seed alone, so a simulation is reproducible.
+SIMULATED_PREFIX = "sim-"
 #: Plans a server process keeps in memory (:meth:`Study.plan_for`).
 PLAN_CACHE = 256
 #: the stored vote values of each design and what they mean
@@ -373,8 +376,12 @@ class Study:
         return int(cap) - sum(len(self.keys(k)) for k in ("training", "gold", "repeat"))
 
     def new_plan(self, rater: str) -> dict:
+        """A new plan for ``rater``, seeded by :func:`annotate.assign.plan_seed` (keyed with
+        the study's secret: the seed alone predicts nothing; issue 38); a simulated rater's
+        (``sim-``) by :func:`annotate.assign.rater_seed`, so simulations repeat exactly."""
         reps = {k: k.split(":", 1)[1] for k in self.keys("repeat")}
-        seed = plan_seed(self.admin_token(), self.manifest["seed"], rater)
+        seed = (rater_seed(self.manifest["seed"], rater) if rater.startswith(SIMULATED_PREFIX)
+                else plan_seed(self.admin_token(), self.manifest["seed"], rater))
         plan = make_plan(training=self.manifest["training_order"], tests=self.keys("test"),
                          golds=self.keys("gold"), repeats=reps, seed=seed,
                          max_tests=self.tests_per_rater)

@@ -25,7 +25,7 @@ def register(sub) -> None:
     a = sub.add_parser("add-rater", help="register a rater and print the sign-in link")
     a.add_argument("study", metavar="STUDY", help="study folder made by 'annotate build'")
     a.add_argument("name", metavar="NAME", help="the rater's name (1-40 letters, digits, '.', '_' or '-')")
-    add_address_options(a)
+    add_address_options(a, defaults=False)
     a.add_argument("--rotate", action="store_true", help="give a registered rater a new link "
                    "(token and crowd studies; the old link stops working)")
     a.set_defaults(func=run)

@@ -152,17 +152,20 @@ def base_url(host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, *, public_url: 
     return f"http://{host}:{port}/"
 
 
-def add_address_options(p) -> None:
+def add_address_options(p, *, defaults: bool = True) -> None:
     """Add the rater app's address options, ``--host``, ``--port`` and ``--public-url``.
 
     Parameters
     ----------
     p : argparse.ArgumentParser
         The parser of ``serve``, or of ``add-rater`` (its sign-in links).
+    defaults : bool, optional
+        Default ``--host``/``--port`` to 127.0.0.1:8501 (``serve``); False: None, so
+        ``add-rater`` can tell an option given from the address the study was served at.
     """
-    p.add_argument("--host", default=None,
+    p.add_argument("--host", default=DEFAULT_HOST if defaults else None,
                    help=f"address the rater app listens on (default {DEFAULT_HOST}: this machine only)")
-    p.add_argument("--port", type=int_arg(high=65535), default=None,
+    p.add_argument("--port", type=int_arg(high=65535), default=DEFAULT_PORT if defaults else None,
                    help=f"port of the rater app (default {DEFAULT_PORT})")
     p.add_argument("--public-url", metavar="BASE", help="the address raters use (e.g. a TLS reverse "
                    "proxy's https://study.example.org/): the base of every printed link (default: "
@@ -282,8 +285,6 @@ def run(args) -> int:
     from annotate.study import load_study
 
     study = load_study(args.study)  # fail here, not in the browser
-    args.host = DEFAULT_HOST if args.host is None else args.host
-    args.port = DEFAULT_PORT if args.port is None else args.port
     is_open = study.manifest["access"] == "open"
     if args.workers > 1:  # raters come through the proxy: its port (loopback only when open)
         base = base_url("127.0.0.1" if is_open else "0.0.0.0", args.proxy_port, public_url=args.public_url)
