@@ -36,7 +36,14 @@ import numpy as np
 import pandas as pd
 
 from annotate.access import check_access
-from annotate.assign import choose_next, make_plan, pairwise_sides, plan_seed, plan_total, rater_seed
+from annotate.assign import (
+    choose_next,
+    make_plan,
+    pairwise_sides,
+    plan_seed,
+    plan_total,
+    rater_seed,
+)
 from annotate.binary import BinaryDesign
 from annotate.crops import ImageCache, opaque_ids
 from annotate.design import Choice, Design, StudyOptions, attribute_columns
