@@ -6,7 +6,11 @@ Run with ``annotate serve STUDY`` (which sets ``ANNOTATE_STUDY``). Pages:
   ``/?token=TOKEN`` on a token study (tokens compared in constant time, a bad one is
   refused); on a crowd study an arrival without a token gets a fresh identity (one per
   participant with the study's participant parameter) and the address becomes
-  ``/?token=TOKEN``, so a reload resumes; a finished crowd rater is shown the completion URL;
+  ``/?token=TOKEN`` (plus the participant parameter), so a reload resumes; the identity is
+  stored at its first vote, new identities are rate-limited per client address, an arrival
+  at a full study is told so; a finished crowd rater is shown the completion URL, unless it
+  rated no test item (the study was full: no link);
+- the name field signs in on Enter; the first item after the training says "Training done";
 - instructions, then the training items, then the rater's own items: "Reference" left,
   "Rendered" right, drawn as large as the window allows at one scale (shown, e.g. "×3.2";
   :mod:`annotate.layout`), Good (G, blue) / Bad (B, vermillion) / Undo (U) in one row under
