@@ -3,16 +3,22 @@
 - ``open``: a rater is ``?rater=NAME`` (or a name typed in); there is no authentication, so
   an open study is served on a loopback address only (:func:`check_serving`);
 - ``token``: per-rater links ``?token=TOKEN`` made by ``annotate add-rater``;
-- ``crowd``: every arrival gets a fresh server-issued identity, a 144-bit token carried in
-  the URL the app rewrites the address to (``?token=TOKEN``), so a reload resumes. With a
+- ``crowd``: every arrival gets a fresh server-issued identity, a token carried in the URL
+  the app rewrites the address to (``?token=TOKEN``), so a reload resumes. The token holds
+  the rater id and an HMAC of it under the study's secret, so an arrival stores nothing: the
+  rater is registered at its first vote. New identities are limited per client address
+  (:class:`ArrivalLimiter`; ``annotate serve --arrivals-per-minute``), a study whose test
+  items all have their votes refuses new arrivals ("the study is full", no completion link),
+  and the participant id must be the whole parameter value (no control character). With a
   ``participant_param`` (e.g. Prolific's ``PROLIFIC_PID``) the panel's participant id is
   recorded and gives one identity per participant: the token and rater id are HMACs of the
   id under the study's secret, so a participant who comes back through the panel's link is
   the same rater; an arrival without the parameter is refused. ``completion_url`` is shown
   to the rater who finishes.
 
-Tokens of both token and crowd studies are stored as SHA-256 digests and compared in constant
-time (:meth:`annotate.store.Store.rater_for_token`); a token or rater id is random or an HMAC,
+Tokens of token studies (and of crowd raters once registered) are stored as SHA-256 digests,
+found through an index and compared in constant time
+(:meth:`annotate.store.Store.rater_for_token`); a token or rater id is random or an HMAC,
 never derived from items.
 
 >>> check_access("crowd", participant_param="PROLIFIC_PID",
@@ -25,18 +31,22 @@ never derived from items.
 from __future__ import annotations
 
 import base64
+import collections
 import hashlib
 import hmac
 import ipaddress
 import re
 import secrets
 import socket
+import threading
+import time
 from urllib.parse import urlsplit
 
 from data_schema.errors import InputError
 
 __all__ = ["ACCESS_MODES", "CROWD_PREFIX", "check_access", "is_loopback", "check_serving",
-           "crowd_identity", "crowd_arrival", "CrowdRefused"]
+           "crowd_identity", "crowd_rater_for_token", "crowd_arrival", "register_crowd_rater",
+           "check_participant", "client_address", "ArrivalLimiter", "arrival_limiter", "CrowdRefused", "MSG_FULL"]
 
 #: The access modes of a study (manifest ``access``).
 ACCESS_MODES = ("open", "token", "crowd")
@@ -44,8 +54,9 @@ ACCESS_MODES = ("open", "token", "crowd")
 CROWD_PREFIX = "crowd-"
 #: Query parameters the app itself reads; a panel's participant parameter must differ.
 _APP_PARAMS = {"token", "rater", "admin"}
-_PARAM = re.compile(r"^[A-Za-z_][A-Za-z0-9_.-]{0,63}$")
-_PARTICIPANT = re.compile(r"^[A-Za-z0-9_.:@-]{1,64}$")
+_PARAM = re.compile(r"[A-Za-z_][A-Za-z0-9_.-]{0,63}")  # the whole value (fullmatch)
+_PARTICIPANT = re.compile(r"[A-Za-z0-9_.:@-]{1,64}")  # the whole value (fullmatch)
+_CONTROL = re.compile(r"[\x00-\x1f\x7f]")
 
 
 def check_access(access: str, *, participant_param: str | None = None,
@@ -79,7 +90,7 @@ def check_access(access: str, *, participant_param: str | None = None,
             raise InputError(param=name, expected="no value unless `access` is crowd", got=value)
     if access != "crowd":
         return {"access": access}
-    if participant_param is not None and (not _PARAM.match(str(participant_param))
+    if participant_param is not None and (not _PARAM.fullmatch(str(participant_param))
                                           or participant_param in _APP_PARAMS):
         raise InputError(param="participant_param", expected="a query parameter name (letters, digits, "
                          "'_', '.', '-'; not token, rater or admin), e.g. PROLIFIC_PID",
@@ -127,52 +138,121 @@ def check_serving(access: str, *, host: str, public_url: str | None = None) -> N
         raise InputError(param="public_url", expected=f"no public address {hint}", got=public_url)
 
 
+def _crowd_mac(secret: str, purpose: str, value: str) -> bytes:
+    return hmac.new(str(secret).encode(), f"crowd|{purpose}|{value}".encode(), hashlib.sha256).digest()
+
+
 def crowd_identity(secret: str, participant: str | None = None) -> tuple[str, str]:
     """``(rater id, token)`` of a crowd arrival.
 
-    Without ``participant`` both are fresh random values; with it, both are HMAC-SHA256 of
+    Without ``participant`` the rater id is a fresh random value; with it, an HMAC-SHA256 of
     the participant id under ``secret`` (the study's secret), so the same participant always
-    gets the same identity. The token cannot be computed without the secret, but the server
-    hands it to anyone who arrives with that participant id: with ``participant``, the panel's
-    participant id is the credential (keep it as private as the panel does), and arbitrary ids
-    make new identities, as fresh arrivals without it do.
+    gets the same identity. The token carries the rater id and an HMAC of it under
+    ``secret`` (:func:`crowd_rater_for_token` checks it without the store), so an arrival
+    needs nothing stored until its first vote (issue 38: 4,000 arrivals that never voted
+    filled the store and the server's memory). The token cannot be computed without the
+    secret, but the server hands it to anyone who arrives with that participant id: with
+    ``participant``, the panel's participant id is the credential (keep it as private as the
+    panel does), and arbitrary ids make new identities, as fresh arrivals without it do.
 
     Returns
     -------
     tuple of str
-        ``crowd-`` + 16 hex digits (64 bits), and a 144-bit URL-safe token (24 characters).
+        ``crowd-`` + 16 hex digits (64 bits), and a URL-safe token of 32 characters (the
+        rater id and a 128-bit HMAC).
 
     >>> a, b = crowd_identity("s", "p1"), crowd_identity("s", "p1")
     >>> a == b, a != crowd_identity("s", "p2"), a != crowd_identity("t", "p1")
     (True, True, True)
-    >>> len(a[1]), a[0].startswith("crowd-")
-    (24, True)
+    >>> len(a[1]), a[0].startswith("crowd-"), crowd_rater_for_token("s", a[1]) == a[0]
+    (32, True, True)
     """
     if participant is None:
-        return CROWD_PREFIX + secrets.token_hex(8), secrets.token_urlsafe(18)
+        raw = secrets.token_bytes(8)
+    else:
+        raw = _crowd_mac(secret, "rater", participant)[:8]
+    rater = CROWD_PREFIX + raw.hex()
+    token = base64.urlsafe_b64encode(raw + _crowd_mac(secret, "token", rater)[:16]).decode()
+    return rater, token
 
-    def mac(purpose: str) -> bytes:
-        return hmac.new(str(secret).encode(), f"crowd|{purpose}|{participant}".encode(),
-                        hashlib.sha256).digest()
 
-    token = base64.urlsafe_b64encode(mac("token")[:18]).decode()
-    return CROWD_PREFIX + mac("rater")[:8].hex(), token
+def crowd_rater_for_token(secret: str, token: str) -> str | None:
+    """The crowd rater a token of :func:`crowd_identity` names, if its HMAC is right (compared
+    in constant time), else None. Costs one HMAC, never a store lookup.
+
+    >>> rater, token = crowd_identity("s")
+    >>> crowd_rater_for_token("s", token) == rater, crowd_rater_for_token("t", token)
+    (True, None)
+    >>> crowd_rater_for_token("s", token[:-2] + "AA"), crowd_rater_for_token("s", "x" + chr(10))
+    (None, None)
+    """
+    try:
+        raw = base64.urlsafe_b64decode(str(token).encode("ascii"))
+    except (ValueError, UnicodeEncodeError):
+        return None
+    if len(raw) != 24 or len(str(token)) != 32:
+        return None
+    rater = CROWD_PREFIX + raw[:8].hex()
+    return rater if hmac.compare_digest(raw[8:], _crowd_mac(secret, "token", rater)[:16]) else None
 
 
 class CrowdRefused(Exception):
     """A crowd arrival that gets no identity; the message is for the person arriving."""
 
 
-def crowd_arrival(study, query: dict) -> tuple[str, str]:
-    """Give the arrival with URL query ``query`` its crowd identity; ``(rater id, token)``.
+#: What a crowd arrival at a study whose test items all have their votes is told.
+MSG_FULL = ("This study is full: every image pair has all the answers it needs, so there is "
+            "nothing left to rate. Thank you for your interest. Please return the study on "
+            "your panel's page (no completion code is given).")
+MSG_TOO_MANY = ("Too many new sign-ins from your network just now. Please wait a minute and "
+                "open the link again.")
 
-    Registers the rater (with its plan and token digest) on first arrival; with the study's
-    participant parameter, records the participant id.
+
+def check_participant(participant) -> str:
+    """The panel's participant id if it is one the study accepts (1-64 of ``A-Z a-z 0-9
+    _ . : @ -``, the whole value: no control character, no trailing newline), else
+    :class:`CrowdRefused`.
+
+    >>> check_participant("5f1e@x")
+    '5f1e@x'
+    >>> try:
+    ...     check_participant("5f1e" + chr(10))  # a trailing newline (%0A)
+    ... except CrowdRefused as why:
+    ...     print(str(why)[:30])
+    This link is not valid: the pa
+    """
+    text = str(participant)
+    if not _PARTICIPANT.fullmatch(text) or _CONTROL.search(text):
+        raise CrowdRefused("This link is not valid: the participant id is not one the study "
+                           "accepts. Please open the study from your panel's page.")
+    return text
+
+
+def crowd_arrival(study, query: dict, *, limiter=None, client: str = "") -> tuple[str, str, str | None]:
+    """The crowd identity of an arrival with URL query ``query``: ``(rater id, token,
+    participant id or None)``. Nothing is stored: the rater is registered at its first vote
+    (:func:`register_crowd_rater`).
+
+    Parameters
+    ----------
+    study : annotate.study.Study
+    query : dict
+        The arrival's URL query parameters.
+    limiter : ArrivalLimiter, optional
+        Tokenless arrivals allowed per client address (None: no limit).
+    client : str
+        The client's address (:func:`client_address`).
+
+    Returns
+    -------
+    tuple
+        Rater id, token, participant id (None without the study's participant parameter).
 
     Raises
     ------
     CrowdRefused
-        The study wants a participant id and the URL has none, or not a valid one.
+        The study wants a participant id and the URL has none, or not a valid one; the
+        study is full; too many arrivals from ``client`` just now.
     """
     param = study.manifest.get("participant_param")
     participant = None
@@ -180,13 +260,129 @@ def crowd_arrival(study, query: dict) -> tuple[str, str]:
         participant = query.get(param)
         if not participant:
             raise CrowdRefused("Please open this study from the link on your panel's page.")
-        if not _PARTICIPANT.match(str(participant)):
-            raise CrowdRefused("This link is not valid: the participant id is not one the study "
-                               "accepts. Please open the study from your panel's page.")
+        participant = check_participant(participant)
     rater, token = crowd_identity(study.admin_token(), participant)
-    while participant is None and study.store.plan(rater) is not None:  # a fresh one, never a taken id
+    if participant is not None and study.store.plan(rater) is not None:
+        return rater, token, participant  # a participant coming back: never refused
+    if limiter is not None and not limiter.allow(client):
+        raise CrowdRefused(MSG_TOO_MANY)
+    if study.is_full():
+        raise CrowdRefused(MSG_FULL)
+    while participant is None and study.store.plan(rater) is not None:  # never a taken id
         rater, token = crowd_identity(study.admin_token())
-    study.store.add_rater(rater, plan=study.new_plan(rater), token=token)  # the same again: a no-op
+    return rater, token, participant
+
+
+def register_crowd_rater(study, rater: str, *, token: str, participant: str | None = None) -> None:
+    """Store crowd rater ``rater`` (its plan, token digest and participant id), at its first
+    vote; a no-op for a rater stored already.
+
+    Parameters
+    ----------
+    study : annotate.study.Study
+    rater, token : str
+        From :func:`crowd_arrival`.
+    participant : str, optional
+        The panel's participant id.
+
+    Returns
+    -------
+    None
+    """
+    study.store.add_rater(rater, plan=study.plan_for(rater, register=False), token=token)
     if participant is not None:
         study.store.record_participant(rater, participant)
-    return rater, token
+
+
+class ArrivalLimiter:
+    """New crowd identities per client address: at most ``burst`` at once, refilled at
+    ``per_minute`` a minute (a token bucket per address; at most ``max_clients`` addresses
+    remembered, the least recently seen forgotten first).
+
+    Parameters
+    ----------
+    per_minute : float
+        Arrivals a minute per address, in the long run (> 0).
+    burst : int
+        Arrivals an address may make at once (a shared network's few colleagues).
+    max_clients : int
+        Addresses remembered.
+
+    >>> lim = ArrivalLimiter(per_minute=60, burst=2, clock=lambda: 0.0)
+    >>> [lim.allow("a") for _ in range(3)], lim.allow("b")
+    ([True, True, False], True)
+    """
+
+    def __init__(self, per_minute: float, burst: int = 10, max_clients: int = 10000, *, clock=None):
+        self.rate = float(per_minute) / 60.0
+        self.burst = float(burst)
+        self.max_clients = int(max_clients)
+        self._clock = clock or time.monotonic
+        self._buckets: collections.OrderedDict[str, tuple[float, float]] = collections.OrderedDict()
+        self._lock = threading.Lock()
+
+    def allow(self, client: str) -> bool:
+        """Whether one more arrival from ``client`` is allowed now (and count it if so).
+
+        Parameters
+        ----------
+        client : str
+            The client's address.
+
+        Returns
+        -------
+        bool
+        """
+        now = self._clock()
+        with self._lock:
+            level, at = self._buckets.pop(client, (self.burst, now))
+            level = min(self.burst, level + (now - at) * self.rate)
+            ok = level >= 1.0
+            self._buckets[client] = (level - 1.0 if ok else level, now)
+            while len(self._buckets) > self.max_clients:
+                self._buckets.popitem(last=False)
+        return ok
+
+
+_LIMITERS: dict[tuple[float, int], ArrivalLimiter] = {}
+_LIMITERS_LOCK = threading.Lock()
+
+
+def arrival_limiter(per_minute: float, *, burst: int = 10) -> ArrivalLimiter | None:
+    """The process's :class:`ArrivalLimiter` for these settings (one per process, kept in
+    this module: the app's script is executed again on every run); None when
+    ``per_minute`` <= 0 (no limit).
+
+    Parameters
+    ----------
+    per_minute : float
+    burst : int
+
+    Returns
+    -------
+    ArrivalLimiter or None
+    """
+    if per_minute <= 0:
+        return None
+    with _LIMITERS_LOCK:
+        key = (float(per_minute), int(burst))
+        found = _LIMITERS.get(key)
+        if found is None:
+            found = _LIMITERS[key] = ArrivalLimiter(per_minute=per_minute, burst=burst)
+    return found
+
+
+def client_address(ip: str | None, forwarded_for: str | None) -> str:
+    """The address a rate limit counts an arrival under: the connection's address, or, for a
+    connection from this machine (a reverse proxy on loopback, README "Run a public study"),
+    the last address of its ``X-Forwarded-For`` header (the one the proxy saw).
+
+    >>> client_address("203.0.113.9", "10.0.0.1"), client_address(None, "1.2.3.4, 198.51.100.7")
+    ('203.0.113.9', '198.51.100.7')
+    >>> client_address("127.0.0.1", None)
+    'loopback'
+    """
+    if isinstance(ip, str) and ip and not is_loopback(ip):
+        return ip
+    last = (forwarded_for or "").split(",")[-1].strip()
+    return last or "loopback"

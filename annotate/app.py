@@ -6,7 +6,11 @@ Run with ``annotate serve STUDY`` (which sets ``ANNOTATE_STUDY``). Pages:
   ``/?token=TOKEN`` on a token study (tokens compared in constant time, a bad one is
   refused); on a crowd study an arrival without a token gets a fresh identity (one per
   participant with the study's participant parameter) and the address becomes
-  ``/?token=TOKEN``, so a reload resumes; a finished crowd rater is shown the completion URL;
+  ``/?token=TOKEN`` (plus the participant parameter), so a reload resumes; the identity is
+  stored at its first vote, new identities are rate-limited per client address, an arrival
+  at a full study is told so; a finished crowd rater is shown the completion URL, unless it
+  rated no test item (the study was full: no link);
+- the name field signs in on Enter; the first item after the training says "Training done";
 - instructions, then the training items, then the rater's own items: "Reference" left,
   "Rendered" right, drawn as large as the window allows at one scale (shown, e.g. "×3.2";
   :mod:`annotate.layout`), Good (G, blue) / Bad (B, vermillion) / Undo (U) in one row under
@@ -62,10 +66,21 @@ import time
 
 import streamlit as st
 
-from annotate.access import CrowdRefused, crowd_arrival
+from annotate.access import (
+    ArrivalLimiter,
+    CrowdRefused,
+    arrival_limiter,
+    check_participant,
+    client_address,
+    crowd_arrival,
+    crowd_identity,
+    crowd_rater_for_token,
+    register_crowd_rater,
+)
 from annotate.admin import admin_page
 from annotate.display import item_display, salted_image
 from annotate.layout import page_style, pair_view
+from annotate.load import plural
 from annotate.store import UNDO_DEPTH
 from annotate.study import Study, StudyChanged, load_study
 from data_schema.errors import InputError
@@ -99,7 +114,7 @@ answer; you can close the page and come back any time.
 """
 
 
-__all__ = ["main", "rater_page", "voting_panel", "sign_in_page", "signed_in_rater",
+__all__ = ["main", "refuse_uploads", "rater_page", "voting_panel", "sign_in_page", "signed_in_rater",
            "plain", "salted_image"]
 
 log = logging.getLogger("annotate.app")
@@ -117,6 +132,14 @@ MSG_NO_UNDO = (f"Nothing to undo: Undo takes back only your last {UNDO_DEPTH} an
                "since this page was opened or reloaded.")
 MSG_NONE_FREE = ("No item is free right now: other raters are working on the ones left for "
                  "you. Please retry in a minute.")
+#: New crowd identities a minute per client address (``annotate serve --arrivals-per-minute``).
+ARRIVALS_PER_MINUTE = 20
+#: New crowd identities one address may take at once (colleagues behind one router).
+ARRIVAL_BURST = 10
+MSG_TRAINING_DONE = "Training done — the study starts now. Your answers from here on count."
+MSG_STUDY_FULL = ("This study is full: every image pair got all the answers it needs before "
+                  "you arrived, so there is nothing left for you to rate. Thank you. (No "
+                  "completion code is given; please return the study on your panel's page.)")
 _MD_SPECIAL = re.compile(r"([\\`*_{}\[\]()<>#+\-.!|~:/&=])")
 
 
@@ -134,9 +157,9 @@ def _study(root: str) -> Study:
     return load_study(root)
 
 
-def _sign_in(study: Study, name: str) -> None:
+def _sign_in(study: Study, name: str, *, register: bool = True) -> None:
     st.session_state["rater"] = name
-    study.plan_for(name)
+    study.plan_for(name, register=register)
 
 
 def _name_error(given: object) -> None:
@@ -144,6 +167,37 @@ def _name_error(given: object) -> None:
     st.error("Cannot sign in: a name is 1-40 letters, digits, '.', '_' or '-', starting with "
              "a letter or digit (names starting with 'sim-' are reserved).")
     st.text(f"Name given: {given}")
+
+
+def _token_rater(study: Study, token: str) -> str | None:
+    """The rater of a sign-in token: a crowd token carries its rater and an HMAC (no store
+    lookup; not registered before its first vote), any other token is looked up in the store."""
+    if study.manifest["access"] == "crowd":
+        rater = crowd_rater_for_token(study.admin_token(), token)
+        if rater is not None:
+            if study.store.plan(rater) is None:  # not voted yet: registered at the first vote
+                st.session_state["crowd_pending"] = (token, _returning_participant(study, rater))
+                _sign_in(study, rater, register=False)
+            else:
+                _sign_in(study, rater)
+            return rater
+    rater = study.store.rater_for_token(token)
+    if rater is not None:
+        _sign_in(study, rater)
+    return rater
+
+
+def _returning_participant(study: Study, rater: str) -> str | None:
+    """The participant id a reloaded crowd address still carries, if it is this rater's."""
+    param = study.manifest.get("participant_param")
+    given = st.query_params.get(param) if param else None
+    if not given:
+        return None
+    try:
+        participant = check_participant(given)
+    except CrowdRefused:
+        return None
+    return participant if crowd_identity(study.admin_token(), participant)[0] == rater else None
 
 
 def signed_in_rater(study: Study) -> str | None:
@@ -155,14 +209,12 @@ def signed_in_rater(study: Study) -> str | None:
         token = qp.get("token")
         if token:
             try:
-                rater = study.store.rater_for_token(token)
+                rater = _token_rater(study, token)
             except (sqlite3.Error, OSError) as err:  # one message, as a crowd arrival's
                 _panel_unavailable(err)
                 return None
             if rater is None:
                 st.error("This sign-in link is not valid. Please ask for a new one.")
-                return None
-            _sign_in(study, rater)
             return rater
         if study.manifest["access"] == "crowd":
             return _crowd_sign_in(study)
@@ -177,20 +229,41 @@ def signed_in_rater(study: Study) -> str | None:
     return None
 
 
+def _arrival_limiter() -> ArrivalLimiter | None:
+    """The process's limit on new crowd identities per client address (environment
+    ``ANNOTATE_ARRIVALS_PER_MINUTE``, set by ``annotate serve --arrivals-per-minute``;
+    default :data:`ARRIVALS_PER_MINUTE`; 0: no limit)."""
+    return arrival_limiter(float(os.environ.get("ANNOTATE_ARRIVALS_PER_MINUTE", ARRIVALS_PER_MINUTE)),
+                           burst=ARRIVAL_BURST)
+
+
 def _crowd_sign_in(study: Study) -> str | None:
-    """A crowd arrival: its identity, the address rewritten to carry it (a reload resumes)."""
+    """A crowd arrival: its identity, the address rewritten to carry it (a reload resumes).
+    Nothing is stored until the rater's first vote (:func:`_on_vote`)."""
+    ctx = st.context
+    client = client_address(getattr(ctx, "ip_address", None), ctx.headers.get("X-Forwarded-For"))
     try:
-        rater, token = crowd_arrival(study, st.query_params.to_dict())
+        rater, token, participant = crowd_arrival(study, st.query_params.to_dict(),
+                                                  limiter=_arrival_limiter(), client=client)
     except CrowdRefused as why:
         st.session_state["crowd_refused"] = str(why)
         return None
     except (sqlite3.Error, OSError):
-        log.exception("annotate app: a crowd arrival could not be registered")
+        log.exception("annotate app: a crowd arrival could not be admitted")
         st.session_state["crowd_refused"] = MSG_UNAVAILABLE
         return None
-    st.query_params.from_dict({"token": token})
-    _sign_in(study, rater)
+    param = study.manifest.get("participant_param")
+    st.query_params.from_dict({"token": token, **({param: participant} if participant else {})})
+    st.session_state["crowd_pending"] = (token, participant)
+    _sign_in(study, rater, register=False)
     return rater
+
+
+def _register_pending(study: Study, rater: str) -> None:
+    """Store a crowd rater at its first vote (plan, token digest, participant id)."""
+    pending = st.session_state.pop("crowd_pending", None)
+    if pending is not None:
+        register_crowd_rater(study, rater, token=pending[0], participant=pending[1])
 
 
 def _on_sign_in(study: Study) -> None:
@@ -213,8 +286,10 @@ def sign_in_page(study: Study) -> None:
         if not st.query_params.get("token"):
             st.info("Please open the personal link you received to take part.")
         return
-    st.text_input("Your name (letters, digits, '.', '_', '-')", key="name_input")
-    st.button("Sign in", key="sign_in", on_click=_on_sign_in, args=(study,))
+    with st.form("sign_in_form", border=False, enter_to_submit=True):  # Enter signs in
+        st.text_input("Your name (letters, digits, '.', '_', '-')", key="name_input")
+        st.form_submit_button("Sign in", key="sign_in", type="primary", on_click=_on_sign_in,
+                              args=(study,))
     if "sign_in_error" in st.session_state:
         _name_error(st.session_state.pop("sign_in_error"))
 
@@ -250,9 +325,12 @@ def _on_vote(study: Study, rater: str, key: str, token: str, vote: int) -> None:
             refused="too-fast log", doing="logging a too-fast press")
         st.session_state.setdefault("notice", ("warning", MSG_TOO_FAST))
         return
+    def record() -> str:
+        _register_pending(study, rater)  # a crowd rater is stored at its first vote
+        return study.store.record_shown_vote(rater, key, vote, response_ms=rt, session=_session_id())
+
     ok, status = _on_current_study(
-        study, lambda: study.store.record_shown_vote(rater, key, vote, response_ms=rt,
-                                                     session=_session_id()),
+        study, record,
         refused="vote", doing="recording a vote",
     )
     if not ok:
@@ -306,10 +384,13 @@ def _progress_bar(study: Study, item_kind: str, prog: dict) -> None:
         st.progress(i / max(n, 1), text=f"Training {i} / {n}")
         return
     done, total = prog["done"], max(prog["total"], 1)
+    if prog["training_total"] and not done:  # the first item after the training
+        st.success(MSG_TRAINING_DONE)
     st.progress(min(done / total, 1.0), text=f"{done} / {total}")
     every = int(study.manifest.get("break_every", 50))
     if done and done % every == 0:
-        st.info(f"You have rated {done} pairs. Consider a short break; your progress is saved.")
+        st.info(f"You have rated {plural(done, 'pair')}. Consider a short break; your progress "
+                "is saved.")
 
 
 def _slots(study: Study, key: str, rater: str) -> tuple[tuple[str, str], ...]:
@@ -323,9 +404,9 @@ def _slots(study: Study, key: str, rater: str) -> tuple[tuple[str, str], ...]:
 
 
 def _display_images(study: Study, key: str, rater: str) -> tuple[bytes, ...]:
-    """The item's crops in page order, each salted with an HMAC of (study, item, position)
-    (read and salted once per process, :func:`annotate.display.item_display`)."""
-    return item_display(study).crops(key, _slots(study, key, rater))
+    """The item's crops in page order, each salted with an HMAC of (study, item, position,
+    rater) (files read once per process, :func:`annotate.display.item_display`)."""
+    return item_display(study).crops(key, _slots(study, key, rater), rater)
 
 
 def _next_on_screen(study: Study, rater: str) -> tuple[str | None, dict, tuple | None]:
@@ -395,6 +476,8 @@ def _no_item(study: Study, rater: str, prog: dict) -> None:
     if waiting:
         st.info(MSG_NONE_FREE)
         st.button("Retry", key="retry")
+    elif _rated_no_test(study, rater):  # arrived when every test item had its votes
+        st.info(MSG_STUDY_FULL)
     else:
         st.success(f"All done, thank you, {plain(rater)}! ({prog['done']} / {prog['total']})")
         if study.manifest.get("completion_url"):
@@ -403,6 +486,13 @@ def _no_item(study: Study, rater: str, prog: dict) -> None:
     token = st.session_state["shown"] = (None, None, "done")
     st.button("Undo last vote", key="undo-done", shortcut="u", on_click=_on_undo,
               args=(study, rater, token[2]))
+
+
+def _rated_no_test(study: Study, rater: str) -> bool:
+    """Whether the rater finished without a single test item (the study was full)."""
+    voted = study.store.rater_state(rater)[1]
+    kinds = item_display(study).kind
+    return not any(kinds.get(k) == "test" for k in voted)
 
 
 def _pairwise_buttons(study: Study, rater: str, key: str, token: str) -> None:
@@ -439,6 +529,29 @@ def rater_page(study: Study, rater: str) -> None:
         st.session_state["started"] = True
     page_style()  # outside the panel: drawn once per page, not again with every vote
     voting_panel(study, rater)
+
+
+def refuse_uploads() -> bool:
+    """Make this server's upload store keep no file (the app has no uploader; see
+    :mod:`annotate.serve_app`). Idempotent; False where no Streamlit server runs (tests).
+
+    Returns
+    -------
+    bool
+        Whether a running server's upload store was closed.
+    """
+    from streamlit.runtime import Runtime
+
+    if not Runtime.exists():
+        return False
+    mgr = Runtime.instance().uploaded_file_mgr
+    if not getattr(mgr, "_annotate_closed", False):
+        def refuse(session_id, file):  # noqa: ARG001 (the store's signature)
+            log.warning("annotate app: an upload was refused (the app has no uploader)")
+
+        mgr.add_file = refuse
+        mgr._annotate_closed = True
+    return True
 
 
 def main() -> None:

@@ -4,7 +4,7 @@ Layer: annotate (rating study).
 
 A rater's *plan* is fixed when the rater signs in for the first time and stored with the
 rater: the training items in study order, then the test items in a random order seeded by
-the study seed and the rater id, and the hidden gold and repeat items ("specials"), each due
+an HMAC of the study seed and the rater id under the study's secret (:func:`plan_seed`), and the hidden gold and repeat items ("specials"), each due
 after a seeded number of test items. :func:`choose_next` then picks, in this order:
 
 1. the next training item;
@@ -29,31 +29,51 @@ after a seeded number of test items. :func:`choose_next` then picks, in this ord
 from __future__ import annotations
 
 import hashlib
+import hmac
 
 import numpy as np
 
-__all__ = ["make_plan", "choose_next", "rater_seed", "plan_total", "pairwise_sides"]
+__all__ = ["make_plan", "choose_next", "rater_seed", "plan_seed", "plan_total", "pairwise_sides"]
 
 
 def rater_seed(study_seed: int, rater: str) -> int:
     """A 63-bit seed from the study seed and the rater id (stable across runs and machines).
 
+    Unkeyed: anyone who knows the seed computes it. Plans use :func:`plan_seed` (keyed with
+    the study's secret); this stays for callers that want a public, reproducible seed.
+
+    >>> rater_seed(0, "ann") == rater_seed(0, "ann") != rater_seed(1, "ann")
+    True
+    """
+    digest = hashlib.sha256(f"{int(study_seed)}:{rater}".encode()).digest()
+    return int.from_bytes(digest[:8], "little") >> 1
+
+
+def plan_seed(secret: str, study_seed: int, rater: str) -> int:
+    """A 63-bit plan seed keyed with the study's secret: HMAC-SHA256 of the study seed and
+    the rater id. Without the secret nobody can compute a rater's order and gold positions
+    (issue 38: ``sha256(seed:rater)`` with the README's seed 0 predicted 42 of 48 gold
+    positions).
+
     Parameters
     ----------
+    secret : str
+        The study's secret (its admin token, ``secrets.json``).
     study_seed : int
-        The study's seed.
+        The manifest's seed.
     rater : str
         The rater id.
 
     Returns
     -------
     int
-        In ``[0, 2**63)``.
+        The seed, in [0, 2**63).
 
-    >>> rater_seed(0, "ann") == rater_seed(0, "ann") != rater_seed(1, "ann")
+    >>> plan_seed("k", 0, "ann") == plan_seed("k", 0, "ann") != plan_seed("j", 0, "ann")
     True
     """
-    digest = hashlib.sha256(f"{int(study_seed)}:{rater}".encode()).digest()
+    digest = hmac.new(str(secret).encode(), f"plan|{int(study_seed)}|{rater}".encode(),
+                      hashlib.sha256).digest()
     return int.from_bytes(digest[:8], "little") >> 1
 
 

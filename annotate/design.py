@@ -287,12 +287,23 @@ def select_test_pairs(pairs: pd.DataFrame, *, offsets: list[float], n_tracks: in
                            ).reset_index(drop=True), record
 
 
+def _box_side(rows: pd.DataFrame) -> pd.Series | None:
+    """The longer side of each row's GT box in camera pixels (None without box columns)."""
+    cols = ("gt_x0", "gt_y0", "gt_x1", "gt_y1")
+    if not all(c in rows.columns for c in cols):
+        return None
+    box = rows[list(cols)].apply(pd.to_numeric, errors="coerce")
+    return np.maximum(box["gt_x1"] - box["gt_x0"], box["gt_y1"] - box["gt_y0"])
+
+
 def pick_training(pairs: pd.DataFrame, tests: pd.DataFrame, n: int,
                   rng: np.random.Generator) -> pd.DataFrame:
     """The training items of a study: ``n`` rows of ``pairs`` outside the test set (else from
     it), their offsets spread from large to small: a rater's first items are clearly different
     (the largest ``|y_offset_m|`` there is, 2 m or more when the table has it), the subtle
-    ones come last.
+    ones come last. With GT box columns, only the larger half of the objects (box side at
+    least the median) are candidates, when they are enough: a small object is drawn
+    enlarged many times over (issue 38: ×12 enlargements of a blur taught nothing).
 
     Parameters
     ----------
@@ -316,7 +327,11 @@ def pick_training(pairs: pd.DataFrame, tests: pd.DataFrame, n: int,
     n = min(n, len(pool))
     if n == 0:
         return pool.iloc[:0]
-    order = pool.assign(_a=-pool["y_offset_m"].abs(), _r=rng.random(len(pool))).sort_values(["_a", "_r"])
+    pool = pool.assign(_a=-pool["y_offset_m"].abs(), _r=rng.random(len(pool)))
+    side = _box_side(pool)
+    if side is not None and (side >= side.median()).sum() >= n:  # the larger objects only
+        pool = pool[side >= side.median()]
+    order = pool.sort_values(["_a", "_r"])
     idx = np.round(np.linspace(0, len(order) - 1, n)).astype(int)
     return order.iloc[sorted(set(idx.tolist()))].drop(columns=["_a", "_r"])
 

@@ -1,15 +1,14 @@
-"""What a rater page shows of an item, read once per server process: its salted crops, its
-kind and its crop side.
+"""What a rater page shows of an item, read once per server process: its crops, its kind
+and its crop side.
 
-Layer: annotate (rating study).
-
-Every displayed crop carries a salt (an HMAC of the study id, the item and its position on
-the page, keyed by the study's admin token) embedded as metadata, so its bytes, hence the
-URL the page serves it under, differ between items and positions while the pixels stay the
-crop's. A study never changes its crops (a rebuilt one has a new study id and is refused by
-:meth:`annotate.study.Study.check_current` before anything is drawn), so a server keeps
-each salted crop in memory after its first showing instead of reading the file and
-computing the HMAC on every vote; the cache lives in this module, which a Streamlit rerun
+Every displayed crop carries a salt (an HMAC of the study id, the item, its position on the
+page and the rater, keyed by the study's admin token) embedded as metadata, so its bytes,
+hence the URL the page serves it under, differ between items, positions and raters while
+the pixels stay the crop's. A study never changes its crops (a rebuilt one has a new study
+id and is refused by :meth:`annotate.study.Study.check_current` before anything is drawn),
+so a server keeps each crop file's bytes in memory after its first showing (one copy per
+file, whatever the number of raters) and salts them per showing (an HMAC and a copy: a few
+microseconds); the cache lives in this module, which a Streamlit rerun
 does not re-execute, one per study folder and study id. So are the per-item facts the page
 needs on every vote (kind, crop side), as plain dicts instead of DataFrame lookups.
 """
@@ -90,21 +89,39 @@ class ItemDisplay:
         self.kind = study.items["kind"].to_dict()
         self.crop_side = study.items["crop_side"].to_dict() if "crop_side" in study.items else {}
 
-    def crops(self, key: str, slots) -> tuple[bytes, ...]:
-        """The crops of item ``key`` for ``slots``, ``((position, file column), ...)``.
+    def crops(self, key: str, slots, rater: str = "") -> tuple[bytes, ...]:
+        """The crops of item ``key`` for ``slots``, ``((position, file column), ...)``, as
+        ``rater`` is shown them.
+
+        Parameters
+        ----------
+        key : str
+            The item key.
+        slots : sequence of (str, str)
+            (position on the page, ``items.csv`` file column) of each crop.
+        rater : str, optional
+            The rater they are shown to: the salt includes it, so two raters never get the
+            same bytes (issue 38: counting which images more than ``votes_per_item``
+            identities saw found every gold item).
+
+        Returns
+        -------
+        tuple of bytes
+            The salted JPEG/PNG bytes, in ``slots`` order.
 
         Raises what reading the crop raises (InputError, OSError, KeyError, ValueError); a
         crop that fails is not kept, so it fails again on its next showing.
         """
         out = []
+        study_id = self.study.manifest["study_id"]
         for side, col in slots:
-            data = self._crops.get((key, side, col))
+            data = self._crops.get((key, col))
             if data is None:
                 data = crop_path(self.study.root, self.study.items.at[key, col]).read_bytes()
-                salt = hmac.new(self._secret, f"{self.study.manifest['study_id']}|{key}|{side}".encode(),
-                                hashlib.sha256).hexdigest()[:24].encode()
-                data = self._crops[(key, side, col)] = salted_image(data, salt)
-            out.append(data)
+                self._crops[(key, col)] = data
+            salt = hmac.new(self._secret, f"{study_id}|{key}|{side}|{rater}".encode(),
+                            hashlib.sha256).hexdigest()[:24].encode()
+            out.append(salted_image(data, salt))
         return tuple(out)
 
 

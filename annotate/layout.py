@@ -49,6 +49,14 @@ _CSS = f"""<style>
   color: #fff; }}
 [class*="st-key-vote_"] button {{ min-width: 9rem; }}
 [class*="st-key-key_twin-"] {{ display: none; }}
+@media (max-width: 640px) {{  /* a phone: the pair stays side by side, the buttons in view */
+  [data-testid="stMainBlockContainer"] {{ padding: 1rem 0.5rem 0.5rem; }}
+  .st-key-pair [data-testid="stHorizontalBlock"] {{ flex-wrap: nowrap !important; gap: 0.5rem; }}
+  .st-key-pair [data-testid="stColumn"] {{ min-width: 0 !important; width: auto !important;
+    flex: 1 1 0 !important; }}
+  [class*="st-key-vote_"] button {{ min-width: 5.5rem; }}
+  [class*="st-key-undo-"] button {{ min-width: 4rem; }}
+}}
 </style>"""
 
 # Keeps every scale line equal to the width the browser draws the first crop at (installed

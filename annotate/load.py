@@ -27,7 +27,7 @@ import math
 
 from data_schema.errors import InputError
 
-__all__ = ["SECONDS_PER_VOTE", "SESSION_MINUTES", "DEFAULT_ITEMS_PER_RATER", "rater_load",
+__all__ = ["plural", "SECONDS_PER_VOTE", "SESSION_MINUTES", "DEFAULT_ITEMS_PER_RATER", "rater_load",
            "check_items_per_rater", "load_text"]
 
 #: Seconds one vote takes a rater, item drawn to next item (see the module docstring).
@@ -38,6 +38,27 @@ SESSION_MINUTES = 20
 DEFAULT_ITEMS_PER_RATER = int(SESSION_MINUTES * 60 // SECONDS_PER_VOTE)
 
 _FIXED = ("training", "gold", "repeat")
+
+
+def plural(n: int, word: str, words: str | None = None) -> str:
+    """``n`` and ``word`` in the number ``n`` asks for.
+
+    Parameters
+    ----------
+    n : int
+    word : str
+        The singular.
+    words : str, optional
+        The plural (default ``word + 's'``).
+
+    Returns
+    -------
+    str
+
+    >>> plural(1, "vote"), plural(0, "vote"), plural(2, "rater"), plural(1, "pair")
+    ('1 vote', '0 votes', '2 raters', '1 pair')
+    """
+    return f"{n} {word if n == 1 else (words or word + 's')}"
 
 
 def check_items_per_rater(items_per_rater, counts: dict) -> int:
@@ -119,5 +140,7 @@ def load_text(load: dict, *, votes_per_item: int) -> str:
     'each rater: up to 800 items (784 of them test items), about 20 min at 1.5 s per vote; 7 raters give every test item its 5 votes'
     """
     return (f"each rater: up to {load['items']} items ({load['test']} of them test items), about "
-            f"{load['minutes']:.0f} min at {SECONDS_PER_VOTE:g} s per vote; {load['raters_needed']} "
-            f"raters give every test item its {votes_per_item} votes")
+            f"{load['minutes']:.0f} min at {SECONDS_PER_VOTE:g} s per vote; "
+            f"{plural(load['raters_needed'], 'rater')} give{'s' if load['raters_needed'] == 1 else ''} "
+            "every test item its "
+            f"{plural(votes_per_item, 'vote')}")

@@ -15,15 +15,21 @@ must reach one worker, the websocket included.
   sticky-cookie policy and websockets pass through by themselves.
 
 Both refuse the Streamlit endpoints raters never use (``/_stcore/metrics``,
-``/_stcore/agent/``), as README "Run a public study" asks of a proxy. TLS is the proxy's
+``/_stcore/agent/`` and the file uploads ``/_stcore/upload_file/``: the app has no uploader,
+issue 38) and any request body over 1 kB (raters send none: votes travel on the websocket),
+as README "Run a public study" asks of a proxy. TLS is the proxy's
 too (that section); these configurations listen on plain HTTP at ``listen`` and leave the
 certificate lines to be added there.
 
 >>> print(proxy_conf("caddy", [8501, 8502], listen=8080))
 # caddy: one public port for the 2 workers of `annotate serve` (ports 8501-8502)
 :8080 {
+    request_body {
+        max_size 1KB
+    }
     respond /_stcore/metrics 404
     respond /_stcore/agent/* 404
+    respond /_stcore/upload_file/* 404
     reverse_proxy 127.0.0.1:8501 127.0.0.1:8502 {
         lb_policy cookie nvrq_worker
     }
@@ -87,8 +93,10 @@ upstream nvrq_raters {{
 server {{
     listen {"127.0.0.1:" if loopback else ""}{int(listen)};
     server_name _;
+    client_max_body_size 1k;
     location = /_stcore/metrics {{ return 404; }}
     location ^~ /_stcore/agent/ {{ return 404; }}
+    location ^~ /_stcore/upload_file/ {{ return 404; }}
     location / {{
         proxy_pass http://nvrq_raters;
         proxy_http_version 1.1;
@@ -111,7 +119,9 @@ server {{
 def _caddy(upstreams: list[str], listen: int, title: str, loopback: bool) -> str:
     """The Caddyfile (see :func:`proxy_conf`)."""
     return (f"{title}\n:{int(listen)} {{\n" + ("    bind 127.0.0.1\n" if loopback else "") +
+            "    request_body {\n        max_size 1KB\n    }\n"
             "    respond /_stcore/metrics 404\n    respond /_stcore/agent/* 404\n"
+            "    respond /_stcore/upload_file/* 404\n"
             f"    reverse_proxy {' '.join(upstreams)} {{\n        lb_policy cookie {COOKIE}\n    }}\n}}")
 
 

@@ -10,7 +10,7 @@ The store also hands out items: :meth:`Store.next_item` returns the rater's next
 item, assigning a new one (see :func:`annotate.assign.choose_next`) inside one
 ``BEGIN IMMEDIATE`` transaction so two raters never race for the last slot of an item. An
 assigned item without a vote is a *claim* that holds one of the item's ``votes_per_item``
-slots for :data:`CLAIM_LEASE_S` seconds after it was last handed out, then frees it.
+slots for :data:`CLAIM_LEASE_S` seconds after it was drawn (never renewed), then frees it.
 
 Undo is bounded (:meth:`Store.undo_last`): a browser session can take back only its own
 :data:`UNDO_DEPTH` most recent votes, never a vote of an earlier session of the same rater.
@@ -45,10 +45,12 @@ __all__ = ["Store", "utc_now_iso", "token_digest", "UNDO_DEPTH", "CLAIM_LEASE_S"
 
 #: How many of its own most recent votes a browser session can undo.
 UNDO_DEPTH = 3
-#: Seconds an item handed out but not voted on holds its slot (renewed each time it is shown).
+#: Seconds an item handed out but not voted on holds its slot, counted from the draw (showing
+#: it again does not renew it: only a vote or a skip ends a claim early).
 CLAIM_LEASE_S = 120.0
-#: ``PRAGMA user_version`` of a store file in the current layout (0: before sessions and leases).
-SCHEMA_VERSION = 1
+#: ``PRAGMA user_version`` of a store file in the current layout (0: before sessions and
+#: leases; 1: before the token index).
+SCHEMA_VERSION = 2
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS raters (
@@ -83,6 +85,12 @@ CREATE TABLE IF NOT EXISTS {name} (
 _INDEXES_V1 = """
 CREATE INDEX IF NOT EXISTS history_session ON history (study, rater, session);
 CREATE INDEX IF NOT EXISTS assignments_live ON assignments (study, active_at);
+"""
+
+# Version 1 -> 2: a token is looked up through an index on its digest, never by reading
+# every rater (issue 38: 107 ms a wrong token at 6,300 raters).
+_INDEXES_V2 = """
+CREATE INDEX IF NOT EXISTS raters_token ON raters (study, token_sha256);
 """
 
 # Per-item counters kept by triggers, so handing out an item reads one row per item instead
@@ -165,12 +173,17 @@ def _migrate(con: sqlite3.Connection) -> None:
     Version 1 adds ``history.session`` and the ``too_fast`` action (SQLite cannot change a
     CHECK constraint, so the log is copied, ids included, into a table of the new layout)
     and ``assignments.active_at``, the start of a claim's lease (an unvoted assignment's is
-    its assignment time). Another process migrating at the same time waits, then finds the
+    its assignment time). Version 2 adds the index ``raters_token`` on the token digests
+    (:meth:`Store.rater_for_token`). Another process migrating at the same time waits, then finds the
     version set and does nothing.
     """
     con.execute("BEGIN IMMEDIATE")
     try:
-        if con.execute("PRAGMA user_version").fetchone()[0] < 1:
+        version = con.execute("PRAGMA user_version").fetchone()[0]
+        if version >= SCHEMA_VERSION:  # another process migrated it meanwhile
+            con.execute("COMMIT")
+            return
+        if version < 1:
             if "session" not in _columns(con, "history"):
                 con.execute(_HISTORY.replace("{name}", "history_v1"))
                 con.execute("INSERT INTO history_v1 (id, study, rater, item, action, vote, at, "
@@ -185,7 +198,9 @@ def _migrate(con: sqlite3.Connection) -> None:
                             "v.rater = assignments.rater AND v.item = assignments.item)")
             for statement in _INDEXES_V1.split(";")[:-1]:  # (executescript would commit)
                 con.execute(statement)
-            con.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
+        for statement in _INDEXES_V2.split(";")[:-1]:  # version 2: the token index
+            con.execute(statement)
+        con.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
     except BaseException:
         con.execute("ROLLBACK")
         raise
@@ -317,10 +332,13 @@ class Store:
                     "item = ?", (self.study, rater, item))
 
     def skip(self, rater: str, item: str, *, reason: str) -> None:
-        """Take ``item`` out of the rater's queue (it cannot be shown); it is never handed out again."""
+        """Take ``item`` out of the rater's queue (it cannot be shown); it is never handed out
+        again, and the rater's claim on it ends."""
         with self._transaction() as con:
             con.execute("INSERT OR IGNORE INTO skipped (study, rater, item, at, reason) VALUES "
                         "(?, ?, ?, ?, ?)", (self.study, rater, item, utc_now_iso(), reason))
+            con.execute("UPDATE assignments SET active_at = NULL WHERE study = ? AND rater = ? "
+                        "AND item = ?", (self.study, rater, item))  # a skip ends its claim
 
     def undo_last(self, rater: str, *, session: str, depth: int = UNDO_DEPTH) -> str | None:
         """Take back the newest vote of ``rater`` that ``session`` cast and that still stands,
@@ -427,18 +445,21 @@ class Store:
         return None if row is None else json.loads(row[0])
 
     def rater_for_token(self, token: str) -> str | None:
-        """The rater whose token is ``token`` (digests compared in constant time), else None."""
+        """The rater whose token is ``token``, else None.
+
+        The digest is looked up through the index ``raters_token`` (one B-tree search, so a
+        wrong token costs the same at 10 or 10,000 raters) and the row found is compared
+        with it again in constant time.
+        """
         if not token:
             return None
         digest = token_digest(token)
         with self._connect() as con:
-            rows = con.execute("SELECT rater, token_sha256 FROM raters WHERE study = ? AND "
-                               "token_sha256 IS NOT NULL", (self.study,)).fetchall()
-        found = None
-        for rater, stored in rows:  # no early exit: time does not depend on the match position
-            if hmac.compare_digest(stored, digest):
-                found = rater
-        return found
+            row = con.execute("SELECT rater, token_sha256 FROM raters WHERE study = ? AND "
+                              "token_sha256 = ? LIMIT 1", (self.study, digest)).fetchone()
+        if row is None or not hmac.compare_digest(str(row[1]), digest):
+            return None
+        return row[0]
 
     def record_participant(self, rater: str, participant: str) -> None:
         """Record that crowd rater ``rater`` is the panel's participant ``participant`` (first
@@ -461,9 +482,10 @@ class Store:
         ``chooser(assigned: list[str], voted: set[str], loads: dict[str, int])`` picks the new
         item (or None when nothing is free for the rater); ``loads`` counts, per item, the
         standing votes plus the live claims of other raters: an item handed out and not voted
-        on is claimed for ``lease_s`` seconds from the last time it was handed out (returning
-        the rater's open item renews its lease), so an abandoned tab frees its item after at
-        most ``lease_s``. The work reads the rater's own rows, one counter row per item and
+        on is claimed for ``lease_s`` seconds from its draw. Returning the rater's open item
+        again does not renew the lease (issue 38: scripts that reloaded every 55 s held
+        their claims for ever), so a claim never outlives ``lease_s`` without a vote; a vote
+        or a skip ends it sooner. The work reads the rater's own rows, one counter row per item and
         the live claims (an index range), never the other raters' votes. An assignment is
         committed without a disk sync of its own (WAL, synchronous NORMAL): losing one to a
         power cut only means handing the item out again; the next vote's synced commit
@@ -485,14 +507,7 @@ class Store:
                     con.execute("INSERT INTO assignments (study, rater, item, assigned_at, active_at) "
                                 "VALUES (?, ?, ?, ?, ?)", (self.study, rater, item, now, now))
                 return item
-        try:  # the open item is the rater's already: renewing its lease is best effort
-            with self._transaction(synchronous="NORMAL") as con:
-                con.execute("UPDATE assignments SET active_at = ? WHERE id = ? AND NOT EXISTS (SELECT 1 "
-                            "FROM votes v WHERE v.study = ? AND v.rater = ? AND v.item = ?)",
-                            (now, row[0], self.study, rater, row[1]))  # not if voted meanwhile
-        except sqlite3.OperationalError:  # e.g. a full disk: the lease just runs out sooner
-            pass
-        return row[1]
+        return row[1]  # the rater's open item; its lease still counts from its draw
 
     def _own(self, con: sqlite3.Connection, rater: str) -> tuple[list[str], set[str]]:
         assigned = [r[0] for r in con.execute(

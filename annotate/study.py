@@ -24,6 +24,7 @@ relative to the pairs file), else an error. The roots are recorded per clip in t
 
 from __future__ import annotations
 
+import collections
 import json
 import os
 import secrets
@@ -35,7 +36,14 @@ import numpy as np
 import pandas as pd
 
 from annotate.access import check_access
-from annotate.assign import choose_next, make_plan, pairwise_sides, plan_total, rater_seed
+from annotate.assign import (
+    choose_next,
+    make_plan,
+    pairwise_sides,
+    plan_seed,
+    plan_total,
+    rater_seed,
+)
 from annotate.binary import BinaryDesign
 from annotate.crops import ImageCache, opaque_ids
 from annotate.design import Choice, Design, StudyOptions, attribute_columns
@@ -60,6 +68,11 @@ __all__ = ["build_study", "load_study", "Study", "StudyChanged", "crop_path", "u
 _MANIFEST = "manifest.json"
 #: study designs by name (manifest ``design``; absent: binary)
 DESIGNS: dict[str, Design] = {d.name: d for d in (BinaryDesign(), PairwiseDesign())}
+#: Simulated raters (``annotate simulate``; a reserved prefix no person can sign in with):
+#: their plans are seeded by the study seed alone, so a simulation is reproducible.
+SIMULATED_PREFIX = "sim-"
+#: Plans a server process keeps in memory (:meth:`Study.plan_for`).
+PLAN_CACHE = 256
 #: the stored vote values of each design and what they mean
 VOTES = {name: d.votes for name, d in DESIGNS.items()}
 
@@ -287,20 +300,37 @@ class Study:
     def keys(self, kind: str) -> list[str]:
         return self.items.index[self.items["kind"] == kind].tolist()
 
-    def plan_for(self, rater: str) -> dict:
-        """The rater's stored plan, creating (and storing) it on first use.
+    def plan_for(self, rater: str, *, register: bool = True) -> dict:
+        """The rater's plan: the stored one, else a new one (stored when ``register``).
 
-        A stored plan never changes, so it is kept in memory after the first read.
+        A plan never changes (a new one is a function of the study's secret and the rater),
+        so it is kept in memory after the first use, in a cache of at most
+        :data:`PLAN_CACHE` plans (the least recently used is dropped; issue 38: a plan is
+        about 80 kB at 1,000 items and every arrival made one). ``register=False``: a crowd
+        arrival's plan, used before its first vote and stored with it
+        (:func:`annotate.access.register_crowd_rater`).
         """
-        cache = self.__dict__.setdefault("_plans", {})
+        cache = self.__dict__.setdefault("_plans", collections.OrderedDict())
         plan = cache.get(rater)
+        if plan is not None:
+            cache.move_to_end(rater)
+            return plan
+        plan = self.store.plan(rater)
         if plan is None:
-            plan = self.store.plan(rater)
-            if plan is None:
-                self.store.add_rater(rater, plan=self.new_plan(rater))
+            plan = self.new_plan(rater)
+            if register:
+                self.store.add_rater(rater, plan=plan)
                 plan = self.store.plan(rater)
-            cache[rater] = plan
+        cache[rater] = plan
+        while len(cache) > PLAN_CACHE:
+            cache.popitem(last=False)
         return plan
+
+    def is_full(self) -> bool:
+        """Whether every test item has its ``votes_per_item`` standing votes (a new rater
+        would be given no test item)."""
+        votes = self.store.item_loads()
+        return all(votes.get(k, 0) >= self.quota for k in self.keys("test"))
 
     @property
     def design(self) -> str:
@@ -317,8 +347,12 @@ class Study:
         return int(cap) - sum(len(self.keys(k)) for k in ("training", "gold", "repeat"))
 
     def new_plan(self, rater: str) -> dict:
+        """A new plan for ``rater``, seeded by :func:`annotate.assign.plan_seed` (keyed with
+        the study's secret: the seed alone predicts nothing; issue 38); a simulated rater's
+        (``sim-``) by :func:`annotate.assign.rater_seed`, so simulations repeat exactly."""
         reps = {k: k.split(":", 1)[1] for k in self.keys("repeat")}
-        seed = rater_seed(self.manifest["seed"], rater)
+        seed = (rater_seed(self.manifest["seed"], rater) if rater.startswith(SIMULATED_PREFIX)
+                else plan_seed(self.admin_token(), self.manifest["seed"], rater))
         plan = make_plan(training=self.manifest["training_order"], tests=self.keys("test"),
                          golds=self.keys("gold"), repeats=reps, seed=seed,
                          max_tests=self.tests_per_rater)

@@ -87,7 +87,7 @@ def register(sub) -> None:
     b.add_argument("--completion-url", metavar="URL", help="crowd: shown to a rater who has finished "
                    "(default: none)")
     b.add_argument("--public-url", metavar="BASE", help="the address raters will use, for the "
-                   "printed admin link (default: annotate serve's own, http://127.0.0.1:8501/)")
+                   "printed admin link (default: no link; 'annotate serve' writes it for its port)")
     b.add_argument("--break-every", type=int_arg(), default=50, metavar="N",
                    help="offer a break every N votes (default 50)")
     b.add_argument("--design", default="binary", choices=["binary", "pairwise"],
@@ -163,6 +163,11 @@ def run(args) -> int:
     load = rater_load(study.manifest["counts"], items_per_rater=args.items_per_rater,
                       votes_per_item=args.votes_per_item)
     print(load_text(load, votes_per_item=args.votes_per_item))
-    print(f"admin page: {admin_base}?admin={study.admin_token()} "
-          f"(the admin token is printed only now; it is kept in {out / 'secrets.json'})")
+    if args.public_url is not None:
+        print(f"admin page: {admin_base}?admin={study.admin_token()} "
+              f"(the admin token is printed only now; it is kept in {out / 'secrets.json'})")
+    else:  # the port is serve's: its own link is in STUDY/admin-link.txt once it runs
+        print(f"admin token: {study.admin_token()} (printed only now; kept in {out / 'secrets.json'}); "
+              f"the admin page is ?admin=TOKEN on the address 'annotate serve' prints, which "
+              f"writes the full link to {out / 'admin-link.txt'}")
     return 0

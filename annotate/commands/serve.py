@@ -6,7 +6,8 @@ Layer: commands (CLI shell) of ``annotate``.
 :mod:`annotate.app`, imported once per process; the process is replaced, so
 a signal to ``annotate serve`` reaches the server itself and nothing outlives it), bound to
 127.0.0.1 unless ``--host`` says otherwise, headless, without usage statistics, file
-watcher, static file serving or error details in the browser, and without Streamlit's full
+watcher, static file serving, file uploads (``server.maxUploadSize`` 0: the app has no
+uploader, issue 38) or error details in the browser, and without Streamlit's full
 garbage collection after every script run (about 40 ms of CPU per vote, holding the GIL: it
 alone saturated a core at 25 raters) and without "magic" (Streamlit recompiles the script
 with it for every new session, clearing its script cache: about 50 ms of CPU per rater
@@ -22,13 +23,18 @@ Caddy, :mod:`annotate.proxy_conf`) that serves them all on ``--proxy-port``.
 The address options and the app's URL are shared with ``add-rater`` and ``build``, which
 print sign-in and admin links: ``--public-url`` (the address raters use, e.g. a TLS reverse
 proxy's) is the base of every printed link, else the bound address (this machine's name for a
-wildcard bind). ``serve`` prints the admin page's address but never the admin token (it would
-end up in logs); ``build`` prints it once, and it stays in ``STUDY/secrets.json``.
+wildcard bind). ``serve`` records the base it serves at in ``STUDY/served-at.json``, which
+``add-rater`` uses when given no address option (issue 38: its links named port 8501 whatever
+port was served), and writes the admin page's full link to ``STUDY/admin-link.txt`` (mode
+0600) for the operator to copy; it prints the full link only to a terminal, never to a
+redirected stderr (a log others may read), where it names the file instead. ``build``
+prints the admin token once, and it stays in ``STUDY/secrets.json``.
 """
 
 from __future__ import annotations
 
 import ipaddress
+import json
 import os
 import socket
 import sys
@@ -39,10 +45,12 @@ from annotate.access import check_serving
 from annotate.proxy_conf import PROXIES, proxy_conf
 from annotate.workers import supervise, worker_ports
 from data_schema.errors import InputError
+from data_schema.tables import atomic_write_text
 from nvrq.commands.args import int_arg
 
 __all__ = ["register", "run", "serve_command", "check_port_free", "base_url", "add_address_options", "links",
-           "add_worker_options", "serve_workers", "DEFAULT_HOST", "DEFAULT_PORT"]
+           "add_worker_options", "serve_workers", "served_base", "record_served", "DEFAULT_HOST",
+           "DEFAULT_PORT", "SERVED_AT", "ADMIN_LINK"]
 
 #: Where the rater app listens unless ``--host`` / ``--port`` say otherwise.
 DEFAULT_HOST, DEFAULT_PORT = "127.0.0.1", 8501
@@ -73,7 +81,8 @@ def serve_command(study: str | Path, *, host: str = DEFAULT_HOST, port: int = DE
             "--server.fileWatcherType", "none", "--server.runOnSave", "false",
             "--server.enableStaticServing", "false", "--client.toolbarMode", "minimal",
             "--client.showErrorDetails", "none", "--global.developmentMode", "false",
-            "--runner.postScriptGC", "false", "--runner.magicEnabled", "false"]
+            "--runner.postScriptGC", "false", "--runner.magicEnabled", "false",
+            "--server.maxUploadSize", "0"]
 
 
 def check_port_free(host: str, port: int) -> None:
@@ -145,21 +154,71 @@ def base_url(host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, *, public_url: 
     return f"http://{host}:{port}/"
 
 
-def add_address_options(p) -> None:
+def add_address_options(p, *, defaults: bool = True) -> None:
     """Add the rater app's address options, ``--host``, ``--port`` and ``--public-url``.
 
     Parameters
     ----------
     p : argparse.ArgumentParser
         The parser of ``serve``, or of ``add-rater`` (its sign-in links).
+    defaults : bool, optional
+        Default ``--host``/``--port`` to 127.0.0.1:8501 (``serve``); False: None, so
+        ``add-rater`` can tell an option given from the address the study was served at.
     """
-    p.add_argument("--host", default=DEFAULT_HOST,
+    p.add_argument("--host", default=DEFAULT_HOST if defaults else None,
                    help=f"address the rater app listens on (default {DEFAULT_HOST}: this machine only)")
-    p.add_argument("--port", type=int_arg(high=65535), default=DEFAULT_PORT,
+    p.add_argument("--port", type=int_arg(high=65535), default=DEFAULT_PORT if defaults else None,
                    help=f"port of the rater app (default {DEFAULT_PORT})")
     p.add_argument("--public-url", metavar="BASE", help="the address raters use (e.g. a TLS reverse "
                    "proxy's https://study.example.org/): the base of every printed link (default: "
-                   "http://HOST:PORT/)")
+                   "http://HOST:PORT/; add-rater: the address the study was last served at)")
+
+
+#: The file in a study folder where ``serve`` records the address it serves at (no secret).
+SERVED_AT = "served-at.json"
+#: The file in a study folder holding the admin page's full link (mode 0600, owner only).
+ADMIN_LINK = "admin-link.txt"
+
+
+def served_base(study_root: Path) -> str | None:
+    """The base URL ``annotate serve`` last recorded for the study (None if never served).
+
+    Parameters
+    ----------
+    study_root : pathlib.Path
+
+    Returns
+    -------
+    str or None
+    """
+    try:
+        return str(json.loads((Path(study_root) / SERVED_AT).read_text())["base"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def record_served(study, base: str) -> Path:
+    """Record ``base`` (for ``add-rater``'s links) and write the admin page's full link to
+    ``STUDY/admin-link.txt``, readable by its owner only (mode 0600), for the operator to
+    copy; the path of that file.
+
+    Parameters
+    ----------
+    study : annotate.study.Study
+    base : str
+        The public base URL in use.
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    atomic_write_text(study.root / SERVED_AT, json.dumps({"base": base}))
+    path = study.root / ADMIN_LINK
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    with os.fdopen(fd, "w") as f:
+        f.write(f"{base}?admin={study.admin_token()}\n")
+    os.chmod(path, 0o600)
+    return path
 
 
 def links(study, base: str) -> list[str]:
@@ -178,7 +237,8 @@ def links(study, base: str) -> list[str]:
         One line each.
     """
     out = [f"serving {study.root} at {base}",
-           f"admin page: {base}?admin=ADMIN_TOKEN (ADMIN_TOKEN: admin_token in {study.root / 'secrets.json'})"]
+           f"admin page: {base}?admin=ADMIN_TOKEN (the full link, to copy: {study.root / ADMIN_LINK}, "
+           f"readable by you only; ADMIN_TOKEN is admin_token in {study.root / 'secrets.json'})"]
     if study.manifest["access"] == "crowd":
         param = study.manifest.get("participant_param")
         out.append(f"participants' link: {base}" + (f"?{param}=PARTICIPANT_ID (the panel fills in "
@@ -217,6 +277,9 @@ def add_worker_options(p) -> None:
                    help="reverse proxy whose configuration --workers prints (default nginx)")
     p.add_argument("--proxy-port", type=int_arg(high=65535), default=80,
                    help="public port of that proxy configuration (default 80)")
+    p.add_argument("--arrivals-per-minute", type=int_arg(low=0, high=100000), default=20,
+                   metavar="N", help="crowd study: new identities a minute per client address "
+                   "(bursts of 10; behind a proxy, its X-Forwarded-For; 0: no limit; default 20)")
 
 
 def serve_workers(study_root: Path, args, env: dict, *, loopback: bool) -> int:
@@ -279,7 +342,12 @@ def run(args) -> int:
         check_port_free(args.host, port)
     for line in links(study, base):
         print(line, file=sys.stderr, flush=True)
-    env = dict(os.environ, ANNOTATE_STUDY=str(study.root))
+    record_served(study, base)
+    if sys.stderr.isatty():  # a person's terminal, not a log file: the link to click
+        print(f"admin link (not logged): {base}?admin={study.admin_token()}", file=sys.stderr,
+              flush=True)
+    env = dict(os.environ, ANNOTATE_STUDY=str(study.root),
+               ANNOTATE_ARRIVALS_PER_MINUTE=str(args.arrivals_per_minute))
     if args.workers > 1:
         return serve_workers(study.root, args, env, loopback=is_open)
     argv = serve_command(study.root, host=args.host, port=args.port)

@@ -68,7 +68,10 @@ def test_crowd_arrival_gets_a_fresh_hashed_identity_in_its_url(make_study, monke
     assert ta != tb and ra != rb and ra.startswith("crowd-")
     assert len(ta) * 6 >= 128  # URL-safe base64: 6 bits per character
     assert a.button(key="start")  # straight to the instructions, no name asked
-    # stored as SHA-256 only: the token itself is nowhere in the store
+    assert s.store.raters() == []  # nothing stored before the first vote (issue 38, item 29)
+    a.button(key="start").click().run()
+    next(b for b in a.button if b.key and b.key.startswith("vote_good-")).click().run()
+    # stored at the first vote, as SHA-256 only: the token itself is nowhere in the store
     with sqlite3.connect(s.root / "votes.sqlite") as con:
         rows = dict(con.execute("SELECT rater, token_sha256 FROM raters").fetchall())
     assert rows[ra] == hashlib.sha256(ta.encode()).hexdigest()
@@ -92,7 +95,13 @@ def test_crowd_participant_param_gives_one_identity_per_participant(make_study, 
     p2 = _app(PROLIFIC_PID="5f3a0c0ffee0000000000002")
     assert p1.session_state["rater"] == p1b.session_state["rater"] != p2.session_state["rater"]
     assert p1.query_params["token"] == p1b.query_params["token"] != p2.query_params["token"]
-    assert "PROLIFIC_PID" not in p1.query_params  # the address carries only the identity
+    # the address carries the identity and the panel's id (issue 38: nothing is stored before
+    # the first vote, so a reload before it must still say whose id this is), nothing else
+    assert set(p1.query_params) == {"token", "PROLIFIC_PID"}
+    assert s.store.participants().empty and s.store.raters() == []
+    for at in (p1, p2):  # each votes once: now both are stored with their panel ids
+        at.button(key="start").click().run()
+        next(b for b in at.button if b.key and b.key.startswith("vote_good-")).click().run()
     got = s.store.participants().set_index("participant")["rater"].to_dict()
     assert got == {"5f3a0c0ffee0000000000001": p1.session_state["rater"],
                    "5f3a0c0ffee0000000000002": p2.session_state["rater"]}
@@ -103,7 +112,9 @@ def test_crowd_participant_param_gives_one_identity_per_participant(make_study, 
         assert at.info and "panel" in at.info[0].value
     assert len(s.store.raters()) == 2
     # the participant finishes: the completion URL is offered
-    assert _vote_all(p1) == len(s.items)
+    while good := [b for b in p1.button if b.key and b.key.startswith("vote_good-")]:
+        good[0].click().run()  # (Start and the first vote were pressed above)
+    assert len(s.store.votes(p1.session_state["rater"])) == len(s.items)
     link = [b for b in p1.get("link_button") if b.proto.id and "completion" in b.proto.id]
     assert link and link[0].proto.url == PROLIFIC
     # the export maps the crowd raters of ratings.csv to the panel's participant ids
@@ -118,7 +129,7 @@ def test_crowd_participant_param_gives_one_identity_per_participant(make_study, 
     table = pd.read_csv(who, dtype=str)
     assert table.columns.tolist() == ["rater_id", "participant", "arrived_at"]
     assert dict(zip(table["participant"], table["rater_id"], strict=True)) == got
-    assert set(pd.read_csv(out)["rater_id"]) == {p1.session_state["rater"]}
+    assert set(pd.read_csv(out)["rater_id"]) == set(got.values())  # both voted (p2 once)
 
 
 def test_check_access_names_the_bad_parameter():
@@ -154,10 +165,13 @@ def test_crowd_identity_is_an_hmac_of_the_participant():
     import hmac
 
     rater, token = crowd_identity("k", "P1")
-    # by hand: HMAC-SHA256(secret, "crowd|token|P1"), first 18 bytes, URL-safe base64
-    want = base64.urlsafe_b64encode(hmac.new(b"k", b"crowd|token|P1", hashlib.sha256).digest()[:18])
-    assert token == want.decode() and len(token) * 6 == 144
-    assert rater == "crowd-" + hmac.new(b"k", b"crowd|rater|P1", hashlib.sha256).hexdigest()[:16]
+    # by hand: the rater id is HMAC-SHA256(secret, "crowd|rater|P1")'s first 8 bytes; the token
+    # is those 8 bytes and the first 16 of HMAC-SHA256(secret, "crowd|token|" + rater id),
+    # URL-safe base64 (issue 38: checked without the store, 128-bit MAC)
+    raw = hmac.new(b"k", b"crowd|rater|P1", hashlib.sha256).digest()[:8]
+    assert rater == "crowd-" + raw.hex()
+    mac = hmac.new(b"k", f"crowd|token|{rater}".encode(), hashlib.sha256).digest()[:16]
+    assert token == base64.urlsafe_b64encode(raw + mac).decode() and len(token) == 32
     assert crowd_identity("k") != crowd_identity("k")  # no participant: fresh each time
 
 
@@ -251,6 +265,7 @@ def test_crowd_arrival_when_the_store_fails_says_so_and_registers_nobody(make_st
         raise sqlite3.OperationalError("database is locked")
 
     monkeypatch.setattr(Store, "add_rater", locked)
+    monkeypatch.setattr(Store, "item_loads", locked)  # an arrival reads (is the study full?)
     at = _app()
     assert "rater" not in at.session_state and "token" not in at.query_params
     assert at.info and "not available" in at.info[0].value

@@ -58,11 +58,20 @@ def served(tmp_path_factory):
     stop(proc)
 
 
+UPLOAD = "/_stcore/upload_file/"
+
+
 def test_the_snippet_blocks_the_metrics_and_agent_endpoints_and_they_exist(served):
     url, _ = served
-    assert {p for _, p in BLOCKED} == {"/_stcore/metrics", "/_stcore/agent/"}
+    # issue 38, item 28: the upload route too (the app refuses it itself as well, see
+    # tests/annotate/test_upload_attack.py), and any body over 1 kB
+    assert {p for _, p in BLOCKED} == {"/_stcore/metrics", "/_stcore/agent/", UPLOAD}
+    assert "client_max_body_size 1k;" in NGINX
+    assert "X-Forwarded-For $proxy_add_x_forwarded_for" in NGINX  # the arrival limit's address
     page = _get(url)[1]
     for _, path in BLOCKED:
+        if path == UPLOAD:  # PUT only; its answer is tests/annotate/test_upload_attack.py's
+            continue
         status, body = _get(url.rstrip("/") + _probe(path))
         assert status == 200 and body[:200] != page[:200], path  # its own answer, not the page
     assert "session" in _get(url + "_stcore/metrics")[1]  # what the finding was about
@@ -102,8 +111,23 @@ def test_nginx_accepts_the_snippet_and_refuses_the_blocked_paths(served):
         assert _get(front + "/_stcore/health", insecure)[1] == "ok"
         assert "<html" in _get(front + "/", insecure)[1].lower()
         for _, path in BLOCKED:
+            if path == UPLOAD:
+                continue
             assert _get(front + _probe(path), insecure)[0] == 404, path
             assert _get(url.rstrip("/") + _probe(path))[0] == 200  # the app itself still answers
+        # issue 38, item 28: an upload through the proxy from a bare session never reaches
+        # the app: 404 (the route), 413 (the body limit); 400 x 1 MB used to pass
+        from tests.annotate.upload_probe import put_upload, session_id, xsrf_cookie
+
+        cookie, xsrf = xsrf_cookie(front, context=insecure)
+        loop, ws, sid = session_id(front, ssl=insecure)
+        try:
+            got = {put_upload(front, sid, size, cookie=cookie, xsrf=xsrf, context=insecure)
+                   for size in (100, 1_000_000, 1_000_000)}
+        finally:
+            loop.run_until_complete(ws.close())
+            loop.close()
+        assert got <= {404, 413} and got, got
         if Path(CHROMIUM).exists():  # the app's websocket passes the proxy: a crowd arrival starts
             from playwright.sync_api import sync_playwright
 

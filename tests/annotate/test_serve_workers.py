@@ -121,7 +121,7 @@ def test_a_vote_through_one_worker_is_seen_by_the_other(served):
     n = len(ratings_table(load_study(root)))  # read from the file by this process
     assert n >= 1
     assert any(t.startswith("1 / ") for t in seen.texts), seen.texts  # progress: 1 done
-    assert any(f"{n} votes" in t for t in adm.texts), adm.texts
+    assert any(f"{n} vote{'s' if n != 1 else ''}." in t for t in adm.texts), adm.texts  # issue 38: plurals
 
 
 def test_claims_hold_across_workers(served):

@@ -139,7 +139,7 @@ def test_a_claim_holds_its_slot_for_the_lease_then_frees_it(tmp_path, monkeypatc
     assert s.next_item("cat", _first_free) is None  # still within the lease
     _later(monkeypatch, CLAIM_LEASE_S + 5)
     assert s.next_item("cat", _first_free) == "x"  # lease over: x is free again
-    # the claimant coming back gets its own open item, which renews its lease
+    # the claimant coming back gets its own open item (its lease is not renewed: issue 38)
     assert s.next_item("gone", _first_free) == "x"
     assert s.next_item("dan", _first_free) is None
     s.record_shown_vote("gone", "x", 0, session="g")  # a vote ends its claim

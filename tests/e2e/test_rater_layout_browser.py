@@ -74,3 +74,74 @@ def _check(got: dict, width: int, height: int, side: float) -> None:
     assert max(b[1] + b[3] for b in row) <= height  # the whole item fits on screen
     assert row[0][4] != row[1][4]  # Good and Bad are coloured apart
     assert got["scale"] == scale_text(lw, side)
+
+
+def test_on_a_phone_the_pair_and_the_vote_buttons_fit_without_scrolling(tmp_path):
+    """Issue 38, item 20: at 390x844 (a phone) Good and Bad are on screen with the pair,
+    without scrolling (Streamlit stacks columns below 640 px, which pushed them off)."""
+    from playwright.sync_api import sync_playwright
+
+    from annotate.study import build_study
+
+    scene, pairs = toy("annotate_toy_phone").make_toy(tmp_path)
+    root = build_study(tmp_path / "study", pairs, scene=str(scene), tracks=1, frames_per_track=1,
+                       n_training=1, n_gold=0, n_repeats=0, size=64, progress=False)
+    server, url = serve(root)
+    try:
+        with sync_playwright() as pw:
+            browser = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+            page = browser.new_page(viewport={"width": 390, "height": 844}, is_mobile=True,
+                                    has_touch=True, device_scale_factor=3)
+            page.goto(f"{url}?rater=phone")
+            page.get_by_role("button", name="Start").click()
+            settled(page, timeout_ms=40000)
+            page.wait_for_function(
+                "() => document.querySelectorAll('img')[0].naturalWidth > 0", timeout=40000)
+            time.sleep(0.6)
+            got = page.evaluate(BOXES)
+            scroll = page.evaluate("() => [window.scrollY, document.documentElement.scrollWidth]")
+            page.screenshot(path=str(tmp_path / "phone.png"))
+            browser.close()
+    finally:
+        stop(server)
+    (lx, ly, lw, lh), (rx, ry, rw, rh) = got["imgs"]
+    assert abs(ly - ry) <= 1 and lx + lw <= rx, got["imgs"]  # side by side, not stacked
+    for name in ("Good", "Bad"):
+        x, y, w, h = got["buttons"][name][:4]
+        assert 0 <= x and x + w <= 390 and y >= ly + lh and y + h <= 844, (name, got)
+    assert scroll == [0, 390], scroll  # nothing scrolled, nothing wider than the screen
+
+
+def test_enter_in_the_name_field_signs_in_and_training_says_when_it_is_over(tmp_path):
+    """Issue 38, item 20: typing a name and pressing Enter signs in (no click needed), and
+    the first item after the training says "Training done — the study starts now"."""
+    from playwright.sync_api import sync_playwright
+
+    from annotate.study import build_study
+    from tests.e2e.browser_support import ready, wait_moved
+
+    scene, pairs = toy("annotate_toy_enter").make_toy(tmp_path)
+    root = build_study(tmp_path / "study", pairs, scene=str(scene), tracks=1, frames_per_track=1,
+                       n_training=1, n_gold=0, n_repeats=0, size=64, progress=False)
+    server, url = serve(root)
+    try:
+        with sync_playwright() as pw:
+            browser = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+            page = browser.new_page(viewport={"width": 1400, "height": 900})
+            page.goto(url)
+            field = page.get_by_label("Your name (letters, digits, '.', '_', '-')")
+            field.wait_for(state="visible", timeout=40000)
+            field.fill("enid")
+            field.press("Enter")
+            page.get_by_role("button", name="Start").click(timeout=40000)
+            first = settled(page, timeout_ms=40000)
+            assert first[0].startswith("Training 0 / 1"), first
+            assert "Training done" not in page.inner_text("body")
+            ready(page)
+            time.sleep(0.4)
+            page.keyboard.press("g")
+            wait_moved(page, first)
+            page.get_by_text("Training done — the study starts now").wait_for(timeout=40000)
+            browser.close()
+    finally:
+        stop(server)

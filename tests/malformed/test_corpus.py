@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 import json
+import sqlite3
 from pathlib import Path
 
 import pandas as pd
@@ -759,6 +760,25 @@ def _(world, tmp):
     (tmp / "r").mkdir()
     return "nvrq", ["import", "renders", str(scene), str(tmp / "r"), "--layout", "order", "--allow-missing"], \
         ["1 missing", "first missing: 00000.png (for images/front/render_+1.00/0.png)"]
+
+
+# ---------------------------------------------------------------- issue 38 (annotate helper)
+@case("arguments", "add-rater of a registered name without --rotate")
+def _(world, tmp):
+    """The old code gave alice a new token silently: her first link stopped working."""
+    import json as _json
+
+    from annotate.study import load_study
+
+    st = _study(world, tmp)
+    manifest = _json.loads((st / "manifest.json").read_text())
+    (st / "manifest.json").write_text(_json.dumps({**manifest, "access": "token"}))
+    study = load_study(st)
+    study.store.add_rater("alice", plan=study.new_plan("alice"), token="first-token")
+    study.store._keeper.close()  # the file as a finished command leaves it (WAL checkpointed)
+    with sqlite3.connect(st / "votes.sqlite") as con:
+        con.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+    return "annotate", ["add-rater", str(st), "alice"], ["--rotate", "alice", "registered already"]
 
 
 @pytest.mark.parametrize("name", sorted(CASES))
