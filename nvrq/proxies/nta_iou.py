@@ -353,7 +353,7 @@ def evaluate(boxes: dict, dets: dict, sizes: np.ndarray, protocol: Protocol, *,
     b, keep = prepare_boxes(boxes["boxes"], sizes, protocol, min_side=min_side)
     keep &= box_keep(boxes["labels"])
     d_ok = (np.asarray(dets["scores"], np.float64) > protocol.min_score) & det_keep(dets["labels"])
-    img_size = np.zeros((int(max(boxes["image"].max(initial=-1), dets["image"].max(initial=-1))) + 1, 2))
+    img_size = np.ones((int(max(boxes["image"].max(initial=-1), dets["image"].max(initial=-1))) + 1, 2))
     img_size[boxes["image"]] = sizes
     d_box = _scaled(np.asarray(dets["boxes"], np.float64).reshape(-1, 4), img_size[dets["image"]], protocol)
     kb = np.flatnonzero(keep)
