@@ -15,7 +15,13 @@ import pandas as pd
 
 from data_schema.errors import InputError
 from data_schema.methods import METHOD_COLUMN, method_values
-from data_schema.perturbation import EXTRA_PERTURBATION_COLUMNS, LABEL_COLUMN, PERTURBATION_COLUMNS, labels, perturbation_array
+from data_schema.perturbation import (
+    EXTRA_PERTURBATION_COLUMNS,
+    LABEL_COLUMN,
+    PERTURBATION_COLUMNS,
+    labels,
+    perturbation_array,
+)
 from data_schema.scene import Scene
 from data_schema.tables import pair_ids
 from nvrq.proxies.nta_iou import NTA_COLUMNS, SUMMARY_COLUMNS, Protocol, cluster_mean_ci, evaluate
