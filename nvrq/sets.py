@@ -208,10 +208,11 @@ def set_groups(scene, options: SetOptions) -> pd.DataFrame:
         gbox = pairs[["gt_x0", "gt_y0", "gt_x1", "gt_y1"]].to_numpy(np.int64).tolist()
         parts.append(base.assign(side="render", path=pairs.render_path.to_numpy(), box=rbox))
         parts.append(base.assign(side="gt", path=pairs.gt_path.to_numpy(), box=gbox))
-    if not parts:
-        raise InputError(scene.root, "images.csv", "render images with GT frames of the same camera and time",
-                         "no set (empty)")
-    out = pd.concat(parts, ignore_index=True)
+    out = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()
+    if out.empty:
+        what = " and ".join(options.kinds)
+        raise InputError(scene.root, "images.csv", f"renders with GT of the same camera and time ({what})",
+                         "an empty set: no image to compare")
     out[METHOD_COLUMN] = out["method"].astype(str)
     out.insert(0, "set_id", out["kind"] + ":" + out["method"] + ":" + out[LABEL_COLUMN])
     return out.sort_values(["kind", "method", "y_offset_m", "set_id", "side"], kind="stable").reset_index(drop=True)
@@ -303,6 +304,7 @@ def score_sets(scene, options: SetOptions, *, encoder=None, batch_size: int = 32
 
     groups = set_groups(scene, options)
     enc = encoder if hasattr(encoder, "embed") else _load(encoder, None, cached=True)
+    _check_sizes(groups, options, enc, where=str(scene.root))
     keys = groups["path"].astype(str) + "|" + groups["box"].map(lambda b: "" if b is None else str(b))
     codes = pd.factorize(keys)[0]  # codes in order of first appearance
     first = np.flatnonzero(~pd.Series(codes).duplicated().to_numpy())
@@ -322,6 +324,26 @@ def score_sets(scene, options: SetOptions, *, encoder=None, batch_size: int = 32
     features = uniq[codes]
     name = enc.spec.name
     return set_table(groups, features, options, encoder=name, where=str(scene.root)), groups, features, name
+
+
+def _check_sizes(groups: pd.DataFrame, options: SetOptions, enc, *, where: str) -> None:
+    """Before any image is read: every set has 2 images per side (KID), and more than the
+    feature dimension when FD alone is asked for (the dimension from one blank input)."""
+    n = groups.groupby(["set_id", "side"]).size().unstack(fill_value=0).reindex(columns=["render", "gt"],
+                                                                                 fill_value=0)
+    low = n.min(axis=1)
+    if options.metrics == ("fd",):
+        s = enc.spec.input_size
+        d = int(np.asarray(enc.embed(np.zeros((1, s, s, 3), np.uint8))).shape[1])
+        if (low <= d).any():
+            sid = low.index[int(np.argmax((low <= d).to_numpy()))]
+            raise InputError(where, f"set {sid}", f"more than {d} images per side for FD (the feature dimension "
+                             f"of {enc.spec.name}; add kid to get KID alone)",
+                             f"{n.loc[sid, 'render']} render, {n.loc[sid, 'gt']} gt")
+    if (low < 2).any():
+        sid = low.index[int(np.argmax((low < 2).to_numpy()))]
+        raise InputError(where, f"set {sid}", "at least 2 images on each side",
+                         f"{n.loc[sid, 'render']} render, {n.loc[sid, 'gt']} gt")
 
 
 class _Reader:
