@@ -239,17 +239,33 @@ def _assign(i: np.ndarray, j: np.ndarray, v: np.ndarray, img_b: np.ndarray, det:
 
     ci, cj, cv = i[~single], j[~single], v[~single]
     img = img_b[ci]
+    rows = _dense_rank(img, ci)
+    cols = _dense_rank(img, cj)
     order = np.argsort(img, kind="stable")
-    ci, cj, cv, img = ci[order], cj[order], cv[order], img[order]
+    ci, cj, cv, img, rows, cols = ci[order], cj[order], cv[order], img[order], rows[order], cols[order]
     bounds = np.flatnonzero(np.r_[True, img[1:] != img[:-1], True])
-    for a, b in zip(bounds[:-1], bounds[1:], strict=True):
-        ui, ri = np.unique(ci[a:b], return_inverse=True)
-        uj, rj = np.unique(cj[a:b], return_inverse=True)
-        m = np.zeros((len(ui), len(uj)))
-        m[ri, rj] = cv[a:b]
-        rows, cols = linear_sum_assignment(m, maximize=True)
-        good = m[rows, cols] > 0
-        det[ui[rows[good]]] = uj[cols[good]]
+    for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True):
+        r, c = rows[a:b], cols[a:b]
+        m = np.zeros((r.max() + 1, c.max() + 1))
+        m[r, c] = cv[a:b]
+        rr, cc = linear_sum_assignment(m, maximize=True)
+        hit = np.zeros(m.shape, bool)
+        hit[rr[m[rr, cc] > 0], cc[m[rr, cc] > 0]] = True
+        take = hit[r, c]
+        det[ci[a:b][take]] = cj[a:b][take]
+
+
+def _dense_rank(group: np.ndarray, key: np.ndarray) -> np.ndarray:
+    """(K,) 0-based dense rank of ``key`` within its ``group`` (vectorised over all groups)."""
+    order = np.lexsort((key, group))
+    g, k = group[order], key[order]
+    new_group = np.r_[True, g[1:] != g[:-1]]
+    new_key = new_group | np.r_[True, k[1:] != k[:-1]]
+    dense = np.cumsum(new_key) - 1
+    start = np.maximum.accumulate(np.where(new_group, dense, 0))
+    out = np.empty(len(key), np.int64)
+    out[order] = dense - start
+    return out
 
 
 def _as_arrays(items, name: str, keys: tuple[str, ...]) -> list[dict]:
