@@ -21,7 +21,9 @@ when a run needs them, so ``analyze --help`` loads none of them.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
+from pathlib import Path
 
 from analysis.choices import DEFAULT_MARGIN, METHODS, MIN_CLUSTERS, PATHS, RANK_BY
 from data_schema.errors import InputError
@@ -135,6 +137,9 @@ def _methods_options(p: ArgumentParser) -> None:
     p.add_argument("--by", action=CommaList, default=[], metavar="A,B", help=_HELP["by"])
     p.add_argument("--min-clusters", type=int_arg(low=2), default=MIN_CLUSTERS, metavar="K",
                    help=_HELP["min_clusters"])
+    p.add_argument("--nta", default=None, metavar="NTA.csv",
+                   help="the per-box table of `nvrq proxy nta-iou`: its iou joins on pair_id as one more "
+                   "metric, nta_iou (higher is better)")
 
 
 #: The help of the leaderboard's options on honest statistics (issue 29).
@@ -199,8 +204,30 @@ def _print(df, title: str, *, left=("method", "reason", "vs next")) -> None:
 def _main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    with flags_in_errors(parser, args, _ALIASES):
+    with flags_in_errors(parser, args, _ALIASES), _nta_metrics(args):
         return _run(args)
+
+
+@contextlib.contextmanager
+def _nta_metrics(args):
+    """``--nta NTA.csv``: its ``pair_id, iou`` as a metrics table ``pair_id, nta_iou`` (written to
+    a temporary folder for the run) appended to ``--metrics-table``, ``nta_iou`` higher-better."""
+    if getattr(args, "nta", None) is None:
+        yield
+        return
+    import tempfile
+
+    from data_schema.tables import read_table, write_table
+
+    nta = read_table(args.nta, required=("pair_id", "iou", "protocol"), what="NTA-IoU per-box table",
+                     dtype={"pair_id": str})
+    with tempfile.TemporaryDirectory(prefix="nvrq-nta-") as tmp:
+        path = Path(tmp) / "nta_iou.csv"
+        write_table(nta.loc[:, ["pair_id"]].assign(nta_iou=nta["iou"].to_numpy()), path)
+        args.metrics_tables = [*args.metrics_tables, str(path)]
+        if "nta_iou" not in args.lower_better + args.higher_better:
+            args.higher_better = [*args.higher_better, "nta_iou"]
+        yield
 
 
 def _run(args) -> int:
@@ -213,7 +240,7 @@ def _run(args) -> int:
                          "both" if args.pairs else "neither")
     check_output_folder(args.out, kind="report", option="--out",
                         inputs=[args.ratings or args.pairs, *args.metrics_tables, *args.timing,
-                                args.stability])
+                                args.stability, args.nta])
 
     if (args.methods or args.leaderboard_metric or args.by or args.min_clusters != MIN_CLUSTERS
             or args.leaderboard_view != "off-path") and not args.compare_methods:

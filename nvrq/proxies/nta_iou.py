@@ -239,24 +239,27 @@ def _assign(i: np.ndarray, j: np.ndarray, v: np.ndarray, img_b: np.ndarray, det:
 
     ci, cj, cv = i[~single], j[~single], v[~single]
     img = img_b[ci]
-    rows = _dense_rank(img, ci)
-    cols = _dense_rank(img, cj)
+    rows, row_ids, row_start = _dense_rank(img, ci)
+    cols, col_ids, col_start = _dense_rank(img, cj)
     order = np.argsort(img, kind="stable")
-    ci, cj, cv, img, rows, cols = ci[order], cj[order], cv[order], img[order], rows[order], cols[order]
-    bounds = np.flatnonzero(np.r_[True, img[1:] != img[:-1], True])
-    for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True):
-        r, c = rows[a:b], cols[a:b]
-        m = np.zeros((r.max() + 1, c.max() + 1))
-        m[r, c] = cv[a:b]
+    cv, img, rows, cols = cv[order], img[order], rows[order], cols[order]
+    bounds = np.flatnonzero(np.r_[True, img[1:] != img[:-1], True]).tolist()
+    n_rows, n_cols = np.diff(row_start).tolist(), np.diff(col_start).tolist()
+    r0s, c0s = row_start.tolist(), col_start.tolist()
+    for g, (a, b) in enumerate(zip(bounds[:-1], bounds[1:], strict=True)):
+        m = np.zeros((n_rows[g], n_cols[g]))
+        m[rows[a:b], cols[a:b]] = cv[a:b]
         rr, cc = linear_sum_assignment(m, maximize=True)
-        hit = np.zeros(m.shape, bool)
-        hit[rr[m[rr, cc] > 0], cc[m[rr, cc] > 0]] = True
-        take = hit[r, c]
-        det[ci[a:b][take]] = cj[a:b][take]
+        good = m[rr, cc] > 0
+        det[row_ids[r0s[g] + rr[good]]] = col_ids[c0s[g] + cc[good]]
 
 
-def _dense_rank(group: np.ndarray, key: np.ndarray) -> np.ndarray:
-    """(K,) 0-based dense rank of ``key`` within its ``group`` (vectorised over all groups)."""
+def _dense_rank(group: np.ndarray, key: np.ndarray):
+    """Dense ranks of ``key`` within each ``group`` (vectorised over all groups).
+
+    Returns ``(rank (K,), ids (U,), start (G + 1,))``: each entry's 0-based rank, the distinct
+    keys by group (groups ascending) then rank, and where each group's keys start in ``ids``.
+    """
     order = np.lexsort((key, group))
     g, k = group[order], key[order]
     new_group = np.r_[True, g[1:] != g[:-1]]
@@ -265,7 +268,9 @@ def _dense_rank(group: np.ndarray, key: np.ndarray) -> np.ndarray:
     start = np.maximum.accumulate(np.where(new_group, dense, 0))
     out = np.empty(len(key), np.int64)
     out[order] = dense - start
-    return out
+    ids = k[new_key]
+    starts = np.r_[dense[new_group], len(ids)]
+    return out, ids, starts
 
 
 def _as_arrays(items, name: str, keys: tuple[str, ...]) -> list[dict]:
@@ -311,15 +316,18 @@ def _class_rule(protocol: Protocol, class_map: dict | None):
     lower = {str(k).lower(): [c.lower() for c in v] for k, v in class_map.items()}
 
     def box_keep(labels):
-        labs = [str(x).lower() for x in labels]
-        if protocol.vehicles_only:
-            return np.array([bool(set(lower.get(x, ())) & set(VEHICLE_COCO)) for x in labs], bool)
-        return np.ones(len(labs), bool)
+        if not protocol.vehicles_only:
+            return np.ones(len(labels), bool)
+        codes, uniq = pd.factorize(np.asarray(labels, dtype=object))
+        ok = np.array([bool(set(lower.get(str(x).lower(), ())) & set(VEHICLE_COCO)) for x in uniq], bool)
+        return ok[codes] if len(uniq) else np.zeros(len(labels), bool)
 
     def det_keep(classes):
         if protocol.det_classes is None:
             return np.ones(len(classes), bool)
-        return np.isin(np.char.lower(np.asarray(classes, str)), protocol.det_classes)
+        codes, uniq = pd.factorize(np.asarray(classes, dtype=object))
+        ok = np.array([str(x).lower() in protocol.det_classes for x in uniq], bool)
+        return ok[codes] if len(uniq) else np.zeros(len(classes), bool)
 
     return box_keep, det_keep, lower
 
@@ -328,15 +336,13 @@ def _allowed(labels: np.ndarray, classes: np.ndarray, lower: dict, *, where: str
     """``allowed(i, j)`` of the class map: box ``i``'s label maps to detection ``j``'s COCO class."""
     from nvrq.proxies import mapped_labels
 
-    labs = mapped_labels(labels, lower, "coco", where=where)
-    lab_codes, lab_names = pd.factorize(pd.Index(labs))
-    cls_codes, cls_names = pd.factorize(pd.Index(np.char.lower(np.asarray(classes, str))))
-    pos = {c: k for k, c in enumerate(cls_names)}
+    lab_codes, lab_uniq = pd.factorize(np.asarray(labels, dtype=object))
+    lab_names = mapped_labels(lab_uniq, lower, "coco", where=where)
+    cls_codes, cls_uniq = pd.factorize(np.asarray(classes, dtype=object))
+    cls_names = [str(c).lower() for c in cls_uniq]
     table = np.zeros((len(lab_names), len(cls_names) + 1), bool)
     for a, lab in enumerate(lab_names):
-        for c in lower[lab]:
-            if c in pos:
-                table[a, pos[c]] = True
+        table[a, :len(cls_names)] = np.isin(np.asarray(cls_names, dtype=object), lower[lab])
     return lambda i, j: table[lab_codes[i], cls_codes[j]]
 
 
