@@ -140,6 +140,9 @@ def _methods_options(p: ArgumentParser) -> None:
     p.add_argument("--nta", default=None, metavar="NTA.csv",
                    help="the per-box table of `nvrq proxy nta-iou`: its iou joins on pair_id as one more "
                    "metric, nta_iou (higher is better)")
+    p.add_argument("--sets", default=None, metavar="SETS.csv",
+                   help="with --compare-methods: the table of `nvrq score-sets` (FD, KID per method and view) "
+                   "for the report's off-path metrics")
 
 
 #: The help of the leaderboard's options on honest statistics (issue 29).
@@ -240,11 +243,11 @@ def _run(args) -> int:
                          "both" if args.pairs else "neither")
     check_output_folder(args.out, kind="report", option="--out",
                         inputs=[args.ratings or args.pairs, *args.metrics_tables, *args.timing,
-                                args.stability, args.nta])
+                                args.stability, args.nta, args.sets])
 
     if (args.methods or args.leaderboard_metric or args.by or args.min_clusters != MIN_CLUSTERS
-            or args.leaderboard_view != "off-path") and not args.compare_methods:
-        raise InputError("--methods/--leaderboard-metric/--leaderboard-view/--by/--min-clusters", None,
+            or args.leaderboard_view != "off-path" or args.sets) and not args.compare_methods:
+        raise InputError("--methods/--leaderboard-metric/--leaderboard-view/--by/--min-clusters/--sets", None,
                          "--compare-methods with them", "none")
     if args.ratings is not None and is_pairwise(args.ratings):
         _check_applies(args, "pairwise votes", args.ratings)
@@ -256,6 +259,11 @@ def _run(args) -> int:
         analysis = run_pairs_analysis(args.pairs, **_common_options(args))
     else:
         analysis = _run_ratings(args)
+    if args.sets is not None and analysis.methods is not None:
+        from data_schema.tables import read_table
+
+        analysis.methods.sets = read_table(args.sets, required=("set_id", "kind", "y_offset_m", "n_render"),
+                                           what="score-sets table")
     out = write_report(analysis, args.out)  # then the terminal: an error stays one line
     if args.pairs is None:
         _print_screening(analysis.raters, applied=analysis.screen)
