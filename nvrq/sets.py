@@ -59,7 +59,8 @@ def embed(images, *, encoder=None, batch_size: int = 32, square: str = "pad") ->
     from nvrq.api import _load, as_rgb_uint8
     from nvrq.crops import encoder_input, resize_to
 
-    enc = _load(encoder, None, cached=True) if not hasattr(encoder, "embed") else encoder
+    enc = encoder if hasattr(encoder, "embed") else _load(encoder, encoder if isinstance(encoder, str) else None,
+                                                          cached=True)
     s = enc.spec.input_size
     prep = (lambda x: encoder_input(x, s)) if square == "pad" else (lambda x: resize_to(x, s, s))
     out = []
@@ -303,7 +304,8 @@ def score_sets(scene, options: SetOptions, *, encoder=None, batch_size: int = 32
     from nvrq.api import _load
 
     groups = set_groups(scene, options)
-    enc = encoder if hasattr(encoder, "embed") else _load(encoder, None, cached=True)
+    enc = encoder if hasattr(encoder, "embed") else _load(encoder, encoder if isinstance(encoder, str) else None,
+                                                          cached=True)
     _check_sizes(groups, options, enc, where=str(scene.root))
     keys = groups["path"].astype(str) + "|" + groups["box"].map(lambda b: "" if b is None else str(b))
     codes = pd.factorize(keys)[0]  # codes in order of first appearance

@@ -103,3 +103,18 @@ def test_score_sets_cli_frames(tmp_path):
         sel = z["set_id"] == row.set_id
         r, g = z["features"][sel & (z["side"] == "render")], z["features"][sel & (z["side"] == "gt")]
         assert row["kid:efficientnet-lite0"] == pytest.approx(kid(r, g)["kid"], abs=1e-9)
+
+
+def test_embed_matches_the_encoder_on_its_inputs():
+    import nvrq
+    from nvrq.crops import encoder_input, resize_to
+    from nvrq.encoders import load_encoder
+
+    rng = np.random.default_rng(5)
+    ims = [rng.integers(0, 256, (40, 90, 3), dtype=np.uint8), rng.integers(0, 256, (64, 64, 3), dtype=np.uint8)]
+    enc = load_encoder("efficientnet-lite0", runtime="torch")
+    want_pad = enc.embed(np.stack([encoder_input(x, 224) for x in ims]))
+    want_stretch = enc.embed(np.stack([resize_to(x, 224, 224) for x in ims]))
+    np.testing.assert_allclose(nvrq.embed(ims, encoder=enc), want_pad, atol=1e-6)
+    np.testing.assert_allclose(nvrq.embed(ims, encoder=enc, square="stretch"), want_stretch, atol=1e-6)
+    assert nvrq.embed(ims, encoder="efficientnet-lite0").shape == (2, 1280)  # by name, from the cache
