@@ -21,6 +21,7 @@ when a run needs them, so ``analyze --help`` loads none of them.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 from pathlib import Path
 
@@ -137,6 +138,12 @@ def _methods_options(p: ArgumentParser) -> None:
     p.add_argument("--by", action=CommaList, default=[], metavar="A,B", help=_HELP["by"])
     p.add_argument("--min-clusters", type=int_arg(low=2), default=MIN_CLUSTERS, metavar="K",
                    help=_HELP["min_clusters"])
+    p.add_argument("--nta", default=None, metavar="NTA.csv",
+                   help="the per-box table of `nvrq proxy nta-iou`: its iou joins on pair_id as one more "
+                   "metric, nta_iou (higher is better)")
+    p.add_argument("--sets", default=None, metavar="SETS.csv",
+                   help="with --compare-methods: the table of `nvrq score-sets` (FD, KID per method and view) "
+                   "for the report's off-path metrics")
 
 
 #: The help of the leaderboard's options on honest statistics (issue 29).
@@ -201,16 +208,30 @@ def _print(df, title: str, *, left=("method", "reason", "vs next")) -> None:
 def _main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    with flags_in_errors(parser, args, _ALIASES):
+    with flags_in_errors(parser, args, _ALIASES), _nta_metrics(args):
         return _run(args)
 
 
-def _report_inputs(args) -> dict:
-    """What a report is made from, for its marker (data_schema.outputs.mark_report)."""
-    paths = {"RATINGS": args.ratings, "--pairs": args.pairs, "--metrics-table": args.metrics_tables,
-             "--timing": args.timing, "--stability": args.stability}
-    return {k: [Path(p) for p in v] if isinstance(v, list) else None if v is None else Path(v)
-            for k, v in paths.items()}
+@contextlib.contextmanager
+def _nta_metrics(args):
+    """``--nta NTA.csv``: its ``pair_id, iou`` as a metrics table ``pair_id, nta_iou`` (written to
+    a temporary folder for the run) appended to ``--metrics-table``, ``nta_iou`` higher-better."""
+    if getattr(args, "nta", None) is None:
+        yield
+        return
+    import tempfile
+
+    from data_schema.tables import read_table, write_table
+
+    nta = read_table(args.nta, required=("pair_id", "iou", "protocol"), what="NTA-IoU per-box table",
+                     dtype={"pair_id": str})
+    with tempfile.TemporaryDirectory(prefix="nvrq-nta-") as tmp:
+        path = Path(tmp) / "nta_iou.csv"
+        write_table(nta.loc[:, ["pair_id"]].assign(nta_iou=nta["iou"].to_numpy()), path)
+        args.metrics_tables = [*args.metrics_tables, str(path)]
+        if "nta_iou" not in args.lower_better + args.higher_better:
+            args.higher_better = [*args.higher_better, "nta_iou"]
+        yield
 
 
 def _run(args) -> int:
@@ -235,10 +256,16 @@ def _analyze(args) -> int:
     from analysis.pairwise import is_pairwise
     from analysis.report import write_report
 
+    if (args.ratings is None) == (args.pairs is None):
+        raise InputError("RATINGS/--pairs", None, "either a ratings file or --pairs PAIRS",
+                         "both" if args.pairs else "neither")
+    check_output_folder(args.out, kind="report", option="--out",
+                        inputs=[args.ratings or args.pairs, *args.metrics_tables, *args.timing,
+                                args.stability, args.nta, args.sets])
 
     if (args.methods or args.leaderboard_metric or args.by or args.min_clusters != MIN_CLUSTERS
-            or args.leaderboard_view != "off-path") and not args.compare_methods:
-        raise InputError("--methods/--leaderboard-metric/--leaderboard-view/--by/--min-clusters", None,
+            or args.leaderboard_view != "off-path" or args.sets) and not args.compare_methods:
+        raise InputError("--methods/--leaderboard-metric/--leaderboard-view/--by/--min-clusters/--sets", None,
                          "--compare-methods with them", "none")
     if args.ratings is not None and is_pairwise(args.ratings):
         _check_applies(args, "pairwise votes", args.ratings)
@@ -250,6 +277,11 @@ def _analyze(args) -> int:
         analysis = run_pairs_analysis(args.pairs, options_from_args(args))
     else:
         analysis = _run_ratings(args)
+    if args.sets is not None and analysis.methods is not None:
+        from data_schema.tables import read_table
+
+        analysis.methods.sets = read_table(args.sets, required=("set_id", "kind", "y_offset_m", "n_render"),
+                                           what="score-sets table")
     out = write_report(analysis, args.out)  # then the terminal: an error stays one line
     if args.pairs is None:
         _print_screening(analysis.raters, applied=analysis.screen)

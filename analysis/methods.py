@@ -109,6 +109,7 @@ class MethodsResult:
     rank_view: str = "off-path"  # the view the leaderboard ranks on (PATHS)
     min_clusters: int = MIN_CLUSTERS  # the fewest tracks of an interval or a p-value
     by: str = ""  # the crossed breakdown of methods_paired.csv ('' for none)
+    sets: pd.DataFrame | None = None  # `nvrq score-sets` table (analyze --sets), for the off-path table
 
 
 def holm(p: np.ndarray) -> np.ndarray:

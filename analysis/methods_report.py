@@ -28,6 +28,7 @@ from matplotlib.figure import Figure
 
 from analysis import plots
 from analysis.methods import ALPHA, MethodsResult
+from analysis.off_path import off_path_display, off_path_figure
 from analysis.plots import VIEW_AXIS_LABELS, direction_label, method_colours
 from analysis.signflip import EXACT_MAX_TRACKS
 from analysis.text import fmt, interval_text, offset_text
@@ -447,6 +448,9 @@ def method_figures(res: MethodsResult) -> list[tuple[str, str, object]]:
     if cross is not None:
         out.append(("methods_class_offset", f"{res.rank_metric}: paired difference by class and offset",
                     cross))
+    off = off_path_figure(res, res.sets)
+    if off is not None:
+        out.append(("off_path", "Off-path metrics against |offset| per method", off))
     return out
 
 
@@ -468,10 +472,11 @@ def context(res: MethodsResult | None, table) -> dict:
     """
     if res is None:
         return {"leaderboard_table": "", "leaderboard_text": "", "leaderboard_paired": "",
-                "leaderboard_notes": [], "rank_metric": "", "leaderboard_cells": ""}
+                "leaderboard_notes": [], "rank_metric": "", "leaderboard_cells": "", "off_path_table": ""}
     cells = class_offset_display(res)
     return {"leaderboard_table": table(leaderboard_display(res)),
             "leaderboard_text": leaderboard_text(res),
             "leaderboard_paired": table(paired_display(res)),
             "leaderboard_cells": table(cells) if len(cells) else "",
-            "leaderboard_notes": res.notes, "rank_metric": res.rank_metric}
+            "leaderboard_notes": res.notes, "rank_metric": res.rank_metric,
+            "off_path_table": table(off) if len(off := off_path_display(res, res.sets)) else ""}

@@ -10,7 +10,10 @@ The public Python API (docs/PYTHON.md) is exported here and imported on first us
 - geometry: :func:`project_boxes` (the ``nvrq pairs`` rule for one frame, :mod:`nvrq.pairs`),
   :func:`camera_from_model` and the camera classes (:mod:`nvrq.geometry.cameras`);
 - rendering: :func:`render_plan` (the views to render as arrays: ``viewmats``, ``Ks``, sizes,
-  paths; a :class:`RenderPlan`, :mod:`nvrq.render_plans`).
+  paths; a :class:`RenderPlan`, :mod:`nvrq.render_plans`);
+- off-path metrics the field reports: :func:`nta_iou` and :class:`NTAIoU` (NTA-IoU of projected
+  boxes against detections, :mod:`nvrq.proxies.nta_iou`), :func:`embed` (encoder features of
+  images, for FD and KID, :mod:`nvrq.sets`).
 
 >>> import nvrq
 >>> sorted(nvrq.__all__)[:3]
@@ -42,6 +45,9 @@ _EXPORTS = {
     "FThetaCamera": "nvrq.geometry.cameras",
     "render_plan": "nvrq.render_plans",
     "RenderPlan": "nvrq.render_plans",
+    "nta_iou": "nvrq.proxies.nta_iou",
+    "NTAIoU": "nvrq.proxies.nta_iou",
+    "embed": "nvrq.sets",
 }
 
 __all__ = sorted(_EXPORTS)

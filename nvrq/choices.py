@@ -11,7 +11,7 @@ benchmarks/bench_cli_help.py).
 
 from __future__ import annotations
 
-__all__ = ["PLAN_FORMATS", "WORLDS", "LAYOUTS", "DEFAULT_METRICS"]
+__all__ = ["PLAN_FORMATS", "WORLDS", "LAYOUTS", "DEFAULT_METRICS", "NTA_PROTOCOLS", "SET_KINDS"]
 
 #: The file formats of a render plan (nvrq.render_plans; docs/FORMATS.md §14).
 PLAN_FORMATS = ("csv", "json", "npz")
@@ -23,3 +23,7 @@ LAYOUTS = ("plan", "order")
 #: The metrics ``nvrq score`` computes when ``--metrics`` is not given (``nvrq``/``nvrq_ca`` on
 #: the chosen encoder; nvrq.metrics.registry).
 DEFAULT_METRICS = ("psnr", "ssim", "nvrq", "nvrq_ca")
+#: The NTA-IoU protocols (nvrq.proxies.nta_iou.PROTOCOLS; docs/FORMATS.md §3b), the default first.
+NTA_PROTOCOLS = ("nvrq", "recondreamer", "drivedreamer4d")
+#: The sets ``nvrq score-sets`` compares per view (nvrq.sets; docs/FORMATS.md §3c).
+SET_KINDS = ("frames", "objects")

@@ -32,6 +32,7 @@ COMMAND_MODULES = [
     "nvrq.commands.render_plan",
     "nvrq.commands.pairs",
     "nvrq.commands.score",
+    "nvrq.commands.score_sets",
     "nvrq.commands.calibrate_tau",
     "nvrq.commands.calibrate_runtime",
     "nvrq.commands.proxy",
@@ -49,7 +50,7 @@ def build_parser() -> ArgumentParser:
 
 #: What each subcommand writes: the kind of its ``--out``/``OUT`` (see data_schema.outputs).
 OUTPUT_KINDS = {"synth": "scene", "import": "scene", "render-plan": "file", "pairs": "file",
-                "score": "file", "proxy": "file", "stability": "report"}
+                "score": "file", "score-sets": "file", "proxy": "file", "stability": "report"}
 #: Commands (or ``nvrq proxy`` kinds) that write ``OUT.timing.csv`` beside ``--out``.
 WRITES_TIMING = ("score", "imagenet", "clip")
 #: Parsed arguments that name a command's input files or folders. A subcommand may add its own

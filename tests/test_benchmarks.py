@@ -32,6 +32,7 @@ CASES = {
     "bench_raters.py": (["--raters", "2", "--seconds", "4", "--think", "0.4", "0.6", "--frames", "2"],
                         "0 votes lost"),
     "bench_import.py": (["--frames", "6", "--size", "160x96", "--rounds", "1"], "import/copy"),
+    "bench_nta.py": (["--images", "2000", "--loop-images", "50"], "speed-up (vectorised / loop)"),
     "bench_cli_help.py": (["--rounds", "1", "--programs", "annotate,analyze"], "target (every --help"),
 }
 

@@ -5,7 +5,8 @@ Layer: commands (CLI shell).
 Each writes ``pair_id`` and one proxy column (``s_det``, ``imagenet_drop``, ``clip_drop``),
 which ``analyze --target`` accepts. ``imagenet`` and ``clip`` also write ``PROXY.timing.csv``
 beside it, as ``nvrq score`` does (docs/FORMATS.md §8), for the report's speed chart. ``detect`` writes the DETS table for ``detection`` with a
-local Ultralytics YOLO model (optional extra ``[yolo]``).
+local Ultralytics YOLO model (optional extra ``[yolo]``). ``nta-iou SCENE --detections DETS``
+writes NTA-IoU per projected box and its summary per method and view (:mod:`nvrq.proxies.nta_scene`).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from __future__ import annotations
 import time
 
 from data_schema.errors import InputError
-from nvrq.commands.args import add_link_option, int_arg, show_progress
+from nvrq.commands.args import add_link_option, int_arg, number_arg, show_progress
 from nvrq.commands.engine_options import add_engine_args, check_engine_args, run_ray
 from nvrq.commands.model_options import add_model_arguments, add_runtime_arguments, prepare_device
 
@@ -79,6 +80,8 @@ def register(sub) -> None:
     )
     d.set_defaults(func=run_detection)
 
+    _nta_parser(psub)
+
     y = psub.add_parser(
         "detect", help="write DETS with a local Ultralytics YOLO model (extra [yolo])"
     )
@@ -112,6 +115,66 @@ def register(sub) -> None:
     add_runtime_arguments(c, precision=False)
     add_engine_args(c)
     c.set_defaults(func=run_clip)
+
+
+def _nta_parser(psub) -> None:
+    from nvrq.choices import NTA_PROTOCOLS
+
+    n = psub.add_parser("nta-iou", help="NTA-IoU: detections of the renders against the boxes the scene "
+                        "projects into them (protocols nvrq, recondreamer, drivedreamer4d)")
+    n.add_argument("scene", help="scene folder (scene.json + images.csv, with renders)")
+    n.add_argument("--detections", required=True,
+                   help="DETS table of the renders (as `nvrq proxy detect` writes): path (as in images.csv), "
+                   "x0, y0, x1, y1 (pixel edges), score, coco_class")
+    n.add_argument("--out", required=True, help="per-box table (.csv or .parquet); the summary per method "
+                   "and view goes beside it as OUT.summary.csv")
+    n.add_argument("--protocol", default="nvrq", choices=NTA_PROTOCOLS,
+                   help="nvrq (default: one-to-one, class map, own resolution, boxes clipped), recondreamer "
+                   "or drivedreamer4d (the peers' scripts; docs/FORMATS.md)")
+    n.add_argument("--class-map", default=None,
+                   help="class-map JSON (default: the shipped nvrq/proxies/class_maps.json)")
+    n.add_argument("--min-side", type=number_arg(low=0), default=1.0,
+                   help="nvrq protocol: the shorter side (pixels) a clipped box needs (default 1)")
+    n.add_argument("--bootstrap", type=int_arg(low=0), default=1000,
+                   help="bootstrap replicates over tracks of the summary's interval (default 1000; 0: none)")
+    n.add_argument("--seed", type=int_arg(low=0), default=0, help="bootstrap seed (default 0)")
+    n.add_argument("--min-clusters", type=int_arg(low=2), default=5,
+                   help="the fewest tracks of an interval (default 5, as analyze --compare-methods)")
+    add_link_option(n)
+    n.set_defaults(func=run_nta)
+
+
+def run_nta(args) -> int:
+    from data_schema.outputs import check_output_file
+    from data_schema.scene import load_scene
+    from data_schema.tables import write_table
+    from nvrq.proxies import load_class_maps
+    from nvrq.proxies.detection import read_detections
+    from nvrq.proxies.nta_iou import get_protocol
+    from nvrq.proxies.nta_scene import nta_summary, nta_table
+
+    _check_out(args.out)
+    summary_path = nta_summary_path(args.out)
+    check_output_file(summary_path, inputs=[args.scene, args.detections], option="--out (its .summary.csv)")
+    protocol = get_protocol(args.protocol)
+    maps = load_class_maps(args.class_map)
+    scene = load_scene(args.scene, check_images=False)
+    dets = read_detections(args.detections)
+    table = nta_table(scene, dets, protocol, class_map=maps["coco"], min_side=args.min_side,
+                      where=str(args.detections))
+    summary = nta_summary(table, n_boot=args.bootstrap, seed=args.seed, min_clusters=args.min_clusters)
+    write_table(table, args.out)
+    write_table(summary, summary_path)
+    print(f"{len(table)} boxes, NTA-IoU ({protocol.name}) {table['iou'].mean():.4f} -> {args.out}, {summary_path}")
+    return 0
+
+
+def nta_summary_path(out):
+    """``x/NTA.csv`` -> ``x/NTA.summary.csv`` (the per-method-and-view table of ``nvrq proxy nta-iou``)."""
+    from pathlib import Path
+
+    path = Path(out)
+    return path.with_name(path.stem + ".summary.csv")
 
 
 def _check_out(out) -> None:

@@ -781,6 +781,49 @@ def _(world, tmp):
     return "annotate", ["add-rater", str(st), "alice"], ["--rotate", "alice", "registered already"]
 
 
+# ---------------------------------------------------------------- NTA-IoU and set metrics (issue 35)
+
+def _nta_dets(tmp, **row):
+    det = {"path": "r.png", "x0": 10.0, "y0": 10.0, "x1": 50.0, "y1": 40.0, "score": 0.9, "coco_class": "car"}
+    det.update(row)
+    pd.DataFrame([det]).to_csv(tmp / "dets.csv", index=False)
+    return str(tmp / "dets.csv")
+
+
+@case("nta-iou", "DETS path not in the scene")
+def _(world, tmp):
+    dets = _nta_dets(tmp, path="elsewhere/r.png")
+    return "nvrq", ["proxy", "nta-iou", str(world / "scene"), "--detections", dets, "--out",
+                    str(tmp / "nta.csv")], ["dets.csv", "row 2, column path", "elsewhere/r.png"]
+
+
+@case("nta-iou", "detection box x1 < x0")
+def _(world, tmp):
+    dets = _nta_dets(tmp, x0=60.0)
+    return "nvrq", ["proxy", "nta-iou", str(world / "scene"), "--detections", dets, "--out",
+                    str(tmp / "nta.csv")], ["dets.csv", "x0, x1", "x1 >= x0"]
+
+
+@case("nta-iou", "unknown protocol")
+def _(world, tmp):
+    dets = _nta_dets(tmp)
+    return "nvrq", ["proxy", "nta-iou", str(world / "scene"), "--detections", dets, "--out",
+                    str(tmp / "nta.csv"), "--protocol", "waymo"], ["--protocol", "waymo"]
+
+
+@case("score-sets", "empty set")
+def _(world, tmp):
+    return "nvrq", ["score-sets", str(world / "scene"), "--sets", "objects", "--min-side", "100000",
+                    "--out", str(tmp / "sets.csv"), "--quiet"], ["images.csv", "empty set"]
+
+
+@case("score-sets", "set too small for FD")
+def _(world, tmp):
+    return "nvrq", ["score-sets", str(world / "scene"), "--sets", "frames", "--metrics", "fd", "--runtime", "torch",
+                    "--out", str(tmp / "sets.csv"), "--save-features", str(tmp / "f.npz"), "--quiet"],\
+        ["set frames::y=+1.00", "more than 1280 images per side for FD"]
+
+
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_malformed_input(name, world, tmp_path, capfd):
     prog, argv, fragments = CASES[name](world, tmp_path)

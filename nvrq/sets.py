@@ -1,0 +1,362 @@
+"""Set metrics per view: Fréchet distance and KID of render features against GT features
+(library layer; ``nvrq score-sets``, docs/FORMATS.md §3c).
+
+- :func:`embed`: features (n, d) of images from any encoder of the registry.
+- :func:`frechet_distance`: ``|mu_r - mu_g|^2 + tr(S_r) + tr(S_g) - 2 tr((S_r S_g)^(1/2))`` with
+  ``scipy.linalg.sqrtm``; the imaginary residue of the square root and a negative result are
+  returned as they are, never hidden. Needs more samples than feature dimensions on both sides
+  (below that the covariance is singular).
+- :func:`kid`: the unbiased MMD² with the cubic polynomial kernel
+  ``k(x, y) = (x.y / d + 1)^3``, averaged over random subsets (torch-fidelity's defaults:
+  subset size ``min(1000, n)``, 100 subsets, seed 2020), with its standard deviation.
+- :func:`score_sets`: both per set of a scene: ``frames`` (every render of one method and view
+  against the GT frames of the same cameras and times, neurad-studio's lane-shift protocol) and
+  ``objects`` (the render crops of one method and view against their GT crops).
+
+>>> rng = np.random.default_rng(0)
+>>> a = rng.normal(size=(50, 3))
+>>> round(frechet_distance(a, a)["fd"], 9), round(frechet_distance(a, a + 1)["fd"], 9)
+(0.0, 3.0)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from data_schema.errors import InputError
+
+__all__ = ["embed", "frechet_distance", "kid", "SetOptions", "set_groups", "score_sets", "set_table",
+           "KID_SUBSETS", "KID_SUBSET_SIZE", "KID_SEED"]
+
+KID_SUBSETS = 100
+KID_SUBSET_SIZE = 1000
+KID_SEED = 2020  # torch-fidelity's default rng_seed
+
+
+def embed(images, *, encoder=None, batch_size: int = 32, square: str = "pad") -> np.ndarray:
+    """Features of images from an encoder of the registry.
+
+    Parameters
+    ----------
+    images : sequence of numpy.ndarray
+        uint8 RGB images or crops (H, W, 3), any size.
+    encoder : str, EncoderConfig or Encoder, optional
+        A registry name (default ``efficientnet-lite0``, offline), a config, or a loaded encoder.
+    batch_size : int, optional
+        Images per forward pass.
+    square : {'pad', 'stretch'}, optional
+        How an image becomes the encoder's square input: centred on a black square (crops, as
+        ``nvrq score``) or resized to it (whole frames, as FID implementations do).
+
+    Returns
+    -------
+    numpy.ndarray
+        (n, d) float64 features (GAP of the final tokens, :mod:`nvrq.encoders.registry`).
+    """
+    from nvrq.api import _load, as_rgb_uint8
+    from nvrq.crops import encoder_input, resize_to
+
+    enc = encoder if hasattr(encoder, "embed") else _load(encoder, encoder if isinstance(encoder, str) else None,
+                                                          cached=True)
+    s = enc.spec.input_size
+    prep = (lambda x: encoder_input(x, s)) if square == "pad" else (lambda x: resize_to(x, s, s))
+    out = []
+    items = list(images)
+    for b0 in range(0, len(items), batch_size):
+        batch = np.stack([prep(as_rgb_uint8(x, name=f"images[{b0 + k}]"))
+                          for k, x in enumerate(items[b0:b0 + batch_size])])
+        out.append(np.asarray(enc.embed(batch), np.float64))
+    return np.concatenate(out) if out else np.zeros((0, 0))
+
+
+def frechet_distance(render: np.ndarray, gt: np.ndarray) -> dict:
+    """Fréchet distance between Gaussians fitted to two feature sets.
+
+    Parameters
+    ----------
+    render, gt : numpy.ndarray
+        (n_r, d) and (n_g, d) features; each needs ``n > d``.
+
+    Returns
+    -------
+    dict
+        ``fd`` (float, may be slightly negative from rounding), ``fd_residue``: the largest
+        ``|imag|`` of the matrix square root (0 when it is real), both as computed.
+
+    Raises
+    ------
+    InputError
+        A set with ``n <= d`` (singular covariance) or sets of different ``d``.
+    """
+    from scipy import linalg
+
+    r, g = np.asarray(render, np.float64), np.asarray(gt, np.float64)
+    if r.ndim != 2 or g.ndim != 2 or r.shape[1] != g.shape[1]:
+        raise InputError(param="features", expected="two (n, d) arrays of one d", got=f"{r.shape} and {g.shape}")
+    d = r.shape[1]
+    for name, x in (("render", r), ("gt", g)):
+        if len(x) <= d:
+            raise InputError(param=f"{name} features", expected=f"more samples than the {d} feature dimensions "
+                             "for FD (the covariance is singular below)", got=f"{len(x)} samples")
+    mu = r.mean(axis=0) - g.mean(axis=0)
+    s_r, s_g = np.cov(r, rowvar=False), np.cov(g, rowvar=False)
+    root = linalg.sqrtm(s_r @ s_g)
+    residue = float(np.abs(np.imag(root)).max()) if np.iscomplexobj(root) else 0.0
+    fd = float(mu @ mu + np.trace(s_r) + np.trace(s_g) - 2.0 * np.trace(np.real(root)))
+    return {"fd": fd, "fd_residue": residue}
+
+
+def kid(render: np.ndarray, gt: np.ndarray, *, subsets: int = KID_SUBSETS, subset_size: int = KID_SUBSET_SIZE,
+        seed: int = KID_SEED) -> dict:
+    """Kernel Inception Distance (unbiased MMD², cubic polynomial kernel) over random subsets.
+
+    Parameters
+    ----------
+    render, gt : numpy.ndarray
+        (n_r, d) and (n_g, d) features, ``n >= 2`` each.
+    subsets, subset_size, seed : int, optional
+        torch-fidelity's defaults: 100 subsets of ``min(subset_size, n_r, n_g)`` rows drawn
+        without replacement from each set, ``numpy.random.RandomState(seed)``.
+
+    Returns
+    -------
+    dict
+        ``kid`` (mean over subsets), ``kid_std`` (their standard deviation, ddof 0),
+        ``kid_subset_size`` (m).
+    """
+    r, g = np.asarray(render, np.float64), np.asarray(gt, np.float64)
+    m = min(int(subset_size), len(r), len(g))
+    if m < 2:
+        raise InputError(param="features", expected="at least 2 samples per set for KID",
+                         got=f"{len(r)} render and {len(g)} gt")
+    rng = np.random.RandomState(seed)
+    gamma = 1.0 / r.shape[1]
+    vals = np.empty(int(subsets))
+    for k in range(int(subsets)):
+        x = r[rng.choice(len(r), m, replace=False)]
+        y = g[rng.choice(len(g), m, replace=False)]
+        kxx = (x @ x.T * gamma + 1.0) ** 3
+        kyy = (y @ y.T * gamma + 1.0) ** 3
+        kxy = (x @ y.T * gamma + 1.0) ** 3
+        vals[k] = ((kxx.sum() - np.trace(kxx)) + (kyy.sum() - np.trace(kyy))) / (m * (m - 1)) \
+            - 2.0 * kxy.sum() / (m * m)
+    return {"kid": float(vals.mean()), "kid_std": float(vals.std()), "kid_subset_size": m}
+
+
+@dataclass(frozen=True)
+class SetOptions:
+    """What ``nvrq score-sets`` computes. ``kinds``: ``frames`` and/or ``objects``; ``metrics``:
+    ``fd`` and/or ``kid`` (``fd`` alone makes a set too small for FD an error, with ``kid`` it
+    gets KID only and a reason); ``min_side``: the pairs' smallest crop side (objects)."""
+
+    kinds: tuple[str, ...] = ("frames", "objects")
+    metrics: tuple[str, ...] = ("fd", "kid")
+    kid_subsets: int = KID_SUBSETS
+    kid_subset_size: int = KID_SUBSET_SIZE
+    seed: int = KID_SEED
+    min_side: float = 30
+
+
+def set_groups(scene, options: SetOptions) -> pd.DataFrame:
+    """The images of every set of ``scene``: one row per (set, side, image or crop).
+
+    Parameters
+    ----------
+    scene : data_schema.scene.Scene
+    options : SetOptions
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``set_id`` (``KIND:METHOD:VIEW``), ``kind``, ``method``, the view columns, ``side``
+        (``gt``/``render``), ``path`` (relative to the scene) and ``box`` (inclusive crop box,
+        or None for a whole frame).
+    """
+    from data_schema.methods import METHOD_COLUMN, method_values
+    from data_schema.perturbation import (
+        LABEL_COLUMN,
+        PERTURBATION_COLUMNS,
+        labels,
+        perturbation_array,
+    )
+
+    parts = []
+    img = scene.images
+    gt = img[img.source == "gt"].set_index(["camera", "timestamp_us"])["path"]
+    r = img[img.source == "render"]
+    if "frames" in options.kinds and len(r):
+        key = pd.MultiIndex.from_arrays([r.camera, r.timestamp_us])
+        has = key.isin(gt.index)
+        rr = r[has]
+        view = perturbation_array(rr)
+        base = pd.DataFrame({"kind": "frames", "method": method_values(rr), **{c: view[:, i] for i, c in
+                             enumerate(PERTURBATION_COLUMNS)}, LABEL_COLUMN: labels(view)})
+        parts.append(base.assign(side="render", path=rr.path.to_numpy(), box=None))
+        gpath = gt.reindex(pd.MultiIndex.from_arrays([rr.camera, rr.timestamp_us])).to_numpy()
+        parts.append(base.assign(side="gt", path=gpath, box=None))
+    if "objects" in options.kinds and len(r):
+        from nvrq.pairs import make_pairs
+
+        pairs, _ = make_pairs(scene, min_side=options.min_side, progress=False)
+        view = perturbation_array(pairs)
+        base = pd.DataFrame({"kind": "objects", "method": method_values(pairs),
+                             **{c: view[:, i] for i, c in enumerate(PERTURBATION_COLUMNS)},
+                             LABEL_COLUMN: labels(view)})
+        rbox = pairs[["r_x0", "r_y0", "r_x1", "r_y1"]].to_numpy(np.int64).tolist()
+        gbox = pairs[["gt_x0", "gt_y0", "gt_x1", "gt_y1"]].to_numpy(np.int64).tolist()
+        parts.append(base.assign(side="render", path=pairs.render_path.to_numpy(), box=rbox))
+        parts.append(base.assign(side="gt", path=pairs.gt_path.to_numpy(), box=gbox))
+    out = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()
+    if out.empty:
+        what = " and ".join(options.kinds)
+        raise InputError(scene.root, "images.csv", f"renders with GT of the same camera and time ({what})",
+                         "an empty set: no image to compare")
+    out[METHOD_COLUMN] = out["method"].astype(str)
+    out.insert(0, "set_id", out["kind"] + ":" + out["method"] + ":" + out[LABEL_COLUMN])
+    return out.sort_values(["kind", "method", "y_offset_m", "set_id", "side"], kind="stable").reset_index(drop=True)
+
+
+def set_table(groups: pd.DataFrame, features: np.ndarray, options: SetOptions, *, encoder: str,
+              where: str = "sets") -> pd.DataFrame:
+    """FD and KID of every set from the features of its rows.
+
+    Parameters
+    ----------
+    groups : pandas.DataFrame
+        :func:`set_groups` rows (``set_id``, ``side`` and the set's columns).
+    features : numpy.ndarray
+        (n, d) one feature row per row of ``groups``.
+    options : SetOptions
+    encoder : str
+        The encoder's name, in the column names (``fd:NAME``, ``kid:NAME``).
+    where : str, optional
+        Named in errors.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per set: ``set_id, kind, method``, the view columns, ``n_render, n_gt``, then
+        ``fd:ENC, fd_residue:ENC`` and/or ``kid:ENC, kid_std:ENC, kid_subset_size``, and
+        ``reason`` (why FD is empty).
+    """
+    from data_schema.perturbation import LABEL_COLUMN, PERTURBATION_COLUMNS
+
+    rows = []
+    d = features.shape[1]
+    for sid, g in groups.groupby("set_id", sort=False):
+        idx = g.index.to_numpy()
+        side = g["side"].to_numpy()
+        fr, fg = features[idx[side == "render"]], features[idx[side == "gt"]]
+        row = {c: g[c].iloc[0] for c in ("set_id", "kind", "method", *PERTURBATION_COLUMNS, LABEL_COLUMN)}
+        row.update(n_render=len(fr), n_gt=len(fg), reason="")
+        if min(len(fr), len(fg)) < 2:
+            raise InputError(where, f"set {sid}", "at least 2 images on each side", f"{len(fr)} render, {len(fg)} gt")
+        if "fd" in options.metrics:
+            if min(len(fr), len(fg)) > d:
+                fd = frechet_distance(fr, fg)
+                row[f"fd:{encoder}"], row[f"fd_residue:{encoder}"] = fd["fd"], fd["fd_residue"]
+            elif "kid" not in options.metrics:
+                raise InputError(where, f"set {sid}", f"more than {d} images per side for FD (the feature "
+                                 "dimension of " + encoder + "; or add kid)", f"{len(fr)} render, {len(fg)} gt")
+            else:
+                row[f"fd:{encoder}"] = row[f"fd_residue:{encoder}"] = np.nan
+                row["reason"] = f"FD needs more than {d} images per side (the feature dimension): " \
+                                f"{min(len(fr), len(fg))}"
+        if "kid" in options.metrics:
+            k = kid(fr, fg, subsets=options.kid_subsets, subset_size=options.kid_subset_size, seed=options.seed)
+            row[f"kid:{encoder}"], row[f"kid_std:{encoder}"] = k["kid"], k["kid_std"]
+            row["kid_subset_size"] = k["kid_subset_size"]
+        rows.append(row)
+    out = pd.DataFrame(rows)
+    return out[[c for c in out.columns if c != "reason"] + ["reason"]]
+
+
+def score_sets(scene, options: SetOptions, *, encoder=None, batch_size: int = 32, progress: bool = False):
+    """Embed every image of every set of ``scene`` once and score the sets.
+
+    Parameters
+    ----------
+    scene : data_schema.scene.Scene
+    options : SetOptions
+    encoder : str, EncoderConfig or Encoder, optional
+        As :func:`embed` (default ``efficientnet-lite0``).
+    batch_size : int, optional
+        Images per forward pass.
+    progress : bool, optional
+        A progress bar over the distinct images.
+
+    Returns
+    -------
+    table : pandas.DataFrame
+        :func:`set_table`.
+    groups : pandas.DataFrame
+        :func:`set_groups` (the rows of ``features``).
+    features : numpy.ndarray
+        (n, d) one row per row of ``groups`` (a distinct image or crop is embedded once).
+    name : str
+        The encoder's name.
+    """
+    from tqdm.auto import tqdm
+
+    from nvrq.api import _load
+
+    groups = set_groups(scene, options)
+    enc = encoder if hasattr(encoder, "embed") else _load(encoder, encoder if isinstance(encoder, str) else None,
+                                                          cached=True)
+    _check_sizes(groups, options, enc, where=str(scene.root))
+    keys = groups["path"].astype(str) + "|" + groups["box"].map(lambda b: "" if b is None else str(b))
+    codes = pd.factorize(keys)[0]  # codes in order of first appearance
+    first = np.flatnonzero(~pd.Series(codes).duplicated().to_numpy())
+    whole = groups["box"].isna().to_numpy()[first]
+    uniq = None
+    bar = tqdm(total=len(first), desc="sets", unit="image", disable=not progress)
+    reader = _Reader(scene.root)
+    for mode, sel in (("stretch", np.flatnonzero(whole)), ("pad", np.flatnonzero(~whole))):
+        for b0 in range(0, len(sel), batch_size):
+            chunk = sel[b0:b0 + batch_size]
+            ims = [reader(groups["path"].iat[first[k]], groups["box"].iat[first[k]]) for k in chunk]
+            f = embed(ims, encoder=enc, batch_size=batch_size, square=mode)
+            uniq = np.empty((len(first), f.shape[1])) if uniq is None else uniq
+            uniq[chunk] = f
+            bar.update(len(chunk))
+    bar.close()
+    features = uniq[codes]
+    name = enc.spec.name
+    return set_table(groups, features, options, encoder=name, where=str(scene.root)), groups, features, name
+
+
+def _check_sizes(groups: pd.DataFrame, options: SetOptions, enc, *, where: str) -> None:
+    """Before any image is read: every set has 2 images per side (KID), and more than the
+    feature dimension when FD alone is asked for (the dimension from one blank input)."""
+    n = groups.groupby(["set_id", "side"]).size().unstack(fill_value=0).reindex(columns=["render", "gt"],
+                                                                                 fill_value=0)
+    low = n.min(axis=1)
+    if options.metrics == ("fd",):
+        s = enc.spec.input_size
+        d = int(np.asarray(enc.embed(np.zeros((1, s, s, 3), np.uint8))).shape[1])
+        if (low <= d).any():
+            sid = low.index[int(np.argmax((low <= d).to_numpy()))]
+            raise InputError(where, f"set {sid}", f"more than {d} images per side for FD (the feature dimension "
+                             f"of {enc.spec.name}; add kid to get KID alone)",
+                             f"{n.loc[sid, 'render']} render, {n.loc[sid, 'gt']} gt")
+    if (low < 2).any():
+        sid = low.index[int(np.argmax((low < 2).to_numpy()))]
+        raise InputError(where, f"set {sid}", "at least 2 images on each side",
+                         f"{n.loc[sid, 'render']} render, {n.loc[sid, 'gt']} gt")
+
+
+class _Reader:
+    """Images of a scene, the last one kept (the crops of one render come one after another)."""
+
+    def __init__(self, root):
+        self.root, self.path, self.image = root, None, None
+
+    def __call__(self, path: str, box):
+        from nvrq.crops import cut_box, read_rgb
+
+        if path != self.path:
+            self.path, self.image = path, read_rgb(self.root / path)
+        return self.image if box is None else cut_box(self.image, box, where=str(path))

@@ -1,0 +1,120 @@
+"""FD and KID per set (issue 35): against straightforward NumPy / SciPy / scikit-learn
+computations, KID's unbiasedness, FD of a set with itself, and ``nvrq score-sets`` end to end."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from data_schema.errors import InputError
+from nvrq.sets import SetOptions, frechet_distance, kid, set_table
+
+
+def _fd_eig(a, b):
+    # tr((S1 S2)^(1/2)) as the sum of the square roots of the eigenvalues of S1 S2 (real and
+    # non-negative for two covariance matrices): no matrix square root involved
+    s1, s2 = np.cov(a, rowvar=False), np.cov(b, rowvar=False)
+    mu = a.mean(0) - b.mean(0)
+    ev = np.linalg.eigvals(s1 @ s2)
+    return float(mu @ mu + np.trace(s1) + np.trace(s2) - 2 * np.sqrt(np.clip(ev.real, 0, None)).sum())
+
+
+def _kid_sklearn(a, b, *, subsets, size, seed):
+    # torch-fidelity's recipe written out with scikit-learn's polynomial kernel:
+    # MMD^2_u = mean_{i != j} k(x_i, x_j) + mean_{i != j} k(y_i, y_j) - 2 mean k(x_i, y_j)
+    from sklearn.metrics.pairwise import polynomial_kernel
+
+    rng = np.random.RandomState(seed)
+    out = []
+    for _ in range(subsets):
+        x = a[rng.choice(len(a), size, replace=False)]
+        y = b[rng.choice(len(b), size, replace=False)]
+        kw = dict(degree=3, gamma=1.0 / a.shape[1], coef0=1)
+        kxx, kyy, kxy = polynomial_kernel(x, x, **kw), polynomial_kernel(y, y, **kw), polynomial_kernel(x, y, **kw)
+        off = ~np.eye(size, dtype=bool)
+        out.append(kxx[off].mean() + kyy[off].mean() - 2 * kxy.mean())
+    return float(np.mean(out)), float(np.std(out))
+
+
+def test_fd_and_kid_equal_straightforward_computation(tmp_path):
+    rng = np.random.default_rng(1)
+    a = rng.normal(size=(300, 12))
+    b = rng.normal(size=(260, 12)) @ np.diag(np.linspace(0.5, 1.5, 12)) + 0.3
+    # through the saved-features route: set_table on a features file, as `--save-features` writes it
+    groups = pd.DataFrame({"set_id": "objects:m:y=+1.00", "kind": "objects", "method": "m", "x_offset_m": 0.0,
+                           "y_offset_m": 1.0, "z_offset_m": 0.0, "roll_deg": 0.0, "pitch_deg": 0.0, "yaw_deg": 0.0,
+                           "perturbation": "y=+1.00", "side": ["render"] * 300 + ["gt"] * 260})
+    np.savez(tmp_path / "f.npz", features=np.concatenate([a, b]), set_id=groups.set_id.to_numpy(str),
+             side=groups.side.to_numpy(str))
+    z = np.load(tmp_path / "f.npz")
+    t = set_table(groups, z["features"], SetOptions(kid_subsets=20, kid_subset_size=100, seed=7), encoder="toy")
+    r, g = z["features"][z["side"] == "render"], z["features"][z["side"] == "gt"]
+    assert t.loc[0, "fd:toy"] == pytest.approx(_fd_eig(r, g), abs=1e-9)
+    mean, std = _kid_sklearn(r, g, subsets=20, size=100, seed=7)
+    assert t.loc[0, "kid:toy"] == pytest.approx(mean, abs=1e-9)
+    assert t.loc[0, "kid_std:toy"] == pytest.approx(std, abs=1e-9)
+    assert (t.loc[0, "n_render"], t.loc[0, "n_gt"], t.loc[0, "reason"]) == (300, 260, "")
+
+
+def test_fd_of_a_set_with_itself_is_zero():
+    x = np.random.default_rng(2).normal(size=(500, 64))
+    res = frechet_distance(x, x)
+    assert abs(res["fd"]) < 1e-6 and res["fd_residue"] < 1e-6
+
+
+def test_kid_mean_is_unbiased():
+    # 200 independent pairs of sets drawn from one distribution: the mean of their KID means is
+    # within 3 standard errors of 0 (the biased MMD^2 would sit clearly above 0 at n = 30)
+    rng = np.random.default_rng(3)
+    means = np.array([kid(rng.normal(size=(30, 8)), rng.normal(size=(30, 8)), subsets=5)["kid"]
+                      for _ in range(200)])
+    se = means.std(ddof=1) / np.sqrt(len(means))
+    assert abs(means.mean()) < 3 * se, (means.mean(), se)
+
+
+def test_too_small_for_fd():
+    rng = np.random.default_rng(4)
+    groups = pd.DataFrame({"set_id": "frames:m:none", "kind": "frames", "method": "m", "x_offset_m": 0.0,
+                           "y_offset_m": 0.0, "z_offset_m": 0.0, "roll_deg": 0.0, "pitch_deg": 0.0, "yaw_deg": 0.0,
+                           "perturbation": "none", "side": ["render"] * 10 + ["gt"] * 10})
+    f = rng.normal(size=(20, 16))
+    t = set_table(groups, f, SetOptions(), encoder="toy")
+    assert np.isnan(t.loc[0, "fd:toy"]) and "more than 16 images" in t.loc[0, "reason"]
+    assert np.isfinite(t.loc[0, "kid:toy"])
+    with pytest.raises(InputError, match="more than 16 images per side for FD"):
+        set_table(groups, f, SetOptions(metrics=("fd",)), encoder="toy")
+
+
+def test_score_sets_cli_frames(tmp_path):
+    from nvrq.cli import main
+
+    scene = tmp_path / "scene"
+    assert main(["synth", str(scene), "--seconds", "0.3", "--size", "160x96", "--methods", "sharp:0.5,blurry:1.5",
+                 "--offsets", "0,2", "--quiet"]) == 0
+    out = tmp_path / "sets.csv"
+    assert main(["score-sets", str(scene), "--out", str(out), "--sets", "frames", "--save-features",
+                 str(tmp_path / "f.npz"), "--quiet", "--runtime", "torch"]) == 0
+    t = pd.read_csv(out)
+    assert set(t.set_id) == {f"frames:{m}:{v}" for m in ("sharp", "blurry") for v in ("none", "y=+2.00")}
+    assert (t.n_render == 3).all() and (t.n_gt == 3).all() and t["fd:efficientnet-lite0"].isna().all()
+    z = np.load(tmp_path / "f.npz")
+    for _, row in t.iterrows():  # every row recomputed from the features file
+        sel = z["set_id"] == row.set_id
+        r, g = z["features"][sel & (z["side"] == "render")], z["features"][sel & (z["side"] == "gt")]
+        assert row["kid:efficientnet-lite0"] == pytest.approx(kid(r, g)["kid"], abs=1e-9)
+
+
+def test_embed_matches_the_encoder_on_its_inputs():
+    import nvrq
+    from nvrq.crops import encoder_input, resize_to
+    from nvrq.encoders import load_encoder
+
+    rng = np.random.default_rng(5)
+    ims = [rng.integers(0, 256, (40, 90, 3), dtype=np.uint8), rng.integers(0, 256, (64, 64, 3), dtype=np.uint8)]
+    enc = load_encoder("efficientnet-lite0", runtime="torch")
+    want_pad = enc.embed(np.stack([encoder_input(x, 224) for x in ims]))
+    want_stretch = enc.embed(np.stack([resize_to(x, 224, 224) for x in ims]))
+    np.testing.assert_allclose(nvrq.embed(ims, encoder=enc), want_pad, atol=1e-6)
+    np.testing.assert_allclose(nvrq.embed(ims, encoder=enc, square="stretch"), want_stretch, atol=1e-6)
+    assert nvrq.embed(ims, encoder="efficientnet-lite0").shape == (2, 1280)  # by name, from the cache
