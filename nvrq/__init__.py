@@ -9,7 +9,9 @@ The public Python API (docs/PYTHON.md) is exported here and imported on first us
 - geometry: :func:`project_boxes` (the ``nvrq pairs`` rule for one frame, :mod:`nvrq.pairs`),
   :func:`camera_from_model` and the camera classes (:mod:`nvrq.geometry.cameras`);
 - rendering: :func:`render_plan` (the views to render as arrays: ``viewmats``, ``Ks``, sizes,
-  paths; a :class:`RenderPlan`, :mod:`nvrq.render_plans`).
+  paths; a :class:`RenderPlan`, :mod:`nvrq.render_plans`);
+- the trust horizon: :func:`trust_horizon` on a table of per-object scores, with a
+  :class:`Threshold` (:mod:`nvrq.horizon`).
 
 >>> import nvrq
 >>> sorted(nvrq.__all__)[:3]
@@ -39,6 +41,8 @@ _EXPORTS = {
     "FThetaCamera": "nvrq.geometry.cameras",
     "render_plan": "nvrq.render_plans",
     "RenderPlan": "nvrq.render_plans",
+    "trust_horizon": "nvrq.horizon",
+    "Threshold": "nvrq.horizon",
 }
 
 __all__ = sorted(_EXPORTS)
