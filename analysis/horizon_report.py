@@ -195,9 +195,7 @@ def plots_cmap():
     """The heat strip's colour map: viridis, grey where the horizon is empty."""
     from matplotlib import colormaps
 
-    cmap = colormaps["viridis"].copy()
-    cmap.set_bad("0.8")
-    return cmap
+    return colormaps["viridis"].with_extremes(bad="0.8")
 
 
 def write_horizon(result, d) -> list[dict]:
