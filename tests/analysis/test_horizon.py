@@ -15,7 +15,13 @@ import nvrq
 from analysis.cli import main as analyze_main
 from analysis.horizon_fit import fit_logistic, vote_threshold
 from annotate.simulate import p_good
-from nvrq.horizon import HORIZON_COLUMNS, TIMELINE_COLUMNS, Threshold, horizon_timeline, trust_horizon
+from nvrq.horizon import (
+    HORIZON_COLUMNS,
+    TIMELINE_COLUMNS,
+    Threshold,
+    horizon_timeline,
+    trust_horizon,
+)
 
 OFFSETS = [-3.0, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0]
 
