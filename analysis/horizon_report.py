@@ -16,7 +16,7 @@ over time). The section: one sentence per method (:func:`method_sentence`).
 ...                   "crossing": [2.4, 1.5], "ci_lo": [1.5, math.nan], "ci_hi": [2.5, math.nan],
 ...                   "reason": ["", ""]})
 >>> method_sentence("sharp", t)
-'sharp: automobile stays good to 2.0 m left [1.5, 2.5] and 1.0 m right.'
+'sharp: automobile stays good to 2 m left [1.5, 2.5] and 1 m right.'
 """
 
 from __future__ import annotations
@@ -77,16 +77,20 @@ def horizon_json(result) -> dict:
     }
 
 
+def _n(v: float) -> str:
+    return f"{round(float(v), 2):g}"
+
+
 def _part(r) -> str:
     """One direction's text: ``'2.0 m left [1.5, 2.5]'``, or why there is no number."""
     unit = unit_of(r["axis"])
     if r["reason"].startswith("fails at"):
         return f"not even at the recorded view ({r['direction']})"
-    text = f"{r['horizon']:.1f} {unit} {r['direction']}"
+    text = f"{_n(r['horizon'])} {unit} {r['direction']}"
     if r["reason"].startswith("beyond the grid"):
-        text = f"beyond the grid's {r['horizon']:.1f} {unit} {r['direction']}"
+        text = f"beyond the grid's {_n(r['horizon'])} {unit} {r['direction']}"
     if math.isfinite(r["ci_lo"]):
-        text += f" [{r['ci_lo']:.1f}, {r['ci_hi']:.1f}]"
+        text += f" [{_n(r['ci_lo'])}, {_n(r['ci_hi'])}]"
     return text
 
 
@@ -103,8 +107,8 @@ def method_sentence(method: str, table: pd.DataFrame) -> str:
     Returns
     -------
     str
-        e.g. ``'sharp: automobile stays good to 2.0 m left [1.5, 2.5] and 1.0 m right;
-        pedestrian to 1.0 m left and 1.0 m right.'`` (brackets: the 95% interval of the crossing).
+        e.g. ``'sharp: automobile stays good to 2 m left [1.5, 2.5] and 1 m right;
+        person to 1 m left and 1 m right.'`` (brackets: the 95% interval of the crossing).
     """
     t = table[table["method"] == method]
     parts = []

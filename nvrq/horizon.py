@@ -26,7 +26,7 @@ that direction, 0 included (the recorded view belongs to both directions of ever
 ...                   "m": [1, 1, 1, 1, 1, 1, 1, 0, 0, 0, 0, 0]})
 >>> h = trust_horizon(s, threshold=0.5, metric="m", share=0.5, n_boot=0)
 >>> h[["direction", "horizon", "crossing", "reason"]].values.tolist()  # 1 + (0.75 - 0.5) / 0.75
-[['left', 1.0, 1.3333333333333333, '4 tracks, fewer than the 5 an interval needs']]
+[['left', 1.0, 1.333333333, '4 tracks, fewer than the 5 an interval needs']]
 """
 
 from __future__ import annotations
@@ -238,7 +238,7 @@ def _one(mag, good, track, *, share: float, n_boot: int, seed: int, min_clusters
     f = int(_first_fail(curve, share)[0])
     K, T = len(grid), n.shape[0]
     out = {"horizon": grid[f - 1] if f > 0 else math.nan,
-           "crossing": float(_crossings(curve, grid, share)[0]) if 0 < f < K else math.nan,
+           "crossing": round(float(_crossings(curve, grid, share)[0]), 9) if 0 < f < K else math.nan,
            "ci_lo": math.nan, "ci_hi": math.nan, "n_tracks": T, "n_objects": int(n.sum()),
            "grid": grid, "share": curve[0]}
     reasons = [_reason(f, grid)] if f in (0, K) else []
@@ -248,7 +248,7 @@ def _one(mag, good, track, *, share: float, n_boot: int, seed: int, min_clusters
         C = _boot_counts(T, n_boot, seed)
         with np.errstate(invalid="ignore", divide="ignore"):
             reps = _crossings((C @ g) / (C @ n), grid, share)
-        out["ci_lo"], out["ci_hi"] = (float(q) for q in np.quantile(reps, [0.025, 0.975]))
+        out["ci_lo"], out["ci_hi"] = (round(float(q), 9) for q in np.quantile(reps, [0.025, 0.975]))
     out["reason"] = "; ".join(reasons)
     return out
 
