@@ -88,7 +88,7 @@ def _part(r) -> str:
         return f"not even at the recorded view ({r['direction']})"
     text = f"{_n(r['horizon'])} {unit} {r['direction']}"
     if r["reason"].startswith("beyond the grid"):
-        text = f"beyond the grid's {_n(r['horizon'])} {unit} {r['direction']}"
+        text = f"at least {_n(r['horizon'])} {unit} {r['direction']} (all of the grid)"
     if math.isfinite(r["ci_lo"]):
         text += f" [{_n(r['ci_lo'])}, {_n(r['ci_hi'])}]"
     return text
