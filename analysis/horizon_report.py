@@ -181,7 +181,8 @@ def timeline_figure(timeline: pd.DataFrame) -> Figure | None:
                         + " · " + timeline["axis"] + " " + timeline["direction"],
                         t=(timeline["t0_us"] - timeline.groupby("clip_id")["t0_us"].transform("min")) / 1e6)
     wide = t.pivot_table(index="row", columns=["clip_id", "t"], values="horizon", aggfunc="first")
-    fig = Figure(figsize=(max(4.0, 0.5 * wide.shape[1] + 3), max(1.5, 0.25 * wide.shape[0] + 1)))
+    fig = Figure(figsize=(max(5.0, 0.5 * wide.shape[1] + 4), max(1.5, 0.25 * wide.shape[0] + 1)),
+                 layout="constrained")
     ax = fig.add_subplot()
     cmap = plots_cmap()
     im = ax.imshow(np.ma.masked_invalid(wide.to_numpy(np.float64)), aspect="auto", cmap=cmap,
@@ -190,8 +191,7 @@ def timeline_figure(timeline: pd.DataFrame) -> Figure | None:
     ax.set_xticks(range(wide.shape[1]), [f"{c}\n{s:g}s" if len(set(wide.columns.get_level_values(0))) > 1
                                          else f"{s:g}s" for c, s in wide.columns], fontsize=6)
     ax.set_xlabel("window start", fontsize=8)
-    fig.colorbar(im, ax=ax, label="horizon (m or deg)")
-    fig.tight_layout()
+    fig.colorbar(im, ax=ax, label="horizon (m or deg; grey: fails at 0)")
     return fig
 
 
