@@ -202,7 +202,7 @@ def for_ratings(analysis, votes: pd.DataFrame, opts: HorizonOptions, *, where=No
     test = votes[(votes["kind"] == "test") & ~votes["rater_id"].astype(str).isin(excluded)]
     fits = _vote_fits(test, analysis.items, analysis.metrics, analysis.directions, opts)
     higher = _directions(metric, analysis.directions)
-    th = (Threshold(metric, float(opts.threshold), higher, "given (--threshold)")
+    th = (Threshold(metric, float(opts.threshold), higher, "given with --threshold")
           if opts.threshold is not None else _human_threshold(fits, metric, higher, opts))
     return _result(analysis.items, th, opts, fits, where)
 
@@ -227,7 +227,7 @@ def for_pairs(analysis, items: pd.DataFrame, opts: HorizonOptions, *, where=None
     """
     metric = _metric(opts, analysis.metrics)
     th = Threshold(metric, float(opts.threshold), _directions(metric, analysis.directions),
-                   "given (--threshold)")
+                   "given with --threshold")
     return _result(items, th, opts, None, where)
 
 

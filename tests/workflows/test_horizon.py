@@ -117,7 +117,7 @@ def test_python_api_gives_the_cli_rows(clip):
                    repr(doc["threshold"]["value"]))
     scores = pd.read_csv(clip / "pairs.csv").merge(pd.read_csv(clip / "metrics.csv"), on="pair_id")
     api = nvrq.trust_horizon(scores, threshold=doc["threshold"]["value"], share=0.9, n_boot=200, seed=0)
-    api = api.assign(threshold_source="given (--threshold)")
+    api = api.assign(threshold_source="given with --threshold")
     pd.testing.assert_frame_equal(api.reset_index(drop=True), cli, check_dtype=False)
 
 
