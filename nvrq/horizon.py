@@ -165,7 +165,8 @@ def _rows(scores: pd.DataFrame, th: Threshold) -> _Rows:
     good = v >= th.value if th.higher_better else v <= th.value
     P = perturbation_array(s)
     ids = [s[c].astype(str) for c in ("clip_id", "track_id") if c in s.columns]
-    track = pd.factorize(pd.MultiIndex.from_arrays(ids) if len(ids) > 1 else ids[0])[0]
+    # codes in sorted (clip_id, track_id) order: the bootstrap draws the same tracks whatever the row order
+    track = pd.factorize(pd.MultiIndex.from_arrays(ids) if len(ids) > 1 else ids[0], sort=True)[0]
     keys = pd.DataFrame({"method": s["method"].astype(str) if "method" in s.columns else NO_METHOD,
                          "label_class": s["label_class"].astype(str).to_numpy()}, index=s.index)
     for c in ("clip_id", "camera", "timestamp_us"):
