@@ -336,7 +336,14 @@ def trust_horizon(scores: pd.DataFrame, *, threshold, share: float = DEFAULT_SHA
            for key, axis, d, r in _horizons(rows, th, ["method", "label_class"], opts)]
     t = pd.DataFrame(out, columns=[*HORIZON_COLUMNS, "n_objects", "grid", "share"])
     t = t.assign(metric=th.metric, threshold=th.value, threshold_source=th.source)
-    return t[HORIZON_COLUMNS].reset_index(drop=True)
+    return _sorted(t[HORIZON_COLUMNS], "label_class")
+
+
+def _sorted(t: pd.DataFrame, cls: str) -> pd.DataFrame:
+    """Rows by method, class, axis (x, y, z, roll, pitch, yaw) and direction (positive first)."""
+    order = {(a, d): 2 * i + j for i, a in enumerate(AXES) for j, d in enumerate(DIRECTIONS[a])}
+    key = pd.Series([order[(a, d)] for a, d in zip(t["axis"], t["direction"], strict=True)], index=t.index)
+    return t.assign(_k=key).sort_values(["method", cls, "_k"], kind="stable").drop(columns="_k").reset_index(drop=True)
 
 
 def share_curves(scores: pd.DataFrame, *, threshold, share: float = DEFAULT_SHARE,
