@@ -11,7 +11,7 @@ without importing the analyses (SciPy, scikit-learn, matplotlib).
 
 from __future__ import annotations
 
-__all__ = ["METHODS", "RANK_BY", "DEFAULT_MARGIN", "MIN_CLUSTERS", "PATHS"]
+__all__ = ["METHODS", "RANK_BY", "DEFAULT_MARGIN", "MIN_CLUSTERS", "PATHS", "DEFAULT_SHARE"]
 
 #: How votes become item labels: majority vote (GVF) or a crowd-kit model (analysis.aggregate).
 METHODS = ("majority", "dawid-skene", "glad", "mace")
@@ -28,3 +28,6 @@ MIN_CLUSTERS = 5
 #: The two halves of the views: off the recorded path first, what a benchmark ranks on
 #: (analysis.method_cells).
 PATHS = ("off-path", "on-path")
+#: The share of good objects each offset up to the trust horizon needs (``analyze --share``;
+#: :data:`nvrq.horizon.DEFAULT_SHARE`, restated here for ``analyze --help``).
+DEFAULT_SHARE = 0.9

@@ -5,11 +5,14 @@
 [--stability DIR]
 [--bootstrap N] [--seed S] [--rank-by {srcc,plcc,roc_auc}]
 [--compare-methods [--methods A,B] [--leaderboard-metric METRIC] [--leaderboard-view VIEW]
-[--by A,B] [--min-clusters K]] --out REPORT_DIR``
+[--by A,B] [--min-clusters K]]
+[--horizon [--metric METRIC] [--threshold VALUE] [--share S] [--good-prob P] [--window-s W]]
+--out REPORT_DIR``
 
 Pairwise votes (a ``--design pairwise`` study's export) are recognised by their columns and
 analysed by :mod:`analysis.pairwise`; ``--compare-methods`` adds the leaderboard of
-:mod:`analysis.methods` to either path.
+:mod:`analysis.methods` to either path, and ``--horizon`` the trust horizon of
+:mod:`analysis.horizon` (docs/FORMATS.md §15).
 
 Raters flagged by screening (:mod:`annotate.screening`) are excluded unless ``--no-screen``;
 who and why is printed and written in the report. An option that does not apply to the input
@@ -25,8 +28,7 @@ import contextlib
 import sys
 from pathlib import Path
 
-from analysis.choices import DEFAULT_MARGIN, METHODS, MIN_CLUSTERS, PATHS, RANK_BY
-from analysis.options import AnalysisOptions, MethodOptions
+from analysis.choices import DEFAULT_MARGIN, DEFAULT_SHARE, METHODS, MIN_CLUSTERS, PATHS, RANK_BY
 from data_schema.errors import InputError
 from data_schema.outputs import REPORT_MARKER, check_output_folder, mark_report, replacing_note
 from nvrq.commands.args import (
@@ -157,6 +159,31 @@ _HELP = {
 }
 
 
+def _horizon_options(p: ArgumentParser) -> None:
+    """The trust horizon (analysis.horizon): how far off the recorded path objects stay good."""
+    p.add_argument("--horizon", action="store_true",
+                   help="the trust horizon per method, class, axis and direction: horizon.csv, "
+                   "horizon.json, horizon_timeline.csv and a section of the report (docs/FORMATS.md §15)")
+    p.add_argument("--metric", default=None, metavar="METRIC",
+                   help="with --horizon: the metric (default: NVRQ-CA of the first encoder; nvrq_ca "
+                   "matches nvrq_ca:ENCODER)")
+    p.add_argument("--threshold", type=number_arg(), default=None, metavar="VALUE",
+                   help="with --horizon: good means METRIC at or above VALUE (at or below where lower "
+                   "is better); required with --pairs, else fitted to the votes")
+    p.add_argument("--share", type=number_arg(low=0, high=1, low_open=True), default=DEFAULT_SHARE,
+                   metavar="S", help="with --horizon: the share of objects that must be good at every "
+                   f"offset up to the horizon, in (0, 1] (default {DEFAULT_SHARE})")
+    p.add_argument("--good-prob", type=number_arg(low=0, high=1, low_open=True, high_open=True),
+                   default=0.5, metavar="P", help="with --horizon and votes: the threshold is the "
+                   "metric value where the fitted P(good | metric) = P (default 0.5)")
+    p.add_argument("--window-s", type=number_arg(low=0, low_open=True), default=2.0, metavar="W",
+                   help="with --horizon: the timeline's window in seconds (default 2)")
+
+
+#: The options that need --horizon (argparse dests).
+HORIZON_DESTS = ("metric", "threshold", "share", "good_prob", "window_s")
+
+
 def _output_options(p: ArgumentParser) -> None:
     """Where the report goes, and the progress bars."""
     p.add_argument("--out", required=True, metavar="REPORT_DIR", help="report directory")
@@ -165,7 +192,7 @@ def _output_options(p: ArgumentParser) -> None:
 
 #: The option groups of ``analyze``, in the order ``analyze --help`` lists them.
 OPTION_GROUPS = (_input_options, _rater_options, _cost_options, _statistics_options, _methods_options,
-                 _output_options)
+                 _horizon_options, _output_options)
 
 #: Library parameter names that differ from this CLI's argparse dests.
 _ALIASES = {"n_boot": "bootstrap", "metrics_paths": "metrics_tables", "timing_paths": "timing",
@@ -178,10 +205,10 @@ _ALIASES = {"n_boot": "bootstrap", "metrics_paths": "metrics_tables", "timing_pa
 NOT_FOR = {
     "pairwise votes": (("target", "stability", "aggregate", "timing", "compare_methods", "methods",
                         "leaderboard_metric", "leaderboard_view", "by", "min_clusters",
-                        "rank_by", "margin"),
+                        "rank_by", "margin", "horizon", *HORIZON_DESTS),
                        "they rank methods by Bradley-Terry and metrics by 2AFC agreement"),
-    "--pairs": (("exclude_raters", "no_screen", "screen", "stability", "aggregate"),
-                "there are no votes: no raters to screen or labels to aggregate"),
+    "--pairs": (("exclude_raters", "no_screen", "screen", "stability", "aggregate", "good_prob"),
+                "there are no votes: no raters to screen, labels to aggregate or P(good) to fit"),
 }
 
 
@@ -263,25 +290,21 @@ def _analyze(args) -> int:
                         inputs=[args.ratings or args.pairs, *args.metrics_tables, *args.timing,
                                 args.stability, args.nta, args.sets])
 
-    if (args.methods or args.leaderboard_metric or args.by or args.min_clusters != MIN_CLUSTERS
-            or args.leaderboard_view != "off-path" or args.sets) and not args.compare_methods:
-        raise InputError("--methods/--leaderboard-metric/--leaderboard-view/--by/--min-clusters/--sets", None,
+    if (args.methods or args.leaderboard_metric or args.by or args.leaderboard_view != "off-path"
+            or (args.min_clusters != MIN_CLUSTERS and not args.horizon)) and not args.compare_methods:
+        raise InputError("--methods/--leaderboard-metric/--leaderboard-view/--by/--min-clusters", None,
                          "--compare-methods with them", "none")
+    _check_horizon(args)
     if args.ratings is not None and is_pairwise(args.ratings):
         _check_applies(args, "pairwise votes", args.ratings)
         return _run_pairwise(args)
     if args.pairs is not None:
-        from analysis.all_pairs import run_pairs_analysis
-
         _check_applies(args, "--pairs", args.pairs)
-        analysis = run_pairs_analysis(args.pairs, options_from_args(args))
+        analysis = _run_pairs(args)
     else:
         analysis = _run_ratings(args)
-    if args.sets is not None and analysis.methods is not None:
-        from data_schema.tables import read_table
-
-        analysis.methods.sets = read_table(args.sets, required=("set_id", "kind", "y_offset_m", "n_render"),
-                                           what="score-sets table")
+    if args.horizon:
+        analysis.horizon = _horizon(args, analysis)
     out = write_report(analysis, args.out)  # then the terminal: an error stays one line
     if args.pairs is None:
         _print_screening(analysis.raters, applied=analysis.screen)
@@ -317,6 +340,56 @@ def options_from_args(args) -> AnalysisOptions:
         aggregate_method=args.aggregate, n_boot=args.bootstrap, seed=args.seed, rank_by=args.rank_by,
         timing_paths=args.timing, stability_dir=args.stability, margin=args.margin, compare=compare,
         progress=show_progress(args))
+
+
+def _horizon_options_of(args):
+    from analysis.horizon import HorizonOptions
+
+    return HorizonOptions(metric=args.metric, threshold=args.threshold, share=args.share,
+                          good_prob=args.good_prob, window_s=args.window_s, min_clusters=args.min_clusters,
+                          n_boot=args.bootstrap, seed=args.seed)
+
+
+def _check_horizon(args) -> None:
+    """The options of --horizon need it; with it, a threshold source (votes or --threshold)."""
+    parser = build_parser()
+    given = [d for d in HORIZON_DESTS if getattr(args, d) != parser.get_default(d)]
+    if given and not args.horizon:
+        flag = option_for(parser, args, given[0]) or "--" + given[0].replace("_", "-")
+        raise InputError(flag, None, "--horizon with it", "none")
+    if args.horizon and args.pairs is not None and args.threshold is None:
+        raise InputError("--horizon", None, "a threshold source: --threshold VALUE (--pairs has no "
+                         "votes to fit one)", "none")
+
+
+def _run_pairs(args):
+    """``analyze --pairs``: the all-pairs analysis, or with --horizon alone the horizon's only."""
+    if args.horizon and args.target is None and not args.compare_methods:
+        from analysis.horizon import horizon_only_analysis
+
+        return horizon_only_analysis(args.pairs, args.metrics_tables, lower=args.lower_better,
+                                     higher=args.higher_better, progress=show_progress(args))
+    from analysis.all_pairs import run_pairs_analysis
+
+    return run_pairs_analysis(args.pairs, **_common_options(args))
+
+
+def _horizon(args, analysis):
+    """The trust horizon of ``analysis`` (analysis.horizon), printed as one sentence per method."""
+    from analysis import horizon
+    from analysis.horizon_report import method_sentence
+
+    opts = _horizon_options_of(args)
+    if args.pairs is not None:
+        items = horizon.pairs_items(analysis, args.pairs, args.metrics_tables, progress=show_progress(args))
+        result = horizon.for_pairs(analysis, items, opts, where=args.pairs)
+    else:
+        from analysis.inputs import read_ratings
+
+        result = horizon.for_ratings(analysis, read_ratings(args.ratings), opts, where=args.ratings)
+    for m in sorted(result.table["method"].unique()):
+        print(method_sentence(m, result.table), file=sys.stderr)
+    return result
 
 
 def _check_applies(args, kind: str, path) -> None:

@@ -71,6 +71,7 @@ class Analysis:
     source: str = "ratings"  # or "pairs": analyze --pairs (no votes; see analysis.all_pairs)
     margin: float = DEFAULT_MARGIN  # non-inferiority margin (analysis.noninferiority)
     methods: MethodsResult | None = None  # the leaderboard with compare_methods
+    horizon: object | None = None  # analyze --horizon: an analysis.horizon.HorizonResult
 
 
 def read_timing(paths) -> pd.DataFrame | None:

@@ -21,7 +21,7 @@ import pandas as pd
 from jinja2 import Environment, FileSystemLoader
 from markupsafe import Markup
 
-from analysis import methods_report, plots
+from analysis import horizon_report, methods_report, plots
 from analysis.axes import axis_tent_plots
 from analysis.noninferiority import recommend_from_tables
 from analysis.pipeline import Analysis
@@ -424,7 +424,10 @@ def _build(a: Analysis, d: Path) -> None:
     t = _texts(a)
     _write_tables(a, d)
     figs = _figures(a, d, t["target_label"])
-    render_pages(d, "report", lambda table: _context(a, t, figs, table=table))
+    horizon = getattr(a, "horizon", None)  # analyze --horizon (analysis.horizon_report)
+    hfigs = horizon_report.write_horizon(horizon, d) if horizon is not None else []
+    render_pages(d, "report", lambda table: {**_context(a, t, figs, table=table),
+                                             **horizon_report.context(horizon, hfigs, table)})
 
 
 def write_report(a: Analysis, out_dir) -> Path:

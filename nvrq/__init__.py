@@ -11,9 +11,8 @@ The public Python API (docs/PYTHON.md) is exported here and imported on first us
   :func:`camera_from_model` and the camera classes (:mod:`nvrq.geometry.cameras`);
 - rendering: :func:`render_plan` (the views to render as arrays: ``viewmats``, ``Ks``, sizes,
   paths; a :class:`RenderPlan`, :mod:`nvrq.render_plans`);
-- off-path metrics the field reports: :func:`nta_iou` and :class:`NTAIoU` (NTA-IoU of projected
-  boxes against detections, :mod:`nvrq.proxies.nta_iou`), :func:`embed` (encoder features of
-  images, for FD and KID, :mod:`nvrq.sets`).
+- the trust horizon: :func:`trust_horizon` on a table of per-object scores, with a
+  :class:`Threshold` (:mod:`nvrq.horizon`).
 
 >>> import nvrq
 >>> sorted(nvrq.__all__)[:3]
@@ -45,9 +44,8 @@ _EXPORTS = {
     "FThetaCamera": "nvrq.geometry.cameras",
     "render_plan": "nvrq.render_plans",
     "RenderPlan": "nvrq.render_plans",
-    "nta_iou": "nvrq.proxies.nta_iou",
-    "NTAIoU": "nvrq.proxies.nta_iou",
-    "embed": "nvrq.sets",
+    "trust_horizon": "nvrq.horizon",
+    "Threshold": "nvrq.horizon",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -824,6 +824,50 @@ def _(world, tmp):
         ["set frames::y=+1.00", "more than 1280 images per side for FD"]
 
 
+# ---------------------------------------------------------------- analyze --horizon (issue 36)
+
+def _horizon_pairs(world, *extra):
+    return ["--pairs", str(world / "toy" / "pairs.csv"), "--metrics-table", str(world / "metrics.csv"),
+            "--horizon", "--bootstrap", "0", "--quiet", *extra]
+
+
+HORIZON_CASES = [
+    ("--pairs --horizon without a threshold source", lambda w, t: _horizon_pairs(w, "--metric", "psnr"),
+     ["--horizon", "threshold"]),
+    ("--horizon --metric not in the table", lambda w, t: _horizon_pairs(w, "--metric", "beauty", "--threshold", "25"),
+     ["--metric", "beauty"]),
+    ("--share 0", lambda w, t: _horizon_pairs(w, "--metric", "psnr", "--threshold", "25", "--share", "0"),
+     ["--share"]),
+    ("--share 1.5", lambda w, t: _horizon_pairs(w, "--metric", "psnr", "--threshold", "25", "--share", "1.5"),
+     ["--share"]),
+    ("--threshold without --horizon", lambda w, t: [str(w / "ratings.csv"), "--threshold", "25", "--bootstrap",
+                                                     "0", "--quiet"], ["--threshold", "--horizon"]),
+    ("--good-prob with --pairs", lambda w, t: _horizon_pairs(w, "--metric", "psnr", "--threshold", "25",
+                                                             "--good-prob", "0.7"), ["--good-prob", "--pairs"]),
+    ("--good-prob 1", lambda w, t: [str(w / "ratings.csv"), "--horizon", "--good-prob", "1"], ["--good-prob"]),
+    ("ratings --horizon --metric not in the table", lambda w, t: [str(w / "ratings.csv"), "--metrics-table",
+                                                                  str(w / "metrics.csv"), "--horizon", "--metric",
+                                                                  "beauty", "--bootstrap", "0", "--quiet"],
+     ["--metric", "beauty"]),
+]
+for _n, _argv, _f in HORIZON_CASES:
+    def _mkh(argv=_argv, frag=_f, name=_n):
+        @case("horizon", name)
+        def _h(world, tmp):
+            return "analyze", [*argv(world, tmp), "--out", str(tmp / "r")], frag
+    _mkh()
+
+
+@case("horizon", "an axis with one offset")
+def _(world, tmp):
+    pairs = pd.read_csv(world / "toy" / "pairs.csv")
+    one = tmp / "one_offset.csv"
+    pairs.assign(y_offset_m=0.0).to_csv(one, index=False)  # every view is the recorded one
+    return "analyze", ["--pairs", str(one), "--metrics-table", str(world / "metrics.csv"), "--horizon",
+                       "--metric", "psnr", "--threshold", "25", "--bootstrap", "0", "--quiet",
+                       "--out", str(tmp / "r")], ["one_offset.csv", "offset"]
+
+
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_malformed_input(name, world, tmp_path, capfd):
     prog, argv, fragments = CASES[name](world, tmp_path)

@@ -1,0 +1,268 @@
+"""The trust horizon's files, figures and report section (docs/FORMATS.md §15).
+
+Layer: ``analysis`` (writes what :mod:`analysis.horizon` computed into the report folder that
+:mod:`analysis.report` builds; matplotlib figures without pyplot state).
+
+Files: ``horizon.csv`` (:data:`nvrq.horizon.HORIZON_COLUMNS`), ``horizon.json`` (schema
+``nvrq.horizon`` version :data:`SCHEMA_VERSION`: the threshold, its source, the options, the
+grid and the rows), ``horizon_timeline.csv`` (when the items have times),
+``horizon_thresholds.csv`` (ratings: the human threshold of every metric), and the figures
+``horizon_<method>.png/.svg`` (share of good objects against offset per class, the crossing
+marked and its interval shaded) and ``horizon_timeline.png/.svg`` (a heat strip of the horizon
+over time). The section: one sentence per method (:func:`method_sentence`).
+
+>>> t = pd.DataFrame({"method": "sharp", "label_class": ["automobile", "automobile"],
+...                   "axis": "y", "direction": ["left", "right"], "horizon": [2.0, 1.0],
+...                   "crossing": [2.4, 1.5], "ci_lo": [1.5, math.nan], "ci_hi": [2.5, math.nan],
+...                   "reason": ["", ""]})
+>>> method_sentence("sharp", t)
+'sharp: automobile stays good to 2 m left [1.5, 2.5] and 1 m right.'
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import math
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+from analysis import plots
+from data_schema.tables import write_table
+from nvrq.horizon import DIRECTIONS, HORIZON_COLUMNS, TIMELINE_COLUMNS, unit_of
+
+__all__ = ["SCHEMA_VERSION", "write_horizon", "horizon_json", "method_sentence", "share_figure",
+           "timeline_figure", "context"]
+
+#: The version of horizon.json's schema (docs/FORMATS.md §15).
+SCHEMA_VERSION = 1
+
+
+def _num(v):
+    """A JSON value: NaN and infinities as null, NumPy scalars as Python numbers."""
+    if isinstance(v, (float, np.floating)):
+        return float(v) if math.isfinite(v) else None
+    return v.item() if isinstance(v, np.generic) else v
+
+
+def horizon_json(result) -> dict:
+    """horizon.json's content (docs/FORMATS.md §15) for a :class:`analysis.horizon.HorizonResult`.
+
+    Parameters
+    ----------
+    result : analysis.horizon.HorizonResult
+
+    Returns
+    -------
+    dict
+        ``schema``, ``version``, ``metric``, ``threshold`` (value, source, higher_better,
+        ci_lo, ci_hi), ``share``, ``good_prob`` (null without votes), ``min_clusters``,
+        ``n_boot``, ``seed``, ``window_s``, ``grid`` (axis -> signed offsets), ``units``,
+        ``horizons`` (the horizon.csv rows) and ``thresholds`` (horizon_thresholds.csv rows).
+    """
+    th, o = result.threshold, result.options
+    grid = {a: sorted({_num(v) for v in g["offset"]}) for a, g in result.curves.groupby("axis", sort=False)}
+    rows = lambda df: [{k: _num(v) for k, v in r.items()} for r in df.to_dict("records")]  # noqa: E731
+    return {
+        "schema": "nvrq.horizon", "version": SCHEMA_VERSION, "metric": th.metric,
+        "threshold": {"value": _num(th.value), "source": th.source, "higher_better": th.higher_better,
+                      "ci_lo": _num(th.ci_lo), "ci_hi": _num(th.ci_hi)},
+        "share": o.share, "good_prob": o.good_prob if result.fits is not None else None,
+        "min_clusters": o.min_clusters, "n_boot": o.n_boot, "seed": o.seed, "window_s": o.window_s,
+        "grid": grid, "units": {a: unit_of(a) for a in grid},
+        "horizons": rows(result.table[HORIZON_COLUMNS]),
+        "thresholds": [] if result.fits is None else rows(result.fits),
+    }
+
+
+def _n(v: float) -> str:
+    return f"{round(float(v), 2):g}"
+
+
+def _part(r) -> str:
+    """One direction's text: ``'2.0 m left [1.5, 2.5]'``, or why there is no number."""
+    unit = unit_of(r["axis"])
+    if r["reason"].startswith("fails at"):
+        return f"not even at the recorded view ({r['direction']})"
+    text = f"{_n(r['horizon'])} {unit} {r['direction']}"
+    if r["reason"].startswith("beyond the grid"):
+        text = f"at least {_n(r['horizon'])} {unit} {r['direction']} (all of the grid)"
+    if math.isfinite(r["ci_lo"]):
+        text += f" [{_n(r['ci_lo'])}, {_n(r['ci_hi'])}]"
+    return text
+
+
+def method_sentence(method: str, table: pd.DataFrame) -> str:
+    """The report's sentence for ``method``: per class, the horizon in each direction.
+
+    Parameters
+    ----------
+    method : str
+        A method of ``table``.
+    table : pandas.DataFrame
+        horizon.csv rows (:data:`nvrq.horizon.HORIZON_COLUMNS`).
+
+    Returns
+    -------
+    str
+        e.g. ``'sharp: automobile stays good to 2 m left [1.5, 2.5] and 1 m right;
+        person to 1 m left and 1 m right.'`` (brackets: the 95% interval of the crossing).
+    """
+    t = table[table["method"] == method]
+    parts = []
+    for i, (cls, g) in enumerate(t.groupby("label_class", sort=True)):
+        dirs = " and ".join(_part(r) for r in g.to_dict("records"))
+        parts.append(f"{cls} stays good to {dirs}" if i == 0 else f"{cls} to {dirs}")
+    return f"{method}: " + "; ".join(parts) + "."
+
+
+def share_figure(curves: pd.DataFrame, table: pd.DataFrame, method: str, share: float) -> Figure:
+    """One panel per axis: the share of good objects against the signed offset, a line per
+    class, the required ``share`` dashed, each crossing marked and its interval shaded.
+
+    Parameters
+    ----------
+    curves : pandas.DataFrame
+        :func:`nvrq.horizon.share_curves` rows.
+    table : pandas.DataFrame
+        horizon.csv rows.
+    method : str
+        The method drawn.
+    share : float
+        The required share.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    c, t = curves[curves["method"] == method], table[table["method"] == method]
+    axes_ = list(dict.fromkeys(c["axis"]))
+    fig, grid = plots.panel_grid(len(axes_), width=4.2, height=3.0)
+    colours = dict(zip(sorted(c["label_class"].unique()), [f"C{i}" for i in range(10)] * 10, strict=False))
+    for ax, axis in zip(grid.ravel(), axes_, strict=False):
+        for cls, g in c[c["axis"] == axis].groupby("label_class", sort=True):
+            g = g.drop_duplicates("offset").sort_values("offset")
+            ax.plot(g["offset"], g["share_good"], "o-", ms=3, color=colours[cls], label=cls)
+        for r in t[t["axis"] == axis].to_dict("records"):
+            sign = 1.0 if r["direction"] == DIRECTIONS[axis][0] else -1.0
+            if math.isfinite(r["crossing"]):
+                ax.axvline(sign * r["crossing"], color=colours[r["label_class"]], lw=0.8, ls=":")
+            if math.isfinite(r["ci_lo"]):
+                ax.axvspan(sign * r["ci_lo"], sign * r["ci_hi"], color=colours[r["label_class"]], alpha=0.12)
+        ax.axhline(share, color="0.3", ls="--", lw=0.8)
+        ax.set_ylim(-0.02, 1.02)
+        ax.set_xlabel(f"{axis} ({unit_of(axis)}; {' < 0 < '.join(DIRECTIONS[axis][::-1])})", fontsize=8)
+        ax.set_ylabel("share of good objects", fontsize=8)
+        ax.legend(fontsize=7, loc="lower left")
+    for ax in grid.ravel()[len(axes_):]:
+        ax.set_visible(False)
+    fig.suptitle(f"{method}: share of good objects (dashed: {share:g})", fontsize=9)
+    return fig
+
+
+def timeline_figure(timeline: pd.DataFrame) -> Figure | None:
+    """A heat strip: one row per method, class, camera and direction, one column per window,
+    the colour the horizon (grey: fails at the recorded view); None without rows.
+
+    Parameters
+    ----------
+    timeline : pandas.DataFrame
+        horizon_timeline.csv rows.
+
+    Returns
+    -------
+    matplotlib.figure.Figure or None
+    """
+    if timeline is None or timeline.empty:
+        return None
+    t = timeline.assign(row=timeline["method"] + " · " + timeline["class"] + " · " + timeline["camera"].astype(str)
+                        + " · " + timeline["axis"] + " " + timeline["direction"],
+                        t=(timeline["t0_us"] - timeline.groupby("clip_id")["t0_us"].transform("min")) / 1e6)
+    wide = t.pivot_table(index="row", columns=["clip_id", "t"], values="horizon", aggfunc="first")
+    fig = Figure(figsize=(max(5.0, 0.5 * wide.shape[1] + 4), max(1.5, 0.25 * wide.shape[0] + 1)),
+                 layout="constrained")
+    ax = fig.add_subplot()
+    cmap = plots_cmap()
+    im = ax.imshow(np.ma.masked_invalid(wide.to_numpy(np.float64)), aspect="auto", cmap=cmap,
+                   interpolation="nearest")
+    ax.set_yticks(range(wide.shape[0]), wide.index, fontsize=6)
+    ax.set_xticks(range(wide.shape[1]), [f"{c}\n{s:g}s" if len(set(wide.columns.get_level_values(0))) > 1
+                                         else f"{s:g}s" for c, s in wide.columns], fontsize=6)
+    ax.set_xlabel("window start", fontsize=8)
+    fig.colorbar(im, ax=ax, label="horizon (m or deg; grey: fails at 0)")
+    return fig
+
+
+def plots_cmap():
+    """The heat strip's colour map: viridis, grey where the horizon is empty."""
+    from matplotlib import colormaps
+
+    return colormaps["viridis"].with_extremes(bad="0.8")
+
+
+def write_horizon(result, d) -> list[dict]:
+    """Write the horizon's files into the report folder ``d``; returns the figures as the
+    report lists them (``title``, ``b64``, ``file``).
+
+    Parameters
+    ----------
+    result : analysis.horizon.HorizonResult
+    d : pathlib.Path
+        The report folder being built.
+
+    Returns
+    -------
+    list of dict
+    """
+    write_table(result.table, d / "horizon.csv", columns=HORIZON_COLUMNS)
+    (d / "horizon.json").write_text(json.dumps(horizon_json(result), indent=1), encoding="utf-8")
+    if result.timeline is not None:
+        write_table(result.timeline, d / "horizon_timeline.csv", columns=TIMELINE_COLUMNS)
+    if result.fits is not None:
+        write_table(result.fits, d / "horizon_thresholds.csv")
+    figs = [(f"horizon_{m}", f"Trust horizon of {m}: share of good objects against offset",
+             share_figure(result.curves, result.table, m, result.options.share))
+            for m in sorted(result.table["method"].unique())]
+    figs.append(("horizon_timeline", "Trust horizon over time (heat strip)", timeline_figure(result.timeline)))
+    out = []
+    for name, title, fig in figs:
+        if fig is not None:
+            png = plots.save_figure(fig, d, name)
+            out.append({"title": title, "b64": base64.b64encode(png).decode("ascii"), "file": f"{name}.png"})
+    return out
+
+
+def context(result, figures: list[dict], table) -> dict:
+    """The report template's variables of the "Trust horizon" section (empty without a result).
+
+    Parameters
+    ----------
+    result : analysis.horizon.HorizonResult or None
+    figures : list of dict
+        :func:`write_horizon`'s figures.
+    table : callable
+        Renders a DataFrame for the page (:func:`analysis.report.render_pages`).
+
+    Returns
+    -------
+    dict
+        ``horizon_sentences``, ``horizon_text``, ``horizon_table``, ``horizon_fits``,
+        ``horizon_figures``, ``horizon_notes``.
+    """
+    if result is None:
+        return {"horizon_sentences": [], "horizon_figures": []}
+    th, o = result.threshold, result.options
+    ci = f" [{th.ci_lo:.4g}, {th.ci_hi:.4g}]" if math.isfinite(th.ci_lo) else ""
+    text = (f"Threshold: {th.metric} {'>=' if th.higher_better else '<='} {th.value:.4g}{ci} ({th.source}). "
+            f"A horizon is the largest grid offset up to which at least {o.share:g} of the objects are "
+            "good at every grid offset; brackets: the 95% interval of the interpolated crossing over "
+            f"a cluster bootstrap of tracks ({o.n_boot} replicates; none below {o.min_clusters} tracks). "
+            "Every row: horizon.csv, horizon.json; per window of "
+            f"{o.window_s:g} s: horizon_timeline.csv.")
+    shown = result.table.drop(columns=["metric", "threshold", "threshold_source"])
+    return {"horizon_sentences": [method_sentence(m, result.table) for m in sorted(result.table["method"].unique())],
+            "horizon_text": text, "horizon_table": table(shown), "horizon_figures": figures,
+            "horizon_fits": table(result.fits) if result.fits is not None else "",
+            "horizon_notes": result.notes}
