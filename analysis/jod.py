@@ -42,7 +42,7 @@ import pandas as pd
 from scipy import optimize
 from scipy.special import gammaln, log_ndtr, ndtri
 
-__all__ = ["SIGMA_JOD", "JOD_COLUMNS", "jod_ml", "jod_scale", "jod_bootstrap", "jod_table"]
+__all__ = ["SIGMA_JOD", "JOD_COLUMNS", "jod_ml", "jod_map", "jod_scale", "jod_bootstrap", "jod_table"]
 
 #: Standard deviation of the Thurstone observer in JOD units: Phi(1 / SIGMA_JOD) = 0.75.
 SIGMA_JOD = float(1.0 / ndtri(0.75))
@@ -120,6 +120,63 @@ def jod_ml(d: np.ndarray, *, tol: float = 1e-12, max_iter: int = 100) -> np.ndar
             t *= 0.5
         q, cur = q + t * step, new
     return q
+
+
+def jod_map(d: np.ndarray, *, prior_sd: float = 2.5, tol: float = 1e-10, max_iter: int = 100) -> np.ndarray:
+    """Maximum a posteriori Thurstone Case V scale with a Gaussian prior, many matrices at once.
+
+    Maximises ``sum_ij D[i, j] log Phi((q_i - q_j) / SIGMA_JOD) - sum_i q_i**2 / (2 prior_sd**2)``
+    (concave, so finite for any design) by Newton's method with step halving, per matrix.
+    A weakly informative alternative to pwcmp's prior for sparse designs (every pair
+    compared once or twice, mostly unanimous), where that prior leaves distances nearly free.
+
+    Parameters
+    ----------
+    d : (M, M) or (B, M, M) float64
+        Wins of condition i over j (a tie: 0.5 to both cells).
+    prior_sd : float, optional
+        Prior standard deviation of each condition's scale value, in JOD.
+    tol : float, optional
+        Stop when the largest gradient component is below this.
+    max_iter : int, optional
+        Newton iterations at most.
+
+    Returns
+    -------
+    (M,) or (B, M) float64
+        Scale in JOD (its mean is near 0: the prior centres it).
+    """
+    d = _check(d)
+    one = d.ndim == 2
+    dd = d[None] if one else d.reshape(-1, *d.shape[-2:])
+    b, m, _ = dd.shape
+    q = np.zeros((b, m))
+    eye = np.eye(m)
+
+    def post(q):
+        z = (q[:, :, None] - q[:, None, :]) / SIGMA_JOD
+        return (dd * log_ndtr(z)).sum((1, 2)) - (q * q).sum(1) / (2 * prior_sd ** 2)
+
+    cur = post(q)
+    for _ in range(max_iter):
+        z = (q[:, :, None] - q[:, None, :]) / SIGMA_JOD
+        lam = dd * _lam(z)
+        g = (lam.sum(2) - lam.sum(1)) / SIGMA_JOD - q / prior_sd ** 2
+        if np.abs(g).max() < tol:
+            break
+        c = lam * (z + _lam(z))
+        w = c + np.swapaxes(c, 1, 2)
+        h = (w - w.sum(2)[:, :, None] * eye) / SIGMA_JOD ** 2 - eye / prior_sd ** 2
+        step = np.linalg.solve(h, -g[:, :, None])[:, :, 0]
+        t = np.ones(b)
+        for _ in range(40):
+            new = post(q + t[:, None] * step)
+            bad = new < cur - 1e-12
+            if not bad.any():
+                break
+            t = np.where(bad, t / 2, t)
+        q, cur = q + t[:, None] * step, new
+    return q[0] if one else q.reshape(*d.shape[:-2], m)
 
 
 def _link_components(d: np.ndarray) -> tuple[np.ndarray, bool]:

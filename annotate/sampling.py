@@ -222,7 +222,8 @@ def _max_spanning_edges(gain: np.ndarray, m: int) -> list[int]:
     return edges
 
 
-def select_batch(post: PairPosterior, k: int, *, allowed: np.ndarray | None = None) -> list[tuple[int, int, int]]:
+def select_batch(post: PairPosterior, k: int, *, allowed: np.ndarray | None = None,
+                 rng: np.random.Generator | None = None) -> list[tuple[int, int, int]]:
     """``k`` different (item, pair) comparisons for ``k`` raters at once (ASAP's batch mode).
 
     Per item, the spanning tree of its comparison graph that maximises the summed gain (the
@@ -237,6 +238,9 @@ def select_batch(post: PairPosterior, k: int, *, allowed: np.ndarray | None = No
         Comparisons wanted.
     allowed : (I, P) bool, optional
         Candidates (default: all).
+    rng : numpy.random.Generator, optional
+        Breaks ties between equal gains at random (a relative jitter of 1e-9); without it the
+        lowest indices win, and an item's first tree is a star around method 0.
 
     Returns
     -------
@@ -244,6 +248,8 @@ def select_batch(post: PairPosterior, k: int, *, allowed: np.ndarray | None = No
         At most ``k`` distinct comparisons, ``a < b``; fewer when fewer are allowed.
     """
     g = pair_gain(post)
+    if rng is not None:
+        g = g * (1.0 + 1e-9 * rng.random(g.shape))
     if allowed is not None:
         g = np.where(allowed, g, -np.inf)
     m = post.mu.shape[1]
