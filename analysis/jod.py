@@ -40,12 +40,12 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 from scipy import optimize
-from scipy.special import gammaln, log_ndtr, ndtri
+from scipy.special import gammaln, log_ndtr
+
+from annotate.sampling import SIGMA_JOD
 
 __all__ = ["SIGMA_JOD", "JOD_COLUMNS", "jod_ml", "jod_map", "jod_scale", "jod_bootstrap", "jod_table"]
 
-#: Standard deviation of the Thurstone observer in JOD units: Phi(1 / SIGMA_JOD) = 0.75.
-SIGMA_JOD = float(1.0 / ndtri(0.75))
 #: Columns of jod.csv (docs/FORMATS.md §11).
 JOD_COLUMNS = ["axis", "offset", "method", "n_votes", "jod", "jod_ci_lo", "jod_ci_hi", "next_method",
                "p_better_than_next", "p_prefer_next", "reason"]

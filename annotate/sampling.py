@@ -6,7 +6,7 @@ Layer: annotate (rating study); pure functions on arrays and counts (no store, n
 "Active sampling for pairwise comparisons via approximate message passing and information
 gain maximization", ICPR 2020; this is an independent implementation). Each item (object
 and view) has its own scale of the M methods, with an independent Gaussian posterior per
-method, ``N(mu[item, m], var[item, m])`` in JOD units (:data:`analysis.jod.SIGMA_JOD`: the
+method, ``N(mu[item, m], var[item, m])`` in JOD units (:data:`SIGMA_JOD`: the
 Thurstone Case V observer prefers ``i`` to ``j`` with probability ``Phi((s_i - s_j) /
 SIGMA_JOD)``). A vote updates the two methods' posteriors by assumed density filtering (the
 TrueSkill update: moment matching of the probit likelihood); a "can't tell" takes the mean
@@ -33,13 +33,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import betainc, log_ndtr
+from scipy.special import betainc, log_ndtr, ndtri
 
-from analysis.jod import SIGMA_JOD
-
-__all__ = ["PairPosterior", "pair_posterior", "update_pairwise", "posterior_from_votes", "pair_gain",
+__all__ = ["SIGMA_JOD", "PairPosterior", "pair_posterior", "update_pairwise", "posterior_from_votes", "pair_gain",
            "select_pair", "select_batch", "majority_settled", "gvf_uncertainty", "next_binary_items"]
 
+#: Standard deviation of the Thurstone Case V observer in JOD units: Phi(1 / SIGMA_JOD) = 0.75
+#: (1 JOD: 75% prefer the better condition). Defined here, the earlier layer; analysis.jod uses it.
+SIGMA_JOD = float(1.0 / ndtri(0.75))
 _SQRT2PI = np.sqrt(2.0 * np.pi)
 
 
