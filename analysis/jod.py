@@ -44,7 +44,8 @@ from scipy.special import gammaln, log_ndtr
 
 from annotate.sampling import SIGMA_JOD
 
-__all__ = ["SIGMA_JOD", "JOD_COLUMNS", "jod_ml", "jod_map", "jod_scale", "jod_bootstrap", "jod_table"]
+__all__ = ["SIGMA_JOD", "JOD_COLUMNS", "MAX_JOD_BOOT", "jod_ml", "jod_map", "jod_scale", "jod_bootstrap", "jod_table",
+           "jod_views"]
 
 #: Columns of jod.csv (docs/FORMATS.md §11).
 JOD_COLUMNS = ["axis", "offset", "method", "n_votes", "jod", "jod_ci_lo", "jod_ci_hi", "next_method",
@@ -378,3 +379,51 @@ def jod_table(per_rater: np.ndarray, methods: list[str], *, n_boot: int = 200, s
 
 def _st_cdf(z: float) -> float:
     return float(np.exp(log_ndtr(z)))
+
+
+#: The most bootstrap replicates of the JOD intervals in ``analyze`` (each replicate is a
+#: fit with pwcmp's prior; more would dominate the analysis' run time).
+MAX_JOD_BOOT = 200
+
+
+def jod_views(votes: pd.DataFrame, methods: list[str], *, n_boot: int, seed: int = 0) -> pd.DataFrame:
+    """jod.csv (:data:`JOD_COLUMNS`): :func:`jod_table` overall (``axis = 'all'``) and per view,
+    as :func:`analysis.pairwise.bt_table` splits the votes.
+
+    Parameters
+    ----------
+    votes : pandas.DataFrame
+        Test votes of the raters kept (``rater_id, method_a, method_b, choice`` and the views).
+    methods : list of str
+        The methods compared.
+    n_boot : int
+        Bootstrap replicates over raters; at most :data:`MAX_JOD_BOOT` are used (0: none).
+    seed : int, optional
+        Seed of the bootstrap.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns :data:`JOD_COLUMNS`.
+    """
+    from analysis.method_cells import view_breakdowns
+
+    m = len(methods)
+    a = pd.Categorical(votes["method_a"], categories=methods).codes.astype(np.int64)
+    b = pd.Categorical(votes["method_b"], categories=methods).codes.astype(np.int64)
+    s = votes["choice"].map({"a": 1.0, "tie": 0.5, "b": 0.0}).to_numpy(np.float64)
+    r = pd.factorize(votes["rater_id"], sort=True)[0]
+    n_r = int(r.max()) + 1 if len(r) else 0
+    parts = []
+    for axis, values, member in view_breakdowns(votes):
+        for value in ([np.nan] if axis == "all" else np.unique(values[member])):
+            sel = member & ((values == value) if axis != "all" else True) & (a >= 0) & (b >= 0)
+            per_rater = np.zeros((n_r, m, m))
+            np.add.at(per_rater, (r[sel], a[sel], b[sel]), s[sel])
+            np.add.at(per_rater, (r[sel], b[sel], a[sel]), 1.0 - s[sel])
+            per_rater = per_rater[per_rater.sum((1, 2)) > 0]
+            t = jod_table(per_rater, methods, n_boot=min(n_boot, MAX_JOD_BOOT), seed=seed)
+            t.insert(0, "offset", value)
+            t.insert(0, "axis", axis)
+            parts.append(t)
+    return pd.concat(parts, ignore_index=True)[JOD_COLUMNS]

@@ -51,6 +51,7 @@ from scipy import stats as _st
 from analysis import bootstrap as bs
 from analysis.bradley_terry import Draws, bradley_terry, strongly_connected, win_matrix, win_prob
 from analysis.inputs import classify_columns, drop_empty_columns
+from analysis.jod import jod_views
 from analysis.methods import METHOD_COLUMN, view_breakdowns
 from analysis.text import no_votes_left
 from annotate.results import pairwise_raters
@@ -474,6 +475,8 @@ class PairwiseAnalysis:
         Whether screening excluded raters.
     notes : list of str
         Notes for the report.
+    jod : pandas.DataFrame or None
+        :func:`analysis.jod.jod_views` (Thurstone Case V scale in JOD), beside Bradley-Terry.
     """
 
     votes_path: str
@@ -486,6 +489,7 @@ class PairwiseAnalysis:
     seed: int = 0
     screen: bool = True
     notes: list[str] = field(default_factory=list)
+    jod: pd.DataFrame | None = None
 
 
 def run_pairwise_analysis(votes_path, *, metrics_paths=(), lower=(), higher=(), exclude_raters=(),
@@ -555,7 +559,8 @@ def run_pairwise_analysis(votes_path, *, metrics_paths=(), lower=(), higher=(), 
               "gold_votes": int((votes["kind"] == "gold").sum()),
               "repeat_votes": int((votes["kind"] == "repeat").sum()),
               "ties": int((test["choice"] == "tie").sum())}
+    jod = jod_views(test, methods, n_boot=n_boot if draws is not None else 0, seed=seed)
     return PairwiseAnalysis(votes_path=str(votes_path), methods=methods, bradley_terry=bt,
                             agreement=agreement, raters=raters, counts=counts,
                             n_boot=n_boot if draws is not None else 0, seed=seed,
-                            screen=screen_raters, notes=notes)
+                            screen=screen_raters, notes=notes, jod=jod)

@@ -128,3 +128,34 @@ def test_bootstrap_replicates_are_centred():
     reps = jod_bootstrap(per_rater, n_boot=20, seed=0)
     assert reps.shape == (20, 4)
     np.testing.assert_allclose(reps.mean(1), 0.0, atol=1e-9)
+
+
+def test_analyze_writes_jod_csv_beside_bradley_terry(tmp_path, capsys):
+    import sys
+    from pathlib import Path
+
+    from analysis.cli import main
+    from analysis.jod import JOD_COLUMNS
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from methods_data import make_method_tables, make_pairwise_votes
+
+    pairs, metrics = make_method_tables()
+    votes = make_pairwise_votes(pairs, n_raters=5)
+    votes.to_csv(tmp_path / "votes.csv", index=False)
+    rc = main([str(tmp_path / "votes.csv"), "--bootstrap", "20", "--quiet", "--out", str(tmp_path / "rep")])
+    assert rc == 0, capsys.readouterr().err
+    jod = pd.read_csv(tmp_path / "rep" / "jod.csv")
+    assert list(jod.columns) == JOD_COLUMNS
+    assert set(jod["axis"]) == set(pd.read_csv(tmp_path / "rep" / "bradley_terry.csv")["axis"])
+    overall = jod[jod["axis"] == "all"].set_index("method")
+    assert overall.loc["sharp", "jod"] > overall.loc["blurry", "jod"]
+    assert overall.loc["sharp", "next_method"] == "blurry"
+    # two methods, not unanimous: the scale difference is the one-pair ML, SIGMA_JOD * Phi^-1(share
+    # won) (the prior is symmetric in +-d and leaves it there; measured 1.5623 both ways)
+    t = votes[votes["kind"] == "test"]
+    won = ((t["method_a"] == "sharp") & (t["choice"] == "a")) | ((t["method_b"] == "sharp") & (t["choice"] == "b"))
+    share = (won.sum() + 0.5 * (t["choice"] == "tie").sum()) / len(t)
+    assert overall.loc["sharp", "jod"] - overall.loc["blurry", "jod"] == pytest.approx(
+        SIGMA_JOD * norm.ppf(share), abs=1e-5)
+    assert overall.loc["sharp", "p_prefer_next"] == pytest.approx(share, abs=1e-5)
