@@ -16,6 +16,9 @@ A file is read as pairwise when it has these columns (:func:`is_pairwise`).
   win for each side. Without a strongly connected comparison graph (every method won and
   lost something, directly or through others) the fit has no finite maximum: its limit is
   reported with that reason.
+- **JOD scale** (:func:`analysis.jod.jod_views`, jod.csv): the same votes on a Thurstone
+  Case V scale (1 JOD: 75% prefer the better method), pwcmp's prior for unanimous pairs,
+  bootstrap over raters, and the probability that each method beats the next.
 - **2AFC agreement** of a metric (as in the BAPPS evaluation of LPIPS): per test vote, the
   metric prefers the side with the better value (by its direction); the vote scores 1 when the
   rater chose that side, 0 for the other and 0.5 when the rater or the metric ties; the
