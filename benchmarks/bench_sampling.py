@@ -176,7 +176,25 @@ def _first(curve, target, better) -> float:
     return float("inf")
 
 
-def report_pairwise(runs: list[dict], reps: int, n_items: int) -> None:
+def plot_pairwise(u: np.ndarray, a: np.ndarray, budget: int, path: str) -> None:
+    """RMSE and Kendall tau against comparisons, both designs (medians over seeds)."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(8, 3.2), layout="constrained")
+    x = FRACTIONS * budget
+    for ax, k, name in zip(fig.subplots(1, 2), (0, 1), ("RMSE of the JOD scale", "Kendall tau (per item)"),
+                           strict=True):
+        ax.plot(x, np.median(u[:, :, k], 0), "o-", ms=3, label="uniform")
+        ax.plot(x, np.median(a[:, :, k], 0), "o-", ms=3, label="active")
+        ax.set_xlabel("comparisons")
+        ax.set_ylabel(name)
+        ax.grid(alpha=0.3)
+    fig.axes[0].legend()
+    fig.savefig(path)
+    print(f"plot: {path}")
+
+
+def report_pairwise(runs: list[dict], reps: int, n_items: int, plot: str | None = None) -> None:
     budget = n_items * N_METHODS * (N_METHODS - 1) // 2 * reps
     u = np.array([r["uniform"] for r in runs])   # (S, F, 2)
     a = np.array([r["active"] for r in runs])
@@ -198,6 +216,8 @@ def report_pairwise(runs: list[dict], reps: int, n_items: int) -> None:
           f"{'MET' if med <= 0.5 else 'NOT MET'} ({med:.3f})")
     print(f"target: active Kendall tau >= uniform's at equal budget: "
           f"{'MET' if all(tau_ok) else 'NOT MET'} at {sum(tau_ok)} of {len(tau_ok)} budgets")
+    if plot:
+        plot_pairwise(u, a, budget, plot)
     print(f"pairwise selection (select_batch of {N_METHODS} methods x {n_items} items, --batch per call): "
           f"median {np.median([r['select_ms'] for r in runs]):.2f} ms CPU per call")
 
@@ -238,6 +258,7 @@ def main(argv=None) -> None:
     ap.add_argument("--scale", choices=["map", "pwcmp"], default="map",
                     help="scale estimator: analysis.jod.jod_map (Gaussian prior, sd 2.5 JOD; default) or "
                          "jod_scale (pwcmp's prior; slow and unstable on sparse designs)")
+    ap.add_argument("--plot", default=None, help="save the pairwise curves here (PNG or SVG)")
     ap.add_argument("--only", choices=["pairwise", "binary"], default=None)
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
@@ -247,7 +268,7 @@ def main(argv=None) -> None:
             runs.append(run_pairwise(s, n_items=args.pair_items, reps=args.reps, batch=args.batch,
                                      spacing=args.spacing, scale=args.scale))
             print(f"pairwise seed {s + 1}/{args.seeds} done ({time.perf_counter() - t0:.0f} s)", flush=True)
-        report_pairwise(runs, args.reps, args.pair_items)
+        report_pairwise(runs, args.reps, args.pair_items, args.plot)
     if args.only != "pairwise":
         for cap in [int(c) for c in str(args.max_votes_per_item).split(",")]:
             runs = [run_binary(s, n_items=args.items, votes_per_item=args.votes_per_item, max_votes=cap)
