@@ -16,6 +16,9 @@ A file is read as pairwise when it has these columns (:func:`is_pairwise`).
   win for each side. Without a strongly connected comparison graph (every method won and
   lost something, directly or through others) the fit has no finite maximum: its limit is
   reported with that reason.
+- **JOD scale** (:func:`analysis.jod.jod_views`, jod.csv): the same votes on a Thurstone
+  Case V scale (1 JOD: 75% prefer the better method), pwcmp's prior for unanimous pairs,
+  bootstrap over raters, and the probability that each method beats the next.
 - **2AFC agreement** of a metric (as in the BAPPS evaluation of LPIPS): per test vote, the
   metric prefers the side with the better value (by its direction); the vote scores 1 when the
   rater chose that side, 0 for the other and 0.5 when the rater or the metric ties; the
@@ -51,6 +54,7 @@ from scipy import stats as _st
 from analysis import bootstrap as bs
 from analysis.bradley_terry import Draws, bradley_terry, strongly_connected, win_matrix, win_prob
 from analysis.inputs import classify_columns, drop_empty_columns
+from analysis.jod import jod_views
 from analysis.methods import METHOD_COLUMN, view_breakdowns
 from analysis.text import no_votes_left
 from annotate.results import pairwise_raters
@@ -476,6 +480,8 @@ class PairwiseAnalysis:
         Whether screening excluded raters.
     notes : list of str
         Notes for the report.
+    jod : pandas.DataFrame or None
+        :func:`analysis.jod.jod_views` (Thurstone Case V scale in JOD), beside Bradley-Terry.
     """
 
     votes_path: str
@@ -488,6 +494,7 @@ class PairwiseAnalysis:
     seed: int = 0
     screen: bool = True
     notes: list[str] = field(default_factory=list)
+    jod: pd.DataFrame | None = None
 
 
 def run_pairwise_analysis(votes_path, *, metrics_paths=(), lower=(), higher=(), exclude_raters=(),
@@ -557,7 +564,8 @@ def run_pairwise_analysis(votes_path, *, metrics_paths=(), lower=(), higher=(), 
               "gold_votes": int((votes["kind"] == "gold").sum()),
               "repeat_votes": int((votes["kind"] == "repeat").sum()),
               "ties": int((test["choice"] == "tie").sum())}
+    jod = jod_views(test, methods, n_boot=n_boot if draws is not None else 0, seed=seed)
     return PairwiseAnalysis(votes_path=str(votes_path), methods=methods, bradley_terry=bt,
                             agreement=agreement, raters=raters, counts=counts,
                             n_boot=n_boot if draws is not None else 0, seed=seed,
-                            screen=screen_raters, notes=notes)
+                            screen=screen_raters, notes=notes, jod=jod)

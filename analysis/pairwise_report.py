@@ -2,7 +2,8 @@
 
 Layer: analysis (pairwise study report).
 
-Files: ``bradley_terry.csv`` (:data:`analysis.pairwise.BT_COLUMNS`), ``agreement_2afc.csv``
+Files: ``bradley_terry.csv`` (:data:`analysis.pairwise.BT_COLUMNS`), ``jod.csv``
+(:data:`analysis.jod.JOD_COLUMNS`, the same votes on a Thurstone Case V scale), ``agreement_2afc.csv``
 (:data:`analysis.pairwise.AGREEMENT_COLUMNS`, the raters' ceiling as its last row),
 ``raters.csv`` (screening), the figures as PNG and SVG, ``report.html`` (self-contained)
 and ``report.md``. Written atomically like :func:`analysis.report.write_report`.
@@ -201,6 +202,8 @@ def _context(a: PairwiseAnalysis, figs, *, table) -> dict:
 
 def _build(a: PairwiseAnalysis, d: Path) -> None:
     write_table(a.bradley_terry, d / "bradley_terry.csv")
+    if a.jod is not None:
+        write_table(a.jod, d / "jod.csv")
     write_table(a.agreement, d / "agreement_2afc.csv")
     write_table(a.raters, d / "raters.csv")
     figs = _figures(a, d)
