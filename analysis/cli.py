@@ -29,6 +29,7 @@ import sys
 from pathlib import Path
 
 from analysis.choices import DEFAULT_MARGIN, DEFAULT_SHARE, METHODS, MIN_CLUSTERS, PATHS, RANK_BY
+from analysis.options import AnalysisOptions, MethodOptions
 from data_schema.errors import InputError
 from data_schema.outputs import REPORT_MARKER, check_output_folder, mark_report, replacing_note
 from nvrq.commands.args import (
@@ -261,13 +262,22 @@ def _nta_metrics(args):
         yield
 
 
+def _report_inputs(args) -> dict:
+    """What a report is made from, for its marker (data_schema.outputs.mark_report)."""
+    paths = {"RATINGS": args.ratings, "--pairs": args.pairs, "--metrics-table": args.metrics_tables,
+             "--timing": args.timing, "--stability": args.stability, "--nta": args.nta,
+             "--sets": args.sets}
+    return {k: [Path(p) for p in v] if isinstance(v, list) else None if v is None else Path(v)
+            for k, v in paths.items()}
+
+
 def _run(args) -> int:
     if (args.ratings is None) == (args.pairs is None):
         raise InputError("RATINGS/--pairs", None, "either a ratings file or --pairs PAIRS",
                          "both" if args.pairs else "neither")
     check_output_folder(args.out, kind="report", option="--out", command="analyze",
                         inputs=[args.ratings or args.pairs, *args.metrics_tables, *args.timing,
-                                args.stability])
+                                args.stability, args.nta, args.sets])
     inputs = _report_inputs(args)
     note = replacing_note(args.out, command="analyze", inputs=inputs)  # read before it is replaced
     rc = _analyze(args)
@@ -282,13 +292,6 @@ def _analyze(args) -> int:
     from analysis.methods_report import leaderboard_display
     from analysis.pairwise import is_pairwise
     from analysis.report import write_report
-
-    if (args.ratings is None) == (args.pairs is None):
-        raise InputError("RATINGS/--pairs", None, "either a ratings file or --pairs PAIRS",
-                         "both" if args.pairs else "neither")
-    check_output_folder(args.out, kind="report", option="--out",
-                        inputs=[args.ratings or args.pairs, *args.metrics_tables, *args.timing,
-                                args.stability, args.nta, args.sets])
 
     if (args.methods or args.leaderboard_metric or args.by or args.leaderboard_view != "off-path"
             or (args.min_clusters != MIN_CLUSTERS and not args.horizon)) and not args.compare_methods:
@@ -371,7 +374,7 @@ def _run_pairs(args):
                                      higher=args.higher_better, progress=show_progress(args))
     from analysis.all_pairs import run_pairs_analysis
 
-    return run_pairs_analysis(args.pairs, **_common_options(args))
+    return run_pairs_analysis(args.pairs, options_from_args(args))
 
 
 def _horizon(args, analysis):

@@ -296,13 +296,13 @@ def run_analysis(ratings_path, options: AnalysisOptions | None = None, **keyword
     clusters = pd.factorize(
         pd.MultiIndex.from_arrays([items["clip_id"].astype(str), items["track_id"].astype(str)])
     )[0]
-    n_boot = boot_size(items, n_boot, notes)
-    summary = summary_table(items, metrics, directions, target=tgt, clusters=clusters,
-                            n_boot=n_boot, seed=seed, rank_by=rank_by, progress=progress)
-    ceiling = _ceiling(kept, summary, tgt, seed=seed)
+    n_boot = boot_size(items, o.n_boot, notes)
+    summary = summary_table(items, metrics, directions, SummaryOptions(
+        target=tgt, n_boot=n_boot, seed=o.seed, rank_by=o.rank_by, progress=o.progress), clusters=clusters)
+    ceiling = _ceiling(kept, summary, tgt, seed=o.seed)
     by_cols, skipped = breakdowns.breakdown_columns(items, attributes)
     notes += [skipped] if skipped else []
-    categories = breakdowns.category_table(items, metrics, by=by_cols, target=tgt, progress=progress)
+    categories = breakdowns.category_table(items, metrics, by=by_cols, target=tgt, progress=o.progress)
     by_offset, by_axis = axes.view_tables(items, [tgt] + metrics, by="label_class")
     return Analysis(
         ratings_path=str(ratings_path), target=tgt, items=items, metrics=metrics,

@@ -9,7 +9,6 @@ behave the same in a few subprocess runs.
 
 from __future__ import annotations
 
-import functools
 import json
 import sqlite3
 from pathlib import Path
