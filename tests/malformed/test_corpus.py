@@ -9,6 +9,7 @@ behave the same in a few subprocess runs.
 
 from __future__ import annotations
 
+import functools
 import json
 import sqlite3
 from pathlib import Path
@@ -865,6 +866,50 @@ def _(world, tmp):
     return "analyze", ["--pairs", str(one), "--metrics-table", str(world / "metrics.csv"), "--horizon",
                        "--metric", "psnr", "--threshold", "25", "--bootstrap", "0", "--quiet",
                        "--out", str(tmp / "r")], ["one_offset.csv", "offset"]
+
+
+# ---------------------------------------------------------------- issue 38 items 7-9 (messages)
+# 7: a list that starts with a minus sign is a value, checked by the command as `3,abc` is
+# (argparse said "expected one argument"); 8: a missing --metrics-table (or --pairs) is said to
+# be missing, not to have "no suffix"; 9: the all-pairs analysis without --target names --target.
+
+MESSAGE_CASES = [
+    ("synth --offsets -3,abc", "nvrq", ["synth", "{tmp}/s", "--offsets", "-3,abc"],
+     ["--offsets", "comma list", "got -3,abc"]),
+    ("render-plan --offsets -3,abc", "nvrq", ["render-plan", "{world}/scene", "--out", "{tmp}/plan.csv",
+                                              "--offsets", "-3,abc"], ["--offsets", "comma list", "got -3,abc"]),
+    ("demo --offsets -3,abc", "nvrq", ["demo", "{tmp}/d", "--offsets", "-3,abc"],
+     ["--offsets", "comma list", "got -3,abc"]),
+    ("build --offsets -3,abc", "annotate", ["build", "{tmp}/st", "--pairs", "{world}/toy/pairs.csv", "--scene",
+                                            "{world}/toy/scene", "--offsets", "-3,abc"], ["--offsets", "-3,abc"]),
+    ("analyze --lower-better -a,b", "analyze", ["{world}/ratings.csv", "--lower-better", "-a,b",
+                                                "--bootstrap", "0", "--out", "{tmp}/r", "--quiet"], ["-a"]),
+    ("analyze --metrics-table missing, no suffix", "analyze", [
+        "{world}/ratings.csv", "--metrics-table", "{tmp}/metrics", "--out", "{tmp}/r", "--quiet"],
+     ["metrics", "an existing metrics table", "no such file"]),
+    ("analyze --metrics-table missing .csv", "analyze", [
+        "{world}/ratings.csv", "--metrics-table", "{tmp}/m.csv", "--out", "{tmp}/r", "--quiet"],
+     ["m.csv", "an existing metrics table", "no such file"]),
+    ("analyze --pairs missing, no suffix", "analyze", ["--pairs", "{tmp}/pairs", "--target", "psnr",
+                                                       "--out", "{tmp}/r", "--quiet"],
+     ["pairs", "an existing pairs table", "no such file"]),
+    ("analyze --pairs --metrics-table without --target", "analyze", [
+        "--pairs", "{world}/toy/pairs.csv", "--metrics-table", "{world}/metrics.csv", "--bootstrap", "0",
+        "--out", "{tmp}/r", "--quiet"], ["--target"]),
+    # before any input is read (a missing --target of a 30M-pair run is said at once)
+    ("analyze --pairs --metrics-table without --target, inputs not read", "analyze", [
+        "--pairs", "{tmp}/pairs.csv", "--metrics-table", "{tmp}/metrics.csv", "--out", "{tmp}/r", "--quiet"],
+     ["--target", "unless the methods are compared"]),
+]
+
+
+def _message_case(world, tmp, *, prog, argv, fragments):
+    return prog, [a.format(tmp=tmp, world=world) for a in argv], fragments
+
+
+for _n, _prog, _argv, _f in MESSAGE_CASES:
+    case("messages", _n)(functools.partial(_message_case, prog=_prog, argv=_argv, fragments=_f))
+
 
 
 @pytest.mark.parametrize("name", sorted(CASES))
