@@ -99,6 +99,25 @@ def demo_crops(root: Path, *, seconds: float, size: tuple[int, int], max_pairs: 
     return gts, renders
 
 
+def _time_metrics(fns, reference, crops, *, rounds):
+    """Each metric of ``fns`` on every crop, ``rounds`` times: seconds per crop summed over the
+    rounds, and the values, per metric (``crops``: GT, resized renders, renders)."""
+    gts, resized, renders = crops
+    n = len(renders)
+    per_crop = {m: np.zeros(n) for m in fns}  # seconds per crop, summed over rounds
+    values = {}
+    for _ in range(rounds):
+        for m, fn in fns.items():
+            args_of = (lambda k: (gts[k], resized[k])) if reference[m] else (lambda k: (renders[k],))
+            v = np.empty(n)
+            for k in range(n):
+                t = time.perf_counter()
+                v[k] = fn(*args_of(k))
+                per_crop[m][k] += time.perf_counter() - t
+            values[m] = v
+    return per_crop, values
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=1.0)
@@ -128,18 +147,7 @@ def main(argv=None) -> int:
         metrics.insert(metrics.index(m.split("@")[0]) + 1, m)
         fns[m], reference[m] = fn, False
     n = len(renders)
-    per_crop = {m: np.zeros(n) for m in metrics}  # seconds per crop, summed over rounds
-    values = {}
-    for _ in range(args.rounds):
-        for m in metrics:
-            fn = fns[m]
-            args_of = (lambda k: (gts[k], resized[k])) if reference[m] else (lambda k: (renders[k],))
-            v = np.empty(n)
-            for k in range(n):
-                t = time.perf_counter()
-                v[k] = fn(*args_of(k))
-                per_crop[m][k] += time.perf_counter() - t
-            values[m] = v
+    per_crop, values = _time_metrics(fns, reference, (gts, resized, renders), rounds=args.rounds)
     print(f"\n{'metric':16s} {'kind':5s} {'pairs/s':>9s} {'NaN':>6s} {'pairs/s where defined':>22s}")
     slow, rates = [], {}
     for m in metrics:
