@@ -99,7 +99,8 @@ class CameraCalib:
 
 @dataclass(frozen=True)
 class Track:
-    """One object's 3D box track: ``timestamps_us: (T,)`` int64, ``poses: (T, 7)`` world box centres.
+    """One object's 3D box track: ``timestamps_us: (T,)`` int64, ``poses: (T, 7)`` world box
+    centres.
 
     Attributes
     ----------
