@@ -70,7 +70,18 @@ def _resolve(path) -> Path:
 
 
 def managed_folder(path) -> tuple[Path, str] | None:
-    """The nearest scene or study folder at or above ``path``: ``(folder, 'scene'|'study')``."""
+    """The nearest scene or study folder at or above ``path``: ``(folder, 'scene'|'study')``.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A file or folder path (``~`` expanded, resolved).
+
+    Returns
+    -------
+    tuple of (Path, str) or None
+        The folder and its kind, ``'scene'`` or ``'study'``; None when there is none.
+    """
     p = _resolve(path)
     for folder in (p, *p.parents):
         for name, kind in _KINDS.items():

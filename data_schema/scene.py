@@ -80,7 +80,17 @@ FTHETA_REFERENCE_POLYS = ("PIXELDIST_TO_ANGLE", "ANGLE_TO_PIXELDIST")
 
 @dataclass(frozen=True)
 class CameraCalib:
-    """A camera: ``T_sensor_rig: (4, 4)`` and its validated ``model`` dict (docs/FORMATS.md §2)."""
+    """A camera: ``T_sensor_rig: (4, 4)`` and its validated ``model`` dict (docs/FORMATS.md §2).
+
+    Attributes
+    ----------
+    name : str
+        The camera's name.
+    T_sensor_rig : (4, 4) float64 ndarray
+        Rigid transform from the sensor frame to the rig frame.
+    model : dict
+        The camera model, checked by :func:`validate_camera_model` (defaults filled).
+    """
 
     name: str
     T_sensor_rig: np.ndarray
@@ -89,7 +99,22 @@ class CameraCalib:
 
 @dataclass(frozen=True)
 class Track:
-    """One object's 3D box track: ``timestamps_us: (T,)`` int64, ``poses: (T, 7)`` world box centres."""
+    """One object's 3D box track: ``timestamps_us: (T,)`` int64, ``poses: (T, 7)`` world box
+    centres.
+
+    Attributes
+    ----------
+    track_id : str
+        The track's unique id.
+    label_class : str
+        The object's class.
+    dims_lwh : (3,) float64 ndarray
+        Box length, width, height (positive).
+    timestamps_us : (T,) int64 ndarray
+        Timestamps of the poses, in microseconds.
+    poses : (T, 7) float64 ndarray
+        World box poses ``[x, y, z, qx, qy, qz, qw]`` (unit quaternions), one per timestamp.
+    """
 
     track_id: str
     label_class: str
@@ -102,7 +127,17 @@ class Track:
 class SourceWorld:
     """The optional ``source_world`` of scene.json (docs/FORMATS.md §2): the world of the tool a
     scene was imported from. ``T_world_source: (4, 4)`` maps points of the scene's world into
-    that tool's world (e.g. drivestudio's world re-based on the first ego pose)."""
+    that tool's world (e.g. drivestudio's world re-based on the first ego pose).
+
+    Attributes
+    ----------
+    name : str
+        The source tool's name.
+    dataset : str
+        The source dataset.
+    T_world_source : (4, 4) float64 ndarray
+        Maps points of the scene's world into the source tool's world.
+    """
 
     name: str
     dataset: str
@@ -112,7 +147,29 @@ class SourceWorld:
 @dataclass
 class Scene:
     """A validated scene folder. ``T_rig_world: (F, 4, 4)`` at ``rig_timestamps_us: (F,)``;
-    ``source_world`` when the scene was imported from a tool with its own world (else None)."""
+    ``source_world`` when the scene was imported from a tool with its own world (else None).
+
+    Attributes
+    ----------
+    root : Path
+        The scene folder.
+    clip_id : str
+        The scene's clip id.
+    attributes : dict of str to str
+        The scene's free-form attributes.
+    cameras : dict of str to CameraCalib
+        The cameras by name.
+    rig_timestamps_us : (F,) int64 ndarray
+        Timestamps of the rig poses, in microseconds.
+    T_rig_world : (F, 4, 4) float64 ndarray
+        Rig-to-world transform at each timestamp.
+    tracks : list of Track
+        The objects' 3D box tracks.
+    images : pandas.DataFrame
+        The checked ``images.csv`` table.
+    source_world : SourceWorld or None
+        The world of the tool the scene was imported from, if any.
+    """
 
     root: Path
     clip_id: str
@@ -146,7 +203,22 @@ def _array(value, shape: tuple, where: str, fld: str, what: str) -> np.ndarray:
 
 
 def check_rigid(T: np.ndarray, where: str, fld: str) -> np.ndarray:
-    """Check ``T: (..., 4, 4)``: orthonormal rotation with det +1 (tol 1e-6), bottom row 0 0 0 1."""
+    """Check ``T: (..., 4, 4)``: orthonormal rotation with det +1 (tol 1e-6), bottom row 0 0 0 1.
+
+    Parameters
+    ----------
+    T : (..., 4, 4) array-like
+        The matrix or stack of matrices to check.
+    where : str
+        The file named in errors.
+    fld : str
+        The field named in errors (``fld[i]`` for the i-th of a stack).
+
+    Returns
+    -------
+    (..., 4, 4) float64 ndarray
+        ``T`` as an array.
+    """
     T = _array(T, (None,) * (np.ndim(T) - 2) + (4, 4), where, fld, "4x4 matrices") if np.ndim(T) > 2 \
         else _array(T, (4, 4), where, fld, "a 4x4 matrix")
     flat = T.reshape(-1, 4, 4)
@@ -174,6 +246,20 @@ def validate_camera_model(model, where: str, fld: str) -> dict:
     The one check of parameter names, lengths, finiteness and defaults (the camera classes of
     ``nvrq.geometry.cameras`` call it and add checks on values). Errors name ``fld.param``
     (just ``param`` when ``fld`` is empty).
+
+    Parameters
+    ----------
+    model : dict
+        The camera model (``type`` and its parameters).
+    where : str
+        The file named in errors.
+    fld : str
+        The field prefix named in errors (may be empty).
+
+    Returns
+    -------
+    dict
+        The checked model, defaults filled.
     """
     mtype = _get(model, "type", where, fld)
     if mtype not in CAMERA_MODEL_SCHEMA:
@@ -359,6 +445,20 @@ def load_scene(root: str | os.PathLike, *, check_images: bool = True,
     imported for rendering); path safety is checked either way. ``follow_links``: whether image
     paths may lead out of the scene through symbolic links (default: yes, unless
     ``$NVRQ_NO_FOLLOW_LINKS`` is set; docs/FORMATS.md §7, :func:`data_schema.tables.inside_scene`).
+
+    Parameters
+    ----------
+    root : str or path-like
+        The scene folder.
+    check_images : bool
+        Whether the listed image files must exist.
+    follow_links : bool or None
+        Whether image paths may lead out of the scene through symbolic links; None: the default.
+
+    Returns
+    -------
+    Scene
+        The validated scene.
     """
     root = Path(root)
     path = root / "scene.json"

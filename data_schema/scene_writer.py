@@ -47,7 +47,19 @@ __all__ = ["SceneFrame", "NewScene", "scene_doc", "scene_images", "write_scene"]
 @dataclass(frozen=True)
 class SceneFrame:
     """One GT image of a new scene: ``camera`` at ``timestamp_us``, written at ``path``
-    (relative to the scene folder) from ``file`` (None: listed only, the user supplies it)."""
+    (relative to the scene folder) from ``file`` (None: listed only, the user supplies it).
+
+    Attributes
+    ----------
+    camera : str
+        The camera's name.
+    timestamp_us : int
+        The image's timestamp, in microseconds.
+    path : str
+        Where the image is written, relative to the scene folder.
+    file : Path or None
+        The source image file; None: listed only.
+    """
 
     camera: str
     timestamp_us: int
@@ -62,6 +74,25 @@ class NewScene:
     ``cameras``: name -> :class:`~data_schema.scene.CameraCalib` (``T_sensor_rig (4, 4)``, model
     dict); ``rig_timestamps_us (F,)`` int and ``T_rig_world (F, 4, 4)``; ``tracks``: list of
     :class:`~data_schema.scene.Track`; ``frames``: the GT images (:class:`SceneFrame`).
+
+    Attributes
+    ----------
+    clip_id : str
+        The scene's clip id.
+    cameras : dict of str to CameraCalib
+        The cameras by name.
+    rig_timestamps_us : (F,) int ndarray
+        Timestamps of the rig poses, in microseconds.
+    T_rig_world : (F, 4, 4) float ndarray
+        Rig-to-world transform at each timestamp.
+    tracks : list of Track
+        The objects' 3D box tracks.
+    frames : list of SceneFrame
+        The GT images.
+    attributes : dict of str to str
+        The scene's free-form attributes.
+    source_world : SourceWorld or None
+        The world of the tool the scene was imported from, if any.
     """
 
     clip_id: str

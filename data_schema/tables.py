@@ -111,6 +111,16 @@ TIMING_COLUMNS = ("metric", "seconds", "pairs")
 def timing_path(metrics_path: str | os.PathLike) -> Path:
     """The timing table written beside a metrics table: ``x/M.{csv,parquet}`` -> ``x/M.timing.csv``.
 
+    Parameters
+    ----------
+    metrics_path : str or path-like
+        The metrics table's path.
+
+    Returns
+    -------
+    Path
+        The timing table's path.
+
     >>> timing_path("out/M.parquet").as_posix()
     'out/M.timing.csv'
     """
@@ -121,6 +131,26 @@ def timing_path(metrics_path: str | os.PathLike) -> Path:
 def pair_id(clip_id: str, camera: str, track_id: str, timestamp_us: int, y_offset_m: float, *,
             method: str = "") -> str:
     """docs/FORMATS.md §3 pair id (of a lateral view; ``method``: the render's method, if any).
+
+    Parameters
+    ----------
+    clip_id : str
+        The clip.
+    camera : str
+        The camera.
+    track_id : str
+        The object's track.
+    timestamp_us : int
+        The frame's timestamp, in microseconds.
+    y_offset_m : float
+        The lateral render offset, in metres (2 decimals in the id).
+    method : str
+        The render's method; ``''`` for none.
+
+    Returns
+    -------
+    str
+        ``CLIP:CAMERA:TRACK:T:+Y.YY`` then ``:METHOD`` when given.
 
     >>> pair_id("clip", "front", "car-1", 100000, 1.0)
     'clip:front:car-1:100000:+1.00'
@@ -163,6 +193,16 @@ def pair_ids(df: pd.DataFrame, methods=None) -> list[str]:
 
 def offset_cm(y_offset_m) -> np.ndarray:
     """Offsets in metres -> integer centimetres, the precision of :func:`pair_id`; same shape.
+
+    Parameters
+    ----------
+    y_offset_m : float or array-like
+        Offsets in metres.
+
+    Returns
+    -------
+    int64 ndarray
+        Offsets in centimetres, rounded, same shape.
 
     >>> offset_cm([0.004, -1.5, 2.999]).tolist()
     [0, -150, 300]
@@ -282,7 +322,22 @@ def read_table(
 
 def require_columns(df: pd.DataFrame, required: Sequence[str], *, where: object) -> pd.DataFrame:
     """``df`` if it has every column of ``required``; else :class:`InputError` naming ``where``
-    and the first missing column (and listing the columns it has)."""
+    and the first missing column (and listing the columns it has).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The table.
+    required : sequence of str
+        The columns it must have.
+    where : object
+        What errors name (the table's file).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``df`` itself.
+    """
     missing = [c for c in required if c not in df.columns]
     if missing:
         raise InputError(where, f"column {missing[0]!r}", f"the columns {', '.join(required)}",
@@ -293,6 +348,16 @@ def require_columns(df: pd.DataFrame, required: Sequence[str], *, where: object)
 def csv_line(i: int) -> str:
     """``'line N'`` of the table row at position ``i`` (0-based) in its CSV file (the header is
     line 1), as errors name it.
+
+    Parameters
+    ----------
+    i : int
+        The row's 0-based position.
+
+    Returns
+    -------
+    str
+        ``'line N'`` with N = ``i + 2``.
 
     >>> csv_line(0)
     'line 2'
@@ -331,7 +396,20 @@ def check_pairs(df: pd.DataFrame, *, where: str) -> pd.DataFrame:
     """docs/FORMATS.md §3 checks of the columns present: unique non-empty ``pair_id``; integer
     ``timestamp_us`` and box corners; finite ``y_offset_m``; ``gt_path``/``render_path``
     inside the scene folder (:func:`check_scene_path`); valid ``method`` names (when the
-    column is there). Returns ``df`` (numbers converted)."""
+    column is there). Returns ``df`` (numbers converted).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The pairs table (converted in place).
+    where : str
+        What errors name (the file).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``df``, numbers converted.
+    """
     _unique_ids(df, "pair_id", where)
     if METHOD_COLUMN in df.columns:
         check_table_methods(df, where=where, what="line")
@@ -361,7 +439,20 @@ def _outside_scene(paths: pd.Series):
 
 
 def check_metrics(df: pd.DataFrame, *, where: str) -> pd.DataFrame:
-    """docs/FORMATS.md §4 checks: at least one row; each ``pair_id`` once; numeric metric values."""
+    """docs/FORMATS.md §4 checks: at least one row; each ``pair_id`` once; numeric metric values.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The metrics table (converted in place).
+    where : str
+        What errors name (the file).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``df``, metric columns made numeric.
+    """
     if len(df) == 0:
         raise InputError(where, None, "at least one metrics row", "a header only")
     _unique_ids(df, "pair_id", where)
@@ -378,7 +469,18 @@ def check_metrics(df: pd.DataFrame, *, where: str) -> pd.DataFrame:
 
 
 def read_metrics(path) -> pd.DataFrame:
-    """Read a metrics table (docs/FORMATS.md §4): ``pair_id`` + numeric metric columns."""
+    """Read a metrics table (docs/FORMATS.md §4): ``pair_id`` + numeric metric columns.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The metrics table (CSV or Parquet).
+
+    Returns
+    -------
+    pandas.DataFrame
+        The checked table, ``pair_id`` as str.
+    """
     return read_table(path, required=("pair_id",), kind=TableKind.METRICS, dtype={"pair_id": str})
 
 
@@ -390,6 +492,16 @@ NO_FOLLOW_LINKS_ENV = "NVRQ_NO_FOLLOW_LINKS"
 def follow_links(follow: bool | None = None) -> bool:
     """Whether image paths may follow symbolic links out of the scene folder: ``follow`` when
     given, else yes unless ``$NVRQ_NO_FOLLOW_LINKS`` is set (to anything but ``''`` or ``0``).
+
+    Parameters
+    ----------
+    follow : bool or None
+        The rule when given; None: from the environment.
+
+    Returns
+    -------
+    bool
+        Whether links may be followed.
 
     >>> follow_links(False), follow_links(True)
     (False, True)
@@ -403,7 +515,18 @@ def follow_links(follow: bool | None = None) -> bool:
 def no_follow_links(strict: bool = True):
     """Within the block, the strict link rule applies (``strict``; else nothing changes): it sets
     ``$NVRQ_NO_FOLLOW_LINKS=1``, so threads, subprocesses and a Ray instance started here see it
-    too, and restores the variable on exit. The ``--no-follow-links`` option of the CLIs."""
+    too, and restores the variable on exit. The ``--no-follow-links`` option of the CLIs.
+
+    Parameters
+    ----------
+    strict : bool
+        Whether to apply the strict rule; False: nothing changes.
+
+    Yields
+    ------
+    None
+        Control, inside the block.
+    """
     if not strict:
         yield
         return
@@ -421,6 +544,20 @@ def no_follow_links(strict: bool = True):
 def check_scene_path(rel, *, where: str, field: str) -> str:
     """The path rule of ``images.csv`` and pairs tables: a non-empty path relative to the
     scene folder, without ``..`` (checked on the text; symbolic links by :func:`inside_scene`).
+
+    Parameters
+    ----------
+    rel : str
+        The path to check.
+    where : str
+        What errors name (the file).
+    field : str
+        The field errors name.
+
+    Returns
+    -------
+    str
+        ``rel`` unchanged.
 
     >>> check_scene_path("images/a.png", where="pairs.csv", field="gt_path")
     'images/a.png'
@@ -447,6 +584,26 @@ def inside_scene(root, rel: str, *, where: str, field: str, linked: dict | None 
     resolved ``root``. ``linked``: one table's cache, per parent folder of ``rel``, of whether a
     folder on its way is a symlink, so rows in the same few folders check each folder once (the
     file every time).
+
+    Parameters
+    ----------
+    root : str or path-like
+        The scene folder.
+    rel : str
+        The image path relative to ``root``.
+    where : str
+        What errors name (the file).
+    field : str
+        The field errors name.
+    linked : dict or None
+        A table's cache of whether a folder on the way is a symlink.
+    follow : bool or None
+        The link rule (:func:`follow_links`); None: from the environment.
+
+    Returns
+    -------
+    str
+        The joined path ``root/rel``.
     """
     check_scene_path(rel, where=where, field=field)
     path = os.path.join(str(root), rel)
@@ -494,6 +651,11 @@ def current_umask() -> int:
 
 class atomic_path:
     """Context manager yielding a temporary path beside ``target``; renamed onto it on success.
+
+    Parameters
+    ----------
+    target : str or path-like
+        The output file (its folder is created if needed).
 
     >>> import tempfile, pathlib
     >>> d = pathlib.Path(tempfile.mkdtemp())
@@ -587,13 +749,36 @@ def _write_error(target: Path, exc: OSError) -> InputError:
 
 
 def atomic_write_text(path: str | os.PathLike, text: str) -> None:
-    """Write ``text`` to ``path`` atomically."""
+    """Write ``text`` to ``path`` atomically.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The output file.
+    text : str
+        The text, written as UTF-8.
+    """
     with atomic_path(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
 
 
 def write_table(df: pd.DataFrame, path: str | os.PathLike, *, columns: Iterable[str] | None = None) -> Path:
-    """Write ``df`` as CSV or Parquet (by suffix) atomically; returns the path."""
+    """Write ``df`` as CSV or Parquet (by suffix) atomically; returns the path.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The table (written without its index).
+    path : str or path-like
+        The output file, ``.csv`` or ``.parquet``.
+    columns : iterable of str or None
+        The columns to write, in order; None: all.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     path = Path(path)
     suffix = _check_suffix(path, "table")
     if columns is not None:
@@ -618,6 +803,22 @@ def pair_scene_roots(df: pd.DataFrame, *, scene_root=None, base=None, where: str
     Rule: ``scene_root`` (the ``--scene`` option) when given; else the table's ``scene_root``
     column, a relative value taken from ``base`` (the pairs file's folder; default the
     current directory). ``gt_path``/``render_path`` are relative to that folder.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The pairs table (N rows).
+    scene_root : str or path-like or None
+        The one scene folder of every row (``--scene``).
+    base : str or path-like or None
+        The folder relative ``scene_root`` values start from.
+    where : str
+        What errors name (the pairs file).
+
+    Returns
+    -------
+    (N,) object ndarray of str
+        Absolute scene folders.
     """
     if scene_root is not None:
         root = Path(scene_root).resolve()
@@ -638,7 +839,28 @@ def pair_image_paths(df: pd.DataFrame, column: str, *, scene_root=None, base=Non
     """Absolute image paths of ``column`` (``gt_path`` or ``render_path``), ``(N,)`` object array.
 
     Every path obeys the scene-folder rule (:func:`inside_scene`, links followed as ``follow``
-    says) and names an existing file."""
+    says) and names an existing file.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The pairs table (N rows).
+    column : str
+        ``'gt_path'`` or ``'render_path'``.
+    scene_root : str or path-like or None
+        The one scene folder of every row (``--scene``).
+    base : str or path-like or None
+        The folder relative ``scene_root`` values start from.
+    where : str
+        What errors name (the pairs file).
+    follow : bool or None
+        The link rule (:func:`follow_links`); None: from the environment.
+
+    Returns
+    -------
+    (N,) object ndarray of str
+        Absolute paths of existing image files.
+    """
     roots = pair_scene_roots(df, scene_root=scene_root, base=base, where=where)
     rel = df[column].to_numpy(dtype=object)
     seen: dict = {}
@@ -652,7 +874,22 @@ def pair_image_paths(df: pd.DataFrame, column: str, *, scene_root=None, base=Non
 
 
 def pair_boxes(df: pd.DataFrame, columns, *, where: str = "pairs"):
-    """Inclusive integer boxes ``(N, 4)`` int64 from four columns (e.g. :data:`GT_BOX_COLUMNS`)."""
+    """Inclusive integer boxes ``(N, 4)`` int64 from four columns (e.g. :data:`GT_BOX_COLUMNS`).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The pairs table (N rows).
+    columns : sequence of str
+        The four box columns x0, y0, x1, y1.
+    where : str
+        What errors name (the pairs file).
+
+    Returns
+    -------
+    (N, 4) int64 ndarray
+        Inclusive pixel boxes x0, y0, x1, y1.
+    """
     columns = list(columns)
     vals = df[columns].to_numpy()
     try:

@@ -20,7 +20,13 @@ RAY_EXTRA = 'pip install -e ".[ray]"'
 
 
 def require_ray():
-    """Import ``ray`` and ``ray.data`` or stop with a one-line error naming the extra."""
+    """Import ``ray`` and ``ray.data`` or stop with a one-line error naming the extra.
+
+    Returns
+    -------
+    module
+        The imported ``ray`` module.
+    """
 
     try:
         import ray

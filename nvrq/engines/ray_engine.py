@@ -43,7 +43,23 @@ __all__ = ["RayJob", "connect", "check_address", "score_on_ray", "actor_pool"]
 @dataclass(frozen=True)
 class RayJob:
     """A Ray run: the pairs input, the output folder and what to compute
-    (a scorer of :mod:`nvrq.engines.scorers`)."""
+    (a scorer of :mod:`nvrq.engines.scorers`).
+
+    Attributes
+    ----------
+    pairs : str
+        Path of the pairs input (a pairs dataset or a table file).
+    out : str
+        Output folder of the sharded metrics.
+    scorer : object
+        What to compute: a scorer of :mod:`nvrq.engines.scorers` (or a score plan).
+    shard_pairs : int
+        Most pairs per shard (GT groups kept whole).
+    actors : int or None
+        Number of model actors; None: one per GPU (cuda) or half the CPUs.
+    progress : bool
+        Whether to show progress.
+    """
 
     pairs: str
     out: str
@@ -54,7 +70,13 @@ class RayJob:
 
 
 def check_address(address: str) -> None:
-    """One-line error when nothing listens at ``HOST:PORT`` (Ray would otherwise wait a minute)."""
+    """One-line error when nothing listens at ``HOST:PORT`` (Ray would otherwise wait a minute).
+
+    Parameters
+    ----------
+    address : str
+        Ray address ``HOST:PORT`` (optionally ``ray://``-prefixed), or ``"auto"`` (not checked).
+    """
     if address == "auto":
         return
     host, _, port = address.rpartition(":")
@@ -70,7 +92,18 @@ def check_address(address: str) -> None:
 @contextmanager
 def connect(address: str | None = None):
     """Use the running Ray session, or join ``address``, or start a local instance sized to
-    this machine; a session started here is shut down on exit."""
+    this machine; a session started here is shut down on exit.
+
+    Parameters
+    ----------
+    address : str or None
+        Ray cluster address to join (checked first); None: the running session or a local one.
+
+    Yields
+    ------
+    module
+        The ``ray`` module, initialized.
+    """
     ray = require_ray()
     if address:
         check_address(address)
@@ -134,6 +167,18 @@ def actor_pool(ray, n: int) -> dict:
     Ray does not deprecate: ``compute=ActorPoolStrategy(size=n)`` from Ray 2.51 (which deprecates
     ``concurrency=``), ``concurrency=n`` in Ray 2.9 to 2.50 (which deprecate ``compute=``).
 
+    Parameters
+    ----------
+    ray : module
+        The ``ray`` module (only its ``__version__`` is read to choose the spelling).
+    n : int
+        Number of actors in the pool.
+
+    Returns
+    -------
+    dict
+        Keywords for ``map_batches``: ``{"concurrency": n}`` or ``{"compute": ActorPoolStrategy}``.
+
     >>> from types import SimpleNamespace as NS
     >>> actor_pool(NS(__version__="2.9.3"), 3)
     {'concurrency': 3}
@@ -188,7 +233,22 @@ def _input_error(exc: BaseException) -> InputError | None:
 
 def score_on_ray(job: RayJob, *, timing_path, address: str | None = None) -> dict:
     """Run (or resume) ``job`` (:func:`nvrq.engines.shards.run_sharded`); write ``timing_path``
-    at the end; returns counts ``{pairs, shards, shards_done_before, pairs_scored, seconds}``."""
+    at the end; returns counts ``{pairs, shards, shards_done_before, pairs_scored, seconds}``.
+
+    Parameters
+    ----------
+    job : RayJob
+        The run: pairs input, output folder, scorer and sharding options.
+    timing_path : str or path-like
+        Where to write the per-column timing table.
+    address : str or None
+        Ray cluster address to join; None: the running session or a local one.
+
+    Returns
+    -------
+    dict
+        Counts of the run (:func:`nvrq.engines.shards.run_sharded`).
+    """
 
     require_ray()
     if address:

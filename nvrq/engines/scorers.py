@@ -50,7 +50,22 @@ class _ProxyScorer:
 
 @dataclass(frozen=True)
 class ImagenetScorer(_ProxyScorer):
-    """``nvrq proxy imagenet``: Eq. 9, the ImageNet top-class confidence drop."""
+    """``nvrq proxy imagenet``: Eq. 9, the ImageNet top-class confidence drop.
+
+    Attributes
+    ----------
+    classifier : str
+        Name of the ImageNet classifier to load.
+    weights : str or None
+        Classifier weights to load; None: the default ones.
+    columns : tuple of str
+        Output columns, ``("imagenet_drop",)``.
+    extra_columns : tuple of str
+        Pairs columns the scorer needs besides the crops (none).
+    device, batch_size, runtime, cache_dir, pixel_columns
+        As in the shared proxy scorer base: torch device, crops per model batch, model runtime,
+        model cache folder, encoder-free columns (none).
+    """
 
     classifier: str
     weights: str | None = None
@@ -71,7 +86,24 @@ class ImagenetScorer(_ProxyScorer):
 
 @dataclass(frozen=True)
 class ClipScorer(_ProxyScorer):
-    """``nvrq proxy clip``: Eq. 10, the CLIP zero-shot true-category confidence drop."""
+    """``nvrq proxy clip``: Eq. 10, the CLIP zero-shot true-category confidence drop.
+
+    Attributes
+    ----------
+    clip : str
+        Name of the CLIP model to load.
+    prompts : tuple
+        ``((category, prompt), ...)``: the zero-shot prompt of each category.
+    category_map : tuple
+        ``((label_class, category or None), ...)``: each label class's CLIP category.
+    columns : tuple of str
+        Output columns, ``("clip_drop",)``.
+    extra_columns : tuple of str
+        Pairs columns the scorer needs besides the crops, ``("label_class",)``.
+    device, batch_size, runtime, cache_dir, pixel_columns
+        As in the shared proxy scorer base: torch device, crops per model batch, model runtime,
+        model cache folder, encoder-free columns (none).
+    """
 
     clip: str
     prompts: tuple  # ((category, prompt), ...)
@@ -97,5 +129,18 @@ class ClipScorer(_ProxyScorer):
 
 
 def timing_per_column(scorer, timings: dict) -> dict:
-    """Seconds per column, by the local engine's rule (:func:`nvrq.scoring.core.column_seconds`)."""
+    """Seconds per column, by the local engine's rule (:func:`nvrq.scoring.core.column_seconds`).
+
+    Parameters
+    ----------
+    scorer : object
+        The scorer (its ``columns`` and ``model_columns`` are read).
+    timings : dict
+        Seconds per stage recorded while scoring.
+
+    Returns
+    -------
+    dict
+        ``{column: seconds}`` for each of the scorer's columns.
+    """
     return dict(zip(scorer.columns, column_seconds(scorer.columns, scorer.model_columns, timings), strict=True))

@@ -52,7 +52,23 @@ TIMING_KEY = b"nvrq_timing"
 @dataclass(frozen=True)
 class PairsSource:
     """One readable unit of the pairs input: a clip's file of a dataset, or a whole table file
-    (``rows`` index into it). ``base``: the folder relative ``scene_root`` values start from."""
+    (``rows`` index into it). ``base``: the folder relative ``scene_root`` values start from.
+
+    Attributes
+    ----------
+    clip_id : str
+        The clip this source holds.
+    path : str
+        The file read: a dataset's clip file or the whole table file.
+    rows : (N,) int ndarray
+        Positions of the source's rows in the file's table.
+    gt_paths : (N,) str ndarray
+        ``gt_path`` of each row.
+    pair_ids : (N,) str ndarray
+        ``pair_id`` of each row.
+    base : str
+        The folder relative ``scene_root`` values start from.
+    """
 
     clip_id: str
     path: str
@@ -64,7 +80,21 @@ class PairsSource:
 
 @dataclass(frozen=True)
 class Shard:
-    """``rows``: positions in ``source.path``'s table (GT groups kept together)."""
+    """``rows``: positions in ``source.path``'s table (GT groups kept together).
+
+    Attributes
+    ----------
+    index : int
+        The shard's number in the plan.
+    clip_id : str
+        The clip of its source.
+    path : str
+        Its source's pairs file.
+    rows : tuple of int
+        Positions in ``path``'s table (GT groups kept together).
+    base : str
+        The folder relative ``scene_root`` values start from.
+    """
 
     index: int
     clip_id: str
@@ -79,7 +109,20 @@ class Shard:
 
 def read_sources(pairs_path, *, required) -> list[PairsSource]:
     """The pairs input as sources: per clip file of a dataset, or per clip of a table file
-    (which then needs a ``clip_id`` column)."""
+    (which then needs a ``clip_id`` column).
+
+    Parameters
+    ----------
+    pairs_path : str or path-like
+        A pairs dataset folder or a pairs table file.
+    required : iterable of str
+        Columns the pairs input must have.
+
+    Returns
+    -------
+    list of PairsSource
+        One source per clip.
+    """
 
     p = Path(pairs_path)
     if ds.is_dataset(p):
@@ -103,7 +146,20 @@ def read_sources(pairs_path, *, required) -> list[PairsSource]:
 
 
 def plan_shards(sources: list[PairsSource], *, max_pairs: int) -> list[Shard]:
-    """Cut every source into shards of whole GT groups (first-seen order), <= ``max_pairs`` each."""
+    """Cut every source into shards of whole GT groups (first-seen order), <= ``max_pairs`` each.
+
+    Parameters
+    ----------
+    sources : list of PairsSource
+        The pairs input's sources.
+    max_pairs : int
+        Most pairs per shard (a larger GT group is packed alone).
+
+    Returns
+    -------
+    list of Shard
+        The shards, numbered in order.
+    """
     shards: list[Shard] = []
     for src in sources:
         for rows in pack_groups([src.rows[g] for g in gt_groups(src.gt_paths)], max_pairs):
@@ -113,7 +169,19 @@ def plan_shards(sources: list[PairsSource], *, max_pairs: int) -> list[Shard]:
 
 @dataclass(frozen=True)
 class Plan:
-    """The run's plan (``_plan.json``) and which shards are still to do."""
+    """The run's plan (``_plan.json``) and which shards are still to do.
+
+    Attributes
+    ----------
+    out : Path
+        The run's output folder.
+    shards : list of Shard
+        Every planned shard.
+    todo : list of Shard
+        The shards not yet written.
+    doc : dict
+        The contents of ``_plan.json``.
+    """
 
     out: Path
     shards: list
@@ -135,7 +203,26 @@ _NOT_COMPARED = ("score_plan",)
 
 
 def load_or_create_plan(out, pairs_path, sources, *, options: dict, max_pairs: int) -> Plan:
-    """Create ``out/_plan.json`` or check that the existing one is this run's; list missing shards."""
+    """Create ``out/_plan.json`` or check that the existing one is this run's; list missing shards.
+
+    Parameters
+    ----------
+    out : str or path-like
+        The output folder (new, empty, or an earlier run of the same command).
+    pairs_path : str or path-like
+        The pairs input (recorded in the plan).
+    sources : list of PairsSource
+        The pairs input's sources (:func:`read_sources`).
+    options : dict
+        The run's options, recorded in the plan and compared on resume.
+    max_pairs : int
+        Most pairs per shard.
+
+    Returns
+    -------
+    Plan
+        The plan, with the shards still to do.
+    """
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise InputError(out, None, "a folder for the Ray engine's sharded output", "an existing file")
@@ -168,13 +255,36 @@ def _pairs_file(path: str) -> pd.DataFrame:
 
 
 def shard_pairs(shard: Shard) -> pd.DataFrame:
-    """The shard's rows of its pairs file, in plan order (index 0..n-1)."""
+    """The shard's rows of its pairs file, in plan order (index 0..n-1).
+
+    Parameters
+    ----------
+    shard : Shard
+        The shard to read.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Its pairs rows.
+    """
 
     return _pairs_file(shard.path).iloc[list(shard.rows)].reset_index(drop=True)
 
 
 def write_shard(out, shard: Shard, table: pd.DataFrame, timing: dict) -> None:
-    """Write one shard's metrics atomically (hidden temporary file, then rename)."""
+    """Write one shard's metrics atomically (hidden temporary file, then rename).
+
+    Parameters
+    ----------
+    out : str or path-like
+        The run's output folder.
+    shard : Shard
+        The shard written (its ``name`` is the file's path under ``out``).
+    table : pandas.DataFrame
+        The shard's metrics: ``pair_id`` and the metric columns.
+    timing : dict
+        Seconds per column, stored in the Parquet schema metadata.
+    """
 
     t = pa.Table.from_pandas(table, preserve_index=False)
     t = t.replace_schema_metadata({**(t.schema.metadata or {}), TIMING_KEY: json.dumps(timing).encode()})
@@ -184,7 +294,20 @@ def write_shard(out, shard: Shard, table: pd.DataFrame, timing: dict) -> None:
 
 
 def finalize(plan: Plan, *, timing_path) -> pd.DataFrame:
-    """All shards present: write ``METRICS.timing.csv`` and ``_dataset.json``; returns the timing."""
+    """All shards present: write ``METRICS.timing.csv`` and ``_dataset.json``; returns the timing.
+
+    Parameters
+    ----------
+    plan : Plan
+        The run's plan (every shard must be written).
+    timing_path : str or path-like
+        Where to write the timing table.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The timing table: ``metric``, ``seconds`` (summed over shards) and ``pairs``.
+    """
 
     missing = [s.name for s in plan.shards if not (plan.out / s.name).is_file()]
     if missing:
@@ -293,7 +416,18 @@ def run_sharded(pairs_path, out, job: ShardJob, *,
 
 def empty_columns(plan: Plan) -> list[str]:
     """The metric columns of a finished run with no finite value in any shard (a metric NaN on
-    every pair: undefined for these crops); reads each shard's columns until each has one."""
+    every pair: undefined for these crops); reads each shard's columns until each has one.
+
+    Parameters
+    ----------
+    plan : Plan
+        The finished run's plan.
+
+    Returns
+    -------
+    list of str
+        The columns with no finite value.
+    """
     left = list(plan.doc["columns"])
     for s in plan.shards:
         if not left:

@@ -60,6 +60,39 @@ class MetricInfo:
     once per run (default: ``fn`` itself). ``from_similarity(s, tau) -> (N,) float64``: an
     encoder metric's column from the similarities ``s`` (N,); ``needs_tau``: whether it uses
     the NVRQ-CA knee ``tau``.
+
+    Attributes
+    ----------
+    name : str
+        The metric's name (its column).
+    higher_better : bool
+        Whether a higher value means better quality.
+    value_range : tuple of float
+        ``(low, high)`` of the values.
+    needs_encoder : bool
+        Whether it is an encoder metric family.
+    fn : callable or None
+        The per-crop function of an encoder-free metric.
+    description : str
+        One-line description.
+    kind : str
+        ``'metric'`` or ``'proxy'``.
+    reference : bool
+        Whether it is a full-reference metric.
+    min_side : int
+        Shorter crop side (px) below which the value is NaN.
+    undefined : str
+        When else the value is NaN.
+    members : callable or None
+        ``members(name)``: the entry of the column ``family:name`` of an external family.
+    consumes : MetricKind or None
+        What the metric consumes; None: derived (see above).
+    compute : callable or None
+        ``fn`` without its input checks; None: ``fn``.
+    from_similarity : callable or None
+        An encoder metric's column from the similarities.
+    needs_tau : bool
+        Whether ``from_similarity`` uses the NVRQ-CA knee ``tau``.
     """
 
     name: str

@@ -25,6 +25,16 @@ def check_rgb(crop: np.ndarray) -> np.ndarray:
     """``crop`` as given, or :class:`InputError` (a ValueError) naming the metric functions'
     parameter ``render`` unless it is a uint8 (H, W, 3) RGB array.
 
+    Parameters
+    ----------
+    crop : (H, W, 3) uint8 ndarray
+        The RGB crop to check.
+
+    Returns
+    -------
+    (H, W, 3) uint8 ndarray
+        ``crop`` as an array.
+
     >>> check_rgb(np.zeros((2, 2), np.float32))
     Traceback (most recent call last):
     ...
@@ -40,6 +50,18 @@ def below_side(render: np.ndarray, side: int) -> bool:
     """Whether the checked crop ``render`` (:func:`check_rgb`) has a side shorter than ``side``
     px: the no-reference metrics are NaN for such crops.
 
+    Parameters
+    ----------
+    render : (H, W, 3) uint8 ndarray
+        The RGB crop (checked by :func:`check_rgb`).
+    side : int
+        The shortest allowed side, in pixels.
+
+    Returns
+    -------
+    bool
+        True when the crop's shorter side is below ``side``.
+
     >>> below_side(np.zeros((95, 200, 3), np.uint8), 96), below_side(np.zeros((96, 96, 3), np.uint8), 96)
     (True, False)
     """
@@ -53,7 +75,18 @@ def _below_side(render: np.ndarray, side: int) -> bool:
 
 def rgb2gray_matlab(crop: np.ndarray) -> np.ndarray:
     """MATLAB ``rgb2gray`` of a uint8 (H, W, 3) RGB crop -> uint8 (H, W): the weighted sum
-    :data:`MATLAB_GREY`, rounded half away from zero (values are non-negative)."""
+    :data:`MATLAB_GREY`, rounded half away from zero (values are non-negative).
+
+    Parameters
+    ----------
+    crop : (H, W, 3) uint8 ndarray
+        The RGB crop.
+
+    Returns
+    -------
+    (H, W) uint8 ndarray
+        The grey image.
+    """
     return _rgb2gray(check_rgb(crop))
 
 

@@ -140,7 +140,18 @@ def imresize_half(image: np.ndarray) -> np.ndarray:
     """MATLAB ``imresize(image, 0.5)`` of a float64 (H, W) image -> (ceil(H/2), ceil(W/2)) float64
     (bicubic with antialiasing, not rounded; module docstring): rows, then columns (MATLAB's
     order), each output the weighted sum of its 8 taps (in tap order, the same on every
-    machine: no BLAS)."""
+    machine: no BLAS).
+
+    Parameters
+    ----------
+    image : (H, W) float64 ndarray
+        The image to halve.
+
+    Returns
+    -------
+    (ceil(H/2), ceil(W/2)) float64 ndarray
+        The resized image, not rounded.
+    """
     rows, wr = _resize_taps(image.shape[0])
     half = np.einsum("ot,otw->ow", wr, image[rows])
     cols, wc = _resize_taps(image.shape[1])
@@ -160,13 +171,35 @@ def _nearest(table: np.ndarray, q: np.ndarray) -> np.ndarray:
 
 def ggd_shape(rho: np.ndarray) -> np.ndarray:
     """GGD shape (BRISQUE's ``estimateggdparam``): the table shape whose
-    ``Gamma(1/a) Gamma(3/a) / Gamma(2/a)^2`` is nearest to ``rho = E[x^2] / E[|x|]^2``."""
+    ``Gamma(1/a) Gamma(3/a) / Gamma(2/a)^2`` is nearest to ``rho = E[x^2] / E[|x|]^2``.
+
+    Parameters
+    ----------
+    rho : float or ndarray
+        The moment ratio(s) ``E[x^2] / E[|x|]^2``.
+
+    Returns
+    -------
+    ndarray
+        The GGD shape of each ratio, same shape as ``rho``.
+    """
     return SHAPES[_nearest(_ratio_tables()[1], -np.asarray(rho, np.float64))]
 
 
 def aggd_shape(r_norm: np.ndarray) -> np.ndarray:
     """AGGD shape (``estimateaggdparam``): the table shape whose ``Gamma(2/a)^2 / (Gamma(1/a)
-    Gamma(3/a))`` is nearest to the normalised moment ratio ``r_norm``."""
+    Gamma(3/a))`` is nearest to the normalised moment ratio ``r_norm``.
+
+    Parameters
+    ----------
+    r_norm : float or ndarray
+        The normalised moment ratio(s).
+
+    Returns
+    -------
+    ndarray
+        The AGGD shape of each ratio, same shape as ``r_norm``.
+    """
     return SHAPES[_nearest(_ratio_tables()[0], np.asarray(r_norm, np.float64))]
 
 
@@ -183,7 +216,20 @@ def _axis_parts(n: int, d: int) -> list[tuple[slice, slice]]:
 def circular_products(m: np.ndarray, shifts) -> np.ndarray:
     """``(len(shifts) + 1, N)`` float64: the maps ``m`` (..., h, w) and ``m * circshift(m, s)`` for
     each shift ``s = (dy, dx)``, ``|dy|, |dx| <= 1``, shifting the last two axes (MATLAB
-    ``circshift``, ``np.roll``), each raveled; written slice by slice, no rolled copies."""
+    ``circshift``, ``np.roll``), each raveled; written slice by slice, no rolled copies.
+
+    Parameters
+    ----------
+    m : (..., h, w) float ndarray
+        The maps.
+    shifts : sequence of (int, int)
+        The shifts ``(dy, dx)``, each in {-1, 0, 1}.
+
+    Returns
+    -------
+    (len(shifts) + 1, N) float64 ndarray
+        ``m`` raveled, then each product with its shifted copy raveled (N = ``m.size``).
+    """
     h, w = m.shape[-2:]
     out = np.empty((len(shifts) + 1, *m.shape))
     out[0] = m
@@ -197,7 +243,18 @@ def circular_products(m: np.ndarray, shifts) -> np.ndarray:
 def moments(x: np.ndarray) -> tuple[np.ndarray, ...]:
     """``(mean_sq, mean_abs, left_sq, right_sq)``, each (n,), of every row of ``x`` (n, m):
     ``mean(x^2)``, ``mean(|x|)`` and the mean squares over ``x < 0`` / ``x > 0`` (MATLAB's
-    ``vec(vec < 0)``, ``vec(vec > 0)``: zeros on neither side; NaN for an empty side)."""
+    ``vec(vec < 0)``, ``vec(vec > 0)``: zeros on neither side; NaN for an empty side).
+
+    Parameters
+    ----------
+    x : (n, m) float64 ndarray
+        The rows.
+
+    Returns
+    -------
+    tuple of four (n,) float64 ndarrays
+        ``(mean_sq, mean_abs, left_sq, right_sq)``.
+    """
     m = x.shape[1]
     neg = np.minimum(x, 0.0)
     neg_sq = np.einsum("ij,ij->i", neg, neg)
@@ -214,12 +271,36 @@ def aggd_stats(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     ``x`` (n, m): ``left_std = sqrt(mean(x[x < 0]^2))``, ``right_std`` over ``x > 0`` (NaN for an
     empty side, as MATLAB's mean of nothing), ``gammahat = left/right``,
     ``rhat = mean(|x|)^2 / mean(x^2)``, ``rhatnorm = rhat (g^3 + 1)(g + 1) / (g^2 + 1)^2`` and
-    ``alpha = aggd_shape(rhatnorm)``."""
+    ``alpha = aggd_shape(rhatnorm)``.
+
+    Parameters
+    ----------
+    x : (n, m) float64 ndarray
+        The rows.
+
+    Returns
+    -------
+    tuple of three (n,) float64 ndarrays
+        ``(alpha, left_std, right_std)``.
+    """
     return aggd_from_moments(*moments(x))
 
 
 def aggd_from_moments(mean_sq, mean_abs, left_sq, right_sq) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`aggd_stats` from the :func:`moments` of the rows."""
+    """:func:`aggd_stats` from the :func:`moments` of the rows.
+
+    Parameters
+    ----------
+    mean_sq, mean_abs : (n,) float64 ndarray
+        ``mean(x^2)`` and ``mean(|x|)`` of each row.
+    left_sq, right_sq : (n,) float64 ndarray
+        Mean squares over ``x < 0`` and ``x > 0`` of each row (NaN for an empty side).
+
+    Returns
+    -------
+    tuple of three (n,) float64 ndarrays
+        ``(alpha, left_std, right_std)``.
+    """
     with np.errstate(invalid="ignore", divide="ignore"):
         left, right = np.sqrt(left_sq), np.sqrt(right_sq)
         g = left / right

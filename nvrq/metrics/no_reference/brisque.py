@@ -107,7 +107,14 @@ def _brisque_features(render: np.ndarray) -> np.ndarray:
 @lru_cache(maxsize=1)
 def load_model() -> tuple[np.ndarray, np.ndarray, float, float, np.ndarray, np.ndarray]:
     """``(support_vectors (774, 36), coefs (774,), gamma, rho, feature_min (36,), feature_max
-    (36,))`` of the original release's ``allmodel`` / ``allrange`` (:data:`MODEL_PATH`)."""
+    (36,))`` of the original release's ``allmodel`` / ``allrange`` (:data:`MODEL_PATH`).
+
+    Returns
+    -------
+    tuple
+        ``(support_vectors, coefs, gamma, rho, feature_min, feature_max)``: (774, 36) and
+        (774,) arrays, two floats, two (36,) arrays.
+    """
     with np.load(MODEL_PATH) as z:
         return (z["support_vectors"], z["coefs"], float(z["gamma"]), float(z["rho"]),
                 z["feature_min"], z["feature_max"])

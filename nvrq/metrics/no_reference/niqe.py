@@ -105,7 +105,13 @@ def _niqe_features(render: np.ndarray) -> np.ndarray:
 
 @lru_cache(maxsize=1)
 def load_pristine() -> tuple[np.ndarray, np.ndarray]:
-    """``(mu (36,), cov (36, 36))`` of the original release's pristine model (:data:`MODEL_PATH`)."""
+    """``(mu (36,), cov (36, 36))`` of the original release's pristine model (:data:`MODEL_PATH`).
+
+    Returns
+    -------
+    tuple of ndarray
+        ``(mu, cov)``: the (36,) mean and (36, 36) covariance of the pristine features.
+    """
     with np.load(MODEL_PATH) as z:
         return z["mu"], z["cov"]
 
