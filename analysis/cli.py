@@ -442,7 +442,8 @@ def _run_ratings(args):
 
 def main(argv=None) -> int:
     """Entry point of the ``analyze`` console script: analyse ``argv`` (default
-    ``sys.argv[1:]``) and return the exit status (2 for bad input, :func:`nvrq.commands.args.run_cli`).
+    ``sys.argv[1:]``) and return the exit status (2 for bad input,
+    :func:`nvrq.commands.args.run_cli`).
 
     Parameters
     ----------
