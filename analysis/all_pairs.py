@@ -62,7 +62,15 @@ def _is_numeric(t) -> bool:
 
 
 class TableSource:
-    """A table file or a clip-partitioned dataset, readable clip by clip as pyarrow tables."""
+    """A table file or a clip-partitioned dataset, readable clip by clip as pyarrow tables.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        A table file (read whole) or a clip-partitioned dataset folder.
+    what : str
+        What the table is, for error messages (e.g. ``"pairs table"``).
+    """
 
     def __init__(self, path, *, what: str):
         self.path, self.what = str(path), what
@@ -261,6 +269,26 @@ def read_all_pairs(pairs_path, *, metrics_paths=(), progress: bool = True, keep=
 
     Returns ``(items, clusters, unknown_ids)``; ``unknown_ids[path]`` counts pair ids of a metric
     dataset that are not in the pairs input.
+
+    Parameters
+    ----------
+    pairs_path : str or pathlib.Path
+        A pairs dataset folder, or a pairs table with ``clip_id``.
+    metrics_paths : sequence of str or pathlib.Path
+        Metrics tables or datasets joined to the pairs on ``pair_id``.
+    progress : bool
+        Show a per-clip progress bar.
+    keep : sequence of str
+        Pair columns to read that the analysis otherwise skips.
+
+    Returns
+    -------
+    items : pandas.DataFrame
+        One row per pair: categorical labels and float64 numbers.
+    clusters : (n,) int32 numpy.ndarray
+        Track code of each pair.
+    unknown_ids : dict of str to int
+        Per metrics path, the pair ids not in the pairs input.
     """
 
     pairs = TableSource(pairs_path, what="pairs table")

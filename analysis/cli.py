@@ -50,7 +50,13 @@ __all__ = ["build_parser", "main", "options_from_args"]
 
 def build_parser() -> ArgumentParser:
     """The ``analyze`` parser (one command, no subcommands): the option groups of
-    :data:`OPTION_GROUPS`, in order."""
+    :data:`OPTION_GROUPS`, in order.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The parser of the ``analyze`` command.
+    """
     p = ArgumentParser(
         prog="analyze",
         description="Which metric agrees with human judgements? Correlations, ROC AUC, bootstrap "
@@ -436,7 +442,19 @@ def _run_ratings(args):
 
 def main(argv=None) -> int:
     """Entry point of the ``analyze`` console script: analyse ``argv`` (default
-    ``sys.argv[1:]``) and return the exit status (2 for bad input, :func:`nvrq.commands.args.run_cli`)."""
+    ``sys.argv[1:]``) and return the exit status (2 for bad input,
+    :func:`nvrq.commands.args.run_cli`).
+
+    Parameters
+    ----------
+    argv : list of str or None
+        The command-line arguments; None for ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        The exit status: 0 on success, 2 for bad input.
+    """
     return run_cli(_main, argv)
 
 

@@ -76,9 +76,22 @@ class HorizonOptions:
 class HorizonResult:
     """Everything the horizon's files and report section show.
 
-    Attributes: ``threshold`` (a :class:`nvrq.horizon.Threshold`), ``table`` (horizon.csv),
-    ``curves`` (:func:`nvrq.horizon.share_curves`), ``timeline`` (horizon_timeline.csv or
-    None), ``fits`` (horizon_thresholds.csv, ratings only), ``options``, ``notes``.
+    Attributes
+    ----------
+    threshold : nvrq.horizon.Threshold
+        The metric threshold the horizon is measured against.
+    table : pandas.DataFrame
+        The horizon table (horizon.csv).
+    curves : pandas.DataFrame
+        The share curves (:func:`nvrq.horizon.share_curves`).
+    timeline : pandas.DataFrame or None
+        The timeline (horizon_timeline.csv), or None.
+    fits : pandas.DataFrame or None
+        The threshold fits (horizon_thresholds.csv, ratings only), or None.
+    options : HorizonOptions
+        The options used.
+    notes : list of str
+        Notes for the report.
     """
 
     threshold: Threshold
@@ -233,7 +246,24 @@ def for_pairs(analysis, items: pd.DataFrame, opts: HorizonOptions, *, where=None
 
 def pairs_items(analysis, pairs_path, metrics_paths, *, progress: bool) -> pd.DataFrame:
     """The per-pair items with ``camera`` and ``timestamp_us``: the analysis' own when it has
-    them (``--compare-methods`` reads them), else the pairs read again with them."""
+    them (``--compare-methods`` reads them), else the pairs read again with them.
+
+    Parameters
+    ----------
+    analysis : analysis.pipeline.Analysis
+        The all-pairs analysis.
+    pairs_path : str or pathlib.Path
+        The pairs input, as :func:`analysis.all_pairs.read_all_pairs`.
+    metrics_paths : sequence of str or pathlib.Path
+        The metrics tables or datasets.
+    progress : bool
+        Show the read's progress bar.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per pair, with ``camera`` and ``timestamp_us`` columns.
+    """
     if {"camera", "timestamp_us"} <= set(analysis.items.columns):
         return analysis.items
     from analysis.all_pairs import read_all_pairs

@@ -111,6 +111,21 @@ def read_ratings(path) -> pd.DataFrame:
     Checks: the contract columns exist; at least one row; ``vote`` is 0 or 1; ``kind`` is one of
     ``{'test', 'gold', 'training', 'repeat'}``; ``response_ms`` is numeric; no rater has two
     rows for the same (item, kind). Errors name the file's line.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The ratings table (``ratings.csv``).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per vote, in the canonical order.
+
+    Raises
+    ------
+    InputError
+        When a check fails, naming the file's line.
     """
     df = read_table(
         path,

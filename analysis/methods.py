@@ -95,7 +95,37 @@ ALPHA = 0.05
 
 @dataclass
 class MethodsResult:
-    """What ``--compare-methods`` adds to the report (see the module docstring)."""
+    """What ``--compare-methods`` adds to the report (see the module docstring).
+
+    Attributes
+    ----------
+    methods : list of str
+        Every compared method, in leaderboard order.
+    metrics : list of str
+        The compared metrics.
+    directions : dict of str to bool
+        Per metric, whether higher is better.
+    rank_metric : str
+        The metric the leaderboard ranks on.
+    table : pandas.DataFrame
+        Per-method summaries (:data:`TABLE_COLUMNS`).
+    paired : pandas.DataFrame
+        Paired method comparisons (:data:`PAIRED_COLUMNS`).
+    leaderboard : pandas.DataFrame
+        The leaderboard (:data:`LEADERBOARD_COLUMNS`).
+    n_boot : int
+        Bootstrap draws of the intervals and p-values.
+    notes : list of str
+        Notes for the report.
+    rank_view : str
+        The view the leaderboard ranks on (``'off-path'`` or ``'on-path'``).
+    min_clusters : int
+        The fewest tracks of an interval or a p-value.
+    by : str
+        The crossed breakdown of methods_paired.csv (``''`` for none).
+    sets : pandas.DataFrame or None
+        The ``nvrq score-sets`` table (``analyze --sets``), for the off-path table, or None.
+    """
 
     methods: list[str]  # every compared method, in leaderboard order
     metrics: list[str]
@@ -118,6 +148,16 @@ def holm(p: np.ndarray) -> np.ndarray:
     The i-th smallest of m p-values becomes ``max_{j <= i} min(1, (m - j + 1) p_(j))``
     (Holm 1979). The module doctest: m = 3 defined values 0.01, 0.03, 0.04 give 3 x 0.01 = 0.03,
     max(0.03, 2 x 0.03) = 0.06 and max(0.06, 1 x 0.04) = 0.06.
+
+    Parameters
+    ----------
+    p : (n,) float array_like
+        Unadjusted p-values; NaN where undefined.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n,) float64 adjusted p-values, NaN where ``p`` is not finite.
     """
     p = np.asarray(p, dtype=np.float64)
     out = np.full(p.shape, np.nan)
@@ -133,6 +173,16 @@ def holm(p: np.ndarray) -> np.ndarray:
 
 def default_rank_metric(metrics: list[str]) -> str | None:
     """NVRQ-CA of the first encoder (``nvrq_ca:ENC`` or ``nvrq_ca``), else the first metric.
+
+    Parameters
+    ----------
+    metrics : list of str
+        Metric column names.
+
+    Returns
+    -------
+    str or None
+        The metric to rank on; None when ``metrics`` is empty.
 
     >>> default_rank_metric(["psnr", "nvrq:a", "nvrq_ca:a", "nvrq_ca:b"])
     'nvrq_ca:a'
@@ -262,6 +312,18 @@ def _groups_of(items: pd.DataFrame, attributes: list[str]):
 
 def too_few_tracks(n_tracks: int, min_clusters: int) -> str:
     """The reason of a group without interval or p-value: its count of tracks.
+
+    Parameters
+    ----------
+    n_tracks : int
+        Tracks in the group.
+    min_clusters : int
+        The fewest tracks an interval or p-value needs.
+
+    Returns
+    -------
+    str
+        The reason, for a table's notes.
 
     >>> too_few_tracks(2, 5)
     '2 tracks, fewer than the 5 an interval or p-value needs'
@@ -429,7 +491,28 @@ def leaderboard_table(table: pd.DataFrame, paired: pd.DataFrame, *, methods: lis
     """Methods sorted by their mean ``metric`` over their objects of ``view`` (``'off-path'``
     or ``'on-path'``; best first), each with ``better_than_next``: the paired comparison with
     the next method on that view says better at ``p_holm < ALPHA`` (:data:`LEADERBOARD_COLUMNS`;
-    empty for the last and where the comparison is undefined)."""
+    empty for the last and where the comparison is undefined).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Per-method summaries (:data:`TABLE_COLUMNS`).
+    paired : pandas.DataFrame
+        Paired comparisons (:data:`PAIRED_COLUMNS`).
+    methods : list of str
+        The methods to rank.
+    metric : str
+        The metric to rank on.
+    higher_better : bool
+        Whether a higher ``metric`` is better.
+    view : str
+        ``'off-path'`` or ``'on-path'``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per method, best first (:data:`LEADERBOARD_COLUMNS`).
+    """
     t = table[(table["breakdown"] == view) & (table["metric"] == metric)].set_index("method")
     t = t.reindex(methods)
     order = t["mean"].sort_values(ascending=not higher_better, kind="stable", na_position="last").index

@@ -90,7 +90,20 @@ def _cell(r) -> str:
 def off_path_display(res, sets: pd.DataFrame | None = None) -> pd.DataFrame:
     """The "Off-path metrics" table: one row per offset and method, one column per metric
     (named with its direction), cells ``mean [95% interval] (n, tracks)`` or, for KID,
-    ``mean ± std over subsets (n renders)``. Empty without any of the metrics."""
+    ``mean ± std over subsets (n renders)``. Empty without any of the metrics.
+
+    Parameters
+    ----------
+    res : MethodsResult
+        The ``--compare-methods`` result.
+    sets : pandas.DataFrame or None
+        The ``nvrq score-sets`` table (``analyze --sets``), or None.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The display table of strings; empty without any off-path metric.
+    """
     rows = off_path_rows(res, sets)
     if rows.empty:
         return pd.DataFrame()
@@ -106,7 +119,20 @@ def off_path_display(res, sets: pd.DataFrame | None = None) -> pd.DataFrame:
 
 def off_path_figure(res, sets: pd.DataFrame | None = None) -> Figure | None:
     """Each off-path metric against ``|offset|`` per method (one panel per metric; the mean of
-    the two signs of an offset weighted by their n). None without any of the metrics."""
+    the two signs of an offset weighted by their n). None without any of the metrics.
+
+    Parameters
+    ----------
+    res : MethodsResult
+        The ``--compare-methods`` result.
+    sets : pandas.DataFrame or None
+        The ``nvrq score-sets`` table (``analyze --sets``), or None.
+
+    Returns
+    -------
+    matplotlib.figure.Figure or None
+        The figure; None without any off-path metric.
+    """
     rows = off_path_rows(res, sets)
     if rows.empty:
         return None

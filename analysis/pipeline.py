@@ -40,7 +40,71 @@ BOOT_CELL_LIMIT = 500_000_000
 
 @dataclass
 class Analysis:
-    """Everything the report shows. Tables are pandas DataFrames (see each module)."""
+    """Everything the report shows. Tables are pandas DataFrames (see each module).
+
+    Attributes
+    ----------
+    ratings_path : str
+        The input ratings table (or pairs input).
+    target : str
+        The target column the metrics are compared with.
+    items : pandas.DataFrame
+        One row per item (or pair) with the target, metrics and labels.
+    metrics : list of str
+        The metric columns.
+    directions : dict of str to bool
+        Per metric, whether higher is better.
+    attributes : list of str
+        The attribute (label) columns the breakdowns use.
+    proxies : list of str
+        The proxy columns classified apart from the metrics.
+    summary : pandas.DataFrame
+        Per-metric agreement with the target.
+    categories : pandas.DataFrame
+        The per-category breakdown.
+    by_offset : pandas.DataFrame
+        The per-offset view table.
+    encoders : pandas.DataFrame
+        The per-encoder table.
+    raters : pandas.DataFrame
+        The rater screening table.
+    alpha : dict
+        Inter-rater agreement of all raters and of the kept raters.
+    counts : dict
+        Counts of votes, items, raters and tracks.
+    timing : pandas.DataFrame or None
+        Metric timing (:func:`read_timing`), or None.
+    stability : pandas.DataFrame or None
+        The stability table (:func:`read_stability`), or None.
+    snr : pandas.DataFrame or None
+        The SNR table (:func:`read_stability`), or None.
+    by_axis : pandas.DataFrame or None
+        The per-axis view table, or None.
+    notes : list of str
+        Notes for the report.
+    unknown_ids : dict of str to int
+        Per metrics path, the pair ids that are not rated items.
+    n_boot : int
+        Bootstrap replicates (0: none).
+    seed : int
+        The random seed.
+    rank_by : str
+        The statistic metrics are ranked by (e.g. ``"srcc"``).
+    screen : bool
+        Whether the screening rule excluded raters.
+    ceiling : dict
+        The noise ceiling of the votes (empty for a non-vote target).
+    comparison : dict or None
+        The model comparison, or None.
+    source : str
+        ``"ratings"``, or ``"pairs"`` for ``analyze --pairs``.
+    margin : float
+        The non-inferiority margin (:mod:`analysis.noninferiority`).
+    methods : MethodsResult or None
+        The leaderboard with ``--compare-methods``, or None.
+    horizon : analysis.horizon.HorizonResult or None
+        The ``--horizon`` result, or None.
+    """
 
     ratings_path: str
     target: str
@@ -76,7 +140,19 @@ class Analysis:
 
 def read_timing(paths) -> pd.DataFrame | None:
     """Concatenate ``*.timing.csv`` files (``metric, seconds, pairs``): one row per metric with
-    summed seconds and pairs and ``pairs_per_s``."""
+    summed seconds and pairs and ``pairs_per_s``.
+
+    Parameters
+    ----------
+    paths : sequence of str or pathlib.Path
+        The timing tables.
+
+    Returns
+    -------
+    pandas.DataFrame or None
+        One row per metric (``seconds``, ``pairs``, ``pairs_per_s`` and any of ``runtime``,
+        ``precision``, ``threads``, ``device``); None without any file.
+    """
     frames = [
         read_table(p, required=TIMING_COLUMNS, what="timing table") for p in paths
     ]
@@ -104,12 +180,43 @@ def read_timing(paths) -> pd.DataFrame | None:
 
 
 def find_timing_files(timing_paths, metrics_paths) -> list:
-    """The ``--timing`` files, then the ``METRICS.timing.csv`` that exist beside the metrics tables."""
+    """The ``--timing`` files, then the ``METRICS.timing.csv`` that exist beside the metrics tables.
+
+    Parameters
+    ----------
+    timing_paths : sequence of str or pathlib.Path
+        The ``--timing`` files.
+    metrics_paths : sequence of str or pathlib.Path
+        The metrics tables.
+
+    Returns
+    -------
+    list
+        The timing file paths, ``--timing`` ones first.
+    """
     return list(timing_paths) + [timing_path(p) for p in metrics_paths if timing_path(p).is_file()]
 
 
 def read_stability(directory):
-    """``DIR/stability.csv`` and ``DIR/snr.csv`` if present: ``(stability, snr)`` or Nones."""
+    """``DIR/stability.csv`` and ``DIR/snr.csv`` if present: ``(stability, snr)`` or Nones.
+
+    Parameters
+    ----------
+    directory : str or pathlib.Path
+        The folder holding ``stability.csv`` and/or ``snr.csv``.
+
+    Returns
+    -------
+    stability : pandas.DataFrame or None
+        The stability table, or None when absent.
+    snr : pandas.DataFrame or None
+        The SNR table, or None when absent.
+
+    Raises
+    ------
+    InputError
+        When the folder does not exist or holds neither file.
+    """
     d = Path(directory)
     if not d.is_dir():
         raise InputError(d, None, "a directory with stability.csv / snr.csv", "no such directory")
@@ -190,7 +297,24 @@ def _columns(items, unknown, notes, *, target, tgt, lower, higher, where):
 
 def boot_size(items, n_boot, notes, *, unit: str = "item") -> int:
     """``n_boot``, or 0 with a note when ``items`` x ``n_boot`` is above :data:`BOOT_CELL_LIMIT`
-    (``unit``: what a row of ``items`` is, for the note)."""
+    (``unit``: what a row of ``items`` is, for the note).
+
+    Parameters
+    ----------
+    items : sized
+        The rows to resample (its ``len`` is used).
+    n_boot : int
+        Requested bootstrap replicates.
+    notes : list of str
+        Report notes; a note is appended when the bootstrap is skipped.
+    unit : str
+        What a row of ``items`` is, for the note.
+
+    Returns
+    -------
+    int
+        ``n_boot``, or 0 when the bootstrap is too large.
+    """
     if n_boot * len(items) > BOOT_CELL_LIMIT:
         notes.append(
             f"bootstrap skipped: {len(items)} {unit}s x {n_boot} replicates is above "

@@ -63,7 +63,20 @@ def _of_ceiling(row) -> str:
 
 
 def summary_display(a: Analysis, *, with_ci: bool = True) -> pd.DataFrame:
-    """The summary as strings for the terminal and the report (CIs in brackets if ``with_ci``)."""
+    """The summary as strings for the terminal and the report (CIs in brackets if ``with_ci``).
+
+    Parameters
+    ----------
+    a : Analysis
+        The analysis.
+    with_ci : bool
+        Show confidence intervals in brackets.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per metric, every cell a string.
+    """
     ci = _ci if with_ci else (lambda row, name: _fmt(row[name]))
     rows = []
     for _, r in a.summary.iterrows():  # one row per metric
@@ -399,7 +412,17 @@ def render_pages(d: Path, template: str, context) -> None:
     ``templates/TEMPLATE.md.j2`` to ``d/report.md``; ``context(table=...)`` gives each page's
     variables, its tables rendered by ``table(df, best_col=None)`` (an HTML table, the rows
     where ``best_col`` is true marked, or a Markdown table without that column). Every text
-    the Markdown page prints is escaped (:func:`analysis.text.md_escape`) but its own tables."""
+    the Markdown page prints is escaped (:func:`analysis.text.md_escape`) but its own tables.
+
+    Parameters
+    ----------
+    d : pathlib.Path
+        The report folder written to.
+    template : str
+        The template name, without the ``.html.j2`` / ``.md.j2`` suffix.
+    context : callable
+        ``context(table=...)`` returns a dict of the page's template variables.
+    """
     templates = Path(__file__).parent / "templates"
     for suffix, out, escape, table in ((".html.j2", "report.html", True, _html_page_table),
                                        (".md.j2", "report.md", False, _md_page_table)):
@@ -412,7 +435,20 @@ def render_pages(d: Path, template: str, context) -> None:
 def write_report_folder(build, out_dir) -> Path:
     """Write a report directory atomically: ``build(folder)`` fills a folder beside ``out_dir``
     that is marked as a report and swapped into place; an existing folder that is not a report
-    is refused (:func:`data_schema.outputs.check_output_folder`)."""
+    is refused (:func:`data_schema.outputs.check_output_folder`).
+
+    Parameters
+    ----------
+    build : callable
+        ``build(folder)`` writes the report's files into ``folder`` (a pathlib.Path).
+    out_dir : str or pathlib.Path
+        The report directory to write or replace.
+
+    Returns
+    -------
+    pathlib.Path
+        The report directory.
+    """
     out = check_output_folder(out_dir, kind="report", option="out_dir", command="analyze")
     with atomic_folder(out) as tmp:
         build(tmp)
@@ -431,5 +467,18 @@ def _build(a: Analysis, d: Path) -> None:
 
 
 def write_report(a: Analysis, out_dir) -> Path:
-    """Write the report directory atomically (build beside it, then swap it into place)."""
+    """Write the report directory atomically (build beside it, then swap it into place).
+
+    Parameters
+    ----------
+    a : Analysis
+        The analysis to report.
+    out_dir : str or pathlib.Path
+        The report directory to write or replace.
+
+    Returns
+    -------
+    pathlib.Path
+        The report directory.
+    """
     return write_report_folder(lambda d: _build(a, d), out_dir)

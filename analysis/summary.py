@@ -36,6 +36,21 @@ def binary_label(items: pd.DataFrame, target: str) -> tuple[np.ndarray | None, s
     an aggregated ``p_good``, else a 0/1 target.
 
     Returns ``(label (n,) bool or None, reason)``.
+
+    Parameters
+    ----------
+    items : pandas.DataFrame
+        One row per item, with ``target`` (and ``majority_good`` / ``model_good`` for the
+        ``gvf`` / ``p_good`` targets).
+    target : str
+        The target column.
+
+    Returns
+    -------
+    label : (n,) bool numpy.ndarray or None
+        The binary label, or None when the target is not binary.
+    reason : str or None
+        Why there is no label, else None.
     """
     if target == "gvf":
         return items["majority_good"].to_numpy(bool), None

@@ -105,7 +105,19 @@ def check_access(access: str, *, participant_param: str | None = None,
 
 
 def is_loopback(host: str) -> bool:
-    """True when ``host`` (an address or a name) reaches only this machine."""
+    """True when ``host`` (an address or a name) reaches only this machine.
+
+    Parameters
+    ----------
+    host : str
+        An IP address (brackets allowed) or a host name, resolved with ``getaddrinfo``.
+
+    Returns
+    -------
+    bool
+        True when the address, or every address the name resolves to, is a loopback one;
+        False when the name does not resolve.
+    """
     host = str(host).strip("[]")
     try:
         return ipaddress.ip_address(host).is_loopback
@@ -123,6 +135,16 @@ def check_serving(access: str, *, host: str, public_url: str | None = None) -> N
 
     An open study has no authentication (anyone who reaches it votes under any name), so its
     server binds a loopback address and no public URL points to it.
+
+    Parameters
+    ----------
+    access : str
+        The study's access mode (``"open"``, ``"token"`` or ``"crowd"``); only ``"open"`` is
+        checked.
+    host : str
+        The address the server binds.
+    public_url : str or None
+        The public URL that points to the server, if any.
 
     Raises
     ------
@@ -155,6 +177,13 @@ def crowd_identity(secret: str, participant: str | None = None) -> tuple[str, st
     ``participant``, the panel's participant id is the credential (keep it as private as the
     panel does), and arbitrary ids make new identities, as fresh arrivals without it do.
 
+    Parameters
+    ----------
+    secret : str
+        The study's secret, the HMAC key.
+    participant : str or None
+        The panel's participant id; None for a fresh random identity.
+
     Returns
     -------
     tuple of str
@@ -179,6 +208,19 @@ def crowd_identity(secret: str, participant: str | None = None) -> tuple[str, st
 def crowd_rater_for_token(secret: str, token: str) -> str | None:
     """The crowd rater a token of :func:`crowd_identity` names, if its HMAC is right (compared
     in constant time), else None. Costs one HMAC, never a store lookup.
+
+    Parameters
+    ----------
+    secret : str
+        The study's secret, the HMAC key.
+    token : str
+        A token as :func:`crowd_identity` makes it (32 URL-safe base64 characters).
+
+    Returns
+    -------
+    str or None
+        The rater id (``crowd-`` + 16 hex digits), or None when the token is malformed or
+        its HMAC does not match.
 
     >>> rater, token = crowd_identity("s")
     >>> crowd_rater_for_token("s", token) == rater, crowd_rater_for_token("t", token)
@@ -212,6 +254,21 @@ def check_participant(participant) -> str:
     """The panel's participant id if it is one the study accepts (1-64 of ``A-Z a-z 0-9
     _ . : @ -``, the whole value: no control character, no trailing newline), else
     :class:`CrowdRefused`.
+
+    Parameters
+    ----------
+    participant : object
+        The participant id from the arrival's URL query; converted with ``str``.
+
+    Returns
+    -------
+    str
+        The participant id, unchanged.
+
+    Raises
+    ------
+    CrowdRefused
+        When the id is not one the study accepts.
 
     >>> check_participant("5f1e@x")
     '5f1e@x'
@@ -376,6 +433,18 @@ def client_address(ip: str | None, forwarded_for: str | None) -> str:
     """The address a rate limit counts an arrival under: the connection's address, or, for a
     connection from this machine (a reverse proxy on loopback, README "Run a public study"),
     the last address of its ``X-Forwarded-For`` header (the one the proxy saw).
+
+    Parameters
+    ----------
+    ip : str or None
+        The connection's remote address, if known.
+    forwarded_for : str or None
+        The connection's ``X-Forwarded-For`` header, if any.
+
+    Returns
+    -------
+    str
+        The address, or ``"loopback"`` for a loopback connection without a forwarded address.
 
     >>> client_address("203.0.113.9", "10.0.0.1"), client_address(None, "1.2.3.4, 198.51.100.7")
     ('203.0.113.9', '198.51.100.7')

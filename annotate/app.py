@@ -146,6 +146,16 @@ _MD_SPECIAL = re.compile(r"([\\`*_{}\[\]()<>#+\-.!|~:/&=])")
 def plain(text: object) -> str:
     r"""``text`` with every markdown/HTML character escaped, for use inside ``st.*`` markdown.
 
+    Parameters
+    ----------
+    text : object
+        Any value; converted with ``str``.
+
+    Returns
+    -------
+    str
+        The text with each markdown/HTML special character backslash-escaped.
+
     >>> print(plain("[Click](http://x.y/) _a_"))
     \[Click\]\(http\:\/\/x\.y\/\) \_a\_
     """
@@ -201,7 +211,19 @@ def _returning_participant(study: Study, rater: str) -> str | None:
 
 
 def signed_in_rater(study: Study) -> str | None:
-    """The rater of this session, signing in from the URL when it says who (else None)."""
+    """The rater of this session, signing in from the URL when it says who (else None).
+
+    Parameters
+    ----------
+    study : Study
+        The study being served.
+
+    Returns
+    -------
+    str or None
+        The signed-in rater id; None when the URL names no valid rater (an error is shown
+        for an invalid token or name) or the store cannot be read.
+    """
     if "rater" in st.session_state:
         return st.session_state["rater"]
     qp = st.query_params
@@ -278,6 +300,13 @@ def _on_sign_in(study: Study) -> None:
 
 
 def sign_in_page(study: Study) -> None:
+    """Draw the sign-in page: a crowd refusal, a request for a personal link, or a name form.
+
+    Parameters
+    ----------
+    study : Study
+        The study being served; only an ``"open"`` study shows the name form.
+    """
     st.title("Image quality study")
     if "crowd_refused" in st.session_state:
         st.info(st.session_state.pop("crowd_refused"))
@@ -433,7 +462,15 @@ def _panel_unavailable(err: Exception) -> None:
 
 @st.fragment
 def voting_panel(study: Study, rater: str) -> None:
-    """The item on screen, progress and the vote buttons; a press reruns only this panel."""
+    """The item on screen, progress and the vote buttons; a press reruns only this panel.
+
+    Parameters
+    ----------
+    study : Study
+        The study being served.
+    rater : str
+        The signed-in rater id.
+    """
     try:
         key, prog, images = _next_on_screen(study, rater)
     except (StudyChanged, sqlite3.Error, OSError) as err:
@@ -514,6 +551,16 @@ def _pairwise_buttons(study: Study, rater: str, key: str, token: str) -> None:
 
 
 def rater_page(study: Study, rater: str) -> None:
+    """Draw a rater's page: the instructions and a Start button before the first vote, then
+    the voting panel.
+
+    Parameters
+    ----------
+    study : Study
+        The study being served.
+    rater : str
+        The signed-in rater id.
+    """
     if not st.session_state.get("started"):
         try:
             fresh = study.store.votes(rater).empty
@@ -555,6 +602,8 @@ def refuse_uploads() -> bool:
 
 
 def main() -> None:
+    """Run the app for the study named by ``ANNOTATE_STUDY``: the admin page, the sign-in
+    page or the rater's page."""
     st.set_page_config(page_title="Image quality study", layout="wide")
     root = os.environ.get("ANNOTATE_STUDY")
     if not root:

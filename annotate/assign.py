@@ -42,6 +42,18 @@ def rater_seed(study_seed: int, rater: str) -> int:
     Unkeyed: anyone who knows the seed computes it. Plans use :func:`plan_seed` (keyed with
     the study's secret); this stays for callers that want a public, reproducible seed.
 
+    Parameters
+    ----------
+    study_seed : int
+        The study's seed.
+    rater : str
+        The rater id.
+
+    Returns
+    -------
+    int
+        A non-negative seed below ``2**63``, from SHA-256 of ``"seed:rater"``.
+
     >>> rater_seed(0, "ann") == rater_seed(0, "ann") != rater_seed(1, "ann")
     True
     """

@@ -85,7 +85,25 @@ _EXACT_GRID = 801  # points on the H0 boundary where the exact p is maximised
 
 @dataclass(frozen=True)
 class ScreenRule:
-    """Thresholds and test level of the screening rule (see the module docstring)."""
+    """Thresholds and test level of the screening rule (see the module docstring).
+
+    Attributes
+    ----------
+    alpha : float
+        Level of each one-sided test (agreement, gold, repeats, speed).
+    min_j : float
+        The Youden J the agreement test's ``H0: J >= min_j`` assumes.
+    skill_alpha : float
+        A rater with Fisher skill p at or above this shows no skill and is flagged.
+    min_class_votes : int
+        Items needed in each consensus class before the skill test is computed.
+    max_gold_failure_rate : float
+        Gold failure rate the gold test's binomial ``H0`` assumes.
+    min_repeat_consistency : float
+        Repeat consistency the repeat test's binomial ``H0`` assumes.
+    min_response_ms : float
+        Response time (ms) under which a test vote counts as fast.
+    """
 
     alpha: float = 0.01
     min_j: float = 0.35
@@ -97,7 +115,19 @@ class ScreenRule:
 
 
 def gold_expected(gold: pd.DataFrame) -> np.ndarray:
-    """Expected vote of gold rows: (n,) float 1.0 / 0.0, NaN where unknown."""
+    """Expected vote of gold rows: (n,) float 1.0 / 0.0, NaN where unknown.
+
+    Parameters
+    ----------
+    gold : pandas.DataFrame
+        Gold rows with ``item_id`` (``gold-good:``/``gold-bad:`` prefixes) and, optionally,
+        ``gold_expected`` (1 good, 0 bad), which takes precedence where finite.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n,) float64: 1.0 good, 0.0 bad, NaN where the expected answer is unknown.
+    """
     ids = gold["item_id"].astype(str)
     exp = np.where(
         ids.str.startswith("gold-good:"),
@@ -116,6 +146,26 @@ def j_test(sens, spec, n_good, n_bad, *, min_j: float):
     The standard error is taken at the point of the H0 boundary nearest the observed rates
     (the gap split evenly, clipped into [0, 1]), so a rater with ``sens = 1, spec = 0`` still
     gets a finite, honest z. Returns ``(z, p)``; NaN where a class has no item.
+
+    Parameters
+    ----------
+    sens : array_like of float
+        Sensitivity (share of good votes on consensus-good items).
+    spec : array_like of float
+        Specificity (share of bad votes on consensus-bad items).
+    n_good : array_like of int
+        Number of consensus-good items.
+    n_bad : array_like of int
+        Number of consensus-bad items.
+    min_j : float
+        The J of the null hypothesis boundary.
+
+    Returns
+    -------
+    z : numpy.ndarray
+        The z statistic (broadcast shape), NaN where a class has no item.
+    p : numpy.ndarray
+        Its one-sided normal p-value ``Phi(z)``.
 
     >>> z, p = j_test(1.0, 0.0, 48, 12, min_j=0.4)  # straight-lining "good"
     >>> round(float(z), 3), round(float(p), 4)
@@ -201,6 +251,18 @@ def consensus_stats(votes: np.ndarray, use: np.ndarray | None = None) -> dict:
     use: (..., R) bool, the raters whose votes form the consensus (default all).
     Returns a dict of (..., R) arrays: ``n_compared, n_cons_good, n_cons_bad, agreement,
     kappa, sensitivity, specificity, youden_j, loo_corr``.
+
+    Parameters
+    ----------
+    votes : (..., R, I) float array_like
+        0/1 votes, NaN where a rater did not rate an item.
+    use : (..., R) bool array_like or None
+        The raters whose votes form the consensus; None for all.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        (..., R) arrays; the counts are int64, the rest float64 (NaN where undefined).
     """
     v = np.asarray(votes, dtype=np.float64)
     has = np.isfinite(v)
@@ -264,6 +326,17 @@ def fisher_skill_p(res: dict):
     n_cons_good, the rater's good votes), ``a`` = good votes on consensus-good items.
     NaN when a consensus class is empty.
 
+    Parameters
+    ----------
+    res : dict
+        :func:`consensus_stats` output (at least ``n_compared``, ``n_cons_good``,
+        ``n_cons_bad``, ``sensitivity``, ``specificity``).
+
+    Returns
+    -------
+    numpy.ndarray
+        The p-values, float64 of the broadcast shape of ``res``'s arrays.
+
     >>> r = {"n_compared": np.array(4), "n_cons_good": np.array(2), "n_cons_bad": np.array(2),
     ...      "sensitivity": np.array(1.0), "specificity": np.array(1.0)}
     >>> float(fisher_skill_p(r))  # perfect on 2 + 2: 1 / C(4, 2)
@@ -282,7 +355,26 @@ def agreement_tests(res: dict, rule: ScreenRule):
     """``(j_z, j_p, skill_p, flag)`` of :func:`consensus_stats`-like output under ``rule``:
     the J test (:func:`j_test` against ``rule.min_j``), the Fisher skill test (NaN with fewer
     than ``rule.min_class_votes`` items in a consensus class) and the agreement flag. Also
-    serves the pairwise screening (:func:`analysis.pairwise.rater_table`)."""
+    serves the pairwise screening (:func:`analysis.pairwise.rater_table`).
+
+    Parameters
+    ----------
+    res : dict
+        :func:`consensus_stats`-like output.
+    rule : ScreenRule
+        Thresholds and test level.
+
+    Returns
+    -------
+    j_z : numpy.ndarray
+        The J test's z statistic.
+    j_p : numpy.ndarray
+        The J test's p-value (exact at up to ``EXACT_J_MAX_N`` compared items).
+    skill_p : numpy.ndarray
+        The Fisher skill p-value, NaN where a consensus class is too small.
+    flag : numpy.ndarray
+        bool, ``j_p < rule.alpha`` or ``skill_p >= rule.skill_alpha``.
+    """
     z, p = _j_p(res, rule)
     skill_p = fisher_skill_p(res)
     enough = np.minimum(res["n_cons_good"], res["n_cons_bad"]) >= rule.min_class_votes
@@ -297,6 +389,18 @@ def screen_agreement(votes: np.ndarray, *, rule: ScreenRule | None = None) -> di
     the flagged one with the lowest J from the consensus and recompute (at least two raters
     stay). Returns :func:`consensus_stats` against the final consensus plus ``j_z``, ``j_p``,
     ``skill_p``, ``in_consensus`` and ``flag_agreement`` (..., R).
+
+    Parameters
+    ----------
+    votes : (..., R, I) float numpy.ndarray
+        0/1 votes, NaN where a rater did not rate an item.
+    rule : ScreenRule or None
+        Thresholds and test level; None for the defaults.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        (..., R) arrays, as described above.
     """
     rule = rule or ScreenRule()
     v = np.asarray(votes, dtype=np.float64)
@@ -392,7 +496,22 @@ def _speed_columns(out, votes, r_codes, n_r, rule):
 
 
 def rater_table(votes: pd.DataFrame, *, rule: ScreenRule | None = None) -> pd.DataFrame:
-    """Per-rater screening numbers from one-row-per-vote ``votes`` (all kinds)."""
+    """Per-rater screening numbers from one-row-per-vote ``votes`` (all kinds).
+
+    Parameters
+    ----------
+    votes : pandas.DataFrame
+        One row per vote (columns ``rater_id``, ``kind``, ``item_id``, the vote and the
+        response time, as in the ratings table).
+    rule : ScreenRule or None
+        Thresholds and test level; None for the defaults.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per rater (sorted by id): ``rater_id``, ``simulated``, ``n_<kind>`` counts and
+        the agreement, gold, repeat and speed columns (the module docstring lists them).
+    """
     rule = rule or ScreenRule()
     r_codes, raters = pd.factorize(votes["rater_id"], sort=True)
     n_r = len(raters)
@@ -428,6 +547,27 @@ def screen(
     Flags are always computed and reported; raters are excluded by ``exclude``
     (``--exclude-raters``) and, with ``use_rule`` (``analyze``'s default; ``--no-screen``
     turns it off), by a flag: ``excluded_reason`` is then ``screening: `` and the flags.
+
+    Parameters
+    ----------
+    raters : pandas.DataFrame
+        :func:`rater_table` output.
+    rule : ScreenRule or None
+        Thresholds and test level; None for the defaults.
+    use_rule : bool
+        Whether a flag excludes the rater.
+    exclude : list of str
+        Rater ids to exclude by hand.
+
+    Returns
+    -------
+    pandas.DataFrame
+        A copy of ``raters`` with ``flags``, ``excluded`` and ``excluded_reason`` added.
+
+    Raises
+    ------
+    InputError
+        When ``exclude`` names a rater not in ``raters``.
     """
     rule = rule or ScreenRule()
     unknown = sorted(set(exclude) - set(raters["rater_id"]))

@@ -142,12 +142,29 @@ def utc_iso(t: datetime) -> str:
 
 
 def utc_now_iso() -> str:
-    """Current time, ISO 8601 in UTC with milliseconds, e.g. ``2026-01-01T12:00:00.123Z``."""
+    """Current time, ISO 8601 in UTC with milliseconds, e.g. ``2026-01-01T12:00:00.123Z``.
+
+    Returns
+    -------
+    str
+        The current UTC time in that format.
+    """
     return utc_iso(datetime.now(timezone.utc))
 
 
 def token_digest(token: str) -> str:
-    """SHA-256 hex digest under which a rater token is stored (the token itself is not)."""
+    """SHA-256 hex digest under which a rater token is stored (the token itself is not).
+
+    Parameters
+    ----------
+    token : str
+        The rater's sign-in token.
+
+    Returns
+    -------
+    str
+        64 lowercase hex digits: SHA-256 of the token's UTF-8 bytes.
+    """
     return hashlib.sha256(token.encode("utf-8")).hexdigest()
 
 
@@ -208,7 +225,21 @@ def _migrate(con: sqlite3.Connection) -> None:
 
 
 class Store:
-    """Votes, raters and assignments of one study in the SQLite file ``path``."""
+    """Votes, raters and assignments of one study in the SQLite file ``path``.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The SQLite file; created (with its schema) if absent.
+    study : str
+        The study id the votes are recorded under.
+    busy_timeout_ms : int
+        How long (ms) an operation waits for another process's lock.
+    synchronous : str
+        ``'FULL'`` (default: every commit synced to disk) or ``'NORMAL'`` (see ``__init__``).
+    votes : dict of int to str or None
+        The vote values a new file accepts and their meaning; None for :data:`BINARY_VOTES`.
+    """
 
     def __init__(self, path: str | Path, study: str, *, busy_timeout_ms: int = 30000,
                  synchronous: str = "FULL", votes: dict[int, str] | None = None):

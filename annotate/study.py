@@ -261,6 +261,23 @@ def _write_manifest(tmp: Path, manifest: dict) -> None:
 def crop_path(study_root: str | Path, name: str) -> Path:
     """The crop file ``name`` inside ``STUDY/crops``; refuses anything that leaves that folder.
 
+    Parameters
+    ----------
+    study_root : str or pathlib.Path
+        The study folder.
+    name : str
+        The crop's file name, relative to ``STUDY/crops``.
+
+    Returns
+    -------
+    pathlib.Path
+        The resolved path of an existing file directly inside ``STUDY/crops``.
+
+    Raises
+    ------
+    InputError
+        When ``name`` leads outside that folder, holds a NUL, or names no file.
+
     >>> import tempfile
     >>> d = Path(tempfile.mkdtemp()); (d / "crops").mkdir(); _ = (d / "crops" / "ab.jpg").write_bytes(b"x")
     >>> crop_path(d, "ab.jpg").name
@@ -281,7 +298,19 @@ def crop_path(study_root: str | Path, name: str) -> Path:
 
 @dataclass
 class Study:
-    """A loaded study: its folder, manifest, items (indexed by key) and vote store."""
+    """A loaded study: its folder, manifest, items (indexed by key) and vote store.
+
+    Attributes
+    ----------
+    root : pathlib.Path
+        The study folder (resolved).
+    manifest : dict
+        The parsed ``manifest.json``.
+    items : pandas.DataFrame
+        The rows of ``items.csv``, indexed by ``key``.
+    store : Store
+        The study's vote store (``votes.sqlite``).
+    """
 
     root: Path
     manifest: dict
@@ -416,7 +445,18 @@ class StudyChanged(RuntimeError):
 
 
 def load_study(root: str | Path) -> Study:
-    """Load ``STUDY/`` (InputError naming the file if it is not a readable study folder)."""
+    """Load ``STUDY/`` (InputError naming the file if it is not a readable study folder).
+
+    Parameters
+    ----------
+    root : str or pathlib.Path
+        The study folder made by ``annotate build``.
+
+    Returns
+    -------
+    Study
+        The study with its manifest, items table and opened vote store.
+    """
     root = Path(root).resolve()
     path = root / _MANIFEST
     if not path.is_file():
@@ -471,7 +511,19 @@ def _read_manifest(path: Path) -> dict:
 
 def unplaced_votes(study: Study) -> dict[str, int]:
     """Votes in the study's store that an export cannot place, counted by reason
-    (``{reason: n}``; empty when every vote has an item of this study)."""
+    (``{reason: n}``; empty when every vote has an item of this study).
+
+    Parameters
+    ----------
+    study : Study
+        The loaded study.
+
+    Returns
+    -------
+    dict of str to int
+        Number of unplaceable votes per reason (votes for unknown items, votes recorded under
+        another study id).
+    """
     votes = study.store.votes()
     out = {}
     unknown = int((~votes["item"].isin(study.items.index)).sum())

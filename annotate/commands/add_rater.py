@@ -45,6 +45,16 @@ def run(args) -> int:
     then stops working, and the command says so. The link's base is ``--public-url``, else
     ``--host``/``--port``, else the address ``annotate serve`` last served the study at,
     else ``http://127.0.0.1:8501/``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed options: ``study``, ``name``, ``host``, ``port``, ``public_url``, ``rotate``.
+
+    Returns
+    -------
+    int
+        The exit status, 0.
     """
     from annotate.study import load_study
 
