@@ -66,7 +66,23 @@ REQUIRED_COLUMNS = ("pair_id", *CROP_COLUMNS)
 class ScoreResult:
     """``table``: ``pair_id`` + one column per metric, rows in the pairs' order.
     ``timing``: columns ``metric, seconds, pairs``. ``n_encoder_images``: crops embedded.
-    ``undefined``: the NaN values per metric and reason (:func:`undefined_counts`)."""
+    ``undefined``: the NaN values per metric and reason (:func:`undefined_counts`).
+
+    Attributes
+    ----------
+    table : pandas.DataFrame
+        ``pair_id`` + one column per metric, rows in the pairs' order.
+    timing : pandas.DataFrame
+        Columns ``metric, seconds, pairs``.
+    n_pairs : int
+        Number of pairs scored.
+    n_encoder_images : int
+        Crops embedded by the encoder.
+    n_images_decoded : int
+        Images decoded.
+    undefined : pandas.DataFrame or None
+        NaN values per metric and reason (:func:`undefined_counts`); None when not counted.
+    """
 
     table: pd.DataFrame
     timing: pd.DataFrame
