@@ -162,6 +162,18 @@ def empty_column_warnings(undefined: pd.DataFrame | None, n_pairs: int) -> list[
     """:func:`empty_column_warning` for each metric of :func:`undefined_counts`' table that is
     NaN on all ``n_pairs`` pairs, with its reasons and counts.
 
+    Parameters
+    ----------
+    undefined : pandas.DataFrame or None
+        :func:`undefined_counts`' table (``metric, reason, pairs``); None for no warnings.
+    n_pairs : int
+        Number of pairs scored.
+
+    Returns
+    -------
+    list of str
+        One warning line per metric that is NaN on every pair.
+
     >>> u = undefined_counts({"niqe": np.full(3, np.nan), "psnr": np.array([np.nan, 1.0, 2.0])},
     ...                      np.array([99, 99, 99]), np.array([50, 60, 70]))
     >>> empty_column_warnings(u, 3)
