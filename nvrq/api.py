@@ -113,6 +113,18 @@ def as_rgb_uint8(x, *, name: str = "image") -> np.ndarray:
     in [0, 1] (``round(255 x)``, copied to the host). :class:`InputError` naming ``name``
     otherwise.
 
+    Parameters
+    ----------
+    x : numpy.ndarray or torch.Tensor
+        numpy uint8 (H, W, 3) RGB, or a torch tensor (3, H, W) of uint8 or floats in [0, 1].
+    name : str, optional
+        Name of the argument that error messages cite (default ``"image"``).
+
+    Returns
+    -------
+    numpy.ndarray
+        (H, W, 3) uint8 RGB array on the host.
+
     >>> as_rgb_uint8(np.zeros((2, 3, 3), np.uint8)).shape
     (2, 3, 3)
     >>> as_rgb_uint8(np.zeros((2, 3), np.uint8), name="crop")
@@ -561,6 +573,11 @@ def score_frame(gt_image, render_image, gt_boxes, render_boxes, *, metrics, enco
     gt_boxes, render_boxes : (N, 4) int
         Inclusive pixel boxes ``x0, y0, x1, y1`` (the pairs table's ``gt_*``/``r_*``
         columns). The GT image is cut once per distinct GT box, and those crops are shared.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per box pair, one column per metric (as :func:`score_crops`).
 
     >>> img = np.zeros((10, 10, 3), np.uint8)
     >>> score_frame(img, img + 2, [[0, 0, 3, 3], [0, 0, 3, 3]], [[0, 0, 3, 3], [2, 2, 9, 9]],

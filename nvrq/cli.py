@@ -43,7 +43,13 @@ COMMAND_MODULES = [
 
 def build_parser() -> ArgumentParser:
     """The ``nvrq`` parser: every subcommand of :data:`COMMAND_MODULES`
-    (:func:`nvrq.commands.args.command_parser`)."""
+    (:func:`nvrq.commands.args.command_parser`).
+
+    Returns
+    -------
+    ArgumentParser
+        The top-level parser with one subparser per command.
+    """
     return command_parser("nvrq", "Object-level quality of novel-view synthesis in driving scenes (NVRQ).",
                           COMMAND_MODULES)
 
@@ -98,7 +104,18 @@ def _main(argv=None) -> int:
 def main(argv=None) -> int:
     """Entry point of the ``nvrq`` console script. Sets the Hugging Face hub offline for the
     process (the library reads model folders with ``local_files_only`` and never downloads;
-    this also keeps transformers from asking the hub about them)."""
+    this also keeps transformers from asking the hub about them).
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        Command-line arguments (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        The process exit status.
+    """
     os.environ["HF_HUB_OFFLINE"] = "1"
     os.environ["TRANSFORMERS_OFFLINE"] = "1"
     return run_cli(_main, argv)

@@ -163,6 +163,24 @@ def view_validity(
     model's range), 2 = some corner outside the image, 3 = too small. ``box`` is only
     meaningful where ``code == 0``; elsewhere it is ``[0, 0, 0, 0]`` (a corner at a grazing
     angle projects to 1e20 px and more, beyond any integer box).
+
+    Parameters
+    ----------
+    camera : camera model
+        With ``project(points)`` -> ``(uv, projectable)`` and ``in_image(uv)``.
+    corners_sensor : (..., 8, 3) float
+        Box corners in the camera frame.
+    min_side : float
+        Smallest box side (pixels) that is valid.
+    min_area : float
+        Smallest box area (square pixels) that is valid.
+
+    Returns
+    -------
+    code : (...,) int8
+        0 valid, 1 unprojectable, 2 outside the image, 3 too small.
+    box : (..., 4) int64
+        Inclusive pixel boxes ``x0, y0, x1, y1``; ``[0, 0, 0, 0]`` where a corner is invalid.
     """
     uv, projectable = camera.project(corners_sensor)
     projectable = projectable & np.isfinite(uv).all(axis=-1)

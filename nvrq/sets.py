@@ -150,7 +150,23 @@ def kid(render: np.ndarray, gt: np.ndarray, *, subsets: int = KID_SUBSETS, subse
 class SetOptions:
     """What ``nvrq score-sets`` computes. ``kinds``: ``frames`` and/or ``objects``; ``metrics``:
     ``fd`` and/or ``kid`` (``fd`` alone makes a set too small for FD an error, with ``kid`` it
-    gets KID only and a reason); ``min_side``: the pairs' smallest crop side (objects)."""
+    gets KID only and a reason); ``min_side``: the pairs' smallest crop side (objects).
+
+    Attributes
+    ----------
+    kinds : tuple of str
+        ``frames`` and/or ``objects`` (default both).
+    metrics : tuple of str
+        ``fd`` and/or ``kid`` (default both).
+    kid_subsets : int
+        Number of KID subsets (default :data:`KID_SUBSETS`).
+    kid_subset_size : int
+        KID subset size (default :data:`KID_SUBSET_SIZE`).
+    seed : int
+        Seed of the KID subsets (default :data:`KID_SEED`).
+    min_side : float
+        Objects: the smallest crop side of a pair, in pixels (default 30).
+    """
 
     kinds: tuple[str, ...] = ("frames", "objects")
     metrics: tuple[str, ...] = ("fd", "kid")

@@ -475,7 +475,22 @@ def run_stability(pairs: pd.DataFrame, options: StabilityOptions | None = None, 
 
 def plot_stability(stab: pd.DataFrame, snr: pd.DataFrame, out_stem) -> list:
     """Two panels -> ``out_stem.png`` and ``out_stem.svg``: (a) SNR per nuisance and metric (log
-    scale), (b) mean change vs strength under box jitter (solid) and artefacts (dashed)."""
+    scale), (b) mean change vs strength under box jitter (solid) and artefacts (dashed).
+
+    Parameters
+    ----------
+    stab : pandas.DataFrame
+        The stability table of :func:`run_stability`.
+    snr : pandas.DataFrame
+        The signal-to-nuisance table of :func:`run_stability`.
+    out_stem : str or os.PathLike
+        Output path without extension.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written (``.png`` and ``.svg``).
+    """
     fig = stability_figure(stab, snr)
     written = []
     for ext in ("png", "svg"):

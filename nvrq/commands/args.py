@@ -105,6 +105,12 @@ class ArgumentParser(argparse.ArgumentParser):
     built on it reports a bad argument the same way as bad input (docs/FORMATS.md §7). Its help
     shows a comma list as one ``A,B`` value (:class:`CommaList`), and a value that starts with a
     minus sign (``-3,-2``, ``-3,abc``) is taken as the value it is (:data:`NEGATIVE_LIST`).
+
+    Parameters
+    ----------
+    *args, **kwargs
+        Passed to ``argparse.ArgumentParser`` (``formatter_class`` defaults to the module's
+        help formatter).
     """
 
     def __init__(self, *args, **kwargs):

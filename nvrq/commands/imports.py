@@ -31,7 +31,25 @@ __all__ = ["register", "ImporterCommand", "IMPORTERS", "register_importer"]
 class ImporterCommand:
     """One ``nvrq import NAME`` subcommand: ``module`` holds ``IMPORTER`` (an
     :class:`nvrq.sources.base.Importer`), ``inputs`` the argument names (dests) that are input
-    files or folders, ``arguments(parser)`` adds the arguments before ``OUT``."""
+    files or folders, ``arguments(parser)`` adds the arguments before ``OUT``.
+
+    Attributes
+    ----------
+    name : str
+        Subcommand name (``nvrq import NAME``).
+    module : str
+        Dotted name of the module that holds ``IMPORTER``.
+    inputs : tuple of str
+        Argument names (dests) that are input files or folders.
+    arguments : callable
+        ``arguments(parser)`` adds the positional arguments before ``OUT``.
+    help : str
+        One-line help shown in ``nvrq import --help``.
+    description : str
+        The subcommand's description.
+    options : callable or None
+        ``options(parser)`` adds the importer's options; None for none.
+    """
 
     name: str
     module: str

@@ -56,6 +56,13 @@ def metrics_help() -> str:
 
 
 def register(sub) -> None:
+    """Add the ``nvrq score`` subparser (its arguments, and :func:`run` as its ``func``).
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subparsers of the ``nvrq`` parser.
+    """
     p = sub.add_parser("score", help="NVRQ, NVRQ-CA and pixel metrics per pair (docs/FORMATS.md §4)",
                        description="Score every GT/render crop pair of a pairs table. Writes "
                                    "METRICS and METRICS.timing.csv (metric, seconds, pairs).")
@@ -189,6 +196,20 @@ def _local_dataset(args, plan: ScorePlan) -> int:
 def column_renames(columns, *, tag: str | None, precision: str) -> dict[str, str]:
     """``{nvrq:E: nvrq:E@TAG}`` for the encoder columns of ``columns``: TAG is ``tag``, else a
     reduced ``precision`` (bf16/int8), else no renaming (fp32).
+
+    Parameters
+    ----------
+    columns : iterable of str
+        Column names of a metrics table.
+    tag : str or None
+        ``--column-tag``; None to derive it from ``precision``.
+    precision : str
+        The encoder's precision (``fp32``, ``bf16`` or ``int8``).
+
+    Returns
+    -------
+    dict of str to str
+        Old encoder column name to tagged name; empty when there is no tag.
 
     >>> column_renames(["psnr", "nvrq:e"], tag=None, precision="int8")
     {'nvrq:e': 'nvrq:e@int8'}

@@ -14,6 +14,13 @@ SET_METRICS = ("fd", "kid")
 
 
 def register(sub) -> None:
+    """Add the ``nvrq score-sets`` subparser (its arguments, and :func:`run` as its ``func``).
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subparsers of the ``nvrq`` parser.
+    """
     p = sub.add_parser("score-sets", help="FD and KID per method and view: render frames and object crops "
                        "against the GT (docs/FORMATS.md §3c)",
                        description="Fréchet distance and KID of every set (one method, one view) of a scene "
@@ -51,6 +58,19 @@ def _choices(text: str, allowed, option: str) -> tuple[str, ...]:
 
 
 def run(args) -> int:
+    """``nvrq score-sets``: FD and KID of every set of a scene with renders
+    (:func:`nvrq.sets.score_sets`); writes the sets table and, optionally, the features.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options.
+
+    Returns
+    -------
+    int
+        Exit status 0 (errors are raised as :class:`InputError`).
+    """
     from pathlib import Path
 
     import numpy as np

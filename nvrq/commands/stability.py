@@ -57,6 +57,20 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    """``nvrq stability``: run the stability study on a pairs table
+    (:func:`nvrq.stability.run_stability`) and write the report folder (samples, stability and
+    SNR tables, plots); prints the overall signal-to-nuisance ratio per metric.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options.
+
+    Returns
+    -------
+    int
+        Exit status 0 (errors are raised as :class:`InputError`).
+    """
     from data_schema.tables import GT_BOX_COLUMNS, atomic_folder, read_table, write_table
     from nvrq.stability import plot_stability, run_stability  # SciPy, matplotlib: not for --help
 

@@ -63,6 +63,16 @@ def pixel_box(uv: np.ndarray) -> np.ndarray:
 
     Raises ``ValueError`` for a coordinate that is not finite or beyond :data:`MAX_PIXEL`
     (casting it would give an arbitrary integer): callers mask points outside the image first.
+
+    Parameters
+    ----------
+    uv : (..., K, 2) float
+        Pixel coordinates ``u, v`` of K points.
+
+    Returns
+    -------
+    (..., 4) int64
+        Inclusive pixel boxes ``x0, y0, x1, y1`` (floor of the minima, ceil of the maxima).
     """
     uv = np.asarray(uv, dtype=np.float64)
     if uv.size and not (np.abs(uv) <= MAX_PIXEL).all():

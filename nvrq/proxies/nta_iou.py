@@ -53,7 +53,33 @@ class Protocol:
     ``nvrq``); ``vehicles_only``: project only boxes whose class maps to a vehicle;
     ``truncate``: integer coordinates; ``clip``: clip to the image instead of dropping;
     ``behind``: ``'any'`` drops a box with any corner behind the camera, ``'all'`` only with all;
-    ``hungarian``: one-to-one IoU matching, else the peers' nearest centre within ``radius``."""
+    ``hungarian``: one-to-one IoU matching, else the peers' nearest centre within ``radius``.
+
+    Attributes
+    ----------
+    name : str
+        Protocol name (a key of :data:`PROTOCOLS`).
+    size : tuple of int (W, H) or None
+        Evaluation size; None for the image's own.
+    det_classes : tuple of str or None
+        COCO classes kept; None for all.
+    vehicles_only : bool
+        Project only boxes whose class maps to a vehicle.
+    truncate : bool
+        Truncate box coordinates to integers.
+    clip : bool
+        Clip boxes to the image instead of dropping them.
+    behind : str
+        ``'any'`` drops a box with any corner behind the camera, ``'all'`` only with all.
+    hungarian : bool
+        One-to-one IoU matching; else nearest centre within ``radius``.
+    class_map : bool
+        Map detection classes with the class map (default False).
+    min_score : float
+        Smallest detection score kept (default 0.5).
+    radius : float
+        Centre-matching radius in pixels (default 10.0).
+    """
 
     name: str
     size: tuple[int, int] | None

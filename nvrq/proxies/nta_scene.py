@@ -113,7 +113,22 @@ def novel_boxes(scene: Scene, protocol: Protocol) -> pd.DataFrame:
 
 def check_detection_paths(scene: Scene, dets: pd.DataFrame, *, where: str) -> np.ndarray:
     """Each detection's path as the scene's relative image path; :class:`InputError` naming the
-    first DETS row whose path is not an image of ``scene`` (relative, or absolute inside it)."""
+    first DETS row whose path is not an image of ``scene`` (relative, or absolute inside it).
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene the detections belong to.
+    dets : pandas.DataFrame
+        A DETS table with a ``path`` column.
+    where : str
+        What errors name (the DETS table).
+
+    Returns
+    -------
+    (N,) object numpy.ndarray of str
+        Each detection's image path relative to the scene root, as in ``images.csv``.
+    """
     root = os.path.normpath(str(scene.root.resolve()))
     known = set(scene.images.path.astype(str).map(os.path.normpath))
     paths = dets["path"].astype(str).to_numpy(dtype=object)

@@ -376,6 +376,21 @@ def score_crop_batch(batch: CropBatch, *, metrics: Sequence[str], encoder=None, 
 
 def empty_column_warning(metric: str, n_pairs: int, why: str = "") -> str:
     """The one ``warning:`` line of a metric that is NaN on every one of ``n_pairs`` pairs
-    (``why``: the reasons, when known), printed wherever a run's summary is."""
+    (``why``: the reasons, when known), printed wherever a run's summary is.
+
+    Parameters
+    ----------
+    metric : str
+        The metric column.
+    n_pairs : int
+        Number of pairs scored.
+    why : str, optional
+        The reasons it is undefined (default: none given).
+
+    Returns
+    -------
+    str
+        The warning line (no trailing newline).
+    """
     return (f"warning: {metric} is NaN on all {n_pairs} pairs: undefined for these crops, its column "
             f"is empty" + (f" ({why})" if why else ""))

@@ -66,7 +66,23 @@ REQUIRED_COLUMNS = ("pair_id", *CROP_COLUMNS)
 class ScoreResult:
     """``table``: ``pair_id`` + one column per metric, rows in the pairs' order.
     ``timing``: columns ``metric, seconds, pairs``. ``n_encoder_images``: crops embedded.
-    ``undefined``: the NaN values per metric and reason (:func:`undefined_counts`)."""
+    ``undefined``: the NaN values per metric and reason (:func:`undefined_counts`).
+
+    Attributes
+    ----------
+    table : pandas.DataFrame
+        ``pair_id`` + one column per metric, rows in the pairs' order.
+    timing : pandas.DataFrame
+        Columns ``metric, seconds, pairs``.
+    n_pairs : int
+        Number of pairs scored.
+    n_encoder_images : int
+        Crops embedded by the encoder.
+    n_images_decoded : int
+        Images decoded.
+    undefined : pandas.DataFrame or None
+        NaN values per metric and reason (:func:`undefined_counts`); None when not counted.
+    """
 
     table: pd.DataFrame
     timing: pd.DataFrame
@@ -145,6 +161,18 @@ def undefined_counts(values: dict, gt_sides: np.ndarray, render_sides: np.ndarra
 def empty_column_warnings(undefined: pd.DataFrame | None, n_pairs: int) -> list[str]:
     """:func:`empty_column_warning` for each metric of :func:`undefined_counts`' table that is
     NaN on all ``n_pairs`` pairs, with its reasons and counts.
+
+    Parameters
+    ----------
+    undefined : pandas.DataFrame or None
+        :func:`undefined_counts`' table (``metric, reason, pairs``); None for no warnings.
+    n_pairs : int
+        Number of pairs scored.
+
+    Returns
+    -------
+    list of str
+        One warning line per metric that is NaN on every pair.
 
     >>> u = undefined_counts({"niqe": np.full(3, np.nan), "psnr": np.array([np.nan, 1.0, 2.0])},
     ...                      np.array([99, 99, 99]), np.array([50, 60, 70]))

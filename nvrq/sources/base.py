@@ -56,7 +56,24 @@ class ImportedScene:
     """What an importer returns: the ``scene``, the ``views (K, 6)`` to plan (rig frame, metres and
     degrees), whether its frames are ``link``-ed rather than copied, one-line ``notes`` for the
     user, a ``detail`` for the closing line (e.g. the dataset) and, when the renders are not at
-    :func:`plan_render_path`, the ``render_path(camera, timestamp_us, view)`` to list them at."""
+    :func:`plan_render_path`, the ``render_path(camera, timestamp_us, view)`` to list them at.
+
+    Attributes
+    ----------
+    scene : NewScene
+        The typed scene to write.
+    views : (K, 6) float numpy.ndarray
+        Views to plan, ``dx, dy, dz, roll, pitch, yaw`` (rig frame, metres and degrees).
+    link : bool
+        Whether the frames are linked rather than copied (default False).
+    notes : tuple of str
+        One-line notes for the user.
+    detail : str
+        Detail for the closing line (e.g. the dataset).
+    render_path : callable or None
+        ``render_path(camera, timestamp_us, view)`` when the renders are not at
+        :func:`plan_render_path`; None otherwise.
+    """
 
     scene: NewScene
     views: np.ndarray

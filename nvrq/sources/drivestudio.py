@@ -102,6 +102,29 @@ class DrivestudioScene:
     world matrices (OpenCV axes, the layout's world); ``scene`` the typed scene
     (:class:`data_schema.scene_writer.NewScene`; ``doc`` its scene.json dict); ``notes``
     one-line remarks for the user (an inferred dataset, no instances).
+
+    Attributes
+    ----------
+    root : pathlib.Path
+        The drivestudio scene folder.
+    dataset : str
+        The source dataset (e.g. ``waymo``, ``nuscenes``).
+    kind : str
+        The extrinsics layout: ``per_camera`` (with ``ego_pose/``) or ``per_frame``.
+    fps : float
+        Frame rate in Hz.
+    cameras : dict of str to int
+        Scene camera name -> drivestudio camera index.
+    image_paths : (C, F) numpy.ndarray
+        The GT images per camera and frame.
+    image_us : (C, F) int numpy.ndarray
+        Their timestamps (microseconds).
+    T_cam_world : (C, F, 4, 4) float numpy.ndarray
+        Camera -> world matrices (OpenCV axes, the layout's world).
+    scene : NewScene
+        The typed scene.
+    notes : list of str
+        One-line remarks for the user.
     """
 
     root: Path
@@ -432,6 +455,30 @@ def import_drivestudio(scene_dir: str | os.PathLike, out: str | os.PathLike, *, 
     :func:`read_drivestudio` (every check, nothing written) then :func:`write_drivestudio`
     (atomically: a bad layout leaves ``out`` as it was). ``offsets``: lateral render offsets
     (metres), or ``perturbations (K, 6)`` (docs/FORMATS.md §9), which replace them.
+
+    Parameters
+    ----------
+    scene_dir : str or os.PathLike
+        The drivestudio scene folder.
+    out : str or os.PathLike
+        The scene folder to write.
+    offsets : sequence of float, optional
+        Lateral render offsets in metres (default -3 .. 3).
+    perturbations : (K, 6) array-like, optional
+        Views ``dx, dy, dz, roll, pitch, yaw`` (metres, degrees); replace ``offsets``.
+    fps : float, optional
+        Frame rate in Hz (default as :func:`read_drivestudio`).
+    cameras : list of str or int, optional
+        Camera indices or names to import (default: all).
+    dataset : str, optional
+        drivestudio's name of the source dataset (default: inferred from the files).
+    copy : bool, optional
+        Copy the GT frames into ``out`` instead of linking them (default False).
+
+    Returns
+    -------
+    pathlib.Path
+        ``out``.
     """
     ds = read_drivestudio(scene_dir, dataset=dataset, fps=fps, cameras=cameras)
     return write_drivestudio(ds, out, offsets=offsets, perturbations=perturbations, copy=copy)

@@ -54,6 +54,18 @@ CLASS_MAPS = {
 def map_class(dataset: str, class_name: str) -> str:
     """Our ``label_class`` of a drivestudio ``class_name`` (:data:`CLASS_MAPS`; others kept).
 
+    Parameters
+    ----------
+    dataset : str
+        The source dataset (a key of :data:`CLASS_MAPS`).
+    class_name : str
+        The dataset's class name.
+
+    Returns
+    -------
+    str
+        The mapped class, or ``class_name`` when it has no mapping.
+
     >>> map_class("nuscenes", "human.pedestrian.adult"), map_class("waymo", "Cyclist"), map_class("waymo", "Sign")
     ('person', 'rider', 'Sign')
     """

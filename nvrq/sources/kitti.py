@@ -48,7 +48,18 @@ R_SENSOR_RIG = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 
 
 def read_calib_P2(path: str | os.PathLike) -> np.ndarray:
-    """The 3x4 projection matrix ``P2`` of a KITTI calib file."""
+    """The 3x4 projection matrix ``P2`` of a KITTI calib file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The KITTI calib file.
+
+    Returns
+    -------
+    (3, 4) float numpy.ndarray
+        The projection matrix ``P2``.
+    """
     path = Path(path)
     if not path.is_file():
         raise InputError(path, None, "a KITTI calib file", "no such file")
@@ -66,7 +77,18 @@ def read_calib_P2(path: str | os.PathLike) -> np.ndarray:
 
 
 def read_labels(path: str | os.PathLike) -> pd.DataFrame:
-    """A KITTI ``label_2`` file as a table (columns :data:`LABEL_COLUMNS`)."""
+    """A KITTI ``label_2`` file as a table (columns :data:`LABEL_COLUMNS`).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The KITTI label file.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per label line: ``type`` and the 14 numeric fields of :data:`LABEL_COLUMNS`.
+    """
     import pandas as pd  # here: the nvrq parser reads this module's class map
 
     path = Path(path)

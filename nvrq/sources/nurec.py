@@ -52,7 +52,22 @@ __all__ = ["import_nurec", "read_nurec", "read_archive_json", "NurecImporter", "
 
 
 def read_archive_json(archive: Path, name: str) -> tuple[dict, str]:
-    """Parse the member called ``name`` (at any depth) of the zip ``archive``; (doc, member path)."""
+    """Parse the member called ``name`` (at any depth) of the zip ``archive``; (doc, member path).
+
+    Parameters
+    ----------
+    archive : pathlib.Path
+        The NuRec ``.usdz`` archive (a zip file).
+    name : str
+        The member's file name; the shallowest match is read.
+
+    Returns
+    -------
+    doc : dict
+        The parsed JSON document.
+    member : str
+        The member's path inside the archive.
+    """
     try:
         with zipfile.ZipFile(archive) as zf:
             members = [m for m in zf.namelist() if m.rsplit("/", 1)[-1] == name]

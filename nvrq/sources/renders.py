@@ -76,7 +76,27 @@ class RendersImport:
     plan rows whose render was ``missing`` (their plan paths) and the ``unexpected`` files
     (relative to the folder of renders; always empty after a successful import); ``missing`` names
     the file to supply, ``{i:05d}.png (for PLAN PATH)`` in the ``order`` layout; ``changed``: the
-    render files already in the scene that the import replaced with other bytes or removed."""
+    render files already in the scene that the import replaced with other bytes or removed.
+
+    Attributes
+    ----------
+    images_csv : pathlib.Path
+        The scene's ``images.csv``.
+    layout : str
+        The renders' layout (``plan`` or ``order``).
+    method : str
+        The method the renders belong to.
+    expected : int
+        Number of plan rows.
+    imported : int
+        Number of renders imported.
+    missing : tuple of str
+        The plan rows whose render is missing (the file to supply).
+    unexpected : tuple of str
+        Files in the folder of renders that match no plan row.
+    changed : int
+        Render files already in the scene that were replaced or removed (default 0).
+    """
 
     images_csv: Path
     layout: str
@@ -118,6 +138,15 @@ def _visible_files(folder: Path, *, recursive: bool) -> list[str]:
 
 def render_files(plan: RenderPlan, render_dir, *, layout: str = "plan") -> tuple[list, list[str]]:
     """The file of each plan row in ``render_dir`` under ``layout`` (module docstring).
+
+    Parameters
+    ----------
+    plan : RenderPlan
+        The render plan.
+    render_dir : str or os.PathLike
+        The folder of renders.
+    layout : str, optional
+        ``plan`` (files at the plan paths, the default) or ``order``.
 
     Returns
     -------

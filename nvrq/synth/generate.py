@@ -440,6 +440,22 @@ def generate_scene(out: Path, options: SynthOptions | None = None, *, progress: 
     ``methods``: None (one unnamed method), or ``[(name, scale), ...]``
     (:func:`data_schema.methods.check_method_scales`): every view is rendered once per method, its
     artefact severity times ``scale`` (so a smaller scale is a better method).
+
+    Parameters
+    ----------
+    out : pathlib.Path
+        The scene folder to write.
+    options : SynthOptions, optional
+        What to draw (default: :class:`SynthOptions` defaults, or ``keywords``).
+    progress : bool, optional
+        Show a progress bar (default True).
+    **keywords
+        :class:`SynthOptions` fields, instead of ``options``.
+
+    Returns
+    -------
+    pathlib.Path
+        ``out``.
     """
     o = options_or_keywords(SynthOptions, options, keywords, who="generate_scene")
     seed, seconds, fps, methods = o.seed, o.seconds, o.fps, o.methods
