@@ -74,7 +74,6 @@ def _check_vote_columns(df: pd.DataFrame, path) -> None:
     numeric (``vote`` and ``response_ms`` converted in place); errors name the file's line."""
     if len(df) == 0:
         raise InputError(path, None, "at least one vote row", "no rows")
-    df = unquote_frame(df)  # cells annotate export quoted against spreadsheet formulas
     vote = pd.to_numeric(df["vote"], errors="coerce")
     bad = ~vote.isin([0, 1])
     if bad.any():
@@ -141,6 +140,7 @@ def read_ratings(path) -> pd.DataFrame:
             "label_class": str,
         },
     )
+    df = unquote_frame(df)  # cells annotate export quoted against spreadsheet formulas
     _check_vote_columns(df, path)
     # sorted codes of the order's keys: the checks below and the canonical sort share them
     codes = {c: pd.factorize(df[c], sort=True)[0] for c in CANONICAL_VOTE_ORDER}
