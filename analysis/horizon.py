@@ -215,7 +215,7 @@ def for_ratings(analysis, votes: pd.DataFrame, opts: HorizonOptions, *, where=No
     test = votes[(votes["kind"] == "test") & ~votes["rater_id"].astype(str).isin(excluded)]
     fits = _vote_fits(test, analysis.items, analysis.metrics, analysis.directions, opts)
     higher = _directions(metric, analysis.directions)
-    th = (Threshold(metric, float(opts.threshold), higher, "given with --threshold")
+    th = (Threshold(metric, float(opts.threshold), higher, "given (a fixed threshold)")
           if opts.threshold is not None else _human_threshold(fits, metric, higher, opts))
     return _result(analysis.items, th, opts, fits, where)
 
@@ -240,7 +240,7 @@ def for_pairs(analysis, items: pd.DataFrame, opts: HorizonOptions, *, where=None
     """
     metric = _metric(opts, analysis.metrics)
     th = Threshold(metric, float(opts.threshold), _directions(metric, analysis.directions),
-                   "given with --threshold")
+                   "given (a fixed threshold)")
     return _result(items, th, opts, None, where)
 
 

@@ -120,7 +120,7 @@ def test_python_api_gives_the_cli_rows(clip):
     # the file's row order and a shuffled one: the bootstrap draws tracks in sorted order either way
     for rows in (scores, scores.sample(frac=1.0, random_state=1)):
         api = nvrq.trust_horizon(rows, threshold=doc["threshold"]["value"], share=0.9, n_boot=200, seed=0)
-        api = api.assign(threshold_source="given with --threshold")
+        api = api.assign(threshold_source="given (a fixed threshold)")
         pd.testing.assert_frame_equal(api.reset_index(drop=True), cli, check_dtype=False)
 
 
