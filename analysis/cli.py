@@ -300,9 +300,10 @@ def _analyze(args) -> int:
     from analysis.report import write_report
 
     if (args.methods or args.leaderboard_metric or args.by or args.leaderboard_view != "off-path"
-            or (args.min_clusters != MIN_CLUSTERS and not args.horizon)) and not args.compare_methods:
-        raise InputError("--methods/--leaderboard-metric/--leaderboard-view/--by/--min-clusters", None,
-                         "--compare-methods with them", "none")
+            or (args.min_clusters != MIN_CLUSTERS and not args.horizon) or args.sets) \
+            and not args.compare_methods:
+        raise InputError("--methods/--leaderboard-metric/--leaderboard-view/--by/--min-clusters/--sets",
+                         None, "--compare-methods with them", "none")
     _check_horizon(args)
     if args.ratings is not None and is_pairwise(args.ratings):
         _check_applies(args, "pairwise votes", args.ratings)
@@ -312,6 +313,11 @@ def _analyze(args) -> int:
         analysis = _run_pairs(args)
     else:
         analysis = _run_ratings(args)
+    if args.sets is not None and analysis.methods is not None:
+        from data_schema.tables import read_table
+
+        analysis.methods.sets = read_table(args.sets, required=("set_id", "kind", "y_offset_m", "n_render"),
+                                           what="score-sets table")
     if args.horizon:
         analysis.horizon = _horizon(args, analysis)
     out = write_report(analysis, args.out)  # then the terminal: an error stays one line

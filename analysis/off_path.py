@@ -146,7 +146,9 @@ def off_path_figure(res, sets: pd.DataFrame | None = None) -> Figure | None:
         for method, g in m.groupby("method", sort=True):
             agg = g.groupby("abs_offset").apply(lambda d: np.average(d["mean"], weights=d["w"]),
                                                 include_groups=False)
-            ax.plot(agg.index, agg.to_numpy(), "o-", color=colours[method], label=method or "(one method)")
+            tracks = g["n_tracks"].max()  # per-object metrics: the tracks behind the largest view
+            label = (method or "(one method)") + (f" ({int(tracks)} tracks)" if np.isfinite(tracks) else "")
+            ax.plot(agg.index, agg.to_numpy(), "o-", color=colours[method], label=label)
         ax.set_xlabel("|lateral offset| (m)", fontsize=8)
         ax.set_ylabel(direction_label(metric, bool(m["higher_better"].iloc[0])), fontsize=8)
         ax.tick_params(labelsize=7)
