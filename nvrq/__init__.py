@@ -12,7 +12,10 @@ The public Python API (docs/PYTHON.md) is exported here and imported on first us
 - rendering: :func:`render_plan` (the views to render as arrays: ``viewmats``, ``Ks``, sizes,
   paths; a :class:`RenderPlan`, :mod:`nvrq.render_plans`);
 - the trust horizon: :func:`trust_horizon` on a table of per-object scores, with a
-  :class:`Threshold` (:mod:`nvrq.horizon`).
+  :class:`Threshold` (:mod:`nvrq.horizon`);
+- off-path metrics the field reports: :func:`nta_iou` and :class:`NTAIoU` (NTA-IoU of projected
+  boxes against detections, :mod:`nvrq.proxies.nta_iou`), :func:`embed` (encoder features of
+  images for FD/KID, :mod:`nvrq.sets`).
 
 >>> import nvrq
 >>> sorted(nvrq.__all__)[:3]
@@ -46,6 +49,9 @@ _EXPORTS = {
     "RenderPlan": "nvrq.render_plans",
     "trust_horizon": "nvrq.horizon",
     "Threshold": "nvrq.horizon",
+    "nta_iou": "nvrq.proxies.nta_iou",
+    "NTAIoU": "nvrq.proxies.nta_iou",
+    "embed": "nvrq.sets",
 }
 
 __all__ = sorted(_EXPORTS)
