@@ -912,6 +912,34 @@ for _n, _prog, _argv, _f in MESSAGE_CASES:
 
 
 
+# --- issue 34 / 38 (scoring plan): unknown metric spellings, every corrupt image at once ---------
+
+@case("arguments", "score --metrics lpips names pyiqa:lpips")
+def _(world, tmp):
+    return "nvrq", ["score", str(world / "toy" / "pairs.csv"), "--metrics", "lpips", "--out",
+                    str(tmp / "m.csv")], ["--metrics", "lpips", "did you mean pyiqa:lpips?"]
+
+
+@case("arguments", "score --metrics PSNR names psnr")
+def _(world, tmp):
+    return "nvrq", ["score", str(world / "toy" / "pairs.csv"), "--metrics", "ssim,PSNR", "--out",
+                    str(tmp / "m.csv")], ["--metrics", "PSNR", "did you mean psnr?"]
+
+
+@case("pairs", "score: two corrupt render images, both named with a count")
+def _(world, tmp):
+    import shutil
+
+    scene = tmp / "scene"
+    shutil.copytree(world / "toy" / "scene", scene)
+    p = copy_into(world, "toy/pairs.csv", tmp)
+    renders = sorted(set(pd.read_csv(p)["render_path"]))[:2]
+    (scene / renders[0]).write_bytes(b"not an image")
+    (scene / renders[1]).write_bytes(b"")
+    return "nvrq", ["score", str(p), "--scene", str(scene), "--metrics", "psnr", "--out", str(tmp / "m.csv"),
+                    "--quiet"], ["pairs.csv", "2 unreadable images", Path(renders[0]).name, Path(renders[1]).name]
+
+
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_malformed_input(name, world, tmp_path, capfd):
     prog, argv, fragments = CASES[name](world, tmp_path)
@@ -941,3 +969,16 @@ def test_world_untouched(world):
     """No case wrote into the shared valid inputs it referred to (runs after the cases)."""
     assert snapshot(world) == json.loads((world.parent / f"{world.name}.hashes.json").read_text())
 
+
+def test_analyze_replacing_a_report_from_other_inputs_prints_a_note(world, tmp_path, capfd):
+    # issue 38 item 2 (our choice, docs/FORMATS.md §7): a note naming what changed, not --force
+    from analysis.cli import main
+
+    argv = [str(world / "ratings.csv"), "--out", str(tmp_path / "rep"), "--bootstrap", "0", "--quiet"]
+    assert main(argv) == 0
+    assert main(argv) == 0  # the same inputs: no note
+    assert "note: replacing" not in capfd.readouterr().err
+    assert main([*argv, "--metrics-table", str(world / "metrics.csv")]) == 0
+    err = capfd.readouterr().err
+    assert f"note: replacing the report {tmp_path / 'rep'} made by analyze from other inputs: " \
+           f"--metrics-table added ({world / 'metrics.csv'})" in err
