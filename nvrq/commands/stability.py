@@ -72,7 +72,11 @@ def run(args) -> int:
         Exit status 0 (errors are raised as :class:`InputError`).
     """
     from data_schema.tables import GT_BOX_COLUMNS, atomic_folder, read_table, write_table
-    from nvrq.stability import plot_stability, run_stability  # SciPy, matplotlib: not for --help
+    from nvrq.stability import (  # SciPy, matplotlib: not for --help
+        StabilityOptions,
+        plot_stability,
+        run_stability,
+    )
 
     columns, encoder_name = metric_columns(args)
     out = Path(args.out)
@@ -81,10 +85,10 @@ def run(args) -> int:
     pairs = read_table(args.pairs, required=("pair_id", "clip_id", "camera", "track_id", "timestamp_us",
                                              "gt_path", *GT_BOX_COLUMNS), what="pairs table")
     encoder, tau = encoder_for_columns(args, columns, encoder_name)
-    samples, stab, snr = run_stability(
-        pairs, metrics=columns, encoder=encoder, tau=tau, n_objects=args.n_objects,
-        seed=args.seed, min_side=args.min_side, batch_size=args.batch_size,
-        progress=show_progress(args), where=str(args.pairs))
+    options = StabilityOptions(n_objects=args.n_objects, seed=args.seed, min_side=args.min_side,
+                               batch_size=args.batch_size)
+    samples, stab, snr = run_stability(pairs, options, metrics=columns, encoder=encoder, tau=tau,
+                                       progress=show_progress(args), where=str(args.pairs))
     inputs = {"PAIRS": Path(args.pairs), "--metrics": columns, "--n-objects": args.n_objects, "--seed": args.seed}
     note = replacing_note(out, command="stability", inputs=inputs)
     with atomic_folder(out) as tmp:  # the whole folder or nothing: no file of an older run stays
