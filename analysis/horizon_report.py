@@ -67,7 +67,7 @@ def horizon_json(result) -> dict:
     rows = lambda df: [{k: _num(v) for k, v in r.items()} for r in df.to_dict("records")]  # noqa: E731
     return {
         "schema": "nvrq.horizon", "version": SCHEMA_VERSION, "metric": th.metric,
-        "threshold": {"value": _num(th.value), "source": th.source, "higher_better": th.higher_better,
+        "threshold": {"value": _num(th.value), "source": th.source, "higher_better": th.good_above,
                       "ci_lo": _num(th.ci_lo), "ci_hi": _num(th.ci_hi)},
         "share": o.share, "good_prob": o.good_prob if result.fits is not None else None,
         "min_clusters": o.min_clusters, "n_boot": o.n_boot, "seed": o.seed, "window_s": o.window_s,
@@ -255,7 +255,7 @@ def context(result, figures: list[dict], table) -> dict:
         return {"horizon_sentences": [], "horizon_figures": []}
     th, o = result.threshold, result.options
     ci = f" [{th.ci_lo:.4g}, {th.ci_hi:.4g}]" if math.isfinite(th.ci_lo) else ""
-    text = (f"Threshold: {th.metric} {'>=' if th.higher_better else '<='} {th.value:.4g}{ci} ({th.source}). "
+    text = (f"Threshold: {th.metric} {'>=' if th.good_above else '<='} {th.value:.4g}{ci} ({th.source}). "
             f"A horizon is the largest grid offset up to which at least {o.share:g} of the objects are "
             "good at every grid offset; brackets: the 95% interval of the interpolated crossing over "
             f"a cluster bootstrap of tracks ({o.n_boot} replicates; none below {o.min_clusters} tracks). "

@@ -70,8 +70,9 @@ class Threshold:
         The metric column.
     value : float
         The threshold, in the metric's units.
-    higher_better : bool, optional
-        Good means at or above ``value`` (True) or at or below it (False).
+    good_above : bool, optional
+        Good means at or above ``value`` (True) or at or below it (False): the metric's
+        direction, as the caller resolved it.
     source : str, optional
         Where the value came from (``'given'``, or the fit to people's votes).
     ci_lo, ci_hi : float, optional
@@ -80,7 +81,7 @@ class Threshold:
 
     metric: str
     value: float
-    higher_better: bool = True
+    good_above: bool = True
     source: str = "given"
     ci_lo: float = math.nan
     ci_hi: float = math.nan
@@ -128,7 +129,7 @@ def _as_threshold(threshold, metric, higher_better, columns) -> Threshold:
     """A :class:`Threshold` from the API's arguments (a number or a Threshold)."""
     if isinstance(threshold, Threshold):
         col = resolve_metric(threshold.metric, columns)
-        return Threshold(col, threshold.value, threshold.higher_better, threshold.source,
+        return Threshold(col, threshold.value, threshold.good_above, threshold.source,
                          threshold.ci_lo, threshold.ci_hi)
     check_number("threshold", threshold)
     col = resolve_metric(metric, columns)
@@ -162,7 +163,7 @@ class _Rows:
 def _rows(scores: pd.DataFrame, th: Threshold) -> _Rows:
     s = scores[np.isfinite(pd.to_numeric(scores[th.metric], errors="coerce").to_numpy(np.float64))]
     v = s[th.metric].to_numpy(np.float64)
-    good = v >= th.value if th.higher_better else v <= th.value
+    good = v >= th.value if th.good_above else v <= th.value
     P = perturbation_array(s)
     ids = [s[c].astype(str) for c in ("clip_id", "track_id") if c in s.columns]
     # codes in sorted (clip_id, track_id) order: the bootstrap draws the same tracks whatever the row order

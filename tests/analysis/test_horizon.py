@@ -74,7 +74,7 @@ def test_beyond_the_grid_and_fails_at_the_recorded_view():
 
 def test_lower_better_threshold_and_metric_resolution():
     s = step_table().assign(sev=lambda d: 1.0 - d["score"])  # severity: good at or below the threshold
-    h = trust_horizon(s, threshold=Threshold("sev", 0.5, higher_better=False, source="true severity"),
+    h = trust_horizon(s, threshold=Threshold("sev", 0.5, good_above=False, source="true severity"),
                       n_boot=0).set_index("direction")
     assert h.loc["left", "horizon"] == 2.0 and h.loc["left", "threshold_source"] == "true severity"
     s = s.rename(columns={"score": "nvrq_ca:efficientnet-lite0"})
