@@ -56,11 +56,10 @@ def embed(images, *, encoder=None, batch_size: int = 32, square: str = "pad") ->
     numpy.ndarray
         (n, d) float64 features (GAP of the final tokens, :mod:`nvrq.encoders.registry`).
     """
-    from nvrq.api import _load, as_rgb_uint8
+    from nvrq.api import as_rgb_uint8
     from nvrq.crops import encoder_input, resize_to
 
-    enc = encoder if hasattr(encoder, "embed") else _load(encoder, encoder if isinstance(encoder, str) else None,
-                                                          cached=True)
+    enc = _loaded(encoder)
     s = enc.spec.input_size
     prep = (lambda x: encoder_input(x, s)) if square == "pad" else (lambda x: resize_to(x, s, s))
     out = []
@@ -317,11 +316,8 @@ def score_sets(scene, options: SetOptions, *, encoder=None, batch_size: int = 32
     """
     from tqdm.auto import tqdm
 
-    from nvrq.api import _load
-
     groups = set_groups(scene, options)
-    enc = encoder if hasattr(encoder, "embed") else _load(encoder, encoder if isinstance(encoder, str) else None,
-                                                          cached=True)
+    enc = _loaded(encoder)
     _check_sizes(groups, options, enc, where=str(scene.root))
     keys = groups["path"].astype(str) + "|" + groups["box"].map(lambda b: "" if b is None else str(b))
     codes = pd.factorize(keys)[0]  # codes in order of first appearance
@@ -376,3 +372,14 @@ class _Reader:
         if path != self.path:
             self.path, self.image = path, read_rgb(self.root / path)
         return self.image if box is None else cut_box(self.image, box, where=str(path))
+
+
+def _loaded(encoder):
+    """``encoder`` itself when it is loaded, else the encoder an ``EncoderConfig`` or a name
+    (None: the default) means, from the API's cache of loaded encoders."""
+    if hasattr(encoder, "embed"):
+        return encoder
+    from nvrq.api import _cached_encoder
+    from nvrq.encoders import EncoderConfig
+
+    return _cached_encoder(encoder if isinstance(encoder, EncoderConfig) else EncoderConfig(name=encoder))
