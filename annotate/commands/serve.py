@@ -45,7 +45,6 @@ from annotate.access import check_serving
 from annotate.proxy_conf import PROXIES, proxy_conf
 from annotate.workers import supervise, worker_ports
 from data_schema.errors import InputError
-from data_schema.tables import atomic_write_text
 from nvrq.commands.args import int_arg
 
 __all__ = ["register", "run", "serve_command", "check_port_free", "base_url", "add_address_options", "links",
@@ -212,6 +211,8 @@ def record_served(study, base: str) -> Path:
     -------
     pathlib.Path
     """
+    from data_schema.tables import atomic_write_text  # pandas: not for --help
+
     atomic_write_text(study.root / SERVED_AT, json.dumps({"base": base}))
     path = study.root / ADMIN_LINK
     fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
