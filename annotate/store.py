@@ -224,6 +224,25 @@ def _migrate(con: sqlite3.Connection) -> None:
     con.execute("COMMIT")
 
 
+def _ensure_wal(con: sqlite3.Connection, timeout_s: float) -> None:
+    """Switch the file to WAL unless it already is; retried until ``timeout_s``.
+
+    Changing the journal mode needs an exclusive lock, and SQLite reports "database is locked"
+    at once (no busy handler) when another connection holds the file, as when several servers
+    open an old rollback-journal store together; the first to get the lock switches it.
+    """
+    deadline = time.monotonic() + timeout_s
+    while True:
+        try:
+            if con.execute("PRAGMA journal_mode").fetchone()[0].lower() != "wal":
+                con.execute("PRAGMA journal_mode = WAL")
+            return
+        except sqlite3.OperationalError as err:
+            if "locked" not in str(err) or time.monotonic() > deadline:
+                raise
+            time.sleep(0.01)
+
+
 class Store:
     """Votes, raters and assignments of one study in the SQLite file ``path``.
 
@@ -287,7 +306,7 @@ class Store:
                               isolation_level=None)
         try:
             con.execute(f"PRAGMA busy_timeout = {self.busy_timeout_ms}")
-            con.execute("PRAGMA journal_mode = WAL")
+            _ensure_wal(con, self.busy_timeout_ms / 1000)
             con.execute(f"PRAGMA synchronous = {synchronous or self.synchronous}")
             yield con
         finally:
