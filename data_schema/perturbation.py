@@ -160,6 +160,12 @@ def _hundredths(P: np.ndarray) -> np.ndarray:
     return np.round(np.asarray(P, np.float64).reshape(-1, 6) * 100).astype(np.int64)
 
 
+def _nonzero_components(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """How many components of each row are non-zero at 0.01 ``(N,)``, and the first one ``(N,)``."""
+    nz = _hundredths(P) != 0
+    return nz.sum(axis=1), np.argmax(nz, axis=1)
+
+
 def labels(P: np.ndarray) -> list[str]:
     """``P: (N, 6)`` -> readable labels (module docstring); equal labels mean the same view
     at the 0.01 precision of ``pair_id``.
@@ -167,7 +173,8 @@ def labels(P: np.ndarray) -> list[str]:
     Parameters
     ----------
     P : (N, 6) float64
-        Perturbations: metres, degrees, rig frame.
+        Perturbations ``(dx, dy, dz, roll, pitch, yaw)``, metres and degrees in the rig frame;
+        labelled at 0.01 precision.
 
     Returns
     -------
@@ -190,16 +197,16 @@ def axes(P: np.ndarray) -> np.ndarray:
     Parameters
     ----------
     P : (N, 6) float64
-        Perturbations: metres, degrees, rig frame.
+        One perturbation per row (metres, degrees); a component is non-zero when it is at
+        0.01 precision.
 
     Returns
     -------
     (N,) object array of str
         ``'x'``, ``'y'``, ..., ``'none'`` or ``'combined'``.
     """
-    nz = _hundredths(P) != 0
-    count = nz.sum(axis=1)
-    names = np.array(AXES, dtype=object)[np.argmax(nz, axis=1)] if len(nz) else np.array([], object)
+    count, first = _nonzero_components(P)
+    names = np.array(AXES, dtype=object)[first] if len(first) else np.array([], object)
     return np.where(count == 0, "none", np.where(count > 1, "combined", names)).astype(object)
 
 
@@ -209,7 +216,8 @@ def axis_values(P: np.ndarray) -> np.ndarray:
     Parameters
     ----------
     P : (N, 6) float64
-        Perturbations: metres, degrees, rig frame.
+        Perturbations in metres and degrees; the value returned is the component as given,
+        unrounded.
 
     Returns
     -------
@@ -217,9 +225,8 @@ def axis_values(P: np.ndarray) -> np.ndarray:
         Metres for a translation axis, degrees for a rotation.
     """
     P = np.asarray(P, np.float64).reshape(-1, 6)
-    nz = _hundredths(P) != 0
-    count = nz.sum(axis=1)
-    val = P[np.arange(len(P)), np.argmax(nz, axis=1)] if len(P) else np.zeros(0)
+    count, first = _nonzero_components(P)
+    val = P[np.arange(len(P)), first] if len(P) else np.zeros(0)
     return np.where(count == 0, 0.0, np.where(count > 1, np.nan, val))
 
 
@@ -229,7 +236,7 @@ def is_lateral(P: np.ndarray) -> np.ndarray:
     Parameters
     ----------
     P : (N, 6) float64
-        Perturbations: metres, degrees, rig frame.
+        Perturbations; a row is lateral when ``dx, dz, roll, pitch, yaw`` are all 0 at 0.01.
 
     Returns
     -------
@@ -246,7 +253,7 @@ def view_suffix(P: np.ndarray) -> list[str]:
     Parameters
     ----------
     P : (N, 6) float64
-        Perturbations: metres, degrees, rig frame.
+        Perturbations of the render views; a lateral row's suffix is its ``dy`` in metres.
 
     Returns
     -------

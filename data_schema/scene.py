@@ -413,7 +413,7 @@ def _cameras(doc: dict, where: str) -> dict:
     return cameras
 
 
-def _tracks(doc: dict, where: str) -> list:
+def _tracks(doc: dict, where: str) -> list[Track]:
     """scene.json's ``tracks``, checked: unique ids, a class, positive sizes, poses per timestamp."""
     tracks_doc = _get(doc, "tracks", where, "")
     if not isinstance(tracks_doc, list):
@@ -485,28 +485,6 @@ def _check_header(doc, where: str) -> None:
         raise InputError(where, "version", str(VERSION), repr(version))
 
 
-def _tracks(tracks_doc, where: str) -> list[Track]:
-    if not isinstance(tracks_doc, list):
-        raise InputError(where, "tracks", "a list of tracks", type(tracks_doc).__name__)
-    tracks, seen = [], set()
-    for i, tr in enumerate(tracks_doc):
-        fld = f"tracks[{i}]"
-        tid = str(_get(tr, "track_id", where, fld))
-        if not tid or ":" in tid or tid in seen:
-            raise InputError(where, f"{fld}.track_id", "a unique non-empty id without ':'", repr(tid))
-        seen.add(tid)
-        label = _get(tr, "label_class", where, fld)
-        if not isinstance(label, str) or not label:
-            raise InputError(where, f"{fld}.label_class", "a class name", repr(label))
-        dims = _array(_get(tr, "dims_lwh", where, fld), (3,), where, f"{fld}.dims_lwh", "3 numbers [l, w, h]")
-        if np.any(dims <= 0):
-            raise InputError(where, f"{fld}.dims_lwh", "positive dimensions", dims.tolist())
-        ts = _timestamps(_get(tr, "timestamps_us", where, fld), where, f"{fld}.timestamps_us")
-        poses = _poses7(_get(tr, "poses", where, fld), len(ts), where, f"{fld}.poses")
-        tracks.append(Track(tid, label, dims, ts, poses))
-    return tracks
-
-
 def scene_parts(doc, where: str) -> dict:
     """Check a parsed ``scene.json`` (docs/FORMATS.md §2) and return its typed parts.
 
@@ -544,7 +522,7 @@ def scene_parts(doc, where: str) -> dict:
                   f"{len(rig_ts)} 4x4 matrices (one per timestamp)")
     T_rw = check_rigid(T_rw, where, "rig_trajectory.T_rig_world")
     return dict(clip_id=clip_id, attributes={k: str(v) for k, v in attributes.items()}, cameras=cameras,
-                rig_timestamps_us=rig_ts, T_rig_world=T_rw, tracks=_tracks(_get(doc, "tracks", where, ""), where),
+                rig_timestamps_us=rig_ts, T_rig_world=T_rw, tracks=_tracks(doc, where),
                 source_world=_source_world(doc.get("source_world"), where))
 
 

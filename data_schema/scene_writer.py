@@ -78,21 +78,21 @@ class NewScene:
     Attributes
     ----------
     clip_id : str
-        The scene's clip id.
+        Written as ``scene.json``'s ``clip_id`` (non-empty, without ':').
     cameras : dict of str to CameraCalib
-        The cameras by name.
+        Camera name -> calibration, for ``scene.json``'s ``cameras``.
     rig_timestamps_us : (F,) int ndarray
-        Timestamps of the rig poses, in microseconds.
+        Rig pose times, microseconds.
     T_rig_world : (F, 4, 4) float ndarray
-        Rig-to-world transform at each timestamp.
+        The rig pose (rig -> world) at each of those times.
     tracks : list of Track
-        The objects' 3D box tracks.
+        Object box tracks for ``scene.json``'s ``tracks``.
     frames : list of SceneFrame
-        The GT images.
+        The GT images the writer lists in ``images.csv``.
     attributes : dict of str to str
-        The scene's free-form attributes.
+        Free-form labels for ``scene.json`` (e.g. weather).
     source_world : SourceWorld or None
-        The world of the tool the scene was imported from, if any.
+        The source tool's own world, when it has one; else None.
     """
 
     clip_id: str

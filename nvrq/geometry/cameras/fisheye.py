@@ -31,13 +31,13 @@ class OpenCVFisheyeCamera(CameraModel):
     Parameters
     ----------
     resolution : (int, int)
-        ``(W, H)`` in pixels.
+        ``(W, H)`` of the image, pixels.
     focal_length : (float, float)
-        ``(fx, fy)`` in pixels.
+        ``(fx, fy)``: pixels per radian of the distorted angle ``theta_d``.
     principal_point : (float, float)
-        ``(cx, cy)`` in pixels, pixel-centre convention.
+        ``(cx, cy)``, the image of the optical axis; pixels, pixel-centre convention.
     radial_coeffs : (4,) float, optional
-        ``k1 .. k4``.
+        ``k1 .. k4`` of the odd polynomial ``theta_d(theta)``; zeros give the equidistant model.
 
     >>> cam = OpenCVFisheyeCamera(resolution=(200, 200), focal_length=(100, 100),
     ...                           principal_point=(99.5, 99.5), radial_coeffs=(0, 0, 0, 0))

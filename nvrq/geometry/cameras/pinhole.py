@@ -38,11 +38,11 @@ class PinholeCamera(CameraModel):
     Parameters
     ----------
     resolution : (int, int)
-        ``(W, H)`` in pixels.
+        Image width and height ``(W, H)``, pixels.
     focal_length : (float, float)
-        ``(fx, fy)`` in pixels.
+        ``(fx, fy)``: pixels per unit of ``x/z`` and of ``y/z``.
     principal_point : (float, float)
-        ``(cx, cy)`` in pixels, pixel-centre convention.
+        ``(cx, cy)``: where the optical axis meets the image, pixels (pixel-centre convention).
 
     >>> cam = PinholeCamera(resolution=(640, 480), focal_length=(500, 500),
     ...                     principal_point=(319.5, 239.5))
@@ -88,18 +88,14 @@ class OpenCVPinholeCamera(PinholeCamera):
 
     Parameters
     ----------
-    resolution : (int, int)
-        ``(W, H)`` in pixels.
-    focal_length : (float, float)
-        ``(fx, fy)`` in pixels.
-    principal_point : (float, float)
-        ``(cx, cy)`` in pixels, pixel-centre convention.
+    resolution, focal_length, principal_point
+        As for :class:`PinholeCamera`; ``fx, fy`` scale the distorted ``a', b'``.
     radial_coeffs : (6,) float, optional
-        ``k1 .. k6``.
+        ``k1 .. k6``: ``k1..k3`` in the numerator of ``icD``, ``k4..k6`` in its denominator.
     tangential_coeffs : (2,) float, optional
-        ``p1, p2``.
+        ``p1, p2`` (decentering terms).
     thin_prism_coeffs : (4,) float, optional
-        ``s1 .. s4``.
+        ``s1 .. s4`` (thin-prism terms, ``s1, s2`` on ``a'``, ``s3, s4`` on ``b'``).
     """
 
     type_name = "opencv_pinhole"
