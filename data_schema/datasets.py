@@ -243,14 +243,14 @@ def read_dataset(path, *, what: str = "dataset") -> pd.DataFrame:
     Parameters
     ----------
     path : str or Path
-        The dataset folder.
+        A partitioned dataset folder (``clip_id=<id>/`` Parquet parts).
     what : str, optional
-        What the folder is, named in errors.
+        How errors call the folder, e.g. ``"metrics dataset"``.
 
     Returns
     -------
     pandas.DataFrame
-        All rows of all clips.
+        All rows of all clips, read through :func:`iter_clips`.
     """
     frames = [df for _, df in iter_clips(path, what=what)]
     return pd.concat(frames, ignore_index=True)

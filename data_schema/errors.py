@@ -87,9 +87,9 @@ def check_int(name: str, value, *, low: int = 1, high: int | None = None) -> int
     Parameters
     ----------
     name : str
-        The parameter, named in the error (its ``param``).
+        The count, size or seed being checked, e.g. ``"batch_size"``; the error's ``param``.
     value : object
-        The value to check.
+        What the caller passed; ints of any kind (NumPy included) pass, bools never.
     low, high : int, optional
         The bounds, both included (``high=None``: none).
 
@@ -128,9 +128,9 @@ def check_number(name: str, value, *, low: float | None = None, high: float | No
     Parameters
     ----------
     name : str
-        The parameter, named in the error (its ``param``).
+        The option being checked, e.g. ``"tau"``; the error's ``param``.
     value : object
-        The value to check.
+        What the caller passed; any finite real (int, float, NumPy scalar) but a bool passes.
     low, high : float, optional
         The bounds (``None``: none).
     low_open, high_open : bool, optional
@@ -177,9 +177,9 @@ def check_choice(name: str, value, choices):
     Parameters
     ----------
     name : str
-        The parameter, named in the error (its ``param``).
+        The option being checked, e.g. ``"rank_by"``; the error's ``param``.
     value : object
-        The value to check.
+        What the caller passed; compared with ``in choices``.
     choices : collection
         The allowed values, listed in the error.
 

@@ -401,14 +401,14 @@ def check_pairs(df: pd.DataFrame, *, where: str) -> pd.DataFrame:
     Parameters
     ----------
     df : pandas.DataFrame
-        The pairs table (converted in place).
+        A pairs table as read; its number columns are converted in place.
     where : str
-        What errors name (the file).
+        The pairs file, named in errors.
 
     Returns
     -------
     pandas.DataFrame
-        ``df``, numbers converted.
+        The same ``df``: ``timestamp_us`` and box corners int64, ``y_offset_m`` float64.
     """
     _unique_ids(df, "pair_id", where)
     if METHOD_COLUMN in df.columns:
@@ -444,14 +444,14 @@ def check_metrics(df: pd.DataFrame, *, where: str) -> pd.DataFrame:
     Parameters
     ----------
     df : pandas.DataFrame
-        The metrics table (converted in place).
+        A metrics table as read; text metric columns are made numeric in place.
     where : str
-        What errors name (the file).
+        The metrics file, named in errors.
 
     Returns
     -------
     pandas.DataFrame
-        ``df``, metric columns made numeric.
+        The same ``df``, every column but ``pair_id`` numeric.
     """
     if len(df) == 0:
         raise InputError(where, None, "at least one metrics row", "a header only")
@@ -847,12 +847,10 @@ def pair_image_paths(df: pd.DataFrame, column: str, *, scene_root=None, base=Non
         The pairs table (N rows).
     column : str
         ``'gt_path'`` or ``'render_path'``.
-    scene_root : str or path-like or None
-        The one scene folder of every row (``--scene``).
-    base : str or path-like or None
-        The folder relative ``scene_root`` values start from.
+    scene_root, base : str or path-like or None
+        How each row's scene folder is found (:func:`pair_scene_roots`).
     where : str
-        What errors name (the pairs file).
+        The pairs file, named in errors with the row and ``column``.
     follow : bool or None
         The link rule (:func:`follow_links`); None: from the environment.
 
@@ -997,11 +995,13 @@ def read_pairs(path, *, scene_root=None, follow: bool | None = None) -> PairsTab
         The scene folder its image paths are relative to (default: its ``scene_root`` column,
         relative to the file's folder).
     follow : bool, optional
-        The link rule (:func:`follow_links`).
+        Whether image paths may lead out of the scene folder through symbolic links
+        (default: :func:`follow_links`).
 
     Returns
     -------
     PairsTable
+        The file's rows with their boxes and resolved image paths; errors name ``path``.
 
     Raises
     ------
