@@ -75,12 +75,12 @@ def read_records(cache_dir=None) -> dict:
     Parameters
     ----------
     cache_dir : str or Path, optional
-        The export cache.
+        The export cache whose ``runtime_checks.json`` is read.
 
     Returns
     -------
     dict
-        ``{key: record}``.
+        ``{record_key: record}``, as written by :func:`write_record`.
 
     Raises
     ------
@@ -127,20 +127,16 @@ def find_record(encoder_name: str, runtime: str, precision: str, whash: str, cac
 
     Parameters
     ----------
-    encoder_name : str
-        A registry encoder name.
-    runtime : str
-        ``{'openvino', 'onnxruntime', 'torch'}``.
-    precision : str
-        ``{'fp32', 'bf16', 'int8'}``.
-    whash : str
-        The weights' SHA-256 hex digest.
+    encoder_name, runtime, precision, whash : str
+        What the check was run on; looked up under their :func:`record_key`.
     cache_dir : str or Path, optional
-        The export cache.
+        The export cache holding the records file (:func:`records_path`).
 
     Returns
     -------
     dict or None
+        The record as :func:`check_runtime` built it (stored by :func:`write_record`); None
+        when that combination was never checked.
     """
     return read_records(cache_dir).get(record_key(encoder_name, runtime, precision, whash))
 

@@ -84,13 +84,14 @@ def build_random(spec, overrides: dict):
     Parameters
     ----------
     spec : EncoderSpec
-        The registry entry.
+        The ``efficientnet-lite0`` entry (named in the error).
     overrides : dict
         Must be empty: the architecture is fixed (``ValueError`` otherwise).
 
     Returns
     -------
     torch.nn.Module
+        Untrained EfficientNet-Lite0, ImageNet head included.
     """
     if overrides:
         raise ValueError(f"{spec.name}: the random build takes no config overrides")

@@ -19,7 +19,8 @@ import os
 
 from data_schema.errors import InputError
 
-__all__ = ["ARCHS", "load", "from_local", "build_random", "final_tokens", "pool_patch_tokens", "embed_tokens"]
+__all__ = ["ARCHS", "load", "from_local", "from_config", "build_random", "final_tokens", "pool_patch_tokens",
+           "embed_tokens"]
 
 #: arch -> (transformers model class, config class)
 ARCHS = {
@@ -55,13 +56,14 @@ def load(spec, weights):
     Parameters
     ----------
     spec : EncoderSpec
-        The registry entry.
+        A ViT registry entry; its ``arch`` picks the transformers class (:data:`ARCHS`).
     weights : str or Path or None
-        A Hugging Face model folder; ``None``: the hub cache.
+        A local copy of ``spec.source``; ``None``: look for it in the hub cache.
 
     Returns
     -------
     transformers.PreTrainedModel
+        The vision tower of ``spec.arch`` with its trained weights.
     """
     return from_local(_classes(spec.arch)[0], spec, weights)
 
@@ -93,22 +95,42 @@ def from_local(model_cls, spec, weights):
         raise missing_weights_error(spec, weights) from None
 
 
-def build_random(spec, overrides: dict):
-    """The architecture of ``spec.config`` (+ ``overrides``) with random weights.
+def from_config(model_cls, config_cls, spec, overrides: dict):
+    """``model_cls`` built from ``config_cls(**spec.config, **overrides)``, weights random.
 
     Parameters
     ----------
+    model_cls, config_cls : type
+        A ``transformers`` model class and its configuration class.
     spec : EncoderSpec
-        The registry entry.
+        The registry entry; ``spec.config`` holds the architecture's config fields.
     overrides : dict
-        Fields of the architecture config to change.
+        Config fields that replace those of ``spec.config`` (e.g. a smaller test model).
 
     Returns
     -------
     transformers.PreTrainedModel
+        An untrained ``model_cls``.
     """
-    model_cls, config_cls = _classes(spec.arch)
     return model_cls(config_cls(**{**spec.config, **overrides}))
+
+
+def build_random(spec, overrides: dict):
+    """The ViT of ``spec.arch`` with random weights (:func:`from_config`).
+
+    Parameters
+    ----------
+    spec : EncoderSpec
+        A ViT registry entry (``arch`` and ``config``).
+    overrides : dict
+        ViT config fields to change, e.g. ``num_hidden_layers``.
+
+    Returns
+    -------
+    transformers.PreTrainedModel
+        The untrained vision tower.
+    """
+    return from_config(*_classes(spec.arch), spec, overrides)
 
 
 def final_tokens(model, pixel_values):
@@ -162,11 +184,11 @@ def embed_tokens(model, pixel_values, spec):
     Parameters
     ----------
     model : transformers.PreTrainedModel
-        A vision tower.
+        The ViT of ``spec`` (:func:`load` or :func:`build_random`).
     pixel_values : (B, 3, S, S) float32 tensor
-        Normalised RGB.
+        Crops normalised with ``spec.mean``/``spec.std``, ``S = spec.input_size``.
     spec : EncoderSpec
-        The registry entry (its ``n_prefix_tokens``).
+        The registry entry; ``n_prefix_tokens`` class/register tokens are left out.
 
     Returns
     -------

@@ -357,10 +357,8 @@ def load_encoder(encoder: EncoderConfig | str | None = None, **options) -> Encod
 
     Parameters
     ----------
-    encoder : EncoderConfig, str or None, optional
-        A config, a registry name or ``None`` (the default encoder).
-    **options
-        :class:`EncoderConfig` fields.
+    encoder, **options
+        Which encoder and how to run it, as for :func:`encoder_config`.
 
     Returns
     -------

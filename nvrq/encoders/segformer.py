@@ -8,7 +8,7 @@ Layer: nvrq core, encoders.
 
 from __future__ import annotations
 
-from nvrq.encoders.hf_vit import from_local
+from nvrq.encoders.hf_vit import from_config, from_local
 
 __all__ = ["load", "build_random", "embed_tokens"]
 
@@ -19,13 +19,14 @@ def load(spec, weights):
     Parameters
     ----------
     spec : EncoderSpec
-        The registry entry.
+        The SegFormer-B0 entry; ``spec.source`` is the Cityscapes checkpoint's hub id.
     weights : str or Path or None
-        A Hugging Face model folder; ``None``: the hub cache.
+        That checkpoint's folder; ``None``: the hub cache.
 
     Returns
     -------
     transformers.SegformerModel
+        The Mix Transformer; a checkpoint's decode head is not loaded.
     """
     from transformers import SegformerModel
 
@@ -38,17 +39,18 @@ def build_random(spec, overrides: dict):
     Parameters
     ----------
     spec : EncoderSpec
-        The registry entry.
+        The SegFormer-B0 entry (its ``config``, applied over the defaults).
     overrides : dict
-        Fields of ``SegformerConfig`` to change.
+        Fields of ``SegformerConfig`` to change, e.g. ``hidden_sizes``.
 
     Returns
     -------
     transformers.SegformerModel
+        The untrained Mix Transformer (:func:`~nvrq.encoders.hf_vit.from_config`).
     """
     from transformers import SegformerConfig, SegformerModel
 
-    return SegformerModel(SegformerConfig(**{**spec.config, **overrides}))
+    return from_config(SegformerModel, SegformerConfig, spec, overrides)
 
 
 def embed_tokens(model, pixel_values, spec):
