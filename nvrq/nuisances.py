@@ -108,16 +108,16 @@ def scaled_box(box: np.ndarray, factor: float, size: tuple[int, int]) -> np.ndar
     Parameters
     ----------
     box : (4,) int
-        ``[x0, y0, x1, y1]``, inclusive pixels.
+        The object's box ``[x0, y0, x1, y1]``, inclusive pixels; its centre stays put.
     factor : float
-        Scale of both sides.
+        Scale of both sides (1.2: 20 % wider and taller).
     size : (int, int)
-        ``(W, H)`` of the image, pixels.
+        Image ``(W, H)``, pixels.
 
     Returns
     -------
     (4,) int64
-        Inclusive pixels, clamped into the image (:func:`clamp_box`).
+        The scaled box, moved back inside the image where it sticks out (:func:`clamp_box`).
     """
     cx, cy = (box[0] + box[2]) / 2.0, (box[1] + box[3]) / 2.0
     w = max(int(round((box[2] - box[0] + 1) * factor)), 2)
@@ -148,11 +148,10 @@ def occlude(crop: np.ndarray, occluder: np.ndarray, area: float, corner: int) ->
     """
     h, w = crop.shape[:2]
     oh, ow = max(int(round(h * math.sqrt(area))), 1), max(int(round(w * math.sqrt(area))), 1)
-    patch = cv2.resize(occluder, (ow, oh), interpolation=cv2.INTER_AREA)
-    out = crop.copy()
     y = 0 if corner in (0, 1) else h - oh
     x = 0 if corner in (0, 2) else w - ow
-    out[y : y + oh, x : x + ow] = patch
+    out = crop.copy()
+    out[y : y + oh, x : x + ow] = cv2.resize(occluder, (ow, oh), interpolation=cv2.INTER_AREA)
     return out
 
 
@@ -162,13 +161,14 @@ def expose(crop: np.ndarray, gain: float) -> np.ndarray:
     Parameters
     ----------
     crop : (H, W, 3) uint8
-        RGB crop.
+        The crop to brighten (``gain > 1``) or darken (``gain < 1``).
     gain : float
-        Exposure factor.
+        Factor on every channel value.
 
     Returns
     -------
     (H, W, 3) uint8
+        The scaled values, rounded and saturated at 0 and 255.
     """
     return np.clip(np.rint(crop.astype(np.float32) * gain), 0, 255).astype(np.uint8)
 
@@ -179,14 +179,14 @@ def jpeg_roundtrip(crop: np.ndarray, quality: int) -> np.ndarray:
     Parameters
     ----------
     crop : (H, W, 3) uint8
-        RGB crop.
+        RGB crop (sent to OpenCV as BGR).
     quality : int
-        JPEG quality, 0-100.
+        JPEG quality, 0-100 (``cv2.IMWRITE_JPEG_QUALITY``).
 
     Returns
     -------
     (H, W, 3) uint8
-        RGB.
+        The decoded crop, RGB, with the compression artefacts.
     """
     ok, buf = cv2.imencode(
         ".jpg", np.ascontiguousarray(crop[..., ::-1]), [cv2.IMWRITE_JPEG_QUALITY, int(quality)]

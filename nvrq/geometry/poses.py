@@ -333,20 +333,20 @@ def perturb_T_sensor_rig(T_sensor_rig: np.ndarray, perturbations: np.ndarray) ->
     """Virtual camera mountings ``T_sensor'_rig = T_pert @ T_sensor_rig`` ``(K, 4, 4)`` for
     perturbations ``(K, 6)`` (see :func:`perturbation_T` for the convention).
 
-    Worked example: a camera at rig (1.5, 0, 1.5) yawed by +90 deg keeps its centre and its
-    optical axis (rig +x) turns to rig +y:
-
     Parameters
     ----------
     T_sensor_rig : (4, 4) float64
-        The real camera mounting, sensor frame to rig frame (metres).
+        The real camera's mounting; the perturbations rotate about its centre.
     perturbations : (K, 6) float64
-        ``(dx, dy, dz, roll, pitch, yaw)``: metres, degrees, rig frame.
+        One virtual camera per row, as for :func:`perturbation_T`.
 
     Returns
     -------
     (K, 4, 4) float64
         ``T_sensor'_rig`` of each virtual camera.
+
+    Worked example: a camera at rig (1.5, 0, 1.5) yawed by +90 deg keeps its centre and its
+    optical axis (rig +x) turns to rig +y:
 
     >>> T = np.eye(4); T[:3, 3] = [1.5, 0, 1.5]
     >>> Tp = perturb_T_sensor_rig(T, np.array([[0, 0, 0, 0, 0, 90.0]]))[0]

@@ -348,10 +348,8 @@ def score_crop_batch(batch: CropBatch, *, metrics: Sequence[str], encoder=None, 
         For ``nvrq:*``/``nvrq_ca:*``: GT crops embedded once each, ``batch_size`` crops per pass.
     tau : float, optional
         In (0, 1), for ``nvrq_ca:*``.
-    batch_size : int
-        Crops per encoder pass.
-    timings : dict, optional
-        Gains the per-stage seconds (module docstring).
+    batch_size, timings
+        As for :func:`compute_columns`, which does the work once the arguments are checked.
 
     Returns
     -------

@@ -110,13 +110,14 @@ def person_views(height: float, rng) -> tuple[Material, Material]:
     Parameters
     ----------
     height : float, metres
-        The pedestrian's height.
+        The pedestrian's height; the figure is drawn at 80 px per metre.
     rng : numpy.random.Generator
-        Source of the figure's randomness.
+        Picks the clothing colours and the figure's details.
 
     Returns
     -------
     front, side : Material
+        RGBA views ``int(80 height)`` px high and 56 px wide.
     """
     ppm = 80
     h = int(height * ppm)
@@ -136,13 +137,14 @@ def rider_views(length: float, height: float, rng) -> tuple[Material, Material]:
     Parameters
     ----------
     length, height : float, metres
-        Size of the rider's box.
+        The rider box's length (the side view's width) and height.
     rng : numpy.random.Generator
-        Source of the figure's randomness.
+        Picks the rider's colours and the bicycle frame's colour.
 
     Returns
     -------
     rear, side : Material
+        Views at 80 px per metre.
     """
     ppm = 80
     h = int(height * ppm)
