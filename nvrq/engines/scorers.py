@@ -12,10 +12,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
 from nvrq.proxies.classifier_drop import load_classifier, top_class_drop
-from nvrq.proxies.clip_drop import load_clip, true_category_index
+from nvrq.proxies.clip_drop import load_clip, true_category_drop, true_category_index
 from nvrq.scoring.core import column_seconds, pair_outputs
 from nvrq.scoring.plan import ScorePlan
 
@@ -63,8 +61,8 @@ class ImagenetScorer(_ProxyScorer):
     extra_columns : tuple of str
         Pairs columns the scorer needs besides the crops (none).
     device, batch_size, runtime, cache_dir, pixel_columns
-        As in the shared proxy scorer base: torch device, crops per model batch, model runtime,
-        model cache folder, encoder-free columns (none).
+        The classifier's torch device, crops per forward pass, runtime and export cache; no
+        pixel columns.
     """
 
     classifier: str
@@ -91,18 +89,17 @@ class ClipScorer(_ProxyScorer):
     Attributes
     ----------
     clip : str
-        Name of the CLIP model to load.
+        The local CLIP folder each worker loads (:func:`~nvrq.proxies.clip_drop.load_clip`).
     prompts : tuple
         ``((category, prompt), ...)``: the zero-shot prompt of each category.
     category_map : tuple
         ``((label_class, category or None), ...)``: each label class's CLIP category.
     columns : tuple of str
-        Output columns, ``("clip_drop",)``.
+        ``("clip_drop",)``, the one column it writes.
     extra_columns : tuple of str
-        Pairs columns the scorer needs besides the crops, ``("label_class",)``.
+        ``("label_class",)``: read from the pairs to find each pair's true category.
     device, batch_size, runtime, cache_dir, pixel_columns
-        As in the shared proxy scorer base: torch device, crops per model batch, model runtime,
-        model cache folder, encoder-free columns (none).
+        As for :class:`ImagenetScorer`; ``runtime`` runs CLIP's image tower.
     """
 
     clip: str
@@ -117,11 +114,7 @@ class ClipScorer(_ProxyScorer):
 
     def score(self, model, batch, extra: dict, timings: dict) -> dict:
         c = true_category_index(extra["label_class"][batch.rows], dict(self.category_map), model.categories)
-        p_gt, p_r = self._probabilities(model, batch, timings)
-        drop = np.full(len(batch.rows), np.nan)
-        ok = np.flatnonzero(c >= 0)
-        drop[ok] = p_gt[ok, c[ok]] - p_r[ok, c[ok]]
-        return {"clip_drop": drop}
+        return {"clip_drop": true_category_drop(*self._probabilities(model, batch, timings), c)}
 
     def options(self) -> dict:
         return {"columns": list(self.columns), "clip": self.clip, "prompts": [list(p) for p in self.prompts],

@@ -54,6 +54,7 @@ __all__ = [
     "imagenet_drop",
     "DEFAULT_CLASSIFIER",
     "max_softmax_change",
+    "drop_table",
 ]
 
 DEFAULT_CLASSIFIER = "efficientnet-lite0"
@@ -90,12 +91,12 @@ def max_softmax_change(ref_logits: np.ndarray, other_logits: np.ndarray) -> floa
     Parameters
     ----------
     ref_logits, other_logits : (N, C) float
-        Logits of the same images from two runtimes.
+        Logits of the same N images: torch's (the reference) and an exported runtime's.
 
     Returns
     -------
     float
-        In [0, 1].
+        The largest change of any probability, in [0, 1]; 0 for identical logits.
     """
     return float(np.max(np.abs(_softmax64(ref_logits) - _softmax64(other_logits))))
 
@@ -105,8 +106,37 @@ def _logits(model, pixel_values):
     return out.logits if hasattr(out, "logits") else out
 
 
+class _ExportableForward:
+    """What the proxy models (:class:`ImageClassifier`, :class:`~nvrq.proxies.clip_drop.ZeroShotCLIP`)
+    share: one graph ``forward(model, pixel_values)`` run by torch, or by the exported runtime
+    :meth:`_use_runtime` chose. The class provides ``model``, ``input_size``, ``mean``, ``std``,
+    ``device``, ``runtime``, ``threads`` and ``_run``."""
+
+    def _forward(self, images: np.ndarray, forward, dtype: str) -> np.ndarray:
+        """``forward``'s output (B, K) for uint8 RGB ``images`` (B, S, S, 3): the exported run's
+        as it comes, or torch's cast to ``dtype`` (``'float32'``/``'float64'``)."""
+        import torch
+
+        if self._run is not None:
+            return self._run(images)
+        x = normalised_tensor(images, self.mean, self.std, device=self.device)
+        with torch.inference_mode():
+            return forward(self.model, x).to(getattr(torch, dtype)).cpu().numpy()
+
+    def _use_runtime(self, graph_name: str, forward, identity: tuple, *, runtime: str, threads, cache_dir):
+        """Export ``forward`` as ``graph_name`` (``identity``: its check's name and measure) and
+        run it on ``runtime`` (:func:`~nvrq.encoders.runtimes.exported_forward`); returns ``self``."""
+        from nvrq.encoders.runtimes import ExportableModel, exported_forward
+
+        graph = ExportableModel(graph_name, self.model, input_size=self.input_size, mean=self.mean,
+                                std=self.std, forward=forward, device=self.device, identity=identity)
+        self.runtime, self.threads, self._run = exported_forward(graph, runtime=runtime, threads=threads,
+                                                                 cache_dir=cache_dir)
+        return self
+
+
 @dataclass
-class ImageClassifier:
+class ImageClassifier(_ExportableForward):
     """``model(pixel_values (B, 3, S, S)) -> logits (B, C)``; ``mean``/``std`` on [0, 1] RGB.
 
     ``runtime``: where the logits come from (``torch``, or an exported runtime after
@@ -142,13 +172,7 @@ class ImageClassifier:
 
     def logits(self, images: np.ndarray) -> np.ndarray:
         """Logits (B, C) float32 of uint8 RGB inputs (B, S, S, 3) on :attr:`runtime`."""
-        import torch
-
-        if self._run is not None:
-            return self._run(images)
-        x = normalised_tensor(images, self.mean, self.std, device=self.device)
-        with torch.inference_mode():
-            return _logits(self.model, x).float().cpu().numpy()
+        return self._forward(images, _logits, "float32")
 
     def probabilities(self, images: np.ndarray) -> np.ndarray:
         """Softmax probabilities (B, C) float64 of uint8 RGB inputs (B, S, S, 3)."""
@@ -157,14 +181,8 @@ class ImageClassifier:
     def on_runtime(self, runtime: str = "auto", *, threads: int | None = None,
                    cache_dir=None) -> ImageClassifier:
         """Run the logits on ``runtime`` (module docstring); returns ``self``."""
-        from nvrq.encoders.runtimes import ExportableModel, exported_forward
-
-        graph = ExportableModel(f"{self.name}-logits", self.model, input_size=self.input_size,
-                                mean=self.mean, std=self.std, forward=_logits, device=self.device,
-                                identity=("max_dprob_vs_torch", max_softmax_change))
-        self.runtime, self.threads, self._run = exported_forward(graph, runtime=runtime, threads=threads,
-                                                   cache_dir=cache_dir)
-        return self
+        return self._use_runtime(f"{self.name}-logits", _logits, ("max_dprob_vs_torch", max_softmax_change),
+                                 runtime=runtime, threads=threads, cache_dir=cache_dir)
 
 
 def preprocessor_stats(folder: Path, default_size: int | None) -> tuple[int, tuple, tuple]:
@@ -326,28 +344,47 @@ def imagenet_drop(
     Parameters
     ----------
     pairs : pandas.DataFrame
-        A pairs table (docs/FORMATS.md §3).
+        A pairs table (docs/FORMATS.md §3) whose crop pairs are classified.
     classifier : ImageClassifier
-        The classifier.
-    scene_root : str or Path, optional
-        Where image paths are resolved from.
-    batch_size : int, optional
-        Crops per forward pass.
-    progress : bool, optional
-        Show a progress bar.
-    where : str, optional
-        The table named in errors.
-    timings : dict, optional
-        Stage seconds are added to it.
+        From :func:`load_classifier`.
+    scene_root, batch_size, progress, where, timings
+        Passed to :func:`pair_probabilities`: the image folder, crops per forward pass, whether
+        to show a progress bar, the table named in errors, the stage seconds' dict.
 
     Returns
     -------
     pandas.DataFrame
-        ``pair_id, imagenet_drop``.
+        ``pair_id, imagenet_drop``, one row per pair in ``pairs``' order.
     """
-    drop = np.full(len(pairs), np.nan)
-    for rows, p_gt, p_r in pair_probabilities(pairs, classifier, scene_root=scene_root,
-                                              batch_size=batch_size, progress=progress,
-                                              desc="imagenet", where=where, timings=timings):
-        drop[rows] = top_class_drop(p_gt, p_r)
-    return pd.DataFrame({"pair_id": pairs["pair_id"].to_numpy(), "imagenet_drop": drop})
+    return drop_table(pairs, classifier, "imagenet_drop", lambda rows, p_gt, p_r: top_class_drop(p_gt, p_r),
+                      scene_root=scene_root, batch_size=batch_size, progress=progress, desc="imagenet",
+                      where=where, timings=timings)
+
+
+def drop_table(pairs: pd.DataFrame, model, column: str, drop, **options) -> pd.DataFrame:
+    """The loop of both confidence-drop proxies: ``drop(rows, p_gt, p_render) -> (P,)`` on each
+    crop batch of :func:`pair_probabilities`, gathered into one column (NaN where no batch set it).
+
+    Parameters
+    ----------
+    pairs : pandas.DataFrame
+        A pairs table (docs/FORMATS.md §3), N rows.
+    model : ImageClassifier or ZeroShotCLIP
+        The proxy model, as :func:`pair_probabilities` takes it.
+    column : str
+        The output column's name, e.g. ``'imagenet_drop'``.
+    drop : callable
+        ``drop(rows (P,) int, p_gt (P, C), p_render (P, C)) -> (P,) float``: the proxy's formula.
+    **options
+        :func:`pair_probabilities`' keywords (``scene_root``, ``batch_size``, ``progress``,
+        ``desc``, ``where``, ``timings``).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``pair_id, <column>``, N rows in ``pairs``' order.
+    """
+    out = np.full(len(pairs), np.nan)
+    for rows, p_gt, p_r in pair_probabilities(pairs, model, **options):
+        out[rows] = drop(rows, p_gt, p_r)
+    return pd.DataFrame({"pair_id": pairs["pair_id"].to_numpy(), column: out})

@@ -36,12 +36,11 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
-from nvrq.crops import normalised_tensor
 from nvrq.proxies import mapped_labels
-from nvrq.proxies.classifier_drop import pair_probabilities, preprocessor_stats
+from nvrq.proxies.classifier_drop import _ExportableForward, drop_table, preprocessor_stats
 
 __all__ = ["ZeroShotCLIP", "zero_shot_probs", "load_clip", "clip_drop", "true_category_index",
-           "max_logit_change_bound"]
+           "true_category_drop", "max_logit_change_bound"]
 
 
 def zero_shot_probs(
@@ -106,7 +105,7 @@ def _image_features(model, pixel_values):
 
 
 @dataclass
-class ZeroShotCLIP:
+class ZeroShotCLIP(_ExportableForward):
     """A CLIP model with its K category prompts embedded once: ``text_feats (K, D)``.
 
     ``runtime``: where the image embeddings come from (``torch``, or an exported runtime
@@ -120,16 +119,8 @@ class ZeroShotCLIP:
         The K categories.
     text_feats : (K, D) float32
         Their prompts' embeddings.
-    input_size : int
-        Image side ``S``, pixels.
-    mean, std : (3,) float
-        Normalisation of RGB in [0, 1].
-    device : str
-        A torch device.
-    runtime : str
-        ``{'torch', 'openvino', 'onnxruntime'}``.
-    threads : int or None
-        CPU threads of an exported runtime.
+    input_size, mean, std, device, runtime, threads
+        As for :class:`~nvrq.proxies.classifier_drop.ImageClassifier`, for the image tower.
     """
 
     model: object
@@ -180,13 +171,7 @@ class ZeroShotCLIP:
 
     def image_features(self, images: np.ndarray) -> np.ndarray:
         """Projected image embeddings (B, D) float64 of uint8 RGB inputs (B, S, S, 3)."""
-        import torch
-
-        if self._run is not None:
-            return self._run(images).astype(np.float64)
-        x = normalised_tensor(images, self.mean, self.std, device=self.device)
-        with torch.inference_mode():
-            return _image_features(self.model, x).double().cpu().numpy()
+        return np.asarray(self._forward(images, _image_features, "float64"), np.float64)
 
     @property
     def logit_scale(self) -> float:
@@ -201,15 +186,9 @@ class ZeroShotCLIP:
         """Run the image tower on ``runtime`` (module docstring); returns ``self``."""
         from functools import partial
 
-        from nvrq.encoders.runtimes import ExportableModel, exported_forward
-
         bound = partial(max_logit_change_bound, logit_scale=self.logit_scale)
-        graph = ExportableModel("clip-image", self.model, input_size=self.input_size, mean=self.mean,
-                                std=self.std, forward=_image_features, device=self.device,
-                                identity=("max_dlogit_bound_vs_torch", bound))
-        self.runtime, self.threads, self._run = exported_forward(graph, runtime=runtime, threads=threads,
-                                                   cache_dir=cache_dir)
-        return self
+        return self._use_runtime("clip-image", _image_features, ("max_dlogit_bound_vs_torch", bound),
+                                 runtime=runtime, threads=threads, cache_dir=cache_dir)
 
 
 def load_clip(
@@ -225,18 +204,14 @@ def load_clip(
         A local Hugging Face CLIP folder.
     prompts : dict
         Category -> prompt.
-    device : str, optional
-        A torch device.
-    runtime : str, optional
-        ``{'auto', 'torch', 'openvino', 'onnxruntime'}``.
-    threads : int, optional
-        CPU threads of an exported runtime.
-    cache_dir : str or Path, optional
-        The export cache.
+    device, runtime, threads, cache_dir
+        As for :func:`~nvrq.proxies.classifier_drop.load_classifier`; ``runtime`` runs the
+        image tower (the prompts are embedded once, by torch).
 
     Returns
     -------
     ZeroShotCLIP
+        With its categories in ``prompts``' order.
     """
     folder = Path(clip)
     if not folder.is_dir():
@@ -315,34 +290,46 @@ def clip_drop(
     Parameters
     ----------
     pairs : pandas.DataFrame
-        A pairs table (docs/FORMATS.md §3).
+        A pairs table (docs/FORMATS.md §3) with ``label_class``.
     clip : ZeroShotCLIP
-        The model.
+        From :func:`load_clip`.
     category_map : dict
-        Lower-cased label class -> category or ``None``.
-    scene_root : str or Path, optional
-        Where image paths are resolved from.
-    batch_size : int, optional
-        Crops per forward pass.
-    progress : bool, optional
-        Show a progress bar.
-    where : str, optional
-        The table named in errors.
-    timings : dict, optional
-        Stage seconds are added to it.
+        Lower-cased label class -> category, or ``None`` for a class left unscored.
+    scene_root, batch_size, progress, where, timings
+        As for :func:`~nvrq.proxies.classifier_drop.imagenet_drop`.
 
     Returns
     -------
     pandas.DataFrame
-        ``pair_id, clip_drop``.
+        ``pair_id, clip_drop`` in ``pairs``' order, NaN where the class has no category.
     """
     c_star = true_category_index(pairs["label_class"], category_map, clip.categories, where=where)
-    drop = np.full(len(pairs), np.nan)
-    for rows, p_gt, p_r in pair_probabilities(pairs, clip, scene_root=scene_root,
-                                              batch_size=batch_size, progress=progress,
-                                              desc="clip", where=where, timings=timings):
-        c = c_star[rows]
-        ok = c >= 0
-        k = np.arange(len(rows))[ok]
-        drop[rows[ok]] = p_gt[k, c[ok]] - p_r[k, c[ok]]
-    return pd.DataFrame({"pair_id": pairs["pair_id"].to_numpy(), "clip_drop": drop})
+    return drop_table(pairs, clip, "clip_drop",
+                      lambda rows, p_gt, p_r: true_category_drop(p_gt, p_r, c_star[rows]),
+                      scene_root=scene_root, batch_size=batch_size, progress=progress, desc="clip",
+                      where=where, timings=timings)
+
+
+def true_category_drop(p_gt: np.ndarray, p_render: np.ndarray, c_star: np.ndarray) -> np.ndarray:
+    """Eq. 10 from probabilities: ``p_gt[c*] - p_render[c*]`` per row, NaN where ``c* < 0``.
+
+    Parameters
+    ----------
+    p_gt, p_render : (N, K) float
+        Zero-shot probabilities of the GT and render crops.
+    c_star : (N,) int
+        Each row's true category (:func:`true_category_index`; -1: none).
+
+    Returns
+    -------
+    (N,) float64
+        In [-1, 1]; NaN for the rows without a category.
+
+    >>> true_category_drop(np.array([[0.9, 0.1], [0.5, 0.5]]), np.array([[0.6, 0.4], [0.2, 0.8]]),
+    ...                    np.array([0, -1])).round(6).tolist()
+    [0.3, nan]
+    """
+    drop = np.full(len(c_star), np.nan)
+    ok = np.flatnonzero(c_star >= 0)
+    drop[ok] = p_gt[ok, c_star[ok]] - p_render[ok, c_star[ok]]
+    return drop

@@ -100,14 +100,14 @@ def run_yolo(
     imgsz : int, optional
         Inference size, pixels.
     progress : bool, optional
-        Show a progress bar.
+        Show a progress bar over the distinct render images.
     where : str, optional
-        The table named in errors.
+        How errors name ``pairs``.
 
     Returns
     -------
     pandas.DataFrame
-        A DETS table.
+        The detections, one row per box (a DETS table).
     """
     weights = Path(weights)
     if not weights.is_file():

@@ -53,12 +53,12 @@ def read_calib_P2(path: str | os.PathLike) -> np.ndarray:
     Parameters
     ----------
     path : str or os.PathLike
-        The KITTI calib file.
+        A ``calib/<frame>.txt`` file (lines ``P0: ...`` to ``Tr_imu_to_velo: ...``).
 
     Returns
     -------
     (3, 4) float numpy.ndarray
-        The projection matrix ``P2``.
+        ``P2``, the left colour camera's projection (pixels from rectified camera-0 metres).
     """
     path = Path(path)
     if not path.is_file():

@@ -82,11 +82,11 @@ class Assets:
     static_tex : (S,) int
         Their texture indices.
     actor_corners : (A, 4, 3) float64
-        Actor faces, metres, box frame.
+        Faces of the moving objects' boxes, metres, each in its box's own frame.
     actor_normals : (A, 3) float64
-        Their outward normals.
+        Outward normals of those faces, box frame (rotated with the box when drawn).
     actor_tex : (A,) int
-        Their texture indices.
+        Index into ``textures`` of each actor face.
     actor_owner : (A,) int
         The actor each face belongs to.
     bb_base : (B, 3) float64

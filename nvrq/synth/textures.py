@@ -103,16 +103,17 @@ def finalize(m: Material, *, lighting: str, shade: float) -> np.ndarray:
     Parameters
     ----------
     m : Material
-        The drawn material.
+        The drawn material: albedo, emissive parts and alpha.
     lighting : str
-        ``{'daytime', 'nighttime'}``.
+        ``{'daytime', 'nighttime'}``; at night the albedo dims to 16 % and the emissive parts
+        are added.
     shade : float
-        Flat-shading factor of the face.
+        Flat-shading factor of the face, on the albedo.
 
     Returns
     -------
     (H, W, 4) uint8
-        BGR-A texture.
+        BGR-A texture, alpha from ``m``.
     """
     gain = shade if lighting == "daytime" else 0.16 * shade
     rgb = m.albedo.astype(np.float32) * gain
@@ -209,15 +210,16 @@ def vehicle_end(width: float, height: float, rgb, rng, *, front: bool, kind: str
     rgb : (3,) int
         Body colour.
     rng : numpy.random.Generator
-        Source of the texture's randomness.
+        Draws the face's low-frequency noise.
     front : bool
-        Front (headlights, windscreen) or rear.
+        Front (white headlights, grille) or rear (red tail lights).
     kind : str
-        ``{'car_body', 'car_cabin', 'bus', 'cab', 'trailer'}``.
+        The vehicle part, as for :func:`vehicle_side`; it places the lamps, windscreen and plate.
 
     Returns
     -------
     Material
+        The face, ``PPM`` pixels per metre.
     """
     w, h = int(width * PPM), int(height * PPM)
     m = Material.blank(h, w, rgb)
