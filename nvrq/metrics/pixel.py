@@ -2,9 +2,7 @@
 
 Every function takes ``gt`` and ``render``: uint8 RGB crops of equal shape (H, W, 3) --
 the render crop already bicubic-resized to the GT crop's size -- and returns a float.
-Pixel values are 0-255 (``data_range = 255``); nothing is rescaled or inferred. Each metric
-``m`` checks its crops (:func:`_check`) and calls ``_m``, its unchecked twin, which the scoring
-core calls directly once a run's input is checked.
+Pixel values are 0-255 (``data_range = 255``); nothing is rescaled or inferred.
 
 - :func:`psnr` -- over all three channels; ``inf`` for identical crops (as scikit-image).
 - :func:`ssim` -- Wang et al. 2004: 11x11 Gaussian window, sigma 1.5, K1 0.01, K2 0.03,
@@ -93,6 +91,7 @@ def mse(gt: np.ndarray, render: np.ndarray) -> float:
 
 
 def _mse(gt: np.ndarray, render: np.ndarray) -> float:
+    """:func:`mse` without the input check (the scoring core checks once per run)."""
     d = gt.astype(np.float64) - render.astype(np.float64)
     return float(np.mean(d * d))
 
@@ -120,6 +119,7 @@ def mae(gt: np.ndarray, render: np.ndarray) -> float:
 
 
 def _mae(gt: np.ndarray, render: np.ndarray) -> float:
+    """:func:`mae` without the input check."""
     return float(np.mean(np.abs(gt.astype(np.float64) - render.astype(np.float64))))
 
 
@@ -146,6 +146,7 @@ def psnr(gt: np.ndarray, render: np.ndarray) -> float:
 
 
 def _psnr(gt: np.ndarray, render: np.ndarray) -> float:
+    """:func:`psnr` without the input check."""
     err = _mse(gt, render)
     return math.inf if err == 0 else float(10.0 * np.log10(DATA_RANGE ** 2 / err))
 
@@ -194,6 +195,7 @@ def ssim(gt: np.ndarray, render: np.ndarray) -> float:
 
 
 def _ssim(gt: np.ndarray, render: np.ndarray) -> float:
+    """:func:`ssim` without the input check."""
     if min(gt.shape[:2]) < _WIN:
         return math.nan
     s, _ = _ssim_cs_maps(gt.astype(np.float64), render.astype(np.float64))
@@ -251,6 +253,7 @@ def ms_ssim(gt: np.ndarray, render: np.ndarray) -> float:
 
 
 def _ms_ssim(gt: np.ndarray, render: np.ndarray) -> float:
+    """:func:`ms_ssim` without the input check."""
     n_scales = ms_ssim_scales(min(gt.shape[:2]))
     if n_scales == 0:
         return math.nan
@@ -309,6 +312,7 @@ def gmsd(gt: np.ndarray, render: np.ndarray) -> float:
 
 
 def _gmsd(gt: np.ndarray, render: np.ndarray) -> float:
+    """:func:`gmsd` without the input check."""
     if min(gt.shape[:2]) < GMSD_MIN_SIDE:
         return math.nan
     m1, m2 = _gradient_magnitude(_luma(gt)), _gradient_magnitude(_luma(render))
