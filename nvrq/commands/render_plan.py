@@ -15,12 +15,13 @@ __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
-    """Add ``render-plan`` to the ``nvrq`` subcommands ``sub``.
+    """Add ``render-plan``: which views (offsets or a 6-DoF grid), cameras and method to plan,
+    in which world, and the plan file.
 
     Parameters
     ----------
     sub : argparse._SubParsersAction
-        The ``nvrq`` subcommand parsers.
+        ``nvrq``'s subcommand parsers, one more of which is ``render-plan``.
     """
     p = sub.add_parser(
         "render-plan",
@@ -48,19 +49,18 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    """Run ``nvrq render-plan``.
+    """Check the plan's options, plan every render of the scene and write the plan file.
 
     Parameters
     ----------
     args : argparse.Namespace
-        The parsed options of ``nvrq render-plan``.
+        ``scene``, the views (``offsets``, ``perturb``), ``cameras``, ``method``, ``world``,
+        ``out`` and ``format``.
 
     Returns
     -------
     int
-        The exit status, 0 on success (bad input raises
-        :class:`~data_schema.errors.InputError`, status 2 through
-        :func:`~nvrq.commands.args.run_cli`).
+        0 once the plan is written; the line printed counts its renders.
     """
     from data_schema.methods import check_method_name
     from data_schema.scene import load_scene

@@ -1,0 +1,74 @@
+"""The options several commands of ``nvrq``, ``annotate`` and ``analyze`` add alike, each
+written once here: the pairs table ``PAIRS``, the ``--scene`` its image paths are relative to,
+a ``--seed`` and ``--quiet``.
+
+Layer: commands (CLI shell).
+
+A command whose option means something of its own (``nvrq synth``'s positional ``OUT``, a
+``--min-side`` with another default) keeps its own ``add_argument``; these are the spellings,
+types and help texts that must read the same wherever they appear.
+"""
+
+from __future__ import annotations
+
+from nvrq.commands.args import int_arg
+
+__all__ = ["add_pairs_argument", "add_scene_root_option", "add_seed_option", "add_quiet_option"]
+
+
+def add_pairs_argument(parser, *, datasets: bool = False) -> None:
+    """Add the positional ``pairs``: the table ``nvrq pairs`` wrote (docs/FORMATS.md §3).
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The parser of a command that reads a pairs table.
+    datasets : bool, optional
+        Whether a pairs dataset folder (several clips, ``nvrq pairs SCENES --out DIR``) is taken
+        too, as by ``nvrq score`` (default: a table only).
+    """
+    more = ", or a pairs dataset folder (several clips)" if datasets else ""
+    parser.add_argument("pairs", help=f"pairs table from `nvrq pairs` (.csv or .parquet){more}")
+
+
+def add_scene_root_option(parser) -> None:
+    """Add ``--scene``: the folder a pairs table's image paths are relative to, overriding its
+    ``scene_root`` column.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The parser of a command that reads the crops of a pairs table.
+    """
+    parser.add_argument("--scene", default=None, metavar="SCENE",
+                        help="scene folder the image paths are relative to "
+                             "(default: the pairs table's scene_root column)")
+
+
+def add_seed_option(parser, what: str, *, default: int = 0) -> None:
+    """Add ``--seed``: a non-negative integer that makes the command's random choices repeatable.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The command's parser.
+    what : str
+        What the seed drives, the start of the help, e.g. ``"sampling seed"``; the help ends
+        with ``(default N)``.
+    default : int, optional
+        The seed when none is given (default 0).
+    """
+    parser.add_argument("--seed", type=int_arg(low=0), default=default, help=f"{what} (default {default})")
+
+
+def add_quiet_option(parser) -> None:
+    """Add ``--quiet``, which turns off the progress bars :func:`nvrq.commands.args.show_progress`
+    would draw.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The parser of a command that shows progress.
+    """
+    parser.add_argument("--quiet", action="store_true",
+                        help="no progress bars (none is drawn when stderr is not a terminal)")
