@@ -22,7 +22,8 @@ __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
-    """Add ``add-rater``: the study, the rater's name, the link's address and ``--rotate``.
+    """Add ``add-rater``: the study, the rater's name, the address the printed link names
+    (:func:`annotate.commands.serve.add_address_options`, no defaults) and ``--rotate``.
 
     Parameters
     ----------

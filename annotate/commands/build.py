@@ -23,12 +23,13 @@ from nvrq.commands.args import (
     DeprecatedFileOption,
     DeprecatedSize,
     add_link_option,
+    add_quiet_option,
     allow_negative_lists,
     int_arg,
     parse_wxh,
     show_progress,
 )
-from nvrq.commands.shared_options import add_quiet_option, add_scene_root_option, add_seed_option
+from nvrq.commands.shared_options import add_scene_root_option, add_seed_option
 
 if TYPE_CHECKING:
     from annotate.design import StudyOptions

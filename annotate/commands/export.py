@@ -18,7 +18,8 @@ __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
-    """Add ``export``: the votes table, the optional participants table and ``--raw-csv``.
+    """Add ``export``: where the votes table goes, the optional participants table, and
+    ``--raw-csv`` (text cells not guarded against spreadsheet formulas).
 
     Parameters
     ----------

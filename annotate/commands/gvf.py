@@ -15,7 +15,8 @@ __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
-    """Add ``gvf``: a binary study's folder in, the good-vote fraction table out.
+    """Add ``gvf``, which reads a binary (good/bad) study's votes and writes, or prints, the
+    good-vote fraction of each test item.
 
     Parameters
     ----------
@@ -29,7 +30,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    """Write the GVF table to ``args.out``, or print it when no ``--out`` is given.
+    """Write the GVF table (:func:`annotate.results.gvf_table`) to ``args.out``, or print it
+    when no ``--out`` is given.
 
     Parameters
     ----------

@@ -315,7 +315,8 @@ def serve_workers(study_root: Path, args, env: dict, *, loopback: bool) -> int:
 
 
 def run(args) -> int:
-    """Replace this process with the Streamlit server of ``args.study`` (see the module docstring).
+    """Replace this process with the Streamlit server of ``args.study`` (see the module
+    docstring), or supervise ``--workers`` servers behind a printed proxy configuration.
 
     Parameters
     ----------

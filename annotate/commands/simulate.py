@@ -8,14 +8,15 @@ Layer: commands (CLI shell) of ``annotate``.
 from __future__ import annotations
 
 from annotate.commands import add_study_argument
-from nvrq.commands.args import int_arg, show_progress
-from nvrq.commands.shared_options import add_quiet_option, add_seed_option
+from nvrq.commands.args import add_quiet_option, int_arg, show_progress
+from nvrq.commands.shared_options import add_seed_option
 
 __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
-    """Add ``simulate``, with how many raters to simulate and the seed of their votes.
+    """Add ``simulate``: how many raters to simulate (the last one careless) and the seed
+    of their parameters and votes.
 
     Parameters
     ----------
@@ -32,7 +33,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    """Simulate the raters' votes and print their parameters and test votes.
+    """Let ``args.raters`` new simulated raters vote in the study
+    (:func:`annotate.simulate.simulate`); print their parameters and test votes.
 
     Parameters
     ----------

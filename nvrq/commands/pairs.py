@@ -12,8 +12,7 @@ from pathlib import Path
 
 from data_schema.defaults import MIN_SIDE_PX
 from data_schema.errors import InputError
-from nvrq.commands.args import add_link_option, number_arg, show_progress
-from nvrq.commands.shared_options import add_quiet_option
+from nvrq.commands.args import add_link_option, add_quiet_option, number_arg, show_progress
 
 __all__ = ["register", "run"]
 
@@ -47,7 +46,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    """Project the boxes of one scene into a pairs table, or of several into a dataset.
+    """Project the boxes of one scene into a pairs table, or of several into a dataset
+    (:mod:`nvrq.fleet`; ``--out`` without a suffix writes a dataset of one scene too).
 
     Parameters
     ----------

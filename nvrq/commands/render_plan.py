@@ -49,7 +49,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    """Check the plan's options, plan every render of the scene and write the plan file.
+    """Check the plan's options before the scene is read, plan every render of the scene
+    (:func:`nvrq.render_plans.render_plan`) and write the plan file.
 
     Parameters
     ----------

@@ -1,6 +1,7 @@
-"""The options several commands of ``nvrq``, ``annotate`` and ``analyze`` add alike, each
-written once here: the pairs table ``PAIRS``, the ``--scene`` its image paths are relative to,
-a ``--seed`` and ``--quiet``.
+"""The options several commands of ``nvrq`` and ``annotate`` add alike, each written once
+here: the pairs table ``PAIRS``, the ``--scene`` its image paths are relative to and a
+``--seed`` (``--quiet`` is :func:`nvrq.commands.args.add_quiet_option`, beside the
+:func:`~nvrq.commands.args.show_progress` that reads it).
 
 Layer: commands (CLI shell).
 
@@ -13,7 +14,7 @@ from __future__ import annotations
 
 from nvrq.commands.args import int_arg
 
-__all__ = ["add_pairs_argument", "add_scene_root_option", "add_seed_option", "add_quiet_option"]
+__all__ = ["add_pairs_argument", "add_scene_root_option", "add_seed_option"]
 
 
 def add_pairs_argument(parser, *, datasets: bool = False) -> None:
@@ -59,16 +60,3 @@ def add_seed_option(parser, what: str, *, default: int = 0) -> None:
         The seed when none is given (default 0).
     """
     parser.add_argument("--seed", type=int_arg(low=0), default=default, help=f"{what} (default {default})")
-
-
-def add_quiet_option(parser) -> None:
-    """Add ``--quiet``, which turns off the progress bars :func:`nvrq.commands.args.show_progress`
-    would draw.
-
-    Parameters
-    ----------
-    parser : argparse.ArgumentParser
-        The parser of a command that shows progress.
-    """
-    parser.add_argument("--quiet", action="store_true",
-                        help="no progress bars (none is drawn when stderr is not a terminal)")

@@ -7,8 +7,14 @@ Layer: commands (CLI shell).
 from __future__ import annotations
 
 from data_schema.text import comma_list
-from nvrq.commands.args import allow_negative_lists, number_arg, parse_wxh, show_progress
-from nvrq.commands.shared_options import add_quiet_option, add_seed_option
+from nvrq.commands.args import (
+    add_quiet_option,
+    allow_negative_lists,
+    number_arg,
+    parse_wxh,
+    show_progress,
+)
+from nvrq.commands.shared_options import add_seed_option
 
 __all__ = ["register", "run", "parse_size", "add_perturb_option", "add_view_options",
            "perturb_grid"]
@@ -92,7 +98,8 @@ def parse_size(text: str) -> tuple[int, int]:
 
 
 def register(sub) -> None:
-    """Add ``synth``: the clip's length, frame rate, views, cameras, image size and methods.
+    """Add ``synth``: the clip's seed, length and frame rate, its views and cameras, the image
+    size and the reconstruction methods rendered.
 
     Parameters
     ----------
@@ -122,7 +129,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    """Generate the synthetic scene folder ``args.out`` and print where it is.
+    """Generate the synthetic scene folder ``args.out`` (:func:`nvrq.synth.generate_scene`)
+    and print where it is.
 
     Parameters
     ----------
