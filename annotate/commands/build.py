@@ -66,6 +66,7 @@ def register(sub) -> None:
                    help="frames spread evenly along each track (default 12)")
     b.add_argument("--offsets", default="all",
                    help="'all' or a comma list of metres, e.g. -1,0,1 (default all)")
+    allow_negative_lists(b)  # --offsets -1,0,1 is a value, not an option
     b.add_argument("--votes-per-item", type=int_arg(), default=5, help="votes collected per item (default 5)")
     add_seed_option(b, "seed of every choice")
     b.add_argument("--training", type=int_arg(low=0), default=5,
@@ -99,7 +100,6 @@ def register(sub) -> None:
                    "(default: every method of the pairs table)")
     add_link_option(b)
     add_quiet_option(b)
-    allow_negative_lists(b)
     b.set_defaults(func=run)
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 from data_schema.text import comma_list, plural
 from nvrq.choices import PLAN_FORMATS, WORLDS
 from nvrq.commands.args import add_link_option
+from nvrq.commands.shared_options import add_method_option
 from nvrq.commands.synth import add_view_options, perturb_grid
 
 __all__ = ["register", "run"]
@@ -35,9 +36,8 @@ def register(sub) -> None:
         p, offsets_default=None, offsets_help="offsets in metres (default: those in images.csv)"
     )
     p.add_argument("--cameras", default=None, help="comma list of camera names (default: all)")
-    p.add_argument("--method", default=None, metavar="NAME",
-                   help="plan this method's renders only, at its paths (default: every method of "
-                        "the scene, or none); give nvrq import renders the same --method")
+    add_method_option(p, "plan this method's renders only, at its paths (default: every method of "
+                         "the scene, or none)")
     p.add_argument("--world", choices=WORLDS, default="scene",
                    help="world of the poses: the scene's (default), or the source dataset's own "
                         "(a scene imported from drivestudio: scene.json source_world)")

@@ -1,6 +1,6 @@
 """The options several commands of ``nvrq`` and ``annotate`` add alike, each written once
-here: the pairs table ``PAIRS``, the ``--scene`` its image paths are relative to and a
-``--seed`` (``--quiet`` is :func:`nvrq.commands.args.add_quiet_option`, beside the
+here: the pairs table ``PAIRS``, the ``--scene`` its image paths are relative to, a
+``--seed`` and the ``--method`` of a renderer's output (``--quiet`` is :func:`nvrq.commands.args.add_quiet_option`, beside the
 :func:`~nvrq.commands.args.show_progress` that reads it).
 
 Layer: commands (CLI shell).
@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from nvrq.commands.args import int_arg
 
-__all__ = ["add_pairs_argument", "add_scene_root_option", "add_seed_option"]
+__all__ = ["add_pairs_argument", "add_scene_root_option", "add_seed_option", "add_method_option"]
 
 
 def add_pairs_argument(parser, *, datasets: bool = False) -> None:
@@ -60,3 +60,20 @@ def add_seed_option(parser, what: str, *, default: int = 0) -> None:
         The seed when none is given (default 0).
     """
     parser.add_argument("--seed", type=int_arg(low=0), default=default, help=f"{what} (default {default})")
+
+
+def add_method_option(parser, what: str) -> None:
+    """Add ``--method NAME``: the reconstruction method whose renders ``nvrq render-plan`` plans
+    and ``nvrq import renders`` registers. A method's renders have paths of their own
+    (``render_<...>/<method>``, :func:`nvrq.render_plans.default_image_path`), so both
+    commands must be given the same name; the help says so in both.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The parser of ``render-plan`` or of ``import renders``.
+    what : str
+        What the option means to this command, the start of its help.
+    """
+    parser.add_argument("--method", default=None, metavar="NAME",
+                        help=f"{what}; give nvrq render-plan and nvrq import renders the same --method")
