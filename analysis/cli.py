@@ -36,6 +36,7 @@ from nvrq.commands.args import (
     ArgumentParser,
     CommaList,
     DeprecatedFileOption,
+    add_quiet_option,
     add_version,
     flags_in_errors,
     int_arg,
@@ -194,7 +195,7 @@ HORIZON_DESTS = ("metric", "threshold", "share", "good_prob", "window_s")
 def _output_options(p: ArgumentParser) -> None:
     """Where the report goes, and the progress bars."""
     p.add_argument("--out", required=True, metavar="REPORT_DIR", help="report directory")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_quiet_option(p)
 
 
 #: The option groups of ``analyze``, in the order ``analyze --help`` lists them.

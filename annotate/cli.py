@@ -66,12 +66,14 @@ def main(argv=None) -> int:
     Parameters
     ----------
     argv : list of str, optional
-        The arguments (default ``sys.argv[1:]``).
+        A subcommand and its options, e.g. ``["export", "STUDY", "--out", "ratings.csv"]``
+        (default ``sys.argv[1:]``).
 
     Returns
     -------
     int
-        The exit status.
+        The subcommand's exit status; 2 after the one-line message of bad input (a damaged
+        vote store included).
     """
     return run_cli(_main, argv)
 

@@ -7,6 +7,7 @@ import secrets
 import sys
 
 from annotate.access import check_serving
+from annotate.commands import add_study_argument
 from annotate.commands.serve import (
     DEFAULT_HOST,
     DEFAULT_PORT,
@@ -21,15 +22,16 @@ __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
-    """Add ``add-rater`` to the ``annotate`` subcommands ``sub``.
+    """Add ``add-rater``: the study, the rater's name, the address the printed link names
+    (:func:`annotate.commands.serve.add_address_options`, no defaults) and ``--rotate``.
 
     Parameters
     ----------
     sub : argparse._SubParsersAction
-        The ``annotate`` subcommand parsers.
+        The parsers of ``annotate``'s subcommands; ``add-rater`` joins them.
     """
     a = sub.add_parser("add-rater", help="register a rater and print the sign-in link")
-    a.add_argument("study", metavar="STUDY", help="study folder made by 'annotate build'")
+    add_study_argument(a)
     a.add_argument("name", metavar="NAME", help="the rater's name (1-40 letters, digits, '.', '_' or '-')")
     add_address_options(a, defaults=False)
     a.add_argument("--rotate", action="store_true", help="give a registered rater a new link "

@@ -23,11 +23,13 @@ from nvrq.commands.args import (
     DeprecatedFileOption,
     DeprecatedSize,
     add_link_option,
+    add_quiet_option,
     allow_negative_lists,
     int_arg,
     parse_wxh,
     show_progress,
 )
+from nvrq.commands.shared_options import add_scene_root_option, add_seed_option
 
 if TYPE_CHECKING:
     from annotate.design import StudyOptions
@@ -41,18 +43,18 @@ def _items_per_rater(text: str) -> int | None:
 
 
 def register(sub) -> None:
-    """Add ``build`` to the ``annotate`` subcommands ``sub``.
+    """Add ``build``: the new study folder, the pairs table and every design option
+    (:func:`options_from_args` gathers them).
 
     Parameters
     ----------
     sub : argparse._SubParsersAction
-        The ``annotate`` subcommand parsers.
+        ``annotate``'s subcommand parsers; ``build`` is the first of them.
     """
     b = sub.add_parser("build", help="build a study folder from a pairs table")
     b.add_argument("study", metavar="STUDY", help="new study folder (absent or empty)")
     b.add_argument("--pairs", required=True, metavar="PAIRS", help="pairs table (docs/FORMATS.md §3; required)")
-    b.add_argument("--scene", metavar="SCENE", help="scene folder the pairs' image paths are relative to "
-                   "(default: the pairs table's scene_root column)")
+    add_scene_root_option(b)
     b.add_argument("--metrics-table", dest="metrics_tables", action="append", default=[], metavar="FILE",
                    help="metrics table (pair_id + metric columns) for the export; repeatable "
                    "(default: none)")
@@ -64,8 +66,9 @@ def register(sub) -> None:
                    help="frames spread evenly along each track (default 12)")
     b.add_argument("--offsets", default="all",
                    help="'all' or a comma list of metres, e.g. -1,0,1 (default all)")
+    allow_negative_lists(b)  # --offsets -1,0,1 is a value, not an option
     b.add_argument("--votes-per-item", type=int_arg(), default=5, help="votes collected per item (default 5)")
-    b.add_argument("--seed", type=int_arg(low=0), default=0, help="seed of every choice (default 0)")
+    add_seed_option(b, "seed of every choice")
     b.add_argument("--training", type=int_arg(low=0), default=5,
                    help="training items, shown first, clearly different ones first (default 5)")
     b.add_argument("--gold", type=int_arg(low=0), default=3, help="hidden gold items of each kind (default 3)")
@@ -96,8 +99,7 @@ def register(sub) -> None:
     b.add_argument("--methods", metavar="A,B", help="pairwise: comma list of the methods to compare "
                    "(default: every method of the pairs table)")
     add_link_option(b)
-    b.add_argument("--quiet", action="store_true", help="no progress bar (none is drawn off a terminal)")
-    allow_negative_lists(b)
+    add_quiet_option(b)
     b.set_defaults(func=run)
 
 
@@ -142,14 +144,13 @@ def run(args) -> int:
     Parameters
     ----------
     args : argparse.Namespace
-        The parsed options of ``annotate build``.
+        ``study`` (absent or empty), ``pairs``, ``metrics_tables``, ``scene``, ``public_url``,
+        ``quiet`` and the design options of :func:`options_from_args`.
 
     Returns
     -------
     int
-        The exit status, 0 on success (bad input raises
-        :class:`~data_schema.errors.InputError`, status 2 through
-        :func:`~nvrq.commands.args.run_cli`).
+        0 once the study folder is complete (it is written whole or not at all).
     """
     from annotate.study import build_study, load_study
 

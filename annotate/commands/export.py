@@ -10,6 +10,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from annotate.commands import add_study_argument
 from data_schema.errors import InputError
 from data_schema.outputs import check_output_file
 
@@ -17,16 +18,17 @@ __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
-    """Add ``export`` to the ``annotate`` subcommands ``sub``.
+    """Add ``export``: where the votes table goes, the optional participants table, and
+    ``--raw-csv`` (text cells not guarded against spreadsheet formulas).
 
     Parameters
     ----------
     sub : argparse._SubParsersAction
-        The ``annotate`` subcommand parsers.
+        ``annotate``'s subcommands, to which ``export`` is added.
     """
     e = sub.add_parser("export", help="write ratings.csv (docs/FORMATS.md §5; a pairwise "
                        "study's votes: §12)")
-    e.add_argument("study", metavar="STUDY", help="study folder made by 'annotate build'")
+    add_study_argument(e)
     e.add_argument("--out", required=True, metavar="RATINGS",
                    help="the votes table to write (.csv or .parquet; required)")
     e.add_argument("--participants", metavar="FILE", help="also write the crowd raters' panel "
@@ -45,14 +47,13 @@ def run(args) -> int:
     Parameters
     ----------
     args : argparse.Namespace
-        The parsed options of ``annotate export``.
+        ``study``, ``out`` and ``participants`` (paths; both outputs are checked before either
+        is written) and ``raw_csv``.
 
     Returns
     -------
     int
-        The exit status, 0 on success (bad input raises
-        :class:`~data_schema.errors.InputError`, status 2 through
-        :func:`~nvrq.commands.args.run_cli`).
+        0, also when some votes could not be placed (they are counted in a warning).
     """
     from annotate.results import votes_table
     from annotate.study import load_study, unplaced_votes

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from annotate.commands import add_study_argument
 from data_schema.errors import InputError
 from data_schema.outputs import check_output_file
 
@@ -14,33 +15,33 @@ __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
-    """Add ``gvf`` to the ``annotate`` subcommands ``sub``.
+    """Add ``gvf``, which reads a binary (good/bad) study's votes and writes, or prints, the
+    good-vote fraction of each test item.
 
     Parameters
     ----------
     sub : argparse._SubParsersAction
-        The ``annotate`` subcommand parsers.
+        Where ``annotate`` keeps its subcommands; ``gvf`` is added to it.
     """
     g = sub.add_parser("gvf", help="per-item good-vote fraction of test items")
-    g.add_argument("study", metavar="STUDY", help="study folder made by 'annotate build' (good/bad design)")
+    add_study_argument(g, need="good/bad design")
     g.add_argument("--out", metavar="FILE", help="table to write (.csv or .parquet; default: print it)")
     g.set_defaults(func=run)
 
 
 def run(args) -> int:
-    """Write the GVF table to ``args.out``, or print it when no ``--out`` is given.
+    """Write the GVF table (:func:`annotate.results.gvf_table`) to ``args.out``, or print it
+    when no ``--out`` is given.
 
     Parameters
     ----------
     args : argparse.Namespace
-        The parsed options of ``annotate gvf``.
+        ``study`` (a binary study) and ``out`` (a table path, or None to print).
 
     Returns
     -------
     int
-        The exit status, 0 on success (bad input raises
-        :class:`~data_schema.errors.InputError`, status 2 through
-        :func:`~nvrq.commands.args.run_cli`).
+        0; a pairwise study is refused (its votes have no good-vote fraction).
     """
     from annotate.results import gvf_table, ratings_table
     from annotate.study import load_study

@@ -42,6 +42,7 @@ from pathlib import Path
 from urllib.parse import urlsplit
 
 from annotate.access import check_serving
+from annotate.commands import add_study_argument
 from annotate.proxy_conf import PROXIES, proxy_conf
 from annotate.workers import supervise, worker_ports
 from data_schema.errors import InputError
@@ -90,9 +91,9 @@ def check_port_free(host: str, port: int) -> None:
     Parameters
     ----------
     host : str
-        IPv4 or IPv6 address.
+        The address the server will bind: IPv6 when it holds a colon, else IPv4.
     port : int
-        TCP port.
+        The TCP port tried there (with ``SO_REUSEADDR``, as the server binds).
 
     Raises
     ------
@@ -250,15 +251,16 @@ def links(study, base: str) -> list[str]:
 
 
 def register(sub) -> None:
-    """Add ``serve`` to the ``annotate`` subcommands ``sub``.
+    """Add ``serve`` with its address (:func:`add_address_options`) and worker
+    (:func:`add_worker_options`) options.
 
     Parameters
     ----------
     sub : argparse._SubParsersAction
-        The ``annotate`` subcommand parsers.
+        The ``annotate`` subcommands; ``serve`` is added.
     """
     s = sub.add_parser("serve", help="serve the rater app (Streamlit)")
-    s.add_argument("study", metavar="STUDY", help="study folder made by 'annotate build'")
+    add_study_argument(s)
     add_address_options(s)
     add_worker_options(s)
     s.set_defaults(func=run)
@@ -313,19 +315,20 @@ def serve_workers(study_root: Path, args, env: dict, *, loopback: bool) -> int:
 
 
 def run(args) -> int:
-    """Replace this process with the Streamlit server of ``args.study`` (see the module docstring).
+    """Replace this process with the Streamlit server of ``args.study`` (see the module
+    docstring), or supervise ``--workers`` servers behind a printed proxy configuration.
 
     Parameters
     ----------
     args : argparse.Namespace
-        The parsed options of ``annotate serve``.
+        ``study``, the address (``host``, ``port``, ``public_url``), the workers (``workers``,
+        ``proxy``, ``proxy_port``) and ``arrivals_per_minute``.
 
     Returns
     -------
     int
-        The exit status, 0 on success (bad input raises
-        :class:`~data_schema.errors.InputError`, status 2 through
-        :func:`~nvrq.commands.args.run_cli`).
+        With ``--workers`` above 1, the supervised servers' exit status; one server replaces
+        this process and never returns (its exit status is the server's).
     """
     from annotate.study import load_study
 

@@ -7,42 +7,44 @@ Layer: commands (CLI shell) of ``annotate``.
 
 from __future__ import annotations
 
-from nvrq.commands.args import int_arg, show_progress
+from annotate.commands import add_study_argument
+from nvrq.commands.args import add_quiet_option, int_arg, show_progress
+from nvrq.commands.shared_options import add_seed_option
 
 __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
-    """Add ``simulate`` to the ``annotate`` subcommands ``sub``.
+    """Add ``simulate``: how many raters to simulate (the last one careless) and the seed
+    of their parameters and votes.
 
     Parameters
     ----------
     sub : argparse._SubParsersAction
-        The ``annotate`` subcommand parsers.
+        The subcommands of ``annotate``, given ``simulate``.
     """
     m = sub.add_parser("simulate", help="add simulated raters (ids sim-*)")
-    m.add_argument("study", metavar="STUDY", help="study folder made by 'annotate build'")
+    add_study_argument(m)
     m.add_argument("--raters", type=int_arg(), default=5,
                    help="simulated raters, the last one careless (default 5)")
-    m.add_argument("--seed", type=int_arg(low=0), default=0, help="seed of the simulated votes (default 0)")
-    m.add_argument("--quiet", action="store_true", help="no progress bar (none is drawn off a terminal)")
+    add_seed_option(m, "seed of the simulated votes")
+    add_quiet_option(m)
     m.set_defaults(func=run)
 
 
 def run(args) -> int:
-    """Simulate the raters' votes and print their parameters and test votes.
+    """Let ``args.raters`` new simulated raters vote in the study
+    (:func:`annotate.simulate.simulate`); print their parameters and test votes.
 
     Parameters
     ----------
     args : argparse.Namespace
-        The parsed options of ``annotate simulate``.
+        ``study``, ``raters`` (how many) and ``seed``; ``quiet`` hides the progress bar.
 
     Returns
     -------
     int
-        The exit status, 0 on success (bad input raises
-        :class:`~data_schema.errors.InputError`, status 2 through
-        :func:`~nvrq.commands.args.run_cli`).
+        0 once the simulated votes are stored in the study.
     """
     from annotate.simulate import simulate
     from annotate.study import load_study

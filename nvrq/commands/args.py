@@ -42,7 +42,7 @@ import sys
 from data_schema.errors import InputError, check_int, check_number
 from data_schema.text import comma_list
 
-__all__ = ["ArgumentParser", "command_parser", "run_cli", "add_version", "show_progress", "parse_wxh", "CommaList", "DeprecatedFileOption", "DeprecatedSize",
+__all__ = ["ArgumentParser", "command_parser", "run_cli", "add_version", "show_progress", "add_quiet_option", "parse_wxh", "CommaList", "DeprecatedFileOption", "DeprecatedSize",
            "deprecated", "allow_negative_lists", "NEGATIVE_LIST", "option_for", "flags_in_errors",
            "add_link_option", "int_arg", "number_arg", "checked_arg", "LazyHelp"]
 
@@ -195,6 +195,18 @@ def show_progress(args) -> bool:
     """
     stream = sys.stderr
     return not getattr(args, "quiet", False) and bool(getattr(stream, "isatty", lambda: False)())
+
+
+def add_quiet_option(parser: argparse.ArgumentParser) -> None:
+    """Add ``--quiet``, which turns off the progress bars :func:`show_progress` would draw.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The parser of a command that shows progress.
+    """
+    parser.add_argument("--quiet", action="store_true",
+                        help="no progress bars (none is drawn when stderr is not a terminal)")
 
 
 def run_cli(main, argv=None) -> int:

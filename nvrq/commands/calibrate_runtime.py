@@ -10,6 +10,7 @@ from pathlib import Path
 
 from nvrq.commands.args import add_link_option, int_arg, number_arg
 from nvrq.commands.model_options import add_cache_dir_argument
+from nvrq.commands.shared_options import add_pairs_argument, add_scene_root_option, add_seed_option
 from nvrq.encoders import get_spec
 from nvrq.encoders.runtimes import PRECISIONS
 
@@ -17,30 +18,31 @@ __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
-    """Add ``calibrate-runtime`` to the ``nvrq`` subcommands ``sub``.
+    """Add ``calibrate-runtime``: the pairs sampled, the runtime and precision checked, and the
+    cache folder its record goes to.
 
     Parameters
     ----------
     sub : argparse._SubParsersAction
-        The ``nvrq`` subcommand parsers.
+        ``nvrq``'s subcommands, given ``calibrate-runtime``.
     """
     p = sub.add_parser("calibrate-runtime", help="drift check of a runtime/precision against torch fp32",
                        description="Embed the GT and render crops of a sample of pairs in torch fp32 and "
                                    "in RUNTIME/PRECISION; report mean/min cosine, NVRQ Spearman and max "
                                    "|dNVRQ|, and record the check (CACHE/runtime_checks.json), which "
                                    "`nvrq score --precision` requires.")
-    p.add_argument("pairs", help="pairs table from `nvrq pairs` (.csv or .parquet)")
+    add_pairs_argument(p)
     p.add_argument("--encoder", default=None, help=f"encoder (default {get_spec().name})")
     p.add_argument("--weights", default=None, help="local weights (HF model folder or .pth)")
     p.add_argument("--runtime", default="openvino", choices=["openvino", "onnxruntime"],
                    help="runtime checked against torch fp32 (default openvino)")
     p.add_argument("--precision", default="int8", choices=PRECISIONS,
                    help="precision checked (default int8; onnxruntime: fp32 or int8)")
-    p.add_argument("--scene", default=None, help="scene folder (default: the scene_root column)")
+    add_scene_root_option(p)
     p.add_argument("--sample", type=int_arg(), default=200, help="pairs checked (default 200)")
     p.add_argument("--calib", type=int_arg(), default=150,
                    help="other pairs whose GT crops calibrate int8 (default 150)")
-    p.add_argument("--seed", type=int_arg(low=0), default=0, help="sampling seed (default 0)")
+    add_seed_option(p, "sampling seed")
     p.add_argument("--min-spearman", type=number_arg(low=-1, high=1), default=None,
                    help="pass threshold reported here (default 0.999; `score` applies its own)")
     add_cache_dir_argument(p)
@@ -50,19 +52,19 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    """Run ``nvrq calibrate-runtime``.
+    """Embed ``args.sample`` pairs in torch fp32 and in ``args.runtime``/``args.precision``,
+    print the drift, record it in the cache and say whether ``nvrq score`` will accept it.
 
     Parameters
     ----------
     args : argparse.Namespace
-        The parsed options of ``nvrq calibrate-runtime``.
+        ``pairs``, ``encoder``/``weights`` (or ``random_weights``), ``runtime``, ``precision``,
+        ``sample``, ``calib``, ``seed``, ``min_spearman`` and ``cache_dir``.
 
     Returns
     -------
     int
-        The exit status, 0 on success (bad input raises
-        :class:`~data_schema.errors.InputError`, status 2 through
-        :func:`~nvrq.commands.args.run_cli`).
+        0 whether the check passes or fails: a failed check is recorded and printed too.
     """
     from data_schema.tables import read_table
     from nvrq.encoders import build_random, load_encoder

@@ -9,51 +9,53 @@ from __future__ import annotations
 
 import datetime as dt
 
-from nvrq.commands.args import add_link_option, int_arg, show_progress
+from nvrq.commands.args import add_link_option, add_quiet_option, int_arg, show_progress
 from nvrq.commands.model_options import add_encoder_arguments, load_encoder_and_tau
+from nvrq.commands.shared_options import add_pairs_argument, add_scene_root_option, add_seed_option
 
 __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
-    """Add ``calibrate-tau`` to the ``nvrq`` subcommands ``sub``.
+    """Add ``calibrate-tau``: the encoder options (no ``--tau``: it is what this measures) and
+    how many unrelated GT crops and pairs to sample.
 
     Parameters
     ----------
     sub : argparse._SubParsersAction
-        The ``nvrq`` subcommand parsers.
+        The subparsers of ``nvrq``; ``calibrate-tau`` is added to them.
     """
     p = sub.add_parser("calibrate-tau", help="measure an encoder's NVRQ-CA tau (median S of unrelated objects)",
                        description="S (paper Eq. 4) over GT crops of unrelated objects -- different "
                                    "tracks and classes, GT vs GT -- and the tau it recommends: the median.")
-    p.add_argument("pairs", help="pairs table from `nvrq pairs` (.csv or .parquet)")
+    add_pairs_argument(p)
     add_encoder_arguments(p, tau=False)
-    p.add_argument("--scene", default=None, help="scene folder (default: the scene_root column)")
+    add_scene_root_option(p)
     p.add_argument("--max-crops", type=int_arg(), default=400, help="GT crops sampled (default 400)")
     p.add_argument("--max-pairs", type=int_arg(), default=20000, help="unrelated pairs sampled (default 20000)")
-    p.add_argument("--seed", type=int_arg(low=0), default=0, help="sampling seed (default 0)")
+    add_seed_option(p, "sampling seed")
     p.add_argument("--allow-same-class", action="store_true",
                    help="also pair objects of the same class (different tracks), e.g. one-class scenes")
     p.add_argument("--write-config", action="store_true", help="store the tau in the --config file")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet_option(p)
     add_link_option(p)
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    """Run ``nvrq calibrate-tau``.
+    """Measure the encoder's S over unrelated GT crops, print the summary and, with
+    ``--write-config``, store the median as its tau in the config file.
 
     Parameters
     ----------
     args : argparse.Namespace
-        The parsed options of ``nvrq calibrate-tau``.
+        ``pairs``, the encoder options, ``max_crops``, ``max_pairs``, ``seed``,
+        ``allow_same_class``, ``write_config`` and ``config``.
 
     Returns
     -------
     int
-        The exit status, 0 on success (bad input raises
-        :class:`~data_schema.errors.InputError`, status 2 through
-        :func:`~nvrq.commands.args.run_cli`).
+        0 once the tau is printed (and written, when asked).
     """
     from data_schema.tables import read_table
     from nvrq.calibrate import CalibrationOptions, calibrate_tau, config_path, write_tau

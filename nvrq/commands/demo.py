@@ -21,23 +21,25 @@ from pathlib import Path
 
 from data_schema.errors import InputError
 from nvrq.commands.args import allow_negative_lists, int_arg, number_arg, parse_wxh
+from nvrq.commands.shared_options import add_seed_option
 from nvrq.encoders import get_spec
 
 __all__ = ["register", "run", "demo_steps", "method_steps"]
 
 
 def register(sub) -> None:
-    """Add ``demo`` to the ``nvrq`` subcommands ``sub``.
+    """Add ``demo``: the options it passes on to the steps (scene seed and size, offsets,
+    encoder, raters) and ``--methods``, which switches to the method comparison.
 
     Parameters
     ----------
     sub : argparse._SubParsersAction
-        The ``nvrq`` subcommand parsers.
+        The subcommand parsers of ``nvrq``.
     """
     p = sub.add_parser("demo", help="synthetic scene -> pairs -> scores -> study -> simulated votes -> report",
                        description="Run the whole workflow offline on a built-in synthetic scene.")
     p.add_argument("out", help="output folder (created; must be empty or absent)")
-    p.add_argument("--seed", type=int_arg(low=0), default=0, help="scene seed (default 0)")
+    add_seed_option(p, "scene seed")
     p.add_argument("--seconds", type=number_arg(low=0, low_open=True), default=6.0, help="clip length in seconds (default 6)")
     p.add_argument("--size", default="960x540", help="image size WxH (default 960x540)")
     p.add_argument("--offsets", default="-3,-2,-1,0,1,2,3", help="render offsets in metres")
@@ -57,19 +59,21 @@ _EVERY_ITEM = ("--items-per-rater", "all")
 
 
 def method_steps(out: Path, args) -> list[tuple[str, list[str]]]:
-    """The ``--methods`` demo as (program, argv) steps, in order.
+    """The ``--methods`` demo as (program, argv) steps, in order: one scene rendered per method,
+    its leaderboard, then a pairwise study of the methods.
 
     Parameters
     ----------
     out : Path
-        The demo's output folder.
+        The demo's output folder: ``scene``, ``pairs.csv``, ``metrics.csv``, ``leaderboard``,
+        ``study``, ``votes.csv`` and ``pairwise`` go in it.
     args : argparse.Namespace
-        The parsed options of ``nvrq demo``.
+        ``nvrq demo``'s options; ``methods`` holds two or more ``NAME:SCALE``.
 
     Returns
     -------
     list of (str, list of str)
-        ``(program, argv)`` per step; program ``{'nvrq', 'annotate', 'analyze'}``.
+        One ``(program, argv)`` per step; program in ``{'nvrq', 'annotate', 'analyze'}``.
     """
     scene, pairs, metrics = out / "scene", out / "pairs.csv", out / "metrics.csv"
     study, votes = out / "study", out / "votes.csv"
@@ -95,14 +99,16 @@ def demo_steps(out: Path, args) -> list[tuple[str, list[str]]]:
     Parameters
     ----------
     out : Path
-        The demo's output folder.
+        Where the steps write: the scene, pairs and metrics (also scored on torch eager),
+        the binary study, ``ratings.csv`` and ``report``.
     args : argparse.Namespace
-        The parsed options of ``nvrq demo``.
+        ``nvrq demo``'s options (``seed``, ``seconds``, ``size``, ``offsets``, ``encoder``,
+        ``raters``, ``methods``).
 
     Returns
     -------
     list of (str, list of str)
-        ``(program, argv)`` per step.
+        The steps, each a program name and the arguments it is run with.
     """
     if args.methods:
         return method_steps(out, args)
@@ -141,19 +147,19 @@ def _entry(program: str):
 
 
 def run(args) -> int:
-    """Run ``nvrq demo``.
+    """Check the options the steps pass on, then run the steps one after another, printing
+    each command line and its time, and say where the report is.
 
     Parameters
     ----------
     args : argparse.Namespace
-        The parsed options of ``nvrq demo``.
+        ``out`` (empty or absent) and the options of :func:`demo_steps`.
 
     Returns
     -------
     int
-        The exit status, 0 on success (bad input raises
-        :class:`~data_schema.errors.InputError`, status 2 through
-        :func:`~nvrq.commands.args.run_cli`).
+        0 when every step succeeded, else the first failing step's exit status (the steps
+        after it are not run).
     """
     from data_schema.methods import parse_methods
     from data_schema.tables import parse_offsets

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 from nvrq.choices import LAYOUTS
+from nvrq.commands.shared_options import add_method_option
 
 __all__ = ["register_renders"]
 
@@ -25,9 +26,10 @@ def register_renders(kinds) -> None:
     )
     r.add_argument("scene", help="scene folder whose images.csv lists the render rows")
     r.add_argument("render_dir", metavar="DIR", help="folder of renders (not the scene folder)")
-    r.add_argument("--method", default=None, metavar="NAME",
-                   help="reconstruction method of these renders (images.csv method column; "
-                        "the same --method as nvrq render-plan)")
+    add_method_option(r, "reconstruction method of these renders (the images.csv method column)")
+    r.add_argument("--existing-method", default=None, metavar="NAME",
+                   help="first name the scene's unnamed renders NAME (paths unchanged), so that "
+                        "--method adds a second method")
     r.add_argument("--layout", choices=LAYOUTS, default="plan",
                    help="plan: DIR/<plan path>; order: DIR/00000.png (or .jpg, .jpeg), ... in plan "
                         "row order (default plan)")
@@ -36,9 +38,6 @@ def register_renders(kinds) -> None:
                         "instead of failing")
     r.add_argument("--link", action="store_true",
                    help="symbolic links to the files in DIR instead of copies")
-    r.add_argument("--existing-method", default=None, metavar="NAME",
-                   help="first name the scene's unnamed renders NAME (paths unchanged), so that "
-                        "--method adds a second method")
     r.add_argument("--replace", action="store_true",
                    help="allow changing renders of this method already in the scene (the pairs and "
                         "metrics made from them go stale); prints how many files changed")

@@ -12,18 +12,19 @@ from pathlib import Path
 
 from data_schema.defaults import MIN_SIDE_PX
 from data_schema.errors import InputError
-from nvrq.commands.args import add_link_option, number_arg, show_progress
+from nvrq.commands.args import add_link_option, add_quiet_option, number_arg, show_progress
 
 __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
-    """Add ``pairs`` to the ``nvrq`` subcommands ``sub``.
+    """Add ``pairs``: one scene or many, the output table or dataset, the clip attributes and
+    the box size filters.
 
     Parameters
     ----------
     sub : argparse._SubParsersAction
-        The ``nvrq`` subcommand parsers.
+        Where ``nvrq`` collects its subcommands.
     """
     p = sub.add_parser("pairs", help="GT/novel-view box pairs of a scene (docs/FORMATS.md §3)",
                        description="Project every 3D box into the GT view and every novel view; "
@@ -39,25 +40,25 @@ def register(sub) -> None:
     p.add_argument("--min-side", type=number_arg(low=0), default=MIN_SIDE_PX,
                    help=f"shorter side of the box in pixels (default {MIN_SIDE_PX})")
     p.add_argument("--min-area", type=number_arg(low=0), default=0, help="box area in square pixels (default 0)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet_option(p)
     add_link_option(p)
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    """Run ``nvrq pairs``.
+    """Project the boxes of one scene into a pairs table, or of several into a dataset
+    (:mod:`nvrq.fleet`; ``--out`` without a suffix writes a dataset of one scene too).
 
     Parameters
     ----------
     args : argparse.Namespace
-        The parsed options of ``nvrq pairs``.
+        ``scene`` (a list), ``out``, ``clip_attributes``, ``keep_going``, ``min_side`` and
+        ``min_area``.
 
     Returns
     -------
     int
-        The exit status, 0 on success (bad input raises
-        :class:`~data_schema.errors.InputError`, status 2 through
-        :func:`~nvrq.commands.args.run_cli`).
+        0; 1 when ``--keep-going`` wrote a dataset in which some clips failed (failed.csv).
     """
     from data_schema.tables import write_table
     from nvrq.clip_attributes import read_clip_attributes

@@ -14,9 +14,10 @@ from __future__ import annotations
 import time
 
 from data_schema.errors import InputError
-from nvrq.commands.args import add_link_option, int_arg, number_arg, show_progress
+from nvrq.commands.args import add_link_option, add_quiet_option, int_arg, number_arg, show_progress
 from nvrq.commands.engine_options import add_engine_args, check_engine_args, run_ray
 from nvrq.commands.model_options import add_model_arguments, add_runtime_arguments, prepare_device
+from nvrq.commands.shared_options import add_pairs_argument, add_scene_root_option
 
 __all__ = ["register"]
 
@@ -24,7 +25,7 @@ __all__ = ["register"]
 
 
 def _common(p) -> None:
-    p.add_argument("pairs", help="pairs table from `nvrq pairs` (.csv or .parquet)")
+    add_pairs_argument(p)
     p.add_argument(
         "--out", required=True, help="output table (.csv or .parquet): pair_id + the proxy column"
     )
@@ -36,14 +37,9 @@ def _common(p) -> None:
 
 
 def _model_opts(p) -> None:
-    p.add_argument(
-        "--scene",
-        default=None,
-        help="scene folder the image paths are relative to "
-        "(default: the pairs table's scene_root column)",
-    )
+    add_scene_root_option(p)
     add_model_arguments(p)
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet_option(p)
     add_link_option(p)
 
 
@@ -56,12 +52,13 @@ def _drop_parser(psub, name: str, help_text: str):
 
 
 def register(sub) -> None:
-    """Add ``proxy`` to the ``nvrq`` subcommands ``sub``.
+    """Add ``proxy`` and its proxies, each a subcommand of its own: ``detection``, ``nta-iou``,
+    ``detect``, ``imagenet`` and ``clip``.
 
     Parameters
     ----------
     sub : argparse._SubParsersAction
-        The ``nvrq`` subcommand parsers.
+        ``nvrq``'s subcommands; ``proxy`` adds its own subparsers below it.
     """
     p = sub.add_parser(
         "proxy",
@@ -85,7 +82,7 @@ def register(sub) -> None:
     y = psub.add_parser(
         "detect", help="write DETS with a local Ultralytics YOLO model (extra [yolo])"
     )
-    y.add_argument("pairs", help="pairs table from `nvrq pairs` (.csv or .parquet)")
+    add_pairs_argument(y)
     y.add_argument("--yolo", required=True, help="local Ultralytics weights file, e.g. yolov8x.pt")
     y.add_argument(
         "--out", required=True, help="DETS table (.csv or .parquet) for `nvrq proxy detection`"

@@ -9,18 +9,20 @@ from __future__ import annotations
 from data_schema.text import comma_list, plural
 from nvrq.choices import PLAN_FORMATS, WORLDS
 from nvrq.commands.args import add_link_option
+from nvrq.commands.shared_options import add_method_option
 from nvrq.commands.synth import add_view_options, perturb_grid
 
 __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
-    """Add ``render-plan`` to the ``nvrq`` subcommands ``sub``.
+    """Add ``render-plan``: which views (offsets or a 6-DoF grid), cameras and method to plan,
+    in which world, and the plan file.
 
     Parameters
     ----------
     sub : argparse._SubParsersAction
-        The ``nvrq`` subcommand parsers.
+        ``nvrq``'s subcommand parsers, one more of which is ``render-plan``.
     """
     p = sub.add_parser(
         "render-plan",
@@ -34,9 +36,8 @@ def register(sub) -> None:
         p, offsets_default=None, offsets_help="offsets in metres (default: those in images.csv)"
     )
     p.add_argument("--cameras", default=None, help="comma list of camera names (default: all)")
-    p.add_argument("--method", default=None, metavar="NAME",
-                   help="plan this method's renders only, at its paths (default: every method of "
-                        "the scene, or none); give nvrq import renders the same --method")
+    add_method_option(p, "plan this method's renders only, at its paths (default: every method of "
+                         "the scene, or none)")
     p.add_argument("--world", choices=WORLDS, default="scene",
                    help="world of the poses: the scene's (default), or the source dataset's own "
                         "(a scene imported from drivestudio: scene.json source_world)")
@@ -48,19 +49,19 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    """Run ``nvrq render-plan``.
+    """Check the plan's options before the scene is read, plan every render of the scene
+    (:func:`nvrq.render_plans.render_plan`) and write the plan file.
 
     Parameters
     ----------
     args : argparse.Namespace
-        The parsed options of ``nvrq render-plan``.
+        ``scene``, the views (``offsets``, ``perturb``), ``cameras``, ``method``, ``world``,
+        ``out`` and ``format``.
 
     Returns
     -------
     int
-        The exit status, 0 on success (bad input raises
-        :class:`~data_schema.errors.InputError`, status 2 through
-        :func:`~nvrq.commands.args.run_cli`).
+        0 once the plan is written; the line printed counts its renders.
     """
     from data_schema.methods import check_method_name
     from data_schema.scene import load_scene

@@ -8,9 +8,10 @@ from typing import TYPE_CHECKING
 
 from data_schema.errors import InputError
 from nvrq.choices import DEFAULT_METRICS
-from nvrq.commands.args import LazyHelp, add_link_option, show_progress
+from nvrq.commands.args import LazyHelp, add_link_option, add_quiet_option, show_progress
 from nvrq.commands.engine_options import add_engine_args, check_engine_args, report_sharded, run_ray
 from nvrq.commands.model_options import add_encoder_arguments, prepare_device
+from nvrq.commands.shared_options import add_pairs_argument, add_scene_root_option
 
 if TYPE_CHECKING:
     from nvrq.scoring.plan import ScorePlan
@@ -66,18 +67,16 @@ def register(sub) -> None:
     p = sub.add_parser("score", help="NVRQ, NVRQ-CA and pixel metrics per pair (docs/FORMATS.md §4)",
                        description="Score every GT/render crop pair of a pairs table. Writes "
                                    "METRICS and METRICS.timing.csv (metric, seconds, pairs).")
-    p.add_argument("pairs", help="pairs table from `nvrq pairs` (.csv or .parquet), or a pairs "
-                                 "dataset folder (several clips)")
+    add_pairs_argument(p, datasets=True)
     p.add_argument("--out", required=True, help="output metrics table (.csv or .parquet); for a pairs "
                                                 "dataset or --engine ray a folder (resumable)")
     p.add_argument("--metrics", default=",".join(DEFAULT_METRICS), help=LazyHelp(metrics_help))
     add_encoder_arguments(p)
-    p.add_argument("--scene", default=None, help="scene folder the image paths are relative to "
-                                                 "(default: the pairs table's scene_root column)")
+    add_scene_root_option(p)
     p.add_argument("--column-tag", default=None,
                    help="name encoder columns nvrq:ENCODER@TAG (default: @PRECISION for bf16/int8, "
                         "none for fp32), e.g. to keep two runtimes' scores apart")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet_option(p)
     add_link_option(p)
     add_engine_args(p)
     p.set_defaults(func=run)
@@ -90,12 +89,13 @@ def run(args) -> int:
     Parameters
     ----------
     args : argparse.Namespace
-        The parsed options.
+        ``pairs`` (a table or a dataset folder), ``out``, ``metrics``, the encoder options,
+        ``scene``, ``column_tag`` and the engine options.
 
     Returns
     -------
     int
-        The exit status, 0.
+        0 once every pair is scored and the metrics (and timing) are written.
     """
     from data_schema.datasets import is_dataset
     from nvrq.scoring.plan import plan_from_args

@@ -5,8 +5,9 @@ from __future__ import annotations
 
 from data_schema.errors import InputError
 from nvrq.choices import SET_KINDS
-from nvrq.commands.args import add_link_option, int_arg, number_arg, show_progress
+from nvrq.commands.args import add_link_option, add_quiet_option, int_arg, number_arg, show_progress
 from nvrq.commands.model_options import add_model_arguments, add_runtime_arguments
+from nvrq.commands.shared_options import add_seed_option
 
 __all__ = ["register", "run"]
 
@@ -14,12 +15,13 @@ SET_METRICS = ("fd", "kid")
 
 
 def register(sub) -> None:
-    """Add the ``nvrq score-sets`` subparser (its arguments, and :func:`run` as its ``func``).
+    """Add ``nvrq score-sets``: which sets and set metrics, the encoder, the KID subsets and
+    the optional features file.
 
     Parameters
     ----------
     sub : argparse._SubParsersAction
-        The subparsers of the ``nvrq`` parser.
+        ``nvrq``'s subparsers; ``score-sets`` is added with :func:`run` as its ``func``.
     """
     p = sub.add_parser("score-sets", help="FD and KID per method and view: render frames and object crops "
                        "against the GT (docs/FORMATS.md §3c)",
@@ -39,12 +41,12 @@ def register(sub) -> None:
     p.add_argument("--kid-subsets", type=int_arg(), default=100, help="KID subsets (default 100)")
     p.add_argument("--kid-subset-size", type=int_arg(low=2), default=1000,
                    help="KID subset size, at most the smaller set (default 1000)")
-    p.add_argument("--seed", type=int_arg(low=0), default=2020, help="KID subset seed (default 2020)")
+    add_seed_option(p, "KID subset seed", default=2020)
     p.add_argument("--min-side", type=number_arg(low=0), default=30,
                    help="objects: the smallest crop side of a pair (default 30, as nvrq pairs)")
     p.add_argument("--save-features", default=None, metavar="F.npz",
                    help="write the features: features (n, d), set_id and side per row")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet_option(p)
     add_link_option(p)
     p.set_defaults(func=run)
 
@@ -64,12 +66,14 @@ def run(args) -> int:
     Parameters
     ----------
     args : argparse.Namespace
-        The parsed options.
+        ``scene``, ``out``, ``sets``, ``metrics``, the encoder and runtime options, the KID
+        options (``kid_subsets``, ``kid_subset_size``, ``seed``), ``min_side`` and
+        ``save_features``.
 
     Returns
     -------
     int
-        Exit status 0 (errors are raised as :class:`InputError`).
+        0 once the sets table (and the features file, when asked) is written.
     """
     from pathlib import Path
 

@@ -16,19 +16,21 @@ from pathlib import Path
 from data_schema.defaults import MIN_SIDE_PX
 from data_schema.errors import InputError
 from data_schema.outputs import mark_report, replacing_note
-from nvrq.commands.args import add_link_option, int_arg, show_progress
+from nvrq.commands.args import add_link_option, add_quiet_option, int_arg, show_progress
 from nvrq.commands.model_options import add_encoder_arguments, encoder_for_columns, metric_columns
+from nvrq.commands.shared_options import add_pairs_argument, add_seed_option
 
 __all__ = ["register", "run"]
 
 
 def register(sub) -> None:
-    """Add ``stability`` to the ``nvrq`` subcommands ``sub``.
+    """Add ``stability``: the metrics compared, the encoder options and how many GT crops
+    are perturbed.
 
     Parameters
     ----------
     sub : argparse._SubParsersAction
-        The ``nvrq`` subcommand parsers.
+        The ``nvrq`` subcommands; ``stability`` joins them.
     """
     p = sub.add_parser(
         "stability",
@@ -36,7 +38,7 @@ def register(sub) -> None:
         description="Stability study: nuisances (box/scale jitter, occlusion, exposure, "
         "JPEG, view shift) and synthetic artefacts applied to GT crops.",
     )
-    p.add_argument("pairs", help="pairs table from `nvrq pairs` (.csv or .parquet)")
+    add_pairs_argument(p)
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument(
         "--metrics",
@@ -46,12 +48,12 @@ def register(sub) -> None:
     )
     add_encoder_arguments(p)
     p.add_argument("--n-objects", type=int_arg(low=2), default=60, help="GT crops sampled (default 60)")
-    p.add_argument("--seed", type=int_arg(low=0), default=0, help="sampling and perturbation seed (default 0)")
+    add_seed_option(p, "sampling and perturbation seed")
     p.add_argument(
         "--min-side", type=int_arg(), default=MIN_SIDE_PX,
         help=f"smallest GT crop side used (default {MIN_SIDE_PX}, as nvrq pairs)"
     )
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_quiet_option(p)
     add_link_option(p)
     p.set_defaults(func=run)
 
@@ -64,12 +66,13 @@ def run(args) -> int:
     Parameters
     ----------
     args : argparse.Namespace
-        The parsed options.
+        ``pairs``, ``metrics``, the encoder options, ``n_objects``, ``seed``, ``min_side``
+        and ``out`` (a folder, replaced whole).
 
     Returns
     -------
     int
-        Exit status 0 (errors are raised as :class:`InputError`).
+        0 once the report folder is in place.
     """
     from data_schema.tables import GT_BOX_COLUMNS, atomic_folder, read_table, write_table
     from nvrq.stability import (  # SciPy, matplotlib: not for --help

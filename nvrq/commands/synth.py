@@ -7,7 +7,14 @@ Layer: commands (CLI shell).
 from __future__ import annotations
 
 from data_schema.text import comma_list
-from nvrq.commands.args import allow_negative_lists, int_arg, number_arg, parse_wxh, show_progress
+from nvrq.commands.args import (
+    add_quiet_option,
+    allow_negative_lists,
+    number_arg,
+    parse_wxh,
+    show_progress,
+)
+from nvrq.commands.shared_options import add_seed_option
 
 __all__ = ["register", "run", "parse_size", "add_perturb_option", "add_view_options",
            "perturb_grid"]
@@ -91,12 +98,13 @@ def parse_size(text: str) -> tuple[int, int]:
 
 
 def register(sub) -> None:
-    """Add ``synth`` to the ``nvrq`` subcommands ``sub``.
+    """Add ``synth``: the clip's seed, length and frame rate, its views and cameras, the image
+    size and the reconstruction methods rendered.
 
     Parameters
     ----------
     sub : argparse._SubParsersAction
-        The ``nvrq`` subcommand parsers.
+        ``nvrq``'s subparsers, to which ``synth`` is added.
     """
     p = sub.add_parser(
         "synth",
@@ -105,7 +113,7 @@ def register(sub) -> None:
         "images, renders at lateral offsets and degradation.csv.",
     )
     p.add_argument("out", help="output scene folder")
-    p.add_argument("--seed", type=int_arg(low=0), default=0, help="random seed (default 0)")
+    add_seed_option(p, "random seed")
     p.add_argument("--seconds", type=number_arg(low=0, low_open=True), default=10.0, help="clip length (default 10)")
     p.add_argument("--fps", type=number_arg(low=0, high=1000, low_open=True), default=10.0, help="frame rate (default 10)")
     add_view_options(p)
@@ -116,24 +124,24 @@ def register(sub) -> None:
     p.add_argument("--methods", default=None, metavar="NAME:SCALE,...",
                    help="render the clip once per reconstruction method, its artefact severity times "
                         "SCALE (>= 0; smaller = better), e.g. 3dgs:0.5,nerf:1.5 (default: one unnamed method)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet_option(p)
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    """Run ``nvrq synth``.
+    """Generate the synthetic scene folder ``args.out`` (:func:`nvrq.synth.generate_scene`)
+    and print where it is.
 
     Parameters
     ----------
     args : argparse.Namespace
-        The parsed options of ``nvrq synth``.
+        ``out``, ``seed``, ``seconds``, ``fps``, the views (``offsets``, ``perturb``),
+        ``cameras``, ``size`` and ``methods``.
 
     Returns
     -------
     int
-        The exit status, 0 on success (bad input raises
-        :class:`~data_schema.errors.InputError`, status 2 through
-        :func:`~nvrq.commands.args.run_cli`).
+        0 once the scene is written.
     """
     from data_schema.methods import parse_methods
     from data_schema.tables import parse_offsets
