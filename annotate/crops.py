@@ -184,13 +184,13 @@ def write_image(path: Path, img: np.ndarray, *, fmt: str, quality: int = 95) -> 
     Parameters
     ----------
     path : Path
-        The file to write.
+        The file to write (replaced when it exists); its suffix is not checked against ``fmt``.
     img : (H, W, 3) uint8
         BGR image.
     fmt : str
-        ``{'jpg', 'png'}``.
+        The encoding, ``'jpg'`` or ``'png'``.
     quality : int, optional
-        JPEG quality, 0-100.
+        JPEG quality 0-100, passed to :func:`encode`.
 
     Returns
     -------
