@@ -404,7 +404,7 @@ def jod_views(votes: pd.DataFrame, methods: list[str], *, n_boot: int, seed: int
     Returns
     -------
     pandas.DataFrame
-        Columns :data:`JOD_COLUMNS`.
+        Columns :data:`JOD_COLUMNS`; the cell ``axis = 'all'`` first, then each view's.
     """
     from analysis.bradley_terry import coded_votes
     from analysis.method_cells import view_cells

@@ -123,7 +123,7 @@ def view_cells(items: pd.DataFrame):
         The rows in the cell.
 
     >>> objs = pd.DataFrame({"y_offset_m": [0.0, 1.0, 1.0]})
-    >>> [(a, v, m.tolist()) for a, v, m in view_cells(objs)][1:]
+    >>> [(a, float(v), m.tolist()) for a, v, m in view_cells(objs)][1:]
     [('y_offset_m', 0.0, [True, False, False]), ('y_offset_m', 1.0, [False, True, True])]
     """
     for axis, values, member in view_breakdowns(items):

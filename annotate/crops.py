@@ -63,9 +63,9 @@ def read_bgr(path: Path, *, where: str, field: str) -> np.ndarray:
     Parameters
     ----------
     path : Path
-        The image file.
+        The image file (any format OpenCV reads, decoded to colour).
     where : str
-        The table named in errors.
+        The table whose row names the image, for the error message.
     field : str
         The field named in errors (e.g. ``'row 3: gt_path'``).
 

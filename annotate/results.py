@@ -312,12 +312,12 @@ def gold_failures(ratings: pd.DataFrame) -> pd.DataFrame:
     Parameters
     ----------
     ratings : pandas.DataFrame
-        A ratings table.
+        The ratings (:func:`ratings_table`); only its ``kind == 'gold'`` rows are read.
 
     Returns
     -------
     pandas.DataFrame
-        ``rater_id, item_id, vote, expected``.
+        ``rater_id, item_id, vote, expected``, one row per wrong gold vote.
     """
     gold = ratings[ratings["kind"] == "gold"].copy()
     gold["expected"] = gold["item_id"].str.startswith("gold-good:").astype(int)
