@@ -42,13 +42,14 @@ def item_axes(items: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     Parameters
     ----------
     items : pandas.DataFrame
-        Items with perturbation columns.
+        N items; missing perturbation columns read as 0.
 
     Returns
     -------
     axes : (N,) object array of str
+        The axis each view moves along (``'none'`` for the recorded view).
     values : (N,) float64
-        Metres or degrees.
+        The signed offset along it, metres or degrees.
     """
     P = perturbation_array(items)
     return axes(P), axis_values(P)
@@ -65,6 +66,7 @@ def is_multi_axis(items: pd.DataFrame) -> bool:
     Returns
     -------
     bool
+        False when every view is lateral or the recorded one.
     """
     names, _ = item_axes(items)
     return bool(np.isin(names, ["y", "none"], invert=True).any())
@@ -76,11 +78,12 @@ def lateral_items(items: pd.DataFrame) -> pd.DataFrame:
     Parameters
     ----------
     items : pandas.DataFrame
-        Items with perturbation columns.
+        Items of any study, with their perturbation columns.
 
     Returns
     -------
     pandas.DataFrame
+        The rows of ``items`` on axis ``y`` or ``none``, index kept.
     """
     names, _ = item_axes(items)
     return items[np.isin(names, ["y", "none"])]
@@ -154,13 +157,13 @@ def axis_tent_plots(by_axis: pd.DataFrame, columns: list[str], directions: dict[
     Parameters
     ----------
     by_axis : pandas.DataFrame
-        :func:`axis_table`.
+        :func:`axis_table` of the items, every axis in it gets a figure.
     columns : list of str
-        Target first, then metrics.
+        The panels of each figure, as in :func:`analysis.plots.tent_plot`.
     directions : dict
-        Column -> whether higher is better.
+        Whether higher is better, per entry of ``columns``.
     target_label : str, optional
-        The target's axis label.
+        How the target (``columns[0]``) is named in panels and titles.
 
     Returns
     -------

@@ -23,10 +23,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import pandas as pd
 
 from analysis import bootstrap as bs
 
-__all__ = ["win_matrix", "bradley_terry", "strongly_connected", "win_prob", "Draws"]
+__all__ = ["CHOICES", "coded_votes", "win_matrix", "bradley_terry", "strongly_connected", "win_prob",
+           "Draws"]
+
+#: The share of a vote's win going to side a, per ``choice`` (docs/FORMATS.md §12).
+CHOICES = {"a": 1.0, "tie": 0.5, "b": 0.0}
 
 _TOL, _MAX_ITER = 1e-12, 20_000
 
@@ -38,11 +43,12 @@ def strongly_connected(w: np.ndarray) -> np.ndarray:
     Parameters
     ----------
     w : (..., M, M) float64
-        Win matrices.
+        ``w[..., i, j] > 0`` where method i beat method j at least once (ties count).
 
     Returns
     -------
     (...,) bool
+        One flag per matrix: True where the maximum-likelihood fit is finite.
     """
     m = w.shape[-1]
     r = (w > 0) | np.eye(m, dtype=bool)
@@ -114,6 +120,32 @@ def win_prob(p: np.ndarray) -> np.ndarray:
     with np.errstate(invalid="ignore", divide="ignore"):
         out = np.where(other, pr, 0.0).sum(axis=-1) / other.sum(axis=-1)
     return np.where(np.isfinite(p), out, np.nan)
+
+
+def coded_votes(votes: pd.DataFrame, methods: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pairwise votes as the codes :func:`win_matrix` counts: methods by index, choices by score.
+
+    Parameters
+    ----------
+    votes : pandas.DataFrame
+        V votes with columns ``method_a, method_b, choice``.
+    methods : list of str
+        The methods; a method's code is its index in this list.
+
+    Returns
+    -------
+    a, b : (V,) int64
+        The codes of each vote's side a and side b; -1 for a method not in ``methods``.
+    s : (V,) float64
+        The share of the win going to side a (:data:`CHOICES`); NaN for another choice.
+
+    >>> v = pd.DataFrame({"method_a": ["x", "y"], "method_b": ["y", "z"], "choice": ["tie", "a"]})
+    >>> [c.tolist() for c in coded_votes(v, ["x", "y"])]
+    [[0, 1], [1, -1], [0.5, 1.0]]
+    """
+    a = pd.Categorical(votes["method_a"], categories=methods).codes.astype(np.int64)
+    b = pd.Categorical(votes["method_b"], categories=methods).codes.astype(np.int64)
+    return a, b, votes["choice"].map(CHOICES).to_numpy(np.float64)
 
 
 def win_matrix(a: np.ndarray, b: np.ndarray, score: np.ndarray, m: int) -> np.ndarray:

@@ -209,6 +209,7 @@ def for_ratings(analysis, votes: pd.DataFrame, opts: HorizonOptions, *, where=No
     Returns
     -------
     HorizonResult
+        Threshold given or fitted to the votes, with the vote fits kept.
     """
     metric = _metric(opts, analysis.metrics)
     excluded = set(analysis.raters.loc[analysis.raters["excluded"].astype(bool), "rater_id"].astype(str))
@@ -230,13 +231,14 @@ def for_pairs(analysis, items: pd.DataFrame, opts: HorizonOptions, *, where=None
     items : pandas.DataFrame
         Its per-pair items with ``camera`` and ``timestamp_us`` (:func:`pairs_items`).
     opts : HorizonOptions
-        With ``threshold``.
+        With ``threshold`` set (no votes here to fit one to).
     where : str or Path, optional
         The pairs input, named in errors.
 
     Returns
     -------
     HorizonResult
+        At the given threshold, without vote fits.
     """
     metric = _metric(opts, analysis.metrics)
     th = Threshold(metric, float(opts.threshold), _directions(metric, analysis.directions),

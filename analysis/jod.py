@@ -138,9 +138,9 @@ def jod_map(d: np.ndarray, *, prior_sd: float = 2.5, tol: float = 1e-10, max_ite
     prior_sd : float, optional
         Prior standard deviation of each condition's scale value, in JOD.
     tol : float, optional
-        Stop when the largest gradient component is below this.
+        Convergence: every matrix's largest gradient component below this.
     max_iter : int, optional
-        Newton iterations at most.
+        The most Newton steps, shared by all ``B`` matrices.
 
     Returns
     -------
@@ -404,26 +404,25 @@ def jod_views(votes: pd.DataFrame, methods: list[str], *, n_boot: int, seed: int
     Returns
     -------
     pandas.DataFrame
-        Columns :data:`JOD_COLUMNS`.
+        Columns :data:`JOD_COLUMNS`; the cell ``axis = 'all'`` first, then each view's.
     """
-    from analysis.method_cells import view_breakdowns
+    from analysis.bradley_terry import coded_votes
+    from analysis.method_cells import view_cells
 
     m = len(methods)
-    a = pd.Categorical(votes["method_a"], categories=methods).codes.astype(np.int64)
-    b = pd.Categorical(votes["method_b"], categories=methods).codes.astype(np.int64)
-    s = votes["choice"].map({"a": 1.0, "tie": 0.5, "b": 0.0}).to_numpy(np.float64)
+    a, b, s = coded_votes(votes, methods)
+    known = (a >= 0) & (b >= 0)
     r = pd.factorize(votes["rater_id"], sort=True)[0]
     n_r = int(r.max()) + 1 if len(r) else 0
     parts = []
-    for axis, values, member in view_breakdowns(votes):
-        for value in ([np.nan] if axis == "all" else np.unique(values[member])):
-            sel = member & ((values == value) if axis != "all" else True) & (a >= 0) & (b >= 0)
-            per_rater = np.zeros((n_r, m, m))
-            np.add.at(per_rater, (r[sel], a[sel], b[sel]), s[sel])
-            np.add.at(per_rater, (r[sel], b[sel], a[sel]), 1.0 - s[sel])
-            per_rater = per_rater[per_rater.sum((1, 2)) > 0]
-            t = jod_table(per_rater, methods, n_boot=min(n_boot, MAX_JOD_BOOT), seed=seed)
-            t.insert(0, "offset", value)
-            t.insert(0, "axis", axis)
-            parts.append(t)
+    for axis, value, in_view in view_cells(votes):
+        sel = in_view & known
+        per_rater = np.zeros((n_r, m, m))
+        np.add.at(per_rater, (r[sel], a[sel], b[sel]), s[sel])
+        np.add.at(per_rater, (r[sel], b[sel], a[sel]), 1.0 - s[sel])
+        per_rater = per_rater[per_rater.sum((1, 2)) > 0]
+        t = jod_table(per_rater, methods, n_boot=min(n_boot, MAX_JOD_BOOT), seed=seed)
+        t.insert(0, "offset", value)
+        t.insert(0, "axis", axis)
+        parts.append(t)
     return pd.concat(parts, ignore_index=True)[JOD_COLUMNS]

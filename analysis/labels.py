@@ -34,12 +34,12 @@ def item_table(votes: pd.DataFrame) -> pd.DataFrame:
     Parameters
     ----------
     votes : pandas.DataFrame
-        One row per vote.
+        One row per vote (the ratings table); only ``kind == 'test'`` rows make labels.
 
     Returns
     -------
     pandas.DataFrame
-        One row per item.
+        One row per test item: its columns without the per-vote ones, and its labels.
     """
     test = votes[votes["kind"] == "test"]
     labels = good_vote_fraction(test["item_id"], test["vote"])

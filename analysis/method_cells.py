@@ -34,7 +34,8 @@ from data_schema.perturbation import (
     perturbation_array,
 )
 
-__all__ = ["PATHS", "VIEW", "Breakdown", "on_path", "view_breakdowns", "parse_by", "cell_breakdowns"]
+__all__ = ["PATHS", "VIEW", "Breakdown", "on_path", "view_breakdowns", "view_cells", "parse_by",
+           "cell_breakdowns"]
 
 #: The name of the views in a crossed breakdown (``--by class,view``; ``offset`` is accepted).
 VIEW = "view"
@@ -68,11 +69,12 @@ def on_path(items: pd.DataFrame) -> np.ndarray:
     Parameters
     ----------
     items : pandas.DataFrame
-        Rows with perturbation columns.
+        N rows of methods' objects, with perturbation columns.
 
     Returns
     -------
     (N,) bool
+        True on the recorded path.
     """
     return axes(perturbation_array(items)) == "none"
 
@@ -100,6 +102,33 @@ def view_breakdowns(items: pd.DataFrame) -> list[tuple[str, np.ndarray, np.ndarr
         if on.any() or (axis == "y" and (names == "none").any()):
             out.append((column, np.where(on, values, 0.0), on | (names == "none")))
     return out
+
+
+def view_cells(items: pd.DataFrame):
+    """Each view cell of ``items``: every row (``axis = 'all'``), then each value along each
+    axis of :func:`view_breakdowns` (the recorded camera's view counting as value 0).
+
+    Parameters
+    ----------
+    items : pandas.DataFrame
+        N rows (objects or votes) with perturbation columns.
+
+    Yields
+    ------
+    axis : str
+        ``'all'`` or a perturbation column name.
+    value : float
+        The offset along ``axis`` (metres or degrees); NaN for ``'all'``.
+    member : (N,) bool
+        The rows in the cell.
+
+    >>> objs = pd.DataFrame({"y_offset_m": [0.0, 1.0, 1.0]})
+    >>> [(a, float(v), m.tolist()) for a, v, m in view_cells(objs)][1:]
+    [('y_offset_m', 0.0, [True, False, False]), ('y_offset_m', 1.0, [False, True, True])]
+    """
+    for axis, values, member in view_breakdowns(items):
+        for value in ([np.nan] if axis == "all" else np.unique(values[member])):
+            yield axis, value, member & ((values == value) if axis != "all" else True)
 
 
 def parse_by(by, columns, *, attributes) -> tuple[list[str], bool]:

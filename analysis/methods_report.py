@@ -127,11 +127,12 @@ def leaderboard_display(res: MethodsResult) -> pd.DataFrame:
     Parameters
     ----------
     res : MethodsResult
-        The method comparison.
+        Its ``leaderboard`` gives the rows, its ``paired`` table the "vs next" p-values.
 
     Returns
     -------
     pandas.DataFrame
+        One row per method in rank order; the mean's column is named after the ranking metric.
     """
     head = f"{res.rank_metric} ({res.rank_view})"
     rows = [{"rank": str(r.rank), "method": r.method, "n (tracks)": f"{r.n} ({r.n_tracks})",
@@ -153,13 +154,14 @@ def paired_display(res: MethodsResult, metric: str | None = None) -> pd.DataFram
     Parameters
     ----------
     res : MethodsResult
-        The method comparison.
+        Its ``paired`` rows without a ``by`` breakdown are shown.
     metric : str, optional
-        Default: the ranking metric.
+        The metric compared; ``None`` takes ``res.rank_metric``.
 
     Returns
     -------
     pandas.DataFrame
+        One row per pair of methods and view, every cell a string.
     """
     metric = metric or res.rank_metric
     t = res.paired[(res.paired["metric"] == metric) & (res.paired["by"] == "")]
@@ -202,13 +204,14 @@ def class_offset_display(res: MethodsResult, metric: str | None = None) -> pd.Da
     Parameters
     ----------
     res : MethodsResult
-        The method comparison.
+        A comparison made with ``by = class,offset`` (any other gives an empty table).
     metric : str, optional
-        Default: the ranking metric.
+        Whose paired difference fills the cells; by default ``res.rank_metric``.
 
     Returns
     -------
     pandas.DataFrame
+        Columns ``a - b``, ``class`` and one per offset; a row per pair of methods and class.
     """
     metric = metric or res.rank_metric
     t = _class_offset_rows(res, metric)
@@ -234,11 +237,12 @@ def leaderboard_text(res: MethodsResult) -> str:
     Parameters
     ----------
     res : MethodsResult
-        The method comparison.
+        Gives the ranking metric and view, its direction and the bootstrap settings.
 
     Returns
     -------
     str
+        The paragraph, naming the intervals' and p-values' tests when ``res.n_boot`` > 0.
     """
     hb = res.directions[res.rank_metric]
     text = (f"Methods ranked by their mean {res.rank_metric} over their {res.rank_view} objects "
@@ -373,13 +377,14 @@ def class_offset_heatmap(res: MethodsResult, metric: str | None = None) -> Figur
     Parameters
     ----------
     res : MethodsResult
-        The method comparison.
+        Its ``label_class,view`` paired rows are drawn, its leaderboard order pairs the methods.
     metric : str, optional
-        Default: the ranking metric.
+        The metric whose difference is coloured (``None``: the ranking metric).
 
     Returns
     -------
     matplotlib.figure.Figure or None
+        A panel per neighbouring pair of methods; ``None`` without the rows.
     """
     metric = metric or res.rank_metric
     t = _class_offset_rows(res, metric)
@@ -427,12 +432,12 @@ def method_figures(res: MethodsResult) -> list[tuple[str, str, object]]:
     Parameters
     ----------
     res : MethodsResult
-        The method comparison.
+        The comparison whose table, metrics and off-path sets are drawn.
 
     Returns
     -------
     list of (str, str, matplotlib.figure.Figure)
-        ``(name, title, figure)``.
+        ``(name, title, figure)``; a figure without data to draw is left out.
     """
     out = []
     for axis in dict.fromkeys(res.table["breakdown"]):

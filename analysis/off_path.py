@@ -124,14 +124,14 @@ def off_path_figure(res, sets: pd.DataFrame | None = None) -> Figure | None:
     Parameters
     ----------
     res : MethodsResult
-        The ``--compare-methods`` result.
+        The ``--compare-methods`` result; its per-object off-path metrics are drawn.
     sets : pandas.DataFrame or None
-        The ``nvrq score-sets`` table (``analyze --sets``), or None.
+        Set-level FD and KID per method and offset (``analyze --sets``); None adds none.
 
     Returns
     -------
     matplotlib.figure.Figure or None
-        The figure; None without any off-path metric.
+        One panel per metric, x = |offset| in metres; None without any off-path metric.
     """
     rows = off_path_rows(res, sets)
     if rows.empty:

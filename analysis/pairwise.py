@@ -52,10 +52,19 @@ import pandas as pd
 from scipy import stats as _st
 
 from analysis import bootstrap as bs
-from analysis.bradley_terry import Draws, bradley_terry, strongly_connected, win_matrix, win_prob
+from analysis.bradley_terry import (  # CHOICES: the share of a win each ``choice`` gives to side a
+    CHOICES,
+    Draws,
+    bradley_terry,
+    coded_votes,
+    strongly_connected,
+    win_matrix,
+    win_prob,
+)
 from analysis.inputs import classify_columns, drop_empty_columns
 from analysis.jod import jod_views
-from analysis.methods import METHOD_COLUMN, view_breakdowns
+from analysis.method_cells import view_cells
+from analysis.methods import METHOD_COLUMN
 from analysis.text import no_votes_left
 from annotate.results import pairwise_raters
 from annotate.screening import ScreenRule, agreement_tests, screen
@@ -90,8 +99,6 @@ __all__ = [
 #: docs/FORMATS.md §11: the leading columns of a pairwise vote (the object's columns follow);
 #: defined once, with the export that writes them.
 PAIRWISE_COLUMNS = PAIRWISE_VOTES_COLUMNS
-#: The values of ``choice`` and the share of a win each gives to side ``a``.
-CHOICES = {"a": 1.0, "tie": 0.5, "b": 0.0}
 BT_COLUMNS = ["axis", "offset", "method", "n_votes", "wins", "ties", "losses", "score",
               "score_ci_lo", "score_ci_hi", "win_prob", "win_prob_ci_lo", "win_prob_ci_hi", "reason"]
 AGREEMENT_COLUMNS = ["metric", "higher_better", "n_votes", "agreement", "ci_lo", "ci_hi", "reason"]
@@ -205,40 +212,37 @@ def bt_table(votes: pd.DataFrame, methods: list[str], *, draws: Draws | None, r_
         Columns :data:`BT_COLUMNS`.
     """
     m = len(methods)
-    a = pd.Categorical(votes["method_a"], categories=methods).codes.astype(np.int64)
-    b = pd.Categorical(votes["method_b"], categories=methods).codes.astype(np.int64)
-    s = votes["choice"].map(CHOICES).to_numpy(np.float64)
+    a, b, s = coded_votes(votes, methods)
+    known = (a >= 0) & (b >= 0)
     rows = []
-    for axis, values, member in view_breakdowns(votes):
-        for value in ([np.nan] if axis == "all" else np.unique(values[member])):
-            sel = member & ((values == value) if axis != "all" else True)
-            sel &= (a >= 0) & (b >= 0)
-            w = win_matrix(a[sel], b[sel], s[sel], m)
-            p = bradley_terry(w)
-            wp = win_prob(p)
-            reps_p = reps_w = np.empty((0, m))
-            if draws is not None and sel.any():
-                reps_p = bradley_terry(draws.win_matrices(a[sel], b[sel], s[sel], m,
-                                                          r_codes[sel], i_codes[sel]))
-                reps_w = win_prob(reps_p)
-            ties = np.bincount(np.r_[a[sel], b[sel]], weights=np.r_[s[sel] == 0.5, s[sel] == 0.5], minlength=m)
-            n = np.bincount(np.r_[a[sel], b[sel]], minlength=m)
-            won = np.bincount(np.r_[a[sel], b[sel]], weights=np.r_[s[sel] == 1.0, s[sel] == 0.0], minlength=m)
-            connected = bool(strongly_connected(w))
-            for k, name in enumerate(methods):
-                reason = None
-                if n[k] == 0:
-                    reason = "no votes"
-                elif not connected:
-                    reason = ("comparison graph not strongly connected (a method won or lost every "
-                              "comparison): the fit is at its limit")
-                lo, hi, why = _ci(reps_p[:, k]) if n[k] else (np.nan, np.nan, None)
-                wlo, whi, _ = _ci(reps_w[:, k]) if n[k] else (np.nan, np.nan, None)
-                rows.append({"axis": axis, "offset": value, "method": name, "n_votes": int(n[k]),
-                             "wins": int(won[k]), "ties": int(ties[k]), "losses": int(n[k] - won[k] - ties[k]),
-                             "score": p[k], "score_ci_lo": lo, "score_ci_hi": hi, "win_prob": wp[k],
-                             "win_prob_ci_lo": wlo, "win_prob_ci_hi": whi,
-                             "reason": "; ".join(r for r in (reason, why) if r) or None})
+    for axis, value, in_view in view_cells(votes):
+        sel = in_view & known
+        w = win_matrix(a[sel], b[sel], s[sel], m)
+        p = bradley_terry(w)
+        wp = win_prob(p)
+        reps_p = reps_w = np.empty((0, m))
+        if draws is not None and sel.any():
+            reps_p = bradley_terry(draws.win_matrices(a[sel], b[sel], s[sel], m,
+                                                      r_codes[sel], i_codes[sel]))
+            reps_w = win_prob(reps_p)
+        ties = np.bincount(np.r_[a[sel], b[sel]], weights=np.r_[s[sel] == 0.5, s[sel] == 0.5], minlength=m)
+        n = np.bincount(np.r_[a[sel], b[sel]], minlength=m)
+        won = np.bincount(np.r_[a[sel], b[sel]], weights=np.r_[s[sel] == 1.0, s[sel] == 0.0], minlength=m)
+        connected = bool(strongly_connected(w))
+        for k, name in enumerate(methods):
+            reason = None
+            if n[k] == 0:
+                reason = "no votes"
+            elif not connected:
+                reason = ("comparison graph not strongly connected (a method won or lost every "
+                          "comparison): the fit is at its limit")
+            lo, hi, why = _ci(reps_p[:, k]) if n[k] else (np.nan, np.nan, None)
+            wlo, whi, _ = _ci(reps_w[:, k]) if n[k] else (np.nan, np.nan, None)
+            rows.append({"axis": axis, "offset": value, "method": name, "n_votes": int(n[k]),
+                         "wins": int(won[k]), "ties": int(ties[k]), "losses": int(n[k] - won[k] - ties[k]),
+                         "score": p[k], "score_ci_lo": lo, "score_ci_hi": hi, "win_prob": wp[k],
+                         "win_prob_ci_lo": wlo, "win_prob_ci_hi": whi,
+                         "reason": "; ".join(r for r in (reason, why) if r) or None})
     return pd.DataFrame(rows, columns=BT_COLUMNS)
 
 

@@ -472,13 +472,13 @@ def write_report(a: Analysis, out_dir) -> Path:
     Parameters
     ----------
     a : Analysis
-        The analysis to report.
+        The analysis to report (tables, figures and, with ``--horizon``, its horizon).
     out_dir : str or pathlib.Path
-        The report directory to write or replace.
+        Where report.html and report.md go; an earlier report there is replaced.
 
     Returns
     -------
     pathlib.Path
-        The report directory.
+        ``out_dir``, checked and complete.
     """
     return write_report_folder(lambda d: _build(a, d), out_dir)

@@ -65,15 +65,16 @@ def draw_signs(n_tracks: int, n_draws: int, *, seed: int) -> np.ndarray:
     Parameters
     ----------
     n_tracks : int
-        Tracks K.
+        Tracks K, each flipped on its own.
     n_draws : int
-        Patterns B.
+        Monte Carlo patterns B (rows of the result).
     seed : int
-        Seed of the draws.
+        Seed of ``numpy.random.default_rng``; one seed, one set of patterns.
 
     Returns
     -------
     (B, K) int8
+        +1 or -1, each with probability 1/2.
     """
     rng = np.random.default_rng(seed)
     return (1 - 2 * rng.integers(0, 2, size=(n_draws, n_tracks))).astype(np.int8)

@@ -140,13 +140,14 @@ def group_counts(codes: np.ndarray, n_groups: int) -> np.ndarray:
     Parameters
     ----------
     codes : (n,) int
-        Group of each row, in ``[0, n_groups)``.
+        The group code of every row; each must lie in ``[0, n_groups)``.
     n_groups : int
-        Number of groups G.
+        G, the length of the result (groups without rows count 0).
 
     Returns
     -------
     (G,) int64
+        How many rows carry each code.
     """
     return np.bincount(codes, minlength=n_groups)
 
@@ -223,7 +224,7 @@ def grouped_spearman(x, y, codes, n_groups, *, x_order=None, y_order=None):
     Parameters
     ----------
     x, y : (n,) float64
-        Paired values.
+        Paired values, ranked within their group (ties share the average rank).
     codes : (n,) int
         Group of each row, in ``[0, n_groups)``.
     n_groups : int
@@ -233,10 +234,10 @@ def grouped_spearman(x, y, codes, n_groups, *, x_order=None, y_order=None):
 
     Returns
     -------
-    r : (G,) float64
-        NaN where undefined.
+    rho : (G,) float64
+        Spearman's rho of each group; NaN where the values make it undefined.
     reasons : (G,) object
-        Why each undefined group is, else ``None``.
+        The rule's reason for each undefined group (as :func:`grouped_pearson`), else ``None``.
     """
     rx = rank_within(x, codes, order=x_order)
     ry = rank_within(y, codes, order=y_order)
@@ -257,14 +258,17 @@ def pearson(x, y) -> tuple[float, str | None]:
 
     Parameters
     ----------
-    x, y : (n,) float64
-        Paired finite values.
+    x : (n,) float64
+        Metric values, finite.
+    y : (n,) float64
+        Target values, finite, paired with ``x``.
 
     Returns
     -------
     r : float
-        In [-1, 1]; NaN when undefined.
+        Linear correlation in [-1, 1]; NaN when undefined.
     reason : str or None
+        ``"n < 3"``, ``"constant metric"`` or ``"constant target"`` where NaN, else ``None``.
     """
     return _one(grouped_pearson, x, y)
 
@@ -275,13 +279,14 @@ def spearman(x, y) -> tuple[float, str | None]:
     Parameters
     ----------
     x, y : (n,) float64
-        Paired finite values.
+        Paired finite values; only their order within each column matters.
 
     Returns
     -------
     rho : float
-        In [-1, 1]; NaN when undefined.
+        Pearson r of the two columns' average ranks, in [-1, 1]; NaN when undefined.
     reason : str or None
+        Why rho is NaN (the rule of :func:`undefined_reason` on the values), else ``None``.
     """
     return _one(grouped_spearman, x, y)
 
@@ -292,13 +297,14 @@ def kendall(x, y) -> tuple[float, str | None]:
     Parameters
     ----------
     x, y : (n,) float64
-        Paired finite values.
+        Paired finite values; tied pairs enter the tau-b denominator.
 
     Returns
     -------
     tau : float
-        In [-1, 1]; NaN when undefined.
+        Concordant minus discordant pairs over the tau-b norm, in [-1, 1]; NaN when undefined.
     reason : str or None
+        The undefined-rule reason (n < 3 or a constant column), else ``None``.
     """
     x = np.asarray(x, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)

@@ -188,14 +188,20 @@ def _idle_raters(tables: dict) -> None:
             st.text(", ".join(idle[:200]) + (f" and {len(idle) - 200} more" if len(idle) > 200 else ""))
 
 
-def _live_pairwise(study) -> None:
-    """The pairwise study's page: per-rater answers, side bias, gold and repeats; votes.csv."""
+def _raters_top(study, heading: str) -> dict:
+    """The top of a live page: the tables' caption, the raters' table under ``heading`` and the
+    raters without a vote; returns :func:`admin_tables` of ``study``."""
     tables = admin_tables(study)
-    votes = tables["votes"]
     _tables_caption(tables)
-    st.subheader("Raters: progress, answers, side bias, gold, repeats")
+    st.subheader(heading)
     st.dataframe(shown(tables["raters"]), hide_index=True, key="admin_raters")
     _idle_raters(tables)
+    return tables
+
+
+def _live_pairwise(study) -> None:
+    """The pairwise study's page: per-rater answers, side bias, gold and repeats; votes.csv."""
+    votes = _raters_top(study, "Raters: progress, answers, side bias, gold, repeats")["votes"]
     st.subheader("Gold failures (the GT crop itself not chosen)")
     gold = votes[(votes["kind"] == "gold") & (votes["choice"] != "a")]
     st.dataframe(shown(gold[["rater_id", "item_id", "choice"]]), hide_index=True)
@@ -207,12 +213,7 @@ def _live_body(study) -> None:
     if study.design == "pairwise":
         _live_pairwise(study)
         return
-    tables = admin_tables(study)
-    ratings = tables["votes"]
-    _tables_caption(tables)
-    st.subheader("Raters: progress, agreement so far, flags")
-    st.dataframe(shown(tables["raters"]), hide_index=True, key="admin_raters")
-    _idle_raters(tables)
+    ratings = _raters_top(study, "Raters: progress, agreement so far, flags")["votes"]
     _gvf_chart(ratings)
     alpha, note = nominal_alpha(ratings)
     st.metric("Krippendorff's alpha (nominal)", "undefined" if alpha is None else f"{alpha:.3f}",

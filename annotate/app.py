@@ -467,9 +467,9 @@ def voting_panel(study: Study, rater: str) -> None:
     Parameters
     ----------
     study : Study
-        The study being served.
+        The study being served; its store picks the next item and records the votes.
     rater : str
-        The signed-in rater id.
+        Whose plan is followed and whose votes are written.
     """
     try:
         key, prog, images = _next_on_screen(study, rater)

@@ -63,9 +63,9 @@ def read_bgr(path: Path, *, where: str, field: str) -> np.ndarray:
     Parameters
     ----------
     path : Path
-        The image file.
+        The image file (any format OpenCV reads, decoded to colour).
     where : str
-        The table named in errors.
+        The table whose row names the image, for the error message.
     field : str
         The field named in errors (e.g. ``'row 3: gt_path'``).
 
@@ -184,13 +184,13 @@ def write_image(path: Path, img: np.ndarray, *, fmt: str, quality: int = 95) -> 
     Parameters
     ----------
     path : Path
-        The file to write.
+        The file to write (replaced when it exists); its suffix is not checked against ``fmt``.
     img : (H, W, 3) uint8
         BGR image.
     fmt : str
-        ``{'jpg', 'png'}``.
+        The encoding, ``'jpg'`` or ``'png'``.
     quality : int, optional
-        JPEG quality, 0-100.
+        JPEG quality 0-100, passed to :func:`encode`.
 
     Returns
     -------

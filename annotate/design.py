@@ -165,13 +165,14 @@ def usable_frames(pairs: pd.DataFrame, offsets: list) -> pd.DataFrame:
     Parameters
     ----------
     pairs : pandas.DataFrame
-        The pairs table.
+        The pairs table, one row per object and view.
     offsets : list
         View labels, or lateral offsets in metres.
 
     Returns
     -------
     pandas.DataFrame
+        The frames' keys, class and attributes, sorted by the keys.
     """
     want = set(_view_keys(offsets))
     df = pairs.assign(_cm=labels(perturbation_array(pairs)))

@@ -131,11 +131,12 @@ def item_display(study: Study) -> ItemDisplay:
     Parameters
     ----------
     study : Study
-        An open study.
+        An open study; its folder and ``study_id`` key the cache.
 
     Returns
     -------
     ItemDisplay
+        Shared by every session of this study in the process (crops read once).
     """
     ident = (str(study.root), str(study.manifest["study_id"]))
     found = _CACHES.get(ident)

@@ -60,12 +60,12 @@ def ratings_table(study) -> pd.DataFrame:
     Parameters
     ----------
     study : Study
-        An open study.
+        An open single-image study (gold items keep their rows, without metrics).
 
     Returns
     -------
     pandas.DataFrame
-        Columns of docs/FORMATS.md §5.
+        Columns of docs/FORMATS.md §5, one row per standing vote in vote order.
     """
     attrs = list(study.manifest.get("attribute_columns", []))
     # 6-DoF columns (absent: lateral study) and ``method`` (absent: single-method study)
@@ -77,8 +77,7 @@ def ratings_table(study) -> pd.DataFrame:
         # gold items show GT against GT or a broken copy: the pair's metrics do not apply
         df.loc[df["kind"] == "gold", metric_cols] = np.nan
     cols = [*RATINGS_COLUMNS, *PAIR_META_COLUMNS, *attrs, *metric_cols]
-    return df.loc[:, cols].sort_values(["voted_at", "rater_id", "item_id"], kind="stable"
-                                       ).reset_index(drop=True)
+    return _in_vote_order(df, cols)
 
 
 def pairwise_votes_table(study) -> pd.DataFrame:
@@ -97,6 +96,7 @@ def pairwise_votes_table(study) -> pd.DataFrame:
     Returns
     -------
     pandas.DataFrame
+        The columns above, sorted by ``voted_at``, ``rater_id`` and ``item_id``.
     """
     attrs = [*study.manifest.get("view_columns", []), *study.manifest.get("attribute_columns", [])]
     attrs = [c for c in attrs if c in study.items.columns]
@@ -115,8 +115,7 @@ def pairwise_votes_table(study) -> pd.DataFrame:
             df = df.merge(named, on=f"pair_id_{side}", how="left")
         sided = [f"{m}_{side}" for m in metric_cols for side in ("a", "b")]
     cols = [*PAIRWISE_VOTES_COLUMNS, "voted_at", "response_ms", *PAIR_META_COLUMNS, *attrs, "pair_id_a", "pair_id_b", *sided]
-    return df.loc[:, cols].sort_values(["voted_at", "rater_id", "item_id"], kind="stable"
-                                       ).reset_index(drop=True)
+    return _in_vote_order(df, cols)
 
 
 def _voted_items(study, columns: list[str]) -> pd.DataFrame:
@@ -127,6 +126,12 @@ def _voted_items(study, columns: list[str]) -> pd.DataFrame:
     df = df.rename(columns={"rater": "rater_id"})
     df["response_ms"] = df["response_ms"].astype("Int64")
     return df
+
+
+def _in_vote_order(df: pd.DataFrame, columns: list[str]) -> pd.DataFrame:
+    """``columns`` of ``df`` sorted (stably) by ``voted_at, rater_id, item_id``, index reset."""
+    return df.loc[:, columns].sort_values(["voted_at", "rater_id", "item_id"], kind="stable"
+                                          ).reset_index(drop=True)
 
 
 def _study_metrics(study) -> tuple[list[str], pd.DataFrame | None]:
@@ -144,11 +149,12 @@ def votes_table(study) -> pd.DataFrame:
     Parameters
     ----------
     study : Study
-        An open study.
+        An open study of either design (its ``design`` picks the table).
 
     Returns
     -------
     pandas.DataFrame
+        The §12 pairwise votes or the §5 ratings.
     """
     return pairwise_votes_table(study) if study.design == "pairwise" else ratings_table(study)
 
@@ -306,12 +312,12 @@ def gold_failures(ratings: pd.DataFrame) -> pd.DataFrame:
     Parameters
     ----------
     ratings : pandas.DataFrame
-        A ratings table.
+        The ratings (:func:`ratings_table`); only its ``kind == 'gold'`` rows are read.
 
     Returns
     -------
     pandas.DataFrame
-        ``rater_id, item_id, vote, expected``.
+        ``rater_id, item_id, vote, expected``, one row per wrong gold vote.
     """
     gold = ratings[ratings["kind"] == "gold"].copy()
     gold["expected"] = gold["item_id"].str.startswith("gold-good:").astype(int)

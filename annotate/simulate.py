@@ -147,12 +147,12 @@ def pairwise_severity(study) -> pd.DataFrame:
     Parameters
     ----------
     study : Study
-        An open pairwise study of synthetic scenes.
+        An open pairwise study of synthetic scenes, whose degradation.csv names each method.
 
     Returns
     -------
     pandas.DataFrame
-        ``sev_a, sev_b`` by item key.
+        Columns ``sev_a, sev_b`` in [0, 1], indexed by item key.
     """
     items, deg = study.items, _degradation(study)
     gt = items["method_a"] == GT_METHOD

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.e2e.browser_support import ARGS, CHROMIUM, free_port, serve, stop
+from tests.e2e.browser_support import ARGS, CHROMIUM, free_port, serve, stop, toy_study
 
 README = (Path(__file__).parents[2] / "README.md").read_text()
 SECTION = README.split("## Run a public study", 1)[1].split("\n## ", 1)[0]
@@ -46,14 +46,9 @@ def _probe(path: str) -> str:
 
 @pytest.fixture(scope="module")
 def served(tmp_path_factory):
-    from annotate.study import build_study
-    from tests.e2e.browser_support import toy
-
     tmp = tmp_path_factory.mktemp("public")
-    scene, pairs = toy("annotate_toy_public").make_toy(tmp)
-    root = build_study(tmp / "study", pairs, scene=str(scene), tracks=1, frames_per_track=1,
-                       n_training=1, n_gold=1, n_repeats=1, size=48, progress=False, access="crowd")
-    proc, url = serve(root)
+    proc, url = serve(toy_study(tmp, "annotate_toy_public", n_gold=1, n_repeats=1, size=48,
+                                access="crowd"))
     yield url, tmp
     stop(proc)
 

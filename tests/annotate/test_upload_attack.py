@@ -16,7 +16,7 @@ import time
 import pytest
 
 from tests.annotate.upload_probe import put_upload, rss_mb, session_id, xsrf_cookie
-from tests.e2e.browser_support import serve, stop, toy
+from tests.e2e.browser_support import serve, stop, toy_study
 
 #: files of the size-stated attack (the issue's was 5 x 100 MB; 5 x 20 MB here keeps it quick)
 N_BIG, BIG = 5, 20_000_000
@@ -28,13 +28,8 @@ ROUNDS = 7
 
 @pytest.fixture(scope="module")
 def served(tmp_path_factory):
-    from annotate.study import build_study
-
-    tmp = tmp_path_factory.mktemp("upload")
-    scene, pairs = toy("annotate_toy_upload").make_toy(tmp)
-    root = build_study(tmp / "study", pairs, scene=str(scene), tracks=1, frames_per_track=1,
-                       n_training=1, n_gold=1, n_repeats=1, size=48, progress=False, access="crowd")
-    proc, url = serve(root)
+    proc, url = serve(toy_study(tmp_path_factory.mktemp("upload"), "annotate_toy_upload", n_gold=1,
+                                n_repeats=1, size=48, access="crowd"))
     yield proc, url
     stop(proc)
 

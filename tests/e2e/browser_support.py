@@ -15,8 +15,8 @@ import time
 import urllib.request
 from pathlib import Path
 
-__all__ = ["ARGS", "CHROMIUM", "SNAPSHOT", "free_port", "ready", "serve", "settled", "stop", "toy",
-           "wait_moved"]
+__all__ = ["ARGS", "CHROMIUM", "SNAPSHOT", "toy_study", "free_port", "ready", "serve", "settled",
+           "stop", "toy", "wait_moved"]
 
 CHROMIUM = "/usr/bin/chromium"
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
@@ -37,6 +37,17 @@ def toy(module_name: str = "annotate_toy_e2e"):
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
+
+
+def toy_study(tmp: Path, module_name: str, **options) -> Path:
+    """``tmp/study`` built from the toy scene made in ``tmp``: one track, one frame and one
+    training item unless ``options`` (more :func:`annotate.study.build_study` keywords) say
+    otherwise; its root folder."""
+    from annotate.study import build_study
+
+    scene, pairs = toy(module_name).make_toy(tmp)
+    options = {"tracks": 1, "frames_per_track": 1, "n_training": 1, "progress": False, **options}
+    return build_study(tmp / "study", pairs, scene=str(scene), **options)
 
 
 def free_port() -> int:

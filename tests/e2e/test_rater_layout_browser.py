@@ -13,12 +13,14 @@ from pathlib import Path
 
 import pytest
 
-from tests.e2e.browser_support import ARGS, CHROMIUM, serve, settled, stop, toy
+from tests.e2e.browser_support import ARGS, CHROMIUM, serve, settled, stop, toy_study
 
 pytestmark = [pytest.mark.browser,
               pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="needs /usr/bin/chromium")]
 
 SIZES = [(1400, 900), (1024, 768)]
+#: the study of every test here: the toy scene's one training item and one test frame, 64 px
+ONE_ITEM = {"n_gold": 0, "n_repeats": 0, "size": 64}
 BOXES = """() => {
   const box = (e) => { const r = e.getBoundingClientRect(); return [r.x, r.y, r.width, r.height]; };
   const buttons = {};
@@ -35,11 +37,9 @@ BOXES = """() => {
 def test_crops_fill_the_window_at_one_scale_with_one_button_row(tmp_path):
     from playwright.sync_api import sync_playwright
 
-    from annotate.study import build_study, load_study
+    from annotate.study import load_study
 
-    scene, pairs = toy("annotate_toy_layout").make_toy(tmp_path)
-    root = build_study(tmp_path / "study", pairs, scene=str(scene), tracks=1, frames_per_track=1,
-                       n_training=1, n_gold=0, n_repeats=0, size=64, progress=False)
+    root = toy_study(tmp_path, "annotate_toy_layout", **ONE_ITEM)
     study = load_study(root)
     first = study.manifest["training_order"][0]
     side = float(study.items.at[first, "crop_side"])
@@ -81,11 +81,7 @@ def test_on_a_phone_the_pair_and_the_vote_buttons_fit_without_scrolling(tmp_path
     without scrolling (Streamlit stacks columns below 640 px, which pushed them off)."""
     from playwright.sync_api import sync_playwright
 
-    from annotate.study import build_study
-
-    scene, pairs = toy("annotate_toy_phone").make_toy(tmp_path)
-    root = build_study(tmp_path / "study", pairs, scene=str(scene), tracks=1, frames_per_track=1,
-                       n_training=1, n_gold=0, n_repeats=0, size=64, progress=False)
+    root = toy_study(tmp_path, "annotate_toy_phone", **ONE_ITEM)
     server, url = serve(root)
     try:
         with sync_playwright() as pw:
@@ -117,12 +113,9 @@ def test_enter_in_the_name_field_signs_in_and_training_says_when_it_is_over(tmp_
     the first item after the training says "Training done — the study starts now"."""
     from playwright.sync_api import sync_playwright
 
-    from annotate.study import build_study
     from tests.e2e.browser_support import ready, wait_moved
 
-    scene, pairs = toy("annotate_toy_enter").make_toy(tmp_path)
-    root = build_study(tmp_path / "study", pairs, scene=str(scene), tracks=1, frames_per_track=1,
-                       n_training=1, n_gold=0, n_repeats=0, size=64, progress=False)
+    root = toy_study(tmp_path, "annotate_toy_enter", **ONE_ITEM)
     server, url = serve(root)
     try:
         with sync_playwright() as pw:

@@ -124,15 +124,23 @@ def _jittered_dets(scene_root: Path):
     return pd.concat([dets, fps], ignore_index=True), expected
 
 
-def test_two_methods_scene(two_methods, tmp_path):
+def _scene_nta(scene: Path, tmp_path: Path, *options: str):
+    """``nvrq proxy nta-iou`` of ``scene`` with :func:`_jittered_dets` as its detections and
+    ``options``; (tmp_path / nta.csv, the hand-worked IoUs)."""
     from nvrq.cli import main
-    from nvrq.commands.proxy import nta_summary_path
 
-    dets, expected = _jittered_dets(two_methods)
+    dets, expected = _jittered_dets(scene)
     dets.to_csv(tmp_path / "dets.csv", index=False)
     out = tmp_path / "nta.csv"
-    assert main(["proxy", "nta-iou", str(two_methods), "--detections", str(tmp_path / "dets.csv"),
-                 "--out", str(out), "--min-side", "10", "--bootstrap", "200"]) == 0
+    assert main(["proxy", "nta-iou", str(scene), "--detections", str(tmp_path / "dets.csv"),
+                 "--out", str(out), *options]) == 0
+    return out, expected
+
+
+def test_two_methods_scene(two_methods, tmp_path):
+    from nvrq.commands.proxy import nta_summary_path
+
+    out, expected = _scene_nta(two_methods, tmp_path, "--min-side", "10", "--bootstrap", "200")
     table = pd.read_csv(out)
     assert len(table) == len(expected)
     keys = ["render_path", "track_id"]
@@ -151,12 +159,6 @@ def test_two_methods_scene(two_methods, tmp_path):
 
 
 def test_summary_min_clusters(two_methods, tmp_path):
-    from nvrq.cli import main
-
-    dets, _ = _jittered_dets(two_methods)
-    dets.to_csv(tmp_path / "dets.csv", index=False)
-    out = tmp_path / "nta.csv"
-    assert main(["proxy", "nta-iou", str(two_methods), "--detections", str(tmp_path / "dets.csv"),
-                 "--out", str(out), "--min-clusters", "1000", "--protocol", "recondreamer"]) == 0
+    _scene_nta(two_methods, tmp_path, "--min-clusters", "1000", "--protocol", "recondreamer")
     s = pd.read_csv(tmp_path / "nta.summary.csv")
     assert s.ci_lo.isna().all() and s.reason.str.contains("fewer than the 1000").all()

@@ -17,16 +17,12 @@ from crowdkit.aggregation import BradleyTerry
 
 from analysis.cli import main as analyze_main
 from annotate.cli import main as annotate_main
-from nvrq.cli import main as nvrq_main
+from tests.workflows.two_methods import ok as _ok
+from tests.workflows.two_methods import scored_clip
 
 pytestmark = pytest.mark.slow
 
-METHODS = "sharp:0.5,blurry:1.5"
 NVRQ_CA = "nvrq_ca:efficientnet-lite0"
-
-
-def _ok(rc):
-    assert rc == 0
 
 
 @pytest.fixture(scope="module")
@@ -34,11 +30,7 @@ def clip(tmp_path_factory):
     d = tmp_path_factory.mktemp("compare")
     # 640x360 keeps 12 tracks (320x180: 8): a sign-flip test over 8 tracks cannot go below
     # 2/2^8, and Holm over the 14 paired rows of two metrics then calls nothing (issue 29)
-    _ok(nvrq_main(["synth", str(d / "scene"), "--seconds", "1", "--fps", "5", "--size", "640x360",
-                   "--offsets", "-2,-1,0,1,2", "--methods", METHODS, "--quiet"]))
-    _ok(nvrq_main(["pairs", str(d / "scene"), "--out", str(d / "pairs.csv")]))
-    _ok(nvrq_main(["score", str(d / "pairs.csv"), "--out", str(d / "metrics.csv"), "--metrics",
-                   "psnr,nvrq_ca", "--encoder", "efficientnet-lite0", "--runtime", "torch", "--quiet"]))
+    scored_clip(d, offsets="-2,-1,0,1,2", metrics="psnr,nvrq_ca")
     return d
 
 

@@ -17,29 +17,21 @@ import pytest
 import nvrq
 from analysis.cli import main as analyze_main
 from annotate.cli import main as annotate_main
-from nvrq.cli import main as nvrq_main
+from tests.workflows.two_methods import ok as _ok
+from tests.workflows.two_methods import scored_clip
 
 pytestmark = pytest.mark.slow
 
-METHODS = "sharp:0.5,blurry:1.5"
 #: annotate.simulate: rater thresholds theta ~ N(0.45, 0.08) on severity, so the raters'
 #: population P(good | severity) is 0.5 at 0.45 (the normal is symmetric around it)
 TRUE_SEVERITY_THRESHOLD = 0.45
 GRID_STEP = 1.0
 
 
-def _ok(rc):
-    assert rc == 0
-
-
 @pytest.fixture(scope="module")
 def clip(tmp_path_factory):
     d = tmp_path_factory.mktemp("horizon")
-    _ok(nvrq_main(["synth", str(d / "scene"), "--seconds", "1", "--fps", "5", "--size", "640x360",
-                   "--offsets=-3,-2,-1,0,1,2,3", "--methods", METHODS, "--quiet"]))
-    _ok(nvrq_main(["pairs", str(d / "scene"), "--out", str(d / "pairs.csv")]))
-    _ok(nvrq_main(["score", str(d / "pairs.csv"), "--out", str(d / "metrics.csv"), "--metrics", "nvrq_ca",
-                   "--encoder", "efficientnet-lite0", "--runtime", "torch", "--quiet"]))
+    scored_clip(d, offsets="-3,-2,-1,0,1,2,3", metrics="nvrq_ca")
     pairs = pd.read_csv(d / "pairs.csv", dtype={"track_id": str, "camera": str})
     deg = pd.read_csv(d / "scene" / "degradation.csv", dtype={"track_id": str, "camera": str})
     keys = ["camera", "timestamp_us", "track_id", "method", "y_offset_m"]

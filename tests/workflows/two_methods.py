@@ -1,0 +1,29 @@
+"""The clip the end-to-end workflow tests share: a synthetic clip rendered by two methods and
+scored through the commands a user runs (``nvrq synth``, ``nvrq pairs``, ``nvrq score``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from nvrq.cli import main as nvrq_main
+
+__all__ = ["METHODS", "ok", "scored_clip"]
+
+#: the clip's two methods: artefact scales 0.5 (``sharp``) and 1.5 (``blurry``)
+METHODS = "sharp:0.5,blurry:1.5"
+
+
+def ok(rc: int) -> None:
+    """A command's exit status must be 0."""
+    assert rc == 0
+
+
+def scored_clip(d: Path, *, offsets: str, metrics: str) -> None:
+    """``d/scene``: 1 s at 5 fps, 640x360, :data:`METHODS` at the lateral ``offsets`` (metres,
+    comma-separated); ``d/pairs.csv`` of it and ``d/metrics.csv`` of ``metrics`` (the encoder
+    efficientnet-lite0 on torch)."""
+    ok(nvrq_main(["synth", str(d / "scene"), "--seconds", "1", "--fps", "5", "--size", "640x360",
+                  f"--offsets={offsets}", "--methods", METHODS, "--quiet"]))
+    ok(nvrq_main(["pairs", str(d / "scene"), "--out", str(d / "pairs.csv")]))
+    ok(nvrq_main(["score", str(d / "pairs.csv"), "--out", str(d / "metrics.csv"), "--metrics", metrics,
+                  "--encoder", "efficientnet-lite0", "--runtime", "torch", "--quiet"]))
