@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from data_schema.text import plural
 from nvrq.commands.args import add_link_option, int_arg, number_arg
 from nvrq.commands.model_options import add_cache_dir_argument
 from nvrq.encoders import get_spec
@@ -85,7 +86,7 @@ def run(args) -> int:
     path = write_record(rec, args.cache_dir)
     threshold = DEFAULT_MIN_SPEARMAN if args.min_spearman is None else args.min_spearman
     verdict = "passes" if rec["nvrq_spearman"] >= threshold else "FAILS"
-    print(f"{name} {args.runtime}/{args.precision} vs torch fp32 on {rec['n_pairs']} pairs: "
+    print(f"{name} {args.runtime}/{args.precision} vs torch fp32 on {plural(rec['n_pairs'], 'pair')}: "
           f"cosine mean {rec['mean_cosine']:.5f} min {rec['min_cosine']:.5f}; NVRQ Spearman "
           f"{rec['nvrq_spearman']:.5f}; max |dNVRQ| {rec['max_dnvrq']:.2e}; {verdict} Spearman >= {threshold}")
     print(f"recorded in {path}")
