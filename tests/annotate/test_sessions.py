@@ -313,3 +313,13 @@ def test_export_counts_read_singular_at_one(tmp_path, capsys):
     assert main(["export", str(study.root), "--out", str(tmp_path / "out.csv")]) == 0
     err = capsys.readouterr().err
     assert "rater kit: 1 vote undone, 1 press too fast" in err and "\n1 vote -> " in "\n" + err
+
+
+def test_screening_text_reads_singular_at_one():
+    """Issue 38 item 17 in the report: "No rater excluded (1 raters)" read wrong."""
+    import pandas as pd
+
+    from analysis.text import screening_text
+
+    one = pd.DataFrame({"rater_id": ["ann"], "flags": [""], "excluded": [False], "excluded_reason": [""]})
+    assert screening_text(one, applied=True) == "No rater excluded (1 rater)."
