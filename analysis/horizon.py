@@ -25,6 +25,7 @@ import pandas as pd
 from analysis import axes, breakdowns
 from analysis.choices import MIN_CLUSTERS
 from data_schema.errors import InputError, check_number
+from data_schema.text import plural
 from nvrq.horizon import (
     DEFAULT_SHARE,
     Threshold,
@@ -162,8 +163,8 @@ def _human_threshold(fits: pd.DataFrame, metric: str, higher: bool, opts) -> Thr
     if not math.isfinite(row["threshold"]):
         raise InputError(param="metric", field=metric, expected="a metric whose votes give a "
                          "threshold (or a given `threshold`)", got=row["reason"])
-    source = (f"people: P(good) = {opts.good_prob:g} on a logistic fit to {row['n_votes']} votes of "
-              f"{row['n_raters']} raters (95% bootstrap over raters and tracks)")
+    source = (f"people: P(good) = {opts.good_prob:g} on a logistic fit to {plural(row['n_votes'], 'vote')} of "
+              f"{plural(row['n_raters'], 'rater')} (95% bootstrap over raters and tracks)")
     return Threshold(metric, float(row["threshold"]), higher, source, float(row["ci_lo"]), float(row["ci_hi"]))
 
 

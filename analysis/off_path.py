@@ -20,6 +20,7 @@ from matplotlib.figure import Figure
 
 from analysis.plots import direction_label, method_colours
 from analysis.text import fmt, interval_text, offset_text
+from data_schema.text import plural
 
 __all__ = ["OFF_PATH_PREFIXES", "off_path_rows", "off_path_display", "off_path_figure"]
 
@@ -147,7 +148,7 @@ def off_path_figure(res, sets: pd.DataFrame | None = None) -> Figure | None:
             agg = g.groupby("abs_offset").apply(lambda d: np.average(d["mean"], weights=d["w"]),
                                                 include_groups=False)
             tracks = g["n_tracks"].max()  # per-object metrics: the tracks behind the largest view
-            label = (method or "(one method)") + (f" ({int(tracks)} tracks)" if np.isfinite(tracks) else "")
+            label = (method or "(one method)") + (f" ({plural(int(tracks), 'track')})" if np.isfinite(tracks) else "")
             ax.plot(agg.index, agg.to_numpy(), "o-", color=colours[method], label=label)
         ax.set_xlabel("|lateral offset| (m)", fontsize=8)
         ax.set_ylabel(direction_label(metric, bool(m["higher_better"].iloc[0])), fontsize=8)

@@ -25,6 +25,7 @@ from analysis.report import rater_display, render_pages, write_report_folder
 from analysis.text import interval_text, offset_text, screening_text
 from annotate.screening import ScreenRule
 from data_schema.csv_safe import write_people_table as write_table
+from data_schema.text import plural
 
 __all__ = ["write_pairwise_report", "bt_display", "win_prob_plot", "agreement_plot"]
 
@@ -174,7 +175,8 @@ def _texts(a: PairwiseAnalysis) -> dict:
                    f"counterbalanced, so a rater who does not look scores J = 0), excluded when J is "
                    f"significantly below {rule.min_j} or shows no skill (Fisher p >= "
                    f"{rule.skill_alpha}), as for binary votes.")
-    sim = (f"{c['raters_simulated']} of {c['raters']} raters are simulated (rater_id starting with "
+    sim = (f"{c['raters_simulated']} of {plural(c['raters'], 'rater')} "
+           f"{'is' if c['raters_simulated'] == 1 else 'are'} simulated (rater_id starting with "
            "'sim-'): these are not human judgements." if c["raters_simulated"] else "")
     return {"bt_text": bt_text, "agree_text": agree_text, "screen_text": screen_text, "simulated": sim}
 

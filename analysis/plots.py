@@ -45,6 +45,8 @@ __all__ = [
 
 
 #: The x-axis label of each view column, e.g. ``'y (m)'`` for ``y_offset_m``.
+#: a point label's measured box grown by this factor when placed (:func:`place_labels`)
+TEXT_SLACK = 1.1
 VIEW_AXIS_LABELS = {c: f"{a} ({AXIS_UNITS[a]})" for a, c in zip(AXES, PERTURBATION_COLUMNS, strict=True)}
 
 
@@ -322,7 +324,9 @@ def place_labels(ax, points: np.ndarray, texts: list[str], *, fontsize: float = 
     for text in texts:
         probe = ax.annotate(text, (0, 0), xycoords="axes pixels", fontsize=fontsize)
         box = probe.get_window_extent(renderer)
-        sizes.append((box.width, box.height))
+        # room for the text at another dpi: hinted text is up to 8% wider or taller at the
+        # saving dpi than at the drawing one (issue 38 item 19: measured 21.0 -> 22.7 px)
+        sizes.append((box.width * TEXT_SLACK + 1.0, box.height * TEXT_SLACK))
         probe.remove()
     pad = marker_px + 1.0
     avoid = [np.array([x - pad, y - pad, x + pad, y + pad]) for x, y in xy]  # the markers
@@ -357,13 +361,29 @@ def place_labels(ax, points: np.ndarray, texts: list[str], *, fontsize: float = 
     to_pt = 72.0 / fig.dpi
     style = {"arrowstyle": "-", "color": "0.5", "lw": 0.6, "shrinkA": 0, "shrinkB": marker_px}
     for i, ((x, y), (dx, dy), text) in enumerate(zip(points, offsets, texts, strict=True)):
-        at = offset_copy(ax.transData, fig=fig, x=dx * to_pt, y=dy * to_pt, units="points")
-        out.append(ax.text(x, y, text, transform=at, ha="left", va="bottom", fontsize=fontsize))
+        (ax_, ha), (ay_, va) = _anchor(dx, dy, *sizes[i])
+        at = offset_copy(ax.transData, fig=fig, x=ax_ * to_pt, y=ay_ * to_pt, units="points")
+        out.append(ax.text(x, y, text, transform=at, ha=ha, va=va, fontsize=fontsize))
         if i in lines:
             ex, ey = lines[i][2:] - xy[i]
             ax.annotate("", (x, y), xytext=(ex * to_pt, ey * to_pt), textcoords="offset points",
                         arrowprops=style)
     return out
+
+
+def _anchor(dx: float, dy: float, w: float, h: float) -> tuple[tuple[float, str], tuple[float, str]]:
+    """``((x offset, ha), (y offset, va))`` of a label whose reserved box has its lower-left
+    corner at ``(dx, dy)`` from its point: the text is anchored at the box's side nearest the
+    point (right edge for a label left of it, top edge for one below it, middle for one
+    beside it), so text drawn larger than measured (another dpi) grows away from its point."""
+    x = (dx + w, "right") if dx < 0 else (dx, "left")
+    if dy + h <= 0:
+        y = (dy + h, "top")
+    elif dy >= 0:
+        y = (dy, "bottom")
+    else:
+        y = (dy + h / 2, "center")
+    return x, y
 
 
 def _candidates(w: float, h: float, pad: float, rings: int):

@@ -32,6 +32,7 @@ from annotate.screening import EXACT_J_MAX_N, ScreenRule
 from data_schema.csv_safe import write_people_table as write_table
 from data_schema.outputs import check_output_folder, mark_report
 from data_schema.tables import atomic_folder
+from data_schema.text import plural
 
 __all__ = ["write_report", "write_report_folder", "render_pages", "summary_display", "rater_display"]
 
@@ -195,12 +196,13 @@ def _method_text(a: Analysis, tl: str) -> str:
 def _rater_texts(a: Analysis) -> dict:
     alpha_text = "Krippendorff's alpha (nominal) over test votes: " + "; ".join(
         f"{k}: {_fmt(v['alpha'])}" + (f" ({v['reason']})" if v["reason"] else "")
-        + f" from {v['votes']} votes" for k, v in a.alpha.items()) + "."
+        + f" from {plural(v['votes'], 'vote')}" for k, v in a.alpha.items()) + "."
     screen_text = screening_text(a.raters, applied=a.screen)
     sim = ""
     if a.counts["raters_simulated"]:
         sim = (
-            f"{a.counts['raters_simulated']} of {a.counts['raters']} raters are simulated "
+            f"{a.counts['raters_simulated']} of {plural(a.counts['raters'], 'rater')} "
+            f"{'is' if a.counts['raters_simulated'] == 1 else 'are'} simulated "
             "(rater_id starting with 'sim-'): these are not human judgements."
         )
     rule = ScreenRule()

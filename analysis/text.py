@@ -18,6 +18,8 @@ import re
 import numpy as np
 import pandas as pd
 
+from data_schema.text import plural
+
 __all__ = ["fmt", "cell_text", "interval_text", "offset_text", "screening_text", "no_votes_left",
            "md_escape", "MdText", "MISSING_TEXT"]
 
@@ -193,9 +195,9 @@ def screening_text(raters: pd.DataFrame, *, applied: bool) -> str:
     """
     ex = raters[raters["excluded"].astype(bool)]
     n = len(raters)
-    text = (f"Excluded {len(ex)} of {n} raters: " + "; ".join(
+    text = (f"Excluded {len(ex)} of {plural(n, 'rater')}: " + "; ".join(
         f"{r.rater_id} ({r.excluded_reason})" for r in ex.itertuples()) + "."
-        if len(ex) else f"No rater excluded ({n} raters).")
+        if len(ex) else f"No rater excluded ({plural(n, 'rater')}).")
     flags = raters.get("flags", pd.Series("", index=raters.index)).fillna("").astype(str)
     kept = raters[~raters["excluded"].astype(bool) & (flags != "")]
     if len(kept) and not applied:

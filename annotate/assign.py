@@ -4,7 +4,8 @@ Layer: annotate (rating study).
 
 A rater's *plan* is fixed when the rater signs in for the first time and stored with the
 rater: the training items in study order, then the test items in a random order seeded by
-an HMAC of the study seed and the rater id under the study's secret (:func:`plan_seed`), and the hidden gold and repeat items ("specials"), each due
+an HMAC of the study seed and the rater id under the study's secret (:func:`plan_seed`), and the hidden gold (the rater's draw from
+the study's gold pool, :func:`draw_gold`) and repeat items ("specials"), each due
 after a seeded number of test items. :func:`choose_next` then picks, in this order:
 
 1. the next training item;
@@ -15,6 +16,11 @@ after a seeded number of test items. :func:`choose_next` then picks, in this ord
    until the rater has had the plan's ``max_tests`` test items (``annotate build
    --items-per-rater``);
 4. any special left (repeats only with a voted original); else ``None``: the rater is done.
+
+A gold item drawn from a pool (plan ``gold_quota``, studies built with
+:data:`annotate.design.GOLD_POOL`) is shown, like a test item, only while fewer than
+``votes_per_item`` other raters hold or voted it: counting the identities that saw an item
+then tells gold from test items no better than chance (issue 38 item 31).
 
 >>> plan = {"training": ["t1"], "order": ["a", "b", "c"], "specials": [[1, "g1"]],
 ...         "repeat_of": {}}
@@ -33,7 +39,7 @@ import hmac
 
 import numpy as np
 
-__all__ = ["make_plan", "choose_next", "rater_seed", "plan_seed", "plan_total", "pairwise_sides"]
+__all__ = ["make_plan", "draw_gold", "choose_next", "rater_seed", "plan_seed", "plan_total", "pairwise_sides"]
 
 
 def rater_seed(study_seed: int, rater: str) -> int:
@@ -89,8 +95,51 @@ def plan_seed(secret: str, study_seed: int, rater: str) -> int:
     return int.from_bytes(digest[:8], "little") >> 1
 
 
+def draw_gold(golds: list[str], n: int, *, seed: int) -> list[str]:
+    """The ``n`` gold items of one rater, drawn from the study's pool ``golds``.
+
+    Each kind of gold (the key's prefix before ``:``, e.g. ``gold-good`` and ``gold-bad``)
+    is shuffled by a stream of the rater's seed of its own (the plan's draws are unchanged)
+    and the kinds are taken in turn, so a rater gets as many of each as the pool allows.
+    With a pool :data:`annotate.design.GOLD_POOL` times ``n``, an item of the pool reaches
+    about one rater in that many (issue 38 item 31: when every rater saw every gold item,
+    counting the identities that saw an item found them all).
+
+    Parameters
+    ----------
+    golds : list of str
+        The pool's gold item keys.
+    n : int
+        Gold items the rater is shown (all of ``golds`` when ``n >= len(golds)``).
+    seed : int
+        The rater's seed (:func:`plan_seed`, keyed with the study's secret).
+
+    Returns
+    -------
+    list of str
+        ``min(n, len(golds))`` keys, kinds in turn.
+
+    >>> pool = [f"gold-good:{i}" for i in range(4)] + [f"gold-bad:{i}" for i in range(4)]
+    >>> got = draw_gold(pool, 4, seed=7)
+    >>> sorted(k.split(":")[0] for k in got), draw_gold(pool, 4, seed=7) == got
+    (['gold-bad', 'gold-bad', 'gold-good', 'gold-good'], True)
+    """
+    rng = np.random.default_rng([int(seed), 3])
+    kinds: dict[str, list[str]] = {}
+    for key in golds:
+        kinds.setdefault(key.split(":", 1)[0], []).append(key)
+    queues = [[group[i] for i in rng.permutation(len(group))] for group in kinds.values()]
+    out: list[str] = []
+    while len(out) < min(int(n), len(golds)):
+        for queue in queues:
+            if queue and len(out) < n:
+                out.append(queue.pop())
+    return out
+
+
 def make_plan(*, training: list[str], tests: list[str], golds: list[str],
-              repeats: dict[str, str], seed: int, max_tests: int | None = None) -> dict:
+              repeats: dict[str, str], seed: int, max_tests: int | None = None,
+              n_gold: int | None = None) -> dict:
     """The rater's plan (JSON-able dict).
 
     ``repeats`` maps a repeat item key to its original test item key. Gold items are spread
@@ -113,12 +162,18 @@ def make_plan(*, training: list[str], tests: list[str], golds: list[str],
         The rater's seed (:func:`rater_seed`).
     max_tests : int, optional
         Cap on the rater's test items.
+    n_gold : int, optional
+        Gold items the rater is shown, drawn from the pool ``golds`` (:func:`draw_gold`;
+        the plan gets ``gold_quota``: :func:`choose_next` caps them at the quota); None:
+        every one (studies built before the pool).
 
     Returns
     -------
     dict
         The plan.
     """
+    if n_gold is not None:
+        golds = draw_gold(golds, n_gold, seed=seed)
     rng = np.random.default_rng(seed)
     order = [tests[i] for i in rng.permutation(len(tests))]
     n = max(len(order) if max_tests is None else min(len(order), max_tests), 1)
@@ -129,12 +184,20 @@ def make_plan(*, training: list[str], tests: list[str], golds: list[str],
             "repeat_of": dict(repeats)}
     if max_tests is not None:
         plan["max_tests"] = int(max_tests)
+    if n_gold is not None:  # a pool's gold, like a test item, reaches at most `quota` raters
+        plan["gold_quota"] = True
     return plan
 
 
-def _eligible(plan: dict, key: str, voted: set[str]) -> bool:
+def _eligible(plan: dict, key: str, voted: set[str], loads: dict[str, int] | None = None,
+              quota: int | None = None) -> bool:
+    """A special can be shown: a repeat once its original is voted; a gold item of a pool
+    (plan ``gold_quota``) while fewer than ``quota`` other raters hold or voted it."""
     original = plan["repeat_of"].get(key)
-    return original is None or original in voted
+    if original is not None:
+        return original in voted
+    return not (plan.get("gold_quota") and quota is not None and loads is not None
+                and loads.get(key, 0) >= quota)
 
 
 def choose_next(plan: dict, assigned: list[str], voted: set[str], loads: dict[str, int], *,
@@ -171,7 +234,7 @@ def choose_next(plan: dict, assigned: list[str], voted: set[str], loads: dict[st
     n_tests = sum(1 for k in order if k in done)
     specials = [(after, key) for after, key in plan["specials"] if key not in done]
     for after, key in specials:
-        if after <= n_tests and _eligible(plan, key, voted):
+        if after <= n_tests and _eligible(plan, key, voted, loads, quota):
             return key
     best, best_load = None, None
     capped = n_tests >= plan.get("max_tests", n_tests + 1)  # the rater's share of tests is done
@@ -188,7 +251,7 @@ def choose_next(plan: dict, assigned: list[str], voted: set[str], loads: dict[st
     if best is not None:
         return best
     for _after, key in specials:
-        if _eligible(plan, key, voted):
+        if _eligible(plan, key, voted, loads, quota):
             return key
     return None
 
@@ -229,6 +292,8 @@ def plan_total(plan: dict, assigned: list[str], loads: dict[str, int], *,
         if key in done:
             continue
         original = plan["repeat_of"].get(key)
+        if original is None and not _eligible(plan, key, set(), loads, quota):
+            continue  # a pool's gold item other raters have taken to its quota
         if original is None or original in done or original in open_tests:
             n += 1
     return n

@@ -9,7 +9,9 @@ or bad (0). :class:`BinaryDesign` is the default design of ``annotate build``
   other pairs (:func:`annotate.design.pick_training`); hidden gold items alternate
   ``gold-good:<pair_id>`` (the GT crop against a copy of the GT image, must be rated good)
   and ``gold-bad:<pair_id>`` (against a severely broken copy,
-  :func:`annotate.crops.broken_render`, must be rated bad); repeats repeat test items (key
+  :func:`annotate.crops.broken_render`, must be rated bad), a pool of
+  :data:`annotate.design.GOLD_POOL` times the ``2 x n_gold`` each rater is shown (drawn per
+  rater: :func:`annotate.assign.draw_gold`); repeats repeat test items (key
   ``repeat:<pair_id>``, item id the test item's);
 - cut: the GT and render crops of every item on one square (:func:`annotate.crops.pad_pair`),
   written by :class:`annotate.crops.CropWriter` (dithered, no two alike; a gold copy and a
@@ -29,7 +31,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from annotate import crops as _crops
-from annotate.design import Choice, StudyOptions, attribute_columns, choose_tests
+from annotate.design import GOLD_POOL, Choice, StudyOptions, attribute_columns, choose_tests
 from annotate.store import BINARY_VOTES
 from data_schema.methods import method_columns
 from data_schema.perturbation import view_columns, with_perturbation_columns
@@ -57,7 +59,7 @@ class BinaryDesign:
         if view_cols:
             pairs = with_perturbation_columns(pairs)
         chosen_offsets, tests, record, training = choose_tests(pairs, rng, opts, has_views=bool(view_cols))
-        gold_src = tests.iloc[sorted(rng.choice(len(tests), size=min(2 * opts.n_gold, len(tests)),
+        gold_src = tests.iloc[sorted(rng.choice(len(tests), size=min(GOLD_POOL * 2 * opts.n_gold, len(tests)),
                                                 replace=False).tolist())]
         rep_src = tests.iloc[sorted(rng.choice(len(tests), size=min(opts.n_repeats, len(tests)),
                                                replace=False).tolist())]

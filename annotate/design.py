@@ -56,7 +56,13 @@ from data_schema.tables import PAIRS_COLUMNS, offset_cm, parse_offsets
 
 __all__ = ["choose_offsets", "choose_views", "attribute_columns", "usable_frames", "choose_tracks",
            "spread_frames", "select_test_pairs", "pick_training", "choose_tests", "StudyOptions", "Choice",
-           "Design"]
+           "Design", "GOLD_POOL"]
+
+#: Gold items are cut for this many times the gold items one rater sees (``2 x n_gold``, as
+#: far as the test items allow); each rater's are drawn from that pool
+#: (:func:`annotate.assign.draw_gold`), so counting which items more than ``votes_per_item``
+#: identities see does not single the gold out (issue 38 item 31).
+GOLD_POOL = 4
 
 _EXTRA_NON_ATTRIBUTES = ("scene_root", *VIEW_COLUMNS, METHOD_COLUMN)
 

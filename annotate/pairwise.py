@@ -41,7 +41,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from annotate import crops as _crops
-from annotate.design import Choice, StudyOptions, attribute_columns, choose_tests
+from annotate.design import GOLD_POOL, Choice, StudyOptions, attribute_columns, choose_tests
 from data_schema.errors import InputError
 from data_schema.methods import GT_METHOD, METHOD_COLUMN, table_methods
 from data_schema.perturbation import labels, perturbation_array, view_columns
@@ -158,7 +158,7 @@ class PairwiseDesign:
         test_rows = [item(obj, "test", a, b) for obj in tests["_object"] for a, b in duos]
         rows += test_rows
         away = tests[tests["_view"] != "none"] if (tests["_view"] != "none").any() else tests
-        n_gold = min(2 * opts.n_gold, len(away))
+        n_gold = min(GOLD_POOL * 2 * opts.n_gold, len(away))  # the pool
         for obj in away["_object"].iloc[sorted(rng.choice(len(away), size=n_gold, replace=False))]:
             m = methods[int(rng.integers(len(methods)))]
             gold = item(obj, "gold", GT_METHOD, m, prefix="gold:")

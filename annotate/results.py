@@ -35,6 +35,7 @@ from data_schema.tables import (
     PAIRWISE_VOTES_COLUMNS,
     RATINGS_COLUMNS,
 )
+from data_schema.text import plural
 
 __all__ = [
     "ratings_table",
@@ -303,7 +304,7 @@ def nominal_alpha(ratings: pd.DataFrame) -> tuple[float | None, str]:
     if why:
         return None, why
     n_items = int((test.groupby("item_id").size() >= 2).sum())
-    return alpha, f"{n_items} items with >= 2 votes"
+    return alpha, f"{plural(n_items, 'item')} with >= 2 votes"
 
 
 def gold_failures(ratings: pd.DataFrame) -> pd.DataFrame:

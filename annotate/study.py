@@ -122,8 +122,9 @@ def build_study(out: str | Path, pairs_path: str | Path, options: StudyOptions |
     rng = np.random.default_rng(opts.seed)
     choice = study_design.choose_items(pairs, rng, opts, where=where)
     if opts.items_per_rater is not None:
-        kinds = pd.Series([r["kind"] for r in choice.rows])
-        check_items_per_rater(opts.items_per_rater, kinds.value_counts().to_dict())
+        kinds = pd.Series([r["kind"] for r in choice.rows]).value_counts().to_dict()
+        kinds["gold"] = min(2 * int(opts.n_gold), kinds.get("gold", 0))  # a rater's share of the pool
+        check_items_per_rater(opts.items_per_rater, kinds)
     _check_images(study_design.needed_images(choice.rows), where=where)
     metrics = _read_study_metrics(opts.metrics_paths, choice.pairs)
     ids = opaque_ids(rng, study_design.crops_per_item * len(choice.rows))
@@ -245,6 +246,8 @@ def _manifest(out: Path, choice: Choice, items: pd.DataFrame, opts: StudyOptions
         "scene_roots": {str(k): str(v) for k, v in roots.items()},
         "offsets": choice.offsets, "tracks": choice.tracks,
         "counts": {kind: int((items["kind"] == kind).sum()) for kind in ITEM_KINDS},
+        # each rater's gold items, drawn from the counts' gold pool (absent: every gold item)
+        "gold_per_rater": min(2 * int(opts.n_gold), int((items["kind"] == "gold").sum())),
         "training_order": items.loc[items["kind"] == "training", "key"].tolist(),
         **extras,
     }
@@ -373,7 +376,22 @@ class Study:
         cap = self.manifest.get("items_per_rater")
         if cap is None:
             return None
-        return int(cap) - sum(len(self.keys(k)) for k in ("training", "gold", "repeat"))
+        return int(cap) - sum(self.rater_counts()[k] for k in ("training", "gold", "repeat"))
+
+    @property
+    def gold_per_rater(self) -> int | None:
+        """Gold items one rater is shown, drawn from the study's pool (manifest
+        ``gold_per_rater``; None in studies built before the pool: every gold item)."""
+        n = self.manifest.get("gold_per_rater")
+        return None if n is None else int(n)
+
+    def rater_counts(self) -> dict[str, int]:
+        """Items of each kind one rater is shown at most: the manifest's ``counts`` with
+        ``gold`` the rater's share of the gold pool (:attr:`gold_per_rater`)."""
+        counts = {k: int(self.manifest.get("counts", {}).get(k, len(self.keys(k)))) for k in ITEM_KINDS}
+        if self.gold_per_rater is not None:
+            counts["gold"] = min(self.gold_per_rater, counts["gold"])
+        return counts
 
     def new_plan(self, rater: str) -> dict:
         """A new plan for ``rater``, seeded by :func:`annotate.assign.plan_seed` (keyed with
@@ -384,7 +402,7 @@ class Study:
                 else plan_seed(self.admin_token(), self.manifest["seed"], rater))
         plan = make_plan(training=self.manifest["training_order"], tests=self.keys("test"),
                          golds=self.keys("gold"), repeats=reps, seed=seed,
-                         max_tests=self.tests_per_rater)
+                         max_tests=self.tests_per_rater, n_gold=self.gold_per_rater)
         if self.design == "pairwise":  # which side A is shown on, per item, for this rater
             plan["sides"] = pairwise_sides(plan, seed=seed)
         return plan

@@ -39,6 +39,7 @@ from data_schema.tables import (
     pair_image_paths,
     require_columns,
 )
+from data_schema.text import plural
 from nvrq.encoders import get_spec
 from nvrq.metrics.formulas import check_tau, nvrq_similarity
 from nvrq.scoring.batches import read_crops
@@ -351,7 +352,8 @@ def calibrate_tau(pairs: pd.DataFrame, encoder, options: CalibrationOptions | No
         raise InputError(where, "track_id/label_class",
                          f"GT crops of at least two objects of {what}"
                          + ("" if allow_same_class else " (or `allow_same_class`)"),
-                         f"{crops['track_id'].nunique()} tracks, {crops['label_class'].nunique()} classes")
+                         f"{plural(crops['track_id'].nunique(), 'track')}, "
+                         f"{plural(crops['label_class'].nunique(), 'class', 'classes')}")
     used = np.unique(np.concatenate([i, j]))
     crops = crops.iloc[used].reset_index(drop=True)
     remap = np.full(used.max() + 1, -1)

@@ -160,8 +160,11 @@ def run(args) -> int:
     out = build_study(args.study, args.pairs, options_from_args(args), progress=show_progress(args))
     study = load_study(out)
     counts = ", ".join(f"{v} {k}" for k, v in study.manifest["counts"].items())
-    print(f"study {out}: {counts} items")
-    load = rater_load(study.manifest["counts"], items_per_rater=args.items_per_rater,
+    share = study.rater_counts()["gold"]
+    pool = f" (each rater sees {share} of the {study.manifest['counts']['gold']} gold)" \
+        if share < study.manifest["counts"]["gold"] else ""
+    print(f"study {out}: {counts} items{pool}")
+    load = rater_load(study.rater_counts(), items_per_rater=args.items_per_rater,
                       votes_per_item=args.votes_per_item)
     print(load_text(load, votes_per_item=args.votes_per_item))
     if args.public_url is not None:

@@ -13,6 +13,7 @@ from pathlib import Path
 from annotate.commands import add_study_argument
 from data_schema.errors import InputError
 from data_schema.outputs import check_output_file
+from data_schema.text import plural
 
 __all__ = ["register", "run"]
 
@@ -71,16 +72,17 @@ def run(args) -> int:
     lost = unplaced_votes(study)
     raw = getattr(args, "raw_csv", False)
     write_people_table(table, args.out, raw=raw)
-    print(f"{len(table)} votes -> {args.out}", file=sys.stderr)
+    print(f"{plural(len(table), 'vote')} -> {args.out}", file=sys.stderr)
     if args.participants is not None:
         who = study.store.participants().rename(columns={"rater": "rater_id"})
         write_people_table(who, args.participants, raw=raw)
-        print(f"{len(who)} participants -> {args.participants}", file=sys.stderr)
+        print(f"{plural(len(who), 'participant')} -> {args.participants}", file=sys.stderr)
     if lost:
-        print(f"warning: {sum(lost.values())} votes not exported: "
+        print(f"warning: {plural(sum(lost.values()), 'vote')} not exported: "
               + "; ".join(f"{n} {why}" for why, n in lost.items()), file=sys.stderr)
     acts = study.store.action_counts()
     for r in acts[(acts["votes_undone"] > 0) | (acts["too_fast"] > 0)].itertuples():
-        print(f"rater {r.rater}: {r.votes_undone} votes undone, {r.too_fast} presses too fast "
+        print(f"rater {r.rater}: {plural(r.votes_undone, 'vote')} undone, "
+              f"{plural(r.too_fast, 'press', 'presses')} too fast "
               "(not in the table; the store's history keeps them)", file=sys.stderr)
     return 0

@@ -14,6 +14,7 @@ from __future__ import annotations
 import time
 
 from data_schema.errors import InputError
+from data_schema.text import plural
 from nvrq.commands.args import add_link_option, add_quiet_option, int_arg, number_arg, show_progress
 from nvrq.commands.engine_options import add_engine_args, check_engine_args, run_ray
 from nvrq.commands.model_options import add_model_arguments, add_runtime_arguments, prepare_device
@@ -162,7 +163,7 @@ def run_nta(args) -> int:
     summary = nta_summary(table, n_boot=args.bootstrap, seed=args.seed, min_clusters=args.min_clusters)
     write_table(table, args.out)
     write_table(summary, summary_path)
-    print(f"{len(table)} boxes, NTA-IoU ({protocol.name}) {table['iou'].mean():.4f} -> {args.out}, {summary_path}")
+    print(f"{plural(len(table), 'box', 'boxes')}, NTA-IoU ({protocol.name}) {table['iou'].mean():.4f} -> {args.out}, {summary_path}")
     return 0
 
 

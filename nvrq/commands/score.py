@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from data_schema.errors import InputError
+from data_schema.text import plural
 from nvrq.choices import DEFAULT_METRICS
 from nvrq.commands.args import LazyHelp, add_link_option, add_quiet_option, show_progress
 from nvrq.commands.engine_options import add_engine_args, check_engine_args, report_sharded, run_ray
@@ -154,15 +155,15 @@ def _report(res, *, uses_encoder: bool, file) -> None:
     metric and reason with NaN values (:func:`nvrq.scoring.driver.undefined_counts`), and a
     ``warning:`` line per metric NaN on every pair (:func:`~nvrq.scoring.driver.empty_column_warnings`)."""
     wall = res.timing.attrs.get("wall_seconds", float("nan"))
-    msg = f"scored {res.n_pairs} pairs in {wall:.1f} s ({res.n_pairs / max(wall, 1e-9):.1f} pairs/s); " \
-          f"decoded {res.n_images_decoded} images"
+    msg = f"scored {plural(res.n_pairs, 'pair')} in {wall:.1f} s ({res.n_pairs / max(wall, 1e-9):.1f} pairs/s); " \
+          f"decoded {plural(res.n_images_decoded, 'image')}"
     if uses_encoder:
         per = res.n_encoder_images / max(res.n_pairs, 1)
         msg += (f"; encoder images: {res.n_encoder_images} ({per:.2f} per pair, "
                 f"{2 * res.n_pairs} without GT reuse)")
     print(msg, file=file)
     for row in (res.undefined.itertuples(index=False) if res.undefined is not None else ()):
-        print(f"{row.metric}: {row.pairs} of {res.n_pairs} pairs NaN ({row.reason})", file=file)
+        print(f"{row.metric}: {row.pairs} of {plural(res.n_pairs, 'pair')} NaN ({row.reason})", file=file)
     from nvrq.scoring.driver import empty_column_warnings
 
     for line in empty_column_warnings(res.undefined, res.n_pairs):

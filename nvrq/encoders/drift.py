@@ -27,10 +27,55 @@ import numpy as np
 from data_schema.errors import InputError
 from nvrq.encoders.runtimes import cache_root, exported, weights_hash
 
-__all__ = ["DEFAULT_MIN_SPEARMAN", "records_path", "record_key", "read_records", "write_record",
+__all__ = ["DEFAULT_MIN_SPEARMAN", "MEASURED_SPEARMAN", "measured_text", "records_path", "record_key", "read_records", "write_record",
            "find_record", "require_check", "drift_stats", "quantize_int8", "pair_inputs", "check_runtime"]
 
 DEFAULT_MIN_SPEARMAN = 0.999
+
+#: NVRQ Spearman against torch fp32 measured per (encoder, runtime, precision) on 310 pairs of
+#: a synthetic clip, 2 CPU cores with AVX-512 VNNI (``../shared/notes/perf-2026-12-01.md``;
+#: README "Reduced precision"; DINOv2-S with random weights). Your pairs and CPU may differ.
+MEASURED_SPEARMAN = {
+    ("dinov2-small", "openvino", "bf16"): 0.99999, ("efficientnet-lite0", "openvino", "bf16"): 0.998,
+    ("dinov2-small", "openvino", "int8"): 0.99993, ("efficientnet-lite0", "openvino", "int8"): 0.967,
+    ("dinov2-small", "onnxruntime", "int8"): 0.99994, ("efficientnet-lite0", "onnxruntime", "int8"): 0.887,
+}
+_RUNTIME_NAMES = {"openvino": "OpenVINO", "onnxruntime": "ONNX Runtime"}
+
+
+def measured_text(precision: str, threshold: float = DEFAULT_MIN_SPEARMAN) -> str:
+    """Where ``precision`` passed and failed the drift check in :data:`MEASURED_SPEARMAN`,
+    with the numbers (issue 38 item 11); ``''`` when nothing was measured at it.
+
+    Parameters
+    ----------
+    precision : str
+        ``'bf16'`` or ``'int8'`` (``'fp32'``: nothing measured).
+    threshold : float, optional
+        The NVRQ Spearman a run must reach to pass.
+
+    Returns
+    -------
+    str
+        One line.
+
+    >>> measured_text("int8")  # doctest: +NORMALIZE_WHITESPACE
+    'measured int8 (NVRQ Spearman vs torch fp32, 310 pairs of a synthetic clip): passes >= 0.999
+    for dinov2-small (OpenVINO 0.99993, ONNX Runtime 0.99994); fails for efficientnet-lite0
+    (OpenVINO 0.967, ONNX Runtime 0.887)'
+    """
+    by_enc: dict[bool, dict[str, list[str]]] = {True: {}, False: {}}
+    for (enc, runtime, prec), s in MEASURED_SPEARMAN.items():
+        if prec == precision:
+            passed = all(v >= threshold for (e, _r, p), v in MEASURED_SPEARMAN.items()
+                         if e == enc and p == prec)
+            by_enc[passed].setdefault(enc, []).append(f"{_RUNTIME_NAMES[runtime]} {s:g}")
+    if not by_enc[True] and not by_enc[False]:
+        return ""
+    parts = [f"{word} for " + ", ".join(f"{e} ({', '.join(v)})" for e, v in by_enc[ok].items())
+             for ok, word in ((True, f"passes >= {threshold:g}"), (False, "fails")) if by_enc[ok]]
+    return (f"measured {precision} (NVRQ Spearman vs torch fp32, 310 pairs of a synthetic clip): "
+            + "; ".join(parts))
 
 
 def records_path(cache_dir=None) -> Path:

@@ -153,6 +153,73 @@ def test_attack_counting_served_bytes_does_not_find_the_gold(make_study):
     assert rate <= chance
 
 
+def _pixels_digest(crops) -> str:
+    """The decoded pixels of an item's crops (the salt in the metadata is gone): what an
+    attacker who compares pictures rather than files counts."""
+    import cv2
+    import numpy as np
+
+    return hashlib.sha256(b"".join(cv2.imdecode(np.frombuffer(c, np.uint8), cv2.IMREAD_COLOR).tobytes()
+                                   for c in crops)).hexdigest()
+
+
+def test_attack_counting_identities_per_picture_finds_gold_at_chance(make_study):
+    """Item 31 as the review ran it, on pictures: many identities rate a study whose raters
+    each take 3 test items (18 test items x 2 votes: 12 raters needed); the attacker flags
+    every picture pair more than votes_per_item identities were shown. Before the gold pool,
+    every rater was shown every gold item: all gold flagged and nothing else (rate 100%,
+    chance = gold / items). Now each rater's gold is a draw from a pool 4x larger, and a pool
+    item, like a test item, reaches at most votes_per_item raters."""
+    study = make_study(n_training=0, votes_per_item=2, tracks=2, frames_per_track=3, n_gold=1,
+                       n_repeats=0, items_per_rater=5)  # 2 gold + 3 test items a rater
+    assert study.tests_per_rater == 3 and study.gold_per_rater == 2
+    seen: dict[str, set] = {}  # decoded pixels of an item -> identities shown it
+    item_of: dict[str, str] = {}
+    display = item_display(study)
+    for i in range(24):  # twice the raters the study needs
+        rater = f"id{i}"
+        while (key := study.next_item(rater)) is not None:
+            digest = _pixels_digest(display.crops(key, (("ref", "ref_file"), ("ren", "ren_file")), rater))
+            seen.setdefault(digest, set()).add(rater)
+            item_of[digest] = key
+            study.store.record_shown_vote(rater, key, 1, session="s")
+    gold = set(study.keys("gold"))
+    shown_gold = {item_of[d] for d in seen} & gold
+    flagged = {item_of[d] for d, who in seen.items() if len(who) > study.quota}
+    chance = len(gold) / len(study.items)
+    counts = Counter(len(who) for d, who in seen.items() if item_of[d] in gold)
+    print(f"gold by frequency (pictures): {len(flagged & gold)} of {len(shown_gold)} gold shown "
+          f"flagged, {len(flagged)} items flagged (chance {chance:.0%}); identities per gold "
+          f"item {dict(sorted(counts.items()))}, per test item <= {study.quota}")
+    assert len(shown_gold) > study.gold_per_rater  # raters were shown different gold items
+    assert not flagged  # no picture reaches more identities than a test item can
+    assert len(flagged & gold) / len(gold) <= chance
+
+
+def test_a_study_built_before_the_gold_pool_still_shows_every_gold_item(make_study):
+    """A manifest without ``gold_per_rater`` (studies built before item 31): every rater is
+    shown every gold item, uncapped, and export and screening count them as before."""
+    import json
+
+    from annotate.results import gold_failures, ratings_table
+    from annotate.study import load_study
+
+    study = make_study(n_training=0, votes_per_item=1, n_gold=1, n_repeats=0)
+    manifest = json.loads((study.root / "manifest.json").read_text())
+    del manifest["gold_per_rater"]
+    (study.root / "manifest.json").write_text(json.dumps(manifest))
+    old = load_study(study.root)
+    gold = set(old.keys("gold"))
+    assert old.gold_per_rater is None and len(gold) > 2
+    for rater in ("a", "b"):
+        assert "gold_quota" not in old.plan_for(rater)
+        _vote_through(old, rater, vote=1)  # "good" everywhere: every gold-bad item fails
+    votes = old.store.votes()
+    assert set(votes.loc[votes["rater"] == "b", "item"]) >= gold  # b after a: all gold still
+    fails = gold_failures(ratings_table(old))
+    assert len(fails) == 2 * sum(k.startswith("gold-bad:") for k in gold)
+
+
 # ---- 32: gold positions predicted from the seed ---------------------------------------------
 def test_attack_predicting_gold_positions_from_the_seed_is_at_chance(make_study):
     study = make_study(n_training=0, tracks=2, frames_per_track=3, n_gold=2, seed=0)
@@ -281,7 +348,8 @@ def test_attack_late_arrival_at_a_full_study_is_told_so_without_completion_link(
     monkeypatch.setenv("ANNOTATE_STUDY", str(s.root))
     rater, token, _ = crowd_arrival(s, {})
     s.plan_for(rater)
-    assert _vote_through(s, rater) == len(s.items)
+    # every item but the gold of the pool not drawn for this rater (issue 38 item 31)
+    assert _vote_through(s, rater) == len(s.items) - len(s.keys("gold")) + s.gold_per_rater
     assert s.is_full()
     late = AppTest.from_file(APP, default_timeout=20).run()
     text = " ".join(x.value for x in late.info)

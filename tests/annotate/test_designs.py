@@ -66,8 +66,9 @@ def test_choosing_twice_with_one_seed_gives_the_same_items(tmp_path, design, met
     assert [r["key"] for r in first.rows] == [r["key"] for r in second.rows]
     assert first.offsets == second.offsets and first.tracks == second.tracks
     kinds = pd.Series([r["kind"] for r in first.rows]).value_counts().to_dict()
-    # 2 tracks x 2 frames x 3 offsets = 12 tests (x 1 pair of methods); gold: 2 x n_gold
-    assert kinds == {"test": 12, "training": 2, "gold": 2, "repeat": 2}
+    # 2 tracks x 2 frames x 3 offsets = 12 tests (x 1 pair of methods); gold: a pool of
+    # GOLD_POOL x 2 x n_gold = 8 (issue 38 item 31; it was 2 x n_gold, each rater drawing 2)
+    assert kinds == {"test": 12, "training": 2, "gold": 8, "repeat": 2}
     assert first.methods == ([] if design == "binary" else ["alpha", "beta"])
 
 

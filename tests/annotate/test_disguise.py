@@ -79,10 +79,15 @@ def test_strip_metadata_undoes_the_salt():
 
 
 def _served(study, design):
-    """{key: [stripped bytes per crop column]} as the app would serve them (salted per side)."""
+    """{key: [stripped bytes per crop column]} as the app would serve them (salted per side)
+    to one rater: every item but the gold items of the pool that rater is not shown (issue 38
+    item 31: a rater's gold is a draw of 2 x n_gold from a pool GOLD_POOL times larger)."""
     cols = ("ref_file", "a_file", "b_file") if design == "pairwise" else ("ref_file", "ren_file")
+    mine = {k for _after, k in study.plan_for("attacker")["specials"]}
     out = {}
     for key, it in study.items.iterrows():
+        if it["kind"] == "gold" and key not in mine:
+            continue
         out[key] = [strip_metadata(salted_image((study.root / "crops" / it[c]).read_bytes(),
                                                 f"{key}|{c}".encode())) for c in cols]
     return out

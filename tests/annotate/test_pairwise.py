@@ -64,7 +64,9 @@ def test_design_one_item_per_object_view_and_pair_of_methods(tmp_path, pw_inputs
         assert it["item_id"] == f"{it['pair_id']}|{it['method_a']}|{it['method_b']}"
     assert "method" not in s.manifest["attribute_columns"]
     gold = items[items["kind"] == "gold"]
-    assert len(gold) == 4 and (gold["method_a"] == "gt").all() and (gold["expected"] == "a").all()
+    # issue 38 item 31: the gold pool is GOLD_POOL x the 4 a rater sees, here every one of the 8
+    # object views away from the real camera (it was 4, all shown to every rater)
+    assert len(gold) == 8 and (gold["method_a"] == "gt").all() and (gold["expected"] == "a").all()
     assert (gold["y_offset_m"] != 0).all()  # away from the real camera: GT and render differ
     assert gold["method_b"].isin(METHODS).all() and gold["pair_id_a"].isna().all()
     reps = items[items["kind"] == "repeat"]
@@ -119,8 +121,11 @@ def test_sides_counterbalanced_per_rater_and_repeats_swapped(tmp_path, pw_inputs
     for r in range(40):
         sides = s.plan_for(f"r{r}")["sides"]
         for kind in ("test", "gold", "training"):
-            left = sum(sides[k] == "left" for k in s.keys(kind))
-            assert abs(2 * left - len(s.keys(kind))) <= 1, kind  # half on each side (+-1 if odd)
+            # gold: the rater's own draw from the pool (issue 38 item 31), the only gold it has sides for
+            keys = [k for k in s.keys(kind) if kind != "gold" or k in sides]
+            assert kind != "gold" or len(keys) == s.gold_per_rater < len(s.keys("gold"))
+            left = sum(sides[k] == "left" for k in keys)
+            assert abs(2 * left - len(keys)) <= 1, kind  # half on each side (+-1 if odd)
         for k in s.keys("repeat"):
             assert sides[k] != sides[k.split(":", 1)[1]]
         for k in per_item:

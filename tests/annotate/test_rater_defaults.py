@@ -59,10 +59,13 @@ def test_build_prints_the_load_and_a_rater_gets_no_more(toy_inputs, tmp_path, ca
     assert rc == 0
     items = pd.read_csv(out / "items.csv")
     counts = items["kind"].value_counts()
-    assert (counts["test"], counts["training"], counts["gold"]) == (18, 2, 2)
+    # issue 38 item 31: 8 gold cut (GOLD_POOL = 4 x the 2 a rater sees; it was 2), 2 shown to each
+    assert (counts["test"], counts["training"], counts["gold"]) == (18, 2, 8)
     # 10 items per rater: 2 training + 2 gold + 6 test; 10 x 1.5 s = 0.25 min -> "about 0 min";
     # 18 test items x 3 votes / 6 per rater = 9 raters
-    line = [x for x in capsys.readouterr().out.splitlines() if x.startswith("each rater")]
+    printed = capsys.readouterr().out.splitlines()
+    assert printed[0].endswith("0 repeat items (each rater sees 2 of the 8 gold)")
+    line = [x for x in printed if x.startswith("each rater")]
     assert line == ["each rater: up to 10 items (6 of them test items), about 0 min at 1.5 s per "
                     "vote; 9 raters give every test item its 3 votes"]
     study = load_study(out)
@@ -97,7 +100,8 @@ def test_a_study_without_a_cap_gives_every_item(make_study):
     s = make_study(items_per_rater=None)
     assert s.manifest["items_per_rater"] is None and s.tests_per_rater is None
     assert "max_tests" not in s.new_plan("ann")
-    assert s.progress("ann")["total"] == len(s.keys("test")) + len(s.keys("gold")) + len(s.keys("repeat"))
+    # every test and repeat item, and the rater's share of the gold pool (issue 38 item 31)
+    assert s.progress("ann")["total"] == len(s.keys("test")) + s.gold_per_rater + len(s.keys("repeat"))
 
 
 def test_training_starts_clearly_different():

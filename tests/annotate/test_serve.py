@@ -118,4 +118,4 @@ def test_server_refuses_a_study_rebuilt_under_it_and_export_reports_foreign_vote
     out = tmp_path / "ratings.csv"
     assert main(["export", str(root), "--out", str(out)]) == 0
     err = capsys.readouterr().err
-    assert "1 votes not exported" in err and "another study id" in err, err
+    assert "1 vote not exported" in err and "another study id" in err, err  # singular (issue 38 item 17)

@@ -298,3 +298,28 @@ def test_servers_opening_an_old_store_at_once_migrate_it_once(tmp_path):
     assert con.execute("SELECT * FROM history ORDER BY id").fetchall() == [
         (*row, None) for row in old_history]
     con.close()
+
+
+def test_export_counts_read_singular_at_one(tmp_path, capsys):
+    """Issue 38 item 17: "1 votes undone", "1 presses too fast" and "1 votes ->" read as
+    singular nouns (data_schema.text.plural)."""
+    study = _binary(tmp_path)
+    first, second = study.next_item("kit"), None
+    assert study.store.record_shown_vote("kit", first, 1, session="s") == "recorded"
+    second = study.next_item("kit")
+    assert study.store.record_shown_vote("kit", second, 1, session="s") == "recorded"
+    assert study.store.undo_last("kit", session="s") == second  # 1 vote undone, 1 standing
+    study.store.record_too_fast("kit", second, 1, response_ms=10, session="s")
+    assert main(["export", str(study.root), "--out", str(tmp_path / "out.csv")]) == 0
+    err = capsys.readouterr().err
+    assert "rater kit: 1 vote undone, 1 press too fast" in err and "\n1 vote -> " in "\n" + err
+
+
+def test_screening_text_reads_singular_at_one():
+    """Issue 38 item 17 in the report: "No rater excluded (1 raters)" read wrong."""
+    import pandas as pd
+
+    from analysis.text import screening_text
+
+    one = pd.DataFrame({"rater_id": ["ann"], "flags": [""], "excluded": [False], "excluded_reason": [""]})
+    assert screening_text(one, applied=True) == "No rater excluded (1 rater)."

@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from annotate.design import choose_tracks, spread_frames, usable_frames
+from annotate.design import GOLD_POOL, choose_tracks, spread_frames, usable_frames
 from annotate.study import build_study, crop_path
 from data_schema.errors import InputError
 
@@ -81,7 +81,12 @@ def test_gold_and_repeat_items(make_study, toy_inputs, toy_mod):
     pairs = pd.read_csv(pairs_path).set_index("pair_id")
     s = make_study(n_gold=2, n_repeats=3, image_format="png")
     gold = s.items[s.items["kind"] == "gold"]
-    assert len(gold) == 4
+    # issue 38 item 31: a pool of GOLD_POOL x (2 x n_gold) gold items as far as the 12 test
+    # items allow (it was 2 x n_gold = 4, all shown to every rater); a rater is shown 4 of
+    # them, 2 good and 2 bad
+    assert len(gold) == min(GOLD_POOL * 4, len(s.keys("test"))) == 12 and s.gold_per_rater == 4
+    shown = [k for _after, k in s.plan_for("ann")["specials"] if k in set(gold.index)]
+    assert sorted(k.split(":")[0] for k in shown) == ["gold-bad"] * 2 + ["gold-good"] * 2
     for it in gold.itertuples():
         p = pairs.loc[it.pair_id]
         box = p[["gt_x0", "gt_y0", "gt_x1", "gt_y1"]]

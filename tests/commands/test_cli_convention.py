@@ -163,7 +163,7 @@ def test_a_library_hint_names_the_parameter():
 
     one_class = pd.DataFrame({"pair_id": ["p", "q"], "track_id": ["a", "b"], "label_class": "car",
                               "gt_path": "g.png", "gt_x0": 0, "gt_y0": 0, "gt_x1": 9, "gt_y1": 9})
-    with pytest.raises(InputError, match=r"\(or `allow_same_class`\), got 2 tracks, 1 classes$"):
+    with pytest.raises(InputError, match=r"\(or `allow_same_class`\), got 2 tracks, 1 class$"):  # singular: issue 38 item 17
         calibrate_tau(one_class, type("Encoder", (), {"embed": None})())
 
 

@@ -67,7 +67,9 @@ def test_crowd_arrival_reload_two_participants_and_completion(tmp_path):
     root = build_study(tmp_path / "study", pairs, scene=str(scene), tracks=1, frames_per_track=2,
                        n_training=1, n_gold=1, n_repeats=1, size=64, progress=False,
                        access="crowd", participant_param="PROLIFIC_PID", completion_url=DONE_URL)
-    n_items = len(load_study(root).items)
+    built = load_study(root)  # a rater's share: 2 of the 6 gold of the pool (issue 38 item 31)
+    n_items = len(built.items) - len(built.keys("gold")) + built.gold_per_rater
+    assert n_items == 10
     server, url = serve(root)
     acked = {"p1": 0, "p2": 0}
     try:

@@ -44,10 +44,12 @@ def test_two_raters_vote_with_keyboard_reload_and_export(tmp_path):
 
     scene, pairs = toy().make_toy(tmp_path)
     # 1 training + 1 track x 2 frames x 3 offsets + 2 gold + 1 repeat = 10 items per rater
+    # (the 2 gold drawn from a pool of 6: issue 38 item 31)
     root = build_study(tmp_path / "study", pairs, scene=str(scene), tracks=1, frames_per_track=2,
                        n_training=1, n_gold=1, n_repeats=1, size=64, progress=False)
-    n_items = len(load_study(root).items)
-    assert n_items == 10
+    built = load_study(root)
+    n_items = len(built.items) - len(built.keys("gold")) + built.gold_per_rater
+    assert n_items == 10 and len(built.keys("gold")) == 6
     server, url = serve(root)
     try:
         with sync_playwright() as pw:

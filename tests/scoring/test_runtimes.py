@@ -16,6 +16,7 @@ from nvrq.encoders import ENCODERS, build_random
 from nvrq.encoders.drift import (
     DEFAULT_MIN_SPEARMAN,
     drift_stats,
+    measured_text,
     record_key,
     require_check,
     write_record,
@@ -190,3 +191,31 @@ def test_calibrate_runtime_records_and_score_refuses_int8_below_threshold(tiny_s
     assert list(pd.read_csv(tmp_path / "m.csv").columns) == ["pair_id", "nvrq:efficientnet-lite0@int8"]
     t = pd.read_csv(tmp_path / "m.timing.csv")
     assert t[["runtime", "precision", "device"]].values.tolist() == [["openvino", "int8", "cpu"]]
+
+
+def test_calibrate_runtime_says_where_int8_passes_and_fails_with_the_numbers(tiny_scene, tmp_path, capsys):
+    """Issue 38 item 11: the command names the measured int8 results (the perf note's table,
+    ../shared/notes/perf-2026-12-01.md, also in README "Reduced precision"): passes for
+    dinov2-small (OpenVINO 0.99993, ONNX Runtime 0.99994), fails for efficientnet-lite0
+    (OpenVINO 0.967, ONNX Runtime 0.887). Small run: random weights, dynamic int8, 6 pairs."""
+    from nvrq.cli import main
+
+    root, pairs = tiny_scene
+    pairs.to_csv(tmp_path / "pairs.csv", index=False)
+    rc = main(["calibrate-runtime", str(tmp_path / "pairs.csv"), "--encoder", "efficientnet-lite0",
+               "--runtime", "onnxruntime", "--precision", "int8", "--sample", "6", "--calib", "4",
+               "--random-weights", "--cache-dir", str(tmp_path / "cache")])
+    assert rc == 0
+    out = capsys.readouterr().out
+    assert ("measured int8 (NVRQ Spearman vs torch fp32, 310 pairs of a synthetic clip): passes >= 0.999 "
+            "for dinov2-small (OpenVINO 0.99993, ONNX Runtime 0.99994); fails for efficientnet-lite0 "
+            "(OpenVINO 0.967, ONNX Runtime 0.887)") in out
+    assert "on 6 pairs:" in out
+
+
+def test_measured_text_follows_the_threshold_and_is_empty_for_fp32():
+    # at 0.95 efficientnet-lite0's OpenVINO int8 (0.967) passes but its ONNX Runtime int8
+    # (0.887) does not: an encoder passes only where every runtime measured did
+    assert "fails for efficientnet-lite0" in measured_text("int8", 0.95)
+    assert measured_text("bf16").endswith("fails for efficientnet-lite0 (OpenVINO 0.998)")
+    assert measured_text("fp32") == ""
