@@ -83,16 +83,7 @@ def register(sub) -> None:
     d.set_defaults(func=run_detection)
 
     _nta_parser(psub)
-
-    s = psub.add_parser("simulate-detect", help="write DETS for a synthetic scene with the simulated "
-                        "detector (offline; the demo's stand-in for a real one)")
-    s.add_argument("scene", help="scene folder written by `nvrq synth` (with its degradation.csv)")
-    s.add_argument("--out", required=True, help="DETS table (.csv or .parquet) for `nvrq proxy nta-iou`")
-    s.add_argument("--seed", type=int_arg(low=0), default=0, help="random seed (default 0)")
-    s.add_argument("--class-map", default=None,
-                   help="class-map JSON (default: the shipped nvrq/proxies/class_maps.json)")
-    add_link_option(s)
-    s.set_defaults(func=run_simulate_detect)
+    _simulate_parser(psub)
 
     y = psub.add_parser(
         "detect", help="write DETS with a local Ultralytics YOLO model (extra [yolo])"
@@ -154,6 +145,18 @@ def _nta_parser(psub) -> None:
                    help="the fewest tracks of an interval (default 5, as analyze --compare-methods)")
     add_link_option(n)
     n.set_defaults(func=run_nta)
+
+
+def _simulate_parser(psub) -> None:
+    s = psub.add_parser("simulate-detect", help="write DETS for a synthetic scene with the simulated "
+                        "detector (offline; the demo's stand-in for a real one)")
+    s.add_argument("scene", help="scene folder written by `nvrq synth` (with its degradation.csv)")
+    s.add_argument("--out", required=True, help="DETS table (.csv or .parquet) for `nvrq proxy nta-iou`")
+    s.add_argument("--seed", type=int_arg(low=0), default=0, help="random seed (default 0)")
+    s.add_argument("--class-map", default=None,
+                   help="class-map JSON (default: the shipped nvrq/proxies/class_maps.json)")
+    add_link_option(s)
+    s.set_defaults(func=run_simulate_detect)
 
 
 def run_nta(args) -> int:
