@@ -44,11 +44,12 @@ from data_schema.tables import MIN_SIDE_PX, PAIRS_COLUMNS, pair_ids
 from data_schema.text import plural
 from nvrq.geometry.boxes import box_corners, box_sides, pixel_box
 from nvrq.geometry.cameras import camera_from_model
-from nvrq.geometry.poses import (
-    interpolate_poses,
-    invert_rigid,
-    perturb_T_sensor_rig,
-    pose7_to_matrix,
+from nvrq.scene_boxes import (
+    frame_boxes,
+    frame_candidates,
+    render_views,
+    track_boxes_at,
+    view_transforms,
 )
 
 __all__ = ["DROP_REASONS", "PAIRS_OUTPUT_COLUMNS", "PairStats", "track_boxes_at", "view_validity", "make_pairs",
@@ -120,39 +121,6 @@ def _counts(sel: np.ndarray, has_gt: np.ndarray, worst: np.ndarray) -> dict:
     return c
 
 
-def track_boxes_at(scene: Scene, query_us: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Boxes of every track at every query time.
-
-    ``query_us: (F,)`` -> ``(track_index: (M,), frame_index: (M,), T_box_world: (M, 4, 4))`` for
-    the M (track, frame) combinations inside the track's own time span (never extrapolated).
-
-    Parameters
-    ----------
-    scene : Scene
-        The scene.
-    query_us : (F,) int64, microseconds
-        Frame times.
-
-    Returns
-    -------
-    track_index : (M,) int64
-    frame_index : (M,) int64
-    T_box_world : (M, 4, 4) float64
-        Box-centre poses, box frame to world frame (metres).
-    """
-    q = np.asarray(query_us, dtype=np.int64)
-    tr_idx, fr_idx, mats = [], [], []
-    for k, track in enumerate(scene.tracks):
-        T, ok = interpolate_poses(track.timestamps_us, pose7_to_matrix(track.poses), q)
-        idx = np.flatnonzero(ok)
-        tr_idx.append(np.full(idx.shape, k))
-        fr_idx.append(idx)
-        mats.append(T[idx])
-    if not mats:
-        return np.zeros(0, int), np.zeros(0, int), np.zeros((0, 4, 4))
-    return np.concatenate(tr_idx), np.concatenate(fr_idx), np.concatenate(mats)
-
-
 def view_validity(
     camera, corners_sensor: np.ndarray, *, min_side: float, min_area: float
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -194,36 +162,15 @@ def view_validity(
     return code, box
 
 
-def _render_views(renders: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
-    """Distinct views ``P: (K, 6)`` (the zero view included; sorted, so a lateral-only scene
-    gets its offsets in increasing order) and each render row's view index ``(R,)``."""
-    P_r = perturbation_array(renders)
-    views, inverse = np.unique(np.concatenate([np.zeros((1, 6)), P_r]), axis=0, return_inverse=True)
-    return views, np.asarray(inverse).reshape(-1)[1:]
-
-
-def _frame_boxes(scene: Scene, frames: np.ndarray, stats: PairStats):
-    """Rig poses at ``frames (F,)`` and the world corners ``(M, 8, 3)`` of every box there
-    (frames off the rig trajectory skipped and counted): ``(T_rig_world, track_index, frame_index, corners)``."""
-    T_rig_world, on_traj = interpolate_poses(scene.rig_timestamps_us, scene.T_rig_world, frames)
-    stats.frames_outside_trajectory += int((~on_traj).sum())
-    tr_i, fr_i, T_box_world = track_boxes_at(scene, frames)
-    keep = on_traj[fr_i]
-    tr_i, fr_i, T_box_world = tr_i[keep], fr_i[keep], T_box_world[keep]
-    dims = np.stack([scene.tracks[k].dims_lwh for k in tr_i]) if len(tr_i) else np.zeros((0, 3))
-    return T_rig_world, tr_i, fr_i, box_corners(T_box_world, dims)
-
-
 def _view_codes(model, T_sensor_rig, T_rig_world, fr_i, corners, views, *, min_side, min_area):
     """Codes ``(M, K)`` (0 valid in both views, else the failing view's reason, GT view
     first), GT boxes ``(M, 4)`` and novel-view boxes ``(M, K, 4)``."""
-    # GT view first: world -> sensor is inv(T_rig_world @ T_sensor_rig), per frame
-    T_ws = invert_rigid(T_rig_world @ T_sensor_rig)[fr_i]  # (M, 4, 4)
+    # GT view first (world -> GT sensor per frame), then the novel views only for boxes valid
+    # in the GT view (the others cannot pair): GT sensor -> view k's sensor (view_transforms)
+    T_gt_world, T_sk_s = view_transforms(T_sensor_rig, T_rig_world, views)
+    T_ws = T_gt_world[fr_i]  # (M, 4, 4)
     corners_gt = np.matmul(corners, np.swapaxes(T_ws[:, :3, :3], 1, 2)) + T_ws[:, None, :3, 3]
     code_gt, box_gt = view_validity(model, corners_gt, min_side=min_side, min_area=min_area)
-    # novel views only for boxes valid in the GT view (the others cannot pair). The
-    # perturbation is rigid in the rig frame, so sensor' = inv(T_sensor'_rig) @ T_sensor_rig @ sensor.
-    T_sk_s = invert_rigid(perturb_T_sensor_rig(T_sensor_rig, views)) @ T_sensor_rig  # (K, 4, 4)
     good = np.flatnonzero(code_gt == 0)
     pk = np.matmul(corners_gt[good, None], np.swapaxes(T_sk_s[:, :3, :3], 1, 2)) + T_sk_s[:, None, :3, 3]
     code_n, box_n = view_validity(model, pk, min_side=min_side, min_area=min_area)  # (G, K)
@@ -232,19 +179,6 @@ def _view_codes(model, T_sensor_rig, T_rig_world, fr_i, corners, views, *, min_s
     box = np.zeros((len(fr_i), len(views), 4), np.int64)
     box[good] = box_n
     return code, box_gt, box
-
-
-def _candidates(renders: pd.DataFrame, frames: np.ndarray, fr_i: np.ndarray):
-    """Every render image row x every box of its frame: ``(row_index, box_index)`` ``(C,)``."""
-    frame_pos = {int(t): i for i, t in enumerate(frames)}
-    r_frame = np.array([frame_pos[int(t)] for t in renders.timestamp_us], dtype=np.int64)
-    order = np.argsort(fr_i, kind="stable")
-    starts = np.searchsorted(fr_i[order], np.arange(len(frames) + 1))
-    n_per_row = np.diff(starts)[r_frame]
-    row_idx = np.repeat(np.arange(len(renders)), n_per_row)
-    within = np.arange(len(row_idx)) - np.repeat(np.cumsum(n_per_row) - n_per_row, n_per_row)
-    box_idx = order[np.repeat(starts[r_frame], n_per_row) + within]
-    return row_idx, box_idx
 
 
 def _pair_rows(scene, cam_name, r, gt_paths, tr_sel, gb, rb) -> pd.DataFrame:
@@ -288,11 +222,13 @@ def _camera_pairs(scene: Scene, cam, stats: PairStats, *, min_side, min_area) ->
     gt_rows = rows[rows.source == "gt"]
     gt_paths = dict(zip(gt_rows.timestamp_us, gt_rows.path, strict=True))
     frames = np.unique(renders.timestamp_us.to_numpy(np.int64))
-    views, r_k = _render_views(renders)
-    T_rig_world, tr_i, fr_i, corners = _frame_boxes(scene, frames, stats)
-    code, box_gt, box = _view_codes(model, cam.T_sensor_rig, T_rig_world, fr_i, corners, views,
+    views, r_k = render_views(renders)
+    fb = frame_boxes(scene, frames)
+    stats.frames_outside_trajectory += int((~fb.on_trajectory).sum())
+    tr_i = fb.track_index
+    code, box_gt, box = _view_codes(model, cam.T_sensor_rig, fb.T_rig_world, fb.frame_index, fb.corners, views,
                                     min_side=min_side, min_area=min_area)
-    row_idx, box_idx = _candidates(renders, frames, fr_i)
+    row_idx, box_idx = frame_candidates(renders, frames, fb.frame_index)
     k_idx = r_k[row_idx]
     has_gt = np.array([int(t) in gt_paths for t in renders.timestamp_us], dtype=bool)[row_idx]
     worst = code[box_idx, k_idx]

@@ -9,7 +9,10 @@ made and how long it took, so the demo doubles as a walkthrough of the workflow.
 ``nvrq demo OUT --methods NAME:SCALE,...`` compares reconstruction methods instead (README
 "Compare reconstructions"): synth renders the clip once per method -> pairs -> score ->
 ``analyze --pairs --compare-methods`` (the leaderboard) -> a pairwise study (build, simulated
-raters, export) -> ``analyze`` of its votes (Bradley-Terry and 2AFC agreement).
+raters, export) -> ``analyze`` of its votes (Bradley-Terry and 2AFC agreement). Before the
+leaderboard it computes the numbers the field reports: NTA-IoU (``nvrq proxy simulate-detect``,
+the simulated detector, then ``nvrq proxy nta-iou``) and FD/KID (``nvrq score-sets``), which
+the leaderboard's "Off-path metrics" table shows beside NVRQ-CA and PSNR.
 """
 
 from __future__ import annotations
@@ -77,14 +80,21 @@ def method_steps(out: Path, args) -> list[tuple[str, list[str]]]:
     """
     scene, pairs, metrics = out / "scene", out / "pairs.csv", out / "metrics.csv"
     study, votes = out / "study", out / "votes.csv"
+    dets, nta, sets = out / "dets.csv", out / "nta.csv", out / "sets.csv"
     return [
         ("nvrq", ["synth", str(scene), "--seed", str(args.seed), "--seconds", str(args.seconds),
                   "--size", args.size, "--offsets", args.offsets, "--methods", args.methods]),
         ("nvrq", ["pairs", str(scene), "--out", str(pairs)]),
         ("nvrq", ["score", str(pairs), "--out", str(metrics), "--metrics", "psnr,ssim,nvrq,nvrq_ca",
                   "--encoder", args.encoder]),
+        # the numbers the field reports: NTA-IoU (on the simulated detector's boxes: no detector
+        # ships offline) and FD/KID of frames and object crops per method and offset
+        ("nvrq", ["proxy", "simulate-detect", str(scene), "--out", str(dets), "--seed", str(args.seed)]),
+        ("nvrq", ["proxy", "nta-iou", str(scene), "--detections", str(dets), "--out", str(nta)]),
+        ("nvrq", ["score-sets", str(scene), "--out", str(sets), "--encoder", args.encoder,
+                  "--save-features", str(out / "features.npz")]),
         ("analyze", ["--pairs", str(pairs), "--metrics-table", str(metrics), "--compare-methods",
-                     "--by", "class,offset", "--out", str(out / "leaderboard")]),
+                     "--by", "class,offset", "--nta", str(nta), "--sets", str(sets), "--out", str(out / "leaderboard")]),
         ("annotate", ["build", str(study), "--pairs", str(pairs), "--metrics-table", str(metrics),
                       "--design", "pairwise", "--seed", str(args.seed), *_EVERY_ITEM]),
         ("annotate", ["simulate", str(study), "--raters", str(args.raters), "--seed", str(args.seed)]),

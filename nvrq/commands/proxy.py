@@ -7,6 +7,8 @@ which ``analyze --target`` accepts. ``imagenet`` and ``clip`` also write ``PROXY
 beside it, as ``nvrq score`` does (docs/FORMATS.md §8), for the report's speed chart. ``detect`` writes the DETS table for ``detection`` with a
 local Ultralytics YOLO model (optional extra ``[yolo]``). ``nta-iou SCENE --detections DETS``
 writes NTA-IoU per projected box and its summary per method and view (:mod:`nvrq.proxies.nta_scene`).
+``simulate-detect SCENE`` writes DETS for a synthetic scene with the simulated detector
+(:mod:`nvrq.synth.detections`), the demo's offline stand-in for a real detector.
 """
 
 from __future__ import annotations
@@ -79,6 +81,7 @@ def register(sub) -> None:
     d.set_defaults(func=run_detection)
 
     _nta_parser(psub)
+    _simulate_parser(psub)
 
     y = psub.add_parser(
         "detect", help="write DETS with a local Ultralytics YOLO model (extra [yolo])"
@@ -142,6 +145,18 @@ def _nta_parser(psub) -> None:
     n.set_defaults(func=run_nta)
 
 
+def _simulate_parser(psub) -> None:
+    s = psub.add_parser("simulate-detect", help="write DETS for a synthetic scene with the simulated "
+                        "detector (offline; the demo's stand-in for a real one)")
+    s.add_argument("scene", help="scene folder written by `nvrq synth` (with its degradation.csv)")
+    s.add_argument("--out", required=True, help="DETS table (.csv or .parquet) for `nvrq proxy nta-iou`")
+    s.add_argument("--seed", type=int_arg(low=0), default=0, help="random seed (default 0)")
+    s.add_argument("--class-map", default=None,
+                   help="class-map JSON (default: the shipped nvrq/proxies/class_maps.json)")
+    add_link_option(s)
+    s.set_defaults(func=run_simulate_detect)
+
+
 def run_nta(args) -> int:
     from data_schema.outputs import check_output_file
     from data_schema.scene import load_scene
@@ -164,6 +179,35 @@ def run_nta(args) -> int:
     write_table(table, args.out)
     write_table(summary, summary_path)
     print(f"{plural(len(table), 'box', 'boxes')}, NTA-IoU ({protocol.name}) {table['iou'].mean():.4f} -> {args.out}, {summary_path}")
+    return 0
+
+
+def run_simulate_detect(args) -> int:
+    """Run ``nvrq proxy simulate-detect`` (:func:`nvrq.synth.detections.simulate_detections`).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        ``scene``, ``out``, ``seed``, ``class_map``.
+
+    Returns
+    -------
+    int
+        0 (bad input raises :class:`~data_schema.errors.InputError`, exit 2).
+    """
+    from data_schema.outputs import check_output_file
+    from data_schema.scene import load_scene
+    from data_schema.tables import write_table
+    from nvrq.proxies import load_class_maps
+    from nvrq.synth.detections import simulate_detections
+
+    _check_out(args.out)
+    check_output_file(args.out, inputs=[args.scene], option="--out")
+    maps = load_class_maps(args.class_map)
+    scene = load_scene(args.scene, check_images=False)
+    dets = simulate_detections(scene, seed=args.seed, class_map=maps["coco"])
+    write_table(dets, args.out)
+    print(f"{len(dets)} simulated detections on {dets['path'].nunique()} renders -> {args.out}")
     return 0
 
 

@@ -1,9 +1,9 @@
 """NTA-IoU of a scene folder: every box projected into every render's camera, matched to the
 render's detections (library layer; ``nvrq proxy nta-iou``, docs/FORMATS.md §3b).
 
-The projection is ``nvrq pairs``' (:mod:`nvrq.pairs`: the same box corners, rig poses and view
-perturbations), applied to the novel view alone. The matching and the protocols are
-:mod:`nvrq.proxies.nta_iou`.
+The projection is ``nvrq pairs``' (:mod:`nvrq.scene_boxes`, which :mod:`nvrq.pairs` uses too:
+the same box corners, rig poses and view perturbations), applied to the novel view alone. The
+matching and the protocols are :mod:`nvrq.proxies.nta_iou`.
 """
 
 from __future__ import annotations
@@ -33,19 +33,17 @@ VIEW_COLUMNS = ["y_offset_m", *EXTRA_PERTURBATION_COLUMNS, LABEL_COLUMN]
 
 def _corners_in_views(scene: Scene, cam, renders: pd.DataFrame):
     """Sensor-frame corners ``(C, 8, 3)`` of every (render row, box of its frame) candidate and
-    ``(row_index, track_index)`` of each."""
-    from nvrq.geometry.poses import invert_rigid, perturb_T_sensor_rig
-    from nvrq.pairs import PairStats, _candidates, _frame_boxes, _render_views
+    ``(row_index, track_index)`` of each (the boxes, views and transforms of :mod:`nvrq.scene_boxes`)."""
+    from nvrq.scene_boxes import frame_boxes, frame_candidates, render_views, view_transforms
 
     frames = np.unique(renders.timestamp_us.to_numpy(np.int64))
-    views, r_k = _render_views(renders)
-    T_rig_world, tr_i, fr_i, corners = _frame_boxes(scene, frames, PairStats())
-    row_idx, box_idx = _candidates(renders, frames, fr_i)
-    T_ws = invert_rigid(T_rig_world @ cam.T_sensor_rig)  # (F, 4, 4) world -> GT sensor
-    T_sk_s = invert_rigid(perturb_T_sensor_rig(cam.T_sensor_rig, views)) @ cam.T_sensor_rig  # (K, 4, 4)
-    T = T_sk_s[r_k[row_idx]] @ T_ws[fr_i[box_idx]]  # (C, 4, 4) world -> novel sensor
-    pts = np.matmul(corners[box_idx], np.swapaxes(T[:, :3, :3], 1, 2)) + T[:, None, :3, 3]
-    return pts, row_idx, tr_i[box_idx]
+    views, r_k = render_views(renders)
+    fb = frame_boxes(scene, frames)
+    row_idx, box_idx = frame_candidates(renders, frames, fb.frame_index)
+    T_gt_world, T_view_gt = view_transforms(cam.T_sensor_rig, fb.T_rig_world, views)
+    T = T_view_gt[r_k[row_idx]] @ T_gt_world[fb.frame_index[box_idx]]  # (C, 4, 4) world -> novel sensor
+    pts = np.matmul(fb.corners[box_idx], np.swapaxes(T[:, :3, :3], 1, 2)) + T[:, None, :3, 3]
+    return pts, row_idx, fb.track_index[box_idx]
 
 
 def _project(model, pts: np.ndarray, protocol: Protocol) -> tuple[np.ndarray, np.ndarray]:

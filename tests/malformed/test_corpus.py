@@ -940,6 +940,20 @@ def _(world, tmp):
                     "--quiet"], ["pairs.csv", "2 unreadable images", Path(renders[0]).name, Path(renders[1]).name]
 
 
+# ---------------------------------------------------------------- nvrq proxy simulate-detect (issue 35, demo)
+
+@case("nta-iou", "simulate-detect on a scene without degradation.csv")
+def _(world, tmp):
+    return "nvrq", ["proxy", "simulate-detect", str(world / "scene"), "--out", str(tmp / "dets.csv")], \
+        ["degradation.csv", "a scene written by nvrq synth"]
+
+
+@case("nta-iou", "simulate-detect --out not a table")
+def _(world, tmp):
+    return "nvrq", ["proxy", "simulate-detect", str(world / "scene"), "--out", str(tmp / "dets.txt")], \
+        ["dets.txt", ".csv or .parquet"]
+
+
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_malformed_input(name, world, tmp_path, capfd):
     prog, argv, fragments = CASES[name](world, tmp_path)
