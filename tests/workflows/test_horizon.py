@@ -3,8 +3,12 @@ two methods (artefact scales 0.5 and 1.5, offsets -3..3 m), its NVRQ-CA trust ho
 threshold simulated raters give, and the horizon of the clip's true severity at the raters'
 own threshold (severity 0.45: annotate.simulate's mean rater threshold).
 
-What the clip shows (640x360, 1 s at 5 fps, seed 0; the numbers quoted come from the 2 s
-version of the same clip): see the comments at the asserts."""
+The clip also has a third method, ``perfect`` (scale 0: severity 0.001, no artefact), which
+the study does not show (its pairs are left out of ``annotate build``, so the votes and the
+threshold are those of the two-method clip). It measures what NVRQ-CA sees off the path when
+nothing is wrong with the render: the change of viewpoint against the recorded GT crop.
+
+What the clip shows (640x360, 1 s at 5 fps, seed 0): see the comments at the asserts."""
 
 from __future__ import annotations
 
@@ -22,6 +26,10 @@ from tests.workflows.two_methods import scored_clip
 
 pytestmark = pytest.mark.slow
 
+#: the clip's methods: the two of the other workflow tests and a render with no artefact
+METHODS = "sharp:0.5,blurry:1.5,perfect:0"
+#: the methods the study shows (and the raters rate): perfect is measured, never rated
+RATED = ("sharp", "blurry")
 #: annotate.simulate: rater thresholds theta ~ N(0.45, 0.08) on severity, so the raters'
 #: population P(good | severity) is 0.5 at 0.45 (the normal is symmetric around it)
 TRUE_SEVERITY_THRESHOLD = 0.45
@@ -31,13 +39,14 @@ GRID_STEP = 1.0
 @pytest.fixture(scope="module")
 def clip(tmp_path_factory):
     d = tmp_path_factory.mktemp("horizon")
-    scored_clip(d, offsets="-3,-2,-1,0,1,2,3", metrics="nvrq_ca")
+    scored_clip(d, offsets="-3,-2,-1,0,1,2,3", metrics="nvrq_ca", methods=METHODS)
     pairs = pd.read_csv(d / "pairs.csv", dtype={"track_id": str, "camera": str})
     deg = pd.read_csv(d / "scene" / "degradation.csv", dtype={"track_id": str, "camera": str})
     keys = ["camera", "timestamp_us", "track_id", "method", "y_offset_m"]
     sev = pairs.merge(deg[keys + ["severity"]], on=keys, how="left")
     assert sev["severity"].notna().all()
     sev[["pair_id", "severity"]].to_csv(d / "severity.csv", index=False)
+    pairs[pairs["method"].isin(RATED)].to_csv(d / "pairs_rated.csv", index=False)
     return d
 
 
@@ -50,7 +59,7 @@ def _horizon(clip, name, *argv):
 def _human_threshold(clip) -> dict:
     study, votes = clip / "study", clip / "votes.csv"
     if not (clip / "human" / "horizon.json").is_file():
-        _ok(annotate_main(["build", str(study), "--pairs", str(clip / "pairs.csv"), "--metrics-table",
+        _ok(annotate_main(["build", str(study), "--pairs", str(clip / "pairs_rated.csv"), "--metrics-table",
                            str(clip / "metrics.csv"), "--tracks", "12", "--frames-per-track", "3",
                            "--seed", "0", "--quiet"]))
         _ok(annotate_main(["simulate", str(study), "--raters", "6", "--seed", "0"]))
@@ -89,18 +98,31 @@ def test_sharp_goes_at_least_as_far_as_blurry_and_agrees_with_the_true_severity(
     assert len(big) >= 1
     rows = h[h.index.get_level_values("label_class").isin(big)]
     assert (rows["sharp"] >= rows["blurry"]).all(), rows
-    # the horizon of the true severity and that of NVRQ-CA at the raters' threshold, automobiles.
-    # Measured on the 2 s clip (lead's note): blurry 0 and 0 m by both, both directions; sharp
-    # right 2 m (NVRQ-CA) against >= 3 m (severity), sharp left 1 m against >= 3 m: off the path
-    # NVRQ-CA also sees the viewpoint change, so its share of good sharp cars falls to 0.73 at
-    # 2 m while every car's severity stays below 0.45. The issue's "within one grid step" holds
-    # for blurry only; NVRQ-CA never claims a longer horizon than the truth.
+    assert (rows["perfect"] >= rows["sharp"]).all(), rows
+    # the horizon of the true severity and that of NVRQ-CA at the raters' threshold, automobiles
+    # (7 tracks). Measured on this clip (threshold 0.109 [0.063, 0.170]): blurry 0 m by both
+    # sources, both directions; sharp: severity beyond the grid (>= 3 m: every sharp car's
+    # severity stays below 0.45), NVRQ-CA 1 m left and 1 m right (2 s clip, threshold 0.128:
+    # 1 m left, 2 m right). Why: the perfect render (severity 0.001) gets the same NVRQ-CA
+    # horizon as sharp, 1 m left and 1 m right (2 s clip: 1 m left, 2 m right; 13% of its cars
+    # below the threshold at 2 m left). NVRQ-CA compares the shifted view's crop with the
+    # recorded GT crop, so it also scores the change of viewpoint (the car's side comes into
+    # view), which the raters, who see severity only, do not count. The issue's "within one
+    # grid step of the true severity" thus holds for blurry; for sharp it holds against the
+    # viewpoint ceiling min(severity's horizon, the perfect render's NVRQ-CA horizon), and
+    # NVRQ-CA never claims more than the truth.
     both = nv.merge(sev, on=["method", "label_class", "axis", "direction"], suffixes=("_nv", "_sev"))
     cars = both[both["label_class"] == "automobile"].set_index(["method", "direction"])
-    assert len(cars) == 4
+    assert len(cars) == 6
     h_nv, h_sev = cars["horizon_nv"].fillna(-GRID_STEP), cars["horizon_sev"].fillna(-GRID_STEP)
     assert ((h_nv - h_sev).abs()["blurry"] <= GRID_STEP).all(), cars
     assert (h_nv <= h_sev).all(), cars
+    assert cars.loc["perfect", "reason_sev"].str.startswith("beyond the grid").all(), cars
+    # the perfect render's NVRQ-CA horizon stops short of the grid: the viewpoint ceiling
+    assert (h_nv["perfect"] < h_sev["perfect"]).any(), cars
+    ceiling = np.minimum(h_sev, h_nv["perfect"].reindex(h_sev.index, level="direction"))
+    for method in RATED:
+        assert ((h_nv[method] - ceiling[method]).abs() <= GRID_STEP).all(), cars
 
 
 def test_python_api_gives_the_cli_rows(clip):

@@ -18,12 +18,12 @@ def ok(rc: int) -> None:
     assert rc == 0
 
 
-def scored_clip(d: Path, *, offsets: str, metrics: str) -> None:
-    """``d/scene``: 1 s at 5 fps, 640x360, :data:`METHODS` at the lateral ``offsets`` (metres,
+def scored_clip(d: Path, *, offsets: str, metrics: str, methods: str = METHODS) -> None:
+    """``d/scene``: 1 s at 5 fps, 640x360, ``methods`` (default :data:`METHODS`) at the lateral ``offsets`` (metres,
     comma-separated); ``d/pairs.csv`` of it and ``d/metrics.csv`` of ``metrics`` (the encoder
     efficientnet-lite0 on torch)."""
     ok(nvrq_main(["synth", str(d / "scene"), "--seconds", "1", "--fps", "5", "--size", "640x360",
-                  f"--offsets={offsets}", "--methods", METHODS, "--quiet"]))
+                  f"--offsets={offsets}", "--methods", methods, "--quiet"]))
     ok(nvrq_main(["pairs", str(d / "scene"), "--out", str(d / "pairs.csv")]))
     ok(nvrq_main(["score", str(d / "pairs.csv"), "--out", str(d / "metrics.csv"), "--metrics", metrics,
                   "--encoder", "efficientnet-lite0", "--runtime", "torch", "--quiet"]))
