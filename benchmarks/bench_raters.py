@@ -290,17 +290,19 @@ async def _round(urls: list[str], names: list[str], *, seconds: float, think, se
 
 def run_load(n_list: list[int], *, seconds: float, think: tuple[float, float], seed: int = 0,
              frames: int = 8, workers: tuple[int, ...] = (1, 2),
-             arrive: float | None = None, sampling: str = "uniform") -> pd.DataFrame:
+             arrive: float | None = None, sampling: str = "uniform",
+             design: str | None = None) -> pd.DataFrame:
     """Build a study per K, serve each with K workers, and drive each N on each; one row per (N, K).
 
-    ``sampling``: ``annotate build --sampling`` of the studies; ``active`` builds a pairwise
-    study of three methods (the raters press left 60%, else right or can't tell).
+    ``sampling``: ``annotate build --sampling`` of the studies; ``design``: ``'binary'`` or
+    ``'pairwise'`` (three methods; the raters press left 60%, else right or can't tell);
+    None: pairwise for ``active``, else binary.
     """
 
     arrive = think[1] if arrive is None else arrive
     with tempfile.TemporaryDirectory(prefix="bench_raters_") as tmp:
         tmp = Path(tmp)
-        pairwise = sampling == "active"
+        pairwise = design == "pairwise" or (design is None and sampling == "active")
         pairs = make_scene(tmp, n_frames=frames,
                            methods={"m1": 0.5, "m2": 1.0, "m3": 1.5} if pairwise else None)
         opts = dict(scene=str(tmp / "scene"), tracks=4, frames_per_track=frames,
@@ -441,11 +443,14 @@ def main(argv=None) -> int:
     ap.add_argument("--sampling", default="uniform", choices=["uniform", "active", "adaptive"],
                     help="annotate build --sampling of the studies (active: a pairwise study; "
                     "default uniform)")
+    ap.add_argument("--design", default=None, choices=["binary", "pairwise"],
+                    help="the studies' design (default: pairwise with --sampling active, else binary)")
     args = ap.parse_args(argv)
     n_list = [int(v) for v in args.raters.split(",")]
     k_list = tuple(int(v) for v in args.workers.split(","))
     table = run_load(n_list, seconds=args.seconds, think=tuple(args.think), seed=args.seed,
-                     frames=args.frames, workers=k_list, arrive=args.arrive, sampling=args.sampling)
+                     frames=args.frames, workers=k_list, arrive=args.arrive, sampling=args.sampling,
+                     design=args.design)
     with pd.option_context("display.width", 250, "display.max_columns", 40):
         print(side_by_side(table).to_string())
     print(f"votes lost in all rounds: {int(table['votes_lost'].sum())}")
