@@ -290,25 +290,24 @@ async def _round(urls: list[str], names: list[str], *, seconds: float, think, se
 
 def run_load(n_list: list[int], *, seconds: float, think: tuple[float, float], seed: int = 0,
              frames: int = 8, workers: tuple[int, ...] = (1, 2),
-             arrive: float | None = None, sampling: str = "uniform",
-             design: str | None = None) -> pd.DataFrame:
+             arrive: float | None = None, build: dict | None = None) -> pd.DataFrame:
     """Build a study per K, serve each with K workers, and drive each N on each; one row per (N, K).
 
-    ``sampling``: ``annotate build --sampling`` of the studies; ``design``: ``'binary'`` or
-    ``'pairwise'`` (three methods; the raters press left 60%, else right or can't tell);
-    None: pairwise for ``active``, else binary.
+    ``build``: more options of the studies (:class:`annotate.design.StudyOptions` fields,
+    e.g. ``{'sampling': 'active', 'design': 'pairwise'}``); a pairwise study compares three
+    methods (the raters press left 60%, else right or can't tell).
     """
 
     arrive = think[1] if arrive is None else arrive
     with tempfile.TemporaryDirectory(prefix="bench_raters_") as tmp:
         tmp = Path(tmp)
-        pairwise = design == "pairwise" or (design is None and sampling == "active")
+        build = dict(build or {})
+        pairwise = build.get("design") == "pairwise"
         pairs = make_scene(tmp, n_frames=frames,
                            methods={"m1": 0.5, "m2": 1.0, "m3": 1.5} if pairwise else None)
         opts = dict(scene=str(tmp / "scene"), tracks=4, frames_per_track=frames,
                     votes_per_item=max(n_list), n_training=2, n_gold=2, n_repeats=3, size=96,
-                    progress=False, sampling=sampling,
-                    design="pairwise" if pairwise else "binary")
+                    progress=False, **build)
         work = db_work(load_study(build_study(tmp / "work", pairs, **opts)), sizes=(300, 3000))
         for w in work:
             print(f"store work per vote at {w['stored_votes']:5d} stored votes: "
@@ -449,8 +448,9 @@ def main(argv=None) -> int:
     n_list = [int(v) for v in args.raters.split(",")]
     k_list = tuple(int(v) for v in args.workers.split(","))
     table = run_load(n_list, seconds=args.seconds, think=tuple(args.think), seed=args.seed,
-                     frames=args.frames, workers=k_list, arrive=args.arrive, sampling=args.sampling,
-                     design=args.design)
+                     frames=args.frames, workers=k_list, arrive=args.arrive,
+                     build={"sampling": args.sampling, "design": args.design or (
+                         "pairwise" if args.sampling == "active" else "binary")})
     with pd.option_context("display.width", 250, "display.max_columns", 40):
         print(side_by_side(table).to_string())
     print(f"votes lost in all rounds: {int(table['votes_lost'].sum())}")
