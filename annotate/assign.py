@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import hashlib
 import hmac
+from collections.abc import Callable
 
 import numpy as np
 
@@ -201,7 +202,8 @@ def _eligible(plan: dict, key: str, voted: set[str], loads: dict[str, int] | Non
 
 
 def choose_next(plan: dict, assigned: list[str], voted: set[str], loads: dict[str, int], *,
-                quota: int | None) -> str | None:
+                quota: int | None, pick: Callable[[list[str], dict], str | None] | None = None
+                ) -> str | None:
     """The next item key for a rater, or ``None`` when nothing is left (see module doc).
 
     ``assigned``: keys already assigned to this rater; ``voted``: those it voted on;
@@ -220,6 +222,10 @@ def choose_next(plan: dict, assigned: list[str], voted: set[str], loads: dict[st
         Test key -> votes plus live claims of the other raters.
     quota : int or None
         Votes wanted per test item (``None``: every rater rates every item).
+    pick : callable, optional
+        Step 3 for a study with active or adaptive sampling (:mod:`annotate.study_sampling`):
+        ``pick(open_keys, loads)`` chooses among the test keys the rater has not had (in the
+        plan's order), or returns None; ``quota`` is then not used.
 
     Returns
     -------
@@ -236,8 +242,22 @@ def choose_next(plan: dict, assigned: list[str], voted: set[str], loads: dict[st
     for after, key in specials:
         if after <= n_tests and _eligible(plan, key, voted, loads, quota):
             return key
-    best, best_load = None, None
     capped = n_tests >= plan.get("max_tests", n_tests + 1)  # the rater's share of tests is done
+    best = None if capped or pick is None else pick([k for k in order if k not in done], loads)
+    if best is None and pick is None:
+        best = _lowest_load(order, done, loads, quota, capped)
+    if best is not None:
+        return best
+    for _after, key in specials:
+        if _eligible(plan, key, voted, loads, quota):
+            return key
+    return None
+
+
+def _lowest_load(order: list[str], done: set[str], loads: dict[str, int], quota: int | None,
+                 capped: bool) -> str | None:
+    """Step 3 of uniform sampling: the open test item with the fewest loads below the quota."""
+    best, best_load = None, None
     for key in ([] if capped else order):  # rater's order breaks ties: the lowest load wins
         if key in done:
             continue
@@ -248,12 +268,7 @@ def choose_next(plan: dict, assigned: list[str], voted: set[str], loads: dict[st
             best, best_load = key, load
             if load == 0:
                 break
-    if best is not None:
-        return best
-    for _after, key in specials:
-        if _eligible(plan, key, voted, loads, quota):
-            return key
-    return None
+    return best
 
 
 def plan_total(plan: dict, assigned: list[str], loads: dict[str, int], *,

@@ -420,6 +420,13 @@ class StudyOptions:
         Crowd only: the panel's participant-id parameter and the URL shown at the end.
     items_per_rater : int or None
         The most items one rater is given (None: every item).
+    sampling : {'uniform', 'active', 'adaptive'}
+        Where the votes go (:mod:`annotate.study_sampling`): ``'uniform'`` (every test item
+        gets ``votes_per_item``), ``'active'`` (pairwise only: the next comparison by expected
+        information gain) or ``'adaptive'`` (binary only: curtailed sampling).
+    max_votes_per_item : int or None
+        ``'adaptive'`` only: the most votes one test item may get (None: twice
+        ``votes_per_item``).
 
     A frozen value: :func:`dataclasses.replace` makes a changed copy.
     """
@@ -443,6 +450,8 @@ class StudyOptions:
     participant_param: str | None = None
     completion_url: str | None = None
     items_per_rater: int | None = DEFAULT_ITEMS_PER_RATER
+    sampling: str = "uniform"
+    max_votes_per_item: int | None = None
 
 
 @dataclass(frozen=True)

@@ -36,7 +36,8 @@ import numpy as np
 from scipy.special import betainc, log_ndtr, ndtri
 
 __all__ = ["SIGMA_JOD", "PairPosterior", "pair_posterior", "update_pairwise", "posterior_from_votes", "pair_gain",
-           "select_pair", "select_batch", "majority_settled", "gvf_uncertainty", "next_binary_items"]
+           "select_pair", "select_batch", "majority_settled", "binary_closed", "gvf_uncertainty",
+           "next_binary_items"]
 
 #: Standard deviation of the Thurstone Case V observer in JOD units: Phi(1 / SIGMA_JOD) = 0.75
 #: (1 JOD: 75% prefer the better condition). Defined here, the earlier layer; analysis.jod uses it.
@@ -310,6 +311,34 @@ def gvf_uncertainty(good, bad) -> np.ndarray:
     return np.minimum(p, 1.0 - p)
 
 
+def binary_closed(good, bad, *, votes_per_item: int, max_votes_per_item: int) -> np.ndarray:
+    """Items adaptive sampling asks no more about: the majority over ``votes_per_item`` votes
+    was settled before the item got them all (curtailed), the majority is settled over
+    ``max_votes_per_item``, or the item has ``max_votes_per_item`` votes.
+
+    Parameters
+    ----------
+    good, bad : (N,) int
+        Test votes so far per item.
+    votes_per_item : int
+        The usual quota per item.
+    max_votes_per_item : int
+        The most votes an item may get.
+
+    Returns
+    -------
+    (N,) bool
+
+    >>> binary_closed(np.array([3, 2, 3]), np.array([0, 1, 2]), votes_per_item=5,
+    ...               max_votes_per_item=7).tolist()
+    [True, False, False]
+    """
+    good, bad = np.asarray(good), np.asarray(bad)
+    n = good + bad
+    curtailed = majority_settled(good, bad, votes_per_item) & (n < votes_per_item)
+    return curtailed | majority_settled(good, bad, max_votes_per_item) | (n >= max_votes_per_item)
+
+
 def next_binary_items(good, bad, *, votes_per_item: int, max_votes_per_item: int, k: int = 1) -> np.ndarray:
     """The ``k`` items that should get the next votes under adaptive sampling (module docstring).
 
@@ -336,8 +365,7 @@ def next_binary_items(good, bad, *, votes_per_item: int, max_votes_per_item: int
     """
     good, bad = np.asarray(good), np.asarray(bad)
     n = good + bad
-    curtailed = majority_settled(good, bad, votes_per_item) & (n < votes_per_item)
-    closed = curtailed | majority_settled(good, bad, max_votes_per_item) | (n >= max_votes_per_item)
+    closed = binary_closed(good, bad, votes_per_item=votes_per_item, max_votes_per_item=max_votes_per_item)
     open_ = np.flatnonzero(~closed)
     if open_.size == 0:
         return open_.astype(np.int64)

@@ -526,7 +526,8 @@ class Store:
 
     # ---- assignment ----------------------------------------------------------------------
     def next_item(self, rater: str, chooser: Callable[..., str | None], *,
-                  lease_s: float = CLAIM_LEASE_S) -> str | None:
+                  lease_s: float = CLAIM_LEASE_S,
+                  observe: Callable[[Callable[[int], list]], None] | None = None) -> str | None:
         """The rater's next unrated item: the oldest assigned, unvoted, unskipped one, else a new one.
 
         ``chooser(assigned: list[str], voted: set[str], loads: dict[str, int])`` picks the new
@@ -540,6 +541,11 @@ class Store:
         committed without a disk sync of its own (WAL, synchronous NORMAL): losing one to a
         power cut only means handing the item out again; the next vote's synced commit
         makes it durable too.
+
+        ``observe`` (a study's sampler, :mod:`annotate.study_sampling`), when given, is called
+        inside the same transaction just before ``chooser`` with a reader
+        ``rows_after(watermark)`` of the history rows after that id (:meth:`history_after`),
+        so the choice sees every vote committed before it.
         """
         now = _clock()
         with self._transaction(synchronous="NORMAL") as con:
@@ -552,12 +558,34 @@ class Store:
             if row is None:
                 assigned, voted = self._own(con, rater)
                 loads = self._loads(con, claims_after=now - lease_s, rater=rater)
+                if observe is not None:
+                    observe(lambda after: self._history_after(con, after))
                 item = chooser(assigned, voted, loads)
                 if item is not None:
                     con.execute("INSERT INTO assignments (study, rater, item, assigned_at, active_at) "
                                 "VALUES (?, ?, ?, ?, ?)", (self.study, rater, item, now, now))
                 return item
         return row[1]  # the rater's open item; its lease still counts from its draw
+
+    def _history_after(self, con: sqlite3.Connection, after: int) -> list[tuple]:
+        return con.execute("SELECT id, rater, item, action, vote FROM history WHERE id > ? AND "
+                           "study = ? ORDER BY id", (int(after), self.study)).fetchall()
+
+    def history_after(self, after: int) -> list[tuple]:
+        """History rows with an id above ``after``, oldest first (a sampler's watermark).
+
+        Parameters
+        ----------
+        after : int
+            The last history id already read (0: from the start).
+
+        Returns
+        -------
+        list of (id, rater, item, action, vote)
+            ``action`` is ``'vote'``, ``'undo'`` (vote None) or ``'too_fast'``.
+        """
+        with self._connect() as con:
+            return self._history_after(con, after)
 
     def _own(self, con: sqlite3.Connection, rater: str) -> tuple[list[str], set[str]]:
         assigned = [r[0] for r in con.execute(

@@ -50,6 +50,7 @@ from annotate.design import Choice, Design, StudyOptions, attribute_columns
 from annotate.load import check_items_per_rater
 from annotate.pairwise import PairwiseDesign
 from annotate.store import Store
+from annotate.study_sampling import SAMPLINGS, check_sampling, make_sampler, study_sampling
 from data_schema.errors import InputError
 from data_schema.options import options_or_keywords
 from data_schema.outputs import check_output_folder
@@ -163,7 +164,9 @@ def _check_options(out, pairs_path, opts: StudyOptions) -> StudyOptions:
     if opts.methods is not None and opts.design != "pairwise":
         raise InputError(param="methods", expected="no method list with `design` binary (it compares "
                          "methods only with `design` pairwise)", got=opts.methods)
-    return opts
+    cap = check_sampling(opts.sampling, design=opts.design, votes_per_item=opts.votes_per_item,
+                         max_votes_per_item=opts.max_votes_per_item)
+    return replace(opts, max_votes_per_item=cap)
 
 
 def _read_pairs(pairs_path: Path, scene) -> pd.DataFrame:
@@ -232,6 +235,7 @@ def _manifest(out: Path, choice: Choice, items: pd.DataFrame, opts: StudyOptions
         **check_access(opts.access, participant_param=opts.participant_param,
                        completion_url=opts.completion_url),
         "votes_per_item": int(opts.votes_per_item), "break_every": int(opts.break_every),
+        "sampling": opts.sampling, "max_votes_per_item": opts.max_votes_per_item,
         "items_per_rater": None if opts.items_per_rater is None else int(opts.items_per_rater),
         "display_size": int(opts.size), "image_format": opts.image_format,
         "options": {"tracks": int(opts.tracks), "frames_per_track": int(opts.frames_per_track),
@@ -359,10 +363,33 @@ class Study:
         return plan
 
     def is_full(self) -> bool:
-        """Whether every test item has its ``votes_per_item`` standing votes (a new rater
-        would be given no test item)."""
+        """Whether a new rater would be given no test item: every test item has its
+        ``votes_per_item`` standing votes (uniform), or the study's sampler has spent its
+        budget or closed every item (active, adaptive)."""
         votes = self.store.item_loads()
+        sampler = self.sampler
+        if sampler is not None:
+            sampler.refresh(self.store.history_after)
+            return sampler.pick(self.keys("test"), votes) is None
         return all(votes.get(k, 0) >= self.quota for k in self.keys("test"))
+
+    @property
+    def sampling(self) -> str:
+        """``'uniform'`` (every study built before ``--sampling``), ``'active'`` or ``'adaptive'``."""
+        return study_sampling(self.manifest)[0]
+
+    @property
+    def sampler(self):
+        """This process's :mod:`annotate.study_sampling` sampler (made on first use), or None
+        for a uniform study."""
+        if "_sampler" not in self.__dict__:
+            self._sampler = make_sampler(self)
+        return self._sampler
+
+    def _progress_quota(self) -> int | None:
+        """The per-item cap :func:`annotate.assign.plan_total` counts open items with."""
+        sampling, cap = study_sampling(self.manifest)
+        return {"uniform": self.quota, "adaptive": cap}.get(sampling)
 
     @property
     def design(self) -> str:
@@ -411,8 +438,13 @@ class Study:
         """Key of the rater's next unrated item (None: done, or, when :meth:`waiting` says
         so, nothing free until other raters' claims end)."""
         plan = self.plan_for(rater)
+        sampler = self.sampler
+        if sampler is None:
+            return self.store.next_item(
+                rater, lambda a, v, loads: choose_next(plan, a, v, loads, quota=self.quota))
         return self.store.next_item(
-            rater, lambda a, v, loads: choose_next(plan, a, v, loads, quota=self.quota))
+            rater, lambda a, v, loads: choose_next(plan, a, v, loads, quota=None, pick=sampler.pick),
+            observe=sampler.refresh)
 
     def waiting(self, rater: str) -> bool:
         """Whether the rater has items left that other raters' claims hold right now (when
@@ -422,7 +454,11 @@ class Study:
         """
         plan = self.plan_for(rater)
         assigned, voted, votes = self.store.rater_state(rater)
-        return choose_next(plan, assigned, voted, votes, quota=self.quota) is not None
+        sampler = self.sampler
+        if sampler is not None:
+            sampler.refresh(self.store.history_after)
+        return choose_next(plan, assigned, voted, votes, quota=self.quota,
+                           pick=None if sampler is None else sampler.pick) is not None
 
     def progress(self, rater: str) -> dict:
         """``{'training_done', 'training_total', 'done', 'total'}`` (done/total exclude training).
@@ -436,7 +472,7 @@ class Study:
         loads = {k: n for k, n in votes.items() if k not in voted}  # others' votes on open items
         return {"training_done": len(voted & training), "training_total": len(training),
                 "done": len(voted - training),
-                "total": plan_total(plan, assigned, loads, quota=self.quota)}
+                "total": plan_total(plan, assigned, loads, quota=self._progress_quota())}
 
     def check_current(self) -> None:
         """Raise :class:`StudyChanged` when the folder's manifest is no longer this study's.
@@ -524,6 +560,13 @@ def _read_manifest(path: Path) -> dict:
             raise InputError(path, key, f"a JSON {typ.__name__}", repr(manifest.get(key)))
     if manifest.get("design", "binary") not in DESIGNS:
         raise InputError(path, "design", "one of {'binary', 'pairwise'}", repr(manifest["design"]))
+    sampling, cap = manifest.get("sampling", "uniform"), manifest.get("max_votes_per_item")
+    if sampling not in SAMPLINGS or SAMPLINGS[sampling] not in (None, manifest.get("design", "binary")):
+        raise InputError(path, "sampling", "'uniform', 'active' (pairwise) or 'adaptive' (binary)",
+                         repr(sampling))
+    if sampling == "adaptive" and (isinstance(cap, bool) or not isinstance(cap, int)
+                                   or cap < manifest["votes_per_item"]):
+        raise InputError(path, "max_votes_per_item", "an integer >= votes_per_item", repr(cap))
     return manifest
 
 

@@ -98,6 +98,14 @@ def register(sub) -> None:
                    "renders is closer to the GT (the pairs need a method column; default binary)")
     b.add_argument("--methods", metavar="A,B", help="pairwise: comma list of the methods to compare "
                    "(default: every method of the pairs table)")
+    b.add_argument("--sampling", default="uniform", choices=["uniform", "active", "adaptive"],
+                   help="where the votes go: uniform (every test item gets --votes-per-item); "
+                   "active (pairwise: the next comparison by expected information gain); adaptive "
+                   "(binary: stop asking once an item's majority is settled, the freed votes to "
+                   "the most uncertain items; docs/FORMATS.md §5; default uniform)")
+    b.add_argument("--max-votes-per-item", type=int_arg(), default=None, metavar="N",
+                   help="adaptive: the most votes one test item may get (default twice "
+                   "--votes-per-item)")
     add_link_option(b)
     add_quiet_option(b)
     b.set_defaults(func=run)
@@ -134,7 +142,8 @@ def options_from_args(args) -> StudyOptions:
         access=args.access, break_every=args.break_every, design=args.design, methods=args.methods,
         scene=args.scene, metrics_paths=tuple(args.metrics_tables),
         participant_param=args.participant_param, completion_url=args.completion_url,
-        items_per_rater=args.items_per_rater)
+        items_per_rater=args.items_per_rater, sampling=args.sampling,
+        max_votes_per_item=args.max_votes_per_item)
 
 
 def run(args) -> int:

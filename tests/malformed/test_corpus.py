@@ -954,6 +954,26 @@ def _(world, tmp):
         ["dets.txt", ".csv or .parquet"]
 
 
+# ---------------------------------------------------------------- issue 37: build --sampling, manifest sampling
+
+for _n, _extra, _frags in [
+    ("active with a binary study", ["--sampling", "active"], ["--sampling", "'uniform' or 'adaptive'"]),
+    ("a cap without adaptive", ["--max-votes-per-item", "9"], ["--max-votes-per-item", "adaptive"]),
+    ("a cap below the quota", ["--sampling", "adaptive", "--votes-per-item", "5", "--max-votes-per-item",
+                               "3"], ["--max-votes-per-item", "--votes-per-item (5)"]),
+]:
+    def _mk(extra=_extra, frags=_frags):
+        def _c(world, tmp):
+            return "annotate", [*_build(world, tmp, world / "toy" / "pairs.csv"), *extra], frags
+        return _c
+    case("arguments", f"build --sampling: {_n}")(_mk())
+
+_study_case("manifest sampling unknown", _manifest_edit(sampling="greedy"), "manifest.json", "sampling",
+            commands=("export", "simulate"))
+_study_case("manifest adaptive without a cap", _manifest_edit(sampling="adaptive", max_votes_per_item=None),
+            "manifest.json", "max_votes_per_item")
+
+
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_malformed_input(name, world, tmp_path, capfd):
     prog, argv, fragments = CASES[name](world, tmp_path)
