@@ -170,7 +170,11 @@ def test_attack_sybil_claim_flood_cannot_lock_out_a_real_rater(tmp_path, monkeyp
     while (key := study.next_item("carol")) is not None:
         study.store.record_shown_vote("carol", key, 1, session="c")
         got.append(key)
-    assert sorted(got) == sorted(study.items.index)  # every item, each once
+    assert len(got) == len(set(got))  # each item once
+    gold = set(study.keys("gold"))
+    # every item but the gold pool's, and carol's own share of the pool (issue 38, item 31)
+    assert set(got) - gold == set(study.items.index) - gold
+    assert len(set(got) & gold) == study.gold_per_rater
     assert not study.waiting("carol")
 
 
@@ -195,7 +199,10 @@ def test_attack_sybil_flood_in_the_app_says_retry_never_all_done(design, tmp_pat
     while any(b.key.startswith(vote_button + "-") for b in at.button if b.key):
         _btn(at, vote_button).click().run()
     assert "All done" in at.success[0].value
-    assert sorted(study.store.votes("carol")["item"]) == sorted(study.items.index)
+    got = study.store.votes("carol")["item"].tolist()
+    gold = set(study.keys("gold"))  # carol sees her share of the gold pool (issue 38, item 31)
+    assert set(got) - gold == set(study.items.index) - gold and len(got) == len(set(got))
+    assert len(set(got) & gold) == study.gold_per_rater
 
 
 # ---- too-fast presses -----------------------------------------------------------------------
