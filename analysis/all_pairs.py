@@ -43,7 +43,7 @@ from data_schema import datasets as ds
 from data_schema.errors import InputError, check_number
 from data_schema.methods import METHOD_COLUMN
 from data_schema.perturbation import EXTRA_PERTURBATION_COLUMNS
-from data_schema.tables import read_table
+from data_schema.tables import TableKind, read_table
 
 __all__ = ["TableSource", "read_all_pairs", "run_pairs_analysis", "RATER_COLUMNS"]
 
@@ -68,11 +68,12 @@ class TableSource:
     ----------
     path : str or pathlib.Path
         A table file (read whole) or a clip-partitioned dataset folder.
-    what : str
-        What the table is, for error messages (e.g. ``"pairs table"``).
+    kind : TableKind
+        The table's kind: its checks, and its name in errors (e.g. ``"pairs table"``).
     """
 
-    def __init__(self, path, *, what: str):
+    def __init__(self, path, *, kind: TableKind):
+        what = kind.value
         self.path, self.what = str(path), what
         self.dataset = ds.is_dataset(path)
         if self.dataset:
@@ -85,7 +86,7 @@ class TableSource:
                 self.by_clip.setdefault(clip, []).append(f)
             self.n_rows = sum(pq.read_metadata(f).num_rows for _, f in files)
             return
-        df = read_table(path, what=what, dtype={"pair_id": str, "clip_id": str, "track_id": str})
+        df = read_table(path, kind=kind, dtype={"pair_id": str, "clip_id": str, "track_id": str})
         self.table = pa.Table.from_pandas(df, preserve_index=False)
         self.schema, self.n_rows = self.table.schema, len(df)
         self.index = None
@@ -291,8 +292,8 @@ def read_all_pairs(pairs_path, *, metrics_paths=(), progress: bool = True, keep=
         Per metrics path, the pair ids not in the pairs input.
     """
 
-    pairs = TableSource(pairs_path, what="pairs table")
-    metrics = [TableSource(p, what="metrics table") for p in metrics_paths]
+    pairs = TableSource(pairs_path, kind=TableKind.PAIRS)
+    metrics = [TableSource(p, kind=TableKind.METRICS) for p in metrics_paths]
     numeric, labels, per_source = _plan(pairs, metrics, keep)
     clips = pairs.clips()
     out = _Columns(pairs.n_rows, numeric, labels)  # labels start with clip_id (_KEEP)

@@ -57,6 +57,7 @@ from data_schema.outputs import check_output_folder
 from data_schema.tables import (
     ITEM_KINDS,
     PAIRS_COLUMNS,
+    TableKind,
     atomic_folder,
     atomic_write_text,
     pair_scene_roots,
@@ -171,7 +172,7 @@ def _check_options(out, pairs_path, opts: StudyOptions) -> StudyOptions:
 
 def _read_pairs(pairs_path: Path, scene) -> pd.DataFrame:
     """The checked pairs table with ``_root`` (scene folder) and ``_row`` (line) columns."""
-    pairs = read_table(pairs_path, required=PAIRS_COLUMNS, what="pairs table")
+    pairs = read_table(pairs_path, required=PAIRS_COLUMNS, kind=TableKind.PAIRS)
     if pairs.empty:
         raise InputError(pairs_path, None, "at least one pair", "an empty table")
     roots = pair_scene_roots(pairs, scene_root=scene, base=pairs_path.resolve().parent,

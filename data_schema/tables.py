@@ -14,6 +14,7 @@ import os
 import re
 import shutil
 import tempfile
+import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath, PureWindowsPath
@@ -279,9 +280,9 @@ def read_table(
     required : sequence of str
         Columns it must have.
     what : str, optional
-        The name errors give the table (default: ``kind``'s). A ``what`` equal to a
-        :class:`TableKind`'s value (``'pairs table'``) chooses that kind when ``kind`` is not
-        given (the spelling before issue 34; prefer ``kind``).
+        The name errors give the table (default: ``kind``'s). Deprecated: a ``what`` equal to
+        a :class:`TableKind`'s value (``'pairs table'``) without ``kind`` still chooses that
+        kind, with a :class:`DeprecationWarning` (the checks come from ``kind`` alone).
     dtype : dict, optional
         CSV column dtypes.
     kind : TableKind, optional
@@ -298,7 +299,11 @@ def read_table(
         Naming the file and the first missing column or bad value.
     """
     if kind is None:
-        kind = TableKind(what) if what in {k.value for k in TableKind} else TableKind.TABLE
+        kind = TableKind.TABLE
+        if what in {k.value for k in TableKind}:  # the spelling before issue 34: a typo skipped the checks
+            warnings.warn(f"read_table(what={what!r}) choosing the checks is deprecated: pass "
+                          f"kind=TableKind.{TableKind(what).name}", DeprecationWarning, stacklevel=2)
+            kind = TableKind(what)
     what = what or kind.value
     path = Path(path)
     if not path.exists():  # before the suffix: a missing path is missing, whatever its name

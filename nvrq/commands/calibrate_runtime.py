@@ -69,7 +69,7 @@ def run(args) -> int:
     int
         0 whether the check passes or fails: a failed check is recorded and printed too.
     """
-    from data_schema.tables import read_table
+    from data_schema.tables import TableKind, read_table
     from nvrq.encoders import build_random, load_encoder
     from nvrq.encoders.drift import (
         DEFAULT_MIN_SPEARMAN,
@@ -82,7 +82,7 @@ def run(args) -> int:
 
     spec = get_spec(args.encoder)
     name = spec.name
-    pairs = read_table(args.pairs, required=REQUIRED_COLUMNS, what="pairs table")
+    pairs = read_table(args.pairs, required=REQUIRED_COLUMNS, kind=TableKind.PAIRS)
     base = Path(args.pairs).resolve().parent
     gt, render = pair_inputs(pairs, spec.input_size, n=args.sample + args.calib, seed=args.seed,
                              scene_root=args.scene, base=base, where=str(args.pairs))

@@ -57,10 +57,10 @@ def run(args) -> int:
     int
         0 once the tau is printed (and written, when asked).
     """
-    from data_schema.tables import read_table
+    from data_schema.tables import TableKind, read_table
     from nvrq.calibrate import CalibrationOptions, calibrate_tau, config_path, write_tau
 
-    pairs = read_table(args.pairs, what="pairs table")
+    pairs = read_table(args.pairs, kind=TableKind.PAIRS)
     encoder, _ = load_encoder_and_tau(args, needs_tau=False)
     options = CalibrationOptions(max_crops=args.max_crops, max_pairs=args.max_pairs, seed=args.seed,
                                  allow_same_class=args.allow_same_class, batch_size=args.batch_size)

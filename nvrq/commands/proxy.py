@@ -225,10 +225,10 @@ def _check_out(out) -> None:
 
 
 def _read_pairs(path, extra=()):
-    from data_schema.tables import RENDER_BOX_COLUMNS, read_table
+    from data_schema.tables import RENDER_BOX_COLUMNS, TableKind, read_table
 
     need = ("pair_id", "label_class", "render_path", *RENDER_BOX_COLUMNS, *extra)
-    return read_table(path, required=need, what="pairs table")
+    return read_table(path, required=need, kind=TableKind.PAIRS)
 
 
 def run_detection(args) -> int:

@@ -74,7 +74,7 @@ def run(args) -> int:
     int
         0 once the report folder is in place.
     """
-    from data_schema.tables import GT_BOX_COLUMNS, atomic_folder, read_table, write_table
+    from data_schema.tables import GT_BOX_COLUMNS, TableKind, atomic_folder, read_table, write_table
     from nvrq.stability import (  # SciPy, matplotlib: not for --help
         StabilityOptions,
         plot_stability,
@@ -86,7 +86,7 @@ def run(args) -> int:
     if out.exists() and not out.is_dir():
         raise InputError(out, None, "an output directory", "an existing file")
     pairs = read_table(args.pairs, required=("pair_id", "clip_id", "camera", "track_id", "timestamp_us",
-                                             "gt_path", *GT_BOX_COLUMNS), what="pairs table")
+                                             "gt_path", *GT_BOX_COLUMNS), kind=TableKind.PAIRS)
     encoder, tau = encoder_for_columns(args, columns, encoder_name)
     options = StabilityOptions(n_objects=args.n_objects, seed=args.seed, min_side=args.min_side,
                                batch_size=args.batch_size)

@@ -40,7 +40,7 @@ from tqdm import tqdm
 from data_schema import datasets as ds
 from data_schema import tables
 from data_schema.errors import InputError
-from data_schema.tables import atomic_path, atomic_write_text, read_table, write_table
+from data_schema.tables import TableKind, atomic_path, atomic_write_text, read_table, write_table
 from nvrq.scoring.batches import gt_groups, pack_groups
 
 __all__ = ["Shard", "PairsSource", "read_sources", "plan_shards", "Plan", "load_or_create_plan",
@@ -135,7 +135,7 @@ def read_sources(pairs_path, *, required) -> list[PairsSource]:
             out.append(PairsSource(clip, str(f), np.arange(len(t)), t["gt_path"].astype(str).to_numpy(),
                                    t["pair_id"].astype(str).to_numpy(), str(p.resolve())))
         return out
-    df = read_table(p, required=tuple(required), what="pairs table")
+    df = read_table(p, required=tuple(required), kind=TableKind.PAIRS)
     if ds.PARTITION not in df.columns:
         raise InputError(p, "column 'clip_id'", "a pairs dataset partitioned by clip_id or a table "
                          "with a clip_id column", "neither")
@@ -251,7 +251,7 @@ def _pairs_file(path: str) -> pd.DataFrame:
 
     if path.endswith(".parquet"):
         return pd.read_parquet(path)
-    return read_table(path, what="pairs table")
+    return read_table(path, kind=TableKind.PAIRS)
 
 
 def shard_pairs(shard: Shard) -> pd.DataFrame:
