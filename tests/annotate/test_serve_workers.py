@@ -214,7 +214,13 @@ async def _images_through(base: str, cookie: str) -> tuple[str, list[str]]:
                                     additional_headers={"Cookie": cookie})
     await c._run(None)
     screen = await c.press("Start")
+    for _ in range(6):  # a busy machine: the first screen may say "no item is free right now"
+        if screen.images or "Retry" not in screen.buttons:
+            break
+        await asyncio.sleep(5)
+        screen = await c.press("Retry")
     await c.close()
+    assert screen.images, screen.texts  # what the page said instead of an item
     return c.ws.response.headers["X-Nvrq-Upstream"], screen.images
 
 
