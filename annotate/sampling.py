@@ -342,10 +342,9 @@ def binary_closed(good, bad, *, votes_per_item: int, max_votes_per_item: int) ->
 def next_binary_items(good, bad, *, votes_per_item: int, max_votes_per_item: int, k: int = 1) -> np.ndarray:
     """The ``k`` items that should get the next votes under adaptive sampling (module docstring).
 
-    An item is closed when its majority over ``votes_per_item`` votes was settled before it
-    got them all (curtailed), when it is settled over ``max_votes_per_item``, or when it has
-    ``max_votes_per_item`` votes (an item whose quota ended close stays open); among the open items, the most uncertain GVF first (:func:`gvf_uncertainty`), then
-    the fewest votes, then the lowest index.
+    The items :func:`binary_closed` closes get no more votes (an item whose quota ended close
+    stays open); among the open items, the most uncertain GVF first (:func:`gvf_uncertainty`),
+    then the fewest votes, then the lowest index.
 
     Parameters
     ----------
