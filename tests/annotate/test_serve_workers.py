@@ -124,34 +124,6 @@ def test_a_vote_through_one_worker_is_seen_by_the_other(served):
     assert any(f"{n} vote{'s' if n != 1 else ''}." in t for t in adm.texts), adm.texts  # issue 38: plurals
 
 
-def test_claims_hold_across_workers(served):
-    """Raters arriving at once on both workers never share a test item beyond the quota."""
-    from annotate.study import load_study
-
-    root, ports, _proc, _ = served
-    study = load_study(root)
-    tests = set(study.keys("test"))
-    names = [f"claim{i}" for i in range(len(tests) + 2)]  # more raters than test items
-
-    async def first_items():
-        clients = [bench.RaterClient(_url(ports[i % 2])) for i in range(len(names))]
-        await asyncio.gather(*[c.open(f"rater={n}") for c, n in zip(clients, names, strict=True)])
-        await asyncio.gather(*[c.press("Start") for c in clients])
-        await asyncio.gather(*[c.close() for c in clients])
-
-    asyncio.run(first_items())
-    asg = study.store.assignments()
-    asg = asg[asg["rater"].isin(names)]
-    assert len(asg) == len(names)  # every rater got an item
-    others = study.store.assignments()
-    others = others[~others["rater"].isin(names)]
-    per_item = asg[asg["item"].isin(tests)].groupby("item").size()
-    # earlier tests' claims and votes count towards the quota too
-    prior = others[others["item"].isin(tests)].groupby("item").size()
-    total = per_item.add(prior, fill_value=0)
-    assert (total <= QUOTA).all(), total
-
-
 @pytest.mark.skipif(shutil.which("nginx") is None, reason="nginx not installed (apt-get install -y nginx)")
 def test_nginx_in_front_of_the_workers_is_sticky(served, tmp_path):
     """The printed configuration under a real nginx on loopback: one cookie, one worker.
@@ -270,3 +242,37 @@ def test_one_worker_ending_stops_the_others_and_gives_its_status():
     t0 = time.time()
     assert supervise([sleeper, failing], env=dict(os.environ), poll_s=0.05) == 3
     assert time.time() - t0 < 60  # the sleeper was stopped, not waited for
+
+
+def test_claims_hold_across_workers(served):
+    """Raters arriving at once on both workers never share a test item beyond the quota, and
+    none goes without a test item while one is free.
+
+    More raters arrive than there are test items, so the last ones get a gold item of their
+    plan or nothing: every test item is held for 120 s after this test, so it runs last of
+    the tests on ``served`` (the earlier ones need a free item).
+    """
+    from annotate.study import load_study
+
+    root, ports, _proc, _ = served
+    study = load_study(root)
+    tests = set(study.keys("test"))
+    names = [f"claim{i}" for i in range(len(tests) + 2)]  # more raters than test items
+
+    async def first_items():
+        clients = [bench.RaterClient(_url(ports[i % 2])) for i in range(len(names))]
+        await asyncio.gather(*[c.open(f"rater={n}") for c, n in zip(clients, names, strict=True)])
+        await asyncio.gather(*[c.press("Start") for c in clients])
+        await asyncio.gather(*[c.close() for c in clients])
+
+    asyncio.run(first_items())
+    everyone = study.store.assignments()
+    asg = everyone[everyone["rater"].isin(names)]
+    others = everyone[~everyone["rater"].isin(names) & everyone["item"].isin(tests)]
+    assert asg.groupby("rater").size().max() == 1  # one Start, one item at most
+    claimed = asg[asg["item"].isin(tests)].groupby("item").size()
+    assert (claimed <= QUOTA).all(), claimed  # no test item shared between the new raters
+    # an earlier test's vote fills its item's quota (a claim of an earlier test may have ended)
+    assert not set(claimed.index) & set(others.loc[others["voted"], "item"]), claimed
+    # more raters than test items: the last ones got a gold item or nothing, so no test was left
+    assert set(claimed.index) | set(others["item"]) == tests
