@@ -1,5 +1,12 @@
-"""The golden metrics table: ``nvrq score``, the Python API and the Ray engine give, byte for byte,
-the table kept in ``tests/scoring/data/golden/metrics.csv`` on a small synthetic scene.
+"""The golden metrics table: ``nvrq score`` gives the table kept in
+``tests/scoring/data/golden/metrics.csv`` on a small synthetic scene, and the Python API and the
+Ray engine give, byte for byte, the table ``nvrq score`` gives on the same machine.
+
+The stored table is met byte for byte on a machine that computes as its writer's did. The CPU's
+vector units can move a few values a little: OpenCV's cubic resampling and torch's float sums
+take other code paths with AVX-512 (seen: 3 of 44 render crops one level apart in a pixel, the
+pixel metrics moved by at most 1.6e-5 of their value, NVRQ by 6e-5, NVRQ-CA by 6.3e-4). Against
+the stored table every value must then be within :data:`CPU_RTOL` of it, every NaN where it is.
 
 The scene is not stored: ``nvrq synth`` regenerates it (byte-deterministic for a seed; the image
 hashes in ``scene.sha256`` tell a changed scene from a changed scorer). The golden table was
@@ -31,6 +38,8 @@ from data_schema.tables import write_table
 from nvrq.cli import main
 
 DATA = Path(__file__).parent / "data" / "golden"
+#: How far a value may move from the stored golden on a CPU with other vector units (see above).
+CPU_RTOL = 2e-3
 SPEC = json.loads((DATA / "golden.json").read_text(encoding="utf-8"))
 ENCODER = SPEC["encoder"]
 THREADS = SPEC["threads"]
@@ -100,17 +109,44 @@ def test_golden_scene_defines_every_metric_somewhere():
     assert all(table[c].notna().any() for c in columns), table.notna().sum()
 
 
-def test_nvrq_score_gives_the_golden_table(scene, torch_threads, tmp_path):
-    _, pairs = scene
-    assert main(_score_args(pairs, tmp_path / "metrics.csv")) == 0
-    assert (tmp_path / "metrics.csv").read_bytes() == _golden()
+def _check_golden(got: bytes) -> None:
+    """``got`` (a metrics CSV) is the stored golden: byte for byte, or, on a CPU that computes
+    differently, the same rows, columns and NaNs with every value within :data:`CPU_RTOL`."""
+    if got == _golden():
+        return
+    import io
+
+    want, have = pd.read_csv(DATA / "metrics.csv"), pd.read_csv(io.BytesIO(got))
+    assert list(have.columns) == list(want.columns) and have["pair_id"].equals(want["pair_id"])
+    for col in want.columns[1:]:
+        np.testing.assert_allclose(have[col].to_numpy(), want[col].to_numpy(), rtol=CPU_RTOL,
+                                   atol=0, err_msg=f"column {col} moved from the golden table")
+
+
+@pytest.fixture(scope="module")
+def cli_table(scene, tmp_path_factory):
+    """The bytes ``nvrq score`` writes on this machine (the golden's threads, the registry's tau)."""
+    torch = pytest.importorskip("torch")
+    out = tmp_path_factory.mktemp("cli") / "metrics.csv"
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("NVRQ_CONFIG", str(out.parent / "no-tau-config.json"))
+        old = torch.get_num_threads()
+        try:
+            assert main(_score_args(scene[1], out)) == 0
+        finally:
+            torch.set_num_threads(old)
+    return out.read_bytes()
+
+
+def test_nvrq_score_gives_the_golden_table(cli_table):
+    _check_golden(cli_table)
 
 
 def _rgb(path: Path) -> np.ndarray:
     return np.asarray(Image.open(path).convert("RGB"))  # PNG: Pillow decodes the same pixels as OpenCV
 
 
-def test_python_api_gives_the_golden_table(scene, torch_threads, tmp_path):
+def test_python_api_gives_the_golden_table(scene, cli_table, torch_threads, tmp_path):
     import nvrq
 
     root, pairs_path = scene
@@ -137,11 +173,11 @@ def test_python_api_gives_the_golden_table(scene, torch_threads, tmp_path):
     parts = [ev.score_crops([gts[i] for i in idx], [renders[i] for i in idx]) for idx in batches]
     table = pd.concat(parts, ignore_index=True).set_axis(np.concatenate(batches)).sort_index()
     table.insert(0, "pair_id", pairs["pair_id"].to_numpy())
-    assert _csv_bytes(table, tmp_path / "api.csv") == _golden()
+    assert _csv_bytes(table, tmp_path / "api.csv") == cli_table
 
 
 @pytest.mark.slow  # starts a local Ray instance
-def test_ray_engine_gives_the_golden_table(scene, torch_threads, tmp_path):
+def test_ray_engine_gives_the_golden_table(scene, cli_table, torch_threads, tmp_path):
     ray = pytest.importorskip("ray")
     import os
 
@@ -157,7 +193,7 @@ def test_ray_engine_gives_the_golden_table(scene, torch_threads, tmp_path):
     finally:
         ray.shutdown()
     table = ds.read_dataset(tmp_path / "ray").drop(columns="clip_id")
-    assert _csv_bytes(table, tmp_path / "ray.csv") == _golden()
+    assert _csv_bytes(table, tmp_path / "ray.csv") == cli_table
 
 
 def write_golden(root: Path) -> None:
