@@ -1,7 +1,9 @@
 """The vote store: one SQLite file per study, safe for many raters at once.
 
-Every vote is committed at once (WAL journal, ``synchronous=FULL``, a busy timeout, a new
-connection per operation) so a vote the app has acknowledged survives a killed server.
+Every vote is committed at once (WAL journal, ``synchronous=FULL``, a busy timeout) so a vote
+the app has acknowledged survives a killed server. Each operation takes a connection of its
+own from a small per-process pool (:data:`POOL_SIZE`): opening one costs a parse of the schema,
+about 1 ms a vote; a pooled connection is used only while the file is still the one it opened.
 ``votes`` holds one row per ``(study, rater, item)`` (a changed vote replaces the old one);
 ``history`` is append-only and records every vote, undo and too-fast press with its time and
 the browser session it came from.
@@ -31,7 +33,9 @@ import contextlib
 import hashlib
 import hmac
 import json
+import os
 import sqlite3
+import threading
 import time
 from collections.abc import Callable, Iterator
 from datetime import datetime, timezone
@@ -243,6 +247,10 @@ def _ensure_wal(con: sqlite3.Connection, timeout_s: float) -> None:
             time.sleep(0.01)
 
 
+#: Idle connections a :class:`Store` keeps for reuse (more at once are opened and closed).
+POOL_SIZE = 8
+
+
 class Store:
     """Votes, raters and assignments of one study in the SQLite file ``path``.
 
@@ -274,6 +282,9 @@ class Store:
         self.study = str(study)
         self.busy_timeout_ms = int(busy_timeout_ms)
         self.synchronous = synchronous
+        self._uri = f"{self.path.resolve().as_uri()}?mode=rw"
+        self._pool: list[tuple[sqlite3.Connection, str, tuple[int, int]]] = []
+        self._pool_lock = threading.Lock()
         with self._connect(create=True) as con:
             con.executescript(_SCHEMA.replace("{votes}", ", ".join(map(str, sorted(self.votes_allowed))))
                               .replace("{history}", _HISTORY.replace("{name}", "history")))
@@ -296,21 +307,71 @@ class Store:
     @contextlib.contextmanager
     def _connect(self, *, create: bool = False,
                  synchronous: str | None = None) -> Iterator[sqlite3.Connection]:
-        """A fresh connection (autocommit mode; transactions are explicit), closed afterwards.
+        """A connection of this operation alone (autocommit mode; transactions are explicit).
 
-        Only the constructor may create the file: a database deleted under a running server
-        is an error, never silently replaced by an empty one.
+        Taken from the pool while the file is still the one the pooled connections opened
+        (same device and inode: one ``stat``), else newly opened; given back afterwards
+        unless the operation failed or left a transaction open. Only the constructor may
+        create the file: a database deleted under a running server is an error, never
+        silently replaced by an empty one (a deleted or replaced file empties the pool).
         """
-        uri = f"{self.path.resolve().as_uri()}?mode={'rwc' if create else 'rw'}"
+        sync = synchronous or self.synchronous
+        if create:
+            con = self._open(f"{self.path.resolve().as_uri()}?mode=rwc", sync)
+            try:
+                yield con
+            finally:
+                con.close()
+            return
+        con, ident = self._take(sync)
+        try:
+            yield con
+        except BaseException:
+            con.close()
+            raise
+        if con.in_transaction:
+            con.close()
+            return
+        with self._pool_lock:
+            if len(self._pool) < POOL_SIZE:
+                self._pool.append((con, sync, ident))
+                return
+        con.close()
+
+    def _take(self, sync: str) -> tuple[sqlite3.Connection, tuple[int, int]]:
+        """A pooled connection to the file as it is now, else a new one; and the file's identity."""
+        try:
+            st = os.stat(self.path)
+            ident = (st.st_dev, st.st_ino)
+        except OSError:
+            ident = None
+        with self._pool_lock:  # those of a deleted or replaced file are closed
+            stale = [e for e in self._pool if e[2] != ident]
+            if stale:
+                self._pool = [e for e in self._pool if e[2] == ident]
+            entry = self._pool.pop() if self._pool else None
+        for old, _sync, _ident in stale:
+            old.close()
+        if entry is None:
+            con = self._open(self._uri, sync)
+            st = os.stat(self.path)  # opened: the file exists
+            return con, (st.st_dev, st.st_ino)
+        con, was, _ = entry
+        if was != sync:
+            con.execute(f"PRAGMA synchronous = {sync}")
+        return con, ident
+
+    def _open(self, uri: str, sync: str) -> sqlite3.Connection:
         con = sqlite3.connect(uri, uri=True, timeout=self.busy_timeout_ms / 1000,
-                              isolation_level=None)
+                              isolation_level=None, check_same_thread=False)
         try:
             con.execute(f"PRAGMA busy_timeout = {self.busy_timeout_ms}")
             _ensure_wal(con, self.busy_timeout_ms / 1000)
-            con.execute(f"PRAGMA synchronous = {synchronous or self.synchronous}")
-            yield con
-        finally:
+            con.execute(f"PRAGMA synchronous = {sync}")
+        except BaseException:
             con.close()
+            raise
+        return con
 
     @contextlib.contextmanager
     def _transaction(self, *, synchronous: str | None = None) -> Iterator[sqlite3.Connection]:

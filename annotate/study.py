@@ -335,7 +335,11 @@ class Study:
         return self._admin_token
 
     def keys(self, kind: str) -> list[str]:
-        return self.items.index[self.items["kind"] == kind].tolist()
+        """The item keys of ``kind`` in items.csv order (a new list; computed once per kind)."""
+        cache = self.__dict__.setdefault("_keys", {})
+        if kind not in cache:
+            cache[kind] = tuple(self.items.index[self.items["kind"] == kind])
+        return list(cache[kind])
 
     def plan_for(self, rater: str, *, register: bool = True) -> dict:
         """The rater's plan: the stored one, else a new one (stored when ``register``).
