@@ -425,8 +425,8 @@ class StudyOptions:
         gets ``votes_per_item``), ``'active'`` (pairwise only: the next comparison by expected
         information gain) or ``'adaptive'`` (binary only: curtailed sampling).
     max_votes_per_item : int or None
-        ``'adaptive'`` only: the most votes one test item may get (None: twice
-        ``votes_per_item``).
+        ``'adaptive'`` only: the most votes one test item may get (None: the default of
+        :func:`annotate.study_sampling.check_sampling`).
 
     A frozen value: :func:`dataclasses.replace` makes a changed copy.
     """

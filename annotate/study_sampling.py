@@ -67,7 +67,8 @@ def check_sampling(sampling: str, *, design: str, votes_per_item: int,
     votes_per_item : int
         The study's quota per test item.
     max_votes_per_item : int or None
-        Adaptive only: the cap per item (None: ``2 * votes_per_item``).
+        Adaptive only: the cap per item (None: ``votes_per_item``, curtailed sampling alone;
+        a higher cap also spends the freed votes on the most uncertain items).
 
     Returns
     -------
@@ -81,7 +82,7 @@ def check_sampling(sampling: str, *, design: str, votes_per_item: int,
         ``votes_per_item``.
 
     >>> check_sampling("adaptive", design="binary", votes_per_item=5, max_votes_per_item=None)
-    10
+    5
     """
     if sampling not in SAMPLINGS:
         raise InputError(param="sampling", expected="one of {'uniform', 'active', 'adaptive'}",
@@ -96,7 +97,7 @@ def check_sampling(sampling: str, *, design: str, votes_per_item: int,
             raise InputError(param="max_votes_per_item", expected="no cap unless `sampling` is "
                              "adaptive", got=max_votes_per_item)
         return None
-    cap = 2 * int(votes_per_item) if max_votes_per_item is None else max_votes_per_item
+    cap = int(votes_per_item) if max_votes_per_item is None else max_votes_per_item
     if isinstance(cap, bool) or not isinstance(cap, int | np.integer) or cap < votes_per_item:
         raise InputError(param="max_votes_per_item",
                          expected=f"an integer >= `votes_per_item` ({votes_per_item})", got=cap)

@@ -104,8 +104,8 @@ def register(sub) -> None:
                    "(binary: stop asking once an item's majority is settled, the freed votes to "
                    "the most uncertain items; docs/FORMATS.md §5; default uniform)")
     b.add_argument("--max-votes-per-item", type=int_arg(), default=None, metavar="N",
-                   help="adaptive: the most votes one test item may get (default twice "
-                   "--votes-per-item)")
+                   help="adaptive: the most votes one test item may get (default --votes-per-item: "
+                   "curtail only; a higher cap spends the freed votes on the most uncertain items)")
     add_link_option(b)
     add_quiet_option(b)
     b.set_defaults(func=run)

@@ -98,7 +98,7 @@ def test_manifest_records_the_sampling(tmp_path, inputs):
     pw = _build(tmp_path, inputs[0], "pw", design="pairwise", sampling="active")
     assert (pw.manifest["sampling"], pw.manifest["max_votes_per_item"]) == ("active", None)
     b = _build(tmp_path, inputs[1], "b", sampling="adaptive")
-    assert (b.manifest["sampling"], b.manifest["max_votes_per_item"]) == ("adaptive", 6)  # 2 x 3
+    assert (b.manifest["sampling"], b.manifest["max_votes_per_item"]) == ("adaptive", 3)  # the quota
     u = _build(tmp_path, inputs[1], "u", sampling="uniform")
     assert (u.manifest["sampling"], u.sampler) == ("uniform", None)
 
