@@ -223,3 +223,21 @@ def test_skipped_item_leaves_the_queue(tmp_path):
     assert s.next_item("r", lambda a, v, loads: next(order)) == "a"
     s.skip("r", "a", reason="crop cannot be shown")
     assert s.next_item("r", lambda a, v, loads: next(order, None)) == "b"
+
+
+def test_a_replaced_database_is_written_through_a_new_connection(tmp_path):
+    """The connection pool never writes to the file a pooled connection opened once that path
+    holds another file (a study rebuilt under a running server)."""
+    import os
+
+    s = Store(tmp_path / "v.sqlite", "s")
+    s.record_vote("ann", "a", 1)  # leaves a pooled connection to the first file
+    Store(tmp_path / "new.sqlite", "s")._keeper.close()
+    s._keeper.close()
+    old_ino = os.stat(tmp_path / "v.sqlite").st_ino
+    for suffix in ("-wal", "-shm"):
+        (tmp_path / f"v.sqlite{suffix}").unlink(missing_ok=True)
+    os.replace(tmp_path / "new.sqlite", tmp_path / "v.sqlite")
+    assert os.stat(tmp_path / "v.sqlite").st_ino != old_ino
+    s.record_vote("bob", "b", 0)
+    assert s.votes()[["rater", "item"]].values.tolist() == [["bob", "b"]]  # the new file's votes only
