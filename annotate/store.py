@@ -282,8 +282,8 @@ class Store:
         self.study = str(study)
         self.busy_timeout_ms = int(busy_timeout_ms)
         self.synchronous = synchronous
-        self._uri = f"{self.path.resolve().as_uri()}?mode=rw"
-        self._pool: list[tuple[sqlite3.Connection, str, tuple[int, int]]] = []
+        self._uri = self.path.resolve().as_uri()
+        self._pool: list[tuple[sqlite3.Connection, str, tuple[int, int] | None]] = []
         self._pool_lock = threading.Lock()
         with self._connect(create=True) as con:
             con.executescript(_SCHEMA.replace("{votes}", ", ".join(map(str, sorted(self.votes_allowed))))
@@ -317,7 +317,7 @@ class Store:
         """
         sync = synchronous or self.synchronous
         if create:
-            con = self._open(f"{self.path.resolve().as_uri()}?mode=rwc", sync)
+            con = self._open(f"{self._uri}?mode=rwc", sync)
             try:
                 yield con
             finally:
@@ -338,7 +338,7 @@ class Store:
                 return
         con.close()
 
-    def _take(self, sync: str) -> tuple[sqlite3.Connection, tuple[int, int]]:
+    def _take(self, sync: str) -> tuple[sqlite3.Connection, tuple[int, int] | None]:
         """A pooled connection to the file as it is now, else a new one; and the file's identity."""
         try:
             st = os.stat(self.path)
@@ -352,10 +352,8 @@ class Store:
             entry = self._pool.pop() if self._pool else None
         for old, _sync, _ident in stale:
             old.close()
-        if entry is None:
-            con = self._open(self._uri, sync)
-            st = os.stat(self.path)  # opened: the file exists
-            return con, (st.st_dev, st.st_ino)
+        if entry is None:  # a file replaced since the stat makes it stale at its next use
+            return self._open(f"{self._uri}?mode=rw", sync), ident
         con, was, _ = entry
         if was != sync:
             con.execute(f"PRAGMA synchronous = {sync}")
