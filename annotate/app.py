@@ -24,10 +24,10 @@ Run with ``annotate serve STUDY`` (which sets ``ANNOTATE_STUDY``). Pages:
 Widget keys (for tests): ``name_input``, ``sign_in``, ``start``, ``download_ratings``,
 ``completion`` (the completion link of a crowd study); the
 voting buttons are ``vote_good-N``, ``vote_bad-N`` and ``undo-N`` (pairwise: ``vote_left-N``,
-``vote_tie-N``, ``vote_right-N``, ``undo-N`` and the hidden arrow-key twins
-``key_twin-left-N``, ``key_twin-right-N``) where ``N`` is an opaque token of the item on
-screen (a new one for every displayed item); ``undo-done`` and ``retry`` when no item is on
-screen.
+``vote_tie-N``, ``vote_right-N``, ``undo-N``; the arrow keys press ``vote_left-N`` and
+``vote_right-N`` through the page's script, :mod:`annotate.layout`) where ``N`` is an opaque
+token of the item on screen (a new one for every displayed item); ``undo-done`` and
+``retry`` when no item is on screen.
 
 Robustness rules of the voting panel (a ``st.fragment``: a vote reruns only the panel):
 
@@ -442,8 +442,7 @@ def _next_on_screen(study: Study, rater: str) -> tuple[str | None, dict, tuple |
     """(next item, progress, its two images); an item whose crops fail is skipped and logged."""
     while True:
         study.check_current()
-        key = study.next_item(rater)
-        prog = study.progress(rater)
+        key, prog = study.next_with_progress(rater)
         if key is None:
             return None, prog, None
         try:
@@ -533,8 +532,8 @@ def _rated_no_test(study: Study, rater: str) -> bool:
 
 
 def _pairwise_buttons(study: Study, rater: str, key: str, token: str) -> None:
-    """Left closer (1), can't tell (0), right closer (2), undo (U) in one row; the arrow keys
-    press hidden twins of the side buttons (a button takes one shortcut)."""
+    """Left closer (1), can't tell (0), right closer (2), undo (U) in one row (the arrow keys
+    press the side buttons through the page's script, :data:`annotate.layout._PAGE_JS`)."""
     with st.container(horizontal=True, horizontal_alignment="center", key="vote_row"):
         st.button("◀ Left is closer (or ←)", key=f"vote_left-{token}", shortcut="1",
                   on_click=_on_vote, args=(study, rater, key, token, 1))
@@ -544,10 +543,6 @@ def _pairwise_buttons(study: Study, rater: str, key: str, token: str) -> None:
                   on_click=_on_vote, args=(study, rater, key, token, 2))
         st.button("Undo", key=f"undo-{token}", shortcut="u", on_click=_on_undo,
                   args=(study, rater, token))
-    st.button("Left", key=f"key_twin-left-{token}", shortcut="Left", on_click=_on_vote,
-              args=(study, rater, key, token, 1))
-    st.button("Right", key=f"key_twin-right-{token}", shortcut="Right", on_click=_on_vote,
-              args=(study, rater, key, token, 2))
 
 
 def rater_page(study: Study, rater: str) -> None:

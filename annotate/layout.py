@@ -5,16 +5,19 @@ Layer: annotate (rating study).
 Thin Streamlit view helpers shared by the binary and the pairwise rater pages of
 :mod:`annotate.app`; no study logic here.
 
-- :func:`page_style`: the page's CSS (once per run): little padding, each crop drawn as wide
-  as its column and at most as tall as the window minus the rows above and below it, so the
-  whole item and its buttons fit on screen; the crops of an item share one size (square
-  crops, equal columns), hence one scale. Good and Bad are coloured apart with a
-  colour-blind-safe pair (Okabe-Ito blue and vermillion) and keep their letters.
-- :func:`pair_view`: the titled crops side by side (container key ``pair``) and the scale
-  line, e.g. "All images at the same scale: ×3.2 (shown px per camera px)". The scale is
-  the drawn width over the object's square side in the camera image (``crop_side``, px):
-  the server writes it for the stored crop size and a small script keeps it equal to the
-  size the browser actually draws. Nothing in it names the item.
+- :func:`page_style`: the page's CSS and script (once per run): little padding, each crop
+  drawn as wide as its share of the row and at most as tall as the window minus the rows
+  above and below it, so the whole item and its buttons fit on screen; the crops of an item
+  share one size (square crops, equal shares), hence one scale. Good and Bad are coloured
+  apart with a colour-blind-safe pair (Okabe-Ito blue and vermillion) and keep their
+  letters. The arrow keys press a pairwise item's side buttons.
+- :func:`pair_view`: the titled crops side by side (container key ``pair``: one image
+  element, so a vote redraws few elements; the CSS lays its crops out in a row with their
+  titles above) and the scale line, e.g. "All images at the same scale: ×3.2 (shown px per
+  camera px)". The scale is the drawn width over the object's square side in the camera
+  image (``crop_side``, px): the server writes it for the stored crop size and the page's
+  script keeps it equal to the size the browser actually draws. Nothing in it names the
+  item.
 
 >>> f"{scale_text(640, 200)}"
 '×3.2'
@@ -37,31 +40,37 @@ ROWS_PX = 250
 
 _CSS = f"""<style>
 [data-testid="stMainBlockContainer"] {{ padding: 2.5rem 1.5rem 1rem; max-width: none; }}
-.st-key-pair [data-testid="stFullScreenFrame"] div {{ width: 100%; align-items: center; }}
+.st-key-pair [data-testid="stFullScreenFrame"] > div {{ width: 100%; }}
+.st-key-pair [data-testid="stImage"] {{ display: flex; flex-flow: row nowrap; gap: 1rem;
+  justify-content: center; width: 100%; }}
+.st-key-pair [data-testid="stImageContainer"] {{ flex: 1 1 0; min-width: 0; display: flex;
+  flex-direction: column-reverse; align-items: center; }}
 .st-key-pair [data-testid="stImage"] img {{
   width: min(100%, calc(100vh - {ROWS_PX}px)) !important; height: auto !important; }}
+.st-key-pair [data-testid="stImageCaption"] {{ width: 100% !important; margin: 0 0 0.25rem; }}
+.st-key-pair [data-testid="stCaptionContainer"] {{ color: inherit; }}
+.st-key-pair [data-testid="stImageCaption"] p {{ text-align: center; margin: 0; font-weight: 600;
+  font-size: 1rem; color: inherit; }}
 .st-key-pair [data-testid="stElementToolbar"] {{ display: none; }}
-.st-key-pair [data-testid="stMarkdownContainer"] p {{ text-align: center; margin: 0; }}
 .nvrq-scale {{ text-align: center; color: #555; font-size: 0.9rem; }}
 [class*="st-key-vote_good-"] button {{ background: {GOOD_COLOUR}; border-color: {GOOD_COLOUR};
   color: #fff; }}
 [class*="st-key-vote_bad-"] button {{ background: {BAD_COLOUR}; border-color: {BAD_COLOUR};
   color: #fff; }}
 [class*="st-key-vote_"] button {{ min-width: 9rem; }}
-[class*="st-key-key_twin-"] {{ display: none; }}
 @media (max-width: 640px) {{  /* a phone: the pair stays side by side, the buttons in view */
   [data-testid="stMainBlockContainer"] {{ padding: 1rem 0.5rem 0.5rem; }}
-  .st-key-pair [data-testid="stHorizontalBlock"] {{ flex-wrap: nowrap !important; gap: 0.5rem; }}
-  .st-key-pair [data-testid="stColumn"] {{ min-width: 0 !important; width: auto !important;
-    flex: 1 1 0 !important; }}
+  .st-key-pair [data-testid="stImage"] {{ gap: 0.5rem; }}
   [class*="st-key-vote_"] button {{ min-width: 5.5rem; }}
   [class*="st-key-undo-"] button {{ min-width: 4rem; }}
 }}
 </style>"""
 
-# Keeps every scale line equal to the width the browser draws the first crop at (installed
-# once per page; the line's data-side is the object's side in camera pixels).
-_SCALE_JS = """<script>
+# Keeps every scale line equal to the width the browser draws the first crop at (the line's
+# data-side is the object's side in camera pixels), and makes the arrow keys press a pairwise
+# item's side buttons (a Streamlit button takes one shortcut: 1 and 2 are theirs); installed
+# once per page, it serves every item the voting panel draws after it.
+_PAGE_JS = """<script>
 (() => {
   if (window.__nvrqScale) return;
   const update = () => {
@@ -76,6 +85,16 @@ _SCALE_JS = """<script>
   };
   window.__nvrqScale = setInterval(update, 200);
   window.addEventListener('resize', update);
+  document.addEventListener('keydown', (e) => {
+    const side = {ArrowLeft: 'left', ArrowRight: 'right'}[e.key], t = e.target;
+    if (!side || e.repeat || e.altKey || e.ctrlKey || e.metaKey || e.shiftKey) return;
+    if (t && (t.isContentEditable || /^(INPUT|TEXTAREA|SELECT)$/.test(t.tagName))) return;
+    const live = [...document.querySelectorAll(`[class*="st-key-vote_${side}-"] button`)]
+      .filter((b) => !b.disabled && !b.closest('[data-stale="true"]'));
+    if (live.length !== 1) return;  // no item on screen, or one being replaced
+    e.preventDefault();
+    live[0].click();
+  });
 })();
 </script>"""
 
@@ -99,9 +118,10 @@ def scale_text(drawn_px: float, side_px: float) -> str:
 
 
 def page_style() -> None:
-    """The rater page's CSS and the scale script (call once per run, before the item)."""
+    """The rater page's CSS and its script (scale lines, arrow keys); once per run, before
+    the voting panel."""
     st.html(_CSS)
-    st.html(_SCALE_JS, unsafe_allow_javascript=True)
+    st.html(_PAGE_JS, unsafe_allow_javascript=True)
 
 
 def pair_view(titles, images, *, crop_side: float | None, display_size: int, token: str) -> None:
@@ -124,13 +144,11 @@ def pair_view(titles, images, *, crop_side: float | None, display_size: int, tok
     token : str
         The opaque token of the item on screen.
     """
-    with st.container(key="pair"):
-        for column, title, image in zip(st.columns(len(images)), titles, images, strict=True):
-            with column:
-                st.markdown(f"**{title}**")
-                # the crop's own format: "auto" would re-encode a PNG crop as JPEG (lossy)
-                st.image(image, width="stretch",
-                         output_format="PNG" if image[:4] == b"\x89PNG" else "JPEG")
+    with st.container(key="pair"):  # one element: its crops side by side, titled (CSS above)
+        # the crops' own format (one per study): "auto" would re-encode PNG as JPEG (lossy)
+        jpeg = all(image[:2] == b"\xff\xd8" for image in images)
+        st.image(list(images), caption=[f"**{title}**" for title in titles], width="stretch",
+                 output_format="JPEG" if jpeg else "PNG")
     if crop_side is None or not math.isfinite(float(crop_side)) or float(crop_side) <= 0:
         return
     side = float(crop_side)

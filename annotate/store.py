@@ -606,6 +606,21 @@ class Store:
         ``rows_after(watermark)`` of the history rows after that id (:meth:`history_after`),
         so the choice sees every vote committed before it.
         """
+        return self._next(rater, chooser, lease_s=lease_s, observe=observe, state=False)[0]
+
+    def next_item_state(self, rater: str, chooser: Callable[..., str | None], *,
+                        lease_s: float = CLAIM_LEASE_S,
+                        observe: Callable[[Callable[[int], list]], None] | None = None,
+                        ) -> tuple[str | None, tuple[list[str], set[str], dict[str, int]]]:
+        """:meth:`next_item` and, read in the same transaction, :meth:`rater_state` as it is
+        once the item is handed out: ``(item, (assigned, voted, votes per item))``. One
+        transaction serves what the page shows after a vote (the item and the progress).
+        """
+        return self._next(rater, chooser, lease_s=lease_s, observe=observe, state=True)
+
+    def _next(self, rater: str, chooser, *, lease_s: float, observe, state: bool) -> tuple:
+        """(item, rater state or None): the work of :meth:`next_item` (``state``: and the
+        rater's state after it, :meth:`next_item_state`)."""
         now = _clock()
         with self._transaction(synchronous="NORMAL") as con:
             row = con.execute(
@@ -614,17 +629,21 @@ class Store:
                 "v.item = a.item) AND NOT EXISTS (SELECT 1 FROM skipped s WHERE s.study = a.study "
                 "AND s.rater = a.rater AND s.item = a.item) ORDER BY a.id LIMIT 1",
                 (self.study, rater)).fetchone()
-            if row is None:
-                assigned, voted = self._own(con, rater)
-                loads = self._loads(con, claims_after=now - lease_s, rater=rater)
-                if observe is not None:
-                    observe(lambda after: self._history_after(con, after))
-                item = chooser(assigned, voted, loads)
-                if item is not None:
-                    con.execute("INSERT INTO assignments (study, rater, item, assigned_at, active_at) "
-                                "VALUES (?, ?, ?, ?, ?)", (self.study, rater, item, now, now))
-                return item
-        return row[1]  # the rater's open item; its lease still counts from its draw
+            if row is not None:  # the rater's open item; its lease still counts from its draw
+                return row[1], (self._own(con, rater) + (self._standing(con),) if state else None)
+            assigned, voted = self._own(con, rater)
+            standing = self._standing(con)
+            loads = dict(standing)
+            for item, n in self._claims(con, now - lease_s, rater):
+                loads[item] = loads.get(item, 0) + n
+            if observe is not None:
+                observe(lambda after: self._history_after(con, after))
+            item = chooser(assigned, voted, loads)
+            if item is not None:
+                con.execute("INSERT INTO assignments (study, rater, item, assigned_at, active_at) "
+                            "VALUES (?, ?, ?, ?, ?)", (self.study, rater, item, now, now))
+                assigned.append(item)
+            return item, ((assigned, voted, standing) if state else None)
 
     def _history_after(self, con: sqlite3.Connection, after: int) -> list[tuple]:
         return con.execute("SELECT id, rater, item, action, vote FROM history WHERE id > ? AND "
@@ -654,24 +673,22 @@ class Store:
             "SELECT item FROM votes WHERE study = ? AND rater = ?", (self.study, rater))}
         return assigned, voted
 
-    def _loads(self, con: sqlite3.Connection, *, claims_after: float | None,
-               rater: str | None = None) -> dict[str, int]:
-        """Per item: standing votes (+ claims of raters other than ``rater`` whose lease
-        started after ``claims_after``: a claim ends with its vote, see :meth:`_insert_vote`)."""
-        loads = {item: n for item, n in con.execute(
-            "SELECT item, voted FROM item_loads WHERE study = ? AND voted > 0", (self.study,))}
-        if claims_after is not None:
-            for item, n in con.execute(
-                    "SELECT item, COUNT(*) FROM assignments WHERE study = ? AND active_at > ? "
-                    "AND rater != ? GROUP BY item", (self.study, claims_after, rater or "")):
-                loads[item] = loads.get(item, 0) + n
-        return loads
+    def _standing(self, con: sqlite3.Connection) -> dict[str, int]:
+        """Per item: its standing votes (items with none left out)."""
+        return dict(con.execute("SELECT item, voted FROM item_loads WHERE study = ? AND voted > 0",
+                                (self.study,)).fetchall())
+
+    def _claims(self, con: sqlite3.Connection, after: float, rater: str | None) -> list[tuple]:
+        """(item, live claims) of raters other than ``rater`` whose lease started after
+        ``after`` (a claim ends with its vote, see :meth:`_insert_vote`)."""
+        return con.execute("SELECT item, COUNT(*) FROM assignments WHERE study = ? AND active_at > ? "
+                           "AND rater != ? GROUP BY item", (self.study, after, rater or "")).fetchall()
 
     def rater_state(self, rater: str) -> tuple[list[str], set[str], dict[str, int]]:
         """``(assigned, voted, votes per item)`` for progress: own rows plus the item counters."""
         with self._connect() as con:
             assigned, voted = self._own(con, rater)
-            return assigned, voted, self._loads(con, claims_after=None)
+            return assigned, voted, self._standing(con)
 
     def assignments(self, rater: str | None = None) -> pd.DataFrame:
         """Columns rater, item, assigned_at, voted (bool), in assignment order."""

@@ -442,14 +442,25 @@ class Study:
     def next_item(self, rater: str) -> str | None:
         """Key of the rater's next unrated item (None: done, or, when :meth:`waiting` says
         so, nothing free until other raters' claims end)."""
+        chooser, observe = self._chooser(rater)
+        return self.store.next_item(rater, chooser, observe=observe)
+
+    def next_with_progress(self, rater: str) -> tuple[str | None, dict]:
+        """(:meth:`next_item`, :meth:`progress` once it is handed out), read in one store
+        transaction: what the page shows after each vote."""
+        chooser, observe = self._chooser(rater)
+        key, (assigned, voted, votes) = self.store.next_item_state(rater, chooser, observe=observe)
+        return key, self._progress(self.plan_for(rater), assigned, voted, votes)
+
+    def _chooser(self, rater: str) -> tuple:
+        """(chooser, observe) for :meth:`annotate.store.Store.next_item`: the rater's plan with
+        the study's quota, or with its sampler's pick (the sampler observes the votes)."""
         plan = self.plan_for(rater)
         sampler = self.sampler
         if sampler is None:
-            return self.store.next_item(
-                rater, lambda a, v, loads: choose_next(plan, a, v, loads, quota=self.quota))
-        return self.store.next_item(
-            rater, lambda a, v, loads: choose_next(plan, a, v, loads, quota=None, pick=sampler.pick),
-            observe=sampler.refresh)
+            return lambda a, v, loads: choose_next(plan, a, v, loads, quota=self.quota), None
+        return (lambda a, v, loads: choose_next(plan, a, v, loads, quota=None, pick=sampler.pick),
+                sampler.refresh)
 
     def waiting(self, rater: str) -> bool:
         """Whether the rater has items left that other raters' claims hold right now (when
@@ -471,8 +482,11 @@ class Study:
         Reads the rater's own rows and the per-item vote counters only, so its cost does not
         grow with the other raters' votes.
         """
-        plan = self.plan_for(rater)
         assigned, voted, votes = self.store.rater_state(rater)
+        return self._progress(self.plan_for(rater), assigned, voted, votes)
+
+    def _progress(self, plan: dict, assigned: list[str], voted: set[str],
+                  votes: dict[str, int]) -> dict:
         training = set(plan["training"])
         loads = {k: n for k, n in votes.items() if k not in voted}  # others' votes on open items
         return {"training_done": len(voted & training), "training_total": len(training),

@@ -258,3 +258,24 @@ def test_pairs_of_methods_index(tmp_path, inputs):
         row = study.items.loc[k]
         assert duos[pair] == (methods.index(row["method_a"]), methods.index(row["method_b"]))
         assert list(dict.fromkeys(study.items.loc[s.keys, "pair_id"]))[view] == row["pair_id"]
+
+
+@pytest.mark.parametrize("design, sampling", [("binary", "uniform"), ("binary", "adaptive"),
+                                              ("pairwise", "active"), ("pairwise", "uniform")])
+def test_the_page_read_equals_next_item_then_progress(tmp_path, inputs, design, sampling):
+    """What the page reads after a vote in one transaction (Study.next_with_progress) is
+    what Study.next_item and then Study.progress give, at every step of 6 raters voting at
+    random (each of them signing in again at random: an item already handed out)."""
+    study = _build(tmp_path, inputs[0] if design == "pairwise" else inputs[1], design=design,
+                   sampling=sampling, votes_per_item=2)
+    rng = np.random.default_rng(0)
+    codes, steps, votes = (0, 1, 2) if design == "pairwise" else (0, 1), 0, 0
+    while steps < 300:
+        rater = f"r{rng.integers(6)}"
+        key, prog = study.next_with_progress(rater)
+        assert key == study.next_item(rater) and prog == study.progress(rater), (steps, rater)
+        steps += 1
+        if key is not None and rng.random() < 0.8:
+            assert study.store.record_shown_vote(rater, key, int(rng.choice(codes))) == "recorded"
+            votes += 1
+    assert votes > 30 and study.next_with_progress("r0")[1]["done"] > 0
