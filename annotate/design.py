@@ -420,10 +420,12 @@ class StudyOptions:
         Crowd only: the panel's participant-id parameter and the URL shown at the end.
     items_per_rater : int or None
         The most items one rater is given (None: every item).
-    sampling : {'uniform', 'active', 'adaptive'}
+    sampling : {'uniform', 'active', 'adaptive'} or None
         Where the votes go (:mod:`annotate.study_sampling`): ``'uniform'`` (every test item
         gets ``votes_per_item``), ``'active'`` (pairwise only: the next comparison by expected
-        information gain) or ``'adaptive'`` (binary only: curtailed sampling).
+        information gain) or ``'adaptive'`` (binary only: curtailed sampling); None: the
+        design's default, :data:`annotate.study_sampling.DEFAULT_SAMPLING` (pairwise active,
+        binary uniform).
     max_votes_per_item : int or None
         ``'adaptive'`` only: the most votes one test item may get (None: the default of
         :func:`annotate.study_sampling.check_sampling`).
@@ -450,7 +452,7 @@ class StudyOptions:
     participant_param: str | None = None
     completion_url: str | None = None
     items_per_rater: int | None = DEFAULT_ITEMS_PER_RATER
-    sampling: str = "uniform"
+    sampling: str | None = None
     max_votes_per_item: int | None = None
 
 

@@ -50,7 +50,13 @@ from annotate.design import Choice, Design, StudyOptions, attribute_columns
 from annotate.load import check_items_per_rater
 from annotate.pairwise import PairwiseDesign
 from annotate.store import Store
-from annotate.study_sampling import SAMPLINGS, check_sampling, make_sampler, study_sampling
+from annotate.study_sampling import (
+    DEFAULT_SAMPLING,
+    SAMPLINGS,
+    check_sampling,
+    make_sampler,
+    study_sampling,
+)
 from data_schema.errors import InputError
 from data_schema.options import options_or_keywords
 from data_schema.outputs import check_output_folder
@@ -165,9 +171,10 @@ def _check_options(out, pairs_path, opts: StudyOptions) -> StudyOptions:
     if opts.methods is not None and opts.design != "pairwise":
         raise InputError(param="methods", expected="no method list with `design` binary (it compares "
                          "methods only with `design` pairwise)", got=opts.methods)
-    cap = check_sampling(opts.sampling, design=opts.design, votes_per_item=opts.votes_per_item,
+    sampling = DEFAULT_SAMPLING[opts.design] if opts.sampling is None else opts.sampling
+    cap = check_sampling(sampling, design=opts.design, votes_per_item=opts.votes_per_item,
                          max_votes_per_item=opts.max_votes_per_item)
-    return replace(opts, max_votes_per_item=cap)
+    return replace(opts, sampling=sampling, max_votes_per_item=cap)
 
 
 def _read_pairs(pairs_path: Path, scene) -> pd.DataFrame:

@@ -4,9 +4,9 @@ Layer: annotate (rating study; serving). The pure selection rules are
 :mod:`annotate.sampling`; this module keeps their state for one server process and feeds
 it from the vote store.
 
-- ``uniform`` (the default, and every study built before ``--sampling`` existed): each test
-  item gets ``votes_per_item`` votes, balanced (:func:`annotate.assign.choose_next`).
-- ``active`` (pairwise studies): :class:`PairwiseSampler` keeps the Gaussian posterior of
+- ``uniform`` (the binary default, and every study built before ``--sampling`` existed):
+  each test item gets ``votes_per_item`` votes, balanced (:func:`annotate.assign.choose_next`).
+- ``active`` (pairwise studies; their default, :data:`DEFAULT_SAMPLING`): :class:`PairwiseSampler` keeps the Gaussian posterior of
   every object view's method scale (:func:`annotate.sampling.update_pairwise`) and hands a
   rater the test item (object view and pair of methods) with the largest expected
   information gain (:func:`annotate.sampling.pair_gain`) among those the rater has not
@@ -47,11 +47,17 @@ from annotate.sampling import (
 )
 from data_schema.errors import InputError
 
-__all__ = ["SAMPLINGS", "check_sampling", "study_sampling", "make_sampler", "PairwiseSampler",
+__all__ = ["SAMPLINGS", "DEFAULT_SAMPLING", "check_sampling", "study_sampling", "make_sampler", "PairwiseSampler",
            "BinarySampler"]
 
 #: Sampling schemes and the design each needs (None: any design).
 SAMPLINGS = {"uniform": None, "active": "pairwise", "adaptive": "binary"}
+#: The scheme a new study of each design gets when none is named. Pairwise: ``active`` since
+#: issue 37's benchmark (``benchmarks/bench_sampling.py``, 20 seeds: active reaches the full
+#: uniform design's scale error with half of its comparisons and ranks at least as well at
+#: every budget). Binary stays ``uniform``: ``adaptive`` gives items different numbers of
+#: votes, which a study must choose knowingly.
+DEFAULT_SAMPLING = {"binary": "uniform", "pairwise": "active"}
 
 
 def check_sampling(sampling: str, *, design: str, votes_per_item: int,

@@ -98,11 +98,13 @@ def register(sub) -> None:
                    "renders is closer to the GT (the pairs need a method column; default binary)")
     b.add_argument("--methods", metavar="A,B", help="pairwise: comma list of the methods to compare "
                    "(default: every method of the pairs table)")
-    b.add_argument("--sampling", default="uniform", choices=["uniform", "active", "adaptive"],
+    b.add_argument("--sampling", default=None, choices=["uniform", "active", "adaptive"],
                    help="where the votes go: uniform (every test item gets --votes-per-item); "
                    "active (pairwise: the next comparison by expected information gain); adaptive "
                    "(binary: stop asking once an item's majority is settled, the freed votes to "
-                   "the most uncertain items; docs/FORMATS.md §5; default uniform)")
+                   "the most uncertain items); docs/FORMATS.md §5. Default: active for --design "
+                   "pairwise (since issue 37: the same scale error with half the comparisons; "
+                   "uniform keeps the balanced design), uniform for binary")
     b.add_argument("--max-votes-per-item", type=int_arg(), default=None, metavar="N",
                    help="adaptive: the most votes one test item may get (default --votes-per-item: "
                    "curtail only; a higher cap spends the freed votes on the most uncertain items)")
@@ -173,6 +175,9 @@ def run(args) -> int:
     pool = f" (each rater sees {share} of the {study.manifest['counts']['gold']} gold)" \
         if share < study.manifest["counts"]["gold"] else ""
     print(f"study {out}: {counts} items{pool}")
+    if args.sampling is None and study.manifest["sampling"] != "uniform":  # a default's change
+        print(f"sampling: {study.manifest['sampling']} (the default for {study.design} studies; "
+              "--sampling uniform gives every comparison the same number of votes)")
     load = rater_load(study.rater_counts(), items_per_rater=args.items_per_rater,
                       votes_per_item=args.votes_per_item)
     print(load_text(load, votes_per_item=args.votes_per_item))

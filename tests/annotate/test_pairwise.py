@@ -163,7 +163,7 @@ def test_simulate_export_balanced_votes_choices_and_columns(tmp_path, pw_inputs,
     assert main(["build", str(study), "--pairs", str(pairs), "--scene", str(scene),
                  "--metrics-table", str(metrics), "--design", "pairwise", "--methods",
                  "alpha,beta", "--tracks", "2", "--frames-per-track", "2", "--size", "64x64",
-                 "--votes-per-item", "3", "--repeats", "3"]) == 0
+                 "--votes-per-item", "3", "--repeats", "3", "--sampling", "uniform"]) == 0
     assert main(["simulate", str(study), "--raters", "5", "--seed", "1"]) == 0
     out = tmp_path / "votes.csv"
     assert main(["export", str(study), "--out", str(out)]) == 0

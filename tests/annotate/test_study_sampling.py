@@ -103,6 +103,25 @@ def test_manifest_records_the_sampling(tmp_path, inputs):
     assert (u.manifest["sampling"], u.sampler) == ("uniform", None)
 
 
+def test_a_pairwise_study_is_active_unless_told_otherwise(tmp_path, inputs, capsys):
+    """Issue 37: once bench_sampling showed active ahead of uniform, active became the
+    pairwise default (said once at build); binary studies stay uniform; uniform on request."""
+    (scene, pairs), (bscene, bpairs) = inputs
+    common = ["--tracks", "2", "--frames-per-track", "2", "--size", "32x32", "--image-format",
+              "png", "--training", "1", "--gold", "1", "--repeats", "1", "--quiet"]
+    for name, extra, want in [("pw", ["--design", "pairwise"], "active"),
+                              ("pwu", ["--design", "pairwise", "--sampling", "uniform"], "uniform"),
+                              ("bin", [], "uniform")]:
+        p, sc = (bpairs, bscene) if name == "bin" else (pairs, scene)
+        assert main(["build", str(tmp_path / name), "--pairs", str(p), "--scene", str(sc),
+                     *common, *extra]) == 0
+        out = capsys.readouterr().out
+        assert load_study(tmp_path / name).manifest["sampling"] == want, name
+        assert ("sampling: active (the default for pairwise studies" in out) == (name == "pw"), out
+    assert _build(tmp_path, inputs[0], "api", design="pairwise").manifest["sampling"] == "active"
+    assert _build(tmp_path, inputs[1], "apib").manifest["sampling"] == "uniform"
+
+
 # --- active pairwise ----------------------------------------------------------------------
 
 def _vote(study, rater, key, rng):
