@@ -678,11 +678,11 @@ class Store:
         return dict(con.execute("SELECT item, voted FROM item_loads WHERE study = ? AND voted > 0",
                                 (self.study,)).fetchall())
 
-    def _claims(self, con: sqlite3.Connection, after: float, rater: str | None) -> list[tuple]:
+    def _claims(self, con: sqlite3.Connection, after: float, rater: str) -> list[tuple]:
         """(item, live claims) of raters other than ``rater`` whose lease started after
         ``after`` (a claim ends with its vote, see :meth:`_insert_vote`)."""
         return con.execute("SELECT item, COUNT(*) FROM assignments WHERE study = ? AND active_at > ? "
-                           "AND rater != ? GROUP BY item", (self.study, after, rater or "")).fetchall()
+                           "AND rater != ? GROUP BY item", (self.study, after, rater)).fetchall()
 
     def rater_state(self, rater: str) -> tuple[list[str], set[str], dict[str, int]]:
         """``(assigned, voted, votes per item)`` for progress: own rows plus the item counters."""

@@ -449,20 +449,20 @@ class Study:
     def next_item(self, rater: str) -> str | None:
         """Key of the rater's next unrated item (None: done, or, when :meth:`waiting` says
         so, nothing free until other raters' claims end)."""
-        chooser, observe = self._chooser(rater)
+        chooser, observe = self._chooser(self.plan_for(rater))
         return self.store.next_item(rater, chooser, observe=observe)
 
     def next_with_progress(self, rater: str) -> tuple[str | None, dict]:
         """(:meth:`next_item`, :meth:`progress` once it is handed out), read in one store
         transaction: what the page shows after each vote."""
-        chooser, observe = self._chooser(rater)
-        key, (assigned, voted, votes) = self.store.next_item_state(rater, chooser, observe=observe)
-        return key, self._progress(self.plan_for(rater), assigned, voted, votes)
-
-    def _chooser(self, rater: str) -> tuple:
-        """(chooser, observe) for :meth:`annotate.store.Store.next_item`: the rater's plan with
-        the study's quota, or with its sampler's pick (the sampler observes the votes)."""
         plan = self.plan_for(rater)
+        chooser, observe = self._chooser(plan)
+        key, (assigned, voted, votes) = self.store.next_item_state(rater, chooser, observe=observe)
+        return key, self._progress(plan, assigned, voted, votes)
+
+    def _chooser(self, plan: dict) -> tuple:
+        """(chooser, observe) for :meth:`annotate.store.Store.next_item`: the rater's ``plan``
+        with the study's quota, or with its sampler's pick (the sampler observes the votes)."""
         sampler = self.sampler
         if sampler is None:
             return lambda a, v, loads: choose_next(plan, a, v, loads, quota=self.quota), None

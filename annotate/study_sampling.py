@@ -6,14 +6,14 @@ it from the vote store.
 
 - ``uniform`` (the binary default, and every study built before ``--sampling`` existed):
   each test item gets ``votes_per_item`` votes, balanced (:func:`annotate.assign.choose_next`).
-- ``active`` (pairwise studies; their default, :data:`DEFAULT_SAMPLING`): :class:`PairwiseSampler` keeps the Gaussian posterior of
-  every object view's method scale (:func:`annotate.sampling.update_pairwise`) and hands a
-  rater the test item (object view and pair of methods) with the largest expected
-  information gain (:func:`annotate.sampling.pair_gain`) among those the rater has not
-  had. Comparisons other raters hold right now (live claims) are skipped while any other
-  is left, so raters busy at once get different comparisons (the sequential form of ASAP's
-  batch mode: each new one is chosen given those in flight); ties go by the rater's own
-  random order.
+- ``active`` (pairwise studies; their default, :data:`DEFAULT_SAMPLING`):
+  :class:`PairwiseSampler` keeps the Gaussian posterior of every object view's method
+  scale (:func:`annotate.sampling.update_pairwise`) and hands a rater the test item
+  (object view and pair of methods) with the largest expected information gain
+  (:func:`annotate.sampling.pair_gain`) among those the rater has not had. Comparisons
+  other raters hold right now (live claims) are skipped while any other is left, so raters
+  busy at once get different comparisons (the sequential form of ASAP's batch mode: each
+  new one is chosen given those in flight); ties go by the rater's own random order.
 - ``adaptive`` (binary studies): :class:`BinarySampler` closes an item once its majority
   cannot change (:func:`annotate.sampling.binary_closed`) and sends the freed votes to the
   items whose GVF is most uncertain (:func:`annotate.sampling.gvf_uncertainty`), up to
@@ -47,8 +47,8 @@ from annotate.sampling import (
 )
 from data_schema.errors import InputError
 
-__all__ = ["SAMPLINGS", "DEFAULT_SAMPLING", "check_sampling", "study_sampling", "make_sampler", "PairwiseSampler",
-           "BinarySampler"]
+__all__ = ["SAMPLINGS", "DEFAULT_SAMPLING", "check_sampling", "study_sampling", "make_sampler",
+           "PairwiseSampler", "BinarySampler"]
 
 #: Sampling schemes and the design each needs (None: any design).
 SAMPLINGS = {"uniform": None, "active": "pairwise", "adaptive": "binary"}

@@ -288,12 +288,11 @@ def test_the_page_read_equals_next_item_then_progress(tmp_path, inputs, design, 
     study = _build(tmp_path, inputs[0] if design == "pairwise" else inputs[1], design=design,
                    sampling=sampling, votes_per_item=2)
     rng = np.random.default_rng(0)
-    codes, steps, votes = (0, 1, 2) if design == "pairwise" else (0, 1), 0, 0
-    while steps < 300:
+    codes, votes = (0, 1, 2) if design == "pairwise" else (0, 1), 0
+    for step in range(300):
         rater = f"r{rng.integers(6)}"
         key, prog = study.next_with_progress(rater)
-        assert key == study.next_item(rater) and prog == study.progress(rater), (steps, rater)
-        steps += 1
+        assert key == study.next_item(rater) and prog == study.progress(rater), (step, rater)
         if key is not None and rng.random() < 0.8:
             assert study.store.record_shown_vote(rater, key, int(rng.choice(codes))) == "recorded"
             votes += 1
