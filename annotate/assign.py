@@ -1,46 +1,25 @@
-"""Which item a rater sees next: per-rater plans and balanced assignment (pure functions).
+"""Per-rater plans: the order of a rater's items, its gold draw and repeats (pure functions).
 
 Layer: annotate (rating study).
 
 A rater's *plan* is fixed when the rater signs in for the first time and stored with the
 rater: the training items in study order, then the test items in a random order seeded by
-an HMAC of the study seed and the rater id under the study's secret (:func:`plan_seed`), and the hidden gold (the rater's draw from
-the study's gold pool, :func:`draw_gold`) and repeat items ("specials"), each due
-after a seeded number of test items. :func:`choose_next` then picks, in this order:
-
-1. the next training item;
-2. a special that is due (a repeat only once the rater has voted on its original);
-3. the test item with the fewest votes or live claims by *other* raters among those below
-   the quota ``votes_per_item``, ties broken by the rater's own random order — so every
-   item reaches its quota before any gets more, and a half-finished study is balanced —
-   until the rater has had the plan's ``max_tests`` test items (``annotate build
-   --items-per-rater``);
-4. any special left (repeats only with a voted original); else ``None``: the rater is done.
-
-A gold item drawn from a pool (plan ``gold_quota``, studies built with
-:data:`annotate.design.GOLD_POOL`) is shown, like a test item, only while fewer than
-``votes_per_item`` other raters hold or voted it: counting the identities that saw an item
-then tells gold from test items no better than chance (issue 38 item 31).
-
->>> plan = {"training": ["t1"], "order": ["a", "b", "c"], "specials": [[1, "g1"]],
-...         "repeat_of": {}}
->>> choose_next(plan, [], set(), {}, quota=2)
-'t1'
->>> choose_next(plan, ["t1"], {"t1"}, {"a": 2, "b": 1}, quota=2)  # a full; c has the lowest load
-'c'
->>> choose_next(plan, ["t1", "c"], {"t1", "c"}, {"a": 2, "b": 1}, quota=2)  # g1 due after 1 test
-'g1'
+an HMAC of the study seed and the rater id under the study's secret (:func:`plan_seed`),
+and the hidden gold (the rater's draw from the study's gold pool, :func:`draw_gold`) and
+repeat items ("specials"), each due after a seeded number of test items. Which item a
+rater gets next, given its plan and the other raters' loads, is :mod:`annotate.chooser`'s
+(one walk for every sampling: training, specials due, a test item, the end of the plan;
+the gold pool's cap).
 """
 
 from __future__ import annotations
 
 import hashlib
 import hmac
-from collections.abc import Callable
 
 import numpy as np
 
-__all__ = ["make_plan", "draw_gold", "choose_next", "rater_seed", "plan_seed", "plan_total", "pairwise_sides"]
+__all__ = ["make_plan", "draw_gold", "rater_seed", "plan_seed", "pairwise_sides"]
 
 
 def rater_seed(study_seed: int, rater: str) -> int:
@@ -165,7 +144,7 @@ def make_plan(*, training: list[str], tests: list[str], golds: list[str],
         Cap on the rater's test items.
     n_gold : int, optional
         Gold items the rater is shown, drawn from the pool ``golds`` (:func:`draw_gold`;
-        the plan gets ``gold_quota``: :func:`choose_next` caps them at the quota); None:
+        the plan gets ``gold_quota``: :mod:`annotate.chooser` caps them); None:
         every one (studies built before the pool).
 
     Returns
@@ -188,130 +167,6 @@ def make_plan(*, training: list[str], tests: list[str], golds: list[str],
     if n_gold is not None:  # a pool's gold, like a test item, reaches at most `quota` raters
         plan["gold_quota"] = True
     return plan
-
-
-def _eligible(plan: dict, key: str, voted: set[str], loads: dict[str, int] | None = None,
-              quota: int | None = None) -> bool:
-    """A special can be shown: a repeat once its original is voted; a gold item of a pool
-    (plan ``gold_quota``) while fewer than ``quota`` other raters hold or voted it."""
-    original = plan["repeat_of"].get(key)
-    if original is not None:
-        return original in voted
-    return not (plan.get("gold_quota") and quota is not None and loads is not None
-                and loads.get(key, 0) >= quota)
-
-
-def choose_next(plan: dict, assigned: list[str], voted: set[str], loads: dict[str, int], *,
-                quota: int | None, pick: Callable[[list[str], dict], str | None] | None = None
-                ) -> str | None:
-    """The next item key for a rater, or ``None`` when nothing is left (see module doc).
-
-    ``assigned``: keys already assigned to this rater; ``voted``: those it voted on;
-    ``loads``: per test key, votes plus live claims of the other raters; ``quota``: votes
-    wanted per test item (``None``: every rater rates every item).
-
-    Parameters
-    ----------
-    plan : dict
-        The rater's plan (:func:`make_plan`).
-    assigned : list of str
-        Keys already assigned to the rater.
-    voted : set of str
-        Keys it voted on.
-    loads : dict
-        Test key -> votes plus live claims of the other raters.
-    quota : int or None
-        Votes wanted per test item (``None``: every rater rates every item).
-    pick : callable, optional
-        Step 3 for a study with active or adaptive sampling (:mod:`annotate.study_sampling`):
-        ``pick(open_keys, loads)`` chooses among the test keys the rater has not had (in the
-        plan's order), or returns None; ``quota`` is then not used.
-
-    Returns
-    -------
-    str or None
-        The next item key.
-    """
-    done = set(assigned)
-    for key in plan["training"]:
-        if key not in done:
-            return key
-    order = plan["order"]
-    n_tests = sum(1 for k in order if k in done)
-    specials = [(after, key) for after, key in plan["specials"] if key not in done]
-    for after, key in specials:
-        if after <= n_tests and _eligible(plan, key, voted, loads, quota):
-            return key
-    capped = n_tests >= plan.get("max_tests", n_tests + 1)  # the rater's share of tests is done
-    best = None if capped or pick is None else pick([k for k in order if k not in done], loads)
-    if best is None and pick is None:
-        best = _lowest_load(order, done, loads, quota, capped)
-    if best is not None:
-        return best
-    for _after, key in specials:
-        if _eligible(plan, key, voted, loads, quota):
-            return key
-    return None
-
-
-def _lowest_load(order: list[str], done: set[str], loads: dict[str, int], quota: int | None,
-                 capped: bool) -> str | None:
-    """Step 3 of uniform sampling: the open test item with the fewest loads below the quota."""
-    best, best_load = None, None
-    for key in ([] if capped else order):  # rater's order breaks ties: the lowest load wins
-        if key in done:
-            continue
-        load = loads.get(key, 0)
-        if quota is not None and load >= quota:
-            continue
-        if best_load is None or load < best_load:
-            best, best_load = key, load
-            if load == 0:
-                break
-    return best
-
-
-def plan_total(plan: dict, assigned: list[str], loads: dict[str, int], *,
-               quota: int | None) -> int:
-    """How many non-training items the rater will have seen when done, as far as known now.
-
-    Assigned items, plus test items still open to the rater, plus specials not yet shown
-    (a repeat only if its original is assigned to the rater or still open to it).
-
-    Parameters
-    ----------
-    plan : dict
-        The rater's plan.
-    assigned : list of str
-        Keys already assigned to the rater.
-    loads : dict
-        Test key -> votes plus live claims of the other raters.
-    quota : int or None
-        Votes wanted per test item.
-
-    Returns
-    -------
-    int
-    """
-    done = set(assigned)
-    training = set(plan["training"])
-    n = sum(1 for k in assigned if k not in training)
-    open_tests = {k for k in plan["order"]
-                  if k not in done and (quota is None or loads.get(k, 0) < quota)}
-    if "max_tests" in plan:  # no more than the rater's share
-        n_tests = sum(1 for k in plan["order"] if k in done)
-        n += min(len(open_tests), max(plan["max_tests"] - n_tests, 0))
-    else:
-        n += len(open_tests)
-    for _after, key in plan["specials"]:
-        if key in done:
-            continue
-        original = plan["repeat_of"].get(key)
-        if original is None and not _eligible(plan, key, set(), loads, quota):
-            continue  # a pool's gold item other raters have taken to its quota
-        if original is None or original in done or original in open_tests:
-            n += 1
-    return n
 
 
 def pairwise_sides(plan: dict, *, seed: int) -> dict[str, str]:

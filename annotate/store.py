@@ -9,7 +9,7 @@ about 1 ms a vote; a pooled connection is used only while the file is still the 
 the browser session it came from.
 
 The store also hands out items: :meth:`Store.next_item` returns the rater's next unrated
-item, assigning a new one (see :func:`annotate.assign.choose_next`) inside one
+item, assigning a new one (see :mod:`annotate.chooser`) inside one
 ``BEGIN IMMEDIATE`` transaction so two raters never race for the last slot of an item. An
 assigned item without a vote is a *claim* that holds one of the item's ``votes_per_item``
 slots for :data:`CLAIM_LEASE_S` seconds after it was drawn (never renewed), then frees it.

@@ -36,27 +36,15 @@ import numpy as np
 import pandas as pd
 
 from annotate.access import check_access
-from annotate.assign import (
-    choose_next,
-    make_plan,
-    pairwise_sides,
-    plan_seed,
-    plan_total,
-    rater_seed,
-)
+from annotate.assign import make_plan, pairwise_sides, plan_seed, rater_seed
 from annotate.binary import BinaryDesign
+from annotate.chooser import RaterState, make_chooser
 from annotate.crops import ImageCache, opaque_ids
 from annotate.design import Choice, Design, StudyOptions, attribute_columns
 from annotate.load import check_items_per_rater
 from annotate.pairwise import PairwiseDesign
 from annotate.store import Store
-from annotate.study_sampling import (
-    DEFAULT_SAMPLING,
-    SAMPLINGS,
-    check_sampling,
-    make_sampler,
-    study_sampling,
-)
+from annotate.study_sampling import DEFAULT_SAMPLING, SAMPLINGS, check_sampling, study_sampling
 from data_schema.errors import InputError
 from data_schema.options import options_or_keywords
 from data_schema.outputs import check_output_folder
@@ -378,12 +366,9 @@ class Study:
         """Whether a new rater would be given no test item: every test item has its
         ``votes_per_item`` standing votes (uniform), or the study's sampler has spent its
         budget or closed every item (active, adaptive)."""
-        votes = self.store.item_loads()
-        sampler = self.sampler
-        if sampler is not None:
-            sampler.refresh(self.store.history_after)
-            return sampler.pick(self.keys("test"), votes) is None
-        return all(votes.get(k, 0) >= self.quota for k in self.keys("test"))
+        chooser = self.chooser
+        chooser.refresh(self.store.history_after)
+        return chooser.is_full(self.store.item_loads(), self.keys("test"))
 
     @property
     def sampling(self) -> str:
@@ -391,17 +376,17 @@ class Study:
         return study_sampling(self.manifest)[0]
 
     @property
-    def sampler(self):
-        """This process's :mod:`annotate.study_sampling` sampler (made on first use), or None
-        for a uniform study."""
-        if "_sampler" not in self.__dict__:
-            self._sampler = make_sampler(self)
-        return self._sampler
+    def chooser(self):
+        """This process's next-item chooser (:mod:`annotate.chooser`; made on first use)."""
+        if "_chooser_obj" not in self.__dict__:
+            self._chooser_obj = make_chooser(self)
+        return self._chooser_obj
 
-    def _progress_quota(self) -> int | None:
-        """The per-item cap :func:`annotate.assign.plan_total` counts open items with."""
-        sampling, cap = study_sampling(self.manifest)
-        return {"uniform": self.quota, "adaptive": cap}.get(sampling)
+    @property
+    def sampler(self):
+        """This process's :mod:`annotate.study_sampling` sampler (its chooser's), or None
+        for a uniform study."""
+        return getattr(self.chooser, "sampler", None)
 
     @property
     def design(self) -> str:
@@ -461,13 +446,11 @@ class Study:
         return key, self._progress(plan, assigned, voted, votes)
 
     def _chooser(self, plan: dict) -> tuple:
-        """(chooser, observe) for :meth:`annotate.store.Store.next_item`: the rater's ``plan``
-        with the study's quota, or with its sampler's pick (the sampler observes the votes)."""
-        sampler = self.sampler
-        if sampler is None:
-            return lambda a, v, loads: choose_next(plan, a, v, loads, quota=self.quota), None
-        return (lambda a, v, loads: choose_next(plan, a, v, loads, quota=None, pick=sampler.pick),
-                sampler.refresh)
+        """(chooser, observe) for :meth:`annotate.store.Store.next_item`: the study's
+        :mod:`annotate.chooser` on the rater's ``plan`` (a sampler observes the votes)."""
+        chooser = self.chooser
+        return (lambda a, v, loads: chooser.next(RaterState(plan, a, v, loads)),
+                chooser.observe)
 
     def waiting(self, rater: str) -> bool:
         """Whether the rater has items left that other raters' claims hold right now (when
@@ -477,11 +460,9 @@ class Study:
         """
         plan = self.plan_for(rater)
         assigned, voted, votes = self.store.rater_state(rater)
-        sampler = self.sampler
-        if sampler is not None:
-            sampler.refresh(self.store.history_after)
-        return choose_next(plan, assigned, voted, votes, quota=self.quota,
-                           pick=None if sampler is None else sampler.pick) is not None
+        chooser = self.chooser
+        chooser.refresh(self.store.history_after)
+        return chooser.next(RaterState(plan, assigned, voted, votes)) is not None
 
     def progress(self, rater: str) -> dict:
         """``{'training_done', 'training_total', 'done', 'total'}`` (done/total exclude training).
@@ -498,7 +479,7 @@ class Study:
         loads = {k: n for k, n in votes.items() if k not in voted}  # others' votes on open items
         return {"training_done": len(voted & training), "training_total": len(training),
                 "done": len(voted - training),
-                "total": plan_total(plan, assigned, loads, quota=self._progress_quota())}
+                "total": self.chooser.total(RaterState(plan, assigned, voted, loads))}
 
     def check_current(self) -> None:
         """Raise :class:`StudyChanged` when the folder's manifest is no longer this study's.

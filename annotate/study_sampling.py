@@ -5,7 +5,7 @@ Layer: annotate (rating study; serving). The pure selection rules are
 it from the vote store.
 
 - ``uniform`` (the binary default, and every study built before ``--sampling`` existed):
-  each test item gets ``votes_per_item`` votes, balanced (:func:`annotate.assign.choose_next`).
+  each test item gets ``votes_per_item`` votes, balanced (:class:`annotate.chooser.UniformChooser`).
 - ``active`` (pairwise studies; their default, :data:`DEFAULT_SAMPLING`):
   :class:`PairwiseSampler` keeps the Gaussian posterior of every object view's method
   scale (:func:`annotate.sampling.update_pairwise`) and hands a rater the test item
@@ -20,8 +20,9 @@ it from the vote store.
   ``max_votes_per_item``; ties by fewer votes and claims, then the rater's order.
 
 Both spend at most the uniform design's budget, ``votes_per_item`` x the test items
-(standing votes plus others' live claims). Training, gold and repeat items keep their rules
-(the rater's plan). Only test votes move the state.
+(standing votes plus others' live claims). Training, gold and repeat items, and the end
+of a rater's plan, are :mod:`annotate.chooser`'s, the same for every sampling (a sampler
+only chooses among test items). Only test votes move the state.
 
 **Cost per vote.** A sampler is built once per process and refreshed from the store's
 append-only ``history`` rows after a watermark (one index range read inside the hand-out
@@ -206,6 +207,33 @@ class _Sampler:
             best = self._best(idx, claims)
             return None if best is None else self.keys[best]
 
+    def room(self, open_keys: list[str], loads: dict[str, int]) -> int:
+        """How many of ``open_keys`` one rater may still be given: those the sampler would
+        hand out, at most the budget left (a rater's progress total).
+
+        Parameters
+        ----------
+        open_keys : list of str
+            The test keys the rater has not had.
+        loads : dict
+            Test key -> standing votes plus other raters' live claims.
+
+        Returns
+        -------
+        int
+        """
+        with self.lock:
+            claims = self._claims(loads)
+            left = int(self.budget - self.n.sum() - claims.sum())
+            if left <= 0 or not open_keys:
+                return 0
+            idx = np.array([self.pos[k] for k in open_keys], dtype=np.int64)
+            return min(left, int(self._open(idx, claims).sum()))
+
+    def _open(self, idx: np.ndarray, claims: np.ndarray) -> np.ndarray:
+        """Which of the test items ``idx`` may still get a vote (all, unless a sampler closes some)."""
+        return np.ones(len(idx), dtype=bool)
+
     def _best(self, idx: np.ndarray, claims: np.ndarray) -> int | None:
         raise NotImplementedError
 
@@ -312,11 +340,15 @@ class BinarySampler(_Sampler):
     def _removed(self, rater, key, i, vote) -> None:
         self.good[i] -= int(vote == 1)
 
+    def _open(self, idx, claims):
+        good, n = self.good[idx], self.n[idx]
+        return ~binary_closed(good, n - good, votes_per_item=self.quota,
+                              max_votes_per_item=self.max_votes) & (n + claims[idx] < self.max_votes)
+
     def _best(self, idx, claims):
         good, n = self.good[idx], self.n[idx]
         bad, held = n - good, n + claims[idx]
-        ok = ~binary_closed(good, bad, votes_per_item=self.quota,
-                            max_votes_per_item=self.max_votes) & (held < self.max_votes)
+        ok = self._open(idx, claims)
         if not ok.any():
             return None
         u = gvf_uncertainty(good, bad)

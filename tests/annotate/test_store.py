@@ -15,7 +15,8 @@ from collections import Counter
 import numpy as np
 import pytest
 
-from annotate.assign import choose_next, make_plan
+from annotate.assign import make_plan
+from annotate.chooser import choose_next
 from annotate.store import Store
 from annotate.study import crop_path
 from data_schema.errors import InputError
