@@ -179,6 +179,10 @@ class Chooser:
                 n += 1
         return n
 
+    def votes_left(self, loads: dict[str, int], tests: list[str]) -> int:
+        """How many more test votes the study takes (``loads``: standing votes)."""
+        raise NotImplementedError
+
     def is_full(self, loads: dict[str, int], tests: list[str]) -> bool:
         """Whether a new rater would be given no test item (``loads``: standing votes)."""
         return self.test(list(tests), loads) is None
@@ -228,6 +232,9 @@ class UniformChooser(Chooser):
 
     def gold_open(self, key, loads):
         return loads.get(key, 0) < self.quota
+
+    def votes_left(self, loads, tests):
+        return sum(max(self.quota - loads.get(k, 0), 0) for k in tests)
 
 
 def gold_partners(tests: list[str], golds: list[str], *, seed: int) -> dict[str, str]:
@@ -280,6 +287,9 @@ class SampledChooser(Chooser):
 
     def test_room(self, open_keys, loads):
         return self.sampler.room(open_keys, loads)
+
+    def votes_left(self, loads, tests):
+        return self.sampler.votes_left(loads)
 
     def gold_open(self, key, loads):
         partner = self.partners.get(key)

@@ -242,15 +242,22 @@ def new_rater_ids(existing, raters: int) -> list[str]:
 
 
 def _check_room(study, raters: int) -> None:
-    """Refuse more simulated raters than the test votes the study still needs (each item
-    ``votes_per_item``): they would vote on nothing but training and gold."""
-    loads = study.store.item_loads()
-    room = sum(max(study.quota - loads.get(k, 0), 0) for k in study.keys("test"))
+    """Refuse more simulated raters than the test votes the study still takes (uniform: each
+    item ``votes_per_item``; active and adaptive: the sampler's budget left, adaptive at most
+    ``max_votes_per_item`` on each item it keeps open, :mod:`annotate.chooser`): they would
+    vote on nothing but training."""
+    chooser = study.chooser
+    chooser.refresh(study.store.history_after)
+    room = chooser.votes_left(study.store.item_loads(), study.keys("test"))
     if room < raters:
         sims = sum(r.startswith(SIM_PREFIX) for r in study.store.raters())
         need = (f"at most {room} more rater(s): the test items need {room} more votes"
                 if room else "a study whose test items still need votes")
-        raise InputError(param="raters", expected=f"{need} ({study.quota} per item; {sims} simulated "
+        cap = study.manifest.get("max_votes_per_item")
+        per = {"uniform": f"{study.quota} per item",
+               "active": f"{study.quota} per item on average",
+               "adaptive": f"{study.quota} per item on average, at most {cap}"}[study.sampling]
+        raise InputError(param="raters", expected=f"{need} ({per}; {sims} simulated "
                          "raters so far: build a new study, or one with more votes per item, to "
                          "simulate more)", got=raters)
 

@@ -230,6 +230,28 @@ class _Sampler:
             idx = np.array([self.pos[k] for k in open_keys], dtype=np.int64)
             return min(left, int(self._open(idx, claims).sum()))
 
+    def votes_left(self, loads: dict[str, int]) -> int:
+        """Test votes the sampler still hands out: the budget left (claims included), at
+        most what the open items can take (adaptive: up to ``max_votes_per_item`` each).
+
+        Parameters
+        ----------
+        loads : dict
+            Test key -> standing votes plus live claims.
+
+        Returns
+        -------
+        int
+        """
+        with self.lock:
+            claims = self._claims(loads)
+            left = max(int(self.budget - self.n.sum() - claims.sum()), 0)
+            return min(left, self._item_room(claims))
+
+    def _item_room(self, claims: np.ndarray) -> int:
+        """Votes the open test items can take in all (no per-item cap: the budget)."""
+        return int(self.budget)
+
     def _open(self, idx: np.ndarray, claims: np.ndarray) -> np.ndarray:
         """Which of the test items ``idx`` may still get a vote (all, unless a sampler closes some)."""
         return np.ones(len(idx), dtype=bool)
@@ -344,6 +366,11 @@ class BinarySampler(_Sampler):
         good, n = self.good[idx], self.n[idx]
         return ~binary_closed(good, n - good, votes_per_item=self.quota,
                               max_votes_per_item=self.max_votes) & (n + claims[idx] < self.max_votes)
+
+    def _item_room(self, claims):
+        idx = np.arange(len(self.keys), dtype=np.int64)
+        room = np.maximum(self.max_votes - self.n - claims, 0)
+        return int(room[self._open(idx, claims)].sum())
 
     def _best(self, idx, claims):
         good, n = self.good[idx], self.n[idx]

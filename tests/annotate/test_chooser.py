@@ -121,3 +121,47 @@ def test_gold_share_at_the_end_is_proportional_to_the_tests_had():
     assert ch.next(RaterState(plan, ["a"], {"a"}, full)) == "g1"
     assert ch.next(RaterState(plan, ["a", "g1"], {"a", "g1"}, full)) is None
     assert ch.next(RaterState(plan, [], set(), {**full, "a": 1})) is None  # no test: no gold
+
+
+def _test_votes(study) -> int:
+    loads = study.store.item_loads()
+    return sum(loads.get(k, 0) for k in study.keys("test"))
+
+
+def test_simulate_room_of_an_adaptive_study_is_its_budget_and_cap(tmp_path, inputs):
+    """Adaptive, cap = votes_per_item = 3: 4 raters spend the sampler's budget (items closed
+    early included), so a fifth would vote on no test item. The old check counted
+    ``votes_per_item`` less the votes of every item, closed ones too, and let it in."""
+    from data_schema.errors import InputError
+
+    scene, pairs = inputs["binary"]
+    study = load_study(build_study(tmp_path / "a", pairs, scene=str(scene), tracks=2,
+                                   frames_per_track=3, n_training=1, n_gold=1, n_repeats=1,
+                                   size=32, image_format="png", progress=False, votes_per_item=3,
+                                   sampling="adaptive"))
+    simulate(study, raters=4, seed=0, progress=False)
+    loads = study.store.item_loads()
+    assert sum(max(3 - loads.get(k, 0), 0) for k in study.keys("test")) > 0  # the old room
+    assert study.is_full()  # a new rater would get no test item
+    with pytest.raises(InputError, match="raters: expected a study whose test items still need votes"):
+        simulate(study, raters=1, seed=1, progress=False)
+
+
+def test_simulate_room_of_an_adaptive_study_counts_up_to_its_cap(tmp_path, inputs):
+    """Cap 5 above the quota 3: the room is the budget left (3 x 18 test votes in all), which
+    the old check, counting each item only up to 3, under-counted as items passed 3."""
+    from data_schema.errors import InputError
+
+    scene, pairs = inputs["binary"]
+    study = load_study(build_study(tmp_path / "a", pairs, scene=str(scene), tracks=2,
+                                   frames_per_track=3, n_training=1, n_gold=1, n_repeats=1,
+                                   size=32, image_format="png", progress=False, votes_per_item=3,
+                                   sampling="adaptive", max_votes_per_item=5))
+    simulate(study, raters=4, seed=0, progress=False)
+    budget = 3 * len(study.keys("test"))
+    left = budget - _test_votes(study)
+    assert left > 0
+    with pytest.raises(InputError, match=f"at most {left} more rater"):
+        simulate(study, raters=left + 1, seed=1, progress=False)
+    simulate(study, raters=left, seed=1, progress=False)
+    assert _test_votes(study) == budget
