@@ -455,7 +455,9 @@ class Store:
 
         A vote stands for this session while it is the item's latest vote or undo in the log
         (not undone, not replaced since). A session that cast no vote undoes nothing, so
-        opening the rater's link again cannot erase earlier work. The undo is logged.
+        opening the rater's link again cannot erase earlier work. The undo is logged, and
+        the item is the rater's claim again (a new lease of :data:`CLAIM_LEASE_S` from the
+        undo), so its slot is not handed to another rater while the rater votes again.
 
         >>> import tempfile, pathlib
         >>> s = Store(pathlib.Path(tempfile.mkdtemp()) / "votes.sqlite", "demo")
@@ -487,6 +489,10 @@ class Store:
             con.execute("INSERT INTO history (study, rater, item, action, vote, at, session) "
                         "VALUES (?, ?, ?, 'undo', NULL, ?, ?)",
                         (self.study, rater, item, utc_now_iso(), session))
+            # the item is the rater's open item again: its claim holds the slot (a new lease
+            # from the undo), so no other rater takes it past its quota or cap meanwhile
+            con.execute("UPDATE assignments SET active_at = ? WHERE study = ? AND rater = ? AND "
+                        "item = ?", (_clock(), self.study, rater, item))
         return item
 
     def votes(self, rater: str | None = None) -> pd.DataFrame:

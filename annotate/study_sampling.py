@@ -141,10 +141,16 @@ class _Sampler:
         self.standing: dict[tuple[str, str], tuple[int, int]] = {}   # (rater, key) -> (id, vote)
         self.n = np.zeros(len(self.keys), dtype=np.int64)             # standing votes per key
         self.watermark = 0
+        self.last_row: tuple | None = None  # the row at the watermark, as read
         self.lock = threading.RLock()
 
     def refresh(self, rows_after: Reader) -> None:
         """Read the store's history rows after the watermark and apply the test votes.
+
+        The row at the watermark is read again and compared with the one read before: a
+        store restored from a backup (or replaced) under a running server no longer has it,
+        and the sampler then forgets its state and reads the whole history again, so it
+        never keeps votes the store has lost, nor misses rows that took their ids.
 
         Parameters
         ----------
@@ -153,7 +159,12 @@ class _Sampler:
             with a larger id, in id order (:meth:`annotate.store.Store.history_after`).
         """
         with self.lock:
-            rows = rows_after(self.watermark)
+            rows = rows_after(max(self.watermark - 1, 0))
+            if self.watermark and (not rows or tuple(rows[0]) != self.last_row):
+                self._reset()  # the store was restored or replaced: read it again from the start
+                rows = rows_after(0)
+            elif self.watermark:
+                rows = rows[1:]
             for hid, rater, key, action, vote in rows:
                 i = self.pos.get(key)
                 if i is None or action not in ("vote", "undo"):
@@ -167,8 +178,14 @@ class _Sampler:
                     self.n[i] += 1
                     self._added(rater, key, i, int(vote))
             if rows:
-                self.watermark = int(rows[-1][0])
+                self.watermark, self.last_row = int(rows[-1][0]), tuple(rows[-1])
                 self._settle()
+
+    def _reset(self) -> None:
+        """Forget every vote read (the state of a sampler that has read nothing)."""
+        self.standing.clear()
+        self.n[:] = 0
+        self.watermark, self.last_row = 0, None
 
     def _removed(self, rater, key, i, vote) -> None:
         raise NotImplementedError
@@ -308,6 +325,10 @@ class PairwiseSampler(_Sampler):
     def _removed(self, rater, key, i, vote) -> None:
         self._replay = True  # assumed density filtering cannot take a vote out: replay
 
+    def _reset(self) -> None:
+        super()._reset()
+        self.post, self._gain, self._replay = pair_posterior(*self.shape), None, False
+
     def _settle(self) -> None:
         if not self._replay:
             return
@@ -361,6 +382,10 @@ class BinarySampler(_Sampler):
 
     def _removed(self, rater, key, i, vote) -> None:
         self.good[i] -= int(vote == 1)
+
+    def _reset(self) -> None:
+        super()._reset()
+        self.good[:] = 0
 
     def _open(self, idx, claims):
         good, n = self.good[idx], self.n[idx]
