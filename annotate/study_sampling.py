@@ -138,7 +138,8 @@ class _Sampler:
         self.keys = study.keys("test")
         self.pos = {k: i for i, k in enumerate(self.keys)}
         self.budget = study.quota * len(self.keys)
-        self.standing: dict[tuple[str, str], tuple[int, int]] = {}   # (rater, key) -> (id, vote)
+        # (rater, key) -> (history id, value): the vote, or what a sampler makes of it
+        self.standing: dict[tuple[str, str], tuple[int, float]] = {}
         self.n = np.zeros(len(self.keys), dtype=np.int64)             # standing votes per key
         self.watermark = 0
         self.last_row: tuple | None = None  # the row at the watermark, as read
@@ -174,9 +175,10 @@ class _Sampler:
                     self.n[i] -= 1
                     self._removed(rater, key, i, old[1])
                 if action == "vote":
-                    self.standing[(rater, key)] = (int(hid), int(vote))
+                    value = self._value(rater, key, int(vote))
+                    self.standing[(rater, key)] = (int(hid), value)
                     self.n[i] += 1
-                    self._added(rater, key, i, int(vote))
+                    self._added(rater, key, i, value)
             if rows:
                 self.watermark, self.last_row = int(rows[-1][0]), tuple(rows[-1])
                 self._settle()
@@ -186,6 +188,11 @@ class _Sampler:
         self.standing.clear()
         self.n[:] = 0
         self.watermark, self.last_row = 0, None
+
+    def _value(self, rater: str, key: str, vote: int):
+        """What the sampler keeps of a standing vote (the vote itself, unless a sampler says
+        otherwise): fixed when the vote is read, so no per-rater state is kept beside it."""
+        return vote
 
     def _removed(self, rater, key, i, vote) -> None:
         raise NotImplementedError
@@ -303,23 +310,23 @@ class PairwiseSampler(_Sampler):
         self.shape = (len(views), m)
         self.post = pair_posterior(*self.shape)
         self._plan = study.plan_for
-        self._sides: dict[str, dict] = {}
         self._gain: np.ndarray | None = None
         self._replay = False
 
-    def _score(self, rater: str, key: str, vote: int) -> float:
-        """The vote in A/B terms: 1 A closer, 0 B closer, 0.5 can't tell."""
+    def _value(self, rater: str, key: str, vote: int) -> float:
+        """The vote in A/B terms: 1 A closer, 0 B closer, 0.5 can't tell (the side A was
+        shown on comes from the rater's plan, through the study's bounded plan cache, once
+        per vote read: nothing per rater is kept here; issue 44: a dict of every rater's
+        sides grew by 0.54 MB a rater in each worker)."""
         if vote == 0:
             return 0.5
-        sides = self._sides.get(rater)
-        if sides is None:
-            sides = self._sides[rater] = self._plan(rater, register=False)["sides"]
-        return 1.0 if (vote == 1) == (sides[key] == "left") else 0.0
+        side = self._plan(rater, register=False)["sides"][key]
+        return 1.0 if (vote == 1) == (side == "left") else 0.0
 
-    def _added(self, rater, key, i, vote) -> None:
+    def _added(self, rater, key, i, score) -> None:
         if not self._replay:
             self.post = update_pairwise(self.post, int(self.view[i]), int(self.a[i]), int(self.b[i]),
-                                        self._score(rater, key, vote))
+                                        score)
         self._gain = None
 
     def _removed(self, rater, key, i, vote) -> None:
@@ -333,10 +340,10 @@ class PairwiseSampler(_Sampler):
         if not self._replay:
             return
         self.post = pair_posterior(*self.shape)
-        for (rater, key), (_hid, vote) in sorted(self.standing.items(), key=lambda kv: kv[1][0]):
+        for (_rater, key), (_hid, score) in sorted(self.standing.items(), key=lambda kv: kv[1][0]):
             i = self.pos[key]
             self.post = update_pairwise(self.post, int(self.view[i]), int(self.a[i]), int(self.b[i]),
-                                        self._score(rater, key, vote))
+                                        score)
         self._replay, self._gain = False, None
 
     def gains(self) -> np.ndarray:
