@@ -242,3 +242,38 @@ def test_a_replaced_database_is_written_through_a_new_connection(tmp_path):
     assert os.stat(tmp_path / "v.sqlite").st_ino != old_ino
     s.record_vote("bob", "b", 0)
     assert s.votes()[["rater", "item"]].values.tolist() == [["bob", "b"]]  # the new file's votes only
+
+
+def test_item_loads_read_from_the_counters_equal_a_recount(tmp_path):
+    """item_loads (the counters, what an arrival's is_full reads) equals recount_loads (a
+    COUNT over the votes) after random votes, changed votes, undos, skips and unassigned
+    votes, and after the counters are rebuilt for a file made before them."""
+    import sqlite3
+
+    store = Store(tmp_path / "v.sqlite", "s")
+    other = Store(tmp_path / "v.sqlite", "t")  # another study in the same file is not counted
+    items = [f"t{i}" for i in range(6)]
+    rng = np.random.default_rng(5)
+    for step in range(300):
+        r, key = f"r{int(rng.integers(8))}", items[int(rng.integers(len(items)))]
+        op = rng.random()
+        if op < 0.4:
+            got = store.next_item(r, lambda a, v, loads, key=key: key if key not in a else None)
+            if got is not None:
+                store.record_shown_vote(r, got, int(rng.integers(2)), session=r)
+        elif op < 0.6:
+            store.record_vote(r, key, int(rng.integers(2)))  # a change, or an unassigned vote
+        elif op < 0.8:
+            store.undo_last(r, session=r)
+        elif op < 0.9:
+            store.skip(r, key, reason="test")
+        else:
+            other.record_vote(r, key, 1)
+        if step % 50 == 0:
+            assert store.item_loads() == store.recount_loads()
+    assert store.item_loads() == store.recount_loads() and store.recount_loads()
+    with sqlite3.connect(tmp_path / "v.sqlite") as con:
+        by_hand = dict(con.execute("SELECT item, COUNT(*) FROM votes WHERE study = 's' GROUP BY item"))
+        con.executescript("DROP TABLE item_loads; DROP TRIGGER item_loads_assign;"
+                          "DROP TRIGGER item_loads_vote; DROP TRIGGER item_loads_unvote;")
+    assert Store(tmp_path / "v.sqlite", "s").item_loads() == by_hand
