@@ -19,7 +19,13 @@ Process rules (:func:`supervise`): the workers run in the caller's process group
 signal to the group stops everything; SIGTERM, SIGINT or SIGHUP to the supervisor is passed
 on to the workers and waited for; on Linux each worker also gets SIGTERM when the
 supervisor dies (``PR_SET_PDEATHSIG``), so not even a SIGKILL to the supervisor leaves a
-server behind; and when one worker exits, the others are stopped and its status returned.
+server behind. A worker that exits on its own after it had run for :data:`MIN_UPTIME_S` is
+started again on its port, at most :data:`MAX_RESTARTS` times in all, with one line on
+stderr each time (issue 44: one killed worker used to stop every other); the raters it
+served reconnect there (their votes are in the store: a vote is acknowledged only once it
+is committed, so none is lost). A worker that exits sooner (it could not start: a bad
+port, a broken study) or once the restarts are spent stops the others, with one line
+naming it, and its status is returned.
 """
 
 from __future__ import annotations
@@ -32,10 +38,14 @@ import sys
 import time
 from collections.abc import Sequence
 
-__all__ = ["worker_ports", "supervise", "STOP_SIGNALS"]
+__all__ = ["worker_ports", "supervise", "STOP_SIGNALS", "MAX_RESTARTS", "MIN_UPTIME_S"]
 
 #: Signals the supervisor passes on to its workers before it exits.
 STOP_SIGNALS = (signal.SIGTERM, signal.SIGINT, signal.SIGHUP)
+#: Restarts of exited workers, over all workers, before the supervisor gives up.
+MAX_RESTARTS = 5
+#: Seconds a worker must have run for its exit to be restarted (sooner: it cannot start).
+MIN_UPTIME_S = 5.0
 _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
 
 
@@ -70,9 +80,25 @@ def _die_with_parent(parent: int) -> None:
         os.kill(os.getpid(), signal.SIGTERM)
 
 
+def _status(rc: int) -> int:
+    """An exit status as a shell gives it: a signal ``S`` as ``128 + S``."""
+    return rc if rc >= 0 else 128 - rc
+
+
+def _how(rc: int) -> str:
+    if rc < 0:
+        try:
+            return f"was killed by {signal.Signals(-rc).name}"
+        except ValueError:
+            return f"was killed by signal {-rc}"
+    return f"exited with status {rc}"
+
+
 def supervise(argvs: Sequence[Sequence[str]], *, env: dict, poll_s: float = 0.2,
-              grace_s: float = 20.0) -> int:
-    """Run one process per argv until a stop signal or until one of them exits.
+              grace_s: float = 20.0, names: Sequence[str] | None = None,
+              max_restarts: int = MAX_RESTARTS, min_uptime_s: float = MIN_UPTIME_S) -> int:
+    """Run one process per argv until a stop signal, restarting one that exits (module
+    docstring).
 
     Parameters
     ----------
@@ -85,28 +111,53 @@ def supervise(argvs: Sequence[Sequence[str]], *, env: dict, poll_s: float = 0.2,
         How often the supervisor looks for an exited worker (seconds).
     grace_s : float, optional
         How long a stopped worker may take before it is killed (seconds).
+    names : sequence of str, optional
+        What the stderr lines call each worker (default ``worker 1``, ``worker 2``, ...).
+    max_restarts : int, optional
+        Restarts in all before an exit stops every worker.
+    min_uptime_s : float, optional
+        A worker that exits sooner after its start is not restarted.
 
     Returns
     -------
     int
-        0 after a stop signal (or when every worker ended with 0); else the exit status of
-        the first worker that ended (a signal ``S`` as ``128 + S``), the others stopped.
+        0 after a stop signal; else the exit status of the worker whose exit stopped the
+        others (a signal ``S`` as ``128 + S``).
     """
     parent = os.getpid()
+    names = list(names) if names is not None else [f"worker {i + 1}" for i in range(len(argvs))]
     stop: list[int] = []
     previous = {s: signal.signal(s, lambda signum, _frame: stop.append(signum)) for s in STOP_SIGNALS}
     procs: list[subprocess.Popen] = []
+    started: list[float] = []
+
+    def start(argv) -> subprocess.Popen:
+        return subprocess.Popen(list(argv), env=env, stdout=sys.stderr.fileno(),
+                                preexec_fn=lambda: _die_with_parent(parent))
+
     try:
         for argv in argvs:
-            procs.append(subprocess.Popen(list(argv), env=env, stdout=sys.stderr.fileno(),
-                                          preexec_fn=lambda: _die_with_parent(parent)))
-        status = None
+            procs.append(start(argv))
+            started.append(time.monotonic())
+        restarts, status = 0, None
         while not stop and status is None:
-            for p in procs:
+            for i, p in enumerate(procs):
                 rc = p.poll()
-                if rc is not None:
-                    status = rc if rc >= 0 else 128 - rc
-                    break
+                if rc is None or stop:
+                    continue
+                ran = time.monotonic() - started[i]
+                if ran >= min_uptime_s and restarts < max_restarts:
+                    restarts += 1
+                    print(f"annotate serve: {names[i]} {_how(rc)} after {ran:.0f} s; restarting "
+                          f"it (restart {restarts} of {max_restarts})", file=sys.stderr, flush=True)
+                    procs[i], started[i] = start(argvs[i]), time.monotonic()
+                    continue
+                why = (f"its restarts are spent: {max_restarts}" if ran >= min_uptime_s
+                       else f"within {min_uptime_s:g} s of its start")
+                print(f"annotate serve: {names[i]} {_how(rc)} ({why}); stopping every worker "
+                      f"(exit status {_status(rc)})", file=sys.stderr, flush=True)
+                status = _status(rc)
+                break
             else:
                 time.sleep(poll_s)
         return 0 if status is None else status

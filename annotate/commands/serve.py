@@ -16,7 +16,10 @@ the environment variable ``ANNOTATE_STUDY``. A port in use is refused up front, 
 an open-access study on an address others can reach (:func:`annotate.access.check_serving`).
 
 ``--workers K`` (K > 1) runs K such servers on the ports ``--port`` .. ``--port + K - 1``
-under a supervisor (:mod:`annotate.workers`: they stop with it and with its process group)
+under a supervisor (:mod:`annotate.workers`: they stop with it and with its process group;
+a worker that dies is started again on its port, at most ``MAX_RESTARTS`` times, each
+restart one line on stderr; past that, or when a worker cannot start, every worker stops
+with one line naming it and its exit status)
 and prints to stdout the configuration of a sticky reverse proxy (``--proxy``, nginx or
 Caddy, :mod:`annotate.proxy_conf`) that serves them all on ``--proxy-port``.
 
@@ -311,7 +314,8 @@ def serve_workers(study_root: Path, args, env: dict, *, loopback: bool) -> int:
     print(f"{args.workers} workers: " + ", ".join(base_url(args.host, p) for p in ports)
           + f"; one public port is the proxy's (configuration above, {args.proxy})",
           file=sys.stderr, flush=True)
-    return supervise([serve_command(study_root, host=args.host, port=p) for p in ports], env=env)
+    return supervise([serve_command(study_root, host=args.host, port=p) for p in ports], env=env,
+                     names=[f"the worker on port {p}" for p in ports])
 
 
 def run(args) -> int:
