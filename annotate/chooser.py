@@ -10,9 +10,10 @@ item is decided here, once: :meth:`Chooser.next` picks, in this order,
    item of the study's pool while its cap allows, :meth:`Chooser.gold_open`);
 3. a test item, while the rater has had fewer than the plan's ``max_tests``: the
    sampling's choice among the test items the rater has not had (:meth:`Chooser.test`);
-4. when no test item is left for the rater, the rater is done: only repeats whose original
-   it voted on are still shown; no more gold (issue 44: an adaptive study served 16 of 24
-   raters nothing but gold once its test items had closed, which marks them as gold).
+4. when no test item is left for the rater, the rater is done: still shown are the repeats
+   whose original it voted on, and gold only up to its plan's gold in proportion to the test
+   items it had (rounded up; none without a test item: issue 44, an adaptive study served 16
+   of 24 raters nothing but gold once its test items had closed, which marks them as gold).
    Plans made before the gold pool (no ``gold_quota``) still show every gold item.
 
 **The gold cap** (issue 38 item 31, issue 44 item 1). Counting the identities that saw an
@@ -174,8 +175,8 @@ class Chooser:
             if original is not None:
                 n += original in done or (more > 0 and original in open_set)
             elif not plan.get("gold_quota") or (self.gold_open(key, loads) and (
-                    after <= end or share > 0)):
-                share -= after > end
+                    after <= end or share > 0)):  # (specials are in the order they are due)
+                share -= 1
                 n += 1
         return n
 
