@@ -52,12 +52,12 @@ __all__ = ["Intrinsics", "StereoObject", "read_calibration", "read_disparity", "
 #: the fewest disparity points a cluster needs to become an object
 MIN_POINTS = 20
 #: a box's extent along the viewing axis (metres): a camera-facing plate
-THICKNESS_M = 0.01
+THICKNESS_M = 0.001
 #: a disparity PNG's value per pixel of disparity (uint16 PNG, 0 = none)
 DISPARITY_SCALE = 256.0
 #: how far inside the left box's edges its projected corners are placed (pixels), so that
 #: the pixel box ``nvrq pairs`` rounds them to is the left box itself
-_INSIDE_PX = 1e-3
+_INSIDE_PX = 0.05
 #: the scene's camera name
 CAMERA = "left"
 #: DBSCAN's neighbourhood radius (pixels) and the scales of its rows (LiDAR scan lines are far
