@@ -55,7 +55,7 @@ METHOD_COLUMN = "method"
 GT_METHOD = "gt"
 
 #: The reserved name of a real photograph used as a render (the right image of a rectified
-#: stereo pair, ``nvrq import stereo``, docs/FORMATS.md §13): a valid method of a scene, never
+#: stereo pair, ``nvrq import stereo``, docs/FORMATS.md §16): a valid method of a scene, never
 #: a synthetic method of ``nvrq synth --methods``.
 REAL_METHOD = "real"
 

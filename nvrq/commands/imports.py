@@ -136,7 +136,7 @@ IMPORTERS: list[ImporterCommand] = [
                     _stereo_inputs, "a rectified stereo pair: the right image as a real render (method real)",
                     "Import a rectified stereo pair: the left image is the GT, the right one the render at "
                     "y_offset_m = -B with method real; objects from the objects-only disparity (--disparity) "
-                    "or KITTI labels (docs/FORMATS.md section 13).", _stereo_options),
+                    "or KITTI labels (docs/FORMATS.md section 16).", _stereo_options),
 ]
 
 

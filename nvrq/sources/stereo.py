@@ -105,7 +105,7 @@ class StereoObject:
 
 
 def read_calibration(path: str | os.PathLike) -> Intrinsics:
-    """The rectified intrinsics from ``path``, one of three layouts (docs/FORMATS.md §13):
+    """The rectified intrinsics from ``path``, one of three layouts (docs/FORMATS.md §16):
 
     - JSON ``{"focal_length": [fx, fy], "principal_point": [cx, cy]}`` (the scene's pinhole fields);
     - Argoverse's ``vehicle_calibration_stereo_info.json``: the ``image_raw_stereo_front_left_rect``
