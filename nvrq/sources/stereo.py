@@ -45,7 +45,7 @@ from data_schema.errors import InputError, check_number
 from nvrq.sources.stereo_meta import MARGIN_PX, ROW_TOLERANCE_PX, UNKNOWN_CLASS
 
 __all__ = ["Intrinsics", "StereoObject", "read_calibration", "read_disparity", "row_offset", "cluster_objects",
-           "object_boxes", "object_tracks", "label_tracks", "read_stereo", "StereoImporter", "IMPORTER",
+           "object_boxes", "object_tracks", "label_tracks", "StereoOptions", "read_stereo", "StereoImporter", "IMPORTER",
            "MARGIN_PX", "MIN_POINTS", "ROW_TOLERANCE_PX", "THICKNESS_M", "DISPARITY_SCALE", "CAMERA",
            "UNKNOWN_CLASS"]
 
@@ -377,24 +377,19 @@ def label_tracks(calib_path: Path, labels_path: Path):
     return scene.tracks
 
 
-def read_stereo(left, right, *, calibration, baseline: float, out_name: str = "stereo", disparity=None,
-                labels=None, label_class: str = UNKNOWN_CLASS, margin: float = MARGIN_PX,
-                row_tolerance: float = ROW_TOLERANCE_PX):
-    """Read and check a rectified pair; nothing written (module docstring).
+@dataclass(frozen=True)
+class StereoOptions:
+    """How a pair is read (``nvrq import stereo``'s options, made once by the command or a caller).
 
-    Parameters
+    Attributes
     ----------
-    left, right : path
-        The rectified left (GT) and right (the ``real`` render) images.
     calibration : path
         :func:`read_calibration`.
     baseline : float
         Metres between the cameras (> 0).
-    out_name : str
-        The clip id (the output folder's name).
-    disparity : path, optional
+    disparity : path or None
         The objects-only disparity PNG of the left image (objects without ``labels``).
-    labels : path, optional
+    labels : path or None
         KITTI ``label_2`` boxes (``calibration`` then is the KITTI calib file).
     label_class : str
         The class of the boxes found in the disparity.
@@ -402,6 +397,29 @@ def read_stereo(left, right, *, calibration, baseline: float, out_name: str = "s
         :data:`MARGIN_PX`.
     row_tolerance : float
         :data:`ROW_TOLERANCE_PX`.
+    clip_id : str
+        The scene's clip id.
+    """
+
+    calibration: str | os.PathLike
+    baseline: float
+    disparity: str | os.PathLike | None = None
+    labels: str | os.PathLike | None = None
+    label_class: str = UNKNOWN_CLASS
+    margin: float = MARGIN_PX
+    row_tolerance: float = ROW_TOLERANCE_PX
+    clip_id: str = "stereo"
+
+
+def read_stereo(left, right, options: StereoOptions):
+    """Read and check a rectified pair; nothing written (module docstring).
+
+    Parameters
+    ----------
+    left, right : path
+        The rectified left (GT) and right (the ``real`` render) images.
+    options : StereoOptions
+        The calibration, baseline and the objects' source.
 
     Returns
     -------
@@ -413,8 +431,10 @@ def read_stereo(left, right, *, calibration, baseline: float, out_name: str = "s
     from data_schema.scene_writer import NewScene, SceneFrame
     from nvrq.sources.base import ImportedScene
 
-    baseline = check_number("baseline", baseline, low=0, low_open=True)
-    margin = check_number("margin", margin, low=0)
+    o = options
+    baseline = check_number("baseline", o.baseline, low=0, low_open=True)
+    margin = check_number("margin", o.margin, low=0)
+    calibration, disparity, labels = o.calibration, o.disparity, o.labels
     left, right = Path(left), Path(right)
     limg = _read_image(left, "the left image (JPEG or PNG)")
     rimg = _read_image(right, "the right image (JPEG or PNG)")
@@ -428,10 +448,10 @@ def read_stereo(left, right, *, calibration, baseline: float, out_name: str = "s
                          "(one of them)", got="both" if labels is not None else "neither")
     disp = None if disparity is None else read_disparity(disparity, size=(W, H))
     dy, n = row_offset(limg, rimg)
-    if not n or not dy <= row_tolerance:
+    if not n or not dy <= o.row_tolerance:
         raise InputError(right, None, f"a rectified pair: matching points on the same rows (median |dy| <= "
-                         f"{row_tolerance:g} px)", f"median |dy| {dy:.1f} px over {n} ORB matches")
-    notes = [f"rows of {n} matching points differ by median {dy:.1f} px (tolerance {row_tolerance:g})"]
+                         f"{o.row_tolerance:g} px)", f"median |dy| {dy:.1f} px over {n} ORB matches")
+    notes = [f"rows of {n} matching points differ by median {dy:.1f} px (tolerance {o.row_tolerance:g})"]
     if labels is not None:
         tracks = label_tracks(Path(calibration), Path(labels))
     else:
@@ -439,14 +459,14 @@ def read_stereo(left, right, *, calibration, baseline: float, out_name: str = "s
         inside = [o for o in objects if o.right_box[0] >= 0]
         if len(inside) < len(objects):
             notes.append(f"{len(objects) - len(inside)} of {len(objects)} objects leave the right image (dropped)")
-        tracks = object_tracks(inside, intr, baseline, label_class=label_class)
+        tracks = object_tracks(inside, intr, baseline, label_class=o.label_class)
     T = np.eye(4)
     T[:3, :3] = R_SENSOR_RIG
     model = {"type": "pinhole", "resolution": [W, H], "focal_length": [intr.fx, intr.fy],
              "principal_point": [intr.cx, intr.cy]}
     gt = f"images/left{left.suffix.lower()}"
     render = f"images/right{right.suffix.lower()}"
-    scene = NewScene(out_name, {CAMERA: CameraCalib(CAMERA, T, model)}, np.zeros(1, np.int64), np.eye(4)[None],
+    scene = NewScene(o.clip_id, {CAMERA: CameraCalib(CAMERA, T, model)}, np.zeros(1, np.int64), np.eye(4)[None],
                      tracks, [SceneFrame(CAMERA, 0, gt, left)], {"source": "stereo"})
     return ImportedScene(scene, np.array([[0.0, -baseline, 0, 0, 0, 0]]), notes=tuple(notes),
                          detail=f"stereo, baseline {baseline:g} m", render_path=lambda camera, t, view: render,
@@ -471,9 +491,9 @@ class StereoImporter:
         nvrq.sources.base.ImportedScene
         """
         name = Path(args.out).resolve().name.replace(":", "-") or "stereo"
-        return read_stereo(args.left, args.right, calibration=args.calibration, baseline=args.baseline,
-                           out_name=name, disparity=args.disparity, labels=args.labels,
-                           label_class=args.label_class, margin=args.margin, row_tolerance=args.row_tolerance)
+        return read_stereo(args.left, args.right, StereoOptions(
+            args.calibration, args.baseline, disparity=args.disparity, labels=args.labels,
+            label_class=args.label_class, margin=args.margin, row_tolerance=args.row_tolerance, clip_id=name))
 
 
 #: The importer of ``nvrq import stereo``.
