@@ -86,7 +86,7 @@ def read_floor_pairs(pairs_path, metrics_paths) -> pd.DataFrame:
     missing = [c for c in _NEEDED if c not in pairs.columns]
     if missing:
         raise InputError(pairs_path, f"column {missing[0]!r}", "a pairs table of nvrq pairs (boxes, paths, "
-                         "scene_root) for --real-floor", "no such column")
+                         "scene_root) for the floor", "no such column")
     pairs = pairs.assign(**{METHOD_COLUMN: method_values(pairs)})
     for path in metrics_paths:
         m = _read_any(path)
@@ -231,7 +231,7 @@ def real_floor(pairs: pd.DataFrame, metrics, directions: dict, *, shifts=SHIFTS_
     method = pairs[METHOD_COLUMN].astype(str)
     real = pairs[method == REAL_METHOD]
     if real.empty:
-        raise InputError(param="real-floor", expected="pairs of method real (nvrq import stereo) in --pairs",
+        raise InputError(param="pairs", expected="pairs of method real (`nvrq import stereo`) for the floor",
                          got="none")
     focal: dict = {}
     angle = view_angles(pairs, focal=focal)

@@ -444,8 +444,8 @@ def read_stereo(left, right, options: StereoOptions):
                          f"{rimg.shape[1]}x{rimg.shape[0]}")
     intr = read_calibration(calibration)
     if (disparity is None) == (labels is None):
-        raise InputError(param="disparity", expected="the objects' source: --disparity PNG or --labels FILE "
-                         "(one of them)", got="both" if labels is not None else "neither")
+        raise InputError(param="disparity", expected="the objects' source: `disparity` (a PNG) or `labels` "
+                         "(a KITTI label file), one of them", got="both" if labels is not None else "neither")
     disp = None if disparity is None else read_disparity(disparity, size=(W, H))
     dy, n = row_offset(limg, rimg)
     if not n or not dy <= o.row_tolerance:
