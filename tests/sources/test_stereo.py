@@ -161,3 +161,20 @@ def test_argoverse_scores_equal_crops_cut_by_hand(argoverse):
     np.testing.assert_allclose(got["psnr"].to_numpy(), want["psnr"].to_numpy(), rtol=1e-9)
     col = "nvrq_ca:efficientnet-lite0"
     np.testing.assert_allclose(got[col].to_numpy(), want[col].to_numpy(), atol=1e-6)
+
+
+def test_kitti_labels_give_the_boxes(tmp_path):
+    # a KITTI label_2 car (bottom centre x=-1, y=1, z=5 m, h w l = 1.5 1.6 0.2, rotation_y = -90 deg:
+    # its length along the camera's z) and P2 = K [I | 0]: the box centre projects to
+    # u = 160 + 300 * -1 / 5 = 100 in the left image and moves fx B / Z = 30 px left in the right one
+    paths = write_pair(tmp_path / "in")
+    (tmp_path / "calib.txt").write_text("P2: 300 0 160 0 0 300 120 0 0 0 1 0\n")
+    (tmp_path / "label.txt").write_text("Car 0 0 0 0 0 0 0 1.5 1.6 0.2 -1.0 1.0 5.0 -1.5707963\n")
+    argv = ["import", "stereo", str(paths["left"]), str(paths["right"]), "--calibration", str(tmp_path / "calib.txt"),
+            "--baseline", str(BASELINE), "--labels", str(tmp_path / "label.txt"), str(tmp_path / "scene")]
+    assert main(argv) == 0
+    assert main(["pairs", str(tmp_path / "scene"), "--out", str(tmp_path / "pairs.csv"), "--quiet"]) == 0
+    (r,) = pd.read_csv(tmp_path / "pairs.csv").itertuples()
+    assert r.label_class == "automobile" and r.method == "real"
+    assert (r.gt_x0 + r.gt_x1) / 2 == pytest.approx(100, abs=1)
+    assert ((r.gt_x0 + r.gt_x1) - (r.r_x0 + r.r_x1)) / 2 == pytest.approx(30, abs=1)
