@@ -9,7 +9,7 @@ __all__ = ["MARGIN_PX", "ROW_TOLERANCE_PX", "UNKNOWN_CLASS"]
 #: distance of a cluster's disparities from their median before it is split
 MARGIN_PX = 6
 #: the largest median |v_left - v_right| (pixels) of matching points of a rectified pair. The
-#: Argoverse sample's pair measures 5.2 px (its rows drift by about 8.2 - 0.0052 v px), so the
+#: Argoverse sample's pair measures 5.5 px (its rows drift by about 8.2 - 0.0052 v px), so the
 #: default is loose; KITTI pairs measure below 1 px
 ROW_TOLERANCE_PX = 8.0
 #: the class of a box found in the disparity
