@@ -188,6 +188,14 @@ def _horizon_options(p: ArgumentParser) -> None:
                    help="with --horizon: the timeline's window in seconds (default 2)")
 
 
+def _floor_options(p: ArgumentParser) -> None:
+    """The viewpoint floor on real photographs (analysis.real_floor)."""
+    p.add_argument("--real-floor", action="store_true",
+                   help="with --pairs: each metric on the real pairs (nvrq import stereo) beside the GT crop "
+                   "moved 5, 10, 20 px and the other methods' renders at the matched viewing angle: "
+                   "floor.csv and a section of the report (docs/FORMATS.md §16)")
+
+
 #: The options that need --horizon (argparse dests).
 HORIZON_DESTS = ("metric", "threshold", "share", "good_prob", "window_s")
 
@@ -200,7 +208,7 @@ def _output_options(p: ArgumentParser) -> None:
 
 #: The option groups of ``analyze``, in the order ``analyze --help`` lists them.
 OPTION_GROUPS = (_input_options, _rater_options, _cost_options, _statistics_options, _methods_options,
-                 _horizon_options, _output_options)
+                 _horizon_options, _floor_options, _output_options)
 
 #: Library parameter names that differ from this CLI's argparse dests.
 _ALIASES = {"n_boot": "bootstrap", "metrics_paths": "metrics_tables", "timing_paths": "timing",
@@ -213,7 +221,7 @@ _ALIASES = {"n_boot": "bootstrap", "metrics_paths": "metrics_tables", "timing_pa
 NOT_FOR = {
     "pairwise votes": (("target", "stability", "aggregate", "timing", "compare_methods", "methods",
                         "leaderboard_metric", "leaderboard_view", "by", "min_clusters",
-                        "rank_by", "margin", "horizon", *HORIZON_DESTS),
+                        "rank_by", "margin", "horizon", *HORIZON_DESTS, "real_floor"),
                        "they rank methods by Bradley-Terry and metrics by 2AFC agreement"),
     "--pairs": (("exclude_raters", "no_screen", "screen", "stability", "aggregate", "good_prob"),
                 "there are no votes: no raters to screen, labels to aggregate or P(good) to fit"),
@@ -306,6 +314,9 @@ def _analyze(args) -> int:
         raise InputError("--methods/--leaderboard-metric/--leaderboard-view/--by/--min-clusters/--sets",
                          None, "--compare-methods with them", "none")
     _check_horizon(args)
+    if args.real_floor and args.pairs is None and not is_pairwise(args.ratings):
+        raise InputError("--real-floor", None, "--pairs PAIRS with it (the floor needs the boxes and images "
+                         "of the real pairs)", args.ratings)
     if args.ratings is not None and is_pairwise(args.ratings):
         _check_applies(args, "pairwise votes", args.ratings)
         return _run_pairwise(args)
@@ -321,6 +332,8 @@ def _analyze(args) -> int:
                                            what="score-sets table")
     if args.horizon:
         analysis.horizon = _horizon(args, analysis)
+    if args.real_floor:
+        analysis.floor = _floor(args, analysis)
     out = write_report(analysis, args.out)  # then the terminal: an error stays one line
     if args.pairs is None:
         _print_screening(analysis.raters, applied=analysis.screen)
@@ -328,6 +341,11 @@ def _analyze(args) -> int:
         _print_summary(analysis)
     if analysis.methods is not None:
         _print(leaderboard_display(analysis.methods), f"methods by {analysis.methods.rank_metric}")
+    if getattr(analysis, "floor", None) is not None:
+        from analysis.real_floor import floor_display, floor_sentence
+
+        _print(floor_display(analysis.floor), "viewpoint floor on real photographs", left=("row",))
+        print(floor_sentence(analysis.floor))
     print(f"report: {out / 'report.html'}", file=sys.stderr)
     return 0
 
@@ -379,15 +397,26 @@ def _check_horizon(args) -> None:
 
 
 def _run_pairs(args):
-    """``analyze --pairs``: the all-pairs analysis, or with --horizon alone the horizon's only."""
-    if args.horizon and args.target is None and not args.compare_methods:
+    """``analyze --pairs``: the all-pairs analysis, or with --horizon or --real-floor alone theirs only."""
+    if (args.horizon or args.real_floor) and args.target is None and not args.compare_methods:
         from analysis.horizon import horizon_only_analysis
 
-        return horizon_only_analysis(args.pairs, args.metrics_tables, lower=args.lower_better,
-                                     higher=args.higher_better, progress=show_progress(args))
+        analysis = horizon_only_analysis(args.pairs, args.metrics_tables, lower=args.lower_better,
+                                         higher=args.higher_better, progress=show_progress(args))
+        if not args.horizon:
+            analysis.notes[0] = analysis.notes[0].replace("the trust horizon only", "the viewpoint floor only")
+        return analysis
     from analysis.all_pairs import run_pairs_analysis
 
     return run_pairs_analysis(args.pairs, options_from_args(args))
+
+
+def _floor(args, analysis):
+    """The viewpoint floor of the real pairs (analysis.real_floor)."""
+    from analysis.real_floor import read_floor_pairs, real_floor
+
+    pairs = read_floor_pairs(args.pairs, args.metrics_tables)
+    return real_floor(pairs, analysis.metrics, analysis.directions)
 
 
 def _horizon(args, analysis):

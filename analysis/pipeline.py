@@ -104,6 +104,8 @@ class Analysis:
         The leaderboard with ``--compare-methods``, or None.
     horizon : analysis.horizon.HorizonResult or None
         The ``--horizon`` result, or None.
+    floor : analysis.real_floor.FloorResult or None
+        The ``--real-floor`` result, or None.
     """
 
     ratings_path: str
@@ -136,6 +138,7 @@ class Analysis:
     margin: float = DEFAULT_MARGIN  # non-inferiority margin (analysis.noninferiority)
     methods: MethodsResult | None = None  # the leaderboard with compare_methods
     horizon: object | None = None  # analyze --horizon: an analysis.horizon.HorizonResult
+    floor: object | None = None  # analyze --real-floor: an analysis.real_floor.FloorResult
 
 
 def read_timing(paths) -> pd.DataFrame | None:

@@ -21,7 +21,7 @@ import pandas as pd
 from jinja2 import Environment, FileSystemLoader
 from markupsafe import Markup
 
-from analysis import horizon_report, methods_report, plots
+from analysis import horizon_report, methods_report, plots, real_floor
 from analysis.axes import axis_tent_plots
 from analysis.noninferiority import recommend_from_tables
 from analysis.pipeline import Analysis
@@ -464,8 +464,11 @@ def _build(a: Analysis, d: Path) -> None:
     figs = _figures(a, d, t["target_label"])
     horizon = getattr(a, "horizon", None)  # analyze --horizon (analysis.horizon_report)
     hfigs = horizon_report.write_horizon(horizon, d) if horizon is not None else []
+    floor = getattr(a, "floor", None)  # analyze --real-floor (analysis.real_floor)
+    real_floor.write_floor(floor, d)
     render_pages(d, "report", lambda table: {**_context(a, t, figs, table=table),
-                                             **horizon_report.context(horizon, hfigs, table)})
+                                             **horizon_report.context(horizon, hfigs, table),
+                                             **real_floor.context(floor, table)})
 
 
 def write_report(a: Analysis, out_dir) -> Path:

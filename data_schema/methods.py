@@ -44,7 +44,7 @@ import pandas as pd
 from data_schema.errors import InputError
 from data_schema.text import comma_list
 
-__all__ = ["METHOD_COLUMN", "GT_METHOD", "check_method_name", "method_values", "table_methods", "method_columns",
+__all__ = ["METHOD_COLUMN", "GT_METHOD", "REAL_METHOD", "check_method_name", "method_values", "table_methods", "method_columns",
            "method_suffix", "parse_methods", "check_method_scales", "check_table_methods"]
 
 #: The optional column naming the reconstruction method of a render (empty: none).
@@ -53,6 +53,11 @@ METHOD_COLUMN = "method"
 #: The reserved name of the GT crop where a method is expected (``method_a`` of a pairwise
 #: study's gold items, docs/FORMATS.md §12): never a method's name.
 GT_METHOD = "gt"
+
+#: The reserved name of a real photograph used as a render (the right image of a rectified
+#: stereo pair, ``nvrq import stereo``, docs/FORMATS.md §16): a valid method of a scene, never
+#: a synthetic method of ``nvrq synth --methods``.
+REAL_METHOD = "real"
 
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 #: read as missing values by CSV readers, and the GT crop's name
@@ -302,6 +307,9 @@ def check_method_scales(methods, *, option: str = "methods") -> list[tuple[str, 
             and math.isfinite(scale) and scale >= 0
         if not ok:
             raise InputError(param=option, field=name, expected="a finite scale >= 0 after ':'", got=scale)
+        if name == REAL_METHOD:
+            raise InputError(param=option, field=name, expected="a method name other than 'real' (reserved "
+                             "for real photographs, nvrq import stereo)", got=name)
         if name in seen:
             raise InputError(param=option, field=name, expected="each method name once", got="again")
         seen.add(name)

@@ -191,7 +191,7 @@ def _place(src: Path, dst: Path, *, link: bool, where: Path) -> None:
                          exc.strerror or type(exc).__name__) from None
 
 
-def write_scene(scene: NewScene, out, *, images: pd.DataFrame, link: bool = False) -> Path:
+def write_scene(scene: NewScene, out, *, images: pd.DataFrame, link: bool = False, files=None) -> Path:
     """Check ``scene`` and ``images``, then write the scene folder ``out`` whole and atomically.
 
     Parameters
@@ -204,6 +204,9 @@ def write_scene(scene: NewScene, out, *, images: pd.DataFrame, link: bool = Fals
         The ``images.csv`` rows (:func:`scene_images`); every frame's ``path`` among them.
     link : bool
         Absolute symbolic links to the frames' files instead of copies.
+    files : dict of str to path, optional
+        More files to place as the frames' are: path in the scene (listed in ``images``) -> the
+        existing file (e.g. a real photograph used as a render).
 
     Returns
     -------
@@ -219,9 +222,15 @@ def write_scene(scene: NewScene, out, *, images: pd.DataFrame, link: bool = Fals
     """
     out = Path(out)
     doc = _check(scene, images, out)
+    files = dict(files or {})
+    listed = set(images.path)
+    for rel, src in files.items():
+        if rel not in listed or not Path(src).is_file():
+            raise InputError(src, None, f"an existing file listed in images.csv as {rel}",
+                             "no such file" if rel in listed else "not listed")
     with atomic_folder(out) as tmp:
-        for f in scene.frames:
-            if f.file is not None and not (tmp / f.path).exists():  # one file can back several rows
-                _place(Path(f.file), tmp / f.path, link=link, where=out / f.path)
+        for rel, src in [*((f.path, f.file) for f in scene.frames), *files.items()]:
+            if src is not None and not (tmp / rel).exists():  # one file can back several rows
+                _place(Path(src), tmp / rel, link=link, where=out / rel)
         save_scene(doc, images, tmp)
     return out

@@ -91,6 +91,33 @@ def _drivestudio_options(d) -> None:
     d.add_argument("--copy", action="store_true", help="copy the GT images (default: symbolic links)")
 
 
+def _stereo_inputs(p) -> None:
+    p.add_argument("left", help="rectified left image (the GT image)")
+    p.add_argument("right", help="rectified right image (the render, method real)")
+
+
+def _stereo_options(p) -> None:
+    from nvrq.sources.stereo_meta import MARGIN_PX, ROW_TOLERANCE_PX, UNKNOWN_CLASS
+
+    p.add_argument("--calibration", required=True, metavar="FILE",
+                   help="intrinsics: JSON {focal_length, principal_point}, Argoverse's "
+                   "vehicle_calibration_stereo_info.json or a KITTI calib .txt (P2)")
+    p.add_argument("--baseline", required=True, type=number_arg(low=0, low_open=True), metavar="B",
+                   help="metres from the left to the right camera (> 0); the render is at y_offset_m = -B")
+    p.add_argument("--disparity", default=None, metavar="PNG",
+                   help="objects-only disparity of the left image (uint16 PNG, value/256 px, 0 = none): "
+                   "objects are its clusters")
+    p.add_argument("--labels", default=None, metavar="FILE",
+                   help="instead of --disparity: KITTI label_2 boxes (--calibration then is the KITTI calib)")
+    p.add_argument("--label-class", default=UNKNOWN_CLASS, metavar="NAME",
+                   help=f"class of the objects found in the disparity (default {UNKNOWN_CLASS})")
+    p.add_argument("--margin", type=number_arg(low=0), default=MARGIN_PX, metavar="PX",
+                   help=f"pixels added around each cluster's points (default {MARGIN_PX})")
+    p.add_argument("--row-tolerance", type=number_arg(low=0), default=ROW_TOLERANCE_PX, metavar="PX",
+                   help="largest median row difference of matching points of a rectified pair "
+                   f"(default {ROW_TOLERANCE_PX:g})")
+
+
 #: The scene importers, in the order ``nvrq import --help`` lists them.
 IMPORTERS: list[ImporterCommand] = [
     ImporterCommand("nurec", "nvrq.sources.nurec", ("archive", "clip_attributes"), _nurec_inputs,
@@ -105,6 +132,11 @@ IMPORTERS: list[ImporterCommand] = [
                     "Import a drivestudio processed scene (images/, intrinsics/, extrinsics/, ego_pose/, "
                     "instances/; docs/FORMATS.md section 13): the GT images are linked (--copy copies them), "
                     "images.csv lists the renders to produce.", _drivestudio_options),
+    ImporterCommand("stereo", "nvrq.sources.stereo", ("left", "right", "calibration", "disparity", "labels"),
+                    _stereo_inputs, "a rectified stereo pair: the right image as a real render (method real)",
+                    "Import a rectified stereo pair: the left image is the GT, the right one the render at "
+                    "y_offset_m = -B with method real; objects from the objects-only disparity (--disparity) "
+                    "or KITTI labels (docs/FORMATS.md section 16).", _stereo_options),
 ]
 
 

@@ -18,12 +18,13 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from data_schema.methods import METHOD_COLUMN
 from data_schema.scene_writer import NewScene, scene_images, write_scene
 from data_schema.text import plural
 from nvrq.render_plans import default_image_path
@@ -56,7 +57,9 @@ class ImportedScene:
     """What an importer returns: the ``scene``, the ``views (K, 6)`` to plan (rig frame, metres and
     degrees), whether its frames are ``link``-ed rather than copied, one-line ``notes`` for the
     user, a ``detail`` for the closing line (e.g. the dataset) and, when the renders are not at
-    :func:`plan_render_path`, the ``render_path(camera, timestamp_us, view)`` to list them at.
+    :func:`plan_render_path`, the ``render_path(camera, timestamp_us, view)`` to list them at;
+    ``method`` names the method of every render row (``''``: none) and ``render_files`` maps
+    render paths to the files that exist already (copied into the scene).
 
     Attributes
     ----------
@@ -73,6 +76,11 @@ class ImportedScene:
     render_path : callable or None
         ``render_path(camera, timestamp_us, view)`` when the renders are not at
         :func:`plan_render_path`; None otherwise.
+    method : str
+        The ``method`` of every render row (``''``: no method column).
+    render_files : dict of str to Path
+        Render path in the scene -> the existing file written there (default: none, the renders
+        are to be produced).
     """
 
     scene: NewScene
@@ -81,6 +89,8 @@ class ImportedScene:
     notes: tuple[str, ...] = ()
     detail: str = ""
     render_path: Callable | None = None
+    method: str = ""
+    render_files: dict = field(default_factory=dict)
 
 
 @runtime_checkable
@@ -121,7 +131,9 @@ def write_imported(imported: ImportedScene, out: str | os.PathLike) -> Path:
         ``out``.
     """
     images = scene_images(imported.scene, imported.views, imported.render_path or plan_render_path)
-    return write_scene(imported.scene, out, images=images, link=imported.link)
+    if imported.method:
+        images[METHOD_COLUMN] = np.where(images["source"] == "render", imported.method, "")
+    return write_scene(imported.scene, out, images=images, link=imported.link, files=imported.render_files)
 
 
 def describe(imported: ImportedScene) -> str:

@@ -733,6 +733,24 @@ def _(world, tmp):
     return "nvrq", ["import", "drivestudio", str(tmp / "ds"), str(tmp / "ds")], ["OUT", "not an input"]
 
 
+def _stereo_case(name, fragments, *, baseline=0.5, **layout):
+    """``nvrq import stereo`` of a synthetic pair (tests/sources/stereo_layout.py) broken by ``layout``."""
+    @case("inputs", f"import stereo {name}")
+    def _c(world, tmp):
+        from tests.sources.stereo_layout import import_argv, write_pair
+
+        return "nvrq", import_argv(write_pair(tmp / "in", **layout), tmp / "out", baseline=baseline), fragments
+
+
+_stereo_case("images of different sizes", ["right.png", "left image's size 320x240", "got 300x240"],
+             right_size=(300, 240))
+_stereo_case("disparity of another size", ["disparity.png", "disparity map of the left image's size", "160x120"],
+             disparity_size=(160, 120))
+_stereo_case("pair not rectified", ["right.png", "a rectified pair", "median |dy| 12.0 px"], right_dy=12)
+_stereo_case("baseline zero", ["--baseline", "positive number"], baseline=0)
+_stereo_case("baseline negative", ["--baseline", "positive number"], baseline=-0.3)
+
+
 def _synth_with_renders(tmp: Path) -> Path:
     from nvrq.cli import main
 
