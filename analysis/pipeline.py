@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis import axes, breakdowns
+from analysis import axes, breakdowns, within_view
 from analysis.aggregate import aggregate
 from analysis.ceiling import noise_ceiling, vote_matrix
 from analysis.inputs import classify_columns, drop_empty_columns, read_metrics, read_ratings
@@ -31,7 +31,7 @@ from data_schema.errors import InputError, check_number
 from data_schema.tables import TIMING_COLUMNS, read_table, timing_path
 
 __all__ = ["Analysis", "run_analysis", "read_timing", "find_timing_files", "read_stability",
-           "boot_size", "BOOT_CELL_LIMIT"]
+           "boot_size", "BOOT_CELL_LIMIT", "with_view_statistics"]
 
 #: Above this many item-replicates (items x --bootstrap) the bootstrap is skipped, with a
 #: note in the report (the point estimates are still exact; CIs would take too long).
@@ -136,6 +136,42 @@ class Analysis:
     margin: float = DEFAULT_MARGIN  # non-inferiority margin (analysis.noninferiority)
     methods: MethodsResult | None = None  # the leaderboard with compare_methods
     horizon: object | None = None  # analyze --horizon: an analysis.horizon.HorizonResult
+    view_text: str | None = None  # the view-only / within-view sentence (analysis.within_view)
+    visibility: pd.DataFrame | None = None  # per gt_visible x novel_visible bin (within_view)
+
+
+def with_view_statistics(a: Analysis, *, clusters: np.ndarray) -> Analysis:
+    """``a`` with the within-view columns and the view-only rows in its summary, the headline
+    sentence and the visibility table (:mod:`analysis.within_view`).
+
+    Parameters
+    ----------
+    a : Analysis
+        A finished analysis (its summary ranks the metrics against ``a.target``).
+    clusters : (n_items,) int numpy.ndarray
+        Track index of each item, as the summary's bootstrap used.
+
+    Returns
+    -------
+    Analysis
+        A copy with ``summary``, ``view_text``, ``visibility`` (and a note) filled.
+    """
+    if a.target is None or len(a.summary) == 0:
+        return a
+    from analysis.summary import binary_label
+
+    label, _ = binary_label(a.items, a.target)
+
+    def summarize(frame, cols, dirs):
+        return summary_table(frame, cols, dirs, SummaryOptions(
+            target=a.target, n_boot=a.n_boot, seed=a.seed, rank_by=a.rank_by), clusters=clusters)
+
+    summary, text, vis, note = within_view.extend_summary(
+        a.summary, a.items, a.directions, target=a.target, label=label, clusters=clusters,
+        n_boot=a.n_boot, seed=a.seed, rank_by=a.rank_by, summarize=summarize)
+    items = a.items.assign(**within_view.view_only_columns(a.items))  # the rows' scores (ROC plot)
+    return replace(a, summary=summary, items=items, view_text=text, visibility=vis,
+                   notes=a.notes + ([note] if note else []))
 
 
 def read_timing(paths) -> pd.DataFrame | None:
@@ -428,7 +464,7 @@ def run_analysis(ratings_path, options: AnalysisOptions | None = None, **keyword
     notes += [skipped] if skipped else []
     categories = breakdowns.category_table(items, metrics, by=by_cols, target=tgt, progress=o.progress)
     by_offset, by_axis = axes.view_tables(items, [tgt] + metrics, by="label_class")
-    return Analysis(
+    return with_view_statistics(Analysis(
         ratings_path=str(ratings_path), target=tgt, items=items, metrics=metrics,
         directions=directions, attributes=attributes, proxies=proxies, summary=summary,
         categories=categories, by_offset=by_offset, by_axis=by_axis,
@@ -444,4 +480,4 @@ def run_analysis(ratings_path, options: AnalysisOptions | None = None, **keyword
                              options=replace(o.compare, n_boot=n_boot, seed=o.seed, progress=o.progress),
                              where=ratings_path, metrics_paths=o.metrics_paths)
         if o.compare is not None else None,
-    )
+    ), clusters=clusters)

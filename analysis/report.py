@@ -44,6 +44,9 @@ _DISPLAY = [
     "srcc",
     "krcc",
     "roc_auc",
+    "within plcc",
+    "within srcc",
+    "within roc_auc",
     "plcc_logistic",
     "srcc / ceiling",
     "vs best",
@@ -105,13 +108,16 @@ def summary_display(a: Analysis, *, with_ci: bool = True) -> pd.DataFrame:
                 "srcc": ci(r, "srcc"),
                 "krcc": _fmt(r["krcc"]),
                 "roc_auc": ci(r, "roc_auc"),
+                **{f"within {k}": ci(r, f"within_{k}") if f"within_{k}" in r else ""
+                   for k in ("plcc", "srcc", "roc_auc")},
                 "plcc_logistic": _fmt(r["plcc_logistic"]),
                 "srcc / ceiling": _of_ceiling(r),
                 "vs best": vs,
                 "reason": r["reason"] if isinstance(r["reason"], str) else "",
             }
         )
-    cols = _DISPLAY if with_ci else [c for c in _DISPLAY if c != "srcc / ceiling"]
+    terse = ("srcc / ceiling", "within plcc", "within roc_auc", "plcc_logistic", "krcc")
+    cols = _DISPLAY if with_ci else [c for c in _DISPLAY if c not in terse]
     return pd.DataFrame(rows, columns=_DISPLAY)[cols]
 
 
@@ -258,7 +264,8 @@ def _texts(a: Analysis) -> dict:
     notes = list(a.notes)
     if a.proxies:
         notes.append("proxy columns (use --target): " + ", ".join(a.proxies))
-    return {"best_text": _best_text(a), "method_text": _method_text(a, tl), "target_label": tl,
+    best = _best_text(a) if a.view_text is None else a.view_text + " " + _best_text(a)
+    return {"best_text": best, "method_text": _method_text(a, tl), "target_label": tl,
             "notes": notes, "order_text": ORDER_TEXT[a.source], **_rater_texts(a),
             **_label_texts(a)}
 
