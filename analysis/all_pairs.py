@@ -37,7 +37,13 @@ from analysis import axes, breakdowns
 from analysis.inputs import NON_METRIC_COLUMNS, classify_columns, drop_empty_columns
 from analysis.methods import for_analysis
 from analysis.options import AnalysisOptions, SummaryOptions, analysis_options
-from analysis.pipeline import Analysis, boot_size, find_timing_files, read_timing, with_view_statistics
+from analysis.pipeline import (
+    Analysis,
+    boot_size,
+    find_timing_files,
+    read_timing,
+    with_view_statistics,
+)
 from analysis.summary import summary_table
 from data_schema import datasets as ds
 from data_schema.errors import InputError, check_number

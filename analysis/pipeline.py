@@ -138,6 +138,7 @@ class Analysis:
     horizon: object | None = None  # analyze --horizon: an analysis.horizon.HorizonResult
     view_text: str | None = None  # the view-only / within-view sentence (analysis.within_view)
     visibility: pd.DataFrame | None = None  # per gt_visible x novel_visible bin (within_view)
+    visibility_note: str | None = None  # why there is no visibility table
 
 
 def with_view_statistics(a: Analysis, *, clusters: np.ndarray) -> Analysis:
@@ -154,7 +155,8 @@ def with_view_statistics(a: Analysis, *, clusters: np.ndarray) -> Analysis:
     Returns
     -------
     Analysis
-        A copy with ``summary``, ``view_text``, ``visibility`` (and a note) filled.
+        A copy with ``summary``, ``items`` (plus the view-only columns), ``view_text`` and
+        ``visibility`` or ``visibility_note`` filled.
     """
     if a.target is None or len(a.summary) == 0:
         return a
@@ -171,7 +173,7 @@ def with_view_statistics(a: Analysis, *, clusters: np.ndarray) -> Analysis:
         n_boot=a.n_boot, seed=a.seed, rank_by=a.rank_by, summarize=summarize)
     items = a.items.assign(**within_view.view_only_columns(a.items))  # the rows' scores (ROC plot)
     return replace(a, summary=summary, items=items, view_text=text, visibility=vis,
-                   notes=a.notes + ([note] if note else []))
+                   visibility_note=note)
 
 
 def read_timing(paths) -> pd.DataFrame | None:

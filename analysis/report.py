@@ -264,6 +264,8 @@ def _texts(a: Analysis) -> dict:
     notes = list(a.notes)
     if a.proxies:
         notes.append("proxy columns (use --target): " + ", ".join(a.proxies))
+    if a.visibility_note:
+        notes.append(a.visibility_note)
     best = _best_text(a) if a.view_text is None else a.view_text + " " + _best_text(a)
     return {"best_text": best, "method_text": _method_text(a, tl), "target_label": tl,
             "notes": notes, "order_text": ORDER_TEXT[a.source], **_rater_texts(a),
@@ -343,6 +345,8 @@ def _write_tables(a: Analysis, d: Path) -> None:
     write_table(a.by_offset, d / "by_offset.csv")
     if a.by_axis is not None:
         write_table(a.by_axis, d / "by_axis.csv")
+    if a.visibility is not None:
+        write_table(a.visibility, d / "by_visibility.csv")
     write_table(a.categories, d / "categories.csv")
     if a.source == "ratings":
         write_table(a.raters, d / "raters.csv")
