@@ -310,6 +310,8 @@ def _figures(a: Analysis, d: Path, tl: str) -> list[dict]:
             plots.tent_plot(a.by_offset, cols, a.directions, target_label=tl),
         ),
         ("target_hist", f"{tl} distribution", plots.target_histogram(a.items, a.target, label=tl)),
+        ("agreement", f"Table 1 as a figure: pooled and within-view |SRCC| with {tl}",
+         plots.agreement_plot(a.summary, target_label=tl)),
     ]
     if a.by_axis is not None and items:  # 6-DoF views: one tent plot per axis instead of the lateral one
         items[:1] = axis_tent_plots(a.by_axis, cols, a.directions, target_label=tl)

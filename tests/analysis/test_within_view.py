@@ -147,6 +147,7 @@ def test_view_only_row_in_table_1_of_every_output(tmp_path, capsys):
     summary = pd.read_csv(out / "summary.csv")
     assert "view_only" in summary["metric"].tolist()
     assert {"within_srcc", "within_srcc_ci_lo", "within_cells_skipped"} <= set(summary.columns)
+    assert (out / "agreement.png").is_file()  # Table 1 as a figure, both numbers
     html = (out / "report.html").read_text()
     table1 = html.split("<h2>Metrics against GVF</h2>", 1)[1].split("</table>", 1)[0]
     assert "within srcc" in table1 and ">view_only<" in table1
