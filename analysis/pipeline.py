@@ -169,8 +169,9 @@ def with_view_statistics(a: Analysis, *, clusters: np.ndarray) -> Analysis:
             target=a.target, n_boot=a.n_boot, seed=a.seed, rank_by=a.rank_by), clusters=clusters)
 
     summary, text, vis, note = within_view.extend_summary(
-        a.summary, a.items, a.directions, target=a.target, label=label, clusters=clusters,
-        n_boot=a.n_boot, seed=a.seed, rank_by=a.rank_by, summarize=summarize)
+        a.summary, a.items, a.directions,
+        within_view.ViewInputs(a.target, label, clusters, n_boot=a.n_boot, seed=a.seed),
+        rank_by=a.rank_by, summarize=summarize)
     items = a.items.assign(**within_view.view_only_columns(a.items))  # the rows' scores (ROC plot)
     return replace(a, summary=summary, items=items, view_text=text, visibility=vis,
                    visibility_note=note)

@@ -34,6 +34,8 @@ Worked example: two cells with r = 0.5 (n = 10) and r = 0 (n = 30) pool to
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pandas as pd
 
@@ -43,7 +45,7 @@ from data_schema.perturbation import AXES, perturbation_array
 
 __all__ = ["MIN_CELL_PAIRS", "MIN_CELL_TRACKS", "R_CLIP", "VIS_BINS", "WITHIN_COLUMNS",
            "view_cells", "pool_fisher", "within_view_stats", "within_view_columns",
-           "view_only_columns", "view_only_rows", "visibility_table", "headline", "extend_summary"]
+           "view_only_columns", "view_only_rows", "visibility_table", "headline", "extend_summary", "ViewInputs"]
 
 #: A view cell enters the within-view statistics with at least this many items ...
 MIN_CELL_PAIRS = 10
@@ -350,8 +352,21 @@ def headline(summary: pd.DataFrame, view_rows: pd.DataFrame, reps: dict, view_re
     return s
 
 
-def extend_summary(summary: pd.DataFrame, items: pd.DataFrame, directions: dict, *, target: str,
-                   label, clusters, n_boot: int, seed: int, rank_by: str, summarize):
+@dataclass(frozen=True)
+class ViewInputs:
+    """What :func:`extend_summary` computes against: the ``target`` column, the AUC ``label``
+    ((n_items,) bool or None), the track ``clusters`` ((n_items,) int) and the bootstrap
+    (``n_boot`` replicates, ``seed``; the summary's own, so the draws are the same)."""
+
+    target: str
+    label: np.ndarray | None
+    clusters: np.ndarray | None
+    n_boot: int = 0
+    seed: int = 0
+
+
+def extend_summary(summary: pd.DataFrame, items: pd.DataFrame, directions: dict,
+                   inputs: ViewInputs, *, rank_by: str, summarize):
     """The summary with the within-view columns and the view-only rows appended (last), the
     headline sentence, the visibility table and a note when it is skipped.
 
@@ -359,7 +374,9 @@ def extend_summary(summary: pd.DataFrame, items: pd.DataFrame, directions: dict,
     options and clusters). Returns ``(summary, headline or None, visibility or None, note or
     None)``.
     """
-    kw = dict(target=target, label=label, clusters=clusters, n_boot=n_boot, seed=seed)
+    target, clusters = inputs.target, inputs.clusters
+    kw = dict(target=target, label=inputs.label, clusters=clusters, n_boot=inputs.n_boot,
+              seed=inputs.seed)
     out = within_view_columns(summary, items, directions, **kw)
     reps = dict(summary.attrs.get("srcc_replicates", {}))
     view_rows, view_reps = view_only_rows(items, summarize)

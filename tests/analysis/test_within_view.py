@@ -115,9 +115,8 @@ def test_view_only_rows_and_visibility_breakdown():
         return summary_table(frame, cols, dirs, target="gvf", n_boot=0, clusters=cl)
 
     s = summarize(d, ["m"], {"m": True})
-    out, text, vis, note = wv.extend_summary(s, d, {"m": True}, target="gvf", label=None,
-                                             clusters=cl, n_boot=0, seed=0, rank_by="srcc",
-                                             summarize=summarize)
+    out, text, vis, note = wv.extend_summary(s, d, {"m": True}, wv.ViewInputs("gvf", None, cl),
+                                             rank_by="srcc", summarize=summarize)
     row = out[out["metric"] == "view_only"].iloc[0]
     assert np.isclose(row["srcc"], abs(st.spearmanr(-np.abs(d["y_offset_m"]), d["gvf"]).statistic))
     assert np.isnan(row["within_srcc"]) and row["within_cells"] == 0  # constant in every cell
@@ -125,9 +124,8 @@ def test_view_only_rows_and_visibility_breakdown():
     assert vis is None and "gt_visible" in note
     d["gt_visible"] = np.where(np.arange(len(d)) % 2, 1.0, 0.3)
     d["novel_visible"] = 0.9
-    _, _, vis, note = wv.extend_summary(s, d, {"m": True}, target="gvf", label=None,
-                                        clusters=cl, n_boot=0, seed=0, rank_by="srcc",
-                                        summarize=summarize)
+    _, _, vis, note = wv.extend_summary(s, d, {"m": True}, wv.ViewInputs("gvf", None, cl),
+                                        rank_by="srcc", summarize=summarize)
     assert note is None
     top = vis[(vis["gt_visible"] == "[0.8, 1]") & (vis["novel_visible"] == "[0.8, 1]")].iloc[0]
     sel = d["gt_visible"] == 1.0
