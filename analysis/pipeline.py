@@ -172,6 +172,7 @@ def with_view_statistics(a: Analysis, *, clusters: np.ndarray) -> Analysis:
         a.summary, a.items, a.directions,
         within_view.ViewInputs(a.target, label, clusters, n_boot=a.n_boot, seed=a.seed),
         rank_by=a.rank_by, summarize=summarize)
+    _ceiling_columns(summary, a.ceiling)  # the view-only rows share the votes' ceiling
     items = a.items.assign(**within_view.view_only_columns(a.items))  # the rows' scores (ROC plot)
     return replace(a, summary=summary, items=items, view_text=text, visibility=vis,
                    visibility_note=note)
@@ -385,9 +386,15 @@ def _ceiling(kept, summary, tgt, *, seed):
         ceiling = noise_ceiling(vote_matrix(kept[kept["kind"] == "test"]), seed=seed)
     else:
         ceiling = {**noise_ceiling(np.empty((0, 0))), "reason": f"target {tgt!r} is not the votes"}
-    for k in ("reliability", "plcc_ceiling", "srcc_ceiling"):
-        summary[f"noise_{k}" if k == "reliability" else k] = ceiling[k]
+    _ceiling_columns(summary, ceiling)
     return ceiling
+
+
+def _ceiling_columns(summary, ceiling) -> None:
+    """The noise ceiling as summary columns: the same for every row (it is the votes')."""
+    for k in ("reliability", "plcc_ceiling", "srcc_ceiling"):
+        if k in ceiling:
+            summary[f"noise_{k}" if k == "reliability" else k] = ceiling[k]
 
 
 def _model_comparison(items, metrics, directions, summary, tgt, *, method, seed):
