@@ -37,7 +37,13 @@ from analysis import axes, breakdowns
 from analysis.inputs import NON_METRIC_COLUMNS, classify_columns, drop_empty_columns
 from analysis.methods import for_analysis
 from analysis.options import AnalysisOptions, SummaryOptions, analysis_options
-from analysis.pipeline import Analysis, boot_size, find_timing_files, read_timing
+from analysis.pipeline import (
+    Analysis,
+    boot_size,
+    find_timing_files,
+    read_timing,
+    with_view_statistics,
+)
 from analysis.summary import summary_table
 from data_schema import datasets as ds
 from data_schema.errors import InputError, check_number
@@ -379,7 +385,7 @@ def run_pairs_analysis(pairs_path, options: AnalysisOptions | None = None, **key
     categories = breakdowns.category_table(items, ranked, by=["label_class"] + attributes,
                                            target=target or "y_offset_m", progress=shown)
     by_offset, by_axis = axes.view_tables(items, ([target] if target else []) + metrics)
-    return Analysis(
+    return with_view_statistics(Analysis(
         ratings_path=str(pairs_path), target=target, items=items, metrics=metrics,
         directions=directions, attributes=attributes, proxies=proxies, summary=summary,
         categories=categories, by_offset=by_offset, by_axis=by_axis,
@@ -389,7 +395,8 @@ def run_pairs_analysis(pairs_path, options: AnalysisOptions | None = None, **key
         methods=for_analysis(items, target=target, metrics=metrics, directions=directions,
                              attributes=attributes,
                              options=replace(o.compare, n_boot=n_boot, seed=o.seed, progress=o.progress),
-                             where=pairs_path, metrics_paths=o.metrics_paths) if o.compare else None)
+                             where=pairs_path, metrics_paths=o.metrics_paths) if o.compare else None),
+        clusters=clusters)
 
 
 def _pairs_counts(items: pd.DataFrame, clusters: np.ndarray) -> dict:

@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-__all__ = ["fit_logistic", "logistic_threshold", "vote_threshold", "MAX_ITER"]
+__all__ = ["fit_logistic", "logistic_threshold", "vote_threshold", "view_thresholds", "MAX_ITER"]
 
 #: Newton iterations at most (a well-posed fit converges in under 10).
 MAX_ITER = 100
@@ -165,3 +165,74 @@ def _chunks(n_boot: int, n: int, cells: int = 4_000_000):
     """Slices of the replicates, at most ``cells`` replicate-votes each (bounds the memory)."""
     step = max(1, cells // max(1, n))
     return [slice(i, min(n_boot, i + step)) for i in range(0, n_boot, step)]
+
+
+def view_thresholds(x, y, view, *, good_prob: float = 0.5, tol: float = 1e-10) -> dict:
+    """Per-view thresholds from one logistic with an intercept per view cell and a shared slope.
+
+    The model is ``P(good | m, view v) = sigmoid(a_v + b m)``, fitted by maximum likelihood
+    (Newton's method on the standardised metric, the step damped as in :func:`fit_logistic`).
+    Each view's threshold is ``m*_v = (logit(good_prob) - a_v) / b``: the metric value where a
+    render *at that view* is judged good with probability ``good_prob``, so the change of view
+    moves the threshold instead of reading as a failure.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        (n,) the metric at each vote's item (finite).
+    y : numpy.ndarray
+        (n,) the votes, 1 good and 0 bad.
+    view : numpy.ndarray
+        (n,) integer view cell of each vote, 0..V-1.
+    good_prob : float, optional
+        The P(good) that defines the thresholds, in (0, 1).
+    tol : float, optional
+        Convergence: the largest Newton step below it.
+
+    Returns
+    -------
+    dict
+        ``a`` (V,) intercepts, ``b`` the shared slope, ``value`` (V,) thresholds (NaN for a
+        view whose votes are all one outcome, where its intercept is not finite, or when the
+        slope is undefined), ``reason`` ('' or why the fit is undefined).
+    """
+    x = np.asarray(x, np.float64)
+    y = np.asarray(y, np.float64)
+    view = np.asarray(view, np.int64)
+    V = int(view.max()) + 1 if len(view) else 0
+    nan = np.full(V, np.nan)
+    if len(x) == 0 or x.min() == x.max():
+        return {"a": nan, "b": math.nan, "value": nan, "reason": "constant metric or no votes"}
+    mu, sd = float(x.mean()), float(x.std())
+    z = (x - mu) / sd
+    n1 = np.bincount(view, weights=y, minlength=V)
+    n = np.bincount(view, minlength=V).astype(np.float64)
+    mixed = (n1 > 0) & (n1 < n)  # views with both outcomes have a finite intercept
+    keep = mixed[view]
+    if not keep.any():
+        return {"a": nan, "b": math.nan, "value": nan, "reason": "no view has both outcomes"}
+    zk, yk, vk = z[keep], y[keep], view[keep]
+    theta = np.zeros(V + 1)  # intercepts, then the slope
+    for _ in range(MAX_ITER):
+        p = 1.0 / (1.0 + np.exp(-(theta[vk] + theta[V] * zk)))
+        r, w = yk - p, p * (1.0 - p)
+        g = np.r_[np.bincount(vk, weights=r, minlength=V), (r * zk).sum()]
+        H = np.zeros((V + 1, V + 1))
+        H[np.arange(V), np.arange(V)] = np.bincount(vk, weights=w, minlength=V)
+        hz = np.bincount(vk, weights=w * zk, minlength=V)
+        H[:V, V] = H[V, :V] = hz
+        H[V, V] = (w * zk * zk).sum()
+        out_idx = np.flatnonzero(~mixed)
+        H[out_idx, out_idx] = 1.0  # views left out: their intercepts stay 0 (reported NaN)
+        step = np.linalg.solve(H, g)
+        size = np.abs(step).max()
+        step *= min(1.0, 5.0 / max(size, 1e-300))
+        theta += step
+        if size < tol:
+            break
+    b = theta[V] / sd
+    a = theta[:V] - theta[V] * mu / sd
+    a[~mixed] = np.nan
+    reason = "" if b != 0 else "zero slope"
+    value = logistic_threshold(a, np.full(V, b), good_prob)
+    return {"a": a, "b": float(b), "value": value, "reason": reason}

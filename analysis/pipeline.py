@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis import axes, breakdowns
+from analysis import axes, breakdowns, within_view
 from analysis.aggregate import aggregate
 from analysis.ceiling import noise_ceiling, vote_matrix
 from analysis.inputs import classify_columns, drop_empty_columns, read_metrics, read_ratings
@@ -31,7 +31,7 @@ from data_schema.errors import InputError, check_number
 from data_schema.tables import TIMING_COLUMNS, read_table, timing_path
 
 __all__ = ["Analysis", "run_analysis", "read_timing", "find_timing_files", "read_stability",
-           "boot_size", "BOOT_CELL_LIMIT"]
+           "boot_size", "BOOT_CELL_LIMIT", "with_view_statistics"]
 
 #: Above this many item-replicates (items x --bootstrap) the bootstrap is skipped, with a
 #: note in the report (the point estimates are still exact; CIs would take too long).
@@ -139,6 +139,46 @@ class Analysis:
     methods: MethodsResult | None = None  # the leaderboard with compare_methods
     horizon: object | None = None  # analyze --horizon: an analysis.horizon.HorizonResult
     floor: object | None = None  # analyze --real-floor: an analysis.real_floor.FloorResult
+    view_text: str | None = None  # the view-only / within-view sentence (analysis.within_view)
+    visibility: pd.DataFrame | None = None  # per gt_visible x novel_visible bin (within_view)
+    visibility_note: str | None = None  # why there is no visibility table
+
+
+def with_view_statistics(a: Analysis, *, clusters: np.ndarray) -> Analysis:
+    """``a`` with the within-view columns and the view-only rows in its summary, the headline
+    sentence and the visibility table (:mod:`analysis.within_view`).
+
+    Parameters
+    ----------
+    a : Analysis
+        A finished analysis (its summary ranks the metrics against ``a.target``).
+    clusters : (n_items,) int numpy.ndarray
+        Track index of each item, as the summary's bootstrap used.
+
+    Returns
+    -------
+    Analysis
+        A copy with ``summary``, ``items`` (plus the view-only columns), ``view_text`` and
+        ``visibility`` or ``visibility_note`` filled.
+    """
+    if a.target is None or len(a.summary) == 0:
+        return a
+    from analysis.summary import binary_label
+
+    label, _ = binary_label(a.items, a.target)
+
+    def summarize(frame, cols, dirs):
+        return summary_table(frame, cols, dirs, SummaryOptions(
+            target=a.target, n_boot=a.n_boot, seed=a.seed, rank_by=a.rank_by), clusters=clusters)
+
+    summary, text, vis, note = within_view.extend_summary(
+        a.summary, a.items, a.directions,
+        within_view.ViewInputs(a.target, label, clusters, n_boot=a.n_boot, seed=a.seed),
+        rank_by=a.rank_by, summarize=summarize)
+    _ceiling_columns(summary, a.ceiling)  # the view-only rows share the votes' ceiling
+    items = a.items.assign(**within_view.view_only_columns(a.items))  # the rows' scores (ROC plot)
+    return replace(a, summary=summary, items=items, view_text=text, visibility=vis,
+                   visibility_note=note)
 
 
 def read_timing(paths) -> pd.DataFrame | None:
@@ -349,9 +389,15 @@ def _ceiling(kept, summary, tgt, *, seed):
         ceiling = noise_ceiling(vote_matrix(kept[kept["kind"] == "test"]), seed=seed)
     else:
         ceiling = {**noise_ceiling(np.empty((0, 0))), "reason": f"target {tgt!r} is not the votes"}
-    for k in ("reliability", "plcc_ceiling", "srcc_ceiling"):
-        summary[f"noise_{k}" if k == "reliability" else k] = ceiling[k]
+    _ceiling_columns(summary, ceiling)
     return ceiling
+
+
+def _ceiling_columns(summary, ceiling) -> None:
+    """The noise ceiling as summary columns: the same for every row (it is the votes')."""
+    for k in ("reliability", "plcc_ceiling", "srcc_ceiling"):
+        if k in ceiling:
+            summary[f"noise_{k}" if k == "reliability" else k] = ceiling[k]
 
 
 def _model_comparison(items, metrics, directions, summary, tgt, *, method, seed):
@@ -431,7 +477,7 @@ def run_analysis(ratings_path, options: AnalysisOptions | None = None, **keyword
     notes += [skipped] if skipped else []
     categories = breakdowns.category_table(items, metrics, by=by_cols, target=tgt, progress=o.progress)
     by_offset, by_axis = axes.view_tables(items, [tgt] + metrics, by="label_class")
-    return Analysis(
+    return with_view_statistics(Analysis(
         ratings_path=str(ratings_path), target=tgt, items=items, metrics=metrics,
         directions=directions, attributes=attributes, proxies=proxies, summary=summary,
         categories=categories, by_offset=by_offset, by_axis=by_axis,
@@ -447,4 +493,4 @@ def run_analysis(ratings_path, options: AnalysisOptions | None = None, **keyword
                              options=replace(o.compare, n_boot=n_boot, seed=o.seed, progress=o.progress),
                              where=ratings_path, metrics_paths=o.metrics_paths)
         if o.compare is not None else None,
-    )
+    ), clusters=clusters)

@@ -37,6 +37,7 @@ __all__ = [
     "tent_plot",
     "speed_accuracy_plot",
     "roc_plot",
+    "agreement_plot",
     "target_histogram",
     "pareto_front",
     "place_labels",
@@ -566,3 +567,42 @@ def save_figure(fig: Figure, directory, name: str) -> bytes:
     (d / f"{name}.png").write_bytes(png)
     fig.savefig(d / f"{name}.svg", format="svg", metadata={"Date": None})
     return png
+
+
+def agreement_plot(summary: pd.DataFrame, *, target_label: str = "GVF"):
+    """Table 1 as a figure: pooled and within-view |SRCC| per row of the summary (metrics and
+    view-only baselines), with their bootstrap intervals; ``None`` without within-view values.
+
+    Parameters
+    ----------
+    summary : pandas.DataFrame
+        The analysis summary with ``metric, srcc, within_srcc`` (and their ``_ci_lo/_hi``).
+    target_label : str, optional
+        What the metrics are compared with, for the axis label.
+
+    Returns
+    -------
+    matplotlib.figure.Figure or None
+    """
+    if summary.empty or "within_srcc" not in summary.columns:
+        return None
+    s = summary[np.isfinite(summary["srcc"].astype(float))]
+    if s.empty:
+        return None
+    y = np.arange(len(s))
+    fig = Figure(figsize=(6.0, 0.9 + 0.35 * len(s)), layout="constrained")
+    ax = fig.subplots()
+    for k, (col, off, name) in enumerate((("srcc", -0.18, "pooled"), ("within_srcc", 0.18, "within views"))):
+        v = s[col].to_numpy(float)
+        lo = s.get(f"{col}_ci_lo", pd.Series(np.nan, index=s.index)).to_numpy(float)
+        hi = s.get(f"{col}_ci_hi", pd.Series(np.nan, index=s.index)).to_numpy(float)
+        ax.barh(y + off, np.nan_to_num(v), height=0.34, color=f"C{k}", label=name)
+        ok = np.isfinite(lo) & np.isfinite(hi) & np.isfinite(v)
+        ax.errorbar(v[ok], y[ok] + off, xerr=[v[ok] - lo[ok], hi[ok] - v[ok]], fmt="none",
+                    ecolor="0.2", capsize=2, linewidth=0.8)
+    ax.set_yticks(y, s["metric"].tolist(), fontsize=7)
+    ax.invert_yaxis()
+    ax.set_xlim(0, 1)
+    ax.set_xlabel(f"|SRCC| with {target_label} (within views: empty for the view-only rows)")
+    ax.legend(fontsize=7, loc="lower right")
+    return fig

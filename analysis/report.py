@@ -44,6 +44,9 @@ _DISPLAY = [
     "srcc",
     "krcc",
     "roc_auc",
+    "within plcc",
+    "within srcc",
+    "within roc_auc",
     "plcc_logistic",
     "srcc / ceiling",
     "vs best",
@@ -105,13 +108,16 @@ def summary_display(a: Analysis, *, with_ci: bool = True) -> pd.DataFrame:
                 "srcc": ci(r, "srcc"),
                 "krcc": _fmt(r["krcc"]),
                 "roc_auc": ci(r, "roc_auc"),
+                **{f"within {k}": ci(r, f"within_{k}") if f"within_{k}" in r else ""
+                   for k in ("plcc", "srcc", "roc_auc")},
                 "plcc_logistic": _fmt(r["plcc_logistic"]),
                 "srcc / ceiling": _of_ceiling(r),
                 "vs best": vs,
                 "reason": r["reason"] if isinstance(r["reason"], str) else "",
             }
         )
-    cols = _DISPLAY if with_ci else [c for c in _DISPLAY if c != "srcc / ceiling"]
+    terse = ("srcc / ceiling", "within plcc", "within roc_auc", "plcc_logistic", "krcc")
+    cols = _DISPLAY if with_ci else [c for c in _DISPLAY if c not in terse]
     return pd.DataFrame(rows, columns=_DISPLAY)[cols]
 
 
@@ -258,7 +264,10 @@ def _texts(a: Analysis) -> dict:
     notes = list(a.notes)
     if a.proxies:
         notes.append("proxy columns (use --target): " + ", ".join(a.proxies))
-    return {"best_text": _best_text(a), "method_text": _method_text(a, tl), "target_label": tl,
+    if a.visibility_note:
+        notes.append(a.visibility_note)
+    best = _best_text(a) if a.view_text is None else a.view_text + " " + _best_text(a)
+    return {"best_text": best, "method_text": _method_text(a, tl), "target_label": tl,
             "notes": notes, "order_text": ORDER_TEXT[a.source], **_rater_texts(a),
             **_label_texts(a)}
 
@@ -301,6 +310,8 @@ def _figures(a: Analysis, d: Path, tl: str) -> list[dict]:
             plots.tent_plot(a.by_offset, cols, a.directions, target_label=tl),
         ),
         ("target_hist", f"{tl} distribution", plots.target_histogram(a.items, a.target, label=tl)),
+        ("agreement", f"Table 1 as a figure: pooled and within-view |SRCC| with {tl}",
+         plots.agreement_plot(a.summary, target_label=tl)),
     ]
     if a.by_axis is not None and items:  # 6-DoF views: one tent plot per axis instead of the lateral one
         items[:1] = axis_tent_plots(a.by_axis, cols, a.directions, target_label=tl)
@@ -336,6 +347,8 @@ def _write_tables(a: Analysis, d: Path) -> None:
     write_table(a.by_offset, d / "by_offset.csv")
     if a.by_axis is not None:
         write_table(a.by_axis, d / "by_axis.csv")
+    if a.visibility is not None:
+        write_table(a.visibility, d / "by_visibility.csv")
     write_table(a.categories, d / "categories.csv")
     if a.source == "ratings":
         write_table(a.raters, d / "raters.csv")

@@ -96,7 +96,7 @@ def test_end_to_end_report(data, capsys):
     assert "nvrq_ca:dinov2-small" in cap.out  # terminal summary
     html = (out / "report.html").read_text()
     assert not re.search(r"https?://", html)  # self-contained, opens offline
-    assert html.count("data:image/png;base64,") == 4
+    assert html.count("data:image/png;base64,") == 5  # tent, histogram, agreement, ROC, speed
     assert (
         "120 items from 12 tracks in 3 clips" in html
     )  # make_ratings: 3 clips x 4 tracks x 2 frames x 5 offsets

@@ -1,0 +1,38 @@
+"""Per-view thresholds: one logistic, an intercept per view and a shared slope
+(analysis.horizon_fit.view_thresholds), against scikit-learn's unpenalised logistic
+regression on the one-hot views plus the metric (the same maximum-likelihood model)."""
+
+import numpy as np
+from sklearn.linear_model import LogisticRegression
+
+from analysis.horizon_fit import view_thresholds
+
+
+def _votes(seed=0, n=3000):
+    rng = np.random.default_rng(seed)
+    view = rng.integers(0, 4, n)
+    x = rng.normal(0, 1, n) - 0.5 * view  # the metric falls with the view
+    a_true, b_true = np.array([0.5, 1.5, 2.5, 3.5]), 2.0  # the people forgive the view
+    y = (rng.random(n) < 1 / (1 + np.exp(-(a_true[view] + b_true * x)))).astype(float)
+    return x, y, view
+
+
+def test_view_thresholds_equal_sklearn():
+    x, y, view = _votes()
+    r = view_thresholds(x, y, view, good_prob=0.7)
+    X = np.c_[np.eye(4)[view], x]
+    m = LogisticRegression(C=np.inf, fit_intercept=False, tol=1e-12, max_iter=10_000).fit(X, y)
+    a, b = m.coef_[0][:4], m.coef_[0][4]
+    assert np.allclose(r["a"], a, atol=1e-4) and np.isclose(r["b"], b, atol=1e-4)
+    assert np.allclose(r["value"], (np.log(0.7 / 0.3) - a) / b, atol=1e-4)
+    assert np.all(np.diff(r["value"]) < 0)  # farther views get a lower metric threshold
+
+
+def test_view_with_one_outcome_has_no_threshold():
+    x, y, view = _votes(seed=1)
+    y[view == 3] = 1.0
+    r = view_thresholds(x, y, view)
+    assert np.isnan(r["value"][3]) and np.isfinite(r["value"][:3]).all()
+    keep = view < 3
+    ref = view_thresholds(x[keep], y[keep], view[keep])
+    assert np.allclose(r["value"][:3], ref["value"], atol=1e-9)  # the view left out changes nothing
