@@ -23,7 +23,10 @@ Mantiuk, "A practical guide and software for analysing pairwise comparison exper
   these normalised curves over ``r``; the posterior multiplies each pair's likelihood by
   this prior at its distance. Disconnected groups of conditions are joined by a single
   tie between their best conditions (pwcmp does the same), with a warning in the table.
-  Fitted with L-BFGS and the analytic gradient, many count matrices at once.
+  Fitted with L-BFGS and the analytic gradient, many count matrices at once. The prior is
+  computed in log space (its normalised curves underflow at large counts); its log is
+  bounded while the log-likelihood grows with the votes, so the scale converges to the
+  maximum-likelihood one (within 1e-9 JOD from 3,000 votes on the tests' matrices).
 - :func:`jod_bootstrap` and :func:`jod_table`: 95% percentile intervals over raters
   (resampled with replacement) and, per method in order of its scale value, the share of
   replicates in which it is above the next method (``p_better_than_next``) and the share
@@ -55,6 +58,14 @@ JOD_COLUMNS = ["axis", "offset", "method", "n_votes", "jod", "jod_ci_lo", "jod_c
 def _lam(z: np.ndarray) -> np.ndarray:
     """phi(z) / Phi(z), stable for very negative z."""
     return np.exp(-0.5 * z * z - 0.5 * np.log(2 * np.pi) - log_ndtr(z))
+
+
+def _logsumexp(x: np.ndarray, axis: int) -> np.ndarray:
+    """log(sum(exp(x))) along ``axis``, kept; -inf where every entry is -inf."""
+    top = x.max(axis=axis, keepdims=True)
+    top = np.where(np.isfinite(top), top, 0.0)
+    with np.errstate(divide="ignore"):
+        return np.log(np.exp(x - top).sum(axis=axis, keepdims=True)) + top
 
 
 def _check(d: np.ndarray) -> np.ndarray:
@@ -239,21 +250,24 @@ class _Posterior:
         lp, lm = log_ndtr(dist), log_ndtr(-dist)
         like = np.where(self.mask, self.c + self.k * lp + (self.n - self.k) * lm, 0.0)
         dlike = np.where(self.mask, self.k * _lam(dist) - (self.n - self.k) * _lam(-dist), 0.0)
-        # prior rows r (B, R=E, 1) evaluated at every distance e (B, 1, E)
+        # prior rows r (B, R=E, 1) evaluated at every distance e (B, 1, E), all in log space: at
+        # large counts a row's likelihood is sharply peaked and its values underflow far from it
         mr = (self.cp[:, :, None] + self.kp[:, :, None] * lp[:, None, :]
               + (self.n - self.kp)[:, :, None] * lm[:, None, :])
         both = self.mask[:, :, None] & self.mask[:, None, :]
         mr = np.where(both, mr, -np.inf)
-        top = mr.max(axis=2, keepdims=True)
-        a = np.exp(mr - np.where(np.isfinite(top), top, 0.0))
-        a = a / np.maximum(a.sum(2, keepdims=True), 1e-300)        # (B, R, E) row-normalised
-        pi = a.sum(1) / self.rows[:, None]                          # (B, E)
-        logpi = np.where(self.mask, np.log(np.where(self.mask, pi, 1.0)), 0.0)
+        norm = _logsumexp(mr, axis=2)
+        la = np.where(both, mr - np.where(np.isfinite(norm), norm, 0.0), -np.inf)   # (B, R, E) row-normalised
+        lpi = _logsumexp(la, axis=1)[:, 0] - np.log(self.rows)[:, None]   # (B, E) log prior
+        logpi = np.where(self.mask, lpi, 0.0)
+        a = np.exp(la)
+        # resp[r, e] = a[r, e] / (rows pi[e]): row r's share of the prior at e (sums to 1 over r)
+        resp = np.where(both, np.exp(la - np.where(self.mask, lpi, 0.0)[:, None, :]), 0.0)
+        resp = resp / self.rows[:, None, None]
         g = (self.kp[:, :, None] * _lam(dist)[:, None, :]
              - (self.n - self.kp)[:, :, None] * _lam(-dist)[:, None, :])   # (B, R, E) d/d(dist)
-        inv = np.where(self.mask, 1.0 / np.where(self.mask, pi, 1.0), 0.0)
-        brow = (a * inv[:, None, :]).sum(2, keepdims=True)
-        dprior = (g * a * (inv[:, None, :] - brow)).sum(1) / self.rows[:, None]
+        g = np.where(both, g, 0.0)
+        dprior = (g * (resp - a * resp.sum(2, keepdims=True))).sum(1)
         f = -(like.sum() + logpi.sum())
         gd = -(dlike + dprior) / SIGMA_JOD                         # (B, E) d f / d q_i - q_j
         return float(f), (gd @ self.incidence)[:, 1:].ravel()

@@ -159,3 +159,52 @@ def test_analyze_writes_jod_csv_beside_bradley_terry(tmp_path, capsys):
     assert overall.loc["sharp", "jod"] - overall.loc["blurry", "jod"] == pytest.approx(
         SIGMA_JOD * norm.ppf(share), abs=1e-5)
     assert overall.loc["sharp", "p_prefer_next"] == pytest.approx(share, abs=1e-5)
+
+
+def _scaled_direct_fit(d: np.ndarray) -> np.ndarray:
+    """:func:`_direct_fit` of the per-vote log-likelihood (divided by the vote count, which does
+    not move its maximum), so that SciPy's tolerances mean the same at 10 and at 10^6 votes."""
+    return _direct_fit(d / d.sum())
+
+
+# the matrix of the report: A beat B 9:1, A beat C 8:2, B and C 5:5 (30 votes)
+_C = np.array([[0.0, 9, 8], [1, 0, 5], [2, 5, 0]])
+
+
+@pytest.mark.parametrize("votes", [30, 300, 1_000, 10_000, 90_000, 300_000, 1_000_000])
+def test_prior_vanishes_at_large_counts_on_the_reported_matrix(votes):
+    # C * 3000 (90,000 votes) used to give [0, 0, 0]: the prior's normaliser underflowed
+    d = _C * votes / _C.sum()
+    ml = _scaled_direct_fit(d)
+    np.testing.assert_allclose(ml, [0.0, -1.622, -1.462], atol=1e-3)     # the ML scale of C
+    q = jod_scale(d)
+    assert np.isfinite(q).all()
+    if votes >= 1_000:
+        np.testing.assert_allclose(q, ml, atol=0.01)
+    else:   # the prior pulls the few-vote scale towards 0 (measured 0.017 at 30 votes, 4e-4 at 300)
+        assert 0 < np.abs(q - ml).max() < 0.05 * 30 / votes
+    np.testing.assert_allclose(jod_scale(d, prior=False), ml, atol=1e-4)
+
+
+def test_prior_effect_shrinks_from_one_vote_to_a_million():
+    # a chain A > B > C > D: a tree, so the ML scale is closed-form, each step
+    # SIGMA_JOD * Phi^-1(share won) (test_hand_worked_chain); votes drawn from a true scale
+    rng = np.random.default_rng(7)
+    true = np.array([0.0, -0.8, -1.9, -2.4])
+    gaps = []
+    for votes in [1, 3, 10, 100, 1_000, 10_000, 100_000, 1_000_000]:
+        d = np.zeros((4, 4))
+        per_pair = rng.multinomial(votes, [1 / 3] * 3)
+        for i, n in enumerate(per_pair):
+            k = rng.binomial(n, norm.cdf((true[i] - true[i + 1]) / SIGMA_JOD))
+            d[i, i + 1], d[i + 1, i] = k, n - k
+        q = jod_scale(d)
+        voted = (d + d.T).sum(1) > 0
+        assert np.isfinite(q[voted]).all() and np.isnan(q[~voted]).all()
+        if votes < 1_000:
+            continue
+        share = d[np.arange(3), np.arange(1, 4)] / (d[np.arange(3), np.arange(1, 4)] + d[np.arange(1, 4), np.arange(3)])
+        closed = -np.r_[0.0, np.cumsum(SIGMA_JOD * norm.ppf(share))]
+        assert np.abs(q - closed).max() < 0.01, (votes, q, closed)
+        gaps.append(np.abs(q - closed).max())
+    assert max(gaps[-2:]) < 1e-4
