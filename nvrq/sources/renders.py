@@ -252,25 +252,27 @@ def _named_scene(scene, method: str | None, existing_method: str | None):
     return dataclasses.replace(scene, images=images), placeholders
 
 
-def _check_image(src: Path, width: int, height: int, camera: str) -> None:
-    image = read_rgb(src)
-    h, w = image.shape[:2]
-    if (w, h) != (width, height):
-        raise InputError(src, None, f"an image of camera {camera}'s size {width}x{height}", f"{w}x{h}")
+def _check_image(src: Path, width: int, height: int, camera: str) -> str | None:
+    """Why ``src`` is no render of ``camera`` (its header read first, then decoded), or None."""
+    try:
+        read_rgb(src, size=(width, height), of=f"camera {camera}")
+    except InputError as exc:
+        return f"{exc.expected}, got {exc.got}" if exc.expected != "a readable image file" else str(exc.got)
+    return None
 
 
-def _check_images(srcs: list[Path], plan: RenderPlan, rows: list[int]) -> None:
-    """Every render readable and of its camera's size (decoded in threads; the first bad
-    one, in plan order, is reported)."""
+def _check_images(srcs: list[Path], plan: RenderPlan, rows: list[int], folder: Path) -> None:
+    """Every render readable and of its camera's size (:func:`nvrq.crops.read_rgb`: the header
+    is checked before a pixel is decoded, so a decompression bomb costs nothing); decoded in
+    threads; every bad file is named in one error, with their count."""
     with ThreadPoolExecutor(max_workers=min(8, os.cpu_count() or 1)) as pool:
-        futures = [pool.submit(_check_image, s, int(plan.widths[i]), int(plan.heights[i]), plan.cameras[i])
-                   for s, i in zip(srcs, rows, strict=True)]
-        try:
-            for f in futures:
-                f.result()
-        except InputError:
-            pool.shutdown(cancel_futures=True)
-            raise
+        why = list(pool.map(lambda a: _check_image(*a), [(s, int(plan.widths[i]), int(plan.heights[i]),
+                                                          plan.cameras[i]) for s, i in zip(srcs, rows, strict=True)]))
+    bad = [(s, w) for s, w in zip(srcs, why, strict=True) if w is not None]
+    if bad:
+        listed = "; ".join(f"{os.path.relpath(s, folder)}: {w}" for s, w in bad)
+        raise InputError(folder, f"renders ({listed})", "readable images of their camera's size",
+                         f"{plural(len(bad), 'bad render file')} of {len(srcs)}")
 
 
 def _place(src: Path, dst: Path, *, link: bool) -> None:
@@ -382,7 +384,7 @@ def import_renders(scene, render_dir, *, method: str | None = None, layout: str 
         rule = "every render of the plan" if not allow_missing else "renders of the plan (some at least)"
         raise InputError(folder, f"layout {layout}", f"{rule} and no other file", report.counts())
     srcs = [folder / files[i] for i in rows]
-    _check_images(srcs, plan, rows)
+    _check_images(srcs, plan, rows, folder)
     dst = {}
     for i, src in zip(rows, srcs, strict=True):
         path = Path(plan.paths[i])

@@ -974,6 +974,134 @@ _study_case("manifest adaptive without a cap", _manifest_edit(sampling="adaptive
             "manifest.json", "max_votes_per_item")
 
 
+# ---------------------------------------------------------------- issue 44: images read from their header first
+# 5: a decompression bomb (a small PNG whose header claims more pixels than MAX_IMAGE_PIXELS) is
+# refused before a pixel is decoded, wherever a foreign image is read; a scene image or render of
+# another size than its camera's is refused. 8: a PNG or JPEG cut short is refused, every bad
+# file named in one pass with their count.
+
+def _bomb_png(path: Path, side: int = 9000) -> Path:
+    """A PNG whose header claims ``side`` x ``side`` grey pixels; its data is a few hundred bytes."""
+    import struct
+    import zlib
+
+    def chunk(tag, body):
+        return struct.pack(">I", len(body)) + tag + body + struct.pack(">I", zlib.crc32(tag + body))
+
+    ihdr = struct.pack(">IIBBBBB", side, side, 8, 0, 0, 0, 0)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(b"\0" * 4 * (side + 1)))
+                     + chunk(b"IEND", b""))
+    return path
+
+
+def _cut_jpeg(path: Path, image) -> Path:
+    """``image`` written as a JPEG at ``path``, then cut to half its bytes."""
+    import cv2
+
+    data = cv2.imencode(".jpg", image)[1].tobytes()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(data[: len(data) // 2])
+    return path
+
+
+def _toy_copy(world, tmp):
+    import shutil
+
+    scene = tmp / "scene"
+    shutil.copytree(world / "toy" / "scene", scene)
+    return scene, copy_into(world, "toy/pairs.csv", tmp)
+
+
+@case("images", "score: a decompression bomb in place of a render")
+def _(world, tmp):
+    scene, p = _toy_copy(world, tmp)
+    _bomb_png(scene / sorted(set(pd.read_csv(p)["render_path"]))[0])
+    return "nvrq", ["score", str(p), "--scene", str(scene), "--metrics", "psnr", "--out", str(tmp / "m.csv"),
+                    "--quiet"], ["pairs.csv", "9000x9000 = 81000000 pixels (over the limit)", "1 unreadable image"]
+
+
+@case("images", "build: a decompression bomb in place of a render (the rater app's crops)")
+def _(world, tmp):
+    scene, p = _toy_copy(world, tmp)
+    for r in set(pd.read_csv(p)["render_path"]):
+        _bomb_png(scene / r)
+    return "annotate", ["build", str(tmp / "st"), "--pairs", str(p), "--scene", str(scene), "--tracks", "2",
+                        "--frames-per-track", "2", "--size", "32x32"], \
+        ["expected an image of at most 67108864 pixels", "9000x9000"]
+
+
+@case("images", "pairs: a scene image is a decompression bomb")
+def _(world, tmp):
+    scene = write_scene(tmp / "scene")
+    _bomb_png(scene / "gt.png")
+    return "nvrq", _pairs_cmd(scene, tmp), ["images.csv", "row 2 gt.png", "camera front's size 640x480, got 9000x9000",
+                                            "1 bad image file of 2"]
+
+
+@case("images", "pairs: a scene image of another size than its camera's")
+def _(world, tmp):
+    import cv2
+    import numpy as np
+
+    scene = write_scene(tmp / "scene")
+    cv2.imwrite(str(scene / "r.png"), np.zeros((48, 64, 3), np.uint8))
+    return "nvrq", _pairs_cmd(scene, tmp), ["images.csv", "row 3 r.png", "size 640x480, got 64x48"]
+
+
+@case("images", "pairs: two scene images cut short, both named with a count")
+def _(world, tmp):
+    import numpy as np
+
+    scene = write_scene(tmp / "scene")
+    (scene / "gt.png").write_bytes((scene / "gt.png").read_bytes()[:-30])
+    _cut_jpeg(scene / "r.png", np.zeros((480, 640, 3), np.uint8))
+    return "nvrq", _pairs_cmd(scene, tmp), ["row 2 gt.png: a truncated PNG file", "row 3 r.png: a truncated JPEG file",
+                                            "2 bad image files of 2"]
+
+
+def _synth_two_frames(tmp: Path) -> Path:
+    from nvrq.cli import main
+
+    assert main(["synth", str(tmp / "scene"), "--seconds", "1", "--fps", "2", "--size", "96x54", "--offsets", "1",
+                 "--quiet"]) == 0
+    return tmp / "scene"
+
+
+@case("images", "import renders: a decompression bomb")
+def _(world, tmp):
+    scene = _synth_with_renders(tmp)
+    _bomb_png(tmp / "r" / "00000.png")
+    return "nvrq", ["import", "renders", str(scene), str(tmp / "r"), "--layout", "order"], \
+        ["00000.png: an image of camera front's size 96x54, got 9000x9000", "1 bad render file of 1"]
+
+
+@case("images", "import renders: two JPEG renders cut short, both named with a count")
+def _(world, tmp):
+    import numpy as np
+
+    scene = _synth_two_frames(tmp)
+    for i in range(2):
+        _cut_jpeg(tmp / "r" / f"{i:05d}.jpg", np.full((54, 96, 3), 90, np.uint8))
+    return "nvrq", ["import", "renders", str(scene), str(tmp / "r"), "--layout", "order"], \
+        ["00000.jpg: a truncated JPEG file", "00001.jpg: a truncated JPEG file", "2 bad render files of 2"]
+
+
+@case("images", "score: a JPEG render cut short")
+def _(world, tmp):
+    import cv2
+
+    scene, p = _toy_copy(world, tmp)
+    df = pd.read_csv(p)
+    first = df["render_path"].iloc[0]
+    jpg = Path(first).with_suffix(".jpg").as_posix()
+    _cut_jpeg(scene / jpg, cv2.imread(str(scene / first)))
+    df.loc[df["render_path"] == first, "render_path"] = jpg
+    df.to_csv(p, index=False)
+    return "nvrq", ["score", str(p), "--scene", str(scene), "--metrics", "psnr", "--out", str(tmp / "m.csv"),
+                    "--quiet"], ["pairs.csv", "a truncated JPEG file (no end-of-image marker)", "1 unreadable image"]
+
+
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_malformed_input(name, world, tmp_path, capfd):
     prog, argv, fragments = CASES[name](world, tmp_path)

@@ -183,8 +183,8 @@ def _write(path: Path, image: np.ndarray | bytes) -> None:
 
 @pytest.mark.parametrize("case, expected", [
     ("unexpected", "8 expected, 8 found, 0 missing, 1 unexpected (first unexpected: notes/stray.png)"),
-    ("size", "expected an image of camera front's size 320x180, got 100x50"),
-    ("unreadable", "expected a readable image file, got an undecodable file"),
+    ("size", "an image of camera front's size 320x180, got 100x50): expected readable images"),
+    ("unreadable", "an undecodable file): expected readable images of their camera's size, got 1 bad render"),
     ("method", "--method: expected a method name"),
     ("no_renders", "images.csv: column source: expected render rows"),
     ("same_folder", "DIR: expected a folder of renders other than the scene folder"),
