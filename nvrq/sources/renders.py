@@ -63,7 +63,7 @@ from nvrq.choices import LAYOUTS  # the layouts of a folder of renders (module d
 from nvrq.crops import read_rgb
 from nvrq.render_plans import RenderPlan, render_plan
 
-__all__ = ["LAYOUTS", "ORDER_SUFFIXES", "RendersImport", "import_renders", "render_files"]
+__all__ = ["LAYOUTS", "ORDER_SUFFIXES", "MAX_WALK_DEPTH", "RendersImport", "import_renders", "render_files"]
 
 #: File suffixes of the ``order`` layout (compared in lower case).
 ORDER_SUFFIXES = (".png", ".jpg", ".jpeg")
@@ -96,6 +96,9 @@ class RendersImport:
         Files in the folder of renders that match no plan row.
     changed : int
         Render files already in the scene that were replaced or removed (default 0).
+    skipped : tuple of str
+        Folders of the folder of renders not walked: links into a loop, or deeper than
+        :data:`MAX_WALK_DEPTH` (default none).
     """
 
     images_csv: Path
@@ -106,13 +109,17 @@ class RendersImport:
     missing: tuple[str, ...]
     unexpected: tuple[str, ...]
     changed: int = 0
+    skipped: tuple[str, ...] = ()
 
     def counts(self) -> str:
         """``'N expected, F found, M missing, U unexpected'`` with the first of each kind."""
         found = self.expected - len(self.missing)
         text = f"{self.expected} expected, {found} found, {len(self.missing)} missing, {len(self.unexpected)} unexpected"
+        if self.skipped:
+            text += f", {len(self.skipped)} linked folders not walked (a link loop or too deep)"
         firsts = [f"first {kind}: {items[0]}" for kind, items in (("missing", self.missing),
-                                                                   ("unexpected", self.unexpected)) if items]
+                                                                   ("unexpected", self.unexpected),
+                                                                   ("not walked", self.skipped)) if items]
         return text + (f" ({'; '.join(firsts)})" if firsts else "")
 
     def summary(self) -> str:
@@ -123,20 +130,51 @@ class RendersImport:
         return f"renders{named}, layout {self.layout}: {self.counts()}{left}{changed} -> {self.images_csv}"
 
 
-def _visible_files(folder: Path, *, recursive: bool) -> list[str]:
-    """POSIX paths (relative to ``folder``) of its files, names starting with ``.`` aside."""
+#: the deepest folder level the ``plan`` layout walks (a plan path is a few levels deep)
+MAX_WALK_DEPTH = 32
+
+
+def _visible_files(folder: Path, *, recursive: bool, skipped: list | None = None) -> list[str]:
+    """POSIX paths (relative to ``folder``) of its files, names starting with ``.`` aside.
+
+    The walk follows links to folders, but never into a folder that holds the link (its
+    ``(st_dev, st_ino)`` is one of the walk's current folders: a link loop) nor deeper than
+    :data:`MAX_WALK_DEPTH` levels; such folders are appended to ``skipped`` (relative paths)."""
     if not recursive:
         return sorted(e.name for e in os.scandir(folder) if not e.name.startswith(".") and e.is_file())
-    out = []
-    for dirpath, dirnames, filenames in os.walk(folder, followlinks=True):
-        dirnames[:] = sorted(d for d in dirnames if not d.startswith("."))
-        rel = Path(dirpath).relative_to(folder)
-        out.extend((rel / f).as_posix() for f in sorted(filenames)
-                   if not f.startswith(".") and os.path.isfile(os.path.join(dirpath, f)))
-    return out
+    out: list[str] = []
+    skipped = [] if skipped is None else skipped
+    st = os.stat(folder)
+    stack = [(folder, Path("."), 0, frozenset({(st.st_dev, st.st_ino)}))]
+    while stack:
+        here, rel, depth, above = stack.pop()
+        try:
+            entries = sorted(os.scandir(here), key=lambda e: e.name)
+        except OSError:
+            skipped.append(rel.as_posix())
+            continue
+        subs = []
+        for e in entries:
+            if e.name.startswith("."):
+                continue
+            try:
+                if e.is_dir():
+                    est = e.stat()
+                    key = (est.st_dev, est.st_ino)
+                    if key in above or depth + 1 > MAX_WALK_DEPTH:
+                        skipped.append((rel / e.name).as_posix())
+                        continue
+                    subs.append((Path(e.path), rel / e.name, depth + 1, above | {key}))
+                elif e.is_file():
+                    out.append((rel / e.name).as_posix())
+            except OSError:  # a broken link or a link loop the OS refuses to resolve
+                skipped.append((rel / e.name).as_posix())
+        stack.extend(reversed(subs))
+    return sorted(out)
 
 
-def render_files(plan: RenderPlan, render_dir, *, layout: str = "plan") -> tuple[list, list[str]]:
+def render_files(plan: RenderPlan, render_dir, *, layout: str = "plan",
+                 skipped: list | None = None) -> tuple[list, list[str]]:
     """The file of each plan row in ``render_dir`` under ``layout`` (module docstring).
 
     Parameters
@@ -147,6 +185,9 @@ def render_files(plan: RenderPlan, render_dir, *, layout: str = "plan") -> tuple
         The folder of renders.
     layout : str, optional
         ``plan`` (files at the plan paths, the default) or ``order``.
+    skipped : list, optional
+        Receives the folders the ``plan`` walk did not enter (links into a loop, or deeper
+        than :data:`MAX_WALK_DEPTH`), relative paths.
 
     Returns
     -------
@@ -162,7 +203,7 @@ def render_files(plan: RenderPlan, render_dir, *, layout: str = "plan") -> tuple
     """
     _check_layout(layout)
     folder = Path(render_dir)
-    present = _visible_files(folder, recursive=layout == "plan")
+    present = _visible_files(folder, recursive=layout == "plan", skipped=skipped)
     if layout == "plan":
         have = set(present)
         files = [p if p in have else None for p in plan.paths]
@@ -375,11 +416,12 @@ def import_renders(scene, render_dir, *, method: str | None = None, layout: str 
         raise InputError(param="render_dir", expected="a folder of renders other than the scene folder", got=str(folder))
     scene, placeholders = _named_scene(scene, method, existing_method)
     plan = render_plan(scene, method=method)
-    files, unexpected = render_files(plan, folder, layout=layout)
+    skipped: list[str] = []
+    files, unexpected = render_files(plan, folder, layout=layout, skipped=skipped)
     rows = [i for i, f in enumerate(files) if f is not None]
     report = RendersImport(scene.root / "images.csv", layout, method or "", len(plan), len(rows),
                            tuple(_missing_name(plan, i, layout) for i, f in enumerate(files) if f is None),
-                           tuple(unexpected))
+                           tuple(unexpected), skipped=tuple(skipped))
     if unexpected or not rows or (report.missing and not allow_missing):
         rule = "every render of the plan" if not allow_missing else "renders of the plan (some at least)"
         raise InputError(folder, f"layout {layout}", f"{rule} and no other file", report.counts())

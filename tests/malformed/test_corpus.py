@@ -1102,6 +1102,17 @@ def _(world, tmp):
                     "--quiet"], ["pairs.csv", "a truncated JPEG file (no end-of-image marker)", "1 unreadable image"]
 
 
+# ---------------------------------------------------------------- issue 44 item 6: link loops
+@case("inputs", "import renders --layout plan: a folder of link loops and no render")
+def _(world, tmp):
+    scene = _synth_with_renders(tmp)
+    (tmp / "r" / "a" / "b").mkdir(parents=True)
+    for i in range(6):  # os.walk(followlinks=True) took exponential time on these
+        (tmp / "r" / "a" / "b" / f"up{i}").symlink_to("../..")
+    return "nvrq", ["import", "renders", str(scene), str(tmp / "r")], \
+        ["0 found", "6 linked folders not walked (a link loop or too deep)"]
+
+
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_malformed_input(name, world, tmp_path, capfd):
     prog, argv, fragments = CASES[name](world, tmp_path)
