@@ -1113,6 +1113,27 @@ def _(world, tmp):
         ["0 found", "6 linked folders not walked (a link loop or too deep)"]
 
 
+# ---------------------------------------------------------------- issue 44 item 4: class map shape
+@case("nta-iou", "--class-map a JSON list")
+def _(world, tmp):
+    (tmp / "maps.json").write_text("[1, 2]")
+    return "nvrq", ["proxy", "nta-iou", str(world / "scene"), "--detections", _nta_dets(tmp), "--class-map",
+                    str(tmp / "maps.json"), "--out", str(tmp / "nta.csv")], ["maps.json", "a JSON object", "got list"]
+
+
+@case("nta-iou", "--class-map clip_category not a string")
+def _(world, tmp):
+    import json as _json
+
+    from nvrq.proxies import CLASS_MAPS_PATH
+
+    doc = _json.loads(CLASS_MAPS_PATH.read_text())
+    doc["clip_category"]["automobile"] = 3
+    (tmp / "maps.json").write_text(_json.dumps(doc))
+    return "nvrq", ["proxy", "nta-iou", str(world / "scene"), "--detections", _nta_dets(tmp), "--class-map",
+                    str(tmp / "maps.json"), "--out", str(tmp / "nta.csv")], ["maps.json", "clip_category.automobile"]
+
+
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_malformed_input(name, world, tmp_path, capfd):
     prog, argv, fragments = CASES[name](world, tmp_path)
