@@ -1134,6 +1134,40 @@ def _(world, tmp):
                     str(tmp / "maps.json"), "--out", str(tmp / "nta.csv")], ["maps.json", "clip_category.automobile"]
 
 
+# ---------------------------------------------------------------- issue 44 item 7: degradation.csv
+def _degradation_case(name, edit, *fragments):
+    @case("nta-iou", f"simulate-detect: degradation.csv {name}")
+    def _c(world, tmp):
+        import shutil
+
+        scene = tmp / "scene"
+        shutil.copytree(_synth_two_frames(tmp / "src"), scene)
+        edit(scene / "degradation.csv")
+        return "nvrq", ["proxy", "simulate-detect", str(scene), "--out", str(tmp / "dets.csv")], \
+            ["degradation.csv", *fragments]
+
+
+def _deg_text(text):
+    return lambda p: p.write_text(text)
+
+
+def _deg_edit(col, value):
+    def e(p):
+        df = pd.read_csv(p)
+        df[col] = df[col].astype(object)
+        df.loc[0, col] = value
+        df.to_csv(p, index=False)
+    return e
+
+
+_degradation_case("empty", _deg_text(""), "an empty file")
+_degradation_case("without severity", lambda p: pd.read_csv(p).drop(columns="severity").to_csv(p, index=False),
+                  "column severity")
+_degradation_case("severity text", _deg_edit("severity", "bad"), "row 2, column severity")
+_degradation_case("timestamp text", _deg_edit("timestamp_us", "noon"), "row 2, column timestamp_us")
+_degradation_case("a row twice", lambda p: pd.concat([pd.read_csv(p)] * 2).to_csv(p, index=False), "a duplicate")
+
+
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_malformed_input(name, world, tmp_path, capfd):
     prog, argv, fragments = CASES[name](world, tmp_path)
