@@ -428,11 +428,12 @@ class DrivestudioImporter:
         ImportedScene
             The scene, its views, and the notes for the user.
         """
-        from data_schema.perturbation import parse_perturb
+        from data_schema.perturbation import perturb_option
         from data_schema.tables import parse_offsets
         from data_schema.text import comma_list
 
-        perturbations = None if args.perturb is None else parse_perturb(args.perturb)
+        perturbations = perturb_option(args.perturb, offsets=args.offsets,
+                                       offsets_given=getattr(args, "offsets_given", False))
         views = views_from(parse_offsets(args.offsets), perturbations)  # the options first, then the files
         cameras = None if args.cameras is None else comma_list(args.cameras)
         ds = read_drivestudio(args.scene_dir, dataset=args.dataset, fps=args.fps, cameras=cameras)

@@ -1168,6 +1168,20 @@ _degradation_case("timestamp text", _deg_edit("timestamp_us", "noon"), "row 2, c
 _degradation_case("a row twice", lambda p: pd.concat([pd.read_csv(p)] * 2).to_csv(p, index=False), "a duplicate")
 
 
+# ---------------------------------------------------------------- issue 44 item 13: options that were ignored
+@case("arguments", "score --actors without --engine ray")
+def _(world, tmp):
+    return "nvrq", ["score", str(world / "toy" / "pairs.csv"), "--metrics", "psnr", "--actors", "3", "--out",
+                    str(tmp / "m.csv")], ["--actors", "--engine ray", "got --engine local"]
+
+
+for _cmd, _argv in [("synth", ["synth", "{tmp}/s"]), ("render-plan", ["render-plan", "{world}/scene", "--out",
+                                                                      "{tmp}/plan.csv"])]:
+    case("arguments", f"{_cmd} --offsets with --perturb")(functools.partial(
+        _message_case, prog="nvrq", argv=[*_argv, "--offsets", "1", "--perturb", "yaw=0:2:1"],
+        fragments=["--offsets", "not both", "the grid yaw=0:2:1"]))
+
+
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_malformed_input(name, world, tmp_path, capfd):
     prog, argv, fragments = CASES[name](world, tmp_path)
