@@ -37,6 +37,7 @@ import cv2
 import numpy as np
 
 from data_schema.errors import InputError
+from data_schema.images import check_image
 from data_schema.tables import inside_scene
 from nvrq.crops import pad_to_square
 
@@ -76,6 +77,10 @@ def read_bgr(path: Path, *, where: str, field: str) -> np.ndarray:
     """
     if not Path(path).is_file():  # checked first: OpenCV would print a [ WARN ] line
         raise InputError(where, field, "an existing image file", f"{path} (not found)")
+    try:  # the header before any decode (a decompression bomb, a file cut short)
+        check_image(path)
+    except InputError as exc:
+        raise InputError(where, field, exc.expected, f"{path}: {exc.got}") from None
     img = cv2.imread(str(path), cv2.IMREAD_COLOR)
     if img is None:
         raise InputError(where, field, "a readable image file", str(path))

@@ -35,6 +35,7 @@ from data_schema.errors import InputError
 from data_schema.text import comma_list
 
 __all__ = [
+    "perturb_option",
     "AXES",
     "AXIS_UNITS",
     "PERTURBATION_COLUMNS",
@@ -368,3 +369,27 @@ def view_columns(table: pd.DataFrame) -> list[str]:
     list of str
     """
     return extra_columns(perturbation_array(table), VIEW_COLUMNS)
+
+
+def perturb_option(perturb: str | None, *, offsets=None, offsets_given: bool = False):
+    """The ``(K, 6)`` views of a ``--perturb`` value (:func:`parse_perturb`), None without one;
+    refused when ``--offsets`` was given too (``offsets_given``): the grid replaces the offsets,
+    so one of them would be ignored.
+
+    Parameters
+    ----------
+    perturb : str or None
+        The ``--perturb`` text.
+    offsets : str, optional
+        The ``--offsets`` text, for the error.
+    offsets_given : bool, optional
+        Whether the user gave ``--offsets``.
+
+    Returns
+    -------
+    (K, 6) float64 or None
+    """
+    if perturb is not None and offsets_given:
+        raise InputError(param="offsets", expected="offsets or a perturbation grid, not both (the grid "
+                         "replaces the offsets)", got=f"offsets {offsets} with the grid {perturb}")
+    return None if perturb is None else parse_perturb(perturb)

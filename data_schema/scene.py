@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.images import check_image
 from data_schema.methods import METHOD_COLUMN, check_table_methods, method_columns, method_values
 from data_schema.perturbation import (
     EXTRA_PERTURBATION_COLUMNS,
@@ -377,7 +378,26 @@ def _read_images(source, root: Path, cameras: dict, check_images: bool, follow: 
         i = int(np.argmax(dup.to_numpy()))
         key = "(camera, timestamp_us, source, perturbation" + (", method)" if methods else ")")
         raise InputError(where, f"row {i + 2}", f"one image per {key}", "a duplicate")
+    if check_images:
+        _check_image_headers(df, root, cameras, where)
     return df.loc[:, [*IMAGES_COLUMNS, *EXTRA_PERTURBATION_COLUMNS, *methods]]
+
+
+def _check_image_headers(df: pd.DataFrame, root: Path, cameras: dict, where: str) -> None:
+    """Every image of ``df`` a readable image of its camera's resolution, from its header
+    (:func:`data_schema.images.check_image`: no pixel decoded); one error names every bad one,
+    with their count."""
+    bad = []
+    for i, (cam, rel) in enumerate(zip(df["camera"], df["path"], strict=True)):
+        W, H = cameras[cam].model["resolution"]
+        try:
+            check_image(root / rel, size=(W, H), of=f"camera {cam}")
+        except InputError as exc:
+            why = str(exc.got) if exc.expected == "a readable image file" else f"{exc.expected}, got {exc.got}"
+            bad.append(f"row {i + 2} {rel}: {why}")
+    if bad:
+        raise InputError(where, f"column path ({'; '.join(bad)})", "readable images of their camera's resolution",
+                         f"{len(bad)} bad image file{'s' if len(bad) != 1 else ''} of {len(df)}")
 
 
 def _method_column(df: pd.DataFrame, where: str) -> list[str]:

@@ -32,6 +32,7 @@ import cv2
 import numpy as np
 
 from data_schema.errors import InputError
+from data_schema.images import check_image
 
 __all__ = ["read_rgb", "cut_box", "pad_to_square", "encoder_input", "resize_to", "normalised_tensor"]
 
@@ -40,18 +41,26 @@ __all__ = ["read_rgb", "cut_box", "pad_to_square", "encoder_input", "resize_to",
 _IMREAD_RGB = getattr(cv2, "IMREAD_COLOR_RGB", None)
 
 
-def read_rgb(path: str | os.PathLike) -> np.ndarray:
-    """Decode an image file into an RGB ``uint8`` array (H, W, 3).
+def read_rgb(path: str | os.PathLike, *, size: tuple[int, int] | None = None,
+             of: str = "its camera") -> np.ndarray:
+    """Decode an image file into an RGB ``uint8`` array (H, W, 3), its header checked first.
 
     OpenCV returns B, G, R unless asked for R, G, B (``cv2.IMREAD_COLOR_RGB``, OpenCV >= 4.10;
     older builds swap with ``cv2.COLOR_BGR2RGB``): the result is in the file's own R, G, B
     order. Grey and RGBA files become 3-channel RGB.
-    Raises :class:`InputError` if the file is missing or cannot be decoded.
+    Raises :class:`InputError` if the file is missing or cannot be decoded, and before any
+    decode (:func:`data_schema.images.check_image`: the header only) if it has more than
+    :data:`data_schema.images.MAX_IMAGE_PIXELS` pixels, is a PNG or JPEG file cut short, or
+    is not of ``size``.
 
     Parameters
     ----------
     path : str or PathLike
         An image file OpenCV can decode.
+    size : (int, int), optional
+        The ``(width, height)`` it must have (its camera's resolution).
+    of : str, optional
+        Whose size ``size`` is, for the error (``"camera front"``).
 
     Returns
     -------
@@ -59,6 +68,7 @@ def read_rgb(path: str | os.PathLike) -> np.ndarray:
         RGB.
     """
     path = os.fspath(path)
+    check_image(path, size=size, of=of)
     if _IMREAD_RGB is not None:  # the decoder writes R, G, B: no full-frame channel swap
         image = cv2.imread(path, _IMREAD_RGB)
     else:

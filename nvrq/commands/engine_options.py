@@ -75,11 +75,13 @@ def check_engine_args(args, *, local_datasets: bool = False) -> None:
     Raises
     ------
     InputError
-        ``--address`` without ``--engine ray``; ``--precision`` other than fp32 or
+        ``--address`` or ``--actors`` without ``--engine ray``; ``--precision`` other than fp32 or
         ``--column-tag`` with it; ``--scene`` or an ``--out`` with a suffix for a sharded run.
     """
     if args.engine != "ray" and args.address:
         raise InputError("--address", None, "--engine ray", f"--engine {args.engine}")
+    if args.engine != "ray" and getattr(args, "actors", None) is not None:
+        raise InputError("--actors", None, "--engine ray (the local engine has no actors)", f"--engine {args.engine}")
     if args.engine == "ray":
         if getattr(args, "precision", "fp32") != "fp32":
             raise InputError("--precision", None, "fp32 with --engine ray (reduced precision runs on "

@@ -178,6 +178,9 @@ def run_nta(args) -> int:
     summary = nta_summary(table, n_boot=args.bootstrap, seed=args.seed, min_clusters=args.min_clusters)
     write_table(table, args.out)
     write_table(summary, summary_path)
+    if len(table) and table["d_score"].isna().all():
+        print(f"note: no detection of {args.detections} matched a projected box (none given, none past the "
+              "score filter, or none overlapping): every box is a miss (IoU 0)")
     print(f"{plural(len(table), 'box', 'boxes')}, NTA-IoU ({protocol.name}) {table['iou'].mean():.4f} -> {args.out}, {summary_path}")
     return 0
 

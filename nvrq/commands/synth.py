@@ -6,6 +6,8 @@ Layer: commands (CLI shell).
 
 from __future__ import annotations
 
+import argparse
+
 from data_schema.text import comma_list
 from nvrq.commands.args import (
     add_quiet_option,
@@ -55,9 +57,18 @@ def add_view_options(
     offsets_help : str, optional
         The help of ``--offsets``.
     """
-    parser.add_argument("--offsets", default=offsets_default, help=offsets_help)
+    parser.add_argument("--offsets", default=offsets_default, help=offsets_help + "; not with --perturb",
+                        action=_GivenOffsets)
     add_perturb_option(parser)
     allow_negative_lists(parser)
+
+
+class _GivenOffsets(argparse.Action):
+    """Stores ``--offsets`` and notes that it was given (``--perturb`` refuses it then)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        setattr(namespace, self.dest, values)
+        namespace.offsets_given = True
 
 
 def perturb_grid(args):
@@ -73,9 +84,9 @@ def perturb_grid(args):
     (K, 6) float64 or None
         ``(dx, dy, dz, roll, pitch, yaw)``: metres, degrees, rig frame.
     """
-    from data_schema.perturbation import parse_perturb
+    from data_schema.perturbation import perturb_option
 
-    return None if args.perturb is None else parse_perturb(args.perturb)
+    return perturb_option(args.perturb, offsets=args.offsets, offsets_given=getattr(args, "offsets_given", False))
 
 
 def parse_size(text: str) -> tuple[int, int]:

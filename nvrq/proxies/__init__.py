@@ -53,6 +53,8 @@ def load_class_maps(path: str | os.PathLike | None = None) -> dict:
         doc = json.loads(path.read_text(encoding="utf-8"))
     except json.JSONDecodeError as exc:
         raise InputError(path, None, "valid JSON", str(exc)) from None
+    if not isinstance(doc, dict):
+        raise InputError(path, None, "a JSON object with the keys " + ", ".join(_KEYS), type(doc).__name__)
     for key in _KEYS:
         if not isinstance(doc.get(key), dict):
             raise InputError(path, key, "an object", type(doc.get(key)).__name__)
@@ -67,7 +69,7 @@ def load_class_maps(path: str | os.PathLike | None = None) -> dict:
             raise InputError(path, f"clip_prompts.{k}", "a prompt string", v)
     out["clip_prompts"] = prompts
     for label, cat in doc["clip_category"].items():
-        if cat is not None and cat.lower() not in prompts:
+        if cat is not None and (not isinstance(cat, str) or cat.lower() not in prompts):
             raise InputError(
                 path,
                 f"clip_category.{label}",

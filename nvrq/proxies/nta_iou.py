@@ -412,7 +412,7 @@ def evaluate(boxes: dict, dets: dict, sizes: np.ndarray, protocol: Protocol, *,
         allowed = rule
     det, iou = match_boxes(boxes["image"][kb], b[kb], dets["image"][kd], d_box[kd], protocol=protocol,
                            allowed=allowed)
-    return {"keep": keep, "index": kb, "box": b[kb], "det": np.where(det >= 0, kd[np.maximum(det, 0)], -1),
+    return {"keep": keep, "index": kb, "box": b[kb], "det": np.where(det >= 0, kd[np.maximum(det, 0)], -1) if len(kd) else np.full(len(kb), -1),
             "det_box": d_box, "iou": iou}
 
 

@@ -185,6 +185,10 @@ def _table(kept: pd.DataFrame, res: dict, dets: pd.DataFrame, protocol: Protocol
     kept.insert(0, "pair_id", pair_ids(kept, methods if with_method else None))
     det = res["det"]
     has = det >= 0
+    if not has.any():  # no detection at all (or none passed the score filter): every box a miss
+        det = np.zeros(len(det), np.int64)
+        res = {**res, "det_box": np.full((1, 4), np.nan)}
+        dets = pd.DataFrame({"score": [np.nan], "coco_class": [""]})
     for k, name in enumerate(("x0", "y0", "x1", "y1")):
         kept[f"p_{name}"] = res["box"][:, k]
         kept[f"d_{name}"] = np.where(has, res["det_box"][np.maximum(det, 0), k], np.nan)

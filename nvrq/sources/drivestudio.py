@@ -66,9 +66,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from PIL import Image, UnidentifiedImageError
 
 from data_schema.errors import InputError, check_number
+from data_schema.images import check_image
 from data_schema.perturbation import views_from
 from data_schema.scene import CameraCalib, SourceWorld, Track, check_rigid, validate_camera_model
 from data_schema.scene_writer import NewScene, SceneFrame, scene_doc
@@ -259,11 +259,8 @@ def _image_size(paths) -> tuple[int, int]:
     """The one ``(W, H)`` of a camera's images (headers only); an error names the first odd one."""
     size = None
     for p in paths:
-        try:
-            with Image.open(p) as im:
-                s = im.size
-        except (UnidentifiedImageError, OSError):
-            raise InputError(p, None, "a readable JPEG image", "an unreadable file") from None
+        head = check_image(p)  # the header only: no decode, a bomb or a file cut short refused
+        s = (head.width, head.height)
         if size is None:
             size = s
         elif s != size:
@@ -431,11 +428,12 @@ class DrivestudioImporter:
         ImportedScene
             The scene, its views, and the notes for the user.
         """
-        from data_schema.perturbation import parse_perturb
+        from data_schema.perturbation import perturb_option
         from data_schema.tables import parse_offsets
         from data_schema.text import comma_list
 
-        perturbations = None if args.perturb is None else parse_perturb(args.perturb)
+        perturbations = perturb_option(args.perturb, offsets=args.offsets,
+                                       offsets_given=getattr(args, "offsets_given", False))
         views = views_from(parse_offsets(args.offsets), perturbations)  # the options first, then the files
         cameras = None if args.cameras is None else comma_list(args.cameras)
         ds = read_drivestudio(args.scene_dir, dataset=args.dataset, fps=args.fps, cameras=cameras)

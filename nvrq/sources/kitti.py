@@ -27,6 +27,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.images import check_image
 
 if TYPE_CHECKING:  # imported where used: drivestudio_meta (read by the nvrq parser) imports this module
     from data_schema.scene_writer import NewScene
@@ -225,6 +226,7 @@ def read_kitti(kitti_root: str | os.PathLike, frame: str) -> ImportedScene:
     image = root / "image_2" / f"{frame}.png"
     if not image.is_file():
         raise InputError(image, None, "a KITTI image_2 PNG", "no such file")
+    check_image(image)  # the header before any decode (a decompression bomb, a file cut short)
     img = cv2.imread(str(image), cv2.IMREAD_UNCHANGED)
     if img is None:
         raise InputError(image, None, "a readable PNG image", "undecodable file")

@@ -325,11 +325,12 @@ class NurecImporter:
         ImportedScene
             The scene and its views.
         """
-        from data_schema.perturbation import parse_perturb
+        from data_schema.perturbation import perturb_option
         from data_schema.tables import parse_offsets
         from nvrq.clip_attributes import read_clip_attributes
 
-        perturbations = None if args.perturb is None else parse_perturb(args.perturb)
+        perturbations = perturb_option(args.perturb, offsets=args.offsets,
+                                       offsets_given=getattr(args, "offsets_given", False))
         offsets = parse_offsets(args.offsets)  # the options first, then the files
         attributes = read_clip_attributes(args.clip_attributes) if args.clip_attributes else None
         return read_nurec(args.archive, offsets=offsets, perturbations=perturbations,

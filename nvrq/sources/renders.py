@@ -63,7 +63,7 @@ from nvrq.choices import LAYOUTS  # the layouts of a folder of renders (module d
 from nvrq.crops import read_rgb
 from nvrq.render_plans import RenderPlan, render_plan
 
-__all__ = ["LAYOUTS", "ORDER_SUFFIXES", "RendersImport", "import_renders", "render_files"]
+__all__ = ["LAYOUTS", "ORDER_SUFFIXES", "MAX_WALK_DEPTH", "RendersImport", "import_renders", "render_files"]
 
 #: File suffixes of the ``order`` layout (compared in lower case).
 ORDER_SUFFIXES = (".png", ".jpg", ".jpeg")
@@ -96,6 +96,9 @@ class RendersImport:
         Files in the folder of renders that match no plan row.
     changed : int
         Render files already in the scene that were replaced or removed (default 0).
+    skipped : tuple of str
+        Folders of the folder of renders not walked: links into a loop, or deeper than
+        :data:`MAX_WALK_DEPTH` (default none).
     """
 
     images_csv: Path
@@ -106,13 +109,17 @@ class RendersImport:
     missing: tuple[str, ...]
     unexpected: tuple[str, ...]
     changed: int = 0
+    skipped: tuple[str, ...] = ()
 
     def counts(self) -> str:
         """``'N expected, F found, M missing, U unexpected'`` with the first of each kind."""
         found = self.expected - len(self.missing)
         text = f"{self.expected} expected, {found} found, {len(self.missing)} missing, {len(self.unexpected)} unexpected"
+        if self.skipped:
+            text += f", {len(self.skipped)} linked folders not walked (a link loop or too deep)"
         firsts = [f"first {kind}: {items[0]}" for kind, items in (("missing", self.missing),
-                                                                   ("unexpected", self.unexpected)) if items]
+                                                                   ("unexpected", self.unexpected),
+                                                                   ("not walked", self.skipped)) if items]
         return text + (f" ({'; '.join(firsts)})" if firsts else "")
 
     def summary(self) -> str:
@@ -123,20 +130,51 @@ class RendersImport:
         return f"renders{named}, layout {self.layout}: {self.counts()}{left}{changed} -> {self.images_csv}"
 
 
-def _visible_files(folder: Path, *, recursive: bool) -> list[str]:
-    """POSIX paths (relative to ``folder``) of its files, names starting with ``.`` aside."""
+#: the deepest folder level the ``plan`` layout walks (a plan path is a few levels deep)
+MAX_WALK_DEPTH = 32
+
+
+def _visible_files(folder: Path, *, recursive: bool, skipped: list | None = None) -> list[str]:
+    """POSIX paths (relative to ``folder``) of its files, names starting with ``.`` aside.
+
+    The walk follows links to folders, but never into a folder that holds the link (its
+    ``(st_dev, st_ino)`` is one of the walk's current folders: a link loop) nor deeper than
+    :data:`MAX_WALK_DEPTH` levels; such folders are appended to ``skipped`` (relative paths)."""
     if not recursive:
         return sorted(e.name for e in os.scandir(folder) if not e.name.startswith(".") and e.is_file())
-    out = []
-    for dirpath, dirnames, filenames in os.walk(folder, followlinks=True):
-        dirnames[:] = sorted(d for d in dirnames if not d.startswith("."))
-        rel = Path(dirpath).relative_to(folder)
-        out.extend((rel / f).as_posix() for f in sorted(filenames)
-                   if not f.startswith(".") and os.path.isfile(os.path.join(dirpath, f)))
-    return out
+    out: list[str] = []
+    skipped = [] if skipped is None else skipped
+    st = os.stat(folder)
+    stack = [(folder, Path("."), 0, frozenset({(st.st_dev, st.st_ino)}))]
+    while stack:
+        here, rel, depth, above = stack.pop()
+        try:
+            entries = sorted(os.scandir(here), key=lambda e: e.name)
+        except OSError:
+            skipped.append(rel.as_posix())
+            continue
+        subs = []
+        for e in entries:
+            if e.name.startswith("."):
+                continue
+            try:
+                if e.is_dir():
+                    est = e.stat()
+                    key = (est.st_dev, est.st_ino)
+                    if key in above or depth + 1 > MAX_WALK_DEPTH:
+                        skipped.append((rel / e.name).as_posix())
+                        continue
+                    subs.append((Path(e.path), rel / e.name, depth + 1, above | {key}))
+                elif e.is_file():
+                    out.append((rel / e.name).as_posix())
+            except OSError:  # a broken link or a link loop the OS refuses to resolve
+                skipped.append((rel / e.name).as_posix())
+        stack.extend(reversed(subs))
+    return sorted(out)
 
 
-def render_files(plan: RenderPlan, render_dir, *, layout: str = "plan") -> tuple[list, list[str]]:
+def render_files(plan: RenderPlan, render_dir, *, layout: str = "plan",
+                 skipped: list | None = None) -> tuple[list, list[str]]:
     """The file of each plan row in ``render_dir`` under ``layout`` (module docstring).
 
     Parameters
@@ -147,6 +185,9 @@ def render_files(plan: RenderPlan, render_dir, *, layout: str = "plan") -> tuple
         The folder of renders.
     layout : str, optional
         ``plan`` (files at the plan paths, the default) or ``order``.
+    skipped : list, optional
+        Receives the folders the ``plan`` walk did not enter (links into a loop, or deeper
+        than :data:`MAX_WALK_DEPTH`), relative paths.
 
     Returns
     -------
@@ -162,7 +203,7 @@ def render_files(plan: RenderPlan, render_dir, *, layout: str = "plan") -> tuple
     """
     _check_layout(layout)
     folder = Path(render_dir)
-    present = _visible_files(folder, recursive=layout == "plan")
+    present = _visible_files(folder, recursive=layout == "plan", skipped=skipped)
     if layout == "plan":
         have = set(present)
         files = [p if p in have else None for p in plan.paths]
@@ -252,25 +293,27 @@ def _named_scene(scene, method: str | None, existing_method: str | None):
     return dataclasses.replace(scene, images=images), placeholders
 
 
-def _check_image(src: Path, width: int, height: int, camera: str) -> None:
-    image = read_rgb(src)
-    h, w = image.shape[:2]
-    if (w, h) != (width, height):
-        raise InputError(src, None, f"an image of camera {camera}'s size {width}x{height}", f"{w}x{h}")
+def _check_image(src: Path, width: int, height: int, camera: str) -> str | None:
+    """Why ``src`` is no render of ``camera`` (its header read first, then decoded), or None."""
+    try:
+        read_rgb(src, size=(width, height), of=f"camera {camera}")
+    except InputError as exc:
+        return f"{exc.expected}, got {exc.got}" if exc.expected != "a readable image file" else str(exc.got)
+    return None
 
 
-def _check_images(srcs: list[Path], plan: RenderPlan, rows: list[int]) -> None:
-    """Every render readable and of its camera's size (decoded in threads; the first bad
-    one, in plan order, is reported)."""
+def _check_images(srcs: list[Path], plan: RenderPlan, rows: list[int], folder: Path) -> None:
+    """Every render readable and of its camera's size (:func:`nvrq.crops.read_rgb`: the header
+    is checked before a pixel is decoded, so a decompression bomb costs nothing); decoded in
+    threads; every bad file is named in one error, with their count."""
     with ThreadPoolExecutor(max_workers=min(8, os.cpu_count() or 1)) as pool:
-        futures = [pool.submit(_check_image, s, int(plan.widths[i]), int(plan.heights[i]), plan.cameras[i])
-                   for s, i in zip(srcs, rows, strict=True)]
-        try:
-            for f in futures:
-                f.result()
-        except InputError:
-            pool.shutdown(cancel_futures=True)
-            raise
+        why = list(pool.map(lambda a: _check_image(*a), [(s, int(plan.widths[i]), int(plan.heights[i]),
+                                                          plan.cameras[i]) for s, i in zip(srcs, rows, strict=True)]))
+    bad = [(s, w) for s, w in zip(srcs, why, strict=True) if w is not None]
+    if bad:
+        listed = "; ".join(f"{os.path.relpath(s, folder)}: {w}" for s, w in bad)
+        raise InputError(folder, f"renders ({listed})", "readable images of their camera's size",
+                         f"{plural(len(bad), 'bad render file')} of {len(srcs)}")
 
 
 def _place(src: Path, dst: Path, *, link: bool) -> None:
@@ -373,16 +416,17 @@ def import_renders(scene, render_dir, *, method: str | None = None, layout: str 
         raise InputError(param="render_dir", expected="a folder of renders other than the scene folder", got=str(folder))
     scene, placeholders = _named_scene(scene, method, existing_method)
     plan = render_plan(scene, method=method)
-    files, unexpected = render_files(plan, folder, layout=layout)
+    skipped: list[str] = []
+    files, unexpected = render_files(plan, folder, layout=layout, skipped=skipped)
     rows = [i for i, f in enumerate(files) if f is not None]
     report = RendersImport(scene.root / "images.csv", layout, method or "", len(plan), len(rows),
                            tuple(_missing_name(plan, i, layout) for i, f in enumerate(files) if f is None),
-                           tuple(unexpected))
+                           tuple(unexpected), skipped=tuple(skipped))
     if unexpected or not rows or (report.missing and not allow_missing):
         rule = "every render of the plan" if not allow_missing else "renders of the plan (some at least)"
         raise InputError(folder, f"layout {layout}", f"{rule} and no other file", report.counts())
     srcs = [folder / files[i] for i in rows]
-    _check_images(srcs, plan, rows)
+    _check_images(srcs, plan, rows, folder)
     dst = {}
     for i, src in zip(rows, srcs, strict=True):
         path = Path(plan.paths[i])

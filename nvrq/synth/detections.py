@@ -49,9 +49,30 @@ def _severity(scene: Scene, boxes: pd.DataFrame) -> np.ndarray:
     if not path.is_file():
         raise InputError(scene.root, "degradation.csv", "a scene written by nvrq synth (its degradation.csv)",
                          "no such file")
-    deg = pd.read_csv(path, dtype={"track_id": str}, keep_default_na=False, na_values=[""])
+    try:
+        deg = pd.read_csv(path, dtype={"track_id": str}, keep_default_na=False, na_values=[""])
+    except (pd.errors.EmptyDataError, pd.errors.ParserError, UnicodeDecodeError) as exc:
+        raise InputError(path, None, "a degradation table written by nvrq synth",
+                         "an empty file" if isinstance(exc, pd.errors.EmptyDataError) else str(exc)) from None
+    for col in ("camera", "timestamp_us", "track_id", "y_offset_m", "severity"):
+        if col not in deg.columns:
+            raise InputError(path, f"column {col}", "the columns nvrq synth writes", "missing")
+    for col in ("timestamp_us", "y_offset_m", "x_offset_m", "z_offset_m", "roll_deg", "pitch_deg", "yaw_deg",
+                "severity"):
+        if col in deg.columns:
+            num = pd.to_numeric(deg[col], errors="coerce")
+            bad = (num.isna() & deg[col].notna()) | ~np.isfinite(num.fillna(0).to_numpy(np.float64))
+            if bad.any():
+                i = int(np.argmax(bad.to_numpy()))
+                raise InputError(path, f"row {i + 2}, column {col}", "a finite number", repr(deg[col].iloc[i]))
+            deg[col] = num
     keys = [c for c in ("camera", "timestamp_us", "track_id", "y_offset_m", "x_offset_m", "z_offset_m",
                         "roll_deg", "pitch_deg", "yaw_deg", "method") if c in deg.columns]
+    dup = deg.duplicated(keys)
+    if dup.any():
+        i = int(np.argmax(dup.to_numpy()))
+        raise InputError(path, f"row {i + 2}", "one row per box and view", "a duplicate")
+    deg["timestamp_us"] = deg["timestamp_us"].astype(np.int64)
     if "method" in keys:
         deg["method"] = deg["method"].fillna("").astype(str)
     left = boxes[keys].astype({"track_id": str})

@@ -40,7 +40,7 @@ def write(tmp_path, doc, images=None):
     images = valid_images() if images is None else images
     save_scene(doc, images, tmp_path)
     for p in ("gt.png", "r.png"):
-        (tmp_path / p).write_bytes(b"")
+        (tmp_path / p).write_bytes(_world._black_png())
     return tmp_path
 
 
@@ -125,7 +125,7 @@ def test_images_csv_errors(tmp_path, capsys, case):
     save_scene(valid_doc(), valid_images(), tmp_path)
     images.to_csv(tmp_path / "images.csv", index=False)
     for p in ("gt.png", "r.png"):
-        (tmp_path / p).write_bytes(b"")
+        (tmp_path / p).write_bytes(_world._black_png())
     rc = main(["pairs", str(tmp_path), "--out", str(tmp_path.with_name(tmp_path.name + "-p.csv"))])
     err = capsys.readouterr().err
     assert rc == 2 and err.count("\n") == 1
@@ -170,7 +170,7 @@ def test_symlinked_image_folders_checked_per_load(tmp_path):
     outside.mkdir()
     for d in (scene / "real", outside):
         for p in ("gt.png", "r.png"):
-            (d / p).write_bytes(b"")
+            (d / p).write_bytes(_world._black_png())
     images = valid_images().assign(path=["img/gt.png", "img/r.png"])
     save_scene(valid_doc(), images, scene)
     (scene / "img").symlink_to(scene / "real")

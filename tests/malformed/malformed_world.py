@@ -62,8 +62,15 @@ def write_scene(root: Path, doc: dict | None = None, images: str = IMAGES_CSV) -
     (root / "scene.json").write_text(json.dumps(scene_doc() if doc is None else doc))
     (root / "images.csv").write_text(images)
     for p in ("gt.png", "r.png"):
-        (root / p).write_bytes(b"")
+        (root / p).write_bytes(_black_png())
     return root
+
+
+def _black_png(size=(640, 480)) -> bytes:
+    """A black PNG of the scene's camera resolution (scene images are checked from their header)."""
+    import cv2
+
+    return cv2.imencode(".png", np.zeros((size[1], size[0], 3), np.uint8))[1].tobytes()
 
 
 def snapshot(root: Path) -> dict[str, str]:

@@ -992,6 +992,214 @@ _study_case("manifest adaptive without a cap", _manifest_edit(sampling="adaptive
             "manifest.json", "max_votes_per_item")
 
 
+# ---------------------------------------------------------------- issue 44: images read from their header first
+# 5: a decompression bomb (a small PNG whose header claims more pixels than MAX_IMAGE_PIXELS) is
+# refused before a pixel is decoded, wherever a foreign image is read; a scene image or render of
+# another size than its camera's is refused. 8: a PNG or JPEG cut short is refused, every bad
+# file named in one pass with their count.
+
+def _bomb_png(path: Path, side: int = 9000) -> Path:
+    """A PNG whose header claims ``side`` x ``side`` grey pixels; its data is a few hundred bytes."""
+    import struct
+    import zlib
+
+    def chunk(tag, body):
+        return struct.pack(">I", len(body)) + tag + body + struct.pack(">I", zlib.crc32(tag + body))
+
+    ihdr = struct.pack(">IIBBBBB", side, side, 8, 0, 0, 0, 0)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(b"\0" * 4 * (side + 1)))
+                     + chunk(b"IEND", b""))
+    return path
+
+
+def _cut_jpeg(path: Path, image) -> Path:
+    """``image`` written as a JPEG at ``path``, then cut to half its bytes."""
+    import cv2
+
+    data = cv2.imencode(".jpg", image)[1].tobytes()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(data[: len(data) // 2])
+    return path
+
+
+def _toy_copy(world, tmp):
+    import shutil
+
+    scene = tmp / "scene"
+    shutil.copytree(world / "toy" / "scene", scene)
+    return scene, copy_into(world, "toy/pairs.csv", tmp)
+
+
+@case("images", "score: a decompression bomb in place of a render")
+def _(world, tmp):
+    scene, p = _toy_copy(world, tmp)
+    _bomb_png(scene / sorted(set(pd.read_csv(p)["render_path"]))[0])
+    return "nvrq", ["score", str(p), "--scene", str(scene), "--metrics", "psnr", "--out", str(tmp / "m.csv"),
+                    "--quiet"], ["pairs.csv", "9000x9000 = 81000000 pixels (over the limit)", "1 unreadable image"]
+
+
+@case("images", "build: a decompression bomb in place of a render (the rater app's crops)")
+def _(world, tmp):
+    scene, p = _toy_copy(world, tmp)
+    for r in set(pd.read_csv(p)["render_path"]):
+        _bomb_png(scene / r)
+    return "annotate", ["build", str(tmp / "st"), "--pairs", str(p), "--scene", str(scene), "--tracks", "2",
+                        "--frames-per-track", "2", "--size", "32x32"], \
+        ["expected an image of at most 67108864 pixels", "9000x9000"]
+
+
+@case("images", "pairs: a scene image is a decompression bomb")
+def _(world, tmp):
+    scene = write_scene(tmp / "scene")
+    _bomb_png(scene / "gt.png")
+    return "nvrq", _pairs_cmd(scene, tmp), ["images.csv", "row 2 gt.png", "camera front's size 640x480, got 9000x9000",
+                                            "1 bad image file of 2"]
+
+
+@case("images", "pairs: a scene image of another size than its camera's")
+def _(world, tmp):
+    import cv2
+    import numpy as np
+
+    scene = write_scene(tmp / "scene")
+    cv2.imwrite(str(scene / "r.png"), np.zeros((48, 64, 3), np.uint8))
+    return "nvrq", _pairs_cmd(scene, tmp), ["images.csv", "row 3 r.png", "size 640x480, got 64x48"]
+
+
+@case("images", "pairs: two scene images cut short, both named with a count")
+def _(world, tmp):
+    import numpy as np
+
+    scene = write_scene(tmp / "scene")
+    (scene / "gt.png").write_bytes((scene / "gt.png").read_bytes()[:-30])
+    _cut_jpeg(scene / "r.png", np.zeros((480, 640, 3), np.uint8))
+    return "nvrq", _pairs_cmd(scene, tmp), ["row 2 gt.png: a truncated PNG file", "row 3 r.png: a truncated JPEG file",
+                                            "2 bad image files of 2"]
+
+
+def _synth_two_frames(tmp: Path) -> Path:
+    from nvrq.cli import main
+
+    assert main(["synth", str(tmp / "scene"), "--seconds", "1", "--fps", "2", "--size", "96x54", "--offsets", "1",
+                 "--quiet"]) == 0
+    return tmp / "scene"
+
+
+@case("images", "import renders: a decompression bomb")
+def _(world, tmp):
+    scene = _synth_with_renders(tmp)
+    _bomb_png(tmp / "r" / "00000.png")
+    return "nvrq", ["import", "renders", str(scene), str(tmp / "r"), "--layout", "order"], \
+        ["00000.png: an image of camera front's size 96x54, got 9000x9000", "1 bad render file of 1"]
+
+
+@case("images", "import renders: two JPEG renders cut short, both named with a count")
+def _(world, tmp):
+    import numpy as np
+
+    scene = _synth_two_frames(tmp)
+    for i in range(2):
+        _cut_jpeg(tmp / "r" / f"{i:05d}.jpg", np.full((54, 96, 3), 90, np.uint8))
+    return "nvrq", ["import", "renders", str(scene), str(tmp / "r"), "--layout", "order"], \
+        ["00000.jpg: a truncated JPEG file", "00001.jpg: a truncated JPEG file", "2 bad render files of 2"]
+
+
+@case("images", "score: a JPEG render cut short")
+def _(world, tmp):
+    import cv2
+
+    scene, p = _toy_copy(world, tmp)
+    df = pd.read_csv(p)
+    first = df["render_path"].iloc[0]
+    jpg = Path(first).with_suffix(".jpg").as_posix()
+    _cut_jpeg(scene / jpg, cv2.imread(str(scene / first)))
+    df.loc[df["render_path"] == first, "render_path"] = jpg
+    df.to_csv(p, index=False)
+    return "nvrq", ["score", str(p), "--scene", str(scene), "--metrics", "psnr", "--out", str(tmp / "m.csv"),
+                    "--quiet"], ["pairs.csv", "a truncated JPEG file (no end-of-image marker)", "1 unreadable image"]
+
+
+# ---------------------------------------------------------------- issue 44 item 6: link loops
+@case("inputs", "import renders --layout plan: a folder of link loops and no render")
+def _(world, tmp):
+    scene = _synth_with_renders(tmp)
+    (tmp / "r" / "a" / "b").mkdir(parents=True)
+    for i in range(6):  # os.walk(followlinks=True) took exponential time on these
+        (tmp / "r" / "a" / "b" / f"up{i}").symlink_to("../..")
+    return "nvrq", ["import", "renders", str(scene), str(tmp / "r")], \
+        ["0 found", "6 linked folders not walked (a link loop or too deep)"]
+
+
+# ---------------------------------------------------------------- issue 44 item 4: class map shape
+@case("nta-iou", "--class-map a JSON list")
+def _(world, tmp):
+    (tmp / "maps.json").write_text("[1, 2]")
+    return "nvrq", ["proxy", "nta-iou", str(world / "scene"), "--detections", _nta_dets(tmp), "--class-map",
+                    str(tmp / "maps.json"), "--out", str(tmp / "nta.csv")], ["maps.json", "a JSON object", "got list"]
+
+
+@case("nta-iou", "--class-map clip_category not a string")
+def _(world, tmp):
+    import json as _json
+
+    from nvrq.proxies import CLASS_MAPS_PATH
+
+    doc = _json.loads(CLASS_MAPS_PATH.read_text())
+    doc["clip_category"]["automobile"] = 3
+    (tmp / "maps.json").write_text(_json.dumps(doc))
+    return "nvrq", ["proxy", "nta-iou", str(world / "scene"), "--detections", _nta_dets(tmp), "--class-map",
+                    str(tmp / "maps.json"), "--out", str(tmp / "nta.csv")], ["maps.json", "clip_category.automobile"]
+
+
+# ---------------------------------------------------------------- issue 44 item 7: degradation.csv
+def _degradation_case(name, edit, *fragments):
+    @case("nta-iou", f"simulate-detect: degradation.csv {name}")
+    def _c(world, tmp):
+        import shutil
+
+        scene = tmp / "scene"
+        shutil.copytree(_synth_two_frames(tmp / "src"), scene)
+        edit(scene / "degradation.csv")
+        return "nvrq", ["proxy", "simulate-detect", str(scene), "--out", str(tmp / "dets.csv")], \
+            ["degradation.csv", *fragments]
+
+
+def _deg_text(text):
+    return lambda p: p.write_text(text)
+
+
+def _deg_edit(col, value):
+    def e(p):
+        df = pd.read_csv(p)
+        df[col] = df[col].astype(object)
+        df.loc[0, col] = value
+        df.to_csv(p, index=False)
+    return e
+
+
+_degradation_case("empty", _deg_text(""), "an empty file")
+_degradation_case("without severity", lambda p: pd.read_csv(p).drop(columns="severity").to_csv(p, index=False),
+                  "column severity")
+_degradation_case("severity text", _deg_edit("severity", "bad"), "row 2, column severity")
+_degradation_case("timestamp text", _deg_edit("timestamp_us", "noon"), "row 2, column timestamp_us")
+_degradation_case("a row twice", lambda p: pd.concat([pd.read_csv(p)] * 2).to_csv(p, index=False), "a duplicate")
+
+
+# ---------------------------------------------------------------- issue 44 item 13: options that were ignored
+@case("arguments", "score --actors without --engine ray")
+def _(world, tmp):
+    return "nvrq", ["score", str(world / "toy" / "pairs.csv"), "--metrics", "psnr", "--actors", "3", "--out",
+                    str(tmp / "m.csv")], ["--actors", "--engine ray", "got --engine local"]
+
+
+for _cmd, _argv in [("synth", ["synth", "{tmp}/s"]), ("render-plan", ["render-plan", "{world}/scene", "--out",
+                                                                      "{tmp}/plan.csv"])]:
+    case("arguments", f"{_cmd} --offsets with --perturb")(functools.partial(
+        _message_case, prog="nvrq", argv=[*_argv, "--offsets", "1", "--perturb", "yaw=0:2:1"],
+        fragments=["--offsets", "not both", "the grid yaw=0:2:1"]))
+
+
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_malformed_input(name, world, tmp_path, capfd):
     prog, argv, fragments = CASES[name](world, tmp_path)
