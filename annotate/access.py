@@ -431,7 +431,7 @@ def arrival_limiter(per_minute: float, *, burst: int = 10) -> ArrivalLimiter | N
 
 def client_address(ip: str | None, forwarded_for: str | None) -> str:
     """The address a rate limit counts an arrival under: the connection's address, or, for a
-    connection from this machine (a reverse proxy on loopback, README "Run a public study"),
+    connection from this machine (a reverse proxy on loopback, docs/guides/public-study.md),
     the last address of its ``X-Forwarded-For`` header (the one the proxy saw).
 
     Parameters

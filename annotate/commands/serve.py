@@ -267,7 +267,7 @@ def register(sub) -> None:
 
 
 def add_worker_options(p) -> None:
-    """Add ``--workers``, ``--proxy`` and ``--proxy-port`` (README "Serve with several workers").
+    """Add ``--workers``, ``--proxy`` and ``--proxy-port`` (docs/guides/several-workers.md).
 
     Parameters
     ----------

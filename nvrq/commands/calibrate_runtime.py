@@ -110,5 +110,5 @@ def run(args) -> int:
         print(f"FAILS the check: nvrq score {tag} --encoder {name} will refuse it. The ranking "
               f"drifts too far from fp32 (NVRQ Spearman {rec['nvrq_spearman']:.3f} < {threshold}); "
               "use fp32 on this runtime, or try --precision bf16 (check it the same way). "
-              "README.md 'Reduced precision' has the measurements above.")
+              "docs/guides/walkthrough.md ('Reduced precision') has the measurements above.")
     return 0
