@@ -116,7 +116,7 @@ def write(rendered: dict[str, str], check: bool = False) -> list[str]:
         if blocks(text)[name] != rendered[name]:
             stale.append(f"{rel}: numbers:{name}")
             if not check:
-                text = _BLOCK.sub(lambda m: m[1] + (rendered[name] if m["name"] == name else m["body"]) + m[4], text)
+                text = _BLOCK.sub(lambda m, n=name: m[1] + (rendered[n] if m["name"] == n else m["body"]) + m[4], text)
                 path.write_text(text, encoding="utf-8")
     return stale
 
