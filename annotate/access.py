@@ -171,7 +171,7 @@ def crowd_identity(secret: str, participant: str | None = None) -> tuple[str, st
     the participant id under ``secret`` (the study's secret), so the same participant always
     gets the same identity. The token carries the rater id and an HMAC of it under
     ``secret`` (:func:`crowd_rater_for_token` checks it without the store), so an arrival
-    needs nothing stored until its first vote (issue 38: 4,000 arrivals that never voted
+    needs nothing stored until its first vote (measured: 4,000 arrivals that never voted
     filled the store and the server's memory). The token cannot be computed without the
     secret, but the server hands it to anyone who arrives with that participant id: with
     ``participant``, the panel's participant id is the credential (keep it as private as the

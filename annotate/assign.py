@@ -20,7 +20,7 @@ after a seeded number of test items. :func:`choose_next` then picks, in this ord
 A gold item drawn from a pool (plan ``gold_quota``, studies built with
 :data:`annotate.design.GOLD_POOL`) is shown, like a test item, only while fewer than
 ``votes_per_item`` other raters hold or voted it: counting the identities that saw an item
-then tells gold from test items no better than chance (issue 38 item 31).
+then tells gold from test items no better than chance.
 
 >>> plan = {"training": ["t1"], "order": ["a", "b", "c"], "specials": [[1, "g1"]],
 ...         "repeat_of": {}}
@@ -71,7 +71,7 @@ def rater_seed(study_seed: int, rater: str) -> int:
 def plan_seed(secret: str, study_seed: int, rater: str) -> int:
     """A 63-bit plan seed keyed with the study's secret: HMAC-SHA256 of the study seed and
     the rater id. Without the secret nobody can compute a rater's order and gold positions
-    (issue 38: ``sha256(seed:rater)`` with the README's seed 0 predicted 42 of 48 gold
+    (``sha256(seed:rater)`` with the README's seed 0 predicted 42 of 48 gold
     positions).
 
     Parameters
@@ -103,7 +103,7 @@ def draw_gold(golds: list[str], n: int, *, seed: int) -> list[str]:
     is shuffled by a stream of the rater's seed of its own (the plan's draws are unchanged)
     and the kinds are taken in turn, so a rater gets as many of each as the pool allows.
     With a pool :data:`annotate.design.GOLD_POOL` times ``n``, an item of the pool reaches
-    about one rater in that many (issue 38 item 31: when every rater saw every gold item,
+    about one rater in that many (when every rater saw every gold item,
     counting the identities that saw an item found them all).
 
     Parameters

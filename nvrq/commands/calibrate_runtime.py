@@ -101,7 +101,7 @@ def run(args) -> int:
           f"{rec['nvrq_spearman']:.5f}; max |dNVRQ| {rec['max_dnvrq']:.2e}; {verdict} Spearman >= {threshold}")
     print(f"recorded in {path}")
     measured = measured_text(args.precision, threshold)
-    if measured:  # where this precision passed and failed before (issue 38 item 11)
+    if measured:  # where this precision passed and failed before
         print(measured)
     tag = f"--runtime {args.runtime} --precision {args.precision}"
     if verdict == "passes":

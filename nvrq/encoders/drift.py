@@ -45,7 +45,7 @@ _RUNTIME_NAMES = {"openvino": "OpenVINO", "onnxruntime": "ONNX Runtime"}
 
 def measured_text(precision: str, threshold: float = DEFAULT_MIN_SPEARMAN) -> str:
     """Where ``precision`` passed and failed the drift check in :data:`MEASURED_SPEARMAN`,
-    with the numbers (issue 38 item 11); ``''`` when nothing was measured at it.
+    with the numbers; ``''`` when nothing was measured at it.
 
     Parameters
     ----------
