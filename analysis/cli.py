@@ -156,7 +156,7 @@ def _methods_options(p: ArgumentParser) -> None:
                    "for the report's off-path metrics")
 
 
-#: The help of the leaderboard's options on honest statistics (issue 29).
+#: The help of the leaderboard's options on honest statistics.
 _HELP = {
     "view": "with --compare-methods: rank on the novel views (off-path, default) or on the recorded "
             "view (on-path, offset 0)",

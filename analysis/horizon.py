@@ -1,4 +1,4 @@
-"""``analyze --horizon``: the trust horizon of an analysis (issue 36; docs/FORMATS.md §15).
+"""``analyze --horizon``: the trust horizon of an analysis (docs/FORMATS.md §15).
 
 Layer: ``analysis`` (it joins the analysis' items, the votes and the options, and calls the
 pure computation of :mod:`nvrq.horizon`; :mod:`analysis.horizon_report` writes the files).

@@ -113,8 +113,16 @@ def method_sentence(method: str, table: pd.DataFrame) -> str:
     t = table[table["method"] == method]
     parts = []
     for i, (cls, g) in enumerate(t.groupby("label_class", sort=True)):
-        dirs = " and ".join(_part(r) for r in g.to_dict("records"))
-        parts.append(f"{cls} stays good to {dirs}" if i == 0 else f"{cls} to {dirs}")
+        rows = g.to_dict("records")
+        fails = [r["direction"] for r in rows if r["reason"].startswith("fails at")]
+        good = " and ".join(_part(r) for r in rows if not r["reason"].startswith("fails at"))
+        if not good:
+            parts.append(f"{cls} is not good even at the recorded view")
+            continue
+        text = f"{cls} stays good to {good}" if i == 0 else f"{cls} to {good}"
+        if fails:
+            text += f" (on the {' and '.join(fails)} side: not good even at the recorded view)"
+        parts.append(text)
     return f"{method}: " + "; ".join(parts) + "."
 
 

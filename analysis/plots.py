@@ -326,7 +326,7 @@ def place_labels(ax, points: np.ndarray, texts: list[str], *, fontsize: float = 
         probe = ax.annotate(text, (0, 0), xycoords="axes pixels", fontsize=fontsize)
         box = probe.get_window_extent(renderer)
         # room for the text at another dpi: hinted text is up to 8% wider or taller at the
-        # saving dpi than at the drawing one (issue 38 item 19: measured 21.0 -> 22.7 px)
+        # saving dpi than at the drawing one (measured 21.0 -> 22.7 px)
         sizes.append((box.width * TEXT_SLACK + 1.0, box.height * TEXT_SLACK))
         probe.remove()
     pad = marker_px + 1.0

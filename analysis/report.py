@@ -443,6 +443,7 @@ def render_pages(d: Path, template: str, context) -> None:
                                        (".md.j2", "report.md", False, _md_page_table)):
         env = Environment(loader=FileSystemLoader(templates), autoescape=escape, keep_trailing_newline=not escape,
                           finalize=None if escape else _md_finalize)
+        env.filters["plural"] = plural  # "1 rater", "2 raters"
         page = env.get_template(template + suffix).render(**context(table=table))
         (d / out).write_text(page, encoding="utf-8")
 

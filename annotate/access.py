@@ -171,7 +171,7 @@ def crowd_identity(secret: str, participant: str | None = None) -> tuple[str, st
     the participant id under ``secret`` (the study's secret), so the same participant always
     gets the same identity. The token carries the rater id and an HMAC of it under
     ``secret`` (:func:`crowd_rater_for_token` checks it without the store), so an arrival
-    needs nothing stored until its first vote (issue 38: 4,000 arrivals that never voted
+    needs nothing stored until its first vote (measured: 4,000 arrivals that never voted
     filled the store and the server's memory). The token cannot be computed without the
     secret, but the server hands it to anyone who arrives with that participant id: with
     ``participant``, the panel's participant id is the credential (keep it as private as the
@@ -431,7 +431,7 @@ def arrival_limiter(per_minute: float, *, burst: int = 10) -> ArrivalLimiter | N
 
 def client_address(ip: str | None, forwarded_for: str | None) -> str:
     """The address a rate limit counts an arrival under: the connection's address, or, for a
-    connection from this machine (a reverse proxy on loopback, README "Run a public study"),
+    connection from this machine (a reverse proxy on loopback, docs/guides/public-study.md),
     the last address of its ``X-Forwarded-For`` header (the one the proxy saw).
 
     Parameters

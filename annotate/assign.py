@@ -50,7 +50,7 @@ def rater_seed(study_seed: int, rater: str) -> int:
 def plan_seed(secret: str, study_seed: int, rater: str) -> int:
     """A 63-bit plan seed keyed with the study's secret: HMAC-SHA256 of the study seed and
     the rater id. Without the secret nobody can compute a rater's order and gold positions
-    (issue 38: ``sha256(seed:rater)`` with the README's seed 0 predicted 42 of 48 gold
+    (``sha256(seed:rater)`` with the README's seed 0 predicted 42 of 48 gold
     positions).
 
     Parameters
@@ -82,7 +82,7 @@ def draw_gold(golds: list[str], n: int, *, seed: int) -> list[str]:
     is shuffled by a stream of the rater's seed of its own (the plan's draws are unchanged)
     and the kinds are taken in turn, so a rater gets as many of each as the pool allows.
     With a pool :data:`annotate.design.GOLD_POOL` times ``n``, an item of the pool reaches
-    about one rater in that many (issue 38 item 31: when every rater saw every gold item,
+    about one rater in that many (when every rater saw every gold item,
     counting the identities that saw an item found them all).
 
     Parameters

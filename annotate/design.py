@@ -61,7 +61,7 @@ __all__ = ["choose_offsets", "choose_views", "attribute_columns", "usable_frames
 #: Gold items are cut for this many times the gold items one rater sees (``2 x n_gold``, as
 #: far as the test items allow); each rater's are drawn from that pool
 #: (:func:`annotate.assign.draw_gold`), so counting which items more than ``votes_per_item``
-#: identities see does not single the gold out (issue 38 item 31).
+#: identities see does not single the gold out.
 GOLD_POOL = 4
 
 _EXTRA_NON_ATTRIBUTES = ("scene_root", *VIEW_COLUMNS, METHOD_COLUMN)
@@ -310,7 +310,7 @@ def pick_training(pairs: pd.DataFrame, tests: pd.DataFrame, n: int,
     (the largest ``|y_offset_m|`` there is, 2 m or more when the table has it), the subtle
     ones come last. With GT box columns, only the larger half of the objects (box side at
     least the median) are candidates, when they are enough: a small object is drawn
-    enlarged many times over (issue 38: ×12 enlargements of a blur taught nothing).
+    enlarged many times over (×12 enlargements of a blur taught nothing).
 
     Parameters
     ----------

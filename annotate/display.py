@@ -101,7 +101,7 @@ class ItemDisplay:
             (position on the page, ``items.csv`` file column) of each crop.
         rater : str, optional
             The rater they are shown to: the salt includes it, so two raters never get the
-            same bytes (issue 38: counting which images more than ``votes_per_item``
+            same bytes (counting which images more than ``votes_per_item``
             identities saw found every gold item).
 
         Returns

@@ -16,8 +16,8 @@ must reach one worker, the websocket included.
 
 Both refuse the Streamlit endpoints raters never use (``/_stcore/metrics``,
 ``/_stcore/agent/`` and the file uploads ``/_stcore/upload_file/``: the app has no uploader,
-issue 38) and any request body over 1 kB (raters send none: votes travel on the websocket),
-as README "Run a public study" asks of a proxy. TLS is the proxy's
+as measured) and any request body over 1 kB (raters send none: votes travel on the websocket),
+as docs/guides/public-study.md asks of a proxy. TLS is the proxy's
 too (that section); these configurations listen on plain HTTP at ``listen`` and leave the
 certificate lines to be added there.
 

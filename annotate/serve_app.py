@@ -6,7 +6,7 @@ rerun; the rater app itself is a module, imported once per server process, so ne
 compilation nor the definition of its pages, fragments and caches is repeated per rater.
 
 The rater app has no file uploader, yet Streamlit's ``/_stcore/upload_file/...`` route takes
-files from any websocket session (issue 38: 5 x 100 MB took a server from 223 to 725 MB).
+files from any websocket session (measured: 5 x 100 MB took a server from 223 to 725 MB).
 ``annotate serve`` sets ``server.maxUploadSize`` to 0, which refuses every upload that says
 its size (413); :func:`annotate.app.refuse_uploads` also makes the server's upload store
 keep nothing, for a request that hides its size (an empty file with a long name, chunked).

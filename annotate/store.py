@@ -92,7 +92,7 @@ CREATE INDEX IF NOT EXISTS assignments_live ON assignments (study, active_at);
 """
 
 # Version 1 -> 2: a token is looked up through an index on its digest, never by reading
-# every rater (issue 38: 107 ms a wrong token at 6,300 raters).
+# every rater (measured: 107 ms a wrong token at 6,300 raters).
 _INDEXES_V2 = """
 CREATE INDEX IF NOT EXISTS raters_token ON raters (study, token_sha256);
 """
@@ -599,7 +599,7 @@ class Store:
         item (or None when nothing is free for the rater); ``loads`` counts, per item, the
         standing votes plus the live claims of other raters: an item handed out and not voted
         on is claimed for ``lease_s`` seconds from its draw. Returning the rater's open item
-        again does not renew the lease (issue 38: scripts that reloaded every 55 s held
+        again does not renew the lease (measured: scripts that reloaded every 55 s held
         their claims for ever), so a claim never outlives ``lease_s`` without a vote; a vote
         or a skip ends it sooner. The work reads the rater's own rows, one counter row per item and
         the live claims (an index range), never the other raters' votes. An assignment is

@@ -341,7 +341,7 @@ class Study:
 
         A plan never changes (a new one is a function of the study's secret and the rater),
         so it is kept in memory after the first use, in a cache of at most
-        :data:`PLAN_CACHE` plans (the least recently used is dropped; issue 38: a plan is
+        :data:`PLAN_CACHE` plans (the least recently used is dropped; measured: a plan is
         about 80 kB at 1,000 items and every arrival made one). ``register=False``: a crowd
         arrival's plan, used before its first vote and stored with it
         (:func:`annotate.access.register_crowd_rater`).
@@ -419,7 +419,7 @@ class Study:
 
     def new_plan(self, rater: str) -> dict:
         """A new plan for ``rater``, seeded by :func:`annotate.assign.plan_seed` (keyed with
-        the study's secret: the seed alone predicts nothing; issue 38); a simulated rater's
+        the study's secret: the seed alone predicts nothing); a simulated rater's
         (``sim-``) by :func:`annotate.assign.rater_seed`, so simulations repeat exactly."""
         reps = {k: k.split(":", 1)[1] for k in self.keys("repeat")}
         seed = (rater_seed(self.manifest["seed"], rater) if rater.startswith(SIMULATED_PREFIX)

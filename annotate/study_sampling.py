@@ -54,7 +54,7 @@ __all__ = ["SAMPLINGS", "DEFAULT_SAMPLING", "check_sampling", "study_sampling", 
 #: Sampling schemes and the design each needs (None: any design).
 SAMPLINGS = {"uniform": None, "active": "pairwise", "adaptive": "binary"}
 #: The scheme a new study of each design gets when none is named. Pairwise: ``active`` since
-#: issue 37's benchmark (``benchmarks/bench_sampling.py``, 20 seeds: active reaches the full
+#: the benchmark (``benchmarks/bench_sampling.py``, 20 seeds: active reaches the full
 #: uniform design's scale error with half of its comparisons and ranks at least as well at
 #: every budget). Binary stays ``uniform``: ``adaptive`` gives items different numbers of
 #: votes, which a study must choose knowingly.

@@ -76,7 +76,7 @@ def before_28() -> dict:
             out[f"{name}@before28"] = getattr(mod, name)
         return out
     except (OSError, subprocess.CalledProcessError) as e:
-        print(f"the implementations before issue 28 are not timed (git history unavailable: {e})")
+        print(f"the implementations before the original models are not timed (git history unavailable: {e})")
         return {}
 
 
@@ -164,10 +164,10 @@ def main(argv=None) -> int:
     for m in ("brisque", "niqe"):
         rate, defined = rates[m]
         old = rates.get(f"{m}@before28")
-        vs = (f"; before issue 28 {old[0]:.1f} ({old[1]:.1f} where defined): ratio new/old "
+        vs = (f"; before the original models {old[0]:.1f} ({old[1]:.1f} where defined): ratio new/old "
               f"{rate / old[0]:.2f} ({defined / old[1]:.2f})") if old else ""
         ok = "reaches" if rate >= TARGET_28 and not defined < TARGET_28 else "does NOT reach"  # NaN: none defined
-        print(f"issue 28 {m}: {rate:.1f} crops/s ({defined:.1f} where defined), {ok} {TARGET_28:.0f}{vs}")
+        print(f"{m} (original model): {rate:.1f} crops/s ({defined:.1f} where defined), {ok} {TARGET_28:.0f}{vs}")
     return 0
 
 

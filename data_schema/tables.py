@@ -300,7 +300,7 @@ def read_table(
     """
     if kind is None:
         kind = TableKind.TABLE
-        if what in {k.value for k in TableKind}:  # the spelling before issue 34: a typo skipped the checks
+        if what in {k.value for k in TableKind}:  # the older spelling: a typo skipped the checks
             warnings.warn(f"read_table(what={what!r}) choosing the checks is deprecated: pass "
                           f"kind=TableKind.{TableKind(what).name}", DeprecationWarning, stacklevel=2)
             kind = TableKind(what)

@@ -1,4 +1,4 @@
-"""The trust horizon: how far off the recorded path objects stay good (issue 36).
+"""The trust horizon: how far off the recorded path objects stay good.
 
 Layer: ``nvrq`` (a pure computation on a table of per-object scores; imports ``data_schema``
 only, so :mod:`analysis` and the Python API share it). docs/FORMATS.md §15 is the contract.

@@ -38,3 +38,24 @@ def _nvrq_cache(tmp_path_factory):
         os.environ.pop("NVRQ_CACHE", None)
     else:
         os.environ["NVRQ_CACHE"] = old
+
+
+@pytest.fixture(scope="session")
+def make_numbers():
+    """docs/make_numbers.py as a module (docs/ is no package)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("make_numbers", REPO / "docs" / "make_numbers.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="session")
+def doc_demos(tmp_path_factory, make_numbers) -> Path:
+    """The one-minute demos whose reports the README and the guides quote (``demo/``,
+    ``methods/``), run once per session: tests/test_doc_numbers.py and the report browser
+    test share them. About a minute and a half on 2 cores."""
+    root = tmp_path_factory.mktemp("doc_demos")
+    make_numbers.run_demos(root)
+    return root

@@ -1,9 +1,13 @@
-"""The README's commands exist as written.
+"""The commands of the README and of every guide exist as written, and follow each other.
 
-Every ``nvrq``/``annotate``/``analyze`` line of the README's bash blocks is parsed by the
-real argument parser (an unknown option or subcommand fails here); benchmark scripts and
-paths they name must exist. The demo workflow itself runs end to end in ``.ci/run`` and
-its steps are pinned below against the README's walkthrough.
+The documents are read in the order a newcomer reads them: README.md, then the guides in the
+order of the README's guides map (docs/guides/), then docs/PYTHON.md. Every
+``nvrq``/``annotate``/``analyze`` line of their bash blocks is parsed by the real argument
+parser (an unknown option or subcommand fails here); every input under ``out/`` is made by an
+earlier line of that sequence, as on a fresh clone; benchmark scripts they name must exist.
+The blocks that run in seconds run here (the fleet, the drivestudio example); the two demos run
+end to end in ``.ci/run`` and tests/test_doc_numbers.py, and their steps are pinned below
+against the walkthrough and "Compare reconstructions".
 """
 
 from __future__ import annotations
@@ -18,9 +22,32 @@ REPO = Path(__file__).resolve().parents[1]
 README = (REPO / "README.md").read_text()
 
 
-def bash_commands() -> list[str]:
+def guide_paths() -> list[Path]:
+    """The guides, in the order of the README's guides map, then docs/PYTHON.md."""
+    linked = re.findall(r"\]\((docs/guides/[\w-]+\.md)\)", README)
+    return [REPO / p for p in dict.fromkeys(linked)] + [REPO / "docs" / "PYTHON.md"]
+
+
+#: every document with commands, in reading order, as one text
+DOCS = "\n".join([README, *(p.read_text(encoding="utf-8") for p in guide_paths())])
+
+
+def guide(name: str) -> str:
+    return (REPO / "docs" / "guides" / name).read_text(encoding="utf-8")
+
+
+def test_every_guide_is_in_the_readme_map():
+    on_disk = {p.name for p in (REPO / "docs" / "guides").glob("*.md")}
+    assert on_disk == {p.name for p in guide_paths()[:-1]}
+
+
+def test_readme_is_short():
+    assert len(README.splitlines()) <= 200
+
+
+def bash_commands(text: str = DOCS) -> list[str]:
     cmds = []
-    for block in re.findall(r"```bash\n(.*?)```", README, flags=re.S):
+    for block in re.findall(r"```bash\n(.*?)```", text, flags=re.S):
         for line in block.strip().splitlines():
             cmds.extend(part.strip() for part in line.split("&&"))
     return [c for c in cmds if c]
@@ -40,7 +67,7 @@ CLI = [c for c in bash_commands() if shlex.split(c)[0] in ("nvrq", "annotate", "
 
 
 def test_readme_has_the_three_main_commands():
-    cmds = bash_commands()
+    cmds = bash_commands(README)
     assert cmds[:3] == ['pip install torch==2.13.0', 'pip install -e ".[test]"', "nvrq demo out/demo"]
     assert "python -m pytest" in cmds
     ci = (REPO / ".ci" / "run").read_text()
@@ -60,7 +87,7 @@ def test_readme_benchmarks_exist(command):
 
 
 def test_walkthrough_is_what_the_demo_runs(tmp_path):
-    """The demo's steps are the README walkthrough's commands, in order."""
+    """The demo's steps are the walkthrough's commands."""
     from argparse import Namespace
 
     from nvrq.commands.demo import demo_steps
@@ -68,7 +95,7 @@ def test_walkthrough_is_what_the_demo_runs(tmp_path):
     args = Namespace(seed=0, seconds=6.0, size="960x540", offsets="-3,-2,-1,0,1,2,3",
                      encoder="efficientnet-lite0", raters=5, methods=None)
     steps = demo_steps(Path("out"), args)
-    readme_cmds = [shlex.split(c) for c in CLI]
+    readme_cmds = [shlex.split(c) for c in bash_commands(guide("walkthrough.md"))]
 
     def parsed(argv):  # the options a command line means, with defaults filled in
         ns = vars(parser_for(argv[0]).parse_args(argv[1:]))
@@ -76,16 +103,11 @@ def test_walkthrough_is_what_the_demo_runs(tmp_path):
 
     shown = [parsed(c) for c in readme_cmds]
     for program, argv in steps:
-        assert parsed([program, *argv]) in shown, f"README does not show `{program} {' '.join(argv)}`"
-
-
-def test_readme_figures_exist():
-    for img in re.findall(r"\]\((docs/[^)]+\.png)\)", README):
-        assert (REPO / img).is_file(), img
+        assert parsed([program, *argv]) in shown, f"the walkthrough does not show `{program} {' '.join(argv)}`"
 
 
 def test_compare_reconstructions_is_what_the_methods_demo_runs():
-    """``nvrq demo OUT --methods ...`` runs the README's "Compare reconstructions" commands."""
+    """``nvrq demo OUT --methods ...`` runs the commands of the guide "Compare reconstructions"."""
     from argparse import Namespace
 
     from nvrq.commands.demo import demo_steps
@@ -93,9 +115,7 @@ def test_compare_reconstructions_is_what_the_methods_demo_runs():
     assert "nvrq demo out/methods --methods sharp:0.5,blurry:1.5" in CLI
     args = Namespace(seed=0, seconds=6.0, size="960x540", offsets="-3,-2,-1,0,1,2,3",
                      encoder="efficientnet-lite0", raters=5, methods="sharp:0.5,blurry:1.5")
-    section = README[README.index("## Compare reconstructions"):]
-    section = section[:section.index("\n## ")]
-    shown = [shlex.split(c) for c in CLI if c in section]
+    shown = [shlex.split(c) for c in bash_commands(guide("compare-reconstructions.md"))]
 
     def parsed(argv):
         ns = vars(parser_for(argv[0]).parse_args(argv[1:]))
@@ -103,10 +123,10 @@ def test_compare_reconstructions_is_what_the_methods_demo_runs():
 
     shown = [parsed(c) for c in shown]
     for program, argv in demo_steps(Path("out/methods"), args):
-        assert parsed([program, *argv]) in shown, f"README does not show `{program} {' '.join(argv)}`"
+        assert parsed([program, *argv]) in shown, f"the guide does not show `{program} {' '.join(argv)}`"
 
 
-# --- the README runs in order (issue 38 items 2, 24-27) ---------------------------------------
+# --- the README and the guides run in order ---------------------------------------------------
 
 #: Inputs under out/ that the README leaves to the user, with why: your renderer's output.
 USER_MADE = {"out/renders-3dgs": "the gsplat sketch (needs a trained model)",
@@ -130,8 +150,8 @@ def _step(command: str) -> tuple[list[str], list[str]]:
 
 
 def test_every_readme_input_under_out_is_made_by_an_earlier_step():
-    # issue 38 item 25: "Scale out" used out/fleet, out/clip-attributes.csv and out/fleet-clip-drop
-    # with no step making them
+    # e.g. "Scale out" once used out/fleet, out/clip-attributes.csv and out/fleet-clip-drop with
+    # no step making them
     made, missing = set(USER_MADE), []
     for command in bash_commands():
         inputs, outputs = _step(command)
@@ -144,8 +164,8 @@ def test_every_readme_input_under_out_is_made_by_an_earlier_step():
 
 
 def test_a_report_the_readme_writes_again_keeps_its_inputs():
-    # issue 38 item 2: `analyze --stability ... --out out/report` after `analyze ... --out
-    # out/report` dropped the speed chart and the torch column
+    # `analyze --stability ... --out out/report` after `analyze ... --out out/report` once dropped
+    # the speed chart and the torch column
     by_out: dict[str, set] = {}
     for command in CLI:
         if not command.startswith("analyze "):
@@ -157,15 +177,16 @@ def test_a_report_the_readme_writes_again_keeps_its_inputs():
 
 
 def test_readme_names_the_home_folder_variables():
-    # issue 38 item 26: where the README says what the commands write under the home folder
-    section = README[README.index("Under your home folder"):]
+    # where the guides say what the commands write under the home folder
+    text = guide("files-and-layout.md")
+    section = text[text.index("Under your home folder"):]
     section = section[:section.index("\n\n")]
     assert "$NVRQ_CACHE" in section and "$NVRQ_CONFIG" in section
     assert "~/.cache/nvrq" in section and "~/.config/nvrq/tau.json" in section
 
 
 def test_python_md_states_the_pairs_min_side_default():
-    # issue 38 item 24: docs/PYTHON.md said >= 16 px; the default is data_schema.defaults.MIN_SIDE_PX
+    # docs/PYTHON.md once said >= 16 px; the default is data_schema.defaults.MIN_SIDE_PX
     from data_schema.defaults import MIN_SIDE_PX
 
     text = (REPO / "docs" / "PYTHON.md").read_text(encoding="utf-8")
@@ -173,14 +194,14 @@ def test_python_md_states_the_pairs_min_side_default():
 
 
 def _block_after(marker: str) -> list[str]:
-    """The commands of the first bash block after ``marker`` in the README."""
-    rest = README[README.index(marker):]
+    """The commands of the first bash block after ``marker`` in the README or a guide."""
+    rest = DOCS[DOCS.index(marker):]
     block = re.search(r"```bash\n(.*?)```", rest, flags=re.S).group(1)
     return [line.strip() for line in block.strip().splitlines() if line.strip()]
 
 
 def _run_line(command: str, shared: Path) -> int:
-    """Run one README line in-process (``../shared`` read from ``shared``)."""
+    """Run one documented line in-process (``../shared`` read from ``shared``)."""
     import subprocess
 
     argv = shlex.split(command.replace("../shared", str(shared)))
@@ -197,7 +218,7 @@ def _run_line(command: str, shared: Path) -> int:
 
 
 def test_example_drivestudio_block_runs(shared_dir, tmp_path, monkeypatch, capsys):
-    # issue 38 item 27: import -> render plan -> renders back -> leaderboard, no trained model
+    # import -> render plan -> renders back -> leaderboard, no trained model
     if not (shared_dir / "realdata" / "kitti").is_dir():
         pytest.skip("no KITTI frames in ../shared/realdata")
     monkeypatch.chdir(tmp_path)
@@ -213,7 +234,7 @@ def test_example_drivestudio_block_runs(shared_dir, tmp_path, monkeypatch, capsy
 
 
 def test_scale_out_fleet_block_runs(tmp_path, monkeypatch):
-    # issue 38 item 25: the block that makes the fleet, its attributes table and its pairs dataset
+    # the block that makes the fleet, its attributes table and its pairs dataset
     monkeypatch.chdir(tmp_path)
     block = _block_after("A fleet to try it on")
     for command in block:

@@ -102,8 +102,9 @@ def register(sub) -> None:
                    help="where the votes go: uniform (every test item gets --votes-per-item); "
                    "active (pairwise: the next comparison by expected information gain); adaptive "
                    "(binary: stop asking once an item's majority is settled, the freed votes to "
-                   "the most uncertain items; docs/FORMATS.md §5); default: active for --design "
-                   "pairwise (since issue 37: the same scale error with half the comparisons; "
+                   "the most uncertain items; docs/FORMATS.md §8, \"Sampling\"); default: active for "
+                   "--design pairwise (benchmarks/bench_sampling.py: the same scale error with half "
+                   "the comparisons; "
                    "uniform keeps the balanced design), uniform for binary")
     b.add_argument("--max-votes-per-item", type=int_arg(), default=None, metavar="N",
                    help="adaptive: the most votes one test item may get (default --votes-per-item: "

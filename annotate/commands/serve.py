@@ -7,7 +7,7 @@ Layer: commands (CLI shell) of ``annotate``.
 a signal to ``annotate serve`` reaches the server itself and nothing outlives it), bound to
 127.0.0.1 unless ``--host`` says otherwise, headless, without usage statistics, file
 watcher, static file serving, file uploads (``server.maxUploadSize`` 0: the app has no
-uploader, issue 38) or error details in the browser, and without Streamlit's full
+uploader) or error details in the browser, and without Streamlit's full
 garbage collection after every script run (about 40 ms of CPU per vote, holding the GIL: it
 alone saturated a core at 25 raters) and without "magic" (Streamlit recompiles the script
 with it for every new session, clearing its script cache: about 50 ms of CPU per rater
@@ -27,7 +27,7 @@ The address options and the app's URL are shared with ``add-rater`` and ``build`
 print sign-in and admin links: ``--public-url`` (the address raters use, e.g. a TLS reverse
 proxy's) is the base of every printed link, else the bound address (this machine's name for a
 wildcard bind). ``serve`` records the base it serves at in ``STUDY/served-at.json``, which
-``add-rater`` uses when given no address option (issue 38: its links named port 8501 whatever
+``add-rater`` uses when given no address option (its links once named port 8501 whatever
 port was served), and writes the admin page's full link to ``STUDY/admin-link.txt`` (mode
 0600) for the operator to copy; it prints the full link only to a terminal, never to a
 redirected stderr (a log others may read), where it names the file instead. ``build``
@@ -270,7 +270,7 @@ def register(sub) -> None:
 
 
 def add_worker_options(p) -> None:
-    """Add ``--workers``, ``--proxy`` and ``--proxy-port`` (README "Serve with several workers").
+    """Add ``--workers``, ``--proxy`` and ``--proxy-port`` (docs/guides/several-workers.md).
 
     Parameters
     ----------

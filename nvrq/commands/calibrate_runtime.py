@@ -101,7 +101,7 @@ def run(args) -> int:
           f"{rec['nvrq_spearman']:.5f}; max |dNVRQ| {rec['max_dnvrq']:.2e}; {verdict} Spearman >= {threshold}")
     print(f"recorded in {path}")
     measured = measured_text(args.precision, threshold)
-    if measured:  # where this precision passed and failed before (issue 38 item 11)
+    if measured:  # where this precision passed and failed before
         print(measured)
     tag = f"--runtime {args.runtime} --precision {args.precision}"
     if verdict == "passes":
@@ -110,5 +110,5 @@ def run(args) -> int:
         print(f"FAILS the check: nvrq score {tag} --encoder {name} will refuse it. The ranking "
               f"drifts too far from fp32 (NVRQ Spearman {rec['nvrq_spearman']:.3f} < {threshold}); "
               "use fp32 on this runtime, or try --precision bf16 (check it the same way). "
-              "README.md 'Reduced precision' has the measurements above.")
+              "docs/guides/walkthrough.md ('Reduced precision') has the measurements above.")
     return 0

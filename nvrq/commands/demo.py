@@ -6,8 +6,8 @@ synth (built-in scene) -> pairs -> score (offline encoder + pixel metrics) -> an
 -> simulated raters -> annotate export -> analyze. Each step prints its command line, what it
 made and how long it took, so the demo doubles as a walkthrough of the workflow.
 
-``nvrq demo OUT --methods NAME:SCALE,...`` compares reconstruction methods instead (README
-"Compare reconstructions"): synth renders the clip once per method -> pairs -> score ->
+``nvrq demo OUT --methods NAME:SCALE,...`` compares reconstruction methods instead
+(docs/guides/compare-reconstructions.md): synth renders the clip once per method -> pairs -> score ->
 ``analyze --pairs --compare-methods`` (the leaderboard) -> a pairwise study (build, simulated
 raters, export) -> ``analyze`` of its votes (Bradley-Terry and 2AFC agreement). Before the
 leaderboard it computes the numbers the field reports: NTA-IoU (``nvrq proxy simulate-detect``,

@@ -65,8 +65,10 @@ def register(sub) -> None:
     """
     p = sub.add_parser(
         "proxy",
-        help="downstream proxies per pair: detection, ImageNet, CLIP (Eq. 6-10)",
-        description="Downstream proxies of render quality (paper Eq. 6-10).",
+        help="downstream proxies: detection, ImageNet, CLIP (Eq. 6-10) and NTA-IoU, "
+             "with detections from YOLO or the simulated detector",
+        description="Downstream proxies of render quality: detection confidence, ImageNet and "
+                    "CLIP confidence drops (paper Eq. 6-10) and NTA-IoU (docs/FORMATS.md §3b).",
     )
     psub = p.add_subparsers(dest="proxy", metavar="PROXY", required=True)
 

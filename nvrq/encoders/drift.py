@@ -34,7 +34,7 @@ DEFAULT_MIN_SPEARMAN = 0.999
 
 #: NVRQ Spearman against torch fp32 measured per (encoder, runtime, precision) on 310 pairs of
 #: a synthetic clip, 2 CPU cores with AVX-512 VNNI (``../shared/notes/perf-2026-12-01.md``;
-#: README "Reduced precision"; DINOv2-S with random weights). Your pairs and CPU may differ.
+#: docs/guides/walkthrough.md, "Reduced precision"; DINOv2-S with random weights). Your pairs and CPU may differ.
 MEASURED_SPEARMAN = {
     ("dinov2-small", "openvino", "bf16"): 0.99999, ("efficientnet-lite0", "openvino", "bf16"): 0.998,
     ("dinov2-small", "openvino", "int8"): 0.99993, ("efficientnet-lite0", "openvino", "int8"): 0.967,
@@ -45,7 +45,7 @@ _RUNTIME_NAMES = {"openvino": "OpenVINO", "onnxruntime": "ONNX Runtime"}
 
 def measured_text(precision: str, threshold: float = DEFAULT_MIN_SPEARMAN) -> str:
     """Where ``precision`` passed and failed the drift check in :data:`MEASURED_SPEARMAN`,
-    with the numbers (issue 38 item 11); ``''`` when nothing was measured at it.
+    with the numbers; ``''`` when nothing was measured at it.
 
     Parameters
     ----------

@@ -11,7 +11,7 @@ which may not be copied into the repository: this script makes the example where
     stand-ins for two reconstruction methods' renders of that scene's render plan at offset 0
     (one camera, one frame: one plan row, ``00000.png`` in the ``order`` layout): the GT image
     blurred with a Gaussian of sigma 1 and 4 px, so that a user without a trained model can try
-    import -> render plan -> renders back -> leaderboard (README "Using real data").
+    import -> render plan -> renders back -> leaderboard (docs/guides/real-data.md).
 
 The layout follows datasets/kitti/kitti_preprocess.py of drivestudio: camera 0 is the rectified
 left colour camera (``images/000_0.jpg``, ``intrinsics/0.txt`` = ``K_cam2`` with zero

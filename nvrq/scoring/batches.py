@@ -164,7 +164,7 @@ def _unreadable(path: str) -> str | None:
 
 
 def _all_unreadable(plan: _Plan, chunks: list[np.ndarray], where: str) -> InputError:
-    """One error naming every unreadable image of ``chunks`` (issue 38: all bad files in one
+    """One error naming every unreadable image of ``chunks`` (all bad files in one
     pass, with their count, rather than the first alone), grouped by reason, relative to the
     folder they share."""
     rows = np.concatenate(chunks) if chunks else np.zeros(0, np.int64)

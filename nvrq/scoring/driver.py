@@ -253,7 +253,7 @@ def runtime_timing(timing: pd.DataFrame, model, model_columns: Sequence[str]) ->
     return timing
 
 
-#: the keywords :func:`score_pairs` still takes instead of a plan (before issue 34)
+#: the keywords :func:`score_pairs` still takes instead of a plan (the older calling convention)
 _PLAN_KEYWORDS = ("metrics", "tau", "batch_size", "max_pairs")
 
 
@@ -300,7 +300,7 @@ def score_pairs(pairs: pd.DataFrame | PairsTable, plan: ScorePlan | None = None,
         What errors name (the pairs file).
     **legacy
         Without ``plan``: ``metrics`` (columns), ``tau``, ``batch_size`` and ``max_pairs``, as
-        before issue 34; they are checked here and make the plan.
+        in the older calling convention; they are checked here and make the plan.
 
     Returns
     -------

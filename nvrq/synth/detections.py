@@ -2,7 +2,7 @@
 
 Layer: nvrq core, synth (synthetic scenes).
 
-No detector ships offline, so the demo (README "Compare reconstructions") runs NTA-IoU on the
+No detector ships offline, so the demo (docs/guides/compare-reconstructions.md) runs NTA-IoU on the
 detections of this simulation, as it runs the study on ``annotate simulate``'s raters. Its
 numbers follow how ``nvrq synth`` drew the artefacts, not how any real detector behaves; with a
 real one, use ``nvrq proxy detect --yolo`` (or any detector writing the DETS table).

@@ -1,4 +1,4 @@
-"""The README's "Run a public study" proxy snippet holds for a served study.
+"""The guide "Run a public study"'s proxy snippet holds for a served study.
 
 Every path the nginx snippet refuses is a real endpoint of ``annotate serve`` (it answers with
 its own content, not Streamlit's page that every unknown path gets), and with nginx
@@ -24,8 +24,7 @@ import pytest
 
 from tests.e2e.browser_support import ARGS, CHROMIUM, free_port, serve, stop, toy_study
 
-README = (Path(__file__).parents[2] / "README.md").read_text()
-SECTION = README.split("## Run a public study", 1)[1].split("\n## ", 1)[0]
+SECTION = (Path(__file__).parents[2] / "docs" / "guides" / "public-study.md").read_text()
 NGINX = re.search(r"```nginx\n(.*?)```", SECTION, flags=re.S).group(1)
 #: (match, path) of every ``location ... { return 404; }`` of the snippet
 BLOCKED = re.findall(r"location (=|\^~) (\S+) \{ return 404; \}", NGINX)
