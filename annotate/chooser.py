@@ -12,11 +12,11 @@ item is decided here, once: :meth:`Chooser.next` picks, in this order,
    sampling's choice among the test items the rater has not had (:meth:`Chooser.test`);
 4. when no test item is left for the rater, the rater is done: still shown are the repeats
    whose original it voted on, and gold only up to its plan's gold in proportion to the test
-   items it had (rounded up; none without a test item: issue 44, an adaptive study served 16
+   items it had (rounded up; none without a test item; an adaptive study once served 16
    of 24 raters nothing but gold once its test items had closed, which marks them as gold).
    Plans made before the gold pool (no ``gold_quota``) still show every gold item.
 
-**The gold cap** (issue 38 item 31, issue 44 item 1). Counting the identities that saw an
+**The gold cap.** Counting the identities that saw an
 item must not tell gold from test items, so a gold item's exposure follows the test
 items'. Under ``uniform`` sampling every test item reaches ``votes_per_item`` raters, and
 so may a gold item. Under ``active`` and ``adaptive`` sampling test items reach different

@@ -716,7 +716,7 @@ class Store:
 
         Read from the per-item counters the triggers keep (one row per item), so its cost
         does not grow with the votes: a crowd arrival asks it whether the study is full
-        (issue 44: counting the votes took 499 ms at a million of them).
+        (counting the votes took 499 ms at a million of them).
         :meth:`recount_loads` counts the votes themselves.
         """
         with self._connect() as con:

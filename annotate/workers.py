@@ -21,7 +21,7 @@ on to the workers and waited for; on Linux each worker also gets SIGTERM when th
 supervisor dies (``PR_SET_PDEATHSIG``), so not even a SIGKILL to the supervisor leaves a
 server behind. A worker that exits on its own after it had run for :data:`MIN_UPTIME_S` is
 started again on its port, at most :data:`MAX_RESTARTS` times in all, with one line on
-stderr each time (issue 44: one killed worker used to stop every other); the raters it
+stderr each time (before, one killed worker stopped every other); the raters it
 served reconnect there (their votes are in the store: a vote is acknowledged only once it
 is committed, so none is lost). A worker that exits sooner (it could not start: a bad
 port, a broken study) or once the restarts are spent stops the others, with one line
