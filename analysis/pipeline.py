@@ -169,7 +169,8 @@ def with_view_statistics(a: Analysis, *, clusters: np.ndarray) -> Analysis:
 
     def summarize(frame, cols, dirs):
         return summary_table(frame, cols, dirs, SummaryOptions(
-            target=a.target, n_boot=a.n_boot, seed=a.seed, rank_by=a.rank_by), clusters=clusters)
+            target=a.target, n_boot=a.n_boot, seed=a.seed, rank_by=a.rank_by, progress=False),
+            clusters=clusters)
 
     summary, text, vis, note = within_view.extend_summary(
         a.summary, a.items, a.directions,

@@ -136,15 +136,14 @@ def _focal(root: str, camera: str, cache: dict) -> float:
 
 def _metric_groups(columns) -> dict:
     """``{encoder or None: [(column, metric name)]}`` of the columns ``nvrq score`` computes."""
-    from nvrq.metrics import column_info, split_column
+    from nvrq.metrics import column_info, encoder_columns, reference_columns, split_column
 
+    known = [c for c in columns if column_info(c, default=None) is not None]
+    encoded = set(encoder_columns(known))
     groups: dict = {}
-    for col in columns:
-        info = column_info(col, default=None)
-        if info is None or not info.reference:
-            continue
+    for col in reference_columns(known):
         family, member = split_column(col)
-        key, name = (member, family) if info.needs_encoder else (None, col)
+        key, name = (member, family) if col in encoded else (None, col)
         groups.setdefault(key, []).append((col, name))
     return groups
 
