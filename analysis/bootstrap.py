@@ -34,6 +34,9 @@ __all__ = [
     "weighted_pearson",
     "replicate_stats",
     "percentile_ci",
+    "MIN_RATERS",
+    "too_few_raters",
+    "interval_around",
     "paired_difference",
     "replicates_for",
 ]
@@ -204,6 +207,67 @@ def percentile_ci(reps: np.ndarray, *, level: float = 0.95, min_defined: float =
     a = (1.0 - level) / 2.0
     lo, hi = np.quantile(reps[ok], [a, 1.0 - a])
     return float(lo), float(hi), None
+
+
+#: The fewest raters a bootstrap over raters gives an interval from. R raters allow
+#: C(2R - 1, R) distinct resamples: one rater only itself (a zero-width interval), two raters
+#: three; below this many the table gives no interval and says why (:func:`too_few_raters`).
+MIN_RATERS = 3
+
+
+def too_few_raters(n_raters: int) -> str | None:
+    """The reason a bootstrap over ``n_raters`` raters gives no interval, or ``None``.
+
+    >>> too_few_raters(1)
+    'no interval from 1 rater: a bootstrap over raters needs at least 3'
+    >>> too_few_raters(3) is None
+    True
+    """
+    if n_raters >= MIN_RATERS:
+        return None
+    return (f"no interval from {n_raters} rater{'' if n_raters == 1 else 's'}: a bootstrap over "
+            f"raters needs at least {MIN_RATERS}")
+
+
+def interval_around(estimate: float, reps: np.ndarray, *, level: float = 0.95,
+                    min_defined: float = 0.5) -> tuple[float, float, str | None]:
+    """:func:`percentile_ci` of ``reps``, given only when it contains ``estimate``.
+
+    A percentile interval that misses its own estimate (replicates biased to one side, e.g.
+    by a fit that stops elsewhere on a flat likelihood) would be read as the estimate's
+    uncertainty; it is left out with the reason. A miss within rounding (1e-6 relative) is
+    not one: the interval is widened to the estimate.
+
+    Parameters
+    ----------
+    estimate : float
+        The statistic on all the data.
+    reps : (B,) float64
+        Its bootstrap replicates, NaN where undefined.
+    level, min_defined : float, optional
+        As :func:`percentile_ci`.
+
+    Returns
+    -------
+    lo, hi : float
+        NaN when no interval is given.
+    reason : str or None
+
+    >>> interval_around(1.0, np.array([0.5, 1.0, 1.5]))[:2]
+    (0.525, 1.475)
+    >>> interval_around(4.732, np.full(10, 4.7086))[2]
+    'the estimate lies outside its bootstrap interval [4.709, 4.709]: no interval given'
+    """
+    if not np.isfinite(estimate):
+        return float("nan"), float("nan"), None
+    lo, hi, why = percentile_ci(reps, level=level, min_defined=min_defined)
+    if why:
+        return lo, hi, why
+    tol = 1e-6 * (1.0 + abs(estimate))
+    if estimate < lo - tol or estimate > hi + tol:
+        return float("nan"), float("nan"), (f"the estimate lies outside its bootstrap interval "
+                                             f"[{lo:.4g}, {hi:.4g}]: no interval given")
+    return min(lo, estimate), max(hi, estimate), None
 
 
 def paired_difference(best: np.ndarray, other: np.ndarray, *, level: float = 0.95):

@@ -137,6 +137,8 @@ def vote_threshold(x, y, rater, track, *, good_prob: float = 0.5, n_boot: int = 
         ``value, ci_lo, ci_hi`` (metric units), ``a, b`` (the fit), ``n_votes``, ``n_raters``,
         ``n_tracks`` and ``reason`` (why the value or the interval is undefined, else ``''``).
     """
+    from analysis.bootstrap import interval_around, too_few_raters
+
     rater, track = np.asarray(rater, np.int64), np.asarray(track, np.int64)
     a, b = fit_logistic(x, y)
     value = float(logistic_threshold(a, b, good_prob)[0])
@@ -145,19 +147,18 @@ def vote_threshold(x, y, rater, track, *, good_prob: float = 0.5, n_boot: int = 
            "n_votes": len(x), "n_raters": R, "n_tracks": T, "reason": ""}
     if not math.isfinite(value):
         out["reason"] = "logistic fit undefined (one vote value only, or a constant metric)"
-    elif n_boot > 0 and (R < 2 or T < 2):
-        out["reason"] = f"{R} rater(s) and {T} track(s): an interval needs two of each"
+    elif n_boot > 0 and too_few_raters(R):
+        out["reason"] = too_few_raters(R)
+    elif n_boot > 0 and T < 2:
+        out["reason"] = f"no interval from {T} track: a bootstrap over tracks needs at least 2"
     elif n_boot > 0:
         rng = np.random.default_rng(seed)
         cr, ct = _counts(R, n_boot, rng), _counts(T, n_boot, rng)
         fits = (fit_logistic(x, y, cr[s][:, rater] * ct[s][:, track], start=(a[0], b[0]))
                 for s in _chunks(n_boot, len(x)))
         reps = np.concatenate([logistic_threshold(fa, fb, good_prob) for fa, fb in fits])
-        ok = np.isfinite(reps)
-        if ok.mean() >= 0.5:
-            out["ci_lo"], out["ci_hi"] = (float(q) for q in np.quantile(reps[ok], [0.025, 0.975]))
-        else:
-            out["reason"] = "bootstrap replicates mostly undefined"
+        out["ci_lo"], out["ci_hi"], why = interval_around(value, reps)
+        out["reason"] = why or ""
     return out
 
 

@@ -329,13 +329,22 @@ def jod_bootstrap(per_rater: np.ndarray, *, n_boot: int, seed: int = 0) -> np.nd
         Each replicate's scale (with the prior), centred to mean 0 over the methods it has
         votes for (NaN elsewhere).
     """
-    per_rater = _check(per_rater)
+    return _fit_with_replicates(_check(per_rater), n_boot, seed)[1]
+
+
+def _fit_with_replicates(per_rater: np.ndarray, n_boot: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """The centred scale of all the votes (M,) and of ``n_boot`` resamples of the raters
+    (B, M), in one fit: the estimate is fitted as replicate 0 of the same batch, so the prior
+    and the optimiser treat it exactly as the replicates (a replicate that draws every rater
+    once equals it)."""
     r = per_rater.shape[0]
     rng = np.random.default_rng(seed)
     counts = np.zeros((n_boot, r))
     np.add.at(counts, (np.repeat(np.arange(n_boot), r), rng.integers(0, r, size=(n_boot, r)).ravel()), 1)
+    counts = np.concatenate([np.ones((1, r)), counts])
     reps = jod_scale(np.einsum("br,rij->bij", counts, per_rater))
-    return reps - np.nanmean(reps, axis=1, keepdims=True)
+    reps = reps - np.nanmean(reps, axis=1, keepdims=True)
+    return reps[0], reps[1:]
 
 
 def jod_table(per_rater: np.ndarray, methods: list[str], *, n_boot: int = 200, seed: int = 0) -> pd.DataFrame:
@@ -348,7 +357,10 @@ def jod_table(per_rater: np.ndarray, methods: list[str], *, n_boot: int = 200, s
     methods : list of str
         The M method names.
     n_boot : int, optional
-        Bootstrap replicates over raters (0: no intervals).
+        Bootstrap replicates over raters (0: no intervals). Fewer than
+        :data:`analysis.bootstrap.MIN_RATERS` raters give no interval, and an interval that
+        would not contain its estimate is left out (:func:`analysis.bootstrap.interval_around`),
+        each with the reason.
     seed : int, optional
         Seed of the bootstrap.
 
@@ -359,11 +371,17 @@ def jod_table(per_rater: np.ndarray, methods: list[str], *, n_boot: int = 200, s
         p_better_than_next, p_prefer_next, reason`` (the leading ``axis, offset`` of
         :data:`JOD_COLUMNS` are the caller's); ``jod`` centred to mean 0.
     """
-    total = _check(per_rater).sum(0)
+    from analysis.bootstrap import interval_around, too_few_raters
+
+    per_rater = _check(per_rater)
+    total = per_rater.sum(0)
     linked = _link_components(total)[1]
-    q = jod_scale(total)
-    q = q - np.nanmean(q)
-    reps = jod_bootstrap(per_rater, n_boot=n_boot, seed=seed) if n_boot > 0 and len(per_rater) else None
+    few = too_few_raters(len(per_rater)) if n_boot > 0 else None
+    if n_boot > 0 and few is None:
+        q, reps = _fit_with_replicates(per_rater, n_boot, seed)
+    else:
+        q, reps = jod_scale(total), None
+        q = q - np.nanmean(q) if np.isfinite(q).any() else q
     n = (total + total.T).sum(1)
     order = [i for i in np.argsort(-np.nan_to_num(q, nan=-np.inf), kind="stable")]
     rows = []
@@ -376,13 +394,15 @@ def jod_table(per_rater: np.ndarray, methods: list[str], *, n_boot: int = 200, s
         if linked:
             reason.append("comparison graph disconnected: groups joined by a tie between their best methods")
         if reps is not None and np.isfinite(q[i]):
+            lo, hi, why = interval_around(q[i], reps[:, i])
+            if why:
+                reason.append(why)
             ok = np.isfinite(reps[:, i])
-            lo, hi = np.quantile(reps[ok, i], [0.025, 0.975]) if ok.any() else (np.nan, np.nan)
             if nxt is not None:
                 both = ok & np.isfinite(reps[:, nxt])
                 better = float((reps[both, i] > reps[both, nxt]).mean()) if both.any() else np.nan
-        elif reps is None:
-            reason.append("no bootstrap")
+        elif n[i] > 0:
+            reason.append(few or "no bootstrap")
         rows.append({"method": methods[i], "n_votes": float(n[i]), "jod": q[i], "jod_ci_lo": lo,
                      "jod_ci_hi": hi, "next_method": methods[nxt] if nxt is not None else None,
                      "p_better_than_next": better,

@@ -187,8 +187,12 @@ def read_pairwise_votes(path) -> pd.DataFrame:
     return df
 
 
-def _ci(reps: np.ndarray) -> tuple[float, float, str | None]:
-    return bs.percentile_ci(reps) if reps.size else (np.nan, np.nan, "no bootstrap")
+def _ci(estimate: float, reps: np.ndarray, few: str | None = None) -> tuple[float, float, str | None]:
+    """The interval of ``estimate`` from its replicates (:func:`analysis.bootstrap.interval_around`);
+    none, with the reason, without replicates or from too few raters (``few``)."""
+    if few:
+        return np.nan, np.nan, few
+    return bs.interval_around(estimate, reps) if reps.size else (np.nan, np.nan, "no bootstrap")
 
 
 def bt_table(votes: pd.DataFrame, methods: list[str], *, draws: Draws | None, r_codes, i_codes) -> pd.DataFrame:
@@ -229,6 +233,7 @@ def bt_table(votes: pd.DataFrame, methods: list[str], *, draws: Draws | None, r_
         n = np.bincount(np.r_[a[sel], b[sel]], minlength=m)
         won = np.bincount(np.r_[a[sel], b[sel]], weights=np.r_[s[sel] == 1.0, s[sel] == 0.0], minlength=m)
         connected = bool(strongly_connected(w))
+        few = bs.too_few_raters(len(np.unique(r_codes[sel]))) if draws is not None else None
         for k, name in enumerate(methods):
             reason = None
             if n[k] == 0:
@@ -236,8 +241,10 @@ def bt_table(votes: pd.DataFrame, methods: list[str], *, draws: Draws | None, r_
             elif not connected:
                 reason = ("comparison graph not strongly connected (a method won or lost every "
                           "comparison): the fit is at its limit")
-            lo, hi, why = _ci(reps_p[:, k]) if n[k] else (np.nan, np.nan, None)
-            wlo, whi, _ = _ci(reps_w[:, k]) if n[k] else (np.nan, np.nan, None)
+            lo, hi, why = _ci(p[k], reps_p[:, k], few) if n[k] else (np.nan, np.nan, None)
+            wlo, whi, wwhy = _ci(wp[k], reps_w[:, k], few) if n[k] else (np.nan, np.nan, None)
+            if wwhy and wwhy != why:
+                why = f"{why}; win_prob: {wwhy}" if why else f"win_prob: {wwhy}"
             rows.append({"axis": axis, "offset": value, "method": name, "n_votes": int(n[k]),
                          "wins": int(won[k]), "ties": int(ties[k]), "losses": int(n[k] - won[k] - ties[k]),
                          "score": p[k], "score_ci_lo": lo, "score_ci_hi": hi, "win_prob": wp[k],
@@ -331,13 +338,16 @@ def agreement_table(votes, sides: dict, directions: dict[str, bool], *, draws: D
             row["reason"] = "no vote with both sides' values in the metrics tables"
         else:
             row["agreement"] = float(score[ok].mean())
+            few = bs.too_few_raters(len(np.unique(r_codes[ok])))
             if draws is None:
                 row["reason"] = "no bootstrap"
+            elif few:
+                row["reason"] = few
             else:
                 with np.errstate(invalid="ignore", divide="ignore"):
                     reps = draws.total(r_codes[ok], i_codes[ok], score[ok]) / \
                         draws.total(r_codes[ok], i_codes[ok], np.ones(ok.sum()))
-                row["ci_lo"], row["ci_hi"], row["reason"] = bs.percentile_ci(reps)
+                row["ci_lo"], row["ci_hi"], row["reason"] = bs.interval_around(row["agreement"], reps)
         rows.append(row)
     rows.append(_ceiling_row(h, i_codes, draws))
     return pd.DataFrame(rows, columns=AGREEMENT_COLUMNS)
@@ -365,7 +375,7 @@ def _ceiling_row(h, i_codes, draws) -> dict:
         c = draws.items.astype(np.float64)
         with np.errstate(invalid="ignore", divide="ignore"):
             reps = (c @ (wk * np.nan_to_num(agree))) / (c @ wk)
-        row["ci_lo"], row["ci_hi"], row["reason"] = bs.percentile_ci(reps)
+        row["ci_lo"], row["ci_hi"], row["reason"] = bs.interval_around(row["agreement"], reps)
     return row
 
 

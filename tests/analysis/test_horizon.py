@@ -211,3 +211,17 @@ def test_analyze_ratings_horizon_writes_its_files(tmp_path):
     assert "<h2>Trust horizon</h2>" in html and "all: automobile stays good to" in html
     assert (d / "horizon_all.png").is_file() and (d / "horizon_timeline.png").is_file()
     assert "## Trust horizon" in (d / "report.md").read_text()
+
+
+def test_the_vote_threshold_gives_no_interval_from_too_few_raters():
+    from analysis.bootstrap import MIN_RATERS
+
+    x, y, r, t = _simulated_votes(0, raters=10)
+    for raters in (1, 2, MIN_RATERS):
+        keep = r < raters
+        res = vote_threshold(x[keep], y[keep], r[keep], t[keep], n_boot=100, seed=0)
+        assert np.isfinite(res["value"])
+        if raters < MIN_RATERS:
+            assert np.isnan(res["ci_lo"]) and f"no interval from {raters} rater" in res["reason"]
+        else:
+            assert res["ci_lo"] <= res["value"] <= res["ci_hi"] and res["reason"] == ""

@@ -289,3 +289,45 @@ def test_a_metric_nan_on_every_render_is_reported_undefined(study, tmp_path):
     assert "niqe" not in set(res.agreement["metric"]) and "psnr" in set(res.agreement["metric"])
     n = 2 * int((votes["kind"] == "test").sum())  # both sides of every test vote kept
     assert f"niqe: undefined for every one of these {n} voted renders, left out" in " ".join(res.notes)
+
+
+@pytest.mark.parametrize("n_raters", [1, 2, 3])
+def test_rater_bootstraps_give_no_interval_below_the_minimum_of_raters(study, tmp_path, n_raters):
+    # one rater used to give zero-width intervals (a resample of one rater is that rater)
+    from analysis.bootstrap import MIN_RATERS
+
+    pairs, metrics, _ = study
+    make_pairwise_votes(pairs, n_raters=n_raters).to_csv(tmp_path / "votes.csv", index=False)
+    metrics.to_csv(tmp_path / "metrics.csv", index=False)
+    res = run_pairwise_analysis(tmp_path / "votes.csv", metrics_paths=[tmp_path / "metrics.csv"], n_boot=100,
+                                screen_raters=False)
+    tables = {"bradley_terry": (res.bradley_terry[res.bradley_terry["n_votes"] > 0], "score_ci_lo"),
+              "jod": (res.jod[res.jod["n_votes"] > 0], "jod_ci_lo"),
+              "agreement": (res.agreement[res.agreement["metric"] != "raters (ceiling)"], "ci_lo")}
+    for name, (t, lo) in tables.items():
+        assert len(t), name
+        if n_raters < MIN_RATERS:
+            assert t[lo].isna().all(), name
+            assert t["reason"].str.contains(f"no interval from {n_raters} rater").all(), name
+        else:
+            assert t[lo].notna().any(), name
+    # the ceiling resamples items only: it keeps its interval
+    ceiling = res.agreement.set_index("metric").loc["raters (ceiling)"]
+    assert n_raters == 1 or np.isfinite(ceiling["ci_lo"])
+
+
+def test_every_interval_contains_its_estimate(study, tmp_path):
+    # thin, sparse studies: 3 raters voting on a few items each (the two-way bootstrap can put
+    # every replicate on one side of the estimate; such an interval is left out with the reason)
+    pairs, metrics, _ = study
+    votes = make_pairwise_votes(pairs, n_raters=6, seed=2)
+    rng = np.random.default_rng(0)
+    for trial in range(4):
+        v = votes[rng.random(len(votes)) < 0.15]
+        v.to_csv(tmp_path / "votes.csv", index=False)
+        res = run_pairwise_analysis(tmp_path / "votes.csv", n_boot=60, seed=trial, screen_raters=False)
+        for t, est, lo, hi in [(res.bradley_terry, "score", "score_ci_lo", "score_ci_hi"),
+                               (res.bradley_terry, "win_prob", "win_prob_ci_lo", "win_prob_ci_hi"),
+                               (res.jod, "jod", "jod_ci_lo", "jod_ci_hi")]:
+            given = t[t[lo].notna()]
+            assert ((given[lo] <= given[est]) & (given[est] <= given[hi])).all(), (trial, est)
