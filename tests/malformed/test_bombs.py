@@ -1,7 +1,7 @@
 """A decompression bomb (a 30000 x 30000 PNG of a few hundred kilobytes, whose decode would take
 2.7 GB) is refused from its header: ``nvrq import renders`` below 300 MB of peak memory,
 ``nvrq score`` below 1 GB, each with one line and exit status 2. Peak memory is each child
-process's own ``ru_maxrss`` (Linux: kilobytes)."""
+process's own high-water mark ``VmHWM`` (Linux ``/proc/self/status``)."""
 
 from __future__ import annotations
 
@@ -14,13 +14,12 @@ import pandas as pd
 import pytest
 from malformed_world import snapshot
 
-_RUN = ("import json, sys\n"
+# VmHWM, not ru_maxrss: the latter keeps the forked parent's peak across exec
+_RUN = ("import json, re, sys\n"
         "from nvrq.cli import main\n"
         "rc = main(sys.argv[1:])\n"
-        # VmHWM, not ru_maxrss: Linux carries ru_maxrss over exec, so a child of a large test
-        # process would report its parent's peak
-        "hwm = [ln for ln in open('/proc/self/status') if ln.startswith('VmHWM:')][0]\n"
-        "print(json.dumps({'rc': rc, 'peak_mb': int(hwm.split()[1]) / 1024}))\n")
+        "hwm = re.search(r'VmHWM:\\s+(\\d+) kB', open('/proc/self/status').read()).group(1)\n"
+        "print(json.dumps({'rc': rc, 'peak_mb': int(hwm) / 1024}))\n")
 
 
 def _bomb(path: Path, side: int = 30000) -> None:
