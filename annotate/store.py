@@ -393,6 +393,18 @@ class Store:
         with self._transaction() as con:
             self._insert_vote(con, rater, item, vote, at, rt, None)
 
+    def shift_vote_times(self, raters: list[str], seconds: float) -> None:
+        """Move every vote time of ``raters`` (votes and their history) by ``seconds``; the
+        simulated raters' clock is moved back with it so that no vote lies in the future."""
+        shift = f"{float(seconds):+.3f} seconds"
+        fmt = "strftime('%Y-%m-%dT%H:%M:%fZ', {col}, ?)"
+        with self._transaction() as con:
+            for rater in raters:
+                con.execute(f"UPDATE votes SET voted_at = {fmt.format(col='voted_at')} "
+                            "WHERE study = ? AND rater = ?", (shift, self.study, rater))
+                con.execute(f"UPDATE history SET at = {fmt.format(col='at')} "
+                            "WHERE study = ? AND rater = ?", (shift, self.study, rater))
+
     def record_shown_vote(self, rater: str, item: str, vote: int, *,
                           response_ms: int | None = None, session: str | None = None) -> str:
         """Record the vote of ``rater`` on ``item`` only if the item is theirs and still open.

@@ -156,3 +156,20 @@ def test_simulated_votes_export_in_the_same_order_every_run(make_study):
         assert r["voted_at"].is_monotonic_increasing and r["voted_at"].is_unique
         runs.append(r.drop(columns=["voted_at"]).reset_index(drop=True))
     pd.testing.assert_frame_equal(runs[0], runs[1], check_exact=True)
+
+
+def test_simulated_votes_are_not_stamped_in_the_future(make_study):
+    """The simulated clock advances ~0.9 s per vote; at the end the votes are moved back so
+    the last lies at the end of the run (in UTC, like the votes of people), in the same order."""
+    from datetime import datetime, timedelta, timezone
+
+    study = make_study()
+    start = datetime.now(timezone.utc)
+    simulate(study, raters=3, seed=0, progress=False)
+    end = datetime.now(timezone.utc)
+    v = study.store.votes()
+    at = pd.to_datetime(v["voted_at"], utc=True)
+    assert len(v) > 20 and at.max() <= end + timedelta(milliseconds=1)
+    assert at.max() >= start - timedelta(seconds=1)  # moved back by the lead, not more
+    gaps = at.diff().dropna()
+    assert (gaps >= pd.Timedelta(0)).all()  # the simulated order is kept
