@@ -288,4 +288,5 @@ def test_tests_mirror_the_packages():
     # issue 26: tests live in the folder of the package they test (tests/conftest.py says which);
     # only the project-wide checks stay at the top of tests/
     loose = sorted(p.name for p in (ROOT / "tests").glob("test_*.py"))
-    assert loose == ["test_benchmarks.py", "test_import_layers.py", "test_numpydoc.py", "test_readme.py", "test_signatures.py"]
+    assert loose == ["test_benchmarks.py", "test_doc_links.py", "test_doc_numbers.py", "test_import_layers.py",
+                     "test_numpydoc.py", "test_readme.py", "test_signatures.py", "test_user_text.py"]

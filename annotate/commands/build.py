@@ -104,8 +104,7 @@ def register(sub) -> None:
                    "(binary: stop asking once an item's majority is settled, the freed votes to "
                    "the most uncertain items; docs/FORMATS.md §8, \"Sampling\"); default: active for "
                    "--design pairwise (benchmarks/bench_sampling.py: the same scale error with half "
-                   "the comparisons; "
-                   "uniform keeps the balanced design), uniform for binary")
+                   "the comparisons; uniform keeps the balanced design), uniform for binary")
     b.add_argument("--max-votes-per-item", type=int_arg(), default=None, metavar="N",
                    help="adaptive: the most votes one test item may get (default --votes-per-item: "
                    "curtail only; a higher cap spends the freed votes on the most uncertain items)")
