@@ -10,8 +10,12 @@ Each is defined here once; :mod:`data_schema.tables` re-exports it with the tabl
 
 from __future__ import annotations
 
-__all__ = ["MIN_SIDE_PX"]
+__all__ = ["MIN_SIDE_PX", "MIN_VISIBLE"]
 
 #: docs/FORMATS.md §3: the default smallest shorter box side (pixels) of a usable object crop,
 #: shared by ``nvrq pairs --min-side`` and ``nvrq stability --min-side``.
 MIN_SIDE_PX = 30
+
+#: docs/FORMATS.md §3: the default smallest visible fraction of an object, in the GT view and in
+#: the novel view, of a kept pair (``nvrq pairs --min-visible``; 0 is the paper's protocol).
+MIN_VISIBLE = 0.8

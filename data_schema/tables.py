@@ -22,7 +22,7 @@ from pathlib import Path, PurePosixPath, PureWindowsPath
 import numpy as np
 import pandas as pd
 
-from data_schema.defaults import MIN_SIDE_PX  # shared by nvrq pairs and nvrq stability
+from data_schema.defaults import MIN_SIDE_PX, MIN_VISIBLE  # shared by nvrq pairs and nvrq stability
 from data_schema.errors import InputError
 from data_schema.methods import METHOD_COLUMN, check_table_methods, method_suffix
 from data_schema.perturbation import perturbation_array, view_suffix
@@ -39,6 +39,7 @@ __all__ = [
     "IMAGES_COLUMNS",
     "TABLE_SUFFIXES",
     "MIN_SIDE_PX",
+    "MIN_VISIBLE",
     "pair_id",
     "pair_ids",
     "csv_line",

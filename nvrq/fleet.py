@@ -27,6 +27,7 @@ import pyarrow.parquet as pq
 from tqdm.auto import tqdm
 
 from data_schema.datasets import DatasetWriter
+from data_schema.defaults import MIN_VISIBLE
 from data_schema.errors import InputError
 from data_schema.methods import METHOD_COLUMN
 from data_schema.scene import load_scene
@@ -109,7 +110,8 @@ def _add_stats(total: PairStats, s: PairStats) -> None:
         total.dropped[k] += s.dropped[k]
 
 
-def clip_pairs(scene_dir, *, attributes=None, min_side: float, min_area: float, progress: bool = False):
+def clip_pairs(scene_dir, *, attributes=None, min_side: float, min_area: float, min_visible: float = MIN_VISIBLE,
+               progress: bool = False):
     """``(clip_id, pairs, stats)`` of one scene folder: :func:`nvrq.pairs.make_pairs` after
     applying the :class:`nvrq.clip_attributes.ClipAttributes` ``attributes`` (if any).
 
@@ -123,6 +125,8 @@ def clip_pairs(scene_dir, *, attributes=None, min_side: float, min_area: float, 
         Smallest box side kept.
     min_area : float, pixels
         Smallest box area kept.
+    min_visible : float, 0..1, optional
+        Smallest visible fraction kept, in both views.
     progress : bool, optional
         Show a progress bar.
 
@@ -136,7 +140,8 @@ def clip_pairs(scene_dir, *, attributes=None, min_side: float, min_area: float, 
     scene = load_scene(scene_dir)
     if attributes is not None:
         scene = dataclasses.replace(scene, attributes=attributes.for_clip(scene.clip_id, scene.attributes))
-    pairs, stats = make_pairs(scene, min_side=min_side, min_area=min_area, progress=progress)
+    pairs, stats = make_pairs(scene, min_side=min_side, min_area=min_area, min_visible=min_visible,
+                              progress=progress)
     return scene.clip_id, pairs, stats
 
 
@@ -161,8 +166,8 @@ def _unify(writer: DatasetWriter, attrs_by_file: dict[str, list[str]], methods: 
         pq.write_table(t, path)
 
 
-def fleet_pairs(scene_dirs, out, *, min_side: float = 30, min_area: float = 0, attributes=None,
-                keep_going: bool = False, progress: bool = True) -> FleetResult:
+def fleet_pairs(scene_dirs, out, *, min_side: float = 30, min_area: float = 0, min_visible: float = MIN_VISIBLE,
+                attributes=None, keep_going: bool = False, progress: bool = True) -> FleetResult:
     """Pairs of every scene in ``scene_dirs`` into the dataset folder ``out`` (module docstring).
 
     ``attributes``: a :class:`nvrq.clip_attributes.ClipAttributes` or ``None``.
@@ -177,6 +182,8 @@ def fleet_pairs(scene_dirs, out, *, min_side: float = 30, min_area: float = 0, a
         Smallest box side kept.
     min_area : float, pixels, optional
         Smallest box area kept.
+    min_visible : float, 0..1, optional
+        Smallest visible fraction kept, in both views.
     attributes : ClipAttributes, optional
         Clip attributes that override the scenes'.
     keep_going : bool, optional
@@ -199,7 +206,7 @@ def fleet_pairs(scene_dirs, out, *, min_side: float = 30, min_area: float = 0, a
         for d in tqdm(scene_dirs, desc="pairs", unit="clip", disable=not progress):
             try:
                 clip, pairs, stats = clip_pairs(d, attributes=attributes, min_side=min_side,
-                                                 min_area=min_area)
+                                                 min_area=min_area, min_visible=min_visible)
                 if clip in seen:
                     raise InputError(d / "scene.json", "clip_id", "a clip id unique in the fleet",
                                      f"{clip!r}, also in {seen[clip]}")

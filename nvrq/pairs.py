@@ -40,10 +40,11 @@ from data_schema.perturbation import (
     perturbation_array,
 )
 from data_schema.scene import Scene
-from data_schema.tables import MIN_SIDE_PX, PAIRS_COLUMNS, pair_ids
+from data_schema.tables import MIN_SIDE_PX, MIN_VISIBLE, PAIRS_COLUMNS, pair_ids
 from data_schema.text import plural
 from nvrq.geometry.boxes import box_corners, box_sides, pixel_box
 from nvrq.geometry.cameras import camera_from_model
+from nvrq.geometry.visibility import pair_visibility
 from nvrq.scene_boxes import (
     frame_boxes,
     frame_candidates,
@@ -52,13 +53,15 @@ from nvrq.scene_boxes import (
     view_transforms,
 )
 
-__all__ = ["DROP_REASONS", "PAIRS_OUTPUT_COLUMNS", "PairStats", "track_boxes_at", "view_validity", "make_pairs",
+__all__ = ["DROP_REASONS", "PAIRS_OUTPUT_COLUMNS", "VISIBILITY_COLUMNS", "PairStats", "track_boxes_at", "view_validity", "make_pairs",
            "project_boxes"]
 
 #: Why a candidate box (camera, frame, track, render view) was dropped, in order of precedence.
-DROP_REASONS = ("no_gt_image", "unprojectable", "outside_image", "too_small")
+DROP_REASONS = ("no_gt_image", "unprojectable", "outside_image", "too_small", "occluded")
+#: Visible-fraction columns of the pairs table (:mod:`nvrq.geometry.visibility`; docs/FORMATS.md §3).
+VISIBILITY_COLUMNS = ("gt_visible", "novel_visible")
 #: Columns of a :func:`make_pairs` table before the scene attributes and ``scene_root``.
-PAIRS_OUTPUT_COLUMNS = (*PAIRS_COLUMNS, *EXTRA_PERTURBATION_COLUMNS, LABEL_COLUMN)
+PAIRS_OUTPUT_COLUMNS = (*PAIRS_COLUMNS, *EXTRA_PERTURBATION_COLUMNS, LABEL_COLUMN, *VISIBILITY_COLUMNS)
 
 
 @dataclass
@@ -100,7 +103,7 @@ class PairStats:
 
     def add(self, axis_names: np.ndarray, has_gt: np.ndarray, worst: np.ndarray) -> None:
         """Count candidates with axis ``axis_names (C,)``, GT present ``has_gt (C,)`` and
-        view code ``worst (C,)`` (0 valid, 1-3 as :func:`view_validity`)."""
+        view code ``worst (C,)`` (0 valid, 1-3 as :func:`view_validity`, 4 occluded)."""
         for axis in dict.fromkeys(axis_names.tolist()):
             c = self.by_axis.setdefault(axis, {"candidates": 0, "kept": 0, **dict.fromkeys(DROP_REASONS, 0)})
             for k, n in _counts(axis_names == axis, has_gt, worst).items():
@@ -116,7 +119,7 @@ def _counts(sel: np.ndarray, has_gt: np.ndarray, worst: np.ndarray) -> dict:
     """``{'candidates', 'kept', *DROP_REASONS}`` of the candidates where ``sel`` (as :meth:`PairStats.add`)."""
     c = {"candidates": int(sel.sum()), "kept": int((sel & has_gt & (worst == 0)).sum()),
          "no_gt_image": int((sel & ~has_gt).sum())}
-    for reason, code in zip(DROP_REASONS[1:], (1, 2, 3), strict=True):
+    for reason, code in zip(DROP_REASONS[1:], (1, 2, 3, 4), strict=True):
         c[reason] = int((sel & has_gt & (worst == code)).sum())
     return c
 
@@ -181,9 +184,9 @@ def _view_codes(model, T_sensor_rig, T_rig_world, fr_i, corners, views, *, min_s
     return code, box_gt, box
 
 
-def _pair_rows(scene, cam_name, r, gt_paths, tr_sel, gb, rb) -> pd.DataFrame:
+def _pair_rows(scene, cam_name, r, gt_paths, tr_sel, gb, rb, vis) -> pd.DataFrame:
     """The pairs-table rows of kept candidates: render rows ``r``, their tracks ``tr_sel``,
-    GT boxes ``gb`` and render boxes ``rb`` ``(P, 4)``."""
+    GT boxes ``gb`` and render boxes ``rb`` ``(P, 4)``, visible fractions ``vis`` (2 x (P,))."""
     tracks = scene.tracks
     ts = r.timestamp_us.to_numpy(np.int64)
     P = perturbation_array(r)
@@ -204,6 +207,8 @@ def _pair_rows(scene, cam_name, r, gt_paths, tr_sel, gb, rb) -> pd.DataFrame:
     for c in EXTRA_PERTURBATION_COLUMNS:  # absent in a hand-built images table: 0
         df[c] = P[:, PERTURBATION_COLUMNS.index(c)]
     df[LABEL_COLUMN] = labels(P)
+    for c, v in zip(VISIBILITY_COLUMNS, vis, strict=True):
+        df[c] = v
     methods = method_values(r)
     if METHOD_COLUMN in r.columns:  # a scene with methods (docs/FORMATS.md §3)
         df[METHOD_COLUMN] = methods
@@ -211,7 +216,7 @@ def _pair_rows(scene, cam_name, r, gt_paths, tr_sel, gb, rb) -> pd.DataFrame:
     return df
 
 
-def _camera_pairs(scene: Scene, cam, stats: PairStats, *, min_side, min_area) -> pd.DataFrame | None:
+def _camera_pairs(scene: Scene, cam, stats: PairStats, *, min_side, min_area, min_visible) -> pd.DataFrame | None:
     """The pairs of one camera (None when it has no renders); counts go into ``stats``."""
     model = camera_from_model(cam.model, where=str(scene.root / "scene.json"),
                               field_prefix=f"cameras.{cam.name}.model.")
@@ -232,11 +237,18 @@ def _camera_pairs(scene: Scene, cam, stats: PairStats, *, min_side, min_area) ->
     k_idx = r_k[row_idx]
     has_gt = np.array([int(t) in gt_paths for t in renders.timestamp_us], dtype=bool)[row_idx]
     worst = code[box_idx, k_idx]
+    valid = np.flatnonzero(has_gt & (worst == 0))
+    T_gt_world, T_view_gt = view_transforms(cam.T_sensor_rig, fb.T_rig_world, views)
+    vis = pair_visibility(model, T_gt_world, T_view_gt, fb.frame_index, fb.T_box_world, fb.dims_lwh,
+                          box_idx[valid], k_idx[valid], min_visible=min_visible)
+    if min_visible > 0:
+        seen = (vis[0] >= min_visible) & (vis[1] >= min_visible)  # NaN: not seen
+        worst[valid[~seen]] = 4
+        valid, vis = valid[seen], (vis[0][seen], vis[1][seen])
     stats.add(axes(views)[k_idx], has_gt, worst)
-    ok = has_gt & (worst == 0)
-    row_idx, box_idx, k_idx = row_idx[ok], box_idx[ok], k_idx[ok]
+    row_idx, box_idx, k_idx = row_idx[valid], box_idx[valid], k_idx[valid]
     return _pair_rows(scene, cam.name, renders.iloc[row_idx], gt_paths, tr_i[box_idx],
-                      box_gt[box_idx], box[box_idx, k_idx])
+                      box_gt[box_idx], box[box_idx, k_idx], vis)
 
 
 def _assemble(scene: Scene, frames_out: list[pd.DataFrame]) -> pd.DataFrame:
@@ -355,7 +367,8 @@ def project_boxes(
 
 
 def make_pairs(
-    scene: Scene, *, min_side: float = MIN_SIDE_PX, min_area: float = 0, progress: bool = True
+    scene: Scene, *, min_side: float = MIN_SIDE_PX, min_area: float = 0, min_visible: float = MIN_VISIBLE,
+    progress: bool = True,
 ) -> tuple[pd.DataFrame, PairStats]:
     """All valid GT/render box pairs of ``scene`` (docs/FORMATS.md §3).
 
@@ -366,7 +379,11 @@ def make_pairs(
     :class:`PairStats` (a candidate per method render). A candidate (camera,
     frame, track, render view) invalid in the GT view is counted under the GT view's
     reason, otherwise under the novel view's; novel views are only projected for boxes
-    valid in the GT view. The 8-corner and size criteria are the same in every view.
+    valid in the GT view. The 8-corner and size criteria are the same in every view, and so
+    is the visibility rule: at least ``min_visible`` of the object's silhouette is unoccluded
+    by the frame's other boxes (:mod:`nvrq.geometry.visibility`) in the GT view and in the novel
+    view; a candidate that fails it is counted as ``occluded``. ``min_visible=0`` is the paper's
+    protocol. Every pair carries ``gt_visible`` and ``novel_visible``.
 
     Parameters
     ----------
@@ -376,6 +393,8 @@ def make_pairs(
         Smallest box side kept, in every view.
     min_area : float, pixels, optional
         Smallest box area kept.
+    min_visible : float, 0..1, optional
+        Smallest visible fraction kept, in both views (0 keeps every pair: the paper's protocol).
     progress : bool, optional
         Show a progress bar.
 
@@ -389,11 +408,13 @@ def make_pairs(
     for name, value in (("min_side", min_side), ("min_area", min_area)):
         if not isinstance(value, int | float | np.number) or not np.isfinite(value) or value < 0:
             raise InputError(param=name, expected="a non-negative number of pixels", got=value)
+    if not isinstance(min_visible, int | float | np.number) or not 0 <= min_visible <= 1:
+        raise InputError(param="min_visible", expected="a visible fraction in [0, 1]", got=min_visible)
     stats = PairStats()
     cams = list(scene.cameras.values())
     frames_out = []
     for cam in tqdm(cams, desc="pairs", unit="camera", disable=not progress or len(cams) < 2):
-        df = _camera_pairs(scene, cam, stats, min_side=min_side, min_area=min_area)
+        df = _camera_pairs(scene, cam, stats, min_side=min_side, min_area=min_area, min_visible=min_visible)
         if df is not None:
             frames_out.append(df)
     return _assemble(scene, frames_out), stats

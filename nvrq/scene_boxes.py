@@ -48,6 +48,10 @@ class FrameBoxes(NamedTuple):
         Each box's frame (index into the F frames).
     corners : (M, 8, 3) float64
         World corners of each box (metres), in :func:`nvrq.geometry.boxes.box_corners`' order.
+    T_box_world : (M, 4, 4) float64
+        Each box's centre pose (box -> world).
+    dims_lwh : (M, 3) float64
+        Each box's length, width, height (metres).
     """
 
     T_rig_world: np.ndarray
@@ -55,6 +59,8 @@ class FrameBoxes(NamedTuple):
     track_index: np.ndarray
     frame_index: np.ndarray
     corners: np.ndarray
+    T_box_world: np.ndarray
+    dims_lwh: np.ndarray
 
 
 def track_boxes_at(scene: Scene, query_us: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -141,7 +147,7 @@ def frame_boxes(scene: Scene, frames: np.ndarray) -> FrameBoxes:
     keep = on_traj[fr_i]
     tr_i, fr_i, T_box_world = tr_i[keep], fr_i[keep], T_box_world[keep]
     dims = np.stack([scene.tracks[k].dims_lwh for k in tr_i]) if len(tr_i) else np.zeros((0, 3))
-    return FrameBoxes(T_rig_world, on_traj, tr_i, fr_i, box_corners(T_box_world, dims))
+    return FrameBoxes(T_rig_world, on_traj, tr_i, fr_i, box_corners(T_box_world, dims), T_box_world, dims)
 
 
 def frame_candidates(renders: pd.DataFrame, frames: np.ndarray,

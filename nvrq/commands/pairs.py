@@ -10,7 +10,7 @@ import sys
 import time
 from pathlib import Path
 
-from data_schema.defaults import MIN_SIDE_PX
+from data_schema.defaults import MIN_SIDE_PX, MIN_VISIBLE
 from data_schema.errors import InputError
 from nvrq.commands.args import add_link_option, add_quiet_option, number_arg, show_progress
 
@@ -40,6 +40,9 @@ def register(sub) -> None:
     p.add_argument("--min-side", type=number_arg(low=0), default=MIN_SIDE_PX,
                    help=f"shorter side of the box in pixels (default {MIN_SIDE_PX})")
     p.add_argument("--min-area", type=number_arg(low=0), default=0, help="box area in square pixels (default 0)")
+    p.add_argument("--min-visible", type=number_arg(low=0, high=1), default=MIN_VISIBLE, metavar="F",
+                   help="smallest visible fraction of the object (not covered by nearer boxes) in the GT view "
+                        f"and in the novel view (default {MIN_VISIBLE}); 0 keeps every pair, the paper's protocol")
     add_quiet_option(p)
     add_link_option(p)
     p.set_defaults(func=run)
@@ -69,7 +72,8 @@ def run(args) -> int:
     if _is_fleet(args):
         return _run_fleet(args, attributes, t0)
     _, pairs, stats = clip_pairs(args.scene[0], attributes=attributes, min_side=args.min_side,
-                                 min_area=args.min_area, progress=show_progress(args))
+                                 min_area=args.min_area, min_visible=args.min_visible,
+                                 progress=show_progress(args))
     write_table(pairs, args.out)
     print(f"{stats.summary()} -> {args.out} ({time.perf_counter() - t0:.1f} s)")
     return 0
@@ -92,7 +96,7 @@ def _run_fleet(args, attributes, t0) -> int:
     from nvrq.fleet import find_scenes, fleet_pairs
 
     res = fleet_pairs(find_scenes(args.scene), args.out, min_side=args.min_side, min_area=args.min_area,
-                      attributes=attributes, keep_going=args.keep_going, progress=show_progress(args))
+                      min_visible=args.min_visible, attributes=attributes, keep_going=args.keep_going, progress=show_progress(args))
     for clip, reason in res.failed:
         print(f"failed: {clip}: {reason}", file=sys.stderr)
     print(f"{res.summary()} -> {args.out} ({time.perf_counter() - t0:.1f} s)")
