@@ -320,6 +320,26 @@ def _frame_inputs(plan: ScorePlan, gt_image, render_image, gt_boxes, render_boxe
     return gt_u8, index, r_u8, [("frame", id(gt_image), *key) for key in seen], gt_image
 
 
+def _box_table(gt_boxes, render_boxes):
+    """``(gt_boxes, render_boxes, visibility)``: a :func:`nvrq.project_boxes` table given as
+    ``gt_boxes`` (its kept rows; ``render_boxes`` None) gives both boxes and its visibility
+    columns (a DataFrame, else None)."""
+    if not isinstance(gt_boxes, pd.DataFrame) or render_boxes is not None:
+        return gt_boxes, render_boxes, None
+    from nvrq.pairs import VISIBILITY_COLUMNS
+
+    need = [f"{s}_{c}" for s in ("gt", "r") for c in ("x0", "y0", "x1", "y1")]
+    missing = [c for c in need if c not in gt_boxes.columns]
+    if missing:
+        raise InputError(param="gt_boxes", field=missing[0],
+                         expected="a project_boxes() table (with render_boxes=None) or (N, 4) boxes",
+                         got=f"a table without {missing[0]}")
+    table = gt_boxes[gt_boxes["kept"]] if "kept" in gt_boxes.columns else gt_boxes
+    vis = table.loc[:, [c for c in VISIBILITY_COLUMNS if c in table.columns]].reset_index(drop=True)
+    return (table[need[:4]].to_numpy(np.int64), table[need[4:]].to_numpy(np.int64),
+            vis if len(vis.columns) else None)
+
+
 def _score(plan: ScorePlan, encoder, gt_u8: list, gt_index: np.ndarray | None, r_u8: list) -> pd.DataFrame:
     """The core on one batch (:func:`nvrq.scoring.core.compute_columns`, the plan checked once):
     ``gt_index`` None (and no GT crops) for no-reference metrics."""
@@ -425,8 +445,10 @@ class Evaluator:
 
     def score_frame(self, gt_image, render_image, gt_boxes, render_boxes) -> pd.DataFrame:
         """One row per box pair (see :func:`score_frame`)."""
-        return _score(self._plan, self._encoder, *_frame_inputs(self._plan, gt_image, render_image, gt_boxes,
-                                                                render_boxes)[:3])
+        gt_boxes, render_boxes, vis = _box_table(gt_boxes, render_boxes)
+        out = _score(self._plan, self._encoder, *_frame_inputs(self._plan, gt_image, render_image, gt_boxes,
+                                                               render_boxes)[:3])
+        return out if vis is None else pd.concat([vis, out], axis=1)
 
     # --- accumulation ----------------------------------------------------------------------
 
@@ -449,7 +471,13 @@ class Evaluator:
 
     def update_frame(self, gt_image, render_image, gt_boxes, render_boxes, *,
                      labels: Mapping | pd.DataFrame | None = None) -> None:
-        """Add a frame's box pairs (as :meth:`score_frame` takes them) for :meth:`compute`."""
+        """Add a frame's box pairs (as :meth:`score_frame` takes them) for :meth:`compute`; a
+        :func:`project_boxes` table adds its visibility columns to the labels."""
+        gt_boxes, render_boxes, vis = _box_table(gt_boxes, render_boxes)
+        if vis is not None:
+            given = _labels(labels, len(vis))
+            labels = pd.concat([given.reset_index(drop=True), vis.drop(columns=list(given.columns), errors="ignore")],
+                               axis=1)
         self._add(_frame_inputs(self._plan, gt_image, render_image, gt_boxes, render_boxes), labels)
 
     def _add(self, crops: tuple, labels) -> None:
@@ -574,6 +602,8 @@ def score_frame(gt_image, render_image, gt_boxes, render_boxes, *, metrics, enco
     gt_boxes, render_boxes : (N, 4) int
         Inclusive pixel boxes ``x0, y0, x1, y1`` (the pairs table's ``gt_*``/``r_*``
         columns). The GT image is cut once per distinct GT box, and those crops are shared.
+        Or ``gt_boxes`` a :func:`project_boxes` table and ``render_boxes=None``: its kept rows
+        are scored, and the result starts with their ``gt_visible`` and ``novel_visible``.
 
     Returns
     -------
@@ -586,5 +616,7 @@ def score_frame(gt_image, render_image, gt_boxes, render_boxes, *, metrics, enco
     [2.0, 2.0]
     """
     plan = _plan(metrics, encoder, options)
-    return _score(plan, _load(encoder, plan, cached=True),
-                  *_frame_inputs(plan, gt_image, render_image, gt_boxes, render_boxes)[:3])
+    gt_boxes, render_boxes, vis = _box_table(gt_boxes, render_boxes)
+    out = _score(plan, _load(encoder, plan, cached=True),
+                 *_frame_inputs(plan, gt_image, render_image, gt_boxes, render_boxes)[:3])
+    return out if vis is None else pd.concat([vis, out], axis=1)

@@ -44,7 +44,7 @@ from data_schema.tables import MIN_SIDE_PX, MIN_VISIBLE, PAIRS_COLUMNS, pair_ids
 from data_schema.text import plural
 from nvrq.geometry.boxes import box_corners, box_sides, pixel_box
 from nvrq.geometry.cameras import camera_from_model
-from nvrq.geometry.visibility import pair_visibility
+from nvrq.geometry.visibility import pair_visibility, visible_fractions
 from nvrq.scene_boxes import (
     frame_boxes,
     frame_candidates,
@@ -281,7 +281,7 @@ def _size_rule(sizes: dict) -> tuple[float, float]:
 def project_boxes(
     camera, *, T_sensor_rig: np.ndarray, T_rig_world: np.ndarray, T_box_world: np.ndarray,
     dims_lwh: np.ndarray, perturbations: np.ndarray | None = None, offsets: np.ndarray | None = None,
-    **sizes: float,
+    min_visible: float = MIN_VISIBLE, **sizes: float,
 ) -> pd.DataFrame:
     """``nvrq pairs``' rule for one frame, in memory: every box in the GT view and in each
     novel view, kept or dropped with its reason (no scene folder).
@@ -311,9 +311,11 @@ def project_boxes(
     -------
     pandas.DataFrame
         M * K rows, box-major: ``box`` (0..M-1), ``view`` (0..K-1), ``kept`` (bool), ``reason``
-        (``''`` when kept, else ``unprojectable``, ``outside_image`` or ``too_small``, the GT
-        view's reason first, as :data:`DROP_REASONS`), and the inclusive pixel boxes
-        ``gt_x0, gt_y0, gt_x1, gt_y1`` and ``r_x0, r_y0, r_x1, r_y1`` (meaningful where kept).
+        (``''`` when kept, else ``unprojectable``, ``outside_image``, ``too_small`` or
+        ``occluded``, the GT view's reason first, as :data:`DROP_REASONS`), the inclusive pixel
+        boxes ``gt_x0, gt_y0, gt_x1, gt_y1`` and ``r_x0, r_y0, r_x1, r_y1`` (meaningful where
+        kept), and ``gt_visible``, ``novel_visible`` (NaN where the box is not valid in the view;
+        ``novel_visible`` is not cast where ``gt_visible`` is below ``min_visible``).
 
     >>> cam = {"type": "pinhole", "resolution": [640, 480], "focal_length": [500, 500],
     ...        "principal_point": [319.5, 239.5]}
@@ -321,8 +323,8 @@ def project_boxes(
     >>> T_box = np.eye(4); T_box[:3, 3] = [10, 0, 1]
     >>> out = project_boxes(cam, T_sensor_rig=T_cam, T_rig_world=np.eye(4), T_box_world=T_box[None],
     ...                     dims_lwh=[[4.0, 2.0, 1.5]], offsets=[0.0, 50.0])
-    >>> out[["view", "kept", "reason"]].values.tolist()
-    [[0, True, ''], [1, False, 'outside_image']]
+    >>> out[["view", "kept", "reason", "gt_visible"]].values.tolist()
+    [[0, True, '', 1.0], [1, False, 'outside_image', 1.0]]
 
     The nearest face (x = 8 m ahead, y = -1..1 m) gives ``u = 500 * (-y) / 8 + 319.5`` = 257..382:
 
@@ -352,10 +354,22 @@ def project_boxes(
         raise InputError(param="dims_lwh", expected=f"one row per box ({len(arrays['T_box_world'])})",
                          got=f"{len(arrays['dims_lwh'])} rows")
     min_side, min_area = _size_rule(sizes)
+    _check_min_visible(min_visible)
     m, k = len(arrays["T_box_world"]), len(views)
     corners = box_corners(arrays["T_box_world"], arrays["dims_lwh"])
+    frame = np.zeros(m, np.int64)
     code, box_gt, box = _view_codes(model, arrays["T_sensor_rig"], arrays["T_rig_world"][None],
-                                    np.zeros(m, np.int64), corners, views, min_side=min_side, min_area=min_area)
+                                    frame, corners, views, min_side=min_side, min_area=min_area)
+    b_i, k_i = np.nonzero(code == 0)
+    T_gt_world, T_view_gt = view_transforms(arrays["T_sensor_rig"], arrays["T_rig_world"][None], views)
+    _, nv = pair_visibility(model, T_gt_world, T_view_gt, frame, arrays["T_box_world"], arrays["dims_lwh"],
+                            b_i, k_i, min_visible=min_visible)
+    gv = visible_fractions(model, np.matmul(T_gt_world[0], arrays["T_box_world"]), arrays["dims_lwh"])
+    vis = np.full((2, m, k), np.nan)
+    vis[0] = gv[:, None]
+    vis[1, b_i, k_i] = nv
+    if min_visible > 0:
+        code[(code == 0) & ~((vis[0] >= min_visible) & (vis[1] >= min_visible))] = 4
     reasons = np.array(["", *DROP_REASONS[1:]], dtype=object)
     out = pd.DataFrame({"box": np.repeat(np.arange(m), k), "view": np.tile(np.arange(k), m),
                         "kept": (code == 0).reshape(-1), "reason": reasons[code.reshape(-1)]})
@@ -363,7 +377,14 @@ def project_boxes(
         out[f"gt_{name}"] = np.repeat(box_gt[:, j], k)
     for j, name in enumerate(("x0", "y0", "x1", "y1")):
         out[f"r_{name}"] = box[:, :, j].reshape(-1)
+    out["gt_visible"] = vis[0].reshape(-1)
+    out["novel_visible"] = vis[1].reshape(-1)
     return out
+
+
+def _check_min_visible(value) -> None:
+    if isinstance(value, bool) or not isinstance(value, int | float | np.number) or not 0 <= value <= 1:
+        raise InputError(param="min_visible", expected="a visible fraction in [0, 1]", got=value)
 
 
 def make_pairs(
@@ -408,8 +429,7 @@ def make_pairs(
     for name, value in (("min_side", min_side), ("min_area", min_area)):
         if not isinstance(value, int | float | np.number) or not np.isfinite(value) or value < 0:
             raise InputError(param=name, expected="a non-negative number of pixels", got=value)
-    if not isinstance(min_visible, int | float | np.number) or not 0 <= min_visible <= 1:
-        raise InputError(param="min_visible", expected="a visible fraction in [0, 1]", got=min_visible)
+    _check_min_visible(min_visible)
     stats = PairStats()
     cams = list(scene.cameras.values())
     frames_out = []

@@ -177,12 +177,13 @@ def test_evaluator_summary_is_the_groupby_of_nvrq_score(clip, evaluator):
 
 
 def test_project_boxes_gives_the_pairs_of_nvrq_pairs(clip):
+    from nvrq.pairs import VISIBILITY_COLUMNS as VIS
     from nvrq.pairs import make_pairs
 
     root, pairs, _ = clip
     scene = load_scene(root)
     _, stats = make_pairs(scene, progress=False)
-    drops = dict.fromkeys(("unprojectable", "outside_image", "too_small"), 0)
+    drops = dict.fromkeys(("unprojectable", "outside_image", "too_small", "occluded"), 0)
     kept = []
     for cam in scene.cameras.values():
         images = scene.images[(scene.images.camera == cam.name) & (scene.images.source == "render")]
@@ -204,11 +205,12 @@ def test_project_boxes_gives_the_pairs_of_nvrq_pairs(clip):
                 "camera": cam.name, "timestamp_us": t,
                 "track_id": [scene.tracks[k].track_id for k in tracks[sel][ok["box"]]],
                 "y_offset_m": offsets[ok["view"]], **{c: ok[c].to_numpy() for c in (*GT_BOX_COLUMNS,
-                                                                                       *RENDER_BOX_COLUMNS)}}))
+                                                                                       *RENDER_BOX_COLUMNS,
+                                                                                       *VIS)}}))
     got = pd.concat(kept, ignore_index=True)
     assert drops == {k: v for k, v in stats.dropped.items() if k != "no_gt_image"}
     assert stats.dropped["no_gt_image"] == 0
-    cols = ["camera", "timestamp_us", "track_id", "y_offset_m", *GT_BOX_COLUMNS, *RENDER_BOX_COLUMNS]
+    cols = ["camera", "timestamp_us", "track_id", "y_offset_m", *GT_BOX_COLUMNS, *RENDER_BOX_COLUMNS, *VIS]
     key = cols[:4]
     a = got[cols].sort_values(key).reset_index(drop=True)
     b = pairs[cols].assign(track_id=pairs.track_id.astype(str)).sort_values(key).reset_index(drop=True)
@@ -350,3 +352,23 @@ def test_python_doc_runs_and_matches_the_cli(tmp_path, monkeypatch, capsys):
                   - ns["summary"].set_index(["y_offset_m", "class"])[ns["ev"].columns].to_numpy()).max()
     assert diff < 1e-6
     assert ns["summary"]["pairs"].sum() == len(ns["pairs"])
+
+
+def test_score_frame_of_a_project_boxes_table_carries_the_visibility():
+    # two boxes straight ahead, the nearer one covering the left half of the farther (x < 0 in
+    # the camera frame): the farther one is half visible in the GT view (a hand-worked case)
+    cam = nvrq.camera_from_model({"type": "pinhole", "resolution": [640, 480], "focal_length": [500, 500],
+                                  "principal_point": [319.5, 239.5]})
+    T_boxes = np.stack([np.eye(4), np.eye(4)])
+    T_boxes[0, :3, 3] = (0, 0, 10)
+    T_boxes[1, :3, 3] = (-1, 0, 5)
+    table = nvrq.project_boxes(cam, T_sensor_rig=np.eye(4), T_rig_world=np.eye(4), T_box_world=T_boxes,
+                               dims_lwh=[[2.0, 2, 2], [2.0, 2, 0.2]], offsets=[0.0], min_visible=0)
+    assert abs(table.loc[0, "gt_visible"] - 0.5) < 0.02 and table.loc[1, "gt_visible"] == 1.0
+    img = np.full((480, 640, 3), 100, np.uint8)
+    out = nvrq.score_frame(img, img, table, None, metrics=["mae"])
+    assert list(out.columns) == ["gt_visible", "novel_visible", "mae"]
+    np.testing.assert_allclose(out["gt_visible"], table["gt_visible"])
+    strict = nvrq.project_boxes(cam, T_sensor_rig=np.eye(4), T_rig_world=np.eye(4), T_box_world=T_boxes,
+                                dims_lwh=[[2.0, 2, 2], [2.0, 2, 0.2]], offsets=[0.0], min_visible=0.8)
+    assert strict["reason"].tolist() == ["occluded", ""]
