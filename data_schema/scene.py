@@ -115,6 +115,9 @@ class Track:
         Timestamps of the poses, in microseconds.
     poses : (T, 7) float64 ndarray
         World box poses ``[x, y, z, qx, qy, qz, qw]`` (unit quaternions), one per timestamp.
+    source_visibility : tuple of str, optional
+        The dataset's own visibility label of each sample (docs/FORMATS.md §2), e.g. KITTI's
+        ``occluded=1 truncated=0.00``; None when the source has none.
     """
 
     track_id: str
@@ -122,6 +125,7 @@ class Track:
     dims_lwh: np.ndarray
     timestamps_us: np.ndarray
     poses: np.ndarray
+    source_visibility: tuple | None = None
 
 
 @dataclass(frozen=True)
@@ -453,7 +457,12 @@ def _tracks(doc: dict, where: str) -> list[Track]:
             raise InputError(where, f"{fld}.dims_lwh", "positive dimensions", dims.tolist())
         ts = _timestamps(_get(tr, "timestamps_us", where, fld), where, f"{fld}.timestamps_us")
         poses = _poses7(_get(tr, "poses", where, fld), len(ts), where, f"{fld}.poses")
-        tracks.append(Track(tid, label, dims, ts, poses))
+        vis = tr.get("source_visibility")
+        if vis is not None and (not isinstance(vis, list) or len(vis) != len(ts)
+                                or not all(isinstance(v, str) for v in vis)):
+            raise InputError(where, f"{fld}.source_visibility", f"a list of {len(ts)} strings (one per timestamp)",
+                             repr(vis)[:60])
+        tracks.append(Track(tid, label, dims, ts, poses, None if vis is None else tuple(vis)))
     return tracks
 
 

@@ -126,7 +126,9 @@ def scene_doc(scene: NewScene) -> dict:
         "rig_trajectory": {"timestamps_us": np.asarray(scene.rig_timestamps_us, np.int64),
                            "T_rig_world": np.asarray(scene.T_rig_world, float)},
         "tracks": [{"track_id": t.track_id, "label_class": t.label_class, "dims_lwh": np.asarray(t.dims_lwh, float),
-                    "timestamps_us": np.asarray(t.timestamps_us, np.int64), "poses": np.asarray(t.poses, float)}
+                    "timestamps_us": np.asarray(t.timestamps_us, np.int64), "poses": np.asarray(t.poses, float),
+                    **({} if getattr(t, "source_visibility", None) is None
+                       else {"source_visibility": list(t.source_visibility)})}
                    for t in scene.tracks],
     }
     if scene.source_world is not None:

@@ -53,11 +53,13 @@ from nvrq.scene_boxes import (
     view_transforms,
 )
 
-__all__ = ["DROP_REASONS", "PAIRS_OUTPUT_COLUMNS", "VISIBILITY_COLUMNS", "PairStats", "track_boxes_at", "view_validity", "make_pairs",
+__all__ = ["DROP_REASONS", "PAIRS_OUTPUT_COLUMNS", "SOURCE_VISIBILITY", "VISIBILITY_COLUMNS", "PairStats", "track_boxes_at", "view_validity", "make_pairs",
            "project_boxes"]
 
 #: Why a candidate box (camera, frame, track, render view) was dropped, in order of precedence.
 DROP_REASONS = ("no_gt_image", "unprojectable", "outside_image", "too_small", "occluded")
+#: The dataset's own visibility label of the object (docs/FORMATS.md §3), where an importer has one.
+SOURCE_VISIBILITY = "source_visibility"
 #: Visible-fraction columns of the pairs table (:mod:`nvrq.geometry.visibility`; docs/FORMATS.md §3).
 VISIBILITY_COLUMNS = ("gt_visible", "novel_visible")
 #: Columns of a :func:`make_pairs` table before the scene attributes and ``scene_root``.
@@ -209,11 +211,20 @@ def _pair_rows(scene, cam_name, r, gt_paths, tr_sel, gb, rb, vis) -> pd.DataFram
     df[LABEL_COLUMN] = labels(P)
     for c, v in zip(VISIBILITY_COLUMNS, vis, strict=True):
         df[c] = v
+    if any(t.source_visibility is not None for t in tracks):  # the dataset's own label, at the nearest sample
+        df[SOURCE_VISIBILITY] = [_source_label(tracks[k], t) for k, t in zip(tr_sel, ts, strict=True)]
     methods = method_values(r)
     if METHOD_COLUMN in r.columns:  # a scene with methods (docs/FORMATS.md §3)
         df[METHOD_COLUMN] = methods
     df.insert(0, "pair_id", pair_ids(df, methods))
     return df
+
+
+def _source_label(track, t_us: int) -> str | None:
+    if track.source_visibility is None:
+        return None
+    i = int(np.argmin(np.abs(np.asarray(track.timestamps_us, np.int64) - t_us)))
+    return track.source_visibility[i]
 
 
 def _camera_pairs(scene: Scene, cam, stats: PairStats, *, min_side, min_area, min_visible) -> pd.DataFrame | None:
@@ -253,11 +264,12 @@ def _camera_pairs(scene: Scene, cam, stats: PairStats, *, min_side, min_area, mi
 
 def _assemble(scene: Scene, frames_out: list[pd.DataFrame]) -> pd.DataFrame:
     methods = method_columns(scene.images)  # [] for a single-method scene: the former columns
-    cols = list(PAIRS_OUTPUT_COLUMNS) + methods + list(scene.attributes) + ["scene_root"]
+    source = [SOURCE_VISIBILITY] if any(t.source_visibility is not None for t in scene.tracks) else []
+    cols = list(PAIRS_OUTPUT_COLUMNS) + methods + source + list(scene.attributes) + ["scene_root"]
     if frames_out:
         pairs = pd.concat(frames_out, ignore_index=True)
     else:
-        pairs = pd.DataFrame({c: pd.Series(dtype=object) for c in (*PAIRS_OUTPUT_COLUMNS, *methods)})
+        pairs = pd.DataFrame({c: pd.Series(dtype=object) for c in (*PAIRS_OUTPUT_COLUMNS, *methods, *source)})
     for k, v in scene.attributes.items():
         pairs[k] = v
     pairs["scene_root"] = str(scene.root.resolve())

@@ -154,7 +154,8 @@ def kitti_scene(P2: np.ndarray, labels: pd.DataFrame, *, image_size: tuple[int, 
         q = [0.0, 0.0, float(np.sin(yaw[i] / 2)), float(np.cos(yaw[i] / 2))]
         tracks.append(Track(f"{i:03d}-{o['type'].lower()}", KITTI_CLASS_MAP.get(o["type"], o["type"].lower()),
                             np.array([o["l"], o["w"], o["h"]], float), np.zeros(1, np.int64),
-                            np.array([centre_rig[i].tolist() + q])))
+                            np.array([centre_rig[i].tolist() + q]),
+                            (f"occluded={int(o['occluded'])} truncated={float(o['truncated']):.2f}",)))
     frame_image = SceneFrame("image_2", 0, f"images/{frame}.png", None if image is None else Path(image))
     return NewScene(clip_id, {"image_2": CameraCalib("image_2", T_sensor_rig, model)}, np.zeros(1, np.int64),
                     np.eye(4)[None], tracks, [frame_image], {"lighting": "daytime", "road_type": "kitti"})
