@@ -227,7 +227,8 @@ def _source_label(track, t_us: int) -> str | None:
     return track.source_visibility[i]
 
 
-def _camera_pairs(scene: Scene, cam, stats: PairStats, *, min_side, min_area, min_visible) -> pd.DataFrame | None:
+def _camera_pairs(scene: Scene, cam, stats: PairStats, *, min_side, min_area, min_visible,
+                  visibility=True) -> pd.DataFrame | None:
     """The pairs of one camera (None when it has no renders); counts go into ``stats``."""
     model = camera_from_model(cam.model, where=str(scene.root / "scene.json"),
                               field_prefix=f"cameras.{cam.name}.model.")
@@ -249,9 +250,12 @@ def _camera_pairs(scene: Scene, cam, stats: PairStats, *, min_side, min_area, mi
     has_gt = np.array([int(t) in gt_paths for t in renders.timestamp_us], dtype=bool)[row_idx]
     worst = code[box_idx, k_idx]
     valid = np.flatnonzero(has_gt & (worst == 0))
-    T_gt_world, T_view_gt = view_transforms(cam.T_sensor_rig, fb.T_rig_world, views)
-    vis = pair_visibility(model, T_gt_world, T_view_gt, fb.frame_index, fb.T_box_world, fb.dims_lwh,
-                          box_idx[valid], k_idx[valid], min_visible=min_visible)
+    if visibility:
+        T_gt_world, T_view_gt = view_transforms(cam.T_sensor_rig, fb.T_rig_world, views)
+        vis = pair_visibility(model, T_gt_world, T_view_gt, fb.frame_index, fb.T_box_world, fb.dims_lwh,
+                              box_idx[valid], k_idx[valid], min_visible=min_visible)
+    else:
+        vis = (np.full(len(valid), np.nan), np.full(len(valid), np.nan))
     if min_visible > 0:
         seen = (vis[0] >= min_visible) & (vis[1] >= min_visible)  # NaN: not seen
         worst[valid[~seen]] = 4
@@ -401,7 +405,7 @@ def _check_min_visible(value) -> None:
 
 def make_pairs(
     scene: Scene, *, min_side: float = MIN_SIDE_PX, min_area: float = 0, min_visible: float = MIN_VISIBLE,
-    progress: bool = True,
+    visibility: bool = True, progress: bool = True,
 ) -> tuple[pd.DataFrame, PairStats]:
     """All valid GT/render box pairs of ``scene`` (docs/FORMATS.md §3).
 
@@ -428,6 +432,9 @@ def make_pairs(
         Smallest box area kept.
     min_visible : float, 0..1, optional
         Smallest visible fraction kept, in both views (0 keeps every pair: the paper's protocol).
+    visibility : bool, optional
+        Cast the visibility at all (False: ``gt_visible`` and ``novel_visible`` are NaN, and
+        ``min_visible`` must be 0).
     progress : bool, optional
         Show a progress bar.
 
@@ -442,11 +449,14 @@ def make_pairs(
         if not isinstance(value, int | float | np.number) or not np.isfinite(value) or value < 0:
             raise InputError(param=name, expected="a non-negative number of pixels", got=value)
     _check_min_visible(min_visible)
+    if not visibility and min_visible > 0:
+        raise InputError(param="min_visible", expected="0 when visibility=False (nothing is cast)", got=min_visible)
     stats = PairStats()
     cams = list(scene.cameras.values())
     frames_out = []
     for cam in tqdm(cams, desc="pairs", unit="camera", disable=not progress or len(cams) < 2):
-        df = _camera_pairs(scene, cam, stats, min_side=min_side, min_area=min_area, min_visible=min_visible)
+        df = _camera_pairs(scene, cam, stats, min_side=min_side, min_area=min_area, min_visible=min_visible,
+                           visibility=visibility)
         if df is not None:
             frames_out.append(df)
     return _assemble(scene, frames_out), stats

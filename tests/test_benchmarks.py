@@ -16,6 +16,8 @@ BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
 
 CASES = {
     "bench_pairs.py": (["--tracks", "6", "--frames", "12", "--loop-sample", "50"], "speed-up (vectorised / loop)"),
+    "bench_visibility.py": (["--seconds", "0.4", "--size", "320x180", "--tracks", "6", "--frames", "10",
+                             "--rounds", "1"], "visibility per 100k object views"),
     "bench_synth.py": (["--seconds", "0.2", "--size", "160x96"], "images per second per camera"),
     "bench_score.py": (["--pairs", "14", "--pipeline-seconds", "0.5", "--rounds", "1", "--naive-pairs", "4", "--batch-sizes", "8",
                         "--random-scene", "--seconds", "0.2", "--encoders", "efficientnet-lite0", "--int8", "",

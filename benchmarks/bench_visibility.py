@@ -1,0 +1,88 @@
+"""What the visibility rule costs ``nvrq pairs``: pairs with and without visibility, side by side.
+
+Two cases, each timed both ways in this one run (best of ``--rounds``):
+
+1. the demo's clip (``nvrq synth`` at the demo's defaults: the same seed, length and size as
+   ``nvrq demo``), at ``--min-visible 0.8`` (the default) and at ``--min-visible 0`` (the
+   paper's protocol, which still casts every pair's visibility);
+2. a large synthetic road scene (:func:`bench_pairs.build_scene`: parked and moving cars on
+   four lanes, one 1920x1080 distorted camera) with about ``--views`` object views: every
+   kept pair's box in the GT view and in its novel view.
+
+Targets (issue tracker): visibility costs at most 2x the pairs time without it on the demo
+clip, and 100k object views take under 60 s. Run: ``python benchmarks/bench_visibility.py``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from bench_pairs import build_scene  # noqa: E402
+
+from data_schema.scene import load_scene  # noqa: E402
+from nvrq.pairs import make_pairs  # noqa: E402
+
+
+def demo_defaults() -> argparse.Namespace:
+    """``nvrq demo``'s own defaults (seed, seconds, size, offsets), read from its parser."""
+    from nvrq.commands import demo
+
+    parser = argparse.ArgumentParser()
+    demo.register(parser.add_subparsers())
+    return parser.parse_args(["demo", "out"])
+
+
+def best(fn, rounds: int) -> tuple[float, object]:
+    out, times = None, []
+    for _ in range(rounds):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return min(times), out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=None, help="demo clip length (default: the demo's)")
+    ap.add_argument("--size", default=None, help="demo clip size WxH (default: the demo's)")
+    ap.add_argument("--tracks", type=int, default=120, help="tracks of the large scene")
+    ap.add_argument("--frames", type=int, default=120, help="frames of the large scene")
+    ap.add_argument("--rounds", type=int, default=2)
+    args = ap.parse_args()
+
+    demo = demo_defaults()
+    seconds = args.seconds or demo.seconds
+    size = args.size or demo.size
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp) / "clip"
+        subprocess.run([sys.executable, "-m", "nvrq", "synth", str(root), "--seed", str(demo.seed), "--seconds",
+                        str(seconds), "--size", size, "--offsets", demo.offsets, "--quiet"], check=True)
+        scene = load_scene(root)
+        t_off, (p_off, _) = best(lambda: make_pairs(scene, min_visible=0, visibility=False, progress=False),
+                                 args.rounds)
+        t_0, (p_0, _) = best(lambda: make_pairs(scene, min_visible=0, progress=False), args.rounds)
+        t_d, (p_d, _) = best(lambda: make_pairs(scene, progress=False), args.rounds)
+    print(f"demo clip ({seconds:g} s, {size}): {len(p_off)} pairs without the rule, {len(p_d)} at the default")
+    print(f"  pairs without visibility: {t_off:.2f} s")
+    print(f"  with visibility, --min-visible 0 (every pair cast): {t_0:.2f} s  ratio {t_0 / t_off:.2f}x")
+    print(f"  with visibility, default --min-visible: {t_d:.2f} s  ratio {t_d / t_off:.2f}x  (target <= 2x)")
+
+    big = build_scene(args.tracks, args.frames, [-3.0, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0])
+    t_boff, (b_off, _) = best(lambda: make_pairs(big, min_visible=0, visibility=False, progress=False), 1)
+    t_b, (b_on, _) = best(lambda: make_pairs(big, min_visible=0, progress=False), 1)
+    views = 2 * len(b_on)
+    print(f"large scene ({args.tracks} tracks x {args.frames} frames x 7 offsets): {len(b_on)} pairs = "
+          f"{views} object views")
+    print(f"  pairs without visibility: {t_boff:.2f} s; with: {t_b:.2f} s  ratio {t_b / t_boff:.2f}x")
+    print(f"  visibility per 100k object views: {(t_b - t_boff) / views * 1e5:.1f} s  (target < 60 s)")
+
+
+if __name__ == "__main__":
+    main()
