@@ -1,20 +1,30 @@
-"""Visible fraction of each 3D box in a camera view, by ray casting against the frame's boxes.
+"""Visible fraction of each 3D box in a camera view, against the other boxes of its frame.
 
 Layer: nvrq core, geometry.
 
-For every box, rays are cast through a grid of pixel centres covering the box's projected
-silhouette (the pixel bounding box of densely sampled projected edges, clipped to the image).
-A ray belongs to the silhouette when it enters the box (slab test); it is occluded when it
-enters any other box of the same frame nearer along the ray. The visible fraction is the
-unoccluded share of the silhouette samples. The silhouette is the projected box itself, not
-its 2D rectangle, and it is exact for every camera model because only ``unproject`` and
-``project`` are used.
+The visible fraction of a box is the share of the pixel centres of its silhouette (the
+projected box itself, not its 2D rectangle, clipped to the image) whose ray is not first
+entered by another box of the same frame. It is computed in three steps:
 
-Only boxes that can cover the box are cast against: those nearer at their nearest point than
-the box at its farthest, whose projected edges (with a margin of :data:`MARGIN_PX`) overlap
-the box's, or that are not wholly projectable (a box beside or behind the camera). A box with
-no such neighbour is fully visible without casting a ray. Rays are cast for many boxes at
-once, in chunks of about :data:`CHUNK` ray-box tests.
+1. **Who may cover whom.** An occluder must be nearer at its nearest point than the box at
+   its farthest, and their projections must overlap (pixel boxes of the projected outlines, or,
+   for a box not wholly in front of the camera, boxes in normalised coordinates of its part in
+   front). A box with no such neighbour is fully visible. For disjoint boxes the depth order is
+   the same along every ray through both (two disjoint convex bodies are separated by a plane:
+   the box on the camera's side comes first); a separating-axis test gives that plane, and an
+   occluder behind the box is dropped.
+2. **Silhouettes as pixel spans.** The silhouette of a box is convex on each image row; its
+   span is read off the convex hull of its projected outline (the corners for an undistorted
+   pinhole, whose edges stay straight; :data:`OUTLINE_SAMPLES` points per edge for a camera
+   whose edges curve). A pixel is covered where it lies inside a disjoint occluder in front.
+3. **Rays where needed.** Where an occluder is not wholly projected (a box beside or behind
+   the camera) or intersects the box, rays through the still uncovered pixels (at most
+   ``4 * grid**2``, evenly spread) are slab-tested against both: the occluder covers a ray it
+   enters first. A box that is itself not wholly projected is sampled by a ray grid (at most
+   ``grid`` per axis).
+
+Only ``project`` and ``unproject`` of the camera model are used, so it holds for every model
+(pinhole, OpenCV, fisheye, f-theta); a dense per-pixel ray cast is the reference in the tests.
 
 Truncation: only the part of the silhouette inside the image counts (a box half outside the
 image and otherwise unoccluded is 1.0). A box with no silhouette pixel in the image is NaN.
@@ -26,11 +36,11 @@ import numpy as np
 
 from nvrq.geometry.boxes import CORNER_SIGNS
 
-__all__ = ["CHUNK", "EDGE_SAMPLES", "GRID", "MARGIN_PX", "pair_visibility", "pixel_rays", "ray_box_entry",
+__all__ = ["CHUNK", "GRID", "MARGIN_PX", "OUTLINE_SAMPLES", "pair_visibility", "pixel_rays", "ray_box_entry",
            "visible_fractions"]
 
-#: Samples per box edge used to bound the projected silhouette.
-EDGE_SAMPLES = 16
+#: Samples per box edge of the projected outlines of a camera whose edges curve (distortion).
+OUTLINE_SAMPLES = 6
 #: Largest number of silhouette samples per image axis (pixel centres when the box is smaller).
 GRID = 32
 #: Margin (pixels) around an occluder's sampled edges: a curved (fisheye) edge may bulge
@@ -63,7 +73,7 @@ def _entry(rays: np.ndarray, T: np.ndarray, dims: np.ndarray) -> np.ndarray:
     """Batched slab test: ``rays (B, R, 3)``, ``T (B, C, 4, 4)``, ``dims (B, C, 3)`` -> ``(B, C, R)``."""
     R = T[..., :3, :3]
     o = -np.einsum("bcji,bcj->bci", R, T[..., :3, 3])  # camera centre in each box frame
-    d = np.einsum("bcji,brj->bcri", R, rays)  # ray directions in each box frame
+    d = np.matmul(rays[:, None], R)  # (B, C, R, 3): ray directions in each box frame
     half = 0.5 * dims[:, :, None, :]
     oc = o[:, :, None, :]
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
@@ -136,23 +146,16 @@ def visible_fractions(camera, T_box_cam: np.ndarray, dims_lwh: np.ndarray, *,
     group = np.zeros(n, np.int64) if group is None else np.asarray(group).reshape(-1)
     want = np.ones(n, bool) if only is None else np.asarray(only, bool).reshape(-1)
     w, h = camera.resolution
-    # bound every silhouette by its projected edge samples
-    s = np.linspace(0.0, 1.0, EDGE_SAMPLES)
-    a = np.array([CORNER_SIGNS[i] for i, _ in _EDGES])
-    b = np.array([CORNER_SIGNS[j] for _, j in _EDGES])
-    signs = (a[:, None, :] * (1 - s[None, :, None]) + b[:, None, :] * s[None, :, None]).reshape(-1, 3)
-    local = signs[None] * (0.5 * dims)[:, None, :]  # (N, E, 3)
-    pts = np.einsum("nij,nkj->nki", T[:, :3, :3], local) + T[:, None, :3, 3]
-    uv, ok = camera.project(pts)
-    ok = ok & np.isfinite(uv).all(axis=-1)
-    whole = ok.all(axis=1)
-    some = ok.any(axis=1)
-    with np.errstate(invalid="ignore"):
-        u = np.where(ok, uv[..., 0], np.nan)
-        v = np.where(ok, uv[..., 1], np.nan)
-        bb = np.full((n, 4), np.nan)
-        bb[some] = np.stack([np.nanmin(u[some], 1), np.nanmin(v[some], 1),
-                             np.nanmax(u[some], 1), np.nanmax(v[some], 1)], axis=1)
+    # bound every silhouette by its projected outline (corners, or sampled edges that curve)
+    outline, ok = _project_outlines(camera, T, dims)  # (N, 6, K, 2), (N, 6, K)
+    whole = ok.all(axis=(1, 2))
+    some = ok.any(axis=(1, 2))
+    flat = outline.reshape(n, -1, 2)
+    bb = np.full((n, 4), np.nan)
+    if some.any():
+        q = flat[some]
+        bb[some] = np.stack([np.nanmin(q[..., 0], 1), np.nanmin(q[..., 1], 1),
+                             np.nanmax(q[..., 0], 1), np.nanmax(q[..., 1], 1)], axis=1)
     # the silhouette's pixel box, clipped to the image
     clip = np.stack([np.maximum(np.floor(bb[:, 0]), 0), np.maximum(np.floor(bb[:, 1]), 0),
                      np.minimum(np.ceil(bb[:, 2]), w - 1), np.minimum(np.ceil(bb[:, 3]), h - 1)], axis=1)
@@ -164,19 +167,77 @@ def visible_fractions(camera, T_box_cam: np.ndarray, dims_lwh: np.ndarray, *,
     # nearest point of each box to the camera centre (exact), and its farthest corner
     o = -np.einsum("nji,nj->ni", T[:, :3, :3], T[:, :3, 3])
     near = np.linalg.norm(o - np.clip(o, -0.5 * dims, 0.5 * dims), axis=1)
-    far = np.linalg.norm(pts, axis=-1).max(axis=1)
-    cand_t, cand_o = _candidates(targets, group, bb, whole, some, near, far)
+    corners = np.einsum("nij,nkj->nki", T[:, :3, :3], CORNER_SIGNS[None] * (0.5 * dims)[:, None, :]) \
+        + T[:, None, :3, 3]
+    far = np.linalg.norm(corners, axis=-1).max(axis=1)
+    cand_t, cand_o = _candidates(targets, group, bb, whole, some, near, far, _normalized_boxes(T, dims))
+    # depth order of disjoint pairs: an occluder behind the box cannot cover it
+    apart, o_front = _separated(T, 0.5 * dims, cand_t, cand_o)
+    keep = ~apart | o_front
+    cand_t, cand_o, apart = cand_t[keep], cand_o[keep], apart[keep]
     counts = np.bincount(cand_t, minlength=n)
-    free = targets[counts[targets] == 0]
-    out[free] = 1.0
+    out[targets[counts[targets] == 0]] = 1.0
+    # wholly projected boxes: their silhouette's pixel centres (raster); the others: ray grids
+    o_ok = whole
     busy = targets[counts[targets] > 0]
-    if len(busy):
-        out[busy] = _cast(camera, T, dims, busy, cand_t, cand_o, bb, clip, whole, grid, rays)
+    ras = busy[o_ok[busy]]
+    ray = busy[~o_ok[busy]]
+    if len(ras):
+        sel = np.isin(cand_t, ras)
+        out[ras] = _raster(camera, T, dims, outline, ras, cand_t[sel], cand_o[sel], apart[sel], clip, rays,
+                           4 * grid * grid)
+    if len(ray):
+        sel = np.isin(cand_t, ray)
+        out[ray] = _cast(camera, T, dims, ray, cand_t[sel], cand_o[sel], bb, clip, whole, grid, rays)
     return out
 
 
-def _candidates(targets, group, bb, whole, some, near, far):
-    """(target, occluder) index pairs that need a ray cast, target-major."""
+def _project_outlines(camera, T: np.ndarray, dims: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Projected face outlines ``(N, 6, K, 2)`` of the boxes (corners alone for an
+    undistorted pinhole, whose edges stay straight; :data:`OUTLINE_SAMPLES` points per edge
+    otherwise; NaN where a point does not project) and which points projected ``(N, 6, K)``."""
+    from nvrq.geometry.cameras.pinhole import PinholeCamera
+
+    straight = type(camera) is PinholeCamera
+    local = _outline_local(1 if straight else OUTLINE_SAMPLES)  # (6, K, 3)
+    scaled = local[None] * (0.5 * dims)[:, None, None, :]  # (N, 6, K, 3)
+    pts = np.einsum("nij,nfkj->nfki", T[:, :3, :3], scaled) + T[:, None, None, :3, 3]
+    uv, ok = camera.project(pts)
+    ok = ok & np.isfinite(uv).all(axis=-1)
+    return np.where(ok[..., None], uv, np.nan), ok
+
+
+def _normalized_boxes(T: np.ndarray, dims: np.ndarray) -> np.ndarray:
+    """Bounding boxes ``(N, 4)`` of each box's part in front of the camera (``z >= eps``), in
+    normalised image coordinates ``(x / z, y / z)``; NaN for a box wholly behind. Every pixel's
+    ray has ``z > 0`` (the camera models project nothing else), and a convex body in front of
+    the camera maps to the convex hull of its vertices, so the box of the clipped vertices
+    (corners in front, and edges cut at ``z = eps``) bounds every ray that can enter it."""
+    eps = 1e-3
+    corners = np.einsum("nij,nkj->nki", T[:, :3, :3], CORNER_SIGNS[None] * (0.5 * dims)[:, None, :]) \
+        + T[:, None, :3, 3]
+    a = corners[:, [i for i, _ in _EDGES]]
+    b = corners[:, [j for _, j in _EDGES]]
+    za, zb = a[..., 2], b[..., 2]
+    cut = (za - eps) * (zb - eps) < 0
+    f = np.where(cut, (eps - za) / np.where(cut, zb - za, 1.0), 0.0)
+    pts = np.concatenate([np.where((corners[..., 2:] >= eps), corners, np.nan),
+                          np.where(cut[..., None], a + f[..., None] * (b - a), np.nan)], axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        xy = pts[..., :2] / pts[..., 2:]
+    out = np.full((len(T), 4), np.nan)
+    any_ = np.isfinite(xy).all(axis=-1).any(axis=1)
+    q = xy[any_]
+    out[any_] = np.stack([np.nanmin(q[..., 0], 1), np.nanmin(q[..., 1], 1),
+                          np.nanmax(q[..., 0], 1), np.nanmax(q[..., 1], 1)], axis=1)
+    return out
+
+
+def _candidates(targets, group, bb, whole, some, near, far, nb):
+    """(target, occluder) index pairs that need a ray cast, target-major: the occluder is
+    nearer at its nearest point than the target at its farthest, and their projections can
+    overlap (pixel boxes, or normalised boxes ``nb`` when the occluder is not wholly projected;
+    a box wholly behind the camera covers nothing)."""
     order = np.argsort(group, kind="stable")
     gs = group[order]
     starts = np.flatnonzero(np.r_[True, gs[1:] != gs[:-1]])
@@ -189,13 +250,15 @@ def _candidates(targets, group, bb, whole, some, near, far):
         ti = idx[is_target[idx]]
         if len(ti) == 0 or len(idx) < 2:
             continue
-        oi = idx[some[idx] | ~whole[idx]]
+        oi = idx[np.isfinite(nb[idx, 0])]
         m = near[oi][None, :] < far[ti][:, None]
         m &= ti[:, None] != oi[None, :]
         with np.errstate(invalid="ignore"):
             lap = ((bb[oi, 0][None] - MARGIN_PX <= bb[ti, 2][:, None]) & (bb[oi, 2][None] + MARGIN_PX >= bb[ti, 0][:, None])
                    & (bb[oi, 1][None] - MARGIN_PX <= bb[ti, 3][:, None]) & (bb[oi, 3][None] + MARGIN_PX >= bb[ti, 1][:, None]))
-        m &= lap | ~whole[oi][None, :]
+            nlap = ((nb[oi, 0][None] <= nb[ti, 2][:, None]) & (nb[oi, 2][None] >= nb[ti, 0][:, None])
+                    & (nb[oi, 1][None] <= nb[ti, 3][:, None]) & (nb[oi, 3][None] >= nb[ti, 1][:, None]))
+        m &= np.where(whole[oi][None, :] & whole[ti][:, None], lap, nlap)
         r, c = np.nonzero(m)
         tt.append(ti[r])
         oo.append(oi[c])
@@ -204,11 +267,138 @@ def _candidates(targets, group, bb, whole, some, near, far):
     return np.concatenate(tt), np.concatenate(oo)
 
 
+#: Corner loops (indices into CORNER_SIGNS) of the six faces of a box.
+_FACES = np.array([[0, 1, 3, 2], [4, 5, 7, 6], [0, 1, 5, 4], [2, 3, 7, 6], [0, 2, 6, 4], [1, 3, 7, 5]])
+
+
+def _outline_local(samples: int) -> np.ndarray:
+    """Face outlines in box-local signs ``(6, 4 * samples, 3)``: each face's loop of four
+    edges, ``samples`` points per edge (its first corner included, its last not)."""
+    a = CORNER_SIGNS[_FACES]  # (6, 4, 3)
+    b = CORNER_SIGNS[np.roll(_FACES, -1, axis=1)]
+    s = (np.arange(samples) / samples)[None, None, :, None]
+    return (a[:, :, None, :] * (1 - s) + b[:, :, None, :] * s).reshape(6, 4 * samples, 3)
+
+
+def _separated(T: np.ndarray, half: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Separating-axis test of box pairs ``(a[p], b[p])`` in the camera frame.
+
+    Returns ``apart (P,)`` (the boxes are disjoint: a separating plane exists among the 15
+    box axes and their cross products) and ``b_front (P,)``: the camera centre lies on
+    ``b``'s side of that plane, so along every ray through both, ``b`` comes first (two
+    disjoint convex bodies keep one depth order over the rays through both)."""
+    Ra, Rb = T[a, :3, :3], T[b, :3, :3]
+    ca, cb = T[a, :3, 3], T[b, :3, 3]
+    ax = [Ra[:, :, i] for i in range(3)] + [Rb[:, :, i] for i in range(3)]
+    ax += [np.cross(Ra[:, :, i], Rb[:, :, j]) for i in range(3) for j in range(3)]
+    L = np.stack(ax, axis=1)  # (P, 15, 3)
+    norm = np.linalg.norm(L, axis=-1)
+    ok = norm > 1e-9
+    L = L / np.where(ok, norm, 1.0)[..., None]
+    ra = (np.abs(np.einsum("pkj,pji->pki", L, Ra)) * half[a][:, None, :]).sum(-1)
+    rb = (np.abs(np.einsum("pkj,pji->pki", L, Rb)) * half[b][:, None, :]).sum(-1)
+    pa = np.einsum("pkj,pj->pk", L, ca)
+    pb = np.einsum("pkj,pj->pk", L, cb)
+    gap = np.where(ok, np.abs(pa - pb) - ra - rb, -np.inf)
+    k = gap.argmax(axis=1)
+    r = np.arange(len(a))
+    apart = gap[r, k] > 1e-9
+    # the plane sits mid-gap; the camera (the origin) projects to 0
+    lo_a = pa[r, k] < pb[r, k]
+    mid = np.where(lo_a, (pa[r, k] + ra[r, k] + pb[r, k] - rb[r, k]) / 2,
+                   (pb[r, k] + rb[r, k] + pa[r, k] - ra[r, k]) / 2)
+    cam_low = 0.0 < mid
+    b_front = np.where(lo_a, ~cam_low, cam_low)
+    return apart, b_front
+
+
+def _hull(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The silhouette polygon of one projected box: the convex hull of its projected outline
+    points ``(K, 2)`` -> its edges ``(p, q)``, each ``(E, 2)``."""
+    import cv2
+
+    h = cv2.convexHull(points.astype(np.float32)).reshape(-1, 2).astype(np.float64)
+    return h, np.roll(h, -1, axis=0)
+
+
+def _row_spans(edges: tuple[np.ndarray, np.ndarray], rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Pixel-centre spans of a silhouette polygon on image rows: ``edges`` (:func:`_hull`),
+    ``rows (H,)`` -> first and last column ``(H,)`` whose centre lies inside (first > last
+    where none)."""
+    p, q = edges
+    y0, y1 = p[:, 1], q[:, 1]
+    v = rows[:, None]
+    hit = (np.minimum(y0, y1) <= v) & (v <= np.maximum(y0, y1))
+    dy = y1 - y0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = np.where(dy != 0, p[:, 0] + (v - y0) * (q[:, 0] - p[:, 0]) / dy, p[:, 0])
+    flat = dy == 0  # a horizontal edge on the row: both its ends
+    lo = np.where(hit, np.where(flat, np.minimum(p[:, 0], q[:, 0]), x), np.inf).min(axis=1)
+    hi = np.where(hit, np.where(flat, np.maximum(p[:, 0], q[:, 0]), x), -np.inf).max(axis=1)
+    return np.ceil(lo - 1e-9), np.floor(hi + 1e-9)
+
+
+def _raster(camera, T, dims, outline, targets, cand_t, cand_o, cand_apart, clip, rays, cap):
+    """Visible fractions of wholly projected ``targets``: the pixel centres of the target's
+    silhouette (its projected outline, row by row), less those inside a disjoint occluder in
+    front that projects whole (its outline), less those whose ray enters another occluder
+    first (an occluder not wholly projectable, or one that intersects the target: slab tests
+    on the pixels still uncovered, at most ``cap`` of them, evenly spread)."""
+    out = np.full(len(targets), np.nan)
+    order = np.argsort(cand_t, kind="stable")
+    ct, co, ca = cand_t[order], cand_o[order], cand_apart[order]
+    first = np.searchsorted(ct, targets)
+    last = np.searchsorted(ct, targets, side="right")
+    whole = np.isfinite(outline).all(axis=(1, 2, 3))
+    hulls: dict[int, tuple] = {}
+
+    def hull(b):
+        if b not in hulls:
+            hulls[b] = _hull(outline[b].reshape(-1, 2))
+        return hulls[b]
+
+    for n, t in enumerate(targets):
+        u0, v0, u1, v1 = (int(c) for c in clip[t])
+        rows = np.arange(v0, v1 + 1, dtype=np.float64)
+        cols = np.arange(u0, u1 + 1, dtype=np.float64)[None, :]
+        lo, hi = _row_spans(hull(t), rows)
+        mask = (cols >= lo[:, None]) & (cols <= hi[:, None])
+        area = int(mask.sum())
+        if area == 0:
+            continue
+        occ, apart = co[first[n]:last[n]], ca[first[n]:last[n]]
+        simple = apart & whole[occ]
+        cover = np.zeros_like(mask)
+        for o in occ[simple]:
+            olo, ohi = _row_spans(hull(o), rows)
+            cover |= (cols >= olo[:, None]) & (cols <= ohi[:, None])
+        covered = float((cover & mask).sum())
+        hard, hard_apart = occ[~simple], apart[~simple]
+        if len(hard):
+            vv, uu = np.nonzero(mask & ~cover)
+            if len(vv):
+                if len(vv) > cap:
+                    pick = np.linspace(0, len(vv) - 1, cap).round().astype(np.int64)
+                    vv, uu = vv[pick], uu[pick]
+                pv, pu = vv + v0, uu + u0
+                r = rays[pv, pu] if rays is not None else camera.unproject(
+                    np.stack([pu, pv], axis=1).astype(np.float64))
+                good = np.isfinite(r).all(axis=1)
+                r = np.where(good[:, None], r, 0.0)
+                boxes = np.r_[t, hard]
+                E = _entry(r[None], T[boxes][None], dims[boxes][None])[0]  # (1 + C, k)
+                # disjoint and in front: covered wherever its ray enters it; intersecting: nearer
+                hit = np.where(hard_apart[:, None], np.isfinite(E[1:]), E[1:] < E[:1]).any(axis=0) & good
+                covered += hit.mean() * int((mask & ~cover).sum())
+        out[n] = 1.0 - covered / area
+    return out
+
+
 def _slab(rays: np.ndarray, R: np.ndarray, o: np.ndarray, half: np.ndarray) -> np.ndarray:
     """Entry distance of rays ``(P, 3)`` into one box each (rotation ``R (P, 3, 3)`` box ->
     camera, camera centre in the box frame ``o (P, 3)``, half sizes ``half (P, 3)``); ``inf``
     where a ray misses. float32 arithmetic."""
-    d = np.einsum("pji,pj->pi", R, rays)
+    d = np.matmul(rays[:, None, :], R)[:, 0]
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         t1 = (-half - o) / d
         t2 = (half - o) / d
@@ -357,8 +547,7 @@ def pair_visibility(camera, T_gt_world: np.ndarray, T_view_gt: np.ndarray, frame
     T_cam = np.matmul(T_gt_world[fr], T_box_world)  # (M, 4, 4) boxes in the GT camera
     need = np.zeros(len(fr), bool)
     need[box_index] = True
-    lut = pixel_rays(camera)
-    gt = visible_fractions(camera, T_cam, dims_lwh, group=fr, only=need, rays=lut)[box_index]
+    gt = visible_fractions(camera, T_cam, dims_lwh, group=fr, only=need)[box_index]
     nv = np.full(len(box_index), np.nan)
     go = np.flatnonzero(gt >= min_visible) if min_visible > 0 else np.arange(len(box_index))
     if len(go) == 0:
@@ -382,5 +571,5 @@ def pair_visibility(camera, T_gt_world: np.ndarray, T_view_gt: np.ndarray, frame
     pos = start_of[g_of] + rank[box_index]
     want = np.zeros(len(box_of), bool)
     want[pos] = True
-    nv[go] = visible_fractions(camera, T_nv, dims_lwh[box_of], group=grp, only=want, rays=lut)[pos]
+    nv[go] = visible_fractions(camera, T_nv, dims_lwh[box_of], group=grp, only=want)[pos]
     return gt, nv
