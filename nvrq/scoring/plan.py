@@ -26,10 +26,11 @@ from dataclasses import asdict, dataclass, field
 
 from data_schema.errors import check_int
 from data_schema.text import comma_list
-from nvrq.encoders.registry import EncoderConfig, encoder_config
+from nvrq.encoders.registry import EncoderConfig, encoder_config, encoder_for_metrics, get_spec
 from nvrq.metrics.formulas import check_tau
 from nvrq.metrics.info import MetricKind
-from nvrq.metrics.resolve import ColumnSpec, column_specs, encoder_for_metrics, resolve_metrics
+from nvrq.metrics.resolve import ColumnSpec, column_specs, resolve_metrics
+from nvrq.metrics.tau_config import require_tau
 
 __all__ = ["ColumnSpec", "ScorePlan", "resolve_plan", "plan_from_args", "COMPUTED_KINDS"]
 
@@ -204,16 +205,15 @@ class ScorePlan:
 
 
 def _plan_tau(specs: Sequence[ColumnSpec], name: str, tau, config) -> tuple[float | None, str | None]:
-    """``(tau, source)`` when a column needs tau (:func:`nvrq.calibrate.require_tau`: ``tau`` >
-    user config > registry; ``config=False``: only the ``tau`` given, checked), else ``(None, None)``."""
+    """``(tau, source)`` when a column needs tau (:func:`nvrq.metrics.tau_config.require_tau`:
+    ``tau`` > user config > registry; ``config=False``: only the ``tau`` given, checked), else
+    ``(None, None)``."""
     if not any(s.needs_tau for s in specs):
         return None, None
     if config is False:
         check_tau(tau)
         return float(tau), "argument"
-    from nvrq.calibrate import require_tau
-
-    return require_tau(name, tau=tau, config=config)
+    return require_tau(name, tau=tau, config=config, registry_tau=get_spec(name).tau)
 
 
 def resolve_plan(metrics, *, encoder: EncoderConfig | str | None = None, encoder_options: Mapping | None = None,
