@@ -152,7 +152,7 @@ def _local_table(args, plan: ScorePlan) -> int:
 
 def _report(res, *, uses_encoder: bool, file) -> None:
     """One summary line: pairs/s, images decoded, encoder images per pair; then one line per
-    metric and reason with NaN values (:func:`nvrq.scoring.driver.undefined_counts`), and a
+    metric and reason with NaN values (:attr:`nvrq.scoring.driver.ScoreResult.undefined`), and a
     ``warning:`` line per metric NaN on every pair (:func:`~nvrq.scoring.driver.empty_column_warnings`)."""
     wall = res.timing.attrs.get("wall_seconds", float("nan"))
     msg = f"scored {plural(res.n_pairs, 'pair')} in {wall:.1f} s ({res.n_pairs / max(wall, 1e-9):.1f} pairs/s); " \

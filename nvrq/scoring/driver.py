@@ -39,14 +39,11 @@ import pandas as pd
 from tqdm import tqdm
 
 from data_schema.tables import (
-    GT_BOX_COLUMNS,
-    RENDER_BOX_COLUMNS,
     PairsTable,
-    pair_boxes,
     pairs_table,
 )
 from nvrq.metrics.info import MetricKind
-from nvrq.metrics.resolve import column_info, encoder_columns, reference_columns
+from nvrq.metrics.resolve import encoder_columns
 from nvrq.scoring.batches import CROP_COLUMNS, decode_schedule, iter_crop_batches
 from nvrq.scoring.core import (
     check_metric_args,
@@ -56,7 +53,7 @@ from nvrq.scoring.core import (
 )
 from nvrq.scoring.plan import ScorePlan
 
-__all__ = ["ScoreResult", "score_pairs", "timing_table", "runtime_timing", "undefined_counts", "crop_sides",
+__all__ = ["ScoreResult", "score_pairs", "timing_table", "runtime_timing",
            "empty_column_warning", "empty_column_warnings", "REQUIRED_COLUMNS"]
 
 REQUIRED_COLUMNS = ("pair_id", *CROP_COLUMNS)
@@ -66,7 +63,7 @@ REQUIRED_COLUMNS = ("pair_id", *CROP_COLUMNS)
 class ScoreResult:
     """``table``: ``pair_id`` + one column per metric, rows in the pairs' order.
     ``timing``: columns ``metric, seconds, pairs``. ``n_encoder_images``: crops embedded.
-    ``undefined``: the NaN values per metric and reason (:func:`undefined_counts`).
+    ``undefined``: the NaN values per metric and reason (``metric, reason, pairs``).
 
     Attributes
     ----------
@@ -81,7 +78,8 @@ class ScoreResult:
     n_images_decoded : int
         Images decoded.
     undefined : pandas.DataFrame or None
-        NaN values per metric and reason (:func:`undefined_counts`); None when not counted.
+        NaN values per metric and reason (columns ``metric, reason, pairs``); None when not
+        counted.
     """
 
     table: pd.DataFrame
@@ -92,80 +90,15 @@ class ScoreResult:
     undefined: pd.DataFrame | None = None
 
 
-def crop_sides(pairs: pd.DataFrame, *, where: str = "pairs") -> tuple[np.ndarray, np.ndarray]:
-    """The shorter sides of the GT and the render crops (inclusive boxes).
-
-    Parameters
-    ----------
-    pairs : pandas.DataFrame
-        With the ``gt_*`` and ``r_*`` box columns.
-    where : str
-        What errors name.
-
-    Returns
-    -------
-    tuple of two (N,) int64
-        ``(gt_sides, render_sides)``.
-
-    Raises
-    ------
-    InputError
-        For missing or bad box columns.
-    """
-    out = []
-    for cols in (GT_BOX_COLUMNS, RENDER_BOX_COLUMNS):
-        b = pair_boxes(pairs, cols, where=where)
-        out.append(np.minimum(b[:, 2] - b[:, 0], b[:, 3] - b[:, 1]) + 1)
-    return out[0], out[1]
-
-
-def undefined_counts(values: dict, gt_sides: np.ndarray, render_sides: np.ndarray) -> pd.DataFrame:
-    """``metric, reason, pairs``: how many values of each column are NaN, and why.
-
-    A value is NaN because its crop (the GT crop for a full-reference metric, the raw render
-    crop for a no-reference one) is shorter than the metric's ``min_side``, or otherwise for the
-    metric's ``undefined`` reason (:mod:`nvrq.metrics.registry`).
-
-    Parameters
-    ----------
-    values : dict
-        ``{column: (N,)}`` metric values.
-    gt_sides, render_sides : (N,) int
-        Shorter crop sides (:func:`crop_sides`).
-
-    Returns
-    -------
-    pandas.DataFrame
-        Columns ``metric, reason, pairs``; a row per column and reason with NaN values.
-
-    >>> undefined_counts({"niqe": np.array([np.nan, 1.0, np.nan])}, np.array([99, 99, 99]),
-    ...                  np.array([50, 120, 130])).values.tolist()
-    [['niqe', 'shorter crop side < 96 px', 1], ['niqe', 'undefined', 1]]
-    """
-    rows = []
-    with_gt = set(reference_columns(list(values)))
-    for col, v in values.items():
-        nan = np.isnan(np.asarray(v, np.float64))
-        if not nan.any():
-            continue
-        info = column_info(col)
-        sides = gt_sides if col in with_gt else render_sides
-        small = nan & (sides < info.min_side)
-        if small.any():
-            rows.append((col, f"shorter crop side < {info.min_side} px", int(small.sum())))
-        if (nan & ~small).any():
-            rows.append((col, info.undefined or "undefined", int((nan & ~small).sum())))
-    return pd.DataFrame(rows, columns=["metric", "reason", "pairs"])
-
-
 def empty_column_warnings(undefined: pd.DataFrame | None, n_pairs: int) -> list[str]:
-    """:func:`empty_column_warning` for each metric of :func:`undefined_counts`' table that is
-    NaN on all ``n_pairs`` pairs, with its reasons and counts.
+    """:func:`empty_column_warning` for each metric of a run's ``undefined`` table
+    (:attr:`ScoreResult.undefined`) that is NaN on all ``n_pairs`` pairs, with its reasons and
+    counts.
 
     Parameters
     ----------
     undefined : pandas.DataFrame or None
-        :func:`undefined_counts`' table (``metric, reason, pairs``); None for no warnings.
+        The NaN values per metric and reason (``metric, reason, pairs``); None for no warnings.
     n_pairs : int
         Number of pairs scored.
 
@@ -174,8 +107,8 @@ def empty_column_warnings(undefined: pd.DataFrame | None, n_pairs: int) -> list[
     list of str
         One warning line per metric that is NaN on every pair.
 
-    >>> u = undefined_counts({"niqe": np.full(3, np.nan), "psnr": np.array([np.nan, 1.0, 2.0])},
-    ...                      np.array([99, 99, 99]), np.array([50, 60, 70]))
+    >>> u = pd.DataFrame({"metric": ["niqe", "psnr"], "reason": ["shorter crop side < 96 px", "undefined"],
+    ...                   "pairs": [3, 1]})
     >>> empty_column_warnings(u, 3)
     ['warning: niqe is NaN on all 3 pairs: undefined for these crops, its column is empty (shorter crop side < 96 px: 3)']
     """
@@ -286,7 +219,7 @@ def score_pairs(pairs: pd.DataFrame | PairsTable, plan: ScorePlan | None = None,
     ----------
     pairs : pandas.DataFrame or PairsTable
         docs/FORMATS.md §3 columns (:data:`REQUIRED_COLUMNS`), or a table read and checked once
-        (:func:`data_schema.tables.read_pairs`).
+        (:func:`data_schema.tables.pairs_table`).
     plan : ScorePlan
         What to compute (:func:`nvrq.scoring.plan.resolve_plan`), checked once there.
     encoder : Encoder, optional
@@ -345,7 +278,12 @@ def score_pairs(pairs: pd.DataFrame | PairsTable, plan: ScorePlan | None = None,
 
 
 def _undefined(plan: ScorePlan, values: dict, gt_sides: np.ndarray, render_sides: np.ndarray) -> pd.DataFrame:
-    """:func:`undefined_counts` from the plan's specs (no registry lookup)."""
+    """``metric, reason, pairs``: how many values of each column are NaN, and why.
+
+    A value is NaN because its crop (the GT crop for a full-reference metric, the raw render
+    crop for a no-reference one) is shorter than the metric's ``min_side``, or otherwise for the
+    metric's ``undefined`` reason (:mod:`nvrq.metrics.registry`), read from the plan's specs.
+    """
     rows = []
     for spec in plan.specs:
         nan = np.isnan(np.asarray(values[spec.name], np.float64))
