@@ -60,6 +60,8 @@ def test_the_tree_keeps_every_contract(tree):
     ("annotate/access.py", "import analysis.choices", "The five packages"),
     ("analysis/stats.py", "def _up():\n    from analysis import report", "analysis: the CLI"),
     ("annotate/store.py", "from annotate.study import Study", "annotate: entry points"),
+    # the other CLIs take the shared argument types from below nvrq's command layer
+    ("analysis/cli.py", "from nvrq.commands.args import int_arg", "annotate and analysis use"),
 ])
 def test_an_upward_import_breaks_its_contract(tree, tmp_path, module, statement, broken):
     proc = _lint(_with_import(tree, tmp_path, module, statement))

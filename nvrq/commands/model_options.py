@@ -2,7 +2,7 @@
 proxy): encoder, weights, tau and its config, metrics, batch size, runtime, precision, device and
 threads, and the one encoder-and-tau loader. Library functions validate their own arguments and
 name the parameter (``batch_size``); commands do not re-check, and ``nvrq``'s entry point reports
-such an error as the option (``--batch-size``, :func:`nvrq.commands.args.flags_in_errors`).
+such an error as the option (``--batch-size``, :func:`nvrq.cli_types.flags_in_errors`).
 The tau itself comes from the library's one rule, :func:`nvrq.metrics.tau_config.require_tau`.
 
 Layer: commands (CLI shell).
@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 from data_schema.errors import InputError
 from data_schema.text import comma_list
-from nvrq.commands.args import checked_arg, int_arg, number_arg
+from nvrq.cli_types import checked_arg, int_arg, number_arg
 from nvrq.encoders import get_spec
 from nvrq.encoders.runtimes import PRECISIONS, RUNTIMES
 from nvrq.metrics.formulas import check_tau

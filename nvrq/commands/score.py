@@ -9,10 +9,10 @@ from typing import TYPE_CHECKING
 from data_schema.errors import InputError
 from data_schema.text import plural
 from nvrq.choices import DEFAULT_METRICS
-from nvrq.commands.args import LazyHelp, add_link_option, add_quiet_option, show_progress
+from nvrq.cli_options import add_pairs_argument, add_scene_root_option
+from nvrq.cli_types import LazyHelp, add_link_option, add_quiet_option, show_progress
 from nvrq.commands.engine_options import add_engine_args, check_engine_args, report_sharded, run_ray
 from nvrq.commands.model_options import add_encoder_arguments, prepare_device
-from nvrq.commands.shared_options import add_pairs_argument, add_scene_root_option
 
 if TYPE_CHECKING:
     from nvrq.scoring.plan import ScorePlan
