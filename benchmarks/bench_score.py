@@ -110,6 +110,7 @@ def methods_numbers(root: Path, encoder, *, n_methods: int, seconds: float, roun
     from data_schema.scene import load_scene
     from nvrq.pairs import make_pairs
     from nvrq.scoring.driver import score_pairs
+    from nvrq.scoring.plan import ScorePlan
     from nvrq.synth.generate import generate_scene
 
     methods = [(f"m{k}", 0.5 * (k + 1)) for k in range(n_methods)]
@@ -117,15 +118,15 @@ def methods_numbers(root: Path, encoder, *, n_methods: int, seconds: float, roun
                    progress=False)
     pairs, _ = make_pairs(load_scene(root), progress=False)
     col = [f"nvrq:{encoder.spec.name}"]
-    score_pairs(pairs.iloc[:8], metrics=col, encoder=encoder, progress=False)  # warm-up
+    score_pairs(pairs.iloc[:8], ScorePlan.for_columns(col, encoder=encoder), encoder=encoder, progress=False)  # warm-up
     t_shared, t_apart = [], []
     for _ in range(max(1, rounds)):
         t0 = time.perf_counter()
-        shared = score_pairs(pairs, metrics=col, encoder=encoder, progress=False)
+        shared = score_pairs(pairs, ScorePlan.for_columns(col, encoder=encoder), encoder=encoder, progress=False)
         t_shared.append(time.perf_counter() - t0)
         t0, apart, values = time.perf_counter(), 0, pd.Series(np.nan, index=pairs.index)
         for _, sub in pairs.groupby(METHOD_COLUMN, sort=False):
-            res = score_pairs(sub, metrics=col, encoder=encoder, progress=False)
+            res = score_pairs(sub, ScorePlan.for_columns(col, encoder=encoder), encoder=encoder, progress=False)
             apart += res.n_encoder_images
             values[sub.index] = res.table[col[0]].to_numpy()
         t_apart.append(time.perf_counter() - t0)
@@ -244,6 +245,7 @@ def bench_encoder(name: str, scene: pd.DataFrame, args, cache: str) -> dict:
     from nvrq.encoders.drift import check_runtime, pair_inputs
     from nvrq.encoders.runtimes import wrap_runtime
     from nvrq.scoring.driver import score_pairs
+    from nvrq.scoring.plan import ScorePlan
 
     pairs = whole_frames(scene, args.pairs)
     torch_enc, weights = make_encoder(name, args.threads)
@@ -252,7 +254,7 @@ def bench_encoder(name: str, scene: pd.DataFrame, args, cache: str) -> dict:
     col = [f"nvrq:{name}"]
     s = {}
     for enc_name, enc in (("torch", torch_enc), ("default", default)):
-        res = score_pairs(pairs, metrics=col, encoder=enc, batch_size=32, progress=False)
+        res = score_pairs(pairs, ScorePlan.for_columns(col, encoder=enc, batch_size=32), encoder=enc, progress=False)
         s[enc_name] = res.table[col[0]].to_numpy()
     out["max_dnvrq_default_vs_torch"] = float(np.max(np.abs(s["torch"] - s["default"])))
     encoders = {"torch": torch_enc, "default": default}
@@ -277,7 +279,7 @@ def bench_encoder(name: str, scene: pd.DataFrame, args, cache: str) -> dict:
             for rt in piped:
                 # whole frames worth about --pipeline-seconds of encoder work at the alone rate
                 runs.setdefault(rt, whole_frames(scene, int(args.pipeline_seconds * alone[rt][0] / per_pair)))
-                res = score_pairs(runs[rt], metrics=col, encoder=encoders[rt], batch_size=bs, progress=False)
+                res = score_pairs(runs[rt], ScorePlan.for_columns(col, encoder=encoders[rt], batch_size=bs), encoder=encoders[rt], progress=False)
                 piped[rt].append(res)
         rates = {k: float(np.mean(v)) for k, v in alone.items()}
         for rt, results in piped.items():
@@ -343,9 +345,10 @@ def main(argv=None) -> int:
             out["encoders"].append(bench_encoder(name, pairs, args, str(Path(tmp) / "cache")))
         first, _ = make_encoder(args.encoders.split(",")[0], args.threads)
         from nvrq.scoring.driver import score_pairs
+        from nvrq.scoring.plan import ScorePlan
 
         some = whole_frames(pairs, args.pairs)
-        res = score_pairs(some, metrics=[f"nvrq:{first.spec.name}"], encoder=first, progress=False)
+        res = score_pairs(some, ScorePlan.for_columns([f"nvrq:{first.spec.name}"], encoder=first), encoder=first, progress=False)
         out["c_encoder_images_vs_naive"] = res.n_encoder_images / res.n_pairs / 2
         out["e_speedup_over_naive"] = (res.n_pairs / res.timing.attrs["wall_seconds"]) / \
             naive_pairs_per_s(some, first, args.naive_pairs)

@@ -17,7 +17,7 @@ from nvrq.commands.model_options import add_encoder_arguments, prepare_device
 if TYPE_CHECKING:
     from nvrq.scoring.plan import ScorePlan
 
-__all__ = ["register", "run", "runtime_columns", "column_renames", "metrics_help"]
+__all__ = ["register", "run", "plan_from_args", "runtime_columns", "column_renames", "metrics_help"]
 
 #: how the help names each kind of metric nvrq score computes
 _KIND_HELP = {"pair": "full reference (GT and render crops)", "render": "no reference (render crop alone)",
@@ -84,7 +84,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    """``nvrq score``: make the plan once (:func:`nvrq.scoring.plan.plan_from_args`), then score
+    """``nvrq score``: make the plan once (:func:`plan_from_args`), then score
     the pairs table (this process), a pairs dataset (the local engine) or either on Ray.
 
     Parameters
@@ -99,8 +99,6 @@ def run(args) -> int:
         0 once every pair is scored and the metrics (and timing) are written.
     """
     from data_schema.datasets import is_dataset
-    from nvrq.scoring.plan import plan_from_args
-
     plan = plan_from_args(args)
     check_engine_args(args, local_datasets=True)
     if plan.tau is not None:
@@ -111,6 +109,29 @@ def run(args) -> int:
     if is_dataset(args.pairs):
         return _local_dataset(args, plan)
     return _local_table(args, plan)
+
+
+def plan_from_args(args) -> ScorePlan:
+    """The :class:`ScorePlan` of ``nvrq score``'s options (``--metrics``, ``--encoder``,
+    ``--weights``, ``--device``, ``--runtime``, ``--precision``, ``--threads``, ``--cache-dir``,
+    ``--min-spearman``, ``--tau``, ``--config``, ``--batch-size``).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options.
+
+    Returns
+    -------
+    ScorePlan
+    """
+    options = {"weights": args.weights, "device": args.device, "runtime": args.runtime,
+               "precision": args.precision, "threads": args.threads, "cache_dir": args.cache_dir,
+               "min_spearman": args.min_spearman}
+    from nvrq.scoring.plan import resolve_plan  # the encoder registry: not for `nvrq score --help`
+
+    return resolve_plan(args.metrics, encoder=args.encoder, encoder_options=options, tau=args.tau,
+                        tau_config=args.config, batch_size=args.batch_size)
 
 
 def _load_encoder(args, plan: ScorePlan):

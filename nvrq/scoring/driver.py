@@ -46,7 +46,6 @@ from nvrq.metrics.info import MetricKind
 from nvrq.metrics.resolve import encoder_columns
 from nvrq.scoring.batches import CROP_COLUMNS, decode_schedule, iter_crop_batches
 from nvrq.scoring.core import (
-    check_metric_args,
     column_seconds,
     compute_columns,
     empty_column_warning,
@@ -186,33 +185,14 @@ def runtime_timing(timing: pd.DataFrame, model, model_columns: Sequence[str]) ->
     return timing
 
 
-#: the keywords :func:`score_pairs` still takes instead of a plan (the older calling convention)
-_PLAN_KEYWORDS = ("metrics", "tau", "batch_size", "max_pairs")
-
-
-def _legacy_plan(encoder, legacy: dict) -> ScorePlan:
-    """The plan of :func:`score_pairs`' former keywords (``metrics``, ``tau``, ``batch_size``,
-    ``max_pairs``), checked as before (:func:`nvrq.scoring.core.check_metric_args`)."""
-    unknown = sorted(set(legacy) - set(_PLAN_KEYWORDS))
-    if unknown:
-        raise TypeError(f"score_pairs() got an unexpected keyword argument {unknown[0]!r}")
-    metrics = list(legacy.get("metrics") or ())
-    tau, batch_size = legacy.get("tau"), legacy.get("batch_size", 32)
-    check_metric_args(metrics, encoder=encoder, tau=tau, batch_size=batch_size)
-    from nvrq.metrics.resolve import needs_tau
-
-    return ScorePlan(tuple(metrics), tau=tau if needs_tau(metrics) else None, batch_size=batch_size,
-                     max_pairs=legacy.get("max_pairs", 256))
-
-
 def _sides(boxes: np.ndarray) -> np.ndarray:
     """Shorter sides (N,) of inclusive boxes (N, 4)."""
     return np.minimum(boxes[:, 2] - boxes[:, 0], boxes[:, 3] - boxes[:, 1]) + 1
 
 
-def score_pairs(pairs: pd.DataFrame | PairsTable, plan: ScorePlan | None = None, *, encoder=None,
+def score_pairs(pairs: pd.DataFrame | PairsTable, plan: ScorePlan, *, encoder=None,
                 scene_root: str | os.PathLike | None = None, base: str | os.PathLike | None = None,
-                progress: bool = True, where: str = "pairs", **legacy) -> ScoreResult:
+                progress: bool = True, where: str = "pairs") -> ScoreResult:
     """Score every row of ``pairs`` by ``plan`` (the module docstring's three steps).
 
     Parameters
@@ -221,7 +201,8 @@ def score_pairs(pairs: pd.DataFrame | PairsTable, plan: ScorePlan | None = None,
         docs/FORMATS.md §3 columns (:data:`REQUIRED_COLUMNS`), or a table read and checked once
         (:func:`data_schema.tables.pairs_table`).
     plan : ScorePlan
-        What to compute (:func:`nvrq.scoring.plan.resolve_plan`), checked once there.
+        What to compute (:func:`nvrq.scoring.plan.resolve_plan`, or
+        :meth:`~nvrq.scoring.plan.ScorePlan.for_columns` with a loaded encoder), checked once there.
     encoder : Encoder, optional
         Loaded; needed for the plan's encoder columns.
     scene_root, base : path, optional
@@ -231,9 +212,6 @@ def score_pairs(pairs: pd.DataFrame | PairsTable, plan: ScorePlan | None = None,
         A progress bar on stderr.
     where : str
         What errors name (the pairs file).
-    **legacy
-        Without ``plan``: ``metrics`` (columns), ``tau``, ``batch_size`` and ``max_pairs``, as
-        in the older calling convention; they are checked here and make the plan.
 
     Returns
     -------
@@ -242,13 +220,9 @@ def score_pairs(pairs: pd.DataFrame | PairsTable, plan: ScorePlan | None = None,
     Raises
     ------
     InputError
-        For missing columns, bad boxes or images (naming ``where`` and the row), or a bad
-        argument (naming the parameter), before anything is scored.
+        For missing columns, bad boxes or images (naming ``where`` and the row), before anything
+        is scored.
     """
-    if plan is None:
-        plan = _legacy_plan(encoder, legacy)
-    elif legacy:
-        raise TypeError(f"score_pairs() takes a plan or {', '.join(_PLAN_KEYWORDS)}, not both")
     table = pairs if isinstance(pairs, PairsTable) else pairs_table(pairs, scene_root=scene_root, base=base, where=where)
     n, uses_encoder = len(table), bool(plan.encoder_specs)
     values = {m: np.full(n, np.nan) for m in plan.columns}
