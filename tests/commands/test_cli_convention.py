@@ -75,13 +75,16 @@ def test_usage_errors_are_one_line(parser, argv, capsys):
 
 
 def _library_modules():
-    """Every module of the four packages except the command-line layer (``*/cli.py``, ``nvrq/commands``)."""
+    """Every module of the four packages except the command-line layer (``*/cli.py``, ``nvrq/commands``)
+    and the argument conventions it shares (``nvrq/cli_types.py``, ``nvrq/cli_options.py``: flags
+    and their help texts)."""
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[2]
     for pkg in ("data_schema", "nvrq", "annotate", "analysis"):
         for path in sorted((root / pkg).rglob("*.py")):
-            if path.name != "cli.py" and "commands" not in path.relative_to(root).parts:
+            if path.name not in ("cli.py", "cli_types.py", "cli_options.py") \
+                    and "commands" not in path.relative_to(root).parts:
                 yield path
 
 
