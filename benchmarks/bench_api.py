@@ -127,7 +127,8 @@ def main(argv=None) -> int:
         enc, tau = ev.encoder, ev.tau
 
         def cli():
-            return score_pairs(pairs, ScorePlan.for_columns(ev.columns, encoder=enc, tau=tau), encoder=enc, progress=False).table
+            return score_pairs(pairs, ScorePlan.for_columns(ev.columns, encoder=enc, tau=tau),
+                               encoder=enc, progress=False).table
 
         ref = cli()
         for name, got in (("crops", api_crops(ev, pairs, root, 256)), ("frames", api_frames(ev, pairs, root))):

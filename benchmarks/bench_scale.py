@@ -83,7 +83,8 @@ def run_local(pairs_ds: Path) -> tuple[float, pd.DataFrame]:
     tune_allocator()  # as `nvrq score` and the Ray actors do
     t0 = time.perf_counter()
     enc = load_encoder("efficientnet-lite0")
-    res = score_pairs(pairs, ScorePlan.for_columns(COLUMNS, encoder=enc, tau=0.76), encoder=enc, progress=False)
+    res = score_pairs(pairs, ScorePlan.for_columns(COLUMNS, encoder=enc, tau=0.76),
+                      encoder=enc, progress=False)
     return time.perf_counter() - t0, res.table
 
 

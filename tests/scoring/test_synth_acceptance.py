@@ -62,7 +62,8 @@ def test_shifted_copy_beats_other_object(scene, effnet):
 
 def test_s_falls_as_severity_rises(scene, effnet):
     root, pairs = scene
-    res = score_pairs(pairs, ScorePlan.for_columns(["nvrq:efficientnet-lite0"], encoder=effnet), encoder=effnet, progress=False)
+    res = score_pairs(pairs, ScorePlan.for_columns(["nvrq:efficientnet-lite0"], encoder=effnet),
+                      encoder=effnet, progress=False)
     deg = pd.read_csv(root / "degradation.csv", dtype={"track_id": str, "camera": str})
     keys = ["camera", "timestamp_us", "track_id", "y_offset_m"]
     scored = pairs[keys].assign(s=res.table["nvrq:efficientnet-lite0"].to_numpy())
