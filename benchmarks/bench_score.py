@@ -55,6 +55,8 @@ import cv2
 import numpy as np
 import pandas as pd
 
+from nvrq.scoring.plan import ScorePlan  # light: numpy and the registries
+
 OFFSETS = (-3.0, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0)
 
 
@@ -110,7 +112,6 @@ def methods_numbers(root: Path, encoder, *, n_methods: int, seconds: float, roun
     from data_schema.scene import load_scene
     from nvrq.pairs import make_pairs
     from nvrq.scoring.driver import score_pairs
-    from nvrq.scoring.plan import ScorePlan
     from nvrq.synth.generate import generate_scene
 
     methods = [(f"m{k}", 0.5 * (k + 1)) for k in range(n_methods)]
@@ -248,7 +249,6 @@ def bench_encoder(name: str, scene: pd.DataFrame, args, cache: str) -> dict:
     from nvrq.encoders.drift import check_runtime, pair_inputs
     from nvrq.encoders.runtimes import wrap_runtime
     from nvrq.scoring.driver import score_pairs
-    from nvrq.scoring.plan import ScorePlan
 
     pairs = whole_frames(scene, args.pairs)
     torch_enc, weights = make_encoder(name, args.threads)
@@ -257,8 +257,7 @@ def bench_encoder(name: str, scene: pd.DataFrame, args, cache: str) -> dict:
     col = [f"nvrq:{name}"]
     s = {}
     for enc_name, enc in (("torch", torch_enc), ("default", default)):
-        res = score_pairs(pairs, ScorePlan.for_columns(col, encoder=enc, batch_size=32),
-                          encoder=enc, progress=False)
+        res = score_pairs(pairs, ScorePlan.for_columns(col, encoder=enc, batch_size=32), encoder=enc, progress=False)
         s[enc_name] = res.table[col[0]].to_numpy()
     out["max_dnvrq_default_vs_torch"] = float(np.max(np.abs(s["torch"] - s["default"])))
     encoders = {"torch": torch_enc, "default": default}
@@ -283,8 +282,7 @@ def bench_encoder(name: str, scene: pd.DataFrame, args, cache: str) -> dict:
             for rt in piped:
                 # whole frames worth about --pipeline-seconds of encoder work at the alone rate
                 runs.setdefault(rt, whole_frames(scene, int(args.pipeline_seconds * alone[rt][0] / per_pair)))
-                res = score_pairs(runs[rt], ScorePlan.for_columns(col, encoder=encoders[rt], batch_size=bs),
-                                  encoder=encoders[rt], progress=False)
+                res = score_pairs(runs[rt], ScorePlan.for_columns(col, encoder=encoders[rt], batch_size=bs), encoder=encoders[rt], progress=False)
                 piped[rt].append(res)
         rates = {k: float(np.mean(v)) for k, v in alone.items()}
         for rt, results in piped.items():
@@ -350,7 +348,6 @@ def main(argv=None) -> int:
             out["encoders"].append(bench_encoder(name, pairs, args, str(Path(tmp) / "cache")))
         first, _ = make_encoder(args.encoders.split(",")[0], args.threads)
         from nvrq.scoring.driver import score_pairs
-        from nvrq.scoring.plan import ScorePlan
 
         some = whole_frames(pairs, args.pairs)
         res = score_pairs(some, ScorePlan.for_columns([f"nvrq:{first.spec.name}"], encoder=first),

@@ -40,7 +40,6 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -48,9 +47,6 @@ from data_schema.errors import InputError, check_int
 from nvrq.crops import encoder_input, resize_to
 from nvrq.metrics.formulas import nvrq_similarity
 from nvrq.metrics.info import MetricKind
-
-if TYPE_CHECKING:
-    from nvrq.scoring.plan import ScorePlan
 
 __all__ = ["CropBatch", "score_crop_batch", "compute_columns", "embed_crops", "encoder_inputs",
            "run_batched", "pair_outputs", "column_seconds", "empty_column_warning"]
@@ -299,7 +295,7 @@ def compute_columns(batch: CropBatch, specs: Sequence, *, encoder=None, tau: flo
     return {s.name: np.asarray(out[s.name], np.float64) for s in specs}
 
 
-def score_crop_batch(batch: CropBatch, plan: ScorePlan, *, encoder=None,
+def score_crop_batch(batch: CropBatch, plan, *, encoder=None,
                      timings: dict | None = None) -> dict[str, np.ndarray]:
     """The metric columns of one :class:`CropBatch` by ``plan`` (checked when it was made),
     through :func:`compute_columns`.
