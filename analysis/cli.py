@@ -32,7 +32,7 @@ from analysis.choices import DEFAULT_MARGIN, DEFAULT_SHARE, METHODS, MIN_CLUSTER
 from analysis.options import AnalysisOptions, MethodOptions
 from data_schema.errors import InputError
 from data_schema.outputs import REPORT_MARKER, check_output_folder, mark_report, replacing_note
-from nvrq.commands.args import (
+from nvrq.cli_types import (
     ArgumentParser,
     CommaList,
     DeprecatedFileOption,
@@ -479,7 +479,7 @@ def _run_ratings(args):
 def main(argv=None) -> int:
     """Entry point of the ``analyze`` console script: analyse ``argv`` (default
     ``sys.argv[1:]``) and return the exit status (2 for bad input,
-    :func:`nvrq.commands.args.run_cli`).
+    :func:`nvrq.cli_types.run_cli`).
 
     Parameters
     ----------

@@ -24,7 +24,7 @@ import pandas as pd
 
 from analysis import axes, breakdowns
 from analysis.choices import MIN_CLUSTERS
-from data_schema.errors import InputError, check_number
+from data_schema.errors import InputError
 from data_schema.text import plural
 from nvrq.horizon import (
     DEFAULT_SHARE,
@@ -35,7 +35,7 @@ from nvrq.horizon import (
     trust_horizon,
 )
 
-__all__ = ["HorizonOptions", "HorizonResult", "check_options", "for_ratings", "for_pairs",
+__all__ = ["HorizonOptions", "HorizonResult", "for_ratings", "for_pairs",
            "horizon_only_analysis", "pairs_items", "FIT_COLUMNS"]
 
 #: horizon_thresholds.csv: one row per metric of a ratings analysis.
@@ -45,7 +45,7 @@ FIT_COLUMNS = ["metric", "threshold", "ci_lo", "ci_hi", "good_prob", "slope", "n
 
 @dataclass(frozen=True)
 class HorizonOptions:
-    """The options of ``--horizon`` (checked by :func:`check_options`).
+    """The options of ``--horizon`` (checked by ``analyze``'s option types, once, at the boundary).
 
     Parameters
     ----------
@@ -102,31 +102,6 @@ class HorizonResult:
     fits: pd.DataFrame | None
     options: HorizonOptions
     notes: list[str] = field(default_factory=list)
-
-
-def check_options(opts: HorizonOptions, *, votes: bool) -> None:
-    """Check the options once, at the boundary (one :class:`InputError` naming the option).
-
-    Parameters
-    ----------
-    opts : HorizonOptions
-    votes : bool
-        True for a ratings table (a threshold may come from the votes).
-
-    Raises
-    ------
-    InputError
-        A share outside (0, 1], a P(good) outside (0, 1), a window <= 0, a non-finite
-        threshold, or no threshold source (no votes and no ``threshold``).
-    """
-    check_number("share", opts.share, low=0, high=1, low_open=True)
-    check_number("good_prob", opts.good_prob, low=0, high=1, low_open=True, high_open=True)
-    check_number("window_s", opts.window_s, low=0, low_open=True)
-    if opts.threshold is not None:
-        check_number("threshold", opts.threshold)
-    elif not votes:
-        raise InputError(param="horizon", expected="a threshold source: `threshold` VALUE (or a "
-                         "ratings table, whose votes give one)", got="none")
 
 
 def _directions(metric: str, directions: dict) -> bool:

@@ -5,7 +5,7 @@ Layer: commands (CLI shell) of ``annotate``.
 Each subcommand lives in ``annotate/commands/<name>.py`` and exposes ``register(sub)``, which
 adds its parser and sets ``func`` to its ``run(args)`` (returns an exit status), as the
 ``nvrq`` commands do (:mod:`nvrq.cli`). The argument conventions are
-:mod:`nvrq.commands.args`. A command imports the library it runs (pandas, OpenCV, the study)
+:mod:`nvrq.cli_types`. A command imports the library it runs (pandas, OpenCV, the study)
 in ``run``, so ``annotate --help`` answers without them.
 """
 
@@ -16,7 +16,7 @@ import sys
 from pathlib import Path
 
 from data_schema.errors import InputError
-from nvrq.commands.args import ArgumentParser, command_parser, flags_in_errors, run_cli
+from nvrq.cli_types import ArgumentParser, command_parser, flags_in_errors, run_cli
 
 __all__ = ["main", "build_parser"]
 
@@ -37,7 +37,7 @@ _ALIASES = {"n_training": "training", "n_gold": "gold", "n_repeats": "repeats",
 
 def build_parser() -> ArgumentParser:
     """The ``annotate`` parser: every subcommand of :data:`COMMAND_MODULES`
-    (:func:`nvrq.commands.args.command_parser`).
+    (:func:`nvrq.cli_types.command_parser`).
 
     Returns
     -------
@@ -61,7 +61,7 @@ def _main(argv=None) -> int:
 
 def main(argv=None) -> int:
     """Entry point of the ``annotate`` console script: run the subcommand of ``argv`` (default
-    ``sys.argv[1:]``) and return its exit status (2 for bad input, :func:`nvrq.commands.args.run_cli`).
+    ``sys.argv[1:]``) and return its exit status (2 for bad input, :func:`nvrq.cli_types.run_cli`).
 
     Parameters
     ----------

@@ -43,6 +43,7 @@ from nvrq.encoders.memory import tune_allocator
 from nvrq.pairs import make_pairs
 from nvrq.scoring.batches import gt_groups, pack_groups
 from nvrq.scoring.driver import score_pairs
+from nvrq.scoring.plan import ScorePlan
 from nvrq.synth.generate import generate_scene
 
 METRICS = ["psnr", "ssim", "nvrq", "nvrq_ca"]
@@ -126,7 +127,8 @@ def main(argv=None) -> int:
         enc, tau = ev.encoder, ev.tau
 
         def cli():
-            return score_pairs(pairs, metrics=ev.columns, encoder=enc, tau=tau, progress=False).table
+            return score_pairs(pairs, ScorePlan.for_columns(ev.columns, encoder=enc, tau=tau),
+                               encoder=enc, progress=False).table
 
         ref = cli()
         for name, got in (("crops", api_crops(ev, pairs, root, 256)), ("frames", api_frames(ev, pairs, root))):

@@ -38,6 +38,7 @@ from nvrq.encoders.memory import tune_allocator
 from nvrq.engines.ray_engine import RayJob, score_on_ray
 from nvrq.engines.scorers import MetricScorer
 from nvrq.scoring.driver import score_pairs
+from nvrq.scoring.plan import ScorePlan
 
 OFFSETS = (-3.0, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0)
 BOXES = [(100, 200, 299, 349), (420, 180, 579, 339), (700, 250, 779, 409)]
@@ -82,7 +83,8 @@ def run_local(pairs_ds: Path) -> tuple[float, pd.DataFrame]:
     tune_allocator()  # as `nvrq score` and the Ray actors do
     t0 = time.perf_counter()
     enc = load_encoder("efficientnet-lite0")
-    res = score_pairs(pairs, metrics=COLUMNS, encoder=enc, tau=0.76, progress=False)
+    res = score_pairs(pairs, ScorePlan.for_columns(COLUMNS, encoder=enc, tau=0.76),
+                      encoder=enc, progress=False)
     return time.perf_counter() - t0, res.table
 
 

@@ -55,6 +55,8 @@ import cv2
 import numpy as np
 import pandas as pd
 
+from nvrq.scoring.plan import ScorePlan  # light: numpy and the registries
+
 OFFSETS = (-3.0, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0)
 
 
@@ -117,15 +119,18 @@ def methods_numbers(root: Path, encoder, *, n_methods: int, seconds: float, roun
                    progress=False)
     pairs, _ = make_pairs(load_scene(root), progress=False)
     col = [f"nvrq:{encoder.spec.name}"]
-    score_pairs(pairs.iloc[:8], metrics=col, encoder=encoder, progress=False)  # warm-up
+    score_pairs(pairs.iloc[:8], ScorePlan.for_columns(col, encoder=encoder),
+                encoder=encoder, progress=False)  # warm-up
     t_shared, t_apart = [], []
     for _ in range(max(1, rounds)):
         t0 = time.perf_counter()
-        shared = score_pairs(pairs, metrics=col, encoder=encoder, progress=False)
+        shared = score_pairs(pairs, ScorePlan.for_columns(col, encoder=encoder),
+                             encoder=encoder, progress=False)
         t_shared.append(time.perf_counter() - t0)
         t0, apart, values = time.perf_counter(), 0, pd.Series(np.nan, index=pairs.index)
         for _, sub in pairs.groupby(METHOD_COLUMN, sort=False):
-            res = score_pairs(sub, metrics=col, encoder=encoder, progress=False)
+            res = score_pairs(sub, ScorePlan.for_columns(col, encoder=encoder),
+                              encoder=encoder, progress=False)
             apart += res.n_encoder_images
             values[sub.index] = res.table[col[0]].to_numpy()
         t_apart.append(time.perf_counter() - t0)
@@ -252,7 +257,7 @@ def bench_encoder(name: str, scene: pd.DataFrame, args, cache: str) -> dict:
     col = [f"nvrq:{name}"]
     s = {}
     for enc_name, enc in (("torch", torch_enc), ("default", default)):
-        res = score_pairs(pairs, metrics=col, encoder=enc, batch_size=32, progress=False)
+        res = score_pairs(pairs, ScorePlan.for_columns(col, encoder=enc, batch_size=32), encoder=enc, progress=False)
         s[enc_name] = res.table[col[0]].to_numpy()
     out["max_dnvrq_default_vs_torch"] = float(np.max(np.abs(s["torch"] - s["default"])))
     encoders = {"torch": torch_enc, "default": default}
@@ -277,7 +282,7 @@ def bench_encoder(name: str, scene: pd.DataFrame, args, cache: str) -> dict:
             for rt in piped:
                 # whole frames worth about --pipeline-seconds of encoder work at the alone rate
                 runs.setdefault(rt, whole_frames(scene, int(args.pipeline_seconds * alone[rt][0] / per_pair)))
-                res = score_pairs(runs[rt], metrics=col, encoder=encoders[rt], batch_size=bs, progress=False)
+                res = score_pairs(runs[rt], ScorePlan.for_columns(col, encoder=encoders[rt], batch_size=bs), encoder=encoders[rt], progress=False)
                 piped[rt].append(res)
         rates = {k: float(np.mean(v)) for k, v in alone.items()}
         for rt, results in piped.items():
@@ -345,7 +350,8 @@ def main(argv=None) -> int:
         from nvrq.scoring.driver import score_pairs
 
         some = whole_frames(pairs, args.pairs)
-        res = score_pairs(some, metrics=[f"nvrq:{first.spec.name}"], encoder=first, progress=False)
+        res = score_pairs(some, ScorePlan.for_columns([f"nvrq:{first.spec.name}"], encoder=first),
+                          encoder=first, progress=False)
         out["c_encoder_images_vs_naive"] = res.n_encoder_images / res.n_pairs / 2
         out["e_speedup_over_naive"] = (res.n_pairs / res.timing.attrs["wall_seconds"]) / \
             naive_pairs_per_s(some, first, args.naive_pairs)

@@ -3,7 +3,7 @@
 Layer: data_schema (file formats).
 
 Every command catches :class:`InputError` at the top level, prints ``str(err)`` as one
-line and exits with status 2 (docs/FORMATS.md §7; :func:`nvrq.commands.args.run_cli`).
+line and exits with status 2 (docs/FORMATS.md §7; :func:`nvrq.cli_types.run_cli`).
 
 >>> str(InputError("scene.json", "cameras.front.T_sensor_rig", "a 4x4 matrix", "3x4"))
 'scene.json: cameras.front.T_sensor_rig: expected a 4x4 matrix, got 3x4'
@@ -36,7 +36,7 @@ class InputError(ValueError):
     param : str, optional
         The library parameter (``tracks``) or command-line option (``--tracks``) whose value
         is bad. The CLIs name their flag for a parameter
-        (:func:`nvrq.commands.args.flags_in_errors`).
+        (:func:`nvrq.cli_types.flags_in_errors`).
 
     Notes
     -----

@@ -20,7 +20,7 @@ The rule, the same for every command that writes (docs/FORMATS.md §7):
 
 Each check raises :class:`~data_schema.errors.InputError` naming the option (``where``) and
 returns the output path. ``option`` is the parameter named (default ``out``), which the CLIs
-report as their flag (:func:`nvrq.commands.args.flags_in_errors`).
+report as their flag (:func:`nvrq.cli_types.flags_in_errors`).
 
 >>> import tempfile
 >>> d = Path(tempfile.mkdtemp()); _ = (d / "pairs.csv").write_text("x")

@@ -68,10 +68,7 @@ __all__ = [
     "pair_boxes",
     "TableKind",
     "PairsTable",
-    "read_pairs",
     "pairs_table",
-    "MetricsTable",
-    "read_metrics_table",
 ]
 
 TABLE_SUFFIXES = (".csv", ".parquet")
@@ -912,7 +909,7 @@ def pair_boxes(df: pd.DataFrame, columns, *, where: str = "pairs"):
 
 @dataclass(frozen=True)
 class PairsTable:
-    """A pairs table read and checked once (:func:`read_pairs`): boxes as integer arrays and
+    """A pairs table checked once (:func:`pairs_table`): boxes as integer arrays and
     image paths made absolute, so nothing downstream parses or checks them again.
 
     Attributes
@@ -988,67 +985,3 @@ def pairs_table(df: pd.DataFrame, *, scene_root=None, base=None, where: str = "p
              for c in ("gt_path", "render_path")]
     return PairsTable(df, pair_boxes(df, GT_BOX_COLUMNS, where=where), pair_boxes(df, RENDER_BOX_COLUMNS, where=where),
                       paths[0], paths[1], str(where))
-
-
-def read_pairs(path, *, scene_root=None, follow: bool | None = None) -> PairsTable:
-    """Read a pairs table file once, typed (:class:`PairsTable`).
-
-    Parameters
-    ----------
-    path : path
-        A ``.csv`` or ``.parquet`` pairs table (docs/FORMATS.md §3).
-    scene_root : path, optional
-        The scene folder its image paths are relative to (default: its ``scene_root`` column,
-        relative to the file's folder).
-    follow : bool, optional
-        Whether image paths may lead out of the scene folder through symbolic links
-        (default: :func:`follow_links`).
-
-    Returns
-    -------
-    PairsTable
-        The file's rows with their boxes and resolved image paths; errors name ``path``.
-
-    Raises
-    ------
-    InputError
-        Naming the file, the row and the column of the first bad value.
-    """
-    df = read_table(path, required=PAIRS_CROP_COLUMNS, kind=TableKind.PAIRS)
-    return pairs_table(df, scene_root=scene_root, base=Path(path).resolve().parent, where=str(path),
-                       follow=follow)
-
-
-@dataclass(frozen=True)
-class MetricsTable:
-    """A metrics table read and checked once (:func:`read_metrics_table`).
-
-    Attributes
-    ----------
-    frame : pandas.DataFrame
-        ``pair_id`` (str) and numeric metric columns, N rows.
-    columns : tuple of str
-        The metric columns (every column but ``pair_id``), in file order.
-    where : str
-        The file.
-    """
-
-    frame: pd.DataFrame
-    columns: tuple
-    where: str
-
-
-def read_metrics_table(path) -> MetricsTable:
-    """Read a metrics table file once, typed (:class:`MetricsTable`; :func:`read_metrics`'s checks).
-
-    Parameters
-    ----------
-    path : path
-        A ``.csv`` or ``.parquet`` metrics table (docs/FORMATS.md §4).
-
-    Returns
-    -------
-    MetricsTable
-    """
-    df = read_metrics(path)
-    return MetricsTable(df, tuple(c for c in df.columns if c != "pair_id"), str(path))

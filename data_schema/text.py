@@ -3,7 +3,7 @@
 Layer: data_schema (file formats).
 
 A comma list (``"psnr,ssim"``) is how a list of names travels as one string: in a command-line
-option (:mod:`nvrq.commands.args`), in a library parameter that also takes a string
+option (:mod:`nvrq.cli_types`), in a library parameter that also takes a string
 (``nvrq.api``'s ``metrics="psnr,ssim"``), and inside the grid texts of
 :mod:`data_schema.perturbation` and :mod:`data_schema.methods`.
 

@@ -187,7 +187,7 @@ _OPTIONS = {"weights": None, "device": "cpu", "runtime": "auto", "tau": None, "b
 
 def _plan(metrics, encoder, options: dict) -> ScorePlan:
     """The run's :class:`~nvrq.scoring.plan.ScorePlan` (:func:`~nvrq.scoring.plan.resolve_plan`:
-    the columns, the encoder's config, tau by :func:`nvrq.calibrate.require_tau`), every option
+    the columns, the encoder's config, tau by :func:`nvrq.metrics.tau_config.require_tau`), every option
     checked once, here; ``metrics`` may be a plan already made (then no other option)."""
     unknown = sorted(set(options) - set(_OPTIONS))
     if unknown:
@@ -384,7 +384,7 @@ class Evaluator:
         encoder name, the :class:`~nvrq.encoders.EncoderConfig` fields (``runtime='auto'``: on
         CPU the fastest exported runtime identical to torch fp32; torch on ``cuda``).
         ``tau``: the NVRQ-CA knee; default as ``nvrq score``: the user config, then the
-        registry (:func:`nvrq.calibrate.require_tau`). ``batch_size``: crops per encoder pass
+        registry (:func:`nvrq.metrics.tau_config.require_tau`). ``batch_size``: crops per encoder pass
         (default 32). All go to :func:`nvrq.scoring.plan.resolve_plan`, checked once.
 
     Raises

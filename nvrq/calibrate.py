@@ -1,17 +1,15 @@
 """NVRQ-CA ``tau`` calibration and the small user config that stores calibrated taus.
 
-Layer: nvrq core, scoring support (tau calibration).
+Layer: an ``nvrq`` study, above the scoring (it embeds GT crops to measure a tau).
 
 Rule: ``tau`` is the **median** of S (paper Eq. 4) over GT crops of *unrelated* objects --
 pairs of GT crops from different tracks *and* different classes -- i.e. the similarity an
 encoder gives to two objects that have nothing to do with each other (its noise floor).
 Below that, NVRQ-CA (Eq. 5) maps S into the low band [0, w).
 
-Config file (JSON ``{"ENCODER": {"tau": 0.61, ...}}``), first found of: the ``config``
-argument, ``$NVRQ_CONFIG``, ``$XDG_CONFIG_HOME/nvrq/tau.json``, ``~/.config/nvrq/tau.json``.
-The one tau rule, :func:`require_tau`: the ``tau`` given, else this file's, else the encoder
-registry's (``nvrq score`` and the Python API both ask it; the value is checked by
-:func:`nvrq.metrics.formulas.check_tau`).
+The config file that stores a calibrated tau, and the one tau rule (:func:`require_tau`: the
+``tau`` given, else the config file's, else the encoder registry's), live in the leaf module
+:mod:`nvrq.metrics.tau_config`; they are importable from here as well.
 
 >>> import numpy as np
 >>> recommend_tau(np.array([0.2, 0.4, 0.9]))
@@ -20,11 +18,8 @@ registry's (``nvrq score`` and the Python API both ask it; the value is checked 
 
 from __future__ import annotations
 
-import json
-import os
 import sys
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -34,134 +29,18 @@ from data_schema.errors import InputError, check_int
 from data_schema.options import options_or_keywords
 from data_schema.tables import (
     GT_BOX_COLUMNS,
-    atomic_write_text,
     pair_boxes,
     pair_image_paths,
     require_columns,
 )
 from data_schema.text import plural
-from nvrq.encoders import get_spec
-from nvrq.metrics.formulas import check_tau, nvrq_similarity
+from nvrq.metrics.formulas import nvrq_similarity
+from nvrq.metrics.tau_config import config_path, read_tau_config, require_tau, write_tau
 from nvrq.scoring.batches import read_crops
 from nvrq.scoring.core import embed_crops
 
 __all__ = ["CalibrationOptions", "config_path", "read_tau_config", "write_tau", "require_tau", "recommend_tau",
            "unrelated_pairs", "Calibration", "calibrate_tau"]
-
-
-def config_path(config: str | os.PathLike | None = None) -> Path:
-    """The tau config file in use (it need not exist yet).
-
-    Parameters
-    ----------
-    config : str or PathLike, optional
-        An explicit file; else ``$NVRQ_CONFIG``, else ``$XDG_CONFIG_HOME/nvrq/tau.json``
-        (``~/.config`` by default).
-
-    Returns
-    -------
-    Path
-    """
-    if config is not None:
-        return Path(config)
-    if os.environ.get("NVRQ_CONFIG"):
-        return Path(os.environ["NVRQ_CONFIG"])
-    base = os.environ.get("XDG_CONFIG_HOME") or os.path.join(Path.home(), ".config")
-    return Path(base) / "nvrq" / "tau.json"
-
-
-def read_tau_config(path: str | os.PathLike) -> dict:
-    """The config's content (``{}`` if the file does not exist).
-
-    Parameters
-    ----------
-    path : str or PathLike
-        The config file.
-
-    Returns
-    -------
-    dict
-        ``{encoder: {'tau': float, ...}}``.
-    """
-    path = Path(path)
-    if not path.is_file():
-        return {}
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as exc:
-        raise InputError(path, None, "a JSON tau config", f"{type(exc).__name__}: {exc}") from None
-    if not isinstance(data, dict):
-        raise InputError(path, None, 'a JSON object {"ENCODER": {"tau": ...}}', type(data).__name__)
-    return data
-
-
-def write_tau(path: str | os.PathLike, encoder: str, tau: float, **info) -> Path:
-    """Store ``tau`` (and ``info``) for ``encoder`` in the config, keeping other entries.
-
-    Parameters
-    ----------
-    path : str or PathLike
-        The config file (created with its folder).
-    encoder : str
-        The encoder name.
-    tau : float
-        The calibrated tau.
-    **info
-        More fields stored with it (e.g. counts, the pairs file).
-
-    Returns
-    -------
-    Path
-        ``path``.
-    """
-    path = Path(path)
-    data = read_tau_config(path)
-    data[encoder] = {"tau": float(tau), **info}
-    atomic_write_text(path, json.dumps(data, indent=2, sort_keys=True) + "\n")
-    return path
-
-
-def require_tau(encoder: str, *, tau: float | None = None,
-                config: str | os.PathLike | None = None) -> tuple[float, str]:
-    """The NVRQ-CA knee for ``encoder``, by the one tau rule: ``tau`` > user config > registry.
-
-    Parameters
-    ----------
-    encoder : str
-        A registry encoder name.
-    tau : float, optional
-        A tau given by the caller; it wins.
-    config : path, optional
-        The tau config file (default :func:`config_path`'s).
-
-    Returns
-    -------
-    tuple of (float, str)
-        ``(tau, source)``: ``source`` is ``'argument'`` (the ``tau`` given), the config file's
-        path, or ``'registry'``.
-
-    Raises
-    ------
-    InputError
-        Naming ``tau`` when the value found is not in (0, 1) (:func:`check_tau`; the config file
-        and its key for a config value), or when there is none; naming ``encoder`` for an
-        unknown encoder.
-    """
-    spec = get_spec(encoder)
-    if tau is not None:
-        check_tau(tau)
-        return float(tau), "argument"
-    path = config_path(config)
-    entry = read_tau_config(path).get(encoder)
-    if entry is not None:
-        value = entry.get("tau") if isinstance(entry, dict) else None
-        check_tau(value, where=path, field=f"{encoder}.tau")
-        return float(value), str(path)
-    if spec.tau is None:
-        raise InputError(param="tau", expected=f"a tau for encoder {encoder} (`nvrq calibrate-tau` measures one "
-                         "and can store it in the user config)", got="none in the registry or the user config")
-    check_tau(spec.tau)
-    return spec.tau, "registry"
 
 
 def recommend_tau(s_unrelated: np.ndarray) -> float:

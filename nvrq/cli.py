@@ -3,8 +3,8 @@
 Each subcommand lives in ``nvrq/commands/<name>.py`` and exposes
 ``register(subparsers)``, which adds its parser and sets ``func`` (called with the
 parsed ``argparse.Namespace``; returns an exit status); the options several commands share
-are modules of their own there (:mod:`nvrq.commands.args`, the conventions of all three CLIs;
-:mod:`nvrq.commands.engine_options`). Imports sit at module top except
+are modules of their own (:mod:`nvrq.cli_types`, the conventions of all three CLIs, below the
+command layer; :mod:`nvrq.commands.engine_options`). Imports sit at module top except
 the library a command runs, which its ``run`` imports: a command module imports at its top
 only what its parser needs (the conventions, option defaults and choices), so ``nvrq --help``
 and ``nvrq COMMAND --help`` load neither a deep-learning runtime nor SciPy, matplotlib, pandas
@@ -20,7 +20,7 @@ import sys
 from pathlib import Path
 
 from data_schema.outputs import check_output_file, check_output_folder
-from nvrq.commands.args import ArgumentParser, command_parser, flags_in_errors, run_cli
+from nvrq.cli_types import ArgumentParser, command_parser, flags_in_errors, run_cli
 from nvrq.commands.model_options import check_model_options
 
 __all__ = ["main", "build_parser"]
@@ -43,7 +43,7 @@ COMMAND_MODULES = [
 
 def build_parser() -> ArgumentParser:
     """The ``nvrq`` parser: every subcommand of :data:`COMMAND_MODULES`
-    (:func:`nvrq.commands.args.command_parser`).
+    (:func:`nvrq.cli_types.command_parser`).
 
     Returns
     -------

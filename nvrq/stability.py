@@ -57,7 +57,8 @@ from nvrq.nuisances import (
     scaled_box,
     shifted_box,
 )
-from nvrq.scoring.core import CropBatch, check_metric_args, score_crop_batch
+from nvrq.scoring.core import CropBatch, score_crop_batch
+from nvrq.scoring.plan import ScorePlan
 from nvrq.synth.artefacts import ARTEFACTS, apply_artefact
 
 __all__ = [
@@ -264,8 +265,7 @@ def _sample_batches(gts: list[np.ndarray], samples: list[Sample], *, max_pairs: 
     return batches
 
 
-def score_samples(gts: list[np.ndarray], samples: list[Sample], *, metrics: list[str], encoder=None,
-                  tau: float | None = None, batch_size: int = 32, max_pairs: int = 256,
+def score_samples(gts: list[np.ndarray], samples: list[Sample], plan: ScorePlan, *, encoder=None,
                   progress: bool = True) -> dict[str, np.ndarray]:
     """Metric values (N,) for every ``(gts[sample.obj], sample.crop)``, through the one scoring
     core (:func:`nvrq.scoring.core.score_crop_batch`), exactly as ``nvrq score`` computes them.
@@ -276,16 +276,11 @@ def score_samples(gts: list[np.ndarray], samples: list[Sample], *, metrics: list
         GT crops, RGB.
     samples : list of Sample
         The perturbed crops.
-    metrics : list of str
-        Metric names (the registry's).
+    plan : ScorePlan
+        The metric columns, tau, crops per forward pass and pairs per scoring batch
+        (:meth:`nvrq.scoring.plan.ScorePlan.for_columns`, checked once there).
     encoder : Encoder, optional
         Needed by encoder metrics.
-    tau : float, optional
-        NVRQ-CA knee.
-    batch_size : int, optional
-        Crops per forward pass.
-    max_pairs : int, optional
-        Pairs per scoring batch.
     progress : bool, optional
         Show a progress bar.
 
@@ -294,13 +289,11 @@ def score_samples(gts: list[np.ndarray], samples: list[Sample], *, metrics: list
     dict
         Metric name -> ``(N,)`` float64 values, one per sample.
     """
-    check_metric_args(metrics, encoder=encoder, tau=tau, batch_size=batch_size)
-    values = {m: np.full(len(samples), np.nan) for m in metrics}
+    values = {m: np.full(len(samples), np.nan) for m in plan.columns}
     with tqdm(total=len(samples), desc="score", unit="sample", file=sys.stderr,
               disable=not progress) as bar:
-        for batch in _sample_batches(gts, samples, max_pairs=max_pairs):
-            cols = score_crop_batch(batch, metrics=metrics, encoder=encoder, tau=tau,
-                                    batch_size=batch_size)
+        for batch in _sample_batches(gts, samples, max_pairs=plan.max_pairs):
+            cols = score_crop_batch(batch, plan, encoder=encoder)
             for m, v in cols.items():
                 values[m][batch.rows] = v
             bar.update(len(batch.rows))
@@ -439,20 +432,12 @@ def run_stability(pairs: pd.DataFrame, options: StabilityOptions | None = None, 
     """
     o = options_or_keywords(StabilityOptions, options, keywords, who="run_stability")
     _check_study_args(n_objects=o.n_objects, min_side=o.min_side)
-    check_metric_args(metrics, encoder=encoder, tau=tau, batch_size=o.batch_size)
+    plan = ScorePlan.for_columns(metrics, encoder=encoder, tau=tau, batch_size=o.batch_size)
     gts, samples = build_samples(pairs, n_objects=o.n_objects, seed=o.seed, min_side=o.min_side,
                                  nuisances=o.nuisances, artefact_strengths=o.artefact_strengths,
                                  progress=progress, where=where)
     gt_index = np.array([s.obj for s in samples], np.int64)
-    values = score_samples(
-        gts,
-        samples,
-        metrics=metrics,
-        encoder=encoder,
-        tau=tau,
-        batch_size=o.batch_size,
-        progress=progress,
-    )
+    values = score_samples(gts, samples, plan, encoder=encoder, progress=progress)
     meta = pd.DataFrame(
         {
             "nuisance_or_artefact": [s.perturbation for s in samples],

@@ -289,4 +289,5 @@ def test_tests_mirror_the_packages():
     # only the project-wide checks stay at the top of tests/
     loose = sorted(p.name for p in (ROOT / "tests").glob("test_*.py"))
     assert loose == ["test_benchmarks.py", "test_doc_links.py", "test_doc_numbers.py", "test_import_layers.py",
-                     "test_numpydoc.py", "test_readme.py", "test_signatures.py", "test_user_text.py"]
+                     "test_lint_imports.py", "test_numpydoc.py", "test_readme.py", "test_signatures.py",
+                     "test_user_text.py", "test_vulture.py"]

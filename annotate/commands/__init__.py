@@ -4,7 +4,7 @@
 Layer: commands (CLI shell) of ``annotate``.
 
 A ``run`` returns the exit status; bad input raises :class:`~data_schema.errors.InputError`,
-which :func:`nvrq.commands.args.run_cli` prints as one line with exit status 2.
+which :func:`nvrq.cli_types.run_cli` prints as one line with exit status 2.
 """
 
 from __future__ import annotations

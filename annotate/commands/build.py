@@ -19,7 +19,8 @@ from annotate.load import (
 )
 from data_schema.errors import InputError
 from data_schema.outputs import check_output_folder
-from nvrq.commands.args import (
+from nvrq.cli_options import add_scene_root_option, add_seed_option
+from nvrq.cli_types import (
     DeprecatedFileOption,
     DeprecatedSize,
     add_link_option,
@@ -29,7 +30,6 @@ from nvrq.commands.args import (
     parse_wxh,
     show_progress,
 )
-from nvrq.commands.shared_options import add_scene_root_option, add_seed_option
 
 if TYPE_CHECKING:
     from annotate.design import StudyOptions

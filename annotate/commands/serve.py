@@ -49,7 +49,7 @@ from annotate.commands import add_study_argument
 from annotate.proxy_conf import PROXIES, proxy_conf
 from annotate.workers import supervise, worker_ports
 from data_schema.errors import InputError
-from nvrq.commands.args import int_arg
+from nvrq.cli_types import int_arg
 
 __all__ = ["register", "run", "serve_command", "check_port_free", "base_url", "add_address_options", "links",
            "add_worker_options", "serve_workers", "served_base", "record_served", "DEFAULT_HOST",

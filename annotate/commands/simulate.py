@@ -8,8 +8,8 @@ Layer: commands (CLI shell) of ``annotate``.
 from __future__ import annotations
 
 from annotate.commands import add_study_argument
-from nvrq.commands.args import add_quiet_option, int_arg, show_progress
-from nvrq.commands.shared_options import add_seed_option
+from nvrq.cli_options import add_seed_option
+from nvrq.cli_types import add_quiet_option, int_arg, show_progress
 
 __all__ = ["register", "run"]
 

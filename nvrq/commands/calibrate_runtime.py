@@ -9,9 +9,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from data_schema.text import plural
-from nvrq.commands.args import add_link_option, int_arg, number_arg
+from nvrq.cli_options import add_pairs_argument, add_scene_root_option, add_seed_option
+from nvrq.cli_types import add_link_option, int_arg, number_arg
 from nvrq.commands.model_options import add_cache_dir_argument
-from nvrq.commands.shared_options import add_pairs_argument, add_scene_root_option, add_seed_option
 from nvrq.encoders import get_spec
 from nvrq.encoders.runtimes import PRECISIONS
 

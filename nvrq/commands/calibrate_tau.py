@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import datetime as dt
 
-from nvrq.commands.args import add_link_option, add_quiet_option, int_arg, show_progress
+from nvrq.cli_options import add_pairs_argument, add_scene_root_option, add_seed_option
+from nvrq.cli_types import add_link_option, add_quiet_option, int_arg, show_progress
 from nvrq.commands.model_options import add_encoder_arguments, load_encoder_and_tau
-from nvrq.commands.shared_options import add_pairs_argument, add_scene_root_option, add_seed_option
 
 __all__ = ["register", "run"]
 

@@ -23,8 +23,8 @@ from importlib.metadata import distribution
 from pathlib import Path
 
 from data_schema.errors import InputError
-from nvrq.commands.args import allow_negative_lists, int_arg, number_arg, parse_wxh
-from nvrq.commands.shared_options import add_seed_option
+from nvrq.cli_options import add_seed_option
+from nvrq.cli_types import allow_negative_lists, int_arg, number_arg, parse_wxh
 from nvrq.encoders import get_spec
 
 __all__ = ["register", "run", "demo_steps", "method_steps"]

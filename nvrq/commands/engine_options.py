@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 from data_schema.errors import InputError
-from nvrq.commands.args import int_arg, show_progress
+from nvrq.cli_types import int_arg, show_progress
 from nvrq.engines import ENGINES
 
 __all__ = ["add_engine_args", "check_engine_args", "sharded_output", "report_sharded", "run_ray"]

@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 from nvrq.choices import LAYOUTS
-from nvrq.commands.shared_options import add_method_option
+from nvrq.cli_options import add_method_option
 
 __all__ = ["register_renders"]
 

@@ -19,7 +19,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
 
-from nvrq.commands.args import number_arg
+from nvrq.cli_types import number_arg
 from nvrq.commands.import_renders import register_renders
 from nvrq.commands.synth import add_view_options
 from nvrq.sources.drivestudio_meta import DATASETS

@@ -2,8 +2,8 @@
 proxy): encoder, weights, tau and its config, metrics, batch size, runtime, precision, device and
 threads, and the one encoder-and-tau loader. Library functions validate their own arguments and
 name the parameter (``batch_size``); commands do not re-check, and ``nvrq``'s entry point reports
-such an error as the option (``--batch-size``, :func:`nvrq.commands.args.flags_in_errors`).
-The tau itself comes from the library's one rule, :func:`nvrq.calibrate.require_tau`.
+such an error as the option (``--batch-size``, :func:`nvrq.cli_types.flags_in_errors`).
+The tau itself comes from the library's one rule, :func:`nvrq.metrics.tau_config.require_tau`.
 
 Layer: commands (CLI shell).
 """
@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 from data_schema.errors import InputError
 from data_schema.text import comma_list
-from nvrq.commands.args import checked_arg, int_arg, number_arg
+from nvrq.cli_types import checked_arg, int_arg, number_arg
 from nvrq.encoders import get_spec
 from nvrq.encoders.runtimes import PRECISIONS, RUNTIMES
 from nvrq.metrics.formulas import check_tau
@@ -148,7 +148,7 @@ def prepare_device(args) -> None:
 
 def command_tau(name: str, args) -> float:
     """The tau of encoder ``name`` for a command with ``--tau``/``--config``
-    (:func:`nvrq.calibrate.require_tau`, before the model loads), reported on stderr with where it
+    (:func:`nvrq.metrics.tau_config.require_tau`, before the model loads), reported on stderr with where it
     came from (``--tau``, the config file or the registry).
 
     Parameters
@@ -163,9 +163,10 @@ def command_tau(name: str, args) -> float:
     float
         tau.
     """
-    from nvrq.calibrate import require_tau
+    from nvrq.encoders.registry import get_spec
+    from nvrq.metrics.tau_config import require_tau
 
-    tau, source = require_tau(name, tau=args.tau, config=args.config)
+    tau, source = require_tau(name, tau=args.tau, config=args.config, registry_tau=get_spec(name).tau)
     print(f"tau = {tau:.3f} for {name} (from {'--tau' if source == 'argument' else source})", file=sys.stderr)
     return tau
 
@@ -238,7 +239,8 @@ def metric_columns(args) -> tuple[list[str], str]:
         Output column names.
     encoder_name : str
     """
-    from nvrq.metrics.resolve import encoder_for_metrics, resolve_metrics
+    from nvrq.encoders.registry import encoder_for_metrics
+    from nvrq.metrics.resolve import resolve_metrics
 
     raw = comma_list(args.metrics)
     name = encoder_for_metrics(raw, args.encoder)

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from data_schema.defaults import MIN_SIDE_PX, MIN_VISIBLE
 from data_schema.errors import InputError
-from nvrq.commands.args import add_link_option, add_quiet_option, number_arg, show_progress
+from nvrq.cli_types import add_link_option, add_quiet_option, number_arg, show_progress
 
 __all__ = ["register", "run"]
 

@@ -17,10 +17,10 @@ import time
 
 from data_schema.errors import InputError
 from data_schema.text import plural
-from nvrq.commands.args import add_link_option, add_quiet_option, int_arg, number_arg, show_progress
+from nvrq.cli_options import add_pairs_argument, add_scene_root_option
+from nvrq.cli_types import add_link_option, add_quiet_option, int_arg, number_arg, show_progress
 from nvrq.commands.engine_options import add_engine_args, check_engine_args, run_ray
 from nvrq.commands.model_options import add_model_arguments, add_runtime_arguments, prepare_device
-from nvrq.commands.shared_options import add_pairs_argument, add_scene_root_option
 
 __all__ = ["register"]
 

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from data_schema.text import comma_list, plural
 from nvrq.choices import PLAN_FORMATS, WORLDS
-from nvrq.commands.args import add_link_option
-from nvrq.commands.shared_options import add_method_option
+from nvrq.cli_options import add_method_option
+from nvrq.cli_types import add_link_option
 from nvrq.commands.synth import add_view_options, perturb_grid
 
 __all__ = ["register", "run"]

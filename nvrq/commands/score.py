@@ -9,15 +9,15 @@ from typing import TYPE_CHECKING
 from data_schema.errors import InputError
 from data_schema.text import plural
 from nvrq.choices import DEFAULT_METRICS
-from nvrq.commands.args import LazyHelp, add_link_option, add_quiet_option, show_progress
+from nvrq.cli_options import add_pairs_argument, add_scene_root_option
+from nvrq.cli_types import LazyHelp, add_link_option, add_quiet_option, show_progress
 from nvrq.commands.engine_options import add_engine_args, check_engine_args, report_sharded, run_ray
 from nvrq.commands.model_options import add_encoder_arguments, prepare_device
-from nvrq.commands.shared_options import add_pairs_argument, add_scene_root_option
 
 if TYPE_CHECKING:
     from nvrq.scoring.plan import ScorePlan
 
-__all__ = ["register", "run", "runtime_columns", "column_renames", "metrics_help"]
+__all__ = ["register", "run", "plan_from_args", "runtime_columns", "column_renames", "metrics_help"]
 
 #: how the help names each kind of metric nvrq score computes
 _KIND_HELP = {"pair": "full reference (GT and render crops)", "render": "no reference (render crop alone)",
@@ -84,7 +84,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    """``nvrq score``: make the plan once (:func:`nvrq.scoring.plan.plan_from_args`), then score
+    """``nvrq score``: make the plan once (:func:`plan_from_args`), then score
     the pairs table (this process), a pairs dataset (the local engine) or either on Ray.
 
     Parameters
@@ -99,8 +99,6 @@ def run(args) -> int:
         0 once every pair is scored and the metrics (and timing) are written.
     """
     from data_schema.datasets import is_dataset
-    from nvrq.scoring.plan import plan_from_args
-
     plan = plan_from_args(args)
     check_engine_args(args, local_datasets=True)
     if plan.tau is not None:
@@ -111,6 +109,29 @@ def run(args) -> int:
     if is_dataset(args.pairs):
         return _local_dataset(args, plan)
     return _local_table(args, plan)
+
+
+def plan_from_args(args) -> ScorePlan:
+    """The :class:`ScorePlan` of ``nvrq score``'s options (``--metrics``, ``--encoder``,
+    ``--weights``, ``--device``, ``--runtime``, ``--precision``, ``--threads``, ``--cache-dir``,
+    ``--min-spearman``, ``--tau``, ``--config``, ``--batch-size``).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options.
+
+    Returns
+    -------
+    ScorePlan
+    """
+    options = {"weights": args.weights, "device": args.device, "runtime": args.runtime,
+               "precision": args.precision, "threads": args.threads, "cache_dir": args.cache_dir,
+               "min_spearman": args.min_spearman}
+    from nvrq.scoring.plan import resolve_plan  # the encoder registry: not for `nvrq score --help`
+
+    return resolve_plan(args.metrics, encoder=args.encoder, encoder_options=options, tau=args.tau,
+                        tau_config=args.config, batch_size=args.batch_size)
 
 
 def _load_encoder(args, plan: ScorePlan):
@@ -152,7 +173,7 @@ def _local_table(args, plan: ScorePlan) -> int:
 
 def _report(res, *, uses_encoder: bool, file) -> None:
     """One summary line: pairs/s, images decoded, encoder images per pair; then one line per
-    metric and reason with NaN values (:func:`nvrq.scoring.driver.undefined_counts`), and a
+    metric and reason with NaN values (:attr:`nvrq.scoring.driver.ScoreResult.undefined`), and a
     ``warning:`` line per metric NaN on every pair (:func:`~nvrq.scoring.driver.empty_column_warnings`)."""
     wall = res.timing.attrs.get("wall_seconds", float("nan"))
     msg = f"scored {plural(res.n_pairs, 'pair')} in {wall:.1f} s ({res.n_pairs / max(wall, 1e-9):.1f} pairs/s); " \

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from data_schema.errors import InputError
 from nvrq.choices import SET_KINDS
-from nvrq.commands.args import add_link_option, add_quiet_option, int_arg, number_arg, show_progress
+from nvrq.cli_options import add_seed_option
+from nvrq.cli_types import add_link_option, add_quiet_option, int_arg, number_arg, show_progress
 from nvrq.commands.model_options import add_model_arguments, add_runtime_arguments
-from nvrq.commands.shared_options import add_seed_option
 
 __all__ = ["register", "run"]
 

@@ -16,9 +16,9 @@ from pathlib import Path
 from data_schema.defaults import MIN_SIDE_PX
 from data_schema.errors import InputError
 from data_schema.outputs import mark_report, replacing_note
-from nvrq.commands.args import add_link_option, add_quiet_option, int_arg, show_progress
+from nvrq.cli_options import add_pairs_argument, add_seed_option
+from nvrq.cli_types import add_link_option, add_quiet_option, int_arg, show_progress
 from nvrq.commands.model_options import add_encoder_arguments, encoder_for_columns, metric_columns
-from nvrq.commands.shared_options import add_pairs_argument, add_seed_option
 
 __all__ = ["register", "run"]
 

@@ -9,14 +9,14 @@ from __future__ import annotations
 import argparse
 
 from data_schema.text import comma_list
-from nvrq.commands.args import (
+from nvrq.cli_options import add_seed_option
+from nvrq.cli_types import (
     add_quiet_option,
     allow_negative_lists,
     number_arg,
     parse_wxh,
     show_progress,
 )
-from nvrq.commands.shared_options import add_seed_option
 
 __all__ = ["register", "run", "parse_size", "add_perturb_option", "add_view_options",
            "perturb_grid"]
@@ -90,7 +90,7 @@ def perturb_grid(args):
 
 
 def parse_size(text: str) -> tuple[int, int]:
-    """``"1280x720"`` -> ``(1280, 720)`` (the WxH rule of :func:`nvrq.commands.args.parse_wxh`).
+    """``"1280x720"`` -> ``(1280, 720)`` (the WxH rule of :func:`nvrq.cli_types.parse_wxh`).
 
     Parameters
     ----------

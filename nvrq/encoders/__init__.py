@@ -12,9 +12,10 @@ from nvrq.encoders.registry import (
     TorchEncoder,
     build_random,
     encoder_config,
+    encoder_for_metrics,
     get_spec,
     load_encoder,
 )
 
 __all__ = ["DEFAULT_ENCODER", "ENCODERS", "Encoder", "EncoderConfig", "EncoderSpec", "TorchEncoder",
-           "build_random", "encoder_config", "get_spec", "load_encoder"]
+           "build_random", "encoder_config", "encoder_for_metrics", "get_spec", "load_encoder"]

@@ -32,7 +32,7 @@ from data_schema.errors import InputError
 from nvrq.encoders.runtimes import check_runtime_combo
 
 __all__ = ["EncoderSpec", "ENCODERS", "DEFAULT_ENCODER", "get_spec", "Encoder", "TorchEncoder",
-           "EncoderConfig", "encoder_config", "load_encoder", "build_random"]
+           "EncoderConfig", "encoder_config", "encoder_for_metrics", "load_encoder", "build_random"]
 
 IMAGENET_MEAN = (0.485, 0.456, 0.406)
 IMAGENET_STD = (0.229, 0.224, 0.225)
@@ -159,6 +159,38 @@ def get_spec(name: str | None = None) -> EncoderSpec:
     if spec is None:
         raise InputError(param="encoder", expected=f"one of {', '.join(sorted(ENCODERS))}", got=name)
     return spec
+
+
+def encoder_for_metrics(metrics, encoder: str | None = None) -> str:
+    """The encoder that ``metrics`` use: the one they name, else :data:`DEFAULT_ENCODER`.
+
+    Parameters
+    ----------
+    metrics : sequence of str
+        Metric names or columns (:func:`nvrq.metrics.resolve.named_encoder`).
+    encoder : str, optional
+        The encoder asked for, if any.
+
+    Returns
+    -------
+    str
+        The one a column names (``nvrq:ENC``), else ``encoder``, else the default
+        (:func:`get_spec`, the one place that applies it).
+
+    Raises
+    ------
+    InputError
+        Naming ``metrics`` for two different encoders in ``metrics``, or one that contradicts
+        ``encoder``; naming ``encoder`` for an encoder the registry does not know.
+
+    >>> encoder_for_metrics(["psnr", "nvrq_ca:dinov2-small"])
+    'dinov2-small'
+    >>> encoder_for_metrics(["psnr"])
+    'efficientnet-lite0'
+    """
+    from nvrq.metrics.resolve import named_encoder  # the metric registry: OpenCV, not for `--help`
+
+    return get_spec(named_encoder(metrics, encoder)).name
 
 
 def _backend(spec: EncoderSpec):

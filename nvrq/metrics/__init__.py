@@ -6,7 +6,7 @@
   direction, range, reference or not, encoder family, smallest crop side), and
   :data:`DEFAULT_METRICS`;
 - :mod:`~nvrq.metrics.resolve`: the one resolver (:func:`column_info`, :func:`direction`,
-  :func:`resolve_metrics`, :func:`encoder_for_metrics`, :func:`encoder_columns`,
+  :func:`resolve_metrics`, :func:`named_encoder`, :func:`encoder_columns`,
   :func:`reference_columns`, :func:`needs_tau`, :func:`split_column`);
 - :mod:`~nvrq.metrics.formulas`: NVRQ and NVRQ-CA (paper Eq. 4, 5) and the one tau check;
 - :mod:`~nvrq.metrics.pixel`: the full-reference pixel metrics (PSNR, SSIM, MS-SSIM, GMSD, MSE,
@@ -30,14 +30,14 @@ _EXPORTS = {
     **dict.fromkeys(("W_LOW", "check_tau", "nvrq_ca", "nvrq_similarity"), "nvrq.metrics.formulas"),
     **dict.fromkeys(("MetricInfo", "MetricKind"), "nvrq.metrics.info"),
     **dict.fromkeys(("DEFAULT_METRICS", "REGISTRY", "register"), "nvrq.metrics.registry"),
-    **dict.fromkeys(("column_info", "direction", "encoder_columns", "encoder_for_metrics", "needs_tau",
+    **dict.fromkeys(("column_info", "direction", "encoder_columns", "named_encoder", "needs_tau",
                      "reference_columns", "resolve_metrics", "split_column", "metric_kind", "closest_metric",
                      "metric_names", "ColumnSpec", "column_specs"), "nvrq.metrics.resolve"),
 }
 
 __all__ = ["MetricInfo", "MetricKind", "metric_kind", "closest_metric", "metric_names", "ColumnSpec",
            "column_specs", "REGISTRY", "register", "DEFAULT_METRICS", "column_info", "direction",
-           "resolve_metrics", "encoder_for_metrics", "encoder_columns", "reference_columns",
+           "resolve_metrics", "named_encoder", "encoder_columns", "reference_columns",
            "needs_tau", "split_column", "nvrq_similarity", "nvrq_ca", "check_tau", "W_LOW"]
 
 

@@ -3,7 +3,7 @@
 The pixel metrics live in :mod:`nvrq.metrics.pixel`; how crops become embeddings is
 :mod:`nvrq.scoring.core`. :func:`check_tau` is the one check of a ``tau`` value, called where
 one enters (the resolution rule, argument > user config > registry, is
-:func:`nvrq.calibrate.require_tau`).
+:func:`nvrq.metrics.tau_config.require_tau`).
 
 NVRQ (Eq. 4): ``S = (cos(f_gt, f_render) + 1) / 2``. NVRQ-CA (Eq. 5): ``S / tau * w`` for
 ``S < tau``, else ``w + (1 - w) * ((S - tau) / (1 - tau))**2``, ``w = W_LOW = 0.1``.

@@ -5,8 +5,8 @@
   :class:`InputError` when there is none, or ``default`` when asked for one.
 - :func:`direction`: higher better (``True``), lower better (``False``) or unknown (``None``).
 - :func:`resolve_metrics`: metric names as a user gives them -> the columns ``nvrq score`` writes;
-  :func:`encoder_for_metrics`: the encoder they use (the one a column names, else the one given,
-  else the encoder registry's default, :func:`nvrq.encoders.get_spec`).
+  :func:`named_encoder`: the encoder they name (the one a column names, else the one given; the
+  encoder registry supplies its default, :func:`nvrq.encoders.registry.encoder_for_metrics`).
 - :func:`encoder_columns` (computed from encoder embeddings), :func:`reference_columns` (need the
   GT crop), :func:`needs_tau` (NVRQ-CA: needs the knee ``tau``).
 
@@ -27,11 +27,10 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from data_schema.errors import InputError
-from nvrq.encoders.registry import get_spec
 from nvrq.metrics.info import MetricInfo, MetricKind
 from nvrq.metrics.registry import REGISTRY
 
-__all__ = ["split_column", "column_info", "direction", "resolve_metrics", "encoder_for_metrics",
+__all__ = ["split_column", "column_info", "direction", "resolve_metrics", "named_encoder",
            "encoder_columns", "reference_columns", "needs_tau", "metric_kind", "closest_metric",
            "metric_names", "ColumnSpec", "column_specs"]
 
@@ -230,7 +229,7 @@ def resolve_metrics(metrics: Sequence[str], encoder: str) -> list[str]:
         Metric names (``psnr``, ``nvrq``, ``pyiqa:NAME``) or columns (``nvrq:ENCODER``);
         repeats are kept once.
     encoder : str
-        The encoder the encoder metrics use (:func:`encoder_for_metrics`).
+        The encoder the encoder metrics use (:func:`nvrq.encoders.registry.encoder_for_metrics`).
 
     Returns
     -------
@@ -268,8 +267,11 @@ def resolve_metrics(metrics: Sequence[str], encoder: str) -> list[str]:
     return columns
 
 
-def encoder_for_metrics(metrics: Sequence[str], encoder: str | None = None) -> str:
-    """The encoder that ``metrics`` use.
+def named_encoder(metrics: Sequence[str], encoder: str | None = None) -> str | None:
+    """The encoder that ``metrics`` name, if any: the one a column names, else ``encoder``.
+
+    The encoder registry turns ``None`` into its default encoder and checks the name
+    (:func:`nvrq.encoders.registry.encoder_for_metrics`); the metrics layer knows no encoder.
 
     Parameters
     ----------
@@ -280,20 +282,19 @@ def encoder_for_metrics(metrics: Sequence[str], encoder: str | None = None) -> s
 
     Returns
     -------
-    str
-        The one a column names (``nvrq:ENC``), else ``encoder``, else the encoder registry's
-        default (:func:`nvrq.encoders.get_spec`, the one place that applies it).
+    str or None
+        The one a column names (``nvrq:ENC``), else ``encoder`` (``None`` when neither names one).
 
     Raises
     ------
     InputError
         Naming ``metrics`` for two different encoders in ``metrics``, or one that contradicts
-        ``encoder``; naming ``encoder`` for an encoder the registry does not know.
+        ``encoder``.
 
-    >>> encoder_for_metrics(["psnr", "nvrq_ca:dinov2-small"])
+    >>> named_encoder(["psnr", "nvrq_ca:dinov2-small"])
     'dinov2-small'
-    >>> encoder_for_metrics(["nvrq"], "dinov2-small")
-    'dinov2-small'
+    >>> named_encoder(["nvrq"], "dinov2-small"), named_encoder(["psnr"])
+    ('dinov2-small', None)
     """
     families = {name for name, info in REGISTRY.items() if info.needs_encoder or info.consumes == MetricKind.ENCODER}
     named = {enc for fam, enc in map(split_column, (m.strip() for m in metrics)) if fam in families} - {None}
@@ -301,7 +302,7 @@ def encoder_for_metrics(metrics: Sequence[str], encoder: str | None = None) -> s
         raise InputError(param="metrics", expected="one encoder for all nvrq/nvrq_ca metrics", got=", ".join(sorted(named)))
     if named and encoder is not None and named != {encoder}:
         raise InputError(param="metrics", expected=f"the encoder given as encoder ({encoder})", got=named.pop())
-    return get_spec(named.pop() if named else encoder).name
+    return named.pop() if named else encoder
 
 
 def encoder_columns(metrics: Sequence[str]) -> list[str]:

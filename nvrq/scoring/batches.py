@@ -56,7 +56,7 @@ class _Plan:
 
 
 def _plan(pairs, *, scene_root, base, where: str, follow: bool | None = None) -> _Plan:
-    if isinstance(pairs, PairsTable):  # read and checked once (data_schema.tables.read_pairs)
+    if isinstance(pairs, PairsTable):  # checked once (data_schema.tables.pairs_table)
         return _Plan(pairs.gt_paths, pairs.render_paths, pairs.gt_boxes, pairs.render_boxes)
     require_columns(pairs, CROP_COLUMNS, where=where)
     paths = {c: pair_image_paths(pairs, c, scene_root=scene_root, base=base, where=where, follow=follow)

@@ -10,9 +10,8 @@ crop, tau) is :mod:`nvrq.metrics.resolve`'s to say, once, in the run's plan
 - :func:`compute_columns` is the core: one :class:`CropBatch` and the plan's column specs ->
   the columns, dispatched on each column's kind (``pair``, ``render``, ``encoder``), with no
   check and no name comparison; the driver, the engines and the Python API call it;
-- :func:`score_crop_batch` is its public, checking wrapper (one check, then the core);
-
-- :func:`score_crop_batch` maps one :class:`CropBatch` to its metric columns. Full-reference
+- :func:`score_crop_batch` is its public wrapper: one :class:`CropBatch` and a plan (checked when
+  it was made) -> its metric columns. Full-reference
   pixel metrics compare the GT crop with the render crop bicubic-resized to the GT crop's size
   (docs/FORMATS.md §4); no-reference metrics (``reference=False`` in :mod:`nvrq.metrics.registry`)
   score the raw render crop alone, so a batch of them needs no GT crops (``gt_crops=[]``,
@@ -20,7 +19,6 @@ crop, tau) is :mod:`nvrq.metrics.resolve`'s to say, once, in the run's plan
   (paper Eq. 4, 5 in :mod:`nvrq.metrics.formulas`).
 - :func:`encoder_inputs`, :func:`run_batched` and :func:`embed_crops` are the lower pieces:
   square-pad + bicubic resize of a crop list, and a model run over it ``batch_size`` at a time.
-- :func:`check_metric_args` validates the arguments once, naming the parameter.
 
 Timing keys accumulated into ``timings`` (seconds): one per pixel metric column (its own
 calls), ``prepare`` (encoder inputs), ``forward`` (model passes); :attr:`CropBatch.decode_seconds`
@@ -29,10 +27,11 @@ holds a batch's decoding time.
 >>> import numpy as np
 >>> gt = np.zeros((4, 6, 3), np.uint8)
 >>> b = CropBatch(np.array([0, 1]), [gt], np.array([0, 0]), [gt, np.full((2, 3, 3), 9, np.uint8)])
->>> score_crop_batch(b, metrics=["mse"])["mse"].tolist()
+>>> from nvrq.scoring.plan import resolve_plan
+>>> score_crop_batch(b, resolve_plan("mse"))["mse"].tolist()
 [0.0, 81.0]
 >>> nr = CropBatch(np.array([0]), [], None, [np.full((4, 6, 3), 9, np.uint8)])  # no GT crops
->>> score_crop_batch(nr, metrics=["entropy"])["entropy"].tolist()
+>>> score_crop_batch(nr, resolve_plan("entropy"))["entropy"].tolist()
 [0.0]
 """
 
@@ -46,18 +45,11 @@ import numpy as np
 
 from data_schema.errors import InputError, check_int
 from nvrq.crops import encoder_input, resize_to
-from nvrq.metrics.formulas import check_tau, nvrq_similarity
+from nvrq.metrics.formulas import nvrq_similarity
 from nvrq.metrics.info import MetricKind
-from nvrq.metrics.resolve import (
-    column_info,
-    column_specs,
-    encoder_columns,
-    needs_tau,
-    reference_columns,
-)
 
 __all__ = ["CropBatch", "score_crop_batch", "compute_columns", "embed_crops", "encoder_inputs",
-           "run_batched", "pair_outputs", "check_metric_args", "column_seconds", "empty_column_warning"]
+           "run_batched", "pair_outputs", "column_seconds", "empty_column_warning"]
 
 
 @dataclass(frozen=True)
@@ -245,37 +237,6 @@ def column_seconds(columns: Sequence[str], model_columns, timings: dict) -> list
     return [decode + (model if c in model_columns else float(timings.get(c, 0.0))) for c in columns]
 
 
-def check_metric_args(metrics: Sequence[str], *, encoder=None, tau=None, batch_size: int = 32) -> None:
-    """Validate :func:`score_crop_batch`'s arguments once, before any crop is read.
-
-    Parameters
-    ----------
-    metrics : sequence of str
-        Metric columns, at least one.
-    encoder : optional
-        Needed (not None) for encoder columns; a loader standing for one will do.
-    tau : float, optional
-        Checked (:func:`nvrq.metrics.check_tau`) when a column is NVRQ-CA.
-    batch_size : int
-        A positive integer.
-
-    Raises
-    ------
-    InputError
-        Naming the parameter that is wrong.
-    """
-    for m in metrics:
-        column_info(m)
-    if not metrics:
-        raise InputError(param="metrics", expected="at least one metric", got="none")
-    check_int("batch_size", batch_size)
-    enc_cols = encoder_columns(metrics)
-    if enc_cols and encoder is None:
-        raise InputError(param="encoder", expected=f"a loaded encoder for {', '.join(enc_cols)}", got=None)
-    if needs_tau(metrics):
-        check_tau(tau)
-
-
 def _pixel_columns(batch: CropBatch, specs, times: dict) -> dict[str, np.ndarray]:
     """Encoder-free columns (P,) per spec: a ``pair`` one compares the GT crop with the render
     crop resized to the GT crop's size; a ``render`` one scores the raw render crop."""
@@ -334,42 +295,40 @@ def compute_columns(batch: CropBatch, specs: Sequence, *, encoder=None, tau: flo
     return {s.name: np.asarray(out[s.name], np.float64) for s in specs}
 
 
-def score_crop_batch(batch: CropBatch, *, metrics: Sequence[str], encoder=None, tau=None,
-                     batch_size: int = 32, timings: dict | None = None) -> dict[str, np.ndarray]:
-    """The metric columns of one :class:`CropBatch` (checked, then :func:`compute_columns`).
+def score_crop_batch(batch: CropBatch, plan, *, encoder=None,
+                     timings: dict | None = None) -> dict[str, np.ndarray]:
+    """The metric columns of one :class:`CropBatch` by ``plan`` (checked when it was made),
+    through :func:`compute_columns`.
 
     Parameters
     ----------
     batch : CropBatch
         The crops. A batch without GT crops (``gt_crops=[]``) takes only no-reference metrics.
-    metrics : sequence of str
-        Column names as :func:`nvrq.metrics.resolve_metrics` gives them.
+    plan : ScorePlan
+        What to compute (:func:`nvrq.scoring.plan.resolve_plan`, or
+        :meth:`~nvrq.scoring.plan.ScorePlan.for_columns` for columns and a loaded encoder).
     encoder : Encoder, optional
-        For ``nvrq:*``/``nvrq_ca:*``: GT crops embedded once each, ``batch_size`` crops per pass.
-    tau : float, optional
-        In (0, 1), for ``nvrq_ca:*``.
-    batch_size, timings
-        As for :func:`compute_columns`, which does the work once the arguments are checked.
+        For the plan's ``nvrq:*``/``nvrq_ca:*`` columns: GT crops embedded once each,
+        ``plan.batch_size`` crops per pass.
+    timings : dict, optional
+        As for :func:`compute_columns`.
 
     Returns
     -------
     dict
-        ``{column: (P,) float64}`` in ``metrics`` order.
+        ``{column: (P,) float64}`` in the plan's column order.
 
     Raises
     ------
     InputError
-        Naming the parameter (:func:`check_metric_args`), or ``gt_crops`` when reference
-        metrics get none.
+        Naming ``gt_crops`` when reference metrics get none.
     """
-    metrics = list(metrics)
-    check_metric_args(metrics, encoder=encoder, tau=tau, batch_size=batch_size)
     if len(batch.render_crops) and not len(batch.gt_crops if batch.gt_crops is not None else ()):
-        needs_gt = reference_columns(metrics)
-        if needs_gt:
-            raise InputError(param="gt_crops", expected=f"GT crops for the reference metrics {', '.join(needs_gt)}", got="none")
-    return compute_columns(batch, column_specs(metrics), encoder=encoder, tau=tau if needs_tau(metrics) else None,
-                           batch_size=batch_size, timings=timings)
+        if plan.reference_columns:
+            raise InputError(param="gt_crops", expected="GT crops for the reference metrics "
+                             f"{', '.join(plan.reference_columns)}", got="none")
+    return compute_columns(batch, plan.specs, encoder=encoder, tau=plan.tau, batch_size=plan.batch_size,
+                           timings=timings)
 
 
 def empty_column_warning(metric: str, n_pairs: int, why: str = "") -> str:

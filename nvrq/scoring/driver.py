@@ -39,24 +39,20 @@ import pandas as pd
 from tqdm import tqdm
 
 from data_schema.tables import (
-    GT_BOX_COLUMNS,
-    RENDER_BOX_COLUMNS,
     PairsTable,
-    pair_boxes,
     pairs_table,
 )
 from nvrq.metrics.info import MetricKind
-from nvrq.metrics.resolve import column_info, encoder_columns, reference_columns
+from nvrq.metrics.resolve import encoder_columns
 from nvrq.scoring.batches import CROP_COLUMNS, decode_schedule, iter_crop_batches
 from nvrq.scoring.core import (
-    check_metric_args,
     column_seconds,
     compute_columns,
     empty_column_warning,
 )
 from nvrq.scoring.plan import ScorePlan
 
-__all__ = ["ScoreResult", "score_pairs", "timing_table", "runtime_timing", "undefined_counts", "crop_sides",
+__all__ = ["ScoreResult", "score_pairs", "timing_table", "runtime_timing",
            "empty_column_warning", "empty_column_warnings", "REQUIRED_COLUMNS"]
 
 REQUIRED_COLUMNS = ("pair_id", *CROP_COLUMNS)
@@ -66,7 +62,7 @@ REQUIRED_COLUMNS = ("pair_id", *CROP_COLUMNS)
 class ScoreResult:
     """``table``: ``pair_id`` + one column per metric, rows in the pairs' order.
     ``timing``: columns ``metric, seconds, pairs``. ``n_encoder_images``: crops embedded.
-    ``undefined``: the NaN values per metric and reason (:func:`undefined_counts`).
+    ``undefined``: the NaN values per metric and reason (``metric, reason, pairs``).
 
     Attributes
     ----------
@@ -81,7 +77,8 @@ class ScoreResult:
     n_images_decoded : int
         Images decoded.
     undefined : pandas.DataFrame or None
-        NaN values per metric and reason (:func:`undefined_counts`); None when not counted.
+        NaN values per metric and reason (columns ``metric, reason, pairs``); None when not
+        counted.
     """
 
     table: pd.DataFrame
@@ -92,80 +89,15 @@ class ScoreResult:
     undefined: pd.DataFrame | None = None
 
 
-def crop_sides(pairs: pd.DataFrame, *, where: str = "pairs") -> tuple[np.ndarray, np.ndarray]:
-    """The shorter sides of the GT and the render crops (inclusive boxes).
-
-    Parameters
-    ----------
-    pairs : pandas.DataFrame
-        With the ``gt_*`` and ``r_*`` box columns.
-    where : str
-        What errors name.
-
-    Returns
-    -------
-    tuple of two (N,) int64
-        ``(gt_sides, render_sides)``.
-
-    Raises
-    ------
-    InputError
-        For missing or bad box columns.
-    """
-    out = []
-    for cols in (GT_BOX_COLUMNS, RENDER_BOX_COLUMNS):
-        b = pair_boxes(pairs, cols, where=where)
-        out.append(np.minimum(b[:, 2] - b[:, 0], b[:, 3] - b[:, 1]) + 1)
-    return out[0], out[1]
-
-
-def undefined_counts(values: dict, gt_sides: np.ndarray, render_sides: np.ndarray) -> pd.DataFrame:
-    """``metric, reason, pairs``: how many values of each column are NaN, and why.
-
-    A value is NaN because its crop (the GT crop for a full-reference metric, the raw render
-    crop for a no-reference one) is shorter than the metric's ``min_side``, or otherwise for the
-    metric's ``undefined`` reason (:mod:`nvrq.metrics.registry`).
-
-    Parameters
-    ----------
-    values : dict
-        ``{column: (N,)}`` metric values.
-    gt_sides, render_sides : (N,) int
-        Shorter crop sides (:func:`crop_sides`).
-
-    Returns
-    -------
-    pandas.DataFrame
-        Columns ``metric, reason, pairs``; a row per column and reason with NaN values.
-
-    >>> undefined_counts({"niqe": np.array([np.nan, 1.0, np.nan])}, np.array([99, 99, 99]),
-    ...                  np.array([50, 120, 130])).values.tolist()
-    [['niqe', 'shorter crop side < 96 px', 1], ['niqe', 'undefined', 1]]
-    """
-    rows = []
-    with_gt = set(reference_columns(list(values)))
-    for col, v in values.items():
-        nan = np.isnan(np.asarray(v, np.float64))
-        if not nan.any():
-            continue
-        info = column_info(col)
-        sides = gt_sides if col in with_gt else render_sides
-        small = nan & (sides < info.min_side)
-        if small.any():
-            rows.append((col, f"shorter crop side < {info.min_side} px", int(small.sum())))
-        if (nan & ~small).any():
-            rows.append((col, info.undefined or "undefined", int((nan & ~small).sum())))
-    return pd.DataFrame(rows, columns=["metric", "reason", "pairs"])
-
-
 def empty_column_warnings(undefined: pd.DataFrame | None, n_pairs: int) -> list[str]:
-    """:func:`empty_column_warning` for each metric of :func:`undefined_counts`' table that is
-    NaN on all ``n_pairs`` pairs, with its reasons and counts.
+    """:func:`empty_column_warning` for each metric of a run's ``undefined`` table
+    (:attr:`ScoreResult.undefined`) that is NaN on all ``n_pairs`` pairs, with its reasons and
+    counts.
 
     Parameters
     ----------
     undefined : pandas.DataFrame or None
-        :func:`undefined_counts`' table (``metric, reason, pairs``); None for no warnings.
+        The NaN values per metric and reason (``metric, reason, pairs``); None for no warnings.
     n_pairs : int
         Number of pairs scored.
 
@@ -174,8 +106,8 @@ def empty_column_warnings(undefined: pd.DataFrame | None, n_pairs: int) -> list[
     list of str
         One warning line per metric that is NaN on every pair.
 
-    >>> u = undefined_counts({"niqe": np.full(3, np.nan), "psnr": np.array([np.nan, 1.0, 2.0])},
-    ...                      np.array([99, 99, 99]), np.array([50, 60, 70]))
+    >>> u = pd.DataFrame({"metric": ["niqe", "psnr"], "reason": ["shorter crop side < 96 px", "undefined"],
+    ...                   "pairs": [3, 1]})
     >>> empty_column_warnings(u, 3)
     ['warning: niqe is NaN on all 3 pairs: undefined for these crops, its column is empty (shorter crop side < 96 px: 3)']
     """
@@ -253,42 +185,24 @@ def runtime_timing(timing: pd.DataFrame, model, model_columns: Sequence[str]) ->
     return timing
 
 
-#: the keywords :func:`score_pairs` still takes instead of a plan (the older calling convention)
-_PLAN_KEYWORDS = ("metrics", "tau", "batch_size", "max_pairs")
-
-
-def _legacy_plan(encoder, legacy: dict) -> ScorePlan:
-    """The plan of :func:`score_pairs`' former keywords (``metrics``, ``tau``, ``batch_size``,
-    ``max_pairs``), checked as before (:func:`nvrq.scoring.core.check_metric_args`)."""
-    unknown = sorted(set(legacy) - set(_PLAN_KEYWORDS))
-    if unknown:
-        raise TypeError(f"score_pairs() got an unexpected keyword argument {unknown[0]!r}")
-    metrics = list(legacy.get("metrics") or ())
-    tau, batch_size = legacy.get("tau"), legacy.get("batch_size", 32)
-    check_metric_args(metrics, encoder=encoder, tau=tau, batch_size=batch_size)
-    from nvrq.metrics.resolve import needs_tau
-
-    return ScorePlan(tuple(metrics), tau=tau if needs_tau(metrics) else None, batch_size=batch_size,
-                     max_pairs=legacy.get("max_pairs", 256))
-
-
 def _sides(boxes: np.ndarray) -> np.ndarray:
     """Shorter sides (N,) of inclusive boxes (N, 4)."""
     return np.minimum(boxes[:, 2] - boxes[:, 0], boxes[:, 3] - boxes[:, 1]) + 1
 
 
-def score_pairs(pairs: pd.DataFrame | PairsTable, plan: ScorePlan | None = None, *, encoder=None,
+def score_pairs(pairs: pd.DataFrame | PairsTable, plan: ScorePlan, *, encoder=None,
                 scene_root: str | os.PathLike | None = None, base: str | os.PathLike | None = None,
-                progress: bool = True, where: str = "pairs", **legacy) -> ScoreResult:
+                progress: bool = True, where: str = "pairs") -> ScoreResult:
     """Score every row of ``pairs`` by ``plan`` (the module docstring's three steps).
 
     Parameters
     ----------
     pairs : pandas.DataFrame or PairsTable
         docs/FORMATS.md §3 columns (:data:`REQUIRED_COLUMNS`), or a table read and checked once
-        (:func:`data_schema.tables.read_pairs`).
+        (:func:`data_schema.tables.pairs_table`).
     plan : ScorePlan
-        What to compute (:func:`nvrq.scoring.plan.resolve_plan`), checked once there.
+        What to compute (:func:`nvrq.scoring.plan.resolve_plan`, or
+        :meth:`~nvrq.scoring.plan.ScorePlan.for_columns` with a loaded encoder), checked once there.
     encoder : Encoder, optional
         Loaded; needed for the plan's encoder columns.
     scene_root, base : path, optional
@@ -298,9 +212,6 @@ def score_pairs(pairs: pd.DataFrame | PairsTable, plan: ScorePlan | None = None,
         A progress bar on stderr.
     where : str
         What errors name (the pairs file).
-    **legacy
-        Without ``plan``: ``metrics`` (columns), ``tau``, ``batch_size`` and ``max_pairs``, as
-        in the older calling convention; they are checked here and make the plan.
 
     Returns
     -------
@@ -309,13 +220,9 @@ def score_pairs(pairs: pd.DataFrame | PairsTable, plan: ScorePlan | None = None,
     Raises
     ------
     InputError
-        For missing columns, bad boxes or images (naming ``where`` and the row), or a bad
-        argument (naming the parameter), before anything is scored.
+        For missing columns, bad boxes or images (naming ``where`` and the row), before anything
+        is scored.
     """
-    if plan is None:
-        plan = _legacy_plan(encoder, legacy)
-    elif legacy:
-        raise TypeError(f"score_pairs() takes a plan or {', '.join(_PLAN_KEYWORDS)}, not both")
     table = pairs if isinstance(pairs, PairsTable) else pairs_table(pairs, scene_root=scene_root, base=base, where=where)
     n, uses_encoder = len(table), bool(plan.encoder_specs)
     values = {m: np.full(n, np.nan) for m in plan.columns}
@@ -345,7 +252,12 @@ def score_pairs(pairs: pd.DataFrame | PairsTable, plan: ScorePlan | None = None,
 
 
 def _undefined(plan: ScorePlan, values: dict, gt_sides: np.ndarray, render_sides: np.ndarray) -> pd.DataFrame:
-    """:func:`undefined_counts` from the plan's specs (no registry lookup)."""
+    """``metric, reason, pairs``: how many values of each column are NaN, and why.
+
+    A value is NaN because its crop (the GT crop for a full-reference metric, the raw render
+    crop for a no-reference one) is shorter than the metric's ``min_side``, or otherwise for the
+    metric's ``undefined`` reason (:mod:`nvrq.metrics.registry`), read from the plan's specs.
+    """
     rows = []
     for spec in plan.specs:
         nan = np.isnan(np.asarray(values[spec.name], np.float64))

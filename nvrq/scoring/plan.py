@@ -2,8 +2,9 @@
 
 Scoring layer, above :mod:`nvrq.metrics` and below the commands, the Python API and the engines.
 :func:`resolve_plan` is the one place that parses and checks the metric list, the encoder, tau
-and the batch options, and makes a :class:`ScorePlan`; :func:`plan_from_args` makes it from
-``nvrq score``'s options. The CLI, the Python API (:func:`nvrq.score_crops`,
+and the batch options, and makes a :class:`ScorePlan` (``nvrq score`` makes it from its options,
+:func:`nvrq.commands.score.plan_from_args`; an in-memory run of columns already resolved, with a
+loaded encoder, from :meth:`ScorePlan.for_columns`, which checks its arguments once). The CLI, the Python API (:func:`nvrq.score_crops`,
 :func:`nvrq.score_frame`, :class:`nvrq.Evaluator`), the local engine and Ray all build this one
 plan and pass it down: nothing below it validates again, and the core
 (:func:`nvrq.scoring.core.compute_columns`) dispatches on each column's
@@ -24,14 +25,22 @@ import json
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 
-from data_schema.errors import check_int
+from data_schema.errors import InputError, check_int
 from data_schema.text import comma_list
-from nvrq.encoders.registry import EncoderConfig, encoder_config
+from nvrq.encoders.registry import EncoderConfig, encoder_config, encoder_for_metrics, get_spec
 from nvrq.metrics.formulas import check_tau
 from nvrq.metrics.info import MetricKind
-from nvrq.metrics.resolve import ColumnSpec, column_specs, encoder_for_metrics, resolve_metrics
+from nvrq.metrics.resolve import (
+    ColumnSpec,
+    column_info,
+    column_specs,
+    encoder_columns,
+    needs_tau,
+    resolve_metrics,
+)
+from nvrq.metrics.tau_config import require_tau
 
-__all__ = ["ColumnSpec", "ScorePlan", "resolve_plan", "plan_from_args", "COMPUTED_KINDS"]
+__all__ = ["ColumnSpec", "ScorePlan", "resolve_plan", "COMPUTED_KINDS"]
 
 #: the kinds the crop-pair core computes; ``frame`` and ``set`` metrics have their own scorers
 COMPUTED_KINDS = (MetricKind.PAIR, MetricKind.RENDER, MetricKind.ENCODER)
@@ -189,6 +198,41 @@ class ScorePlan:
                    tuple(doc.get("extra_columns", ())))
 
     @classmethod
+    def for_columns(cls, columns: Sequence[str], *, encoder=None, tau: float | None = None,
+                    batch_size: int = 32, max_pairs: int = 256) -> ScorePlan:
+        """The plan of metric columns already resolved, for a run in memory with a loaded
+        encoder (``nvrq stability``'s study, a scorer of crop batches); checked once here.
+
+        Parameters
+        ----------
+        columns : sequence of str
+            Metric columns as :func:`nvrq.metrics.resolve_metrics` names them, at least one.
+        encoder : Encoder, optional
+            The loaded encoder the run will use; needed (not None) for encoder columns.
+        tau : float, optional
+            NVRQ-CA's knee, needed (and kept) when a column is NVRQ-CA.
+        batch_size : int
+            Crops per encoder pass (positive).
+        max_pairs : int
+            Pairs per crop batch.
+
+        Returns
+        -------
+        ScorePlan
+            ``encoder`` is ``None`` (the run hands its loaded encoder over itself).
+
+        Raises
+        ------
+        InputError
+            Naming ``metrics``, ``encoder``, ``tau`` or ``batch_size``.
+        """
+        columns = list(columns)
+        check_metric_args(columns, encoder=encoder, tau=tau, batch_size=batch_size)
+        specs = column_specs(columns)
+        return cls(tuple(columns), tau=tau if any(s.needs_tau for s in specs) else None,
+                   batch_size=batch_size, max_pairs=max_pairs, specs=specs)
+
+    @classmethod
     def from_json(cls, text: str) -> ScorePlan:
         """A plan from :meth:`to_json`'s text.
 
@@ -203,17 +247,47 @@ class ScorePlan:
         return cls.from_dict(json.loads(text))
 
 
+def check_metric_args(metrics: Sequence[str], *, encoder=None, tau=None, batch_size: int = 32) -> None:
+    """Check the arguments of :meth:`ScorePlan.for_columns` once, before any crop is read.
+
+    Parameters
+    ----------
+    metrics : sequence of str
+        Metric columns, at least one.
+    encoder : optional
+        Needed (not None) for encoder columns; a loaded encoder, or a loader standing for one.
+    tau : float, optional
+        Checked (:func:`nvrq.metrics.check_tau`) when a column is NVRQ-CA.
+    batch_size : int
+        A positive integer.
+
+    Raises
+    ------
+    InputError
+        Naming the parameter that is wrong.
+    """
+    for m in metrics:
+        column_info(m)
+    if not metrics:
+        raise InputError(param="metrics", expected="at least one metric", got="none")
+    check_int("batch_size", batch_size)
+    enc_cols = encoder_columns(metrics)
+    if enc_cols and encoder is None:
+        raise InputError(param="encoder", expected=f"a loaded encoder for {', '.join(enc_cols)}", got=None)
+    if needs_tau(metrics):
+        check_tau(tau)
+
+
 def _plan_tau(specs: Sequence[ColumnSpec], name: str, tau, config) -> tuple[float | None, str | None]:
-    """``(tau, source)`` when a column needs tau (:func:`nvrq.calibrate.require_tau`: ``tau`` >
-    user config > registry; ``config=False``: only the ``tau`` given, checked), else ``(None, None)``."""
+    """``(tau, source)`` when a column needs tau (:func:`nvrq.metrics.tau_config.require_tau`:
+    ``tau`` > user config > registry; ``config=False``: only the ``tau`` given, checked), else
+    ``(None, None)``."""
     if not any(s.needs_tau for s in specs):
         return None, None
     if config is False:
         check_tau(tau)
         return float(tau), "argument"
-    from nvrq.calibrate import require_tau
-
-    return require_tau(name, tau=tau, config=config)
+    return require_tau(name, tau=tau, config=config, registry_tau=get_spec(name).tau)
 
 
 def resolve_plan(metrics, *, encoder: EncoderConfig | str | None = None, encoder_options: Mapping | None = None,
@@ -265,24 +339,3 @@ def resolve_plan(metrics, *, encoder: EncoderConfig | str | None = None, encoder
     if any(s.kind is MetricKind.ENCODER for s in specs):
         config = encoder if isinstance(encoder, EncoderConfig) else encoder_config(name, **dict(encoder_options or {}))
     return ScorePlan(tuple(columns), config, tau, batch_size, max_pairs, tau_source=source, specs=specs)
-
-
-def plan_from_args(args) -> ScorePlan:
-    """The :class:`ScorePlan` of ``nvrq score``'s options (``--metrics``, ``--encoder``,
-    ``--weights``, ``--device``, ``--runtime``, ``--precision``, ``--threads``, ``--cache-dir``,
-    ``--min-spearman``, ``--tau``, ``--config``, ``--batch-size``).
-
-    Parameters
-    ----------
-    args : argparse.Namespace
-        The parsed options.
-
-    Returns
-    -------
-    ScorePlan
-    """
-    options = {"weights": args.weights, "device": args.device, "runtime": args.runtime,
-               "precision": args.precision, "threads": args.threads, "cache_dir": args.cache_dir,
-               "min_spearman": args.min_spearman}
-    return resolve_plan(args.metrics, encoder=args.encoder, encoder_options=options, tau=args.tau,
-                        tau_config=args.config, batch_size=args.batch_size)

@@ -33,7 +33,7 @@ if TYPE_CHECKING:  # imported where used: drivestudio_meta (read by the nvrq par
     from data_schema.scene_writer import NewScene
     from nvrq.sources.base import ImportedScene
 
-__all__ = ["KITTI_CLASS_MAP", "read_calib_P2", "read_labels", "kitti_scene", "kitti_scene_doc", "read_kitti",
+__all__ = ["KITTI_CLASS_MAP", "read_calib_P2", "read_labels", "kitti_scene", "read_kitti",
            "import_kitti", "KittiImporter", "IMPORTER", "R_SENSOR_RIG"]
 
 #: KITTI type -> our label_class (DontCare is dropped).
@@ -159,25 +159,6 @@ def kitti_scene(P2: np.ndarray, labels: pd.DataFrame, *, image_size: tuple[int, 
     frame_image = SceneFrame("image_2", 0, f"images/{frame}.png", None if image is None else Path(image))
     return NewScene(clip_id, {"image_2": CameraCalib("image_2", T_sensor_rig, model)}, np.zeros(1, np.int64),
                     np.eye(4)[None], tracks, [frame_image], {"lighting": "daytime", "road_type": "kitti"})
-
-
-def kitti_scene_doc(P2: np.ndarray, labels: pd.DataFrame, *, image_size: tuple[int, int], clip_id: str) -> dict:
-    """The scene.json dict of one KITTI frame: :func:`data_schema.scene_writer.scene_doc` of
-    :func:`kitti_scene` (kept for callers of the old name; use :func:`kitti_scene`).
-
-    Parameters
-    ----------
-    P2, labels, image_size, clip_id
-        As :func:`kitti_scene`.
-
-    Returns
-    -------
-    dict
-        The scene.json document.
-    """
-    from data_schema.scene_writer import scene_doc
-
-    return scene_doc(kitti_scene(P2, labels, image_size=image_size, clip_id=clip_id))
 
 
 class KittiImporter:

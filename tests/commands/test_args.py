@@ -1,4 +1,4 @@
-"""The command layer's shared pieces (nvrq.commands.args): how a command ends (docs/FORMATS.md
+"""The command layer's shared pieces (nvrq.cli_types): how a command ends (docs/FORMATS.md
 §7: bad input is one stderr line and exit status 2) and the parser of a CLI made of subcommands."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import argparse
 import pytest
 
 from data_schema.errors import InputError
-from nvrq.commands.args import command_parser, run_cli
+from nvrq.cli_types import command_parser, run_cli
 
 
 def _raising(exc):
@@ -47,3 +47,16 @@ def test_command_parser_registers_each_module_in_order(capsys):
     assert exc.value.code == 2 and err.count("\n") == 1
     assert err.startswith("error: annotate: argument COMMAND: invalid choice: 'vote'")
     assert err.endswith("(see annotate --help)\n")
+
+
+def test_the_argument_types_keep_their_old_import_paths():
+    # they moved below the command layer (nvrq.cli_types, nvrq.cli_options); the old modules
+    # re-export every public name as the same object
+    import nvrq.cli_options
+    import nvrq.cli_types
+    import nvrq.commands.args
+    import nvrq.commands.shared_options
+
+    for new, old in ((nvrq.cli_types, nvrq.commands.args), (nvrq.cli_options, nvrq.commands.shared_options)):
+        assert sorted(old.__all__) == sorted(new.__all__)
+        assert all(getattr(old, name) is getattr(new, name) for name in new.__all__)

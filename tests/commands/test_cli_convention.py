@@ -11,7 +11,7 @@ from annotate.cli import build_parser as annotate_parser
 from data_schema.errors import InputError
 from data_schema.tables import MIN_SIDE_PX
 from nvrq.cli import build_parser as nvrq_parser
-from nvrq.commands.args import parse_wxh
+from nvrq.cli_types import parse_wxh
 
 
 def test_metrics_tables_are_repeatable_and_old_spelling_is_noted(capsys):
@@ -75,19 +75,22 @@ def test_usage_errors_are_one_line(parser, argv, capsys):
 
 
 def _library_modules():
-    """Every module of the four packages except the command-line layer (``*/cli.py``, ``nvrq/commands``)."""
+    """Every module of the four packages except the command-line layer (``*/cli.py``, ``nvrq/commands``)
+    and the argument conventions it shares (``nvrq/cli_types.py``, ``nvrq/cli_options.py``: flags
+    and their help texts)."""
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[2]
     for pkg in ("data_schema", "nvrq", "annotate", "analysis"):
         for path in sorted((root / pkg).rglob("*.py")):
-            if path.name != "cli.py" and "commands" not in path.relative_to(root).parts:
+            if path.name not in ("cli.py", "cli_types.py", "cli_options.py") \
+                    and "commands" not in path.relative_to(root).parts:
                 yield path
 
 
 def test_library_errors_name_parameters_not_flags():
     # the library names its parameters (`encoder`); only the CLI layer speaks of flags (--encoder),
-    # through nvrq.commands.args.flags_in_errors
+    # through nvrq.cli_types.flags_in_errors
     import ast
 
     flagged = []
@@ -132,7 +135,7 @@ def _strings(tree):
 
 def test_library_hints_name_parameters_not_flags():
     # a hint names the parameter between backticks (`weights`, `allow_same_class`); nvrq's entry
-    # point turns it into the chosen command's option (nvrq.commands.args.flags_in_errors). Another
+    # point turns it into the chosen command's option (nvrq.cli_types.flags_in_errors). Another
     # program's command line between backticks (`ray start --head`) is not ours.
     import ast
     import re
@@ -176,7 +179,7 @@ def test_a_library_hint_names_the_parameter():
     (["score", "p.csv", "--out", "m.csv"], "no_such_parameter", None),
 ])
 def test_parameter_names_map_to_the_chosen_commands_flags(argv, name, flag):
-    from nvrq.commands.args import option_for
+    from nvrq.cli_types import option_for
 
     parser = nvrq_parser()
     args = parser.parse_args(argv)

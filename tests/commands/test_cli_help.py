@@ -26,7 +26,7 @@ from analysis.cli import main as analyze_main
 from annotate.cli import build_parser as annotate_parser
 from annotate.cli import main as annotate_main
 from nvrq.cli import main as nvrq_main
-from nvrq.commands.args import show_progress
+from nvrq.cli_types import show_progress
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -1,6 +1,6 @@
 """InputError's one meaning of ``where`` (issue 26 item 7): the file; a bad parameter or option
 is ``param``. The message a user reads is the same line as before, and the CLIs still name
-their flag for a parameter (nvrq.commands.args.flags_in_errors)."""
+their flag for a parameter (nvrq.cli_types.flags_in_errors)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from data_schema.errors import InputError, check_int
-from nvrq.commands.args import ArgumentParser, flags_in_errors
+from nvrq.cli_types import ArgumentParser, flags_in_errors
 
 ROOT = Path(__file__).resolve().parents[2]
 

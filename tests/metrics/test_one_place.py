@@ -6,7 +6,7 @@
 - "is this an encoder column / does it need tau": ``nvrq/metrics/resolve.py`` alone;
 - the default encoder: ``DEFAULT_ENCODER`` assigned once and applied once (``get_spec``);
 - the tau check: ``check_tau`` (``nvrq/metrics/formulas.py``); the tau rule (argument > user
-  config > registry): ``require_tau`` (``nvrq/calibrate.py``).
+  config > registry): ``require_tau`` (``nvrq/metrics/tau_config.py``).
 """
 
 from __future__ import annotations
@@ -99,8 +99,13 @@ def test_default_encoder_is_assigned_once_and_applied_once():
     assert reads == {"nvrq/encoders/registry.py:get_spec"}
     imports = _where(lambda n: isinstance(n, ast.ImportFrom) and any(a.name == "DEFAULT_ENCODER" for a in n.names))
     assert imports == {"nvrq/encoders/__init__.py"}  # the package's re-export only
-    from nvrq.encoders import DEFAULT_ENCODER, EncoderConfig, encoder_config, get_spec
-    from nvrq.metrics import encoder_for_metrics
+    from nvrq.encoders import (
+        DEFAULT_ENCODER,
+        EncoderConfig,
+        encoder_config,
+        encoder_for_metrics,
+        get_spec,
+    )
 
     # everything that defaults an encoder gets the one default (get_spec(None))
     assert get_spec().name == EncoderConfig().name == encoder_config().name == DEFAULT_ENCODER
@@ -121,25 +126,37 @@ def test_tau_is_checked_by_check_tau_alone():
     assert _where(bounds_tau) == {"nvrq/metrics/formulas.py:check_tau"}
 
 
+def _is_spec_tau(n) -> bool:
+    """``spec.tau`` or ``get_spec(...).tau``: a read of the registry's tau (EncoderSpec.tau)."""
+    return isinstance(n, ast.Attribute) and n.attr == "tau" and (
+        (isinstance(n.value, ast.Name) and n.value.id == "spec") or _call_name(n.value) == "get_spec")
+
+
 def test_tau_is_resolved_by_require_tau_alone():
     defs = _where(lambda n: isinstance(n, ast.FunctionDef) and "tau" in n.name and n.name.startswith(("resolve", "_resolve", "require")))
-    assert defs == {"nvrq/calibrate.py:require_tau"}  # resolve_tau and the CLI's _resolve_tau are gone
+    assert defs == {"nvrq/metrics/tau_config.py:require_tau"}  # resolve_tau and the CLI's _resolve_tau are gone
     config_reads = _where(lambda n: _call_name(n) == "read_tau_config")
-    assert config_reads == {"nvrq/calibrate.py:require_tau", "nvrq/calibrate.py:write_tau"}
-    # the registry's tau (EncoderSpec.tau) is read by the rule alone
-    spec_tau = _where(lambda n: isinstance(n, ast.Attribute) and n.attr == "tau" and (
-        (isinstance(n.value, ast.Name) and n.value.id == "spec") or _call_name(n.value) == "get_spec"))
-    assert spec_tau == {"nvrq/calibrate.py:require_tau"}
+    assert config_reads == {"nvrq/metrics/tau_config.py:require_tau", "nvrq/metrics/tau_config.py:write_tau"}
+    # the registry's tau (EncoderSpec.tau) is read only to hand it to the rule (registry_tau=)
+    handed = _where(lambda n: _call_name(n) == "require_tau" and any(
+        k.arg == "registry_tau" and _is_spec_tau(k.value) for k in n.keywords))
+    assert _where(_is_spec_tau) == handed
+    assert {w.split(":")[0] for w in handed} == {"nvrq/scoring/plan.py", "nvrq/commands/model_options.py"}
 
 
 def test_require_tau_resolves_argument_then_config_then_registry(tmp_path, monkeypatch):
     import json
+    from functools import partial
 
-    from nvrq.calibrate import require_tau
+    from nvrq.encoders import get_spec
+    from nvrq.metrics.tau_config import require_tau as rule
 
     cfg = tmp_path / "tau.json"
     monkeypatch.setenv("NVRQ_CONFIG", str(cfg))
+    with pytest.raises(InputError, match=r"^tau: expected a tau for encoder efficientnet-lite0"):
+        rule("efficientnet-lite0")  # no registry tau handed in, no config: none
     # the registry's tau of efficientnet-lite0 is 0.76 (nvrq/encoders/registry.py)
+    require_tau = partial(rule, registry_tau=get_spec("efficientnet-lite0").tau)
     assert require_tau("efficientnet-lite0") == (0.76, "registry")
     cfg.write_text(json.dumps({"efficientnet-lite0": {"tau": 0.5}}))
     assert require_tau("efficientnet-lite0") == (0.5, str(cfg))

@@ -41,11 +41,11 @@ def test_config_roundtrip_and_tau_priority(tmp_path, monkeypatch):
     cfg = tmp_path / "tau.json"
     monkeypatch.setenv("NVRQ_CONFIG", str(cfg))
     assert config_path() == cfg
-    assert require_tau("dinov2-small") == (0.65, "registry")
+    assert require_tau("dinov2-small", registry_tau=0.65) == (0.65, "registry")
     write_tau(cfg, "dinov2-small", 0.6, rule="median")
     write_tau(cfg, "clip-b16", 0.72)
     assert read_tau_config(cfg)["dinov2-small"] == {"tau": 0.6, "rule": "median"}
-    assert require_tau("dinov2-small") == (0.6, str(cfg))
+    assert require_tau("dinov2-small", registry_tau=0.65) == (0.6, str(cfg))
     assert require_tau("dinov2-small", tau=0.5) == (0.5, "argument")  # the library names no flag
     cfg.write_text(json.dumps({"clip-b16": {"tau": 3}}))
     with pytest.raises(InputError, match="clip-b16.tau"):

@@ -26,6 +26,7 @@ from nvrq.metrics import REGISTRY
 from nvrq.scoring.batches import iter_crop_batches
 from nvrq.scoring.core import CropBatch, embed_crops, run_batched, score_crop_batch
 from nvrq.scoring.driver import score_pairs
+from nvrq.scoring.plan import ScorePlan
 
 ENC = "dinov2-small"
 TINY = {"num_hidden_layers": 1, "hidden_size": 32, "num_attention_heads": 2, "intermediate_size": 64}
@@ -87,8 +88,8 @@ def test_score_pairs_matches_per_pair_reference(tiny_scene, encoder):
     tau = float(np.median([r["nvrq"] for r in refs]))  # both branches of Eq. 5 get used
     for r in refs:
         r["nvrq_ca"] = _eq5(r["nvrq"], tau)
-    res = score_pairs(pairs, metrics=[*PIXEL, *enc_cols], encoder=encoder, tau=tau, batch_size=5,
-                      max_pairs=4, progress=False)
+    res = score_pairs(pairs, ScorePlan.for_columns([*PIXEL, *enc_cols], encoder=encoder, tau=tau, batch_size=5, max_pairs=4),
+                      encoder=encoder, progress=False)
     assert res.table["pair_id"].tolist() == pairs["pair_id"].tolist()
     _assert_matches(res.table, refs, {m: m for m in PIXEL} | enc_cols)
     # 6 unique GT crops (2 frames x 3 objects) + 18 render crops; 2 GT + 6 render images
@@ -141,13 +142,14 @@ def test_core_names_its_parameters(tiny_scene, encoder):
     gt = np.zeros((5, 5, 3), np.uint8)
     batch = CropBatch(np.array([0]), [gt], np.array([0]), [gt])
     with pytest.raises(InputError, match=r"^tau: "):
-        score_crop_batch(batch, metrics=[f"nvrq_ca:{ENC}"], encoder=encoder, tau=None)
+        score_crop_batch(batch, ScorePlan.for_columns([f"nvrq_ca:{ENC}"], encoder=encoder, tau=None),
+                         encoder=encoder)
     with pytest.raises(InputError, match=r"^encoder: "):
-        score_crop_batch(batch, metrics=[f"nvrq:{ENC}"])
+        score_crop_batch(batch, ScorePlan.for_columns([f"nvrq:{ENC}"]))
     with pytest.raises(InputError, match=r"^batch_size: "):
-        score_crop_batch(batch, metrics=["psnr"], batch_size=0)
+        score_crop_batch(batch, ScorePlan.for_columns(["psnr"], batch_size=0))
     with pytest.raises(InputError, match=r"^metrics: "):
-        score_crop_batch(batch, metrics=["nope"])
+        score_crop_batch(batch, ScorePlan.for_columns(["nope"]))
     with pytest.raises(InputError, match=r"^max_pairs: "):
         iter_crop_batches(tiny_scene[1], max_pairs=0)
     with pytest.raises(InputError, match=r"^decode_threads: "):
@@ -172,8 +174,8 @@ def test_stability_scores_through_the_core(encoder):
     samples = [Sample(o, "x", "artefact", 0.5, rng.integers(0, 256, (30 + 5 * k, 44, 3), dtype=np.uint8))
                for k, o in enumerate([0, 0, 0, 1, 1])]
     cols = {m: m for m in PIXEL} | {f"nvrq:{ENC}": "nvrq", f"nvrq_ca:{ENC}": "nvrq_ca"}
-    got = score_samples(gts, samples, metrics=list(cols), encoder=encoder, tau=0.5, batch_size=3,
-                        max_pairs=2, progress=False)
+    got = score_samples(gts, samples, ScorePlan.for_columns(list(cols), encoder=encoder, tau=0.5, batch_size=3, max_pairs=2),
+                        encoder=encoder, progress=False)
     _assert_matches(got, [_reference(gts[s.obj], s.crop, encoder, 0.5) for s in samples], cols)
 
 

@@ -13,6 +13,7 @@ from nvrq.crops import cut_box, encoder_input, read_rgb
 from nvrq.encoders import load_encoder
 from nvrq.metrics.formulas import nvrq_ca
 from nvrq.scoring.driver import score_pairs
+from nvrq.scoring.plan import ScorePlan
 
 
 @pytest.fixture(scope="module")
@@ -34,8 +35,8 @@ def _naive_s(pairs, root, enc):
 def test_gt_crops_embedded_once_and_scores_match_naive_loop(tiny_scene, effnet):
     root, pairs = tiny_scene
     shuffled = pairs.sample(frac=1.0, random_state=3).reset_index(drop=True)
-    res = score_pairs(shuffled, metrics=["nvrq:efficientnet-lite0", "nvrq_ca:efficientnet-lite0"],
-                      encoder=effnet, tau=0.6, batch_size=5, progress=False)
+    res = score_pairs(shuffled, ScorePlan.for_columns(["nvrq:efficientnet-lite0", "nvrq_ca:efficientnet-lite0"], encoder=effnet, tau=0.6, batch_size=5),
+                      encoder=effnet, progress=False)
     # 2 frames x 3 objects GT crops (6) + 18 render crops = 24 encoder images for 18 pairs
     assert res.n_encoder_images == 24 and res.n_pairs == 18
     assert res.n_images_decoded == 2 + 2 * 3  # 2 GT images + 6 render images, once each
@@ -48,8 +49,10 @@ def test_gt_crops_embedded_once_and_scores_match_naive_loop(tiny_scene, effnet):
 
 def test_batch_size_does_not_change_scores(tiny_scene, effnet):
     _, pairs = tiny_scene
-    a = score_pairs(pairs, metrics=["nvrq:efficientnet-lite0"], encoder=effnet, batch_size=1, progress=False)
-    b = score_pairs(pairs, metrics=["nvrq:efficientnet-lite0"], encoder=effnet, batch_size=64, progress=False)
+    a = score_pairs(pairs, ScorePlan.for_columns(["nvrq:efficientnet-lite0"], encoder=effnet, batch_size=1),
+                    encoder=effnet, progress=False)
+    b = score_pairs(pairs, ScorePlan.for_columns(["nvrq:efficientnet-lite0"], encoder=effnet, batch_size=64),
+                    encoder=effnet, progress=False)
     np.testing.assert_allclose(a.table.iloc[:, 1], b.table.iloc[:, 1], atol=2e-5)
 
 
@@ -58,7 +61,8 @@ def test_more_noise_lower_s_for_every_object(tiny_scene, effnet):
     # (conftest.tiny_scene): for each of the 6 objects S must fall strictly with the noise.
     # Measured margins with efficientnet-lite0 are 0.01-0.03, far above the 2e-5 batch jitter.
     _, pairs = tiny_scene
-    res = score_pairs(pairs, metrics=["nvrq:efficientnet-lite0"], encoder=effnet, progress=False)
+    res = score_pairs(pairs, ScorePlan.for_columns(["nvrq:efficientnet-lite0"], encoder=effnet),
+                      encoder=effnet, progress=False)
     s = pairs.assign(s=res.table.iloc[:, 1].to_numpy()).pivot_table(
         index=["track_id", "timestamp_us"], columns="y_offset_m", values="s")
     assert s.shape == (6, 3)
@@ -103,7 +107,7 @@ def test_render_resized_to_gt_size_in_scoring(tiny_scene):
     root, pairs = tiny_scene
     pairs = pairs.iloc[[4]].copy()
     pairs["r_x1"] += 7  # render box 7 px wider than the GT box
-    res = score_pairs(pairs, metrics=["psnr", "ssim"], progress=False)
+    res = score_pairs(pairs, ScorePlan.for_columns(["psnr", "ssim"]), progress=False)
     row = pairs.iloc[0]
     gt_img = cv2.cvtColor(cv2.imread(str(root / row.gt_path)), cv2.COLOR_BGR2RGB)
     r_img = cv2.cvtColor(cv2.imread(str(root / row.render_path)), cv2.COLOR_BGR2RGB)

@@ -123,7 +123,7 @@ def test_missing_weights_is_input_error_naming_encoder(tmp_path, monkeypatch, ca
         load_encoder("dinov2-small")
     msg = str(err.value)
     assert "dinov2-small" in msg and "`weights` (a local" in msg and "facebook/dinov2-small" in msg
-    # the command line names its option instead (nvrq.commands.args.flags_in_errors)
+    # the command line names its option instead (nvrq.cli_types.flags_in_errors)
     from nvrq.cli import main
     from nvrq.scoring.driver import REQUIRED_COLUMNS
 

@@ -12,7 +12,7 @@ import pytest
 from data_schema.errors import InputError
 from nvrq.cli import main
 from nvrq.commands.model_options import add_encoder_arguments, load_encoder_and_tau
-from nvrq.metrics.resolve import encoder_for_metrics
+from nvrq.encoders.registry import encoder_for_metrics
 
 
 def _args(*argv):

@@ -20,6 +20,7 @@ from nvrq.metrics.pixel import mae
 from nvrq.metrics.resolve import reference_columns, resolve_metrics
 from nvrq.scoring.core import CropBatch, score_crop_batch
 from nvrq.scoring.driver import score_pairs
+from nvrq.scoring.plan import ScorePlan
 
 NR = ["brisque", "niqe", "piqe", "entropy"]
 
@@ -37,18 +38,18 @@ def test_core_scores_the_raw_render_crop_without_gt():
     rng = np.random.default_rng(3)
     crops = [rng.integers(0, 256, (h, w, 3), dtype=np.uint8) for h, w in ((40, 70), (120, 100), (97, 210))]
     batch = CropBatch(np.arange(3), [], None, crops)
-    cols = score_crop_batch(batch, metrics=NR)
+    cols = score_crop_batch(batch, ScorePlan.for_columns(NR))
     for name, fn in zip(NR, (brisque, niqe, piqe, entropy), strict=True):
         np.testing.assert_array_equal(cols[name], [fn(c) for c in crops])
     assert np.isnan(cols["niqe"][0]) and np.isfinite(cols["niqe"][1:]).all()  # 40 px < one 96 px patch
     with pytest.raises(InputError, match="gt_crops: expected GT crops for the reference metrics psnr"):
-        score_crop_batch(batch, metrics=["entropy", "psnr"])
+        score_crop_batch(batch, ScorePlan.for_columns(["entropy", "psnr"]))
     assert reference_columns(["psnr", "niqe", "nvrq:x"]) == ["psnr", "nvrq:x"]
 
 
 def test_score_pairs_nr_columns_timing_and_nan_reasons(tiny_scene):
     root, pairs = tiny_scene
-    res = score_pairs(pairs, metrics=["psnr", *NR], progress=False)
+    res = score_pairs(pairs, ScorePlan.for_columns(["psnr", *NR]), progress=False)
     renders = _render_crops(root, pairs)
     for name, fn in zip(NR, (brisque, niqe, piqe, entropy), strict=True):
         want = [fn(c) for c in renders]  # the raw render crop (its own size, not the GT's)
@@ -109,11 +110,11 @@ def test_pyiqa_bridge_with_a_stand_in_module(fake_pyiqa):
     rng = np.random.default_rng(0)
     gt = rng.integers(0, 256, (20, 30, 3), dtype=np.uint8)
     render = rng.integers(0, 256, (20, 30, 3), dtype=np.uint8)  # same size: no resize
-    out = score_crop_batch(CropBatch(np.arange(1), [gt], np.zeros(1, np.int64), [render]), metrics=cols)
+    out = score_crop_batch(CropBatch(np.arange(1), [gt], np.zeros(1, np.int64), [render]), ScorePlan.for_columns(cols))
     assert out["pyiqa:fr_mae"][0] == pytest.approx(mae(gt, render) / 255, rel=1e-5)  # float32 tensors
     assert out["pyiqa:nr_mean"][0] == pytest.approx(render.mean() / 255, rel=1e-5)
     # no GT: the no-reference PyIQA metric alone still runs
-    nr = score_crop_batch(CropBatch(np.arange(1), [], None, [render]), metrics=["pyiqa:nr_mean"])
+    nr = score_crop_batch(CropBatch(np.arange(1), [], None, [render]), ScorePlan.for_columns(["pyiqa:nr_mean"]))
     assert nr["pyiqa:nr_mean"][0] == pytest.approx(render.mean() / 255, rel=1e-5)
     assert fake_pyiqa.created.count("fr_mae") == 1  # each metric created once per process
 
@@ -148,7 +149,6 @@ def test_pyiqa_real_package_where_installed():
     rng = np.random.default_rng(1)
     gt = rng.integers(0, 256, (32, 32, 3), dtype=np.uint8)
     render = np.clip(gt.astype(int) + rng.integers(-20, 20, gt.shape), 0, 255).astype(np.uint8)
-    out = score_crop_batch(CropBatch(np.arange(1), [gt], np.zeros(1, np.int64), [render]),
-                           metrics=["pyiqa:psnr", "psnr"])
+    out = score_crop_batch(CropBatch(np.arange(1), [gt], np.zeros(1, np.int64), [render]), ScorePlan.for_columns(["pyiqa:psnr", "psnr"]))
     assert pyiqa.create_metric("psnr").metric_mode == "FR"
     assert out["pyiqa:psnr"][0] == pytest.approx(out["psnr"][0], rel=1e-3)  # both RGB, range 255/1

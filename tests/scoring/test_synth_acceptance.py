@@ -15,6 +15,7 @@ from nvrq.crops import cut_box, encoder_input, read_rgb
 from nvrq.encoders import load_encoder
 from nvrq.metrics.formulas import nvrq_similarity
 from nvrq.scoring.driver import score_pairs
+from nvrq.scoring.plan import ScorePlan
 
 synth = pytest.importorskip("nvrq.synth.generate")
 
@@ -61,7 +62,8 @@ def test_shifted_copy_beats_other_object(scene, effnet):
 
 def test_s_falls_as_severity_rises(scene, effnet):
     root, pairs = scene
-    res = score_pairs(pairs, metrics=["nvrq:efficientnet-lite0"], encoder=effnet, progress=False)
+    res = score_pairs(pairs, ScorePlan.for_columns(["nvrq:efficientnet-lite0"], encoder=effnet),
+                      encoder=effnet, progress=False)
     deg = pd.read_csv(root / "degradation.csv", dtype={"track_id": str, "camera": str})
     keys = ["camera", "timestamp_us", "track_id", "y_offset_m"]
     scored = pairs[keys].assign(s=res.table["nvrq:efficientnet-lite0"].to_numpy())

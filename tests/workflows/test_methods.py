@@ -33,6 +33,7 @@ from nvrq.engines.shards import plan_shards, read_sources
 from nvrq.pairs import PAIRS_OUTPUT_COLUMNS, make_pairs
 from nvrq.scoring.batches import iter_crop_batches
 from nvrq.scoring.driver import score_pairs
+from nvrq.scoring.plan import ScorePlan
 
 OLD = Path(__file__).resolve().parents[1] / "data" / "pre_sixdof"
 CLIP = ["--seed", "0", "--seconds", "0.5", "--fps", "4", "--size", "320x180", "--offsets=-1,0,1", "--quiet"]
@@ -166,18 +167,20 @@ def test_each_gt_crop_is_embedded_once_for_every_method_and_view(clip):
     col = "nvrq:count"
     for max_pairs in (256, 5):  # small batches still keep a GT image's methods together
         enc = CountingEncoder()
-        res = score_pairs(pairs.sample(frac=1, random_state=1), metrics=[col], encoder=enc, max_pairs=max_pairs,
-                          progress=False)
+        res = score_pairs(pairs.sample(frac=1, random_state=1), ScorePlan.for_columns([col], encoder=enc, max_pairs=max_pairs),
+                          encoder=enc, progress=False)
         assert enc.images == res.n_encoder_images == G + n_methods * R  # not M·(G + R)
     # the same scores as each method scored on its own (which embeds its GT crops again)
     alone, n_alone = [], 0
     for _, sub in pairs.groupby("method"):
         enc = CountingEncoder()
-        alone.append(score_pairs(sub, metrics=[col, "psnr"], encoder=enc, progress=False).table)
+        alone.append(score_pairs(sub, ScorePlan.for_columns([col, "psnr"], encoder=enc),
+                                 encoder=enc, progress=False).table)
         n_alone += enc.images
     assert n_alone == n_methods * (G + R)
     alone = pd.concat(alone).set_index("pair_id").loc[pairs["pair_id"]]
-    together = score_pairs(pairs, metrics=[col, "psnr"], encoder=CountingEncoder(), progress=False).table
+    together = score_pairs(pairs, ScorePlan.for_columns([col, "psnr"], encoder=CountingEncoder()),
+                           encoder=CountingEncoder(), progress=False).table
     np.testing.assert_allclose(together[col].to_numpy(), alone[col].to_numpy(), rtol=0, atol=1e-12)
     np.testing.assert_array_equal(together["psnr"].to_numpy(), alone["psnr"].to_numpy())
     # batches: every GT image's pairs (all methods) in one batch
@@ -257,7 +260,7 @@ def test_ray_engine_scores_method_pairs_as_the_local_engine(fleet, tmp_path):
             ray.shutdown()
     got = ds.read_dataset(tmp_path / "m")
     pairs = ds.read_dataset(fleet)
-    want = score_pairs(pairs, metrics=["psnr", "ssim"], progress=False).table
+    want = score_pairs(pairs, ScorePlan.for_columns(["psnr", "ssim"]), progress=False).table
     assert got["pair_id"].tolist() == pairs["pair_id"].tolist()  # every method's pair, once
     for c in ("psnr", "ssim"):
         np.testing.assert_array_equal(got[c].to_numpy(), want[c].to_numpy())

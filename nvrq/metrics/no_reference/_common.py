@@ -15,7 +15,7 @@ import numpy as np
 
 from data_schema.errors import InputError
 
-__all__ = ["rgb2gray_matlab", "check_rgb", "below_side", "MATLAB_GREY"]
+__all__ = ["rgb2gray_matlab", "check_rgb", "MATLAB_GREY"]
 
 #: MATLAB ``rgb2gray`` (the NTSC luma of ``rgb2ntsc``, as MATLAB documents it to 15 digits)
 MATLAB_GREY = (0.298936021293775, 0.587043074451121, 0.114020904255103)
@@ -46,30 +46,10 @@ def check_rgb(crop: np.ndarray) -> np.ndarray:
     return crop
 
 
-def below_side(render: np.ndarray, side: int) -> bool:
-    """Whether the checked crop ``render`` (:func:`check_rgb`) has a side shorter than ``side``
-    px: the no-reference metrics are NaN for such crops.
-
-    Parameters
-    ----------
-    render : (H, W, 3) uint8 ndarray
-        The RGB crop (checked by :func:`check_rgb`).
-    side : int
-        The shortest allowed side, in pixels.
-
-    Returns
-    -------
-    bool
-        True when the crop's shorter side is below ``side``.
-
-    >>> below_side(np.zeros((95, 200, 3), np.uint8), 96), below_side(np.zeros((96, 96, 3), np.uint8), 96)
-    (True, False)
-    """
-    return min(check_rgb(render).shape[:2]) < side
-
-
 def _below_side(render: np.ndarray, side: int) -> bool:
-    """:func:`below_side` without the input check (the scoring core checks once per run)."""
+    """Whether the crop ``render`` (H, W, 3) has a side shorter than ``side`` px: the
+    no-reference metrics are NaN for such crops (no input check: the scoring core checks once
+    per run)."""
     return min(render.shape[:2]) < side
 
 
