@@ -13,6 +13,7 @@ least 5 tracks), averaged over the cells. Run: ``python docs/make_visibility_num
 from __future__ import annotations
 
 import argparse
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -70,16 +71,45 @@ def clip_table(name: str, out: Path) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+BLOCK_FILES = ("README.md", "docs/FORMATS.md")
+_BLOCK = re.compile(r"(<!-- numbers:visibility -->\n)(.*?)(<!-- /numbers:visibility -->)", re.S)
+
+
+def side_by_side(table: pd.DataFrame, rule: float = 0.8) -> str:
+    """The paper's protocol (``--min-visible 0``) beside the rule, one row per clip and metric."""
+    lines = [f"| clip | metric | pairs (0 / {rule:g}) | pooled SRCC, paper's protocol | pooled SRCC, rule "
+             f"| within-view SRCC, paper's protocol | within-view SRCC, rule |", "|---|---|---|---|---|---|---|"]
+    for (clip, metric), g in table.groupby(["clip", "metric"], sort=False):
+        a = g[g.min_visible == 0].iloc[0]
+        b = g[g.min_visible == rule].iloc[0]
+        lines.append(f"| {clip} | {metric} | {a.pairs} / {b.pairs} | {a.pooled_srcc:.3f} | {b.pooled_srcc:.3f} "
+                     f"| {a.within_view_srcc:.3f} ({a.cells} cells) | {b.within_view_srcc:.3f} ({b.cells} cells) |")
+    return "\n".join(lines) + "\n"
+
+
+def write_blocks(text: str) -> None:
+    repo = Path(__file__).resolve().parents[1]
+    for rel in BLOCK_FILES:
+        path = repo / rel
+        body = path.read_text()
+        new = _BLOCK.sub(lambda m: m.group(1) + text + m.group(3), body)
+        path.write_text(new)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="out/visibility", help="work folder (kept: a rerun reuses its scores)")
     ap.add_argument("--clips", default=",".join(CLIPS))
+    ap.add_argument("--write", action="store_true", help="rewrite the marked blocks of the README and FORMATS")
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     table = pd.concat([clip_table(c, out) for c in args.clips.split(",")], ignore_index=True)
     table.to_csv(out / "visibility_numbers.csv", index=False)
-    print(table.to_markdown(index=False, floatfmt=".3f"))
+    text = side_by_side(table)
+    print(text)
+    if args.write:
+        write_blocks(text)
 
 
 if __name__ == "__main__":

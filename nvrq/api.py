@@ -518,7 +518,7 @@ class Evaluator:
 
     def compute(self, by: Sequence[str] | None = None) -> pd.DataFrame:
         """The summary: one row per label group (``by``, default every label key given to
-        :meth:`update`, in first-seen order; none: one row of all pairs), with ``pairs`` (the
+        :meth:`update`, in first-seen order, but the visibility columns; none: one row of all pairs), with ``pairs`` (the
         group's pair count) and each metric's mean over the group (NaN values skipped). A
         metric NaN on every pair (e.g. crops below its ``min_side``) gets a ``UserWarning``."""
         import warnings
@@ -526,7 +526,9 @@ class Evaluator:
         from nvrq.scoring.core import empty_column_warning
 
         table = self.pairs
-        keys = list(self._label_keys if by is None else by)
+        from nvrq.pairs import VISIBILITY_COLUMNS
+
+        keys = list([k for k in self._label_keys if k not in VISIBILITY_COLUMNS] if by is None else by)
         missing = [k for k in keys if k not in self._label_keys]
         if missing:
             raise InputError(param="by", expected=f"label keys among {', '.join(self._label_keys) or 'none'}", got=missing[0])

@@ -137,20 +137,22 @@ def test_box_with_a_corner_behind_the_camera_is_never_kept(name, x, y, z, a, dim
 
 def test_pair_stats_counts_per_axis_and_in_total():
     stats = PairStats()
-    axes_ = np.array(["y", "z", "y", "z", "none"], dtype=object)
-    stats.add(axes_, np.array([True, True, False, True, True]), np.array([0, 1, 0, 3, 2], np.int8))
+    axes_ = np.array(["y", "z", "y", "z", "none", "y"], dtype=object)
+    stats.add(axes_, np.array([True, True, False, True, True, True]), np.array([0, 1, 0, 3, 2, 4], np.int8))
     assert (stats.candidates, stats.kept, stats.dropped) == (
-        5, 1, {"no_gt_image": 1, "unprojectable": 1, "outside_image": 1, "too_small": 1})
+        6, 1, {"no_gt_image": 1, "unprojectable": 1, "outside_image": 1, "too_small": 1, "occluded": 1})
     assert stats.by_axis == {
-        "y": {"candidates": 2, "kept": 1, "no_gt_image": 1, "unprojectable": 0, "outside_image": 0, "too_small": 0},
-        "z": {"candidates": 2, "kept": 0, "no_gt_image": 0, "unprojectable": 1, "outside_image": 0, "too_small": 1},
+        "y": {"candidates": 3, "kept": 1, "no_gt_image": 1, "unprojectable": 0, "outside_image": 0, "too_small": 0,
+              "occluded": 1},
+        "z": {"candidates": 2, "kept": 0, "no_gt_image": 0, "unprojectable": 1, "outside_image": 0, "too_small": 1,
+              "occluded": 0},
         "none": {"candidates": 1, "kept": 0, "no_gt_image": 0, "unprojectable": 0, "outside_image": 1,
-                 "too_small": 0}}
+                 "too_small": 0, "occluded": 0}}
     rng = np.random.default_rng(0)
     for _ in range(20):  # the totals are the sums over the axes
         n = int(rng.integers(0, 40))
         stats.add(np.array(["y", "z", "yaw", "combined"], dtype=object)[rng.integers(0, 4, n)],
-                  rng.random(n) < 0.7, rng.integers(0, 4, n).astype(np.int8))
+                  rng.random(n) < 0.7, rng.integers(0, 5, n).astype(np.int8))
     for k in ("candidates", "kept"):
         assert getattr(stats, k) == sum(c[k] for c in stats.by_axis.values())
     for k in DROP_REASONS:
