@@ -45,7 +45,12 @@ from data_schema.scene import Scene
 from data_schema.tables import pair_ids
 from nvrq.geometry.boxes import box_corners
 from nvrq.geometry.cameras import camera_from_model
-from nvrq.geometry.poses import interpolate_poses, invert_rigid, perturb_T_sensor_rig, pose7_to_matrix
+from nvrq.geometry.poses import (
+    interpolate_poses,
+    invert_rigid,
+    perturb_T_sensor_rig,
+    pose7_to_matrix,
+)
 from nvrq.scene_boxes import track_boxes_at
 
 __all__ = ["ANGLE_TOL_DEG", "ANGLE_REL_TOL", "RATIO_TOL", "FLOOR_COLUMNS", "FloorStats", "viewing_geometry",

@@ -153,16 +153,19 @@ def test_floor_pairs_are_scored_unchanged(tmp_path):
         assert scores[r["pair_id"]] == pytest.approx(psnr(gt, other), rel=1e-12)
 
 
-def test_a_lateral_view_toward_the_car_has_no_forward_partner(tmp_path):
-    # 3 m toward the car (left) the distance falls from >= 8 m to >= 5 m: no GT view of the drive
-    # has that distance ratio, so the view gets no floor row
-    scene = load_scene(_scene(tmp_path / "s", forward=(), lateral=(3.0,)))
+def test_a_view_closer_than_the_closest_approach_has_no_partner(tmp_path):
+    # frame 6 passes the car at its closest (8 m, the car's x); 1.5 m toward it the distance is
+    # 6.5 m (ratio ~0.81), while every other GT view of the drive is farther (ratio >= 1): no
+    # floor row. Every floor row of the lateral views keeps to the tolerances.
+    scene = load_scene(_scene(tmp_path / "s", forward=(), lateral=(1.5,)))
     pairs, _ = make_pairs(scene, progress=False)
-    out, stats = add_floor(scene, pairs, min_side=30, min_area=0)
-    moved = pairs[pairs["y_offset_m"] == 3.0]
-    assert len(moved) > 0
-    assert not ((out["method"] == "floor") & (out["y_offset_m"] == 3.0)).any()
-    assert (out.loc[out["y_offset_m"] == 3.0, "view_ratio"] < 0.8).all()
+    out, _ = add_floor(scene, pairs, min_side=30, min_area=0)
+    t6 = 6 * DT_US
+    moved = out[(out["y_offset_m"] == 1.5) & (out["timestamp_us"] == t6)]
+    assert list(moved["method"]) == [""]  # the render's pair, no floor
+    assert moved["view_ratio"].iloc[0] == pytest.approx(math.hypot(6.5, 0.7) / math.hypot(8.0, 0.7), abs=1e-9)
+    floor = out[out["method"] == "floor"]
+    assert (abs(np.log(floor["floor_ratio"] / floor["view_ratio"])) <= math.log(1.1)).all()
 
 
 def test_one_frame_scene_is_refused(tmp_path, capsys):
