@@ -26,6 +26,8 @@ image (``render_path``, relative to the scene folder as in ``images.csv``) with 
 there as ``r_x0..r_y1``. The row keeps the novel view's perturbation (``y_offset_m`` ...), so a
 table grouped by view puts the floor beside the renders; ``nvrq score`` scores it unchanged.
 The partner view must pass the same box rule as any GT view (:func:`nvrq.pairs.view_validity`).
+The recorded view (no perturbation) gets no floor row: a perfect render there is the GT crop
+itself.
 
 :func:`floor_rows` builds the rows for a scene and its pairs table, :func:`add_floor` appends them
 to the table, and :func:`viewing_geometry` is the geometry both use.
@@ -76,7 +78,8 @@ class FloorStats:
     Attributes
     ----------
     views : int
-        Distinct novel views of the pairs table (camera, frame, track, perturbation).
+        Distinct novel views of the pairs table off the recorded view (camera, frame, track,
+        perturbation).
     matched : int
         Those given a floor row.
     gt_views : int
@@ -202,8 +205,8 @@ def check_floor_scene(scene: Scene) -> None:
 
 
 def _novel_views(scene: Scene, pairs: pd.DataFrame, views: pd.DataFrame) -> pd.DataFrame:
-    """The distinct novel views of ``pairs`` (one per camera, frame, track and perturbation, the
-    methods' rows merged), each with its GT view (index into ``views``), and its change of view:
+    """The distinct novel views of ``pairs`` off the recorded view (one per camera, frame, track and
+    perturbation, the methods' rows merged), each with its GT view (index into ``views``), and its change of view:
     ``angle`` (degrees) and ``ratio``."""
     track_pos = {t.track_id: k for k, t in enumerate(scene.tracks)}
     p = pairs.loc[method_values(pairs) != FLOOR_METHOD]
@@ -213,6 +216,7 @@ def _novel_views(scene: Scene, pairs: pd.DataFrame, views: pd.DataFrame) -> pd.D
                       "track": p["track_id"].astype(str).map(track_pos).to_numpy()})
     P_cols = [f"p{j}" for j in range(6)]
     q[P_cols] = P
+    q = q[(P != 0).any(axis=1)]  # the recorded view's floor is its GT crop itself: no row
     q = q.drop_duplicates(["camera", "timestamp_us", "track", *P_cols]).reset_index(drop=True)
     g = views[["camera", "timestamp_us", "track"]].reset_index().rename(columns={"index": "g0"})
     q = q.merge(g, on=["camera", "timestamp_us", "track"], how="inner")
@@ -304,7 +308,8 @@ def floor_rows(scene: Scene, pairs: pd.DataFrame, *, min_side: float, min_area: 
         :data:`FLOOR_COLUMNS`.
     view_change : pandas.DataFrame
         ``(N, 2)``: ``view_angle_deg`` and ``view_ratio`` of each row of ``pairs`` (the change of
-        viewpoint of its novel view; NaN where its GT view is not found).
+        viewpoint of its novel view: 0 and 1 at the recorded view; NaN where its GT view is not
+        found).
     stats : FloorStats
 
     Raises
@@ -356,8 +361,9 @@ def _view_change(scene: Scene, pairs: pd.DataFrame, q: pd.DataFrame) -> pd.DataF
     keys[P_cols] = P
     got = keys.merge(q[["camera", "timestamp_us", "track", *P_cols, "angle", "ratio"]],
                      on=["camera", "timestamp_us", "track", *P_cols], how="left")
-    return pd.DataFrame({"view_angle_deg": got["angle"].to_numpy(np.float64),
-                         "view_ratio": got["ratio"].to_numpy(np.float64)}, index=pairs.index)
+    zero = ~(P != 0).any(axis=1)  # the recorded view: no change
+    return pd.DataFrame({"view_angle_deg": np.where(zero, 0.0, got["angle"].to_numpy(np.float64)),
+                         "view_ratio": np.where(zero, 1.0, got["ratio"].to_numpy(np.float64))}, index=pairs.index)
 
 
 def add_floor(scene: Scene, pairs: pd.DataFrame, *, min_side: float, min_area: float,

@@ -106,7 +106,7 @@ def test_forward_view_finds_the_later_frame(tmp_path):
     pairs, _ = make_pairs(scene, progress=False)
     out, stats = add_floor(scene, pairs, min_side=30, min_area=0)
     floor = out[out["method"] == "floor"].set_index(["timestamp_us", "x_offset_m"])
-    assert stats.views == len(pairs) and stats.matched == len(floor) > 0
+    assert stats.views == int((pairs["x_offset_m"] != 0).sum()) and stats.matched == len(floor) > 0
     assert set(FLOOR_COLUMNS) <= set(out.columns)
     for (t, dx), row in floor.iterrows():
         i = t // DT_US
@@ -114,7 +114,8 @@ def test_forward_view_finds_the_later_frame(tmp_path):
         # any partner is within the tolerances of its novel view's change of viewpoint
         assert abs(row["floor_angle_deg"] - row["view_angle_deg"]) <= max(1.0, 0.15 * row["view_angle_deg"])
         assert abs(math.log(row["floor_ratio"] / row["view_ratio"])) <= math.log(1.1)
-        if dx == 0 or not (0 <= j < N_FRAMES and _valid(j)):  # no exact partner in the log
+        assert dx != 0  # the recorded view has no floor row
+        if not (0 <= j < N_FRAMES and _valid(j)):  # no exact partner in the log
             assert row["render_path"] != row["gt_path"]
             continue
         # moved dx m forward = exactly the GT view dx frames later (angle and distance equal)
@@ -131,6 +132,8 @@ def test_forward_view_finds_the_later_frame(tmp_path):
     got = {k for k in floor.index if k[1] != 0}
     assert want and want <= got
     assert floor.index.is_unique and out["pair_id"].is_unique
+    recorded = out[out["x_offset_m"] == 0]
+    assert (recorded["view_angle_deg"] == 0).all() and (recorded["view_ratio"] == 1).all()
     assert all(p.endswith(":floor") for p in floor["pair_id"])
 
 
