@@ -58,7 +58,7 @@ from analysis.signflip import draw_signs, sign_flip_p
 from analysis.text import offset_text
 from data_schema.datasets import table_columns
 from data_schema.errors import InputError
-from data_schema.methods import METHOD_COLUMN, table_methods
+from data_schema.methods import FLOOR_METHOD, METHOD_COLUMN, method_values, table_methods
 from data_schema.options import options_or_keywords
 from data_schema.perturbation import perturbation_array
 from data_schema.tables import OBJECT_COLUMNS, require_columns
@@ -704,18 +704,29 @@ def for_analysis(items: pd.DataFrame, *, target: str | None, metrics, directions
     Returns
     -------
     MethodsResult
-        As :func:`compare_methods`.
+        As :func:`compare_methods`. Items with ``floor`` rows (``nvrq pairs --floor``) get the
+        sentence of :func:`analysis.viewpoint_floor.items_floor_verdict` first in the notes; when
+        it says the floor does not predict a perfect render, the ``floor`` rows are left out
+        (unless ``options.methods`` names the methods).
 
     Raises
     ------
     InputError
         As :func:`compare_methods` (unknown methods or rank metric, no ``method`` column, ...).
     """
+    from analysis.viewpoint_floor import items_floor_verdict
+
+    verdict = items_floor_verdict(items, metrics)  # the log's viewpoint floor: drawn when it holds
+    if verdict is not None and not verdict.draw and options.methods is None:
+        items = items[method_values(items) != FLOOR_METHOD].reset_index(drop=True)
     votes = [target] if target in ("gvf", "p_good") else []
     clusters = pd.MultiIndex.from_arrays([items["clip_id"].astype(str),
                                           items["track_id"].astype(str)]).factorize()[0]
-    return compare_methods(items, votes + list(metrics), {**directions, **{t: True for t in votes}},
-                           clusters=clusters,
-                           options=replace(options, attributes=[c for c in attributes if c != METHOD_COLUMN]),
-                           where=str(where),
-                           sources={c: str(p) for p in metrics_paths for c in table_columns(p)})
+    res = compare_methods(items, votes + list(metrics), {**directions, **{t: True for t in votes}},
+                          clusters=clusters,
+                          options=replace(options, attributes=[c for c in attributes if c != METHOD_COLUMN]),
+                          where=str(where),
+                          sources={c: str(p) for p in metrics_paths for c in table_columns(p)})
+    if verdict is not None:
+        res.notes.insert(0, verdict.sentence)
+    return res
