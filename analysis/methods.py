@@ -717,7 +717,7 @@ def for_analysis(items: pd.DataFrame, *, target: str | None, metrics, directions
     from analysis.viewpoint_floor import items_floor_verdict
 
     verdict = items_floor_verdict(items, metrics)  # the log's viewpoint floor: drawn when it holds
-    if verdict is not None and not verdict.draw and options.methods is None:
+    if verdict is not None and not verdict.draw and not options.methods:
         items = items[method_values(items) != FLOOR_METHOD].reset_index(drop=True)
     votes = [target] if target in ("gvf", "p_good") else []
     clusters = pd.MultiIndex.from_arrays([items["clip_id"].astype(str),

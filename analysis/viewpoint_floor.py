@@ -104,6 +104,14 @@ def is_reference(method: str) -> bool:
     return method in REFERENCE_METHODS
 
 
+def _lateral(items: pd.DataFrame) -> np.ndarray:
+    """``(N,)`` bool: the rows whose view is lateral (every 6-DoF column other than y is 0 or absent)."""
+    cols = [c for c in PERTURBATION_COLUMNS if c in items.columns and c != "y_offset_m"]
+    if not cols:
+        return np.ones(len(items), bool)
+    return (items[cols].apply(pd.to_numeric).fillna(0) == 0).all(axis=1).to_numpy()
+
+
 def floor_check(items: pd.DataFrame, metric: str) -> pd.DataFrame:
     """The floor against the perfect render per lateral offset, on the same novel views.
 
@@ -125,8 +133,7 @@ def floor_check(items: pd.DataFrame, metric: str) -> pd.DataFrame:
         views of that offset, and ``gap = floor - perfect``, in offset order.
     """
     method = method_values(items)
-    view_cols = [c for c in PERTURBATION_COLUMNS if c in items.columns and c != "y_offset_m"]
-    lateral = (items[view_cols].fillna(0) == 0).all(axis=1).to_numpy() if view_cols else np.ones(len(items), bool)
+    lateral = _lateral(items)
     keys = [*OBJECT_COLUMNS, "y_offset_m"]
     fl = items.loc[(method == FLOOR_METHOD) & lateral, [*keys, metric]]
     pf = items.loc[(method == PERFECT_METHOD) & lateral, [*keys, metric]]
@@ -213,7 +220,8 @@ def items_floor_verdict(items: pd.DataFrame, metrics) -> FloorVerdict | None:
     method = method_values(items)
     if not (method == FLOOR_METHOD).any():
         return None
-    offsets = pd.to_numeric(items.loc[method == FLOOR_METHOD, "y_offset_m"]).unique()
+    lateral = _lateral(items)
+    offsets = pd.to_numeric(items.loc[(method == FLOOR_METHOD) & lateral, "y_offset_m"]).unique()
     ca = [m for m in metrics if m == FLOOR_METRIC_PREFIX or str(m).startswith(FLOOR_METRIC_PREFIX + ":")]
     if (method == PERFECT_METHOD).any() and ca:
         check = floor_check(items, ca[0])
