@@ -7,7 +7,9 @@ synth (built-in scene) -> pairs -> score (offline encoder + pixel metrics) -> an
 made and how long it took, so the demo doubles as a walkthrough of the workflow.
 
 ``nvrq demo OUT --methods NAME:SCALE,...`` compares reconstruction methods instead
-(docs/guides/compare-reconstructions.md): synth renders the clip once per method -> pairs -> score ->
+(docs/guides/compare-reconstructions.md): synth renders the clip once per method, and once more
+as ``perfect:0`` (no artefact: the viewpoint floor the leaderboard's tents draw and the pairwise
+study leaves out) -> pairs -> score ->
 ``analyze --pairs --compare-methods`` (the leaderboard) -> a pairwise study (build, simulated
 raters, export) -> ``analyze`` of its votes (Bradley-Terry and 2AFC agreement). Before the
 leaderboard it computes the numbers the field reports: NTA-IoU (``nvrq proxy simulate-detect``,
@@ -27,7 +29,7 @@ from nvrq.commands.args import allow_negative_lists, int_arg, number_arg, parse_
 from nvrq.commands.shared_options import add_seed_option
 from nvrq.encoders import get_spec
 
-__all__ = ["register", "run", "demo_steps", "method_steps"]
+__all__ = ["register", "run", "demo_steps", "method_steps", "with_floor"]
 
 
 def register(sub) -> None:
@@ -51,7 +53,8 @@ def register(sub) -> None:
     p.add_argument("--raters", type=int_arg(), default=5, help="simulated raters (default 5)")
     p.add_argument("--methods", default=None, metavar="NAME:SCALE,...",
                    help="compare reconstruction methods: render the clip once per method (artefact "
-                        "severity times SCALE), rank them (analyze --compare-methods) and run a "
+                        "severity times SCALE) and once with no artefact (perfect:0, the viewpoint "
+                        "floor, never rated), rank them (analyze --compare-methods) and run a "
                         "pairwise study, e.g. sharp:0.5,blurry:1.5")
     allow_negative_lists(p)
     p.set_defaults(func=run)
@@ -61,9 +64,34 @@ def register(sub) -> None:
 _EVERY_ITEM = ("--items-per-rater", "all")
 
 
+def with_floor(methods: str) -> str:
+    """``methods`` (``NAME:SCALE,...``) with ``perfect:0``, the render with no artefact, appended
+    unless a method is already named ``perfect``: the viewpoint floor the leaderboard draws and
+    the pairwise study leaves out (:data:`data_schema.methods.REFERENCE_METHODS`).
+
+    Parameters
+    ----------
+    methods : str
+        The ``--methods`` value.
+
+    Returns
+    -------
+    str
+
+    >>> with_floor("sharp:0.5,blurry:1.5")
+    'sharp:0.5,blurry:1.5,perfect:0'
+    """
+    from data_schema.methods import PERFECT_METHOD, parse_methods
+
+    if any(name == PERFECT_METHOD for name, _ in parse_methods(methods, option="--methods")):
+        return methods
+    return f"{methods},{PERFECT_METHOD}:0"
+
+
 def method_steps(out: Path, args) -> list[tuple[str, list[str]]]:
-    """The ``--methods`` demo as (program, argv) steps, in order: one scene rendered per method,
-    its leaderboard, then a pairwise study of the methods.
+    """The ``--methods`` demo as (program, argv) steps, in order: one scene rendered per method
+    (and ``perfect:0``, the viewpoint floor: :func:`with_floor`), its leaderboard, then a pairwise
+    study of the methods (``perfect`` left out).
 
     Parameters
     ----------
@@ -83,7 +111,7 @@ def method_steps(out: Path, args) -> list[tuple[str, list[str]]]:
     dets, nta, sets = out / "dets.csv", out / "nta.csv", out / "sets.csv"
     return [
         ("nvrq", ["synth", str(scene), "--seed", str(args.seed), "--seconds", str(args.seconds),
-                  "--size", args.size, "--offsets", args.offsets, "--methods", args.methods]),
+                  "--size", args.size, "--offsets", args.offsets, "--methods", with_floor(args.methods)]),
         ("nvrq", ["pairs", str(scene), "--out", str(pairs)]),
         ("nvrq", ["score", str(pairs), "--out", str(metrics), "--metrics", "psnr,ssim,nvrq,nvrq_ca",
                   "--encoder", args.encoder]),
