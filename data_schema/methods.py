@@ -45,7 +45,7 @@ from data_schema.errors import InputError
 from data_schema.text import comma_list
 
 __all__ = ["METHOD_COLUMN", "GT_METHOD", "REAL_METHOD", "FLOOR_METHOD", "PERFECT_METHOD",
-           "REFERENCE_METHODS", "check_method_name", "method_values", "table_methods", "method_columns",
+           "REFERENCE_METHODS", "FLOOR_PAIR_COLUMNS", "check_method_name", "method_values", "table_methods", "method_columns",
            "method_suffix", "parse_methods", "check_method_scales", "check_table_methods"]
 
 #: The optional column naming the reconstruction method of a render (empty: none).
@@ -63,6 +63,10 @@ REAL_METHOD = "real"
 #: The reserved name of the viewpoint floor of a real log (``nvrq pairs --floor``, docs/FORMATS.md
 #: §3): pairs of two GT views of one object, never a synthetic method.
 FLOOR_METHOD = "floor"
+
+#: The columns ``nvrq pairs --floor`` adds to a pairs table (docs/FORMATS.md §3): the novel view's
+#: change of viewpoint and the floor partner's; never metrics.
+FLOOR_PAIR_COLUMNS = ("view_angle_deg", "view_ratio", "floor_angle_deg", "floor_ratio")
 
 #: The reserved name of a synthetic render with no artefact (``nvrq synth --methods perfect:0``,
 #: scale 0 only): the viewpoint floor of a synthetic scene.

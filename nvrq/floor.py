@@ -41,7 +41,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
-from data_schema.methods import FLOOR_METHOD, METHOD_COLUMN, method_values
+from data_schema.methods import FLOOR_METHOD, FLOOR_PAIR_COLUMNS, METHOD_COLUMN, method_values
 from data_schema.perturbation import EXTRA_PERTURBATION_COLUMNS, LABEL_COLUMN, perturbation_array
 from data_schema.scene import Scene
 from data_schema.tables import pair_ids
@@ -66,7 +66,7 @@ ANGLE_REL_TOL = 0.15
 RATIO_TOL = 0.10
 #: the columns ``--floor`` adds to the pairs table: the novel view's change of viewpoint (every
 #: row) and the floor partner's (floor rows; empty on the others)
-FLOOR_COLUMNS = ("view_angle_deg", "view_ratio", "floor_angle_deg", "floor_ratio")
+FLOOR_COLUMNS = FLOOR_PAIR_COLUMNS
 #: a (query, candidate) block is at most this many elements (memory bound of the matching)
 _BLOCK = 4_000_000
 

@@ -152,3 +152,20 @@ def test_a_log_floor_that_misses_the_perfect_render_is_left_out_and_said(tmp_pat
     assert "floor" not in set(table["method"]) and "perfect" in set(table["method"])
     html = (tmp_path / "rep" / "report.html").read_text()
     assert "The viewpoint floor (two GT views) is left out: at -2 m its median NVRQ-CA is 0.300 above" in html
+
+
+def test_the_pairs_path_leaves_the_floor_out_of_the_pooled_statistics(tmp_path):
+    pairs, metrics = make_method_tables(methods={"sharp": 0.5}, n_tracks=6)
+    metrics["sev"] = -metrics["psnr"]  # a per-pair target
+    fp, fm = _with_reference("floor", 0.0)
+    floor = fp[fp["method"] == "floor"]
+    fm = fm[fm["pair_id"].str.endswith(":floor")].assign(sev=np.nan)
+    p, m = tmp_path / "pairs.csv", tmp_path / "metrics.csv"
+    pd.concat([pairs, floor], ignore_index=True).to_csv(p, index=False)
+    pd.concat([metrics, fm], ignore_index=True).to_csv(m, index=False)
+    assert analyze(["--pairs", str(p), "--metrics-table", str(m), "--target", "sev", "--bootstrap", "20",
+                    "--quiet", "--out", str(tmp_path / "rep")]) == 0
+    summary = pd.read_csv(tmp_path / "rep" / "summary.csv")
+    assert (summary.loc[summary["metric"] == "psnr", "n"] == len(pairs)).all()
+    md = (tmp_path / "rep" / "report.md").read_text()
+    assert f"{len(floor)} pairs of the viewpoint floor (method floor, two GT views) left out" in md
