@@ -36,7 +36,7 @@ from data_schema.perturbation import PERTURBATION_COLUMNS
 from data_schema.tables import OBJECT_COLUMNS
 
 __all__ = ["FLOOR_TOLERANCE", "FLOOR_METRIC_PREFIX", "MEASURED_GAPS", "FLOOR_LABELS", "FLOOR_COLOUR", "FloorVerdict",
-           "floor_label", "is_reference", "floor_check", "floor_verdict", "items_floor_verdict"]
+           "floor_label", "is_reference", "floor_check", "floor_verdict", "items_floor_verdict", "floor_by_offset"]
 
 #: the largest gap (NVRQ-CA) between the floor's and the perfect render's medians at an offset
 FLOOR_TOLERANCE = 0.1
@@ -228,3 +228,46 @@ def items_floor_verdict(items: pd.DataFrame, metrics) -> FloorVerdict | None:
         return floor_verdict(dict(zip(check["offset"], check["gap"], strict=True)), offsets,
                              source="on this clip")
     return floor_verdict(MEASURED_GAPS, offsets, source="on the synthetic check clip (docs/FORMATS.md §3)")
+
+
+def floor_by_offset(pairs: pd.DataFrame, metrics: pd.DataFrame, *, where: object = "floor pairs") -> pd.DataFrame:
+    """The viewpoint floor of a tent plot: each metric's mean per lateral offset over the pairs of
+    a reference method (``perfect``, else ``floor``), e.g. a perfect render of the demo's clip.
+
+    Parameters
+    ----------
+    pairs : pandas.DataFrame
+        A pairs table (N rows) with ``pair_id``, ``y_offset_m`` and ``method``.
+    metrics : pandas.DataFrame
+        Its metrics table: ``pair_id`` and metric columns.
+    where : object, optional
+        The pairs file, named in errors.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``y_offset_m, column, n, mean``: one row per offset and metric column (as
+        :func:`analysis.breakdowns.offset_table`'s), in offset order.
+
+    Raises
+    ------
+    InputError
+        ``pairs`` has no row of method ``perfect`` or ``floor`` on a lateral view, or no metric
+        of ``metrics`` scores them.
+    """
+    from data_schema.errors import InputError
+
+    method = method_values(pairs)
+    ref = PERFECT_METHOD if (method == PERFECT_METHOD).any() else FLOOR_METHOD
+    rows = pairs.loc[(method == ref) & _lateral(pairs), ["pair_id", "y_offset_m"]]
+    if rows.empty:
+        raise InputError(where, METHOD_COLUMN, "pairs of method perfect (nvrq synth --methods perfect:0) or floor "
+                         "(nvrq pairs --floor) on lateral views", "none")
+    cols = [c for c in metrics.columns if c != "pair_id" and pd.api.types.is_numeric_dtype(metrics[c])]
+    got = rows.merge(metrics[["pair_id", *cols]], on="pair_id", how="inner")
+    if got.empty or not cols:
+        raise InputError(where, "pair_id", f"metric values for its {ref} pairs in the floor metrics table",
+                         "none matches")
+    long = got.melt(id_vars=["y_offset_m"], value_vars=cols, var_name="column", value_name="v").dropna()
+    out = long.groupby(["y_offset_m", "column"], sort=True)["v"].agg(n="size", mean="mean").reset_index()
+    return out[["y_offset_m", "column", "n", "mean"]]

@@ -2,8 +2,9 @@
 
 Layer: commands (CLI shell).
 
-synth (built-in scene) -> pairs -> score (offline encoder + pixel metrics) -> annotate build
--> simulated raters -> annotate export -> analyze. Each step prints its command line, what it
+synth (built-in scene) -> pairs -> score (offline encoder + pixel metrics) -> the same clip
+rendered with no artefact (``perfect:0``, its own scene: the viewpoint floor the tent plot draws)
+-> annotate build -> simulated raters -> annotate export -> analyze. Each step prints its command line, what it
 made and how long it took, so the demo doubles as a walkthrough of the workflow.
 
 ``nvrq demo OUT --methods NAME:SCALE,...`` compares reconstruction methods instead
@@ -138,7 +139,8 @@ def demo_steps(out: Path, args) -> list[tuple[str, list[str]]]:
     ----------
     out : Path
         Where the steps write: the scene, pairs and metrics (also scored on torch eager),
-        the binary study, ``ratings.csv`` and ``report``.
+        the viewpoint floor (``floor_scene``, ``floor_pairs.csv``, ``floor_metrics.csv``), the
+        binary study, ``ratings.csv`` and ``report``.
     args : argparse.Namespace
         ``nvrq demo``'s options (``seed``, ``seconds``, ``size``, ``offsets``, ``encoder``,
         ``raters``, ``methods``).
@@ -153,6 +155,10 @@ def demo_steps(out: Path, args) -> list[tuple[str, list[str]]]:
     scene, pairs, metrics = out / "scene", out / "pairs.csv", out / "metrics.csv"
     study, ratings, report = out / "study", out / "ratings.csv", out / "report"
     torch_metrics = out / "metrics_torch.csv"  # the same encoder on torch eager: a second speed point
+    # the viewpoint floor: the same clip rendered with no artefact, in a scene of its own (so the
+    # study, the ratings and every number of the demo's renders stay as they are), scored by the
+    # full-reference and encoder metrics; the report's tent plot draws it dashed
+    floor_scene, floor_pairs, floor_metrics = out / "floor_scene", out / "floor_pairs.csv", out / "floor_metrics.csv"
     # full-reference, then no-reference (paper Table 1's classical rows), then the encoder metrics
     metric_list = "psnr,ssim,ms_ssim,gmsd,brisque,niqe,piqe,entropy,nvrq,nvrq_ca"
     return [
@@ -163,12 +169,17 @@ def demo_steps(out: Path, args) -> list[tuple[str, list[str]]]:
                   "--encoder", args.encoder]),
         ("nvrq", ["score", str(pairs), "--out", str(torch_metrics), "--metrics", "nvrq",
                   "--encoder", args.encoder, "--runtime", "torch", "--column-tag", "torch"]),
+        ("nvrq", ["synth", str(floor_scene), "--seed", str(args.seed), "--seconds", str(args.seconds),
+                  "--size", args.size, "--offsets", args.offsets, "--methods", "perfect:0"]),
+        ("nvrq", ["pairs", str(floor_scene), "--out", str(floor_pairs)]),
+        ("nvrq", ["score", str(floor_pairs), "--out", str(floor_metrics), "--metrics", "psnr,ssim,nvrq,nvrq_ca",
+                  "--encoder", args.encoder]),
         ("annotate", ["build", str(study), "--pairs", str(pairs), "--metrics-table", str(metrics),
                       "--seed", str(args.seed), *_EVERY_ITEM]),
         ("annotate", ["simulate", str(study), "--raters", str(args.raters), "--seed", str(args.seed)]),
         ("annotate", ["export", str(study), "--out", str(ratings)]),
         ("analyze", [str(ratings), "--timing", str(out / "metrics.timing.csv"), "--metrics-table", str(torch_metrics),
-                     "--out", str(report)]),
+                     "--floor-pairs", str(floor_pairs), "--floor-metrics", str(floor_metrics), "--out", str(report)]),
     ]
 
 
@@ -233,6 +244,6 @@ def run(args) -> int:
     print(f"Report: {out / 'report' / 'report.html'}")
     print(f"Vote yourself:  annotate serve {out / 'study'}   (then: annotate export {out / 'study'} "
           f"--out {out / 'ratings.csv'} && analyze {out / 'ratings.csv'} --timing {out / 'metrics.timing.csv'} "
-          f"--metrics-table {out / 'metrics_torch.csv'} "
-          f"--out {out / 'report'})")
+          f"--metrics-table {out / 'metrics_torch.csv'} --floor-pairs {out / 'floor_pairs.csv'} "
+          f"--floor-metrics {out / 'floor_metrics.csv'} --out {out / 'report'})")
     return 0

@@ -169,3 +169,45 @@ def test_the_pairs_path_leaves_the_floor_out_of_the_pooled_statistics(tmp_path):
     assert (summary.loc[summary["metric"] == "psnr", "n"] == len(pairs)).all()
     md = (tmp_path / "rep" / "report.md").read_text()
     assert f"{len(floor)} pairs of the viewpoint floor (method floor, two GT views) left out" in md
+
+
+def test_floor_by_offset_is_the_perfect_renders_mean_per_offset():
+    from analysis.viewpoint_floor import floor_by_offset
+    from data_schema.errors import InputError
+
+    pairs, metrics = _with_reference("perfect", 0.0)
+    f = floor_by_offset(pairs, metrics).set_index(["y_offset_m", "column"])
+    perfect = pairs[pairs["method"] == "perfect"].merge(metrics, on="pair_id")
+    want = perfect.groupby("y_offset_m")[[NVRQ_CA, "psnr"]].mean()
+    for off in want.index:
+        assert f.loc[(off, NVRQ_CA), "mean"] == pytest.approx(want.loc[off, NVRQ_CA])
+        assert f.loc[(off, "psnr"), "mean"] == pytest.approx(want.loc[off, "psnr"])
+        assert f.loc[(off, "psnr"), "n"] == (perfect["y_offset_m"] == off).sum()
+    with pytest.raises(InputError, match="pairs of method perfect"):
+        floor_by_offset(pairs[pairs["method"] != "perfect"], metrics, where="p.csv")
+
+
+def test_the_ratings_tent_draws_the_floor_in_each_metric_panel():
+    from analysis.plots import tent_plot
+
+    by_offset = pd.DataFrame({"y_offset_m": [-1.0, 0.0, 1.0] * 3, "column": ["gvf"] * 3 + ["psnr"] * 3 + ["ssim"] * 3,
+                              "n": 10, "mean": [0.2, 0.9, 0.3, 12, 30, 13, 0.4, 0.9, 0.5], "std": 0.1})
+    floor = pd.DataFrame({"y_offset_m": [-1.0, 0.0, 1.0], "column": "psnr", "n": 10, "mean": [14.0, 45.0, 15.0]})
+    fig = tent_plot(by_offset, ["gvf", "psnr", "ssim"], {"psnr": True, "ssim": True}, floor=floor)
+    dashed = [[ln for ln in ax.get_lines() if ln.get_linestyle() == "--"] for ax in fig.axes]
+    assert [len(d) for d in dashed] == [0, 1, 0]  # GVF: none; psnr: the floor; ssim: no floor values
+    assert dashed[1][0].get_ydata().tolist() == [14.0, 45.0, 15.0]
+    assert dashed[1][0].get_color() == FLOOR_COLOUR
+
+
+@pytest.mark.parametrize("given, other", [("--floor-pairs", "--floor-metrics"), ("--floor-metrics", "--floor-pairs")])
+def test_floor_options_go_together(tmp_path, capsys, given, other):
+    pairs, metrics = make_method_tables(n_tracks=3)
+    p, m = tmp_path / "pairs.csv", tmp_path / "metrics.csv"
+    pairs.to_csv(p, index=False)
+    metrics.to_csv(m, index=False)
+    assert analyze(["--pairs", str(p), "--metrics-table", str(m), "--compare-methods", given, str(p),
+                    "--quiet", "--out", str(tmp_path / "rep")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"error: {given}: expected {other} with it"), err
+    assert not (tmp_path / "rep").exists()
