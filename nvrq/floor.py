@@ -201,7 +201,7 @@ def check_floor_scene(scene: Scene) -> None:
     if n < 2:
         raise InputError(scene.root / "images.csv", None, "GT images at two or more timestamps or on two or "
                          "more cameras for a viewpoint floor (another GT view of each object)",
-                         f"{n} GT image{'' if n == 1 else 's'}", param="--floor")
+                         f"{n} GT image{'' if n == 1 else 's'}", param="floor")
 
 
 def _novel_views(scene: Scene, pairs: pd.DataFrame, views: pd.DataFrame) -> pd.DataFrame:
