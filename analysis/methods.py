@@ -131,6 +131,9 @@ class MethodsResult:
         The crossed breakdown of methods_paired.csv (``''`` for none).
     sets : pandas.DataFrame or None
         The ``nvrq score-sets`` table (``analyze --sets``), for the off-path table, or None.
+    references : list of str
+        The viewpoint floor's methods (``perfect``, ``floor``) in the table, neither ranked nor
+        paired: the tents draw them dashed.
     """
 
     methods: list[str]  # every compared method, in leaderboard order
@@ -146,6 +149,7 @@ class MethodsResult:
     min_clusters: int = MIN_CLUSTERS  # the fewest tracks of an interval or a p-value
     by: str = ""  # the crossed breakdown of methods_paired.csv ('' for none)
     sets: pd.DataFrame | None = None  # `nvrq score-sets` table (analyze --sets), for the off-path table
+    references: list[str] = field(default_factory=list)  # the viewpoint floor's methods, never ranked
 
 
 def holm(p: np.ndarray) -> np.ndarray:
@@ -593,8 +597,8 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
     -------
     MethodsResult
         The methods ``perfect`` and ``floor`` (the viewpoint floor,
-        :data:`data_schema.methods.REFERENCE_METHODS`) get their rows of the table and come last
-        in ``methods``, but are neither ranked nor paired (while two other methods remain).
+        :data:`data_schema.methods.REFERENCE_METHODS`) get their rows of the table and are its
+        ``references``, neither ranked nor paired (while two other methods remain).
 
     Raises
     ------
@@ -641,7 +645,7 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
     bar.close()
     board = leaderboard_table(table, paired, methods=names, metric=rank_metric, higher_better=hb,
                               view=rank_view)
-    return MethodsResult(methods=list(board["method"]) + refs, metrics=list(metrics), directions=dict(directions),
+    return MethodsResult(methods=list(board["method"]), references=refs, metrics=list(metrics), directions=dict(directions),
                          rank_metric=rank_metric, table=table, paired=paired, leaderboard=board,
                          n_boot=n_boot if counts is not None else 0, notes=notes + unpaired,
                          rank_view=rank_view, min_clusters=int(o.min_clusters),

@@ -449,7 +449,8 @@ def method_figures(res: MethodsResult) -> list[tuple[str, str, object]]:
         if axis in PERTURBATION_COLUMNS:
             name = "methods_tent" if axis == "y_offset_m" else f"methods_tent_{axis}"
             out.append((name, f"Methods along {VIEW_AXIS_LABELS[axis]}: mean and 95% interval per method",
-                        methods_tent_plot(res.table, res.metrics, res.directions, res.methods, axis=axis)))
+                        methods_tent_plot(res.table, res.metrics, res.directions,
+                                          res.methods + list(getattr(res, "references", [])), axis=axis)))
     heat = method_class_heatmap(res.table, res.rank_metric, res.methods,
                                 higher_better=res.directions[res.rank_metric])
     if heat is not None:
