@@ -346,7 +346,9 @@ def _analyze(args) -> int:
     if args.real_floor:
         analysis.floor = _floor(args, analysis)
     if args.floor_pairs is not None:
-        analysis.viewpoint_floor = _viewpoint_floor(args)
+        analysis.viewpoint_floor, sentence = _viewpoint_floor(args)
+        if sentence:
+            analysis.notes.append(sentence)
     out = write_report(analysis, args.out)  # then the terminal: an error stays one line
     if args.pairs is None:
         _print_screening(analysis.raters, applied=analysis.screen)
@@ -425,12 +427,13 @@ def _run_pairs(args):
 
 
 def _viewpoint_floor(args):
-    """The tents' viewpoint floor from --floor-pairs and --floor-metrics (analysis.viewpoint_floor)."""
-    from analysis.viewpoint_floor import floor_by_offset
+    """The tents' viewpoint floor from --floor-pairs and --floor-metrics and the sentence about a
+    log's floor (analysis.viewpoint_floor.tent_floor)."""
+    from analysis.viewpoint_floor import tent_floor
     from data_schema.tables import PAIRS_COLUMNS, read_metrics, read_table
 
     pairs = read_table(args.floor_pairs, required=PAIRS_COLUMNS, what="pairs table")
-    return floor_by_offset(pairs, read_metrics(args.floor_metrics), where=args.floor_pairs)
+    return tent_floor(pairs, read_metrics(args.floor_metrics), where=args.floor_pairs)
 
 
 def _floor(args, analysis):

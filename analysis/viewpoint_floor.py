@@ -36,7 +36,8 @@ from data_schema.perturbation import PERTURBATION_COLUMNS
 from data_schema.tables import OBJECT_COLUMNS
 
 __all__ = ["FLOOR_TOLERANCE", "FLOOR_METRIC_PREFIX", "MEASURED_GAPS", "FLOOR_LABELS", "FLOOR_COLOUR", "FloorVerdict",
-           "floor_label", "is_reference", "floor_check", "floor_verdict", "items_floor_verdict", "floor_by_offset"]
+           "floor_label", "is_reference", "floor_check", "floor_verdict", "items_floor_verdict", "floor_by_offset",
+           "tent_floor"]
 
 #: the largest gap (NVRQ-CA) between the floor's and the perfect render's medians at an offset
 FLOOR_TOLERANCE = 0.1
@@ -271,3 +272,37 @@ def floor_by_offset(pairs: pd.DataFrame, metrics: pd.DataFrame, *, where: object
     long = got.melt(id_vars=["y_offset_m"], value_vars=cols, var_name="column", value_name="v").dropna()
     out = long.groupby(["y_offset_m", "column"], sort=True)["v"].agg(n="size", mean="mean").reset_index()
     return out[["y_offset_m", "column", "n", "mean"]]
+
+
+def tent_floor(pairs: pd.DataFrame, metrics: pd.DataFrame, *,
+               where: object = "floor pairs") -> tuple[pd.DataFrame | None, str]:
+    """The tent plot's floor and the report's sentence about it: a perfect render is drawn; a
+    log's floor (``floor`` rows, no ``perfect``) only when :func:`items_floor_verdict` says so.
+
+    Parameters
+    ----------
+    pairs : pandas.DataFrame
+        A pairs table with ``method`` (N rows).
+    metrics : pandas.DataFrame
+        Its metrics table.
+    where : object, optional
+        The pairs file, named in errors.
+
+    Returns
+    -------
+    floor : pandas.DataFrame or None
+        :func:`floor_by_offset`'s table, or None when a log's floor is left out.
+    sentence : str
+        The verdict's sentence for a log's floor; ``''`` for a perfect render.
+
+    Raises
+    ------
+    InputError
+        As :func:`floor_by_offset`.
+    """
+    table = floor_by_offset(pairs, metrics, where=where)
+    if (method_values(pairs) == PERFECT_METHOD).any():
+        return table, ""
+    cols = [c for c in metrics.columns if c != "pair_id"]
+    verdict = items_floor_verdict(pairs.merge(metrics, on="pair_id"), cols)
+    return (table if verdict.draw else None), verdict.sentence

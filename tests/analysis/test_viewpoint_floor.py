@@ -211,3 +211,18 @@ def test_floor_options_go_together(tmp_path, capsys, given, other):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(f"error: {given}: expected {other} with it"), err
     assert not (tmp_path / "rep").exists()
+
+
+def test_a_log_floor_in_the_tent_follows_the_rule():
+    from analysis.viewpoint_floor import tent_floor
+
+    pairs, metrics = _with_reference("perfect", 0.0)
+    table, sentence = tent_floor(pairs, metrics)
+    assert table is not None and sentence == ""  # a perfect render: always drawn
+    fp, fm = _with_reference("floor", 0.0)
+    log = fp[fp["y_offset_m"].isin([-1.0, 1.0])]  # covers what the check clip measured
+    table, sentence = tent_floor(log, fm)
+    want = floor_verdict(MEASURED_GAPS, [-1.0, 1.0], source="on the synthetic check clip (docs/FORMATS.md §3)")
+    assert sentence == want.sentence and (table is not None) == want.draw
+    table, sentence = tent_floor(fp[fp["y_offset_m"].isin([1.0, 2.0])], fm)  # +2 m was never checked
+    assert table is None and "not checked against a perfect render at +2 m" in sentence
