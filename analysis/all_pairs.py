@@ -334,7 +334,7 @@ def _without_floor(items: pd.DataFrame, clusters: np.ndarray) -> tuple[pd.DataFr
     if not floor.any():
         return items, clusters, ""
     note = (f"{plural(int(floor.sum()), 'pair')} of the viewpoint floor (method floor, two GT views) left out "
-            "of the statistics; --compare-methods draws the floor beside the methods")
+            "of the statistics; the method comparison draws the floor beside the methods")
     return items[~floor].reset_index(drop=True), pd.factorize(clusters[~floor])[0].astype(clusters.dtype), note
 
 

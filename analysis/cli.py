@@ -430,9 +430,9 @@ def _viewpoint_floor(args):
     """The tents' viewpoint floor from --floor-pairs and --floor-metrics and the sentence about a
     log's floor (analysis.viewpoint_floor.tent_floor)."""
     from analysis.viewpoint_floor import tent_floor
-    from data_schema.tables import PAIRS_COLUMNS, read_metrics, read_table
+    from data_schema.tables import PAIRS_COLUMNS, TableKind, read_metrics, read_table
 
-    pairs = read_table(args.floor_pairs, required=PAIRS_COLUMNS, what="pairs table")
+    pairs = read_table(args.floor_pairs, required=PAIRS_COLUMNS, kind=TableKind.PAIRS)
     return tent_floor(pairs, read_metrics(args.floor_metrics), where=args.floor_pairs)
 
 

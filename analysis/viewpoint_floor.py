@@ -262,8 +262,8 @@ def floor_by_offset(pairs: pd.DataFrame, metrics: pd.DataFrame, *, where: object
     ref = PERFECT_METHOD if (method == PERFECT_METHOD).any() else FLOOR_METHOD
     rows = pairs.loc[(method == ref) & _lateral(pairs), ["pair_id", "y_offset_m"]]
     if rows.empty:
-        raise InputError(where, METHOD_COLUMN, "pairs of method perfect (nvrq synth --methods perfect:0) or floor "
-                         "(nvrq pairs --floor) on lateral views", "none")
+        raise InputError(where, METHOD_COLUMN, "pairs of method perfect (a render with no artefact) or floor (two GT "
+                         "views of each object) on lateral views", "none")
     cols = [c for c in metrics.columns if c != "pair_id" and pd.api.types.is_numeric_dtype(metrics[c])]
     got = rows.merge(metrics[["pair_id", *cols]], on="pair_id", how="inner")
     if got.empty or not cols:

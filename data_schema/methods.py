@@ -330,7 +330,7 @@ def check_method_scales(methods, *, option: str = "methods") -> list[tuple[str, 
                              "for real photographs, nvrq import stereo)", got=name)
         if name == FLOOR_METHOD:
             raise InputError(param=option, field=name, expected="a method name other than 'floor' (reserved "
-                             "for pairs of two GT views, nvrq pairs --floor)", got=name)
+                             "for pairs of two GT views, the viewpoint floor of a log)", got=name)
         if name == PERFECT_METHOD and scale != 0:
             raise InputError(param=option, field=name, expected="scale 0 for 'perfect' (reserved for the "
                              "render with no artefact, the viewpoint floor)", got=scale)
