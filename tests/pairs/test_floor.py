@@ -178,3 +178,12 @@ def test_one_frame_scene_is_refused(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--floor" in err[0] and "images.csv" in err[0] and "1 GT image" in err[0], err
     assert not out.exists()
+
+
+def test_floor_takes_one_scene_and_a_table(tmp_path, capsys):
+    root = _scene(tmp_path / "s", frames=3)
+    out = tmp_path / "dataset"
+    assert nvrq_main(["pairs", str(root), str(root), "--out", str(out), "--floor", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--floor: expected one scene folder and a table --out" in err[0], err
+    assert not out.exists()
