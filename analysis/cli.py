@@ -194,6 +194,12 @@ def _floor_options(p: ArgumentParser) -> None:
                    help="with --pairs: each metric on the real pairs (nvrq import stereo) beside the GT crop "
                    "moved 5, 10, 20 px and the other methods' renders at the matched viewing angle: "
                    "floor.csv and a section of the report (docs/FORMATS.md §16)")
+    p.add_argument("--floor-pairs", default=None, metavar="PAIRS",
+                   help="with --floor-metrics: a pairs table holding a perfect render (method perfect, e.g. "
+                   "the same clip from nvrq synth --methods perfect:0) or a log's floor (nvrq pairs --floor); "
+                   "the tent plot draws its mean per offset dashed, as the viewpoint floor")
+    p.add_argument("--floor-metrics", default=None, metavar="METRICS",
+                   help="with --floor-pairs: the metrics table nvrq score wrote for it")
 
 
 #: The options that need --horizon (argparse dests).
@@ -221,7 +227,8 @@ _ALIASES = {"n_boot": "bootstrap", "metrics_paths": "metrics_tables", "timing_pa
 NOT_FOR = {
     "pairwise votes": (("target", "stability", "aggregate", "timing", "compare_methods", "methods",
                         "leaderboard_metric", "leaderboard_view", "by", "min_clusters",
-                        "rank_by", "margin", "horizon", *HORIZON_DESTS, "real_floor"),
+                        "rank_by", "margin", "horizon", *HORIZON_DESTS, "real_floor", "floor_pairs",
+                        "floor_metrics"),
                        "they rank methods by Bradley-Terry and metrics by 2AFC agreement"),
     "--pairs": (("exclude_raters", "no_screen", "screen", "stability", "aggregate", "good_prob"),
                 "there are no votes: no raters to screen, labels to aggregate or P(good) to fit"),
@@ -292,7 +299,7 @@ def _run(args) -> int:
                          "both" if args.pairs else "neither")
     check_output_folder(args.out, kind="report", option="--out", command="analyze",
                         inputs=[args.ratings or args.pairs, *args.metrics_tables, *args.timing,
-                                args.stability, args.nta, args.sets])
+                                args.stability, args.nta, args.sets, args.floor_pairs, args.floor_metrics])
     inputs = _report_inputs(args)
     note = replacing_note(args.out, command="analyze", inputs=inputs)  # read before it is replaced
     rc = _analyze(args)
@@ -314,6 +321,10 @@ def _analyze(args) -> int:
         raise InputError("--methods/--leaderboard-metric/--leaderboard-view/--by/--min-clusters/--sets",
                          None, "--compare-methods with them", "none")
     _check_horizon(args)
+    if (args.floor_pairs is None) != (args.floor_metrics is None):
+        given, other = ("--floor-pairs", "--floor-metrics") if args.floor_metrics is None \
+            else ("--floor-metrics", "--floor-pairs")
+        raise InputError(given, None, f"{other} with it (the floor's pairs and their scores)", "none")
     if args.real_floor and args.pairs is None and not is_pairwise(args.ratings):
         raise InputError("--real-floor", None, "--pairs PAIRS with it (the floor needs the boxes and images "
                          "of the real pairs)", args.ratings)
@@ -334,6 +345,10 @@ def _analyze(args) -> int:
         analysis.horizon = _horizon(args, analysis)
     if args.real_floor:
         analysis.floor = _floor(args, analysis)
+    if args.floor_pairs is not None:
+        analysis.viewpoint_floor, sentence = _viewpoint_floor(args)
+        if sentence:
+            analysis.notes.append(sentence)
     out = write_report(analysis, args.out)  # then the terminal: an error stays one line
     if args.pairs is None:
         _print_screening(analysis.raters, applied=analysis.screen)
@@ -409,6 +424,16 @@ def _run_pairs(args):
     from analysis.all_pairs import run_pairs_analysis
 
     return run_pairs_analysis(args.pairs, options_from_args(args))
+
+
+def _viewpoint_floor(args):
+    """The tents' viewpoint floor from --floor-pairs and --floor-metrics and the sentence about a
+    log's floor (analysis.viewpoint_floor.tent_floor)."""
+    from analysis.viewpoint_floor import tent_floor
+    from data_schema.tables import PAIRS_COLUMNS, TableKind, read_metrics, read_table
+
+    pairs = read_table(args.floor_pairs, required=PAIRS_COLUMNS, kind=TableKind.PAIRS)
+    return tent_floor(pairs, read_metrics(args.floor_metrics), where=args.floor_pairs)
 
 
 def _floor(args, analysis):

@@ -29,7 +29,7 @@ import pandas as pd
 
 from data_schema.csv_safe import unquote_frame
 from data_schema.errors import InputError
-from data_schema.methods import METHOD_COLUMN
+from data_schema.methods import FLOOR_PAIR_COLUMNS, METHOD_COLUMN
 from data_schema.perturbation import VIEW_COLUMNS
 from data_schema.tables import (
     ITEM_KINDS,
@@ -66,6 +66,7 @@ ITEM_LABEL_COLUMNS = (
 CANONICAL_VOTE_ORDER = ("item_id", "rater_id", "kind")
 NON_METRIC_COLUMNS = frozenset(
     RATINGS_COLUMNS + PAIRS_COLUMNS + ITEM_LABEL_COLUMNS + ("gold_expected",) + VIEW_COLUMNS + (METHOD_COLUMN,)
+    + FLOOR_PAIR_COLUMNS
 )
 
 

@@ -227,6 +227,12 @@ def _link_pairs(world, tmp):
     return scene
 
 
+@case("scene", "pairs --floor: a scene with one GT image")
+def _(world, tmp):
+    scene = write_scene(tmp / "scene")  # one camera, one GT frame: no other view of any object
+    return "nvrq", [*_pairs_cmd(scene, tmp), "--floor"], ["images.csv", "--floor", "1 GT image"]
+
+
 @case("pairs", "score: symlinked images leave the scene (strict)")
 def _(world, tmp):
     scene = _link_pairs(world, tmp)
