@@ -28,11 +28,12 @@ def test_view_thresholds_equal_sklearn():
     assert np.all(np.diff(r["value"]) < 0)  # farther views get a lower metric threshold
 
 
-def test_view_with_one_outcome_has_no_threshold():
+def test_a_view_with_one_outcome_gets_the_limit_and_changes_nothing_else():
     x, y, view = _votes(seed=1)
     y[view == 3] = 1.0
     r = view_thresholds(x, y, view)
-    assert np.isnan(r["value"][3]) and np.isfinite(r["value"][:3]).all()
+    # every vote good at view 3: its intercept grows without bound, its threshold goes to -inf
+    assert r["value"][3] == -np.inf and r["a"][3] == np.inf and np.isfinite(r["value"][:3]).all()
     keep = view < 3
     ref = view_thresholds(x[keep], y[keep], view[keep])
     assert np.allclose(r["value"][:3], ref["value"], atol=1e-9)  # the view left out changes nothing
