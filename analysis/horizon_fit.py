@@ -122,11 +122,14 @@ def clip_to_range(value: float, lo: float, hi: float) -> tuple[float, str]:
     (0.12, 'the fitted crossing (-0.77) lies below the rated values [0.12, 3.4]: clipped to 0.12')
     >>> clip_to_range(1.5, 0.12, 3.4)
     (1.5, '')
+    >>> clip_to_range(-math.inf, 0.12, 3.4)[0]
+    0.12
 
     Parameters
     ----------
     value : float
-        The fitted threshold (NaN: undefined, returned as is).
+        The fitted threshold (NaN: undefined, returned as is; +-inf, the limit of a fit whose
+        votes are all one outcome, becomes the edge).
     lo, hi : float
         The smallest and largest rated metric value.
 
@@ -135,7 +138,7 @@ def clip_to_range(value: float, lo: float, hi: float) -> tuple[float, str]:
     tuple
         ``(value, note)``: the clipped value and why it was clipped (``''`` when it was not).
     """
-    if not math.isfinite(value) or lo <= value <= hi:
+    if math.isnan(value) or lo <= value <= hi:
         return value, ""
     side, edge = ("below", lo) if value < lo else ("above", hi)
     return edge, (f"the fitted crossing ({value:.4g}) lies {side} the rated values [{lo:.4g}, {hi:.4g}]: "

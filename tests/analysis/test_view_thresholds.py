@@ -3,6 +3,7 @@
 regression on the one-hot views plus the metric (the same maximum-likelihood model)."""
 
 import numpy as np
+import pytest
 from sklearn.linear_model import LogisticRegression
 
 from analysis.horizon_fit import view_thresholds
@@ -37,3 +38,32 @@ def test_a_view_with_one_outcome_gets_the_limit_and_changes_nothing_else():
     keep = view < 3
     ref = view_thresholds(x[keep], y[keep], view[keep])
     assert np.allclose(r["value"][:3], ref["value"], atol=1e-9)  # the view left out changes nothing
+
+
+def _nll(theta, x, y, view, V):
+    z = theta[view] + theta[V] * x
+    return float(np.sum(np.logaddexp(0.0, z) - y * z))
+
+
+def test_view_thresholds_equal_a_direct_scipy_fit():
+    from scipy.optimize import minimize
+
+    x, y, view = _votes(seed=2, n=2000)
+    r = view_thresholds(x, y, view, good_prob=0.5)
+    best = minimize(_nll, np.zeros(5), args=(x, y, view, 4), method="BFGS", options={"gtol": 1e-10})
+    a, b = best.x[:4], best.x[4]
+    assert np.allclose(r["value"], -a / b, atol=1e-6)
+    assert np.allclose(r["n"], np.bincount(view))
+
+
+def test_weights_are_copies_of_the_votes():
+    # a weight of k is the vote counted k times: the fit of the copied data, row by row
+    x, y, view = _votes(seed=3, n=400)
+    rng = np.random.default_rng(0)
+    w = rng.integers(0, 3, (3, len(x))).astype(float)
+    r = view_thresholds(x, y, view, w=w)
+    for row in range(3):
+        k = w[row].astype(int)
+        ref = view_thresholds(np.repeat(x, k), np.repeat(y, k), np.repeat(view, k))
+        assert np.allclose(r["value"][row], ref["value"], atol=1e-8)
+        assert r["b"][row] == pytest.approx(ref["b"], abs=1e-8)
