@@ -241,12 +241,15 @@ def _given(items: pd.DataFrame, metric: str, higher: bool, opts: HorizonOptions)
 def _people_views(votes, items, metric, higher, fits, opts) -> tuple[Threshold, pd.DataFrame]:
     """The per-view threshold of ``metric`` from the votes (analysis.horizon_views.people_views)."""
     from analysis.horizon_views import people_views
+    from data_schema.perturbation import PERTURBATION_COLUMNS
 
     v, it, rater, track = _joined(votes, items)
     x = it[metric].to_numpy(np.float64)
     ok = np.isfinite(x)
-    views = people_views(metric, x[ok], v["vote"].to_numpy(np.float64)[ok], it[ok], pd.factorize(rater[ok])[0],
-                         pd.factorize(track[ok])[0], good_prob=opts.good_prob, n_boot=opts.n_boot, seed=opts.seed)
+    table = it.loc[ok, [c for c in PERTURBATION_COLUMNS if c in it.columns]].assign(
+        x=x[ok], vote=v["vote"].to_numpy(np.float64)[ok], rater=pd.factorize(rater[ok])[0],
+        track=pd.factorize(track[ok])[0])
+    views = people_views(metric, table, good_prob=opts.good_prob, n_boot=opts.n_boot, seed=opts.seed)
     row = fits.set_index("metric").loc[metric]
     if not np.isfinite(views["threshold"]).any():
         raise InputError(param="metric", field=metric, expected="a metric whose votes give a threshold per "

@@ -85,20 +85,17 @@ def grid_of(items: pd.DataFrame) -> list[tuple[str, float]]:
     return sorted(set(keys.tolist()), key=lambda k: (k[0] != "none", k[0], k[1]))
 
 
-def people_views(metric: str, x, y, items: pd.DataFrame, rater, track, *, good_prob: float,
-                 n_boot: int, seed: int) -> pd.DataFrame:
+def people_views(metric: str, votes: pd.DataFrame, *, good_prob: float, n_boot: int, seed: int) -> pd.DataFrame:
     """Per-view thresholds of ``metric`` from the votes (module docstring).
 
     Parameters
     ----------
     metric : str
         The metric's column (named in the table).
-    x, y : numpy.ndarray
-        (n,) the metric at each vote's item (finite) and the vote (1 good, 0 bad).
-    items : pandas.DataFrame
-        n rows, each vote's item (its perturbation columns give the view).
-    rater, track : numpy.ndarray
-        (n,) integer codes 0..R-1 and 0..T-1 of each vote's rater and its item's track.
+    votes : pandas.DataFrame
+        One row per vote: ``x`` (the metric at its item, finite), ``vote`` (1 good, 0 bad),
+        ``rater`` and ``track`` (integer codes 0..R-1 and 0..T-1), and its item's perturbation
+        columns (which give the view).
     good_prob : float
         The P(good) of the threshold, in (0, 1).
     n_boot, seed : int
@@ -110,48 +107,67 @@ def people_views(metric: str, x, y, items: pd.DataFrame, rater, track, *, good_p
         :data:`PEOPLE_VIEW_COLUMNS`, one row per view cell of the votes (views along several
         axes at once are left out).
     """
-    from analysis.bootstrap import interval_around, too_few_raters
-    from analysis.horizon_fit import _chunks, _counts, clip_to_range, view_thresholds
+    from analysis.horizon_fit import view_thresholds
 
-    P = perturbation_array(items)
+    P = perturbation_array(votes)
     names = axes(P)
     single = np.isin(names, (*AXES, "none"))
-    x, y = np.asarray(x, np.float64)[single], np.asarray(y, np.float64)[single]
-    rater, track = np.asarray(rater, np.int64)[single], np.asarray(track, np.int64)[single]
-    keys = view_keys(names[single], axis_values(P)[single])
-    codes, views = pd.factorize(keys, sort=True)
+    v = votes[single]
+    x, y = v["x"].to_numpy(np.float64), v["vote"].to_numpy(np.float64)
+    codes, views = pd.factorize(view_keys(names[single], axis_values(P)[single]), sort=True)
     fit = view_thresholds(x, y, codes, good_prob=good_prob)
     lo, hi = (float(x.min()), float(x.max())) if len(x) else (math.nan, math.nan)
-    R, T = len(np.unique(rater)), len(np.unique(track))
-    reps = None
-    if n_boot > 0 and math.isfinite(fit["b"]) and not too_few_raters(R) and T >= 2:
-        rng = np.random.default_rng(seed)
-        cr, ct = _counts(int(rater.max()) + 1, n_boot, rng), _counts(int(track.max()) + 1, n_boot, rng)
-        reps = np.concatenate([view_thresholds(x, y, codes, good_prob=good_prob,
-                                               w=cr[s][:, rater] * ct[s][:, track])["value"]
-                               for s in _chunks(n_boot, len(x) * max(1, len(views)))])
-        reps = np.where(np.isnan(reps), np.nan, np.clip(reps, lo, hi))
+    rater, track = v["rater"].to_numpy(np.int64), v["track"].to_numpy(np.int64)
+    reps, why = _replicates(x, y, codes, rater, track, fit, good_prob=good_prob, n_boot=n_boot, seed=seed)
+    R = len(np.unique(rater))
     source = (f"people, per view: P(good) = {good_prob:g} on a logistic with an intercept per view and a "
               f"shared slope, fitted to {plural(len(x), 'vote')} of {plural(R, 'rater')}")
-    rows = []
-    for v, (axis, offset) in enumerate(views):
-        n = int(fit["n"][v])
-        value, note = clip_to_range(float(fit["value"][v]), lo, hi)
-        notes = [note] if note else []
-        if math.isinf(float(fit["a"][v])):
-            notes.insert(0, f"all {plural(n, 'vote')} at this view {'good' if fit['a'][v] > 0 else 'bad'}")
-        ci = (math.nan, math.nan)
-        if reps is not None and math.isfinite(value):
-            *ci, why = interval_around(value, reps[:, v])
-            notes += [why] if why else []
-        elif n_boot > 0:
-            notes.append(too_few_raters(R) or (f"no interval from {plural(T, 'track')}: a bootstrap over "
-                                                "tracks needs at least 2" if T < 2 else "no interval: "
-                                                + (fit["reason"] or "the fit is undefined")))
-        rows.append({"metric": metric, "axis": axis, "offset": offset, "threshold": value, "ci_lo": ci[0],
-                     "ci_hi": ci[1], "good_prob": good_prob, "slope": fit["b"], "n_votes": n,
-                     "source": source, "reason": "; ".join(notes)})
-    return pd.DataFrame(rows, columns=PEOPLE_VIEW_COLUMNS)
+    rows = [_view_row(fit, k, reps, why, lo, hi) for k in range(len(views))]
+    return pd.DataFrame([{"metric": metric, "axis": a, "offset": o, **r, "good_prob": good_prob, "slope": fit["b"],
+                          "source": source} for (a, o), r in zip(views, rows, strict=True)],
+                        columns=PEOPLE_VIEW_COLUMNS)
+
+
+def _replicates(x, y, codes, rater, track, fit, *, good_prob, n_boot, seed):
+    """``(reps (B, V) or None, why none)``: the per-view thresholds of the two-way bootstrap over
+    raters and tracks (:func:`analysis.horizon_fit.vote_threshold`'s), clipped to the rated values."""
+    from analysis.bootstrap import too_few_raters
+    from analysis.horizon_fit import _chunks, _counts, view_thresholds
+
+    R, T = len(np.unique(rater)), len(np.unique(track))
+    if n_boot <= 0:
+        return None, ""
+    if too_few_raters(R):
+        return None, too_few_raters(R)
+    if T < 2:
+        return None, f"no interval from {plural(T, 'track')}: a bootstrap over tracks needs at least 2"
+    if not math.isfinite(fit["b"]):
+        return None, "no interval: " + (fit["reason"] or "the fit is undefined")
+    rng = np.random.default_rng(seed)
+    cr, ct = _counts(int(rater.max()) + 1, n_boot, rng), _counts(int(track.max()) + 1, n_boot, rng)
+    V = int(codes.max()) + 1
+    reps = np.concatenate([view_thresholds(x, y, codes, good_prob=good_prob, w=cr[s][:, rater] * ct[s][:, track])
+                           ["value"] for s in _chunks(n_boot, len(x) * V)])
+    return np.where(np.isnan(reps), np.nan, np.clip(reps, x.min(), x.max())), ""
+
+
+def _view_row(fit: dict, k: int, reps, why: str, lo: float, hi: float) -> dict:
+    """View ``k``'s ``threshold, ci_lo, ci_hi, n_votes, reason``."""
+    from analysis.bootstrap import interval_around
+    from analysis.horizon_fit import clip_to_range
+
+    n = int(fit["n"][k])
+    value, note = clip_to_range(float(fit["value"][k]), lo, hi)
+    notes = [note] if note else []
+    if math.isinf(float(fit["a"][k])):
+        notes.insert(0, f"all {plural(n, 'vote')} at this view {'good' if fit['a'][k] > 0 else 'bad'}")
+    ci = (math.nan, math.nan)
+    if reps is not None and math.isfinite(value):
+        *ci, miss = interval_around(value, reps[:, k])
+        notes += [miss] if miss else []
+    elif why:
+        notes.append(why)
+    return {"threshold": value, "ci_lo": ci[0], "ci_hi": ci[1], "n_votes": n, "reason": "; ".join(notes)}
 
 
 def read_view_table(path, grid, *, metric: str) -> pd.DataFrame:

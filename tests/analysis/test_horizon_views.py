@@ -13,7 +13,13 @@ import pytest
 
 from analysis.cli import main as analyze_main
 from analysis.horizon_fit import fit_logistic, logistic_threshold, vote_threshold
-from analysis.horizon_views import floor_views, grid_of, people_views, read_view_table, viewpoint_floor
+from analysis.horizon_views import (
+    floor_views,
+    grid_of,
+    people_views,
+    read_view_table,
+    viewpoint_floor,
+)
 from data_schema.errors import InputError
 from nvrq.horizon import Threshold, trust_horizon
 
@@ -122,24 +128,24 @@ def _votes(seed=0, n_items=400, raters=6):
     r = np.repeat(np.arange(raters), n_items)
     i = np.tile(np.arange(n_items), raters)
     y = (rng.random(len(i)) < 1 / (1 + np.exp(-12 * (q[i] - 0.5)))).astype(float)
-    return m[i], y, items.iloc[i].reset_index(drop=True), r, i % 40
+    return items.iloc[i].reset_index(drop=True).assign(x=m[i], vote=y, rater=r, track=i % 40)
 
 
 def test_people_views_give_each_view_its_threshold_and_an_interval_around_it():
-    x, y, items, r, t = _votes()
-    v = people_views("m", x, y, items, r, t, good_prob=0.5, n_boot=100, seed=0).set_index("offset")
+    votes = _votes()
+    v = people_views("m", votes, good_prob=0.5, n_boot=100, seed=0).set_index("offset")
     assert list(v.index) == [0.0, 1.0, 2.0] and list(v["axis"]) == ["none", "y", "y"]
     # P(good) = 0.5 at q = 0.5: the metric 0.8, 0.5, 0.2 at the three views
     assert np.allclose(v["threshold"], [0.8, 0.5, 0.2], atol=0.02), v["threshold"]
     assert ((v["ci_lo"] <= v["threshold"]) & (v["threshold"] <= v["ci_hi"])).all()
-    assert (v["reason"] == "").all() and (v["n_votes"] == np.bincount(items["y_offset_m"].astype(int))).all()
+    assert (v["reason"] == "").all() and (v["n_votes"] == np.bincount(votes["y_offset_m"].astype(int))).all()
 
 
 def test_a_view_whose_votes_are_one_outcome_gets_the_edge_of_the_rated_values():
-    x, y, items, r, t = _votes(seed=1)
-    y = np.where(items["y_offset_m"] == 2.0, 1.0, y)  # every vote at 2 m good
-    v = people_views("m", x, y, items, r, t, good_prob=0.5, n_boot=0, seed=0).set_index("offset")
-    assert v.loc[2.0, "threshold"] == pytest.approx(x.min())
+    votes = _votes(seed=1)
+    votes.loc[votes["y_offset_m"] == 2.0, "vote"] = 1.0  # every vote at 2 m good
+    v = people_views("m", votes, good_prob=0.5, n_boot=0, seed=0).set_index("offset")
+    assert v.loc[2.0, "threshold"] == pytest.approx(votes["x"].min())
     assert v.loc[2.0, "reason"].startswith("all ") and "at this view good" in v.loc[2.0, "reason"]
     assert "clipped to" in v.loc[2.0, "reason"]
 
