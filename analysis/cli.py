@@ -6,7 +6,8 @@
 [--bootstrap N] [--seed S] [--rank-by {srcc,plcc,roc_auc}]
 [--compare-methods [--methods A,B] [--leaderboard-metric METRIC] [--leaderboard-view VIEW]
 [--by A,B] [--min-clusters K]]
-[--horizon [--metric METRIC] [--threshold VALUE | --threshold-table CSV] [--pooled-threshold] [--no-floor]
+[--horizon [--metric METRIC] [--threshold VALUE | --threshold-table CSV] [--pooled-threshold]
+[--view-fit {monotone,logistic}] [--no-floor]
 [--share S] [--good-prob P] [--window-s W]]
 --out REPORT_DIR``
 
@@ -29,7 +30,15 @@ import contextlib
 import sys
 from pathlib import Path
 
-from analysis.choices import DEFAULT_MARGIN, DEFAULT_SHARE, METHODS, MIN_CLUSTERS, PATHS, RANK_BY
+from analysis.choices import (
+    DEFAULT_MARGIN,
+    DEFAULT_SHARE,
+    METHODS,
+    MIN_CLUSTERS,
+    PATHS,
+    RANK_BY,
+    VIEW_FITS,
+)
 from analysis.options import AnalysisOptions, MethodOptions
 from data_schema.errors import InputError
 from data_schema.outputs import REPORT_MARKER, check_output_folder, mark_report, replacing_note
@@ -188,6 +197,10 @@ def _horizon_options(p: ArgumentParser) -> None:
                    help="with --horizon and votes: one threshold for every view, from one logistic "
                    "P(good | METRIC) (default: a threshold per view, from one intercept per view and a "
                    "shared slope)")
+    p.add_argument("--view-fit", choices=VIEW_FITS, default="monotone",
+                   help="with --horizon and votes: the per-view threshold is where P(good | METRIC) = P "
+                   "on a monotone (isotonic) fit of the votes inside each view (default), or on one "
+                   "logistic with an intercept per view and a shared slope")
     p.add_argument("--no-floor", dest="floor", action="store_false",
                    help="with --horizon --threshold: apply VALUE to METRIC itself even where the pairs "
                    "hold a viewpoint floor")
@@ -210,8 +223,8 @@ def _floor_options(p: ArgumentParser) -> None:
 
 
 #: The options that need --horizon (argparse dests).
-HORIZON_DESTS = ("metric", "threshold", "threshold_table", "pooled_threshold", "floor", "share", "good_prob",
-                 "window_s")
+HORIZON_DESTS = ("metric", "threshold", "threshold_table", "pooled_threshold", "view_fit", "floor", "share",
+                 "good_prob", "window_s")
 
 
 def _output_options(p: ArgumentParser) -> None:
@@ -238,7 +251,7 @@ NOT_FOR = {
                         "rank_by", "margin", "horizon", *HORIZON_DESTS, "real_floor"),
                        "they rank methods by Bradley-Terry and metrics by 2AFC agreement"),
     "--pairs": (("exclude_raters", "no_screen", "screen", "stability", "aggregate", "good_prob",
-                 "pooled_threshold"),
+                 "pooled_threshold", "view_fit"),
                 "there are no votes: no raters to screen, labels to aggregate or P(good) to fit"),
 }
 
@@ -395,7 +408,8 @@ def _horizon_options_of(args):
     from analysis.horizon import HorizonOptions
 
     return HorizonOptions(metric=args.metric, threshold=args.threshold, threshold_table=args.threshold_table,
-                          pooled=args.pooled_threshold, floor=args.floor, share=args.share,
+                          pooled=args.pooled_threshold, view_fit=args.view_fit, floor=args.floor,
+                          share=args.share,
                           good_prob=args.good_prob, window_s=args.window_s, min_clusters=args.min_clusters,
                           n_boot=args.bootstrap, seed=args.seed)
 

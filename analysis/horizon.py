@@ -6,8 +6,9 @@ pure computation of :mod:`nvrq.horizon`; :mod:`analysis.horizon_report` writes t
 - Ratings: the threshold of each metric where P(good | metric) = ``good_prob``
   (:func:`analysis.horizon_fit.vote_threshold` on the kept raters' test votes), and the
   horizon of the rated items on the horizon's metric. By default each view gets its own
-  threshold from one logistic with an intercept per view and a shared slope
-  (:func:`analysis.horizon_views.people_views`); ``pooled`` uses the one pooled threshold,
+  threshold from a monotone fit of the votes inside the view, or from one logistic with an
+  intercept per view and a shared slope (``view_fit``, :func:`analysis.horizon_views.people_views`);
+  ``pooled`` uses the one pooled threshold,
   and ``threshold`` or ``threshold_table`` a given one.
 - Pairs: the horizon of every pair on the metric at a given threshold (no votes): a per-view
   ``threshold_table``, or ``threshold`` applied to the excess over the viewpoint floor where
@@ -70,6 +71,8 @@ class HorizonOptions:
         A per-view threshold table (``--threshold-table``, :func:`analysis.horizon_views.read_view_table`).
     pooled : bool
         With votes: one threshold for every view (the pooled logistic) instead of one per view.
+    view_fit : {'monotone', 'logistic'}
+        With votes: the per-view fit (:func:`analysis.horizon_views.people_views`).
     floor : bool
         With a given ``threshold``: apply it to the excess over the viewpoint floor where the
         items have one (:func:`analysis.horizon_views.floor_views`); False: to the metric itself.
@@ -79,6 +82,7 @@ class HorizonOptions:
     threshold: float | None = None
     threshold_table: str | None = None
     pooled: bool = False
+    view_fit: str = "monotone"
     floor: bool = True
     share: float = DEFAULT_SHARE
     good_prob: float = 0.5
@@ -127,7 +131,8 @@ class HorizonResult:
 
 #: horizon.json's ``threshold_kind`` of each row: where its threshold came from.
 THRESHOLD_KINDS = {
-    "people_view": "people: a logistic with an intercept per view and a shared slope",
+    "people_view": "people: a threshold per view (a monotone fit per view, or a logistic with an "
+                   "intercept per view and a shared slope)",
     "people_pooled": "people: one logistic for every view",
     "given": "given: one threshold for every view",
     "given_view": "given: a per-view threshold table",
@@ -249,7 +254,8 @@ def _people_views(votes, items, metric, higher, fits, opts) -> tuple[Threshold, 
     table = it.loc[ok, [c for c in PERTURBATION_COLUMNS if c in it.columns]].assign(
         x=x[ok], vote=v["vote"].to_numpy(np.float64)[ok], rater=pd.factorize(rater[ok])[0],
         track=pd.factorize(track[ok])[0])
-    views = people_views(metric, table, good_prob=opts.good_prob, n_boot=opts.n_boot, seed=opts.seed)
+    views = people_views(metric, table, good_prob=opts.good_prob, n_boot=opts.n_boot, seed=opts.seed,
+                         fit=opts.view_fit, increasing=higher)
     row = fits.set_index("metric").loc[metric]
     if not np.isfinite(views["threshold"]).any():
         raise InputError(param="metric", field=metric, expected="a metric whose votes give a threshold per "

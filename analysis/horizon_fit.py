@@ -23,7 +23,8 @@ import math
 
 import numpy as np
 
-__all__ = ["fit_logistic", "logistic_threshold", "clip_to_range", "vote_threshold", "view_thresholds", "MAX_ITER"]
+__all__ = ["fit_logistic", "logistic_threshold", "clip_to_range", "vote_threshold", "view_thresholds", "pav",
+           "monotone_view_thresholds", "MAX_ITER"]
 
 #: Newton iterations at most (a well-posed fit converges in under 10).
 MAX_ITER = 100
@@ -329,3 +330,105 @@ def view_thresholds(x, y, view, *, good_prob: float = 0.5, w=None, tol: float = 
 def _squeeze(out: dict) -> dict:
     return {"a": out["a"][0], "b": float(out["b"][0]), "value": out["value"][0], "n": out["n"][0],
             "reason": out["reason"]}
+
+
+def pav(y: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """The weighted least-squares non-decreasing fit of ``y`` (pool adjacent violators).
+
+    >>> pav(np.array([0.0, 1, 0, 1]), np.ones(4)).tolist()
+    [0.0, 0.5, 0.5, 1.0]
+
+    Parameters
+    ----------
+    y : numpy.ndarray
+        (n,) values in the order of their predictor.
+    w : numpy.ndarray
+        (n,) positive weights.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n,) the fitted values, non-decreasing.
+    """
+    means, weights, sizes = [], [], []
+    for v, wv in zip(np.asarray(y, np.float64), np.asarray(w, np.float64), strict=True):
+        m, s, k = v, wv, 1
+        while means and means[-1] > m:  # pool with the block before while it violates the order
+            pm, ps, pk = means.pop(), weights.pop(), sizes.pop()
+            m, s, k = (pm * ps + m * s) / (ps + s), ps + s, pk + k
+        means.append(m)
+        weights.append(s)
+        sizes.append(k)
+    return np.repeat(means, sizes)
+
+
+def _monotone_crossing(x: np.ndarray, y: np.ndarray, w: np.ndarray, good_prob: float) -> float:
+    """The threshold of one view: where the non-decreasing fit of ``y`` on ``x`` reaches ``good_prob``.
+
+    ``-inf`` when the fit is at or above it at the lowest ``x``, ``+inf`` when it stays below it,
+    else the midpoint between the last value below and the first at or above; NaN without votes.
+    """
+    keep = w > 0
+    if not keep.any():
+        return math.nan
+    ux, inv = np.unique(x[keep], return_inverse=True)  # ties pooled: one point per value
+    sw = np.bincount(inv, weights=w[keep])
+    f = pav(np.bincount(inv, weights=w[keep] * y[keep]) / sw, sw)
+    up = f >= good_prob
+    if up[0]:
+        return -math.inf
+    if not up[-1]:
+        return math.inf
+    k = int(np.argmax(up))
+    return 0.5 * (ux[k - 1] + ux[k])
+
+
+def monotone_view_thresholds(x, y, view, *, good_prob: float = 0.5, increasing: bool = True,
+                             w=None) -> dict:
+    """Per-view thresholds from a monotone fit of P(good | metric) inside each view cell.
+
+    In each view the votes are fitted by isotonic regression on the metric (:func:`pav`; a
+    non-decreasing fit where higher is better, non-increasing where lower is better), and the
+    view's threshold is where the fit reaches ``good_prob``: the midpoint between the last
+    rated value below it and the first at or above it. A view where the fit is at or above
+    ``good_prob`` at every rated value gets the limit ``-inf`` (``+inf`` where lower is
+    better): every object there is good; one where it stays below gets the other limit. The
+    caller clips them to the rated values (:func:`clip_to_range`).
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        (n,) the metric at each vote's item (finite).
+    y : numpy.ndarray
+        (n,) the votes, 1 good and 0 bad.
+    view : numpy.ndarray
+        (n,) integer view cell of each vote, 0..V-1.
+    good_prob : float, optional
+        The P(good) that defines the thresholds, in (0, 1).
+    increasing : bool, optional
+        Higher is better (True) or lower is better (False).
+    w : numpy.ndarray, optional
+        (B, n) non-negative weights, one fit per row; default one row of ones.
+
+    Returns
+    -------
+    dict
+        ``value`` (B, V) thresholds (NaN for a view without votes) and ``n`` (B, V) the
+        (weighted) votes per view; without ``w`` each loses its first axis.
+    """
+    x = np.asarray(x, np.float64)
+    y = np.asarray(y, np.float64)
+    view = np.asarray(view, np.int64)
+    single = w is None
+    w = np.ones((1, len(x))) if single else np.asarray(w, np.float64)
+    V = int(view.max()) + 1 if len(view) else 0
+    sign = 1.0 if increasing else -1.0
+    value = np.full((w.shape[0], V), np.nan)
+    n = np.zeros((w.shape[0], V))
+    for v in range(V):
+        on = view == v
+        xs, ys = sign * x[on], y[on]
+        for b in range(w.shape[0]):
+            value[b, v] = sign * _monotone_crossing(xs, ys, w[b, on], good_prob)
+            n[b, v] = w[b, on].sum()
+    return {"value": value[0], "n": n[0]} if single else {"value": value, "n": n}

@@ -33,12 +33,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from analysis.choices import VIEW_FITS
 from data_schema.errors import InputError
 from data_schema.perturbation import AXES, axes, axis_values, perturbation_array
 from data_schema.text import plural
 from nvrq.horizon import VIEW_COLUMNS, view_keys
 
-__all__ = ["FLOOR_METHODS", "PEOPLE_VIEW_COLUMNS", "grid_of", "people_views", "read_view_table",
+__all__ = ["FLOOR_METHODS", "PEOPLE_VIEW_COLUMNS", "VIEW_FITS", "grid_of", "people_views", "read_view_table",
            "viewpoint_floor", "floor_views", "view_label"]
 
 #: The methods whose pairs give the viewpoint floor, in order of preference.
@@ -85,7 +86,8 @@ def grid_of(items: pd.DataFrame) -> list[tuple[str, float]]:
     return sorted(set(keys.tolist()), key=lambda k: (k[0] != "none", k[0], k[1]))
 
 
-def people_views(metric: str, votes: pd.DataFrame, *, good_prob: float, n_boot: int, seed: int) -> pd.DataFrame:
+def people_views(metric: str, votes: pd.DataFrame, *, good_prob: float, n_boot: int, seed: int,
+                 fit: str = "monotone", increasing: bool = True) -> pd.DataFrame:
     """Per-view thresholds of ``metric`` from the votes (module docstring).
 
     Parameters
@@ -100,39 +102,57 @@ def people_views(metric: str, votes: pd.DataFrame, *, good_prob: float, n_boot: 
         The P(good) of the threshold, in (0, 1).
     n_boot, seed : int
         Bootstrap replicates (0: no interval) and their seed.
+    fit : {'monotone', 'logistic'}, optional
+        :func:`analysis.horizon_fit.monotone_view_thresholds` or
+        :func:`analysis.horizon_fit.view_thresholds`.
+    increasing : bool, optional
+        Higher is better (the monotone fit's direction; the logistic finds it from its slope).
 
     Returns
     -------
     pandas.DataFrame
         :data:`PEOPLE_VIEW_COLUMNS`, one row per view cell of the votes (views along several
-        axes at once are left out).
+        axes at once are left out); ``slope`` is the logistic's (NaN for the monotone fit).
     """
-    from analysis.horizon_fit import view_thresholds
-
     P = perturbation_array(votes)
     names = axes(P)
     single = np.isin(names, (*AXES, "none"))
     v = votes[single]
     x, y = v["x"].to_numpy(np.float64), v["vote"].to_numpy(np.float64)
     codes, views = pd.factorize(view_keys(names[single], axis_values(P)[single]), sort=True)
-    fit = view_thresholds(x, y, codes, good_prob=good_prob)
+    one = _fit(fit, increasing, x, y, codes, good_prob)
+    est = one(None)
+    up = increasing if fit == "monotone" else bool(est["b"] > 0)
     lo, hi = (float(x.min()), float(x.max())) if len(x) else (math.nan, math.nan)
     rater, track = v["rater"].to_numpy(np.int64), v["track"].to_numpy(np.int64)
-    reps, why = _replicates(x, y, codes, rater, track, fit, good_prob=good_prob, n_boot=n_boot, seed=seed)
+    reps, why = _replicates(one, x, rater, track, est, n_boot=n_boot, seed=seed)
     R = len(np.unique(rater))
-    source = (f"people, per view: P(good) = {good_prob:g} on a logistic with an intercept per view and a "
-              f"shared slope, fitted to {plural(len(x), 'vote')} of {plural(R, 'rater')}")
-    rows = [_view_row(fit, k, reps, why, lo, hi) for k in range(len(views))]
-    return pd.DataFrame([{"metric": metric, "axis": a, "offset": o, **r, "good_prob": good_prob, "slope": fit["b"],
-                          "source": source} for (a, o), r in zip(views, rows, strict=True)],
-                        columns=PEOPLE_VIEW_COLUMNS)
+    how = ("a monotone (isotonic) fit of the votes on the metric inside each view" if fit == "monotone"
+           else "a logistic with an intercept per view and a shared slope")
+    source = (f"people, per view: P(good) = {good_prob:g} on {how}, fitted to {plural(len(x), 'vote')} of "
+              f"{plural(R, 'rater')}")
+    rows = [_view_row(est, k, reps, why, (lo, hi, up, good_prob)) for k in range(len(views))]
+    return pd.DataFrame([{"metric": metric, "axis": a, "offset": o, **r, "good_prob": good_prob,
+                          "slope": est.get("b", math.nan), "source": source}
+                         for (a, o), r in zip(views, rows, strict=True)], columns=PEOPLE_VIEW_COLUMNS)
 
 
-def _replicates(x, y, codes, rater, track, fit, *, good_prob, n_boot, seed):
+def _fit(fit: str, increasing: bool, x, y, codes, good_prob):
+    """A function of the weights ``w`` ((B, n) or None) giving the chosen per-view fit's dict."""
+    from analysis.horizon_fit import monotone_view_thresholds, view_thresholds
+
+    if fit not in VIEW_FITS:
+        raise InputError(param="fit", expected=" or ".join(VIEW_FITS), got=fit)
+    if fit == "logistic":
+        return lambda w: view_thresholds(x, y, codes, good_prob=good_prob, w=w)
+    return lambda w: monotone_view_thresholds(x, y, codes, good_prob=good_prob, increasing=increasing, w=w)
+
+
+def _replicates(one, x, rater, track, est, *, n_boot, seed):
     """``(reps (B, V) or None, why none)``: the per-view thresholds of the two-way bootstrap over
     raters and tracks (:func:`analysis.horizon_fit.vote_threshold`'s), clipped to the rated values."""
     from analysis.bootstrap import too_few_raters
-    from analysis.horizon_fit import _chunks, _counts, view_thresholds
+    from analysis.horizon_fit import _chunks, _counts
 
     R, T = len(np.unique(rater)), len(np.unique(track))
     if n_boot <= 0:
@@ -141,26 +161,30 @@ def _replicates(x, y, codes, rater, track, fit, *, good_prob, n_boot, seed):
         return None, too_few_raters(R)
     if T < 2:
         return None, f"no interval from {plural(T, 'track')}: a bootstrap over tracks needs at least 2"
-    if not math.isfinite(fit["b"]):
-        return None, "no interval: " + (fit["reason"] or "the fit is undefined")
+    if not math.isfinite(est.get("b", 0.0)):
+        return None, "no interval: " + (est.get("reason") or "the fit is undefined")
     rng = np.random.default_rng(seed)
     cr, ct = _counts(int(rater.max()) + 1, n_boot, rng), _counts(int(track.max()) + 1, n_boot, rng)
-    V = int(codes.max()) + 1
-    reps = np.concatenate([view_thresholds(x, y, codes, good_prob=good_prob, w=cr[s][:, rater] * ct[s][:, track])
-                           ["value"] for s in _chunks(n_boot, len(x) * V)])
+    V = len(est["n"])
+    reps = np.concatenate([one(cr[s][:, rater] * ct[s][:, track])["value"] for s in _chunks(n_boot, len(x) * V)])
     return np.where(np.isnan(reps), np.nan, np.clip(reps, x.min(), x.max())), ""
 
 
-def _view_row(fit: dict, k: int, reps, why: str, lo: float, hi: float) -> dict:
-    """View ``k``'s ``threshold, ci_lo, ci_hi, n_votes, reason``."""
+def _view_row(est: dict, k: int, reps, why: str, scale: tuple) -> dict:
+    """View ``k``'s ``threshold, ci_lo, ci_hi, n_votes, reason``; ``scale``: the rated values'
+    ``(lo, hi)``, whether higher is better, and the P(good) of the threshold."""
     from analysis.bootstrap import interval_around
     from analysis.horizon_fit import clip_to_range
 
-    n = int(fit["n"][k])
-    value, note = clip_to_range(float(fit["value"][k]), lo, hi)
+    lo, hi, up, good_prob = scale
+    n, raw = int(est["n"][k]), float(est["value"][k])
+    value, note = clip_to_range(raw, lo, hi)
+    if math.isinf(raw):
+        judged = "good" if (raw < 0) == up else "bad"
+        note = (f"every rated value at this view is judged {judged} (P(good) "
+                f"{'at or above' if judged == 'good' else 'below'} {good_prob:g}): the threshold is "
+                f"the {'lowest' if value == lo else 'highest'} rated value, {value:.4g}")
     notes = [note] if note else []
-    if math.isinf(float(fit["a"][k])):
-        notes.insert(0, f"all {plural(n, 'vote')} at this view {'good' if fit['a'][k] > 0 else 'bad'}")
     ci = (math.nan, math.nan)
     if reps is not None and math.isfinite(value):
         *ci, miss = interval_around(value, reps[:, k])
