@@ -465,6 +465,8 @@ def _horizon(args, analysis):
         from analysis.inputs import read_ratings
 
         result = horizon.for_ratings(analysis, read_ratings(args.ratings), opts, where=args.ratings)
+    if result.kind == "floor":
+        print(f"note: {result.notes[0]}", file=sys.stderr)
     for m in sorted(result.table["method"].unique()):
         print(method_sentence(m, result.table), file=sys.stderr)
     return result

@@ -307,9 +307,10 @@ def floor_views(floor: pd.DataFrame, threshold: float, grid) -> pd.DataFrame:
     Returns
     -------
     pandas.DataFrame
-        :data:`nvrq.horizon.VIEW_COLUMNS` plus ``floor``, one row per view of ``grid``. When every
-        view of the grid has a floor, each view's threshold is ``floor + threshold``; otherwise
-        every view keeps ``threshold`` (``floor`` NaN), and ``source`` names the views without one.
+        :data:`nvrq.horizon.VIEW_COLUMNS` plus ``floor`` and ``floor_method``, one row per view
+        of ``grid``. When every view of the grid has a floor, each view's threshold is
+        ``floor + threshold``; otherwise every view keeps ``threshold`` (``floor`` NaN), and
+        ``source`` names the views without one.
     """
     f = floor.assign(offset=lambda d: d["offset"].astype(float))
     table = {(a, o): v for a, o, v in zip(f["axis"], f["offset"], f["floor"], strict=True) if math.isfinite(v)}
@@ -324,4 +325,5 @@ def floor_views(floor: pd.DataFrame, threshold: float, grid) -> pd.DataFrame:
     fl = [math.nan if missing else table[k] for k in grid]
     return pd.DataFrame({"axis": [k[0] for k in grid], "offset": [k[1] for k in grid],
                          "threshold": [threshold + (0.0 if missing else v) for v in fl],
-                         "source": source, "floor": fl}, columns=[*VIEW_COLUMNS, "floor"])
+                         "source": source, "floor": fl, "floor_method": method},
+                        columns=[*VIEW_COLUMNS, "floor", "floor_method"])

@@ -131,9 +131,10 @@ def _votes(seed=0, n_items=400, raters=6):
     return items.iloc[i].reset_index(drop=True).assign(x=m[i], vote=y, rater=r, track=i % 40)
 
 
-def test_people_views_give_each_view_its_threshold_and_an_interval_around_it():
+@pytest.mark.parametrize("fit", ["monotone", "logistic"])
+def test_people_views_give_each_view_its_threshold_and_an_interval_around_it(fit):
     votes = _votes()
-    v = people_views("m", votes, good_prob=0.5, n_boot=100, seed=0).set_index("offset")
+    v = people_views("m", votes, good_prob=0.5, n_boot=100, seed=0, fit=fit).set_index("offset")
     assert list(v.index) == [0.0, 1.0, 2.0] and list(v["axis"]) == ["none", "y", "y"]
     # P(good) = 0.5 at q = 0.5: the metric 0.8, 0.5, 0.2 at the three views
     assert np.allclose(v["threshold"], [0.8, 0.5, 0.2], atol=0.02), v["threshold"]
@@ -141,13 +142,18 @@ def test_people_views_give_each_view_its_threshold_and_an_interval_around_it():
     assert (v["reason"] == "").all() and (v["n_votes"] == np.bincount(votes["y_offset_m"].astype(int))).all()
 
 
-def test_a_view_whose_votes_are_one_outcome_gets_the_edge_of_the_rated_values():
+@pytest.mark.parametrize("fit", ["monotone", "logistic"])
+def test_a_view_whose_votes_are_one_outcome_gets_the_edge_of_the_rated_values(fit):
     votes = _votes(seed=1)
     votes.loc[votes["y_offset_m"] == 2.0, "vote"] = 1.0  # every vote at 2 m good
-    v = people_views("m", votes, good_prob=0.5, n_boot=0, seed=0).set_index("offset")
+    v = people_views("m", votes, good_prob=0.5, n_boot=0, seed=0, fit=fit).set_index("offset")
     assert v.loc[2.0, "threshold"] == pytest.approx(votes["x"].min())
-    assert v.loc[2.0, "reason"].startswith("all ") and "at this view good" in v.loc[2.0, "reason"]
-    assert "clipped to" in v.loc[2.0, "reason"]
+    assert v.loc[2.0, "reason"].startswith("every rated value at this view is judged good")
+    # lower is better (the metric negated): every object at 2 m is good below the highest value
+    low = people_views("m", votes.assign(x=-votes["x"]), good_prob=0.5, n_boot=0, seed=0, fit=fit,
+                       increasing=False).set_index("offset")
+    assert low.loc[2.0, "threshold"] == pytest.approx(-votes["x"].min())
+    assert np.allclose(low["threshold"], -v["threshold"], atol=1e-9)
 
 
 def test_an_impossible_threshold_is_clipped_to_the_rated_values():

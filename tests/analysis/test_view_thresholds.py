@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from sklearn.linear_model import LogisticRegression
 
-from analysis.horizon_fit import view_thresholds
+from analysis.horizon_fit import monotone_view_thresholds, pav, view_thresholds
 
 
 def _votes(seed=0, n=3000):
@@ -67,3 +67,32 @@ def test_weights_are_copies_of_the_votes():
         ref = view_thresholds(np.repeat(x, k), np.repeat(y, k), np.repeat(view, k))
         assert np.allclose(r["value"][row], ref["value"], atol=1e-8)
         assert r["b"][row] == pytest.approx(ref["b"], abs=1e-8)
+
+
+def test_pav_equals_sklearn_isotonic_regression():
+    from sklearn.isotonic import IsotonicRegression
+
+    rng = np.random.default_rng(5)
+    y = (rng.random(300) < np.linspace(0.1, 0.9, 300)).astype(float)
+    w = rng.uniform(0.5, 2.0, 300)
+    ref = IsotonicRegression().fit(np.arange(300), y, sample_weight=w).predict(np.arange(300))
+    assert np.allclose(pav(y, w), ref, atol=1e-12)
+
+
+def test_monotone_thresholds_are_where_the_isotonic_fit_reaches_good_prob():
+    from sklearn.isotonic import IsotonicRegression
+
+    x, y, view = _votes(seed=6, n=1500)
+    r = monotone_view_thresholds(x, y, view, good_prob=0.6)
+    for v in range(4):
+        on = view == v
+        ux = np.unique(x[on])
+        f = IsotonicRegression().fit(x[on], y[on]).predict(ux)
+        k = int(np.argmax(f >= 0.6))
+        assert 0 < k and r["value"][v] == pytest.approx(0.5 * (ux[k - 1] + ux[k]))
+    # lower is better: the same fit of the negated metric, negated back
+    low = monotone_view_thresholds(-x, y, view, good_prob=0.6, increasing=False)
+    assert np.allclose(low["value"], -r["value"])
+    # a view of good votes only: every object there is good (the limit -inf)
+    y2 = np.where(view == 2, 1.0, y)
+    assert monotone_view_thresholds(x, y2, view)["value"][2] == -np.inf
