@@ -904,6 +904,12 @@ def _(world, tmp):
                                      str(table), "--out", str(tmp / "r")), ["--threshold-table", "not both"]
 
 
+@case("horizon", "--view-fit with --pairs")
+def _(world, tmp):
+    return "analyze", _horizon_pairs(world, "--metric", "psnr", "--threshold", "25", "--view-fit", "logistic",
+                                     "--out", str(tmp / "r")), ["--view-fit", "--pairs"]
+
+
 @case("horizon", "--pooled-threshold with --pairs")
 def _(world, tmp):
     return "analyze", _horizon_pairs(world, "--metric", "psnr", "--threshold", "25", "--pooled-threshold",
