@@ -195,12 +195,13 @@ def view_keys(axis: np.ndarray, value: np.ndarray) -> pd.MultiIndex:
 
 
 def _view_thresholds(th: Threshold, axis: np.ndarray, value: np.ndarray) -> np.ndarray:
-    """(N,) each row's threshold: ``th.value``, or its view's in ``th.views``."""
+    """(N,) each row's threshold: ``th.value``, or its view's in ``th.views`` (offset 0 is the
+    recorded view whatever its axis)."""
     if th.views is None:
         return np.full(len(axis), th.value)
-    table = th.views.assign(offset=lambda d: np.where(d["axis"] == "none", 0.0,
-                                                        np.round(d["offset"].astype(float), 2)) + 0.0)
-    table = table.set_index(["axis", "offset"])["threshold"].astype(np.float64)
+    off = np.round(th.views["offset"].to_numpy(np.float64), 2)
+    ax = np.where((th.views["axis"].astype(str) == "none") | (off == 0), "none", th.views["axis"].astype(str))
+    table = pd.Series(th.views["threshold"].to_numpy(np.float64), index=view_keys(ax.astype(object), off))
     keys = view_keys(axis, value)
     pos = table.index.get_indexer(keys)
     single = np.isin(axis, AXES) | (axis == "none")

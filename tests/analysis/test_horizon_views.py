@@ -59,6 +59,9 @@ def test_a_threshold_per_view_judges_each_view_by_its_own():
         assert per.loc[("perfect", d), "reason"] == "beyond the grid" and per.loc[("sharp", d), "horizon"] == 3.0
         assert per.loc[("blurry", d), "horizon"] == 0.0
     assert (per["threshold_source"] == "by hand").all() and per["threshold"].isna().all()
+    # offset 0 is the recorded view whatever axis the table gives it
+    same = _h(s, Threshold("score", np.nan, views=views.assign(axis="y")))
+    pd.testing.assert_frame_equal(same, per)
     with pytest.raises(InputError, match="none at y \\+3"):
         _h(s, Threshold("score", np.nan, views=views[views["offset"] != 3]))
 
