@@ -466,7 +466,8 @@ def _horizon(args, analysis):
 
         result = horizon.for_ratings(analysis, read_ratings(args.ratings), opts, where=args.ratings)
     if result.kind == "floor":
-        print(f"note: {result.notes[0]}", file=sys.stderr)
+        print("note: " + result.notes[0].replace("with `floor` off it applies", "--no-floor applies it"),
+              file=sys.stderr)
     for m in sorted(result.table["method"].unique()):
         print(method_sentence(m, result.table), file=sys.stderr)
     return result

@@ -272,7 +272,7 @@ def _result(items: pd.DataFrame, th: Threshold, opts: HorizonOptions, fits, wher
     if kind == "floor":
         method = views["floor_method"].iloc[0]
         notes.append(f"the threshold {opts.threshold:g} applies to {th.metric} minus the viewpoint floor (the "
-                     f"median of method {method} at each view); --no-floor applies it to {th.metric} itself")
+                     f"median of method {method} at each view); with `floor` off it applies to {th.metric} itself")
     kw = {"threshold": th, "share": opts.share}
     table = trust_horizon(items, n_boot=opts.n_boot, seed=opts.seed, min_clusters=opts.min_clusters, **kw)
     timeline = None
