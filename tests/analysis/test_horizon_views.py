@@ -119,6 +119,14 @@ def test_analyze_pairs_uses_the_floor_and_records_the_source_per_row(tmp_path):
     rows = pd.DataFrame(doc["horizons"]).set_index(["method", "direction"])
     assert (rows["threshold_kind"] == "given").all() and rows.loc[("perfect", "left"), "horizon"] == 1.0
     assert (rows["threshold_source"] == "given (a fixed threshold)").all() and doc["view_thresholds"] == []
+    # the floor run's per-view thresholds, given back as a table, judge the pairs the same way
+    table = tmp_path / "f" / "horizon_view_thresholds.csv"
+    assert analyze_main([*base, "--threshold-table", str(table), "--out", str(tmp_path / "t")]) == 0
+    doc = json.loads((tmp_path / "t" / "horizon.json").read_text())
+    given = pd.DataFrame(doc["horizons"]).set_index(["method", "direction"])
+    floor = pd.read_csv(tmp_path / "f" / "horizon.csv").set_index(["method", "direction"])
+    assert (given["threshold_kind"] == "given_view").all() and doc["threshold"]["value"] is None
+    assert given["horizon"].equals(floor["horizon"])
 
 
 def _votes(seed=0, n_items=400, raters=6):
