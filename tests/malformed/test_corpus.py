@@ -892,6 +892,36 @@ def _(world, tmp):
                        "--out", str(tmp / "r")], ["one_offset.csv", "offset"]
 
 
+@case("horizon", "a per-view threshold table missing a view of the grid")
+def _(world, tmp):
+    pairs = pd.read_csv(world / "toy" / "pairs.csv")
+    views = sorted(set(pairs["y_offset_m"].round(2)))
+    table = tmp / "thresholds.csv"
+    pd.DataFrame({"offset": views[:-1], "threshold": 25.0}).to_csv(table, index=False)  # the last view left out
+    return "analyze", _horizon_pairs(world, "--metric", "psnr", "--threshold-table", str(table),
+                                     "--out", str(tmp / "r")), ["thresholds.csv", "threshold", f"y {views[-1]:+g}"]
+
+
+@case("horizon", "--threshold with --threshold-table")
+def _(world, tmp):
+    table = tmp / "thresholds.csv"
+    pd.DataFrame({"offset": [0.0], "threshold": [25.0]}).to_csv(table, index=False)
+    return "analyze", _horizon_pairs(world, "--metric", "psnr", "--threshold", "25", "--threshold-table",
+                                     str(table), "--out", str(tmp / "r")), ["--threshold-table", "not both"]
+
+
+@case("horizon", "--view-fit with --pairs")
+def _(world, tmp):
+    return "analyze", _horizon_pairs(world, "--metric", "psnr", "--threshold", "25", "--view-fit", "logistic",
+                                     "--out", str(tmp / "r")), ["--view-fit", "--pairs"]
+
+
+@case("horizon", "--pooled-threshold with --pairs")
+def _(world, tmp):
+    return "analyze", _horizon_pairs(world, "--metric", "psnr", "--threshold", "25", "--pooled-threshold",
+                                     "--out", str(tmp / "r")), ["--pooled-threshold", "--pairs"]
+
+
 # ---------------------------------------------------------------- issue 38 items 7-9 (messages)
 # 7: a list that starts with a minus sign is a value, checked by the command as `3,abc` is
 # (argparse said "expected one argument"); 8: a missing --metrics-table (or --pairs) is said to
