@@ -47,14 +47,15 @@ from analysis.pipeline import (
 from analysis.summary import summary_table
 from data_schema import datasets as ds
 from data_schema.errors import InputError, check_number
-from data_schema.methods import METHOD_COLUMN
+from data_schema.methods import FLOOR_METHOD, METHOD_COLUMN, method_values
 from data_schema.perturbation import EXTRA_PERTURBATION_COLUMNS
 from data_schema.tables import TableKind, read_table
+from data_schema.text import plural
 
 __all__ = ["TableSource", "read_all_pairs", "run_pairs_analysis", "RATER_COLUMNS"]
 
 #: Pair columns the analysis uses (identity and breakdowns); the rest of PAIRS_COLUMNS is not read.
-_KEEP = ("clip_id", "track_id", "label_class", "y_offset_m")
+_KEEP = ("clip_id", "track_id", "label_class", "y_offset_m", "gt_visible", "novel_visible")
 #: The 6-DoF view components (docs/FORMATS.md §9), read as numbers when present: the per-axis
 #: tables and tent plots (:func:`analysis.axes.view_tables`); never metrics.
 _VIEW = EXTRA_PERTURBATION_COLUMNS
@@ -326,6 +327,17 @@ def _check_target(items: pd.DataFrame, target: str | None) -> None:
         raise InputError(param="target", field=target, expected="some finite values", got="none")
 
 
+def _without_floor(items: pd.DataFrame, clusters: np.ndarray) -> tuple[pd.DataFrame, np.ndarray, str]:
+    """``items`` and ``clusters`` without the rows of method ``floor``, and the note that says so
+    (``''`` when there are none)."""
+    floor = method_values(items) == FLOOR_METHOD
+    if not floor.any():
+        return items, clusters, ""
+    note = (f"{plural(int(floor.sum()), 'pair')} of the viewpoint floor (method floor, two GT views) left out "
+            "of the statistics; the method comparison draws the floor beside the methods")
+    return items[~floor].reset_index(drop=True), pd.factorize(clusters[~floor])[0].astype(clusters.dtype), note
+
+
 def run_pairs_analysis(pairs_path, options: AnalysisOptions | None = None, **keywords) -> Analysis:
     """The all-pairs analysis (module docstring); the same :class:`Analysis` as the ratings path.
 
@@ -363,10 +375,13 @@ def run_pairs_analysis(pairs_path, options: AnalysisOptions | None = None, **key
     timing = read_timing(find_timing_files(o.timing_paths, o.metrics_paths))  # before the statistics
     items, clusters, unknown = read_all_pairs(pairs_path, metrics_paths=o.metrics_paths,
                                               progress=o.progress, keep=keep)
+    if not o.compare:  # the log's viewpoint floor (nvrq pairs --floor) is no render: never pooled
+        items, clusters, floor_note = _without_floor(items, clusters)
     if target is not None or not o.compare:
         _check_target(items, target)
     notes = [f"all-pairs analysis: {len(items)} pairs, no votes; "
              + (f"target {target}" if target is not None else "no target (the methods only)")]
+    notes += [floor_note] if not o.compare and floor_note else []
     numeric = [c for c in items.columns if pd.api.types.is_numeric_dtype(items[c])]
     items, empty_notes = drop_empty_columns(items, keep=[c for c in items.columns if c not in numeric]
                                             + [target], unit="pair")

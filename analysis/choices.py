@@ -11,7 +11,7 @@ without importing the analyses (SciPy, scikit-learn, matplotlib).
 
 from __future__ import annotations
 
-__all__ = ["METHODS", "RANK_BY", "DEFAULT_MARGIN", "MIN_CLUSTERS", "PATHS", "DEFAULT_SHARE"]
+__all__ = ["METHODS", "RANK_BY", "DEFAULT_MARGIN", "MIN_CLUSTERS", "PATHS", "DEFAULT_SHARE", "VIEW_FITS"]
 
 #: How votes become item labels: majority vote (GVF) or a crowd-kit model (analysis.aggregate).
 METHODS = ("majority", "dawid-skene", "glad", "mace")
@@ -31,3 +31,7 @@ PATHS = ("off-path", "on-path")
 #: The share of good objects each offset up to the trust horizon needs (``analyze --share``;
 #: :data:`nvrq.horizon.DEFAULT_SHARE`, restated here for ``analyze --help``).
 DEFAULT_SHARE = 0.9
+#: The per-view fits of people's votes for the trust horizon (``analyze --view-fit``;
+#: :func:`analysis.horizon_views.people_views`): isotonic inside each view, or a logistic with an
+#: intercept per view and a shared slope.
+VIEW_FITS = ("monotone", "logistic")

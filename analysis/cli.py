@@ -6,7 +6,9 @@
 [--bootstrap N] [--seed S] [--rank-by {srcc,plcc,roc_auc}]
 [--compare-methods [--methods A,B] [--leaderboard-metric METRIC] [--leaderboard-view VIEW]
 [--by A,B] [--min-clusters K]]
-[--horizon [--metric METRIC] [--threshold VALUE] [--share S] [--good-prob P] [--window-s W]]
+[--horizon [--metric METRIC] [--threshold VALUE | --threshold-table CSV] [--pooled-threshold]
+[--view-fit {monotone,logistic}] [--no-floor]
+[--share S] [--good-prob P] [--window-s W]]
 --out REPORT_DIR``
 
 Pairwise votes (a ``--design pairwise`` study's export) are recognised by their columns and
@@ -28,7 +30,15 @@ import contextlib
 import sys
 from pathlib import Path
 
-from analysis.choices import DEFAULT_MARGIN, DEFAULT_SHARE, METHODS, MIN_CLUSTERS, PATHS, RANK_BY
+from analysis.choices import (
+    DEFAULT_MARGIN,
+    DEFAULT_SHARE,
+    METHODS,
+    MIN_CLUSTERS,
+    PATHS,
+    RANK_BY,
+    VIEW_FITS,
+)
 from analysis.options import AnalysisOptions, MethodOptions
 from data_schema.errors import InputError
 from data_schema.outputs import REPORT_MARKER, check_output_folder, mark_report, replacing_note
@@ -177,7 +187,23 @@ def _horizon_options(p: ArgumentParser) -> None:
                    "matches nvrq_ca:ENCODER)")
     p.add_argument("--threshold", type=number_arg(), default=None, metavar="VALUE",
                    help="with --horizon: good means METRIC at or above VALUE (at or below where lower "
-                   "is better); required with --pairs, else fitted to the votes")
+                   "is better); with --pairs that hold a viewpoint floor (methods perfect or floor), "
+                   "METRIC minus the floor of its view; without it and --threshold-table, fitted to the votes")
+    p.add_argument("--threshold-table", default=None, metavar="CSV",
+                   help="with --horizon: a threshold per view (columns offset, threshold and optionally "
+                   "axis and metric; a study's horizon_view_thresholds.csv is one); it must cover every "
+                   "view of the grid")
+    p.add_argument("--pooled-threshold", action="store_true",
+                   help="with --horizon and votes: one threshold for every view, from one logistic "
+                   "P(good | METRIC) (default: a threshold per view, from one intercept per view and a "
+                   "shared slope)")
+    p.add_argument("--view-fit", choices=VIEW_FITS, default="monotone",
+                   help="with --horizon and votes: the per-view threshold is where P(good | METRIC) = P "
+                   "on a monotone (isotonic) fit of the votes inside each view (default), or on one "
+                   "logistic with an intercept per view and a shared slope")
+    p.add_argument("--no-floor", dest="floor", action="store_false",
+                   help="with --horizon --threshold: apply VALUE to METRIC itself even where the pairs "
+                   "hold a viewpoint floor")
     p.add_argument("--share", type=number_arg(low=0, high=1, low_open=True), default=DEFAULT_SHARE,
                    metavar="S", help="with --horizon: the share of objects that must be good at every "
                    f"offset up to the horizon, in (0, 1] (default {DEFAULT_SHARE})")
@@ -194,10 +220,17 @@ def _floor_options(p: ArgumentParser) -> None:
                    help="with --pairs: each metric on the real pairs (nvrq import stereo) beside the GT crop "
                    "moved 5, 10, 20 px and the other methods' renders at the matched viewing angle: "
                    "floor.csv and a section of the report (docs/FORMATS.md §16)")
+    p.add_argument("--floor-pairs", default=None, metavar="PAIRS",
+                   help="with --floor-metrics: a pairs table holding a perfect render (method perfect, e.g. "
+                   "the same clip from nvrq synth --methods perfect:0) or a log's floor (nvrq pairs --floor); "
+                   "the tent plot draws its mean per offset dashed, as the viewpoint floor")
+    p.add_argument("--floor-metrics", default=None, metavar="METRICS",
+                   help="with --floor-pairs: the metrics table nvrq score wrote for it")
 
 
 #: The options that need --horizon (argparse dests).
-HORIZON_DESTS = ("metric", "threshold", "share", "good_prob", "window_s")
+HORIZON_DESTS = ("metric", "threshold", "threshold_table", "pooled_threshold", "view_fit", "floor", "share",
+                 "good_prob", "window_s")
 
 
 def _output_options(p: ArgumentParser) -> None:
@@ -221,9 +254,11 @@ _ALIASES = {"n_boot": "bootstrap", "metrics_paths": "metrics_tables", "timing_pa
 NOT_FOR = {
     "pairwise votes": (("target", "stability", "aggregate", "timing", "compare_methods", "methods",
                         "leaderboard_metric", "leaderboard_view", "by", "min_clusters",
-                        "rank_by", "margin", "horizon", *HORIZON_DESTS, "real_floor"),
+                        "rank_by", "margin", "horizon", *HORIZON_DESTS, "real_floor", "floor_pairs",
+                        "floor_metrics"),
                        "they rank methods by Bradley-Terry and metrics by 2AFC agreement"),
-    "--pairs": (("exclude_raters", "no_screen", "screen", "stability", "aggregate", "good_prob"),
+    "--pairs": (("exclude_raters", "no_screen", "screen", "stability", "aggregate", "good_prob",
+                 "pooled_threshold", "view_fit"),
                 "there are no votes: no raters to screen, labels to aggregate or P(good) to fit"),
 }
 
@@ -292,7 +327,7 @@ def _run(args) -> int:
                          "both" if args.pairs else "neither")
     check_output_folder(args.out, kind="report", option="--out", command="analyze",
                         inputs=[args.ratings or args.pairs, *args.metrics_tables, *args.timing,
-                                args.stability, args.nta, args.sets])
+                                args.stability, args.nta, args.sets, args.floor_pairs, args.floor_metrics])
     inputs = _report_inputs(args)
     note = replacing_note(args.out, command="analyze", inputs=inputs)  # read before it is replaced
     rc = _analyze(args)
@@ -314,6 +349,10 @@ def _analyze(args) -> int:
         raise InputError("--methods/--leaderboard-metric/--leaderboard-view/--by/--min-clusters/--sets",
                          None, "--compare-methods with them", "none")
     _check_horizon(args)
+    if (args.floor_pairs is None) != (args.floor_metrics is None):
+        given, other = ("--floor-pairs", "--floor-metrics") if args.floor_metrics is None \
+            else ("--floor-metrics", "--floor-pairs")
+        raise InputError(given, None, f"{other} with it (the floor's pairs and their scores)", "none")
     if args.real_floor and args.pairs is None and not is_pairwise(args.ratings):
         raise InputError("--real-floor", None, "--pairs PAIRS with it (the floor needs the boxes and images "
                          "of the real pairs)", args.ratings)
@@ -334,6 +373,10 @@ def _analyze(args) -> int:
         analysis.horizon = _horizon(args, analysis)
     if args.real_floor:
         analysis.floor = _floor(args, analysis)
+    if args.floor_pairs is not None:
+        analysis.viewpoint_floor, sentence = _viewpoint_floor(args)
+        if sentence:
+            analysis.notes.append(sentence)
     out = write_report(analysis, args.out)  # then the terminal: an error stays one line
     if args.pairs is None:
         _print_screening(analysis.raters, applied=analysis.screen)
@@ -379,7 +422,9 @@ def options_from_args(args) -> AnalysisOptions:
 def _horizon_options_of(args):
     from analysis.horizon import HorizonOptions
 
-    return HorizonOptions(metric=args.metric, threshold=args.threshold, share=args.share,
+    return HorizonOptions(metric=args.metric, threshold=args.threshold, threshold_table=args.threshold_table,
+                          pooled=args.pooled_threshold, view_fit=args.view_fit, floor=args.floor,
+                          share=args.share,
                           good_prob=args.good_prob, window_s=args.window_s, min_clusters=args.min_clusters,
                           n_boot=args.bootstrap, seed=args.seed)
 
@@ -391,9 +436,12 @@ def _check_horizon(args) -> None:
     if given and not args.horizon:
         flag = option_for(parser, args, given[0]) or "--" + given[0].replace("_", "-")
         raise InputError(flag, None, "--horizon with it", "none")
-    if args.horizon and args.pairs is not None and args.threshold is None:
-        raise InputError("--horizon", None, "a threshold source: --threshold VALUE (--pairs has no "
-                         "votes to fit one)", "none")
+    if args.threshold is not None and args.threshold_table is not None:
+        raise InputError("--threshold-table", None, "either --threshold or --threshold-table, not both",
+                         "both")
+    if args.horizon and args.pairs is not None and args.threshold is None and args.threshold_table is None:
+        raise InputError("--horizon", None, "a threshold source: --threshold VALUE or --threshold-table CSV "
+                         "(--pairs has no votes to fit one)", "none")
 
 
 def _run_pairs(args):
@@ -409,6 +457,16 @@ def _run_pairs(args):
     from analysis.all_pairs import run_pairs_analysis
 
     return run_pairs_analysis(args.pairs, options_from_args(args))
+
+
+def _viewpoint_floor(args):
+    """The tents' viewpoint floor from --floor-pairs and --floor-metrics and the sentence about a
+    log's floor (analysis.viewpoint_floor.tent_floor)."""
+    from analysis.viewpoint_floor import tent_floor
+    from data_schema.tables import PAIRS_COLUMNS, TableKind, read_metrics, read_table
+
+    pairs = read_table(args.floor_pairs, required=PAIRS_COLUMNS, kind=TableKind.PAIRS)
+    return tent_floor(pairs, read_metrics(args.floor_metrics), where=args.floor_pairs)
 
 
 def _floor(args, analysis):
@@ -432,6 +490,9 @@ def _horizon(args, analysis):
         from analysis.inputs import read_ratings
 
         result = horizon.for_ratings(analysis, read_ratings(args.ratings), opts, where=args.ratings)
+    if result.kind == "floor":
+        print("note: " + result.notes[0].replace("with `floor` off it applies", "--no-floor applies it"),
+              file=sys.stderr)
     for m in sorted(result.table["method"].unique()):
         print(method_sentence(m, result.table), file=sys.stderr)
     return result

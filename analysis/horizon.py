@@ -5,9 +5,15 @@ pure computation of :mod:`nvrq.horizon`; :mod:`analysis.horizon_report` writes t
 
 - Ratings: the threshold of each metric where P(good | metric) = ``good_prob``
   (:func:`analysis.horizon_fit.vote_threshold` on the kept raters' test votes), and the
-  horizon of the rated items on the horizon's metric (its fitted threshold, or ``threshold``).
-- Pairs: the horizon of every pair on the metric at ``threshold`` (no votes, so the threshold
-  is given); with ``camera`` and ``timestamp_us`` also the timeline.
+  horizon of the rated items on the horizon's metric. By default each view gets its own
+  threshold from a monotone fit of the votes inside the view, or from one logistic with an
+  intercept per view and a shared slope (``view_fit``, :func:`analysis.horizon_views.people_views`);
+  ``pooled`` uses the one pooled threshold,
+  and ``threshold`` or ``threshold_table`` a given one.
+- Pairs: the horizon of every pair on the metric at a given threshold (no votes): a per-view
+  ``threshold_table``, or ``threshold`` applied to the excess over the viewpoint floor where
+  the pairs have one (:func:`analysis.horizon_views.floor_views`) and to the metric itself
+  otherwise; with ``camera`` and ``timestamp_us`` also the timeline.
 
 :func:`pairs_items` reads the pairs when the analysis' items lack the time columns, and
 :func:`horizon_only_analysis` builds the analysis of an ``analyze --pairs --horizon`` run
@@ -35,7 +41,7 @@ from nvrq.horizon import (
     trust_horizon,
 )
 
-__all__ = ["HorizonOptions", "HorizonResult", "for_ratings", "for_pairs",
+__all__ = ["HorizonOptions", "HorizonResult", "THRESHOLD_KINDS", "for_ratings", "for_pairs",
            "horizon_only_analysis", "pairs_items", "FIT_COLUMNS"]
 
 #: horizon_thresholds.csv: one row per metric of a ratings analysis.
@@ -61,10 +67,23 @@ class HorizonOptions:
         The timeline's window, seconds (> 0).
     min_clusters, n_boot, seed : int
         The fewest tracks for an interval; bootstrap replicates and seed.
+    threshold_table : str or Path, optional
+        A per-view threshold table (``--threshold-table``, :func:`analysis.horizon_views.read_view_table`).
+    pooled : bool
+        With votes: one threshold for every view (the pooled logistic) instead of one per view.
+    view_fit : {'monotone', 'logistic'}
+        With votes: the per-view fit (:func:`analysis.horizon_views.people_views`).
+    floor : bool
+        With a given ``threshold``: apply it to the excess over the viewpoint floor where the
+        items have one (:func:`analysis.horizon_views.floor_views`); False: to the metric itself.
     """
 
     metric: str | None = None
     threshold: float | None = None
+    threshold_table: str | None = None
+    pooled: bool = False
+    view_fit: str = "monotone"
+    floor: bool = True
     share: float = DEFAULT_SHARE
     good_prob: float = 0.5
     window_s: float = 2.0
@@ -93,6 +112,10 @@ class HorizonResult:
         The options used.
     notes : list of str
         Notes for the report.
+    kind : str
+        Which threshold judged the objects (:data:`THRESHOLD_KINDS`).
+    views : pandas.DataFrame or None
+        The per-view thresholds (horizon_view_thresholds.csv), or None for one threshold.
     """
 
     threshold: Threshold
@@ -102,6 +125,19 @@ class HorizonResult:
     fits: pd.DataFrame | None
     options: HorizonOptions
     notes: list[str] = field(default_factory=list)
+    kind: str = "given"
+    views: pd.DataFrame | None = None
+
+
+#: horizon.json's ``threshold_kind`` of each row: where its threshold came from.
+THRESHOLD_KINDS = {
+    "people_view": "people: a threshold per view (a monotone fit per view, or a logistic with an "
+                   "intercept per view and a shared slope)",
+    "people_pooled": "people: one logistic for every view",
+    "given": "given: one threshold for every view",
+    "given_view": "given: a per-view threshold table",
+    "floor": "given: one threshold on the excess over the viewpoint floor",
+}
 
 
 def _directions(metric: str, directions: dict) -> bool:
@@ -112,14 +148,20 @@ def _metric(opts: HorizonOptions, metrics: list[str]) -> str:
     return resolve_metric(opts.metric, metrics, param="metric")
 
 
-def _vote_fits(votes: pd.DataFrame, items: pd.DataFrame, metrics, directions, opts) -> pd.DataFrame:
-    """horizon_thresholds.csv: per metric, the threshold of :func:`vote_threshold`."""
-    from analysis.horizon_fit import vote_threshold
-
+def _joined(votes: pd.DataFrame, items: pd.DataFrame):
+    """``(votes, their items, rater codes, track codes)`` for the votes of known items."""
     pos = pd.Index(items["item_id"].astype(str)).get_indexer(votes["item_id"].astype(str))
     v, it = votes[pos >= 0], items.iloc[pos[pos >= 0]].reset_index(drop=True)
     rater = pd.factorize(v["rater_id"].astype(str))[0]
     track = pd.factorize(pd.MultiIndex.from_arrays([it["clip_id"].astype(str), it["track_id"].astype(str)]))[0]
+    return v, it, rater, track
+
+
+def _vote_fits(votes: pd.DataFrame, items: pd.DataFrame, metrics, directions, opts) -> pd.DataFrame:
+    """horizon_thresholds.csv: per metric, the threshold of :func:`vote_threshold`."""
+    from analysis.horizon_fit import vote_threshold
+
+    v, it, rater, track = _joined(votes, items)
     y = v["vote"].to_numpy(np.float64)
     rows = []
     for m in metrics:
@@ -155,9 +197,54 @@ def _check_views(items: pd.DataFrame, where) -> None:
                          "(the recorded view and one more) to find a horizon", "one offset per axis")
 
 
-def _result(items: pd.DataFrame, th: Threshold, opts: HorizonOptions, fits, where) -> HorizonResult:
+def _given(items: pd.DataFrame, metric: str, higher: bool, opts: HorizonOptions):
+    """``(threshold, kind, views)`` of a given threshold: a per-view table, one value over the
+    viewpoint floor where the items have one, or one value."""
+    from analysis import horizon_views as hv
+
+    if opts.threshold_table is not None:
+        views = hv.read_view_table(opts.threshold_table, hv.grid_of(items), metric=metric)
+        return Threshold(metric, math.nan, higher, views["source"].iloc[0], views=views), "given_view", views
+    fixed = Threshold(metric, float(opts.threshold), higher, "given (a fixed threshold)")
+    floor = hv.viewpoint_floor(items, metric) if opts.floor else None
+    if floor is None or floor.empty:
+        return fixed, "given", None
+    views = hv.floor_views(floor, float(opts.threshold), hv.grid_of(items))
+    if views["floor"].isna().all():
+        return Threshold(metric, fixed.value, higher, views["source"].iloc[0]), "given", None
+    return Threshold(metric, fixed.value, higher, views["source"].iloc[0], views=views), "floor", views
+
+
+def _people_views(votes, items, metric, higher, fits, opts) -> tuple[Threshold, pd.DataFrame]:
+    """The per-view threshold of ``metric`` from the votes (analysis.horizon_views.people_views)."""
+    from analysis.horizon_views import people_views
+    from data_schema.perturbation import PERTURBATION_COLUMNS
+
+    v, it, rater, track = _joined(votes, items)
+    x = it[metric].to_numpy(np.float64)
+    ok = np.isfinite(x)
+    table = it.loc[ok, [c for c in PERTURBATION_COLUMNS if c in it.columns]].assign(
+        x=x[ok], vote=v["vote"].to_numpy(np.float64)[ok], rater=pd.factorize(rater[ok])[0],
+        track=pd.factorize(track[ok])[0])
+    views = people_views(metric, table, good_prob=opts.good_prob, n_boot=opts.n_boot, seed=opts.seed,
+                         fit=opts.view_fit, increasing=higher)
+    row = fits.set_index("metric").loc[metric]
+    if not np.isfinite(views["threshold"]).any():
+        raise InputError(param="metric", field=metric, expected="a metric whose votes give a threshold per "
+                         "view (or a given `threshold`)", got=views["reason"].iloc[0] or "no threshold")
+    th = Threshold(metric, float(row["threshold"]), higher, views["source"].iloc[0], float(row["ci_lo"]),
+                   float(row["ci_hi"]), views=views)
+    return th, views
+
+
+def _result(items: pd.DataFrame, th: Threshold, opts: HorizonOptions, fits, where, kind: str = "given",
+            views: pd.DataFrame | None = None) -> HorizonResult:
     _check_views(items, where)
     notes = []
+    if kind == "floor":
+        method = views["floor_method"].iloc[0]
+        notes.append(f"the threshold {opts.threshold:g} applies to {th.metric} minus the viewpoint floor (the "
+                     f"median of method {method} at each view); with `floor` off it applies to {th.metric} itself")
     kw = {"threshold": th, "share": opts.share}
     table = trust_horizon(items, n_boot=opts.n_boot, seed=opts.seed, min_clusters=opts.min_clusters, **kw)
     timeline = None
@@ -166,7 +253,7 @@ def _result(items: pd.DataFrame, th: Threshold, opts: HorizonOptions, fits, wher
                                     min_clusters=opts.min_clusters, **kw)
     else:
         notes.append("no timeline: the items have no timestamp_us")
-    return HorizonResult(th, table, share_curves(items, **kw), timeline, fits, opts, notes)
+    return HorizonResult(th, table, share_curves(items, **kw), timeline, fits, opts, notes, kind, views)
 
 
 def for_ratings(analysis, votes: pd.DataFrame, opts: HorizonOptions, *, where=None) -> HorizonResult:
@@ -185,16 +272,22 @@ def for_ratings(analysis, votes: pd.DataFrame, opts: HorizonOptions, *, where=No
     Returns
     -------
     HorizonResult
-        Threshold given or fitted to the votes, with the vote fits kept.
+        Threshold given, or fitted to the votes (per view by default, pooled with
+        ``opts.pooled``), with the vote fits kept.
     """
     metric = _metric(opts, analysis.metrics)
     excluded = set(analysis.raters.loc[analysis.raters["excluded"].astype(bool), "rater_id"].astype(str))
     test = votes[(votes["kind"] == "test") & ~votes["rater_id"].astype(str).isin(excluded)]
     fits = _vote_fits(test, analysis.items, analysis.metrics, analysis.directions, opts)
     higher = _directions(metric, analysis.directions)
-    th = (Threshold(metric, float(opts.threshold), higher, "given (a fixed threshold)")
-          if opts.threshold is not None else _human_threshold(fits, metric, higher, opts))
-    return _result(analysis.items, th, opts, fits, where)
+    if opts.threshold is not None or opts.threshold_table is not None:
+        th, kind, views = _given(analysis.items, metric, higher, opts)
+        return _result(analysis.items, th, opts, fits, where, kind, views)
+    if opts.pooled:
+        return _result(analysis.items, _human_threshold(fits, metric, higher, opts), opts, fits, where,
+                       "people_pooled")
+    th, views = _people_views(test, analysis.items, metric, higher, fits, opts)
+    return _result(analysis.items, th, opts, fits, where, "people_view", views)
 
 
 def for_pairs(analysis, items: pd.DataFrame, opts: HorizonOptions, *, where=None) -> HorizonResult:
@@ -207,19 +300,19 @@ def for_pairs(analysis, items: pd.DataFrame, opts: HorizonOptions, *, where=None
     items : pandas.DataFrame
         Its per-pair items with ``camera`` and ``timestamp_us`` (:func:`pairs_items`).
     opts : HorizonOptions
-        With ``threshold`` set (no votes here to fit one to).
+        With ``threshold`` or ``threshold_table`` set (no votes here to fit one to).
     where : str or Path, optional
         The pairs input, named in errors.
 
     Returns
     -------
     HorizonResult
-        At the given threshold, without vote fits.
+        At the given threshold (per view from the table, or over the viewpoint floor where the
+        items have one and ``opts.floor``), without vote fits.
     """
     metric = _metric(opts, analysis.metrics)
-    th = Threshold(metric, float(opts.threshold), _directions(metric, analysis.directions),
-                   "given (a fixed threshold)")
-    return _result(items, th, opts, None, where)
+    th, kind, views = _given(items, metric, _directions(metric, analysis.directions), opts)
+    return _result(items, th, opts, None, where, kind, views)
 
 
 def pairs_items(analysis, pairs_path, metrics_paths, *, progress: bool) -> pd.DataFrame:

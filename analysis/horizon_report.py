@@ -6,7 +6,8 @@ Layer: ``analysis`` (writes what :mod:`analysis.horizon` computed into the repor
 Files: ``horizon.csv`` (:data:`nvrq.horizon.HORIZON_COLUMNS`), ``horizon.json`` (schema
 ``nvrq.horizon`` version :data:`SCHEMA_VERSION`: the threshold, its source, the options, the
 grid and the rows), ``horizon_timeline.csv`` (when the items have times),
-``horizon_thresholds.csv`` (ratings: the human threshold of every metric), and the figures
+``horizon_thresholds.csv`` (ratings: the human threshold of every metric),
+``horizon_view_thresholds.csv`` (the thresholds per view, when the horizon used them), and the figures
 ``horizon_<method>.png/.svg`` (share of good objects against offset per class, the crossing
 marked and its interval shaded) and ``horizon_timeline.png/.svg`` (a heat strip of the horizon
 over time). The section: one sentence per method (:func:`method_sentence`).
@@ -34,7 +35,7 @@ from data_schema.tables import write_table
 from nvrq.horizon import DIRECTIONS, HORIZON_COLUMNS, TIMELINE_COLUMNS, unit_of
 
 __all__ = ["SCHEMA_VERSION", "write_horizon", "horizon_json", "method_sentence", "share_figure",
-           "timeline_figure", "context"]
+           "timeline_figure", "threshold_text", "context"]
 
 #: The version of horizon.json's schema (docs/FORMATS.md §15).
 SCHEMA_VERSION = 1
@@ -60,11 +61,14 @@ def horizon_json(result) -> dict:
         ``schema``, ``version``, ``metric``, ``threshold`` (value, source, higher_better,
         ci_lo, ci_hi), ``share``, ``good_prob`` (null without votes), ``min_clusters``,
         ``n_boot``, ``seed``, ``window_s``, ``grid`` (axis -> signed offsets), ``units``,
-        ``horizons`` (the horizon.csv rows) and ``thresholds`` (horizon_thresholds.csv rows).
+        ``horizons`` (the horizon.csv rows, each with its ``threshold_kind`` of
+        :data:`analysis.horizon.THRESHOLD_KINDS`), ``thresholds`` (horizon_thresholds.csv rows)
+        and ``view_thresholds`` (horizon_view_thresholds.csv rows; empty for one threshold).
     """
     th, o = result.threshold, result.options
     grid = {a: sorted({_num(v) for v in g["offset"]}) for a, g in result.curves.groupby("axis", sort=False)}
     rows = lambda df: [{k: _num(v) for k, v in r.items()} for r in df.to_dict("records")]  # noqa: E731
+    kind, views = result.kind, result.views
     return {
         "schema": "nvrq.horizon", "version": SCHEMA_VERSION, "metric": th.metric,
         "threshold": {"value": _num(th.value), "source": th.source, "higher_better": th.good_above,
@@ -72,8 +76,9 @@ def horizon_json(result) -> dict:
         "share": o.share, "good_prob": o.good_prob if result.fits is not None else None,
         "min_clusters": o.min_clusters, "n_boot": o.n_boot, "seed": o.seed, "window_s": o.window_s,
         "grid": grid, "units": {a: unit_of(a) for a in grid},
-        "horizons": rows(result.table[HORIZON_COLUMNS]),
+        "horizons": [{**r, "threshold_kind": kind} for r in rows(result.table[HORIZON_COLUMNS])],
         "thresholds": [] if result.fits is None else rows(result.fits),
+        "view_thresholds": [] if views is None else rows(views),
     }
 
 
@@ -210,6 +215,35 @@ def plots_cmap():
     return colormaps["viridis"].with_extremes(bad="0.8")
 
 
+def threshold_text(result) -> str:
+    """The report's sentence on the threshold: one value, or one per view (its source first).
+
+    Parameters
+    ----------
+    result : analysis.horizon.HorizonResult
+
+    Returns
+    -------
+    str
+        e.g. ``'Threshold: nvrq_ca >= 0.128 [0.09, 0.17] (people: ...).'`` or ``'Thresholds per
+        view (people, per view: ...): nvrq_ca >= 0.95 at the recorded view, 0.31 at y +1, ...'``.
+    """
+    from analysis.horizon_views import view_label
+
+    th = result.threshold
+    sign = ">=" if th.good_above else "<="
+    if result.views is None:
+        ci = f" [{th.ci_lo:.4g}, {th.ci_hi:.4g}]" if math.isfinite(th.ci_lo) else ""
+        return f"Threshold: {th.metric} {sign} {th.value:.4g}{ci} ({th.source})."
+    v = result.views
+    parts = []
+    for r in v.to_dict("records"):
+        ci = (f" [{r['ci_lo']:.3g}, {r['ci_hi']:.3g}]" if math.isfinite(r.get("ci_lo", math.nan)) else "")
+        parts.append(f"{r['threshold']:.3g}{ci} at {view_label(r['axis'], r['offset'])}")
+    sources = "; ".join(dict.fromkeys(v["source"].astype(str)))
+    return f"Thresholds per view ({sources}): {th.metric} {sign} " + ", ".join(parts) + "."
+
+
 def write_horizon(result, d) -> list[dict]:
     """Write the horizon's files into the report folder ``d``; returns the figures as the
     report lists them (``title``, ``b64``, ``file``).
@@ -230,6 +264,8 @@ def write_horizon(result, d) -> list[dict]:
         write_table(result.timeline, d / "horizon_timeline.csv", columns=TIMELINE_COLUMNS)
     if result.fits is not None:
         write_table(result.fits, d / "horizon_thresholds.csv")
+    if result.views is not None:
+        write_table(result.views, d / "horizon_view_thresholds.csv")
     figs = [(f"horizon_{m}", f"Trust horizon of {m}: share of good objects against offset",
              share_figure(result.curves, result.table, m, result.options.share))
             for m in sorted(result.table["method"].unique())]
@@ -261,13 +297,14 @@ def context(result, figures: list[dict], table) -> dict:
     """
     if result is None:
         return {"horizon_sentences": [], "horizon_figures": []}
-    th, o = result.threshold, result.options
-    ci = f" [{th.ci_lo:.4g}, {th.ci_hi:.4g}]" if math.isfinite(th.ci_lo) else ""
-    text = (f"Threshold: {th.metric} {'>=' if th.good_above else '<='} {th.value:.4g}{ci} ({th.source}). "
+    o = result.options
+    text = (threshold_text(result) + " "
             f"A horizon is the largest grid offset up to which at least {o.share:g} of the objects are "
             "good at every grid offset; brackets: the 95% interval of the interpolated crossing over "
             f"a cluster bootstrap of tracks ({o.n_boot} replicates; none below {o.min_clusters} tracks). "
-            "Every row: horizon.csv, horizon.json; per window of "
+            "Every row: horizon.csv, horizon.json"
+            + ("; the thresholds per view: horizon_view_thresholds.csv" if result.views is not None else "")
+            + "; per window of "
             f"{o.window_s:g} s: horizon_timeline.csv.")
     shown = result.table.drop(columns=["metric", "threshold", "threshold_source"])
     return {"horizon_sentences": [method_sentence(m, result.table) for m in sorted(result.table["method"].unique())],

@@ -29,9 +29,11 @@ import pandas as pd
 
 from data_schema.csv_safe import unquote_frame
 from data_schema.errors import InputError
-from data_schema.methods import METHOD_COLUMN
+from data_schema.methods import FLOOR_PAIR_COLUMNS, METHOD_COLUMN
 from data_schema.perturbation import VIEW_COLUMNS
 from data_schema.tables import (
+    SOURCE_VISIBILITY,
+    VISIBILITY_COLUMNS,
     ITEM_KINDS,
     PAIR_META_COLUMNS,
     PAIRS_COLUMNS,
@@ -66,6 +68,7 @@ ITEM_LABEL_COLUMNS = (
 CANONICAL_VOTE_ORDER = ("item_id", "rater_id", "kind")
 NON_METRIC_COLUMNS = frozenset(
     RATINGS_COLUMNS + PAIRS_COLUMNS + ITEM_LABEL_COLUMNS + ("gold_expected",) + VIEW_COLUMNS + (METHOD_COLUMN,)
+    + FLOOR_PAIR_COLUMNS + VISIBILITY_COLUMNS + (SOURCE_VISIBILITY,)
 )
 
 

@@ -58,7 +58,13 @@ from analysis.signflip import draw_signs, sign_flip_p
 from analysis.text import offset_text
 from data_schema.datasets import table_columns
 from data_schema.errors import InputError
-from data_schema.methods import METHOD_COLUMN, table_methods
+from data_schema.methods import (
+    FLOOR_METHOD,
+    METHOD_COLUMN,
+    REFERENCE_METHODS,
+    method_values,
+    table_methods,
+)
 from data_schema.options import options_or_keywords
 from data_schema.perturbation import perturbation_array
 from data_schema.tables import OBJECT_COLUMNS, require_columns
@@ -125,6 +131,9 @@ class MethodsResult:
         The crossed breakdown of methods_paired.csv (``''`` for none).
     sets : pandas.DataFrame or None
         The ``nvrq score-sets`` table (``analyze --sets``), for the off-path table, or None.
+    references : list of str
+        The viewpoint floor's methods (``perfect``, ``floor``) in the table, neither ranked nor
+        paired: the tents draw them dashed.
     """
 
     methods: list[str]  # every compared method, in leaderboard order
@@ -140,6 +149,7 @@ class MethodsResult:
     min_clusters: int = MIN_CLUSTERS  # the fewest tracks of an interval or a p-value
     by: str = ""  # the crossed breakdown of methods_paired.csv ('' for none)
     sets: pd.DataFrame | None = None  # `nvrq score-sets` table (analyze --sets), for the off-path table
+    references: list[str] = field(default_factory=list)  # the viewpoint floor's methods, never ranked
 
 
 def holm(p: np.ndarray) -> np.ndarray:
@@ -586,6 +596,9 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
     Returns
     -------
     MethodsResult
+        The methods ``perfect`` and ``floor`` (the viewpoint floor,
+        :data:`data_schema.methods.REFERENCE_METHODS`) get their rows of the table and are its
+        ``references``, neither ranked nor paired (while two other methods remain).
 
     Raises
     ------
@@ -597,6 +610,11 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
     o = options_or_keywords(MethodOptions, options, keywords, who="compare_methods")
     _check_options(o.min_clusters, o.rank_view)
     names = compared_methods(items, where=where, methods=o.methods)
+    # the viewpoint floor (perfect, floor) is summarised and drawn, never ranked nor paired
+    # (unless fewer than two other methods remain)
+    ranked = [m for m in names if m not in REFERENCE_METHODS]
+    refs = [m for m in names if m in REFERENCE_METHODS] if len(ranked) >= 2 else []
+    ranked = ranked if refs else names
     rank_metric = _rank_metric(o.rank_metric, metrics, where=where)
     by_cols, with_view = parse_by(o.by, items.columns, attributes=list(o.attributes))
     m_codes = _method_codes(items[METHOD_COLUMN], names)
@@ -611,7 +629,7 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
     # enough replicates that Holm over the largest family of paired rows can still call a
     # decisive difference (a Monte Carlo p-value's floor is 1 / (B + 1))
     family = max(sum(len(c.cells) for c in cells if c.by == f) for f in {c.by for c in cells})
-    n_boot = bs.replicates_for(o.n_boot, len(metrics) * len(names) * (len(names) - 1) // 2 * family,
+    n_boot = bs.replicates_for(o.n_boot, len(metrics) * len(ranked) * (len(ranked) - 1) // 2 * family,
                                alpha=ALPHA)
     counts = bs.draw_cluster_counts(k, n_boot, seed=o.seed) if n_boot and k else None
     draws = _Draws(clusters[first], counts,
@@ -621,13 +639,13 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
                desc="methods", unit="table", disable=not o.progress)
     table = _method_table(items, metrics, m_codes, names, breakdowns, clusters, counts, bar, o.min_clusters)
     hb = directions[rank_metric]
-    table, names, rank_view, notes = _rank_methods(table, names, rank_metric, hb, o.rank_view)
+    table, names, rank_view, notes = _rank_methods(table, ranked, rank_metric, hb, o.rank_view)
     m_codes = _method_codes(items[METHOD_COLUMN], names)
     paired, unpaired = _paired_table(items, metrics, directions, m_codes, names, obj, cells, draws, bar)
     bar.close()
     board = leaderboard_table(table, paired, methods=names, metric=rank_metric, higher_better=hb,
                               view=rank_view)
-    return MethodsResult(methods=list(board["method"]), metrics=list(metrics), directions=dict(directions),
+    return MethodsResult(methods=list(board["method"]), references=refs, metrics=list(metrics), directions=dict(directions),
                          rank_metric=rank_metric, table=table, paired=paired, leaderboard=board,
                          n_boot=n_boot if counts is not None else 0, notes=notes + unpaired,
                          rank_view=rank_view, min_clusters=int(o.min_clusters),
@@ -704,18 +722,29 @@ def for_analysis(items: pd.DataFrame, *, target: str | None, metrics, directions
     Returns
     -------
     MethodsResult
-        As :func:`compare_methods`.
+        As :func:`compare_methods`. Items with ``floor`` rows (``nvrq pairs --floor``) get the
+        sentence of :func:`analysis.viewpoint_floor.items_floor_verdict` first in the notes; when
+        it says the floor does not predict a perfect render, the ``floor`` rows are left out
+        (unless ``options.methods`` names the methods).
 
     Raises
     ------
     InputError
         As :func:`compare_methods` (unknown methods or rank metric, no ``method`` column, ...).
     """
+    from analysis.viewpoint_floor import items_floor_verdict
+
+    verdict = items_floor_verdict(items, metrics)  # the log's viewpoint floor: drawn when it holds
+    if verdict is not None and not verdict.draw and not options.methods:
+        items = items[method_values(items) != FLOOR_METHOD].reset_index(drop=True)
     votes = [target] if target in ("gvf", "p_good") else []
     clusters = pd.MultiIndex.from_arrays([items["clip_id"].astype(str),
                                           items["track_id"].astype(str)]).factorize()[0]
-    return compare_methods(items, votes + list(metrics), {**directions, **{t: True for t in votes}},
-                           clusters=clusters,
-                           options=replace(options, attributes=[c for c in attributes if c != METHOD_COLUMN]),
-                           where=str(where),
-                           sources={c: str(p) for p in metrics_paths for c in table_columns(p)})
+    res = compare_methods(items, votes + list(metrics), {**directions, **{t: True for t in votes}},
+                          clusters=clusters,
+                          options=replace(options, attributes=[c for c in attributes if c != METHOD_COLUMN]),
+                          where=str(where),
+                          sources={c: str(p) for p in metrics_paths for c in table_columns(p)})
+    if verdict is not None:
+        res.notes.insert(0, verdict.sentence)
+    return res

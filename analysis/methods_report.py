@@ -32,6 +32,7 @@ from analysis.off_path import off_path_display, off_path_figure
 from analysis.plots import VIEW_AXIS_LABELS, direction_label, method_colours
 from analysis.signflip import EXACT_MAX_TRACKS
 from analysis.text import fmt, interval_text, offset_text
+from analysis.viewpoint_floor import FLOOR_COLOUR, floor_label, is_reference
 from data_schema.perturbation import AXES, AXIS_UNITS, PERTURBATION_COLUMNS
 
 __all__ = ["context", "view_text", "p_text", "leaderboard_display", "paired_display",
@@ -278,6 +279,8 @@ def methods_tent_plot(table: pd.DataFrame, metrics: list[str], directions: dict[
     """One panel per metric: per method, the mean (line) and its 95% interval (band) along
     ``axis`` (rows of methods.csv with ``breakdown == axis``); the y axis names the metric and
     its direction, the legend each method's objects and tracks. ``len(fig.axes) == len(metrics)``.
+    A reference method (``perfect``, ``floor``: :mod:`analysis.viewpoint_floor`) is the viewpoint
+    floor: a dashed grey line without a band, named so in the legend.
 
     Parameters
     ----------
@@ -306,10 +309,12 @@ def methods_tent_plot(table: pd.DataFrame, metrics: list[str], directions: dict[
             order = np.argsort(x)
             x = x[order]
             mean = s["mean"].to_numpy(float)[order]
-            ax.plot(x, mean, "o-", color=colours[m], markersize=3,
-                    label=f"{m} ({_counts(table[table['metric'] == metric], m)})")
+            floor = is_reference(m)  # the viewpoint floor: a dashed line, no band
+            ax.plot(x, mean, "s--" if floor else "o-", color=FLOOR_COLOUR if floor else colours[m], markersize=3,
+                    linewidth=1.0 if floor else 1.5,
+                    label=f"{floor_label(m)} ({_counts(table[table['metric'] == metric], m)})")
             lo, hi = s["ci_lo"].to_numpy(float)[order], s["ci_hi"].to_numpy(float)[order]
-            if np.isfinite(lo).any():
+            if np.isfinite(lo).any() and not floor:
                 ax.fill_between(x, lo, hi, color=colours[m], alpha=0.2, linewidth=0)
         if directions.get(metric) is False:
             ax.invert_yaxis()
@@ -444,7 +449,8 @@ def method_figures(res: MethodsResult) -> list[tuple[str, str, object]]:
         if axis in PERTURBATION_COLUMNS:
             name = "methods_tent" if axis == "y_offset_m" else f"methods_tent_{axis}"
             out.append((name, f"Methods along {VIEW_AXIS_LABELS[axis]}: mean and 95% interval per method",
-                        methods_tent_plot(res.table, res.metrics, res.directions, res.methods, axis=axis)))
+                        methods_tent_plot(res.table, res.metrics, res.directions,
+                                          res.methods + list(getattr(res, "references", [])), axis=axis)))
     heat = method_class_heatmap(res.table, res.rank_metric, res.methods,
                                 higher_better=res.directions[res.rank_metric])
     if heat is not None:

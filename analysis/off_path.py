@@ -20,6 +20,7 @@ from matplotlib.figure import Figure
 
 from analysis.plots import direction_label, method_colours
 from analysis.text import fmt, interval_text, offset_text
+from analysis.viewpoint_floor import FLOOR_COLOUR, floor_label, is_reference
 from data_schema.text import plural
 
 __all__ = ["OFF_PATH_PREFIXES", "off_path_rows", "off_path_display", "off_path_figure"]
@@ -91,7 +92,8 @@ def _cell(r) -> str:
 def off_path_display(res, sets: pd.DataFrame | None = None) -> pd.DataFrame:
     """The "Off-path metrics" table: one row per offset and method, one column per metric
     (named with its direction), cells ``mean [95% interval] (n, tracks)`` or, for KID,
-    ``mean ± std over subsets (n renders)``. Empty without any of the metrics.
+    ``mean ± std over subsets (n renders)``. Empty without any of the metrics. The methods
+    ``perfect`` and ``floor`` are listed as the viewpoint floor (:data:`analysis.viewpoint_floor.FLOOR_LABELS`).
 
     Parameters
     ----------
@@ -114,13 +116,15 @@ def off_path_display(res, sets: pd.DataFrame | None = None) -> pd.DataFrame:
     wide = rows.pivot_table(index=["offset", "method"], columns="column", values="cell", aggfunc="first",
                             sort=False).reset_index()
     wide.insert(0, "offset", wide.pop("offset").map(offset_text))
+    wide["method"] = wide["method"].map(floor_label)  # perfect and floor: the viewpoint floor
     wide.columns.name = None
     return wide.fillna("")
 
 
 def off_path_figure(res, sets: pd.DataFrame | None = None) -> Figure | None:
     """Each off-path metric against ``|offset|`` per method (one panel per metric; the mean of
-    the two signs of an offset weighted by their n). None without any of the metrics.
+    the two signs of an offset weighted by their n), the viewpoint floor (``perfect``, ``floor``)
+    dashed. None without any of the metrics.
 
     Parameters
     ----------
@@ -148,8 +152,12 @@ def off_path_figure(res, sets: pd.DataFrame | None = None) -> Figure | None:
             agg = g.groupby("abs_offset").apply(lambda d: np.average(d["mean"], weights=d["w"]),
                                                 include_groups=False)
             tracks = g["n_tracks"].max()  # per-object metrics: the tracks behind the largest view
-            label = (method or "(one method)") + (f" ({plural(int(tracks), 'track')})" if np.isfinite(tracks) else "")
-            ax.plot(agg.index, agg.to_numpy(), "o-", color=colours[method], label=label)
+            label = (floor_label(method) or "(one method)") + (
+                f" ({plural(int(tracks), 'track')})" if np.isfinite(tracks) else "")
+            if is_reference(method):  # the viewpoint floor: dashed grey
+                ax.plot(agg.index, agg.to_numpy(), "s--", color=FLOOR_COLOUR, linewidth=1.0, markersize=3, label=label)
+            else:
+                ax.plot(agg.index, agg.to_numpy(), "o-", color=colours[method], label=label)
         ax.set_xlabel("|lateral offset| (m)", fontsize=8)
         ax.set_ylabel(direction_label(metric, bool(m["higher_better"].iloc[0])), fontsize=8)
         ax.tick_params(labelsize=7)

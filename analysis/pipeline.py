@@ -106,6 +106,9 @@ class Analysis:
         The ``--horizon`` result, or None.
     floor : analysis.real_floor.FloorResult or None
         The ``--real-floor`` result, or None.
+    viewpoint_floor : pandas.DataFrame or None
+        ``--floor-pairs`` / ``--floor-metrics``: the tent plot's viewpoint floor
+        (:func:`analysis.viewpoint_floor.floor_by_offset`), or None.
     """
 
     ratings_path: str
@@ -139,6 +142,7 @@ class Analysis:
     methods: MethodsResult | None = None  # the leaderboard with compare_methods
     horizon: object | None = None  # analyze --horizon: an analysis.horizon.HorizonResult
     floor: object | None = None  # analyze --real-floor: an analysis.real_floor.FloorResult
+    viewpoint_floor: pd.DataFrame | None = None  # analyze --floor-pairs: the tents' floor
     view_text: str | None = None  # the view-only / within-view sentence (analysis.within_view)
     visibility: pd.DataFrame | None = None  # per gt_visible x novel_visible bin (within_view)
     visibility_note: str | None = None  # why there is no visibility table

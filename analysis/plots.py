@@ -141,8 +141,11 @@ def tent_plot(
     directions: dict[str, bool],
     *,
     target_label: str = "GVF",
+    floor: pd.DataFrame | None = None,
 ) -> Figure:
-    """One panel per entry of ``columns`` (target first, then metrics): mean +/- 1 std per offset.
+    """One panel per entry of ``columns`` (target first, then metrics): mean +/- 1 std per offset;
+    with ``floor``, the viewpoint floor (what a perfect render of the same views scores) dashed in
+    each metric panel it has.
 
     by_offset: long table ``y_offset_m, column, n, mean, std`` (see
     :func:`analysis.breakdowns.offset_table`). ``len(fig.axes) == len(columns)``.
@@ -157,11 +160,16 @@ def tent_plot(
         Column -> whether higher is better.
     target_label : str, optional
         The target's axis label.
+    floor : pandas.DataFrame, optional
+        Long table ``y_offset_m, column, mean`` of the viewpoint floor
+        (:func:`analysis.viewpoint_floor.floor_by_offset`).
 
     Returns
     -------
     matplotlib.figure.Figure
     """
+    from analysis.viewpoint_floor import FLOOR_COLOUR
+
     fig, axes = panel_grid(len(columns), width=3.2, height=2.8)
     if "label_class" in by_offset.columns:
         by_offset = by_offset[by_offset["label_class"] == "all"]
@@ -176,6 +184,11 @@ def tent_plot(
             lo, hi = np.clip(lo, 0, 1), np.clip(hi, 0, 1)  # a share (GVF): the band stays in [0, 1]
         ax.fill_between(x, lo, hi, color=color, alpha=0.2, linewidth=0)
         ax.plot(x, m, "o-", color=color, markersize=3)
+        f = floor[floor["column"] == col].sort_values("y_offset_m") if floor is not None and i > 0 else None
+        if f is not None and len(f):
+            ax.plot(f["y_offset_m"].to_numpy(float), f["mean"].to_numpy(float), "s--", color=FLOOR_COLOUR,
+                    linewidth=1.0, markersize=3, label="viewpoint floor (perfect render)")
+            ax.legend(fontsize=6, loc="lower center")
         if i == 0 and "sampling_std" in t.columns and t["sampling_std"].notna().any():
             ss = t["sampling_std"].to_numpy(float)
             ax.plot(x, m + ss, "--", color="0.4", linewidth=0.8, label="sampling alone")

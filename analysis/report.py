@@ -306,8 +306,11 @@ def _figures(a: Analysis, d: Path, tl: str) -> list[dict]:
     items = [] if a.target is None else [
         (
             "tent",
-            f"Per-offset tent plot ({tl} first, mean +/- 1 std)",
-            plots.tent_plot(a.by_offset, cols, a.directions, target_label=tl),
+            f"Per-offset tent plot ({tl} first, mean +/- 1 std)" + (
+                "; dashed: the viewpoint floor, what a perfect render of the same views scores"
+                if getattr(a, "viewpoint_floor", None) is not None else ""),
+            plots.tent_plot(a.by_offset, cols, a.directions, target_label=tl,
+                            floor=getattr(a, "viewpoint_floor", None)),
         ),
         ("target_hist", f"{tl} distribution", plots.target_histogram(a.items, a.target, label=tl)),
         ("agreement", f"Table 1 as a figure: pooled and within-view |SRCC| with {tl}",

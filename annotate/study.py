@@ -46,6 +46,7 @@ from annotate.pairwise import PairwiseDesign
 from annotate.store import Store
 from annotate.study_sampling import DEFAULT_SAMPLING, SAMPLINGS, check_sampling, study_sampling
 from data_schema.errors import InputError
+from data_schema.methods import METHOD_COLUMN, REFERENCE_METHODS, method_values
 from data_schema.options import options_or_keywords
 from data_schema.outputs import check_output_folder
 from data_schema.tables import (
@@ -166,13 +167,21 @@ def _check_options(out, pairs_path, opts: StudyOptions) -> StudyOptions:
 
 
 def _read_pairs(pairs_path: Path, scene) -> pd.DataFrame:
-    """The checked pairs table with ``_root`` (scene folder) and ``_row`` (line) columns."""
+    """The checked pairs table with ``_root`` (scene folder) and ``_row`` (line) columns, without
+    the pairs of the reference methods (``perfect``, ``floor``: the viewpoint floor is measured,
+    never shown to raters; :data:`data_schema.methods.REFERENCE_METHODS`)."""
     pairs = read_table(pairs_path, required=PAIRS_COLUMNS, kind=TableKind.PAIRS)
     if pairs.empty:
         raise InputError(pairs_path, None, "at least one pair", "an empty table")
+    rows = np.arange(len(pairs)) + 2
+    shown = ~pd.Series(method_values(pairs)).isin(REFERENCE_METHODS).to_numpy()
+    if not shown.any():
+        raise InputError(pairs_path, METHOD_COLUMN, "at least one pair of a render other than the viewpoint "
+                         "floor (methods perfect and floor are never shown)", "only those")
+    pairs, rows = pairs[shown].reset_index(drop=True), rows[shown]
     roots = pair_scene_roots(pairs, scene_root=scene, base=pairs_path.resolve().parent,
                              where=str(pairs_path))
-    return pairs.assign(_root=roots, _row=np.arange(len(pairs)) + 2)
+    return pairs.assign(_root=roots, _row=rows)
 
 
 def _read_study_metrics(paths, pairs: pd.DataFrame) -> pd.DataFrame | None:

@@ -44,7 +44,8 @@ import pandas as pd
 from data_schema.errors import InputError
 from data_schema.text import comma_list
 
-__all__ = ["METHOD_COLUMN", "GT_METHOD", "REAL_METHOD", "check_method_name", "method_values", "table_methods", "method_columns",
+__all__ = ["METHOD_COLUMN", "GT_METHOD", "REAL_METHOD", "FLOOR_METHOD", "PERFECT_METHOD",
+           "REFERENCE_METHODS", "FLOOR_PAIR_COLUMNS", "check_method_name", "method_values", "table_methods", "method_columns",
            "method_suffix", "parse_methods", "check_method_scales", "check_table_methods"]
 
 #: The optional column naming the reconstruction method of a render (empty: none).
@@ -58,6 +59,22 @@ GT_METHOD = "gt"
 #: stereo pair, ``nvrq import stereo``, docs/FORMATS.md §16): a valid method of a scene, never
 #: a synthetic method of ``nvrq synth --methods``.
 REAL_METHOD = "real"
+
+#: The reserved name of the viewpoint floor of a real log (``nvrq pairs --floor``, docs/FORMATS.md
+#: §3): pairs of two GT views of one object, never a synthetic method.
+FLOOR_METHOD = "floor"
+
+#: The columns ``nvrq pairs --floor`` adds to a pairs table (docs/FORMATS.md §3): the novel view's
+#: change of viewpoint and the floor partner's; never metrics.
+FLOOR_PAIR_COLUMNS = ("view_angle_deg", "view_ratio", "floor_angle_deg", "floor_ratio")
+
+#: The reserved name of a synthetic render with no artefact (``nvrq synth --methods perfect:0``,
+#: scale 0 only): the viewpoint floor of a synthetic scene.
+PERFECT_METHOD = "perfect"
+
+#: The methods that measure the viewpoint rather than a reconstruction: drawn as the floor by the
+#: reports, never shown to raters (``annotate build`` leaves their pairs out).
+REFERENCE_METHODS = (PERFECT_METHOD, FLOOR_METHOD)
 
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 #: read as missing values by CSV readers, and the GT crop's name
@@ -270,7 +287,8 @@ def parse_methods(text: str, *, option: str = "methods") -> list[tuple[str, floa
 def check_method_scales(methods, *, option: str = "methods") -> list[tuple[str, float]]:
     """The methods of a synthetic scene, checked: names by :func:`check_method_name`, each once;
     a scale is a finite number >= 0 (``nvrq synth`` multiplies the artefact severity by it:
-    0 = a perfect render, 1 = the usual one). At least one.
+    0 = a perfect render, 1 = the usual one). At least one. ``real`` and ``floor`` are reserved,
+    and ``perfect`` takes scale 0 only (:data:`REFERENCE_METHODS`).
 
     Parameters
     ----------
@@ -310,6 +328,12 @@ def check_method_scales(methods, *, option: str = "methods") -> list[tuple[str, 
         if name == REAL_METHOD:
             raise InputError(param=option, field=name, expected="a method name other than 'real' (reserved "
                              "for real photographs, nvrq import stereo)", got=name)
+        if name == FLOOR_METHOD:
+            raise InputError(param=option, field=name, expected="a method name other than 'floor' (reserved "
+                             "for pairs of two GT views, the viewpoint floor of a log)", got=name)
+        if name == PERFECT_METHOD and scale != 0:
+            raise InputError(param=option, field=name, expected="scale 0 for 'perfect' (reserved for the "
+                             "render with no artefact, the viewpoint floor)", got=scale)
         if name in seen:
             raise InputError(param=option, field=name, expected="each method name once", got="again")
         seen.add(name)

@@ -40,6 +40,8 @@ __all__ = [
     "TABLE_SUFFIXES",
     "MIN_SIDE_PX",
     "MIN_VISIBLE",
+    "SOURCE_VISIBILITY",
+    "VISIBILITY_COLUMNS",
     "pair_id",
     "pair_ids",
     "csv_line",
@@ -82,6 +84,11 @@ PAIRS_COLUMNS = (
     "pair_id", "clip_id", "camera", "track_id", "label_class", "timestamp_us", "y_offset_m",
     "gt_path", "render_path", "gt_x0", "gt_y0", "gt_x1", "gt_y1", "r_x0", "r_y0", "r_x1", "r_y1",
 )
+
+#: docs/FORMATS.md §3: the object's visible fractions in the GT view and in the novel view
+#: (:mod:`nvrq.geometry.visibility`), and the dataset's own visibility label where it has one.
+VISIBILITY_COLUMNS = ("gt_visible", "novel_visible")
+SOURCE_VISIBILITY = "source_visibility"
 
 #: docs/FORMATS.md §5, the pair metadata carried into ratings.csv (attributes follow).
 PAIR_META_COLUMNS = ("clip_id", "camera", "track_id", "label_class", "timestamp_us", "y_offset_m")

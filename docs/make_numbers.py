@@ -35,7 +35,7 @@ DEMO = {"seed": 0, "seconds": 1.0, "size": "480x270", "offsets": "-3,-2,-1,0,1,2
 METHODS = "sharp:0.5,blurry:1.5"
 #: the guide's horizon command, after ``analyze`` (paths relative to the methods demo's folder)
 HORIZON_ARGV = ["--pairs", "pairs.csv", "--metrics-table", "metrics.csv", "--horizon", "--metric",
-                "nvrq_ca", "--threshold", "0.13", "--share", "0.9", "--out", "horizon"]
+                "nvrq_ca", "--threshold", "0.13", "--no-floor", "--share", "0.9", "--out", "horizon"]
 #: block name -> the file (relative to the repository) that holds it
 BLOCKS = {"headline": "README.md",
           "class-offset": "docs/guides/compare-reconstructions.md",

@@ -32,7 +32,7 @@ that direction, 0 included (the recorded view belongs to both directions of ever
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
@@ -40,8 +40,9 @@ import pandas as pd
 from data_schema.errors import InputError, check_number
 from data_schema.perturbation import AXES, AXIS_UNITS, axes, axis_values, perturbation_array
 
-__all__ = ["HORIZON_COLUMNS", "TIMELINE_COLUMNS", "DIRECTIONS", "DEFAULT_SHARE", "MIN_CLUSTERS",
-           "Threshold", "trust_horizon", "horizon_timeline", "share_curves", "resolve_metric"]
+__all__ = ["HORIZON_COLUMNS", "TIMELINE_COLUMNS", "VIEW_COLUMNS", "DIRECTIONS", "DEFAULT_SHARE",
+           "MIN_CLUSTERS", "Threshold", "view_keys", "trust_horizon", "horizon_timeline", "share_curves",
+           "resolve_metric", "row_source"]
 
 #: horizon.csv (docs/FORMATS.md §15).
 HORIZON_COLUMNS = ["method", "label_class", "axis", "direction", "horizon", "crossing", "ci_lo",
@@ -49,6 +50,10 @@ HORIZON_COLUMNS = ["method", "label_class", "axis", "direction", "horizon", "cro
 #: horizon_timeline.csv (docs/FORMATS.md §15).
 TIMELINE_COLUMNS = ["clip_id", "camera", "t0_us", "t1_us", "axis", "direction", "class", "method",
                     "horizon", "ci_lo", "ci_hi", "n_objects"]
+#: A per-view threshold table (:attr:`Threshold.views`): ``axis`` is ``'none'`` for the
+#: recorded view (offset 0) and a name of :data:`data_schema.perturbation.AXES` otherwise;
+#: ``offset`` the signed offset along it at 0.01 precision (metres or degrees).
+VIEW_COLUMNS = ["axis", "offset", "threshold", "source"]
 #: Per axis: the names of its positive and negative direction (rig frame: x forward, y left, z up).
 DIRECTIONS = {"x": ("forward", "back"), "y": ("left", "right"), "z": ("up", "down"),
               "roll": ("+", "-"), "pitch": ("+", "-"), "yaw": ("+", "-")}
@@ -77,6 +82,11 @@ class Threshold:
         Where the value came from (``'given'``, or the fit to people's votes).
     ci_lo, ci_hi : float, optional
         Its 95% interval (NaN: none, e.g. a given value).
+    views : pandas.DataFrame, optional
+        A threshold per view (:data:`VIEW_COLUMNS`, one row per view of the grid): an object
+        seen from a view is good against that view's ``threshold``, and a horizon row's
+        ``threshold_source`` is the ``source`` of its views. ``value`` is then not used to
+        judge objects (it stays in the outputs as the pooled reference, NaN if none).
     """
 
     metric: str
@@ -85,6 +95,7 @@ class Threshold:
     source: str = "given"
     ci_lo: float = math.nan
     ci_hi: float = math.nan
+    views: pd.DataFrame | None = field(default=None, compare=False, repr=False)
 
 
 def resolve_metric(name: str | None, columns, *, param: str = "metric") -> str:
@@ -130,7 +141,7 @@ def _as_threshold(threshold, metric, higher_better, columns) -> Threshold:
     if isinstance(threshold, Threshold):
         col = resolve_metric(threshold.metric, columns)
         return Threshold(col, threshold.value, threshold.good_above, threshold.source,
-                         threshold.ci_lo, threshold.ci_hi)
+                         threshold.ci_lo, threshold.ci_hi, threshold.views)
     check_number("threshold", threshold)
     col = resolve_metric(metric, columns)
     return Threshold(col, float(threshold), True if higher_better is None else bool(higher_better))
@@ -160,11 +171,54 @@ class _Rows:
     keys: pd.DataFrame  # (N rows) method, label_class (+ clip_id, camera, timestamp_us)
 
 
+def view_keys(axis: np.ndarray, value: np.ndarray) -> pd.MultiIndex:
+    """The view of each row as ``(axis, offset)``: ``('none', 0.0)`` for the recorded view, the
+    signed offset at 0.01 precision otherwise (NaN for a view along several axes).
+
+    >>> view_keys(np.array(["none", "y", "y"], object), np.array([0.0, -1.004, 2.0])).tolist()
+    [('none', 0.0), ('y', -1.0), ('y', 2.0)]
+
+    Parameters
+    ----------
+    axis : numpy.ndarray
+        (N,) axis names (:func:`data_schema.perturbation.axes`).
+    value : numpy.ndarray
+        (N,) signed values along them.
+
+    Returns
+    -------
+    pandas.MultiIndex
+        N ``(axis, offset)`` keys.
+    """
+    off = np.where(axis == "none", 0.0, np.round(np.asarray(value, np.float64), 2)) + 0.0  # no -0.0
+    return pd.MultiIndex.from_arrays([np.asarray(axis, object), off], names=["axis", "offset"])
+
+
+def _view_thresholds(th: Threshold, axis: np.ndarray, value: np.ndarray) -> np.ndarray:
+    """(N,) each row's threshold: ``th.value``, or its view's in ``th.views`` (offset 0 is the
+    recorded view whatever its axis)."""
+    if th.views is None:
+        return np.full(len(axis), th.value)
+    off = np.round(th.views["offset"].to_numpy(np.float64), 2)
+    ax = np.where((th.views["axis"].astype(str) == "none") | (off == 0), "none", th.views["axis"].astype(str))
+    table = pd.Series(th.views["threshold"].to_numpy(np.float64), index=view_keys(ax.astype(object), off))
+    keys = view_keys(axis, value)
+    pos = table.index.get_indexer(keys)
+    single = np.isin(axis, AXES) | (axis == "none")
+    missing = single & ((pos < 0) | ~np.isfinite(table.to_numpy()[np.maximum(pos, 0)]))
+    if missing.any():
+        views = sorted({f"{a} {o:+g}" if a != "none" else "the recorded view" for a, o in keys[missing]})
+        raise InputError(param="threshold", field="views", expected="a finite threshold at every view "
+                         "of the grid", got="none at " + ", ".join(views))
+    return np.where(pos >= 0, table.to_numpy()[np.maximum(pos, 0)], np.nan)
+
+
 def _rows(scores: pd.DataFrame, th: Threshold) -> _Rows:
     s = scores[np.isfinite(pd.to_numeric(scores[th.metric], errors="coerce").to_numpy(np.float64))]
     v = s[th.metric].to_numpy(np.float64)
-    good = v >= th.value if th.good_above else v <= th.value
     P = perturbation_array(s)
+    limit = _view_thresholds(th, axes(P), axis_values(P))
+    good = v >= limit if th.good_above else v <= limit
     ids = [s[c].astype(str) for c in ("clip_id", "track_id") if c in s.columns]
     # codes in sorted (clip_id, track_id) order: the bootstrap draws the same tracks whatever the row order
     track = pd.factorize(pd.MultiIndex.from_arrays(ids) if len(ids) > 1 else ids[0], sort=True)[0]
@@ -336,8 +390,29 @@ def trust_horizon(scores: pd.DataFrame, *, threshold, share: float = DEFAULT_SHA
     out = [{"method": key[0], "label_class": key[1], "axis": axis, "direction": d, **r}
            for key, axis, d, r in _horizons(rows, th, ["method", "label_class"], opts)]
     t = pd.DataFrame(out, columns=[*HORIZON_COLUMNS, "n_objects", "grid", "share"])
-    t = t.assign(metric=th.metric, threshold=th.value, threshold_source=th.source)
+    t = t.assign(metric=th.metric, threshold=th.value if th.views is None else math.nan,
+                 threshold_source=[row_source(th, a) for a in t["axis"]])
     return _sorted(t[HORIZON_COLUMNS], "label_class")
+
+
+def row_source(th: Threshold, axis: str) -> str:
+    """The threshold source of a horizon row along ``axis``: ``th.source``, or with per-view
+    thresholds the distinct sources of the axis' views and the recorded view's, joined by ``'; '``.
+
+    Parameters
+    ----------
+    th : Threshold
+    axis : str
+        An axis of :data:`data_schema.perturbation.AXES`.
+
+    Returns
+    -------
+    str
+    """
+    if th.views is None:
+        return th.source
+    v = th.views[th.views["axis"].isin([axis, "none"])]
+    return "; ".join(dict.fromkeys(v["source"].astype(str))) or th.source
 
 
 def _sorted(t: pd.DataFrame, cls: str) -> pd.DataFrame:

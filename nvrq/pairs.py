@@ -40,7 +40,14 @@ from data_schema.perturbation import (
     perturbation_array,
 )
 from data_schema.scene import Scene
-from data_schema.tables import MIN_SIDE_PX, MIN_VISIBLE, PAIRS_COLUMNS, pair_ids
+from data_schema.tables import (
+    MIN_SIDE_PX,
+    MIN_VISIBLE,
+    PAIRS_COLUMNS,
+    SOURCE_VISIBILITY,
+    VISIBILITY_COLUMNS,
+    pair_ids,
+)
 from data_schema.text import plural
 from nvrq.geometry.boxes import box_corners, box_sides, pixel_box
 from nvrq.geometry.cameras import camera_from_model
@@ -58,10 +65,7 @@ __all__ = ["DROP_REASONS", "PAIRS_OUTPUT_COLUMNS", "SOURCE_VISIBILITY", "VISIBIL
 
 #: Why a candidate box (camera, frame, track, render view) was dropped, in order of precedence.
 DROP_REASONS = ("no_gt_image", "unprojectable", "outside_image", "too_small", "occluded")
-#: The dataset's own visibility label of the object (docs/FORMATS.md §3), where an importer has one.
-SOURCE_VISIBILITY = "source_visibility"
-#: Visible-fraction columns of the pairs table (:mod:`nvrq.geometry.visibility`; docs/FORMATS.md §3).
-VISIBILITY_COLUMNS = ("gt_visible", "novel_visible")
+
 #: Columns of a :func:`make_pairs` table before the scene attributes and ``scene_root``.
 PAIRS_OUTPUT_COLUMNS = (*PAIRS_COLUMNS, *EXTRA_PERTURBATION_COLUMNS, LABEL_COLUMN, *VISIBILITY_COLUMNS)
 

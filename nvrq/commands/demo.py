@@ -2,12 +2,15 @@
 
 Layer: commands (CLI shell).
 
-synth (built-in scene) -> pairs -> score (offline encoder + pixel metrics) -> annotate build
--> simulated raters -> annotate export -> analyze. Each step prints its command line, what it
+synth (built-in scene) -> pairs -> score (offline encoder + pixel metrics) -> the same clip
+rendered with no artefact (``perfect:0``, its own scene: the viewpoint floor the tent plot draws)
+-> annotate build -> simulated raters -> annotate export -> analyze. Each step prints its command line, what it
 made and how long it took, so the demo doubles as a walkthrough of the workflow.
 
 ``nvrq demo OUT --methods NAME:SCALE,...`` compares reconstruction methods instead
-(docs/guides/compare-reconstructions.md): synth renders the clip once per method -> pairs -> score ->
+(docs/guides/compare-reconstructions.md): synth renders the clip once per method, and once more
+as ``perfect:0`` (no artefact: the viewpoint floor the leaderboard's tents draw and the pairwise
+study leaves out) -> pairs -> score ->
 ``analyze --pairs --compare-methods`` (the leaderboard) -> a pairwise study (build, simulated
 raters, export) -> ``analyze`` of its votes (Bradley-Terry and 2AFC agreement). Before the
 leaderboard it computes the numbers the field reports: NTA-IoU (``nvrq proxy simulate-detect``,
@@ -27,7 +30,7 @@ from nvrq.cli_options import add_seed_option
 from nvrq.cli_types import allow_negative_lists, int_arg, number_arg, parse_wxh
 from nvrq.encoders import get_spec
 
-__all__ = ["register", "run", "demo_steps", "method_steps"]
+__all__ = ["register", "run", "demo_steps", "method_steps", "with_floor"]
 
 
 def register(sub) -> None:
@@ -51,7 +54,8 @@ def register(sub) -> None:
     p.add_argument("--raters", type=int_arg(), default=5, help="simulated raters (default 5)")
     p.add_argument("--methods", default=None, metavar="NAME:SCALE,...",
                    help="compare reconstruction methods: render the clip once per method (artefact "
-                        "severity times SCALE), rank them (analyze --compare-methods) and run a "
+                        "severity times SCALE) and once with no artefact (perfect:0, the viewpoint "
+                        "floor, never rated), rank them (analyze --compare-methods) and run a "
                         "pairwise study, e.g. sharp:0.5,blurry:1.5")
     allow_negative_lists(p)
     p.set_defaults(func=run)
@@ -61,9 +65,34 @@ def register(sub) -> None:
 _EVERY_ITEM = ("--items-per-rater", "all")
 
 
+def with_floor(methods: str) -> str:
+    """``methods`` (``NAME:SCALE,...``) with ``perfect:0``, the render with no artefact, appended
+    unless a method is already named ``perfect``: the viewpoint floor the leaderboard draws and
+    the pairwise study leaves out (:data:`data_schema.methods.REFERENCE_METHODS`).
+
+    Parameters
+    ----------
+    methods : str
+        The ``--methods`` value.
+
+    Returns
+    -------
+    str
+
+    >>> with_floor("sharp:0.5,blurry:1.5")
+    'sharp:0.5,blurry:1.5,perfect:0'
+    """
+    from data_schema.methods import PERFECT_METHOD, parse_methods
+
+    if any(name == PERFECT_METHOD for name, _ in parse_methods(methods, option="--methods")):
+        return methods
+    return f"{methods},{PERFECT_METHOD}:0"
+
+
 def method_steps(out: Path, args) -> list[tuple[str, list[str]]]:
-    """The ``--methods`` demo as (program, argv) steps, in order: one scene rendered per method,
-    its leaderboard, then a pairwise study of the methods.
+    """The ``--methods`` demo as (program, argv) steps, in order: one scene rendered per method
+    (and ``perfect:0``, the viewpoint floor: :func:`with_floor`), its leaderboard, then a pairwise
+    study of the methods (``perfect`` left out).
 
     Parameters
     ----------
@@ -83,7 +112,7 @@ def method_steps(out: Path, args) -> list[tuple[str, list[str]]]:
     dets, nta, sets = out / "dets.csv", out / "nta.csv", out / "sets.csv"
     return [
         ("nvrq", ["synth", str(scene), "--seed", str(args.seed), "--seconds", str(args.seconds),
-                  "--size", args.size, "--offsets", args.offsets, "--methods", args.methods]),
+                  "--size", args.size, "--offsets", args.offsets, "--methods", with_floor(args.methods)]),
         ("nvrq", ["pairs", str(scene), "--out", str(pairs)]),
         ("nvrq", ["score", str(pairs), "--out", str(metrics), "--metrics", "psnr,ssim,nvrq,nvrq_ca",
                   "--encoder", args.encoder]),
@@ -110,7 +139,8 @@ def demo_steps(out: Path, args) -> list[tuple[str, list[str]]]:
     ----------
     out : Path
         Where the steps write: the scene, pairs and metrics (also scored on torch eager),
-        the binary study, ``ratings.csv`` and ``report``.
+        the viewpoint floor (``floor_scene``, ``floor_pairs.csv``, ``floor_metrics.csv``), the
+        binary study, ``ratings.csv`` and ``report``.
     args : argparse.Namespace
         ``nvrq demo``'s options (``seed``, ``seconds``, ``size``, ``offsets``, ``encoder``,
         ``raters``, ``methods``).
@@ -125,6 +155,10 @@ def demo_steps(out: Path, args) -> list[tuple[str, list[str]]]:
     scene, pairs, metrics = out / "scene", out / "pairs.csv", out / "metrics.csv"
     study, ratings, report = out / "study", out / "ratings.csv", out / "report"
     torch_metrics = out / "metrics_torch.csv"  # the same encoder on torch eager: a second speed point
+    # the viewpoint floor: the same clip rendered with no artefact, in a scene of its own (so the
+    # study, the ratings and every number of the demo's renders stay as they are), scored by the
+    # full-reference and encoder metrics; the report's tent plot draws it dashed
+    floor_scene, floor_pairs, floor_metrics = out / "floor_scene", out / "floor_pairs.csv", out / "floor_metrics.csv"
     # full-reference, then no-reference (paper Table 1's classical rows), then the encoder metrics
     metric_list = "psnr,ssim,ms_ssim,gmsd,brisque,niqe,piqe,entropy,nvrq,nvrq_ca"
     return [
@@ -135,12 +169,17 @@ def demo_steps(out: Path, args) -> list[tuple[str, list[str]]]:
                   "--encoder", args.encoder]),
         ("nvrq", ["score", str(pairs), "--out", str(torch_metrics), "--metrics", "nvrq",
                   "--encoder", args.encoder, "--runtime", "torch", "--column-tag", "torch"]),
+        ("nvrq", ["synth", str(floor_scene), "--seed", str(args.seed), "--seconds", str(args.seconds),
+                  "--size", args.size, "--offsets", args.offsets, "--methods", "perfect:0"]),
+        ("nvrq", ["pairs", str(floor_scene), "--out", str(floor_pairs)]),
+        ("nvrq", ["score", str(floor_pairs), "--out", str(floor_metrics), "--metrics",
+                  "psnr,ssim,ms_ssim,gmsd,nvrq,nvrq_ca", "--encoder", args.encoder]),
         ("annotate", ["build", str(study), "--pairs", str(pairs), "--metrics-table", str(metrics),
                       "--seed", str(args.seed), *_EVERY_ITEM]),
         ("annotate", ["simulate", str(study), "--raters", str(args.raters), "--seed", str(args.seed)]),
         ("annotate", ["export", str(study), "--out", str(ratings)]),
         ("analyze", [str(ratings), "--timing", str(out / "metrics.timing.csv"), "--metrics-table", str(torch_metrics),
-                     "--out", str(report)]),
+                     "--floor-pairs", str(floor_pairs), "--floor-metrics", str(floor_metrics), "--out", str(report)]),
     ]
 
 
@@ -205,6 +244,6 @@ def run(args) -> int:
     print(f"Report: {out / 'report' / 'report.html'}")
     print(f"Vote yourself:  annotate serve {out / 'study'}   (then: annotate export {out / 'study'} "
           f"--out {out / 'ratings.csv'} && analyze {out / 'ratings.csv'} --timing {out / 'metrics.timing.csv'} "
-          f"--metrics-table {out / 'metrics_torch.csv'} "
-          f"--out {out / 'report'})")
+          f"--metrics-table {out / 'metrics_torch.csv'} --floor-pairs {out / 'floor_pairs.csv'} "
+          f"--floor-metrics {out / 'floor_metrics.csv'} --out {out / 'report'})")
     return 0

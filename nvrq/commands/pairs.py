@@ -43,6 +43,10 @@ def register(sub) -> None:
     p.add_argument("--min-visible", type=number_arg(low=0, high=1), default=MIN_VISIBLE, metavar="F",
                    help="smallest visible fraction of the object (not covered by nearer boxes) in the GT view "
                         f"and in the novel view (default {MIN_VISIBLE}); 0 keeps every pair, the paper's protocol")
+    p.add_argument("--floor", action="store_true",
+                   help="add the viewpoint floor: for each novel view, a pair of two GT views of the object "
+                        "whose change of viewpoint matches it (method floor, docs/FORMATS.md §3)")
+>>>>>>> main
     add_quiet_option(p)
     add_link_option(p)
     p.set_defaults(func=run)
@@ -55,8 +59,8 @@ def run(args) -> int:
     Parameters
     ----------
     args : argparse.Namespace
-        ``scene`` (a list), ``out``, ``clip_attributes``, ``keep_going``, ``min_side`` and
-        ``min_area``.
+        ``scene`` (a list), ``out``, ``clip_attributes``, ``keep_going``, ``min_side``,
+        ``min_area`` and ``floor`` (one scene only).
 
     Returns
     -------
@@ -70,13 +74,38 @@ def run(args) -> int:
     t0 = time.perf_counter()
     attributes = read_clip_attributes(args.clip_attributes) if args.clip_attributes else None
     if _is_fleet(args):
+        if args.floor:
+            raise InputError(param="--floor", expected="one scene folder and a table --out (.csv or .parquet)",
+                             got="a dataset of several clips" if len(args.scene) > 1 else f"--out {args.out}")
         return _run_fleet(args, attributes, t0)
-    _, pairs, stats = clip_pairs(args.scene[0], attributes=attributes, min_side=args.min_side,
-                                 min_area=args.min_area, min_visible=args.min_visible,
-                                 progress=show_progress(args))
+    if args.floor:
+        pairs, line = _floor_pairs(args, attributes)
+    else:
+        _, pairs, stats = clip_pairs(args.scene[0], attributes=attributes, min_side=args.min_side,
+                                     min_area=args.min_area, min_visible=args.min_visible,
+                                     progress=show_progress(args))
+        line = stats.summary()
     write_table(pairs, args.out)
-    print(f"{stats.summary()} -> {args.out} ({time.perf_counter() - t0:.1f} s)")
+    print(f"{line} -> {args.out} ({time.perf_counter() - t0:.1f} s)")
     return 0
+
+
+def _floor_pairs(args, attributes):
+    """The pairs of one scene with its floor rows (:mod:`nvrq.floor`), and the printed counts."""
+    import dataclasses
+
+    from data_schema.scene import load_scene
+    from nvrq.floor import add_floor, check_floor_scene
+    from nvrq.pairs import make_pairs
+
+    scene = load_scene(args.scene[0])
+    if attributes is not None:
+        scene = dataclasses.replace(scene, attributes=attributes.for_clip(scene.clip_id, scene.attributes))
+    check_floor_scene(scene)
+    pairs, stats = make_pairs(scene, min_side=args.min_side, min_area=args.min_area, min_visible=args.min_visible,
+                              progress=show_progress(args))
+    pairs, fstats = add_floor(scene, pairs, min_side=args.min_side, min_area=args.min_area)
+    return pairs, f"{stats.summary()}; {fstats.summary()}"
 
 
 def _is_fleet(args) -> bool:

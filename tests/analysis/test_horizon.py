@@ -202,7 +202,11 @@ def test_analyze_ratings_horizon_writes_its_files(tmp_path):
     best = minimize(_nll, [0.0, 0.0], args=(x, votes["vote"].to_numpy(float)), method="BFGS",
                     options={"gtol": 1e-12})
     assert doc["threshold"]["value"] == pytest.approx(-best.x[0] / best.x[1], abs=1e-6)
-    assert doc["threshold"]["source"].startswith("people: P(good) = 0.5")
+    # by default each view has its own threshold (the pooled one stays as the reference)
+    assert doc["threshold"]["source"].startswith("people, per view: P(good) = 0.5 on a monotone")
+    assert {r["threshold_kind"] for r in doc["horizons"]} == {"people_view"}
+    views = pd.read_csv(d / "horizon_view_thresholds.csv")
+    assert len(views) == len(OFFSETS) == len(doc["view_thresholds"]) and views["threshold"].notna().all()
     assert doc["grid"] == {"y": OFFSETS}
     h = pd.read_csv(d / "horizon.csv", keep_default_na=False)
     assert list(h.columns) == HORIZON_COLUMNS and set(h["direction"]) == {"left", "right"}
@@ -211,6 +215,16 @@ def test_analyze_ratings_horizon_writes_its_files(tmp_path):
     assert "<h2>Trust horizon</h2>" in html and "all: automobile stays good to" in html
     assert (d / "horizon_all.png").is_file() and (d / "horizon_timeline.png").is_file()
     assert "## Trust horizon" in (d / "report.md").read_text()
+    assert "Thresholds per view (people, per view" in html
+    # --pooled-threshold: the one pooled threshold judges every view
+    rc = analyze_main([str(tmp_path / "ratings.csv"), "--metrics-table", str(tmp_path / "metrics.csv"),
+                       "--higher-better", "score", "--horizon", "--metric", "score", "--bootstrap", "100",
+                       "--pooled-threshold", "--no-screen", "--quiet", "--out", str(tmp_path / "p")])
+    pooled = json.loads((tmp_path / "p" / "horizon.json").read_text())
+    assert rc == 0 and pooled["threshold"]["source"].startswith("people: P(good) = 0.5")
+    assert {r["threshold_kind"] for r in pooled["horizons"]} == {"people_pooled"}
+    assert pooled["view_thresholds"] == [] and not (tmp_path / "p" / "horizon_view_thresholds.csv").exists()
+    assert pooled["threshold"]["value"] == doc["threshold"]["value"]
 
 
 def test_the_vote_threshold_gives_no_interval_from_too_few_raters():

@@ -389,3 +389,17 @@ def test_no_object_view_of_every_method_and_duplicates_are_refused(tmp_path, pw_
         build_study(tmp_path / "s2", tmp_path / "dup.csv", scene=str(scene), design="pairwise",
                     progress=False)
     assert not (tmp_path / "s1").exists() and not (tmp_path / "s2").exists()
+
+
+def test_the_viewpoint_floor_is_never_shown(tmp_path):
+    # perfect (the render with no artefact) and floor (two GT views) measure the viewpoint: the
+    # study leaves their pairs out, so it is the study of the other methods
+    scene, pairs = toy.make_toy(tmp_path / "in", methods={"alpha": 0.5, "beta": 1.5, "perfect": 0.0})
+    s = _build(tmp_path, (scene, pairs))
+    assert s.manifest["methods"] == ["alpha", "beta"]
+    assert not s.items[["method_a", "method_b"]].isin(["perfect", "floor"]).any().any()
+    table = pd.read_csv(pairs)
+    only = tmp_path / "only.csv"
+    table[table["method"] == "perfect"].to_csv(only, index=False)
+    with pytest.raises(InputError, match="only those"):
+        build_study(tmp_path / "none", only, scene=str(scene), design="pairwise", progress=False)

@@ -227,6 +227,12 @@ def _link_pairs(world, tmp):
     return scene
 
 
+@case("scene", "pairs --floor: a scene with one GT image")
+def _(world, tmp):
+    scene = write_scene(tmp / "scene")  # one camera, one GT frame: no other view of any object
+    return "nvrq", [*_pairs_cmd(scene, tmp), "--floor"], ["images.csv", "--floor", "1 GT image"]
+
+
 @case("pairs", "score: symlinked images leave the scene (strict)")
 def _(world, tmp):
     scene = _link_pairs(world, tmp)
@@ -888,6 +894,36 @@ def _(world, tmp):
     return "analyze", ["--pairs", str(one), "--metrics-table", str(world / "metrics.csv"), "--horizon",
                        "--metric", "psnr", "--threshold", "25", "--bootstrap", "0", "--quiet",
                        "--out", str(tmp / "r")], ["one_offset.csv", "offset"]
+
+
+@case("horizon", "a per-view threshold table missing a view of the grid")
+def _(world, tmp):
+    pairs = pd.read_csv(world / "toy" / "pairs.csv")
+    views = sorted(set(pairs["y_offset_m"].round(2)))
+    table = tmp / "thresholds.csv"
+    pd.DataFrame({"offset": views[:-1], "threshold": 25.0}).to_csv(table, index=False)  # the last view left out
+    return "analyze", _horizon_pairs(world, "--metric", "psnr", "--threshold-table", str(table),
+                                     "--out", str(tmp / "r")), ["thresholds.csv", "threshold", f"y {views[-1]:+g}"]
+
+
+@case("horizon", "--threshold with --threshold-table")
+def _(world, tmp):
+    table = tmp / "thresholds.csv"
+    pd.DataFrame({"offset": [0.0], "threshold": [25.0]}).to_csv(table, index=False)
+    return "analyze", _horizon_pairs(world, "--metric", "psnr", "--threshold", "25", "--threshold-table",
+                                     str(table), "--out", str(tmp / "r")), ["--threshold-table", "not both"]
+
+
+@case("horizon", "--view-fit with --pairs")
+def _(world, tmp):
+    return "analyze", _horizon_pairs(world, "--metric", "psnr", "--threshold", "25", "--view-fit", "logistic",
+                                     "--out", str(tmp / "r")), ["--view-fit", "--pairs"]
+
+
+@case("horizon", "--pooled-threshold with --pairs")
+def _(world, tmp):
+    return "analyze", _horizon_pairs(world, "--metric", "psnr", "--threshold", "25", "--pooled-threshold",
+                                     "--out", str(tmp / "r")), ["--pooled-threshold", "--pairs"]
 
 
 # ---------------------------------------------------------------- issue 38 items 7-9 (messages)

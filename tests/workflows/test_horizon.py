@@ -1,14 +1,15 @@
-"""Issue 36 acceptance, end to end through the commands a user runs: a synthetic clip rendered by
+"""The trust horizon end to end through the commands a user runs: a synthetic clip rendered by
 two methods (artefact scales 0.5 and 1.5, offsets -3..3 m), its NVRQ-CA trust horizon at the
-threshold simulated raters give, and the horizon of the clip's true severity at the raters'
-own threshold (severity 0.45: annotate.simulate's mean rater threshold).
+per-view thresholds simulated raters give, and the horizon of the clip's true severity at the
+raters' own threshold (severity 0.45: annotate.simulate's mean rater threshold).
 
 The clip also has a third method, ``perfect`` (scale 0: severity 0.001, no artefact), which
 the study does not show (its pairs are left out of ``annotate build``, so the votes and the
-threshold are those of the two-method clip). It measures what NVRQ-CA sees off the path when
+thresholds are those of the two-method clip). It measures what NVRQ-CA sees off the path when
 nothing is wrong with the render: the change of viewpoint against the recorded GT crop.
 
-What the clip shows (640x360, 1 s at 5 fps, seed 0): see the comments at the asserts."""
+The clip is 2 s at 480x270, 5 fps, seed 0 (3 automobile tracks); what it shows: see the
+comments at the asserts."""
 
 from __future__ import annotations
 
@@ -39,7 +40,7 @@ GRID_STEP = 1.0
 @pytest.fixture(scope="module")
 def clip(tmp_path_factory):
     d = tmp_path_factory.mktemp("horizon")
-    scored_clip(d, offsets="-3,-2,-1,0,1,2,3", metrics="nvrq_ca", methods=METHODS)
+    scored_clip(d, offsets="-3,-2,-1,0,1,2,3", metrics="nvrq_ca", methods=METHODS, seconds=2, size="480x270")
     pairs = pd.read_csv(d / "pairs.csv", dtype={"track_id": str, "camera": str})
     deg = pd.read_csv(d / "scene" / "degradation.csv", dtype={"track_id": str, "camera": str})
     keys = ["camera", "timestamp_us", "track_id", "method", "y_offset_m"]
@@ -74,7 +75,8 @@ def test_human_threshold_is_the_direct_logistic_fit(clip):
 
     doc = _human_threshold(clip)
     th = doc["threshold"]
-    assert th["source"].startswith("people: P(good) = 0.5") and th["ci_lo"] <= th["value"] <= th["ci_hi"]
+    # the rows are judged per view; the pooled fit stays in horizon.json as the reference
+    assert th["source"].startswith("people, per view: P(good) = 0.5") and th["ci_lo"] <= th["value"] <= th["ci_hi"]
     v = pd.read_csv(clip / "votes.csv")
     raters = pd.read_csv(clip / "human" / "raters.csv")
     v = v[(v["kind"] == "test") & v["rater_id"].isin(raters.loc[~raters["excluded"], "rater_id"])]
@@ -86,49 +88,52 @@ def test_human_threshold_is_the_direct_logistic_fit(clip):
     assert th["value"] == pytest.approx(-best.x[0] / best.x[1], abs=1e-6)
 
 
-def test_sharp_goes_at_least_as_far_as_blurry_and_agrees_with_the_true_severity(clip):
-    doc = _human_threshold(clip)
-    nv = _horizon(clip, "nvrq_ca", "--metrics-table", str(clip / "metrics.csv"), "--threshold",
-                  repr(doc["threshold"]["value"]))
-    sev = _horizon(clip, "severity", "--metrics-table", str(clip / "severity.csv"), "--metric", "severity",
-                   "--lower-better", "severity", "--threshold", str(TRUE_SEVERITY_THRESHOLD))
-    h = nv.set_index(["label_class", "axis", "direction", "method"])["horizon"].fillna(-1.0).unstack("method")
-    tracks = nv.groupby("label_class")["n_tracks"].max()
-    big = tracks[tracks >= 5].index
-    assert len(big) >= 1
-    rows = h[h.index.get_level_values("label_class").isin(big)]
-    assert (rows["sharp"] >= rows["blurry"]).all(), rows
-    assert (rows["perfect"] >= rows["sharp"]).all(), rows
-    # the horizon of the true severity and that of NVRQ-CA at the raters' threshold, automobiles
-    # (7 tracks). Measured on this clip (threshold 0.109 [0.063, 0.170]): blurry 0 m by both
-    # sources, both directions; sharp: severity beyond the grid (>= 3 m: every sharp car's
-    # severity stays below 0.45), NVRQ-CA 1 m left and 1 m right (2 s clip, threshold 0.128:
-    # 1 m left, 2 m right). Why: the perfect render (severity 0.001) gets the same NVRQ-CA
-    # horizon as sharp, 1 m left and 1 m right (2 s clip: 1 m left, 2 m right; 13% of its cars
-    # below the threshold at 2 m left). NVRQ-CA compares the shifted view's crop with the
-    # recorded GT crop, so it also scores the change of viewpoint (the car's side comes into
-    # view), which the raters, who see severity only, do not count. The issue's "within one
-    # grid step of the true severity" thus holds for blurry; for sharp it holds against the
-    # viewpoint ceiling min(severity's horizon, the perfect render's NVRQ-CA horizon), and
-    # NVRQ-CA never claims more than the truth.
+def _true_horizon(clip):
+    """The horizon of the true severity at the raters' threshold (the floor left out: the truth)."""
+    return _horizon(clip, "severity", "--metrics-table", str(clip / "severity.csv"), "--metric", "severity",
+                    "--lower-better", "severity", "--threshold", str(TRUE_SEVERITY_THRESHOLD), "--no-floor")
+
+
+def _cars(nv, sev):
     both = nv.merge(sev, on=["method", "label_class", "axis", "direction"], suffixes=("_nv", "_sev"))
     cars = both[both["label_class"] == "automobile"].set_index(["method", "direction"])
     assert len(cars) == 6
-    h_nv, h_sev = cars["horizon_nv"].fillna(-GRID_STEP), cars["horizon_sev"].fillna(-GRID_STEP)
-    assert ((h_nv - h_sev).abs()["blurry"] <= GRID_STEP).all(), cars
-    assert (h_nv <= h_sev).all(), cars
+    return cars, cars["horizon_nv"].fillna(-GRID_STEP), cars["horizon_sev"].fillna(-GRID_STEP)
+
+
+def test_per_view_thresholds_of_the_raters_agree_with_the_true_severity(clip):
+    doc = _human_threshold(clip)
+    assert {r["threshold_kind"] for r in doc["horizons"]} == {"people_view"}
+    views = clip / "human" / "horizon_view_thresholds.csv"
+    nv = _horizon(clip, "nvrq_ca", "--metrics-table", str(clip / "metrics.csv"), "--threshold-table", str(views))
+    assert nv["threshold_source"].str.startswith("given, per view (horizon_view_thresholds.csv)").all()
+    cars, h_nv, h_sev = _cars(nv, _true_horizon(clip))
+    # Measured on this clip (automobiles; left/right): the true severity gives sharp 3/3 (beyond the
+    # grid), blurry 0/0 and perfect 3/3. NVRQ-CA at the raters' per-view thresholds (monotone fit):
+    # sharp 3/2, blurry 1/1, perfect 2/1. The pooled threshold 0.119 gives sharp 1/2 (two grid
+    # steps short on the left), blurry 0/0, perfect 1/2.
     assert cars.loc["perfect", "reason_sev"].str.startswith("beyond the grid").all(), cars
-    # the perfect render's NVRQ-CA horizon stops short of the grid: the viewpoint ceiling
-    assert (h_nv["perfect"] < h_sev["perfect"]).any(), cars
-    ceiling = np.minimum(h_sev, h_nv["perfect"].reindex(h_sev.index, level="direction"))
     for method in RATED:
-        assert ((h_nv[method] - ceiling[method]).abs() <= GRID_STEP).all(), cars
+        assert ((h_nv[method] - h_sev[method]).abs() <= GRID_STEP).all(), cars
+    assert (h_nv["sharp"] >= h_nv["blurry"]).all(), cars
+
+
+def test_the_pooled_threshold_reads_the_viewpoint(clip):
+    doc = _human_threshold(clip)
+    th = repr(doc["threshold"]["value"])
+    nv = _horizon(clip, "nvrq_ca_pooled", "--metrics-table", str(clip / "metrics.csv"), "--threshold", th,
+                  "--no-floor")
+    cars, h_nv, h_sev = _cars(nv, _true_horizon(clip))
+    # one threshold for every view: NVRQ-CA never claims more than the truth, and the perfect
+    # render (no artefact) stops short of the grid: the change of viewpoint, not the render
+    assert (h_nv <= h_sev).all(), cars
+    assert (h_nv["perfect"] < h_sev["perfect"]).any(), cars
 
 
 def test_python_api_gives_the_cli_rows(clip):
     doc = _human_threshold(clip)
     cli = _horizon(clip, "nvrq_ca_api", "--metrics-table", str(clip / "metrics.csv"), "--threshold",
-                   repr(doc["threshold"]["value"]))
+                   repr(doc["threshold"]["value"]), "--no-floor")
     cli["reason"] = cli["reason"].fillna("")
     scores = pd.read_csv(clip / "pairs.csv").merge(pd.read_csv(clip / "metrics.csv"), on="pair_id")
     # the file's row order and a shuffled one: the bootstrap draws tracks in sorted order either way
@@ -152,7 +157,7 @@ def test_timeline_is_shorter_where_the_clip_degrades(clip):
             mean = sev["severity"].groupby([pairs["method"], pairs["y_offset_m"]]).transform("mean")
             sev.assign(severity=mean).to_csv(table, index=False)
         _ok(analyze_main(["--pairs", str(clip / "pairs.csv"), "--metrics-table", str(table), "--metric",
-                          "severity", "--lower-better", "severity", "--threshold", "0.45", "--horizon",
+                          "severity", "--lower-better", "severity", "--threshold", "0.45", "--no-floor", "--horizon",
                           "--window-s", "0.4", "--bootstrap", "0", "--quiet", "--out", str(clip / f"tl_{name}")]))
     uniform = pd.read_csv(clip / "tl_uniform" / "horizon_timeline.csv")
     cars = uniform[(uniform["class"] == "automobile") & (uniform["method"] == "sharp")]

@@ -18,11 +18,12 @@ def ok(rc: int) -> None:
     assert rc == 0
 
 
-def scored_clip(d: Path, *, offsets: str, metrics: str, methods: str = METHODS) -> None:
-    """``d/scene``: 1 s at 5 fps, 640x360, ``methods`` (default :data:`METHODS`) at the lateral ``offsets`` (metres,
-    comma-separated); ``d/pairs.csv`` of it and ``d/metrics.csv`` of ``metrics`` (the encoder
-    efficientnet-lite0 on torch)."""
-    ok(nvrq_main(["synth", str(d / "scene"), "--seconds", "1", "--fps", "5", "--size", "640x360",
+def scored_clip(d: Path, *, offsets: str, metrics: str, methods: str = METHODS, seconds: int = 1,
+                size: str = "640x360") -> None:
+    """``d/scene``: ``seconds`` (default 1 s) at 5 fps, ``size`` (default 640x360), ``methods``
+    (default :data:`METHODS`) at the lateral ``offsets`` (metres, comma-separated); ``d/pairs.csv``
+    of it and ``d/metrics.csv`` of ``metrics`` (the encoder efficientnet-lite0 on torch)."""
+    ok(nvrq_main(["synth", str(d / "scene"), "--seconds", str(seconds), "--fps", "5", "--size", size,
                   f"--offsets={offsets}", "--methods", methods, "--quiet"]))
     ok(nvrq_main(["pairs", str(d / "scene"), "--out", str(d / "pairs.csv")]))
     ok(nvrq_main(["score", str(d / "pairs.csv"), "--out", str(d / "metrics.csv"), "--metrics", metrics,
