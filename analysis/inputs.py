@@ -32,12 +32,12 @@ from data_schema.errors import InputError
 from data_schema.methods import FLOOR_PAIR_COLUMNS, METHOD_COLUMN
 from data_schema.perturbation import VIEW_COLUMNS
 from data_schema.tables import (
-    SOURCE_VISIBILITY,
-    VISIBILITY_COLUMNS,
     ITEM_KINDS,
     PAIR_META_COLUMNS,
     PAIRS_COLUMNS,
     RATINGS_COLUMNS,
+    SOURCE_VISIBILITY,
+    VISIBILITY_COLUMNS,
     read_metrics,
     read_table,
 )

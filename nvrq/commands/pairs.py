@@ -46,7 +46,6 @@ def register(sub) -> None:
     p.add_argument("--floor", action="store_true",
                    help="add the viewpoint floor: for each novel view, a pair of two GT views of the object "
                         "whose change of viewpoint matches it (method floor, docs/FORMATS.md §3)")
->>>>>>> main
     add_quiet_option(p)
     add_link_option(p)
     p.set_defaults(func=run)
