@@ -30,7 +30,7 @@ def clip(tmp_path_factory) -> Path:
 @pytest.fixture(scope="module")
 def pairs(clip):
     scene = load_scene(clip)
-    p, _ = make_pairs(scene, progress=False)
+    p, _ = make_pairs(scene, min_visible=0, progress=False)  # the paper's protocol: every class at every offset
     return scene, p
 
 
