@@ -14,6 +14,7 @@ import json
 import sqlite3
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 from malformed_world import IMAGES_CSV, copy_into, scene_doc, set_in, snapshot, write_scene
@@ -1200,6 +1201,69 @@ for _cmd, _argv in [("synth", ["synth", "{tmp}/s"]), ("render-plan", ["render-pl
         fragments=["--offsets", "not both", "the grid yaw=0:2:1"]))
 
 
+
+# ---------------------------------------------------------------- issue 44 item 9: drivestudio values out of bounds
+def _drivestudio(tmp: Path) -> Path:
+    """A minimal KITTI-raw drivestudio folder (2 cameras, 2 frames, one car), valid as written."""
+    import cv2
+
+    root = tmp / "ds"
+    for sub in ("images", "intrinsics", "extrinsics", "ego_pose", "instances"):
+        (root / sub).mkdir(parents=True)
+    jpg = cv2.imencode(".jpg", np.full((48, 64, 3), 128, np.uint8))[1].tobytes()
+    cam = "0 0 1 0\n-1 0 0 0\n0 -1 0 1.5\n0 0 0 1\n"
+    for c in (0, 1):
+        (root / "intrinsics" / f"{c}.txt").write_text("50 50 31.5 23.5 0 0 0 0 0\n")
+        (root / "extrinsics" / f"{c}.txt").write_text(cam)
+        for t in (0, 1):
+            (root / "images" / f"{t:03d}_{c}.jpg").write_bytes(jpg)
+    for t in (0, 1):
+        (root / "ego_pose" / f"{t:03d}.txt").write_text(f"1 0 0 {t}\n0 1 0 0\n0 0 1 0\n0 0 0 1\n")
+    box = [[1, 0, 0, 12.0], [0, 1, 0, 0], [0, 0, 1, 0.8], [0, 0, 0, 1]]
+    (root / "instances" / "instances_info.json").write_text(json.dumps({"0": {
+        "id": "car-1", "class_name": "Car", "frame_annotations": {
+            "frame_idx": [0, 1], "obj_to_world": [box, box], "box_size": [[4.0, 1.8, 1.5], [4.0, 1.8, 1.5]]}}}))
+    (root / "instances" / "frame_instances.json").write_text(json.dumps({"0": ["0"], "1": ["0"]}))
+    return root
+
+
+def _drivestudio_case(name, edit, *fragments):
+    @case("inputs", f"import drivestudio {name}")
+    def _c(world, tmp):
+        root = _drivestudio(tmp)
+        edit(root)
+        return "nvrq", ["import", "drivestudio", str(root), str(tmp / "out"), "--offsets", "0"], list(fragments)
+
+
+def _ds_text(rel, text):
+    return lambda root: (root / rel).write_text(text)
+
+
+def _ds_instance(change):
+    def edit(root):
+        path = root / "instances" / "instances_info.json"
+        doc = json.loads(path.read_text())
+        change(doc["0"]["frame_annotations"])
+        path.write_text(json.dumps(doc))
+    return edit
+
+
+_drivestudio_case("ego pose translated by 1e308",
+                  _ds_text("ego_pose/001.txt", "1 0 0 1e308\n0 1 0 0\n0 0 1 0\n0 0 0 1\n"),
+                  "ego_pose/001.txt: row 1", "at most 1e+06 m", "got 1e+308")
+_drivestudio_case("extrinsics z of 2e6 m", _ds_text("extrinsics/1.txt", "0 0 1 0\n-1 0 0 0\n0 -1 0 2e6\n0 0 0 1\n"),
+                  "extrinsics/1.txt: row 3", "at most 1e+06 m", "got 2e+06")
+_drivestudio_case("ego pose infinity", _ds_text("ego_pose/000.txt", "1 0 0 inf\n0 1 0 0\n0 0 1 0\n0 0 0 1\n"),
+                  "ego_pose/000.txt", "NaN or infinity")
+_drivestudio_case("box size 1e300", _ds_instance(lambda a: a["box_size"].__setitem__(1, [4.0, 1e300, 1.5])),
+                  "instances_info.json: 0.frame_annotations.box_size[1]", "at most 1000 m")
+_drivestudio_case("box translated by 1e308",
+                  _ds_instance(lambda a: a["obj_to_world"][1][0].__setitem__(3, 1e308)),
+                  "instances_info.json: 0.frame_annotations.obj_to_world[1]", "at most 1e+06 m")
+_drivestudio_case("box pose NaN", _ds_instance(lambda a: a["obj_to_world"][0][2].__setitem__(3, float("nan"))),
+                  "instances_info.json: 0.frame_annotations.obj_to_world[0]", "finite numbers")
+
+
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_malformed_input(name, world, tmp_path, capfd):
     prog, argv, fragments = CASES[name](world, tmp_path)
@@ -1223,6 +1287,18 @@ def test_corpus_size():
         kinds[name.split("/")[0]] = kinds.get(name.split("/")[0], 0) + 1
     print(kinds)
     assert sum(kinds.values()) >= 125
+
+
+def test_the_minimal_drivestudio_folder_imports(tmp_path):
+    """The drivestudio cases break a folder that imports as it is, with a translation just inside the bound."""
+    from data_schema.scene import load_scene
+    from nvrq.cli import main
+
+    root = _drivestudio(tmp_path)
+    (root / "ego_pose" / "001.txt").write_text("1 0 0 9.9e5\n0 1 0 0\n0 0 1 0\n0 0 0 1\n")
+    assert main(["import", "drivestudio", str(root), str(tmp_path / "out"), "--offsets", "0"]) == 0
+    scene = load_scene(tmp_path / "out", check_images=False)
+    assert len(scene.tracks) == 1 and np.allclose(scene.tracks[0].dims_lwh, [4.0, 1.8, 1.5])
 
 
 def test_world_untouched(world):
