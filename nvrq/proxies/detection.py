@@ -45,11 +45,16 @@ __all__ = [
     "read_detections",
     "render_boxes_xyxy",
     "detection_confidence",
+    "check_pixel_boxes",
+    "NORMALISED_MIN_SIDE",
 ]
 
 DETS_COLUMNS = ("path", "x0", "y0", "x1", "y1", "score", "coco_class")
 IOU_MIN = 0.3
 MIN_SCORE = 0.1
+#: Images whose shorter side has at least this many pixels cannot hold only boxes inside
+#: ``[0, 1]``: such a table has normalised coordinates (:func:`check_pixel_boxes`).
+NORMALISED_MIN_SIDE = 100
 
 
 def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -129,6 +134,42 @@ def read_detections(path: str | os.PathLike) -> pd.DataFrame:
     """
     dets = read_table(path, required=DETS_COLUMNS, what="detections table")
     return validate_detections(dets, where=str(path))
+
+
+def check_pixel_boxes(dets: pd.DataFrame, sizes: np.ndarray, *, where: str = "detections") -> None:
+    """Refuse a DETS table whose boxes are normalised (every one inside ``[0, 1]``) instead of in pixels.
+
+    Parameters
+    ----------
+    dets : pandas.DataFrame
+        A validated DETS table (:func:`validate_detections`), ``N`` rows.
+    sizes : (N, 2) numpy.ndarray
+        The ``(W, H)`` in pixels of each detection's image.
+    where : str, optional
+        The DETS table, named in the error.
+
+    Raises
+    ------
+    InputError
+        Some detection exists, every box coordinate lies in ``[0, 1]`` and every image's
+        shorter side has at least :data:`NORMALISED_MIN_SIDE` pixels.
+
+    >>> dets = pd.DataFrame({"x0": [0.1], "y0": [0.2], "x1": [0.4], "y1": [0.5]})
+    >>> check_pixel_boxes(dets, np.array([[640, 480]]), where="d.csv")
+    Traceback (most recent call last):
+    data_schema.errors.InputError: d.csv: columns x0, y0, x1, y1: expected pixel-edge coordinates on images of 640x480 pixels or more, got every box inside [0, 1] (normalised coordinates: multiply x0, x1 by the image width and y0, y1 by its height)
+    >>> check_pixel_boxes(dets.assign(x1=[40.0]), np.array([[640, 480]]))  # one box in pixels: fine
+    """
+    if not len(dets):
+        return
+    xy = dets[["x0", "y0", "x1", "y1"]].to_numpy(np.float64)
+    sizes = np.asarray(sizes, np.float64).reshape(-1, 2)
+    if ((xy >= 0) & (xy <= 1)).all() and sizes.min() >= NORMALISED_MIN_SIDE:
+        w, h = sizes[np.argmin(sizes.min(axis=1))].astype(int)
+        raise InputError(where, "columns x0, y0, x1, y1",
+                         f"pixel-edge coordinates on images of {w}x{h} pixels or more",
+                         "every box inside [0, 1] (normalised coordinates: multiply x0, x1 by the image "
+                         "width and y0, y1 by its height)")
 
 
 def validate_detections(dets: pd.DataFrame, *, where: str = "detections") -> pd.DataFrame:

@@ -830,6 +830,15 @@ def _(world, tmp):
                     str(tmp / "nta.csv"), "--protocol", "waymo"], ["--protocol", "waymo"]
 
 
+
+# issue 44 item 10: a DETS table in normalised 0-1 coordinates on a 640x480 render
+@case("nta-iou", "detections in normalised 0-1 coordinates")
+def _(world, tmp):
+    dets = _nta_dets(tmp, x0=0.1, y0=0.2, x1=0.4, y1=0.5)
+    return "nvrq", ["proxy", "nta-iou", str(world / "scene"), "--detections", dets, "--out",
+                    str(tmp / "nta.csv")], ["dets.csv", "columns x0, y0, x1, y1", "640x480", "every box inside [0, 1]",
+                                            "multiply x0, x1 by the image width"]
+
 @case("score-sets", "empty set")
 def _(world, tmp):
     return "nvrq", ["score-sets", str(world / "scene"), "--sets", "objects", "--min-side", "100000",
