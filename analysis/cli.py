@@ -267,7 +267,12 @@ def _nta_metrics(args):
     from data_schema.tables import read_table, write_table
 
     nta = read_table(args.nta, required=("pair_id", "iou", "protocol"), what="NTA-IoU per-box table",
-                     dtype={"pair_id": str})
+                     dtype={"pair_id": str, "clip_id": str})
+    if (args.ratings is None) != (args.pairs is None):  # else _run says so
+        from analysis.side_tables import analysed_ids, check_nta
+
+        clips, ids = analysed_ids(args.ratings, args.pairs)
+        check_nta(nta, args.nta, clips=clips, pair_ids=ids)
     with tempfile.TemporaryDirectory(prefix="nvrq-nta-") as tmp:
         path = Path(tmp) / "nta_iou.csv"
         write_table(nta.loc[:, ["pair_id"]].assign(nta_iou=nta["iou"].to_numpy()), path)
@@ -326,10 +331,15 @@ def _analyze(args) -> int:
     else:
         analysis = _run_ratings(args)
     if args.sets is not None and analysis.methods is not None:
+        from analysis.side_tables import check_sets
         from data_schema.tables import read_table
 
-        analysis.methods.sets = read_table(args.sets, required=("set_id", "kind", "y_offset_m", "n_render"),
-                                           what="score-sets table")
+        sets = read_table(args.sets, required=("set_id", "kind", "y_offset_m", "n_render"), what="score-sets table",
+                          dtype={"clip_id": str, "method": str})
+        items = analysis.items
+        check_sets(sets, args.sets, clips=items["clip_id"].astype(str).unique(),
+                   methods=items["method"].fillna("").astype(str).unique() if "method" in items.columns else [""])
+        analysis.methods.sets = sets
     if args.horizon:
         analysis.horizon = _horizon(args, analysis)
     if args.real_floor:

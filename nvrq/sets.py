@@ -337,7 +337,9 @@ def score_sets(scene, options: SetOptions, *, encoder=None, batch_size: int = 32
     bar.close()
     features = uniq[codes]
     name = enc.spec.name
-    return set_table(groups, features, options, encoder=name, where=str(scene.root)), groups, features, name
+    table = set_table(groups, features, options, encoder=name, where=str(scene.root))
+    table.insert(1, "clip_id", scene.clip_id)  # the scene, which analyze --sets checks
+    return table, groups, features, name
 
 
 def _check_sizes(groups: pd.DataFrame, options: SetOptions, enc, *, where: str) -> None:

@@ -1273,6 +1273,54 @@ _drivestudio_case("box pose NaN", _ds_instance(lambda a: a["obj_to_world"][0][2]
                   "instances_info.json: 0.frame_annotations.obj_to_world[0]", "finite numbers")
 
 
+
+# ---------------------------------------------------------------- issue 44 item 11: --nta / --sets of another scene
+@functools.cache
+def _methods_scene(world: Path) -> Path:
+    """A two-method synthetic clip beside ``world`` (built once): pairs.csv, nta.csv, sets.csv."""
+    from nvrq.cli import main
+
+    root = world.parent / f"{world.name}-methods"
+    if not (root / "sets.csv").is_file():
+        assert main(["synth", str(root / "scene"), "--seconds", "0.3", "--size", "160x90", "--methods",
+                     "sharp:0.5,blurry:1.5", "--offsets", "0,1", "--quiet"]) == 0
+        assert main(["pairs", str(root / "scene"), "--out", str(root / "pairs.csv"), "--min-side", "6", "--quiet"]) == 0
+        assert main(["proxy", "simulate-detect", str(root / "scene"), "--out", str(root / "dets.csv")]) == 0
+        assert main(["proxy", "nta-iou", str(root / "scene"), "--detections", str(root / "dets.csv"), "--out",
+                     str(root / "nta.csv"), "--min-side", "6", "--bootstrap", "0"]) == 0
+        pd.DataFrame({"set_id": ["frames:sharp:y=+1.00"], "clip_id": ["synth-000000"], "kind": ["frames"],
+                      "method": ["sharp"], "y_offset_m": [1.0], "n_render": [3], "n_gt": [3], "kid:enc": [0.1],
+                      "kid_std:enc": [0.01]}).to_csv(root / "sets.csv", index=False)
+    return root
+
+
+def _side_case(name, option, edit, *fragments):
+    @case("analysis", f"--compare-methods {option} {name}")
+    def _c(world, tmp):
+        src = _methods_scene(world)
+        table = pd.read_csv(src / f"{option[2:]}.csv", dtype=str)
+        edit(table).to_csv(tmp / f"{option[2:]}.csv", index=False)
+        argv = ["--pairs", str(src / "pairs.csv"), "--compare-methods", "--bootstrap", "0", "--out", str(tmp / "rep"),
+                option, str(tmp / f"{option[2:]}.csv")]
+        if option == "--sets":
+            argv += ["--nta", str(src / "nta.csv")]
+        return "analyze", argv, [f"{option[2:]}.csv", option, *fragments]
+
+
+def _other_clip(t):
+    return t.assign(clip_id="other-clip", **({"pair_id": t["pair_id"].str.replace("synth-000000", "other-clip")}
+                                            if "pair_id" in t.columns else {}))
+
+
+_side_case("of another scene", "--nta", _other_clip, "column clip_id", "the clip of the analysed pairs (synth-000000)",
+           "got other-clip")
+_side_case("of other pairs of the scene", "--nta", lambda t: t.assign(pair_id=t["pair_id"] + ":x"), "column pair_id",
+           "pair ids of the analysed pairs", "none of its")
+_side_case("of another scene", "--sets", _other_clip, "column clip_id", "(synth-000000)", "got other-clip")
+_side_case("of another method (no clip_id)", "--sets", lambda t: t.drop(columns="clip_id").assign(method="nerf"),
+           "column method", "the analysed methods (blurry, sharp)", "got nerf")
+
+
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_malformed_input(name, world, tmp_path, capfd):
     prog, argv, fragments = CASES[name](world, tmp_path)
@@ -1308,6 +1356,16 @@ def test_the_minimal_drivestudio_folder_imports(tmp_path):
     assert main(["import", "drivestudio", str(root), str(tmp_path / "out"), "--offsets", "0"]) == 0
     scene = load_scene(tmp_path / "out", check_images=False)
     assert len(scene.tracks) == 1 and np.allclose(scene.tracks[0].dims_lwh, [4.0, 1.8, 1.5])
+
+
+def test_the_methods_scene_tables_are_accepted(world, tmp_path):
+    """The --nta and --sets cases break tables that analyze accepts as they are."""
+    from analysis.cli import main
+
+    src = _methods_scene(world)
+    assert main(["--pairs", str(src / "pairs.csv"), "--compare-methods", "--bootstrap", "0", "--out",
+                 str(tmp_path / "rep"), "--nta", str(src / "nta.csv"), "--sets", str(src / "sets.csv"), "--quiet"]) == 0
+    assert "kid:enc (frames)" in (tmp_path / "rep" / "report.md").read_text()
 
 
 def test_world_untouched(world):

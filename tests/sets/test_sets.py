@@ -98,6 +98,7 @@ def test_score_sets_cli_frames(tmp_path):
     t = pd.read_csv(out)
     assert set(t.set_id) == {f"frames:{m}:{v}" for m in ("sharp", "blurry") for v in ("none", "y=+2.00")}
     assert (t.n_render == 3).all() and (t.n_gt == 3).all() and t["fd:efficientnet-lite0"].isna().all()
+    assert list(t.columns[:3]) == ["set_id", "clip_id", "kind"] and (t.clip_id == "synth-000000").all()
     z = np.load(tmp_path / "f.npz")
     for _, row in t.iterrows():  # every row recomputed from the features file
         sel = z["set_id"] == row.set_id
