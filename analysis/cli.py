@@ -32,6 +32,7 @@ from analysis.choices import DEFAULT_MARGIN, DEFAULT_SHARE, METHODS, MIN_CLUSTER
 from analysis.options import AnalysisOptions, MethodOptions
 from data_schema.errors import InputError
 from data_schema.outputs import REPORT_MARKER, check_output_folder, mark_report, replacing_note
+from nvrq.choices import WINDOW_S_RANGE
 from nvrq.commands.args import (
     ArgumentParser,
     CommaList,
@@ -184,8 +185,9 @@ def _horizon_options(p: ArgumentParser) -> None:
     p.add_argument("--good-prob", type=number_arg(low=0, high=1, low_open=True, high_open=True),
                    default=0.5, metavar="P", help="with --horizon and votes: the threshold is the "
                    "metric value where the fitted P(good | metric) = P (default 0.5)")
-    p.add_argument("--window-s", type=number_arg(low=0, low_open=True), default=2.0, metavar="W",
-                   help="with --horizon: the timeline's window in seconds (default 2)")
+    p.add_argument("--window-s", type=number_arg(low=WINDOW_S_RANGE[0], high=WINDOW_S_RANGE[1]), default=2.0,
+                   metavar="W", help=f"with --horizon: the timeline's window in seconds, {WINDOW_S_RANGE[0]:g} to "
+                   f"{WINDOW_S_RANGE[1]:g} (default 2)")
 
 
 def _floor_options(p: ArgumentParser) -> None:

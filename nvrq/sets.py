@@ -27,12 +27,11 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from nvrq.choices import KID_SUBSET_SIZE, KID_SUBSETS, MAX_KID_SUBSET_SIZE, MAX_KID_SUBSETS
 
 __all__ = ["embed", "frechet_distance", "kid", "SetOptions", "set_groups", "score_sets", "set_table",
-           "KID_SUBSETS", "KID_SUBSET_SIZE", "KID_SEED"]
+           "KID_SUBSETS", "KID_SUBSET_SIZE", "KID_SEED", "MAX_KID_SUBSETS", "MAX_KID_SUBSET_SIZE"]
 
-KID_SUBSETS = 100
-KID_SUBSET_SIZE = 1000
 KID_SEED = 2020  # torch-fidelity's default rng_seed
 
 
@@ -118,7 +117,8 @@ def kid(render: np.ndarray, gt: np.ndarray, *, subsets: int = KID_SUBSETS, subse
         (n_r, d) and (n_g, d) features, ``n >= 2`` each.
     subsets, subset_size, seed : int, optional
         torch-fidelity's defaults: 100 subsets of ``min(subset_size, n_r, n_g)`` rows drawn
-        without replacement from each set, ``numpy.random.RandomState(seed)``.
+        without replacement from each set, ``numpy.random.RandomState(seed)``. ``subsets`` in
+        ``[1, MAX_KID_SUBSETS]``, ``subset_size`` in ``[2, MAX_KID_SUBSET_SIZE]``.
 
     Returns
     -------
@@ -126,6 +126,10 @@ def kid(render: np.ndarray, gt: np.ndarray, *, subsets: int = KID_SUBSETS, subse
         ``kid`` (mean over subsets), ``kid_std`` (their standard deviation, ddof 0),
         ``kid_subset_size`` (m).
     """
+    from data_schema.errors import check_int
+
+    check_int("subsets", subsets, low=1, high=MAX_KID_SUBSETS)
+    check_int("subset_size", subset_size, low=2, high=MAX_KID_SUBSET_SIZE)
     r, g = np.asarray(render, np.float64), np.asarray(gt, np.float64)
     m = min(int(subset_size), len(r), len(g))
     if m < 2:
@@ -173,6 +177,14 @@ class SetOptions:
     kid_subset_size: int = KID_SUBSET_SIZE
     seed: int = KID_SEED
     min_side: float = 30
+
+    def __post_init__(self):
+        from data_schema.errors import check_int, check_number
+
+        check_int("kid_subsets", self.kid_subsets, low=1, high=MAX_KID_SUBSETS)
+        check_int("kid_subset_size", self.kid_subset_size, low=2, high=MAX_KID_SUBSET_SIZE)
+        check_int("seed", self.seed, low=0, high=2**32 - 1)
+        check_number("min_side", self.min_side, low=0)
 
 
 def set_groups(scene, options: SetOptions) -> pd.DataFrame:

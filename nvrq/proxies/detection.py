@@ -32,9 +32,10 @@ import os
 import numpy as np
 import pandas as pd
 
-from data_schema.errors import InputError
+from data_schema.errors import InputError, check_number
 from data_schema.tables import RENDER_BOX_COLUMNS, read_table, require_columns
 from nvrq.proxies import mapped_labels
+from nvrq.proxies.coco import check_coco_classes
 
 __all__ = [
     "DETS_COLUMNS",
@@ -202,6 +203,8 @@ def validate_detections(dets: pd.DataFrame, *, where: str = "detections") -> pd.
         raise InputError(where, f"row {i + 2}, column score", "a confidence in [0, 1]", s[i])
     out["path"] = out["path"].astype(str).map(os.path.normpath)
     out["coco_class"] = out["coco_class"].astype(str).str.strip().str.lower()
+    check_coco_classes(out["coco_class"].to_numpy(dtype=object), where=where,
+                       field_of=lambda i: f"row {i + 2}, column coco_class")
     return out.reset_index(drop=True)
 
 
@@ -245,9 +248,9 @@ def detection_confidence(
     coco_map : dict
         Lower-cased label class -> allowed COCO classes.
     iou_min : float, optional
-        Smallest IoU of a match.
+        Smallest IoU of a match, in (0, 1].
     min_score : float, optional
-        Smallest detection confidence considered.
+        Smallest detection confidence considered, in [0, 1].
     where : str, optional
         The table named in errors.
 
@@ -256,6 +259,8 @@ def detection_confidence(
     pandas.DataFrame
         ``pair_id, s_det``.
     """
+    check_number("iou_min", iou_min, low=0, high=1, low_open=True)
+    check_number("min_score", min_score, low=0, high=1)
     require_columns(pairs, ("pair_id", "label_class", "render_path", *RENDER_BOX_COLUMNS),
                     where=where)
     labels = mapped_labels(pairs["label_class"], coco_map, "coco", where=where)

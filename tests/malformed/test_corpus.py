@@ -1321,6 +1321,59 @@ _side_case("of another method (no clip_id)", "--sets", lambda t: t.drop(columns=
            "column method", "the analysed methods (blurry, sharp)", "got nerf")
 
 
+
+# ---------------------------------------------------------------- issue 44 item 12: documented option ranges
+@case("nta-iou", "DETS coco_class not a COCO class")
+def _(world, tmp):
+    return "nvrq", ["proxy", "nta-iou", str(world / "scene"), "--detections", _nta_dets(tmp, coco_class="vehicle"),
+                    "--out", str(tmp / "nta.csv")], ["dets.csv", "row 2, column coco_class", "80 COCO class names",
+                                                     "got 'vehicle'"]
+
+
+@case("nta-iou", "--class-map coco list with a misspelt COCO class")
+def _(world, tmp):
+    import json as _json
+
+    from nvrq.proxies import CLASS_MAPS_PATH
+
+    doc = _json.loads(CLASS_MAPS_PATH.read_text())
+    doc["coco"]["automobile"] = ["car", "trucks"]
+    (tmp / "maps.json").write_text(_json.dumps(doc))
+    return "nvrq", ["proxy", "nta-iou", str(world / "scene"), "--detections", _nta_dets(tmp), "--class-map",
+                    str(tmp / "maps.json"), "--out", str(tmp / "nta.csv")], \
+        ["maps.json", "coco.automobile[1]", "(truck, ", "got 'trucks'"]
+
+
+for _n, _opt, _v, _f in [("--kid-subsets 1e9", "--kid-subsets", "1000000000", "10000"),
+                         ("--kid-subsets 0", "--kid-subsets", "0", "10000"),
+                         ("--kid-subset-size 100000", "--kid-subset-size", "100000", "5000")]:
+    case("score-sets", _n)(functools.partial(
+        _message_case, prog="nvrq", argv=["score-sets", "{world}/scene", "--out", "{tmp}/sets.csv", _opt, _v],
+        fragments=[_opt, _f]))
+
+for _n, _v, _f in [("--window-s 1e18", "1e18", "1e+06"), ("--window-s 1e-9 (0 us)", "1e-9", "0.001")]:
+    case("horizon", _n)(functools.partial(
+        _message_case, prog="analyze", argv=["--pairs", "{world}/toy/pairs.csv", "--metrics-table",
+                                             "{world}/metrics.csv", "--horizon", "--metric", "psnr", "--threshold",
+                                             "25", "--window-s", _v, "--out", "{tmp}/r"],
+        fragments=["--window-s", _f]))
+
+
+
+@case("metrics", "analyze: more metric columns than one analysis takes")
+def _(world, tmp):
+    from analysis.inputs import MAX_METRICS
+
+    ratings = pd.read_csv(world / "ratings.csv", dtype=str)
+    ids = ratings["item_id"].unique()
+    names = [f"m{k}" for k in range(MAX_METRICS + 1)]
+    pd.DataFrame({"pair_id": ids, **{n: np.linspace(0, 1, len(ids)) for n in names}}).to_csv(tmp / "wide.csv",
+                                                                                             index=False)
+    return "analyze", [str(world / "ratings.csv"), "--metrics-table", str(tmp / "wide.csv"), "--higher-better",
+                       ",".join(names), "--bootstrap", "0", "--out", str(tmp / "r")], \
+        ["ratings.csv", f"at most {MAX_METRICS} metric columns", f"got {MAX_METRICS + 2} metric columns"]  # + psnr
+
+
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_malformed_input(name, world, tmp_path, capfd):
     prog, argv, fragments = CASES[name](world, tmp_path)
