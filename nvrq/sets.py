@@ -124,7 +124,8 @@ def kid(render: np.ndarray, gt: np.ndarray, *, subsets: int = KID_SUBSETS, subse
     -------
     dict
         ``kid`` (mean over subsets), ``kid_std`` (their standard deviation, ddof 0),
-        ``kid_subset_size`` (m).
+        ``kid_subset_size`` (m) and ``reason``. When ``m`` is the size of both sets every
+        subset is the same: ``kid`` is computed once, ``kid_std`` is NaN and ``reason`` says why.
     """
     from data_schema.errors import check_int
 
@@ -137,8 +138,9 @@ def kid(render: np.ndarray, gt: np.ndarray, *, subsets: int = KID_SUBSETS, subse
                          got=f"{len(r)} render and {len(g)} gt")
     rng = np.random.RandomState(seed)
     gamma = 1.0 / r.shape[1]
-    vals = np.empty(int(subsets))
-    for k in range(int(subsets)):
+    whole = m == len(r) == len(g)  # every subset is the whole of both sets: one value, no spread
+    vals = np.empty(1 if whole else int(subsets))
+    for k in range(len(vals)):
         x = r[rng.choice(len(r), m, replace=False)]
         y = g[rng.choice(len(g), m, replace=False)]
         kxx = (x @ x.T * gamma + 1.0) ** 3
@@ -146,7 +148,10 @@ def kid(render: np.ndarray, gt: np.ndarray, *, subsets: int = KID_SUBSETS, subse
         kxy = (x @ y.T * gamma + 1.0) ** 3
         vals[k] = ((kxx.sum() - np.trace(kxx)) + (kyy.sum() - np.trace(kyy))) / (m * (m - 1)) \
             - 2.0 * kxy.sum() / (m * m)
-    return {"kid": float(vals.mean()), "kid_std": float(vals.std()), "kid_subset_size": m}
+    if whole:
+        return {"kid": float(vals[0]), "kid_std": float("nan"), "kid_subset_size": m,
+                "reason": f"KID has no spread: its subsets are the whole sets ({m} images a side)"}
+    return {"kid": float(vals.mean()), "kid_std": float(vals.std()), "kid_subset_size": m, "reason": ""}
 
 
 @dataclass(frozen=True)
@@ -267,7 +272,7 @@ def set_table(groups: pd.DataFrame, features: np.ndarray, options: SetOptions, *
     pandas.DataFrame
         One row per set: ``set_id, kind, method``, the view columns, ``n_render, n_gt``, then
         ``fd:ENC, fd_residue:ENC`` and/or ``kid:ENC, kid_std:ENC, kid_subset_size``, and
-        ``reason`` (why FD is empty).
+        ``reason`` (why FD or KID's spread is empty, ``; ``-separated).
     """
     from data_schema.perturbation import LABEL_COLUMN, PERTURBATION_COLUMNS
 
@@ -296,6 +301,7 @@ def set_table(groups: pd.DataFrame, features: np.ndarray, options: SetOptions, *
             k = kid(fr, fg, subsets=options.kid_subsets, subset_size=options.kid_subset_size, seed=options.seed)
             row[f"kid:{encoder}"], row[f"kid_std:{encoder}"] = k["kid"], k["kid_std"]
             row["kid_subset_size"] = k["kid_subset_size"]
+            row["reason"] = "; ".join(r for r in (row["reason"], k["reason"]) if r)
         rows.append(row)
     out = pd.DataFrame(rows)
     return out[[c for c in out.columns if c != "reason"] + ["reason"]]
