@@ -271,10 +271,12 @@ def _nta_metrics(args):
     nta = read_table(args.nta, required=("pair_id", "iou", "protocol"), what="NTA-IoU per-box table",
                      dtype={"pair_id": str, "clip_id": str})
     if (args.ratings is None) != (args.pairs is None):  # else _run says so
+        from analysis.pairwise import is_pairwise
         from analysis.side_tables import analysed_ids, check_nta
 
-        clips, ids = analysed_ids(args.ratings, args.pairs)
-        check_nta(nta, args.nta, clips=clips, pair_ids=ids)
+        if args.pairs is not None or not is_pairwise(args.ratings):  # pairwise votes: refused later
+            clips, ids = analysed_ids(args.ratings, args.pairs)
+            check_nta(nta, args.nta, clips=clips, pair_ids=ids)
     with tempfile.TemporaryDirectory(prefix="nvrq-nta-") as tmp:
         path = Path(tmp) / "nta_iou.csv"
         write_table(nta.loc[:, ["pair_id"]].assign(nta_iou=nta["iou"].to_numpy()), path)

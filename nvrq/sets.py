@@ -150,7 +150,7 @@ def kid(render: np.ndarray, gt: np.ndarray, *, subsets: int = KID_SUBSETS, subse
             - 2.0 * kxy.sum() / (m * m)
     if whole:
         return {"kid": float(vals[0]), "kid_std": float("nan"), "kid_subset_size": m,
-                "reason": f"KID has no spread: its subsets are the whole sets ({m} images a side)"}
+                "reason": "KID has no spread: every subset is the whole of both sets"}
     return {"kid": float(vals.mean()), "kid_std": float(vals.std()), "kid_subset_size": m, "reason": ""}
 
 

@@ -43,7 +43,7 @@ def test_off_path_cells():
 def test_an_empty_fd_is_a_cell_with_its_reason_and_kid_without_spread_says_why():
     res, _ = _res()
     fd_reason = "FD needs more than 1280 images per side (the feature dimension): 40"
-    kid_reason = "KID has no spread: its subsets are the whole sets (40 images a side)"
+    kid_reason = "KID has no spread: every subset is the whole of both sets"
     sets = pd.DataFrame({"set_id": ["frames:a:y=+1.00", "frames:b:y=+1.00"], "kind": ["frames"] * 2,
                          "method": ["a", "b"], "y_offset_m": [1.0, 1.0], "n_render": [40, 2000], "n_gt": [40, 2000],
                          "fd:enc": [np.nan, 7.25], "kid:enc": [0.01, 0.02], "kid_std:enc": [np.nan, 0.003],

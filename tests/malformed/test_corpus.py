@@ -1374,6 +1374,17 @@ def _(world, tmp):
         ["ratings.csv", f"at most {MAX_METRICS} metric columns", f"got {MAX_METRICS + 2} metric columns"]  # + psnr
 
 
+
+# ---------------------------------------------------------------- issue 44 item 14: an import killed mid-swap
+@case("scene.json", "an import of renders interrupted while it swapped its files in")
+def _(world, tmp):
+    scene = write_scene(tmp / "scene")
+    (scene / ".nvrq-import").mkdir()
+    (scene / ".nvrq-import" / "journal.json").write_text('{"files": ["r.png"]}')
+    return "nvrq", _pairs_cmd(scene, tmp), ["scene", "unfinished `nvrq import renders`", "run the same import again",
+                                            ".nvrq-import/journal.json"]
+
+
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_malformed_input(name, world, tmp_path, capfd):
     prog, argv, fragments = CASES[name](world, tmp_path)
