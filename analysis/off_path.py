@@ -58,7 +58,11 @@ def _set_rows(sets: pd.DataFrame | None) -> pd.DataFrame:
     for col in [c for c in s.columns if c.startswith(("fd:", "kid:"))]:
         is_kid = col.startswith("kid:")
         std = col.replace("kid:", "kid_std:")
-        spread = s[std] if is_kid and std in s.columns else np.nan
+        spread = s[std] if is_kid and std in s.columns else pd.Series(np.nan, index=s.index)
+        whole = pd.Series(False, index=s.index)
+        if is_kid and {"kid_subset_size", "n_gt"} <= set(s.columns):  # a table of an older version wrote 0
+            whole = (s["kid_subset_size"] == s["n_render"]) & (s["kid_subset_size"] == s["n_gt"])
+            spread = spread.where(~whole, np.nan)
         rows.append(pd.DataFrame({"method": s["method"].fillna("").astype(str), "offset": s["y_offset_m"],
                                   "metric": col + " (" + s["kind"].astype(str) + ")", "higher_better": False,
                                   "mean": s[col], "lo": np.nan, "hi": np.nan, "n": s["n_render"],
@@ -67,6 +71,10 @@ def _set_rows(sets: pd.DataFrame | None) -> pd.DataFrame:
         last = rows[-1]
         empty = last["mean"].isna() & (last["reason"] == "")
         last.loc[empty, "reason"] = "no value in the sets table"
+        if is_kid:
+            bare = last["spread"].isna() & last["mean"].notna() & (last["reason"] == "")
+            last.loc[bare & whole, "reason"] = "KID has no spread: every subset is the whole of both sets"
+            last.loc[bare & ~whole, "reason"] = "no spread in the sets table"
     return pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
 
 

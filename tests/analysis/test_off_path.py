@@ -58,6 +58,10 @@ def test_an_empty_fd_is_a_cell_with_its_reason_and_kid_without_spread_says_why()
     assert "\u00b1 0.0000" not in " ".join(t.to_numpy(str).ravel())
     fig = off_path_figure(res, sets)  # the empty FD has no point; the figure still draws the rest
     assert len(fig.axes) == 4
+    # a table of an earlier version wrote 0 for that spread: recognised from the subset size
+    old = sets.assign(**{"kid_std:enc": [0.0, 0.003], "kid_subset_size": [40, 1000], "reason": [fd_reason, ""]})
+    assert off_path_display(res, old).set_index(["offset", "method"]).loc[("+1", "a"), kid] == \
+        f"0.0100 (n=40; {kid_reason})"
 
 
 def test_analyze_compare_methods_with_nta(tmp_path):
