@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.text import plural
 
 __all__ = ["analysed_ids", "check_nta", "check_sets"]
 
@@ -88,7 +89,7 @@ def check_nta(nta: pd.DataFrame, path, *, clips, pair_ids: pd.Index) -> None:
     if len(nta) and not hit.any():
         raise InputError(path, "column pair_id", "pair ids of the analysed pairs (an NTA-IoU table made from "
                          "the same scene and views, with the same methods)",
-                         f"none of its {len(nta)} pair ids, e.g. {nta['pair_id'].iloc[0]}", param="--nta")
+                         f"none of its {plural(len(nta), 'pair id')}, e.g. {nta['pair_id'].iloc[0]}", param="--nta")
 
 
 def check_sets(sets: pd.DataFrame, path, *, clips, methods) -> None:
