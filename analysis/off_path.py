@@ -16,6 +16,8 @@ per method (one panel per metric, the direction in its label).
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
@@ -104,6 +106,19 @@ def off_path_rows(res, sets: pd.DataFrame | None = None) -> pd.DataFrame:
     return out.sort_values(["offset", "metric", "method"], kind="stable").reset_index(drop=True)
 
 
+_FD_TOO_FEW = re.compile(r"^FD needs more than (\d+) images per side")
+
+
+def _short(reason: str) -> str:
+    """The reason as a table cell says it (the sets table keeps the full sentence)."""
+    m = _FD_TOO_FEW.match(reason)
+    if m:
+        return f"no FD: n \u2264 {m.group(1)}, the feature dimension"
+    if reason.startswith("KID has no spread"):
+        return "no spread: the subsets are the whole sets"
+    return reason
+
+
 def _finite(x) -> bool:
     return isinstance(x, float | np.floating) and bool(np.isfinite(x))
 
@@ -113,11 +128,11 @@ def _cell(r) -> str:
     if _finite(r["n_tracks"]):
         n += f", {int(r['n_tracks'])} tr."
     if not _finite(r["mean"]):  # no value: the reason instead (never a dropped column)
-        return f"— ({r['reason']}; {n})"
+        return f"— ({_short(r['reason'])}; {n})"
     if _finite(r["spread"]):
         text = f"{fmt(r['mean'], 4)} ± {fmt(r['spread'], 4)}"
     elif r["metric"].startswith("kid:"):  # KID without a spread: say why, not "± 0"
-        return f"{fmt(r['mean'], 4)} ({n}; {r['reason'] or 'no spread'})"
+        return f"{fmt(r['mean'], 4)} ({n}; {_short(r['reason']) or 'no spread'})"
     else:
         text = interval_text(r["mean"], r["lo"], r["hi"], 3)
     return f"{text} ({n})"
