@@ -42,6 +42,7 @@ from analysis.choices import (
 from analysis.options import AnalysisOptions, MethodOptions
 from data_schema.errors import InputError
 from data_schema.outputs import REPORT_MARKER, check_output_folder, mark_report, replacing_note
+from nvrq.choices import WINDOW_S_RANGE
 from nvrq.cli_types import (
     ArgumentParser,
     CommaList,
@@ -210,8 +211,9 @@ def _horizon_options(p: ArgumentParser) -> None:
     p.add_argument("--good-prob", type=number_arg(low=0, high=1, low_open=True, high_open=True),
                    default=0.5, metavar="P", help="with --horizon and votes: the threshold is the "
                    "metric value where the fitted P(good | metric) = P (default 0.5)")
-    p.add_argument("--window-s", type=number_arg(low=0, low_open=True), default=2.0, metavar="W",
-                   help="with --horizon: the timeline's window in seconds (default 2)")
+    p.add_argument("--window-s", type=number_arg(low=WINDOW_S_RANGE[0], high=WINDOW_S_RANGE[1]), default=2.0,
+                   metavar="W", help=f"with --horizon: the timeline's window in seconds, {WINDOW_S_RANGE[0]:g} to "
+                   f"{WINDOW_S_RANGE[1]:g} (default 2)")
 
 
 def _floor_options(p: ArgumentParser) -> None:
@@ -302,7 +304,14 @@ def _nta_metrics(args):
     from data_schema.tables import read_table, write_table
 
     nta = read_table(args.nta, required=("pair_id", "iou", "protocol"), what="NTA-IoU per-box table",
-                     dtype={"pair_id": str})
+                     dtype={"pair_id": str, "clip_id": str})
+    if (args.ratings is None) != (args.pairs is None):  # else _run says so
+        from analysis.pairwise import is_pairwise
+        from analysis.side_tables import analysed_ids, check_nta
+
+        if args.pairs is not None or not is_pairwise(args.ratings):  # pairwise votes: refused later
+            clips, ids = analysed_ids(args.ratings, args.pairs)
+            check_nta(nta, args.nta, clips=clips, pair_ids=ids)
     with tempfile.TemporaryDirectory(prefix="nvrq-nta-") as tmp:
         path = Path(tmp) / "nta_iou.csv"
         write_table(nta.loc[:, ["pair_id"]].assign(nta_iou=nta["iou"].to_numpy()), path)
@@ -365,10 +374,15 @@ def _analyze(args) -> int:
     else:
         analysis = _run_ratings(args)
     if args.sets is not None and analysis.methods is not None:
+        from analysis.side_tables import check_sets
         from data_schema.tables import read_table
 
-        analysis.methods.sets = read_table(args.sets, required=("set_id", "kind", "y_offset_m", "n_render"),
-                                           what="score-sets table")
+        sets = read_table(args.sets, required=("set_id", "kind", "y_offset_m", "n_render"), what="score-sets table",
+                          dtype={"clip_id": str, "method": str})
+        items = analysis.items
+        check_sets(sets, args.sets, clips=items["clip_id"].astype(str).unique(),
+                   methods=items["method"].fillna("").astype(str).unique() if "method" in items.columns else [""])
+        analysis.methods.sets = sets
     if args.horizon:
         analysis.horizon = _horizon(args, analysis)
     if args.real_floor:

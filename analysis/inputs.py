@@ -47,11 +47,17 @@ from nvrq.metrics import column_info, direction
 __all__ = [
     "CANONICAL_VOTE_ORDER",
     "NON_METRIC_COLUMNS",
+    "MAX_METRICS",
     "read_ratings",
     "read_metrics",
     "classify_columns",
     "drop_empty_columns",
 ]
+
+#: The most metric columns one analysis takes (docs/FORMATS.md §6): every metric gets its own
+#: statistics, bootstrap and figure panels, so the report's time grows with them (about a second
+#: per metric on a small study).
+MAX_METRICS = 100
 
 ITEM_LABEL_COLUMNS = (
     "n_votes",
@@ -226,8 +232,8 @@ def classify_columns(
     Raises
     ------
     InputError
-        A metric of unknown direction, a column given both directions or absent, or a
-        non-numeric column given a direction.
+        A metric of unknown direction, a column given both directions or absent, a
+        non-numeric column given a direction, or more than :data:`MAX_METRICS` metrics.
     """
     both = lower & higher
     if both:
@@ -267,6 +273,9 @@ def classify_columns(
             )
         metrics.append(col)
         directions[col] = bool(d)
+    if len(metrics) > MAX_METRICS:
+        raise InputError(where, None, f"at most {MAX_METRICS} metric columns in one analysis (with the "
+                         "metrics tables; split them over several analyses)", f"{len(metrics)} metric columns")
     return metrics, directions, attributes, proxies
 
 

@@ -93,10 +93,15 @@ def join_metrics(items: pd.DataFrame, tables: list[tuple[str, pd.DataFrame]]):
         pos = index.get_indexer(table["pair_id"])
         unknown[str(path)] = int((pos < 0).sum())
         hit = pos >= 0
+        new = {}
         for c in cols:
             col = np.full(len(items), np.nan)
             col[pos[hit]] = table[c].to_numpy(np.float64)[hit]
             if c in items.columns:
                 notes.append(f"column {c!r} of {path} replaces the one in the ratings")
-            items[c] = col
+                items[c] = col  # in its place
+            else:
+                new[c] = col
+        if new:  # all at once: one column at a time fragments the frame (and warns)
+            items = pd.concat([items, pd.DataFrame(new, index=items.index)], axis=1)
     return items, unknown, notes

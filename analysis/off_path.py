@@ -6,13 +6,17 @@ docs/FORMATS.md §11).
   NTA-IoU (``nta_iou``, from ``--nta``), NVRQ-CA and PSNR, each with its 95% cluster-bootstrap
   interval and its counts of objects and tracks;
 - set metrics of ``nvrq score-sets`` (``--sets``): FD and KID per set (``frames`` and
-  ``objects``), KID with ``± std`` over its subsets, with ``n_render``.
+  ``objects``), KID with ``± std`` over its subsets, with ``n_render``. A value the sets table
+  leaves empty (FD on fewer images than the feature dimension) is a cell with its reason, and
+  KID without a spread (its subsets are the whole sets) shows the reason, not ``± 0``.
 
 :func:`off_path_display` is the table, :func:`off_path_figure` each metric against ``|offset|``
 per method (one panel per metric, the direction in its label).
 """
 
 from __future__ import annotations
+
+import re
 
 import numpy as np
 import pandas as pd
@@ -36,7 +40,15 @@ def _object_rows(res) -> pd.DataFrame:
     return pd.DataFrame({"method": t["method"], "offset": pd.to_numeric(t["group"]), "metric": t["metric"],
                          "higher_better": t["metric"].map(res.directions), "mean": t["mean"],
                          "lo": t["ci_lo"], "hi": t["ci_hi"], "n": t["n"], "n_tracks": t["n_tracks"],
-                         "spread": np.nan})
+                         "spread": np.nan, "reason": ""})
+
+
+def _reason_of(sets: pd.DataFrame, prefix: str) -> pd.Series:
+    """The part of each set's ``reason`` about ``prefix`` (``FD`` or ``KID``), else ``''``."""
+    if "reason" not in sets.columns:
+        return pd.Series("", index=sets.index)
+    return sets["reason"].fillna("").astype(str).map(
+        lambda text: "; ".join(p for p in text.split("; ") if p.startswith(prefix + " ")))
 
 
 def _set_rows(sets: pd.DataFrame | None) -> pd.DataFrame:
@@ -47,11 +59,25 @@ def _set_rows(sets: pd.DataFrame | None) -> pd.DataFrame:
     s = sets[lateral]
     rows = []
     for col in [c for c in s.columns if c.startswith(("fd:", "kid:"))]:
-        spread = s[col.replace("kid:", "kid_std:")] if col.startswith("kid:") else np.nan
+        is_kid = col.startswith("kid:")
+        std = col.replace("kid:", "kid_std:")
+        spread = s[std] if is_kid and std in s.columns else pd.Series(np.nan, index=s.index)
+        whole = pd.Series(False, index=s.index)
+        if is_kid and {"kid_subset_size", "n_gt"} <= set(s.columns):  # a table of an older version wrote 0
+            whole = (s["kid_subset_size"] == s["n_render"]) & (s["kid_subset_size"] == s["n_gt"])
+            spread = spread.where(~whole, np.nan)
         rows.append(pd.DataFrame({"method": s["method"].fillna("").astype(str), "offset": s["y_offset_m"],
                                   "metric": col + " (" + s["kind"].astype(str) + ")", "higher_better": False,
                                   "mean": s[col], "lo": np.nan, "hi": np.nan, "n": s["n_render"],
-                                  "n_tracks": np.nan, "spread": spread}))
+                                  "n_tracks": np.nan, "spread": spread,
+                                  "reason": _reason_of(s, "KID" if is_kid else "FD")}))
+        last = rows[-1]
+        empty = last["mean"].isna() & (last["reason"] == "")
+        last.loc[empty, "reason"] = "no value in the sets table"
+        if is_kid:
+            bare = last["spread"].isna() & last["mean"].notna() & (last["reason"] == "")
+            last.loc[bare & whole, "reason"] = "KID has no spread: every subset is the whole of both sets"
+            last.loc[bare & ~whole, "reason"] = "no spread in the sets table"
     return pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
 
 
@@ -68,24 +94,48 @@ def off_path_rows(res, sets: pd.DataFrame | None = None) -> pd.DataFrame:
     Returns
     -------
     pandas.DataFrame
-        ``method, offset, metric, higher_better, mean, lo, hi, n, n_tracks, spread`` (``spread``:
-        KID's standard deviation over subsets), sorted by offset, metric and method.
+        ``method, offset, metric, higher_better, mean, lo, hi, n, n_tracks, spread, reason``
+        (``spread``: KID's standard deviation over subsets; ``reason``: why a set metric or its
+        spread is empty, e.g. FD on fewer images than the feature dimension), sorted by offset,
+        metric and method. A row without a value is kept when it has a reason.
     """
     out = pd.concat([_object_rows(res), _set_rows(sets)], ignore_index=True)
     if out.empty:
         return out
-    out = out[out["metric"].notna() & out["mean"].notna()]
+    out["reason"] = out["reason"].fillna("").astype(str)
+    out = out[out["metric"].notna() & (out["mean"].notna() | (out["reason"] != ""))]
     return out.sort_values(["offset", "metric", "method"], kind="stable").reset_index(drop=True)
 
 
+_FD_TOO_FEW = re.compile(r"^FD needs more than (\d+) images per side")
+
+
+def _short(reason: str) -> str:
+    """The reason as a table cell says it (the sets table keeps the full sentence)."""
+    m = _FD_TOO_FEW.match(reason)
+    if m:
+        return f"no FD: n \u2264 {m.group(1)}, the feature dimension"
+    if reason.startswith("KID has no spread"):
+        return "no spread: the subsets are the whole sets"
+    return reason
+
+
+def _finite(x) -> bool:
+    return isinstance(x, float | np.floating) and bool(np.isfinite(x))
+
+
 def _cell(r) -> str:
-    if np.isfinite(r["spread"]) if isinstance(r["spread"], float) else False:
+    n = f"n={int(r['n'])}"
+    if _finite(r["n_tracks"]):
+        n += f", {int(r['n_tracks'])} tr."
+    if not _finite(r["mean"]):  # no value: the reason instead (never a dropped column)
+        return f"— ({_short(r['reason'])}; {n})"
+    if _finite(r["spread"]):
         text = f"{fmt(r['mean'], 4)} ± {fmt(r['spread'], 4)}"
+    elif r["metric"].startswith("kid:"):  # KID without a spread: say why, not "± 0"
+        return f"{fmt(r['mean'], 4)} ({n}; {_short(r['reason']) or 'no spread'})"
     else:
         text = interval_text(r["mean"], r["lo"], r["hi"], 3)
-    n = f"n={int(r['n'])}"
-    if isinstance(r["n_tracks"], float) and np.isfinite(r["n_tracks"]):
-        n += f", {int(r['n_tracks'])} tr."
     return f"{text} ({n})"
 
 
@@ -139,6 +189,7 @@ def off_path_figure(res, sets: pd.DataFrame | None = None) -> Figure | None:
         One panel per metric, x = |offset| in metres; None without any off-path metric.
     """
     rows = off_path_rows(res, sets)
+    rows = rows[rows["mean"].notna()] if not rows.empty else rows  # a reason has no point to draw
     if rows.empty:
         return None
     rows = rows.assign(abs_offset=rows["offset"].abs(), w=rows["n"].astype(float))

@@ -150,11 +150,13 @@ def _category_wide(cat: pd.DataFrame, breakdown: str) -> pd.DataFrame:
     """Paper Table 2 layout: one row per group, n and k, then PLCC/SRCC per metric."""
     t = cat[cat["breakdown"] == breakdown]
     base = t.groupby("group", sort=True)[["n", "k"]].max()
+    cols = {}
     for m in t["metric"].unique():
         s = t[t["metric"] == m].set_index("group")
-        base[f"{m} PLCC"] = s["plcc"]
-        base[f"{m} SRCC"] = s["srcc"]
-    return base.reset_index()
+        cols[f"{m} PLCC"] = s["plcc"].reindex(base.index)
+        cols[f"{m} SRCC"] = s["srcc"].reindex(base.index)
+    # all at once: a column at a time fragments the frame (a warning per column past 100)
+    return pd.concat([base, pd.DataFrame(cols, index=base.index)], axis=1).reset_index()
 
 
 def _best_text(a: Analysis) -> str:

@@ -38,6 +38,7 @@ from data_schema.tables import (
 )
 
 __all__ = [
+    "IMPORT_STAGING",
     "CAMERA_MODEL_SCHEMA",
     "CameraCalib",
     "Track",
@@ -466,6 +467,11 @@ def _tracks(doc: dict, where: str) -> list[Track]:
     return tracks
 
 
+#: The folder inside a scene where ``nvrq import renders`` stages its files; a ``journal.json``
+#: in it marks an import interrupted while it swapped them in (nvrq.sources.render_swap).
+IMPORT_STAGING = ".nvrq-import"
+
+
 def load_scene(root: str | os.PathLike, *, check_images: bool = True,
                follow_links: bool | None = None) -> Scene:
     """Load and validate the scene folder ``root`` (docs/FORMATS.md §2).
@@ -496,6 +502,10 @@ def load_scene(root: str | os.PathLike, *, check_images: bool = True,
         raise InputError(root, None, "a scene folder", "no such directory")
     if not path.is_file():
         raise InputError(where, None, "a scene.json file in the scene folder", "no such file")
+    if (root / IMPORT_STAGING / "journal.json").is_file():
+        raise InputError(root, None, "a scene without an unfinished `nvrq import renders` (run the same import "
+                         "again: it finishes the interrupted one first)",
+                         f"an import interrupted while it swapped its files in ({IMPORT_STAGING}/journal.json)")
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:

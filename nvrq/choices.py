@@ -11,7 +11,8 @@ benchmarks/bench_cli_help.py).
 
 from __future__ import annotations
 
-__all__ = ["PLAN_FORMATS", "WORLDS", "LAYOUTS", "DEFAULT_METRICS", "NTA_PROTOCOLS", "SET_KINDS"]
+__all__ = ["PLAN_FORMATS", "WORLDS", "LAYOUTS", "DEFAULT_METRICS", "NTA_PROTOCOLS", "SET_KINDS", "KID_SUBSETS",
+           "KID_SUBSET_SIZE", "MAX_KID_SUBSETS", "MAX_KID_SUBSET_SIZE", "WINDOW_S_RANGE"]
 
 #: The file formats of a render plan (nvrq.render_plans; docs/FORMATS.md §14).
 PLAN_FORMATS = ("csv", "json", "npz")
@@ -27,3 +28,13 @@ DEFAULT_METRICS = ("psnr", "ssim", "nvrq", "nvrq_ca")
 NTA_PROTOCOLS = ("nvrq", "recondreamer", "drivedreamer4d")
 #: The sets ``nvrq score-sets`` compares per view (nvrq.sets; docs/FORMATS.md §3c).
 SET_KINDS = ("frames", "objects")
+#: KID's subsets and subset size (torch-fidelity's defaults; nvrq.sets.kid).
+KID_SUBSETS = 100
+KID_SUBSET_SIZE = 1000
+#: The most KID subsets (one kernel sum each; 100 already give the mean to a few per cent).
+MAX_KID_SUBSETS = 10_000
+#: The largest KID subset: three ``m x m`` kernel matrices of float64 (600 MB at 5000).
+MAX_KID_SUBSET_SIZE = 5_000
+#: The range of a horizon timeline's window in seconds (nvrq.horizon.horizon_timeline, ``analyze
+#: --window-s``): a whole number of microseconds from a millisecond, and far from int64's overflow.
+WINDOW_S_RANGE = (0.001, 1e6)

@@ -39,6 +39,7 @@ import pandas as pd
 
 from data_schema.errors import InputError, check_number
 from data_schema.perturbation import AXES, AXIS_UNITS, axes, axis_values, perturbation_array
+from nvrq.choices import WINDOW_S_RANGE
 
 __all__ = ["HORIZON_COLUMNS", "TIMELINE_COLUMNS", "VIEW_COLUMNS", "DIRECTIONS", "DEFAULT_SHARE",
            "MIN_CLUSTERS", "Threshold", "view_keys", "trust_horizon", "horizon_timeline", "share_curves",
@@ -471,7 +472,8 @@ def horizon_timeline(scores: pd.DataFrame, *, threshold, share: float = DEFAULT_
     share, n_boot, seed, min_clusters
         As for :func:`trust_horizon`.
     window_s : float, optional
-        Window length in seconds (> 0), from each clip's first timestamp.
+        Window length in seconds, from each clip's first timestamp; in
+        :data:`nvrq.choices.WINDOW_S_RANGE` (0.001 to 1e6 s), rounded to whole microseconds.
 
     Returns
     -------
@@ -479,7 +481,7 @@ def horizon_timeline(scores: pd.DataFrame, *, threshold, share: float = DEFAULT_
         :data:`TIMELINE_COLUMNS`; ``t0_us`` inclusive, ``t1_us`` exclusive; ``horizon`` empty
         where the recorded view already fails; ``n_objects``: object views (rows) of the group.
     """
-    check_number("window_s", window_s, low=0, low_open=True)
+    check_number("window_s", window_s, low=WINDOW_S_RANGE[0], high=WINDOW_S_RANGE[1])
     if "timestamp_us" not in scores.columns:
         raise InputError(param="scores", field="timestamp_us", expected="the time of each row for a "
                          "timeline", got="no such column")

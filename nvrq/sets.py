@@ -27,12 +27,11 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from nvrq.choices import KID_SUBSET_SIZE, KID_SUBSETS, MAX_KID_SUBSET_SIZE, MAX_KID_SUBSETS
 
 __all__ = ["embed", "frechet_distance", "kid", "SetOptions", "set_groups", "score_sets", "set_table",
-           "KID_SUBSETS", "KID_SUBSET_SIZE", "KID_SEED"]
+           "KID_SUBSETS", "KID_SUBSET_SIZE", "KID_SEED", "MAX_KID_SUBSETS", "MAX_KID_SUBSET_SIZE"]
 
-KID_SUBSETS = 100
-KID_SUBSET_SIZE = 1000
 KID_SEED = 2020  # torch-fidelity's default rng_seed
 
 
@@ -118,14 +117,20 @@ def kid(render: np.ndarray, gt: np.ndarray, *, subsets: int = KID_SUBSETS, subse
         (n_r, d) and (n_g, d) features, ``n >= 2`` each.
     subsets, subset_size, seed : int, optional
         torch-fidelity's defaults: 100 subsets of ``min(subset_size, n_r, n_g)`` rows drawn
-        without replacement from each set, ``numpy.random.RandomState(seed)``.
+        without replacement from each set, ``numpy.random.RandomState(seed)``. ``subsets`` in
+        ``[1, MAX_KID_SUBSETS]``, ``subset_size`` in ``[2, MAX_KID_SUBSET_SIZE]``.
 
     Returns
     -------
     dict
         ``kid`` (mean over subsets), ``kid_std`` (their standard deviation, ddof 0),
-        ``kid_subset_size`` (m).
+        ``kid_subset_size`` (m) and ``reason``. When ``m`` is the size of both sets every
+        subset is the same: ``kid`` is computed once, ``kid_std`` is NaN and ``reason`` says why.
     """
+    from data_schema.errors import check_int
+
+    check_int("subsets", subsets, low=1, high=MAX_KID_SUBSETS)
+    check_int("subset_size", subset_size, low=2, high=MAX_KID_SUBSET_SIZE)
     r, g = np.asarray(render, np.float64), np.asarray(gt, np.float64)
     m = min(int(subset_size), len(r), len(g))
     if m < 2:
@@ -133,8 +138,9 @@ def kid(render: np.ndarray, gt: np.ndarray, *, subsets: int = KID_SUBSETS, subse
                          got=f"{len(r)} render and {len(g)} gt")
     rng = np.random.RandomState(seed)
     gamma = 1.0 / r.shape[1]
-    vals = np.empty(int(subsets))
-    for k in range(int(subsets)):
+    whole = m == len(r) == len(g)  # every subset is the whole of both sets: one value, no spread
+    vals = np.empty(1 if whole else int(subsets))
+    for k in range(len(vals)):
         x = r[rng.choice(len(r), m, replace=False)]
         y = g[rng.choice(len(g), m, replace=False)]
         kxx = (x @ x.T * gamma + 1.0) ** 3
@@ -142,7 +148,10 @@ def kid(render: np.ndarray, gt: np.ndarray, *, subsets: int = KID_SUBSETS, subse
         kxy = (x @ y.T * gamma + 1.0) ** 3
         vals[k] = ((kxx.sum() - np.trace(kxx)) + (kyy.sum() - np.trace(kyy))) / (m * (m - 1)) \
             - 2.0 * kxy.sum() / (m * m)
-    return {"kid": float(vals.mean()), "kid_std": float(vals.std()), "kid_subset_size": m}
+    if whole:
+        return {"kid": float(vals[0]), "kid_std": float("nan"), "kid_subset_size": m,
+                "reason": "KID has no spread: every subset is the whole of both sets"}
+    return {"kid": float(vals.mean()), "kid_std": float(vals.std()), "kid_subset_size": m, "reason": ""}
 
 
 @dataclass(frozen=True)
@@ -173,6 +182,14 @@ class SetOptions:
     kid_subset_size: int = KID_SUBSET_SIZE
     seed: int = KID_SEED
     min_side: float = 30
+
+    def __post_init__(self):
+        from data_schema.errors import check_int, check_number
+
+        check_int("kid_subsets", self.kid_subsets, low=1, high=MAX_KID_SUBSETS)
+        check_int("kid_subset_size", self.kid_subset_size, low=2, high=MAX_KID_SUBSET_SIZE)
+        check_int("seed", self.seed, low=0, high=2**32 - 1)
+        check_number("min_side", self.min_side, low=0)
 
 
 def set_groups(scene, options: SetOptions) -> pd.DataFrame:
@@ -255,7 +272,7 @@ def set_table(groups: pd.DataFrame, features: np.ndarray, options: SetOptions, *
     pandas.DataFrame
         One row per set: ``set_id, kind, method``, the view columns, ``n_render, n_gt``, then
         ``fd:ENC, fd_residue:ENC`` and/or ``kid:ENC, kid_std:ENC, kid_subset_size``, and
-        ``reason`` (why FD is empty).
+        ``reason`` (why FD or KID's spread is empty, ``; ``-separated).
     """
     from data_schema.perturbation import LABEL_COLUMN, PERTURBATION_COLUMNS
 
@@ -284,6 +301,7 @@ def set_table(groups: pd.DataFrame, features: np.ndarray, options: SetOptions, *
             k = kid(fr, fg, subsets=options.kid_subsets, subset_size=options.kid_subset_size, seed=options.seed)
             row[f"kid:{encoder}"], row[f"kid_std:{encoder}"] = k["kid"], k["kid_std"]
             row["kid_subset_size"] = k["kid_subset_size"]
+            row["reason"] = "; ".join(r for r in (row["reason"], k["reason"]) if r)
         rows.append(row)
     out = pd.DataFrame(rows)
     return out[[c for c in out.columns if c != "reason"] + ["reason"]]
@@ -337,7 +355,9 @@ def score_sets(scene, options: SetOptions, *, encoder=None, batch_size: int = 32
     bar.close()
     features = uniq[codes]
     name = enc.spec.name
-    return set_table(groups, features, options, encoder=name, where=str(scene.root)), groups, features, name
+    table = set_table(groups, features, options, encoder=name, where=str(scene.root))
+    table.insert(1, "clip_id", scene.clip_id)  # the scene, which analyze --sets checks
+    return table, groups, features, name
 
 
 def _check_sizes(groups: pd.DataFrame, options: SetOptions, enc, *, where: str) -> None:

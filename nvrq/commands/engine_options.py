@@ -12,7 +12,7 @@ from pathlib import Path
 
 from data_schema.errors import InputError
 from nvrq.cli_types import int_arg, show_progress
-from nvrq.engines import ENGINES
+from nvrq.engines import ENGINES, SHARD_PAIRS
 
 __all__ = ["add_engine_args", "check_engine_args", "sharded_output", "report_sharded", "run_ray"]
 
@@ -36,9 +36,9 @@ def add_engine_args(parser) -> None:
     g.add_argument("--actors", type=int_arg(), default=None, metavar="N",
                    help="--engine ray: encoder actors (default: one per GPU with --device cuda, else "
                         "one per 2 CPUs)")
-    g.add_argument("--shard-pairs", type=int_arg(), default=256, metavar="N",
+    g.add_argument("--shard-pairs", type=int_arg(), default=SHARD_PAIRS, metavar="N",
                    help="pairs per output shard of a sharded run (--engine ray, or a pairs dataset), "
-                        "GT groups kept whole (default 256)")
+                        f"GT groups kept whole (default {SHARD_PAIRS})")
 
 
 def sharded_output(args, *, local_datasets: bool = False) -> bool:

@@ -4,7 +4,13 @@ frames and of object crops, against the GT (:mod:`nvrq.sets`, docs/FORMATS.md §
 from __future__ import annotations
 
 from data_schema.errors import InputError
-from nvrq.choices import SET_KINDS
+from nvrq.choices import (
+    KID_SUBSET_SIZE,
+    KID_SUBSETS,
+    MAX_KID_SUBSET_SIZE,
+    MAX_KID_SUBSETS,
+    SET_KINDS,
+)
 from nvrq.cli_options import add_seed_option
 from nvrq.cli_types import add_link_option, add_quiet_option, int_arg, number_arg, show_progress
 from nvrq.commands.model_options import add_model_arguments, add_runtime_arguments
@@ -38,9 +44,11 @@ def register(sub) -> None:
     p.add_argument("--weights", default=None, help="local weights: a Hugging Face model folder, or a .pth")
     add_model_arguments(p, batch_help="encoder batch size (default 32)")
     add_runtime_arguments(p, precision=False)
-    p.add_argument("--kid-subsets", type=int_arg(), default=100, help="KID subsets (default 100)")
-    p.add_argument("--kid-subset-size", type=int_arg(low=2), default=1000,
-                   help="KID subset size, at most the smaller set (default 1000)")
+    p.add_argument("--kid-subsets", type=int_arg(high=MAX_KID_SUBSETS), default=KID_SUBSETS,
+                   help=f"KID subsets, 1 to {MAX_KID_SUBSETS} (default {KID_SUBSETS})")
+    p.add_argument("--kid-subset-size", type=int_arg(low=2, high=MAX_KID_SUBSET_SIZE), default=KID_SUBSET_SIZE,
+                   help=f"KID subset size, 2 to {MAX_KID_SUBSET_SIZE}, at most the smaller set "
+                   f"(default {KID_SUBSET_SIZE})")
     add_seed_option(p, "KID subset seed", default=2020)
     p.add_argument("--min-side", type=number_arg(low=0), default=30,
                    help="objects: the smallest crop side of a pair (default 30, as nvrq pairs)")

@@ -13,9 +13,11 @@ from __future__ import annotations
 
 from data_schema.errors import InputError
 
-__all__ = ["ENGINES", "RAY_EXTRA", "require_ray"]
+__all__ = ["ENGINES", "RAY_EXTRA", "SHARD_PAIRS", "require_ray"]
 
 ENGINES = ("local", "ray")
+#: Default number of pairs per output shard of a sharded run (GT groups are kept whole).
+SHARD_PAIRS = 256
 RAY_EXTRA = 'pip install -e ".[ray]"'
 
 

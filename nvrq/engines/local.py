@@ -19,6 +19,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator, Mapping
 
 from data_schema.errors import check_int
+from nvrq.engines import SHARD_PAIRS
 from nvrq.engines import shards as sh
 from nvrq.scoring.driver import score_pairs
 from nvrq.scoring.plan import ScorePlan
@@ -27,7 +28,7 @@ __all__ = ["score_dataset"]
 
 
 def score_dataset(pairs, out, plan: ScorePlan, *, timing_path, load_encoder: Callable[[], object] | None = None,
-                  shard_pairs: int = 256, rename: Mapping[str, str] | None = None,
+                  shard_pairs: int = SHARD_PAIRS, rename: Mapping[str, str] | None = None,
                   progress: bool = True) -> dict:
     """Score (or finish scoring) the pairs dataset ``pairs`` into the folder ``out``.
 

@@ -31,7 +31,7 @@ import pandas as pd
 
 from data_schema.errors import InputError
 from data_schema.tables import follow_links
-from nvrq.engines import require_ray
+from nvrq.engines import SHARD_PAIRS, require_ray
 from nvrq.engines import shards as sh
 from nvrq.engines.scorers import timing_per_column
 from nvrq.scoring.batches import iter_crop_batches
@@ -64,7 +64,7 @@ class RayJob:
     pairs: str
     out: str
     scorer: object
-    shard_pairs: int = 256
+    shard_pairs: int = SHARD_PAIRS
     actors: int | None = None
     progress: bool = True
 

@@ -46,6 +46,8 @@ def load_class_maps(path: str | os.PathLike | None = None) -> dict:
     >>> maps["coco"]["automobile"], maps["clip_category"]["heavy_truck"]
     (['car', 'truck', 'bus'], 'large vehicle')
     """
+    from nvrq.proxies.coco import check_coco_classes
+
     path = Path(path) if path is not None else CLASS_MAPS_PATH
     if not path.is_file():
         raise InputError(path, None, "a class-map JSON file", "no such file")
@@ -63,6 +65,7 @@ def load_class_maps(path: str | os.PathLike | None = None) -> dict:
         if not isinstance(classes, list) or not all(isinstance(c, str) for c in classes):
             raise InputError(path, f"coco.{label}", "a list of COCO class names", classes)
         out["coco"][label.lower()] = [c.lower() for c in classes]
+        check_coco_classes(out["coco"][label.lower()], where=path, field_of=lambda i, k=label: f"coco.{k}[{i}]")
     prompts = {k.lower(): v for k, v in doc["clip_prompts"].items()}
     for k, v in prompts.items():
         if not isinstance(v, str) or not v.strip():

@@ -32,9 +32,10 @@ import os
 import numpy as np
 import pandas as pd
 
-from data_schema.errors import InputError
+from data_schema.errors import InputError, check_number
 from data_schema.tables import RENDER_BOX_COLUMNS, read_table, require_columns
 from nvrq.proxies import mapped_labels
+from nvrq.proxies.coco import check_coco_classes
 
 __all__ = [
     "DETS_COLUMNS",
@@ -45,11 +46,16 @@ __all__ = [
     "read_detections",
     "render_boxes_xyxy",
     "detection_confidence",
+    "check_pixel_boxes",
+    "NORMALISED_MIN_SIDE",
 ]
 
 DETS_COLUMNS = ("path", "x0", "y0", "x1", "y1", "score", "coco_class")
 IOU_MIN = 0.3
 MIN_SCORE = 0.1
+#: Images whose shorter side has at least this many pixels cannot hold only boxes inside
+#: ``[0, 1]``: such a table has normalised coordinates (:func:`check_pixel_boxes`).
+NORMALISED_MIN_SIDE = 100
 
 
 def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -131,6 +137,42 @@ def read_detections(path: str | os.PathLike) -> pd.DataFrame:
     return validate_detections(dets, where=str(path))
 
 
+def check_pixel_boxes(dets: pd.DataFrame, sizes: np.ndarray, *, where: str = "detections") -> None:
+    """Refuse a DETS table whose boxes are normalised (every one inside ``[0, 1]``) instead of in pixels.
+
+    Parameters
+    ----------
+    dets : pandas.DataFrame
+        A validated DETS table (:func:`validate_detections`), ``N`` rows.
+    sizes : (N, 2) numpy.ndarray
+        The ``(W, H)`` in pixels of each detection's image.
+    where : str, optional
+        The DETS table, named in the error.
+
+    Raises
+    ------
+    InputError
+        Some detection exists, every box coordinate lies in ``[0, 1]`` and every image's
+        shorter side has at least :data:`NORMALISED_MIN_SIDE` pixels.
+
+    >>> dets = pd.DataFrame({"x0": [0.1], "y0": [0.2], "x1": [0.4], "y1": [0.5]})
+    >>> check_pixel_boxes(dets, np.array([[640, 480]]), where="d.csv")
+    Traceback (most recent call last):
+    data_schema.errors.InputError: d.csv: columns x0, y0, x1, y1: expected pixel-edge coordinates on images of 640x480 pixels or more, got every box inside [0, 1] (normalised coordinates: multiply x0, x1 by the image width and y0, y1 by its height)
+    >>> check_pixel_boxes(dets.assign(x1=[40.0]), np.array([[640, 480]]))  # one box in pixels: fine
+    """
+    if not len(dets):
+        return
+    xy = dets[["x0", "y0", "x1", "y1"]].to_numpy(np.float64)
+    sizes = np.asarray(sizes, np.float64).reshape(-1, 2)
+    if ((xy >= 0) & (xy <= 1)).all() and sizes.min() >= NORMALISED_MIN_SIDE:
+        w, h = sizes[np.argmin(sizes.min(axis=1))].astype(int)
+        raise InputError(where, "columns x0, y0, x1, y1",
+                         f"pixel-edge coordinates on images of {w}x{h} pixels or more",
+                         "every box inside [0, 1] (normalised coordinates: multiply x0, x1 by the image "
+                         "width and y0, y1 by its height)")
+
+
 def validate_detections(dets: pd.DataFrame, *, where: str = "detections") -> pd.DataFrame:
     """Check the numeric columns (finite, ``x1 >= x0``, ``y1 >= y0``, score in [0, 1])."""
     require_columns(dets, DETS_COLUMNS, where=where)
@@ -161,6 +203,8 @@ def validate_detections(dets: pd.DataFrame, *, where: str = "detections") -> pd.
         raise InputError(where, f"row {i + 2}, column score", "a confidence in [0, 1]", s[i])
     out["path"] = out["path"].astype(str).map(os.path.normpath)
     out["coco_class"] = out["coco_class"].astype(str).str.strip().str.lower()
+    check_coco_classes(out["coco_class"].to_numpy(dtype=object), where=where,
+                       field_of=lambda i: f"row {i + 2}, column coco_class")
     return out.reset_index(drop=True)
 
 
@@ -204,9 +248,9 @@ def detection_confidence(
     coco_map : dict
         Lower-cased label class -> allowed COCO classes.
     iou_min : float, optional
-        Smallest IoU of a match.
+        Smallest IoU of a match, in (0, 1].
     min_score : float, optional
-        Smallest detection confidence considered.
+        Smallest detection confidence considered, in [0, 1].
     where : str, optional
         The table named in errors.
 
@@ -215,6 +259,8 @@ def detection_confidence(
     pandas.DataFrame
         ``pair_id, s_det``.
     """
+    check_number("iou_min", iou_min, low=0, high=1, low_open=True)
+    check_number("min_score", min_score, low=0, high=1)
     require_columns(pairs, ("pair_id", "label_class", "render_path", *RENDER_BOX_COLUMNS),
                     where=where)
     labels = mapped_labels(pairs["label_class"], coco_map, "coco", where=where)

@@ -24,6 +24,7 @@ from data_schema.perturbation import (
 )
 from data_schema.scene import Scene
 from data_schema.tables import pair_ids
+from nvrq.proxies.detection import check_pixel_boxes
 from nvrq.proxies.nta_iou import NTA_COLUMNS, SUMMARY_COLUMNS, Protocol, cluster_mean_ci, evaluate
 
 __all__ = ["novel_boxes", "nta_table", "nta_summary", "check_detection_paths"]
@@ -141,6 +142,14 @@ def check_detection_paths(scene: Scene, dets: pd.DataFrame, *, where: str) -> np
     return rel[inv]
 
 
+def _image_sizes(scene: Scene, rel: np.ndarray) -> np.ndarray:
+    """``(N, 2)`` camera resolution ``(W, H)`` of each image path ``rel`` (paths of ``images.csv``)."""
+    camera_of = dict(zip(scene.images.path.astype(str).map(os.path.normpath), scene.images.camera, strict=True))
+    res = {name: tuple(cam.model["resolution"]) for name, cam in scene.cameras.items()}
+    uniq, inv = np.unique(np.asarray(rel, dtype=object).astype(str), return_inverse=True)
+    return np.array([res[camera_of[p]] for p in uniq], np.float64).reshape(-1, 2)[inv]
+
+
 def nta_table(scene: Scene, dets: pd.DataFrame, protocol: Protocol, *, class_map: dict | None = None,
               min_side: float = 1.0, where: str = "detections") -> pd.DataFrame:
     """The per-box NTA-IoU table of ``scene`` against a validated DETS table.
@@ -166,6 +175,7 @@ def nta_table(scene: Scene, dets: pd.DataFrame, protocol: Protocol, *, class_map
         protocol's evaluation pixels; ``d_*`` empty for a box without a detection.
     """
     rel = check_detection_paths(scene, dets, where=where)
+    check_pixel_boxes(dets, _image_sizes(scene, rel), where=where)
     boxes = novel_boxes(scene, protocol)
     if boxes.empty:
         raise InputError(scene.root, "images.csv", "renders whose camera sees some box", "no projected box")

@@ -74,7 +74,7 @@ from data_schema.scene import CameraCalib, SourceWorld, Track, check_rigid, vali
 from data_schema.scene_writer import NewScene, SceneFrame, scene_doc
 from nvrq.render_plans import default_image_path
 from nvrq.sources.base import ImportedScene, write_imported
-from nvrq.sources.drivestudio_instances import read_instances
+from nvrq.sources.drivestudio_instances import MAX_TRANSLATION_M, check_translation, read_instances
 from nvrq.sources.drivestudio_meta import (
     CAMERA_NAMES,
     DATASETS,
@@ -157,8 +157,14 @@ def _numbers(path: Path, n: int, what: str) -> np.ndarray:
 
 
 def _matrices(paths: list[Path]) -> np.ndarray:
-    """Rigid 4x4 text files -> ``(N, 4, 4)``; an error names the first bad file."""
+    """Rigid 4x4 text files -> ``(N, 4, 4)``, translations within ``MAX_TRANSLATION_M``; an error
+    names the first bad file (and the row of a translation out of bounds)."""
     mats = np.stack([_numbers(p, 16, "a 4x4 matrix (16 numbers, metres)").reshape(4, 4) for p in paths])
+    big = np.abs(mats[:, :3, 3]) > MAX_TRANSLATION_M
+    if big.any():
+        i = int(np.argmax(big.any(axis=1)))
+        row = int(np.argmax(big[i]))
+        check_translation(mats[i:i + 1], paths[i], lambda _: f"row {row + 1}")
     try:
         check_rigid(mats, "matrices", "")
     except InputError:

@@ -10,8 +10,9 @@ lists the object (the loader's ``per_frame_instance_mask``); an object gets the 
 
 Checks (each one line naming the file and field): JSON of the right shape, ``frame_instances``
 naming only objects of ``instances_info`` and frames of the layout, a listed object annotated in
-that frame, ``frame_idx`` distinct frames of the layout, rigid ``obj_to_world``, ``box_size`` 3
-positive numbers, ``id`` distinct, non-empty and without ``:`` (it is the scene's ``track_id``).
+that frame, ``frame_idx`` distinct frames of the layout, rigid and finite ``obj_to_world`` with a
+translation within :data:`MAX_TRANSLATION_M`, ``box_size`` 3 positive numbers of at most
+:data:`MAX_BOX_SIZE_M`, ``id`` distinct, non-empty and without ``:`` (it is the scene's ``track_id``).
 Everything after the per-object parsing is vectorised over all annotations.
 """
 
@@ -27,7 +28,13 @@ from data_schema.errors import InputError
 from data_schema.scene import check_rigid
 from nvrq.geometry.poses import matrix_to_pose7
 
-__all__ = ["read_instances", "RZ90"]
+__all__ = ["read_instances", "check_translation", "RZ90", "MAX_TRANSLATION_M", "MAX_BOX_SIZE_M"]
+
+#: The largest translation (metres, each of x, y, z) of a pose the importer accepts: a city-sized
+#: world is kilometres across, so a larger value is a unit or export error.
+MAX_TRANSLATION_M = 1e6
+#: The largest box extent (metres) the importer accepts; the longest road vehicles are about 30 m.
+MAX_BOX_SIZE_M = 1e3
 
 #: A +90 deg turn about z (PandaSet's box x is across the object: ``obj_to_world @ RZ90``).
 RZ90 = np.array([[0.0, -1.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
@@ -60,22 +67,60 @@ def _listed(path: Path, frame_instances, index: dict, n_frames: int) -> np.ndarr
     return np.unique(np.asarray(codes, np.int64))
 
 
+def check_translation(T: np.ndarray, where, field_of: Callable[[int], str]) -> None:
+    """Refuse a matrix with a non-finite entry or a translation beyond :data:`MAX_TRANSLATION_M`.
+
+    Parameters
+    ----------
+    T : (N, 4, 4) numpy.ndarray
+        The matrices.
+    where : path or str
+        The file named in the error.
+    field_of : callable
+        ``field_of(i)`` is the field (or row) the error names for matrix ``i``.
+
+    Raises
+    ------
+    InputError
+        The first bad matrix, with its values.
+
+    >>> check_translation(np.eye(4)[None], "pose.txt", lambda i: "row 1")
+    >>> T = np.eye(4)[None].copy(); T[0, 1, 3] = 1e308
+    >>> check_translation(T, "pose.txt", lambda i: "row 2")
+    Traceback (most recent call last):
+    data_schema.errors.InputError: pose.txt: row 2: expected a translation of at most 1e+06 m in each of x, y, z, got 1e+308
+    """
+    flat = np.asarray(T, np.float64).reshape(-1, 4, 4)
+    finite = np.isfinite(flat).all(axis=(1, 2))
+    if not finite.all():
+        i = int(np.argmin(finite))
+        raise InputError(where, field_of(i), "finite numbers", "NaN or infinity")
+    big = np.abs(flat[:, :3, 3]) > MAX_TRANSLATION_M
+    if big.any():
+        i = int(np.argmax(big.any(axis=1)))
+        raise InputError(where, field_of(i), f"a translation of at most {MAX_TRANSLATION_M:g} m in each of x, y, z",
+                         f"{np.abs(flat[i, :3, 3]).max():g}")
+
+
 def _box_sizes(path: Path, fld: str, sizes: list) -> np.ndarray:
-    """``box_size`` entries -> ``(n, 3)``; an error names the first that is not 3 positive numbers."""
+    """``box_size`` entries -> ``(n, 3)``; an error names the first that is not 3 positive numbers
+    of at most :data:`MAX_BOX_SIZE_M`."""
     try:
         arr = np.asarray(sizes)
     except ValueError:  # ragged
         arr = np.zeros(0)
     if arr.ndim == 2 and arr.shape[1] == 3 and np.issubdtype(arr.dtype, np.number) \
-            and np.isfinite(arr).all() and (arr > 0).all():
+            and np.isfinite(arr).all() and (arr > 0).all() and (arr <= MAX_BOX_SIZE_M).all():
         return arr.astype(np.float64)
     if not sizes:
         return np.zeros((0, 3))
     for i, s in enumerate(sizes):
         good = isinstance(s, list) and len(s) == 3 and all(
-            isinstance(x, int | float) and not isinstance(x, bool) and np.isfinite(x) and x > 0 for x in s)
+            isinstance(x, int | float) and not isinstance(x, bool) and np.isfinite(x) and 0 < x <= MAX_BOX_SIZE_M
+            for x in s)
         if not good:
-            raise InputError(path, f"{fld}.box_size[{i}]", "3 positive numbers [l, w, h]", s)
+            raise InputError(path, f"{fld}.box_size[{i}]",
+                             f"3 positive numbers [l, w, h] of at most {MAX_BOX_SIZE_M:g} m", s)
     return np.asarray(sizes, dtype=np.float64)  # e.g. a bool among the numbers
 
 
@@ -162,6 +207,8 @@ def read_instances(folder: Path, *, n_frames: int, frame_us: np.ndarray, hold_us
         raise InputError(fi_path, f"frame {f}", f"objects annotated in that frame in {info_path.name}",
                          f"object {keys[k]!r}")
     T = np.concatenate([p[3] for p in parsed]) if parsed else np.zeros((0, 4, 4))
+    where = [(k, j) for k, p in zip(keys, parsed, strict=True) for j in range(len(p[2]))]
+    check_translation(T, info_path, lambda i: f"{where[i][0]}.frame_annotations.obj_to_world[{where[i][1]}]")
     try:
         check_rigid(T, str(info_path), "obj_to_world")
     except InputError:  # name the object and annotation

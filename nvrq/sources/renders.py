@@ -24,9 +24,11 @@ render row, so ``nvrq pairs`` leaves them out), and when no render is found at a
 The renders are copied (or, with ``link``, symbolically linked: absolute links to the files
 in ``DIR``) into the scene at the plan's paths, with the suffix of the file found (a
 ``00003.jpg`` for ``.../100000.png`` lands at ``.../100000.jpg``); the user's files are never
-moved. Then ``images.csv`` is rewritten atomically: each render row of the plan points at its
-file, rows of missing renders are removed. Until that last step the scene lists what it listed
-before (a file imported over an older render at the same path is already replaced).
+moved. ``images.csv`` is rewritten: each render row of the plan points at its file, rows of
+missing renders are removed. The files and ``images.csv`` are first staged in the scene's
+``.nvrq-import/`` folder, then swapped in (:mod:`nvrq.sources.render_swap`): a kill before the
+swap leaves the scene as it was, a kill during it leaves a journal that the next import
+finishes first, so running the same import again gives the scene an uninterrupted one gives.
 
 Methods (``method``, docs/FORMATS.md §2): a named method's renders go to its plan paths
 (``render_<view>/<method>/...`` unless images.csv lists others), so several methods fill one
@@ -43,6 +45,7 @@ scene. A scene holds one unnamed method or named ones, never both:
 from __future__ import annotations
 
 import dataclasses
+import functools
 import os
 import re
 import shutil
@@ -57,11 +60,11 @@ from data_schema.errors import InputError
 from data_schema.methods import METHOD_COLUMN, check_method_name, method_values
 from data_schema.perturbation import PERTURBATION_COLUMNS, labels, perturbation_array
 from data_schema.scene import load_scene, write_images
-from data_schema.tables import atomic_path
 from data_schema.text import plural
 from nvrq.choices import LAYOUTS  # the layouts of a folder of renders (module docstring)
 from nvrq.crops import read_rgb
 from nvrq.render_plans import RenderPlan, render_plan
+from nvrq.sources.render_swap import finish_interrupted, stage_and_swap
 
 __all__ = ["LAYOUTS", "ORDER_SUFFIXES", "MAX_WALK_DEPTH", "RendersImport", "import_renders", "render_files"]
 
@@ -99,6 +102,9 @@ class RendersImport:
     skipped : tuple of str
         Folders of the folder of renders not walked: links into a loop, or deeper than
         :data:`MAX_WALK_DEPTH` (default none).
+    recovered : str
+        ``'finished'`` or ``'discarded'`` when an interrupted import was found first
+        (:func:`nvrq.sources.render_swap.finish_interrupted`), else ``''``.
     """
 
     images_csv: Path
@@ -110,6 +116,7 @@ class RendersImport:
     unexpected: tuple[str, ...]
     changed: int = 0
     skipped: tuple[str, ...] = ()
+    recovered: str = ""
 
     def counts(self) -> str:
         """``'N expected, F found, M missing, U unexpected'`` with the first of each kind."""
@@ -127,7 +134,9 @@ class RendersImport:
         named = f" of method {self.method}" if self.method else ""
         left = " (missing views left out of the pairs)" if self.missing else ""
         changed = f"; replaced: {plural(self.changed, 'render file')} changed" if self.changed else ""
-        return f"renders{named}, layout {self.layout}: {self.counts()}{left}{changed} -> {self.images_csv}"
+        first = {"finished": "an interrupted import was finished first; ",
+                 "discarded": "the staged files of an interrupted import were discarded first; "}.get(self.recovered, "")
+        return f"{first}renders{named}, layout {self.layout}: {self.counts()}{left}{changed} -> {self.images_csv}"
 
 
 #: the deepest folder level the ``plan`` layout walks (a plan path is a few levels deep)
@@ -316,16 +325,16 @@ def _check_images(srcs: list[Path], plan: RenderPlan, rows: list[int], folder: P
                          f"{plural(len(bad), 'bad render file')} of {len(srcs)}")
 
 
-def _place(src: Path, dst: Path, *, link: bool) -> None:
-    """Copy (or link) ``src`` to ``dst`` through a temporary file renamed into place."""
-    if dst.exists() and os.path.samefile(src, dst):
-        return
-    with atomic_path(dst) as tmp:
-        if link:
-            tmp.unlink()
-            os.symlink(src.resolve(), tmp)
-        else:
-            shutil.copyfile(src, tmp)
+def _same_file(src: Path, dst: Path) -> bool:
+    return dst.exists() and os.path.samefile(src, dst)
+
+
+def _put(src: Path, path: Path, *, link: bool) -> None:
+    """Copy (or link: an absolute symbolic link) ``src`` to the staging path ``path``."""
+    if link:
+        os.symlink(src.resolve(), path)
+    else:
+        shutil.copyfile(src, path)
 
 
 def _new_images(scene, plan: RenderPlan, placeholders, dst: dict, method: str) -> pd.DataFrame:
@@ -411,6 +420,7 @@ def import_renders(scene, render_dir, *, method: str | None = None, layout: str 
     folder = Path(render_dir)
     if not folder.is_dir():
         raise InputError(folder, None, "a folder of renders", "no such folder")
+    recovered = finish_interrupted(scene) if Path(scene).is_dir() else None
     scene = load_scene(scene, check_images=False)
     if folder.resolve() == scene.root.resolve():
         raise InputError(param="render_dir", expected="a folder of renders other than the scene folder", got=str(folder))
@@ -441,7 +451,7 @@ def import_renders(scene, render_dir, *, method: str | None = None, layout: str 
         named = f"method {method}'s" if method else "the scene's"
         raise InputError(param="replace", expected=f"`replace` to change {named} renders already in the scene "
                          "(pairs and metrics made from them go stale)", got=f"{plural(changed, 'render file')} that would change")
-    for i, src in zip(rows, srcs, strict=True):
-        _place(src, scene.root / dst[i], link=link)
-    write_images(images, scene.root)
-    return dataclasses.replace(report, changed=changed)
+    put = {dst[i]: functools.partial(_put, src, link=link) for i, src in zip(rows, srcs, strict=True)
+           if not _same_file(src, scene.root / dst[i])}
+    stage_and_swap(scene.root, put, functools.partial(write_images, images))  # stage, then swap
+    return dataclasses.replace(report, changed=changed, recovered=recovered or "")

@@ -40,6 +40,30 @@ def test_off_path_cells():
     assert len(fig.axes) == 4  # nta_iou, psnr, fd, kid
 
 
+def test_an_empty_fd_is_a_cell_with_its_reason_and_kid_without_spread_says_why():
+    res, _ = _res()
+    fd_reason = "FD needs more than 1280 images per side (the feature dimension): 40"
+    kid_reason = "KID has no spread: every subset is the whole of both sets"
+    sets = pd.DataFrame({"set_id": ["frames:a:y=+1.00", "frames:b:y=+1.00"], "kind": ["frames"] * 2,
+                         "method": ["a", "b"], "y_offset_m": [1.0, 1.0], "n_render": [40, 2000], "n_gt": [40, 2000],
+                         "fd:enc": [np.nan, 7.25], "kid:enc": [0.01, 0.02], "kid_std:enc": [np.nan, 0.003],
+                         "reason": [f"{fd_reason}; {kid_reason}", ""]})
+    t = off_path_display(res, sets).set_index(["offset", "method"])
+    fd, kid = "fd:enc (frames) (lower is better \u2193)", "kid:enc (frames) (lower is better \u2193)"
+    assert fd in t.columns  # the column is kept though one set has no FD
+    assert t.loc[("+1", "a"), fd] == "\u2014 (no FD: n \u2264 1280, the feature dimension; n=40)"
+    assert t.loc[("+1", "b"), fd] == "7.250 (n=2000)"
+    assert t.loc[("+1", "a"), kid] == "0.0100 (n=40; no spread: the subsets are the whole sets)"  # not "± 0"
+    assert t.loc[("+1", "b"), kid] == "0.0200 \u00b1 0.0030 (n=2000)"
+    assert "\u00b1 0.0000" not in " ".join(t.to_numpy(str).ravel())
+    fig = off_path_figure(res, sets)  # the empty FD has no point; the figure still draws the rest
+    assert len(fig.axes) == 4
+    # a table of an earlier version wrote 0 for that spread: recognised from the subset size
+    old = sets.assign(**{"kid_std:enc": [0.0, 0.003], "kid_subset_size": [40, 1000], "reason": [fd_reason, ""]})
+    assert off_path_display(res, old).set_index(["offset", "method"]).loc[("+1", "a"), kid] == \
+        "0.0100 (n=40; no spread: the subsets are the whole sets)"
+
+
 def test_analyze_compare_methods_with_nta(tmp_path):
     from test_nta_iou import _jittered_dets
 

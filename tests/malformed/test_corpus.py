@@ -14,6 +14,7 @@ import json
 import sqlite3
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 from malformed_world import IMAGES_CSV, copy_into, scene_doc, set_in, snapshot, write_scene
@@ -839,6 +840,15 @@ def _(world, tmp):
                     str(tmp / "nta.csv"), "--protocol", "waymo"], ["--protocol", "waymo"]
 
 
+
+# issue 44 item 10: a DETS table in normalised 0-1 coordinates on a 640x480 render
+@case("nta-iou", "detections in normalised 0-1 coordinates")
+def _(world, tmp):
+    dets = _nta_dets(tmp, x0=0.1, y0=0.2, x1=0.4, y1=0.5)
+    return "nvrq", ["proxy", "nta-iou", str(world / "scene"), "--detections", dets, "--out",
+                    str(tmp / "nta.csv")], ["dets.csv", "columns x0, y0, x1, y1", "640x480", "every box inside [0, 1]",
+                                            "multiply x0, x1 by the image width"]
+
 @case("score-sets", "empty set")
 def _(world, tmp):
     return "nvrq", ["score-sets", str(world / "scene"), "--sets", "objects", "--min-side", "100000",
@@ -1240,6 +1250,181 @@ for _cmd, _argv in [("synth", ["synth", "{tmp}/s"]), ("render-plan", ["render-pl
         fragments=["--offsets", "not both", "the grid yaw=0:2:1"]))
 
 
+
+# ---------------------------------------------------------------- issue 44 item 9: drivestudio values out of bounds
+def _drivestudio(tmp: Path) -> Path:
+    """A minimal KITTI-raw drivestudio folder (2 cameras, 2 frames, one car), valid as written."""
+    import cv2
+
+    root = tmp / "ds"
+    for sub in ("images", "intrinsics", "extrinsics", "ego_pose", "instances"):
+        (root / sub).mkdir(parents=True)
+    jpg = cv2.imencode(".jpg", np.full((48, 64, 3), 128, np.uint8))[1].tobytes()
+    cam = "0 0 1 0\n-1 0 0 0\n0 -1 0 1.5\n0 0 0 1\n"
+    for c in (0, 1):
+        (root / "intrinsics" / f"{c}.txt").write_text("50 50 31.5 23.5 0 0 0 0 0\n")
+        (root / "extrinsics" / f"{c}.txt").write_text(cam)
+        for t in (0, 1):
+            (root / "images" / f"{t:03d}_{c}.jpg").write_bytes(jpg)
+    for t in (0, 1):
+        (root / "ego_pose" / f"{t:03d}.txt").write_text(f"1 0 0 {t}\n0 1 0 0\n0 0 1 0\n0 0 0 1\n")
+    box = [[1, 0, 0, 12.0], [0, 1, 0, 0], [0, 0, 1, 0.8], [0, 0, 0, 1]]
+    (root / "instances" / "instances_info.json").write_text(json.dumps({"0": {
+        "id": "car-1", "class_name": "Car", "frame_annotations": {
+            "frame_idx": [0, 1], "obj_to_world": [box, box], "box_size": [[4.0, 1.8, 1.5], [4.0, 1.8, 1.5]]}}}))
+    (root / "instances" / "frame_instances.json").write_text(json.dumps({"0": ["0"], "1": ["0"]}))
+    return root
+
+
+def _drivestudio_case(name, edit, *fragments):
+    @case("inputs", f"import drivestudio {name}")
+    def _c(world, tmp):
+        root = _drivestudio(tmp)
+        edit(root)
+        return "nvrq", ["import", "drivestudio", str(root), str(tmp / "out"), "--offsets", "0"], list(fragments)
+
+
+def _ds_text(rel, text):
+    return lambda root: (root / rel).write_text(text)
+
+
+def _ds_instance(change):
+    def edit(root):
+        path = root / "instances" / "instances_info.json"
+        doc = json.loads(path.read_text())
+        change(doc["0"]["frame_annotations"])
+        path.write_text(json.dumps(doc))
+    return edit
+
+
+_drivestudio_case("ego pose translated by 1e308",
+                  _ds_text("ego_pose/001.txt", "1 0 0 1e308\n0 1 0 0\n0 0 1 0\n0 0 0 1\n"),
+                  "ego_pose/001.txt: row 1", "at most 1e+06 m", "got 1e+308")
+_drivestudio_case("extrinsics z of 2e6 m", _ds_text("extrinsics/1.txt", "0 0 1 0\n-1 0 0 0\n0 -1 0 2e6\n0 0 0 1\n"),
+                  "extrinsics/1.txt: row 3", "at most 1e+06 m", "got 2e+06")
+_drivestudio_case("ego pose infinity", _ds_text("ego_pose/000.txt", "1 0 0 inf\n0 1 0 0\n0 0 1 0\n0 0 0 1\n"),
+                  "ego_pose/000.txt", "NaN or infinity")
+_drivestudio_case("box size 1e300", _ds_instance(lambda a: a["box_size"].__setitem__(1, [4.0, 1e300, 1.5])),
+                  "instances_info.json: 0.frame_annotations.box_size[1]", "at most 1000 m")
+_drivestudio_case("box translated by 1e308",
+                  _ds_instance(lambda a: a["obj_to_world"][1][0].__setitem__(3, 1e308)),
+                  "instances_info.json: 0.frame_annotations.obj_to_world[1]", "at most 1e+06 m")
+_drivestudio_case("box pose NaN", _ds_instance(lambda a: a["obj_to_world"][0][2].__setitem__(3, float("nan"))),
+                  "instances_info.json: 0.frame_annotations.obj_to_world[0]", "finite numbers")
+
+
+
+# ---------------------------------------------------------------- issue 44 item 11: --nta / --sets of another scene
+@functools.cache
+def _methods_scene(world: Path) -> Path:
+    """A two-method synthetic clip beside ``world`` (built once): pairs.csv, nta.csv, sets.csv."""
+    from nvrq.cli import main
+
+    root = world.parent / f"{world.name}-methods"
+    if not (root / "sets.csv").is_file():
+        assert main(["synth", str(root / "scene"), "--seconds", "0.3", "--size", "160x90", "--methods",
+                     "sharp:0.5,blurry:1.5", "--offsets", "0,1", "--quiet"]) == 0
+        assert main(["pairs", str(root / "scene"), "--out", str(root / "pairs.csv"), "--min-side", "6", "--quiet"]) == 0
+        assert main(["proxy", "simulate-detect", str(root / "scene"), "--out", str(root / "dets.csv")]) == 0
+        assert main(["proxy", "nta-iou", str(root / "scene"), "--detections", str(root / "dets.csv"), "--out",
+                     str(root / "nta.csv"), "--min-side", "6", "--bootstrap", "0"]) == 0
+        pd.DataFrame({"set_id": ["frames:sharp:y=+1.00"], "clip_id": ["synth-000000"], "kind": ["frames"],
+                      "method": ["sharp"], "y_offset_m": [1.0], "n_render": [3], "n_gt": [3], "kid:enc": [0.1],
+                      "kid_std:enc": [0.01]}).to_csv(root / "sets.csv", index=False)
+    return root
+
+
+def _side_case(name, option, edit, *fragments):
+    @case("analysis", f"--compare-methods {option} {name}")
+    def _c(world, tmp):
+        src = _methods_scene(world)
+        table = pd.read_csv(src / f"{option[2:]}.csv", dtype=str)
+        edit(table).to_csv(tmp / f"{option[2:]}.csv", index=False)
+        argv = ["--pairs", str(src / "pairs.csv"), "--compare-methods", "--bootstrap", "0", "--out", str(tmp / "rep"),
+                option, str(tmp / f"{option[2:]}.csv")]
+        if option == "--sets":
+            argv += ["--nta", str(src / "nta.csv")]
+        return "analyze", argv, [f"{option[2:]}.csv", option, *fragments]
+
+
+def _other_clip(t):
+    return t.assign(clip_id="other-clip", **({"pair_id": t["pair_id"].str.replace("synth-000000", "other-clip")}
+                                            if "pair_id" in t.columns else {}))
+
+
+_side_case("of another scene", "--nta", _other_clip, "column clip_id", "the clip of the analysed pairs (synth-000000)",
+           "got other-clip")
+_side_case("of other pairs of the scene", "--nta", lambda t: t.assign(pair_id=t["pair_id"] + ":x"), "column pair_id",
+           "pair ids of the analysed pairs", "none of its")
+_side_case("of another scene", "--sets", _other_clip, "column clip_id", "(synth-000000)", "got other-clip")
+_side_case("of another method (no clip_id)", "--sets", lambda t: t.drop(columns="clip_id").assign(method="nerf"),
+           "column method", "the analysed methods (blurry, sharp)", "got nerf")
+
+
+
+# ---------------------------------------------------------------- issue 44 item 12: documented option ranges
+@case("nta-iou", "DETS coco_class not a COCO class")
+def _(world, tmp):
+    return "nvrq", ["proxy", "nta-iou", str(world / "scene"), "--detections", _nta_dets(tmp, coco_class="vehicle"),
+                    "--out", str(tmp / "nta.csv")], ["dets.csv", "row 2, column coco_class", "80 COCO class names",
+                                                     "got 'vehicle'"]
+
+
+@case("nta-iou", "--class-map coco list with a misspelt COCO class")
+def _(world, tmp):
+    import json as _json
+
+    from nvrq.proxies import CLASS_MAPS_PATH
+
+    doc = _json.loads(CLASS_MAPS_PATH.read_text())
+    doc["coco"]["automobile"] = ["car", "trucks"]
+    (tmp / "maps.json").write_text(_json.dumps(doc))
+    return "nvrq", ["proxy", "nta-iou", str(world / "scene"), "--detections", _nta_dets(tmp), "--class-map",
+                    str(tmp / "maps.json"), "--out", str(tmp / "nta.csv")], \
+        ["maps.json", "coco.automobile[1]", "(truck, ", "got 'trucks'"]
+
+
+for _n, _opt, _v, _f in [("--kid-subsets 1e9", "--kid-subsets", "1000000000", "10000"),
+                         ("--kid-subsets 0", "--kid-subsets", "0", "10000"),
+                         ("--kid-subset-size 100000", "--kid-subset-size", "100000", "5000")]:
+    case("score-sets", _n)(functools.partial(
+        _message_case, prog="nvrq", argv=["score-sets", "{world}/scene", "--out", "{tmp}/sets.csv", _opt, _v],
+        fragments=[_opt, _f]))
+
+for _n, _v, _f in [("--window-s 1e18", "1e18", "1e+06"), ("--window-s 1e-9 (0 us)", "1e-9", "0.001")]:
+    case("horizon", _n)(functools.partial(
+        _message_case, prog="analyze", argv=["--pairs", "{world}/toy/pairs.csv", "--metrics-table",
+                                             "{world}/metrics.csv", "--horizon", "--metric", "psnr", "--threshold",
+                                             "25", "--window-s", _v, "--out", "{tmp}/r"],
+        fragments=["--window-s", _f]))
+
+
+
+@case("metrics", "analyze: more metric columns than one analysis takes")
+def _(world, tmp):
+    from analysis.inputs import MAX_METRICS
+
+    ratings = pd.read_csv(world / "ratings.csv", dtype=str)
+    ids = ratings["item_id"].unique()
+    names = [f"m{k}" for k in range(MAX_METRICS + 1)]
+    pd.DataFrame({"pair_id": ids, **{n: np.linspace(0, 1, len(ids)) for n in names}}).to_csv(tmp / "wide.csv",
+                                                                                             index=False)
+    return "analyze", [str(world / "ratings.csv"), "--metrics-table", str(tmp / "wide.csv"), "--higher-better",
+                       ",".join(names), "--bootstrap", "0", "--out", str(tmp / "r")], \
+        ["ratings.csv", f"at most {MAX_METRICS} metric columns", f"got {MAX_METRICS + 2} metric columns"]  # + psnr
+
+
+
+# ---------------------------------------------------------------- issue 44 item 14: an import killed mid-swap
+@case("scene.json", "an import of renders interrupted while it swapped its files in")
+def _(world, tmp):
+    scene = write_scene(tmp / "scene")
+    (scene / ".nvrq-import").mkdir()
+    (scene / ".nvrq-import" / "journal.json").write_text('{"files": ["r.png"]}')
+    return "nvrq", _pairs_cmd(scene, tmp), ["scene", "unfinished `nvrq import renders`", "run the same import again",
+                                            ".nvrq-import/journal.json"]
+
+
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_malformed_input(name, world, tmp_path, capfd):
     prog, argv, fragments = CASES[name](world, tmp_path)
@@ -1263,6 +1448,28 @@ def test_corpus_size():
         kinds[name.split("/")[0]] = kinds.get(name.split("/")[0], 0) + 1
     print(kinds)
     assert sum(kinds.values()) >= 125
+
+
+def test_the_minimal_drivestudio_folder_imports(tmp_path):
+    """The drivestudio cases break a folder that imports as it is, with a translation just inside the bound."""
+    from data_schema.scene import load_scene
+    from nvrq.cli import main
+
+    root = _drivestudio(tmp_path)
+    (root / "ego_pose" / "001.txt").write_text("1 0 0 9.9e5\n0 1 0 0\n0 0 1 0\n0 0 0 1\n")
+    assert main(["import", "drivestudio", str(root), str(tmp_path / "out"), "--offsets", "0"]) == 0
+    scene = load_scene(tmp_path / "out", check_images=False)
+    assert len(scene.tracks) == 1 and np.allclose(scene.tracks[0].dims_lwh, [4.0, 1.8, 1.5])
+
+
+def test_the_methods_scene_tables_are_accepted(world, tmp_path):
+    """The --nta and --sets cases break tables that analyze accepts as they are."""
+    from analysis.cli import main
+
+    src = _methods_scene(world)
+    assert main(["--pairs", str(src / "pairs.csv"), "--compare-methods", "--bootstrap", "0", "--out",
+                 str(tmp_path / "rep"), "--nta", str(src / "nta.csv"), "--sets", str(src / "sets.csv"), "--quiet"]) == 0
+    assert "kid:enc (frames)" in (tmp_path / "rep" / "report.md").read_text()
 
 
 def test_world_untouched(world):

@@ -116,6 +116,21 @@ def test_unmapped_class_and_bad_detections_are_input_errors():
         _dets(("r/0.png", 0, 0, 1, 10, 1.5, "car"))
 
 
+@pytest.mark.parametrize("kw, name", [({"iou_min": 7.0}, "iou_min"), ({"iou_min": 0.0}, "iou_min"),
+                                      ({"min_score": 1.5}, "min_score"), ({"min_score": float("nan")}, "min_score")])
+def test_thresholds_out_of_their_range_are_input_errors(kw, name):
+    pairs = _pairs(("p", "automobile", "r/0.png", (0, 0, 9, 9)))
+    dets = _dets(("r/0.png", 0, 0, 10, 10, 0.7, "car"))
+    with pytest.raises(InputError, match=f"^{name}: expected a number in "):
+        detection_confidence(pairs, dets, coco_map=COCO, **kw)
+    assert detection_confidence(pairs, dets, coco_map=COCO, iou_min=1.0)["s_det"].tolist() == [0.7]  # IoU 1
+
+
+def test_a_coco_class_coco_does_not_have_is_an_input_error():
+    with pytest.raises(InputError, match=r"row 3, column coco_class: expected one of the 80 COCO class names.*'vehicle'"):
+        _dets(("r/0.png", 0, 0, 10, 10, 0.5, "car"), ("r/0.png", 0, 0, 10, 10, 0.5, "Vehicle"))
+
+
 def test_cli_writes_proxy_table(tmp_path, capsys):
     pairs = _pairs(
         ("p0", "automobile", "r/0.png", (0, 0, 9, 9)), ("p1", "rider", "r/0.png", (20, 0, 29, 9))

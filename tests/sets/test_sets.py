@@ -73,6 +73,17 @@ def test_kid_mean_is_unbiased():
     assert abs(means.mean()) < 3 * se, (means.mean(), se)
 
 
+def test_kid_of_subsets_that_are_the_whole_sets_has_no_spread_and_says_why():
+    rng = np.random.default_rng(6)
+    r, g = rng.normal(size=(40, 8)), rng.normal(size=(40, 8)) + 0.2
+    k = kid(r, g)  # m = min(1000, 40, 40) = 40: every subset is both whole sets
+    mean, _ = _kid_sklearn(r, g, subsets=1, size=40, seed=2020)
+    assert k["kid"] == pytest.approx(mean, abs=1e-12) and k["kid_subset_size"] == 40
+    assert np.isnan(k["kid_std"]) and k["reason"] == "KID has no spread: every subset is the whole of both sets"
+    part = kid(r, g, subset_size=20, subsets=30, seed=1)  # smaller subsets vary: a real spread
+    assert part["kid_std"] > 0 and part["reason"] == ""
+
+
 def test_too_small_for_fd():
     rng = np.random.default_rng(4)
     groups = pd.DataFrame({"set_id": "frames:m:none", "kind": "frames", "method": "m", "x_offset_m": 0.0,
@@ -81,7 +92,8 @@ def test_too_small_for_fd():
     f = rng.normal(size=(20, 16))
     t = set_table(groups, f, SetOptions(), encoder="toy")
     assert np.isnan(t.loc[0, "fd:toy"]) and "more than 16 images" in t.loc[0, "reason"]
-    assert np.isfinite(t.loc[0, "kid:toy"])
+    assert np.isfinite(t.loc[0, "kid:toy"]) and np.isnan(t.loc[0, "kid_std:toy"])
+    assert t.loc[0, "reason"].split("; ")[1].startswith("KID has no spread")
     with pytest.raises(InputError, match="more than 16 images per side for FD"):
         set_table(groups, f, SetOptions(metrics=("fd",)), encoder="toy")
 
@@ -98,6 +110,7 @@ def test_score_sets_cli_frames(tmp_path):
     t = pd.read_csv(out)
     assert set(t.set_id) == {f"frames:{m}:{v}" for m in ("sharp", "blurry") for v in ("none", "y=+2.00")}
     assert (t.n_render == 3).all() and (t.n_gt == 3).all() and t["fd:efficientnet-lite0"].isna().all()
+    assert list(t.columns[:3]) == ["set_id", "clip_id", "kind"] and (t.clip_id == "synth-000000").all()
     z = np.load(tmp_path / "f.npz")
     for _, row in t.iterrows():  # every row recomputed from the features file
         sel = z["set_id"] == row.set_id
