@@ -43,16 +43,3 @@ def require(*metrics: str) -> None:
             column_info(m).prepare()
         except InputError:
             pytest.skip(f"weights of {m} not installed: {INSTALL}")
-
-
-@pytest.fixture
-def no_weights(monkeypatch, tmp_path):
-    """No installed package, torchvision cache or user folder holds any weight file."""
-    from nvrq.metrics.learned import weights
-
-    monkeypatch.setattr(weights, "_dist_file", lambda dist, rel: None)
-    monkeypatch.setenv("TORCH_HOME", str(tmp_path / "torch"))
-    monkeypatch.delenv(weights.WEIGHTS_ENV, raising=False)
-    clear_caches()
-    yield
-    clear_caches()

@@ -12,7 +12,7 @@ import pytest
 
 from data_schema.errors import InputError
 from nvrq.metrics.learned import nets, weights
-from tests.metrics.learned_helpers import PAIRS, clear_caches, image, no_weights, require  # noqa: F401
+from tests.metrics.learned_helpers import clear_caches, image, require
 
 
 class _RunsCode:

