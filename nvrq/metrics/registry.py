@@ -27,6 +27,7 @@ from nvrq.metrics import pyiqa_bridge as _pyiqa  # imports pyiqa only when a col
 from nvrq.metrics.info import MetricInfo, MetricKind
 from nvrq.metrics.learned import dists as _ds  # numpy only; torch and the weights on first use
 from nvrq.metrics.learned import lpips as _lp
+from nvrq.metrics.learned import nvs_sqa as _sqa
 from nvrq.metrics.no_reference.brisque import MIN_SIDE as _BRISQUE_MIN_SIDE
 from nvrq.metrics.no_reference.brisque import _brisque
 from nvrq.metrics.no_reference.entropy import _entropy
@@ -108,6 +109,11 @@ register(MetricInfo("dists", False, (0.0, 2.0), fn=_ds.dists, consumes=MetricKin
                     prepare=_ds.prepare, min_side=_ds.MIN_SIDE_DISTS,
                     description="DISTS (Ding et al. 2020), VGG16 with L2 pooling, ImageNet "
                                 "normalisation; lower is better"))
+
+register(MetricInfo("nvs_sqa", True, (-float("inf"), float("inf")), fn=_sqa.nvs_sqa, compute=_sqa._nvs_sqa,
+                    consumes=MetricKind.RENDER, reference=False, prepare=_sqa.prepare, min_side=_sqa.MIN_SIDE,
+                    description="NVS-SQA (Qu et al. 2025), the nvs-sqa package's model and regressor, each "
+                                "render crop scored as a set of one view; higher is better"))
 
 # No-reference metrics on the raw render crop (paper Table 1; definitions in nvrq/metrics/no_reference/).
 register(MetricInfo("brisque", False, (-float("inf"), float("inf")), fn=_nr.brisque, compute=_brisque, consumes=MetricKind.RENDER, reference=False,

