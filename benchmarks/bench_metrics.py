@@ -175,6 +175,7 @@ def main(argv=None) -> int:
 
     torch.set_num_threads(args.threads)
 
+    from data_schema.errors import InputError
     from nvrq.crops import resize_to
     from nvrq.metrics import REGISTRY, reference_columns
 
@@ -189,6 +190,13 @@ def main(argv=None) -> int:
           f"median {np.median(sides):.0f} px (min {sides.min()}, max {sides.max()})")
     # the learned metrics (a batch kernel) are timed through the scoring core below
     metrics = [n for n, i in REGISTRY.items() if i.kind == "metric" and i.fn is not None and i.batch is None]
+    for m in list(metrics):  # a learned no-reference metric (nvs_sqa) needs its weights installed
+        if REGISTRY[m].prepare is not None:
+            try:
+                REGISTRY[m].prepare()
+            except InputError as e:
+                metrics.remove(m)
+                print(f"{m}: not timed: {e}")
     fns = {m: REGISTRY[m].fn for m in metrics}
     with_gt = set(reference_columns(metrics))
     reference = {m: m in with_gt for m in metrics}

@@ -199,3 +199,36 @@ def test_registry_directions_and_kinds():
     for m in ("lpips", "lpips_vgg", "dists"):
         assert direction(m) is False and metric_kind(m).value == "pair" and column_info(m).reference
     assert column_info("lpips").min_side == 31 and column_info("lpips_vgg").min_side == 16
+
+
+def test_nvs_sqa_regressor_pickle_is_read_as_fields_and_code_is_refused(tmp_path):
+    marker = tmp_path / "ran.txt"
+    evil = tmp_path / "linear_regr.pkl"
+    evil.write_bytes(pickle.dumps(_RunsCode(marker)))
+    with pytest.raises(InputError, match="linear_regr.pkl: expected a pickle of numpy arrays only, got a "
+                                         r"reference to builtins.exec \(refused, not run\)"):
+        weights.load_ridge(evil)
+    assert not marker.exists()
+    try:
+        path, _ = weights.find_source("nvs_sqa_ridge")
+    except InputError:
+        pytest.skip("nvs-sqa is not installed: pip install --no-deps nvs-sqa")
+    import pickletools
+
+    got = weights.load_ridge(path)
+    assert got["coef"].shape == (384,) and got["intercept"].shape == (1,)
+
+    refs = {a for op, a, _ in pickletools.genops(path.read_bytes()) if op.name in ("GLOBAL", "SHORT_BINUNICODE")}
+    assert "Ridge" in refs  # the file does name scikit-learn's class: it is the stand-in that read it
+
+
+def test_nvs_sqa_views_are_checked():
+    require("nvs_sqa")
+    from nvrq.metrics.learned.nvs_sqa import MIN_SIDE, nvs_sqa, nvs_sqa_views
+
+    with pytest.raises(InputError, match=f"^views: expected views whose shorter side is at least {MIN_SIDE} px"):
+        nvs_sqa(np.zeros((MIN_SIDE - 1, 90, 3), np.uint8))
+    with pytest.raises(InputError, match=r"^views: 1: expected uint8 \(H, W, 3\) RGB views of one shape"):
+        nvs_sqa_views([np.zeros((80, 80, 3), np.uint8), np.zeros((80, 81, 3), np.uint8)])
+    with pytest.raises(InputError, match="^views: expected at least one view"):
+        nvs_sqa_views([])

@@ -149,3 +149,55 @@ def test_stlpips_backbones_are_not_the_imagenet_filters(net, pth, keys):
         assert abs(np.corrcoef(a.ravel(), b.ravel())[0, 1]) < 0.05, key
     np.testing.assert_allclose(st["scaling_layer.shift"].ravel().numpy(), _SHIFT, atol=1e-7)
     np.testing.assert_allclose(st["scaling_layer.scale"].ravel().numpy(), _SCALE, atol=1e-7)
+
+
+def _nvs_sqa_package(monkeypatch):
+    """The nvs-sqa package's own QualityAssessor, its torchvision import answered by a stand-in
+    with ``transforms.ToTensor`` and ``Compose`` (it builds one and never calls it)."""
+    import warnings
+
+    import torch
+
+    _installed("nvs-sqa", "nvs_sqa/quality_assessor.py")
+    tv = types.ModuleType("torchvision")
+    tr = types.ModuleType("torchvision.transforms")
+    tr.ToTensor, tr.Compose = (lambda: None), (lambda ts: None)
+    tv.transforms = tr
+    monkeypatch.setitem(sys.modules, "torchvision", tv)
+    monkeypatch.setitem(sys.modules, "torchvision.transforms", tr)
+    for name in [m for m in sys.modules if m.startswith("nvs_sqa")]:
+        monkeypatch.delitem(sys.modules, name)
+    pkg = importlib.import_module("nvs_sqa")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # scikit-learn: the Ridge was pickled by 1.3.0
+        return pkg.QualityAssessor(device=torch.device("cpu"))
+
+
+def test_nvs_sqa_equals_the_packages_prediction(monkeypatch, tmp_path, capsys):
+    """The package's example frames are not in its wheel: the sets here are the LPIPS authors'
+    three example images (resized to 96 x 80, saved as PNG, read back by the package), one
+    real-image view alone, and four noise views."""
+    require("nvs_sqa")
+    from PIL import Image
+
+    from nvrq.metrics.learned.nvs_sqa import features, nvs_sqa, nvs_sqa_views
+
+    qa = _nvs_sqa_package(monkeypatch)
+    rng = np.random.default_rng(2)
+    photos = [np.asarray(Image.fromarray(image(n)).resize((96, 80), Image.BICUBIC)) for n in
+              ("ex_ref.png", "ex_p0.png", "ex_p1.png")]
+    sets = {"photos": photos, "one": photos[:1], "noise": [rng.integers(0, 256, (72, 70, 3), np.uint8) for _ in range(4)]}
+    folder = tmp_path / "eval"
+    for name, views in sets.items():
+        (folder / name).mkdir(parents=True)
+        for k, v in enumerate(views):
+            Image.fromarray(v).save(folder / name / f"{k:02d}.png")
+    feats, _ = qa.generate_quality_features(str(folder), save_path=str(tmp_path / "f.npz"))
+    scores = qa.generate_quality_scores(feats)
+    capsys.readouterr()
+    for name, views in sets.items():
+        np.testing.assert_allclose(features(views), feats[name], rtol=0, atol=1e-4)
+        assert abs(nvs_sqa_views(views) - float(scores[name])) < 1e-4, name
+    assert abs(nvs_sqa(photos[0]) - float(scores["one"])) < 1e-4
+    for name in [m for m in sys.modules if m.startswith("nvs_sqa")]:
+        del sys.modules[name]
