@@ -27,7 +27,7 @@ from nvrq.commands.args import allow_negative_lists, int_arg, number_arg, parse_
 from nvrq.commands.shared_options import add_seed_option
 from nvrq.encoders import get_spec
 
-__all__ = ["register", "run", "demo_steps", "method_steps"]
+__all__ = ["register", "run", "demo_steps", "method_steps", "with_lpips"]
 
 
 def register(sub) -> None:
@@ -61,6 +61,33 @@ def register(sub) -> None:
 _EVERY_ITEM = ("--items-per-rater", "all")
 
 
+def with_lpips(metrics: str, *, after: str) -> str:
+    """``metrics`` with ``lpips`` inserted after ``after`` when its weights are installed
+    (README "Learned metrics"), else ``metrics`` as given.
+
+    Parameters
+    ----------
+    metrics : str
+        A comma-separated metric list holding ``after``.
+    after : str
+        The metric ``lpips`` follows.
+
+    Returns
+    -------
+    str
+
+    >>> with_lpips("psnr,ssim,nvrq", after="ssim") in ("psnr,ssim,nvrq", "psnr,ssim,lpips,nvrq")
+    True
+    """
+    from nvrq.metrics.learned.lpips import available
+
+    if not available("lpips"):
+        return metrics
+    names = metrics.split(",")
+    names.insert(names.index(after) + 1, "lpips")
+    return ",".join(names)
+
+
 def method_steps(out: Path, args) -> list[tuple[str, list[str]]]:
     """The ``--methods`` demo as (program, argv) steps, in order: one scene rendered per method,
     its leaderboard, then a pairwise study of the methods.
@@ -85,8 +112,8 @@ def method_steps(out: Path, args) -> list[tuple[str, list[str]]]:
         ("nvrq", ["synth", str(scene), "--seed", str(args.seed), "--seconds", str(args.seconds),
                   "--size", args.size, "--offsets", args.offsets, "--methods", args.methods]),
         ("nvrq", ["pairs", str(scene), "--out", str(pairs)]),
-        ("nvrq", ["score", str(pairs), "--out", str(metrics), "--metrics", "psnr,ssim,nvrq,nvrq_ca",
-                  "--encoder", args.encoder]),
+        ("nvrq", ["score", str(pairs), "--out", str(metrics), "--metrics",
+                  with_lpips("psnr,ssim,nvrq,nvrq_ca", after="ssim"), "--encoder", args.encoder]),
         # the numbers the field reports: NTA-IoU (on the simulated detector's boxes: no detector
         # ships offline) and FD/KID of frames and object crops per method and offset
         ("nvrq", ["proxy", "simulate-detect", str(scene), "--out", str(dets), "--seed", str(args.seed)]),
@@ -125,8 +152,9 @@ def demo_steps(out: Path, args) -> list[tuple[str, list[str]]]:
     scene, pairs, metrics = out / "scene", out / "pairs.csv", out / "metrics.csv"
     study, ratings, report = out / "study", out / "ratings.csv", out / "report"
     torch_metrics = out / "metrics_torch.csv"  # the same encoder on torch eager: a second speed point
-    # full-reference, then no-reference (paper Table 1's classical rows), then the encoder metrics
-    metric_list = "psnr,ssim,ms_ssim,gmsd,brisque,niqe,piqe,entropy,nvrq,nvrq_ca"
+    # full-reference (LPIPS when its weights are installed), then no-reference (paper Table 1's
+    # classical rows), then the encoder metrics
+    metric_list = with_lpips("psnr,ssim,ms_ssim,gmsd,brisque,niqe,piqe,entropy,nvrq,nvrq_ca", after="gmsd")
     return [
         ("nvrq", ["synth", str(scene), "--seed", str(args.seed), "--seconds", str(args.seconds),
                   "--size", args.size, "--offsets", args.offsets]),
