@@ -107,6 +107,23 @@ def demo_crops(root: Path, *, seconds: float, size: tuple[int, int], max_pairs: 
     return gts, renders, batches
 
 
+def per_crop_metrics() -> list:
+    """The encoder-free metrics timed crop by crop: every registered one except those with a
+    batch kernel (timed through the scoring core) and those whose weights are not installed."""
+    from data_schema.errors import InputError
+    from nvrq.metrics import REGISTRY
+
+    metrics = [n for n, i in REGISTRY.items() if i.kind == "metric" and i.fn is not None and i.batch is None]
+    for m in list(metrics):  # a learned no-reference metric (nvs_sqa) needs its weights
+        if REGISTRY[m].prepare is not None:
+            try:
+                REGISTRY[m].prepare()
+            except InputError as e:
+                metrics.remove(m)
+                print(f"{m}: not timed: {e}")
+    return metrics
+
+
 #: the columns timed through the scoring core, side by side
 CORE_COLUMNS = ("ssim", "nvrq:efficientnet-lite0", "lpips", "lpips_vgg", "dists")
 
@@ -175,7 +192,6 @@ def main(argv=None) -> int:
 
     torch.set_num_threads(args.threads)
 
-    from data_schema.errors import InputError
     from nvrq.crops import resize_to
     from nvrq.metrics import REGISTRY, reference_columns
 
@@ -188,15 +204,7 @@ def main(argv=None) -> int:
     sides = np.array([min(r.shape[:2]) for r in renders])
     print(f"demo clip {args.size}, {args.seconds:g} s: {len(renders)} pairs; render crop shorter side "
           f"median {np.median(sides):.0f} px (min {sides.min()}, max {sides.max()})")
-    # the learned metrics (a batch kernel) are timed through the scoring core below
-    metrics = [n for n, i in REGISTRY.items() if i.kind == "metric" and i.fn is not None and i.batch is None]
-    for m in list(metrics):  # a learned no-reference metric (nvs_sqa) needs its weights installed
-        if REGISTRY[m].prepare is not None:
-            try:
-                REGISTRY[m].prepare()
-            except InputError as e:
-                metrics.remove(m)
-                print(f"{m}: not timed: {e}")
+    metrics = per_crop_metrics()
     fns = {m: REGISTRY[m].fn for m in metrics}
     with_gt = set(reference_columns(metrics))
     reference = {m: m in with_gt for m in metrics}
