@@ -35,7 +35,7 @@ import numpy as np
 from data_schema.errors import InputError
 from nvrq.metrics.learned.batch import to_tensor
 
-__all__ = ["nvs_sqa", "nvs_sqa_views", "prepare", "MIN_SIDE", "D_MODEL", "N_HEADS"]
+__all__ = ["nvs_sqa", "nvs_sqa_views", "features", "prepare", "MIN_SIDE", "D_MODEL", "N_HEADS"]
 
 #: the shorter view side (px) the view encoder takes: after its two stride-2 convolutions and
 #: two halvings the last low-level branch halves once more and pads by reflection, which needs 2 px
