@@ -205,7 +205,9 @@ def main(argv=None) -> int:
     print(f"demo clip {args.size}, {args.seconds:g} s: {len(renders)} pairs; render crop shorter side "
           f"median {np.median(sides):.0f} px (min {sides.min()}, max {sides.max()})")
     metrics = per_crop_metrics()
-    fns = {m: REGISTRY[m].fn for m in metrics}
+    # a learned metric's public function refuses crops below the network's minimum: time its
+    # kernel, NaN there, as nvrq score runs it
+    fns = {m: (REGISTRY[m].compute if REGISTRY[m].prepare else REGISTRY[m].fn) for m in metrics}
     with_gt = set(reference_columns(metrics))
     reference = {m: m in with_gt for m in metrics}
     for m, fn in before_28().items():
