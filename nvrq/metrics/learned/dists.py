@@ -32,8 +32,8 @@ def _model():
     """``(features, distance)`` of DISTS, its weights loaded once."""
     import torch
 
-    w = tensors("vgg16")
     ab = tensors("dists")
+    w = tensors("vgg16")
     total = ab["alpha"].sum() + ab["beta"].sum()
     alpha = torch.split((ab["alpha"] / total).view(1, -1), list(_CHNS), dim=1)
     beta = torch.split((ab["beta"] / total).view(1, -1), list(_CHNS), dim=1)
@@ -68,7 +68,9 @@ def prepare() -> None:
     InputError
         When the VGG16 or DISTS weights are not found (the message names the install command).
     """
-    _model()
+    from nvrq.metrics.learned.weights import for_metric
+
+    for_metric("dists", _model)
 
 
 def dists_batch(gt_crops, gt_index, renders) -> np.ndarray:

@@ -67,7 +67,9 @@ def prepare(metric: str = "lpips") -> None:
     InputError
         When the weights are not found (the message names the install command) or unreadable.
     """
-    _model(metric)
+    from nvrq.metrics.learned.weights import for_metric
+
+    for_metric(metric, lambda: _model(metric))
 
 
 def available(metric: str = "lpips") -> bool:

