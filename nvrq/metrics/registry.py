@@ -105,6 +105,11 @@ register(MetricInfo("lpips_vgg", False, (0.0, float("inf")), fn=_lp.lpips_vgg, c
                     batch=partial(_lp.lpips_batch, metric="lpips_vgg"), prepare=partial(_lp.prepare, "lpips_vgg"),
                     min_side=_lp.NETS["lpips_vgg"][2],
                     description="LPIPS 0.1 with VGG16 (Zhang et al. 2018); lower is better"))
+register(MetricInfo("stlpips", False, (0.0, float("inf")), fn=_lp.stlpips, consumes=MetricKind.PAIR,
+                    batch=partial(_lp.lpips_batch, metric="stlpips"), prepare=partial(_lp.prepare, "stlpips"),
+                    min_side=_lp.NETS["stlpips"][2],
+                    description="ST-LPIPS (Ghildyal and Liu 2022), shift-tolerant LPIPS with its "
+                                "anti-aliased AlexNet; lower is better"))
 register(MetricInfo("dists", False, (0.0, 2.0), fn=_ds.dists, consumes=MetricKind.PAIR, batch=_ds.dists_batch,
                     prepare=_ds.prepare, min_side=_ds.MIN_SIDE_DISTS,
                     description="DISTS (Ding et al. 2020), VGG16 with L2 pooling, ImageNet "

@@ -134,13 +134,15 @@ def test_torchvision_cache_and_converted_cache(no_weights, tmp_path, monkeypatch
     clear_caches()
 
 
-@pytest.mark.parametrize("net, taps", [("alexnet", nets.alexnet_taps), ("vgg16", nets.vgg16_taps)])
+@pytest.mark.parametrize("net, taps", [("alexnet", nets.alexnet_taps), ("vgg16", nets.vgg16_taps),
+                                       ("alexnet_st", nets.alexnet_st_taps)])
 def test_min_side_is_the_networks_smallest_input(net, taps):
     """At MIN_SIDE the network runs; one pixel less, torch itself refuses (a pooling window
     larger than its input): the constant is the architecture's, not a guess."""
     import torch
 
-    convs = {"alexnet": [(64, 3, 11), (192, 64, 5), (384, 192, 3), (256, 384, 3), (256, 256, 3)],
+    alex = [(64, 3, 11), (192, 64, 5), (384, 192, 3), (256, 384, 3), (256, 256, 3)]
+    convs = {"alexnet": alex, "alexnet_st": alex,
              "vgg16": [(64, 3, 3), (64, 64, 3), (128, 64, 3), (128, 128, 3)] + [(256, 128, 3)] + [(256, 256, 3)] * 2
              + [(512, 256, 3)] + [(512, 512, 3)] * 5}[net]
     w = {}
@@ -148,7 +150,7 @@ def test_min_side_is_the_networks_smallest_input(net, taps):
         w[f"conv{i}.weight"], w[f"conv{i}.bias"] = torch.zeros(o, c, k, k), torch.zeros(o)
     side = nets.MIN_SIDE[net]
     assert all(t.numel() for t in taps(torch.zeros(1, 3, side, side + 5), w))
-    with pytest.raises(RuntimeError):
+    with pytest.raises(RuntimeError):  # a pooling window, or a reflection pad, larger than its input
         taps(torch.zeros(1, 3, side - 1, side + 5), w)
     if net == "vgg16":  # DISTS' L2 pooling takes any side
         assert taps(torch.zeros(1, 3, 1, 1), w, pool="l2")[-1].shape == (1, 512, 1, 1)
@@ -172,7 +174,7 @@ def test_crops_below_the_minimum_are_refused_by_the_functions_and_nan_in_a_run()
 def test_the_core_batches_equal_pair_by_pair():
     """score_crop_batch over a batch (GT crops shared, two shapes, one crop too small for
     AlexNet) equals each public function on its pair, the render resized to its GT crop."""
-    require("lpips", "lpips_vgg", "dists")
+    require("lpips", "lpips_vgg", "stlpips", "dists")
     from nvrq.crops import resize_to
     from nvrq.metrics import column_info
     from nvrq.scoring.core import CropBatch, score_crop_batch
@@ -183,7 +185,7 @@ def test_the_core_batches_equal_pair_by_pair():
     gts, index = [ref[:48, :56], small], np.array([0, 0, 0, 1, 1])
     renders = [p0, p1[:50], ref[:48, :56], small[:, :38], rng.integers(0, 256, (20, 44, 3), np.uint8)]
     batch = CropBatch(np.arange(5), gts, index, renders)
-    metrics = ["lpips", "lpips_vgg", "dists"]
+    metrics = ["lpips", "lpips_vgg", "stlpips", "dists"]
     got = score_crop_batch(batch, metrics=metrics)
     for m in metrics:
         info = column_info(m)
@@ -201,9 +203,11 @@ def test_the_core_batches_equal_pair_by_pair():
 def test_registry_directions_and_kinds():
     from nvrq.metrics import column_info, direction, metric_kind
 
-    for m in ("lpips", "lpips_vgg", "dists"):
+    for m in ("lpips", "lpips_vgg", "stlpips", "dists"):
         assert direction(m) is False and metric_kind(m).value == "pair" and column_info(m).reference
     assert column_info("lpips").min_side == 31 and column_info("lpips_vgg").min_side == 16
+    assert column_info("stlpips").min_side == 21 and column_info("nvs_sqa").min_side == 69
+    assert direction("nvs_sqa") is True and metric_kind("nvs_sqa").value == "render"
 
 
 def test_nvs_sqa_regressor_pickle_is_read_as_fields_and_code_is_refused(tmp_path):

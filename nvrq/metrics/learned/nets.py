@@ -7,9 +7,14 @@ VGG16 as torchvision defines their ``features``, run functionally from the array
 - :func:`vgg16_taps`: ``relu1_2``, ``relu2_2``, ``relu3_3``, ``relu4_3``, ``relu5_3``; between
   blocks a 2x2 max-pool (LPIPS) or DISTS' L2 pooling (:func:`l2pool`).
 
+- :func:`alexnet_st_taps`: ST-LPIPS' shift-tolerant AlexNet (Ghildyal and Liu 2022): conv1 at
+  stride 1, every stride replaced by :func:`blurpool`, max-pools at stride 1.
+
 Smallest input side (px) each network takes (a pooling needs at least its window):
 :data:`MIN_SIDE` -- AlexNet 31 (conv1 gives ``(s - 7) // 4 + 1`` >= 7 so that both 3/2 max-pools
-have a window), VGG16 with max-pools 16 (four halvings), with L2 pooling 1 (padded 3x3 windows).
+have a window), VGG16 with max-pools 16 (four halvings), with L2 pooling 1 (padded 3x3 windows),
+the shift-tolerant AlexNet 21 (its last reflection pad of 2 needs 3 px after conv1, two blur
+pools and two 3/1 max-pools).
 """
 
 from __future__ import annotations
@@ -18,9 +23,9 @@ from functools import cache
 
 import numpy as np
 
-__all__ = ["MIN_SIDE", "tensors", "alexnet_taps", "vgg16_taps", "l2pool"]
+__all__ = ["MIN_SIDE", "tensors", "alexnet_taps", "vgg16_taps", "l2pool", "blurpool", "alexnet_st_taps"]
 
-MIN_SIDE = {"alexnet": 31, "vgg16": 16, "vgg16_l2": 1}
+MIN_SIDE = {"alexnet": 31, "vgg16": 16, "vgg16_l2": 1, "alexnet_st": 21}
 
 #: VGG16's convolutions per block (13 in all)
 _VGG_BLOCKS = (2, 2, 3, 3, 3)
@@ -126,5 +131,56 @@ def vgg16_taps(x, w: dict, *, pool: str = "max") -> list:
         for _ in range(n):
             h = F.relu(F.conv2d(h, w[f"conv{i}.weight"], w[f"conv{i}.bias"], padding=1))
             i += 1
+        out.append(h)
+    return out
+
+
+def blurpool(x):
+    """ST-LPIPS' ``Downsample(filt_size=3, pad_more=True)``: reflection pad 2, the normalised
+    outer product of (1, 2, 1) with itself per channel, stride 2.
+
+    Parameters
+    ----------
+    x : torch.Tensor, (B, C, H, W)
+        ``H, W >= 3``.
+
+    Returns
+    -------
+    torch.Tensor, (B, C, (H + 1) // 2 + 1, (W + 1) // 2 + 1)
+    """
+    import torch
+    import torch.nn.functional as F
+
+    a = torch.tensor([1.0, 2.0, 1.0], dtype=x.dtype)
+    g = (a[:, None] * a[None, :]) / 16.0
+    c = x.shape[1]
+    return F.conv2d(F.pad(x, (2, 2, 2, 2), mode="reflect"), g[None, None].repeat(c, 1, 1, 1), stride=2, groups=c)
+
+
+def alexnet_st_taps(x, w: dict) -> list:
+    """The shift-tolerant AlexNet's five ReLU outputs (ST-LPIPS' ``shift_tolerant`` variant).
+
+    Parameters
+    ----------
+    x : torch.Tensor, (B, 3, H, W) float32
+        The scaled input; ``min(H, W) >= MIN_SIDE['alexnet_st']``.
+    w : dict
+        ``conv0.weight`` ... ``conv4.bias`` (:func:`tensors` of ``stlpips_alex``).
+
+    Returns
+    -------
+    list of 5 torch.Tensor
+        (B, 64, ...), (B, 192, ...), (B, 384, ...), (B, 256, ...), (B, 256, ...).
+    """
+    import torch.nn.functional as F
+
+    out = []
+    h = F.relu(blurpool(F.conv2d(x, w["conv0.weight"], w["conv0.bias"], padding=2)))
+    out.append(h)
+    h = F.relu(F.conv2d(blurpool(F.max_pool2d(h, 3, 1)), w["conv1.weight"], w["conv1.bias"], padding=2))
+    out.append(h)
+    h = blurpool(F.max_pool2d(h, 3, 1))
+    for i in (2, 3, 4):
+        h = F.relu(F.conv2d(h, w[f"conv{i}.weight"], w[f"conv{i}.bias"], padding=1))
         out.append(h)
     return out

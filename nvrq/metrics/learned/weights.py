@@ -3,7 +3,8 @@ caches them (torch is imported only when a file is converted).
 
 Every learned metric needs one or more *components* (:data:`COMPONENTS`): a backbone
 (``alexnet``, ``vgg16``), LPIPS' linear layers (``lpips_alex``, ``lpips_vgg``), DISTS' alpha and
-beta (``dists``), or NVS-SQA's model and regressor (``nvs_sqa``, ``nvs_sqa_ridge``). :func:`component` finds a component's source file, in this order:
+beta (``dists``), ST-LPIPS' shift-tolerant AlexNet with its layers (``stlpips_alex``), or
+NVS-SQA's model and regressor (``nvs_sqa``, ``nvs_sqa_ridge``). :func:`component` finds a component's source file, in this order:
 
 1. a user folder: the ``weights_dir`` argument, else ``$NVRQ_WEIGHTS``; it may hold the files
    under the names the packages below use (``alexnet.ckpt``, ``vgg16.ckpt``, ``alex.pth``,
@@ -69,7 +70,8 @@ class Component:
         ``(where, pattern, format)`` in search order: ``where`` is ``'user'`` (the user folder),
         ``'dist:NAME'`` (a file of the installed distribution NAME) or ``'torch_hub'`` (the
         torchvision cache); ``pattern`` a file name or glob; ``format`` one of ``'jax_ckpt'``,
-        ``'torchvision'``, ``'lpips_pth'``, ``'dists_pt'``, ``'nvs_sqa_pth'``, ``'ridge_pkl'``.
+        ``'torchvision'``, ``'lpips_pth'``, ``'dists_pt'``, ``'nvs_sqa_pth'``, ``'ridge_pkl'``,
+        ``'stlpips_pth'``.
     """
 
     name: str
@@ -103,6 +105,10 @@ COMPONENTS = {c.name: c for c in (
     _backbone("vgg16", "vgg16.ckpt", "vgg16-*.pth"),
     _lins("lpips_alex", "alexnet.ckpt", "alex.pth"),
     _lins("lpips_vgg", "vgg16.ckpt", "vgg.pth"),
+    Component("stlpips_alex", "the shift-tolerant AlexNet and linear layers of ST-LPIPS",
+              "pip install --no-deps stlpips-pytorch", (
+                  ("user", "alex_shift_tolerant.pth", "stlpips_pth"),
+                  ("dist:stlpips-pytorch", "stlpips_pytorch/weights/vST0.0/alex_shift_tolerant.pth", "stlpips_pth"))),
     Component("dists", "the alpha and beta of DISTS", "pip install --no-deps DISTS_pytorch", (
         ("user", "DISTS_weights.pt", "dists_pt"), ("dist:DISTS_pytorch", "DISTS_pytorch/weights.pt", "dists_pt"))),
     Component("nvs_sqa", "the trained NVS-SQA model (v0.0.1)", "pip install --no-deps nvs-sqa", (
@@ -365,14 +371,14 @@ def convert(name: str, path, fmt: str) -> dict[str, np.ndarray]:
         A key of :data:`COMPONENTS`.
     path : str or Path
         The source file.
-    fmt : {'jax_ckpt', 'torchvision', 'lpips_pth', 'dists_pt', 'nvs_sqa_pth', 'ridge_pkl'}
+    fmt : {'jax_ckpt', 'torchvision', 'lpips_pth', 'dists_pt', 'nvs_sqa_pth', 'ridge_pkl', 'stlpips_pth'}
         Its format.
 
     Returns
     -------
     dict
         Backbones: ``conv{i}.weight`` (O, I, kh, kw) and ``conv{i}.bias`` (O,), ``i`` from 0;
-        LPIPS' layers: ``lin{i}`` (C,); DISTS: ``alpha``, ``beta`` (1475,), all float32;
+        LPIPS' layers: ``lin{i}`` (C,) (ST-LPIPS: both, in one file); DISTS: ``alpha``, ``beta`` (1475,), all float32;
         NVS-SQA: its state dict's arrays under their own names (float32), its regressor's
         ``coef`` (384,) and ``intercept`` (1,) (float64).
 
@@ -388,6 +394,14 @@ def convert(name: str, path, fmt: str) -> dict[str, np.ndarray]:
     raw = load_numpy_pickle(path) if fmt == "jax_ckpt" else _torch_tensors(path)
     if fmt == "nvs_sqa_pth":
         return {k: v for k, v in raw.items() if not k.endswith("num_batches_tracked")}
+    if fmt == "stlpips_pth":
+        try:
+            convs = ("slice1.0", "slice2.5", "slice3.9", "slice4.11", "slice5.13")
+            return {**{f"conv{i}.weight": raw[f"net.{c}.weight"] for i, c in enumerate(convs)},
+                    **{f"conv{i}.bias": raw[f"net.{c}.bias"] for i, c in enumerate(convs)},
+                    **{f"lin{i}": raw[f"lin{i}.model.1.weight"].reshape(-1) for i in range(5)}}
+        except KeyError as exc:
+            raise InputError(where, expected=f"{COMPONENTS[name].what} ({fmt})", got=f"no array {exc}") from None
     try:
         if name in _TV_CONVS:
             n = len(_TV_CONVS[name])
