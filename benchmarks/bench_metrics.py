@@ -224,9 +224,10 @@ def main(argv=None) -> int:
         rates[m] = (rate, defined)
         kind = "FR" if reference[m] else "NR"
         print(f"{m:16s} {kind:5s} {rate:9.1f} {1 - ok.mean():6.1%} {defined:22.1f}")
-        if kind == "NR" and "@" not in m and min(rate, defined) < TARGET:
+        # the 50 crops/s target is the classical no-reference metrics' (not a network's: nvs_sqa)
+        if kind == "NR" and "@" not in m and REGISTRY[m].prepare is None and min(rate, defined) < TARGET:
             slow.append(m)
-    print(f"\nno-reference metrics at >= {TARGET:.0f} crops/s (one thread): "
+    print(f"\nclassical no-reference metrics at >= {TARGET:.0f} crops/s (one thread): "
           f"{'all' if not slow else 'NOT ' + ', '.join(slow)}")
     for m in ("brisque", "niqe"):
         rate, defined = rates[m]
