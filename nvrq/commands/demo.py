@@ -30,7 +30,7 @@ from nvrq.cli_options import add_seed_option
 from nvrq.cli_types import allow_negative_lists, int_arg, number_arg, parse_wxh
 from nvrq.encoders import get_spec
 
-__all__ = ["register", "run", "demo_steps", "method_steps", "with_floor"]
+__all__ = ["register", "run", "demo_steps", "method_steps", "with_floor", "with_lpips"]
 
 
 def register(sub) -> None:
@@ -89,6 +89,33 @@ def with_floor(methods: str) -> str:
     return f"{methods},{PERFECT_METHOD}:0"
 
 
+def with_lpips(metrics: str, *, after: str) -> str:
+    """``metrics`` with ``lpips`` inserted after ``after`` when its weights are installed
+    (README "Learned metrics"), else ``metrics`` as given.
+
+    Parameters
+    ----------
+    metrics : str
+        A comma-separated metric list holding ``after``.
+    after : str
+        The metric ``lpips`` follows.
+
+    Returns
+    -------
+    str
+
+    >>> with_lpips("psnr,ssim,nvrq", after="ssim") in ("psnr,ssim,nvrq", "psnr,ssim,lpips,nvrq")
+    True
+    """
+    from nvrq.metrics.learned.lpips import available
+
+    if not available("lpips"):
+        return metrics
+    names = metrics.split(",")
+    names.insert(names.index(after) + 1, "lpips")
+    return ",".join(names)
+
+
 def method_steps(out: Path, args) -> list[tuple[str, list[str]]]:
     """The ``--methods`` demo as (program, argv) steps, in order: one scene rendered per method
     (and ``perfect:0``, the viewpoint floor: :func:`with_floor`), its leaderboard, then a pairwise
@@ -114,8 +141,8 @@ def method_steps(out: Path, args) -> list[tuple[str, list[str]]]:
         ("nvrq", ["synth", str(scene), "--seed", str(args.seed), "--seconds", str(args.seconds),
                   "--size", args.size, "--offsets", args.offsets, "--methods", with_floor(args.methods)]),
         ("nvrq", ["pairs", str(scene), "--out", str(pairs)]),
-        ("nvrq", ["score", str(pairs), "--out", str(metrics), "--metrics", "psnr,ssim,nvrq,nvrq_ca",
-                  "--encoder", args.encoder]),
+        ("nvrq", ["score", str(pairs), "--out", str(metrics), "--metrics",
+                  with_lpips("psnr,ssim,nvrq,nvrq_ca", after="ssim"), "--encoder", args.encoder]),
         # the numbers the field reports: NTA-IoU (on the simulated detector's boxes: no detector
         # ships offline) and FD/KID of frames and object crops per method and offset
         ("nvrq", ["proxy", "simulate-detect", str(scene), "--out", str(dets), "--seed", str(args.seed)]),
@@ -159,8 +186,9 @@ def demo_steps(out: Path, args) -> list[tuple[str, list[str]]]:
     # study, the ratings and every number of the demo's renders stay as they are), scored by the
     # full-reference and encoder metrics; the report's tent plot draws it dashed
     floor_scene, floor_pairs, floor_metrics = out / "floor_scene", out / "floor_pairs.csv", out / "floor_metrics.csv"
-    # full-reference, then no-reference (paper Table 1's classical rows), then the encoder metrics
-    metric_list = "psnr,ssim,ms_ssim,gmsd,brisque,niqe,piqe,entropy,nvrq,nvrq_ca"
+    # full-reference (LPIPS when its weights are installed), then no-reference (paper Table 1's
+    # classical rows), then the encoder metrics
+    metric_list = with_lpips("psnr,ssim,ms_ssim,gmsd,brisque,niqe,piqe,entropy,nvrq,nvrq_ca", after="gmsd")
     return [
         ("nvrq", ["synth", str(scene), "--seed", str(args.seed), "--seconds", str(args.seconds),
                   "--size", args.size, "--offsets", args.offsets]),

@@ -59,7 +59,10 @@ class MetricInfo:
     ``compute``: ``fn`` without its input checks, for the scoring core, which checks its inputs
     once per run (default: ``fn`` itself). ``from_similarity(s, tau) -> (N,) float64``: an
     encoder metric's column from the similarities ``s`` (N,); ``needs_tau``: whether it uses
-    the NVRQ-CA knee ``tau``.
+    the NVRQ-CA knee ``tau``. ``batch(gt_crops, gt_index, renders) -> (P,) float64``: a ``pair``
+    metric computed over a whole batch at once (a network: each unique GT crop run once),
+    ``renders`` resized to their GT crops; ``prepare()``: called once, before any crop is read,
+    to load what the metric needs (its weights), raising InputError when it cannot.
 
     Attributes
     ----------
@@ -93,6 +96,10 @@ class MetricInfo:
         An encoder metric's column from the similarities.
     needs_tau : bool
         Whether ``from_similarity`` uses the NVRQ-CA knee ``tau``.
+    batch : callable or None
+        A ``pair`` metric over a whole batch; None: ``compute`` pair by pair.
+    prepare : callable or None
+        Loads what the metric needs, once, before any crop is read.
     """
 
     name: str
@@ -110,3 +117,5 @@ class MetricInfo:
     compute: Callable | None = None
     from_similarity: Callable | None = None
     needs_tau: bool = False
+    batch: Callable | None = None
+    prepare: Callable | None = None

@@ -17,12 +17,17 @@ column (its entry, direction, encoder, tau) are answered by :mod:`nvrq.metrics.r
 
 from __future__ import annotations
 
+from functools import partial
+
 from nvrq.choices import DEFAULT_METRICS  # the metrics of nvrq score without --metrics
 from nvrq.metrics import formulas as _f
 from nvrq.metrics import no_reference as _nr
 from nvrq.metrics import pixel as _px  # numpy + OpenCV; no torch
 from nvrq.metrics import pyiqa_bridge as _pyiqa  # imports pyiqa only when a column is used
 from nvrq.metrics.info import MetricInfo, MetricKind
+from nvrq.metrics.learned import dists as _ds  # numpy only; torch and the weights on first use
+from nvrq.metrics.learned import lpips as _lp
+from nvrq.metrics.learned import nvs_sqa as _sqa
 from nvrq.metrics.no_reference.brisque import MIN_SIDE as _BRISQUE_MIN_SIDE
 from nvrq.metrics.no_reference.brisque import _brisque
 from nvrq.metrics.no_reference.entropy import _entropy
@@ -89,6 +94,31 @@ register(MetricInfo("mse", False, (0.0, 255.0 ** 2), fn=_px.mse, compute=_px._ms
                     description="mean squared error over RGB (0-255)"))
 register(MetricInfo("mae", False, (0.0, 255.0), fn=_px.mae, compute=_px._mae, consumes=MetricKind.PAIR,
                     description="mean absolute error over RGB (0-255)"))
+
+# Learned full-reference metrics from weights pip ships (nvrq/metrics/learned/; weights found by
+# nvrq/metrics/learned/weights.py): computed batch by batch, each GT crop run once.
+register(MetricInfo("lpips", False, (0.0, float("inf")), fn=_lp.lpips, consumes=MetricKind.PAIR,
+                    batch=_lp.lpips_batch, prepare=partial(_lp.prepare, "lpips"), min_side=_lp.NETS["lpips"][2],
+                    description="LPIPS 0.1 with AlexNet (Zhang et al. 2018, the authors' default), inputs "
+                                "scaled to [-1, 1]; lower is better"))
+register(MetricInfo("lpips_vgg", False, (0.0, float("inf")), fn=_lp.lpips_vgg, consumes=MetricKind.PAIR,
+                    batch=partial(_lp.lpips_batch, metric="lpips_vgg"), prepare=partial(_lp.prepare, "lpips_vgg"),
+                    min_side=_lp.NETS["lpips_vgg"][2],
+                    description="LPIPS 0.1 with VGG16 (Zhang et al. 2018); lower is better"))
+register(MetricInfo("stlpips", False, (0.0, float("inf")), fn=_lp.stlpips, consumes=MetricKind.PAIR,
+                    batch=partial(_lp.lpips_batch, metric="stlpips"), prepare=partial(_lp.prepare, "stlpips"),
+                    min_side=_lp.NETS["stlpips"][2],
+                    description="ST-LPIPS (Ghildyal and Liu 2022), shift-tolerant LPIPS with its "
+                                "anti-aliased AlexNet; lower is better"))
+register(MetricInfo("dists", False, (0.0, 2.0), fn=_ds.dists, consumes=MetricKind.PAIR, batch=_ds.dists_batch,
+                    prepare=_ds.prepare, min_side=_ds.MIN_SIDE_DISTS,
+                    description="DISTS (Ding et al. 2020), VGG16 with L2 pooling, ImageNet "
+                                "normalisation; lower is better"))
+
+register(MetricInfo("nvs_sqa", True, (-float("inf"), float("inf")), fn=_sqa.nvs_sqa, compute=_sqa._nvs_sqa,
+                    consumes=MetricKind.RENDER, reference=False, prepare=_sqa.prepare, min_side=_sqa.MIN_SIDE,
+                    description="NVS-SQA (Qu et al. 2025), the nvs-sqa package's model and regressor, each "
+                                "render crop scored as a set of one view; higher is better"))
 
 # No-reference metrics on the raw render crop (paper Table 1; definitions in nvrq/metrics/no_reference/).
 register(MetricInfo("brisque", False, (-float("inf"), float("inf")), fn=_nr.brisque, compute=_brisque, consumes=MetricKind.RENDER, reference=False,

@@ -1,7 +1,7 @@
 """The one resolver: every question about a metrics-table column is answered here, once.
 
 - :func:`column_info`: the registry entry behind a column (``nvrq:dinov2-small`` is the family
-  ``nvrq`` with encoder ``dinov2-small``; ``pyiqa:lpips`` a member of the ``pyiqa`` family);
+  ``nvrq`` with encoder ``dinov2-small``; ``pyiqa:musiq`` a member of the ``pyiqa`` family);
   :class:`InputError` when there is none, or ``default`` when asked for one.
 - :func:`direction`: higher better (``True``), lower better (``False``) or unknown (``None``).
 - :func:`resolve_metrics`: metric names as a user gives them -> the columns ``nvrq score`` writes;
@@ -95,7 +95,7 @@ def closest_metric(name: str, kind: str | None = "metric") -> str | None:
     Parameters
     ----------
     name : str
-        The name as given (``PSNR``, ``lpips``, ``nvrq-ca``, ``psrn``).
+        The name as given (``PSNR``, ``musiq``, ``nvrq-ca``, ``psrn``).
     kind : {'metric', 'proxy', None}
         The entries to look among.
 
@@ -105,7 +105,7 @@ def closest_metric(name: str, kind: str | None = "metric") -> str | None:
         The same name in another case or with ``-`` for ``_`` (``PSNR`` -> ``psnr``), else the
         nearest registered name (:func:`difflib.get_close_matches`, cutoff 0.75), else
         ``pyiqa:NAME`` when the ``pyiqa`` family is registered and PyIQA knows ``NAME`` or is
-        not installed (``lpips`` -> ``pyiqa:lpips``); ``None`` when nothing fits.
+        not installed (``musiq`` -> ``pyiqa:musiq``); ``None`` when nothing fits.
 
     >>> closest_metric("PSNR"), closest_metric("nvrq-ca"), closest_metric("psrn")
     ('psnr', 'nvrq_ca', 'psnr')
@@ -384,6 +384,10 @@ class ColumnSpec:
         Shorter crop side (px) below which the value is NaN.
     undefined : str
         When else it is NaN.
+    batch : callable or None
+        ``pair``: ``batch(gt_crops, gt_index, renders) -> (P,)`` over a whole batch (else None).
+    prepare : callable or None
+        Loads the metric's weights, once, before any crop is read (else None).
     """
 
     name: str
@@ -393,6 +397,8 @@ class ColumnSpec:
     needs_tau: bool
     min_side: int
     undefined: str
+    batch: Callable | None = None
+    prepare: Callable | None = None
 
 
 def column_specs(columns: Sequence[str]) -> tuple[ColumnSpec, ...]:
@@ -415,5 +421,5 @@ def column_specs(columns: Sequence[str]) -> tuple[ColumnSpec, ...]:
     for c in columns:
         info = column_info(c)
         out.append(ColumnSpec(c, metric_kind(c), info.compute or info.fn, info.from_similarity, info.needs_tau,
-                              info.min_side, info.undefined))
+                              info.min_side, info.undefined, info.batch, info.prepare))
     return tuple(out)

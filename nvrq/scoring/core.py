@@ -239,22 +239,31 @@ def column_seconds(columns: Sequence[str], model_columns, timings: dict) -> list
 
 def _pixel_columns(batch: CropBatch, specs, times: dict) -> dict[str, np.ndarray]:
     """Encoder-free columns (P,) per spec: a ``pair`` one compares the GT crop with the render
-    crop resized to the GT crop's size; a ``render`` one scores the raw render crop."""
+    crop resized to the GT crop's size (pair by pair, or, with a ``batch`` kernel, the whole
+    batch in one call); a ``render`` one scores the raw render crop."""
     out = {spec.name: np.empty(len(batch.render_crops)) for spec in specs}
-    full = {s.name: s.kernel for s in specs if s.kind is MetricKind.PAIR}
+    full = {s.name: s.kernel for s in specs if s.kind is MetricKind.PAIR and s.batch is None}
+    whole = {s.name: s.batch for s in specs if s.kind is MetricKind.PAIR and s.batch is not None}
     blind = {s.name: s.kernel for s in specs if s.kind is MetricKind.RENDER}
+    resized = [] if whole else None
     for k, crop in enumerate(batch.render_crops):
         for name, fn in blind.items():
             t0 = time.perf_counter()
             out[name][k] = fn(crop)
             times[name] = times.get(name, 0.0) + time.perf_counter() - t0
-        if full:
+        if full or whole:
             gt = batch.gt_crops[batch.gt_index[k]]
             rs = resize_to(crop, gt.shape[0], gt.shape[1])
+            if whole:
+                resized.append(rs)
         for name, fn in full.items():
             t0 = time.perf_counter()
             out[name][k] = fn(gt, rs)
             times[name] = times.get(name, 0.0) + time.perf_counter() - t0
+    for name, fn in whole.items() if resized else ():  # a network over the batch: each GT crop run once
+        t0 = time.perf_counter()
+        out[name] = fn(batch.gt_crops, batch.gt_index, resized)
+        times[name] = times.get(name, 0.0) + time.perf_counter() - t0
     return out
 
 

@@ -325,7 +325,8 @@ def resolve_plan(metrics, *, encoder: EncoderConfig | str | None = None, encoder
     ------
     InputError
         Naming ``metrics`` (an unknown name, with the closest spelling; two encoders),
-        ``encoder``, ``tau``, ``batch_size`` or ``max_pairs``.
+        ``encoder``, ``tau``, ``batch_size`` or ``max_pairs``; or ``weights`` when a learned
+        metric's weights are not found (the message names the install command).
     """
     raw = comma_list(metrics) if isinstance(metrics, str) else [str(m) for m in metrics]
     given = encoder.name if isinstance(encoder, EncoderConfig) else encoder
@@ -334,6 +335,9 @@ def resolve_plan(metrics, *, encoder: EncoderConfig | str | None = None, encoder
     check_int("batch_size", batch_size)
     check_int("max_pairs", max_pairs)
     specs = column_specs(columns)
+    for spec in specs:
+        if spec.prepare is not None:  # learned metrics: their weights found and loaded now
+            spec.prepare()
     tau, source = _plan_tau(specs, name, tau, tau_config)
     config = None
     if any(s.kind is MetricKind.ENCODER for s in specs):

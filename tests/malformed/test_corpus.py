@@ -982,10 +982,10 @@ for _n, _prog, _argv, _f in MESSAGE_CASES:
 
 # --- issue 34 / 38 (scoring plan): unknown metric spellings, every corrupt image at once ---------
 
-@case("arguments", "score --metrics lpips names pyiqa:lpips")
+@case("arguments", "score --metrics musiq names pyiqa:musiq")
 def _(world, tmp):
-    return "nvrq", ["score", str(world / "toy" / "pairs.csv"), "--metrics", "lpips", "--out",
-                    str(tmp / "m.csv")], ["--metrics", "lpips", "did you mean pyiqa:lpips?"]
+    return "nvrq", ["score", str(world / "toy" / "pairs.csv"), "--metrics", "musiq", "--out",
+                    str(tmp / "m.csv")], ["--metrics", "musiq", "did you mean pyiqa:musiq?"]
 
 
 @case("arguments", "score --metrics PSNR names psnr")

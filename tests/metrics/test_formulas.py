@@ -53,7 +53,7 @@ def test_nvrq_ca_rejects_bad_tau():
 def test_resolve_metrics_names_and_errors():
     assert resolve_metrics(["nvrq_ca:clip-b16", "gmsd"], "clip-b16") == ["nvrq_ca:clip-b16", "gmsd"]
     with pytest.raises(InputError, match="^metrics: "):  # the library names its parameter
-        resolve_metrics(["lpips"], "clip-b16")
+        resolve_metrics(["musiq"], "clip-b16")
     with pytest.raises(InputError):
         resolve_metrics(["s_det"], "clip-b16")  # a proxy, not computed by score
     with pytest.raises(InputError):

@@ -130,7 +130,8 @@ def test_help_lists_the_registry(cosine, capsys):
             assert (name if info.members is None else f"{name}:NAME") in text, name
 
 
-@pytest.mark.parametrize("given, hint", [("lpips", "pyiqa:lpips"), ("PSNR", "psnr"), ("nvrq-ca", "nvrq_ca")])
+@pytest.mark.parametrize("given, hint", [("musiq", "pyiqa:musiq"), ("PSNR", "psnr"), ("nvrq-ca", "nvrq_ca"),
+                                         ("LPIPS", "lpips")])
 def test_unknown_metric_names_its_closest_spelling(given, hint, tiny_scene, tmp_path, capsys):
     table = tmp_path / "pairs.csv"
     tiny_scene[1].to_csv(table, index=False)
