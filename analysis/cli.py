@@ -272,6 +272,7 @@ def _nta_metrics(args):
         path = Path(tmp) / "nta_iou.csv"
         write_table(nta.loc[:, ["pair_id"]].assign(nta_iou=nta["iou"].to_numpy()), path)
         args.metrics_tables = [*args.metrics_tables, str(path)]
+        args.nta_table = {str(path): args.nta}  # the temporary table stands for the --nta file
         if "nta_iou" not in args.lower_better + args.higher_better:
             args.higher_better = [*args.higher_better, "nta_iou"]
         yield
@@ -325,6 +326,11 @@ def _analyze(args) -> int:
         analysis = _run_pairs(args)
     else:
         analysis = _run_ratings(args)
+    for tmp, given in getattr(args, "nta_table", {}).items():  # notes name the user's --nta file
+        from analysis.report import path_from_report
+
+        shown = f"--nta {path_from_report(given, args.out)}"
+        analysis.notes = [n.replace(tmp, shown) for n in analysis.notes]
     if args.sets is not None and analysis.methods is not None:
         from data_schema.tables import read_table
 

@@ -82,16 +82,18 @@ def _n(v: float) -> str:
 
 
 def _part(r) -> str:
-    """One direction's text: ``'2.0 m left [1.5, 2.5]'``, or why there is no number."""
+    """One direction's text: ``'2 m left (crossing 2.3 [1.9, 2.6])'``, or why there is no
+    number; a bracket follows the number it is the interval of (the crossing, or the whole grid
+    when nothing fails)."""
     unit = unit_of(r["axis"])
     if r["reason"].startswith("fails at"):
         return f"not even at the recorded view ({r['direction']})"
-    text = f"{_n(r['horizon'])} {unit} {r['direction']}"
+    ci = f" [{_n(r['ci_lo'])}, {_n(r['ci_hi'])}]" if math.isfinite(r["ci_lo"]) else ""
     if r["reason"].startswith("beyond the grid"):
-        text = f"at least {_n(r['horizon'])} {unit} {r['direction']} (all of the grid)"
-    if math.isfinite(r["ci_lo"]):
-        text += f" [{_n(r['ci_lo'])}, {_n(r['ci_hi'])}]"
-    return text
+        return f"at least {_n(r['horizon'])} {unit} {r['direction']} (all of the grid{ci})"
+    if math.isfinite(r["crossing"]):
+        return f"{_n(r['horizon'])} {unit} {r['direction']} (crossing {_n(r['crossing'])}{ci})"
+    return f"{_n(r['horizon'])} {unit} {r['direction']}"
 
 
 def method_sentence(method: str, table: pd.DataFrame) -> str:
@@ -107,8 +109,8 @@ def method_sentence(method: str, table: pd.DataFrame) -> str:
     Returns
     -------
     str
-        e.g. ``'sharp: automobile stays good to 2 m left [1.5, 2.5] and 1 m right;
-        person to 1 m left and 1 m right.'`` (brackets: the 95% interval of the crossing).
+        e.g. ``'sharp: automobile stays good to 2 m left (crossing 2.3 [1.9, 2.6]) and 1 m
+        right; person to 1 m left and 1 m right.'`` (brackets: the 95% interval of the crossing).
     """
     t = table[table["method"] == method]
     parts = []
@@ -170,9 +172,16 @@ def share_figure(curves: pd.DataFrame, table: pd.DataFrame, method: str, share: 
     return fig
 
 
+#: The heat strip's colours of a cell without a horizon: no objects of that row in that
+#: window, and objects that already fail at the recorded view.
+NO_DATA_COLOUR, FAILS_COLOUR = "0.85", "#b2182b"
+
+
 def timeline_figure(timeline: pd.DataFrame) -> Figure | None:
     """A heat strip: one row per method, class, camera and direction, one column per window,
-    the colour the horizon (grey: fails at the recorded view); None without rows.
+    the colour the horizon; a window without objects of a row and one whose objects fail at
+    the recorded view each have their own colour and legend entry (below the strip); None
+    without rows.
 
     Parameters
     ----------
@@ -185,29 +194,43 @@ def timeline_figure(timeline: pd.DataFrame) -> Figure | None:
     """
     if timeline is None or timeline.empty:
         return None
+    from matplotlib.colors import to_rgba
+    from matplotlib.patches import Patch
+
     t = timeline.assign(row=timeline["method"] + " · " + timeline["class"] + " · " + timeline["camera"].astype(str)
                         + " · " + timeline["axis"] + " " + timeline["direction"],
-                        t=(timeline["t0_us"] - timeline.groupby("clip_id")["t0_us"].transform("min")) / 1e6)
-    wide = t.pivot_table(index="row", columns=["clip_id", "t"], values="horizon", aggfunc="first")
-    fig = Figure(figsize=(max(5.0, 0.5 * wide.shape[1] + 4), max(1.5, 0.25 * wide.shape[0] + 1)),
+                        t=(timeline["t0_us"] - timeline.groupby("clip_id")["t0_us"].transform("min")) / 1e6,
+                        seen=1.0)
+    wide = t.pivot_table(index="row", columns=["clip_id", "t"], values="horizon", aggfunc="first", dropna=False)
+    seen = t.pivot_table(index="row", columns=["clip_id", "t"], values="seen", aggfunc="first").reindex_like(wide)
+    h = wide.to_numpy(np.float64)
+    present = np.isfinite(seen.to_numpy(np.float64))
+    fig = Figure(figsize=(max(5.0, 0.5 * wide.shape[1] + 4), max(2.4, 0.25 * wide.shape[0] + 1.6)),
                  layout="constrained")
     ax = fig.add_subplot()
-    cmap = plots_cmap()
-    im = ax.imshow(np.ma.masked_invalid(wide.to_numpy(np.float64)), aspect="auto", cmap=cmap,
-                   interpolation="nearest")
+    im = ax.imshow(np.ma.masked_invalid(h), aspect="auto", cmap=plots_cmap(), interpolation="nearest")
+    empty = np.zeros((*h.shape, 4))
+    empty[~present] = to_rgba(NO_DATA_COLOUR)
+    empty[present & ~np.isfinite(h)] = to_rgba(FAILS_COLOUR)
+    ax.imshow(empty, aspect="auto", interpolation="nearest")
     ax.set_yticks(range(wide.shape[0]), wide.index, fontsize=6)
     ax.set_xticks(range(wide.shape[1]), [f"{c}\n{s:g}s" if len(set(wide.columns.get_level_values(0))) > 1
                                          else f"{s:g}s" for c, s in wide.columns], fontsize=6)
     ax.set_xlabel("window start", fontsize=8)
-    fig.colorbar(im, ax=ax, label="horizon (m or deg; grey: fails at 0)")
+    bar = fig.colorbar(im, ax=ax)
+    bar.set_label("horizon (m or deg)", fontsize=7)
+    bar.ax.tick_params(labelsize=6)
+    fig.legend([Patch(color=FAILS_COLOUR), Patch(color=NO_DATA_COLOUR)],
+               ["not good even at the recorded view", "no objects in this window"],
+               loc="outside lower center", ncols=2, fontsize=7, frameon=False)
     return fig
 
 
 def plots_cmap():
-    """The heat strip's colour map: viridis, grey where the horizon is empty."""
+    """The heat strip's colour map: viridis; an empty cell is drawn over (:func:`timeline_figure`)."""
     from matplotlib import colormaps
 
-    return colormaps["viridis"].with_extremes(bad="0.8")
+    return colormaps["viridis"].with_extremes(bad=NO_DATA_COLOUR)
 
 
 def write_horizon(result, d) -> list[dict]:
