@@ -30,6 +30,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from analysis import plots
+from analysis.text import interval_text
 from data_schema.tables import write_table
 from nvrq.horizon import DIRECTIONS, HORIZON_COLUMNS, TIMELINE_COLUMNS, unit_of
 
@@ -265,6 +266,18 @@ def write_horizon(result, d) -> list[dict]:
     return out
 
 
+def _table_display(table: pd.DataFrame) -> pd.DataFrame:
+    """horizon.csv for the page: the crossing and its interval in one cell (the bracket beside
+    the number it belongs to), the threshold columns left to the sentence above the table."""
+    t = table.drop(columns=["metric", "threshold", "threshold_source"])
+    # nothing fails: the interval belongs to the largest grid offset, the horizon itself
+    est = t["crossing"].where(t["crossing"].notna() | ~t["reason"].str.startswith("beyond the grid"), t["horizon"])
+    cross = [interval_text(c, lo, hi) for c, lo, hi in zip(est, t["ci_lo"], t["ci_hi"], strict=True)]
+    t = t.drop(columns=["crossing", "ci_lo", "ci_hi"])
+    t.insert(t.columns.get_loc("horizon") + 1, "crossing [95% interval]", cross)
+    return t
+
+
 def context(result, figures: list[dict], table) -> dict:
     """The report template's variables of the "Trust horizon" section (empty without a result).
 
@@ -292,7 +305,7 @@ def context(result, figures: list[dict], table) -> dict:
             f"a cluster bootstrap of tracks ({o.n_boot} replicates; none below {o.min_clusters} tracks). "
             "Every row: horizon.csv, horizon.json; per window of "
             f"{o.window_s:g} s: horizon_timeline.csv.")
-    shown = result.table.drop(columns=["metric", "threshold", "threshold_source"])
+    shown = _table_display(result.table)
     return {"horizon_sentences": [method_sentence(m, result.table) for m in sorted(result.table["method"].unique())],
             "horizon_text": text, "horizon_table": table(shown), "horizon_figures": figures,
             "horizon_fits": table(result.fits) if result.fits is not None else "",
