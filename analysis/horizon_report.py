@@ -166,9 +166,9 @@ def share_figure(curves: pd.DataFrame, table: pd.DataFrame, method: str, share: 
         ax.set_ylim(-0.02, 1.02)
         ax.set_xlabel(f"{axis} ({unit_of(axis)}; {' < 0 < '.join(DIRECTIONS[axis][::-1])})", fontsize=8)
         ax.set_ylabel("share of good objects", fontsize=8)
-        ax.legend(fontsize=7, loc="lower left")
     for ax in grid.ravel()[len(axes_):]:
         ax.set_visible(False)
+    plots.legend_below(fig, grid.ravel()[0], ncols=min(4, c["label_class"].nunique()))  # one legend: the classes
     fig.suptitle(f"{method}: share of good objects (dashed: {share:g})", fontsize=9)
     return fig
 

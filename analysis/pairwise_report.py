@@ -175,7 +175,7 @@ def agreement_plot(agreement: pd.DataFrame) -> Figure | None:
         ax.axvline(c["agreement"], color="C3", label="raters (ceiling)")
         if np.isfinite(c["ci_lo"]):
             ax.axvspan(c["ci_lo"], c["ci_hi"], color="C3", alpha=0.15, linewidth=0)
-        ax.legend(fontsize=7, loc="lower right")
+        plots.legend_below(fig, ax)
     ax.axvline(0.5, color="0.5", linestyle=":", linewidth=0.8)
     ax.set_xlim(0, 1)
     ax.set_xlabel("2AFC agreement with the raters' choices", fontsize=8)

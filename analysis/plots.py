@@ -639,5 +639,5 @@ def agreement_plot(summary: pd.DataFrame, *, target_label: str = "GVF"):
     ax.invert_yaxis()
     ax.set_xlim(0, 1)
     ax.set_xlabel(f"|SRCC| with {target_label} (within views: empty for the view-only rows)")
-    ax.legend(fontsize=7, loc="lower right")
+    legend_below(fig, ax, ncols=2)
     return fig
