@@ -9,7 +9,12 @@ import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.lines import Line2D
 
-from tests.analysis.demo_reports import binary_report, leaderboard_report, pairwise_report, recording_figures
+from tests.analysis.demo_reports import (
+    binary_report,
+    leaderboard_report,
+    pairwise_report,
+    recording_figures,
+)
 
 #: a box may overshoot the figure's edge by this many pixels (antialiasing of the frame)
 EDGE_PX = 1.0

@@ -12,7 +12,13 @@ import pandas as pd
 from matplotlib.colors import to_rgba
 
 import nvrq.horizon as hz
-from analysis.horizon_report import FAILS_COLOUR, NO_DATA_COLOUR, _table_display, method_sentence, timeline_figure
+from analysis.horizon_report import (
+    FAILS_COLOUR,
+    NO_DATA_COLOUR,
+    _table_display,
+    method_sentence,
+    timeline_figure,
+)
 
 
 def _random_scores(seed: int) -> pd.DataFrame:

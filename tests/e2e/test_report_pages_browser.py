@@ -66,7 +66,7 @@ def test_demo_reports_read_at_desktop_and_phone_sizes(tmp_path):
                     assert page.evaluate("document.documentElement.scrollWidth") <= width, where
                     tables = page.evaluate(TABLES)
                     assert tables, where
-                    for box_w, scroll_w, reach, lines, title in tables:
+                    for box_w, _scroll_w, reach, lines, title in tables:
                         assert box_w > 0, f"{where}: a table outside a scroll box ({title})"
                         assert reach, f"{where}: the last column of a table after {title!r} cannot be reached"
                         assert lines <= 3.05, f"{where}: a row {lines:.1f} lines tall after {title!r}"
