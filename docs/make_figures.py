@@ -4,7 +4,7 @@ Usage: ``python docs/make_figures.py OUT`` (needs Debian's Chromium at /usr/bin/
 Writes ``docs/rater_ui.png`` (the rater app at 1400x900, signed in, first training item),
 copies ``OUT/report/tent.png`` to ``docs/tent.png`` and writes ``docs/img/report-1280x800.png``
 and ``docs/img/report-390x844.png`` (``OUT/report/report.html`` in a desktop and a phone
-window, at its "Metrics against GVF" table). ``python docs/make_figures.py STUDY`` (a study
+window, at its "Metrics against GVF" table; on the phone scrolled sideways). ``python docs/make_figures.py STUDY`` (a study
 folder, e.g. ``OUT/study``) writes ``docs/rater_ui.png`` only.
 """
 
@@ -54,7 +54,12 @@ def report_shots(report: Path) -> list[Path]:
         for width, height in REPORT_SIZES:
             page = browser.new_page(viewport={"width": width, "height": height})
             page.goto(report.resolve().as_uri())
-            page.locator("h2", has_text="Metrics against").first.evaluate("h => h.scrollIntoView()")
+            heading = page.locator("h2", has_text="Metrics against").first
+            if width >= 600:
+                heading.evaluate("h => h.scrollIntoView()")
+            else:  # a phone: the table itself, scrolled sideways (its first column stays)
+                heading.evaluate("h => { let e = h.nextElementSibling; while (!e.matches('.scroll'))"
+                                 " e = e.nextElementSibling; e.scrollIntoView(); e.scrollLeft = 240; }")
             path = DOCS / "img" / f"report-{width}x{height}.png"
             page.screenshot(path=str(path))
             Image.open(path).convert("RGB").quantize(colors=128).save(path, optimize=True)
