@@ -278,6 +278,20 @@ def _nta_metrics(args):
         yield
 
 
+def _notes_for_report(notes: list[str], args) -> list[str]:
+    """The notes as the report shows them: an input named by an absolute path is named by its
+    path relative to the report folder, and the temporary table of ``--nta`` by the user's file."""
+    from analysis.report import path_from_report
+
+    shown = {tmp: f"--nta {path_from_report(given, args.out)}" for tmp, given in getattr(args, "nta_table", {}).items()}
+    for p in args.metrics_tables:
+        if Path(p).is_absolute() and str(p) not in shown:
+            shown[str(p)] = path_from_report(p, args.out)
+    for old, new in shown.items():
+        notes = [n.replace(old, new) for n in notes]
+    return notes
+
+
 def _report_inputs(args) -> dict:
     """What a report is made from, for its marker (data_schema.outputs.mark_report)."""
     paths = {"RATINGS": args.ratings, "--pairs": args.pairs, "--metrics-table": args.metrics_tables,
@@ -326,11 +340,7 @@ def _analyze(args) -> int:
         analysis = _run_pairs(args)
     else:
         analysis = _run_ratings(args)
-    for tmp, given in getattr(args, "nta_table", {}).items():  # notes name the user's --nta file
-        from analysis.report import path_from_report
-
-        shown = f"--nta {path_from_report(given, args.out)}"
-        analysis.notes = [n.replace(tmp, shown) for n in analysis.notes]
+    analysis.notes = _notes_for_report(analysis.notes, args)
     if args.sets is not None and analysis.methods is not None:
         from data_schema.tables import read_table
 
