@@ -9,25 +9,13 @@ import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.lines import Line2D
 
-from tests.analysis.demo_reports import (
-    binary_report,
-    leaderboard_report,
-    pairwise_report,
-    recording_figures,
-)
-
 #: a box may overshoot the figure's edge by this many pixels (antialiasing of the frame)
 EDGE_PX = 1.0
 
 
 @pytest.fixture(scope="module")
-def figures(tmp_path_factory):
-    d = tmp_path_factory.mktemp("reports")
-    with pytest.MonkeyPatch.context() as mp, recording_figures(mp) as seen:
-        binary_report(d / "binary")
-        leaderboard_report(d / "methods")
-        pairwise_report(d / "methods")
-    return dict(seen)
+def figures(demo_report_pages):
+    return demo_report_pages[2]
 
 
 def _drawn(fig):

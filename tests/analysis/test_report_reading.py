@@ -11,13 +11,12 @@ import pandas as pd
 import pytest
 
 from analysis.report import path_from_report
-from tests.analysis.demo_reports import leaderboard_report, pairwise_report
 
 
 @pytest.fixture(scope="module")
-def pages(tmp_path_factory):
-    d = tmp_path_factory.mktemp("reading")
-    return d, leaderboard_report(d / "methods"), pairwise_report(d / "methods")
+def pages(demo_report_pages):
+    root, built, _ = demo_report_pages
+    return root, built["leaderboard"], built["pairwise"]
 
 
 def test_path_from_report_is_relative_to_the_report_folder(tmp_path):

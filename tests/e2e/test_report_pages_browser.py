@@ -12,7 +12,6 @@ from pathlib import Path
 
 import pytest
 
-from tests.analysis.demo_reports import demo_reports
 from tests.e2e.browser_support import ARGS, CHROMIUM
 
 pytestmark = [pytest.mark.browser,
@@ -50,10 +49,10 @@ FIGURES = """() => Array.from(document.querySelectorAll('img')).map(i => {
 })"""
 
 
-def test_demo_reports_read_at_desktop_and_phone_sizes(tmp_path):
+def test_demo_reports_read_at_desktop_and_phone_sizes(demo_report_pages):
     from playwright.sync_api import sync_playwright
 
-    pages = demo_reports(tmp_path)
+    pages = demo_report_pages[1]
     shots = os.environ.get("NVRQ_SHOTS")
     with sync_playwright() as pw:
         browser = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
