@@ -316,9 +316,24 @@ def _nta_metrics(args):
         path = Path(tmp) / "nta_iou.csv"
         write_table(nta.loc[:, ["pair_id"]].assign(nta_iou=nta["iou"].to_numpy()), path)
         args.metrics_tables = [*args.metrics_tables, str(path)]
+        args.nta_table = {str(path): args.nta}  # the temporary table stands for the --nta file
         if "nta_iou" not in args.lower_better + args.higher_better:
             args.higher_better = [*args.higher_better, "nta_iou"]
         yield
+
+
+def _notes_for_report(notes: list[str], args) -> list[str]:
+    """The notes as the report shows them: an input named by an absolute path is named by its
+    path relative to the report folder, and the temporary table of ``--nta`` by the user's file."""
+    from analysis.report import path_from_report
+
+    shown = {tmp: f"--nta {path_from_report(given, args.out)}" for tmp, given in getattr(args, "nta_table", {}).items()}
+    for p in args.metrics_tables:
+        if Path(p).is_absolute() and str(p) not in shown:
+            shown[str(p)] = path_from_report(p, args.out)
+    for old, new in shown.items():
+        notes = [n.replace(old, new) for n in notes]
+    return notes
 
 
 def _report_inputs(args) -> dict:
@@ -373,6 +388,7 @@ def _analyze(args) -> int:
         analysis = _run_pairs(args)
     else:
         analysis = _run_ratings(args)
+    analysis.notes = _notes_for_report(analysis.notes, args)
     if args.sets is not None and analysis.methods is not None:
         from analysis.side_tables import check_sets
         from data_schema.tables import read_table

@@ -31,6 +31,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from analysis import plots
+from analysis.text import interval_text
 from data_schema.tables import write_table
 from nvrq.horizon import DIRECTIONS, HORIZON_COLUMNS, TIMELINE_COLUMNS, unit_of
 
@@ -87,16 +88,18 @@ def _n(v: float) -> str:
 
 
 def _part(r) -> str:
-    """One direction's text: ``'2.0 m left [1.5, 2.5]'``, or why there is no number."""
+    """One direction's text: ``'2 m left (crossing 2.3 [1.9, 2.6])'``, or why there is no
+    number; a bracket follows the number it is the interval of (the crossing, or the whole grid
+    when nothing fails)."""
     unit = unit_of(r["axis"])
     if r["reason"].startswith("fails at"):
         return f"not even at the recorded view ({r['direction']})"
-    text = f"{_n(r['horizon'])} {unit} {r['direction']}"
+    ci = f" [{_n(r['ci_lo'])}, {_n(r['ci_hi'])}]" if math.isfinite(r["ci_lo"]) else ""
     if r["reason"].startswith("beyond the grid"):
-        text = f"at least {_n(r['horizon'])} {unit} {r['direction']} (all of the grid)"
-    if math.isfinite(r["ci_lo"]):
-        text += f" [{_n(r['ci_lo'])}, {_n(r['ci_hi'])}]"
-    return text
+        return f"at least {_n(r['horizon'])} {unit} {r['direction']} (all of the grid{ci})"
+    if math.isfinite(r["crossing"]):
+        return f"{_n(r['horizon'])} {unit} {r['direction']} (crossing {_n(r['crossing'])}{ci})"
+    return f"{_n(r['horizon'])} {unit} {r['direction']}"
 
 
 def method_sentence(method: str, table: pd.DataFrame) -> str:
@@ -112,8 +115,8 @@ def method_sentence(method: str, table: pd.DataFrame) -> str:
     Returns
     -------
     str
-        e.g. ``'sharp: automobile stays good to 2 m left [1.5, 2.5] and 1 m right;
-        person to 1 m left and 1 m right.'`` (brackets: the 95% interval of the crossing).
+        e.g. ``'sharp: automobile stays good to 2 m left (crossing 2.3 [1.9, 2.6]) and 1 m
+        right; person to 1 m left and 1 m right.'`` (brackets: the 95% interval of the crossing).
     """
     t = table[table["method"] == method]
     parts = []
@@ -168,16 +171,23 @@ def share_figure(curves: pd.DataFrame, table: pd.DataFrame, method: str, share: 
         ax.set_ylim(-0.02, 1.02)
         ax.set_xlabel(f"{axis} ({unit_of(axis)}; {' < 0 < '.join(DIRECTIONS[axis][::-1])})", fontsize=8)
         ax.set_ylabel("share of good objects", fontsize=8)
-        ax.legend(fontsize=7, loc="lower left")
     for ax in grid.ravel()[len(axes_):]:
         ax.set_visible(False)
+    plots.legend_below(fig, grid.ravel()[0], ncols=min(4, c["label_class"].nunique()))  # one legend: the classes
     fig.suptitle(f"{method}: share of good objects (dashed: {share:g})", fontsize=9)
     return fig
 
 
+#: The heat strip's colours of a cell without a horizon: no objects of that row in that
+#: window, and objects that already fail at the recorded view.
+NO_DATA_COLOUR, FAILS_COLOUR = "0.85", "#b2182b"
+
+
 def timeline_figure(timeline: pd.DataFrame) -> Figure | None:
     """A heat strip: one row per method, class, camera and direction, one column per window,
-    the colour the horizon (grey: fails at the recorded view); None without rows.
+    the colour the horizon; a window without objects of a row and one whose objects fail at
+    the recorded view each have their own colour and legend entry (below the strip); None
+    without rows.
 
     Parameters
     ----------
@@ -190,29 +200,43 @@ def timeline_figure(timeline: pd.DataFrame) -> Figure | None:
     """
     if timeline is None or timeline.empty:
         return None
+    from matplotlib.colors import to_rgba
+    from matplotlib.patches import Patch
+
     t = timeline.assign(row=timeline["method"] + " · " + timeline["class"] + " · " + timeline["camera"].astype(str)
                         + " · " + timeline["axis"] + " " + timeline["direction"],
-                        t=(timeline["t0_us"] - timeline.groupby("clip_id")["t0_us"].transform("min")) / 1e6)
-    wide = t.pivot_table(index="row", columns=["clip_id", "t"], values="horizon", aggfunc="first")
-    fig = Figure(figsize=(max(5.0, 0.5 * wide.shape[1] + 4), max(1.5, 0.25 * wide.shape[0] + 1)),
+                        t=(timeline["t0_us"] - timeline.groupby("clip_id")["t0_us"].transform("min")) / 1e6,
+                        seen=1.0)
+    wide = t.pivot_table(index="row", columns=["clip_id", "t"], values="horizon", aggfunc="first", dropna=False)
+    seen = t.pivot_table(index="row", columns=["clip_id", "t"], values="seen", aggfunc="first").reindex_like(wide)
+    h = wide.to_numpy(np.float64)
+    present = np.isfinite(seen.to_numpy(np.float64))
+    fig = Figure(figsize=(max(5.0, 0.5 * wide.shape[1] + 4), max(2.4, 0.25 * wide.shape[0] + 1.6)),
                  layout="constrained")
     ax = fig.add_subplot()
-    cmap = plots_cmap()
-    im = ax.imshow(np.ma.masked_invalid(wide.to_numpy(np.float64)), aspect="auto", cmap=cmap,
-                   interpolation="nearest")
+    im = ax.imshow(np.ma.masked_invalid(h), aspect="auto", cmap=plots_cmap(), interpolation="nearest")
+    empty = np.zeros((*h.shape, 4))
+    empty[~present] = to_rgba(NO_DATA_COLOUR)
+    empty[present & ~np.isfinite(h)] = to_rgba(FAILS_COLOUR)
+    ax.imshow(empty, aspect="auto", interpolation="nearest")
     ax.set_yticks(range(wide.shape[0]), wide.index, fontsize=6)
     ax.set_xticks(range(wide.shape[1]), [f"{c}\n{s:g}s" if len(set(wide.columns.get_level_values(0))) > 1
                                          else f"{s:g}s" for c, s in wide.columns], fontsize=6)
     ax.set_xlabel("window start", fontsize=8)
-    fig.colorbar(im, ax=ax, label="horizon (m or deg; grey: fails at 0)")
+    bar = fig.colorbar(im, ax=ax)
+    bar.set_label("horizon (m or deg)", fontsize=7)
+    bar.ax.tick_params(labelsize=6)
+    fig.legend([Patch(color=FAILS_COLOUR), Patch(color=NO_DATA_COLOUR)],
+               ["not good even at the recorded view", "no objects in this window"],
+               loc="outside lower center", ncols=2, fontsize=7, frameon=False)
     return fig
 
 
 def plots_cmap():
-    """The heat strip's colour map: viridis, grey where the horizon is empty."""
+    """The heat strip's colour map: viridis; an empty cell is drawn over (:func:`timeline_figure`)."""
     from matplotlib import colormaps
 
-    return colormaps["viridis"].with_extremes(bad="0.8")
+    return colormaps["viridis"].with_extremes(bad=NO_DATA_COLOUR)
 
 
 def threshold_text(result) -> str:
@@ -278,6 +302,18 @@ def write_horizon(result, d) -> list[dict]:
     return out
 
 
+def _table_display(table: pd.DataFrame) -> pd.DataFrame:
+    """horizon.csv for the page: the crossing and its interval in one cell (the bracket beside
+    the number it belongs to), the threshold columns left to the sentence above the table."""
+    t = table.drop(columns=["metric", "threshold", "threshold_source"])
+    # nothing fails: the interval belongs to the largest grid offset, the horizon itself
+    est = t["crossing"].where(t["crossing"].notna() | ~t["reason"].str.startswith("beyond the grid"), t["horizon"])
+    cross = [interval_text(c, lo, hi) for c, lo, hi in zip(est, t["ci_lo"], t["ci_hi"], strict=True)]
+    t = t.drop(columns=["crossing", "ci_lo", "ci_hi"])
+    t.insert(t.columns.get_loc("horizon") + 1, "crossing [95% interval]", cross)
+    return t
+
+
 def context(result, figures: list[dict], table) -> dict:
     """The report template's variables of the "Trust horizon" section (empty without a result).
 
@@ -306,7 +342,7 @@ def context(result, figures: list[dict], table) -> dict:
             + ("; the thresholds per view: horizon_view_thresholds.csv" if result.views is not None else "")
             + "; per window of "
             f"{o.window_s:g} s: horizon_timeline.csv.")
-    shown = result.table.drop(columns=["metric", "threshold", "threshold_source"])
+    shown = _table_display(result.table)
     return {"horizon_sentences": [method_sentence(m, result.table) for m in sorted(result.table["method"].unique())],
             "horizon_text": text, "horizon_table": table(shown), "horizon_figures": figures,
             "horizon_fits": table(result.fits) if result.fits is not None else "",

@@ -37,7 +37,7 @@ from data_schema.perturbation import AXES, AXIS_UNITS, PERTURBATION_COLUMNS
 
 __all__ = ["context", "view_text", "p_text", "leaderboard_display", "paired_display",
            "class_offset_display", "leaderboard_text", "methods_tent_plot", "method_class_heatmap",
-           "class_offset_heatmap", "method_figures"]
+           "class_offset_heatmap", "method_figures", "headline_lines"]
 
 _AXIS_OF = dict(zip(PERTURBATION_COLUMNS, AXES, strict=True))
 
@@ -265,6 +265,37 @@ def leaderboard_text(res: MethodsResult) -> str:
     return text
 
 
+def headline_lines(res: MethodsResult) -> list[str]:
+    """One line per headline number of the leaderboard page: what it is, over which objects,
+    and what a pooled number pools.
+
+    Parameters
+    ----------
+    res : MethodsResult
+        The comparison (its ranking metric and view, its metrics, the score-sets table).
+
+    Returns
+    -------
+    list of str
+        Full sentences, the ranking metric's first.
+    """
+    pooled = ("every view but the recorded one pooled: each object at each non-zero offset counts once"
+              if res.rank_view == "off-path" else "the recorded view only")
+    lines = [f"{res.rank_metric} ({res.rank_view}) in the leaderboard: per method, the mean over its "
+             f"objects of the {res.rank_view} views ({pooled}), with a bootstrap interval over tracks."]
+    if "nta_iou" in res.metrics:
+        lines.append("nta_iou: the IoU of the detector's box with the object's projected box on the "
+                     "method's render (0 where it is missed); the off-path row of the paired comparisons "
+                     "pools every box at every non-zero offset, the off-path table gives it per offset.")
+    for m in (m for m in res.metrics if m.startswith("psnr")):
+        lines.append(f"{m}: the PSNR of the render crop against the ground-truth crop, in dB, per object.")
+    if res.sets is not None and len(res.sets):
+        lines.append("fd and kid (off-path table): Frechet and kernel inception distances between the set "
+                     "of renders and the set of ground-truth images of one method and offset, on whole "
+                     "frames and on object crops; one number per set, not per object.")
+    return lines
+
+
 def _counts(t: pd.DataFrame, m: str) -> str:
     """``'n=80, 10 tracks'`` of method ``m``'s off-path rows (else any)."""
     s = t[(t["method"] == m) & (t["breakdown"] == "off-path")]
@@ -483,10 +514,11 @@ def context(res: MethodsResult | None, table) -> dict:
     """
     if res is None:
         return {"leaderboard_table": "", "leaderboard_text": "", "leaderboard_paired": "",
-                "leaderboard_notes": [], "rank_metric": "", "leaderboard_cells": "", "off_path_table": ""}
+                "leaderboard_notes": [], "rank_metric": "", "leaderboard_cells": "", "off_path_table": "",
+                "headline_lines": []}
     cells = class_offset_display(res)
     return {"leaderboard_table": table(leaderboard_display(res)),
-            "leaderboard_text": leaderboard_text(res),
+            "leaderboard_text": leaderboard_text(res), "headline_lines": headline_lines(res),
             "leaderboard_paired": table(paired_display(res)),
             "leaderboard_cells": table(cells) if len(cells) else "",
             "leaderboard_notes": res.notes, "rank_metric": res.rank_metric,

@@ -19,15 +19,17 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from analysis import plots
+from analysis.bootstrap import MIN_RATERS
+from analysis.jod import MAX_JOD_BOOT
 from analysis.pairwise import CEILING_ROW, PairwiseAnalysis
 from analysis.plots import VIEW_AXIS_LABELS
-from analysis.report import rater_display, render_pages, write_report_folder
+from analysis.report import path_from_report, rater_display, render_pages, write_report_folder
 from analysis.text import interval_text, offset_text, screening_text
 from annotate.screening import ScreenRule
 from data_schema.csv_safe import write_people_table as write_table
 from data_schema.text import plural
 
-__all__ = ["write_pairwise_report", "bt_display", "win_prob_plot", "agreement_plot"]
+__all__ = ["write_pairwise_report", "bt_display", "jod_display", "win_prob_plot", "agreement_plot"]
 
 
 def bt_display(bt: pd.DataFrame, axis: str = "all") -> pd.DataFrame:
@@ -60,6 +62,38 @@ def bt_display(bt: pd.DataFrame, axis: str = "all") -> pd.DataFrame:
                      "reason": r.reason if isinstance(r.reason, str) else ""})
     out = pd.DataFrame(rows)
     return out.drop(columns="BT score") if bt["method"].nunique() == 2 and len(out) else out
+
+
+def jod_display(jod: pd.DataFrame, axis: str = "all") -> pd.DataFrame:
+    """The JOD rows of one view axis as strings, best first within each view.
+
+    Parameters
+    ----------
+    jod : pandas.DataFrame
+        ``jod.csv`` (:data:`analysis.jod.JOD_COLUMNS`).
+    axis : str
+        ``all`` (the pooled rows) or a view axis.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per (view, method), text cells: ``method``, ``votes``, ``JOD`` with its
+        interval, ``P(above next)``, ``P(prefer to next)`` and ``reason``.
+    """
+    t = jod[jod["axis"] == axis].copy()
+    t["_view"] = t["offset"].fillna(0.0)
+    t = t.sort_values(["_view", "jod"], ascending=[True, False], kind="stable", na_position="last")
+    rows = []
+    for r in t.itertuples():
+        nxt = r.next_method if isinstance(r.next_method, str) else ""
+        rows.append({**({} if axis == "all" else {"view": offset_text(r.offset)}), "method": r.method,
+                     "votes": f"{r.n_votes:g}", "JOD": interval_text(r.jod, r.jod_ci_lo, r.jod_ci_hi, 2),
+                     "next method": nxt,
+                     "P(above next)": "" if not nxt or not np.isfinite(r.p_better_than_next)
+                     else f"{r.p_better_than_next:.2f}",
+                     "P(prefer to next)": "" if not nxt else f"{r.p_prefer_next:.2f}",
+                     "reason": r.reason if isinstance(r.reason, str) else ""})
+    return pd.DataFrame(rows)
 
 
 def win_prob_plot(bt: pd.DataFrame, methods: list[str]) -> Figure | None:
@@ -141,7 +175,7 @@ def agreement_plot(agreement: pd.DataFrame) -> Figure | None:
         ax.axvline(c["agreement"], color="C3", label="raters (ceiling)")
         if np.isfinite(c["ci_lo"]):
             ax.axvspan(c["ci_lo"], c["ci_hi"], color="C3", alpha=0.15, linewidth=0)
-        ax.legend(fontsize=7, loc="lower right")
+        plots.legend_below(fig, ax)
     ax.axvline(0.5, color="0.5", linestyle=":", linewidth=0.8)
     ax.set_xlim(0, 1)
     ax.set_xlabel("2AFC agreement with the raters' choices", fontsize=8)
@@ -178,7 +212,18 @@ def _texts(a: PairwiseAnalysis) -> dict:
     sim = (f"{c['raters_simulated']} of {plural(c['raters'], 'rater')} "
            f"{'is' if c['raters_simulated'] == 1 else 'are'} simulated (rater_id starting with "
            "'sim-'): these are not human judgements." if c["raters_simulated"] else "")
-    return {"bt_text": bt_text, "agree_text": agree_text, "screen_text": screen_text, "simulated": sim}
+    jod_text = ("JOD: the same test votes on a Thurstone Case V scale, in just-objectionable "
+                "differences (a method 1 JOD above another is preferred by 75% of observers), fitted "
+                "by maximum likelihood with pwcmp's prior for unanimous pairs and centred to mean 0. "
+                "P(above next): the share of bootstrap replicates in which the method is above the "
+                "next one; P(prefer to next): the share of observers the scale predicts to prefer it. "
+                + (f"Brackets: 95% percentile intervals of a bootstrap over raters "
+                   f"({min(a.n_boot, MAX_JOD_BOOT)} replicates, seed {a.seed}). " if a.n_boot else "")
+                + f"No interval is given from fewer than {MIN_RATERS} raters, without a bootstrap "
+                "(--bootstrap 0), or when the interval would not contain its own estimate; the "
+                "reason column says which.")
+    return {"bt_text": bt_text, "agree_text": agree_text, "screen_text": screen_text, "simulated": sim,
+            "jod_text": jod_text}
 
 
 def _figures(a: PairwiseAnalysis, d: Path) -> list[dict]:
@@ -193,10 +238,14 @@ def _figures(a: PairwiseAnalysis, d: Path) -> list[dict]:
     return figs
 
 
-def _context(a: PairwiseAnalysis, figs, *, table) -> dict:
+def _context(a: PairwiseAnalysis, figs, d: Path, *, table) -> dict:
     views = [table(bt_display(a.bradley_terry, axis)) for axis in dict.fromkeys(a.bradley_terry["axis"])
              if axis != "all"]
-    return {"title": Path(a.votes_path).name, "votes": a.votes_path, "counts": a.counts,
+    jod = a.jod
+    jod_views = [] if jod is None else [table(jod_display(jod, axis)) for axis in dict.fromkeys(jod["axis"])
+                                        if axis != "all"]
+    return {"title": Path(a.votes_path).name, "votes": path_from_report(a.votes_path, d), "counts": a.counts,
+            "jod_table": "" if jod is None else table(jod_display(jod)), "jod_views": jod_views,
             "methods": ", ".join(a.methods), "figures": figs, "notes": a.notes,
             "bt_table": table(bt_display(a.bradley_terry)), "bt_views": views,
             "agreement_table": table(a.agreement), "raters_table": table(rater_display(a.raters)), **_texts(a)}
@@ -209,7 +258,7 @@ def _build(a: PairwiseAnalysis, d: Path) -> None:
     write_table(a.agreement, d / "agreement_2afc.csv")
     write_table(a.raters, d / "raters.csv")
     figs = _figures(a, d)
-    render_pages(d, "pairwise", lambda table: _context(a, figs, table=table))
+    render_pages(d, "pairwise", lambda table: _context(a, figs, d, table=table))
 
 
 def write_pairwise_report(a: PairwiseAnalysis, out_dir) -> Path:

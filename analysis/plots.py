@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import io
 import math
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -42,6 +43,7 @@ __all__ = [
     "pareto_front",
     "place_labels",
     "save_figure",
+    "legend_below",
 ]
 
 
@@ -133,6 +135,36 @@ def panel_grid(n: int, *, width: float, height: float) -> tuple[Figure, np.ndarr
     for ax in axes[n:]:
         fig.delaxes(ax)
     return fig, axes[:n]
+
+
+def legend_below(fig: Figure, ax, *, fontsize: float = 7, width: int = 60, **kw):
+    """The legend of ``ax``'s labelled artists, drawn below the axes, outside them and inside
+    the figure (the constrained layout makes room for it): it can cover no data and is never
+    cut off at the figure's edge. A label longer than ``width`` characters is wrapped.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        A figure with the constrained layout.
+    ax : matplotlib.axes.Axes
+        The axes whose handles and labels are listed.
+    fontsize : float, optional
+        Text size in points.
+    width : int, optional
+        Characters per legend line at most.
+    **kw
+        More :meth:`matplotlib.figure.Figure.legend` keywords (``title``, ``ncols``).
+
+    Returns
+    -------
+    matplotlib.legend.Legend or None
+        ``None`` when ``ax`` has no labelled artist.
+    """
+    handles, labels = ax.get_legend_handles_labels()
+    if not handles:
+        return None
+    labels = ["\n".join(textwrap.wrap(t, width)) or t for t in labels]
+    return fig.legend(handles, labels, loc="outside lower center", fontsize=fontsize, frameon=False, **kw)
 
 
 def tent_plot(
@@ -507,8 +539,9 @@ def roc_plot(items: pd.DataFrame, summary: pd.DataFrame, label: np.ndarray, *, t
     )
     if s.empty:
         return None
-    fig = Figure(figsize=(4.5, 4.2), layout="constrained")
+    fig = Figure(figsize=(4.5, 5.0), layout="constrained")
     ax = fig.subplots()
+    ax.set_box_aspect(1)  # a ROC plot is square: both axes are rates on [0, 1]
     curves = []  # [(fpr, tpr, [labels])]: metrics that rank the items alike share one curve
     for _, r in s.iterrows():  # one curve per metric
         x = items[r["metric"]].to_numpy(float)
@@ -523,9 +556,11 @@ def roc_plot(items: pd.DataFrame, summary: pd.DataFrame, label: np.ndarray, *, t
         label_ = texts[0] if len(texts) == 1 else " = ".join(texts) + " (identical curves)"
         ax.plot(fpr, tpr, color=f"C{i}", label=label_)
     ax.plot([0, 1], [0, 1], color="0.6", linestyle=":")
+    ax.set_xlim(0, 1)
+    ax.set_ylim(0, 1)
     ax.set_xlabel("false positive rate")
     ax.set_ylabel("true positive rate")
-    ax.legend(fontsize=7, loc="lower right")
+    legend_below(fig, ax)
     return fig
 
 
@@ -617,5 +652,5 @@ def agreement_plot(summary: pd.DataFrame, *, target_label: str = "GVF"):
     ax.invert_yaxis()
     ax.set_xlim(0, 1)
     ax.set_xlabel(f"|SRCC| with {target_label} (within views: empty for the view-only rows)")
-    ax.legend(fontsize=7, loc="lower right")
+    legend_below(fig, ax, ncols=2)
     return fig

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import base64
 import html
+import os
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +35,8 @@ from data_schema.outputs import check_output_folder, mark_report
 from data_schema.tables import atomic_folder
 from data_schema.text import plural
 
-__all__ = ["write_report", "write_report_folder", "render_pages", "summary_display", "rater_display"]
+__all__ = ["write_report", "write_report_folder", "render_pages", "summary_display", "rater_display",
+           "path_from_report"]
 
 _DISPLAY = [
     "metric",
@@ -121,12 +123,24 @@ def summary_display(a: Analysis, *, with_ci: bool = True) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=_DISPLAY)[cols]
 
 
+#: A cell with more characters than this wraps, at a width that keeps it within three lines.
+LONG_CELL = 40
+
+
+def _td(text: str) -> str:
+    """One cell: short text on one line; long text (reasons, flags) wrapped in a box about a
+    third of its length wide (``ch`` is the width of a digit, about a character's)."""
+    if len(text) <= LONG_CELL:
+        return f"<td>{html.escape(text)}</td>"
+    return f'<td class="long" style="min-width: {int(np.ceil(len(text) / 2.6))}ch">{html.escape(text)}</td>'
+
+
 def _html_table(df: pd.DataFrame, *, best_col: str | None = None) -> str:
     head = "".join(f"<th>{html.escape(str(c))}</th>" for c in df.columns if c != best_col)
     body = []
     for _, r in df.iterrows():  # report tables are small (one row per metric/group/rater)
         cls = ' class="best"' if best_col and r[best_col] else ""
-        tds = "".join(f"<td>{html.escape(cell_text(r[c], c))}</td>" for c in df.columns if c != best_col)
+        tds = "".join(_td(cell_text(r[c], c)) for c in df.columns if c != best_col)
         body.append(f"<tr{cls}>{tds}</tr>")
     # a wide table scrolls inside its own box: the page keeps the window's width
     return (f'<div class="scroll"><table><thead><tr>{head}</tr></thead>'
@@ -393,6 +407,33 @@ def rater_display(raters: pd.DataFrame) -> pd.DataFrame:
     return raters.assign(flags=flags.where(~pd.Series(said, index=raters.index), ""))
 
 
+def path_from_report(path, folder) -> str:
+    """``path`` as the report in ``folder`` shows it: relative to the folder (a report moved
+    with its inputs still names them rightly, and no machine's temporary folder is printed).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        An input file.
+    folder : str or os.PathLike
+        The report folder (or the folder being built beside it: the same parent).
+
+    Returns
+    -------
+    str
+        The relative path with ``/`` separators (the absolute path where none exists, e.g.
+        another drive).
+
+    >>> path_from_report("/data/run/votes.csv", "/data/run/pairwise")
+    '../votes.csv'
+    """
+    try:
+        rel = os.path.relpath(Path(path).resolve(), Path(folder).resolve())
+    except ValueError:
+        return str(path)
+    return Path(rel).as_posix()
+
+
 def _context(a: Analysis, t: dict, figs: list[dict], *, table) -> dict:
     """What both templates show; ``table`` renders a DataFrame for the page (:func:`render_pages`)."""
     disp = summary_display(a).assign(_best=a.summary["best"].to_numpy(bool))
@@ -401,7 +442,7 @@ def _context(a: Analysis, t: dict, figs: list[dict], *, table) -> dict:
            "snr": a.snr, "comparison": a.comparison["table"] if a.comparison else None}
     return {
         "title": Path(a.ratings_path).name,
-        "ratings": a.ratings_path,
+        "ratings": path_from_report(a.ratings_path, t["folder"]),
         "input_label": INPUT_LABEL[a.source],
         "counts": a.counts,
         "figures": figs,
@@ -478,7 +519,7 @@ def write_report_folder(build, out_dir) -> Path:
 
 
 def _build(a: Analysis, d: Path) -> None:
-    t = _texts(a)
+    t = {**_texts(a), "folder": d}
     _write_tables(a, d)
     figs = _figures(a, d, t["target_label"])
     horizon = getattr(a, "horizon", None)  # analyze --horizon (analysis.horizon_report)

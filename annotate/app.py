@@ -99,10 +99,14 @@ Keys: **G** good, **B** bad, **U** undo the last vote. The first few pairs are t
 Your progress is saved after every vote; you can close the page and come back any time.
 """
 
+#: The titles of a pairwise item's crops, in page order: the two choices around the reference.
+PAIRWISE_TITLES = ("Left choice", "Reference (real photo)", "Right choice")
+
 PAIRWISE_INSTRUCTIONS = """
-You will see three images of the same object. **Reference** (middle) is a real camera photo;
-**Left** and **Right** are the object as two 3D reconstructions draw it from a nearby
-viewpoint, so the angle may differ slightly from the photo.
+You will see three images of the same object. **Reference** is a real camera photo (in the
+middle; on a phone, on top); the **left** and **right choices** are the object as two 3D
+reconstructions draw it from a nearby viewpoint, so the angle may differ slightly from the
+photo.
 
 Answer one question: **which of the two looks more like the reference?** Judge the quality
 of the object: sharpness, shape, colours, missing or broken parts. If you really cannot see a
@@ -486,7 +490,7 @@ def voting_panel(study: Study, rater: str) -> None:
         st.session_state["shown"] = (key, time.time(), secrets.token_hex(6))
     token = _shown()[2]
     pairwise = study.design == "pairwise"
-    pair_view(("Left", "Reference", "Right") if pairwise else ("Reference", "Rendered"), images,
+    pair_view(PAIRWISE_TITLES if pairwise else ("Reference", "Rendered"), images,
               crop_side=facts.crop_side.get(key),
               display_size=int(study.manifest.get("display_size", 320)), token=token)
     if pairwise:

@@ -10,7 +10,9 @@ Thin Streamlit view helpers shared by the binary and the pairwise rater pages of
   above and below it, so the whole item and its buttons fit on screen; the crops of an item
   share one size (square crops, equal shares), hence one scale. Good and Bad are coloured
   apart with a colour-blind-safe pair (Okabe-Ito blue and vermillion) and keep their
-  letters. The arrow keys press a pairwise item's side buttons.
+  letters. The arrow keys press a pairwise item's side buttons. On a phone (at most 640 px
+  wide) a pairwise item shows its reference on top and the two choices side by side under
+  it, all three at one size, and its answer buttons sit in a bar at the bottom of the screen.
 - :func:`pair_view`: the titled crops side by side (container key ``pair``: one image
   element, so a vote redraws few elements; the CSS lays its crops out in a row with their
   titles above) and the scale line, e.g. "All images at the same scale: ×3.2 (shown px per
@@ -37,6 +39,9 @@ __all__ = ["page_style", "pair_view", "scale_text", "GOOD_COLOUR", "BAD_COLOUR",
 GOOD_COLOUR, BAD_COLOUR = "#0072B2", "#D55E00"
 #: vertical room (px) the rows around the crops take: padding, progress, titles, scale, buttons
 ROWS_PX = 250
+#: on a phone, the vertical room (px) a pairwise item's rows take besides its two rows of
+#: crops (reference, then the choices, all at one size): progress, titles, scale, button bar
+PHONE_ROWS_PX = 340
 
 _CSS = f"""<style>
 [data-testid="stMainBlockContainer"] {{ padding: 2.5rem 1.5rem 1rem; max-width: none; }}
@@ -63,6 +68,24 @@ _CSS = f"""<style>
   .st-key-pair [data-testid="stImage"] {{ gap: 0.5rem; }}
   [class*="st-key-vote_"] button {{ min-width: 5.5rem; }}
   [class*="st-key-undo-"] button {{ min-width: 4rem; }}
+  /* a pairwise item: the reference on top, the two choices side by side under it, the
+     answer buttons in a bar at the bottom of the screen, where a thumb reaches */
+  .st-key-pair [data-testid="stImage"]:has(> :nth-child(3)) {{ flex-wrap: wrap; row-gap: 0.75rem; }}
+  .st-key-pair [data-testid="stImage"]:has(> :nth-child(3)) > :nth-child(2) {{ order: -1; flex: 0 0 100%; }}
+  .st-key-pair [data-testid="stImage"]:has(> :nth-child(3)) img {{
+    width: min(100%, calc(50vh - {PHONE_ROWS_PX // 2}px)) !important; }}
+  .st-key-pair [data-testid="stImage"]:has(> :nth-child(3)) > :nth-child(2) img {{
+    width: min(calc((100% - 0.5rem) / 2), calc(50vh - {PHONE_ROWS_PX // 2}px)) !important; }}
+  .st-key-vote_row:has([class*="st-key-vote_tie-"]) {{ position: fixed; left: 0; right: 0; bottom: 0;
+    z-index: 100; background: #fff; border-top: 1px solid #ddd; padding: 0.5rem; gap: 0.5rem;
+    flex-wrap: wrap; box-sizing: border-box; }}
+  .st-key-vote_row:has([class*="st-key-vote_tie-"]) > div {{ margin: 0; }}
+  .st-key-vote_row [class*="st-key-vote_left-"] {{ order: 1; flex: 1 1 40%; }}
+  .st-key-vote_row [class*="st-key-vote_right-"] {{ order: 2; flex: 1 1 40%; }}
+  .st-key-vote_row [class*="st-key-vote_tie-"] {{ order: 3; flex: 1 1 40%; }}
+  .st-key-vote_row:has([class*="st-key-vote_tie-"]) [class*="st-key-undo-"] {{ order: 4; flex: 1 1 40%; }}
+  .st-key-vote_row:has([class*="st-key-vote_tie-"]) button {{ width: 100%; min-height: 3rem; }}
+  [data-testid="stMainBlockContainer"]:has([class*="st-key-vote_tie-"]) {{ padding-bottom: 9rem; }}
 }}
 </style>"""
 

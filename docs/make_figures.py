@@ -1,9 +1,11 @@
 """Regenerate the README's figures from a finished ``nvrq demo OUT`` folder.
 
 Usage: ``python docs/make_figures.py OUT`` (needs Debian's Chromium at /usr/bin/chromium).
-Writes ``docs/rater_ui.png`` (the rater app at 1400x900, signed in, first training item) and
-copies ``OUT/report/tent.png`` to ``docs/tent.png``. ``python docs/make_figures.py STUDY``
-(a study folder, e.g. ``OUT/study``) writes ``docs/rater_ui.png`` only.
+Writes ``docs/rater_ui.png`` (the rater app at 1400x900, signed in, first training item),
+copies ``OUT/report/tent.png`` to ``docs/tent.png`` and writes ``docs/img/report-1280x800.png``
+and ``docs/img/report-390x844.png`` (``OUT/report/report.html`` in a desktop and a phone
+window, at its "Metrics against GVF" table; on the phone scrolled sideways). ``python docs/make_figures.py STUDY`` (a study
+folder, e.g. ``OUT/study``) writes ``docs/rater_ui.png`` only.
 """
 
 from __future__ import annotations
@@ -31,7 +33,42 @@ def main(out: Path) -> None:
         return
     shutil.copyfile(out / "report" / "tent.png", DOCS / "tent.png")
     rater_ui(out / "study")
+    report_shots(out / "report" / "report.html")
     print(f"wrote {DOCS / 'tent.png'}")
+
+
+#: the windows the report is shown in: a desktop and a phone (CSS pixels)
+REPORT_SIZES = [(1280, 800), (390, 844)]
+
+
+def report_shots(report: Path) -> list[Path]:
+    """``docs/img/report-WxH.png`` of ``report`` (a report.html) for each of :data:`REPORT_SIZES`,
+    scrolled to its "Metrics against GVF" table (PNG, 8-bit palette: a small file)."""
+    from PIL import Image
+    from playwright.sync_api import sync_playwright
+
+    (DOCS / "img").mkdir(exist_ok=True)
+    written = []
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path="/usr/bin/chromium", args=ARGS)
+        for width, height in REPORT_SIZES:
+            page = browser.new_page(viewport={"width": width, "height": height})
+            page.goto(report.resolve().as_uri())
+            heading = page.locator("h2", has_text="Metrics against").first
+            if width >= 600:
+                heading.evaluate("h => h.scrollIntoView()")
+            else:  # a phone: the table itself, scrolled sideways (its first column stays)
+                heading.evaluate("h => { let e = h.nextElementSibling; while (!e.matches('.scroll'))"
+                                 " e = e.nextElementSibling; e.scrollIntoView(); e.scrollLeft = 240; }")
+            path = DOCS / "img" / f"report-{width}x{height}.png"
+            page.screenshot(path=str(path))
+            Image.open(path).convert("RGB").quantize(colors=128).save(path, optimize=True)
+            written.append(path)
+            page.close()
+        browser.close()
+    for path in written:
+        print(f"wrote {path}")
+    return written
 
 
 def rater_ui(study: Path) -> None:

@@ -19,7 +19,9 @@ that direction, 0 included (the recorded view belongs to both directions of ever
   offset that passes and the first that fails, equals ``share``;
 - ``ci_lo``, ``ci_hi``: the 95% percentile interval of the crossing over a cluster bootstrap of
   the tracks (a replicate where nothing fails counts the largest grid offset, one that fails
-  at the first grid offset counts that offset); none below ``min_clusters`` tracks.
+  at the first grid offset counts that offset); none below ``min_clusters`` tracks, and none
+  that misses its estimate (the crossing; the largest grid offset when nothing fails, the first
+  when it fails), with the reason.
 
 >>> s = pd.DataFrame({"track_id": list("abcd") * 3, "label_class": "car",
 ...                   "y_offset_m": [0.0] * 4 + [1.0] * 4 + [2.0] * 4,
@@ -305,7 +307,14 @@ def _one(mag, good, track, *, share: float, n_boot: int, seed: int, min_clusters
         C = _boot_counts(T, n_boot, seed)
         with np.errstate(invalid="ignore", divide="ignore"):
             reps = _crossings((C @ g) / (C @ n), grid, share)
-        out["ci_lo"], out["ci_hi"] = (round(float(q), 9) for q in np.quantile(reps, [0.025, 0.975]))
+        lo, hi = (round(float(q), 9) for q in np.quantile(reps, [0.025, 0.975]))
+        # the estimate the interval belongs to: the crossing, else the offset a replicate counts
+        est = out["crossing"] if 0 < f < K else (grid[-1] if f == K else grid[0])
+        if lo - 1e-9 <= est <= hi + 1e-9:
+            out["ci_lo"], out["ci_hi"] = lo, hi
+        else:
+            reasons.append(f"the estimate lies outside its bootstrap interval [{lo:.4g}, {hi:.4g}]: "
+                           "no interval given")
     out["reason"] = "; ".join(reasons)
     return out
 

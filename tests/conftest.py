@@ -59,3 +59,16 @@ def doc_demos(tmp_path_factory, make_numbers) -> Path:
     root = tmp_path_factory.mktemp("doc_demos")
     make_numbers.run_demos(root)
     return root
+
+
+@pytest.fixture(scope="session")
+def demo_report_pages(tmp_path_factory):
+    """The demo-like reports of tests/analysis/demo_reports.py, built once per session (about
+    30 s): ``(root, pages, figures)``, ``pages`` ``{'report', 'leaderboard', 'pairwise'}`` to
+    each report.html and ``figures`` every figure they drew, by file name (matplotlib Figures)."""
+    from tests.analysis.demo_reports import demo_reports, recording_figures
+
+    root = tmp_path_factory.mktemp("demo_reports")
+    with pytest.MonkeyPatch.context() as mp, recording_figures(mp) as seen:
+        pages = demo_reports(root)
+    return root, pages, dict(seen)

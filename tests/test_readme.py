@@ -244,3 +244,11 @@ def test_scale_out_fleet_block_runs(tmp_path, monkeypatch):
     pairs = pd.read_parquet(tmp_path / "out/fleet-pairs")
     assert set(pairs.clip_id) == {"synth-000001", "synth-000002"}
     assert set(pairs.weather) == {"rain", "clear"}
+
+
+def test_the_readme_links_the_report_screenshots_small_pngs():
+    """The report at a desktop and a phone size (docs/make_figures.py writes them)."""
+    for name in ("report-1280x800.png", "report-390x844.png"):
+        assert f"(docs/img/{name})" in README, name
+        data = (REPO / "docs" / "img" / name).read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) < 300_000, (name, len(data))

@@ -29,19 +29,19 @@ def test_no_issue_numbers_in_what_users_read():
     assert found == []
 
 
-def _row(cls, direction, horizon=float("nan"), reason="", lo=float("nan"), hi=float("nan")):
+def _row(cls, direction, horizon=float("nan"), reason="", lo=float("nan"), hi=float("nan"), crossing=float("nan")):
     return dict(method="m", label_class=cls, axis="y", direction=direction, horizon=horizon,
-                reason=reason, ci_lo=lo, ci_hi=hi)
+                crossing=crossing, reason=reason, ci_lo=lo, ci_hi=hi)
 
 
 def test_horizon_sentence_when_the_recorded_view_fails():
     from analysis.horizon_report import method_sentence
 
     fail = "fails at the recorded view"
-    table = pd.DataFrame([_row("bus", "left", 2.0, "", 1.5, 2.5), _row("bus", "right", reason=fail),
+    table = pd.DataFrame([_row("bus", "left", 2.0, "", 2.1, 2.6, 2.25), _row("bus", "right", reason=fail),
                           _row("car", "left", reason=fail), _row("car", "right", reason=fail)])
     assert method_sentence("m", table) == (
-        "m: bus stays good to 2 m left [1.5, 2.5] (on the right side: not good even at the recorded "
+        "m: bus stays good to 2 m left (crossing 2.25 [2.1, 2.6]) (on the right side: not good even at the recorded "
         "view); car is not good even at the recorded view.")
 
 

@@ -160,6 +160,7 @@ def _simulate_parser(psub) -> None:
 
 
 def run_nta(args) -> int:
+    from data_schema.methods import METHOD_COLUMN
     from data_schema.outputs import check_output_file
     from data_schema.scene import load_scene
     from data_schema.tables import write_table
@@ -183,7 +184,11 @@ def run_nta(args) -> int:
     if len(table) and table["d_score"].isna().all():
         print(f"note: no detection of {args.detections} matched a projected box (none given, none past the "
               "score filter, or none overlapping): every box is a miss (IoU 0)")
-    print(f"{plural(len(table), 'box', 'boxes')}, NTA-IoU ({protocol.name}) {table['iou'].mean():.4f} -> {args.out}, {summary_path}")
+    pooled = "every method and view" if METHOD_COLUMN in table.columns and table[METHOD_COLUMN].nunique() > 1 \
+        else "every view"
+    print(f"NTA-IoU ({protocol.name}) {table['iou'].mean():.4f}: the mean IoU of {plural(len(table), 'box', 'boxes')}, "
+          f"{pooled} pooled (the recorded view included); per box: {args.out}; per method and view: "
+          f"{summary_path}")
     return 0
 
 

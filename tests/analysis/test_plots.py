@@ -58,5 +58,6 @@ def test_roc_plot_says_when_curves_are_identical():
     summary = pd.DataFrame({"metric": ["a", "a_log", "b"], "higher_better": True,
                             "roc_auc": [0.7, 0.7, 0.5]})
     fig = plots.roc_plot(items, summary, a + rng.normal(0, 0.2, 60) > 0.5)
-    texts = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    (legend,) = fig.legends  # below the axes (tests/analysis/test_figure_legends.py)
+    texts = [t.get_text().replace("\n", " ") for t in legend.get_texts()]
     assert len(texts) == 2 and "identical curves" in texts[0] and "a_log" in texts[0]

@@ -344,7 +344,7 @@ def test_app_pairwise_page_keys_undo_resume_and_no_method_names(tmp_path, pw_inp
     assert "Reference" in at.markdown[0].value and "which of the two" in at.markdown[0].value
     at.button(key="start").click().run()
     (images,) = at.get("image")  # one element: the three crops, titled, in page order
-    assert images.captions == ["**Left**", "**Reference**", "**Right**"]
+    assert images.captions == ["**Left choice**", "**Reference (real photo)**", "**Right choice**"]
     assert len(images.value) == 3 and len(set(images.value)) == 3
     seen, codes = [], {"vote_left": 1, "vote_right": 2, "vote_tie": 0}
     presses = ["vote_left", "vote_right", "vote_tie", "vote_right"]
