@@ -48,7 +48,7 @@ class _NumpyOnly(pickle.Unpickler):
         raise InputError(self.where, expected="a pickle of numpy arrays only",
                          got=f"a reference to {module}.{name} (refused, not run)")
 
-    def persistent_load(self, pid):
+    def persistent_load(self, _pid):
         raise InputError(self.where, expected="a pickle of numpy arrays only", got="a persistent reference")
 
 
