@@ -255,7 +255,8 @@ def set_table(groups: pd.DataFrame, features: np.ndarray, options: SetOptions, *
     pandas.DataFrame
         One row per set: ``set_id, kind, method``, the view columns, ``n_render, n_gt``, then
         ``fd:ENC, fd_residue:ENC`` and/or ``kid:ENC, kid_std:ENC, kid_subset_size``, and
-        ``reason`` (why FD is empty).
+        ``reason`` (why FD or KID is empty: FD needs more images per side than the feature
+        dimension, KID at least 2).
     """
     from data_schema.perturbation import LABEL_COLUMN, PERTURBATION_COLUMNS
 
@@ -267,8 +268,7 @@ def set_table(groups: pd.DataFrame, features: np.ndarray, options: SetOptions, *
         fr, fg = features[idx[side == "render"]], features[idx[side == "gt"]]
         row = {c: g[c].iloc[0] for c in ("set_id", "kind", "method", *PERTURBATION_COLUMNS, LABEL_COLUMN)}
         row.update(n_render=len(fr), n_gt=len(fg), reason="")
-        if min(len(fr), len(fg)) < 2:
-            raise InputError(where, f"set {sid}", "at least 2 images on each side", f"{len(fr)} render, {len(fg)} gt")
+        reasons = []
         if "fd" in options.metrics:
             if min(len(fr), len(fg)) > d:
                 fd = frechet_distance(fr, fg)
@@ -278,14 +278,23 @@ def set_table(groups: pd.DataFrame, features: np.ndarray, options: SetOptions, *
                                  "dimension of " + encoder + "; or add kid)", f"{len(fr)} render, {len(fg)} gt")
             else:
                 row[f"fd:{encoder}"] = row[f"fd_residue:{encoder}"] = np.nan
-                row["reason"] = f"FD needs more than {d} images per side (the feature dimension): " \
-                                f"{min(len(fr), len(fg))}"
+                reasons.append(f"FD needs more than {d} images per side (the feature dimension): "
+                               f"{min(len(fr), len(fg))}")
         if "kid" in options.metrics:
-            k = kid(fr, fg, subsets=options.kid_subsets, subset_size=options.kid_subset_size, seed=options.seed)
-            row[f"kid:{encoder}"], row[f"kid_std:{encoder}"] = k["kid"], k["kid_std"]
-            row["kid_subset_size"] = k["kid_subset_size"]
+            if min(len(fr), len(fg)) >= 2:
+                k = kid(fr, fg, subsets=options.kid_subsets, subset_size=options.kid_subset_size,
+                        seed=options.seed)
+                row[f"kid:{encoder}"], row[f"kid_std:{encoder}"] = k["kid"], k["kid_std"]
+                row["kid_subset_size"] = k["kid_subset_size"]
+            else:  # e.g. the frames of a one-frame scene: undefined, with the reason
+                row[f"kid:{encoder}"] = row[f"kid_std:{encoder}"] = np.nan
+                row["kid_subset_size"] = pd.NA
+                reasons.append(f"KID needs at least 2 images per side: {len(fr)} render, {len(fg)} gt")
+        row["reason"] = "; ".join(reasons)
         rows.append(row)
     out = pd.DataFrame(rows)
+    if "kid_subset_size" in out:
+        out["kid_subset_size"] = out["kid_subset_size"].astype("Int64")
     return out[[c for c in out.columns if c != "reason"] + ["reason"]]
 
 
@@ -341,8 +350,9 @@ def score_sets(scene, options: SetOptions, *, encoder=None, batch_size: int = 32
 
 
 def _check_sizes(groups: pd.DataFrame, options: SetOptions, enc, *, where: str) -> None:
-    """Before any image is read: every set has 2 images per side (KID), and more than the
-    feature dimension when FD alone is asked for (the dimension from one blank input)."""
+    """Before any image is read: with FD alone, every set has more images per side than the
+    feature dimension (the dimension from one blank input). With KID a smaller set is kept and
+    gets no value, with its reason (:func:`set_table`)."""
     n = groups.groupby(["set_id", "side"]).size().unstack(fill_value=0).reindex(columns=["render", "gt"],
                                                                                  fill_value=0)
     low = n.min(axis=1)
@@ -354,10 +364,6 @@ def _check_sizes(groups: pd.DataFrame, options: SetOptions, enc, *, where: str) 
             raise InputError(where, f"set {sid}", f"more than {d} images per side for FD (the feature dimension "
                              f"of {enc.spec.name}; add kid to get KID alone)",
                              f"{n.loc[sid, 'render']} render, {n.loc[sid, 'gt']} gt")
-    if (low < 2).any():
-        sid = low.index[int(np.argmax((low < 2).to_numpy()))]
-        raise InputError(where, f"set {sid}", "at least 2 images on each side",
-                         f"{n.loc[sid, 'render']} render, {n.loc[sid, 'gt']} gt")
 
 
 class _Reader:

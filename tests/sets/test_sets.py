@@ -118,3 +118,34 @@ def test_embed_matches_the_encoder_on_its_inputs():
     np.testing.assert_allclose(nvrq.embed(ims, encoder=enc), want_pad, atol=1e-6)
     np.testing.assert_allclose(nvrq.embed(ims, encoder=enc, square="stretch"), want_stretch, atol=1e-6)
     assert nvrq.embed(ims, encoder="efficientnet-lite0").shape == (2, 1280)  # by name, from the cache
+
+
+def test_score_sets_of_a_one_frame_scene_keeps_every_set(tmp_path, capsys):
+    # One frame: every frames set has 1 render and 1 GT image, too few for KID (its unbiased
+    # estimator averages over distinct pairs, n >= 2) -- the set keeps its row with the reason,
+    # and the object sets (several crops of that frame) still get KID.
+    from nvrq.cli import main
+
+    scene = tmp_path / "scene"
+    assert main(["synth", str(scene), "--seconds", "0.1", "--fps", "10", "--size", "320x180",
+                 "--offsets", "0,2", "--quiet"]) == 0
+    out = tmp_path / "sets.csv"
+    assert main(["score-sets", str(scene), "--out", str(out), "--save-features", str(tmp_path / "f.npz"),
+                 "--quiet", "--runtime", "torch"]) == 0
+    assert "without a value for some metric" in capsys.readouterr().out
+    t = pd.read_csv(out, keep_default_na=False, na_values=[""])
+    frames, objects = t[t.kind == "frames"], t[t.kind == "objects"]
+    assert len(frames) == 2 and (frames.n_render == 1).all() and (frames.n_gt == 1).all()
+    assert frames["kid:efficientnet-lite0"].isna().all() and frames["kid_subset_size"].isna().all()
+    assert frames.reason.str.contains("KID needs at least 2 images per side: 1 render, 1 gt").all()
+    assert len(objects) == 2 and (objects.n_render >= 2).all()
+    z = np.load(tmp_path / "f.npz")
+    for _, row in objects.iterrows():  # the object sets: KID from the features, as ever
+        sel = z["set_id"] == row.set_id
+        r, g = z["features"][sel & (z["side"] == "render")], z["features"][sel & (z["side"] == "gt")]
+        assert row["kid:efficientnet-lite0"] == pytest.approx(kid(r, g)["kid"], abs=1e-9)
+        assert row["kid_subset_size"] == min(len(r), len(g)) and "KID" not in row.reason
+    # FD alone cannot be given for such a set: that stays an error naming the set
+    assert main(["score-sets", str(scene), "--out", str(tmp_path / "fd.csv"), "--metrics", "fd",
+                 "--quiet", "--runtime", "torch"]) == 2
+    assert "set frames::none" in capsys.readouterr().err and not (tmp_path / "fd.csv").exists()
