@@ -227,8 +227,6 @@ def run(args) -> int:
         print(f"Vote yourself:  annotate serve {out / 'study'}")
         return 0
     print(f"Report: {out / 'report' / 'report.html'}")
-    print(f"Vote yourself:  annotate serve {out / 'study'}   (then: annotate export {out / 'study'} "
-          f"--out {out / 'ratings.csv'} && analyze {out / 'ratings.csv'} --timing {out / 'metrics.timing.csv'} "
-          f"--metrics-table {out / 'metrics_torch.csv'} "
-          f"--out {out / 'report'})")
+    print(f"Vote yourself:  annotate rate-yourself {shlex.quote(str(out))}   (about 20 items in your "
+          "browser on this machine, then your agreement with the simulated raters)")
     return 0
