@@ -44,7 +44,8 @@ def build_own_study(demo: str | Path, *, n: int = OWN_ITEMS, seed: int = 0) -> P
     demo : str or pathlib.Path
         The folder ``nvrq demo`` wrote (``study/`` with simulated votes, ``pairs.csv``).
     n : int
-        Items to rate (fewer when the demo has fewer).
+        Items to rate, about: the whole frames whose views add up nearest to ``n`` (fewer when
+        the demo has fewer).
     seed : int
         Seed of the choice.
 
@@ -84,7 +85,7 @@ def build_own_study(demo: str | Path, *, n: int = OWN_ITEMS, seed: int = 0) -> P
     groups = groups.assign(_r=rng.random(len(groups))).sort_values(["track_id", "_r"])
     groups = groups.assign(_k=groups.groupby("track_id").cumcount()).sort_values(["_k", "_r"], kind="stable")
     total = groups["n"].cumsum().to_numpy()
-    keep = max(1, int((total <= int(n)).sum()))  # about n items: whole frames, at least one
+    keep = int(np.argmin(np.abs(total - int(n)))) + 1  # the whole frames nearest n items in all
     chosen = groups.head(keep)
     pairs = read_table(pairs_path, what="pairs table", dtype={"pair_id": str, "track_id": str,
                                                                "camera": str, "clip_id": str})

@@ -39,7 +39,7 @@ def register(sub) -> None:
                        description="Serve a small good/bad study made from the items the demo's simulated "
                        "raters rated, on this machine only; when you have rated every item, print how "
                        "your votes agree with theirs.")
-    p.add_argument("demo", help="the folder nvrq demo wrote (its study/ and pairs.csv)")
+    p.add_argument("demo", metavar="DEMO", help="the folder nvrq demo wrote (its study/ and pairs.csv)")
     p.add_argument("--items", type=int_arg(low=2), default=20, help="items to rate (default 20)")
     p.add_argument("--port", type=int_arg(low=1, high=65535), default=DEFAULT_PORT,
                    help=f"port on 127.0.0.1 (default {DEFAULT_PORT})")

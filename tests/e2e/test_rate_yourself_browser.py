@@ -53,7 +53,8 @@ def test_rate_yourself_serves_the_items_and_prints_the_agreement(tmp_path):
                 time.sleep(0.3)
         own = load_study(demo / "yourself")
         n_items = len(own.items)
-        assert 3 <= n_items <= 8 and set(own.items["kind"]) == {"test"}  # no training, gold or repeats
+        # the whole frames nearest 8 items: 3 frames of the toy's 3 views; no training, gold or repeats
+        assert n_items == 9 and set(own.items["kind"]) == {"test"} and own.items["track_id"].nunique() == 3
         with sync_playwright() as pw:
             browser = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
             page = browser.new_context().new_page()
