@@ -143,8 +143,8 @@ def coded_votes(votes: pd.DataFrame, methods: list[str]) -> tuple[np.ndarray, np
     >>> [c.tolist() for c in coded_votes(v, ["x", "y"])]
     [[0, 1], [1, -1], [0.5, 1.0]]
     """
-    a = pd.Categorical(votes["method_a"], categories=methods).codes.astype(np.int64)
-    b = pd.Categorical(votes["method_b"], categories=methods).codes.astype(np.int64)
+    a = pd.Index(methods).get_indexer(votes["method_a"]).astype(np.int64)
+    b = pd.Index(methods).get_indexer(votes["method_b"]).astype(np.int64)
     return a, b, votes["choice"].map(CHOICES).to_numpy(np.float64)
 
 

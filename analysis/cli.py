@@ -288,8 +288,26 @@ def _print(df, title: str, *, left=("method", "reason", "vs next")) -> None:
 def _main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    with flags_in_errors(parser, args, _ALIASES), _nta_metrics(args):
-        return _run(args)
+    with flags_in_errors(parser, args, _ALIASES):
+        _check_compare_options(parser, args)  # before --nta's table is read
+        with _nta_metrics(args):
+            return _run(args)
+
+
+def _check_compare_options(parser, args) -> None:
+    """The options of the method comparison need ``--compare-methods``: the first one given is
+    named (``--min-clusters`` also serves ``--horizon``)."""
+    if args.compare_methods:
+        return
+    given = [d for d in ("methods", "leaderboard_metric", "leaderboard_view", "by", "nta", "sets")
+             if getattr(args, d) != parser.get_default(d)]
+    if args.min_clusters != MIN_CLUSTERS and not args.horizon:
+        given.append("min_clusters")
+    if given:
+        flag = option_for(parser, args, given[0]) or "--" + given[0].replace("_", "-")
+        raise InputError(param=flag, expected=f"--compare-methods as well ({flag} is an option of "
+                         f"the method comparison): add --compare-methods or leave out {flag}",
+                         got="no --compare-methods")
 
 
 @contextlib.contextmanager
@@ -367,11 +385,6 @@ def _analyze(args) -> int:
     from analysis.pairwise import is_pairwise
     from analysis.report import write_report
 
-    if (args.methods or args.leaderboard_metric or args.by or args.leaderboard_view != "off-path"
-            or (args.min_clusters != MIN_CLUSTERS and not args.horizon) or args.sets) \
-            and not args.compare_methods:
-        raise InputError("--methods/--leaderboard-metric/--leaderboard-view/--by/--min-clusters/--sets",
-                         None, "--compare-methods with them", "none")
     _check_horizon(args)
     if (args.floor_pairs is None) != (args.floor_metrics is None):
         given, other = ("--floor-pairs", "--floor-metrics") if args.floor_metrics is None \

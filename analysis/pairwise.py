@@ -410,7 +410,7 @@ def rater_table(votes: pd.DataFrame, *, rule: ScreenRule | None = None) -> pd.Da
     out = pairwise_raters(votes, raters)
     out.insert(1, "simulated", out["rater_id"].str.startswith(SIM_PREFIX))
     t = votes[votes["kind"] == "test"]
-    tr = pd.Categorical(t["rater_id"], categories=raters).codes
+    tr = pd.Index(raters).get_indexer(t["rater_id"])
     n_r = len(raters)
     counts = pd.crosstab(t["item_id"], t["choice"]).reindex(columns=list(CHOICES), fill_value=0)
     own = pd.get_dummies(t["choice"]).reindex(columns=list(CHOICES), fill_value=0).to_numpy(np.int64)

@@ -1,4 +1,4 @@
-"""The ``annotate`` command: build, serve, add-rater, export, gvf, simulate (thin shell).
+"""The ``annotate`` command: build, serve, add-rater, export, gvf, simulate, rate-yourself (thin shell).
 
 Layer: commands (CLI shell) of ``annotate``.
 
@@ -28,6 +28,7 @@ COMMAND_MODULES = [
     "annotate.commands.export",
     "annotate.commands.gvf",
     "annotate.commands.simulate",
+    "annotate.commands.rate_yourself",
 ]
 
 #: Library parameter names that differ from this CLI's argparse dests.

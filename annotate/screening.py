@@ -433,7 +433,7 @@ def _per_rater(codes, n_r, values, mask=None):
 def _vote_matrix(votes: pd.DataFrame, raters) -> np.ndarray:
     """(R, I) test votes, NaN where missing (a rater's last test vote on an item)."""
     t = votes[votes["kind"] == "test"]
-    r = pd.Categorical(t["rater_id"], categories=raters).codes
+    r = pd.Index(raters).get_indexer(t["rater_id"])
     i, items = pd.factorize(t["item_id"])
     mat = np.full((len(raters), len(items)), np.nan)
     mat[r, i] = t["vote"].to_numpy(np.float64)
@@ -468,7 +468,7 @@ def _repeat_columns(out, votes, raters, rule):
     rep = votes[kind == "repeat"][["rater_id", "item_id", "vote"]]
     tst = votes[kind == "test"][["rater_id", "item_id", "vote"]]
     j = rep.merge(tst, on=["rater_id", "item_id"], how="inner", suffixes=("_rep", "_test"))
-    jc = pd.Categorical(j["rater_id"], categories=raters).codes
+    jc = pd.Index(raters).get_indexer(j["rater_id"])
     same = (j["vote_rep"].to_numpy() == j["vote_test"].to_numpy()).astype(float)
     s, c = _per_rater(jc, len(raters), same)
     out["n_repeat_pairs"] = c.astype(np.int64)

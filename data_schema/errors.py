@@ -16,7 +16,40 @@ from __future__ import annotations
 import math
 import numbers
 
-__all__ = ["InputError", "check_int", "check_number", "check_choice"]
+__all__ = ["InputError", "check_int", "check_number", "check_choice", "shorten", "GOT_CHARS"]
+
+#: the longest ``got`` part of an error line, in characters (longer ones are shortened)
+GOT_CHARS = 240
+
+
+def shorten(text: str, limit: int = GOT_CHARS) -> str:
+    """``text`` cut to at most ``limit`` characters at a word boundary, ``" ..."`` marking the cut.
+
+    A word (e.g. a path) is never cut in the middle, unless the first word alone is too long.
+
+    Parameters
+    ----------
+    text : str
+        One line.
+    limit : int
+        The most characters returned, the mark included (at least 8).
+
+    Returns
+    -------
+    str
+        ``text`` itself when it fits, else its first words and ``" ..."``.
+
+    >>> shorten("6 expected, 0 found (first missing: images/front/0.png)", 40)
+    '6 expected, 0 found (first missing ...'
+    >>> shorten("short", 40)
+    'short'
+    """
+    if len(text) <= limit:
+        return text
+    head = text[: limit - 4]  # room for " ..."
+    if text[limit - 4] != " " and head.rfind(" ") > 0:
+        head = head[: head.rfind(" ")]  # the last word fitting whole
+    return head.rstrip(" ,;:") + " ..."
 
 
 class InputError(ValueError):
@@ -32,7 +65,8 @@ class InputError(ValueError):
     expected : str
         What was expected (required).
     got : object, optional
-        What was found (``None``: not said). Shortened to 120 characters, on one line.
+        What was found (``None``: not said). On one line, shortened to :data:`GOT_CHARS`
+        characters at a word boundary (:func:`shorten`).
     param : str, optional
         The library parameter (``tracks``) or command-line option (``--tracks``) whose value
         is bad. The CLIs name their flag for a parameter
@@ -65,10 +99,7 @@ class InputError(ValueError):
             parts.append(str(field))
         msg = ": ".join([*parts, f"expected {expected}"])
         if got is not None:
-            got_s = str(got).replace("\n", " ")
-            if len(got_s) > 120:
-                got_s = got_s[:117] + "..."
-            msg += f", got {got_s}"
+            msg += f", got {shorten(str(got).replace(chr(10), ' '))}"
         super().__init__(msg)
 
     def __reduce__(self):

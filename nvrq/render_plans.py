@@ -333,8 +333,10 @@ def render_plan(scene, *, offsets=None, perturbations=None, cameras=None, method
     if world == "source":
         src = scene.source_world
         if src is None:
-            raise InputError(scene.root / "scene.json",
-                             "a scene imported from drivestudio (scene.json source_world)", "no such key")
+            raise InputError(scene.root / "scene.json", "source_world", param="world",
+                             expected="the source dataset's world, which only a scene imported "
+                             "from drivestudio records (plan this scene in its own world with "
+                             "`world` scene instead)", got="no source_world key")
         T_ws = src.T_world_source
     images = scene.images
     views = _plan_views(scene, offsets, perturbations)

@@ -136,22 +136,40 @@ def kid(render: np.ndarray, gt: np.ndarray, *, subsets: int = KID_SUBSETS, subse
     if m < 2:
         raise InputError(param="features", expected="at least 2 samples per set for KID",
                          got=f"{len(r)} render and {len(g)} gt")
-    rng = np.random.RandomState(seed)
     gamma = 1.0 / r.shape[1]
-    whole = m == len(r) == len(g)  # every subset is the whole of both sets: one value, no spread
-    vals = np.empty(1 if whole else int(subsets))
-    for k in range(len(vals)):
-        x = r[rng.choice(len(r), m, replace=False)]
-        y = g[rng.choice(len(g), m, replace=False)]
-        kxx = (x @ x.T * gamma + 1.0) ** 3
-        kyy = (y @ y.T * gamma + 1.0) ** 3
-        kxy = (x @ y.T * gamma + 1.0) ** 3
-        vals[k] = ((kxx.sum() - np.trace(kxx)) + (kyy.sum() - np.trace(kyy))) / (m * (m - 1)) \
-            - 2.0 * kxy.sum() / (m * m)
-    if whole:
-        return {"kid": float(vals[0]), "kid_std": float("nan"), "kid_subset_size": m,
+    if m == len(r) == len(g):
+        # every subset is the whole of both sets, in another order, and MMD² does not depend on
+        # the order: one value, and no spread to give
+        return {"kid": _mmd2(*_kernels(r, g, gamma), m), "kid_std": float("nan"), "kid_subset_size": m,
                 "reason": "KID has no spread: every subset is the whole of both sets"}
+    rng = np.random.RandomState(seed)
+    whole = len(r) * len(r) + len(g) * len(g) + len(r) * len(g) <= _KERNEL_CELLS
+    if whole:  # the kernel of every pair once; each subset reads its block of it
+        krr, kgg, krg = _kernels(r, g, gamma)
+    vals = np.empty(int(subsets))
+    for k in range(int(subsets)):
+        ix, iy = rng.choice(len(r), m, replace=False), rng.choice(len(g), m, replace=False)
+        if whole:
+            blocks = krr[np.ix_(ix, ix)], kgg[np.ix_(iy, iy)], krg[np.ix_(ix, iy)]
+        else:
+            blocks = _kernels(r[ix], g[iy], gamma)
+        vals[k] = _mmd2(*blocks, m)
     return {"kid": float(vals.mean()), "kid_std": float(vals.std()), "kid_subset_size": m, "reason": ""}
+
+
+#: the most kernel entries (float64) :func:`kid` keeps at once: about 400 MB
+_KERNEL_CELLS = 50_000_000
+
+
+def _kernels(x: np.ndarray, y: np.ndarray, gamma: float):
+    """The cubic polynomial kernels ``k(x, x)``, ``k(y, y)``, ``k(x, y)`` of (n, d) and (m, d)."""
+    return ((x @ x.T * gamma + 1.0) ** 3, (y @ y.T * gamma + 1.0) ** 3, (x @ y.T * gamma + 1.0) ** 3)
+
+
+def _mmd2(kxx: np.ndarray, kyy: np.ndarray, kxy: np.ndarray, m: int) -> float:
+    """The unbiased MMD² of one subset pair of size ``m`` from its (m, m) kernel blocks."""
+    return float(((kxx.sum() - np.trace(kxx)) + (kyy.sum() - np.trace(kyy))) / (m * (m - 1))
+                 - 2.0 * kxy.sum() / (m * m))
 
 
 @dataclass(frozen=True)
@@ -252,7 +270,7 @@ def set_groups(scene, options: SetOptions) -> pd.DataFrame:
 
 
 def set_table(groups: pd.DataFrame, features: np.ndarray, options: SetOptions, *, encoder: str,
-              where: str = "sets") -> pd.DataFrame:
+              where: str = "sets", progress: bool = False) -> pd.DataFrame:
     """FD and KID of every set from the features of its rows.
 
     Parameters
@@ -266,26 +284,31 @@ def set_table(groups: pd.DataFrame, features: np.ndarray, options: SetOptions, *
         The encoder's name, in the column names (``fd:NAME``, ``kid:NAME``).
     where : str, optional
         Named in errors.
+    progress : bool, optional
+        A progress bar over the sets.
 
     Returns
     -------
     pandas.DataFrame
         One row per set: ``set_id, kind, method``, the view columns, ``n_render, n_gt``, then
         ``fd:ENC, fd_residue:ENC`` and/or ``kid:ENC, kid_std:ENC, kid_subset_size``, and
-        ``reason`` (why FD or KID's spread is empty, ``; ``-separated).
+        ``reason`` (why FD, KID or KID's spread is empty, ``; ``-separated: FD needs more images
+        per side than the feature dimension, KID at least 2).
     """
+    from tqdm.auto import tqdm
+
     from data_schema.perturbation import LABEL_COLUMN, PERTURBATION_COLUMNS
 
     rows = []
     d = features.shape[1]
-    for sid, g in groups.groupby("set_id", sort=False):
+    sets = groups.groupby("set_id", sort=False)
+    for sid, g in tqdm(sets, total=sets.ngroups, desc="sets: FD and KID", unit="set", disable=not progress):
         idx = g.index.to_numpy()
         side = g["side"].to_numpy()
         fr, fg = features[idx[side == "render"]], features[idx[side == "gt"]]
         row = {c: g[c].iloc[0] for c in ("set_id", "kind", "method", *PERTURBATION_COLUMNS, LABEL_COLUMN)}
         row.update(n_render=len(fr), n_gt=len(fg), reason="")
-        if min(len(fr), len(fg)) < 2:
-            raise InputError(where, f"set {sid}", "at least 2 images on each side", f"{len(fr)} render, {len(fg)} gt")
+        reasons = []
         if "fd" in options.metrics:
             if min(len(fr), len(fg)) > d:
                 fd = frechet_distance(fr, fg)
@@ -295,15 +318,25 @@ def set_table(groups: pd.DataFrame, features: np.ndarray, options: SetOptions, *
                                  "dimension of " + encoder + "; or add kid)", f"{len(fr)} render, {len(fg)} gt")
             else:
                 row[f"fd:{encoder}"] = row[f"fd_residue:{encoder}"] = np.nan
-                row["reason"] = f"FD needs more than {d} images per side (the feature dimension): " \
-                                f"{min(len(fr), len(fg))}"
+                reasons.append(f"FD needs more than {d} images per side (the feature dimension): "
+                               f"{min(len(fr), len(fg))}")
         if "kid" in options.metrics:
-            k = kid(fr, fg, subsets=options.kid_subsets, subset_size=options.kid_subset_size, seed=options.seed)
-            row[f"kid:{encoder}"], row[f"kid_std:{encoder}"] = k["kid"], k["kid_std"]
-            row["kid_subset_size"] = k["kid_subset_size"]
-            row["reason"] = "; ".join(r for r in (row["reason"], k["reason"]) if r)
+            if min(len(fr), len(fg)) >= 2:
+                k = kid(fr, fg, subsets=options.kid_subsets, subset_size=options.kid_subset_size,
+                        seed=options.seed)
+                row[f"kid:{encoder}"], row[f"kid_std:{encoder}"] = k["kid"], k["kid_std"]
+                row["kid_subset_size"] = k["kid_subset_size"]
+                if k["reason"]:
+                    reasons.append(k["reason"])
+            else:  # e.g. the frames of a one-frame scene: undefined, with the reason
+                row[f"kid:{encoder}"] = row[f"kid_std:{encoder}"] = np.nan
+                row["kid_subset_size"] = pd.NA
+                reasons.append(f"KID needs at least 2 images per side: {len(fr)} render, {len(fg)} gt")
+        row["reason"] = "; ".join(reasons)
         rows.append(row)
     out = pd.DataFrame(rows)
+    if "kid_subset_size" in out:
+        out["kid_subset_size"] = out["kid_subset_size"].astype("Int64")
     return out[[c for c in out.columns if c != "reason"] + ["reason"]]
 
 
@@ -340,29 +373,45 @@ def score_sets(scene, options: SetOptions, *, encoder=None, batch_size: int = 32
     keys = groups["path"].astype(str) + "|" + groups["box"].map(lambda b: "" if b is None else str(b))
     codes = pd.factorize(keys)[0]  # codes in order of first appearance
     first = np.flatnonzero(~pd.Series(codes).duplicated().to_numpy())
+    paths = groups["path"].astype(str).to_numpy()[first]
     whole = groups["box"].isna().to_numpy()[first]
+    # one pass over the distinct images in path order: each file is decoded once, for its whole
+    # frame and all its crops; the encoder inputs wait in one batch per input mode
+    order = np.argsort(paths, kind="stable")
     uniq = None
-    bar = tqdm(total=len(first), desc="sets", unit="image", disable=not progress)
+    bar = tqdm(total=len(first), desc="sets: embed", unit="image", disable=not progress)
     reader = _Reader(scene.root)
-    for mode, sel in (("stretch", np.flatnonzero(whole)), ("pad", np.flatnonzero(~whole))):
-        for b0 in range(0, len(sel), batch_size):
-            chunk = sel[b0:b0 + batch_size]
-            ims = [reader(groups["path"].iat[first[k]], groups["box"].iat[first[k]]) for k in chunk]
-            f = embed(ims, encoder=enc, batch_size=batch_size, square=mode)
-            uniq = np.empty((len(first), f.shape[1])) if uniq is None else uniq
-            uniq[chunk] = f
-            bar.update(len(chunk))
+    pending = {"stretch": [], "pad": []}
+
+    def flush(mode):
+        nonlocal uniq
+        ks = pending[mode]
+        f = embed([im for _, im in ks], encoder=enc, batch_size=batch_size, square=mode)
+        uniq = np.empty((len(first), f.shape[1])) if uniq is None else uniq
+        uniq[[k for k, _ in ks]] = f
+        bar.update(len(ks))
+        pending[mode] = []
+
+    for k in order:
+        mode = "stretch" if whole[k] else "pad"
+        pending[mode].append((k, reader(paths[k], groups["box"].iat[first[k]])))
+        if len(pending[mode]) == batch_size:
+            flush(mode)
+    for mode in pending:
+        if pending[mode]:
+            flush(mode)
     bar.close()
     features = uniq[codes]
     name = enc.spec.name
-    table = set_table(groups, features, options, encoder=name, where=str(scene.root))
+    table = set_table(groups, features, options, encoder=name, where=str(scene.root), progress=progress)
     table.insert(1, "clip_id", scene.clip_id)  # the scene, which analyze --sets checks
     return table, groups, features, name
 
 
 def _check_sizes(groups: pd.DataFrame, options: SetOptions, enc, *, where: str) -> None:
-    """Before any image is read: every set has 2 images per side (KID), and more than the
-    feature dimension when FD alone is asked for (the dimension from one blank input)."""
+    """Before any image is read: with FD alone, every set has more images per side than the
+    feature dimension (the dimension from one blank input). With KID a smaller set is kept and
+    gets no value, with its reason (:func:`set_table`)."""
     n = groups.groupby(["set_id", "side"]).size().unstack(fill_value=0).reindex(columns=["render", "gt"],
                                                                                  fill_value=0)
     low = n.min(axis=1)
@@ -374,10 +423,6 @@ def _check_sizes(groups: pd.DataFrame, options: SetOptions, enc, *, where: str) 
             raise InputError(where, f"set {sid}", f"more than {d} images per side for FD (the feature dimension "
                              f"of {enc.spec.name}; add kid to get KID alone)",
                              f"{n.loc[sid, 'render']} render, {n.loc[sid, 'gt']} gt")
-    if (low < 2).any():
-        sid = low.index[int(np.argmax((low < 2).to_numpy()))]
-        raise InputError(where, f"set {sid}", "at least 2 images on each side",
-                         f"{n.loc[sid, 'render']} render, {n.loc[sid, 'gt']} gt")
 
 
 class _Reader:

@@ -35,6 +35,8 @@ CASES = {
                         "0 votes lost"),
     "bench_import.py": (["--frames", "6", "--size", "160x96", "--rounds", "1"], "import/copy"),
     "bench_nta.py": (["--images", "2000", "--loop-images", "50"], "speed-up (vectorised / loop)"),
+    "bench_sets.py": (["--seconds", "0.2", "--size", "160x96", "--offsets", "0,2", "--kid-n", "30",
+                       "--kid-sets", "1"], "speed-up (before / after)"),
     "bench_cli_help.py": (["--rounds", "1", "--programs", "annotate,analyze"], "target (every --help"),
     "bench_sampling.py": (["--seeds", "1", "--pair-items", "6", "--reps", "1", "--items", "40",
                            "--max-votes-per-item", "7"], "target: active reaches uniform's final RMSE"),

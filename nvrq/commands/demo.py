@@ -28,6 +28,7 @@ from pathlib import Path
 from data_schema.errors import InputError
 from nvrq.cli_options import add_seed_option
 from nvrq.cli_types import allow_negative_lists, int_arg, number_arg, parse_wxh
+from nvrq.commands.demo_resume import DemoRecord
 from nvrq.encoders import get_spec
 
 __all__ = ["register", "run", "demo_steps", "method_steps", "with_floor", "with_lpips"]
@@ -44,7 +45,8 @@ def register(sub) -> None:
     """
     p = sub.add_parser("demo", help="synthetic scene -> pairs -> scores -> study -> simulated votes -> report",
                        description="Run the whole workflow offline on a built-in synthetic scene.")
-    p.add_argument("out", help="output folder (created; must be empty or absent)")
+    p.add_argument("out", help="output folder (created; empty or absent, or the folder of an interrupted "
+                               "demo, which is resumed: finished steps are skipped)")
     add_seed_option(p, "scene seed")
     p.add_argument("--seconds", type=number_arg(low=0, low_open=True), default=6.0, help="clip length in seconds (default 6)")
     p.add_argument("--size", default="960x540", help="image size WxH (default 960x540)")
@@ -57,6 +59,9 @@ def register(sub) -> None:
                         "severity times SCALE) and once with no artefact (perfect:0, the viewpoint "
                         "floor, never rated), rank them (analyze --compare-methods) and run a "
                         "pairwise study, e.g. sharp:0.5,blurry:1.5")
+    p.add_argument("--restart", action="store_true",
+                   help="start an interrupted demo again from its first step (its folder is emptied) "
+                        "instead of resuming it")
     allow_negative_lists(p)
     p.set_defaults(func=run)
 
@@ -230,13 +235,19 @@ def run(args) -> int:
     Parameters
     ----------
     args : argparse.Namespace
-        ``out`` (empty or absent) and the options of :func:`demo_steps`.
+        ``out`` (empty or absent, or an interrupted demo's folder: resumed,
+        :mod:`nvrq.commands.demo_resume`), ``restart`` and the options of :func:`demo_steps`.
 
     Returns
     -------
     int
         0 when every step succeeded, else the first failing step's exit status (the steps
         after it are not run).
+
+    Raises
+    ------
+    KeyboardInterrupt
+        After Ctrl-C, with the command that resumes the demo (printed by ``run_cli``).
     """
     from data_schema.methods import parse_methods
     from data_schema.tables import parse_offsets
@@ -250,18 +261,31 @@ def run(args) -> int:
         names = [name for name, _ in parse_methods(args.methods, option="--methods")]
         if len(names) < 2:
             raise InputError(param="--methods", expected="at least two NAME:SCALE methods to compare", got=args.methods)
-    if out.exists() and any(out.iterdir()):
-        raise InputError(out, None, "an empty or absent output folder", "a folder with files in it")
-    out.mkdir(parents=True, exist_ok=True)
+    record = DemoRecord.open(out, args, restart=getattr(args, "restart", False))
     t_all = time.perf_counter()
     steps = demo_steps(out, args)
+    first = record.resume_at(steps)
+    if first > 1:
+        print(f"Resuming the demo in {out}: " + (f"steps 1-{first - 1} of {len(steps)} finished before, "
+              f"step {first} starts again." if first <= len(steps) else "every step finished before."))
+    again = f"nvrq demo {shlex.quote(str(out))} with the same options"
     for i, (program, argv) in enumerate(steps, 1):
+        if i < first:
+            continue
         print(f"\n[{i}/{len(steps)}] $ {program} {shlex.join(argv)}", flush=True)
         t0 = time.perf_counter()
-        rc = _entry(program)(argv)
+        record.begin(i)
+        try:
+            rc = _entry(program)(argv)
+        except KeyboardInterrupt:
+            rc = 130
+        if rc == 130:  # Ctrl-C (the step's own command turns it into status 130)
+            raise KeyboardInterrupt(f"step {i} of {len(steps)} did not finish; run {again} to resume "
+                                    "it there, or add --restart to start again")
         if rc:
-            print(f"step {i} failed with status {rc}")
+            print(f"step {i} failed with status {rc}; once its input is fixed, {again} resumes at this step")
             return rc
+        record.finish(i)
         print(f"[{i}/{len(steps)}] done in {time.perf_counter() - t0:.1f} s", flush=True)
     print(f"\nDemo finished in {time.perf_counter() - t_all:.0f} s.")
     if args.methods:
@@ -270,8 +294,6 @@ def run(args) -> int:
         print(f"Vote yourself:  annotate serve {out / 'study'}")
         return 0
     print(f"Report: {out / 'report' / 'report.html'}")
-    print(f"Vote yourself:  annotate serve {out / 'study'}   (then: annotate export {out / 'study'} "
-          f"--out {out / 'ratings.csv'} && analyze {out / 'ratings.csv'} --timing {out / 'metrics.timing.csv'} "
-          f"--metrics-table {out / 'metrics_torch.csv'} --floor-pairs {out / 'floor_pairs.csv'} "
-          f"--floor-metrics {out / 'floor_metrics.csv'} --out {out / 'report'})")
+    print(f"Vote yourself:  annotate rate-yourself {shlex.quote(str(out))}   (about 20 items in your "
+          "browser on this machine, then your agreement with the simulated raters)")
     return 0

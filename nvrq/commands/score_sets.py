@@ -90,6 +90,7 @@ def run(args) -> int:
     from data_schema.outputs import check_output_file
     from data_schema.scene import load_scene
     from data_schema.tables import write_table
+    from data_schema.text import plural
     from nvrq.commands.model_options import prepare_device
     from nvrq.encoders.registry import encoder_config
     from nvrq.sets import SetOptions, score_sets
@@ -116,5 +117,8 @@ def run(args) -> int:
             np.savez(f, features=features.astype(np.float64), set_id=groups["set_id"].to_numpy(str),
                      side=groups["side"].to_numpy(str), path=groups["path"].astype(str).to_numpy(str),
                      encoder=np.array(name))
-    print(f"{len(table)} sets ({name}) -> {args.out}" + (f", {args.save_features}" if args.save_features else ""))
+    empty = int((table["reason"] != "").sum())
+    note = f" ({plural(empty, 'set')} without a value for some metric: see its reason)" if empty else ""
+    print(f"{plural(len(table), 'set')} ({name}){note} -> {args.out}"
+          + (f", {args.save_features}" if args.save_features else ""))
     return 0

@@ -36,3 +36,8 @@ def require_ray():
     except ImportError:
         raise InputError(param="engine", expected=f"Ray installed ({RAY_EXTRA})", got="ray is not installed") from None
     return ray
+
+# a submodule (e.g. nvrq.engines.<module>) resolves on first use after a plain import of the package
+from nvrq.lazy import lazy_exports  # noqa: E402
+
+__getattr__, __dir__ = lazy_exports("nvrq.engines", {}, globals())

@@ -6,12 +6,17 @@ which may not be copied into the repository: this script makes the example where
 
 ``OUT/drivestudio/FRAME/``
     the frame in drivestudio's KITTI-raw layout (one frame, one camera), ready for
-    ``nvrq import drivestudio OUT/drivestudio/FRAME SCENE --dataset kitti --offsets 0``;
-``OUT/renders-sharp/FRAME/00000.png``, ``OUT/renders-blurry/FRAME/00000.png``
-    stand-ins for two reconstruction methods' renders of that scene's render plan at offset 0
-    (one camera, one frame: one plan row, ``00000.png`` in the ``order`` layout): the GT image
-    blurred with a Gaussian of sigma 1 and 4 px, so that a user without a trained model can try
-    import -> render plan -> renders back -> leaderboard (docs/guides/real-data.md).
+    ``nvrq import drivestudio OUT/drivestudio/FRAME SCENE --dataset kitti --offsets 0,1``;
+``OUT/renders-sharp/FRAME/0000i.png``, ``OUT/renders-blurry/FRAME/0000i.png``
+    stand-ins for two reconstruction methods' renders of that scene's render plan at the
+    offsets :data:`OFFSETS` (one camera, one frame: one plan row per offset, in offset order,
+    ``00000.png``, ``00001.png`` in the ``order`` layout), so that a user without a trained
+    model can try import -> render plan -> renders back -> leaderboard
+    (docs/guides/real-data.md). The stand-in of the recorded view is the GT image blurred with
+    a Gaussian of sigma 1 and 4 px. The stand-in of an off-path view (the camera ``y`` metres to
+    the left) is that blurred image shifted right by the disparity ``fx * y / Z`` of the
+    objects' median depth ``Z``: a crude view synthesis, right at that one depth only, so that
+    nearer and farther objects come out misplaced in it, as they do in a poor off-path render.
 
 The layout follows datasets/kitti/kitti_preprocess.py of drivestudio: camera 0 is the rectified
 left colour camera (``images/000_0.jpg``, ``intrinsics/0.txt`` = ``K_cam2`` with zero
@@ -33,12 +38,16 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["DYNAMIC", "STAND_IN_SIGMAS", "write_kitti_layout", "make_example", "main"]
+__all__ = ["DYNAMIC", "STAND_IN_SIGMAS", "OFFSETS", "write_kitti_layout", "stand_in", "make_example",
+           "main"]
 
 #: The KITTI types drivestudio keeps as dynamic objects (kitti_preprocess.py).
 DYNAMIC = ("Pedestrian", "Person_sitting", "Cyclist", "Car", "Van", "Truck", "Tram")
 #: Stand-in methods: name -> Gaussian blur sigma (pixels) applied to the GT image.
 STAND_IN_SIGMAS = {"sharp": 1.0, "blurry": 4.0}
+#: The lateral offsets (m, + = left) of the example's views: the recorded one and one off the path;
+#: ``nvrq import drivestudio ... --offsets 0,1`` plans the same views.
+OFFSETS = (0.0, 1.0)
 
 
 def _calib(path: Path) -> dict:
@@ -107,6 +116,38 @@ def write_kitti_layout(kitti: Path, frame: str, root: Path):
     return labels
 
 
+def stand_in(gt: np.ndarray, *, sigma: float, shift_px: float) -> np.ndarray:
+    """A stand-in render: ``gt`` blurred with a Gaussian of ``sigma`` px, then moved right by
+    ``shift_px`` (bilinear, the border repeated).
+
+    Parameters
+    ----------
+    gt : numpy.ndarray
+        (H, W, 3) uint8 image.
+    sigma : float
+        Blur in pixels.
+    shift_px : float
+        Shift to the right in pixels (0: the recorded view).
+
+    Returns
+    -------
+    numpy.ndarray
+        (H, W, 3) uint8 image.
+
+    >>> im = np.zeros((4, 6, 3), np.uint8); im[:, 2] = 90
+    >>> int(np.argmax(stand_in(im, sigma=0.1, shift_px=2.0)[0, :, 0]))
+    4
+    """
+    import cv2
+
+    out = cv2.GaussianBlur(gt, (0, 0), sigma)
+    if shift_px:
+        M = np.array([[1.0, 0.0, shift_px], [0.0, 1.0, 0.0]])
+        out = cv2.warpAffine(out, M, (gt.shape[1], gt.shape[0]), flags=cv2.INTER_LINEAR,
+                             borderMode=cv2.BORDER_REPLICATE)
+    return out
+
+
 def make_example(kitti, out) -> list[Path]:
     """Write the example (module docstring) for every frame of ``kitti`` into ``out``.
 
@@ -138,11 +179,15 @@ def make_example(kitti, out) -> list[Path]:
     written = []
     for frame in frames:
         written.append(out / "drivestudio" / frame)
-        write_kitti_layout(kitti, frame, written[-1])
+        labels = write_kitti_layout(kitti, frame, written[-1])
         gt = cv2.imread(str(kitti / "image_2" / f"{frame}.png"))
+        fx = _calib(kitti / "calib" / f"{frame}.txt")["P2"][0]
+        depth = float(np.median(labels["z"])) if len(labels) else 20.0  # rectified camera z, m
         for method, sigma in STAND_IN_SIGMAS.items():
             (out / f"renders-{method}" / frame).mkdir(parents=True, exist_ok=True)
-            cv2.imwrite(str(out / f"renders-{method}" / frame / "00000.png"), cv2.GaussianBlur(gt, (0, 0), sigma))
+            for i, y in enumerate(sorted(OFFSETS)):
+                cv2.imwrite(str(out / f"renders-{method}" / frame / f"{i:05d}.png"),
+                            stand_in(gt, sigma=sigma, shift_px=fx * y / depth))
     return written
 
 

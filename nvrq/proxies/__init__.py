@@ -119,3 +119,8 @@ def mapped_labels(labels, mapping: dict, section: str, *, where: str = "pairs") 
             ", ".join(unknown),
         )
     return low
+
+# a submodule (e.g. nvrq.proxies.<module>) resolves on first use after a plain import of the package
+from nvrq.lazy import lazy_exports  # noqa: E402
+
+__getattr__, __dir__ = lazy_exports("nvrq.proxies", {}, globals())

@@ -13,3 +13,8 @@ progress bar or the decode threads.
 """
 
 __all__: list[str] = []
+
+# a submodule (e.g. nvrq.scoring.<module>) resolves on first use after a plain import of the package
+from nvrq.lazy import lazy_exports  # noqa: E402
+
+__getattr__, __dir__ = lazy_exports("nvrq.scoring", {}, globals())

@@ -434,7 +434,9 @@ def import_renders(scene, render_dir, *, method: str | None = None, layout: str 
                            tuple(unexpected), skipped=tuple(skipped))
     if unexpected or not rows or (report.missing and not allow_missing):
         rule = "every render of the plan" if not allow_missing else "renders of the plan (some at least)"
-        raise InputError(folder, f"layout {layout}", f"{rule} and no other file", report.counts())
+        hint = (" (or `allow_missing` to leave the views without a render out)"
+                if report.missing and rows and not unexpected and not allow_missing else "")
+        raise InputError(folder, f"layout {layout}", f"{rule} and no other file{hint}", report.counts())
     srcs = [folder / files[i] for i in rows]
     _check_images(srcs, plan, rows, folder)
     dst = {}

@@ -7,3 +7,8 @@
 from nvrq.synth.generate import SynthOptions, generate_scene
 
 __all__ = ["generate_scene", "SynthOptions"]
+
+# a submodule (e.g. nvrq.synth.<module>) resolves on first use after a plain import of the package
+from nvrq.lazy import lazy_exports  # noqa: E402
+
+__getattr__, __dir__ = lazy_exports("nvrq.synth", {}, globals())

@@ -124,7 +124,8 @@ def test_min_clusters_is_an_option_checked_with_the_rest(tmp_path, capsys):
     base = ["--pairs", str(tmp_path / "pairs.csv"), "--metrics-table", str(tmp_path / "metrics.csv"),
             "--quiet", "--out", str(tmp_path / "rep")]
     for extra, message in ((["--compare-methods", "--min-clusters", "1"], "--min-clusters"),
-                           (["--min-clusters", "3", "--target", "psnr"], "--compare-methods with them"),
+                           (["--min-clusters", "3", "--target", "psnr"],
+                            "--min-clusters: expected --compare-methods as well"),
                            (["--compare-methods", "--by", "class,weather"], "--by: weather: expected class, offset")):
         assert main(base + extra) == 2
         err = capsys.readouterr().err.strip().splitlines()

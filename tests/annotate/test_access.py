@@ -229,6 +229,7 @@ def _serve_says(root, *extra, until: str) -> str:
     finally:
         os.killpg(proc.pid, signal.SIGKILL)
         proc.wait(timeout=10)
+        proc.stderr.close()
     return "".join(lines)
 
 

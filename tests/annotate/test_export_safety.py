@@ -30,14 +30,16 @@ def test_export_quotes_formula_cells_and_raw_keeps_them(make_study, toy_inputs, 
     out, raw = tmp_path / "ratings.csv", tmp_path / "raw.csv"
     assert main(["export", str(s.root), "--out", str(out)]) == 0
     assert main(["export", str(s.root), "--out", str(raw), "--raw-csv"]) == 0
-    rows = list(csv.reader(open(out, newline="", encoding="utf-8")))
+    with open(out, newline="", encoding="utf-8") as fh:
+        rows = list(csv.reader(fh))
     head = rows[0]
     test = [r for r in rows[1:] if r[head.index("kind")] == "test"]
     assert {r[head.index("lighting")] for r in test} == {"'" + FORMULA}
     assert {r[head.index("road_type")] for r in test} == {"'@SUM(1+1)"}
     # offsets are numbers: -1.0 stays -1.0 (not quoted)
     assert "-1.0" in {r[head.index("y_offset_m")] for r in test}
-    raw_rows = list(csv.reader(open(raw, newline="", encoding="utf-8")))
+    with open(raw, newline="", encoding="utf-8") as fh:
+        raw_rows = list(csv.reader(fh))
     assert FORMULA in {r[head.index("lighting")] for r in raw_rows[1:]}
     # the machine reader gets the values back either way
     a, b = read_ratings(out), read_ratings(raw)

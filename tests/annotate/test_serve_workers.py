@@ -148,7 +148,8 @@ def test_nginx_in_front_of_the_workers_is_sticky(served, tmp_path):
             r = urllib.request.urlopen(req, timeout=10)
         except urllib.error.HTTPError as err:
             r = err
-        return r.status, r.headers
+        with r:  # the response (or the error, which holds it) closes its socket
+            return r.status, r.headers
 
     try:
         deadline = time.time() + 30

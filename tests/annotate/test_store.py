@@ -88,6 +88,8 @@ def test_sigkill_keeps_every_acknowledged_vote(tmp_path):
     finally:
         if proc.poll() is None:
             proc.kill()
+            proc.wait(timeout=10)
+        proc.stdout.close()
     assert proc.returncode == -signal.SIGKILL
     votes = Store(db, "s").votes().set_index("item")
     for i in acked:

@@ -91,6 +91,7 @@ def test_a_killed_worker_is_restarted_and_the_restarts_are_bounded(tmp_path):
         if sup.poll() is None:
             os.killpg(sup.pid, signal.SIGKILL)
             sup.wait()
+        sup.stderr.close()
 
 
 def _health(port: int) -> bool:

@@ -82,7 +82,8 @@ def put_upload(base: str, sid: str, size: int, *, cookie: str, xsrf: str, contex
 
 def rss_mb(pid: int) -> float:
     """Resident memory of process ``pid`` in MB (Linux /proc)."""
-    for line in open(f"/proc/{pid}/status"):
-        if line.startswith("VmRSS:"):
-            return int(line.split()[1]) / 1024
+    with open(f"/proc/{pid}/status") as status:
+        for line in status:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024
     raise RuntimeError("no VmRSS")

@@ -70,6 +70,11 @@ CASES = [
     ("analyze", ["{tmp}/in/ratings.csv", "--out", "{tmp}/rep", "--bootstrap", "-1"], "--bootstrap"),
     ("analyze", ["{tmp}/in/ratings.csv", "--out", "{tmp}/rep", "--seed", "-1"], "--seed"),
     ("analyze", ["{tmp}/in/ratings.csv", "--out", "{tmp}/rep", "--margin", "nan"], "--margin"),
+    # an option of the method comparison without --compare-methods names itself (not --target)
+    ("analyze", ["--pairs", "{tmp}/in/pairs.csv", "--nta", "{tmp}/in/nta.csv", "--out", "{tmp}/rep"],
+     "error: --nta: expected --compare-methods as well"),
+    ("analyze", ["{tmp}/in/ratings.csv", "--sets", "{tmp}/in/sets.csv", "--out", "{tmp}/rep"],
+     "error: --sets: expected --compare-methods as well"),
 ]
 
 

@@ -57,6 +57,25 @@ def test_fd_and_kid_equal_straightforward_computation(tmp_path):
     assert (t.loc[0, "n_render"], t.loc[0, "n_gt"], t.loc[0, "reason"]) == (300, 260, "")
 
 
+def test_kid_fast_paths_equal_the_subset_by_subset_computation(monkeypatch):
+    # kid() reads each subset's block of kernels computed once (or, when the subset is the whole
+    # of both sets, gives their one value): the same numbers as scikit-learn's kernels per subset
+    import nvrq.sets as sets
+
+    rng = np.random.default_rng(3)
+    a, b = rng.normal(size=(40, 6)), rng.normal(0.2, 1.1, size=(40, 6))
+    mean, std = _kid_sklearn(a, b, subsets=5, size=40, seed=9)  # every subset: the whole sets
+    got = kid(a, b, subsets=5, subset_size=1000, seed=9)
+    assert got["kid"] == pytest.approx(mean, rel=1e-12) and got["kid_std"] == 0.0 and std < 1e-15
+    assert got["kid_subset_size"] == 40
+    c = rng.normal(size=(55, 6))  # unequal sides: random subsets of 40 from the 55
+    mean, std = _kid_sklearn(c, b, subsets=7, size=40, seed=9)
+    got = kid(c, b, subsets=7, seed=9)
+    assert got["kid"] == pytest.approx(mean, rel=1e-12) and got["kid_std"] == pytest.approx(std, rel=1e-9)
+    monkeypatch.setattr(sets, "_KERNEL_CELLS", 10)  # too large to keep: kernels per subset
+    assert kid(c, b, subsets=7, seed=9)["kid"] == pytest.approx(mean, rel=1e-12)
+
+
 def test_fd_of_a_set_with_itself_is_zero():
     x = np.random.default_rng(2).normal(size=(500, 64))
     res = frechet_distance(x, x)
@@ -131,3 +150,75 @@ def test_embed_matches_the_encoder_on_its_inputs():
     np.testing.assert_allclose(nvrq.embed(ims, encoder=enc), want_pad, atol=1e-6)
     np.testing.assert_allclose(nvrq.embed(ims, encoder=enc, square="stretch"), want_stretch, atol=1e-6)
     assert nvrq.embed(ims, encoder="efficientnet-lite0").shape == (2, 1280)  # by name, from the cache
+
+
+def test_score_sets_of_a_one_frame_scene_keeps_every_set(tmp_path, capsys):
+    # One frame: every frames set has 1 render and 1 GT image, too few for KID (its unbiased
+    # estimator averages over distinct pairs, n >= 2) -- the set keeps its row with the reason,
+    # and the object sets (several crops of that frame) still get KID.
+    from nvrq.cli import main
+
+    scene = tmp_path / "scene"
+    assert main(["synth", str(scene), "--seconds", "0.1", "--fps", "10", "--size", "320x180",
+                 "--offsets", "0,2", "--quiet"]) == 0
+    out = tmp_path / "sets.csv"
+    assert main(["score-sets", str(scene), "--out", str(out), "--save-features", str(tmp_path / "f.npz"),
+                 "--quiet", "--runtime", "torch"]) == 0
+    assert "without a value for some metric" in capsys.readouterr().out
+    t = pd.read_csv(out, keep_default_na=False, na_values=[""])
+    frames, objects = t[t.kind == "frames"], t[t.kind == "objects"]
+    assert len(frames) == 2 and (frames.n_render == 1).all() and (frames.n_gt == 1).all()
+    assert frames["kid:efficientnet-lite0"].isna().all() and frames["kid_subset_size"].isna().all()
+    assert frames.reason.str.contains("KID needs at least 2 images per side: 1 render, 1 gt").all()
+    assert len(objects) == 2 and (objects.n_render >= 2).all()
+    z = np.load(tmp_path / "f.npz")
+    for _, row in objects.iterrows():  # the object sets: KID from the features, as ever
+        sel = z["set_id"] == row.set_id
+        r, g = z["features"][sel & (z["side"] == "render")], z["features"][sel & (z["side"] == "gt")]
+        assert row["kid:efficientnet-lite0"] == pytest.approx(kid(r, g)["kid"], abs=1e-9)
+        assert row["kid_subset_size"] == min(len(r), len(g)) and "KID" not in row.reason
+    # FD alone cannot be given for such a set: that stays an error naming the set
+    assert main(["score-sets", str(scene), "--out", str(tmp_path / "fd.csv"), "--metrics", "fd",
+                 "--quiet", "--runtime", "torch"]) == 2
+    assert "set frames::none" in capsys.readouterr().err and not (tmp_path / "fd.csv").exists()
+
+
+class _Terminal:
+    """A stand-in standard error that says it is a terminal, keeping what is written."""
+
+    def __init__(self):
+        self.text = ""
+
+    def write(self, s):
+        self.text += s
+        return len(s)
+
+    def flush(self):
+        pass
+
+    def isatty(self):
+        return True
+
+
+def test_score_sets_draws_its_progress_bars_on_a_terminal_only(tmp_path, monkeypatch, capsys):
+    import sys
+
+    from nvrq.cli import main
+
+    scene = tmp_path / "scene"
+    assert main(["synth", str(scene), "--seconds", "0.3", "--size", "160x96", "--offsets", "0,2", "--quiet"]) == 0
+    for extra, bars in (([], True), (["--quiet"], False)):
+        term = _Terminal()
+        monkeypatch.setattr(sys, "stderr", term)
+        out = tmp_path / f"sets{len(extra)}.csv"
+        assert main(["score-sets", str(scene), "--out", str(out), "--runtime", "torch", *extra]) == 0
+        monkeypatch.undo()
+        # both phases: the images embedded, then FD and KID per set, each with its count and ETA
+        for desc in ("sets: embed", "sets: FD and KID"):
+            assert (desc in term.text) == bars, term.text
+        if bars:
+            assert "image/s" in term.text or "s/image" in term.text
+            assert "<" in term.text  # tqdm's "elapsed<remaining"
+    # not a terminal (a log file or a pipe): no bar
+    assert main(["score-sets", str(scene), "--out", str(tmp_path / "log.csv"), "--runtime", "torch"]) == 0
+    assert "sets: embed" not in capsys.readouterr().err

@@ -271,7 +271,11 @@ def test_world_source_boxes_project_as_in_the_scene(synth_dir, tmp_path):
 def test_world_source_needs_a_source_world(scene_dir, tmp_path, capsys):
     assert main(["render-plan", str(scene_dir), "--world", "source", "--out", str(tmp_path / "p.npz")]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "a scene imported from drivestudio (scene.json source_world)" in err
+    # it reads forwards: the file and the option, what --world source needs, what this scene has,
+    # and the value of the option to use instead
+    assert err.count("\n") == 1 and err.startswith("error: ") and "scene.json: --world: source_world: " in err
+    assert "expected the source dataset's world, which only a scene imported from drivestudio " in err
+    assert err.rstrip().endswith("with --world scene instead), got no source_world key"), err
     assert not (tmp_path / "p.npz").exists()
     bad = np.eye(4)
     bad[0, 0] = 2.0  # not a rotation

@@ -128,6 +128,26 @@ def test_allow_missing_leaves_the_views_out_of_the_pairs(one, tmp_path, capsys):
     assert paths[3] not in load_scene(scene).images.path.tolist()
 
 
+def test_refusals_name_whole_files_and_the_option_that_helps(one, tmp_path, capsys):
+    scene, _ = one
+    paths = _move_out(scene, tmp_path / "renders", layout="plan")
+    (tmp_path / "renders" / paths[3]).unlink()
+    argv = ["import", "renders", str(scene), str(tmp_path / "renders")]
+    capsys.readouterr()
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"(first missing: {paths[3]})" in err
+    assert "(or --allow-missing to leave the views without a render out)" in err, err
+    # a long line is shortened between words, never inside a file name
+    long = "0_a_file_that_is_no_render_" + "x" * 200 + ".png"
+    (tmp_path / "renders" / long).write_bytes(b"")
+    assert main(argv) == 2
+    err = capsys.readouterr().err.rstrip()
+    assert err.endswith(" ...") and "--allow-missing" not in err  # unexpected files: it would not help
+    assert err.removesuffix(" ...").endswith("first unexpected"), err  # not a piece of the name
+    assert "a_file_that_is_no_render" not in err
+
+
 def test_link_and_jpeg_files(one, tmp_path):
     scene, ref = one
     paths = _move_out(scene, tmp_path / "renders", layout="order")

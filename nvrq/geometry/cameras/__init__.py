@@ -39,3 +39,8 @@ __all__ = [
     "camera_from_model",
     "register_camera_model",
 ]
+
+# a submodule (e.g. nvrq.geometry.cameras.<module>) resolves on first use after a plain import of the package
+from nvrq.lazy import lazy_exports  # noqa: E402
+
+__getattr__, __dir__ = lazy_exports("nvrq.geometry.cameras", {}, globals())

@@ -17,3 +17,8 @@ from nvrq.metrics.no_reference.niqe import niqe
 from nvrq.metrics.no_reference.piqe import piqe
 
 __all__ = ["brisque", "niqe", "piqe", "entropy"]
+
+# a submodule (e.g. nvrq.metrics.no_reference.<module>) resolves on first use after a plain import of the package
+from nvrq.lazy import lazy_exports  # noqa: E402
+
+__getattr__, __dir__ = lazy_exports("nvrq.metrics.no_reference", {}, globals())
