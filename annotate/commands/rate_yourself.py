@@ -19,7 +19,7 @@ import sys
 import time
 from pathlib import Path
 
-from nvrq.commands.args import int_arg
+from nvrq.cli_types import int_arg
 
 __all__ = ["register", "run"]
 
