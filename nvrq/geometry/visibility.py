@@ -357,41 +357,76 @@ def _raster(camera, T, dims, outline, targets, cand_t, cand_o, cand_apart, clip,
             hulls[b] = _hull(outline[b].reshape(-1, 2))
         return hulls[b]
 
+    w, h = camera.resolution
+    asked = 0  # pixels unprojected one by one; past a quarter of the image, the image's rays once
     for n, t in enumerate(targets):
         u0, v0, u1, v1 = (int(c) for c in clip[t])
         rows = np.arange(v0, v1 + 1, dtype=np.float64)
-        cols = np.arange(u0, u1 + 1, dtype=np.float64)[None, :]
         lo, hi = _row_spans(hull(t), rows)
-        mask = (cols >= lo[:, None]) & (cols <= hi[:, None])
-        area = int(mask.sum())
+        lo, hi = np.maximum(lo, u0), np.minimum(hi, u1)
+        area = float(np.maximum(hi - lo + 1, 0).sum())
         if area == 0:
             continue
         occ, apart = co[first[n]:last[n]], ca[first[n]:last[n]]
         simple = apart & whole[occ]
+        hard, hard_apart = occ[~simple], apart[~simple]
+        spans = [_row_spans(hull(o), rows) for o in occ[simple]]
+        if not len(hard):  # spans alone: the covered length of each row is a union of intervals
+            out[n] = 1.0 - _union_length(lo, hi, spans) / area
+            continue
+        cols = np.arange(u0, u1 + 1, dtype=np.float64)[None, :]
+        mask = (cols >= lo[:, None]) & (cols <= hi[:, None])
         cover = np.zeros_like(mask)
-        for o in occ[simple]:
-            olo, ohi = _row_spans(hull(o), rows)
+        for olo, ohi in spans:
             cover |= (cols >= olo[:, None]) & (cols <= ohi[:, None])
         covered = float((cover & mask).sum())
-        hard, hard_apart = occ[~simple], apart[~simple]
-        if len(hard):
-            vv, uu = np.nonzero(mask & ~cover)
-            if len(vv):
-                if len(vv) > cap:
-                    pick = np.linspace(0, len(vv) - 1, cap).round().astype(np.int64)
-                    vv, uu = vv[pick], uu[pick]
-                pv, pu = vv + v0, uu + u0
-                r = rays[pv, pu] if rays is not None else camera.unproject(
-                    np.stack([pu, pv], axis=1).astype(np.float64))
-                good = np.isfinite(r).all(axis=1)
-                r = np.where(good[:, None], r, 0.0)
-                boxes = np.r_[t, hard]
-                E = _entry(r[None], T[boxes][None], dims[boxes][None])[0]  # (1 + C, k)
-                # disjoint and in front: covered wherever its ray enters it; intersecting: nearer
-                hit = np.where(hard_apart[:, None], np.isfinite(E[1:]), E[1:] < E[:1]).any(axis=0) & good
-                covered += hit.mean() * int((mask & ~cover).sum())
+        vv, uu = np.nonzero(mask & ~cover)
+        if len(vv):
+            if len(vv) > cap:
+                pick = np.linspace(0, len(vv) - 1, cap).round().astype(np.int64)
+                vv, uu = vv[pick], uu[pick]
+            pv, pu = vv + v0, uu + u0
+            asked += len(pv)
+            if rays is None and asked > w * h // 4:
+                rays = pixel_rays(camera)
+            r = rays[pv, pu] if rays is not None else camera.unproject(
+                np.stack([pu, pv], axis=1).astype(np.float64))
+            good = np.isfinite(r).all(axis=1)
+            r = np.where(good[:, None], r, 0.0)
+            boxes = np.r_[t, hard]
+            E = _entry(r[None], T[boxes][None], dims[boxes][None])[0]  # (1 + C, k)
+            # disjoint and in front: covered wherever its ray enters it; intersecting: nearer
+            hit = np.where(hard_apart[:, None], np.isfinite(E[1:]), E[1:] < E[:1]).any(axis=0) & good
+            covered += hit.mean() * len(np.flatnonzero(mask & ~cover))
         out[n] = 1.0 - covered / area
     return out
+
+
+def _union_length(lo: np.ndarray, hi: np.ndarray, spans: list) -> float:
+    """Pixel centres of the rows' target spans ``[lo, hi] (H,)`` inside any of ``spans``
+    (a list of ``(lo, hi)`` per occluder): the length of each row's union of intervals.
+
+    >>> float(_union_length(np.array([0.0]), np.array([9.0]), [(np.array([2.0]), np.array([4.0])),
+    ...                                                          (np.array([3.0]), np.array([6.0]))]))
+    5.0
+    """
+    if not spans:
+        return 0.0
+    a = np.stack([np.maximum(s[0], lo) for s in spans], axis=1)  # (H, k)
+    b = np.stack([np.minimum(s[1], hi) for s in spans], axis=1)
+    empty = a > b
+    a = np.where(empty, np.inf, a)
+    b = np.where(empty, -np.inf, b)
+    order = np.argsort(a, axis=1)
+    a = np.take_along_axis(a, order, axis=1)
+    b = np.take_along_axis(b, order, axis=1)
+    total = np.zeros(len(lo))
+    end = np.full(len(lo), -np.inf)
+    for j in range(a.shape[1]):
+        start = np.maximum(a[:, j], end + 1)
+        total += np.where(np.isfinite(a[:, j]), np.maximum(b[:, j] - start + 1, 0), 0)
+        end = np.maximum(end, b[:, j])
+    return float(total.sum())
 
 
 def _slab(rays: np.ndarray, R: np.ndarray, o: np.ndarray, half: np.ndarray) -> np.ndarray:
