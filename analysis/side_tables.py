@@ -50,10 +50,10 @@ def analysed_ids(ratings=None, pairs=None) -> tuple[list[str], pd.Index]:
     import pyarrow.parquet as pq
 
     from data_schema import datasets as ds
-    from data_schema.tables import read_table
+    from data_schema.tables import TableKind, read_table
 
     if pairs is not None and ds.is_dataset(pairs):
-        files = ds.dataset_files(pairs, what="pairs table")
+        files = ds.dataset_files(pairs, what=TableKind.PAIRS.value)
         ids = [pq.read_table(f, columns=["pair_id"]).column("pair_id").cast("string").to_pandas() for _, f in files]
         return sorted({str(c) for c, _ in files}), pd.Index(pd.concat(ids, ignore_index=True) if ids else [])
     path, id_col = (pairs, "pair_id") if pairs is not None else (ratings, "item_id")
@@ -84,12 +84,12 @@ def check_nta(nta: pd.DataFrame, path, *, clips, pair_ids: pd.Index) -> None:
         own = nta["clip_id"].astype(str).unique()
         if not np.isin(own, list(clips)).any():
             raise InputError(path, "column clip_id", f"{_clip_list(clips)}: a table of the same scene",
-                             f"{', '.join(sorted(own)[:3])} (no clip of the analysed pairs)", param="--nta")
+                             f"{', '.join(sorted(own)[:3])} (no clip of the analysed pairs)", param="nta")
     hit = pair_ids.get_indexer(pd.Index(nta["pair_id"].astype(str))) >= 0
     if len(nta) and not hit.any():
         raise InputError(path, "column pair_id", "pair ids of the analysed pairs (an NTA-IoU table made from "
                          "the same scene and views, with the same methods)",
-                         f"none of its {plural(len(nta), 'pair id')}, e.g. {nta['pair_id'].iloc[0]}", param="--nta")
+                         f"none of its {plural(len(nta), 'pair id')}, e.g. {nta['pair_id'].iloc[0]}", param="nta")
 
 
 def check_sets(sets: pd.DataFrame, path, *, clips, methods) -> None:
@@ -116,7 +116,7 @@ def check_sets(sets: pd.DataFrame, path, *, clips, methods) -> None:
         bad = [c for c in own if c not in set(map(str, clips))]
         if bad:
             raise InputError(path, "column clip_id", f"{_clip_list(clips)}: a table of the same scene", bad[0],
-                             param="--sets")
+                             param="sets")
     if "method" in sets.columns:
         known = {str(m) for m in methods}
         own = sets["method"].fillna("").astype(str)
@@ -124,4 +124,4 @@ def check_sets(sets: pd.DataFrame, path, *, clips, methods) -> None:
         if bad:
             names = ", ".join(sorted(m or "(unnamed)" for m in known))
             raise InputError(path, "column method", f"the analysed methods ({names})", bad[0] or "(unnamed)",
-                             param="--sets")
+                             param="sets")

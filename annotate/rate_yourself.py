@@ -60,7 +60,7 @@ def build_own_study(demo: str | Path, *, n: int = OWN_ITEMS, seed: int = 0) -> P
         ``demo`` is no finished binary demo, or ``DEMO/yourself`` exists with files in it.
     """
     from annotate.study import build_study, load_study
-    from data_schema.tables import read_table
+    from data_schema.tables import OBJECT_COLUMNS, TableKind, read_table
 
     demo = Path(demo)
     study_dir, pairs_path = demo / "study", demo / "pairs.csv"
@@ -79,7 +79,7 @@ def build_own_study(demo: str | Path, *, n: int = OWN_ITEMS, seed: int = 0) -> P
         raise InputError(study_dir, None, "test items with simulated votes (annotate simulate)", "none")
     # whole frames of a track (every view of one object, as the study shows them), spread over
     # tracks: a random order of the frames within each track, then the tracks taken in turn
-    frame = ["clip_id", "camera", "track_id", "timestamp_us"]
+    frame = list(OBJECT_COLUMNS)
     groups = rated.groupby(frame).size().rename("n").reset_index()
     rng = np.random.default_rng(seed)
     groups = groups.assign(_r=rng.random(len(groups))).sort_values(["track_id", "_r"])
@@ -87,7 +87,7 @@ def build_own_study(demo: str | Path, *, n: int = OWN_ITEMS, seed: int = 0) -> P
     total = groups["n"].cumsum().to_numpy()
     keep = int(np.argmin(np.abs(total - int(n)))) + 1  # the whole frames nearest n items in all
     chosen = groups.head(keep)
-    pairs = read_table(pairs_path, what="pairs table", dtype={"pair_id": str, "track_id": str,
+    pairs = read_table(pairs_path, kind=TableKind.PAIRS, dtype={"pair_id": str, "track_id": str,
                                                                "camera": str, "clip_id": str})
     key = pd.MultiIndex.from_frame(pairs[frame])
     mine = pairs[key.isin(pd.MultiIndex.from_frame(chosen[frame].astype(pairs[frame].dtypes.to_dict())))]

@@ -33,12 +33,12 @@ def test_run_cli_turns_each_ending_into_its_exit_status(capsys):
 
 def test_command_parser_registers_each_module_in_order(capsys):
     # annotate's subcommands as its module docstring lists them: build, serve, add-rater,
-    # export, gvf, simulate
+    # export, gvf, simulate, rate-yourself
     from annotate.cli import COMMAND_MODULES
 
     parser = command_parser("annotate", "Rating studies.", COMMAND_MODULES)
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
-    assert list(sub.choices) == ["build", "serve", "add-rater", "export", "gvf", "simulate"]
+    assert list(sub.choices) == ["build", "serve", "add-rater", "export", "gvf", "simulate", "rate-yourself"]
     args = parser.parse_args(["gvf", "st"])
     assert args.command == "gvf" and args.func.__module__ == "annotate.commands.gvf"
     with pytest.raises(SystemExit) as exc:
