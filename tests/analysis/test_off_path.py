@@ -73,7 +73,8 @@ def test_analyze_compare_methods_with_nta(tmp_path):
     scene = tmp_path / "scene"
     assert main(["synth", str(scene), "--seconds", "0.5", "--size", "320x180", "--methods", "sharp:0.5,blurry:1.5",
                  "--quiet"]) == 0
-    assert main(["pairs", str(scene), "--out", str(tmp_path / "pairs.csv"), "--min-side", "10", "--quiet"]) == 0
+    assert main(["pairs", str(scene), "--out", str(tmp_path / "pairs.csv"), "--min-side", "10", "--min-visible", "0",
+                 "--quiet"]) == 0
     dets, _ = _jittered_dets(scene)
     dets.to_csv(tmp_path / "dets.csv", index=False)
     assert main(["proxy", "nta-iou", str(scene), "--detections", str(tmp_path / "dets.csv"), "--out",

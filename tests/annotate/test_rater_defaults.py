@@ -43,7 +43,7 @@ def test_default_load_fits_the_session_at_the_stated_pace():
 
     from nvrq.commands.demo import demo_steps, method_steps
 
-    for steps, methods in ((demo_steps, None), (method_steps, "a,b")):
+    for steps, methods in ((demo_steps, None), (method_steps, "a:0.5,b:1.5")):
         opts = Namespace(seed=0, seconds=1.0, size="64x64", offsets="0", methods=methods, raters=2, encoder="e")
         builds = [argv for prog, argv in steps(Path("o"), opts) if argv[0] == "build"]
         assert builds and all(argv[-2:] == ["--items-per-rater", "all"] for argv in builds)

@@ -61,7 +61,7 @@ def test_interrupted_demo_resumes_at_the_interrupted_step(tmp_path, monkeypatch,
     fake = FakeSteps(interrupt="score")
     assert _run(monkeypatch, fake, out) == 130
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith("interrupted: step 3 of 8 did not finish"), err
+    assert len(err) == 1 and err[0].startswith("interrupted: step 3 of 11 did not finish"), err
     assert f"run nvrq demo {out} with the same options to resume it there" in err[0]
     assert "add --restart to start again" in err[0]
     assert fake.ran == ["synth", "pairs", "score"]
@@ -69,9 +69,10 @@ def test_interrupted_demo_resumes_at_the_interrupted_step(tmp_path, monkeypatch,
     fake.ran.clear()
     assert _run(monkeypatch, fake, out) == 0
     printed = capsys.readouterr().out
-    assert "steps 1-2 of 8 finished before, step 3 starts again" in printed
+    assert "steps 1-2 of 11 finished before, step 3 starts again" in printed
     # synth and pairs are not run again; score starts on a clean slate (its half table removed)
-    assert fake.ran == ["score", "score", "build", "simulate", "export", "analyze"]
+    # (then the torch timing run, the viewpoint floor's scene, its pairs and scores, the study)
+    assert fake.ran == ["score", "score", "synth", "pairs", "score", "build", "simulate", "export", "analyze"]
     assert (out / "metrics.csv").read_text() == "done" and (out / "scene" / "part").is_file()
     fake.ran.clear()
     assert _run(monkeypatch, fake, out) == 0  # a finished demo: nothing runs again
@@ -133,7 +134,7 @@ def test_a_failed_step_says_how_to_resume(tmp_path, monkeypatch, capsys):
 
     monkeypatch.setattr(demo, "_entry", entry)
     assert main(["demo", str(out), *OPTS]) == 2
-    assert (f"step 7 failed with status 2; once its input is fixed, nvrq demo {out} with the same "
+    assert (f"step 10 failed with status 2; once its input is fixed, nvrq demo {out} with the same "
             "options resumes at this step") in capsys.readouterr().out
     fake.ran.clear()
     assert main(["demo", str(out), *OPTS]) == 0
