@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from data_schema.defaults import MIN_VISIBLE
 from data_schema.errors import InputError
 from nvrq.choices import KID_SUBSET_SIZE, KID_SUBSETS, MAX_KID_SUBSET_SIZE, MAX_KID_SUBSETS
 
@@ -192,6 +193,9 @@ class SetOptions:
         Seed of the KID subsets (default :data:`KID_SEED`).
     min_side : float
         Objects: the smallest crop side of a pair, in pixels (default 30).
+    min_visible : float
+        Objects: the pairs' visibility rule (default :data:`data_schema.tables.MIN_VISIBLE`, as
+        ``nvrq pairs``; 0 is the paper's protocol).
     """
 
     kinds: tuple[str, ...] = ("frames", "objects")
@@ -200,6 +204,7 @@ class SetOptions:
     kid_subset_size: int = KID_SUBSET_SIZE
     seed: int = KID_SEED
     min_side: float = 30
+    min_visible: float = MIN_VISIBLE
 
     def __post_init__(self):
         from data_schema.errors import check_int, check_number
@@ -208,6 +213,7 @@ class SetOptions:
         check_int("kid_subset_size", self.kid_subset_size, low=2, high=MAX_KID_SUBSET_SIZE)
         check_int("seed", self.seed, low=0, high=2**32 - 1)
         check_number("min_side", self.min_side, low=0)
+        check_number("min_visible", self.min_visible, low=0, high=1)
 
 
 def set_groups(scene, options: SetOptions) -> pd.DataFrame:
@@ -250,7 +256,7 @@ def set_groups(scene, options: SetOptions) -> pd.DataFrame:
     if "objects" in options.kinds and len(r):
         from nvrq.pairs import make_pairs
 
-        pairs, _ = make_pairs(scene, min_side=options.min_side, progress=False)
+        pairs, _ = make_pairs(scene, min_side=options.min_side, min_visible=options.min_visible, progress=False)
         view = perturbation_array(pairs)
         base = pd.DataFrame({"kind": "objects", "method": method_values(pairs),
                              **{c: view[:, i] for i, c in enumerate(PERTURBATION_COLUMNS)},

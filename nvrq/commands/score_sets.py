@@ -3,6 +3,7 @@ frames and of object crops, against the GT (:mod:`nvrq.sets`, docs/FORMATS.md §
 
 from __future__ import annotations
 
+from data_schema.defaults import MIN_VISIBLE
 from data_schema.errors import InputError
 from nvrq.choices import (
     KID_SUBSET_SIZE,
@@ -52,6 +53,9 @@ def register(sub) -> None:
     add_seed_option(p, "KID subset seed", default=2020)
     p.add_argument("--min-side", type=number_arg(low=0), default=30,
                    help="objects: the smallest crop side of a pair (default 30, as nvrq pairs)")
+    p.add_argument("--min-visible", type=number_arg(low=0, high=1), default=MIN_VISIBLE, metavar="F",
+                   help=f"objects: the visibility rule of the pairs (default {MIN_VISIBLE}, as nvrq pairs; "
+                        "0 is the paper's protocol)")
     p.add_argument("--save-features", default=None, metavar="F.npz",
                    help="write the features: features (n, d), set_id and side per row")
     add_quiet_option(p)
@@ -106,7 +110,8 @@ def run(args) -> int:
     cfg = encoder_config(args.encoder, weights=args.weights, device=args.device, runtime=args.runtime,
                          threads=None, cache_dir=args.cache_dir)
     options = SetOptions(kinds=kinds, metrics=metrics, kid_subsets=args.kid_subsets,
-                         kid_subset_size=args.kid_subset_size, seed=args.seed, min_side=args.min_side)
+                         kid_subset_size=args.kid_subset_size, seed=args.seed, min_side=args.min_side,
+                         min_visible=args.min_visible)
     scene = load_scene(args.scene)
     prepare_device(args)
     table, groups, features, name = score_sets(scene, options, encoder=cfg, batch_size=args.batch_size,

@@ -178,6 +178,7 @@ def test_the_core_batches_equal_pair_by_pair():
     from nvrq.crops import resize_to
     from nvrq.metrics import column_info
     from nvrq.scoring.core import CropBatch, score_crop_batch
+    from nvrq.scoring.plan import ScorePlan
 
     rng = np.random.default_rng(0)
     ref, p0, p1 = image("ex_ref.png"), image("ex_p0.png"), image("ex_p1.png")
@@ -186,7 +187,7 @@ def test_the_core_batches_equal_pair_by_pair():
     renders = [p0, p1[:50], ref[:48, :56], small[:, :38], rng.integers(0, 256, (20, 44, 3), np.uint8)]
     batch = CropBatch(np.arange(5), gts, index, renders)
     metrics = ["lpips", "lpips_vgg", "stlpips", "dists"]
-    got = score_crop_batch(batch, metrics=metrics)
+    got = score_crop_batch(batch, ScorePlan.for_columns(metrics))
     for m in metrics:
         info = column_info(m)
         for k in range(5):

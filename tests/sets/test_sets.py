@@ -66,8 +66,9 @@ def test_kid_fast_paths_equal_the_subset_by_subset_computation(monkeypatch):
     a, b = rng.normal(size=(40, 6)), rng.normal(0.2, 1.1, size=(40, 6))
     mean, std = _kid_sklearn(a, b, subsets=5, size=40, seed=9)  # every subset: the whole sets
     got = kid(a, b, subsets=5, subset_size=1000, seed=9)
-    assert got["kid"] == pytest.approx(mean, rel=1e-12) and got["kid_std"] == 0.0 and std < 1e-15
-    assert got["kid_subset_size"] == 40
+    # no spread to give where every subset is the whole of both sets (the reason says so)
+    assert got["kid"] == pytest.approx(mean, rel=1e-12) and np.isnan(got["kid_std"]) and std < 1e-15
+    assert got["kid_subset_size"] == 40 and "no spread" in got["reason"]
     c = rng.normal(size=(55, 6))  # unequal sides: random subsets of 40 from the 55
     mean, std = _kid_sklearn(c, b, subsets=7, size=40, seed=9)
     got = kid(c, b, subsets=7, seed=9)
@@ -163,7 +164,7 @@ def test_score_sets_of_a_one_frame_scene_keeps_every_set(tmp_path, capsys):
                  "--offsets", "0,2", "--quiet"]) == 0
     out = tmp_path / "sets.csv"
     assert main(["score-sets", str(scene), "--out", str(out), "--save-features", str(tmp_path / "f.npz"),
-                 "--quiet", "--runtime", "torch"]) == 0
+                 "--quiet", "--runtime", "torch", "--min-visible", "0"]) == 0  # every object of the frame
     assert "without a value for some metric" in capsys.readouterr().out
     t = pd.read_csv(out, keep_default_na=False, na_values=[""])
     frames, objects = t[t.kind == "frames"], t[t.kind == "objects"]
@@ -176,7 +177,7 @@ def test_score_sets_of_a_one_frame_scene_keeps_every_set(tmp_path, capsys):
         sel = z["set_id"] == row.set_id
         r, g = z["features"][sel & (z["side"] == "render")], z["features"][sel & (z["side"] == "gt")]
         assert row["kid:efficientnet-lite0"] == pytest.approx(kid(r, g)["kid"], abs=1e-9)
-        assert row["kid_subset_size"] == min(len(r), len(g)) and "KID" not in row.reason
+        assert row["kid_subset_size"] == min(len(r), len(g)) and "KID needs" not in row.reason
     # FD alone cannot be given for such a set: that stays an error naming the set
     assert main(["score-sets", str(scene), "--out", str(tmp_path / "fd.csv"), "--metrics", "fd",
                  "--quiet", "--runtime", "torch"]) == 2
