@@ -64,10 +64,14 @@ def serve(root: Path, *, log: Path | None = None, start_s: float = 60, probe_s: 
     ``start_s`` seconds is stopped and the test fails.
     """
     port = free_port()
-    stderr = subprocess.DEVNULL if log is None else open(log, "wb")  # noqa: SIM115 (the child owns it)
-    proc = subprocess.Popen([sys.executable, "-m", "annotate.cli", "serve", str(root), "--port",
-                             str(port)], start_new_session=True, stdout=subprocess.DEVNULL,
-                            stderr=stderr)
+    stderr = subprocess.DEVNULL if log is None else open(log, "wb")  # noqa: SIM115 (closed below)
+    try:
+        proc = subprocess.Popen([sys.executable, "-m", "annotate.cli", "serve", str(root), "--port",
+                                 str(port)], start_new_session=True, stdout=subprocess.DEVNULL,
+                                stderr=stderr)
+    finally:
+        if log is not None:
+            stderr.close()  # the child has its own copy of the descriptor
     url = f"http://127.0.0.1:{port}/"
     deadline = time.time() + start_s
     try:
