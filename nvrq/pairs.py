@@ -257,7 +257,7 @@ def _camera_pairs(scene: Scene, cam, stats: PairStats, *, min_side, min_area, mi
     if visibility:
         T_gt_world, T_view_gt = view_transforms(cam.T_sensor_rig, fb.T_rig_world, views)
         vis = pair_visibility(model, T_gt_world, T_view_gt, fb.frame_index, fb.T_box_world, fb.dims_lwh,
-                              box_idx[valid], k_idx[valid], min_visible=min_visible)
+                              np.stack([box_idx[valid], k_idx[valid]], axis=1), min_visible=min_visible)
     else:
         vis = (np.full(len(valid), np.nan), np.full(len(valid), np.nan))
     if min_visible > 0:
@@ -286,22 +286,25 @@ def _assemble(scene: Scene, frames_out: list[pd.DataFrame]) -> pd.DataFrame:
     return pairs.reset_index(drop=True)
 
 
-def _size_rule(sizes: dict) -> tuple[float, float]:
-    """``(min_side, min_area)`` from :func:`project_boxes`' keywords, checked (pixels, >= 0)."""
-    unknown = sorted(set(sizes) - {"min_side", "min_area"})
+def _pair_rule(rule: dict) -> tuple[float, float, float]:
+    """``(min_side, min_area, min_visible)`` from :func:`project_boxes`' keywords, checked
+    (pixels >= 0; a visible fraction in [0, 1])."""
+    unknown = sorted(set(rule) - {"min_side", "min_area", "min_visible"})
     if unknown:
         raise TypeError(f"project_boxes() got an unexpected keyword argument {unknown[0]!r}")
-    rule = {"min_side": MIN_SIDE_PX, "min_area": 0, **sizes}
-    for name, value in rule.items():
+    rule = {"min_side": MIN_SIDE_PX, "min_area": 0, "min_visible": MIN_VISIBLE, **rule}
+    for name in ("min_side", "min_area"):
+        value = rule[name]
         if not isinstance(value, int | float | np.number) or not np.isfinite(value) or value < 0:
             raise InputError(param=name, expected="a non-negative number of pixels", got=value)
-    return rule["min_side"], rule["min_area"]
+    _check_min_visible(rule["min_visible"])
+    return rule["min_side"], rule["min_area"], rule["min_visible"]
 
 
 def project_boxes(
     camera, *, T_sensor_rig: np.ndarray, T_rig_world: np.ndarray, T_box_world: np.ndarray,
     dims_lwh: np.ndarray, perturbations: np.ndarray | None = None, offsets: np.ndarray | None = None,
-    min_visible: float = MIN_VISIBLE, **sizes: float,
+    **rule: float,
 ) -> pd.DataFrame:
     """``nvrq pairs``' rule for one frame, in memory: every box in the GT view and in each
     novel view, kept or dropped with its reason (no scene folder).
@@ -323,9 +326,11 @@ def project_boxes(
         Novel views ``(dx, dy, dz, roll, pitch, yaw)`` in metres and degrees, in the rig frame
         (:func:`nvrq.geometry.poses.perturb_T_sensor_rig`); or ``offsets`` (K,), lateral
         offsets in metres (``dy`` alone; positive = left). One of the two.
-    **sizes : float
-        The rarely changed size rule, as :func:`make_pairs`: ``min_side`` (pixels, default
-        :data:`data_schema.tables.MIN_SIDE_PX`) and ``min_area`` (pixels, default 0).
+    **rule : float
+        The rarely changed pair rule, as :func:`make_pairs`: ``min_side`` (pixels, default
+        :data:`data_schema.tables.MIN_SIDE_PX`), ``min_area`` (pixels, default 0) and
+        ``min_visible`` (0..1, default :data:`data_schema.tables.MIN_VISIBLE`; every box given
+        occludes the others).
 
     Returns
     -------
@@ -373,8 +378,7 @@ def project_boxes(
     if len(arrays["T_box_world"]) != len(arrays["dims_lwh"]):
         raise InputError(param="dims_lwh", expected=f"one row per box ({len(arrays['T_box_world'])})",
                          got=f"{len(arrays['dims_lwh'])} rows")
-    min_side, min_area = _size_rule(sizes)
-    _check_min_visible(min_visible)
+    min_side, min_area, min_visible = _pair_rule(rule)
     m, k = len(arrays["T_box_world"]), len(views)
     corners = box_corners(arrays["T_box_world"], arrays["dims_lwh"])
     frame = np.zeros(m, np.int64)
@@ -383,7 +387,7 @@ def project_boxes(
     b_i, k_i = np.nonzero(code == 0)
     T_gt_world, T_view_gt = view_transforms(arrays["T_sensor_rig"], arrays["T_rig_world"][None], views)
     _, nv = pair_visibility(model, T_gt_world, T_view_gt, frame, arrays["T_box_world"], arrays["dims_lwh"],
-                            b_i, k_i, min_visible=min_visible)
+                            np.stack([b_i, k_i], axis=1), min_visible=min_visible)
     gv = visible_fractions(model, np.matmul(T_gt_world[0], arrays["T_box_world"]), arrays["dims_lwh"])
     vis = np.full((2, m, k), np.nan)
     vis[0] = gv[:, None]

@@ -332,7 +332,7 @@ def set_table(groups: pd.DataFrame, features: np.ndarray, options: SetOptions, *
                         seed=options.seed)
                 row[f"kid:{encoder}"], row[f"kid_std:{encoder}"] = k["kid"], k["kid_std"]
                 row["kid_subset_size"] = k["kid_subset_size"]
-                if k["reason"]:
+                if k.get("reason"):
                     reasons.append(k["reason"])
             else:  # e.g. the frames of a one-frame scene: undefined, with the reason
                 row[f"kid:{encoder}"] = row[f"kid_std:{encoder}"] = np.nan

@@ -542,8 +542,8 @@ def pixel_rays(camera) -> np.ndarray:
 
 
 def pair_visibility(camera, T_gt_world: np.ndarray, T_view_gt: np.ndarray, frame_index: np.ndarray,
-                    T_box_world: np.ndarray, dims_lwh: np.ndarray, box_index: np.ndarray,
-                    view_index: np.ndarray, *, min_visible: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+                    T_box_world: np.ndarray, dims_lwh: np.ndarray, candidates: np.ndarray, *,
+                    min_visible: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Visible fractions of candidate pairs in the GT view and in their novel view.
 
     Every box of a frame occludes the others in that frame, in the GT view and in each novel
@@ -563,7 +563,7 @@ def pair_visibility(camera, T_gt_world: np.ndarray, T_view_gt: np.ndarray, frame
         Box centre poses (box -> world).
     dims_lwh : (M, 3) float64
         Box sizes (metres).
-    box_index, view_index : (C,) int64
+    candidates : (C, 2) int64
         The candidates: a box and the novel view it is paired with.
     min_visible : float, optional
         Candidates less visible than this in the GT view are not cast in the novel view
@@ -574,8 +574,8 @@ def pair_visibility(camera, T_gt_world: np.ndarray, T_view_gt: np.ndarray, frame
     gt_visible, novel_visible : (C,) float64
         0..1; NaN where the box has no silhouette pixel in the image.
     """
-    box_index = np.asarray(box_index, np.int64)
-    view_index = np.asarray(view_index, np.int64)
+    cand = np.asarray(candidates, np.int64).reshape(-1, 2)
+    box_index, view_index = cand[:, 0], cand[:, 1]
     fr = np.asarray(frame_index, np.int64)
     if len(box_index) == 0:
         return np.zeros(0), np.zeros(0)

@@ -21,7 +21,9 @@ from tests.sources.stereo_layout import BASELINE, FX, OBJECTS, import_argv, writ
 
 def _pairs(tmp_path, paths, **kw):
     assert main(import_argv(paths, tmp_path / "scene", **kw)) == 0
-    assert main(["pairs", str(tmp_path / "scene"), "--out", str(tmp_path / "pairs.csv"), "--quiet"]) == 0
+    # every object, however much a nearer one covers it (the visibility rule has tests of its own)
+    assert main(["pairs", str(tmp_path / "scene"), "--out", str(tmp_path / "pairs.csv"), "--min-visible", "0",
+                 "--quiet"]) == 0
     return pd.read_csv(tmp_path / "pairs.csv")
 
 
