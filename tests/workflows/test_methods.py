@@ -46,7 +46,7 @@ def clip(tmp_path_factory):
     d = tmp_path_factory.mktemp("methods")
     spec = ",".join(f"{k}:{v}" for k, v in METHODS.items())
     assert nvrq_main(["synth", str(d / "scene"), *CLIP, "--methods", spec]) == 0
-    assert nvrq_main(["pairs", str(d / "scene"), "--out", str(d / "pairs.csv")]) == 0
+    assert nvrq_main(["pairs", str(d / "scene"), "--out", str(d / "pairs.csv"), "--min-visible", "0"]) == 0
     return d
 
 
@@ -83,7 +83,7 @@ def test_old_scene_reads_and_pairs_exactly_as_before(clip, tmp_path):
         shutil.copy(clip / "scene" / src, scene_dir / p)
     old_scene = load_scene(scene_dir)
     assert "method" not in old_scene.images.columns
-    old_pairs, _ = make_pairs(old_scene, progress=False)
+    old_pairs, _ = make_pairs(old_scene, min_visible=0, progress=False)
     ref = pd.read_csv(OLD / "pairs.csv")
     # exactly the columns of a pairs table before methods (the fixture predates the 6-DoF ones)
     assert list(old_pairs.columns) == [*PAIRS_OUTPUT_COLUMNS, "lighting", "road_type", "scene_root"]
@@ -91,7 +91,7 @@ def test_old_scene_reads_and_pairs_exactly_as_before(clip, tmp_path):
     pd.testing.assert_frame_equal(got, ref)
     # an all-empty method column is the same single-method scene
     pd.read_csv(OLD / "images.csv").assign(method="").to_csv(scene_dir / "images.csv", index=False)
-    again, _ = make_pairs(load_scene(scene_dir), progress=False)
+    again, _ = make_pairs(load_scene(scene_dir), min_visible=0, progress=False)
     pd.testing.assert_frame_equal(again, old_pairs)
 
 
