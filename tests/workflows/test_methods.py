@@ -134,7 +134,7 @@ def test_scales_order_the_severities(clip):
 def test_pairs_carry_the_method_and_ids_name_it(clip):
     pairs = pd.read_csv(clip / "pairs.csv")
     cols = list(pairs.columns)
-    assert cols[cols.index("perturbation") + 1] == "method"  # before the attributes
+    assert cols[cols.index("novel_visible") + 1] == "method"  # after the view and visibility, before the attributes
     assert pairs["pair_id"].is_unique
     assert (pairs["pair_id"] == pairs["pair_id"].str.rsplit(":", n=1).str[0] + ":" + pairs["method"]).all()
     # the same objects for every method, sharing the GT crop
