@@ -10,7 +10,7 @@ of :data:`BLOCKS`' files; each is cut from the report the demo writes (``report.
 typed by hand:
 
 - ``headline`` (README.md): the "Metrics against GVF" table of ``nvrq demo ROOT/demo
-  --seconds 1 --size 480x270``, columns metric, dir, n, srcc, roc_auc and vs best (the demos
+  --seconds 1 --size 480x270``, columns metric, dir, n, srcc, within srcc, roc_auc and vs best (the demos
   score ``lpips`` when its weights are installed, and the documents hold its rows: this script
   refuses to run without them);
 - ``class-offset`` and ``off-path`` (docs/guides/compare-reconstructions.md): the
@@ -88,7 +88,7 @@ def render(root: Path) -> dict[str, str]:
     """Every block's text, cut from the reports under ``root``."""
     demo = (root / "demo" / "report" / "report.md").read_text(encoding="utf-8")
     rows = _table(demo, "## Metrics against GVF")
-    keep = [rows[0].index(c) for c in ("metric", "dir", "n", "srcc", "roc_auc", "vs best")]
+    keep = [rows[0].index(c) for c in ("metric", "dir", "n", "srcc", "within srcc", "roc_auc", "vs best")]
     headline = _markdown([[r[i] for i in keep] for r in rows])
     board = (root / "methods" / "leaderboard" / "report.md").read_text(encoding="utf-8")
     class_offset = _markdown(_table(board, "by class and offset (paired difference a - b)"))
