@@ -17,7 +17,7 @@ over time). The section: one sentence per method (:func:`method_sentence`).
 ...                   "crossing": [2.4, 1.5], "ci_lo": [1.5, math.nan], "ci_hi": [2.5, math.nan],
 ...                   "reason": ["", ""]})
 >>> method_sentence("sharp", t)
-'sharp: automobile stays good to 2 m left [1.5, 2.5] and 1 m right.'
+'sharp: automobile stays good to 2 m left (crossing 2.4 [1.5, 2.5]) and 1 m right (crossing 1.5).'
 """
 
 from __future__ import annotations
