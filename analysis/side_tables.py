@@ -10,7 +10,7 @@ The checks compare the ``clip_id`` values, then the ``pair_id`` values (NTA-IoU)
 >>> nta = pd.DataFrame({"pair_id": ["b:1", "b:2"], "clip_id": ["b", "b"]})
 >>> check_nta(nta, "nta.csv", clips=["a"], pair_ids=pd.Index(["a:1"]))
 Traceback (most recent call last):
-data_schema.errors.InputError: nta.csv: --nta: column clip_id: expected the clip of the analysed pairs (a): a table of the same scene, got b (no clip of the analysed pairs)
+data_schema.errors.InputError: nta.csv: nta: column clip_id: expected the clip of the analysed pairs (a): a table of the same scene, got b (no clip of the analysed pairs)
 """
 
 from __future__ import annotations
