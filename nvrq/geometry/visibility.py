@@ -74,23 +74,27 @@ def _entry(rays: np.ndarray, T: np.ndarray, dims: np.ndarray) -> np.ndarray:
     R = T[..., :3, :3]
     o = -np.einsum("bcji,bcj->bci", R, T[..., :3, 3])  # camera centre in each box frame
     d = np.matmul(rays[:, None], R)  # (B, C, R, 3): ray directions in each box frame
-    half = 0.5 * dims[:, :, None, :]
-    oc = o[:, :, None, :]
+    return _slab_entry(o[:, :, None, :], d, 0.5 * dims[:, :, None, :])
+
+
+def _slab_entry(o: np.ndarray, d: np.ndarray, half: np.ndarray) -> np.ndarray:
+    """Entry distance along rays ``d (..., 3)`` from ``o (..., 3)`` into the box of half sizes
+    ``half (..., 3)`` (all in the box frame, broadcast together); ``inf`` where a ray misses,
+    0 from inside the box."""
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        t1 = (-half - oc) / d
-        t2 = (half - oc) / d
+        t1 = (-half - o) / d
+        t2 = (half - o) / d
     lo = np.fmin(t1, t2)
     hi = np.fmax(t1, t2)
     # a ray parallel to a slab: inside it -> (-inf, inf), outside -> a miss
     par = d == 0
     if par.any():
-        inside = np.broadcast_to(np.abs(oc) <= half, par.shape)
+        inside = np.broadcast_to(np.abs(o) <= half, par.shape)
         lo = np.where(par, np.where(inside, -np.inf, np.inf), lo)
         hi = np.where(par, np.where(inside, np.inf, -np.inf), hi)
     tnear = lo.max(axis=-1)
     tfar = hi.min(axis=-1)
-    hit = (tnear <= tfar) & (tfar > 0)
-    return np.where(hit, np.maximum(tnear, 0.0), np.inf)
+    return np.where((tnear <= tfar) & (tfar > 0), np.maximum(tnear, 0.0), np.inf)
 
 
 def _shift(x, y, z):
@@ -432,21 +436,8 @@ def _union_length(lo: np.ndarray, hi: np.ndarray, spans: list) -> float:
 def _slab(rays: np.ndarray, R: np.ndarray, o: np.ndarray, half: np.ndarray) -> np.ndarray:
     """Entry distance of rays ``(P, 3)`` into one box each (rotation ``R (P, 3, 3)`` box ->
     camera, camera centre in the box frame ``o (P, 3)``, half sizes ``half (P, 3)``); ``inf``
-    where a ray misses. float32 arithmetic."""
-    d = np.matmul(rays[:, None, :], R)[:, 0]
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        t1 = (-half - o) / d
-        t2 = (half - o) / d
-    lo = np.fmin(t1, t2)
-    hi = np.fmax(t1, t2)
-    par = d == 0
-    if par.any():
-        inside = np.abs(o) <= half
-        lo = np.where(par, np.where(inside, -np.inf, np.inf), lo)
-        hi = np.where(par, np.where(inside, np.inf, -np.inf), hi)
-    tnear = lo.max(axis=-1)
-    tfar = hi.min(axis=-1)
-    return np.where((tnear <= tfar) & (tfar > 0), np.maximum(tnear, 0.0), np.inf)
+    where a ray misses (:func:`_slab_entry`)."""
+    return _slab_entry(o, np.matmul(rays[:, None, :], R)[:, 0], half)
 
 
 def _chunked_slab(rays, box, R, o, half):
