@@ -43,13 +43,14 @@ import time
 from urllib.parse import urlsplit
 
 from data_schema.errors import InputError
+from data_schema.vocab import Access
 
 __all__ = ["ACCESS_MODES", "CROWD_PREFIX", "check_access", "is_loopback", "check_serving",
            "crowd_identity", "crowd_rater_for_token", "crowd_arrival", "register_crowd_rater",
            "check_participant", "client_address", "ArrivalLimiter", "arrival_limiter", "CrowdRefused", "MSG_FULL"]
 
 #: The access modes of a study (manifest ``access``).
-ACCESS_MODES = ("open", "token", "crowd")
+ACCESS_MODES = tuple(Access)
 #: Rater ids of crowd identities start with this.
 CROWD_PREFIX = "crowd-"
 #: Query parameters the app itself reads; a panel's participant parameter must differ.
@@ -86,9 +87,9 @@ def check_access(access: str, *, participant_param: str | None = None,
     if access not in ACCESS_MODES:
         raise InputError(param="access", expected="one of {'open', 'token', 'crowd'}", got=access)
     for name, value in (("participant_param", participant_param), ("completion_url", completion_url)):
-        if value is not None and access != "crowd":
+        if value is not None and access != Access.CROWD:
             raise InputError(param=name, expected="no value unless `access` is crowd", got=value)
-    if access != "crowd":
+    if access != Access.CROWD:
         return {"access": access}
     if participant_param is not None and (not _PARAM.fullmatch(str(participant_param))
                                           or participant_param in _APP_PARAMS):
@@ -151,7 +152,7 @@ def check_serving(access: str, *, host: str, public_url: str | None = None) -> N
     InputError
         Naming ``host`` or ``public_url``.
     """
-    if access != "open":
+    if access != Access.OPEN:
         return
     hint = "(an open study has no sign-in: rebuild it as a token or crowd study to serve others)"
     if not is_loopback(host):
@@ -311,7 +312,7 @@ def crowd_arrival(study, query: dict, *, limiter=None, client: str = "") -> tupl
         The study wants a participant id and the URL has none, or not a valid one; the
         study is full; too many arrivals from ``client`` just now.
     """
-    param = study.manifest.get("participant_param")
+    param = study.manifest.participant_param
     participant = None
     if param is not None:
         participant = query.get(param)

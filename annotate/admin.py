@@ -36,6 +36,7 @@ from annotate.results import (
     rater_progress,
     ratings_table,
 )
+from data_schema.vocab import Answer, ItemKind, StudyDesign
 
 __all__ = ["REFRESH_S", "TABLES_S", "admin_page", "admin_tables", "live_raters", "shown",
            "with_actions"]
@@ -151,7 +152,7 @@ def admin_tables(study) -> dict:
         table), ``raters`` (per rater, with actions), ``idle`` (raters registered without a
         vote, shown apart).
     """
-    ident = (str(study.root), str(study.manifest["study_id"]))
+    ident = (str(study.root), str(study.manifest.study_id))
     with _TABLES_LOCK:
         found = _TABLES.get(ident)
         if found is not None and time.time() - found["at"] < TABLES_S:
@@ -161,7 +162,7 @@ def admin_tables(study) -> dict:
 
 
 def _compute_tables(study) -> dict:
-    if study.design == "pairwise":
+    if study.design == StudyDesign.PAIRWISE:
         votes = pairwise_votes_table(study)
         raters = with_actions(study, pairwise_raters(votes, study.store.raters()))
     else:
@@ -203,14 +204,14 @@ def _live_pairwise(study) -> None:
     """The pairwise study's page: per-rater answers, side bias, gold and repeats; votes.csv."""
     votes = _raters_top(study, "Raters: progress, answers, side bias, gold, repeats")["votes"]
     st.subheader("Gold failures (the GT crop itself not chosen)")
-    gold = votes[(votes["kind"] == "gold") & (votes["choice"] != "a")]
+    gold = votes[(votes["kind"] == ItemKind.GOLD) & (votes["choice"] != Answer.A)]
     st.dataframe(shown(gold[["rater_id", "item_id", "choice"]]), hide_index=True)
     st.download_button("Download votes.csv", votes.to_csv(index=False).encode(),
                        file_name="votes.csv", mime="text/csv", key="download_ratings")
 
 
 def _live_body(study) -> None:
-    if study.design == "pairwise":
+    if study.design == StudyDesign.PAIRWISE:
         _live_pairwise(study)
         return
     ratings = _raters_top(study, "Raters: progress, agreement so far, flags")["votes"]

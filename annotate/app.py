@@ -85,6 +85,7 @@ from annotate.store import UNDO_DEPTH
 from annotate.study import Study, StudyChanged, load_study
 from data_schema.errors import InputError
 from data_schema.raters import check_rater_name
+from data_schema.vocab import Access, ItemKind, Side, StudyDesign
 
 INSTRUCTIONS = """
 You will see pairs of images of the same object. **Reference** (left) is a real camera
@@ -186,7 +187,7 @@ def _name_error(given: object) -> None:
 def _token_rater(study: Study, token: str) -> str | None:
     """The rater of a sign-in token: a crowd token carries its rater and an HMAC (no store
     lookup; not registered before its first vote), any other token is looked up in the store."""
-    if study.manifest["access"] == "crowd":
+    if study.manifest.access == Access.CROWD:
         rater = crowd_rater_for_token(study.admin_token(), token)
         if rater is not None:
             if study.store.plan(rater) is None:  # not voted yet: registered at the first vote
@@ -203,7 +204,7 @@ def _token_rater(study: Study, token: str) -> str | None:
 
 def _returning_participant(study: Study, rater: str) -> str | None:
     """The participant id a reloaded crowd address still carries, if it is this rater's."""
-    param = study.manifest.get("participant_param")
+    param = study.manifest.participant_param
     given = st.query_params.get(param) if param else None
     if not given:
         return None
@@ -231,7 +232,7 @@ def signed_in_rater(study: Study) -> str | None:
     if "rater" in st.session_state:
         return st.session_state["rater"]
     qp = st.query_params
-    if study.manifest["access"] in ("token", "crowd"):
+    if study.manifest.access in (Access.TOKEN, Access.CROWD):
         token = qp.get("token")
         if token:
             try:
@@ -242,7 +243,7 @@ def signed_in_rater(study: Study) -> str | None:
             if rater is None:
                 st.error("This sign-in link is not valid. Please ask for a new one.")
             return rater
-        if study.manifest["access"] == "crowd":
+        if study.manifest.access == Access.CROWD:
             return _crowd_sign_in(study)
     elif qp.get("rater"):
         try:
@@ -278,7 +279,7 @@ def _crowd_sign_in(study: Study) -> str | None:
         log.exception("annotate app: a crowd arrival could not be admitted")
         st.session_state["crowd_refused"] = MSG_UNAVAILABLE
         return None
-    param = study.manifest.get("participant_param")
+    param = study.manifest.participant_param
     st.query_params.from_dict({"token": token, **({param: participant} if participant else {})})
     st.session_state["crowd_pending"] = (token, participant)
     _sign_in(study, rater, register=False)
@@ -315,7 +316,7 @@ def sign_in_page(study: Study) -> None:
     if "crowd_refused" in st.session_state:
         st.info(st.session_state.pop("crowd_refused"))
         return
-    if study.manifest["access"] != "open":
+    if study.manifest.access != Access.OPEN:
         if not st.query_params.get("token"):
             st.info("Please open the personal link you received to take part.")
         return
@@ -412,7 +413,7 @@ def _show_notice() -> None:
 
 
 def _progress_bar(study: Study, item_kind: str, prog: dict) -> None:
-    if item_kind == "training":
+    if item_kind == ItemKind.TRAINING:
         n, i = prog["training_total"], prog["training_done"]
         st.progress(i / max(n, 1), text=f"Training {i} / {n}")
         return
@@ -420,7 +421,7 @@ def _progress_bar(study: Study, item_kind: str, prog: dict) -> None:
     if prog["training_total"] and not done:  # the first item after the training
         st.success(MSG_TRAINING_DONE)
     st.progress(min(done / total, 1.0), text=f"{done} / {total}")
-    every = int(study.manifest.get("break_every", 50))
+    every = int(study.manifest.break_every)
     if done and done % every == 0:
         st.info(f"You have rated {plural(done, 'pair')}. Consider a short break; your progress "
                 "is saved.")
@@ -429,9 +430,9 @@ def _progress_bar(study: Study, item_kind: str, prog: dict) -> None:
 def _slots(study: Study, key: str, rater: str) -> tuple[tuple[str, str], ...]:
     """(position, items.csv file column) of each crop shown, in page order: Reference and
     Rendered; pairwise: left render, Reference, right render (A's side from the rater's plan)."""
-    if study.design != "pairwise":
+    if study.design != StudyDesign.PAIRWISE:
         return (("ref", "ref_file"), ("ren", "ren_file"))
-    a_left = study.plan_for(rater)["sides"][key] == "left"
+    a_left = study.plan_for(rater)["sides"][key] == Side.LEFT
     left, right = ("a_file", "b_file") if a_left else ("b_file", "a_file")
     return (("left", left), ("ref", "ref_file"), ("right", right))
 
@@ -489,10 +490,10 @@ def voting_panel(study: Study, rater: str) -> None:
     if _shown()[0] != key:
         st.session_state["shown"] = (key, time.time(), secrets.token_hex(6))
     token = _shown()[2]
-    pairwise = study.design == "pairwise"
+    pairwise = study.design == StudyDesign.PAIRWISE
     pair_view(PAIRWISE_TITLES if pairwise else ("Reference", "Rendered"), images,
               crop_side=facts.crop_side.get(key),
-              display_size=int(study.manifest.get("display_size", 320)), token=token)
+              display_size=int(study.manifest.display_size), token=token)
     if pairwise:
         _pairwise_buttons(study, rater, key, token)
         return
@@ -520,8 +521,8 @@ def _no_item(study: Study, rater: str, prog: dict) -> None:
         st.info(MSG_STUDY_FULL)
     else:
         st.success(f"All done, thank you, {plain(rater)}! ({prog['done']} / {prog['total']})")
-        if study.manifest.get("completion_url"):
-            st.link_button("Finish and return to the panel", study.manifest["completion_url"],
+        if study.manifest.completion_url:
+            st.link_button("Finish and return to the panel", study.manifest.completion_url,
                            type="primary", key="completion")
     token = st.session_state["shown"] = (None, None, "done")
     st.button("Undo last vote", key="undo-done", shortcut="u", on_click=_on_undo,
@@ -532,7 +533,7 @@ def _rated_no_test(study: Study, rater: str) -> bool:
     """Whether the rater finished without a single test item (the study was full)."""
     voted = study.store.rater_state(rater)[1]
     kinds = item_display(study).kind
-    return not any(kinds.get(k) == "test" for k in voted)
+    return not any(kinds.get(k) == ItemKind.TEST for k in voted)
 
 
 def _pairwise_buttons(study: Study, rater: str, key: str, token: str) -> None:
@@ -568,7 +569,7 @@ def rater_page(study: Study, rater: str) -> None:
             return
         if fresh:
             st.title("Image quality study")
-            st.markdown(PAIRWISE_INSTRUCTIONS if study.design == "pairwise" else INSTRUCTIONS)
+            st.markdown(PAIRWISE_INSTRUCTIONS if study.design == StudyDesign.PAIRWISE else INSTRUCTIONS)
             st.button("Start", key="start", type="primary",
                       on_click=lambda: st.session_state.update(started=True))
             return

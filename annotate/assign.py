@@ -19,6 +19,8 @@ import hmac
 
 import numpy as np
 
+from data_schema.vocab import Side
+
 __all__ = ["make_plan", "draw_gold", "rater_seed", "plan_seed", "pairwise_sides"]
 
 
@@ -193,7 +195,7 @@ def pairwise_sides(plan: dict, *, seed: int) -> dict[str, str]:
     >>> plan = make_plan(training=["t"], tests=["a", "b", "c", "d"], golds=["g1", "g2"],
     ...                  repeats={"r:a": "a"}, seed=1)
     >>> sides = pairwise_sides(plan, seed=1)
-    >>> sorted(sides[k] for k in "abcd"), sorted(sides[k] for k in ("g1", "g2"))
+    >>> sorted(str(sides[k]) for k in "abcd"), sorted(str(sides[k]) for k in ("g1", "g2"))
     (['left', 'left', 'right', 'right'], ['left', 'right'])
     >>> sides["r:a"] != sides["a"]
     True
@@ -203,7 +205,7 @@ def pairwise_sides(plan: dict, *, seed: int) -> dict[str, str]:
     sides: dict[str, str] = {}
     for group in (plan["training"], plan["order"], golds):
         left = (rng.permutation(len(group)) + int(rng.integers(2))) % 2 == 0
-        sides.update({key: "left" if lf else "right" for key, lf in zip(group, left, strict=True)})
+        sides.update({key: Side.LEFT if lf else Side.RIGHT for key, lf in zip(group, left, strict=True)})
     for key, original in plan["repeat_of"].items():
-        sides[key] = "right" if sides[original] == "left" else "left"
+        sides[key] = Side.RIGHT if sides[original] == Side.LEFT else Side.LEFT
     return sides

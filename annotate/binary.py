@@ -36,6 +36,7 @@ from annotate.store import BINARY_VOTES
 from data_schema.methods import method_columns
 from data_schema.perturbation import view_columns, with_perturbation_columns
 from data_schema.tables import GT_BOX_COLUMNS, PAIR_META_COLUMNS, RENDER_BOX_COLUMNS
+from data_schema.vocab import ItemKind, StudyDesign
 from nvrq.crops import cut_box
 
 __all__ = ["BinaryDesign"]
@@ -46,7 +47,7 @@ class BinaryDesign:
     is a dict: ``ref`` (the pairs record), ``kind``, ``key``, ``item_id`` and ``expected``
     (1 gold-good, 0 gold-bad, None otherwise)."""
 
-    name = "binary"
+    name = StudyDesign.BINARY
     votes = BINARY_VOTES
     crops_per_item = 2
 
@@ -67,14 +68,14 @@ class BinaryDesign:
         def item(r: dict, kind: str, key: str, item_id: str, expected=None) -> dict:
             return {"ref": r, "kind": kind, "key": key, "item_id": item_id, "expected": expected}
 
-        rows = [item(r, "training", "training:" + r["pair_id"], r["pair_id"])
+        rows = [item(r, ItemKind.TRAINING, "training:" + r["pair_id"], r["pair_id"])
                 for r in training.to_dict("records")]
-        rows += [item(r, "test", r["pair_id"], r["pair_id"]) for r in tests.to_dict("records")]
+        rows += [item(r, ItemKind.TEST, r["pair_id"], r["pair_id"]) for r in tests.to_dict("records")]
         for i, r in enumerate(gold_src.to_dict("records")):
             tag = "gold-good" if i % 2 == 0 else "gold-bad"
-            rows.append(item(r, "gold", f"{tag}:{r['pair_id']}", f"{tag}:{r['pair_id']}",
+            rows.append(item(r, ItemKind.GOLD, f"{tag}:{r['pair_id']}", f"{tag}:{r['pair_id']}",
                              int(tag == "gold-good")))
-        rows += [item(r, "repeat", "repeat:" + r["pair_id"], r["pair_id"])
+        rows += [item(r, ItemKind.REPEAT, "repeat:" + r["pair_id"], r["pair_id"])
                  for r in rep_src.to_dict("records")]
         # items carry the method of their render ([] for single-method pairs)
         return Choice(pairs=pairs, rows=rows, offsets=chosen_offsets, tracks=record,
@@ -85,7 +86,7 @@ class BinaryDesign:
         render unless the item is gold (its second crop is made from the GT crop)."""
         for r in rows:
             yield r["ref"], "gt_path"
-            if r["kind"] != "gold":
+            if r["kind"] != ItemKind.GOLD:
                 yield r["ref"], "render_path"
 
     def cut_crops(self, choice: Choice, folder: Path, *, ids: list[str], rng: np.random.Generator,
@@ -95,7 +96,7 @@ class BinaryDesign:
         items table has ``ref_file, ren_file`` and the pairs row's metadata, view, method and
         attribute columns."""
         fmt, size = opts.image_format, int(opts.size)
-        golds = [row["expected"] for row in choice.rows if row["kind"] == "gold"]
+        golds = [row["expected"] for row in choice.rows if row["kind"] == ItemKind.GOLD]
         writer = _crops.CropWriter(folder / "crops", fmt=fmt, rng=rng,
                                    groups={"good": golds.count(1), "bad": golds.count(0)})
         attrs = attribute_columns(choice.pairs.drop(columns=["_root", "_row"]))
@@ -105,11 +106,11 @@ class BinaryDesign:
             line = int(r["_row"])
             ref_file, ren_file = f"{ids[2 * k]}.{fmt}", f"{ids[2 * k + 1]}.{fmt}"
             gt_box = [r[c] for c in GT_BOX_COLUMNS]
-            shift = _crops.draw_shift(rng, gt_box) if kind in ("gold", "repeat") else (0, 0)
+            shift = _crops.draw_shift(rng, gt_box) if kind in (ItemKind.GOLD, ItemKind.REPEAT) else (0, 0)
             gt_img = image(r, "gt_path")
-            gt = cut_box(gt_img, _crops.shift_box(gt_box, shift if kind == "repeat" else (0, 0), gt_img.shape),
+            gt = cut_box(gt_img, _crops.shift_box(gt_box, shift if kind == ItemKind.REPEAT else (0, 0), gt_img.shape),
                          where=where, field=f"line {line}: gt box")
-            if kind == "gold":  # the GT image cut with the box moved: a good copy, or broken
+            if kind == ItemKind.GOLD:  # the GT image cut with the box moved: a good copy, or broken
                 ren = cut_box(gt_img, _crops.shift_box(gt_box, shift, gt_img.shape), where=where,
                               field=f"line {line}: gt box")
                 a, _ = _crops.pad_pair(gt, ren, size=size)
@@ -123,7 +124,7 @@ class BinaryDesign:
                               where=where, field=f"line {line}: render box")
                 a, b = _crops.pad_pair(gt, ren, size=size)
                 ref_bytes, ren_bytes = writer.write(ref_file, a), writer.write(ren_file, b)
-                if kind != "repeat":
+                if kind != ItemKind.REPEAT:
                     writer.note_real(ref_bytes, ren_bytes)
             meta = {c: r[c] for c in (*PAIR_META_COLUMNS, *choice.view_columns, *choice.method_columns, *attrs)}
             items.append({"key": row["key"], "item_id": row["item_id"], "kind": kind, "pair_id": r["pair_id"],

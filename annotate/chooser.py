@@ -48,6 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from annotate.study_sampling import PairwiseSampler, make_sampler
+from data_schema.vocab import ItemKind
 
 __all__ = ["RaterState", "Chooser", "UniformChooser", "SampledChooser", "ActiveChooser",
            "AdaptiveChooser", "make_chooser", "gold_partners", "choose_next"]
@@ -320,7 +321,7 @@ def make_chooser(study) -> Chooser:
     sampler = make_sampler(study)
     if sampler is None:
         return UniformChooser(study.quota)
-    partners = gold_partners(study.keys("test"), study.keys("gold"), seed=study.manifest["seed"])
+    partners = gold_partners(study.keys(ItemKind.TEST), study.keys(ItemKind.GOLD), seed=study.manifest.seed)
     kind = ActiveChooser if isinstance(sampler, PairwiseSampler) else AdaptiveChooser
     return kind(sampler, partners)
 

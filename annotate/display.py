@@ -113,7 +113,7 @@ class ItemDisplay:
         crop that fails is not kept, so it fails again on its next showing.
         """
         out = []
-        study_id = self.study.manifest["study_id"]
+        study_id = self.study.manifest.study_id
         for side, col in slots:
             data = self._crops.get((key, col))
             if data is None:
@@ -138,7 +138,7 @@ def item_display(study: Study) -> ItemDisplay:
     ItemDisplay
         Shared by every session of this study in the process (crops read once).
     """
-    ident = (str(study.root), str(study.manifest["study_id"]))
+    ident = (str(study.root), str(study.manifest.study_id))
     found = _CACHES.get(ident)
     if found is None:
         with _LOCK:

@@ -47,6 +47,7 @@ from data_schema.methods import GT_METHOD, METHOD_COLUMN, table_methods
 from data_schema.perturbation import labels, perturbation_array, view_columns
 from data_schema.perturbation import with_perturbation_columns as _with_views
 from data_schema.tables import GT_BOX_COLUMNS, PAIR_META_COLUMNS, RENDER_BOX_COLUMNS, pair_ids
+from data_schema.vocab import ItemKind, Side, StudyDesign
 from nvrq.crops import cut_box
 
 __all__ = ["METHOD_COLUMN", "GT_METHOD", "VOTE_CODES", "study_methods", "PairwiseDesign", "choice"]
@@ -124,7 +125,7 @@ class PairwiseDesign:
     is a dict: ``kind``, ``key``, ``item_id``, ``method_a``, ``method_b`` and the pairs records
     ``ref`` (the GT crop's), ``a`` (None: the GT crop itself) and ``b``."""
 
-    name = "pairwise"
+    name = StudyDesign.PAIRWISE
     votes = VOTE_CODES
     crops_per_item = 3
 
@@ -153,20 +154,20 @@ class PairwiseDesign:
                     "method_b": b, "ref": by_method[methods[0]].loc[obj],
                     "a": None if a == GT_METHOD else by_method[a].loc[obj], "b": by_method[b].loc[obj]}
 
-        rows = [item(obj, "training", *duos[i % len(duos)], prefix="training:")
+        rows = [item(obj, ItemKind.TRAINING, *duos[i % len(duos)], prefix="training:")
                 for i, obj in enumerate(training["_object"])]
-        test_rows = [item(obj, "test", a, b) for obj in tests["_object"] for a, b in duos]
+        test_rows = [item(obj, ItemKind.TEST, a, b) for obj in tests["_object"] for a, b in duos]
         rows += test_rows
         away = tests[tests["_view"] != "none"] if (tests["_view"] != "none").any() else tests
         n_gold = min(GOLD_POOL * 2 * opts.n_gold, len(away))  # the pool
         for obj in away["_object"].iloc[sorted(rng.choice(len(away), size=n_gold, replace=False))]:
             m = methods[int(rng.integers(len(methods)))]
-            gold = item(obj, "gold", GT_METHOD, m, prefix="gold:")
+            gold = item(obj, ItemKind.GOLD, GT_METHOD, m, prefix="gold:")
             rows.append({**gold, "item_id": gold["key"]})
         n_rep = min(opts.n_repeats, len(test_rows))
         for i in sorted(rng.choice(len(test_rows), size=n_rep, replace=False).tolist()):
             r = test_rows[i]
-            rows.append({**r, "kind": "repeat", "key": "repeat:" + r["item_id"]})
+            rows.append({**r, "kind": ItemKind.REPEAT, "key": "repeat:" + r["item_id"]})
         return Choice(pairs=pairs, rows=rows, offsets=chosen_offsets, tracks=record,
                       view_columns=view_cols, methods=methods)
 
@@ -189,14 +190,14 @@ class PairwiseDesign:
         methods and their pair ids."""
         fmt, size = opts.image_format, int(opts.size)
         writer = _crops.CropWriter(folder / "crops", fmt=fmt, rng=rng,
-                                   groups={"good": sum(r["kind"] == "gold" for r in choice.rows)})
+                                   groups={"good": sum(r["kind"] == ItemKind.GOLD for r in choice.rows)})
         attrs = attribute_columns(choice.pairs.drop(columns=["_root", "_row"]))
         items = []
         for k, r in enumerate(tqdm(choice.rows, desc="cutting crops", unit="item", disable=not progress)):
             ref, kind = r["ref"], r["kind"]
             gt_img, gt_box = image(ref, "gt_path"), [ref[c] for c in GT_BOX_COLUMNS]
-            shift = _crops.draw_shift(rng, gt_box) if kind in ("gold", "repeat") else (0, 0)
-            moved = shift if kind == "repeat" else (0, 0)
+            shift = _crops.draw_shift(rng, gt_box) if kind in (ItemKind.GOLD, ItemKind.REPEAT) else (0, 0)
+            moved = shift if kind == ItemKind.REPEAT else (0, 0)
             gt = _cut(gt_img, gt_box, moved, ref, "gt", where)
             # A: a render, or (gold) the GT image cut with the box moved
             ren = [_cut(gt_img, gt_box, shift, ref, "gt", where) if rec is None else _cut(
@@ -212,7 +213,7 @@ class PairwiseDesign:
                 if col == "a_file" and r["a"] is None:  # gold: A's file size as a real render's
                     out, q = writer.gold(crops, 1, written["ref_file"], size=size)
                 written[col] = writer.write(names[col], out, quality=q)
-            if kind in ("test", "training"):
+            if kind in (ItemKind.TEST, ItemKind.TRAINING):
                 writer.note_real(written["ref_file"], written["a_file"])
                 writer.note_real(written["ref_file"], written["b_file"])
             meta = {c: ref[c] for c in (*PAIR_META_COLUMNS, *choice.view_columns, *attrs)}
@@ -221,12 +222,12 @@ class PairwiseDesign:
                           "method_b": r["method_b"],
                           "pair_id_a": "" if r["a"] is None else r["a"]["pair_id"],
                           "pair_id_b": r["b"]["pair_id"], **names, "crop_side": side,
-                          "expected": "a" if r["kind"] == "gold" else "", **meta})
+                          "expected": "a" if r["kind"] == ItemKind.GOLD else "", **meta})
         return pd.DataFrame(items)
 
     def manifest_extras(self, choice: Choice) -> dict:
         """``design`` and the compared ``methods``."""
-        return {"design": "pairwise", "methods": list(choice.methods)}
+        return {"design": StudyDesign.PAIRWISE, "methods": list(choice.methods)}
 
 
 def _cut(img: np.ndarray, box, shift: tuple[int, int], rec, what: str, where: str) -> np.ndarray:
@@ -253,5 +254,5 @@ def choice(vote, side_a) -> np.ndarray:
         ``{'a', 'b', 'tie'}``.
     """
     v = np.asarray(vote, dtype=np.int64)
-    left_a = np.asarray(side_a, dtype=object) == "left"
+    left_a = np.asarray(side_a, dtype=object) == Side.LEFT
     return np.where(v == 0, "tie", np.where((v == 1) == left_a, "a", "b")).astype(object)

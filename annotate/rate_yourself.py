@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
+from data_schema.vocab import ItemKind, StudyDesign
 
 __all__ = ["OWN_STUDY", "OWN_ITEMS", "build_own_study", "own_agreement", "agreement_lines"]
 
@@ -68,12 +69,12 @@ def build_own_study(demo: str | Path, *, n: int = OWN_ITEMS, seed: int = 0) -> P
         raise InputError(demo, None, "the folder of a finished nvrq demo (study/ and pairs.csv)",
                          "no such study or pairs table")
     study = load_study(study_dir)
-    design = study.manifest.get("design", "binary")
-    if design != "binary":
+    design = study.manifest.design
+    if design != StudyDesign.BINARY:
         raise InputError(study_dir, None, "the study of nvrq demo (good/bad votes); the methods demo's "
                          "pairwise study is rated with annotate serve", f"a {design} study")
     votes = study.store.votes()
-    items = study.items[study.items["kind"] == "test"]
+    items = study.items[study.items["kind"] == ItemKind.TEST]
     rated = items[items["key"].isin(votes.loc[votes["rater"].str.startswith("sim-"), "item"])]
     if rated.empty:
         raise InputError(study_dir, None, "test items with simulated votes (annotate simulate)", "none")

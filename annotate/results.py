@@ -36,6 +36,7 @@ from data_schema.tables import (
     RATINGS_COLUMNS,
 )
 from data_schema.text import plural
+from data_schema.vocab import Answer, ItemKind, Side, StudyDesign
 
 __all__ = [
     "ratings_table",
@@ -68,15 +69,15 @@ def ratings_table(study) -> pd.DataFrame:
     pandas.DataFrame
         Columns of docs/FORMATS.md §5, one row per standing vote in vote order.
     """
-    attrs = list(study.manifest.get("attribute_columns", []))
+    attrs = list(study.manifest.attribute_columns)
     # 6-DoF columns (absent: lateral study) and ``method`` (absent: single-method study)
-    attrs = [*study.manifest.get("view_columns", []), *study.manifest.get("method_columns", []), *attrs]
+    attrs = [*study.manifest.view_columns, *study.manifest.method_columns, *attrs]
     df = _voted_items(study, ["item_id", "kind", "pair_id", *PAIR_META_COLUMNS, *attrs])
     metric_cols, metrics = _study_metrics(study)
     if metrics is not None:
         df = df.merge(metrics, on="pair_id", how="left")
         # gold items show GT against GT or a broken copy: the pair's metrics do not apply
-        df.loc[df["kind"] == "gold", metric_cols] = np.nan
+        df.loc[df["kind"] == ItemKind.GOLD, metric_cols] = np.nan
     cols = [*RATINGS_COLUMNS, *PAIR_META_COLUMNS, *attrs, *metric_cols]
     return _in_vote_order(df, cols)
 
@@ -99,7 +100,7 @@ def pairwise_votes_table(study) -> pd.DataFrame:
     pandas.DataFrame
         The columns above, sorted by ``voted_at``, ``rater_id`` and ``item_id``.
     """
-    attrs = [*study.manifest.get("view_columns", []), *study.manifest.get("attribute_columns", [])]
+    attrs = [*study.manifest.view_columns, *study.manifest.attribute_columns]
     attrs = [c for c in attrs if c in study.items.columns]
     df = _voted_items(study, ["item_id", "kind", "method_a", "method_b", "pair_id_a", "pair_id_b",
                               *PAIR_META_COLUMNS, *attrs])
@@ -137,7 +138,7 @@ def _in_vote_order(df: pd.DataFrame, columns: list[str]) -> pd.DataFrame:
 
 def _study_metrics(study) -> tuple[list[str], pd.DataFrame | None]:
     """The study's metric columns and its ``metrics.csv`` (None without metrics or file)."""
-    metric_cols = list(study.manifest.get("metric_columns", []))
+    metric_cols = list(study.manifest.metric_columns)
     path = study.root / "metrics.csv"
     if metric_cols and path.is_file():
         return metric_cols, pd.read_csv(path, dtype={"pair_id": str})
@@ -157,7 +158,7 @@ def votes_table(study) -> pd.DataFrame:
     pandas.DataFrame
         The §12 pairwise votes or the §5 ratings.
     """
-    return pairwise_votes_table(study) if study.design == "pairwise" else ratings_table(study)
+    return pairwise_votes_table(study) if study.design == StudyDesign.PAIRWISE else ratings_table(study)
 
 
 def wilson_interval(n_good, n, *, z: float = _Z95):
@@ -235,7 +236,7 @@ def gvf_table(ratings: pd.DataFrame) -> pd.DataFrame:
     pandas.DataFrame
         One row per test item.
     """
-    test = ratings[ratings["kind"] == "test"]
+    test = ratings[ratings["kind"] == ItemKind.TEST]
     extra = [c for c in test.columns if c not in (*RATINGS_COLUMNS,)]
     out = good_vote_fraction(test["item_id"], test["vote"]).set_index("item_id").sort_index()
     if extra:
@@ -297,7 +298,7 @@ def nominal_alpha(ratings: pd.DataFrame) -> tuple[float | None, str]:
     note : str
         What it was computed on, or why it is undefined.
     """
-    test = ratings[ratings["kind"] == "test"]
+    test = ratings[ratings["kind"] == ItemKind.TEST]
     if test["rater_id"].nunique() < 2:
         return None, "needs votes from at least 2 raters"
     alpha, why = alpha_nominal(test["item_id"].to_numpy(), test["vote"].to_numpy())
@@ -320,7 +321,7 @@ def gold_failures(ratings: pd.DataFrame) -> pd.DataFrame:
     pandas.DataFrame
         ``rater_id, item_id, vote, expected``, one row per wrong gold vote.
     """
-    gold = ratings[ratings["kind"] == "gold"].copy()
+    gold = ratings[ratings["kind"] == ItemKind.GOLD].copy()
     gold["expected"] = gold["item_id"].str.startswith("gold-good:").astype(int)
     return gold.loc[gold["vote"] != gold["expected"], ["rater_id", "item_id", "vote", "expected"]
                     ].reset_index(drop=True)
@@ -388,17 +389,17 @@ def pairwise_raters(votes: pd.DataFrame, raters: list[str]) -> pd.DataFrame:
     out = votes.pivot_table(index="rater_id", columns="kind", values="choice", aggfunc="size",
                             fill_value=0).reindex(index=raters, columns=list(ITEM_KINDS),
                                                   fill_value=0).astype(int)
-    test = votes[votes["kind"] == "test"]
+    test = votes[votes["kind"] == ItemKind.TEST]
     shares = pd.crosstab(test["rater_id"], test["choice"], normalize="index")
     for c in ("a", "b", "tie"):
         out[f"share_{c}"] = shares.get(c, pd.Series(dtype=float)).reindex(out.index)
-    sided = test[test["choice"] != "tie"]
-    left = (sided["choice"] == "a") == (sided["side_a"] == "left")
+    sided = test[test["choice"] != Answer.TIE]
+    left = (sided["choice"] == Answer.A) == (sided["side_a"] == Side.LEFT)
     out["left_share"] = left.groupby(sided["rater_id"]).mean().reindex(out.index)
-    gold = votes[votes["kind"] == "gold"]
-    out["gold_failures"] = (gold["choice"] != "a").groupby(gold["rater_id"]).sum().reindex(
+    gold = votes[votes["kind"] == ItemKind.GOLD]
+    out["gold_failures"] = (gold["choice"] != Answer.A).groupby(gold["rater_id"]).sum().reindex(
         out.index, fill_value=0).astype(int)
-    rep = votes[votes["kind"] == "repeat"].merge(test, on=["rater_id", "item_id"],
+    rep = votes[votes["kind"] == ItemKind.REPEAT].merge(test, on=["rater_id", "item_id"],
                                                  suffixes=("", "_orig"))
     same = (rep["choice"] == rep["choice_orig"]).groupby(rep["rater_id"])
     out["n_repeat_pairs"] = same.size().reindex(out.index, fill_value=0).astype(int)

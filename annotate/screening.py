@@ -61,6 +61,7 @@ from scipy import stats as _st
 from data_schema.errors import InputError
 from data_schema.raters import SIM_PREFIX
 from data_schema.tables import ITEM_KINDS
+from data_schema.vocab import ItemKind
 
 __all__ = [
     "ScreenRule",
@@ -432,7 +433,7 @@ def _per_rater(codes, n_r, values, mask=None):
 
 def _vote_matrix(votes: pd.DataFrame, raters) -> np.ndarray:
     """(R, I) test votes, NaN where missing (a rater's last test vote on an item)."""
-    t = votes[votes["kind"] == "test"]
+    t = votes[votes["kind"] == ItemKind.TEST]
     r = pd.Index(raters).get_indexer(t["rater_id"])
     i, items = pd.factorize(t["item_id"])
     mat = np.full((len(raters), len(items)), np.nan)
@@ -450,7 +451,7 @@ def _agreement_columns(out, votes, raters, rule):
 
 def _gold_columns(out, votes, r_codes, n_r, rule):
     kind, vote = votes["kind"].to_numpy(), votes["vote"].to_numpy(np.float64)
-    g = kind == "gold"
+    g = kind == ItemKind.GOLD
     exp = gold_expected(votes[g])
     scored = np.isfinite(exp)
     fails = np.bincount(r_codes[g], weights=(vote[g] != exp) & scored, minlength=n_r)
@@ -465,8 +466,8 @@ def _gold_columns(out, votes, r_codes, n_r, rule):
 
 def _repeat_columns(out, votes, raters, rule):
     kind = votes["kind"].to_numpy()
-    rep = votes[kind == "repeat"][["rater_id", "item_id", "vote"]]
-    tst = votes[kind == "test"][["rater_id", "item_id", "vote"]]
+    rep = votes[kind == ItemKind.REPEAT][["rater_id", "item_id", "vote"]]
+    tst = votes[kind == ItemKind.TEST][["rater_id", "item_id", "vote"]]
     j = rep.merge(tst, on=["rater_id", "item_id"], how="inner", suffixes=("_rep", "_test"))
     jc = pd.Index(raters).get_indexer(j["rater_id"])
     same = (j["vote_rep"].to_numpy() == j["vote_test"].to_numpy()).astype(float)
@@ -478,7 +479,7 @@ def _repeat_columns(out, votes, raters, rule):
 
 
 def _speed_columns(out, votes, r_codes, n_r, rule):
-    t = votes["kind"].to_numpy() == "test"
+    t = votes["kind"].to_numpy() == ItemKind.TEST
     rt = pd.to_numeric(votes["response_ms"], errors="coerce").to_numpy(np.float64)[t]
     tr = r_codes[t]
     known = np.isfinite(rt)

@@ -44,6 +44,7 @@ from data_schema.errors import InputError
 from data_schema.perturbation import labels, perturbation_array
 from data_schema.raters import SIM_PREFIX
 from data_schema.tables import require_columns
+from data_schema.vocab import ItemKind, Side, StudyDesign
 
 __all__ = ["p_good", "p_choice", "item_severity", "pairwise_severity", "new_rater_ids", "simulate"]
 
@@ -77,14 +78,14 @@ def _degradation(study) -> pd.DataFrame:
     """Each clip's degradation.csv: ``clip_id, camera, timestamp_us, track_id, _cm`` (the view
     label), ``method`` when the file has one, and ``severity``; one row per render."""
     parts = []
-    for clip, root in study.manifest["scene_roots"].items():
+    for clip, root in study.manifest.scene_roots.items():
         path = Path(root) / "degradation.csv"
         if not path.is_file():
             raise InputError(path, None, "a degradation.csv (written by 'nvrq synth') to simulate raters",
                              "no such file")
         deg = pd.read_csv(path, dtype={"camera": str, "track_id": str, METHOD_COLUMN: str})
         require_columns(deg, (*_JOIN, "severity"), where=path)
-        if study.design == "pairwise" and METHOD_COLUMN not in deg.columns:
+        if study.design == StudyDesign.PAIRWISE and METHOD_COLUMN not in deg.columns:
             raise InputError(path, f"column {METHOD_COLUMN!r}", "the method of each render "
                              "(one severity per method) to simulate a pairwise study",
                              "no such column")
@@ -133,7 +134,7 @@ def item_severity(study) -> pd.Series:
     """
     items = study.items
     sev = pd.Series(_join_severity(items, _degradation(study), None), index=items.index)
-    gold = items["kind"] == "gold"
+    gold = items["kind"] == ItemKind.GOLD
     sev[gold] = np.where(items.loc[gold, "item_id"].str.startswith("gold-good:"), 0.0, 1.0)
     _check_found(sev)
     return sev
@@ -248,12 +249,12 @@ def _check_room(study, raters: int) -> None:
     vote on nothing but training."""
     chooser = study.chooser
     chooser.refresh(study.store.history_after)
-    room = chooser.votes_left(study.store.item_loads(), study.keys("test"))
+    room = chooser.votes_left(study.store.item_loads(), study.keys(ItemKind.TEST))
     if room < raters:
         sims = sum(r.startswith(SIM_PREFIX) for r in study.store.raters())
         need = (f"at most {room} more rater(s): the test items need {room} more votes"
                 if room else "a study whose test items still need votes")
-        cap = study.manifest.get("max_votes_per_item")
+        cap = study.manifest.max_votes_per_item
         per = {"uniform": f"{study.quota} per item",
                "active": f"{study.quota} per item on average",
                "adaptive": f"{study.quota} per item on average, at most {cap}"}[study.sampling]
@@ -294,7 +295,7 @@ def simulate(study, *, raters: int = 5, seed: int = 0, progress: bool = True) ->
     if raters < 1:
         raise InputError(param="raters", expected="an integer >= 1", got=raters)
     _check_room(study, raters)
-    pairwise = study.design == "pairwise"
+    pairwise = study.design == StudyDesign.PAIRWISE
     sev = pairwise_severity(study) if pairwise else item_severity(study)
     # the same store file and code path; NORMAL sync: simulated votes need not survive a power cut
     study = dataclasses.replace(study, store=Store(study.store.path, study.store.study,
@@ -336,7 +337,7 @@ def simulate(study, *, raters: int = 5, seed: int = 0, progress: bool = True) ->
             clock += timedelta(milliseconds=response_ms)
             study.store.record_vote(par["rater_id"], key, vote, response_ms=response_ms,
                                     voted_at=utc_iso(clock))
-            par["test_votes"] += int(study.items.at[key, "kind"] == "test")
+            par["test_votes"] += int(study.items.at[key, "kind"] == ItemKind.TEST)
             bar.update()
     bar.close()
     lead = (clock - datetime.now(timezone.utc)).total_seconds()
@@ -356,5 +357,5 @@ def _pairwise_vote(study, par: dict, key: str, sev: pd.DataFrame, rng) -> int:
                          width=par["width"], lapse=par["lapse"])
     if u >= pa + pb:
         return 0
-    a_left = study.plan_for(par["rater_id"])["sides"][key] == "left"
+    a_left = study.plan_for(par["rater_id"])["sides"][key] == Side.LEFT
     return 1 if (u < pa) == a_left else 2

@@ -44,21 +44,22 @@ from annotate.design import Choice, Design, StudyOptions, attribute_columns
 from annotate.load import check_items_per_rater
 from annotate.pairwise import PairwiseDesign
 from annotate.store import Store
-from annotate.study_sampling import DEFAULT_SAMPLING, SAMPLINGS, check_sampling, study_sampling
+from annotate.study_sampling import DEFAULT_SAMPLING, check_sampling, study_sampling
 from data_schema.errors import InputError
 from data_schema.methods import METHOD_COLUMN, REFERENCE_METHODS, method_values
 from data_schema.options import options_or_keywords
 from data_schema.outputs import check_output_folder
+from data_schema.study_manifest import StudyManifest
 from data_schema.tables import (
     ITEM_KINDS,
     PAIRS_COLUMNS,
     TableKind,
     atomic_folder,
-    atomic_write_text,
     pair_scene_roots,
     read_metrics,
     read_table,
 )
+from data_schema.vocab import ItemKind, StudyDesign
 
 __all__ = ["build_study", "load_study", "Study", "StudyChanged", "crop_path", "unplaced_votes"]
 
@@ -157,7 +158,7 @@ def _check_options(out, pairs_path, opts: StudyOptions) -> StudyOptions:
     cap = opts.items_per_rater
     if cap is not None and (isinstance(cap, bool) or not isinstance(cap, int | np.integer) or cap < 1):
         raise InputError(param="items_per_rater", expected="a positive integer or None", got=cap)
-    if opts.methods is not None and opts.design != "pairwise":
+    if opts.methods is not None and opts.design != StudyDesign.PAIRWISE:
         raise InputError(param="methods", expected="no method list with `design` binary (it compares "
                          "methods only with `design` pairwise)", got=opts.methods)
     sampling = DEFAULT_SAMPLING[opts.design] if opts.sampling is None else opts.sampling
@@ -229,11 +230,11 @@ def _write_tables(tmp: Path, items: pd.DataFrame, metrics: pd.DataFrame | None) 
 
 
 def _manifest(out: Path, choice: Choice, items: pd.DataFrame, opts: StudyOptions, *, extras: dict,
-              pairs_file: Path, metric_cols: list[str]) -> dict:
-    """The study's ``manifest.json`` (every option and choice; the design's ``extras`` last)."""
+              pairs_file: Path, metric_cols: list[str]) -> StudyManifest:
+    """The study's ``manifest.json`` (every option and choice; the design's ``extras`` last), checked."""
     pairs = choice.pairs
     roots = pairs.drop_duplicates("clip_id").set_index("clip_id")["_root"]
-    return {
+    return StudyManifest.from_dict({
         "format": "nvrq-study", "version": 1,
         "study_id": f"{out.resolve().name}-{secrets.token_hex(4)}",
         "seed": int(opts.seed),
@@ -256,15 +257,15 @@ def _manifest(out: Path, choice: Choice, items: pd.DataFrame, opts: StudyOptions
         "offsets": choice.offsets, "tracks": choice.tracks,
         "counts": {kind: int((items["kind"] == kind).sum()) for kind in ITEM_KINDS},
         # each rater's gold items, drawn from the counts' gold pool (absent: every gold item)
-        "gold_per_rater": min(2 * int(opts.n_gold), int((items["kind"] == "gold").sum())),
-        "training_order": items.loc[items["kind"] == "training", "key"].tolist(),
+        "gold_per_rater": min(2 * int(opts.n_gold), int((items["kind"] == ItemKind.GOLD).sum())),
+        "training_order": items.loc[items["kind"] == ItemKind.TRAINING, "key"].tolist(),
         **extras,
-    }
+    }, path=out / _MANIFEST)
 
 
-def _write_manifest(tmp: Path, manifest: dict) -> None:
+def _write_manifest(tmp: Path, manifest: StudyManifest) -> None:
     """``manifest.json`` and ``secrets.json`` (the admin token, file mode 600)."""
-    atomic_write_text(tmp / _MANIFEST, json.dumps(manifest, indent=1, default=str))
+    manifest.write(tmp / _MANIFEST)
     secret = tmp / "secrets.json"
     secret.write_text(json.dumps({"admin_token": secrets.token_urlsafe(24)}))
     os.chmod(secret, 0o600)
@@ -316,8 +317,8 @@ class Study:
     ----------
     root : pathlib.Path
         The study folder (resolved).
-    manifest : dict
-        The parsed ``manifest.json``.
+    manifest : StudyManifest
+        The study's ``manifest.json``, read and checked.
     items : pandas.DataFrame
         The rows of ``items.csv``, indexed by ``key``.
     store : Store
@@ -325,13 +326,13 @@ class Study:
     """
 
     root: Path
-    manifest: dict
+    manifest: StudyManifest
     items: pd.DataFrame
     store: Store
 
     @property
     def quota(self) -> int:
-        return int(self.manifest["votes_per_item"])
+        return int(self.manifest.votes_per_item)
 
     def admin_token(self) -> str:
         if "_admin_token" not in self.__dict__:
@@ -377,7 +378,7 @@ class Study:
         budget or closed every item (active, adaptive)."""
         chooser = self.chooser
         chooser.refresh(self.store.history_after)
-        return chooser.is_full(self.store.item_loads(), self.keys("test"))
+        return chooser.is_full(self.store.item_loads(), self.keys(ItemKind.TEST))
 
     @property
     def sampling(self) -> str:
@@ -400,13 +401,13 @@ class Study:
     @property
     def design(self) -> str:
         """``'binary'`` (good/bad; every study built before designs existed) or ``'pairwise'``."""
-        return self.manifest.get("design", "binary")
+        return self.manifest.design
 
     @property
     def tests_per_rater(self) -> int | None:
         """The test items one rater is given at most: the manifest's ``items_per_rater`` less
         the training, gold and repeat items (None: no cap, as in studies built before it)."""
-        cap = self.manifest.get("items_per_rater")
+        cap = self.manifest.items_per_rater
         if cap is None:
             return None
         return int(cap) - sum(self.rater_counts()[k] for k in ("training", "gold", "repeat"))
@@ -415,13 +416,13 @@ class Study:
     def gold_per_rater(self) -> int | None:
         """Gold items one rater is shown, drawn from the study's pool (manifest
         ``gold_per_rater``; None in studies built before the pool: every gold item)."""
-        n = self.manifest.get("gold_per_rater")
+        n = self.manifest.gold_per_rater
         return None if n is None else int(n)
 
     def rater_counts(self) -> dict[str, int]:
         """Items of each kind one rater is shown at most: the manifest's ``counts`` with
         ``gold`` the rater's share of the gold pool (:attr:`gold_per_rater`)."""
-        counts = {k: int(self.manifest.get("counts", {}).get(k, len(self.keys(k)))) for k in ITEM_KINDS}
+        counts = {k: int(self.manifest.counts.get(k, len(self.keys(k)))) for k in ITEM_KINDS}
         if self.gold_per_rater is not None:
             counts["gold"] = min(self.gold_per_rater, counts["gold"])
         return counts
@@ -430,13 +431,13 @@ class Study:
         """A new plan for ``rater``, seeded by :func:`annotate.assign.plan_seed` (keyed with
         the study's secret: the seed alone predicts nothing); a simulated rater's
         (``sim-``) by :func:`annotate.assign.rater_seed`, so simulations repeat exactly."""
-        reps = {k: k.split(":", 1)[1] for k in self.keys("repeat")}
-        seed = (rater_seed(self.manifest["seed"], rater) if rater.startswith(SIMULATED_PREFIX)
-                else plan_seed(self.admin_token(), self.manifest["seed"], rater))
-        plan = make_plan(training=self.manifest["training_order"], tests=self.keys("test"),
-                         golds=self.keys("gold"), repeats=reps, seed=seed,
+        reps = {k: k.split(":", 1)[1] for k in self.keys(ItemKind.REPEAT)}
+        seed = (rater_seed(self.manifest.seed, rater) if rater.startswith(SIMULATED_PREFIX)
+                else plan_seed(self.admin_token(), self.manifest.seed, rater))
+        plan = make_plan(training=self.manifest.training_order, tests=self.keys(ItemKind.TEST),
+                         golds=self.keys(ItemKind.GOLD), repeats=reps, seed=seed,
                          max_tests=self.tests_per_rater, n_gold=self.gold_per_rater)
-        if self.design == "pairwise":  # which side A is shown on, per item, for this rater
+        if self.design == StudyDesign.PAIRWISE:  # which side A is shown on, per item, for this rater
             plan["sides"] = pairwise_sides(plan, seed=seed)
         return plan
 
@@ -502,9 +503,9 @@ class Study:
             sig = (st.st_ino, st.st_mtime_ns, st.st_size)
             if sig != getattr(self, "_manifest_sig", None):
                 found = json.loads(path.read_text()).get("study_id")
-                if found != self.manifest["study_id"]:
+                if found != self.manifest.study_id:
                     raise StudyChanged(f"{path}: study_id is {found!r}, the server was started "
-                                       f"for {self.manifest['study_id']!r}")
+                                       f"for {self.manifest.study_id!r}")
                 self._manifest_sig = sig
         except (OSError, ValueError) as err:
             raise StudyChanged(f"{path}: {err}") from err
@@ -531,59 +532,30 @@ def load_study(root: str | Path) -> Study:
     path = root / _MANIFEST
     if not path.is_file():
         raise InputError(root, _MANIFEST, "a study folder made by 'annotate build'", "no manifest")
-    manifest = _read_manifest(path)
+    manifest = StudyManifest.read(path)
     items_path = root / "items.csv"
     if not items_path.is_file():
         raise InputError(items_path, None, "the study's items table", "no such file")
-    design = manifest.get("design", "binary")
-    files = ("ref_file", "a_file", "b_file", "method_a", "method_b") if design == "pairwise" else (
+    design = manifest.design
+    files = ("ref_file", "a_file", "b_file", "method_a", "method_b") if design == StudyDesign.PAIRWISE else (
         "ref_file", "ren_file")
     items = read_table(items_path, required=("key", "item_id", "kind", "pair_id", *files),
                        what="study items table",
                        dtype={"key": str, "item_id": str, "pair_id": str, "camera": str,
                               "track_id": str, "clip_id": str, "method_a": str, "method_b": str,
                               "pair_id_a": str, "pair_id_b": str, "expected": str}
-                       if design == "pairwise" else
+                       if design == StudyDesign.PAIRWISE else
                        {"key": str, "item_id": str, "pair_id": str, "camera": str,
                         "track_id": str, "clip_id": str})
     if items["key"].duplicated().any() or items["key"].isna().any():
         raise InputError(items_path, "key", "one row per item key", "a duplicated or empty key")
     db = root / "votes.sqlite"
     try:
-        store = Store(db, manifest["study_id"], votes=VOTES[design])
+        store = Store(db, manifest.study_id, votes=VOTES[design])
     except sqlite3.Error as exc:
         raise InputError(db, None, "a readable SQLite vote store in a writable study folder",
                          f"{type(exc).__name__}: {exc}") from None
     return Study(root, manifest, items.set_index("key", drop=False).rename_axis(None), store)
-
-
-#: manifest.json keys every reader relies on, and their JSON types.
-#: (``design``, absent in binary studies, is checked in :func:`_read_manifest`.)
-_MANIFEST_KEYS = {"study_id": str, "seed": int, "access": str, "votes_per_item": int,
-                  "training_order": list, "counts": dict}
-
-
-def _read_manifest(path: Path) -> dict:
-    try:
-        manifest = json.loads(path.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(path, None, "a JSON study manifest", f"unreadable JSON ({exc})") from None
-    if not isinstance(manifest, dict) or manifest.get("format") != "nvrq-study":
-        raise InputError(path, "format", "'nvrq-study'", repr(manifest.get("format") if isinstance(
-            manifest, dict) else type(manifest).__name__))
-    for key, typ in _MANIFEST_KEYS.items():
-        if not isinstance(manifest.get(key), typ) or isinstance(manifest.get(key), bool):
-            raise InputError(path, key, f"a JSON {typ.__name__}", repr(manifest.get(key)))
-    if manifest.get("design", "binary") not in DESIGNS:
-        raise InputError(path, "design", "one of {'binary', 'pairwise'}", repr(manifest["design"]))
-    sampling, cap = manifest.get("sampling", "uniform"), manifest.get("max_votes_per_item")
-    if sampling not in SAMPLINGS or SAMPLINGS[sampling] not in (None, manifest.get("design", "binary")):
-        raise InputError(path, "sampling", "'uniform', 'active' (pairwise) or 'adaptive' (binary)",
-                         repr(sampling))
-    if sampling == "adaptive" and (isinstance(cap, bool) or not isinstance(cap, int)
-                                   or cap < manifest["votes_per_item"]):
-        raise InputError(path, "max_votes_per_item", "an integer >= votes_per_item", repr(cap))
-    return manifest
 
 
 def unplaced_votes(study: Study) -> dict[str, int]:

@@ -47,18 +47,20 @@ from annotate.sampling import (
     update_pairwise,
 )
 from data_schema.errors import InputError
+from data_schema.study_manifest import StudyManifest
+from data_schema.vocab import ItemKind, Sampling, Side, StudyDesign
 
 __all__ = ["SAMPLINGS", "DEFAULT_SAMPLING", "check_sampling", "study_sampling", "make_sampler",
            "PairwiseSampler", "BinarySampler"]
 
 #: Sampling schemes and the design each needs (None: any design).
-SAMPLINGS = {"uniform": None, "active": "pairwise", "adaptive": "binary"}
+SAMPLINGS = {s: s.design for s in Sampling}
 #: The scheme a new study of each design gets when none is named. Pairwise: ``active`` since
 #: the benchmark (``benchmarks/bench_sampling.py``, 20 seeds: active reaches the full
 #: uniform design's scale error with half of its comparisons and ranks at least as well at
 #: every budget). Binary stays ``uniform``: ``adaptive`` gives items different numbers of
 #: votes, which a study must choose knowingly.
-DEFAULT_SAMPLING = {"binary": "uniform", "pairwise": "active"}
+DEFAULT_SAMPLING = {StudyDesign.BINARY: Sampling.UNIFORM, StudyDesign.PAIRWISE: Sampling.ACTIVE}
 
 
 def check_sampling(sampling: str, *, design: str, votes_per_item: int,
@@ -96,10 +98,10 @@ def check_sampling(sampling: str, *, design: str, votes_per_item: int,
                          got=sampling)
     need = SAMPLINGS[sampling]
     if need is not None and need != design:
-        other = "active" if design == "pairwise" else "adaptive"
+        other = Sampling.ACTIVE if design == StudyDesign.PAIRWISE else Sampling.ADAPTIVE
         raise InputError(param="sampling", expected=f"'uniform' or '{other}' with `design` {design} "
                          f"('{sampling}' is for {need} studies)", got=sampling)
-    if sampling != "adaptive":
+    if sampling != Sampling.ADAPTIVE:
         if max_votes_per_item is not None:
             raise InputError(param="max_votes_per_item", expected="no cap unless `sampling` is "
                              "adaptive", got=max_votes_per_item)
@@ -111,21 +113,20 @@ def check_sampling(sampling: str, *, design: str, votes_per_item: int,
     return int(cap)
 
 
-def study_sampling(manifest: dict) -> tuple[str, int | None]:
+def study_sampling(manifest: StudyManifest) -> tuple[Sampling, int | None]:
     """A manifest's ``(sampling, max_votes_per_item)``; a study built before ``--sampling``
     (no such keys) is ``('uniform', None)``.
 
     Parameters
     ----------
-    manifest : dict
-        The study's parsed ``manifest.json``.
+    manifest : StudyManifest
+        The study's manifest.
 
     Returns
     -------
-    (str, int or None)
+    (Sampling, int or None)
     """
-    cap = manifest.get("max_votes_per_item")
-    return str(manifest.get("sampling") or "uniform"), None if cap is None else int(cap)
+    return manifest.sampling, manifest.max_votes_per_item
 
 
 Reader = Callable[[int], list]
@@ -135,7 +136,7 @@ class _Sampler:
     """State shared by both samplers: test keys, standing test votes, the watermark."""
 
     def __init__(self, study) -> None:
-        self.keys = study.keys("test")
+        self.keys = study.keys(ItemKind.TEST)
         self.pos = {k: i for i, k in enumerate(self.keys)}
         self.budget = study.quota * len(self.keys)
         # (rater, key) -> (history id, value): the vote, or what a sampler makes of it
@@ -302,7 +303,7 @@ class PairwiseSampler(_Sampler):
     def __init__(self, study) -> None:
         super().__init__(study)
         tests = study.items.loc[self.keys]
-        methods = list(study.manifest["methods"])
+        methods = list(study.manifest.methods)
         views = list(dict.fromkeys(tests["pair_id"]))
         m = len(methods)
         a = tests["method_a"].map(methods.index).to_numpy()
@@ -338,7 +339,7 @@ class PairwiseSampler(_Sampler):
         """The vote in A/B terms: 1 A closer, 0 B closer, 0.5 can't tell."""
         if vote == 0:
             return 0.5
-        return 1.0 if (vote == 1) == (self._batch_sides[(rater, key)] == "left") else 0.0
+        return 1.0 if (vote == 1) == (self._batch_sides[(rater, key)] == Side.LEFT) else 0.0
 
     def _added(self, rater, key, i, score) -> None:
         if not self._replay:
@@ -446,8 +447,8 @@ def make_sampler(study) -> _Sampler | None:
     PairwiseSampler, BinarySampler or None
     """
     sampling, cap = study_sampling(study.manifest)
-    if sampling == "active":
+    if sampling == Sampling.ACTIVE:
         return PairwiseSampler(study)
-    if sampling == "adaptive":
+    if sampling == Sampling.ADAPTIVE:
         return BinarySampler(study, cap if cap is not None else 2 * study.quota)
     return None

@@ -26,6 +26,7 @@ from data_schema.defaults import MIN_SIDE_PX, MIN_VISIBLE  # shared by nvrq pair
 from data_schema.errors import InputError
 from data_schema.methods import METHOD_COLUMN, check_table_methods, method_suffix
 from data_schema.perturbation import perturbation_array, view_suffix
+from data_schema.vocab import ItemKind
 
 __all__ = [
     "PAIRS_COLUMNS",
@@ -108,7 +109,7 @@ RATINGS_COLUMNS = ("item_id", "rater_id", "vote", "voted_at", "response_ms", "ki
 PAIRWISE_VOTES_COLUMNS = ("item_id", "rater_id", "kind", "method_a", "method_b", "side_a", "choice")
 
 #: docs/FORMATS.md §5, the values of ratings.csv's ``kind`` (and of a study item's kind).
-ITEM_KINDS = ("test", "gold", "training", "repeat")
+ITEM_KINDS = tuple(ItemKind)
 
 #: docs/FORMATS.md §4, the columns of ``METRICS.timing.csv``.
 TIMING_COLUMNS = ("metric", "seconds", "pairs")

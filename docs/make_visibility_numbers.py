@@ -1,7 +1,8 @@
 """The visibility rule's figures in docs/FORMATS.md §3 and the README: pooled and within-view
 SRCC of each metric with the true severity, at several ``--min-visible`` values.
 
-For each clip: ``nvrq synth`` (5 fps, offsets -3..3), ``nvrq pairs --min-visible 0`` (every
+For each clip (the demo's own clip at ``nvrq demo``'s defaults, and two 6 s clips at 5 fps,
+640x360, rendered by two methods): ``nvrq synth`` (offsets -3..3), ``nvrq pairs --min-visible 0`` (every
 pair, with its visible fractions), ``nvrq score`` (PSNR, SSIM, NVRQ, NVRQ-CA on
 efficientnet-lite0); then, for each rule ``F``, the pairs at least ``F`` visible in both views.
 Pooled SRCC: Spearman of the metric with ``-severity`` over the off-path pairs. Within-view
@@ -22,9 +23,10 @@ import numpy as np
 import pandas as pd
 from scipy.stats import spearmanr
 
-CLIPS = {  # name: (seed, seconds, size, methods)
-    "crowded": (0, 6, "640x360", "sharp:0.5,blurry:1.5"),
-    "open": (13, 6, "640x360", "sharp:0.5,blurry:1.5"),
+CLIPS = {  # name: (seed, seconds, fps, size, methods; None: nvrq synth's own, the demo's render)
+    "demo": (0, 6, 10, "960x540", None),  # `nvrq demo`'s clip at its defaults
+    "crowded": (0, 6, 5, "640x360", "sharp:0.5,blurry:1.5"),
+    "open": (13, 6, 5, "640x360", "sharp:0.5,blurry:1.5"),
 }
 METRICS = ["psnr", "ssim", "nvrq:efficientnet-lite0", "nvrq_ca:efficientnet-lite0"]
 RULES = [0.0, 0.5, 0.8, 0.9]
@@ -36,7 +38,7 @@ def nvrq(*args: str) -> None:
 
 def within(df: pd.DataFrame, metric: str) -> tuple[float, int]:
     rs = []
-    for _, cell in df.groupby(["method", "y_offset_m"]):
+    for _, cell in df.groupby([c for c in ("method", "y_offset_m") if c in df.columns]):
         if len(cell) >= 10 and cell.track_id.nunique() >= 5:
             r = spearmanr(cell[metric], -cell.severity).statistic
             if np.isfinite(r):
@@ -45,11 +47,11 @@ def within(df: pd.DataFrame, metric: str) -> tuple[float, int]:
 
 
 def clip_table(name: str, out: Path) -> pd.DataFrame:
-    seed, seconds, size, methods = CLIPS[name]
+    seed, seconds, fps, size, methods = CLIPS[name]
     scene = out / name
     if not (out / f"{name}_metrics.csv").exists():
-        nvrq("synth", str(scene), "--seed", str(seed), "--seconds", str(seconds), "--fps", "5", "--size", size,
-             "--offsets=-3,-2,-1,0,1,2,3", "--methods", methods)
+        nvrq("synth", str(scene), "--seed", str(seed), "--seconds", str(seconds), "--fps", str(fps), "--size", size,
+             "--offsets=-3,-2,-1,0,1,2,3", *(["--methods", methods] if methods else []))
         nvrq("pairs", str(scene), "--out", str(out / f"{name}_pairs.csv"), "--min-visible", "0")
         nvrq("score", str(out / f"{name}_pairs.csv"), "--out", str(out / f"{name}_metrics.csv"),
              "--metrics", "psnr,ssim,nvrq,nvrq_ca", "--encoder", "efficientnet-lite0")

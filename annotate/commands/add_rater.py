@@ -17,6 +17,7 @@ from annotate.commands.serve import (
 )
 from data_schema.errors import InputError
 from data_schema.raters import check_rater_name
+from data_schema.vocab import Access
 
 __all__ = ["register", "run"]
 
@@ -66,8 +67,8 @@ def run(args) -> int:
     host = DEFAULT_HOST if args.host is None else args.host
     base = (base_url(host, DEFAULT_PORT if args.port is None else args.port, public_url=args.public_url)
             if explicit else served_base(study.root) or base_url())
-    check_serving(study.manifest["access"], host=host, public_url=args.public_url)
-    if study.manifest["access"] in ("token", "crowd"):
+    check_serving(study.manifest.access, host=host, public_url=args.public_url)
+    if study.manifest.access in (Access.TOKEN, Access.CROWD):
         known = study.store.plan(name) is not None
         if known and not args.rotate:
             raise InputError("NAME", None, f"a rater not registered yet, or --rotate to give {name} "

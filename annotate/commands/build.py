@@ -19,6 +19,7 @@ from annotate.load import (
 )
 from data_schema.errors import InputError
 from data_schema.outputs import check_output_folder
+from data_schema.vocab import Sampling
 from nvrq.cli_options import add_scene_root_option, add_seed_option
 from nvrq.cli_types import (
     DeprecatedFileOption,
@@ -170,13 +171,13 @@ def run(args) -> int:
     admin_base = base_url(public_url=args.public_url)
     out = build_study(args.study, args.pairs, options_from_args(args), progress=show_progress(args))
     study = load_study(out)
-    counts = ", ".join(f"{v} {k}" for k, v in study.manifest["counts"].items())
+    counts = ", ".join(f"{v} {k}" for k, v in study.manifest.counts.items())
     share = study.rater_counts()["gold"]
-    pool = f" (each rater sees {share} of the {study.manifest['counts']['gold']} gold)" \
-        if share < study.manifest["counts"]["gold"] else ""
+    pool = f" (each rater sees {share} of the {study.manifest.counts['gold']} gold)" \
+        if share < study.manifest.counts["gold"] else ""
     print(f"study {out}: {counts} items{pool}")
-    if args.sampling is None and study.manifest["sampling"] != "uniform":  # a default's change
-        print(f"sampling: {study.manifest['sampling']} (the default for {study.design} studies; "
+    if args.sampling is None and study.manifest.sampling != Sampling.UNIFORM:  # a default's change
+        print(f"sampling: {study.manifest.sampling} (the default for {study.design} studies; "
               "--sampling uniform gives every comparison the same number of votes)")
     load = rater_load(study.rater_counts(), items_per_rater=args.items_per_rater,
                       votes_per_item=args.votes_per_item)

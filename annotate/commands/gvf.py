@@ -10,6 +10,7 @@ from pathlib import Path
 from annotate.commands import add_study_argument
 from data_schema.errors import InputError
 from data_schema.outputs import check_output_file
+from data_schema.vocab import StudyDesign
 
 __all__ = ["register", "run"]
 
@@ -50,7 +51,7 @@ def run(args) -> int:
     if args.out:
         check_output_file(args.out, inputs=[args.study])
     study = load_study(args.study)
-    if study.design != "binary":
+    if study.design != StudyDesign.BINARY:
         raise InputError(Path(args.study) / "manifest.json", "design", "a good/bad (binary) study "
                          "for a good-vote fraction; export a pairwise study's votes with "
                          "'annotate export'", study.design)

@@ -49,6 +49,7 @@ from annotate.commands import add_study_argument
 from annotate.proxy_conf import PROXIES, proxy_conf
 from annotate.workers import supervise, worker_ports
 from data_schema.errors import InputError
+from data_schema.vocab import Access
 from nvrq.cli_types import int_arg
 
 __all__ = ["register", "run", "serve_command", "check_port_free", "base_url", "add_address_options", "links",
@@ -244,12 +245,12 @@ def links(study, base: str) -> list[str]:
     out = [f"serving {study.root} at {base}",
            f"admin page: {base}?admin=ADMIN_TOKEN (the full link, to copy: {study.root / ADMIN_LINK}, "
            f"readable by you only; ADMIN_TOKEN is admin_token in {study.root / 'secrets.json'})"]
-    if study.manifest["access"] == "crowd":
-        param = study.manifest.get("participant_param")
+    if study.manifest.access == Access.CROWD:
+        param = study.manifest.participant_param
         out.append(f"participants' link: {base}" + (f"?{param}=PARTICIPANT_ID (the panel fills in "
                                                     f"{param})" if param else " (each arrival gets its own identity)"))
-        if study.manifest.get("completion_url"):
-            out.append(f"finished raters are shown: {study.manifest['completion_url']}")
+        if study.manifest.completion_url:
+            out.append(f"finished raters are shown: {study.manifest.completion_url}")
     return out
 
 
@@ -337,12 +338,12 @@ def run(args) -> int:
     from annotate.study import load_study
 
     study = load_study(args.study)  # fail here, not in the browser
-    is_open = study.manifest["access"] == "open"
+    is_open = study.manifest.access == Access.OPEN
     if args.workers > 1:  # raters come through the proxy: its port (loopback only when open)
         base = base_url("127.0.0.1" if is_open else "0.0.0.0", args.proxy_port, public_url=args.public_url)
     else:
         base = base_url(args.host, args.port, public_url=args.public_url)
-    check_serving(study.manifest["access"], host=args.host, public_url=args.public_url)
+    check_serving(study.manifest.access, host=args.host, public_url=args.public_url)
     if args.port + args.workers - 1 > 65535:
         raise InputError("--workers", None, f"at most {65536 - args.port} workers from --port {args.port}",
                          args.workers)

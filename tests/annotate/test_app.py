@@ -79,7 +79,7 @@ def test_sign_in_by_name_then_instructions(study):
 def test_query_param_sign_in_and_training_first(study):
     at = _app(rater="bob")
     at.button(key="start").click().run()
-    training = study.manifest["training_order"]
+    training = study.manifest.training_order
     assert len(training) == 2
     for i, key in enumerate(training):  # training items first, in study order
         assert _current(at) == key
@@ -212,7 +212,7 @@ def test_unshowable_crop_is_skipped_with_a_short_message(study, caplog):
     import pandas as pd
 
     items = pd.read_csv(study.root / "items.csv")
-    first = study.manifest["training_order"][0]
+    first = study.manifest.training_order[0]
     items.loc[items["key"] == first, "ref_file"] = "../secrets.json"  # tampered crop name
     items.to_csv(study.root / "items.csv", index=False)
     at = _app(rater="ida")

@@ -228,7 +228,7 @@ def test_attack_predicting_gold_positions_from_the_seed_is_at_chance(make_study)
     for i in range(40):
         rater = f"crowd-{i:016x}"
         plan = study.plan_for(rater)
-        guess = make_plan(training=study.manifest["training_order"], tests=study.keys("test"),
+        guess = make_plan(training=study.manifest.training_order, tests=study.keys("test"),
                           golds=study.keys("gold"), repeats=reps, seed=rater_seed(0, rater),
                           max_tests=study.tests_per_rater)  # the attacker's: seed 0 is public
         truth = {k: a for a, k in plan["specials"] if k in study.keys("gold")}

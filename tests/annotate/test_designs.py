@@ -81,7 +81,7 @@ def test_a_study_builds_into_a_missing_folder_private_to_its_owner(tmp_path):
     assert out.stat().st_mode & 0o777 == 0o700
     assert (out / "secrets.json").stat().st_mode & 0o777 == 0o600
     assert sorted(p.name for p in out.parent.iterdir()) == ["study"]  # no temporary folder left
-    assert load_study(out).manifest["counts"]["test"] == 3
+    assert load_study(out).manifest.counts["test"] == 3
 
 
 def test_a_failed_build_leaves_the_empty_target_folder_as_it_was(tmp_path, monkeypatch):

@@ -136,7 +136,7 @@ def test_size_ratio_does_not_find_gold(built):
     if design == "binary":
         bad = scored["item_id"].str.startswith("gold-bad:").to_numpy()
         assert _mwu_p(ratio[~(gold & ~bad)], bad[~(gold & ~bad)]) > ALPHA
-    if s.manifest["image_format"] == "jpg":  # the quantisation tables in the JPEG header
+    if s.manifest.image_format == "jpg":  # the quantisation tables in the JPEG header
         q = np.array([_dqt_sum(served[k][1]) for k in scored.index])
         assert _mwu_p(q, gold) > ALPHA, (q[gold], np.unique(q[~gold], return_counts=True))
 

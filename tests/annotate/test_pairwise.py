@@ -47,11 +47,11 @@ def _build(tmp_path, pw_inputs, name="study", **kw):
 def test_design_one_item_per_object_view_and_pair_of_methods(tmp_path, pw_inputs):
     s = _build(tmp_path, pw_inputs)
     pairs = pd.read_csv(pw_inputs[1]).set_index("pair_id")
-    assert s.design == "pairwise" and s.manifest["methods"] == ["alpha", "beta", "gamma"]
+    assert s.design == "pairwise" and s.manifest.methods == ["alpha", "beta", "gamma"]
     items = s.items
     tests = items[items["kind"] == "test"]
     # 2 tracks x 2 frames x 3 offsets = 12 object views, x C(3, 2) = 3 pairs of methods
-    assert len(tests) == 36 == s.manifest["counts"]["test"]
+    assert len(tests) == 36 == s.manifest.counts["test"]
     duos = tests.groupby("pair_id").apply(lambda g: sorted(zip(g["method_a"], g["method_b"], strict=True)))
     assert len(duos) == 12 and all(d == [("alpha", "beta"), ("alpha", "gamma"), ("beta", "gamma")]
                                    for d in duos)
@@ -62,7 +62,7 @@ def test_design_one_item_per_object_view_and_pair_of_methods(tmp_path, pw_inputs
             assert (row["track_id"], row["timestamp_us"], row["y_offset_m"]) == (
                 it["track_id"], it["timestamp_us"], it["y_offset_m"])
         assert it["item_id"] == f"{it['pair_id']}|{it['method_a']}|{it['method_b']}"
-    assert "method" not in s.manifest["attribute_columns"]
+    assert "method" not in s.manifest.attribute_columns
     gold = items[items["kind"] == "gold"]
     # issue 38 item 31: the gold pool is GOLD_POOL x the 4 a rater sees, here every one of the 8
     # object views away from the real camera (it was 4, all shown to every rater)
@@ -274,7 +274,7 @@ def test_store_votes_by_design(tmp_path, pw_inputs, make_study):
     with pytest.raises(InputError, match=r"1 \(left\), 2 \(right\) or 0 \(can't tell\)"):
         s.store.record_vote("ann", key, 3)
     b = make_study()  # a binary study keeps 1 good / 0 bad only
-    assert b.design == "binary" and "design" not in b.manifest
+    assert b.design == "binary" and "design" not in b.manifest.to_dict()
     with pytest.raises(InputError, match=r"1 \(good\) or 0 \(bad\)"):
         b.store.record_vote("ann", b.keys("test")[0], 2)
 
@@ -396,7 +396,7 @@ def test_the_viewpoint_floor_is_never_shown(tmp_path):
     # study leaves their pairs out, so it is the study of the other methods
     scene, pairs = toy.make_toy(tmp_path / "in", methods={"alpha": 0.5, "beta": 1.5, "perfect": 0.0})
     s = _build(tmp_path, (scene, pairs))
-    assert s.manifest["methods"] == ["alpha", "beta"]
+    assert s.manifest.methods == ["alpha", "beta"]
     assert not s.items[["method_a", "method_b"]].isin(["perfect", "floor"]).any().any()
     table = pd.read_csv(pairs)
     only = tmp_path / "only.csv"

@@ -69,7 +69,7 @@ def test_build_prints_the_load_and_a_rater_gets_no_more(toy_inputs, tmp_path, ca
     assert line == ["each rater: up to 10 items (6 of them test items), about 0 min at 1.5 s per "
                     "vote; 9 raters give every test item its 3 votes"]
     study = load_study(out)
-    assert study.manifest["items_per_rater"] == 10 and study.tests_per_rater == 6
+    assert study.manifest.items_per_rater == 10 and study.tests_per_rater == 6
     shown = []
     while (key := study.next_item("ann")) is not None:
         shown.append(key)
@@ -98,7 +98,7 @@ def test_a_cap_below_the_fixed_items_is_refused(toy_inputs, tmp_path, capsys):
 def test_a_study_without_a_cap_gives_every_item(make_study):
     # studies built before the cap (no manifest key) and items_per_rater=None: no cap
     s = make_study(items_per_rater=None)
-    assert s.manifest["items_per_rater"] is None and s.tests_per_rater is None
+    assert s.manifest.items_per_rater is None and s.tests_per_rater is None
     assert "max_tests" not in s.new_plan("ann")
     # every test and repeat item, and the rater's share of the gold pool (issue 38 item 31)
     assert s.progress("ann")["total"] == len(s.keys("test")) + s.gold_per_rater + len(s.keys("repeat"))

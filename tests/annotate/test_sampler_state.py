@@ -77,7 +77,7 @@ def test_undo_cannot_push_an_adaptive_item_past_its_cap(tmp_path, inputs):
     and A's second vote leaves X at one vote (the old code gave X to B: two votes)."""
     study = _study(tmp_path, inputs, "binary", "adaptive", tracks=1, frames_per_track=1,
                    n_training=0, n_gold=0, n_repeats=0, votes_per_item=1)
-    assert study.manifest["max_votes_per_item"] == 1
+    assert study.manifest.max_votes_per_item == 1
     x = study.next_item("A")
     assert study.store.record_shown_vote("A", x, 1, session="a") == "recorded"
     assert study.store.undo_last("A", session="a") == x

@@ -19,17 +19,17 @@ def test_design_counts_offsets_and_even_frames(make_study, toy_inputs):
     m = s.manifest
     tests = s.items[s.items["kind"] == "test"]
     # 3 tracks x 3 frames x 3 offsets (hand count); every offset for each (track, frame)
-    assert len(tests) == 27 and m["counts"]["test"] == 27
-    assert m["offsets"] == [-1.0, 0.0, 1.0]
+    assert len(tests) == 27 and m.counts["test"] == 27
+    assert m.offsets == [-1.0, 0.0, 1.0]
     per_frame = tests.groupby(["track_id", "timestamp_us"])["y_offset_m"].apply(sorted)
     assert all(v == [-1.0, 0.0, 1.0] for v in per_frame)
     # 6 frames at 0..500000 us, 3 spread evenly -> indices 0, 2(.5 -> 2), 5 (np.linspace rounding)
-    for t in m["tracks"]:
+    for t in m.tracks:
         assert [ts for _, ts in t["frames"]] == [0, 200000, 500000]
     # both label classes represented (toy: even tracks automobile, odd pedestrian)
-    assert {t["label_class"] for t in m["tracks"]} == {"automobile", "pedestrian"}
-    assert m["seed"] == 0 and m["scene_roots"]["toy"] == str(toy_inputs[0].resolve())
-    assert m["pairs"] == str(toy_inputs[1].resolve())
+    assert {t["label_class"] for t in m.tracks} == {"automobile", "pedestrian"}
+    assert m.seed == 0 and m.scene_roots["toy"] == str(toy_inputs[0].resolve())
+    assert m.pairs == str(toy_inputs[1].resolve())
 
 
 def test_spread_frames_and_usable_frames_hand_examples():

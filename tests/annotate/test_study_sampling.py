@@ -58,7 +58,7 @@ def _replayed(study, exported: pd.DataFrame):
     the export's A/B choices (independent of the sampler)."""
     tests = study.items[study.items["kind"] == "test"]
     views = list(dict.fromkeys(tests["pair_id"]))
-    methods = study.manifest["methods"]
+    methods = study.manifest.methods
     hist = study.store.history()
     order = hist[hist["action"] == "vote"].groupby(["rater", "item"])["id"].max()
     ex = exported[exported["kind"] == "test"].copy()
@@ -96,11 +96,11 @@ def test_build_refuses_a_sampling_of_the_other_design(tmp_path, inputs, capsys, 
 
 def test_manifest_records_the_sampling(tmp_path, inputs):
     pw = _build(tmp_path, inputs[0], "pw", design="pairwise", sampling="active")
-    assert (pw.manifest["sampling"], pw.manifest["max_votes_per_item"]) == ("active", None)
+    assert (pw.manifest.sampling, pw.manifest.max_votes_per_item) == ("active", None)
     b = _build(tmp_path, inputs[1], "b", sampling="adaptive")
-    assert (b.manifest["sampling"], b.manifest["max_votes_per_item"]) == ("adaptive", 3)  # the quota
+    assert (b.manifest.sampling, b.manifest.max_votes_per_item) == ("adaptive", 3)  # the quota
     u = _build(tmp_path, inputs[1], "u", sampling="uniform")
-    assert (u.manifest["sampling"], u.sampler) == ("uniform", None)
+    assert (u.manifest.sampling, u.sampler) == ("uniform", None)
 
 
 def test_a_pairwise_study_is_active_unless_told_otherwise(tmp_path, inputs, capsys):
@@ -116,10 +116,10 @@ def test_a_pairwise_study_is_active_unless_told_otherwise(tmp_path, inputs, caps
         assert main(["build", str(tmp_path / name), "--pairs", str(p), "--scene", str(sc),
                      *common, *extra]) == 0
         out = capsys.readouterr().out
-        assert load_study(tmp_path / name).manifest["sampling"] == want, name
+        assert load_study(tmp_path / name).manifest.sampling == want, name
         assert ("sampling: active (the default for pairwise studies" in out) == (name == "pw"), out
-    assert _build(tmp_path, inputs[0], "api", design="pairwise").manifest["sampling"] == "active"
-    assert _build(tmp_path, inputs[1], "apib").manifest["sampling"] == "uniform"
+    assert _build(tmp_path, inputs[0], "api", design="pairwise").manifest.sampling == "active"
+    assert _build(tmp_path, inputs[1], "apib").manifest.sampling == "uniform"
 
 
 # --- active pairwise ----------------------------------------------------------------------
@@ -133,7 +133,7 @@ def test_active_hands_out_the_largest_gain_of_the_current_posterior(tmp_path, in
     study = _build(tmp_path, inputs[0], design="pairwise", sampling="active", n_gold=0, n_repeats=0,
                    n_training=0)
     tests = study.items[study.items["kind"] == "test"]
-    methods = study.manifest["methods"]
+    methods = study.manifest.methods
     rng = np.random.default_rng(3)
     budget = 3 * len(tests)
     for step in range(budget + 5):
@@ -270,7 +270,7 @@ def test_pairs_of_methods_index(tmp_path, inputs):
     """The sampler's (item, pair) of each test key is the key's own view and methods."""
     study = _build(tmp_path, inputs[0], design="pairwise", sampling="active")
     s = study.sampler
-    methods = study.manifest["methods"]
+    methods = study.manifest.methods
     duos = list(combinations(range(len(methods)), 2))
     for k, flat in zip(s.keys, s.flat, strict=True):
         view, pair = divmod(int(flat), len(duos))

@@ -77,7 +77,7 @@ def _gains(study, votes: pd.DataFrame):
 
     tests = study.items[study.items["kind"] == "test"]
     views = list(dict.fromkeys(tests["pair_id"]))
-    methods = study.manifest["methods"]
+    methods = study.manifest.methods
     post = posterior_from_votes(len(views), len(methods), [
         (views.index(tests.loc[k, "pair_id"]), methods.index(a), methods.index(b),
          {"a": 1.0, "b": 0.0, "tie": 0.5}[c])

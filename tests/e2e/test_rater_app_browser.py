@@ -183,7 +183,7 @@ def test_second_tab_is_told_and_moves_on(served, browser):
 def test_full_disk_and_tampered_crop_show_a_message_and_recover(tmp_path, browser):
     study = _build(tmp_path / "study", tmp_path)
     items = pd.read_csv(study.root / "items.csv")
-    first = study.manifest["training_order"][0]
+    first = study.manifest.training_order[0]
     items.loc[items["key"] == first, "ren_file"] = "../secrets.json"  # tampered crop name
     items.to_csv(study.root / "items.csv", index=False)
     log = tmp_path / "server.log"

@@ -41,7 +41,7 @@ def test_crops_fill_the_window_at_one_scale_with_one_button_row(tmp_path):
 
     root = toy_study(tmp_path, "annotate_toy_layout", **ONE_ITEM)
     study = load_study(root)
-    first = study.manifest["training_order"][0]
+    first = study.manifest.training_order[0]
     side = float(study.items.at[first, "crop_side"])
     assert side == 41  # the toy boxes are 31x41 px in both views
     server, url = serve(root)

@@ -279,7 +279,7 @@ def test_annotate_build_simulate_export_on_method_pairs(clip, tmp_path):
     # every chosen object and view is there once per method
     assert (test.groupby(["track_id", "timestamp_us", "y_offset_m"])["method"].nunique() == 3).all()
     st = load_study(study)
-    assert st.manifest["method_columns"] == ["method"] and "method" not in st.manifest["attribute_columns"]
+    assert st.manifest.method_columns == ["method"] and "method" not in st.manifest.attribute_columns
     sev = item_severity(st).loc[test["key"]].to_numpy()
     wide = test.assign(sev=sev).pivot_table(index=["track_id", "timestamp_us", "y_offset_m"],
                                             columns="method", values="sev")
