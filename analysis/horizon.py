@@ -200,7 +200,7 @@ def _check_views(items: pd.DataFrame, where) -> None:
 def _given(items: pd.DataFrame, metric: str, higher: bool, opts: HorizonOptions):
     """``(threshold, kind, views)`` of a given threshold: a per-view table, one value over the
     viewpoint floor where the items have one, or one value."""
-    from analysis.stats.stats import horizon_views as hv
+    from analysis.stats import horizon_views as hv
 
     if opts.threshold_table is not None:
         views = hv.read_view_table(opts.threshold_table, hv.grid_of(items), metric=metric)

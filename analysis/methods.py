@@ -54,8 +54,8 @@ from analysis.common.choices import MIN_CLUSTERS
 from analysis.common.method_cells import PATHS, cell_breakdowns, on_path, parse_by, view_breakdowns
 from analysis.common.text import offset_text
 from analysis.options import MethodOptions
+from analysis.stats import bootstrap as bs
 from analysis.stats.signflip import draw_signs, sign_flip_p
-from analysis.stats.stats import bootstrap as bs
 from data_schema.datasets import table_columns
 from data_schema.errors import InputError
 from data_schema.methods import (

@@ -54,6 +54,7 @@ from scipy import stats as _st
 from analysis.common.method_cells import view_cells
 from analysis.common.text import no_votes_left
 from analysis.methods import METHOD_COLUMN
+from analysis.stats import bootstrap as bs
 from analysis.stats.bradley_terry import (  # CHOICES: the share of a win each ``choice`` gives to side a
     CHOICES,
     Draws,
@@ -64,7 +65,6 @@ from analysis.stats.bradley_terry import (  # CHOICES: the share of a win each `
     win_prob,
 )
 from analysis.stats.jod import jod_views
-from analysis.stats.stats import bootstrap as bs
 from analysis.tables.inputs import classify_columns, drop_empty_columns
 from annotate.results import pairwise_raters
 from annotate.screening import ScreenRule, agreement_tests, screen

@@ -26,7 +26,7 @@ from analysis.common import plots
 from analysis.common.text import MdText, cell_text, interval_text, md_escape, screening_text
 from analysis.common.text import fmt as _fmt
 from analysis.pipeline import Analysis
-from analysis.report.report import horizon_report, methods_report
+from analysis.report import horizon_report, methods_report
 from analysis.stats.noninferiority import recommend_from_tables
 from analysis.tables import real_floor
 from analysis.tables.axes import axis_tent_plots

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from analysis.stats.stats import bootstrap as bs
+from analysis.stats import bootstrap as bs
 
 __all__ = ["CHOICES", "coded_votes", "win_matrix", "bradley_terry", "strongly_connected", "win_prob",
            "Draws"]

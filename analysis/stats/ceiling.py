@@ -27,8 +27,8 @@ import numpy as np
 import pandas as pd
 from scipy import sparse
 
+from analysis.stats import stats
 from analysis.stats.bootstrap import weighted_pearson
-from analysis.stats.stats import stats
 
 __all__ = ["split_half", "spearman_brown", "noise_ceiling", "vote_matrix"]
 

@@ -21,7 +21,7 @@ import pandas as pd
 from scipy import stats as _st
 from tqdm import tqdm
 
-from analysis.stats.stats import stats
+from analysis.stats import stats
 from nvrq.metrics import split_column
 
 __all__ = ["category_table", "offset_table", "encoder_table", "breakdown_columns", "MISSING_GROUP",

@@ -22,8 +22,8 @@ from tqdm import tqdm
 
 from analysis.common.choices import RANK_BY  # one definition of analyze's choices
 from analysis.options import SummaryOptions
-from analysis.stats.stats import bootstrap as bs
-from analysis.stats.stats import stats
+from analysis.stats import bootstrap as bs
+from analysis.stats import stats
 from data_schema.errors import check_choice
 from data_schema.options import options_or_keywords
 

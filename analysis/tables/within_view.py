@@ -39,8 +39,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from analysis.stats.stats import bootstrap as bs
-from analysis.stats.stats import stats
+from analysis.stats import bootstrap as bs
+from analysis.stats import stats
 from data_schema.perturbation import AXES, perturbation_array
 
 __all__ = ["MIN_CELL_PAIRS", "MIN_CELL_TRACKS", "R_CLIP", "VIS_BINS", "WITHIN_COLUMNS",

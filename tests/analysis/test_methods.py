@@ -10,7 +10,7 @@ import pytest
 
 from analysis.cli import main
 from analysis.methods import compare_methods, holm
-from analysis.stats.stats import bootstrap as bs
+from analysis.stats import bootstrap as bs
 
 sys.path.insert(0, str(Path(__file__).parent))
 from methods_data import NVRQ_CA, make_method_tables  # noqa: E402

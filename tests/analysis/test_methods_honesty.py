@@ -20,8 +20,8 @@ from analysis.cli import main
 from analysis.common.plots import method_colours
 from analysis.methods import MIN_CLUSTERS, PAIRED_COLUMNS, TABLE_COLUMNS, compare_methods
 from analysis.pairwise import run_pairwise_analysis
+from analysis.report import methods_report as mr
 from analysis.report.pairwise_report import bt_display, win_prob_plot
-from analysis.report.report import methods_report as mr
 from analysis.stats.signflip import draw_signs, sign_flip_p
 
 sys.path.insert(0, str(Path(__file__).parent))

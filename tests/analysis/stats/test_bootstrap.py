@@ -5,7 +5,7 @@ import pytest
 from scipy import stats as st
 from sklearn.metrics import roc_auc_score
 
-from analysis.stats.stats import bootstrap as bs
+from analysis.stats import bootstrap as bs
 
 
 def test_replicates_equal_statistics_of_the_resampled_data():

@@ -43,7 +43,7 @@ def _direct_interval(mat, seed, n_boot):
     items resampled as rows ``mat[draw]`` and every split recomputed from scratch."""
     import itertools
 
-    from analysis.stats.stats import stats
+    from analysis.stats import stats
 
     n_items, n_r = mat.shape
     halves = [np.isin(np.arange(n_r), c) for c in itertools.combinations(range(n_r), n_r // 2)]

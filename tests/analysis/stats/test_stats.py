@@ -5,7 +5,7 @@ import pytest
 from scipy import stats as st
 from sklearn.metrics import roc_auc_score
 
-from analysis.stats.stats import stats
+from analysis.stats import stats
 
 
 def _tied(rng, n):
