@@ -1,18 +1,20 @@
 """analysis stage of the NVRQ toolkit: ``analyze RATINGS.csv`` (docs/FORMATS.md §6).
 
-Modules, in data-flow order:
+Its stages, from the command down (docs/ARCHITECTURE.md, "Inside ``analysis``"; a package
+imports only the ones below it):
 
-- :mod:`analysis.inputs` — read and check ratings.csv and metric tables; which columns are
-  metrics, attributes and proxies (the written rule).
-- :mod:`annotate.screening` (one stage down, shared with the live admin page) — per-rater
-  numbers and the screening rule (``analyze``'s default).
-- :mod:`analysis.labels` — votes to per-item GVF; join of metric tables.
-- :mod:`analysis.stats` — columnar (grouped) PLCC/SRCC/KRCC/ROC AUC/logistic PLCC and the
-  undefined-statistic rule; :mod:`analysis.bootstrap` — cluster bootstrap over tracks;
-  :mod:`analysis.aggregate` — crowd-kit label models; :mod:`analysis.ceiling` — the noise
-  ceiling (GVF and Krippendorff's alpha come from :mod:`annotate.results`).
-- :mod:`analysis.summary` — the per-metric table; :mod:`analysis.breakdowns` — per
-  category, offset and encoder.
-- :mod:`analysis.plots`, :mod:`analysis.report` (+ ``templates/``) — figures and the report
-  directory; :mod:`analysis.pipeline` — everything as one function; :mod:`analysis.cli`.
+- :mod:`analysis.cli` — the ``analyze`` command;
+- :mod:`analysis.report` — the report folders: pages (+ ``templates/``), the leaderboard,
+  pairwise and trust-horizon sections, the off-path metrics;
+- the analyses, one entrance each: :mod:`analysis.pipeline` (ratings, everything as one
+  function), :mod:`analysis.all_pairs` (every pair, no votes), :mod:`analysis.pairwise`
+  (pairwise votes), :mod:`analysis.methods` (the method leaderboard), :mod:`analysis.horizon`
+  (the trust horizon); their options in :mod:`analysis.options`;
+- :mod:`analysis.tables` — input tables, item labels and the result tables (summary,
+  breakdowns, axes, within-view, the real-photograph floor); the rater screening comes from
+  :mod:`annotate.screening` (one stage down, shared with the live admin page);
+- :mod:`analysis.stats` — correlations, the cluster bootstrap, sign-flip tests,
+  non-inferiority, Bradley-Terry, JOD, the noise ceiling, the trust horizon's fits;
+- :mod:`analysis.common` — the choices ``analyze`` offers, number formats, figures, the cells
+  of the method comparison and the viewpoint floor's labels.
 """

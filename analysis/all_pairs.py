@@ -5,7 +5,7 @@ Input: one per-pair table with ``clip_id`` (``--pairs``: a pairs dataset partiti
 ``clip_id`` as ``nvrq pairs`` writes it for a fleet, or a single pairs/metrics table with a
 ``clip_id`` column) and any number of ``--metrics-table`` tables (``pair_id`` + numeric columns;
 files or datasets), joined on ``pair_id``. Column roles follow
-:func:`analysis.inputs.classify_columns` (the same rule as the ratings path); the target is a
+:func:`analysis.tables.inputs.classify_columns` (the same rule as the ratings path); the target is a
 numeric column named by ``--target`` (e.g. ``clip_drop``).
 
 Streaming: the pairs input is read clip by clip (only the columns the analysis uses; rows in
@@ -15,8 +15,8 @@ clip's pairs in the same order, else a hash join on ``pair_id``), and the result
 preallocated columns: float64 for numbers, int32 codes for labels. No ``pair_id`` string
 outlives its clip, so memory is about 8 bytes per number per row plus the statistics'
 working arrays. The items table then goes through the same
-:func:`~analysis.summary.summary_table`, :mod:`~analysis.breakdowns`, per-view tables
-(:func:`analysis.axes.view_tables`: ``by_offset`` and, for 6-DoF pairs, ``by_axis`` with one
+:func:`~analysis.tables.summary.summary_table`, :mod:`~analysis.tables.breakdowns`, per-view tables
+(:func:`analysis.tables.axes.view_tables`: ``by_offset`` and, for 6-DoF pairs, ``by_axis`` with one
 tent plot per axis) and report code as the ratings path.
 """
 
@@ -33,8 +33,6 @@ import pyarrow.parquet as pq
 import pyarrow.types as pt
 from tqdm.auto import tqdm
 
-from analysis import axes, breakdowns
-from analysis.inputs import NON_METRIC_COLUMNS, classify_columns, drop_empty_columns
 from analysis.methods import for_analysis
 from analysis.options import AnalysisOptions, SummaryOptions, analysis_options
 from analysis.pipeline import (
@@ -44,7 +42,9 @@ from analysis.pipeline import (
     read_timing,
     with_view_statistics,
 )
-from analysis.summary import summary_table
+from analysis.tables import axes, breakdowns
+from analysis.tables.inputs import NON_METRIC_COLUMNS, classify_columns, drop_empty_columns
+from analysis.tables.summary import summary_table
 from data_schema import datasets as ds
 from data_schema.errors import InputError, check_number
 from data_schema.methods import FLOOR_METHOD, METHOD_COLUMN, method_values
@@ -57,7 +57,7 @@ __all__ = ["TableSource", "read_all_pairs", "run_pairs_analysis", "RATER_COLUMNS
 #: Pair columns the analysis uses (identity and breakdowns); the rest of PAIRS_COLUMNS is not read.
 _KEEP = ("clip_id", "track_id", "label_class", "y_offset_m", "gt_visible", "novel_visible")
 #: The 6-DoF view components (docs/FORMATS.md §9), read as numbers when present: the per-axis
-#: tables and tent plots (:func:`analysis.axes.view_tables`); never metrics.
+#: tables and tent plots (:func:`analysis.tables.axes.view_tables`); never metrics.
 _VIEW = EXTRA_PERTURBATION_COLUMNS
 # incl. the view label; ``method`` (scenes with methods, docs/FORMATS.md §2) is carried through as a label
 _SKIP = (set(NON_METRIC_COLUMNS) - set(_KEEP) - set(_VIEW) - {METHOD_COLUMN}) | {"scene_root"}

@@ -30,7 +30,7 @@ import contextlib
 import sys
 from pathlib import Path
 
-from analysis.choices import (
+from analysis.common.choices import (
     DEFAULT_MARGIN,
     DEFAULT_SHARE,
     METHODS,
@@ -217,7 +217,7 @@ def _horizon_options(p: ArgumentParser) -> None:
 
 
 def _floor_options(p: ArgumentParser) -> None:
-    """The viewpoint floor on real photographs (analysis.real_floor)."""
+    """The viewpoint floor on real photographs (analysis.tables.real_floor)."""
     p.add_argument("--real-floor", action="store_true",
                    help="with --pairs: each metric on the real pairs (nvrq import stereo) beside the GT crop "
                    "moved 5, 10, 20 px and the other methods' renders at the matched viewing angle: "
@@ -266,7 +266,7 @@ NOT_FOR = {
 
 
 def _print_summary(analysis) -> None:
-    from analysis.report import summary_display
+    from analysis.report.report import summary_display
 
     _print(summary_display(analysis, with_ci=False), f"metrics against {analysis.target}",
            left=("metric", "reason", "vs best"))
@@ -325,7 +325,7 @@ def _nta_metrics(args):
                      dtype={"pair_id": str, "clip_id": str})
     if (args.ratings is None) != (args.pairs is None):  # else _run says so
         from analysis.pairwise import is_pairwise
-        from analysis.side_tables import analysed_ids, check_nta
+        from analysis.tables.side_tables import analysed_ids, check_nta
 
         if args.pairs is not None or not is_pairwise(args.ratings):  # pairwise votes: refused later
             clips, ids = analysed_ids(args.ratings, args.pairs)
@@ -343,7 +343,7 @@ def _nta_metrics(args):
 def _notes_for_report(notes: list[str], args) -> list[str]:
     """The notes as the report shows them: an input named by an absolute path is named by its
     path relative to the report folder, and the temporary table of ``--nta`` by the user's file."""
-    from analysis.report import path_from_report
+    from analysis.report.report import path_from_report
 
     shown = {tmp: f"--nta {path_from_report(given, args.out)}" for tmp, given in getattr(args, "nta_table", {}).items()}
     for p in args.metrics_tables:
@@ -381,9 +381,9 @@ def _run(args) -> int:
 
 
 def _analyze(args) -> int:
-    from analysis.methods_report import leaderboard_display
     from analysis.pairwise import is_pairwise
-    from analysis.report import write_report
+    from analysis.report.methods_report import leaderboard_display
+    from analysis.report.report import write_report
 
     _check_horizon(args)
     if (args.floor_pairs is None) != (args.floor_metrics is None):
@@ -403,7 +403,7 @@ def _analyze(args) -> int:
         analysis = _run_ratings(args)
     analysis.notes = _notes_for_report(analysis.notes, args)
     if args.sets is not None and analysis.methods is not None:
-        from analysis.side_tables import check_sets
+        from analysis.tables.side_tables import check_sets
         from data_schema.tables import read_table
 
         sets = read_table(args.sets, required=("set_id", "kind", "y_offset_m", "n_render"), what="score-sets table",
@@ -428,7 +428,7 @@ def _analyze(args) -> int:
     if analysis.methods is not None:
         _print(leaderboard_display(analysis.methods), f"methods by {analysis.methods.rank_metric}")
     if getattr(analysis, "floor", None) is not None:
-        from analysis.real_floor import floor_display, floor_sentence
+        from analysis.tables.real_floor import floor_display, floor_sentence
 
         _print(floor_display(analysis.floor), "viewpoint floor on real photographs", left=("row",))
         print(floor_sentence(analysis.floor))
@@ -504,8 +504,8 @@ def _run_pairs(args):
 
 def _viewpoint_floor(args):
     """The tents' viewpoint floor from --floor-pairs and --floor-metrics and the sentence about a
-    log's floor (analysis.viewpoint_floor.tent_floor)."""
-    from analysis.viewpoint_floor import tent_floor
+    log's floor (analysis.common.viewpoint_floor.tent_floor)."""
+    from analysis.common.viewpoint_floor import tent_floor
     from data_schema.tables import PAIRS_COLUMNS, TableKind, read_metrics, read_table
 
     pairs = read_table(args.floor_pairs, required=PAIRS_COLUMNS, kind=TableKind.PAIRS)
@@ -513,8 +513,8 @@ def _viewpoint_floor(args):
 
 
 def _floor(args, analysis):
-    """The viewpoint floor of the real pairs (analysis.real_floor)."""
-    from analysis.real_floor import read_floor_pairs, real_floor
+    """The viewpoint floor of the real pairs (analysis.tables.real_floor)."""
+    from analysis.tables.real_floor import read_floor_pairs, real_floor
 
     pairs = read_floor_pairs(args.pairs, args.metrics_tables)
     return real_floor(pairs, analysis.metrics, analysis.directions)
@@ -523,14 +523,14 @@ def _floor(args, analysis):
 def _horizon(args, analysis):
     """The trust horizon of ``analysis`` (analysis.horizon), printed as one sentence per method."""
     from analysis import horizon
-    from analysis.horizon_report import method_sentence
+    from analysis.report.horizon_report import method_sentence
 
     opts = _horizon_options_of(args)
     if args.pairs is not None:
         items = horizon.pairs_items(analysis, args.pairs, args.metrics_tables, progress=show_progress(args))
         result = horizon.for_pairs(analysis, items, opts, where=args.pairs)
     else:
-        from analysis.inputs import read_ratings
+        from analysis.tables.inputs import read_ratings
 
         result = horizon.for_ratings(analysis, read_ratings(args.ratings), opts, where=args.ratings)
     if result.kind == "floor":
@@ -553,7 +553,7 @@ def _check_applies(args, kind: str, path) -> None:
 
 def _print_screening(raters, *, applied: bool) -> None:
     """Who screening (or --exclude-raters) left out and why, as the report says it (stderr)."""
-    from analysis.text import screening_text
+    from analysis.common.text import screening_text
 
     print(screening_text(raters, applied=applied), file=sys.stderr)
 
@@ -561,7 +561,7 @@ def _print_screening(raters, *, applied: bool) -> None:
 def _run_pairwise(args) -> int:
     """Pairwise votes: Bradley-Terry, 2AFC agreement and screening (analysis.pairwise)."""
     from analysis.pairwise import run_pairwise_analysis
-    from analysis.pairwise_report import bt_display, write_pairwise_report
+    from analysis.report.pairwise_report import bt_display, write_pairwise_report
 
     result = run_pairwise_analysis(
         args.ratings, metrics_paths=args.metrics_tables, lower=args.lower_better,

@@ -1,18 +1,18 @@
 """``analyze --horizon``: the trust horizon of an analysis (docs/FORMATS.md §15).
 
 Layer: ``analysis`` (it joins the analysis' items, the votes and the options, and calls the
-pure computation of :mod:`nvrq.horizon`; :mod:`analysis.horizon_report` writes the files).
+pure computation of :mod:`nvrq.horizon`; :mod:`analysis.report.horizon_report` writes the files).
 
 - Ratings: the threshold of each metric where P(good | metric) = ``good_prob``
-  (:func:`analysis.horizon_fit.vote_threshold` on the kept raters' test votes), and the
+  (:func:`analysis.stats.horizon_fit.vote_threshold` on the kept raters' test votes), and the
   horizon of the rated items on the horizon's metric. By default each view gets its own
   threshold from a monotone fit of the votes inside the view, or from one logistic with an
-  intercept per view and a shared slope (``view_fit``, :func:`analysis.horizon_views.people_views`);
+  intercept per view and a shared slope (``view_fit``, :func:`analysis.stats.horizon_views.people_views`);
   ``pooled`` uses the one pooled threshold,
   and ``threshold`` or ``threshold_table`` a given one.
 - Pairs: the horizon of every pair on the metric at a given threshold (no votes): a per-view
   ``threshold_table``, or ``threshold`` applied to the excess over the viewpoint floor where
-  the pairs have one (:func:`analysis.horizon_views.floor_views`) and to the metric itself
+  the pairs have one (:func:`analysis.stats.horizon_views.floor_views`) and to the metric itself
   otherwise; with ``camera`` and ``timestamp_us`` also the timeline.
 
 :func:`pairs_items` reads the pairs when the analysis' items lack the time columns, and
@@ -28,8 +28,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from analysis import axes, breakdowns
-from analysis.choices import MIN_CLUSTERS
+from analysis.common.choices import MIN_CLUSTERS
+from analysis.tables import axes, breakdowns
 from data_schema.errors import InputError
 from data_schema.text import plural
 from nvrq.horizon import (
@@ -68,14 +68,14 @@ class HorizonOptions:
     min_clusters, n_boot, seed : int
         The fewest tracks for an interval; bootstrap replicates and seed.
     threshold_table : str or Path, optional
-        A per-view threshold table (``--threshold-table``, :func:`analysis.horizon_views.read_view_table`).
+        A per-view threshold table (``--threshold-table``, :func:`analysis.stats.horizon_views.read_view_table`).
     pooled : bool
         With votes: one threshold for every view (the pooled logistic) instead of one per view.
     view_fit : {'monotone', 'logistic'}
-        With votes: the per-view fit (:func:`analysis.horizon_views.people_views`).
+        With votes: the per-view fit (:func:`analysis.stats.horizon_views.people_views`).
     floor : bool
         With a given ``threshold``: apply it to the excess over the viewpoint floor where the
-        items have one (:func:`analysis.horizon_views.floor_views`); False: to the metric itself.
+        items have one (:func:`analysis.stats.horizon_views.floor_views`); False: to the metric itself.
     """
 
     metric: str | None = None
@@ -159,7 +159,7 @@ def _joined(votes: pd.DataFrame, items: pd.DataFrame):
 
 def _vote_fits(votes: pd.DataFrame, items: pd.DataFrame, metrics, directions, opts) -> pd.DataFrame:
     """horizon_thresholds.csv: per metric, the threshold of :func:`vote_threshold`."""
-    from analysis.horizon_fit import vote_threshold
+    from analysis.stats.horizon_fit import vote_threshold
 
     v, it, rater, track = _joined(votes, items)
     y = v["vote"].to_numpy(np.float64)
@@ -200,7 +200,7 @@ def _check_views(items: pd.DataFrame, where) -> None:
 def _given(items: pd.DataFrame, metric: str, higher: bool, opts: HorizonOptions):
     """``(threshold, kind, views)`` of a given threshold: a per-view table, one value over the
     viewpoint floor where the items have one, or one value."""
-    from analysis import horizon_views as hv
+    from analysis.stats import horizon_views as hv
 
     if opts.threshold_table is not None:
         views = hv.read_view_table(opts.threshold_table, hv.grid_of(items), metric=metric)
@@ -216,8 +216,8 @@ def _given(items: pd.DataFrame, metric: str, higher: bool, opts: HorizonOptions)
 
 
 def _people_views(votes, items, metric, higher, fits, opts) -> tuple[Threshold, pd.DataFrame]:
-    """The per-view threshold of ``metric`` from the votes (analysis.horizon_views.people_views)."""
-    from analysis.horizon_views import people_views
+    """The per-view threshold of ``metric`` from the votes (analysis.stats.horizon_views.people_views)."""
+    from analysis.stats.horizon_views import people_views
     from data_schema.perturbation import PERTURBATION_COLUMNS
 
     v, it, rater, track = _joined(votes, items)
@@ -264,7 +264,7 @@ def for_ratings(analysis, votes: pd.DataFrame, opts: HorizonOptions, *, where=No
     analysis : analysis.pipeline.Analysis
         The ratings analysis (its items, metrics, directions and rater table).
     votes : pandas.DataFrame
-        The ratings (one row per vote, :func:`analysis.inputs.read_ratings`).
+        The ratings (one row per vote, :func:`analysis.tables.inputs.read_ratings`).
     opts : HorizonOptions
     where : str or Path, optional
         The ratings file, named in errors.
@@ -364,9 +364,9 @@ def horizon_only_analysis(pairs_path, metrics_paths, *, lower=(), higher=(), pro
         With ``target = None``, ``source = 'pairs'`` and empty summary and breakdowns.
     """
     from analysis.all_pairs import RATER_COLUMNS, read_all_pairs
-    from analysis.inputs import classify_columns, drop_empty_columns
     from analysis.pipeline import Analysis
-    from analysis.summary import summary_table
+    from analysis.tables.inputs import classify_columns, drop_empty_columns
+    from analysis.tables.summary import summary_table
     from data_schema import datasets as ds
 
     items, clusters, unknown = read_all_pairs(pairs_path, metrics_paths=metrics_paths, progress=progress,

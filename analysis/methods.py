@@ -5,23 +5,23 @@ or the rated items with GVF), with a ``method`` column: one row per object, view
 An *object* is ``(clip_id, camera, track_id, timestamp_us, view)``; the view is the
 perturbation of :mod:`data_schema.perturbation` (the lateral offset ``y_offset_m`` and the
 optional 6-DoF columns, at their 0.01 precision). *On-path* is the recorded view (offset 0),
-*off-path* every other view (:mod:`analysis.method_cells`).
+*off-path* every other view (:mod:`analysis.common.method_cells`).
 
 Outputs (one fact each):
 
 - :data:`TABLE_COLUMNS` (``methods.csv``): per method, metric and group: ``n``,
   ``n_tracks``, ``mean``, ``median`` and the 95% percentile interval of the mean from a
-  cluster bootstrap over tracks ``(clip_id, track_id)`` (:mod:`analysis.bootstrap`). Groups:
+  cluster bootstrap over tracks ``(clip_id, track_id)`` (:mod:`analysis.stats.bootstrap`). Groups:
   ``breakdown = 'off-path'`` and ``'on-path'`` (group ``'all'``); one breakdown per view axis,
   named by its column (``y_offset_m``, ``yaw_deg``, ...; the real camera's view is value 0 of
-  every axis, as in :mod:`analysis.axes`; values as :func:`analysis.text.offset_text`);
+  every axis, as in :mod:`analysis.tables.axes`; values as :func:`analysis.common.text.offset_text`);
   ``label_class``; each scene attribute.
 - :data:`PAIRED_COLUMNS` (``methods_paired.csv``): per pair of methods ``(a, b)``, metric and
   cell (``axis = 'off-path'`` or ``'on-path'``, or an axis column with its ``offset``; with
   ``by``, also per value of the crossed columns: ``by`` and ``group``), over the objects both
   methods scored: ``mean_diff`` = mean of ``x_a - x_b`` in the metric's units with its 95%
-  paired cluster-bootstrap interval (:func:`analysis.bootstrap.paired_difference` on the
-  replicate means), the two-sided sign-flip p-value over tracks (:mod:`analysis.signflip`:
+  paired cluster-bootstrap interval (:func:`analysis.stats.bootstrap.paired_difference` on the
+  replicate means), the two-sided sign-flip p-value over tracks (:mod:`analysis.stats.signflip`:
   exact up to 16 tracks, else Monte Carlo; ``p_floor`` the smallest it can give, ``p_test``
   which), ``p_holm`` (Holm over the rows of one ``by``), ``win_rate`` (share of objects where
   ``a`` scores better, by the metric's direction) and ``tie_rate`` (equal values), and
@@ -50,12 +50,12 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
-from analysis import bootstrap as bs
-from analysis.choices import MIN_CLUSTERS
-from analysis.method_cells import PATHS, cell_breakdowns, on_path, parse_by, view_breakdowns
+from analysis.common.choices import MIN_CLUSTERS
+from analysis.common.method_cells import PATHS, cell_breakdowns, on_path, parse_by, view_breakdowns
+from analysis.common.text import offset_text
 from analysis.options import MethodOptions
-from analysis.signflip import draw_signs, sign_flip_p
-from analysis.text import offset_text
+from analysis.stats import bootstrap as bs
+from analysis.stats.signflip import draw_signs, sign_flip_p
 from data_schema.datasets import table_columns
 from data_schema.errors import InputError
 from data_schema.methods import (
@@ -404,7 +404,7 @@ def _track_sums(d, ok, codes, n_cells, clusters, k) -> np.ndarray:
 
 def _paired_rows(a, b, names, metric, hb, vals, breakdowns, draws: _Draws):
     """Rows of methods_paired.csv for methods ``a``, ``b`` and one metric, every cell of
-    ``breakdowns`` (:func:`analysis.method_cells.cell_breakdowns` of the objects)."""
+    ``breakdowns`` (:func:`analysis.common.method_cells.cell_breakdowns` of the objects)."""
     xa, xb = vals[:, a], vals[:, b]
     fa, fb = np.isfinite(xa), np.isfinite(xb)
     both = fa & fb
@@ -585,7 +585,7 @@ def compare_methods(items: pd.DataFrame, metrics: list[str], directions: dict[st
     options : analysis.options.MethodOptions, optional
         The methods compared, the rank metric and view, ``min_clusters``, the ``by`` breakdown,
         the scene ``attributes``, the bootstrap (``n_boot`` is raised to
-        :func:`analysis.bootstrap.replicates_for` the largest Holm family of paired rows; 0: no
+        :func:`analysis.stats.bootstrap.replicates_for` the largest Holm family of paired rows; 0: no
         intervals and no p-values), its seed and the progress bar.
     where, sources : optional
         The input named in errors; column -> the metrics table it came from.
@@ -723,7 +723,7 @@ def for_analysis(items: pd.DataFrame, *, target: str | None, metrics, directions
     -------
     MethodsResult
         As :func:`compare_methods`. Items with ``floor`` rows (``nvrq pairs --floor``) get the
-        sentence of :func:`analysis.viewpoint_floor.items_floor_verdict` first in the notes; when
+        sentence of :func:`analysis.common.viewpoint_floor.items_floor_verdict` first in the notes; when
         it says the floor does not predict a perfect render, the ``floor`` rows are left out
         (unless ``options.methods`` names the methods).
 
@@ -732,7 +732,7 @@ def for_analysis(items: pd.DataFrame, *, target: str | None, metrics, directions
     InputError
         As :func:`compare_methods` (unknown methods or rank metric, no ``method`` column, ...).
     """
-    from analysis.viewpoint_floor import items_floor_verdict
+    from analysis.common.viewpoint_floor import items_floor_verdict
 
     verdict = items_floor_verdict(items, metrics)  # the log's viewpoint floor: drawn when it holds
     if verdict is not None and not verdict.draw and not options.methods:

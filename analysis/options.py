@@ -3,7 +3,7 @@
 :class:`AnalysisOptions` drives :func:`analysis.pipeline.run_analysis` (ratings) and
 :func:`analysis.all_pairs.run_pairs_analysis` (every pair); its ``compare`` field, a
 :class:`MethodOptions`, asks for the method leaderboard (:func:`analysis.methods.compare_methods`).
-:class:`SummaryOptions` drives :func:`analysis.summary.summary_table`. The CLI makes them once,
+:class:`SummaryOptions` drives :func:`analysis.tables.summary.summary_table`. The CLI makes them once,
 in :func:`analysis.cli.options_from_args`; an API caller makes them directly.
 
 >>> AnalysisOptions(n_boot=0).compare is None
@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from analysis.choices import DEFAULT_MARGIN, MIN_CLUSTERS
+from analysis.common.choices import DEFAULT_MARGIN, MIN_CLUSTERS
 from data_schema.options import options_or_keywords
 
 __all__ = ["MethodOptions", "AnalysisOptions", "SummaryOptions", "analysis_options"]
@@ -38,7 +38,7 @@ class MethodOptions:
         :func:`analysis.methods.default_rank_metric`).
     min_clusters : int
         The fewest tracks of a group with an interval and a p-value (>= 2;
-        :data:`analysis.choices.MIN_CLUSTERS`).
+        :data:`analysis.common.choices.MIN_CLUSTERS`).
     by : sequence of str
         A crossed breakdown of methods_paired.csv: ``class``, a scene attribute, ``offset``.
     rank_view : {'off-path', 'on-path'}
@@ -66,7 +66,7 @@ class MethodOptions:
 
 @dataclass(frozen=True)
 class SummaryOptions:
-    """How :func:`analysis.summary.summary_table` compares the metrics with the target.
+    """How :func:`analysis.tables.summary.summary_table` compares the metrics with the target.
 
     Parameters
     ----------
@@ -77,7 +77,7 @@ class SummaryOptions:
     seed : int
         Seeds the bootstrap.
     rank_by : {'srcc', 'plcc', 'roc_auc'}
-        The statistic the metrics are ranked by (:data:`analysis.choices.RANK_BY`).
+        The statistic the metrics are ranked by (:data:`analysis.common.choices.RANK_BY`).
     progress : bool
         Show a progress bar.
 
@@ -109,11 +109,11 @@ class AnalysisOptions:
     screen : bool
         Ratings only: also exclude the raters the screening rule flags.
     aggregate_method : str
-        Ratings only: ``'majority'`` (GVF) or a crowd-kit model (:data:`analysis.choices.METHODS`).
+        Ratings only: ``'majority'`` (GVF) or a crowd-kit model (:data:`analysis.common.choices.METHODS`).
     n_boot, seed : int
         Cluster-bootstrap replicates over tracks (0: no CIs) and their seed.
     rank_by : str
-        The statistic that picks the best metric (:data:`analysis.choices.RANK_BY`).
+        The statistic that picks the best metric (:data:`analysis.common.choices.RANK_BY`).
     timing_paths : sequence of path
         Timing tables (``METRICS.timing.csv`` beside a metrics table is found automatically).
     stability_dir : str or Path, optional

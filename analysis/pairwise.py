@@ -10,13 +10,13 @@ chose ``choice``: ``'a'``, ``'b'`` or ``'tie'`` (can't tell). The object's colum
 (``clip_id, camera, track_id, label_class, timestamp_us``, the view, attributes) follow.
 A file is read as pairwise when it has these columns (:func:`is_pairwise`).
 
-- **Bradley-Terry** (:func:`bt_table`, the model in :mod:`analysis.bradley_terry`): per view,
+- **Bradley-Terry** (:func:`bt_table`, the model in :mod:`analysis.stats.bradley_terry`): per view,
   each method's strength (sum 1) and ``win_prob``, the mean probability of being preferred to
   another method (two methods: the probability that it is preferred); a tie counts half a
   win for each side. Without a strongly connected comparison graph (every method won and
   lost something, directly or through others) the fit has no finite maximum: its limit is
   reported with that reason.
-- **JOD scale** (:func:`analysis.jod.jod_views`, jod.csv): the same votes on a Thurstone
+- **JOD scale** (:func:`analysis.stats.jod.jod_views`, jod.csv): the same votes on a Thurstone
   Case V scale (1 JOD: 75% prefer the better method), pwcmp's prior for unanimous pairs,
   bootstrap over raters, and the probability that each method beats the next.
 - **2AFC agreement** of a metric (as in the BAPPS evaluation of LPIPS): per test vote, the
@@ -51,8 +51,11 @@ import numpy as np
 import pandas as pd
 from scipy import stats as _st
 
-from analysis import bootstrap as bs
-from analysis.bradley_terry import (  # CHOICES: the share of a win each ``choice`` gives to side a
+from analysis.common.method_cells import view_cells
+from analysis.common.text import no_votes_left
+from analysis.methods import METHOD_COLUMN
+from analysis.stats import bootstrap as bs
+from analysis.stats.bradley_terry import (  # CHOICES: the share of a win each ``choice`` gives to side a
     CHOICES,
     Draws,
     bradley_terry,
@@ -61,11 +64,8 @@ from analysis.bradley_terry import (  # CHOICES: the share of a win each ``choic
     win_matrix,
     win_prob,
 )
-from analysis.inputs import classify_columns, drop_empty_columns
-from analysis.jod import jod_views
-from analysis.method_cells import view_cells
-from analysis.methods import METHOD_COLUMN
-from analysis.text import no_votes_left
+from analysis.stats.jod import jod_views
+from analysis.tables.inputs import classify_columns, drop_empty_columns
 from annotate.results import pairwise_raters
 from annotate.screening import ScreenRule, agreement_tests, screen
 from data_schema.csv_safe import unquote_frame
@@ -188,7 +188,7 @@ def read_pairwise_votes(path) -> pd.DataFrame:
 
 
 def _ci(estimate: float, reps: np.ndarray, few: str | None = None) -> tuple[float, float, str | None]:
-    """The interval of ``estimate`` from its replicates (:func:`analysis.bootstrap.interval_around`);
+    """The interval of ``estimate`` from its replicates (:func:`analysis.stats.bootstrap.interval_around`);
     none, with the reason, without replicates or from too few raters (``few``)."""
     if few:
         return np.nan, np.nan, few
@@ -495,7 +495,7 @@ class PairwiseAnalysis:
     notes : list of str
         Notes for the report.
     jod : pandas.DataFrame or None
-        :func:`analysis.jod.jod_views` (Thurstone Case V scale in JOD), beside Bradley-Terry.
+        :func:`analysis.stats.jod.jod_views` (Thurstone Case V scale in JOD), beside Bradley-Terry.
     """
 
     votes_path: str

@@ -4,7 +4,7 @@
 agreement, item labels (GVF and, with ``aggregate_method``, a crowd-kit posterior), join the
 metrics, classify columns, the summary with the noise ceiling, breakdowns, and the
 majority-against-model comparison. It writes
-nothing; :mod:`analysis.report` writes the report directory.
+nothing; :mod:`analysis.report.report` writes the report directory.
 """
 
 from __future__ import annotations
@@ -15,16 +15,16 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis import axes, breakdowns, within_view
-from analysis.aggregate import aggregate
-from analysis.ceiling import noise_ceiling, vote_matrix
-from analysis.inputs import classify_columns, drop_empty_columns, read_metrics, read_ratings
-from analysis.labels import item_table, join_metrics
+from analysis.common.text import no_votes_left
 from analysis.methods import MethodsResult, for_analysis
-from analysis.noninferiority import DEFAULT_MARGIN
 from analysis.options import AnalysisOptions, SummaryOptions, analysis_options
-from analysis.summary import summary_table
-from analysis.text import no_votes_left
+from analysis.stats.ceiling import noise_ceiling, vote_matrix
+from analysis.stats.noninferiority import DEFAULT_MARGIN
+from analysis.tables import axes, breakdowns, within_view
+from analysis.tables.aggregate import aggregate
+from analysis.tables.inputs import classify_columns, drop_empty_columns, read_metrics, read_ratings
+from analysis.tables.labels import item_table, join_metrics
+from analysis.tables.summary import summary_table
 from annotate import screening
 from annotate.results import alpha_nominal
 from data_schema.errors import InputError, check_number
@@ -99,16 +99,16 @@ class Analysis:
     source : str
         ``"ratings"``, or ``"pairs"`` for ``analyze --pairs``.
     margin : float
-        The non-inferiority margin (:mod:`analysis.noninferiority`).
+        The non-inferiority margin (:mod:`analysis.stats.noninferiority`).
     methods : MethodsResult or None
         The leaderboard with ``--compare-methods``, or None.
     horizon : analysis.horizon.HorizonResult or None
         The ``--horizon`` result, or None.
-    floor : analysis.real_floor.FloorResult or None
+    floor : analysis.tables.real_floor.FloorResult or None
         The ``--real-floor`` result, or None.
     viewpoint_floor : pandas.DataFrame or None
         ``--floor-pairs`` / ``--floor-metrics``: the tent plot's viewpoint floor
-        (:func:`analysis.viewpoint_floor.floor_by_offset`), or None.
+        (:func:`analysis.common.viewpoint_floor.floor_by_offset`), or None.
     """
 
     ratings_path: str
@@ -138,19 +138,19 @@ class Analysis:
     ceiling: dict = field(default_factory=dict)
     comparison: dict | None = None
     source: str = "ratings"  # or "pairs": analyze --pairs (no votes; see analysis.all_pairs)
-    margin: float = DEFAULT_MARGIN  # non-inferiority margin (analysis.noninferiority)
+    margin: float = DEFAULT_MARGIN  # non-inferiority margin (analysis.stats.noninferiority)
     methods: MethodsResult | None = None  # the leaderboard with compare_methods
     horizon: object | None = None  # analyze --horizon: an analysis.horizon.HorizonResult
-    floor: object | None = None  # analyze --real-floor: an analysis.real_floor.FloorResult
+    floor: object | None = None  # analyze --real-floor: an analysis.tables.real_floor.FloorResult
     viewpoint_floor: pd.DataFrame | None = None  # analyze --floor-pairs: the tents' floor
-    view_text: str | None = None  # the view-only / within-view sentence (analysis.within_view)
+    view_text: str | None = None  # the view-only / within-view sentence (analysis.tables.within_view)
     visibility: pd.DataFrame | None = None  # per gt_visible x novel_visible bin (within_view)
     visibility_note: str | None = None  # why there is no visibility table
 
 
 def with_view_statistics(a: Analysis, *, clusters: np.ndarray) -> Analysis:
     """``a`` with the within-view columns and the view-only rows in its summary, the headline
-    sentence and the visibility table (:mod:`analysis.within_view`).
+    sentence and the visibility table (:mod:`analysis.tables.within_view`).
 
     Parameters
     ----------
@@ -167,7 +167,7 @@ def with_view_statistics(a: Analysis, *, clusters: np.ndarray) -> Analysis:
     """
     if a.target is None or len(a.summary) == 0:
         return a
-    from analysis.summary import binary_label
+    from analysis.tables.summary import binary_label
 
     label, _ = binary_label(a.items, a.target)
 

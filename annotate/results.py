@@ -9,7 +9,7 @@ Layer: annotate (rating study).
 - :func:`good_vote_fraction`: THE definition of the Good Vote Fraction (paper section 4):
   per item ``n_votes, n_good, gvf = n_good / n_votes, majority_good = gvf >= 0.5`` (a tie
   counts as good) and its Wilson 95% interval ``gvf_ci_lo, gvf_ci_hi``; used by
-  :func:`gvf_table` here and by ``analysis.labels.item_table``.
+  :func:`gvf_table` here and by ``analysis.tables.labels.item_table``.
 - :func:`gvf_table`: the same over the ``kind == test`` rows of a ratings table.
 - :func:`alpha_nominal`: THE Krippendorff's alpha (nominal), from the maintained
   ``krippendorff`` package on (unit, value) pairs, with one rule for when it is undefined;

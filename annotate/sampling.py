@@ -40,7 +40,7 @@ __all__ = ["SIGMA_JOD", "PairPosterior", "pair_posterior", "update_pairwise", "p
            "next_binary_items"]
 
 #: Standard deviation of the Thurstone Case V observer in JOD units: Phi(1 / SIGMA_JOD) = 0.75
-#: (1 JOD: 75% prefer the better condition). Defined here, the earlier layer; analysis.jod uses it.
+#: (1 JOD: 75% prefer the better condition). Defined here, the earlier layer; analysis.stats.jod uses it.
 SIGMA_JOD = float(1.0 / ndtri(0.75))
 _SQRT2PI = np.sqrt(2.0 * np.pi)
 

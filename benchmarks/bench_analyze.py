@@ -31,8 +31,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.breakdowns import category_table, offset_table
-from analysis.summary import summary_table
+from analysis.tables.breakdowns import category_table, offset_table
+from analysis.tables.summary import summary_table
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_analyze_pairs import generate as generate_pairs  # noqa: E402

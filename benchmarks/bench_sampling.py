@@ -11,8 +11,8 @@ shows every (item, pair) ``--reps`` times (40 x 15 x 3 = 1,800 comparisons) in r
 random order; the active design asks :func:`annotate.sampling.select_batch` for
 ``--batch`` comparisons at a time (that many raters busy at once) and updates the posterior
 with their votes. At each sixteenth of the full budget both designs' votes are scaled per item with
-:func:`analysis.jod.jod_map` (Gaussian prior, sd 2.5 JOD; ``--scale pwcmp``:
-:func:`analysis.jod.jod_scale`, pwcmp's prior, which leaves sparse unanimous designs nearly
+:func:`analysis.stats.jod.jod_map` (Gaussian prior, sd 2.5 JOD; ``--scale pwcmp``:
+:func:`analysis.stats.jod.jod_scale`, pwcmp's prior, which leaves sparse unanimous designs nearly
 unconstrained and is slow), and compared with the truth (both
 centred per item): RMSE in JOD and the mean per-item Kendall tau.
 
@@ -42,7 +42,7 @@ import time
 import numpy as np
 from scipy.stats import kendalltau
 
-from analysis.jod import jod_map, jod_scale
+from analysis.stats.jod import jod_map, jod_scale
 from annotate.sampling import (
     next_binary_items,
     pair_posterior,
@@ -256,7 +256,7 @@ def main(argv=None) -> None:
     ap.add_argument("--votes-per-item", type=int, default=5)
     ap.add_argument("--max-votes-per-item", default="5,7,9", help="adaptive caps to compare (comma list)")
     ap.add_argument("--scale", choices=["map", "pwcmp"], default="map",
-                    help="scale estimator: analysis.jod.jod_map (Gaussian prior, sd 2.5 JOD; default) or "
+                    help="scale estimator: analysis.stats.jod.jod_map (Gaussian prior, sd 2.5 JOD; default) or "
                          "jod_scale (pwcmp's prior; slow and unstable on sparse designs)")
     ap.add_argument("--plot", default=None, help="save the pairwise curves here (PNG or SVG)")
     ap.add_argument("--only", choices=["pairwise", "binary"], default=None)

@@ -4,10 +4,10 @@ Usage: ``python docs/make_floor_numbers.py OUT [--fps 5]`` renders the synthetic
 docs/FORMATS.md §3 (2 s, 640x360, seed 0, ``--methods perfect:0,sharp:0.5``, offsets -3..3),
 makes its pairs with ``--floor``, scores them (PSNR and NVRQ-CA on efficientnet-lite0) and prints,
 per lateral offset the floor covers, the medians of the floor and of the perfect render on the
-same novel views (:func:`analysis.viewpoint_floor.floor_check`) and the verdict of the rule that
-decides whether reports draw a log's floor (:func:`analysis.viewpoint_floor.floor_verdict`).
+same novel views (:func:`analysis.common.viewpoint_floor.floor_check`) and the verdict of the rule that
+decides whether reports draw a log's floor (:func:`analysis.common.viewpoint_floor.floor_verdict`).
 It takes a few minutes on a laptop CPU; the figures go into docs/FORMATS.md §3 and
-:data:`analysis.viewpoint_floor.MEASURED_GAPS` by hand.
+:data:`analysis.common.viewpoint_floor.MEASURED_GAPS` by hand.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from analysis.viewpoint_floor import floor_check, floor_verdict
+from analysis.common.viewpoint_floor import floor_check, floor_verdict
 from nvrq.cli import main as nvrq_main
 
 CA = "nvrq_ca:efficientnet-lite0"

@@ -57,8 +57,8 @@ def test_the_tree_keeps_every_contract(tree):
     ("nvrq/scoring/plan.py", "from nvrq.calibrate import calibrate_tau", "nvrq: commands"),
     ("nvrq/metrics/resolve.py", "from nvrq.encoders.registry import get_spec", "nvrq: commands"),
     # between the packages; inside analysis and annotate; a deferred (function-level) import
-    ("annotate/access.py", "import analysis.choices", "The five packages"),
-    ("analysis/stats.py", "def _up():\n    from analysis import report", "analysis: the CLI"),
+    ("annotate/access.py", "import analysis.common.choices", "The five packages"),
+    ("analysis/stats/stats.py", "def _up():\n    from analysis import report", "analysis: the CLI"),
     ("annotate/store.py", "from annotate.study import Study", "annotate: entry points"),
     # the other CLIs take the shared argument types from below nvrq's command layer
     ("analysis/cli.py", "from nvrq.commands.args import int_arg", "annotate and analysis use"),

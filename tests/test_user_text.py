@@ -35,7 +35,7 @@ def _row(cls, direction, horizon=float("nan"), reason="", lo=float("nan"), hi=fl
 
 
 def test_horizon_sentence_when_the_recorded_view_fails():
-    from analysis.horizon_report import method_sentence
+    from analysis.report.horizon_report import method_sentence
 
     fail = "fails at the recorded view"
     table = pd.DataFrame([_row("bus", "left", 2.0, "", 2.1, 2.6, 2.25), _row("bus", "right", reason=fail),
@@ -50,9 +50,9 @@ def test_report_counts_take_the_singular_for_one():
 
     from data_schema.text import plural
 
-    env = Environment(loader=FileSystemLoader(REPO / "analysis" / "templates"))
+    env = Environment(loader=FileSystemLoader(REPO / "analysis" / "report" / "templates"))
     env.filters["plural"] = plural
-    src = (REPO / "analysis" / "templates" / "report.md.j2").read_text()
+    src = (REPO / "analysis" / "report" / "templates" / "report.md.j2").read_text()
     line = next(x for x in src.splitlines() if 'counts["clips"]' in x)
     text = env.from_string(line).render(counts={"items": 1, "tracks": 2, "clips": 1},
                                         raters_table="", target_label="")

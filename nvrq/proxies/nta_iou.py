@@ -538,7 +538,7 @@ def cluster_mean_ci(values: np.ndarray, groups: np.ndarray, clusters: np.ndarray
     lo, hi = np.full(n_g, np.nan), np.full(n_g, np.nan)
     reason = np.full(n_g, "", dtype=object)
     if n_boot and k:
-        rng = np.random.default_rng(seed)  # as analysis.bootstrap.draw_cluster_counts
+        rng = np.random.default_rng(seed)  # as analysis.stats.bootstrap.draw_cluster_counts
         draws = rng.integers(0, k, size=(n_boot, k))
         counts = np.zeros((n_boot, k))
         np.add.at(counts, (np.repeat(np.arange(n_boot), k), draws.ravel()), 1)

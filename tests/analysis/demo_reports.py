@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis import plots
 from analysis.cli import main
+from analysis.common import plots
 from tests.analysis.methods_data import make_method_tables, make_pairwise_votes
 from tests.analysis.synth import make_ratings
 
@@ -82,7 +82,7 @@ def demo_reports(d: Path) -> dict[str, Path]:
 
 @contextlib.contextmanager
 def recording_figures(monkeypatch):
-    """Within the block, every figure a report saves (:func:`analysis.plots.save_figure`) is
+    """Within the block, every figure a report saves (:func:`analysis.common.plots.save_figure`) is
     appended, with its file name, to the yielded list (saved as before)."""
     seen: list[tuple[str, object]] = []
     save = plots.save_figure

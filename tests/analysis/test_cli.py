@@ -243,7 +243,7 @@ def test_no_metric_columns_still_reports_gvf(data, capsys):
 
 
 def test_report_is_replaced_whole_or_not_at_all(data, capsys, monkeypatch):
-    import analysis.report as report
+    import analysis.report.report as report
 
     d, _, _ = data
     rc, cap = _run_quick(d, d / "metrics.csv", capsys)

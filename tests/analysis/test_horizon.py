@@ -13,7 +13,7 @@ from scipy.optimize import minimize
 
 import nvrq
 from analysis.cli import main as analyze_main
-from analysis.horizon_fit import fit_logistic, vote_threshold
+from analysis.stats.horizon_fit import fit_logistic, vote_threshold
 from annotate.simulate import p_good
 from nvrq.horizon import (
     HORIZON_COLUMNS,
@@ -228,7 +228,7 @@ def test_analyze_ratings_horizon_writes_its_files(tmp_path):
 
 
 def test_the_vote_threshold_gives_no_interval_from_too_few_raters():
-    from analysis.bootstrap import MIN_RATERS
+    from analysis.stats.bootstrap import MIN_RATERS
 
     x, y, r, t = _simulated_votes(0, raters=10)
     for raters in (1, 2, MIN_RATERS):

@@ -8,9 +8,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis import bootstrap as bs
 from analysis.cli import main
 from analysis.methods import compare_methods, holm
+from analysis.stats import bootstrap as bs
 
 sys.path.insert(0, str(Path(__file__).parent))
 from methods_data import NVRQ_CA, make_method_tables  # noqa: E402
@@ -213,7 +213,7 @@ def test_six_dof_views_get_one_breakdown_per_axis():
 
 @pytest.mark.parametrize("chunk", [7, 10**12])  # a few replicates per product, or all at once
 def test_the_bootstrap_chunk_size_bounds_memory_only(result, monkeypatch, chunk):
-    # analysis.bootstrap.CHUNK_CELLS is the one chunk size; the replicate means do not depend
+    # analysis.stats.bootstrap.CHUNK_CELLS is the one chunk size; the replicate means do not depend
     # on it (each replicate is its own weighted mean)
     from analysis.methods import _replicate_means
 

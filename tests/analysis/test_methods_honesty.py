@@ -16,13 +16,13 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colors import to_hex
 from scipy.stats import permutation_test
 
-from analysis import methods_report as mr
 from analysis.cli import main
+from analysis.common.plots import method_colours
 from analysis.methods import MIN_CLUSTERS, PAIRED_COLUMNS, TABLE_COLUMNS, compare_methods
 from analysis.pairwise import run_pairwise_analysis
-from analysis.pairwise_report import bt_display, win_prob_plot
-from analysis.plots import method_colours
-from analysis.signflip import draw_signs, sign_flip_p
+from analysis.report import methods_report as mr
+from analysis.report.pairwise_report import bt_display, win_prob_plot
+from analysis.stats.signflip import draw_signs, sign_flip_p
 
 sys.path.insert(0, str(Path(__file__).parent))
 from methods_data import NVRQ_CA, make_method_tables, make_pairwise_votes  # noqa: E402
@@ -174,7 +174,7 @@ def test_monte_carlo_sign_flip_beyond_16_tracks():
 
 
 def test_monte_carlo_patterns_in_chunks_bound_memory_only(monkeypatch):
-    import analysis.signflip as sf
+    import analysis.stats.signflip as sf
 
     x = np.random.default_rng(4).normal(0.2, 1.0, (3, 20))
     signs = draw_signs(20, 500, seed=0)

@@ -11,9 +11,9 @@ from crowdkit.aggregation import BradleyTerry
 from scipy.optimize import minimize
 from scipy.stats import binom, fisher_exact
 
-from analysis.bradley_terry import Draws, bradley_terry
 from analysis.cli import main
 from analysis.pairwise import agreement_table, rater_table, run_pairwise_analysis, side_pair_ids
+from analysis.stats.bradley_terry import Draws, bradley_terry
 from annotate.screening import screen
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -77,7 +77,7 @@ def test_simulated_study_prefers_the_better_method_like_crowdkit(study, tmp_path
 
 @pytest.mark.parametrize("chunk", [50, 8_000_000])  # replicates in chunks, or all at once
 def test_two_way_bootstrap_weighs_a_vote_by_its_rater_and_item_draws(monkeypatch, chunk):
-    monkeypatch.setattr("analysis.bootstrap.CHUNK_CELLS", chunk)
+    monkeypatch.setattr("analysis.stats.bootstrap.CHUNK_CELLS", chunk)
     rng = np.random.default_rng(0)
     r, i = rng.integers(0, 4, 50), rng.integers(0, 7, 50)
     x = rng.random(50)
@@ -294,7 +294,7 @@ def test_a_metric_nan_on_every_render_is_reported_undefined(study, tmp_path):
 @pytest.mark.parametrize("n_raters", [1, 2, 3])
 def test_rater_bootstraps_give_no_interval_below_the_minimum_of_raters(study, tmp_path, n_raters):
     # one rater used to give zero-width intervals (a resample of one rater is that rater)
-    from analysis.bootstrap import MIN_RATERS
+    from analysis.stats.bootstrap import MIN_RATERS
 
     pairs, metrics, _ = study
     make_pairwise_votes(pairs, n_raters=n_raters).to_csv(tmp_path / "votes.csv", index=False)

@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 
 from analysis.cli import main
-from analysis.inputs import read_ratings
+from analysis.tables.inputs import read_ratings
 from tests.analysis.synth import make_ratings
 from tests.analysis.test_all_pairs import _pairs
 

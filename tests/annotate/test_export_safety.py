@@ -8,7 +8,7 @@ import csv
 
 import pandas as pd
 
-from analysis.inputs import read_ratings
+from analysis.tables.inputs import read_ratings
 from annotate.cli import main
 
 FORMULA = '=HYPERLINK("http://evil.example","click")'

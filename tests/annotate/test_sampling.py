@@ -9,7 +9,7 @@ import pytest
 from scipy.sparse.csgraph import minimum_spanning_tree
 from scipy.stats import beta, norm
 
-from analysis.jod import SIGMA_JOD
+from analysis.stats.jod import SIGMA_JOD
 from annotate.sampling import (
     PairPosterior,
     gvf_uncertainty,

@@ -326,7 +326,7 @@ def test_screening_text_reads_singular_at_one():
     """Issue 38 item 17 in the report: "No rater excluded (1 raters)" read wrong."""
     import pandas as pd
 
-    from analysis.text import screening_text
+    from analysis.common.text import screening_text
 
     one = pd.DataFrame({"rater_id": ["ann"], "flags": [""], "excluded": [False], "excluded_reason": [""]})
     assert screening_text(one, applied=True) == "No rater excluded (1 rater)."

@@ -8,8 +8,8 @@ with all five raters, 0.915 against 0.883 without the careless one).
 
 import numpy as np
 
-from analysis.aggregate import aggregate
-from analysis.labels import item_table
+from analysis.tables.aggregate import aggregate
+from analysis.tables.labels import item_table
 from annotate.results import ratings_table
 from annotate.simulate import item_severity, simulate
 

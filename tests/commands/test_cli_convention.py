@@ -144,7 +144,7 @@ def test_library_hints_name_parameters_not_flags():
     foreign = re.compile(r"`(?!(?:nvrq|annotate|analyze)\b)[^`]*`")
     flagged = []
     # the analysis report's prose says how `analyze` was run (its options), as does screening's
-    # excluded_reason column (raters.csv) and the screening sentence of analysis.text (report and
+    # excluded_reason column (raters.csv) and the screening sentence of analysis.common.text (report and
     # terminal): output of that command, not a hint to a caller
     report_prose = {"report.py", "methods_report.py", "pairwise_report.py", "screening.py", "text.py"}
     for path in _library_modules():

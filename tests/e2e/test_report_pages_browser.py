@@ -2,7 +2,7 @@
 390 x 844: every table's last column can be reached by scrolling inside the table's own box,
 no table row is taller than three lines of text, every figure is drawn at its own aspect ratio
 inside the page, and the pairwise page has its JOD table. The figures' legends are checked
-as drawn in tests/analysis/test_figure_legends.py; ``--screenshots DIR`` (NVRQ_SHOTS) keeps
+as drawn in tests/analysis/report/test_figure_legends.py; ``--screenshots DIR`` (NVRQ_SHOTS) keeps
 the pages as PNG."""
 
 from __future__ import annotations

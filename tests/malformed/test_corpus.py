@@ -1402,7 +1402,7 @@ for _n, _v, _f in [("--window-s 1e18", "1e18", "1e+06"), ("--window-s 1e-9 (0 us
 
 @case("metrics", "analyze: more metric columns than one analysis takes")
 def _(world, tmp):
-    from analysis.inputs import MAX_METRICS
+    from analysis.tables.inputs import MAX_METRICS
 
     ratings = pd.read_csv(world / "ratings.csv", dtype=str)
     ids = ratings["item_id"].unique()

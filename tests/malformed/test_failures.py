@@ -149,7 +149,7 @@ def test_export_counts_votes_it_cannot_place(world, tmp_path, capfd):
 def test_report_folder_replaced_whole_and_kept_on_a_full_disk(world, tmp_path, capfd, monkeypatch):
     """A report folder of ours (marker file) is replaced as a whole; a disk that fills up
     while the next report is built leaves the previous one as it was, and no temporary folder."""
-    import analysis.report
+    import analysis.report.report
     from analysis.cli import main
     from data_schema.outputs import REPORT_MARKER
 
@@ -160,7 +160,7 @@ def test_report_folder_replaced_whole_and_kept_on_a_full_disk(world, tmp_path, c
     assert (tmp_path / "rep" / REPORT_MARKER).is_file() and not (tmp_path / "rep" / "stale.txt").exists()
     capfd.readouterr()
     before = snapshot(tmp_path)
-    monkeypatch.setattr(analysis.report, "_build", _enospc)
+    monkeypatch.setattr(analysis.report.report, "_build", _enospc)
     rc = main(argv)
     line = _one_line(capfd)
     assert rc == 2 and "No space left" in line

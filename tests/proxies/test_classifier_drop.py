@@ -98,7 +98,7 @@ def test_cli_imagenet_writes_a_timing_file_as_score_does(cat_scene, tmp_path, ef
     (issue 23 item 8)."""
     import time
 
-    from analysis import plots
+    from analysis.common import plots
     from analysis.pipeline import find_timing_files, read_timing
     from nvrq.cli import main
 

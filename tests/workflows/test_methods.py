@@ -21,7 +21,7 @@ import pandas as pd
 import pytest
 
 from analysis.all_pairs import read_all_pairs
-from analysis.inputs import classify_columns
+from analysis.tables.inputs import classify_columns
 from annotate.cli import main as annotate_main
 from annotate.simulate import item_severity
 from annotate.study import load_study
