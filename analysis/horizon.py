@@ -32,6 +32,7 @@ from analysis.common.choices import MIN_CLUSTERS
 from analysis.tables import axes, breakdowns
 from data_schema.errors import InputError
 from data_schema.text import plural
+from data_schema.vocab import ItemKind
 from nvrq.horizon import (
     DEFAULT_SHARE,
     Threshold,
@@ -277,7 +278,7 @@ def for_ratings(analysis, votes: pd.DataFrame, opts: HorizonOptions, *, where=No
     """
     metric = _metric(opts, analysis.metrics)
     excluded = set(analysis.raters.loc[analysis.raters["excluded"].astype(bool), "rater_id"].astype(str))
-    test = votes[(votes["kind"] == "test") & ~votes["rater_id"].astype(str).isin(excluded)]
+    test = votes[(votes["kind"] == ItemKind.TEST) & ~votes["rater_id"].astype(str).isin(excluded)]
     fits = _vote_fits(test, analysis.items, analysis.metrics, analysis.directions, opts)
     higher = _directions(metric, analysis.directions)
     if opts.threshold is not None or opts.threshold_table is not None:

@@ -80,6 +80,7 @@ from data_schema.tables import (
     read_table,
 )
 from data_schema.tables import csv_line as _line
+from data_schema.vocab import Answer, ItemKind, Side
 
 __all__ = [
     "PAIRWISE_COLUMNS",
@@ -172,7 +173,7 @@ def read_pairwise_votes(path) -> pd.DataFrame:
         if bad.any():
             raise InputError(path, f"{_line(int(np.flatnonzero(bad.to_numpy())[0]))}: {col}",
                              "a value", "empty")
-    same = df["kind"].isin(("test", "repeat")) & (df["method_a"] == df["method_b"])
+    same = df["kind"].isin((ItemKind.TEST, ItemKind.REPEAT)) & (df["method_a"] == df["method_b"])
     if same.any():
         i = int(np.flatnonzero(same.to_numpy())[0])
         raise InputError(path, f"{_line(i)}: method_b", "a method other than method_a",
@@ -409,7 +410,7 @@ def rater_table(votes: pd.DataFrame, *, rule: ScreenRule | None = None) -> pd.Da
     raters = sorted(votes["rater_id"].astype(str).unique())
     out = pairwise_raters(votes, raters)
     out.insert(1, "simulated", out["rater_id"].str.startswith(SIM_PREFIX))
-    t = votes[votes["kind"] == "test"]
+    t = votes[votes["kind"] == ItemKind.TEST]
     tr = pd.Index(raters).get_indexer(t["rater_id"])
     n_r = len(raters)
     counts = pd.crosstab(t["item_id"], t["choice"]).reindex(columns=list(CHOICES), fill_value=0)
@@ -424,10 +425,10 @@ def rater_table(votes: pd.DataFrame, *, rule: ScreenRule | None = None) -> pd.Da
         out["agreement"] = np.bincount(tr, weights=agree, minlength=n_r) / comp
         out["gold_failure_rate"] = out["gold_failures"] / out["gold"]
     out["n_compared"] = comp.astype(np.int64)
-    sided = compared & (mode != "tie") & (t["choice"].to_numpy(dtype=object) != "tie")
-    a_left = t["side_a"].to_numpy(dtype=object) == "left"
-    res = _side_agreement(tr, n_r, sided, mode_left=(mode == "a") == a_left,
-                          pressed_left=(t["choice"].to_numpy(dtype=object) == "a") == a_left)
+    sided = compared & (mode != Answer.TIE) & (t["choice"].to_numpy(dtype=object) != Answer.TIE)
+    a_left = t["side_a"].to_numpy(dtype=object) == Side.LEFT
+    res = _side_agreement(tr, n_r, sided, mode_left=(mode == Answer.A) == a_left,
+                          pressed_left=(t["choice"].to_numpy(dtype=object) == Answer.A) == a_left)
     out["youden_j"] = res["youden_j"]
     _, out["j_p"], out["skill_p"], _ = agreement_tests(res, rule)
     n_gold, fails = out["gold"].to_numpy(), out["gold_failures"].to_numpy()
@@ -543,7 +544,7 @@ def run_pairwise_analysis(votes_path, *, metrics_paths=(), lower=(), higher=(), 
     votes = read_pairwise_votes(votes_path)
     raters = screen(rater_table(votes), use_rule=screen_raters, exclude=list(exclude_raters))
     excluded = set(raters.loc[raters["excluded"], "rater_id"])
-    test = votes[(votes["kind"] == "test") & ~votes["rater_id"].isin(excluded)].reset_index(drop=True)
+    test = votes[(votes["kind"] == ItemKind.TEST) & ~votes["rater_id"].isin(excluded)].reset_index(drop=True)
     if test.empty:
         raise InputError(votes_path, "kind", no_votes_left(screen_raters), "none")
     methods = sorted(set(test["method_a"]) | set(test["method_b"]))
@@ -571,13 +572,13 @@ def run_pairwise_analysis(votes_path, *, metrics_paths=(), lower=(), higher=(), 
     bt = bt_table(test, methods, draws=draws, r_codes=r_codes, i_codes=i_codes)
     agreement = agreement_table(test, sides, {m: directions[m] for m in metrics}, draws=draws,
                                 r_codes=r_codes, i_codes=i_codes)
-    counts = {"votes": len(votes), "test_votes": int((votes["kind"] == "test").sum()),
+    counts = {"votes": len(votes), "test_votes": int((votes["kind"] == ItemKind.TEST).sum()),
               "test_votes_kept": len(test), "items": int(test["item_id"].nunique()),
               "raters": len(raters), "raters_excluded": int(raters["excluded"].sum()),
               "raters_simulated": int(raters["simulated"].sum()),
-              "gold_votes": int((votes["kind"] == "gold").sum()),
-              "repeat_votes": int((votes["kind"] == "repeat").sum()),
-              "ties": int((test["choice"] == "tie").sum())}
+              "gold_votes": int((votes["kind"] == ItemKind.GOLD).sum()),
+              "repeat_votes": int((votes["kind"] == ItemKind.REPEAT).sum()),
+              "ties": int((test["choice"] == Answer.TIE).sum())}
     jod = jod_views(test, methods, n_boot=n_boot if draws is not None else 0, seed=seed)
     return PairwiseAnalysis(votes_path=str(votes_path), methods=methods, bradley_terry=bt,
                             agreement=agreement, raters=raters, counts=counts,

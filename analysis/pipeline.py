@@ -29,6 +29,7 @@ from annotate import screening
 from annotate.results import alpha_nominal
 from data_schema.errors import InputError, check_number
 from data_schema.tables import TIMING_COLUMNS, read_table, timing_path
+from data_schema.vocab import ItemKind
 
 __all__ = ["Analysis", "run_analysis", "read_timing", "find_timing_files", "read_stability",
            "boot_size", "BOOT_CELL_LIMIT", "with_view_statistics"]
@@ -294,7 +295,7 @@ def _screen_raters(votes, ratings_path, *, screen, exclude_raters):
     )
     excluded = set(raters.loc[raters["excluded"], "rater_id"])
     kept = votes[~votes["rater_id"].isin(excluded)]
-    if not (kept["kind"] == "test").any():
+    if not (kept["kind"] == ItemKind.TEST).any():
         raise InputError(ratings_path, "kind", no_votes_left(screen), "none")
     return raters, kept
 
@@ -302,7 +303,7 @@ def _screen_raters(votes, ratings_path, *, screen, exclude_raters):
 def _agreement(votes, kept):
     alpha = {}
     for name, v in (("all raters", votes), ("kept raters", kept)):
-        t = v[v["kind"] == "test"]
+        t = v[v["kind"] == ItemKind.TEST]
         a, why = alpha_nominal(t["item_id"], t["vote"])
         alpha[name] = {"alpha": a, "reason": why, "votes": len(t)}
     return alpha
@@ -311,7 +312,7 @@ def _agreement(votes, kept):
 def _labels(kept, raters, *, method, seed):
     """Item labels (GVF and, with a model, ``p_good``) and the rater table with model skills."""
     items = item_table(kept)
-    test = kept[kept["kind"] == "test"]
+    test = kept[kept["kind"] == ItemKind.TEST]
     model_items, skills = aggregate(test, method=method, seed=seed)
     items = items.merge(model_items, on="item_id", how="left")
     if len(skills.columns) > 1:
@@ -375,23 +376,23 @@ def boot_size(items, n_boot, notes, *, unit: str = "item") -> int:
 def _counts(votes, kept, items, raters, clusters):
     return {
         "votes": len(votes),
-        "test_votes": int((votes["kind"] == "test").sum()),
-        "test_votes_kept": int((kept["kind"] == "test").sum()),
+        "test_votes": int((votes["kind"] == ItemKind.TEST).sum()),
+        "test_votes_kept": int((kept["kind"] == ItemKind.TEST).sum()),
         "items": len(items),
         "tracks": int(clusters.max()) + 1,
         "clips": int(items["clip_id"].nunique()),
         "raters": len(raters),
         "raters_simulated": int(raters["simulated"].sum()),
         "raters_excluded": int(raters["excluded"].sum()),
-        "gold_votes": int((votes["kind"] == "gold").sum()),
-        "repeat_votes": int((votes["kind"] == "repeat").sum()),
+        "gold_votes": int((votes["kind"] == ItemKind.GOLD).sum()),
+        "repeat_votes": int((votes["kind"] == ItemKind.REPEAT).sum()),
     }
 
 
 def _ceiling(kept, summary, tgt, *, seed):
     """The noise ceiling of the votes, also as summary columns (NaN for a non-vote target)."""
     if tgt in ("gvf", "p_good"):
-        ceiling = noise_ceiling(vote_matrix(kept[kept["kind"] == "test"]), seed=seed)
+        ceiling = noise_ceiling(vote_matrix(kept[kept["kind"] == ItemKind.TEST]), seed=seed)
     else:
         ceiling = {**noise_ceiling(np.empty((0, 0))), "reason": f"target {tgt!r} is not the votes"}
     _ceiling_columns(summary, ceiling)

@@ -22,6 +22,7 @@ import pandas as pd
 
 from annotate.results import good_vote_fraction
 from data_schema.errors import InputError
+from data_schema.vocab import ItemKind
 
 __all__ = ["item_table", "join_metrics"]
 
@@ -41,7 +42,7 @@ def item_table(votes: pd.DataFrame) -> pd.DataFrame:
     pandas.DataFrame
         One row per test item: its columns without the per-vote ones, and its labels.
     """
-    test = votes[votes["kind"] == "test"]
+    test = votes[votes["kind"] == ItemKind.TEST]
     labels = good_vote_fraction(test["item_id"], test["vote"])
     codes = pd.factorize(test["item_id"])[0]
     _, first = np.unique(codes, return_index=True)
