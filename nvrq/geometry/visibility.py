@@ -141,6 +141,25 @@ def visible_fractions(camera, T_box_cam: np.ndarray, dims_lwh: np.ndarray, *,
     >>> visible_fractions(cam, T, np.array([[2.0, 2, 2], [2.0, 2, 0.2]])).round(2).tolist()
     [0.5, 1.0]
     """
+    return _visible_fractions(camera, T_box_cam, dims_lwh, group=group, only=only, grid=grid,
+                              rays=_Rays(camera, rays))
+
+
+class _Rays:
+    """The camera's ray through every pixel centre (:func:`pixel_rays`), computed at the first
+    :meth:`get` and then kept (one camera's views share it)."""
+
+    def __init__(self, camera, rays: np.ndarray | None = None):
+        self.camera, self.rays = camera, rays
+
+    def get(self) -> np.ndarray:
+        if self.rays is None:
+            self.rays = pixel_rays(self.camera)
+        return self.rays
+
+
+def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: _Rays) -> np.ndarray:
+    """:func:`visible_fractions`, the image's rays (``rays``) shared between calls."""
     T = np.asarray(T_box_cam, dtype=np.float64).reshape(-1, 4, 4)
     dims = np.asarray(dims_lwh, dtype=np.float64).reshape(-1, 3)
     n = len(T)
@@ -150,19 +169,30 @@ def visible_fractions(camera, T_box_cam: np.ndarray, dims_lwh: np.ndarray, *,
     group = np.zeros(n, np.int64) if group is None else np.asarray(group).reshape(-1)
     want = np.ones(n, bool) if only is None else np.asarray(only, bool).reshape(-1)
     w, h = camera.resolution
-    # bound every silhouette by its projected outline (corners, or sampled edges that curve)
-    outline, ok = _project_outlines(camera, T, dims)  # (N, 6, K, 2), (N, 6, K)
-    whole = ok.all(axis=(1, 2))
-    some = ok.any(axis=(1, 2))
-    flat = outline.reshape(n, -1, 2)
+    # bound every silhouette by its projected outline (corners, or sampled edges that curve):
+    # first the wanted boxes', then those of the boxes that may cover one of them
+    samples = 1 if _straight(camera) else OUTLINE_SAMPLES
+    outline = np.full((n, len(_outline_local(samples)), 2), np.nan)
+    ok = np.zeros(outline.shape[:2], bool)
     bb = np.full((n, 4), np.nan)
-    if some.any():
-        q = flat[some]
-        bb[some] = np.stack([np.nanmin(q[..., 0], 1), np.nanmin(q[..., 1], 1),
-                             np.nanmax(q[..., 0], 1), np.nanmax(q[..., 1], 1)], axis=1)
-    # the silhouette's pixel box, clipped to the image
-    clip = np.stack([np.maximum(np.floor(bb[:, 0]), 0), np.maximum(np.floor(bb[:, 1]), 0),
-                     np.minimum(np.ceil(bb[:, 2]), w - 1), np.minimum(np.ceil(bb[:, 3]), h - 1)], axis=1)
+    done = np.zeros(n, bool)
+
+    def project(sel):
+        outline[sel], ok[sel] = _project_outlines(camera, T[sel], dims[sel], samples)
+        done[sel] = True
+        some_ = ok[sel].any(axis=1)
+        s_ = sel[some_]
+        q = outline[s_]
+        bb[s_] = np.stack([np.nanmin(q[..., 0], 1), np.nanmin(q[..., 1], 1),
+                           np.nanmax(q[..., 0], 1), np.nanmax(q[..., 1], 1)], axis=1)
+
+    def clipped():  # the silhouettes' pixel boxes, clipped to the image
+        return np.stack([np.maximum(np.floor(bb[:, 0]), 0), np.maximum(np.floor(bb[:, 1]), 0),
+                         np.minimum(np.ceil(bb[:, 2]), w - 1), np.minimum(np.ceil(bb[:, 3]), h - 1)], axis=1)
+
+    project(np.flatnonzero(want))
+    some = ok.any(axis=1)
+    clip = clipped()
     in_img = some & (clip[:, 0] <= clip[:, 2]) & (clip[:, 1] <= clip[:, 3])
     targets = np.flatnonzero(want & in_img)
     if len(targets) == 0:
@@ -174,7 +204,20 @@ def visible_fractions(camera, T_box_cam: np.ndarray, dims_lwh: np.ndarray, *,
     corners = np.einsum("nij,nkj->nki", T[:, :3, :3], CORNER_SIGNS[None] * (0.5 * dims)[:, None, :]) \
         + T[:, None, :3, 3]
     far = np.linalg.norm(corners, axis=-1).max(axis=1)
-    cand_t, cand_o = _candidates(targets, group, bb, whole, some, near, far, _normalized_boxes(T, dims))
+    nb = _normalized_boxes(corners)
+    cand_t, cand_o = _candidates(targets, group, near, far, nb)
+    rest = np.unique(cand_o[~done[cand_o]])
+    if len(rest):
+        project(rest)
+        clip = clipped()
+    whole = ok.all(axis=1) & done
+    # wholly projected pairs: their pixel boxes (with a margin for curved edges) overlap too
+    t_, o_ = cand_t, cand_o
+    both = whole[t_] & whole[o_]
+    lap = ((bb[o_, 0] - MARGIN_PX <= bb[t_, 2]) & (bb[o_, 2] + MARGIN_PX >= bb[t_, 0])
+           & (bb[o_, 1] - MARGIN_PX <= bb[t_, 3]) & (bb[o_, 3] + MARGIN_PX >= bb[t_, 1]))
+    keep = ~both | lap
+    cand_t, cand_o = cand_t[keep], cand_o[keep]
     # depth order of disjoint pairs: an occluder behind the box cannot cover it
     apart, o_front = _separated(T, 0.5 * dims, cand_t, cand_o)
     keep = ~apart | o_front
@@ -182,44 +225,46 @@ def visible_fractions(camera, T_box_cam: np.ndarray, dims_lwh: np.ndarray, *,
     counts = np.bincount(cand_t, minlength=n)
     out[targets[counts[targets] == 0]] = 1.0
     # wholly projected boxes: their silhouette's pixel centres (raster); the others: ray grids
-    o_ok = whole
     busy = targets[counts[targets] > 0]
-    ras = busy[o_ok[busy]]
-    ray = busy[~o_ok[busy]]
+    ras = busy[whole[busy]]
+    ray = busy[~whole[busy]]
     if len(ras):
         sel = np.isin(cand_t, ras)
-        out[ras] = _raster(camera, T, dims, outline, ras, cand_t[sel], cand_o[sel], apart[sel], clip, rays,
-                           4 * grid * grid)
+        out[ras] = _raster(camera, T, dims, outline, ras, (cand_t[sel], cand_o[sel], apart[sel]), clip, whole,
+                           nb, rays, 4 * grid * grid)
     if len(ray):
         sel = np.isin(cand_t, ray)
         out[ray] = _cast(camera, T, dims, ray, cand_t[sel], cand_o[sel], bb, clip, whole, grid, rays)
     return out
 
 
-def _project_outlines(camera, T: np.ndarray, dims: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Projected face outlines ``(N, 6, K, 2)`` of the boxes (corners alone for an
-    undistorted pinhole, whose edges stay straight; :data:`OUTLINE_SAMPLES` points per edge
-    otherwise; NaN where a point does not project) and which points projected ``(N, 6, K)``."""
+def _straight(camera) -> bool:
+    """An undistorted pinhole: the projected edges of a box stay straight."""
     from nvrq.geometry.cameras.pinhole import PinholeCamera
 
-    straight = type(camera) is PinholeCamera
-    local = _outline_local(1 if straight else OUTLINE_SAMPLES)  # (6, K, 3)
-    scaled = local[None] * (0.5 * dims)[:, None, None, :]  # (N, 6, K, 3)
-    pts = np.einsum("nij,nfkj->nfki", T[:, :3, :3], scaled) + T[:, None, None, :3, 3]
+    return type(camera) is PinholeCamera
+
+
+def _project_outlines(camera, T: np.ndarray, dims: np.ndarray, samples: int) -> tuple[np.ndarray, np.ndarray]:
+    """Projected outlines ``(N, K, 2)`` of the boxes (:func:`_outline_local`: corners alone
+    for an undistorted pinhole, whose edges stay straight; ``samples`` points per edge
+    otherwise; NaN where a point does not project) and which points projected ``(N, K)``."""
+    local = _outline_local(samples)  # (K, 3)
+    scaled = local[None] * (0.5 * dims)[:, None, :]  # (N, K, 3)
+    pts = np.matmul(scaled, np.swapaxes(T[:, :3, :3], 1, 2)) + T[:, None, :3, 3]
     uv, ok = camera.project(pts)
     ok = ok & np.isfinite(uv).all(axis=-1)
     return np.where(ok[..., None], uv, np.nan), ok
 
 
-def _normalized_boxes(T: np.ndarray, dims: np.ndarray) -> np.ndarray:
+def _normalized_boxes(corners: np.ndarray) -> np.ndarray:
     """Bounding boxes ``(N, 4)`` of each box's part in front of the camera (``z >= eps``), in
-    normalised image coordinates ``(x / z, y / z)``; NaN for a box wholly behind. Every pixel's
-    ray has ``z > 0`` (the camera models project nothing else), and a convex body in front of
-    the camera maps to the convex hull of its vertices, so the box of the clipped vertices
-    (corners in front, and edges cut at ``z = eps``) bounds every ray that can enter it."""
+    normalised image coordinates ``(x / z, y / z)``, from its corners ``(N, 8, 3)`` (camera
+    frame); NaN for a box wholly behind. Every pixel's ray has ``z > 0`` (the camera models
+    project nothing else), and a convex body in front of the camera maps to the convex hull of
+    its vertices, so the box of the clipped vertices (corners in front, and edges cut at
+    ``z = eps``) bounds every ray that can enter it."""
     eps = 1e-3
-    corners = np.einsum("nij,nkj->nki", T[:, :3, :3], CORNER_SIGNS[None] * (0.5 * dims)[:, None, :]) \
-        + T[:, None, :3, 3]
     a = corners[:, [i for i, _ in _EDGES]]
     b = corners[:, [j for _, j in _EDGES]]
     za, zb = a[..., 2], b[..., 2]
@@ -229,7 +274,7 @@ def _normalized_boxes(T: np.ndarray, dims: np.ndarray) -> np.ndarray:
                           np.where(cut[..., None], a + f[..., None] * (b - a), np.nan)], axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         xy = pts[..., :2] / pts[..., 2:]
-    out = np.full((len(T), 4), np.nan)
+    out = np.full((len(corners), 4), np.nan)
     any_ = np.isfinite(xy).all(axis=-1).any(axis=1)
     q = xy[any_]
     out[any_] = np.stack([np.nanmin(q[..., 0], 1), np.nanmin(q[..., 1], 1),
@@ -237,32 +282,30 @@ def _normalized_boxes(T: np.ndarray, dims: np.ndarray) -> np.ndarray:
     return out
 
 
-def _candidates(targets, group, bb, whole, some, near, far, nb):
-    """(target, occluder) index pairs that need a ray cast, target-major: the occluder is
-    nearer at its nearest point than the target at its farthest, and their projections can
-    overlap (pixel boxes, or normalised boxes ``nb`` when the occluder is not wholly projected;
-    a box wholly behind the camera covers nothing)."""
+def _candidates(targets, group, near, far, nb):
+    """(target, occluder) index pairs that may cover, target-major: the occluder is nearer at
+    its nearest point than the target at its farthest, and their normalised boxes ``nb``
+    overlap (a box wholly behind the camera covers nothing). Found without projecting any
+    occluder (the pixel boxes of wholly projected pairs are checked next)."""
     order = np.argsort(group, kind="stable")
     gs = group[order]
     starts = np.flatnonzero(np.r_[True, gs[1:] != gs[:-1]])
     ends = np.r_[starts[1:], len(gs)]
     is_target = np.zeros(len(group), bool)
     is_target[targets] = True
+    has_target = np.add.reduceat(is_target[order], starts) > 0
     tt, oo = [], []
-    for s0, s1 in zip(starts, ends, strict=True):
+    for s0, s1 in zip(starts[has_target], ends[has_target], strict=True):
         idx = order[s0:s1]
         ti = idx[is_target[idx]]
-        if len(ti) == 0 or len(idx) < 2:
+        if len(idx) < 2:
             continue
         oi = idx[np.isfinite(nb[idx, 0])]
         m = near[oi][None, :] < far[ti][:, None]
         m &= ti[:, None] != oi[None, :]
         with np.errstate(invalid="ignore"):
-            lap = ((bb[oi, 0][None] - MARGIN_PX <= bb[ti, 2][:, None]) & (bb[oi, 2][None] + MARGIN_PX >= bb[ti, 0][:, None])
-                   & (bb[oi, 1][None] - MARGIN_PX <= bb[ti, 3][:, None]) & (bb[oi, 3][None] + MARGIN_PX >= bb[ti, 1][:, None]))
-            nlap = ((nb[oi, 0][None] <= nb[ti, 2][:, None]) & (nb[oi, 2][None] >= nb[ti, 0][:, None])
-                    & (nb[oi, 1][None] <= nb[ti, 3][:, None]) & (nb[oi, 3][None] >= nb[ti, 1][:, None]))
-        m &= np.where(whole[oi][None, :] & whole[ti][:, None], lap, nlap)
+            m &= ((nb[oi, 0][None] <= nb[ti, 2][:, None]) & (nb[oi, 2][None] >= nb[ti, 0][:, None])
+                  & (nb[oi, 1][None] <= nb[ti, 3][:, None]) & (nb[oi, 3][None] >= nb[ti, 1][:, None]))
         r, c = np.nonzero(m)
         tt.append(ti[r])
         oo.append(oi[c])
@@ -271,17 +314,19 @@ def _candidates(targets, group, bb, whole, some, near, far, nb):
     return np.concatenate(tt), np.concatenate(oo)
 
 
-#: Corner loops (indices into CORNER_SIGNS) of the six faces of a box.
-_FACES = np.array([[0, 1, 3, 2], [4, 5, 7, 6], [0, 1, 5, 4], [2, 3, 7, 6], [0, 2, 6, 4], [1, 3, 7, 5]])
-
-
 def _outline_local(samples: int) -> np.ndarray:
-    """Face outlines in box-local signs ``(6, 4 * samples, 3)``: each face's loop of four
-    edges, ``samples`` points per edge (its first corner included, its last not)."""
-    a = CORNER_SIGNS[_FACES]  # (6, 4, 3)
-    b = CORNER_SIGNS[np.roll(_FACES, -1, axis=1)]
-    s = (np.arange(samples) / samples)[None, None, :, None]
-    return (a[:, :, None, :] * (1 - s) + b[:, :, None, :] * s).reshape(6, 4 * samples, 3)
+    """Outline points of a box in box-local signs ``(8 + 12 * (samples - 1), 3)``: its eight
+    corners, then ``samples - 1`` evenly spread points inside each of its twelve edges (the
+    projected silhouette is the hull of the projected edges).
+
+    >>> _outline_local(1).shape, _outline_local(3).shape
+    ((8, 3), (32, 3))
+    """
+    a = CORNER_SIGNS[[i for i, _ in _EDGES]]  # (12, 3)
+    b = CORNER_SIGNS[[j for _, j in _EDGES]]
+    s = (np.arange(1, samples) / samples)[None, :, None]
+    inner = (a[:, None, :] * (1 - s) + b[:, None, :] * s).reshape(-1, 3)
+    return np.concatenate([CORNER_SIGNS.astype(np.float64), inner])
 
 
 def _separated(T: np.ndarray, half: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -342,31 +387,45 @@ def _row_spans(edges: tuple[np.ndarray, np.ndarray], rows: np.ndarray) -> tuple[
     return np.ceil(lo - 1e-9), np.floor(hi + 1e-9)
 
 
-def _raster(camera, T, dims, outline, targets, cand_t, cand_o, cand_apart, clip, rays, cap):
+def _raster(camera, T, dims, outline, targets, cands, clip, whole, nb, rays: _Rays, cap):
     """Visible fractions of wholly projected ``targets``: the pixel centres of the target's
     silhouette (its projected outline, row by row), less those inside a disjoint occluder in
     front that projects whole (its outline), less those whose ray enters another occluder
     first (an occluder not wholly projectable, or one that intersects the target: slab tests
-    on the pixels still uncovered, at most ``cap`` of them, evenly spread)."""
+    on the pixels still uncovered, at most ``cap`` of them, evenly spread, and of those only
+    the rays inside the occluder's normalised box ``nb``). ``cands``: the (target, occluder,
+    disjoint) candidate arrays."""
+    cand_t, cand_o, cand_apart = cands
     out = np.full(len(targets), np.nan)
     order = np.argsort(cand_t, kind="stable")
     ct, co, ca = cand_t[order], cand_o[order], cand_apart[order]
     first = np.searchsorted(ct, targets)
     last = np.searchsorted(ct, targets, side="right")
-    whole = np.isfinite(outline).all(axis=(1, 2, 3))
-    hulls: dict[int, tuple] = {}
+    spans: dict[int, tuple] = {}  # box -> (first row, lo, hi) on the rows of its clipped pixel box
+    none = (np.zeros(0), np.zeros(0))
 
-    def hull(b):
-        if b not in hulls:
-            hulls[b] = _hull(outline[b].reshape(-1, 2))
-        return hulls[b]
+    def box_spans(b):
+        if b not in spans:
+            v0, v1 = int(clip[b, 1]), int(clip[b, 3])
+            rows = np.arange(v0, v1 + 1, dtype=np.float64)
+            spans[b] = (v0, *(_row_spans(_hull(outline[b]), rows) if len(rows) else none))
+        return spans[b]
+
+    def on_rows(b, v0, v1):
+        """``b``'s spans on rows ``v0..v1`` (empty rows outside its pixel box)."""
+        s0, lo, hi = box_spans(b)
+        olo, ohi = np.full(v1 - v0 + 1, np.inf), np.full(v1 - v0 + 1, -np.inf)
+        a0, a1 = max(v0, s0), min(v1, s0 + len(lo) - 1)
+        if a0 <= a1:
+            olo[a0 - v0:a1 - v0 + 1] = lo[a0 - s0:a1 - s0 + 1]
+            ohi[a0 - v0:a1 - v0 + 1] = hi[a0 - s0:a1 - s0 + 1]
+        return olo, ohi
 
     w, h = camera.resolution
     asked = 0  # pixels unprojected one by one; past a quarter of the image, the image's rays once
     for n, t in enumerate(targets):
         u0, v0, u1, v1 = (int(c) for c in clip[t])
-        rows = np.arange(v0, v1 + 1, dtype=np.float64)
-        lo, hi = _row_spans(hull(t), rows)
+        _, lo, hi = box_spans(t)
         lo, hi = np.maximum(lo, u0), np.minimum(hi, u1)
         area = float(np.maximum(hi - lo + 1, 0).sum())
         if area == 0:
@@ -374,36 +433,59 @@ def _raster(camera, T, dims, outline, targets, cand_t, cand_o, cand_apart, clip,
         occ, apart = co[first[n]:last[n]], ca[first[n]:last[n]]
         simple = apart & whole[occ]
         hard, hard_apart = occ[~simple], apart[~simple]
-        spans = [_row_spans(hull(o), rows) for o in occ[simple]]
+        occ_spans = [on_rows(o, v0, v1) for o in occ[simple]]
         if not len(hard):  # spans alone: the covered length of each row is a union of intervals
-            out[n] = 1.0 - _union_length(lo, hi, spans) / area
+            out[n] = 1.0 - _union_length(lo, hi, occ_spans) / area
             continue
         cols = np.arange(u0, u1 + 1, dtype=np.float64)[None, :]
         mask = (cols >= lo[:, None]) & (cols <= hi[:, None])
         cover = np.zeros_like(mask)
-        for olo, ohi in spans:
+        for olo, ohi in occ_spans:
             cover |= (cols >= olo[:, None]) & (cols <= ohi[:, None])
         covered = float((cover & mask).sum())
         vv, uu = np.nonzero(mask & ~cover)
         if len(vv):
+            free = len(vv)
             if len(vv) > cap:
                 pick = np.linspace(0, len(vv) - 1, cap).round().astype(np.int64)
                 vv, uu = vv[pick], uu[pick]
             pv, pu = vv + v0, uu + u0
             asked += len(pv)
-            if rays is None and asked > w * h // 4:
-                rays = pixel_rays(camera)
-            r = rays[pv, pu] if rays is not None else camera.unproject(
+            if rays.rays is None and asked > w * h // 4:
+                rays.get()
+            r = rays.rays[pv, pu] if rays.rays is not None else camera.unproject(
                 np.stack([pu, pv], axis=1).astype(np.float64))
-            good = np.isfinite(r).all(axis=1)
-            r = np.where(good[:, None], r, 0.0)
-            boxes = np.r_[t, hard]
-            E = _entry(r[None], T[boxes][None], dims[boxes][None])[0]  # (1 + C, k)
-            # disjoint and in front: covered wherever its ray enters it; intersecting: nearer
-            hit = np.where(hard_apart[:, None], np.isfinite(E[1:]), E[1:] < E[:1]).any(axis=0) & good
-            covered += hit.mean() * len(np.flatnonzero(mask & ~cover))
-        out[n] = 1.0 - covered / area
+            out[n] = 1.0 - (covered + _hard_hits(r, t, hard, hard_apart, (T, dims, nb)).mean() * free) / area
+        else:
+            out[n] = 1.0 - covered / area
     return out
+
+
+def _hard_hits(r, t, hard, hard_apart, boxes) -> np.ndarray:
+    """Which rays ``r (k, 3)`` of target ``t`` (NaN: no ray) first enter one of the occluders
+    ``hard``: a disjoint one (``hard_apart``, in front) wherever they enter it, an intersecting
+    one where they enter it before ``t``. Only the rays inside an occluder's normalised box
+    are slab-tested against it (no other ray can enter it). ``boxes``: ``(T, dims, nb)``."""
+    T, dims, nb = boxes
+    good = np.isfinite(r).all(axis=1)
+    r = np.where(good[:, None], r, 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        x, y = r[:, 0] / r[:, 2], r[:, 1] / r[:, 2]
+    hit = np.zeros(len(r), bool)
+    e_t = None
+    for o, ap in zip(hard, hard_apart, strict=True):
+        b = nb[o]
+        sel = np.flatnonzero(good & ~hit & (x >= b[0]) & (x <= b[2]) & (y >= b[1]) & (y <= b[3]))
+        if not len(sel):
+            continue
+        e = _entry(r[sel][None], T[[o]][None], dims[[o]][None])[0, 0]
+        if ap:
+            hit[sel[np.isfinite(e)]] = True
+        else:
+            if e_t is None:
+                e_t = _entry(r[None], T[[t]][None], dims[[t]][None])[0, 0]
+            hit[sel[e < e_t[sel]]] = True
+    return hit
 
 
 def _union_length(lo: np.ndarray, hi: np.ndarray, spans: list) -> float:
@@ -468,9 +550,10 @@ def _cast(camera, T, dims, busy, cand_t, cand_o, bb, clip, whole, grid, lut):
     # pixel centres (a subset of the image's pixels when the box has more than grid per axis)
     pu = (lo_u[owner] + np.rint((k % nu[owner]) * su[owner])).astype(np.int64)
     pv = (lo_v[owner] + np.rint((k // nu[owner]) * sv[owner])).astype(np.int64)
-    if lut is None and len(pu) > camera.resolution[0] * camera.resolution[1] // 2:
-        lut = pixel_rays(camera)
-    rays = lut[pv, pu] if lut is not None else camera.unproject(np.stack([pu, pv], axis=1).astype(np.float64))
+    if lut.rays is None and len(pu) > camera.resolution[0] * camera.resolution[1] // 2:
+        lut.get()
+    rays = lut.rays[pv, pu] if lut.rays is not None else camera.unproject(
+        np.stack([pu, pv], axis=1).astype(np.float64))
     good = np.isfinite(rays).all(axis=-1)
     rays = np.where(good[:, None], rays, 0.0).astype(np.float32)
     half = (0.5 * dims).astype(np.float32)
@@ -573,7 +656,8 @@ def pair_visibility(camera, T_gt_world: np.ndarray, T_view_gt: np.ndarray, frame
     T_cam = np.matmul(T_gt_world[fr], T_box_world)  # (M, 4, 4) boxes in the GT camera
     need = np.zeros(len(fr), bool)
     need[box_index] = True
-    gt = visible_fractions(camera, T_cam, dims_lwh, group=fr, only=need)[box_index]
+    lut = _Rays(camera)  # the image's rays, shared by the GT and the novel views
+    gt = _visible_fractions(camera, T_cam, dims_lwh, group=fr, only=need, grid=GRID, rays=lut)[box_index]
     nv = np.full(len(box_index), np.nan)
     go = np.flatnonzero(gt >= min_visible) if min_visible > 0 else np.arange(len(box_index))
     if len(go) == 0:
@@ -597,5 +681,5 @@ def pair_visibility(camera, T_gt_world: np.ndarray, T_view_gt: np.ndarray, frame
     pos = start_of[g_of] + rank[box_index]
     want = np.zeros(len(box_of), bool)
     want[pos] = True
-    nv[go] = visible_fractions(camera, T_nv, dims_lwh[box_of], group=grp, only=want)[pos]
+    nv[go] = _visible_fractions(camera, T_nv, dims_lwh[box_of], group=grp, only=want, grid=GRID, rays=lut)[pos]
     return gt, nv
