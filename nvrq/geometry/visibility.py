@@ -77,6 +77,12 @@ def _entry(rays: np.ndarray, T: np.ndarray, dims: np.ndarray) -> np.ndarray:
     return _slab_entry(o[:, :, None, :], d, 0.5 * dims[:, :, None, :])
 
 
+def _entry_one(rays: np.ndarray, T: np.ndarray, dims: np.ndarray) -> np.ndarray:
+    """:func:`_entry` of rays ``(R, 3)`` into one box (``T (4, 4)``, ``dims (3,)``) -> ``(R,)``."""
+    R = T[:3, :3]
+    return _slab_entry(-(T[:3, 3] @ R), rays @ R, 0.5 * dims)
+
+
 def _slab_entry(o: np.ndarray, d: np.ndarray, half: np.ndarray) -> np.ndarray:
     """Entry distance along rays ``d (..., 3)`` from ``o (..., 3)`` into the box of half sizes
     ``half (..., 3)`` (all in the box frame, broadcast together); ``inf`` where a ray misses,
@@ -433,31 +439,23 @@ def _raster(camera, T, dims, outline, targets, cands, clip, whole, nb, rays: _Ra
         occ, apart = co[first[n]:last[n]], ca[first[n]:last[n]]
         simple = apart & whole[occ]
         hard, hard_apart = occ[~simple], apart[~simple]
-        occ_spans = [on_rows(o, v0, v1) for o in occ[simple]]
-        if not len(hard):  # spans alone: the covered length of each row is a union of intervals
-            out[n] = 1.0 - _union_length(lo, hi, occ_spans) / area
+        runs = _free_runs(lo, hi, [on_rows(o, v0, v1) for o in occ[simple]])
+        free = int(runs[2].sum())
+        if not len(hard) or free == 0:  # spans alone: the covered length of each row
+            out[n] = 1.0 - (area - free) / area
             continue
-        cols = np.arange(u0, u1 + 1, dtype=np.float64)[None, :]
-        mask = (cols >= lo[:, None]) & (cols <= hi[:, None])
-        cover = np.zeros_like(mask)
-        for olo, ohi in occ_spans:
-            cover |= (cols >= olo[:, None]) & (cols <= ohi[:, None])
-        covered = float((cover & mask).sum())
-        vv, uu = np.nonzero(mask & ~cover)
-        if len(vv):
-            free = len(vv)
-            if len(vv) > cap:
-                pick = np.linspace(0, len(vv) - 1, cap).round().astype(np.int64)
-                vv, uu = vv[pick], uu[pick]
-            pv, pu = vv + v0, uu + u0
-            asked += len(pv)
-            if rays.rays is None and asked > w * h // 4:
-                rays.get()
-            r = rays.rays[pv, pu] if rays.rays is not None else camera.unproject(
-                np.stack([pu, pv], axis=1).astype(np.float64))
-            out[n] = 1.0 - (covered + _hard_hits(r, t, hard, hard_apart, (T, dims, nb)).mean() * free) / area
-        else:
-            out[n] = 1.0 - covered / area
+        # the uncovered pixel centres (at most cap, evenly spread), slab-tested
+        pick = np.linspace(0, free - 1, cap).round().astype(np.int64) if free > cap else np.arange(free)
+        csum = np.cumsum(runs[2]).astype(np.int64)
+        run = np.searchsorted(csum, pick, side="right")
+        pu = (runs[1][run] + pick - (csum[run] - runs[2][run])).astype(np.int64)
+        pv = runs[0][run] + v0
+        asked += len(pv)
+        if rays.rays is None and asked > w * h // 4:
+            rays.get()
+        r = rays.rays[pv, pu] if rays.rays is not None else camera.unproject(
+            np.stack([pu, pv], axis=1).astype(np.float64))
+        out[n] = 1.0 - (area - free + _hard_hits(r, t, hard, hard_apart, (T, dims, nb)).mean() * free) / area
     return out
 
 
@@ -478,41 +476,47 @@ def _hard_hits(r, t, hard, hard_apart, boxes) -> np.ndarray:
         sel = np.flatnonzero(good & ~hit & (x >= b[0]) & (x <= b[2]) & (y >= b[1]) & (y <= b[3]))
         if not len(sel):
             continue
-        e = _entry(r[sel][None], T[[o]][None], dims[[o]][None])[0, 0]
+        e = _entry_one(r[sel], T[o], dims[o])
         if ap:
             hit[sel[np.isfinite(e)]] = True
         else:
             if e_t is None:
-                e_t = _entry(r[None], T[[t]][None], dims[[t]][None])[0, 0]
+                e_t = _entry_one(r, T[t], dims[t])
             hit[sel[e < e_t[sel]]] = True
     return hit
 
 
-def _union_length(lo: np.ndarray, hi: np.ndarray, spans: list) -> float:
-    """Pixel centres of the rows' target spans ``[lo, hi] (H,)`` inside any of ``spans``
-    (a list of ``(lo, hi)`` per occluder): the length of each row's union of intervals.
+def _free_runs(lo: np.ndarray, hi: np.ndarray, spans: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The runs of pixel centres of the rows' target spans ``[lo, hi] (H,)`` inside none of
+    ``spans`` (a list of ``(lo, hi)`` per occluder), row-major and left to right: their row
+    (0..H-1), first column and length (0 for an empty run).
 
-    >>> float(_union_length(np.array([0.0]), np.array([9.0]), [(np.array([2.0]), np.array([4.0])),
-    ...                                                          (np.array([3.0]), np.array([6.0]))]))
-    5.0
+    >>> row, start, length = _free_runs(np.array([0.0]), np.array([9.0]),
+    ...                                 [(np.array([2.0]), np.array([4.0])), (np.array([3.0]), np.array([6.0]))])
+    >>> [(float(s), float(n)) for s, n in zip(start, length) if n]
+    [(0.0, 2.0), (7.0, 3.0)]
     """
-    if not spans:
-        return 0.0
-    a = np.stack([np.maximum(s[0], lo) for s in spans], axis=1)  # (H, k)
-    b = np.stack([np.minimum(s[1], hi) for s in spans], axis=1)
-    empty = a > b
-    a = np.where(empty, np.inf, a)
-    b = np.where(empty, -np.inf, b)
-    order = np.argsort(a, axis=1)
-    a = np.take_along_axis(a, order, axis=1)
-    b = np.take_along_axis(b, order, axis=1)
-    total = np.zeros(len(lo))
-    end = np.full(len(lo), -np.inf)
-    for j in range(a.shape[1]):
-        start = np.maximum(a[:, j], end + 1)
-        total += np.where(np.isfinite(a[:, j]), np.maximum(b[:, j] - start + 1, 0), 0)
+    k = len(spans)
+    if k:
+        a = np.stack([np.maximum(s[0], lo) for s in spans], axis=1)  # (H, k)
+        b = np.stack([np.minimum(s[1], hi) for s in spans], axis=1)
+        empty = a > b
+        a = np.where(empty, np.inf, a)
+        b = np.where(empty, -np.inf, b)
+        order = np.argsort(a, axis=1)
+        a = np.take_along_axis(a, order, axis=1)
+        b = np.take_along_axis(b, order, axis=1)
+    end = lo - 1  # last covered column so far (the runs before each sorted interval, then the tail)
+    starts, stops = [], []
+    for j in range(k):
+        starts.append(end + 1)
+        stops.append(np.where(np.isfinite(a[:, j]), np.minimum(a[:, j] - 1, hi), -np.inf))
         end = np.maximum(end, b[:, j])
-    return float(total.sum())
+    starts.append(end + 1)
+    stops.append(hi)
+    start, stop = np.stack(starts, axis=1).ravel(), np.stack(stops, axis=1).ravel()
+    length = np.maximum(stop - start + 1, 0)
+    return np.repeat(np.arange(len(lo)), k + 1), np.where(length > 0, start, 0), length
 
 
 def _slab(rays: np.ndarray, R: np.ndarray, o: np.ndarray, half: np.ndarray) -> np.ndarray:
