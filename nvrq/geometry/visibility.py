@@ -376,21 +376,50 @@ def _hull(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return h, np.roll(h, -1, axis=0)
 
 
-def _row_spans(edges: tuple[np.ndarray, np.ndarray], rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Pixel-centre spans of a silhouette polygon on image rows: ``edges`` (:func:`_hull`),
-    ``rows (H,)`` -> first and last column ``(H,)`` whose centre lies inside (first > last
-    where none)."""
+def _row_spans(edges: tuple[np.ndarray, np.ndarray], rows: np.ndarray,
+               valid: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Pixel-centre spans of a silhouette polygon on image rows: ``edges`` (:func:`_hull`:
+    ``(E, 2)`` each, or ``(H, E, 2)``, one polygon per row; ``valid (H, E)`` marks the edges
+    that exist), ``rows (H,)`` -> first and last column ``(H,)`` whose centre lies inside
+    (first > last where none)."""
     p, q = edges
-    y0, y1 = p[:, 1], q[:, 1]
+    y0, y1 = p[..., 1], q[..., 1]
     v = rows[:, None]
     hit = (np.minimum(y0, y1) <= v) & (v <= np.maximum(y0, y1))
+    if valid is not None:
+        hit &= valid
     dy = y1 - y0
     with np.errstate(divide="ignore", invalid="ignore"):
-        x = np.where(dy != 0, p[:, 0] + (v - y0) * (q[:, 0] - p[:, 0]) / dy, p[:, 0])
+        x = np.where(dy != 0, p[..., 0] + (v - y0) * (q[..., 0] - p[..., 0]) / dy, p[..., 0])
     flat = dy == 0  # a horizontal edge on the row: both its ends
-    lo = np.where(hit, np.where(flat, np.minimum(p[:, 0], q[:, 0]), x), np.inf).min(axis=1)
-    hi = np.where(hit, np.where(flat, np.maximum(p[:, 0], q[:, 0]), x), -np.inf).max(axis=1)
+    lo = np.where(hit, np.where(flat, np.minimum(p[..., 0], q[..., 0]), x), np.inf).min(axis=1)
+    hi = np.where(hit, np.where(flat, np.maximum(p[..., 0], q[..., 0]), x), -np.inf).max(axis=1)
     return np.ceil(lo - 1e-9), np.floor(hi + 1e-9)
+
+
+def _box_spans(outline: np.ndarray, boxes: np.ndarray, clip: np.ndarray):
+    """Row spans of the silhouettes of ``boxes`` on the rows of their clipped pixel boxes,
+    stacked: ``(first row (B,), offsets (B + 1,), lo, hi)``, box ``i``'s spans being
+    ``lo[offsets[i]:offsets[i + 1]]`` from row ``first[i]`` on (:func:`_row_spans`)."""
+    hulls = [_hull(outline[b])[0] for b in boxes]
+    ne = np.array([len(h) for h in hulls], np.int64)
+    P = np.zeros((len(boxes), max(int(ne.max(initial=1)), 1), 2))
+    Q = np.zeros_like(P)
+    for i, h in enumerate(hulls):
+        P[i, :len(h)] = h
+        Q[i, :len(h)] = np.roll(h, -1, axis=0)
+    valid = np.arange(P.shape[1])[None] < ne[:, None]
+    v0 = clip[boxes, 1].astype(np.int64)
+    nrow = np.maximum(clip[boxes, 3].astype(np.int64) - v0 + 1, 0)
+    off = np.r_[0, np.cumsum(nrow)]
+    owner = np.repeat(np.arange(len(boxes)), nrow)
+    rows = (v0[owner] + np.arange(off[-1]) - off[owner]).astype(np.float64)
+    lo, hi = np.empty(off[-1]), np.empty(off[-1])
+    step = max(CHUNK // P.shape[1], 1)
+    for c in range(0, off[-1], step):
+        w = owner[c:c + step]
+        lo[c:c + step], hi[c:c + step] = _row_spans((P[w], Q[w]), rows[c:c + step], valid[w])
+    return v0, off, lo, hi
 
 
 def _raster(camera, T, dims, outline, targets, cands, clip, whole, nb, rays: _Rays, cap):
@@ -400,63 +429,128 @@ def _raster(camera, T, dims, outline, targets, cands, clip, whole, nb, rays: _Ra
     first (an occluder not wholly projectable, or one that intersects the target: slab tests
     on the pixels still uncovered, at most ``cap`` of them, evenly spread, and of those only
     the rays inside the occluder's normalised box ``nb``). ``cands``: the (target, occluder,
-    disjoint) candidate arrays."""
+    disjoint) candidate arrays. All targets' rows are stacked, a target's simple occluders
+    side by side (in chunks of about :data:`CHUNK` row-occluder cells)."""
     cand_t, cand_o, cand_apart = cands
     out = np.full(len(targets), np.nan)
     order = np.argsort(cand_t, kind="stable")
     ct, co, ca = cand_t[order], cand_o[order], cand_apart[order]
-    first = np.searchsorted(ct, targets)
-    last = np.searchsorted(ct, targets, side="right")
-    spans: dict[int, tuple] = {}  # box -> (first row, lo, hi) on the rows of its clipped pixel box
-    none = (np.zeros(0), np.zeros(0))
-
-    def box_spans(b):
-        if b not in spans:
-            v0, v1 = int(clip[b, 1]), int(clip[b, 3])
-            rows = np.arange(v0, v1 + 1, dtype=np.float64)
-            spans[b] = (v0, *(_row_spans(_hull(outline[b]), rows) if len(rows) else none))
-        return spans[b]
-
-    def on_rows(b, v0, v1):
-        """``b``'s spans on rows ``v0..v1`` (empty rows outside its pixel box)."""
-        s0, lo, hi = box_spans(b)
-        olo, ohi = np.full(v1 - v0 + 1, np.inf), np.full(v1 - v0 + 1, -np.inf)
-        a0, a1 = max(v0, s0), min(v1, s0 + len(lo) - 1)
-        if a0 <= a1:
-            olo[a0 - v0:a1 - v0 + 1] = lo[a0 - s0:a1 - s0 + 1]
-            ohi[a0 - v0:a1 - v0 + 1] = hi[a0 - s0:a1 - s0 + 1]
-        return olo, ohi
-
+    simple = ca & whole[co]
+    # the row spans of every target and every simple occluder
+    boxes = np.unique(np.r_[targets, co[simple]])
+    b_v0, b_off, b_lo, b_hi = _box_spans(outline, boxes, clip)
+    at = np.searchsorted(boxes, targets)
+    # simple occluders per target (target-major), their slot among the target's
+    st, so = ct[simple], co[simple]
+    t_pos = np.searchsorted(targets, st)
+    k = np.bincount(t_pos, minlength=len(targets))
+    slot = np.arange(len(st)) - np.repeat(np.cumsum(k) - k, k)
+    p_first = np.r_[0, np.cumsum(k)]
+    hard_first = np.searchsorted(ct[~simple], targets)
+    hard_last = np.searchsorted(ct[~simple], targets, side="right")
+    h_o, h_apart = co[~simple], ca[~simple]
+    nrow = b_off[at + 1] - b_off[at]
     w, h = camera.resolution
-    asked = 0  # pixels unprojected one by one; past a quarter of the image, the image's rays once
-    for n, t in enumerate(targets):
-        u0, v0, u1, v1 = (int(c) for c in clip[t])
-        _, lo, hi = box_spans(t)
-        lo, hi = np.maximum(lo, u0), np.minimum(hi, u1)
-        area = float(np.maximum(hi - lo + 1, 0).sum())
-        if area == 0:
-            continue
-        occ, apart = co[first[n]:last[n]], ca[first[n]:last[n]]
-        simple = apart & whole[occ]
-        hard, hard_apart = occ[~simple], apart[~simple]
-        runs = _free_runs(lo, hi, [on_rows(o, v0, v1) for o in occ[simple]])
-        free = int(runs[2].sum())
-        if not len(hard) or free == 0:  # spans alone: the covered length of each row
-            out[n] = 1.0 - (area - free) / area
-            continue
-        # the uncovered pixel centres (at most cap, evenly spread), slab-tested
-        pick = np.linspace(0, free - 1, cap).round().astype(np.int64) if free > cap else np.arange(free)
-        csum = np.cumsum(runs[2]).astype(np.int64)
-        run = np.searchsorted(csum, pick, side="right")
-        pu = (runs[1][run] + pick - (csum[run] - runs[2][run])).astype(np.int64)
-        pv = runs[0][run] + v0
-        asked += len(pv)
-        if rays.rays is None and asked > w * h // 4:
-            rays.get()
-        r = rays.rays[pv, pu] if rays.rays is not None else camera.unproject(
-            np.stack([pu, pv], axis=1).astype(np.float64))
-        out[n] = 1.0 - (area - free + _hard_hits(r, t, hard, hard_apart, (T, dims, nb)).mean() * free) / area
+    asked = [0]  # pixels unprojected one by one; past a quarter of the image, the image's rays once
+    start = 0
+    while start < len(targets):  # chunks of targets: rows x (most occluders) cells
+        stop = start + 1
+        rows, kmax = int(nrow[start]), int(k[start])
+        while stop < len(targets) and (rows + nrow[stop]) * (max(kmax, k[stop]) + 1) <= CHUNK:
+            rows, kmax = rows + int(nrow[stop]), max(kmax, int(k[stop]))
+            stop += 1
+        tr = np.arange(start, stop)
+        r_off = np.r_[0, np.cumsum(nrow[tr])]
+        row_t = np.repeat(tr, nrow[tr])  # the target of each stacked row
+        src = b_off[at[row_t]] + np.arange(r_off[-1]) - r_off[np.repeat(np.arange(len(tr)), nrow[tr])]
+        u0, u1 = clip[targets[row_t], 0], clip[targets[row_t], 2]
+        lo, hi = np.maximum(b_lo[src], u0), np.minimum(b_hi[src], u1)
+        # the simple occluders' spans on the target rows (inf, -inf: none)
+        A = np.full((r_off[-1], kmax), np.inf)
+        B = np.full((r_off[-1], kmax), -np.inf)
+        pp = np.arange(p_first[start], p_first[stop])
+        if len(pp):
+            ti = t_pos[pp] - start
+            n_r = nrow[t_pos[pp]]
+            e_pair = np.repeat(np.arange(len(pp)), n_r)
+            i = np.arange(n_r.sum()) - np.repeat(np.cumsum(n_r) - n_r, n_r)
+            row = r_off[ti[e_pair]] + i
+            ob = np.searchsorted(boxes, so[pp])[e_pair]
+            idx = b_v0[at[t_pos[pp]]][e_pair] + i - b_v0[ob]  # the occluder's own row index
+            ok = (idx >= 0) & (idx < b_off[ob + 1] - b_off[ob])
+            A[row[ok], slot[pp][e_pair][ok]] = b_lo[b_off[ob[ok]] + idx[ok]]
+            B[row[ok], slot[pp][e_pair][ok]] = b_hi[b_off[ob[ok]] + idx[ok]]
+        r_row, r_start, r_len = _free_runs(lo, hi, A, B)
+        area = np.diff(np.r_[0.0, np.cumsum(np.maximum(hi - lo + 1, 0))][r_off])  # per target
+        free = np.diff(np.r_[0.0, np.cumsum(r_len.reshape(-1, kmax + 1).sum(1))][r_off])
+        for j, n in enumerate(tr):
+            if area[j] == 0:
+                continue
+            hard = slice(hard_first[n], hard_last[n])
+            if hard.start == hard.stop or free[j] == 0:  # spans alone: the covered length of each row
+                out[n] = 1.0 - (area[j] - free[j]) / area[j]
+                continue
+            cells = slice(r_off[j] * (kmax + 1), r_off[j + 1] * (kmax + 1))
+            runs = (r_row[cells] - r_off[j], r_start[cells], r_len[cells])
+            r = _run_rays(camera, runs, int(clip[targets[n], 1]), cap, (rays, asked))
+            hit = _hard_hits(r, targets[n], h_o[hard], h_apart[hard], (T, dims, nb))
+            out[n] = 1.0 - (area[j] - free[j] + hit.mean() * free[j]) / area[j]
+        start = stop
     return out
+
+
+def _run_rays(camera, runs, v0, cap, lut):
+    """The rays of the uncovered pixel centres ``runs`` (:func:`_free_runs`, rows from
+    ``v0``), at most ``cap`` of them, evenly spread. ``lut``: ``(rays, asked)``, the image's
+    rays (:class:`_Rays`) and the count of pixels unprojected one by one so far (a list of
+    one int): past a quarter of the image, the image's rays are computed once."""
+    rays, asked = lut
+    row, start, length = runs
+    free = int(length.sum())
+    pick = np.linspace(0, free - 1, cap).round().astype(np.int64) if free > cap else np.arange(free)
+    csum = np.cumsum(length).astype(np.int64)
+    run = np.searchsorted(csum, pick, side="right")
+    pu = (start[run] + pick - (csum[run] - length[run])).astype(np.int64)
+    pv = row[run] + v0
+    asked[0] += len(pv)
+    w, h = camera.resolution
+    if rays.rays is None and asked[0] > w * h // 4:
+        rays.get()
+    return rays.rays[pv, pu] if rays.rays is not None else camera.unproject(
+        np.stack([pu, pv], axis=1).astype(np.float64))
+
+
+def _free_runs(lo: np.ndarray, hi: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The runs of pixel centres of the rows' target spans ``[lo, hi] (H,)`` inside none of
+    the occluder spans ``[a, b] (H, k)`` (``inf, -inf``: none), row-major and left to right,
+    ``k + 1`` per row: their row (0..H-1), first column and length (0 for an empty run).
+
+    >>> row, start, length = _free_runs(np.array([0.0]), np.array([9.0]), np.array([[2.0, 3.0]]),
+    ...                                 np.array([[4.0, 6.0]]))
+    >>> [(float(s), float(n)) for s, n in zip(start, length) if n]
+    [(0.0, 2.0), (7.0, 3.0)]
+    """
+    k = a.shape[1]
+    if k:
+        a = np.maximum(a, lo[:, None])
+        b = np.minimum(b, hi[:, None])
+        empty = a > b
+        a = np.where(empty, np.inf, a)
+        b = np.where(empty, -np.inf, b)
+        order = np.argsort(a, axis=1)
+        a = np.take_along_axis(a, order, axis=1)
+        b = np.take_along_axis(b, order, axis=1)
+    end = lo - 1  # last covered column so far (the runs before each sorted interval, then the tail)
+    starts, stops = [], []
+    for j in range(k):
+        starts.append(end + 1)
+        stops.append(np.where(np.isfinite(a[:, j]), np.minimum(a[:, j] - 1, hi), -np.inf))
+        end = np.maximum(end, b[:, j])
+    starts.append(end + 1)
+    stops.append(hi)
+    start, stop = np.stack(starts, axis=1).ravel(), np.stack(stops, axis=1).ravel()
+    length = np.maximum(stop - start + 1, 0)
+    return np.repeat(np.arange(len(lo)), k + 1), np.where(length > 0, start, 0), length
 
 
 def _hard_hits(r, t, hard, hard_apart, boxes) -> np.ndarray:
@@ -484,39 +578,6 @@ def _hard_hits(r, t, hard, hard_apart, boxes) -> np.ndarray:
                 e_t = _entry_one(r, T[t], dims[t])
             hit[sel[e < e_t[sel]]] = True
     return hit
-
-
-def _free_runs(lo: np.ndarray, hi: np.ndarray, spans: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The runs of pixel centres of the rows' target spans ``[lo, hi] (H,)`` inside none of
-    ``spans`` (a list of ``(lo, hi)`` per occluder), row-major and left to right: their row
-    (0..H-1), first column and length (0 for an empty run).
-
-    >>> row, start, length = _free_runs(np.array([0.0]), np.array([9.0]),
-    ...                                 [(np.array([2.0]), np.array([4.0])), (np.array([3.0]), np.array([6.0]))])
-    >>> [(float(s), float(n)) for s, n in zip(start, length) if n]
-    [(0.0, 2.0), (7.0, 3.0)]
-    """
-    k = len(spans)
-    if k:
-        a = np.stack([np.maximum(s[0], lo) for s in spans], axis=1)  # (H, k)
-        b = np.stack([np.minimum(s[1], hi) for s in spans], axis=1)
-        empty = a > b
-        a = np.where(empty, np.inf, a)
-        b = np.where(empty, -np.inf, b)
-        order = np.argsort(a, axis=1)
-        a = np.take_along_axis(a, order, axis=1)
-        b = np.take_along_axis(b, order, axis=1)
-    end = lo - 1  # last covered column so far (the runs before each sorted interval, then the tail)
-    starts, stops = [], []
-    for j in range(k):
-        starts.append(end + 1)
-        stops.append(np.where(np.isfinite(a[:, j]), np.minimum(a[:, j] - 1, hi), -np.inf))
-        end = np.maximum(end, b[:, j])
-    starts.append(end + 1)
-    stops.append(hi)
-    start, stop = np.stack(starts, axis=1).ravel(), np.stack(stops, axis=1).ravel()
-    length = np.maximum(stop - start + 1, 0)
-    return np.repeat(np.arange(len(lo)), k + 1), np.where(length > 0, start, 0), length
 
 
 def _slab(rays: np.ndarray, R: np.ndarray, o: np.ndarray, half: np.ndarray) -> np.ndarray:
