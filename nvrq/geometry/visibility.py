@@ -376,50 +376,42 @@ def _hull(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return h, np.roll(h, -1, axis=0)
 
 
-def _row_spans(edges: tuple[np.ndarray, np.ndarray], rows: np.ndarray,
-               valid: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Pixel-centre spans of a silhouette polygon on image rows: ``edges`` (:func:`_hull`:
-    ``(E, 2)`` each, or ``(H, E, 2)``, one polygon per row; ``valid (H, E)`` marks the edges
-    that exist), ``rows (H,)`` -> first and last column ``(H,)`` whose centre lies inside
-    (first > last where none)."""
-    p, q = edges
-    y0, y1 = p[..., 1], q[..., 1]
-    v = rows[:, None]
-    hit = (np.minimum(y0, y1) <= v) & (v <= np.maximum(y0, y1))
-    if valid is not None:
-        hit &= valid
-    dy = y1 - y0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x = np.where(dy != 0, p[..., 0] + (v - y0) * (q[..., 0] - p[..., 0]) / dy, p[..., 0])
-    flat = dy == 0  # a horizontal edge on the row: both its ends
-    lo = np.where(hit, np.where(flat, np.minimum(p[..., 0], q[..., 0]), x), np.inf).min(axis=1)
-    hi = np.where(hit, np.where(flat, np.maximum(p[..., 0], q[..., 0]), x), -np.inf).max(axis=1)
-    return np.ceil(lo - 1e-9), np.floor(hi + 1e-9)
-
-
 def _box_spans(outline: np.ndarray, boxes: np.ndarray, clip: np.ndarray):
     """Row spans of the silhouettes of ``boxes`` on the rows of their clipped pixel boxes,
     stacked: ``(first row (B,), offsets (B + 1,), lo, hi)``, box ``i``'s spans being
-    ``lo[offsets[i]:offsets[i + 1]]`` from row ``first[i]`` on (:func:`_row_spans`)."""
-    hulls = [_hull(outline[b])[0] for b in boxes]
-    ne = np.array([len(h) for h in hulls], np.int64)
-    P = np.zeros((len(boxes), max(int(ne.max(initial=1)), 1), 2))
-    Q = np.zeros_like(P)
-    for i, h in enumerate(hulls):
-        P[i, :len(h)] = h
-        Q[i, :len(h)] = np.roll(h, -1, axis=0)
-    valid = np.arange(P.shape[1])[None] < ne[:, None]
+    ``lo[offsets[i]:offsets[i + 1]]`` from row ``first[i]`` on: the first and last column
+    whose pixel centre lies inside the silhouette polygon (:func:`_hull`; first > last where
+    none). Edge by edge: each hull edge meets only the rows between its ends.
+
+    >>> square = np.array([[[0.5, 0.0], [4.0, 0.0], [4.0, 2.0], [0.5, 2.0]]])
+    >>> first, off, lo, hi = _box_spans(square, np.array([0]), np.array([[0.0, 0, 4, 3]]))
+    >>> first.tolist(), lo.tolist(), hi.tolist()
+    ([0], [1.0, 1.0, 1.0, inf], [4.0, 4.0, 4.0, -inf])
+    """
+    hulls = [_hull(outline[b]) for b in boxes]
+    ne = np.array([len(h[0]) for h in hulls], np.int64)
+    p = np.concatenate([h[0] for h in hulls]) if len(hulls) else np.zeros((0, 2))
+    q = np.concatenate([h[1] for h in hulls]) if len(hulls) else np.zeros((0, 2))
+    e_box = np.repeat(np.arange(len(boxes)), ne)
     v0 = clip[boxes, 1].astype(np.int64)
-    nrow = np.maximum(clip[boxes, 3].astype(np.int64) - v0 + 1, 0)
+    v1 = clip[boxes, 3].astype(np.int64)
+    nrow = np.maximum(v1 - v0 + 1, 0)
     off = np.r_[0, np.cumsum(nrow)]
-    owner = np.repeat(np.arange(len(boxes)), nrow)
-    rows = (v0[owner] + np.arange(off[-1]) - off[owner]).astype(np.float64)
-    lo, hi = np.empty(off[-1]), np.empty(off[-1])
-    step = max(CHUNK // P.shape[1], 1)
-    for c in range(0, off[-1], step):
-        w = owner[c:c + step]
-        lo[c:c + step], hi[c:c + step] = _row_spans((P[w], Q[w]), rows[c:c + step], valid[w])
-    return v0, off, lo, hi
+    y0, y1 = p[:, 1], q[:, 1]
+    r0 = np.maximum(np.ceil(np.minimum(y0, y1)), v0[e_box]).astype(np.int64)
+    r1 = np.minimum(np.floor(np.maximum(y0, y1)), v1[e_box]).astype(np.int64)
+    cnt = np.maximum(r1 - r0 + 1, 0)
+    e = np.repeat(np.arange(len(p)), cnt)
+    v = (r0[e] + np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)).astype(np.float64)
+    pe, qe, dy = p[e], q[e], (y1 - y0)[e]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = np.where(dy != 0, pe[:, 0] + (v - pe[:, 1]) * (qe[:, 0] - pe[:, 0]) / dy, pe[:, 0])
+    flat = dy == 0  # a horizontal edge on the row: both its ends
+    pos = off[e_box[e]] + v.astype(np.int64) - v0[e_box[e]]
+    lo, hi = np.full(off[-1], np.inf), np.full(off[-1], -np.inf)
+    np.minimum.at(lo, pos, np.where(flat, np.minimum(pe[:, 0], qe[:, 0]), x))
+    np.maximum.at(hi, pos, np.where(flat, np.maximum(pe[:, 0], qe[:, 0]), x))
+    return v0, off, np.ceil(lo - 1e-9), np.floor(hi + 1e-9)
 
 
 def _raster(camera, T, dims, outline, targets, cands, clip, whole, nb, rays: _Rays, cap):
