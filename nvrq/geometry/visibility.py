@@ -443,7 +443,7 @@ def _raster(camera, T, dims, outline, targets, cands, clip, whole, nb, rays: _Ra
     h_o, h_apart = co[~simple], ca[~simple]
     nrow = b_off[at + 1] - b_off[at]
     w, h = camera.resolution
-    asked = [0]  # pixels unprojected one by one; past a quarter of the image, the image's rays once
+    asked = 0  # pixels unprojected chunk by chunk; past a quarter of the image, the image's rays once
     start = 0
     while start < len(targets):  # chunks of targets: rows x (most occluders) cells
         stop = start + 1
@@ -475,41 +475,49 @@ def _raster(camera, T, dims, outline, targets, cands, clip, whole, nb, rays: _Ra
         r_row, r_start, r_len = _free_runs(lo, hi, A, B)
         area = np.diff(np.r_[0.0, np.cumsum(np.maximum(hi - lo + 1, 0))][r_off])  # per target
         free = np.diff(np.r_[0.0, np.cumsum(r_len.reshape(-1, kmax + 1).sum(1))][r_off])
+        cast = []  # (j, picked pixels) of the targets with hard occluders and uncovered pixels
         for j, n in enumerate(tr):
             if area[j] == 0:
                 continue
-            hard = slice(hard_first[n], hard_last[n])
-            if hard.start == hard.stop or free[j] == 0:  # spans alone: the covered length of each row
+            if hard_first[n] == hard_last[n] or free[j] == 0:  # spans alone: the covered length of each row
                 out[n] = 1.0 - (area[j] - free[j]) / area[j]
                 continue
             cells = slice(r_off[j] * (kmax + 1), r_off[j + 1] * (kmax + 1))
-            runs = (r_row[cells] - r_off[j], r_start[cells], r_len[cells])
-            r = _run_rays(camera, runs, int(clip[targets[n], 1]), cap, (rays, asked))
+            cast.append((j, _pick_pixels((r_row[cells] - r_off[j], r_start[cells], r_len[cells]),
+                                         int(clip[targets[n], 1]), cap)))
+        if not cast:
+            start = stop
+            continue
+        # the rays of this chunk's picked pixels at once (the image's rays past a quarter of it)
+        pv = np.concatenate([c[1][0] for c in cast])
+        pu = np.concatenate([c[1][1] for c in cast])
+        asked += len(pv)
+        if rays.rays is None and asked > w * h // 4:
+            rays.get()
+        r_all = rays.rays[pv, pu] if rays.rays is not None else camera.unproject(
+            np.stack([pu, pv], axis=1).astype(np.float64))
+        at_ray = 0
+        for j, (pv_j, _) in cast:
+            n = tr[j]
+            r = r_all[at_ray:at_ray + len(pv_j)]
+            at_ray += len(pv_j)
+            hard = slice(hard_first[n], hard_last[n])
             hit = _hard_hits(r, targets[n], h_o[hard], h_apart[hard], (T, dims, nb))
             out[n] = 1.0 - (area[j] - free[j] + hit.mean() * free[j]) / area[j]
         start = stop
     return out
 
 
-def _run_rays(camera, runs, v0, cap, lut):
-    """The rays of the uncovered pixel centres ``runs`` (:func:`_free_runs`, rows from
-    ``v0``), at most ``cap`` of them, evenly spread. ``lut``: ``(rays, asked)``, the image's
-    rays (:class:`_Rays`) and the count of pixels unprojected one by one so far (a list of
-    one int): past a quarter of the image, the image's rays are computed once."""
-    rays, asked = lut
+def _pick_pixels(runs, v0, cap) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns ``(pv, pu)`` of the uncovered pixel centres ``runs``
+    (:func:`_free_runs`, rows from ``v0``), at most ``cap`` of them, evenly spread."""
     row, start, length = runs
     free = int(length.sum())
     pick = np.linspace(0, free - 1, cap).round().astype(np.int64) if free > cap else np.arange(free)
     csum = np.cumsum(length).astype(np.int64)
     run = np.searchsorted(csum, pick, side="right")
     pu = (start[run] + pick - (csum[run] - length[run])).astype(np.int64)
-    pv = row[run] + v0
-    asked[0] += len(pv)
-    w, h = camera.resolution
-    if rays.rays is None and asked[0] > w * h // 4:
-        rays.get()
-    return rays.rays[pv, pu] if rays.rays is not None else camera.unproject(
-        np.stack([pu, pv], axis=1).astype(np.float64))
+    return row[run] + v0, pu
 
 
 def _free_runs(lo: np.ndarray, hi: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
