@@ -7,9 +7,10 @@ projected box itself, not its 2D rectangle, clipped to the image) whose ray is n
 entered by another box of the same frame. It is computed in three steps:
 
 1. **Who may cover whom.** An occluder must be nearer at its nearest point than the box at
-   its farthest, and their projections must overlap (pixel boxes of the projected outlines, or,
-   for a box not wholly in front of the camera, boxes in normalised coordinates of its part in
-   front). A box with no such neighbour is fully visible. For disjoint boxes the depth order is
+   its farthest, and their projections must overlap: the boxes in normalised coordinates of
+   their parts in front of the camera (found before any occluder is projected), and, where both
+   project whole, the pixel boxes of the projected outlines. Only the wanted boxes and these
+   occluders are projected. A box with no such neighbour is fully visible. For disjoint boxes the depth order is
    the same along every ray through both (two disjoint convex bodies are separated by a plane:
    the box on the camera's side comes first); a separating-axis test gives that plane, and an
    occluder behind the box is dropped.
@@ -19,8 +20,8 @@ entered by another box of the same frame. It is computed in three steps:
    whose edges curve). A pixel is covered where it lies inside a disjoint occluder in front.
 3. **Rays where needed.** Where an occluder is not wholly projected (a box beside or behind
    the camera) or intersects the box, rays through the still uncovered pixels (at most
-   ``4 * grid**2``, evenly spread) are slab-tested against both: the occluder covers a ray it
-   enters first. A box that is itself not wholly projected is sampled by a ray grid (at most
+   ``4 * grid**2``, evenly spread; against an occluder only those inside its normalised box)
+   are slab-tested against both: the occluder covers a ray it enters first. A box that is itself not wholly projected is sampled by a ray grid (at most
    ``grid`` per axis).
 
 Only ``project`` and ``unproject`` of the camera model are used, so it holds for every model
