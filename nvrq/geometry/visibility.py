@@ -165,6 +165,16 @@ class _Rays:
             self.rays = pixel_rays(self.camera)
         return self.rays
 
+    def at(self, pv: np.ndarray, pu: np.ndarray, asked: int) -> np.ndarray:
+        """Rays ``(P, 3)`` through pixels ``(pu, pv)``: unprojected directly until ``asked``
+        (the pixels asked so far) passes a quarter of the image, then from the image's rays."""
+        w, h = self.camera.resolution
+        if self.rays is None and asked > w * h // 4:
+            self.get()
+        if self.rays is not None:
+            return self.rays[pv, pu]
+        return self.camera.unproject(np.stack([pu, pv], axis=1).astype(np.float64))
+
 
 def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: _Rays) -> np.ndarray:
     """:func:`visible_fractions`, the image's rays (``rays``) shared between calls."""
@@ -176,31 +186,12 @@ def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: 
         return out
     group = np.zeros(n, np.int64) if group is None else np.asarray(group).reshape(-1)
     want = np.ones(n, bool) if only is None else np.asarray(only, bool).reshape(-1)
-    w, h = camera.resolution
     # bound every silhouette by its projected outline (corners, or sampled edges that curve):
     # first the wanted boxes', then those of the boxes that may cover one of them
-    samples = 1 if _straight(camera) else OUTLINE_SAMPLES
-    outline = np.full((n, len(_outline_local(samples)), 2), np.nan)
-    ok = np.zeros(outline.shape[:2], bool)
-    bb = np.full((n, 4), np.nan)
-    done = np.zeros(n, bool)
-
-    def project(sel):
-        outline[sel], ok[sel] = _project_outlines(camera, T[sel], dims[sel], samples)
-        done[sel] = True
-        some_ = ok[sel].any(axis=1)
-        s_ = sel[some_]
-        q = outline[s_]
-        bb[s_] = np.stack([np.nanmin(q[..., 0], 1), np.nanmin(q[..., 1], 1),
-                           np.nanmax(q[..., 0], 1), np.nanmax(q[..., 1], 1)], axis=1)
-
-    def clipped():  # the silhouettes' pixel boxes, clipped to the image
-        return np.stack([np.maximum(np.floor(bb[:, 0]), 0), np.maximum(np.floor(bb[:, 1]), 0),
-                         np.minimum(np.ceil(bb[:, 2]), w - 1), np.minimum(np.ceil(bb[:, 3]), h - 1)], axis=1)
-
-    project(np.flatnonzero(want))
-    some = ok.any(axis=1)
-    clip = clipped()
+    ol = _Outlines(camera, T, dims)
+    ol.add(np.flatnonzero(want))
+    some = ol.ok.any(axis=1)
+    clip = ol.clip()
     in_img = some & (clip[:, 0] <= clip[:, 2]) & (clip[:, 1] <= clip[:, 3])
     targets = np.flatnonzero(want & in_img)
     if len(targets) == 0:
@@ -214,17 +205,16 @@ def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: 
     far = np.linalg.norm(corners, axis=-1).max(axis=1)
     nb = _normalized_boxes(corners)
     cand_t, cand_o = _candidates(targets, group, near, far, nb)
-    rest = np.unique(cand_o[~done[cand_o]])
+    rest = np.unique(cand_o[~ol.done[cand_o]])
     if len(rest):
-        project(rest)
-        clip = clipped()
-    whole = ok.all(axis=1) & done
+        ol.add(rest)
+        clip = ol.clip()
+    whole = ol.ok.all(axis=1) & ol.done
     # wholly projected pairs: their pixel boxes (with a margin for curved edges) overlap too
-    t_, o_ = cand_t, cand_o
-    both = whole[t_] & whole[o_]
-    lap = ((bb[o_, 0] - MARGIN_PX <= bb[t_, 2]) & (bb[o_, 2] + MARGIN_PX >= bb[t_, 0])
-           & (bb[o_, 1] - MARGIN_PX <= bb[t_, 3]) & (bb[o_, 3] + MARGIN_PX >= bb[t_, 1]))
-    keep = ~both | lap
+    bb = ol.bb
+    lap = ((bb[cand_o, 0] - MARGIN_PX <= bb[cand_t, 2]) & (bb[cand_o, 2] + MARGIN_PX >= bb[cand_t, 0])
+           & (bb[cand_o, 1] - MARGIN_PX <= bb[cand_t, 3]) & (bb[cand_o, 3] + MARGIN_PX >= bb[cand_t, 1]))
+    keep = ~(whole[cand_t] & whole[cand_o]) | lap
     cand_t, cand_o = cand_t[keep], cand_o[keep]
     # depth order of disjoint pairs: an occluder behind the box cannot cover it
     apart, o_front = _separated(T, 0.5 * dims, cand_t, cand_o)
@@ -238,12 +228,42 @@ def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: 
     ray = busy[~whole[busy]]
     if len(ras):
         sel = np.isin(cand_t, ras)
-        out[ras] = _raster(camera, T, dims, outline, ras, (cand_t[sel], cand_o[sel], apart[sel]), clip, whole,
+        out[ras] = _raster(camera, T, dims, ol.outline, ras, (cand_t[sel], cand_o[sel], apart[sel]), clip, whole,
                            nb, rays, 4 * grid * grid)
     if len(ray):
         sel = np.isin(cand_t, ray)
         out[ray] = _cast(camera, T, dims, ray, cand_t[sel], cand_o[sel], bb, clip, whole, grid, rays)
     return out
+
+
+class _Outlines:
+    """The projected outlines of boxes, projected as they are asked for (:meth:`add`):
+    ``outline (N, K, 2)`` and ``ok (N, K)`` (:func:`_project_outlines`), the pixel boxes
+    ``bb (N, 4)`` of the points that project (NaN where none) and ``done (N,)``."""
+
+    def __init__(self, camera, T: np.ndarray, dims: np.ndarray):
+        self.camera, self.T, self.dims = camera, T, dims
+        self.samples = 1 if _straight(camera) else OUTLINE_SAMPLES
+        self.outline = np.full((len(T), len(_outline_local(self.samples)), 2), np.nan)
+        self.ok = np.zeros(self.outline.shape[:2], bool)
+        self.bb = np.full((len(T), 4), np.nan)
+        self.done = np.zeros(len(T), bool)
+
+    def add(self, sel: np.ndarray) -> None:
+        """Project the boxes ``sel``."""
+        self.outline[sel], self.ok[sel] = _project_outlines(self.camera, self.T[sel], self.dims[sel], self.samples)
+        self.done[sel] = True
+        s = sel[self.ok[sel].any(axis=1)]
+        q = self.outline[s]
+        self.bb[s] = np.stack([np.nanmin(q[..., 0], 1), np.nanmin(q[..., 1], 1),
+                               np.nanmax(q[..., 0], 1), np.nanmax(q[..., 1], 1)], axis=1)
+
+    def clip(self) -> np.ndarray:
+        """The silhouettes' pixel boxes ``(N, 4)``, clipped to the image."""
+        w, h = self.camera.resolution
+        bb = self.bb
+        return np.stack([np.maximum(np.floor(bb[:, 0]), 0), np.maximum(np.floor(bb[:, 1]), 0),
+                         np.minimum(np.ceil(bb[:, 2]), w - 1), np.minimum(np.ceil(bb[:, 3]), h - 1)], axis=1)
 
 
 def _straight(camera) -> bool:
@@ -444,36 +464,17 @@ def _raster(camera, T, dims, outline, targets, cands, clip, whole, nb, rays: _Ra
     hard_last = np.searchsorted(ct[~simple], targets, side="right")
     h_o, h_apart = co[~simple], ca[~simple]
     nrow = b_off[at + 1] - b_off[at]
-    w, h = camera.resolution
     asked = 0  # pixels unprojected chunk by chunk; past a quarter of the image, the image's rays once
-    start = 0
-    while start < len(targets):  # chunks of targets: rows x (most occluders) cells
-        stop = start + 1
-        rows, kmax = int(nrow[start]), int(k[start])
-        while stop < len(targets) and (rows + nrow[stop]) * (max(kmax, k[stop]) + 1) <= CHUNK:
-            rows, kmax = rows + int(nrow[stop]), max(kmax, int(k[stop]))
-            stop += 1
+    for start, stop, kmax in _chunks(nrow, k):  # chunks of targets: rows x (most occluders) cells
         tr = np.arange(start, stop)
         r_off = np.r_[0, np.cumsum(nrow[tr])]
         row_t = np.repeat(tr, nrow[tr])  # the target of each stacked row
         src = b_off[at[row_t]] + np.arange(r_off[-1]) - r_off[np.repeat(np.arange(len(tr)), nrow[tr])]
         u0, u1 = clip[targets[row_t], 0], clip[targets[row_t], 2]
         lo, hi = np.maximum(b_lo[src], u0), np.minimum(b_hi[src], u1)
-        # the simple occluders' spans on the target rows (inf, -inf: none)
-        A = np.full((r_off[-1], kmax), np.inf)
-        B = np.full((r_off[-1], kmax), -np.inf)
         pp = np.arange(p_first[start], p_first[stop])
-        if len(pp):
-            ti = t_pos[pp] - start
-            n_r = nrow[t_pos[pp]]
-            e_pair = np.repeat(np.arange(len(pp)), n_r)
-            i = np.arange(n_r.sum()) - np.repeat(np.cumsum(n_r) - n_r, n_r)
-            row = r_off[ti[e_pair]] + i
-            ob = np.searchsorted(boxes, so[pp])[e_pair]
-            idx = b_v0[at[t_pos[pp]]][e_pair] + i - b_v0[ob]  # the occluder's own row index
-            ok = (idx >= 0) & (idx < b_off[ob + 1] - b_off[ob])
-            A[row[ok], slot[pp][e_pair][ok]] = b_lo[b_off[ob[ok]] + idx[ok]]
-            B[row[ok], slot[pp][e_pair][ok]] = b_hi[b_off[ob[ok]] + idx[ok]]
+        A, B = _occluder_spans((boxes, b_v0, b_off, b_lo, b_hi), at[t_pos[pp]], so[pp], slot[pp],
+                               (r_off[t_pos[pp] - start], nrow[t_pos[pp]]), (r_off[-1], kmax))
         r_row, r_start, r_len = _free_runs(lo, hi, A, B)
         area = np.diff(np.r_[0.0, np.cumsum(np.maximum(hi - lo + 1, 0))][r_off])  # per target
         free = np.diff(np.r_[0.0, np.cumsum(r_len.reshape(-1, kmax + 1).sum(1))][r_off])
@@ -488,26 +489,52 @@ def _raster(camera, T, dims, outline, targets, cands, clip, whole, nb, rays: _Ra
             cast.append((j, _pick_pixels((r_row[cells] - r_off[j], r_start[cells], r_len[cells]),
                                          int(clip[targets[n], 1]), cap)))
         if not cast:
-            start = stop
             continue
         # the rays of this chunk's picked pixels at once (the image's rays past a quarter of it)
         pv = np.concatenate([c[1][0] for c in cast])
-        pu = np.concatenate([c[1][1] for c in cast])
         asked += len(pv)
-        if rays.rays is None and asked > w * h // 4:
-            rays.get()
-        r_all = rays.rays[pv, pu] if rays.rays is not None else camera.unproject(
-            np.stack([pu, pv], axis=1).astype(np.float64))
-        at_ray = 0
-        for j, (pv_j, _) in cast:
+        r_all = np.split(rays.at(pv, np.concatenate([c[1][1] for c in cast]), asked),
+                         np.cumsum([len(c[1][0]) for c in cast])[:-1])
+        for (j, _), r in zip(cast, r_all, strict=True):
             n = tr[j]
-            r = r_all[at_ray:at_ray + len(pv_j)]
-            at_ray += len(pv_j)
             hard = slice(hard_first[n], hard_last[n])
             hit = _hard_hits(r, targets[n], h_o[hard], h_apart[hard], (T, dims, nb))
             out[n] = 1.0 - (area[j] - free[j] + hit.mean() * free[j]) / area[j]
-        start = stop
     return out
+
+
+def _chunks(nrow: np.ndarray, k: np.ndarray):
+    """Consecutive target ranges ``(start, stop, most occluders)`` of about :data:`CHUNK`
+    cells (rows ``nrow`` times one more than the most occluders ``k``; at least one target)."""
+    start = 0
+    while start < len(nrow):
+        stop = start + 1
+        rows, kmax = int(nrow[start]), int(k[start])
+        while stop < len(nrow) and (rows + nrow[stop]) * (max(kmax, k[stop]) + 1) <= CHUNK:
+            rows, kmax = rows + int(nrow[stop]), max(kmax, int(k[stop]))
+            stop += 1
+        yield start, stop, kmax
+        start = stop
+
+
+def _occluder_spans(spans, at_t, occ, slot, rows, shape) -> tuple[np.ndarray, np.ndarray]:
+    """The spans of (target, simple occluder) pairs' occluders on their targets' stacked rows:
+    ``(A, B)`` of ``shape`` (rows, most occluders), the occluder in column ``slot``; ``inf,
+    -inf`` where none. ``spans``: ``(boxes, first row, offsets, lo, hi)`` (:func:`_box_spans`
+    of ``boxes``); ``at_t``: each pair's target's index in ``boxes``; ``occ``: its occluder;
+    ``rows``: the first stacked row and the row count of its target."""
+    boxes, b_v0, b_off, b_lo, b_hi = spans
+    A, B = np.full(shape, np.inf), np.full(shape, -np.inf)
+    first, n_r = rows
+    e_pair = np.repeat(np.arange(len(occ)), n_r)
+    i = np.arange(n_r.sum()) - np.repeat(np.cumsum(n_r) - n_r, n_r)
+    row = first[e_pair] + i
+    ob = np.searchsorted(boxes, occ)[e_pair]
+    idx = b_v0[at_t][e_pair] + i - b_v0[ob]  # the occluder's own row index
+    ok = (idx >= 0) & (idx < b_off[ob + 1] - b_off[ob])
+    A[row[ok], slot[e_pair][ok]] = b_lo[b_off[ob[ok]] + idx[ok]]
+    B[row[ok], slot[e_pair][ok]] = b_hi[b_off[ob[ok]] + idx[ok]]
+    return A, B
 
 
 def _pick_pixels(runs, v0, cap) -> tuple[np.ndarray, np.ndarray]:
