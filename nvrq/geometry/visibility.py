@@ -7,9 +7,10 @@ projected box itself, not its 2D rectangle, clipped to the image) whose ray is n
 entered by another box of the same frame. It is computed in three steps:
 
 1. **Who may cover whom.** An occluder must be nearer at its nearest point than the box at
-   its farthest, and their projections must overlap (pixel boxes of the projected outlines, or,
-   for a box not wholly in front of the camera, boxes in normalised coordinates of its part in
-   front). A box with no such neighbour is fully visible. For disjoint boxes the depth order is
+   its farthest, and their projections must overlap: the boxes in normalised coordinates of
+   their parts in front of the camera (found before any occluder is projected), and, where both
+   project whole, the pixel boxes of the projected outlines. Only the wanted boxes and these
+   occluders are projected. A box with no such neighbour is fully visible. For disjoint boxes the depth order is
    the same along every ray through both (two disjoint convex bodies are separated by a plane:
    the box on the camera's side comes first); a separating-axis test gives that plane, and an
    occluder behind the box is dropped.
@@ -19,8 +20,8 @@ entered by another box of the same frame. It is computed in three steps:
    whose edges curve). A pixel is covered where it lies inside a disjoint occluder in front.
 3. **Rays where needed.** Where an occluder is not wholly projected (a box beside or behind
    the camera) or intersects the box, rays through the still uncovered pixels (at most
-   ``4 * grid**2``, evenly spread) are slab-tested against both: the occluder covers a ray it
-   enters first. A box that is itself not wholly projected is sampled by a ray grid (at most
+   ``4 * grid**2``, evenly spread; against an occluder only those inside its normalised box)
+   are slab-tested against both: the occluder covers a ray it enters first. A box that is itself not wholly projected is sampled by a ray grid (at most
    ``grid`` per axis).
 
 Only ``project`` and ``unproject`` of the camera model are used, so it holds for every model
@@ -77,6 +78,12 @@ def _entry(rays: np.ndarray, T: np.ndarray, dims: np.ndarray) -> np.ndarray:
     return _slab_entry(o[:, :, None, :], d, 0.5 * dims[:, :, None, :])
 
 
+def _entry_one(rays: np.ndarray, T: np.ndarray, dims: np.ndarray) -> np.ndarray:
+    """:func:`_entry` of rays ``(R, 3)`` into one box (``T (4, 4)``, ``dims (3,)``) -> ``(R,)``."""
+    R = T[:3, :3]
+    return _slab_entry(-(T[:3, 3] @ R), rays @ R, 0.5 * dims)
+
+
 def _slab_entry(o: np.ndarray, d: np.ndarray, half: np.ndarray) -> np.ndarray:
     """Entry distance along rays ``d (..., 3)`` from ``o (..., 3)`` into the box of half sizes
     ``half (..., 3)`` (all in the box frame, broadcast together); ``inf`` where a ray misses,
@@ -92,8 +99,9 @@ def _slab_entry(o: np.ndarray, d: np.ndarray, half: np.ndarray) -> np.ndarray:
         inside = np.broadcast_to(np.abs(o) <= half, par.shape)
         lo = np.where(par, np.where(inside, -np.inf, np.inf), lo)
         hi = np.where(par, np.where(inside, np.inf, -np.inf), hi)
-    tnear = lo.max(axis=-1)
-    tfar = hi.min(axis=-1)
+    # over the three slabs (elementwise: a reduction over a length-3 axis is slow)
+    tnear = np.maximum(np.maximum(lo[..., 0], lo[..., 1]), lo[..., 2])
+    tfar = np.minimum(np.minimum(hi[..., 0], hi[..., 1]), hi[..., 2])
     return np.where((tnear <= tfar) & (tfar > 0), np.maximum(tnear, 0.0), np.inf)
 
 
@@ -141,6 +149,35 @@ def visible_fractions(camera, T_box_cam: np.ndarray, dims_lwh: np.ndarray, *,
     >>> visible_fractions(cam, T, np.array([[2.0, 2, 2], [2.0, 2, 0.2]])).round(2).tolist()
     [0.5, 1.0]
     """
+    return _visible_fractions(camera, T_box_cam, dims_lwh, group=group, only=only, grid=grid,
+                              rays=_Rays(camera, rays))
+
+
+class _Rays:
+    """The camera's ray through every pixel centre (:func:`pixel_rays`), computed at the first
+    :meth:`get` and then kept (one camera's views share it)."""
+
+    def __init__(self, camera, rays: np.ndarray | None = None):
+        self.camera, self.rays = camera, rays
+
+    def get(self) -> np.ndarray:
+        if self.rays is None:
+            self.rays = pixel_rays(self.camera)
+        return self.rays
+
+    def at(self, pv: np.ndarray, pu: np.ndarray, asked: int) -> np.ndarray:
+        """Rays ``(P, 3)`` through pixels ``(pu, pv)``: unprojected directly until ``asked``
+        (the pixels asked so far) passes a quarter of the image, then from the image's rays."""
+        w, h = self.camera.resolution
+        if self.rays is None and asked > w * h // 4:
+            self.get()
+        if self.rays is not None:
+            return self.rays[pv, pu]
+        return self.camera.unproject(np.stack([pu, pv], axis=1).astype(np.float64))
+
+
+def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: _Rays) -> np.ndarray:
+    """:func:`visible_fractions`, the image's rays (``rays``) shared between calls."""
     T = np.asarray(T_box_cam, dtype=np.float64).reshape(-1, 4, 4)
     dims = np.asarray(dims_lwh, dtype=np.float64).reshape(-1, 3)
     n = len(T)
@@ -149,20 +186,12 @@ def visible_fractions(camera, T_box_cam: np.ndarray, dims_lwh: np.ndarray, *,
         return out
     group = np.zeros(n, np.int64) if group is None else np.asarray(group).reshape(-1)
     want = np.ones(n, bool) if only is None else np.asarray(only, bool).reshape(-1)
-    w, h = camera.resolution
-    # bound every silhouette by its projected outline (corners, or sampled edges that curve)
-    outline, ok = _project_outlines(camera, T, dims)  # (N, 6, K, 2), (N, 6, K)
-    whole = ok.all(axis=(1, 2))
-    some = ok.any(axis=(1, 2))
-    flat = outline.reshape(n, -1, 2)
-    bb = np.full((n, 4), np.nan)
-    if some.any():
-        q = flat[some]
-        bb[some] = np.stack([np.nanmin(q[..., 0], 1), np.nanmin(q[..., 1], 1),
-                             np.nanmax(q[..., 0], 1), np.nanmax(q[..., 1], 1)], axis=1)
-    # the silhouette's pixel box, clipped to the image
-    clip = np.stack([np.maximum(np.floor(bb[:, 0]), 0), np.maximum(np.floor(bb[:, 1]), 0),
-                     np.minimum(np.ceil(bb[:, 2]), w - 1), np.minimum(np.ceil(bb[:, 3]), h - 1)], axis=1)
+    # bound every silhouette by its projected outline (corners, or sampled edges that curve):
+    # first the wanted boxes', then those of the boxes that may cover one of them
+    ol = _Outlines(camera, T, dims)
+    ol.add(np.flatnonzero(want))
+    some = ol.ok.any(axis=1)
+    clip = ol.clip()
     in_img = some & (clip[:, 0] <= clip[:, 2]) & (clip[:, 1] <= clip[:, 3])
     targets = np.flatnonzero(want & in_img)
     if len(targets) == 0:
@@ -174,7 +203,19 @@ def visible_fractions(camera, T_box_cam: np.ndarray, dims_lwh: np.ndarray, *,
     corners = np.einsum("nij,nkj->nki", T[:, :3, :3], CORNER_SIGNS[None] * (0.5 * dims)[:, None, :]) \
         + T[:, None, :3, 3]
     far = np.linalg.norm(corners, axis=-1).max(axis=1)
-    cand_t, cand_o = _candidates(targets, group, bb, whole, some, near, far, _normalized_boxes(T, dims))
+    nb = _normalized_boxes(corners)
+    cand_t, cand_o = _candidates(targets, group, near, far, nb)
+    rest = np.unique(cand_o[~ol.done[cand_o]])
+    if len(rest):
+        ol.add(rest)
+        clip = ol.clip()
+    whole = ol.ok.all(axis=1) & ol.done
+    # wholly projected pairs: their pixel boxes (with a margin for curved edges) overlap too
+    bb = ol.bb
+    lap = ((bb[cand_o, 0] - MARGIN_PX <= bb[cand_t, 2]) & (bb[cand_o, 2] + MARGIN_PX >= bb[cand_t, 0])
+           & (bb[cand_o, 1] - MARGIN_PX <= bb[cand_t, 3]) & (bb[cand_o, 3] + MARGIN_PX >= bb[cand_t, 1]))
+    keep = ~(whole[cand_t] & whole[cand_o]) | lap
+    cand_t, cand_o = cand_t[keep], cand_o[keep]
     # depth order of disjoint pairs: an occluder behind the box cannot cover it
     apart, o_front = _separated(T, 0.5 * dims, cand_t, cand_o)
     keep = ~apart | o_front
@@ -182,44 +223,76 @@ def visible_fractions(camera, T_box_cam: np.ndarray, dims_lwh: np.ndarray, *,
     counts = np.bincount(cand_t, minlength=n)
     out[targets[counts[targets] == 0]] = 1.0
     # wholly projected boxes: their silhouette's pixel centres (raster); the others: ray grids
-    o_ok = whole
     busy = targets[counts[targets] > 0]
-    ras = busy[o_ok[busy]]
-    ray = busy[~o_ok[busy]]
+    ras = busy[whole[busy]]
+    ray = busy[~whole[busy]]
     if len(ras):
         sel = np.isin(cand_t, ras)
-        out[ras] = _raster(camera, T, dims, outline, ras, cand_t[sel], cand_o[sel], apart[sel], clip, rays,
-                           4 * grid * grid)
+        out[ras] = _raster(camera, T, dims, ol.outline, ras, (cand_t[sel], cand_o[sel], apart[sel]), clip, whole,
+                           nb, rays, 4 * grid * grid)
     if len(ray):
         sel = np.isin(cand_t, ray)
         out[ray] = _cast(camera, T, dims, ray, cand_t[sel], cand_o[sel], bb, clip, whole, grid, rays)
     return out
 
 
-def _project_outlines(camera, T: np.ndarray, dims: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Projected face outlines ``(N, 6, K, 2)`` of the boxes (corners alone for an
-    undistorted pinhole, whose edges stay straight; :data:`OUTLINE_SAMPLES` points per edge
-    otherwise; NaN where a point does not project) and which points projected ``(N, 6, K)``."""
+class _Outlines:
+    """The projected outlines of boxes, projected as they are asked for (:meth:`add`):
+    ``outline (N, K, 2)`` and ``ok (N, K)`` (:func:`_project_outlines`), the pixel boxes
+    ``bb (N, 4)`` of the points that project (NaN where none) and ``done (N,)``."""
+
+    def __init__(self, camera, T: np.ndarray, dims: np.ndarray):
+        self.camera, self.T, self.dims = camera, T, dims
+        self.samples = 1 if _straight(camera) else OUTLINE_SAMPLES
+        self.outline = np.full((len(T), len(_outline_local(self.samples)), 2), np.nan)
+        self.ok = np.zeros(self.outline.shape[:2], bool)
+        self.bb = np.full((len(T), 4), np.nan)
+        self.done = np.zeros(len(T), bool)
+
+    def add(self, sel: np.ndarray) -> None:
+        """Project the boxes ``sel``."""
+        self.outline[sel], self.ok[sel] = _project_outlines(self.camera, self.T[sel], self.dims[sel], self.samples)
+        self.done[sel] = True
+        s = sel[self.ok[sel].any(axis=1)]
+        q = self.outline[s]
+        self.bb[s] = np.stack([np.nanmin(q[..., 0], 1), np.nanmin(q[..., 1], 1),
+                               np.nanmax(q[..., 0], 1), np.nanmax(q[..., 1], 1)], axis=1)
+
+    def clip(self) -> np.ndarray:
+        """The silhouettes' pixel boxes ``(N, 4)``, clipped to the image."""
+        w, h = self.camera.resolution
+        bb = self.bb
+        return np.stack([np.maximum(np.floor(bb[:, 0]), 0), np.maximum(np.floor(bb[:, 1]), 0),
+                         np.minimum(np.ceil(bb[:, 2]), w - 1), np.minimum(np.ceil(bb[:, 3]), h - 1)], axis=1)
+
+
+def _straight(camera) -> bool:
+    """An undistorted pinhole: the projected edges of a box stay straight."""
     from nvrq.geometry.cameras.pinhole import PinholeCamera
 
-    straight = type(camera) is PinholeCamera
-    local = _outline_local(1 if straight else OUTLINE_SAMPLES)  # (6, K, 3)
-    scaled = local[None] * (0.5 * dims)[:, None, None, :]  # (N, 6, K, 3)
-    pts = np.einsum("nij,nfkj->nfki", T[:, :3, :3], scaled) + T[:, None, None, :3, 3]
+    return type(camera) is PinholeCamera
+
+
+def _project_outlines(camera, T: np.ndarray, dims: np.ndarray, samples: int) -> tuple[np.ndarray, np.ndarray]:
+    """Projected outlines ``(N, K, 2)`` of the boxes (:func:`_outline_local`: corners alone
+    for an undistorted pinhole, whose edges stay straight; ``samples`` points per edge
+    otherwise; NaN where a point does not project) and which points projected ``(N, K)``."""
+    local = _outline_local(samples)  # (K, 3)
+    scaled = local[None] * (0.5 * dims)[:, None, :]  # (N, K, 3)
+    pts = np.matmul(scaled, np.swapaxes(T[:, :3, :3], 1, 2)) + T[:, None, :3, 3]
     uv, ok = camera.project(pts)
     ok = ok & np.isfinite(uv).all(axis=-1)
     return np.where(ok[..., None], uv, np.nan), ok
 
 
-def _normalized_boxes(T: np.ndarray, dims: np.ndarray) -> np.ndarray:
+def _normalized_boxes(corners: np.ndarray) -> np.ndarray:
     """Bounding boxes ``(N, 4)`` of each box's part in front of the camera (``z >= eps``), in
-    normalised image coordinates ``(x / z, y / z)``; NaN for a box wholly behind. Every pixel's
-    ray has ``z > 0`` (the camera models project nothing else), and a convex body in front of
-    the camera maps to the convex hull of its vertices, so the box of the clipped vertices
-    (corners in front, and edges cut at ``z = eps``) bounds every ray that can enter it."""
+    normalised image coordinates ``(x / z, y / z)``, from its corners ``(N, 8, 3)`` (camera
+    frame); NaN for a box wholly behind. Every pixel's ray has ``z > 0`` (the camera models
+    project nothing else), and a convex body in front of the camera maps to the convex hull of
+    its vertices, so the box of the clipped vertices (corners in front, and edges cut at
+    ``z = eps``) bounds every ray that can enter it."""
     eps = 1e-3
-    corners = np.einsum("nij,nkj->nki", T[:, :3, :3], CORNER_SIGNS[None] * (0.5 * dims)[:, None, :]) \
-        + T[:, None, :3, 3]
     a = corners[:, [i for i, _ in _EDGES]]
     b = corners[:, [j for _, j in _EDGES]]
     za, zb = a[..., 2], b[..., 2]
@@ -229,7 +302,7 @@ def _normalized_boxes(T: np.ndarray, dims: np.ndarray) -> np.ndarray:
                           np.where(cut[..., None], a + f[..., None] * (b - a), np.nan)], axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         xy = pts[..., :2] / pts[..., 2:]
-    out = np.full((len(T), 4), np.nan)
+    out = np.full((len(corners), 4), np.nan)
     any_ = np.isfinite(xy).all(axis=-1).any(axis=1)
     q = xy[any_]
     out[any_] = np.stack([np.nanmin(q[..., 0], 1), np.nanmin(q[..., 1], 1),
@@ -237,32 +310,30 @@ def _normalized_boxes(T: np.ndarray, dims: np.ndarray) -> np.ndarray:
     return out
 
 
-def _candidates(targets, group, bb, whole, some, near, far, nb):
-    """(target, occluder) index pairs that need a ray cast, target-major: the occluder is
-    nearer at its nearest point than the target at its farthest, and their projections can
-    overlap (pixel boxes, or normalised boxes ``nb`` when the occluder is not wholly projected;
-    a box wholly behind the camera covers nothing)."""
+def _candidates(targets, group, near, far, nb):
+    """(target, occluder) index pairs that may cover, target-major: the occluder is nearer at
+    its nearest point than the target at its farthest, and their normalised boxes ``nb``
+    overlap (a box wholly behind the camera covers nothing). Found without projecting any
+    occluder (the pixel boxes of wholly projected pairs are checked next)."""
     order = np.argsort(group, kind="stable")
     gs = group[order]
     starts = np.flatnonzero(np.r_[True, gs[1:] != gs[:-1]])
     ends = np.r_[starts[1:], len(gs)]
     is_target = np.zeros(len(group), bool)
     is_target[targets] = True
+    has_target = np.add.reduceat(is_target[order], starts) > 0
     tt, oo = [], []
-    for s0, s1 in zip(starts, ends, strict=True):
+    for s0, s1 in zip(starts[has_target], ends[has_target], strict=True):
         idx = order[s0:s1]
         ti = idx[is_target[idx]]
-        if len(ti) == 0 or len(idx) < 2:
+        if len(idx) < 2:
             continue
         oi = idx[np.isfinite(nb[idx, 0])]
         m = near[oi][None, :] < far[ti][:, None]
         m &= ti[:, None] != oi[None, :]
         with np.errstate(invalid="ignore"):
-            lap = ((bb[oi, 0][None] - MARGIN_PX <= bb[ti, 2][:, None]) & (bb[oi, 2][None] + MARGIN_PX >= bb[ti, 0][:, None])
-                   & (bb[oi, 1][None] - MARGIN_PX <= bb[ti, 3][:, None]) & (bb[oi, 3][None] + MARGIN_PX >= bb[ti, 1][:, None]))
-            nlap = ((nb[oi, 0][None] <= nb[ti, 2][:, None]) & (nb[oi, 2][None] >= nb[ti, 0][:, None])
-                    & (nb[oi, 1][None] <= nb[ti, 3][:, None]) & (nb[oi, 3][None] >= nb[ti, 1][:, None]))
-        m &= np.where(whole[oi][None, :] & whole[ti][:, None], lap, nlap)
+            m &= ((nb[oi, 0][None] <= nb[ti, 2][:, None]) & (nb[oi, 2][None] >= nb[ti, 0][:, None])
+                  & (nb[oi, 1][None] <= nb[ti, 3][:, None]) & (nb[oi, 3][None] >= nb[ti, 1][:, None]))
         r, c = np.nonzero(m)
         tt.append(ti[r])
         oo.append(oi[c])
@@ -271,17 +342,19 @@ def _candidates(targets, group, bb, whole, some, near, far, nb):
     return np.concatenate(tt), np.concatenate(oo)
 
 
-#: Corner loops (indices into CORNER_SIGNS) of the six faces of a box.
-_FACES = np.array([[0, 1, 3, 2], [4, 5, 7, 6], [0, 1, 5, 4], [2, 3, 7, 6], [0, 2, 6, 4], [1, 3, 7, 5]])
-
-
 def _outline_local(samples: int) -> np.ndarray:
-    """Face outlines in box-local signs ``(6, 4 * samples, 3)``: each face's loop of four
-    edges, ``samples`` points per edge (its first corner included, its last not)."""
-    a = CORNER_SIGNS[_FACES]  # (6, 4, 3)
-    b = CORNER_SIGNS[np.roll(_FACES, -1, axis=1)]
-    s = (np.arange(samples) / samples)[None, None, :, None]
-    return (a[:, :, None, :] * (1 - s) + b[:, :, None, :] * s).reshape(6, 4 * samples, 3)
+    """Outline points of a box in box-local signs ``(8 + 12 * (samples - 1), 3)``: its eight
+    corners, then ``samples - 1`` evenly spread points inside each of its twelve edges (the
+    projected silhouette is the hull of the projected edges).
+
+    >>> _outline_local(1).shape, _outline_local(3).shape
+    ((8, 3), (32, 3))
+    """
+    a = CORNER_SIGNS[[i for i, _ in _EDGES]]  # (12, 3)
+    b = CORNER_SIGNS[[j for _, j in _EDGES]]
+    s = (np.arange(1, samples) / samples)[None, :, None]
+    inner = (a[:, None, :] * (1 - s) + b[:, None, :] * s).reshape(-1, 3)
+    return np.concatenate([CORNER_SIGNS.astype(np.float64), inner])
 
 
 def _separated(T: np.ndarray, half: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -325,112 +398,215 @@ def _hull(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return h, np.roll(h, -1, axis=0)
 
 
-def _row_spans(edges: tuple[np.ndarray, np.ndarray], rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Pixel-centre spans of a silhouette polygon on image rows: ``edges`` (:func:`_hull`),
-    ``rows (H,)`` -> first and last column ``(H,)`` whose centre lies inside (first > last
-    where none)."""
-    p, q = edges
+def _box_spans(outline: np.ndarray, boxes: np.ndarray, clip: np.ndarray):
+    """Row spans of the silhouettes of ``boxes`` on the rows of their clipped pixel boxes,
+    stacked: ``(first row (B,), offsets (B + 1,), lo, hi)``, box ``i``'s spans being
+    ``lo[offsets[i]:offsets[i + 1]]`` from row ``first[i]`` on: the first and last column
+    whose pixel centre lies inside the silhouette polygon (:func:`_hull`; first > last where
+    none). Edge by edge: each hull edge meets only the rows between its ends.
+
+    >>> square = np.array([[[0.5, 0.0], [4.0, 0.0], [4.0, 2.0], [0.5, 2.0]]])
+    >>> first, off, lo, hi = _box_spans(square, np.array([0]), np.array([[0.0, 0, 4, 3]]))
+    >>> first.tolist(), lo.tolist(), hi.tolist()
+    ([0], [1.0, 1.0, 1.0, inf], [4.0, 4.0, 4.0, -inf])
+    """
+    hulls = [_hull(outline[b]) for b in boxes]
+    ne = np.array([len(h[0]) for h in hulls], np.int64)
+    p = np.concatenate([h[0] for h in hulls]) if len(hulls) else np.zeros((0, 2))
+    q = np.concatenate([h[1] for h in hulls]) if len(hulls) else np.zeros((0, 2))
+    e_box = np.repeat(np.arange(len(boxes)), ne)
+    v0 = clip[boxes, 1].astype(np.int64)
+    v1 = clip[boxes, 3].astype(np.int64)
+    nrow = np.maximum(v1 - v0 + 1, 0)
+    off = np.r_[0, np.cumsum(nrow)]
     y0, y1 = p[:, 1], q[:, 1]
-    v = rows[:, None]
-    hit = (np.minimum(y0, y1) <= v) & (v <= np.maximum(y0, y1))
-    dy = y1 - y0
+    r0 = np.maximum(np.ceil(np.minimum(y0, y1)), v0[e_box]).astype(np.int64)
+    r1 = np.minimum(np.floor(np.maximum(y0, y1)), v1[e_box]).astype(np.int64)
+    cnt = np.maximum(r1 - r0 + 1, 0)
+    e = np.repeat(np.arange(len(p)), cnt)
+    v = (r0[e] + np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)).astype(np.float64)
+    pe, qe, dy = p[e], q[e], (y1 - y0)[e]
     with np.errstate(divide="ignore", invalid="ignore"):
-        x = np.where(dy != 0, p[:, 0] + (v - y0) * (q[:, 0] - p[:, 0]) / dy, p[:, 0])
+        x = np.where(dy != 0, pe[:, 0] + (v - pe[:, 1]) * (qe[:, 0] - pe[:, 0]) / dy, pe[:, 0])
     flat = dy == 0  # a horizontal edge on the row: both its ends
-    lo = np.where(hit, np.where(flat, np.minimum(p[:, 0], q[:, 0]), x), np.inf).min(axis=1)
-    hi = np.where(hit, np.where(flat, np.maximum(p[:, 0], q[:, 0]), x), -np.inf).max(axis=1)
-    return np.ceil(lo - 1e-9), np.floor(hi + 1e-9)
+    pos = off[e_box[e]] + v.astype(np.int64) - v0[e_box[e]]
+    lo, hi = np.full(off[-1], np.inf), np.full(off[-1], -np.inf)
+    np.minimum.at(lo, pos, np.where(flat, np.minimum(pe[:, 0], qe[:, 0]), x))
+    np.maximum.at(hi, pos, np.where(flat, np.maximum(pe[:, 0], qe[:, 0]), x))
+    return v0, off, np.ceil(lo - 1e-9), np.floor(hi + 1e-9)
 
 
-def _raster(camera, T, dims, outline, targets, cand_t, cand_o, cand_apart, clip, rays, cap):
+def _raster(camera, T, dims, outline, targets, cands, clip, whole, nb, rays: _Rays, cap):
     """Visible fractions of wholly projected ``targets``: the pixel centres of the target's
     silhouette (its projected outline, row by row), less those inside a disjoint occluder in
     front that projects whole (its outline), less those whose ray enters another occluder
     first (an occluder not wholly projectable, or one that intersects the target: slab tests
-    on the pixels still uncovered, at most ``cap`` of them, evenly spread)."""
+    on the pixels still uncovered, at most ``cap`` of them, evenly spread, and of those only
+    the rays inside the occluder's normalised box ``nb``). ``cands``: the (target, occluder,
+    disjoint) candidate arrays. All targets' rows are stacked, a target's simple occluders
+    side by side (in chunks of about :data:`CHUNK` row-occluder cells)."""
+    cand_t, cand_o, cand_apart = cands
     out = np.full(len(targets), np.nan)
     order = np.argsort(cand_t, kind="stable")
     ct, co, ca = cand_t[order], cand_o[order], cand_apart[order]
-    first = np.searchsorted(ct, targets)
-    last = np.searchsorted(ct, targets, side="right")
-    whole = np.isfinite(outline).all(axis=(1, 2, 3))
-    hulls: dict[int, tuple] = {}
-
-    def hull(b):
-        if b not in hulls:
-            hulls[b] = _hull(outline[b].reshape(-1, 2))
-        return hulls[b]
-
-    w, h = camera.resolution
-    asked = 0  # pixels unprojected one by one; past a quarter of the image, the image's rays once
-    for n, t in enumerate(targets):
-        u0, v0, u1, v1 = (int(c) for c in clip[t])
-        rows = np.arange(v0, v1 + 1, dtype=np.float64)
-        lo, hi = _row_spans(hull(t), rows)
-        lo, hi = np.maximum(lo, u0), np.minimum(hi, u1)
-        area = float(np.maximum(hi - lo + 1, 0).sum())
-        if area == 0:
+    simple = ca & whole[co]
+    # the row spans of every target and every simple occluder
+    boxes = np.unique(np.r_[targets, co[simple]])
+    b_v0, b_off, b_lo, b_hi = _box_spans(outline, boxes, clip)
+    at = np.searchsorted(boxes, targets)
+    # simple occluders per target (target-major), their slot among the target's
+    st, so = ct[simple], co[simple]
+    t_pos = np.searchsorted(targets, st)
+    k = np.bincount(t_pos, minlength=len(targets))
+    slot = np.arange(len(st)) - np.repeat(np.cumsum(k) - k, k)
+    p_first = np.r_[0, np.cumsum(k)]
+    hard_first = np.searchsorted(ct[~simple], targets)
+    hard_last = np.searchsorted(ct[~simple], targets, side="right")
+    h_o, h_apart = co[~simple], ca[~simple]
+    nrow = b_off[at + 1] - b_off[at]
+    asked = 0  # pixels unprojected chunk by chunk; past a quarter of the image, the image's rays once
+    for start, stop, kmax in _chunks(nrow, k):  # chunks of targets: rows x (most occluders) cells
+        tr = np.arange(start, stop)
+        r_off = np.r_[0, np.cumsum(nrow[tr])]
+        row_t = np.repeat(tr, nrow[tr])  # the target of each stacked row
+        src = b_off[at[row_t]] + np.arange(r_off[-1]) - r_off[np.repeat(np.arange(len(tr)), nrow[tr])]
+        u0, u1 = clip[targets[row_t], 0], clip[targets[row_t], 2]
+        lo, hi = np.maximum(b_lo[src], u0), np.minimum(b_hi[src], u1)
+        pp = np.arange(p_first[start], p_first[stop])
+        A, B = _occluder_spans((boxes, b_v0, b_off, b_lo, b_hi), at[t_pos[pp]], so[pp], slot[pp],
+                               (r_off[t_pos[pp] - start], nrow[t_pos[pp]]), (r_off[-1], kmax))
+        r_row, r_start, r_len = _free_runs(lo, hi, A, B)
+        area = np.diff(np.r_[0.0, np.cumsum(np.maximum(hi - lo + 1, 0))][r_off])  # per target
+        free = np.diff(np.r_[0.0, np.cumsum(r_len.reshape(-1, kmax + 1).sum(1))][r_off])
+        cast = []  # (j, picked pixels) of the targets with hard occluders and uncovered pixels
+        for j, n in enumerate(tr):
+            if area[j] == 0:
+                continue
+            if hard_first[n] == hard_last[n] or free[j] == 0:  # spans alone: the covered length of each row
+                out[n] = 1.0 - (area[j] - free[j]) / area[j]
+                continue
+            cells = slice(r_off[j] * (kmax + 1), r_off[j + 1] * (kmax + 1))
+            cast.append((j, _pick_pixels((r_row[cells] - r_off[j], r_start[cells], r_len[cells]),
+                                         int(clip[targets[n], 1]), cap)))
+        if not cast:
             continue
-        occ, apart = co[first[n]:last[n]], ca[first[n]:last[n]]
-        simple = apart & whole[occ]
-        hard, hard_apart = occ[~simple], apart[~simple]
-        spans = [_row_spans(hull(o), rows) for o in occ[simple]]
-        if not len(hard):  # spans alone: the covered length of each row is a union of intervals
-            out[n] = 1.0 - _union_length(lo, hi, spans) / area
-            continue
-        cols = np.arange(u0, u1 + 1, dtype=np.float64)[None, :]
-        mask = (cols >= lo[:, None]) & (cols <= hi[:, None])
-        cover = np.zeros_like(mask)
-        for olo, ohi in spans:
-            cover |= (cols >= olo[:, None]) & (cols <= ohi[:, None])
-        covered = float((cover & mask).sum())
-        vv, uu = np.nonzero(mask & ~cover)
-        if len(vv):
-            if len(vv) > cap:
-                pick = np.linspace(0, len(vv) - 1, cap).round().astype(np.int64)
-                vv, uu = vv[pick], uu[pick]
-            pv, pu = vv + v0, uu + u0
-            asked += len(pv)
-            if rays is None and asked > w * h // 4:
-                rays = pixel_rays(camera)
-            r = rays[pv, pu] if rays is not None else camera.unproject(
-                np.stack([pu, pv], axis=1).astype(np.float64))
-            good = np.isfinite(r).all(axis=1)
-            r = np.where(good[:, None], r, 0.0)
-            boxes = np.r_[t, hard]
-            E = _entry(r[None], T[boxes][None], dims[boxes][None])[0]  # (1 + C, k)
-            # disjoint and in front: covered wherever its ray enters it; intersecting: nearer
-            hit = np.where(hard_apart[:, None], np.isfinite(E[1:]), E[1:] < E[:1]).any(axis=0) & good
-            covered += hit.mean() * len(np.flatnonzero(mask & ~cover))
-        out[n] = 1.0 - covered / area
+        # the rays of this chunk's picked pixels at once (the image's rays past a quarter of it)
+        pv = np.concatenate([c[1][0] for c in cast])
+        asked += len(pv)
+        r_all = np.split(rays.at(pv, np.concatenate([c[1][1] for c in cast]), asked),
+                         np.cumsum([len(c[1][0]) for c in cast])[:-1])
+        for (j, _), r in zip(cast, r_all, strict=True):
+            n = tr[j]
+            hard = slice(hard_first[n], hard_last[n])
+            hit = _hard_hits(r, targets[n], h_o[hard], h_apart[hard], (T, dims, nb))
+            out[n] = 1.0 - (area[j] - free[j] + hit.mean() * free[j]) / area[j]
     return out
 
 
-def _union_length(lo: np.ndarray, hi: np.ndarray, spans: list) -> float:
-    """Pixel centres of the rows' target spans ``[lo, hi] (H,)`` inside any of ``spans``
-    (a list of ``(lo, hi)`` per occluder): the length of each row's union of intervals.
+def _chunks(nrow: np.ndarray, k: np.ndarray):
+    """Consecutive target ranges ``(start, stop, most occluders)`` of about :data:`CHUNK`
+    cells (rows ``nrow`` times one more than the most occluders ``k``; at least one target)."""
+    start = 0
+    while start < len(nrow):
+        stop = start + 1
+        rows, kmax = int(nrow[start]), int(k[start])
+        while stop < len(nrow) and (rows + nrow[stop]) * (max(kmax, k[stop]) + 1) <= CHUNK:
+            rows, kmax = rows + int(nrow[stop]), max(kmax, int(k[stop]))
+            stop += 1
+        yield start, stop, kmax
+        start = stop
 
-    >>> float(_union_length(np.array([0.0]), np.array([9.0]), [(np.array([2.0]), np.array([4.0])),
-    ...                                                          (np.array([3.0]), np.array([6.0]))]))
-    5.0
+
+def _occluder_spans(spans, at_t, occ, slot, rows, shape) -> tuple[np.ndarray, np.ndarray]:
+    """The spans of (target, simple occluder) pairs' occluders on their targets' stacked rows:
+    ``(A, B)`` of ``shape`` (rows, most occluders), the occluder in column ``slot``; ``inf,
+    -inf`` where none. ``spans``: ``(boxes, first row, offsets, lo, hi)`` (:func:`_box_spans`
+    of ``boxes``); ``at_t``: each pair's target's index in ``boxes``; ``occ``: its occluder;
+    ``rows``: the first stacked row and the row count of its target."""
+    boxes, b_v0, b_off, b_lo, b_hi = spans
+    A, B = np.full(shape, np.inf), np.full(shape, -np.inf)
+    first, n_r = rows
+    e_pair = np.repeat(np.arange(len(occ)), n_r)
+    i = np.arange(n_r.sum()) - np.repeat(np.cumsum(n_r) - n_r, n_r)
+    row = first[e_pair] + i
+    ob = np.searchsorted(boxes, occ)[e_pair]
+    idx = b_v0[at_t][e_pair] + i - b_v0[ob]  # the occluder's own row index
+    ok = (idx >= 0) & (idx < b_off[ob + 1] - b_off[ob])
+    A[row[ok], slot[e_pair][ok]] = b_lo[b_off[ob[ok]] + idx[ok]]
+    B[row[ok], slot[e_pair][ok]] = b_hi[b_off[ob[ok]] + idx[ok]]
+    return A, B
+
+
+def _pick_pixels(runs, v0, cap) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns ``(pv, pu)`` of the uncovered pixel centres ``runs``
+    (:func:`_free_runs`, rows from ``v0``), at most ``cap`` of them, evenly spread."""
+    row, start, length = runs
+    free = int(length.sum())
+    pick = np.linspace(0, free - 1, cap).round().astype(np.int64) if free > cap else np.arange(free)
+    csum = np.cumsum(length).astype(np.int64)
+    run = np.searchsorted(csum, pick, side="right")
+    pu = (start[run] + pick - (csum[run] - length[run])).astype(np.int64)
+    return row[run] + v0, pu
+
+
+def _free_runs(lo: np.ndarray, hi: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The runs of pixel centres of the rows' target spans ``[lo, hi] (H,)`` inside none of
+    the occluder spans ``[a, b] (H, k)`` (``inf, -inf``: none), row-major and left to right,
+    ``k + 1`` per row: their row (0..H-1), first column and length (0 for an empty run).
+
+    >>> row, start, length = _free_runs(np.array([0.0]), np.array([9.0]), np.array([[2.0, 3.0]]),
+    ...                                 np.array([[4.0, 6.0]]))
+    >>> [(float(s), float(n)) for s, n in zip(start, length) if n]
+    [(0.0, 2.0), (7.0, 3.0)]
     """
-    if not spans:
-        return 0.0
-    a = np.stack([np.maximum(s[0], lo) for s in spans], axis=1)  # (H, k)
-    b = np.stack([np.minimum(s[1], hi) for s in spans], axis=1)
-    empty = a > b
-    a = np.where(empty, np.inf, a)
-    b = np.where(empty, -np.inf, b)
-    order = np.argsort(a, axis=1)
-    a = np.take_along_axis(a, order, axis=1)
-    b = np.take_along_axis(b, order, axis=1)
-    total = np.zeros(len(lo))
-    end = np.full(len(lo), -np.inf)
-    for j in range(a.shape[1]):
-        start = np.maximum(a[:, j], end + 1)
-        total += np.where(np.isfinite(a[:, j]), np.maximum(b[:, j] - start + 1, 0), 0)
+    k = a.shape[1]
+    if k:
+        a = np.maximum(a, lo[:, None])
+        b = np.minimum(b, hi[:, None])
+        empty = a > b
+        a = np.where(empty, np.inf, a)
+        b = np.where(empty, -np.inf, b)
+        order = np.argsort(a, axis=1)
+        a = np.take_along_axis(a, order, axis=1)
+        b = np.take_along_axis(b, order, axis=1)
+    end = lo - 1  # last covered column so far (the runs before each sorted interval, then the tail)
+    starts, stops = [], []
+    for j in range(k):
+        starts.append(end + 1)
+        stops.append(np.where(np.isfinite(a[:, j]), np.minimum(a[:, j] - 1, hi), -np.inf))
         end = np.maximum(end, b[:, j])
-    return float(total.sum())
+    starts.append(end + 1)
+    stops.append(hi)
+    start, stop = np.stack(starts, axis=1).ravel(), np.stack(stops, axis=1).ravel()
+    length = np.maximum(stop - start + 1, 0)
+    return np.repeat(np.arange(len(lo)), k + 1), np.where(length > 0, start, 0), length
+
+
+def _hard_hits(r, t, hard, hard_apart, boxes) -> np.ndarray:
+    """Which rays ``r (k, 3)`` of target ``t`` (NaN: no ray) first enter one of the occluders
+    ``hard``: a disjoint one (``hard_apart``, in front) wherever they enter it, an intersecting
+    one where they enter it before ``t``. Only the rays inside an occluder's normalised box
+    are slab-tested against it (no other ray can enter it). ``boxes``: ``(T, dims, nb)``."""
+    T, dims, nb = boxes
+    good = np.isfinite(r).all(axis=1)
+    r = np.where(good[:, None], r, 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        x, y = r[:, 0] / r[:, 2], r[:, 1] / r[:, 2]
+    hit = np.zeros(len(r), bool)
+    e_t = None
+    for o, ap in zip(hard, hard_apart, strict=True):
+        b = nb[o]
+        sel = np.flatnonzero(good & ~hit & (x >= b[0]) & (x <= b[2]) & (y >= b[1]) & (y <= b[3]))
+        if not len(sel):
+            continue
+        e = _entry_one(r[sel], T[o], dims[o])
+        if ap:
+            hit[sel[np.isfinite(e)]] = True
+        else:
+            if e_t is None:
+                e_t = _entry_one(r, T[t], dims[t])
+            hit[sel[e < e_t[sel]]] = True
+    return hit
 
 
 def _slab(rays: np.ndarray, R: np.ndarray, o: np.ndarray, half: np.ndarray) -> np.ndarray:
@@ -468,9 +644,10 @@ def _cast(camera, T, dims, busy, cand_t, cand_o, bb, clip, whole, grid, lut):
     # pixel centres (a subset of the image's pixels when the box has more than grid per axis)
     pu = (lo_u[owner] + np.rint((k % nu[owner]) * su[owner])).astype(np.int64)
     pv = (lo_v[owner] + np.rint((k // nu[owner]) * sv[owner])).astype(np.int64)
-    if lut is None and len(pu) > camera.resolution[0] * camera.resolution[1] // 2:
-        lut = pixel_rays(camera)
-    rays = lut[pv, pu] if lut is not None else camera.unproject(np.stack([pu, pv], axis=1).astype(np.float64))
+    if lut.rays is None and len(pu) > camera.resolution[0] * camera.resolution[1] // 2:
+        lut.get()
+    rays = lut.rays[pv, pu] if lut.rays is not None else camera.unproject(
+        np.stack([pu, pv], axis=1).astype(np.float64))
     good = np.isfinite(rays).all(axis=-1)
     rays = np.where(good[:, None], rays, 0.0).astype(np.float32)
     half = (0.5 * dims).astype(np.float32)
@@ -573,7 +750,8 @@ def pair_visibility(camera, T_gt_world: np.ndarray, T_view_gt: np.ndarray, frame
     T_cam = np.matmul(T_gt_world[fr], T_box_world)  # (M, 4, 4) boxes in the GT camera
     need = np.zeros(len(fr), bool)
     need[box_index] = True
-    gt = visible_fractions(camera, T_cam, dims_lwh, group=fr, only=need)[box_index]
+    lut = _Rays(camera)  # the image's rays, shared by the GT and the novel views
+    gt = _visible_fractions(camera, T_cam, dims_lwh, group=fr, only=need, grid=GRID, rays=lut)[box_index]
     nv = np.full(len(box_index), np.nan)
     go = np.flatnonzero(gt >= min_visible) if min_visible > 0 else np.arange(len(box_index))
     if len(go) == 0:
@@ -597,5 +775,5 @@ def pair_visibility(camera, T_gt_world: np.ndarray, T_view_gt: np.ndarray, frame
     pos = start_of[g_of] + rank[box_index]
     want = np.zeros(len(box_of), bool)
     want[pos] = True
-    nv[go] = visible_fractions(camera, T_nv, dims_lwh[box_of], group=grp, only=want)[pos]
+    nv[go] = _visible_fractions(camera, T_nv, dims_lwh[box_of], group=grp, only=want, grid=GRID, rays=lut)[pos]
     return gt, nv
