@@ -1,7 +1,7 @@
 """Frames per second of ``nvrq import drivestudio``, against just copying (or linking) its images.
 
 A synthetic drivestudio layout (default 200 frames x 5 cameras, the Waymo kind, and the same in
-the per-frame PandaSet kind) is written once (tests/sources/drivestudio_layout.py); then, in
+the per-frame PandaSet kind) is written once (tests/nvrq/sources/drivestudio_layout.py); then, in
 this one run and on warm files, each is timed (best of ``--rounds``):
 
 - ``copy only``: ``shutil.copyfile`` of every GT image into a fresh folder (what ``--copy`` must do);
@@ -39,7 +39,7 @@ from data_schema.scene import load_scene, save_scene  # noqa: E402
 from nvrq.sources.drivestudio import import_drivestudio, read_drivestudio  # noqa: E402
 from nvrq.synth.generate import camera_models, scene_document  # noqa: E402
 from nvrq.synth.layout import build_world  # noqa: E402
-from tests.sources.drivestudio_layout import camera_ring, write_layout  # noqa: E402
+from tests.nvrq.sources.drivestudio_layout import camera_ring, write_layout  # noqa: E402
 
 
 def _timed(fn) -> tuple[float, float]:

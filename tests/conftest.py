@@ -1,8 +1,8 @@
 """Shared test fixtures.
 
-The folders of ``tests/`` mirror the packages they test (``metrics/``, ``scoring/``, ``commands/``
-for nvrq's command layer, ``api/``, ``pairs/``, ``sources/``, ``geometry/``, ``engines/``,
-``proxies/``, ``synth/``, ``data_schema/``, ``annotate/``, ``analysis/``); ``workflows/`` runs
+The folders of ``tests/`` mirror the packages they test: ``nvrq/`` (its subfolders those of
+nvrq's packages, ``nvrq/scoring/``, ``nvrq/commands/``, ...; a test of the module ``nvrq/pairs.py``
+is ``nvrq/test_pairs*.py``), ``data_schema/``, ``annotate/`` and ``analysis/``; ``workflows/`` runs
 commands end to end, ``e2e/`` drives a real browser, ``malformed/`` is the bad-input corpus and
 ``data/`` holds files written by earlier versions. Only project-wide checks sit at the top: the
 import layers, the README's commands, the benchmarks' smoke runs and the numpydoc count.

@@ -291,3 +291,47 @@ def test_tests_mirror_the_packages():
     assert loose == ["test_benchmarks.py", "test_doc_links.py", "test_doc_numbers.py", "test_import_layers.py",
                      "test_lint_imports.py", "test_numpydoc.py", "test_readme.py", "test_signatures.py",
                      "test_user_text.py", "test_vulture.py"]
+
+
+#: the old homes of nvrq's tests (before they moved under tests/nvrq/): none may hold a test again
+OLD_NVRQ_TEST_FOLDERS = ("api", "commands", "engines", "geometry", "metrics", "pairs", "proxies", "scoring",
+                         "sets", "sources", "synth")
+
+
+def _modules(package: Path) -> set[str]:
+    """The names a test file in the mirror of ``package`` may start with: its modules, its
+    subpackages and its own name."""
+    names = {p.stem for p in package.glob("*.py") if p.stem != "__init__"}
+    names |= {p.name for p in package.iterdir() if (p / "__init__.py").is_file()}
+    return names | {package.name}
+
+
+def test_nvrq_tests_mirror_nvrq_packages():
+    # tests/nvrq/<folder>/test_<module>[_<aspect>].py tests nvrq/<folder>/<module>(.py or package)
+    tests = ROOT / "tests" / "nvrq"
+    files = sorted(tests.rglob("test_*.py"))
+    assert files, "no test under tests/nvrq"
+    bad = []
+    for path in files:
+        package = ROOT / "nvrq" / path.parent.relative_to(tests)
+        if not (package / "__init__.py").is_file():
+            bad.append(f"{path.relative_to(ROOT)}: nvrq has no package {package.relative_to(ROOT)}")
+            continue
+        name = path.stem.removeprefix("test_")
+        if not any(name == m or name.startswith(m + "_") for m in _modules(package)):
+            bad.append(f"{path.relative_to(ROOT)}: names no module of {package.relative_to(ROOT)}")
+    assert bad == []
+
+
+@pytest.mark.parametrize("package", ["annotate", "data_schema"])
+def test_package_tests_mirror_package_folders(package):
+    tests = ROOT / "tests" / package
+    bad = [str(p.relative_to(ROOT)) for p in sorted(tests.rglob("test_*.py"))
+           if not (ROOT / package / p.parent.relative_to(tests) / "__init__.py").is_file()]
+    assert bad == []
+
+
+def test_no_test_left_in_the_old_nvrq_test_folders():
+    left = [str(p.relative_to(ROOT)) for folder in OLD_NVRQ_TEST_FOLDERS
+            for p in sorted((ROOT / "tests" / folder).rglob("*")) if p.is_file() and "__pycache__" not in p.parts]
+    assert left == []

@@ -85,7 +85,7 @@ def test_flags_in_errors_names_the_flag_of_the_parameter(raised, line):
 def test_library_param_names_are_parameters_not_flags():
     # the library names its parameters; only the command layer (cli.py, commands/) speaks of
     # flags, so a library InputError never passes param="--..." (nor where="--...", the
-    # former form, tests/commands/test_cli_convention.py)
+    # former form, tests/nvrq/test_cli_convention.py)
     flagged = []
     for pkg in ("data_schema", "nvrq", "annotate", "analysis"):
         for path in sorted((ROOT / pkg).rglob("*.py")):

@@ -745,10 +745,10 @@ def _(world, tmp):
 
 
 def _stereo_case(name, fragments, *, baseline=0.5, **layout):
-    """``nvrq import stereo`` of a synthetic pair (tests/sources/stereo_layout.py) broken by ``layout``."""
+    """``nvrq import stereo`` of a synthetic pair (tests/nvrq/sources/stereo_layout.py) broken by ``layout``."""
     @case("inputs", f"import stereo {name}")
     def _c(world, tmp):
-        from tests.sources.stereo_layout import import_argv, write_pair
+        from tests.nvrq.sources.stereo_layout import import_argv, write_pair
 
         return "nvrq", import_argv(write_pair(tmp / "in", **layout), tmp / "out", baseline=baseline), fragments
 

@@ -82,7 +82,7 @@ def test_floor_needs_real_pairs(fleet):
 def test_analyze_real_floor_reports_every_metric(tmp_path):
     from analysis.cli import main as analyze
     from nvrq.cli import main
-    from tests.sources.stereo_layout import import_argv, write_pair
+    from tests.nvrq.sources.stereo_layout import import_argv, write_pair
 
     assert main(import_argv(write_pair(tmp_path / "in"), tmp_path / "scene")) == 0
     assert main(["pairs", str(tmp_path / "scene"), "--out", str(tmp_path / "pairs.csv"), "--quiet"]) == 0
@@ -106,7 +106,7 @@ def test_fleet_with_a_synthetic_scene_gets_the_perfect_row(tmp_path):
     # clip with a perfect method at 1 m offsets (objects 10 to 40 m away: some pairs in that range)
     from analysis.cli import main as analyze
     from nvrq.cli import main
-    from tests.sources.stereo_layout import import_argv, write_pair
+    from tests.nvrq.sources.stereo_layout import import_argv, write_pair
 
     assert main(import_argv(write_pair(tmp_path / "in"), tmp_path / "scenes" / "stereo")) == 0
     assert main(["synth", str(tmp_path / "scenes" / "synth"), "--seconds", "1", "--fps", "2", "--size", "480x270",
