@@ -186,10 +186,13 @@ def _reachable(graph: dict[str, set[str]], start: str) -> set[str]:
 
 
 #: within nvrq: each package may not reach the modules above it (metric facts <- scoring <- api,
-#: engines <- commands); ``nvrq.metrics.info`` is a leaf of the metrics package
+#: engines <- commands); ``nvrq.metrics.info`` is a leaf of the metrics package. The metrics and
+#: the scoring plan name encoders (the leaf ``nvrq.encoder_specs``) but never reach the encoders
+#: that load them, nor the tau calibration
 NVRQ_LAYERS = {
-    "nvrq.metrics": ("nvrq.scoring", "nvrq.api", "nvrq.engines", "nvrq.commands", "nvrq.cli"),
-    "nvrq.scoring": ("nvrq.api", "nvrq.engines", "nvrq.commands", "nvrq.cli"),
+    "nvrq.metrics": ("nvrq.scoring", "nvrq.api", "nvrq.engines", "nvrq.commands", "nvrq.cli", "nvrq.encoders",
+                     "nvrq.calibrate"),
+    "nvrq.scoring": ("nvrq.api", "nvrq.engines", "nvrq.commands", "nvrq.cli", "nvrq.encoders", "nvrq.calibrate"),
     "nvrq.api": ("nvrq.scoring.driver", "nvrq.engines", "nvrq.commands", "nvrq.cli"),
 }
 

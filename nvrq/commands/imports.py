@@ -3,8 +3,9 @@
 
 Each scene importer is one module (an object following :class:`nvrq.sources.base.Importer`,
 named ``IMPORTER`` there) and one :class:`ImporterCommand` in :data:`IMPORTERS`: its name, the
-module, the arguments that name its inputs and a function adding its arguments. The command
-reads the source with the importer, writes it through the one writer
+module, the arguments that name its inputs, a function adding its arguments and one turning
+them into the importer's options. The command reads the source with the importer
+(``IMPORTER.read(path, **options)``, ``path`` the first input), writes it through the one writer
 (:func:`nvrq.sources.base.write_imported`) and prints ``wrote OUT (...)``; ``nvrq`` learns the
 inputs from the registration (``input_args``) and refuses an ``OUT`` over one of them before any
 work. The module is imported only when the command runs: ``nvrq import --help`` stays light.
@@ -49,6 +50,9 @@ class ImporterCommand:
         The subcommand's description.
     options : callable or None
         ``options(parser)`` adds the importer's options; None for none.
+    read_options : callable or None
+        ``read_options(args)``: the keywords of ``IMPORTER.read`` besides the source (the first
+        of ``inputs``), parsed from the arguments; None for none.
     """
 
     name: str
@@ -58,6 +62,7 @@ class ImporterCommand:
     help: str
     description: str
     options: Callable | None = None
+    read_options: Callable | None = None
 
 
 def _nurec_inputs(p) -> None:
@@ -69,6 +74,25 @@ def _nurec_options(p) -> None:
     p.add_argument("--sequence", default=None, help="rig trajectory sequence_id (default: the first)")
     p.add_argument("--clip-attributes", default=None, metavar="FILE",
                    help="table of clip_id + attribute columns (lighting, road_type, ...) for scene.json")
+
+
+def _views(args) -> dict:
+    """``offsets`` and ``perturbations`` of ``--offsets``/``--perturb`` (the options are read
+    before any file)."""
+    from data_schema.perturbation import perturb_option
+    from data_schema.tables import parse_offsets
+
+    perturbations = perturb_option(args.perturb, offsets=args.offsets,
+                                   offsets_given=getattr(args, "offsets_given", False))
+    return {"offsets": parse_offsets(args.offsets), "perturbations": perturbations}
+
+
+def _nurec_read_options(args) -> dict:
+    from nvrq.clip_attributes import read_clip_attributes
+
+    views = _views(args)
+    attributes = read_clip_attributes(args.clip_attributes) if args.clip_attributes else None
+    return {**views, "sequence": args.sequence, "clip_attributes": attributes}
 
 
 def _kitti_inputs(p) -> None:
@@ -89,6 +113,14 @@ def _drivestudio_options(d) -> None:
     d.add_argument("--dataset", default=None, choices=DATASETS,
                    help="the source dataset, drivestudio's folder name (default: inferred from the files)")
     d.add_argument("--copy", action="store_true", help="copy the GT images (default: symbolic links)")
+
+
+def _drivestudio_read_options(args) -> dict:
+    from data_schema.text import comma_list
+
+    views = _views(args)
+    cameras = None if args.cameras is None else comma_list(args.cameras)
+    return {**views, "dataset": args.dataset, "fps": args.fps, "cameras": cameras, "copy": args.copy}
 
 
 def _stereo_inputs(p) -> None:
@@ -118,25 +150,37 @@ def _stereo_options(p) -> None:
                    f"(default {ROW_TOLERANCE_PX:g})")
 
 
+def _stereo_read_options(args) -> dict:
+    from pathlib import Path
+
+    return {"right": args.right, "calibration": args.calibration, "baseline": args.baseline,
+            "disparity": args.disparity, "labels": args.labels, "label_class": args.label_class,
+            "margin": args.margin, "row_tolerance": args.row_tolerance,
+            "clip_id": Path(args.out).resolve().name.replace(":", "-") or "stereo"}
+
+
 #: The scene importers, in the order ``nvrq import --help`` lists them.
 IMPORTERS: list[ImporterCommand] = [
     ImporterCommand("nurec", "nvrq.sources.nurec", ("archive", "clip_attributes"), _nurec_inputs,
                     "a NVIDIA NuRec scene archive (.usdz)",
                     "Read rig_trajectories.json and sequence_tracks.json from a NuRec archive; images.csv "
-                    "lists the GT and render files to produce.", _nurec_options),
+                    "lists the GT and render files to produce.", _nurec_options, _nurec_read_options),
     ImporterCommand("kitti", "nvrq.sources.kitti", ("kitti_root",), _kitti_inputs,
                     "one KITTI object-detection frame (real-data check)",
-                    "Import a KITTI frame: image_2, label_2 and calib of FRAME."),
+                    "Import a KITTI frame: image_2, label_2 and calib of FRAME.", None,
+                    lambda args: {"frame": args.frame}),
     ImporterCommand("drivestudio", "nvrq.sources.drivestudio", ("scene_dir",), _drivestudio_inputs,
                     "a drivestudio / OmniRe / EmerNeRF processed scene folder (Waymo, nuScenes, PandaSet, ...)",
                     "Import a drivestudio processed scene (images/, intrinsics/, extrinsics/, ego_pose/, "
                     "instances/; docs/FORMATS.md section 13): the GT images are linked (--copy copies them), "
-                    "images.csv lists the renders to produce.", _drivestudio_options),
+                    "images.csv lists the renders to produce.", _drivestudio_options,
+                    _drivestudio_read_options),
     ImporterCommand("stereo", "nvrq.sources.stereo", ("left", "right", "calibration", "disparity", "labels"),
                     _stereo_inputs, "a rectified stereo pair: the right image as a real render (method real)",
                     "Import a rectified stereo pair: the left image is the GT, the right one the render at "
                     "y_offset_m = -B with method real; objects from the objects-only disparity (--disparity) "
-                    "or KITTI labels (docs/FORMATS.md section 16).", _stereo_options),
+                    "or KITTI labels (docs/FORMATS.md section 16).", _stereo_options,
+                    _stereo_read_options),
 ]
 
 
@@ -204,7 +248,8 @@ def run_importer(command: ImporterCommand, args) -> int:
     from nvrq.sources.base import describe, write_imported
 
     importer = importlib.import_module(command.module).IMPORTER
-    imported = importer.read(args)
+    options = command.read_options(args) if command.read_options is not None else {}
+    imported = importer.read(getattr(args, command.inputs[0]), **options)
     for note in imported.notes:  # the library names its parameters (`dataset`); the user typed flags
         print(re.sub(r"`([a-z][a-z_]*)`", lambda m: "--" + m.group(1).replace("_", "-"), note), file=sys.stderr)
     out = write_imported(imported, args.out)

@@ -39,18 +39,13 @@ from pathlib import Path
 
 import numpy as np
 
-from data_schema.errors import InputError
+from nvrq.encoder_specs import PRECISIONS, RUNTIMES, SUPPORTED, check_runtime_combo
 
 __all__ = ["RUNTIMES", "PRECISIONS", "SUPPORTED", "AUTO_ORDER", "IDENTITY_TOL", "cache_root", "check_runtime_combo",
            "weights_hash", "identity_images", "max_nvrq_change", "RuntimeEncoder", "wrap_runtime",
            "export_dir", "runtime_version", "embed_graph", "exported", "GraphSpec", "ExportableModel",
            "exported_forward"]
 
-RUNTIMES = ("auto", "torch", "openvino", "onnxruntime")
-PRECISIONS = ("fp32", "bf16", "int8")
-#: (runtime, precision) pairs that exist; int8 needs a calibration (``nvrq calibrate-runtime``)
-SUPPORTED = {("torch", "fp32"), ("openvino", "fp32"), ("openvino", "bf16"), ("openvino", "int8"),
-             ("onnxruntime", "fp32"), ("onnxruntime", "int8")}
 AUTO_ORDER = ("openvino", "onnxruntime")
 IDENTITY_TOL = 1e-5
 
@@ -474,37 +469,6 @@ def exported(encoder, runtime: str, *, cache_dir=None, whash: str | None = None)
     if not (folder / "meta.json").is_file():
         _export(encoder, runtime, folder)
     return folder, json.loads((folder / "meta.json").read_text()), whash
-
-
-def check_runtime_combo(runtime: str, precision: str, device: str) -> None:
-    """InputError naming ``runtime`` or ``precision`` unless the pair is known, supported, and
-    runs on ``device`` (the exported runtimes run on the CPU); checked before any model loads.
-
-    Parameters
-    ----------
-    runtime : str
-        ``{'auto', 'torch', 'openvino', 'onnxruntime'}``.
-    precision : str
-        ``{'fp32', 'bf16', 'int8'}``.
-    device : str
-        A torch device.
-
-    Raises
-    ------
-    InputError
-        An unknown or unsupported combination.
-    """
-    if runtime not in RUNTIMES:
-        raise InputError(param="runtime", expected=f"one of {', '.join(RUNTIMES)}", got=runtime)
-    if precision not in PRECISIONS:
-        raise InputError(param="precision", expected=f"one of {', '.join(PRECISIONS)}", got=precision)
-    if runtime not in ("auto", "torch") and not device.startswith("cpu"):
-        raise InputError(param="runtime", expected=f"torch for device {device} ({runtime} runs on the CPU)",
-                         got=runtime)
-    if runtime != "auto" and (runtime, precision) not in SUPPORTED:
-        ok = ", ".join(sorted(f"{r}/{p}" for r, p in SUPPORTED))
-        raise InputError(param="precision", expected=f"a supported runtime/precision ({ok})",
-                         got=f"{runtime}/{precision}")
 
 
 def exported_forward(graph, *, runtime: str = "auto", threads: int | None = None, cache_dir=None):

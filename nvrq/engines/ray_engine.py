@@ -24,18 +24,20 @@ import re
 import socket
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
 
 from data_schema.errors import InputError
 from data_schema.tables import follow_links
+from nvrq.encoders.registry import load_for_worker
 from nvrq.engines import SHARD_PAIRS, require_ray
 from nvrq.engines import shards as sh
 from nvrq.engines.scorers import timing_per_column
 from nvrq.scoring.batches import iter_crop_batches
 from nvrq.scoring.core import compute_columns
+from nvrq.scoring.plan import ScorePlan
 
 __all__ = ["RayJob", "connect", "check_address", "score_on_ray", "actor_pool"]
 
@@ -204,6 +206,8 @@ def _pipeline(ray, job: RayJob, todo: list):
         _decode_shard, fn_kwargs={"scorer": scorer, "follow": follow_links()}, num_cpus=1)
     if not scorer.model_columns:
         return stream.map(lambda r: {"shard": r["shard"], "payload": _finish(r["payload"], scorer, None)})
+    if isinstance(scorer, ScorePlan) and scorer.loader is None:  # the plan names its encoder; the actor loads it
+        scorer = replace(scorer, loader=load_for_worker)
     cpus = int(ray.cluster_resources().get("CPU", 1))
     gpus = int(ray.cluster_resources().get("GPU", 0))
     cuda = scorer.device.startswith("cuda")

@@ -5,8 +5,9 @@
   :class:`InputError` when there is none, or ``default`` when asked for one.
 - :func:`direction`: higher better (``True``), lower better (``False``) or unknown (``None``).
 - :func:`resolve_metrics`: metric names as a user gives them -> the columns ``nvrq score`` writes;
-  :func:`named_encoder`: the encoder they name (the one a column names, else the one given; the
-  encoder registry supplies its default, :func:`nvrq.encoders.registry.encoder_for_metrics`).
+  :func:`named_encoder`: the encoder they name (the one a column names, else the one given);
+  :func:`encoder_for_metrics`: that one, else the default encoder (from the encoder specs,
+  :mod:`nvrq.encoder_specs`: the metrics name encoders, they never load one).
 - :func:`encoder_columns` (computed from encoder embeddings), :func:`reference_columns` (need the
   GT crop), :func:`needs_tau` (NVRQ-CA: needs the knee ``tau``).
 
@@ -27,10 +28,11 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from data_schema.errors import InputError
+from nvrq.encoder_specs import get_spec
 from nvrq.metrics.info import MetricInfo, MetricKind
 from nvrq.metrics.registry import REGISTRY
 
-__all__ = ["split_column", "column_info", "direction", "resolve_metrics", "named_encoder",
+__all__ = ["split_column", "column_info", "direction", "resolve_metrics", "named_encoder", "encoder_for_metrics",
            "encoder_columns", "reference_columns", "needs_tau", "metric_kind", "closest_metric",
            "metric_names", "ColumnSpec", "column_specs"]
 
@@ -229,7 +231,7 @@ def resolve_metrics(metrics: Sequence[str], encoder: str) -> list[str]:
         Metric names (``psnr``, ``nvrq``, ``pyiqa:NAME``) or columns (``nvrq:ENCODER``);
         repeats are kept once.
     encoder : str
-        The encoder the encoder metrics use (:func:`nvrq.encoders.registry.encoder_for_metrics`).
+        The encoder the encoder metrics use (:func:`encoder_for_metrics`).
 
     Returns
     -------
@@ -270,8 +272,7 @@ def resolve_metrics(metrics: Sequence[str], encoder: str) -> list[str]:
 def named_encoder(metrics: Sequence[str], encoder: str | None = None) -> str | None:
     """The encoder that ``metrics`` name, if any: the one a column names, else ``encoder``.
 
-    The encoder registry turns ``None`` into its default encoder and checks the name
-    (:func:`nvrq.encoders.registry.encoder_for_metrics`); the metrics layer knows no encoder.
+    :func:`encoder_for_metrics` turns ``None`` into the default encoder and checks the name.
 
     Parameters
     ----------
@@ -303,6 +304,36 @@ def named_encoder(metrics: Sequence[str], encoder: str | None = None) -> str | N
     if named and encoder is not None and named != {encoder}:
         raise InputError(param="metrics", expected=f"the encoder given as encoder ({encoder})", got=named.pop())
     return named.pop() if named else encoder
+
+
+def encoder_for_metrics(metrics, encoder: str | None = None) -> str:
+    """The encoder that ``metrics`` use: the one they name, else the default encoder (:data:`nvrq.encoder_specs.DEFAULT_ENCODER`).
+
+    Parameters
+    ----------
+    metrics : sequence of str
+        Metric names or columns (:func:`named_encoder`).
+    encoder : str, optional
+        The encoder asked for, if any.
+
+    Returns
+    -------
+    str
+        The one a column names (``nvrq:ENC``), else ``encoder``, else the default
+        (:func:`nvrq.encoder_specs.get_spec`, the one place that applies it).
+
+    Raises
+    ------
+    InputError
+        Naming ``metrics`` for two different encoders in ``metrics``, or one that contradicts
+        ``encoder``; naming ``encoder`` for an encoder the registry does not know.
+
+    >>> encoder_for_metrics(["psnr", "nvrq_ca:dinov2-small"])
+    'dinov2-small'
+    >>> encoder_for_metrics(["psnr"])
+    'efficientnet-lite0'
+    """
+    return get_spec(named_encoder(metrics, encoder)).name
 
 
 def encoder_columns(metrics: Sequence[str]) -> list[str]:

@@ -22,12 +22,12 @@ True
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 
 from data_schema.errors import InputError, check_int
 from data_schema.text import comma_list
-from nvrq.encoders.registry import EncoderConfig, encoder_config, encoder_for_metrics, get_spec
+from nvrq.encoder_specs import EncoderConfig, encoder_config, get_spec
 from nvrq.metrics.formulas import check_tau
 from nvrq.metrics.info import MetricKind
 from nvrq.metrics.resolve import (
@@ -35,6 +35,7 @@ from nvrq.metrics.resolve import (
     column_info,
     column_specs,
     encoder_columns,
+    encoder_for_metrics,
     needs_tau,
     resolve_metrics,
 )
@@ -69,6 +70,10 @@ class ScorePlan:
     specs : tuple of ColumnSpec, optional
         One per column, in order (:func:`nvrq.metrics.resolve.column_specs`; looked up when
         not given).
+    loader : callable, optional
+        ``loader(encoder) -> Encoder``, what :meth:`load` calls (picklable; not serialised):
+        the caller that runs the encoder hands it over (the Ray engine gives
+        :func:`nvrq.encoders.registry.load_for_worker`), so the plan never imports an encoder.
 
     Attributes
     ----------
@@ -87,6 +92,7 @@ class ScorePlan:
     extra_columns: tuple = ()
     tau_source: str | None = field(default=None, compare=False)
     specs: tuple | None = field(default=None, repr=False, compare=False)
+    loader: Callable | None = field(default=None, repr=False, compare=False)
     encoder_specs: tuple = field(init=False, repr=False, compare=False)
     pixel_specs: tuple = field(init=False, repr=False, compare=False)
     model_columns: tuple = field(init=False, repr=False, compare=False)
@@ -107,17 +113,22 @@ class ScorePlan:
             object.__setattr__(self, key, value)
 
     def load(self):
-        """The loaded encoder of :attr:`encoder` (an engine's model actor calls it once).
+        """The loaded encoder of :attr:`encoder`, by :attr:`loader` (an engine's model actor
+        calls it once).
 
         Returns
         -------
         Encoder
-        """
-        from nvrq.encoders import load_encoder
-        from nvrq.encoders.memory import tune_allocator
 
-        tune_allocator()  # the actor's process is the engine's own (see prepare_device)
-        return load_encoder(self.encoder)
+        Raises
+        ------
+        InputError
+            Naming ``loader`` when the plan was given none.
+        """
+        if self.loader is None:
+            raise InputError(param="loader", expected="the loader of the plan's encoder (e.g. "
+                             "nvrq.encoders.registry.load_for_worker)", got=None)
+        return self.loader(self.encoder)
 
     def score(self, model, batch, extra: dict, timings: dict) -> dict:
         """The encoder columns of one crop batch (an engine's model actor).

@@ -1,7 +1,9 @@
 """The shape every importer shares (nvrq layer): read a source, return an :class:`ImportedScene`.
 
-An importer is one module holding an object that follows :class:`Importer`: its ``read(args)``
-takes the parsed arguments of its ``nvrq import NAME`` subcommand and returns the typed scene
+An importer is one module holding an object that follows :class:`Importer`: its
+``read(path, **options)`` takes its source (the file or folder its ``nvrq import NAME``
+subcommand names first) and its options as Python values (the subcommand turns its parsed
+arguments into them, :class:`nvrq.commands.imports.ImporterCommand`) and returns the typed scene
 (:class:`data_schema.scene_writer.NewScene`: cameras, frames, tracks) and the views to plan.
 :func:`write_imported` hands both to the one writer, :func:`data_schema.scene_writer.write_scene`,
 which checks what it writes and writes the folder whole and atomically. The subcommand itself is
@@ -95,17 +97,20 @@ class ImportedScene:
 
 @runtime_checkable
 class Importer(Protocol):
-    """An importer: ``read(args)`` turns the parsed arguments of its subcommand (an
-    :class:`argparse.Namespace`) into an :class:`ImportedScene`, checking everything it reads
-    and raising :class:`~data_schema.errors.InputError` (one line) on a bad source."""
+    """An importer: ``read(path, **options)`` turns a source and its options into an
+    :class:`ImportedScene`, checking everything it reads and raising
+    :class:`~data_schema.errors.InputError` (one line, naming the file or the parameter) on a
+    bad source."""
 
-    def read(self, args) -> ImportedScene:
+    def read(self, path, **options) -> ImportedScene:
         """Read and check the source.
 
         Parameters
         ----------
-        args : argparse.Namespace
-            The subcommand's parsed arguments.
+        path : path
+            The source (archive, folder or image) the subcommand names first.
+        **options
+            The importer's own keywords (its ``read_X`` function's).
 
         Returns
         -------

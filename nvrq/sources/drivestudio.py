@@ -421,29 +421,29 @@ def write_drivestudio(ds: DrivestudioScene, out: str | os.PathLike, *, offsets=(
 class DrivestudioImporter:
     """``nvrq import drivestudio SCENE_DIR OUT`` (:class:`nvrq.sources.base.Importer`)."""
 
-    def read(self, args) -> ImportedScene:
-        """Read ``args.scene_dir`` with the views of ``--offsets``/``--perturb``.
+    def read(self, path, *, offsets=(-3, -2, -1, 0, 1, 2, 3), perturbations=None, copy: bool = False,
+             **options) -> ImportedScene:
+        """Read the drivestudio folder ``path`` (:func:`read_drivestudio`) with its views.
 
         Parameters
         ----------
-        args : argparse.Namespace
-            ``scene_dir``, ``dataset``, ``fps``, ``cameras``, ``offsets``, ``perturb``, ``copy``.
+        path : path
+            The processed scene folder.
+        offsets, perturbations
+            The views, as for :func:`import_drivestudio`.
+        copy : bool
+            Copy the GT images when written (default: symbolic links).
+        **options
+            :func:`read_drivestudio`'s ``dataset``, ``fps``, ``cameras``.
 
         Returns
         -------
         ImportedScene
             The scene, its views, and the notes for the user.
         """
-        from data_schema.perturbation import perturb_option
-        from data_schema.tables import parse_offsets
-        from data_schema.text import comma_list
-
-        perturbations = perturb_option(args.perturb, offsets=args.offsets,
-                                       offsets_given=getattr(args, "offsets_given", False))
-        views = views_from(parse_offsets(args.offsets), perturbations)  # the options first, then the files
-        cameras = None if args.cameras is None else comma_list(args.cameras)
-        ds = read_drivestudio(args.scene_dir, dataset=args.dataset, fps=args.fps, cameras=cameras)
-        return ImportedScene(ds.scene, views, link=not args.copy, notes=tuple(ds.notes),
+        views = views_from(offsets, perturbations)  # the views first, then the files
+        ds = read_drivestudio(path, **options)
+        return ImportedScene(ds.scene, views, link=not copy, notes=tuple(ds.notes),
                              detail=f"{ds.dataset}, {ds.fps:g} Hz")
 
 

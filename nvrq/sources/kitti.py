@@ -164,20 +164,22 @@ def kitti_scene(P2: np.ndarray, labels: pd.DataFrame, *, image_size: tuple[int, 
 class KittiImporter:
     """``nvrq import kitti KITTI_ROOT FRAME OUT`` (:class:`nvrq.sources.base.Importer`)."""
 
-    def read(self, args) -> ImportedScene:
-        """Read the frame ``args.frame`` of ``args.kitti_root``.
+    def read(self, path, *, frame: str) -> ImportedScene:
+        """Read the frame ``frame`` of the KITTI object folder ``path`` (:func:`read_kitti`).
 
         Parameters
         ----------
-        args : argparse.Namespace
-            ``kitti_root`` and ``frame``.
+        path : path
+            The KITTI object folder.
+        frame : str
+            The frame id.
 
         Returns
         -------
         ImportedScene
             The scene, its image listed as the GT image and as the render at offset 0.
         """
-        return read_kitti(args.kitti_root, args.frame)
+        return read_kitti(path, frame)
 
 
 #: The importer of ``nvrq import kitti``.

@@ -312,29 +312,22 @@ def _cameras_and_frames(rig: dict, traj: dict, where: str, tfld: str, rig_ts: np
 class NurecImporter:
     """``nvrq import nurec ARCHIVE OUT`` (:class:`nvrq.sources.base.Importer`)."""
 
-    def read(self, args) -> ImportedScene:
-        """Read ``args.archive`` with the views of ``--offsets``/``--perturb``.
+    def read(self, path, **options) -> ImportedScene:
+        """Read the archive ``path`` (:func:`read_nurec`).
 
         Parameters
         ----------
-        args : argparse.Namespace
-            ``archive``, ``offsets``, ``perturb``, ``sequence``, ``clip_attributes``.
+        path : path
+            The ``.usdz`` archive.
+        **options
+            :func:`read_nurec`'s ``offsets``, ``perturbations``, ``sequence``, ``clip_attributes``.
 
         Returns
         -------
         ImportedScene
             The scene and its views.
         """
-        from data_schema.perturbation import perturb_option
-        from data_schema.tables import parse_offsets
-        from nvrq.clip_attributes import read_clip_attributes
-
-        perturbations = perturb_option(args.perturb, offsets=args.offsets,
-                                       offsets_given=getattr(args, "offsets_given", False))
-        offsets = parse_offsets(args.offsets)  # the options first, then the files
-        attributes = read_clip_attributes(args.clip_attributes) if args.clip_attributes else None
-        return read_nurec(args.archive, offsets=offsets, perturbations=perturbations,
-                          sequence=args.sequence, clip_attributes=attributes)
+        return read_nurec(path, **options)
 
 
 #: The importer of ``nvrq import nurec``.

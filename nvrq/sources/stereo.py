@@ -477,23 +477,23 @@ class StereoImporter:
     """``nvrq import stereo LEFT RIGHT --calibration F --baseline B OUT``
     (:class:`nvrq.sources.base.Importer`)."""
 
-    def read(self, args):
-        """Read the pair named by ``args`` (:func:`read_stereo`).
+    def read(self, path, *, right, **options):
+        """Read the pair of the left image ``path`` and ``right`` (:func:`read_stereo`).
 
         Parameters
         ----------
-        args : argparse.Namespace
-            ``left``, ``right``, ``calibration``, ``baseline``, ``disparity``, ``labels``,
-            ``label_class``, ``margin``, ``row_tolerance`` and ``out``.
+        path : path
+            The rectified left (GT) image.
+        right : path
+            The rectified right image (the ``real`` render).
+        **options
+            :class:`StereoOptions`' fields (``calibration`` and ``baseline`` at least).
 
         Returns
         -------
         nvrq.sources.base.ImportedScene
         """
-        name = Path(args.out).resolve().name.replace(":", "-") or "stereo"
-        return read_stereo(args.left, args.right, StereoOptions(
-            args.calibration, args.baseline, disparity=args.disparity, labels=args.labels,
-            label_class=args.label_class, margin=args.margin, row_tolerance=args.row_tolerance, clip_id=name))
+        return read_stereo(path, right, StereoOptions(**options))
 
 
 #: The importer of ``nvrq import stereo``.

@@ -93,12 +93,13 @@ def test_default_encoder_is_assigned_once_and_applied_once():
         return isinstance(n, (ast.Assign, ast.AnnAssign)) and any(
             isinstance(t, ast.Name) and t.id == "DEFAULT_ENCODER"
             for t in (n.targets if isinstance(n, ast.Assign) else [n.target]))
-    assert _where(assigns) == {"nvrq/encoders/registry.py"}
+    assert _where(assigns) == {"nvrq/encoder_specs.py"}
     reads = _where(lambda n: (isinstance(n, ast.Name) and n.id == "DEFAULT_ENCODER" and isinstance(n.ctx, ast.Load))
                    or (isinstance(n, ast.Attribute) and n.attr == "DEFAULT_ENCODER"))
-    assert reads == {"nvrq/encoders/registry.py:get_spec"}
+    assert reads == {"nvrq/encoder_specs.py:get_spec"}
     imports = _where(lambda n: isinstance(n, ast.ImportFrom) and any(a.name == "DEFAULT_ENCODER" for a in n.names))
-    assert imports == {"nvrq/encoders/__init__.py"}  # the package's re-export only
+    # the encoder registry's re-export of the specs, and its package's
+    assert imports == {"nvrq/encoders/registry.py", "nvrq/encoders/__init__.py"}
     from nvrq.encoders import (
         DEFAULT_ENCODER,
         EncoderConfig,
@@ -155,7 +156,7 @@ def test_require_tau_resolves_argument_then_config_then_registry(tmp_path, monke
     monkeypatch.setenv("NVRQ_CONFIG", str(cfg))
     with pytest.raises(InputError, match=r"^tau: expected a tau for encoder efficientnet-lite0"):
         rule("efficientnet-lite0")  # no registry tau handed in, no config: none
-    # the registry's tau of efficientnet-lite0 is 0.76 (nvrq/encoders/registry.py)
+    # the registry's tau of efficientnet-lite0 is 0.76 (nvrq/encoder_specs.py)
     require_tau = partial(rule, registry_tau=get_spec("efficientnet-lite0").tau)
     assert require_tau("efficientnet-lite0") == (0.76, "registry")
     cfg.write_text(json.dumps({"efficientnet-lite0": {"tau": 0.5}}))

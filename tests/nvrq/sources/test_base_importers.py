@@ -32,8 +32,8 @@ CLIP = ["--seed", "1", "--seconds", "1", "--fps", "2", "--size", "160x90", "--of
 class ToyImporter:
     """Reads ``SRC/toy.json`` (``dims``: the one box's [l, w, h]) and ``SRC/frame.png``."""
 
-    def read(self, args) -> ImportedScene:
-        src = Path(args.src)
+    def read(self, path) -> ImportedScene:
+        src = Path(path)
         dims = json.loads((src / "toy.json").read_text())["dims"]
         model = {"type": "pinhole", "resolution": [64, 48], "focal_length": [40.0, 40.0],
                  "principal_point": [32.0, 24.0]}
@@ -152,3 +152,18 @@ def test_kitti_import_over_a_synth_scene(shared_dir, tmp_path):
     assert sorted(p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()) == [
         "images.csv", "images/000000.png", "scene.json"]
     shutil.rmtree(out)
+
+
+def test_every_importer_reads_a_path_and_keywords():
+    # issue 46 item 1: importers take ``read(path, **options)`` (the command turns its arguments
+    # into the options), so a caller without argparse uses them as they are
+    import importlib
+    import inspect
+
+    for command in imports.IMPORTERS:
+        importer = importlib.import_module(command.module).IMPORTER
+        assert isinstance(importer, Importer)
+        params = list(inspect.signature(importer.read).parameters.values())
+        assert params[0].name == "path" and params[0].kind is inspect.Parameter.POSITIONAL_OR_KEYWORD, command.name
+        assert all(p.kind in (inspect.Parameter.KEYWORD_ONLY, inspect.Parameter.VAR_KEYWORD) for p in params[1:]), \
+            command.name
