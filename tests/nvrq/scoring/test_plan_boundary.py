@@ -18,9 +18,9 @@ import pytest
 
 from data_schema.errors import InputError
 from nvrq.scoring.plan import ScorePlan, resolve_plan
-from tests.scoring.toy_encoder import ToyEncoder
+from tests.nvrq.scoring.toy_encoder import ToyEncoder
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 
 
 def _trees():
