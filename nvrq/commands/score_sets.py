@@ -58,6 +58,9 @@ def register(sub) -> None:
                         "0 is the paper's protocol)")
     p.add_argument("--save-features", default=None, metavar="F.npz",
                    help="write the features: features (n, d), set_id and side per row")
+    p.add_argument("--crop-features", default=None, metavar="F.npz",
+                   help="crop embeddings of nvrq score --save-crop-features with the same encoder: "
+                        "the object crops found there are not embedded again")
     add_quiet_option(p)
     add_link_option(p)
     p.set_defaults(func=run)
@@ -97,7 +100,7 @@ def run(args) -> int:
     from data_schema.text import plural
     from nvrq.commands.model_options import prepare_device
     from nvrq.encoders.registry import encoder_config
-    from nvrq.sets import SetOptions, score_sets
+    from nvrq.sets import SetOptions, crop_features, score_sets
 
     kinds = _choices(args.sets, SET_KINDS, "--sets")
     metrics = _choices(args.metrics, SET_METRICS, "--metrics")
@@ -114,8 +117,11 @@ def run(args) -> int:
                          min_visible=args.min_visible)
     scene = load_scene(args.scene)
     prepare_device(args)
+    known = None
+    if getattr(args, "crop_features", None) is not None:
+        known = crop_features(args.crop_features, cfg)
     table, groups, features, name = score_sets(scene, options, encoder=cfg, batch_size=args.batch_size,
-                                               progress=show_progress(args))
+                                               progress=show_progress(args), known=known)
     write_table(table, args.out)
     if args.save_features is not None:
         with open(Path(args.save_features), "wb") as f:
