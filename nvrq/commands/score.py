@@ -191,10 +191,13 @@ def _local_table(args, plan: ScorePlan) -> int:
     write_table(table, args.out)
     tpath = write_table(timing, timing_path(args.out))
     saved = ""
-    if res.features is not None:
+    if getattr(args, "save_crop_features", None) is not None:  # no pair: a file with no crop
+        import numpy as np
+
         from nvrq.sets import save_crop_features
 
-        save_crop_features(args.save_crop_features, pairs, res.features, encoder)
+        save_crop_features(args.save_crop_features, pairs, res.features or (np.zeros((0, 0), np.float32),) * 2,
+                           encoder)
         saved = f", {args.save_crop_features}"
     _report(res, uses_encoder=encoder is not None, file=sys.stderr)
     print(f"-> {args.out}, {tpath}{saved}")
