@@ -3,11 +3,13 @@ embeddings ``nvrq score`` already made (after: ``nvrq score --save-crop-features
 ``score-sets --crop-features``, as the methods demo runs them), side by side in one run, with the
 same encoder loaded once.
 
-Before: :func:`nvrq.sets.score_sets` embeds every distinct whole frame and object crop (one pass
-in path order, each file decoded once). After: the object crops come from the file ``nvrq score``
-wrote while scoring the same pairs (it embeds them anyway, for NVRQ), so only the whole frames go
-through the encoder; the features are checked equal. ``nvrq pairs`` and ``nvrq score`` are not
-timed: the demo runs them before score-sets either way. Then KID alone, as it was (every subset
+Before: :func:`nvrq.sets.score_sets` makes the pairs and embeds every distinct whole frame and
+object crop (one pass in path order, each file decoded once). After: it takes the demo's pairs
+table (``--pairs``, made by ``nvrq pairs`` with the same rules) and the object crops' embeddings
+from the file ``nvrq score`` wrote while scoring those pairs (``--crop-features``: it embeds them
+anyway, for NVRQ), so only the whole frames go through the encoder; the features and KID are
+checked equal. ``nvrq pairs`` and ``nvrq score`` are not timed: the demo runs them before
+score-sets either way. Then KID alone, as it was (every subset
 computing its kernels from the features) against :func:`nvrq.sets.kid`, on sets of ``--kid-n``
 features per side (the size of an object set of the default demo, 960x540 for 6 s).
 
@@ -29,6 +31,7 @@ import numpy as np
 
 import nvrq.sets as sets
 from data_schema.scene import load_scene
+from data_schema.tables import TableKind, read_table
 from nvrq.cli import main as nvrq
 
 
@@ -86,14 +89,16 @@ def main() -> None:
         opts = sets.SetOptions()
         sets.embed([np.zeros((64, 64, 3), np.uint8)] * 2, encoder=enc)  # warm-up: not timed
         (before, groups, f_b, name), w_b, c_b = _timed(lambda: sets.score_sets(scene, opts, encoder=enc))
-        (after, _, f_a, _), w_a, c_a = _timed(
-            lambda: sets.score_sets(scene, opts, encoder=enc, known=sets.crop_features(crops, enc)))
+        (after, _, f_a, _), w_a, c_a = _timed(lambda: sets.score_sets(
+            scene, opts, encoder=enc, known=sets.crop_features(crops, enc),
+            pairs=read_table(pairs, kind=TableKind.PAIRS)))
     col = f"kid:{name}"
     same = np.allclose(f_b, f_a, rtol=1e-6, atol=1e-6) and np.allclose(
         before[col].to_numpy(float), after[col].to_numpy(float), rtol=1e-9, atol=1e-12, equal_nan=True)
     whole = groups["box"].isna()
-    print(f"score-sets on the methods demo's clip ({'scene ' + args.scene if args.scene else f'{args.seconds} s, '}"
-          f"{'' if args.scene else args.size + ', '}offsets {args.offsets}, methods {args.methods}): "
+    clip = f"scene {args.scene}" if args.scene else f"{args.seconds} s, {args.size}, offsets {args.offsets}, " \
+        f"methods {args.methods}"
+    print(f"score-sets on the methods demo's clip ({clip}): "
           f"{len(after)} sets, {groups['path'].nunique()} images, "
           f"{(groups['path'] + groups['box'].astype(str))[~whole].nunique()} distinct crops, "
           f"{len(groups)} set rows; features and KID equal before/after: {same}")

@@ -221,13 +221,16 @@ class SetOptions:
         check_number("min_visible", self.min_visible, low=0, high=1)
 
 
-def set_groups(scene, options: SetOptions) -> pd.DataFrame:
+def set_groups(scene, options: SetOptions, *, pairs: pd.DataFrame | None = None) -> pd.DataFrame:
     """The images of every set of ``scene``: one row per (set, side, image or crop).
 
     Parameters
     ----------
     scene : data_schema.scene.Scene
     options : SetOptions
+    pairs : pandas.DataFrame, optional
+        The scene's pairs table (``nvrq pairs``, of this clip), for the object sets; default:
+        made here with ``options.min_side`` and ``options.min_visible``.
 
     Returns
     -------
@@ -261,7 +264,11 @@ def set_groups(scene, options: SetOptions) -> pd.DataFrame:
     if "objects" in options.kinds and len(r):
         from nvrq.pairs import make_pairs
 
-        pairs, _ = make_pairs(scene, min_side=options.min_side, min_visible=options.min_visible, progress=False)
+        if pairs is None:
+            pairs, _ = make_pairs(scene, min_side=options.min_side, min_visible=options.min_visible, progress=False)
+        elif len(pairs) and (pairs["clip_id"].astype(str) != str(scene.clip_id)).any():
+            raise InputError(param="pairs", expected=f"the pairs of the scene's clip {scene.clip_id}",
+                             got=f"clip {pairs['clip_id'].astype(str).iloc[0]}")
         view = perturbation_array(pairs)
         base = pd.DataFrame({"kind": "objects", "method": method_values(pairs),
                              **{c: view[:, i] for i, c in enumerate(PERTURBATION_COLUMNS)},
@@ -352,7 +359,7 @@ def set_table(groups: pd.DataFrame, features: np.ndarray, options: SetOptions, *
 
 
 def score_sets(scene, options: SetOptions, *, encoder=None, batch_size: int = 32, progress: bool = False,
-               known: dict | None = None):
+               known: dict | None = None, pairs: pd.DataFrame | None = None):
     """Embed every image of every set of ``scene`` once and score the sets.
 
     Parameters
@@ -368,6 +375,8 @@ def score_sets(scene, options: SetOptions, *, encoder=None, batch_size: int = 32
     known : dict, optional
         Crop embeddings already made by this encoder (:func:`crop_features`): a crop found in
         it is not read nor embedded again.
+    pairs : pandas.DataFrame, optional
+        The scene's pairs table, as :func:`set_groups` (default: made here).
 
     Returns
     -------
@@ -382,7 +391,7 @@ def score_sets(scene, options: SetOptions, *, encoder=None, batch_size: int = 32
     """
     from tqdm.auto import tqdm
 
-    groups = set_groups(scene, options)
+    groups = set_groups(scene, options, pairs=pairs)
     enc = _loaded(encoder)
     _check_sizes(groups, options, enc, where=str(scene.root))
     keys = groups["path"].astype(str) + "|" + groups["box"].map(lambda b: "" if b is None else str(b))

@@ -148,7 +148,8 @@ def method_steps(out: Path, args) -> list[tuple[str, list[str]]]:
         ("nvrq", ["synth", str(scene), "--seed", str(args.seed), "--seconds", str(args.seconds),
                   "--size", args.size, "--offsets", args.offsets, "--methods", with_floor(args.methods)]),
         ("nvrq", ["pairs", str(scene), "--out", str(pairs)]),
-        # the crops' embeddings are kept for score-sets, which would otherwise embed them again
+        # the crops' embeddings are kept for score-sets, which takes them (and the pairs) instead
+        # of embedding the same crops again
         ("nvrq", ["score", str(pairs), "--out", str(metrics), "--metrics",
                   with_lpips("psnr,ssim,nvrq,nvrq_ca", after="ssim"), "--encoder", args.encoder,
                   "--save-crop-features", str(crops)]),
@@ -157,7 +158,8 @@ def method_steps(out: Path, args) -> list[tuple[str, list[str]]]:
         ("nvrq", ["proxy", "simulate-detect", str(scene), "--out", str(dets), "--seed", str(args.seed)]),
         ("nvrq", ["proxy", "nta-iou", str(scene), "--detections", str(dets), "--out", str(nta)]),
         ("nvrq", ["score-sets", str(scene), "--out", str(sets), "--encoder", args.encoder,
-                  "--save-features", str(out / "features.npz"), "--crop-features", str(crops)]),
+                  "--save-features", str(out / "features.npz"), "--pairs", str(pairs),
+                  "--crop-features", str(crops)]),
         ("analyze", ["--pairs", str(pairs), "--metrics-table", str(metrics), "--compare-methods",
                      "--by", "class,offset", "--nta", str(nta), "--sets", str(sets), "--out", str(out / "leaderboard")]),
         ("annotate", ["build", str(study), "--pairs", str(pairs), "--metrics-table", str(metrics),

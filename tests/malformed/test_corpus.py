@@ -869,6 +869,12 @@ def _(world, tmp):
                     "--out", str(tmp / "sets.csv"), "--quiet"], ["crops.npz", "crop features file"]
 
 
+@case("score-sets", "--pairs with --min-side")
+def _(world, tmp):
+    return "nvrq", ["score-sets", str(world / "scene"), "--pairs", str(world / "toy" / "pairs.csv"), "--min-side",
+                    "40", "--out", str(tmp / "sets.csv"), "--quiet"], ["--pairs", "--min-side and --min-visible left out"]
+
+
 @case("score", "--save-crop-features without an encoder metric")
 def _(world, tmp):
     return "nvrq", ["score", str(world / "toy" / "pairs.csv"), "--metrics", "psnr", "--save-crop-features",

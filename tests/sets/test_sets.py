@@ -227,8 +227,9 @@ def test_score_sets_draws_its_progress_bars_on_a_terminal_only(tmp_path, monkeyp
 
 def test_score_sets_takes_the_crop_features_of_score_and_gets_the_same_numbers(tmp_path, monkeypatch):
     # nvrq score --save-crop-features keeps each crop's embedding; score-sets --crop-features
-    # embeds only what the file lacks (the whole frames), and its features and sets equal the
-    # ones it computes alone (same crop, same square pad, same encoder)
+    # embeds only what the file lacks (the whole frames), --pairs takes the pairs nvrq pairs made,
+    # and its features and sets equal the ones it computes alone (same pairs, same crop, same
+    # square pad, same encoder)
     import nvrq.sets as sets
     from nvrq.cli import main
 
@@ -243,7 +244,7 @@ def test_score_sets_takes_the_crop_features_of_score_and_gets_the_same_numbers(t
     real = sets.embed
     monkeypatch.setattr(sets, "embed", lambda ims, **kw: embedded.append((len(ims), kw["square"])) or real(ims, **kw))
     runs = {}
-    for name, extra in (("alone", []), ("reused", ["--crop-features", str(crops)])):
+    for name, extra in (("alone", []), ("reused", ["--pairs", str(pairs), "--crop-features", str(crops)])):
         embedded.clear()
         out = tmp_path / f"{name}.csv"
         assert main(["score-sets", str(scene), "--out", str(out), "--save-features", str(tmp_path / f"{name}.npz"),
