@@ -1,16 +1,22 @@
-"""``nvrq score-sets`` speed: the set scoring as it was (before) against :func:`nvrq.sets.score_sets`
-(after), on the methods demo's data, side by side in one run, with the same encoder loaded once.
+"""``nvrq score-sets`` speed: the set scoring alone (before) against the set scoring with the crop
+embeddings ``nvrq score`` already made (after: ``nvrq score --save-crop-features`` then
+``score-sets --crop-features``, as the methods demo runs them), side by side in one run, with the
+same encoder loaded once.
 
-Before: the distinct images embedded mode by mode in order of first appearance (a render is
-decoded again for every mode and whenever another file came between two of its crops), and KID
-as 100 subsets, each computing its three (m, m) kernels from the features. After: one pass in
-path order (each file decoded once), and KID from the kernels computed once: a set whose subset
-is the whole of both sides (every set of a scene below 1000 images per side) has one value.
-
-Data: ``nvrq synth`` of the methods demo (``nvrq demo OUT --methods sharp:0.5,blurry:1.5
---seconds 1 --size 480x270`` renders the same clip). Then KID alone on sets of ``--kid-n``
+Before: :func:`nvrq.sets.score_sets` makes the pairs and embeds every distinct whole frame and
+object crop (one pass in path order, each file decoded once). After: it takes the demo's pairs
+table (``--pairs``, made by ``nvrq pairs`` with the same rules) and the object crops' embeddings
+from the file ``nvrq score`` wrote while scoring those pairs (``--crop-features``: it embeds them
+anyway, for NVRQ), so only the whole frames go through the encoder; the features and KID are
+checked equal. ``nvrq pairs`` and ``nvrq score`` are not timed: the demo runs them before
+score-sets either way. Then KID alone, as it was (every subset
+computing its kernels from the features) against :func:`nvrq.sets.kid`, on sets of ``--kid-n``
 features per side (the size of an object set of the default demo, 960x540 for 6 s).
-Run: ``python benchmarks/bench_sets.py``.
+
+Data: ``nvrq synth`` of the methods demo (``nvrq demo OUT --methods sharp:0.5,blurry:1.5``
+renders the clip once per method and once as ``perfect:0``); ``--seconds 1 --size 480x270`` by
+default, the default demo with ``--seconds 6 --size 960x540``, or ``--scene DIR`` (a scene of it
+made before). Run: ``python benchmarks/bench_sets.py``.
 """
 
 from __future__ import annotations
@@ -22,10 +28,10 @@ import time
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 import nvrq.sets as sets
 from data_schema.scene import load_scene
+from data_schema.tables import TableKind, read_table
 from nvrq.cli import main as nvrq
 
 
@@ -52,31 +58,6 @@ def kid_before(render, gt, *, subsets=sets.KID_SUBSETS, subset_size=sets.KID_SUB
     return {"kid": float(vals.mean()), "kid_std": float(vals.std()), "kid_subset_size": m}
 
 
-def score_sets_before(scene, options, *, encoder, batch_size=32):
-    """The set scoring as it was: mode by mode, in order of first appearance, KID per subset."""
-    groups = sets.set_groups(scene, options)
-    keys = groups["path"].astype(str) + "|" + groups["box"].map(lambda b: "" if b is None else str(b))
-    codes = pd.factorize(keys)[0]
-    first = np.flatnonzero(~pd.Series(codes).duplicated().to_numpy())
-    whole = groups["box"].isna().to_numpy()[first]
-    uniq = None
-    reader = sets._Reader(scene.root)
-    for mode, sel in (("stretch", np.flatnonzero(whole)), ("pad", np.flatnonzero(~whole))):
-        for b0 in range(0, len(sel), batch_size):
-            chunk = sel[b0:b0 + batch_size]
-            ims = [reader(groups["path"].iat[first[k]], groups["box"].iat[first[k]]) for k in chunk]
-            f = sets.embed(ims, encoder=encoder, batch_size=batch_size, square=mode)
-            uniq = np.empty((len(first), f.shape[1])) if uniq is None else uniq
-            uniq[chunk] = f
-    features = uniq[codes]
-    fast = sets.kid
-    sets.kid = kid_before
-    try:
-        return sets.set_table(groups, features, options, encoder=encoder.spec.name), reader
-    finally:
-        sets.kid = fast
-
-
 def _timed(fn):
     c0, w0 = _cpu(), time.perf_counter()
     out = fn()
@@ -88,27 +69,39 @@ def main() -> None:
     ap.add_argument("--seconds", default="1")
     ap.add_argument("--size", default="480x270")
     ap.add_argument("--offsets", default="-3,-2,-1,0,1,2,3")
-    ap.add_argument("--methods", default="sharp:0.5,blurry:1.5")
+    ap.add_argument("--methods", default="sharp:0.5,blurry:1.5,perfect:0", help="as the demo's synth")
+    ap.add_argument("--scene", default=None, help="a synth scene made before (else one is made)")
     ap.add_argument("--kid-n", type=int, default=400, help="features per side of the KID-alone sets")
     ap.add_argument("--kid-sets", type=int, default=4, help="KID-alone sets")
     args = ap.parse_args()
 
     enc = sets._loaded(None)
     with tempfile.TemporaryDirectory() as tmp:
-        root = Path(tmp) / "scene"
-        assert nvrq(["synth", str(root), "--seconds", args.seconds, "--size", args.size, "--offsets",
-                     args.offsets, "--methods", args.methods, "--quiet"]) == 0
+        root = Path(args.scene) if args.scene else Path(tmp) / "scene"
+        if not args.scene:
+            assert nvrq(["synth", str(root), "--seconds", args.seconds, "--size", args.size, "--offsets",
+                         args.offsets, "--methods", args.methods, "--quiet"]) == 0
+        pairs, crops = Path(tmp) / "pairs.csv", Path(tmp) / "crops.npz"
+        assert nvrq(["pairs", str(root), "--out", str(pairs), "--quiet"]) == 0  # the demo's steps 2, 3
+        assert nvrq(["score", str(pairs), "--out", str(Path(tmp) / "m.csv"), "--metrics", "nvrq",
+                     "--save-crop-features", str(crops), "--quiet"]) == 0
         scene = load_scene(root)
         opts = sets.SetOptions()
         sets.embed([np.zeros((64, 64, 3), np.uint8)] * 2, encoder=enc)  # warm-up: not timed
-        (before, _), w_b, c_b = _timed(lambda: score_sets_before(scene, opts, encoder=enc))
-        (after, groups, _, name), w_a, c_a = _timed(lambda: sets.score_sets(scene, opts, encoder=enc))
+        (before, groups, f_b, name), w_b, c_b = _timed(lambda: sets.score_sets(scene, opts, encoder=enc))
+        (after, _, f_a, _), w_a, c_a = _timed(lambda: sets.score_sets(
+            scene, opts, encoder=enc, known=sets.crop_features(crops, enc),
+            pairs=read_table(pairs, kind=TableKind.PAIRS)))
     col = f"kid:{name}"
-    same = np.allclose(before[col].to_numpy(float), after[col].to_numpy(float), rtol=1e-9, atol=1e-12,
-                       equal_nan=True)
-    print(f"score-sets on the methods demo's clip ({args.seconds} s, {args.size}, offsets {args.offsets}, "
-          f"methods {args.methods}): {len(after)} sets, {groups['path'].nunique()} images, "
-          f"{len(groups)} set rows; KID equal before/after: {same}")
+    same = np.allclose(f_b, f_a, rtol=1e-6, atol=1e-6) and np.allclose(
+        before[col].to_numpy(float), after[col].to_numpy(float), rtol=1e-9, atol=1e-12, equal_nan=True)
+    whole = groups["box"].isna()
+    clip = f"scene {args.scene}" if args.scene else f"{args.seconds} s, {args.size}, offsets {args.offsets}, " \
+        f"methods {args.methods}"
+    print(f"score-sets on the methods demo's clip ({clip}): "
+          f"{len(after)} sets, {groups['path'].nunique()} images, "
+          f"{(groups['path'] + groups['box'].astype(str))[~whole].nunique()} distinct crops, "
+          f"{len(groups)} set rows; features and KID equal before/after: {same}")
     print(f"{'':24s}{'before':>12s}{'after':>12s}{'ratio':>10s}")
     print(f"{'wall s':24s}{w_b:12.2f}{w_a:12.2f}{w_b / w_a:10.2f}")
     print(f"{'CPU s':24s}{c_b:12.2f}{c_a:12.2f}{c_b / c_a:10.2f}")

@@ -12,6 +12,10 @@
 - :func:`score_sets`: both per set of a scene: ``frames`` (every render of one method and view
   against the GT frames of the same cameras and times, neurad-studio's lane-shift protocol) and
   ``objects`` (the render crops of one method and view against their GT crops).
+- :func:`save_crop_features` / :func:`crop_features`: the crop embeddings ``nvrq score`` made
+  (``--save-crop-features``), which ``score-sets --crop-features`` takes instead of embedding
+  the same crops again: the same crop (file and box), the same input (square pad), the same
+  encoder, runtime, precision, device and weights, so the same numbers.
 
 >>> rng = np.random.default_rng(0)
 >>> a = rng.normal(size=(50, 3))
@@ -31,6 +35,7 @@ from data_schema.errors import InputError
 from nvrq.choices import KID_SUBSET_SIZE, KID_SUBSETS, MAX_KID_SUBSET_SIZE, MAX_KID_SUBSETS
 
 __all__ = ["embed", "frechet_distance", "kid", "SetOptions", "set_groups", "score_sets", "set_table",
+           "encoder_identity", "save_crop_features", "crop_features",
            "KID_SUBSETS", "KID_SUBSET_SIZE", "KID_SEED", "MAX_KID_SUBSETS", "MAX_KID_SUBSET_SIZE"]
 
 KID_SEED = 2020  # torch-fidelity's default rng_seed
@@ -216,13 +221,16 @@ class SetOptions:
         check_number("min_visible", self.min_visible, low=0, high=1)
 
 
-def set_groups(scene, options: SetOptions) -> pd.DataFrame:
+def set_groups(scene, options: SetOptions, *, pairs: pd.DataFrame | None = None) -> pd.DataFrame:
     """The images of every set of ``scene``: one row per (set, side, image or crop).
 
     Parameters
     ----------
     scene : data_schema.scene.Scene
     options : SetOptions
+    pairs : pandas.DataFrame, optional
+        The scene's pairs table (``nvrq pairs``, of this clip), for the object sets; default:
+        made here with ``options.min_side`` and ``options.min_visible``.
 
     Returns
     -------
@@ -256,7 +264,11 @@ def set_groups(scene, options: SetOptions) -> pd.DataFrame:
     if "objects" in options.kinds and len(r):
         from nvrq.pairs import make_pairs
 
-        pairs, _ = make_pairs(scene, min_side=options.min_side, min_visible=options.min_visible, progress=False)
+        if pairs is None:
+            pairs, _ = make_pairs(scene, min_side=options.min_side, min_visible=options.min_visible, progress=False)
+        elif len(pairs) and (pairs["clip_id"].astype(str) != str(scene.clip_id)).any():
+            raise InputError(param="pairs", expected=f"the pairs of the scene's clip {scene.clip_id}",
+                             got=f"clip {pairs['clip_id'].astype(str).iloc[0]}")
         view = perturbation_array(pairs)
         base = pd.DataFrame({"kind": "objects", "method": method_values(pairs),
                              **{c: view[:, i] for i, c in enumerate(PERTURBATION_COLUMNS)},
@@ -346,7 +358,8 @@ def set_table(groups: pd.DataFrame, features: np.ndarray, options: SetOptions, *
     return out[[c for c in out.columns if c != "reason"] + ["reason"]]
 
 
-def score_sets(scene, options: SetOptions, *, encoder=None, batch_size: int = 32, progress: bool = False):
+def score_sets(scene, options: SetOptions, *, encoder=None, batch_size: int = 32, progress: bool = False,
+               known: dict | None = None, pairs: pd.DataFrame | None = None):
     """Embed every image of every set of ``scene`` once and score the sets.
 
     Parameters
@@ -359,6 +372,11 @@ def score_sets(scene, options: SetOptions, *, encoder=None, batch_size: int = 32
         Images per forward pass.
     progress : bool, optional
         A progress bar over the distinct images.
+    known : dict, optional
+        Crop embeddings already made by this encoder (:func:`crop_features`): a crop found in
+        it is not read nor embedded again.
+    pairs : pandas.DataFrame, optional
+        The scene's pairs table, as :func:`set_groups` (default: made here).
 
     Returns
     -------
@@ -373,7 +391,7 @@ def score_sets(scene, options: SetOptions, *, encoder=None, batch_size: int = 32
     """
     from tqdm.auto import tqdm
 
-    groups = set_groups(scene, options)
+    groups = set_groups(scene, options, pairs=pairs)
     enc = _loaded(encoder)
     _check_sizes(groups, options, enc, where=str(scene.root))
     keys = groups["path"].astype(str) + "|" + groups["box"].map(lambda b: "" if b is None else str(b))
@@ -388,6 +406,15 @@ def score_sets(scene, options: SetOptions, *, encoder=None, batch_size: int = 32
     bar = tqdm(total=len(first), desc="sets: embed", unit="image", disable=not progress)
     reader = _Reader(scene.root)
     pending = {"stretch": [], "pad": []}
+    if known:
+        boxes = groups["box"].to_numpy()[first]
+        found = {k: known.get(_crop_key(scene.root / paths[k], boxes[k])) for k in np.flatnonzero(~whole)}
+        found = {k: f for k, f in found.items() if f is not None}
+        if found:
+            uniq = np.empty((len(first), len(next(iter(found.values())))))
+            uniq[list(found)] = np.stack(list(found.values()))
+            order = order[~np.isin(order, list(found))]
+            bar.update(len(found))
 
     def flush(mode):
         nonlocal uniq
@@ -412,6 +439,101 @@ def score_sets(scene, options: SetOptions, *, encoder=None, batch_size: int = 32
     table = set_table(groups, features, options, encoder=name, where=str(scene.root), progress=progress)
     table.insert(1, "clip_id", scene.clip_id)  # the scene, which analyze --sets checks
     return table, groups, features, name
+
+
+def encoder_identity(encoder) -> dict:
+    """What makes a loaded encoder's embeddings the ones another run made: its name, runtime,
+    precision, device and the hash of its weights.
+
+    Parameters
+    ----------
+    encoder : Encoder
+        A loaded encoder (:func:`nvrq.encoders.load_encoder`).
+
+    Returns
+    -------
+    dict
+        ``encoder``, ``runtime``, ``precision``, ``device``, ``weights_hash`` (str each).
+    """
+    from nvrq.encoders.runtimes import weights_hash
+
+    whash = getattr(encoder, "weights_hash", None)
+    if whash is None and hasattr(encoder, "model"):
+        whash = weights_hash(encoder.model)
+    return {"encoder": encoder.spec.name, "runtime": str(encoder.runtime), "precision": str(encoder.precision),
+            "device": str(encoder.device), "weights_hash": str(whash or "")}
+
+
+def save_crop_features(path, pairs, features, encoder) -> None:
+    """Write the crop embeddings of ``nvrq score`` (``--save-crop-features``), for
+    :func:`crop_features`.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.npz`` file.
+    pairs : data_schema.tables.PairsTable
+        The scored pairs (absolute image paths, integer boxes).
+    features : tuple of two (N, D) arrays
+        The GT and render crops' embeddings, row k for pair k (:attr:`ScoreResult.features`).
+    encoder : Encoder
+        The encoder that made them (:func:`encoder_identity`).
+    """
+    import json
+
+    f_gt, f_render = features
+    paths = np.concatenate([pairs.gt_paths, pairs.render_paths]).astype(str)
+    with open(path, "wb") as f:
+        np.savez(f, features=np.concatenate([f_gt, f_render]), path=paths,
+                 box=np.concatenate([pairs.gt_boxes, pairs.render_boxes]).astype(np.int64),
+                 identity=np.array(json.dumps(encoder_identity(encoder), sort_keys=True)))
+
+
+def crop_features(path, encoder) -> dict:
+    """The crop embeddings of a :func:`save_crop_features` file, for :func:`score_sets`.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.npz`` file ``nvrq score --save-crop-features`` wrote.
+    encoder : str, EncoderConfig or Encoder
+        The encoder of the sets (as :func:`embed`): the file's must be the same
+        (:func:`encoder_identity`).
+
+    Returns
+    -------
+    dict
+        ``{(real path, x0, y0, x1, y1): (D,) float64}``.
+
+    Raises
+    ------
+    InputError
+        Naming ``path``: not such a file, or made by another encoder, runtime, precision,
+        device or weights.
+    """
+    import json
+    import zipfile
+
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            feats, paths, boxes = z["features"], z["path"], z["box"]
+            made = json.loads(str(z["identity"]))
+    except (OSError, KeyError, ValueError, zipfile.BadZipFile) as e:
+        raise InputError(path, None, "a crop features file of nvrq score --save-crop-features",
+                         f"{type(e).__name__}: {e}") from None
+    ours = encoder_identity(_loaded(encoder))
+    if made != ours:
+        diff = ", ".join(f"{k} {made.get(k)}" for k in ours if made.get(k) != ours[k])
+        raise InputError(path, "identity", "crop features of the encoder of the sets (" +
+                         ", ".join(f"{k} {ours[k]}" for k in ours if made.get(k) != ours[k]) + ")", diff)
+    return {_crop_key(p, b): f for p, b, f in zip(paths, boxes.tolist(), feats.astype(np.float64), strict=True)}
+
+
+def _crop_key(path, box) -> tuple:
+    """One crop: the file's real path and the box's four integers."""
+    import os
+
+    return (os.path.realpath(path), *(int(v) for v in box))
 
 
 def _check_sizes(groups: pd.DataFrame, options: SetOptions, enc, *, where: str) -> None:

@@ -129,7 +129,8 @@ def method_steps(out: Path, args) -> list[tuple[str, list[str]]]:
     Parameters
     ----------
     out : Path
-        The demo's output folder: ``scene``, ``pairs.csv``, ``metrics.csv``, ``leaderboard``,
+        The demo's output folder: ``scene``, ``pairs.csv``, ``metrics.csv`` (and
+        ``crop_features.npz``, the crops' embeddings score-sets reuses), ``leaderboard``,
         ``study``, ``votes.csv`` and ``pairwise`` go in it.
     args : argparse.Namespace
         ``nvrq demo``'s options; ``methods`` holds two or more ``NAME:SCALE``.
@@ -142,18 +143,23 @@ def method_steps(out: Path, args) -> list[tuple[str, list[str]]]:
     scene, pairs, metrics = out / "scene", out / "pairs.csv", out / "metrics.csv"
     study, votes = out / "study", out / "votes.csv"
     dets, nta, sets = out / "dets.csv", out / "nta.csv", out / "sets.csv"
+    crops = out / "crop_features.npz"
     return [
         ("nvrq", ["synth", str(scene), "--seed", str(args.seed), "--seconds", str(args.seconds),
                   "--size", args.size, "--offsets", args.offsets, "--methods", with_floor(args.methods)]),
         ("nvrq", ["pairs", str(scene), "--out", str(pairs)]),
+        # the crops' embeddings are kept for score-sets, which takes them (and the pairs) instead
+        # of embedding the same crops again
         ("nvrq", ["score", str(pairs), "--out", str(metrics), "--metrics",
-                  with_lpips("psnr,ssim,nvrq,nvrq_ca", after="ssim"), "--encoder", args.encoder]),
+                  with_lpips("psnr,ssim,nvrq,nvrq_ca", after="ssim"), "--encoder", args.encoder,
+                  "--save-crop-features", str(crops)]),
         # the numbers the field reports: NTA-IoU (on the simulated detector's boxes: no detector
         # ships offline) and FD/KID of frames and object crops per method and offset
         ("nvrq", ["proxy", "simulate-detect", str(scene), "--out", str(dets), "--seed", str(args.seed)]),
         ("nvrq", ["proxy", "nta-iou", str(scene), "--detections", str(dets), "--out", str(nta)]),
         ("nvrq", ["score-sets", str(scene), "--out", str(sets), "--encoder", args.encoder,
-                  "--save-features", str(out / "features.npz")]),
+                  "--save-features", str(out / "features.npz"), "--pairs", str(pairs),
+                  "--crop-features", str(crops)]),
         ("analyze", ["--pairs", str(pairs), "--metrics-table", str(metrics), "--compare-methods",
                      "--by", "class,offset", "--nta", str(nta), "--sets", str(sets), "--out", str(out / "leaderboard")]),
         ("annotate", ["build", str(study), "--pairs", str(pairs), "--metrics-table", str(metrics),

@@ -77,6 +77,10 @@ def register(sub) -> None:
     p.add_argument("--column-tag", default=None,
                    help="name encoder columns nvrq:ENCODER@TAG (default: @PRECISION for bf16/int8, "
                         "none for fp32), e.g. to keep two runtimes' scores apart")
+    p.add_argument("--save-crop-features", default=None, metavar="F.npz",
+                   help="also write the encoder's embedding of every GT and render crop, which "
+                        "nvrq score-sets --crop-features takes instead of embedding them again "
+                        "(a pairs table scored in this process, with nvrq or nvrq_ca)")
     add_quiet_option(p)
     add_link_option(p)
     add_engine_args(p)
@@ -104,11 +108,30 @@ def run(args) -> int:
     if plan.tau is not None:
         source = "--tau" if plan.tau_source == "argument" else plan.tau_source
         print(f"tau = {plan.tau:.3f} for {plan.encoder.name} (from {source})", file=sys.stderr)
+    if getattr(args, "save_crop_features", None) is not None:
+        _check_crop_features(args, plan, dataset=is_dataset(args.pairs))
     if args.engine == "ray":
         return run_ray(args, plan)
     if is_dataset(args.pairs):
         return _local_dataset(args, plan)
     return _local_table(args, plan)
+
+
+def _check_crop_features(args, plan: ScorePlan, *, dataset: bool) -> None:
+    """``--save-crop-features``: a ``.npz`` file, an encoder column to make the embeddings, and
+    a pairs table scored in this process; before anything is read."""
+    from data_schema.outputs import check_output_file
+
+    path = args.save_crop_features
+    if not str(path).endswith(".npz"):
+        raise InputError("--save-crop-features", None, "a file ending in .npz", path)
+    if not plan.encoder_specs:
+        raise InputError("--save-crop-features", None, "an encoder metric in --metrics (nvrq, nvrq_ca) "
+                         "to make the embeddings", ",".join(plan.columns))
+    if args.engine == "ray" or dataset:
+        raise InputError("--save-crop-features", None, "a pairs table scored in this process (not a "
+                         "pairs dataset, not --engine ray)", args.pairs)
+    check_output_file(path, inputs=[args.pairs, args.out], option="--save-crop-features")
 
 
 def plan_from_args(args) -> ScorePlan:
@@ -159,15 +182,25 @@ def _local_table(args, plan: ScorePlan) -> int:
     pairs = pairs_table(frame, scene_root=args.scene, base=Path(args.pairs).resolve().parent, where=str(args.pairs))
     cv2.setNumThreads(1)  # crops are small; leave the cores to the encoder and the decode thread
     try:
-        res = score_pairs(pairs, plan, encoder=encoder, progress=show_progress(args), where=str(args.pairs))
+        res = score_pairs(pairs, plan, encoder=encoder, progress=show_progress(args), where=str(args.pairs),
+                          keep_features=getattr(args, "save_crop_features", None) is not None)
     except KeyboardInterrupt:
         raise KeyboardInterrupt(_RESUME_TABLE.format(out=args.out)) from None
     table, timing = runtime_columns(res.table, res.timing, encoder, tag=args.column_tag,
                                     model_columns=plan.model_columns)
     write_table(table, args.out)
     tpath = write_table(timing, timing_path(args.out))
+    saved = ""
+    if getattr(args, "save_crop_features", None) is not None:  # no pair: a file with no crop
+        import numpy as np
+
+        from nvrq.sets import save_crop_features
+
+        save_crop_features(args.save_crop_features, pairs, res.features or (np.zeros((0, 0), np.float32),) * 2,
+                           encoder)
+        saved = f", {args.save_crop_features}"
     _report(res, uses_encoder=encoder is not None, file=sys.stderr)
-    print(f"-> {args.out}, {tpath}")
+    print(f"-> {args.out}, {tpath}{saved}")
     return 0
 
 

@@ -58,6 +58,12 @@ def register(sub) -> None:
                         "0 is the paper's protocol)")
     p.add_argument("--save-features", default=None, metavar="F.npz",
                    help="write the features: features (n, d), set_id and side per row")
+    p.add_argument("--pairs", default=None, metavar="PAIRS.csv",
+                   help="objects: the scene's pairs table of nvrq pairs (its own --min-side and "
+                        "--min-visible) instead of making the pairs again")
+    p.add_argument("--crop-features", default=None, metavar="F.npz",
+                   help="crop embeddings of nvrq score --save-crop-features with the same encoder: "
+                        "the object crops found there are not embedded again")
     add_quiet_option(p)
     add_link_option(p)
     p.set_defaults(func=run)
@@ -79,8 +85,8 @@ def run(args) -> int:
     ----------
     args : argparse.Namespace
         ``scene``, ``out``, ``sets``, ``metrics``, the encoder and runtime options, the KID
-        options (``kid_subsets``, ``kid_subset_size``, ``seed``), ``min_side`` and
-        ``save_features``.
+        options (``kid_subsets``, ``kid_subset_size``, ``seed``), ``min_side``, ``min_visible``,
+        ``save_features``, ``pairs`` and ``crop_features``.
 
     Returns
     -------
@@ -93,11 +99,11 @@ def run(args) -> int:
 
     from data_schema.outputs import check_output_file
     from data_schema.scene import load_scene
-    from data_schema.tables import write_table
+    from data_schema.tables import TableKind, read_table, write_table
     from data_schema.text import plural
     from nvrq.commands.model_options import prepare_device
     from nvrq.encoders.registry import encoder_config
-    from nvrq.sets import SetOptions, score_sets
+    from nvrq.sets import SetOptions, crop_features, score_sets
 
     kinds = _choices(args.sets, SET_KINDS, "--sets")
     metrics = _choices(args.metrics, SET_METRICS, "--metrics")
@@ -112,10 +118,19 @@ def run(args) -> int:
     options = SetOptions(kinds=kinds, metrics=metrics, kid_subsets=args.kid_subsets,
                          kid_subset_size=args.kid_subset_size, seed=args.seed, min_side=args.min_side,
                          min_visible=args.min_visible)
+    pairs = None
+    if getattr(args, "pairs", None) is not None:
+        if args.min_side != 30 or args.min_visible != MIN_VISIBLE:
+            raise InputError("--pairs", None, "the pairs' own rules: --min-side and --min-visible left out "
+                             "(they make the pairs when --pairs is not given)", args.pairs)
+        pairs = read_table(args.pairs, kind=TableKind.PAIRS)
     scene = load_scene(args.scene)
     prepare_device(args)
+    known = None
+    if getattr(args, "crop_features", None) is not None:
+        known = crop_features(args.crop_features, cfg)
     table, groups, features, name = score_sets(scene, options, encoder=cfg, batch_size=args.batch_size,
-                                               progress=show_progress(args))
+                                               progress=show_progress(args), known=known, pairs=pairs)
     write_table(table, args.out)
     if args.save_features is not None:
         with open(Path(args.save_features), "wb") as f:

@@ -268,7 +268,8 @@ def _pixel_columns(batch: CropBatch, specs, times: dict) -> dict[str, np.ndarray
 
 
 def compute_columns(batch: CropBatch, specs: Sequence, *, encoder=None, tau: float | None = None,
-                    batch_size: int = 32, timings: dict | None = None) -> dict[str, np.ndarray]:
+                    batch_size: int = 32, timings: dict | None = None,
+                    features: dict | None = None) -> dict[str, np.ndarray]:
     """The core: the columns of ``specs`` for one :class:`CropBatch`, with no check.
 
     Parameters
@@ -287,6 +288,9 @@ def compute_columns(batch: CropBatch, specs: Sequence, *, encoder=None, tau: flo
         Crops per encoder pass.
     timings : dict, optional
         Gains the per-stage seconds (module docstring).
+    features : dict, optional
+        With encoder columns, gains ``gt`` and ``render``: the (P, D) embeddings of each pair's
+        GT and render crop (``nvrq score --save-crop-features``).
 
     Returns
     -------
@@ -298,6 +302,8 @@ def compute_columns(batch: CropBatch, specs: Sequence, *, encoder=None, tau: flo
     enc = [s for s in specs if s.kind is MetricKind.ENCODER]
     if enc:
         f_gt, f_render = _pair_outputs(batch, encoder.embed, encoder.spec.input_size, batch_size, times)
+        if features is not None:
+            features["gt"], features["render"] = f_gt, f_render
         sim = nvrq_similarity(f_gt, f_render)
         for spec in enc:
             out[spec.name] = spec.from_similarity(sim, tau)

@@ -79,6 +79,9 @@ class ScoreResult:
     undefined : pandas.DataFrame or None
         NaN values per metric and reason (columns ``metric, reason, pairs``); None when not
         counted.
+    features : tuple of two (N, D) float32 arrays or None
+        ``(gt, render)``: the encoder's embedding of each pair's GT and render crop, rows in
+        the pairs' order, when :func:`score_pairs` was asked to keep them.
     """
 
     table: pd.DataFrame
@@ -87,6 +90,7 @@ class ScoreResult:
     n_encoder_images: int
     n_images_decoded: int
     undefined: pd.DataFrame | None = None
+    features: tuple[np.ndarray, np.ndarray] | None = None
 
 
 def empty_column_warnings(undefined: pd.DataFrame | None, n_pairs: int) -> list[str]:
@@ -192,7 +196,7 @@ def _sides(boxes: np.ndarray) -> np.ndarray:
 
 def score_pairs(pairs: pd.DataFrame | PairsTable, plan: ScorePlan, *, encoder=None,
                 scene_root: str | os.PathLike | None = None, base: str | os.PathLike | None = None,
-                progress: bool = True, where: str = "pairs") -> ScoreResult:
+                progress: bool = True, where: str = "pairs", keep_features: bool = False) -> ScoreResult:
     """Score every row of ``pairs`` by ``plan`` (the module docstring's three steps).
 
     Parameters
@@ -212,6 +216,9 @@ def score_pairs(pairs: pd.DataFrame | PairsTable, plan: ScorePlan, *, encoder=No
         A progress bar on stderr.
     where : str
         What errors name (the pairs file).
+    keep_features : bool
+        Keep the encoder's embedding of every GT and render crop (:attr:`ScoreResult.features`;
+        the plan needs an encoder column).
 
     Returns
     -------
@@ -228,6 +235,7 @@ def score_pairs(pairs: pd.DataFrame | PairsTable, plan: ScorePlan, *, encoder=No
     values = {m: np.full(n, np.nan) for m in plan.columns}
     times = {"decode": 0.0}
     counts = [0, 0]  # images decoded, crops encoded
+    kept = {"gt": [], "render": [], "rows": []} if keep_features and uses_encoder else None
     t_start = time.perf_counter()
     background, decode_threads = decode_schedule(encoder if uses_encoder else None,
                                                  pixel_metrics=bool(plan.pixel_specs))
@@ -236,8 +244,13 @@ def score_pairs(pairs: pd.DataFrame | PairsTable, plan: ScorePlan, *, encoder=No
     with tqdm(total=n, unit="pair", file=sys.stderr, disable=not progress, desc="score",
               dynamic_ncols=True) as bar:
         for batch in batches:
+            feats = {} if kept is not None else None
             cols = compute_columns(batch, plan.specs, encoder=encoder, tau=plan.tau,
-                                   batch_size=plan.batch_size, timings=times)
+                                   batch_size=plan.batch_size, timings=times, features=feats)
+            if kept is not None:
+                for side in ("gt", "render"):
+                    kept[side].append(feats[side])
+                kept["rows"].append(batch.rows)
             for m, v in cols.items():
                 values[m][batch.rows] = v
             times["decode"] += batch.decode_seconds
@@ -248,7 +261,21 @@ def score_pairs(pairs: pd.DataFrame | PairsTable, plan: ScorePlan, *, encoder=No
     frame = pd.DataFrame({"pair_id": table.frame["pair_id"].to_numpy(), **values})
     undefined = _undefined(plan, values, _sides(table.gt_boxes), _sides(table.render_boxes))
     timing = timing_table(plan.columns, times, n_pairs=n, wall=wall, model_columns=plan.model_columns)
-    return ScoreResult(frame, timing, n, counts[1], counts[0], undefined)
+    return ScoreResult(frame, timing, n, counts[1], counts[0], undefined, _in_order(kept, n))
+
+
+def _in_order(kept: dict | None, n: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """The kept (gt, render) embeddings of the batches, back in the pairs' order."""
+    if kept is None or not kept["rows"]:
+        return None
+    rows = np.concatenate(kept["rows"])
+    out = []
+    for side in ("gt", "render"):
+        f = np.concatenate(kept[side])
+        a = np.empty((n, f.shape[1]), f.dtype)
+        a[rows] = f
+        out.append(a)
+    return out[0], out[1]
 
 
 def _undefined(plan: ScorePlan, values: dict, gt_sides: np.ndarray, render_sides: np.ndarray) -> pd.DataFrame:

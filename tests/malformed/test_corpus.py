@@ -862,6 +862,25 @@ def _(world, tmp):
         ["set frames::y=+1.00", "more than 1280 images per side for FD"]
 
 
+@case("score-sets", "--crop-features not a crop features file")
+def _(world, tmp):
+    (tmp / "crops.npz").write_bytes(b"not a zip")
+    return "nvrq", ["score-sets", str(world / "scene"), "--runtime", "torch", "--crop-features", str(tmp / "crops.npz"),
+                    "--out", str(tmp / "sets.csv"), "--quiet"], ["crops.npz", "crop features file"]
+
+
+@case("score-sets", "--pairs with --min-side")
+def _(world, tmp):
+    return "nvrq", ["score-sets", str(world / "scene"), "--pairs", str(world / "toy" / "pairs.csv"), "--min-side",
+                    "40", "--out", str(tmp / "sets.csv"), "--quiet"], ["--pairs", "--min-side and --min-visible left out"]
+
+
+@case("score", "--save-crop-features without an encoder metric")
+def _(world, tmp):
+    return "nvrq", ["score", str(world / "toy" / "pairs.csv"), "--metrics", "psnr", "--save-crop-features",
+                    str(tmp / "crops.npz"), "--out", str(tmp / "m.csv")], ["--save-crop-features", "encoder metric"]
+
+
 # ---------------------------------------------------------------- analyze --horizon (issue 36)
 
 def _horizon_pairs(world, *extra):

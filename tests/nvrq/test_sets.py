@@ -223,3 +223,82 @@ def test_score_sets_draws_its_progress_bars_on_a_terminal_only(tmp_path, monkeyp
     # not a terminal (a log file or a pipe): no bar
     assert main(["score-sets", str(scene), "--out", str(tmp_path / "log.csv"), "--runtime", "torch"]) == 0
     assert "sets: embed" not in capsys.readouterr().err
+
+
+def test_score_sets_takes_the_crop_features_of_score_and_gets_the_same_numbers(tmp_path, monkeypatch):
+    # nvrq score --save-crop-features keeps each crop's embedding; score-sets --crop-features
+    # embeds only what the file lacks (the whole frames), --pairs takes the pairs nvrq pairs made,
+    # and its features and sets equal the ones it computes alone (same pairs, same crop, same
+    # square pad, same encoder)
+    import nvrq.sets as sets
+    from nvrq.cli import main
+
+    scene = tmp_path / "scene"
+    assert main(["synth", str(scene), "--seconds", "0.4", "--size", "320x180", "--methods", "sharp:0.5,blurry:1.5",
+                 "--offsets", "0,2", "--quiet"]) == 0
+    pairs, crops = tmp_path / "pairs.csv", tmp_path / "crops.npz"
+    assert main(["pairs", str(scene), "--out", str(pairs), "--quiet"]) == 0
+    assert main(["score", str(pairs), "--out", str(tmp_path / "m.csv"), "--metrics", "psnr,nvrq", "--runtime",
+                 "torch", "--save-crop-features", str(crops), "--quiet"]) == 0
+    embedded = []
+    real = sets.embed
+    monkeypatch.setattr(sets, "embed", lambda ims, **kw: embedded.append((len(ims), kw["square"])) or real(ims, **kw))
+    runs = {}
+    for name, extra in (("alone", []), ("reused", ["--pairs", str(pairs), "--crop-features", str(crops)])):
+        embedded.clear()
+        out = tmp_path / f"{name}.csv"
+        assert main(["score-sets", str(scene), "--out", str(out), "--save-features", str(tmp_path / f"{name}.npz"),
+                     "--runtime", "torch", "--quiet", *extra]) == 0
+        runs[name] = pd.read_csv(out), np.load(tmp_path / f"{name}.npz"), list(embedded)
+    (t_a, z_a, e_a), (t_r, z_r, e_r) = runs["alone"], runs["reused"]
+    n_pairs = len(pd.read_csv(pairs))
+    assert n_pairs > 0 and {m for _, m in e_a} == {"stretch", "pad"}
+    assert {m for _, m in e_r} == {"stretch"}  # every crop came from the file
+    frames = np.char.startswith(z_a["set_id"].astype(str), "frames:")
+    assert sum(n for n, _ in e_r) == len(set(z_a["path"][frames]))  # one pass per whole frame, no crop
+    np.testing.assert_allclose(z_r["features"], z_a["features"], rtol=1e-6, atol=1e-6)
+    pd.testing.assert_frame_equal(t_r, t_a, rtol=1e-9)
+
+
+def test_crop_features_of_another_encoder_are_refused(tmp_path):
+    from data_schema.tables import pairs_table
+    from nvrq.encoders import load_encoder
+    from nvrq.sets import crop_features, save_crop_features
+
+    img = tmp_path / "a.png"
+    import cv2
+
+    cv2.imwrite(str(img), np.zeros((8, 8, 3), np.uint8))
+    frame = pd.DataFrame({"pair_id": ["p0"], "gt_path": ["a.png"], "render_path": ["a.png"],
+                          **{c: [1] for c in ("gt_x0", "gt_y0", "r_x0", "r_y0")},
+                          **{c: [4] for c in ("gt_x1", "gt_y1", "r_x1", "r_y1")}})
+    table = pairs_table(frame, scene_root=tmp_path, where="pairs")
+    enc = load_encoder("efficientnet-lite0", runtime="torch")
+    f = tmp_path / "c.npz"
+    feats = np.arange(2 * 1280, dtype=np.float32).reshape(2, 1280)
+    save_crop_features(f, table, (feats[:1], feats[1:]), enc)
+    known = crop_features(f, enc)
+    assert len(known) == 1  # one crop: GT and render are the same file and box
+    np.testing.assert_array_equal(next(iter(known.values())), feats[1])
+
+    class Other:  # the same encoder on another runtime
+        spec, runtime, precision, device, weights_hash = enc.spec, "onnxruntime", "fp32", "cpu", "x"
+
+        def embed(self, images):  # never called: the identity differs first
+            raise AssertionError
+
+    with pytest.raises(InputError, match="c.npz.*runtime onnxruntime"):
+        crop_features(f, Other())
+    (tmp_path / "bad.npz").write_bytes(b"no")
+    with pytest.raises(InputError, match="bad.npz"):
+        crop_features(tmp_path / "bad.npz", enc)
+
+
+def test_score_save_crop_features_needs_an_encoder_metric(tmp_path, capsys):
+    from nvrq.cli import main
+
+    pairs = tmp_path / "pairs.csv"
+    pairs.write_text("pair_id\n")
+    assert main(["score", str(pairs), "--out", str(tmp_path / "m.csv"), "--metrics", "psnr",
+                 "--save-crop-features", str(tmp_path / "c.npz")]) == 2
+    assert "--save-crop-features" in capsys.readouterr().err and not (tmp_path / "c.npz").exists()
