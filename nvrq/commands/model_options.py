@@ -11,11 +11,9 @@ Layer: commands (CLI shell).
 from __future__ import annotations
 
 import sys
-from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 from data_schema.errors import InputError
-from data_schema.text import comma_list
 from nvrq.cli_types import checked_arg, int_arg, number_arg
 from nvrq.encoders import get_spec
 from nvrq.encoders.runtimes import PRECISIONS, RUNTIMES
@@ -26,7 +24,7 @@ if TYPE_CHECKING:  # the encoder registry imports OpenCV: not for --help
 
 __all__ = ["check_model_options", "add_model_arguments", "add_encoder_arguments", "prepare_device",
            "encoder_options", "command_tau", "load_encoder_and_tau", "add_runtime_arguments",
-           "add_cache_dir_argument", "metric_columns", "encoder_for_columns"]
+           "add_cache_dir_argument"]
 
 
 def add_model_arguments(p, *, batch_help: str = "crops per forward pass (default 32)") -> None:
@@ -222,51 +220,3 @@ def load_encoder_and_tau(args, *, needs_tau: bool, name: str | None = None):
     prepare_device(args)
     encoder = encoders.load_encoder(cfg)  # through the module: tests patch nvrq.encoders.load_encoder
     return encoder, tau
-
-
-def metric_columns(args) -> tuple[list[str], str]:
-    """``(columns, encoder name)`` of ``--metrics`` and ``--encoder``: the encoder as
-    :func:`encoder_for_metrics` picks it, the columns as :func:`nvrq.metrics.resolve_metrics`.
-
-    Parameters
-    ----------
-    args : argparse.Namespace
-        The parsed options (``metrics``, ``encoder``).
-
-    Returns
-    -------
-    columns : list of str
-        Output column names.
-    encoder_name : str
-    """
-    from nvrq.encoders.registry import encoder_for_metrics
-    from nvrq.metrics.resolve import resolve_metrics
-
-    raw = comma_list(args.metrics)
-    name = encoder_for_metrics(raw, args.encoder)
-    return resolve_metrics(raw, name), name
-
-
-def encoder_for_columns(args, columns: Sequence[str], name: str):
-    """``(encoder, tau)`` that ``columns`` need (:func:`load_encoder_and_tau`), ``(None, None)``
-    when no column needs an encoder.
-
-    Parameters
-    ----------
-    args : argparse.Namespace
-        The parsed options.
-    columns : sequence of str
-        Output column names (:func:`metric_columns`).
-    name : str
-        The encoder name.
-
-    Returns
-    -------
-    encoder : Encoder or None
-    tau : float or None
-    """
-    from nvrq.metrics.resolve import encoder_columns, needs_tau
-
-    if not encoder_columns(columns):
-        return None, None
-    return load_encoder_and_tau(args, needs_tau=needs_tau(columns), name=name)

@@ -17,7 +17,8 @@ from nvrq.commands.model_options import add_encoder_arguments, prepare_device
 if TYPE_CHECKING:
     from nvrq.scoring.plan import ScorePlan
 
-__all__ = ["register", "run", "plan_from_args", "runtime_columns", "column_renames", "metrics_help"]
+__all__ = ["register", "run", "plan_from_args", "load_plan_encoder", "report_tau", "runtime_columns", "column_renames",
+           "metrics_help"]
 
 #: how the help names each kind of metric nvrq score computes
 _KIND_HELP = {"pair": "full reference (GT and render crops)", "render": "no reference (render crop alone)",
@@ -105,9 +106,7 @@ def run(args) -> int:
     from data_schema.datasets import is_dataset
     plan = plan_from_args(args)
     check_engine_args(args, local_datasets=True)
-    if plan.tau is not None:
-        source = "--tau" if plan.tau_source == "argument" else plan.tau_source
-        print(f"tau = {plan.tau:.3f} for {plan.encoder.name} (from {source})", file=sys.stderr)
+    report_tau(plan)
     if getattr(args, "save_crop_features", None) is not None:
         _check_crop_features(args, plan, dataset=is_dataset(args.pairs))
     if args.engine == "ray":
@@ -157,9 +156,35 @@ def plan_from_args(args) -> ScorePlan:
                         tau_config=args.config, batch_size=args.batch_size)
 
 
-def _load_encoder(args, plan: ScorePlan):
+def report_tau(plan: ScorePlan) -> None:
+    """The plan's tau on stderr, with where it came from (``--tau``, the config file or the
+    registry); nothing when no column needs it.
+
+    Parameters
+    ----------
+    plan : ScorePlan
+        From :func:`plan_from_args`.
+    """
+    if plan.tau is not None:
+        source = "--tau" if plan.tau_source == "argument" else plan.tau_source
+        print(f"tau = {plan.tau:.3f} for {plan.encoder.name} (from {source})", file=sys.stderr)
+
+
+def load_plan_encoder(args, plan: ScorePlan):
     """The plan's encoder, loaded (``None`` without encoder columns), after ``--threads`` and
-    the device are applied (:func:`nvrq.commands.model_options.prepare_device`)."""
+    the device are applied (:func:`nvrq.commands.model_options.prepare_device`).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options (``threads``, ``device``).
+    plan : ScorePlan
+        From :func:`plan_from_args`.
+
+    Returns
+    -------
+    Encoder or None
+    """
     if not plan.encoder_specs:
         return None
     from nvrq import encoders
@@ -178,7 +203,7 @@ def _local_table(args, plan: ScorePlan) -> int:
     if not str(args.out).lower().endswith((".csv", ".parquet")):
         raise InputError(args.out, None, "an output file ending in .csv or .parquet", args.out)
     frame = read_table(args.pairs, required=REQUIRED_COLUMNS, kind=TableKind.PAIRS)
-    encoder = _load_encoder(args, plan)  # a missing model is said before the images are looked for
+    encoder = load_plan_encoder(args, plan)  # a missing model is said before the images are looked for
     pairs = pairs_table(frame, scene_root=args.scene, base=Path(args.pairs).resolve().parent, where=str(args.pairs))
     cv2.setNumThreads(1)  # crops are small; leave the cores to the encoder and the decode thread
     try:
@@ -235,7 +260,7 @@ def _local_dataset(args, plan: ScorePlan) -> int:
     rename = column_renames(plan.model_columns, tag=args.column_tag, precision=args.precision)
 
     def load():  # only when a shard is left to do
-        return _load_encoder(args, plan)
+        return load_plan_encoder(args, plan)
 
     cv2.setNumThreads(1)  # as for a table: the cores go to the encoder and the decode thread
     try:

@@ -18,7 +18,8 @@ from data_schema.errors import InputError
 from data_schema.outputs import mark_report, replacing_note
 from nvrq.cli_options import add_pairs_argument, add_seed_option
 from nvrq.cli_types import add_link_option, add_quiet_option, int_arg, show_progress
-from nvrq.commands.model_options import add_encoder_arguments, encoder_for_columns, metric_columns
+from nvrq.commands.model_options import add_encoder_arguments
+from nvrq.commands.score import load_plan_encoder, plan_from_args, report_tau
 
 __all__ = ["register", "run"]
 
@@ -81,16 +82,18 @@ def run(args) -> int:
         run_stability,
     )
 
-    columns, encoder_name = metric_columns(args)
+    plan = plan_from_args(args)  # the metrics, the encoder, tau and the batch size, checked once
+    columns = list(plan.columns)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise InputError(out, None, "an output directory", "an existing file")
     pairs = read_table(args.pairs, required=("pair_id", "clip_id", "camera", "track_id", "timestamp_us",
                                              "gt_path", *GT_BOX_COLUMNS), kind=TableKind.PAIRS)
-    encoder, tau = encoder_for_columns(args, columns, encoder_name)
+    report_tau(plan)
+    encoder = load_plan_encoder(args, plan)
     options = StabilityOptions(n_objects=args.n_objects, seed=args.seed, min_side=args.min_side,
-                               batch_size=args.batch_size)
-    samples, stab, snr = run_stability(pairs, options, metrics=columns, encoder=encoder, tau=tau,
+                               batch_size=plan.batch_size)
+    samples, stab, snr = run_stability(pairs, options, metrics=columns, encoder=encoder, tau=plan.tau,
                                        progress=show_progress(args), where=str(args.pairs))
     inputs = {"PAIRS": Path(args.pairs), "--metrics": columns, "--n-objects": args.n_objects, "--seed": args.seed}
     note = replacing_note(out, command="stability", inputs=inputs)
