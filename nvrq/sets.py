@@ -519,7 +519,7 @@ def crop_features(path, encoder) -> dict:
             feats, paths, boxes = z["features"], z["path"], z["box"]
             made = json.loads(str(z["identity"]))
     except (OSError, KeyError, ValueError, zipfile.BadZipFile) as e:
-        raise InputError(path, None, "a crop features file of nvrq score --save-crop-features",
+        raise InputError(path, None, "a crop features file written by nvrq score (its save_crop_features output)",
                          f"{type(e).__name__}: {e}") from None
     ours = encoder_identity(_loaded(encoder))
     if made != ours:

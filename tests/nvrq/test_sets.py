@@ -256,8 +256,9 @@ def test_score_sets_takes_the_crop_features_of_score_and_gets_the_same_numbers(t
     assert {m for _, m in e_r} == {"stretch"}  # every crop came from the file
     frames = np.char.startswith(z_a["set_id"].astype(str), "frames:")
     assert sum(n for n, _ in e_r) == len(set(z_a["path"][frames]))  # one pass per whole frame, no crop
-    np.testing.assert_allclose(z_r["features"], z_a["features"], rtol=1e-6, atol=1e-6)
-    pd.testing.assert_frame_equal(t_r, t_a, rtol=1e-9)
+    # float32 forward passes batched otherwise (crops alone in nvrq score) differ in the last digits
+    np.testing.assert_allclose(z_r["features"], z_a["features"], rtol=1e-4, atol=1e-4)
+    pd.testing.assert_frame_equal(t_r, t_a, rtol=1e-4)
 
 
 def test_crop_features_of_another_encoder_are_refused(tmp_path):

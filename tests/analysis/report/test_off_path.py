@@ -12,7 +12,7 @@ import pandas as pd
 
 from analysis.report.off_path import off_path_display, off_path_figure
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "proxies"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "nvrq" / "proxies"))
 
 
 def _res():
