@@ -42,6 +42,7 @@ import numpy as np
 import pandas as pd
 
 from annotate.load import DEFAULT_ITEMS_PER_RATER
+from data_schema.defaults import BREAK_EVERY, DISPLAY_SIZE
 from data_schema.errors import InputError
 from data_schema.methods import METHOD_COLUMN
 from data_schema.perturbation import (
@@ -53,6 +54,7 @@ from data_schema.perturbation import (
     perturbation_array,
 )
 from data_schema.tables import PAIRS_COLUMNS, offset_cm, parse_offsets
+from data_schema.vocab import Access, StudyDesign
 
 __all__ = ["choose_offsets", "choose_views", "attribute_columns", "usable_frames", "choose_tracks",
            "spread_frames", "select_test_pairs", "pick_training", "choose_tests", "StudyOptions", "Choice",
@@ -443,12 +445,12 @@ class StudyOptions:
     n_gold: int = 3
     n_repeats: int = 5
     metrics_paths: tuple = ()
-    size: int = 320
+    size: int = DISPLAY_SIZE
     image_format: str = "jpg"
-    access: str = "open"
-    break_every: int = 50
+    access: str = Access.OPEN
+    break_every: int = BREAK_EVERY
     methods: str | None = None
-    design: str = "binary"
+    design: str = StudyDesign.BINARY
     participant_param: str | None = None
     completion_url: str | None = None
     items_per_rater: int | None = DEFAULT_ITEMS_PER_RATER

@@ -32,6 +32,7 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from data_schema.defaults import BREAK_EVERY, DISPLAY_SIZE
 from data_schema.errors import InputError
 from data_schema.tables import atomic_write_text
 from data_schema.vocab import Access, Sampling, StudyDesign
@@ -73,11 +74,11 @@ class StudyManifest:
     version: int = 1
     participant_param: str | None = None
     completion_url: str | None = None
-    break_every: int = 50
+    break_every: int = BREAK_EVERY
     sampling: Sampling = Sampling.UNIFORM
     max_votes_per_item: int | None = None
     items_per_rater: int | None = None
-    display_size: int = 320
+    display_size: int = DISPLAY_SIZE
     image_format: str | None = None
     options: dict = field(default_factory=dict)
     pairs: str | None = None
