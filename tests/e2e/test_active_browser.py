@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tests.e2e.browser_support import ARGS, CHROMIUM, serve, settled, stop, toy
+from tests.e2e.browser_support import ARGS, CHROMIUM, serve, stop, toy
 
 pytestmark = [pytest.mark.browser,
               pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="needs /usr/bin/chromium")]
@@ -44,17 +44,36 @@ def _ready(page) -> None:
 WAITING = "No item is free right now"
 
 
+# one read of the page once no rerun is pending: ['waiting'], ['done'], [progress, image URLs]
+# (an item on screen), or null (still drawing); the state and what it shows come from the same
+# moment, so a panel that redraws between two reads cannot leave a wait for a state now gone
+STATE = """(w) => {
+  if (document.querySelector('[data-stale="true"]')) return null;
+  const text = document.body.innerText;
+  if (text.includes(w)) return ['waiting'];
+  if (text.includes('All done')) return ['done'];
+  const p = document.querySelector('[data-testid=stProgress]');
+  const imgs = Array.from(document.querySelectorAll('img'));
+  if (p && imgs.length === 3) return [p.innerText, imgs.map(i => i.getAttribute('src'))];
+  return null;
+}"""
+
+
 def _state(page) -> tuple:
-    """:func:`settled`'s state, or ``('waiting', ())`` while the other rater holds the last
-    comparison of the budget (the page offers Retry)."""
-    page.wait_for_function(
-        "(w) => !document.querySelector('[data-stale=\"true\"]') && ("
-        "document.body.innerText.includes(w) || document.body.innerText.includes('All done') ||"
-        " (document.querySelector('[data-testid=stProgress]') &&"
-        "  document.querySelectorAll('img').length === 3))", arg=WAITING, timeout=T)
-    if WAITING in page.inner_text("body"):
-        return "waiting", ()
-    return settled(page, timeout_ms=T, images=3)
+    """(progress text or 'done', image URLs), or ``('waiting', ())`` while the other rater
+    holds the last comparison of the budget (the page offers Retry)."""
+    from playwright.sync_api import TimeoutError as PlaywrightTimeout
+
+    try:
+        got = page.wait_for_function(STATE, arg=WAITING, timeout=T).json_value()
+    except PlaywrightTimeout:
+        stale = page.evaluate("() => document.querySelectorAll('[data-stale=\"true\"]').length")
+        imgs = page.evaluate("() => document.querySelectorAll('img').length")
+        raise AssertionError(f"page not settled: {stale} stale, {imgs} images, text: "
+                             f"{page.inner_text('body')[:600]!r}") from None
+    if got[0] in ("waiting", "done"):
+        return got[0], ()
+    return got[0].strip(), tuple(got[1])
 
 
 def _moved(page, old: tuple) -> tuple:
