@@ -29,6 +29,7 @@ render's file was 4.6-6.9x its reference (PNG), above every real item's 1.8-3.0x
 from __future__ import annotations
 
 import importlib.util
+import json
 import zlib
 from pathlib import Path
 
@@ -113,9 +114,13 @@ def built(request, tmp_path_factory):
     tmp = tmp_path_factory.mktemp(f"{design}-{fmt}")
     methods = {"alpha": 0.5, "gamma": 1.0, "beta": 1.5} if design == "pairwise" else None
     scene, pairs = toy.make_toy(tmp / "in", methods=methods)
-    s = load_study(build_study(tmp / "study", pairs, scene=str(scene), tracks=4, frames_per_track=6,
-                               n_training=2, n_gold=3, n_repeats=6, size=64, image_format=fmt,
-                               design=design, progress=False))
+    root = build_study(tmp / "study", pairs, scene=str(scene), tracks=4, frames_per_track=6,
+                       n_training=2, n_gold=3, n_repeats=6, size=64, image_format=fmt,
+                       design=design, progress=False)
+    # a fixed study secret: each rater's draw of the gold pool (and so every verdict below)
+    # is the same on every run; the crops are drawn from the study's seed
+    (root / "secrets.json").write_text(json.dumps({"admin_token": f"disguise-{design}-{fmt}"}))
+    s = load_study(root)
     return s, design, _served(s, design)
 
 
@@ -152,23 +157,50 @@ def _dqt_sum(data: bytes) -> int:
     return total
 
 
+#: the raters whose views the decoded-pixel detectors are run on (each sees its own draw of
+#: the gold pool, chosen with the study's secret)
+RATERS = 200
+#: the largest share of those raters for whom a detector may find gold at p < ALPHA: at chance
+#: it is about ALPHA (1%); measured with the fixed secrets below: 1, 3 and 2 raters of 200
+#: (binary png, binary jpg, pairwise); over 300 raters of builds with other secrets, 1.3-3%
+#: (a gold copy, blurred to a real render's file size, is a little closer to its reference)
+MAX_SHARE_FOUND = 0.05
+
+
+def _rater_view(study, rater: str):
+    """The keys a rater is served (every item but the gold of the pool that rater is not
+    shown: a rater's gold is a draw of 2 x n_gold from a pool GOLD_POOL times larger)."""
+    mine = {k for _after, k in study.plan_for(rater)["specials"]}
+    return [k for k, kind in study.items["kind"].items() if kind != "gold" or k in mine]
+
+
 def test_decoded_pixels_do_not_find_gold_or_repeats(built):
     s, design, served = built
-    items = s.items.loc[list(served)]
-    pix = {k: [_decode(b) for b in crops] for k, crops in served.items()}
-    scored = items[items["kind"] != "repeat"]
+    cols = ("ref_file", "a_file", "b_file") if design == "pairwise" else ("ref_file", "ren_file")
+    every = {key: [strip_metadata(salted_image((s.root / "crops" / it[c]).read_bytes(),
+                                               f"{key}|{c}".encode())) for c in cols]
+             for key, it in s.items.iterrows()}
+    pix = {k: [_decode(b) for b in crops] for k, crops in every.items()}
     # good gold: reference and render the same picture (pairwise: the closer of A and B, as
-    # the gold's A is meant to be the closer one)
-    mad = np.array([min(np.abs(p - pix[k][0]).mean() for p in pix[k][1:]) for k in scored.index])
-    gold = (scored["kind"] == "gold").to_numpy()
-    if design == "binary":
-        good = scored["item_id"].str.startswith("gold-good:").to_numpy()
-        assert _mwu_p(mad[~(gold & ~good)], good[~(gold & ~good)]) > ALPHA, mad[good]
-    else:
-        assert _mwu_p(mad, gold) > ALPHA, mad[gold]
-    same = np.array([(np.abs(pix[k][1] - pix[k][0]).max() <= 1) for k in scored.index])
-    assert _hyper_p(same, gold) > ALPHA
+    # the gold's A is meant to be the closer one); the verdict of each of RATERS raters' own
+    # view, so that it does not hang on which secret this build drew
+    mad = {k: min(np.abs(p - pix[k][0]).mean() for p in pix[k][1:]) for k in pix}
+    same = {k: bool(np.abs(pix[k][1] - pix[k][0]).max() <= 1) for k in pix}
+    found = {"mad": 0, "same": 0}
+    for r in range(RATERS):
+        scored = s.items.loc[_rater_view(s, f"rater-{r}")]
+        scored = scored[scored["kind"] != "repeat"]
+        gold = (scored["kind"] == "gold").to_numpy()
+        x = scored.index.map(mad).to_numpy(float)
+        if design == "binary":
+            good = scored["item_id"].str.startswith("gold-good:").to_numpy()
+            found["mad"] += _mwu_p(x[~(gold & ~good)], good[~(gold & ~good)]) <= ALPHA
+        else:
+            found["mad"] += _mwu_p(x, gold) <= ALPHA
+        found["same"] += _hyper_p(scored.index.map(same).to_numpy(bool), gold) <= ALPHA
+    assert max(found.values()) <= MAX_SHARE_FOUND * RATERS, found
     # repeats: reference and render(s) each within one grey level of another item's
+    items = s.items.loc[list(served)]
     keys = list(items.index)
     stack = [np.stack([pix[k][j] for k in keys]) for j in range(len(served[keys[0]]))]
     twin = []
