@@ -330,31 +330,30 @@ def _candidates(targets, group, near, far, nb):
     """(target, occluder) index pairs that may cover, target-major: the occluder is nearer at
     its nearest point than the target at its farthest, and their normalised boxes ``nb``
     overlap (a box wholly behind the camera covers nothing). Found without projecting any
-    occluder (the pixel boxes of wholly projected pairs are checked next)."""
+    occluder (the pixel boxes of wholly projected pairs are checked next); every target
+    against every box of its group, in batches of about :data:`CHUNK` pairs."""
     order = np.argsort(group, kind="stable")
     gs = group[order]
     starts = np.flatnonzero(np.r_[True, gs[1:] != gs[:-1]])
-    ends = np.r_[starts[1:], len(gs)]
+    size = np.diff(np.r_[starts, len(gs)])
     is_target = np.zeros(len(group), bool)
     is_target[targets] = True
-    has_target = np.add.reduceat(is_target[order], starts) > 0
-    tt, oo = [], []
-    for s0, s1 in zip(starts[has_target], ends[has_target], strict=True):
-        idx = order[s0:s1]
-        ti = idx[is_target[idx]]
-        if len(idx) < 2:
-            continue
-        oi = idx[np.isfinite(nb[idx, 0])]
-        m = near[oi][None, :] < far[ti][:, None]
-        m &= ti[:, None] != oi[None, :]
+    t_pos = np.flatnonzero(is_target[order])  # the targets, group by group
+    t_run = np.repeat(np.arange(len(starts)), size)[t_pos]
+    n_o = size[t_run]
+    csum = np.cumsum(n_o)
+    tt, oo = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+    a = 0
+    while a < len(t_pos):
+        b = max(int(np.searchsorted(csum, (csum[a - 1] if a else 0) + CHUNK, side="right")), a + 1)
+        ti = order[np.repeat(t_pos[a:b], n_o[a:b])]
+        oi = order[_ranges(starts[t_run[a:b]], n_o[a:b])]
         with np.errstate(invalid="ignore"):
-            m &= ((nb[oi, 0][None] <= nb[ti, 2][:, None]) & (nb[oi, 2][None] >= nb[ti, 0][:, None])
-                  & (nb[oi, 1][None] <= nb[ti, 3][:, None]) & (nb[oi, 3][None] >= nb[ti, 1][:, None]))
-        r, c = np.nonzero(m)
-        tt.append(ti[r])
-        oo.append(oi[c])
-    if not tt:
-        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+            m = (np.isfinite(nb[oi, 0]) & (near[oi] < far[ti]) & (ti != oi)
+                 & (nb[oi, 0] <= nb[ti, 2]) & (nb[oi, 2] >= nb[ti, 0]) & (nb[oi, 1] <= nb[ti, 3]) & (nb[oi, 3] >= nb[ti, 1]))
+        tt.append(ti[m])
+        oo.append(oi[m])
+        a = b
     return np.concatenate(tt), np.concatenate(oo)
 
 
@@ -500,27 +499,27 @@ def _raster(camera, T, dims, outline, targets, cands, clip, whole, nb, rays: _Ra
         r_row, r_start, r_len = _free_runs(lo, hi, A, B)
         area = np.diff(np.r_[0.0, np.cumsum(np.maximum(hi - lo + 1, 0))][r_off])  # per target
         free = np.diff(np.r_[0.0, np.cumsum(r_len.reshape(-1, kmax + 1).sum(1))][r_off])
-        cast = []  # the targets with hard occluders and uncovered pixels: (n, area, free, picked pixels)
-        for j, n in enumerate(tr):
-            if area[j] == 0:
-                continue
-            # spans alone: the covered length of each row (an upper bound where rays are still cast)
-            out[n] = 1.0 - (area[j] - free[j]) / area[j]
-            if hard_first[n] == hard_last[n] or free[j] == 0 or out[n] < below:
-                continue
-            cells = slice(r_off[j] * (kmax + 1), r_off[j + 1] * (kmax + 1))
-            cast.append((n, area[j], free[j], _pick_pixels((r_row[cells] - r_off[j], r_start[cells], r_len[cells]),
-                                                           int(clip[targets[n], 1]), cap)))
-        if cast:
-            out[[c[0] for c in cast]] = _cast_hard(cast, targets, (h_o, h_apart, hard_first, hard_last),
-                                                   (T, dims, nb), rays, below)
+        # spans alone: the covered length of each row (an upper bound where rays are still cast)
+        ok = area > 0
+        with np.errstate(invalid="ignore", divide="ignore"):
+            val = 1.0 - (area - free) / area
+        out[tr[ok]] = val[ok]
+        # the targets with hard occluders, uncovered pixels and (for the rule) not yet below it
+        jj = np.flatnonzero(ok & (hard_first[tr] != hard_last[tr]) & (free != 0) & ~(val < below))
+        if len(jj):
+            n_cells = (r_off[jj + 1] - r_off[jj]) * (kmax + 1)
+            cells = _ranges(r_off[jj] * (kmax + 1), n_cells)
+            runs = ((r_row[cells] - np.repeat(r_off[jj], n_cells), r_start[cells], r_len[cells]),
+                    np.r_[0, np.cumsum(n_cells)], clip[targets[tr[jj]], 1].astype(np.int64), cap)
+            out[tr[jj]] = _cast_hard(tr[jj], (area[jj], free[jj]), runs, targets,
+                                     (h_o, h_apart, hard_first, hard_last), (T, dims, nb), rays, below)
     return out
 
 
-def _cast_hard(cast, targets, hard, boxes, rays: _Rays, below: float) -> np.ndarray:
-    """Visible fractions of the targets ``cast`` (``(n, area, free, (pv, pu))``: the target
-    ``targets[n]``, its silhouette's pixel count, those not covered by its simple occluders,
-    and the picked ones of these) against their hard occluders (``hard``: occluders and
+def _cast_hard(n, sizes, runs, targets, hard, boxes, rays: _Rays, below: float) -> np.ndarray:
+    """Visible fractions of the targets ``targets[n]`` (``sizes``: their silhouettes' pixel
+    counts and those not covered by their simple occluders; ``runs``: these pixels, the
+    arguments of :func:`_pick_pixels`) against their hard occluders (``hard``: occluders and
     disjointness, the target ``n``'s from ``first[n]`` to ``last[n]``), the rays of all
     targets unprojected and cast together. Where ``below > 0`` the picked pixels are cast in
     :data:`STAGES` interleaved stages, and a target whose hits so far put it below ``below``
@@ -528,29 +527,24 @@ def _cast_hard(cast, targets, hard, boxes, rays: _Rays, below: float) -> np.ndar
     every step of the fraction is monotone in the hit count: the last stage gives the
     value of a single cast)."""
     h_o, h_apart, first, last = hard
-    n = np.array([c[0] for c in cast], np.int64)
-    area, free = np.array([c[1] for c in cast]), np.array([c[2] for c in cast])
-    picked = np.array([len(c[3][0]) for c in cast], np.int64)
+    area, free = sizes
     # (cast target, hard occluder) pairs
     k = last[n] - first[n]
-    p_i = np.repeat(np.arange(len(cast)), k)
+    p_i = np.repeat(np.arange(len(n)), k)
     p_h = first[n][p_i] + np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k)
     stages = STAGES if below > 0 else 1
-    hits = np.zeros(len(cast), np.int64)
-    out = np.full(len(cast), np.nan)
-    todo = np.arange(len(cast))
+    hits = np.zeros(len(n), np.int64)
+    out = np.full(len(n), np.nan)
+    todo = np.arange(len(n))
     for s in range(stages):
-        px = [(cast[i][3][0][s::stages], cast[i][3][1][s::stages]) for i in todo]
-        cnt = np.array([len(p[0]) for p in px], np.int64)
-        at = np.full(len(cast), -1)
+        pv, pu, g, count = _pick_pixels(*runs, (s, stages, todo))
+        at = np.full(len(n), -1)
         at[todo] = np.arange(len(todo))
         sel = at[p_i] >= 0
-        hit = _hard_hits(rays.at(np.concatenate([p[0] for p in px]), np.concatenate([p[1] for p in px])), cnt,
+        hit = _hard_hits(rays.at(pv, pu), np.bincount(at[g], minlength=len(todo)),
                          targets[n[todo]], (at[p_i[sel]], h_o[p_h[sel]], h_apart[p_h[sel]]), boxes)
-        c = np.r_[0, np.cumsum(hit)]
-        off = np.r_[0, np.cumsum(cnt)]
-        hits[todo] += c[off[1:]] - c[off[:-1]]
-        out[todo] = 1.0 - (area[todo] - free[todo] + hits[todo] / picked[todo] * free[todo]) / area[todo]
+        hits[todo] += np.bincount(at[g], weights=hit, minlength=len(todo)).astype(np.int64)
+        out[todo] = 1.0 - (area[todo] - free[todo] + hits[todo] / count[todo] * free[todo]) / area[todo]
         todo = todo[out[todo] >= below]
         if not len(todo):
             break
@@ -591,16 +585,39 @@ def _occluder_spans(spans, at_t, occ, slot, rows, shape) -> tuple[np.ndarray, np
     return A, B
 
 
-def _pick_pixels(runs, v0, cap) -> tuple[np.ndarray, np.ndarray]:
-    """Rows and columns ``(pv, pu)`` of the uncovered pixel centres ``runs``
-    (:func:`_free_runs`, rows from ``v0``), at most ``cap`` of them, evenly spread."""
+def _pick_pixels(runs, seg, v0, cap, part=(0, 1, None)) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The uncovered pixel centres ``runs`` (:func:`_free_runs`) of several targets, target
+    ``g``'s runs from ``seg[g]`` to ``seg[g + 1]``, its rows counted from ``v0[g]``: at most
+    ``cap`` of each target's are picked, evenly spread. Returns the rows, columns and targets
+    ``(pv, pu, g)`` of the picked pixels of ``part`` ``(s, step, targets)`` (the ``s``-th,
+    ``s + step``-th, ... picked pixel of each of those targets, target by target; default:
+    all), and the picked count of every target.
+
+    >>> runs = (np.array([0, 1, 0]), np.array([3.0, 0.0, 5.0]), np.array([2.0, 1.0, 4.0]))
+    >>> pv, pu, g, count = _pick_pixels(runs, np.array([0, 2, 3]), np.array([10, 20]), 2)
+    >>> pv.tolist(), pu.tolist(), g.tolist(), count.tolist()
+    ([10, 11, 20, 20], [3, 0, 5, 8], [0, 0, 1, 1], [2, 2])
+    >>> _pick_pixels(runs, np.array([0, 2, 3]), np.array([10, 20]), 2, (1, 2, np.array([1])))[1].tolist()
+    [8]
+    """
     row, start, length = runs
-    free = int(length.sum())
-    pick = np.linspace(0, free - 1, cap).round().astype(np.int64) if free > cap else np.arange(free)
     csum = np.cumsum(length).astype(np.int64)
-    run = np.searchsorted(csum, pick, side="right")
-    pu = (start[run] + pick - (csum[run] - length[run])).astype(np.int64)
-    return row[run] + v0, pu
+    base = np.r_[0, csum][seg]  # the pixels before each target's
+    free = np.diff(base)
+    count = np.minimum(free, cap)
+    s, step, sel = part
+    sel = np.arange(len(free)) if sel is None else sel
+    m = np.maximum(count[sel] - s + step - 1, 0) // step  # picks s, s + step, ... below the count
+    pick = s + step * (np.arange(m.sum()) - np.repeat(np.cumsum(m) - m, m))
+    big = free[sel] > cap
+    if big.any():
+        spread = np.repeat(big, m)
+        pick[spread] = np.linspace(0, free[sel][big] - 1, cap)[s::step].round().astype(np.int64).T.ravel()
+    g = np.repeat(sel, m)
+    at = base[g] + pick
+    run = np.searchsorted(csum, at, side="right")
+    pu = (start[run] + at - (csum[run] - length[run])).astype(np.int64)
+    return row[run] + v0[g], pu, g, count
 
 
 def _free_runs(lo: np.ndarray, hi: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
