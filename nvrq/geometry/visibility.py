@@ -21,8 +21,16 @@ entered by another box of the same frame. It is computed in three steps:
 3. **Rays where needed.** Where an occluder is not wholly projected (a box beside or behind
    the camera) or intersects the box, rays through the still uncovered pixels (at most
    ``4 * grid**2``, evenly spread; against an occluder only those inside its normalised box)
-   are slab-tested against both: the occluder covers a ray it enters first. A box that is itself not wholly projected is sampled by a ray grid (at most
-   ``grid`` per axis).
+   are slab-tested against both: the occluder covers a ray it enters first. A box that is
+   itself not wholly projected is sampled by a ray grid (at most ``grid`` per axis). A pixel's
+   ray is unprojected once, when first asked for, and shared by every view of the camera.
+
+Under a threshold (:func:`pair_visibility`'s ``min_visible``, for a caller that drops what
+falls below it), a box is only resolved until it is known to be below: the share its row
+spans leave uncovered bounds its fraction from above, so a box already below after step 2
+casts no ray, and the rays of step 3 go in :data:`STAGES` interleaved stages, stopping once
+the hits so far put it below. A box at or above the threshold gets the value of a single
+cast, to the bit.
 
 Only ``project`` and ``unproject`` of the camera model are used, so it holds for every model
 (pinhole, OpenCV, fisheye, f-theta); a dense per-pixel ray cast is the reference in the tests.
@@ -80,12 +88,6 @@ def _entry(rays: np.ndarray, T: np.ndarray, dims: np.ndarray) -> np.ndarray:
     o = -np.einsum("bcji,bcj->bci", R, T[..., :3, 3])  # camera centre in each box frame
     d = np.matmul(rays[:, None], R)  # (B, C, R, 3): ray directions in each box frame
     return _slab_entry(o[:, :, None, :], d, 0.5 * dims[:, :, None, :])
-
-
-def _entry_one(rays: np.ndarray, T: np.ndarray, dims: np.ndarray) -> np.ndarray:
-    """:func:`_entry` of rays ``(R, 3)`` into one box (``T (4, 4)``, ``dims (3,)``) -> ``(R,)``."""
-    R = T[:3, :3]
-    return _slab_entry(-(T[:3, 3] @ R), rays @ R, 0.5 * dims)
 
 
 def _slab_entry(o: np.ndarray, d: np.ndarray, half: np.ndarray) -> np.ndarray:
@@ -690,10 +692,10 @@ def _hard_hits(r, counts, tgt, pairs, boxes) -> np.ndarray:
 
 
 def _segment_entry(r: np.ndarray, bounds: np.ndarray, box: np.ndarray, boxes) -> np.ndarray:
-    """:func:`_entry_one` of consecutive segments of rays ``r (P, 3)`` (segment ``i`` from
-    ``bounds[i]`` to ``bounds[i + 1]``), each into its box ``box[i]`` (``boxes``: ``(T,
-    dims)``): the same products per segment (a row's product does not depend on the other
-    rows), then one slab test of all."""
+    """Entry distances (:func:`ray_box_entry`) of consecutive segments of rays ``r (P, 3)``
+    (segment ``i`` from ``bounds[i]`` to ``bounds[i + 1]``), each into its box ``box[i]``
+    (``boxes``: ``(T, dims)``): one matrix product per segment (a row's product does not
+    depend on the other rows), then one slab test of all."""
     T, dims = boxes
     d = np.empty_like(r)
     o = np.empty((len(box), 3))
