@@ -658,10 +658,11 @@ def _free_runs(lo: np.ndarray, hi: np.ndarray, a: np.ndarray, b: np.ndarray) -> 
 def _hard_hits(r, counts, tgt, pairs, boxes) -> np.ndarray:
     """Which rays ``r (P, 3)`` (NaN: no ray; ``counts (G,)`` consecutive ones of each target
     ``tgt (G,)``) first enter one of their target's hard occluders (``pairs``: target
-    position, occluder and disjointness arrays): a disjoint one (in front) wherever they enter
-    it, an intersecting one where they enter it before their target. Only the rays inside an
-    occluder's normalised box are slab-tested against it (no other ray can enter it), in
-    batches of :data:`CHUNK`. ``boxes``: ``(T, dims, nb)``."""
+    position, ascending, occluder and disjointness arrays): a disjoint one (in front) wherever
+    they enter it, an intersecting one where they enter it before their target. Only the rays
+    inside an occluder's normalised box, and not yet hit by the target's earlier occluders,
+    are slab-tested against it (the first occluder of every target at once, then the second,
+    ..., in batches of :data:`CHUNK`). ``boxes``: ``(T, dims, nb)``."""
     T, dims, nb = boxes
     pg, po, pa = pairs
     good = np.isfinite(r).all(axis=1)
@@ -670,24 +671,30 @@ def _hard_hits(r, counts, tgt, pairs, boxes) -> np.ndarray:
         x, y = r[:, 0] / r[:, 2], r[:, 1] / r[:, 2]
     off = np.r_[0, np.cumsum(counts)]
     hit = np.zeros(len(r), bool)
-    # the target's own entry, on the rays of the targets with an intersecting occluder
-    e_t = np.full(len(r), np.nan)
-    own = np.unique(pg[~pa])
-    ray = _ranges(off[own], counts[own])
-    e_t[ray] = _segment_entry(r[ray], np.r_[0, np.cumsum(counts[own])], tgt[own], (T, dims))
-    n_p = counts[pg]
-    csum = np.cumsum(n_p)
-    start = 0
-    while start < len(pg):
-        stop = max(int(np.searchsorted(csum, (csum[start - 1] if start else 0) + CHUNK, side="right")), start + 1)
-        e_pair = np.repeat(np.arange(start, stop), n_p[start:stop])
-        ray = _ranges(off[pg[start:stop]], n_p[start:stop])
-        b = nb[po[e_pair]]
-        keep = good[ray] & (x[ray] >= b[:, 0]) & (x[ray] <= b[:, 2]) & (y[ray] >= b[:, 1]) & (y[ray] <= b[:, 3])
-        ray, e_pair = ray[keep], e_pair[keep]
-        e = _segment_entry(r[ray], np.searchsorted(e_pair, np.arange(start, stop + 1)), po[start:stop], (T, dims))
-        hit[ray[np.where(pa[e_pair], np.isfinite(e), e < e_t[ray])]] = True
-        start = stop
+    rank = np.arange(len(pg)) - np.searchsorted(pg, pg)  # the occluder's rank among its target's
+    for k in range(int(rank.max()) + 1 if len(pg) else 0):
+        pk = np.flatnonzero(rank == k)
+        csum = np.cumsum(counts[pg[pk]])
+        start = 0
+        while start < len(pk):
+            stop = max(int(np.searchsorted(csum, (csum[start - 1] if start else 0) + CHUNK, side="right")), start + 1)
+            q = pk[start:stop]
+            n_p = counts[pg[q]]
+            e_pair = np.repeat(np.arange(len(q)), n_p)
+            ray = _ranges(off[pg[q]], n_p)
+            b = [np.repeat(nb[po[q], i], n_p) for i in range(4)]
+            xr, yr = x[ray], y[ray]
+            keep = good[ray] & ~hit[ray] & (xr >= b[0]) & (xr <= b[2]) & (yr >= b[1]) & (yr <= b[3])
+            ray, e_pair = ray[keep], e_pair[keep]
+            e = _segment_entry(r[ray], np.searchsorted(e_pair, np.arange(len(q) + 1)), po[q], (T, dims))
+            cover = np.isfinite(e)
+            sub = np.flatnonzero(~pa[q][e_pair])  # intersecting: entered before the target
+            if len(sub):
+                e_t = _segment_entry(r[ray[sub]], np.searchsorted(e_pair[sub], np.arange(len(q) + 1)),
+                                     tgt[pg[q]], (T, dims))
+                cover[sub] = e[sub] < e_t
+            hit[ray[cover]] = True
+            start = stop
     return hit
 
 
