@@ -21,8 +21,16 @@ entered by another box of the same frame. It is computed in three steps:
 3. **Rays where needed.** Where an occluder is not wholly projected (a box beside or behind
    the camera) or intersects the box, rays through the still uncovered pixels (at most
    ``4 * grid**2``, evenly spread; against an occluder only those inside its normalised box)
-   are slab-tested against both: the occluder covers a ray it enters first. A box that is itself not wholly projected is sampled by a ray grid (at most
-   ``grid`` per axis).
+   are slab-tested against both: the occluder covers a ray it enters first. A box that is
+   itself not wholly projected is sampled by a ray grid (at most ``grid`` per axis). A pixel's
+   ray is unprojected once, when first asked for, and shared by every view of the camera.
+
+Under a threshold (:func:`pair_visibility`'s ``min_visible``, for a caller that drops what
+falls below it), a box is only resolved until it is known to be below: the share its row
+spans leave uncovered bounds its fraction from above, so a box already below after step 2
+casts no ray, and the rays of step 3 go in :data:`STAGES` interleaved stages, stopping once
+the hits so far put it below. A box at or above the threshold gets the value of a single
+cast, to the bit.
 
 Only ``project`` and ``unproject`` of the camera model are used, so it holds for every model
 (pinhole, OpenCV, fisheye, f-theta); a dense per-pixel ray cast is the reference in the tests.
@@ -37,8 +45,8 @@ import numpy as np
 
 from nvrq.geometry.boxes import CORNER_SIGNS
 
-__all__ = ["CHUNK", "GRID", "MARGIN_PX", "OUTLINE_SAMPLES", "pair_visibility", "pixel_rays", "ray_box_entry",
-           "visible_fractions"]
+__all__ = ["CHUNK", "GRID", "MARGIN_PX", "OUTLINE_SAMPLES", "STAGES", "pair_visibility", "pixel_rays",
+           "ray_box_entry", "visible_fractions"]
 
 #: Samples per box edge of the projected outlines of a camera whose edges curve (distortion).
 OUTLINE_SAMPLES = 6
@@ -49,6 +57,10 @@ GRID = 32
 MARGIN_PX = 2.0
 #: Ray-box tests per vectorised chunk (bounds the memory of one step).
 CHUNK = 400_000
+#: Interleaved stages of the rays cast against hard occluders where only a fraction at or
+#: above a threshold (``min_visible``) must be exact: one below it stops at the first stage
+#: that proves it.
+STAGES = 4
 
 _EDGES = [(a, b) for a in range(8) for b in range(a + 1, 8)
           if np.count_nonzero(CORNER_SIGNS[a] != CORNER_SIGNS[b]) == 1]
@@ -76,12 +88,6 @@ def _entry(rays: np.ndarray, T: np.ndarray, dims: np.ndarray) -> np.ndarray:
     o = -np.einsum("bcji,bcj->bci", R, T[..., :3, 3])  # camera centre in each box frame
     d = np.matmul(rays[:, None], R)  # (B, C, R, 3): ray directions in each box frame
     return _slab_entry(o[:, :, None, :], d, 0.5 * dims[:, :, None, :])
-
-
-def _entry_one(rays: np.ndarray, T: np.ndarray, dims: np.ndarray) -> np.ndarray:
-    """:func:`_entry` of rays ``(R, 3)`` into one box (``T (4, 4)``, ``dims (3,)``) -> ``(R,)``."""
-    R = T[:3, :3]
-    return _slab_entry(-(T[:3, 3] @ R), rays @ R, 0.5 * dims)
 
 
 def _slab_entry(o: np.ndarray, d: np.ndarray, half: np.ndarray) -> np.ndarray:
@@ -154,30 +160,38 @@ def visible_fractions(camera, T_box_cam: np.ndarray, dims_lwh: np.ndarray, *,
 
 
 class _Rays:
-    """The camera's ray through every pixel centre (:func:`pixel_rays`), computed at the first
-    :meth:`get` and then kept (one camera's views share it)."""
+    """The camera's rays through pixel centres (:func:`pixel_rays`), unprojected as they are
+    asked for (:meth:`at`) and then kept: one camera's views share them, and no pixel is
+    unprojected twice. ``rays``: all of them, when the caller has them."""
 
     def __init__(self, camera, rays: np.ndarray | None = None):
-        self.camera, self.rays = camera, rays
+        w, h = camera.resolution
+        self.camera, self.width = camera, w
+        self.rays = None if rays is None else np.asarray(rays, np.float64).reshape(h * w, 3)
+        self.have = None  # (H * W,) bool: the pixels unprojected so far (None: all, or none asked yet)
 
-    def get(self) -> np.ndarray:
+    def at(self, pv: np.ndarray, pu: np.ndarray) -> np.ndarray:
+        """Rays ``(P, 3)`` through pixels ``(pu, pv)``; a pixel's ray does not depend on the
+        others unprojected with it, so the kept rays equal :func:`pixel_rays`'."""
+        idx = pv * self.width + pu
         if self.rays is None:
-            self.rays = pixel_rays(self.camera)
-        return self.rays
+            w, h = self.camera.resolution
+            self.rays, self.have = np.full((h * w, 3), np.nan), np.zeros(h * w, bool)
+        if self.have is not None:
+            new = np.zeros_like(self.have)
+            new[idx] = True
+            new &= ~self.have
+            miss = np.flatnonzero(new)
+            if len(miss):
+                uv = np.stack([miss % self.width, miss // self.width], axis=1).astype(np.float64)
+                self.rays[miss] = self.camera.unproject(uv)
+                self.have[miss] = True
+        return self.rays[idx]
 
-    def at(self, pv: np.ndarray, pu: np.ndarray, asked: int) -> np.ndarray:
-        """Rays ``(P, 3)`` through pixels ``(pu, pv)``: unprojected directly until ``asked``
-        (the pixels asked so far) passes a quarter of the image, then from the image's rays."""
-        w, h = self.camera.resolution
-        if self.rays is None and asked > w * h // 4:
-            self.get()
-        if self.rays is not None:
-            return self.rays[pv, pu]
-        return self.camera.unproject(np.stack([pu, pv], axis=1).astype(np.float64))
 
-
-def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: _Rays) -> np.ndarray:
-    """:func:`visible_fractions`, the image's rays (``rays``) shared between calls."""
+def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: _Rays, below: float = 0.0) -> np.ndarray:
+    """:func:`visible_fractions`, the image's rays (``rays``) shared between calls; a fraction
+    found below ``below`` before any ray is cast is left at that upper bound (not cast)."""
     T = np.asarray(T_box_cam, dtype=np.float64).reshape(-1, 4, 4)
     dims = np.asarray(dims_lwh, dtype=np.float64).reshape(-1, 3)
     n = len(T)
@@ -200,7 +214,7 @@ def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: 
     # nearest point of each box to the camera centre (exact), and its farthest corner
     o = -np.einsum("nji,nj->ni", T[:, :3, :3], T[:, :3, 3])
     near = np.linalg.norm(o - np.clip(o, -0.5 * dims, 0.5 * dims), axis=1)
-    corners = np.einsum("nij,nkj->nki", T[:, :3, :3], CORNER_SIGNS[None] * (0.5 * dims)[:, None, :]) \
+    corners = np.matmul(CORNER_SIGNS[None] * (0.5 * dims)[:, None, :], np.swapaxes(T[:, :3, :3], 1, 2)) \
         + T[:, None, :3, 3]
     far = np.linalg.norm(corners, axis=-1).max(axis=1)
     nb = _normalized_boxes(corners)
@@ -229,7 +243,7 @@ def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: 
     if len(ras):
         sel = np.isin(cand_t, ras)
         out[ras] = _raster(camera, T, dims, ol.outline, ras, (cand_t[sel], cand_o[sel], apart[sel]), clip, whole,
-                           nb, rays, 4 * grid * grid)
+                           nb, rays, (4 * grid * grid, below))
     if len(ray):
         sel = np.isin(cand_t, ray)
         out[ray] = _cast(camera, T, dims, ray, cand_t[sel], cand_o[sel], bb, clip, whole, grid, rays)
@@ -293,20 +307,24 @@ def _normalized_boxes(corners: np.ndarray) -> np.ndarray:
     its vertices, so the box of the clipped vertices (corners in front, and edges cut at
     ``z = eps``) bounds every ray that can enter it."""
     eps = 1e-3
-    a = corners[:, [i for i, _ in _EDGES]]
-    b = corners[:, [j for _, j in _EDGES]]
+    out = np.full((len(corners), 4), np.nan)
+    ahead = corners[..., 2] >= eps
+    front = ahead.all(axis=1)  # wholly in front: the box of its corners
+    xy = corners[front, :, :2] / corners[front, :, 2:]
+    out[front] = np.stack([xy[..., 0].min(1), xy[..., 1].min(1), xy[..., 0].max(1), xy[..., 1].max(1)], axis=1)
+    part = ~front & ahead.any(axis=1)  # partly in front (wholly behind: NaN)
+    c = corners[part]
+    a = c[:, [i for i, _ in _EDGES]]
+    b = c[:, [j for _, j in _EDGES]]
     za, zb = a[..., 2], b[..., 2]
     cut = (za - eps) * (zb - eps) < 0
     f = np.where(cut, (eps - za) / np.where(cut, zb - za, 1.0), 0.0)
-    pts = np.concatenate([np.where((corners[..., 2:] >= eps), corners, np.nan),
+    pts = np.concatenate([np.where((c[..., 2:] >= eps), c, np.nan),
                           np.where(cut[..., None], a + f[..., None] * (b - a), np.nan)], axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         xy = pts[..., :2] / pts[..., 2:]
-    out = np.full((len(corners), 4), np.nan)
-    any_ = np.isfinite(xy).all(axis=-1).any(axis=1)
-    q = xy[any_]
-    out[any_] = np.stack([np.nanmin(q[..., 0], 1), np.nanmin(q[..., 1], 1),
-                          np.nanmax(q[..., 0], 1), np.nanmax(q[..., 1], 1)], axis=1)
+    out[part] = np.stack([np.nanmin(xy[..., 0], 1), np.nanmin(xy[..., 1], 1),
+                          np.nanmax(xy[..., 0], 1), np.nanmax(xy[..., 1], 1)], axis=1)
     return out
 
 
@@ -314,31 +332,30 @@ def _candidates(targets, group, near, far, nb):
     """(target, occluder) index pairs that may cover, target-major: the occluder is nearer at
     its nearest point than the target at its farthest, and their normalised boxes ``nb``
     overlap (a box wholly behind the camera covers nothing). Found without projecting any
-    occluder (the pixel boxes of wholly projected pairs are checked next)."""
+    occluder (the pixel boxes of wholly projected pairs are checked next); every target
+    against every box of its group, in batches of about :data:`CHUNK` pairs."""
     order = np.argsort(group, kind="stable")
     gs = group[order]
     starts = np.flatnonzero(np.r_[True, gs[1:] != gs[:-1]])
-    ends = np.r_[starts[1:], len(gs)]
+    size = np.diff(np.r_[starts, len(gs)])
     is_target = np.zeros(len(group), bool)
     is_target[targets] = True
-    has_target = np.add.reduceat(is_target[order], starts) > 0
-    tt, oo = [], []
-    for s0, s1 in zip(starts[has_target], ends[has_target], strict=True):
-        idx = order[s0:s1]
-        ti = idx[is_target[idx]]
-        if len(idx) < 2:
-            continue
-        oi = idx[np.isfinite(nb[idx, 0])]
-        m = near[oi][None, :] < far[ti][:, None]
-        m &= ti[:, None] != oi[None, :]
+    t_pos = np.flatnonzero(is_target[order])  # the targets, group by group
+    t_run = np.repeat(np.arange(len(starts)), size)[t_pos]
+    n_o = size[t_run]
+    csum = np.cumsum(n_o)
+    tt, oo = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+    a = 0
+    while a < len(t_pos):
+        b = max(int(np.searchsorted(csum, (csum[a - 1] if a else 0) + CHUNK, side="right")), a + 1)
+        ti = order[np.repeat(t_pos[a:b], n_o[a:b])]
+        oi = order[_ranges(starts[t_run[a:b]], n_o[a:b])]
         with np.errstate(invalid="ignore"):
-            m &= ((nb[oi, 0][None] <= nb[ti, 2][:, None]) & (nb[oi, 2][None] >= nb[ti, 0][:, None])
-                  & (nb[oi, 1][None] <= nb[ti, 3][:, None]) & (nb[oi, 3][None] >= nb[ti, 1][:, None]))
-        r, c = np.nonzero(m)
-        tt.append(ti[r])
-        oo.append(oi[c])
-    if not tt:
-        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+            m = (np.isfinite(nb[oi, 0]) & (near[oi] < far[ti]) & (ti != oi)
+                 & (nb[oi, 0] <= nb[ti, 2]) & (nb[oi, 2] >= nb[ti, 0]) & (nb[oi, 1] <= nb[ti, 3]) & (nb[oi, 3] >= nb[ti, 1]))
+        tt.append(ti[m])
+        oo.append(oi[m])
+        a = b
     return np.concatenate(tt), np.concatenate(oo)
 
 
@@ -389,20 +406,27 @@ def _separated(T: np.ndarray, half: np.ndarray, a: np.ndarray, b: np.ndarray) ->
     return apart, b_front
 
 
-def _hull(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The silhouette polygon of one projected box: the convex hull of its projected outline
-    points ``(K, 2)`` -> its edges ``(p, q)``, each ``(E, 2)``."""
+def _hulls(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The silhouette polygons of projected boxes: the convex hulls of their projected outline
+    points ``(B, K, 2)`` -> their edges ``(p, q)``, each ``(E, 2)``, stacked box by box, and
+    the edge count of each box ``(B,)``."""
     import cv2
 
-    h = cv2.convexHull(points.astype(np.float32)).reshape(-1, 2).astype(np.float64)
-    return h, np.roll(h, -1, axis=0)
+    hulls = [cv2.convexHull(pts) for pts in points.astype(np.float32)]
+    ne = np.array([len(h) for h in hulls], np.int64)
+    if not hulls:
+        return np.zeros((0, 2)), np.zeros((0, 2)), ne
+    p = np.concatenate(hulls).reshape(-1, 2).astype(np.float64)
+    nxt = np.arange(1, len(p) + 1)
+    nxt[np.cumsum(ne) - 1] = np.cumsum(ne) - ne  # each hull's last vertex joins its first
+    return p, p[nxt], ne
 
 
 def _box_spans(outline: np.ndarray, boxes: np.ndarray, clip: np.ndarray):
     """Row spans of the silhouettes of ``boxes`` on the rows of their clipped pixel boxes,
     stacked: ``(first row (B,), offsets (B + 1,), lo, hi)``, box ``i``'s spans being
     ``lo[offsets[i]:offsets[i + 1]]`` from row ``first[i]`` on: the first and last column
-    whose pixel centre lies inside the silhouette polygon (:func:`_hull`; first > last where
+    whose pixel centre lies inside the silhouette polygon (:func:`_hulls`; first > last where
     none). Edge by edge: each hull edge meets only the rows between its ends.
 
     >>> square = np.array([[[0.5, 0.0], [4.0, 0.0], [4.0, 2.0], [0.5, 2.0]]])
@@ -410,10 +434,7 @@ def _box_spans(outline: np.ndarray, boxes: np.ndarray, clip: np.ndarray):
     >>> first.tolist(), lo.tolist(), hi.tolist()
     ([0], [1.0, 1.0, 1.0, inf], [4.0, 4.0, 4.0, -inf])
     """
-    hulls = [_hull(outline[b]) for b in boxes]
-    ne = np.array([len(h[0]) for h in hulls], np.int64)
-    p = np.concatenate([h[0] for h in hulls]) if len(hulls) else np.zeros((0, 2))
-    q = np.concatenate([h[1] for h in hulls]) if len(hulls) else np.zeros((0, 2))
+    p, q, ne = _hulls(outline[boxes])
     e_box = np.repeat(np.arange(len(boxes)), ne)
     v0 = clip[boxes, 1].astype(np.int64)
     v1 = clip[boxes, 3].astype(np.int64)
@@ -436,16 +457,19 @@ def _box_spans(outline: np.ndarray, boxes: np.ndarray, clip: np.ndarray):
     return v0, off, np.ceil(lo - 1e-9), np.floor(hi + 1e-9)
 
 
-def _raster(camera, T, dims, outline, targets, cands, clip, whole, nb, rays: _Rays, cap):
+def _raster(camera, T, dims, outline, targets, cands, clip, whole, nb, rays: _Rays, limits):
     """Visible fractions of wholly projected ``targets``: the pixel centres of the target's
     silhouette (its projected outline, row by row), less those inside a disjoint occluder in
     front that projects whole (its outline), less those whose ray enters another occluder
     first (an occluder not wholly projectable, or one that intersects the target: slab tests
     on the pixels still uncovered, at most ``cap`` of them, evenly spread, and of those only
     the rays inside the occluder's normalised box ``nb``). ``cands``: the (target, occluder,
-    disjoint) candidate arrays. All targets' rows are stacked, a target's simple occluders
-    side by side (in chunks of about :data:`CHUNK` row-occluder cells)."""
+    disjoint) candidate arrays; ``limits``: ``(cap, below)``, a target whose uncovered share
+    is already below ``below`` keeps that upper bound (its rays are not cast; :func:`_cast_hard`).
+    All targets' rows are stacked, a target's simple occluders side by side (in chunks of about
+    :data:`CHUNK` row-occluder cells)."""
     cand_t, cand_o, cand_apart = cands
+    cap, below = limits
     out = np.full(len(targets), np.nan)
     order = np.argsort(cand_t, kind="stable")
     ct, co, ca = cand_t[order], cand_o[order], cand_apart[order]
@@ -464,7 +488,6 @@ def _raster(camera, T, dims, outline, targets, cands, clip, whole, nb, rays: _Ra
     hard_last = np.searchsorted(ct[~simple], targets, side="right")
     h_o, h_apart = co[~simple], ca[~simple]
     nrow = b_off[at + 1] - b_off[at]
-    asked = 0  # pixels unprojected chunk by chunk; past a quarter of the image, the image's rays once
     for start, stop, kmax in _chunks(nrow, k):  # chunks of targets: rows x (most occluders) cells
         tr = np.arange(start, stop)
         r_off = np.r_[0, np.cumsum(nrow[tr])]
@@ -478,28 +501,55 @@ def _raster(camera, T, dims, outline, targets, cands, clip, whole, nb, rays: _Ra
         r_row, r_start, r_len = _free_runs(lo, hi, A, B)
         area = np.diff(np.r_[0.0, np.cumsum(np.maximum(hi - lo + 1, 0))][r_off])  # per target
         free = np.diff(np.r_[0.0, np.cumsum(r_len.reshape(-1, kmax + 1).sum(1))][r_off])
-        cast = []  # (j, picked pixels) of the targets with hard occluders and uncovered pixels
-        for j, n in enumerate(tr):
-            if area[j] == 0:
-                continue
-            if hard_first[n] == hard_last[n] or free[j] == 0:  # spans alone: the covered length of each row
-                out[n] = 1.0 - (area[j] - free[j]) / area[j]
-                continue
-            cells = slice(r_off[j] * (kmax + 1), r_off[j + 1] * (kmax + 1))
-            cast.append((j, _pick_pixels((r_row[cells] - r_off[j], r_start[cells], r_len[cells]),
-                                         int(clip[targets[n], 1]), cap)))
-        if not cast:
-            continue
-        # the rays of this chunk's picked pixels at once (the image's rays past a quarter of it)
-        pv = np.concatenate([c[1][0] for c in cast])
-        asked += len(pv)
-        r_all = np.split(rays.at(pv, np.concatenate([c[1][1] for c in cast]), asked),
-                         np.cumsum([len(c[1][0]) for c in cast])[:-1])
-        for (j, _), r in zip(cast, r_all, strict=True):
-            n = tr[j]
-            hard = slice(hard_first[n], hard_last[n])
-            hit = _hard_hits(r, targets[n], h_o[hard], h_apart[hard], (T, dims, nb))
-            out[n] = 1.0 - (area[j] - free[j] + hit.mean() * free[j]) / area[j]
+        # spans alone: the covered length of each row (an upper bound where rays are still cast)
+        ok = area > 0
+        with np.errstate(invalid="ignore", divide="ignore"):
+            val = 1.0 - (area - free) / area
+        out[tr[ok]] = val[ok]
+        # the targets with hard occluders, uncovered pixels and (for the rule) not yet below it
+        jj = np.flatnonzero(ok & (hard_first[tr] != hard_last[tr]) & (free != 0) & ~(val < below))
+        if len(jj):
+            n_cells = (r_off[jj + 1] - r_off[jj]) * (kmax + 1)
+            cells = _ranges(r_off[jj] * (kmax + 1), n_cells)
+            runs = ((r_row[cells] - np.repeat(r_off[jj], n_cells), r_start[cells], r_len[cells]),
+                    np.r_[0, np.cumsum(n_cells)], clip[targets[tr[jj]], 1].astype(np.int64), cap)
+            out[tr[jj]] = _cast_hard(tr[jj], (area[jj], free[jj]), runs, targets,
+                                     (h_o, h_apart, hard_first, hard_last), (T, dims, nb), rays, below)
+    return out
+
+
+def _cast_hard(n, sizes, runs, targets, hard, boxes, rays: _Rays, below: float) -> np.ndarray:
+    """Visible fractions of the targets ``targets[n]`` (``sizes``: their silhouettes' pixel
+    counts and those not covered by their simple occluders; ``runs``: these pixels, the
+    arguments of :func:`_pick_pixels`) against their hard occluders (``hard``: occluders and
+    disjointness, the target ``n``'s from ``first[n]`` to ``last[n]``), the rays of all
+    targets unprojected and cast together. Where ``below > 0`` the picked pixels are cast in
+    :data:`STAGES` interleaved stages, and a target whose hits so far put it below ``below``
+    keeps that upper bound (a ray's hit does not depend on the others cast with it, and
+    every step of the fraction is monotone in the hit count: the last stage gives the
+    value of a single cast)."""
+    h_o, h_apart, first, last = hard
+    area, free = sizes
+    # (cast target, hard occluder) pairs
+    k = last[n] - first[n]
+    p_i = np.repeat(np.arange(len(n)), k)
+    p_h = first[n][p_i] + np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k)
+    stages = STAGES if below > 0 else 1
+    hits = np.zeros(len(n), np.int64)
+    out = np.full(len(n), np.nan)
+    todo = np.arange(len(n))
+    for s in range(stages):
+        pv, pu, g, count = _pick_pixels(*runs, (s, stages, todo))
+        at = np.full(len(n), -1)
+        at[todo] = np.arange(len(todo))
+        sel = at[p_i] >= 0
+        hit = _hard_hits(rays.at(pv, pu), np.bincount(at[g], minlength=len(todo)),
+                         targets[n[todo]], (at[p_i[sel]], h_o[p_h[sel]], h_apart[p_h[sel]]), boxes)
+        hits[todo] += np.bincount(at[g], weights=hit, minlength=len(todo)).astype(np.int64)
+        out[todo] = 1.0 - (area[todo] - free[todo] + hits[todo] / count[todo] * free[todo]) / area[todo]
+        todo = todo[out[todo] >= below]
+        if not len(todo):
+            break
     return out
 
 
@@ -537,16 +587,39 @@ def _occluder_spans(spans, at_t, occ, slot, rows, shape) -> tuple[np.ndarray, np
     return A, B
 
 
-def _pick_pixels(runs, v0, cap) -> tuple[np.ndarray, np.ndarray]:
-    """Rows and columns ``(pv, pu)`` of the uncovered pixel centres ``runs``
-    (:func:`_free_runs`, rows from ``v0``), at most ``cap`` of them, evenly spread."""
+def _pick_pixels(runs, seg, v0, cap, part=(0, 1, None)) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The uncovered pixel centres ``runs`` (:func:`_free_runs`) of several targets, target
+    ``g``'s runs from ``seg[g]`` to ``seg[g + 1]``, its rows counted from ``v0[g]``: at most
+    ``cap`` of each target's are picked, evenly spread. Returns the rows, columns and targets
+    ``(pv, pu, g)`` of the picked pixels of ``part`` ``(s, step, targets)`` (the ``s``-th,
+    ``s + step``-th, ... picked pixel of each of those targets, target by target; default:
+    all), and the picked count of every target.
+
+    >>> runs = (np.array([0, 1, 0]), np.array([3.0, 0.0, 5.0]), np.array([2.0, 1.0, 4.0]))
+    >>> pv, pu, g, count = _pick_pixels(runs, np.array([0, 2, 3]), np.array([10, 20]), 2)
+    >>> pv.tolist(), pu.tolist(), g.tolist(), count.tolist()
+    ([10, 11, 20, 20], [3, 0, 5, 8], [0, 0, 1, 1], [2, 2])
+    >>> _pick_pixels(runs, np.array([0, 2, 3]), np.array([10, 20]), 2, (1, 2, np.array([1])))[1].tolist()
+    [8]
+    """
     row, start, length = runs
-    free = int(length.sum())
-    pick = np.linspace(0, free - 1, cap).round().astype(np.int64) if free > cap else np.arange(free)
     csum = np.cumsum(length).astype(np.int64)
-    run = np.searchsorted(csum, pick, side="right")
-    pu = (start[run] + pick - (csum[run] - length[run])).astype(np.int64)
-    return row[run] + v0, pu
+    base = np.r_[0, csum][seg]  # the pixels before each target's
+    free = np.diff(base)
+    count = np.minimum(free, cap)
+    s, step, sel = part
+    sel = np.arange(len(free)) if sel is None else sel
+    m = np.maximum(count[sel] - s + step - 1, 0) // step  # picks s, s + step, ... below the count
+    pick = s + step * (np.arange(m.sum()) - np.repeat(np.cumsum(m) - m, m))
+    big = free[sel] > cap
+    if big.any():
+        spread = np.repeat(big, m)
+        pick[spread] = np.linspace(0, free[sel][big] - 1, cap)[s::step].round().astype(np.int64).T.ravel()
+    g = np.repeat(sel, m)
+    at = base[g] + pick
+    run = np.searchsorted(csum, at, side="right")
+    pu = (start[run] + at - (csum[run] - length[run])).astype(np.int64)
+    return row[run] + v0[g], pu, g, count
 
 
 def _free_runs(lo: np.ndarray, hi: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -582,31 +655,73 @@ def _free_runs(lo: np.ndarray, hi: np.ndarray, a: np.ndarray, b: np.ndarray) -> 
     return np.repeat(np.arange(len(lo)), k + 1), np.where(length > 0, start, 0), length
 
 
-def _hard_hits(r, t, hard, hard_apart, boxes) -> np.ndarray:
-    """Which rays ``r (k, 3)`` of target ``t`` (NaN: no ray) first enter one of the occluders
-    ``hard``: a disjoint one (``hard_apart``, in front) wherever they enter it, an intersecting
-    one where they enter it before ``t``. Only the rays inside an occluder's normalised box
-    are slab-tested against it (no other ray can enter it). ``boxes``: ``(T, dims, nb)``."""
+def _hard_hits(r, counts, tgt, pairs, boxes) -> np.ndarray:
+    """Which rays ``r (P, 3)`` (NaN: no ray; ``counts (G,)`` consecutive ones of each target
+    ``tgt (G,)``) first enter one of their target's hard occluders (``pairs``: target
+    position, ascending, occluder and disjointness arrays): a disjoint one (in front) wherever
+    they enter it, an intersecting one where they enter it before their target. Only the rays
+    inside an occluder's normalised box, and not yet hit by the target's earlier occluders,
+    are slab-tested against it (the first occluder of every target at once, then the second,
+    ..., in batches of :data:`CHUNK`). ``boxes``: ``(T, dims, nb)``."""
     T, dims, nb = boxes
+    pg, po, pa = pairs
     good = np.isfinite(r).all(axis=1)
     r = np.where(good[:, None], r, 0.0)
     with np.errstate(invalid="ignore", divide="ignore"):
         x, y = r[:, 0] / r[:, 2], r[:, 1] / r[:, 2]
+    off = np.r_[0, np.cumsum(counts)]
     hit = np.zeros(len(r), bool)
-    e_t = None
-    for o, ap in zip(hard, hard_apart, strict=True):
-        b = nb[o]
-        sel = np.flatnonzero(good & ~hit & (x >= b[0]) & (x <= b[2]) & (y >= b[1]) & (y <= b[3]))
-        if not len(sel):
-            continue
-        e = _entry_one(r[sel], T[o], dims[o])
-        if ap:
-            hit[sel[np.isfinite(e)]] = True
-        else:
-            if e_t is None:
-                e_t = _entry_one(r, T[t], dims[t])
-            hit[sel[e < e_t[sel]]] = True
+    rank = np.arange(len(pg)) - np.searchsorted(pg, pg)  # the occluder's rank among its target's
+    for k in range(int(rank.max()) + 1 if len(pg) else 0):
+        pk = np.flatnonzero(rank == k)
+        csum = np.cumsum(counts[pg[pk]])
+        start = 0
+        while start < len(pk):
+            stop = max(int(np.searchsorted(csum, (csum[start - 1] if start else 0) + CHUNK, side="right")), start + 1)
+            q = pk[start:stop]
+            n_p = counts[pg[q]]
+            e_pair = np.repeat(np.arange(len(q)), n_p)
+            ray = _ranges(off[pg[q]], n_p)
+            b = [np.repeat(nb[po[q], i], n_p) for i in range(4)]
+            xr, yr = x[ray], y[ray]
+            keep = good[ray] & ~hit[ray] & (xr >= b[0]) & (xr <= b[2]) & (yr >= b[1]) & (yr <= b[3])
+            ray, e_pair = ray[keep], e_pair[keep]
+            e = _segment_entry(r[ray], np.searchsorted(e_pair, np.arange(len(q) + 1)), po[q], (T, dims))
+            cover = np.isfinite(e)
+            sub = np.flatnonzero(~pa[q][e_pair])  # intersecting: entered before the target
+            if len(sub):
+                e_t = _segment_entry(r[ray[sub]], np.searchsorted(e_pair[sub], np.arange(len(q) + 1)),
+                                     tgt[pg[q]], (T, dims))
+                cover[sub] = e[sub] < e_t
+            hit[ray[cover]] = True
+            start = stop
     return hit
+
+
+def _segment_entry(r: np.ndarray, bounds: np.ndarray, box: np.ndarray, boxes) -> np.ndarray:
+    """Entry distances (:func:`ray_box_entry`) of consecutive segments of rays ``r (P, 3)``
+    (segment ``i`` from ``bounds[i]`` to ``bounds[i + 1]``), each into its box ``box[i]``
+    (``boxes``: ``(T, dims)``): one matrix product per segment (a row's product does not
+    depend on the other rows), then one slab test of all."""
+    T, dims = boxes
+    d = np.empty_like(r)
+    o = np.empty((len(box), 3))
+    for i, b in enumerate(box):
+        R = T[b, :3, :3]
+        o[i] = -(T[b, :3, 3] @ R)
+        if bounds[i + 1] > bounds[i]:
+            d[bounds[i]:bounds[i + 1]] = r[bounds[i]:bounds[i + 1]] @ R
+    seg = np.repeat(np.arange(len(box)), np.diff(bounds))
+    return _slab_entry(o[seg], d, 0.5 * dims[box][seg])
+
+
+def _ranges(start: np.ndarray, length: np.ndarray) -> np.ndarray:
+    """The indices ``start[i] .. start[i] + length[i] - 1`` of every range, one after the other.
+
+    >>> _ranges(np.array([5, 0]), np.array([2, 3])).tolist()
+    [5, 6, 0, 1, 2]
+    """
+    return np.repeat(start - np.cumsum(length) + length, length) + np.arange(length.sum())
 
 
 def _slab(rays: np.ndarray, R: np.ndarray, o: np.ndarray, half: np.ndarray) -> np.ndarray:
@@ -644,10 +759,7 @@ def _cast(camera, T, dims, busy, cand_t, cand_o, bb, clip, whole, grid, lut):
     # pixel centres (a subset of the image's pixels when the box has more than grid per axis)
     pu = (lo_u[owner] + np.rint((k % nu[owner]) * su[owner])).astype(np.int64)
     pv = (lo_v[owner] + np.rint((k // nu[owner]) * sv[owner])).astype(np.int64)
-    if lut.rays is None and len(pu) > camera.resolution[0] * camera.resolution[1] // 2:
-        lut.get()
-    rays = lut.rays[pv, pu] if lut.rays is not None else camera.unproject(
-        np.stack([pu, pv], axis=1).astype(np.float64))
+    rays = lut.at(pv, pu)
     good = np.isfinite(rays).all(axis=-1)
     rays = np.where(good[:, None], rays, 0.0).astype(np.float32)
     half = (0.5 * dims).astype(np.float32)
@@ -734,8 +846,10 @@ def pair_visibility(camera, T_gt_world: np.ndarray, T_view_gt: np.ndarray, frame
     candidates : (C, 2) int64
         The candidates: a box and the novel view it is paired with.
     min_visible : float, optional
-        Candidates less visible than this in the GT view are not cast in the novel view
-        (their ``novel_visible`` is NaN).
+        The rule's threshold, for a caller that drops the candidates below it in either view:
+        candidates less visible than this in the GT view are not cast in the novel view (their
+        ``novel_visible`` is NaN), and a fraction found below it before its rays are cast is
+        returned as that upper bound (still below ``min_visible``). 0: every value exact.
 
     Returns
     -------
@@ -751,7 +865,8 @@ def pair_visibility(camera, T_gt_world: np.ndarray, T_view_gt: np.ndarray, frame
     need = np.zeros(len(fr), bool)
     need[box_index] = True
     lut = _Rays(camera)  # the image's rays, shared by the GT and the novel views
-    gt = _visible_fractions(camera, T_cam, dims_lwh, group=fr, only=need, grid=GRID, rays=lut)[box_index]
+    gt = _visible_fractions(camera, T_cam, dims_lwh, group=fr, only=need, grid=GRID, rays=lut,
+                            below=min_visible)[box_index]
     nv = np.full(len(box_index), np.nan)
     go = np.flatnonzero(gt >= min_visible) if min_visible > 0 else np.arange(len(box_index))
     if len(go) == 0:
@@ -775,5 +890,6 @@ def pair_visibility(camera, T_gt_world: np.ndarray, T_view_gt: np.ndarray, frame
     pos = start_of[g_of] + rank[box_index]
     want = np.zeros(len(box_of), bool)
     want[pos] = True
-    nv[go] = _visible_fractions(camera, T_nv, dims_lwh[box_of], group=grp, only=want, grid=GRID, rays=lut)[pos]
+    nv[go] = _visible_fractions(camera, T_nv, dims_lwh[box_of], group=grp, only=want, grid=GRID, rays=lut,
+                                below=min_visible)[pos]
     return gt, nv
