@@ -8,8 +8,10 @@ the study does not show (its pairs are left out of ``annotate build``, so the vo
 thresholds are those of the two-method clip). It measures what NVRQ-CA sees off the path when
 nothing is wrong with the render: the change of viewpoint against the recorded GT crop.
 
-The clip is 2 s at 480x270, 5 fps, seed 0 (3 automobile tracks); what it shows: see the
-comments at the asserts."""
+The clip is 2 s at 480x270, 5 fps, seed 0 (3 automobile tracks), its pairs at ``--min-visible 0``
+(the paper's protocol); what it shows: see the comments at the asserts. At the default visibility
+rule this clip keeps one automobile track; docs/FORMATS.md ("What a horizon sees") gives what
+other clips show there."""
 
 from __future__ import annotations
 
