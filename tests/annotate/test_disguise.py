@@ -79,19 +79,14 @@ def test_strip_metadata_undoes_the_salt():
     assert zlib.crc32(b"") == 0  # (zlib imported for the PNG chunk layout the app writes)
 
 
-def _served(study, design):
-    """{key: [stripped bytes per crop column]} as the app would serve them (salted per side)
-    to one rater: every item but the gold items of the pool that rater is not shown (issue 38
-    item 31: a rater's gold is a draw of 2 x n_gold from a pool GOLD_POOL times larger)."""
+def _served(study, design, keys=None):
+    """{key: [stripped bytes per crop column]} of the items ``keys`` (default: every item) as
+    the app would serve them (salted per side); a rater's own items: :func:`_rater_view`."""
     cols = ("ref_file", "a_file", "b_file") if design == "pairwise" else ("ref_file", "ren_file")
-    mine = {k for _after, k in study.plan_for("attacker")["specials"]}
-    out = {}
-    for key, it in study.items.iterrows():
-        if it["kind"] == "gold" and key not in mine:
-            continue
-        out[key] = [strip_metadata(salted_image((study.root / "crops" / it[c]).read_bytes(),
-                                                f"{key}|{c}".encode())) for c in cols]
-    return out
+    items = study.items if keys is None else study.items.loc[keys]
+    return {key: [strip_metadata(salted_image((study.root / "crops" / it[c]).read_bytes(),
+                                              f"{key}|{c}".encode())) for c in cols]
+            for key, it in items.iterrows()}
 
 
 def _decode(data: bytes) -> np.ndarray:
@@ -121,7 +116,7 @@ def built(request, tmp_path_factory):
     # is the same on every run; the crops are drawn from the study's seed
     (root / "secrets.json").write_text(json.dumps({"admin_token": f"disguise-{design}-{fmt}"}))
     s = load_study(root)
-    return s, design, _served(s, design)
+    return s, design, _served(s, design, _rater_view(s, "attacker"))
 
 
 def test_no_two_served_crops_share_their_bytes(built):
@@ -176,11 +171,7 @@ def _rater_view(study, rater: str):
 
 def test_decoded_pixels_do_not_find_gold_or_repeats(built):
     s, design, served = built
-    cols = ("ref_file", "a_file", "b_file") if design == "pairwise" else ("ref_file", "ren_file")
-    every = {key: [strip_metadata(salted_image((s.root / "crops" / it[c]).read_bytes(),
-                                               f"{key}|{c}".encode())) for c in cols]
-             for key, it in s.items.iterrows()}
-    pix = {k: [_decode(b) for b in crops] for k, crops in every.items()}
+    pix = {k: [_decode(b) for b in crops] for k, crops in _served(s, design).items()}
     # good gold: reference and render the same picture (pairwise: the closer of A and B, as
     # the gold's A is meant to be the closer one); the verdict of each of RATERS raters' own
     # view, so that it does not hang on which secret this build drew
