@@ -386,13 +386,16 @@ def project_boxes(
                                     frame, corners, views, min_side=min_side, min_area=min_area)
     b_i, k_i = np.nonzero(code == 0)
     T_gt_world, T_view_gt = view_transforms(arrays["T_sensor_rig"], arrays["T_rig_world"][None], views)
-    # every value exact (the table shows the dropped boxes' too), the novel view not cast below the rule
+    gv = visible_fractions(model, np.matmul(T_gt_world[0], arrays["T_box_world"]), arrays["dims_lwh"])
+    # the novel view cast only where the GT view meets the rule, and exactly (min_visible 0: no
+    # upper bounds), as the table shows the dropped boxes' values too
+    if min_visible > 0:
+        b_i, k_i = b_i[gv[b_i] >= min_visible], k_i[gv[b_i] >= min_visible]
     _, nv = pair_visibility(model, T_gt_world, T_view_gt, frame, arrays["T_box_world"], arrays["dims_lwh"],
                             np.stack([b_i, k_i], axis=1))
-    gv = visible_fractions(model, np.matmul(T_gt_world[0], arrays["T_box_world"]), arrays["dims_lwh"])
     vis = np.full((2, m, k), np.nan)
     vis[0] = gv[:, None]
-    vis[1, b_i, k_i] = np.where(gv[b_i] >= min_visible, nv, np.nan) if min_visible > 0 else nv
+    vis[1, b_i, k_i] = nv
     if min_visible > 0:
         code[(code == 0) & ~((vis[0] >= min_visible) & (vis[1] >= min_visible))] = 4
     reasons = np.array(["", *DROP_REASONS[1:]], dtype=object)
