@@ -34,6 +34,7 @@ from analysis.common.choices import (
     DEFAULT_MARGIN,
     DEFAULT_SHARE,
     METHODS,
+    MIN_CLASS_VOTES,
     MIN_CLUSTERS,
     PATHS,
     RANK_BY,
@@ -202,6 +203,10 @@ def _horizon_options(p: ArgumentParser) -> None:
                    help="with --horizon and votes: the per-view threshold is where P(good | METRIC) = P "
                    "on a monotone (isotonic) fit of the votes inside each view (default), or on one "
                    "logistic with an intercept per view and a shared slope")
+    p.add_argument("--no-class-thresholds", dest="by_class", action="store_false",
+                   help="with --horizon and votes: one threshold per view for every class (default: a "
+                   f"class with at least {MIN_CLASS_VOTES} votes at a view, good and bad, gets its own "
+                   "threshold there)")
     p.add_argument("--no-floor", dest="floor", action="store_false",
                    help="with --horizon --threshold: apply VALUE to METRIC itself even where the pairs "
                    "hold a viewpoint floor")
@@ -231,8 +236,8 @@ def _floor_options(p: ArgumentParser) -> None:
 
 
 #: The options that need --horizon (argparse dests).
-HORIZON_DESTS = ("metric", "threshold", "threshold_table", "pooled_threshold", "view_fit", "floor", "share",
-                 "good_prob", "window_s")
+HORIZON_DESTS = ("metric", "threshold", "threshold_table", "pooled_threshold", "view_fit", "by_class", "floor",
+                 "share", "good_prob", "window_s")
 
 
 def _output_options(p: ArgumentParser) -> None:
@@ -260,7 +265,7 @@ NOT_FOR = {
                         "floor_metrics"),
                        "they rank methods by Bradley-Terry and metrics by 2AFC agreement"),
     "--pairs": (("exclude_raters", "no_screen", "screen", "stability", "aggregate", "good_prob",
-                 "pooled_threshold", "view_fit"),
+                 "pooled_threshold", "view_fit", "by_class"),
                 "there are no votes: no raters to screen, labels to aggregate or P(good) to fit"),
 }
 
@@ -466,7 +471,8 @@ def _horizon_options_of(args):
     from analysis.horizon import HorizonOptions
 
     return HorizonOptions(metric=args.metric, threshold=args.threshold, threshold_table=args.threshold_table,
-                          pooled=args.pooled_threshold, view_fit=args.view_fit, floor=args.floor,
+                          pooled=args.pooled_threshold, view_fit=args.view_fit, by_class=args.by_class,
+                          floor=args.floor,
                           share=args.share,
                           good_prob=args.good_prob, window_s=args.window_s, min_clusters=args.min_clusters,
                           n_boot=args.bootstrap, seed=args.seed)

@@ -74,6 +74,9 @@ class HorizonOptions:
         With votes: one threshold for every view (the pooled logistic) instead of one per view.
     view_fit : {'monotone', 'logistic'}
         With votes: the per-view fit (:func:`analysis.stats.horizon_views.people_views`).
+    by_class : bool
+        With votes and a threshold per view: each class also gets its own threshold at the views
+        where it has enough votes (:func:`analysis.stats.horizon_views.people_views`).
     floor : bool
         With a given ``threshold``: apply it to the excess over the viewpoint floor where the
         items have one (:func:`analysis.stats.horizon_views.floor_views`); False: to the metric itself.
@@ -84,6 +87,7 @@ class HorizonOptions:
     threshold_table: str | None = None
     pooled: bool = False
     view_fit: str = "monotone"
+    by_class: bool = True
     floor: bool = True
     share: float = DEFAULT_SHARE
     good_prob: float = 0.5
@@ -133,7 +137,7 @@ class HorizonResult:
 #: horizon.json's ``threshold_kind`` of each row: where its threshold came from.
 THRESHOLD_KINDS = {
     "people_view": "people: a threshold per view (a monotone fit per view, or a logistic with an "
-                   "intercept per view and a shared slope)",
+                   "intercept per view and a shared slope), of the row's class where it has enough votes there",
     "people_pooled": "people: one logistic for every view",
     "given": "given: one threshold for every view",
     "given_view": "given: a per-view threshold table",
@@ -226,9 +230,9 @@ def _people_views(votes, items, metric, higher, fits, opts) -> tuple[Threshold, 
     ok = np.isfinite(x)
     table = it.loc[ok, [c for c in PERTURBATION_COLUMNS if c in it.columns]].assign(
         x=x[ok], vote=v["vote"].to_numpy(np.float64)[ok], rater=pd.factorize(rater[ok])[0],
-        track=pd.factorize(track[ok])[0])
+        track=pd.factorize(track[ok])[0], label_class=it["label_class"].astype(str).to_numpy()[ok])
     views = people_views(metric, table, good_prob=opts.good_prob, n_boot=opts.n_boot, seed=opts.seed,
-                         fit=opts.view_fit, increasing=higher)
+                         fit=opts.view_fit, increasing=higher, by_class=opts.by_class)
     row = fits.set_index("metric").loc[metric]
     if not np.isfinite(views["threshold"]).any():
         raise InputError(param="metric", field=metric, expected="a metric whose votes give a threshold per "

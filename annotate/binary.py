@@ -4,8 +4,9 @@ An item shows the GT crop (Reference) and one render of one pair; the rater vote
 or bad (0). :class:`BinaryDesign` is the default design of ``annotate build``
 (:class:`annotate.design.Design`):
 
-- choose: tracks spread over strata, frames along each track, every chosen view
-  (:func:`annotate.design.select_test_pairs`) give the test items; training items come from
+- choose: tracks spread over strata, frames along each track, every chosen view (tracks
+  seen at only some views fill in when too few hold all of them;
+  :func:`annotate.design.select_test_pairs`) give the test items; training items come from
   other pairs (:func:`annotate.design.pick_training`); hidden gold items alternate
   ``gold-good:<pair_id>`` (the GT crop against a copy of the GT image, must be rated good)
   and ``gold-bad:<pair_id>`` (against a severely broken copy,

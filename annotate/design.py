@@ -164,8 +164,9 @@ def choose_views(spec: str, pairs: pd.DataFrame) -> list[str]:
     return _view_keys(choose_offsets(spec, lat["y_offset_m"]))
 
 
-def usable_frames(pairs: pd.DataFrame, offsets: list) -> pd.DataFrame:
-    """One row per (clip_id, track_id, camera, timestamp_us) holding every chosen view.
+def usable_frames(pairs: pd.DataFrame, offsets: list, *, min_views: int | None = None) -> pd.DataFrame:
+    """One row per (clip_id, track_id, camera, timestamp_us) holding every chosen view (or at
+    least ``min_views`` of them).
 
     ``offsets``: view labels, or lateral offsets in metres. Columns: clip_id, track_id,
     camera, timestamp_us, label_class + attribute columns.
@@ -176,6 +177,8 @@ def usable_frames(pairs: pd.DataFrame, offsets: list) -> pd.DataFrame:
         The pairs table, one row per object and view.
     offsets : list
         View labels, or lateral offsets in metres.
+    min_views : int, optional
+        The fewest chosen views a frame must hold (default: all of them).
 
     Returns
     -------
@@ -187,7 +190,7 @@ def usable_frames(pairs: pd.DataFrame, offsets: list) -> pd.DataFrame:
     df = df[df["_cm"].isin(want)]
     keys = ["clip_id", "track_id", "camera", "timestamp_us"]
     counts = df.groupby(keys, sort=True)["_cm"].nunique()
-    full = counts[counts == len(want)].index
+    full = counts[counts >= (len(want) if min_views is None else min_views)].index
     first = df.drop_duplicates(keys).set_index(keys)
     cols = ["label_class", *attribute_columns(pairs)]
     return first.loc[full, cols].reset_index()
@@ -249,7 +252,10 @@ def spread_frames(n: int, k: int) -> list[int]:
 def select_test_pairs(pairs: pd.DataFrame, *, offsets: list[float], n_tracks: int,
                       frames_per_track: int, rng: np.random.Generator
                       ) -> tuple[pd.DataFrame, list[dict]]:
-    """Test pairs of the design and a JSON-able record of the chosen tracks and frames.
+    """Test pairs of the design and a JSON-able record of the chosen tracks and frames: tracks
+    with a frame holding every view first (:func:`usable_frames`), then, when they are fewer
+    than ``n_tracks``, tracks whose frames hold at least two of the views, with the views they
+    have (:func:`_partial_frames`; docs/FORMATS.md §8, "Tracks and frames").
 
     Parameters
     ----------
@@ -272,10 +278,16 @@ def select_test_pairs(pairs: pd.DataFrame, *, offsets: list[float], n_tracks: in
         The chosen tracks and frames (manifest ``tracks``).
     """
     frames = usable_frames(pairs, offsets)
+    chosen = choose_tracks(frames, n_tracks, rng) if len(frames) else []
+    if len(chosen) < n_tracks:  # too few tracks seen at every view: fill with tracks seen at some
+        some = _partial_frames(pairs, offsets, frames)
+        if len(some):
+            chosen += choose_tracks(some, n_tracks - len(chosen), rng)
+            frames = pd.concat([frames, some], ignore_index=True)
     if frames.empty:
         raise InputError("pairs", "y_offset_m",
-                         f"at least one (track, frame) holding every view {offsets}", "none")
-    chosen = choose_tracks(frames, n_tracks, rng)
+                         f"at least one (track, frame) holding {min(2, len(offsets))} of the views {offsets}",
+                         "none")
     record, keep = [], []
     for clip_id, track_id in chosen:
         tf = frames[(frames["clip_id"] == clip_id) & (frames["track_id"] == track_id)]
@@ -294,6 +306,17 @@ def select_test_pairs(pairs: pd.DataFrame, *, offsets: list[float], n_tracks: in
     order = ["y_offset_m", *[c for c in EXTRA_PERTURBATION_COLUMNS if c in sel.columns]]
     return sel.sort_values(["clip_id", "track_id", "timestamp_us", "camera", *order], kind="stable"
                            ).reset_index(drop=True), record
+
+
+def _partial_frames(pairs: pd.DataFrame, offsets: list, full: pd.DataFrame) -> pd.DataFrame:
+    """The frames holding at least two of the chosen views (one, where one is chosen) of the
+    tracks that hold every view in none of their frames (:func:`usable_frames`' rows). Under a
+    visibility rule (``nvrq pairs --min-visible``) an object hidden at some views still shows
+    at the others: a study would otherwise rate only the few tracks never hidden."""
+    some = usable_frames(pairs, offsets, min_views=min(2, len(set(_view_keys(offsets)))))
+    seen = pd.MultiIndex.from_frame(full[["clip_id", "track_id"]].astype(str))
+    keep = ~pd.MultiIndex.from_frame(some[["clip_id", "track_id"]].astype(str)).isin(seen)
+    return some[keep].reset_index(drop=True)
 
 
 def _box_side(rows: pd.DataFrame) -> pd.Series | None:
@@ -375,7 +398,7 @@ def choose_tests(table: pd.DataFrame, rng: np.random.Generator, opts: StudyOptio
     Raises
     ------
     InputError
-        Offsets the table lacks, or no frame holding every chosen view.
+        Offsets the table lacks, or no frame holding two of the chosen views.
     """
     views = choose_views(opts.offsets, table)
     offsets = views if has_views else sorted(float(v.partition("=")[2] or 0) for v in views)
@@ -533,7 +556,7 @@ class Design(Protocol):
         ------
         InputError
             Options the table cannot satisfy (offsets or methods it lacks, no frame holding
-            every chosen view).
+            two of the chosen views).
         """
         ...
 

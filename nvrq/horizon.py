@@ -43,9 +43,9 @@ from data_schema.errors import InputError, check_number
 from data_schema.perturbation import AXES, AXIS_UNITS, axes, axis_values, perturbation_array
 from nvrq.choices import WINDOW_S_RANGE
 
-__all__ = ["HORIZON_COLUMNS", "TIMELINE_COLUMNS", "VIEW_COLUMNS", "DIRECTIONS", "DEFAULT_SHARE",
+__all__ = ["ALL_CLASSES", "HORIZON_COLUMNS", "TIMELINE_COLUMNS", "VIEW_COLUMNS", "DIRECTIONS", "DEFAULT_SHARE",
            "MIN_CLUSTERS", "Threshold", "view_keys", "trust_horizon", "horizon_timeline", "share_curves",
-           "resolve_metric", "row_source"]
+           "class_rows", "resolve_metric", "row_source"]
 
 #: horizon.csv (docs/FORMATS.md §15).
 HORIZON_COLUMNS = ["method", "label_class", "axis", "direction", "horizon", "crossing", "ci_lo",
@@ -56,7 +56,11 @@ TIMELINE_COLUMNS = ["clip_id", "camera", "t0_us", "t1_us", "axis", "direction", 
 #: A per-view threshold table (:attr:`Threshold.views`): ``axis`` is ``'none'`` for the
 #: recorded view (offset 0) and a name of :data:`data_schema.perturbation.AXES` otherwise;
 #: ``offset`` the signed offset along it at 0.01 precision (metres or degrees).
+#: A table may also hold ``label_class``: a row naming a class judges that class's objects at its
+#: view, over the row of :data:`ALL_CLASSES` (or no class) there, which judges every other class.
 VIEW_COLUMNS = ["axis", "offset", "threshold", "source"]
+#: ``label_class`` of a per-view threshold that judges every class.
+ALL_CLASSES = "all"
 #: Per axis: the names of its positive and negative direction (rig frame: x forward, y left, z up).
 DIRECTIONS = {"x": ("forward", "back"), "y": ("left", "right"), "z": ("up", "down"),
               "roll": ("+", "-"), "pitch": ("+", "-"), "yaw": ("+", "-")}
@@ -197,14 +201,40 @@ def view_keys(axis: np.ndarray, value: np.ndarray) -> pd.MultiIndex:
     return pd.MultiIndex.from_arrays([np.asarray(axis, object), off], names=["axis", "offset"])
 
 
-def _view_thresholds(th: Threshold, axis: np.ndarray, value: np.ndarray) -> np.ndarray:
-    """(N,) each row's threshold: ``th.value``, or its view's in ``th.views`` (offset 0 is the
-    recorded view whatever its axis)."""
+def class_rows(views: pd.DataFrame) -> np.ndarray:
+    """(V,) bool: the rows of a per-view threshold table that judge one class only (a
+    ``label_class`` other than :data:`ALL_CLASSES`, empty or missing).
+
+    Parameters
+    ----------
+    views : pandas.DataFrame
+        A per-view threshold table (:data:`VIEW_COLUMNS`, optionally ``label_class``).
+
+    Returns
+    -------
+    numpy.ndarray
+    """
+    if "label_class" not in views.columns:
+        return np.zeros(len(views), bool)
+    c = views["label_class"]
+    return (c.notna() & ~c.astype(str).isin([ALL_CLASSES, "", "nan"])).to_numpy()
+
+
+def _view_table(views: pd.DataFrame) -> pd.Series:
+    """The thresholds of ``views`` indexed by :func:`view_keys` (offset 0 is the recorded view
+    whatever its axis)."""
+    off = np.round(views["offset"].to_numpy(np.float64), 2)
+    ax = np.where((views["axis"].astype(str) == "none") | (off == 0), "none", views["axis"].astype(str))
+    return pd.Series(views["threshold"].to_numpy(np.float64), index=view_keys(ax.astype(object), off))
+
+
+def _view_thresholds(th: Threshold, axis: np.ndarray, value: np.ndarray, cls: np.ndarray) -> np.ndarray:
+    """(N,) each row's threshold: ``th.value``, or its view's in ``th.views``: the row of its
+    class ``cls`` there if the table has one, else the row for every class."""
     if th.views is None:
         return np.full(len(axis), th.value)
-    off = np.round(th.views["offset"].to_numpy(np.float64), 2)
-    ax = np.where((th.views["axis"].astype(str) == "none") | (off == 0), "none", th.views["axis"].astype(str))
-    table = pd.Series(th.views["threshold"].to_numpy(np.float64), index=view_keys(ax.astype(object), off))
+    mine = class_rows(th.views)
+    table = _view_table(th.views[~mine])
     keys = view_keys(axis, value)
     pos = table.index.get_indexer(keys)
     single = np.isin(axis, AXES) | (axis == "none")
@@ -213,14 +243,22 @@ def _view_thresholds(th: Threshold, axis: np.ndarray, value: np.ndarray) -> np.n
         views = sorted({f"{a} {o:+g}" if a != "none" else "the recorded view" for a, o in keys[missing]})
         raise InputError(param="threshold", field="views", expected="a finite threshold at every view "
                          "of the grid", got="none at " + ", ".join(views))
-    return np.where(pos >= 0, table.to_numpy()[np.maximum(pos, 0)], np.nan)
+    out = np.where(pos >= 0, table.to_numpy()[np.maximum(pos, 0)], np.nan)
+    if not mine.any():
+        return out
+    for c, rows in th.views[mine].groupby(th.views.loc[mine, "label_class"].astype(str), sort=True):
+        t = _view_table(rows[np.isfinite(rows["threshold"].to_numpy(np.float64))])
+        at = np.flatnonzero(cls == c)
+        p = t.index.get_indexer(keys[at])
+        out[at[p >= 0]] = t.to_numpy()[p[p >= 0]]
+    return out
 
 
 def _rows(scores: pd.DataFrame, th: Threshold) -> _Rows:
     s = scores[np.isfinite(pd.to_numeric(scores[th.metric], errors="coerce").to_numpy(np.float64))]
     v = s[th.metric].to_numpy(np.float64)
     P = perturbation_array(s)
-    limit = _view_thresholds(th, axes(P), axis_values(P))
+    limit = _view_thresholds(th, axes(P), axis_values(P), s["label_class"].astype(str).to_numpy())
     good = v >= limit if th.good_above else v <= limit
     ids = [s[c].astype(str) for c in ("clip_id", "track_id") if c in s.columns]
     # codes in sorted (clip_id, track_id) order: the bootstrap draws the same tracks whatever the row order
@@ -401,19 +439,22 @@ def trust_horizon(scores: pd.DataFrame, *, threshold, share: float = DEFAULT_SHA
            for key, axis, d, r in _horizons(rows, th, ["method", "label_class"], opts)]
     t = pd.DataFrame(out, columns=[*HORIZON_COLUMNS, "n_objects", "grid", "share"])
     t = t.assign(metric=th.metric, threshold=th.value if th.views is None else math.nan,
-                 threshold_source=[row_source(th, a) for a in t["axis"]])
+                 threshold_source=[row_source(th, a, c) for a, c in zip(t["axis"], t["label_class"], strict=True)])
     return _sorted(t[HORIZON_COLUMNS], "label_class")
 
 
-def row_source(th: Threshold, axis: str) -> str:
+def row_source(th: Threshold, axis: str, label_class: str | None = None) -> str:
     """The threshold source of a horizon row along ``axis``: ``th.source``, or with per-view
-    thresholds the distinct sources of the axis' views and the recorded view's, joined by ``'; '``.
+    thresholds the distinct sources of the views that judged the row (the axis' and the
+    recorded view's; those of ``label_class`` where the table has them), joined by ``'; '``.
 
     Parameters
     ----------
     th : Threshold
     axis : str
         An axis of :data:`data_schema.perturbation.AXES`.
+    label_class : str, optional
+        The row's class.
 
     Returns
     -------
@@ -422,7 +463,11 @@ def row_source(th: Threshold, axis: str) -> str:
     if th.views is None:
         return th.source
     v = th.views[th.views["axis"].isin([axis, "none"])]
-    return "; ".join(dict.fromkeys(v["source"].astype(str))) or th.source
+    mine = class_rows(v)
+    own = v[mine & (v["label_class"].astype(str) == str(label_class)).to_numpy()] if mine.any() else v[mine]
+    used = _view_table(own[np.isfinite(own["threshold"].to_numpy(np.float64))]).index
+    rest = v[~mine][~_view_table(v[~mine]).index.isin(used)]
+    return "; ".join(dict.fromkeys([*own["source"].astype(str), *rest["source"].astype(str)])) or th.source
 
 
 def _sorted(t: pd.DataFrame, cls: str) -> pd.DataFrame:

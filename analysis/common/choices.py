@@ -11,7 +11,7 @@ without importing the analyses (SciPy, scikit-learn, matplotlib).
 
 from __future__ import annotations
 
-__all__ = ["METHODS", "RANK_BY", "DEFAULT_MARGIN", "MIN_CLUSTERS", "PATHS", "DEFAULT_SHARE", "VIEW_FITS"]
+__all__ = ["METHODS", "RANK_BY", "DEFAULT_MARGIN", "MIN_CLUSTERS", "PATHS", "DEFAULT_SHARE", "MIN_CLASS_VOTES", "VIEW_FITS"]
 
 #: How votes become item labels: majority vote (GVF) or a crowd-kit model (analysis.tables.aggregate).
 METHODS = ("majority", "dawid-skene", "glad", "mace")
@@ -31,6 +31,9 @@ PATHS = ("off-path", "on-path")
 #: The share of good objects each offset up to the trust horizon needs (``analyze --share``;
 #: :data:`nvrq.horizon.DEFAULT_SHARE`, restated here for ``analyze --help``).
 DEFAULT_SHARE = 0.9
+#: The fewest votes a class needs at a view, good and bad among them, for a per-view threshold
+#: of its own there (``analyze --horizon``; ``--no-class-thresholds`` turns it off).
+MIN_CLASS_VOTES = 10
 #: The per-view fits of people's votes for the trust horizon (``analyze --view-fit``;
 #: :func:`analysis.stats.horizon_views.people_views`): isotonic inside each view, or a logistic with an
 #: intercept per view and a shared slope.

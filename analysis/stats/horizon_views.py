@@ -33,20 +33,20 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.common.choices import VIEW_FITS
+from analysis.common.choices import MIN_CLASS_VOTES, VIEW_FITS
 from data_schema.errors import InputError
 from data_schema.perturbation import AXES, axes, axis_values, perturbation_array
 from data_schema.text import plural
-from nvrq.horizon import VIEW_COLUMNS, view_keys
+from nvrq.horizon import ALL_CLASSES, VIEW_COLUMNS, class_rows, view_keys
 
-__all__ = ["FLOOR_METHODS", "PEOPLE_VIEW_COLUMNS", "VIEW_FITS", "grid_of", "people_views", "read_view_table",
+__all__ = ["FLOOR_METHODS", "MIN_CLASS_VOTES", "PEOPLE_VIEW_COLUMNS", "VIEW_FITS", "grid_of", "people_views", "read_view_table",
            "viewpoint_floor", "floor_views", "view_label"]
 
 #: The methods whose pairs give the viewpoint floor, in order of preference.
 FLOOR_METHODS = ("perfect", "floor")
 #: horizon_view_thresholds.csv: one row per view of the grid (ratings).
-PEOPLE_VIEW_COLUMNS = ["metric", "axis", "offset", "threshold", "ci_lo", "ci_hi", "good_prob", "slope",
-                       "n_votes", "source", "reason"]
+PEOPLE_VIEW_COLUMNS = ["metric", "label_class", "axis", "offset", "threshold", "ci_lo", "ci_hi", "good_prob",
+                       "slope", "n_votes", "source", "reason"]
 
 
 def view_label(axis: str, offset: float) -> str:
@@ -87,8 +87,9 @@ def grid_of(items: pd.DataFrame) -> list[tuple[str, float]]:
 
 
 def people_views(metric: str, votes: pd.DataFrame, *, good_prob: float, n_boot: int, seed: int,
-                 fit: str = "monotone", increasing: bool = True) -> pd.DataFrame:
-    """Per-view thresholds of ``metric`` from the votes (module docstring).
+                 fit: str = "monotone", increasing: bool = True, by_class: bool = False) -> pd.DataFrame:
+    """Per-view thresholds of ``metric`` from the votes (module docstring), for every class
+    together and, with ``by_class``, for each class at the views where it has its own votes.
 
     Parameters
     ----------
@@ -96,8 +97,8 @@ def people_views(metric: str, votes: pd.DataFrame, *, good_prob: float, n_boot: 
         The metric's column (named in the table).
     votes : pandas.DataFrame
         One row per vote: ``x`` (the metric at its item, finite), ``vote`` (1 good, 0 bad),
-        ``rater`` and ``track`` (integer codes 0..R-1 and 0..T-1), and its item's perturbation
-        columns (which give the view).
+        ``rater`` and ``track`` (integer codes 0..R-1 and 0..T-1), its item's perturbation
+        columns (which give the view) and, with ``by_class``, ``label_class``.
     good_prob : float
         The P(good) of the threshold, in (0, 1).
     n_boot, seed : int
@@ -107,13 +108,43 @@ def people_views(metric: str, votes: pd.DataFrame, *, good_prob: float, n_boot: 
         :func:`analysis.stats.horizon_fit.view_thresholds`.
     increasing : bool, optional
         Higher is better (the monotone fit's direction; the logistic finds it from its slope).
+    by_class : bool, optional
+        Where the votes hold two classes or more, also fit each class (``votes['label_class']``)
+        alone, and keep its threshold at each view where it has at least
+        :data:`analysis.common.choices.MIN_CLASS_VOTES` votes, good and bad among them (at
+        the same severity, objects of different sizes score differently: one threshold per view
+        for every class misjudges some of them).
 
     Returns
     -------
     pandas.DataFrame
-        :data:`PEOPLE_VIEW_COLUMNS`, one row per view cell of the votes (views along several
-        axes at once are left out); ``slope`` is the logistic's (NaN for the monotone fit).
+        :data:`PEOPLE_VIEW_COLUMNS`, one row per view cell of the votes with ``label_class``
+        :data:`nvrq.horizon.ALL_CLASSES`, then the class rows (views along several axes at
+        once are left out); ``slope`` is the logistic's (NaN for the monotone fit).
     """
+    rows = _people_views(metric, votes, good_prob, n_boot, seed, fit, increasing)
+    if not by_class or votes["label_class"].nunique() < 2:  # one class: its rows would be these
+        return rows
+    out = [rows]
+    for cls, sub in votes.groupby(votes["label_class"].astype(str), sort=True):
+        P = perturbation_array(sub)
+        names = axes(P)
+        single = np.isin(names, (*AXES, "none"))
+        cell = pd.DataFrame({"k": view_keys(names[single], axis_values(P)[single]),
+                             "vote": sub["vote"].to_numpy(np.float64)[single]})
+        stats = cell.groupby("k")["vote"].agg(["size", "min", "max"])
+        ok = stats[(stats["size"] >= MIN_CLASS_VOTES) & (stats["min"] < stats["max"])].index
+        if not len(ok):
+            continue
+        own = _people_views(metric, sub, good_prob, n_boot, seed, fit, increasing)
+        keep = view_keys(own["axis"].to_numpy(object), own["offset"].to_numpy(np.float64)).isin(ok)
+        out.append(own[keep].assign(label_class=cls, source=own["source"].str.replace(
+            "people, per view:", f"people, per view for class {cls}:", regex=False)))
+    return pd.concat(out, ignore_index=True)[PEOPLE_VIEW_COLUMNS]
+
+
+def _people_views(metric, votes, good_prob, n_boot, seed, fit, increasing) -> pd.DataFrame:
+    """:func:`people_views` of every class together."""
     P = perturbation_array(votes)
     names = axes(P)
     single = np.isin(names, (*AXES, "none"))
@@ -132,7 +163,7 @@ def people_views(metric: str, votes: pd.DataFrame, *, good_prob: float, n_boot: 
     source = (f"people, per view: P(good) = {good_prob:g} on {how}, fitted to {plural(len(x), 'vote')} of "
               f"{plural(R, 'rater')}")
     rows = [_view_row(est, k, reps, why, (lo, hi, up, good_prob)) for k in range(len(views))]
-    return pd.DataFrame([{"metric": metric, "axis": a, "offset": o, **r, "good_prob": good_prob,
+    return pd.DataFrame([{"metric": metric, "label_class": ALL_CLASSES, "axis": a, "offset": o, **r, "good_prob": good_prob,
                           "slope": est.get("b", math.nan), "source": source}
                          for (a, o), r in zip(views, rows, strict=True)], columns=PEOPLE_VIEW_COLUMNS)
 
@@ -202,8 +233,9 @@ def read_view_table(path, grid, *, metric: str) -> pd.DataFrame:
     path : str or Path
         A CSV with ``offset`` and ``threshold`` and optionally ``axis`` (a name of
         :data:`data_schema.perturbation.AXES`; default ``y``; offset 0 is the recorded view
-        whatever its axis) and ``metric`` (then it must name the horizon's metric). A study's
-        ``horizon_view_thresholds.csv`` is such a table.
+        whatever its axis), ``metric`` (then it must name the horizon's metric) and
+        ``label_class`` (a row naming a class judges that class only; ``all`` or empty: every
+        class). A study's ``horizon_view_thresholds.csv`` is such a table.
     grid : sequence of tuple
         The views the horizon judges (:func:`grid_of`).
     metric : str
@@ -212,13 +244,14 @@ def read_view_table(path, grid, *, metric: str) -> pd.DataFrame:
     Returns
     -------
     pandas.DataFrame
-        :data:`nvrq.horizon.VIEW_COLUMNS`, one row per view of the table.
+        :data:`nvrq.horizon.VIEW_COLUMNS` (and ``label_class`` when the table has it), one row
+        per view (and class) of the table.
 
     Raises
     ------
     InputError
-        A missing column, a view twice, another metric, or a view of the grid without a finite
-        threshold.
+        A missing column, a view twice (for one class), another metric, or a view of the grid
+        without a finite threshold for every class.
     """
     from data_schema.tables import read_table
 
@@ -242,17 +275,26 @@ def read_view_table(path, grid, *, metric: str) -> pd.DataFrame:
     table = pd.DataFrame({"axis": keys.get_level_values(0), "offset": keys.get_level_values(1),
                           "threshold": t["threshold"].to_numpy(np.float64),
                           "source": f"given, per view ({Path(path).name})"})
-    dup = table.duplicated(["axis", "offset"])
+    cols = list(VIEW_COLUMNS)
+    if "label_class" in t.columns:
+        table["label_class"] = t["label_class"].fillna(ALL_CLASSES).astype(str).replace("", ALL_CLASSES).to_numpy()
+        cols.append("label_class")
+        mine = class_rows(table)
+        table.loc[mine, "source"] = [f"given, per view for class {c} ({Path(path).name})"
+                                     for c in table.loc[mine, "label_class"]]
+    dup = table.duplicated([*cols[3:], "axis", "offset"])
     if dup.any():
         r = table[dup].iloc[0]
-        raise InputError(path, "offset", "one threshold per view", f"{view_label(r['axis'], r['offset'])} twice")
-    have = {k for k, v in zip(zip(table["axis"], table["offset"], strict=True), table["threshold"], strict=True)
+        raise InputError(path, "offset", "one threshold per view" + (" and class" if len(cols) > 4 else ""),
+                         f"{view_label(r['axis'], r['offset'])} twice")
+    common = table[~class_rows(table)]
+    have = {k for k, v in zip(zip(common["axis"], common["offset"], strict=True), common["threshold"], strict=True)
             if math.isfinite(v)}
     missing = [view_label(*k) for k in grid if k not in have]
     if missing:
-        raise InputError(path, "threshold", "a finite threshold for every view of the grid",
-                         f"none for {', '.join(missing)}")
-    return table[VIEW_COLUMNS]
+        raise InputError(path, "threshold", "a finite threshold for every view of the grid"
+                         + (" (label_class all)" if len(cols) > 4 else ""), f"none for {', '.join(missing)}")
+    return table[cols]
 
 
 def viewpoint_floor(items: pd.DataFrame, metric: str) -> pd.DataFrame:

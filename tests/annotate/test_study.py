@@ -41,6 +41,37 @@ def test_spread_frames_and_usable_frames_hand_examples():
     # only (a, t=0) holds both offsets 0 and 1
     got = usable_frames(pairs, [0.0, 1.0])
     assert got[["track_id", "timestamp_us"]].values.tolist() == [["a", 0]]
+    # at least one of them: every frame
+    got = usable_frames(pairs, [0.0, 1.0], min_views=1)
+    assert got[["track_id", "timestamp_us"]].values.tolist() == [["a", 0], ["a", 1], ["b", 0]]
+
+
+def test_tracks_hidden_at_some_views_fill_the_study(toy_inputs, tmp_path):
+    from annotate.study import build_study, load_study
+
+    scene, pairs_path = toy_inputs
+    pairs = pd.read_csv(pairs_path)
+    # a visibility rule dropped trk-1 at +1 m in every frame and trk-2 at -1 and +1 m: trk-1
+    # still holds two of the three views in each frame, trk-2 only one
+    hidden = ((pairs["track_id"] == "trk-1") & (pairs["y_offset_m"] == 1.0)) | (
+        (pairs["track_id"] == "trk-2") & (pairs["y_offset_m"] != 0.0))
+    cut = tmp_path / "pairs_rule.csv"
+    pairs[~hidden].to_csv(cut, index=False)
+
+    def study(name, tracks):
+        return load_study(build_study(tmp_path / name, cut, scene=str(scene), tracks=tracks, frames_per_track=2,
+                                      n_training=0, n_gold=0, n_repeats=0, size=64, progress=False))
+
+    # enough tracks seen at every view (trk-0, trk-3): only those, every view of their frames
+    two = study("two", 2)
+    assert sorted(t["track_id"] for t in two.manifest.tracks) == ["trk-0", "trk-3"]
+    # more wanted than that: trk-1 fills in with the views it has (hand count: 2 full tracks x 2
+    # frames x 3 views + trk-1 x 2 frames x 2 views); trk-2, seen at one view, never does
+    four = study("four", 4)
+    tests = four.items[four.items["kind"] == "test"]
+    assert sorted(t["track_id"] for t in four.manifest.tracks) == ["trk-0", "trk-1", "trk-3"]
+    assert len(tests) == 2 * 2 * 3 + 2 * 2
+    assert sorted(set(tests.loc[tests["track_id"] == "trk-1", "y_offset_m"])) == [-1.0, 0.0]
 
 
 def test_choose_tracks_round_robin_over_strata():

@@ -935,6 +935,24 @@ def _(world, tmp):
                                      "--out", str(tmp / "r")), ["thresholds.csv", "threshold", f"y {views[-1]:+g}"]
 
 
+@case("horizon", "a per-view threshold table with a class row twice")
+def _(world, tmp):
+    pairs = pd.read_csv(world / "toy" / "pairs.csv")
+    views = sorted(set(pairs["y_offset_m"].round(2)))
+    table = tmp / "thresholds.csv"
+    rows = pd.DataFrame({"offset": views, "threshold": 25.0, "label_class": "all"})
+    extra = pd.DataFrame({"offset": [views[-1]] * 2, "threshold": [20.0, 21.0], "label_class": "automobile"})
+    pd.concat([rows, extra]).to_csv(table, index=False)
+    return "analyze", _horizon_pairs(world, "--metric", "psnr", "--threshold-table", str(table),
+                                     "--out", str(tmp / "r")), ["thresholds.csv", "view and class", "twice"]
+
+
+@case("horizon", "--no-class-thresholds with --pairs")
+def _(world, tmp):
+    return "analyze", _horizon_pairs(world, "--metric", "psnr", "--threshold", "25", "--no-class-thresholds",
+                                     "--out", str(tmp / "r")), ["--no-class-thresholds", "--pairs"]
+
+
 @case("horizon", "--threshold with --threshold-table")
 def _(world, tmp):
     table = tmp / "thresholds.csv"

@@ -179,3 +179,65 @@ def test_an_impossible_threshold_is_clipped_to_the_rated_values():
     lo, hi = x.min(), x.max()
     assert r["value"] in (lo, hi) and "clipped to" in r["reason"]
     assert np.isnan(r["ci_lo"]) or lo <= r["ci_lo"] <= r["value"] <= r["ci_hi"] <= hi
+
+
+def _class_votes() -> pd.DataFrame:
+    """At +1 m, cars turn good from 0.3 on and buses from 0.7 on (each rated value voted 3 times);
+    at the recorded view every vote is good."""
+    rows = []
+    for cls, xs in (("automobile", (0.1, 0.2, 0.3, 0.4)), ("bus", (0.5, 0.6, 0.7, 0.8))):
+        for i, x in enumerate(xs):
+            for r in range(3):
+                rows.append({"label_class": cls, "y_offset_m": 1.0, "x": x, "vote": float(i >= 2), "rater": r,
+                             "track": i})
+                rows.append({"label_class": cls, "y_offset_m": 0.0, "x": 0.9, "vote": 1.0, "rater": r, "track": i})
+    return pd.DataFrame(rows)
+
+
+def test_each_class_gets_its_own_threshold_where_it_has_the_votes():
+    votes = _class_votes()
+    per = people_views("score", votes, good_prob=0.5, n_boot=0, seed=0, by_class=True).set_index(
+        ["label_class", "offset"])
+    # every class together (pool-adjacent-violators by hand: 0, 0, .5, .5, .5, .5, 1, 1 over
+    # 0.1..0.8): P(good) reaches 0.5 at 0.3, the midpoint with 0.2 is 0.25
+    assert per.loc[("all", 1.0), "threshold"] == pytest.approx(0.25)
+    # each class alone: cars between 0.2 and 0.3, buses between 0.6 and 0.7
+    assert per.loc[("automobile", 1.0), "threshold"] == pytest.approx(0.25)
+    assert per.loc[("bus", 1.0), "threshold"] == pytest.approx(0.65)
+    assert per.loc[("bus", 1.0), "source"].startswith("people, per view for class bus:")
+    # the recorded view: every vote good, no class row (it needs good and bad votes)
+    assert ("bus", 0.0) not in per.index and ("all", 0.0) in per.index
+    # fewer than MIN_CLASS_VOTES (10) votes at a view: no class row either
+    few = people_views("score", votes[votes["rater"] < 2], good_prob=0.5, n_boot=0, seed=0, by_class=True)
+    assert set(few["label_class"]) == {"all"}
+    assert set(people_views("score", votes, good_prob=0.5, n_boot=0, seed=0)["label_class"]) == {"all"}
+
+    # the horizon judges a bus at +1 m scoring 0.6 by the bus row (bad), a car at 0.3 by the
+    # car row (good); without the class rows both are good
+    s = pd.DataFrame({"clip_id": "c", "track_id": ["a", "a", "b", "b"], "label_class": ["automobile"] * 2 + ["bus"] * 2,
+                      "y_offset_m": [0.0, 1.0] * 2, "score": [0.9, 0.3, 0.9, 0.6]})
+    views = per.reset_index()
+    h = trust_horizon(s, threshold=Threshold("score", np.nan, views=views), n_boot=0).set_index("label_class")
+    assert h.loc["automobile", "horizon"] == 1.0 and h.loc["bus", "horizon"] == 0.0
+    assert h.loc["bus", "threshold_source"].startswith("people, per view for class bus:")
+    assert h.loc["automobile", "threshold_source"].startswith("people, per view for class automobile:")
+    pooled = trust_horizon(s, threshold=Threshold("score", np.nan, views=views[views["label_class"] == "all"]),
+                           n_boot=0).set_index("label_class")
+    assert (pooled["horizon"] == 1.0).all()
+
+
+def test_a_user_table_may_give_class_rows(tmp_path):
+    grid = [("none", 0.0), ("y", 1.0)]
+    path = tmp_path / "t.csv"
+    pd.DataFrame({"offset": [0.0, 1.0, 1.0], "threshold": [0.1, 0.2, 0.5],
+                  "label_class": ["", "", "bus"]}).to_csv(path, index=False)
+    t = read_view_table(path, grid, metric="score")
+    assert t["label_class"].tolist() == ["all", "all", "bus"]
+    pd.DataFrame({"offset": [0.0, 1.0, 1.0], "threshold": [0.1, 0.5, 0.6],
+                  "label_class": ["all", "bus", "bus"]}).to_csv(path, index=False)
+    with pytest.raises(InputError, match="one threshold per view and class"):
+        read_view_table(path, grid, metric="score")
+    # class rows alone do not cover the grid: every view needs a row for every class
+    pd.DataFrame({"offset": [0.0, 1.0], "threshold": [0.1, 0.5], "label_class": ["all", "bus"]}).to_csv(path, index=False)
+    with pytest.raises(InputError, match="none for y \\+1"):
+        read_view_table(path, grid, metric="score")
