@@ -64,6 +64,12 @@ STAGES = 4
 
 _EDGES = [(a, b) for a in range(8) for b in range(a + 1, 8)
           if np.count_nonzero(CORNER_SIGNS[a] != CORNER_SIGNS[b]) == 1]
+#: The near plane ``z = _NEAR`` (metres) where boxes are cut before they are projected to
+#: normalised coordinates (no camera model projects a point with ``z <= 0``).
+_NEAR = 1e-3
+#: Margins (share of its size on each side) tried, smallest first, around the normalised
+#: box of the image border's rays, for the field of view of a camera whose edges curve.
+_FOV_MARGINS = (0.05, 0.1, 0.2)
 
 
 def ray_box_entry(rays: np.ndarray, T_box_cam: np.ndarray, dims_lwh: np.ndarray) -> np.ndarray:
@@ -169,6 +175,15 @@ class _Rays:
         self.camera, self.width = camera, w
         self.rays = None if rays is None else np.asarray(rays, np.float64).reshape(h * w, 3)
         self.have = None  # (H * W,) bool: the pixels unprojected so far (None: all, or none asked yet)
+        self._fov = False  # not found yet
+
+    @property
+    def fov(self) -> tuple[float, float, float, float, float] | None:
+        """The camera's field of view in normalised coordinates (:func:`_field_of_view`),
+        found once."""
+        if self._fov is False:
+            self._fov = _field_of_view(self.camera)
+        return self._fov
 
     def at(self, pv: np.ndarray, pu: np.ndarray) -> np.ndarray:
         """Rays ``(P, 3)`` through pixels ``(pu, pv)``; a pixel's ray does not depend on the
@@ -176,12 +191,9 @@ class _Rays:
         idx = pv * self.width + pu
         if self.rays is None:
             w, h = self.camera.resolution
-            self.rays, self.have = np.full((h * w, 3), np.nan), np.zeros(h * w, bool)
+            self.rays, self.have = np.empty((h * w, 3)), np.zeros(h * w, bool)  # read only where had
         if self.have is not None:
-            new = np.zeros_like(self.have)
-            new[idx] = True
-            new &= ~self.have
-            miss = np.flatnonzero(new)
+            miss = np.unique(idx[~self.have[idx]])
             if len(miss):
                 uv = np.stack([miss % self.width, miss // self.width], axis=1).astype(np.float64)
                 self.rays[miss] = self.camera.unproject(uv)
@@ -223,7 +235,7 @@ def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: 
     if len(rest):
         ol.add(rest)
         clip = ol.clip()
-    whole = ol.ok.all(axis=1) & ol.done
+    whole = ol.whole
     # wholly projected pairs: their pixel boxes (with a margin for curved edges) overlap too
     bb = ol.bb
     lap = ((bb[cand_o, 0] - MARGIN_PX <= bb[cand_t, 2]) & (bb[cand_o, 2] + MARGIN_PX >= bb[cand_t, 0])
@@ -234,6 +246,16 @@ def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: 
     apart, o_front = _separated(T, 0.5 * dims, cand_t, cand_o)
     keep = ~apart | o_front
     cand_t, cand_o, apart = cand_t[keep], cand_o[keep], apart[keep]
+    # a disjoint occluder in front that does not project whole, of a target that does: its
+    # part inside the field of view is drawn too (or covers nothing in the image)
+    cut = apart & whole[cand_t] & ~whole[cand_o]
+    if cut.any() and rays.fov is not None:
+        ol.cut(np.unique(cand_o[cut]), corners, rays.fov)
+        cb = ol.cut_bb
+        lap = ((cb[cand_o, 0] - MARGIN_PX <= bb[cand_t, 2]) & (cb[cand_o, 2] + MARGIN_PX >= bb[cand_t, 0])
+               & (cb[cand_o, 1] - MARGIN_PX <= bb[cand_t, 3]) & (cb[cand_o, 3] + MARGIN_PX >= bb[cand_t, 1]))
+        keep = ~cut | lap | ~ol.cut_done[cand_o]  # nothing inside the field of view (NaN): dropped
+        cand_t, cand_o, apart = cand_t[keep], cand_o[keep], apart[keep]
     counts = np.bincount(cand_t, minlength=n)
     out[targets[counts[targets] == 0]] = 1.0
     # wholly projected boxes: their silhouette's pixel centres (raster); the others: ray grids
@@ -242,8 +264,8 @@ def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: 
     ray = busy[~whole[busy]]
     if len(ras):
         sel = np.isin(cand_t, ras)
-        out[ras] = _raster(camera, T, dims, ol.outline, ras, (cand_t[sel], cand_o[sel], apart[sel]), clip, whole,
-                           nb, rays, (4 * grid * grid, below))
+        out[ras] = _raster((T, dims, nb), ol, ras, (cand_t[sel], cand_o[sel], apart[sel]), rays,
+                           (4 * grid * grid, below))
     if len(ray):
         sel = np.isin(cand_t, ray)
         out[ray] = _cast(camera, T, dims, ray, cand_t[sel], cand_o[sel], bb, clip, whole, grid, rays)
@@ -253,7 +275,9 @@ def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: 
 class _Outlines:
     """The projected outlines of boxes, projected as they are asked for (:meth:`add`):
     ``outline (N, K, 2)`` and ``ok (N, K)`` (:func:`_project_outlines`), the pixel boxes
-    ``bb (N, 4)`` of the points that project (NaN where none) and ``done (N,)``."""
+    ``bb (N, 4)`` of the points that project (NaN where none) and ``done (N,)``; for boxes
+    that do not project whole, the outline of their part inside the field of view
+    (:meth:`cut`)."""
 
     def __init__(self, camera, T: np.ndarray, dims: np.ndarray):
         self.camera, self.T, self.dims = camera, T, dims
@@ -262,6 +286,9 @@ class _Outlines:
         self.ok = np.zeros(self.outline.shape[:2], bool)
         self.bb = np.full((len(T), 4), np.nan)
         self.done = np.zeros(len(T), bool)
+        self.cut_pts: dict[int, np.ndarray] = {}
+        self.cut_bb = np.full((len(T), 4), np.nan)  # the pixel boxes of those outlines
+        self.cut_done = np.zeros(len(T), bool)
 
     def add(self, sel: np.ndarray) -> None:
         """Project the boxes ``sel``."""
@@ -272,12 +299,168 @@ class _Outlines:
         self.bb[s] = np.stack([np.nanmin(q[..., 0], 1), np.nanmin(q[..., 1], 1),
                                np.nanmax(q[..., 0], 1), np.nanmax(q[..., 1], 1)], axis=1)
 
-    def clip(self) -> np.ndarray:
-        """The silhouettes' pixel boxes ``(N, 4)``, clipped to the image."""
+    @property
+    def whole(self) -> np.ndarray:
+        """``(N,) bool``: the boxes projected, every outline point of them projectable."""
+        return self.ok.all(axis=1) & self.done
+
+    def cut(self, sel: np.ndarray, corners: np.ndarray, fov) -> None:
+        """Outline the parts of the boxes ``sel`` (corners ``(N, 8, 3)``, camera frame) inside
+        the field of view ``fov`` (:func:`_fov_outlines`); ``cut_done``: where that was done
+        (a box with no such part keeps a NaN ``cut_bb``)."""
+        pts = _fov_outlines(self.camera, self.T[sel], self.dims[sel], corners[sel], fov)
+        for b, p in zip(sel.tolist(), pts, strict=True):
+            self.cut_done[b] = p is not None
+            if p is not None and len(p):
+                self.cut_pts[b] = p
+                self.cut_bb[b] = (p[:, 0].min(), p[:, 1].min(), p[:, 0].max(), p[:, 1].max())
+
+    def drawn(self) -> np.ndarray:
+        """``(N,) bool``: the boxes with a whole outline or one cut to the field of view."""
+        return self.whole | np.isfinite(self.cut_bb[:, 0])
+
+    def points(self, boxes: np.ndarray) -> list[np.ndarray]:
+        """The outline points ``(K, 2)`` float32 of each drawn box of ``boxes``."""
+        out = list(self.outline[boxes].astype(np.float32))
+        for i, b in enumerate(boxes.tolist()):
+            if b in self.cut_pts:
+                out[i] = self.cut_pts[b]
+        return out
+
+    def clip(self, bb: np.ndarray | None = None) -> np.ndarray:
+        """The silhouettes' pixel boxes ``(N, 4)`` (default ``bb``), clipped to the image."""
         w, h = self.camera.resolution
-        bb = self.bb
+        bb = self.bb if bb is None else bb
         return np.stack([np.maximum(np.floor(bb[:, 0]), 0), np.maximum(np.floor(bb[:, 1]), 0),
                          np.minimum(np.ceil(bb[:, 2]), w - 1), np.minimum(np.ceil(bb[:, 3]), h - 1)], axis=1)
+
+    def drawn_clip(self) -> np.ndarray:
+        """:meth:`clip` of the drawn boxes' outlines (the cut one where a box has it)."""
+        return self.clip(np.where(np.isfinite(self.cut_bb[:, :1]), self.cut_bb, self.bb))
+
+
+def _field_of_view(camera) -> tuple[float, float, float, float, float] | None:
+    """A rectangle ``x0, y0, x1, y1`` of normalised coordinates ``(x / z, y / z)`` holding the
+    ray of every pixel centre, and the longest step between outline samples along a straight
+    line in it (``inf`` for an undistorted pinhole, whose lines stay straight), such that the
+    camera projects the whole rectangle (it lies where the model is valid and does not fold)
+    and its border, sampled at that step, stays outside the image: a polygon clipped to it
+    and projected keeps every pixel centre of the unclipped silhouette. ``None`` where no
+    such rectangle is found (a pixel without a ray: a fisheye's border); the boxes that do
+    not project whole are then ray-cast.
+
+    >>> from nvrq.geometry.cameras import camera_from_model
+    >>> cam = camera_from_model({"type": "pinhole", "resolution": [5, 3], "focal_length": [1, 1],
+    ...                          "principal_point": [2, 1]})
+    >>> _field_of_view(cam)
+    (-3.5, -2.5, 3.5, 2.5, inf)
+    """
+    w, h = camera.resolution
+    if _straight(camera):  # the image rectangle, 1 pixel larger on each side
+        (fx, fy), (cx, cy) = camera.focal_length, camera.principal_point
+        return (float((-1.5 - cx) / fx), float((-1.5 - cy) / fy), float((w + 0.5 - cx) / fx),
+                float((h + 0.5 - cy) / fy), float("inf"))
+    u, v = np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64)
+    border = np.concatenate([np.stack([u, np.zeros(w)], 1), np.stack([u, np.full(w, h - 1.0)], 1),
+                             np.stack([np.zeros(h), v], 1), np.stack([np.full(h, w - 1.0), v], 1)])
+    r = camera.unproject(border)
+    if not (np.isfinite(r).all() and (r[:, 2] > 0).all()):
+        return None
+    xy = r[:, :2] / r[:, 2:]
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    fine = np.linspace(0.0, 1.0, 1025)[:, None]
+    for m in _FOV_MARGINS:
+        x0, y0 = lo - m * (hi - lo)
+        x1, y1 = hi + m * (hi - lo)
+        step = min(x1 - x0, y1 - y0) / 16
+        sides = [((x0, y0), (x1, y0)), ((x1, y0), (x1, y1)), ((x1, y1), (x0, y1)), ((x0, y1), (x0, y0))]
+        ok, out, sag = True, np.inf, 0.0
+        for a, b in sides:
+            a, b = np.array(a), np.array(b)
+            pts = a + fine * (b - a)
+            uv, good = camera.project(np.c_[pts, np.ones(len(pts))])
+            if not good.all():
+                ok = False
+                break
+            # how far outside the image (pixel centres' rectangle, half a pixel larger)
+            dist = np.max([-0.5 - uv[:, 0], uv[:, 0] - (w - 0.5), -0.5 - uv[:, 1], uv[:, 1] - (h - 0.5)], axis=0)
+            out = min(out, dist.min())
+            k = max(2, 2 * int(step / np.hypot(*(b - a)) * (len(fine) - 1) / 2))  # fine samples per step
+            sag = max(sag, np.hypot(*(uv[k // 2:len(uv) - k // 2] - 0.5 * (uv[:-k] + uv[k:])).T).max())
+        if ok and out > sag + 1.0:
+            return float(x0), float(y0), float(x1), float(y1), float(step)
+    return None
+
+
+def _fov_outlines(camera, T: np.ndarray, dims: np.ndarray, corners: np.ndarray, fov) -> list[np.ndarray]:
+    """The outlines (pixels, ``(K, 2)`` float32 each; empty where none, ``None`` where a point
+    did not project) of the parts of boxes
+    inside the field of view ``fov`` (:func:`_field_of_view`) and in front of ``z = _NEAR``.
+
+    That part is a convex polyhedron (the box cut by five planes: the near plane and the
+    four through the camera centre and the rectangle's sides), and its silhouette in
+    normalised coordinates is the convex hull of its vertices: the box corners inside the
+    five half-spaces, the points where box edges cross one of the planes, and those where the
+    lines of two planes (the rectangle's corner rays, its sides on the near plane) enter and
+    leave the box; a vertex of the planes alone (a corner ray on the near plane, inside the box)
+    sees the same ray leave the box. For a camera whose edges curve, the hull's edges are
+    sampled (at most ``fov``'s step apart, :data:`OUTLINE_SAMPLES` per edge at least) and
+    projected; every point projected lies inside the rectangle."""
+    x0, y0, x1, y1, step = fov
+    n_pl = np.array([[0.0, 0, 1], [1, 0, -x0], [-1, 0, x1], [0, 1, -y0], [0, -1, y1]])
+    c_pl = np.array([_NEAR, 0, 0, 0, 0])
+    a = corners[:, [i for i, _ in _EDGES]]
+    b = corners[:, [j for _, j in _EDGES]]
+    sa, sb = a @ n_pl.T - c_pl, b @ n_pl.T - c_pl  # (N, 12, 5)
+    cross = sa * sb < 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = np.where(cross, sa / np.where(cross, sa - sb, 1.0), np.nan)
+    on_edges = a[:, :, None] + t[..., None] * (b - a)[:, :, None]  # (N, 12, 5, 3)
+    # the lines of two planes: origin and direction
+    p0 = np.array([[0.0, 0, 0]] * 4 + [[x0 * _NEAR, 0, _NEAR], [x1 * _NEAR, 0, _NEAR],
+                                       [0, y0 * _NEAR, _NEAR], [0, y1 * _NEAR, _NEAR]])
+    d = np.array([[x0, y0, 1.0], [x1, y0, 1], [x1, y1, 1], [x0, y1, 1], [0, 1, 0], [0, 1, 0], [1, 0, 0], [1, 0, 0]])
+    R = T[:, :3, :3]
+    o = np.einsum("nji,nlj->nli", R, p0[None] - T[:, None, :3, 3])  # (N, 8, 3) in the box frames
+    dl = np.einsum("nji,lj->nli", R, d)
+    half = 0.5 * dims[:, None, :]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t1, t2 = (-half - o) / dl, (half - o) / dl
+    par = dl == 0
+    inside = np.abs(o) <= half
+    lo = np.where(par, np.where(inside, -np.inf, np.inf), np.fmin(t1, t2)).max(axis=-1)
+    hi = np.where(par, np.where(inside, np.inf, -np.inf), np.fmax(t1, t2)).min(axis=-1)
+    meet = np.isfinite(lo) & np.isfinite(hi) & (lo <= hi)
+    tl = np.where(meet[..., None], np.stack([lo, hi], axis=-1), np.nan)  # (N, 8, 2)
+    on_lines = p0[None, :, None] + tl[..., None] * d[None, :, None]  # (N, 8, 2, 3)
+    pts = np.concatenate([corners, on_edges.reshape(len(T), -1, 3), on_lines.reshape(len(T), -1, 3)], axis=1)
+    tol = 1e-9 * (1.0 + np.abs(pts).max(axis=-1, initial=0.0, where=np.isfinite(pts)))
+    with np.errstate(invalid="ignore"):
+        good = np.isfinite(pts).all(axis=-1) & (pts @ n_pl.T - c_pl >= -tol[..., None]).all(axis=-1)
+    xy = np.zeros(pts.shape[:2] + (2,))
+    xy[good] = pts[good][:, :2] / pts[good][:, 2:]
+    xy[..., 0] = np.clip(xy[..., 0], x0, x1)
+    xy[..., 1] = np.clip(xy[..., 1], y0, y1)
+    polys = [xy[i][good[i]] for i in range(len(T))]
+    if np.isfinite(step) and len(polys):  # sample the hull's edges
+        import cv2
+
+        hulls = [cv2.convexHull(p.astype(np.float32)).reshape(-1, 2).astype(np.float64) if len(p) else p
+                 for p in polys]
+        ne = np.array([len(hh) for hh in hulls])
+        p = np.concatenate(hulls)
+        q = np.concatenate([np.roll(hh, -1, axis=0) for hh in hulls])
+        ns = np.maximum(np.ceil(np.hypot(*(q - p).T) / step), OUTLINE_SAMPLES).astype(np.int64)
+        e = np.repeat(np.arange(len(p)), ns)
+        f = (np.arange(ns.sum()) - np.repeat(np.cumsum(ns) - ns, ns)) / ns[e]
+        per_box = np.bincount(np.repeat(np.arange(len(T)), ne), weights=ns, minlength=len(T)).astype(np.int64)
+        polys = np.split(p[e] + f[:, None] * (q - p)[e], np.cumsum(per_box)[:-1])
+    flat = np.concatenate(polys)
+    uv, ok = camera.project(np.c_[flat, np.ones(len(flat))])
+    split = np.cumsum([len(p) for p in polys])[:-1]
+    # a box with a point that does not project (not expected: the rectangle projects whole): None
+    return [u.astype(np.float32) if k.all() else None for u, k in zip(np.split(uv, split), np.split(ok, split),
+                                                                       strict=True)]
 
 
 def _straight(camera) -> bool:
@@ -306,7 +489,7 @@ def _normalized_boxes(corners: np.ndarray) -> np.ndarray:
     project nothing else), and a convex body in front of the camera maps to the convex hull of
     its vertices, so the box of the clipped vertices (corners in front, and edges cut at
     ``z = eps``) bounds every ray that can enter it."""
-    eps = 1e-3
+    eps = _NEAR
     out = np.full((len(corners), 4), np.nan)
     ahead = corners[..., 2] >= eps
     front = ahead.all(axis=1)  # wholly in front: the box of its corners
@@ -406,13 +589,13 @@ def _separated(T: np.ndarray, half: np.ndarray, a: np.ndarray, b: np.ndarray) ->
     return apart, b_front
 
 
-def _hulls(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _hulls(points: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The silhouette polygons of projected boxes: the convex hulls of their projected outline
-    points ``(B, K, 2)`` -> their edges ``(p, q)``, each ``(E, 2)``, stacked box by box, and
-    the edge count of each box ``(B,)``."""
+    points (each ``(K, 2)`` float32) -> their edges ``(p, q)``, each ``(E, 2)``, stacked box
+    by box, and the edge count of each box ``(B,)``."""
     import cv2
 
-    hulls = [cv2.convexHull(pts) for pts in points.astype(np.float32)]
+    hulls = [cv2.convexHull(pts) for pts in points]
     ne = np.array([len(h) for h in hulls], np.int64)
     if not hulls:
         return np.zeros((0, 2)), np.zeros((0, 2)), ne
@@ -422,22 +605,23 @@ def _hulls(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return p, p[nxt], ne
 
 
-def _box_spans(outline: np.ndarray, boxes: np.ndarray, clip: np.ndarray):
-    """Row spans of the silhouettes of ``boxes`` on the rows of their clipped pixel boxes,
-    stacked: ``(first row (B,), offsets (B + 1,), lo, hi)``, box ``i``'s spans being
-    ``lo[offsets[i]:offsets[i + 1]]`` from row ``first[i]`` on: the first and last column
-    whose pixel centre lies inside the silhouette polygon (:func:`_hulls`; first > last where
-    none). Edge by edge: each hull edge meets only the rows between its ends.
+def _box_spans(points: list[np.ndarray], v0: np.ndarray, v1: np.ndarray):
+    """Row spans of the silhouettes of boxes (their outline points, each ``(K, 2)`` float32)
+    on their rows ``v0 .. v1`` (each ``(B,)``), stacked: ``(first row (B,), offsets (B + 1,),
+    lo, hi)``, box ``i``'s spans being ``lo[offsets[i]:offsets[i + 1]]`` from row ``first[i]``
+    on: the first and last column whose pixel centre lies inside the silhouette polygon
+    (:func:`_hulls`; first > last where none). Edge by edge: each hull edge meets only the
+    rows between its ends.
 
-    >>> square = np.array([[[0.5, 0.0], [4.0, 0.0], [4.0, 2.0], [0.5, 2.0]]])
-    >>> first, off, lo, hi = _box_spans(square, np.array([0]), np.array([[0.0, 0, 4, 3]]))
+    >>> square = np.array([[0.5, 0.0], [4.0, 0.0], [4.0, 2.0], [0.5, 2.0]], np.float32)
+    >>> first, off, lo, hi = _box_spans([square], np.array([0.0]), np.array([3.0]))
     >>> first.tolist(), lo.tolist(), hi.tolist()
     ([0], [1.0, 1.0, 1.0, inf], [4.0, 4.0, 4.0, -inf])
     """
-    p, q, ne = _hulls(outline[boxes])
-    e_box = np.repeat(np.arange(len(boxes)), ne)
-    v0 = clip[boxes, 1].astype(np.int64)
-    v1 = clip[boxes, 3].astype(np.int64)
+    p, q, ne = _hulls(points)
+    e_box = np.repeat(np.arange(len(ne)), ne)
+    v0 = np.asarray(v0).astype(np.int64)
+    v1 = np.asarray(v1).astype(np.int64)
     nrow = np.maximum(v1 - v0 + 1, 0)
     off = np.r_[0, np.cumsum(nrow)]
     y0, y1 = p[:, 1], q[:, 1]
@@ -446,37 +630,48 @@ def _box_spans(outline: np.ndarray, boxes: np.ndarray, clip: np.ndarray):
     cnt = np.maximum(r1 - r0 + 1, 0)
     e = np.repeat(np.arange(len(p)), cnt)
     v = (r0[e] + np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)).astype(np.float64)
-    pe, qe, dy = p[e], q[e], (y1 - y0)[e]
+    dy = (y1 - y0)[e]
     with np.errstate(divide="ignore", invalid="ignore"):
-        x = np.where(dy != 0, pe[:, 0] + (v - pe[:, 1]) * (qe[:, 0] - pe[:, 0]) / dy, pe[:, 0])
-    flat = dy == 0  # a horizontal edge on the row: both its ends
+        x = p[e, 0] + (v - y0[e]) * (q[:, 0] - p[:, 0])[e] / dy
     pos = off[e_box[e]] + v.astype(np.int64) - v0[e_box[e]]
     lo, hi = np.full(off[-1], np.inf), np.full(off[-1], -np.inf)
-    np.minimum.at(lo, pos, np.where(flat, np.minimum(pe[:, 0], qe[:, 0]), x))
-    np.maximum.at(hi, pos, np.where(flat, np.maximum(pe[:, 0], qe[:, 0]), x))
+    # a convex polygon meets a row at its two chains: the edges going down on one side of it
+    # and those going up on the other (which side, by the polygon's orientation); an edge
+    # ending on the row gives its end, as does the next edge of its chain there
+    area = np.bincount(e_box, weights=p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1], minlength=len(ne))
+    right = (dy > 0) == (area >= 0)[e_box[e]]
+    lo[pos[~right & (dy != 0)]] = x[~right & (dy != 0)]
+    hi[pos[right & (dy != 0)]] = x[right & (dy != 0)]
+    flat = np.flatnonzero(dy == 0)  # a horizontal edge on the row: both its ends
+    if len(flat):
+        ef = e[flat]
+        np.minimum.at(lo, pos[flat], np.minimum(p[ef, 0], q[ef, 0]))
+        np.maximum.at(hi, pos[flat], np.maximum(p[ef, 0], q[ef, 0]))
     return v0, off, np.ceil(lo - 1e-9), np.floor(hi + 1e-9)
 
 
-def _raster(camera, T, dims, outline, targets, cands, clip, whole, nb, rays: _Rays, limits):
+def _raster(boxes3, ol: _Outlines, targets, cands, rays: _Rays, limits):
     """Visible fractions of wholly projected ``targets``: the pixel centres of the target's
-    silhouette (its projected outline, row by row), less those inside a disjoint occluder in
-    front that projects whole (its outline), less those whose ray enters another occluder
-    first (an occluder not wholly projectable, or one that intersects the target: slab tests
-    on the pixels still uncovered, at most ``cap`` of them, evenly spread, and of those only
-    the rays inside the occluder's normalised box ``nb``). ``cands``: the (target, occluder,
-    disjoint) candidate arrays; ``limits``: ``(cap, below)``, a target whose uncovered share
-    is already below ``below`` keeps that upper bound (its rays are not cast; :func:`_cast_hard`).
-    All targets' rows are stacked, a target's simple occluders side by side (in chunks of about
-    :data:`CHUNK` row-occluder cells)."""
+    silhouette (its projected outline ``ol``, row by row), less those inside a disjoint
+    occluder in front that is drawn (its outline, whole or cut to the field of view), less
+    those whose ray enters another occluder first (one not drawn, or one that intersects the
+    target: slab tests on the pixels still uncovered, at most ``cap`` of them, evenly spread,
+    and of those only the rays inside the occluder's normalised box ``nb``). ``boxes3``:
+    ``(T, dims, nb)``; ``cands``: the (target, occluder, disjoint) candidate arrays;
+    ``limits``: ``(cap, below)``, a target whose uncovered share is already below ``below``
+    keeps that upper bound (its rays are not cast; :func:`_cast_hard`). All targets' rows are
+    stacked, a target's simple occluders side by side (in chunks of about :data:`CHUNK`
+    row-occluder cells)."""
     cand_t, cand_o, cand_apart = cands
     cap, below = limits
     out = np.full(len(targets), np.nan)
     order = np.argsort(cand_t, kind="stable")
     ct, co, ca = cand_t[order], cand_o[order], cand_apart[order]
-    simple = ca & whole[co]
+    simple = ca & ol.drawn()[co]
     # the row spans of every target and every simple occluder
     boxes = np.unique(np.r_[targets, co[simple]])
-    b_v0, b_off, b_lo, b_hi = _box_spans(outline, boxes, clip)
+    clip, rows = ol.clip(), ol.drawn_clip()
+    b_v0, b_off, b_lo, b_hi = _box_spans(ol.points(boxes), rows[boxes, 1], rows[boxes, 3])
     at = np.searchsorted(boxes, targets)
     # simple occluders per target (target-major), their slot among the target's
     st, so = ct[simple], co[simple]
@@ -514,7 +709,7 @@ def _raster(camera, T, dims, outline, targets, cands, clip, whole, nb, rays: _Ra
             runs = ((r_row[cells] - np.repeat(r_off[jj], n_cells), r_start[cells], r_len[cells]),
                     np.r_[0, np.cumsum(n_cells)], clip[targets[tr[jj]], 1].astype(np.int64), cap)
             out[tr[jj]] = _cast_hard(tr[jj], (area[jj], free[jj]), runs, targets,
-                                     (h_o, h_apart, hard_first, hard_last), (T, dims, nb), rays, below)
+                                     (h_o, h_apart, hard_first, hard_last), boxes3, rays, below)
     return out
 
 
