@@ -660,8 +660,7 @@ def _raster(boxes3, ol: _Outlines, targets, cands, rays: _Rays, limits):
     ``(T, dims, nb)``; ``cands``: the (target, occluder, disjoint) candidate arrays;
     ``limits``: ``(cap, below)``, a target whose uncovered share is already below ``below``
     keeps that upper bound (its rays are not cast; :func:`_cast_hard`). All targets' rows are
-    stacked, a target's simple occluders side by side (in chunks of about :data:`CHUNK`
-    row-occluder cells)."""
+    stacked, and the simple occluders' spans on them listed (:func:`_uncovered_runs`)."""
     cand_t, cand_o, cand_apart = cands
     cap, below = limits
     out = np.full(len(targets), np.nan)
@@ -673,44 +672,83 @@ def _raster(boxes3, ol: _Outlines, targets, cands, rays: _Rays, limits):
     clip, rows = ol.clip(), ol.drawn_clip()
     b_v0, b_off, b_lo, b_hi = _box_spans(ol.points(boxes), rows[boxes, 1], rows[boxes, 3])
     at = np.searchsorted(boxes, targets)
-    # simple occluders per target (target-major), their slot among the target's
-    st, so = ct[simple], co[simple]
-    t_pos = np.searchsorted(targets, st)
-    k = np.bincount(t_pos, minlength=len(targets))
-    slot = np.arange(len(st)) - np.repeat(np.cumsum(k) - k, k)
-    p_first = np.r_[0, np.cumsum(k)]
+    # the stacked rows of every target, its span on each
+    nrow = b_off[at + 1] - b_off[at]
+    r_off = np.r_[0, np.cumsum(nrow)]
+    row_t = np.repeat(np.arange(len(targets)), nrow)  # the target of each stacked row
+    src = b_off[at[row_t]] + np.arange(r_off[-1]) - r_off[row_t]
+    lo = np.maximum(b_lo[src], clip[targets[row_t], 0])
+    hi = np.minimum(b_hi[src], clip[targets[row_t], 2])
+    # the simple occluders' spans on their targets' rows (the rows both have)
+    t_pos = np.searchsorted(targets, ct[simple])
+    ob = np.searchsorted(boxes, co[simple])
+    v0 = np.maximum(b_v0[at[t_pos]], b_v0[ob])
+    n_r = np.maximum(np.minimum(b_v0[at[t_pos]] + nrow[t_pos], b_v0[ob] + b_off[ob + 1] - b_off[ob]) - v0, 0)
+    e_pair = np.repeat(np.arange(len(ob)), n_r)
+    i = v0[e_pair] + np.arange(n_r.sum()) - np.repeat(np.cumsum(n_r) - n_r, n_r)  # image row
+    g = r_off[t_pos[e_pair]] + i - b_v0[at[t_pos[e_pair]]]  # stacked row
+    o_src = b_off[ob[e_pair]] + i - b_v0[ob[e_pair]]
+    r_row, r_start, r_len = _uncovered_runs(lo, hi, (g, b_lo[o_src], b_hi[o_src]), ol.camera.resolution[0])
+    run_t = row_t[r_row]
+    area = np.bincount(row_t, weights=np.maximum(hi - lo + 1, 0), minlength=len(targets))
+    free = np.bincount(run_t, weights=r_len, minlength=len(targets))
+    # spans alone: the covered length of each row (an upper bound where rays are still cast)
+    ok = area > 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        val = 1.0 - (area - free) / area
+    out[ok] = val[ok]
+    # the targets with hard occluders, uncovered pixels and (for the rule) not yet below it
     hard_first = np.searchsorted(ct[~simple], targets)
     hard_last = np.searchsorted(ct[~simple], targets, side="right")
-    h_o, h_apart = co[~simple], ca[~simple]
-    nrow = b_off[at + 1] - b_off[at]
-    for start, stop, kmax in _chunks(nrow, k):  # chunks of targets: rows x (most occluders) cells
-        tr = np.arange(start, stop)
-        r_off = np.r_[0, np.cumsum(nrow[tr])]
-        row_t = np.repeat(tr, nrow[tr])  # the target of each stacked row
-        src = b_off[at[row_t]] + np.arange(r_off[-1]) - r_off[np.repeat(np.arange(len(tr)), nrow[tr])]
-        u0, u1 = clip[targets[row_t], 0], clip[targets[row_t], 2]
-        lo, hi = np.maximum(b_lo[src], u0), np.minimum(b_hi[src], u1)
-        pp = np.arange(p_first[start], p_first[stop])
-        A, B = _occluder_spans((boxes, b_v0, b_off, b_lo, b_hi), at[t_pos[pp]], so[pp], slot[pp],
-                               (r_off[t_pos[pp] - start], nrow[t_pos[pp]]), (r_off[-1], kmax))
-        r_row, r_start, r_len = _free_runs(lo, hi, A, B)
-        area = np.diff(np.r_[0.0, np.cumsum(np.maximum(hi - lo + 1, 0))][r_off])  # per target
-        free = np.diff(np.r_[0.0, np.cumsum(r_len.reshape(-1, kmax + 1).sum(1))][r_off])
-        # spans alone: the covered length of each row (an upper bound where rays are still cast)
-        ok = area > 0
-        with np.errstate(invalid="ignore", divide="ignore"):
-            val = 1.0 - (area - free) / area
-        out[tr[ok]] = val[ok]
-        # the targets with hard occluders, uncovered pixels and (for the rule) not yet below it
-        jj = np.flatnonzero(ok & (hard_first[tr] != hard_last[tr]) & (free != 0) & ~(val < below))
-        if len(jj):
-            n_cells = (r_off[jj + 1] - r_off[jj]) * (kmax + 1)
-            cells = _ranges(r_off[jj] * (kmax + 1), n_cells)
-            runs = ((r_row[cells] - np.repeat(r_off[jj], n_cells), r_start[cells], r_len[cells]),
-                    np.r_[0, np.cumsum(n_cells)], clip[targets[tr[jj]], 1].astype(np.int64), cap)
-            out[tr[jj]] = _cast_hard(tr[jj], (area[jj], free[jj]), runs, targets,
-                                     (h_o, h_apart, hard_first, hard_last), boxes3, rays, below)
+    jj = np.flatnonzero(ok & (hard_first != hard_last) & (free != 0) & ~(val < below))
+    if len(jj):
+        run_off = np.searchsorted(run_t, np.arange(len(targets) + 1))
+        n_runs = run_off[jj + 1] - run_off[jj]
+        cells = _ranges(run_off[jj], n_runs)
+        runs = ((r_row[cells] - np.repeat(r_off[jj], n_runs), r_start[cells], r_len[cells]),
+                np.r_[0, np.cumsum(n_runs)], clip[targets[jj], 1].astype(np.int64), cap)
+        out[jj] = _cast_hard(jj, (area[jj], free[jj]), runs, targets,
+                             (co[~simple], ca[~simple], hard_first, hard_last), boxes3, rays, below)
     return out
+
+
+def _uncovered_runs(lo: np.ndarray, hi: np.ndarray, spans, width: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The runs of pixel centres of the rows' target spans ``[lo, hi] (H,)`` inside none of the
+    occluder spans ``spans``: ``(row, a, b)`` arrays, any number per row, in any order; the
+    rows' columns lie in ``0 .. width - 1``. Returns the runs row-major and left to right (an
+    empty one where two occluder spans touch): their row, first column and length.
+
+    >>> row, start, length = _uncovered_runs(np.array([0.0, 0]), np.array([9.0, 3]),
+    ...                                      (np.array([0, 0]), np.array([4.0, 2]), np.array([6.0, 3])), 10)
+    >>> [(int(r), float(s), float(n)) for r, s, n in zip(row, start, length) if n]
+    [(0, 0.0, 2.0), (0, 7.0, 3.0), (1, 0.0, 4.0)]
+    """
+    g, a, b = spans
+    a, b = np.maximum(a, lo[g]), np.minimum(b, hi[g])
+    keep = a <= b
+    g, a, b = g[keep], a[keep], b[keep]
+    stride = width + 2  # rows apart in one sorted key: row * stride + column (columns -1 .. width)
+    order = np.argsort(g * stride + a.astype(np.int64), kind="stable")
+    g, a, b = g[order], a[order], b[order]
+    base = g * stride
+    # the last covered column before each span: the row's earlier spans' furthest end (or lo - 1)
+    reach = np.maximum.accumulate(b + base) if len(b) else b
+    before = np.maximum(np.r_[-np.inf, reach[:-1]] - base, lo[g] - 1)
+    # each row: the gap before each of its spans, then the tail after its last
+    n_rows = len(lo)
+    count = np.bincount(g, minlength=n_rows)
+    last = np.full(n_rows, -np.inf)
+    last[g] = reach - base  # sorted: the row's last span holds its furthest end
+    end = np.maximum(last, lo - 1)
+    pos = np.arange(len(g)) + g  # one tail for each earlier row
+    tail = np.cumsum(count) + np.arange(n_rows)
+    row = np.empty(len(g) + n_rows, np.int64)
+    start = np.empty(len(row))
+    stop = np.empty(len(row))
+    row[pos], start[pos], stop[pos] = g, before + 1, a - 1
+    row[tail], start[tail], stop[tail] = np.arange(n_rows), end + 1, hi
+    length = np.maximum(stop - start + 1, 0)
+    return row, np.where(length > 0, start, 0), length
 
 
 def _cast_hard(n, sizes, runs, targets, hard, boxes, rays: _Rays, below: float) -> np.ndarray:
@@ -748,42 +786,8 @@ def _cast_hard(n, sizes, runs, targets, hard, boxes, rays: _Rays, below: float) 
     return out
 
 
-def _chunks(nrow: np.ndarray, k: np.ndarray):
-    """Consecutive target ranges ``(start, stop, most occluders)`` of about :data:`CHUNK`
-    cells (rows ``nrow`` times one more than the most occluders ``k``; at least one target)."""
-    start = 0
-    while start < len(nrow):
-        stop = start + 1
-        rows, kmax = int(nrow[start]), int(k[start])
-        while stop < len(nrow) and (rows + nrow[stop]) * (max(kmax, k[stop]) + 1) <= CHUNK:
-            rows, kmax = rows + int(nrow[stop]), max(kmax, int(k[stop]))
-            stop += 1
-        yield start, stop, kmax
-        start = stop
-
-
-def _occluder_spans(spans, at_t, occ, slot, rows, shape) -> tuple[np.ndarray, np.ndarray]:
-    """The spans of (target, simple occluder) pairs' occluders on their targets' stacked rows:
-    ``(A, B)`` of ``shape`` (rows, most occluders), the occluder in column ``slot``; ``inf,
-    -inf`` where none. ``spans``: ``(boxes, first row, offsets, lo, hi)`` (:func:`_box_spans`
-    of ``boxes``); ``at_t``: each pair's target's index in ``boxes``; ``occ``: its occluder;
-    ``rows``: the first stacked row and the row count of its target."""
-    boxes, b_v0, b_off, b_lo, b_hi = spans
-    A, B = np.full(shape, np.inf), np.full(shape, -np.inf)
-    first, n_r = rows
-    e_pair = np.repeat(np.arange(len(occ)), n_r)
-    i = np.arange(n_r.sum()) - np.repeat(np.cumsum(n_r) - n_r, n_r)
-    row = first[e_pair] + i
-    ob = np.searchsorted(boxes, occ)[e_pair]
-    idx = b_v0[at_t][e_pair] + i - b_v0[ob]  # the occluder's own row index
-    ok = (idx >= 0) & (idx < b_off[ob + 1] - b_off[ob])
-    A[row[ok], slot[e_pair][ok]] = b_lo[b_off[ob[ok]] + idx[ok]]
-    B[row[ok], slot[e_pair][ok]] = b_hi[b_off[ob[ok]] + idx[ok]]
-    return A, B
-
-
 def _pick_pixels(runs, seg, v0, cap, part=(0, 1, None)) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The uncovered pixel centres ``runs`` (:func:`_free_runs`) of several targets, target
+    """The uncovered pixel centres ``runs`` (:func:`_uncovered_runs`) of several targets, target
     ``g``'s runs from ``seg[g]`` to ``seg[g + 1]``, its rows counted from ``v0[g]``: at most
     ``cap`` of each target's are picked, evenly spread. Returns the rows, columns and targets
     ``(pv, pu, g)`` of the picked pixels of ``part`` ``(s, step, targets)`` (the ``s``-th,
@@ -815,39 +819,6 @@ def _pick_pixels(runs, seg, v0, cap, part=(0, 1, None)) -> tuple[np.ndarray, np.
     run = np.searchsorted(csum, at, side="right")
     pu = (start[run] + at - (csum[run] - length[run])).astype(np.int64)
     return row[run] + v0[g], pu, g, count
-
-
-def _free_runs(lo: np.ndarray, hi: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The runs of pixel centres of the rows' target spans ``[lo, hi] (H,)`` inside none of
-    the occluder spans ``[a, b] (H, k)`` (``inf, -inf``: none), row-major and left to right,
-    ``k + 1`` per row: their row (0..H-1), first column and length (0 for an empty run).
-
-    >>> row, start, length = _free_runs(np.array([0.0]), np.array([9.0]), np.array([[2.0, 3.0]]),
-    ...                                 np.array([[4.0, 6.0]]))
-    >>> [(float(s), float(n)) for s, n in zip(start, length) if n]
-    [(0.0, 2.0), (7.0, 3.0)]
-    """
-    k = a.shape[1]
-    if k:
-        a = np.maximum(a, lo[:, None])
-        b = np.minimum(b, hi[:, None])
-        empty = a > b
-        a = np.where(empty, np.inf, a)
-        b = np.where(empty, -np.inf, b)
-        order = np.argsort(a, axis=1)
-        a = np.take_along_axis(a, order, axis=1)
-        b = np.take_along_axis(b, order, axis=1)
-    end = lo - 1  # last covered column so far (the runs before each sorted interval, then the tail)
-    starts, stops = [], []
-    for j in range(k):
-        starts.append(end + 1)
-        stops.append(np.where(np.isfinite(a[:, j]), np.minimum(a[:, j] - 1, hi), -np.inf))
-        end = np.maximum(end, b[:, j])
-    starts.append(end + 1)
-    stops.append(hi)
-    start, stop = np.stack(starts, axis=1).ravel(), np.stack(stops, axis=1).ravel()
-    length = np.maximum(stop - start + 1, 0)
-    return np.repeat(np.arange(len(lo)), k + 1), np.where(length > 0, start, 0), length
 
 
 def _hard_hits(r, counts, tgt, pairs, boxes) -> np.ndarray:
