@@ -334,6 +334,12 @@ class _Outlines:
         return np.stack([np.maximum(np.floor(bb[:, 0]), 0), np.maximum(np.floor(bb[:, 1]), 0),
                          np.minimum(np.ceil(bb[:, 2]), w - 1), np.minimum(np.ceil(bb[:, 3]), h - 1)], axis=1)
 
+    def pixel_boxes(self) -> np.ndarray:
+        """``(N, 4)``: the pixel boxes of the wholly projected boxes, :data:`MARGIN_PX` larger
+        on each side (a curved edge may bulge between its samples); infinite for the others."""
+        m = np.array([-MARGIN_PX, -MARGIN_PX, MARGIN_PX, MARGIN_PX])
+        return np.where(self.whole[:, None], self.bb + m, np.array([-np.inf, -np.inf, np.inf, np.inf]))
+
     def drawn_clip(self) -> np.ndarray:
         """:meth:`clip` of the drawn boxes' outlines (the cut one where a box has it)."""
         return self.clip(np.where(np.isfinite(self.cut_bb[:, :1]), self.cut_bb, self.bb))
@@ -708,7 +714,8 @@ def _raster(boxes3, ol: _Outlines, targets, cands, rays: _Rays, limits):
         runs = ((r_row[cells] - np.repeat(r_off[jj], n_runs), r_start[cells], r_len[cells]),
                 np.r_[0, np.cumsum(n_runs)], clip[targets[jj], 1].astype(np.int64), cap)
         out[jj] = _cast_hard(jj, (area[jj], free[jj]), runs, targets,
-                             (co[~simple], ca[~simple], hard_first, hard_last), boxes3, rays, below)
+                             (co[~simple], ca[~simple], hard_first, hard_last, ol.pixel_boxes()), boxes3, rays,
+                             below)
     return out
 
 
@@ -755,13 +762,15 @@ def _cast_hard(n, sizes, runs, targets, hard, boxes, rays: _Rays, below: float) 
     """Visible fractions of the targets ``targets[n]`` (``sizes``: their silhouettes' pixel
     counts and those not covered by their simple occluders; ``runs``: these pixels, the
     arguments of :func:`_pick_pixels`) against their hard occluders (``hard``: occluders and
-    disjointness, the target ``n``'s from ``first[n]`` to ``last[n]``), the rays of all
-    targets unprojected and cast together. Where ``below > 0`` the picked pixels are cast in
+    disjointness, the target ``n``'s from ``first[n]`` to ``last[n]``, and every box's pixel
+    box ``(N, 4)``, infinite where it does not project whole), the rays of all targets
+    unprojected and cast together, those of the pixels inside the pixel box of one of
+    their target's hard occluders (the others cannot be covered). Where ``below > 0`` the picked pixels are cast in
     :data:`STAGES` interleaved stages, and a target whose hits so far put it below ``below``
     keeps that upper bound (a ray's hit does not depend on the others cast with it, and
     every step of the fraction is monotone in the hit count: the last stage gives the
     value of a single cast)."""
-    h_o, h_apart, first, last = hard
+    h_o, h_apart, first, last, pb = hard
     area, free = sizes
     # (cast target, hard occluder) pairs
     k = last[n] - first[n]
@@ -776,7 +785,19 @@ def _cast_hard(n, sizes, runs, targets, hard, boxes, rays: _Rays, below: float) 
         at = np.full(len(n), -1)
         at[todo] = np.arange(len(todo))
         sel = at[p_i] >= 0
-        hit = _hard_hits(rays.at(pv, pu), np.bincount(at[g], minlength=len(todo)),
+        # only the pixels inside the pixel box of one of their target's hard occluders have a
+        # ray that may be covered
+        q = np.flatnonzero(sel)
+        pf = np.searchsorted(g, np.arange(len(n) + 1))
+        n_px = pf[p_i[q] + 1] - pf[p_i[q]]
+        px = _ranges(pf[p_i[q]], n_px)
+        box = np.repeat(pb[h_o[p_h[q]]], n_px, axis=0)
+        inside = (pu[px] >= box[:, 0]) & (pu[px] <= box[:, 2]) & (pv[px] >= box[:, 1]) & (pv[px] <= box[:, 3])
+        need = np.zeros(len(pv), bool)
+        need[px[inside]] = True
+        r = np.full((len(pv), 3), np.nan)
+        r[need] = rays.at(pv[need], pu[need])
+        hit = _hard_hits(r, np.bincount(at[g], minlength=len(todo)),
                          targets[n[todo]], (at[p_i[sel]], h_o[p_h[sel]], h_apart[p_h[sel]]), boxes)
         hits[todo] += np.bincount(at[g], weights=hit, minlength=len(todo)).astype(np.int64)
         out[todo] = 1.0 - (area[todo] - free[todo] + hits[todo] / count[todo] * free[todo]) / area[todo]
