@@ -634,25 +634,26 @@ def _box_spans(points: list[np.ndarray], v0: np.ndarray, v1: np.ndarray):
     r0 = np.maximum(np.ceil(np.minimum(y0, y1)), v0[e_box]).astype(np.int64)
     r1 = np.minimum(np.floor(np.maximum(y0, y1)), v1[e_box]).astype(np.int64)
     cnt = np.maximum(r1 - r0 + 1, 0)
-    e = np.repeat(np.arange(len(p)), cnt)
-    v = (r0[e] + np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)).astype(np.float64)
-    dy = (y1 - y0)[e]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x = p[e, 0] + (v - y0[e]) * (q[:, 0] - p[:, 0])[e] / dy
-    pos = off[e_box[e]] + v.astype(np.int64) - v0[e_box[e]]
     lo, hi = np.full(off[-1], np.inf), np.full(off[-1], -np.inf)
     # a convex polygon meets a row at its two chains: the edges going down on one side of it
     # and those going up on the other (which side, by the polygon's orientation); an edge
     # ending on the row gives its end, as does the next edge of its chain there
     area = np.bincount(e_box, weights=p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1], minlength=len(ne))
-    right = (dy > 0) == (area >= 0)[e_box[e]]
-    lo[pos[~right & (dy != 0)]] = x[~right & (dy != 0)]
-    hi[pos[right & (dy != 0)]] = x[right & (dy != 0)]
-    flat = np.flatnonzero(dy == 0)  # a horizontal edge on the row: both its ends
+    dy = y1 - y0
+    right = (dy > 0) == (area >= 0)[e_box]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        slope = (q[:, 0] - p[:, 0]) / dy
+        x0 = p[:, 0] + (r0 - y0) * slope  # at each edge's first row
+    first = off[e_box] + r0 - v0[e_box]  # where its first row's span is
+    for side, span in ((~right, lo), (right, hi)):
+        ed = np.flatnonzero(side & (dy != 0) & (cnt > 0))
+        c = cnt[ed]
+        j = np.arange(c.sum()) - np.repeat(np.cumsum(c) - c, c)
+        span[np.repeat(first[ed], c) + j] = np.repeat(x0[ed], c) + j * np.repeat(slope[ed], c)
+    flat = np.flatnonzero((dy == 0) & (cnt > 0))  # a horizontal edge on the row: both its ends
     if len(flat):
-        ef = e[flat]
-        np.minimum.at(lo, pos[flat], np.minimum(p[ef, 0], q[ef, 0]))
-        np.maximum.at(hi, pos[flat], np.maximum(p[ef, 0], q[ef, 0]))
+        np.minimum.at(lo, first[flat], np.minimum(p[flat, 0], q[flat, 0]))
+        np.maximum.at(hi, first[flat], np.maximum(p[flat, 0], q[flat, 0]))
     return v0, off, np.ceil(lo - 1e-9), np.floor(hi + 1e-9)
 
 
@@ -676,7 +677,16 @@ def _raster(boxes3, ol: _Outlines, targets, cands, rays: _Rays, limits):
     # the row spans of every target and every simple occluder
     boxes = np.unique(np.r_[targets, co[simple]])
     clip, rows = ol.clip(), ol.drawn_clip()
-    b_v0, b_off, b_lo, b_hi = _box_spans(ol.points(boxes), rows[boxes, 1], rows[boxes, 3])
+    # an occluder's rows: only those of its targets
+    r0, r1 = rows[boxes, 1], rows[boxes, 3]
+    ob = np.searchsorted(boxes, co[simple])
+    need0, need1 = np.full(len(boxes), np.inf), np.full(len(boxes), -np.inf)
+    np.minimum.at(need0, ob, clip[ct[simple], 1])
+    np.maximum.at(need1, ob, clip[ct[simple], 3])
+    is_t = np.isin(boxes, targets)
+    r0 = np.where(is_t, r0, np.maximum(r0, need0))
+    r1 = np.where(is_t, r1, np.minimum(r1, need1))
+    b_v0, b_off, b_lo, b_hi = _box_spans(ol.points(boxes), r0, r1)
     at = np.searchsorted(boxes, targets)
     # the stacked rows of every target, its span on each
     nrow = b_off[at + 1] - b_off[at]
