@@ -334,12 +334,6 @@ class _Outlines:
         return np.stack([np.maximum(np.floor(bb[:, 0]), 0), np.maximum(np.floor(bb[:, 1]), 0),
                          np.minimum(np.ceil(bb[:, 2]), w - 1), np.minimum(np.ceil(bb[:, 3]), h - 1)], axis=1)
 
-    def pixel_boxes(self) -> np.ndarray:
-        """``(N, 4)``: the pixel boxes of the wholly projected boxes, :data:`MARGIN_PX` larger
-        on each side (a curved edge may bulge between its samples); infinite for the others."""
-        m = np.array([-MARGIN_PX, -MARGIN_PX, MARGIN_PX, MARGIN_PX])
-        return np.where(self.whole[:, None], self.bb + m, np.array([-np.inf, -np.inf, np.inf, np.inf]))
-
     def drawn_clip(self) -> np.ndarray:
         """:meth:`clip` of the drawn boxes' outlines (the cut one where a box has it)."""
         return self.clip(np.where(np.isfinite(self.cut_bb[:, :1]), self.cut_bb, self.bb))
@@ -723,10 +717,32 @@ def _raster(boxes3, ol: _Outlines, targets, cands, rays: _Rays, limits):
         cells = _ranges(run_off[jj], n_runs)
         runs = ((r_row[cells] - np.repeat(r_off[jj], n_runs), r_start[cells], r_len[cells]),
                 np.r_[0, np.cumsum(n_runs)], clip[targets[jj], 1].astype(np.int64), cap)
+        h_o = co[~simple]
         out[jj] = _cast_hard(jj, (area[jj], free[jj]), runs, targets,
-                             (co[~simple], ca[~simple], hard_first, hard_last, ol.pixel_boxes()), boxes3, rays,
-                             below)
+                             (h_o, ca[~simple], hard_first, hard_last, _reach(ol, h_o, clip[ct[~simple]])), boxes3,
+                             rays, below)
     return out
+
+
+def _reach(ol: _Outlines, occ: np.ndarray, rows: np.ndarray):
+    """Where the rays that may enter the wholly projected occluders among ``occ`` lie: the row
+    spans (:func:`_box_spans`) of their outlines grown by :data:`MARGIN_PX` on every side (a
+    curved edge may bulge between its samples; the hull of the outline shifted to the
+    corners of a square holds every point that near it), on the rows ``rows`` (``(P, 4)``
+    pixel boxes: those of each occluder's target in ``occ``). Returns ``(boxes, first row,
+    offsets, lo, hi)``; a box not among them (not projected whole) may cover any pixel."""
+    whole = ol.whole[occ]
+    boxes, inv = np.unique(occ[whole], return_inverse=True)
+    w, h = ol.camera.resolution
+    r0 = np.full(len(boxes), np.inf)
+    r1 = np.full(len(boxes), -np.inf)
+    np.minimum.at(r0, inv, rows[whole, 1])
+    np.maximum.at(r1, inv, rows[whole, 3])
+    r0 = np.maximum(r0, np.maximum(np.floor(ol.bb[boxes, 1] - MARGIN_PX), 0))
+    r1 = np.minimum(r1, np.minimum(np.ceil(ol.bb[boxes, 3] + MARGIN_PX), h - 1))
+    shifts = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], np.float32)[:, None] * np.float32(MARGIN_PX)
+    pts = [(p[None] + shifts).reshape(-1, 2) for p in ol.points(boxes)]
+    return (boxes, *_box_spans(pts, r0, r1))
 
 
 def _uncovered_runs(lo: np.ndarray, hi: np.ndarray, spans, width: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -772,15 +788,15 @@ def _cast_hard(n, sizes, runs, targets, hard, boxes, rays: _Rays, below: float) 
     """Visible fractions of the targets ``targets[n]`` (``sizes``: their silhouettes' pixel
     counts and those not covered by their simple occluders; ``runs``: these pixels, the
     arguments of :func:`_pick_pixels`) against their hard occluders (``hard``: occluders and
-    disjointness, the target ``n``'s from ``first[n]`` to ``last[n]``, and every box's pixel
-    box ``(N, 4)``, infinite where it does not project whole), the rays of all targets
-    unprojected and cast together, those of the pixels inside the pixel box of one of
-    their target's hard occluders (the others cannot be covered). Where ``below > 0`` the picked pixels are cast in
+    disjointness, the target ``n``'s from ``first[n]`` to ``last[n]``, and where the occluders
+    may cover, :func:`_reach`), the rays of all targets unprojected and cast together, those
+    of the pixels that one of their target's hard occluders may cover (the others are not
+    covered). Where ``below > 0`` the picked pixels are cast in
     :data:`STAGES` interleaved stages, and a target whose hits so far put it below ``below``
     keeps that upper bound (a ray's hit does not depend on the others cast with it, and
     every step of the fraction is monotone in the hit count: the last stage gives the
     value of a single cast)."""
-    h_o, h_apart, first, last, pb = hard
+    h_o, h_apart, first, last, (r_box, r_v0, r_off, r_lo, r_hi) = hard
     area, free = sizes
     # (cast target, hard occluder) pairs
     k = last[n] - first[n]
@@ -795,14 +811,18 @@ def _cast_hard(n, sizes, runs, targets, hard, boxes, rays: _Rays, below: float) 
         at = np.full(len(n), -1)
         at[todo] = np.arange(len(todo))
         sel = at[p_i] >= 0
-        # only the pixels inside the pixel box of one of their target's hard occluders have a
-        # ray that may be covered
+        # only the pixels that one of their target's hard occluders may cover have a ray cast
         q = np.flatnonzero(sel)
         pf = np.searchsorted(g, np.arange(len(n) + 1))
         n_px = pf[p_i[q] + 1] - pf[p_i[q]]
         px = _ranges(pf[p_i[q]], n_px)
-        box = np.repeat(pb[h_o[p_h[q]]], n_px, axis=0)
-        inside = (pu[px] >= box[:, 0]) & (pu[px] <= box[:, 2]) & (pv[px] >= box[:, 1]) & (pv[px] <= box[:, 3])
+        occ = np.repeat(h_o[p_h[q]], n_px)
+        k = np.minimum(np.searchsorted(r_box, occ), max(len(r_box) - 1, 0))
+        drawn = r_box[k] == occ if len(r_box) else np.zeros(len(occ), bool)
+        idx = pv[px] - r_v0[k]
+        j = np.clip(r_off[k] + idx, 0, max(len(r_lo) - 1, 0))
+        in_rows = drawn & (idx >= 0) & (idx < r_off[k + 1] - r_off[k])
+        inside = ~drawn | (in_rows & (r_lo[j] <= pu[px]) & (pu[px] <= r_hi[j]))
         need = np.zeros(len(pv), bool)
         need[px[inside]] = True
         r = np.full((len(pv), 3), np.nan)
