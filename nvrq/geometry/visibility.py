@@ -320,12 +320,8 @@ class _Outlines:
         return self.whole | np.isfinite(self.cut_bb[:, 0])
 
     def points(self, boxes: np.ndarray) -> list[np.ndarray]:
-        """The outline points ``(K, 2)`` float32 of each drawn box of ``boxes``."""
-        out = list(self.outline[boxes].astype(np.float32))
-        for i, b in enumerate(boxes.tolist()):
-            if b in self.cut_pts:
-                out[i] = self.cut_pts[b]
-        return out
+        """The outline points ``(K, 2)`` float32 of each of ``boxes`` (projected whole)."""
+        return list(self.outline[boxes].astype(np.float32))
 
     def clip(self, bb: np.ndarray | None = None) -> np.ndarray:
         """The silhouettes' pixel boxes ``(N, 4)`` (default ``bb``), clipped to the image."""
@@ -441,26 +437,76 @@ def _fov_outlines(camera, T: np.ndarray, dims: np.ndarray, corners: np.ndarray, 
     xy[good] = pts[good][:, :2] / pts[good][:, 2:]
     xy[..., 0] = np.clip(xy[..., 0], x0, x1)
     xy[..., 1] = np.clip(xy[..., 1], y0, y1)
-    polys = [xy[i][good[i]] for i in range(len(T))]
-    if np.isfinite(step) and len(polys):  # sample the hull's edges
-        import cv2
+    import cv2
 
-        hulls = [cv2.convexHull(p.astype(np.float32)).reshape(-1, 2).astype(np.float64) if len(p) else p
-                 for p in polys]
-        ne = np.array([len(hh) for hh in hulls])
-        p = np.concatenate(hulls)
-        q = np.concatenate([np.roll(hh, -1, axis=0) for hh in hulls])
-        ns = np.maximum(np.ceil(np.hypot(*(q - p).T) / step), OUTLINE_SAMPLES).astype(np.int64)
-        e = np.repeat(np.arange(len(p)), ns)
-        f = (np.arange(ns.sum()) - np.repeat(np.cumsum(ns) - ns, ns)) / ns[e]
-        per_box = np.bincount(np.repeat(np.arange(len(T)), ne), weights=ns, minlength=len(T)).astype(np.int64)
-        polys = np.split(p[e] + f[:, None] * (q - p)[e], np.cumsum(per_box)[:-1])
-    flat = np.concatenate(polys)
+    # the hull in normalised coordinates, its edges sampled where they curve in the image
+    hulls = [cv2.convexHull(xy[i][good[i]].astype(np.float32)).reshape(-1, 2).astype(np.float64)
+             if good[i].any() else np.zeros((0, 2)) for i in range(len(T))]
+    ne = np.array([len(hh) for hh in hulls], np.int64)
+    if not ne.sum():
+        return [np.zeros((0, 2)) for _ in hulls]
+    p = np.concatenate(hulls)
+    q = np.concatenate([np.roll(hh, -1, axis=0) for hh in hulls])
+    ns = np.ones(len(p), np.int64) if not np.isfinite(step) else \
+        np.maximum(np.ceil(np.hypot(*(q - p).T) / step), OUTLINE_SAMPLES).astype(np.int64)
+    e = np.repeat(np.arange(len(p)), ns)
+    f = (np.arange(ns.sum()) - np.repeat(np.cumsum(ns) - ns, ns)) / ns[e]
+    flat = p[e] + f[:, None] * (q - p)[e]
     uv, ok = camera.project(np.c_[flat, np.ones(len(flat))])
-    split = np.cumsum([len(p) for p in polys])[:-1]
+    split = np.cumsum(np.bincount(np.repeat(np.arange(len(T)), ne), weights=ns, minlength=len(T)).astype(np.int64))[:-1]
     # a box with a point that does not project (not expected: the rectangle projects whole): None
-    return [u.astype(np.float32) if k.all() else None for u, k in zip(np.split(uv, split), np.split(ok, split),
-                                                                       strict=True)]
+    return [u if k.all() else None for u, k in zip(np.split(uv, split), np.split(ok, split), strict=True)]
+
+
+def _scan_spans(polys: list[np.ndarray], v0: np.ndarray, v1: np.ndarray):
+    """Row spans of closed polygons ``(K, 2)`` (pixels, in order, not necessarily convex) on
+    their rows ``v0 .. v1``: the pixel centres inside (even-odd rule; an edge meets the rows
+    from its lower end, included, to its upper end, excluded). A row may hold several
+    intervals: layer ``k`` of a polygon holds the ``k``-th interval of each of its rows.
+    Returns ``(owner, first row, offsets, lo, hi)`` of the layers (:func:`_box_spans`'s
+    layout, ``owner``: each layer's polygon, ascending).
+
+    >>> u = np.array([[1.0, 0], [7, 0], [7, 4], [5, 4], [5, 1], [3, 1], [3, 4], [1, 4]])  # a U
+    >>> owner, first, off, lo, hi = _scan_spans([u], np.array([0]), np.array([4]))
+    >>> owner.tolist(), off.tolist()
+    ([0, 0], [0, 5, 10])
+    >>> lo.tolist(), hi.tolist()  # rows 0..4 of the first layer, then of the second
+    ([1.0, 1.0, 1.0, 1.0, inf, inf, 5.0, 5.0, 5.0, inf], [7.0, 3.0, 3.0, 3.0, -inf, -inf, 7.0, 7.0, 7.0, -inf])
+    """
+    ne = np.array([len(p) for p in polys], np.int64)
+    v0, v1 = np.asarray(v0).astype(np.int64), np.asarray(v1).astype(np.int64)
+    p = np.concatenate(polys) if len(polys) else np.zeros((0, 2))
+    nxt = np.arange(1, len(p) + 1)
+    nxt[np.cumsum(ne)[ne > 0] - 1] = (np.cumsum(ne) - ne)[ne > 0]
+    q = p[nxt]
+    e_poly = np.repeat(np.arange(len(polys)), ne)
+    r0 = np.maximum(np.ceil(np.minimum(p[:, 1], q[:, 1])), v0[e_poly]).astype(np.int64)
+    r1 = np.minimum(np.ceil(np.maximum(p[:, 1], q[:, 1])) - 1, v1[e_poly]).astype(np.int64)
+    cnt = np.maximum(r1 - r0 + 1, 0)
+    e = np.repeat(np.arange(len(p)), cnt)
+    v = r0[e] + np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    x = p[e, 0] + (v - p[e, 1]) * (q[e, 0] - p[e, 0]) / (q[e, 1] - p[e, 1])
+    poly = e_poly[e]
+    order = np.lexsort((x, v, poly))
+    poly, v, x = poly[order], v[order], x[order]
+    new = np.r_[True, (poly[1:] != poly[:-1]) | (v[1:] != v[:-1])] if len(v) else np.zeros(0, bool)
+    grp = np.cumsum(new) - 1
+    head = np.flatnonzero(new)
+    rank = np.arange(len(v)) - head[grp]
+    size = np.diff(np.r_[head, len(v)])
+    s = np.flatnonzero((rank % 2 == 0) & (rank + 1 < size[grp]))  # each interval's left end
+    layer = rank[s] // 2
+    n_layer = np.zeros(len(polys), np.int64)
+    np.maximum.at(n_layer, poly[s], layer + 1)
+    owner = np.repeat(np.arange(len(polys)), n_layer)
+    ent_first = np.cumsum(n_layer) - n_layer
+    nrow = np.maximum(v1 - v0 + 1, 0)[owner]
+    off = np.r_[0, np.cumsum(nrow)]
+    lo, hi = np.full(off[-1], np.inf), np.full(off[-1], -np.inf)
+    pos = off[ent_first[poly[s]] + layer] + v[s] - v0[poly[s]]
+    lo[pos] = np.ceil(x[s] - 1e-9)
+    hi[pos] = np.floor(x[s + 1] + 1e-9)
+    return owner, v0[owner], off, lo, hi
 
 
 def _straight(camera) -> bool:
@@ -667,21 +713,29 @@ def _raster(boxes3, ol: _Outlines, targets, cands, rays: _Rays, limits):
     out = np.full(len(targets), np.nan)
     order = np.argsort(cand_t, kind="stable")
     ct, co, ca = cand_t[order], cand_o[order], cand_apart[order]
+    whole = ol.whole
     simple = ca & ol.drawn()[co]
-    # the row spans of every target and every simple occluder
-    boxes = np.unique(np.r_[targets, co[simple]])
-    clip, rows = ol.clip(), ol.drawn_clip()
-    # an occluder's rows: only those of its targets
-    r0, r1 = rows[boxes, 1], rows[boxes, 3]
-    ob = np.searchsorted(boxes, co[simple])
-    need0, need1 = np.full(len(boxes), np.inf), np.full(len(boxes), -np.inf)
-    np.minimum.at(need0, ob, clip[ct[simple], 1])
-    np.maximum.at(need1, ob, clip[ct[simple], 3])
+    clip = ol.clip()
+    # the row spans of every target and every simple occluder (an occluder's: only on its
+    # targets' rows): convex silhouettes (the hull of a whole outline), then the layers of
+    # the outlines cut to the field of view (their edges may curve inwards)
+    sw, sc = simple & whole[co], simple & ~whole[co]
+    boxes = np.unique(np.r_[targets, co[sw]])
+    r0, r1 = _rows_needed(boxes, co[sw], clip[ct[sw]], ol.clip())
     is_t = np.isin(boxes, targets)
-    r0 = np.where(is_t, r0, np.maximum(r0, need0))
-    r1 = np.where(is_t, r1, np.minimum(r1, need1))
-    b_v0, b_off, b_lo, b_hi = _box_spans(ol.points(boxes), r0, r1)
+    r0, r1 = np.where(is_t, clip[boxes, 1], r0), np.where(is_t, clip[boxes, 3], r1)
+    spans = _box_spans(ol.points(boxes), r0, r1)
+    cut = np.unique(co[sc])
+    c0, c1 = _rows_needed(cut, co[sc], clip[ct[sc]], ol.drawn_clip())
+    owner, *layers = _scan_spans([ol.cut_pts[b] for b in cut.tolist()], c0, c1)
+    b_v0, b_lo, b_hi = (np.r_[spans[i], layers[i]] for i in (0, 2, 3))
+    b_off = np.r_[spans[1], spans[1][-1] + layers[1][1:]]
     at = np.searchsorted(boxes, targets)
+    # each simple pair's occluder: its spans, or each layer of its cut outline
+    k = np.searchsorted(cut, co[sc])
+    l_first, l_n = np.searchsorted(owner, k), np.searchsorted(owner, k, side="right") - np.searchsorted(owner, k)
+    pair_t = np.r_[ct[sw], np.repeat(ct[sc], l_n)]
+    pair_o = np.r_[np.searchsorted(boxes, co[sw]), len(boxes) + _ranges(l_first, l_n)]
     # the stacked rows of every target, its span on each
     nrow = b_off[at + 1] - b_off[at]
     r_off = np.r_[0, np.cumsum(nrow)]
@@ -690,8 +744,8 @@ def _raster(boxes3, ol: _Outlines, targets, cands, rays: _Rays, limits):
     lo = np.maximum(b_lo[src], clip[targets[row_t], 0])
     hi = np.minimum(b_hi[src], clip[targets[row_t], 2])
     # the simple occluders' spans on their targets' rows (the rows both have)
-    t_pos = np.searchsorted(targets, ct[simple])
-    ob = np.searchsorted(boxes, co[simple])
+    t_pos = np.searchsorted(targets, pair_t)
+    ob = pair_o
     v0 = np.maximum(b_v0[at[t_pos]], b_v0[ob])
     n_r = np.maximum(np.minimum(b_v0[at[t_pos]] + nrow[t_pos], b_v0[ob] + b_off[ob + 1] - b_off[ob]) - v0, 0)
     e_pair = np.repeat(np.arange(len(ob)), n_r)
@@ -743,6 +797,16 @@ def _reach(ol: _Outlines, occ: np.ndarray, rows: np.ndarray):
     shifts = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], np.float32)[:, None] * np.float32(MARGIN_PX)
     pts = [(p[None] + shifts).reshape(-1, 2) for p in ol.points(boxes)]
     return (boxes, *_box_spans(pts, r0, r1))
+
+
+def _rows_needed(boxes: np.ndarray, occ: np.ndarray, t_clip: np.ndarray, clip: np.ndarray):
+    """The rows ``(r0, r1)`` of the occluders ``boxes`` (pixel boxes ``clip (N, 4)``) that
+    their targets have: ``occ`` the occluder of each pair, ``t_clip`` its target's pixel box."""
+    at = np.searchsorted(boxes, occ)
+    r0, r1 = np.full(len(boxes), np.inf), np.full(len(boxes), -np.inf)
+    np.minimum.at(r0, at, t_clip[:, 1])
+    np.maximum.at(r1, at, t_clip[:, 3])
+    return np.maximum(r0, clip[boxes, 1]), np.minimum(r1, clip[boxes, 3])
 
 
 def _uncovered_runs(lo: np.ndarray, hi: np.ndarray, spans, width: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
