@@ -881,12 +881,15 @@ def _cast_hard(n, sizes, runs, targets, hard, boxes, rays: _Rays, below: float) 
         n_px = pf[p_i[q] + 1] - pf[p_i[q]]
         px = _ranges(pf[p_i[q]], n_px)
         occ = np.repeat(h_o[p_h[q]], n_px)
-        k = np.minimum(np.searchsorted(r_box, occ), max(len(r_box) - 1, 0))
-        drawn = r_box[k] == occ if len(r_box) else np.zeros(len(occ), bool)
-        idx = pv[px] - r_v0[k]
-        j = np.clip(r_off[k] + idx, 0, max(len(r_lo) - 1, 0))
-        in_rows = drawn & (idx >= 0) & (idx < r_off[k + 1] - r_off[k])
-        inside = ~drawn | (in_rows & (r_lo[j] <= pu[px]) & (pu[px] <= r_hi[j]))
+        inside = np.ones(len(occ), bool)
+        if len(r_box):
+            k = np.minimum(np.searchsorted(r_box, occ), len(r_box) - 1)
+            drawn = r_box[k] == occ
+            idx = pv[px] - r_v0[k]
+            in_r = np.flatnonzero(drawn & (idx >= 0) & (idx < r_off[k + 1] - r_off[k]))
+            inside[drawn] = False
+            j = r_off[k[in_r]] + idx[in_r]
+            inside[in_r] = (r_lo[j] <= pu[px[in_r]]) & (pu[px[in_r]] <= r_hi[j])
         need = np.zeros(len(pv), bool)
         need[px[inside]] = True
         r = np.full((len(pv), 3), np.nan)
