@@ -611,18 +611,23 @@ def _separated(T: np.ndarray, half: np.ndarray, a: np.ndarray, b: np.ndarray) ->
     ``b``'s side of that plane, so along every ray through both, ``b`` comes first (two
     disjoint convex bodies keep one depth order over the rays through both)."""
     Ra, Rb = T[a, :3, :3], T[b, :3, :3]
-    ca, cb = T[a, :3, 3], T[b, :3, 3]
-    ax = [Ra[:, :, i] for i in range(3)] + [Rb[:, :, i] for i in range(3)]
-    ax += [np.cross(Ra[:, :, i], Rb[:, :, j]) for i in range(3) for j in range(3)]
-    L = np.stack(ax, axis=1)  # (P, 15, 3)
-    norm = np.linalg.norm(L, axis=-1)
-    ok = norm > 1e-9
-    L = L / np.where(ok, norm, 1.0)[..., None]
-    ra = (np.abs(np.einsum("pkj,pji->pki", L, Ra)) * half[a][:, None, :]).sum(-1)
-    rb = (np.abs(np.einsum("pkj,pji->pki", L, Rb)) * half[b][:, None, :]).sum(-1)
-    pa = np.einsum("pkj,pj->pk", L, ca)
-    pb = np.einsum("pkj,pj->pk", L, cb)
-    gap = np.where(ok, np.abs(pa - pb) - ra - rb, -np.inf)
+    ha, hb = half[a], half[b]
+    # the six face axes first; the nine cross products only for the pairs they do not separate
+    L = np.concatenate([np.swapaxes(Ra, 1, 2), np.swapaxes(Rb, 1, 2)], axis=1)  # (P, 6, 3)
+    gap, proj = _gaps(L, np.ones(L.shape[:2], bool), (Ra, Rb), (T[a, :3, 3], T[b, :3, 3]), (ha, hb))
+    rest = np.flatnonzero(gap.max(axis=1) <= 1e-9)
+    if len(rest):
+        X = np.stack([np.cross(Ra[rest, :, i], Rb[rest, :, j]) for i in range(3) for j in range(3)], axis=1)
+        norm = np.linalg.norm(X, axis=-1)
+        ok = norm > 1e-9
+        g2, p2 = _gaps(X / np.where(ok, norm, 1.0)[..., None], ok, (Ra[rest], Rb[rest]),
+                       (T[a[rest], :3, 3], T[b[rest], :3, 3]), (ha[rest], hb[rest]))
+        gap = np.concatenate([gap, np.full((len(a), 9), -np.inf)], axis=1)
+        gap[rest, 6:] = g2
+        proj = [np.concatenate([v, np.zeros((len(a), 9))], axis=1) for v in proj]
+        for v, v2 in zip(proj, p2, strict=True):
+            v[rest, 6:] = v2
+    pa, pb, ra, rb = proj
     k = gap.argmax(axis=1)
     r = np.arange(len(a))
     apart = gap[r, k] > 1e-9
@@ -633,6 +638,18 @@ def _separated(T: np.ndarray, half: np.ndarray, a: np.ndarray, b: np.ndarray) ->
     cam_low = 0.0 < mid
     b_front = np.where(lo_a, ~cam_low, cam_low)
     return apart, b_front
+
+
+def _gaps(L: np.ndarray, ok: np.ndarray, R, c, half):
+    """Gaps between box pairs along unit axes ``L (P, K, 3)`` (``-inf`` where not ``ok``):
+    ``R``, ``c``, ``half``: the two boxes' rotations, centres and half sizes. Returns the gaps
+    ``(P, K)`` and the centres' projections and the boxes' radii on the axes ``[pa, pb, ra, rb]``."""
+    (Ra, Rb), (ca, cb), (ha, hb) = R, c, half
+    ra = (np.abs(np.einsum("pkj,pji->pki", L, Ra)) * ha[:, None, :]).sum(-1)
+    rb = (np.abs(np.einsum("pkj,pji->pki", L, Rb)) * hb[:, None, :]).sum(-1)
+    pa = np.einsum("pkj,pj->pk", L, ca)
+    pb = np.einsum("pkj,pj->pk", L, cb)
+    return np.where(ok, np.abs(pa - pb) - ra - rb, -np.inf), [pa, pb, ra, rb]
 
 
 def _hulls(points: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
