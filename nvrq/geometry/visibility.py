@@ -445,17 +445,97 @@ def _fov_outlines(camera, T: np.ndarray, dims: np.ndarray, corners: np.ndarray, 
     ne = np.array([len(hh) for hh in hulls], np.int64)
     if not ne.sum():
         return [np.zeros((0, 2)) for _ in hulls]
-    p = np.concatenate(hulls)
-    q = np.concatenate([np.roll(hh, -1, axis=0) for hh in hulls])
+    return _project_polygons(camera, hulls, step)
+
+
+def _project_polygons(camera, polys: list[np.ndarray], step: float) -> list[np.ndarray | None]:
+    """Closed polygons ``(K, 2)`` in normalised coordinates, in order, projected to pixels:
+    their vertices, and for a camera whose edges curve (a finite ``step``) points along each
+    edge at most ``step`` apart (:data:`OUTLINE_SAMPLES` per edge at least); ``None`` for a
+    polygon with a point that does not project (not expected inside the field of view)."""
+    ne = np.array([len(hh) for hh in polys], np.int64)
+    if not ne.sum():
+        return [np.zeros((0, 2)) for _ in polys]
+    p = np.concatenate(polys)
+    q = np.concatenate([np.roll(hh, -1, axis=0) for hh in polys])
     ns = np.ones(len(p), np.int64) if not np.isfinite(step) else \
         np.maximum(np.ceil(np.hypot(*(q - p).T) / step), OUTLINE_SAMPLES).astype(np.int64)
     e = np.repeat(np.arange(len(p)), ns)
     f = (np.arange(ns.sum()) - np.repeat(np.cumsum(ns) - ns, ns)) / ns[e]
     flat = p[e] + f[:, None] * (q - p)[e]
     uv, ok = camera.project(np.c_[flat, np.ones(len(flat))])
-    split = np.cumsum(np.bincount(np.repeat(np.arange(len(T)), ne), weights=ns, minlength=len(T)).astype(np.int64))[:-1]
-    # a box with a point that does not project (not expected: the rectangle projects whole): None
+    split = np.cumsum(np.bincount(np.repeat(np.arange(len(polys)), ne), weights=ns,
+                                  minlength=len(polys)).astype(np.int64))[:-1]
     return [u if k.all() else None for u, k in zip(np.split(uv, split), np.split(ok, split), strict=True)]
+
+
+#: Each face of a box ``(axis, sign)`` and its corners in the box frame's signs, in order.
+_FACES = [(a, s, np.array([[s if i == a else (c0 if i == (a + 1) % 3 else c1) for i in range(3)]
+                           for c0, c1 in ((1, 1), (1, -1), (-1, -1), (-1, 1))], np.float64))
+          for a in range(3) for s in (1.0, -1.0)]
+
+
+def _front_faces(T: np.ndarray, half: np.ndarray):
+    """The faces of boxes (wholly in front of the camera) that face the camera: ``front (N,
+    6)``, their corners in normalised coordinates ``(N, 6, 4, 2)`` and their planes ``n . p =
+    d`` in the camera frame, ``n (N, 6, 3)`` (outwards) and ``d (N, 6)``."""
+    R, c = T[:, :3, :3], T[:, :3, 3]
+    o = -np.einsum("nji,nj->ni", R, c)  # the camera in the box frames
+    front = np.stack([s * o[:, a] > half[:, a] for a, s, _ in _FACES], axis=1)
+    quad = np.stack([np.einsum("nij,nkj->nki", R, sq[None] * half[:, None]) for _, _, sq in _FACES], axis=1) \
+        + c[:, None, None]
+    n = np.stack([s * R[:, :, a] for a, s, _ in _FACES], axis=1)
+    d = np.einsum("nfi,nfi->nf", n, c[:, None] + n * np.stack([half[:, a] for a, _, _ in _FACES], axis=1)[..., None])
+    return front, quad[..., :2] / quad[..., 2:], n, d
+
+
+def _clip_half_planes(P: np.ndarray, n: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Convex polygons ``P (M, K, 2)`` (the first ``n (M,)`` vertices, in order) cut to the
+    half-planes ``H (M, 3)``: ``a x + b y + c <= 0`` -> ``(M, K + 1, 2)`` and the new counts.
+
+    >>> sq = np.array([[[0.0, 0], [2, 0], [2, 2], [0, 2]]])
+    >>> P, n = _clip_half_planes(sq, np.array([4]), np.array([[1.0, 0, -1]]))  # x <= 1
+    >>> P[0, :n[0]].tolist()
+    [[0.0, 0.0], [1.0, 0.0], [1.0, 2.0], [0.0, 2.0]]
+    """
+    M, K = P.shape[:2]
+    i = np.arange(K)[None]
+    valid = i < n[:, None]
+    nxt = np.where(i + 1 < n[:, None], i + 1, 0)
+    Q = np.take_along_axis(P, nxt[..., None], axis=1)
+    s = P[..., 0] * H[:, :1] + P[..., 1] * H[:, 1:2] + H[:, 2:]
+    sq = np.take_along_axis(s, nxt, axis=1)
+    cross = valid & ((s <= 0) != (sq <= 0))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = np.where(cross, s / np.where(cross, s - sq, 1.0), 0.0)
+    out = np.stack([P, P + t[..., None] * (Q - P)], axis=2).reshape(M, 2 * K, 2)
+    ok = np.stack([valid & (s <= 0), cross], axis=2).reshape(M, 2 * K)
+    order = np.argsort(~ok, axis=1, kind="stable")
+    return np.take_along_axis(out, order[..., None], axis=1)[:, :K + 1], ok.sum(axis=1)
+
+
+def _entered_first(T: np.ndarray, half: np.ndarray, t: np.ndarray, o: np.ndarray):
+    """Where the rays enter box ``o[p]`` before box ``t[p]`` (intersecting boxes, both wholly
+    in front of the camera), in normalised coordinates: convex pieces, one for each front face
+    ``f`` of ``t`` and ``g`` of ``o`` (a ray through a silhouette enters its box at the front
+    face whose projection holds it): the projections of both faces, less the side where ``f``
+    is nearer (a ray ``X = (x, y, 1)`` meets the plane ``n . p = d`` at depth
+    ``d / (n . X)``, so ``g`` is nearer where ``(d_g n_f - d_f n_g) . X < 0``). Returns the
+    pieces ``(M, 9, 2)``, their vertex counts and their pairs."""
+    front, quad, n, d = _front_faces(T, half)
+    pf, ff, gg = np.nonzero(front[t][:, :, None] & front[o][:, None, :])
+    P, cnt = quad[t[pf], ff], np.full(len(pf), 4)
+    Gq = quad[o[pf], gg]
+    area = np.sum(Gq[:, :, 0] * np.roll(Gq[:, :, 1], -1, 1) - np.roll(Gq[:, :, 0], -1, 1) * Gq[:, :, 1], axis=1)
+    sign = np.sign(area)
+    for k in range(4):  # inside face g's projection: left of each edge (its orientation's side)
+        a, b = Gq[:, k], Gq[:, (k + 1) % 4]
+        e = b - a
+        H = -sign[:, None] * np.stack([-e[:, 1], e[:, 0], e[:, 1] * a[:, 0] - e[:, 0] * a[:, 1]], axis=1)
+        P, cnt = _clip_half_planes(P, cnt, H)
+    P, cnt = _clip_half_planes(P, cnt, d[o[pf], gg][:, None] * n[t[pf], ff] - d[t[pf], ff][:, None] * n[o[pf], gg])
+    keep = (cnt >= 3) & (sign != 0)
+    return P[keep], cnt[keep], pf[keep]
 
 
 def _scan_spans(polys: list[np.ndarray], v0: np.ndarray, v1: np.ndarray):
