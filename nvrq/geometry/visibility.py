@@ -522,7 +522,9 @@ def _entered_first(T: np.ndarray, half: np.ndarray, t: np.ndarray, o: np.ndarray
     is nearer (a ray ``X = (x, y, 1)`` meets the plane ``n . p = d`` at depth
     ``d / (n . X)``, so ``g`` is nearer where ``(d_g n_f - d_f n_g) . X < 0``). Returns the
     pieces ``(M, 9, 2)``, their vertex counts and their pairs."""
-    front, quad, n, d = _front_faces(T, half)
+    some, inv = np.unique(np.r_[t, o], return_inverse=True)
+    front, quad, n, d = _front_faces(T[some], half[some])
+    t, o = inv[:len(t)], inv[len(t):]
     pf, ff, gg = np.nonzero(front[t][:, :, None] & front[o][:, None, :])
     P, cnt = quad[t[pf], ff], np.full(len(pf), 4)
     Gq = quad[o[pf], gg]
@@ -811,12 +813,15 @@ def _raster(boxes3, ol: _Outlines, targets, cands, rays: _Rays, limits):
     order = np.argsort(cand_t, kind="stable")
     ct, co, ca = cand_t[order], cand_o[order], cand_apart[order]
     whole = ol.whole
-    simple = ca & ol.drawn()[co]
+    fov = rays.fov
+    # intersecting boxes, both wholly projected: the pieces where the occluder is entered first
+    inter = ~ca & whole[co] & whole[ct] & (fov is not None)
+    simple = (ca & ol.drawn()[co]) | inter
     clip = ol.clip()
     # the row spans of every target and every simple occluder (an occluder's: only on its
     # targets' rows): convex silhouettes (the hull of a whole outline), then the layers of
     # the outlines cut to the field of view (their edges may curve inwards)
-    sw, sc = simple & whole[co], simple & ~whole[co]
+    sw, sc = simple & ca & whole[co], simple & ca & ~whole[co]
     boxes = np.unique(np.r_[targets, co[sw]])
     r0, r1 = _rows_needed(boxes, co[sw], clip[ct[sw]], ol.clip())
     is_t = np.isin(boxes, targets)
@@ -824,14 +829,24 @@ def _raster(boxes3, ol: _Outlines, targets, cands, rays: _Rays, limits):
     spans = _box_spans(ol.points(boxes), r0, r1)
     cut = np.unique(co[sc])
     c0, c1 = _rows_needed(cut, co[sc], clip[ct[sc]], ol.drawn_clip())
-    owner, *layers = _scan_spans([ol.cut_pts[b] for b in cut.tolist()], c0, c1)
+    polys = [ol.cut_pts[b] for b in cut.tolist()]
+    # the pieces of the intersecting pairs (on their targets' rows)
+    T, dims = boxes3[:2]
+    piece, n_v, pair = _entered_first(T, 0.5 * dims, ct[inter], co[inter])
+    pp = _project_polygons(ol.camera, [q[:m] for q, m in zip(piece, n_v, strict=True)], fov[4] if fov else np.inf)
+    good = np.array([q is not None for q in pp], bool)
+    polys += [q for q, g in zip(pp, good, strict=True) if g]
+    piece_t = ct[inter][pair[good]]
+    c0, c1 = np.r_[c0, clip[piece_t, 1]], np.r_[c1, clip[piece_t, 3]]
+    owner, *layers = _scan_spans(polys, c0, c1)
     b_v0, b_lo, b_hi = (np.r_[spans[i], layers[i]] for i in (0, 2, 3))
     b_off = np.r_[spans[1], spans[1][-1] + layers[1][1:]]
     at = np.searchsorted(boxes, targets)
-    # each simple pair's occluder: its spans, or each layer of its cut outline
-    k = np.searchsorted(cut, co[sc])
+    # each simple pair's occluder: its spans, or each layer of its cut outline, or of its pieces
+    poly_t = np.r_[ct[sc], piece_t]
+    k = np.r_[np.searchsorted(cut, co[sc]), len(cut) + np.arange(len(piece_t))]
     l_first, l_n = np.searchsorted(owner, k), np.searchsorted(owner, k, side="right") - np.searchsorted(owner, k)
-    pair_t = np.r_[ct[sw], np.repeat(ct[sc], l_n)]
+    pair_t = np.r_[ct[sw], np.repeat(poly_t, l_n)]
     pair_o = np.r_[np.searchsorted(boxes, co[sw]), len(boxes) + _ranges(l_first, l_n)]
     # the stacked rows of every target, its span on each
     nrow = b_off[at + 1] - b_off[at]
