@@ -64,6 +64,9 @@ STAGES = 4
 
 _EDGES = [(a, b) for a in range(8) for b in range(a + 1, 8)
           if np.count_nonzero(CORNER_SIGNS[a] != CORNER_SIGNS[b]) == 1]
+#: The two faces ``(axis, 0 for the + side or 1 for the - side)`` beside each edge of :data:`_EDGES`.
+_EDGE_FACES = np.array([[ax for k in range(3) if CORNER_SIGNS[a][k] == CORNER_SIGNS[b][k]
+                         for ax in (k, int(CORNER_SIGNS[a][k] < 0))] for a, b in _EDGES])
 #: The near plane ``z = _NEAR`` (metres) where boxes are cut before they are projected to
 #: normalised coordinates (no camera model projects a point with ``z <= 0``).
 _NEAR = 1e-3
@@ -601,11 +604,33 @@ def _straight(camera) -> bool:
 def _project_outlines(camera, T: np.ndarray, dims: np.ndarray, samples: int) -> tuple[np.ndarray, np.ndarray]:
     """Projected outlines ``(N, K, 2)`` of the boxes (:func:`_outline_local`: corners alone
     for an undistorted pinhole, whose edges stay straight; ``samples`` points per edge
-    otherwise; NaN where a point does not project) and which points projected ``(N, K)``."""
+    otherwise; NaN where a point does not project) and which points projected ``(N, K)``.
+
+    Of a box wholly in front of the camera only the points of its silhouette edges (those
+    between a face that faces the camera and one that does not, or one seen edge-on) are
+    projected: the others lie inside its silhouette and stand in for its first corner."""
     local = _outline_local(samples)  # (K, 3)
-    scaled = local[None] * (0.5 * dims)[:, None, :]  # (N, K, 3)
-    pts = np.matmul(scaled, np.swapaxes(T[:, :3, :3], 1, 2)) + T[:, None, :3, 3]
-    uv, ok = camera.project(pts)
+    half = 0.5 * dims
+    R = T[:, :3, :3]
+    pick = np.ones((len(T), len(local)), bool)
+    if samples > 1:
+        o = -np.einsum("nji,nj->ni", R, T[:, :3, 3])  # the camera in the box frames
+        corners_z = np.einsum("nj,nkj->nk", R[:, 2], CORNER_SIGNS[None] * half[:, None]) + T[:, None, 2, 3]
+        # facing: +1 the face faces the camera, -1 it does not, 0 edge-on (or too near to tell)
+        gap = np.stack([o - half, -o - half], axis=-1)  # (N, 3, 2): sign s = +1, -1
+        facing = np.where(np.abs(gap) <= 1e-9 * (1 + np.abs(o)[..., None]), 0, np.sign(gap))
+        f1 = facing[:, _EDGE_FACES[:, 0], _EDGE_FACES[:, 1]]
+        f2 = facing[:, _EDGE_FACES[:, 2], _EDGE_FACES[:, 3]]
+        rim = (f1 != f2) | (f1 == 0) | (f2 == 0)  # (N, 12)
+        rim |= ~(corners_z > 0).all(axis=1)[:, None]
+        pick[:, 8:] = np.repeat(rim, samples - 1, axis=1)
+    pts = np.matmul(local[None] * half[:, None, :], np.swapaxes(R, 1, 2)) + T[:, None, :3, 3]
+    pts = np.where(pick[..., None], pts, pts[:, :1])
+    uv = np.full(pts.shape[:2] + (2,), np.nan)
+    ok = np.zeros(pts.shape[:2], bool)
+    uv[pick], ok[pick] = camera.project(pts[pick])
+    uv = np.where(pick[..., None], uv, uv[:, :1])
+    ok = np.where(pick, ok, ok[:, :1])
     ok = ok & np.isfinite(uv).all(axis=-1)
     return np.where(ok[..., None], uv, np.nan), ok
 
