@@ -625,13 +625,14 @@ def _project_outlines(camera, T: np.ndarray, dims: np.ndarray, samples: int) -> 
         rim |= ~(corners_z > 0).all(axis=1)[:, None]
         pick[:, 8:] = np.repeat(rim, samples - 1, axis=1)
     pts = np.matmul(local[None] * half[:, None, :], np.swapaxes(R, 1, 2)) + T[:, None, :3, 3]
-    pts = np.where(pick[..., None], pts, pts[:, :1])
-    uv = np.full(pts.shape[:2] + (2,), np.nan)
-    ok = np.zeros(pts.shape[:2], bool)
-    uv[pick], ok[pick] = camera.project(pts[pick])
-    uv = np.where(pick[..., None], uv, uv[:, :1])
-    ok = np.where(pick, ok, ok[:, :1])
-    ok = ok & np.isfinite(uv).all(axis=-1)
+    at = np.flatnonzero(pick)
+    uv = np.empty(pts.shape[:2] + (2,))
+    ok = np.empty(pts.shape[:2], bool)
+    uv.reshape(-1, 2)[at], ok.reshape(-1)[at] = camera.project(pts.reshape(-1, 3)[at])
+    if len(at) < pick.size:
+        uv = np.where(pick[..., None], uv, uv[:, :1])
+        ok = np.where(pick, ok, ok[:, :1])
+    ok &= np.isfinite(uv[..., 0]) & np.isfinite(uv[..., 1])
     return np.where(ok[..., None], uv, np.nan), ok
 
 
