@@ -8,22 +8,37 @@ entered by another box of the same frame. It is computed in three steps:
 
 1. **Who may cover whom.** An occluder must be nearer at its nearest point than the box at
    its farthest, and their projections must overlap: the boxes in normalised coordinates of
-   their parts in front of the camera (found before any occluder is projected), and, where both
-   project whole, the pixel boxes of the projected outlines. Only the wanted boxes and these
+   their parts in front of the camera (found before any occluder is projected), and, where the
+   box projects whole, the pixel boxes of the projected outlines (the occluder's, or that of
+   its part inside the field of view, step 2). Only the wanted boxes and these
    occluders are projected. A box with no such neighbour is fully visible. For disjoint boxes the depth order is
    the same along every ray through both (two disjoint convex bodies are separated by a plane:
    the box on the camera's side comes first); a separating-axis test gives that plane, and an
    occluder behind the box is dropped.
 2. **Silhouettes as pixel spans.** The silhouette of a box is convex on each image row; its
    span is read off the convex hull of its projected outline (the corners for an undistorted
-   pinhole, whose edges stay straight; :data:`OUTLINE_SAMPLES` points per edge for a camera
-   whose edges curve). A pixel is covered where it lies inside a disjoint occluder in front.
-3. **Rays where needed.** Where an occluder is not wholly projected (a box beside or behind
-   the camera) or intersects the box, rays through the still uncovered pixels (at most
-   ``4 * grid**2``, evenly spread; against an occluder only those inside its normalised box)
-   are slab-tested against both: the occluder covers a ray it enters first. A box that is
-   itself not wholly projected is sampled by a ray grid (at most ``grid`` per axis). A pixel's
-   ray is unprojected once, when first asked for, and shared by every view of the camera.
+   pinhole, whose edges stay straight; :data:`OUTLINE_SAMPLES` points per silhouette edge for
+   a camera whose edges curve). A pixel is covered where it lies inside a drawn occluder,
+   row span by row span:
+
+   - a disjoint occluder in front that projects whole: its silhouette;
+   - a disjoint occluder in front that does not (a box beside or behind the camera): its part
+     in front of the near plane and inside the field of view, a rectangle of normalised
+     coordinates where the model is valid and does not fold, whose border stays outside the
+     image (:func:`_field_of_view`); the part's silhouette in normalised coordinates is
+     convex (the hull of the vertices of the box cut by five planes), its projection is
+     scanned as a polygon (its edges may curve inwards, so a row may hold several spans);
+   - an occluder that intersects the box (both projecting whole): the convex pieces, in
+     normalised coordinates, where it is entered first (a front face of each, and the side of
+     the plane where the occluder's face is nearer, :func:`_entered_first`), scanned likewise.
+3. **Rays where needed.** Where an occluder is not drawn (a camera without such a field of
+   view: a fisheye whose image holds pixels without a ray; an intersecting box that does not
+   project whole), rays through the still uncovered pixels (at most ``4 * grid**2``, evenly
+   spread; against an occluder only those its widened silhouette or, not projecting whole,
+   its normalised box may hold) are slab-tested against both: the occluder covers a ray it
+   enters first. A box that is itself not wholly projected is sampled by a ray grid (at most
+   ``grid`` per axis). A pixel's ray is unprojected once, when first asked for, and shared by
+   every view of the camera.
 
 Under a threshold (:func:`pair_visibility`'s ``min_visible``, for a caller that drops what
 falls below it), a box is only resolved until it is known to be below: the share its row
@@ -34,6 +49,8 @@ cast, to the bit.
 
 Only ``project`` and ``unproject`` of the camera model are used, so it holds for every model
 (pinhole, OpenCV, fisheye, f-theta); a dense per-pixel ray cast is the reference in the tests.
+Boxes are cut at the near plane ``z = _NEAR`` before they are taken to normalised coordinates
+(a ray that meets a box only nearer than 1 mm to the camera's image plane is missed).
 
 Truncation: only the part of the silhouette inside the image counts (a box half outside the
 image and otherwise unoccluded is 1.0). A box with no silhouette pixel in the image is NaN.
@@ -289,7 +306,7 @@ class _Outlines:
         self.ok = np.zeros(self.outline.shape[:2], bool)
         self.bb = np.full((len(T), 4), np.nan)
         self.done = np.zeros(len(T), bool)
-        self.cut_pts: dict[int, np.ndarray] = {}
+        self.cut_pts: dict[int, np.ndarray] = {}  # box -> its cut outline, a polygon (pixels, in order)
         self.cut_bb = np.full((len(T), 4), np.nan)  # the pixel boxes of those outlines
         self.cut_done = np.zeros(len(T), bool)
 
