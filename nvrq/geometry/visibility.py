@@ -226,8 +226,7 @@ def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: 
     found below ``below`` before any ray is cast is left at that upper bound (not cast)."""
     T = np.asarray(T_box_cam, dtype=np.float64).reshape(-1, 4, 4)
     dims = np.asarray(dims_lwh, dtype=np.float64).reshape(-1, 3)
-    n = len(T)
-    out = np.full(n, np.nan)
+    n, out = len(T), np.full(len(T), np.nan)
     if n == 0:
         return out
     group = np.zeros(n, np.int64) if group is None else np.asarray(group).reshape(-1)
@@ -236,9 +235,8 @@ def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: 
     # first the wanted boxes', then those of the boxes that may cover one of them
     ol = _Outlines(camera, T, dims)
     ol.add(np.flatnonzero(want))
-    some = ol.ok.any(axis=1)
     clip = ol.clip()
-    in_img = some & (clip[:, 0] <= clip[:, 2]) & (clip[:, 1] <= clip[:, 3])
+    in_img = ol.ok.any(axis=1) & (clip[:, 0] <= clip[:, 2]) & (clip[:, 1] <= clip[:, 3])
     targets = np.flatnonzero(want & in_img)
     if len(targets) == 0:
         return out
@@ -258,9 +256,7 @@ def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: 
     whole = ol.whole
     # wholly projected pairs: their pixel boxes (with a margin for curved edges) overlap too
     bb = ol.bb
-    lap = ((bb[cand_o, 0] - MARGIN_PX <= bb[cand_t, 2]) & (bb[cand_o, 2] + MARGIN_PX >= bb[cand_t, 0])
-           & (bb[cand_o, 1] - MARGIN_PX <= bb[cand_t, 3]) & (bb[cand_o, 3] + MARGIN_PX >= bb[cand_t, 1]))
-    keep = ~(whole[cand_t] & whole[cand_o]) | lap
+    keep = ~(whole[cand_t] & whole[cand_o]) | _overlap(bb[cand_o], bb[cand_t])
     cand_t, cand_o = cand_t[keep], cand_o[keep]
     # depth order of disjoint pairs: an occluder behind the box cannot cover it
     apart, o_front = _separated(T, 0.5 * dims, cand_t, cand_o)
@@ -271,10 +267,7 @@ def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: 
     cut = apart & whole[cand_t] & ~whole[cand_o]
     if cut.any() and rays.fov is not None:
         ol.cut(np.unique(cand_o[cut]), corners, rays.fov)
-        cb = ol.cut_bb
-        lap = ((cb[cand_o, 0] - MARGIN_PX <= bb[cand_t, 2]) & (cb[cand_o, 2] + MARGIN_PX >= bb[cand_t, 0])
-               & (cb[cand_o, 1] - MARGIN_PX <= bb[cand_t, 3]) & (cb[cand_o, 3] + MARGIN_PX >= bb[cand_t, 1]))
-        keep = ~cut | lap | ~ol.cut_done[cand_o]  # nothing inside the field of view (NaN): dropped
+        keep = ~cut | _overlap(ol.cut_bb[cand_o], bb[cand_t]) | ~ol.cut_done[cand_o]  # none in view (NaN): dropped
         cand_t, cand_o, apart = cand_t[keep], cand_o[keep], apart[keep]
     counts = np.bincount(cand_t, minlength=n)
     out[targets[counts[targets] == 0]] = 1.0
@@ -290,6 +283,13 @@ def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: 
         sel = np.isin(cand_t, ray)
         out[ray] = _cast(camera, T, dims, ray, cand_t[sel], cand_o[sel], bb, clip, whole, grid, rays)
     return out
+
+
+def _overlap(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Whether pixel boxes ``a (P, 4)`` (an occluder's, :data:`MARGIN_PX` larger on each side:
+    a curved edge may bulge between its samples) and ``b (P, 4)`` overlap; False with NaN."""
+    return ((a[:, 0] - MARGIN_PX <= b[:, 2]) & (a[:, 2] + MARGIN_PX >= b[:, 0])
+            & (a[:, 1] - MARGIN_PX <= b[:, 3]) & (a[:, 3] + MARGIN_PX >= b[:, 1]))
 
 
 class _Outlines:
@@ -861,36 +861,8 @@ def _raster(boxes3, ol: _Outlines, targets, cands, rays: _Rays, limits):
     inter = ~ca & whole[co] & whole[ct] & (fov is not None)
     simple = (ca & ol.drawn()[co]) | inter
     clip = ol.clip()
-    # the row spans of every target and every simple occluder (an occluder's: only on its
-    # targets' rows): convex silhouettes (the hull of a whole outline), then the layers of
-    # the outlines cut to the field of view (their edges may curve inwards)
-    sw, sc = simple & ca & whole[co], simple & ca & ~whole[co]
-    boxes = np.unique(np.r_[targets, co[sw]])
-    r0, r1 = _rows_needed(boxes, co[sw], clip[ct[sw]], ol.clip())
-    is_t = np.isin(boxes, targets)
-    r0, r1 = np.where(is_t, clip[boxes, 1], r0), np.where(is_t, clip[boxes, 3], r1)
-    spans = _box_spans(ol.points(boxes), r0, r1)
-    cut = np.unique(co[sc])
-    c0, c1 = _rows_needed(cut, co[sc], clip[ct[sc]], ol.drawn_clip())
-    polys = [ol.cut_pts[b] for b in cut.tolist()]
-    # the pieces of the intersecting pairs (on their targets' rows)
-    T, dims = boxes3[:2]
-    piece, n_v, pair = _entered_first(T, 0.5 * dims, ct[inter], co[inter])
-    pp = _project_polygons(ol.camera, [q[:m] for q, m in zip(piece, n_v, strict=True)], fov[4] if fov else np.inf)
-    good = np.array([q is not None for q in pp], bool)
-    polys += [q for q, g in zip(pp, good, strict=True) if g]
-    piece_t = ct[inter][pair[good]]
-    c0, c1 = np.r_[c0, clip[piece_t, 1]], np.r_[c1, clip[piece_t, 3]]
-    owner, *layers = _scan_spans(polys, c0, c1)
-    b_v0, b_lo, b_hi = (np.r_[spans[i], layers[i]] for i in (0, 2, 3))
-    b_off = np.r_[spans[1], spans[1][-1] + layers[1][1:]]
-    at = np.searchsorted(boxes, targets)
-    # each simple pair's occluder: its spans, or each layer of its cut outline, or of its pieces
-    poly_t = np.r_[ct[sc], piece_t]
-    k = np.r_[np.searchsorted(cut, co[sc]), len(cut) + np.arange(len(piece_t))]
-    l_first, l_n = np.searchsorted(owner, k), np.searchsorted(owner, k, side="right") - np.searchsorted(owner, k)
-    pair_t = np.r_[ct[sw], np.repeat(poly_t, l_n)]
-    pair_o = np.r_[np.searchsorted(boxes, co[sw]), len(boxes) + _ranges(l_first, l_n)]
+    (b_v0, b_off, b_lo, b_hi), at, pair_t, pair_o = _simple_spans(ol, targets, (ct, co, ca, simple, inter),
+                                                                   boxes3[:2], fov)
     # the stacked rows of every target, its span on each
     nrow = b_off[at + 1] - b_off[at]
     r_off = np.r_[0, np.cumsum(nrow)]
@@ -952,6 +924,47 @@ def _reach(ol: _Outlines, occ: np.ndarray, rows: np.ndarray):
     shifts = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], np.float32)[:, None] * np.float32(MARGIN_PX)
     pts = [(p[None] + shifts).reshape(-1, 2) for p in ol.points(boxes)]
     return (boxes, *_box_spans(pts, r0, r1))
+
+
+def _simple_spans(ol: _Outlines, targets: np.ndarray, pairs, poses, fov):
+    """The row spans of :func:`_raster`'s targets and of their simple occluders (an
+    occluder's only on its targets' rows): convex silhouettes (the hull of a whole outline,
+    :func:`_box_spans`), then the layers (:func:`_scan_spans`) of the outlines cut to the
+    field of view and of the intersecting pairs' pieces (:func:`_entered_first`; their edges
+    may curve inwards). ``pairs``: the (target, occluder, disjoint, simple, intersecting and
+    drawn) arrays; ``poses``: ``(T, dims)``. Returns the spans ``(first row, offsets, lo,
+    hi)``, each target's spans and each simple pair's target and spans (a pair has one for
+    each layer of its cut outline or pieces)."""
+    ct, co, ca, simple, inter = pairs
+    whole, clip = ol.whole, ol.clip()
+    sw, sc = simple & ca & whole[co], simple & ca & ~whole[co]
+    boxes = np.unique(np.r_[targets, co[sw]])
+    r0, r1 = _rows_needed(boxes, co[sw], clip[ct[sw]], ol.clip())
+    is_t = np.isin(boxes, targets)
+    r0, r1 = np.where(is_t, clip[boxes, 1], r0), np.where(is_t, clip[boxes, 3], r1)
+    spans = _box_spans(ol.points(boxes), r0, r1)
+    cut = np.unique(co[sc])
+    c0, c1 = _rows_needed(cut, co[sc], clip[ct[sc]], ol.drawn_clip())
+    polys = [ol.cut_pts[b] for b in cut.tolist()]
+    # the pieces of the intersecting pairs (on their targets' rows)
+    T, dims = poses
+    piece, n_v, pair = _entered_first(T, 0.5 * dims, ct[inter], co[inter])
+    pp = _project_polygons(ol.camera, [q[:m] for q, m in zip(piece, n_v, strict=True)], fov[4] if fov else np.inf)
+    good = np.array([q is not None for q in pp], bool)  # all: the target lies where the model is valid
+    polys += [q for q, g in zip(pp, good, strict=True) if g]
+    piece_t = ct[inter][pair[good]]
+    c0, c1 = np.r_[c0, clip[piece_t, 1]], np.r_[c1, clip[piece_t, 3]]
+    owner, *layers = _scan_spans(polys, c0, c1)
+    b_v0, b_lo, b_hi = (np.r_[spans[i], layers[i]] for i in (0, 2, 3))
+    b_off = np.r_[spans[1], spans[1][-1] + layers[1][1:]]
+    at = np.searchsorted(boxes, targets)
+    # each simple pair's occluder: its spans, or each layer of its cut outline, or of its pieces
+    poly_t = np.r_[ct[sc], piece_t]
+    k = np.r_[np.searchsorted(cut, co[sc]), len(cut) + np.arange(len(piece_t))]
+    l_first, l_n = np.searchsorted(owner, k), np.searchsorted(owner, k, side="right") - np.searchsorted(owner, k)
+    pair_t = np.r_[ct[sw], np.repeat(poly_t, l_n)]
+    pair_o = np.r_[np.searchsorted(boxes, co[sw]), len(boxes) + _ranges(l_first, l_n)]
+    return (b_v0, b_off, b_lo, b_hi), at, pair_t, pair_o
 
 
 def _rows_needed(boxes: np.ndarray, occ: np.ndarray, t_clip: np.ndarray, clip: np.ndarray):
