@@ -329,11 +329,14 @@ class _Outlines:
         the field of view ``fov`` (:func:`_fov_outlines`); ``cut_done``: where that was done
         (a box with no such part keeps a NaN ``cut_bb``)."""
         pts = _fov_outlines(self.camera, self.T[sel], self.dims[sel], corners[sel], fov)
-        for b, p in zip(sel.tolist(), pts, strict=True):
-            self.cut_done[b] = p is not None
-            if p is not None and len(p):
-                self.cut_pts[b] = p
-                self.cut_bb[b] = (p[:, 0].min(), p[:, 1].min(), p[:, 0].max(), p[:, 1].max())
+        done = np.array([p is not None for p in pts], bool)
+        self.cut_done[sel] = done
+        has = [i for i, p in enumerate(pts) if p is not None and len(p)]
+        if has:
+            self.cut_pts.update((int(sel[i]), pts[i]) for i in has)
+            flat = np.concatenate([pts[i] for i in has])
+            at = np.cumsum([0] + [len(pts[i]) for i in has])[:-1]
+            self.cut_bb[sel[has]] = np.c_[np.minimum.reduceat(flat, at), np.maximum.reduceat(flat, at)]
 
     def drawn(self) -> np.ndarray:
         """``(N,) bool``: the boxes with a whole outline or one cut to the field of view."""
@@ -486,7 +489,9 @@ def _project_polygons(camera, polys: list[np.ndarray], step: float) -> list[np.n
     uv, ok = camera.project(np.c_[flat, np.ones(len(flat))])
     split = np.cumsum(np.bincount(np.repeat(np.arange(len(polys)), ne), weights=ns,
                                   minlength=len(polys)).astype(np.int64))[:-1]
-    return [u if k.all() else None for u, k in zip(np.split(uv, split), np.split(ok, split), strict=True)]
+    bad = np.bincount(np.repeat(np.arange(len(polys)), np.diff(np.r_[0, split, len(uv)])), weights=~ok,
+                      minlength=len(polys))
+    return [None if b else u for u, b in zip(np.split(uv, split), bad, strict=True)]
 
 
 #: Each face of a box ``(axis, sign)`` and its corners in the box frame's signs, in order.
