@@ -8,22 +8,37 @@ entered by another box of the same frame. It is computed in three steps:
 
 1. **Who may cover whom.** An occluder must be nearer at its nearest point than the box at
    its farthest, and their projections must overlap: the boxes in normalised coordinates of
-   their parts in front of the camera (found before any occluder is projected), and, where both
-   project whole, the pixel boxes of the projected outlines. Only the wanted boxes and these
+   their parts in front of the camera (found before any occluder is projected), and, where the
+   box projects whole, the pixel boxes of the projected outlines (the occluder's, or that of
+   its part inside the field of view, step 2). Only the wanted boxes and these
    occluders are projected. A box with no such neighbour is fully visible. For disjoint boxes the depth order is
    the same along every ray through both (two disjoint convex bodies are separated by a plane:
    the box on the camera's side comes first); a separating-axis test gives that plane, and an
    occluder behind the box is dropped.
 2. **Silhouettes as pixel spans.** The silhouette of a box is convex on each image row; its
    span is read off the convex hull of its projected outline (the corners for an undistorted
-   pinhole, whose edges stay straight; :data:`OUTLINE_SAMPLES` points per edge for a camera
-   whose edges curve). A pixel is covered where it lies inside a disjoint occluder in front.
-3. **Rays where needed.** Where an occluder is not wholly projected (a box beside or behind
-   the camera) or intersects the box, rays through the still uncovered pixels (at most
-   ``4 * grid**2``, evenly spread; against an occluder only those inside its normalised box)
-   are slab-tested against both: the occluder covers a ray it enters first. A box that is
-   itself not wholly projected is sampled by a ray grid (at most ``grid`` per axis). A pixel's
-   ray is unprojected once, when first asked for, and shared by every view of the camera.
+   pinhole, whose edges stay straight; :data:`OUTLINE_SAMPLES` points per silhouette edge for
+   a camera whose edges curve). A pixel is covered where it lies inside a drawn occluder,
+   row span by row span:
+
+   - a disjoint occluder in front that projects whole: its silhouette;
+   - a disjoint occluder in front that does not (a box beside or behind the camera): its part
+     in front of the near plane and inside the field of view, a rectangle of normalised
+     coordinates where the model is valid and does not fold, whose border stays outside the
+     image (:func:`_field_of_view`); the part's silhouette in normalised coordinates is
+     convex (the hull of the vertices of the box cut by five planes), its projection is
+     scanned as a polygon (its edges may curve inwards, so a row may hold several spans);
+   - an occluder that intersects the box (both projecting whole): the convex pieces, in
+     normalised coordinates, where it is entered first (a front face of each, and the side of
+     the plane where the occluder's face is nearer, :func:`_entered_first`), scanned likewise.
+3. **Rays where needed.** Where an occluder is not drawn (a camera without such a field of
+   view: a fisheye whose image holds pixels without a ray; an intersecting box that does not
+   project whole), rays through the still uncovered pixels (at most ``4 * grid**2``, evenly
+   spread; against an occluder only those its widened silhouette or, not projecting whole,
+   its normalised box may hold) are slab-tested against both: the occluder covers a ray it
+   enters first. A box that is itself not wholly projected is sampled by a ray grid (at most
+   ``grid`` per axis). A pixel's ray is unprojected once, when first asked for, and shared by
+   every view of the camera.
 
 Under a threshold (:func:`pair_visibility`'s ``min_visible``, for a caller that drops what
 falls below it), a box is only resolved until it is known to be below: the share its row
@@ -34,6 +49,8 @@ cast, to the bit.
 
 Only ``project`` and ``unproject`` of the camera model are used, so it holds for every model
 (pinhole, OpenCV, fisheye, f-theta); a dense per-pixel ray cast is the reference in the tests.
+Boxes are cut at the near plane ``z = _NEAR`` before they are taken to normalised coordinates
+(a ray that meets a box only nearer than 1 mm to the camera's image plane is missed).
 
 Truncation: only the part of the silhouette inside the image counts (a box half outside the
 image and otherwise unoccluded is 1.0). A box with no silhouette pixel in the image is NaN.
@@ -64,6 +81,15 @@ STAGES = 4
 
 _EDGES = [(a, b) for a in range(8) for b in range(a + 1, 8)
           if np.count_nonzero(CORNER_SIGNS[a] != CORNER_SIGNS[b]) == 1]
+#: The two faces ``(axis, 0 for the + side or 1 for the - side)`` beside each edge of :data:`_EDGES`.
+_EDGE_FACES = np.array([[ax for k in range(3) if CORNER_SIGNS[a][k] == CORNER_SIGNS[b][k]
+                         for ax in (k, int(CORNER_SIGNS[a][k] < 0))] for a, b in _EDGES])
+#: The near plane ``z = _NEAR`` (metres) where boxes are cut before they are projected to
+#: normalised coordinates (no camera model projects a point with ``z <= 0``).
+_NEAR = 1e-3
+#: Margins (share of its size on each side) tried, smallest first, around the normalised
+#: box of the image border's rays, for the field of view of a camera whose edges curve.
+_FOV_MARGINS = (0.05, 0.1, 0.2)
 
 
 def ray_box_entry(rays: np.ndarray, T_box_cam: np.ndarray, dims_lwh: np.ndarray) -> np.ndarray:
@@ -169,6 +195,15 @@ class _Rays:
         self.camera, self.width = camera, w
         self.rays = None if rays is None else np.asarray(rays, np.float64).reshape(h * w, 3)
         self.have = None  # (H * W,) bool: the pixels unprojected so far (None: all, or none asked yet)
+        self._fov = False  # not found yet
+
+    @property
+    def fov(self) -> tuple[float, float, float, float, float] | None:
+        """The camera's field of view in normalised coordinates (:func:`_field_of_view`),
+        found once."""
+        if self._fov is False:
+            self._fov = _field_of_view(self.camera)
+        return self._fov
 
     def at(self, pv: np.ndarray, pu: np.ndarray) -> np.ndarray:
         """Rays ``(P, 3)`` through pixels ``(pu, pv)``; a pixel's ray does not depend on the
@@ -176,12 +211,9 @@ class _Rays:
         idx = pv * self.width + pu
         if self.rays is None:
             w, h = self.camera.resolution
-            self.rays, self.have = np.full((h * w, 3), np.nan), np.zeros(h * w, bool)
+            self.rays, self.have = np.empty((h * w, 3)), np.zeros(h * w, bool)  # read only where had
         if self.have is not None:
-            new = np.zeros_like(self.have)
-            new[idx] = True
-            new &= ~self.have
-            miss = np.flatnonzero(new)
+            miss = np.unique(idx[~self.have[idx]])
             if len(miss):
                 uv = np.stack([miss % self.width, miss // self.width], axis=1).astype(np.float64)
                 self.rays[miss] = self.camera.unproject(uv)
@@ -194,8 +226,7 @@ def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: 
     found below ``below`` before any ray is cast is left at that upper bound (not cast)."""
     T = np.asarray(T_box_cam, dtype=np.float64).reshape(-1, 4, 4)
     dims = np.asarray(dims_lwh, dtype=np.float64).reshape(-1, 3)
-    n = len(T)
-    out = np.full(n, np.nan)
+    n, out = len(T), np.full(len(T), np.nan)
     if n == 0:
         return out
     group = np.zeros(n, np.int64) if group is None else np.asarray(group).reshape(-1)
@@ -204,9 +235,8 @@ def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: 
     # first the wanted boxes', then those of the boxes that may cover one of them
     ol = _Outlines(camera, T, dims)
     ol.add(np.flatnonzero(want))
-    some = ol.ok.any(axis=1)
     clip = ol.clip()
-    in_img = some & (clip[:, 0] <= clip[:, 2]) & (clip[:, 1] <= clip[:, 3])
+    in_img = ol.ok.any(axis=1) & (clip[:, 0] <= clip[:, 2]) & (clip[:, 1] <= clip[:, 3])
     targets = np.flatnonzero(want & in_img)
     if len(targets) == 0:
         return out
@@ -223,17 +253,22 @@ def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: 
     if len(rest):
         ol.add(rest)
         clip = ol.clip()
-    whole = ol.ok.all(axis=1) & ol.done
+    whole = ol.whole
     # wholly projected pairs: their pixel boxes (with a margin for curved edges) overlap too
     bb = ol.bb
-    lap = ((bb[cand_o, 0] - MARGIN_PX <= bb[cand_t, 2]) & (bb[cand_o, 2] + MARGIN_PX >= bb[cand_t, 0])
-           & (bb[cand_o, 1] - MARGIN_PX <= bb[cand_t, 3]) & (bb[cand_o, 3] + MARGIN_PX >= bb[cand_t, 1]))
-    keep = ~(whole[cand_t] & whole[cand_o]) | lap
+    keep = ~(whole[cand_t] & whole[cand_o]) | _overlap(bb[cand_o], bb[cand_t])
     cand_t, cand_o = cand_t[keep], cand_o[keep]
     # depth order of disjoint pairs: an occluder behind the box cannot cover it
     apart, o_front = _separated(T, 0.5 * dims, cand_t, cand_o)
     keep = ~apart | o_front
     cand_t, cand_o, apart = cand_t[keep], cand_o[keep], apart[keep]
+    # a disjoint occluder in front that does not project whole, of a target that does: its
+    # part inside the field of view is drawn too (or covers nothing in the image)
+    cut = apart & whole[cand_t] & ~whole[cand_o]
+    if cut.any() and rays.fov is not None:
+        ol.cut(np.unique(cand_o[cut]), corners, rays.fov)
+        keep = ~cut | _overlap(ol.cut_bb[cand_o], bb[cand_t]) | ~ol.cut_done[cand_o]  # none in view (NaN): dropped
+        cand_t, cand_o, apart = cand_t[keep], cand_o[keep], apart[keep]
     counts = np.bincount(cand_t, minlength=n)
     out[targets[counts[targets] == 0]] = 1.0
     # wholly projected boxes: their silhouette's pixel centres (raster); the others: ray grids
@@ -242,18 +277,27 @@ def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: 
     ray = busy[~whole[busy]]
     if len(ras):
         sel = np.isin(cand_t, ras)
-        out[ras] = _raster(camera, T, dims, ol.outline, ras, (cand_t[sel], cand_o[sel], apart[sel]), clip, whole,
-                           nb, rays, (4 * grid * grid, below))
+        out[ras] = _raster((T, dims, nb), ol, ras, (cand_t[sel], cand_o[sel], apart[sel]), rays,
+                           (4 * grid * grid, below))
     if len(ray):
         sel = np.isin(cand_t, ray)
         out[ray] = _cast(camera, T, dims, ray, cand_t[sel], cand_o[sel], bb, clip, whole, grid, rays)
     return out
 
 
+def _overlap(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Whether pixel boxes ``a (P, 4)`` (an occluder's, :data:`MARGIN_PX` larger on each side:
+    a curved edge may bulge between its samples) and ``b (P, 4)`` overlap; False with NaN."""
+    return ((a[:, 0] - MARGIN_PX <= b[:, 2]) & (a[:, 2] + MARGIN_PX >= b[:, 0])
+            & (a[:, 1] - MARGIN_PX <= b[:, 3]) & (a[:, 3] + MARGIN_PX >= b[:, 1]))
+
+
 class _Outlines:
     """The projected outlines of boxes, projected as they are asked for (:meth:`add`):
     ``outline (N, K, 2)`` and ``ok (N, K)`` (:func:`_project_outlines`), the pixel boxes
-    ``bb (N, 4)`` of the points that project (NaN where none) and ``done (N,)``."""
+    ``bb (N, 4)`` of the points that project (NaN where none) and ``done (N,)``; for boxes
+    that do not project whole, the outline of their part inside the field of view
+    (:meth:`cut`)."""
 
     def __init__(self, camera, T: np.ndarray, dims: np.ndarray):
         self.camera, self.T, self.dims = camera, T, dims
@@ -262,6 +306,9 @@ class _Outlines:
         self.ok = np.zeros(self.outline.shape[:2], bool)
         self.bb = np.full((len(T), 4), np.nan)
         self.done = np.zeros(len(T), bool)
+        self.cut_pts: dict[int, np.ndarray] = {}  # box -> its cut outline, a polygon (pixels, in order)
+        self.cut_bb = np.full((len(T), 4), np.nan)  # the pixel boxes of those outlines
+        self.cut_done = np.zeros(len(T), bool)
 
     def add(self, sel: np.ndarray) -> None:
         """Project the boxes ``sel``."""
@@ -272,12 +319,301 @@ class _Outlines:
         self.bb[s] = np.stack([np.nanmin(q[..., 0], 1), np.nanmin(q[..., 1], 1),
                                np.nanmax(q[..., 0], 1), np.nanmax(q[..., 1], 1)], axis=1)
 
-    def clip(self) -> np.ndarray:
-        """The silhouettes' pixel boxes ``(N, 4)``, clipped to the image."""
+    @property
+    def whole(self) -> np.ndarray:
+        """``(N,) bool``: the boxes projected, every outline point of them projectable."""
+        return self.ok.all(axis=1) & self.done
+
+    def cut(self, sel: np.ndarray, corners: np.ndarray, fov) -> None:
+        """Outline the parts of the boxes ``sel`` (corners ``(N, 8, 3)``, camera frame) inside
+        the field of view ``fov`` (:func:`_fov_outlines`); ``cut_done``: where that was done
+        (a box with no such part keeps a NaN ``cut_bb``)."""
+        pts = _fov_outlines(self.camera, self.T[sel], self.dims[sel], corners[sel], fov)
+        done = np.array([p is not None for p in pts], bool)
+        self.cut_done[sel] = done
+        has = [i for i, p in enumerate(pts) if p is not None and len(p)]
+        if has:
+            self.cut_pts.update((int(sel[i]), pts[i]) for i in has)
+            flat = np.concatenate([pts[i] for i in has])
+            at = np.cumsum([0] + [len(pts[i]) for i in has])[:-1]
+            self.cut_bb[sel[has]] = np.c_[np.minimum.reduceat(flat, at), np.maximum.reduceat(flat, at)]
+
+    def drawn(self) -> np.ndarray:
+        """``(N,) bool``: the boxes with a whole outline or one cut to the field of view."""
+        return self.whole | np.isfinite(self.cut_bb[:, 0])
+
+    def points(self, boxes: np.ndarray) -> list[np.ndarray]:
+        """The outline points ``(K, 2)`` float32 of each of ``boxes`` (projected whole)."""
+        return list(self.outline[boxes].astype(np.float32))
+
+    def clip(self, bb: np.ndarray | None = None) -> np.ndarray:
+        """The silhouettes' pixel boxes ``(N, 4)`` (default ``bb``), clipped to the image."""
         w, h = self.camera.resolution
-        bb = self.bb
+        bb = self.bb if bb is None else bb
         return np.stack([np.maximum(np.floor(bb[:, 0]), 0), np.maximum(np.floor(bb[:, 1]), 0),
                          np.minimum(np.ceil(bb[:, 2]), w - 1), np.minimum(np.ceil(bb[:, 3]), h - 1)], axis=1)
+
+    def drawn_clip(self) -> np.ndarray:
+        """:meth:`clip` of the drawn boxes' outlines (the cut one where a box has it)."""
+        return self.clip(np.where(np.isfinite(self.cut_bb[:, :1]), self.cut_bb, self.bb))
+
+
+def _field_of_view(camera) -> tuple[float, float, float, float, float] | None:
+    """A rectangle ``x0, y0, x1, y1`` of normalised coordinates ``(x / z, y / z)`` holding the
+    ray of every pixel centre, and the longest step between outline samples along a straight
+    line in it (``inf`` for an undistorted pinhole, whose lines stay straight), such that the
+    camera projects the whole rectangle (it lies where the model is valid and does not fold)
+    and its border, sampled at that step, stays outside the image: a polygon clipped to it
+    and projected keeps every pixel centre of the unclipped silhouette. ``None`` where no
+    such rectangle is found (a pixel without a ray: a fisheye's border); the boxes that do
+    not project whole are then ray-cast.
+
+    >>> from nvrq.geometry.cameras import camera_from_model
+    >>> cam = camera_from_model({"type": "pinhole", "resolution": [5, 3], "focal_length": [1, 1],
+    ...                          "principal_point": [2, 1]})
+    >>> _field_of_view(cam)
+    (-3.5, -2.5, 3.5, 2.5, inf)
+    """
+    w, h = camera.resolution
+    if _straight(camera):  # the image rectangle, 1 pixel larger on each side
+        (fx, fy), (cx, cy) = camera.focal_length, camera.principal_point
+        return (float((-1.5 - cx) / fx), float((-1.5 - cy) / fy), float((w + 0.5 - cx) / fx),
+                float((h + 0.5 - cy) / fy), float("inf"))
+    u, v = np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64)
+    border = np.concatenate([np.stack([u, np.zeros(w)], 1), np.stack([u, np.full(w, h - 1.0)], 1),
+                             np.stack([np.zeros(h), v], 1), np.stack([np.full(h, w - 1.0), v], 1)])
+    r = camera.unproject(border)
+    if not (np.isfinite(r).all() and (r[:, 2] > 0).all()):
+        return None
+    xy = r[:, :2] / r[:, 2:]
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    fine = np.linspace(0.0, 1.0, 1025)[:, None]
+    for m in _FOV_MARGINS:
+        x0, y0 = lo - m * (hi - lo)
+        x1, y1 = hi + m * (hi - lo)
+        step = min(x1 - x0, y1 - y0) / 16
+        sides = [((x0, y0), (x1, y0)), ((x1, y0), (x1, y1)), ((x1, y1), (x0, y1)), ((x0, y1), (x0, y0))]
+        ok, out, sag = True, np.inf, 0.0
+        for a, b in sides:
+            a, b = np.array(a), np.array(b)
+            pts = a + fine * (b - a)
+            uv, good = camera.project(np.c_[pts, np.ones(len(pts))])
+            if not good.all():
+                ok = False
+                break
+            # how far outside the image (pixel centres' rectangle, half a pixel larger)
+            dist = np.max([-0.5 - uv[:, 0], uv[:, 0] - (w - 0.5), -0.5 - uv[:, 1], uv[:, 1] - (h - 0.5)], axis=0)
+            out = min(out, dist.min())
+            k = max(2, 2 * int(step / np.hypot(*(b - a)) * (len(fine) - 1) / 2))  # fine samples per step
+            sag = max(sag, np.hypot(*(uv[k // 2:len(uv) - k // 2] - 0.5 * (uv[:-k] + uv[k:])).T).max())
+        if ok and out > sag + 1.0:
+            return float(x0), float(y0), float(x1), float(y1), float(step)
+    return None
+
+
+def _fov_outlines(camera, T: np.ndarray, dims: np.ndarray, corners: np.ndarray, fov) -> list[np.ndarray]:
+    """The outlines (pixels, ``(K, 2)`` float32 each; empty where none, ``None`` where a point
+    did not project) of the parts of boxes
+    inside the field of view ``fov`` (:func:`_field_of_view`) and in front of ``z = _NEAR``.
+
+    That part is a convex polyhedron (the box cut by five planes: the near plane and the
+    four through the camera centre and the rectangle's sides), and its silhouette in
+    normalised coordinates is the convex hull of its vertices: the box corners inside the
+    five half-spaces, the points where box edges cross one of the planes, and those where the
+    lines of two planes (the rectangle's corner rays, its sides on the near plane) enter and
+    leave the box; a vertex of the planes alone (a corner ray on the near plane, inside the box)
+    sees the same ray leave the box. For a camera whose edges curve, the hull's edges are
+    sampled (at most ``fov``'s step apart, :data:`OUTLINE_SAMPLES` per edge at least) and
+    projected; every point projected lies inside the rectangle."""
+    x0, y0, x1, y1, step = fov
+    n_pl = np.array([[0.0, 0, 1], [1, 0, -x0], [-1, 0, x1], [0, 1, -y0], [0, -1, y1]])
+    c_pl = np.array([_NEAR, 0, 0, 0, 0])
+    a = corners[:, [i for i, _ in _EDGES]]
+    b = corners[:, [j for _, j in _EDGES]]
+    sa, sb = a @ n_pl.T - c_pl, b @ n_pl.T - c_pl  # (N, 12, 5)
+    cross = sa * sb < 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = np.where(cross, sa / np.where(cross, sa - sb, 1.0), np.nan)
+    on_edges = a[:, :, None] + t[..., None] * (b - a)[:, :, None]  # (N, 12, 5, 3)
+    # the lines of two planes: origin and direction
+    p0 = np.array([[0.0, 0, 0]] * 4 + [[x0 * _NEAR, 0, _NEAR], [x1 * _NEAR, 0, _NEAR],
+                                       [0, y0 * _NEAR, _NEAR], [0, y1 * _NEAR, _NEAR]])
+    d = np.array([[x0, y0, 1.0], [x1, y0, 1], [x1, y1, 1], [x0, y1, 1], [0, 1, 0], [0, 1, 0], [1, 0, 0], [1, 0, 0]])
+    R = T[:, :3, :3]
+    o = np.einsum("nji,nlj->nli", R, p0[None] - T[:, None, :3, 3])  # (N, 8, 3) in the box frames
+    dl = np.einsum("nji,lj->nli", R, d)
+    half = 0.5 * dims[:, None, :]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t1, t2 = (-half - o) / dl, (half - o) / dl
+    par = dl == 0
+    inside = np.abs(o) <= half
+    lo = np.where(par, np.where(inside, -np.inf, np.inf), np.fmin(t1, t2)).max(axis=-1)
+    hi = np.where(par, np.where(inside, np.inf, -np.inf), np.fmax(t1, t2)).min(axis=-1)
+    meet = np.isfinite(lo) & np.isfinite(hi) & (lo <= hi)
+    tl = np.where(meet[..., None], np.stack([lo, hi], axis=-1), np.nan)  # (N, 8, 2)
+    on_lines = p0[None, :, None] + tl[..., None] * d[None, :, None]  # (N, 8, 2, 3)
+    pts = np.concatenate([corners, on_edges.reshape(len(T), -1, 3), on_lines.reshape(len(T), -1, 3)], axis=1)
+    tol = 1e-9 * (1.0 + np.abs(pts).max(axis=-1, initial=0.0, where=np.isfinite(pts)))
+    with np.errstate(invalid="ignore"):
+        good = np.isfinite(pts).all(axis=-1) & (pts @ n_pl.T - c_pl >= -tol[..., None]).all(axis=-1)
+    xy = np.zeros(pts.shape[:2] + (2,))
+    xy[good] = pts[good][:, :2] / pts[good][:, 2:]
+    xy[..., 0] = np.clip(xy[..., 0], x0, x1)
+    xy[..., 1] = np.clip(xy[..., 1], y0, y1)
+    import cv2
+
+    # the hull in normalised coordinates, its edges sampled where they curve in the image
+    hulls = [cv2.convexHull(xy[i][good[i]].astype(np.float32)).reshape(-1, 2).astype(np.float64)
+             if good[i].any() else np.zeros((0, 2)) for i in range(len(T))]
+    ne = np.array([len(hh) for hh in hulls], np.int64)
+    if not ne.sum():
+        return [np.zeros((0, 2)) for _ in hulls]
+    return _project_polygons(camera, hulls, step)
+
+
+def _project_polygons(camera, polys: list[np.ndarray], step: float) -> list[np.ndarray | None]:
+    """Closed polygons ``(K, 2)`` in normalised coordinates, in order, projected to pixels:
+    their vertices, and for a camera whose edges curve (a finite ``step``) points along each
+    edge at most ``step`` apart (:data:`OUTLINE_SAMPLES` per edge at least); ``None`` for a
+    polygon with a point that does not project (not expected inside the field of view)."""
+    ne = np.array([len(hh) for hh in polys], np.int64)
+    if not ne.sum():
+        return [np.zeros((0, 2)) for _ in polys]
+    p = np.concatenate(polys)
+    q = np.concatenate([np.roll(hh, -1, axis=0) for hh in polys])
+    ns = np.ones(len(p), np.int64) if not np.isfinite(step) else \
+        np.maximum(np.ceil(np.hypot(*(q - p).T) / step), OUTLINE_SAMPLES).astype(np.int64)
+    e = np.repeat(np.arange(len(p)), ns)
+    f = (np.arange(ns.sum()) - np.repeat(np.cumsum(ns) - ns, ns)) / ns[e]
+    flat = p[e] + f[:, None] * (q - p)[e]
+    uv, ok = camera.project(np.c_[flat, np.ones(len(flat))])
+    split = np.cumsum(np.bincount(np.repeat(np.arange(len(polys)), ne), weights=ns,
+                                  minlength=len(polys)).astype(np.int64))[:-1]
+    bad = np.bincount(np.repeat(np.arange(len(polys)), np.diff(np.r_[0, split, len(uv)])), weights=~ok,
+                      minlength=len(polys))
+    return [None if b else u for u, b in zip(np.split(uv, split), bad, strict=True)]
+
+
+#: Each face of a box ``(axis, sign)`` and its corners in the box frame's signs, in order.
+_FACES = [(a, s, np.array([[s if i == a else (c0 if i == (a + 1) % 3 else c1) for i in range(3)]
+                           for c0, c1 in ((1, 1), (1, -1), (-1, -1), (-1, 1))], np.float64))
+          for a in range(3) for s in (1.0, -1.0)]
+
+
+def _front_faces(T: np.ndarray, half: np.ndarray):
+    """The faces of boxes (wholly in front of the camera) that face the camera: ``front (N,
+    6)``, their corners in normalised coordinates ``(N, 6, 4, 2)`` and their planes ``n . p =
+    d`` in the camera frame, ``n (N, 6, 3)`` (outwards) and ``d (N, 6)``."""
+    R, c = T[:, :3, :3], T[:, :3, 3]
+    o = -np.einsum("nji,nj->ni", R, c)  # the camera in the box frames
+    front = np.stack([s * o[:, a] > half[:, a] for a, s, _ in _FACES], axis=1)
+    quad = np.stack([np.einsum("nij,nkj->nki", R, sq[None] * half[:, None]) for _, _, sq in _FACES], axis=1) \
+        + c[:, None, None]
+    n = np.stack([s * R[:, :, a] for a, s, _ in _FACES], axis=1)
+    d = np.einsum("nfi,nfi->nf", n, c[:, None] + n * np.stack([half[:, a] for a, _, _ in _FACES], axis=1)[..., None])
+    return front, quad[..., :2] / quad[..., 2:], n, d
+
+
+def _clip_half_planes(P: np.ndarray, n: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Convex polygons ``P (M, K, 2)`` (the first ``n (M,)`` vertices, in order) cut to the
+    half-planes ``H (M, 3)``: ``a x + b y + c <= 0`` -> ``(M, K + 1, 2)`` and the new counts.
+
+    >>> sq = np.array([[[0.0, 0], [2, 0], [2, 2], [0, 2]]])
+    >>> P, n = _clip_half_planes(sq, np.array([4]), np.array([[1.0, 0, -1]]))  # x <= 1
+    >>> P[0, :n[0]].tolist()
+    [[0.0, 0.0], [1.0, 0.0], [1.0, 2.0], [0.0, 2.0]]
+    """
+    M, K = P.shape[:2]
+    i = np.arange(K)[None]
+    valid = i < n[:, None]
+    nxt = np.where(i + 1 < n[:, None], i + 1, 0)
+    Q = np.take_along_axis(P, nxt[..., None], axis=1)
+    s = P[..., 0] * H[:, :1] + P[..., 1] * H[:, 1:2] + H[:, 2:]
+    sq = np.take_along_axis(s, nxt, axis=1)
+    cross = valid & ((s <= 0) != (sq <= 0))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = np.where(cross, s / np.where(cross, s - sq, 1.0), 0.0)
+    out = np.stack([P, P + t[..., None] * (Q - P)], axis=2).reshape(M, 2 * K, 2)
+    ok = np.stack([valid & (s <= 0), cross], axis=2).reshape(M, 2 * K)
+    order = np.argsort(~ok, axis=1, kind="stable")
+    return np.take_along_axis(out, order[..., None], axis=1)[:, :K + 1], ok.sum(axis=1)
+
+
+def _entered_first(T: np.ndarray, half: np.ndarray, t: np.ndarray, o: np.ndarray):
+    """Where the rays enter box ``o[p]`` before box ``t[p]`` (intersecting boxes, both wholly
+    in front of the camera), in normalised coordinates: convex pieces, one for each front face
+    ``f`` of ``t`` and ``g`` of ``o`` (a ray through a silhouette enters its box at the front
+    face whose projection holds it): the projections of both faces, less the side where ``f``
+    is nearer (a ray ``X = (x, y, 1)`` meets the plane ``n . p = d`` at depth
+    ``d / (n . X)``, so ``g`` is nearer where ``(d_g n_f - d_f n_g) . X < 0``). Returns the
+    pieces ``(M, 9, 2)``, their vertex counts and their pairs."""
+    some, inv = np.unique(np.r_[t, o], return_inverse=True)
+    front, quad, n, d = _front_faces(T[some], half[some])
+    t, o = inv[:len(t)], inv[len(t):]
+    pf, ff, gg = np.nonzero(front[t][:, :, None] & front[o][:, None, :])
+    P, cnt = quad[t[pf], ff], np.full(len(pf), 4)
+    Gq = quad[o[pf], gg]
+    area = np.sum(Gq[:, :, 0] * np.roll(Gq[:, :, 1], -1, 1) - np.roll(Gq[:, :, 0], -1, 1) * Gq[:, :, 1], axis=1)
+    sign = np.sign(area)
+    for k in range(4):  # inside face g's projection: left of each edge (its orientation's side)
+        a, b = Gq[:, k], Gq[:, (k + 1) % 4]
+        e = b - a
+        H = -sign[:, None] * np.stack([-e[:, 1], e[:, 0], e[:, 1] * a[:, 0] - e[:, 0] * a[:, 1]], axis=1)
+        P, cnt = _clip_half_planes(P, cnt, H)
+    P, cnt = _clip_half_planes(P, cnt, d[o[pf], gg][:, None] * n[t[pf], ff] - d[t[pf], ff][:, None] * n[o[pf], gg])
+    keep = (cnt >= 3) & (sign != 0)
+    return P[keep], cnt[keep], pf[keep]
+
+
+def _scan_spans(polys: list[np.ndarray], v0: np.ndarray, v1: np.ndarray):
+    """Row spans of closed polygons ``(K, 2)`` (pixels, in order, not necessarily convex) on
+    their rows ``v0 .. v1``: the pixel centres inside (even-odd rule; an edge meets the rows
+    from its lower end, included, to its upper end, excluded). A row may hold several
+    intervals: layer ``k`` of a polygon holds the ``k``-th interval of each of its rows.
+    Returns ``(owner, first row, offsets, lo, hi)`` of the layers (:func:`_box_spans`'s
+    layout, ``owner``: each layer's polygon, ascending).
+
+    >>> u = np.array([[1.0, 0], [7, 0], [7, 4], [5, 4], [5, 1], [3, 1], [3, 4], [1, 4]])  # a U
+    >>> owner, first, off, lo, hi = _scan_spans([u], np.array([0]), np.array([4]))
+    >>> owner.tolist(), off.tolist()
+    ([0, 0], [0, 5, 10])
+    >>> lo.tolist(), hi.tolist()  # rows 0..4 of the first layer, then of the second
+    ([1.0, 1.0, 1.0, 1.0, inf, inf, 5.0, 5.0, 5.0, inf], [7.0, 3.0, 3.0, 3.0, -inf, -inf, 7.0, 7.0, 7.0, -inf])
+    """
+    ne = np.array([len(p) for p in polys], np.int64)
+    v0, v1 = np.asarray(v0).astype(np.int64), np.asarray(v1).astype(np.int64)
+    p = np.concatenate(polys) if len(polys) else np.zeros((0, 2))
+    nxt = np.arange(1, len(p) + 1)
+    nxt[np.cumsum(ne)[ne > 0] - 1] = (np.cumsum(ne) - ne)[ne > 0]
+    q = p[nxt]
+    e_poly = np.repeat(np.arange(len(polys)), ne)
+    r0 = np.maximum(np.ceil(np.minimum(p[:, 1], q[:, 1])), v0[e_poly]).astype(np.int64)
+    r1 = np.minimum(np.ceil(np.maximum(p[:, 1], q[:, 1])) - 1, v1[e_poly]).astype(np.int64)
+    cnt = np.maximum(r1 - r0 + 1, 0)
+    e = np.repeat(np.arange(len(p)), cnt)
+    v = r0[e] + np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    x = p[e, 0] + (v - p[e, 1]) * (q[e, 0] - p[e, 0]) / (q[e, 1] - p[e, 1])
+    poly = e_poly[e]
+    order = np.lexsort((x, v, poly))
+    poly, v, x = poly[order], v[order], x[order]
+    new = np.r_[True, (poly[1:] != poly[:-1]) | (v[1:] != v[:-1])] if len(v) else np.zeros(0, bool)
+    grp = np.cumsum(new) - 1
+    head = np.flatnonzero(new)
+    rank = np.arange(len(v)) - head[grp]
+    size = np.diff(np.r_[head, len(v)])
+    s = np.flatnonzero((rank % 2 == 0) & (rank + 1 < size[grp]))  # each interval's left end
+    layer = rank[s] // 2
+    n_layer = np.zeros(len(polys), np.int64)
+    np.maximum.at(n_layer, poly[s], layer + 1)
+    owner = np.repeat(np.arange(len(polys)), n_layer)
+    ent_first = np.cumsum(n_layer) - n_layer
+    nrow = np.maximum(v1 - v0 + 1, 0)[owner]
+    off = np.r_[0, np.cumsum(nrow)]
+    lo, hi = np.full(off[-1], np.inf), np.full(off[-1], -np.inf)
+    pos = off[ent_first[poly[s]] + layer] + v[s] - v0[poly[s]]
+    lo[pos] = np.ceil(x[s] - 1e-9)
+    hi[pos] = np.floor(x[s + 1] + 1e-9)
+    return owner, v0[owner], off, lo, hi
 
 
 def _straight(camera) -> bool:
@@ -290,12 +626,35 @@ def _straight(camera) -> bool:
 def _project_outlines(camera, T: np.ndarray, dims: np.ndarray, samples: int) -> tuple[np.ndarray, np.ndarray]:
     """Projected outlines ``(N, K, 2)`` of the boxes (:func:`_outline_local`: corners alone
     for an undistorted pinhole, whose edges stay straight; ``samples`` points per edge
-    otherwise; NaN where a point does not project) and which points projected ``(N, K)``."""
+    otherwise; NaN where a point does not project) and which points projected ``(N, K)``.
+
+    Of a box wholly in front of the camera only the points of its silhouette edges (those
+    between a face that faces the camera and one that does not, or one seen edge-on) are
+    projected: the others lie inside its silhouette and stand in for its first corner."""
     local = _outline_local(samples)  # (K, 3)
-    scaled = local[None] * (0.5 * dims)[:, None, :]  # (N, K, 3)
-    pts = np.matmul(scaled, np.swapaxes(T[:, :3, :3], 1, 2)) + T[:, None, :3, 3]
-    uv, ok = camera.project(pts)
-    ok = ok & np.isfinite(uv).all(axis=-1)
+    half = 0.5 * dims
+    R = T[:, :3, :3]
+    pick = np.ones((len(T), len(local)), bool)
+    if samples > 1:
+        o = -np.einsum("nji,nj->ni", R, T[:, :3, 3])  # the camera in the box frames
+        corners_z = np.einsum("nj,nkj->nk", R[:, 2], CORNER_SIGNS[None] * half[:, None]) + T[:, None, 2, 3]
+        # facing: +1 the face faces the camera, -1 it does not, 0 edge-on (or too near to tell)
+        gap = np.stack([o - half, -o - half], axis=-1)  # (N, 3, 2): sign s = +1, -1
+        facing = np.where(np.abs(gap) <= 1e-9 * (1 + np.abs(o)[..., None]), 0, np.sign(gap))
+        f1 = facing[:, _EDGE_FACES[:, 0], _EDGE_FACES[:, 1]]
+        f2 = facing[:, _EDGE_FACES[:, 2], _EDGE_FACES[:, 3]]
+        rim = (f1 != f2) | (f1 == 0) | (f2 == 0)  # (N, 12)
+        rim |= ~(corners_z > 0).all(axis=1)[:, None]
+        pick[:, 8:] = np.repeat(rim, samples - 1, axis=1)
+    pts = np.matmul(local[None] * half[:, None, :], np.swapaxes(R, 1, 2)) + T[:, None, :3, 3]
+    at = np.flatnonzero(pick)
+    uv = np.empty(pts.shape[:2] + (2,))
+    ok = np.empty(pts.shape[:2], bool)
+    uv.reshape(-1, 2)[at], ok.reshape(-1)[at] = camera.project(pts.reshape(-1, 3)[at])
+    if len(at) < pick.size:
+        uv = np.where(pick[..., None], uv, uv[:, :1])
+        ok = np.where(pick, ok, ok[:, :1])
+    ok &= np.isfinite(uv[..., 0]) & np.isfinite(uv[..., 1])
     return np.where(ok[..., None], uv, np.nan), ok
 
 
@@ -306,7 +665,7 @@ def _normalized_boxes(corners: np.ndarray) -> np.ndarray:
     project nothing else), and a convex body in front of the camera maps to the convex hull of
     its vertices, so the box of the clipped vertices (corners in front, and edges cut at
     ``z = eps``) bounds every ray that can enter it."""
-    eps = 1e-3
+    eps = _NEAR
     out = np.full((len(corners), 4), np.nan)
     ahead = corners[..., 2] >= eps
     front = ahead.all(axis=1)  # wholly in front: the box of its corners
@@ -382,18 +741,23 @@ def _separated(T: np.ndarray, half: np.ndarray, a: np.ndarray, b: np.ndarray) ->
     ``b``'s side of that plane, so along every ray through both, ``b`` comes first (two
     disjoint convex bodies keep one depth order over the rays through both)."""
     Ra, Rb = T[a, :3, :3], T[b, :3, :3]
-    ca, cb = T[a, :3, 3], T[b, :3, 3]
-    ax = [Ra[:, :, i] for i in range(3)] + [Rb[:, :, i] for i in range(3)]
-    ax += [np.cross(Ra[:, :, i], Rb[:, :, j]) for i in range(3) for j in range(3)]
-    L = np.stack(ax, axis=1)  # (P, 15, 3)
-    norm = np.linalg.norm(L, axis=-1)
-    ok = norm > 1e-9
-    L = L / np.where(ok, norm, 1.0)[..., None]
-    ra = (np.abs(np.einsum("pkj,pji->pki", L, Ra)) * half[a][:, None, :]).sum(-1)
-    rb = (np.abs(np.einsum("pkj,pji->pki", L, Rb)) * half[b][:, None, :]).sum(-1)
-    pa = np.einsum("pkj,pj->pk", L, ca)
-    pb = np.einsum("pkj,pj->pk", L, cb)
-    gap = np.where(ok, np.abs(pa - pb) - ra - rb, -np.inf)
+    ha, hb = half[a], half[b]
+    # the six face axes first; the nine cross products only for the pairs they do not separate
+    L = np.concatenate([np.swapaxes(Ra, 1, 2), np.swapaxes(Rb, 1, 2)], axis=1)  # (P, 6, 3)
+    gap, proj = _gaps(L, np.ones(L.shape[:2], bool), (Ra, Rb), (T[a, :3, 3], T[b, :3, 3]), (ha, hb))
+    rest = np.flatnonzero(gap.max(axis=1) <= 1e-9)
+    if len(rest):
+        X = np.stack([np.cross(Ra[rest, :, i], Rb[rest, :, j]) for i in range(3) for j in range(3)], axis=1)
+        norm = np.linalg.norm(X, axis=-1)
+        ok = norm > 1e-9
+        g2, p2 = _gaps(X / np.where(ok, norm, 1.0)[..., None], ok, (Ra[rest], Rb[rest]),
+                       (T[a[rest], :3, 3], T[b[rest], :3, 3]), (ha[rest], hb[rest]))
+        gap = np.concatenate([gap, np.full((len(a), 9), -np.inf)], axis=1)
+        gap[rest, 6:] = g2
+        proj = [np.concatenate([v, np.zeros((len(a), 9))], axis=1) for v in proj]
+        for v, v2 in zip(proj, p2, strict=True):
+            v[rest, 6:] = v2
+    pa, pb, ra, rb = proj
     k = gap.argmax(axis=1)
     r = np.arange(len(a))
     apart = gap[r, k] > 1e-9
@@ -406,13 +770,25 @@ def _separated(T: np.ndarray, half: np.ndarray, a: np.ndarray, b: np.ndarray) ->
     return apart, b_front
 
 
-def _hulls(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _gaps(L: np.ndarray, ok: np.ndarray, R, c, half):
+    """Gaps between box pairs along unit axes ``L (P, K, 3)`` (``-inf`` where not ``ok``):
+    ``R``, ``c``, ``half``: the two boxes' rotations, centres and half sizes. Returns the gaps
+    ``(P, K)`` and the centres' projections and the boxes' radii on the axes ``[pa, pb, ra, rb]``."""
+    (Ra, Rb), (ca, cb), (ha, hb) = R, c, half
+    ra = (np.abs(np.einsum("pkj,pji->pki", L, Ra)) * ha[:, None, :]).sum(-1)
+    rb = (np.abs(np.einsum("pkj,pji->pki", L, Rb)) * hb[:, None, :]).sum(-1)
+    pa = np.einsum("pkj,pj->pk", L, ca)
+    pb = np.einsum("pkj,pj->pk", L, cb)
+    return np.where(ok, np.abs(pa - pb) - ra - rb, -np.inf), [pa, pb, ra, rb]
+
+
+def _hulls(points: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The silhouette polygons of projected boxes: the convex hulls of their projected outline
-    points ``(B, K, 2)`` -> their edges ``(p, q)``, each ``(E, 2)``, stacked box by box, and
-    the edge count of each box ``(B,)``."""
+    points (each ``(K, 2)`` float32) -> their edges ``(p, q)``, each ``(E, 2)``, stacked box
+    by box, and the edge count of each box ``(B,)``."""
     import cv2
 
-    hulls = [cv2.convexHull(pts) for pts in points.astype(np.float32)]
+    hulls = [cv2.convexHull(pts) for pts in points]
     ne = np.array([len(h) for h in hulls], np.int64)
     if not hulls:
         return np.zeros((0, 2)), np.zeros((0, 2)), ne
@@ -422,113 +798,242 @@ def _hulls(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return p, p[nxt], ne
 
 
-def _box_spans(outline: np.ndarray, boxes: np.ndarray, clip: np.ndarray):
-    """Row spans of the silhouettes of ``boxes`` on the rows of their clipped pixel boxes,
-    stacked: ``(first row (B,), offsets (B + 1,), lo, hi)``, box ``i``'s spans being
-    ``lo[offsets[i]:offsets[i + 1]]`` from row ``first[i]`` on: the first and last column
-    whose pixel centre lies inside the silhouette polygon (:func:`_hulls`; first > last where
-    none). Edge by edge: each hull edge meets only the rows between its ends.
+def _box_spans(points: list[np.ndarray], v0: np.ndarray, v1: np.ndarray):
+    """Row spans of the silhouettes of boxes (their outline points, each ``(K, 2)`` float32)
+    on their rows ``v0 .. v1`` (each ``(B,)``), stacked: ``(first row (B,), offsets (B + 1,),
+    lo, hi)``, box ``i``'s spans being ``lo[offsets[i]:offsets[i + 1]]`` from row ``first[i]``
+    on: the first and last column whose pixel centre lies inside the silhouette polygon
+    (:func:`_hulls`; first > last where none). Edge by edge: each hull edge meets only the
+    rows between its ends.
 
-    >>> square = np.array([[[0.5, 0.0], [4.0, 0.0], [4.0, 2.0], [0.5, 2.0]]])
-    >>> first, off, lo, hi = _box_spans(square, np.array([0]), np.array([[0.0, 0, 4, 3]]))
+    >>> square = np.array([[0.5, 0.0], [4.0, 0.0], [4.0, 2.0], [0.5, 2.0]], np.float32)
+    >>> first, off, lo, hi = _box_spans([square], np.array([0.0]), np.array([3.0]))
     >>> first.tolist(), lo.tolist(), hi.tolist()
     ([0], [1.0, 1.0, 1.0, inf], [4.0, 4.0, 4.0, -inf])
     """
-    p, q, ne = _hulls(outline[boxes])
-    e_box = np.repeat(np.arange(len(boxes)), ne)
-    v0 = clip[boxes, 1].astype(np.int64)
-    v1 = clip[boxes, 3].astype(np.int64)
+    p, q, ne = _hulls(points)
+    e_box = np.repeat(np.arange(len(ne)), ne)
+    v0 = np.asarray(v0).astype(np.int64)
+    v1 = np.asarray(v1).astype(np.int64)
     nrow = np.maximum(v1 - v0 + 1, 0)
     off = np.r_[0, np.cumsum(nrow)]
     y0, y1 = p[:, 1], q[:, 1]
     r0 = np.maximum(np.ceil(np.minimum(y0, y1)), v0[e_box]).astype(np.int64)
     r1 = np.minimum(np.floor(np.maximum(y0, y1)), v1[e_box]).astype(np.int64)
     cnt = np.maximum(r1 - r0 + 1, 0)
-    e = np.repeat(np.arange(len(p)), cnt)
-    v = (r0[e] + np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)).astype(np.float64)
-    pe, qe, dy = p[e], q[e], (y1 - y0)[e]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x = np.where(dy != 0, pe[:, 0] + (v - pe[:, 1]) * (qe[:, 0] - pe[:, 0]) / dy, pe[:, 0])
-    flat = dy == 0  # a horizontal edge on the row: both its ends
-    pos = off[e_box[e]] + v.astype(np.int64) - v0[e_box[e]]
     lo, hi = np.full(off[-1], np.inf), np.full(off[-1], -np.inf)
-    np.minimum.at(lo, pos, np.where(flat, np.minimum(pe[:, 0], qe[:, 0]), x))
-    np.maximum.at(hi, pos, np.where(flat, np.maximum(pe[:, 0], qe[:, 0]), x))
+    # a convex polygon meets a row at its two chains: the edges going down on one side of it
+    # and those going up on the other (which side, by the polygon's orientation); an edge
+    # ending on the row gives its end, as does the next edge of its chain there
+    area = np.bincount(e_box, weights=p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1], minlength=len(ne))
+    dy = y1 - y0
+    right = (dy > 0) == (area >= 0)[e_box]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        slope = (q[:, 0] - p[:, 0]) / dy
+        x0 = p[:, 0] + (r0 - y0) * slope  # at each edge's first row
+    first = off[e_box] + r0 - v0[e_box]  # where its first row's span is
+    for side, span in ((~right, lo), (right, hi)):
+        ed = np.flatnonzero(side & (dy != 0) & (cnt > 0))
+        c = cnt[ed]
+        j = np.arange(c.sum()) - np.repeat(np.cumsum(c) - c, c)
+        span[np.repeat(first[ed], c) + j] = np.repeat(x0[ed], c) + j * np.repeat(slope[ed], c)
+    flat = np.flatnonzero((dy == 0) & (cnt > 0))  # a horizontal edge on the row: both its ends
+    if len(flat):
+        np.minimum.at(lo, first[flat], np.minimum(p[flat, 0], q[flat, 0]))
+        np.maximum.at(hi, first[flat], np.maximum(p[flat, 0], q[flat, 0]))
     return v0, off, np.ceil(lo - 1e-9), np.floor(hi + 1e-9)
 
 
-def _raster(camera, T, dims, outline, targets, cands, clip, whole, nb, rays: _Rays, limits):
+def _raster(boxes3, ol: _Outlines, targets, cands, rays: _Rays, limits):
     """Visible fractions of wholly projected ``targets``: the pixel centres of the target's
-    silhouette (its projected outline, row by row), less those inside a disjoint occluder in
-    front that projects whole (its outline), less those whose ray enters another occluder
-    first (an occluder not wholly projectable, or one that intersects the target: slab tests
-    on the pixels still uncovered, at most ``cap`` of them, evenly spread, and of those only
-    the rays inside the occluder's normalised box ``nb``). ``cands``: the (target, occluder,
-    disjoint) candidate arrays; ``limits``: ``(cap, below)``, a target whose uncovered share
-    is already below ``below`` keeps that upper bound (its rays are not cast; :func:`_cast_hard`).
-    All targets' rows are stacked, a target's simple occluders side by side (in chunks of about
-    :data:`CHUNK` row-occluder cells)."""
+    silhouette (its projected outline ``ol``, row by row), less those inside a disjoint
+    occluder in front that is drawn (its outline, whole or cut to the field of view), less
+    those whose ray enters another occluder first (one not drawn, or one that intersects the
+    target: slab tests on the pixels still uncovered, at most ``cap`` of them, evenly spread,
+    and of those only the rays inside the occluder's normalised box ``nb``). ``boxes3``:
+    ``(T, dims, nb)``; ``cands``: the (target, occluder, disjoint) candidate arrays;
+    ``limits``: ``(cap, below)``, a target whose uncovered share is already below ``below``
+    keeps that upper bound (its rays are not cast; :func:`_cast_hard`). All targets' rows are
+    stacked, and the simple occluders' spans on them listed (:func:`_uncovered_runs`)."""
     cand_t, cand_o, cand_apart = cands
     cap, below = limits
     out = np.full(len(targets), np.nan)
     order = np.argsort(cand_t, kind="stable")
     ct, co, ca = cand_t[order], cand_o[order], cand_apart[order]
-    simple = ca & whole[co]
-    # the row spans of every target and every simple occluder
-    boxes = np.unique(np.r_[targets, co[simple]])
-    b_v0, b_off, b_lo, b_hi = _box_spans(outline, boxes, clip)
-    at = np.searchsorted(boxes, targets)
-    # simple occluders per target (target-major), their slot among the target's
-    st, so = ct[simple], co[simple]
-    t_pos = np.searchsorted(targets, st)
-    k = np.bincount(t_pos, minlength=len(targets))
-    slot = np.arange(len(st)) - np.repeat(np.cumsum(k) - k, k)
-    p_first = np.r_[0, np.cumsum(k)]
+    whole = ol.whole
+    fov = rays.fov
+    # intersecting boxes, both wholly projected: the pieces where the occluder is entered first
+    inter = ~ca & whole[co] & whole[ct] & (fov is not None)
+    simple = (ca & ol.drawn()[co]) | inter
+    clip = ol.clip()
+    (b_v0, b_off, b_lo, b_hi), at, pair_t, pair_o = _simple_spans(ol, targets, (ct, co, ca, simple, inter),
+                                                                   boxes3[:2], fov)
+    # the stacked rows of every target, its span on each
+    nrow = b_off[at + 1] - b_off[at]
+    r_off = np.r_[0, np.cumsum(nrow)]
+    row_t = np.repeat(np.arange(len(targets)), nrow)  # the target of each stacked row
+    src = b_off[at[row_t]] + np.arange(r_off[-1]) - r_off[row_t]
+    lo = np.maximum(b_lo[src], clip[targets[row_t], 0])
+    hi = np.minimum(b_hi[src], clip[targets[row_t], 2])
+    # the simple occluders' spans on their targets' rows (the rows both have)
+    t_pos = np.searchsorted(targets, pair_t)
+    ob = pair_o
+    v0 = np.maximum(b_v0[at[t_pos]], b_v0[ob])
+    n_r = np.maximum(np.minimum(b_v0[at[t_pos]] + nrow[t_pos], b_v0[ob] + b_off[ob + 1] - b_off[ob]) - v0, 0)
+    e_pair = np.repeat(np.arange(len(ob)), n_r)
+    i = v0[e_pair] + np.arange(n_r.sum()) - np.repeat(np.cumsum(n_r) - n_r, n_r)  # image row
+    g = r_off[t_pos[e_pair]] + i - b_v0[at[t_pos[e_pair]]]  # stacked row
+    o_src = b_off[ob[e_pair]] + i - b_v0[ob[e_pair]]
+    r_row, r_start, r_len = _uncovered_runs(lo, hi, (g, b_lo[o_src], b_hi[o_src]), ol.camera.resolution[0])
+    run_t = row_t[r_row]
+    area = np.bincount(row_t, weights=np.maximum(hi - lo + 1, 0), minlength=len(targets))
+    free = np.bincount(run_t, weights=r_len, minlength=len(targets))
+    # spans alone: the covered length of each row (an upper bound where rays are still cast)
+    ok = area > 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        val = 1.0 - (area - free) / area
+    out[ok] = val[ok]
+    # the targets with hard occluders, uncovered pixels and (for the rule) not yet below it
     hard_first = np.searchsorted(ct[~simple], targets)
     hard_last = np.searchsorted(ct[~simple], targets, side="right")
-    h_o, h_apart = co[~simple], ca[~simple]
-    nrow = b_off[at + 1] - b_off[at]
-    for start, stop, kmax in _chunks(nrow, k):  # chunks of targets: rows x (most occluders) cells
-        tr = np.arange(start, stop)
-        r_off = np.r_[0, np.cumsum(nrow[tr])]
-        row_t = np.repeat(tr, nrow[tr])  # the target of each stacked row
-        src = b_off[at[row_t]] + np.arange(r_off[-1]) - r_off[np.repeat(np.arange(len(tr)), nrow[tr])]
-        u0, u1 = clip[targets[row_t], 0], clip[targets[row_t], 2]
-        lo, hi = np.maximum(b_lo[src], u0), np.minimum(b_hi[src], u1)
-        pp = np.arange(p_first[start], p_first[stop])
-        A, B = _occluder_spans((boxes, b_v0, b_off, b_lo, b_hi), at[t_pos[pp]], so[pp], slot[pp],
-                               (r_off[t_pos[pp] - start], nrow[t_pos[pp]]), (r_off[-1], kmax))
-        r_row, r_start, r_len = _free_runs(lo, hi, A, B)
-        area = np.diff(np.r_[0.0, np.cumsum(np.maximum(hi - lo + 1, 0))][r_off])  # per target
-        free = np.diff(np.r_[0.0, np.cumsum(r_len.reshape(-1, kmax + 1).sum(1))][r_off])
-        # spans alone: the covered length of each row (an upper bound where rays are still cast)
-        ok = area > 0
-        with np.errstate(invalid="ignore", divide="ignore"):
-            val = 1.0 - (area - free) / area
-        out[tr[ok]] = val[ok]
-        # the targets with hard occluders, uncovered pixels and (for the rule) not yet below it
-        jj = np.flatnonzero(ok & (hard_first[tr] != hard_last[tr]) & (free != 0) & ~(val < below))
-        if len(jj):
-            n_cells = (r_off[jj + 1] - r_off[jj]) * (kmax + 1)
-            cells = _ranges(r_off[jj] * (kmax + 1), n_cells)
-            runs = ((r_row[cells] - np.repeat(r_off[jj], n_cells), r_start[cells], r_len[cells]),
-                    np.r_[0, np.cumsum(n_cells)], clip[targets[tr[jj]], 1].astype(np.int64), cap)
-            out[tr[jj]] = _cast_hard(tr[jj], (area[jj], free[jj]), runs, targets,
-                                     (h_o, h_apart, hard_first, hard_last), (T, dims, nb), rays, below)
+    jj = np.flatnonzero(ok & (hard_first != hard_last) & (free != 0) & ~(val < below))
+    if len(jj):
+        run_off = np.searchsorted(run_t, np.arange(len(targets) + 1))
+        n_runs = run_off[jj + 1] - run_off[jj]
+        cells = _ranges(run_off[jj], n_runs)
+        runs = ((r_row[cells] - np.repeat(r_off[jj], n_runs), r_start[cells], r_len[cells]),
+                np.r_[0, np.cumsum(n_runs)], clip[targets[jj], 1].astype(np.int64), cap)
+        h_o = co[~simple]
+        out[jj] = _cast_hard(jj, (area[jj], free[jj]), runs, targets,
+                             (h_o, ca[~simple], hard_first, hard_last, _reach(ol, h_o, clip[ct[~simple]])), boxes3,
+                             rays, below)
     return out
+
+
+def _reach(ol: _Outlines, occ: np.ndarray, rows: np.ndarray):
+    """Where the rays that may enter the wholly projected occluders among ``occ`` lie: the row
+    spans (:func:`_box_spans`) of their outlines grown by :data:`MARGIN_PX` on every side (a
+    curved edge may bulge between its samples; the hull of the outline shifted to the
+    corners of a square holds every point that near it), on the rows ``rows`` (``(P, 4)``
+    pixel boxes: those of each occluder's target in ``occ``). Returns ``(boxes, first row,
+    offsets, lo, hi)``; a box not among them (not projected whole) may cover any pixel."""
+    whole = ol.whole[occ]
+    boxes, inv = np.unique(occ[whole], return_inverse=True)
+    w, h = ol.camera.resolution
+    r0 = np.full(len(boxes), np.inf)
+    r1 = np.full(len(boxes), -np.inf)
+    np.minimum.at(r0, inv, rows[whole, 1])
+    np.maximum.at(r1, inv, rows[whole, 3])
+    r0 = np.maximum(r0, np.maximum(np.floor(ol.bb[boxes, 1] - MARGIN_PX), 0))
+    r1 = np.minimum(r1, np.minimum(np.ceil(ol.bb[boxes, 3] + MARGIN_PX), h - 1))
+    shifts = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], np.float32)[:, None] * np.float32(MARGIN_PX)
+    pts = [(p[None] + shifts).reshape(-1, 2) for p in ol.points(boxes)]
+    return (boxes, *_box_spans(pts, r0, r1))
+
+
+def _simple_spans(ol: _Outlines, targets: np.ndarray, pairs, poses, fov):
+    """The row spans of :func:`_raster`'s targets and of their simple occluders (an
+    occluder's only on its targets' rows): convex silhouettes (the hull of a whole outline,
+    :func:`_box_spans`), then the layers (:func:`_scan_spans`) of the outlines cut to the
+    field of view and of the intersecting pairs' pieces (:func:`_entered_first`; their edges
+    may curve inwards). ``pairs``: the (target, occluder, disjoint, simple, intersecting and
+    drawn) arrays; ``poses``: ``(T, dims)``. Returns the spans ``(first row, offsets, lo,
+    hi)``, each target's spans and each simple pair's target and spans (a pair has one for
+    each layer of its cut outline or pieces)."""
+    ct, co, ca, simple, inter = pairs
+    whole, clip = ol.whole, ol.clip()
+    sw, sc = simple & ca & whole[co], simple & ca & ~whole[co]
+    boxes = np.unique(np.r_[targets, co[sw]])
+    r0, r1 = _rows_needed(boxes, co[sw], clip[ct[sw]], ol.clip())
+    is_t = np.isin(boxes, targets)
+    r0, r1 = np.where(is_t, clip[boxes, 1], r0), np.where(is_t, clip[boxes, 3], r1)
+    spans = _box_spans(ol.points(boxes), r0, r1)
+    cut = np.unique(co[sc])
+    c0, c1 = _rows_needed(cut, co[sc], clip[ct[sc]], ol.drawn_clip())
+    polys = [ol.cut_pts[b] for b in cut.tolist()]
+    # the pieces of the intersecting pairs (on their targets' rows)
+    T, dims = poses
+    piece, n_v, pair = _entered_first(T, 0.5 * dims, ct[inter], co[inter])
+    pp = _project_polygons(ol.camera, [q[:m] for q, m in zip(piece, n_v, strict=True)], fov[4] if fov else np.inf)
+    good = np.array([q is not None for q in pp], bool)  # all: the target lies where the model is valid
+    polys += [q for q, g in zip(pp, good, strict=True) if g]
+    piece_t = ct[inter][pair[good]]
+    c0, c1 = np.r_[c0, clip[piece_t, 1]], np.r_[c1, clip[piece_t, 3]]
+    owner, *layers = _scan_spans(polys, c0, c1)
+    b_v0, b_lo, b_hi = (np.r_[spans[i], layers[i]] for i in (0, 2, 3))
+    b_off = np.r_[spans[1], spans[1][-1] + layers[1][1:]]
+    at = np.searchsorted(boxes, targets)
+    # each simple pair's occluder: its spans, or each layer of its cut outline, or of its pieces
+    poly_t = np.r_[ct[sc], piece_t]
+    k = np.r_[np.searchsorted(cut, co[sc]), len(cut) + np.arange(len(piece_t))]
+    l_first, l_n = np.searchsorted(owner, k), np.searchsorted(owner, k, side="right") - np.searchsorted(owner, k)
+    pair_t = np.r_[ct[sw], np.repeat(poly_t, l_n)]
+    pair_o = np.r_[np.searchsorted(boxes, co[sw]), len(boxes) + _ranges(l_first, l_n)]
+    return (b_v0, b_off, b_lo, b_hi), at, pair_t, pair_o
+
+
+def _rows_needed(boxes: np.ndarray, occ: np.ndarray, t_clip: np.ndarray, clip: np.ndarray):
+    """The rows ``(r0, r1)`` of the occluders ``boxes`` (pixel boxes ``clip (N, 4)``) that
+    their targets have: ``occ`` the occluder of each pair, ``t_clip`` its target's pixel box."""
+    at = np.searchsorted(boxes, occ)
+    r0, r1 = np.full(len(boxes), np.inf), np.full(len(boxes), -np.inf)
+    np.minimum.at(r0, at, t_clip[:, 1])
+    np.maximum.at(r1, at, t_clip[:, 3])
+    return np.maximum(r0, clip[boxes, 1]), np.minimum(r1, clip[boxes, 3])
+
+
+def _uncovered_runs(lo: np.ndarray, hi: np.ndarray, spans, width: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The runs of pixel centres of the rows' target spans ``[lo, hi] (H,)`` inside none of the
+    occluder spans ``spans``: ``(row, a, b)`` arrays, any number per row, in any order; the
+    rows' columns lie in ``0 .. width - 1``. Returns the runs row-major and left to right (an
+    empty one where two occluder spans touch): their row, first column and length.
+
+    >>> row, start, length = _uncovered_runs(np.array([0.0, 0]), np.array([9.0, 3]),
+    ...                                      (np.array([0, 0]), np.array([4.0, 2]), np.array([6.0, 3])), 10)
+    >>> [(int(r), float(s), float(n)) for r, s, n in zip(row, start, length) if n]
+    [(0, 0.0, 2.0), (0, 7.0, 3.0), (1, 0.0, 4.0)]
+    """
+    g, a, b = spans
+    a, b = np.maximum(a, lo[g]), np.minimum(b, hi[g])
+    keep = a <= b
+    g, a, b = g[keep], a[keep], b[keep]
+    stride = width + 2  # rows apart in one sorted key: row * stride + column (columns -1 .. width)
+    order = np.argsort(g * stride + a.astype(np.int64), kind="stable")
+    g, a, b = g[order], a[order], b[order]
+    base = g * stride
+    # the last covered column before each span: the row's earlier spans' furthest end (or lo - 1)
+    reach = np.maximum.accumulate(b + base) if len(b) else b
+    before = np.maximum(np.r_[-np.inf, reach[:-1]] - base, lo[g] - 1)
+    # each row: the gap before each of its spans, then the tail after its last
+    n_rows = len(lo)
+    count = np.bincount(g, minlength=n_rows)
+    last = np.full(n_rows, -np.inf)
+    last[g] = reach - base  # sorted: the row's last span holds its furthest end
+    end = np.maximum(last, lo - 1)
+    pos = np.arange(len(g)) + g  # one tail for each earlier row
+    tail = np.cumsum(count) + np.arange(n_rows)
+    row = np.empty(len(g) + n_rows, np.int64)
+    start = np.empty(len(row))
+    stop = np.empty(len(row))
+    row[pos], start[pos], stop[pos] = g, before + 1, a - 1
+    row[tail], start[tail], stop[tail] = np.arange(n_rows), end + 1, hi
+    length = np.maximum(stop - start + 1, 0)
+    return row, np.where(length > 0, start, 0), length
 
 
 def _cast_hard(n, sizes, runs, targets, hard, boxes, rays: _Rays, below: float) -> np.ndarray:
     """Visible fractions of the targets ``targets[n]`` (``sizes``: their silhouettes' pixel
     counts and those not covered by their simple occluders; ``runs``: these pixels, the
     arguments of :func:`_pick_pixels`) against their hard occluders (``hard``: occluders and
-    disjointness, the target ``n``'s from ``first[n]`` to ``last[n]``), the rays of all
-    targets unprojected and cast together. Where ``below > 0`` the picked pixels are cast in
+    disjointness, the target ``n``'s from ``first[n]`` to ``last[n]``, and where the occluders
+    may cover, :func:`_reach`), the rays of all targets unprojected and cast together, those
+    of the pixels that one of their target's hard occluders may cover (the others are not
+    covered). Where ``below > 0`` the picked pixels are cast in
     :data:`STAGES` interleaved stages, and a target whose hits so far put it below ``below``
     keeps that upper bound (a ray's hit does not depend on the others cast with it, and
     every step of the fraction is monotone in the hit count: the last stage gives the
     value of a single cast)."""
-    h_o, h_apart, first, last = hard
+    h_o, h_apart, first, last, (r_box, r_v0, r_off, r_lo, r_hi) = hard
     area, free = sizes
     # (cast target, hard occluder) pairs
     k = last[n] - first[n]
@@ -543,7 +1048,26 @@ def _cast_hard(n, sizes, runs, targets, hard, boxes, rays: _Rays, below: float) 
         at = np.full(len(n), -1)
         at[todo] = np.arange(len(todo))
         sel = at[p_i] >= 0
-        hit = _hard_hits(rays.at(pv, pu), np.bincount(at[g], minlength=len(todo)),
+        # only the pixels that one of their target's hard occluders may cover have a ray cast
+        q = np.flatnonzero(sel)
+        pf = np.searchsorted(g, np.arange(len(n) + 1))
+        n_px = pf[p_i[q] + 1] - pf[p_i[q]]
+        px = _ranges(pf[p_i[q]], n_px)
+        occ = np.repeat(h_o[p_h[q]], n_px)
+        inside = np.ones(len(occ), bool)
+        if len(r_box):
+            k = np.minimum(np.searchsorted(r_box, occ), len(r_box) - 1)
+            drawn = r_box[k] == occ
+            idx = pv[px] - r_v0[k]
+            in_r = np.flatnonzero(drawn & (idx >= 0) & (idx < r_off[k + 1] - r_off[k]))
+            inside[drawn] = False
+            j = r_off[k[in_r]] + idx[in_r]
+            inside[in_r] = (r_lo[j] <= pu[px[in_r]]) & (pu[px[in_r]] <= r_hi[j])
+        need = np.zeros(len(pv), bool)
+        need[px[inside]] = True
+        r = np.full((len(pv), 3), np.nan)
+        r[need] = rays.at(pv[need], pu[need])
+        hit = _hard_hits(r, np.bincount(at[g], minlength=len(todo)),
                          targets[n[todo]], (at[p_i[sel]], h_o[p_h[sel]], h_apart[p_h[sel]]), boxes)
         hits[todo] += np.bincount(at[g], weights=hit, minlength=len(todo)).astype(np.int64)
         out[todo] = 1.0 - (area[todo] - free[todo] + hits[todo] / count[todo] * free[todo]) / area[todo]
@@ -553,42 +1077,8 @@ def _cast_hard(n, sizes, runs, targets, hard, boxes, rays: _Rays, below: float) 
     return out
 
 
-def _chunks(nrow: np.ndarray, k: np.ndarray):
-    """Consecutive target ranges ``(start, stop, most occluders)`` of about :data:`CHUNK`
-    cells (rows ``nrow`` times one more than the most occluders ``k``; at least one target)."""
-    start = 0
-    while start < len(nrow):
-        stop = start + 1
-        rows, kmax = int(nrow[start]), int(k[start])
-        while stop < len(nrow) and (rows + nrow[stop]) * (max(kmax, k[stop]) + 1) <= CHUNK:
-            rows, kmax = rows + int(nrow[stop]), max(kmax, int(k[stop]))
-            stop += 1
-        yield start, stop, kmax
-        start = stop
-
-
-def _occluder_spans(spans, at_t, occ, slot, rows, shape) -> tuple[np.ndarray, np.ndarray]:
-    """The spans of (target, simple occluder) pairs' occluders on their targets' stacked rows:
-    ``(A, B)`` of ``shape`` (rows, most occluders), the occluder in column ``slot``; ``inf,
-    -inf`` where none. ``spans``: ``(boxes, first row, offsets, lo, hi)`` (:func:`_box_spans`
-    of ``boxes``); ``at_t``: each pair's target's index in ``boxes``; ``occ``: its occluder;
-    ``rows``: the first stacked row and the row count of its target."""
-    boxes, b_v0, b_off, b_lo, b_hi = spans
-    A, B = np.full(shape, np.inf), np.full(shape, -np.inf)
-    first, n_r = rows
-    e_pair = np.repeat(np.arange(len(occ)), n_r)
-    i = np.arange(n_r.sum()) - np.repeat(np.cumsum(n_r) - n_r, n_r)
-    row = first[e_pair] + i
-    ob = np.searchsorted(boxes, occ)[e_pair]
-    idx = b_v0[at_t][e_pair] + i - b_v0[ob]  # the occluder's own row index
-    ok = (idx >= 0) & (idx < b_off[ob + 1] - b_off[ob])
-    A[row[ok], slot[e_pair][ok]] = b_lo[b_off[ob[ok]] + idx[ok]]
-    B[row[ok], slot[e_pair][ok]] = b_hi[b_off[ob[ok]] + idx[ok]]
-    return A, B
-
-
 def _pick_pixels(runs, seg, v0, cap, part=(0, 1, None)) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The uncovered pixel centres ``runs`` (:func:`_free_runs`) of several targets, target
+    """The uncovered pixel centres ``runs`` (:func:`_uncovered_runs`) of several targets, target
     ``g``'s runs from ``seg[g]`` to ``seg[g + 1]``, its rows counted from ``v0[g]``: at most
     ``cap`` of each target's are picked, evenly spread. Returns the rows, columns and targets
     ``(pv, pu, g)`` of the picked pixels of ``part`` ``(s, step, targets)`` (the ``s``-th,
@@ -620,39 +1110,6 @@ def _pick_pixels(runs, seg, v0, cap, part=(0, 1, None)) -> tuple[np.ndarray, np.
     run = np.searchsorted(csum, at, side="right")
     pu = (start[run] + at - (csum[run] - length[run])).astype(np.int64)
     return row[run] + v0[g], pu, g, count
-
-
-def _free_runs(lo: np.ndarray, hi: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The runs of pixel centres of the rows' target spans ``[lo, hi] (H,)`` inside none of
-    the occluder spans ``[a, b] (H, k)`` (``inf, -inf``: none), row-major and left to right,
-    ``k + 1`` per row: their row (0..H-1), first column and length (0 for an empty run).
-
-    >>> row, start, length = _free_runs(np.array([0.0]), np.array([9.0]), np.array([[2.0, 3.0]]),
-    ...                                 np.array([[4.0, 6.0]]))
-    >>> [(float(s), float(n)) for s, n in zip(start, length) if n]
-    [(0.0, 2.0), (7.0, 3.0)]
-    """
-    k = a.shape[1]
-    if k:
-        a = np.maximum(a, lo[:, None])
-        b = np.minimum(b, hi[:, None])
-        empty = a > b
-        a = np.where(empty, np.inf, a)
-        b = np.where(empty, -np.inf, b)
-        order = np.argsort(a, axis=1)
-        a = np.take_along_axis(a, order, axis=1)
-        b = np.take_along_axis(b, order, axis=1)
-    end = lo - 1  # last covered column so far (the runs before each sorted interval, then the tail)
-    starts, stops = [], []
-    for j in range(k):
-        starts.append(end + 1)
-        stops.append(np.where(np.isfinite(a[:, j]), np.minimum(a[:, j] - 1, hi), -np.inf))
-        end = np.maximum(end, b[:, j])
-    starts.append(end + 1)
-    stops.append(hi)
-    start, stop = np.stack(starts, axis=1).ravel(), np.stack(stops, axis=1).ravel()
-    length = np.maximum(stop - start + 1, 0)
-    return np.repeat(np.arange(len(lo)), k + 1), np.where(length > 0, start, 0), length
 
 
 def _hard_hits(r, counts, tgt, pairs, boxes) -> np.ndarray:

@@ -34,6 +34,7 @@ def _dense_reference(cam, T, dims):
     w, h = cam.resolution
     uu, vv = np.meshgrid(np.arange(w, dtype=float), np.arange(h, dtype=float))
     rays = cam.unproject(np.stack([uu, vv], -1).reshape(-1, 2))
+    rays = rays[np.isfinite(rays).all(axis=1)]  # a fisheye's pixels beyond its valid angle: no ray
     entries = []
     for Tb, d in zip(T, dims, strict=True):
         R, c = Tb[:3, :3], Tb[:3, 3]
@@ -89,4 +90,72 @@ def test_random_frames_equal_dense_reference():
         assert (np.isfinite(got) == np.isfinite(ref))[_sizes(cam, T, dims) >= 20].all()
         if big.any():
             worst = max(worst, np.abs(got[big] - ref[big]).max())
+    assert worst < 0.02, worst
+
+
+SMALL = {
+    "pinhole": {"type": "pinhole", "resolution": [160, 120], "focal_length": [120, 120],
+                "principal_point": [79.5, 59.5]},
+    "opencv": {"type": "opencv_pinhole", "resolution": [160, 120], "focal_length": [120, 120],
+               "principal_point": [79.5, 59.5], "radial_coeffs": [-0.04, 0.01, 0, 0, 0, 0]},
+    "opencv_strong": {"type": "opencv_pinhole", "resolution": [160, 120], "focal_length": [100, 100],
+                      "principal_point": [79.5, 59.5], "radial_coeffs": [-0.25, 0.05, 0, 0, 0, 0]},
+    "ftheta": {"type": "ftheta", "resolution": [160, 120], "principal_point": [79.5, 59.5],
+               "reference_poly": "ANGLE_TO_PIXELDIST", "pixeldist_to_angle_poly": [0, 0.008, 0, 0, 0, 0],
+               "angle_to_pixeldist_poly": [0, 125, 0, 0, 0, 0], "max_angle": 1.2},
+    "fisheye": {"type": "opencv_fisheye", "resolution": [160, 120], "focal_length": [70, 70],
+                "principal_point": [79.5, 59.5], "radial_coeffs": [0.05, 0.01, 0, 0]},
+    # the image's corners beyond 90 degrees: pixels without a ray
+    "fisheye_wide": {"type": "opencv_fisheye", "resolution": [160, 120], "focal_length": [40, 40],
+                     "principal_point": [79.5, 59.5], "radial_coeffs": [0.05, 0.01, 0, 0]},
+}
+
+
+def _yawed(x, y, z, yaw):
+    T = _pose(x, y, z)
+    T[:3, :3] = [[np.cos(yaw), 0, np.sin(yaw)], [0, 1, 0], [-np.sin(yaw), 0, np.cos(yaw)]]
+    return T
+
+
+def test_box_beside_and_behind_the_camera_covers_like_the_dense_reference():
+    # a long box from behind the camera to 4 m ahead, left of the optical axis, covers the
+    # left quarter or so of a box 10 m ahead (rays with x / z below about -0.05)
+    for name in ("pinhole", "opencv", "ftheta"):
+        cam = camera_from_model(SMALL[name])
+        T = np.stack([_pose(0, 0, 10), _pose(-1.6, 0, 0.5)])
+        dims = np.array([[2.0, 2, 2], [2.8, 2, 7]])
+        got = visible_fractions(cam, T, dims)
+        ref = _dense_reference(cam, T, dims)
+        assert 0.5 < ref[0] < 0.9, (name, ref)
+        assert abs(got[0] - ref[0]) < 0.02, (name, got, ref)
+
+
+@pytest.mark.parametrize("name", sorted(SMALL))
+def test_occluders_near_the_camera_equal_dense_reference(name):
+    """Boxes beside and behind the camera (not wholly projectable) in front of targets: the
+    part inside the field of view is drawn (or, where the model has no such field of view,
+    ray-cast) and matches a dense per-pixel ray cast."""
+    from nvrq.geometry.visibility import _field_of_view
+
+    cam = camera_from_model(SMALL[name])
+    assert (_field_of_view(cam) is None) == (name == "fisheye_wide")
+    rng = np.random.default_rng(1)
+    worst = 0.0
+    for _ in range(40):
+        n_t, n_o = rng.integers(1, 3), rng.integers(1, 4)
+        T = [_yawed(rng.uniform(-3, 3), rng.uniform(-1, 1), rng.uniform(6, 16), rng.uniform(0, np.pi))
+             for _ in range(n_t)]
+        T += [_yawed(rng.choice([-1, 1]) * rng.uniform(1.5, 4), rng.uniform(-0.5, 0.5), rng.uniform(-3, 3),
+                     rng.uniform(-0.3, 0.3)) for _ in range(n_o)]
+        T = np.stack(T)
+        dims = np.r_[rng.uniform(1, 4, size=(n_t, 3)), np.c_[rng.uniform(1.5, 2.5, n_o), rng.uniform(1.2, 2, n_o),
+                                                             rng.uniform(3, 8, n_o)]]
+        only = np.arange(len(T)) < n_t
+        got = visible_fractions(cam, T, dims, only=only)[:n_t]
+        ref = _dense_reference(cam, T, dims)[:n_t]
+        big = (_sizes(cam, T, dims) >= 20)[:n_t]
+        assert (np.isfinite(got) == np.isfinite(ref))[big].all()
+        both = big & np.isfinite(ref)
+        if both.any():
+            worst = max(worst, np.abs(got[both] - ref[both]).max())
     assert worst < 0.02, worst
