@@ -39,8 +39,8 @@ from data_schema.perturbation import AXES, axes, axis_values, perturbation_array
 from data_schema.text import plural
 from nvrq.horizon import ALL_CLASSES, VIEW_COLUMNS, class_rows, view_keys
 
-__all__ = ["FLOOR_METHODS", "MIN_CLASS_VOTES", "PEOPLE_VIEW_COLUMNS", "VIEW_FITS", "grid_of", "people_views", "read_view_table",
-           "viewpoint_floor", "floor_views", "view_label"]
+__all__ = ["FLOOR_METHODS", "MIN_CLASS_VOTES", "PEOPLE_VIEW_COLUMNS", "VIEW_FITS", "grid_of", "people_views",
+           "read_view_table", "viewpoint_floor", "floor_views", "view_label"]
 
 #: The methods whose pairs give the viewpoint floor, in order of preference.
 FLOOR_METHODS = ("perfect", "floor")
@@ -125,19 +125,22 @@ def people_views(metric: str, votes: pd.DataFrame, *, good_prob: float, n_boot: 
     rows = _people_views(metric, votes, good_prob, n_boot, seed, fit, increasing)
     if not by_class or votes["label_class"].nunique() < 2:  # one class: its rows would be these
         return rows
+    # the (class, view) cells with enough votes, good and bad among them
+    P = perturbation_array(votes)
+    single = np.isin(axes(P), (*AXES, "none"))
+    view = view_keys(axes(P)[single], axis_values(P)[single])
+    cells = pd.DataFrame({"cls": votes["label_class"].astype(str).to_numpy()[single],
+                          "axis": view.get_level_values(0), "offset": view.get_level_values(1),
+                          "vote": votes["vote"].to_numpy(np.float64)[single]})
+    stats = cells.groupby(["cls", "axis", "offset"])["vote"].agg(["size", "min", "max"])
+    ok = stats[(stats["size"] >= MIN_CLASS_VOTES) & (stats["min"] < stats["max"])].index
     out = [rows]
-    for cls, sub in votes.groupby(votes["label_class"].astype(str), sort=True):
-        P = perturbation_array(sub)
-        names = axes(P)
-        single = np.isin(names, (*AXES, "none"))
-        cell = pd.DataFrame({"k": view_keys(names[single], axis_values(P)[single]),
-                             "vote": sub["vote"].to_numpy(np.float64)[single]})
-        stats = cell.groupby("k")["vote"].agg(["size", "min", "max"])
-        ok = stats[(stats["size"] >= MIN_CLASS_VOTES) & (stats["min"] < stats["max"])].index
-        if not len(ok):
-            continue
-        own = _people_views(metric, sub, good_prob, n_boot, seed, fit, increasing)
-        keep = view_keys(own["axis"].to_numpy(object), own["offset"].to_numpy(np.float64)).isin(ok)
+    for cls in sorted(set(ok.get_level_values("cls"))):
+        own = _people_views(metric, votes[votes["label_class"].astype(str) == cls], good_prob, n_boot, seed, fit,
+                            increasing)
+        mine = pd.MultiIndex.from_arrays([np.full(len(own), cls, object), own["axis"].to_numpy(object),
+                                          own["offset"].to_numpy(np.float64)])
+        keep = mine.isin(ok)
         out.append(own[keep].assign(label_class=cls, source=own["source"].str.replace(
             "people, per view:", f"people, per view for class {cls}:", regex=False)))
     return pd.concat(out, ignore_index=True)[PEOPLE_VIEW_COLUMNS]
@@ -276,7 +279,8 @@ def read_view_table(path, grid, *, metric: str) -> pd.DataFrame:
                           "threshold": t["threshold"].to_numpy(np.float64),
                           "source": f"given, per view ({Path(path).name})"})
     cols = list(VIEW_COLUMNS)
-    if "label_class" in t.columns:
+    by_class = "label_class" in t.columns
+    if by_class:
         table["label_class"] = t["label_class"].fillna(ALL_CLASSES).astype(str).replace("", ALL_CLASSES).to_numpy()
         cols.append("label_class")
         mine = class_rows(table)
@@ -285,7 +289,7 @@ def read_view_table(path, grid, *, metric: str) -> pd.DataFrame:
     dup = table.duplicated([*cols[3:], "axis", "offset"])
     if dup.any():
         r = table[dup].iloc[0]
-        raise InputError(path, "offset", "one threshold per view" + (" and class" if len(cols) > 4 else ""),
+        raise InputError(path, "offset", "one threshold per view" + (" and class" if by_class else ""),
                          f"{view_label(r['axis'], r['offset'])} twice")
     common = table[~class_rows(table)]
     have = {k for k, v in zip(zip(common["axis"], common["offset"], strict=True), common["threshold"], strict=True)
@@ -293,7 +297,7 @@ def read_view_table(path, grid, *, metric: str) -> pd.DataFrame:
     missing = [view_label(*k) for k in grid if k not in have]
     if missing:
         raise InputError(path, "threshold", "a finite threshold for every view of the grid"
-                         + (" (label_class all)" if len(cols) > 4 else ""), f"none for {', '.join(missing)}")
+                         + (" (label_class all)" if by_class else ""), f"none for {', '.join(missing)}")
     return table[cols]
 
 
