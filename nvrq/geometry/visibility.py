@@ -62,11 +62,17 @@ import numpy as np
 
 from nvrq.geometry.boxes import CORNER_SIGNS
 
-__all__ = ["CHUNK", "GRID", "MARGIN_PX", "OUTLINE_SAMPLES", "STAGES", "pair_visibility", "pixel_rays",
+__all__ = ["CHUNK", "GRID", "MARGIN_PX", "OUTLINE_SAMPLES", "STAGES", "STRAIGHT_PX", "pair_visibility", "pixel_rays",
            "ray_box_entry", "visible_fractions"]
 
-#: Samples per box edge of the projected outlines of a camera whose edges curve (distortion).
+#: Samples per box edge of the projected outlines of a camera whose edges curve (distortion);
+#: even, so that the edge's middle is one of them.
 OUTLINE_SAMPLES = 6
+#: Sag (pixels) under which a projected silhouette edge is drawn through its ends and middle
+#: alone: an edge whose middle lies within ``4 * STRAIGHT_PX`` of the chord of its ends (about
+#: a quarter of that, ``STRAIGHT_PX``, is left between the three points of a smoothly
+#: curving edge).
+STRAIGHT_PX = 0.1
 #: Largest number of silhouette samples per image axis (pixel centres when the box is smaller).
 GRID = 32
 #: Margin (pixels) around an occluder's sampled edges: a curved (fisheye) edge may bulge
@@ -231,24 +237,66 @@ def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: 
         return out
     group = np.zeros(n, np.int64) if group is None else np.asarray(group).reshape(-1)
     want = np.ones(n, bool) if only is None else np.asarray(only, bool).reshape(-1)
+    # nearest point of each box to the camera centre (exact)
+    o = -np.einsum("nji,nj->ni", T[:, :3, :3], T[:, :3, 3])
+    near = np.linalg.norm(o - np.clip(o, -0.5 * dims, 0.5 * dims), axis=1)
+    may = _may_matter(T, dims, group, want, near)
+    if may.all():
+        return _fractions_of(camera, (T, dims, near), group, want, (grid, rays, below))
+    sub = np.flatnonzero(may)
+    out[sub] = _fractions_of(camera, (T[sub], dims[sub], near[sub]), group[sub], want[sub], (grid, rays, below))
+    return out
+
+
+def _may_matter(T: np.ndarray, dims: np.ndarray, group: np.ndarray, want: np.ndarray, near: np.ndarray) -> np.ndarray:
+    """``(N,) bool``: the wanted boxes, and those that may cover one: not wholly behind the
+    near plane (the centre's depth plus the half diagonal reaches it) and nearer at their
+    nearest point ``near`` than a wanted box of their group at its farthest (bounded by its
+    centre's distance plus its half diagonal). A superset of every candidate occluder
+    (:func:`_candidates`), found without a box's corners; the bounds are widened by 1e-9 of
+    themselves against rounding."""
+    reach = np.linalg.norm(0.5 * dims, axis=1)
+    far = np.linalg.norm(T[:, :3, 3], axis=1) + reach
+    _, g = np.unique(group, return_inverse=True)
+    g_far = np.full(g.max() + 1, -np.inf)
+    np.maximum.at(g_far, g[want], far[want])
+    ahead = T[:, 2, 3] + reach * (1 + 1e-9) >= _NEAR
+    return want | (ahead & (near < g_far[g] * (1 + 1e-9)))
+
+
+def _fractions_of(camera, boxes, group: np.ndarray, want: np.ndarray, how) -> np.ndarray:
+    """:func:`_visible_fractions` of the boxes ``(T, dims, near)`` that may matter
+    (:func:`_may_matter`); ``how``: ``(grid, rays, below)``."""
+    T, dims, near = boxes
+    grid, rays, below = how
+    n, out = len(T), np.full(len(T), np.nan)
+    # who may cover whom: nearer at the nearest point, overlapping (or not wholly projectable);
+    # the farthest corner of each wanted box
+    corners = np.matmul(CORNER_SIGNS[None] * (0.5 * dims)[:, None, :], np.swapaxes(T[:, :3, :3], 1, 2)) \
+        + T[:, None, :3, 3]
+    wanted = np.flatnonzero(want)
+    far = np.full(n, np.nan)
+    far[wanted] = np.linalg.norm(corners[wanted], axis=-1).max(axis=1)
+    nb = _normalized_boxes(corners)
+    cand_t, cand_o = _candidates(wanted, group, near, far, nb)
     # bound every silhouette by its projected outline (corners, or sampled edges that curve):
-    # first the wanted boxes', then those of the boxes that may cover one of them
+    # first the wanted boxes', then those of the boxes that may cover one of them; a wanted box
+    # without a candidate and with a corner well inside the image is in it (that corner is a
+    # point of its outline), and needs no outline
     ol = _Outlines(camera, T, dims)
-    ol.add(np.flatnonzero(want))
+    quiet = np.zeros(n, bool)
+    quiet[wanted] = True
+    quiet[cand_t] = False
+    seen = np.zeros(n, bool)
+    seen[quiet] = _corner_inside(camera, corners[quiet])
+    ol.add(np.flatnonzero(want & ~seen))
     clip = ol.clip()
-    in_img = ol.ok.any(axis=1) & (clip[:, 0] <= clip[:, 2]) & (clip[:, 1] <= clip[:, 3])
+    in_img = seen | (ol.seen & (clip[:, 0] <= clip[:, 2]) & (clip[:, 1] <= clip[:, 3]))
     targets = np.flatnonzero(want & in_img)
     if len(targets) == 0:
         return out
-    # who may cover whom: nearer at the nearest point, overlapping (or not wholly projectable)
-    # nearest point of each box to the camera centre (exact), and its farthest corner
-    o = -np.einsum("nji,nj->ni", T[:, :3, :3], T[:, :3, 3])
-    near = np.linalg.norm(o - np.clip(o, -0.5 * dims, 0.5 * dims), axis=1)
-    corners = np.matmul(CORNER_SIGNS[None] * (0.5 * dims)[:, None, :], np.swapaxes(T[:, :3, :3], 1, 2)) \
-        + T[:, None, :3, 3]
-    far = np.linalg.norm(corners, axis=-1).max(axis=1)
-    nb = _normalized_boxes(corners)
-    cand_t, cand_o = _candidates(targets, group, near, far, nb)
+    keep = in_img[cand_t]
+    cand_t, cand_o = cand_t[keep], cand_o[keep]
     rest = np.unique(cand_o[~ol.done[cand_o]])
     if len(rest):
         ol.add(rest)
@@ -285,6 +333,17 @@ def _visible_fractions(camera, T_box_cam, dims_lwh, *, group, only, grid, rays: 
     return out
 
 
+def _corner_inside(camera, corners: np.ndarray) -> np.ndarray:
+    """``(N,) bool``: a corner of each box (``(N, 8, 3)``, camera frame) projects at least half
+    a pixel inside the image's pixel centres (a margin against the rounding of another
+    computation of the same point)."""
+    w, h = camera.resolution
+    uv, ok = camera.project(corners.reshape(-1, 3))
+    with np.errstate(invalid="ignore"):
+        inside = ok & (uv[:, 0] >= 0.5) & (uv[:, 0] <= w - 1.5) & (uv[:, 1] >= 0.5) & (uv[:, 1] <= h - 1.5)
+    return inside.reshape(-1, 8).any(axis=1)
+
+
 def _overlap(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Whether pixel boxes ``a (P, 4)`` (an occluder's, :data:`MARGIN_PX` larger on each side:
     a curved edge may bulge between its samples) and ``b (P, 4)`` overlap; False with NaN."""
@@ -293,36 +352,44 @@ def _overlap(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 class _Outlines:
-    """The projected outlines of boxes, projected as they are asked for (:meth:`add`):
-    ``outline (N, K, 2)`` and ``ok (N, K)`` (:func:`_project_outlines`), the pixel boxes
-    ``bb (N, 4)`` of the points that project (NaN where none) and ``done (N,)``; for boxes
-    that do not project whole, the outline of their part inside the field of view
-    (:meth:`cut`)."""
+    """The projected outlines of boxes, projected as they are asked for (:meth:`add`)
+    (:func:`_project_outlines`): ``seen (N,)`` (a point of the box's outline projects),
+    ``all_ok (N,)`` (every point does), the pixel boxes ``bb (N, 4)`` of the points that
+    project (NaN where none), ``done (N,)`` and the outline points of the boxes projected
+    whole (:meth:`points`); for boxes that do not project whole, the outline of their part
+    inside the field of view (:meth:`cut`)."""
 
     def __init__(self, camera, T: np.ndarray, dims: np.ndarray):
         self.camera, self.T, self.dims = camera, T, dims
         self.samples = 1 if _straight(camera) else OUTLINE_SAMPLES
-        self.outline = np.full((len(T), len(_outline_local(self.samples)), 2), np.nan)
-        self.ok = np.zeros(self.outline.shape[:2], bool)
+        self.seen = np.zeros(len(T), bool)
+        self.all_ok = np.zeros(len(T), bool)
         self.bb = np.full((len(T), 4), np.nan)
         self.done = np.zeros(len(T), bool)
+        self._pts: dict[int, np.ndarray] = {}  # box -> its outline points (K, 2) float32, projected whole
         self.cut_pts: dict[int, np.ndarray] = {}  # box -> its cut outline, a polygon (pixels, in order)
         self.cut_bb = np.full((len(T), 4), np.nan)  # the pixel boxes of those outlines
         self.cut_done = np.zeros(len(T), bool)
 
     def add(self, sel: np.ndarray) -> None:
         """Project the boxes ``sel``."""
-        self.outline[sel], self.ok[sel] = _project_outlines(self.camera, self.T[sel], self.dims[sel], self.samples)
+        if len(sel) == 0:
+            return
+        uv, ok, count = _project_outlines(self.camera, self.T[sel], self.dims[sel], self.samples)
+        first = np.r_[0, np.cumsum(count)[:-1]]
         self.done[sel] = True
-        s = sel[self.ok[sel].any(axis=1)]
-        q = self.outline[s]
-        self.bb[s] = np.stack([np.nanmin(q[..., 0], 1), np.nanmin(q[..., 1], 1),
-                               np.nanmax(q[..., 0], 1), np.nanmax(q[..., 1], 1)], axis=1)
+        self.seen[sel] = np.logical_or.reduceat(ok, first)
+        self.all_ok[sel] = np.logical_and.reduceat(ok, first)
+        with np.errstate(invalid="ignore"):
+            self.bb[sel] = np.c_[np.fmin.reduceat(uv, first), np.fmax.reduceat(uv, first)]
+        flat = uv.astype(np.float32)
+        for i in np.flatnonzero(self.all_ok[sel]).tolist():
+            self._pts[int(sel[i])] = flat[first[i]:first[i] + count[i]]
 
     @property
     def whole(self) -> np.ndarray:
         """``(N,) bool``: the boxes projected, every outline point of them projectable."""
-        return self.ok.all(axis=1) & self.done
+        return self.all_ok & self.done
 
     def cut(self, sel: np.ndarray, corners: np.ndarray, fov) -> None:
         """Outline the parts of the boxes ``sel`` (corners ``(N, 8, 3)``, camera frame) inside
@@ -344,7 +411,7 @@ class _Outlines:
 
     def points(self, boxes: np.ndarray) -> list[np.ndarray]:
         """The outline points ``(K, 2)`` float32 of each of ``boxes`` (projected whole)."""
-        return list(self.outline[boxes].astype(np.float32))
+        return [self._pts[b] for b in boxes.tolist()]
 
     def clip(self, bb: np.ndarray | None = None) -> np.ndarray:
         """The silhouettes' pixel boxes ``(N, 4)`` (default ``bb``), clipped to the image."""
@@ -623,14 +690,16 @@ def _straight(camera) -> bool:
     return type(camera) is PinholeCamera
 
 
-def _project_outlines(camera, T: np.ndarray, dims: np.ndarray, samples: int) -> tuple[np.ndarray, np.ndarray]:
-    """Projected outlines ``(N, K, 2)`` of the boxes (:func:`_outline_local`: corners alone
-    for an undistorted pinhole, whose edges stay straight; ``samples`` points per edge
-    otherwise; NaN where a point does not project) and which points projected ``(N, K)``.
+def _project_outlines(camera, T: np.ndarray, dims: np.ndarray, samples: int):
+    """Projected outline points of the boxes (:func:`_outline_local`: corners alone for an
+    undistorted pinhole, whose edges stay straight; up to ``samples`` points per edge
+    otherwise), box by box: ``uv (P, 2)`` (NaN where a point does not project), which points
+    projected ``(P,)`` and each box's number of points ``(N,)``.
 
-    Of a box wholly in front of the camera only the points of its silhouette edges (those
-    between a face that faces the camera and one that does not, or one seen edge-on) are
-    projected: the others lie inside its silhouette and stand in for its first corner."""
+    Of a box wholly in front of the camera only its corners and the points of its silhouette
+    edges (those between a face that faces the camera and one that does not, or one seen
+    edge-on) are projected: the others lie inside its silhouette. Of such an edge, only its
+    middle where that lies within ``4 *`` :data:`STRAIGHT_PX` of the chord of its ends."""
     local = _outline_local(samples)  # (K, 3)
     half = 0.5 * dims
     R = T[:, :3, :3]
@@ -644,18 +713,50 @@ def _project_outlines(camera, T: np.ndarray, dims: np.ndarray, samples: int) -> 
         f1 = facing[:, _EDGE_FACES[:, 0], _EDGE_FACES[:, 1]]
         f2 = facing[:, _EDGE_FACES[:, 2], _EDGE_FACES[:, 3]]
         rim = (f1 != f2) | (f1 == 0) | (f2 == 0)  # (N, 12)
-        rim |= ~(corners_z > 0).all(axis=1)[:, None]
+        front = (corners_z > 0).all(axis=1)
+        rim |= ~front[:, None]
         pick[:, 8:] = np.repeat(rim, samples - 1, axis=1)
-    pts = np.matmul(local[None] * half[:, None, :], np.swapaxes(R, 1, 2)) + T[:, None, :3, 3]
+    # the box's axes scaled to its half sizes: a point of signs s lies at centre + axes @ s
+    frame = (T[:, :3, 3], R * half[:, None, :], local)
+    uv = np.full((len(T), len(local), 2), np.nan)
+    ok = np.zeros(uv.shape[:2], bool)
+    if samples > 1:
+        # first the corners and the middle sample of each edge; a rim edge of a box in front
+        # whose middle lies near the chord of its ends keeps that one sample (it curves too
+        # little for more), the others get every sample
+        mid = 8 + np.arange(12) * (samples - 1) + (samples - 1) // 2
+        first = np.zeros_like(pick)
+        first[:, :8] = True
+        first[:, mid] = rim
+        first[~front] = pick[~front]
+        _project_at(camera, frame, first, (uv, ok))
+        a, b, m = uv[:, [i for i, _ in _EDGES]], uv[:, [j for _, j in _EDGES]], uv[:, mid]
+        chord = b - a
+        with np.errstate(invalid="ignore", divide="ignore"):
+            sag = np.abs(chord[..., 0] * (m - a)[..., 1] - chord[..., 1] * (m - a)[..., 0]) \
+                / np.maximum(np.hypot(chord[..., 0], chord[..., 1]), 1e-12)
+        curved = rim & front[:, None] & ~(sag <= 4 * STRAIGHT_PX)  # NaN (a point not projected): curved
+        pick = first.copy()
+        pick[:, 8:] |= np.repeat(curved, samples - 1, axis=1)
+        _project_at(camera, frame, pick & ~first, (uv, ok))
+    else:
+        _project_at(camera, frame, pick, (uv, ok))
+    uv, ok = uv[pick], ok[pick]
+    ok &= np.isfinite(uv[:, 0]) & np.isfinite(uv[:, 1])
+    return np.where(ok[:, None], uv, np.nan), ok, pick.sum(axis=1)
+
+
+def _project_at(camera, frame, pick: np.ndarray, into) -> None:
+    """Project the outline points ``pick`` (``(N, K)`` bool) of boxes ``frame = (centres (N,
+    3), axes (N, 3, 3) scaled to the half sizes, local signs (K, 3))`` into ``(uv, ok)``."""
+    centre, axes, local = frame
+    uv, ok = into
     at = np.flatnonzero(pick)
-    uv = np.empty(pts.shape[:2] + (2,))
-    ok = np.empty(pts.shape[:2], bool)
-    uv.reshape(-1, 2)[at], ok.reshape(-1)[at] = camera.project(pts.reshape(-1, 3)[at])
-    if len(at) < pick.size:
-        uv = np.where(pick[..., None], uv, uv[:, :1])
-        ok = np.where(pick, ok, ok[:, :1])
-    ok &= np.isfinite(uv[..., 0]) & np.isfinite(uv[..., 1])
-    return np.where(ok[..., None], uv, np.nan), ok
+    if len(at):
+        box, k = np.divmod(at, local.shape[0])
+        s, ax = local[k], axes[box]
+        pts = centre[box] + s[:, :1] * ax[:, :, 0] + s[:, 1:2] * ax[:, :, 1] + s[:, 2:] * ax[:, :, 2]
+        uv.reshape(-1, 2)[at], ok.reshape(-1)[at] = camera.project(pts)
 
 
 def _normalized_boxes(corners: np.ndarray) -> np.ndarray:
@@ -782,6 +883,123 @@ def _gaps(L: np.ndarray, ok: np.ndarray, R, c, half):
     return np.where(ok, np.abs(pa - pb) - ra - rb, -np.inf), [pa, pb, ra, rb]
 
 
+def _hull_table(ol: _Outlines, boxes: np.ndarray):
+    """The silhouette polygons (:func:`_hulls`) of the wholly projected ``boxes`` (sorted):
+    ``(boxes, p, q, edge counts, first edge of each)``."""
+    p, q, ne = _hulls(ol.points(boxes))
+    return boxes, p, q, ne, np.r_[0, np.cumsum(ne)[:-1]].astype(np.int64)
+
+
+def _hull_rows(hulls, boxes: np.ndarray):
+    """The polygons ``(p, q, edge counts)`` of ``boxes`` (sorted, all in the table ``hulls``)."""
+    table, p, q, ne, first = hulls
+    at = np.searchsorted(table, boxes)
+    e = _ranges(first[at], ne[at])
+    return p[e], q[e], ne[at]
+
+
+def _rect_bound(polys, t_poly: np.ndarray, pairs, resolution) -> np.ndarray:
+    """Upper bounds ``(T,)`` of the visible fractions of targets (their polygons ``t_poly``)
+    from their disjoint occluders in front (``pairs``: each pair's target, by position, and
+    its occluder's polygon), the polygons ``polys = (p, q, edge counts)`` stacked (an
+    occluder's in order, convex or the cut outline of a convex part, whose kernel, the side
+    of every edge inside it, lies in it).
+
+    A target's silhouette ``K`` (convex) holds at most ``A + W + H + 1`` pixel centres (``A``
+    its area, ``W x H`` its bounding box: the pixel squares of those centres lie in ``K``
+    grown by half a pixel). Of those an occluder covers at least the centres of a rectangle
+    inside both: the largest one of the shape where their bounding boxes meet, about the
+    middle of where their own inscribed rectangles meet (each polygon's: the largest of its
+    bounding box's shape about the mean of its vertices), on the inner side of every edge
+    of both, shrunk by 1e-6 px, in the image. A target counts the two occluders that cover
+    most there (the union of their rectangles). The bound is ``1 - covered / (A + W + H + 1)``.
+
+    >>> sq = lambda x0, y0, x1, y1: np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], np.float32)
+    >>> _, p, q, ne, _ = _hull_table(_Points([sq(0, 0, 9, 9), sq(5, 0, 20, 9)]), np.array([0, 1]))
+    >>> _rect_bound((p, q, ne), np.array([0]), (np.array([0]), np.array([1])), (100, 100)).round(3).tolist()
+    [0.76]
+
+    (the square's 100 pixel centres, 50 of them covered: 0.5; the bound counts 100 at most,
+    and the 3 x 8 centres strictly inside both rectangles covered)
+    """
+    p, q, ne = polys
+    n_b = len(ne)
+    first = np.r_[0, np.cumsum(ne)[:-1]].astype(np.int64)
+    e_box = np.repeat(np.arange(n_b), ne)
+    cross = p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]
+    area2 = np.bincount(e_box, weights=cross, minlength=n_b)  # twice the signed area
+    lo = np.c_[np.minimum.reduceat(p[:, 0], first), np.minimum.reduceat(p[:, 1], first)]
+    hi = np.c_[np.maximum.reduceat(p[:, 0], first), np.maximum.reduceat(p[:, 1], first)]
+    size = hi - lo
+    c = np.c_[np.bincount(e_box, weights=p[:, 0], minlength=n_b),
+              np.bincount(e_box, weights=p[:, 1], minlength=n_b)] / ne[:, None]
+    # the inscribed rectangle of each polygon: the largest of its bounding box's shape about c
+    e = q - p
+    sign = np.sign(area2)[e_box]
+    half = 0.5 * _scale_in((p, e, sign, first, e_box), c, size)[:, None] * size
+    r_lo, r_hi = c - half, c + half
+    # each pair's, inside both polygons (the edges of one pair's two after the other's)
+    pt, b = pairs
+    a = t_poly[pt]
+    m_lo, m_hi = np.maximum(r_lo[a], r_lo[b]), np.minimum(r_hi[a], r_hi[b])
+    mid = 0.5 * (m_lo + m_hi)
+    shape = np.minimum(hi[a], hi[b]) - np.maximum(lo[a], lo[b])
+    ends = np.r_[a, b]
+    e_at = _ranges(first[ends], ne[ends])
+    e_pair = np.repeat(np.r_[np.arange(len(a)), np.arange(len(a))], ne[ends])
+    order = np.argsort(e_pair, kind="stable")
+    e_at, e_pair = e_at[order], e_pair[order]
+    scale = _scale_in((p[e_at], e[e_at], sign[e_at], np.searchsorted(e_pair, np.arange(len(a))), e_pair),
+                      mid, shape)
+    half = np.where(np.all(m_lo <= m_hi, axis=1)[:, None], 0.5 * scale[:, None] * shape - 1e-6, -1.0)
+    # its pixel centres in the image: columns x0..x1, rows y0..y1
+    w, h = resolution
+    rect = np.c_[np.ceil(np.maximum(mid - half, 0)), np.floor(np.minimum(mid + half, [w - 1, h - 1]))]
+    count = _centres(rect)
+    # the two of each target that cover most, and the centres of their union
+    order = np.lexsort((-count, pt))
+    pt, rect, count = pt[order], rect[order], count[order]
+    top = np.r_[True, pt[1:] != pt[:-1]] if len(pt) else np.zeros(0, bool)
+    second = np.r_[False, top[:-1]] & ~top
+    covered = np.zeros(len(t_poly))
+    covered[pt[top]] = count[top]
+    both = np.c_[np.maximum(rect[second, :2], rect[np.flatnonzero(second) - 1, :2]),
+                 np.minimum(rect[second, 2:], rect[np.flatnonzero(second) - 1, 2:])]
+    covered[pt[second]] += count[second] - _centres(both)
+    grow = 1 + 2e-6  # the spans count pixel centres up to 1e-9 px outside
+    most = 0.5 * np.abs(area2[t_poly]) + grow * size[t_poly].sum(axis=1) + grow * grow
+    return 1.0 - covered / most
+
+
+def _centres(rect: np.ndarray) -> np.ndarray:
+    """The pixel centres of rectangles ``(M, 4)`` of columns ``x0..x1`` and rows ``y0..y1``."""
+    return np.maximum(rect[:, 2] - rect[:, 0] + 1, 0) * np.maximum(rect[:, 3] - rect[:, 1] + 1, 0)
+
+
+def _scale_in(edges, c: np.ndarray, size: np.ndarray) -> np.ndarray:
+    """The largest scale ``k`` in [0, inf) (``(M,)``) of the rectangle ``c +- k size / 2``
+    (``(M, 2)`` each) whose corners lie on the inner side of every edge of its polygon(s):
+    ``edges = (start (E, 2), vector (E, 2), orientation (E,), first edge of each rectangle's
+    (M,), the rectangle of each edge (E,))``, grouped by rectangle."""
+    p, e, sign, first, of = edges
+    inner = sign * (e[:, 0] * (c[of, 1] - p[:, 1]) - e[:, 1] * (c[of, 0] - p[:, 0]))
+    reach = 0.5 * (np.abs(e[:, 1]) * size[of, 0] + np.abs(e[:, 0]) * size[of, 1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        k = np.where(reach > 0, inner / reach, np.where(inner >= 0, np.inf, 0.0))
+    return np.maximum(np.minimum.reduceat(k, first), 0.0) if len(k) else np.zeros(len(c))
+
+
+class _Points:
+    """Stand-in for :class:`_Outlines` in examples: ``points(boxes)`` of given polygons."""
+
+    def __init__(self, polys: list[np.ndarray]):
+        self.polys = polys
+
+    def points(self, boxes: np.ndarray) -> list[np.ndarray]:
+        """The outline points of ``boxes``."""
+        return [self.polys[int(b)] for b in boxes]
+
+
 def _hulls(points: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The silhouette polygons of projected boxes: the convex hulls of their projected outline
     points (each ``(K, 2)`` float32) -> their edges ``(p, q)``, each ``(E, 2)``, stacked box
@@ -811,7 +1029,13 @@ def _box_spans(points: list[np.ndarray], v0: np.ndarray, v1: np.ndarray):
     >>> first.tolist(), lo.tolist(), hi.tolist()
     ([0], [1.0, 1.0, 1.0, inf], [4.0, 4.0, 4.0, -inf])
     """
-    p, q, ne = _hulls(points)
+    return _hull_spans(_hulls(points), v0, v1)
+
+
+def _hull_spans(hulls, v0: np.ndarray, v1: np.ndarray):
+    """:func:`_box_spans` of the silhouette polygons ``hulls = (p, q, edge counts)``
+    (:func:`_hulls`)."""
+    p, q, ne = hulls
     e_box = np.repeat(np.arange(len(ne)), ne)
     v0 = np.asarray(v0).astype(np.int64)
     v1 = np.asarray(v1).astype(np.int64)
@@ -854,12 +1078,45 @@ def _raster(boxes3, ol: _Outlines, targets, cands, rays: _Rays, limits):
     ``(T, dims, nb)``; ``cands``: the (target, occluder, disjoint) candidate arrays;
     ``limits``: ``(cap, below)``, a target whose uncovered share is already below ``below``
     keeps that upper bound (its rays are not cast; :func:`_cast_hard`). All targets' rows are
-    stacked, and the simple occluders' spans on them listed (:func:`_uncovered_runs`)."""
+    stacked, and the simple occluders' spans on them listed (:func:`_uncovered_runs`). Under a threshold (``below > 0``) a target whose
+    bound from rectangles (:func:`_rect_bound`) is below it keeps that bound, and is not
+    scanned."""
     cand_t, cand_o, cand_apart = cands
-    cap, below = limits
+    below = limits[1]
     out = np.full(len(targets), np.nan)
     order = np.argsort(cand_t, kind="stable")
     ct, co, ca = cand_t[order], cand_o[order], cand_apart[order]
+    whole = ol.whole
+    sw = ca & ol.drawn()[co] & whole[co]  # the disjoint occluders in front, projected whole
+    hulls = _hull_table(ol, np.unique(np.r_[targets, co[sw]]))
+    kept = np.ones(len(targets), bool)
+    if below > 0:
+        # the polygons: the hulls of the targets and of their whole occluders, then the cut
+        # outlines of the others drawn (disjoint, in front)
+        sc = ca & ol.drawn()[co] & ~whole[co]
+        cut = np.unique(co[sc])
+        table, hp, hq, ne, _ = hulls
+        cp = [ol.cut_pts[b] for b in cut.tolist()]
+        polys = (np.concatenate([hp, *cp]) if cp else hp,
+                 np.concatenate([hq, *[np.roll(c, -1, axis=0) for c in cp]]) if cp else hq,
+                 np.r_[ne, [len(c) for c in cp]].astype(np.int64))
+        occ = np.r_[np.searchsorted(table, co[sw]), len(table) + np.searchsorted(cut, co[sc])]
+        pair_t = np.searchsorted(targets, np.r_[ct[sw], ct[sc]])
+        bound = _rect_bound(polys, np.searchsorted(table, targets), (pair_t, occ), ol.camera.resolution)
+        kept = ~(bound < below)
+        out[~kept] = bound[~kept]
+    if kept.any():
+        sel = kept[np.searchsorted(targets, ct)]
+        out[kept] = _raster_spans(boxes3, ol, targets[kept], (ct[sel], co[sel], ca[sel]), rays, (limits, hulls))
+    return out
+
+
+def _raster_spans(boxes3, ol: _Outlines, targets, cands, rays: _Rays, limits):
+    """:func:`_raster` of the targets that its bound leaves (``limits``: ``((cap, below),
+    hulls)``, :func:`_hull_table`), their candidates sorted by target."""
+    ct, co, ca = cands
+    (cap, below), hulls = limits
+    out = np.full(len(targets), np.nan)
     whole = ol.whole
     fov = rays.fov
     # intersecting boxes, both wholly projected: the pieces where the occluder is entered first
@@ -867,7 +1124,7 @@ def _raster(boxes3, ol: _Outlines, targets, cands, rays: _Rays, limits):
     simple = (ca & ol.drawn()[co]) | inter
     clip = ol.clip()
     (b_v0, b_off, b_lo, b_hi), at, pair_t, pair_o = _simple_spans(ol, targets, (ct, co, ca, simple, inter),
-                                                                   boxes3[:2], fov)
+                                                                   (*boxes3[:2], fov), hulls)
     # the stacked rows of every target, its span on each
     nrow = b_off[at + 1] - b_off[at]
     r_off = np.r_[0, np.cumsum(nrow)]
@@ -884,10 +1141,10 @@ def _raster(boxes3, ol: _Outlines, targets, cands, rays: _Rays, limits):
     i = v0[e_pair] + np.arange(n_r.sum()) - np.repeat(np.cumsum(n_r) - n_r, n_r)  # image row
     g = r_off[t_pos[e_pair]] + i - b_v0[at[t_pos[e_pair]]]  # stacked row
     o_src = b_off[ob[e_pair]] + i - b_v0[ob[e_pair]]
-    r_row, r_start, r_len = _uncovered_runs(lo, hi, (g, b_lo[o_src], b_hi[o_src]), ol.camera.resolution[0])
-    run_t = row_t[r_row]
+    width = ol.camera.resolution[0]
+    occ = (g, b_lo[o_src], b_hi[o_src])
     area = np.bincount(row_t, weights=np.maximum(hi - lo + 1, 0), minlength=len(targets))
-    free = np.bincount(run_t, weights=r_len, minlength=len(targets))
+    free = area - np.bincount(row_t, weights=_covered(lo, hi, occ, width), minlength=len(targets))
     # spans alone: the covered length of each row (an upper bound where rays are still cast)
     ok = area > 0
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -898,10 +1155,19 @@ def _raster(boxes3, ol: _Outlines, targets, cands, rays: _Rays, limits):
     hard_last = np.searchsorted(ct[~simple], targets, side="right")
     jj = np.flatnonzero(ok & (hard_first != hard_last) & (free != 0) & ~(val < below))
     if len(jj):
-        run_off = np.searchsorted(run_t, np.arange(len(targets) + 1))
-        n_runs = run_off[jj + 1] - run_off[jj]
-        cells = _ranges(run_off[jj], n_runs)
-        runs = ((r_row[cells] - np.repeat(r_off[jj], n_runs), r_start[cells], r_len[cells]),
+        # their uncovered runs, row by row (their stacked rows renumbered from 0)
+        in_jj = np.zeros(len(targets), bool)
+        in_jj[jj] = True
+        rsel = in_jj[row_t]
+        renum = np.cumsum(rsel) - 1
+        osel = rsel[g]
+        r_row, r_start, r_len = _uncovered_runs(lo[rsel], hi[rsel], (renum[g[osel]], occ[1][osel], occ[2][osel]),
+                                                width)
+        run_t = row_t[rsel][r_row]
+        run_off = np.searchsorted(run_t, jj)
+        n_runs = np.searchsorted(run_t, jj, side="right") - run_off
+        j_first = np.r_[0, np.cumsum(nrow[jj])][:-1]  # each one's first renumbered row
+        runs = ((r_row - np.repeat(j_first, n_runs), r_start, r_len),
                 np.r_[0, np.cumsum(n_runs)], clip[targets[jj], 1].astype(np.int64), cap)
         h_o = co[~simple]
         out[jj] = _cast_hard(jj, (area[jj], free[jj]), runs, targets,
@@ -931,13 +1197,14 @@ def _reach(ol: _Outlines, occ: np.ndarray, rows: np.ndarray):
     return (boxes, *_box_spans(pts, r0, r1))
 
 
-def _simple_spans(ol: _Outlines, targets: np.ndarray, pairs, poses, fov):
+def _simple_spans(ol: _Outlines, targets: np.ndarray, pairs, poses, hulls):
     """The row spans of :func:`_raster`'s targets and of their simple occluders (an
     occluder's only on its targets' rows): convex silhouettes (the hull of a whole outline,
     :func:`_box_spans`), then the layers (:func:`_scan_spans`) of the outlines cut to the
     field of view and of the intersecting pairs' pieces (:func:`_entered_first`; their edges
     may curve inwards). ``pairs``: the (target, occluder, disjoint, simple, intersecting and
-    drawn) arrays; ``poses``: ``(T, dims)``. Returns the spans ``(first row, offsets, lo,
+    drawn) arrays; ``poses``: ``(T, dims, fov)``; ``hulls``: the silhouette polygons of the
+    targets and their whole simple occluders (:func:`_hull_table`). Returns the spans ``(first row, offsets, lo,
     hi)``, each target's spans and each simple pair's target and spans (a pair has one for
     each layer of its cut outline or pieces)."""
     ct, co, ca, simple, inter = pairs
@@ -947,12 +1214,12 @@ def _simple_spans(ol: _Outlines, targets: np.ndarray, pairs, poses, fov):
     r0, r1 = _rows_needed(boxes, co[sw], clip[ct[sw]], ol.clip())
     is_t = np.isin(boxes, targets)
     r0, r1 = np.where(is_t, clip[boxes, 1], r0), np.where(is_t, clip[boxes, 3], r1)
-    spans = _box_spans(ol.points(boxes), r0, r1)
+    spans = _hull_spans(_hull_rows(hulls, boxes), r0, r1)
     cut = np.unique(co[sc])
     c0, c1 = _rows_needed(cut, co[sc], clip[ct[sc]], ol.drawn_clip())
     polys = [ol.cut_pts[b] for b in cut.tolist()]
     # the pieces of the intersecting pairs (on their targets' rows)
-    T, dims = poses
+    T, dims, fov = poses
     piece, n_v, pair = _entered_first(T, 0.5 * dims, ct[inter], co[inter])
     pp = _project_polygons(ol.camera, [q[:m] for q, m in zip(piece, n_v, strict=True)], fov[4] if fov else np.inf)
     good = np.array([q is not None for q in pp], bool)  # all: the target lies where the model is valid
@@ -980,6 +1247,36 @@ def _rows_needed(boxes: np.ndarray, occ: np.ndarray, t_clip: np.ndarray, clip: n
     np.minimum.at(r0, at, t_clip[:, 1])
     np.maximum.at(r1, at, t_clip[:, 3])
     return np.maximum(r0, clip[boxes, 1]), np.minimum(r1, clip[boxes, 3])
+
+
+def _covered(lo: np.ndarray, hi: np.ndarray, spans, width: int) -> np.ndarray:
+    """The number of pixel centres of each row's target span ``[lo, hi] (H,)`` inside one of
+    the occluder spans ``spans`` (:func:`_uncovered_runs`' arguments): ``(H,)`` float64, the
+    row's span length less its uncovered runs' lengths, to the bit (integers). A row with one
+    occluder span needs no sort.
+
+    >>> _covered(np.array([0.0, 0]), np.array([9.0, 3]),
+    ...          (np.array([0, 0, 1]), np.array([4.0, 2, 5]), np.array([6.0, 3, 8])), 10).tolist()
+    [5.0, 0.0]
+    """
+    g, a, b = spans
+    a, b = np.maximum(a, lo[g]), np.minimum(b, hi[g])
+    keep = a <= b
+    g, a, b = g[keep], a[keep], b[keep]
+    many = np.bincount(g, minlength=len(lo))[g] > 1
+    out = np.bincount(g[~many], weights=(b - a + 1)[~many], minlength=len(lo)).astype(np.float64)
+    g, a, b = g[many], a[many], b[many]
+    if len(g):
+        # rows of several spans, in column order: each adds the columns past the furthest end
+        # of the row's earlier spans (an earlier row's ends lie below the row's first column)
+        stride = width + 2
+        order = np.argsort(g * stride + a.astype(np.int64), kind="stable")
+        g, a, b = g[order], a[order], b[order]
+        base = g * stride
+        reach = np.maximum.accumulate(b + base)
+        before = np.r_[-np.inf, reach[:-1]] - base
+        out += np.bincount(g, weights=np.maximum(b - np.maximum(a, before + 1) + 1, 0), minlength=len(lo))
+    return out
 
 
 def _uncovered_runs(lo: np.ndarray, hi: np.ndarray, spans, width: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -1326,6 +1623,10 @@ def pair_visibility(camera, T_gt_world: np.ndarray, T_view_gt: np.ndarray, frame
                             below=min_visible)[box_index]
     nv = np.full(len(box_index), np.nan)
     go = np.flatnonzero(gt >= min_visible) if min_visible > 0 else np.arange(len(box_index))
+    # a view at the GT pose (the identity) is the GT view: its fractions are the GT's, to the bit
+    same = np.all(np.asarray(T_view_gt, np.float64).reshape(-1, 4, 4) == np.eye(4), axis=(1, 2))[view_index[go]]
+    nv[go[same]] = gt[go[same]]
+    go = go[~same]
     if len(go) == 0:
         return gt, nv
     box_index, view_index = box_index[go], view_index[go]

@@ -159,3 +159,76 @@ def test_occluders_near_the_camera_equal_dense_reference(name):
         if both.any():
             worst = max(worst, np.abs(got[both] - ref[both]).max())
     assert worst < 0.02, worst
+
+
+def _crowded_frame(rng):
+    """Targets ahead, some of them behind others, and boxes beside or behind the camera."""
+    n_t, n_o = rng.integers(3, 8), rng.integers(0, 3)
+    T = [_yawed(rng.uniform(-3, 3), rng.uniform(-1, 1), rng.uniform(5, 18), rng.uniform(0, np.pi))
+         for _ in range(n_t)]
+    T += [_yawed(rng.choice([-1, 1]) * rng.uniform(1.5, 4), rng.uniform(-0.5, 0.5), rng.uniform(-3, 3),
+                 rng.uniform(-0.3, 0.3)) for _ in range(n_o)]
+    dims = np.r_[rng.uniform(1, 4, size=(n_t, 3)),
+                 np.c_[rng.uniform(1.5, 2.5, n_o), rng.uniform(1.2, 2, n_o), rng.uniform(3, 8, n_o)]]
+    return np.stack(T), dims
+
+
+@pytest.mark.parametrize("name", sorted(SMALL))
+def test_under_a_threshold_values_at_or_above_it_are_exact_and_the_others_stay_below(name):
+    """``min_visible``'s early stops: a box at or above the threshold gets the exact value, to
+    the bit; one below it an upper bound of its value, still below the threshold (from its row
+    spans, or from the rectangles of :func:`_rect_bound` before any span is drawn)."""
+    from nvrq.geometry.visibility import GRID, _Rays, _visible_fractions
+
+    cam = camera_from_model(SMALL[name])
+    rng = np.random.default_rng(2)
+    n_below = n_bounded = 0
+    for _ in range(40):
+        T, dims = _crowded_frame(rng)
+        exact = visible_fractions(cam, T, dims)
+        ruled = _visible_fractions(cam, T, dims, group=None, only=None, grid=GRID, rays=_Rays(cam), below=0.8)
+        seen = np.isfinite(exact)
+        assert np.array_equal(np.isfinite(ruled), seen)
+        high = seen & (exact >= 0.8)
+        assert np.array_equal(ruled[high], exact[high])
+        low = seen & (exact < 0.8)
+        assert (ruled[low] < 0.8).all() and (ruled[low] >= exact[low] - 1e-12).all()
+        n_below += low.sum()
+        n_bounded += (ruled[low] > exact[low]).sum()
+    assert n_below > 40 and n_bounded > 0, (n_below, n_bounded)
+
+
+def test_rectangle_bound_is_above_the_counted_fraction():
+    """:func:`_rect_bound` against pixel centres counted one by one: random convex targets
+    and occluders (hulls of random points), the bound at or above the true uncovered share."""
+    from nvrq.geometry.visibility import _hull_table, _Points, _rect_bound
+
+    rng = np.random.default_rng(3)
+    w, h = 64, 48
+    uu, vv = np.meshgrid(np.arange(w, dtype=float), np.arange(h, dtype=float))
+    centres = np.c_[uu.ravel(), vv.ravel()]
+
+    def inside(poly):
+        e = np.roll(poly, -1, axis=0) - poly
+        side = e[:, 0] * (centres[:, None, 1] - poly[:, 1]) - e[:, 1] * (centres[:, None, 0] - poly[:, 0])
+        return (side >= -1e-9).all(axis=1) | (side <= 1e-9).all(axis=1)
+
+    tight = 0
+    for _ in range(300):
+        k = rng.integers(2, 5)
+        at = rng.uniform([0, 0], [w, h]) + rng.uniform(-12, 12, (k, 2))  # the occluders about the target
+        polys = [(c + rng.uniform(3, 25) * rng.uniform(-1, 1, (rng.integers(3, 9), 2))).astype(np.float32)
+                 for c in at]
+        _, p, q, ne, first = _hull_table(_Points(polys), np.arange(k))
+        hull = [p[f:f + n] for f, n in zip(first, ne, strict=True)]
+        t_in = inside(hull[0])
+        if t_in.sum() < 5:
+            continue
+        covered = np.zeros(len(centres), bool)
+        for poly in hull[1:]:
+            covered |= inside(poly)
+        truth = 1 - (t_in & covered).sum() / t_in.sum()
+        got = _rect_bound((p, q, ne), np.array([0]), (np.zeros(k - 1, np.int64), np.arange(1, k)), (w, h))[0]
+        assert got >= truth - 1e-12, (got, truth)
+        tight += got < 1.0
+    assert tight > 50
