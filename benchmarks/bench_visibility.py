@@ -87,13 +87,26 @@ def best(fn, rounds: int) -> tuple[float, object]:
     return min(times), out
 
 
+def interleaved(fns: list, rounds: int) -> list[tuple[float, object]]:
+    """Best of ``rounds`` of each of ``fns``, run in turn round after round (the process's
+    memory state and the machine's load then weigh on each alike), after one warm-up run."""
+    outs = [fn() for fn in fns]
+    times = [[] for _ in fns]
+    for _ in range(rounds):
+        for i, fn in enumerate(fns):
+            t0 = time.perf_counter()
+            outs[i] = fn()
+            times[i].append(time.perf_counter() - t0)
+    return [(min(t), out) for t, out in zip(times, outs, strict=True)]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=None, help="demo clip length (default: the demo's)")
     ap.add_argument("--size", default=None, help="demo clip size WxH (default: the demo's)")
     ap.add_argument("--tracks", type=int, default=120, help="tracks of the large scene")
     ap.add_argument("--frames", type=int, default=120, help="frames of the large scene")
-    ap.add_argument("--rounds", type=int, default=2)
+    ap.add_argument("--rounds", type=int, default=5)
     args = ap.parse_args()
 
     demo = demo_defaults()
@@ -104,10 +117,10 @@ def main() -> None:
         subprocess.run([sys.executable, "-m", "nvrq", "synth", str(root), "--seed", str(demo.seed), "--seconds",
                         str(seconds), "--size", size, "--offsets", demo.offsets, "--quiet"], check=True)
         scene = load_scene(root)
-        t_off, (p_off, _) = best(lambda: make_pairs(scene, min_visible=0, visibility=False, progress=False),
-                                 args.rounds)
-        t_0, (p_0, _) = best(lambda: make_pairs(scene, min_visible=0, progress=False), args.rounds)
-        t_d, (p_d, _) = best(lambda: make_pairs(scene, progress=False), args.rounds)
+        (t_off, (p_off, _)), (t_0, _), (t_d, (p_d, _)) = interleaved(
+            [lambda: make_pairs(scene, min_visible=0, visibility=False, progress=False),
+             lambda: make_pairs(scene, min_visible=0, progress=False),
+             lambda: make_pairs(scene, progress=False)], args.rounds)
     print(f"demo clip ({seconds:g} s, {size}): {len(p_off)} pairs without the rule, {len(p_d)} at the default")
     print(f"  pairs without visibility: {t_off:.2f} s")
     print(f"  with visibility, --min-visible 0 (every pair cast): {t_0:.2f} s  ratio {t_0 / t_off:.2f}x")

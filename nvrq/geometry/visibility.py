@@ -10,16 +10,21 @@ entered by another box of the same frame. It is computed in three steps:
    its farthest, and their projections must overlap: the boxes in normalised coordinates of
    their parts in front of the camera (found before any occluder is projected), and, where the
    box projects whole, the pixel boxes of the projected outlines (the occluder's, or that of
-   its part inside the field of view, step 2). Only the wanted boxes and these
-   occluders are projected. A box with no such neighbour is fully visible. For disjoint boxes the depth order is
-   the same along every ray through both (two disjoint convex bodies are separated by a plane:
-   the box on the camera's side comes first); a separating-axis test gives that plane, and an
-   occluder behind the box is dropped.
+   its part inside the field of view, step 2). Boxes that cannot be such an occluder by their
+   centres alone (wholly behind the near plane, or farther at their nearest point than every
+   wanted box of their view at its farthest, bounded by the centre's distance and the half
+   diagonal) are set aside first. Only the wanted boxes and the occluders are projected. A box
+   with no such neighbour is fully visible. For disjoint boxes the depth order is the same
+   along every ray through both (two disjoint convex bodies are separated by a plane: the box
+   on the camera's side comes first); an occluder wholly nearer than the box (its farthest
+   corner nearer than the box's nearest point) comes first, the other pairs get a
+   separating-axis test, and an occluder behind the box is dropped.
 2. **Silhouettes as pixel spans.** The silhouette of a box is convex on each image row; its
    span is read off the convex hull of its projected outline (the corners for an undistorted
-   pinhole, whose edges stay straight; :data:`OUTLINE_SAMPLES` points per silhouette edge for
-   a camera whose edges curve). A pixel is covered where it lies inside a drawn occluder,
-   row span by row span:
+   pinhole, whose edges stay straight; for a camera whose edges curve, the corners and the
+   middle of each silhouette edge, and :data:`OUTLINE_SAMPLES` points along an edge whose
+   middle lies farther than ``4 *`` :data:`STRAIGHT_PX` from the chord of its ends). A pixel
+   is covered where it lies inside a drawn occluder, row span by row span:
 
    - a disjoint occluder in front that projects whole: its silhouette;
    - a disjoint occluder in front that does not (a box beside or behind the camera): its part
@@ -41,11 +46,16 @@ entered by another box of the same frame. It is computed in three steps:
    every view of the camera.
 
 Under a threshold (:func:`pair_visibility`'s ``min_visible``, for a caller that drops what
-falls below it), a box is only resolved until it is known to be below: the share its row
-spans leave uncovered bounds its fraction from above, so a box already below after step 2
-casts no ray, and the rays of step 3 go in :data:`STAGES` interleaved stages, stopping once
-the hits so far put it below. A box at or above the threshold gets the value of a single
-cast, to the bit.
+falls below it), a box is only resolved until it is known to be below. Before its spans are
+drawn, a bound from rectangles inside its silhouette and its occluders' (:func:`_rect_bound`:
+at most ``A + W + H + 1`` pixel centres in a convex silhouette of area ``A`` and bounding box
+``W x H``, and at least those of a rectangle inside both covered) may already put it below;
+then the share its row spans leave uncovered bounds its fraction from above, so a box below
+after step 2 casts no ray, and the rays of step 3 go in :data:`STAGES` interleaved stages,
+stopping once the hits so far put it below. A box below gets one of these upper bounds (still
+below the threshold); a box at or above it gets the value of a single cast, to the bit. A
+novel view at the GT pose itself is the GT view: :func:`pair_visibility` gives it the GT
+view's fractions.
 
 Only ``project`` and ``unproject`` of the camera model are used, so it holds for every model
 (pinhole, OpenCV, fisheye, f-theta); a dense per-pixel ray cast is the reference in the tests.
@@ -280,18 +290,10 @@ def _fractions_of(camera, boxes, group: np.ndarray, want: np.ndarray, how) -> np
     nb = _normalized_boxes(corners)
     cand_t, cand_o = _candidates(wanted, group, near, far, nb)
     # bound every silhouette by its projected outline (corners, or sampled edges that curve):
-    # first the wanted boxes', then those of the boxes that may cover one of them; a wanted box
-    # without a candidate and with a corner well inside the image is in it (that corner is a
-    # point of its outline), and needs no outline
+    # first the wanted boxes', then those of the boxes that may cover one of them
     ol = _Outlines(camera, T, dims)
-    quiet = np.zeros(n, bool)
-    quiet[wanted] = True
-    quiet[cand_t] = False
-    seen = np.zeros(n, bool)
-    seen[quiet] = _corner_inside(camera, corners[quiet])
-    ol.add(np.flatnonzero(want & ~seen))
+    in_img = _in_image(ol, corners, want, cand_t)
     clip = ol.clip()
-    in_img = seen | (ol.seen & (clip[:, 0] <= clip[:, 2]) & (clip[:, 1] <= clip[:, 3]))
     targets = np.flatnonzero(want & in_img)
     if len(targets) == 0:
         return out
@@ -306,8 +308,10 @@ def _fractions_of(camera, boxes, group: np.ndarray, want: np.ndarray, how) -> np
     bb = ol.bb
     keep = ~(whole[cand_t] & whole[cand_o]) | _overlap(bb[cand_o], bb[cand_t])
     cand_t, cand_o = cand_t[keep], cand_o[keep]
-    # depth order of disjoint pairs: an occluder behind the box cannot cover it
-    apart, o_front = _separated(T, 0.5 * dims, cand_t, cand_o)
+    # depth order: an occluder wholly nearer than the box (its farthest corner nearer than the
+    # box's nearest point) comes first along every ray through both; the other pairs by a
+    # separating-axis test (an occluder behind the box cannot cover it)
+    apart, o_front = _depth_order((T, dims, corners), (near, far), cand_t, cand_o)
     keep = ~apart | o_front
     cand_t, cand_o, apart = cand_t[keep], cand_o[keep], apart[keep]
     # a disjoint occluder in front that does not project whole, of a target that does: its
@@ -331,6 +335,37 @@ def _fractions_of(camera, boxes, group: np.ndarray, want: np.ndarray, how) -> np
         sel = np.isin(cand_t, ray)
         out[ray] = _cast(camera, T, dims, ray, cand_t[sel], cand_o[sel], bb, clip, whole, grid, rays)
     return out
+
+
+def _in_image(ol: _Outlines, corners: np.ndarray, want: np.ndarray, cand_t: np.ndarray) -> np.ndarray:
+    """``(N,) bool``: the wanted boxes (``want``) with a silhouette pixel box in the image, their
+    outlines projected into ``ol``. A wanted box without a candidate occluder (``cand_t``: the
+    targets of the candidates) and with a corner (``corners (N, 8, 3)``) well inside the image is
+    in it (that corner is a point of its outline), and needs no outline."""
+    quiet = want.copy()
+    quiet[cand_t] = False
+    seen = np.zeros(len(want), bool)
+    seen[quiet] = _corner_inside(ol.camera, corners[quiet])
+    ol.add(np.flatnonzero(want & ~seen))
+    clip = ol.clip()
+    return seen | (ol.seen & (clip[:, 0] <= clip[:, 2]) & (clip[:, 1] <= clip[:, 3]))
+
+
+def _depth_order(boxes, reach, cand_t: np.ndarray, cand_o: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(apart, o_front)`` of the candidate pairs (:func:`_separated`'s) of boxes ``(T, dims,
+    corners)`` at distances ``(near, far)`` (``far`` NaN where not found yet, filled here): an
+    occluder wholly nearer than its target (its farthest corner nearer than the target's
+    nearest point) comes first along every ray through both; the other pairs get a
+    separating-axis test."""
+    T, dims, corners = boxes
+    near, far = reach
+    occ = np.unique(cand_o)
+    occ = occ[np.isnan(far[occ])]
+    far[occ] = np.linalg.norm(corners[occ], axis=-1).max(axis=1)
+    test = np.flatnonzero(~(far[cand_o] < near[cand_t]))
+    apart, o_front = np.ones(len(cand_t), bool), np.ones(len(cand_t), bool)
+    apart[test], o_front[test] = _separated(T, 0.5 * dims, cand_t[test], cand_o[test])
+    return apart, o_front
 
 
 def _corner_inside(camera, corners: np.ndarray) -> np.ndarray:
@@ -770,8 +805,9 @@ def _normalized_boxes(corners: np.ndarray) -> np.ndarray:
     out = np.full((len(corners), 4), np.nan)
     ahead = corners[..., 2] >= eps
     front = ahead.all(axis=1)  # wholly in front: the box of its corners
-    xy = corners[front, :, :2] / corners[front, :, 2:]
-    out[front] = np.stack([xy[..., 0].min(1), xy[..., 1].min(1), xy[..., 0].max(1), xy[..., 1].max(1)], axis=1)
+    c = corners[front]
+    x, y = c[..., 0] / c[..., 2], c[..., 1] / c[..., 2]
+    out[front] = np.c_[x.min(1), y.min(1), x.max(1), y.max(1)]
     part = ~front & ahead.any(axis=1)  # partly in front (wholly behind: NaN)
     c = corners[part]
     a = c[:, [i for i, _ in _EDGES]]
