@@ -23,7 +23,8 @@ entered by another box of the same frame. It is computed in three steps:
    span is read off the convex hull of its projected outline (the corners for an undistorted
    pinhole, whose edges stay straight; for a camera whose edges curve, the corners and the
    middle of each silhouette edge, and :data:`OUTLINE_SAMPLES` points along an edge whose
-   middle lies farther than ``4 *`` :data:`STRAIGHT_PX` from the chord of its ends). A pixel
+   middle lies farther than ``4 *`` :data:`STRAIGHT_PX`, or :data:`STRAIGHT_SHARE` of its
+   length, from the chord of its ends). A pixel
    is covered where it lies inside a drawn occluder, row span by row span:
 
    - a disjoint occluder in front that projects whole: its silhouette;
@@ -72,7 +73,7 @@ import numpy as np
 
 from nvrq.geometry.boxes import CORNER_SIGNS
 
-__all__ = ["CHUNK", "GRID", "MARGIN_PX", "OUTLINE_SAMPLES", "STAGES", "STRAIGHT_PX", "pair_visibility", "pixel_rays",
+__all__ = ["CHUNK", "GRID", "MARGIN_PX", "OUTLINE_SAMPLES", "STAGES", "STRAIGHT_PX", "STRAIGHT_SHARE", "pair_visibility", "pixel_rays",
            "ray_box_entry", "visible_fractions"]
 
 #: Samples per box edge of the projected outlines of a camera whose edges curve (distortion);
@@ -81,8 +82,11 @@ OUTLINE_SAMPLES = 6
 #: Sag (pixels) under which a projected silhouette edge is drawn through its ends and middle
 #: alone: an edge whose middle lies within ``4 * STRAIGHT_PX`` of the chord of its ends (about
 #: a quarter of that, ``STRAIGHT_PX``, is left between the three points of a smoothly
-#: curving edge).
+#: curving edge), and within :data:`STRAIGHT_SHARE` of the chord's length.
 STRAIGHT_PX = 0.1
+#: Largest sag of such an edge, as a share of its chord (on a small box a tenth of a pixel is
+#: a share of its area).
+STRAIGHT_SHARE = 0.003
 #: Largest number of silhouette samples per image axis (pixel centres when the box is smaller).
 GRID = 32
 #: Margin (pixels) around an occluder's sampled edges: a curved (fisheye) edge may bulge
@@ -293,16 +297,13 @@ def _fractions_of(camera, boxes, group: np.ndarray, want: np.ndarray, how) -> np
     # first the wanted boxes', then those of the boxes that may cover one of them
     ol = _Outlines(camera, T, dims)
     in_img = _in_image(ol, corners, want, cand_t)
-    clip = ol.clip()
     targets = np.flatnonzero(want & in_img)
     if len(targets) == 0:
         return out
     keep = in_img[cand_t]
     cand_t, cand_o = cand_t[keep], cand_o[keep]
     rest = np.unique(cand_o[~ol.done[cand_o]])
-    if len(rest):
-        ol.add(rest)
-        clip = ol.clip()
+    ol.add(rest)
     whole = ol.whole
     # wholly projected pairs: their pixel boxes (with a margin for curved edges) overlap too
     bb = ol.bb
@@ -333,7 +334,8 @@ def _fractions_of(camera, boxes, group: np.ndarray, want: np.ndarray, how) -> np
                            (4 * grid * grid, below))
     if len(ray):
         sel = np.isin(cand_t, ray)
-        out[ray] = _cast(camera, T, dims, ray, cand_t[sel], cand_o[sel], bb, clip, whole, grid, rays)
+        out[ray] = _cast(camera, T, dims, ray, cand_t[sel], cand_o[sel], bb, _reach_clip(ol, ray, corners, rays.fov),
+                         whole, grid, rays)
     return out
 
 
@@ -366,6 +368,26 @@ def _depth_order(boxes, reach, cand_t: np.ndarray, cand_o: np.ndarray) -> tuple[
     apart, o_front = np.ones(len(cand_t), bool), np.ones(len(cand_t), bool)
     apart[test], o_front[test] = _separated(T, 0.5 * dims, cand_t[test], cand_o[test])
     return apart, o_front
+
+
+def _reach_clip(ol: _Outlines, boxes: np.ndarray, corners: np.ndarray, fov) -> np.ndarray:
+    """Pixel boxes ``(N, 4)`` that hold the silhouettes of the ``boxes`` not wholly projected
+    (the others' rows as :meth:`_Outlines.clip`): the pixel box of the outline of their part
+    inside the field of view ``fov`` where it has one, the whole image otherwise (the points of
+    a box that project do not bound its silhouette: its edges that cross behind the camera run
+    off to the image's border)."""
+    w, h = ol.camera.resolution
+    clip = ol.clip()
+    if fov is not None:
+        todo = boxes[~ol.cut_done[boxes]]
+        if len(todo):
+            ol.cut(todo, corners, fov)
+        cut = ol.drawn_clip()
+        has = ol.cut_done[boxes]
+        clip[boxes[has]] = cut[boxes[has]]
+        boxes = boxes[~has]
+    clip[boxes] = [0, 0, w - 1, h - 1]
+    return clip
 
 
 def _corner_inside(camera, corners: np.ndarray) -> np.ndarray:
@@ -734,7 +756,8 @@ def _project_outlines(camera, T: np.ndarray, dims: np.ndarray, samples: int):
     Of a box wholly in front of the camera only its corners and the points of its silhouette
     edges (those between a face that faces the camera and one that does not, or one seen
     edge-on) are projected: the others lie inside its silhouette. Of such an edge, only its
-    middle where that lies within ``4 *`` :data:`STRAIGHT_PX` of the chord of its ends."""
+    middle where that lies within ``4 *`` :data:`STRAIGHT_PX` and :data:`STRAIGHT_SHARE` of
+    its length of the chord of its ends."""
     local = _outline_local(samples)  # (K, 3)
     half = 0.5 * dims
     R = T[:, :3, :3]
@@ -770,7 +793,8 @@ def _project_outlines(camera, T: np.ndarray, dims: np.ndarray, samples: int):
         with np.errstate(invalid="ignore", divide="ignore"):
             sag = np.abs(chord[..., 0] * (m - a)[..., 1] - chord[..., 1] * (m - a)[..., 0]) \
                 / np.maximum(np.hypot(chord[..., 0], chord[..., 1]), 1e-12)
-        curved = rim & front[:, None] & ~(sag <= 4 * STRAIGHT_PX)  # NaN (a point not projected): curved
+        length = np.hypot(chord[..., 0], chord[..., 1])
+        curved = rim & front[:, None] & ~(sag <= np.minimum(4 * STRAIGHT_PX, STRAIGHT_SHARE * length))  # NaN: curved
         pick = first.copy()
         pick[:, 8:] |= np.repeat(curved, samples - 1, axis=1)
         _project_at(camera, frame, pick & ~first, (uv, ok))
