@@ -790,10 +790,9 @@ def _project_outlines(camera, T: np.ndarray, dims: np.ndarray, samples: int):
         _project_at(camera, frame, first, (uv, ok))
         a, b, m = uv[:, [i for i, _ in _EDGES]], uv[:, [j for _, j in _EDGES]], uv[:, mid]
         chord = b - a
-        with np.errstate(invalid="ignore", divide="ignore"):
-            sag = np.abs(chord[..., 0] * (m - a)[..., 1] - chord[..., 1] * (m - a)[..., 0]) \
-                / np.maximum(np.hypot(chord[..., 0], chord[..., 1]), 1e-12)
         length = np.hypot(chord[..., 0], chord[..., 1])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            sag = np.abs(chord[..., 0] * (m - a)[..., 1] - chord[..., 1] * (m - a)[..., 0]) / np.maximum(length, 1e-12)
         curved = rim & front[:, None] & ~(sag <= np.minimum(4 * STRAIGHT_PX, STRAIGHT_SHARE * length))  # NaN: curved
         pick = first.copy()
         pick[:, 8:] |= np.repeat(curved, samples - 1, axis=1)
