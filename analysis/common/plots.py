@@ -18,6 +18,7 @@ from __future__ import annotations
 import io
 import math
 import textwrap
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -610,10 +611,16 @@ def save_figure(fig: Figure, directory, name: str) -> bytes:
     """
     d = Path(directory)
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=120, metadata={"Software": None})
+    with warnings.catch_warnings():
+        # matplotlib warns when placing a loc="best" legend takes over a second of wall clock;
+        # the demos' legends take 3 ms at most, so the warning only means the process stalled
+        # (a loaded machine), and the placement it computes is the same either way
+        warnings.filterwarnings("ignore", message='Creating legend with loc="best" can be slow',
+                                category=UserWarning)
+        fig.savefig(buf, format="png", dpi=120, metadata={"Software": None})
+        fig.savefig(d / f"{name}.svg", format="svg", metadata={"Date": None})
     png = buf.getvalue()
     (d / f"{name}.png").write_bytes(png)
-    fig.savefig(d / f"{name}.svg", format="svg", metadata={"Date": None})
     return png
 
 

@@ -61,3 +61,28 @@ def test_roc_plot_says_when_curves_are_identical():
     (legend,) = fig.legends  # below the axes (tests/analysis/report/test_figure_legends.py)
     texts = [t.get_text().replace("\n", " ") for t in legend.get_texts()]
     assert len(texts) == 2 and "identical curves" in texts[0] and "a_log" in texts[0]
+
+
+def test_a_stalled_legend_placement_neither_fails_nor_moves_the_legend(tmp_path, monkeypatch):
+    """matplotlib warns when a loc="best" legend took over a second of wall clock (a stalled
+    process on a loaded machine): save_figure writes the same PNG as without the stall, and the
+    warning does not escape (the suite turns warnings into errors)."""
+    import itertools
+
+    import matplotlib.legend
+    from matplotlib.figure import Figure
+
+    def figure():
+        fig = Figure(figsize=(3, 2))
+        ax = fig.subplots()
+        ax.plot([0, 1, 2], [2, 1, 0], label="a")
+        ax.fill_between([0, 1, 2], [1.5, 0.5, 0], [2, 1.5, 1], alpha=0.2)
+        ax.legend()
+        return fig
+
+    calm = plots.save_figure(figure(), tmp_path, "calm")
+    clock = itertools.count(step=2.0)  # every reading two seconds after the last
+    monkeypatch.setattr(matplotlib.legend.time, "perf_counter", lambda: next(clock))
+    stalled = plots.save_figure(figure(), tmp_path, "stalled")
+    assert stalled == calm
+    assert (tmp_path / "stalled.svg").is_file()
