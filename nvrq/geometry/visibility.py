@@ -756,8 +756,8 @@ def _project_outlines(camera, T: np.ndarray, dims: np.ndarray, samples: int):
     Of a box wholly in front of the camera only its corners and the points of its silhouette
     edges (those between a face that faces the camera and one that does not, or one seen
     edge-on) are projected: the others lie inside its silhouette. Of such an edge, only its
-    middle where that lies within ``4 *`` :data:`STRAIGHT_PX` and :data:`STRAIGHT_SHARE` of
-    its length of the chord of its ends."""
+    middle where that lies within ``4 *`` :data:`STRAIGHT_PX` of the chord of its ends and
+    within :data:`STRAIGHT_SHARE` of the chord's length."""
     local = _outline_local(samples)  # (K, 3)
     half = 0.5 * dims
     R = T[:, :3, :3]
